@@ -1,0 +1,115 @@
+//! Oriented bounding boxes of agents and the box–box queries the simulator
+//! and the feasibility labels need (intersection, separation distance).
+//!
+//! This is the one place that talks to parry2d. The relative pose of the two
+//! boxes is computed in `f64` first and only then narrowed to parry's `f32`,
+//! so precision does not depend on how far the scene is from the origin.
+
+use parry2d::math::{Pose, Vec2};
+use parry2d::query::details::{distance_cuboid_cuboid, intersection_test_cuboid_cuboid};
+use parry2d::shape::Cuboid;
+
+use super::{Point2, Pose2, Vector2};
+
+/// An agent's footprint: a rectangle centred on its position, long side
+/// along its heading.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct OrientedBox {
+    /// Centre and heading in the scenario frame.
+    pub pose: Pose2,
+    /// Extent along the heading, metres.
+    pub length_m: f64,
+    /// Extent across the heading, metres.
+    pub width_m: f64,
+}
+
+impl OrientedBox {
+    /// A box at `pose` with the given length and width (metres).
+    pub fn new(pose: Pose2, length_m: f64, width_m: f64) -> Self {
+        Self { pose, length_m, width_m }
+    }
+
+    fn cuboid(&self) -> Cuboid {
+        Cuboid::new(Vec2::new((self.length_m * 0.5) as f32, (self.width_m * 0.5) as f32))
+    }
+
+    /// Pose of `other` in this box's body frame, narrowed to `f32`.
+    fn relative_pose(&self, other: &OrientedBox) -> Pose {
+        let t = self.pose.to_body(&other.pose.position);
+        let yaw = other.pose.heading_rad - self.pose.heading_rad;
+        Pose::new(Vec2::new(t.x as f32, t.y as f32), yaw as f32)
+    }
+
+    /// Whether the two boxes overlap (touching counts).
+    pub fn intersects(&self, other: &OrientedBox) -> bool {
+        // Cheap reject on bounding circles before the exact SAT test.
+        let reach = 0.5 * (self.length_m.hypot(self.width_m) + other.length_m.hypot(other.width_m));
+        if (self.pose.position - other.pose.position).norm_squared() > reach * reach {
+            return false;
+        }
+        intersection_test_cuboid_cuboid(&self.relative_pose(other), &self.cuboid(), &other.cuboid())
+    }
+
+    /// Separation distance between the boxes in metres; 0 when they overlap.
+    pub fn distance(&self, other: &OrientedBox) -> f64 {
+        distance_cuboid_cuboid(&self.relative_pose(other), &self.cuboid(), &other.cuboid()) as f64
+    }
+
+    /// The four corners, counter-clockwise starting front-left.
+    pub fn corners(&self) -> [Point2; 4] {
+        let (hl, hw) = (self.length_m * 0.5, self.width_m * 0.5);
+        [
+            self.pose.from_body(&Vector2::new(hl, hw)),
+            self.pose.from_body(&Vector2::new(-hl, hw)),
+            self.pose.from_body(&Vector2::new(-hl, -hw)),
+            self.pose.from_body(&Vector2::new(hl, -hw)),
+        ]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn car(x: f64, y: f64, h: f64) -> OrientedBox {
+        OrientedBox::new(Pose2::new(x, y, h), 4.5, 2.0)
+    }
+
+    #[test]
+    fn distance_is_symmetric() {
+        // parry once had an argument-order bug in cuboid–cuboid distance.
+        let cases = [
+            (car(0.0, 0.0, 0.0), car(7.0, 1.0, 0.4)),
+            (car(1.0, -3.0, 1.2), car(-4.0, 2.0, -2.0)),
+            (car(0.0, 0.0, 0.3), car(0.0, 5.0, 1.57)),
+        ];
+        for (a, b) in cases {
+            let (dab, dba) = (a.distance(&b), b.distance(&a));
+            assert!((dab - dba).abs() < 1e-4, "d(a,b)={dab} d(b,a)={dba}");
+        }
+    }
+
+    #[test]
+    fn axis_aligned_gap_matches_hand_computation() {
+        // Front of a at x=2.25, back of b at x=10-2.25=7.75: gap 5.5 m.
+        let d = car(0.0, 0.0, 0.0).distance(&car(10.0, 0.0, 0.0));
+        assert!((d - 5.5).abs() < 1e-4, "{d}");
+    }
+
+    #[test]
+    fn overlap_detected_and_distance_zero() {
+        let a = car(0.0, 0.0, 0.0);
+        let b = car(3.0, 1.0, 0.5);
+        assert!(a.intersects(&b) && b.intersects(&a));
+        assert_eq!(a.distance(&b), 0.0);
+        assert!(!a.intersects(&car(0.0, 2.5, 0.0)));
+    }
+
+    #[test]
+    fn far_from_origin_keeps_precision() {
+        // Same configuration shifted by 10 km: the relative pose is computed in f64.
+        let off = 10_000.0;
+        let d = car(off, off, 0.0).distance(&car(off + 10.0, off, 0.0));
+        assert!((d - 5.5).abs() < 1e-4, "{d}");
+    }
+}

@@ -1,0 +1,233 @@
+//! Open polylines: lane centrelines, road edges, lane boundaries. Arc-length
+//! parametrisation, projection of a point (arc length and signed lateral
+//! offset), sampling, and the port-side signed distance that the Waymo Sim
+//! Agents map metrics use for road edges.
+
+use super::{Point2, Vector2};
+
+/// An ordered list of points; consecutive points form segments.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Polyline {
+    points: Vec<Point2>,
+    /// Cumulative arc length at each point, metres (`cumulative_m[0] == 0`).
+    cumulative_m: Vec<f64>,
+}
+
+/// Where a point projects onto a polyline.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PolylineProjection {
+    /// Closest point on the polyline.
+    pub point: Point2,
+    /// Arc length of the closest point from the start, metres.
+    pub arc_length_m: f64,
+    /// Distance to the closest point, metres (non-negative).
+    pub distance_m: f64,
+    /// Distance with a side: negative on the port (left) side of the
+    /// direction of travel, positive on the starboard (right) side. At a vertex
+    /// the side follows the local convexity, as in the Waymo metrics.
+    pub signed_distance_m: f64,
+    /// Unit tangent of the segment the closest point lies on.
+    pub tangent: Vector2,
+    /// Index of that segment.
+    pub segment: usize,
+}
+
+fn cross(a: &Vector2, b: &Vector2) -> f64 {
+    a.x * b.y - a.y * b.x
+}
+
+impl Polyline {
+    /// A polyline through `points`; consecutive duplicates are dropped so
+    /// every segment has a direction.
+    pub fn new(points: Vec<Point2>) -> Self {
+        let mut pts: Vec<Point2> = Vec::with_capacity(points.len());
+        for p in points {
+            if pts.last().is_none_or(|q: &Point2| (p - q).norm() > 1e-9) {
+                pts.push(p);
+            }
+        }
+        let mut cumulative_m = Vec::with_capacity(pts.len());
+        let mut s = 0.0;
+        for (i, p) in pts.iter().enumerate() {
+            if i > 0 {
+                s += (p - pts[i - 1]).norm();
+            }
+            cumulative_m.push(s);
+        }
+        Self { points: pts, cumulative_m }
+    }
+
+    /// The points, in order.
+    pub fn points(&self) -> &[Point2] {
+        &self.points
+    }
+
+    /// Number of points.
+    pub fn len(&self) -> usize {
+        self.points.len()
+    }
+
+    /// True when the polyline has no points.
+    pub fn is_empty(&self) -> bool {
+        self.points.is_empty()
+    }
+
+    /// Total arc length, metres.
+    pub fn length_m(&self) -> f64 {
+        self.cumulative_m.last().copied().unwrap_or(0.0)
+    }
+
+    /// The same points in reverse order.
+    pub fn reversed(&self) -> Polyline {
+        Polyline::new(self.points.iter().rev().copied().collect())
+    }
+
+    /// The point at arc length `s` (clamped to the ends) and the unit
+    /// tangent there.
+    pub fn sample(&self, s_m: f64) -> Option<(Point2, Vector2)> {
+        match self.points.len() {
+            0 => None,
+            1 => Some((self.points[0], Vector2::x())),
+            n => {
+                let s = s_m.clamp(0.0, self.length_m());
+                let i = match self.cumulative_m.binary_search_by(|c| c.total_cmp(&s)) {
+                    Ok(i) => i.min(n - 2),
+                    Err(i) => i.saturating_sub(1).min(n - 2),
+                };
+                let seg = self.points[i + 1] - self.points[i];
+                let len = seg.norm();
+                let t = ((s - self.cumulative_m[i]) / len).clamp(0.0, 1.0);
+                Some((self.points[i] + seg * t, seg / len))
+            }
+        }
+    }
+
+    /// Resamples to `n >= 2` points equally spaced in arc length.
+    pub fn resample(&self, n: usize) -> Polyline {
+        let n = n.max(2);
+        let total = self.length_m();
+        Polyline::new(
+            (0..n)
+                .filter_map(|k| self.sample(total * k as f64 / (n - 1) as f64).map(|(p, _)| p))
+                .collect(),
+        )
+    }
+
+    /// Closest point on the polyline to `p`, with arc length and side.
+    /// `None` for a polyline with fewer than two points.
+    pub fn project(&self, p: &Point2) -> Option<PolylineProjection> {
+        self.project_segments(p, 0..self.points.len().saturating_sub(1))
+    }
+
+    /// As [`Polyline::project`], restricted to the given segment indices
+    /// (used with a spatial index that pre-selects candidate segments).
+    pub fn project_segments(
+        &self,
+        p: &Point2,
+        segments: impl IntoIterator<Item = usize>,
+    ) -> Option<PolylineProjection> {
+        let mut best: Option<(f64, usize, f64)> = None; // (dist², segment, t)
+        for i in segments {
+            let (a, b) = (self.points[i], self.points[i + 1]);
+            let ab = b - a;
+            let t = ((p - a).dot(&ab) / ab.norm_squared()).clamp(0.0, 1.0);
+            let d2 = (a + ab * t - p).norm_squared();
+            if best.is_none_or(|(bd, _, _)| d2 < bd) {
+                best = Some((d2, i, t));
+            }
+        }
+        let (d2, i, t) = best?;
+        let (a, b) = (self.points[i], self.points[i + 1]);
+        let ab = b - a;
+        let len = ab.norm();
+        let tangent = ab / len;
+        let closest = a + ab * t;
+        let distance_m = d2.sqrt();
+        let side = self.side_of(p, i, t);
+        Some(PolylineProjection {
+            point: closest,
+            arc_length_m: self.cumulative_m[i] + t * len,
+            distance_m,
+            signed_distance_m: if side > 0.0 { -distance_m } else { distance_m },
+            tangent,
+            segment: i,
+        })
+    }
+
+    /// Positive when `p` is on the port side of segment `i` at parameter
+    /// `t`. At an interior vertex the two segments meeting there decide: for
+    /// a left (convex) turn the point must be left of both, for a right
+    /// (concave) turn left of either.
+    fn side_of(&self, p: &Point2, i: usize, t: f64) -> f64 {
+        let seg = |k: usize| self.points[k + 1] - self.points[k];
+        let left_of = |k: usize| cross(&seg(k), &(p - self.points[k]));
+        let n_seg = self.points.len() - 1;
+        let neighbour = if t <= 0.0 && i > 0 {
+            Some(i - 1)
+        } else if t >= 1.0 && i + 1 < n_seg {
+            Some(i + 1)
+        } else {
+            None
+        };
+        match neighbour {
+            None => left_of(i),
+            Some(j) => {
+                let (first, second) = if j < i { (j, i) } else { (i, j) };
+                let convex = cross(&seg(first), &seg(second)) >= 0.0;
+                let (l1, l2) = (left_of(first), left_of(second));
+                let inside = if convex { l1 > 0.0 && l2 > 0.0 } else { l1 > 0.0 || l2 > 0.0 };
+                if inside { 1.0 } else { -1.0 }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn line(pts: &[(f64, f64)]) -> Polyline {
+        Polyline::new(pts.iter().map(|&(x, y)| Point2::new(x, y)).collect())
+    }
+
+    #[test]
+    fn projection_gives_arc_length_and_side() {
+        let l = line(&[(0.0, 0.0), (10.0, 0.0), (10.0, 10.0)]);
+        assert!((l.length_m() - 20.0).abs() < 1e-12);
+        let left = l.project(&Point2::new(4.0, 2.0)).unwrap();
+        assert!((left.arc_length_m - 4.0).abs() < 1e-12);
+        assert!((left.signed_distance_m + 2.0).abs() < 1e-12, "port side is negative");
+        let right = l.project(&Point2::new(4.0, -3.0)).unwrap();
+        assert!((right.signed_distance_m - 3.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn vertex_side_follows_convexity() {
+        // Left turn at (10, 0): the region inside the corner is port side.
+        let l = line(&[(0.0, 0.0), (10.0, 0.0), (10.0, 10.0)]);
+        assert!(l.project(&Point2::new(9.0, 1.0)).unwrap().signed_distance_m < 0.0);
+        // Outside the corner (beyond both segments) is starboard.
+        assert!(l.project(&Point2::new(11.0, -1.0)).unwrap().signed_distance_m > 0.0);
+        // Right turn: the outside of the corner is port side.
+        let r = line(&[(0.0, 0.0), (10.0, 0.0), (10.0, -10.0)]);
+        assert!(r.project(&Point2::new(11.0, 1.0)).unwrap().signed_distance_m < 0.0);
+        assert!(r.project(&Point2::new(9.0, -1.0)).unwrap().signed_distance_m > 0.0);
+    }
+
+    #[test]
+    fn sample_and_resample() {
+        let l = line(&[(0.0, 0.0), (3.0, 0.0), (3.0, 4.0)]);
+        let (p, t) = l.sample(5.0).unwrap();
+        assert!((p - Point2::new(3.0, 2.0)).norm() < 1e-12);
+        assert!((t - Vector2::new(0.0, 1.0)).norm() < 1e-12);
+        let r = l.resample(8);
+        assert_eq!(r.len(), 8);
+        assert!((r.length_m() - 7.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn duplicate_points_are_dropped() {
+        let l = line(&[(0.0, 0.0), (0.0, 0.0), (1.0, 0.0)]);
+        assert_eq!(l.len(), 2);
+    }
+}

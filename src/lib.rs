@@ -1,0 +1,28 @@
+//! # safer
+//!
+//! A scenario-test framework for autonomous-driving planners, built on the
+//! SaFeR method (feasibility-constrained token resampling): safety-critical,
+//! realistic and *avoidable* traffic conflicts on every `cargo test`.
+//!
+//! The modules follow the layers of the design; a lower layer never imports
+//! a higher one:
+//!
+//! | layer | owns |
+//! | --- | --- |
+//! | [`geometry`] | points, poses, oriented boxes (parry2d), polylines, polygons |
+//! | [`map`] | typed map elements, lane graph, spatial index, road-edge distance |
+//! | [`scenario`] | the in-memory scenario and the importers of recorded logs |
+//! | [`motion`] | kinematic model, the 63×63 token grid, log-to-token inversion |
+//! | [`policies`] | who drives a background agent: log replay, constant velocity, IDM |
+//! | [`planners`] | the ego under test: the planner trait and built-in planners |
+//! | [`sim`] | the closed-loop engine, collision and off-road events, rollouts |
+//! | [`cli`] | the `safer` command line |
+
+pub mod cli;
+pub mod geometry;
+pub mod map;
+pub mod motion;
+pub mod planners;
+pub mod policies;
+pub mod scenario;
+pub mod sim;

@@ -1,0 +1,503 @@
+//! The road map of a scenario: typed lane centrelines with connectivity,
+//! road edges, road lines, crosswalks and other polygons, drivable areas,
+//! stop signs and traffic-signal states, plus the spatial queries on them
+//! (nearest lane, signed distance to the road edge, off-road test).
+//!
+//! Road edges follow the Waymo convention: oriented so the road is on their
+//! port (left) side. Importers of polygon-based maps (CommonRoad lanelets,
+//! Argoverse 2 drivable areas) also fill [`RoadMap::drivable_areas`]; when
+//! those are present they decide on-/off-road and the edges give the
+//! distance.
+
+mod spatial_index;
+
+pub use spatial_index::SegmentIndex;
+
+use std::collections::BTreeMap;
+
+use crate::geometry::{Point2, Polygon, Polyline, PolylineProjection};
+
+/// Identifier of a map element, unique within one map.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct MapElementId(pub i64);
+
+/// What kind of lane a centreline belongs to.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum LaneKind {
+    /// Source does not say.
+    #[default]
+    Undefined,
+    /// Freeway lane.
+    Freeway,
+    /// Surface-street lane.
+    SurfaceStreet,
+    /// Bike lane.
+    BikeLane,
+    /// Bus lane.
+    BusLane,
+}
+
+/// A lane: its centreline in driving direction and its connectivity.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Lane {
+    /// Map-unique id.
+    pub id: MapElementId,
+    /// Centreline, in the direction of travel.
+    pub centreline: Polyline,
+    /// Lane type.
+    pub kind: LaneKind,
+    /// Speed limit where the source gives one, m/s.
+    pub speed_limit_mps: Option<f64>,
+    /// Lanes whose end connects to this lane's start.
+    pub predecessors: Vec<MapElementId>,
+    /// Lanes this lane's end connects to.
+    pub successors: Vec<MapElementId>,
+    /// Neighbouring lanes on the left (same direction unless the source says otherwise).
+    pub left_neighbours: Vec<MapElementId>,
+    /// Neighbouring lanes on the right.
+    pub right_neighbours: Vec<MapElementId>,
+    /// Left boundary, where the source has one.
+    pub left_boundary: Option<Polyline>,
+    /// Right boundary, where the source has one.
+    pub right_boundary: Option<Polyline>,
+    /// Whether this lane lies inside an intersection.
+    pub in_intersection: bool,
+}
+
+/// Kind of a road edge.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum RoadEdgeKind {
+    /// Source does not say.
+    #[default]
+    Unknown,
+    /// Physical road boundary (curb).
+    Boundary,
+    /// Median between opposing carriageways.
+    Median,
+}
+
+/// A road edge, oriented with the road on its port side.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RoadEdge {
+    /// Map-unique id.
+    pub id: MapElementId,
+    /// The edge, road to the left.
+    pub polyline: Polyline,
+    /// Edge type.
+    pub kind: RoadEdgeKind,
+}
+
+/// Painted line type of a road line.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum RoadLineKind {
+    /// Source does not say.
+    #[default]
+    Unknown,
+    /// Broken single white.
+    BrokenSingleWhite,
+    /// Solid single white.
+    SolidSingleWhite,
+    /// Solid double white.
+    SolidDoubleWhite,
+    /// Broken single yellow.
+    BrokenSingleYellow,
+    /// Broken double yellow.
+    BrokenDoubleYellow,
+    /// Solid single yellow.
+    SolidSingleYellow,
+    /// Solid double yellow.
+    SolidDoubleYellow,
+    /// Passing double yellow.
+    PassingDoubleYellow,
+}
+
+impl RoadLineKind {
+    /// From the WOMD `RoadLine.type` enum value.
+    pub fn from_womd(code: i32) -> Self {
+        match code {
+            1 => Self::BrokenSingleWhite,
+            2 => Self::SolidSingleWhite,
+            3 => Self::SolidDoubleWhite,
+            4 => Self::BrokenSingleYellow,
+            5 => Self::BrokenDoubleYellow,
+            6 => Self::SolidSingleYellow,
+            7 => Self::SolidDoubleYellow,
+            8 => Self::PassingDoubleYellow,
+            _ => Self::Unknown,
+        }
+    }
+}
+
+/// A painted road line (lane divider).
+#[derive(Debug, Clone, PartialEq)]
+pub struct RoadLine {
+    /// Map-unique id.
+    pub id: MapElementId,
+    /// The line.
+    pub polyline: Polyline,
+    /// Line type.
+    pub kind: RoadLineKind,
+}
+
+/// Kind of an area element of the map.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum AreaKind {
+    /// Pedestrian crosswalk.
+    Crosswalk,
+    /// Speed bump.
+    SpeedBump,
+    /// Driveway.
+    Driveway,
+}
+
+/// A polygonal map element (crosswalk, speed bump, driveway).
+#[derive(Debug, Clone, PartialEq)]
+pub struct MapArea {
+    /// Map-unique id.
+    pub id: MapElementId,
+    /// What it is.
+    pub kind: AreaKind,
+    /// Its outline.
+    pub polygon: Polygon,
+}
+
+/// A stop sign and the lanes it controls.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StopSign {
+    /// Map-unique id.
+    pub id: MapElementId,
+    /// Position of the sign.
+    pub position: Point2,
+    /// Controlled lanes.
+    pub lanes: Vec<MapElementId>,
+}
+
+/// State of a traffic signal for one lane at one step.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum SignalState {
+    /// Unknown or not observed.
+    #[default]
+    Unknown,
+    /// Red arrow.
+    ArrowStop,
+    /// Yellow arrow.
+    ArrowCaution,
+    /// Green arrow.
+    ArrowGo,
+    /// Red.
+    Stop,
+    /// Yellow.
+    Caution,
+    /// Green.
+    Go,
+    /// Flashing red.
+    FlashingStop,
+    /// Flashing yellow.
+    FlashingCaution,
+}
+
+impl SignalState {
+    /// From the WOMD `TrafficSignalLaneState.State` enum value.
+    pub fn from_womd(code: i32) -> Self {
+        match code {
+            1 => Self::ArrowStop,
+            2 => Self::ArrowCaution,
+            3 => Self::ArrowGo,
+            4 => Self::Stop,
+            5 => Self::Caution,
+            6 => Self::Go,
+            7 => Self::FlashingStop,
+            8 => Self::FlashingCaution,
+            _ => Self::Unknown,
+        }
+    }
+
+    /// Whether a vehicle facing this signal must stop.
+    pub fn requires_stop(self) -> bool {
+        matches!(self, Self::ArrowStop | Self::Stop | Self::FlashingStop)
+    }
+}
+
+/// The signal controlling one lane over the scenario's steps.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TrafficSignal {
+    /// Controlled lane.
+    pub lane: MapElementId,
+    /// Stop line point, where known.
+    pub stop_point: Option<Point2>,
+    /// State per scenario step (same length as the tracks).
+    pub states: Vec<SignalState>,
+}
+
+/// The map of one scenario, in the scenario's local (re-centred) frame.
+#[derive(Debug, Clone, Default)]
+pub struct RoadMap {
+    /// Lanes, sorted by id.
+    pub lanes: Vec<Lane>,
+    /// Road edges, road on the port side.
+    pub road_edges: Vec<RoadEdge>,
+    /// Painted lines.
+    pub road_lines: Vec<RoadLine>,
+    /// Crosswalks, speed bumps, driveways.
+    pub areas: Vec<MapArea>,
+    /// Drivable-area polygons where the source has them (lanelets, AV2
+    /// drivable areas). Empty for WOMD, whose road edges decide alone.
+    pub drivable_areas: Vec<Polygon>,
+    /// Stop signs.
+    pub stop_signs: Vec<StopSign>,
+    /// Traffic signals per controlled lane.
+    pub traffic_signals: Vec<TrafficSignal>,
+    lane_index_by_id: BTreeMap<MapElementId, usize>,
+    lane_segments: SegmentIndex,
+    edge_segments: SegmentIndex,
+}
+
+/// Element counts of a map, for summaries.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
+pub struct MapCounts {
+    /// Lanes.
+    pub lanes: usize,
+    /// Road edges.
+    pub road_edges: usize,
+    /// Road lines.
+    pub road_lines: usize,
+    /// Crosswalks.
+    pub crosswalks: usize,
+    /// Speed bumps.
+    pub speed_bumps: usize,
+    /// Driveways.
+    pub driveways: usize,
+    /// Drivable-area polygons.
+    pub drivable_areas: usize,
+    /// Stop signs.
+    pub stop_signs: usize,
+    /// Signal-controlled lanes.
+    pub traffic_signals: usize,
+}
+
+/// Nearest-lane query result.
+#[derive(Debug, Clone, Copy)]
+pub struct LaneMatch {
+    /// Index into [`RoadMap::lanes`].
+    pub lane_index: usize,
+    /// Projection of the query point on the lane's centreline.
+    pub projection: PolylineProjection,
+}
+
+impl RoadMap {
+    /// Builds a map and its spatial indices. Lanes are sorted by id so
+    /// iteration order never depends on the source file's order.
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        mut lanes: Vec<Lane>,
+        road_edges: Vec<RoadEdge>,
+        road_lines: Vec<RoadLine>,
+        areas: Vec<MapArea>,
+        drivable_areas: Vec<Polygon>,
+        stop_signs: Vec<StopSign>,
+        traffic_signals: Vec<TrafficSignal>,
+    ) -> Self {
+        lanes.sort_by_key(|l| l.id);
+        let lane_index_by_id = lanes.iter().enumerate().map(|(i, l)| (l.id, i)).collect();
+        let lane_segments = SegmentIndex::build(lanes.iter().map(|l| &l.centreline));
+        let edge_segments = SegmentIndex::build(road_edges.iter().map(|e| &e.polyline));
+        Self {
+            lanes,
+            road_edges,
+            road_lines,
+            areas,
+            drivable_areas,
+            stop_signs,
+            traffic_signals,
+            lane_index_by_id,
+            lane_segments,
+            edge_segments,
+        }
+    }
+
+    /// Rebuilds the map with every point moved by `-offset` (re-centring).
+    pub fn translated(self, offset: &crate::geometry::Vector2) -> Self {
+        let shift_line = |l: &Polyline| Polyline::new(l.points().iter().map(|p| p - offset).collect());
+        let shift_poly = |p: &Polygon| Polygon::new(p.vertices.iter().map(|v| v - offset).collect());
+        let lanes = self
+            .lanes
+            .into_iter()
+            .map(|l| Lane {
+                centreline: shift_line(&l.centreline),
+                left_boundary: l.left_boundary.as_ref().map(shift_line),
+                right_boundary: l.right_boundary.as_ref().map(shift_line),
+                ..l
+            })
+            .collect();
+        let road_edges =
+            self.road_edges.into_iter().map(|e| RoadEdge { polyline: shift_line(&e.polyline), ..e }).collect();
+        let road_lines =
+            self.road_lines.into_iter().map(|e| RoadLine { polyline: shift_line(&e.polyline), ..e }).collect();
+        let areas = self.areas.into_iter().map(|a| MapArea { polygon: shift_poly(&a.polygon), ..a }).collect();
+        let drivable = self.drivable_areas.iter().map(shift_poly).collect();
+        let stop_signs =
+            self.stop_signs.into_iter().map(|s| StopSign { position: s.position - offset, ..s }).collect();
+        let signals = self
+            .traffic_signals
+            .into_iter()
+            .map(|s| TrafficSignal { stop_point: s.stop_point.map(|p| p - offset), ..s })
+            .collect();
+        RoadMap::new(lanes, road_edges, road_lines, areas, drivable, stop_signs, signals)
+    }
+
+    /// Element counts.
+    pub fn counts(&self) -> MapCounts {
+        let area = |k| self.areas.iter().filter(|a| a.kind == k).count();
+        MapCounts {
+            lanes: self.lanes.len(),
+            road_edges: self.road_edges.len(),
+            road_lines: self.road_lines.len(),
+            crosswalks: area(AreaKind::Crosswalk),
+            speed_bumps: area(AreaKind::SpeedBump),
+            driveways: area(AreaKind::Driveway),
+            drivable_areas: self.drivable_areas.len(),
+            stop_signs: self.stop_signs.len(),
+            traffic_signals: self.traffic_signals.len(),
+        }
+    }
+
+    /// True when the map has no lanes, edges or drivable areas.
+    pub fn is_empty(&self) -> bool {
+        self.lanes.is_empty() && self.road_edges.is_empty() && self.drivable_areas.is_empty()
+    }
+
+    /// The lane with this id.
+    pub fn lane(&self, id: MapElementId) -> Option<&Lane> {
+        self.lane_index_by_id.get(&id).map(|&i| &self.lanes[i])
+    }
+
+    /// Index of the lane with this id in [`RoadMap::lanes`].
+    pub fn lane_index(&self, id: MapElementId) -> Option<usize> {
+        self.lane_index_by_id.get(&id).copied()
+    }
+
+    /// The lane centreline closest to `p` within `radius_m`, preferring
+    /// lanes whose direction agrees with `heading_rad` (when given) to within
+    /// 90°. Ties break on lane id, so the answer is deterministic.
+    pub fn nearest_lane(&self, p: &Point2, heading_rad: Option<f64>, radius_m: f64) -> Option<LaneMatch> {
+        let mut best: Option<(bool, f64, usize, PolylineProjection)> = None;
+        for (lane_index, segs) in self.lane_segments.candidates(p, radius_m) {
+            let lane = &self.lanes[lane_index];
+            let Some(proj) = lane.centreline.project_segments(p, segs) else { continue };
+            if proj.distance_m > radius_m {
+                continue;
+            }
+            let misaligned = heading_rad.is_some_and(|h| {
+                let f = crate::geometry::Vector2::new(h.cos(), h.sin());
+                f.dot(&proj.tangent) < 0.0
+            });
+            let key = (misaligned, proj.distance_m, lane_index);
+            let better = match &best {
+                None => true,
+                Some((m, d, i, _)) => key < (*m, *d, *i),
+            };
+            if better {
+                best = Some((misaligned, proj.distance_m, lane_index, proj));
+            }
+        }
+        best.map(|(_, _, lane_index, projection)| LaneMatch { lane_index, projection })
+    }
+
+    /// Signed distance from `p` to the nearest road edge, metres: negative on
+    /// the road, positive off it. Where drivable areas exist, membership in
+    /// any of them decides the sign. `None` when the map has no road edges.
+    pub fn signed_distance_to_road_edge(&self, p: &Point2) -> Option<f64> {
+        // Edges are searched in growing rings so most queries touch few cells.
+        let mut radius = 8.0;
+        let nearest = loop {
+            let mut best: Option<PolylineProjection> = None;
+            for (edge, segs) in self.edge_segments.candidates(p, radius) {
+                if let Some(proj) = self.road_edges[edge].polyline.project_segments(p, segs)
+                    && best.is_none_or(|b| proj.distance_m < b.distance_m)
+                {
+                    best = Some(proj);
+                }
+            }
+            match best {
+                Some(b) if b.distance_m <= radius => break Some(b),
+                _ if radius > self.edge_segments.extent_m() => break best,
+                _ => radius *= 4.0,
+            }
+        }?;
+        if self.drivable_areas.is_empty() {
+            Some(nearest.signed_distance_m)
+        } else {
+            let on_road = self.drivable_areas.iter().any(|a| a.contains(p));
+            Some(if on_road { -nearest.distance_m } else { nearest.distance_m })
+        }
+    }
+
+    /// Whether `p` is off the road. Unknown (no edges, no drivable areas) is
+    /// treated as on-road.
+    pub fn is_off_road(&self, p: &Point2) -> bool {
+        if self.road_edges.is_empty() && !self.drivable_areas.is_empty() {
+            return !self.drivable_areas.iter().any(|a| a.contains(p));
+        }
+        self.signed_distance_to_road_edge(p).is_some_and(|d| d > 0.0)
+    }
+
+    /// The signal state of `lane` at `step`, if the lane is signal-controlled.
+    pub fn signal_state(&self, lane: MapElementId, step: usize) -> Option<SignalState> {
+        self.traffic_signals.iter().find(|s| s.lane == lane).and_then(|s| s.states.get(step).copied())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn pl(pts: &[(f64, f64)]) -> Polyline {
+        Polyline::new(pts.iter().map(|&(x, y)| Point2::new(x, y)).collect())
+    }
+
+    fn straight_road() -> RoadMap {
+        let lane = |id, y| Lane {
+            id: MapElementId(id),
+            centreline: pl(&[(0.0, y), (100.0, y)]),
+            kind: LaneKind::SurfaceStreet,
+            speed_limit_mps: None,
+            predecessors: vec![],
+            successors: vec![],
+            left_neighbours: vec![],
+            right_neighbours: vec![],
+            left_boundary: None,
+            right_boundary: None,
+            in_intersection: false,
+        };
+        // Edges: right edge runs +x (road to its left), left edge runs -x.
+        let edges = vec![
+            RoadEdge { id: MapElementId(10), polyline: pl(&[(0.0, -2.0), (100.0, -2.0)]), kind: RoadEdgeKind::Boundary },
+            RoadEdge { id: MapElementId(11), polyline: pl(&[(100.0, 5.5), (0.0, 5.5)]), kind: RoadEdgeKind::Boundary },
+        ];
+        RoadMap::new(vec![lane(2, 3.5), lane(1, 0.0)], edges, vec![], vec![], vec![], vec![], vec![])
+    }
+
+    #[test]
+    fn lanes_sorted_and_nearest_lane_found() {
+        let m = straight_road();
+        assert_eq!(m.lanes[0].id, MapElementId(1));
+        let hit = m.nearest_lane(&Point2::new(50.0, 3.0), Some(0.0), 10.0).unwrap();
+        assert_eq!(m.lanes[hit.lane_index].id, MapElementId(2));
+        assert!((hit.projection.arc_length_m - 50.0).abs() < 1e-9);
+        assert!(m.nearest_lane(&Point2::new(50.0, 40.0), None, 10.0).is_none());
+    }
+
+    #[test]
+    fn road_edge_sign_and_off_road() {
+        let m = straight_road();
+        let inside = m.signed_distance_to_road_edge(&Point2::new(30.0, 0.0)).unwrap();
+        assert!((inside + 2.0).abs() < 1e-9, "{inside}");
+        let outside = m.signed_distance_to_road_edge(&Point2::new(30.0, 9.0)).unwrap();
+        assert!((outside - 3.5).abs() < 1e-9, "{outside}");
+        assert!(m.is_off_road(&Point2::new(30.0, -3.0)));
+        assert!(!m.is_off_road(&Point2::new(30.0, 1.0)));
+        // Far away: the ring search widens until it finds an edge.
+        let far = m.signed_distance_to_road_edge(&Point2::new(30.0, 300.0)).unwrap();
+        assert!((far - 294.5).abs() < 1e-9, "{far}");
+    }
+}

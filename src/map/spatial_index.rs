@@ -1,0 +1,87 @@
+//! A uniform-grid index over the segments of many polylines, so nearest-lane
+//! and road-edge queries touch only the segments near the query point.
+
+use std::collections::{BTreeMap, HashMap};
+
+use crate::geometry::{Point2, Polyline};
+
+const CELL_M: f64 = 10.0;
+
+/// Grid of segment references `(polyline, segment)` keyed by cell.
+#[derive(Debug, Clone, Default)]
+pub struct SegmentIndex {
+    cells: HashMap<(i64, i64), Vec<(u32, u32)>>,
+    /// Diagonal of the indexed extent, metres; bounds how far a ring search
+    /// must grow.
+    extent_m: f64,
+}
+
+fn cell_of(x: f64, y: f64) -> (i64, i64) {
+    ((x / CELL_M).floor() as i64, (y / CELL_M).floor() as i64)
+}
+
+impl SegmentIndex {
+    /// Indexes every segment of every polyline (in the given order).
+    pub fn build<'a>(polylines: impl IntoIterator<Item = &'a Polyline>) -> Self {
+        let mut cells: HashMap<(i64, i64), Vec<(u32, u32)>> = HashMap::new();
+        let (mut lo, mut hi) = (Point2::new(f64::MAX, f64::MAX), Point2::new(f64::MIN, f64::MIN));
+        for (pi, line) in polylines.into_iter().enumerate() {
+            let pts = line.points();
+            for (si, w) in pts.windows(2).enumerate() {
+                let (a, b) = (w[0], w[1]);
+                let (c0, c1) = (cell_of(a.x.min(b.x), a.y.min(b.y)), cell_of(a.x.max(b.x), a.y.max(b.y)));
+                for cx in c0.0..=c1.0 {
+                    for cy in c0.1..=c1.1 {
+                        cells.entry((cx, cy)).or_default().push((pi as u32, si as u32));
+                    }
+                }
+                for p in [a, b] {
+                    lo = Point2::new(lo.x.min(p.x), lo.y.min(p.y));
+                    hi = Point2::new(hi.x.max(p.x), hi.y.max(p.y));
+                }
+            }
+        }
+        let extent_m = if lo.x <= hi.x { (hi - lo).norm() } else { 0.0 };
+        Self { cells, extent_m }
+    }
+
+    /// Diagonal of the indexed extent, metres.
+    pub fn extent_m(&self) -> f64 {
+        self.extent_m
+    }
+
+    /// Segments in cells within `radius_m` of `p`, grouped by polyline and
+    /// sorted, so callers iterate deterministically. Segments may lie
+    /// farther than `radius_m`; callers check the distance.
+    pub fn candidates(&self, p: &Point2, radius_m: f64) -> BTreeMap<usize, Vec<usize>> {
+        let mut out: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
+        let (c0, c1) = (cell_of(p.x - radius_m, p.y - radius_m), cell_of(p.x + radius_m, p.y + radius_m));
+        // A query wider than the whole index scans every cell once instead.
+        let span = (c1.0 - c0.0 + 1) as usize * (c1.1 - c0.1 + 1) as usize;
+        let mut push = |refs: &Vec<(u32, u32)>| {
+            for &(pi, si) in refs {
+                out.entry(pi as usize).or_default().push(si as usize);
+            }
+        };
+        if span > self.cells.len() {
+            for (cell, refs) in &self.cells {
+                if (c0.0..=c1.0).contains(&cell.0) && (c0.1..=c1.1).contains(&cell.1) {
+                    push(refs);
+                }
+            }
+        } else {
+            for cx in c0.0..=c1.0 {
+                for cy in c0.1..=c1.1 {
+                    if let Some(refs) = self.cells.get(&(cx, cy)) {
+                        push(refs);
+                    }
+                }
+            }
+        }
+        for segs in out.values_mut() {
+            segs.sort_unstable();
+            segs.dedup();
+        }
+        out
+    }
+}

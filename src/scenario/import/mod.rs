@@ -1,0 +1,178 @@
+//! Importers of recorded logs into [`Scenario`]s, and [`load`], which picks
+//! the importer for a path, then re-centres, assigns roles and validates.
+//!
+//! Every importer takes bytes plus the path they came from (for messages),
+//! so fuzz targets and tests can feed them directly. Bad input is an
+//! [`ImportError`] that names the file and where in it the problem is;
+//! importers never panic.
+
+pub mod argoverse2;
+pub mod commonroad;
+pub mod tfrecord;
+pub mod womd_json;
+pub mod womd_proto;
+
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+use super::{Scenario, SourceFormat, roles};
+
+/// Where in a file a problem was found.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Location {
+    /// The file as a whole.
+    File,
+    /// A byte offset from the start of the file.
+    ByteOffset(u64),
+    /// A TFRecord record: its index and the byte offset where it starts.
+    Record {
+        /// Zero-based record index.
+        index: usize,
+        /// Offset of the record's length field.
+        byte_offset: u64,
+    },
+    /// A line and column in a text file (both 1-based).
+    LineColumn {
+        /// Line, 1-based.
+        line: usize,
+        /// Column, 1-based.
+        column: usize,
+    },
+    /// A path to an element, such as `objects[3].heading[17]` or
+    /// `row 212, column position_x`.
+    Element(String),
+}
+
+impl fmt::Display for Location {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::File => f.write_str("whole file"),
+            Self::ByteOffset(o) => write!(f, "byte {o}"),
+            Self::Record { index, byte_offset } => write!(f, "record {index} (byte {byte_offset})"),
+            Self::LineColumn { line, column } => write!(f, "line {line}, column {column}"),
+            Self::Element(e) => f.write_str(e),
+        }
+    }
+}
+
+/// Why a file could not be imported.
+#[derive(Debug, thiserror::Error)]
+pub enum ImportError {
+    /// The file could not be read.
+    #[error("{path}: cannot read: {source}", path = path.display())]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The OS error.
+        #[source]
+        source: std::io::Error,
+    },
+    /// The file is not in a format any importer recognises.
+    #[error("{path}: not a scenario file this tool reads: {reason}", path = path.display())]
+    UnknownFormat {
+        /// The file.
+        path: PathBuf,
+        /// What was looked at.
+        reason: String,
+    },
+    /// The file is in a known format but its content is broken.
+    #[error("{path}: {format:?}: {location}: {message}", path = path.display())]
+    Malformed {
+        /// The file.
+        path: PathBuf,
+        /// The format it was read as.
+        format: SourceFormat,
+        /// Where the problem is.
+        location: Location,
+        /// What is wrong.
+        message: String,
+    },
+}
+
+impl ImportError {
+    /// Shorthand for [`ImportError::Malformed`].
+    pub fn malformed(path: &Path, format: SourceFormat, location: Location, message: impl Into<String>) -> Self {
+        Self::Malformed { path: path.to_path_buf(), format, location, message: message.into() }
+    }
+}
+
+/// Which importer a path needs, judged from its name and (for JSON) its
+/// first bytes.
+pub fn detect_format(path: &Path) -> Result<SourceFormat, ImportError> {
+    let name = path.file_name().and_then(|n| n.to_str()).unwrap_or_default();
+    let ext = path.extension().and_then(|e| e.to_str()).unwrap_or_default().to_ascii_lowercase();
+    let unknown = |reason: &str| ImportError::UnknownFormat { path: path.to_path_buf(), reason: reason.to_string() };
+    if path.is_dir() {
+        return if argoverse2::find_scenario_files(path).is_ok() {
+            Ok(SourceFormat::Argoverse2)
+        } else {
+            Err(unknown("a directory, but not an Argoverse 2 scenario folder (scenario_*.parquet + log_map_archive_*.json)"))
+        };
+    }
+    match ext.as_str() {
+        "tfrecord" => Ok(SourceFormat::WomdProto),
+        "xml" => Ok(SourceFormat::CommonRoad),
+        "parquet" => Ok(SourceFormat::Argoverse2),
+        "json" if name.starts_with("log_map_archive_") => {
+            Err(unknown("an Argoverse 2 map; pass the scenario_*.parquet beside it or their folder"))
+        }
+        "json" => Ok(SourceFormat::WomdJson),
+        _ if name.contains(".tfrecord") => Ok(SourceFormat::WomdProto),
+        _ => Err(unknown("expected .tfrecord (WOMD), .json (WOMD JSON), .xml (CommonRoad) or .parquet / a folder (Argoverse 2)")),
+    }
+}
+
+fn read(path: &Path) -> Result<Vec<u8>, ImportError> {
+    std::fs::read(path).map_err(|source| ImportError::Io { path: path.to_path_buf(), source })
+}
+
+/// Reads every scenario in `path` with the importer its format needs, then
+/// re-centres each, assigns ego and CBV where the source named none, and
+/// checks the invariants. A TFRecord file may hold several scenarios; the
+/// other formats hold one.
+pub fn load(path: &Path) -> Result<Vec<Scenario>, ImportError> {
+    let format = detect_format(path)?;
+    let mut scenarios = match format {
+        SourceFormat::WomdProto => womd_proto::parse(&read(path)?, path)?,
+        SourceFormat::WomdJson => vec![womd_json::parse(&read(path)?, path)?],
+        SourceFormat::CommonRoad => vec![commonroad::parse(&read(path)?, path)?],
+        SourceFormat::Argoverse2 => {
+            let files = argoverse2::find_scenario_files(path)?;
+            vec![argoverse2::parse(&read(&files.scenario)?, &read(&files.map)?, &files.scenario)?]
+        }
+        SourceFormat::Authored => unreachable!("detect_format never returns Authored"),
+    };
+    for s in &mut scenarios {
+        s.recentre();
+        roles::assign(s);
+        s.validate().map_err(|v| ImportError::malformed(path, format, Location::File, v.to_string()))?;
+    }
+    Ok(scenarios)
+}
+
+/// Every scenario file under `dir` (recursively), sorted by path, each
+/// Argoverse 2 folder counted once.
+pub fn discover(dir: &Path) -> Result<Vec<PathBuf>, ImportError> {
+    let mut out = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        let entries = std::fs::read_dir(&d).map_err(|source| ImportError::Io { path: d.clone(), source })?;
+        for e in entries {
+            let p = e.map_err(|source| ImportError::Io { path: d.clone(), source })?.path();
+            if p.is_dir() {
+                if argoverse2::find_scenario_files(&p).is_ok() {
+                    out.push(p);
+                } else {
+                    stack.push(p);
+                }
+            } else if detect_format(&p).is_ok() && !(p.extension().is_some_and(|e| e == "parquet")) {
+                out.push(p);
+            } else if p.extension().is_some_and(|e| e == "parquet") && !out.contains(&d) {
+                out.push(d.clone());
+            }
+        }
+    }
+    out.sort();
+    out.dedup();
+    Ok(out)
+}
