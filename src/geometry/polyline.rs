@@ -106,11 +106,7 @@ impl Polyline {
     pub fn resample(&self, n: usize) -> Polyline {
         let n = n.max(2);
         let total = self.length_m();
-        Polyline::new(
-            (0..n)
-                .filter_map(|k| self.sample(total * k as f64 / (n - 1) as f64).map(|(p, _)| p))
-                .collect(),
-        )
+        Polyline::new((0..n).filter_map(|k| self.sample(total * k as f64 / (n - 1) as f64).map(|(p, _)| p)).collect())
     }
 
     /// Closest point on the polyline to `p`, with arc length and side.

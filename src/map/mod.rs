@@ -335,8 +335,7 @@ impl RoadMap {
             self.road_lines.into_iter().map(|e| RoadLine { polyline: shift_line(&e.polyline), ..e }).collect();
         let areas = self.areas.into_iter().map(|a| MapArea { polygon: shift_poly(&a.polygon), ..a }).collect();
         let drivable = self.drivable_areas.iter().map(shift_poly).collect();
-        let stop_signs =
-            self.stop_signs.into_iter().map(|s| StopSign { position: s.position - offset, ..s }).collect();
+        let stop_signs = self.stop_signs.into_iter().map(|s| StopSign { position: s.position - offset, ..s }).collect();
         let signals = self
             .traffic_signals
             .into_iter()
@@ -383,7 +382,9 @@ impl RoadMap {
         let mut best: Option<(bool, f64, usize, PolylineProjection)> = None;
         for (lane_index, segs) in self.lane_segments.candidates(p, radius_m) {
             let lane = &self.lanes[lane_index];
-            let Some(proj) = lane.centreline.project_segments(p, segs) else { continue };
+            let Some(proj) = lane.centreline.project_segments(p, segs) else {
+                continue;
+            };
             if proj.distance_m > radius_m {
                 continue;
             }
@@ -420,7 +421,7 @@ impl RoadMap {
             }
             match best {
                 Some(b) if b.distance_m <= radius => break Some(b),
-                _ if radius > self.edge_segments.extent_m() => break best,
+                _ if radius >= self.edge_segments.max_distance_from(p) => break best,
                 _ => radius *= 4.0,
             }
         }?;
@@ -471,7 +472,11 @@ mod tests {
         };
         // Edges: right edge runs +x (road to its left), left edge runs -x.
         let edges = vec![
-            RoadEdge { id: MapElementId(10), polyline: pl(&[(0.0, -2.0), (100.0, -2.0)]), kind: RoadEdgeKind::Boundary },
+            RoadEdge {
+                id: MapElementId(10),
+                polyline: pl(&[(0.0, -2.0), (100.0, -2.0)]),
+                kind: RoadEdgeKind::Boundary,
+            },
             RoadEdge { id: MapElementId(11), polyline: pl(&[(100.0, 5.5), (0.0, 5.5)]), kind: RoadEdgeKind::Boundary },
         ];
         RoadMap::new(vec![lane(2, 3.5), lane(1, 0.0)], edges, vec![], vec![], vec![], vec![], vec![])

@@ -11,9 +11,8 @@ const CELL_M: f64 = 10.0;
 #[derive(Debug, Clone, Default)]
 pub struct SegmentIndex {
     cells: HashMap<(i64, i64), Vec<(u32, u32)>>,
-    /// Diagonal of the indexed extent, metres; bounds how far a ring search
-    /// must grow.
-    extent_m: f64,
+    /// Bounding box of all indexed points, `None` when empty.
+    bounds: Option<(Point2, Point2)>,
 }
 
 fn cell_of(x: f64, y: f64) -> (i64, i64) {
@@ -41,13 +40,16 @@ impl SegmentIndex {
                 }
             }
         }
-        let extent_m = if lo.x <= hi.x { (hi - lo).norm() } else { 0.0 };
-        Self { cells, extent_m }
+        let bounds = (lo.x <= hi.x).then_some((lo, hi));
+        Self { cells, bounds }
     }
 
-    /// Diagonal of the indexed extent, metres.
-    pub fn extent_m(&self) -> f64 {
-        self.extent_m
+    /// Distance from `p` to the farthest corner of the indexed extent: a
+    /// ring search of that radius has seen every segment.
+    pub fn max_distance_from(&self, p: &Point2) -> f64 {
+        self.bounds.map_or(0.0, |(lo, hi)| {
+            (p.x - lo.x).abs().max((p.x - hi.x).abs()).hypot((p.y - lo.y).abs().max((p.y - hi.y).abs()))
+        })
     }
 
     /// Segments in cells within `radius_m` of `p`, grouped by polyline and

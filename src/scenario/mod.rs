@@ -231,7 +231,9 @@ impl Scenario {
             .filter_map(|t| t.state(step).or_else(|| t.states.iter().flatten().next()))
             .map(|s| s.position)
             .collect();
-        let Some(first) = pts.first().copied() else { return };
+        let Some(first) = pts.first().copied() else {
+            return;
+        };
         let (lo, hi) = pts.iter().fold((first, first), |(lo, hi), p| {
             (Point2::new(lo.x.min(p.x), lo.y.min(p.y)), Point2::new(hi.x.max(p.x), hi.y.max(p.y)))
         });

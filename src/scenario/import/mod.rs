@@ -106,7 +106,9 @@ pub fn detect_format(path: &Path) -> Result<SourceFormat, ImportError> {
         return if argoverse2::find_scenario_files(path).is_ok() {
             Ok(SourceFormat::Argoverse2)
         } else {
-            Err(unknown("a directory, but not an Argoverse 2 scenario folder (scenario_*.parquet + log_map_archive_*.json)"))
+            Err(unknown(
+                "a directory, but not an Argoverse 2 scenario folder (scenario_*.parquet + log_map_archive_*.json)",
+            ))
         };
     }
     match ext.as_str() {
@@ -118,7 +120,9 @@ pub fn detect_format(path: &Path) -> Result<SourceFormat, ImportError> {
         }
         "json" => Ok(SourceFormat::WomdJson),
         _ if name.contains(".tfrecord") => Ok(SourceFormat::WomdProto),
-        _ => Err(unknown("expected .tfrecord (WOMD), .json (WOMD JSON), .xml (CommonRoad) or .parquet / a folder (Argoverse 2)")),
+        _ => Err(unknown(
+            "expected .tfrecord (WOMD), .json (WOMD JSON), .xml (CommonRoad) or .parquet / a folder (Argoverse 2)",
+        )),
     }
 }
 

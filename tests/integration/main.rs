@@ -1,0 +1,10 @@
+//! Integration tests: one binary (one link step) with a module per concern.
+//! Tests that need the recorded scenes in `../shared/data` (or
+//! `$SAFER_DATA_DIR`) fail loudly when it is missing; see [`shared_data`].
+
+mod shared_data;
+
+mod import_argoverse2;
+mod import_commonroad;
+mod import_womd_json;
+mod import_womd_proto;
