@@ -1,0 +1,147 @@
+//! The motion-token vocabulary (**contract**): acceleration in [-5, 5] m/s²
+//! and yaw rate in [-1.5, 1.5] rad/s, each cut into 63 uniform bins whose
+//! centres include 0; token id = `i_a · 63 + i_ψ` (3969 tokens). A token is
+//! held for one token period of 0.5 s (5 simulator steps of 0.1 s).
+
+use super::kinematics::{KinematicState, step};
+
+/// Bins per axis.
+pub const BINS_PER_AXIS: usize = 63;
+/// Number of tokens, `63 · 63`.
+pub const VOCABULARY_SIZE: usize = BINS_PER_AXIS * BINS_PER_AXIS;
+/// Acceleration range, m/s² (symmetric).
+pub const MAX_ACCEL_MPS2: f64 = 5.0;
+/// Yaw-rate range, rad/s (symmetric).
+pub const MAX_YAW_RATE_RADPS: f64 = 1.5;
+/// Simulator step, seconds.
+pub const SIM_DT_S: f64 = 0.1;
+/// Simulator steps per token period.
+pub const TOKEN_PERIOD_STEPS: usize = 5;
+/// Token period, seconds.
+pub const TOKEN_PERIOD_S: f64 = SIM_DT_S * TOKEN_PERIOD_STEPS as f64;
+
+/// A control: longitudinal acceleration and yaw rate.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Action {
+    /// Acceleration along the heading, m/s².
+    pub accel_mps2: f64,
+    /// Yaw rate, rad/s (positive turns left).
+    pub yaw_rate_radps: f64,
+}
+
+/// A token id in `0..3969`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, serde::Serialize, serde::Deserialize)]
+pub struct Token(pub u16);
+
+impl Token {
+    /// Acceleration bin index `i_a`.
+    pub fn accel_bin(self) -> usize {
+        self.0 as usize / BINS_PER_AXIS
+    }
+    /// Yaw-rate bin index `i_ψ`.
+    pub fn yaw_rate_bin(self) -> usize {
+        self.0 as usize % BINS_PER_AXIS
+    }
+    /// The token of bins `(i_a, i_ψ)`; `None` outside the grid.
+    pub fn from_bins(accel_bin: usize, yaw_rate_bin: usize) -> Option<Token> {
+        (accel_bin < BINS_PER_AXIS && yaw_rate_bin < BINS_PER_AXIS)
+            .then(|| Token((accel_bin * BINS_PER_AXIS + yaw_rate_bin) as u16))
+    }
+}
+
+/// The token grid: bin centres and the mapping between tokens and actions.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct TokenGrid;
+
+fn bin_width(max: f64) -> f64 {
+    2.0 * max / BINS_PER_AXIS as f64
+}
+
+fn centre(bin: usize, max: f64) -> f64 {
+    -max + (bin as f64 + 0.5) * bin_width(max)
+}
+
+fn nearest_bin(value: f64, max: f64) -> usize {
+    (((value + max) / bin_width(max)).floor().max(0.0) as usize).min(BINS_PER_AXIS - 1)
+}
+
+impl TokenGrid {
+    /// Acceleration at the centre of bin `i`, m/s².
+    pub fn accel_centre(i: usize) -> f64 {
+        centre(i, MAX_ACCEL_MPS2)
+    }
+
+    /// Yaw rate at the centre of bin `i`, rad/s.
+    pub fn yaw_rate_centre(i: usize) -> f64 {
+        centre(i, MAX_YAW_RATE_RADPS)
+    }
+
+    /// The action a token stands for (its bin centres).
+    pub fn action(token: Token) -> Action {
+        Action {
+            accel_mps2: Self::accel_centre(token.accel_bin()),
+            yaw_rate_radps: Self::yaw_rate_centre(token.yaw_rate_bin()),
+        }
+    }
+
+    /// The token whose bins contain `action` (values outside the ranges
+    /// clamp to the edge bins).
+    pub fn quantize(action: Action) -> Token {
+        Token::from_bins(
+            nearest_bin(action.accel_mps2, MAX_ACCEL_MPS2),
+            nearest_bin(action.yaw_rate_radps, MAX_YAW_RATE_RADPS),
+        )
+        .expect("nearest_bin stays inside the grid")
+    }
+
+    /// Every token, in id order.
+    pub fn all() -> impl Iterator<Item = Token> {
+        (0..VOCABULARY_SIZE as u16).map(Token)
+    }
+
+    /// Holds `token` for one token period from `state`; returns the state
+    /// after each of the 5 simulator steps.
+    pub fn rollout(state: &KinematicState, token: Token) -> [KinematicState; TOKEN_PERIOD_STEPS] {
+        let action = Self::action(token);
+        let mut s = *state;
+        std::array::from_fn(|_| {
+            s = step(&s, action, SIM_DT_S);
+            s
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn grid_centres_include_zero_and_span_the_ranges() {
+        assert_eq!(VOCABULARY_SIZE, 3969);
+        assert!(TokenGrid::accel_centre(31).abs() < 1e-12);
+        assert!(TokenGrid::yaw_rate_centre(31).abs() < 1e-12);
+        let w = 10.0 / 63.0;
+        assert!((TokenGrid::accel_centre(0) - (-5.0 + w / 2.0)).abs() < 1e-12);
+        assert!((TokenGrid::accel_centre(62) - (5.0 - w / 2.0)).abs() < 1e-12);
+    }
+
+    #[test]
+    fn token_id_is_accel_major() {
+        let t = Token::from_bins(2, 5).unwrap();
+        assert_eq!(t.0, 2 * 63 + 5);
+        assert_eq!((t.accel_bin(), t.yaw_rate_bin()), (2, 5));
+        assert!(Token::from_bins(63, 0).is_none());
+    }
+
+    #[test]
+    fn quantize_inverts_action_for_every_token() {
+        for t in TokenGrid::all() {
+            assert_eq!(TokenGrid::quantize(TokenGrid::action(t)), t);
+        }
+        // Out of range clamps to the edge bins.
+        let t = TokenGrid::quantize(Action { accel_mps2: 9.0, yaw_rate_radps: -4.0 });
+        assert_eq!((t.accel_bin(), t.yaw_rate_bin()), (62, 0));
+        // The zero action is the centre token.
+        assert_eq!(TokenGrid::quantize(Action::default()), Token(31 * 63 + 31));
+    }
+}
