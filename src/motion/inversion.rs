@@ -122,7 +122,7 @@ pub fn best_token(from: &KinematicState, log: &[Option<&AgentState>]) -> Token {
     let (mut ia, mut ip) = (guess.accel_bin(), guess.yaw_rate_bin());
     let mut best = cost(ia, ip);
     // Ties keep the lower bin index, so the result is deterministic.
-    let mut line_search = |fixed_is_accel: bool, ia: &mut usize, ip: &mut usize, best: &mut f64| {
+    let line_search = |fixed_is_accel: bool, ia: &mut usize, ip: &mut usize, best: &mut f64| {
         for k in 0..BINS_PER_AXIS {
             let (a, p) = if fixed_is_accel { (*ia, k) } else { (k, *ip) };
             let c = cost(a, p);

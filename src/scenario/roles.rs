@@ -1,6 +1,228 @@
-//! Ego and CBV assignment. Being written.
+//! Ego and CBV assignment by conflict mining, for sources that name no ego
+//! (CommonRoad NGSIM, older WOMD JSON) or no critical background vehicle.
+//!
+//! The conflict of two vehicles is their closest approach: the minimum box
+//! distance over the steps from `current_step` on where both are valid. The
+//! ego/CBV pair is the pair of *moving* vehicles with the closest approach;
+//! ties break on the earlier time, then the lower track indices, so the
+//! choice is a pure function of the scenario. Pairs already overlapping at
+//! the current step are skipped (annotation noise, not a conflict).
 
-use super::Scenario;
+use super::{AgentKind, RoleOrigin, Scenario, TrackIndex};
 
-/// Fills in ego and CBV where the source named none.
-pub fn assign(_scenario: &mut Scenario) {}
+/// A vehicle must reach this speed at some future step to count as moving;
+/// parked cars make "closest" pairs that no adversary can use.
+const MOVING_SPEED_MPS: f64 = 1.0;
+/// A candidate needs this many valid future steps (2 s at 10 Hz) to be
+/// worth driving adversarially.
+const MIN_FUTURE_STEPS: usize = 20;
+
+/// The closest approach of two tracks from the current step on.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ClosestApproach {
+    /// Minimum box distance, metres (0 when the boxes touch).
+    pub distance_m: f64,
+    /// Step at which it happens.
+    pub step: usize,
+}
+
+/// Closest approach of tracks `a` and `b` over steps `current_step..`.
+pub fn closest_approach(scenario: &Scenario, a: TrackIndex, b: TrackIndex) -> Option<ClosestApproach> {
+    let (ta, tb) = (scenario.track(a), scenario.track(b));
+    let reach = 0.5 * (ta.length_m.hypot(ta.width_m) + tb.length_m.hypot(tb.width_m));
+    let mut best: Option<ClosestApproach> = None;
+    for step in scenario.current_step..scenario.num_steps() {
+        let (Some(sa), Some(sb)) = (ta.state(step), tb.state(step)) else { continue };
+        // Centre distance minus both bounding radii is a lower bound on the
+        // box distance: skip the exact query when it cannot win.
+        let lower = (sa.position - sb.position).norm() - reach;
+        if best.is_some_and(|b| lower >= b.distance_m) {
+            continue;
+        }
+        let d = ta.footprint(step)?.distance(&tb.footprint(step)?);
+        if best.is_none_or(|b| d < b.distance_m) {
+            best = Some(ClosestApproach { distance_m: d, step });
+        }
+    }
+    best
+}
+
+/// Vehicles valid at the current step that move and have enough future.
+fn candidates(scenario: &Scenario) -> Vec<TrackIndex> {
+    let now = scenario.current_step;
+    (0..scenario.tracks.len())
+        .map(TrackIndex)
+        .filter(|&i| {
+            let t = scenario.track(i);
+            t.kind == AgentKind::Vehicle
+                && t.state(now).is_some()
+                && t.states[now..].iter().flatten().count() > MIN_FUTURE_STEPS
+                && t.states[now..].iter().flatten().any(|s| s.speed_mps() >= MOVING_SPEED_MPS)
+        })
+        .collect()
+}
+
+fn overlapping_now(scenario: &Scenario, a: TrackIndex, b: TrackIndex) -> bool {
+    let now = scenario.current_step;
+    match (scenario.track(a).footprint(now), scenario.track(b).footprint(now)) {
+        (Some(fa), Some(fb)) => fa.intersects(&fb),
+        _ => false,
+    }
+}
+
+/// Sort key: closer first, then earlier, then lower indices.
+fn key(c: &ClosestApproach, a: TrackIndex, b: TrackIndex) -> (f64, usize, TrackIndex, TrackIndex) {
+    (c.distance_m, c.step, a, b)
+}
+
+fn better(x: &(f64, usize, TrackIndex, TrackIndex), y: &(f64, usize, TrackIndex, TrackIndex)) -> bool {
+    x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)).then(x.2.cmp(&y.2)).then(x.3.cmp(&y.3)).is_lt()
+}
+
+/// The CBV for a given ego: the moving vehicle with the closest approach.
+pub fn mine_cbv(scenario: &Scenario, ego: TrackIndex) -> Option<TrackIndex> {
+    let mut best: Option<((f64, usize, TrackIndex, TrackIndex), TrackIndex)> = None;
+    for c in candidates(scenario) {
+        if c == ego || overlapping_now(scenario, ego, c) {
+            continue;
+        }
+        if let Some(approach) = closest_approach(scenario, ego, c) {
+            let k = key(&approach, ego, c);
+            if best.as_ref().is_none_or(|(bk, _)| better(&k, bk)) {
+                best = Some((k, c));
+            }
+        }
+    }
+    best.map(|(_, c)| c)
+}
+
+/// The (ego, CBV) pair with the closest approach among moving vehicles.
+/// Of the two, the ego is the one with more valid future steps (more to
+/// test), ties to the lower index.
+pub fn mine_pair(scenario: &Scenario) -> Option<(TrackIndex, TrackIndex)> {
+    let cands = candidates(scenario);
+    let mut best: Option<((f64, usize, TrackIndex, TrackIndex), (TrackIndex, TrackIndex))> = None;
+    for (i, &a) in cands.iter().enumerate() {
+        for &b in &cands[i + 1..] {
+            if overlapping_now(scenario, a, b) {
+                continue;
+            }
+            if let Some(approach) = closest_approach(scenario, a, b) {
+                let k = key(&approach, a, b);
+                if best.as_ref().is_none_or(|(bk, _)| better(&k, bk)) {
+                    best = Some((k, (a, b)));
+                }
+            }
+        }
+    }
+    let (_, (a, b)) = best?;
+    let future = |t: TrackIndex| scenario.track(t).states[scenario.current_step..].iter().flatten().count();
+    Some(if future(b) > future(a) { (b, a) } else { (a, b) })
+}
+
+/// Fills in ego and CBV where the source named none, recording how.
+pub fn assign(scenario: &mut Scenario) {
+    match scenario.ego {
+        None => {
+            if let Some((ego, cbv)) = mine_pair(scenario) {
+                scenario.ego = Some(ego);
+                scenario.ego_origin = RoleOrigin::ConflictMining;
+                scenario.cbv = Some(cbv);
+                scenario.cbv_origin = RoleOrigin::ConflictMining;
+            }
+        }
+        Some(ego) if scenario.cbv.is_none() => {
+            if let Some(cbv) = mine_cbv(scenario, ego) {
+                scenario.cbv = Some(cbv);
+                scenario.cbv_origin = RoleOrigin::ConflictMining;
+            }
+        }
+        Some(_) => {}
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::{Point2, Vector2};
+    use crate::map::RoadMap;
+    use crate::scenario::{AgentId, AgentState, DataLicence, ScenarioSource, SourceFormat, Track};
+
+    /// A straight-line track from (x0, y0) with velocity (vx, vy), 40 steps.
+    fn track(id: &str, x0: f64, y0: f64, vx: f64, vy: f64) -> Track {
+        let states = (0..40)
+            .map(|k| {
+                let t = k as f64 * 0.1;
+                Some(AgentState {
+                    position: Point2::new(x0 + vx * t, y0 + vy * t),
+                    heading_rad: vy.atan2(vx),
+                    velocity_mps: Vector2::new(vx, vy),
+                })
+            })
+            .collect();
+        Track { id: AgentId(id.into()), kind: AgentKind::Vehicle, length_m: 4.5, width_m: 2.0, states }
+    }
+
+    fn scenario(tracks: Vec<Track>) -> Scenario {
+        Scenario {
+            id: "t".into(),
+            source: ScenarioSource {
+                format: SourceFormat::Authored,
+                path: "t".into(),
+                licence: DataLicence::Project,
+                notes: vec![],
+            },
+            dt_s: 0.1,
+            current_step: 0,
+            tracks,
+            map: RoadMap::default(),
+            ego: None,
+            ego_origin: RoleOrigin::Unassigned,
+            cbv: None,
+            cbv_origin: RoleOrigin::Unassigned,
+            objects_of_interest: vec![],
+            origin_world: Vector2::zeros(),
+        }
+    }
+
+    #[test]
+    fn crossing_pair_is_mined_over_parallel_traffic() {
+        // 0 and 1 drive parallel 10 m apart; 2 crosses 0's path and comes within ~1 m; 3 is parked next to 0.
+        let mut parked = track("3", 0.0, 3.0, 0.0, 0.0);
+        parked.states.iter_mut().flatten().for_each(|s| s.velocity_mps = Vector2::zeros());
+        let mut s = scenario(vec![
+            track("0", 0.0, 0.0, 10.0, 0.0),
+            track("1", 0.0, 10.0, 10.0, 0.0),
+            track("2", 20.0, -20.0, 0.0, 9.0),
+            parked,
+        ]);
+        assert_eq!(
+            mine_pair(&s).map(|(a, b)| if a < b { (a, b) } else { (b, a) }),
+            Some((TrackIndex(0), TrackIndex(2)))
+        );
+        assign(&mut s);
+        assert!(s.ego.is_some() && s.cbv.is_some());
+        assert_eq!(s.ego_origin, RoleOrigin::ConflictMining);
+        // Deterministic: the same answer on a second run.
+        let mut again = s.clone();
+        again.ego = None;
+        assign(&mut again);
+        assert_eq!((again.ego, again.cbv), (s.ego, s.cbv));
+    }
+
+    #[test]
+    fn source_ego_is_kept_and_cbv_mined_for_it() {
+        let mut s = scenario(vec![
+            track("0", 0.0, 0.0, 10.0, 0.0),
+            track("1", 0.0, 30.0, 10.0, 0.0),
+            track("2", 0.0, 6.0, 10.0, 0.0),
+        ]);
+        s.ego = Some(TrackIndex(1));
+        s.ego_origin = RoleOrigin::Source;
+        assign(&mut s);
+        assert_eq!(s.ego, Some(TrackIndex(1)));
+        // Track 2 (y = 6) is 24 m from the ego (y = 30); track 0 is 30 m away.
+        assert_eq!(s.cbv, Some(TrackIndex(2)));
+        assert_eq!(s.cbv_origin, RoleOrigin::ConflictMining);
+    }
+}
