@@ -102,6 +102,12 @@ impl Polyline {
         }
     }
 
+    /// Cosine between the polyline's direction at `projection` and a heading:
+    /// positive when travelling along the polyline.
+    pub fn tangent_dot(&self, projection: &PolylineProjection, heading_rad: f64) -> f64 {
+        projection.tangent.dot(&Vector2::new(heading_rad.cos(), heading_rad.sin()))
+    }
+
     /// Resamples to `n >= 2` points equally spaced in arc length.
     pub fn resample(&self, n: usize) -> Polyline {
         let n = n.max(2);

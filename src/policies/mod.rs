@@ -1,1 +1,84 @@
-//! Being written.
+//! Who drives a background agent in closed loop: log replay, constant
+//! velocity, and an IDM-style lane follower (later also the learned prior
+//! and the SaFeR adversary). A policy sees the world at step `k` and says
+//! what the agent does until `k + 1`.
+
+pub mod constant_velocity;
+pub mod lane_follower;
+pub mod log_replay;
+
+pub use constant_velocity::ConstantVelocity;
+pub use lane_follower::{IdmLaneFollower, IdmParams};
+pub use log_replay::LogReplay;
+
+use crate::map::RoadMap;
+use crate::motion::Action;
+use crate::scenario::{AgentBody, AgentState, Scenario, TrackIndex};
+
+/// What an agent does over one simulator step.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum AgentAction {
+    /// Be at exactly this state at the next step (log replay).
+    Teleport(AgentState),
+    /// Apply this control through the kinematic model.
+    Control(Action),
+    /// Not present at the next step.
+    Absent,
+}
+
+/// The world as every policy sees it at one step.
+#[derive(Debug, Clone, Copy)]
+pub struct WorldView<'a> {
+    /// The map.
+    pub map: &'a RoadMap,
+    /// Current step index (in the scenario's step numbering).
+    pub step: usize,
+    /// Type and size of every agent slot.
+    pub bodies: &'a [AgentBody],
+    /// Current state of every agent slot (`None`: absent), same indexing.
+    pub states: &'a [Option<AgentState>],
+}
+
+impl WorldView<'_> {
+    /// Type and size of `agent`.
+    pub fn body(&self, agent: TrackIndex) -> AgentBody {
+        self.bodies[agent.0]
+    }
+
+    /// Current state of `agent`.
+    pub fn state(&self, agent: TrackIndex) -> Option<&AgentState> {
+        self.states.get(agent.0).and_then(Option::as_ref)
+    }
+}
+
+/// A driver of one background agent.
+pub trait AgentPolicy: Send {
+    /// Short name for reports.
+    fn name(&self) -> &'static str;
+    /// The agent's action from `world.step` to the next step.
+    fn act(&mut self, world: &WorldView<'_>, agent: TrackIndex) -> AgentAction;
+}
+
+/// The built-in background policies, selectable by name.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum BackgroundPolicy {
+    /// Replay the recorded trajectory (non-reactive).
+    #[default]
+    LogReplay,
+    /// Keep speed and heading from the start state.
+    ConstantVelocity,
+    /// Follow the lane, brake for leaders and red lights (IDM).
+    Idm,
+}
+
+impl BackgroundPolicy {
+    /// A fresh policy instance for `agent` of `scenario`.
+    pub fn instantiate(self, scenario: &Scenario, agent: TrackIndex) -> Box<dyn AgentPolicy> {
+        match self {
+            Self::LogReplay => Box::new(LogReplay::new(scenario.track(agent).clone())),
+            Self::ConstantVelocity => Box::new(ConstantVelocity),
+            Self::Idm => Box::new(IdmLaneFollower::new(IdmParams::default())),
+        }
+    }
+}

@@ -68,6 +68,17 @@ impl AgentState {
     }
 }
 
+/// An agent's type and footprint size: what others can see of it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AgentBody {
+    /// Agent type.
+    pub kind: AgentKind,
+    /// Box length, metres.
+    pub length_m: f64,
+    /// Box width, metres.
+    pub width_m: f64,
+}
+
 /// An agent's recorded (or simulated) trajectory.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Track {
@@ -92,6 +103,11 @@ impl Track {
     /// The footprint at `step`, if valid.
     pub fn footprint(&self, step: usize) -> Option<OrientedBox> {
         self.state(step).map(|s| OrientedBox::new(s.pose(), self.length_m, self.width_m))
+    }
+
+    /// Type and size.
+    pub fn body(&self) -> AgentBody {
+        AgentBody { kind: self.kind, length_m: self.length_m, width_m: self.width_m }
     }
 
     /// Number of valid steps.

@@ -1,1 +1,434 @@
-//! Being written.
+//! The closed-loop engine: steps a scenario at 0.1 s with every background
+//! agent driven by its policy and the ego by a planner, detects collisions
+//! (oriented boxes) and off-road events, and records the rollout.
+//!
+//! A rollout is a pure function of the scenario, the planner, the policies
+//! and the configuration: agents are updated in track order, every query
+//! iterates in index order, and nothing reads a clock or a global RNG.
+
+mod events;
+mod rollout;
+
+pub use events::{CollisionEvent, OffRoadEvent};
+pub use rollout::{Rollout, RolloutSummary, Termination};
+
+use crate::geometry::Vector2;
+use crate::motion::{KinematicState, kinematic_step, tokens::SIM_DT_S};
+use crate::planners::{Observation, PerceivedAgent, Planner, PlannerOutput};
+use crate::policies::{AgentAction, AgentPolicy, BackgroundPolicy, WorldView};
+use crate::scenario::{AgentBody, AgentState, Scenario, TrackIndex};
+
+/// How a rollout is set up.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SimConfig {
+    /// First step; `None` = the scenario's current step.
+    pub start_step: Option<usize>,
+    /// Last step (inclusive); `None` = the scenario's last step.
+    pub end_step: Option<usize>,
+    /// Policy for background agents present at the start. Agents that
+    /// appear later in the log are always replayed.
+    pub background: BackgroundPolicy,
+    /// Perception range of the ego: agents farther than this are not in
+    /// its observation, m.
+    pub perception_range_m: f64,
+    /// Stop at the ego's first collision (stage-1/2 evaluation needs only
+    /// the first one).
+    pub stop_on_ego_collision: bool,
+}
+
+impl Default for SimConfig {
+    fn default() -> Self {
+        Self {
+            start_step: None,
+            end_step: None,
+            background: BackgroundPolicy::LogReplay,
+            perception_range_m: 120.0,
+            stop_on_ego_collision: false,
+        }
+    }
+}
+
+/// Why a rollout could not be set up.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum SimError {
+    /// The scenario has no ego.
+    #[error("scenario {0} has no ego: the source names none and conflict mining found no pair of moving vehicles")]
+    NoEgo(String),
+    /// The ego is not valid at the start step.
+    #[error("scenario {scenario}: the ego ({ego}) has no valid state at start step {step}")]
+    EgoAbsentAtStart {
+        /// Scenario id.
+        scenario: String,
+        /// Ego id.
+        ego: String,
+        /// Start step.
+        step: usize,
+    },
+    /// The scenario's step is not the simulator's.
+    #[error("scenario {scenario} has steps of {dt_s} s; the simulator steps at {SIM_DT_S} s")]
+    StepMismatch {
+        /// Scenario id.
+        scenario: String,
+        /// Its step, s.
+        dt_s: f64,
+    },
+    /// Start/end steps outside the scenario.
+    #[error("scenario {scenario}: steps {start}..={end} are outside its {steps} steps")]
+    BadRange {
+        /// Scenario id.
+        scenario: String,
+        /// Start.
+        start: usize,
+        /// End.
+        end: usize,
+        /// Steps in the scenario.
+        steps: usize,
+    },
+}
+
+/// One closed-loop run of a scenario.
+pub struct Simulation<'a> {
+    scenario: &'a Scenario,
+    config: SimConfig,
+    ego: TrackIndex,
+    policies: Vec<Option<Box<dyn AgentPolicy>>>,
+}
+
+impl<'a> Simulation<'a> {
+    /// Sets up a run with the configured background policy for every
+    /// non-ego agent present at the start.
+    pub fn new(scenario: &'a Scenario, config: SimConfig) -> Result<Self, SimError> {
+        let ego = scenario.ego.ok_or_else(|| SimError::NoEgo(scenario.id.clone()))?;
+        if (scenario.dt_s - SIM_DT_S).abs() > 1e-6 {
+            return Err(SimError::StepMismatch { scenario: scenario.id.clone(), dt_s: scenario.dt_s });
+        }
+        let start = config.start_step.unwrap_or(scenario.current_step);
+        let end = config.end_step.unwrap_or(scenario.num_steps().saturating_sub(1));
+        if start >= end || end >= scenario.num_steps() {
+            return Err(SimError::BadRange { scenario: scenario.id.clone(), start, end, steps: scenario.num_steps() });
+        }
+        if scenario.track(ego).state(start).is_none() {
+            return Err(SimError::EgoAbsentAtStart {
+                scenario: scenario.id.clone(),
+                ego: scenario.track(ego).id.to_string(),
+                step: start,
+            });
+        }
+        let policies = (0..scenario.tracks.len())
+            .map(|i| {
+                let agent = TrackIndex(i);
+                (agent != ego).then(|| {
+                    let present = scenario.track(agent).state(start).is_some();
+                    let policy = if present { config.background } else { BackgroundPolicy::LogReplay };
+                    policy.instantiate(scenario, agent)
+                })
+            })
+            .collect();
+        Ok(Self { scenario, config, ego, policies })
+    }
+
+    /// Replaces the policy of one background agent (e.g. the CBV's adversary).
+    pub fn set_policy(&mut self, agent: TrackIndex, policy: Box<dyn AgentPolicy>) {
+        if agent != self.ego {
+            self.policies[agent.0] = Some(policy);
+        }
+    }
+
+    /// Runs to the end step (or the ego's first collision, if configured).
+    pub fn run(mut self, planner: &mut dyn Planner) -> Rollout {
+        let scenario = self.scenario;
+        let start = self.config.start_step.unwrap_or(scenario.current_step);
+        let end = self.config.end_step.unwrap_or(scenario.num_steps() - 1);
+        let bodies: Vec<AgentBody> = scenario.tracks.iter().map(|t| t.body()).collect();
+        let mut states: Vec<Option<AgentState>> = scenario.tracks.iter().map(|t| t.state(start).copied()).collect();
+        let mut detector = events::EventDetector::new(scenario, self.ego, &bodies, &states, start);
+        let mut record = vec![states.clone()];
+        let mut termination = Termination::Completed;
+
+        for step in start..end {
+            let world = WorldView { map: &scenario.map, step, bodies: &bodies, states: &states };
+            let actions: Vec<AgentAction> = self
+                .policies
+                .iter_mut()
+                .enumerate()
+                .map(|(i, p)| match p {
+                    Some(p) => p.act(&world, TrackIndex(i)),
+                    None => AgentAction::Absent,
+                })
+                .collect();
+            let observation = self.observe(step, start, &bodies, &states);
+            let ego_next = planner.plan(&observation).map_err(|e| e.to_string()).and_then(|out| {
+                let ego_now = states[self.ego.0].expect("ego present while running");
+                apply_planner_output(&ego_now, &out)
+            });
+            let mut next: Vec<Option<AgentState>> = states
+                .iter()
+                .zip(&actions)
+                .map(|(now, action)| match (action, now) {
+                    (AgentAction::Teleport(s), _) => Some(*s),
+                    (AgentAction::Control(a), Some(now)) => {
+                        Some(kinematic_step(&KinematicState::from_agent_state(now), *a, SIM_DT_S).to_agent_state())
+                    }
+                    (AgentAction::Control(_), None) | (AgentAction::Absent, _) => None,
+                })
+                .collect();
+            match ego_next {
+                Ok(s) => next[self.ego.0] = Some(s),
+                Err(reason) => {
+                    termination = Termination::PlannerFailed { step, reason };
+                    break;
+                }
+            }
+            states = next;
+            record.push(states.clone());
+            let collided = detector.observe(step + 1, &states);
+            if collided && self.config.stop_on_ego_collision {
+                termination = Termination::EgoCollision { step: step + 1 };
+                break;
+            }
+        }
+        let (collisions, off_road, min_distance) = detector.finish();
+        Rollout {
+            scenario_id: scenario.id.clone(),
+            dt_s: SIM_DT_S,
+            start_step: start,
+            ego: self.ego,
+            cbv: scenario.cbv,
+            agent_ids: scenario.tracks.iter().map(|t| t.id.clone()).collect(),
+            bodies,
+            states: record,
+            collisions,
+            off_road,
+            min_distance_to_ego: min_distance,
+            termination,
+            planner: planner.name().to_string(),
+        }
+    }
+
+    fn observe<'m>(
+        &self,
+        step: usize,
+        start: usize,
+        bodies: &[AgentBody],
+        states: &[Option<AgentState>],
+    ) -> Observation<'m>
+    where
+        'a: 'm,
+    {
+        let ego = states[self.ego.0].expect("ego present while running");
+        let range2 = self.config.perception_range_m.powi(2);
+        let agents = states
+            .iter()
+            .enumerate()
+            .filter(|&(i, _)| i != self.ego.0)
+            .filter_map(|(i, s)| s.map(|s| (i, s)))
+            .filter(|(_, s)| (s.position - ego.position).norm_squared() <= range2)
+            .map(|(i, state)| PerceivedAgent {
+                id: self.scenario.tracks[i].id.clone(),
+                kind: bodies[i].kind,
+                length_m: bodies[i].length_m,
+                width_m: bodies[i].width_m,
+                state,
+            })
+            .collect();
+        let signals = self
+            .scenario
+            .map
+            .traffic_signals
+            .iter()
+            .filter_map(|s| s.states.get(step).map(|st| (s.lane, *st)))
+            .collect();
+        let ego_body = bodies[self.ego.0];
+        Observation {
+            step,
+            time_s: (step - start) as f64 * SIM_DT_S,
+            dt_s: SIM_DT_S,
+            ego,
+            ego_length_m: ego_body.length_m,
+            ego_width_m: ego_body.width_m,
+            agents,
+            map: &self.scenario.map,
+            signals,
+        }
+    }
+}
+
+/// The ego's state one step after `now` under the planner's output.
+fn apply_planner_output(now: &AgentState, out: &PlannerOutput) -> Result<AgentState, String> {
+    match out {
+        PlannerOutput::Control(a) => {
+            if !(a.accel_mps2.is_finite() && a.yaw_rate_radps.is_finite()) {
+                return Err(format!("non-finite control {a:?}"));
+            }
+            Ok(kinematic_step(&KinematicState::from_agent_state(now), *a, SIM_DT_S).to_agent_state())
+        }
+        PlannerOutput::Trajectory(points) => {
+            let first = points.first().ok_or("empty trajectory")?;
+            for p in points {
+                let s = &p.state;
+                let finite = p.time_s.is_finite()
+                    && s.position.x.is_finite()
+                    && s.position.y.is_finite()
+                    && s.heading_rad.is_finite()
+                    && s.velocity_mps.x.is_finite()
+                    && s.velocity_mps.y.is_finite();
+                if !finite {
+                    return Err(format!("non-finite trajectory point {p:?}"));
+                }
+            }
+            if points.windows(2).any(|w| w[1].time_s <= w[0].time_s) || first.time_s <= 0.0 {
+                return Err("trajectory times must be positive and increasing".into());
+            }
+            // Perfect tracking: the state at t = dt, linearly interpolated
+            // from `now` (t = 0) through the planned points.
+            let t = SIM_DT_S;
+            let mut prev = (0.0, *now);
+            for p in points {
+                if p.time_s >= t - 1e-9 {
+                    let w = ((t - prev.0) / (p.time_s - prev.0)).clamp(0.0, 1.0);
+                    let lerp = |a: f64, b: f64| a + (b - a) * w;
+                    let dh = crate::geometry::wrap_angle(p.state.heading_rad - prev.1.heading_rad);
+                    return Ok(AgentState {
+                        position: prev.1.position + (p.state.position - prev.1.position) * w,
+                        heading_rad: crate::geometry::wrap_angle(prev.1.heading_rad + dh * w),
+                        velocity_mps: Vector2::new(
+                            lerp(prev.1.velocity_mps.x, p.state.velocity_mps.x),
+                            lerp(prev.1.velocity_mps.y, p.state.velocity_mps.y),
+                        ),
+                    });
+                }
+                prev = (p.time_s, p.state);
+            }
+            Err(format!("trajectory ends at {} s, before the next step ({t} s)", prev.0))
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::{Point2, Polyline};
+    use crate::map::{Lane, LaneKind, MapElementId, RoadEdge, RoadEdgeKind, RoadMap};
+    use crate::planners::BuiltinPlanner;
+    use crate::scenario::{AgentId, AgentKind, DataLicence, RoleOrigin, ScenarioSource, SourceFormat, Track};
+
+    /// A 300 m straight road; the ego at x=0 doing 12 m/s, a car stopped at
+    /// x=60 in the same lane (recorded as stopped throughout), 121 steps.
+    fn stopped_car_ahead() -> Scenario {
+        let straight = |y0: f64, x0: f64, x1: f64| Polyline::new(vec![Point2::new(x0, y0), Point2::new(x1, y0)]);
+        let lane = Lane {
+            id: MapElementId(1),
+            centreline: straight(0.0, -50.0, 300.0),
+            kind: LaneKind::SurfaceStreet,
+            speed_limit_mps: None,
+            predecessors: vec![],
+            successors: vec![],
+            left_neighbours: vec![],
+            right_neighbours: vec![],
+            left_boundary: None,
+            right_boundary: None,
+            in_intersection: false,
+        };
+        let edges = vec![
+            RoadEdge { id: MapElementId(2), polyline: straight(-2.0, -50.0, 300.0), kind: RoadEdgeKind::Boundary },
+            RoadEdge { id: MapElementId(3), polyline: straight(2.0, 300.0, -50.0), kind: RoadEdgeKind::Boundary },
+        ];
+        let map = RoadMap::new(vec![lane], edges, vec![], vec![], vec![], vec![], vec![]);
+        let track = |id: &str, x0: f64, v: f64| Track {
+            id: AgentId(id.into()),
+            kind: AgentKind::Vehicle,
+            length_m: 4.5,
+            width_m: 2.0,
+            states: (0..121)
+                .map(|k| {
+                    Some(AgentState {
+                        position: Point2::new(x0 + v * 0.1 * k as f64, 0.0),
+                        heading_rad: 0.0,
+                        velocity_mps: Vector2::new(v, 0.0),
+                    })
+                })
+                .collect(),
+        };
+        Scenario {
+            id: "stopped-car-ahead".into(),
+            source: ScenarioSource {
+                format: SourceFormat::Authored,
+                path: "test".into(),
+                licence: DataLicence::Project,
+                notes: vec![],
+            },
+            dt_s: 0.1,
+            current_step: 0,
+            tracks: vec![track("ego", 0.0, 12.0), track("stopped", 60.0, 0.0)],
+            map,
+            ego: Some(TrackIndex(0)),
+            ego_origin: RoleOrigin::Source,
+            cbv: Some(TrackIndex(1)),
+            cbv_origin: RoleOrigin::Source,
+            objects_of_interest: vec![],
+            origin_world: Vector2::zeros(),
+        }
+    }
+
+    fn run(planner: BuiltinPlanner) -> Rollout {
+        let s = stopped_car_ahead();
+        let mut p = planner.instantiate(&s, TrackIndex(0));
+        Simulation::new(&s, SimConfig::default()).unwrap().run(p.as_mut())
+    }
+
+    #[test]
+    fn constant_velocity_ego_hits_the_stopped_car() {
+        let r = run(BuiltinPlanner::ConstantVelocity);
+        let c = r.ego_collision().expect("collision");
+        // Gap 60 - 4.5 = 55.5 m at 12 m/s: contact after 4.625 s, i.e. at step 47.
+        assert_eq!(c.step, 47);
+        assert_eq!((c.a, c.b), (TrackIndex(0), TrackIndex(1)));
+        assert!(r.summary().ego_collision.unwrap().with_cbv);
+        assert!(r.off_road.is_empty());
+    }
+
+    #[test]
+    fn idm_ego_stops_behind_it() {
+        let r = run(BuiltinPlanner::Idm);
+        assert!(r.ego_collision().is_none(), "{:?}", r.collisions);
+        let closest = r.min_distance_to_ego.unwrap();
+        assert!(closest.distance_m > 0.5 && closest.distance_m < 6.0, "{closest:?}");
+        let last = r.states.last().unwrap()[0].unwrap();
+        assert!(last.speed_mps() < 1.0, "ego still at {} m/s", last.speed_mps());
+        assert_eq!(r.termination, Termination::Completed);
+    }
+
+    #[test]
+    fn log_replay_rollout_reproduces_the_log_and_is_deterministic() {
+        let s = stopped_car_ahead();
+        let run = || {
+            let mut p = BuiltinPlanner::LogReplay.instantiate(&s, TrackIndex(0));
+            Simulation::new(&s, SimConfig::default()).unwrap().run(p.as_mut())
+        };
+        let (a, b) = (run(), run());
+        assert_eq!(a.states, b.states);
+        assert_eq!(a.states.len(), 121);
+        for (k, step) in a.states.iter().enumerate() {
+            assert_eq!(step[0], s.tracks[0].states[k]);
+        }
+    }
+
+    #[test]
+    fn bad_planner_output_ends_the_rollout_with_a_reason() {
+        struct NanPlanner;
+        impl Planner for NanPlanner {
+            fn name(&self) -> &str {
+                "nan"
+            }
+            fn plan(&mut self, _: &Observation<'_>) -> Result<PlannerOutput, crate::planners::PlannerError> {
+                Ok(PlannerOutput::Control(crate::motion::Action { accel_mps2: f64::NAN, yaw_rate_radps: 0.0 }))
+            }
+        }
+        let s = stopped_car_ahead();
+        let r = Simulation::new(&s, SimConfig::default()).unwrap().run(&mut NanPlanner);
+        match &r.termination {
+            Termination::PlannerFailed { step: 0, reason } => assert!(reason.contains("non-finite"), "{reason}"),
+            other => panic!("{other:?}"),
+        }
+    }
+}

@@ -1,0 +1,248 @@
+//! An IDM-style lane follower: pure-pursuit steering along a route of lane
+//! centrelines (going straight through junctions where the lane graph
+//! branches), and Intelligent Driver Model speed control that brakes for
+//! the nearest agent on the route ahead and for red signals.
+//!
+//! Used for background traffic and, wrapped as a planner, as the simplest
+//! reactive ego. Without a lane (pedestrians, off-map), the route is a
+//! straight line along the heading.
+
+use super::{AgentAction, AgentPolicy, WorldView};
+use crate::geometry::{Point2, Polyline, Vector2, wrap_angle};
+use crate::map::{MapElementId, RoadMap};
+use crate::motion::Action;
+use crate::motion::tokens::{MAX_ACCEL_MPS2, MAX_YAW_RATE_RADPS};
+use crate::scenario::{AgentKind, AgentState, TrackIndex};
+
+/// Parameters of the lane follower; defaults are textbook IDM values for
+/// urban driving (Treiber & Kesting).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct IdmParams {
+    /// Desired speed, m/s; `None` uses the lane's speed limit, else the
+    /// larger of the start speed and [`IdmParams::fallback_speed_mps`].
+    pub desired_speed_mps: Option<f64>,
+    /// Desired speed when the map gives no limit and the agent starts slower, m/s.
+    pub fallback_speed_mps: f64,
+    /// Maximum acceleration `a`, m/s².
+    pub max_accel_mps2: f64,
+    /// Comfortable deceleration `b`, m/s².
+    pub comfort_decel_mps2: f64,
+    /// Hardest braking allowed, m/s² (positive number).
+    pub max_decel_mps2: f64,
+    /// Time headway `T`, s.
+    pub time_headway_s: f64,
+    /// Standstill gap `s0`, m.
+    pub min_gap_m: f64,
+    /// Acceleration exponent `δ`.
+    pub exponent: f64,
+    /// Pure-pursuit look-ahead per m/s of speed, s.
+    pub lookahead_time_s: f64,
+    /// Minimum pure-pursuit look-ahead, m.
+    pub min_lookahead_m: f64,
+    /// How far ahead leaders are searched, m.
+    pub sensing_range_m: f64,
+}
+
+impl Default for IdmParams {
+    fn default() -> Self {
+        Self {
+            desired_speed_mps: None,
+            fallback_speed_mps: 10.0,
+            max_accel_mps2: 1.5,
+            comfort_decel_mps2: 2.0,
+            max_decel_mps2: MAX_ACCEL_MPS2,
+            time_headway_s: 1.5,
+            min_gap_m: 2.0,
+            exponent: 4.0,
+            lookahead_time_s: 0.8,
+            min_lookahead_m: 4.0,
+            sensing_range_m: 80.0,
+        }
+    }
+}
+
+/// Route length built ahead of the agent, m.
+const ROUTE_HORIZON_M: f64 = 200.0;
+/// Rebuild the route when less than this remains ahead, m.
+const ROUTE_REBUILD_M: f64 = 60.0;
+/// Lateral offset from the route under which another agent is "on it", m.
+const ON_ROUTE_LATERAL_M: f64 = 1.8;
+/// How far from a lane centreline an agent may start and still follow it, m.
+const LANE_SEARCH_RADIUS_M: f64 = 4.0;
+
+/// The path the follower drives along, and which lanes make it up.
+#[derive(Debug, Clone)]
+struct Route {
+    path: Polyline,
+    /// (lane, arc length of its start on the path, arc length of its end).
+    lanes: Vec<(MapElementId, f64, f64)>,
+}
+
+fn build_route(map: &RoadMap, state: &AgentState, kind: AgentKind) -> Route {
+    let straight = || {
+        let f = Vector2::new(state.heading_rad.cos(), state.heading_rad.sin());
+        Route { path: Polyline::new(vec![state.position, state.position + f * ROUTE_HORIZON_M]), lanes: vec![] }
+    };
+    if kind != AgentKind::Vehicle && kind != AgentKind::Cyclist {
+        return straight();
+    }
+    let Some(m) = map.nearest_lane(&state.position, Some(state.heading_rad), LANE_SEARCH_RADIUS_M) else {
+        return straight();
+    };
+    let mut lane = &map.lanes[m.lane_index];
+    if lane.centreline.tangent_dot(&m.projection, state.heading_rad) < 0.0 {
+        return straight();
+    }
+    // Start slightly behind the agent so the projection is never clamped to the route start.
+    let s0 = (m.projection.arc_length_m - 5.0).max(0.0);
+    let mut points: Vec<Point2> = Vec::new();
+    let mut lanes = Vec::new();
+    let mut covered = 0.0;
+    let mut first = true;
+    loop {
+        let pts = lane.centreline.points();
+        let start_s = if first { s0 } else { 0.0 };
+        let lane_start_on_path = covered;
+        let mut seg_pts: Vec<Point2> = Vec::new();
+        if let Some((p, _)) = lane.centreline.sample(start_s) {
+            seg_pts.push(p);
+        }
+        let mut acc = 0.0;
+        for w in pts.windows(2) {
+            acc += (w[1] - w[0]).norm();
+            if acc > start_s {
+                seg_pts.push(w[1]);
+            }
+        }
+        covered += (lane.centreline.length_m() - start_s).max(0.0);
+        lanes.push((lane.id, lane_start_on_path, covered));
+        points.extend(seg_pts);
+        first = false;
+        if covered >= ROUTE_HORIZON_M || lanes.len() > 64 {
+            break;
+        }
+        // Go as straight as possible: the successor whose direction 10 m in
+        // deviates least from this lane's end direction; ties to the lower id.
+        let Some((_, end_dir)) = lane.centreline.sample(lane.centreline.length_m()) else { break };
+        let next = lane
+            .successors
+            .iter()
+            .filter_map(|id| map.lane(*id))
+            .filter_map(|l| l.centreline.sample(10.0).map(|(_, d)| (l, -d.dot(&end_dir))))
+            .min_by(|a, b| a.1.total_cmp(&b.1).then(a.0.id.cmp(&b.0.id)));
+        match next {
+            Some((l, _)) => lane = l,
+            None => break,
+        }
+    }
+    let path = Polyline::new(points);
+    if path.len() < 2 { straight() } else { Route { path, lanes } }
+}
+
+/// The IDM lane follower for one agent.
+#[derive(Debug, Clone)]
+pub struct IdmLaneFollower {
+    params: IdmParams,
+    route: Option<Route>,
+    desired_speed_mps: Option<f64>,
+}
+
+impl IdmLaneFollower {
+    /// A follower with these parameters; its route is built on first use.
+    pub fn new(params: IdmParams) -> Self {
+        Self { params, route: None, desired_speed_mps: None }
+    }
+
+    /// The control for `agent` at `world.step`, or `None` when it is absent.
+    pub fn control(&mut self, world: &WorldView<'_>, agent: TrackIndex) -> Option<Action> {
+        let state = *world.state(agent)?;
+        let body = world.body(agent);
+        let map = world.map;
+        let rebuild = match &self.route {
+            None => true,
+            Some(r) => {
+                r.path.project(&state.position).is_none_or(|p| r.path.length_m() - p.arc_length_m < ROUTE_REBUILD_M)
+            }
+        };
+        if rebuild {
+            self.route = Some(build_route(map, &state, body.kind));
+        }
+        let route = self.route.as_ref()?;
+        let here = route.path.project(&state.position)?;
+        let speed = state.speed_mps();
+        let v0 = *self.desired_speed_mps.get_or_insert_with(|| {
+            self.params.desired_speed_mps.unwrap_or_else(|| {
+                let limit = route.lanes.first().and_then(|(id, _, _)| map.lane(*id)).and_then(|l| l.speed_limit_mps);
+                limit.unwrap_or(speed.max(self.params.fallback_speed_mps))
+            })
+        });
+
+        // Steering: pure pursuit towards a point on the route ahead.
+        let lookahead = (self.params.lookahead_time_s * speed).max(self.params.min_lookahead_m);
+        let (target, _) = route.path.sample(here.arc_length_m + lookahead)?;
+        let to_target = target - state.position;
+        let alpha = wrap_angle(to_target.y.atan2(to_target.x) - state.heading_rad);
+        let curvature = 2.0 * alpha.sin() / to_target.norm().max(1e-3);
+        let yaw_rate = (curvature * speed.max(0.5)).clamp(-MAX_YAW_RATE_RADPS, MAX_YAW_RATE_RADPS);
+
+        // Leader: the closest agent on the route ahead, or a red signal's stop line.
+        let mut leader: Option<(f64, f64)> = None; // (gap m, speed along route m/s)
+        let mut consider = |gap: f64, v: f64| {
+            if leader.is_none_or(|(g, _)| gap < g) {
+                leader = Some((gap, v));
+            }
+        };
+        let forward = Vector2::new(state.heading_rad.cos(), state.heading_rad.sin());
+        for (j, other) in world.states.iter().enumerate() {
+            let Some(other) = other else { continue };
+            if j == agent.0 {
+                continue;
+            }
+            let d = other.position - state.position;
+            if d.norm() > self.params.sensing_range_m || d.dot(&forward) < 0.0 {
+                continue;
+            }
+            let Some(p) = route.path.project(&other.position) else { continue };
+            let ahead = p.arc_length_m - here.arc_length_m;
+            if p.distance_m > ON_ROUTE_LATERAL_M || ahead <= 0.0 {
+                continue;
+            }
+            let gap = ahead - 0.5 * (body.length_m + world.bodies[j].length_m);
+            consider(gap, other.velocity_mps.dot(&p.tangent));
+        }
+        for &(lane, _, end_s) in &route.lanes {
+            let red = map.signal_state(lane, world.step).is_some_and(|s| s.requires_stop());
+            let ahead = end_s - here.arc_length_m;
+            if red && ahead > 0.5 * body.length_m && ahead < self.params.sensing_range_m {
+                consider(ahead - 0.5 * body.length_m, 0.0);
+            }
+        }
+
+        let p = &self.params;
+        let free = 1.0 - (speed / v0.max(0.1)).powf(p.exponent);
+        let interaction = leader.map_or(0.0, |(gap, v_lead)| {
+            let dv = speed - v_lead;
+            let desired_gap = p.min_gap_m
+                + (speed * p.time_headway_s + speed * dv / (2.0 * (p.max_accel_mps2 * p.comfort_decel_mps2).sqrt()))
+                    .max(0.0);
+            (desired_gap / gap.max(0.1)).powi(2)
+        });
+        let accel = (p.max_accel_mps2 * (free - interaction)).clamp(-p.max_decel_mps2, p.max_accel_mps2);
+        Some(Action { accel_mps2: accel, yaw_rate_radps: yaw_rate })
+    }
+}
+
+impl AgentPolicy for IdmLaneFollower {
+    fn name(&self) -> &'static str {
+        "idm"
+    }
+
+    fn act(&mut self, world: &WorldView<'_>, agent: TrackIndex) -> AgentAction {
+        match self.control(world, agent) {
+            Some(a) => AgentAction::Control(a),
+            None if world.state(agent).is_some() => AgentAction::Control(Action::default()),
+            None => AgentAction::Absent,
+        }
+    }
+}

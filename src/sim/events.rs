@@ -1,0 +1,170 @@
+//! Collision and off-road detection during a rollout, and the ego's
+//! closest approach to any other agent.
+//!
+//! Collisions are tested on every pair of present agents with a sweep
+//! along x (sorted by index for ties) and the exact oriented-box test from
+//! `geometry`. A pair is reported once, at its first contact; pairs already
+//! overlapping at the start step are log artefacts (annotation noise) and
+//! are counted apart, not as collisions.
+
+use std::collections::BTreeSet;
+
+use crate::geometry::OrientedBox;
+use crate::scenario::{AgentBody, AgentState, Scenario, TrackIndex};
+
+/// Two agents' boxes touched.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct CollisionEvent {
+    /// Step of first contact.
+    pub step: usize,
+    /// Lower track index of the pair.
+    pub a: TrackIndex,
+    /// Higher track index of the pair.
+    pub b: TrackIndex,
+    /// Whether the ego is one of the two.
+    pub involves_ego: bool,
+}
+
+/// The ego left the road.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct OffRoadEvent {
+    /// Step at which its most off-road corner crossed the road edge.
+    pub step: usize,
+    /// Signed distance of that corner to the road edge then, m (positive).
+    pub distance_m: f64,
+}
+
+/// The ego's closest approach to another agent.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct ClosestApproach {
+    /// Box distance, m.
+    pub distance_m: f64,
+    /// Step.
+    pub step: usize,
+    /// The other agent.
+    pub agent: TrackIndex,
+}
+
+pub(super) struct EventDetector<'a> {
+    scenario: &'a Scenario,
+    ego: TrackIndex,
+    bodies: &'a [AgentBody],
+    pre_existing: BTreeSet<(usize, usize)>,
+    reported: BTreeSet<(usize, usize)>,
+    collisions: Vec<CollisionEvent>,
+    ego_was_off_road: bool,
+    off_road: Vec<OffRoadEvent>,
+    closest: Option<ClosestApproach>,
+}
+
+fn footprint(body: &AgentBody, s: &AgentState) -> OrientedBox {
+    OrientedBox::new(s.pose(), body.length_m, body.width_m)
+}
+
+fn radius(body: &AgentBody) -> f64 {
+    0.5 * body.length_m.hypot(body.width_m)
+}
+
+/// Every overlapping pair `(i, j)`, `i < j`, in ascending order.
+fn overlapping_pairs(bodies: &[AgentBody], states: &[Option<AgentState>]) -> Vec<(usize, usize)> {
+    let mut present: Vec<(f64, usize)> =
+        states.iter().enumerate().filter_map(|(i, s)| s.map(|s| (s.position.x - radius(&bodies[i]), i))).collect();
+    present.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+    let mut out = Vec::new();
+    for (k, &(min_x, i)) in present.iter().enumerate() {
+        let si = states[i].expect("present");
+        let max_x = min_x + 2.0 * radius(&bodies[i]);
+        let bi = footprint(&bodies[i], &si);
+        for &(other_min_x, j) in &present[k + 1..] {
+            if other_min_x > max_x {
+                break;
+            }
+            let sj = states[j].expect("present");
+            if bi.intersects(&footprint(&bodies[j], &sj)) {
+                out.push((i.min(j), i.max(j)));
+            }
+        }
+    }
+    out.sort_unstable();
+    out
+}
+
+impl<'a> EventDetector<'a> {
+    pub(super) fn new(
+        scenario: &'a Scenario,
+        ego: TrackIndex,
+        bodies: &'a [AgentBody],
+        start_states: &[Option<AgentState>],
+        start: usize,
+    ) -> Self {
+        let pre_existing = overlapping_pairs(bodies, start_states).into_iter().collect();
+        let mut d = Self {
+            scenario,
+            ego,
+            bodies,
+            pre_existing,
+            reported: BTreeSet::new(),
+            collisions: Vec::new(),
+            ego_was_off_road: false,
+            off_road: Vec::new(),
+            closest: None,
+        };
+        d.ego_was_off_road = d.ego_off_road_distance(start_states).is_some_and(|x| x > 0.0);
+        d.track_closest(start, start_states);
+        d
+    }
+
+    /// Most off-road corner of the ego, m (Waymo convention: positive off road).
+    fn ego_off_road_distance(&self, states: &[Option<AgentState>]) -> Option<f64> {
+        let s = states[self.ego.0]?;
+        let corners = footprint(&self.bodies[self.ego.0], &s).corners();
+        corners.iter().filter_map(|c| self.scenario.map.signed_distance_to_road_edge(c)).reduce(f64::max)
+    }
+
+    fn track_closest(&mut self, step: usize, states: &[Option<AgentState>]) {
+        let Some(ego) = states[self.ego.0] else { return };
+        let ego_body = &self.bodies[self.ego.0];
+        let ego_box = footprint(ego_body, &ego);
+        for (i, s) in states.iter().enumerate() {
+            let Some(s) = s else { continue };
+            if i == self.ego.0 {
+                continue;
+            }
+            let lower = (s.position - ego.position).norm() - radius(ego_body) - radius(&self.bodies[i]);
+            if self.closest.is_some_and(|c| lower >= c.distance_m) {
+                continue;
+            }
+            let d = ego_box.distance(&footprint(&self.bodies[i], s));
+            if self.closest.is_none_or(|c| d < c.distance_m) {
+                self.closest = Some(ClosestApproach { distance_m: d, step, agent: TrackIndex(i) });
+            }
+        }
+    }
+
+    /// Records events at `step`; returns whether the ego collided for the first time.
+    pub(super) fn observe(&mut self, step: usize, states: &[Option<AgentState>]) -> bool {
+        let mut ego_hit = false;
+        for (i, j) in overlapping_pairs(self.bodies, states) {
+            if self.pre_existing.contains(&(i, j)) || !self.reported.insert((i, j)) {
+                continue;
+            }
+            let involves_ego = i == self.ego.0 || j == self.ego.0;
+            let first_for_ego = involves_ego && !self.collisions.iter().any(|c| c.involves_ego);
+            ego_hit |= first_for_ego;
+            self.collisions.push(CollisionEvent { step, a: TrackIndex(i), b: TrackIndex(j), involves_ego });
+        }
+        if let Some(d) = self.ego_off_road_distance(states) {
+            let off = d > 0.0;
+            if off && !self.ego_was_off_road {
+                self.off_road.push(OffRoadEvent { step, distance_m: d });
+            }
+            self.ego_was_off_road = off;
+        }
+        self.track_closest(step, states);
+        ego_hit
+    }
+
+    pub(super) fn finish(self) -> (Vec<CollisionEvent>, Vec<OffRoadEvent>, Option<ClosestApproach>) {
+        (self.collisions, self.off_road, self.closest)
+    }
+}

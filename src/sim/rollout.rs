@@ -1,0 +1,134 @@
+//! The record of one closed-loop run and its summary.
+
+use super::events::{ClosestApproach, CollisionEvent, OffRoadEvent};
+use crate::scenario::{AgentBody, AgentId, AgentState, TrackIndex};
+
+/// How a rollout ended.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+#[serde(rename_all = "kebab-case", tag = "kind")]
+pub enum Termination {
+    /// Ran to the end step.
+    Completed,
+    /// Stopped at the ego's first collision (when configured to).
+    EgoCollision {
+        /// Step of the collision.
+        step: usize,
+    },
+    /// The planner failed; the rollout stops there.
+    PlannerFailed {
+        /// Step at which it was asked.
+        step: usize,
+        /// What went wrong.
+        reason: String,
+    },
+}
+
+/// Everything a rollout produced.
+#[derive(Debug, Clone)]
+pub struct Rollout {
+    /// Scenario id.
+    pub scenario_id: String,
+    /// Step length, s.
+    pub dt_s: f64,
+    /// Scenario step of `states[0]`.
+    pub start_step: usize,
+    /// The ego.
+    pub ego: TrackIndex,
+    /// The CBV, if the scenario has one.
+    pub cbv: Option<TrackIndex>,
+    /// Agent ids, indexed like the tracks.
+    pub agent_ids: Vec<AgentId>,
+    /// Agent types and sizes, indexed like the tracks.
+    pub bodies: Vec<AgentBody>,
+    /// `states[k][i]`: agent `i` at step `start_step + k`.
+    pub states: Vec<Vec<Option<AgentState>>>,
+    /// Collisions, in order of occurrence.
+    pub collisions: Vec<CollisionEvent>,
+    /// The ego leaving the road, in order.
+    pub off_road: Vec<OffRoadEvent>,
+    /// The ego's closest approach to another agent.
+    pub min_distance_to_ego: Option<ClosestApproach>,
+    /// How it ended.
+    pub termination: Termination,
+    /// Planner name.
+    pub planner: String,
+}
+
+/// The ego's first collision, for reports.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct EgoCollision {
+    /// Time after the start, s.
+    pub time_s: f64,
+    /// The other agent's id.
+    pub other: AgentId,
+    /// Whether the other agent is the CBV.
+    pub with_cbv: bool,
+}
+
+/// A serialisable summary of a rollout.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct RolloutSummary {
+    /// Scenario id.
+    pub scenario: String,
+    /// Planner name.
+    pub planner: String,
+    /// Ego id.
+    pub ego: AgentId,
+    /// CBV id.
+    pub cbv: Option<AgentId>,
+    /// Steps simulated.
+    pub steps: usize,
+    /// Simulated time, s.
+    pub duration_s: f64,
+    /// The ego's first collision.
+    pub ego_collision: Option<EgoCollision>,
+    /// Time the ego first left the road, s after the start.
+    pub ego_off_road_s: Option<f64>,
+    /// Ego's minimum box distance to any agent, m.
+    pub min_distance_to_ego_m: Option<f64>,
+    /// The agent it was closest to.
+    pub closest_agent: Option<AgentId>,
+    /// Collisions not involving the ego.
+    pub background_collisions: usize,
+    /// How it ended.
+    pub termination: Termination,
+}
+
+impl Rollout {
+    /// Steps simulated (transitions).
+    pub fn steps(&self) -> usize {
+        self.states.len().saturating_sub(1)
+    }
+
+    /// The ego's first collision event.
+    pub fn ego_collision(&self) -> Option<&CollisionEvent> {
+        self.collisions.iter().find(|c| c.involves_ego)
+    }
+
+    /// The summary.
+    pub fn summary(&self) -> RolloutSummary {
+        let time = |step: usize| (step - self.start_step) as f64 * self.dt_s;
+        let ego_collision = self.ego_collision().map(|c| {
+            let other = if c.a == self.ego { c.b } else { c.a };
+            EgoCollision {
+                time_s: time(c.step),
+                other: self.agent_ids[other.0].clone(),
+                with_cbv: Some(other) == self.cbv,
+            }
+        });
+        RolloutSummary {
+            scenario: self.scenario_id.clone(),
+            planner: self.planner.clone(),
+            ego: self.agent_ids[self.ego.0].clone(),
+            cbv: self.cbv.map(|c| self.agent_ids[c.0].clone()),
+            steps: self.steps(),
+            duration_s: self.steps() as f64 * self.dt_s,
+            ego_collision,
+            ego_off_road_s: self.off_road.first().map(|o| time(o.step)),
+            min_distance_to_ego_m: self.min_distance_to_ego.map(|c| c.distance_m),
+            closest_agent: self.min_distance_to_ego.map(|c| self.agent_ids[c.agent.0].clone()),
+            background_collisions: self.collisions.iter().filter(|c| !c.involves_ego).count(),
+            termination: self.termination.clone(),
+        }
+    }
+}
