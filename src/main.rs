@@ -1,1 +1,5 @@
-fn main() {}
+//! The `safer` binary; everything lives in [`safer::cli`].
+
+fn main() -> std::process::ExitCode {
+    safer::cli::main()
+}

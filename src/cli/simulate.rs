@@ -1,0 +1,87 @@
+//! `safer simulate PATH`: one closed-loop rollout per scenario, summarised.
+
+use std::path::Path;
+use std::process::ExitCode;
+
+use rayon::prelude::*;
+
+use super::{CliError, scene_paths};
+use crate::planners::BuiltinPlanner;
+use crate::policies::BackgroundPolicy;
+use crate::scenario::{Scenario, import};
+use crate::sim::{RolloutSummary, SimConfig, SimError, Simulation};
+
+/// Runs one rollout of `scenario`.
+pub fn simulate_one(
+    scenario: &Scenario,
+    planner: BuiltinPlanner,
+    background: BackgroundPolicy,
+) -> Result<RolloutSummary, SimError> {
+    let ego = scenario.ego.ok_or_else(|| SimError::NoEgo(scenario.id.clone()))?;
+    let sim = Simulation::new(scenario, SimConfig { background, ..SimConfig::default() })?;
+    let mut p = planner.instantiate(scenario, ego);
+    Ok(sim.run(p.as_mut()).summary())
+}
+
+pub(super) fn run(
+    path: &Path,
+    planner: BuiltinPlanner,
+    background: BackgroundPolicy,
+    json: bool,
+) -> Result<ExitCode, CliError> {
+    let paths = scene_paths(path)?;
+    // Files in parallel; results come back in path order, so output is deterministic.
+    let results: Vec<Result<Vec<RolloutSummary>, CliError>> = paths
+        .par_iter()
+        .map(|p| {
+            let scenarios = import::load(p)?;
+            scenarios.iter().map(|s| simulate_one(s, planner, background).map_err(CliError::from)).collect()
+        })
+        .collect();
+    let mut failures = 0;
+    let mut summaries = Vec::new();
+    for (p, r) in paths.iter().zip(results) {
+        match r {
+            Ok(s) => summaries.extend(s),
+            Err(e) => {
+                failures += 1;
+                eprintln!("error: {}: {e}", p.display());
+            }
+        }
+    }
+    if json {
+        println!("{}", serde_json::to_string_pretty(&summaries)?);
+    } else {
+        print_table(&summaries);
+    }
+    Ok(if failures > 0 { ExitCode::from(1) } else { ExitCode::SUCCESS })
+}
+
+fn print_table(rows: &[RolloutSummary]) {
+    println!(
+        "{:<44} {:>8} {:>8} {:>6} {:>22} {:>9} {:>9}",
+        "scenario", "ego", "cbv", "time s", "ego collision", "off-road", "min gap m"
+    );
+    for r in rows {
+        let collision = r.ego_collision.as_ref().map_or("-".to_string(), |c| {
+            format!("{:.1}s with {}{}", c.time_s, c.other, if c.with_cbv { " (CBV)" } else { "" })
+        });
+        let off_road = r.ego_off_road_s.map_or("-".to_string(), |t| format!("{t:.1}s"));
+        let gap = r.min_distance_to_ego_m.map_or("-".to_string(), |d| format!("{d:.2}"));
+        let name: String = r.scenario.chars().take(44).collect();
+        println!(
+            "{:<44} {:>8} {:>8} {:>6.1} {:>22} {:>9} {:>9}",
+            name,
+            r.ego.0,
+            r.cbv.as_ref().map_or("-", |c| c.0.as_str()),
+            r.duration_s,
+            collision,
+            off_road,
+            gap
+        );
+    }
+    let n = rows.len();
+    let collided = rows.iter().filter(|r| r.ego_collision.is_some()).count();
+    let off = rows.iter().filter(|r| r.ego_off_road_s.is_some()).count();
+    println!("\n{n} rollouts: {collided} with an ego collision, {off} with the ego off-road");
+}
