@@ -8,3 +8,5 @@ mod import_argoverse2;
 mod import_commonroad;
 mod import_womd_json;
 mod import_womd_proto;
+mod simulate_recorded;
+mod token_roundtrip;

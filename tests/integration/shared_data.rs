@@ -30,3 +30,19 @@ pub fn files(sub: &str, ext: &str) -> Vec<PathBuf> {
     assert!(!out.is_empty(), "no .{ext} files in {}", dir.display());
     out
 }
+
+/// Every shared scene of every format, imported once per test process (in
+/// parallel, returned in path order). Panics naming the file on any import
+/// error: the shared data must import cleanly.
+pub fn all_scenes() -> &'static [safer::scenario::Scenario] {
+    use rayon::prelude::*;
+    static SCENES: std::sync::OnceLock<Vec<safer::scenario::Scenario>> = std::sync::OnceLock::new();
+    SCENES.get_or_init(|| {
+        let paths = safer::scenario::import::discover(&data_dir()).expect("list shared data");
+        let loaded: Vec<Vec<safer::scenario::Scenario>> = paths
+            .par_iter()
+            .map(|p| safer::scenario::import::load(p).unwrap_or_else(|e| panic!("{e}")))
+            .collect();
+        loaded.into_iter().flatten().collect()
+    })
+}

@@ -1,0 +1,71 @@
+//! The closed-loop simulator on every recorded scene.
+
+use rayon::prelude::*;
+use safer::planners::BuiltinPlanner;
+use safer::policies::BackgroundPolicy;
+use safer::scenario::Scenario;
+use safer::sim::{Rollout, SimConfig, Simulation, Termination};
+
+use crate::shared_data::all_scenes;
+
+fn rollout(s: &Scenario, planner: BuiltinPlanner, background: BackgroundPolicy) -> Rollout {
+    let ego = s.ego.unwrap_or_else(|| panic!("{}: no ego", s.id));
+    let mut p = planner.instantiate(s, ego);
+    Simulation::new(s, SimConfig { background, ..SimConfig::default() })
+        .unwrap_or_else(|e| panic!("{e}"))
+        .run(p.as_mut())
+}
+
+#[test]
+fn every_scene_has_an_ego_and_a_cbv() {
+    let scenes = all_scenes();
+    assert!(scenes.len() >= 150, "only {} scenes imported", scenes.len());
+    for s in scenes {
+        assert!(s.ego.is_some() && s.cbv.is_some(), "{} ({}): ego {:?}, CBV {:?}", s.id, s.source.path.display(), s.ego, s.cbv);
+    }
+}
+
+#[test]
+fn log_replay_reproduces_every_recorded_ego() {
+    all_scenes().par_iter().for_each(|s| {
+        let r = rollout(s, BuiltinPlanner::LogReplay, BackgroundPolicy::LogReplay);
+        let ego = s.track(r.ego);
+        for (k, step) in r.states.iter().enumerate() {
+            assert_eq!(step[r.ego.0].as_ref(), ego.state(r.start_step + k), "{}: ego differs at step {k}", s.id);
+        }
+        match &r.termination {
+            Termination::Completed => assert_eq!(r.states.len(), s.num_steps() - s.current_step),
+            // A replayed ego can only stop where its recording has a gap.
+            Termination::PlannerFailed { step, .. } => assert!(ego.state(step + 1).is_none(), "{}: {:?}", s.id, r.termination),
+            other => panic!("{}: {other:?}", s.id),
+        }
+        // Logged traffic never collides with the logged ego, pre-existing overlaps aside.
+        assert!(r.ego_collision().is_none(), "{}: replayed log has an ego collision {:?}", s.id, r.ego_collision());
+    });
+}
+
+#[test]
+fn idm_rollouts_are_identical_on_one_and_two_threads() {
+    // Two scenes of each format keep this quick.
+    let mut picked: Vec<&Scenario> = Vec::new();
+    for s in all_scenes() {
+        if picked.iter().filter(|p| p.source.format == s.source.format).count() < 2 {
+            picked.push(s);
+        }
+    }
+    let run_all = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        pool.install(|| {
+            picked
+                .par_iter()
+                .map(|s| rollout(s, BuiltinPlanner::Idm, BackgroundPolicy::Idm))
+                .map(|r| (r.states, r.collisions, r.termination))
+                .collect::<Vec<_>>()
+        })
+    };
+    let (one, two) = (run_all(1), run_all(2));
+    assert_eq!(one.len(), picked.len());
+    for ((a, b), s) in one.iter().zip(&two).zip(&picked) {
+        assert!(a == b, "{}: rollout differs between 1 and 2 threads", s.id);
+    }
+}
