@@ -3,14 +3,17 @@
 //!
 //! Collisions are tested on every pair of present agents with a sweep
 //! along x (sorted by index for ties) and the exact oriented-box test from
-//! `geometry`. A pair is reported once, at its first contact; pairs already
-//! overlapping at the start step are log artefacts (annotation noise) and
-//! are counted apart, not as collisions.
+//! `geometry`. A collision is a contact *onset*: the pair overlaps now and
+//! both were present and apart at the previous step. Pairs that overlap
+//! from the first step they are both present are log artefacts (annotation
+//! noise, agents appearing inside one another) and are not collisions.
+//! Pedestrian–pedestrian contact is not a collision either: people walking
+//! together touch boxes all the time in recorded data. A pair is reported once.
 
 use std::collections::BTreeSet;
 
 use crate::geometry::OrientedBox;
-use crate::scenario::{AgentBody, AgentState, Scenario, TrackIndex};
+use crate::scenario::{AgentBody, AgentKind, AgentState, Scenario, TrackIndex};
 
 /// Two agents' boxes touched.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
@@ -49,7 +52,7 @@ pub(super) struct EventDetector<'a> {
     scenario: &'a Scenario,
     ego: TrackIndex,
     bodies: &'a [AgentBody],
-    pre_existing: BTreeSet<(usize, usize)>,
+    previous: Vec<Option<AgentState>>,
     reported: BTreeSet<(usize, usize)>,
     collisions: Vec<CollisionEvent>,
     ego_was_off_road: bool,
@@ -97,12 +100,11 @@ impl<'a> EventDetector<'a> {
         start_states: &[Option<AgentState>],
         start: usize,
     ) -> Self {
-        let pre_existing = overlapping_pairs(bodies, start_states).into_iter().collect();
         let mut d = Self {
             scenario,
             ego,
             bodies,
-            pre_existing,
+            previous: start_states.to_vec(),
             reported: BTreeSet::new(),
             collisions: Vec::new(),
             ego_was_off_road: false,
@@ -145,7 +147,13 @@ impl<'a> EventDetector<'a> {
     pub(super) fn observe(&mut self, step: usize, states: &[Option<AgentState>]) -> bool {
         let mut ego_hit = false;
         for (i, j) in overlapping_pairs(self.bodies, states) {
-            if self.pre_existing.contains(&(i, j)) || !self.reported.insert((i, j)) {
+            let apart_before = match (self.previous[i], self.previous[j]) {
+                (Some(pi), Some(pj)) => !footprint(&self.bodies[i], &pi).intersects(&footprint(&self.bodies[j], &pj)),
+                _ => false,
+            };
+            let both_pedestrians =
+                self.bodies[i].kind == AgentKind::Pedestrian && self.bodies[j].kind == AgentKind::Pedestrian;
+            if !apart_before || both_pedestrians || !self.reported.insert((i, j)) {
                 continue;
             }
             let involves_ego = i == self.ego.0 || j == self.ego.0;
@@ -161,6 +169,8 @@ impl<'a> EventDetector<'a> {
             self.ego_was_off_road = off;
         }
         self.track_closest(step, states);
+        self.previous.clear();
+        self.previous.extend_from_slice(states);
         ego_hit
     }
 

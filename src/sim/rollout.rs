@@ -1,7 +1,7 @@
 //! The record of one closed-loop run and its summary.
 
 use super::events::{ClosestApproach, CollisionEvent, OffRoadEvent};
-use crate::scenario::{AgentBody, AgentId, AgentState, TrackIndex};
+use crate::scenario::{AgentBody, AgentId, AgentKind, AgentState, TrackIndex};
 
 /// How a rollout ended.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
@@ -65,6 +65,17 @@ pub struct EgoCollision {
     pub with_cbv: bool,
 }
 
+/// A collision, for reports.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct CollisionReport {
+    /// Time after the start, s.
+    pub time_s: f64,
+    /// The two agents' ids.
+    pub agents: [AgentId; 2],
+    /// Their kinds.
+    pub kinds: [AgentKind; 2],
+}
+
 /// A serialisable summary of a rollout.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct RolloutSummary {
@@ -90,6 +101,8 @@ pub struct RolloutSummary {
     pub closest_agent: Option<AgentId>,
     /// Collisions not involving the ego.
     pub background_collisions: usize,
+    /// Every collision, in order.
+    pub collisions: Vec<CollisionReport>,
     /// How it ended.
     pub termination: Termination,
 }
@@ -107,7 +120,8 @@ impl Rollout {
 
     /// The summary.
     pub fn summary(&self) -> RolloutSummary {
-        let time = |step: usize| (step - self.start_step) as f64 * self.dt_s;
+        // Rounded to the millisecond so reports do not show float noise.
+        let time = |step: usize| ((step - self.start_step) as f64 * self.dt_s * 1e3).round() / 1e3;
         let ego_collision = self.ego_collision().map(|c| {
             let other = if c.a == self.ego { c.b } else { c.a };
             EgoCollision {
@@ -128,6 +142,15 @@ impl Rollout {
             min_distance_to_ego_m: self.min_distance_to_ego.map(|c| c.distance_m),
             closest_agent: self.min_distance_to_ego.map(|c| self.agent_ids[c.agent.0].clone()),
             background_collisions: self.collisions.iter().filter(|c| !c.involves_ego).count(),
+            collisions: self
+                .collisions
+                .iter()
+                .map(|c| CollisionReport {
+                    time_s: time(c.step),
+                    agents: [self.agent_ids[c.a.0].clone(), self.agent_ids[c.b.0].clone()],
+                    kinds: [self.bodies[c.a.0].kind, self.bodies[c.b.0].kind],
+                })
+                .collect(),
             termination: self.termination.clone(),
         }
     }

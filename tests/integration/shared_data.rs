@@ -39,10 +39,8 @@ pub fn all_scenes() -> &'static [safer::scenario::Scenario] {
     static SCENES: std::sync::OnceLock<Vec<safer::scenario::Scenario>> = std::sync::OnceLock::new();
     SCENES.get_or_init(|| {
         let paths = safer::scenario::import::discover(&data_dir()).expect("list shared data");
-        let loaded: Vec<Vec<safer::scenario::Scenario>> = paths
-            .par_iter()
-            .map(|p| safer::scenario::import::load(p).unwrap_or_else(|e| panic!("{e}")))
-            .collect();
+        let loaded: Vec<Vec<safer::scenario::Scenario>> =
+            paths.par_iter().map(|p| safer::scenario::import::load(p).unwrap_or_else(|e| panic!("{e}"))).collect();
         loaded.into_iter().flatten().collect()
     })
 }

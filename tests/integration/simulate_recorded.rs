@@ -21,7 +21,14 @@ fn every_scene_has_an_ego_and_a_cbv() {
     let scenes = all_scenes();
     assert!(scenes.len() >= 150, "only {} scenes imported", scenes.len());
     for s in scenes {
-        assert!(s.ego.is_some() && s.cbv.is_some(), "{} ({}): ego {:?}, CBV {:?}", s.id, s.source.path.display(), s.ego, s.cbv);
+        assert!(
+            s.ego.is_some() && s.cbv.is_some(),
+            "{} ({}): ego {:?}, CBV {:?}",
+            s.id,
+            s.source.path.display(),
+            s.ego,
+            s.cbv
+        );
     }
 }
 
@@ -36,7 +43,9 @@ fn log_replay_reproduces_every_recorded_ego() {
         match &r.termination {
             Termination::Completed => assert_eq!(r.states.len(), s.num_steps() - s.current_step),
             // A replayed ego can only stop where its recording has a gap.
-            Termination::PlannerFailed { step, .. } => assert!(ego.state(step + 1).is_none(), "{}: {:?}", s.id, r.termination),
+            Termination::PlannerFailed { step, .. } => {
+                assert!(ego.state(step + 1).is_none(), "{}: {:?}", s.id, r.termination)
+            }
             other => panic!("{}: {other:?}", s.id),
         }
         // Logged traffic never collides with the logged ego, pre-existing overlaps aside.

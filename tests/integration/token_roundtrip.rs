@@ -28,7 +28,13 @@ fn vehicle_round_trip_error_is_small_in_every_format() {
     }
     assert_eq!(by_format.len(), 4, "expected all four formats: {:?}", by_format.keys());
     for (f, e) in &by_format {
-        eprintln!("{f:?}: vehicle ADE {:.3} m, FDE {:.3} m, max {:.2} m over {} steps", e.ade_m(), e.fde_m(), e.max_displacement_m, e.steps);
+        eprintln!(
+            "{f:?}: vehicle ADE {:.3} m, FDE {:.3} m, max {:.2} m over {} steps",
+            e.ade_m(),
+            e.fde_m(),
+            e.max_displacement_m,
+            e.steps
+        );
         assert!(e.steps > 1000, "{f:?}: only {} steps compared", e.steps);
         assert!(e.ade_m() < ADE_BOUND_M, "{f:?}: ADE {:.3} m", e.ade_m());
         assert!(e.fde_m() < FDE_BOUND_M, "{f:?}: FDE {:.3} m", e.fde_m());
