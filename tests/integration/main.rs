@@ -4,6 +4,7 @@
 
 mod shared_data;
 
+mod cli;
 mod import_argoverse2;
 mod import_commonroad;
 mod import_womd_json;
