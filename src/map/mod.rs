@@ -10,6 +10,7 @@
 //! distance.
 
 mod spatial_index;
+pub mod templates;
 
 pub use spatial_index::SegmentIndex;
 
