@@ -17,7 +17,7 @@ use crate::shared_data::files;
 fn womd_json_every_file_imports_with_invariants() {
     let paths = files("womd-json", "json");
     assert_eq!(paths.len(), 67, "shared WOMD JSON scenes");
-    let (mut parse_total, mut slowest) = (0.0f64, (0.0f64, String::new()));
+    let (mut parse_total, mut load_total, mut slowest) = (0.0f64, 0.0f64, (0.0f64, String::new()));
     let (mut degrees, mut radians, mut with_ego) = (0, 0, 0);
     let (mut on_road_points, mut all_points) = (0.0f64, 0usize);
     for path in &paths {
@@ -30,7 +30,10 @@ fn womd_json_every_file_imports_with_invariants() {
             slowest = (parse_s, path.display().to_string());
         }
 
+        let started = Instant::now();
         let scenarios = load(path).unwrap_or_else(|e| panic!("{e}"));
+        let load_s = started.elapsed().as_secs_f64();
+        load_total += load_s;
         assert_eq!(scenarios.len(), 1);
         let s = &scenarios[0];
         check_scenario(path, s);
@@ -58,7 +61,7 @@ fn womd_json_every_file_imports_with_invariants() {
         all_points += points;
         let (agreement, samples) = heading_agreement(s);
         println!(
-            "{}: {} tracks, {} lanes, {} edges, heading {:.1}% of {samples}, lane points on road {:.1}% of {points}, parse {:.0} ms; {}",
+            "{}: {} tracks, {} lanes, {} edges, heading {:.1}% of {samples}, lane points on road {:.1}% of {points}, parse {:.0} ms, load {:.0} ms; {}",
             path.file_name().unwrap_or_default().to_string_lossy(),
             s.tracks.len(),
             s.map.lanes.len(),
@@ -66,15 +69,17 @@ fn womd_json_every_file_imports_with_invariants() {
             agreement * 100.0,
             share * 100.0,
             parse_s * 1e3,
+            load_s * 1e3,
             unit
         );
     }
     println!(
-        "womd-json: {} files, parse {:.0} ms mean, slowest {:.0} ms ({}); {degrees} in degrees, {radians} in radians; {with_ego} name an ego; lane points on road {:.1}% of {all_points}",
+        "womd-json: {} files, parse {:.0} ms mean, slowest {:.0} ms ({}); load (parse, re-centre, roles, validate) {:.0} ms mean; {degrees} in degrees, {radians} in radians; {with_ego} name an ego; lane points on road {:.1}% of {all_points}",
         paths.len(),
         parse_total * 1e3 / paths.len() as f64,
         slowest.0 * 1e3,
         slowest.1,
+        load_total * 1e3 / paths.len() as f64,
         100.0 * on_road_points / all_points.max(1) as f64
     );
     // 42 + 13 files in degrees; 11 with metadata and one middle-generation

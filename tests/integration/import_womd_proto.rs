@@ -37,20 +37,27 @@ pub fn heading_agreement(s: &Scenario) -> (f64, usize) {
 }
 
 /// Share of lane-centreline points the map classifies as on the road
-/// (negative signed distance to the nearest road edge), over points of
-/// lanes that have a road edge at all, and the number of points checked.
+/// (negative signed distance to the nearest road edge), and the number of
+/// points checked. Points are sampled evenly, at most [`ON_ROAD_SAMPLES`]
+/// per scene: each query costs about a quarter millisecond in a debug build,
+/// and all of them (half a million over the JSON scenes) gave the same
+/// shares when measured once.
 pub fn on_road_share(s: &Scenario) -> (f64, usize) {
+    let total: usize = s.map.lanes.iter().map(|l| l.centreline.len()).sum();
+    let stride = total.div_ceil(ON_ROAD_SAMPLES).max(1);
+    let points = s.map.lanes.iter().flat_map(|l| l.centreline.points()).step_by(stride);
     let (mut n, mut on) = (0usize, 0usize);
-    for lane in &s.map.lanes {
-        for p in lane.centreline.points() {
-            if let Some(d) = s.map.signed_distance_to_road_edge(p) {
-                n += 1;
-                on += usize::from(d < 0.0);
-            }
+    for p in points {
+        if let Some(d) = s.map.signed_distance_to_road_edge(p) {
+            n += 1;
+            on += usize::from(d < 0.0);
         }
     }
     (if n == 0 { 1.0 } else { on as f64 / n as f64 }, n)
 }
+
+/// Most lane points [`on_road_share`] checks per scene.
+pub const ON_ROAD_SAMPLES: usize = 1000;
 
 /// Invariants every imported WOMD scene must have, whatever its format.
 pub fn check_scenario(path: &Path, s: &Scenario) {
@@ -145,6 +152,25 @@ fn womd_proto_counts_match_the_files() {
         let found: usize =
             s.map.lanes.iter().flat_map(|l| &l.successors).filter(|id| s.map.lane(**id).is_some()).count();
         assert!(found as f64 >= 0.8 * named as f64, "{}: {found} of {named} successors exist", s.id);
+        // Lane boundaries built from boundary segments lie on their side:
+        // port (negative signed distance) for the left, starboard for the right.
+        let (mut sided, mut total) = (0usize, 0usize);
+        for lane in &s.map.lanes {
+            for (boundary, sign) in [(&lane.left_boundary, -1.0), (&lane.right_boundary, 1.0)] {
+                for p in boundary.iter().flat_map(|b| b.points()) {
+                    if let Some(proj) = lane.centreline.project(p) {
+                        total += 1;
+                        sided += usize::from(proj.signed_distance_m * sign > 0.0);
+                    }
+                }
+            }
+        }
+        assert!(total > 100, "{}: {total} boundary points", s.id);
+        assert!(sided as f64 > 0.95 * total as f64, "{}: {sided} of {total} boundary points on their side", s.id);
+        println!(
+            "{}: {sided} of {total} lane-boundary points on their side; ego {:?} ({:?}), CBV {:?} ({:?}), objects of interest {:?}",
+            s.id, s.ego, s.ego_origin, s.cbv, s.cbv_origin, s.objects_of_interest
+        );
     }
 }
 
@@ -155,7 +181,7 @@ fn womd_proto_on_road_share_of_lane_points() {
     for path in files("womd-tfrecord", "tfrecord") {
         for s in load(&path).unwrap_or_else(|e| panic!("{e}")) {
             let (share, points) = on_road_share(&s);
-            assert!(points > 1000, "{}: {points} lane points", path.display());
+            assert!(points > ON_ROAD_SAMPLES / 2, "{}: {points} lane points", path.display());
             assert!(share > 0.8, "{}: only {:.1}% of lane points on the road", path.display(), share * 100.0);
         }
     }
