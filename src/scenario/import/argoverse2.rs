@@ -1,9 +1,80 @@
-//! Argoverse 2 motion-forecasting scenarios. Being written.
+//! Argoverse 2 motion-forecasting scenarios: a `scenario_<id>.parquet` of
+//! track states and the `log_map_archive_<id>.json` beside it.
+//!
+//! This module owns finding the two files of a scenario, reading the
+//! parquet (one row per track and step, read with the `parquet` crate's
+//! row API, no Arrow) into [`Track`]s on the 110-step grid, and the map JSON
+//! into lanes, drivable areas (whose outlines are the road edges) and
+//! crosswalks. AV2 gives no object sizes, so each type gets a documented
+//! default. The AV's track is the ego; the focal track is the only object
+//! of interest and, when it is a vehicle other than the AV, the CBV.
+//!
+//! Errors name the row and column of the parquet, or the line and column of
+//! the map JSON. The parquet decoder is a dependency that has been seen to
+//! panic on corrupt files; that is caught and reported as an error.
 
+use std::collections::{BTreeMap, HashMap};
+use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::path::{Path, PathBuf};
 
+use parquet::file::reader::{FileReader, SerializedFileReader};
+use parquet::record::Field;
+
 use super::{ImportError, Location};
-use crate::scenario::{Scenario, SourceFormat};
+use crate::geometry::{Point2, Polygon, Polyline, Vector2, wrap_angle};
+use crate::map::{AreaKind, Lane, LaneKind, MapArea, MapElementId, RoadEdge, RoadEdgeKind, RoadMap};
+use crate::scenario::{
+    AgentId, AgentKind, AgentState, DataLicence, RoleOrigin, Scenario, ScenarioSource, SourceFormat, Track, TrackIndex,
+};
+
+const FORMAT: SourceFormat = SourceFormat::Argoverse2;
+
+/// Step length: AV2 scenarios are sampled at 10 Hz (`AV2_SCENARIO_STEP_HZ`
+/// in the av2-api's `motion_forecasting/constants.py`).
+pub const STEP_S: f64 = 0.1;
+/// Steps per scenario when the file has no `num_timestamps` column
+/// (`AV2_SCENARIO_TOTAL_TIMESTEPS`: 5 s observed + 6 s predicted).
+pub const NUM_STEPS: usize = 110;
+/// "Now": the last of the 50 observed steps (`AV2_SCENARIO_OBS_TIMESTEPS`).
+pub const CURRENT_STEP: usize = 49;
+/// Track id of the data-collection vehicle, the ego.
+pub const AV_TRACK_ID: &str = "AV";
+
+/// Largest `num_timestamps` accepted: bounds the per-track allocation on
+/// hostile input (real files have 110).
+const MAX_STEPS: i64 = 10_000;
+
+/// Default footprints, length × width in metres, by AV2 `object_type`.
+/// AV2 publishes no extents. Vehicles use 4.5 × 2.0: the median WOMD
+/// vehicle box in `shared/data/womd-json` is 4.6 × 2.06 (3300 boxes), and
+/// the av2-api draws vehicles as 4.0 × 2.0, short for US traffic.
+pub const VEHICLE_SIZE_M: (f64, f64) = (4.5, 2.0);
+/// A 40-foot US transit bus (12.2 × 2.6 m), rounded.
+pub const BUS_SIZE_M: (f64, f64) = (12.0, 2.5);
+/// The av2-api's own cyclist/motorcyclist box
+/// (`_ESTIMATED_CYCLIST_LENGTH_M`/`_WIDTH_M` in `scenario_visualization.py`);
+/// also used for riderless bicycles.
+pub const CYCLIST_SIZE_M: (f64, f64) = (2.0, 0.7);
+/// Median WOMD pedestrian box (0.88 × 0.84 m over 333 boxes), rounded.
+pub const PEDESTRIAN_SIZE_M: (f64, f64) = (0.9, 0.85);
+/// Static objects, background, construction and unknown types: a small
+/// obstacle, so they block without dominating conflict mining.
+pub const OTHER_SIZE_M: (f64, f64) = (1.0, 1.0);
+
+/// Kind and default size of an AV2 `object_type` (the av2-api's
+/// `ObjectType` values).
+pub fn kind_and_size(object_type: &str) -> (AgentKind, (f64, f64)) {
+    match object_type {
+        "vehicle" => (AgentKind::Vehicle, VEHICLE_SIZE_M),
+        "bus" => (AgentKind::Vehicle, BUS_SIZE_M),
+        "motorcyclist" => (AgentKind::Vehicle, CYCLIST_SIZE_M),
+        "cyclist" => (AgentKind::Cyclist, CYCLIST_SIZE_M),
+        "pedestrian" => (AgentKind::Pedestrian, PEDESTRIAN_SIZE_M),
+        "riderless_bicycle" => (AgentKind::Other, CYCLIST_SIZE_M),
+        // static, background, construction, unknown, and anything newer.
+        _ => (AgentKind::Other, OTHER_SIZE_M),
+    }
+}
 
 /// The two files of one Argoverse 2 scenario.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -14,12 +85,639 @@ pub struct ScenarioFiles {
     pub map: PathBuf,
 }
 
-/// Finds the parquet and map of the scenario at `path` (either file or their folder).
+/// Finds the parquet and map of the scenario at `path`: either the
+/// `scenario_<id>.parquet` itself or the folder holding it. The map is
+/// `log_map_archive_<id>.json` beside it, else the only
+/// `log_map_archive_*.json` there. A folder without exactly one scenario
+/// parquet is not an AV2 scenario folder ([`ImportError::UnknownFormat`]);
+/// a scenario without its map is [`ImportError::Malformed`], naming the
+/// file that is missing.
 pub fn find_scenario_files(path: &Path) -> Result<ScenarioFiles, ImportError> {
-    Err(ImportError::UnknownFormat { path: path.to_path_buf(), reason: "importer not written yet".into() })
+    let scenario = if path.is_dir() {
+        let parquets = list(path, "scenario_", ".parquet")?;
+        match parquets.as_slice() {
+            [one] => one.clone(),
+            [] => {
+                return Err(ImportError::UnknownFormat {
+                    path: path.to_path_buf(),
+                    reason: "a folder without a scenario_<id>.parquet".to_string(),
+                });
+            }
+            many => {
+                return Err(ImportError::UnknownFormat {
+                    path: path.to_path_buf(),
+                    reason: format!("{} scenario_*.parquet files in one folder; pass one of them", many.len()),
+                });
+            }
+        }
+    } else {
+        path.to_path_buf()
+    };
+    let folder = scenario.parent().map(Path::to_path_buf).unwrap_or_default();
+    let folder = if folder.as_os_str().is_empty() { PathBuf::from(".") } else { folder };
+    let id = scenario_id_from_name(&scenario);
+    let by_id = folder.join(format!("log_map_archive_{id}.json"));
+    if by_id.is_file() {
+        return Ok(ScenarioFiles { scenario, map: by_id });
+    }
+    let maps = list(&folder, "log_map_archive_", ".json")?;
+    match maps.as_slice() {
+        [one] => Ok(ScenarioFiles { scenario, map: one.clone() }),
+        others => {
+            let found = if others.is_empty() {
+                "there is no log_map_archive_*.json".to_string()
+            } else {
+                format!("there are {} other log_map_archive_*.json files", others.len())
+            };
+            Err(ImportError::malformed(
+                &scenario,
+                FORMAT,
+                Location::File,
+                format!("its map is missing: expected {} ({found} in that folder)", by_id.display()),
+            ))
+        }
+    }
 }
 
-/// Parses one scenario from its parquet and map JSON bytes.
-pub fn parse(_scenario: &[u8], _map: &[u8], path: &Path) -> Result<Scenario, ImportError> {
-    Err(ImportError::malformed(path, SourceFormat::Argoverse2, Location::File, "importer not written yet"))
+/// `<id>` of `scenario_<id>.parquet` (the whole stem for other names).
+fn scenario_id_from_name(path: &Path) -> String {
+    let stem = path.file_stem().and_then(|s| s.to_str()).unwrap_or_default();
+    stem.strip_prefix("scenario_").unwrap_or(stem).to_string()
+}
+
+/// Files in `dir` whose names start with `prefix` and end with `suffix`, sorted.
+fn list(dir: &Path, prefix: &str, suffix: &str) -> Result<Vec<PathBuf>, ImportError> {
+    let entries = std::fs::read_dir(dir).map_err(|source| ImportError::Io { path: dir.to_path_buf(), source })?;
+    let mut out = Vec::new();
+    for e in entries {
+        let p = e.map_err(|source| ImportError::Io { path: dir.to_path_buf(), source })?.path();
+        let name = p.file_name().and_then(|n| n.to_str()).unwrap_or_default();
+        if name.starts_with(prefix) && name.ends_with(suffix) && p.is_file() {
+            out.push(p);
+        }
+    }
+    out.sort();
+    Ok(out)
+}
+
+/// Parses one scenario from its parquet and map JSON bytes. `path` is the
+/// parquet's; errors in the map are reported against it too, with "map
+/// JSON" in the message (use [`parse_files`] to name the map file itself).
+pub fn parse(scenario: &[u8], map: &[u8], path: &Path) -> Result<Scenario, ImportError> {
+    parse_inner(scenario, map, path, None)
+}
+
+/// As [`parse`], with errors in the map JSON reported against `files.map`.
+pub fn parse_files(scenario: &[u8], map: &[u8], files: &ScenarioFiles) -> Result<Scenario, ImportError> {
+    parse_inner(scenario, map, &files.scenario, Some(&files.map))
+}
+
+fn parse_inner(
+    scenario_bytes: &[u8],
+    map_bytes: &[u8],
+    path: &Path,
+    map_path: Option<&Path>,
+) -> Result<Scenario, ImportError> {
+    let table = read_parquet_guarded(scenario_bytes, path)?;
+    let map = read_map(map_bytes, map_path.unwrap_or(path), map_path.is_none())?;
+
+    let Table { scenario_id, focal_track_id, city, num_steps, tracks } = table;
+    let find = |id: &str| tracks.iter().position(|t| t.id.0 == id).map(TrackIndex);
+    let ego = find(AV_TRACK_ID);
+    let focal = focal_track_id.as_deref().and_then(find);
+    let cbv = focal.filter(|&f| Some(f) != ego && tracks[f.0].kind == AgentKind::Vehicle);
+    let current_step = CURRENT_STEP.min(num_steps.saturating_sub(1));
+
+    let mut notes = vec![
+        "object sizes are per-type defaults: Argoverse 2 records none".to_string(),
+        format!("current step {current_step} of {num_steps}: the last of the {} observed steps", current_step + 1),
+    ];
+    if let Some(city) = city {
+        notes.push(format!("city: {city}"));
+    }
+    if ego.is_none() {
+        notes.push(format!("no track {AV_TRACK_ID:?}: the ego is left to conflict mining"));
+    }
+    match (focal_track_id.as_deref(), focal, cbv) {
+        (None, _, _) => notes.push("no focal_track_id column: no object of interest".to_string()),
+        (Some(id), None, _) => notes.push(format!("focal track {id} has no rows")),
+        (Some(id), Some(_), None) => {
+            notes.push(format!("focal track {id} is not a vehicle other than the AV, so it is not the CBV"))
+        }
+        (Some(_), Some(_), Some(_)) => {}
+    }
+
+    Ok(Scenario {
+        id: scenario_id,
+        source: ScenarioSource { format: FORMAT, path: path.to_path_buf(), licence: DataLicence::CcByNcSa4, notes },
+        dt_s: STEP_S,
+        current_step,
+        tracks,
+        map,
+        ego,
+        ego_origin: if ego.is_some() { RoleOrigin::Source } else { RoleOrigin::Unassigned },
+        cbv,
+        cbv_origin: if cbv.is_some() { RoleOrigin::Source } else { RoleOrigin::Unassigned },
+        objects_of_interest: focal.into_iter().collect(),
+        origin_world: Vector2::zeros(),
+    })
+}
+
+// ---------------------------------------------------------------------------
+// Scenario parquet
+
+/// What the parquet holds, laid out on the step grid.
+struct Table {
+    scenario_id: String,
+    focal_track_id: Option<String>,
+    city: Option<String>,
+    num_steps: usize,
+    /// In order of first appearance in the file.
+    tracks: Vec<Track>,
+}
+
+/// [`read_parquet`], with a panic inside the parquet decoder (seen on
+/// corrupt files: slice indices out of range) turned into an error for this
+/// file instead of taking the caller down.
+fn read_parquet_guarded(bytes: &[u8], path: &Path) -> Result<Table, ImportError> {
+    match catch_unwind(AssertUnwindSafe(|| read_parquet(bytes, path))) {
+        Ok(result) => result,
+        Err(panic) => {
+            let what = panic
+                .downcast_ref::<String>()
+                .map(String::as_str)
+                .or_else(|| panic.downcast_ref::<&str>().copied())
+                .unwrap_or("unknown panic");
+            Err(ImportError::malformed(
+                path,
+                FORMAT,
+                Location::File,
+                format!("corrupt parquet: the decoder failed ({what})"),
+            ))
+        }
+    }
+}
+
+/// Columns this importer reads. `observed` (history vs. future) and the
+/// timestamps are not needed: every row is a valid state, and the step
+/// length is fixed by the dataset.
+const COLUMNS: [&str; 12] = [
+    "track_id",
+    "object_type",
+    "timestep",
+    "position_x",
+    "position_y",
+    "heading",
+    "velocity_x",
+    "velocity_y",
+    "scenario_id",
+    "focal_track_id",
+    "city",
+    "num_timestamps",
+];
+/// Of [`COLUMNS`], the ones a file may lack.
+const OPTIONAL_COLUMNS: [&str; 3] = ["focal_track_id", "city", "num_timestamps"];
+
+fn read_parquet(bytes: &[u8], path: &Path) -> Result<Table, ImportError> {
+    let err = |location: Location, message: String| ImportError::malformed(path, FORMAT, location, message);
+    // `prost` re-exports the `bytes` crate that `parquet` uses for its
+    // in-memory `ChunkReader`; see the report on adding `bytes` directly.
+    let data = prost::bytes::Bytes::copy_from_slice(bytes);
+    let reader = SerializedFileReader::new(data)
+        .map_err(|e| err(Location::File, format!("not a readable parquet file: {e}")))?;
+
+    let schema = reader.metadata().file_metadata().schema_descr();
+    let names: Vec<String> = schema.root_schema().get_fields().iter().map(|f| f.name().to_string()).collect();
+    let mut index = HashMap::new();
+    for name in COLUMNS {
+        match names.iter().position(|n| n == name) {
+            Some(i) => {
+                index.insert(name, i);
+            }
+            None if OPTIONAL_COLUMNS.contains(&name) => {}
+            None => return Err(err(Location::Element(format!("column {name}")), "missing column".to_string())),
+        }
+    }
+
+    let rows = reader.get_row_iter(None).map_err(|e| err(Location::File, format!("cannot read rows: {e}")))?;
+    let mut scenario_id: Option<String> = None;
+    let mut focal_track_id: Option<String> = None;
+    let mut city: Option<String> = None;
+    let mut num_steps: Option<usize> = None;
+    let mut tracks: Vec<Track> = Vec::new();
+    let mut track_of: HashMap<String, usize> = HashMap::new();
+
+    for (row_index, row) in rows.enumerate() {
+        let row = row.map_err(|e| err(Location::Element(format!("row {row_index}")), format!("cannot decode: {e}")))?;
+        let fields = row.into_columns();
+        let cell = Cell { fields: &fields, index: &index, row: row_index, path };
+
+        let this_scenario = cell.string("scenario_id")?;
+        match &scenario_id {
+            None => scenario_id = Some(this_scenario),
+            Some(id) if *id != this_scenario => {
+                return Err(cell.error("scenario_id", format!("{this_scenario:?} differs from {id:?} in row 0")));
+            }
+            Some(_) => {}
+        }
+        if focal_track_id.is_none() && index.contains_key("focal_track_id") {
+            focal_track_id = Some(cell.string("focal_track_id")?);
+        }
+        if city.is_none() && index.contains_key("city") {
+            city = Some(cell.string("city")?);
+        }
+        let steps = match num_steps {
+            Some(n) => n,
+            None => {
+                let n = if index.contains_key("num_timestamps") {
+                    let n = cell.integer("num_timestamps")?;
+                    if !(1..=MAX_STEPS).contains(&n) {
+                        return Err(cell.error("num_timestamps", format!("{n} outside 1..={MAX_STEPS}")));
+                    }
+                    n as usize
+                } else {
+                    NUM_STEPS
+                };
+                num_steps = Some(n);
+                n
+            }
+        };
+
+        let timestep = cell.integer("timestep")?;
+        if !(0..steps as i64).contains(&timestep) {
+            return Err(cell.error("timestep", format!("{timestep} outside 0..{steps}")));
+        }
+        let state = AgentState {
+            position: Point2::new(cell.number("position_x")?, cell.number("position_y")?),
+            heading_rad: wrap_angle(cell.number("heading")?),
+            velocity_mps: Vector2::new(cell.number("velocity_x")?, cell.number("velocity_y")?),
+        };
+
+        let track_id = cell.string("track_id")?;
+        let t = match track_of.get(&track_id) {
+            Some(&t) => t,
+            None => {
+                let object_type = cell.string("object_type")?;
+                let (kind, (length_m, width_m)) = kind_and_size(&object_type);
+                tracks.push(Track {
+                    id: AgentId(track_id.clone()),
+                    kind,
+                    length_m,
+                    width_m,
+                    states: vec![None; steps],
+                });
+                track_of.insert(track_id.clone(), tracks.len() - 1);
+                tracks.len() - 1
+            }
+        };
+        let slot = &mut tracks[t].states[timestep as usize];
+        if slot.is_some() {
+            return Err(cell.error("timestep", format!("track {track_id} has a second row for timestep {timestep}")));
+        }
+        *slot = Some(state);
+    }
+
+    let Some(scenario_id) = scenario_id else {
+        return Err(err(Location::File, "no rows".to_string()));
+    };
+    Ok(Table { scenario_id, focal_track_id, city, num_steps: num_steps.unwrap_or(NUM_STEPS), tracks })
+}
+
+/// Typed access to the cells of one row, with errors at `row N, column X`.
+struct Cell<'a> {
+    fields: &'a [(String, Field)],
+    index: &'a HashMap<&'static str, usize>,
+    row: usize,
+    path: &'a Path,
+}
+
+impl Cell<'_> {
+    fn error(&self, column: &str, message: String) -> ImportError {
+        ImportError::malformed(
+            self.path,
+            FORMAT,
+            Location::Element(format!("row {}, column {column}", self.row)),
+            message,
+        )
+    }
+
+    fn get(&self, column: &'static str) -> Result<&Field, ImportError> {
+        self.index
+            .get(column)
+            .and_then(|&i| self.fields.get(i))
+            .filter(|(name, _)| name == column)
+            .map(|(_, f)| f)
+            .ok_or_else(|| self.error(column, "missing in this row".to_string()))
+    }
+
+    fn number(&self, column: &'static str) -> Result<f64, ImportError> {
+        let v = match self.get(column)? {
+            Field::Double(v) => *v,
+            Field::Float(v) => f64::from(*v),
+            other => return Err(self.error(column, format!("expected a floating-point number, found {other:?}"))),
+        };
+        if v.is_finite() { Ok(v) } else { Err(self.error(column, format!("{v} is not a finite number"))) }
+    }
+
+    fn integer(&self, column: &'static str) -> Result<i64, ImportError> {
+        match self.get(column)? {
+            Field::Long(v) => Ok(*v),
+            Field::Int(v) => Ok(i64::from(*v)),
+            Field::Short(v) => Ok(i64::from(*v)),
+            Field::Byte(v) => Ok(i64::from(*v)),
+            Field::UInt(v) => Ok(i64::from(*v)),
+            Field::UShort(v) => Ok(i64::from(*v)),
+            Field::UByte(v) => Ok(i64::from(*v)),
+            Field::ULong(v) => i64::try_from(*v).map_err(|_| self.error(column, format!("{v} is too large"))),
+            other => Err(self.error(column, format!("expected an integer, found {other:?}"))),
+        }
+    }
+
+    fn string(&self, column: &'static str) -> Result<String, ImportError> {
+        match self.get(column)? {
+            Field::Str(s) => Ok(s.clone()),
+            Field::Bytes(b) => {
+                b.as_utf8().map(str::to_string).map_err(|_| self.error(column, "text is not UTF-8".to_string()))
+            }
+            other => Err(self.error(column, format!("expected text, found {other:?}"))),
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------
+// Map JSON
+
+/// `log_map_archive_<id>.json`, the parts this importer reads. Unknown
+/// fields (lane marks, `z`) are ignored.
+#[derive(serde::Deserialize)]
+struct RawMap {
+    lane_segments: BTreeMap<String, RawLaneSegment>,
+    drivable_areas: BTreeMap<String, RawDrivableArea>,
+    #[serde(default)]
+    pedestrian_crossings: BTreeMap<String, RawCrossing>,
+}
+
+#[derive(serde::Deserialize)]
+struct RawPoint {
+    x: f64,
+    y: f64,
+}
+
+#[derive(serde::Deserialize)]
+struct RawLaneSegment {
+    id: i64,
+    centerline: Vec<RawPoint>,
+    left_lane_boundary: Vec<RawPoint>,
+    right_lane_boundary: Vec<RawPoint>,
+    lane_type: String,
+    #[serde(default)]
+    is_intersection: bool,
+    #[serde(default)]
+    predecessors: Vec<i64>,
+    #[serde(default)]
+    successors: Vec<i64>,
+    #[serde(default)]
+    left_neighbor_id: Option<i64>,
+    #[serde(default)]
+    right_neighbor_id: Option<i64>,
+}
+
+#[derive(serde::Deserialize)]
+struct RawDrivableArea {
+    id: i64,
+    area_boundary: Vec<RawPoint>,
+}
+
+#[derive(serde::Deserialize)]
+struct RawCrossing {
+    id: i64,
+    edge1: Vec<RawPoint>,
+    edge2: Vec<RawPoint>,
+}
+
+fn points(raw: &[RawPoint]) -> Vec<Point2> {
+    raw.iter().map(|p| Point2::new(p.x, p.y)).collect()
+}
+
+/// AV2 `lane_type` to lane kind. AV2 maps are urban, so a vehicle lane is a
+/// surface-street lane.
+fn lane_kind(lane_type: &str) -> LaneKind {
+    match lane_type {
+        "VEHICLE" => LaneKind::SurfaceStreet,
+        "BIKE" => LaneKind::BikeLane,
+        "BUS" => LaneKind::BusLane,
+        _ => LaneKind::Undefined,
+    }
+}
+
+/// Reads the map. `name_map` adds "map JSON" to messages whose `path` is
+/// the scenario parquet's rather than the map's.
+fn read_map(bytes: &[u8], path: &Path, name_map: bool) -> Result<RoadMap, ImportError> {
+    let prefix = if name_map { "map JSON: " } else { "" };
+    let err = |location: Location, message: String| {
+        ImportError::malformed(path, FORMAT, location, format!("{prefix}{message}"))
+    };
+    let raw: RawMap = serde_json::from_slice(bytes).map_err(|e| {
+        // serde_json's message ends with the position, which the location
+        // already carries.
+        let message = e.to_string();
+        let suffix = format!(" at line {} column {}", e.line(), e.column());
+        let message = message.strip_suffix(&suffix).unwrap_or(&message);
+        err(Location::LineColumn { line: e.line(), column: e.column() }, format!("not an Argoverse 2 map: {message}"))
+    })?;
+
+    let mut lanes = Vec::with_capacity(raw.lane_segments.len());
+    for (key, l) in &raw.lane_segments {
+        let centreline = Polyline::new(points(&l.centerline));
+        if centreline.len() < 2 {
+            return Err(err(
+                Location::Element(format!("lane_segments[{key}].centerline")),
+                "a centreline needs at least two distinct points".to_string(),
+            ));
+        }
+        let boundary = |raw: &[RawPoint]| Some(Polyline::new(points(raw))).filter(|b| b.len() >= 2);
+        lanes.push(Lane {
+            id: MapElementId(l.id),
+            centreline,
+            kind: lane_kind(&l.lane_type),
+            speed_limit_mps: None,
+            predecessors: l.predecessors.iter().copied().map(MapElementId).collect(),
+            successors: l.successors.iter().copied().map(MapElementId).collect(),
+            left_neighbours: l.left_neighbor_id.map(MapElementId).into_iter().collect(),
+            right_neighbours: l.right_neighbor_id.map(MapElementId).into_iter().collect(),
+            left_boundary: boundary(&l.left_lane_boundary),
+            right_boundary: boundary(&l.right_lane_boundary),
+            in_intersection: l.is_intersection,
+        });
+    }
+
+    let mut drivable_areas = Vec::with_capacity(raw.drivable_areas.len());
+    for (key, a) in &raw.drivable_areas {
+        let polygon = Polygon::new(points(&a.area_boundary));
+        if polygon.vertices.len() < 3 {
+            return Err(err(
+                Location::Element(format!("drivable_areas[{key}].area_boundary")),
+                "a drivable area needs at least three points".to_string(),
+            ));
+        }
+        drivable_areas.push((a.id, polygon));
+    }
+    // Ids for edges beyond the first of an outline follow every id in the map.
+    let max_id = raw
+        .lane_segments
+        .values()
+        .map(|l| l.id)
+        .chain(raw.drivable_areas.values().map(|a| a.id))
+        .chain(raw.pedestrian_crossings.values().map(|c| c.id))
+        .max()
+        .unwrap_or(0);
+    let road_edges = road_edges_from_areas(&drivable_areas, max_id.saturating_add(1));
+    let drivable_areas = drivable_areas.into_iter().map(|(_, p)| p).collect();
+
+    // A crossing is the strip between its two edges, which run the same way.
+    let mut areas = Vec::with_capacity(raw.pedestrian_crossings.len());
+    for (key, c) in &raw.pedestrian_crossings {
+        let outline: Vec<Point2> = points(&c.edge1).into_iter().chain(points(&c.edge2).into_iter().rev()).collect();
+        if outline.len() < 3 {
+            return Err(err(
+                Location::Element(format!("pedestrian_crossings[{key}]")),
+                "a crossing needs at least three points over its two edges".to_string(),
+            ));
+        }
+        areas.push(MapArea { id: MapElementId(c.id), kind: AreaKind::Crosswalk, polygon: Polygon::new(outline) });
+    }
+
+    Ok(RoadMap::new(lanes, road_edges, Vec::new(), areas, drivable_areas, Vec::new(), Vec::new()))
+}
+
+/// Outline points closer than this to another drivable area's outline lie
+/// on a seam between the two.
+const SEAM_TOLERANCE_M: f64 = 0.01;
+
+/// Road edges from drivable-area outlines: each outline counter-clockwise
+/// (the road on its port side), without the stretches it shares with
+/// another area. Those are seams where the map was cut into areas, not
+/// kerbs; left in, every point near a seam would seem to be at the road's
+/// edge. An outline with seams falls apart into several edges: the first
+/// keeps the area's id, the others count up from `next_id`.
+fn road_edges_from_areas(areas: &[(i64, Polygon)], mut next_id: i64) -> Vec<RoadEdge> {
+    let bounds: Vec<Option<(Point2, Point2)>> = areas.iter().map(|(_, p)| p.bounds()).collect();
+    let on_other_outline = |me: usize, p: &Point2| {
+        areas.iter().enumerate().any(|(k, (_, other))| {
+            let near_box = bounds[k].is_some_and(|(lo, hi)| {
+                p.x >= lo.x - SEAM_TOLERANCE_M
+                    && p.x <= hi.x + SEAM_TOLERANCE_M
+                    && p.y >= lo.y - SEAM_TOLERANCE_M
+                    && p.y <= hi.y + SEAM_TOLERANCE_M
+            });
+            k != me
+                && near_box
+                && other.boundary_ccw().project(p).is_some_and(|proj| proj.distance_m <= SEAM_TOLERANCE_M)
+        })
+    };
+    let mut edges = Vec::new();
+    for (me, (id, polygon)) in areas.iter().enumerate() {
+        let ring = polygon.boundary_ccw();
+        let pts = ring.points();
+        let segments = pts.len().saturating_sub(1);
+        // A segment is a seam when its midpoint lies on another outline.
+        let seam: Vec<bool> = (0..segments)
+            .map(|i| on_other_outline(me, &Point2::from((pts[i].coords + pts[i + 1].coords) * 0.5)))
+            .collect();
+        let mut runs: Vec<Vec<Point2>> = Vec::new();
+        match seam.iter().position(|&s| s) {
+            None => runs.push(pts.to_vec()),
+            Some(first_seam) => {
+                // Walk the ring once, starting just after a seam, so no run
+                // is cut in two at the ring's arbitrary start.
+                let mut run: Vec<Point2> = Vec::new();
+                for step in 1..=segments {
+                    let i = (first_seam + step) % segments;
+                    if seam[i] {
+                        if run.len() >= 2 {
+                            runs.push(std::mem::take(&mut run));
+                        }
+                        run.clear();
+                    } else {
+                        if run.is_empty() {
+                            run.push(pts[i]);
+                        }
+                        run.push(pts[i + 1]);
+                    }
+                }
+                if run.len() >= 2 {
+                    runs.push(run);
+                }
+            }
+        }
+        for (n, run) in runs.into_iter().enumerate() {
+            let edge_id = if n == 0 {
+                *id
+            } else {
+                next_id = next_id.saturating_add(1);
+                next_id - 1
+            };
+            edges.push(RoadEdge {
+                id: MapElementId(edge_id),
+                polyline: Polyline::new(run),
+                kind: RoadEdgeKind::Boundary,
+            });
+        }
+    }
+    edges
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const MAP: &str = r#"{
+  "lane_segments": {"1": {"id": 1, "centerline": [{"x": 0, "y": 0, "z": 0}, {"x": 10, "y": 0, "z": 0}],
+    "left_lane_boundary": [{"x": 0, "y": 2}, {"x": 10, "y": 2}], "right_lane_boundary": [{"x": 0, "y": -2}, {"x": 10, "y": -2}],
+    "lane_type": "VEHICLE", "is_intersection": false, "predecessors": [], "successors": [2],
+    "left_neighbor_id": null, "right_neighbor_id": 3}},
+  "drivable_areas": {"5": {"id": 5, "area_boundary": [{"x": 0, "y": -2}, {"x": 0, "y": 2}, {"x": 10, "y": 2}, {"x": 10, "y": -2}]}},
+  "pedestrian_crossings": {"7": {"id": 7, "edge1": [{"x": 5, "y": -2}, {"x": 5, "y": 2}], "edge2": [{"x": 6, "y": -2}, {"x": 6, "y": 2}]}}
+}"#;
+
+    #[test]
+    fn map_json_becomes_lanes_edges_and_crosswalks() {
+        let m = read_map(MAP.as_bytes(), Path::new("m.json"), false).unwrap();
+        assert_eq!(m.lanes.len(), 1);
+        assert_eq!(m.lanes[0].successors, vec![MapElementId(2)]);
+        assert_eq!(m.lanes[0].right_neighbours, vec![MapElementId(3)]);
+        assert!(m.lanes[0].left_neighbours.is_empty());
+        assert_eq!(m.lanes[0].kind, LaneKind::SurfaceStreet);
+        assert_eq!(m.road_edges.len(), 1);
+        assert!(!m.is_off_road(&Point2::new(5.0, 0.0)));
+        assert!(m.is_off_road(&Point2::new(5.0, 3.0)));
+        let d = m.signed_distance_to_road_edge(&Point2::new(5.0, 1.0)).unwrap();
+        assert!((d + 1.0).abs() < 1e-9, "{d}");
+        assert!(m.areas[0].polygon.contains(&Point2::new(5.5, 0.0)));
+    }
+
+    #[test]
+    fn map_errors_are_located() {
+        let err = read_map(b"{\n  \"lane_segments\": {,}", Path::new("m.json"), true).unwrap_err().to_string();
+        assert!(err.contains("line 2, column 21: map JSON: not an Argoverse 2 map: key must be a string"), "{err}");
+        assert!(!err.contains("at line"), "{err}");
+        let err = read_map(MAP.replace("\"x\": 10, \"y\": 0", "\"x\": 0, \"y\": 0").as_bytes(), Path::new("m"), false)
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("lane_segments[1].centerline"), "{err}");
+    }
+
+    #[test]
+    fn garbage_parquet_is_an_error() {
+        let err = read_parquet_guarded(b"PAR1 not really", Path::new("s.parquet")).err().unwrap().to_string();
+        assert!(err.contains("s.parquet") && err.contains("parquet"), "{err}");
+    }
+
+    #[test]
+    fn object_types_map_to_kinds() {
+        assert_eq!(kind_and_size("vehicle"), (AgentKind::Vehicle, VEHICLE_SIZE_M));
+        assert_eq!(kind_and_size("motorcyclist").0, AgentKind::Vehicle);
+        assert_eq!(kind_and_size("cyclist").0, AgentKind::Cyclist);
+        assert_eq!(kind_and_size("construction").0, AgentKind::Other);
+    }
 }
