@@ -24,5 +24,6 @@ pub mod map;
 pub mod motion;
 pub mod planners;
 pub mod policies;
+pub mod record;
 pub mod scenario;
 pub mod sim;
