@@ -6,6 +6,7 @@
 //! and the configuration: agents are updated in track order, every query
 //! iterates in index order, and nothing reads a clock or a global RNG.
 
+pub mod authoring;
 mod events;
 mod rollout;
 
@@ -166,17 +167,7 @@ impl<'a> Simulation<'a> {
                 let ego_now = states[self.ego.0].expect("ego present while running");
                 apply_planner_output(&ego_now, &out)
             });
-            let mut next: Vec<Option<AgentState>> = states
-                .iter()
-                .zip(&actions)
-                .map(|(now, action)| match (action, now) {
-                    (AgentAction::Teleport(s), _) => Some(*s),
-                    (AgentAction::Control(a), Some(now)) => {
-                        Some(kinematic_step(&KinematicState::from_agent_state(now), *a, SIM_DT_S).to_agent_state())
-                    }
-                    (AgentAction::Control(_), None) | (AgentAction::Absent, _) => None,
-                })
-                .collect();
+            let mut next = advance(&states, &actions);
             match ego_next {
                 Ok(s) => next[self.ego.0] = Some(s),
                 Err(reason) => {
@@ -256,6 +247,21 @@ impl<'a> Simulation<'a> {
             signals,
         }
     }
+}
+
+/// Every agent's state one step later under its action.
+pub fn advance(states: &[Option<AgentState>], actions: &[AgentAction]) -> Vec<Option<AgentState>> {
+    states
+        .iter()
+        .zip(actions)
+        .map(|(now, action)| match (action, now) {
+            (AgentAction::Teleport(s), _) => Some(*s),
+            (AgentAction::Control(a), Some(now)) => {
+                Some(kinematic_step(&KinematicState::from_agent_state(now), *a, SIM_DT_S).to_agent_state())
+            }
+            (AgentAction::Control(_), None) | (AgentAction::Absent, _) => None,
+        })
+        .collect()
 }
 
 /// The ego's state one step after `now` under the planner's output.
