@@ -328,6 +328,9 @@ const SMALL_MAP: &str = r#"{"lane_segments": {"1": {"id": 1, "centerline": [{"x"
  "drivable_areas": {"2": {"id": 2, "area_boundary": [{"x": -10, "y": -2}, {"x": 10, "y": -2}, {"x": 10, "y": 2}, {"x": -10, "y": 2}]}},
  "pedestrian_crossings": {}}"#;
 
+/// An edit to the columns of [`small_parquet`].
+type ColumnChange = Box<dyn FnOnce(&mut Vec<Column>)>;
+
 fn set(columns: &mut [Column], name: &str, to: Column) {
     let at = columns
         .iter()
@@ -351,7 +354,7 @@ fn argoverse2_small_parquet_reads_and_errors_name_row_and_column() {
     assert_eq!((s.tracks[0].length_m, s.tracks[0].width_m), argoverse2::VEHICLE_SIZE_M);
     assert!(s.tracks[0].state(47).is_none() && s.tracks[0].state(49).is_some());
 
-    let cases: Vec<(Box<dyn FnOnce(&mut Vec<Column>)>, &str)> = vec![
+    let cases: Vec<(ColumnChange, &str)> = vec![
         (
             Box::new(|c: &mut Vec<Column>| c.retain(|c| !matches!(c, Column::Float("position_y", _)))),
             "column position_y",

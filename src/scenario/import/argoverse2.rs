@@ -43,6 +43,10 @@ pub const AV_TRACK_ID: &str = "AV";
 /// Largest `num_timestamps` accepted: bounds the per-track allocation on
 /// hostile input (real files have 110).
 const MAX_STEPS: i64 = 10_000;
+/// Largest number of per-step state slots (tracks × steps) accepted: a few
+/// bytes of run-length-encoded parquet can hold millions of rows, each of
+/// which could open a new track. Real scenarios need under 50 000.
+const MAX_STATE_SLOTS: usize = 20_000_000;
 
 /// Default footprints, length × width in metres, by AV2 `object_type`.
 /// AV2 publishes no extents. Vehicles use 4.5 × 2.0: the median WOMD
@@ -320,11 +324,11 @@ fn read_parquet(bytes: &[u8], path: &Path) -> Result<Table, ImportError> {
             }
             Some(_) => {}
         }
-        if focal_track_id.is_none() && index.contains_key("focal_track_id") {
-            focal_track_id = Some(cell.string("focal_track_id")?);
+        if focal_track_id.is_none() {
+            focal_track_id = cell.optional_string("focal_track_id")?;
         }
-        if city.is_none() && index.contains_key("city") {
-            city = Some(cell.string("city")?);
+        if city.is_none() {
+            city = cell.optional_string("city")?;
         }
         let steps = match num_steps {
             Some(n) => n,
@@ -357,6 +361,15 @@ fn read_parquet(bytes: &[u8], path: &Path) -> Result<Table, ImportError> {
         let t = match track_of.get(&track_id) {
             Some(&t) => t,
             None => {
+                if (tracks.len() + 1).saturating_mul(steps) > MAX_STATE_SLOTS {
+                    return Err(cell.error(
+                        "track_id",
+                        format!(
+                            "{} tracks of {steps} steps exceed the limit of {MAX_STATE_SLOTS} states",
+                            tracks.len() + 1
+                        ),
+                    ));
+                }
                 let object_type = cell.string("object_type")?;
                 let (kind, (length_m, width_m)) = kind_and_size(&object_type);
                 tracks.push(Track {
@@ -431,6 +444,14 @@ impl Cell<'_> {
             Field::ULong(v) => i64::try_from(*v).map_err(|_| self.error(column, format!("{v} is too large"))),
             other => Err(self.error(column, format!("expected an integer, found {other:?}"))),
         }
+    }
+
+    /// Text from a column the file may lack or leave null.
+    fn optional_string(&self, column: &'static str) -> Result<Option<String>, ImportError> {
+        if !self.index.contains_key(column) || matches!(self.get(column)?, Field::Null) {
+            return Ok(None);
+        }
+        self.string(column).map(Some)
     }
 
     fn string(&self, column: &'static str) -> Result<String, ImportError> {

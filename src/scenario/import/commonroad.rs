@@ -12,7 +12,7 @@
 //! here panics on bad input, and sizes that drive allocations (time steps,
 //! obstacle counts) are bounded before anything is allocated.
 
-use std::collections::{BTreeSet, HashMap};
+use std::collections::{BTreeSet, HashMap, HashSet};
 use std::path::Path;
 
 use roxmltree::{Document, Node, ParsingOptions};
@@ -319,9 +319,10 @@ fn read_obstacle(cx: &Cx<'_, '_>, node: Node<'_, '_>, is_static: bool) -> Result
     let initial = cx.req(node, "initialState")?;
     let mut states = vec![read_state(cx, initial)?];
     if !is_static && let Some(trajectory) = child(node, "trajectory") {
+        let mut seen = HashSet::from([states[0].0]);
         for s in children(trajectory, "state") {
             let state = read_state(cx, s)?;
-            if states.iter().any(|(k, _)| *k == state.0) {
+            if !seen.insert(state.0) {
                 return Err(cx.err(s, format!("obstacle {id} has a second state for time step {}", state.0)));
             }
             states.push(state);
