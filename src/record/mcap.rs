@@ -493,7 +493,9 @@ impl Recorder<'_> {
                 })
             })
             .collect();
-        out.push((0, SceneUpdate { deletions: Vec::new(), entities: lines }));
+        if !lines.is_empty() {
+            out.push((0, SceneUpdate { deletions: Vec::new(), entities: lines }));
+        }
         let end_s = extra
             .iter()
             .flat_map(|e| e.poses.iter().map(|p| p.time_s))
@@ -845,7 +847,7 @@ mod tests {
         let logs: Vec<Log> = on(&msgs, TOPIC_EVENTS).iter().map(|m| Log::decode(&m.data[..]).unwrap()).collect();
         assert!(logs[0].message.starts_with("rollout of scenario crossing with planner constant-velocity"));
         let hit = logs.iter().find(|l| l.message.contains("collision")).expect("a collision event");
-        assert_eq!(hit.message, "collision at t = 3.70 s: ego 'ego-1' (vehicle) and CBV 'cbv-2' (vehicle)");
+        assert_eq!(hit.message, "collision at t = 3.90 s: ego 'ego-1' (vehicle) and CBV 'cbv-2' (vehicle)");
         assert_eq!(hit.level, log::Level::Error as i32);
 
         let tf = FrameTransform::decode(&on(&msgs, TOPIC_TF)[10].data[..]).unwrap();

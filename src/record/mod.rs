@@ -240,9 +240,9 @@ pub(crate) mod test_support {
     }
 
     /// A cross of two two-lane roads at (40, 0); 61 steps of 0.1 s.
-    /// Agents: 0 ego (east at 10 m/s from the origin), 1 CBV (north at
-    /// 7.5 m/s from (40, -30)), 2 a parked car, 3 a pedestrian. The ego's
-    /// box meets the CBV's at t = 3.7 s (step 37).
+    /// Agents: 0 ego (east at 10 m/s in its lane from x = 0), 1 CBV (north
+    /// at 7.5 m/s from (41.75, -30)), 2 a parked car, 3 a pedestrian. The
+    /// ego's box meets the CBV's at t = 3.9 s (step 39).
     pub(crate) fn crossing_scenario() -> Scenario {
         let edge =
             |id, pts: &[(f64, f64)]| RoadEdge { id: MapElementId(id), polyline: pl(pts), kind: RoadEdgeKind::Boundary };
@@ -310,9 +310,9 @@ pub(crate) mod test_support {
             dt_s: 0.1,
             current_step: 0,
             tracks: vec![
-                track("ego-1", AgentKind::Vehicle, (4.5, 2.0), (0.0, 0.0), 0.0, 10.0),
-                track("cbv-2", AgentKind::Vehicle, (4.5, 2.0), (40.0, -30.0), half_pi, 7.5),
-                track("parked-3", AgentKind::Vehicle, (4.8, 2.0), (80.0, 6.0), 0.0, 0.0),
+                track("ego-1", AgentKind::Vehicle, (4.5, 2.0), (0.0, -1.75), 0.0, 10.0),
+                track("cbv-2", AgentKind::Vehicle, (4.5, 2.0), (41.75, -30.0), half_pi, 7.5),
+                track("parked-3", AgentKind::Vehicle, (4.8, 2.0), (80.0, 1.75), std::f64::consts::PI, 0.0),
                 track("walker-4", AgentKind::Pedestrian, (0.6, 0.6), (20.0, 8.0), 0.0, 1.2),
             ],
             map,
@@ -339,6 +339,37 @@ mod tests {
     use crate::policies::BackgroundPolicy;
     use crate::sim::{SimConfig, Simulation};
 
+    #[test]
+    fn pose_at_interpolates_inside_the_span_and_refuses_outside() {
+        let t = NamedTrajectory {
+            name: "w".into(),
+            role: TrajectoryRole::FeasibilityWitness,
+            body: None,
+            poses: vec![
+                TimedPose { time_s: 0.0, pose: Pose2::new(0.0, 0.0, 3.0) },
+                TimedPose { time_s: 1.0, pose: Pose2::new(10.0, 2.0, -3.0) },
+                TimedPose { time_s: 2.0, pose: Pose2::new(f64::NAN, 0.0, 0.0) },
+            ],
+        };
+        let p = t.pose_at(0.5).unwrap();
+        assert!((p.position.x - 5.0).abs() < 1e-12 && (p.position.y - 1.0).abs() < 1e-12);
+        // Heading interpolates the short way round, through ±π.
+        assert!(p.heading_rad.abs() > 3.1, "{}", p.heading_rad);
+        assert_eq!(t.pose_at(1.0).unwrap().position.x, 10.0);
+        assert!(t.pose_at(-0.1).is_none() && t.pose_at(1.5).is_none() && t.pose_at(f64::NAN).is_none());
+    }
+
+    #[test]
+    fn empty_scenario_renders_without_panicking() {
+        let mut s = test_support::crossing_scenario();
+        s.tracks.clear();
+        s.ego = None;
+        s.cbv = None;
+        s.map = crate::map::RoadMap::default();
+        let svg = render_scenario_svg(&s, &SvgOptions { size_px: 0, margin_m: f64::NAN, ..SvgOptions::default() });
+        roxmltree::Document::parse(&svg).expect("well-formed XML");
+    }
+
     /// Writes pictures and a recording of the fixture and of the first
     /// recorded WOMD scene to `$SAFER_RECORD_OUT` (default: the temp dir),
     /// for a person to look at: `cargo test --lib record -- --ignored`.
@@ -349,6 +380,23 @@ mod tests {
         let s = test_support::crossing_scenario();
         let r = test_support::crossing_rollout(&s);
         write_svg(&out.join("crossing-rollout.svg"), &render_rollout_svg(&s, &r, &SvgOptions::default())).unwrap();
+        // A witness: the ego braking at 4 m/s² from t = 0.5 s, stopping before the crossing.
+        let brake = NamedTrajectory {
+            name: "brake at 0.5 s".into(),
+            role: TrajectoryRole::FeasibilityWitness,
+            body: Some(r.bodies[0]),
+            poses: (0..=60)
+                .map(|k| {
+                    let t = 0.1 * f64::from(k);
+                    let tb = (t - 0.5).clamp(0.0, 2.5);
+                    let x = 10.0 * t.min(0.5) + 10.0 * tb - 2.0 * tb * tb;
+                    TimedPose { time_s: t, pose: Pose2::new(x, -1.75, 0.0) }
+                })
+                .collect(),
+        };
+        let with = render_rollout_svg_with(&s, &r, std::slice::from_ref(&brake), &SvgOptions::default());
+        write_svg(&out.join("crossing-witness.svg"), &with).unwrap();
+        write_rollout_mcap(&out.join("crossing-witness.mcap"), &s, &r, &[brake]).unwrap();
         write_svg(&out.join("crossing-scenario.svg"), &render_scenario_svg(&s, &SvgOptions::default())).unwrap();
         write_rollout_mcap(&out.join("crossing.mcap"), &s, &r, &[]).unwrap();
         let womd = Path::new(env!("CARGO_MANIFEST_DIR"))

@@ -604,8 +604,8 @@ struct BoxPx {
     outline: String,
     /// `points` text of the heading arrowhead in the front third.
     head: String,
-    /// Where a label goes: right of the box, level with its top.
-    label_at: (f64, f64),
+    /// Pixel extent, for placing labels around it.
+    extent: Rect,
 }
 
 fn points_text(view: &View, pts: &[Point2]) -> String {
@@ -633,13 +633,7 @@ fn box_px(view: &View, pose: &Pose2, body: &AgentBody) -> Option<BoxPx> {
     let back = 0.5 * l - (0.22 * l).min(1.2);
     let head = [at(0.5 * l, 0.0), at(back, 0.25 * w), at(back, -0.25 * w)];
     let px: Vec<(f64, f64)> = corners.iter().map(|c| view.px(c)).collect();
-    let max_x = px.iter().map(|p| p.0).fold(f64::NEG_INFINITY, f64::max);
-    let min_y = px.iter().map(|p| p.1).fold(f64::INFINITY, f64::min);
-    Some(BoxPx {
-        outline: points_text(view, &corners),
-        head: points_text(view, &head),
-        label_at: (max_x + 4.0, min_y + 10.0),
-    })
+    Some(BoxPx { outline: points_text(view, &corners), head: points_text(view, &head), extent: Rect::around(&px) })
 }
 
 fn draw(pic: &Picture, opts: &SvgOptions) -> String {
@@ -654,7 +648,7 @@ fn draw(pic: &Picture, opts: &SvgOptions) -> String {
     let width = (bounds.width() * scale).round();
     let map_h = (bounds.height() * scale).round();
     let view = View { bounds, scale, top: CAPTION_PX, width, height: map_h };
-    let legend = legend_items(pic);
+    let legend = legend_items(pic, &view.bounds);
     let legend_rows = layout_legend(&legend, width);
     let legend_h = 14.0 + 22.0 * legend_rows.iter().map(|r| r.1 + 1).max().unwrap_or(0) as f64;
     let height = CAPTION_PX + map_h + legend_h;
@@ -680,8 +674,15 @@ fn draw(pic: &Picture, opts: &SvgOptions) -> String {
     draw_map(&mut s, pic.map, &view);
     draw_trails(&mut s, pic, &view, opts);
     draw_extras(&mut s, pic, &view);
-    draw_agents(&mut s, pic, &view);
-    draw_collisions(&mut s, pic, &view);
+    let (mut taken, mut labels) = draw_agents(&mut s, pic, &view);
+    let (markers, collision_labels) = draw_collisions(&mut s, pic, &view);
+    taken.extend(markers);
+    // Role labels first, then collision times, then other agents' ids.
+    let roles = labels.iter().take_while(|l| l.colour != COLLISION).count();
+    let others = labels.split_off(roles);
+    labels.extend(collision_labels);
+    labels.extend(others);
+    place_labels(&mut s, &view, &labels, taken);
     let _ = writeln!(s, "</g>");
     draw_scale_bar(&mut s, &view);
     // Caption band on top, legend band below the map: neither hides the scene.
@@ -873,7 +874,43 @@ fn collided(pic: &Picture) -> BTreeSet<usize> {
     pic.collisions.iter().filter(|c| c.k <= pic.shown).flat_map(|c| [c.a, c.b]).collect()
 }
 
-fn draw_agents(s: &mut String, pic: &Picture, view: &View) {
+/// A pixel rectangle: a footprint's or marker's extent, or a label's.
+#[derive(Debug, Clone, Copy)]
+struct Rect {
+    x0: f64,
+    y0: f64,
+    x1: f64,
+    y1: f64,
+}
+
+impl Rect {
+    fn around(points: &[(f64, f64)]) -> Self {
+        let mut r = Rect { x0: f64::INFINITY, y0: f64::INFINITY, x1: f64::NEG_INFINITY, y1: f64::NEG_INFINITY };
+        for &(x, y) in points {
+            r = Rect { x0: r.x0.min(x), y0: r.y0.min(y), x1: r.x1.max(x), y1: r.y1.max(y) };
+        }
+        r
+    }
+
+    fn overlaps(&self, o: &Rect) -> bool {
+        self.x0 < o.x1 && o.x0 < self.x1 && self.y0 < o.y1 && o.y0 < self.y1
+    }
+
+    fn inside(&self, o: &Rect) -> bool {
+        self.x0 >= o.x0 && self.x1 <= o.x1 && self.y0 >= o.y0 && self.y1 <= o.y1
+    }
+}
+
+/// A label to place next to `anchor`.
+struct LabelRequest {
+    anchor: Rect,
+    text: String,
+    colour: &'static str,
+}
+
+/// Draws the footprints; returns their extents (for label placement) and
+/// the labels they want, most important first.
+fn draw_agents(s: &mut String, pic: &Picture, view: &View) -> (Vec<Rect>, Vec<LabelRequest>) {
     let collided = collided(pic);
     // Others that hit the ego or CBV get their id; background collisions
     // only their red outline (a busy crosswalk would be unreadable).
@@ -883,7 +920,9 @@ fn draw_agents(s: &mut String, pic: &Picture, view: &View) {
         .filter(|c| c.k <= pic.shown && (involves_role(pic, c.a) || involves_role(pic, c.b)))
         .flat_map(|c| [c.a, c.b])
         .collect();
-    let mut labels = Vec::new();
+    let mut extents = Vec::new();
+    let mut role_labels = Vec::new();
+    let mut other_labels = Vec::new();
     // Others first, then CBV, then ego, so the roles are never hidden.
     for role in [Role::Other, Role::Cbv, Role::Ego] {
         for (i, a) in pic.agents.iter().enumerate().filter(|(_, a)| a.role == role) {
@@ -910,36 +949,35 @@ fn draw_agents(s: &mut String, pic: &Picture, view: &View) {
                 b.outline,
                 b.head
             );
-            let text = match role {
-                Role::Ego => Some("ego".to_string()),
-                Role::Cbv => Some("CBV".to_string()),
-                Role::Other if hit_role.contains(&i) => Some(a.id.to_string()),
-                Role::Other => None,
-            };
-            if let Some(text) = text {
-                let colour = if role == Role::Other { COLLISION } else { role_colour(role) };
-                labels.push((b.label_at, text, colour));
+            extents.push(b.extent);
+            let request = |text: &str, colour| LabelRequest { anchor: b.extent, text: text.to_string(), colour };
+            match role {
+                Role::Ego => role_labels.insert(0, request("ego", EGO)),
+                Role::Cbv => role_labels.push(request("CBV", CBV)),
+                Role::Other if hit_role.contains(&i) => other_labels.push(request(a.id, COLLISION)),
+                Role::Other => {}
             }
         }
     }
-    // Labels last, above every footprint.
-    for ((x, y), text, colour) in labels {
-        let _ =
-            writeln!(s, "<text class=\"label\" fill=\"{colour}\" x=\"{}\" y=\"{}\">{}</text>", N(x), N(y), esc(&text));
-    }
+    role_labels.extend(other_labels);
+    (extents, role_labels)
 }
 
-fn draw_collisions(s: &mut String, pic: &Picture, view: &View) {
+/// Draws a marker at each collision up to the displayed step; returns the
+/// markers' extents and the time labels of the ego's and CBV's collisions.
+fn draw_collisions(s: &mut String, pic: &Picture, view: &View) -> (Vec<Rect>, Vec<LabelRequest>) {
+    let mut extents = Vec::new();
+    let mut labels = Vec::new();
     for c in pic.collisions.iter().filter(|c| c.k <= pic.shown) {
         let Some(p) = collision_point(pic, c) else { continue };
         let (x, y) = view.px(&p);
         let main = involves_role(pic, c.a) || involves_role(pic, c.b);
         let (r, d) = if main { (9.0, 5.0) } else { (5.0, 3.0) };
-        let _ = write!(
+        let _ = writeln!(
             s,
             "<g class=\"collision\"><title>collision of {} and {} at {}</title>\
              <circle class=\"marker\" cx=\"{}\" cy=\"{}\" r=\"{}\"/>\
-             <path class=\"marker\" d=\"M{},{} L{},{} M{},{} L{},{}\"/>",
+             <path class=\"marker\" d=\"M{},{} L{},{} M{},{} L{},{}\"/></g>",
             esc(pic.agents.get(c.a).map_or("?", |a| a.id)),
             esc(pic.agents.get(c.b).map_or("?", |a| a.id)),
             time_text(c.k, pic.dt_s),
@@ -955,17 +993,54 @@ fn draw_collisions(s: &mut String, pic: &Picture, view: &View) {
             N(x + d),
             N(y - d),
         );
+        let extent = Rect { x0: x - r, y0: y - r, x1: x + r, y1: y + r };
+        extents.push(extent);
         if main {
-            // Below left: role labels sit to the right of the boxes.
-            let _ = write!(
-                s,
-                "<text class=\"label\" fill=\"{COLLISION}\" text-anchor=\"end\" x=\"{}\" y=\"{}\">{}</text>",
-                N(x - 11.0),
-                N(y + 20.0),
-                time_text(c.k, pic.dt_s)
-            );
+            labels.push(LabelRequest { anchor: extent, text: time_text(c.k, pic.dt_s), colour: COLLISION });
         }
-        s.push_str("</g>\n");
+    }
+    (extents, labels)
+}
+
+/// Places each label at the first spot around its anchor that stays in the
+/// map band and overlaps no footprint, marker or earlier label (greedy, in
+/// request order, so the result is deterministic); falls back to the
+/// first spot.
+fn place_labels(s: &mut String, view: &View, requests: &[LabelRequest], mut taken: Vec<Rect>) {
+    let band = Rect { x0: 0.0, y0: view.top, x1: view.width, y1: view.top + view.height };
+    for r in requests {
+        // Bold 13 px sans-serif: about 8.5 px per character.
+        let (w, h) = (8.5 * r.text.chars().count() as f64 + 2.0, 13.0);
+        let a = r.anchor;
+        let (xc, yc) = (0.5 * (a.x0 + a.x1), 0.5 * (a.y0 + a.y1));
+        let at = |x: f64, y: f64| Rect { x0: x, y0: y, x1: x + w, y1: y + h };
+        let mut candidates = Vec::new();
+        for g in [4.0, 16.0, 32.0] {
+            candidates.extend([
+                at(a.x1 + g, yc - 0.5 * h),
+                at(a.x0 - g - w, yc - 0.5 * h),
+                at(xc - 0.5 * w, a.y0 - g - h),
+                at(xc - 0.5 * w, a.y1 + g),
+                at(a.x1 + g, a.y0 - g - h),
+                at(a.x1 + g, a.y1 + g),
+                at(a.x0 - g - w, a.y0 - g - h),
+                at(a.x0 - g - w, a.y1 + g),
+            ]);
+        }
+        let chosen = candidates
+            .iter()
+            .find(|c| c.inside(&band) && !taken.iter().any(|t| t.overlaps(c)))
+            .copied()
+            .unwrap_or(candidates[0]);
+        taken.push(chosen);
+        let _ = writeln!(
+            s,
+            "<text class=\"label\" fill=\"{}\" x=\"{}\" y=\"{}\">{}</text>",
+            r.colour,
+            N(chosen.x0 + 1.0),
+            N(chosen.y1 - 2.0),
+            esc(&r.text)
+        );
     }
 }
 
@@ -1004,7 +1079,9 @@ enum Swatch {
     Marker,
 }
 
-fn legend_items(pic: &Picture) -> Vec<(Swatch, String)> {
+/// Legend entries for what the picture shows (agent kinds only where one
+/// is in `view`).
+fn legend_items(pic: &Picture, view: &Bounds) -> Vec<(Swatch, String)> {
     let mut items = Vec::new();
     let id_of = |role: Role| pic.agents.iter().find(|a| a.role == role).map(|a| a.id);
     if let Some(id) = id_of(Role::Ego) {
@@ -1017,7 +1094,10 @@ fn legend_items(pic: &Picture) -> Vec<(Swatch, String)> {
         .agents
         .iter()
         .enumerate()
-        .filter(|(i, a)| a.role == Role::Other && pic.states.get(pic.shown, *i).is_some())
+        .filter(|(i, a)| {
+            a.role == Role::Other
+                && pic.states.get(pic.shown, *i).is_some_and(|s| Bounds::of_points([&s.position]).intersects(view))
+        })
         .map(|(_, a)| a.body.kind)
         .collect();
     for k in kinds {
@@ -1131,7 +1211,7 @@ mod tests {
         let s = crossing_scenario();
         let r = crossing_rollout(&s);
         let c = r.ego_collision().expect("the fixture collides");
-        assert_eq!(c.step, 37);
+        assert_eq!(c.step, 39);
         let svg = render_rollout_svg(&s, &r, &SvgOptions::default());
         let doc = roxmltree::Document::parse(&svg).expect("well-formed XML");
         assert!(has_class(&doc, &["box", "ego", "collided"]), "ego outlined as collided");
@@ -1142,7 +1222,7 @@ mod tests {
         assert!(has_class(&doc, &["crosswalk"]) && has_class(&doc, &["edge"]) && has_class(&doc, &["lane"]));
         let t = texts(&doc);
         assert!(t.contains("crossing · planner constant-velocity"), "{t}");
-        assert!(t.contains("collides with the CBV (cbv-2, vehicle) at t = 3.7 s"), "{t}");
+        assert!(t.contains("collides with the CBV (cbv-2, vehicle) at t = 3.9 s"), "{t}");
         assert!(t.contains("ego (ego-1)") && t.contains("CBV (cbv-2)"), "legend names the roles: {t}");
         assert!(!svg.contains("NaN") && !svg.contains("-0.00"));
     }
@@ -1213,7 +1293,7 @@ mod tests {
         r.scenario_id = s.id.clone();
         r.agent_ids[2].0 = "<parked>".into();
         r.states[5][2].as_mut().unwrap().position.x = f64::NAN;
-        r.states[37][3].as_mut().unwrap().heading_rad = f64::INFINITY;
+        r.states[39][3].as_mut().unwrap().heading_rad = f64::INFINITY;
         // A ragged row must not panic either.
         r.states[6].pop();
         let svg = render_rollout_svg(&s, &r, &SvgOptions::default());
