@@ -15,11 +15,17 @@
 //! | [`motion`] | kinematic model, the 63×63 token grid, log-to-token inversion |
 //! | [`policies`] | who drives a background agent: log replay, constant velocity, IDM |
 //! | [`planners`] | the ego under test: the planner trait and built-in planners |
-//! | [`sim`] | the closed-loop engine, collision and off-road events, rollouts |
+//! | [`sim`] | the closed-loop engine, collision and off-road events, rollouts, authored scenes |
+//! | [`eval`] | time to collision, Jensen–Shannon divergence (VJ, AJ) |
+//! | [`spec`] | typed YAML specs (scenarios, planners, suites), JSON Schema export |
+//! | [`harness`] | suites to variants, the dual-stage pipeline, acceptance, metrics, failure artefacts |
+//! | [`record`] | MCAP recordings with Foxglove schemas, SVG pictures |
 //! | [`cli`] | the `safer` command line |
 
 pub mod cli;
+pub mod eval;
 pub mod geometry;
+pub mod harness;
 pub mod map;
 pub mod motion;
 pub mod planners;
@@ -27,3 +33,4 @@ pub mod policies;
 pub mod record;
 pub mod scenario;
 pub mod sim;
+pub mod spec;

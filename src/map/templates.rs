@@ -17,7 +17,7 @@ use super::{
 };
 
 /// Which template, with its parameters.
-#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize, schemars::JsonSchema)]
 #[serde(rename_all = "snake_case", deny_unknown_fields)]
 pub enum MapTemplate {
     /// A straight road along +x from x = 0.
@@ -48,7 +48,7 @@ fn default_lanes() -> usize {
 
 /// A straight road. Lane `i` (from the right) has id `i`; oncoming lanes,
 /// if any, have ids `100 + i`.
-#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct StraightRoad {
     /// Lanes in the direction of travel.
@@ -159,7 +159,7 @@ impl StraightRoad {
 /// from the right: the ramp (id 50) curves in, runs beside lane 0 as an
 /// acceleration lane, and ends where it merges; lane 0 is split there into
 /// lane 0 (before) and lane 10 (after), so the ramp's successor is lane 10.
-#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Merge {
     /// Main-road lanes.
@@ -279,7 +279,7 @@ impl Merge {
 /// `arm·10 + 5 + i`, with lane 0 next to the centre line here;
 /// connectors through the box `1000 + from·100 + to·10 + i`. Signals
 /// alternate east–west and north–south green with a fixed cycle.
-#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Intersection {
     /// Lanes per direction on each arm.

@@ -7,7 +7,18 @@ use crate::policies::{IdmLaneFollower, IdmParams, WorldView};
 use crate::scenario::{AgentBody, AgentKind, Scenario, Track, TrackIndex};
 
 /// The built-in planners, selectable by name.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum, serde::Serialize, serde::Deserialize)]
+#[derive(
+    Debug,
+    Clone,
+    Copy,
+    PartialEq,
+    Eq,
+    Default,
+    clap::ValueEnum,
+    serde::Serialize,
+    serde::Deserialize,
+    schemars::JsonSchema,
+)]
 #[serde(rename_all = "kebab-case")]
 pub enum BuiltinPlanner {
     /// Replay the ego's recording (non-reactive).

@@ -60,7 +60,18 @@ pub trait AgentPolicy: Send {
 }
 
 /// The built-in background policies, selectable by name.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum, serde::Serialize, serde::Deserialize)]
+#[derive(
+    Debug,
+    Clone,
+    Copy,
+    PartialEq,
+    Eq,
+    Default,
+    clap::ValueEnum,
+    serde::Serialize,
+    serde::Deserialize,
+    schemars::JsonSchema,
+)]
 #[serde(rename_all = "kebab-case")]
 pub enum BackgroundPolicy {
     /// Replay the recorded trajectory (non-reactive).

@@ -1,0 +1,9 @@
+//! Evaluation measures over rollouts: time to collision, and the
+//! Jensen–Shannon divergence of speed/acceleration distributions (VJ, AJ).
+//! (CR, SR, realism metrics and the feasibility witness join here.)
+
+pub mod divergence;
+pub mod ttc;
+
+pub use divergence::{Histogram, jensen_shannon};
+pub use ttc::min_time_to_collision;

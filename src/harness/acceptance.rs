@@ -1,0 +1,53 @@
+//! Per-variant acceptance: what the planner under test's rollout must
+//! satisfy, each failure a sentence saying what happened, when and with whom.
+
+use crate::sim::{Rollout, Termination};
+use crate::spec::suite::VariantAcceptance;
+
+/// One failed criterion.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct AcceptanceFailure {
+    /// The criterion (as written in the spec).
+    pub criterion: String,
+    /// What happened.
+    pub what: String,
+}
+
+/// Checks a stage-2 rollout; empty when it passes.
+pub fn check(criteria: &VariantAcceptance, rollout: &Rollout, min_ttc_s: Option<f64>) -> Vec<AcceptanceFailure> {
+    let mut out = Vec::new();
+    let summary = rollout.summary();
+    let fail = |criterion: &str, what: String| AcceptanceFailure { criterion: criterion.to_string(), what };
+    if criteria.planner_must_answer
+        && let Termination::PlannerFailed { step, reason } = &rollout.termination
+    {
+        let t = (*step - rollout.start_step) as f64 * rollout.dt_s;
+        out.push(fail(
+            "planner_must_answer",
+            format!("planner `{}` failed at t = {t:.1} s: {reason}", rollout.planner),
+        ));
+    }
+    if criteria.no_collision
+        && let Some(c) = &summary.ego_collision
+    {
+        let role = if c.with_cbv { " (the CBV)" } else { "" };
+        out.push(fail("no_collision", format!("ego collided with agent {}{role} at t = {:.1} s", c.other, c.time_s)));
+    }
+    if criteria.no_off_road
+        && let Some(t) = summary.ego_off_road_s
+    {
+        out.push(fail("no_off_road", format!("ego left the road at t = {t:.1} s")));
+    }
+    if let (Some(min), Some(gap)) = (criteria.min_gap_m, summary.min_distance_to_ego_m)
+        && gap < min
+    {
+        let who = summary.closest_agent.as_ref().map_or(String::new(), |a| format!(" to agent {a}"));
+        out.push(fail("min_gap_m", format!("closest gap{who} was {gap:.2} m < {min} m")));
+    }
+    if let (Some(min), Some(ttc)) = (criteria.min_ttc_s, min_ttc_s)
+        && ttc < min
+    {
+        out.push(fail("min_ttc_s", format!("time to collision fell to {ttc:.1} s < {min} s")));
+    }
+    out
+}

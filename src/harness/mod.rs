@@ -1,0 +1,41 @@
+//! Specs to runnable tests: a suite resolves to named variants
+//! (`suite::scenario::seed-k`) and suite metrics (`suite::metric`); each
+//! variant runs the dual-stage pipeline (stage 1: the ego replays its log
+//! while the adversary drives the CBV; stage 2: the planner under test
+//! drives the ego while the CBV replays its stage-1 trajectory), is checked
+//! against the acceptance criteria, and on failure leaves an MCAP recording
+//! and an SVG picture. Both the `cargo test` runner (`tests/suites.rs`) and
+//! `safer run` use this module, so they agree by construction.
+
+pub mod acceptance;
+pub mod artefacts;
+pub mod metrics;
+pub mod suite;
+pub mod variant;
+
+pub use acceptance::AcceptanceFailure;
+pub use metrics::{MetricCheck, SuiteMetrics};
+pub use suite::{Suite, SuiteScenario};
+pub use variant::{VariantOutcome, VariantSummary, run_variant};
+
+/// Why a variant could not be run at all (as opposed to failing its criteria).
+#[derive(Debug, thiserror::Error)]
+pub enum HarnessError {
+    /// A spec is broken.
+    #[error(transparent)]
+    Spec(#[from] crate::spec::SpecError),
+    /// The rollout could not be set up.
+    #[error(transparent)]
+    Sim(#[from] crate::sim::SimError),
+    /// The planner could not be started.
+    #[error("planner `{planner}` could not be started: {reason}")]
+    PlannerStart {
+        /// Planner name.
+        planner: String,
+        /// Why.
+        reason: String,
+    },
+    /// A scenario has no CBV to drive.
+    #[error("scenario {0} has no CBV (name one with `cbv:` in the scenario spec)")]
+    NoCbv(String),
+}

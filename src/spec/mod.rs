@@ -1,0 +1,201 @@
+//! Typed YAML specs: base scenarios (`specs/scenarios/*.yaml`), planner
+//! adapters (`planners/*.yaml`) and suites (`specs/suites/*.yaml`).
+//!
+//! Every spec is a serde struct with `deny_unknown_fields`, so a typo is an
+//! error. Parsing errors come from serde-saphyr with line, column and a
+//! snippet; our own validation (an `ego:` naming no agent, a placement that
+//! is neither lane nor pose) points into the file through `Spanned` values.
+//! Errors carry the file's text so the CLI can render them with miette.
+//! `safer schema` exports a JSON Schema per spec kind for editors.
+
+pub mod paths;
+pub mod planner;
+pub mod scenario;
+pub mod suite;
+
+use std::path::{Path, PathBuf};
+
+use serde::de::DeserializeOwned;
+
+/// A position in a spec file.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct SpecLocation {
+    /// 1-based line.
+    pub line: u64,
+    /// 1-based column.
+    pub column: u64,
+}
+
+impl SpecLocation {
+    /// From a serde-saphyr location (`None` when it is unknown, 0:0).
+    pub fn from_saphyr(l: &serde_saphyr::Location) -> Option<Self> {
+        (l.line() > 0).then(|| Self { line: l.line(), column: l.column() })
+    }
+}
+
+/// Why a spec could not be loaded.
+#[derive(Debug, thiserror::Error)]
+pub enum SpecError {
+    /// The file could not be read.
+    #[error("{path}: cannot read: {source}", path = path.display())]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The OS error.
+        #[source]
+        source: std::io::Error,
+    },
+    /// YAML syntax or a value of the wrong shape or type.
+    #[error("{path}:{location}: {message}", path = path.display(), location = fmt_location(location))]
+    Parse {
+        /// The file.
+        path: PathBuf,
+        /// Where, when known.
+        location: Option<SpecLocation>,
+        /// What is wrong and what was expected.
+        message: String,
+        /// The file's text, for rendering the snippet.
+        text: String,
+    },
+    /// The YAML parsed but says something impossible.
+    #[error("{path}:{location}: {message}", path = path.display(), location = fmt_location(location))]
+    Invalid {
+        /// The file.
+        path: PathBuf,
+        /// Where, when known.
+        location: Option<SpecLocation>,
+        /// What is wrong and what would be accepted.
+        message: String,
+        /// The file's text.
+        text: String,
+    },
+    /// A file a spec refers to could not be used.
+    #[error("{path}:{location}: {message}", path = path.display(), location = fmt_location(location))]
+    Reference {
+        /// The spec file.
+        path: PathBuf,
+        /// Where the reference is.
+        location: Option<SpecLocation>,
+        /// What is wrong with the referenced file.
+        message: String,
+        /// The file's text.
+        text: String,
+    },
+}
+
+fn fmt_location(l: &Option<SpecLocation>) -> String {
+    l.map_or_else(|| "?".to_string(), |l| format!("{}:{}", l.line, l.column))
+}
+
+impl SpecError {
+    /// The spec file the error is about.
+    pub fn path(&self) -> &Path {
+        match self {
+            Self::Io { path, .. }
+            | Self::Parse { path, .. }
+            | Self::Invalid { path, .. }
+            | Self::Reference { path, .. } => path,
+        }
+    }
+
+    /// A miette report with the offending line underlined.
+    pub fn to_report(&self) -> miette::Report {
+        let (text, location, message) = match self {
+            Self::Io { .. } => return miette::miette!("{self}"),
+            Self::Parse { text, location, message, .. }
+            | Self::Invalid { text, location, message, .. }
+            | Self::Reference { text, location, message, .. } => (text, location, message),
+        };
+        let offset = location.map(|l| line_column_to_offset(text, l)).unwrap_or(0);
+        let source = miette::NamedSource::new(self.path().display().to_string(), text.clone());
+        miette::miette!(labels = vec![miette::LabeledSpan::at_offset(offset, "here")], "{message}")
+            .with_source_code(source)
+    }
+}
+
+fn line_column_to_offset(text: &str, l: SpecLocation) -> usize {
+    let mut offset = 0;
+    for (i, line) in text.split_inclusive('\n').enumerate() {
+        if i + 1 == l.line as usize {
+            return offset + line.char_indices().nth(l.column.saturating_sub(1) as usize).map_or(0, |(b, _)| b);
+        }
+        offset += line.len();
+    }
+    offset
+}
+
+/// A parsed spec with the text it came from, for validation errors.
+#[derive(Debug, Clone)]
+pub struct Loaded<T> {
+    /// The parsed value.
+    pub value: T,
+    /// The file.
+    pub path: PathBuf,
+    /// The file's text.
+    pub text: String,
+}
+
+impl<T> Loaded<T> {
+    /// An [`SpecError::Invalid`] at `location` in this file.
+    pub fn invalid(&self, location: Option<SpecLocation>, message: impl Into<String>) -> SpecError {
+        SpecError::Invalid { path: self.path.clone(), location, message: message.into(), text: self.text.clone() }
+    }
+
+    /// A [`SpecError::Reference`] at `location` in this file.
+    pub fn reference(&self, location: Option<SpecLocation>, message: impl Into<String>) -> SpecError {
+        SpecError::Reference { path: self.path.clone(), location, message: message.into(), text: self.text.clone() }
+    }
+
+    /// The folder the file is in (relative references resolve against it).
+    pub fn dir(&self) -> &Path {
+        self.path.parent().unwrap_or(Path::new("."))
+    }
+}
+
+/// Parses YAML text (named `path` in messages) into `T`.
+pub fn parse_yaml<T: DeserializeOwned>(text: &str, path: &Path) -> Result<Loaded<T>, SpecError> {
+    // serde-saphyr's default budgets guard against YAML bombs.
+    match serde_saphyr::from_str::<T>(text) {
+        Ok(value) => Ok(Loaded { value, path: path.to_path_buf(), text: text.to_string() }),
+        Err(e) => Err(SpecError::Parse {
+            path: path.to_path_buf(),
+            location: e.location().as_ref().and_then(SpecLocation::from_saphyr),
+            message: first_line_message(&e),
+            text: text.to_string(),
+        }),
+    }
+}
+
+/// serde-saphyr's Display includes a rendered snippet; our message keeps
+/// the first line (the what) and the renderer adds the snippet.
+fn first_line_message(e: &serde_saphyr::Error) -> String {
+    let full = e.to_string();
+    full.lines().next().unwrap_or(&full).trim().to_string()
+}
+
+/// Reads and parses a YAML spec file.
+pub fn load_yaml<T: DeserializeOwned>(path: &Path) -> Result<Loaded<T>, SpecError> {
+    let text = std::fs::read_to_string(path).map_err(|source| SpecError::Io { path: path.to_path_buf(), source })?;
+    parse_yaml(&text, path)
+}
+
+/// The JSON Schema of each spec kind, for editors (`safer schema`).
+pub fn json_schema(kind: SpecKind) -> serde_json::Value {
+    let schema = match kind {
+        SpecKind::Scenario => schemars::schema_for!(scenario::ScenarioSpec),
+        SpecKind::Suite => schemars::schema_for!(suite::SuiteSpec),
+        SpecKind::Planner => schemars::schema_for!(planner::PlannerSpec),
+    };
+    serde_json::to_value(schema).unwrap_or_default()
+}
+
+/// The kinds of spec file.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum SpecKind {
+    /// `specs/scenarios/*.yaml`.
+    Scenario,
+    /// `specs/suites/*.yaml`.
+    Suite,
+    /// `planners/*.yaml`.
+    Planner,
+}

@@ -1,0 +1,141 @@
+//! Planner adapters (`planners/*.yaml`): which planner drives the ego.
+//!
+//! ```yaml
+//! # planners/idm.yaml
+//! name: idm
+//! builtin: idm
+//! ```
+//! ```yaml
+//! # planners/example-python.yaml
+//! name: example-python
+//! external:
+//!   command: python3
+//!   args: [example_planner.py]
+//!   step_timeout_ms: 1000
+//! ```
+
+use schemars::JsonSchema;
+use serde::Deserialize;
+
+use crate::planners::BuiltinPlanner;
+use crate::policies::IdmParams;
+
+/// A planner adapter spec. Exactly one of `builtin`, `external` and `onnx`.
+#[derive(Debug, Clone, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct PlannerSpec {
+    /// Name used in reports and test names.
+    pub name: String,
+    /// A built-in planner.
+    #[serde(default)]
+    pub builtin: Option<BuiltinPlanner>,
+    /// Parameters of the built-in IDM planner.
+    #[serde(default)]
+    #[schemars(with = "Option<serde_json::Value>")]
+    pub idm: Option<IdmParams>,
+    /// An external process speaking the JSON-lines planner protocol (docs/planner-protocol.md).
+    #[serde(default)]
+    pub external: Option<ExternalSpec>,
+    /// An ONNX policy run with tract (not available yet: refused at load).
+    #[serde(default)]
+    pub onnx: Option<OnnxSpec>,
+}
+
+/// An external planner process.
+#[derive(Debug, Clone, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct ExternalSpec {
+    /// Program to run (looked up on PATH unless it contains a slash).
+    pub command: String,
+    /// Arguments; relative file arguments are relative to the spec's folder,
+    /// which is also the working directory.
+    #[serde(default)]
+    pub args: Vec<String>,
+    /// Per-step answer timeout, ms.
+    #[serde(default = "default_step_timeout")]
+    pub step_timeout_ms: u64,
+    /// Time allowed to start and answer `hello`, ms.
+    #[serde(default = "default_startup_timeout")]
+    pub startup_timeout_ms: u64,
+}
+
+fn default_step_timeout() -> u64 {
+    1000
+}
+fn default_startup_timeout() -> u64 {
+    10_000
+}
+
+/// An ONNX policy.
+#[derive(Debug, Clone, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct OnnxSpec {
+    /// The model file.
+    pub model: String,
+}
+
+/// A validated planner adapter.
+#[derive(Debug, Clone)]
+pub enum PlannerAdapter {
+    /// Built-in.
+    Builtin {
+        /// Name for reports.
+        name: String,
+        /// Which.
+        planner: BuiltinPlanner,
+        /// IDM parameters.
+        idm: IdmParams,
+    },
+    /// External process, started in `working_dir`.
+    External {
+        /// Name for reports.
+        name: String,
+        /// The process.
+        spec: ExternalSpec,
+        /// Working directory (the spec's folder).
+        working_dir: std::path::PathBuf,
+    },
+}
+
+impl PlannerAdapter {
+    /// Name for reports and test names.
+    pub fn name(&self) -> &str {
+        match self {
+            Self::Builtin { name, .. } | Self::External { name, .. } => name,
+        }
+    }
+}
+
+impl super::Loaded<PlannerSpec> {
+    /// Checks that exactly one kind is given and that it is available.
+    pub fn validate(&self) -> Result<PlannerAdapter, super::SpecError> {
+        let s = &self.value;
+        let given = [s.builtin.is_some(), s.external.is_some(), s.onnx.is_some()].iter().filter(|b| **b).count();
+        if given != 1 {
+            return Err(self.invalid(
+                None,
+                format!(
+                    "planner `{}` must have exactly one of `builtin: idm`, `external: {{command: ...}}` or `onnx: {{model: ...}}`; found {given}",
+                    s.name
+                ),
+            ));
+        }
+        if s.idm.is_some() && s.builtin != Some(BuiltinPlanner::Idm) {
+            return Err(self.invalid(None, "`idm:` parameters apply only to `builtin: idm`"));
+        }
+        if let Some(b) = s.builtin {
+            return Ok(PlannerAdapter::Builtin { name: s.name.clone(), planner: b, idm: s.idm.unwrap_or_default() });
+        }
+        if let Some(e) = &s.external {
+            return Ok(PlannerAdapter::External {
+                name: s.name.clone(),
+                spec: e.clone(),
+                working_dir: self.dir().to_path_buf(),
+            });
+        }
+        Err(self.invalid(
+            None,
+            "ONNX planner policies are not supported yet (tract integration lands with the learned models); use `builtin` or `external`",
+        ))
+    }
+}

@@ -1,0 +1,404 @@
+//! Base-scenario specs (`specs/scenarios/*.yaml`): authored on a map
+//! template, or taken from a recorded log.
+//!
+//! ```yaml
+//! name: highway-cut-in
+//! duration_s: 8
+//! map:
+//!   straight: { lanes: 2, length_m: 400, speed_limit_mps: 25 }
+//! agents:
+//!   - { id: ego, lane: 0, s_m: 60, speed_mps: 22 }
+//!   - { id: lead, lane: 0, s_m: 110, speed_mps: 18 }
+//!   - { id: cbv, lane: 1, s_m: 45, speed_mps: 26 }
+//! ego: ego
+//! cbv: cbv
+//! ```
+//! ```yaml
+//! name: womd-intersection
+//! recorded:
+//!   path: data:womd-tfrecord/motion_data_one_scenario.tfrecord
+//!   ego: "2406"      # optional: override the source's ego
+//!   cbv: "1641"      # optional: override conflict mining
+//! ```
+
+use schemars::JsonSchema;
+use serde::Deserialize;
+use serde_saphyr::Spanned;
+
+use super::{Loaded, SpecError, SpecLocation, paths};
+use crate::geometry::{Point2, Vector2};
+use crate::map::MapElementId;
+use crate::map::templates::MapTemplate;
+use crate::policies::IdmParams;
+use crate::scenario::{AgentBody, AgentId, AgentKind, AgentState, RoleOrigin, Scenario, TrackIndex, import};
+use crate::sim::authoring::{AuthoredAgent, AuthoredBehaviour, AuthoredScenario, synthesize};
+
+/// A base scenario: `map` + `agents` + `ego` (authored) or `recorded`.
+#[derive(Debug, Clone, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct ScenarioSpec {
+    /// Name used in test names (`suite::scenario::variant`).
+    pub name: String,
+    /// What the scenario is about.
+    #[serde(default)]
+    pub description: Option<String>,
+    /// Authored: the map template.
+    #[serde(default)]
+    pub map: Option<MapTemplate>,
+    /// Authored: the agents.
+    #[serde(default)]
+    pub agents: Vec<AgentSpec>,
+    /// Authored: id of the ego agent.
+    #[serde(default)]
+    #[schemars(with = "Option<String>")]
+    pub ego: Option<Spanned<String>>,
+    /// Authored: id of the critical background vehicle.
+    #[serde(default)]
+    #[schemars(with = "Option<String>")]
+    pub cbv: Option<Spanned<String>>,
+    /// Authored: duration, s.
+    #[serde(default)]
+    pub duration_s: Option<f64>,
+    /// A recorded log instead of an authored scene.
+    #[serde(default)]
+    pub recorded: Option<RecordedSpec>,
+}
+
+/// A scenario taken from a recorded log.
+#[derive(Debug, Clone, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct RecordedSpec {
+    /// The file (WOMD .tfrecord/.json, CommonRoad .xml, AV2 folder); `data:REL` for the shared data.
+    #[schemars(with = "String")]
+    pub path: Spanned<String>,
+    /// Override the ego by agent id.
+    #[serde(default)]
+    #[schemars(with = "Option<String>")]
+    pub ego: Option<Spanned<String>>,
+    /// Override the CBV by agent id.
+    #[serde(default)]
+    #[schemars(with = "Option<String>")]
+    pub cbv: Option<Spanned<String>>,
+    /// For files holding several scenarios (TFRecord): which one, by id.
+    #[serde(default)]
+    pub scenario_id: Option<String>,
+}
+
+/// Agent types in specs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum AgentKindSpec {
+    /// Car.
+    #[default]
+    Vehicle,
+    /// Pedestrian.
+    Pedestrian,
+    /// Cyclist.
+    Cyclist,
+}
+
+/// How an authored agent drives while its log is generated.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, JsonSchema)]
+#[serde(rename_all = "kebab-case")]
+pub enum BehaviourSpec {
+    /// Lane following with IDM speed control.
+    #[default]
+    Idm,
+    /// Constant speed and heading.
+    ConstantVelocity,
+    /// Standing still.
+    Parked,
+}
+
+/// An authored agent: placed on a lane (`lane` + `s_m`) or at a pose (`x_m`, `y_m`, `heading_deg`).
+#[derive(Debug, Clone, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct AgentSpec {
+    /// Unique id.
+    #[schemars(with = "String")]
+    pub id: Spanned<String>,
+    /// Type.
+    #[serde(default)]
+    pub kind: AgentKindSpec,
+    /// Length, m (default by kind).
+    #[serde(default)]
+    pub length_m: Option<f64>,
+    /// Width, m (default by kind).
+    #[serde(default)]
+    pub width_m: Option<f64>,
+    /// Lane id of the template (see the template's docs).
+    #[serde(default)]
+    pub lane: Option<i64>,
+    /// Arc length along the lane's centreline, m.
+    #[serde(default)]
+    pub s_m: Option<f64>,
+    /// Offset to the left of the centreline, m.
+    #[serde(default)]
+    pub lateral_offset_m: Option<f64>,
+    /// Position x, m (pose placement).
+    #[serde(default)]
+    pub x_m: Option<f64>,
+    /// Position y, m (pose placement).
+    #[serde(default)]
+    pub y_m: Option<f64>,
+    /// Heading, degrees counter-clockwise from +x (pose placement).
+    #[serde(default)]
+    pub heading_deg: Option<f64>,
+    /// Initial speed, m/s.
+    pub speed_mps: f64,
+    /// Behaviour while the scene's log is generated.
+    #[serde(default)]
+    pub behaviour: BehaviourSpec,
+    /// Desired speed for `idm`, m/s (default: lane limit, else start speed).
+    #[serde(default)]
+    pub desired_speed_mps: Option<f64>,
+}
+
+fn loc<T>(s: &Spanned<T>) -> Option<SpecLocation> {
+    SpecLocation::from_saphyr(&s.referenced)
+}
+
+fn default_size(kind: AgentKindSpec) -> (f64, f64) {
+    match kind {
+        AgentKindSpec::Vehicle => (4.6, 1.9),
+        AgentKindSpec::Pedestrian => (0.6, 0.6),
+        AgentKindSpec::Cyclist => (1.8, 0.7),
+    }
+}
+
+impl Loaded<ScenarioSpec> {
+    /// Builds the scenarios this spec describes (a recorded TFRecord may hold several).
+    pub fn build(&self) -> Result<Vec<Scenario>, SpecError> {
+        let s = &self.value;
+        let authored = s.map.is_some() || !s.agents.is_empty() || s.ego.is_some() || s.duration_s.is_some();
+        match (&s.recorded, authored) {
+            (Some(r), false) => self.build_recorded(r),
+            (None, true) => Ok(vec![self.build_authored()?]),
+            (Some(_), true) => Err(self.invalid(
+                None,
+                "a scenario is either `recorded:` or authored (`map`, `agents`, `ego`, `duration_s`), not both",
+            )),
+            (None, false) => Err(self.invalid(
+                None,
+                "empty scenario: give `recorded: {path: ...}` or `map:`, `agents:`, `ego:` and `duration_s:`",
+            )),
+        }
+    }
+
+    fn build_recorded(&self, r: &RecordedSpec) -> Result<Vec<Scenario>, SpecError> {
+        let path = paths::resolve(self.dir(), &r.path.value);
+        let mut scenarios = import::load(&path).map_err(|e| self.reference(loc(&r.path), e.to_string()))?;
+        if let Some(id) = &r.scenario_id {
+            scenarios.retain(|s| &s.id == id);
+            if scenarios.is_empty() {
+                return Err(self.reference(loc(&r.path), format!("no scenario with id `{id}` in {}", path.display())));
+            }
+        }
+        for sc in &mut scenarios {
+            let find = |id: &Spanned<String>| {
+                sc.tracks.iter().position(|t| t.id.0 == id.value).map(TrackIndex).ok_or_else(|| {
+                    self.invalid(loc(id), format!("no agent with id `{}` in scenario {}", id.value, sc.id))
+                })
+            };
+            let ego = r.ego.as_ref().map(find).transpose()?;
+            let cbv = r.cbv.as_ref().map(find).transpose()?;
+            if let Some(e) = ego {
+                sc.ego = Some(e);
+                sc.ego_origin = RoleOrigin::Source;
+                if cbv.is_none() {
+                    sc.cbv = None;
+                    crate::scenario::roles::assign(sc);
+                }
+            }
+            if let Some(c) = cbv {
+                sc.cbv = Some(c);
+                sc.cbv_origin = RoleOrigin::Source;
+            }
+            if sc.ego.is_some() && sc.ego == sc.cbv {
+                return Err(self.invalid(r.cbv.as_ref().and_then(loc), "the CBV cannot be the ego"));
+            }
+        }
+        Ok(scenarios)
+    }
+
+    fn build_authored(&self) -> Result<Scenario, SpecError> {
+        let s = &self.value;
+        let template = s
+            .map
+            .as_ref()
+            .ok_or_else(|| self.invalid(None, "authored scenario needs `map:` (straight, merge or intersection)"))?;
+        let duration_s = s.duration_s.ok_or_else(|| self.invalid(None, "authored scenario needs `duration_s:`"))?;
+        if !(duration_s > 0.0 && duration_s <= 60.0) {
+            return Err(self.invalid(None, format!("duration_s must be in (0, 60] s, got {duration_s}")));
+        }
+        let map = template.build();
+        let mut agents = Vec::new();
+        for a in &s.agents {
+            if agents.iter().any(|x: &AuthoredAgent| x.id.0 == a.id.value) {
+                return Err(self.invalid(loc(&a.id), format!("duplicate agent id `{}`", a.id.value)));
+            }
+            let (position, heading_rad) = match (a.lane, a.s_m, a.x_m, a.y_m, a.heading_deg) {
+                (Some(lane), Some(s_m), None, None, None) => {
+                    let l = map.lane(MapElementId(lane)).ok_or_else(|| {
+                        let ids: Vec<String> = map.lanes.iter().map(|l| l.id.0.to_string()).collect();
+                        self.invalid(
+                            loc(&a.id),
+                            format!("agent `{}`: no lane {lane} in this map; lanes are {}", a.id.value, ids.join(", ")),
+                        )
+                    })?;
+                    if s_m < 0.0 || s_m > l.centreline.length_m() {
+                        return Err(self.invalid(
+                            loc(&a.id),
+                            format!(
+                                "agent `{}`: s_m {s_m} is outside lane {lane} (0..{:.1} m)",
+                                a.id.value,
+                                l.centreline.length_m()
+                            ),
+                        ));
+                    }
+                    let (p, t) = l.centreline.sample(s_m).expect("lane has points");
+                    let left = Vector2::new(-t.y, t.x);
+                    (p + left * a.lateral_offset_m.unwrap_or(0.0), t.y.atan2(t.x))
+                }
+                (None, None, Some(x), Some(y), Some(h)) if a.lateral_offset_m.is_none() => {
+                    (Point2::new(x, y), crate::geometry::wrap_angle(h.to_radians()))
+                }
+                _ => {
+                    return Err(self.invalid(
+                        loc(&a.id),
+                        format!(
+                            "agent `{}`: place it either on a lane (`lane`, `s_m`, optional `lateral_offset_m`) or at a pose (`x_m`, `y_m`, `heading_deg`)",
+                            a.id.value
+                        ),
+                    ));
+                }
+            };
+            if !(a.speed_mps.is_finite() && a.speed_mps >= 0.0) {
+                return Err(self.invalid(loc(&a.id), format!("agent `{}`: speed_mps must be ≥ 0", a.id.value)));
+            }
+            let (dl, dw) = default_size(a.kind);
+            let kind = match a.kind {
+                AgentKindSpec::Vehicle => AgentKind::Vehicle,
+                AgentKindSpec::Pedestrian => AgentKind::Pedestrian,
+                AgentKindSpec::Cyclist => AgentKind::Cyclist,
+            };
+            let behaviour = match a.behaviour {
+                BehaviourSpec::Idm => {
+                    AuthoredBehaviour::Idm(IdmParams { desired_speed_mps: a.desired_speed_mps, ..IdmParams::default() })
+                }
+                BehaviourSpec::ConstantVelocity => AuthoredBehaviour::ConstantVelocity,
+                BehaviourSpec::Parked => AuthoredBehaviour::Parked,
+            };
+            agents.push(AuthoredAgent {
+                id: AgentId(a.id.value.clone()),
+                body: AgentBody { kind, length_m: a.length_m.unwrap_or(dl), width_m: a.width_m.unwrap_or(dw) },
+                initial: AgentState {
+                    position,
+                    heading_rad,
+                    velocity_mps: Vector2::new(heading_rad.cos(), heading_rad.sin()) * a.speed_mps,
+                },
+                behaviour,
+            });
+        }
+        let find = |id: &Spanned<String>, role: &str| {
+            agents.iter().position(|a| a.id.0 == id.value).ok_or_else(|| {
+                let ids: Vec<&str> = agents.iter().map(|a| a.id.0.as_str()).collect();
+                self.invalid(loc(id), format!("{role} `{}` is not one of the agents ({})", id.value, ids.join(", ")))
+            })
+        };
+        let ego = s
+            .ego
+            .as_ref()
+            .ok_or_else(|| self.invalid(None, "authored scenario needs `ego:` naming one of the agents"))?;
+        let ego = find(ego, "ego")?;
+        let cbv = s.cbv.as_ref().map(|c| find(c, "cbv")).transpose()?;
+        if cbv == Some(ego) {
+            return Err(self.invalid(s.cbv.as_ref().and_then(loc), "the CBV cannot be the ego"));
+        }
+        Ok(synthesize(&AuthoredScenario {
+            id: s.name.clone(),
+            path: self.path.clone(),
+            map,
+            agents,
+            ego,
+            cbv,
+            duration_s,
+        }))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::spec::parse_yaml;
+    use std::path::Path;
+
+    const CUT_IN: &str = "\
+name: cut-in
+duration_s: 6
+map:
+  straight: { lanes: 2, length_m: 400 }
+agents:
+  - { id: ego, lane: 0, s_m: 60, speed_mps: 20 }
+  - { id: cbv, lane: 1, s_m: 40, speed_mps: 24, behaviour: constant-velocity }
+ego: ego
+cbv: cbv
+";
+
+    fn load(text: &str) -> Result<Vec<Scenario>, SpecError> {
+        parse_yaml::<ScenarioSpec>(text, Path::new("specs/scenarios/t.yaml"))?.build()
+    }
+
+    #[test]
+    fn authored_scene_becomes_full_tracks() {
+        let s = load(CUT_IN).unwrap().remove(0);
+        assert_eq!(s.num_steps(), 61);
+        assert_eq!(s.tracks.len(), 2);
+        assert_eq!((s.ego, s.cbv), (Some(TrackIndex(0)), Some(TrackIndex(1))));
+        assert!(s.tracks.iter().all(|t| t.valid_steps() == 61));
+        // The constant-velocity CBV covers 24 m/s × 6 s.
+        let x = |k: usize| s.tracks[1].state(k).unwrap().position.x;
+        assert!((x(60) - x(0) - 144.0).abs() < 1e-6);
+        s.validate().unwrap();
+    }
+
+    #[test]
+    fn typo_in_a_field_names_line_and_column() {
+        let err = load(&CUT_IN.replace("speed_mps: 20", "sped_mps: 20")).unwrap_err();
+        let SpecError::Parse { location: Some(l), message, .. } = &err else { panic!("{err:?}") };
+        assert_eq!(l.line, 6, "{err}");
+        assert!(message.contains("sped_mps"), "{message}");
+        assert!(err.to_string().starts_with("specs/scenarios/t.yaml:6:"), "{err}");
+    }
+
+    #[test]
+    fn wrong_type_is_located() {
+        let err = load(&CUT_IN.replace("duration_s: 6", "duration_s: six")).unwrap_err();
+        assert!(matches!(&err, SpecError::Parse { location: Some(l), .. } if l.line == 2), "{err}");
+    }
+
+    #[test]
+    fn unknown_ego_and_lane_point_at_the_agent() {
+        let err = load(&CUT_IN.replace("ego: ego", "ego: eggo")).unwrap_err();
+        let SpecError::Invalid { location: Some(l), message, .. } = &err else { panic!("{err:?}") };
+        assert_eq!(l.line, 8);
+        assert!(message.contains("eggo") && message.contains("ego, cbv"), "{message}");
+        let err = load(&CUT_IN.replace("lane: 1,", "lane: 7,")).unwrap_err();
+        assert!(err.to_string().contains("no lane 7") && err.to_string().contains(":7:"), "{err}");
+    }
+
+    #[test]
+    fn half_placed_agent_and_mixed_kinds_are_refused() {
+        let err = load(&CUT_IN.replace("lane: 0, s_m: 60,", "lane: 0,")).unwrap_err();
+        assert!(err.to_string().contains("either on a lane"), "{err}");
+        let err = load(&format!("{CUT_IN}recorded: {{ path: x.json }}\n")).unwrap_err();
+        assert!(err.to_string().contains("not both"), "{err}");
+    }
+
+    #[test]
+    fn missing_recorded_file_is_a_reference_error() {
+        let err = load("name: r\nrecorded:\n  path: nowhere.json\n").unwrap_err();
+        assert!(matches!(&err, SpecError::Reference { location: Some(l), .. } if l.line == 3), "{err}");
+        assert!(err.to_string().contains("nowhere.json"), "{err}");
+    }
+}
