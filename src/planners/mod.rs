@@ -1,10 +1,12 @@
 //! The ego under test: the [`Planner`] trait every planner implements
-//! (built-ins here; external processes and ONNX policies later), the
-//! observation it receives and the output it returns.
+//! (built-ins, external processes speaking the JSON-lines protocol; ONNX
+//! policies later), the observation it receives and the output it returns.
 
 pub mod builtin;
+pub mod external;
 
 pub use builtin::{BuiltinPlanner, ConstantVelocityPlanner, IdmPlanner, LogReplayPlanner};
+pub use external::{ExternalPlanner, ExternalPlannerConfig};
 
 use crate::map::{MapElementId, RoadMap, SignalState};
 use crate::motion::Action;
@@ -82,6 +84,62 @@ pub enum PlannerError {
     /// The output is unusable (NaN, empty trajectory, times not increasing).
     #[error("planner output is invalid: {0}")]
     InvalidOutput(String),
+    /// An external planner's process could not be started (e.g. command not
+    /// found, not executable, bad working directory).
+    #[error("external planner `{planner}`: could not start `{command}`: {reason}")]
+    SpawnFailed {
+        /// Planner name.
+        planner: String,
+        /// The command as configured.
+        command: String,
+        /// The operating system's reason.
+        reason: String,
+    },
+    /// An external planner's process exited (or closed its stdout) while the
+    /// harness waited for an answer.
+    #[error("external planner `{planner}` {what} {during}{}", external::format_stderr_tail(.stderr_tail))]
+    Crashed {
+        /// Planner name.
+        planner: String,
+        /// What happened, e.g. `exited with exit status: 3`.
+        what: String,
+        /// When, e.g. `at step 12` or `during startup`.
+        during: String,
+        /// The last lines it wrote to stderr, oldest first.
+        stderr_tail: Vec<String>,
+    },
+    /// An external planner did not answer within its timeout.
+    #[error("external planner `{planner}` did not answer {during} within {timeout_ms} ms")]
+    Timeout {
+        /// Planner name.
+        planner: String,
+        /// When, e.g. `at step 12` or `during startup`.
+        during: String,
+        /// The timeout that ran out, ms.
+        timeout_ms: u64,
+    },
+    /// An external planner broke the protocol: a line that is not JSON, an
+    /// unknown or unexpected message, a missing or non-finite number, a wrong
+    /// protocol version.
+    #[error("external planner `{planner}` broke the protocol {during}: {message}")]
+    Protocol {
+        /// Planner name.
+        planner: String,
+        /// When, e.g. `at step 12` or `during startup`.
+        during: String,
+        /// What was wrong, quoting the offending line.
+        message: String,
+    },
+    /// An external planner answered with an `error` message.
+    #[error("external planner `{planner}` reported an error {during}: {message}")]
+    Reported {
+        /// Planner name.
+        planner: String,
+        /// When, e.g. `at step 12` or `during startup`.
+        during: String,
+        /// Its message.
+        message: String,
+    },
 }
 
 /// The ego's driver.

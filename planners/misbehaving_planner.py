@@ -1,0 +1,89 @@
+#!/usr/bin/env python3
+"""A deliberately broken external planner, for testing how the harness
+handles planner failures. Standard library only.
+
+Usage: misbehaving_planner.py MODE [N]
+
+It handshakes normally (except in the startup modes), answers the first N
+observations (default 0) with a gentle braking control, then misbehaves:
+
+  crash          writes a traceback-like message to stderr and exits with status 3
+  hang           stops answering (sleeps forever, reading nothing)
+  garbage        prints a line that is not JSON
+  nan            prints a control whose acceleration is NaN (json.dumps's default)
+  unknown        prints a JSON object of an unknown message type
+  missing        prints a control without `yaw_rate_radps`
+  error          sends {"type": "error"} with a message
+  chatty         prints a debug line on stdout where its reply should be
+  deaf           answers hello, then sleeps without reading (ignores bye)
+  slow-start     sleeps 60 s before answering hello
+  bad-version    answers hello with protocol 2
+  exit-at-start  exits with status 7 before answering hello
+"""
+
+import json
+import sys
+import time
+
+
+def send_raw(line):
+    sys.stdout.write(line + "\n")
+    sys.stdout.flush()
+
+
+def send(message):
+    send_raw(json.dumps(message))
+
+
+def main():
+    mode = sys.argv[1] if len(sys.argv) > 1 else "crash"
+    good_steps = int(sys.argv[2]) if len(sys.argv) > 2 else 0
+    answered = 0
+    for line in sys.stdin:
+        message = json.loads(line)
+        kind = message["type"]
+        if kind == "hello":
+            if mode == "slow-start":
+                time.sleep(60)
+            if mode == "exit-at-start":
+                print("misbehaving_planner: giving up before hello", file=sys.stderr, flush=True)
+                return 7
+            version = 2 if mode == "bad-version" else 1
+            send({"type": "ready", "protocol": version, "name": f"misbehaving-{mode}"})
+            if mode == "deaf":
+                while True:
+                    time.sleep(3600)
+            continue
+        if kind == "bye":
+            return 0
+        if answered < good_steps:
+            answered += 1
+            send({"type": "control", "accel_mps2": -1.0, "yaw_rate_radps": 0.0})
+            continue
+        if mode == "crash":
+            print("Traceback (most recent call last):", file=sys.stderr)
+            print(f"misbehaving_planner: crashing at step {message['step']}", file=sys.stderr, flush=True)
+            return 3
+        if mode == "hang":
+            while True:
+                time.sleep(3600)
+        if mode == "garbage":
+            send_raw("this is not JSON, it is a planner talking to itself")
+        elif mode == "nan":
+            send({"type": "control", "accel_mps2": float("nan"), "yaw_rate_radps": 0.0})
+        elif mode == "unknown":
+            send({"type": "steer", "angle": 0.1})
+        elif mode == "missing":
+            send({"type": "control", "accel_mps2": 0.0})
+        elif mode == "error":
+            send({"type": "error", "message": "planner lost its localisation"})
+        elif mode == "chatty":
+            send_raw("debug: thinking...")
+            send({"type": "control", "accel_mps2": 0.0, "yaw_rate_radps": 0.0})
+        else:
+            send({"type": "control", "accel_mps2": 0.0, "yaw_rate_radps": 0.0})
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
