@@ -50,7 +50,7 @@ use std::collections::VecDeque;
 use std::io::{BufRead, BufReader, Read, Write};
 use std::path::PathBuf;
 use std::process::{Child, ChildStdin, Command, ExitStatus, Stdio};
-use std::sync::mpsc::{self, Receiver, RecvTimeoutError, Sender, TryRecvError};
+use std::sync::mpsc::{self, Receiver, RecvTimeoutError, Sender, SyncSender, TryRecvError};
 use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
@@ -94,6 +94,8 @@ const STDERR_LINE_CHARS: usize = 500;
 /// Bytes read of one stdout line before it is refused: a planner that
 /// prints without newlines must not exhaust the harness's memory.
 const MAX_REPLY_BYTES: usize = 16 << 20;
+/// Stdout lines queued between the reader thread and the harness.
+const STDOUT_QUEUE_LINES: usize = 64;
 /// Bytes read of one stderr line (the rest is skipped).
 const MAX_STDERR_LINE_BYTES: usize = 4096;
 /// Time a process gets to exit after `bye` before it is killed.
@@ -832,7 +834,9 @@ impl Process {
             return Err(spawn_failed("its standard streams could not be piped".into()));
         };
         let (to_stdin, stdin_rx) = mpsc::channel::<String>();
-        let (stdout_tx, from_stdout) = mpsc::channel();
+        // Bounded: a planner flooding stdout is held back by the pipe instead
+        // of filling the harness's memory (it fails at its next step anyway).
+        let (stdout_tx, from_stdout) = mpsc::sync_channel(STDOUT_QUEUE_LINES);
         let (stderr_done_tx, stderr_done) = mpsc::channel::<()>();
         let stderr_tail = Arc::new(Mutex::new(VecDeque::new()));
         let mut process = Process {
@@ -845,7 +849,8 @@ impl Process {
             threads: Vec::new(),
             exited: None,
         };
-        let name = &config.name;
+        // Thread names may not contain NUL (spawning would panic).
+        let name = config.name.replace('\0', "?");
         let spawned = [
             std::thread::Builder::new()
                 .name(format!("planner {name} stdin"))
@@ -1036,7 +1041,7 @@ fn write_lines(mut stdin: ChildStdin, lines: Receiver<String>) {
 
 /// Stdout reader: forwards lines until end of file (dropping the sender
 /// tells the harness) or until nobody listens.
-fn read_stdout(stdout: impl Read, events: Sender<StdoutEvent>) {
+fn read_stdout(stdout: impl Read, events: SyncSender<StdoutEvent>) {
     let mut reader = BufReader::new(stdout);
     loop {
         let mut line = Vec::new();
