@@ -37,6 +37,11 @@ LOOKAHEAD_MIN_M = 4.0
 LOOKAHEAD_TIME_S = 0.8  # the look-ahead grows with speed for smooth tracking
 MAX_YAW_RATE_RADPS = 1.0
 
+# Curves: keep lateral acceleration and yaw rate within these limits, and
+# slow down early enough (at the comfortable deceleration) for curves ahead.
+MAX_LATERAL_ACCEL_MPS2 = 2.0
+CURVE_PREVIEW_M = 40.0
+
 # An agent is "in the path" when its box comes this close to the route
 # laterally (half widths plus a margin).
 PATH_MARGIN_M = 0.5
@@ -149,11 +154,37 @@ def leader(obs, path, s_ego):
     return best
 
 
+def heading_at(path, s):
+    """Direction of the path at arc length s, radians."""
+    x0, y0 = point_at(path, s)
+    x1, y1 = point_at(path, s + 1.0)
+    return math.atan2(y1 - y0, x1 - x0)
+
+
+def curve_speed(path, s_ego):
+    """The highest speed from which every curve in the next CURVE_PREVIEW_M
+    can still be taken within the lateral-acceleration and yaw-rate limits,
+    braking at the comfortable deceleration on the way."""
+    allowed = DESIRED_SPEED_MPS
+    d = 0.0
+    while d <= CURVE_PREVIEW_M:
+        # Curvature over a 4 m window: heading change / distance.
+        dh = heading_at(path, s_ego + d + 4.0) - heading_at(path, s_ego + d)
+        dh = math.atan2(math.sin(dh), math.cos(dh))
+        kappa = abs(dh) / 4.0
+        if kappa > 1e-3:
+            v_curve = min(math.sqrt(MAX_LATERAL_ACCEL_MPS2 / kappa), MAX_YAW_RATE_RADPS / kappa)
+            allowed = min(allowed, math.sqrt(v_curve * v_curve + 2.0 * COMFORT_DECEL_MPS2 * d))
+        d += 2.0
+    return max(allowed, 1.0)
+
+
 def accelerate(obs, path, s_ego):
-    """IDM acceleration: free-road term towards the desired speed, minus an
-    interaction term that keeps the time headway to the leader."""
+    """IDM acceleration: free-road term towards the desired speed (lowered
+    for curves ahead), minus an interaction term that keeps the time
+    headway to the leader."""
     v = obs["ego"]["speed_mps"]
-    free = 1.0 - (v / DESIRED_SPEED_MPS) ** 4
+    free = 1.0 - (v / curve_speed(path, s_ego)) ** 4
     interaction = 0.0
     lead = leader(obs, path, s_ego)
     if lead is not None:
