@@ -31,7 +31,21 @@ pub fn check(criteria: &VariantAcceptance, rollout: &Rollout, min_ttc_s: Option<
         && let Some(c) = &summary.ego_collision
     {
         let role = if c.with_cbv { " (the CBV)" } else { "" };
-        out.push(fail("no_collision", format!("ego collided with agent {}{role} at t = {:.1} s", c.other, c.time_s)));
+        let fault = if c.at_fault { "" } else { ", not at fault" };
+        out.push(fail(
+            "no_collision",
+            format!("ego collided with agent {}{role} at t = {:.1} s ({:?}{fault})", c.other, c.time_s, c.kind),
+        ));
+    }
+    if criteria.no_at_fault_collision
+        && !criteria.no_collision
+        && let Some(c) = summary.ego_collision.as_ref().filter(|c| c.at_fault)
+    {
+        let role = if c.with_cbv { " (the CBV)" } else { "" };
+        out.push(fail(
+            "no_at_fault_collision",
+            format!("ego caused a collision ({:?}) with agent {}{role} at t = {:.1} s", c.kind, c.other, c.time_s),
+        ));
     }
     if criteria.no_off_road
         && let Some(t) = summary.ego_off_road_s

@@ -15,6 +15,51 @@ use std::collections::BTreeSet;
 use crate::geometry::OrientedBox;
 use crate::scenario::{AgentBody, AgentKind, AgentState, Scenario, TrackIndex};
 
+/// How the ego was involved in a collision, after nuPlan's categories.
+/// Rear-end hits on the ego and hits on a stopped ego are not its fault;
+/// front and lateral contacts, and hitting a stopped agent, are.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum EgoCollisionKind {
+    /// The ego was (nearly) stopped.
+    StoppedEgo,
+    /// The other agent was stopped and the ego moved into it.
+    StoppedOther,
+    /// Contact ahead of the ego (within 45° of its heading).
+    ActiveFront,
+    /// Contact behind the ego (within 45° of its tail): it was hit from behind.
+    ActiveRear,
+    /// Contact on the ego's side.
+    ActiveLateral,
+}
+
+impl EgoCollisionKind {
+    /// Whether the ego is at fault.
+    pub fn ego_at_fault(self) -> bool {
+        !matches!(self, Self::StoppedEgo | Self::ActiveRear)
+    }
+
+    /// Classifies a contact between the ego and another agent.
+    pub fn classify(ego: &AgentState, other: &AgentState) -> Self {
+        const STOPPED_MPS: f64 = 0.05;
+        if ego.speed_mps() < STOPPED_MPS {
+            return Self::StoppedEgo;
+        }
+        if other.speed_mps() < STOPPED_MPS {
+            return Self::StoppedOther;
+        }
+        let rel = ego.pose().to_body(&other.position);
+        let bearing = rel.y.atan2(rel.x).abs();
+        if bearing <= std::f64::consts::FRAC_PI_4 {
+            Self::ActiveFront
+        } else if bearing >= 3.0 * std::f64::consts::FRAC_PI_4 {
+            Self::ActiveRear
+        } else {
+            Self::ActiveLateral
+        }
+    }
+}
+
 /// Two agents' boxes touched.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct CollisionEvent {
@@ -26,6 +71,8 @@ pub struct CollisionEvent {
     pub b: TrackIndex,
     /// Whether the ego is one of the two.
     pub involves_ego: bool,
+    /// How the ego was involved, when it was.
+    pub ego_kind: Option<EgoCollisionKind>,
 }
 
 /// The ego left the road.
@@ -159,7 +206,11 @@ impl<'a> EventDetector<'a> {
             let involves_ego = i == self.ego.0 || j == self.ego.0;
             let first_for_ego = involves_ego && !self.collisions.iter().any(|c| c.involves_ego);
             ego_hit |= first_for_ego;
-            self.collisions.push(CollisionEvent { step, a: TrackIndex(i), b: TrackIndex(j), involves_ego });
+            let ego_kind = involves_ego.then(|| {
+                let other = if i == self.ego.0 { j } else { i };
+                EgoCollisionKind::classify(&states[self.ego.0].expect("present"), &states[other].expect("present"))
+            });
+            self.collisions.push(CollisionEvent { step, a: TrackIndex(i), b: TrackIndex(j), involves_ego, ego_kind });
         }
         if let Some(d) = self.ego_off_road_distance(states) {
             let off = d > 0.0;

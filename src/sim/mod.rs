@@ -10,7 +10,7 @@ pub mod authoring;
 mod events;
 mod rollout;
 
-pub use events::{CollisionEvent, OffRoadEvent};
+pub use events::{CollisionEvent, EgoCollisionKind, OffRoadEvent};
 pub use rollout::{Rollout, RolloutSummary, Termination};
 
 use crate::geometry::Vector2;
@@ -394,7 +394,11 @@ mod tests {
         // Gap 60 - 4.5 = 55.5 m at 12 m/s: contact after 4.625 s, i.e. at step 47.
         assert_eq!(c.step, 47);
         assert_eq!((c.a, c.b), (TrackIndex(0), TrackIndex(1)));
-        assert!(r.summary().ego_collision.unwrap().with_cbv);
+        let summary = r.summary().ego_collision.unwrap();
+        assert!(summary.with_cbv);
+        // Driving into a stopped car is the ego's fault.
+        assert_eq!(summary.kind, EgoCollisionKind::StoppedOther);
+        assert!(summary.at_fault);
         assert!(r.off_road.is_empty());
     }
 

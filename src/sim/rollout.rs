@@ -1,6 +1,6 @@
 //! The record of one closed-loop run and its summary.
 
-use super::events::{ClosestApproach, CollisionEvent, OffRoadEvent};
+use super::events::{ClosestApproach, CollisionEvent, EgoCollisionKind, OffRoadEvent};
 use crate::scenario::{AgentBody, AgentId, AgentKind, AgentState, TrackIndex};
 
 /// How a rollout ended.
@@ -63,6 +63,10 @@ pub struct EgoCollision {
     pub other: AgentId,
     /// Whether the other agent is the CBV.
     pub with_cbv: bool,
+    /// How the ego was involved.
+    pub kind: EgoCollisionKind,
+    /// Whether the ego is at fault (see [`EgoCollisionKind`]).
+    pub at_fault: bool,
 }
 
 /// A collision, for reports.
@@ -124,10 +128,14 @@ impl Rollout {
         let time = |step: usize| ((step - self.start_step) as f64 * self.dt_s * 1e3).round() / 1e3;
         let ego_collision = self.ego_collision().map(|c| {
             let other = if c.a == self.ego { c.b } else { c.a };
+            // Detected ego collisions always carry a kind; a hand-built event without one counts as at fault.
+            let kind = c.ego_kind.unwrap_or(EgoCollisionKind::ActiveFront);
             EgoCollision {
                 time_s: time(c.step),
                 other: self.agent_ids[other.0].clone(),
                 with_cbv: Some(other) == self.cbv,
+                kind,
+                at_fault: kind.ego_at_fault(),
             }
         });
         RolloutSummary {

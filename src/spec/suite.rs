@@ -151,6 +151,11 @@ pub struct VariantAcceptance {
     /// The ego must not collide.
     #[serde(default = "yes")]
     pub no_collision: bool,
+    /// The ego must not cause a collision: contacts where it was hit from
+    /// behind or while stopped are allowed (nuPlan's at-fault rule). Use this
+    /// against non-reactive logged traffic, which cannot avoid the ego.
+    #[serde(default)]
+    pub no_at_fault_collision: bool,
     /// The ego must stay on the road.
     #[serde(default)]
     pub no_off_road: bool,
@@ -171,7 +176,14 @@ fn yes() -> bool {
 
 impl Default for VariantAcceptance {
     fn default() -> Self {
-        Self { no_collision: true, no_off_road: false, min_gap_m: None, min_ttc_s: None, planner_must_answer: true }
+        Self {
+            no_collision: true,
+            no_at_fault_collision: false,
+            no_off_road: false,
+            min_gap_m: None,
+            min_ttc_s: None,
+            planner_must_answer: true,
+        }
     }
 }
 
