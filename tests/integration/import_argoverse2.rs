@@ -252,6 +252,9 @@ fn argoverse2_garbage_and_broken_map_are_errors() {
     let files = argoverse2::ScenarioFiles { scenario: path.clone(), map: map_path() };
     let err = argoverse2::parse_files(&scenario, broken.as_bytes(), &files).expect_err("broken JSON");
     malformed_at(&err, &map_path());
+    let far = SMALL_MAP.replacen("\"x\": 10, \"y\": 0", "\"x\": 1e12, \"y\": 0", 1);
+    let err = argoverse2::parse(&scenario, far.as_bytes(), &path).expect_err("far coordinate");
+    assert_eq!(malformed_at(&err, &path), Location::Element("lane_segments[1].centerline[1]".to_string()), "{err}");
     let err = argoverse2::parse(&scenario, b"{\"lane_segments\": {}}", &path).expect_err("no drivable_areas");
     assert!(err.to_string().contains("drivable_areas"), "{err}");
 }
@@ -380,6 +383,12 @@ fn argoverse2_small_parquet_reads_and_errors_name_row_and_column() {
         (
             Box::new(|c: &mut Vec<Column>| set(c, "num_timestamps", Column::Int("num_timestamps", vec![i64::MAX; 6]))),
             "row 0, column num_timestamps",
+        ),
+        (
+            Box::new(|c: &mut Vec<Column>| {
+                set(c, "position_x", Column::Float("position_x", vec![0.0, 1.0, 2.0, 5.0, 1e12, 5.0]))
+            }),
+            "row 4, column position_x",
         ),
     ];
     for (change, at) in cases {

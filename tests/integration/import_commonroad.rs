@@ -283,6 +283,14 @@ fn commonroad_bad_values_are_errors_not_panics() {
         let err = commonroad::parse(broken.as_bytes(), &path).expect_err(to);
         expect_line_column(&err, &path);
     }
+    // A coordinate far beyond any projected frame (the map's spatial grid
+    // would try to cover it).
+    let start = text.find("<x>").unwrap() + "<x>".len();
+    let end = start + text[start..].find("</x>").unwrap();
+    let far = format!("{}2e7{}", &text[..start], &text[end..]);
+    let err = commonroad::parse(far.as_bytes(), &path).expect_err("far coordinate");
+    expect_line_column(&err, &path);
+    assert!(err.to_string().contains("from the origin"), "{err}");
     // Not UTF-8.
     let err = commonroad::parse(&[0xff, 0xfe, 0x00], &path).expect_err("binary");
     assert!(err.to_string().contains(&path.display().to_string()));

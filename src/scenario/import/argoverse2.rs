@@ -43,6 +43,10 @@ pub const AV_TRACK_ID: &str = "AV";
 /// Largest `num_timestamps` accepted: bounds the per-track allocation on
 /// hostile input (real files have 110).
 const MAX_STEPS: i64 = 10_000;
+/// Largest coordinate magnitude accepted, metres: projected (UTM-like)
+/// frames stay below 1e7; beyond that a value is corrupt, and absurd
+/// extents make the map's spatial grid allocate without bound.
+const MAX_COORDINATE_M: f64 = 1e7;
 /// Largest number of per-step state slots (tracks × steps) accepted: a few
 /// bytes of run-length-encoded parquet can hold millions of rows, each of
 /// which could open a new track. Real scenarios need under 50 000.
@@ -351,8 +355,15 @@ fn read_parquet(bytes: &[u8], path: &Path) -> Result<Table, ImportError> {
         if !(0..steps as i64).contains(&timestep) {
             return Err(cell.error("timestep", format!("{timestep} outside 0..{steps}")));
         }
+        let coordinate = |column: &'static str| -> Result<f64, ImportError> {
+            let v = cell.number(column)?;
+            if v.abs() > MAX_COORDINATE_M {
+                return Err(cell.error(column, format!("{v} is more than {MAX_COORDINATE_M} m from the origin")));
+            }
+            Ok(v)
+        };
         let state = AgentState {
-            position: Point2::new(cell.number("position_x")?, cell.number("position_y")?),
+            position: Point2::new(coordinate("position_x")?, coordinate("position_y")?),
             heading_rad: wrap_angle(cell.number("heading")?),
             velocity_mps: Vector2::new(cell.number("velocity_x")?, cell.number("velocity_y")?),
         };
@@ -546,6 +557,35 @@ fn read_map(bytes: &[u8], path: &Path, name_map: bool) -> Result<RoadMap, Import
         let message = message.strip_suffix(&suffix).unwrap_or(&message);
         err(Location::LineColumn { line: e.line(), column: e.column() }, format!("not an Argoverse 2 map: {message}"))
     })?;
+
+    let lists = raw
+        .lane_segments
+        .iter()
+        .flat_map(|(key, l)| {
+            [("centerline", &l.centerline), ("left_lane_boundary", &l.left_lane_boundary)]
+                .into_iter()
+                .chain([("right_lane_boundary", &l.right_lane_boundary)])
+                .map(move |(field, pts)| (format!("lane_segments[{key}].{field}"), pts))
+        })
+        .chain(
+            raw.drivable_areas
+                .iter()
+                .map(|(key, a)| (format!("drivable_areas[{key}].area_boundary"), &a.area_boundary)),
+        )
+        .chain(raw.pedestrian_crossings.iter().flat_map(|(key, c)| {
+            [
+                (format!("pedestrian_crossings[{key}].edge1"), &c.edge1),
+                (format!("pedestrian_crossings[{key}].edge2"), &c.edge2),
+            ]
+        }));
+    for (at, pts) in lists {
+        if let Some((i, p)) = pts.iter().enumerate().find(|(_, p)| p.x.abs().max(p.y.abs()) > MAX_COORDINATE_M) {
+            return Err(err(
+                Location::Element(format!("{at}[{i}]")),
+                format!("({}, {}) is more than {MAX_COORDINATE_M} m from the origin", p.x, p.y),
+            ));
+        }
+    }
 
     let mut lanes = Vec::with_capacity(raw.lane_segments.len());
     for (key, l) in &raw.lane_segments {

@@ -39,6 +39,11 @@ const MAX_TIME_STEP: i64 = 36_000;
 /// memory. The largest shared file needs about 8 000.
 const MAX_STATE_SLOTS: usize = 20_000_000;
 
+/// Largest coordinate magnitude accepted, metres: projected (UTM-like)
+/// frames stay below 1e7; beyond that a value is corrupt, and absurd
+/// extents make the map's spatial grid allocate without bound.
+const MAX_COORDINATE_M: f64 = 1e7;
+
 /// Traffic-sign ids whose additional value is a speed limit in m/s (the
 /// CommonRoad 2020a convention): US `R2-1` and the German/Zamunda `274`.
 const MAX_SPEED_SIGN_IDS: [&str; 2] = ["R2-1", "274"];
@@ -186,9 +191,13 @@ impl Cx<'_, '_> {
         text.trim().parse::<i64>().map_err(|_| self.err(node, format!("{name}={text:?} is not an integer")))
     }
 
-    /// `<point><x/><y/></point>`.
+    /// `<point><x/><y/></point>`, within [`MAX_COORDINATE_M`] of the origin.
     fn point(&self, node: Node<'_, '_>) -> Result<Point2, ImportError> {
-        Ok(Point2::new(self.child_f64(node, "x")?, self.child_f64(node, "y")?))
+        let p = Point2::new(self.child_f64(node, "x")?, self.child_f64(node, "y")?);
+        if p.x.abs().max(p.y.abs()) > MAX_COORDINATE_M {
+            return Err(self.err(node, format!("({}, {}) is more than {MAX_COORDINATE_M} m from the origin", p.x, p.y)));
+        }
+        Ok(p)
     }
 
     /// The `<point>` children of a bound or stop line, in order.
