@@ -4,6 +4,9 @@
 
 mod bench;
 mod inspect;
+mod render;
+mod run;
+mod schema;
 mod simulate;
 mod token_roundtrip;
 
@@ -12,10 +15,13 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
+use crate::harness::HarnessError;
 use crate::planners::BuiltinPlanner;
 use crate::policies::BackgroundPolicy;
+use crate::record::RecordError;
 use crate::scenario::import::ImportError;
 use crate::sim::SimError;
+use crate::spec::{SpecError, SpecKind};
 
 /// Scenario tests for autonomous-driving planners: safety-critical,
 /// realistic and avoidable conflicts (SaFeR).
@@ -68,6 +74,44 @@ enum Command {
         #[arg(long, default_value_t = 3)]
         repeat: usize,
     },
+    /// Run scenario suites (the same variants and metrics as `cargo test --test suites`).
+    Run {
+        /// Suite spec files (`specs/suites/*.yaml`).
+        #[arg(required = true)]
+        suites: Vec<PathBuf>,
+        /// Also write a JSON report to this file.
+        #[arg(long, value_name = "OUT")]
+        json: Option<PathBuf>,
+        /// Folder for the recordings and pictures of failing variants.
+        #[arg(long, value_name = "DIR", default_value = "target/safer-artifacts")]
+        artifacts: PathBuf,
+        /// Only variants and metrics whose test name contains this.
+        #[arg(long, value_name = "SUBSTR")]
+        filter: Option<String>,
+    },
+    /// Print the JSON Schema of a spec kind (for editors: yaml-language-server `$schema`).
+    Schema {
+        /// Which spec.
+        #[arg(value_enum)]
+        kind: SpecKind,
+        /// Write to this file instead of stdout.
+        #[arg(long, value_name = "FILE")]
+        out: Option<PathBuf>,
+    },
+    /// Draw a scenario (a recorded file or a scenario spec YAML) as an SVG picture.
+    Render {
+        /// A recorded scenario (.tfrecord, .json, .xml, .parquet / AV2 folder) or a scenario spec (.yaml).
+        file: PathBuf,
+        /// Step whose footprints are drawn (default: the scenario's current step).
+        #[arg(long, value_name = "N")]
+        step: Option<usize>,
+        /// Output file (default: `<stem>.svg` in the current folder); a folder when FILE holds several scenarios.
+        #[arg(long, value_name = "OUT")]
+        out: Option<PathBuf>,
+        /// Overwrite existing pictures.
+        #[arg(long)]
+        force: bool,
+    },
 }
 
 /// Errors the commands report.
@@ -88,6 +132,18 @@ pub enum CliError {
     /// A folder held no scenario files.
     #[error("{0}: no scenario files found (looked for .tfrecord, .json, .xml, Argoverse 2 folders)")]
     NoScenes(PathBuf),
+    /// A spec file could not be loaded (printed as a report with the YAML snippet).
+    #[error(transparent)]
+    Spec(#[from] SpecError),
+    /// A suite variant could not be run.
+    #[error(transparent)]
+    Harness(#[from] HarnessError),
+    /// An artefact could not be written.
+    #[error(transparent)]
+    Record(#[from] RecordError),
+    /// The arguments ask for something that cannot be done.
+    #[error("{0}")]
+    Usage(String),
 }
 
 /// Runs the command line; returns the process exit code.
@@ -98,9 +154,19 @@ pub fn main() -> ExitCode {
         Command::Simulate { path, planner, background, json } => simulate::run(&path, planner, background, json),
         Command::TokenRoundtrip { scenes, json } => token_roundtrip::run(&scenes, json),
         Command::Bench { scenes, repeat } => bench::run(&scenes, repeat.max(1)),
+        Command::Run { suites, json, artifacts, filter } => {
+            run::run(&suites, json.as_deref(), &artifacts, filter.as_deref())
+        }
+        Command::Schema { kind, out } => schema::run(kind, out.as_deref()),
+        Command::Render { file, step, out, force } => render::run(&file, step, out.as_deref(), force),
     };
     match result {
         Ok(code) => code,
+        // A spec error reads best as the report with the offending YAML line.
+        Err(CliError::Spec(e)) => {
+            eprintln!("{:?}", e.to_report());
+            ExitCode::from(2)
+        }
         Err(e) => {
             eprintln!("error: {e}");
             ExitCode::from(2)

@@ -5,6 +5,7 @@
 mod shared_data;
 
 mod cli;
+mod cli_run;
 mod import_argoverse2;
 mod import_commonroad;
 mod import_womd_json;

@@ -1,0 +1,429 @@
+//! `safer run SUITE.yaml... [--json OUT] [--artifacts DIR] [--filter SUBSTR]`:
+//! the scenario suites outside `cargo test`, with the same variants, the
+//! same outcomes and the same artefacts (both go through [`crate::harness`]).
+//!
+//! Every suite is loaded first; one that does not load is reported with its
+//! YAML snippet and the others still run. Variants of all suites run in
+//! parallel (rayon); the table lists them per suite, sorted by scenario
+//! name and seed number, so the output does not depend on scheduling.
+//! `--filter` selects like a test filter: variants whose name
+//! (`suite::scenario::seed-k`) contains it, and suite metrics whose name
+//! (`suite::metric`) contains it; a selected metric runs all of its suite's
+//! variants, as the metric trial of `cargo test --test suites` does.
+//!
+//! Exit code: 0 when every selected variant and metric passed, 1 when one
+//! failed (or could not run), 2 on usage errors and suites that do not load.
+
+use std::io::{IsTerminal, Write};
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::sync::Mutex;
+
+use rayon::prelude::*;
+use serde::Serialize;
+
+use super::CliError;
+use crate::harness::{self, HarnessError, Suite, SuiteMetrics, VariantOutcome, VariantSummary};
+
+/// One variant to run.
+struct Job {
+    /// Index into the loaded suites.
+    suite: usize,
+    /// Index into the suite's scenarios.
+    scenario: usize,
+    /// Variant index (seed number).
+    index: u32,
+    /// Whether the filter selected it (otherwise it only feeds a selected metric).
+    shown: bool,
+}
+
+/// What a job produced.
+struct Done {
+    outcome: Result<VariantOutcome, HarnessError>,
+    /// Artefacts of a shown failing variant, or why they could not be written.
+    artefacts: Option<Result<harness::artefacts::Artefacts, String>>,
+}
+
+/// The JSON report.
+#[derive(Debug, Serialize)]
+struct Report {
+    /// Every selected variant and metric passed and every suite loaded.
+    passed: bool,
+    /// Suites that could not be loaded.
+    load_errors: Vec<LoadErrorReport>,
+    /// Per suite, in command-line order.
+    suites: Vec<SuiteReport>,
+}
+
+#[derive(Debug, Serialize)]
+struct LoadErrorReport {
+    file: String,
+    message: String,
+}
+
+#[derive(Debug, Serialize)]
+struct SuiteReport {
+    file: String,
+    name: String,
+    planner: String,
+    passed: bool,
+    variants: Vec<VariantEntry>,
+    /// `None` when no metric was selected or a variant the metrics need could not run.
+    metrics: Option<SuiteMetrics>,
+    checks: Vec<CheckReport>,
+}
+
+/// A variant in the report: its summary, or why it could not run.
+#[derive(Debug, Serialize)]
+#[serde(untagged)]
+enum VariantEntry {
+    Ran {
+        #[serde(flatten)]
+        summary: VariantSummary,
+        #[serde(skip_serializing_if = "Option::is_none")]
+        artefacts: Option<ArtefactReport>,
+        #[serde(skip_serializing_if = "Option::is_none")]
+        artefacts_error: Option<String>,
+    },
+    Error {
+        variant: String,
+        passed: bool,
+        error: String,
+    },
+}
+
+#[derive(Debug, Serialize)]
+struct ArtefactReport {
+    mcap: String,
+    svg: String,
+}
+
+#[derive(Debug, Serialize)]
+struct CheckReport {
+    name: String,
+    value: Option<f64>,
+    passed: bool,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    message: Option<String>,
+}
+
+/// "k/n done" on one overwritten stderr line, only for a person watching:
+/// redirected stderr (CI logs, tests) stays free of carriage-return noise.
+struct Progress {
+    total: usize,
+    done: Mutex<usize>,
+    on: bool,
+}
+
+impl Progress {
+    fn new(total: usize) -> Self {
+        let on = std::io::stderr().is_terminal() && total > 0;
+        let p = Self { total, done: Mutex::new(0), on };
+        p.show(0);
+        p
+    }
+
+    fn show(&self, done: usize) {
+        if self.on {
+            let mut err = std::io::stderr().lock();
+            let _ = write!(err, "\r{done}/{} variants done", self.total);
+            let _ = err.flush();
+        }
+    }
+
+    fn tick(&self) {
+        // The lock keeps the printed count in order across rayon threads;
+        // a poisoned lock only means another thread panicked mid-print.
+        let mut done = self.done.lock().unwrap_or_else(|e| e.into_inner());
+        *done += 1;
+        self.show(*done);
+    }
+
+    fn finish(&self) {
+        if self.on {
+            eprint!("\r{:width$}\r", "", width = 40);
+        }
+    }
+}
+
+pub(super) fn run(
+    files: &[PathBuf],
+    json: Option<&Path>,
+    artifacts: &Path,
+    filter: Option<&str>,
+) -> Result<ExitCode, CliError> {
+    let mut load_errors = Vec::new();
+    let mut suites: Vec<(PathBuf, Suite)> = Vec::new();
+    for file in files {
+        match Suite::load(file) {
+            Ok(s) => suites.push((file.clone(), s)),
+            Err(e) => {
+                eprintln!("{:?}", e.to_report());
+                load_errors.push(LoadErrorReport { file: file.display().to_string(), message: e.to_string() });
+            }
+        }
+    }
+
+    let selects = |name: &str| filter.is_none_or(|f| name.contains(f));
+    let mut jobs = Vec::new();
+    let mut metrics_selected: Vec<Vec<&'static str>> = Vec::new();
+    for (si, (_, suite)) in suites.iter().enumerate() {
+        let metrics: Vec<&'static str> = harness::metrics::metric_names(&suite.spec.value.acceptance.suite)
+            .into_iter()
+            .filter(|m| selects(&format!("{}::{m}", suite.name())))
+            .collect();
+        for (ci, scenario) in suite.scenarios.iter().enumerate() {
+            for k in 0..suite.spec.value.variants {
+                let shown = selects(&suite.variant_name(scenario, k));
+                if shown || !metrics.is_empty() {
+                    jobs.push(Job { suite: si, scenario: ci, index: k, shown });
+                }
+            }
+        }
+        metrics_selected.push(metrics);
+    }
+    if let Some(f) = filter
+        && !suites.is_empty()
+        && !jobs.iter().any(|j| j.shown)
+        && metrics_selected.iter().all(Vec::is_empty)
+    {
+        // A mistyped filter would otherwise "pass" with nothing run.
+        return Err(CliError::Usage(format!("--filter `{f}` matches no variant and no suite metric")));
+    }
+
+    let progress = Progress::new(jobs.len());
+    let done: Vec<Done> = jobs
+        .par_iter()
+        .map(|j| {
+            let suite = &suites[j.suite].1;
+            let outcome = harness::run_variant(suite, &suite.scenarios[j.scenario], j.index);
+            let artefacts = match &outcome {
+                Ok(o) if j.shown && !o.failures.is_empty() => {
+                    Some(harness::artefacts::write(artifacts, o).map_err(|e| e.to_string()))
+                }
+                _ => None,
+            };
+            progress.tick();
+            Done { outcome, artefacts }
+        })
+        .collect();
+    progress.finish();
+
+    let mut reports = Vec::new();
+    for (si, (file, suite)) in suites.iter().enumerate() {
+        let mut mine: Vec<(&Job, &Done)> = jobs.iter().zip(&done).filter(|(j, _)| j.suite == si).collect();
+        mine.sort_by(|a, b| {
+            let key = |j: &Job| (suite.scenarios[j.scenario].name.clone(), j.index);
+            key(a.0).cmp(&key(b.0))
+        });
+        reports.push(suite_report(file, suite, &mine, &metrics_selected[si]));
+    }
+    let load_failed = !load_errors.is_empty();
+    let report = Report { passed: !load_failed && reports.iter().all(|r| r.passed), load_errors, suites: reports };
+
+    print_report(&report);
+    if let Some(out) = json {
+        let text = serde_json::to_string_pretty(&report)? + "\n";
+        crate::record::write_atomically(out, text.as_bytes())?;
+    }
+    Ok(if load_failed {
+        ExitCode::from(2)
+    } else if report.passed {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::from(1)
+    })
+}
+
+/// The report of one suite: its shown variants and its selected metrics.
+fn suite_report(file: &Path, suite: &Suite, jobs: &[(&Job, &Done)], metrics: &[&'static str]) -> SuiteReport {
+    let mut variants = Vec::new();
+    for (job, done) in jobs.iter().filter(|(j, _)| j.shown) {
+        variants.push(match &done.outcome {
+            Ok(o) => {
+                let (artefacts, artefacts_error) = match &done.artefacts {
+                    Some(Ok(a)) => (
+                        Some(ArtefactReport { mcap: a.mcap.display().to_string(), svg: a.svg.display().to_string() }),
+                        None,
+                    ),
+                    Some(Err(e)) => (None, Some(e.clone())),
+                    None => (None, None),
+                };
+                VariantEntry::Ran { summary: o.summary(), artefacts, artefacts_error }
+            }
+            Err(e) => VariantEntry::Error {
+                variant: suite.variant_name(&suite.scenarios[job.scenario], job.index),
+                passed: false,
+                error: e.to_string(),
+            },
+        });
+    }
+
+    let (suite_metrics, checks) = if metrics.is_empty() {
+        (None, Vec::new())
+    } else {
+        // Same rule as the metric trials of the cargo-test runner: every
+        // variant must have run, otherwise the metric fails naming the first.
+        let mut outcomes = Vec::new();
+        let mut broken = None;
+        for (job, done) in jobs {
+            match &done.outcome {
+                Ok(o) => outcomes.push(o.clone()),
+                Err(e) if broken.is_none() => {
+                    let name = suite.variant_name(&suite.scenarios[job.scenario], job.index);
+                    broken = Some(format!("variant {name} could not run: {e}"));
+                }
+                Err(_) => {}
+            }
+        }
+        match broken {
+            Some(why) => (
+                None,
+                metrics
+                    .iter()
+                    .map(|m| CheckReport {
+                        name: m.to_string(),
+                        value: None,
+                        passed: false,
+                        message: Some(why.clone()),
+                    })
+                    .collect(),
+            ),
+            None => {
+                let m = SuiteMetrics::compute(&outcomes);
+                let checks = m
+                    .checks(&suite.spec.value.acceptance.suite)
+                    .into_iter()
+                    .filter(|c| metrics.contains(&c.name))
+                    .map(|c| CheckReport {
+                        name: c.name.to_string(),
+                        value: c.value,
+                        passed: c.result.is_ok(),
+                        message: c.result.err(),
+                    })
+                    .collect();
+                (Some(m), checks)
+            }
+        }
+    };
+
+    let passed = variants.iter().all(|v| match v {
+        VariantEntry::Ran { summary, .. } => summary.passed,
+        VariantEntry::Error { .. } => false,
+    }) && checks.iter().all(|c| c.passed);
+    SuiteReport {
+        file: file.display().to_string(),
+        name: suite.name(),
+        planner: suite.planner.name().to_string(),
+        passed,
+        variants,
+        metrics: suite_metrics,
+        checks,
+    }
+}
+
+/// `1 variant`, `2 variants`.
+fn count(n: usize, what: &str) -> String {
+    format!("{n} {what}{}", if n == 1 { "" } else { "s" })
+}
+
+fn opt(v: Option<f64>, decimals: usize) -> String {
+    v.map_or_else(|| "-".to_string(), |x| format!("{x:.decimals$}"))
+}
+
+/// The human-readable table on stdout.
+fn print_report(report: &Report) {
+    let mut failing = Vec::new();
+    let (mut variants, mut variants_failed, mut checks, mut checks_failed) = (0, 0, 0, 0);
+    for (i, s) in report.suites.iter().enumerate() {
+        if i > 0 {
+            println!();
+        }
+        println!("suite {} ({}), planner {}", s.name, s.file, s.planner);
+        let width = s
+            .variants
+            .iter()
+            .map(|v| match v {
+                VariantEntry::Ran { summary, .. } => summary.variant.len(),
+                VariantEntry::Error { variant, .. } => variant.len(),
+            })
+            .max()
+            .unwrap_or(0)
+            .max("variant".len());
+        if !s.variants.is_empty() {
+            println!("  {:<width$}  {:>11}  {:>9}  {:>9}  stage 2", "variant", "S1 CBV hit", "min gap m", "min TTC s");
+        }
+        for v in &s.variants {
+            variants += 1;
+            match v {
+                VariantEntry::Ran { summary, artefacts, artefacts_error } => {
+                    let result = match summary.failures.first() {
+                        None => "pass".to_string(),
+                        Some(first) => {
+                            variants_failed += 1;
+                            let more = summary.failures.len() - 1;
+                            let more = if more > 0 { format!(" (+{more} more)") } else { String::new() };
+                            failing.push((summary.variant.clone(), artefacts, artefacts_error));
+                            format!("FAIL {first}{more}")
+                        }
+                    };
+                    println!(
+                        "  {:<width$}  {:>11}  {:>9}  {:>9}  {result}",
+                        summary.variant,
+                        if summary.stage1_cbv_hit_ego { "yes" } else { "no" },
+                        opt(summary.stage2_min_gap_m, 2),
+                        opt(summary.stage2_min_ttc_s, 1),
+                    );
+                }
+                VariantEntry::Error { variant, error, .. } => {
+                    variants_failed += 1;
+                    println!("  {variant:<width$}  {:>11}  {:>9}  {:>9}  ERROR could not run: {error}", "-", "-", "-");
+                }
+            }
+        }
+        if let Some(m) = &s.metrics {
+            println!(
+                "  metrics over {}: CR {:.3}  SR {:.3}  SR(critical) {}  VJ {}  AJ {}",
+                count(m.variants, "variant"),
+                m.collision_rate,
+                m.solution_rate,
+                opt(m.solution_rate_critical, 3),
+                opt(m.velocity_jsd, 3),
+                opt(m.acceleration_jsd, 3)
+            );
+        }
+        let metric_width = s.checks.iter().map(|c| s.name.len() + 2 + c.name.len()).max().unwrap_or(0);
+        for c in &s.checks {
+            checks += 1;
+            let verdict = if c.passed {
+                "PASS".to_string()
+            } else {
+                checks_failed += 1;
+                format!("FAIL {}", c.message.as_deref().unwrap_or_default())
+            };
+            println!("  {:<metric_width$}  {:>7}  {verdict}", format!("{}::{}", s.name, c.name), opt(c.value, 3));
+        }
+    }
+    if !failing.is_empty() {
+        println!("\nartefacts of failing variants:");
+        for (name, artefacts, error) in failing {
+            println!("  {name}");
+            match (artefacts, error) {
+                (Some(a), _) => println!("    recording: {}\n    picture:   {}", a.mcap, a.svg),
+                (None, Some(e)) => println!("    (could not write artefacts: {e})"),
+                (None, None) => {}
+            }
+        }
+    }
+    let load = if report.load_errors.is_empty() {
+        String::new()
+    } else {
+        format!("; {} could not be loaded", count(report.load_errors.len(), "suite file"))
+    };
+    println!(
+        "\n{}: {}, {variants_failed} failed; {}, {checks_failed} failed{load}",
+        if report.passed { "PASS" } else { "FAIL" },
+        count(variants, "variant"),
+        count(checks, "metric check"),
+    );
+}

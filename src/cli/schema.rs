@@ -1,0 +1,27 @@
+//! `safer schema KIND [--out FILE]`: the JSON Schema of a spec kind, for
+//! editors. The committed copies under `schemas/` are what spec files point
+//! at (`# yaml-language-server: $schema=../../schemas/suite.schema.json`);
+//! a test keeps them equal to this output.
+
+use std::path::Path;
+use std::process::ExitCode;
+
+use super::CliError;
+use crate::spec::{SpecKind, json_schema};
+
+/// The schema of `kind` as the text `safer schema` prints and `schemas/`
+/// holds: pretty JSON (keys sorted, so regenerating gives the same bytes)
+/// with a final newline.
+fn schema_text(kind: SpecKind) -> Result<String, CliError> {
+    Ok(serde_json::to_string_pretty(&json_schema(kind))? + "\n")
+}
+
+pub(super) fn run(kind: SpecKind, out: Option<&Path>) -> Result<ExitCode, CliError> {
+    let text = schema_text(kind)?;
+    match out {
+        // Atomic, so an editor watching the file never reads half a schema.
+        Some(path) => crate::record::write_atomically(path, text.as_bytes())?,
+        None => print!("{text}"),
+    }
+    Ok(ExitCode::SUCCESS)
+}
