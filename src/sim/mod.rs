@@ -295,6 +295,11 @@ fn apply_planner_output(now: &AgentState, out: &PlannerOutput) -> Result<AgentSt
             let t = SIM_DT_S;
             let mut prev = (0.0, *now);
             for p in points {
+                // A point at exactly the next step is taken as is: interpolating
+                // with w = 1 would give a + (b - a), off by an ulp from b.
+                if (p.time_s - t).abs() <= 1e-9 {
+                    return Ok(p.state);
+                }
                 if p.time_s >= t - 1e-9 {
                     let w = ((t - prev.0) / (p.time_s - prev.0)).clamp(0.0, 1.0);
                     let lerp = |a: f64, b: f64| a + (b - a) * w;

@@ -36,13 +36,22 @@ fn vehicle_round_trip_error_is_small_in_every_format() {
             e.steps
         );
         assert!(e.steps > 1000, "{f:?}: only {} steps compared", e.steps);
-        assert!(e.ade_m() < ADE_BOUND_M, "{f:?}: ADE {:.3} m", e.ade_m());
-        assert!(e.fde_m() < FDE_BOUND_M, "{f:?}: FDE {:.3} m", e.fde_m());
+        let (ade_bound, fde_bound) = bounds_m(*f);
+        assert!(e.ade_m() < ade_bound, "{f:?}: ADE {:.3} m ≥ {ade_bound}", e.ade_m());
+        assert!(e.fde_m() < fde_bound, "{f:?}: FDE {:.3} m ≥ {fde_bound}", e.fde_m());
     }
 }
 
-/// Bounds set from the measured figures (README) with head-room; a change to
-/// the grid, the kinematic model or the inversion that makes them worse
-/// fails here.
-const ADE_BOUND_M: f64 = 0.5;
-const FDE_BOUND_M: f64 = 1.0;
+/// (ADE, FDE) bounds per format, m: the measured figures (README) with
+/// about 2x head-room, so a change to the grid, the kinematic model or the
+/// inversion that makes them worse fails here. Argoverse 2 is higher because
+/// its one scene's parked cars drift 3–4.5 m sideways in the log at
+/// ≤ 0.1 m/s reported speed: tracking noise a unicycle cannot follow.
+fn bounds_m(format: SourceFormat) -> (f64, f64) {
+    match format {
+        SourceFormat::WomdProto | SourceFormat::WomdJson => (0.1, 0.15),
+        SourceFormat::CommonRoad => (0.15, 0.2),
+        SourceFormat::Argoverse2 => (1.0, 1.5),
+        SourceFormat::Authored => (0.1, 0.1),
+    }
+}
