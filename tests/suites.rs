@@ -76,7 +76,11 @@ fn metric_trial(suite: Arc<Suite>, metric: &'static str) -> Result<(), Failed> {
             let shared = outcome(&suite, s, k);
             match shared.as_ref() {
                 Ok(o) => outcomes.push(o.clone()),
-                Err(e) => return Err(format!("variant {} could not run: {e}", suite.variant_name(&suite.scenarios[s], k)).into()),
+                Err(e) => {
+                    return Err(
+                        format!("variant {} could not run: {e}", suite.variant_name(&suite.scenarios[s], k)).into()
+                    );
+                }
             }
         }
     }
@@ -106,7 +110,9 @@ fn trials() -> Vec<Trial> {
         for (si, scenario) in suite.scenarios.iter().enumerate() {
             for k in 0..suite.spec.value.variants {
                 let s = suite.clone();
-                out.push(Trial::test(suite.variant_name(scenario, k), move || variant_trial(s, si, k)).with_kind("variant"));
+                out.push(
+                    Trial::test(suite.variant_name(scenario, k), move || variant_trial(s, si, k)).with_kind("variant"),
+                );
             }
         }
         for metric in harness::metrics::metric_names(&suite.spec.value.acceptance.suite) {
