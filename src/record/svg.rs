@@ -456,17 +456,30 @@ impl View {
     }
 }
 
-/// The view: ego and CBV paths, extra trajectories and the ego's collision
-/// partners, plus margin, at least `min_extent_m`, at most `max_aspect`.
+/// Steps of ego and CBV path kept in view before and after the ego's
+/// collision: on a long road the whole paths would shrink the crash to a dot.
+const COLLISION_WINDOW_BEFORE: usize = 20;
+const COLLISION_WINDOW_AFTER: usize = 10;
+
+/// The view: ego and CBV paths (around the ego's collision, when one is
+/// shown), extra trajectories and the ego's collision partners, plus margin,
+/// at least `min_extent_m`, at most `max_aspect`.
 fn focus(pic: &Picture, opts: &SvgOptions) -> Bounds {
     let mut b = Bounds::empty();
     let n = pic.states.num_steps();
+    let is_ego = |i: usize| pic.agents.get(i).is_some_and(|a| a.role == Role::Ego);
+    let ego_collision =
+        pic.collisions.iter().filter(|c| c.k <= pic.shown && (is_ego(c.a) || is_ego(c.b))).map(|c| c.k).min();
+    let steps = match ego_collision {
+        Some(k) => k.saturating_sub(COLLISION_WINDOW_BEFORE)..(k + COLLISION_WINDOW_AFTER + 1).min(n),
+        None => 0..n,
+    };
     for (i, a) in pic.agents.iter().enumerate() {
         if a.role == Role::Other {
             continue;
         }
         let r = radius(&a.body);
-        for k in 0..n {
+        for k in steps.clone() {
             if let Some(s) = pic.states.get(k, i) {
                 b.include(&s.position, r);
             }
@@ -479,7 +492,6 @@ fn focus(pic: &Picture, opts: &SvgOptions) -> Bounds {
         }
     }
     // The ego's collision partners, where they hit it and where they are shown.
-    let is_ego = |i: usize| pic.agents.get(i).is_some_and(|a| a.role == Role::Ego);
     for c in pic.collisions.iter().filter(|c| c.k <= pic.shown && (is_ego(c.a) || is_ego(c.b))) {
         for i in [c.a, c.b] {
             let Some(a) = pic.agents.get(i) else { continue };
