@@ -65,6 +65,26 @@ pub struct Lane {
     pub in_intersection: bool,
 }
 
+impl Lane {
+    /// A lane with this centreline and no connectivity, bounds or limits
+    /// (fill in what the source has).
+    pub fn new(id: MapElementId, centreline: Polyline) -> Self {
+        Self {
+            id,
+            centreline,
+            kind: LaneKind::Undefined,
+            speed_limit_mps: None,
+            predecessors: vec![],
+            successors: vec![],
+            left_neighbours: vec![],
+            right_neighbours: vec![],
+            left_boundary: None,
+            right_boundary: None,
+            in_intersection: false,
+        }
+    }
+}
+
 /// Kind of a road edge.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum RoadEdgeKind {
@@ -458,19 +478,7 @@ mod tests {
     }
 
     fn straight_road() -> RoadMap {
-        let lane = |id, y| Lane {
-            id: MapElementId(id),
-            centreline: pl(&[(0.0, y), (100.0, y)]),
-            kind: LaneKind::SurfaceStreet,
-            speed_limit_mps: None,
-            predecessors: vec![],
-            successors: vec![],
-            left_neighbours: vec![],
-            right_neighbours: vec![],
-            left_boundary: None,
-            right_boundary: None,
-            in_intersection: false,
-        };
+        let lane = |id, y| Lane::new(MapElementId(id), pl(&[(0.0, y), (100.0, y)]));
         // Edges: right edge runs +x (road to its left), left edge runs -x.
         let edges = vec![
             RoadEdge {

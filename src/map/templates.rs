@@ -74,17 +74,11 @@ fn line(points: &[(f64, f64)]) -> Polyline {
 fn lane(id: i64, centreline: Polyline, half_width: f64, speed_limit_mps: Option<f64>) -> Lane {
     let (left, right) = offset_bounds(&centreline, half_width);
     Lane {
-        id: MapElementId(id),
-        centreline,
         kind: LaneKind::SurfaceStreet,
         speed_limit_mps,
-        predecessors: vec![],
-        successors: vec![],
-        left_neighbours: vec![],
-        right_neighbours: vec![],
         left_boundary: Some(left),
         right_boundary: Some(right),
-        in_intersection: false,
+        ..Lane::new(MapElementId(id), centreline)
     }
 }
 

@@ -151,7 +151,7 @@ mod tests {
     use super::*;
     use crate::geometry::{Point2, Vector2};
     use crate::map::RoadMap;
-    use crate::scenario::{AgentId, AgentState, DataLicence, ScenarioSource, SourceFormat, Track};
+    use crate::scenario::{AgentId, AgentState, ScenarioSource, Track};
 
     /// A straight-line track from (x0, y0) with velocity (vx, vy), 40 steps.
     fn track(id: &str, x0: f64, y0: f64, vx: f64, vy: f64) -> Track {
@@ -169,25 +169,7 @@ mod tests {
     }
 
     fn scenario(tracks: Vec<Track>) -> Scenario {
-        Scenario {
-            id: "t".into(),
-            source: ScenarioSource {
-                format: SourceFormat::Authored,
-                path: "t".into(),
-                licence: DataLicence::Project,
-                notes: vec![],
-            },
-            dt_s: 0.1,
-            current_step: 0,
-            tracks,
-            map: RoadMap::default(),
-            ego: None,
-            ego_origin: RoleOrigin::Unassigned,
-            cbv: None,
-            cbv_origin: RoleOrigin::Unassigned,
-            objects_of_interest: vec![],
-            origin_world: Vector2::zeros(),
-        }
+        Scenario::new("t", ScenarioSource::authored("t"), 0.1, RoadMap::default(), tracks)
     }
 
     #[test]

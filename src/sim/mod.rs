@@ -324,27 +324,15 @@ fn apply_planner_output(now: &AgentState, out: &PlannerOutput) -> Result<AgentSt
 mod tests {
     use super::*;
     use crate::geometry::{Point2, Polyline};
-    use crate::map::{Lane, LaneKind, MapElementId, RoadEdge, RoadEdgeKind, RoadMap};
+    use crate::map::{Lane, MapElementId, RoadEdge, RoadEdgeKind, RoadMap};
     use crate::planners::BuiltinPlanner;
-    use crate::scenario::{AgentId, AgentKind, DataLicence, RoleOrigin, ScenarioSource, SourceFormat, Track};
+    use crate::scenario::{AgentId, AgentKind, ScenarioSource, Track};
 
     /// A 300 m straight road; the ego at x=0 doing 12 m/s, a car stopped at
     /// x=60 in the same lane (recorded as stopped throughout), 121 steps.
     fn stopped_car_ahead() -> Scenario {
         let straight = |y0: f64, x0: f64, x1: f64| Polyline::new(vec![Point2::new(x0, y0), Point2::new(x1, y0)]);
-        let lane = Lane {
-            id: MapElementId(1),
-            centreline: straight(0.0, -50.0, 300.0),
-            kind: LaneKind::SurfaceStreet,
-            speed_limit_mps: None,
-            predecessors: vec![],
-            successors: vec![],
-            left_neighbours: vec![],
-            right_neighbours: vec![],
-            left_boundary: None,
-            right_boundary: None,
-            in_intersection: false,
-        };
+        let lane = Lane::new(MapElementId(1), straight(0.0, -50.0, 300.0));
         let edges = vec![
             RoadEdge { id: MapElementId(2), polyline: straight(-2.0, -50.0, 300.0), kind: RoadEdgeKind::Boundary },
             RoadEdge { id: MapElementId(3), polyline: straight(2.0, 300.0, -50.0), kind: RoadEdgeKind::Boundary },
@@ -365,25 +353,14 @@ mod tests {
                 })
                 .collect(),
         };
-        Scenario {
-            id: "stopped-car-ahead".into(),
-            source: ScenarioSource {
-                format: SourceFormat::Authored,
-                path: "test".into(),
-                licence: DataLicence::Project,
-                notes: vec![],
-            },
-            dt_s: 0.1,
-            current_step: 0,
-            tracks: vec![track("ego", 0.0, 12.0), track("stopped", 60.0, 0.0)],
+        Scenario::new(
+            "stopped-car-ahead",
+            ScenarioSource::authored("test"),
+            0.1,
             map,
-            ego: Some(TrackIndex(0)),
-            ego_origin: RoleOrigin::Source,
-            cbv: Some(TrackIndex(1)),
-            cbv_origin: RoleOrigin::Source,
-            objects_of_interest: vec![],
-            origin_world: Vector2::zeros(),
-        }
+            vec![track("ego", 0.0, 12.0), track("stopped", 60.0, 0.0)],
+        )
+        .with_roles(TrackIndex(0), Some(TrackIndex(1)))
     }
 
     fn run(planner: BuiltinPlanner) -> Rollout {
