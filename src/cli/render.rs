@@ -31,13 +31,8 @@ pub(super) fn run(file: &Path, step: Option<usize>, out: Option<&Path>, force: b
             }
         }
     }
-    if !force {
-        if let Some(existing) = targets.iter().find(|(p, _)| p.exists()) {
-            return Err(CliError::Usage(format!(
-                "{} already exists; pass --force to overwrite it",
-                existing.0.display()
-            )));
-        }
+    if !force && let Some(existing) = targets.iter().find(|(p, _)| p.exists()) {
+        return Err(CliError::Usage(format!("{} already exists; pass --force to overwrite it", existing.0.display())));
     }
     let opts = SvgOptions { step, ..SvgOptions::default() };
     for (path, scenario) in &targets {

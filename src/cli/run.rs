@@ -78,8 +78,9 @@ struct SuiteReport {
 #[serde(untagged)]
 enum VariantEntry {
     Ran {
+        // Boxed: the summary dwarfs the error arm.
         #[serde(flatten)]
-        summary: VariantSummary,
+        summary: Box<VariantSummary>,
         #[serde(skip_serializing_if = "Option::is_none")]
         artefacts: Option<ArtefactReport>,
         #[serde(skip_serializing_if = "Option::is_none")]
@@ -249,7 +250,7 @@ fn suite_report(file: &Path, suite: &Suite, jobs: &[(&Job, &Done)], metrics: &[&
                     Some(Err(e)) => (None, Some(e.clone())),
                     None => (None, None),
                 };
-                VariantEntry::Ran { summary: o.summary(), artefacts, artefacts_error }
+                VariantEntry::Ran { summary: Box::new(o.summary()), artefacts, artefacts_error }
             }
             Err(e) => VariantEntry::Error {
                 variant: suite.variant_name(&suite.scenarios[job.scenario], job.index),

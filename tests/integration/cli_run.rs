@@ -88,7 +88,8 @@ fn run_failing_planner_exits_1_and_leaves_artefacts() {
     let dir = temp_dir("failing");
     let suite = dir.join("cv.yaml");
     let scenario = repo().join("specs/scenarios/highway-overtake.yaml");
-    // Constant velocity closes on the slower leader (TTC 3.4 s); the IDM keeps its distance.
+    // Constant velocity closes on the slower leader: it hits it or comes within a few seconds
+    // of it, so it fails one of the two criteria whatever the leader's exact behaviour.
     std::fs::write(
         &suite,
         format!(
@@ -110,7 +111,7 @@ fn run_failing_planner_exits_1_and_leaves_artefacts() {
     ]);
     let stdout = text(&out.stdout);
     assert_eq!(out.status.code(), Some(1), "{stdout}\n{}", text(&out.stderr));
-    assert!(stdout.contains("FAIL min_ttc_s"), "{stdout}");
+    assert!(stdout.contains("cv::highway-overtake::seed-0") && stdout.contains("FAIL"), "{stdout}");
     let base = artefacts.join("cv/highway-overtake/seed-0");
     for ext in ["mcap", "svg"] {
         let p = base.with_extension(ext);
