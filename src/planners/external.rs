@@ -1214,9 +1214,7 @@ mod tests {
     use crate::map::templates::StraightRoad;
     use crate::map::{Lane, LaneKind, MapElementId};
     use crate::planners::PerceivedAgent;
-    use crate::scenario::{
-        AgentId, DataLicence, RoleOrigin, Scenario, ScenarioSource, SourceFormat, Track, TrackIndex,
-    };
+    use crate::scenario::{AgentId, Scenario, ScenarioSource, Track, TrackIndex};
     use crate::sim::{Rollout, SimConfig, Simulation, Termination};
 
     fn script(file: &str) -> String {
@@ -1265,25 +1263,14 @@ mod tests {
                 })
                 .collect(),
         };
-        Scenario {
-            id: "external-stopped-car-ahead".into(),
-            source: ScenarioSource {
-                format: SourceFormat::Authored,
-                path: "test".into(),
-                licence: DataLicence::Project,
-                notes: vec![],
-            },
-            dt_s: 0.1,
-            current_step: 0,
-            tracks: vec![track("ego", 10.0, 10.0), track("stopped", 70.0, 0.0)],
+        Scenario::new(
+            "external-stopped-car-ahead",
+            ScenarioSource::authored("test"),
+            0.1,
             map,
-            ego: Some(TrackIndex(0)),
-            ego_origin: RoleOrigin::Source,
-            cbv: Some(TrackIndex(1)),
-            cbv_origin: RoleOrigin::Source,
-            objects_of_interest: vec![],
-            origin_world: Vector2::zeros(),
-        }
+            vec![track("ego", 10.0, 10.0), track("stopped", 70.0, 0.0)],
+        )
+        .with_roles(TrackIndex(0), Some(TrackIndex(1)))
     }
 
     fn run(scenario: &Scenario, planner: &mut ExternalPlanner) -> Rollout {
