@@ -28,11 +28,25 @@ impl SegmentIndex {
             let pts = line.points();
             for (si, w) in pts.windows(2).enumerate() {
                 let (a, b) = (w[0], w[1]);
-                let (c0, c1) = (cell_of(a.x.min(b.x), a.y.min(b.y)), cell_of(a.x.max(b.x), a.y.max(b.y)));
-                for cx in c0.0..=c1.0 {
-                    for cy in c0.1..=c1.1 {
-                        cells.entry((cx, cy)).or_default().push((pi as u32, si as u32));
+                // Walk the segment in pieces of at most half a cell and take each
+                // piece's cells: a long diagonal segment then touches O(length)
+                // cells, not the O(length²) of its bounding box.
+                let pieces = (((b - a).norm() / (0.5 * CELL_M)).ceil() as usize).clamp(1, 1 << 20);
+                let mut touched: Vec<(i64, i64)> = Vec::new();
+                for k in 0..pieces {
+                    let (p, q) =
+                        (a + (b - a) * (k as f64 / pieces as f64), a + (b - a) * ((k + 1) as f64 / pieces as f64));
+                    let (c0, c1) = (cell_of(p.x.min(q.x), p.y.min(q.y)), cell_of(p.x.max(q.x), p.y.max(q.y)));
+                    for cx in c0.0..=c1.0 {
+                        for cy in c0.1..=c1.1 {
+                            touched.push((cx, cy));
+                        }
                     }
+                }
+                touched.sort_unstable();
+                touched.dedup();
+                for cell in touched {
+                    cells.entry(cell).or_default().push((pi as u32, si as u32));
                 }
                 for p in [a, b] {
                     lo = Point2::new(lo.x.min(p.x), lo.y.min(p.y));
@@ -50,6 +64,11 @@ impl SegmentIndex {
         self.bounds.map_or(0.0, |(lo, hi)| {
             (p.x - lo.x).abs().max((p.x - hi.x).abs()).hypot((p.y - lo.y).abs().max((p.y - hi.y).abs()))
         })
+    }
+
+    /// Number of occupied cells (for tests and memory checks).
+    pub fn cell_count(&self) -> usize {
+        self.cells.len()
     }
 
     /// Segments in cells within `radius_m` of `p`, grouped by polyline and
@@ -85,5 +104,20 @@ impl SegmentIndex {
             segs.dedup();
         }
         out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn long_diagonal_segment_touches_cells_along_it_only() {
+        let diagonal = Polyline::new(vec![Point2::new(0.0, 0.0), Point2::new(10_000.0, 10_000.0)]);
+        let index = SegmentIndex::build([&diagonal]);
+        // ~1414 cells of 10 m along a 14.1 km diagonal (its bounding box has a million).
+        assert!(index.cell_count() < 5_000, "{}", index.cell_count());
+        let hits = index.candidates(&Point2::new(5_000.0, 5_000.0), 1.0);
+        assert_eq!(hits.get(&0), Some(&vec![0]));
     }
 }

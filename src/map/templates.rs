@@ -28,7 +28,64 @@ pub enum MapTemplate {
     Intersection(Intersection),
 }
 
+/// Bounds on template parameters: generous for any real road, and small
+/// enough that a typo (`lanes: 3000000`) cannot exhaust memory.
+pub mod limits {
+    /// Lanes per direction.
+    pub const LANES: std::ops::RangeInclusive<usize> = 1..=8;
+    /// Lane width, m.
+    pub const LANE_WIDTH_M: std::ops::RangeInclusive<f64> = 2.0..=6.0;
+    /// Road length, m.
+    pub const LENGTH_M: std::ops::RangeInclusive<f64> = 30.0..=5000.0;
+    /// Intersection arm length, m.
+    pub const ARM_LENGTH_M: std::ops::RangeInclusive<f64> = 20.0..=1000.0;
+    /// Green time per phase, s.
+    pub const GREEN_S: std::ops::RangeInclusive<f64> = 1.0..=300.0;
+    /// Speed limit, m/s.
+    pub const SPEED_LIMIT_MPS: std::ops::RangeInclusive<f64> = 1.0..=60.0;
+}
+
+fn check_range<T: PartialOrd + std::fmt::Display>(
+    name: &str,
+    v: T,
+    r: &std::ops::RangeInclusive<T>,
+) -> Result<(), String> {
+    if r.contains(&v) { Ok(()) } else { Err(format!("{name} must be in {}..={}, got {v}", r.start(), r.end())) }
+}
+
 impl MapTemplate {
+    /// Checks the parameters against [`limits`] and each other; `build`
+    /// assumes they passed.
+    pub fn validate(&self) -> Result<(), String> {
+        let limit = |v: Option<f64>| v.map_or(Ok(()), |v| check_range("speed_limit_mps", v, &limits::SPEED_LIMIT_MPS));
+        match self {
+            Self::Straight(p) => {
+                check_range("lanes", p.lanes, &limits::LANES)?;
+                if p.oncoming_lanes > *limits::LANES.end() {
+                    return Err(format!("oncoming_lanes must be at most {}", limits::LANES.end()));
+                }
+                check_range("lane_width_m", p.lane_width_m, &limits::LANE_WIDTH_M)?;
+                check_range("length_m", p.length_m, &limits::LENGTH_M)?;
+                limit(p.speed_limit_mps)
+            }
+            Self::Merge(p) => {
+                check_range("lanes", p.lanes, &limits::LANES)?;
+                check_range("lane_width_m", p.lane_width_m, &limits::LANE_WIDTH_M)?;
+                check_range("length_m", p.length_m, &limits::LENGTH_M)?;
+                check_range("merge_end_m", p.merge_end_m, &(20.0..=p.length_m - 10.0))?;
+                check_range("acceleration_lane_m", p.acceleration_lane_m, &(0.0..=p.merge_end_m))?;
+                limit(p.speed_limit_mps)
+            }
+            Self::Intersection(p) => {
+                check_range("lanes_per_direction", p.lanes_per_direction, &limits::LANES)?;
+                check_range("lane_width_m", p.lane_width_m, &limits::LANE_WIDTH_M)?;
+                check_range("arm_length_m", p.arm_length_m, &limits::ARM_LENGTH_M)?;
+                p.green_s.map_or(Ok(()), |g| check_range("green_s", g, &limits::GREEN_S))?;
+                limit(p.speed_limit_mps)
+            }
+        }
+    }
+
     /// Builds the map.
     pub fn build(&self) -> RoadMap {
         match self {
@@ -181,7 +238,9 @@ fn default_acceleration_lane() -> f64 {
 impl Merge {
     /// Builds the map.
     pub fn build(&self) -> RoadMap {
-        let (w, len, end) = (self.lane_width_m, self.length_m, self.merge_end_m.clamp(20.0, self.length_m - 10.0));
+        // `validate` keeps these in range; max/min (not clamp) so unvalidated input cannot panic.
+        let (w, len) = (self.lane_width_m, self.length_m.max(30.0));
+        let end = self.merge_end_m.max(20.0).min(len - 10.0);
         let acc_start = (end - self.acceleration_lane_m).max(10.0);
         let mut lanes = Vec::new();
         for i in 0..self.lanes {
@@ -502,6 +561,36 @@ mod tests {
             }
         }
         on as f64 / total as f64
+    }
+
+    #[test]
+    fn out_of_range_parameters_are_refused_and_never_panic() {
+        let tiny_merge = MapTemplate::Merge(Merge {
+            lanes: 1,
+            lane_width_m: 3.5,
+            length_m: 20.0,
+            merge_end_m: 10.0,
+            acceleration_lane_m: 60.0,
+            speed_limit_mps: None,
+        });
+        assert!(tiny_merge.validate().unwrap_err().contains("length_m must be in 30..=5000"));
+        let _ = tiny_merge.build(); // does not panic even unvalidated
+        let huge = MapTemplate::Straight(StraightRoad {
+            lanes: 3_000_000,
+            oncoming_lanes: 0,
+            lane_width_m: 3.5,
+            length_m: 100.0,
+            speed_limit_mps: None,
+        });
+        assert!(huge.validate().unwrap_err().contains("lanes must be in 1..=8"));
+        let nan = MapTemplate::Straight(StraightRoad {
+            lanes: 2,
+            oncoming_lanes: 0,
+            lane_width_m: f64::NAN,
+            length_m: 100.0,
+            speed_limit_mps: None,
+        });
+        assert!(nan.validate().is_err());
     }
 
     #[test]

@@ -231,6 +231,7 @@ impl Loaded<ScenarioSpec> {
         if !(duration_s > 0.0 && duration_s <= 60.0) {
             return Err(self.invalid(None, format!("duration_s must be in (0, 60] s, got {duration_s}")));
         }
+        template.validate().map_err(|e| self.invalid(None, format!("map: {e}")))?;
         let map = template.build();
         let mut agents = Vec::new();
         for a in &s.agents {
@@ -393,6 +394,21 @@ cbv: cbv
         assert!(err.to_string().contains("either on a lane"), "{err}");
         let err = load(&format!("{CUT_IN}recorded: {{ path: x.json }}\n")).unwrap_err();
         assert!(err.to_string().contains("not both"), "{err}");
+    }
+
+    #[test]
+    fn oversized_or_inconsistent_templates_are_refused() {
+        let err = load(
+            &CUT_IN.replace("straight: { lanes: 2, length_m: 400 }", "straight: { lanes: 3000000, length_m: 400 }"),
+        )
+        .unwrap_err();
+        assert!(err.to_string().contains("lanes must be in 1..=8"), "{err}");
+        let err = load(
+            &CUT_IN
+                .replace("straight: { lanes: 2, length_m: 400 }", "merge: { lanes: 1, length_m: 20, merge_end_m: 10 }"),
+        )
+        .unwrap_err();
+        assert!(err.to_string().contains("length_m"), "{err}");
     }
 
     #[test]

@@ -103,12 +103,16 @@ pub fn detect_format(path: &Path) -> Result<SourceFormat, ImportError> {
     let ext = path.extension().and_then(|e| e.to_str()).unwrap_or_default().to_ascii_lowercase();
     let unknown = |reason: &str| ImportError::UnknownFormat { path: path.to_path_buf(), reason: reason.to_string() };
     if path.is_dir() {
-        return if argoverse2::find_scenario_files(path).is_ok() {
-            Ok(SourceFormat::Argoverse2)
-        } else {
-            Err(unknown(
+        let has_parquet = std::fs::read_dir(path)
+            .map(|rd| rd.filter_map(Result::ok).any(|e| e.path().extension().is_some_and(|x| x == "parquet")))
+            .unwrap_or(false);
+        return match argoverse2::find_scenario_files(path) {
+            Ok(_) => Ok(SourceFormat::Argoverse2),
+            // A folder with a parquet: the importer's reason (such as the missing map) is the useful one.
+            Err(e) if has_parquet => Err(e),
+            Err(_) => Err(unknown(
                 "a directory, but not an Argoverse 2 scenario folder (scenario_*.parquet + log_map_archive_*.json)",
-            ))
+            )),
         };
     }
     match ext.as_str() {
@@ -142,7 +146,8 @@ pub fn load(path: &Path) -> Result<Vec<Scenario>, ImportError> {
         SourceFormat::CommonRoad => vec![commonroad::parse(&read(path)?, path)?],
         SourceFormat::Argoverse2 => {
             let files = argoverse2::find_scenario_files(path)?;
-            vec![argoverse2::parse(&read(&files.scenario)?, &read(&files.map)?, &files.scenario)?]
+            // parse_files names the map file itself in errors about the map.
+            vec![argoverse2::parse_files(&read(&files.scenario)?, &read(&files.map)?, &files)?]
         }
         SourceFormat::Authored => unreachable!("detect_format never returns Authored"),
     };
