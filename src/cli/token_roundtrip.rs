@@ -28,7 +28,8 @@ struct Row {
 pub(super) fn run(scenes: &Path, json: bool) -> Result<ExitCode, CliError> {
     let paths = scene_paths(scenes)?;
     let started = std::time::Instant::now();
-    let per_file: Vec<Result<Vec<(SourceFormat, AgentKind, RoundTripError)>, CliError>> = paths
+    type FileTally = Vec<(SourceFormat, AgentKind, RoundTripError)>;
+    let per_file: Vec<Result<FileTally, CliError>> = paths
         .par_iter()
         .map(|p| {
             let mut out = Vec::new();

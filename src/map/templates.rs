@@ -373,7 +373,7 @@ impl Intersection {
         let Some(green) = self.green_s else { return SignalState::Unknown };
         let cycle = 2.0 * (green + YELLOW_S);
         let t = t_s.rem_euclid(cycle);
-        let east_west = arm % 2 == 0;
+        let east_west = arm.is_multiple_of(2);
         let in_first = t < green + YELLOW_S;
         let phase_t = if in_first { t } else { t - green - YELLOW_S };
         if east_west == in_first {

@@ -65,18 +65,21 @@ fn candidates(scenario: &Scenario) -> Vec<TrackIndex> {
         .collect()
 }
 
-/// Sort key: closer first, then earlier, then lower indices.
-fn key(c: &ClosestApproach, a: TrackIndex, b: TrackIndex) -> (f64, usize, TrackIndex, TrackIndex) {
+/// Ranking of a candidate pair: closer first, then earlier, then lower indices.
+type PairKey = (f64, usize, TrackIndex, TrackIndex);
+
+/// The [`PairKey`] of a pair.
+fn key(c: &ClosestApproach, a: TrackIndex, b: TrackIndex) -> PairKey {
     (c.distance_m, c.step, a, b)
 }
 
-fn better(x: &(f64, usize, TrackIndex, TrackIndex), y: &(f64, usize, TrackIndex, TrackIndex)) -> bool {
+fn better(x: &PairKey, y: &PairKey) -> bool {
     x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)).then(x.2.cmp(&y.2)).then(x.3.cmp(&y.3)).is_lt()
 }
 
 /// The CBV for a given ego: the moving vehicle with the closest approach.
 pub fn mine_cbv(scenario: &Scenario, ego: TrackIndex) -> Option<TrackIndex> {
-    let mut best: Option<((f64, usize, TrackIndex, TrackIndex), TrackIndex)> = None;
+    let mut best: Option<(PairKey, TrackIndex)> = None;
     for c in candidates(scenario) {
         if c == ego {
             continue;
@@ -96,7 +99,7 @@ pub fn mine_cbv(scenario: &Scenario, ego: TrackIndex) -> Option<TrackIndex> {
 /// test), ties to the lower index.
 pub fn mine_pair(scenario: &Scenario) -> Option<(TrackIndex, TrackIndex)> {
     let cands = candidates(scenario);
-    let mut best: Option<((f64, usize, TrackIndex, TrackIndex), (TrackIndex, TrackIndex))> = None;
+    let mut best: Option<(PairKey, (TrackIndex, TrackIndex))> = None;
     for (i, &a) in cands.iter().enumerate() {
         for &b in &cands[i + 1..] {
             if let Some(approach) = closest_approach(scenario, a, b).filter(|a| a.distance_m > 0.0) {

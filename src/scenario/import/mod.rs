@@ -174,7 +174,7 @@ pub fn discover(dir: &Path) -> Result<Vec<PathBuf>, ImportError> {
                 } else {
                     stack.push(p);
                 }
-            } else if detect_format(&p).is_ok() && !(p.extension().is_some_and(|e| e == "parquet")) {
+            } else if detect_format(&p).is_ok() && p.extension().is_none_or(|e| e != "parquet") {
                 out.push(p);
             } else if p.extension().is_some_and(|e| e == "parquet") && !out.contains(&d) {
                 out.push(d.clone());
