@@ -28,6 +28,8 @@ pub enum BuiltinPlanner {
     /// Follow the lane with IDM speed control.
     #[default]
     Idm,
+    /// Sample and roll out evasive manoeuvres against predicted traffic.
+    Evasive,
 }
 
 impl BuiltinPlanner {
@@ -37,6 +39,7 @@ impl BuiltinPlanner {
             Self::LogReplay => Box::new(LogReplayPlanner::new(scenario.track(ego).clone())),
             Self::ConstantVelocity => Box::new(ConstantVelocityPlanner),
             Self::Idm => Box::new(IdmPlanner::new(IdmParams::default())),
+            Self::Evasive => Box::new(super::EvasivePlanner::new(Default::default())),
         }
     }
 }

@@ -3,9 +3,11 @@
 //! policies later), the observation it receives and the output it returns.
 
 pub mod builtin;
+pub mod evasive;
 pub mod external;
 
 pub use builtin::{BuiltinPlanner, ConstantVelocityPlanner, IdmPlanner, LogReplayPlanner};
+pub use evasive::{EvasiveParams, EvasivePlanner};
 pub use external::{ExternalPlanner, ExternalPlannerConfig};
 
 use crate::map::{MapElementId, RoadMap, SignalState};

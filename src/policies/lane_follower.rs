@@ -71,15 +71,20 @@ const ON_ROUTE_LATERAL_M: f64 = 1.8;
 /// How far from a lane centreline an agent may start and still follow it, m.
 const LANE_SEARCH_RADIUS_M: f64 = 4.0;
 
-/// The path the follower drives along, and which lanes make it up.
+/// The path an agent drives along, and which lanes make it up.
 #[derive(Debug, Clone)]
-struct Route {
-    path: Polyline,
+pub struct Route {
+    /// The path, starting a few metres behind the agent.
+    pub path: Polyline,
     /// (lane, arc length of its start on the path, arc length of its end).
-    lanes: Vec<(MapElementId, f64, f64)>,
+    pub lanes: Vec<(MapElementId, f64, f64)>,
 }
 
-fn build_route(map: &RoadMap, state: &AgentState, kind: AgentKind) -> Route {
+/// A route of about 200 m from `state`: the nearest lane going the agent's
+/// way, then the straightest successor at each junction (ties to the lower
+/// id); a straight line along the heading off the lane graph or for
+/// pedestrians.
+pub fn build_route(map: &RoadMap, state: &AgentState, kind: AgentKind) -> Route {
     let straight = || {
         let f = Vector2::new(state.heading_rad.cos(), state.heading_rad.sin());
         Route { path: Polyline::new(vec![state.position, state.position + f * ROUTE_HORIZON_M]), lanes: vec![] }

@@ -8,7 +8,7 @@ pub mod lane_follower;
 pub mod log_replay;
 
 pub use constant_velocity::ConstantVelocity;
-pub use lane_follower::{IdmLaneFollower, IdmParams};
+pub use lane_follower::{IdmLaneFollower, IdmParams, Route, build_route};
 pub use log_replay::LogReplay;
 
 use crate::map::RoadMap;

@@ -396,6 +396,15 @@ mod tests {
     }
 
     #[test]
+    fn evasive_ego_avoids_the_stopped_car() {
+        let r = run(BuiltinPlanner::Evasive);
+        assert!(r.ego_collision().is_none(), "{:?}", r.collisions);
+        assert!(r.off_road.is_empty(), "{:?}", r.off_road);
+        // It either stopped behind the car or went round it: either way it kept a gap.
+        assert!(r.min_distance_to_ego.unwrap().distance_m > 0.3, "{:?}", r.min_distance_to_ego);
+    }
+
+    #[test]
     fn log_replay_rollout_reproduces_the_log_and_is_deterministic() {
         let s = stopped_car_ahead();
         let run = || {

@@ -1,0 +1,235 @@
+//! A sampling-based evasive planner, the competent reference ego for stage 2
+//! (the paper uses a learned planner here; this is the transparent
+//! stand-in that SR is measured with until one is shipped).
+//!
+//! Every step it rolls out a lattice of candidates for a few seconds through
+//! the kinematic model `K`: each a constant acceleration combined with
+//! pure-pursuit tracking of the route at a lateral offset (stay in lane,
+//! or swerve half / one lane either way). Other agents are predicted at
+//! constant velocity. A candidate that hits a predicted box (with a safety
+//! margin), runs a red light or leaves the road is heavily penalised, and
+//! one that lets another agent into about a second of headway ahead is
+//! penalised softly; among the rest, progress towards the desired speed,
+//! staying centred and gentle accelerations win. The first control of the best candidate is
+//! applied, and the lattice is rebuilt at the next step.
+
+use super::{Observation, Planner, PlannerError, PlannerOutput};
+use crate::geometry::{OrientedBox, Pose2, Vector2, wrap_angle};
+use crate::motion::tokens::{MAX_ACCEL_MPS2, MAX_YAW_RATE_RADPS, SIM_DT_S};
+use crate::motion::{Action, KinematicState, kinematic_step};
+use crate::policies::{Route, build_route};
+use crate::scenario::AgentKind;
+
+/// Parameters of the evasive planner.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct EvasiveParams {
+    /// Look-ahead of each candidate, s.
+    pub horizon_s: f64,
+    /// Accelerations sampled, m/s².
+    pub accelerations_mps2: Vec<f64>,
+    /// Lateral offsets from the route sampled, m (positive: left).
+    pub lateral_offsets_m: Vec<f64>,
+    /// Desired speed, m/s; `None`: the lane's limit, else the larger of the
+    /// start speed and 10 m/s.
+    pub desired_speed_mps: Option<f64>,
+    /// Margin added around the ego's box in the collision check, m.
+    pub safety_margin_m: f64,
+}
+
+impl Default for EvasiveParams {
+    fn default() -> Self {
+        Self {
+            horizon_s: 4.0,
+            accelerations_mps2: vec![-MAX_ACCEL_MPS2, -3.0, -1.5, 0.0, 1.0, 2.0],
+            lateral_offsets_m: vec![-3.5, -1.75, 0.0, 1.75, 3.5],
+            desired_speed_mps: None,
+            safety_margin_m: 0.3,
+        }
+    }
+}
+
+/// Re-plan the route when less than this remains ahead, m.
+const ROUTE_REBUILD_M: f64 = 60.0;
+/// Agents farther than this are not predicted, m.
+const PREDICTION_RANGE_M: f64 = 80.0;
+/// Every this many steps a candidate's position is checked for off-road.
+const OFF_ROAD_CHECK_EVERY: usize = 10;
+
+const COLLISION_COST: f64 = 1.0e4;
+/// Per step with another agent inside the headway zone ahead of the ego.
+const HEADWAY_COST: f64 = 200.0;
+/// The headway zone reaches this many seconds of travel ahead (at least 3 m).
+const HEADWAY_S: f64 = 1.0;
+const RED_LIGHT_COST: f64 = 5.0e3;
+const OFF_ROAD_COST: f64 = 2.0e3;
+
+/// The evasive planner.
+#[derive(Debug, Clone, Default)]
+pub struct EvasivePlanner {
+    params: EvasiveParams,
+    route: Option<Route>,
+    desired_speed_mps: Option<f64>,
+}
+
+impl EvasivePlanner {
+    /// A planner with these parameters.
+    pub fn new(params: EvasiveParams) -> Self {
+        Self { params, route: None, desired_speed_mps: None }
+    }
+}
+
+/// One candidate's rollout and its cost.
+struct Candidate {
+    first: Action,
+    cost: f64,
+}
+
+impl Planner for EvasivePlanner {
+    fn name(&self) -> &str {
+        "evasive"
+    }
+
+    fn plan(&mut self, obs: &Observation<'_>) -> Result<PlannerOutput, PlannerError> {
+        let ego = obs.ego;
+        let rebuild = match &self.route {
+            None => true,
+            Some(r) => {
+                r.path.project(&ego.position).is_none_or(|p| r.path.length_m() - p.arc_length_m < ROUTE_REBUILD_M)
+            }
+        };
+        if obs.time_s == 0.0 || rebuild {
+            if obs.time_s == 0.0 {
+                self.desired_speed_mps = None;
+            }
+            self.route = Some(build_route(obs.map, &ego, AgentKind::Vehicle));
+        }
+        let route = self.route.as_ref().ok_or_else(|| PlannerError::InvalidOutput("no route".into()))?;
+        let v_des = *self.desired_speed_mps.get_or_insert_with(|| {
+            self.params.desired_speed_mps.unwrap_or_else(|| {
+                let limit =
+                    route.lanes.first().and_then(|(id, _, _)| obs.map.lane(*id)).and_then(|l| l.speed_limit_mps);
+                limit.unwrap_or(ego.speed_mps().max(10.0))
+            })
+        });
+        let steps = (self.params.horizon_s / SIM_DT_S).round().max(1.0) as usize;
+
+        // Constant-velocity predictions of everyone within range.
+        let predictions: Vec<Vec<OrientedBox>> = obs
+            .agents
+            .iter()
+            .filter(|a| (a.state.position - ego.position).norm() < PREDICTION_RANGE_M)
+            .map(|a| {
+                (1..=steps)
+                    .map(|k| {
+                        let t = k as f64 * SIM_DT_S;
+                        let pose = Pose2 {
+                            position: a.state.position + a.state.velocity_mps * t,
+                            heading_rad: a.state.heading_rad,
+                        };
+                        OrientedBox::new(pose, a.length_m, a.width_m)
+                    })
+                    .collect()
+            })
+            .collect();
+        // The first red stop line ahead on the route, as an arc length.
+        let here = route.path.project(&ego.position).map_or(0.0, |p| p.arc_length_m);
+        let red_stop_s = route
+            .lanes
+            .iter()
+            .filter(|(lane, _, end)| {
+                *end > here + 0.5 * obs.ego_length_m
+                    && obs.map.signal_state(*lane, obs.step).is_some_and(|s| s.requires_stop())
+            })
+            .map(|(_, _, end)| *end)
+            .next();
+
+        let mut best: Option<Candidate> = None;
+        for &offset in &self.params.lateral_offsets_m {
+            for &accel in &self.params.accelerations_mps2 {
+                let c = self.evaluate(obs, route, &predictions, red_stop_s, here, v_des, steps, accel, offset);
+                if best.as_ref().is_none_or(|b| c.cost < b.cost) {
+                    best = Some(c);
+                }
+            }
+        }
+        let best = best.ok_or_else(|| PlannerError::InvalidOutput("no candidates configured".into()))?;
+        Ok(PlannerOutput::Control(best.first))
+    }
+}
+
+impl EvasivePlanner {
+    #[allow(clippy::too_many_arguments)]
+    fn evaluate(
+        &self,
+        obs: &Observation<'_>,
+        route: &Route,
+        predictions: &[Vec<OrientedBox>],
+        red_stop_s: Option<f64>,
+        start_s: f64,
+        v_des: f64,
+        steps: usize,
+        accel: f64,
+        offset: f64,
+    ) -> Candidate {
+        let mut s = KinematicState::from_agent_state(&obs.ego);
+        let (len, wid) =
+            (obs.ego_length_m + 2.0 * self.params.safety_margin_m, obs.ego_width_m + 2.0 * self.params.safety_margin_m);
+        let mut cost = 0.0;
+        let mut first = None;
+        let mut travelled_s = start_s;
+        for k in 0..steps {
+            // Pure pursuit towards the route point ahead, shifted sideways by `offset`.
+            let proj = route.path.project(&s.position);
+            let s_here = proj.map_or(travelled_s, |p| p.arc_length_m);
+            travelled_s = s_here;
+            let lookahead = (0.8 * s.speed_mps).max(5.0);
+            let yaw_rate = match route.path.sample(s_here + lookahead) {
+                Some((p, t)) => {
+                    let target = p + Vector2::new(-t.y, t.x) * offset;
+                    let to = target - s.position;
+                    let alpha = wrap_angle(to.y.atan2(to.x) - s.heading_rad);
+                    (2.0 * alpha.sin() / to.norm().max(1e-3) * s.speed_mps.max(0.5))
+                        .clamp(-MAX_YAW_RATE_RADPS, MAX_YAW_RATE_RADPS)
+                }
+                None => 0.0,
+            };
+            // Accelerate only up to the desired speed.
+            let a = if accel > 0.0 && s.speed_mps >= v_des { 0.0 } else { accel };
+            let action = Action { accel_mps2: a, yaw_rate_radps: yaw_rate };
+            first.get_or_insert(action);
+            s = kinematic_step(&s, action, SIM_DT_S);
+            let ego_box = OrientedBox::new(Pose2 { position: s.position, heading_rad: s.heading_rad }, len, wid);
+            if predictions.iter().any(|p| p[k].intersects(&ego_box)) {
+                // Earlier collisions are worse; this dominates every other term.
+                cost += COLLISION_COST * (2.0 - k as f64 / steps as f64);
+                break;
+            }
+            // Soft: keep about a second of headway to whatever is ahead.
+            let headway_m = (HEADWAY_S * s.speed_mps).max(3.0);
+            let forward = Vector2::new(s.heading_rad.cos(), s.heading_rad.sin());
+            let zone = OrientedBox::new(
+                Pose2 { position: s.position + forward * (0.5 * (len + headway_m)), heading_rad: s.heading_rad },
+                headway_m,
+                wid,
+            );
+            if predictions.iter().any(|p| p[k].intersects(&zone)) {
+                cost += HEADWAY_COST;
+            }
+            if let Some(stop) = red_stop_s
+                && s_here + 0.5 * obs.ego_length_m > stop
+            {
+                cost += RED_LIGHT_COST;
+                break;
+            }
+            if k % OFF_ROAD_CHECK_EVERY == OFF_ROAD_CHECK_EVERY - 1 && obs.map.is_off_road(&s.position) {
+                cost += OFF_ROAD_COST;
+            }
+            cost += 0.01 * (s.speed_mps - v_des).powi(2);
+        }
+        cost -= 0.5 * (travelled_s - start_s);
+        // Swerving is a last resort: a full lane costs about as much as a second in the headway zone.
+        cost += 10.0 * offset * offset + 0.5 * accel * accel;
+        Candidate { first: first.unwrap_or_default(), cost }
+    }
+}
