@@ -248,11 +248,15 @@ impl Scenario {
     }
 
     /// The same scenario with ego and CBV named by the author.
-    pub fn with_roles(mut self, ego: TrackIndex, cbv: Option<TrackIndex>) -> Self {
-        self.ego = Some(ego);
-        self.ego_origin = RoleOrigin::Source;
-        self.cbv = cbv;
-        self.cbv_origin = if cbv.is_some() { RoleOrigin::Source } else { RoleOrigin::Unassigned };
+    pub fn with_roles(self, ego: TrackIndex, cbv: Option<TrackIndex>) -> Self {
+        self.with_source_roles(Some(ego), cbv)
+    }
+
+    /// The same scenario with the roles its source names (each `None` stays
+    /// unassigned, for conflict mining to fill).
+    pub fn with_source_roles(mut self, ego: Option<TrackIndex>, cbv: Option<TrackIndex>) -> Self {
+        let origin = |r: Option<TrackIndex>| if r.is_some() { RoleOrigin::Source } else { RoleOrigin::Unassigned };
+        (self.ego, self.ego_origin, self.cbv, self.cbv_origin) = (ego, origin(ego), cbv, origin(cbv));
         self
     }
 

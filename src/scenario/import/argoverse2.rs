@@ -24,7 +24,7 @@ use super::{ImportError, Location};
 use crate::geometry::{Point2, Polygon, Polyline, Vector2, wrap_angle};
 use crate::map::{AreaKind, Lane, LaneKind, MapArea, MapElementId, RoadEdge, RoadEdgeKind, RoadMap};
 use crate::scenario::{
-    AgentId, AgentKind, AgentState, DataLicence, RoleOrigin, Scenario, ScenarioSource, SourceFormat, Track, TrackIndex,
+    AgentId, AgentKind, AgentState, DataLicence, Scenario, ScenarioSource, SourceFormat, Track, TrackIndex,
 };
 
 const FORMAT: SourceFormat = SourceFormat::Argoverse2;
@@ -216,19 +216,17 @@ fn parse_inner(
     }
 
     Ok(Scenario {
-        id: scenario_id,
-        source: ScenarioSource { format: FORMAT, path: path.to_path_buf(), licence: DataLicence::CcByNcSa4, notes },
-        dt_s: STEP_S,
         current_step,
-        tracks,
-        map,
-        ego,
-        ego_origin: if ego.is_some() { RoleOrigin::Source } else { RoleOrigin::Unassigned },
-        cbv,
-        cbv_origin: if cbv.is_some() { RoleOrigin::Source } else { RoleOrigin::Unassigned },
         objects_of_interest: focal.into_iter().collect(),
-        origin_world: Vector2::zeros(),
-    })
+        ..Scenario::new(
+            scenario_id,
+            ScenarioSource { format: FORMAT, path: path.to_path_buf(), licence: DataLicence::CcByNcSa4, notes },
+            STEP_S,
+            map,
+            tracks,
+        )
+    }
+    .with_source_roles(ego, cbv))
 }
 
 // ---------------------------------------------------------------------------

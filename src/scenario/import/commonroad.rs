@@ -20,9 +20,7 @@ use roxmltree::{Document, Node, ParsingOptions};
 use super::{ImportError, Location};
 use crate::geometry::{Point2, Polygon, Polyline, Vector2, wrap_angle};
 use crate::map::{Lane, LaneKind, MapElementId, RoadEdge, RoadEdgeKind, RoadMap, SignalState, TrafficSignal};
-use crate::scenario::{
-    AgentId, AgentKind, AgentState, DataLicence, RoleOrigin, Scenario, ScenarioSource, SourceFormat, Track,
-};
+use crate::scenario::{AgentId, AgentKind, AgentState, DataLicence, Scenario, ScenarioSource, SourceFormat, Track};
 
 const FORMAT: SourceFormat = SourceFormat::CommonRoad;
 
@@ -100,19 +98,16 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<Scenario, ImportError> {
     }
 
     Ok(Scenario {
-        id,
-        source: ScenarioSource { format: FORMAT, path: path.to_path_buf(), licence: DataLicence::PublicDomain, notes },
-        dt_s,
         current_step,
-        tracks: agents.tracks,
-        map,
-        ego: None,
-        ego_origin: RoleOrigin::Unassigned,
-        cbv: None,
-        cbv_origin: RoleOrigin::Unassigned,
-        objects_of_interest: Vec::new(),
-        origin_world: Vector2::zeros(),
-    })
+        ..Scenario::new(
+            id,
+            ScenarioSource { format: FORMAT, path: path.to_path_buf(), licence: DataLicence::PublicDomain, notes },
+            dt_s,
+            map,
+            agents.tracks,
+        )
+    }
+    .with_source_roles(None, None))
 }
 
 /// Line and column just past the last character of `text`.

@@ -37,7 +37,7 @@ use crate::map::{
     SignalState, StopSign, TrafficSignal,
 };
 use crate::scenario::{
-    AgentId, AgentKind, AgentState, DataLicence, RoleOrigin, Scenario, ScenarioSource, SourceFormat, Track, TrackIndex,
+    AgentId, AgentKind, AgentState, DataLicence, Scenario, ScenarioSource, SourceFormat, Track, TrackIndex,
 };
 
 /// Step length of every WOMD scene, seconds (10 Hz).
@@ -306,24 +306,22 @@ impl Converter<'_> {
             _ => self.path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default(),
         };
         Ok(Scenario {
-            id,
-            source: ScenarioSource {
-                format: SourceFormat::WomdJson,
-                path: self.path.to_path_buf(),
-                licence: DataLicence::WaymoNonCommercial,
-                notes,
-            },
-            dt_s: WOMD_STEP_S,
             current_step,
-            tracks,
-            map,
-            ego,
-            ego_origin: if ego.is_some() { RoleOrigin::Source } else { RoleOrigin::Unassigned },
-            cbv,
-            cbv_origin: if cbv.is_some() { RoleOrigin::Source } else { RoleOrigin::Unassigned },
             objects_of_interest,
-            origin_world: Vector2::zeros(),
-        })
+            ..Scenario::new(
+                id,
+                ScenarioSource {
+                    format: SourceFormat::WomdJson,
+                    path: self.path.to_path_buf(),
+                    licence: DataLicence::WaymoNonCommercial,
+                    notes,
+                },
+                WOMD_STEP_S,
+                map,
+                tracks,
+            )
+        }
+        .with_source_roles(ego, cbv))
     }
 
     /// Every per-step list of every object has `num_steps` entries.

@@ -25,7 +25,7 @@ use crate::map::{
     SignalState, StopSign, TrafficSignal,
 };
 use crate::scenario::{
-    AgentId, AgentKind, AgentState, DataLicence, RoleOrigin, Scenario, ScenarioSource, SourceFormat, Track, TrackIndex,
+    AgentId, AgentKind, AgentState, DataLicence, Scenario, ScenarioSource, SourceFormat, Track, TrackIndex,
 };
 
 /// Miles per hour to metres per second (exact by definition of the mile).
@@ -444,24 +444,22 @@ impl Converter<'_> {
             }
         };
         Ok(Scenario {
-            id,
-            source: ScenarioSource {
-                format: SourceFormat::WomdProto,
-                path: self.path.to_path_buf(),
-                licence: DataLicence::WaymoNonCommercial,
-                notes,
-            },
-            dt_s,
             current_step,
-            tracks,
-            map,
-            ego,
-            ego_origin: if ego.is_some() { RoleOrigin::Source } else { RoleOrigin::Unassigned },
-            cbv,
-            cbv_origin: if cbv.is_some() { RoleOrigin::Source } else { RoleOrigin::Unassigned },
             objects_of_interest,
-            origin_world: Vector2::zeros(),
-        })
+            ..Scenario::new(
+                id,
+                ScenarioSource {
+                    format: SourceFormat::WomdProto,
+                    path: self.path.to_path_buf(),
+                    licence: DataLicence::WaymoNonCommercial,
+                    notes,
+                },
+                dt_s,
+                map,
+                tracks,
+            )
+        }
+        .with_source_roles(ego, cbv))
     }
 
     /// The mean step length of the timestamps, which must increase.
