@@ -239,10 +239,14 @@ impl SignalState {
     }
 }
 
-/// The signal controlling one lane over the scenario's steps.
+/// The signal controlling one lane over the scenario's steps. Traffic on
+/// `lane` must stop at the lane's *end* (its stop line, `stop_point` where
+/// the source gives one) while the state requires stopping; every importer
+/// and the template intersection place signals on the lane that leads into
+/// the junction, and the lane follower and evasive planner stop there.
 #[derive(Debug, Clone, PartialEq)]
 pub struct TrafficSignal {
-    /// Controlled lane.
+    /// Controlled lane (the one ending at the stop line).
     pub lane: MapElementId,
     /// Stop line point, where known.
     pub stop_point: Option<Point2>,
