@@ -1525,17 +1525,9 @@ mod tests {
     #[test]
     fn route_follows_the_first_successor_and_not_oncoming_lanes() {
         let lane = |id: i64, pts: &[(f64, f64)], successors: Vec<MapElementId>| Lane {
-            id: MapElementId(id),
-            centreline: Polyline::new(pts.iter().map(|&(x, y)| Point2::new(x, y)).collect()),
             kind: LaneKind::SurfaceStreet,
-            speed_limit_mps: None,
-            predecessors: vec![],
             successors,
-            left_neighbours: vec![],
-            right_neighbours: vec![],
-            left_boundary: None,
-            right_boundary: None,
-            in_intersection: false,
+            ..Lane::new(MapElementId(id), Polyline::new(pts.iter().map(|&(x, y)| Point2::new(x, y)).collect()))
         };
         let map = RoadMap::new(
             vec![

@@ -224,19 +224,7 @@ pub(crate) mod test_support {
     }
 
     fn lane(id: i64, pts: &[(f64, f64)]) -> Lane {
-        Lane {
-            id: MapElementId(id),
-            centreline: pl(pts),
-            kind: LaneKind::SurfaceStreet,
-            speed_limit_mps: None,
-            predecessors: vec![],
-            successors: vec![],
-            left_neighbours: vec![],
-            right_neighbours: vec![],
-            left_boundary: None,
-            right_boundary: None,
-            in_intersection: false,
-        }
+        Lane { kind: LaneKind::SurfaceStreet, ..Lane::new(MapElementId(id), pl(pts)) }
     }
 
     /// A cross of two two-lane roads at (40, 0); 61 steps of 0.1 s.

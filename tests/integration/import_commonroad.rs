@@ -6,13 +6,12 @@
 //! home of [`heading_follows_motion`], shared with the Argoverse 2 tests.
 
 use std::path::{Path, PathBuf};
-use std::time::Instant;
 
 use safer::geometry::{Point2, wrap_angle};
 use safer::scenario::import::{ImportError, Location, commonroad, discover, load};
 use safer::scenario::{AgentKind, DataLicence, RoleOrigin, Scenario};
 
-use crate::shared_data::{data_dir, files};
+use crate::shared_data::{ImportTimings, TimedImport, data_dir, files};
 
 /// A vehicle moving at least this fast between two steps has a direction
 /// of motion that tells its heading.
@@ -124,22 +123,12 @@ fn check(path: &Path, s: &Scenario) {
 fn commonroad_every_file_imports_with_invariants() {
     let paths = files("commonroad-ngsim", "xml");
     assert_eq!(paths.len(), 84, "shared CommonRoad files");
-    let (mut parse_total, mut load_total, mut slowest) = (0.0f64, 0.0f64, (0.0f64, String::new()));
+    let mut timings = ImportTimings::default();
     let (mut agree_sum, mut samples_sum) = (0.0f64, 0usize);
     let (mut on_road_sum, mut points_sum) = (0.0f64, 0usize);
     let (mut with_signals, mut with_ego, mut at_step_10) = (0, 0, 0);
     for path in &paths {
-        let bytes = std::fs::read(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-        let started = Instant::now();
-        commonroad::parse(&bytes, path).unwrap_or_else(|e| panic!("{e}"));
-        let parse_s = started.elapsed().as_secs_f64();
-        parse_total += parse_s;
-        if parse_s > slowest.0 {
-            slowest = (parse_s, path.display().to_string());
-        }
-        let started = Instant::now();
-        let scenarios = load(path).unwrap_or_else(|e| panic!("{e}"));
-        load_total += started.elapsed().as_secs_f64();
+        let TimedImport { bytes, scenarios, parse_s, .. } = timings.import(path, commonroad::parse);
         assert_eq!(scenarios.len(), 1, "{}: one scenario per file", path.display());
         let s = &scenarios[0];
         check(path, s);
@@ -185,12 +174,9 @@ fn commonroad_every_file_imports_with_invariants() {
         );
     }
     println!(
-        "commonroad: {} files, parse {:.0} ms mean (slowest {:.0} ms, {}), load {:.0} ms mean; heading follows motion {:.2}% of {samples_sum}; centreline on road {:.2}% of {points_sum}; {with_signals} with signals; {with_ego} with a mined ego; {at_step_10} with now = step 10",
+        "commonroad: {} files, {}; heading follows motion {:.2}% of {samples_sum}; centreline on road {:.2}% of {points_sum}; {with_signals} with signals; {with_ego} with a mined ego; {at_step_10} with now = step 10",
         paths.len(),
-        parse_total * 1e3 / paths.len() as f64,
-        slowest.0 * 1e3,
-        slowest.1,
-        load_total * 1e3 / paths.len() as f64,
+        timings.summary(),
         100.0 * agree_sum / samples_sum.max(1) as f64,
         100.0 * on_road_sum / points_sum.max(1) as f64,
     );

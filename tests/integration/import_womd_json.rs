@@ -5,35 +5,22 @@
 //! fail with the file and the line/column or element, never a panic.
 
 use std::path::Path;
-use std::time::Instant;
 
 use safer::scenario::RoleOrigin;
 use safer::scenario::import::{load, womd_json};
 
 use crate::import_womd_proto::{check_scenario, heading_agreement, on_road_share};
-use crate::shared_data::files;
+use crate::shared_data::{ImportTimings, TimedImport, files};
 
 #[test]
 fn womd_json_every_file_imports_with_invariants() {
     let paths = files("womd-json", "json");
     assert_eq!(paths.len(), 67, "shared WOMD JSON scenes");
-    let (mut parse_total, mut load_total, mut slowest) = (0.0f64, 0.0f64, (0.0f64, String::new()));
+    let mut timings = ImportTimings::default();
     let (mut degrees, mut radians, mut with_ego) = (0, 0, 0);
     let (mut on_road_points, mut all_points) = (0.0f64, 0usize);
     for path in &paths {
-        let bytes = std::fs::read(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-        let started = Instant::now();
-        womd_json::parse(&bytes, path).unwrap_or_else(|e| panic!("{e}"));
-        let parse_s = started.elapsed().as_secs_f64();
-        parse_total += parse_s;
-        if parse_s > slowest.0 {
-            slowest = (parse_s, path.display().to_string());
-        }
-
-        let started = Instant::now();
-        let scenarios = load(path).unwrap_or_else(|e| panic!("{e}"));
-        let load_s = started.elapsed().as_secs_f64();
-        load_total += load_s;
+        let TimedImport { bytes, scenarios, parse_s, load_s } = timings.import(path, womd_json::parse);
         assert_eq!(scenarios.len(), 1);
         let s = &scenarios[0];
         check_scenario(path, s);
@@ -74,12 +61,9 @@ fn womd_json_every_file_imports_with_invariants() {
         );
     }
     println!(
-        "womd-json: {} files, parse {:.0} ms mean, slowest {:.0} ms ({}); load (parse, re-centre, roles, validate) {:.0} ms mean; {degrees} in degrees, {radians} in radians; {with_ego} name an ego; lane points on road {:.1}% of {all_points}",
+        "womd-json: {} files, {} (load = parse, re-centre, roles, validate); {degrees} in degrees, {radians} in radians; {with_ego} name an ego; lane points on road {:.1}% of {all_points}",
         paths.len(),
-        parse_total * 1e3 / paths.len() as f64,
-        slowest.0 * 1e3,
-        slowest.1,
-        load_total * 1e3 / paths.len() as f64,
+        timings.summary(),
         100.0 * on_road_points / all_points.max(1) as f64
     );
     // 42 + 13 files in degrees; 11 with metadata and one middle-generation

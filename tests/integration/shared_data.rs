@@ -44,3 +44,62 @@ pub fn all_scenes() -> &'static [safer::scenario::Scenario] {
         loaded.into_iter().flatten().collect()
     })
 }
+
+/// Parse and load timings over the files of an import test, for its report.
+#[derive(Debug, Default)]
+pub struct ImportTimings {
+    parse_total_s: f64,
+    load_total_s: f64,
+    slowest_parse: (f64, String),
+    files: usize,
+}
+
+/// One file's import: the loaded scenarios and how long each stage took.
+pub struct TimedImport {
+    /// The file's bytes.
+    pub bytes: Vec<u8>,
+    /// What `load` returned (re-centred, roles assigned, validated).
+    pub scenarios: Vec<safer::scenario::Scenario>,
+    /// Time of the format's own `parse`, s.
+    pub parse_s: f64,
+    /// Time of the whole `load`, s.
+    pub load_s: f64,
+}
+
+impl ImportTimings {
+    /// Runs the importer's `parse` on the file's bytes, then the full
+    /// `load`, timing both; panics naming the file on any error.
+    pub fn import<T, E: std::fmt::Display>(
+        &mut self,
+        path: &std::path::Path,
+        parse: impl Fn(&[u8], &std::path::Path) -> Result<T, E>,
+    ) -> TimedImport {
+        use std::time::Instant;
+        let bytes = std::fs::read(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        let started = Instant::now();
+        parse(&bytes, path).unwrap_or_else(|e| panic!("{e}"));
+        let parse_s = started.elapsed().as_secs_f64();
+        let started = Instant::now();
+        let scenarios = safer::scenario::import::load(path).unwrap_or_else(|e| panic!("{e}"));
+        let load_s = started.elapsed().as_secs_f64();
+        self.parse_total_s += parse_s;
+        self.load_total_s += load_s;
+        self.files += 1;
+        if parse_s > self.slowest_parse.0 {
+            self.slowest_parse = (parse_s, path.display().to_string());
+        }
+        TimedImport { bytes, scenarios, parse_s, load_s }
+    }
+
+    /// "parse X ms mean (slowest Y ms, FILE), load Z ms mean".
+    pub fn summary(&self) -> String {
+        let n = self.files.max(1) as f64;
+        format!(
+            "parse {:.0} ms mean (slowest {:.0} ms, {}), load {:.0} ms mean",
+            self.parse_total_s * 1e3 / n,
+            self.slowest_parse.0 * 1e3,
+            self.slowest_parse.1,
+            self.load_total_s * 1e3 / n
+        )
+    }
+}
