@@ -13,6 +13,7 @@
 //! | [`map`] | typed map elements, lane graph, spatial index, road-edge distance |
 //! | [`scenario`] | the in-memory scenario and the importers of recorded logs |
 //! | [`motion`] | kinematic model, the 63×63 token grid, log-to-token inversion |
+//! | [`models`] | ONNX models run by tract, model cards, feature builders |
 //! | [`policies`] | who drives a background agent: log replay, constant velocity, IDM |
 //! | [`planners`] | the ego under test: the planner trait and built-in planners |
 //! | [`sim`] | the closed-loop engine, collision and off-road events, rollouts, authored scenes |
@@ -27,6 +28,7 @@ pub mod eval;
 pub mod geometry;
 pub mod harness;
 pub mod map;
+pub mod models;
 pub mod motion;
 pub mod planners;
 pub mod policies;

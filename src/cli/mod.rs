@@ -4,6 +4,7 @@
 
 mod bench;
 mod inspect;
+mod prior_dataset;
 mod render;
 mod run;
 mod schema;
@@ -98,6 +99,30 @@ enum Command {
         #[arg(long, value_name = "FILE")]
         out: Option<PathBuf>,
     },
+    /// Write the realism prior's training shards (NGSIM scenes + calibrated synthetic traffic).
+    PriorDataset {
+        /// Recorded scenes whose licence allows training the shipped models (NGSIM).
+        #[arg(long, default_value = "../shared/data/commonroad-ngsim")]
+        recorded: PathBuf,
+        /// Output folder for the shards.
+        #[arg(long, default_value = "training/data/prior")]
+        out: PathBuf,
+        /// Synthetic scenes on procedural templates (straight roads, merges, signalised crossings).
+        #[arg(long, default_value_t = 600)]
+        template_scenes: usize,
+        /// Synthetic scenes on the recorded maps.
+        #[arg(long, default_value_t = 200)]
+        recorded_map_scenes: usize,
+        /// Base seed of the synthetic traffic.
+        #[arg(long, default_value_t = 0)]
+        seed: u64,
+        /// Samples per shard.
+        #[arg(long, default_value_t = 50_000)]
+        shard_size: usize,
+        /// Replace shards already in the output folder.
+        #[arg(long)]
+        force: bool,
+    },
     /// Draw a scenario (a recorded file or a scenario spec YAML) as an SVG picture.
     Render {
         /// A recorded scenario (.tfrecord, .json, .xml, .parquet / AV2 folder) or a scenario spec (.yaml).
@@ -159,6 +184,17 @@ pub fn main() -> ExitCode {
         }
         Command::Schema { kind, out } => schema::run(kind, out.as_deref()),
         Command::Render { file, step, out, force } => render::run(&file, step, out.as_deref(), force),
+        Command::PriorDataset { recorded, out, template_scenes, recorded_map_scenes, seed, shard_size, force } => {
+            prior_dataset::run(&prior_dataset::DatasetRequest {
+                recorded,
+                out,
+                template_scenes,
+                recorded_map_scenes,
+                seed,
+                shard_size: shard_size.max(1),
+                force,
+            })
+        }
     };
     match result {
         Ok(code) => code,

@@ -5,6 +5,7 @@
 //! VJ/AJ) treats authored and recorded scenes alike.
 
 use crate::map::RoadMap;
+use crate::policies::noisy_idm::{DriverNoise, NoisyIdm};
 use crate::policies::{AgentAction, AgentPolicy, ConstantVelocity, IdmLaneFollower, IdmParams, WorldView};
 use crate::scenario::{AgentBody, AgentId, AgentState, Scenario, ScenarioSource, Track, TrackIndex};
 
@@ -18,6 +19,8 @@ pub enum AuthoredBehaviour {
     ConstantVelocity,
     /// Follow the lane with IDM speed control.
     Idm(IdmParams),
+    /// Follow the lane with IDM speed control and a seeded acceleration disturbance.
+    NoisyIdm(IdmParams, DriverNoise),
     /// Stay where it is.
     Parked,
 }
@@ -80,6 +83,7 @@ pub fn synthesize(authored: &AuthoredScenario) -> Scenario {
             match a.behaviour {
                 AuthoredBehaviour::ConstantVelocity => Box::new(ConstantVelocity),
                 AuthoredBehaviour::Idm(p) => Box::new(IdmLaneFollower::new(p)),
+                AuthoredBehaviour::NoisyIdm(p, noise) => Box::new(NoisyIdm::new(p, noise)),
                 AuthoredBehaviour::Parked => Box::new(Parked),
             }
         })

@@ -7,6 +7,7 @@
 //! iterates in index order, and nothing reads a clock or a global RNG.
 
 pub mod authoring;
+pub mod synthetic;
 mod events;
 mod rollout;
 

@@ -1,0 +1,213 @@
+//! Loading an ONNX model with tract, checked against its card: the file's
+//! checksum, the graph's input and output names, and (optionally) a replay
+//! of the golden inputs/outputs stored beside it. The optimised plan is
+//! immutable and `Send + Sync`: load once, share it (e.g. in an `Arc`) with
+//! every rayon worker; tract runs each call single-threaded.
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use sha2::{Digest, Sha256};
+use tract_onnx::prelude::*;
+
+use super::ModelError;
+use super::card::{DType, Dim, ExpectedContract, ModelCard};
+
+/// A loaded, optimised model with its card.
+#[derive(Debug, Clone)]
+pub struct OnnxModel {
+    card: ModelCard,
+    card_path: PathBuf,
+    batch: usize,
+    plan: Arc<TypedRunnableModel>,
+}
+
+/// Result of replaying a model's golden file.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GoldenReplay {
+    /// Largest absolute difference over all outputs.
+    pub max_abs_diff: f64,
+    /// The card's tolerance.
+    pub tolerance: f64,
+    /// Number of output values compared.
+    pub values: usize,
+}
+
+/// The values of an `f32` tensor, in row-major order.
+pub fn f32_values(t: &Tensor) -> TractResult<Vec<f32>> {
+    Ok(t.to_plain_array_view::<f32>()?.iter().copied().collect())
+}
+
+/// Hex SHA-256 of a file's bytes.
+pub fn sha256_hex(bytes: &[u8]) -> String {
+    Sha256::digest(bytes).iter().map(|b| format!("{b:02x}")).collect()
+}
+
+impl OnnxModel {
+    /// Loads the card at `card_path`, checks it against `expected`, checks
+    /// the ONNX file's checksum and graph I/O names, and optimises the graph
+    /// with every symbolic dimension fixed to `batch`.
+    pub fn load(card_path: &Path, expected: &ExpectedContract, batch: usize) -> Result<Self, ModelError> {
+        let card = ModelCard::load(card_path)?;
+        card.check(card_path, expected)?;
+        let dir = card_path.parent().unwrap_or(Path::new("."));
+        let onnx_path = dir.join(&card.file);
+        let bytes =
+            std::fs::read(&onnx_path).map_err(|source| ModelError::Io { path: onnx_path.clone(), source })?;
+        let found = sha256_hex(&bytes);
+        if !found.eq_ignore_ascii_case(&card.sha256) {
+            return Err(ModelError::CardMismatch {
+                path: card_path.to_path_buf(),
+                field: "sha256".into(),
+                expected: card.sha256.clone(),
+                found: format!("{found} (the ONNX file changed after the card was written)"),
+            });
+        }
+        let onnx_err = |e: TractError| ModelError::Onnx { path: onnx_path.clone(), message: format!("{e:#}") };
+        let mut model = tract_onnx::onnx().model_for_read(&mut bytes.as_slice()).map_err(onnx_err)?;
+        let graph_inputs: Vec<String> =
+            model.input_outlets().map_err(onnx_err)?.iter().map(|o| model.node(o.node).name.clone()).collect();
+        let card_inputs: Vec<String> = card.inputs.iter().map(|s| s.name.clone()).collect();
+        if graph_inputs != card_inputs {
+            return Err(ModelError::CardMismatch {
+                path: card_path.to_path_buf(),
+                field: "inputs (names in the ONNX graph)".into(),
+                expected: card_inputs.join(", "),
+                found: graph_inputs.join(", "),
+            });
+        }
+        for (i, spec) in card.inputs.iter().enumerate() {
+            let shape: Vec<usize> = spec
+                .shape
+                .iter()
+                .map(|d| match d {
+                    Dim::Fixed(n) => *n,
+                    Dim::Symbol(_) => batch,
+                })
+                .collect();
+            let dt = match spec.dtype {
+                DType::F32 => f32::datum_type(),
+                DType::I64 => i64::datum_type(),
+            };
+            model = model.with_input_fact(i, InferenceFact::dt_shape(dt, shape)).map_err(onnx_err)?;
+        }
+        let optimised = model.into_optimized().map_err(onnx_err)?;
+        let graph_outputs: Vec<String> =
+            optimised.output_outlets().map_err(onnx_err)?.iter().map(|o| optimised.node(o.node).name.clone()).collect();
+        let card_outputs: Vec<String> = card.outputs.iter().map(|s| s.name.clone()).collect();
+        if graph_outputs.len() != card_outputs.len() {
+            return Err(ModelError::CardMismatch {
+                path: card_path.to_path_buf(),
+                field: "outputs (count in the ONNX graph)".into(),
+                expected: card_outputs.len().to_string(),
+                found: graph_outputs.len().to_string(),
+            });
+        }
+        let plan = optimised.into_runnable().map_err(onnx_err)?;
+        Ok(Self { card, card_path: card_path.to_path_buf(), batch, plan })
+    }
+
+    /// The card.
+    pub fn card(&self) -> &ModelCard {
+        &self.card
+    }
+
+    /// The batch size the symbolic dimensions were fixed to.
+    pub fn batch(&self) -> usize {
+        self.batch
+    }
+
+    /// Runs the graph on inputs in card order (shapes as fixed at load).
+    pub fn run(&self, inputs: TVec<TValue>) -> Result<TVec<TValue>, ModelError> {
+        self.plan.run(inputs).map_err(|e| ModelError::Inference { model: self.card.name.clone(), message: format!("{e:#}") })
+    }
+
+    /// Replays the golden file: feeds `input.<name>` tensors, compares with
+    /// `output.<name>`. NaN anywhere fails (a NaN never passes a `<=`).
+    pub fn replay_golden(&self) -> Result<GoldenReplay, ModelError> {
+        let dir = self.card_path.parent().unwrap_or(Path::new("."));
+        let path = dir.join(&self.card.golden);
+        let bytes = std::fs::read(&path).map_err(|source| ModelError::Io { path: path.clone(), source })?;
+        let golden = safetensors::SafeTensors::deserialize(&bytes)
+            .map_err(|e| ModelError::Golden { path: path.clone(), message: e.to_string() })?;
+        let tensor = |name: &str| -> Result<Tensor, ModelError> {
+            let view = golden
+                .tensor(name)
+                .map_err(|e| ModelError::Golden { path: path.clone(), message: format!("{name}: {e}") })?;
+            let shape = view.shape().to_vec();
+            let data = view.data();
+            let t = match view.dtype() {
+                safetensors::Dtype::F32 => {
+                    let v: Vec<f32> =
+                        data.chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
+                    Tensor::from_shape(&shape, &v)
+                }
+                safetensors::Dtype::I64 => {
+                    let v: Vec<i64> = data
+                        .chunks_exact(8)
+                        .map(|c| i64::from_le_bytes(c.try_into().expect("chunk of 8")))
+                        .collect();
+                    Tensor::from_shape(&shape, &v)
+                }
+                other => {
+                    return Err(ModelError::Golden { path: path.clone(), message: format!("{name}: dtype {other:?}") });
+                }
+            };
+            t.map_err(|e| ModelError::Golden { path: path.clone(), message: format!("{name}: {e}") })
+        };
+        let golden_batch = |t: &Tensor| t.shape().first().copied().unwrap_or(0);
+        let mut inputs = TVec::new();
+        for spec in &self.card.inputs {
+            let t = tensor(&format!("input.{}", spec.name))?;
+            if spec.shape.first().is_some_and(|d| matches!(d, Dim::Symbol(_))) && golden_batch(&t) != self.batch {
+                return Err(ModelError::Golden {
+                    path: path.clone(),
+                    message: format!(
+                        "input.{} has batch {} but the model was loaded for batch {}",
+                        spec.name,
+                        golden_batch(&t),
+                        self.batch
+                    ),
+                });
+            }
+            inputs.push(t.into_tvalue());
+        }
+        let outputs = self.run(inputs)?;
+        let mut max_abs_diff = 0.0f64;
+        let mut values = 0;
+        for (spec, got) in self.card.outputs.iter().zip(outputs.iter()) {
+            let want = tensor(&format!("output.{}", spec.name))?;
+            let got = got.cast_to::<f32>().map_err(|e| ModelError::Inference {
+                model: self.card.name.clone(),
+                message: format!("{e:#}"),
+            })?;
+            let want = want.cast_to::<f32>().map_err(|e| ModelError::Golden { path: path.clone(), message: format!("{e:#}") })?;
+            if got.shape() != want.shape() {
+                return Err(ModelError::Golden {
+                    path: path.clone(),
+                    message: format!("output.{}: shape {:?}, golden {:?}", spec.name, got.shape(), want.shape()),
+                });
+            }
+            let g = f32_values(&got)
+                .map_err(|e| ModelError::Inference { model: self.card.name.clone(), message: format!("{e:#}") })?;
+            let w = f32_values(&want).map_err(|e| ModelError::Golden { path: path.clone(), message: format!("{e:#}") })?;
+            for (a, b) in g.iter().zip(&w) {
+                let d = (*a as f64 - *b as f64).abs();
+                // NaN-safe: a NaN difference becomes infinite.
+                max_abs_diff = if d.is_nan() { f64::INFINITY } else { max_abs_diff.max(d) };
+                values += 1;
+            }
+        }
+        let replay = GoldenReplay { max_abs_diff, tolerance: self.card.golden_tolerance, values };
+        if !(replay.max_abs_diff <= replay.tolerance) {
+            return Err(ModelError::Golden {
+                path,
+                message: format!(
+                    "outputs differ from the golden file by {:.3e} (tolerance {:.1e})",
+                    replay.max_abs_diff, replay.tolerance
+                ),
+            });
+        }
+        Ok(replay)
+    }
+}

@@ -1,0 +1,235 @@
+//! Synthetic traffic: random vehicles placed on the lanes of a map (a
+//! procedural template or a real recorded map) with per-driver IDM
+//! parameters and a seeded acceleration disturbance ([`NoisyIdm`]),
+//! simulated into a full scenario like a recording. Used to make training
+//! data whose licence allows shipping the models trained on it.
+//!
+//! Desired speeds are drawn from a [`SpeedSample`] of recorded speeds (the
+//! caller calibrates it against real scenes), scaled to the map's limit.
+//! Drivers keep their lane (no lane changes) and go straight at junctions;
+//! the variety comes from the maps, densities, speeds and disturbances.
+
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+use super::authoring::{AuthoredAgent, AuthoredBehaviour, AuthoredScenario, synthesize};
+use crate::geometry::{OrientedBox, Pose2, Vector2};
+use crate::map::RoadMap;
+use crate::map::templates::{Intersection, Merge, StraightRoad};
+use crate::policies::IdmParams;
+use crate::policies::noisy_idm::DriverNoise;
+use crate::scenario::{AgentBody, AgentId, AgentKind, AgentState, Scenario};
+
+/// Recorded speeds that synthetic desired speeds are drawn from, m/s.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SpeedSample {
+    /// Speeds of moving vehicles, sorted.
+    pub speeds_mps: Vec<f64>,
+}
+
+impl SpeedSample {
+    /// A sample from raw speeds (non-finite and near-zero speeds dropped).
+    pub fn new(mut speeds_mps: Vec<f64>) -> Self {
+        speeds_mps.retain(|v| v.is_finite() && *v > 1.0);
+        speeds_mps.sort_by(f64::total_cmp);
+        Self { speeds_mps }
+    }
+
+    /// A random draw (a fixed fallback when the sample is empty).
+    pub fn draw(&self, rng: &mut impl Rng) -> f64 {
+        if self.speeds_mps.is_empty() {
+            return 12.0;
+        }
+        self.speeds_mps[rng.random_range(0..self.speeds_mps.len())]
+    }
+
+    /// The `q` quantile.
+    pub fn quantile(&self, q: f64) -> f64 {
+        if self.speeds_mps.is_empty() {
+            return f64::NAN;
+        }
+        let i = ((self.speeds_mps.len() - 1) as f64 * q.clamp(0.0, 1.0)).round() as usize;
+        self.speeds_mps[i]
+    }
+}
+
+/// Settings of the traffic generator.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SyntheticTraffic {
+    /// Desired speeds come from here.
+    pub speeds: SpeedSample,
+    /// Standard deviation of the drivers' acceleration disturbance, m/s².
+    pub accel_noise_std_mps2: f64,
+    /// Duration of the generated scene, s.
+    pub duration_s: f64,
+    /// Most vehicles placed.
+    pub max_agents: usize,
+}
+
+/// A random procedural map: a straight multi-lane road (sometimes with
+/// oncoming lanes), an on-ramp merge, or a signalised four-way crossing.
+pub fn random_template(rng: &mut impl Rng, steps: usize, dt_s: f64) -> (String, RoadMap) {
+    let width = rng.random_range(3.2..3.9);
+    match rng.random_range(0..3) {
+        0 => {
+            let road = StraightRoad {
+                lanes: rng.random_range(1..=4),
+                oncoming_lanes: if rng.random_bool(0.4) { rng.random_range(1..=2) } else { 0 },
+                lane_width_m: width,
+                length_m: 600.0,
+                speed_limit_mps: Some(rng.random_range(13.0..31.0)),
+            };
+            ("straight".into(), road.build())
+        }
+        1 => {
+            let merge = Merge {
+                lanes: rng.random_range(1..=3),
+                lane_width_m: width,
+                length_m: 600.0,
+                merge_end_m: rng.random_range(200.0..350.0),
+                acceleration_lane_m: rng.random_range(50.0..120.0),
+                speed_limit_mps: Some(rng.random_range(20.0..31.0)),
+            };
+            ("merge".into(), merge.build())
+        }
+        _ => {
+            let crossing = Intersection {
+                lanes_per_direction: rng.random_range(1..=2),
+                lane_width_m: width,
+                arm_length_m: 150.0,
+                green_s: Some(rng.random_range(6.0..20.0)),
+                speed_limit_mps: Some(rng.random_range(11.0..17.0)),
+            };
+            ("intersection".into(), crossing.build_with_signals(steps, dt_s))
+        }
+    }
+}
+
+impl SyntheticTraffic {
+    /// Places vehicles on the lanes of `map` and simulates them; the first
+    /// placed vehicle is the ego (the scene is for training, not testing).
+    /// Deterministic in `seed`. `None` when no vehicle fits.
+    pub fn generate(&self, id: &str, map: RoadMap, seed: u64) -> Option<Scenario> {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let density_per_m = rng.random_range(1.0 / 60.0..1.0 / 15.0);
+        let mut placed: Vec<OrientedBox> = Vec::new();
+        let mut agents = Vec::new();
+        let mut lane_order: Vec<usize> = (0..map.lanes.len()).filter(|&i| !map.lanes[i].in_intersection).collect();
+        // Fisher–Yates with the seeded generator (deterministic order).
+        for i in (1..lane_order.len()).rev() {
+            lane_order.swap(i, rng.random_range(0..=i));
+        }
+        for lane_index in lane_order {
+            let lane = &map.lanes[lane_index];
+            let length = lane.centreline.length_m();
+            let mut s = rng.random_range(2.0..20.0);
+            while s < length - 5.0 && agents.len() < self.max_agents {
+                let Some((p, dir)) = lane.centreline.sample(s) else { break };
+                let heading = dir.y.atan2(dir.x);
+                let body = random_vehicle(&mut rng);
+                let pose = Pose2 { position: p, heading_rad: heading };
+                let footprint = OrientedBox::new(pose, body.length_m + 4.0, body.width_m + 0.5);
+                if placed.iter().all(|b| !b.intersects(&footprint)) {
+                    let limit = lane.speed_limit_mps.unwrap_or(14.0);
+                    // Recorded speeds scaled so that their 90th percentile
+                    // sits at the limit: the shape is the recorded one.
+                    let scale = limit / self.speeds.quantile(0.9).max(1.0);
+                    let desired = (self.speeds.draw(&mut rng) * scale).clamp(2.0, limit * 1.2);
+                    let speed = desired * rng.random_range(0.6..1.0);
+                    let params = IdmParams {
+                        desired_speed_mps: Some(desired),
+                        max_accel_mps2: rng.random_range(0.8..2.5),
+                        comfort_decel_mps2: rng.random_range(1.5..3.0),
+                        time_headway_s: rng.random_range(0.9..2.2),
+                        min_gap_m: rng.random_range(1.5..3.5),
+                        ..IdmParams::default()
+                    };
+                    let noise = DriverNoise {
+                        accel_std_mps2: self.accel_noise_std_mps2 * rng.random_range(0.5..1.5),
+                        correlation_time_s: rng.random_range(1.0..4.0),
+                        seed: rng.random(),
+                    };
+                    placed.push(footprint);
+                    agents.push(AuthoredAgent {
+                        id: AgentId(format!("synthetic-{}", agents.len())),
+                        body,
+                        initial: AgentState {
+                            position: p,
+                            heading_rad: heading,
+                            velocity_mps: Vector2::new(heading.cos(), heading.sin()) * speed,
+                        },
+                        behaviour: AuthoredBehaviour::NoisyIdm(params, noise),
+                    });
+                }
+                s += body.length_m + 4.0 + rng.random_range(0.0..2.0) / density_per_m;
+            }
+        }
+        if agents.is_empty() {
+            return None;
+        }
+        let authored = AuthoredScenario {
+            id: id.to_string(),
+            path: format!("synthetic:{id}").into(),
+            map,
+            agents,
+            ego: 0,
+            cbv: None,
+            duration_s: self.duration_s,
+        };
+        Some(synthesize(&authored))
+    }
+}
+
+fn random_vehicle(rng: &mut impl Rng) -> AgentBody {
+    if rng.random_bool(0.08) {
+        AgentBody { kind: AgentKind::Vehicle, length_m: rng.random_range(8.0..14.0), width_m: rng.random_range(2.4..2.6) }
+    } else {
+        AgentBody { kind: AgentKind::Vehicle, length_m: rng.random_range(4.0..5.4), width_m: rng.random_range(1.7..2.1) }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn traffic() -> SyntheticTraffic {
+        SyntheticTraffic {
+            speeds: SpeedSample::new((5..30).map(f64::from).collect()),
+            accel_noise_std_mps2: 0.4,
+            duration_s: 6.0,
+            max_agents: 40,
+        }
+    }
+
+    #[test]
+    fn the_same_seed_gives_the_same_scene() {
+        let mut rng = ChaCha8Rng::seed_from_u64(7);
+        let (_, map) = random_template(&mut rng, 61, 0.1);
+        let a = traffic().generate("a", map.clone(), 11).unwrap();
+        let b = traffic().generate("a", map, 11).unwrap();
+        assert_eq!(a.tracks, b.tracks);
+        assert!(a.tracks.len() >= 2);
+        assert_eq!(a.num_steps(), 61);
+    }
+
+    #[test]
+    fn placed_vehicles_do_not_overlap_at_the_start() {
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        for seed in 0..6 {
+            let (_, map) = random_template(&mut rng, 61, 0.1);
+            let Some(s) = traffic().generate("x", map, seed) else { continue };
+            for (i, a) in s.tracks.iter().enumerate() {
+                for b in &s.tracks[i + 1..] {
+                    assert!(!a.footprint(0).unwrap().intersects(&b.footprint(0).unwrap()));
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn speeds_are_drawn_from_the_sample_scaled_to_the_limit() {
+        let sample = SpeedSample::new(vec![0.5, 10.0, 20.0, f64::NAN]);
+        assert_eq!(sample.speeds_mps, vec![10.0, 20.0]);
+        assert_eq!(sample.quantile(1.0), 20.0);
+    }
+}
