@@ -6,6 +6,7 @@
 
 pub mod card;
 pub mod onnx;
+pub mod prior;
 pub mod prior_dataset;
 pub mod prior_features;
 

@@ -7,6 +7,7 @@ pub mod constant_velocity;
 pub mod lane_follower;
 pub mod log_replay;
 pub mod noisy_idm;
+pub mod prior_sampling;
 
 pub use constant_velocity::ConstantVelocity;
 pub use lane_follower::{IdmLaneFollower, IdmParams, Route, build_route};

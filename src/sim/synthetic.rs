@@ -130,12 +130,15 @@ impl SyntheticTraffic {
                 let pose = Pose2 { position: p, heading_rad: heading };
                 let footprint = OrientedBox::new(pose, body.length_m + 4.0, body.width_m + 0.5);
                 if placed.iter().all(|b| !b.intersects(&footprint)) {
-                    let limit = lane.speed_limit_mps.unwrap_or(14.0);
-                    // Recorded speeds scaled so that their 90th percentile
-                    // sits at the limit: the shape is the recorded one.
-                    let scale = limit / self.speeds.quantile(0.9).max(1.0);
-                    let desired = (self.speeds.draw(&mut rng) * scale).clamp(2.0, limit * 1.2);
-                    let speed = desired * rng.random_range(0.6..1.0);
+                    // Recorded speeds, scaled on a map with a limit so that
+                    // their 90th percentile sits at it: the shape stays the
+                    // recorded one. Recorded maps without limits keep them.
+                    let (scale, cap) = match lane.speed_limit_mps {
+                        Some(limit) => (limit / self.speeds.quantile(0.9).max(1.0), limit * 1.2),
+                        None => (1.0, self.speeds.quantile(0.99) * 1.1),
+                    };
+                    let desired = (self.speeds.draw(&mut rng) * scale).clamp(2.0, cap.max(2.0));
+                    let speed = desired * rng.random_range(0.8..1.0);
                     let params = IdmParams {
                         desired_speed_mps: Some(desired),
                         max_accel_mps2: rng.random_range(0.8..2.5),

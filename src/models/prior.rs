@@ -1,0 +1,231 @@
+//! The realism prior at inference: the map encoder, run once per scenario
+//! over all its map tokens, and the decoder, run for just the agents whose
+//! next token is needed (one CBV query, or every prior-driven agent in
+//! chunks). Both graphs are loaded once, checked against their cards, and
+//! shared read-only by every worker thread.
+
+use std::path::Path;
+use std::sync::Arc;
+
+use tract_onnx::prelude::*;
+
+use super::card::{DType, ExpectedContract, ModelKind};
+use super::onnx::{OnnxModel, f32_values};
+use super::prior_features::{
+    HISTORY_FEATURES, HISTORY_POINTS, MAP_ENCODER_CHUNK, MAP_TOKEN_FEATURES, MAP_TOKENS, MapTokens, NEIGHBOUR_FEATURES,
+    NEIGHBOURS, POSE_FEATURES, QueryFeatures, SELF_FEATURES, SIGNAL_FEATURES,
+};
+use super::{Dim, ModelError};
+use crate::motion::tokens::VOCABULARY_SIZE;
+
+/// Which decoder: the paper's differential attention, or plain attention
+/// (the `no-mda` ablation).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, clap::ValueEnum, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum PriorVariant {
+    /// Multi-head differential attention (the default).
+    Differential,
+    /// Plain multi-head attention of the same size.
+    Plain,
+}
+
+impl PriorVariant {
+    /// File stems of (map encoder, decoder) in `models/`.
+    pub fn stems(self) -> (&'static str, &'static str) {
+        match self {
+            Self::Differential => ("prior-map-encoder", "prior-decoder"),
+            Self::Plain => ("prior-map-encoder-plain", "prior-decoder-plain"),
+        }
+    }
+}
+
+/// Decoder batch for full-scene steps; smaller batches are padded.
+pub const SCENE_BATCH: usize = 32;
+
+/// The map embedding of one scenario: one row of width `d` per map token.
+#[derive(Debug, Clone)]
+pub struct MapEmbedding {
+    /// Row-major [tokens × d].
+    pub rows: Vec<f32>,
+    /// Embedding width.
+    pub d: usize,
+}
+
+/// Per-token logits of one query.
+pub type TokenLogits = Vec<f32>;
+
+/// The loaded prior.
+#[derive(Debug, Clone)]
+pub struct RealismPrior {
+    variant: PriorVariant,
+    map_encoder: OnnxModel,
+    decoder_single: OnnxModel,
+    decoder_scene: OnnxModel,
+    d: usize,
+}
+
+fn map_encoder_contract() -> ExpectedContract {
+    ExpectedContract {
+        kind: ModelKind::RealismPriorMapEncoder,
+        inputs: vec![("map_tokens", DType::F32, vec![Some(MAP_ENCODER_CHUNK), Some(MAP_TOKEN_FEATURES)])],
+        outputs: vec![("map_embedding", DType::F32, vec![Some(MAP_ENCODER_CHUNK), None])],
+        speaks_tokens: false,
+    }
+}
+
+fn decoder_contract() -> ExpectedContract {
+    ExpectedContract {
+        kind: ModelKind::RealismPriorDecoder,
+        inputs: vec![
+            ("history", DType::F32, vec![None, Some(HISTORY_POINTS), Some(HISTORY_FEATURES)]),
+            ("agent_self", DType::F32, vec![None, Some(SELF_FEATURES)]),
+            ("neighbours", DType::F32, vec![None, Some(NEIGHBOURS), Some(NEIGHBOUR_FEATURES)]),
+            ("neighbour_pose", DType::F32, vec![None, Some(NEIGHBOURS), Some(POSE_FEATURES)]),
+            ("neighbour_mask", DType::F32, vec![None, Some(NEIGHBOURS)]),
+            ("map_embedding", DType::F32, vec![None, Some(MAP_TOKENS), None]),
+            ("map_pose", DType::F32, vec![None, Some(MAP_TOKENS), Some(POSE_FEATURES)]),
+            ("map_signal", DType::F32, vec![None, Some(MAP_TOKENS), Some(SIGNAL_FEATURES)]),
+            ("map_mask", DType::F32, vec![None, Some(MAP_TOKENS)]),
+        ],
+        outputs: vec![("logits", DType::F32, vec![None, Some(VOCABULARY_SIZE)])],
+        speaks_tokens: true,
+    }
+}
+
+impl RealismPrior {
+    /// Loads `variant` from `dir` (usually [`super::models_dir`]).
+    pub fn load(dir: &Path, variant: PriorVariant) -> Result<Self, ModelError> {
+        let (enc, dec) = variant.stems();
+        let card = |stem: &str| dir.join(format!("{stem}.card.yaml"));
+        let map_encoder = OnnxModel::load(&card(enc), &map_encoder_contract(), MAP_ENCODER_CHUNK)?;
+        let d = match map_encoder.card().outputs[0].shape.get(1) {
+            Some(Dim::Fixed(d)) => *d,
+            other => {
+                return Err(ModelError::CardMismatch {
+                    path: card(enc),
+                    field: "outputs[0].shape[1]".into(),
+                    expected: "a fixed embedding width".into(),
+                    found: format!("{other:?}"),
+                });
+            }
+        };
+        let decoder_single = OnnxModel::load(&card(dec), &decoder_contract(), 1)?;
+        let width_ok = matches!(decoder_single.card().inputs[5].shape.get(2), Some(Dim::Fixed(w)) if *w == d);
+        if !width_ok {
+            return Err(ModelError::CardMismatch {
+                path: card(dec),
+                field: "inputs[5].shape[2] (map_embedding width)".into(),
+                expected: format!("{d} (the map encoder's output width)"),
+                found: format!("{:?}", decoder_single.card().inputs[5].shape.get(2)),
+            });
+        }
+        let decoder_scene = OnnxModel::load(&card(dec), &decoder_contract(), SCENE_BATCH)?;
+        Ok(Self { variant, map_encoder, decoder_single, decoder_scene, d })
+    }
+
+    /// Which decoder this is.
+    pub fn variant(&self) -> PriorVariant {
+        self.variant
+    }
+
+    /// The map encoder (for golden replay).
+    pub fn map_encoder(&self) -> &OnnxModel {
+        &self.map_encoder
+    }
+
+    /// The decoder loaded for batch 1 (for golden replay).
+    pub fn decoder(&self) -> &OnnxModel {
+        &self.decoder_single
+    }
+
+    /// Embeds every map token of a scenario (once per scenario).
+    pub fn encode_map(&self, tokens: &MapTokens) -> Result<MapEmbedding, ModelError> {
+        let input = tokens.encoder_input();
+        let mut rows = Vec::with_capacity(tokens.tokens.len() * self.d);
+        for chunk in input.chunks(MAP_ENCODER_CHUNK * MAP_TOKEN_FEATURES) {
+            let t = Tensor::from_shape(&[MAP_ENCODER_CHUNK, MAP_TOKEN_FEATURES], chunk).map_err(|e| self.input_error(e))?;
+            let out = self.map_encoder.run(tvec!(t.into_tvalue()))?;
+            rows.extend(f32_values(&out[0]).map_err(|e| self.input_error(e))?);
+        }
+        rows.truncate(tokens.tokens.len() * self.d);
+        Ok(MapEmbedding { rows, d: self.d })
+    }
+
+    fn input_error(&self, e: impl std::fmt::Display) -> ModelError {
+        ModelError::Input { model: self.decoder_single.card().name.clone(), message: e.to_string() }
+    }
+
+    /// Next-token logits of each query, in order (one decoder call for a
+    /// single query, chunks of [`SCENE_BATCH`] otherwise).
+    pub fn logits(&self, queries: &[&QueryFeatures], map: &MapEmbedding) -> Result<Vec<TokenLogits>, ModelError> {
+        if map.d != self.d {
+            return Err(self.input_error(format!("map embedding width {} != {}", map.d, self.d)));
+        }
+        let mut out = Vec::with_capacity(queries.len());
+        for chunk in queries.chunks(SCENE_BATCH) {
+            let (model, batch) =
+                if chunk.len() == 1 { (&self.decoder_single, 1) } else { (&self.decoder_scene, SCENE_BATCH) };
+            let inputs = self.batch_inputs(chunk, batch, map)?;
+            let result = model.run(inputs)?;
+            let logits = f32_values(&result[0]).map_err(|e| self.input_error(e))?;
+            for q in 0..chunk.len() {
+                out.push(logits[q * VOCABULARY_SIZE..(q + 1) * VOCABULARY_SIZE].to_vec());
+            }
+        }
+        Ok(out)
+    }
+
+    fn batch_inputs(&self, chunk: &[&QueryFeatures], batch: usize, map: &MapEmbedding) -> Result<TVec<TValue>, ModelError> {
+        let d = self.d;
+        let mut history = vec![0.0f32; batch * HISTORY_POINTS * HISTORY_FEATURES];
+        let mut agent_self = vec![0.0f32; batch * SELF_FEATURES];
+        let mut neighbours = vec![0.0f32; batch * NEIGHBOURS * NEIGHBOUR_FEATURES];
+        let mut neighbour_pose = vec![0.0f32; batch * NEIGHBOURS * POSE_FEATURES];
+        let mut neighbour_mask = vec![0.0f32; batch * NEIGHBOURS];
+        let mut map_embedding = vec![0.0f32; batch * MAP_TOKENS * d];
+        let mut map_pose = vec![0.0f32; batch * MAP_TOKENS * POSE_FEATURES];
+        let mut map_signal = vec![0.0f32; batch * MAP_TOKENS * SIGNAL_FEATURES];
+        let mut map_mask = vec![0.0f32; batch * MAP_TOKENS];
+        fn put(dst: &mut [f32], b: usize, src: &[f32]) {
+            dst[b * src.len()..(b + 1) * src.len()].copy_from_slice(src);
+        }
+        for (b, q) in chunk.iter().enumerate() {
+            put(&mut history, b, &q.history);
+            put(&mut agent_self, b, &q.agent_self);
+            put(&mut neighbours, b, &q.neighbours);
+            put(&mut neighbour_pose, b, &q.neighbour_pose);
+            put(&mut neighbour_mask, b, &q.neighbour_mask);
+            put(&mut map_pose, b, &q.map_pose);
+            put(&mut map_signal, b, &q.map_signal);
+            put(&mut map_mask, b, &q.map_mask);
+            for (n, &i) in q.map_index.iter().enumerate() {
+                if i == u32::MAX {
+                    continue;
+                }
+                let row = map
+                    .rows
+                    .get(i as usize * d..(i as usize + 1) * d)
+                    .ok_or_else(|| self.input_error(format!("map token {i} outside the embedding")))?;
+                let at = (b * MAP_TOKENS + n) * d;
+                map_embedding[at..at + d].copy_from_slice(row);
+            }
+        }
+        let t = |shape: &[usize], v: Vec<f32>| -> Result<TValue, ModelError> {
+            Tensor::from_shape(shape, &v).map(|t| t.into_tvalue()).map_err(|e| self.input_error(e))
+        };
+        Ok(tvec![
+            t(&[batch, HISTORY_POINTS, HISTORY_FEATURES], history)?,
+            t(&[batch, SELF_FEATURES], agent_self)?,
+            t(&[batch, NEIGHBOURS, NEIGHBOUR_FEATURES], neighbours)?,
+            t(&[batch, NEIGHBOURS, POSE_FEATURES], neighbour_pose)?,
+            t(&[batch, NEIGHBOURS], neighbour_mask)?,
+            t(&[batch, MAP_TOKENS, d], map_embedding)?,
+            t(&[batch, MAP_TOKENS, POSE_FEATURES], map_pose)?,
+            t(&[batch, MAP_TOKENS, SIGNAL_FEATURES], map_signal)?,
+            t(&[batch, MAP_TOKENS], map_mask)?,
+        ])
+    }
+}
+
+/// A prior shared by every worker.
+pub type SharedPrior = Arc<RealismPrior>;

@@ -1,0 +1,287 @@
+//! Agents driven by the learned realism prior: every token period (0.5 s)
+//! each prior-driven agent samples its next motion token from the prior's
+//! distribution (top-k, temperature), and the kinematic model applies it
+//! over the next five 0.1 s steps.
+//!
+//! All prior-driven agents of one rollout share a [`PriorTraffic`]: the
+//! first agent asked at a token boundary builds the queries of all of them
+//! and runs the decoder once in a batch; the others read their token. It
+//! also keeps the closed-loop history the features need (the log before the
+//! rollout's start, the simulated states after). Every draw comes from a
+//! generator seeded by (seed, agent, step), so a rollout does not depend on
+//! the order agents are asked in or on the thread it runs on.
+
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex};
+
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+use super::{AgentAction, AgentPolicy, WorldView};
+use crate::models::ModelError;
+use crate::models::prior::{MapEmbedding, RealismPrior, TokenLogits};
+use crate::models::prior_features::{MapTokens, StateHistory, build_query};
+use crate::motion::tokens::{TOKEN_PERIOD_STEPS, Token, TokenGrid};
+use crate::scenario::{AgentBody, AgentState, Scenario, TrackIndex};
+
+/// How tokens are drawn from the prior's distribution.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TokenSampling {
+    /// Draw among this many most likely tokens.
+    pub top_k: usize,
+    /// Softmax temperature (1 = the model's distribution).
+    pub temperature: f64,
+}
+
+impl Default for TokenSampling {
+    fn default() -> Self {
+        Self { top_k: 10, temperature: 1.0 }
+    }
+}
+
+/// The prior's per-scenario inputs, computed once and shared by rollouts.
+#[derive(Debug, Clone)]
+pub struct ScenarioMapEncoding {
+    /// Map tokens.
+    pub tokens: Arc<MapTokens>,
+    /// Their embeddings.
+    pub embedding: Arc<MapEmbedding>,
+}
+
+impl ScenarioMapEncoding {
+    /// Cuts and encodes the map of `scenario`.
+    pub fn new(prior: &RealismPrior, scenario: &Scenario) -> Result<Self, ModelError> {
+        let tokens = MapTokens::build(&scenario.map);
+        let embedding = prior.encode_map(&tokens)?;
+        Ok(Self { tokens: Arc::new(tokens), embedding: Arc::new(embedding) })
+    }
+}
+
+/// Mixes (seed, agent, step) into one generator seed (SplitMix64 finaliser).
+pub fn draw_seed(seed: u64, agent: usize, step: usize) -> u64 {
+    let mut z = seed ^ (agent as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ (step as u64).wrapping_mul(0xD1B5_4A32_D192_ED03);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
+/// Tokens ordered by logit, most likely first (ties to the lower id).
+pub fn ranked_tokens(logits: &[f32]) -> Vec<Token> {
+    let mut ids: Vec<u16> = (0..logits.len() as u16).collect();
+    ids.sort_by(|&a, &b| logits[b as usize].total_cmp(&logits[a as usize]).then(a.cmp(&b)));
+    ids.into_iter().map(Token).collect()
+}
+
+/// Draws a token from the top `k` of `logits` at `temperature`.
+pub fn sample_token(logits: &[f32], sampling: TokenSampling, rng: &mut impl Rng) -> Token {
+    let ranked = ranked_tokens(logits);
+    let top = &ranked[..sampling.top_k.clamp(1, ranked.len())];
+    let t = sampling.temperature.max(1e-6);
+    let best = logits[top[0].0 as usize] as f64;
+    let weights: Vec<f64> = top.iter().map(|k| ((logits[k.0 as usize] as f64 - best) / t).exp()).collect();
+    let total: f64 = weights.iter().sum();
+    let mut u = rng.random::<f64>() * total;
+    for (k, w) in top.iter().zip(&weights) {
+        if u < *w {
+            return *k;
+        }
+        u -= w;
+    }
+    top[top.len() - 1]
+}
+
+/// The closed-loop state of a rollout as the prior's features read it.
+struct RolloutHistory<'a> {
+    scenario: &'a Scenario,
+    start: usize,
+    frames: &'a [Vec<Option<AgentState>>],
+}
+
+impl StateHistory for RolloutHistory<'_> {
+    fn state(&self, step: usize, agent: usize) -> Option<AgentState> {
+        if step < self.start {
+            self.scenario.tracks.get(agent).and_then(|t| t.state(step).copied())
+        } else {
+            self.frames.get(step - self.start).and_then(|f| f.get(agent).copied().flatten())
+        }
+    }
+    fn agents(&self) -> usize {
+        self.scenario.tracks.len()
+    }
+}
+
+/// What the prior-driven agents of one rollout share.
+pub struct PriorTraffic {
+    prior: Arc<RealismPrior>,
+    scenario: Arc<Scenario>,
+    map: ScenarioMapEncoding,
+    bodies: Vec<AgentBody>,
+    start: usize,
+    frames: Vec<Vec<Option<AgentState>>>,
+    members: Vec<usize>,
+    sampling: TokenSampling,
+    seed: u64,
+    tokens: HashMap<(usize, usize), Token>,
+    logits: HashMap<(usize, usize), TokenLogits>,
+    error: Option<String>,
+}
+
+impl std::fmt::Debug for PriorTraffic {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("PriorTraffic").field("members", &self.members).field("start", &self.start).finish()
+    }
+}
+
+impl PriorTraffic {
+    /// Shared state for a rollout of `scenario` from `start`; `members` are
+    /// the agents the prior drives.
+    pub fn new(
+        prior: Arc<RealismPrior>,
+        scenario: Arc<Scenario>,
+        map: ScenarioMapEncoding,
+        start: usize,
+        members: Vec<usize>,
+        sampling: TokenSampling,
+        seed: u64,
+    ) -> Arc<Mutex<Self>> {
+        let bodies = scenario.tracks.iter().map(|t| t.body()).collect();
+        Arc::new(Mutex::new(Self {
+            prior,
+            scenario,
+            map,
+            bodies,
+            start,
+            frames: Vec::new(),
+            members,
+            sampling,
+            seed,
+            tokens: HashMap::new(),
+            logits: HashMap::new(),
+            error: None,
+        }))
+    }
+
+    /// Records the world at `world.step` (once per step).
+    fn observe(&mut self, world: &WorldView<'_>) {
+        if world.step < self.start {
+            return;
+        }
+        // Every member observes every step, so gaps only appear if none was
+        // present for a while; they are filled with the state seen now.
+        while self.frames.len() <= world.step - self.start {
+            self.frames.push(world.states.to_vec());
+        }
+    }
+
+    /// The logits of `agent` at `step` (computing every member's at once).
+    pub fn logits_at(&mut self, agent: usize, step: usize) -> Option<&TokenLogits> {
+        if !self.logits.contains_key(&(agent, step)) {
+            self.run_decoder(step);
+        }
+        self.logits.get(&(agent, step))
+    }
+
+    fn run_decoder(&mut self, step: usize) {
+        let history = RolloutHistory { scenario: &self.scenario, start: self.start, frames: &self.frames };
+        let mut agents = Vec::new();
+        let mut queries = Vec::new();
+        for &a in &self.members {
+            if let Some(q) = build_query(&history, &self.bodies, &self.map.tokens, &self.scenario.map, a, step) {
+                agents.push(a);
+                queries.push(q);
+            }
+        }
+        let refs: Vec<_> = queries.iter().collect();
+        match self.prior.logits(&refs, &self.map.embedding) {
+            Ok(all) => {
+                for (a, l) in agents.into_iter().zip(all) {
+                    self.logits.insert((a, step), l);
+                }
+            }
+            Err(e) => self.error = Some(e.to_string()),
+        }
+    }
+
+    fn token(&mut self, agent: usize, step: usize) -> Option<Token> {
+        if let Some(t) = self.tokens.get(&(agent, step)) {
+            return Some(*t);
+        }
+        let sampling = self.sampling;
+        let seed = draw_seed(self.seed, agent, step);
+        let logits = self.logits_at(agent, step)?;
+        let token = sample_token(logits, sampling, &mut ChaCha8Rng::seed_from_u64(seed));
+        self.tokens.insert((agent, step), token);
+        Some(token)
+    }
+
+    /// The first inference error, if any (the rollout should be reported failed).
+    pub fn error(&self) -> Option<&str> {
+        self.error.as_deref()
+    }
+}
+
+/// One agent driven by the prior through a shared [`PriorTraffic`].
+#[derive(Debug)]
+pub struct PriorAgent {
+    shared: Arc<Mutex<PriorTraffic>>,
+    current: Option<Token>,
+}
+
+impl PriorAgent {
+    /// An agent policy reading from `shared`.
+    pub fn new(shared: Arc<Mutex<PriorTraffic>>) -> Self {
+        Self { shared, current: None }
+    }
+}
+
+impl AgentPolicy for PriorAgent {
+    fn name(&self) -> &'static str {
+        "prior"
+    }
+
+    fn act(&mut self, world: &WorldView<'_>, agent: TrackIndex) -> AgentAction {
+        let mut shared = self.shared.lock().unwrap_or_else(|p| p.into_inner());
+        shared.observe(world);
+        if world.state(agent).is_none() {
+            return AgentAction::Absent;
+        }
+        let boundary = (world.step - shared.start.min(world.step)) % TOKEN_PERIOD_STEPS == 0;
+        if boundary || self.current.is_none() {
+            self.current = shared.token(agent.0, world.step).or(self.current);
+        }
+        // Without a token (inference failed; the error is kept for the
+        // report), the agent holds its speed rather than inventing motion.
+        AgentAction::Control(self.current.map(TokenGrid::action).unwrap_or_default())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn top_k_sampling_never_leaves_the_top_k() {
+        let logits: Vec<f32> = (0..100).map(|i| i as f32 * 0.1).collect();
+        let mut rng = ChaCha8Rng::seed_from_u64(1);
+        for _ in 0..200 {
+            let t = sample_token(&logits, TokenSampling { top_k: 3, temperature: 1.0 }, &mut rng);
+            assert!(t.0 >= 97, "{t:?}");
+        }
+    }
+
+    #[test]
+    fn a_cold_temperature_takes_the_most_likely_token() {
+        let mut logits = vec![0.0f32; 50];
+        logits[17] = 2.0;
+        let mut rng = ChaCha8Rng::seed_from_u64(2);
+        let t = sample_token(&logits, TokenSampling { top_k: 10, temperature: 1e-3 }, &mut rng);
+        assert_eq!(t, Token(17));
+    }
+
+    #[test]
+    fn draw_seeds_differ_by_agent_and_step() {
+        assert_ne!(draw_seed(1, 2, 3), draw_seed(1, 3, 2));
+        assert_ne!(draw_seed(1, 2, 3), draw_seed(2, 2, 3));
+        assert_eq!(draw_seed(1, 2, 3), draw_seed(1, 2, 3));
+    }
+}
