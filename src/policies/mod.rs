@@ -3,6 +3,7 @@
 //! and the SaFeR adversary). A policy sees the world at step `k` and says
 //! what the agent does until `k + 1`.
 
+pub mod adversary;
 pub mod constant_velocity;
 pub mod lane_follower;
 pub mod log_replay;

@@ -161,8 +161,8 @@ impl PriorTraffic {
         }))
     }
 
-    /// Records the world at `world.step` (once per step).
-    fn observe(&mut self, world: &WorldView<'_>) {
+    /// Records the world at `world.step` (once per step; repeated calls are no-ops).
+    pub fn observe(&mut self, world: &WorldView<'_>) {
         if world.step < self.start {
             return;
         }
@@ -212,6 +212,11 @@ impl PriorTraffic {
         let token = sample_token(logits, sampling, &mut ChaCha8Rng::seed_from_u64(seed));
         self.tokens.insert((agent, step), token);
         Some(token)
+    }
+
+    /// The rollout's first step.
+    pub fn start(&self) -> usize {
+        self.start
     }
 
     /// The first inference error, if any (the rollout should be reported failed).

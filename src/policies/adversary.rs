@@ -1,0 +1,165 @@
+//! The SaFeR adversary: drives the critical background vehicle (CBV) token
+//! by token. Every token period it takes the realism prior's top-n tokens
+//! (the trust region, which keeps the behaviour human-like), predicts the
+//! CBV's state after each through the kinematic model, and picks the token
+//! with the least loss: the box distance to the ego when the feasibility
+//! value says the ego can still avoid a collision (V_h ≤ 0), else V_h + Δ
+//! (so an unavoidable state is chosen only when nothing else is left). The
+//! ablations are the same policy with a part switched off.
+
+use std::sync::{Arc, Mutex};
+
+use super::prior_sampling::{PriorTraffic, ranked_tokens};
+use super::{AgentAction, AgentPolicy, WorldView};
+use crate::geometry::OrientedBox;
+use crate::models::ModelError;
+use crate::motion::tokens::{TOKEN_PERIOD_S, TOKEN_PERIOD_STEPS, Token, TokenGrid};
+use crate::motion::KinematicState;
+use crate::scenario::{AgentBody, AgentState, TrackIndex};
+
+/// Penalty added to V_h for candidates outside the feasible region (the paper's Δ).
+pub const INFEASIBLE_PENALTY: f64 = 50.0;
+
+/// An ego–CBV pair of states whose feasibility is asked for.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EgoCbvState {
+    /// The ego's state.
+    pub ego: AgentState,
+    /// The ego's type and size.
+    pub ego_body: AgentBody,
+    /// The CBV's state.
+    pub cbv: AgentState,
+    /// The CBV's type and size.
+    pub cbv_body: AgentBody,
+}
+
+/// The learned feasibility value V_h over ego–CBV states.
+pub trait FeasibilityOracle: Send + Sync {
+    /// V_h of each pair, in order; V_h ≤ 0 means the ego can still avoid a collision.
+    fn values(&self, pairs: &[EgoCbvState]) -> Result<Vec<f32>, ModelError>;
+}
+
+/// Which tokens the adversary may choose from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum TrustRegion {
+    /// The prior's n most likely tokens.
+    TopN(usize),
+    /// The whole vocabulary (the `no-trust-region` ablation).
+    WholeVocabulary,
+}
+
+/// The adversary of one rollout's CBV.
+pub struct Adversary {
+    shared: Arc<Mutex<PriorTraffic>>,
+    ego: TrackIndex,
+    trust_region: TrustRegion,
+    feasibility: Option<Arc<dyn FeasibilityOracle>>,
+    current: Option<Token>,
+    error: Option<String>,
+}
+
+impl std::fmt::Debug for Adversary {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Adversary")
+            .field("ego", &self.ego)
+            .field("trust_region", &self.trust_region)
+            .field("feasibility", &self.feasibility.is_some())
+            .finish()
+    }
+}
+
+/// Where the ego will be after one token period if it keeps its velocity
+/// (the adversary does not know the ego's plan).
+fn ego_prediction(ego: &AgentState) -> AgentState {
+    AgentState { position: ego.position + ego.velocity_mps * TOKEN_PERIOD_S, ..*ego }
+}
+
+impl Adversary {
+    /// The adversary; `feasibility: None` is the `no-lfr` ablation
+    /// (distance only). `shared` must have the CBV as a member.
+    pub fn new(
+        shared: Arc<Mutex<PriorTraffic>>,
+        ego: TrackIndex,
+        trust_region: TrustRegion,
+        feasibility: Option<Arc<dyn FeasibilityOracle>>,
+    ) -> Self {
+        Self { shared, ego, trust_region, feasibility, current: None, error: None }
+    }
+
+    /// The first error met (inference), if any.
+    pub fn error(&self) -> Option<&str> {
+        self.error.as_deref()
+    }
+
+    /// The token minimising the SaFeR loss among the trust region, or `None`
+    /// when the prior has no opinion (the CBV is absent).
+    fn choose(&mut self, world: &WorldView<'_>, cbv: TrackIndex) -> Result<Option<Token>, ModelError> {
+        let mut shared = self.shared.lock().unwrap_or_else(|p| p.into_inner());
+        let Some(logits) = shared.logits_at(cbv.0, world.step) else { return Ok(None) };
+        let ranked = ranked_tokens(logits);
+        drop(shared);
+        let (Some(cbv_now), Some(ego_now)) = (world.state(cbv), world.state(self.ego)) else {
+            return Ok(ranked.first().copied());
+        };
+        let candidates = match self.trust_region {
+            TrustRegion::TopN(n) => &ranked[..n.clamp(1, ranked.len())],
+            TrustRegion::WholeVocabulary => &ranked[..],
+        };
+        let ego_next = ego_prediction(ego_now);
+        let (ego_body, cbv_body) = (world.body(self.ego), world.body(cbv));
+        let ego_box = OrientedBox::new(ego_next.pose(), ego_body.length_m, ego_body.width_m);
+        let from = KinematicState::from_agent_state(cbv_now);
+        let predicted: Vec<AgentState> = candidates
+            .iter()
+            .map(|t| TokenGrid::rollout(&from, *t)[TOKEN_PERIOD_STEPS - 1].to_agent_state())
+            .collect();
+        let distances: Vec<f64> = predicted
+            .iter()
+            .map(|s| ego_box.distance(&OrientedBox::new(s.pose(), cbv_body.length_m, cbv_body.width_m)))
+            .collect();
+        let losses: Vec<f64> = match &self.feasibility {
+            None => distances,
+            Some(oracle) => {
+                let pairs: Vec<EgoCbvState> =
+                    predicted.iter().map(|s| EgoCbvState { ego: ego_next, ego_body, cbv: *s, cbv_body }).collect();
+                let values = oracle.values(&pairs)?;
+                distances
+                    .iter()
+                    .zip(values)
+                    .map(|(d, v)| if v <= 0.0 { *d } else { v as f64 + INFEASIBLE_PENALTY })
+                    .collect()
+            }
+        };
+        // Ties go to the more likely token (candidates are in rank order).
+        let best = losses.iter().enumerate().fold(0, |b, (i, l)| if *l < losses[b] { i } else { b });
+        Ok(Some(candidates[best]))
+    }
+}
+
+impl AgentPolicy for Adversary {
+    fn name(&self) -> &'static str {
+        "safer-adversary"
+    }
+
+    fn act(&mut self, world: &WorldView<'_>, agent: TrackIndex) -> AgentAction {
+        let start = {
+            let mut shared = self.shared.lock().unwrap_or_else(|p| p.into_inner());
+            shared.observe(world);
+            shared.start()
+        };
+        if world.state(agent).is_none() {
+            return AgentAction::Absent;
+        }
+        let boundary = world.step.saturating_sub(start) % TOKEN_PERIOD_STEPS == 0;
+        if boundary || self.current.is_none() {
+            match self.choose(world, agent) {
+                Ok(Some(t)) => self.current = Some(t),
+                Ok(None) => {}
+                Err(e) => {
+                    self.error.get_or_insert(e.to_string());
+                }
+            }
+        }
+        AgentAction::Control(self.current.map(TokenGrid::action).unwrap_or_default())
+    }
+}
