@@ -9,6 +9,7 @@
 
 pub mod acceptance;
 pub mod artefacts;
+pub mod methods;
 pub mod metrics;
 pub mod suite;
 pub mod variant;
@@ -33,6 +34,14 @@ pub enum HarnessError {
         /// Planner name.
         planner: String,
         /// Why.
+        reason: String,
+    },
+    /// A learned model a method needs is missing or broken.
+    #[error("adversary method `{method:?}` cannot run: {reason}")]
+    Model {
+        /// The method.
+        method: crate::spec::suite::AdversaryMethod,
+        /// Why (which model, which file, what differs).
         reason: String,
     },
     /// A scenario has no CBV to drive.

@@ -9,10 +9,11 @@ use crate::eval::min_time_to_collision;
 use crate::planners::external::{ExternalPlanner, ExternalPlannerConfig};
 use crate::planners::{BuiltinPlanner, IdmPlanner, Planner};
 use crate::policies::LogReplay;
+use crate::policies::prior_sampling::TokenSampling;
+use super::methods::{self, BackgroundDriver, MapEncodings, MethodSettings, ModelSet};
 use crate::scenario::{Scenario, Track, TrackIndex};
 use crate::sim::{Rollout, SimConfig, Simulation};
 use crate::spec::planner::PlannerAdapter;
-use crate::spec::suite::AdversaryMethod;
 
 /// Everything a variant produced.
 #[derive(Debug, Clone)]
@@ -104,6 +105,9 @@ pub struct VariantSummary {
     pub failures: Vec<String>,
 }
 
+/// Map encodings shared by every variant of the process.
+static MAP_ENCODINGS: std::sync::LazyLock<MapEncodings> = std::sync::LazyLock::new(MapEncodings::default);
+
 /// FNV-1a, 64 bit: a stable hash for seeds (std's hasher is not stable across releases).
 fn fnv1a(bytes: &[u8]) -> u64 {
     bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, b| (h ^ *b as u64).wrapping_mul(0x0000_0100_0000_01b3))
@@ -158,17 +162,20 @@ pub fn run_variant(suite: &Suite, scenario: &SuiteScenario, index: u32) -> Resul
 
     // Stage 1: the ego replays its log; the CBV is driven by the method.
     let mut stage1 = Simulation::new(&base, config.clone())?;
-    match spec.adversary.method {
-        AdversaryMethod::Log => stage1.set_policy(cbv, Box::new(LogReplay::new(base.track(cbv).clone()))),
-        other => {
-            // Suite::load refuses these; keep the message if someone builds a Suite by hand.
-            return Err(HarnessError::Spec(
-                suite.spec.invalid(None, format!("adversary method {other:?} is not available yet")),
-            ));
-        }
-    }
+    let settings = MethodSettings {
+        method: spec.adversary.method,
+        trust_region: spec.adversary.trust_region,
+        background: BackgroundDriver::Configured,
+        sampling: TokenSampling::default(),
+    };
+    let models = ModelSet::shipped();
+    let start = config.start_step.unwrap_or(base.current_step);
+    let installed = methods::install(&mut stage1, &base, cbv, start, settings, &models, &MAP_ENCODINGS, seed)?;
     let mut replay_ego = BuiltinPlanner::LogReplay.instantiate(&base, ego);
     let stage1 = stage1.run(replay_ego.as_mut());
+    if let Some(reason) = installed.error() {
+        return Err(HarnessError::Model { method: spec.adversary.method, reason });
+    }
 
     // Stage 2: the planner under test; the CBV replays what it did in stage 1.
     let mut stage2 = Simulation::new(&base, config)?;

@@ -5,6 +5,7 @@
 //! shared by every worker thread.
 
 pub mod card;
+pub mod feasibility_oracle;
 pub mod onnx;
 pub mod prior;
 pub mod prior_dataset;
@@ -23,6 +24,11 @@ pub fn models_dir() -> PathBuf {
     std::env::var_os("SAFER_MODELS")
         .map(PathBuf::from)
         .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join(MODELS_DIR))
+}
+
+/// The shipped feasibility value V_h in `dir`, as the adversary asks it.
+pub fn feasibility_oracle(dir: &std::path::Path) -> Result<std::sync::Arc<dyn feasibility_oracle::FeasibilityOracle>, String> {
+    Err(format!("no feasibility model is wired into this build yet (looked in {})", dir.display()))
 }
 
 /// Errors of the models layer.

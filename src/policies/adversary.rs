@@ -13,31 +13,13 @@ use super::prior_sampling::{PriorTraffic, ranked_tokens};
 use super::{AgentAction, AgentPolicy, WorldView};
 use crate::geometry::OrientedBox;
 use crate::models::ModelError;
+pub use crate::models::feasibility_oracle::{EgoCbvState, FeasibilityOracle};
 use crate::motion::tokens::{TOKEN_PERIOD_S, TOKEN_PERIOD_STEPS, Token, TokenGrid};
 use crate::motion::KinematicState;
-use crate::scenario::{AgentBody, AgentState, TrackIndex};
+use crate::scenario::{AgentState, TrackIndex};
 
 /// Penalty added to V_h for candidates outside the feasible region (the paper's Δ).
 pub const INFEASIBLE_PENALTY: f64 = 50.0;
-
-/// An ego–CBV pair of states whose feasibility is asked for.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct EgoCbvState {
-    /// The ego's state.
-    pub ego: AgentState,
-    /// The ego's type and size.
-    pub ego_body: AgentBody,
-    /// The CBV's state.
-    pub cbv: AgentState,
-    /// The CBV's type and size.
-    pub cbv_body: AgentBody,
-}
-
-/// The learned feasibility value V_h over ego–CBV states.
-pub trait FeasibilityOracle: Send + Sync {
-    /// V_h of each pair, in order; V_h ≤ 0 means the ego can still avoid a collision.
-    fn values(&self, pairs: &[EgoCbvState]) -> Result<Vec<f32>, ModelError>;
-}
 
 /// Which tokens the adversary may choose from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -156,7 +138,9 @@ impl AgentPolicy for Adversary {
                 Ok(Some(t)) => self.current = Some(t),
                 Ok(None) => {}
                 Err(e) => {
-                    self.error.get_or_insert(e.to_string());
+                    let message = e.to_string();
+                    self.shared.lock().unwrap_or_else(|p| p.into_inner()).record_error(message.clone());
+                    self.error.get_or_insert(message);
                 }
             }
         }

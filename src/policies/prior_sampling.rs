@@ -198,7 +198,7 @@ impl PriorTraffic {
                     self.logits.insert((a, step), l);
                 }
             }
-            Err(e) => self.error = Some(e.to_string()),
+            Err(e) => self.record_error(e.to_string()),
         }
     }
 
@@ -217,6 +217,11 @@ impl PriorTraffic {
     /// The rollout's first step.
     pub fn start(&self) -> usize {
         self.start
+    }
+
+    /// Keeps the first error met by an agent of this rollout.
+    pub fn record_error(&mut self, message: String) {
+        self.error.get_or_insert(message);
     }
 
     /// The first inference error, if any (the rollout should be reported failed).

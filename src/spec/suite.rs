@@ -93,6 +93,7 @@ pub enum PlannerRef {
 /// Adversarial variant generation methods.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, JsonSchema, serde::Serialize)]
 #[serde(rename_all = "kebab-case")]
+#[derive(clap::ValueEnum, Hash, PartialOrd, Ord)]
 pub enum AdversaryMethod {
     /// The CBV replays its log (no adversary): the baseline.
     #[default]
@@ -105,6 +106,8 @@ pub enum AdversaryMethod {
     NoLfr,
     /// Ablation: the whole vocabulary instead of the trust region.
     NoTrustRegion,
+    /// Ablation: SaFeR with the plain-attention prior instead of differential attention.
+    NoMda,
 }
 
 /// How variants are made.
@@ -278,15 +281,6 @@ impl Loaded<SuiteSpec> {
         }
         if s.adversary.trust_region == 0 || s.adversary.trust_region > crate::motion::tokens::VOCABULARY_SIZE {
             return Err(self.invalid(None, "adversary.trust_region must be 1..=3969"));
-        }
-        if s.adversary.method != AdversaryMethod::Log {
-            return Err(self.invalid(
-                None,
-                format!(
-                    "adversary method `{:?}` needs the learned prior/feasibility models, which are not shipped yet; use `method: log`",
-                    s.adversary.method
-                ),
-            ));
         }
         let rate = |v: Option<f64>, name: &str| match v {
             Some(x) if !(0.0..=1.0).contains(&x) => {

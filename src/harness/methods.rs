@@ -1,0 +1,172 @@
+//! Adversary methods by name: what drives the CBV (and, optionally, the
+//! background) in a variant — the recorded log, the realism prior, the full
+//! SaFeR adversary or one of its ablations. The learned models are loaded
+//! once per process ([`ModelSet::shipped`]) and shared by every variant; a
+//! scenario's map is encoded once per prior ([`MapEncodings`]).
+
+use std::collections::HashMap;
+use std::path::PathBuf;
+use std::sync::{Arc, Mutex, OnceLock};
+
+use super::HarnessError;
+use crate::models::prior::{PriorVariant, RealismPrior};
+use crate::policies::adversary::{Adversary, FeasibilityOracle, TrustRegion};
+use crate::policies::prior_sampling::{PriorAgent, PriorTraffic, ScenarioMapEncoding, TokenSampling};
+use crate::policies::LogReplay;
+use crate::scenario::{Scenario, TrackIndex};
+use crate::sim::Simulation;
+use crate::spec::suite::AdversaryMethod;
+
+/// The learned models a method may need.
+pub struct ModelSet {
+    /// Where they were loaded from.
+    pub dir: PathBuf,
+    /// The prior with differential attention.
+    pub prior: Result<Arc<RealismPrior>, String>,
+    /// The prior with plain attention (`no-mda`).
+    pub prior_plain: Result<Arc<RealismPrior>, String>,
+    /// The feasibility value V_h.
+    pub feasibility: Result<Arc<dyn FeasibilityOracle>, String>,
+}
+
+impl std::fmt::Debug for ModelSet {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("ModelSet").field("dir", &self.dir).finish()
+    }
+}
+
+static SHIPPED: OnceLock<Arc<ModelSet>> = OnceLock::new();
+
+impl ModelSet {
+    /// Loads what is in `dir`; a model that fails to load keeps its error,
+    /// reported when a method needs it.
+    pub fn load(dir: PathBuf) -> Self {
+        let prior = |v| RealismPrior::load(&dir, v).map(Arc::new).map_err(|e| e.to_string());
+        let feasibility = crate::models::feasibility_oracle(&dir);
+        Self { prior: prior(PriorVariant::Differential), prior_plain: prior(PriorVariant::Plain), feasibility, dir }
+    }
+
+    /// The shipped models (`models/`, or `SAFER_MODELS`), loaded once per process.
+    pub fn shipped() -> Arc<ModelSet> {
+        SHIPPED.get_or_init(|| Arc::new(Self::load(crate::models::models_dir()))).clone()
+    }
+
+    /// The prior a method drives the CBV with.
+    pub fn prior_for(&self, method: AdversaryMethod) -> Result<Arc<RealismPrior>, HarnessError> {
+        let which = if method == AdversaryMethod::NoMda { &self.prior_plain } else { &self.prior };
+        which.clone().map_err(|reason| HarnessError::Model { method, reason })
+    }
+}
+
+/// Map encodings per (scenario, prior variant), computed once.
+#[derive(Debug, Default)]
+pub struct MapEncodings {
+    cache: Mutex<HashMap<(String, PriorVariant), ScenarioMapEncoding>>,
+}
+
+impl MapEncodings {
+    /// The encoding of `scenario`'s map for `prior`.
+    pub fn get(&self, prior: &RealismPrior, scenario: &Scenario) -> Result<ScenarioMapEncoding, HarnessError> {
+        let key = (scenario.id.clone(), prior.variant());
+        if let Some(e) = self.cache.lock().unwrap_or_else(|p| p.into_inner()).get(&key) {
+            return Ok(e.clone());
+        }
+        let e = ScenarioMapEncoding::new(prior, scenario)
+            .map_err(|e| HarnessError::Model { method: AdversaryMethod::Prior, reason: e.to_string() })?;
+        self.cache.lock().unwrap_or_else(|p| p.into_inner()).insert(key, e.clone());
+        Ok(e)
+    }
+}
+
+/// Who drives the background agents in stage 1.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum BackgroundDriver {
+    /// As the simulation configuration says (log replay by default).
+    #[default]
+    Configured,
+    /// The realism prior drives every background agent.
+    Prior,
+}
+
+/// What a method installed, to be asked for errors after the run.
+#[derive(Debug, Default)]
+pub struct InstalledMethod {
+    traffic: Option<Arc<Mutex<PriorTraffic>>>,
+}
+
+impl InstalledMethod {
+    /// The first model error met during the rollout, if any.
+    pub fn error(&self) -> Option<String> {
+        self.traffic.as_ref().and_then(|t| t.lock().unwrap_or_else(|p| p.into_inner()).error().map(String::from))
+    }
+}
+
+/// Everything that decides how a method drives the CBV.
+#[derive(Debug, Clone, Copy)]
+pub struct MethodSettings {
+    /// The method.
+    pub method: AdversaryMethod,
+    /// Trust-region size n.
+    pub trust_region: usize,
+    /// Who drives the background.
+    pub background: BackgroundDriver,
+    /// How the prior's tokens are drawn (for `prior` and a prior-driven background).
+    pub sampling: TokenSampling,
+}
+
+/// Installs the method's CBV policy (and a prior-driven background, if
+/// asked) in a stage-1 simulation starting at `start`.
+#[allow(clippy::too_many_arguments)]
+pub fn install(
+    sim: &mut Simulation<'_>,
+    scenario: &Arc<Scenario>,
+    cbv: TrackIndex,
+    start: usize,
+    settings: MethodSettings,
+    models: &ModelSet,
+    maps: &MapEncodings,
+    seed: u64,
+) -> Result<InstalledMethod, HarnessError> {
+    let ego = scenario.ego.ok_or_else(|| crate::sim::SimError::NoEgo(scenario.id.clone()))?;
+    let needs_prior = settings.method != AdversaryMethod::Log || settings.background == BackgroundDriver::Prior;
+    if !needs_prior {
+        sim.set_policy(cbv, Box::new(LogReplay::new(scenario.track(cbv).clone())));
+        return Ok(InstalledMethod::default());
+    }
+    let prior_method = if settings.method == AdversaryMethod::Log { AdversaryMethod::Prior } else { settings.method };
+    let prior = models.prior_for(prior_method)?;
+    let map = maps.get(&prior, scenario)?;
+    let mut members: Vec<usize> = Vec::new();
+    if settings.method != AdversaryMethod::Log {
+        members.push(cbv.0);
+    }
+    if settings.background == BackgroundDriver::Prior {
+        members.extend(
+            (0..scenario.tracks.len())
+                .filter(|&i| i != ego.0 && i != cbv.0 && scenario.tracks[i].state(start).is_some()),
+        );
+    }
+    members.sort_unstable();
+    let traffic = PriorTraffic::new(prior, scenario.clone(), map, start, members.clone(), settings.sampling, seed);
+    for &m in &members {
+        if m != cbv.0 {
+            sim.set_policy(TrackIndex(m), Box::new(PriorAgent::new(traffic.clone())));
+        }
+    }
+    let feasibility = || models.feasibility.clone().map_err(|reason| HarnessError::Model { method: settings.method, reason });
+    let n = TrustRegion::TopN(settings.trust_region);
+    match settings.method {
+        AdversaryMethod::Log => sim.set_policy(cbv, Box::new(LogReplay::new(scenario.track(cbv).clone()))),
+        AdversaryMethod::Prior => sim.set_policy(cbv, Box::new(PriorAgent::new(traffic.clone()))),
+        AdversaryMethod::Safer | AdversaryMethod::NoMda => {
+            sim.set_policy(cbv, Box::new(Adversary::new(traffic.clone(), ego, n, Some(feasibility()?))))
+        }
+        AdversaryMethod::NoLfr => sim.set_policy(cbv, Box::new(Adversary::new(traffic.clone(), ego, n, None))),
+        AdversaryMethod::NoTrustRegion => sim.set_policy(
+            cbv,
+            Box::new(Adversary::new(traffic.clone(), ego, TrustRegion::WholeVocabulary, Some(feasibility()?))),
+        ),
+    }
+    Ok(InstalledMethod { traffic: Some(traffic) })
+}
