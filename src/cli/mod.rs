@@ -3,6 +3,7 @@
 //! with `--json`; errors go to stderr with the file and place at fault.
 
 mod bench;
+mod evaluate;
 mod inspect;
 mod prior_dataset;
 mod render;
@@ -17,6 +18,9 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 
 use crate::harness::HarnessError;
+use crate::harness::evaluation::{EvaluationRequest, Stage2Cbv};
+use crate::harness::methods::BackgroundDriver;
+use crate::spec::suite::AdversaryMethod;
 use crate::planners::BuiltinPlanner;
 use crate::policies::BackgroundPolicy;
 use crate::record::RecordError;
@@ -98,6 +102,42 @@ enum Command {
         /// Write to this file instead of stdout.
         #[arg(long, value_name = "FILE")]
         out: Option<PathBuf>,
+    },
+    /// Dual-stage evaluation of adversary methods: CR, SR, SR on critical variants, witness rate, VJ, AJ.
+    Evaluate {
+        /// Folder of recorded scenes (searched recursively); scenes need an ego and a CBV.
+        #[arg(long)]
+        scenes: PathBuf,
+        /// Methods to compare, one table row each.
+        #[arg(long, value_enum, value_delimiter = ',', default_values_t = [AdversaryMethod::Safer, AdversaryMethod::NoLfr, AdversaryMethod::NoTrustRegion, AdversaryMethod::NoMda, AdversaryMethod::Prior, AdversaryMethod::Log])]
+        methods: Vec<AdversaryMethod>,
+        /// Seeds per scene and method.
+        #[arg(long, default_value_t = 10)]
+        seeds: u32,
+        /// Base seed.
+        #[arg(long, default_value_t = 0)]
+        seed: u64,
+        /// Reactive planner driving the ego in stage 2.
+        #[arg(long, value_enum, default_value_t = BuiltinPlanner::Evasive)]
+        planner: BuiltinPlanner,
+        /// Trust-region size n (top-n tokens of the prior).
+        #[arg(long, default_value_t = 20)]
+        trust_region: usize,
+        /// Who drives the background agents.
+        #[arg(long, value_enum, default_value_t = BackgroundDriver::Configured)]
+        background: BackgroundDriver,
+        /// The CBV in stage 2: replaying its stage-1 trajectory, or driven by the method again.
+        #[arg(long, value_enum, default_value_t = Stage2Cbv::Replay)]
+        stage2_cbv: Stage2Cbv,
+        /// Horizon of both stages from the scene's current step, s.
+        #[arg(long, default_value_t = 8.0)]
+        horizon_s: f64,
+        /// Evaluate only the first N scenes (by id).
+        #[arg(long, value_name = "N")]
+        max_scenes: Option<usize>,
+        /// Also write every variant and the table as JSON.
+        #[arg(long, value_name = "OUT")]
+        json: Option<PathBuf>,
     },
     /// Write the realism prior's training shards (NGSIM scenes + calibrated synthetic traffic).
     PriorDataset {
@@ -184,6 +224,31 @@ pub fn main() -> ExitCode {
         }
         Command::Schema { kind, out } => schema::run(kind, out.as_deref()),
         Command::Render { file, step, out, force } => render::run(&file, step, out.as_deref(), force),
+        Command::Evaluate {
+            scenes,
+            methods,
+            seeds,
+            seed,
+            planner,
+            trust_region,
+            background,
+            stage2_cbv,
+            horizon_s,
+            max_scenes,
+            json,
+        } => {
+            let request = EvaluationRequest {
+                methods,
+                seeds: seeds.max(1),
+                base_seed: seed,
+                planner,
+                trust_region: trust_region.clamp(1, crate::motion::tokens::VOCABULARY_SIZE),
+                background,
+                stage2_cbv,
+                horizon_s,
+            };
+            evaluate::run(&scenes, &request, max_scenes, json.as_ref())
+        }
         Command::PriorDataset { recorded, out, template_scenes, recorded_map_scenes, seed, shard_size, force } => {
             prior_dataset::run(&prior_dataset::DatasetRequest {
                 recorded,

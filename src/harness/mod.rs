@@ -9,6 +9,7 @@
 
 pub mod acceptance;
 pub mod artefacts;
+pub mod evaluation;
 pub mod methods;
 pub mod metrics;
 pub mod suite;
