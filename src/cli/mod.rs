@@ -3,6 +3,7 @@
 //! with `--json`; errors go to stderr with the file and place at fault.
 
 mod bench;
+mod bench_models;
 mod evaluate;
 mod inspect;
 mod prior_dataset;
@@ -102,6 +103,18 @@ enum Command {
         /// Write to this file instead of stdout.
         #[arg(long, value_name = "FILE")]
         out: Option<PathBuf>,
+    },
+    /// Latency of the learned models in tract (map encoding, CBV query, full-scene step), against onnxruntime/PyTorch.
+    BenchModels {
+        /// Scenes to pick the busiest from.
+        #[arg(long, default_value = "../shared/data/womd-tfrecord")]
+        scenes: PathBuf,
+        /// Folder of the models and their cards.
+        #[arg(long, default_value = "models")]
+        models: PathBuf,
+        /// Repetitions (the median is reported).
+        #[arg(long, default_value_t = 200)]
+        repeat: usize,
     },
     /// Dual-stage evaluation of adversary methods: CR, SR, SR on critical variants, witness rate, VJ, AJ.
     Evaluate {
@@ -224,6 +237,7 @@ pub fn main() -> ExitCode {
         }
         Command::Schema { kind, out } => schema::run(kind, out.as_deref()),
         Command::Render { file, step, out, force } => render::run(&file, step, out.as_deref(), force),
+        Command::BenchModels { scenes, models, repeat } => bench_models::run(&scenes, &models, repeat.max(1)),
         Command::Evaluate {
             scenes,
             methods,
