@@ -64,7 +64,8 @@ pub struct RealismPrior {
     d: usize,
 }
 
-fn map_encoder_contract() -> ExpectedContract {
+/// What this build expects of a map encoder.
+pub fn map_encoder_contract() -> ExpectedContract {
     ExpectedContract {
         kind: ModelKind::RealismPriorMapEncoder,
         inputs: vec![("map_tokens", DType::F32, vec![Some(MAP_ENCODER_CHUNK), Some(MAP_TOKEN_FEATURES)])],
@@ -73,7 +74,8 @@ fn map_encoder_contract() -> ExpectedContract {
     }
 }
 
-fn decoder_contract() -> ExpectedContract {
+/// What this build expects of a decoder.
+pub fn decoder_contract() -> ExpectedContract {
     ExpectedContract {
         kind: ModelKind::RealismPriorDecoder,
         inputs: vec![
