@@ -1,0 +1,158 @@
+"""Train the realism prior on the shards that `safer prior-dataset` wrote.
+
+    training/.venv/bin/python training/prior/train.py --attention differential --minutes 30 --out training/runs/prior-mda
+
+Cross-entropy on the next token; AdamW with warm-up and cosine decay over the
+step budget; the checkpoint with the best held-out NLL is kept. NGSIM samples
+(recorded) are drawn three times as often as synthetic ones, so the recorded
+behaviour is not drowned by the synthetic traffic. Held-out = the scenes the
+Rust side marked `held-out` (every 10th scene of each source).
+"""
+import argparse, csv, glob, json, math, os, sys, time
+
+import numpy as np
+import torch
+import torch.nn.functional as F
+from safetensors import safe_open
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from model import Prior  # noqa: E402
+
+KEYS = ["history", "agent_self", "neighbours", "neighbour_pose", "neighbour_mask",
+        "map_tokens", "map_pose", "map_signal", "map_mask"]
+
+
+def load_shards(folder):
+    parts = {k: [] for k in KEYS + ["next_token"]}
+    split, source = [], []
+    files = sorted(glob.glob(os.path.join(folder, "shard-*.safetensors")))
+    if not files:
+        sys.exit(f"no shards in {folder}: run `cargo run --release -- prior-dataset` first")
+    for f in files:
+        with safe_open(f, "np") as st:
+            meta = st.metadata()
+            if meta.get("contract_version") != "1":
+                sys.exit(f"{f}: contract version {meta.get('contract_version')}, this trainer reads 1")
+            scenes = json.loads(meta["scenes"])
+            for k in parts:
+                parts[k].append(st.get_tensor(k))
+            sc = st.get_tensor("scene")
+            split.append(np.array([scenes[i]["split"] == "held-out" for i in sc]))
+            source.append(np.array([scenes[i]["source"] == "ngsim" for i in sc]))
+    data = {k: torch.from_numpy(np.concatenate(v)) for k, v in parts.items()}
+    return data, np.concatenate(split), np.concatenate(source), files
+
+
+def batch_of(data, idx):
+    return {k: data[k][idx] for k in KEYS}
+
+
+@torch.no_grad()
+def evaluate(model, data, idx, bs=2048):
+    model.eval()
+    nll, top1, top5, n = 0.0, 0, 0, 0
+    for i in range(0, len(idx), bs):
+        j = idx[i:i + bs]
+        logits = model(batch_of(data, j))
+        y = data["next_token"][j]
+        nll += F.cross_entropy(logits, y, reduction="sum").item()
+        top = logits.topk(5, dim=-1).indices
+        top1 += (top[:, 0] == y).sum().item()
+        top5 += (top == y[:, None]).any(dim=-1).sum().item()
+        n += len(j)
+    model.train()
+    return {"nll": nll / n, "top1": top1 / n, "top5": top5 / n, "n": n}
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--data", default="training/data/prior")
+    ap.add_argument("--attention", choices=["differential", "plain"], default="differential")
+    ap.add_argument("--minutes", type=float, default=30.0, help="wall-clock budget")
+    ap.add_argument("--steps", type=int, default=0, help="fixed step budget instead of --minutes (reproducible)")
+    ap.add_argument("--threads", type=int, default=1)
+    ap.add_argument("--batch", type=int, default=256)
+    ap.add_argument("--lr", type=float, default=2e-3)
+    ap.add_argument("--d", type=int, default=64)
+    ap.add_argument("--heads", type=int, default=8)
+    ap.add_argument("--layers", type=int, default=3)
+    ap.add_argument("--ngsim-weight", type=float, default=3.0)
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--eval-every", type=int, default=500)
+    ap.add_argument("--out", required=True)
+    a = ap.parse_args()
+    torch.set_num_threads(a.threads)
+    torch.manual_seed(a.seed)
+    rng = np.random.default_rng(a.seed)
+    os.makedirs(a.out, exist_ok=True)
+
+    data, held, ngsim, files = load_shards(a.data)
+    train_idx = np.flatnonzero(~held)
+    held_idx = np.flatnonzero(held)
+    # A fixed evaluation subset during training; the whole held-out set at the end.
+    probe = np.sort(rng.choice(held_idx, size=min(20000, len(held_idx)), replace=False))
+    weights = np.where(ngsim[train_idx], a.ngsim_weight, 1.0)
+    weights /= weights.sum()
+    print(f"samples: {len(train_idx)} train ({ngsim[train_idx].sum()} NGSIM), {len(held_idx)} held out "
+          f"({ngsim[held_idx].sum()} NGSIM) from {len(files)} shards", flush=True)
+
+    model = Prior(a.d, a.heads, a.layers, a.attention)
+    params = sum(p.numel() for p in model.parameters())
+    opt = torch.optim.AdamW(model.parameters(), lr=a.lr, weight_decay=0.01)
+    budget_s = a.minutes * 60
+    warmup = 200
+    t0 = time.time()
+    best = math.inf
+    log = open(os.path.join(a.out, "log.csv"), "w", newline="")
+    w = csv.writer(log)
+    w.writerow(["step", "samples", "train_loss", "held_out_nll", "held_out_top1", "held_out_top5", "elapsed_s", "lr"])
+    step, running = 0, None
+    while True:
+        elapsed = time.time() - t0
+        progress = step / a.steps if a.steps else elapsed / budget_s
+        if progress >= 1.0:
+            break
+        lr = a.lr * min(1.0, (step + 1) / warmup) * 0.5 * (1 + math.cos(math.pi * min(progress, 1.0)))
+        for g in opt.param_groups:
+            g["lr"] = lr
+        idx = rng.choice(train_idx, size=a.batch, p=weights)
+        loss = F.cross_entropy(model(batch_of(data, idx)), data["next_token"][idx])
+        opt.zero_grad(set_to_none=True)
+        loss.backward()
+        torch.nn.utils.clip_grad_norm_(model.parameters(), 1.0)
+        opt.step()
+        running = loss.item() if running is None else 0.98 * running + 0.02 * loss.item()
+        step += 1
+        if step % a.eval_every == 0:
+            ev = evaluate(model, data, probe)
+            w.writerow([step, step * a.batch, f"{running:.4f}", f"{ev['nll']:.4f}", f"{ev['top1']:.4f}",
+                        f"{ev['top5']:.4f}", f"{time.time() - t0:.0f}", f"{lr:.2e}"])
+            log.flush()
+            print(f"step {step} train {running:.3f} held-out nll {ev['nll']:.3f} top1 {ev['top1']:.3f} "
+                  f"top5 {ev['top5']:.3f} ({time.time() - t0:.0f} s)", flush=True)
+            if ev["nll"] < best:
+                best = ev["nll"]
+                torch.save({"model": model.state_dict(), "args": vars(a), "step": step}, os.path.join(a.out, "best.pt"))
+    train_s = time.time() - t0
+    if not os.path.exists(os.path.join(a.out, "best.pt")):
+        torch.save({"model": model.state_dict(), "args": vars(a), "step": step}, os.path.join(a.out, "best.pt"))
+    ck = torch.load(os.path.join(a.out, "best.pt"))
+    model.load_state_dict(ck["model"])
+    full = evaluate(model, data, held_idx)
+    ng = evaluate(model, data, held_idx[ngsim[held_idx]]) if ngsim[held_idx].any() else None
+    syn = evaluate(model, data, held_idx[~ngsim[held_idx]])
+    summary = {
+        "attention": a.attention, "params": params, "steps": step, "best_step": ck["step"],
+        "samples_per_s": step * a.batch / train_s, "train_minutes": train_s / 60,
+        "held_out_nll": full["nll"], "held_out_top1": full["top1"], "held_out_top5": full["top5"],
+        "held_out_samples": full["n"],
+        "held_out_ngsim_nll": ng and ng["nll"], "held_out_ngsim_top1": ng and ng["top1"],
+        "held_out_synthetic_nll": syn["nll"], "held_out_synthetic_top1": syn["top1"],
+        "uniform_nll": math.log(3969),
+    }
+    json.dump(summary, open(os.path.join(a.out, "summary.json"), "w"), indent=2)
+    print(json.dumps(summary), flush=True)
+
+
+if __name__ == "__main__":
+    main()
