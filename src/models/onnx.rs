@@ -155,18 +155,25 @@ impl OnnxModel {
             };
             t.map_err(|e| ModelError::Golden { path: path.clone(), message: format!("{name}: {e}") })
         };
-        let golden_batch = |t: &Tensor| t.shape().first().copied().unwrap_or(0);
         let mut inputs = TVec::new();
         for spec in &self.card.inputs {
             let t = tensor(&format!("input.{}", spec.name))?;
-            if spec.shape.first().is_some_and(|d| matches!(d, Dim::Symbol(_))) && golden_batch(&t) != self.batch {
+            let expected: Vec<usize> = spec
+                .shape
+                .iter()
+                .map(|d| match d {
+                    Dim::Fixed(n) => *n,
+                    Dim::Symbol(_) => self.batch,
+                })
+                .collect();
+            if t.shape() != expected.as_slice() {
                 return Err(ModelError::Golden {
                     path: path.clone(),
                     message: format!(
-                        "input.{} has batch {} but the model was loaded for batch {}",
+                        "input.{} has shape {:?}, the model was loaded for {:?}",
                         spec.name,
-                        golden_batch(&t),
-                        self.batch
+                        t.shape(),
+                        expected
                     ),
                 });
             }

@@ -1,0 +1,121 @@
+//! The shipped realism prior: both variants load, match their cards, and
+//! reproduce their golden outputs through tract; a card that no longer
+//! matches its file is refused with the field that differs; the prior drives
+//! recorded traffic closed loop without errors.
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use safer::models::OnnxModel;
+use safer::models::prior::{PriorVariant, RealismPrior, decoder_contract, map_encoder_contract};
+use safer::models::{ModelCard, models_dir};
+
+fn card(stem: &str) -> PathBuf {
+    models_dir().join(format!("{stem}.card.yaml"))
+}
+
+/// The batch a golden file was written with (its first input's first dim).
+fn golden_batch(card_path: &Path) -> usize {
+    let card = ModelCard::load(card_path).unwrap();
+    let bytes = std::fs::read(card_path.parent().unwrap().join(&card.golden)).unwrap();
+    let golden = safetensors::SafeTensors::deserialize(&bytes).unwrap();
+    golden.tensor(&format!("input.{}", card.inputs[0].name)).unwrap().shape()[0]
+}
+
+#[test]
+fn shipped_priors_reproduce_their_goldens_in_tract() {
+    for variant in [PriorVariant::Differential, PriorVariant::Plain] {
+        let (enc, dec) = variant.stems();
+        let encoder = OnnxModel::load(&card(enc), &map_encoder_contract(), 256).unwrap();
+        let replay = encoder.replay_golden().unwrap();
+        assert!(replay.values > 0 && replay.max_abs_diff <= replay.tolerance, "{enc}: {replay:?}");
+        let batch = golden_batch(&card(dec));
+        let decoder = OnnxModel::load(&card(dec), &decoder_contract(), batch).unwrap();
+        let replay = decoder.replay_golden().unwrap();
+        assert!(replay.values >= 3969 && replay.max_abs_diff <= replay.tolerance, "{dec}: {replay:?}");
+        // The runtime wrapper loads too (batch 1 and 32).
+        RealismPrior::load(&models_dir(), variant).unwrap();
+    }
+}
+
+#[test]
+fn shipped_prior_cards_name_licensed_training_data_and_held_out_metrics() {
+    for stem in ["prior-decoder", "prior-decoder-plain"] {
+        let c = ModelCard::load(&card(stem)).unwrap();
+        let licence = c.training.licence.to_lowercase();
+        assert!(licence.contains("public domain") || licence.contains("project"), "{stem}: {licence}");
+        assert!(!c.training.data.iter().any(|d| d.to_lowercase().contains("waymo") && !d.to_lowercase().contains("not")), "{stem}");
+        for metric in ["held_out_nll", "held_out_top1"] {
+            let v = c.metrics.get(metric).copied().unwrap_or_else(|| panic!("{stem}: no metric {metric}"));
+            assert!(v.is_finite() && v > 0.0, "{stem}: {metric} = {v}");
+        }
+    }
+}
+
+#[test]
+fn a_card_whose_model_file_changed_is_refused_naming_the_field() {
+    let dir = tempdir("changed-model");
+    for stem in ["prior-map-encoder"] {
+        let c = ModelCard::load(&card(stem)).unwrap();
+        std::fs::copy(models_dir().join(&c.file), dir.join(&c.file)).unwrap();
+        std::fs::copy(models_dir().join(&c.golden), dir.join(&c.golden)).unwrap();
+        let text = std::fs::read_to_string(card(stem)).unwrap().replace(&c.sha256, &"0".repeat(64));
+        std::fs::write(dir.join(format!("{stem}.card.yaml")), text).unwrap();
+        let err = OnnxModel::load(&dir.join(format!("{stem}.card.yaml")), &map_encoder_contract(), 256).unwrap_err();
+        assert!(err.to_string().contains("sha256"), "{err}");
+    }
+}
+
+#[test]
+fn a_card_with_the_wrong_input_shape_is_refused_naming_the_field() {
+    let dir = tempdir("wrong-shape");
+    let stem = "prior-map-encoder";
+    let c = ModelCard::load(&card(stem)).unwrap();
+    std::fs::copy(models_dir().join(&c.file), dir.join(&c.file)).unwrap();
+    let text = std::fs::read_to_string(card(stem)).unwrap().replacen("[256, 7]", "[256, 9]", 1);
+    std::fs::write(dir.join(format!("{stem}.card.yaml")), text).unwrap();
+    let err = OnnxModel::load(&dir.join(format!("{stem}.card.yaml")), &map_encoder_contract(), 256).unwrap_err();
+    assert!(err.to_string().contains("inputs[0].shape (map_tokens)"), "{err}");
+}
+
+#[test]
+fn the_prior_drives_recorded_traffic_closed_loop() {
+    use safer::harness::methods::{BackgroundDriver, MapEncodings, MethodSettings, ModelSet, install};
+    use safer::policies::prior_sampling::TokenSampling;
+    use safer::sim::{SimConfig, Simulation};
+    use safer::spec::suite::AdversaryMethod;
+
+    let path = crate::shared_data::data_dir().join("womd-tfrecord");
+    let scenario = Arc::new(
+        safer::scenario::import::load(&safer::scenario::import::discover(&path).unwrap()[0]).unwrap().remove(0),
+    );
+    let models = ModelSet::shipped();
+    let maps = MapEncodings::default();
+    let run = |seed: u64| {
+        let mut sim = Simulation::new(&scenario, SimConfig::default()).unwrap();
+        let settings = MethodSettings {
+            method: AdversaryMethod::Prior,
+            trust_region: 20,
+            background: BackgroundDriver::Prior,
+            sampling: TokenSampling::default(),
+        };
+        let cbv = scenario.cbv.unwrap();
+        let installed = install(&mut sim, &scenario, cbv, scenario.current_step, settings, &models, &maps, seed).unwrap();
+        let mut ego = safer::planners::BuiltinPlanner::LogReplay.instantiate(&scenario, scenario.ego.unwrap());
+        let rollout = sim.run(ego.as_mut());
+        assert_eq!(installed.error(), None);
+        rollout
+    };
+    let (a, b, c) = (run(1), run(1), run(2));
+    assert_eq!(a.states, b.states, "same seed, same rollout");
+    assert_ne!(a.states, c.states, "another seed samples other tokens");
+    // Prior-driven agents move like traffic: nobody exceeds 40 m/s.
+    let max_speed = a.states.iter().flatten().flatten().map(|s| s.speed_mps()).fold(0.0, f64::max);
+    assert!(max_speed < 40.0, "{max_speed}");
+}
+
+fn tempdir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("safer-test-{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
