@@ -12,6 +12,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
 
 use super::{CliError, scene_paths};
+use crate::eval::witness::{FixedTraffic, WitnessBudget, search_witness};
 use crate::harness::evaluation::{self, EvaluationRequest, MethodRow, VariantRecord};
 use crate::harness::methods::ModelSet;
 use crate::scenario::{Scenario, import};
@@ -89,8 +90,15 @@ pub(super) fn run(
         ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} variants ({per_sec}, eta {eta})")
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
-    let witness: Option<Box<evaluation::WitnessSearch>> = None;
-    let records = evaluation::evaluate(&scenes, request, &models, witness.as_deref(), &|| bar.inc(1));
+    let search = |scenario: &Scenario, stage1: &crate::sim::Rollout| -> bool {
+        let ego = stage1.ego.0;
+        let Some(start) = stage1.states.first().and_then(|row| row[ego]) else { return false };
+        let traffic = FixedTraffic { states: &stage1.states, bodies: &stage1.bodies, ego };
+        let body = scenario.track(stage1.ego).body();
+        search_witness(&start, body, &traffic, stage1.states.len() - 1, WitnessBudget::default()).is_found()
+    };
+    let witness: Option<&evaluation::WitnessSearch> = Some(&search);
+    let records = evaluation::evaluate(&scenes, request, &models, witness, &|| bar.inc(1));
     bar.finish_and_clear();
     for r in records.iter().filter(|r| r.error.is_some()).take(5) {
         eprintln!("error: {} {:?} seed {}: {}", r.scenario, r.method, r.seed, r.error.as_deref().unwrap_or(""));

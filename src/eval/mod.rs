@@ -3,7 +3,9 @@
 //! (CR, SR, realism metrics and the feasibility witness join here.)
 
 pub mod divergence;
+pub mod realism;
 pub mod ttc;
+pub mod witness;
 
 pub use divergence::{Histogram, jensen_shannon};
 pub use ttc::min_time_to_collision;
