@@ -5,6 +5,7 @@
 //! shared by every worker thread.
 
 pub mod card;
+pub mod feasibility;
 pub mod feasibility_oracle;
 pub mod onnx;
 pub mod prior;
@@ -28,7 +29,9 @@ pub fn models_dir() -> PathBuf {
 
 /// The shipped feasibility value V_h in `dir`, as the adversary asks it.
 pub fn feasibility_oracle(dir: &std::path::Path) -> Result<std::sync::Arc<dyn feasibility_oracle::FeasibilityOracle>, String> {
-    Err(format!("no feasibility model is wired into this build yet (looked in {})", dir.display()))
+    feasibility::FeasibilityValue::load(dir)
+        .map(|v| std::sync::Arc::new(v) as std::sync::Arc<dyn feasibility_oracle::FeasibilityOracle>)
+        .map_err(|e| e.to_string())
 }
 
 /// Errors of the models layer.
