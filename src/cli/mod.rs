@@ -5,8 +5,10 @@
 mod bench;
 mod bench_models;
 mod evaluate;
+mod feasibility_dataset;
 mod inspect;
 mod prior_dataset;
+mod realism;
 mod render;
 mod run;
 mod schema;
@@ -95,6 +97,28 @@ enum Command {
         #[arg(long, value_name = "SUBSTR")]
         filter: Option<String>,
     },
+    /// WOSAC 2025 realism metrics of a traffic policy: roll out every agent of each scene N times and score the rollouts against the log.
+    #[command(after_help = realism::WINDOW_RULE_HELP)]
+    Realism {
+        /// Folder of scenario files (searched recursively), or one file.
+        #[arg(long)]
+        scenes: PathBuf,
+        /// Rollouts per scene (WOSAC: 32).
+        #[arg(long, default_value_t = 32)]
+        rollouts: usize,
+        /// Also write a JSON report (per scene and aggregates) to this file.
+        #[arg(long, value_name = "OUT")]
+        json: Option<PathBuf>,
+        /// Policy driving every agent present at the window's start.
+        #[arg(long, value_enum, default_value_t = realism::RealismPolicy::Idm)]
+        policy: realism::RealismPolicy,
+        /// Base seed (per-rollout seeds derive from it, the scenario id and the rollout index).
+        #[arg(long, default_value_t = 0)]
+        seed: u64,
+        /// Score at most this many scenes.
+        #[arg(long, value_name = "N")]
+        max_scenes: Option<usize>,
+    },
     /// Print the JSON Schema of a spec kind (for editors: yaml-language-server `$schema`).
     Schema {
         /// Which spec.
@@ -151,6 +175,24 @@ enum Command {
         /// Also write every variant and the table as JSON.
         #[arg(long, value_name = "OUT")]
         json: Option<PathBuf>,
+    },
+    /// Write the feasibility value's training transitions (NGSIM + synthetic, several ego and CBV policies).
+    FeasibilityDataset {
+        /// Recorded scenes whose licence allows training the shipped models (NGSIM).
+        #[arg(long, default_value = "../shared/data/commonroad-ngsim")]
+        recorded: PathBuf,
+        /// Output folder.
+        #[arg(long, default_value = "training/data/feasibility")]
+        out: PathBuf,
+        /// Synthetic scenes.
+        #[arg(long, default_value_t = 300)]
+        synthetic_scenes: usize,
+        /// Base seed.
+        #[arg(long, default_value_t = 0)]
+        seed: u64,
+        /// Replace an existing dataset.
+        #[arg(long)]
+        force: bool,
     },
     /// Write the realism prior's training shards (NGSIM scenes + calibrated synthetic traffic).
     PriorDataset {
@@ -235,6 +277,9 @@ pub fn main() -> ExitCode {
         Command::Run { suites, json, artifacts, filter } => {
             run::run(&suites, json.as_deref(), &artifacts, filter.as_deref())
         }
+        Command::Realism { scenes, rollouts, json, policy, seed, max_scenes } => {
+            realism::run(&realism::RealismArgs { scenes, rollouts, json, policy, seed, max_scenes })
+        }
         Command::Schema { kind, out } => schema::run(kind, out.as_deref()),
         Command::Render { file, step, out, force } => render::run(&file, step, out.as_deref(), force),
         Command::BenchModels { scenes, models, repeat } => bench_models::run(&scenes, &models, repeat.max(1)),
@@ -262,6 +307,15 @@ pub fn main() -> ExitCode {
                 horizon_s,
             };
             evaluate::run(&scenes, &request, max_scenes, json.as_ref())
+        }
+        Command::FeasibilityDataset { recorded, out, synthetic_scenes, seed, force } => {
+            feasibility_dataset::run(&feasibility_dataset::FeasibilityDatasetRequest {
+                recorded,
+                out,
+                synthetic_scenes,
+                seed,
+                force,
+            })
         }
         Command::PriorDataset { recorded, out, template_scenes, recorded_map_scenes, seed, shard_size, force } => {
             prior_dataset::run(&prior_dataset::DatasetRequest {

@@ -4,6 +4,7 @@
 //! what the agent does until `k + 1`.
 
 pub mod adversary;
+pub mod cbv_rules;
 pub mod constant_velocity;
 pub mod lane_follower;
 pub mod log_replay;
