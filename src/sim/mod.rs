@@ -8,6 +8,7 @@
 
 pub mod authoring;
 pub mod synthetic;
+pub mod traffic;
 mod events;
 mod rollout;
 

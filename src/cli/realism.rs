@@ -1,0 +1,287 @@
+//! `safer realism --scenes DIR`: the Waymo Sim Agents (WOSAC 2025) realism
+//! metrics of a traffic policy on recorded scenes. Each scene is rolled out
+//! `--rollouts` times with every agent present at the window's start driven
+//! by the policy (no ego planner: WOSAC simulates the ego too), scored with
+//! `eval::realism`, and summarised per source format and overall.
+//!
+//! Scenes run in parallel; each scene's result depends only on the scene,
+//! the policy and the seed, and results are sorted by scenario id, so the
+//! output does not depend on the thread count.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::time::Instant;
+
+use rayon::prelude::*;
+use serde::Serialize;
+
+use super::{CliError, scene_paths};
+use crate::eval::realism::{RealismAggregate, RealismConfig, RealismWindow, ScenarioRealism, score_scenario};
+use crate::harness::variant::variant_seed;
+use crate::policies::{AgentPolicy, BackgroundPolicy};
+use crate::scenario::{Scenario, SourceFormat, TrackIndex, import};
+use crate::sim::traffic::simulate_all_agents;
+
+/// The rule that picks each scene's window, for the help text and reports.
+pub const WINDOW_RULE: &str = "80 future steps (8 s) from the scene's current step when it has at least \
+10 steps of history and 80 of future (WOMD: current step 10 of 91); otherwise the window whose current \
+step is step 10 (1.0 s of history, 8 s of future) when the scene has at least 91 steps (NGSIM, \
+Argoverse 2); shorter scenes are skipped";
+
+/// The window rule as `safer realism --help` prints it.
+pub const WINDOW_RULE_HELP: &str = "Window: 80 future steps (8 s) from the scene's current step when it has at least \
+10 steps of history and 80 of future (WOMD: current step 10 of 91); otherwise the window whose current \
+step is step 10 (1.0 s of history, 8 s of future) when the scene has at least 91 steps (NGSIM, \
+Argoverse 2); shorter scenes are skipped. Every agent valid at the window's current step is simulated \
+and evaluated; agents appearing later replay the log and are not scored.";
+
+/// Who drives the agents in the realism rollouts.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum RealismPolicy {
+    /// Keep speed and heading from the start state.
+    ConstantVelocity,
+    /// Replay the recorded trajectories (an upper reference, not a policy).
+    LogReplay,
+    /// Follow the lane, brake for leaders and red lights (IDM).
+    Idm,
+    /// The learned realism prior, sampled (not in this build yet).
+    Prior,
+}
+
+const PRIOR_UNAVAILABLE: &str = "the learned prior is not available in this build yet";
+
+impl RealismPolicy {
+    /// Fails early for a policy this build cannot run.
+    fn check_available(self) -> Result<(), CliError> {
+        match self {
+            Self::Prior => Err(CliError::Usage(PRIOR_UNAVAILABLE.to_string())),
+            Self::ConstantVelocity | Self::LogReplay | Self::Idm => Ok(()),
+        }
+    }
+
+    /// A fresh driver for `agent` in rollout seeded `seed`.
+    fn driver(self, scenario: &Scenario, agent: TrackIndex, _seed: u64) -> Result<Box<dyn AgentPolicy>, String> {
+        match self {
+            Self::ConstantVelocity => Ok(BackgroundPolicy::ConstantVelocity.instantiate(scenario, agent)),
+            Self::LogReplay => Ok(BackgroundPolicy::LogReplay.instantiate(scenario, agent)),
+            Self::Idm => Ok(BackgroundPolicy::Idm.instantiate(scenario, agent)),
+            // LEAD: the learned prior goes here (sample with `_seed`).
+            Self::Prior => Err(PRIOR_UNAVAILABLE.to_string()),
+        }
+    }
+}
+
+/// Arguments of `safer realism`.
+#[derive(Debug, Clone)]
+pub struct RealismArgs {
+    /// Folder (searched recursively) or file of scenes.
+    pub scenes: PathBuf,
+    /// Rollouts per scene.
+    pub rollouts: usize,
+    /// JSON report path.
+    pub json: Option<PathBuf>,
+    /// The policy.
+    pub policy: RealismPolicy,
+    /// Base seed.
+    pub seed: u64,
+    /// Score at most this many scenes (the first by file path, then id).
+    pub max_scenes: Option<usize>,
+}
+
+/// A scene that was not scored, and why.
+#[derive(Debug, Clone, Serialize)]
+struct Skipped {
+    scenario: String,
+    path: PathBuf,
+    reason: String,
+    /// Whether it is an error (as opposed to a scene too short for the window).
+    error: bool,
+}
+
+#[derive(Debug, Serialize)]
+struct Report<'a> {
+    policy: RealismPolicy,
+    rollouts: usize,
+    seed: u64,
+    window_rule: &'static str,
+    config: &'a RealismConfig,
+    overall: RealismAggregate,
+    by_format: BTreeMap<SourceFormat, RealismAggregate>,
+    scenes: &'a [ScenarioRealism],
+    skipped: &'a [Skipped],
+    wall_s: f64,
+    /// Mean time of one scene (all rollouts and scoring) on one thread, s.
+    mean_scene_s: f64,
+}
+
+/// Rolls out and scores one scene.
+fn score_one(
+    scenario: &Scenario,
+    args: &RealismArgs,
+    config: &RealismConfig,
+) -> Result<Option<ScenarioRealism>, String> {
+    let Some(window) = RealismWindow::for_scenario(scenario, config.future_steps) else {
+        return Ok(None);
+    };
+    let mut rollouts = Vec::with_capacity(args.rollouts);
+    for r in 0..args.rollouts {
+        let seed = variant_seed(args.seed, &scenario.id, r as u32);
+        let mut failure = None;
+        let states = simulate_all_agents(scenario, window.start_step, window.end_step(), |agent| {
+            args.policy.driver(scenario, agent, seed).unwrap_or_else(|e| {
+                failure = Some(e);
+                BackgroundPolicy::LogReplay.instantiate(scenario, agent)
+            })
+        })
+        .map_err(|e| e.to_string())?;
+        if let Some(e) = failure {
+            return Err(e);
+        }
+        rollouts.push(states);
+    }
+    score_scenario(scenario, window, &rollouts, config).map(Some).map_err(|e| e.to_string())
+}
+
+pub(super) fn run(args: &RealismArgs) -> Result<ExitCode, CliError> {
+    args.policy.check_available()?;
+    if args.rollouts == 0 {
+        return Err(CliError::Usage("--rollouts must be at least 1".to_string()));
+    }
+    let config = RealismConfig::wosac_2025();
+    let mut paths = scene_paths(&args.scenes)?;
+    if let Some(n) = args.max_scenes {
+        paths.truncate(n);
+    }
+    let started = Instant::now();
+    let loaded: Vec<(PathBuf, Result<Vec<Scenario>, String>)> =
+        paths.par_iter().map(|p| (p.clone(), import::load(p).map_err(|e| e.to_string()))).collect();
+    let mut skipped = Vec::new();
+    let mut scenes: Vec<(PathBuf, Scenario)> = Vec::new();
+    for (path, r) in loaded {
+        match r {
+            Ok(list) => scenes.extend(list.into_iter().map(|s| (path.clone(), s))),
+            Err(reason) => skipped.push(Skipped { scenario: String::new(), path, reason, error: true }),
+        }
+    }
+    scenes.sort_by(|a, b| a.1.id.cmp(&b.1.id).then_with(|| a.0.cmp(&b.0)));
+    if let Some(n) = args.max_scenes {
+        scenes.truncate(n);
+    }
+    let scored: Vec<(Result<Option<ScenarioRealism>, String>, f64)> = scenes
+        .par_iter()
+        .map(|(_, s)| {
+            let t = Instant::now();
+            let r = score_one(s, args, &config);
+            (r, t.elapsed().as_secs_f64())
+        })
+        .collect();
+    let wall_s = started.elapsed().as_secs_f64();
+    let mut results = Vec::new();
+    let mut busy_s = 0.0;
+    for ((path, scenario), (r, secs)) in scenes.iter().zip(scored) {
+        match r {
+            Ok(Some(result)) => {
+                busy_s += secs;
+                results.push(result);
+            }
+            Ok(None) => skipped.push(Skipped {
+                scenario: scenario.id.clone(),
+                path: path.clone(),
+                reason: format!("{} steps: too short for the window", scenario.num_steps()),
+                error: false,
+            }),
+            Err(reason) => {
+                skipped.push(Skipped { scenario: scenario.id.clone(), path: path.clone(), reason, error: true })
+            }
+        }
+    }
+    let mean_scene_s = if results.is_empty() { 0.0 } else { busy_s / results.len() as f64 };
+    let mut formats: BTreeMap<SourceFormat, Vec<&ScenarioRealism>> = BTreeMap::new();
+    for r in &results {
+        formats.entry(r.format).or_default().push(r);
+    }
+    let by_format: BTreeMap<SourceFormat, RealismAggregate> =
+        formats.into_iter().map(|(f, rs)| (f, RealismAggregate::mean(rs, &config))).collect();
+    let overall = RealismAggregate::mean(&results, &config);
+    print_table(args, &by_format, &overall, &skipped, mean_scene_s, wall_s);
+    if let Some(out) = &args.json {
+        let report = Report {
+            policy: args.policy,
+            rollouts: args.rollouts,
+            seed: args.seed,
+            window_rule: WINDOW_RULE,
+            config: &config,
+            overall,
+            by_format,
+            scenes: &results,
+            skipped: &skipped,
+            wall_s,
+            mean_scene_s,
+        };
+        write_json(out, &report)?;
+    }
+    Ok(if skipped.iter().any(|s| s.error) { ExitCode::from(1) } else { ExitCode::SUCCESS })
+}
+
+fn write_json(path: &Path, report: &Report<'_>) -> Result<(), CliError> {
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir)?;
+    }
+    std::fs::write(path, serde_json::to_string_pretty(report)?)?;
+    Ok(())
+}
+
+fn print_table(
+    args: &RealismArgs,
+    by_format: &BTreeMap<SourceFormat, RealismAggregate>,
+    overall: &RealismAggregate,
+    skipped: &[Skipped],
+    mean_scene_s: f64,
+    wall_s: f64,
+) {
+    let policy = serde_json::to_value(args.policy).ok().and_then(|v| v.as_str().map(str::to_string));
+    println!(
+        "WOSAC 2025 realism, policy {}, {} rollouts per scene, seed {}",
+        policy.as_deref().unwrap_or("?"),
+        args.rollouts,
+        args.seed
+    );
+    println!(
+        "{:<12} {:>6} {:>10} {:>12} {:>10} {:>8} {:>8} {:>10} {:>9}",
+        "format", "scenes", "kinematic", "interactive", "map-based", "meta", "minADE", "collision", "off-road"
+    );
+    let cell = |v: Option<f64>, digits: usize| v.map_or("-".to_string(), |x| format!("{x:.digits$}"));
+    let mut row = |name: &str, a: &RealismAggregate| {
+        println!(
+            "{:<12} {:>6} {:>10} {:>12} {:>10} {:>8} {:>8} {:>10} {:>9}",
+            name,
+            a.scenarios,
+            cell(a.buckets.kinematic, 4),
+            cell(a.buckets.interactive, 4),
+            cell(a.buckets.map_based, 4),
+            cell(a.meta_metric, 4),
+            cell(a.min_average_displacement_error_m, 2),
+            cell(a.simulated_collision_rate, 3),
+            cell(a.simulated_offroad_rate, 3),
+        );
+    };
+    for (format, a) in by_format {
+        let name = serde_json::to_value(format).ok().and_then(|v| v.as_str().map(str::to_string));
+        row(name.as_deref().unwrap_or("?"), a);
+    }
+    row("overall", overall);
+    let short = skipped.iter().filter(|s| !s.error).count();
+    let failed: Vec<&Skipped> = skipped.iter().filter(|s| s.error).collect();
+    if short > 0 {
+        println!("{short} scenes too short for the window, skipped");
+    }
+    for s in &failed {
+        eprintln!("error: {} {}: {}", s.path.display(), s.scenario, s.reason);
+    }
+    println!(
+        "{mean_scene_s:.2} s per scene on one thread ({} rollouts and scoring); {wall_s:.1} s wall",
+        args.rollouts
+    );
+}
