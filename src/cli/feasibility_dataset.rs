@@ -29,7 +29,7 @@ use crate::policies::prior_sampling::TokenSampling;
 use crate::policies::{AgentPolicy, BackgroundPolicy};
 use crate::scenario::{AgentKind, Scenario, TrackIndex, import};
 use crate::sim::synthetic::{SpeedSample, SyntheticTraffic, random_template};
-use crate::sim::{SimConfig, Simulation};
+use crate::sim::{Rollout, SimConfig, Simulation};
 use crate::spec::suite::AdversaryMethod;
 
 /// What drives the CBV while transitions are collected.
@@ -96,17 +96,17 @@ fn nearest_vehicle(s: &Scenario, ego: TrackIndex, step: usize) -> Option<TrackIn
         .map(|(i, _)| TrackIndex(i))
 }
 
+/// One collection episode's rollout (`None` when it cannot be set up).
 #[allow(clippy::too_many_arguments)]
-fn episode(
+pub(super) fn episode(
     scene: &Arc<Scenario>,
-    scene_index: usize,
     cbv: TrackIndex,
     ego_planner: BuiltinPlanner,
     cbv_policy: CollectionCbv,
     seed: u64,
     models: &ModelSet,
     maps: &MapEncodings,
-) -> Option<Transitions> {
+) -> Option<Rollout> {
     let ego = scene.ego?;
     let start = 10.min(scene.num_steps().saturating_sub(2));
     let end = (start + 80).min(scene.num_steps() - 1);
@@ -133,23 +133,17 @@ fn episode(
             s2.cbv = Some(cbv);
             let s2 = Arc::new(s2);
             crate::harness::methods::install(&mut sim, &s2, cbv, start, settings, models, maps, seed).ok()?;
-            return run_and_record(sim, scene, scene_index, ego, cbv, ego_planner);
+            let mut planner = ego_planner.instantiate(scene, ego);
+            return Some(sim.run(planner.as_mut()));
         }
     };
     sim.set_policy(cbv, policy);
-    run_and_record(sim, scene, scene_index, ego, cbv, ego_planner)
+    let mut planner = ego_planner.instantiate(scene, ego);
+    Some(sim.run(planner.as_mut()))
 }
 
-fn run_and_record(
-    sim: Simulation<'_>,
-    scene: &Scenario,
-    scene_index: usize,
-    ego: TrackIndex,
-    cbv: TrackIndex,
-    ego_planner: BuiltinPlanner,
-) -> Option<Transitions> {
-    let mut planner = ego_planner.instantiate(scene, ego);
-    let rollout = sim.run(planner.as_mut());
+/// The transitions of an episode between `ego` and `cbv`.
+fn transitions(rollout: &Rollout, scene_index: usize, ego: TrackIndex, cbv: TrackIndex) -> Transitions {
     let bodies = &rollout.bodies;
     let mut t = Transitions::default();
     let n = rollout.states.len();
@@ -176,20 +170,16 @@ fn run_and_record(
         t.done.push(if k + 2 == n { 1.0 } else { 0.0 });
         t.scene.push(scene_index as i64);
     }
-    Some(t)
+    t
 }
 
-fn f32_bytes(v: &[f32]) -> Vec<u8> {
-    v.iter().flat_map(|x| x.to_le_bytes()).collect()
-}
+/// One episode to collect: scene index, ego planner, CBV policy.
+pub(super) type Job = (usize, BuiltinPlanner, CollectionCbv);
 
-/// Runs the command.
-pub fn run(request: &FeasibilityDatasetRequest) -> Result<ExitCode, CliError> {
-    let out_file = request.out.join("transitions.safetensors");
-    if out_file.exists() && !request.force {
-        return Err(CliError::Usage(format!("{} exists; pass --force to replace it", out_file.display())));
-    }
-    std::fs::create_dir_all(&request.out)?;
+/// The collection's scenes (each with an ego and a CBV) and episodes, in a fixed order.
+pub(super) fn collection(
+    request: &FeasibilityDatasetRequest,
+) -> Result<(Vec<Arc<Scenario>>, Vec<Job>, Vec<CollectionCbv>), CliError> {
     let paths = scene_paths(&request.recorded)?;
     let mut recorded: Vec<Scenario> = Vec::new();
     for p in &paths {
@@ -242,8 +232,7 @@ pub fn run(request: &FeasibilityDatasetRequest) -> Result<ExitCode, CliError> {
             Some(Arc::new(s))
         })
         .collect();
-    let models = ModelSet::shipped();
-    let prior_available = models.prior.is_ok();
+    let prior_available = ModelSet::shipped().prior.is_ok();
     let mut cbvs = vec![
         CollectionCbv::Pursuit(0),
         CollectionCbv::Pursuit(1),
@@ -255,7 +244,6 @@ pub fn run(request: &FeasibilityDatasetRequest) -> Result<ExitCode, CliError> {
         cbvs.push(CollectionCbv::AdversaryNoLfr);
     }
     let egos = [BuiltinPlanner::Idm, BuiltinPlanner::Evasive, BuiltinPlanner::ConstantVelocity];
-    let maps = MapEncodings::default();
     let mut jobs: Vec<(usize, BuiltinPlanner, CollectionCbv)> = Vec::new();
     for i in 0..scenes.len() {
         for &e in &egos {
@@ -264,13 +252,36 @@ pub fn run(request: &FeasibilityDatasetRequest) -> Result<ExitCode, CliError> {
             }
         }
     }
+    Ok((scenes, jobs, cbvs))
+}
+
+/// The seed of the episodes of scene `i`.
+pub(super) fn scene_seed(base: u64, i: usize) -> u64 {
+    base ^ (i as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15)
+}
+
+fn f32_bytes(v: &[f32]) -> Vec<u8> {
+    v.iter().flat_map(|x| x.to_le_bytes()).collect()
+}
+
+/// Runs the command.
+pub fn run(request: &FeasibilityDatasetRequest) -> Result<ExitCode, CliError> {
+    let out_file = request.out.join("transitions.safetensors");
+    if out_file.exists() && !request.force {
+        return Err(CliError::Usage(format!("{} exists; pass --force to replace it", out_file.display())));
+    }
+    std::fs::create_dir_all(&request.out)?;
+    let (scenes, jobs, cbvs) = collection(request)?;
+    let models = ModelSet::shipped();
+    let maps = MapEncodings::default();
     eprintln!("{} scenes, {} episodes (CBV policies: {cbvs:?})", scenes.len(), jobs.len());
     let episodes: Vec<(usize, CollectionCbv, Option<Transitions>)> = jobs
         .par_iter()
         .map(|&(i, e, c)| {
             let s = &scenes[i];
-            let seed = request.seed ^ (i as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15);
-            (i, c, episode(s, i, s.cbv.expect("checked"), e, c, seed, &models, &maps))
+            let cbv = s.cbv.expect("collection scenes have a CBV");
+            let rollout = episode(s, cbv, e, c, scene_seed(request.seed, i), &models, &maps);
+            (i, c, rollout.map(|r| transitions(&r, i, r.ego, cbv)))
         })
         .collect();
     let mut all = Transitions::default();

@@ -6,6 +6,7 @@ mod bench;
 mod bench_models;
 mod evaluate;
 mod feasibility_dataset;
+mod feasibility_eval;
 mod inspect;
 mod prior_dataset;
 mod realism;
@@ -194,6 +195,24 @@ enum Command {
         #[arg(long)]
         force: bool,
     },
+    /// Accuracy of the shipped V_h against the witness search on held-out states, V_h latency, and the LFR picture.
+    FeasibilityEval {
+        /// Recorded scenes of the collection (NGSIM).
+        #[arg(long, default_value = "../shared/data/commonroad-ngsim")]
+        recorded: PathBuf,
+        /// Synthetic scenes of the collection (same as for `feasibility-dataset`).
+        #[arg(long, default_value_t = 300)]
+        synthetic_scenes: usize,
+        /// Base seed of the collection.
+        #[arg(long, default_value_t = 0)]
+        seed: u64,
+        /// Most held-out states to label.
+        #[arg(long, default_value_t = 3000)]
+        states: usize,
+        /// Where to draw V_h over relative CBV positions.
+        #[arg(long, default_value = "docs/feasibility-lfr.svg")]
+        svg: PathBuf,
+    },
     /// Write the realism prior's training shards (NGSIM scenes + calibrated synthetic traffic).
     PriorDataset {
         /// Recorded scenes whose licence allows training the shipped models (NGSIM).
@@ -317,6 +336,17 @@ pub fn main() -> ExitCode {
                 force,
             })
         }
+        Command::FeasibilityEval { recorded, synthetic_scenes, seed, states, svg } => feasibility_eval::run(
+            &feasibility_dataset::FeasibilityDatasetRequest {
+                recorded,
+                out: PathBuf::new(),
+                synthetic_scenes,
+                seed,
+                force: false,
+            },
+            states,
+            &svg,
+        ),
         Command::PriorDataset { recorded, out, template_scenes, recorded_map_scenes, seed, shard_size, force } => {
             prior_dataset::run(&prior_dataset::DatasetRequest {
                 recorded,
