@@ -11,6 +11,7 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
+use std::sync::Arc;
 use std::time::Instant;
 
 use rayon::prelude::*;
@@ -19,8 +20,10 @@ use serde::Serialize;
 use super::{CliError, scene_paths};
 use crate::eval::realism::{RealismAggregate, RealismConfig, RealismWindow, ScenarioRealism, score_scenario};
 use crate::harness::variant::variant_seed;
+use crate::models::prior::{PriorVariant, RealismPrior};
+use crate::policies::prior_sampling::{PriorAgent, PriorTraffic, ScenarioMapEncoding, TokenSampling};
 use crate::policies::{AgentPolicy, BackgroundPolicy};
-use crate::scenario::{Scenario, SourceFormat, TrackIndex, import};
+use crate::scenario::{Scenario, SourceFormat, import};
 use crate::sim::traffic::simulate_all_agents;
 
 /// The rule that picks each scene's window, for the help text and reports.
@@ -46,30 +49,28 @@ pub enum RealismPolicy {
     LogReplay,
     /// Follow the lane, brake for leaders and red lights (IDM).
     Idm,
-    /// The learned realism prior, sampled (not in this build yet).
+    /// The learned realism prior (differential attention), sampled top-k.
     Prior,
+    /// The plain-attention prior (the `no-mda` ablation), sampled top-k.
+    PriorPlain,
 }
 
-const PRIOR_UNAVAILABLE: &str = "the learned prior is not available in this build yet";
-
 impl RealismPolicy {
-    /// Fails early for a policy this build cannot run.
-    fn check_available(self) -> Result<(), CliError> {
+    /// The learned prior this policy samples, if it is one.
+    fn prior_variant(self) -> Option<PriorVariant> {
         match self {
-            Self::Prior => Err(CliError::Usage(PRIOR_UNAVAILABLE.to_string())),
-            Self::ConstantVelocity | Self::LogReplay | Self::Idm => Ok(()),
+            Self::Prior => Some(PriorVariant::Differential),
+            Self::PriorPlain => Some(PriorVariant::Plain),
+            Self::ConstantVelocity | Self::LogReplay | Self::Idm => None,
         }
     }
 
-    /// A fresh driver for `agent` in rollout seeded `seed`.
-    fn driver(self, scenario: &Scenario, agent: TrackIndex, _seed: u64) -> Result<Box<dyn AgentPolicy>, String> {
-        match self {
-            Self::ConstantVelocity => Ok(BackgroundPolicy::ConstantVelocity.instantiate(scenario, agent)),
-            Self::LogReplay => Ok(BackgroundPolicy::LogReplay.instantiate(scenario, agent)),
-            Self::Idm => Ok(BackgroundPolicy::Idm.instantiate(scenario, agent)),
-            // LEAD: the learned prior goes here (sample with `_seed`).
-            Self::Prior => Err(PRIOR_UNAVAILABLE.to_string()),
-        }
+    /// Loads what the policy needs, failing early with the model's error.
+    fn load(self) -> Result<Option<Arc<RealismPrior>>, CliError> {
+        self.prior_variant()
+            .map(|v| RealismPrior::load(&crate::models::models_dir(), v).map(Arc::new))
+            .transpose()
+            .map_err(|e| CliError::Usage(e.to_string()))
     }
 }
 
@@ -121,23 +122,38 @@ fn score_one(
     scenario: &Scenario,
     args: &RealismArgs,
     config: &RealismConfig,
+    prior: Option<&Arc<RealismPrior>>,
 ) -> Result<Option<ScenarioRealism>, String> {
     let Some(window) = RealismWindow::for_scenario(scenario, config.future_steps) else {
         return Ok(None);
     };
+    // The prior's per-scene inputs: the map encoded once for all rollouts.
+    let prior = match prior {
+        Some(p) => {
+            let map = ScenarioMapEncoding::new(p, scenario).map_err(|e| e.to_string())?;
+            Some((p.clone(), Arc::new(scenario.clone()), map))
+        }
+        None => None,
+    };
+    let start = window.start_step;
+    let members: Vec<usize> = (0..scenario.tracks.len()).filter(|&i| scenario.tracks[i].state(start).is_some()).collect();
     let mut rollouts = Vec::with_capacity(args.rollouts);
     for r in 0..args.rollouts {
         let seed = variant_seed(args.seed, &scenario.id, r as u32);
-        let mut failure = None;
-        let states = simulate_all_agents(scenario, window.start_step, window.end_step(), |agent| {
-            args.policy.driver(scenario, agent, seed).unwrap_or_else(|e| {
-                failure = Some(e);
-                BackgroundPolicy::LogReplay.instantiate(scenario, agent)
-            })
+        let traffic = prior.as_ref().map(|(p, shared, map)| {
+            PriorTraffic::new(p.clone(), shared.clone(), map.clone(), start, members.clone(), TokenSampling::default(), seed)
+        });
+        let states = simulate_all_agents(scenario, start, window.end_step(), |agent| -> Box<dyn AgentPolicy> {
+            match (&traffic, args.policy) {
+                (Some(t), _) => Box::new(PriorAgent::new(t.clone())),
+                (None, RealismPolicy::ConstantVelocity) => BackgroundPolicy::ConstantVelocity.instantiate(scenario, agent),
+                (None, RealismPolicy::Idm) => BackgroundPolicy::Idm.instantiate(scenario, agent),
+                (None, _) => BackgroundPolicy::LogReplay.instantiate(scenario, agent),
+            }
         })
         .map_err(|e| e.to_string())?;
-        if let Some(e) = failure {
-            return Err(e);
+        if let Some(e) = traffic.as_ref().and_then(|t| t.lock().unwrap_or_else(|p| p.into_inner()).error().map(String::from)) {
+            return Err(format!("prior inference failed: {e}"));
         }
         rollouts.push(states);
     }
@@ -145,7 +161,7 @@ fn score_one(
 }
 
 pub(super) fn run(args: &RealismArgs) -> Result<ExitCode, CliError> {
-    args.policy.check_available()?;
+    let prior = args.policy.load()?;
     if args.rollouts == 0 {
         return Err(CliError::Usage("--rollouts must be at least 1".to_string()));
     }
@@ -173,7 +189,7 @@ pub(super) fn run(args: &RealismArgs) -> Result<ExitCode, CliError> {
         .par_iter()
         .map(|(_, s)| {
             let t = Instant::now();
-            let r = score_one(s, args, &config);
+            let r = score_one(s, args, &config, prior.as_ref());
             (r, t.elapsed().as_secs_f64())
         })
         .collect();
@@ -253,7 +269,7 @@ fn print_table(
         "format", "scenes", "kinematic", "interactive", "map-based", "meta", "minADE", "collision", "off-road"
     );
     let cell = |v: Option<f64>, digits: usize| v.map_or("-".to_string(), |x| format!("{x:.digits$}"));
-    let mut row = |name: &str, a: &RealismAggregate| {
+    let row = |name: &str, a: &RealismAggregate| {
         println!(
             "{:<12} {:>6} {:>10} {:>12} {:>10} {:>8} {:>8} {:>10} {:>9}",
             name,
