@@ -63,6 +63,24 @@ fn print_table(rows: &[MethodRow], scenes: usize, request: &EvaluationRequest) {
             r.time_per_variant_s
         );
     }
+    println!("\nwhere the time goes (mean s per variant):");
+    println!(
+        "{:<16} {:>9} {:>10} {:>9} {:>12} {:>9} {:>9}",
+        "method", "stage 1", "features", "decoder", "feasibility", "stage 2", "witness"
+    );
+    for r in rows {
+        let p = &r.profile;
+        println!(
+            "{:<16} {:>9.3} {:>10.3} {:>9.3} {:>12.3} {:>9.3} {:>9.3}",
+            serde_json::to_value(r.method).ok().and_then(|v| v.as_str().map(String::from)).unwrap_or_default(),
+            p.stage1_s,
+            p.stage1_features_s,
+            p.stage1_decoder_s,
+            p.stage1_feasibility_s,
+            p.stage2_s,
+            p.witness_s
+        );
+    }
     println!("VJ/AJ: Jensen–Shannon divergence (bits) of the CBV's stage-1 speed (0–40 m/s, 1 m/s bins) and acceleration (−8–8 m/s², 0.5 m/s² bins, finite differences at 0.1 s) against the logged CBV over the same window.");
 }
 

@@ -81,6 +81,8 @@ pub struct VariantRecord {
     pub stage1_min_gap_m: Option<f64>,
     /// Wall time of the variant (both stages and the witness), s.
     pub time_s: f64,
+    /// Where the time went, s.
+    pub profile: VariantProfile,
     /// Why the variant could not be run, if it could not.
     pub error: Option<String>,
     #[serde(skip)]
@@ -91,6 +93,45 @@ pub struct VariantRecord {
     logged_speeds_mps: Vec<f64>,
     #[serde(skip)]
     logged_accels_mps2: Vec<f64>,
+}
+
+/// Where a variant's time went, s.
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
+pub struct VariantProfile {
+    /// Stage 1, whole (simulation, CBV method, models).
+    pub stage1_s: f64,
+    /// Of which: the prior's query features.
+    pub stage1_features_s: f64,
+    /// Of which: the prior's decoder.
+    pub stage1_decoder_s: f64,
+    /// Of which: feasibility value queries.
+    pub stage1_feasibility_s: f64,
+    /// Stage 2 (the planner under test).
+    pub stage2_s: f64,
+    /// The witness search.
+    pub witness_s: f64,
+}
+
+impl VariantProfile {
+    fn add(&mut self, o: &VariantProfile) {
+        self.stage1_s += o.stage1_s;
+        self.stage1_features_s += o.stage1_features_s;
+        self.stage1_decoder_s += o.stage1_decoder_s;
+        self.stage1_feasibility_s += o.stage1_feasibility_s;
+        self.stage2_s += o.stage2_s;
+        self.witness_s += o.witness_s;
+    }
+
+    fn scaled(&self, k: f64) -> VariantProfile {
+        VariantProfile {
+            stage1_s: self.stage1_s * k,
+            stage1_features_s: self.stage1_features_s * k,
+            stage1_decoder_s: self.stage1_decoder_s * k,
+            stage1_feasibility_s: self.stage1_feasibility_s * k,
+            stage2_s: self.stage2_s * k,
+            witness_s: self.witness_s * k,
+        }
+    }
 }
 
 /// One row of the table.
@@ -116,6 +157,8 @@ pub struct MethodRow {
     pub aj: Option<f64>,
     /// Mean wall time per variant, s.
     pub time_per_variant_s: f64,
+    /// Mean time per variant by part, s.
+    pub profile: VariantProfile,
 }
 
 /// Searches a feasibility witness for a finished stage 1: `Some(true)` when
@@ -170,6 +213,15 @@ fn run_one(
     if let Some(reason) = installed.error() {
         return Err(HarnessError::Model { method, reason });
     }
+    let models_time = installed.timings();
+    let mut profile = VariantProfile {
+        stage1_s: clock.elapsed().as_secs_f64(),
+        stage1_features_s: models_time.features_s,
+        stage1_decoder_s: models_time.decoder_s,
+        stage1_feasibility_s: models_time.feasibility_s,
+        ..VariantProfile::default()
+    };
+    let stage2_clock = Instant::now();
     let s1 = stage1.summary();
     let stage1_collision = s1.ego_collision.as_ref().is_some_and(|c| c.with_cbv);
 
@@ -186,10 +238,13 @@ fn run_one(
     if let Some(reason) = closed_loop.and_then(|i| i.error()) {
         return Err(HarnessError::Model { method, reason });
     }
+    profile.stage2_s = stage2_clock.elapsed().as_secs_f64();
+    let witness_clock = Instant::now();
     let witness = match (stage1_collision, witness) {
         (true, Some(search)) => Some(search(scenario, &stage1)),
         _ => None,
     };
+    profile.witness_s = witness_clock.elapsed().as_secs_f64();
 
     let (cbv_speeds_mps, cbv_accels_mps2) =
         speeds_and_accels(stage1.states.iter().map(|row| row[cbv.0].map(|s| s.speed_mps())), stage1.dt_s);
@@ -205,6 +260,7 @@ fn run_one(
         witness,
         stage1_min_gap_m: s1.min_distance_to_ego_m,
         time_s: clock.elapsed().as_secs_f64(),
+        profile,
         error: None,
         cbv_speeds_mps,
         cbv_accels_mps2,
@@ -241,6 +297,7 @@ pub fn evaluate(
                 witness: None,
                 stage1_min_gap_m: None,
                 time_s: 0.0,
+                profile: VariantProfile::default(),
                 error: Some(e.to_string()),
                 cbv_speeds_mps: vec![],
                 cbv_accels_mps2: vec![],
@@ -275,7 +332,12 @@ pub fn table(records: &[VariantRecord], methods: &[AdversaryMethod]) -> Vec<Meth
                 r.cbv_accels_mps2.iter().for_each(|v| hist[2].add(*v));
                 r.logged_accels_mps2.iter().for_each(|v| hist[3].add(*v));
             }
+            let mut profile = VariantProfile::default();
+            for r in &ok {
+                profile.add(&r.profile);
+            }
             MethodRow {
+                profile: profile.scaled(1.0 / n),
                 method,
                 variants: all.len(),
                 errors: all.len() - ok.len(),

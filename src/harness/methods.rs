@@ -11,7 +11,7 @@ use std::sync::{Arc, Mutex, OnceLock};
 use super::HarnessError;
 use crate::models::prior::{PriorVariant, RealismPrior};
 use crate::policies::adversary::{Adversary, FeasibilityOracle, TrustRegion};
-use crate::policies::prior_sampling::{PriorAgent, PriorTraffic, ScenarioMapEncoding, TokenSampling};
+use crate::policies::prior_sampling::{PriorAgent, PriorTraffic, ScenarioMapEncoding, TokenSampling, TrafficTimings};
 use crate::policies::LogReplay;
 use crate::scenario::{Scenario, TrackIndex};
 use crate::sim::Simulation;
@@ -96,6 +96,11 @@ pub struct InstalledMethod {
 }
 
 impl InstalledMethod {
+    /// Where the rollout's learned-model time went (zero without a model).
+    pub fn timings(&self) -> TrafficTimings {
+        self.traffic.as_ref().map(|t| t.lock().unwrap_or_else(|p| p.into_inner()).timings()).unwrap_or_default()
+    }
+
     /// The first model error met during the rollout, if any.
     pub fn error(&self) -> Option<String> {
         self.traffic.as_ref().and_then(|t| t.lock().unwrap_or_else(|p| p.into_inner()).error().map(String::from))

@@ -104,7 +104,10 @@ impl Adversary {
             Some(oracle) => {
                 let pairs: Vec<EgoCbvState> =
                     predicted.iter().map(|s| EgoCbvState { ego: ego_next, ego_body, cbv: *s, cbv_body }).collect();
-                let values = oracle.values(&pairs)?;
+                let clock = std::time::Instant::now();
+                let values = oracle.values(&pairs);
+                self.shared.lock().unwrap_or_else(|p| p.into_inner()).add_feasibility_time(clock.elapsed().as_secs_f64());
+                let values = values?;
                 distances
                     .iter()
                     .zip(values)

@@ -124,6 +124,20 @@ pub struct PriorTraffic {
     tokens: HashMap<(usize, usize), Token>,
     logits: HashMap<(usize, usize), TokenLogits>,
     error: Option<String>,
+    timings: TrafficTimings,
+}
+
+/// Where a rollout's learned-model time went, s.
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
+pub struct TrafficTimings {
+    /// Building the prior's query features.
+    pub features_s: f64,
+    /// The prior's decoder.
+    pub decoder_s: f64,
+    /// Feasibility value queries (the adversary).
+    pub feasibility_s: f64,
+    /// Decoder calls.
+    pub decoder_calls: usize,
 }
 
 impl std::fmt::Debug for PriorTraffic {
@@ -158,6 +172,7 @@ impl PriorTraffic {
             tokens: HashMap::new(),
             logits: HashMap::new(),
             error: None,
+            timings: TrafficTimings::default(),
         }))
     }
 
@@ -182,6 +197,7 @@ impl PriorTraffic {
     }
 
     fn run_decoder(&mut self, step: usize) {
+        let clock = std::time::Instant::now();
         let history = RolloutHistory { scenario: &self.scenario, start: self.start, frames: &self.frames };
         let mut agents = Vec::new();
         let mut queries = Vec::new();
@@ -192,7 +208,12 @@ impl PriorTraffic {
             }
         }
         let refs: Vec<_> = queries.iter().collect();
-        match self.prior.logits(&refs, &self.map.embedding) {
+        let features_done = std::time::Instant::now();
+        self.timings.features_s += (features_done - clock).as_secs_f64();
+        let result = self.prior.logits(&refs, &self.map.embedding);
+        self.timings.decoder_s += features_done.elapsed().as_secs_f64();
+        self.timings.decoder_calls += 1;
+        match result {
             Ok(all) => {
                 for (a, l) in agents.into_iter().zip(all) {
                     self.logits.insert((a, step), l);
@@ -222,6 +243,16 @@ impl PriorTraffic {
     /// Keeps the first error met by an agent of this rollout.
     pub fn record_error(&mut self, message: String) {
         self.error.get_or_insert(message);
+    }
+
+    /// Adds time spent on feasibility queries.
+    pub fn add_feasibility_time(&mut self, seconds: f64) {
+        self.timings.feasibility_s += seconds;
+    }
+
+    /// Where this rollout's model time went.
+    pub fn timings(&self) -> TrafficTimings {
+        self.timings
     }
 
     /// The first inference error, if any (the rollout should be reported failed).
