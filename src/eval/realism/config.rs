@@ -164,6 +164,8 @@ const fn bernoulli(weight: f64) -> FeatureConfig {
 
 impl RealismConfig {
     /// `challenge_2025_sim_agents_config.textproto`, value for value.
+    // The config says 3.14 and 0.628 (not π, π/5): the bin edges follow it.
+    #[allow(clippy::approx_constant)]
     pub fn wosac_2025() -> Self {
         Self {
             features: [
