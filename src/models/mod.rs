@@ -23,6 +23,7 @@ pub const MODELS_DIR: &str = "models";
 /// The shipped models folder: `SAFER_MODELS` if set, else `models/` of this crate.
 pub fn models_dir() -> PathBuf {
     std::env::var_os("SAFER_MODELS")
+        .filter(|v| !v.is_empty())
         .map(PathBuf::from)
         .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join(MODELS_DIR))
 }
