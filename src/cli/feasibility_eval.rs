@@ -137,9 +137,9 @@ fn write_lfr_svg(value: &FeasibilityValue, path: &PathBuf) -> Result<(), CliErro
     let car = AgentBody { kind: AgentKind::Vehicle, length_m: 4.6, width_m: 1.9 };
     let speeds = [5.0, 10.0, 15.0];
     let headings = [(0.0, "same heading"), (std::f64::consts::FRAC_PI_2, "crossing from the right")];
-    let (x_range, y_range, cell_m) = ((-15.0, 35.0), (-12.0, 12.0), 0.5);
+    let (x_range, y_range, cell_m) = ((-15.0, 35.0), (-12.0, 12.0), 1.0);
     let (nx, ny) = (((x_range.1 - x_range.0) / cell_m) as usize, ((y_range.1 - y_range.0) / cell_m) as usize);
-    let px = 4.0;
+    let px = 8.0;
     let (panel_w, panel_h) = (nx as f64 * px, ny as f64 * px);
     let mut svg = format!(
         r#"<svg xmlns="http://www.w3.org/2000/svg" width="{}" height="{}" font-family="sans-serif" font-size="12">
@@ -172,6 +172,16 @@ fn write_lfr_svg(value: &FeasibilityValue, path: &PathBuf) -> Result<(), CliErro
                 }
             }
             let values = value.evaluate(&pairs).map_err(|e| CliError::Usage(e.to_string()))?;
+            let infeasible = values.iter().filter(|v| **v > 0.0).count();
+            println!(
+                "LFR panel: {v:>4} m/s, CBV {label:<24} infeasible cells {:>5.1} % of {} (x {}..{} m, y {}..{} m)",
+                100.0 * infeasible as f64 / values.len() as f64,
+                values.len(),
+                x_range.0,
+                x_range.1,
+                y_range.0,
+                y_range.1
+            );
             for (k, (val, p)) in values.iter().zip(&pairs).enumerate() {
                 let (i, j) = (k % nx, k / nx);
                 let t = (*val as f64 / 16.0).clamp(-1.0, 1.0);

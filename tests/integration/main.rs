@@ -9,6 +9,7 @@ mod cli_run;
 mod import_argoverse2;
 mod import_commonroad;
 mod import_womd_json;
+mod feasibility_model;
 mod import_womd_proto;
 mod prior_model;
 mod realism;
