@@ -4,6 +4,7 @@
 
 mod shared_data;
 
+mod adversary;
 mod cli;
 mod cli_run;
 mod import_argoverse2;
