@@ -9,7 +9,10 @@
 
 use std::sync::{Arc, Mutex};
 
-use super::prior_sampling::{PriorTraffic, ranked_tokens};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+use super::prior_sampling::{PriorTraffic, draw_seed, ranked_tokens};
 use super::{AgentAction, AgentPolicy, WorldView};
 use crate::geometry::OrientedBox;
 use crate::models::ModelError;
@@ -20,6 +23,10 @@ use crate::scenario::{AgentState, TrackIndex};
 
 /// Penalty added to V_h for candidates outside the feasible region (the paper's Δ).
 pub const INFEASIBLE_PENALTY: f64 = 50.0;
+
+/// Candidates whose loss is within this of the best are equally adversarial
+/// (m of box distance; V_h differences above it matter).
+pub const NEAR_OPTIMAL_LOSS_M: f64 = 0.25;
 
 /// Which tokens the adversary may choose from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -77,9 +84,10 @@ impl Adversary {
     /// when the prior has no opinion (the CBV is absent).
     fn choose(&mut self, world: &WorldView<'_>, cbv: TrackIndex) -> Result<Option<Token>, ModelError> {
         let mut shared = self.shared.lock().unwrap_or_else(|p| p.into_inner());
-        let Some(logits) = shared.logits_at(cbv.0, world.step) else { return Ok(None) };
-        let ranked = ranked_tokens(logits);
+        let seed = shared.seed();
+        let Some(logits) = shared.logits_at(cbv.0, world.step).cloned() else { return Ok(None) };
         drop(shared);
+        let ranked = ranked_tokens(&logits);
         let (Some(cbv_now), Some(ego_now)) = (world.state(cbv), world.state(self.ego)) else {
             return Ok(ranked.first().copied());
         };
@@ -115,8 +123,25 @@ impl Adversary {
                     .collect()
             }
         };
-        // Ties go to the more likely token (candidates are in rank order).
-        let best = losses.iter().enumerate().fold(0, |b, (i, l)| if *l < losses[b] { i } else { b });
+        // Among the candidates (nearly) as adversarial as the best, draw one
+        // by its prior probability with the variant's seed: seeds then give
+        // different, equally adversarial variants, and likelier tokens win.
+        let best_loss = losses.iter().copied().fold(f64::INFINITY, f64::min);
+        let near: Vec<usize> = (0..candidates.len()).filter(|&i| losses[i] <= best_loss + NEAR_OPTIMAL_LOSS_M).collect();
+        let weights: Vec<f64> = {
+            let top = near.iter().map(|&i| logits[candidates[i].0 as usize]).fold(f32::NEG_INFINITY, f32::max);
+            near.iter().map(|&i| ((logits[candidates[i].0 as usize] - top) as f64).exp()).collect()
+        };
+        let mut rng = ChaCha8Rng::seed_from_u64(draw_seed(seed, cbv.0, world.step));
+        let mut u = rng.random::<f64>() * weights.iter().sum::<f64>();
+        let mut best = near[near.len() - 1];
+        for (&i, w) in near.iter().zip(&weights) {
+            if u < *w {
+                best = i;
+                break;
+            }
+            u -= w;
+        }
         Ok(Some(candidates[best]))
     }
 }

@@ -235,6 +235,11 @@ impl PriorTraffic {
         Some(token)
     }
 
+    /// The rollout's seed.
+    pub fn seed(&self) -> u64 {
+        self.seed
+    }
+
     /// The rollout's first step.
     pub fn start(&self) -> usize {
         self.start
