@@ -21,12 +21,12 @@ use rayon::prelude::*;
 
 use super::HarnessError;
 use super::methods::{self, BackgroundDriver, MapEncodings, MethodSettings, ModelSet};
-use super::variant::variant_seed;
+use super::variant::{track_from_rollout, variant_seed};
 use crate::eval::{Histogram, jensen_shannon};
 use crate::planners::BuiltinPlanner;
 use crate::policies::LogReplay;
 use crate::policies::prior_sampling::TokenSampling;
-use crate::scenario::{Scenario, Track, TrackIndex};
+use crate::scenario::Scenario;
 use crate::sim::{Rollout, SimConfig, Simulation};
 use crate::spec::suite::AdversaryMethod;
 
@@ -173,14 +173,6 @@ fn speeds_and_accels(states: impl Iterator<Item = Option<f64>>, dt_s: f64) -> (V
     (speeds, accels)
 }
 
-fn cbv_track(scenario: &Scenario, rollout: &Rollout, cbv: TrackIndex) -> Track {
-    let mut t = scenario.track(cbv).clone();
-    t.states = (0..scenario.num_steps())
-        .map(|k| k.checked_sub(rollout.start_step).and_then(|i| rollout.states.get(i)).and_then(|row| row[cbv.0]))
-        .collect();
-    t
-}
-
 /// Runs one variant.
 #[allow(clippy::too_many_arguments)]
 fn run_one(
@@ -228,7 +220,7 @@ fn run_one(
     let mut stage2 = Simulation::new(scenario, config)?;
     let closed_loop = match request.stage2_cbv {
         Stage2Cbv::Replay => {
-            stage2.set_policy(cbv, Box::new(LogReplay::new(cbv_track(scenario, &stage1, cbv))));
+            stage2.set_policy(cbv, Box::new(LogReplay::new(track_from_rollout(scenario, &stage1, cbv))));
             None
         }
         Stage2Cbv::ClosedLoop => Some(methods::install(&mut stage2, scenario, cbv, start, settings, models, maps, seed)?),

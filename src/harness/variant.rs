@@ -143,7 +143,7 @@ pub fn make_planner(
 }
 
 /// The CBV's stage-1 trajectory as a track (`None` before the start step).
-fn track_from_rollout(scenario: &Scenario, rollout: &Rollout, agent: TrackIndex) -> Track {
+pub(crate) fn track_from_rollout(scenario: &Scenario, rollout: &Rollout, agent: TrackIndex) -> Track {
     let mut t = scenario.track(agent).clone();
     t.states = (0..scenario.num_steps())
         .map(|k| k.checked_sub(rollout.start_step).and_then(|i| rollout.states.get(i)).and_then(|row| row[agent.0]))
