@@ -75,12 +75,17 @@ pub(super) fn run(scenes: &Path, models: &Path, repeat: usize) -> Result<ExitCod
         build_query(&history, &bodies, &tokens, &scene.map, cbv, step);
     });
     let scene_us = median_us(repeat.min(50), || {
-        let qs: Vec<_> = present.iter().filter_map(|&a| build_query(&history, &bodies, &tokens, &scene.map, a, step)).collect();
+        let qs: Vec<_> =
+            present.iter().filter_map(|&a| build_query(&history, &bodies, &tokens, &scene.map, a, step)).collect();
         let refs: Vec<_> = qs.iter().collect();
         prior.logits(&refs, &embedding).expect("decoder ran once");
     });
     println!("{:<52} {:>12}", "tract", "µs");
-    println!("{:<52} {:>12.0}", format!("map encoding, whole scenario ({} map tokens)", tokens.tokens.len()), encode_us);
+    println!(
+        "{:<52} {:>12.0}",
+        format!("map encoding, whole scenario ({} map tokens)", tokens.tokens.len()),
+        encode_us
+    );
     println!("{:<52} {:>12.0}", "CBV query: features only", features_us);
     println!("{:<52} {:>12.0}", "CBV query: features + decoder (batch 1)", query_us);
     println!(
@@ -89,8 +94,11 @@ pub(super) fn run(scenes: &Path, models: &Path, repeat: usize) -> Result<ExitCod
         scene_us
     );
     let decoder_batch_us = {
-        let qs: Vec<_> =
-            present.iter().take(SCENE_BATCH).filter_map(|&a| build_query(&history, &bodies, &tokens, &scene.map, a, step)).collect();
+        let qs: Vec<_> = present
+            .iter()
+            .take(SCENE_BATCH)
+            .filter_map(|&a| build_query(&history, &bodies, &tokens, &scene.map, a, step))
+            .collect();
         let refs: Vec<_> = qs.iter().collect();
         median_us(repeat.min(50), || {
             prior.logits(&refs, &embedding).expect("decoder ran once");

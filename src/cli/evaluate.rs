@@ -81,7 +81,9 @@ fn print_table(rows: &[MethodRow], scenes: usize, request: &EvaluationRequest) {
             p.witness_s
         );
     }
-    println!("VJ/AJ: Jensen–Shannon divergence (bits) of the CBV's stage-1 speed (0–40 m/s, 1 m/s bins) and acceleration (−8–8 m/s², 0.5 m/s² bins, finite differences at 0.1 s) against the logged CBV over the same window.");
+    println!(
+        "VJ/AJ: Jensen–Shannon divergence (bits) of the CBV's stage-1 speed (0–40 m/s, 1 m/s bins) and acceleration (−8–8 m/s², 0.5 m/s² bins, finite differences at 0.1 s) against the logged CBV over the same window."
+    );
 }
 
 #[derive(serde::Serialize)]

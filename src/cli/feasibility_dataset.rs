@@ -326,7 +326,9 @@ pub fn run(request: &FeasibilityDatasetRequest) -> Result<ExitCode, CliError> {
     let views = cols
         .iter()
         .map(|(name, data, shape, dt)| {
-            TensorView::new(*dt, shape.clone(), data).map(|v| (name.to_string(), v)).map_err(|e| CliError::Usage(e.to_string()))
+            TensorView::new(*dt, shape.clone(), data)
+                .map(|v| (name.to_string(), v))
+                .map_err(|e| CliError::Usage(e.to_string()))
         })
         .collect::<Result<Vec<_>, _>>()?;
     let meta = HashMap::from([("scenes".to_string(), serde_json::to_string(&scene_meta)?)]);

@@ -99,10 +99,7 @@ pub fn run(request: &FeasibilityDatasetRequest, max_states: usize, svg: &PathBuf
     println!("sign(V_h) vs witness:      predicted infeasible  predicted feasible");
     println!("  infeasible (no witness)  {tp:>20}  {fn_:>18}");
     println!("  feasible (witness)       {fp:>20}  {tn:>18}");
-    println!(
-        "precision of infeasible {precision:.3}, recall {recall:.3}, accuracy {:.3}",
-        (tp + tn) as f64 / n
-    );
+    println!("precision of infeasible {precision:.3}, recall {recall:.3}, accuracy {:.3}", (tp + tn) as f64 / n);
     let mut ws: Vec<f64> = labelled.iter().map(|l| l.witness_s * 1e3).collect();
     ws.sort_by(f64::total_cmp);
     if !ws.is_empty() {
@@ -123,7 +120,11 @@ pub fn run(request: &FeasibilityDatasetRequest, max_states: usize, svg: &PathBuf
             })
             .collect();
         times.sort_by(f64::total_cmp);
-        println!("V_h batch-20 query in tract: median {:.1} µs ({} build)", times[500], if cfg!(debug_assertions) { "debug" } else { "release" });
+        println!(
+            "V_h batch-20 query in tract: median {:.1} µs ({} build)",
+            times[500],
+            if cfg!(debug_assertions) { "debug" } else { "release" }
+        );
     }
     write_lfr_svg(&value, svg)?;
     println!("wrote {}", svg.display());
@@ -161,7 +162,8 @@ fn write_lfr_svg(value: &FeasibilityValue, path: &PathBuf) -> Result<(), CliErro
                 for i in 0..nx {
                     let x = x_range.0 + (i as f64 + 0.5) * cell_m;
                     let y = y_range.1 - (j as f64 + 0.5) * cell_m;
-                    let ego = AgentState { position: Point2::origin(), heading_rad: 0.0, velocity_mps: Vector2::new(v, 0.0) };
+                    let ego =
+                        AgentState { position: Point2::origin(), heading_rad: 0.0, velocity_mps: Vector2::new(v, 0.0) };
                     let h = if heading == 0.0 { 0.0 } else { heading };
                     let cbv = AgentState {
                         position: Point2::new(x, y),

@@ -141,7 +141,11 @@ pub fn run(request: &DatasetRequest) -> Result<ExitCode, CliError> {
     let jobs: Vec<(String, u64, Option<usize>)> = (0..request.template_scenes)
         .map(|i| (format!("synthetic-template-{i:05}"), request.seed.wrapping_add(i as u64), None))
         .chain((0..request.recorded_map_scenes).filter(|_| !recorded.is_empty()).map(|i| {
-            (format!("synthetic-recorded-map-{i:05}"), request.seed.wrapping_add(1_000_000 + i as u64), Some(i % recorded.len()))
+            (
+                format!("synthetic-recorded-map-{i:05}"),
+                request.seed.wrapping_add(1_000_000 + i as u64),
+                Some(i % recorded.len()),
+            )
         }))
         .collect();
     let synthetic: Vec<Scenario> = jobs
@@ -161,7 +165,8 @@ pub fn run(request: &DatasetRequest) -> Result<ExitCode, CliError> {
     let accel_jsd = jensen_shannon(&histogram(&real_accels, -5.0, 5.0, 20), &histogram(&synth_accels, -5.0, 5.0, 20));
     println!("calibration (moving vehicles, 0.5 s token periods):");
     println!("  {:<22} {:>10} {:>10} {:>10} {:>12}", "source", "samples", "speed p50", "speed p90", "accel std");
-    for (name, s, a) in [("recorded (NGSIM)", &real_speeds, &real_accels), ("synthetic", &synth_speeds, &synth_accels)] {
+    for (name, s, a) in [("recorded (NGSIM)", &real_speeds, &real_accels), ("synthetic", &synth_speeds, &synth_accels)]
+    {
         let q = SpeedSample::new(s.clone());
         println!(
             "  {:<22} {:>10} {:>8.1} m/s {:>6.1} m/s {:>8.2} m/s²",
@@ -183,7 +188,9 @@ pub fn run(request: &DatasetRequest) -> Result<ExitCode, CliError> {
     let sources: Vec<(&Scenario, &str, Split)> = recorded
         .iter()
         .enumerate()
-        .map(|(i, s)| (s, "ngsim", if i % HELD_OUT_EVERY == HELD_OUT_EVERY - 1 { Split::HeldOut } else { Split::Train }))
+        .map(|(i, s)| {
+            (s, "ngsim", if i % HELD_OUT_EVERY == HELD_OUT_EVERY - 1 { Split::HeldOut } else { Split::Train })
+        })
         .chain(synthetic.iter().enumerate().map(|(i, s)| {
             (s, "synthetic", if i % HELD_OUT_EVERY == HELD_OUT_EVERY - 1 { Split::HeldOut } else { Split::Train })
         }))
@@ -223,4 +230,3 @@ pub fn run(request: &DatasetRequest) -> Result<ExitCode, CliError> {
     );
     Ok(ExitCode::SUCCESS)
 }
-

@@ -125,7 +125,8 @@ pub fn search_witness(
                         return Witness::NoneWithinBudget { expansions };
                     }
                     expansions += 1;
-                    let action = Action { accel_mps2: a, yaw_rate_radps: w.clamp(-MAX_YAW_RATE_RADPS, MAX_YAW_RATE_RADPS) };
+                    let action =
+                        Action { accel_mps2: a, yaw_rate_radps: w.clamp(-MAX_YAW_RATE_RADPS, MAX_YAW_RATE_RADPS) };
                     let mut s = *c.trajectory.last().expect("non-empty");
                     let mut clearance = c.clearance_m;
                     let mut trajectory = c.trajectory.clone();
@@ -181,7 +182,8 @@ mod tests {
     fn braking_avoids_a_stopped_car_ahead() {
         // Ego at 10 m/s, a stopped car 20 m ahead: braking at 5 m/s² stops in 10 m.
         let horizon = 50;
-        let states: Vec<Vec<Option<AgentState>>> = (0..=horizon).map(|_| vec![None, Some(at(20.0, 0.0, 0.0))]).collect();
+        let states: Vec<Vec<Option<AgentState>>> =
+            (0..=horizon).map(|_| vec![None, Some(at(20.0, 0.0, 0.0))]).collect();
         let traffic = FixedTraffic { states: &states, bodies: &[car(), car()], ego: 0 };
         let w = search_witness(&at(0.0, 0.0, 10.0), car(), &traffic, horizon, WitnessBudget::default());
         let Witness::Found { trajectory, min_clearance_m, .. } = w else { panic!("{w:?}") };

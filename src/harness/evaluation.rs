@@ -223,7 +223,9 @@ fn run_one(
             stage2.set_policy(cbv, Box::new(LogReplay::new(track_from_rollout(scenario, &stage1, cbv))));
             None
         }
-        Stage2Cbv::ClosedLoop => Some(methods::install(&mut stage2, scenario, cbv, start, settings, models, maps, seed)?),
+        Stage2Cbv::ClosedLoop => {
+            Some(methods::install(&mut stage2, scenario, cbv, start, settings, models, maps, seed)?)
+        }
     };
     let mut planner = request.planner.instantiate(scenario, ego);
     let stage2 = stage2.run(planner.as_mut());
@@ -280,22 +282,23 @@ pub fn evaluate(
         .par_iter()
         .map(|&(i, method, seed)| {
             let scenario = &scenes[i];
-            let r = run_one(scenario, method, seed, request, models, &maps, witness).unwrap_or_else(|e| VariantRecord {
-                scenario: scenario.id.clone(),
-                method,
-                seed,
-                stage1_collision: false,
-                stage2_collision: false,
-                witness: None,
-                stage1_min_gap_m: None,
-                time_s: 0.0,
-                profile: VariantProfile::default(),
-                error: Some(e.to_string()),
-                cbv_speeds_mps: vec![],
-                cbv_accels_mps2: vec![],
-                logged_speeds_mps: vec![],
-                logged_accels_mps2: vec![],
-            });
+            let r =
+                run_one(scenario, method, seed, request, models, &maps, witness).unwrap_or_else(|e| VariantRecord {
+                    scenario: scenario.id.clone(),
+                    method,
+                    seed,
+                    stage1_collision: false,
+                    stage2_collision: false,
+                    witness: None,
+                    stage1_min_gap_m: None,
+                    time_s: 0.0,
+                    profile: VariantProfile::default(),
+                    error: Some(e.to_string()),
+                    cbv_speeds_mps: vec![],
+                    cbv_accels_mps2: vec![],
+                    logged_speeds_mps: vec![],
+                    logged_accels_mps2: vec![],
+                });
             tick();
             r
         })
@@ -317,7 +320,8 @@ pub fn table(records: &[VariantRecord], methods: &[AdversaryMethod]) -> Vec<Meth
             };
             let critical: Vec<&VariantRecord> = ok.iter().copied().filter(|r| r.stage1_collision).collect();
             let searched: Vec<&VariantRecord> = critical.iter().copied().filter(|r| r.witness.is_some()).collect();
-            let mut hist = [Histogram::speed(), Histogram::speed(), Histogram::acceleration(), Histogram::acceleration()];
+            let mut hist =
+                [Histogram::speed(), Histogram::speed(), Histogram::acceleration(), Histogram::acceleration()];
             for r in &ok {
                 r.cbv_speeds_mps.iter().for_each(|v| hist[0].add(*v));
                 r.logged_speeds_mps.iter().for_each(|v| hist[1].add(*v));

@@ -10,9 +10,9 @@ use std::sync::{Arc, Mutex, OnceLock};
 
 use super::HarnessError;
 use crate::models::prior::{PriorVariant, RealismPrior};
+use crate::policies::LogReplay;
 use crate::policies::adversary::{Adversary, FeasibilityOracle, TrustRegion};
 use crate::policies::prior_sampling::{PriorAgent, PriorTraffic, ScenarioMapEncoding, TokenSampling, TrafficTimings};
-use crate::policies::LogReplay;
 use crate::scenario::{Scenario, TrackIndex};
 use crate::sim::Simulation;
 use crate::spec::suite::AdversaryMethod;
@@ -159,7 +159,8 @@ pub fn install(
             sim.set_policy(TrackIndex(m), Box::new(PriorAgent::new(traffic.clone())));
         }
     }
-    let feasibility = || models.feasibility.clone().map_err(|reason| HarnessError::Model { method: settings.method, reason });
+    let feasibility =
+        || models.feasibility.clone().map_err(|reason| HarnessError::Model { method: settings.method, reason });
     let n = TrustRegion::TopN(settings.trust_region);
     match settings.method {
         AdversaryMethod::Log => sim.set_policy(cbv, Box::new(LogReplay::new(scenario.track(cbv).clone()))),

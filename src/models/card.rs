@@ -159,7 +159,8 @@ pub struct ExpectedContract {
 impl ModelCard {
     /// Reads and parses a card; errors carry the file and the YAML location.
     pub fn load(path: &Path) -> Result<Self, ModelError> {
-        let text = std::fs::read_to_string(path).map_err(|source| ModelError::Io { path: path.to_path_buf(), source })?;
+        let text =
+            std::fs::read_to_string(path).map_err(|source| ModelError::Io { path: path.to_path_buf(), source })?;
         serde_saphyr::from_str::<ModelCard>(&text)
             .map_err(|e| ModelError::Card { path: path.to_path_buf(), message: e.to_string() })
     }
@@ -187,11 +188,7 @@ impl ModelCard {
             [("inputs", &self.inputs, &expected.inputs), ("outputs", &self.outputs, &expected.outputs)]
         {
             if specs.len() != wanted.len() {
-                return Err(mismatch(
-                    format!("{section} (count)"),
-                    wanted.len().to_string(),
-                    specs.len().to_string(),
-                ));
+                return Err(mismatch(format!("{section} (count)"), wanted.len().to_string(), specs.len().to_string()));
             }
             for (i, (spec, (name, dtype, shape))) in specs.iter().zip(wanted).enumerate() {
                 let at = format!("{section}[{i}]");
@@ -232,7 +229,11 @@ impl ModelCard {
             }
         }
         if !(self.golden_tolerance.is_finite() && self.golden_tolerance > 0.0) {
-            return Err(mismatch("golden_tolerance".into(), "a positive number".into(), self.golden_tolerance.to_string()));
+            return Err(mismatch(
+                "golden_tolerance".into(),
+                "a positive number".into(),
+                self.golden_tolerance.to_string(),
+            ));
         }
         Ok(())
     }

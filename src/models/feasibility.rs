@@ -11,10 +11,10 @@ use std::path::Path;
 
 use tract_onnx::prelude::*;
 
+use super::ModelError;
 use super::card::{DType, ExpectedContract, ModelKind};
 use super::feasibility_oracle::{EgoCbvState, FeasibilityOracle};
 use super::onnx::{OnnxModel, f32_values};
-use super::ModelError;
 use crate::geometry::{OrientedBox, Pose2, Vector2, wrap_angle};
 use crate::scenario::{AgentBody, AgentState};
 
@@ -112,7 +112,8 @@ impl FeasibilityValue {
         for chunk in pairs.chunks(FEASIBILITY_BATCH) {
             let mut input = vec![0.0f32; FEASIBILITY_BATCH * FEASIBILITY_FEATURES];
             for (i, p) in chunk.iter().enumerate() {
-                input[i * FEASIBILITY_FEATURES..(i + 1) * FEASIBILITY_FEATURES].copy_from_slice(&feasibility_features(p));
+                input[i * FEASIBILITY_FEATURES..(i + 1) * FEASIBILITY_FEATURES]
+                    .copy_from_slice(&feasibility_features(p));
             }
             let err = |e: TractError| ModelError::Input { model: FEASIBILITY_MODEL.into(), message: format!("{e:#}") };
             let t = Tensor::from_shape(&[FEASIBILITY_BATCH, FEASIBILITY_FEATURES], &input).map_err(err)?;

@@ -52,8 +52,7 @@ impl OnnxModel {
         card.check(card_path, expected)?;
         let dir = card_path.parent().unwrap_or(Path::new("."));
         let onnx_path = dir.join(&card.file);
-        let bytes =
-            std::fs::read(&onnx_path).map_err(|source| ModelError::Io { path: onnx_path.clone(), source })?;
+        let bytes = std::fs::read(&onnx_path).map_err(|source| ModelError::Io { path: onnx_path.clone(), source })?;
         let found = sha256_hex(&bytes);
         if !found.eq_ignore_ascii_case(&card.sha256) {
             return Err(ModelError::CardMismatch {
@@ -119,7 +118,9 @@ impl OnnxModel {
 
     /// Runs the graph on inputs in card order (shapes as fixed at load).
     pub fn run(&self, inputs: TVec<TValue>) -> Result<TVec<TValue>, ModelError> {
-        self.plan.run(inputs).map_err(|e| ModelError::Inference { model: self.card.name.clone(), message: format!("{e:#}") })
+        self.plan
+            .run(inputs)
+            .map_err(|e| ModelError::Inference { model: self.card.name.clone(), message: format!("{e:#}") })
     }
 
     /// Replays the golden file: feeds `input.<name>` tensors, compares with
@@ -143,10 +144,8 @@ impl OnnxModel {
                     Tensor::from_shape(&shape, &v)
                 }
                 safetensors::Dtype::I64 => {
-                    let v: Vec<i64> = data
-                        .chunks_exact(8)
-                        .map(|c| i64::from_le_bytes(c.try_into().expect("chunk of 8")))
-                        .collect();
+                    let v: Vec<i64> =
+                        data.chunks_exact(8).map(|c| i64::from_le_bytes(c.try_into().expect("chunk of 8"))).collect();
                     Tensor::from_shape(&shape, &v)
                 }
                 other => {
@@ -184,11 +183,12 @@ impl OnnxModel {
         let mut values = 0;
         for (spec, got) in self.card.outputs.iter().zip(outputs.iter()) {
             let want = tensor(&format!("output.{}", spec.name))?;
-            let got = got.cast_to::<f32>().map_err(|e| ModelError::Inference {
-                model: self.card.name.clone(),
-                message: format!("{e:#}"),
-            })?;
-            let want = want.cast_to::<f32>().map_err(|e| ModelError::Golden { path: path.clone(), message: format!("{e:#}") })?;
+            let got = got
+                .cast_to::<f32>()
+                .map_err(|e| ModelError::Inference { model: self.card.name.clone(), message: format!("{e:#}") })?;
+            let want = want
+                .cast_to::<f32>()
+                .map_err(|e| ModelError::Golden { path: path.clone(), message: format!("{e:#}") })?;
             if got.shape() != want.shape() {
                 return Err(ModelError::Golden {
                     path: path.clone(),
@@ -197,7 +197,8 @@ impl OnnxModel {
             }
             let g = f32_values(&got)
                 .map_err(|e| ModelError::Inference { model: self.card.name.clone(), message: format!("{e:#}") })?;
-            let w = f32_values(&want).map_err(|e| ModelError::Golden { path: path.clone(), message: format!("{e:#}") })?;
+            let w =
+                f32_values(&want).map_err(|e| ModelError::Golden { path: path.clone(), message: format!("{e:#}") })?;
             for (a, b) in g.iter().zip(&w) {
                 let d = (*a as f64 - *b as f64).abs();
                 // NaN-safe: a NaN difference becomes infinite.

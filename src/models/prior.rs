@@ -145,7 +145,8 @@ impl RealismPrior {
         let input = tokens.encoder_input();
         let mut rows = Vec::with_capacity(tokens.tokens.len() * self.d);
         for chunk in input.chunks(MAP_ENCODER_CHUNK * MAP_TOKEN_FEATURES) {
-            let t = Tensor::from_shape(&[MAP_ENCODER_CHUNK, MAP_TOKEN_FEATURES], chunk).map_err(|e| self.input_error(e))?;
+            let t =
+                Tensor::from_shape(&[MAP_ENCODER_CHUNK, MAP_TOKEN_FEATURES], chunk).map_err(|e| self.input_error(e))?;
             let out = self.map_encoder.run(tvec!(t.into_tvalue()))?;
             rows.extend(f32_values(&out[0]).map_err(|e| self.input_error(e))?);
         }
@@ -177,7 +178,12 @@ impl RealismPrior {
         Ok(out)
     }
 
-    fn batch_inputs(&self, chunk: &[&QueryFeatures], batch: usize, map: &MapEmbedding) -> Result<TVec<TValue>, ModelError> {
+    fn batch_inputs(
+        &self,
+        chunk: &[&QueryFeatures],
+        batch: usize,
+        map: &MapEmbedding,
+    ) -> Result<TVec<TValue>, ModelError> {
         let d = self.d;
         let mut history = vec![0.0f32; batch * HISTORY_POINTS * HISTORY_FEATURES];
         let mut agent_self = vec![0.0f32; batch * SELF_FEATURES];

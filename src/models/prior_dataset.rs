@@ -159,12 +159,24 @@ impl ShardWriter {
     pub fn write(&self, path: &Path) -> Result<(), ModelError> {
         let n = self.samples.len();
         let mut cols: Vec<(&str, Vec<f32>, Vec<usize>)> = vec![
-            ("history", Vec::with_capacity(n * HISTORY_POINTS * HISTORY_FEATURES), vec![n, HISTORY_POINTS, HISTORY_FEATURES]),
+            (
+                "history",
+                Vec::with_capacity(n * HISTORY_POINTS * HISTORY_FEATURES),
+                vec![n, HISTORY_POINTS, HISTORY_FEATURES],
+            ),
             ("agent_self", Vec::with_capacity(n * SELF_FEATURES), vec![n, SELF_FEATURES]),
-            ("neighbours", Vec::with_capacity(n * NEIGHBOURS * NEIGHBOUR_FEATURES), vec![n, NEIGHBOURS, NEIGHBOUR_FEATURES]),
+            (
+                "neighbours",
+                Vec::with_capacity(n * NEIGHBOURS * NEIGHBOUR_FEATURES),
+                vec![n, NEIGHBOURS, NEIGHBOUR_FEATURES],
+            ),
             ("neighbour_pose", Vec::with_capacity(n * NEIGHBOURS * POSE_FEATURES), vec![n, NEIGHBOURS, POSE_FEATURES]),
             ("neighbour_mask", Vec::with_capacity(n * NEIGHBOURS), vec![n, NEIGHBOURS]),
-            ("map_tokens", Vec::with_capacity(n * MAP_TOKENS * MAP_TOKEN_FEATURES), vec![n, MAP_TOKENS, MAP_TOKEN_FEATURES]),
+            (
+                "map_tokens",
+                Vec::with_capacity(n * MAP_TOKENS * MAP_TOKEN_FEATURES),
+                vec![n, MAP_TOKENS, MAP_TOKEN_FEATURES],
+            ),
             ("map_pose", Vec::with_capacity(n * MAP_TOKENS * POSE_FEATURES), vec![n, MAP_TOKENS, POSE_FEATURES]),
             ("map_signal", Vec::with_capacity(n * MAP_TOKENS * SIGNAL_FEATURES), vec![n, MAP_TOKENS, SIGNAL_FEATURES]),
             ("map_mask", Vec::with_capacity(n * MAP_TOKENS), vec![n, MAP_TOKENS]),
@@ -201,11 +213,14 @@ impl ShardWriter {
         let views = bytes
             .iter()
             .map(|(name, data, shape, dtype)| {
-                TensorView::new(*dtype, shape.clone(), data).map(|v| (name.clone(), v)).map_err(|e| shard_err(e.to_string()))
+                TensorView::new(*dtype, shape.clone(), data)
+                    .map(|v| (name.clone(), v))
+                    .map_err(|e| shard_err(e.to_string()))
             })
             .collect::<Result<Vec<_>, _>>()?;
         let scenes = serde_json::to_string(&self.scenes).map_err(|e| shard_err(e.to_string()))?;
-        let metadata = HashMap::from([("scenes".to_string(), scenes), ("contract_version".to_string(), "1".to_string())]);
+        let metadata =
+            HashMap::from([("scenes".to_string(), scenes), ("contract_version".to_string(), "1".to_string())]);
         let serialized = safetensors::serialize(views, Some(metadata)).map_err(|e| shard_err(e.to_string()))?;
         let tmp = PathBuf::from(format!("{}.partial", path.display()));
         std::fs::write(&tmp, serialized).map_err(|source| ModelError::Io { path: tmp.clone(), source })?;

@@ -96,13 +96,7 @@ impl MapTokens {
             }
         };
         for lane in &map.lanes {
-            add(
-                lane.centreline.points(),
-                0,
-                lane.in_intersection,
-                lane.speed_limit_mps.unwrap_or(0.0),
-                Some(lane.id),
-            );
+            add(lane.centreline.points(), 0, lane.in_intersection, lane.speed_limit_mps.unwrap_or(0.0), Some(lane.id));
         }
         for edge in &map.road_edges {
             add(edge.polyline.points(), 1, false, 0.0, None);

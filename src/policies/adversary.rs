@@ -17,8 +17,8 @@ use super::{AgentAction, AgentPolicy, WorldView};
 use crate::geometry::OrientedBox;
 use crate::models::ModelError;
 pub use crate::models::feasibility_oracle::{EgoCbvState, FeasibilityOracle};
-use crate::motion::tokens::{TOKEN_PERIOD_S, TOKEN_PERIOD_STEPS, Token, TokenGrid};
 use crate::motion::KinematicState;
+use crate::motion::tokens::{TOKEN_PERIOD_S, TOKEN_PERIOD_STEPS, Token, TokenGrid};
 use crate::scenario::{AgentState, TrackIndex};
 
 /// Penalty added to V_h for candidates outside the feasible region (the paper's Δ).
@@ -99,10 +99,8 @@ impl Adversary {
         let (ego_body, cbv_body) = (world.body(self.ego), world.body(cbv));
         let ego_box = OrientedBox::new(ego_next.pose(), ego_body.length_m, ego_body.width_m);
         let from = KinematicState::from_agent_state(cbv_now);
-        let predicted: Vec<AgentState> = candidates
-            .iter()
-            .map(|t| TokenGrid::rollout(&from, *t)[TOKEN_PERIOD_STEPS - 1].to_agent_state())
-            .collect();
+        let predicted: Vec<AgentState> =
+            candidates.iter().map(|t| TokenGrid::rollout(&from, *t)[TOKEN_PERIOD_STEPS - 1].to_agent_state()).collect();
         let distances: Vec<f64> = predicted
             .iter()
             .map(|s| ego_box.distance(&OrientedBox::new(s.pose(), cbv_body.length_m, cbv_body.width_m)))
@@ -114,7 +112,10 @@ impl Adversary {
                     predicted.iter().map(|s| EgoCbvState { ego: ego_next, ego_body, cbv: *s, cbv_body }).collect();
                 let clock = std::time::Instant::now();
                 let values = oracle.values(&pairs);
-                self.shared.lock().unwrap_or_else(|p| p.into_inner()).add_feasibility_time(clock.elapsed().as_secs_f64());
+                self.shared
+                    .lock()
+                    .unwrap_or_else(|p| p.into_inner())
+                    .add_feasibility_time(clock.elapsed().as_secs_f64());
                 let values = values?;
                 distances
                     .iter()
@@ -127,7 +128,8 @@ impl Adversary {
         // by its prior probability with the variant's seed: seeds then give
         // different, equally adversarial variants, and likelier tokens win.
         let best_loss = losses.iter().copied().fold(f64::INFINITY, f64::min);
-        let near: Vec<usize> = (0..candidates.len()).filter(|&i| losses[i] <= best_loss + NEAR_OPTIMAL_LOSS_M).collect();
+        let near: Vec<usize> =
+            (0..candidates.len()).filter(|&i| losses[i] <= best_loss + NEAR_OPTIMAL_LOSS_M).collect();
         let weights: Vec<f64> = {
             let top = near.iter().map(|&i| logits[candidates[i].0 as usize]).fold(f32::NEG_INFINITY, f32::max);
             near.iter().map(|&i| ((logits[candidates[i].0 as usize] - top) as f64).exp()).collect()

@@ -37,8 +37,8 @@ impl EgoPursuit {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         let style = rng.random_range(0..3);
         let (ahead_m, left_m) = match style {
-            0 => (rng.random_range(2.0..12.0), 0.0),                        // cut in ahead of the ego
-            1 => (0.0, 0.0),                                                 // drive at the ego
+            0 => (rng.random_range(2.0..12.0), 0.0), // cut in ahead of the ego
+            1 => (0.0, 0.0),                         // drive at the ego
             _ => (rng.random_range(-3.0..3.0), rng.random_range(-2.5..2.5)), // squeeze alongside
         };
         Self {
@@ -67,7 +67,8 @@ impl AgentPolicy for EgoPursuit {
         // Pure pursuit: curvature 2 sin(α) / L, yaw rate = v κ.
         let alpha = wrap_angle(to_aim.y.atan2(to_aim.x) - me.heading_rad);
         let speed = me.speed_mps();
-        let yaw_rate = (speed.max(2.0) * 2.0 * alpha.sin() / distance.max(4.0)).clamp(-MAX_YAW_RATE_RADPS, MAX_YAW_RATE_RADPS);
+        let yaw_rate =
+            (speed.max(2.0) * 2.0 * alpha.sin() / distance.max(4.0)).clamp(-MAX_YAW_RATE_RADPS, MAX_YAW_RATE_RADPS);
         let target_speed = (ego.speed_mps() + self.closing_mps * (distance / 10.0).min(1.0)).max(0.0);
         let accel = (1.2 * (target_speed - speed)).clamp(-MAX_ACCEL_MPS2, self.max_accel_mps2);
         AgentAction::Control(Action { accel_mps2: accel, yaw_rate_radps: yaw_rate })

@@ -35,7 +35,12 @@ pub struct NoisyIdm {
 impl NoisyIdm {
     /// A driver with IDM `params` and disturbance `noise`.
     pub fn new(params: IdmParams, noise: DriverNoise) -> Self {
-        Self { idm: IdmLaneFollower::new(params), noise, rng: ChaCha8Rng::seed_from_u64(noise.seed), disturbance_mps2: 0.0 }
+        Self {
+            idm: IdmLaneFollower::new(params),
+            noise,
+            rng: ChaCha8Rng::seed_from_u64(noise.seed),
+            disturbance_mps2: 0.0,
+        }
     }
 
     fn standard_normal(&mut self) -> f64 {

@@ -59,7 +59,8 @@ impl ScenarioMapEncoding {
 
 /// Mixes (seed, agent, step) into one generator seed (SplitMix64 finaliser).
 pub fn draw_seed(seed: u64, agent: usize, step: usize) -> u64 {
-    let mut z = seed ^ (agent as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ (step as u64).wrapping_mul(0xD1B5_4A32_D192_ED03);
+    let mut z =
+        seed ^ (agent as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ (step as u64).wrapping_mul(0xD1B5_4A32_D192_ED03);
     z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
     z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
     z ^ (z >> 31)

@@ -185,9 +185,17 @@ impl SyntheticTraffic {
 
 fn random_vehicle(rng: &mut impl Rng) -> AgentBody {
     if rng.random_bool(0.08) {
-        AgentBody { kind: AgentKind::Vehicle, length_m: rng.random_range(8.0..14.0), width_m: rng.random_range(2.4..2.6) }
+        AgentBody {
+            kind: AgentKind::Vehicle,
+            length_m: rng.random_range(8.0..14.0),
+            width_m: rng.random_range(2.4..2.6),
+        }
     } else {
-        AgentBody { kind: AgentKind::Vehicle, length_m: rng.random_range(4.0..5.4), width_m: rng.random_range(1.7..2.1) }
+        AgentBody {
+            kind: AgentKind::Vehicle,
+            length_m: rng.random_range(4.0..5.4),
+            width_m: rng.random_range(1.7..2.1),
+        }
     }
 }
 

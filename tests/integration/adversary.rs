@@ -45,8 +45,18 @@ fn the_adversary_brings_the_cbv_closer_than_the_log() {
         let v: Vec<f64> = records.iter().filter(|r| r.method == m).filter_map(|r| r.stage1_min_gap_m).collect();
         v.iter().sum::<f64>() / v.len() as f64
     };
-    assert!(gap(AdversaryMethod::NoLfr) < gap(AdversaryMethod::Log), "no-lfr {} vs log {}", gap(AdversaryMethod::NoLfr), gap(AdversaryMethod::Log));
-    assert!(gap(AdversaryMethod::Safer) < gap(AdversaryMethod::Log), "safer {} vs log {}", gap(AdversaryMethod::Safer), gap(AdversaryMethod::Log));
+    assert!(
+        gap(AdversaryMethod::NoLfr) < gap(AdversaryMethod::Log),
+        "no-lfr {} vs log {}",
+        gap(AdversaryMethod::NoLfr),
+        gap(AdversaryMethod::Log)
+    );
+    assert!(
+        gap(AdversaryMethod::Safer) < gap(AdversaryMethod::Log),
+        "safer {} vs log {}",
+        gap(AdversaryMethod::Safer),
+        gap(AdversaryMethod::Log)
+    );
     let rows = table(&records, &req.methods);
     // The log CBV reproduces its recording: no divergence from itself.
     assert_eq!(rows[0].vj, Some(0.0));
@@ -61,7 +71,14 @@ fn variants_do_not_depend_on_the_thread_count() {
     let a = one.install(|| evaluate(&scenes, &req, &models, None, &|| {}));
     let b = evaluate(&scenes, &req, &models, None, &|| {});
     let key = |r: &safer::harness::evaluation::VariantRecord| {
-        (r.scenario.clone(), r.method, r.seed, r.stage1_collision, r.stage2_collision, r.stage1_min_gap_m.map(f64::to_bits))
+        (
+            r.scenario.clone(),
+            r.method,
+            r.seed,
+            r.stage1_collision,
+            r.stage2_collision,
+            r.stage1_min_gap_m.map(f64::to_bits),
+        )
     };
     assert_eq!(a.iter().map(key).collect::<Vec<_>>(), b.iter().map(key).collect::<Vec<_>>());
 }

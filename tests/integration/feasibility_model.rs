@@ -12,7 +12,11 @@ fn car() -> AgentBody {
 }
 
 fn at(x: f64, y: f64, heading: f64, v: f64) -> AgentState {
-    AgentState { position: Point2::new(x, y), heading_rad: heading, velocity_mps: Vector2::new(heading.cos(), heading.sin()) * v }
+    AgentState {
+        position: Point2::new(x, y),
+        heading_rad: heading,
+        velocity_mps: Vector2::new(heading.cos(), heading.sin()) * v,
+    }
 }
 
 #[test]
@@ -28,10 +32,10 @@ fn far_states_are_feasible_and_overlapping_states_are_not() {
     let v = FeasibilityValue::load(&models_dir()).unwrap();
     let ego = at(0.0, 0.0, 0.0, 10.0);
     let states = [
-        pair(ego, car(), at(40.0, 0.0, 0.0, 10.0), car()),   // 40 m ahead, same speed
-        pair(ego, car(), at(0.0, 20.0, 0.0, 10.0), car()),   // far to the side
-        pair(ego, car(), at(3.0, 0.0, 0.0, 0.0), car()),     // overlapping, stopped
-        pair(ego, car(), at(1.0, 0.5, 0.3, 12.0), car()),    // overlapping
+        pair(ego, car(), at(40.0, 0.0, 0.0, 10.0), car()), // 40 m ahead, same speed
+        pair(ego, car(), at(0.0, 20.0, 0.0, 10.0), car()), // far to the side
+        pair(ego, car(), at(3.0, 0.0, 0.0, 0.0), car()),   // overlapping, stopped
+        pair(ego, car(), at(1.0, 0.5, 0.3, 12.0), car()),  // overlapping
     ];
     let values = v.evaluate(&states).unwrap();
     assert!(values[0] <= 0.0 && values[1] <= 0.0, "{values:?}");

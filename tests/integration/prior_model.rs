@@ -44,7 +44,10 @@ fn shipped_prior_cards_name_licensed_training_data_and_held_out_metrics() {
         let c = ModelCard::load(&card(stem)).unwrap();
         let licence = c.training.licence.to_lowercase();
         assert!(licence.contains("public domain") || licence.contains("project"), "{stem}: {licence}");
-        assert!(!c.training.data.iter().any(|d| d.to_lowercase().contains("waymo") && !d.to_lowercase().contains("not")), "{stem}");
+        assert!(
+            !c.training.data.iter().any(|d| d.to_lowercase().contains("waymo") && !d.to_lowercase().contains("not")),
+            "{stem}"
+        );
         for metric in ["held_out_nll", "held_out_top1"] {
             let v = c.metrics.get(metric).copied().unwrap_or_else(|| panic!("{stem}: no metric {metric}"));
             assert!(v.is_finite() && v > 0.0, "{stem}: {metric} = {v}");
@@ -100,7 +103,8 @@ fn the_prior_drives_recorded_traffic_closed_loop() {
             sampling: TokenSampling::default(),
         };
         let cbv = scenario.cbv.unwrap();
-        let installed = install(&mut sim, &scenario, cbv, scenario.current_step, settings, &models, &maps, seed).unwrap();
+        let installed =
+            install(&mut sim, &scenario, cbv, scenario.current_step, settings, &models, &maps, seed).unwrap();
         let mut ego = safer::planners::BuiltinPlanner::LogReplay.instantiate(&scenario, scenario.ego.unwrap());
         let rollout = sim.run(ego.as_mut());
         assert_eq!(installed.error(), None);
