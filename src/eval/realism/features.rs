@@ -35,6 +35,9 @@
 //!   world origin; that artefact depends on the world frame and is not
 //!   reproduced. A signal without a stop point stops at its lane's end.
 
+use std::cell::RefCell;
+use std::collections::HashMap;
+
 use crate::geometry::{OrientedBox, Point2, Polyline, Vector2};
 use crate::map::{LaneKind, MapElementId, RoadMap, SegmentIndex, SignalState};
 use crate::scenario::{AgentBody, AgentKind, AgentState};
@@ -274,6 +277,10 @@ pub struct SceneContext<'a> {
     first_step: usize,
     step_s: f64,
     signals: SignalContext,
+    /// Road-edge distance of an object's box by its exact pose: stationary
+    /// agents repeat the same pose over steps and rollouts, and the map
+    /// query is the costliest part of the features.
+    road_edge_cache: RefCell<HashMap<(usize, [u64; 3]), f64>>,
 }
 
 /// One simulated object's box at one step.
@@ -298,7 +305,17 @@ impl<'a> SceneContext<'a> {
         step_s: f64,
     ) -> Self {
         let signals = SignalContext::new(map);
-        Self { map, bodies, evaluated, current_index, future_steps, first_step, step_s, signals }
+        Self {
+            map,
+            bodies,
+            evaluated,
+            current_index,
+            future_steps,
+            first_step,
+            step_s,
+            signals,
+            road_edge_cache: RefCell::new(HashMap::new()),
+        }
     }
 
     /// Indices (into the simulated objects) of the evaluated objects.
@@ -356,11 +373,7 @@ impl<'a> SceneContext<'a> {
                 out.collision[ei][t] = d < 0.0;
                 out.time_to_collision[ei][t] = self.time_to_collision(e, &me, &placed, &kin, index);
                 if let (Some(dist), Some(off)) = (out.distance_to_road_edge.as_mut(), out.offroad.as_mut()) {
-                    let worst = me
-                        .corners
-                        .iter()
-                        .filter_map(|c| self.map.signed_distance_to_road_edge(c))
-                        .fold(f64::NEG_INFINITY, f64::max);
+                    let worst = self.road_edge_distance(e, &me);
                     dist[ei][t] = worst;
                     off[ei][t] = worst > 0.0;
                 }
@@ -370,6 +383,22 @@ impl<'a> SceneContext<'a> {
             }
         }
         out
+    }
+
+    /// Largest signed road-edge distance of the box's corners, m.
+    fn road_edge_distance(&self, object: usize, me: &Placed) -> f64 {
+        let p = &me.state;
+        let key = (object, [p.position.x.to_bits(), p.position.y.to_bits(), p.heading_rad.to_bits()]);
+        if let Some(d) = self.road_edge_cache.borrow().get(&key) {
+            return *d;
+        }
+        let worst = me
+            .corners
+            .iter()
+            .filter_map(|c| self.map.signed_distance_to_road_edge(c))
+            .fold(f64::NEG_INFINITY, f64::max);
+        self.road_edge_cache.borrow_mut().insert(key, worst);
+        worst
     }
 
     fn nearest_object_distance(&self, me_index: usize, me: &Placed, placed: &[Option<Placed>]) -> f64 {
