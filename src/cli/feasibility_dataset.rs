@@ -17,12 +17,12 @@ use std::sync::Arc;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
-use safetensors::tensor::{Dtype, TensorView};
 
 use super::{CliError, scene_paths};
 use crate::geometry::wrap_angle;
 use crate::harness::methods::{BackgroundDriver, MapEncodings, MethodSettings, ModelSet};
 use crate::models::feasibility::{FEASIBILITY_FEATURES, box_distance_m, constraint_cost, feasibility_features, pair};
+use crate::models::shard::{ShardColumn, write_shard};
 use crate::planners::BuiltinPlanner;
 use crate::policies::cbv_rules::EgoPursuit;
 use crate::policies::prior_sampling::TokenSampling;
@@ -260,10 +260,6 @@ pub(super) fn scene_seed(base: u64, i: usize) -> u64 {
     base ^ (i as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15)
 }
 
-fn f32_bytes(v: &[f32]) -> Vec<u8> {
-    v.iter().flat_map(|x| x.to_le_bytes()).collect()
-}
-
 /// Runs the command.
 pub fn run(request: &FeasibilityDatasetRequest) -> Result<ExitCode, CliError> {
     let out_file = request.out.join("transitions.safetensors");
@@ -315,27 +311,16 @@ pub fn run(request: &FeasibilityDatasetRequest) -> Result<ExitCode, CliError> {
             })
         })
         .collect();
-    let cols: Vec<(&str, Vec<u8>, Vec<usize>, Dtype)> = vec![
-        ("state", f32_bytes(&all.state), vec![n, FEASIBILITY_FEATURES], Dtype::F32),
-        ("action", f32_bytes(&all.action), vec![n, 2], Dtype::F32),
-        ("cost", f32_bytes(&all.cost), vec![n], Dtype::F32),
-        ("next_state", f32_bytes(&all.next_state), vec![n, FEASIBILITY_FEATURES], Dtype::F32),
-        ("done", f32_bytes(&all.done), vec![n], Dtype::F32),
-        ("scene", all.scene.iter().flat_map(|x| x.to_le_bytes()).collect(), vec![n], Dtype::I64),
+    let columns = [
+        ShardColumn::f32("state", vec![n, FEASIBILITY_FEATURES], &all.state),
+        ShardColumn::f32("action", vec![n, 2], &all.action),
+        ShardColumn::f32("cost", vec![n], &all.cost),
+        ShardColumn::f32("next_state", vec![n, FEASIBILITY_FEATURES], &all.next_state),
+        ShardColumn::f32("done", vec![n], &all.done),
+        ShardColumn::i64("scene", vec![n], &all.scene),
     ];
-    let views = cols
-        .iter()
-        .map(|(name, data, shape, dt)| {
-            TensorView::new(*dt, shape.clone(), data)
-                .map(|v| (name.to_string(), v))
-                .map_err(|e| CliError::Usage(e.to_string()))
-        })
-        .collect::<Result<Vec<_>, _>>()?;
     let meta = HashMap::from([("scenes".to_string(), serde_json::to_string(&scene_meta)?)]);
-    let bytes = safetensors::serialize(views, Some(meta)).map_err(|e| CliError::Usage(e.to_string()))?;
-    let tmp = request.out.join("transitions.safetensors.partial");
-    std::fs::write(&tmp, bytes)?;
-    std::fs::rename(&tmp, &out_file)?;
+    write_shard(&out_file, &columns, meta).map_err(|e| CliError::Usage(e.to_string()))?;
     println!("wrote {}", out_file.display());
     Ok(ExitCode::SUCCESS)
 }

@@ -11,6 +11,7 @@ pub mod onnx;
 pub mod prior;
 pub mod prior_dataset;
 pub mod prior_features;
+pub mod shard;
 
 use std::path::PathBuf;
 

@@ -9,15 +9,14 @@
 //! key `scenes` lists each scene's id, source and split.
 
 use std::collections::HashMap;
-use std::path::{Path, PathBuf};
-
-use safetensors::tensor::{Dtype, TensorView};
+use std::path::Path;
 
 use super::ModelError;
 use super::prior_features::{
     HISTORY_FEATURES, HISTORY_POINTS, MAP_TOKEN_FEATURES, MAP_TOKENS, MapTokens, NEIGHBOUR_FEATURES, NEIGHBOURS,
     POSE_FEATURES, QueryFeatures, SELF_FEATURES, SIGNAL_FEATURES, StateHistory, build_query,
 };
+use super::shard::{ShardColumn, write_shard};
 use crate::motion::tokens::TOKEN_PERIOD_STEPS;
 use crate::motion::{Token, tokenize_track};
 use crate::scenario::{AgentBody, AgentState, Scenario};
@@ -128,14 +127,6 @@ pub struct ShardWriter {
     samples: Vec<(usize, PriorSample)>,
 }
 
-fn f32_bytes(v: &[f32]) -> Vec<u8> {
-    v.iter().flat_map(|x| x.to_le_bytes()).collect()
-}
-
-fn i64_bytes(v: &[i64]) -> Vec<u8> {
-    v.iter().flat_map(|x| x.to_le_bytes()).collect()
-}
-
 impl ShardWriter {
     /// Adds a scene's samples.
     pub fn add_scene(&mut self, scene: ShardScene, samples: Vec<PriorSample>) {
@@ -201,29 +192,15 @@ impl ShardWriter {
             next_token.push(sample.next_token.0 as i64);
             scene.push(*s as i64);
         }
-        let bytes: Vec<(String, Vec<u8>, Vec<usize>, Dtype)> = cols
+        let columns: Vec<ShardColumn> = cols
             .into_iter()
-            .map(|(name, v, shape)| (name.to_string(), f32_bytes(&v), shape, Dtype::F32))
-            .chain([
-                ("next_token".to_string(), i64_bytes(&next_token), vec![n], Dtype::I64),
-                ("scene".to_string(), i64_bytes(&scene), vec![n], Dtype::I64),
-            ])
+            .map(|(name, v, shape)| ShardColumn::f32(name, shape, &v))
+            .chain([ShardColumn::i64("next_token", vec![n], &next_token), ShardColumn::i64("scene", vec![n], &scene)])
             .collect();
-        let shard_err = |message: String| ModelError::Shard { path: path.to_path_buf(), message };
-        let views = bytes
-            .iter()
-            .map(|(name, data, shape, dtype)| {
-                TensorView::new(*dtype, shape.clone(), data)
-                    .map(|v| (name.clone(), v))
-                    .map_err(|e| shard_err(e.to_string()))
-            })
-            .collect::<Result<Vec<_>, _>>()?;
-        let scenes = serde_json::to_string(&self.scenes).map_err(|e| shard_err(e.to_string()))?;
+        let scenes = serde_json::to_string(&self.scenes)
+            .map_err(|e| ModelError::Shard { path: path.to_path_buf(), message: e.to_string() })?;
         let metadata =
             HashMap::from([("scenes".to_string(), scenes), ("contract_version".to_string(), "1".to_string())]);
-        let serialized = safetensors::serialize(views, Some(metadata)).map_err(|e| shard_err(e.to_string()))?;
-        let tmp = PathBuf::from(format!("{}.partial", path.display()));
-        std::fs::write(&tmp, serialized).map_err(|source| ModelError::Io { path: tmp.clone(), source })?;
-        std::fs::rename(&tmp, path).map_err(|source| ModelError::Io { path: path.to_path_buf(), source })
+        write_shard(path, &columns, metadata)
     }
 }
