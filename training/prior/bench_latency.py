@@ -1,6 +1,6 @@
 """Reference latency of the prior's decoder, for `safer bench-models`.
 
-    training/.venv/bin/python training/prior/bench_latency.py --models models --batches 1,32 --repeat 200
+    training/.venv/bin/python training/prior/bench_latency.py --models models --batches 1,64 --repeat 200
 
 Times the shipped decoder ONNX graph in onnxruntime (one intra-op thread) and
 the same weights in PyTorch eager (one thread; the checkpoint named in the
@@ -35,7 +35,7 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--models", default="models")
     ap.add_argument("--name", default="prior-decoder")
-    ap.add_argument("--batches", default="1,32")
+    ap.add_argument("--batches", default="1,64")
     ap.add_argument("--repeat", type=int, default=200)
     a = ap.parse_args()
     torch.set_num_threads(1)
@@ -45,7 +45,7 @@ def main():
     opts.inter_op_num_threads = 1
     sess = ort.InferenceSession(os.path.join(a.models, a.name + ".onnx"), opts, providers=["CPUExecutionProvider"])
     card = open(os.path.join(a.models, a.name + ".card.yaml")).read()
-    run = re.search(r"--out (\S+) &&", card)
+    run = re.search(r"train\.py[^&]*--out (\S+)", card)  # the run folder in the card's training command
     model = None
     if run and os.path.exists(os.path.join(run.group(1), "best.pt")):
         ck = torch.load(os.path.join(run.group(1), "best.pt"))

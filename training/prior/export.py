@@ -8,19 +8,28 @@ symbolic batch -> logits [batch, 3969]) with the TorchScript exporter at opset
 17 and fixed feature shapes, checks them with onnx.checker and onnxruntime
 against PyTorch (NaN fails), and writes a golden file of 4 real held-out
 queries plus a model card (contract version 1) beside each.
+
+The card's training-data lines come from the shards: a run trained or checked
+on `make_random_shards.py` output is labelled as random, and writing it into
+the repository's `models/` folder is refused.
+
+    training/.venv/bin/python training/prior/export.py --run /tmp/prior-smoke-runs/mda \
+        --data /tmp/prior-smoke --out /tmp/prior-smoke-models     # smoke test
 """
-import argparse, datetime, hashlib, json, os, sys
+import argparse, datetime, glob, hashlib, json, os, sys
 
 import numpy as np
 import onnx
 import onnxruntime as ort
 import torch
+from safetensors import safe_open
 from safetensors.numpy import save_file
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from model import Prior  # noqa: E402
 from train import KEYS, load_shards  # noqa: E402
 
+REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 DEC_INPUTS = ["history", "agent_self", "neighbours", "neighbour_pose", "neighbour_mask",
               "map_embedding", "map_pose", "map_signal", "map_mask"]
 MEANING = {
@@ -62,7 +71,28 @@ def yaml_str(s):
     return json.dumps(s, ensure_ascii=False)
 
 
-def write_card(path, *, name, kind, inputs, outputs, tokens, summary, args, golden, tolerance, command, arch):
+REAL_DATA = [
+    "NGSIM US-101, Lankershim and Peachtree (CommonRoad 2020a conversion, ../shared/data/commonroad-ngsim, 84 scenes)",
+    "synthetic traffic from `safer prior-dataset`: noisy-IDM drivers calibrated to the NGSIM speeds, on procedural "
+    "straight roads, merges and signalised crossings and on the NGSIM maps",
+    "not trained on Waymo or Argoverse data (non-commercial licences; used for evaluation only)",
+]
+REAL_LICENCE = "US public domain (NGSIM) + project (synthetic)"
+RANDOM_DATA = ["RANDOM smoke-test shards from training/prior/make_random_shards.py: not a usable model, never ship it"]
+RANDOM_LICENCE = "none (random data, smoke test only)"
+
+
+def shards_are_random(files):
+    """True when any shard was written by make_random_shards.py (its `generator` metadata key)."""
+    for f in files:
+        with safe_open(f, "np") as st:
+            if "make_random_shards" in (st.metadata() or {}).get("generator", ""):
+                return True
+    return False
+
+
+def write_card(path, *, name, kind, inputs, outputs, tokens, summary, args, golden, tolerance, command, arch,
+               data_lines, licence):
     lines = [
         "# Model card (contract version 1): see src/models/card.rs and docs/prior-features.md.",
         "contract_version: 1",
@@ -88,10 +118,10 @@ def write_card(path, *, name, kind, inputs, outputs, tokens, summary, args, gold
     lines += [
         "training:",
         "  data:",
-        "    - " + yaml_str("NGSIM US-101, Lankershim and Peachtree (CommonRoad 2020a conversion, ../shared/data/commonroad-ngsim, 84 scenes)"),
-        "    - " + yaml_str("synthetic traffic from `safer prior-dataset`: noisy-IDM drivers calibrated to the NGSIM speeds, on procedural straight roads, merges and signalised crossings and on the NGSIM maps"),
-        "    - " + yaml_str("not trained on Waymo or Argoverse data (non-commercial licences; used for evaluation only)"),
-        "  licence: " + yaml_str("US public domain (NGSIM) + project (synthetic)"),
+    ]
+    lines += ["    - " + yaml_str(x) for x in data_lines]
+    lines += [
+        "  licence: " + yaml_str(licence),
         "  command: " + yaml_str(command),
         "metrics:",
     ]
@@ -121,22 +151,37 @@ def main():
     enc_name, dec_name = f"prior-map-encoder{suffix}", f"prior-decoder{suffix}"
     d = args["d"]
     os.makedirs(a.out, exist_ok=True)
-    command = (f"cargo run --release -- prior-dataset && training/.venv/bin/python training/prior/train.py "
-               f"--attention {args['attention']} --minutes {args['minutes']} --threads {args['threads']} --out {a.run} && "
-               f"training/.venv/bin/python training/prior/export.py --run {a.run} --out {a.out}")
+    train_data = args.get("data", a.data)
+    command = (f"cargo run --release -- prior-dataset --out {train_data} && training/.venv/bin/python "
+               f"training/prior/train.py --data {train_data} --attention {args['attention']} --minutes {args['minutes']} "
+               f"--threads {args['threads']} --out {a.run} && "
+               f"training/.venv/bin/python training/prior/export.py --run {a.run} --data {a.data} --out {a.out}")
     arch = (f"{args['attention']} attention; D = {d}, H = {args['heads']} heads, L = {args['layers']} layers of "
             f"temporal / agent-agent / agent-map attention for the query token, pre-LayerNorm, FFN 2D; "
-            f"{summary['params']} parameters. D = 64 so that one thread trains ~1.1k samples/s (40 min budget) and "
-            f"tract answers a CBV query in well under a millisecond; see docs/prior-features.md.")
+            f"{summary['params']} parameters. D = {d} so that one thread trains {summary['samples_per_s']:.0f} "
+            f"samples/s ({summary['train_minutes']:.0f} min budget) and tract answers a CBV query in well under a "
+            f"millisecond; see docs/prior-features.md.")
 
     # Real held-out queries for the goldens.
-    data, held, _, _ = load_shards(a.data)
-    idx = np.flatnonzero(held)[[0, 101, 2002, 30003 % max(1, held.sum())]]
+    data, held, _, files = load_shards(a.data)
+    train_files = sorted(glob.glob(os.path.join(train_data, "shard-*.safetensors")))
+    random = shards_are_random(files + train_files)
+    if random and os.path.realpath(a.out) == os.path.realpath(os.path.join(REPO, "models")):
+        sys.exit("refusing to write a model trained or checked on random smoke-test shards into models/")
+    data_lines, licence = (RANDOM_DATA, RANDOM_LICENCE) if random else (REAL_DATA, REAL_LICENCE)
+    if random:
+        command = command.replace(f"cargo run --release -- prior-dataset --out {train_data}",
+                                  f"training/.venv/bin/python training/prior/make_random_shards.py --out {train_data}")
+    held_idx = np.flatnonzero(held)
+    if len(held_idx) == 0:
+        sys.exit(f"{a.data}: no held-out samples for the golden files")
+    # Fixed picks spread over the held-out set (modulo its size for small smoke data).
+    idx = held_idx[[p % len(held_idx) for p in (0, 101, 2002, 30003)]]
     batch = {k: data[k][idx] for k in KEYS}
 
     with torch.no_grad():
         # Map encoder: a chunk of 256 map tokens from the golden queries.
-        many = np.flatnonzero(held)[:8]
+        many = held_idx[:8]
         tok = data["map_tokens"][many].reshape(-1, 7)[:256]
         emb = model.map_encoder(tok)
         enc_path = os.path.join(a.out, enc_name + ".onnx")
@@ -164,7 +209,7 @@ def main():
     write_card(os.path.join(a.out, enc_name + ".card.yaml"), name=enc_name, kind="realism-prior-map-encoder",
                inputs=[("map_tokens", [256, 7])], outputs=[("map_embedding", [256, d], f"{d}-wide embedding per map token")],
                tokens=False, summary=summary, args=args, golden=enc_name + ".golden.safetensors", tolerance="1.0e-4",
-               command=command, arch=arch)
+               command=command, arch=arch, data_lines=data_lines, licence=licence)
     shapes = {"history": ["batch", 6, 8], "agent_self": ["batch", 6], "neighbours": ["batch", 16, 12],
               "neighbour_pose": ["batch", 16, 5], "neighbour_mask": ["batch", 16], "map_embedding": ["batch", 48, d],
               "map_pose": ["batch", 48, 5], "map_signal": ["batch", 48, 4], "map_mask": ["batch", 48]}
@@ -172,7 +217,7 @@ def main():
                inputs=[(n, shapes[n]) for n in DEC_INPUTS],
                outputs=[("logits", ["batch", 3969], "unnormalised log-probability of each next token (id = i_accel * 63 + i_yaw_rate)")],
                tokens=True, summary=summary, args=args, golden=dec_name + ".golden.safetensors", tolerance="1.0e-3",
-               command=command, arch=arch)
+               command=command, arch=arch, data_lines=data_lines, licence=licence)
     print(json.dumps({"map_encoder": enc_path, "decoder": dec_path, "ort_vs_torch_max_abs_diff":
                       {"map_encoder": diff_enc, "decoder": diff_dec}}))
 

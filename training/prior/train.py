@@ -7,6 +7,18 @@ step budget; the checkpoint with the best held-out NLL is kept. NGSIM samples
 (recorded) are drawn three times as often as synthetic ones, so the recorded
 behaviour is not drowned by the synthetic traffic. Held-out = the scenes the
 Rust side marked `held-out` (every 10th scene of each source).
+
+    training/.venv/bin/python training/prior/train.py --data training/data/prior --attention differential \
+        --minutes 30 --threads 1 --out training/runs/prior-mda
+
+`--out` receives `best.pt` (state dict + arguments + step), `log.csv` (one row
+per evaluation on a fixed 20k held-out probe: step, samples seen, running
+train loss, held-out NLL, top-1, top-5, elapsed seconds, learning rate; every
+`--eval-every` steps and once when the budget ends) and `summary.json` (the
+best checkpoint on the whole held-out set, also printed as one JSON line).
+`samples_per_s` counts wall-clock time including evaluations;
+`optimiser_samples_per_s` excludes them. For a smoke test without the real
+data, see `make_random_shards.py`.
 """
 import argparse, csv, glob, json, math, os, sys, time
 
@@ -106,12 +118,13 @@ def main():
     log = open(os.path.join(a.out, "log.csv"), "w", newline="")
     w = csv.writer(log)
     w.writerow(["step", "samples", "train_loss", "held_out_nll", "held_out_top1", "held_out_top5", "elapsed_s", "lr"])
-    step, running = 0, None
+    best_path = os.path.join(a.out, "best.pt")
+    if os.path.exists(best_path):
+        os.remove(best_path)  # never report a previous run's checkpoint
+    step, running, eval_s = 0, None, 0.0
     while True:
         elapsed = time.time() - t0
         progress = step / a.steps if a.steps else elapsed / budget_s
-        if progress >= 1.0:
-            break
         lr = a.lr * min(1.0, (step + 1) / warmup) * 0.5 * (1 + math.cos(math.pi * min(progress, 1.0)))
         for g in opt.param_groups:
             g["lr"] = lr
@@ -123,7 +136,12 @@ def main():
         opt.step()
         running = loss.item() if running is None else 0.98 * running + 0.02 * loss.item()
         step += 1
-        if step % a.eval_every == 0:
+        elapsed = time.time() - t0
+        last = (step >= a.steps) if a.steps else elapsed >= budget_s
+        # Evaluate every `eval_every` steps and once more when the budget ends, so that
+        # a short run still logs a row and the final weights compete for `best.pt`.
+        if step % a.eval_every == 0 or last:
+            te = time.time()
             ev = evaluate(model, data, probe)
             w.writerow([step, step * a.batch, f"{running:.4f}", f"{ev['nll']:.4f}", f"{ev['top1']:.4f}",
                         f"{ev['top5']:.4f}", f"{time.time() - t0:.0f}", f"{lr:.2e}"])
@@ -132,11 +150,14 @@ def main():
                   f"top5 {ev['top5']:.3f} ({time.time() - t0:.0f} s)", flush=True)
             if ev["nll"] < best:
                 best = ev["nll"]
-                torch.save({"model": model.state_dict(), "args": vars(a), "step": step}, os.path.join(a.out, "best.pt"))
+                torch.save({"model": model.state_dict(), "args": vars(a), "step": step}, best_path)
+            eval_s += time.time() - te
+        if last:
+            break
     train_s = time.time() - t0
-    if not os.path.exists(os.path.join(a.out, "best.pt")):
-        torch.save({"model": model.state_dict(), "args": vars(a), "step": step}, os.path.join(a.out, "best.pt"))
-    ck = torch.load(os.path.join(a.out, "best.pt"))
+    if not os.path.exists(best_path):  # held-out NLL was never finite
+        sys.exit(f"held-out NLL was not finite at any evaluation: no checkpoint written to {best_path}")
+    ck = torch.load(best_path)
     model.load_state_dict(ck["model"])
     full = evaluate(model, data, held_idx)
     ng = evaluate(model, data, held_idx[ngsim[held_idx]]) if ngsim[held_idx].any() else None
@@ -144,6 +165,7 @@ def main():
     summary = {
         "attention": a.attention, "params": params, "steps": step, "best_step": ck["step"],
         "samples_per_s": step * a.batch / train_s, "train_minutes": train_s / 60,
+        "optimiser_samples_per_s": step * a.batch / max(train_s - eval_s, 1e-9),
         "held_out_nll": full["nll"], "held_out_top1": full["top1"], "held_out_top5": full["top5"],
         "held_out_samples": full["n"],
         "held_out_ngsim_nll": ng and ng["nll"], "held_out_ngsim_top1": ng and ng["top1"],
