@@ -5,6 +5,7 @@
 mod shared_data;
 
 mod adversary;
+mod bad_input;
 mod cli;
 mod cli_run;
 mod import_argoverse2;

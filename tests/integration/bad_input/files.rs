@@ -1,0 +1,1 @@
+//! Bad input: files (see the parent module).

@@ -1,0 +1,1 @@
+//! Bad input: hangs (see the parent module).

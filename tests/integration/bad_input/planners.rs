@@ -1,0 +1,1 @@
+//! Bad input: planners (see the parent module).
