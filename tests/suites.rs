@@ -43,9 +43,24 @@ fn outcome(suite: &Suite, scenario: usize, index: u32) -> Shared {
     cache.lock().unwrap().entry(name).or_insert(o).clone()
 }
 
+/// The verdict comes first: a variant that fails its criteria reports what
+/// happened and where its artefacts are, and only then is its snapshot
+/// compared (a snapshot diff must never hide a failing verdict).
 fn variant_trial(suite: Arc<Suite>, scenario: usize, index: u32) -> Result<(), Failed> {
     let shared = outcome(&suite, scenario, index);
     let o = shared.as_ref().as_ref().map_err(|e| Failed::from(format!("could not run the variant: {e}")))?;
+    let mut verdict = String::new();
+    for f in &o.failures {
+        verdict.push_str(&format!("  ✗ {}: {}\n", f.criterion, f.what));
+    }
+    if !o.failures.is_empty() {
+        match harness::artefacts::write(&artefacts_dir(), o) {
+            Ok(a) => verdict.push_str(&format!("  recording: {}\n  picture:   {}\n", a.mcap.display(), a.svg.display())),
+            Err(e) => verdict.push_str(&format!("  (could not write artefacts: {e})\n")),
+        }
+        // Printed before the snapshot comparison, whose diff insta prints itself.
+        eprintln!("{}:\n{verdict}", o.name);
+    }
     let summary = o.summary();
     let mut settings = insta::Settings::clone_current();
     settings.set_snapshot_path(manifest_dir().join("snapshots"));
@@ -53,19 +68,17 @@ fn variant_trial(suite: Arc<Suite>, scenario: usize, index: u32) -> Result<(), F
     settings.set_omit_expression(true);
     // Explicit names: automatic ones race between parallel trials.
     let snapshot = o.name.replace("::", "__");
-    settings.bind(|| insta::assert_yaml_snapshot!(snapshot, summary));
-    if o.failures.is_empty() {
-        return Ok(());
+    let compared = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        settings.bind(|| insta::assert_yaml_snapshot!(snapshot.as_str(), summary))
+    }));
+    let snapshot_note = compared.err().map(|_| {
+        format!("  snapshot snapshots/{snapshot}.snap differs (diff above; `cargo insta review` to accept)\n")
+    });
+    match (o.failures.is_empty(), snapshot_note) {
+        (true, None) => Ok(()),
+        (true, Some(note)) => Err(Failed::from(note)),
+        (false, note) => Err(Failed::from(verdict + &note.unwrap_or_default())),
     }
-    let mut msg = String::new();
-    for f in &o.failures {
-        msg.push_str(&format!("  ✗ {}: {}\n", f.criterion, f.what));
-    }
-    match harness::artefacts::write(&artefacts_dir(), o) {
-        Ok(a) => msg.push_str(&format!("  recording: {}\n  picture:   {}\n", a.mcap.display(), a.svg.display())),
-        Err(e) => msg.push_str(&format!("  (could not write artefacts: {e})\n")),
-    }
-    Err(Failed::from(msg))
 }
 
 fn metric_trial(suite: Arc<Suite>, metric: &'static str) -> Result<(), Failed> {
@@ -95,7 +108,14 @@ fn metric_trial(suite: Arc<Suite>, metric: &'static str) -> Result<(), Failed> {
 
 fn trials() -> Vec<Trial> {
     let mut out = Vec::new();
-    for path in Suite::discover(&manifest_dir().join("specs/suites")) {
+    let dir = manifest_dir().join("specs/suites");
+    let files = Suite::discover(&dir);
+    if files.is_empty() {
+        // Zero trials would "pass": say instead that there was nothing to run.
+        let message = format!("no suite (*.yaml) found in {}", dir.display());
+        out.push(Trial::test("suites::discover", move || Err(Failed::from(message))));
+    }
+    for path in files {
         let file = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
         let suite = match Suite::load(&path) {
             Ok(s) => Arc::new(s),

@@ -50,12 +50,12 @@ fn print_table(rows: &[MethodRow], scenes: usize, request: &EvaluationRequest) {
     );
     for r in rows {
         println!(
-            "{:<16} {:>8} {:>7} {:>7.3} {:>7.3} {:>9} {:>9} {:>7} {:>7} {:>11.3}",
+            "{:<16} {:>8} {:>7} {:>7} {:>7} {:>9} {:>9} {:>7} {:>7} {:>11.3}",
             serde_json::to_value(r.method).ok().and_then(|v| v.as_str().map(String::from)).unwrap_or_default(),
             r.variants,
             r.errors,
-            r.cr,
-            r.sr,
+            fmt(r.cr),
+            fmt(r.sr),
             fmt(r.sr_critical),
             fmt(r.witness_rate),
             fmt(r.vj),

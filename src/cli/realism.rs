@@ -152,7 +152,7 @@ fn score_one(
             }
         })
         .map_err(|e| e.to_string())?;
-        if let Some(e) = traffic.as_ref().and_then(|t| t.lock().unwrap_or_else(|p| p.into_inner()).error().map(String::from)) {
+        if let Some(e) = traffic.as_ref().and_then(|t| t.lock().unwrap_or_else(|p| p.into_inner()).error().map(|e| e.to_string())) {
             return Err(format!("prior inference failed: {e}"));
         }
         rollouts.push(states);

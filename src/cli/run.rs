@@ -384,10 +384,10 @@ fn print_report(report: &Report) {
         }
         if let Some(m) = &s.metrics {
             println!(
-                "  metrics over {}: CR {:.3}  SR {:.3}  SR(critical) {}  VJ {}  AJ {}",
+                "  metrics over {}: CR {}  SR {}  SR(critical) {}  VJ {}  AJ {}",
                 count(m.variants, "variant"),
-                m.collision_rate,
-                m.solution_rate,
+                opt(m.collision_rate, 3),
+                opt(m.solution_rate, 3),
                 opt(m.solution_rate_critical, 3),
                 opt(m.velocity_jsd, 3),
                 opt(m.acceleration_jsd, 3)

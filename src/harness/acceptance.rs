@@ -18,14 +18,18 @@ pub fn check(criteria: &VariantAcceptance, rollout: &Rollout, min_ttc_s: Option<
     let mut out = Vec::new();
     let summary = rollout.summary();
     let fail = |criterion: &str, what: String| AcceptanceFailure { criterion: criterion.to_string(), what };
-    if criteria.planner_must_answer
-        && let Termination::PlannerFailed { step, reason } = &rollout.termination
-    {
-        let t = (*step - rollout.start_step) as f64 * rollout.dt_s;
-        out.push(fail(
-            "planner_must_answer",
-            format!("planner `{}` failed at t = {t:.1} s: {reason}", rollout.planner),
-        ));
+    // A rollout that could not run to its end never passes, whatever the
+    // criteria say: a planner that stops answering has not solved anything.
+    match &rollout.termination {
+        Termination::Completed | Termination::EgoCollision { .. } => {}
+        Termination::PlannerFailed { step, reason } => {
+            let t = step.saturating_sub(rollout.start_step) as f64 * rollout.dt_s;
+            out.push(fail(
+                "planner_must_answer",
+                format!("planner `{}` failed at t = {t:.1} s: {reason}", rollout.planner),
+            ));
+        }
+        other => out.push(fail("rollout_completed", format!("the rollout was aborted: {other:?}"))),
     }
     if criteria.no_collision
         && let Some(c) = &summary.ego_collision
@@ -52,14 +56,15 @@ pub fn check(criteria: &VariantAcceptance, rollout: &Rollout, min_ttc_s: Option<
     {
         out.push(fail("no_off_road", format!("ego left the road at t = {t:.1} s")));
     }
+    // A NaN gap (an agent at a non-finite position) fails.
     if let (Some(min), Some(gap)) = (criteria.min_gap_m, summary.min_distance_to_ego_m)
-        && gap < min
+        && (gap.is_nan() || gap < min)
     {
         let who = summary.closest_agent.as_ref().map_or(String::new(), |a| format!(" to agent {a}"));
         out.push(fail("min_gap_m", format!("closest gap{who} was {gap:.2} m < {min} m")));
     }
     if let (Some(min), Some(ttc)) = (criteria.min_ttc_s, min_ttc_s)
-        && ttc < min
+        && (ttc.is_nan() || ttc < min)
     {
         out.push(fail("min_ttc_s", format!("time to collision fell to {ttc:.1} s < {min} s")));
     }

@@ -20,26 +20,17 @@ use std::time::Instant;
 use rayon::prelude::*;
 
 use super::HarnessError;
-use super::methods::{self, BackgroundDriver, MapEncodings, MethodSettings, ModelSet};
-use super::variant::{track_from_rollout, variant_seed};
-use crate::eval::{Histogram, jensen_shannon};
+use super::methods::{BackgroundDriver, MapEncodings, MethodSettings, ModelSet};
+use super::metrics::{SuiteMetrics, VariantTally};
+pub use super::pipeline::{Stage2Cbv, VariantProfile};
+use super::pipeline::{self, Stage2Verdict, VariantSetup};
+use super::variant::variant_seed;
 use crate::planners::BuiltinPlanner;
-use crate::policies::LogReplay;
 use crate::policies::prior_sampling::TokenSampling;
 use crate::scenario::Scenario;
-use crate::sim::{Rollout, SimConfig, Simulation};
+use crate::sim::{Rollout, SimConfig};
+use crate::spec::planner::PlannerAdapter;
 use crate::spec::suite::AdversaryMethod;
-
-/// How the CBV behaves in stage 2.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum, serde::Serialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum Stage2Cbv {
-    /// Replays its stage-1 trajectory (the paper's protocol).
-    #[default]
-    Replay,
-    /// Is driven by the method again, reacting to the planner.
-    ClosedLoop,
-}
 
 /// What to evaluate.
 #[derive(Debug, Clone)]
@@ -75,6 +66,9 @@ pub struct VariantRecord {
     pub stage1_collision: bool,
     /// Stage 2: the ego collided with anything.
     pub stage2_collision: bool,
+    /// Stage 2's verdict: solved, collided, or aborted (planner failure);
+    /// `None` when the variant could not run.
+    pub stage2: Option<Stage2Verdict>,
     /// For a stage-1 collision: whether a feasibility witness was found.
     pub witness: Option<bool>,
     /// Stage-1 closest ego–CBV gap, m.
@@ -85,53 +79,9 @@ pub struct VariantRecord {
     pub profile: VariantProfile,
     /// Why the variant could not be run, if it could not.
     pub error: Option<String>,
+    /// What the variant contributes to CR, SR, VJ and AJ.
     #[serde(skip)]
-    cbv_speeds_mps: Vec<f64>,
-    #[serde(skip)]
-    cbv_accels_mps2: Vec<f64>,
-    #[serde(skip)]
-    logged_speeds_mps: Vec<f64>,
-    #[serde(skip)]
-    logged_accels_mps2: Vec<f64>,
-}
-
-/// Where a variant's time went, s.
-#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
-pub struct VariantProfile {
-    /// Stage 1, whole (simulation, CBV method, models).
-    pub stage1_s: f64,
-    /// Of which: the prior's query features.
-    pub stage1_features_s: f64,
-    /// Of which: the prior's decoder.
-    pub stage1_decoder_s: f64,
-    /// Of which: feasibility value queries.
-    pub stage1_feasibility_s: f64,
-    /// Stage 2 (the planner under test).
-    pub stage2_s: f64,
-    /// The witness search.
-    pub witness_s: f64,
-}
-
-impl VariantProfile {
-    fn add(&mut self, o: &VariantProfile) {
-        self.stage1_s += o.stage1_s;
-        self.stage1_features_s += o.stage1_features_s;
-        self.stage1_decoder_s += o.stage1_decoder_s;
-        self.stage1_feasibility_s += o.stage1_feasibility_s;
-        self.stage2_s += o.stage2_s;
-        self.witness_s += o.witness_s;
-    }
-
-    fn scaled(&self, k: f64) -> VariantProfile {
-        VariantProfile {
-            stage1_s: self.stage1_s * k,
-            stage1_features_s: self.stage1_features_s * k,
-            stage1_decoder_s: self.stage1_decoder_s * k,
-            stage1_feasibility_s: self.stage1_feasibility_s * k,
-            stage2_s: self.stage2_s * k,
-            witness_s: self.witness_s * k,
-        }
-    }
+    tally: VariantTally,
 }
 
 /// One row of the table.
@@ -143,10 +93,10 @@ pub struct MethodRow {
     pub variants: usize,
     /// Variants that could not run.
     pub errors: usize,
-    /// Collision rate (stage 1).
-    pub cr: f64,
-    /// Solution rate over all variants (stage 2).
-    pub sr: f64,
+    /// Collision rate (stage 1); `None` when no variant ran.
+    pub cr: Option<f64>,
+    /// Solution rate over all variants (stage 2); `None` when no variant ran.
+    pub sr: Option<f64>,
     /// Solution rate over the stage-1 critical variants.
     pub sr_critical: Option<f64>,
     /// Share of stage-1 collisions with a feasibility witness.
@@ -166,15 +116,7 @@ pub struct MethodRow {
 /// found within budget.
 pub type WitnessSearch = dyn Fn(&Scenario, &Rollout) -> bool + Sync;
 
-fn speeds_and_accels(states: impl Iterator<Item = Option<f64>>, dt_s: f64) -> (Vec<f64>, Vec<f64>) {
-    let v: Vec<Option<f64>> = states.collect();
-    let speeds = v.iter().flatten().copied().collect();
-    let accels = v.windows(2).filter_map(|w| Some((w[1]? - w[0]?) / dt_s)).collect();
-    (speeds, accels)
-}
-
 /// Runs one variant.
-#[allow(clippy::too_many_arguments)]
 fn run_one(
     scenario: &Arc<Scenario>,
     method: AdversaryMethod,
@@ -185,81 +127,50 @@ fn run_one(
     witness: Option<&WitnessSearch>,
 ) -> Result<VariantRecord, HarnessError> {
     let clock = Instant::now();
-    let ego = scenario.ego.ok_or_else(|| crate::sim::SimError::NoEgo(scenario.id.clone()))?;
-    let cbv = scenario.cbv.ok_or_else(|| HarnessError::NoCbv(scenario.id.clone()))?;
     let start = scenario.current_step;
     let end = (start + (request.horizon_s / scenario.dt_s).round() as usize).min(scenario.num_steps() - 1);
-    let config = SimConfig { start_step: Some(start), end_step: Some(end), ..SimConfig::default() };
-    let seed = variant_seed(request.base_seed, &format!("{}/{method:?}", scenario.id), seed_index);
-    let settings = MethodSettings {
-        method,
-        trust_region: request.trust_region,
-        background: request.background,
-        sampling: TokenSampling::default(),
+    let sim = SimConfig { start_step: Some(start), end_step: Some(end), ..SimConfig::default() };
+    let planner = PlannerAdapter::Builtin {
+        name: serde_json::to_value(request.planner).ok().and_then(|v| v.as_str().map(String::from)).unwrap_or_default(),
+        planner: request.planner,
+        idm: Default::default(),
     };
-
-    let mut stage1 = Simulation::new(scenario, config.clone())?;
-    let installed = methods::install(&mut stage1, scenario, cbv, start, settings, models, maps, seed)?;
-    let mut replay_ego = BuiltinPlanner::LogReplay.instantiate(scenario, ego);
-    let stage1 = stage1.run(replay_ego.as_mut());
-    if let Some(reason) = installed.error() {
-        return Err(HarnessError::Model { method, reason });
-    }
-    let models_time = installed.timings();
-    let mut profile = VariantProfile {
-        stage1_s: clock.elapsed().as_secs_f64(),
-        stage1_features_s: models_time.features_s,
-        stage1_decoder_s: models_time.decoder_s,
-        stage1_feasibility_s: models_time.feasibility_s,
-        ..VariantProfile::default()
-    };
-    let stage2_clock = Instant::now();
-    let s1 = stage1.summary();
-    let stage1_collision = s1.ego_collision.as_ref().is_some_and(|c| c.with_cbv);
-
-    let mut stage2 = Simulation::new(scenario, config)?;
-    let closed_loop = match request.stage2_cbv {
-        Stage2Cbv::Replay => {
-            stage2.set_policy(cbv, Box::new(LogReplay::new(track_from_rollout(scenario, &stage1, cbv))));
-            None
-        }
-        Stage2Cbv::ClosedLoop => {
-            Some(methods::install(&mut stage2, scenario, cbv, start, settings, models, maps, seed)?)
-        }
-    };
-    let mut planner = request.planner.instantiate(scenario, ego);
-    let stage2 = stage2.run(planner.as_mut());
-    if let Some(reason) = closed_loop.and_then(|i| i.error()) {
-        return Err(HarnessError::Model { method, reason });
-    }
-    profile.stage2_s = stage2_clock.elapsed().as_secs_f64();
+    let stages = pipeline::run(VariantSetup {
+        scenario,
+        settings: MethodSettings {
+            method,
+            trust_region: request.trust_region,
+            background: request.background,
+            sampling: TokenSampling::default(),
+        },
+        seed: variant_seed(request.base_seed, &format!("{}/{method:?}", scenario.id), seed_index),
+        sim: &sim,
+        stage2_cbv: request.stage2_cbv,
+        planner: &planner,
+        models,
+        maps,
+    })?;
+    let tally = VariantTally::of(scenario, &stages);
+    let mut profile = stages.profile;
     let witness_clock = Instant::now();
-    let witness = match (stage1_collision, witness) {
-        (true, Some(search)) => Some(search(scenario, &stage1)),
+    let witness = match (tally.critical, witness) {
+        (true, Some(search)) => Some(search(scenario, &stages.stage1)),
         _ => None,
     };
     profile.witness_s = witness_clock.elapsed().as_secs_f64();
-
-    let (cbv_speeds_mps, cbv_accels_mps2) =
-        speeds_and_accels(stage1.states.iter().map(|row| row[cbv.0].map(|s| s.speed_mps())), stage1.dt_s);
-    let logged = scenario.track(cbv);
-    let (logged_speeds_mps, logged_accels_mps2) =
-        speeds_and_accels((start..=end).map(|k| logged.state(k).map(|s| s.speed_mps())), scenario.dt_s);
     Ok(VariantRecord {
         scenario: scenario.id.clone(),
         method,
         seed: seed_index,
-        stage1_collision,
-        stage2_collision: stage2.ego_collision().is_some(),
+        stage1_collision: tally.critical,
+        stage2_collision: stages.stage2.ego_collision().is_some(),
+        stage2: Some(stages.verdict),
         witness,
-        stage1_min_gap_m: s1.min_distance_to_ego_m,
+        stage1_min_gap_m: stages.stage1.summary().min_distance_to_ego_m,
         time_s: clock.elapsed().as_secs_f64(),
         profile,
         error: None,
-        cbv_speeds_mps,
-        cbv_accels_mps2,
-        logged_speeds_mps,
-        logged_accels_mps2,
+        tally,
     })
 }
 
@@ -289,15 +200,13 @@ pub fn evaluate(
                     seed,
                     stage1_collision: false,
                     stage2_collision: false,
+                    stage2: None,
                     witness: None,
                     stage1_min_gap_m: None,
                     time_s: 0.0,
                     profile: VariantProfile::default(),
                     error: Some(e.to_string()),
-                    cbv_speeds_mps: vec![],
-                    cbv_accels_mps2: vec![],
-                    logged_speeds_mps: vec![],
-                    logged_accels_mps2: vec![],
+                    tally: VariantTally::default(),
                 });
             tick();
             r
@@ -307,27 +216,21 @@ pub fn evaluate(
     records
 }
 
-/// One row per method, in the requested order.
+/// One row per method, in the requested order. CR, SR, SR-crit, VJ and AJ
+/// are the suite metrics ([`SuiteMetrics::aggregate`]) over the variants
+/// that ran; variants that could not run are counted in `errors`.
 pub fn table(records: &[VariantRecord], methods: &[AdversaryMethod]) -> Vec<MethodRow> {
     methods
         .iter()
         .map(|&method| {
             let all: Vec<&VariantRecord> = records.iter().filter(|r| r.method == method).collect();
             let ok: Vec<&VariantRecord> = all.iter().copied().filter(|r| r.error.is_none()).collect();
+            let metrics = SuiteMetrics::aggregate(ok.iter().map(|r| &r.tally));
+            let searched: Vec<&VariantRecord> = ok.iter().copied().filter(|r| r.witness.is_some()).collect();
+            let witness_rate = (!searched.is_empty()).then(|| {
+                searched.iter().filter(|r| r.witness == Some(true)).count() as f64 / searched.len() as f64
+            });
             let n = ok.len().max(1) as f64;
-            let share = |f: &dyn Fn(&VariantRecord) -> bool, of: &[&VariantRecord]| -> Option<f64> {
-                (!of.is_empty()).then(|| of.iter().filter(|r| f(r)).count() as f64 / of.len() as f64)
-            };
-            let critical: Vec<&VariantRecord> = ok.iter().copied().filter(|r| r.stage1_collision).collect();
-            let searched: Vec<&VariantRecord> = critical.iter().copied().filter(|r| r.witness.is_some()).collect();
-            let mut hist =
-                [Histogram::speed(), Histogram::speed(), Histogram::acceleration(), Histogram::acceleration()];
-            for r in &ok {
-                r.cbv_speeds_mps.iter().for_each(|v| hist[0].add(*v));
-                r.logged_speeds_mps.iter().for_each(|v| hist[1].add(*v));
-                r.cbv_accels_mps2.iter().for_each(|v| hist[2].add(*v));
-                r.logged_accels_mps2.iter().for_each(|v| hist[3].add(*v));
-            }
             let mut profile = VariantProfile::default();
             for r in &ok {
                 profile.add(&r.profile);
@@ -337,13 +240,13 @@ pub fn table(records: &[VariantRecord], methods: &[AdversaryMethod]) -> Vec<Meth
                 method,
                 variants: all.len(),
                 errors: all.len() - ok.len(),
-                cr: ok.iter().filter(|r| r.stage1_collision).count() as f64 / n,
-                sr: ok.iter().filter(|r| !r.stage2_collision).count() as f64 / n,
-                sr_critical: share(&|r| !r.stage2_collision, &critical),
-                witness_rate: share(&|r| r.witness == Some(true), &searched),
-                vj: jensen_shannon(&hist[0], &hist[1]),
-                aj: jensen_shannon(&hist[2], &hist[3]),
-                time_per_variant_s: (ok.iter().map(|r| r.time_s).sum::<f64>() + 0.0) / n,
+                cr: metrics.collision_rate,
+                sr: metrics.solution_rate,
+                sr_critical: metrics.solution_rate_critical,
+                witness_rate,
+                vj: metrics.velocity_jsd,
+                aj: metrics.acceleration_jsd,
+                time_per_variant_s: ok.iter().map(|r| r.time_s).sum::<f64>() / n,
             }
         })
         .collect()

@@ -9,6 +9,7 @@ use std::path::PathBuf;
 use std::sync::{Arc, Mutex, OnceLock};
 
 use super::HarnessError;
+use crate::models::ModelError;
 use crate::models::prior::{PriorVariant, RealismPrior};
 use crate::policies::LogReplay;
 use crate::policies::adversary::{Adversary, FeasibilityOracle, TrustRegion};
@@ -22,11 +23,11 @@ pub struct ModelSet {
     /// Where they were loaded from.
     pub dir: PathBuf,
     /// The prior with differential attention.
-    pub prior: Result<Arc<RealismPrior>, String>,
+    pub prior: Result<Arc<RealismPrior>, Arc<ModelError>>,
     /// The prior with plain attention (`no-mda`).
-    pub prior_plain: Result<Arc<RealismPrior>, String>,
+    pub prior_plain: Result<Arc<RealismPrior>, Arc<ModelError>>,
     /// The feasibility value V_h.
-    pub feasibility: Result<Arc<dyn FeasibilityOracle>, String>,
+    pub feasibility: Result<Arc<dyn FeasibilityOracle>, Arc<ModelError>>,
 }
 
 impl std::fmt::Debug for ModelSet {
@@ -41,8 +42,8 @@ impl ModelSet {
     /// Loads what is in `dir`; a model that fails to load keeps its error,
     /// reported when a method needs it.
     pub fn load(dir: PathBuf) -> Self {
-        let prior = |v| RealismPrior::load(&dir, v).map(Arc::new).map_err(|e| e.to_string());
-        let feasibility = crate::models::feasibility_oracle(&dir);
+        let prior = |v| RealismPrior::load(&dir, v).map(Arc::new).map_err(Arc::new);
+        let feasibility = crate::models::feasibility_oracle(&dir).map_err(Arc::new);
         Self { prior: prior(PriorVariant::Differential), prior_plain: prior(PriorVariant::Plain), feasibility, dir }
     }
 
@@ -54,7 +55,7 @@ impl ModelSet {
     /// The prior a method drives the CBV with.
     pub fn prior_for(&self, method: AdversaryMethod) -> Result<Arc<RealismPrior>, HarnessError> {
         let which = if method == AdversaryMethod::NoMda { &self.prior_plain } else { &self.prior };
-        which.clone().map_err(|reason| HarnessError::Model { method, reason })
+        which.clone().map_err(|source| HarnessError::Model { method, source })
     }
 }
 
@@ -72,7 +73,7 @@ impl MapEncodings {
             return Ok(e.clone());
         }
         let e = ScenarioMapEncoding::new(prior, scenario)
-            .map_err(|e| HarnessError::Model { method: AdversaryMethod::Prior, reason: e.to_string() })?;
+            .map_err(|e| HarnessError::Model { method: AdversaryMethod::Prior, source: Arc::new(e) })?;
         self.cache.lock().unwrap_or_else(|p| p.into_inner()).insert(key, e.clone());
         Ok(e)
     }
@@ -102,8 +103,8 @@ impl InstalledMethod {
     }
 
     /// The first model error met during the rollout, if any.
-    pub fn error(&self) -> Option<String> {
-        self.traffic.as_ref().and_then(|t| t.lock().unwrap_or_else(|p| p.into_inner()).error().map(String::from))
+    pub fn error(&self) -> Option<Arc<ModelError>> {
+        self.traffic.as_ref().and_then(|t| t.lock().unwrap_or_else(|p| p.into_inner()).error().cloned())
     }
 }
 
@@ -160,7 +161,7 @@ pub fn install(
         }
     }
     let feasibility =
-        || models.feasibility.clone().map_err(|reason| HarnessError::Model { method: settings.method, reason });
+        || models.feasibility.clone().map_err(|source| HarnessError::Model { method: settings.method, source });
     let n = TrustRegion::TopN(settings.trust_region);
     match settings.method {
         AdversaryMethod::Log => sim.set_policy(cbv, Box::new(LogReplay::new(scenario.track(cbv).clone()))),

@@ -1,23 +1,98 @@
-//! Suite-level metrics over all variants, and their checks: CR (stage 1:
-//! share of variants where the CBV hits the replayed ego), SR (stage 2:
-//! share the planner under test survives), SR over the stage-1-critical
-//! variants, and VJ / AJ (Jensen–Shannon divergence of the CBV's speed and
-//! acceleration in stage 1 against its logged values; bins in
-//! `eval::divergence`).
+//! Suite-level metrics over variants, and their checks: CR (stage 1: share
+//! of variants where the CBV hits the replayed ego), SR (stage 2: share the
+//! planner under test solves — see [`Stage2Verdict`]), SR over the
+//! stage-1-critical variants, and VJ / AJ (Jensen–Shannon divergence of the
+//! CBV's stage-1 speed and acceleration against its logged values over the
+//! same steps; bins in [`crate::eval::divergence`]).
+//!
+//! This is the one definition of these metrics: the suite runner, `safer
+//! run` and `safer evaluate` each reduce a variant to a [`VariantTally`] and
+//! aggregate tallies with [`SuiteMetrics::aggregate`].
+//!
+//! [`Stage2Verdict`]: super::pipeline::Stage2Verdict
 
-use super::VariantOutcome;
+use super::pipeline::DualStage;
 use crate::eval::{Histogram, jensen_shannon};
+use crate::scenario::Scenario;
+use crate::sim::Rollout;
 use crate::spec::suite::SuiteAcceptance;
 
-/// The metrics of a suite run.
+/// Speeds and accelerations of one agent over a stretch of steps.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct KinematicSamples {
+    /// Speed at every step the agent is present, m/s.
+    pub speeds_mps: Vec<f64>,
+    /// Finite-difference acceleration between consecutive present steps, m/s².
+    pub accels_mps2: Vec<f64>,
+}
+
+impl KinematicSamples {
+    /// Samples of a sequence of per-step speeds (`None` where absent) at `dt_s`.
+    pub fn of_speeds(speeds: impl IntoIterator<Item = Option<f64>>, dt_s: f64) -> Self {
+        let v: Vec<Option<f64>> = speeds.into_iter().collect();
+        KinematicSamples {
+            speeds_mps: v.iter().flatten().copied().collect(),
+            accels_mps2: v.windows(2).filter_map(|w| Some((w[1]? - w[0]?) / dt_s)).collect(),
+        }
+    }
+}
+
+/// The CBV's kinematics in a variant: as generated in stage 1, and as
+/// logged over exactly the steps stage 1 covered.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct CbvKinematics {
+    /// Stage 1, driven by the method.
+    pub generated: KinematicSamples,
+    /// The recording over the same steps.
+    pub logged: KinematicSamples,
+}
+
+impl CbvKinematics {
+    /// The CBV's samples of a stage-1 rollout (`None` without a CBV).
+    pub fn of_stage1(scenario: &Scenario, stage1: &Rollout) -> Option<Self> {
+        let cbv = stage1.cbv?;
+        let generated = KinematicSamples::of_speeds(
+            stage1.states.iter().map(|row| row.get(cbv.0).copied().flatten().map(|s| s.speed_mps())),
+            stage1.dt_s,
+        );
+        let track = scenario.track(cbv);
+        let steps = stage1.start_step..stage1.start_step + stage1.states.len();
+        let logged = KinematicSamples::of_speeds(steps.map(|k| track.state(k).map(|s| s.speed_mps())), scenario.dt_s);
+        Some(CbvKinematics { generated, logged })
+    }
+}
+
+/// What one variant contributes to the suite metrics.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct VariantTally {
+    /// The CBV hit the ego in stage 1.
+    pub critical: bool,
+    /// The planner under test solved stage 2.
+    pub solved: bool,
+    /// The CBV's kinematics (`None` without a CBV).
+    pub cbv: Option<CbvKinematics>,
+}
+
+impl VariantTally {
+    /// The tally of a finished variant.
+    pub fn of(scenario: &Scenario, stages: &DualStage) -> Self {
+        VariantTally {
+            critical: stages.stage1_cbv_hit_ego(),
+            solved: stages.verdict.solved(),
+            cbv: CbvKinematics::of_stage1(scenario, &stages.stage1),
+        }
+    }
+}
+
+/// The metrics of a set of variants.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct SuiteMetrics {
     /// Variants evaluated.
     pub variants: usize,
-    /// Stage-1 collision rate (CR).
-    pub collision_rate: f64,
-    /// Stage-2 solution rate (SR).
-    pub solution_rate: f64,
+    /// Stage-1 collision rate (CR); `None` over no variant.
+    pub collision_rate: Option<f64>,
+    /// Stage-2 solution rate (SR); `None` over no variant.
+    pub solution_rate: Option<f64>,
     /// SR over the variants that were critical in stage 1 (`None` if none were).
     pub solution_rate_critical: Option<f64>,
     /// VJ: JSD of CBV speed, generated vs logged.
@@ -37,80 +112,79 @@ pub struct MetricCheck {
     pub result: Result<(), String>,
 }
 
-fn add_cbv_samples(
-    o: &VariantOutcome,
-    generated: (&mut Histogram, &mut Histogram),
-    logged: (&mut Histogram, &mut Histogram),
-) {
-    let Some(cbv) = o.stage1.cbv else { return };
-    let dt = o.stage1.dt_s;
-    let speeds: Vec<Option<f64>> = o.stage1.states.iter().map(|row| row[cbv.0].map(|s| s.speed_mps())).collect();
-    for w in speeds.windows(2) {
-        if let (Some(a), Some(b)) = (w[0], w[1]) {
-            generated.0.add(b);
-            generated.1.add((b - a) / dt);
-        }
-    }
-    let track = o.scenario.track(cbv);
-    let logged_speeds: Vec<Option<f64>> =
-        (o.stage1.start_step..o.scenario.num_steps()).map(|k| track.state(k).map(|s| s.speed_mps())).collect();
-    for w in logged_speeds.windows(2) {
-        if let (Some(a), Some(b)) = (w[0], w[1]) {
-            logged.0.add(b);
-            logged.1.add((b - a) / dt);
-        }
-    }
+/// `k / of`, or `None` when `of` is zero (a rate over nothing is unknown, not 0 or 1).
+fn share(k: usize, of: usize) -> Option<f64> {
+    (of > 0).then(|| k as f64 / of as f64)
 }
 
 impl SuiteMetrics {
-    /// Computes the metrics over `outcomes`.
-    pub fn compute(outcomes: &[VariantOutcome]) -> SuiteMetrics {
-        let n = outcomes.len();
-        let share = |k: usize, of: usize| if of == 0 { 0.0 } else { k as f64 / of as f64 };
-        let critical: Vec<&VariantOutcome> = outcomes.iter().filter(|o| o.stage1_cbv_hit_ego()).collect();
+    /// The metrics of a suite's variant outcomes.
+    pub fn compute(outcomes: &[super::VariantOutcome]) -> SuiteMetrics {
+        Self::aggregate(outcomes.iter().map(|o| &o.tally))
+    }
+
+    /// Aggregates variant tallies.
+    pub fn aggregate<'a>(tallies: impl IntoIterator<Item = &'a VariantTally>) -> SuiteMetrics {
+        let (mut n, mut critical, mut solved, mut solved_critical) = (0, 0, 0, 0);
         let (mut gv, mut ga, mut lv, mut la) =
             (Histogram::speed(), Histogram::acceleration(), Histogram::speed(), Histogram::acceleration());
-        for o in outcomes {
-            add_cbv_samples(o, (&mut gv, &mut ga), (&mut lv, &mut la));
+        for t in tallies {
+            n += 1;
+            critical += usize::from(t.critical);
+            solved += usize::from(t.solved);
+            solved_critical += usize::from(t.critical && t.solved);
+            if let Some(cbv) = &t.cbv {
+                cbv.generated.speeds_mps.iter().for_each(|v| gv.add(*v));
+                cbv.generated.accels_mps2.iter().for_each(|a| ga.add(*a));
+                cbv.logged.speeds_mps.iter().for_each(|v| lv.add(*v));
+                cbv.logged.accels_mps2.iter().for_each(|a| la.add(*a));
+            }
         }
         SuiteMetrics {
             variants: n,
-            collision_rate: share(critical.len(), n),
-            solution_rate: share(outcomes.iter().filter(|o| o.solved()).count(), n),
-            solution_rate_critical: (!critical.is_empty())
-                .then(|| share(critical.iter().filter(|o| o.solved()).count(), critical.len())),
+            collision_rate: share(critical, n),
+            solution_rate: share(solved, n),
+            solution_rate_critical: share(solved_critical, critical),
             velocity_jsd: jensen_shannon(&gv, &lv),
             acceleration_jsd: jensen_shannon(&ga, &la),
         }
     }
 
-    /// The checks the spec asks for, in a fixed order.
+    /// The checks the spec asks for, in a fixed order. A check over no
+    /// variant, or of a metric that could not be measured, fails: nothing
+    /// run is not a pass.
     pub fn checks(&self, acceptance: &SuiteAcceptance) -> Vec<MetricCheck> {
+        let n = self.variants;
+        let unmeasured = |name: &str, why: &str| Err(format!("{name} could not be measured: {why}"));
+        let why = |name: &str| match (n, name) {
+            (0, _) => "no variant ran",
+            (_, "velocity_jsd" | "acceleration_jsd") => "no CBV speeds in stage 1 or in the log",
+            _ => "no variant qualified",
+        };
         let mut out = Vec::new();
-        let mut at_least = |name: &'static str, value: Option<f64>, min: Option<f64>| {
-            if let Some(min) = min {
-                let result = match value {
-                    Some(v) if v >= min => Ok(()),
-                    Some(v) => Err(format!("{name} = {v:.3} < {min} over {} variants", self.variants)),
-                    None => Err(format!("{name} could not be measured")),
-                };
-                out.push(MetricCheck { name, value, result });
+        let bounds: [(&'static str, Option<f64>, Option<f64>, Option<f64>); 4] = [
+            ("collision_rate", self.collision_rate, acceptance.collision_rate_min, None),
+            ("solution_rate", self.solution_rate, acceptance.solution_rate_min, None),
+            ("velocity_jsd", self.velocity_jsd, None, acceptance.velocity_jsd_max),
+            ("acceleration_jsd", self.acceleration_jsd, None, acceptance.acceleration_jsd_max),
+        ];
+        for (name, value, min, max) in bounds {
+            if min.is_none() && max.is_none() {
+                continue;
             }
-        };
-        at_least("collision_rate", Some(self.collision_rate), acceptance.collision_rate_min);
-        at_least("solution_rate", Some(self.solution_rate), acceptance.solution_rate_min);
-        let mut at_most = |name: &'static str, value: Option<f64>, max: Option<f64>| {
-            if let Some(max) = max {
-                let result = match value {
-                    Some(v) if v <= max => Ok(()),
-                    Some(v) => Err(format!("{name} = {v:.3} > {max}")),
-                    None => Err(format!("{name} could not be measured (no CBV speeds)")),
-                };
-                out.push(MetricCheck { name, value, result });
-            }
-        };
-        at_most("velocity_jsd", self.velocity_jsd, acceptance.velocity_jsd_max);
-        at_most("acceleration_jsd", self.acceleration_jsd, acceptance.acceleration_jsd_max);
+            let result = match (value, min, max) {
+                (Some(v), _, _) if !v.is_finite() => Err(format!("{name} = {v} is not a number over {n} variants")),
+                (Some(v), Some(min), _) if v < min || min.is_nan() => {
+                    Err(format!("{name} = {v:.3} < {min} over {n} variants"))
+                }
+                (Some(v), _, Some(max)) if v > max || max.is_nan() => {
+                    Err(format!("{name} = {v:.3} > {max} over {n} variants"))
+                }
+                (Some(_), _, _) => Ok(()),
+                (None, _, _) => unmeasured(name, why(name)),
+            };
+            out.push(MetricCheck { name, value, result });
+        }
         out
     }
 }
@@ -126,4 +200,64 @@ pub fn metric_names(acceptance: &SuiteAcceptance) -> Vec<&'static str> {
     .into_iter()
     .filter_map(|(n, on)| on.then_some(n))
     .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tally(critical: bool, solved: bool) -> VariantTally {
+        VariantTally { critical, solved, cbv: None }
+    }
+
+    fn acceptance(sr_min: Option<f64>, cr_min: Option<f64>) -> SuiteAcceptance {
+        SuiteAcceptance { solution_rate_min: sr_min, collision_rate_min: cr_min, ..SuiteAcceptance::default() }
+    }
+
+    #[test]
+    fn rates_count_critical_and_solved_variants() {
+        let t = [tally(true, true), tally(true, false), tally(false, true), tally(false, false)];
+        let m = SuiteMetrics::aggregate(&t);
+        assert_eq!(m.variants, 4);
+        assert_eq!(m.collision_rate, Some(0.5));
+        assert_eq!(m.solution_rate, Some(0.5));
+        assert_eq!(m.solution_rate_critical, Some(0.5));
+    }
+
+    #[test]
+    fn no_variant_is_no_pass() {
+        let m = SuiteMetrics::aggregate(&[]);
+        assert_eq!(m.solution_rate, None);
+        let checks = m.checks(&acceptance(Some(0.0), None));
+        assert_eq!(checks.len(), 1);
+        let err = checks[0].result.clone().unwrap_err();
+        assert!(err.contains("no variant ran"), "{err}");
+    }
+
+    #[test]
+    fn thresholds_are_inclusive_and_failures_say_by_how_much() {
+        let t = [tally(true, true), tally(false, false)];
+        let m = SuiteMetrics::aggregate(&t);
+        let ok = m.checks(&acceptance(Some(0.5), Some(0.5)));
+        assert!(ok.iter().all(|c| c.result.is_ok()), "{ok:?}");
+        let bad = m.checks(&acceptance(Some(0.6), None));
+        assert_eq!(bad[0].result, Err("solution_rate = 0.500 < 0.6 over 2 variants".to_string()));
+    }
+
+    #[test]
+    fn a_nan_bound_never_passes() {
+        // Specs refuse NaN bounds at load; the check itself must not read
+        // NaN as "criterion off" either.
+        let m = SuiteMetrics::aggregate(&[tally(false, true)]);
+        let checks = m.checks(&acceptance(Some(f64::NAN), None));
+        assert!(checks[0].result.is_err(), "{checks:?}");
+    }
+
+    #[test]
+    fn logged_and_generated_samples_use_the_same_rule() {
+        let s = KinematicSamples::of_speeds([Some(1.0), Some(2.0), None, Some(4.0), Some(4.5)], 0.5);
+        assert_eq!(s.speeds_mps, vec![1.0, 2.0, 4.0, 4.5]);
+        // No acceleration across the gap.
+        assert_eq!(s.accels_mps2, vec![2.0, 1.0]);
+    }
 }

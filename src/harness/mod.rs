@@ -1,22 +1,28 @@
 //! Specs to runnable tests: a suite resolves to named variants
 //! (`suite::scenario::seed-k`) and suite metrics (`suite::metric`); each
-//! variant runs the dual-stage pipeline (stage 1: the ego replays its log
-//! while the adversary drives the CBV; stage 2: the planner under test
-//! drives the ego while the CBV replays its stage-1 trajectory), is checked
-//! against the acceptance criteria, and on failure leaves an MCAP recording
-//! and an SVG picture. Both the `cargo test` runner (`tests/suites.rs`) and
-//! `safer run` use this module, so they agree by construction.
+//! variant runs the dual-stage pipeline ([`pipeline`]: stage 1, the ego
+//! replays its log while the adversary drives the CBV; stage 2, the planner
+//! under test drives the ego while the CBV replays its stage-1 trajectory),
+//! is checked against the acceptance criteria, and on failure leaves an MCAP
+//! recording and an SVG picture.
+//!
+//! One pipeline, one set of metrics: the `cargo test` runner
+//! (`tests/suites.rs`) and `safer run` call [`run_variant`], `safer
+//! evaluate` calls [`evaluation::evaluate`]; both run [`pipeline::run`] and
+//! reduce variants to [`metrics::VariantTally`] for CR, SR, VJ and AJ.
 
 pub mod acceptance;
 pub mod artefacts;
 pub mod evaluation;
 pub mod methods;
 pub mod metrics;
+pub mod pipeline;
 pub mod suite;
 pub mod variant;
 
 pub use acceptance::AcceptanceFailure;
-pub use metrics::{MetricCheck, SuiteMetrics};
+pub use metrics::{MetricCheck, SuiteMetrics, VariantTally};
+pub use pipeline::{DualStage, Stage2Verdict};
 pub use suite::{Suite, SuiteScenario};
 pub use variant::{VariantOutcome, VariantSummary, run_variant};
 
@@ -30,20 +36,22 @@ pub enum HarnessError {
     #[error(transparent)]
     Sim(#[from] crate::sim::SimError),
     /// The planner could not be started.
-    #[error("planner `{planner}` could not be started: {reason}")]
+    #[error("planner `{planner}` could not be started: {source}")]
     PlannerStart {
         /// Planner name.
         planner: String,
         /// Why.
-        reason: String,
+        source: crate::planners::PlannerError,
     },
-    /// A learned model a method needs is missing or broken.
-    #[error("adversary method `{method:?}` cannot run: {reason}")]
+    /// A learned model a method needs is missing or broken, or failed
+    /// during the rollout.
+    #[error("adversary method `{method:?}` cannot run: {source}")]
     Model {
         /// The method.
         method: crate::spec::suite::AdversaryMethod,
-        /// Why (which model, which file, what differs).
-        reason: String,
+        /// Which model, which file, what differs (shared: one load error is
+        /// reported by every variant that needs the model).
+        source: std::sync::Arc<crate::models::ModelError>,
     },
     /// A scenario has no CBV to drive.
     #[error("scenario {0} has no CBV (name one with `cbv:` in the scenario spec)")]

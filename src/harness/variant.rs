@@ -1,19 +1,17 @@
-//! One variant, end to end: the dual-stage pipeline, the acceptance check
-//! and a stable summary for snapshots.
+//! One suite variant, end to end: the dual-stage pipeline
+//! ([`super::pipeline`]) on the suite's scenario, planner and adversary
+//! settings, the acceptance check, and a stable summary for snapshots.
 
 use std::sync::Arc;
 
 use super::acceptance::{self, AcceptanceFailure};
+use super::methods::{BackgroundDriver, MapEncodings, MethodSettings, ModelSet};
+use super::metrics::VariantTally;
+use super::pipeline::{self, Stage2Cbv, Stage2Verdict, VariantSetup};
 use super::{HarnessError, Suite, SuiteScenario};
-use crate::eval::min_time_to_collision;
-use crate::planners::external::{ExternalPlanner, ExternalPlannerConfig};
-use crate::planners::{BuiltinPlanner, IdmPlanner, Planner};
-use crate::policies::LogReplay;
 use crate::policies::prior_sampling::TokenSampling;
-use super::methods::{self, BackgroundDriver, MapEncodings, MethodSettings, ModelSet};
-use crate::scenario::{Scenario, Track, TrackIndex};
-use crate::sim::{Rollout, SimConfig, Simulation};
-use crate::spec::planner::PlannerAdapter;
+use crate::scenario::Scenario;
+use crate::sim::{Rollout, SimConfig};
 
 /// Everything a variant produced.
 #[derive(Debug, Clone)]
@@ -28,8 +26,12 @@ pub struct VariantOutcome {
     pub stage1: Rollout,
     /// Stage 2: the planner under test, CBV replaying its stage-1 trajectory.
     pub stage2: Rollout,
+    /// Stage 2's verdict (solved, collided, aborted).
+    pub verdict: Stage2Verdict,
     /// Minimum time to collision in stage 2, s.
     pub min_ttc_s: Option<f64>,
+    /// What the variant contributes to the suite metrics.
+    pub tally: VariantTally,
     /// Failed acceptance criteria (empty: the variant passes).
     pub failures: Vec<AcceptanceFailure>,
 }
@@ -37,12 +39,14 @@ pub struct VariantOutcome {
 impl VariantOutcome {
     /// Whether the CBV hit the ego in stage 1 (counts toward CR).
     pub fn stage1_cbv_hit_ego(&self) -> bool {
-        self.stage1.summary().ego_collision.is_some_and(|c| c.with_cbv)
+        self.tally.critical
     }
 
-    /// Whether the planner under test survived stage 2 without a collision (counts toward SR).
+    /// Whether the planner under test solved stage 2 (counts toward SR): it
+    /// ran to the end without an ego collision. A planner that crashed,
+    /// hung or answered garbage has not.
     pub fn solved(&self) -> bool {
-        self.stage2.ego_collision().is_none()
+        self.verdict.solved()
     }
 
     /// The stable, rounded summary that snapshots record.
@@ -119,80 +123,38 @@ pub fn variant_seed(base: u64, scenario: &str, index: u32) -> u64 {
     fnv1a(format!("{base}/{scenario}/{index}").as_bytes())
 }
 
-/// A fresh planner for the ego of `scenario`.
-pub fn make_planner(
-    adapter: &PlannerAdapter,
-    scenario: &Scenario,
-    ego: TrackIndex,
-) -> Result<Box<dyn Planner>, HarnessError> {
-    match adapter {
-        PlannerAdapter::Builtin { planner: BuiltinPlanner::Idm, idm, .. } => Ok(Box::new(IdmPlanner::new(*idm))),
-        PlannerAdapter::Builtin { planner, .. } => Ok(planner.instantiate(scenario, ego)),
-        PlannerAdapter::External { name, spec, working_dir } => {
-            let mut config = ExternalPlannerConfig::new(name.clone(), spec.command.clone());
-            config.args = spec.args.clone();
-            config.working_dir = Some(working_dir.clone());
-            config.step_timeout_ms = spec.step_timeout_ms;
-            config.startup_timeout_ms = spec.startup_timeout_ms;
-            let body = scenario.track(ego).body();
-            ExternalPlanner::start(config, body.length_m, body.width_m)
-                .map(|p| Box::new(p) as Box<dyn Planner>)
-                .map_err(|e| HarnessError::PlannerStart { planner: name.clone(), reason: e.to_string() })
-        }
-    }
-}
-
-/// The CBV's stage-1 trajectory as a track (`None` before the start step).
-pub(crate) fn track_from_rollout(scenario: &Scenario, rollout: &Rollout, agent: TrackIndex) -> Track {
-    let mut t = scenario.track(agent).clone();
-    t.states = (0..scenario.num_steps())
-        .map(|k| k.checked_sub(rollout.start_step).and_then(|i| rollout.states.get(i)).and_then(|row| row[agent.0]))
-        .collect();
-    t
-}
-
 /// Runs variant `index` of `scenario` in `suite`.
 pub fn run_variant(suite: &Suite, scenario: &SuiteScenario, index: u32) -> Result<VariantOutcome, HarnessError> {
     let spec = &suite.spec.value;
     let base = scenario.load()?;
-    let ego = base.ego.ok_or_else(|| crate::sim::SimError::NoEgo(base.id.clone()))?;
-    let cbv = base.cbv.ok_or_else(|| HarnessError::NoCbv(base.id.clone()))?;
     let seed = variant_seed(spec.seed, &scenario.name, index);
-    let config = SimConfig { background: spec.adversary.background, ..SimConfig::default() };
-
-    // Stage 1: the ego replays its log; the CBV is driven by the method.
-    let mut stage1 = Simulation::new(&base, config.clone())?;
-    let settings = MethodSettings {
-        method: spec.adversary.method,
-        trust_region: spec.adversary.trust_region,
-        background: BackgroundDriver::Configured,
-        sampling: TokenSampling::default(),
-    };
+    let sim = SimConfig { background: spec.adversary.background, ..SimConfig::default() };
     let models = ModelSet::shipped();
-    let start = config.start_step.unwrap_or(base.current_step);
-    let installed = methods::install(&mut stage1, &base, cbv, start, settings, &models, &MAP_ENCODINGS, seed)?;
-    let mut replay_ego = BuiltinPlanner::LogReplay.instantiate(&base, ego);
-    let stage1 = stage1.run(replay_ego.as_mut());
-    if let Some(reason) = installed.error() {
-        return Err(HarnessError::Model { method: spec.adversary.method, reason });
-    }
-
-    // Stage 2: the planner under test; the CBV replays what it did in stage 1.
-    let mut stage2 = Simulation::new(&base, config)?;
-    stage2.set_policy(cbv, Box::new(LogReplay::new(track_from_rollout(&base, &stage1, cbv))));
-    let mut planner = make_planner(&suite.planner, &base, ego)?;
-    let stage2 = stage2.run(planner.as_mut());
-    drop(planner);
-
-    let min_ttc_s = min_time_to_collision(&stage2);
-    let failures = acceptance::check(&spec.acceptance.variant, &stage2, min_ttc_s);
+    let stages = pipeline::run(VariantSetup {
+        scenario: &base,
+        settings: MethodSettings {
+            method: spec.adversary.method,
+            trust_region: spec.adversary.trust_region,
+            background: BackgroundDriver::Configured,
+            sampling: TokenSampling::default(),
+        },
+        seed,
+        sim: &sim,
+        stage2_cbv: Stage2Cbv::Replay,
+        planner: &suite.planner,
+        models: &models,
+        maps: &MAP_ENCODINGS,
+    })?;
+    let failures = acceptance::check(&spec.acceptance.variant, &stages.stage2, stages.min_ttc_s);
     Ok(VariantOutcome {
         name: suite.variant_name(scenario, index),
         seed,
+        tally: VariantTally::of(&base, &stages),
         scenario: base,
-        stage1,
-        stage2,
-        min_ttc_s,
+        verdict: stages.verdict,
+        min_ttc_s: stages.min_ttc_s,
+        stage1: stages.stage1,
+        stage2: stages.stage2,
         failures,
     })
 }

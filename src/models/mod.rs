@@ -32,10 +32,9 @@ pub fn models_dir() -> PathBuf {
 /// The shipped feasibility value V_h in `dir`, as the adversary asks it.
 pub fn feasibility_oracle(
     dir: &std::path::Path,
-) -> Result<std::sync::Arc<dyn feasibility_oracle::FeasibilityOracle>, String> {
+) -> Result<std::sync::Arc<dyn feasibility_oracle::FeasibilityOracle>, ModelError> {
     feasibility::FeasibilityValue::load(dir)
         .map(|v| std::sync::Arc::new(v) as std::sync::Arc<dyn feasibility_oracle::FeasibilityOracle>)
-        .map_err(|e| e.to_string())
 }
 
 /// Errors of the models layer.

@@ -44,7 +44,7 @@ pub struct Adversary {
     trust_region: TrustRegion,
     feasibility: Option<Arc<dyn FeasibilityOracle>>,
     current: Option<Token>,
-    error: Option<String>,
+    error: Option<Arc<ModelError>>,
 }
 
 impl std::fmt::Debug for Adversary {
@@ -76,8 +76,8 @@ impl Adversary {
     }
 
     /// The first error met (inference), if any.
-    pub fn error(&self) -> Option<&str> {
-        self.error.as_deref()
+    pub fn error(&self) -> Option<&Arc<ModelError>> {
+        self.error.as_ref()
     }
 
     /// The token minimising the SaFeR loss among the trust region, or `None`
@@ -168,9 +168,9 @@ impl AgentPolicy for Adversary {
                 Ok(Some(t)) => self.current = Some(t),
                 Ok(None) => {}
                 Err(e) => {
-                    let message = e.to_string();
-                    self.shared.lock().unwrap_or_else(|p| p.into_inner()).record_error(message.clone());
-                    self.error.get_or_insert(message);
+                    let error = Arc::new(e);
+                    self.shared.lock().unwrap_or_else(|p| p.into_inner()).record_error(error.clone());
+                    self.error.get_or_insert(error);
                 }
             }
         }

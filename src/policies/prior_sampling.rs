@@ -124,7 +124,7 @@ pub struct PriorTraffic {
     seed: u64,
     tokens: HashMap<(usize, usize), Token>,
     logits: HashMap<(usize, usize), TokenLogits>,
-    error: Option<String>,
+    error: Option<Arc<ModelError>>,
     timings: TrafficTimings,
 }
 
@@ -220,7 +220,7 @@ impl PriorTraffic {
                     self.logits.insert((a, step), l);
                 }
             }
-            Err(e) => self.record_error(e.to_string()),
+            Err(e) => self.record_error(Arc::new(e)),
         }
     }
 
@@ -247,8 +247,8 @@ impl PriorTraffic {
     }
 
     /// Keeps the first error met by an agent of this rollout.
-    pub fn record_error(&mut self, message: String) {
-        self.error.get_or_insert(message);
+    pub fn record_error(&mut self, error: Arc<ModelError>) {
+        self.error.get_or_insert(error);
     }
 
     /// Adds time spent on feasibility queries.
@@ -262,8 +262,8 @@ impl PriorTraffic {
     }
 
     /// The first inference error, if any (the rollout should be reported failed).
-    pub fn error(&self) -> Option<&str> {
-        self.error.as_deref()
+    pub fn error(&self) -> Option<&Arc<ModelError>> {
+        self.error.as_ref()
     }
 }
 

@@ -107,7 +107,7 @@ fn the_prior_drives_recorded_traffic_closed_loop() {
             install(&mut sim, &scenario, cbv, scenario.current_step, settings, &models, &maps, seed).unwrap();
         let mut ego = safer::planners::BuiltinPlanner::LogReplay.instantiate(&scenario, scenario.ego.unwrap());
         let rollout = sim.run(ego.as_mut());
-        assert_eq!(installed.error(), None);
+        assert!(installed.error().is_none(), "{:?}", installed.error());
         rollout
     };
     let (a, b, c) = (run(1), run(1), run(2));

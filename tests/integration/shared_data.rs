@@ -33,7 +33,8 @@ pub fn files(sub: &str, ext: &str) -> Vec<PathBuf> {
 
 /// Every shared scene of every format, imported once per test process (in
 /// parallel, returned in path order). Panics naming the file on any import
-/// error: the shared data must import cleanly.
+/// error (the shared data must import cleanly), and when the folder holds no
+/// scene at all: a test over "every scene" must not pass on none.
 pub fn all_scenes() -> &'static [safer::scenario::Scenario] {
     use rayon::prelude::*;
     static SCENES: std::sync::OnceLock<Vec<safer::scenario::Scenario>> = std::sync::OnceLock::new();
@@ -41,7 +42,9 @@ pub fn all_scenes() -> &'static [safer::scenario::Scenario] {
         let paths = safer::scenario::import::discover(&data_dir()).expect("list shared data");
         let loaded: Vec<Vec<safer::scenario::Scenario>> =
             paths.par_iter().map(|p| safer::scenario::import::load(p).unwrap_or_else(|e| panic!("{e}"))).collect();
-        loaded.into_iter().flatten().collect()
+        let scenes: Vec<safer::scenario::Scenario> = loaded.into_iter().flatten().collect();
+        assert!(!scenes.is_empty(), "no recorded scene in {}: the shared data is missing or empty", data_dir().display());
+        scenes
     })
 }
 

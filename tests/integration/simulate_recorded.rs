@@ -71,6 +71,7 @@ fn idm_rollouts_are_identical_on_one_and_two_threads() {
             picked.push(s);
         }
     }
+    assert!(picked.len() >= 2, "too few recorded scenes long enough to compare: {}", picked.len());
     let run_all = |threads: usize| {
         let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
         pool.install(|| {

@@ -1,0 +1,355 @@
+//! The dual-stage pipeline, the one copy that `cargo test` (the suite
+//! runner), `safer run` and `safer evaluate` all run. Stage 1: the ego
+//! replays its log while the adversary method drives the CBV; a CBV–ego
+//! collision makes the variant *critical* (it counts toward CR). Stage 2: the
+//! planner under test drives the ego through the same variant, with the CBV
+//! replaying its stage-1 trajectory (the paper's protocol) or driven by the
+//! method again, closed loop; the planner *solves* the variant only if the
+//! rollout ran to its end without an ego collision and without the planner
+//! failing ([`Stage2Verdict`]).
+//!
+//! A variant is a pure function of (scenario, planner, method settings,
+//! seed): the pipeline reads no clock except to report where time went.
+
+use std::sync::Arc;
+use std::time::Instant;
+
+use super::HarnessError;
+use super::methods::{self, MapEncodings, MethodSettings, ModelSet};
+use crate::eval::min_time_to_collision;
+use crate::planners::external::{ExternalPlanner, ExternalPlannerConfig};
+use crate::planners::{BuiltinPlanner, IdmPlanner, Planner};
+use crate::policies::LogReplay;
+use crate::scenario::{Scenario, Track, TrackIndex};
+use crate::sim::{Rollout, SimConfig, Simulation, Termination};
+use crate::spec::planner::PlannerAdapter;
+
+/// How the CBV behaves in stage 2.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Stage2Cbv {
+    /// Replays its stage-1 trajectory (the paper's protocol).
+    #[default]
+    Replay,
+    /// Is driven by the method again, reacting to the planner.
+    ClosedLoop,
+}
+
+/// Everything that defines one variant.
+#[derive(Debug, Clone, Copy)]
+pub struct VariantSetup<'a> {
+    /// The base scenario (with an ego and a CBV).
+    pub scenario: &'a Arc<Scenario>,
+    /// How the method drives the CBV (and the background).
+    pub settings: MethodSettings,
+    /// The variant's seed.
+    pub seed: u64,
+    /// Start and end steps and the configured background, both stages.
+    pub sim: &'a SimConfig,
+    /// The CBV in stage 2.
+    pub stage2_cbv: Stage2Cbv,
+    /// The planner under test.
+    pub planner: &'a PlannerAdapter,
+    /// The learned models the method may need.
+    pub models: &'a ModelSet,
+    /// Map encodings shared across variants.
+    pub maps: &'a MapEncodings,
+}
+
+/// Where a variant's time went, s.
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
+pub struct VariantProfile {
+    /// Stage 1, whole (simulation, CBV method, models).
+    pub stage1_s: f64,
+    /// Of which: the prior's query features.
+    pub stage1_features_s: f64,
+    /// Of which: the prior's decoder.
+    pub stage1_decoder_s: f64,
+    /// Of which: feasibility value queries.
+    pub stage1_feasibility_s: f64,
+    /// Stage 2 (the planner under test).
+    pub stage2_s: f64,
+    /// The witness search (only `safer evaluate` runs it).
+    pub witness_s: f64,
+}
+
+impl VariantProfile {
+    /// Adds `o` part by part.
+    pub fn add(&mut self, o: &VariantProfile) {
+        self.stage1_s += o.stage1_s;
+        self.stage1_features_s += o.stage1_features_s;
+        self.stage1_decoder_s += o.stage1_decoder_s;
+        self.stage1_feasibility_s += o.stage1_feasibility_s;
+        self.stage2_s += o.stage2_s;
+        self.witness_s += o.witness_s;
+    }
+
+    /// Every part multiplied by `k`.
+    pub fn scaled(&self, k: f64) -> VariantProfile {
+        VariantProfile {
+            stage1_s: self.stage1_s * k,
+            stage1_features_s: self.stage1_features_s * k,
+            stage1_decoder_s: self.stage1_decoder_s * k,
+            stage1_feasibility_s: self.stage1_feasibility_s * k,
+            stage2_s: self.stage2_s * k,
+            witness_s: self.witness_s * k,
+        }
+    }
+}
+
+/// What the planner under test made of stage 2.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+#[serde(rename_all = "kebab-case", tag = "verdict")]
+pub enum Stage2Verdict {
+    /// Ran to the end without an ego collision.
+    Solved,
+    /// The ego collided.
+    Collided {
+        /// Time of the first ego collision after the start, s.
+        time_s: f64,
+    },
+    /// The rollout could not go on: the planner crashed, hung, answered
+    /// garbage or drove the ego out of bounds, or an agent's state became
+    /// invalid. Never a success: a planner that stops answering must not
+    /// raise the solution rate.
+    Aborted {
+        /// What ended it, in words.
+        reason: String,
+    },
+}
+
+impl Stage2Verdict {
+    /// The verdict on a finished stage-2 rollout.
+    pub fn of(stage2: &Rollout) -> Stage2Verdict {
+        match &stage2.termination {
+            Termination::Completed | Termination::EgoCollision { .. } => match stage2.ego_collision() {
+                Some(c) => Stage2Verdict::Collided { time_s: (c.step - stage2.start_step) as f64 * stage2.dt_s },
+                None => Stage2Verdict::Solved,
+            },
+            other => Stage2Verdict::Aborted { reason: termination_reason(other, stage2) },
+        }
+    }
+
+    /// Whether the planner solved the variant (counts toward SR).
+    pub fn solved(&self) -> bool {
+        matches!(self, Stage2Verdict::Solved)
+    }
+}
+
+/// A termination that is not a normal end, in words.
+fn termination_reason(termination: &Termination, rollout: &Rollout) -> String {
+    let at = |step: usize| step.saturating_sub(rollout.start_step) as f64 * rollout.dt_s;
+    match termination {
+        Termination::PlannerFailed { step, reason } => {
+            format!("planner `{}` failed at t = {:.1} s: {reason}", rollout.planner, at(*step))
+        }
+        other => serde_json::to_string(other).unwrap_or_else(|_| format!("{other:?}")),
+    }
+}
+
+/// The two rollouts of a variant and what was measured on them.
+#[derive(Debug, Clone)]
+pub struct DualStage {
+    /// Stage 1: the ego on log replay, the CBV driven by the method.
+    pub stage1: Rollout,
+    /// Stage 2: the planner under test.
+    pub stage2: Rollout,
+    /// Stage 2's verdict.
+    pub verdict: Stage2Verdict,
+    /// Minimum time to collision in stage 2, s.
+    pub min_ttc_s: Option<f64>,
+    /// Where the time went (the witness part is left at zero).
+    pub profile: VariantProfile,
+}
+
+impl DualStage {
+    /// Whether the CBV hit the ego in stage 1 (counts toward CR).
+    pub fn stage1_cbv_hit_ego(&self) -> bool {
+        self.stage1.summary().ego_collision.is_some_and(|c| c.with_cbv)
+    }
+}
+
+/// A fresh planner for the ego of `scenario`.
+pub fn make_planner(
+    adapter: &PlannerAdapter,
+    scenario: &Scenario,
+    ego: TrackIndex,
+) -> Result<Box<dyn Planner>, HarnessError> {
+    match adapter {
+        PlannerAdapter::Builtin { planner: BuiltinPlanner::Idm, idm, .. } => Ok(Box::new(IdmPlanner::new(*idm))),
+        PlannerAdapter::Builtin { planner, .. } => Ok(planner.instantiate(scenario, ego)),
+        PlannerAdapter::External { name, spec, working_dir } => {
+            let mut config = ExternalPlannerConfig::new(name.clone(), spec.command.clone());
+            config.args = spec.args.clone();
+            config.working_dir = Some(working_dir.clone());
+            config.step_timeout_ms = spec.step_timeout_ms;
+            config.startup_timeout_ms = spec.startup_timeout_ms;
+            let body = scenario.track(ego).body();
+            ExternalPlanner::start(config, body.length_m, body.width_m)
+                .map(|p| Box::new(p) as Box<dyn Planner>)
+                .map_err(|source| HarnessError::PlannerStart { planner: name.clone(), source })
+        }
+    }
+}
+
+/// The CBV's stage-1 trajectory as a track (`None` before the start step).
+pub fn track_from_rollout(scenario: &Scenario, rollout: &Rollout, agent: TrackIndex) -> Track {
+    let mut t = scenario.track(agent).clone();
+    t.states = (0..scenario.num_steps())
+        .map(|k| k.checked_sub(rollout.start_step).and_then(|i| rollout.states.get(i)).and_then(|row| row[agent.0]))
+        .collect();
+    t
+}
+
+/// Runs both stages of one variant.
+pub fn run(setup: VariantSetup<'_>) -> Result<DualStage, HarnessError> {
+    let scenario = setup.scenario;
+    let clock = Instant::now();
+    let ego = scenario.ego.ok_or_else(|| crate::sim::SimError::NoEgo(scenario.id.clone()))?;
+    let cbv = scenario.cbv.ok_or_else(|| HarnessError::NoCbv(scenario.id.clone()))?;
+    let start = setup.sim.start_step.unwrap_or(scenario.current_step);
+    let method = setup.settings.method;
+    let install = |sim: &mut Simulation<'_>| {
+        methods::install(sim, scenario, cbv, start, setup.settings, setup.models, setup.maps, setup.seed)
+    };
+
+    // Stage 1: the ego replays its log; the CBV is driven by the method.
+    let mut stage1 = Simulation::new(scenario, setup.sim.clone())?;
+    let installed = install(&mut stage1)?;
+    let mut replay_ego = BuiltinPlanner::LogReplay.instantiate(scenario, ego);
+    let stage1 = stage1.run(replay_ego.as_mut());
+    if let Some(source) = installed.error() {
+        return Err(HarnessError::Model { method, source });
+    }
+    let models_time = installed.timings();
+    let mut profile = VariantProfile {
+        stage1_s: clock.elapsed().as_secs_f64(),
+        stage1_features_s: models_time.features_s,
+        stage1_decoder_s: models_time.decoder_s,
+        stage1_feasibility_s: models_time.feasibility_s,
+        ..VariantProfile::default()
+    };
+
+    // Stage 2: the planner under test.
+    let stage2_clock = Instant::now();
+    let mut stage2 = Simulation::new(scenario, setup.sim.clone())?;
+    let closed_loop = match setup.stage2_cbv {
+        Stage2Cbv::Replay => {
+            stage2.set_policy(cbv, Box::new(LogReplay::new(track_from_rollout(scenario, &stage1, cbv))));
+            None
+        }
+        Stage2Cbv::ClosedLoop => Some(install(&mut stage2)?),
+    };
+    let mut planner = make_planner(setup.planner, scenario, ego)?;
+    let stage2 = stage2.run(planner.as_mut());
+    // Dropping the planner ends an external process before the next variant starts one.
+    drop(planner);
+    if let Some(source) = closed_loop.and_then(|i| i.error()) {
+        return Err(HarnessError::Model { method, source });
+    }
+    profile.stage2_s = stage2_clock.elapsed().as_secs_f64();
+
+    Ok(DualStage {
+        verdict: Stage2Verdict::of(&stage2),
+        min_ttc_s: min_time_to_collision(&stage2),
+        stage1,
+        stage2,
+        profile,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::{Point2, Polyline, Vector2};
+    use crate::map::{Lane, MapElementId, RoadMap};
+    use crate::planners::{Observation, PlannerError, PlannerOutput};
+    use crate::scenario::{AgentId, AgentKind, AgentState, ScenarioSource};
+    use crate::sim::Simulation;
+
+    /// Two cars 40 m apart on a straight lane, both at 10 m/s, 61 steps.
+    fn two_cars() -> Scenario {
+        let lane = Lane::new(MapElementId(1), Polyline::new(vec![Point2::new(-50.0, 0.0), Point2::new(500.0, 0.0)]));
+        let map = RoadMap::new(vec![lane], vec![], vec![], vec![], vec![], vec![], vec![]);
+        let track = |id: &str, x0: f64| crate::scenario::Track {
+            id: AgentId(id.into()),
+            kind: AgentKind::Vehicle,
+            length_m: 4.5,
+            width_m: 2.0,
+            states: (0..61)
+                .map(|k| {
+                    Some(AgentState {
+                        position: Point2::new(x0 + k as f64, 0.0),
+                        heading_rad: 0.0,
+                        velocity_mps: Vector2::new(10.0, 0.0),
+                    })
+                })
+                .collect(),
+        };
+        Scenario::new("two-cars", ScenarioSource::authored("test"), 0.1, map, vec![track("ego", 0.0), track("lead", 40.0)])
+            .with_roles(TrackIndex(0), Some(TrackIndex(1)))
+    }
+
+    /// Answers `ok_steps` times by holding speed, then fails.
+    struct StopsAnswering {
+        ok_steps: usize,
+    }
+
+    impl Planner for StopsAnswering {
+        fn name(&self) -> &str {
+            "stops-answering"
+        }
+        fn plan(&mut self, _: &Observation<'_>) -> Result<PlannerOutput, PlannerError> {
+            if self.ok_steps == 0 {
+                return Err(PlannerError::InvalidOutput("the planner process exited (status 1)".into()));
+            }
+            self.ok_steps -= 1;
+            Ok(PlannerOutput::Control(crate::motion::Action { accel_mps2: 0.0, yaw_rate_radps: 0.0 }))
+        }
+    }
+
+    fn stage2_with(planner: &mut dyn Planner) -> Rollout {
+        let s = two_cars();
+        Simulation::new(&s, SimConfig::default()).unwrap().run(planner)
+    }
+
+    #[test]
+    fn a_planner_that_stops_answering_has_not_solved_the_variant() {
+        // Before the fix a crashed planner's short rollout had no collision
+        // and so counted as solved.
+        let r = stage2_with(&mut StopsAnswering { ok_steps: 5 });
+        assert!(r.ego_collision().is_none());
+        let verdict = Stage2Verdict::of(&r);
+        assert!(!verdict.solved(), "{verdict:?}");
+        match verdict {
+            Stage2Verdict::Aborted { reason } => {
+                assert!(reason.contains("stops-answering") && reason.contains("t = 0.5 s"), "{reason}")
+            }
+            other => panic!("{other:?}"),
+        }
+    }
+
+    #[test]
+    fn a_planner_that_answers_to_the_end_without_contact_solves_it() {
+        let r = stage2_with(&mut StopsAnswering { ok_steps: usize::MAX });
+        assert_eq!(Stage2Verdict::of(&r), Stage2Verdict::Solved);
+    }
+
+    #[test]
+    fn a_collision_is_not_a_solution() {
+        struct Accelerates;
+        impl Planner for Accelerates {
+            fn name(&self) -> &str {
+                "accelerates"
+            }
+            fn plan(&mut self, _: &Observation<'_>) -> Result<PlannerOutput, PlannerError> {
+                Ok(PlannerOutput::Control(crate::motion::Action { accel_mps2: 5.0, yaw_rate_radps: 0.0 }))
+            }
+        }
+        let r = stage2_with(&mut Accelerates);
+        match Stage2Verdict::of(&r) {
+            Stage2Verdict::Collided { time_s } => assert!(time_s > 0.0 && time_s < 6.0, "{time_s}"),
+            other => panic!("{other:?}"),
+        }
+    }
+}
