@@ -17,3 +17,4 @@ mod prior_model;
 mod realism;
 mod simulate_recorded;
 mod token_roundtrip;
+mod verdicts;
