@@ -23,6 +23,8 @@
 //! | [`record`] | MCAP recordings with Foxglove schemas, SVG pictures |
 //! | [`cli`] | the `safer` command line |
 
+#![warn(missing_docs)]
+
 pub mod cli;
 pub mod eval;
 pub mod geometry;

@@ -162,7 +162,9 @@ impl SuiteMetrics {
             _ => "no variant qualified",
         };
         let mut out = Vec::new();
-        let bounds: [(&'static str, Option<f64>, Option<f64>, Option<f64>); 4] = [
+        // (metric, value, lower bound, upper bound)
+        type Bounds = (&'static str, Option<f64>, Option<f64>, Option<f64>);
+        let bounds: [Bounds; 4] = [
             ("collision_rate", self.collision_rate, acceptance.collision_rate_min, None),
             ("solution_rate", self.solution_rate, acceptance.solution_rate_min, None),
             ("velocity_jsd", self.velocity_jsd, None, acceptance.velocity_jsd_max),

@@ -207,7 +207,8 @@ impl OnnxModel {
             }
         }
         let replay = GoldenReplay { max_abs_diff, tolerance: self.card.golden_tolerance, values };
-        if !(replay.max_abs_diff <= replay.tolerance) {
+        // NaN differences were turned into infinity above; a NaN tolerance fails too.
+        if replay.max_abs_diff.is_nan() || replay.tolerance.is_nan() || replay.max_abs_diff > replay.tolerance {
             return Err(ModelError::Golden {
                 path,
                 message: format!(

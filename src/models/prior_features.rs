@@ -474,6 +474,6 @@ mod tests {
         assert_eq!(near.len(), 5);
         assert!(near.windows(2).all(|w| w[0].1 <= w[1].1));
         assert!(near.iter().all(|(_, d)| *d <= 20.0));
-        assert!(tokens.encoder_input().len() % (MAP_ENCODER_CHUNK * MAP_TOKEN_FEATURES) == 0);
+        assert!(tokens.encoder_input().len().is_multiple_of(MAP_ENCODER_CHUNK * MAP_TOKEN_FEATURES));
     }
 }

@@ -292,7 +292,7 @@ impl AgentPolicy for PriorAgent {
         if world.state(agent).is_none() {
             return AgentAction::Absent;
         }
-        let boundary = (world.step - shared.start.min(world.step)) % TOKEN_PERIOD_STEPS == 0;
+        let boundary = (world.step - shared.start.min(world.step)).is_multiple_of(TOKEN_PERIOD_STEPS);
         if boundary || self.current.is_none() {
             self.current = shared.token(agent.0, world.step).or(self.current);
         }
