@@ -29,7 +29,13 @@ pub fn check(criteria: &VariantAcceptance, rollout: &Rollout, min_ttc_s: Option<
                 format!("planner `{}` failed at t = {t:.1} s: {reason}", rollout.planner),
             ));
         }
-        other => out.push(fail("rollout_completed", format!("the rollout was aborted: {other:?}"))),
+        Termination::InvalidAgentState { step, agent, reason } => {
+            let t = step.saturating_sub(rollout.start_step) as f64 * rollout.dt_s;
+            out.push(fail(
+                "rollout_completed",
+                format!("the rollout was aborted at t = {t:.1} s: agent {agent} has an invalid state: {reason}"),
+            ));
+        }
     }
     if criteria.no_collision
         && let Some(c) = &summary.ego_collision

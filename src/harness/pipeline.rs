@@ -143,7 +143,10 @@ fn termination_reason(termination: &Termination, rollout: &Rollout) -> String {
         Termination::PlannerFailed { step, reason } => {
             format!("planner `{}` failed at t = {:.1} s: {reason}", rollout.planner, at(*step))
         }
-        other => serde_json::to_string(other).unwrap_or_else(|_| format!("{other:?}")),
+        Termination::InvalidAgentState { step, agent, reason } => {
+            format!("the rollout was aborted at t = {:.1} s: agent {agent} has an invalid state: {reason}", at(*step))
+        }
+        Termination::Completed | Termination::EgoCollision { .. } => String::new(),
     }
 }
 

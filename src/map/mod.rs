@@ -433,7 +433,14 @@ impl RoadMap {
     /// the road, positive off it. Where drivable areas exist, membership in
     /// any of them decides the sign. `None` when the map has no road edges.
     pub fn signed_distance_to_road_edge(&self, p: &Point2) -> Option<f64> {
-        // Edges are searched in growing rings so most queries touch few cells.
+        // A non-finite point has no distance; the simulator refuses such
+        // states, and the ring search below would never reach its bound.
+        if !(p.x.is_finite() && p.y.is_finite()) {
+            return None;
+        }
+        // Edges are searched in growing rings so most queries touch few cells;
+        // the ring reaches the farthest indexed point after at most ~256
+        // quadruplings even from 1e300 m away.
         let mut radius = 8.0;
         let nearest = loop {
             let mut best: Option<PolylineProjection> = None;

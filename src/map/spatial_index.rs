@@ -1,5 +1,11 @@
 //! A uniform-grid index over the segments of many polylines, so nearest-lane
 //! and road-edge queries touch only the segments near the query point.
+//!
+//! Queries are total: any point (huge, infinite or NaN) and any radius give
+//! an answer after at most one pass over the occupied cells. Cell ranges are
+//! computed in `f64` and compared against the occupied cells when they are
+//! wider than the index, so no query walks an astronomically wide range of
+//! empty cells (a position of 1e20 m once made this a busy loop).
 
 use std::collections::{BTreeMap, HashMap};
 
@@ -59,8 +65,12 @@ impl SegmentIndex {
     }
 
     /// Distance from `p` to the farthest corner of the indexed extent: a
-    /// ring search of that radius has seen every segment.
+    /// ring search of that radius has seen every segment. Infinite for a
+    /// non-finite `p`, so a ring search never stops on a NaN comparison.
     pub fn max_distance_from(&self, p: &Point2) -> f64 {
+        if !(p.x.is_finite() && p.y.is_finite()) {
+            return f64::INFINITY;
+        }
         self.bounds.map_or(0.0, |(lo, hi)| {
             (p.x - lo.x).abs().max((p.x - hi.x).abs()).hypot((p.y - lo.y).abs().max((p.y - hi.y).abs()))
         })
@@ -73,29 +83,40 @@ impl SegmentIndex {
 
     /// Segments in cells within `radius_m` of `p`, grouped by polyline and
     /// sorted, so callers iterate deterministically. Segments may lie
-    /// farther than `radius_m`; callers check the distance.
+    /// farther than `radius_m`; callers check the distance. A non-finite `p`
+    /// or a NaN radius has no candidates; an infinite radius has all.
     pub fn candidates(&self, p: &Point2, radius_m: f64) -> BTreeMap<usize, Vec<usize>> {
         let mut out: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
-        let (c0, c1) = (cell_of(p.x - radius_m, p.y - radius_m), cell_of(p.x + radius_m, p.y + radius_m));
-        // A query wider than the whole index scans every cell once instead.
-        let span = (c1.0 - c0.0 + 1) as usize * (c1.1 - c0.1 + 1) as usize;
+        if !(p.x.is_finite() && p.y.is_finite()) || radius_m.is_nan() {
+            return out;
+        }
+        let r = radius_m.max(0.0);
+        // Cell bounds as f64: exact for any cell the index can hold, and free
+        // of the i64 overflow that `(x / CELL_M) as i64` saturation plus
+        // `hi - lo + 1` arithmetic ran into for huge coordinates.
+        let (lo_x, hi_x) = (((p.x - r) / CELL_M).floor(), ((p.x + r) / CELL_M).floor());
+        let (lo_y, hi_y) = (((p.y - r) / CELL_M).floor(), ((p.y + r) / CELL_M).floor());
+        let span = (hi_x - lo_x + 1.0) * (hi_y - lo_y + 1.0);
         let mut push = |refs: &Vec<(u32, u32)>| {
             for &(pi, si) in refs {
                 out.entry(pi as usize).or_default().push(si as usize);
             }
         };
-        if span > self.cells.len() {
-            for (cell, refs) in &self.cells {
-                if (c0.0..=c1.0).contains(&cell.0) && (c0.1..=c1.1).contains(&cell.1) {
-                    push(refs);
-                }
-            }
-        } else {
-            for cx in c0.0..=c1.0 {
-                for cy in c0.1..=c1.1 {
+        if span.is_finite() && span <= self.cells.len() as f64 {
+            // Few enough cells to look each up; all bounds are small integers here.
+            for cx in lo_x as i64..=hi_x as i64 {
+                for cy in lo_y as i64..=hi_y as i64 {
                     if let Some(refs) = self.cells.get(&(cx, cy)) {
                         push(refs);
                     }
+                }
+            }
+        } else {
+            // A query wider than the whole index scans every occupied cell once.
+            for (cell, refs) in &self.cells {
+                let (cx, cy) = (cell.0 as f64, cell.1 as f64);
+                if (lo_x..=hi_x).contains(&cx) && (lo_y..=hi_y).contains(&cy) {
+                    push(refs);
                 }
             }
         }
@@ -119,5 +140,37 @@ mod tests {
         assert!(index.cell_count() < 5_000, "{}", index.cell_count());
         let hits = index.candidates(&Point2::new(5_000.0, 5_000.0), 1.0);
         assert_eq!(hits.get(&0), Some(&vec![0]));
+    }
+
+    fn two_segments() -> SegmentIndex {
+        let a = Polyline::new(vec![Point2::new(0.0, 0.0), Point2::new(100.0, 0.0)]);
+        let b = Polyline::new(vec![Point2::new(0.0, 50.0), Point2::new(100.0, 50.0)]);
+        SegmentIndex::build([&a, &b])
+    }
+
+    #[test]
+    fn huge_and_non_finite_queries_return_at_once() {
+        // Each of these once walked (or overflowed into) an i64 range of
+        // empty cells; now they are answered from the occupied cells.
+        let index = two_segments();
+        for (p, r) in [
+            (Point2::new(1e20, 0.0), 1e20),
+            (Point2::new(1e20, -1e20), 8.0),
+            (Point2::new(-1e300, 1e300), 1e300),
+            (Point2::new(0.0, 0.0), f64::INFINITY),
+            (Point2::new(0.0, 0.0), f64::MAX),
+            (Point2::new(9e18, 9e18), 1e19),
+        ] {
+            let hits = index.candidates(&p, r);
+            assert!(hits.len() <= 2, "{p:?} {r}: {hits:?}");
+        }
+        // A huge radius around the map sees both polylines; infinity does too.
+        assert_eq!(index.candidates(&Point2::new(1e20, 0.0), 2e20).len(), 2);
+        assert_eq!(index.candidates(&Point2::new(0.0, 0.0), f64::INFINITY).len(), 2);
+        // NaN anywhere: no candidates, and an infinite ring-search bound.
+        assert!(index.candidates(&Point2::new(f64::NAN, 0.0), 10.0).is_empty());
+        assert!(index.candidates(&Point2::new(0.0, 0.0), f64::NAN).is_empty());
+        assert!(index.candidates(&Point2::new(f64::INFINITY, 0.0), 10.0).is_empty());
+        assert_eq!(index.max_distance_from(&Point2::new(f64::NAN, 0.0)), f64::INFINITY);
     }
 }

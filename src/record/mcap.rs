@@ -717,6 +717,11 @@ impl Recorder<'_> {
                 log::Level::Error,
                 format!("planner failed at {}: {reason}", self.time_text(*step)),
             )),
+            Termination::InvalidAgentState { step, agent, reason } => out.push(log(
+                at(*step),
+                log::Level::Error,
+                format!("rollout aborted at {}: agent {agent} has an invalid state: {reason}", self.time_text(*step)),
+            )),
         }
         out
     }

@@ -285,9 +285,16 @@ pub(super) fn render_rollout(
     if background > 0 {
         let _ = write!(line2, " · {background} background collision{}", if background == 1 { "" } else { "s" });
     }
-    if let Termination::PlannerFailed { step, reason } = &rollout.termination {
-        let when = to_k(*step).map_or_else(|| "?".to_string(), |k| time_text(k, rollout.dt_s));
-        let _ = write!(line2, " · planner failed at {when}: {reason}");
+    match &rollout.termination {
+        Termination::PlannerFailed { step, reason } => {
+            let when = to_k(*step).map_or_else(|| "?".to_string(), |k| time_text(k, rollout.dt_s));
+            let _ = write!(line2, " · planner failed at {when}: {reason}");
+        }
+        Termination::InvalidAgentState { step, agent, reason } => {
+            let when = to_k(*step).map_or_else(|| "?".to_string(), |k| time_text(k, rollout.dt_s));
+            let _ = write!(line2, " · aborted at {when}: agent {agent}: {reason}");
+        }
+        Termination::Completed | Termination::EgoCollision { .. } => {}
     }
     draw(
         &Picture {

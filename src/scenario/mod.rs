@@ -8,6 +8,7 @@
 //! learned models consume are `f32`. [`Scenario::origin_world`] keeps the
 //! offset so outputs can be mapped back.
 
+pub mod bounds;
 pub mod import;
 pub mod roles;
 
@@ -305,6 +306,16 @@ impl Scenario {
         self.origin_world += offset;
     }
 
+    /// The first recorded state (track, step, why) outside a box of
+    /// ±`max_abs_position_m` or otherwise implausible ([`bounds`]).
+    pub fn first_implausible_state(&self, max_abs_position_m: f64) -> Option<(TrackIndex, usize, String)> {
+        self.tracks.iter().enumerate().find_map(|(i, t)| {
+            t.states.iter().enumerate().find_map(|(k, s)| {
+                bounds::implausibility_within(s.as_ref()?, max_abs_position_m).map(|why| (TrackIndex(i), k, why))
+            })
+        })
+    }
+
     /// Checks the invariants every importer must establish: equal track
     /// lengths, finite values, headings in `(-π, π]`, positive sizes, roles
     /// that index existing tracks, `current_step` inside the tracks.
@@ -333,6 +344,9 @@ impl Scenario {
                     && s.velocity_mps.y.is_finite();
                 if !finite {
                     return fail(format!("track {} ({}) step {k}: non-finite state {s:?}", i, t.id));
+                }
+                if let Some(why) = bounds::implausibility(s) {
+                    return fail(format!("track {} ({}) step {k}: {why} after re-centring", i, t.id));
                 }
                 if (wrap_angle(s.heading_rad) - s.heading_rad).abs() > 1e-9 {
                     return fail(format!("track {} ({}) step {k}: heading {} outside (-π, π]", i, t.id, s.heading_rad));

@@ -149,6 +149,27 @@ impl<'a> Simulation<'a> {
         let end = self.config.end_step.unwrap_or(scenario.num_steps() - 1);
         let bodies: Vec<AgentBody> = scenario.tracks.iter().map(|t| t.body()).collect();
         let mut states: Vec<Option<AgentState>> = scenario.tracks.iter().map(|t| t.state(start).copied()).collect();
+        // Recorded starts are validated at import; this keeps hand-built
+        // scenarios from feeding nonsense to the event detector as well.
+        if let Some((agent, reason)) = self.first_invalid(&states) {
+            // Nothing is simulated; the record keeps only the valid agents.
+            let valid = states.iter().map(|s| s.filter(|s| crate::scenario::bounds::implausibility(s).is_none())).collect();
+            return Rollout {
+                scenario_id: scenario.id.clone(),
+                dt_s: SIM_DT_S,
+                start_step: start,
+                ego: self.ego,
+                cbv: scenario.cbv,
+                agent_ids: scenario.tracks.iter().map(|t| t.id.clone()).collect(),
+                bodies,
+                states: vec![valid],
+                collisions: Vec::new(),
+                off_road: Vec::new(),
+                min_distance_to_ego: None,
+                termination: Termination::InvalidAgentState { step: start, agent, reason },
+                planner: planner.name().to_string(),
+            };
+        }
         let mut detector = events::EventDetector::new(scenario, self.ego, &bodies, &states, start);
         let mut record = vec![states.clone()];
         let mut termination = Termination::Completed;
@@ -170,12 +191,20 @@ impl<'a> Simulation<'a> {
                 apply_planner_output(&ego_now, &out)
             });
             let mut next = advance(&states, &actions);
+            let ego_next = ego_next.and_then(|s| match crate::scenario::bounds::implausibility(&s) {
+                None => Ok(s),
+                Some(why) => Err(format!("the planner's output puts the ego at an invalid state: {why}")),
+            });
             match ego_next {
                 Ok(s) => next[self.ego.0] = Some(s),
                 Err(reason) => {
                     termination = Termination::PlannerFailed { step, reason };
                     break;
                 }
+            }
+            if let Some((agent, reason)) = self.first_invalid(&next) {
+                termination = Termination::InvalidAgentState { step: step + 1, agent, reason };
+                break;
             }
             states = next;
             record.push(states.clone());
@@ -201,6 +230,14 @@ impl<'a> Simulation<'a> {
             termination,
             planner: planner.name().to_string(),
         }
+    }
+
+    /// The first agent (in track order) whose state is implausible, with why.
+    fn first_invalid(&self, states: &[Option<AgentState>]) -> Option<(crate::scenario::AgentId, String)> {
+        states.iter().enumerate().find_map(|(i, s)| {
+            let why = crate::scenario::bounds::implausibility(s.as_ref()?)?;
+            Some((self.scenario.tracks[i].id.clone(), why))
+        })
     }
 
     fn observe<'m>(
@@ -438,5 +475,85 @@ mod tests {
             Termination::PlannerFailed { step: 0, reason } => assert!(reason.contains("non-finite"), "{reason}"),
             other => panic!("{other:?}"),
         }
+    }
+
+    /// A planner that always gives the same output.
+    struct Fixed(PlannerOutput);
+
+    impl Planner for Fixed {
+        fn name(&self) -> &str {
+            "fixed"
+        }
+        fn plan(&mut self, _: &Observation<'_>) -> Result<PlannerOutput, crate::planners::PlannerError> {
+            Ok(self.0.clone())
+        }
+    }
+
+    fn planner_failure(output: PlannerOutput) -> (usize, String) {
+        let s = stopped_car_ahead();
+        let r = Simulation::new(&s, SimConfig::default()).unwrap().run(&mut Fixed(output));
+        match r.termination {
+            Termination::PlannerFailed { step, reason } => (step, reason),
+            other => panic!("{other:?}"),
+        }
+    }
+
+    #[test]
+    fn a_huge_acceleration_is_a_planner_failure_not_a_hang() {
+        let control = crate::motion::Action { accel_mps2: 1e100, yaw_rate_radps: 0.0 };
+        let (step, reason) = planner_failure(PlannerOutput::Control(control));
+        assert_eq!(step, 0);
+        assert!(reason.contains("outside the simulation bounds"), "{reason}");
+    }
+
+    #[test]
+    fn a_trajectory_point_at_1e20_is_a_planner_failure_not_a_hang() {
+        let far = AgentState {
+            position: Point2::new(1e20, 0.0),
+            heading_rad: 0.0,
+            velocity_mps: Vector2::new(12.0, 0.0),
+        };
+        let point = crate::planners::TrajectoryPoint { time_s: 0.1, state: far };
+        let (_, reason) = planner_failure(PlannerOutput::Trajectory(vec![point]));
+        assert!(reason.contains("x = 1e20 m"), "{reason}");
+    }
+
+    #[test]
+    fn a_background_policy_producing_nan_aborts_the_rollout_naming_the_agent() {
+        struct Nonsense;
+        impl AgentPolicy for Nonsense {
+            fn name(&self) -> &'static str {
+                "nonsense"
+            }
+            fn act(&mut self, world: &WorldView<'_>, agent: TrackIndex) -> AgentAction {
+                let mut s = world.states[agent.0].unwrap();
+                s.position.x = f64::NAN;
+                AgentAction::Teleport(s)
+            }
+        }
+        let s = stopped_car_ahead();
+        let mut sim = Simulation::new(&s, SimConfig::default()).unwrap();
+        sim.set_policy(TrackIndex(1), Box::new(Nonsense));
+        let mut p = BuiltinPlanner::ConstantVelocity.instantiate(&s, TrackIndex(0));
+        let r = sim.run(p.as_mut());
+        match &r.termination {
+            Termination::InvalidAgentState { step: 1, agent, reason } => {
+                assert_eq!(agent.0, "stopped");
+                assert!(reason.contains("x = NaN"), "{reason}");
+            }
+            other => panic!("{other:?}"),
+        }
+        // The invalid state is not in the record.
+        assert_eq!(r.states.len(), 1);
+    }
+
+    #[test]
+    fn a_recorded_start_state_out_of_bounds_aborts_before_the_first_step() {
+        let mut s = stopped_car_ahead();
+        s.tracks[1].states[0].as_mut().unwrap().position.x = 1e20;
+        let mut p = BuiltinPlanner::ConstantVelocity.instantiate(&s, TrackIndex(0));
+        let r = Simulation::new(&s, SimConfig::default()).unwrap().run(p.as_mut());
+        assert!(matches!(r.termination, Termination::InvalidAgentState { step: 0, .. }), "{:?}", r.termination);
+        assert_eq!(r.states[0][1], None);
     }
 }

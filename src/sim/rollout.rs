@@ -14,11 +14,23 @@ pub enum Termination {
         /// Step of the collision.
         step: usize,
     },
-    /// The planner failed; the rollout stops there.
+    /// The planner failed (crashed, hung, answered garbage, or drove the
+    /// ego to a non-finite or out-of-bounds state); the rollout stops there.
     PlannerFailed {
         /// Step at which it was asked.
         step: usize,
         /// What went wrong.
+        reason: String,
+    },
+    /// A background agent's policy produced a non-finite or out-of-bounds
+    /// state (see [`super::bounds`]); the rollout stops there rather than
+    /// compute on nonsense.
+    InvalidAgentState {
+        /// Step of the invalid state.
+        step: usize,
+        /// The agent.
+        agent: AgentId,
+        /// Which value, and the bound it broke.
         reason: String,
     },
 }

@@ -239,6 +239,9 @@ impl SignalContext {
         // Waymo's distance d' and the point–segment distance d of the same
         // segment satisfy d' >= d - 2·len, so segments outside the searched
         // square (d > r) cannot beat a candidate with d' <= r - 2·max_len.
+        if !(p.x.is_finite() && p.y.is_finite()) {
+            return None;
+        }
         let mut radius = 8.0 + 2.0 * self.max_segment_m;
         loop {
             let mut best: Option<(f64, usize)> = None;

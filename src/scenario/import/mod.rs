@@ -152,6 +152,18 @@ pub fn load(path: &Path) -> Result<Vec<Scenario>, ImportError> {
         SourceFormat::Authored => unreachable!("detect_format never returns Authored"),
     };
     for s in &mut scenarios {
+        // Before re-centring, which would spread one absurd sample's offset
+        // over every other agent.
+        if let Some((track, step, why)) = s.first_implausible_state(super::bounds::MAX_ABS_WORLD_POSITION_M) {
+            let t = s.track(track);
+            let time_s = step as f64 * s.dt_s;
+            return Err(ImportError::malformed(
+                path,
+                format,
+                Location::Element(format!("agent {} (track {}), step {step} (t = {time_s:.1} s)", t.id, track.0)),
+                format!("implausible recorded state: {why}"),
+            ));
+        }
         s.recentre();
         roles::assign(s);
         s.validate().map_err(|v| ImportError::malformed(path, format, Location::File, v.to_string()))?;
