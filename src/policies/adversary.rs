@@ -117,6 +117,14 @@ impl Adversary {
                     .unwrap_or_else(|p| p.into_inner())
                     .add_feasibility_time(clock.elapsed().as_secs_f64());
                 let values = values?;
+                // A NaN value is a broken model, not a feasible state: fail
+                // the variant with the model named rather than guess.
+                if let Some(i) = values.iter().position(|v| v.is_nan()) {
+                    return Err(ModelError::Inference {
+                        model: "feasibility value V_h".into(),
+                        message: format!("returned NaN for candidate token {} of {}", i, values.len()),
+                    });
+                }
                 distances
                     .iter()
                     .zip(values)
@@ -127,16 +135,23 @@ impl Adversary {
         // Among the candidates (nearly) as adversarial as the best, draw one
         // by its prior probability with the variant's seed: seeds then give
         // different, equally adversarial variants, and likelier tokens win.
+        // A NaN distance (never expected: states are bounds-checked) ranks last.
+        let losses: Vec<f64> = losses.into_iter().map(|l| if l.is_nan() { f64::INFINITY } else { l }).collect();
         let best_loss = losses.iter().copied().fold(f64::INFINITY, f64::min);
         let near: Vec<usize> =
             (0..candidates.len()).filter(|&i| losses[i] <= best_loss + NEAR_OPTIMAL_LOSS_M).collect();
+        let Some(&last) = near.last() else {
+            // Every loss infinite: no candidate is better than another, so
+            // the prior's likeliest token drives the CBV.
+            return Ok(candidates.first().copied());
+        };
         let weights: Vec<f64> = {
             let top = near.iter().map(|&i| logits[candidates[i].0 as usize]).fold(f32::NEG_INFINITY, f32::max);
             near.iter().map(|&i| ((logits[candidates[i].0 as usize] - top) as f64).exp()).collect()
         };
         let mut rng = ChaCha8Rng::seed_from_u64(draw_seed(seed, cbv.0, world.step));
         let mut u = rng.random::<f64>() * weights.iter().sum::<f64>();
-        let mut best = near[near.len() - 1];
+        let mut best = last;
         for (&i, w) in near.iter().zip(&weights) {
             if u < *w {
                 best = i;

@@ -94,3 +94,32 @@ fn every_ablation_runs_by_name() {
     }
     assert_eq!(records.len(), 3);
 }
+
+/// A feasibility model that answers NaN (a broken export, say).
+struct NanFeasibility;
+
+impl safer::policies::adversary::FeasibilityOracle for NanFeasibility {
+    fn values(
+        &self,
+        pairs: &[safer::policies::adversary::EgoCbvState],
+    ) -> Result<Vec<f32>, safer::models::ModelError> {
+        Ok(vec![f32::NAN; pairs.len()])
+    }
+}
+
+#[test]
+fn a_feasibility_model_answering_nan_fails_the_variant_naming_the_model() {
+    // It once made every loss NaN and the adversary index an empty list.
+    let shipped = ModelSet::shipped();
+    let models = ModelSet {
+        dir: shipped.dir.clone(),
+        prior: shipped.prior.clone(),
+        prior_plain: shipped.prior_plain.clone(),
+        feasibility: Ok(Arc::new(NanFeasibility)),
+    };
+    let scenes = scenes();
+    let records = evaluate(&scenes[..1], &request(vec![AdversaryMethod::Safer], 1), &models, None, &|| {});
+    assert_eq!(records.len(), 1);
+    let error = records[0].error.as_deref().expect("the variant must fail, not pass on NaN");
+    assert!(error.contains("feasibility value V_h") && error.contains("NaN"), "{error}");
+}
