@@ -10,7 +10,7 @@ use crate::scenario::Scenario;
 use crate::spec::planner::{PlannerAdapter, PlannerSpec};
 use crate::spec::scenario::ScenarioSpec;
 use crate::spec::suite::{PlannerRef, ScenarioSource, SuiteSpec};
-use crate::spec::{Loaded, SpecError, SpecLocation, load_yaml};
+use crate::spec::{Loaded, SpecError, load_yaml};
 
 /// A scenario of a suite, by name and source.
 #[derive(Debug, Clone)]
@@ -40,7 +40,10 @@ pub fn sanitize(name: &str) -> String {
 impl Suite {
     /// Loads and validates a suite file (and its planner and scenario specs' names).
     pub fn load(path: &Path) -> Result<Suite, SpecError> {
-        let spec = load_yaml::<SuiteSpec>(path)?;
+        let text =
+            std::fs::read_to_string(path).map_err(|source| SpecError::Io { path: path.to_path_buf(), source })?;
+        crate::spec::suite::check_shapes(&text, path)?;
+        let spec = crate::spec::parse_yaml::<SuiteSpec>(&text, path)?;
         spec.validate()?;
         let planner = match &spec.value.planner {
             PlannerRef::Builtin { builtin } => PlannerAdapter::Builtin {
@@ -51,10 +54,7 @@ impl Suite {
             PlannerRef::File(f) => {
                 let p = crate::spec::paths::resolve(spec.dir(), &f.value);
                 if !p.is_file() {
-                    return Err(spec.reference(
-                        SpecLocation::from_saphyr(&f.referenced),
-                        format!("planner spec {} does not exist", p.display()),
-                    ));
+                    return Err(spec.reference_at("planner", format!("planner spec {} does not exist", p.display())));
                 }
                 load_yaml::<PlannerSpec>(&p)?.validate()?
             }
@@ -62,14 +62,19 @@ impl Suite {
         let mut scenarios = Vec::new();
         for source in spec.scenario_sources()? {
             let name = match &source {
-                ScenarioSource::Spec(p) => load_yaml::<ScenarioSpec>(p)?.value.name,
+                ScenarioSource::Spec(p) => {
+                    let scenario = load_yaml::<ScenarioSpec>(p)?;
+                    crate::spec::suite::check_test_name(&scenario, "name", &scenario.value.name)?;
+                    scenario.value.name
+                }
                 ScenarioSource::Recorded(p) => {
                     p.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| p.display().to_string())
                 }
             };
             let name = sanitize(&name);
             if scenarios.iter().any(|s: &SuiteScenario| s.name == name) {
-                return Err(spec.invalid(None, format!("two scenarios are named `{name}`; test names must be unique")));
+                return Err(spec
+                    .invalid_at("scenarios", format!("two scenarios are named `{name}`; test names must be unique")));
             }
             scenarios.push(SuiteScenario { name, source });
         }

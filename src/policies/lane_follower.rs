@@ -44,6 +44,35 @@ pub struct IdmParams {
     pub sensing_range_m: f64,
 }
 
+impl IdmParams {
+    /// The first parameter outside its plausible range, with why: IDM with a
+    /// desired speed of 1e300 m/s or a negative headway is not a driver.
+    pub fn implausible_field(&self) -> Option<(&'static str, String)> {
+        let ranges: [(&'static str, Option<f64>, f64, f64); 11] = [
+            ("desired_speed_mps", self.desired_speed_mps, 0.0, 70.0),
+            ("fallback_speed_mps", Some(self.fallback_speed_mps), 0.0, 70.0),
+            ("max_accel_mps2", Some(self.max_accel_mps2), 0.0, 10.0),
+            ("comfort_decel_mps2", Some(self.comfort_decel_mps2), 0.0, 10.0),
+            ("max_decel_mps2", Some(self.max_decel_mps2), 0.0, 15.0),
+            ("time_headway_s", Some(self.time_headway_s), 0.0, 10.0),
+            ("min_gap_m", Some(self.min_gap_m), 0.0, 50.0),
+            ("exponent", Some(self.exponent), 0.0, 10.0),
+            ("lookahead_time_s", Some(self.lookahead_time_s), 0.0, 5.0),
+            ("min_lookahead_m", Some(self.min_lookahead_m), 0.0, 100.0),
+            ("sensing_range_m", Some(self.sensing_range_m), 0.0, 500.0),
+        ];
+        ranges.into_iter().find_map(|(name, value, min, max)| {
+            let v = value?;
+            // Speeds, accelerations, the exponent and ranges must be positive;
+            // headway and gaps may be zero.
+            let zero_ok = matches!(name, "time_headway_s" | "min_gap_m" | "lookahead_time_s");
+            let ok = v.is_finite() && (v > min || (zero_ok && v == min)) && v <= max;
+            let open = if zero_ok { "[" } else { "(" };
+            (!ok).then(|| (name, format!("must be a number in {open}{min}, {max}], got {v}")))
+        })
+    }
+}
+
 impl Default for IdmParams {
     fn default() -> Self {
         Self {

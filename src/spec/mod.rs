@@ -8,6 +8,7 @@
 //! Errors carry the file's text so the CLI can render them with miette.
 //! `safer schema` exports a JSON Schema per spec kind for editors.
 
+pub mod locate;
 pub mod paths;
 pub mod planner;
 pub mod scenario;
@@ -46,7 +47,7 @@ pub enum SpecError {
         source: std::io::Error,
     },
     /// YAML syntax or a value of the wrong shape or type.
-    #[error("{path}:{location}: {message}", path = path.display(), location = fmt_location(location))]
+    #[error("{path}{location}: {message}", path = path.display(), location = fmt_location(location))]
     Parse {
         /// The file.
         path: PathBuf,
@@ -58,7 +59,7 @@ pub enum SpecError {
         text: String,
     },
     /// The YAML parsed but says something impossible.
-    #[error("{path}:{location}: {message}", path = path.display(), location = fmt_location(location))]
+    #[error("{path}{location}: {message}", path = path.display(), location = fmt_location(location))]
     Invalid {
         /// The file.
         path: PathBuf,
@@ -70,7 +71,7 @@ pub enum SpecError {
         text: String,
     },
     /// A file a spec refers to could not be used.
-    #[error("{path}:{location}: {message}", path = path.display(), location = fmt_location(location))]
+    #[error("{path}{location}: {message}", path = path.display(), location = fmt_location(location))]
     Reference {
         /// The spec file.
         path: PathBuf,
@@ -83,8 +84,11 @@ pub enum SpecError {
     },
 }
 
+/// `:LINE:COLUMN`, or nothing when the place is unknown (an error about a
+/// whole file, such as a recorded log that does not import, says where in
+/// that file itself).
 fn fmt_location(l: &Option<SpecLocation>) -> String {
-    l.map_or_else(|| "?".to_string(), |l| format!("{}:{}", l.line, l.column))
+    l.map_or_else(String::new, |l| format!(":{}:{}", l.line, l.column))
 }
 
 impl SpecError {
@@ -147,8 +151,67 @@ impl<T> Loaded<T> {
     }
 
     /// The folder the file is in (relative references resolve against it).
+    /// `.` for a bare file name, whose parent is the empty path: an empty
+    /// working directory made external planners fail to start.
     pub fn dir(&self) -> &Path {
-        self.path.parent().unwrap_or(Path::new("."))
+        self.path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."))
+    }
+
+    /// Where the value at `path` (`acceptance.variant.min_gap_m`,
+    /// `agents[2].length_m`) is written, or its nearest written ancestor.
+    pub fn at(&self, path: &str) -> Option<SpecLocation> {
+        locate::locate(&self.text, path)
+    }
+
+    /// An [`SpecError::Invalid`] at the value `path`.
+    pub fn invalid_at(&self, path: &str, message: impl Into<String>) -> SpecError {
+        self.invalid(self.at(path), message)
+    }
+
+    /// An [`SpecError::Reference`] at the value `path`.
+    pub fn reference_at(&self, path: &str, message: impl Into<String>) -> SpecError {
+        self.reference(self.at(path), message)
+    }
+
+    /// Checks that the number written at `path` is finite and within
+    /// `range` (`unit` for the message).
+    pub fn check_number(&self, path: &str, value: f64, range: NumberRange, unit: &str) -> Result<(), SpecError> {
+        if value.is_finite() && range.contains(value) {
+            return Ok(());
+        }
+        let key = path.rsplit('.').next().unwrap_or(path);
+        Err(self.invalid_at(path, format!("`{key}` must be a number in {} {unit}, got {value}", range.describe())))
+    }
+}
+
+/// A closed or half-open range a spec number must lie in.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NumberRange {
+    /// Lower bound.
+    pub min: f64,
+    /// Whether the lower bound itself is allowed.
+    pub min_inclusive: bool,
+    /// Upper bound (inclusive).
+    pub max: f64,
+}
+
+impl NumberRange {
+    /// `[min, max]`.
+    pub const fn closed(min: f64, max: f64) -> Self {
+        Self { min, min_inclusive: true, max }
+    }
+
+    /// `(min, max]`: for sizes, durations and rates that must be positive.
+    pub const fn above(min: f64, max: f64) -> Self {
+        Self { min, min_inclusive: false, max }
+    }
+
+    fn contains(&self, v: f64) -> bool {
+        (if self.min_inclusive { v >= self.min } else { v > self.min }) && v <= self.max
+    }
+
+    fn describe(&self) -> String {
+        format!("{}{}, {}]", if self.min_inclusive { "[" } else { "(" }, self.min, self.max)
     }
 }
 

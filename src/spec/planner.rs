@@ -57,7 +57,17 @@ pub struct ExternalSpec {
     /// Time allowed to start and answer `hello`, ms.
     #[serde(default = "default_startup_timeout")]
     pub startup_timeout_ms: u64,
+    /// Extra environment variables for the process (added to the harness's own).
+    #[serde(default)]
+    pub env: std::collections::BTreeMap<String, String>,
+    /// Working directory, relative to the planner spec's folder (default: that folder).
+    #[serde(default)]
+    pub working_dir: Option<String>,
 }
+
+/// The longest step or startup timeout a spec may ask for, ms (10 min): a
+/// longer one is a typo, and would stall a CI run for hours.
+pub const MAX_TIMEOUT_MS: u64 = 600_000;
 
 fn default_step_timeout() -> u64 {
     1000
@@ -86,13 +96,15 @@ pub enum PlannerAdapter {
         /// IDM parameters.
         idm: IdmParams,
     },
-    /// External process, started in `working_dir`.
+    /// External process, started in `working_dir` with `spec.env` added
+    /// to its environment.
     External {
         /// Name for reports.
         name: String,
         /// The process.
         spec: ExternalSpec,
-        /// Working directory (the spec's folder).
+        /// Working directory: `spec.working_dir` resolved against the spec's
+        /// folder, else that folder.
         working_dir: std::path::PathBuf,
     },
 }
@@ -112,8 +124,8 @@ impl super::Loaded<PlannerSpec> {
         let s = &self.value;
         let given = [s.builtin.is_some(), s.external.is_some(), s.onnx.is_some()].iter().filter(|b| **b).count();
         if given != 1 {
-            return Err(self.invalid(
-                None,
+            return Err(self.invalid_at(
+                "name",
                 format!(
                     "planner `{}` must have exactly one of `builtin: idm`, `external: {{command: ...}}` or `onnx: {{model: ...}}`; found {given}",
                     s.name
@@ -121,20 +133,45 @@ impl super::Loaded<PlannerSpec> {
             ));
         }
         if s.idm.is_some() && s.builtin != Some(BuiltinPlanner::Idm) {
-            return Err(self.invalid(None, "`idm:` parameters apply only to `builtin: idm`"));
+            return Err(self.invalid_at("idm", "`idm:` parameters apply only to `builtin: idm`"));
+        }
+        if let Some(idm) = &s.idm
+            && let Some((field, why)) = idm.implausible_field()
+        {
+            return Err(self.invalid_at(&format!("idm.{field}"), format!("`idm.{field}` {why}")));
         }
         if let Some(b) = s.builtin {
             return Ok(PlannerAdapter::Builtin { name: s.name.clone(), planner: b, idm: s.idm.unwrap_or_default() });
         }
         if let Some(e) = &s.external {
-            return Ok(PlannerAdapter::External {
-                name: s.name.clone(),
-                spec: e.clone(),
-                working_dir: self.dir().to_path_buf(),
-            });
+            for (key, value) in [("step_timeout_ms", e.step_timeout_ms), ("startup_timeout_ms", e.startup_timeout_ms)] {
+                if value == 0 || value > MAX_TIMEOUT_MS {
+                    return Err(self.invalid_at(
+                        &format!("external.{key}"),
+                        format!("`{key}` must be 1..={MAX_TIMEOUT_MS} ms (10 min), got {value}"),
+                    ));
+                }
+            }
+            if let Some(bad) = e.env.keys().find(|k| k.is_empty() || k.contains('=') || k.contains('\0')) {
+                return Err(self.invalid_at("external.env", format!("environment variable name `{bad}` is not valid")));
+            }
+            let working_dir = match &e.working_dir {
+                None => self.dir().to_path_buf(),
+                Some(w) => {
+                    let dir = self.dir().join(w);
+                    if !dir.is_dir() {
+                        return Err(self.reference_at(
+                            "external.working_dir",
+                            format!("working directory {} does not exist", dir.display()),
+                        ));
+                    }
+                    dir
+                }
+            };
+            return Ok(PlannerAdapter::External { name: s.name.clone(), spec: e.clone(), working_dir });
         }
-        Err(self.invalid(
-            None,
+        Err(self.invalid_at(
+            "onnx",
             "ONNX planner policies are not supported yet (tract integration lands with the learned models); use `builtin` or `external`",
         ))
     }

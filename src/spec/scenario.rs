@@ -25,7 +25,7 @@ use schemars::JsonSchema;
 use serde::Deserialize;
 use serde_saphyr::Spanned;
 
-use super::{Loaded, SpecError, SpecLocation, paths};
+use super::{Loaded, NumberRange, SpecError, SpecLocation, paths};
 use crate::geometry::{Point2, Vector2};
 use crate::map::MapElementId;
 use crate::map::templates::MapTemplate;
@@ -174,12 +174,12 @@ impl Loaded<ScenarioSpec> {
         match (&s.recorded, authored) {
             (Some(r), false) => self.build_recorded(r),
             (None, true) => Ok(vec![self.build_authored()?]),
-            (Some(_), true) => Err(self.invalid(
-                None,
+            (Some(_), true) => Err(self.invalid_at(
+                "recorded",
                 "a scenario is either `recorded:` or authored (`map`, `agents`, `ego`, `duration_s`), not both",
             )),
-            (None, false) => Err(self.invalid(
-                None,
+            (None, false) => Err(self.invalid_at(
+                "name",
                 "empty scenario: give `recorded: {path: ...}` or `map:`, `agents:`, `ego:` and `duration_s:`",
             )),
         }
@@ -223,18 +223,32 @@ impl Loaded<ScenarioSpec> {
 
     fn build_authored(&self) -> Result<Scenario, SpecError> {
         let s = &self.value;
-        let template = s
-            .map
-            .as_ref()
-            .ok_or_else(|| self.invalid(None, "authored scenario needs `map:` (straight, merge or intersection)"))?;
-        let duration_s = s.duration_s.ok_or_else(|| self.invalid(None, "authored scenario needs `duration_s:`"))?;
-        if !(duration_s > 0.0 && duration_s <= 60.0) {
-            return Err(self.invalid(None, format!("duration_s must be in (0, 60] s, got {duration_s}")));
-        }
-        template.validate().map_err(|e| self.invalid(None, format!("map: {e}")))?;
+        let template = s.map.as_ref().ok_or_else(|| {
+            self.invalid_at("map", "authored scenario needs `map:` (straight, merge or intersection)")
+        })?;
+        let duration_s =
+            s.duration_s.ok_or_else(|| self.invalid_at("duration_s", "authored scenario needs `duration_s:`"))?;
+        // At least one simulation step (0.1 s), at most a minute.
+        self.check_number("duration_s", duration_s, NumberRange::closed(0.1, 60.0), "s")?;
+        template.validate().map_err(|e| self.invalid_at("map", format!("map: {e}")))?;
         let map = template.build();
         let mut agents = Vec::new();
-        for a in &s.agents {
+        for (i, a) in s.agents.iter().enumerate() {
+            let field = |name: &str| format!("agents[{i}].{name}");
+            for (name, value, range, unit) in [
+                ("length_m", a.length_m, NumberRange::above(0.0, 30.0), "m"),
+                ("width_m", a.width_m, NumberRange::above(0.0, 10.0), "m"),
+                ("lateral_offset_m", a.lateral_offset_m, NumberRange::closed(-20.0, 20.0), "m"),
+                ("x_m", a.x_m, NumberRange::closed(-1e5, 1e5), "m"),
+                ("y_m", a.y_m, NumberRange::closed(-1e5, 1e5), "m"),
+                ("heading_deg", a.heading_deg, NumberRange::closed(-720.0, 720.0), "°"),
+                ("speed_mps", Some(a.speed_mps), NumberRange::closed(0.0, 70.0), "m/s"),
+                ("desired_speed_mps", a.desired_speed_mps, NumberRange::above(0.0, 70.0), "m/s"),
+            ] {
+                if let Some(v) = value {
+                    self.check_number(&field(name), v, range, unit)?;
+                }
+            }
             if agents.iter().any(|x: &AuthoredAgent| x.id.0 == a.id.value) {
                 return Err(self.invalid(loc(&a.id), format!("duplicate agent id `{}`", a.id.value)));
             }
@@ -247,9 +261,9 @@ impl Loaded<ScenarioSpec> {
                             format!("agent `{}`: no lane {lane} in this map; lanes are {}", a.id.value, ids.join(", ")),
                         )
                     })?;
-                    if s_m < 0.0 || s_m > l.centreline.length_m() {
-                        return Err(self.invalid(
-                            loc(&a.id),
+                    if !(s_m.is_finite() && s_m >= 0.0 && s_m <= l.centreline.length_m()) {
+                        return Err(self.invalid_at(
+                            &field("s_m"),
                             format!(
                                 "agent `{}`: s_m {s_m} is outside lane {lane} (0..{:.1} m)",
                                 a.id.value,
@@ -310,7 +324,7 @@ impl Loaded<ScenarioSpec> {
         let ego = s
             .ego
             .as_ref()
-            .ok_or_else(|| self.invalid(None, "authored scenario needs `ego:` naming one of the agents"))?;
+            .ok_or_else(|| self.invalid_at("ego", "authored scenario needs `ego:` naming one of the agents"))?;
         let ego = find(ego, "ego")?;
         let cbv = s.cbv.as_ref().map(|c| find(c, "cbv")).transpose()?;
         if cbv == Some(ego) {

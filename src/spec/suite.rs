@@ -54,9 +54,10 @@ fn one() -> u32 {
     1
 }
 
-/// One entry of `scenarios:`.
+/// One entry of `scenarios:`. Untagged, so serde alone would ignore a
+/// mistyped key; [`check_shapes`] refuses those before the typed parse.
 #[derive(Debug, Clone, Deserialize, JsonSchema)]
-#[serde(untagged)]
+#[serde(untagged, deny_unknown_fields)]
 pub enum ScenarioEntry {
     /// A scenario spec file.
     File(#[schemars(with = "String")] Spanned<String>),
@@ -77,9 +78,10 @@ pub enum ScenarioEntry {
     },
 }
 
-/// The planner under test.
+/// The planner under test (checked by [`check_shapes`] like
+/// [`ScenarioEntry`]).
 #[derive(Debug, Clone, Deserialize, JsonSchema)]
-#[serde(untagged)]
+#[serde(untagged, deny_unknown_fields)]
 pub enum PlannerRef {
     /// A planner spec file.
     File(#[schemars(with = "String")] Spanned<String>),
@@ -218,44 +220,42 @@ pub enum ScenarioSource {
     Recorded(std::path::PathBuf),
 }
 
-fn loc<T>(s: &Spanned<T>) -> Option<SpecLocation> {
-    SpecLocation::from_saphyr(&s.referenced)
-}
-
 impl Loaded<SuiteSpec> {
     /// Resolves `scenarios:` to files, in order, failing on entries that match nothing.
     pub fn scenario_sources(&self) -> Result<Vec<ScenarioSource>, SpecError> {
         let mut out = Vec::new();
-        for entry in &self.value.scenarios {
+        for (i, entry) in self.value.scenarios.iter().enumerate() {
             match entry {
                 ScenarioEntry::File(f) => {
                     let p = paths::resolve(self.dir(), &f.value);
                     if !p.is_file() {
-                        return Err(self.reference(loc(f), format!("scenario spec {} does not exist", p.display())));
+                        let at = format!("scenarios[{i}]");
+                        return Err(self.reference_at(&at, format!("scenario spec {} does not exist", p.display())));
                     }
                     out.push(ScenarioSource::Spec(p));
                 }
                 ScenarioEntry::Glob { glob } => {
+                    let at = format!("scenarios[{i}].glob");
                     let pattern = paths::resolve(self.dir(), &glob.value);
                     let matches = ::glob::glob(&pattern.to_string_lossy())
-                        .map_err(|e| self.invalid(loc(glob), format!("bad glob: {e}")))?;
+                        .map_err(|e| self.invalid_at(&at, format!("bad glob: {e}")))?;
                     let mut files: Vec<_> = matches.filter_map(Result::ok).filter(|p| p.is_file()).collect();
                     files.sort();
                     if files.is_empty() {
-                        return Err(self.reference(loc(glob), format!("glob {} matches no file", pattern.display())));
+                        return Err(self.reference_at(&at, format!("glob {} matches no file", pattern.display())));
                     }
                     out.extend(files.into_iter().map(ScenarioSource::Spec));
                 }
                 ScenarioEntry::Recorded { recorded, limit } => {
+                    let at = format!("scenarios[{i}].recorded");
                     let p = paths::resolve(self.dir(), &recorded.value);
                     let files = if p.is_dir() && crate::scenario::import::argoverse2::find_scenario_files(&p).is_err() {
-                        crate::scenario::import::discover(&p)
-                            .map_err(|e| self.reference(loc(recorded), e.to_string()))?
+                        crate::scenario::import::discover(&p).map_err(|e| self.reference_at(&at, e.to_string()))?
                     } else if p.exists() {
                         vec![p.clone()]
                     } else {
-                        return Err(self.reference(
-                            loc(recorded),
+                        return Err(self.reference_at(
+                            &at,
                             format!(
                                 "{} does not exist (recorded data: set SAFER_DATA_DIR or put it at ../shared/data)",
                                 p.display()
@@ -263,7 +263,10 @@ impl Loaded<SuiteSpec> {
                         ));
                     };
                     if files.is_empty() {
-                        return Err(self.reference(loc(recorded), format!("no scenario files under {}", p.display())));
+                        return Err(self.reference_at(&at, format!("no scenario files under {}", p.display())));
+                    }
+                    if *limit == Some(0) {
+                        return Err(self.invalid_at(&format!("scenarios[{i}].limit"), "`limit` must be at least 1"));
                     }
                     let n = limit.unwrap_or(usize::MAX);
                     out.extend(files.into_iter().take(n).map(ScenarioSource::Recorded));
@@ -273,23 +276,154 @@ impl Loaded<SuiteSpec> {
         Ok(out)
     }
 
-    /// Checks settings that serde cannot.
+    /// Checks settings that serde cannot, each error at the offending value.
     pub fn validate(&self) -> Result<(), SpecError> {
+        use super::NumberRange;
         let s = &self.value;
+        check_test_name(self, "name", &s.name)?;
         if s.variants == 0 || s.variants > 1000 {
-            return Err(self.invalid(None, format!("variants must be 1..=1000, got {}", s.variants)));
+            return Err(self.invalid_at("variants", format!("variants must be 1..=1000, got {}", s.variants)));
+        }
+        let log = s.adversary.method == AdversaryMethod::Log;
+        if log && s.variants > 1 {
+            return Err(self.invalid_at(
+                "variants",
+                format!(
+                    "with `adversary.method: log` every seed gives the same variant (nothing is sampled), so \
+                     variants: {} would run one variant {0} times; set `variants: 1` or choose a generative method \
+                     (prior, safer, …)",
+                    s.variants
+                ),
+            ));
         }
         if s.adversary.trust_region == 0 || s.adversary.trust_region > crate::motion::tokens::VOCABULARY_SIZE {
-            return Err(self.invalid(None, "adversary.trust_region must be 1..=3969"));
+            return Err(self.invalid_at(
+                "adversary.trust_region",
+                format!("adversary.trust_region must be 1..=3969, got {}", s.adversary.trust_region),
+            ));
         }
-        let rate = |v: Option<f64>, name: &str| match v {
-            Some(x) if !(0.0..=1.0).contains(&x) => {
-                Err(self.invalid(None, format!("acceptance.suite.{name} must be in [0, 1], got {x}")))
+        let v = &s.acceptance.variant;
+        if let Some(x) = v.min_gap_m {
+            self.check_number("acceptance.variant.min_gap_m", x, NumberRange::closed(0.0, 100.0), "m")?;
+        }
+        if let Some(x) = v.min_ttc_s {
+            self.check_number("acceptance.variant.min_ttc_s", x, NumberRange::closed(0.0, 60.0), "s")?;
+        }
+        if !v.planner_must_answer {
+            return Err(self.invalid_at(
+                "acceptance.variant.planner_must_answer",
+                "`planner_must_answer: false` is not allowed: a planner that crashes, hangs or answers garbage \
+                 never passes a variant (remove the key)",
+            ));
+        }
+        let u = &s.acceptance.suite;
+        for (name, value) in [("collision_rate_min", u.collision_rate_min), ("solution_rate_min", u.solution_rate_min)]
+        {
+            if let Some(x) = value {
+                self.check_number(&format!("acceptance.suite.{name}"), x, NumberRange::closed(0.0, 1.0), "")?;
             }
-            _ => Ok(()),
-        };
-        rate(s.acceptance.suite.collision_rate_min, "collision_rate_min")?;
-        rate(s.acceptance.suite.solution_rate_min, "solution_rate_min")?;
+        }
+        for (name, value) in
+            [("velocity_jsd_max", u.velocity_jsd_max), ("acceleration_jsd_max", u.acceleration_jsd_max)]
+        {
+            let path = format!("acceptance.suite.{name}");
+            if let Some(x) = value {
+                // Base-2 Jensen–Shannon divergence lies in [0, 1].
+                self.check_number(&path, x, NumberRange::closed(0.0, 1.0), "(bits)")?;
+                if log {
+                    return Err(self.invalid_at(
+                        &path,
+                        format!(
+                            "`{name}` with `adversary.method: log` compares the log with itself (0 by \
+                             construction); use it with a generative method"
+                        ),
+                    ));
+                }
+            }
+        }
         Ok(())
     }
+}
+
+/// Refuses a name that cannot be a test-name part and an artefact folder:
+/// empty, `.`/`..`, or anything but letters, digits, `-`, `_` and `.`.
+pub(crate) fn check_test_name<T>(spec: &Loaded<T>, path: &str, name: &str) -> Result<(), SpecError> {
+    let allowed = |c: char| c.is_ascii_alphanumeric() || c == '-' || c == '_' || c == '.';
+    if name.is_empty() || name == "." || name == ".." || !name.chars().all(allowed) {
+        return Err(spec.invalid_at(
+            path,
+            format!(
+                "name `{name}` cannot be used in test names and artefact paths: use letters, digits, `-`, `_` \
+                 and `.`, not `.` or `..` alone"
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// Checks the parts of a suite that untagged enums cannot (a `scenarios:`
+/// entry or inline `planner:` with a mistyped or unknown key, an unknown
+/// built-in), with the offending key or value located. Runs before the
+/// typed parse so its plain message wins over serde's "did not match any
+/// variant".
+pub fn check_shapes(text: &str, path: &std::path::Path) -> Result<(), SpecError> {
+    use super::locate::{Node, Step, tree};
+    let Some(root) = tree(text) else { return Ok(()) };
+    let invalid = |at: SpecLocation, message: String| SpecError::Invalid {
+        path: path.to_path_buf(),
+        location: Some(at),
+        message,
+        text: text.to_string(),
+    };
+    if let Some(Node::Sequence { items, .. }) = root.child(Step::Key("scenarios")) {
+        const FORMS: &str =
+            "an entry is a scenario spec path, `glob: PATTERN`, or `recorded: PATH` with an optional `limit: N`";
+        for (i, item) in items.iter().enumerate() {
+            let keys = item.keys();
+            if keys.is_empty() {
+                continue;
+            }
+            if let Some((key, at)) = keys.iter().find(|(k, _)| !["glob", "recorded", "limit"].contains(k)) {
+                return Err(invalid(*at, format!("unknown key `{key}` in scenarios[{i}]: {FORMS}")));
+            }
+            let key_at = |k: &str| keys.iter().find(|(key, _)| *key == k).map(|(_, at)| *at);
+            match (key_at("glob"), key_at("recorded"), key_at("limit")) {
+                (Some(_), Some(_), _) => {
+                    return Err(invalid(item.at(), format!("scenarios[{i}] has both `glob` and `recorded`: {FORMS}")));
+                }
+                (None, None, _) => {
+                    return Err(invalid(
+                        item.at(),
+                        format!("scenarios[{i}] has neither `glob` nor `recorded`: {FORMS}"),
+                    ));
+                }
+                (Some(_), None, Some(at)) => {
+                    return Err(invalid(at, format!("`limit` applies to `recorded:` entries only: {FORMS}")));
+                }
+                _ => {}
+            }
+        }
+    }
+    if let Some((_, planner)) = root.entry("planner") {
+        let builtins: Vec<String> = <crate::planners::BuiltinPlanner as clap::ValueEnum>::value_variants()
+            .iter()
+            .filter_map(|b| serde_json::to_value(b).ok().and_then(|v| v.as_str().map(String::from)))
+            .collect();
+        if let Some((key, at)) = planner.keys().into_iter().find(|(k, _)| *k != "builtin") {
+            return Err(invalid(
+                at,
+                format!("unknown key `{key}` in `planner:`: give a planner spec file or `builtin: NAME`"),
+            ));
+        }
+        if let Some((_, name)) = planner.entry("builtin")
+            && let Some(text) = name.text()
+            && !builtins.iter().any(|b| b == text)
+        {
+            return Err(invalid(
+                name.at(),
+                format!("unknown built-in planner `{text}`; the built-ins are {}", builtins.join(", ")),
+            ));
+        }
+    }
+    Ok(())
 }
