@@ -19,9 +19,14 @@ observations (default 0) with a gentle braking control, then misbehaves:
   slow-start     sleeps 60 s before answering hello
   bad-version    answers hello with protocol 2
   exit-at-start  exits with status 7 before answering hello
+  spawn-child    starts a `sleep 600` child at hello (its pid in the `ready`
+                 name, `misbehaving-spawn-child child=PID`), then answers
+                 every observation and exits on bye, leaving the child behind
+  huge           answers with a finite but absurd control, accel_mps2 = 1e100
 """
 
 import json
+import subprocess
 import sys
 import time
 
@@ -49,7 +54,13 @@ def main():
                 print("misbehaving_planner: giving up before hello", file=sys.stderr, flush=True)
                 return 7
             version = 2 if mode == "bad-version" else 1
-            send({"type": "ready", "protocol": version, "name": f"misbehaving-{mode}"})
+            name = f"misbehaving-{mode}"
+            if mode == "spawn-child":
+                # Not waited for, not killed: an orphan once this process exits.
+                child = subprocess.Popen(["sleep", "600"])
+                name += f" child={child.pid}"
+                good_steps = float("inf")
+            send({"type": "ready", "protocol": version, "name": name})
             if mode == "deaf":
                 while True:
                     time.sleep(3600)
@@ -75,6 +86,8 @@ def main():
             send({"type": "steer", "angle": 0.1})
         elif mode == "missing":
             send({"type": "control", "accel_mps2": 0.0})
+        elif mode == "huge":
+            send({"type": "control", "accel_mps2": 1e100, "yaw_rate_radps": 0.0})
         elif mode == "error":
             send({"type": "error", "message": "planner lost its localisation"})
         elif mode == "chatty":

@@ -1,0 +1,396 @@
+//! Translation between the simulator's types and the wire messages: an
+//! [`Observation`] becomes an `observation` message (the map clipped to
+//! [`MAP_RADIUS_M`] around the ego and resampled every [`MAP_SPACING_M`],
+//! the route hint ahead of the ego), and a reply line becomes a
+//! [`PlannerOutput`] ([`decode_reply`]: strict JSON parsing, non-finite
+//! numbers named, trajectories checked). Offending lines are quoted in the
+//! errors, truncated to 200 characters.
+
+use super::wire::{HarnessMessage, PlannerMessage, WireAgent, WireEgo, WireLane, WireMap, WirePoint, WireSignal};
+use crate::geometry::{Point2, Polyline, Vector2};
+use crate::map::RoadMap;
+use crate::motion::Action;
+use crate::planners::{Observation, PlannerOutput, TrajectoryPoint};
+use crate::scenario::AgentState;
+
+/// Map elements (lane centrelines, road edges) are sent only where they lie
+/// within this distance of the ego's centre, m.
+pub const MAP_RADIUS_M: f64 = 60.0;
+
+/// Polylines in observations are resampled at equal arc-length steps of at
+/// most this, m: dense recorded maps are thinned and long straight segments
+/// filled in, so messages stay small and planners need not interpolate.
+pub const MAP_SPACING_M: f64 = 2.0;
+
+/// Length of the `route` hint ahead of the ego, m.
+pub const ROUTE_LENGTH_M: f64 = 100.0;
+
+/// How far from the ego its lane is searched for the route hint, m.
+const ROUTE_LANE_SEARCH_M: f64 = 10.0;
+/// Lanes followed at most for the route hint (guards against zero-length
+/// successor cycles in imported maps).
+const ROUTE_MAX_LANES: usize = 64;
+/// Characters of an offending line quoted in an error.
+const QUOTE_CHARS: usize = 200;
+
+/// The `observation` message for one step.
+pub(super) fn observation_message(obs: &Observation<'_>) -> HarnessMessage {
+    let ego = &obs.ego;
+    let centre = ego.position;
+    HarnessMessage::Observation {
+        step: obs.step,
+        time_s: obs.time_s,
+        ego: WireEgo {
+            x: centre.x,
+            y: centre.y,
+            heading_rad: ego.heading_rad,
+            speed_mps: ego.speed_mps(),
+            vx: ego.velocity_mps.x,
+            vy: ego.velocity_mps.y,
+            length_m: obs.ego_length_m,
+            width_m: obs.ego_width_m,
+        },
+        agents: obs
+            .agents
+            .iter()
+            .map(|a| WireAgent {
+                id: a.id.0.clone(),
+                kind: a.kind.into(),
+                x: a.state.position.x,
+                y: a.state.position.y,
+                heading_rad: a.state.heading_rad,
+                vx: a.state.velocity_mps.x,
+                vy: a.state.velocity_mps.y,
+                length_m: a.length_m,
+                width_m: a.width_m,
+            })
+            .collect(),
+        map: WireMap {
+            lanes: obs
+                .map
+                .lanes
+                .iter()
+                .filter_map(|l| {
+                    clip(&l.centreline, &centre, MAP_RADIUS_M).map(|centreline| WireLane {
+                        id: l.id.0,
+                        centreline,
+                        speed_limit_mps: l.speed_limit_mps,
+                    })
+                })
+                .collect(),
+            road_edges: obs.map.road_edges.iter().filter_map(|e| clip(&e.polyline, &centre, MAP_RADIUS_M)).collect(),
+        },
+        signals: obs.signals.iter().map(|(lane, state)| WireSignal { lane: lane.0, state: (*state).into() }).collect(),
+        route: route_ahead(obs.map, ego),
+    }
+}
+
+/// Points at equal arc-length steps of at most [`MAP_SPACING_M`] over
+/// `[s0, s0 + length]`, both ends included.
+fn samples(line: &Polyline, s0: f64, length_m: f64) -> impl Iterator<Item = Point2> + '_ {
+    let n = (length_m / MAP_SPACING_M).ceil().max(1.0) as usize;
+    (0..=n).filter_map(move |k| line.sample(s0 + length_m * k as f64 / n as f64).map(|(p, _)| p))
+}
+
+/// The stretch of `line` (resampled) from its first to its last sample
+/// within `radius_m` of `centre`; `None` when no part is that close.
+fn clip(line: &Polyline, centre: &Point2, radius_m: f64) -> Option<Vec<[f64; 2]>> {
+    // The exact distance first: most of a large map is skipped unsampled.
+    if line.project(centre)?.distance_m > radius_m {
+        return None;
+    }
+    let points: Vec<Point2> = samples(line, 0.0, line.length_m()).collect();
+    let near = |p: &&Point2| (*p - centre).norm() <= radius_m;
+    let first = points.iter().position(|p| near(&p))?;
+    let last = points.iter().rposition(|p| near(&p))?;
+    Some(points[first..=last].iter().map(|p| [p.x, p.y]).collect())
+}
+
+/// The route hint: the ego's lane centreline ahead, following first
+/// successors, up to [`ROUTE_LENGTH_M`].
+fn route_ahead(map: &RoadMap, ego: &AgentState) -> Vec<[f64; 2]> {
+    let mut route: Vec<[f64; 2]> = Vec::new();
+    let Some(m) = map.nearest_lane(&ego.position, Some(ego.heading_rad), ROUTE_LANE_SEARCH_M) else {
+        return route;
+    };
+    // nearest_lane prefers lanes in the ego's direction but falls back to
+    // others; a route against the traffic would mislead.
+    let forward = Vector2::new(ego.heading_rad.cos(), ego.heading_rad.sin());
+    if m.projection.tangent.dot(&forward) <= 0.0 {
+        return route;
+    }
+    let mut lane = &map.lanes[m.lane_index];
+    let mut s0 = m.projection.arc_length_m;
+    let mut remaining = ROUTE_LENGTH_M;
+    for _ in 0..ROUTE_MAX_LANES {
+        let take = (lane.centreline.length_m() - s0).max(0.0).min(remaining);
+        for p in samples(&lane.centreline, s0, take) {
+            // Consecutive lanes share their joining point: keep it once.
+            if route.last().is_none_or(|q| (q[0] - p.x).hypot(q[1] - p.y) > 1e-6) {
+                route.push([p.x, p.y]);
+            }
+        }
+        remaining -= take;
+        if remaining <= 1e-9 {
+            break;
+        }
+        let Some(next) = lane.successors.first().and_then(|id| map.lane(*id)) else {
+            break;
+        };
+        lane = next;
+        s0 = 0.0;
+    }
+    route
+}
+/// Why a reply to an observation gives no [`PlannerOutput`].
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum ReplyError {
+    /// The line breaks the protocol: it is not JSON, not a known message, a
+    /// `ready`, lacks a field, holds a non-finite number, or is a trajectory
+    /// that fails the checks. The message says which and quotes the line.
+    #[error("{0}")]
+    Protocol(String),
+    /// The planner answered with an `error` message; its text (empty when
+    /// it gave none).
+    #[error("the planner reported an error: {0}")]
+    Reported(String),
+}
+
+/// The reply decoding entry point: one line a planner wrote in answer to
+/// an observation (without its line ending), parsed strictly and converted
+/// into the [`PlannerOutput`] the simulator applies. `dt_s` is the step
+/// length a trajectory must reach. Total on arbitrary bytes: it never
+/// panics, and every number in an `Ok` output is finite.
+pub fn decode_reply(line: &[u8], dt_s: f64) -> Result<PlannerOutput, ReplyError> {
+    reply_output(parse_reply(line).map_err(ReplyError::Protocol)?, dt_s)
+}
+
+/// The planner output a parsed reply to an observation stands for.
+pub(super) fn reply_output(reply: PlannerMessage, dt_s: f64) -> Result<PlannerOutput, ReplyError> {
+    match reply {
+        PlannerMessage::Control { accel_mps2, yaw_rate_radps } => {
+            Ok(PlannerOutput::Control(Action { accel_mps2, yaw_rate_radps }))
+        }
+        PlannerMessage::Trajectory { points } => trajectory(&points, dt_s).map_err(ReplyError::Protocol),
+        PlannerMessage::Error { message } => Err(ReplyError::Reported(message.unwrap_or_default())),
+        PlannerMessage::Ready { .. } => Err(ReplyError::Protocol(
+            "expected `control`, `trajectory` or `error` in answer to an observation, got `ready`".into(),
+        )),
+    }
+}
+
+/// Trajectory points from the wire, checked: at least one point, times
+/// positive, increasing and reaching the next step, speeds not negative.
+fn trajectory(points: &[WirePoint], dt_s: f64) -> Result<PlannerOutput, String> {
+    let last = points.last().ok_or("the trajectory has no points")?;
+    let mut previous_t = 0.0;
+    for (i, p) in points.iter().enumerate() {
+        if p.t <= previous_t {
+            return Err(format!(
+                "trajectory point {i} has t = {} s; times must be positive and increasing (relative to the observation)",
+                p.t
+            ));
+        }
+        if p.speed_mps < 0.0 {
+            return Err(format!("trajectory point {i} has speed_mps = {}; speeds must not be negative", p.speed_mps));
+        }
+        previous_t = p.t;
+    }
+    if last.t < dt_s - 1e-9 {
+        return Err(format!("the trajectory ends at t = {} s, before the next step (t = {dt_s} s)", last.t));
+    }
+    Ok(PlannerOutput::Trajectory(
+        points
+            .iter()
+            .map(|p| TrajectoryPoint {
+                time_s: p.t,
+                state: AgentState {
+                    position: Point2::new(p.x, p.y),
+                    heading_rad: p.heading_rad,
+                    velocity_mps: Vector2::new(p.heading_rad.cos(), p.heading_rad.sin()) * p.speed_mps,
+                },
+            })
+            .collect(),
+    ))
+}
+
+/// Parses one reply line; the error says what is wrong and quotes it.
+pub(super) fn parse_reply(line: &[u8]) -> Result<PlannerMessage, String> {
+    let text = String::from_utf8_lossy(line);
+    if let Some(token) = non_finite_token(&text) {
+        return Err(format!(
+            "non-finite number `{token}` in {}: JSON has no NaN or Infinity, every number must be finite",
+            quote(line)
+        ));
+    }
+    serde_json::from_str::<PlannerMessage>(&text).map_err(|e| {
+        let reason = e.to_string();
+        if reason.contains("number out of range") {
+            format!("non-finite number (out of the f64 range) in {}: {reason}", quote(line))
+        } else if e.is_syntax() || e.is_eof() {
+            format!(
+                "a line that is not JSON ({reason}): {} (stdout is for protocol messages only; log to stderr)",
+                quote(line)
+            )
+        } else {
+            format!("not a valid protocol message ({reason}): {}", quote(line))
+        }
+    })
+}
+
+/// The first bare `NaN`, `Infinity` or `-Infinity` outside strings, as
+/// Python's `json.dumps` writes them by default.
+fn non_finite_token(text: &str) -> Option<&'static str> {
+    let bytes = text.as_bytes();
+    let (mut in_string, mut escaped) = (false, false);
+    for (i, &b) in bytes.iter().enumerate() {
+        if in_string {
+            match (escaped, b) {
+                (true, _) => escaped = false,
+                (false, b'\\') => escaped = true,
+                (false, b'"') => in_string = false,
+                _ => {}
+            }
+            continue;
+        }
+        match b {
+            b'"' => in_string = true,
+            b'N' if bytes[i..].starts_with(b"NaN") => return Some("NaN"),
+            b'-' if bytes[i..].starts_with(b"-Infinity") => return Some("-Infinity"),
+            b'I' if bytes[i..].starts_with(b"Infinity") && (i == 0 || bytes[i - 1] != b'-') => {
+                return Some("Infinity");
+            }
+            _ => {}
+        }
+    }
+    None
+}
+
+/// The first [`QUOTE_CHARS`] characters of a line, in backticks.
+pub(super) fn quote(line: &[u8]) -> String {
+    format!("`{}`", truncate_chars(&String::from_utf8_lossy(line), QUOTE_CHARS))
+}
+
+pub(super) fn truncate_chars(s: &str, max: usize) -> String {
+    match s.char_indices().nth(max) {
+        Some((cut, _)) => format!("{}…", &s[..cut]),
+        None => s.to_string(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::tests::{observation_at, stopped_car_ahead};
+    use super::*;
+    use crate::map::{Lane, LaneKind, MapElementId};
+
+    #[test]
+    fn observation_message_has_the_documented_fields() {
+        let s = stopped_car_ahead();
+        let mut obs = observation_at(&s, 0);
+        obs.ego.position = Point2::new(100.0, 1.75);
+        let v = serde_json::to_value(observation_message(&obs)).unwrap();
+        assert_eq!(v["type"], "observation");
+        assert_eq!(v["step"], 0);
+        assert_eq!(v["ego"]["x"], 100.0);
+        assert_eq!(v["ego"]["speed_mps"], 10.0);
+        assert_eq!(v["ego"]["length_m"], 4.5);
+        assert_eq!(
+            v["agents"][0],
+            serde_json::json!({"id": "stopped", "kind": "vehicle", "x": 70.0, "y": 1.75, "heading_rad": 0.0,
+                "vx": 0.0, "vy": 0.0, "length_m": 4.5, "width_m": 2.0})
+        );
+        assert_eq!(v["signals"], serde_json::json!([{"lane": 0, "state": "go"}]));
+        // Lanes 0 and 1 run 0..300 m: clipped to x in [40, 160], every 2 m.
+        let lanes = v["map"]["lanes"].as_array().unwrap();
+        assert_eq!(lanes.len(), 2);
+        let centreline = lanes[0]["centreline"].as_array().unwrap();
+        assert_eq!(centreline.len(), 61);
+        assert_eq!(centreline[0], serde_json::json!([40.0, 1.75]));
+        assert_eq!(centreline[60], serde_json::json!([160.0, 1.75]));
+        assert_eq!(lanes[0]["speed_limit_mps"], 13.9);
+        assert_eq!(v["map"]["road_edges"].as_array().unwrap().len(), 2);
+        // Route: 100 m of lane 0 ahead of the ego.
+        let route = v["route"].as_array().unwrap();
+        assert_eq!(route.len(), 51);
+        assert_eq!(route[0], serde_json::json!([100.0, 1.75]));
+        assert_eq!(route[50], serde_json::json!([200.0, 1.75]));
+        // Far from every lane: no map, no route.
+        obs.ego.position = Point2::new(1000.0, 500.0);
+        let v = serde_json::to_value(observation_message(&obs)).unwrap();
+        assert_eq!(v["map"], serde_json::json!({"lanes": [], "road_edges": []}));
+        assert_eq!(v["route"], serde_json::json!([]));
+    }
+
+    #[test]
+    fn route_follows_the_first_successor_and_not_oncoming_lanes() {
+        let lane = |id: i64, pts: &[(f64, f64)], successors: Vec<MapElementId>| Lane {
+            kind: LaneKind::SurfaceStreet,
+            successors,
+            ..Lane::new(MapElementId(id), Polyline::new(pts.iter().map(|&(x, y)| Point2::new(x, y)).collect()))
+        };
+        let map = RoadMap::new(
+            vec![
+                lane(1, &[(0.0, 0.0), (50.0, 0.0)], vec![MapElementId(2), MapElementId(3)]),
+                lane(2, &[(50.0, 0.0), (50.0, 200.0)], vec![]),
+                lane(3, &[(50.0, 0.0), (50.0, -200.0)], vec![]),
+            ],
+            vec![],
+            vec![],
+            vec![],
+            vec![],
+            vec![],
+            vec![],
+        );
+        let ego = |x: f64, heading_rad: f64| AgentState {
+            position: Point2::new(x, 0.0),
+            heading_rad,
+            velocity_mps: Vector2::zeros(),
+        };
+        let route = route_ahead(&map, &ego(40.0, 0.0));
+        assert_eq!(route.first(), Some(&[40.0, 0.0]));
+        assert_eq!(route.last(), Some(&[50.0, 90.0]));
+        assert!(route.windows(2).all(|w| (w[1][0] - w[0][0]).hypot(w[1][1] - w[0][1]) <= MAP_SPACING_M + 1e-9));
+        // Facing against the only lane: no route.
+        assert!(route_ahead(&map, &ego(20.0, std::f64::consts::PI)).is_empty());
+    }
+
+    #[test]
+    fn replies_are_parsed_strictly() {
+        let ok = parse_reply(br#"{"type":"control","accel_mps2":-2,"yaw_rate_radps":0.5,"debug":"x"}"#).unwrap();
+        assert!(matches!(ok, PlannerMessage::Control { accel_mps2: -2.0, yaw_rate_radps: 0.5 }));
+        // NaN inside a string is just text.
+        let ok = parse_reply(br#"{"type":"error","message":"got NaN and -Infinity"}"#).unwrap();
+        assert!(matches!(ok, PlannerMessage::Error { message: Some(m) } if m == "got NaN and -Infinity"));
+        for (line, token) in [
+            (r#"{"type":"control","accel_mps2":Infinity,"yaw_rate_radps":0}"#, "`Infinity`"),
+            (r#"{"type":"control","accel_mps2":-Infinity,"yaw_rate_radps":0}"#, "`-Infinity`"),
+            (r#"{"type":"control","accel_mps2":1e400,"yaw_rate_radps":0}"#, "out of the f64 range"),
+        ] {
+            let e = parse_reply(line.as_bytes()).unwrap_err();
+            assert!(e.starts_with("non-finite number") && e.contains(token), "{e}");
+        }
+        let e = parse_reply(br#"{"type":"control","accel_mps2":null,"yaw_rate_radps":0}"#).unwrap_err();
+        assert!(e.contains("invalid type: null"), "{e}");
+        let long = "x".repeat(500);
+        let e = parse_reply(long.as_bytes()).unwrap_err();
+        assert!(e.contains(&format!("`{}…`", "x".repeat(200))), "{e}");
+        assert!(!e.contains(&"x".repeat(201)));
+    }
+
+    #[test]
+    fn trajectories_are_checked_and_converted() {
+        let p = |t: f64, x: f64, speed_mps: f64| WirePoint { t, x, y: 0.0, heading_rad: 0.0, speed_mps };
+        match trajectory(&[p(0.1, 1.0, 10.0), p(0.2, 2.0, 10.0)], 0.1).unwrap() {
+            PlannerOutput::Trajectory(points) => {
+                assert_eq!(points[1].time_s, 0.2);
+                assert_eq!(points[1].state.velocity_mps, Vector2::new(10.0, 0.0));
+            }
+            other => panic!("{other:?}"),
+        }
+        assert!(trajectory(&[], 0.1).unwrap_err().contains("no points"));
+        assert!(trajectory(&[p(0.2, 1.0, 1.0), p(0.1, 2.0, 1.0)], 0.1).unwrap_err().contains("increasing"));
+        assert!(trajectory(&[p(0.05, 1.0, 1.0)], 0.1).unwrap_err().contains("before the next step"));
+        assert!(trajectory(&[p(0.1, 1.0, -1.0)], 0.1).unwrap_err().contains("must not be negative"));
+    }
+}

@@ -1,0 +1,584 @@
+//! External planners: a child process that drives the ego by speaking the
+//! JSON-lines planner protocol (version 1, specified in
+//! `docs/planner-protocol.md`, schema in `docs/planner-protocol.schema.json`).
+//!
+//! One JSON object per line in each direction: the harness writes `hello`,
+//! then one `observation` per simulation step, then `bye` on the child's
+//! stdin; the planner answers `hello` with `ready` and every observation with
+//! a `control`, a `trajectory` or an `error` on its stdout. Its stderr is
+//! free-form logging; the harness keeps the last lines to explain failures.
+//!
+//! Coordinates are the scenario's local frame: metres, re-centred on the
+//! scenario (not UTM/world coordinates), x/y as in the map, headings in
+//! radians counter-clockwise from +x.
+//!
+//! # Failures
+//!
+//! A planner that cannot be started, exits, stays silent past its timeout,
+//! prints something that is not a protocol message, or reports an `error`,
+//! fails with a [`PlannerError`] that names it and says which of these
+//! happened (exit status and the tail of its stderr for a crash, the timeout
+//! in ms for a hang, the first 200 characters of a bad line). The simulator
+//! then ends that rollout with `Termination::PlannerFailed`. The process is
+//! killed at once, and every later call returns the same error without
+//! touching a process, until the next rollout starts (see below).
+//!
+//! # Lifetime
+//!
+//! [`ExternalPlanner::new`] starts nothing: the process is started on the
+//! first [`Planner::plan`] call, whose observation provides the ego's size
+//! and the step length for `hello`, so that a planner that cannot start
+//! fails its rollout like any other planner failure. [`ExternalPlanner::start`]
+//! starts and handshakes eagerly instead, for callers that want to fail
+//! before simulating. A call whose observation has `time_s == 0` after
+//! earlier calls is the start of a new rollout: the old process is told
+//! `bye` and a fresh one is started, so no planner state (or failure) leaks
+//! from one rollout into the next. Dropping the planner sends `bye`, closes
+//! stdin, waits up to a second for the process to exit and then kills it;
+//! the process is always reaped (no zombies).
+//!
+//! Only the planner's own process is managed: a wrapper script should `exec`
+//! the real planner, or its children may outlive a kill.
+//!
+//! # Determinism
+//!
+//! Messages are a pure function of the observation (numbers formatted by
+//! `serde_json`, maps in id order). Wall-clock time only decides whether a
+//! timeout ran out.
+
+mod encoding;
+mod process;
+mod wire;
+
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
+
+use super::{Observation, Planner, PlannerError, PlannerOutput};
+use crate::motion::tokens::SIM_DT_S;
+pub use encoding::{MAP_RADIUS_M, MAP_SPACING_M, ROUTE_LENGTH_M, decode_reply};
+use encoding::{ReplyError, observation_message, reply_output};
+use process::Process;
+pub(crate) use process::format_stderr_tail;
+use wire::{EgoSize, HarnessMessage, PlannerMessage};
+pub use wire::{PROTOCOL_VERSION, protocol_schema};
+
+fn default_step_timeout_ms() -> u64 {
+    1000
+}
+
+fn default_startup_timeout_ms() -> u64 {
+    10_000
+}
+
+/// How to run an external planner.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct ExternalPlannerConfig {
+    /// Name used in reports and error messages.
+    pub name: String,
+    /// Program to run: looked up on `PATH` unless it contains a slash.
+    pub command: String,
+    /// Arguments passed to the program.
+    #[serde(default)]
+    pub args: Vec<String>,
+    /// Working directory of the process; the harness's own when absent.
+    #[serde(default)]
+    pub working_dir: Option<PathBuf>,
+    /// Extra environment variables (name → value), set on top of the
+    /// harness's environment; a name given here replaces the harness's value.
+    #[serde(default)]
+    pub env: BTreeMap<String, String>,
+    /// Time allowed to answer one observation, ms (from the observation
+    /// being handed to the writer to the reply line arriving).
+    #[serde(default = "default_step_timeout_ms")]
+    pub step_timeout_ms: u64,
+    /// Time allowed from starting the process to its `ready` line, ms
+    /// (planners may import large libraries or load models first).
+    #[serde(default = "default_startup_timeout_ms")]
+    pub startup_timeout_ms: u64,
+}
+
+impl ExternalPlannerConfig {
+    /// A config with no arguments, environment or working directory and the
+    /// default timeouts (1000 ms per step, 10 000 ms to start).
+    pub fn new(name: impl Into<String>, command: impl Into<String>) -> Self {
+        Self {
+            name: name.into(),
+            command: command.into(),
+            args: Vec::new(),
+            working_dir: None,
+            env: BTreeMap::new(),
+            step_timeout_ms: default_step_timeout_ms(),
+            startup_timeout_ms: default_startup_timeout_ms(),
+        }
+    }
+}
+
+/// A planner running in a child process, spoken to in JSON lines.
+pub struct ExternalPlanner {
+    config: ExternalPlannerConfig,
+    /// The running process, once started and until it fails or is replaced.
+    process: Option<Process>,
+    /// The name the process announced in `ready`.
+    announced_name: Option<String>,
+    /// The first failure of this rollout; returned by every later call.
+    failure: Option<PlannerError>,
+    /// `plan` calls so far, to recognise the start of a new rollout.
+    calls: usize,
+}
+
+impl std::fmt::Debug for ExternalPlanner {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("ExternalPlanner")
+            .field("config", &self.config)
+            .field("pid", &self.pid())
+            .field("announced_name", &self.announced_name)
+            .field("failure", &self.failure)
+            .finish()
+    }
+}
+
+impl ExternalPlanner {
+    /// A planner whose process starts on the first [`Planner::plan`] call.
+    pub fn new(config: ExternalPlannerConfig) -> Self {
+        Self { config, process: None, announced_name: None, failure: None, calls: 0 }
+    }
+
+    /// Starts the process now and completes the `hello`/`ready` handshake
+    /// (announcing the simulator's step and this ego size).
+    pub fn start(config: ExternalPlannerConfig, ego_length_m: f64, ego_width_m: f64) -> Result<Self, PlannerError> {
+        let mut planner = Self::new(config);
+        planner.launch(SIM_DT_S, ego_length_m, ego_width_m)?;
+        Ok(planner)
+    }
+
+    /// The configuration it runs with.
+    pub fn config(&self) -> &ExternalPlannerConfig {
+        &self.config
+    }
+
+    /// The process id while a process is running (not before the start, not
+    /// after a failure).
+    pub fn pid(&self) -> Option<u32> {
+        self.process.as_ref().map(|p| p.pid)
+    }
+
+    /// The name the process gave in its `ready` message, if any.
+    pub fn announced_name(&self) -> Option<&str> {
+        self.announced_name.as_deref()
+    }
+
+    /// The failure that ended this rollout for the planner, if any.
+    pub fn failure(&self) -> Option<&PlannerError> {
+        self.failure.as_ref()
+    }
+
+    /// The last lines the running process wrote to stderr, oldest first.
+    pub fn stderr_tail(&self) -> Vec<String> {
+        self.process.as_ref().map(|p| p.stderr_tail()).unwrap_or_default()
+    }
+
+    /// Starts the process and waits for `ready`; on failure the process is
+    /// killed and the error recorded.
+    fn launch(&mut self, dt_s: f64, ego_length_m: f64, ego_width_m: f64) -> Result<(), PlannerError> {
+        let name = self.config.name.clone();
+        let result = Process::spawn(&self.config).and_then(|mut process| {
+            let hello = HarnessMessage::Hello {
+                protocol: PROTOCOL_VERSION,
+                dt_s,
+                ego: EgoSize { length_m: ego_length_m, width_m: ego_width_m },
+            };
+            let during = "during startup";
+            let timeout_ms = self.config.startup_timeout_ms;
+            match process.exchange(&name, &hello, during, timeout_ms) {
+                Ok(PlannerMessage::Ready { protocol, name: announced }) if protocol == PROTOCOL_VERSION => {
+                    Ok((process, announced))
+                }
+                Ok(PlannerMessage::Ready { protocol, .. }) => Err(process.fail(PlannerError::Protocol {
+                    planner: name.clone(),
+                    during: during.into(),
+                    message: format!(
+                        "it speaks protocol version {protocol}; this harness speaks version {PROTOCOL_VERSION}"
+                    ),
+                })),
+                Ok(PlannerMessage::Error { message }) => Err(process.fail(PlannerError::Reported {
+                    planner: name.clone(),
+                    during: during.into(),
+                    message: message.unwrap_or_default(),
+                })),
+                Ok(other) => Err(process.fail(PlannerError::Protocol {
+                    planner: name.clone(),
+                    during: during.into(),
+                    message: format!("expected `ready` in answer to `hello`, got `{}`", other.kind()),
+                })),
+                Err(e) => Err(process.fail(e)),
+            }
+        });
+        match result {
+            Ok((process, announced)) => {
+                self.process = Some(process);
+                self.announced_name = announced;
+                Ok(())
+            }
+            Err(e) => {
+                self.failure = Some(e.clone());
+                Err(e)
+            }
+        }
+    }
+
+    /// Records a failure and kills the process at once: a planner that
+    /// misbehaved gets no more observations, and a spinning one must not keep
+    /// a core busy until the planner is dropped.
+    fn fail(&mut self, error: PlannerError) -> PlannerError {
+        if let Some(mut p) = self.process.take() {
+            p.kill();
+        }
+        self.failure = Some(error.clone());
+        error
+    }
+
+    /// Says `bye` to the current process (if any) and forgets this rollout.
+    fn reset(&mut self) {
+        if let Some(mut p) = self.process.take() {
+            p.shutdown();
+        }
+        self.announced_name = None;
+        self.failure = None;
+    }
+
+    /// One observation → reply round trip, validated into a planner output.
+    fn step(&mut self, obs: &Observation<'_>) -> Result<PlannerOutput, PlannerError> {
+        let name = self.config.name.clone();
+        let during = format!("at step {}", obs.step);
+        let timeout_ms = self.config.step_timeout_ms;
+        let Some(process) = self.process.as_mut() else {
+            // Unreachable in practice (plan starts the process first); an
+            // error rather than a panic all the same.
+            return Err(PlannerError::NoOutput { step: obs.step, reason: format!("planner `{name}` is not running") });
+        };
+        let message = observation_message(obs);
+        let reply = process.exchange(&name, &message, &during, timeout_ms)?;
+        reply_output(reply, obs.dt_s).map_err(|e| match e {
+            ReplyError::Protocol(message) => PlannerError::Protocol { planner: name, during, message },
+            ReplyError::Reported(message) => PlannerError::Reported { planner: name, during, message },
+        })
+    }
+}
+
+impl Planner for ExternalPlanner {
+    fn name(&self) -> &str {
+        &self.config.name
+    }
+
+    fn plan(&mut self, obs: &Observation<'_>) -> Result<PlannerOutput, PlannerError> {
+        // Rollouts start at time 0: a fresh process for each keeps planner
+        // state and failures from leaking between rollouts.
+        if obs.time_s == 0.0 && self.calls > 0 {
+            self.reset();
+        }
+        self.calls += 1;
+        if let Some(e) = &self.failure {
+            return Err(e.clone());
+        }
+        if self.process.is_none() {
+            self.launch(obs.dt_s, obs.ego_length_m, obs.ego_width_m)?;
+        }
+        self.step(obs).map_err(|e| self.fail(e))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::Point2;
+    use crate::geometry::Vector2;
+    use crate::map::templates::StraightRoad;
+    use crate::map::{MapElementId, SignalState};
+    use crate::planners::PerceivedAgent;
+    use crate::scenario::{AgentId, Scenario, ScenarioSource, Track, TrackIndex};
+    use crate::scenario::{AgentKind, AgentState};
+    use crate::sim::{Rollout, SimConfig, Simulation, Termination};
+    use process::BYE_GRACE;
+    use std::time::{Duration, Instant};
+
+    fn script(file: &str) -> String {
+        format!("{}/planners/{file}", env!("CARGO_MANIFEST_DIR"))
+    }
+
+    fn python(name: &str, file: &str, args: &[&str]) -> ExternalPlannerConfig {
+        let mut c = ExternalPlannerConfig::new(name, "python3");
+        c.args = std::iter::once(script(file)).chain(args.iter().map(|a| a.to_string())).collect();
+        c
+    }
+
+    fn misbehaving(mode: &str, good_steps: usize) -> ExternalPlannerConfig {
+        python(mode, "misbehaving_planner.py", &[mode, &good_steps.to_string()])
+    }
+
+    /// The observation the simulator would give at `step` of the recording.
+    pub(super) fn observation_at(s: &Scenario, step: usize) -> Observation<'_> {
+        let state = |i: usize| s.tracks[i].states[step].unwrap();
+        Observation {
+            step,
+            time_s: step as f64 * 0.1,
+            dt_s: 0.1,
+            ego: state(0),
+            ego_length_m: 4.5,
+            ego_width_m: 2.0,
+            agents: vec![PerceivedAgent {
+                id: s.tracks[1].id.clone(),
+                kind: AgentKind::Vehicle,
+                length_m: 4.5,
+                width_m: 2.0,
+                state: state(1),
+            }],
+            map: &s.map,
+            signals: vec![(MapElementId(0), SignalState::Go)],
+        }
+    }
+
+    /// Reaped processes leave no `/proc` entry (zombies do).
+    fn process_gone(pid: u32) -> bool {
+        !std::path::Path::new(&format!("/proc/{pid}")).exists()
+    }
+
+    /// A 300 m straight road (template, lanes 0 and 1 along +x); the ego in
+    /// lane 0 at x = 10 doing 10 m/s, a car stopped in lane 0 at x = 70
+    /// throughout; 121 steps (12 s).
+    pub(super) fn stopped_car_ahead() -> Scenario {
+        let map = StraightRoad {
+            lanes: 2,
+            oncoming_lanes: 0,
+            lane_width_m: 3.5,
+            length_m: 300.0,
+            speed_limit_mps: Some(13.9),
+        }
+        .build();
+        let track = |id: &str, x0: f64, v: f64| Track {
+            id: AgentId(id.into()),
+            kind: AgentKind::Vehicle,
+            length_m: 4.5,
+            width_m: 2.0,
+            states: (0..121)
+                .map(|k| {
+                    Some(AgentState {
+                        position: Point2::new(x0 + v * 0.1 * k as f64, 1.75),
+                        heading_rad: 0.0,
+                        velocity_mps: Vector2::new(v, 0.0),
+                    })
+                })
+                .collect(),
+        };
+        Scenario::new(
+            "external-stopped-car-ahead",
+            ScenarioSource::authored("test"),
+            0.1,
+            map,
+            vec![track("ego", 10.0, 10.0), track("stopped", 70.0, 0.0)],
+        )
+        .with_roles(TrackIndex(0), Some(TrackIndex(1)))
+    }
+
+    fn run(scenario: &Scenario, planner: &mut ExternalPlanner) -> Rollout {
+        Simulation::new(scenario, SimConfig::default()).unwrap().run(planner)
+    }
+
+    /// The failure step and reason; panics (test failure) otherwise.
+    fn failed(r: &Rollout) -> (usize, &str) {
+        match &r.termination {
+            Termination::PlannerFailed { step, reason } => (*step, reason.as_str()),
+            other => panic!("expected a planner failure, got {other:?}"),
+        }
+    }
+
+    #[test]
+    fn example_planner_stops_behind_the_stopped_car() {
+        let s = stopped_car_ahead();
+        let mut planner = ExternalPlanner::new(python("example", "example_planner.py", &[]));
+        let r = run(&s, &mut planner);
+        assert_eq!(r.termination, Termination::Completed);
+        assert_eq!(r.planner, "example");
+        assert_eq!(planner.announced_name(), Some("example-pure-pursuit-idm"));
+        assert!(r.ego_collision().is_none(), "{:?}", r.collisions);
+        assert!(r.off_road.is_empty(), "{:?}", r.off_road);
+        let closest = r.min_distance_to_ego.unwrap();
+        assert!(closest.distance_m > 0.5 && closest.distance_m < 8.0, "{closest:?}");
+        let last = r.states.last().unwrap()[0].unwrap();
+        assert!(last.speed_mps() < 0.5, "ego still at {} m/s", last.speed_mps());
+        assert!((last.position.y - 1.75).abs() < 0.1, "ego left its lane: {last:?}");
+        assert!(planner.stderr_tail().iter().any(|l| l.contains("hello")), "{:?}", planner.stderr_tail());
+        let pid = planner.pid().expect("running until dropped");
+        drop(planner);
+        assert!(process_gone(pid), "process {pid} outlived its planner");
+    }
+
+    #[test]
+    fn rollouts_are_deterministic_and_each_gets_a_fresh_process() {
+        let s = stopped_car_ahead();
+        let mut planner = ExternalPlanner::new(python("example", "example_planner.py", &[]));
+        let a = run(&s, &mut planner);
+        let first = planner.pid().unwrap();
+        let b = run(&s, &mut planner);
+        let second = planner.pid().unwrap();
+        assert_ne!(first, second, "the second rollout reused the first one's process");
+        assert!(process_gone(first));
+        assert_eq!(a.states, b.states);
+    }
+
+    #[test]
+    fn crash_names_the_exit_status_and_the_stderr_tail() {
+        let s = stopped_car_ahead();
+        let mut planner = ExternalPlanner::start(misbehaving("crash", 3), 4.5, 2.0).unwrap();
+        let pid = planner.pid().unwrap();
+        let r = run(&s, &mut planner);
+        let (step, reason) = failed(&r);
+        assert_eq!(step, 3);
+        assert!(reason.contains("external planner `crash`"), "{reason}");
+        assert!(reason.contains("exited with exit status: 3 at step 3"), "{reason}");
+        assert!(reason.contains("| Traceback (most recent call last):"), "{reason}");
+        assert!(reason.contains("| misbehaving_planner: crashing at step 3"), "{reason}");
+        assert!(planner.pid().is_none());
+        assert!(process_gone(pid));
+        assert_eq!(r.states.len(), 4, "steps 0..3 were simulated");
+    }
+
+    #[test]
+    fn hang_times_out_after_the_step_timeout() {
+        let s = stopped_car_ahead();
+        let mut config = misbehaving("hang", 2);
+        config.step_timeout_ms = 300;
+        let mut planner = ExternalPlanner::start(config, 4.5, 2.0).unwrap();
+        let pid = planner.pid().unwrap();
+        let t0 = Instant::now();
+        let r = run(&s, &mut planner);
+        let elapsed = t0.elapsed();
+        let (step, reason) = failed(&r);
+        assert_eq!(step, 2);
+        assert_eq!(reason, "external planner `hang` did not answer at step 2 within 300 ms");
+        // 300 ms for the timeout, the rest for two good steps and the kill.
+        assert!(elapsed >= Duration::from_millis(300) && elapsed < Duration::from_millis(1500), "{elapsed:?}");
+        // Killed at the failure, not only when dropped.
+        assert!(process_gone(pid), "the hung process {pid} is still there");
+        // Dead for the rest of the rollout: the same error, at once.
+        let obs_scenario = stopped_car_ahead();
+        let obs = observation_at(&obs_scenario, 5);
+        let t1 = Instant::now();
+        assert_eq!(planner.plan(&obs).unwrap_err(), planner.failure().unwrap().clone());
+        assert!(t1.elapsed() < Duration::from_millis(50));
+        assert!(planner.failure().unwrap().to_string().contains("within 300 ms"));
+    }
+
+    #[test]
+    fn garbage_is_quoted() {
+        let r = run(&stopped_car_ahead(), &mut ExternalPlanner::new(misbehaving("garbage", 1)));
+        let (step, reason) = failed(&r);
+        assert_eq!(step, 1);
+        assert!(reason.starts_with("external planner `garbage` broke the protocol at step 1: a line that is not JSON"));
+        assert!(reason.contains("`this is not JSON, it is a planner talking to itself`"), "{reason}");
+    }
+
+    #[test]
+    fn nan_is_reported_as_non_finite() {
+        let r = run(&stopped_car_ahead(), &mut ExternalPlanner::new(misbehaving("nan", 0)));
+        let (step, reason) = failed(&r);
+        assert_eq!(step, 0);
+        assert!(reason.contains("non-finite number `NaN`"), "{reason}");
+        assert!(reason.contains(r#"`{"type": "control", "accel_mps2": NaN, "yaw_rate_radps": 0.0}`"#), "{reason}");
+    }
+
+    #[test]
+    fn unknown_messages_and_missing_numbers_are_protocol_errors() {
+        let s = stopped_car_ahead();
+        let r = run(&s, &mut ExternalPlanner::new(misbehaving("unknown", 0)));
+        let (_, reason) = failed(&r);
+        assert!(reason.contains("not a valid protocol message (unknown variant `steer`"), "{reason}");
+        let r = run(&s, &mut ExternalPlanner::new(misbehaving("missing", 0)));
+        let (_, reason) = failed(&r);
+        assert!(reason.contains("missing field `yaw_rate_radps`"), "{reason}");
+        let r = run(&s, &mut ExternalPlanner::new(misbehaving("chatty", 0)));
+        let (_, reason) = failed(&r);
+        assert!(reason.contains("`debug: thinking...`") && reason.contains("log to stderr"), "{reason}");
+    }
+
+    #[test]
+    fn reported_error_fails_with_its_message() {
+        let r = run(&stopped_car_ahead(), &mut ExternalPlanner::new(misbehaving("error", 2)));
+        assert_eq!(
+            failed(&r),
+            (2, "external planner `error` reported an error at step 2: planner lost its localisation")
+        );
+    }
+
+    #[test]
+    fn startup_failures_fail_the_first_step() {
+        let s = stopped_car_ahead();
+        let r = run(&s, &mut ExternalPlanner::new(misbehaving("bad-version", 0)));
+        assert_eq!(
+            failed(&r),
+            (
+                0,
+                "external planner `bad-version` broke the protocol during startup: it speaks protocol version 2; this harness speaks version 1"
+            )
+        );
+        let r = run(&s, &mut ExternalPlanner::new(misbehaving("exit-at-start", 0)));
+        let (_, reason) = failed(&r);
+        assert!(reason.contains("exited with exit status: 7 during startup"), "{reason}");
+        assert!(reason.contains("| misbehaving_planner: giving up before hello"), "{reason}");
+
+        let mut config = misbehaving("slow-start", 0);
+        config.startup_timeout_ms = 200;
+        let t0 = Instant::now();
+        let err = ExternalPlanner::start(config, 4.5, 2.0).unwrap_err();
+        assert!(t0.elapsed() < Duration::from_millis(1200), "{:?}", t0.elapsed());
+        assert_eq!(err.to_string(), "external planner `slow-start` did not answer during startup within 200 ms");
+    }
+
+    #[test]
+    fn missing_command_cannot_start() {
+        let config = ExternalPlannerConfig::new("ghost", "no-such-planner-binary-3f9c");
+        let r = run(&stopped_car_ahead(), &mut ExternalPlanner::new(config));
+        let (step, reason) = failed(&r);
+        assert_eq!(step, 0);
+        assert!(
+            reason.starts_with("external planner `ghost`: could not start `no-such-planner-binary-3f9c`: No such file"),
+            "{reason}"
+        );
+    }
+
+    #[test]
+    fn drop_kills_a_planner_that_ignores_bye() {
+        let planner = ExternalPlanner::start(misbehaving("deaf", 0), 4.5, 2.0).unwrap();
+        let pid = planner.pid().unwrap();
+        assert!(!process_gone(pid));
+        let t0 = Instant::now();
+        drop(planner);
+        assert!(process_gone(pid), "process {pid} survived the drop");
+        // bye, then the grace period, then the kill.
+        assert!(t0.elapsed() >= BYE_GRACE && t0.elapsed() < BYE_GRACE * 2, "{:?}", t0.elapsed());
+    }
+
+    #[test]
+    fn drop_after_bye_is_quick() {
+        let planner = ExternalPlanner::start(python("example", "example_planner.py", &[]), 4.5, 2.0).unwrap();
+        let pid = planner.pid().unwrap();
+        let t0 = Instant::now();
+        drop(planner);
+        assert!(process_gone(pid));
+        // It exited on `bye`: no grace period ran out, no kill was needed.
+        assert!(t0.elapsed() < BYE_GRACE, "{:?}", t0.elapsed());
+    }
+
+    #[test]
+    fn config_deserialises_with_defaults_and_rejects_unknown_fields() {
+        let c: ExternalPlannerConfig =
+            serde_json::from_str(r#"{"name":"p","command":"python3","env":{"A":"1"}}"#).unwrap();
+        assert_eq!((c.step_timeout_ms, c.startup_timeout_ms), (1000, 10_000));
+        assert_eq!(c.env, BTreeMap::from([("A".to_string(), "1".to_string())]));
+        let e = serde_json::from_str::<ExternalPlannerConfig>(r#"{"name":"p","command":"x","timeout":5}"#);
+        assert!(e.unwrap_err().to_string().contains("unknown field `timeout`"));
+    }
+}
