@@ -17,15 +17,17 @@
 //! | [`policies`] | who drives a background agent: log replay, constant velocity, IDM |
 //! | [`planners`] | the ego under test: the planner trait and built-in planners |
 //! | [`sim`] | the closed-loop engine, collision and off-road events, rollouts, authored scenes |
-//! | [`eval`] | time to collision, Jensen–Shannon divergence (VJ, AJ) |
+//! | [`eval`] | time to collision, Jensen–Shannon divergence (VJ, AJ), the feasibility witness and V_h's accuracy against it |
 //! | [`spec`] | typed YAML specs (scenarios, planners, suites), JSON Schema export |
 //! | [`harness`] | suites to variants, the dual-stage pipeline, acceptance, metrics, failure artefacts |
 //! | [`record`] | MCAP recordings with Foxglove schemas, SVG pictures |
+//! | [`datasets`] | training data for the shipped models: prior shards, feasibility transitions, the held-out rule |
 //! | [`cli`] | the `safer` command line |
 
 #![warn(missing_docs)]
 
 pub mod cli;
+pub mod datasets;
 pub mod eval;
 pub mod geometry;
 pub mod harness;

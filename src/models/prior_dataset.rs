@@ -1,22 +1,18 @@
-//! Training shards for the realism prior: every (agent, token boundary) of a
-//! scene becomes one sample — the [`prior_features`](super::prior_features)
-//! of the query and the token the agent applied next, from the log-to-token
-//! inversion. Histories come from the *tokenized* tracks (the rollout of
-//! the inverted tokens through the kinematic model), because in closed loop
-//! the prior sees states the kinematic model produced.
+//! What one training sample of the realism prior is: every (agent, token
+//! boundary) of a scene becomes one sample — the
+//! [`prior_features`](super::prior_features) of the query and the token the
+//! agent applied next, from the log-to-token inversion. Histories come from
+//! the *tokenized* tracks (the rollout of the inverted tokens through the
+//! kinematic model), because in closed loop the prior sees states the
+//! kinematic model produced.
 //!
-//! Shards are safetensors files that `training/prior/` reads; the metadata
-//! key `scenes` lists each scene's id, source and split.
+//! The features are the model's input contract, so they live here beside
+//! the feature builder; which scenes become shards, their train/held-out
+//! split and the shard files are `datasets::prior_shards`.
 
 use std::collections::HashMap;
-use std::path::Path;
 
-use super::ModelError;
-use super::prior_features::{
-    HISTORY_FEATURES, HISTORY_POINTS, MAP_TOKEN_FEATURES, MAP_TOKENS, MapTokens, NEIGHBOUR_FEATURES, NEIGHBOURS,
-    POSE_FEATURES, QueryFeatures, SELF_FEATURES, SIGNAL_FEATURES, StateHistory, build_query,
-};
-use super::shard::{ShardColumn, write_shard};
+use super::prior_features::{MAP_TOKEN_FEATURES, MAP_TOKENS, MapTokens, QueryFeatures, StateHistory, build_query};
 use crate::motion::tokens::TOKEN_PERIOD_STEPS;
 use crate::motion::{Token, tokenize_track};
 use crate::scenario::{AgentBody, AgentState, Scenario};
@@ -97,110 +93,4 @@ pub fn scene_samples(scenario: &Scenario) -> Vec<PriorSample> {
             Some(PriorSample { query, map_tokens, next_token: scene.labels[&(agent, step)] })
         })
         .collect()
-}
-
-/// Which part of the data a scene belongs to.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum Split {
-    /// Used for training.
-    Train,
-    /// Held out for evaluation.
-    HeldOut,
-}
-
-/// A scene's entry in a shard's metadata.
-#[derive(Debug, Clone, PartialEq, serde::Serialize)]
-pub struct ShardScene {
-    /// Scenario id.
-    pub id: String,
-    /// Where it came from (e.g. `ngsim`, `synthetic`).
-    pub source: String,
-    /// Train or held out.
-    pub split: Split,
-}
-
-/// Accumulates samples and writes them as one safetensors shard.
-#[derive(Debug, Default)]
-pub struct ShardWriter {
-    scenes: Vec<ShardScene>,
-    samples: Vec<(usize, PriorSample)>,
-}
-
-impl ShardWriter {
-    /// Adds a scene's samples.
-    pub fn add_scene(&mut self, scene: ShardScene, samples: Vec<PriorSample>) {
-        let index = self.scenes.len();
-        self.scenes.push(scene);
-        self.samples.extend(samples.into_iter().map(|s| (index, s)));
-    }
-
-    /// Number of samples so far.
-    pub fn len(&self) -> usize {
-        self.samples.len()
-    }
-
-    /// Whether no sample was added.
-    pub fn is_empty(&self) -> bool {
-        self.samples.is_empty()
-    }
-
-    /// Writes the shard to `path` (through a temporary file, so a reader
-    /// never sees half a shard).
-    pub fn write(&self, path: &Path) -> Result<(), ModelError> {
-        let n = self.samples.len();
-        let mut cols: Vec<(&str, Vec<f32>, Vec<usize>)> = vec![
-            (
-                "history",
-                Vec::with_capacity(n * HISTORY_POINTS * HISTORY_FEATURES),
-                vec![n, HISTORY_POINTS, HISTORY_FEATURES],
-            ),
-            ("agent_self", Vec::with_capacity(n * SELF_FEATURES), vec![n, SELF_FEATURES]),
-            (
-                "neighbours",
-                Vec::with_capacity(n * NEIGHBOURS * NEIGHBOUR_FEATURES),
-                vec![n, NEIGHBOURS, NEIGHBOUR_FEATURES],
-            ),
-            ("neighbour_pose", Vec::with_capacity(n * NEIGHBOURS * POSE_FEATURES), vec![n, NEIGHBOURS, POSE_FEATURES]),
-            ("neighbour_mask", Vec::with_capacity(n * NEIGHBOURS), vec![n, NEIGHBOURS]),
-            (
-                "map_tokens",
-                Vec::with_capacity(n * MAP_TOKENS * MAP_TOKEN_FEATURES),
-                vec![n, MAP_TOKENS, MAP_TOKEN_FEATURES],
-            ),
-            ("map_pose", Vec::with_capacity(n * MAP_TOKENS * POSE_FEATURES), vec![n, MAP_TOKENS, POSE_FEATURES]),
-            ("map_signal", Vec::with_capacity(n * MAP_TOKENS * SIGNAL_FEATURES), vec![n, MAP_TOKENS, SIGNAL_FEATURES]),
-            ("map_mask", Vec::with_capacity(n * MAP_TOKENS), vec![n, MAP_TOKENS]),
-        ];
-        let mut next_token = Vec::with_capacity(n);
-        let mut scene = Vec::with_capacity(n);
-        for (s, sample) in &self.samples {
-            let q = &sample.query;
-            for (name, col, _) in &mut cols {
-                col.extend_from_slice(match *name {
-                    "history" => &q.history[..],
-                    "agent_self" => &q.agent_self[..],
-                    "neighbours" => &q.neighbours[..],
-                    "neighbour_pose" => &q.neighbour_pose[..],
-                    "neighbour_mask" => &q.neighbour_mask[..],
-                    "map_tokens" => &sample.map_tokens[..],
-                    "map_pose" => &q.map_pose[..],
-                    "map_signal" => &q.map_signal[..],
-                    _ => &q.map_mask[..],
-                });
-            }
-            next_token.push(sample.next_token.0 as i64);
-            scene.push(*s as i64);
-        }
-        let columns: Vec<ShardColumn> = cols
-            .into_iter()
-            .map(|(name, v, shape)| ShardColumn::f32(name, shape, &v))
-            .chain([ShardColumn::i64("next_token", vec![n], &next_token), ShardColumn::i64("scene", vec![n], &scene)])
-            .collect();
-        let scenes = serde_json::to_string(&self.scenes)
-            .map_err(|e| ModelError::Shard { path: path.to_path_buf(), message: e.to_string() })?;
-        let metadata =
-            HashMap::from([("scenes".to_string(), scenes), ("contract_version".to_string(), "1".to_string())]);
-        write_shard(path, &columns, metadata)
-    }
 }

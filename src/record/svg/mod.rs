@@ -20,6 +20,10 @@
 //! everything is emitted in index order, so the same input gives a
 //! byte-identical SVG. Non-finite states and map points are skipped.
 
+mod lfr;
+
+pub use lfr::render_lfr_svg;
+
 use std::collections::BTreeSet;
 use std::fmt::{self, Write as _};
 

@@ -1,0 +1,478 @@
+//! The realism prior's training shards: every (agent, token boundary) of a
+//! recorded NGSIM scene and of synthetic traffic becomes one
+//! [`PriorSample`](crate::models::prior_dataset::PriorSample), written in
+//! safetensors shards that `training/prior/` reads (column layout in
+//! `docs/prior-features.md`; the metadata key `scenes` lists each scene's
+//! id, source and [`Split`]).
+//!
+//! The synthetic drivers are calibrated against the recorded scenes:
+//! desired speeds are drawn from the recorded vehicle speeds, and the
+//! acceleration disturbance from their 0.5 s acceleration spread;
+//! [`Calibration`] holds both distributions (and their Jensen–Shannon
+//! divergence) so the calibration can be judged.
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use rayon::prelude::*;
+
+use super::DatasetError;
+use super::held_out::Split;
+use crate::eval::{Histogram, jensen_shannon};
+use crate::models::prior_dataset::{PriorSample, TokenizedScene, scene_samples};
+use crate::models::prior_features::{
+    HISTORY_FEATURES, HISTORY_POINTS, MAP_TOKEN_FEATURES, MAP_TOKENS, NEIGHBOUR_FEATURES, NEIGHBOURS, POSE_FEATURES,
+    SELF_FEATURES, SIGNAL_FEATURES,
+};
+use crate::models::shard::{ShardColumn, write_shard};
+use crate::motion::tokens::TokenGrid;
+use crate::scenario::{AgentKind, Scenario};
+use crate::sim::synthetic::{SpeedSample, SyntheticTraffic, random_template};
+
+/// Length of a synthetic scene, s.
+pub const SYNTHETIC_DURATION_S: f64 = 12.0;
+/// Simulator step of the synthetic scenes, s.
+const SYNTHETIC_DT_S: f64 = 0.1;
+/// Scenes whose samples are built at once (and the granularity at which a
+/// shard is closed once it reaches its size).
+const SCENES_PER_CHUNK: usize = 32;
+/// Source name of the recorded scenes in shard metadata.
+pub const RECORDED_SOURCE: &str = "ngsim";
+/// Source name of the synthetic scenes in shard metadata.
+pub const SYNTHETIC_SOURCE: &str = "synthetic";
+
+/// A scene's entry in a shard's metadata.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct ShardScene {
+    /// Scenario id.
+    pub id: String,
+    /// Where it came from ([`RECORDED_SOURCE`], [`SYNTHETIC_SOURCE`]).
+    pub source: String,
+    /// Train or held out.
+    pub split: Split,
+}
+
+/// Accumulates samples and writes them as one safetensors shard.
+#[derive(Debug, Default)]
+pub struct ShardWriter {
+    scenes: Vec<ShardScene>,
+    samples: Vec<(usize, PriorSample)>,
+}
+
+impl ShardWriter {
+    /// Adds a scene's samples.
+    pub fn add_scene(&mut self, scene: ShardScene, samples: Vec<PriorSample>) {
+        let index = self.scenes.len();
+        self.scenes.push(scene);
+        self.samples.extend(samples.into_iter().map(|s| (index, s)));
+    }
+
+    /// Number of samples so far.
+    pub fn len(&self) -> usize {
+        self.samples.len()
+    }
+
+    /// Whether no sample was added.
+    pub fn is_empty(&self) -> bool {
+        self.samples.is_empty()
+    }
+
+    /// Writes the shard to `path` (through a temporary file, so a reader
+    /// never sees half a shard).
+    pub fn write(&self, path: &Path) -> Result<(), DatasetError> {
+        let n = self.samples.len();
+        let mut cols: Vec<(&str, Vec<f32>, Vec<usize>)> = vec![
+            (
+                "history",
+                Vec::with_capacity(n * HISTORY_POINTS * HISTORY_FEATURES),
+                vec![n, HISTORY_POINTS, HISTORY_FEATURES],
+            ),
+            ("agent_self", Vec::with_capacity(n * SELF_FEATURES), vec![n, SELF_FEATURES]),
+            (
+                "neighbours",
+                Vec::with_capacity(n * NEIGHBOURS * NEIGHBOUR_FEATURES),
+                vec![n, NEIGHBOURS, NEIGHBOUR_FEATURES],
+            ),
+            ("neighbour_pose", Vec::with_capacity(n * NEIGHBOURS * POSE_FEATURES), vec![n, NEIGHBOURS, POSE_FEATURES]),
+            ("neighbour_mask", Vec::with_capacity(n * NEIGHBOURS), vec![n, NEIGHBOURS]),
+            (
+                "map_tokens",
+                Vec::with_capacity(n * MAP_TOKENS * MAP_TOKEN_FEATURES),
+                vec![n, MAP_TOKENS, MAP_TOKEN_FEATURES],
+            ),
+            ("map_pose", Vec::with_capacity(n * MAP_TOKENS * POSE_FEATURES), vec![n, MAP_TOKENS, POSE_FEATURES]),
+            ("map_signal", Vec::with_capacity(n * MAP_TOKENS * SIGNAL_FEATURES), vec![n, MAP_TOKENS, SIGNAL_FEATURES]),
+            ("map_mask", Vec::with_capacity(n * MAP_TOKENS), vec![n, MAP_TOKENS]),
+        ];
+        let mut next_token = Vec::with_capacity(n);
+        let mut scene = Vec::with_capacity(n);
+        for (s, sample) in &self.samples {
+            let q = &sample.query;
+            for (name, col, _) in &mut cols {
+                col.extend_from_slice(match *name {
+                    "history" => &q.history[..],
+                    "agent_self" => &q.agent_self[..],
+                    "neighbours" => &q.neighbours[..],
+                    "neighbour_pose" => &q.neighbour_pose[..],
+                    "neighbour_mask" => &q.neighbour_mask[..],
+                    "map_tokens" => &sample.map_tokens[..],
+                    "map_pose" => &q.map_pose[..],
+                    "map_signal" => &q.map_signal[..],
+                    _ => &q.map_mask[..],
+                });
+            }
+            next_token.push(i64::from(sample.next_token.0));
+            scene.push(*s as i64);
+        }
+        let columns: Vec<ShardColumn> = cols
+            .into_iter()
+            .map(|(name, v, shape)| ShardColumn::f32(name, shape, &v))
+            .chain([ShardColumn::i64("next_token", vec![n], &next_token), ShardColumn::i64("scene", vec![n], &scene)])
+            .collect();
+        let scenes = serde_json::to_string(&self.scenes)
+            .map_err(|source| DatasetError::Metadata { path: path.to_path_buf(), source })?;
+        let metadata =
+            HashMap::from([("scenes".to_string(), scenes), ("contract_version".to_string(), "1".to_string())]);
+        Ok(write_shard(path, &columns, metadata)?)
+    }
+}
+
+/// Speeds and 0.5 s accelerations of the moving vehicles (faster than
+/// 1 m/s) of tokenized scenes, one entry per token period.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct VehicleKinematics {
+    /// Speeds, m/s.
+    pub speeds_mps: Vec<f64>,
+    /// Accelerations of the applied tokens, m/s².
+    pub accels_mps2: Vec<f64>,
+}
+
+impl VehicleKinematics {
+    /// The kinematics of `scenes` (in scene order).
+    pub fn of(scenes: &[Scenario]) -> Self {
+        let per_scene: Vec<VehicleKinematics> = scenes.par_iter().map(Self::of_scene).collect();
+        per_scene.into_iter().fold(Self::default(), |mut all, s| {
+            all.speeds_mps.extend(s.speeds_mps);
+            all.accels_mps2.extend(s.accels_mps2);
+            all
+        })
+    }
+
+    fn of_scene(scene: &Scenario) -> Self {
+        let t = TokenizedScene::new(scene);
+        let mut out = Self::default();
+        // Sorted keys: the order of the samples does not depend on hashing.
+        let mut keys: Vec<&(usize, usize)> = t.labels.keys().collect();
+        keys.sort_unstable();
+        for key @ &(agent, step) in keys {
+            if t.bodies[agent].kind != AgentKind::Vehicle {
+                continue;
+            }
+            if let Some(state) = t.frames.get(step).and_then(|f| f[agent])
+                && state.speed_mps() > 1.0
+            {
+                out.speeds_mps.push(state.speed_mps());
+                out.accels_mps2.push(TokenGrid::action(t.labels[key]).accel_mps2);
+            }
+        }
+        out
+    }
+
+    /// Number of token periods.
+    pub fn len(&self) -> usize {
+        self.speeds_mps.len()
+    }
+
+    /// Whether there is none.
+    pub fn is_empty(&self) -> bool {
+        self.speeds_mps.is_empty()
+    }
+
+    /// Standard deviation of the accelerations (`None` without any), m/s².
+    pub fn accel_std_mps2(&self) -> Option<f64> {
+        std_dev(&self.accels_mps2)
+    }
+}
+
+/// Population standard deviation (`None` of an empty slice).
+pub fn std_dev(v: &[f64]) -> Option<f64> {
+    if v.is_empty() {
+        return None;
+    }
+    let n = v.len() as f64;
+    let mean = v.iter().sum::<f64>() / n;
+    Some((v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / n).sqrt())
+}
+
+fn histogram(v: &[f64], lo: f64, hi: f64, bins: usize) -> Histogram {
+    let mut h = Histogram::new(lo, hi, bins);
+    for &x in v {
+        h.add(x);
+    }
+    h
+}
+
+/// Recorded vs synthetic vehicle kinematics.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Calibration {
+    /// Of the recorded scenes.
+    pub recorded: VehicleKinematics,
+    /// Of the synthetic scenes.
+    pub synthetic: VehicleKinematics,
+    /// Jensen–Shannon divergence of the speeds (35 bins of 1 m/s over 0..35 m/s; `None` when a side is empty).
+    pub speed_jsd: Option<f64>,
+    /// Jensen–Shannon divergence of the accelerations (20 bins of 0.5 m/s² over ±5 m/s²).
+    pub accel_jsd: Option<f64>,
+}
+
+impl Calibration {
+    /// Compares the two.
+    pub fn new(recorded: VehicleKinematics, synthetic: VehicleKinematics) -> Self {
+        let speed_jsd = jensen_shannon(
+            &histogram(&recorded.speeds_mps, 0.0, 35.0, 35),
+            &histogram(&synthetic.speeds_mps, 0.0, 35.0, 35),
+        );
+        let accel_jsd = jensen_shannon(
+            &histogram(&recorded.accels_mps2, -5.0, 5.0, 20),
+            &histogram(&synthetic.accels_mps2, -5.0, 5.0, 20),
+        );
+        Self { recorded, synthetic, speed_jsd, accel_jsd }
+    }
+}
+
+/// How much synthetic traffic to generate.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct SyntheticPlan {
+    /// Scenes on procedural templates.
+    pub template_scenes: usize,
+    /// Scenes on the recorded maps (none without recorded scenes).
+    pub recorded_map_scenes: usize,
+    /// Base seed.
+    pub seed: u64,
+}
+
+/// The synthetic traffic generator calibrated against the recorded kinematics.
+pub fn calibrated_traffic(recorded: &VehicleKinematics) -> SyntheticTraffic {
+    SyntheticTraffic {
+        speeds: SpeedSample::new(recorded.speeds_mps.clone()),
+        // IDM alone already varies acceleration; the disturbance supplies
+        // the rest of the recorded spread (checked by the calibration).
+        accel_noise_std_mps2: 0.6 * recorded.accel_std_mps2().unwrap_or(0.0),
+        duration_s: SYNTHETIC_DURATION_S,
+        max_agents: 80,
+    }
+}
+
+/// Synthetic scenes (templates first, then recorded maps, each in index
+/// order; a scene the generator cannot populate is skipped) and the
+/// calibration of their kinematics against `recorded`.
+pub fn synthetic_scenes(recorded: &[Scenario], plan: SyntheticPlan) -> (Vec<Scenario>, Calibration) {
+    let recorded_kinematics = VehicleKinematics::of(recorded);
+    let traffic = calibrated_traffic(&recorded_kinematics);
+    let steps = (SYNTHETIC_DURATION_S / SYNTHETIC_DT_S).round() as usize + 1;
+    let jobs: Vec<(String, u64, Option<usize>)> = (0..plan.template_scenes)
+        .map(|i| (format!("synthetic-template-{i:05}"), plan.seed.wrapping_add(i as u64), None))
+        .chain((0..plan.recorded_map_scenes).filter(|_| !recorded.is_empty()).map(|i| {
+            (
+                format!("synthetic-recorded-map-{i:05}"),
+                plan.seed.wrapping_add(1_000_000 + i as u64),
+                Some(i % recorded.len()),
+            )
+        }))
+        .collect();
+    let synthetic: Vec<Scenario> = jobs
+        .par_iter()
+        .filter_map(|(id, seed, map_of)| {
+            let mut rng = ChaCha8Rng::seed_from_u64(*seed);
+            let map = match map_of {
+                Some(i) => recorded[*i].map.clone(),
+                None => random_template(&mut rng, steps, SYNTHETIC_DT_S).1,
+            };
+            traffic.generate(id, map, seed.wrapping_mul(0x9E37_79B9_7F4A_7C15))
+        })
+        .collect();
+    let calibration = Calibration::new(recorded_kinematics, VehicleKinematics::of(&synthetic));
+    (synthetic, calibration)
+}
+
+/// The scenes of the shards in their fixed order (recorded, then
+/// synthetic), each with its metadata entry; the held-out rule counts in
+/// each source on its own.
+pub fn shard_scenes<'a>(recorded: &'a [Scenario], synthetic: &'a [Scenario]) -> Vec<(&'a Scenario, ShardScene)> {
+    let entry = |source: &str, i: usize, s: &Scenario| ShardScene {
+        id: s.id.clone(),
+        source: source.to_string(),
+        split: Split::of(i),
+    };
+    recorded
+        .iter()
+        .enumerate()
+        .map(|(i, s)| (s, entry(RECORDED_SOURCE, i, s)))
+        .chain(synthetic.iter().enumerate().map(|(i, s)| (s, entry(SYNTHETIC_SOURCE, i, s))))
+        .collect()
+}
+
+/// What [`write_shards`] wrote.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct ShardTotals {
+    /// Samples of training scenes.
+    pub train_samples: usize,
+    /// Samples of held-out scenes.
+    pub held_out_samples: usize,
+    /// The shards, in order.
+    pub shards: Vec<PathBuf>,
+}
+
+/// Writes the samples of `scenes` into `out/shard-NNN.safetensors`, a new
+/// shard once one holds at least `shard_size` samples (checked every
+/// 32 scenes); `on_shard` hears of each shard written (path, samples).
+pub fn write_shards(
+    scenes: &[(&Scenario, ShardScene)],
+    out: &Path,
+    shard_size: usize,
+    mut on_shard: impl FnMut(&Path, usize),
+) -> Result<ShardTotals, DatasetError> {
+    let mut totals = ShardTotals::default();
+    let mut writer = ShardWriter::default();
+    let mut flush = |writer: &mut ShardWriter, totals: &mut ShardTotals| -> Result<(), DatasetError> {
+        let path = out.join(format!("shard-{:03}.safetensors", totals.shards.len()));
+        writer.write(&path)?;
+        on_shard(&path, writer.len());
+        totals.shards.push(path);
+        *writer = ShardWriter::default();
+        Ok(())
+    };
+    for chunk in scenes.chunks(SCENES_PER_CHUNK) {
+        let samples: Vec<Vec<PriorSample>> = chunk.par_iter().map(|(s, _)| scene_samples(s)).collect();
+        for ((_, entry), samples) in chunk.iter().zip(samples) {
+            match entry.split {
+                Split::Train => totals.train_samples += samples.len(),
+                Split::HeldOut => totals.held_out_samples += samples.len(),
+            }
+            writer.add_scene(entry.clone(), samples);
+        }
+        if writer.len() >= shard_size {
+            flush(&mut writer, &mut totals)?;
+        }
+    }
+    if !writer.is_empty() {
+        flush(&mut writer, &mut totals)?;
+    }
+    Ok(totals)
+}
+
+#[cfg(test)]
+mod tests {
+    use safetensors::SafeTensors;
+
+    use super::*;
+    use crate::motion::tokens::VOCABULARY_SIZE;
+
+    /// A small synthetic scene on a procedural template.
+    fn synthetic_scene(seed: u64) -> Scenario {
+        let traffic = SyntheticTraffic {
+            speeds: SpeedSample::new(vec![8.0, 10.0, 12.0]),
+            accel_noise_std_mps2: 0.3,
+            duration_s: 4.0,
+            max_agents: 6,
+        };
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        (0..20)
+            .find_map(|k| {
+                let (_, map) = random_template(&mut rng, 41, SYNTHETIC_DT_S);
+                traffic.generate(&format!("test-{seed}-{k}"), map, seed + k)
+            })
+            .expect("the generator populates one of 20 templates")
+    }
+
+    #[test]
+    fn std_dev_of_nothing_is_none_not_zero() {
+        assert_eq!(std_dev(&[]), None);
+        assert_eq!(std_dev(&[2.0, 4.0]), Some(1.0));
+    }
+
+    #[test]
+    fn recorded_and_synthetic_scenes_are_split_per_source() {
+        let scenes: Vec<Scenario> = (0..2).map(synthetic_scene).collect();
+        let recorded: Vec<Scenario> = (0..12).map(|i| scenes[i % 2].clone()).collect();
+        let synthetic: Vec<Scenario> = (0..15).map(|i| scenes[i % 2].clone()).collect();
+        let entries = shard_scenes(&recorded, &synthetic);
+        assert_eq!(entries.len(), 27);
+        let held: Vec<(String, usize)> = entries
+            .iter()
+            .enumerate()
+            .filter(|(_, (_, e))| e.split == Split::HeldOut)
+            .map(|(k, (_, e))| (e.source.clone(), k))
+            .collect();
+        // Position 9 of the recorded scenes and position 9 of the synthetic ones (12 + 9).
+        assert_eq!(held, vec![(RECORDED_SOURCE.to_string(), 9), (SYNTHETIC_SOURCE.to_string(), 21)]);
+    }
+
+    #[test]
+    fn a_synthetic_scene_becomes_a_well_formed_shard() {
+        let scene = synthetic_scene(7);
+        let samples = scene_samples(&scene);
+        assert!(!samples.is_empty(), "a 4 s scene with moving vehicles has token boundaries");
+        let n = samples.len();
+        let dir = std::env::temp_dir().join(format!("safer-datasets-prior-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let mut written = Vec::new();
+        let entries =
+            vec![(&scene, ShardScene { id: scene.id.clone(), source: "synthetic".into(), split: Split::HeldOut })];
+        let totals = write_shards(&entries, &dir, 1, |p, k| written.push((p.to_path_buf(), k))).unwrap();
+        assert_eq!(totals.held_out_samples, n);
+        assert_eq!(totals.train_samples, 0);
+        assert_eq!(written, vec![(dir.join("shard-000.safetensors"), n)]);
+
+        let bytes = std::fs::read(&totals.shards[0]).unwrap();
+        let (_, meta) = SafeTensors::read_metadata(&bytes).unwrap();
+        let scenes = meta.metadata().as_ref().unwrap()["scenes"].clone();
+        assert_eq!(scenes, format!(r#"[{{"id":"{}","source":"synthetic","split":"held-out"}}]"#, scene.id));
+        let shard = SafeTensors::deserialize(&bytes).unwrap();
+        let expect = [
+            ("history", vec![n, HISTORY_POINTS, HISTORY_FEATURES]),
+            ("agent_self", vec![n, SELF_FEATURES]),
+            ("neighbours", vec![n, NEIGHBOURS, NEIGHBOUR_FEATURES]),
+            ("neighbour_pose", vec![n, NEIGHBOURS, POSE_FEATURES]),
+            ("neighbour_mask", vec![n, NEIGHBOURS]),
+            ("map_tokens", vec![n, MAP_TOKENS, MAP_TOKEN_FEATURES]),
+            ("map_pose", vec![n, MAP_TOKENS, POSE_FEATURES]),
+            ("map_signal", vec![n, MAP_TOKENS, SIGNAL_FEATURES]),
+            ("map_mask", vec![n, MAP_TOKENS]),
+        ];
+        for (name, shape) in expect {
+            let t = shard.tensor(name).unwrap();
+            assert_eq!(t.shape(), &shape[..], "{name}");
+            let finite = t.data().chunks_exact(4).all(|b| f32::from_le_bytes(b.try_into().unwrap()).is_finite());
+            assert!(finite, "{name} holds a non-finite value");
+        }
+        let tokens: Vec<i64> = shard
+            .tensor("next_token")
+            .unwrap()
+            .data()
+            .chunks_exact(8)
+            .map(|b| i64::from_le_bytes(b.try_into().unwrap()))
+            .collect();
+        assert_eq!(tokens.len(), n);
+        assert!(tokens.iter().all(|&t| (0..VOCABULARY_SIZE as i64).contains(&t)));
+        let scene_col = shard.tensor("scene").unwrap();
+        assert!(scene_col.data().chunks_exact(8).all(|b| i64::from_le_bytes(b.try_into().unwrap()) == 0));
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn synthetic_traffic_is_calibrated_against_the_recorded_kinematics() {
+        let recorded = vec![synthetic_scene(3)];
+        let plan = SyntheticPlan { template_scenes: 2, recorded_map_scenes: 1, seed: 5 };
+        let (synthetic, calibration) = synthetic_scenes(&recorded, plan);
+        assert!(!synthetic.is_empty() && synthetic.len() <= 3);
+        assert!(!calibration.recorded.is_empty());
+        let jsd = calibration.speed_jsd.expect("both sides have speeds");
+        assert!((0.0..=1.0).contains(&jsd), "JSD in bits: {jsd}");
+        let traffic = calibrated_traffic(&calibration.recorded);
+        let expected = 0.6 * calibration.recorded.accel_std_mps2().unwrap();
+        assert!((traffic.accel_noise_std_mps2 - expected).abs() < 1e-12);
+    }
+}

@@ -1,0 +1,356 @@
+//! How well V_h tells feasible from infeasible ego–CBV states: states are
+//! sampled from closed-loop rollouts ([`sample_states`]), each is labelled
+//! by the witness search — can the ego, from that state, keep the CBV
+//! (replaying its rollout future) beyond d_th within its dynamic limits over
+//! the next 4 s? ([`label_state`]) — and sign(V_h) is compared with that
+//! label in a [`ConfusionTable`] of "infeasible". [`lfr_panels`] samples
+//! V_h over relative CBV positions in the ego frame (the paper's Largest
+//! Feasible Region figure).
+
+use std::time::Instant;
+
+use super::witness::{FixedTraffic, WitnessBudget, search_witness};
+use crate::geometry::{Point2, Vector2};
+use crate::models::ModelError;
+use crate::models::feasibility::{DISTANCE_THRESHOLD_M, box_distance_m, pair};
+use crate::models::feasibility_oracle::{EgoCbvState, FeasibilityOracle};
+use crate::scenario::{AgentBody, AgentKind, AgentState, TrackIndex};
+use crate::sim::Rollout;
+
+/// Witness horizon from a sampled state, simulator steps (4 s).
+pub const WITNESS_HORIZON_STEPS: usize = 40;
+/// A state is sampled every this many steps of a rollout.
+pub const SAMPLE_EVERY_STEPS: usize = 10;
+
+/// An ego–CBV state sampled from a rollout, with the CBV's future there.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SampledState {
+    /// The state.
+    pub pair: EgoCbvState,
+    /// The CBV from that step on (`[0]` = at the state), at most
+    /// [`WITNESS_HORIZON_STEPS`] + 1 steps; `None` = absent.
+    pub cbv_future: Vec<Option<AgentState>>,
+}
+
+/// The states of `rollout` every [`SAMPLE_EVERY_STEPS`] steps where both
+/// `ego` and `cbv` are present and at least half the witness horizon of
+/// the CBV's future is left.
+pub fn sample_states(rollout: &Rollout, ego: TrackIndex, cbv: TrackIndex) -> Vec<SampledState> {
+    let (Some(&eb), Some(&cb)) = (rollout.bodies.get(ego.0), rollout.bodies.get(cbv.0)) else {
+        return Vec::new();
+    };
+    let agent = |k: usize, i: TrackIndex| rollout.states[k].get(i.0).copied().flatten();
+    let n = rollout.states.len();
+    (0..n)
+        .step_by(SAMPLE_EVERY_STEPS)
+        .filter_map(|k| {
+            let (es, cs) = (agent(k, ego)?, agent(k, cbv)?);
+            let cbv_future: Vec<Option<AgentState>> =
+                (k..n).take(WITNESS_HORIZON_STEPS + 1).map(|j| agent(j, cbv)).collect();
+            (cbv_future.len() >= WITNESS_HORIZON_STEPS / 2)
+                .then(|| SampledState { pair: pair(es, eb, cs, cb), cbv_future })
+        })
+        .collect()
+}
+
+/// A sampled state with its witness label and V_h.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LabelledState {
+    /// V_h of the state (NaN when the model failed on it).
+    pub value: f32,
+    /// Whether the witness search found an escape (the state is feasible).
+    pub witness_found: bool,
+    /// Time the witness search took, s.
+    pub witness_s: f64,
+}
+
+/// Labels `state` by the witness search (margin d_th, the CBV replaying its
+/// future) and evaluates V_h on it.
+pub fn label_state(value: &dyn FeasibilityOracle, state: &SampledState) -> LabelledState {
+    let p = &state.pair;
+    let states: Vec<Vec<Option<AgentState>>> = state.cbv_future.iter().map(|c| vec![None, *c]).collect();
+    let bodies = [p.ego_body, p.cbv_body];
+    let traffic = FixedTraffic { states: &states, bodies: &bodies, ego: 0 };
+    let budget = WitnessBudget { margin_m: DISTANCE_THRESHOLD_M, ..WitnessBudget::default() };
+    let t = Instant::now();
+    let horizon = states.len().saturating_sub(1);
+    let witness_found = search_witness(&p.ego, p.ego_body, &traffic, horizon, budget).is_found();
+    let witness_s = t.elapsed().as_secs_f64();
+    let v = value.values(std::slice::from_ref(p)).ok().and_then(|v| v.first().copied()).unwrap_or(f32::NAN);
+    LabelledState { value: v, witness_found, witness_s }
+}
+
+/// sign(V_h) against the witness label, for the class "infeasible"
+/// (V_h > 0 predicts it; no witness is the label).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct ConfusionTable {
+    /// Predicted infeasible, no witness (true positive).
+    pub true_infeasible: usize,
+    /// Predicted infeasible, witness found (false positive, a false alarm).
+    pub false_infeasible: usize,
+    /// Predicted feasible, no witness (false negative, a miss).
+    pub missed_infeasible: usize,
+    /// Predicted feasible, witness found (true negative).
+    pub true_feasible: usize,
+    /// States whose V_h is not a number (counted in no cell).
+    pub unscored: usize,
+}
+
+impl ConfusionTable {
+    /// The table of `labelled`.
+    pub fn of(labelled: &[LabelledState]) -> Self {
+        let mut t = Self::default();
+        for l in labelled {
+            if l.value.is_nan() {
+                t.unscored += 1;
+                continue;
+            }
+            match (l.value > 0.0, !l.witness_found) {
+                (true, true) => t.true_infeasible += 1,
+                (true, false) => t.false_infeasible += 1,
+                (false, true) => t.missed_infeasible += 1,
+                (false, false) => t.true_feasible += 1,
+            }
+        }
+        t
+    }
+
+    /// States in the four cells.
+    pub fn scored(&self) -> usize {
+        self.true_infeasible + self.false_infeasible + self.missed_infeasible + self.true_feasible
+    }
+
+    /// States labelled infeasible (no witness).
+    pub fn infeasible(&self) -> usize {
+        self.true_infeasible + self.missed_infeasible
+    }
+
+    /// States labelled feasible (witness found).
+    pub fn feasible(&self) -> usize {
+        self.false_infeasible + self.true_feasible
+    }
+
+    /// Share of predicted-infeasible states that are infeasible (`None` when none is predicted infeasible).
+    pub fn precision(&self) -> Option<f64> {
+        ratio(self.true_infeasible, self.true_infeasible + self.false_infeasible)
+    }
+
+    /// Share of infeasible states predicted infeasible (`None` when none is infeasible).
+    pub fn recall(&self) -> Option<f64> {
+        ratio(self.true_infeasible, self.infeasible())
+    }
+
+    /// Share of scored states predicted right (`None` when none is scored).
+    pub fn accuracy(&self) -> Option<f64> {
+        ratio(self.true_infeasible + self.true_feasible, self.scored())
+    }
+}
+
+fn ratio(numerator: usize, denominator: usize) -> Option<f64> {
+    (denominator > 0).then(|| numerator as f64 / denominator as f64)
+}
+
+/// The grid of an LFR panel: CBV centres in the ego frame (ego at the
+/// origin heading +x), cell centres from the top-left, row by row.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LfrGrid {
+    /// Extent along the ego's heading, m.
+    pub x_range_m: (f64, f64),
+    /// Extent to its left, m.
+    pub y_range_m: (f64, f64),
+    /// Cell size, m.
+    pub cell_m: f64,
+}
+
+impl LfrGrid {
+    /// The grid of the shipped figure: x −15..35 m, y −12..12 m, 1 m cells.
+    pub const FIGURE: Self = Self { x_range_m: (-15.0, 35.0), y_range_m: (-12.0, 12.0), cell_m: 1.0 };
+
+    /// Cells along x and along y.
+    pub fn cells(&self) -> (usize, usize) {
+        let n = |r: (f64, f64)| ((r.1 - r.0) / self.cell_m).max(0.0) as usize;
+        (n(self.x_range_m), n(self.y_range_m))
+    }
+
+    /// Centre of cell (`i` along x, `j` down from the top), m.
+    pub fn centre(&self, i: usize, j: usize) -> Point2 {
+        Point2::new(
+            self.x_range_m.0 + (i as f64 + 0.5) * self.cell_m,
+            self.y_range_m.1 - (j as f64 + 0.5) * self.cell_m,
+        )
+    }
+}
+
+/// V_h over one LFR panel.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LfrPanel {
+    /// Ego and CBV speed, m/s.
+    pub speed_mps: f64,
+    /// CBV heading in the ego frame, rad.
+    pub cbv_heading_rad: f64,
+    /// What the heading means (e.g. "same heading").
+    pub label: &'static str,
+    /// The grid.
+    pub grid: LfrGrid,
+    /// V_h per cell, row by row from the top-left.
+    pub values: Vec<f32>,
+    /// Whether the CBV's box touches the ego's in that cell.
+    pub overlapping: Vec<bool>,
+}
+
+impl LfrPanel {
+    /// Share of cells where V_h > 0 (`None` of an empty grid).
+    pub fn infeasible_share(&self) -> Option<f64> {
+        ratio(self.values.iter().filter(|v| **v > 0.0).count(), self.values.len())
+    }
+}
+
+/// The car both agents are in the LFR figure, m.
+pub const LFR_CAR: AgentBody = AgentBody { kind: AgentKind::Vehicle, length_m: 4.6, width_m: 1.9 };
+/// The figure's speeds (rows), m/s.
+pub const LFR_SPEEDS_MPS: [f64; 3] = [5.0, 10.0, 15.0];
+/// The figure's CBV headings (columns), rad, with their labels.
+pub const LFR_HEADINGS: [(f64, &str); 2] =
+    [(0.0, "same heading"), (std::f64::consts::FRAC_PI_2, "crossing from the right")];
+
+/// V_h over `grid` for every speed of [`LFR_SPEEDS_MPS`] × heading of
+/// [`LFR_HEADINGS`] (row by row): ego and CBV the same car ([`LFR_CAR`]) at
+/// the same speed.
+pub fn lfr_panels(value: &dyn FeasibilityOracle, grid: LfrGrid) -> Result<Vec<LfrPanel>, ModelError> {
+    let (nx, ny) = grid.cells();
+    let mut panels = Vec::new();
+    for &speed in &LFR_SPEEDS_MPS {
+        for &(heading, label) in &LFR_HEADINGS {
+            let ego =
+                AgentState { position: Point2::origin(), heading_rad: 0.0, velocity_mps: Vector2::new(speed, 0.0) };
+            let pairs: Vec<EgoCbvState> = (0..ny)
+                .flat_map(|j| (0..nx).map(move |i| (i, j)))
+                .map(|(i, j)| {
+                    let cbv = AgentState {
+                        position: grid.centre(i, j),
+                        heading_rad: heading,
+                        velocity_mps: Vector2::new(heading.cos(), heading.sin()) * speed,
+                    };
+                    pair(ego, LFR_CAR, cbv, LFR_CAR)
+                })
+                .collect();
+            let values = value.values(&pairs)?;
+            let overlapping = pairs.iter().map(|p| box_distance_m(p) <= 0.0).collect();
+            panels.push(LfrPanel { speed_mps: speed, cbv_heading_rad: heading, label, grid, values, overlapping });
+        }
+    }
+    Ok(panels)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scenario::AgentId;
+    use crate::sim::Termination;
+
+    fn labelled(value: f32, witness_found: bool) -> LabelledState {
+        LabelledState { value, witness_found, witness_s: 0.0 }
+    }
+
+    #[test]
+    fn the_confusion_table_counts_each_cell() {
+        // 3 true alarms, 1 false alarm, 2 misses, 4 correct "feasible", 1 unscored.
+        let mut l = vec![labelled(2.0, false); 3];
+        l.push(labelled(1.0, true));
+        l.extend([labelled(-1.0, false), labelled(0.0, false)]);
+        l.extend(vec![labelled(-0.5, true); 4]);
+        l.push(labelled(f32::NAN, false));
+        let t = ConfusionTable::of(&l);
+        assert_eq!(
+            t,
+            ConfusionTable {
+                true_infeasible: 3,
+                false_infeasible: 1,
+                missed_infeasible: 2,
+                true_feasible: 4,
+                unscored: 1
+            }
+        );
+        assert_eq!((t.scored(), t.infeasible(), t.feasible()), (10, 5, 5));
+        assert_eq!(t.precision(), Some(0.75));
+        assert_eq!(t.recall(), Some(0.6));
+        assert_eq!(t.accuracy(), Some(0.7));
+    }
+
+    #[test]
+    fn rates_without_a_denominator_are_none_not_zero_or_one() {
+        // Nothing predicted infeasible and nothing infeasible: no precision, no recall.
+        let t = ConfusionTable::of(&[labelled(-1.0, true), labelled(-2.0, true)]);
+        assert_eq!(t.precision(), None);
+        assert_eq!(t.recall(), None);
+        assert_eq!(t.accuracy(), Some(1.0));
+        // Only infeasible states, all missed: recall 0, precision undefined.
+        let t = ConfusionTable::of(&[labelled(-1.0, false)]);
+        assert_eq!((t.precision(), t.recall()), (None, Some(0.0)));
+        // Nothing scored at all.
+        let t = ConfusionTable::of(&[labelled(f32::NAN, true)]);
+        assert_eq!((t.precision(), t.recall(), t.accuracy()), (None, None, None));
+        assert_eq!(t.unscored, 1);
+    }
+
+    /// V_h = 1 within 3 m box distance, else −1.
+    struct NearIsInfeasible;
+    impl FeasibilityOracle for NearIsInfeasible {
+        fn values(&self, pairs: &[EgoCbvState]) -> Result<Vec<f32>, ModelError> {
+            Ok(pairs.iter().map(|p| if box_distance_m(p) < 3.0 { 1.0 } else { -1.0 }).collect())
+        }
+    }
+
+    #[test]
+    fn lfr_panels_cover_the_grid_in_figure_order() {
+        let grid = LfrGrid { x_range_m: (-10.0, 10.0), y_range_m: (-5.0, 5.0), cell_m: 1.0 };
+        assert_eq!(grid.cells(), (20, 10));
+        assert_eq!(grid.centre(0, 0), Point2::new(-9.5, 4.5));
+        let panels = lfr_panels(&NearIsInfeasible, grid).unwrap();
+        assert_eq!(panels.len(), LFR_SPEEDS_MPS.len() * LFR_HEADINGS.len());
+        assert_eq!((panels[1].speed_mps, panels[1].label), (5.0, "crossing from the right"));
+        for p in &panels {
+            assert_eq!((p.values.len(), p.overlapping.len()), (200, 200));
+            // The cell at the ego's centre overlaps and is infeasible; a far corner is neither.
+            let centre = 5 * 20 + 10;
+            assert!(p.overlapping[centre] && p.values[centre] > 0.0);
+            assert!(!p.overlapping[0] && p.values[0] < 0.0);
+            let infeasible = p.values.iter().filter(|v| **v > 0.0).count();
+            assert!(infeasible > 0 && infeasible < 200);
+            assert_eq!(p.infeasible_share(), Some(infeasible as f64 / 200.0));
+        }
+    }
+
+    #[test]
+    fn states_are_sampled_where_both_agents_are_present() {
+        let body = LFR_CAR;
+        let at = |x: f64| AgentState {
+            position: Point2::new(x, 0.0),
+            heading_rad: 0.0,
+            velocity_mps: Vector2::new(10.0, 0.0),
+        };
+        let states: Vec<Vec<Option<AgentState>>> =
+            (0..45).map(|k| vec![Some(at(k as f64)), if k == 10 { None } else { Some(at(k as f64 + 20.0)) }]).collect();
+        let rollout = Rollout {
+            scenario_id: "two-cars".into(),
+            dt_s: 0.1,
+            start_step: 0,
+            ego: TrackIndex(0),
+            cbv: Some(TrackIndex(1)),
+            agent_ids: vec![AgentId("ego".into()), AgentId("cbv".into())],
+            bodies: vec![body, body],
+            states,
+            collisions: Vec::new(),
+            off_road: Vec::new(),
+            min_distance_to_ego: None,
+            termination: Termination::Completed,
+            planner: "test".into(),
+        };
+        let sampled = sample_states(&rollout, TrackIndex(0), TrackIndex(1));
+        // Step 10 lacks the CBV; step 40 has 5 steps of future, under half the horizon.
+        assert_eq!(sampled.len(), 2);
+        assert_eq!(sampled[0].cbv_future.len(), WITNESS_HORIZON_STEPS + 1);
+        assert_eq!(sampled[1].pair.ego.position, Point2::new(20.0, 0.0));
+        assert_eq!(sampled[1].cbv_future.len(), 25);
+    }
+}
