@@ -68,7 +68,8 @@ impl IdmParams {
             let zero_ok = matches!(name, "time_headway_s" | "min_gap_m" | "lookahead_time_s");
             let ok = v.is_finite() && (v > min || (zero_ok && v == min)) && v <= max;
             let open = if zero_ok { "[" } else { "(" };
-            (!ok).then(|| (name, format!("must be a number in {open}{min}, {max}], got {v}")))
+            let got = if v.is_finite() && v.abs() >= 1e7 { format!("{v:e}") } else { format!("{v}") };
+            (!ok).then(|| (name, format!("must be a number in {open}{min}, {max}], got {got}")))
         })
     }
 }

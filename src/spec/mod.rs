@@ -180,8 +180,14 @@ impl<T> Loaded<T> {
             return Ok(());
         }
         let key = path.rsplit('.').next().unwrap_or(path);
-        Err(self.invalid_at(path, format!("`{key}` must be a number in {} {unit}, got {value}", range.describe())))
+        let got = number_text(value);
+        Err(self.invalid_at(path, format!("`{key}` must be a number in {} {unit}, got {got}", range.describe())))
     }
+}
+
+/// A number as a person wrote it: `1e300`, not three hundred digits.
+pub fn number_text(v: f64) -> String {
+    if v.is_finite() && v != 0.0 && !(1e-4..1e7).contains(&v.abs()) { format!("{v:e}") } else { format!("{v}") }
 }
 
 /// A closed or half-open range a spec number must lie in.
@@ -230,10 +236,29 @@ pub fn parse_yaml<T: DeserializeOwned>(text: &str, path: &Path) -> Result<Loaded
 }
 
 /// serde-saphyr's Display includes a rendered snippet; our message keeps
-/// the first line (the what) and the renderer adds the snippet.
+/// the first line (the what) and the renderer adds the snippet. Messages
+/// that speak to a programmer (which library option to set) are put in a
+/// spec author's words.
 fn first_line_message(e: &serde_saphyr::Error) -> String {
     let full = e.to_string();
-    full.lines().next().unwrap_or(&full).trim().to_string()
+    let first = full.lines().next().unwrap_or(&full).trim();
+    let first = first.strip_prefix("error: ").unwrap_or(first);
+    // "line L column C: " is repeated by our own location; drop it.
+    let what = first.split_once(": ").filter(|(head, _)| head.starts_with("line ")).map_or(first, |(_, rest)| rest);
+    plain_words(what)
+}
+
+/// Rewrites library-facing YAML messages for spec authors.
+fn plain_words(message: &str) -> String {
+    if let Some(rest) = message.strip_prefix("duplicate mapping key: ") {
+        let key = rest.split(',').next().unwrap_or(rest).trim();
+        return format!("key `{key}` appears twice in the same mapping; keep one");
+    }
+    if message.starts_with("multiple YAML documents detected") {
+        return "a spec file holds one YAML document, but a second one starts here (`---`); move it to its own file"
+            .to_string();
+    }
+    message.to_string()
 }
 
 /// Reads and parses a YAML spec file.
@@ -261,4 +286,38 @@ pub enum SpecKind {
     Suite,
     /// `planners/*.yaml`.
     Planner,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn parse_error(text: &str) -> SpecError {
+        parse_yaml::<serde_json::Value>(text, Path::new("s.yaml")).unwrap_err()
+    }
+
+    #[test]
+    fn duplicate_keys_and_second_documents_are_explained_in_plain_words() {
+        let e = parse_error("name: a\nname: b\n");
+        let m = e.to_string();
+        assert!(m.starts_with("s.yaml:2:1: key `name` appears twice"), "{m}");
+        assert!(!m.contains("DuplicateKeyPolicy"), "{m}");
+        let m = parse_error("name: a\n---\nname: b\n").to_string();
+        assert!(m.contains("one YAML document") && !m.contains("from_str_multiple"), "{m}");
+    }
+
+    #[test]
+    fn a_bare_file_name_resolves_against_the_current_folder() {
+        let spec = parse_yaml::<serde_json::Value>("a: 1\n", Path::new("suite.yaml")).unwrap();
+        assert_eq!(spec.dir(), Path::new("."));
+    }
+
+    #[test]
+    fn numbers_out_of_range_or_nan_are_refused_at_their_value() {
+        let spec = parse_yaml::<serde_json::Value>("x:\n  gap: .nan\n", Path::new("s.yaml")).unwrap();
+        let e = spec.check_number("x.gap", f64::NAN, NumberRange::closed(0.0, 1.0), "m").unwrap_err();
+        assert_eq!(e.to_string(), "s.yaml:2:8: `gap` must be a number in [0, 1] m, got NaN");
+        assert!(spec.check_number("x.gap", 0.0, NumberRange::above(0.0, 1.0), "m").is_err());
+        assert!(spec.check_number("x.gap", 1.0, NumberRange::above(0.0, 1.0), "m").is_ok());
+    }
 }

@@ -1,1 +1,101 @@
-//! Bad input: specs (see the parent module).
+//! Bad input: broken specs. Every case is refused when the spec loads,
+//! before anything runs, with the file, the line and column of the
+//! offending value, and what is wrong. Fixtures are in
+//! `tests/fixtures/bad-input/specs/`, one per case, named for what they show.
+
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use safer::harness::Suite;
+use safer::spec::planner::PlannerSpec;
+use safer::spec::scenario::ScenarioSpec;
+use safer::spec::{SpecError, load_yaml};
+
+fn fixture(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/bad-input/specs").join(name)
+}
+
+/// Loads a fixture the way the runner does, for its kind.
+fn load_error(name: &str) -> SpecError {
+    let path = fixture(name);
+    let result = if name.ends_with(".suite.yaml") {
+        Suite::load(&path).map(|_| ())
+    } else if name.ends_with(".scenario.yaml") {
+        load_yaml::<ScenarioSpec>(&path).and_then(|s| s.build()).map(|_| ())
+    } else {
+        load_yaml::<PlannerSpec>(&path).and_then(|s| s.validate()).map(|_| ())
+    };
+    match result {
+        Ok(()) => panic!("{name} loaded; it must be refused"),
+        Err(e) => e,
+    }
+}
+
+/// (fixture, line, column of the offending value, words the message must hold)
+const CASES: &[(&str, u64, u64, &str)] = &[
+    ("min-gap-nan.suite.yaml", 7, 45, "`min_gap_m` must be a number in [0, 100] m, got NaN"),
+    ("min-ttc-nan.suite.yaml", 8, 16, "`min_ttc_s` must be a number in [0, 60] s, got NaN"),
+    ("min-gap-negative.suite.yaml", 7, 25, "`min_gap_m` must be a number in [0, 100] m, got -5"),
+    ("jsd-bound-nan.suite.yaml", 9, 30, "`velocity_jsd_max` must be a number in [0, 1]"),
+    ("jsd-bound-negative.suite.yaml", 10, 27, "`acceleration_jsd_max` must be a number in [0, 1]"),
+    ("solution-rate-above-one.suite.yaml", 7, 31, "`solution_rate_min` must be a number in [0, 1]"),
+    ("recorded-entry-typo-limt.suite.yaml", 5, 5, "unknown key `limt` in scenarios[0]"),
+    ("unknown-builtin-idmm.suite.yaml", 5, 21, "unknown built-in planner `idmm`; the built-ins are log-replay, constant-velocity, idm, evasive"),
+    ("suite-named-dotdot.suite.yaml", 2, 7, "name `..` cannot be used in test names and artefact paths"),
+    ("log-method-two-variants.suite.yaml", 7, 11, "every seed gives the same variant"),
+    ("log-method-jsd-bound.suite.yaml", 8, 30, "compares the log with itself"),
+    ("variants-zero.suite.yaml", 6, 11, "variants must be 1..=1000, got 0"),
+    ("missing-scenario-file.suite.yaml", 4, 5, "no-such-scenario.yaml does not exist"),
+    ("planner-must-answer-false.suite.yaml", 7, 35, "`planner_must_answer: false` is not allowed"),
+    ("duplicate-key.suite.yaml", 7, 1, "key `variants` appears twice in the same mapping"),
+    ("two-documents.suite.yaml", 7, 1, "a spec file holds one YAML document"),
+    ("length-negative.scenario.yaml", 8, 61, "`length_m` must be a number in (0, 30] m, got -4"),
+    ("length-zero.scenario.yaml", 8, 61, "`length_m` must be a number in (0, 30] m, got 0"),
+    ("length-nan.scenario.yaml", 12, 15, "`length_m` must be a number in (0, 30] m, got NaN"),
+    ("length-1e300.scenario.yaml", 8, 61, "`length_m` must be a number in (0, 30] m, got 1e300"),
+    ("desired-speed-nan.scenario.yaml", 8, 70, "`desired_speed_mps` must be a number in (0, 70] m/s, got NaN"),
+    ("desired-speed-negative.scenario.yaml", 8, 70, "`desired_speed_mps` must be a number in (0, 70] m/s, got -3"),
+    ("ego-s-nan.scenario.yaml", 7, 30, "s_m NaN is outside lane 0"),
+    ("agent-at-nan.scenario.yaml", 8, 23, "`x_m` must be a number in [-100000, 100000] m, got NaN"),
+    ("duration-0.01.scenario.yaml", 3, 13, "`duration_s` must be a number in [0.1, 60] s, got 0.01"),
+    ("step-timeout-huge.planner.yaml", 5, 20, "`step_timeout_ms` must be 1..=600000 ms"),
+    ("idm-1e300.planner.yaml", 5, 19, "`idm.max_accel_mps2` must be a number in (0, 10], got 1e300"),
+    ("working-dir-missing.planner.yaml", 5, 16, "no-such-folder does not exist"),
+];
+
+#[test]
+fn every_broken_spec_is_refused_at_its_value_with_what_is_wrong() {
+    let mut wrong = Vec::new();
+    for &(name, line, column, words) in CASES {
+        let message = load_error(name).to_string();
+        let place = format!("{}:{line}:{column}: ", fixture(name).display());
+        if !message.starts_with(&place) || !message.contains(words) {
+            wrong.push(format!("{name}\n  expected {place}… {words}\n  got      {message}"));
+        }
+    }
+    assert!(wrong.is_empty(), "{} of {} cases:\n{}", wrong.len(), CASES.len(), wrong.join("\n"));
+}
+
+#[test]
+fn every_fixture_in_the_folder_is_a_case() {
+    // A fixture nobody asserts on would show nothing.
+    let mut files: Vec<String> = std::fs::read_dir(fixture(""))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".yaml"))
+        .collect();
+    files.sort();
+    let mut cases: Vec<String> = CASES.iter().map(|c| c.0.to_string()).collect();
+    cases.sort();
+    assert_eq!(files, cases);
+}
+
+#[test]
+fn safer_run_refuses_a_broken_suite_with_exit_2_and_the_located_message() {
+    let file = fixture("min-gap-nan.suite.yaml");
+    let out = super::hangs::safer_within(&["run", file.to_str().unwrap()], Duration::from_secs(60));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("min-gap-nan.suite.yaml:7:45"), "{stderr}");
+    assert!(stderr.contains("got NaN"), "{stderr}");
+}
