@@ -1,1 +1,229 @@
-//! Bad input: planners (see the parent module).
+//! Bad input: planners (see the parent module). External planners that
+//! crash, hang, answer garbage or absurd numbers, or leave processes
+//! behind, each through `Simulation::run` as a variant runs it: every case
+//! ends within a deadline, fails as a planner failure (never a pass), says
+//! which of these happened, and leaves no process of the planner's process
+//! group running. The planners are `planners/misbehaving_planner.py` modes,
+//! some behind `tests/fixtures/bad-input/planners/wrapper-without-exec.sh`.
+
+use std::path::Path;
+use std::sync::mpsc;
+use std::time::{Duration, Instant};
+
+use safer::geometry::{Point2, Vector2};
+use safer::map::templates::StraightRoad;
+use safer::planners::external::{ExternalPlanner, ExternalPlannerConfig};
+use safer::scenario::{AgentId, AgentKind, AgentState, Scenario, ScenarioSource, Track, TrackIndex};
+use safer::sim::{Rollout, SimConfig, Simulation, Termination};
+
+/// Time a case may take; every one needs well under a second or two.
+const DEADLINE: Duration = Duration::from_secs(30);
+
+fn repo(path: &str) -> String {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join(path).display().to_string()
+}
+
+/// `misbehaving_planner.py MODE GOOD_STEPS`, run by python3 directly.
+fn misbehaving(mode: &str, good_steps: usize) -> ExternalPlannerConfig {
+    let mut c = ExternalPlannerConfig::new(mode, "python3");
+    c.args = vec![repo("planners/misbehaving_planner.py"), mode.into(), good_steps.to_string()];
+    c
+}
+
+/// The same planner behind a shell script that does not `exec` it.
+fn wrapped(mode: &str, good_steps: usize) -> ExternalPlannerConfig {
+    let mut c = ExternalPlannerConfig::new(format!("wrapped-{mode}"), "sh");
+    c.args =
+        vec![repo("tests/fixtures/bad-input/planners/wrapper-without-exec.sh"), mode.into(), good_steps.to_string()];
+    c
+}
+
+/// A 300 m straight road, the ego at x = 10 doing 10 m/s, 31 steps (3 s).
+fn scene() -> Scenario {
+    let map =
+        StraightRoad { lanes: 1, oncoming_lanes: 0, lane_width_m: 3.5, length_m: 300.0, speed_limit_mps: None }.build();
+    let ego = Track {
+        id: AgentId("ego".into()),
+        kind: AgentKind::Vehicle,
+        length_m: 4.5,
+        width_m: 2.0,
+        states: (0..31)
+            .map(|k| {
+                Some(AgentState {
+                    position: Point2::new(10.0 + k as f64, 1.75),
+                    heading_rad: 0.0,
+                    velocity_mps: Vector2::new(10.0, 0.0),
+                })
+            })
+            .collect(),
+    };
+    Scenario::new("planner-bad-input", ScenarioSource::authored("test"), 0.1, map, vec![ego])
+        .with_roles(TrackIndex(0), None)
+}
+
+/// Runs `f` on a thread; panics if it has not finished within [`DEADLINE`].
+fn within_deadline<T: Send + 'static>(what: &str, f: impl FnOnce() -> T + Send + 'static) -> T {
+    let (tx, rx) = mpsc::channel();
+    std::thread::spawn(move || {
+        let _ = tx.send(f());
+    });
+    match rx.recv_timeout(DEADLINE) {
+        Ok(value) => value,
+        Err(e) => panic!("{what} did not end within {DEADLINE:?} ({e})"),
+    }
+}
+
+/// Starts the planner (so its process group is known), runs the scene with
+/// it, and drops it; the rollout and the group id.
+fn run_variant(config: ExternalPlannerConfig) -> (Rollout, u32, Vec<u32>) {
+    let name = config.name.clone();
+    within_deadline(&format!("a variant with planner `{name}`"), move || {
+        let mut planner = ExternalPlanner::start(config, 4.5, 2.0).expect("the planner starts");
+        let pgid = planner.pid().expect("a started planner has a process");
+        let members_at_start = live_group_members(pgid);
+        let scenario = scene();
+        let rollout = Simulation::new(&scenario, SimConfig::default()).unwrap().run(&mut planner);
+        drop(planner);
+        (rollout, pgid, members_at_start)
+    })
+}
+
+/// The failure step and reason; a test failure for any other termination.
+fn failure(r: &Rollout) -> (usize, String) {
+    match &r.termination {
+        Termination::PlannerFailed { step, reason } => (*step, reason.clone()),
+        other => panic!("expected a planner failure, got {other:?}"),
+    }
+}
+
+/// Live (not zombie) processes in process group `pgid`, from `/proc`.
+fn live_group_members(pgid: u32) -> Vec<u32> {
+    let Ok(entries) = std::fs::read_dir("/proc") else { return Vec::new() };
+    let mut pids: Vec<u32> = entries
+        .filter_map(|e| e.ok()?.file_name().to_str()?.parse::<u32>().ok())
+        .filter(|pid| {
+            // `pid (comm) state ppid pgrp ...`; comm may hold spaces.
+            let Ok(stat) = std::fs::read_to_string(format!("/proc/{pid}/stat")) else { return false };
+            let Some((_, rest)) = stat.rsplit_once(')') else { return false };
+            let fields: Vec<&str> = rest.split_whitespace().collect();
+            fields.len() > 2 && !matches!(fields[0], "Z" | "X") && fields[2] == pgid.to_string()
+        })
+        .collect();
+    pids.sort_unstable();
+    pids
+}
+
+/// No process of the group is left; allows a moment for SIGKILL to land.
+fn assert_group_gone(pgid: u32) {
+    let deadline = Instant::now() + Duration::from_millis(500);
+    while !live_group_members(pgid).is_empty() && Instant::now() < deadline {
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    assert_eq!(live_group_members(pgid), Vec::<u32>::new(), "processes of planner group {pgid} survived");
+}
+
+#[cfg(target_os = "linux")]
+#[test]
+fn a_wrapper_without_exec_leaves_no_process_after_a_hang() {
+    let mut config = wrapped("hang", 2);
+    config.step_timeout_ms = 300;
+    let (rollout, pgid, at_start) = run_variant(config);
+    assert_eq!(at_start.len(), 2, "the shell and the planner under it: {at_start:?}");
+    let (step, reason) = failure(&rollout);
+    assert_eq!(step, 2);
+    assert_eq!(reason, "external planner `wrapped-hang` did not answer at step 2 within 300 ms");
+    assert_group_gone(pgid);
+}
+
+#[cfg(target_os = "linux")]
+#[test]
+fn a_wrapper_without_exec_leaves_no_process_after_a_completed_variant() {
+    let (rollout, pgid, at_start) = run_variant(wrapped("spawn-child", 0));
+    // The shell, python and python's `sleep 600`.
+    assert_eq!(at_start.len(), 3, "{at_start:?}");
+    assert_eq!(rollout.termination, Termination::Completed);
+    assert_group_gone(pgid);
+}
+
+#[cfg(target_os = "linux")]
+#[test]
+fn a_child_the_planner_spawned_does_not_outlive_the_variant() {
+    let (rollout, pgid, at_start) = run_variant(misbehaving("spawn-child", 0));
+    assert_eq!(at_start.len(), 2, "the planner and its `sleep 600`: {at_start:?}");
+    assert_eq!(rollout.termination, Termination::Completed);
+    assert_eq!(rollout.states.len(), 31, "every step was planned");
+    assert_group_gone(pgid);
+}
+
+#[test]
+fn a_planner_crashing_mid_run_fails_with_its_exit_status_and_stderr() {
+    let (rollout, pgid, _) = run_variant(misbehaving("crash", 4));
+    let (step, reason) = failure(&rollout);
+    assert_eq!(step, 4);
+    assert!(reason.starts_with("external planner `crash` exited with exit status: 3 at step 4"), "{reason}");
+    assert!(reason.contains("| misbehaving_planner: crashing at step 4"), "{reason}");
+    assert_eq!(rollout.states.len(), 5, "steps 0..4 were simulated");
+    assert_group_gone(pgid);
+}
+
+#[test]
+fn a_crash_behind_a_wrapper_names_the_wrapper_status_and_both_stderr_tails() {
+    let (rollout, pgid, _) = run_variant(wrapped("crash", 1));
+    let (step, reason) = failure(&rollout);
+    assert_eq!(step, 1);
+    assert!(reason.contains("exited with exit status: 0 at step 1"), "the shell's own status: {reason}");
+    assert!(reason.contains("| misbehaving_planner: crashing at step 1"), "{reason}");
+    assert!(reason.contains("| wrapper-without-exec: the planner exited with status 3"), "{reason}");
+    assert_group_gone(pgid);
+}
+
+#[test]
+fn a_planner_that_never_answers_times_out_naming_the_step_and_the_timeout() {
+    let mut config = misbehaving("hang", 0);
+    config.step_timeout_ms = 200;
+    let t0 = Instant::now();
+    let (rollout, pgid, _) = run_variant(config);
+    let (step, reason) = failure(&rollout);
+    assert_eq!(step, 0);
+    assert_eq!(reason, "external planner `hang` did not answer at step 0 within 200 ms");
+    assert!(t0.elapsed() < Duration::from_secs(5), "{:?}", t0.elapsed());
+    assert_group_gone(pgid);
+}
+
+#[test]
+fn a_planner_that_never_starts_times_out_during_startup() {
+    let mut config = misbehaving("slow-start", 0);
+    config.startup_timeout_ms = 200;
+    let err = within_deadline("a planner that never answers hello", move || {
+        ExternalPlanner::start(config, 4.5, 2.0).expect_err("no ready within 200 ms")
+    });
+    assert_eq!(err.to_string(), "external planner `slow-start` did not answer during startup within 200 ms");
+}
+
+#[test]
+fn a_planner_writing_garbage_fails_quoting_the_line() {
+    let (rollout, pgid, _) = run_variant(misbehaving("garbage", 3));
+    let (step, reason) = failure(&rollout);
+    assert_eq!(step, 3);
+    assert!(reason.starts_with("external planner `garbage` broke the protocol at step 3: a line that is not JSON"));
+    assert!(reason.contains("`this is not JSON, it is a planner talking to itself`"), "{reason}");
+    assert_group_gone(pgid);
+}
+
+#[test]
+fn a_planner_replying_nan_fails_naming_the_non_finite_number() {
+    let (rollout, _, _) = run_variant(misbehaving("nan", 1));
+    let (step, reason) = failure(&rollout);
+    assert_eq!(step, 1);
+    assert!(reason.contains("non-finite number `NaN`"), "{reason}");
+}
+
+#[test]
+fn a_planner_replying_accel_1e100_fails_its_variant_naming_the_invalid_state() {
+    let (rollout, pgid, _) = run_variant(misbehaving("huge", 2));
+    let (step, reason) = failure(&rollout);
+    assert_eq!(step, 2);
+    assert!(reason.contains("invalid state"), "{reason}");
+    assert!(rollout.ego_collision().is_none());
+    assert_group_gone(pgid);
+}
