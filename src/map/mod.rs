@@ -474,6 +474,44 @@ impl RoadMap {
         self.signed_distance_to_road_edge(p).is_some_and(|d| d > 0.0)
     }
 
+    /// The first map point with a coordinate that is not finite or exceeds
+    /// `max_abs_m` in magnitude, as (which feature and point, the point).
+    /// Features are visited in a fixed order: lanes (centreline, then
+    /// boundaries), road edges, road lines, areas, drivable areas, stop
+    /// signs, signal stop points. Importers use it to refuse absurd maps.
+    pub fn first_point_outside(&self, max_abs_m: f64) -> Option<(String, Point2)> {
+        let bad = |p: &Point2| !(p.x.abs() <= max_abs_m && p.y.abs() <= max_abs_m);
+        let first = |what: &dyn Fn() -> String, pts: &[Point2]| {
+            pts.iter().position(bad).map(|k| (format!("{}, point {k}", what()), pts[k]))
+        };
+        for l in &self.lanes {
+            let lines = [Some(&l.centreline), l.left_boundary.as_ref(), l.right_boundary.as_ref()];
+            let names = ["centreline", "left boundary", "right boundary"];
+            for (line, name) in lines.iter().zip(names) {
+                if let Some(found) = line.and_then(|line| first(&|| format!("lane {} {name}", l.id.0), line.points())) {
+                    return Some(found);
+                }
+            }
+        }
+        let lines = self.road_edges.iter().map(|e| ("road edge", e.id, e.polyline.points()));
+        let lines = lines.chain(self.road_lines.iter().map(|r| ("road line", r.id, r.polyline.points())));
+        let lines = lines.chain(self.areas.iter().map(|a| ("area", a.id, a.polygon.vertices.as_slice())));
+        for (kind, id, pts) in lines {
+            if let Some(found) = first(&|| format!("{kind} {}", id.0), pts) {
+                return Some(found);
+            }
+        }
+        for (i, a) in self.drivable_areas.iter().enumerate() {
+            if let Some(found) = first(&|| format!("drivable area {i}"), &a.vertices) {
+                return Some(found);
+            }
+        }
+        let stop_signs = self.stop_signs.iter().map(|s| (format!("stop sign {}", s.id.0), s.position));
+        let signals =
+            self.traffic_signals.iter().filter_map(|s| Some((format!("signal of lane {}", s.lane.0), s.stop_point?)));
+        stop_signs.chain(signals).find(|(_, p)| bad(p))
+    }
+
     /// The signal state of `lane` at `step`, if the lane is signal-controlled.
     pub fn signal_state(&self, lane: MapElementId, step: usize) -> Option<SignalState> {
         self.traffic_signals.iter().find(|s| s.lane == lane).and_then(|s| s.states.get(step).copied())
@@ -524,5 +562,31 @@ mod tests {
         // Far away: the ring search widens until it finds an edge.
         let far = m.signed_distance_to_road_edge(&Point2::new(30.0, 300.0)).unwrap();
         assert!((far - 294.5).abs() < 1e-9, "{far}");
+    }
+
+    #[test]
+    fn absurd_map_points_are_found_and_named_and_queries_on_them_end() {
+        let map = straight_road();
+        assert_eq!(map.first_point_outside(1e8), None);
+        assert_eq!(map.first_point_outside(50.0).map(|(what, _)| what).as_deref(), Some("lane 1 centreline, point 1"));
+        let far_edge =
+            RoadEdge { id: MapElementId(12), polyline: pl(&[(0.0, 9.0), (1e20, 9.0)]), kind: RoadEdgeKind::Boundary };
+        let nan_stop = StopSign { id: MapElementId(13), position: Point2::new(f64::NAN, 0.0), lanes: vec![] };
+        let mut edges = map.road_edges.clone();
+        edges.push(far_edge);
+        // Building the index over a 1e20 m edge once walked ~1e19 grid cells.
+        let map = RoadMap::new(map.lanes.clone(), edges, vec![], vec![], vec![], vec![nan_stop], vec![]);
+        let (what, p) = map.first_point_outside(1e8).unwrap();
+        assert_eq!((what.as_str(), p.x), ("road edge 12, point 1", 1e20));
+        let map =
+            RoadMap::new(map.lanes.clone(), straight_road().road_edges, vec![], vec![], vec![], map.stop_signs, vec![]);
+        assert_eq!(map.first_point_outside(1e8).unwrap().0, "stop sign 13");
+        // Queries at absurd points end with an answer or none.
+        let map = straight_road();
+        assert_eq!(map.signed_distance_to_road_edge(&Point2::new(f64::NAN, 0.0)), None);
+        assert!(map.signed_distance_to_road_edge(&Point2::new(1e300, -1e300)).unwrap().abs() > 1e299);
+        assert!(map.nearest_lane(&Point2::new(1e20, 0.0), None, 1e19).is_none());
+        assert!(map.nearest_lane(&Point2::new(f64::INFINITY, 0.0), Some(f64::NAN), f64::INFINITY).is_none());
+        assert!(map.nearest_lane(&Point2::new(50.0, 0.0), Some(0.0), f64::INFINITY).is_some());
     }
 }

@@ -5,7 +5,9 @@
 //! an answer after at most one pass over the occupied cells. Cell ranges are
 //! computed in `f64` and compared against the occupied cells when they are
 //! wider than the index, so no query walks an astronomically wide range of
-//! empty cells (a position of 1e20 m once made this a busy loop).
+//! empty cells (a position of 1e20 m once made this a busy loop). Building
+//! is total too: segments with a non-finite end are left out, and finite
+//! segments too long to walk cell by cell are offered to every query.
 
 use std::collections::{BTreeMap, HashMap};
 
@@ -13,10 +15,17 @@ use crate::geometry::{Point2, Polyline};
 
 const CELL_M: f64 = 10.0;
 
+/// Most half-cell pieces one segment is walked in: segments up to ~5,200 km
+/// are indexed cell by cell; longer ones (only absurd map data has them)
+/// are kept aside and offered to every query, so building stays linear.
+const MAX_PIECES: f64 = (1u32 << 20) as f64;
+
 /// Grid of segment references `(polyline, segment)` keyed by cell.
 #[derive(Debug, Clone, Default)]
 pub struct SegmentIndex {
     cells: HashMap<(i64, i64), Vec<(u32, u32)>>,
+    /// Finite segments too long to walk cell by cell: candidates of every query.
+    oversized: Vec<(u32, u32)>,
     /// Bounding box of all indexed points, `None` when empty.
     bounds: Option<(Point2, Point2)>,
 }
@@ -26,22 +35,40 @@ fn cell_of(x: f64, y: f64) -> (i64, i64) {
 }
 
 impl SegmentIndex {
-    /// Indexes every segment of every polyline (in the given order).
+    /// Indexes every segment of every polyline (in the given order). A
+    /// segment with a non-finite end is near nothing and is left out; the
+    /// work is linear in the total segment length (in cells) for any input.
     pub fn build<'a>(polylines: impl IntoIterator<Item = &'a Polyline>) -> Self {
         let mut cells: HashMap<(i64, i64), Vec<(u32, u32)>> = HashMap::new();
+        let mut oversized = Vec::new();
         let (mut lo, mut hi) = (Point2::new(f64::MAX, f64::MAX), Point2::new(f64::MIN, f64::MIN));
         for (pi, line) in polylines.into_iter().enumerate() {
             let pts = line.points();
             for (si, w) in pts.windows(2).enumerate() {
                 let (a, b) = (w[0], w[1]);
+                if !(a.x.is_finite() && a.y.is_finite() && b.x.is_finite() && b.y.is_finite()) {
+                    continue;
+                }
+                for p in [a, b] {
+                    lo = Point2::new(lo.x.min(p.x), lo.y.min(p.y));
+                    hi = Point2::new(hi.x.max(p.x), hi.y.max(p.y));
+                }
                 // Walk the segment in pieces of at most half a cell and take each
                 // piece's cells: a long diagonal segment then touches O(length)
-                // cells, not the O(length²) of its bounding box.
-                let pieces = (((b - a).norm() / (0.5 * CELL_M)).ceil() as usize).clamp(1, 1 << 20);
+                // cells, not the O(length²) of its bounding box. (The length of
+                // two finite points can overflow to infinity: oversized too.)
+                let pieces = ((b - a).norm() / (0.5 * CELL_M)).ceil().max(1.0);
+                if pieces > MAX_PIECES {
+                    oversized.push((pi as u32, si as u32));
+                    continue;
+                }
+                let pieces = pieces as usize;
                 let mut touched: Vec<(i64, i64)> = Vec::new();
                 for k in 0..pieces {
                     let (p, q) =
                         (a + (b - a) * (k as f64 / pieces as f64), a + (b - a) * ((k + 1) as f64 / pieces as f64));
+                    // A piece spans at most 2×2 cells; cell numbers saturate
+                    // far out, which only merges cells there.
                     let (c0, c1) = (cell_of(p.x.min(q.x), p.y.min(q.y)), cell_of(p.x.max(q.x), p.y.max(q.y)));
                     for cx in c0.0..=c1.0 {
                         for cy in c0.1..=c1.1 {
@@ -54,14 +81,10 @@ impl SegmentIndex {
                 for cell in touched {
                     cells.entry(cell).or_default().push((pi as u32, si as u32));
                 }
-                for p in [a, b] {
-                    lo = Point2::new(lo.x.min(p.x), lo.y.min(p.y));
-                    hi = Point2::new(hi.x.max(p.x), hi.y.max(p.y));
-                }
             }
         }
         let bounds = (lo.x <= hi.x).then_some((lo, hi));
-        Self { cells, bounds }
+        Self { cells, oversized, bounds }
     }
 
     /// Distance from `p` to the farthest corner of the indexed extent: a
@@ -97,11 +120,12 @@ impl SegmentIndex {
         let (lo_x, hi_x) = (((p.x - r) / CELL_M).floor(), ((p.x + r) / CELL_M).floor());
         let (lo_y, hi_y) = (((p.y - r) / CELL_M).floor(), ((p.y + r) / CELL_M).floor());
         let span = (hi_x - lo_x + 1.0) * (hi_y - lo_y + 1.0);
-        let mut push = |refs: &Vec<(u32, u32)>| {
+        let mut push = |refs: &[(u32, u32)]| {
             for &(pi, si) in refs {
                 out.entry(pi as usize).or_default().push(si as usize);
             }
         };
+        push(&self.oversized);
         if span.is_finite() && span <= self.cells.len() as f64 {
             // Few enough cells to look each up; all bounds are small integers here.
             for cx in lo_x as i64..=hi_x as i64 {
@@ -172,5 +196,22 @@ mod tests {
         assert!(index.candidates(&Point2::new(0.0, 0.0), f64::NAN).is_empty());
         assert!(index.candidates(&Point2::new(f64::INFINITY, 0.0), 10.0).is_empty());
         assert_eq!(index.max_distance_from(&Point2::new(f64::NAN, 0.0)), f64::INFINITY);
+    }
+
+    #[test]
+    fn absurd_map_segments_build_at_once_and_stay_findable() {
+        // (0,0)→(1e20,0) once meant walking 1e19 cells; NaN and 1e300 ends too.
+        let far = Polyline::new(vec![Point2::new(0.0, 0.0), Point2::new(1e20, 0.0)]);
+        let nan = Polyline::new(vec![Point2::new(0.0, 0.0), Point2::new(f64::NAN, 5.0)]);
+        let huge = Polyline::new(vec![Point2::new(-1e300, 1e300), Point2::new(1e300, -1e300)]);
+        let near = Polyline::new(vec![Point2::new(0.0, 20.0), Point2::new(30.0, 20.0)]);
+        let index = SegmentIndex::build([&far, &nan, &huge, &near]);
+        // Only the ordinary segment is in cells (4 of them); the absurd ones
+        // are offered to every query, the NaN one to none.
+        assert_eq!(index.cell_count(), 4);
+        let hits = index.candidates(&Point2::new(5.0, 20.0), 1.0);
+        assert_eq!(hits.keys().copied().collect::<Vec<_>>(), vec![0, 2, 3]);
+        // The bounds take in the absurd segments, so a ring search reaches them.
+        assert!(index.max_distance_from(&Point2::new(0.0, 0.0)) > 1e300);
     }
 }

@@ -112,7 +112,8 @@ impl Planner for EvasivePlanner {
                 limit.unwrap_or(ego.speed_mps().max(10.0))
             })
         });
-        let steps = (self.params.horizon_s / SIM_DT_S).round().max(1.0) as usize;
+        // Bounded for any horizon (an infinite one would never finish): 10 minutes at most.
+        let steps = (self.params.horizon_s / SIM_DT_S).round().clamp(1.0, 6000.0) as usize;
 
         // Constant-velocity predictions of everyone within range.
         let predictions: Vec<Vec<OrientedBox>> = obs

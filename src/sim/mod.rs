@@ -7,10 +7,10 @@
 //! iterates in index order, and nothing reads a clock or a global RNG.
 
 pub mod authoring;
-pub mod synthetic;
-pub mod traffic;
 mod events;
 mod rollout;
+pub mod synthetic;
+pub mod traffic;
 
 pub use events::{CollisionEvent, EgoCollisionKind, OffRoadEvent};
 pub use rollout::{Rollout, RolloutSummary, Termination};
@@ -153,7 +153,8 @@ impl<'a> Simulation<'a> {
         // scenarios from feeding nonsense to the event detector as well.
         if let Some((agent, reason)) = self.first_invalid(&states) {
             // Nothing is simulated; the record keeps only the valid agents.
-            let valid = states.iter().map(|s| s.filter(|s| crate::scenario::bounds::implausibility(s).is_none())).collect();
+            let valid =
+                states.iter().map(|s| s.filter(|s| crate::scenario::bounds::implausibility(s).is_none())).collect();
             return Rollout {
                 scenario_id: scenario.id.clone(),
                 dt_s: SIM_DT_S,
@@ -508,11 +509,8 @@ mod tests {
 
     #[test]
     fn a_trajectory_point_at_1e20_is_a_planner_failure_not_a_hang() {
-        let far = AgentState {
-            position: Point2::new(1e20, 0.0),
-            heading_rad: 0.0,
-            velocity_mps: Vector2::new(12.0, 0.0),
-        };
+        let far =
+            AgentState { position: Point2::new(1e20, 0.0), heading_rad: 0.0, velocity_mps: Vector2::new(12.0, 0.0) };
         let point = crate::planners::TrajectoryPoint { time_s: 0.1, state: far };
         let (_, reason) = planner_failure(PlannerOutput::Trajectory(vec![point]));
         assert!(reason.contains("x = 1e20 m"), "{reason}");

@@ -22,9 +22,13 @@ pub enum Termination {
         /// What went wrong.
         reason: String,
     },
-    /// A background agent's policy produced a non-finite or out-of-bounds
-    /// state (see [`super::bounds`]); the rollout stops there rather than
-    /// compute on nonsense.
+    /// A non-ego agent's state is non-finite or outside the plausible
+    /// bounds of [`crate::scenario::bounds`] (±1e7 m from the scene origin,
+    /// ≤ 1e3 m/s): its policy produced it, or its recorded start state is
+    /// already out of bounds (then `step` is the start step and nothing is
+    /// simulated). The rollout stops there rather than compute on nonsense;
+    /// the variant it belongs to is not solved. Serialised as
+    /// `{"kind": "invalid-agent-state", "step", "agent", "reason"}`.
     InvalidAgentState {
         /// Step of the invalid state.
         step: usize,

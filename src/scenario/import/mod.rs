@@ -151,17 +151,34 @@ pub fn load(path: &Path) -> Result<Vec<Scenario>, ImportError> {
         }
         SourceFormat::Authored => unreachable!("detect_format never returns Authored"),
     };
+    let several = scenarios.len() > 1;
     for s in &mut scenarios {
         // Before re-centring, which would spread one absurd sample's offset
-        // over every other agent.
-        if let Some((track, step, why)) = s.first_implausible_state(super::bounds::MAX_ABS_WORLD_POSITION_M) {
+        // over every other agent (and the map).
+        let max_abs_m = super::bounds::MAX_ABS_WORLD_POSITION_M;
+        let scenario = if several { format!("scenario {}, ", s.id) } else { String::new() };
+        if let Some((track, step, why)) = s.first_implausible_state(max_abs_m) {
             let t = s.track(track);
             let time_s = step as f64 * s.dt_s;
             return Err(ImportError::malformed(
                 path,
                 format,
-                Location::Element(format!("agent {} (track {}), step {step} (t = {time_s:.1} s)", t.id, track.0)),
+                Location::Element(format!(
+                    "{scenario}agent {} (track {}), step {step} (t = {time_s:.1} s)",
+                    t.id, track.0
+                )),
                 format!("implausible recorded state: {why}"),
+            ));
+        }
+        if let Some((what, p)) = s.map.first_point_outside(max_abs_m) {
+            return Err(ImportError::malformed(
+                path,
+                format,
+                Location::Element(format!("{scenario}map {what}")),
+                format!(
+                    "implausible map point ({:e}, {:e}): coordinates must be finite and within ±{max_abs_m:e} m",
+                    p.x, p.y
+                ),
             ));
         }
         s.recentre();

@@ -81,3 +81,15 @@ fn a_planner_replying_with_a_point_at_x_1e20_fails_its_variant_and_the_run_ends(
     assert_eq!(out.status.code(), Some(1), "{t}");
     assert!(t.contains("x = 1e20 m is outside the simulation bounds"), "{t}");
 }
+
+#[test]
+fn a_recorded_road_point_at_x_1e20_is_refused_naming_the_file_and_the_map_feature() {
+    // Indexing a 1e20 m road-edge segment once walked ~1e19 grid cells.
+    let file = fixture("womd-json-road-point-at-x-1e20.json");
+    let out = safer_within(&["simulate", file.to_str().unwrap(), "--planner", "log-replay"], Duration::from_secs(60));
+    assert!(!out.status.success());
+    let t = text(&out);
+    assert!(t.contains("womd-json-road-point-at-x-1e20.json"), "{t}");
+    assert!(t.contains("map road edge") && t.contains("point 3"), "{t}");
+    assert!(t.contains("implausible map point (1e20, "), "{t}");
+}
