@@ -37,8 +37,19 @@
 //! stdin, waits up to a second for the process to exit and then kills it;
 //! the process is always reaped (no zombies).
 //!
-//! Only the planner's own process is managed: a wrapper script should `exec`
-//! the real planner, or its children may outlive a kill.
+//! On Unix the process runs in its own process group, and ending it
+//! (after `bye`, on a failure, on drop) kills the whole group: a wrapper
+//! script need not `exec` the real planner, and helpers a planner starts do
+//! not outlive it (unless they leave the group, e.g. with `setsid`).
+//!
+//! # Layout
+//!
+//! This module owns the [`ExternalPlanner`] session: starting and
+//! handshaking, one exchange per step, latching the first failure, a fresh
+//! process per rollout. `wire` holds the message types and the schema,
+//! `encoding` turns observations into messages and replies into planner
+//! outputs ([`decode_reply`]), and `process` runs the child process and
+//! its I/O.
 //!
 //! # Determinism
 //!

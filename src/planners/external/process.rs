@@ -178,14 +178,15 @@ impl Process {
             }
             Err(e) => return Err(protocol(format!("the harness could not encode its message: {e}"))),
         };
-        let deadline = Instant::now() + Duration::from_millis(timeout_ms);
+        // No deadline (wait for ever) when a huge timeout overflows the clock.
+        let deadline = Instant::now().checked_add(Duration::from_millis(timeout_ms));
         let sent = self.to_stdin.as_ref().is_some_and(|tx| tx.send(line).is_ok());
         if !sent {
             // The writer stopped: writing failed because stdin is closed.
             return Err(self.crashed(planner, during));
         }
         loop {
-            let left = deadline.saturating_duration_since(Instant::now());
+            let left = deadline.map_or(Duration::MAX, |d| d.saturating_duration_since(Instant::now()));
             match self.from_stdout.recv_timeout(left) {
                 Ok(StdoutEvent::Line(l)) if is_blank(&l) => continue,
                 Ok(StdoutEvent::Line(l)) => return parse_reply(&l).map_err(protocol),
@@ -535,6 +536,14 @@ mod tests {
         process.kill();
         assert!(t0.elapsed() < Duration::from_secs(1), "{:?}", t0.elapsed());
         assert_eq!(live_group_members(pgid), Vec::<u32>::new());
+    }
+
+    #[test]
+    fn a_timeout_beyond_the_clock_waits_without_panicking() {
+        let mut c = misbehaving("error");
+        c.startup_timeout_ms = u64::MAX;
+        let planner = ExternalPlanner::start(c, 4.5, 2.0).unwrap();
+        assert_eq!(planner.announced_name(), Some("misbehaving-error"));
     }
 
     #[test]
