@@ -57,7 +57,7 @@ pub(super) fn run(scenes: &Path, models: &Path, repeat: usize) -> Result<ExitCod
         scene.id,
         present.len()
     );
-    let prior = RealismPrior::load(models, PriorVariant::Differential).map_err(|e| CliError::Usage(e.to_string()))?;
+    let prior = RealismPrior::load(models, PriorVariant::Differential)?;
     let history = LogHistory(scene);
     let bodies: Vec<_> = scene.tracks.iter().map(|t| t.body()).collect();
 
@@ -66,7 +66,7 @@ pub(super) fn run(scenes: &Path, models: &Path, repeat: usize) -> Result<ExitCod
         let t = MapTokens::build(&scene.map);
         prior.encode_map(&t).expect("encoding worked once");
     });
-    let embedding = prior.encode_map(&tokens).map_err(|e| CliError::Usage(e.to_string()))?;
+    let embedding = prior.encode_map(&tokens)?;
     let query_us = median_us(repeat, || {
         let q = build_query(&history, &bodies, &tokens, &scene.map, cbv, step).expect("CBV present");
         prior.logits(&[&q], &embedding).expect("decoder ran once");

@@ -2,9 +2,10 @@
 //! folder of scenes (rows = methods; columns CR, SR, SR on the stage-1
 //! critical variants, witness rate, VJ, AJ, time per variant), with a
 //! progress bar, rayon across variants, and an optional JSON report with
-//! every variant.
+//! every variant (`--json -`: on standard output, the table then on stderr).
 
-use std::path::{Path, PathBuf};
+use std::io::Write;
+use std::path::Path;
 use std::process::ExitCode;
 use std::sync::Arc;
 
@@ -39,17 +40,27 @@ fn fmt(v: Option<f64>) -> String {
     v.map_or("—".into(), |x| format!("{x:.3}"))
 }
 
-fn print_table(rows: &[MethodRow], scenes: usize, request: &EvaluationRequest) {
-    println!(
+/// The human-readable table (on stdout, or stderr when the JSON report
+/// takes stdout).
+fn print_table(
+    out: &mut dyn Write,
+    rows: &[MethodRow],
+    scenes: usize,
+    request: &EvaluationRequest,
+) -> std::io::Result<()> {
+    writeln!(
+        out,
         "{scenes} scenes × {} seeds; stage 2 planner `{:?}`, trust region n = {}, horizon {} s",
         request.seeds, request.planner, request.trust_region, request.horizon_s
-    );
-    println!(
+    )?;
+    writeln!(
+        out,
         "{:<16} {:>8} {:>7} {:>7} {:>7} {:>9} {:>9} {:>7} {:>7} {:>11}",
         "method", "variants", "errors", "CR", "SR", "SR-crit", "witness", "VJ", "AJ", "s/variant"
-    );
+    )?;
     for r in rows {
-        println!(
+        writeln!(
+            out,
             "{:<16} {:>8} {:>7} {:>7} {:>7} {:>9} {:>9} {:>7} {:>7} {:>11.3}",
             serde_json::to_value(r.method).ok().and_then(|v| v.as_str().map(String::from)).unwrap_or_default(),
             r.variants,
@@ -61,16 +72,18 @@ fn print_table(rows: &[MethodRow], scenes: usize, request: &EvaluationRequest) {
             fmt(r.vj),
             fmt(r.aj),
             r.time_per_variant_s
-        );
+        )?;
     }
-    println!("\nwhere the time goes (mean s per variant):");
-    println!(
+    writeln!(out, "\nwhere the time goes (mean s per variant):")?;
+    writeln!(
+        out,
         "{:<16} {:>9} {:>10} {:>9} {:>12} {:>9} {:>9}",
         "method", "stage 1", "features", "decoder", "feasibility", "stage 2", "witness"
-    );
+    )?;
     for r in rows {
         let p = &r.profile;
-        println!(
+        writeln!(
+            out,
             "{:<16} {:>9.3} {:>10.3} {:>9.3} {:>12.3} {:>9.3} {:>9.3}",
             serde_json::to_value(r.method).ok().and_then(|v| v.as_str().map(String::from)).unwrap_or_default(),
             p.stage1_s,
@@ -79,11 +92,13 @@ fn print_table(rows: &[MethodRow], scenes: usize, request: &EvaluationRequest) {
             p.stage1_feasibility_s,
             p.stage2_s,
             p.witness_s
-        );
+        )?;
     }
-    println!(
+    writeln!(
+        out,
         "VJ/AJ: Jensen–Shannon divergence (bits) of the CBV's stage-1 speed (0–40 m/s, 1 m/s bins) and acceleration (−8–8 m/s², 0.5 m/s² bins, finite differences at 0.1 s) against the logged CBV over the same window."
-    );
+    )?;
+    Ok(())
 }
 
 #[derive(serde::Serialize)]
@@ -98,8 +113,11 @@ pub(super) fn run(
     scenes_dir: &Path,
     request: &EvaluationRequest,
     max_scenes: Option<usize>,
-    json: Option<&PathBuf>,
+    json: Option<&Path>,
 ) -> Result<ExitCode, CliError> {
+    if let Some(path) = json {
+        crate::record::output::check_output(path)?;
+    }
     let scenes = load_scenes(scenes_dir, max_scenes)?;
     if scenes.is_empty() {
         return Err(CliError::Usage(format!("{}: no scene with both an ego and a CBV", scenes_dir.display())));
@@ -124,11 +142,15 @@ pub(super) fn run(
         eprintln!("error: {} {:?} seed {}: {}", r.scenario, r.method, r.seed, r.error.as_deref().unwrap_or(""));
     }
     let rows = evaluation::table(&records, &request.methods);
-    print_table(&rows, scenes.len(), request);
+    let mut table = super::table_writer(json);
+    print_table(&mut table, &rows, scenes.len(), request)?;
+    table.flush()?;
     if let Some(path) = json {
         let report = Report { scenes: scenes.len(), rows: &rows, variants: &records };
-        std::fs::write(path, serde_json::to_string_pretty(&report)?)?;
-        eprintln!("wrote {}", path.display());
+        crate::record::write_output(path, (serde_json::to_string_pretty(&report)? + "\n").as_bytes())?;
+        if !crate::record::is_stdout(path) {
+            eprintln!("wrote {}", path.display());
+        }
     }
     let failed = rows.iter().any(|r| r.errors == r.variants && r.variants > 0);
     Ok(if failed { ExitCode::from(1) } else { ExitCode::SUCCESS })

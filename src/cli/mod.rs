@@ -1,6 +1,19 @@
 //! The `safer` command line: argument parsing and the commands, each in its
 //! own module. Commands print human-readable tables by default and JSON
 //! with `--json`; errors go to stderr with the file and place at fault.
+//!
+//! Arguments are checked by clap before a command starts: counts that must
+//! be at least one, the trust region within the token vocabulary, durations
+//! positive and finite; a bad number is refused naming the flag and the
+//! accepted range, never clamped. Paths written `data:REL` name `REL` in the
+//! shared recorded-data folder by the rule specs use ([`spec::paths`]:
+//! `$SAFER_DATA_DIR`, else `../shared/data` beside the project root); the
+//! data defaults are written that way. Every output path goes through
+//! [`record::write_output`] (`-` is standard output, symlinks followed,
+//! devices written in place, folders refused).
+//!
+//! [`spec::paths`]: crate::spec::paths
+//! [`record::write_output`]: crate::record::write_output
 
 mod bench;
 mod bench_models;
@@ -16,26 +29,35 @@ mod schema;
 mod simulate;
 mod token_roundtrip;
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
+use clap::builder::{RangedU64ValueParser, TypedValueParser};
 use clap::{Parser, Subcommand};
 
 use crate::harness::HarnessError;
 use crate::harness::evaluation::{EvaluationRequest, Stage2Cbv};
 use crate::harness::methods::BackgroundDriver;
-use crate::spec::suite::AdversaryMethod;
+use crate::models::ModelError;
+use crate::motion::tokens::VOCABULARY_SIZE;
 use crate::planners::BuiltinPlanner;
 use crate::policies::BackgroundPolicy;
 use crate::record::RecordError;
 use crate::scenario::import::ImportError;
 use crate::sim::SimError;
+use crate::spec::suite::AdversaryMethod;
 use crate::spec::{SpecError, SpecKind};
+
+/// How `data:` paths and output paths are read, for `safer --help`.
+const PATHS_HELP: &str = "Paths: `data:REL` names REL in the shared recorded-data folder: $SAFER_DATA_DIR if set, \
+else ../shared/data beside the project root (the same rule as `data:` paths in specs). An output path of `-` is \
+standard output; a symlink is followed (the file it names is replaced atomically, the link stays); a FIFO or \
+character device is written in place; a folder is refused.";
 
 /// Scenario tests for autonomous-driving planners: safety-critical,
 /// realistic and avoidable conflicts (SaFeR).
 #[derive(Debug, Parser)]
-#[command(name = "safer", version, about)]
+#[command(name = "safer", version, about, after_help = PATHS_HELP)]
 pub struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -45,7 +67,8 @@ pub struct Cli {
 enum Command {
     /// Summarise a scenario file: format, id, agents by type, steps, map, ego and CBV.
     Inspect {
-        /// A WOMD .tfrecord or .json, CommonRoad .xml, or Argoverse 2 .parquet / folder.
+        /// A WOMD .tfrecord or .json, CommonRoad .xml, or Argoverse 2 .parquet / folder (`data:REL`: in the shared data folder).
+        #[arg(value_parser = data_path)]
         file: PathBuf,
         /// Print JSON instead of text.
         #[arg(long)]
@@ -53,7 +76,8 @@ enum Command {
     },
     /// Run closed-loop rollouts: the ego driven by a planner, the others by a background policy.
     Simulate {
-        /// A scenario file, or a folder searched recursively for scenario files.
+        /// A scenario file, or a folder searched recursively for scenario files (`data:REL`: in the shared data folder).
+        #[arg(value_parser = data_path)]
         path: PathBuf,
         /// Planner driving the ego.
         #[arg(long, value_enum, default_value_t = BuiltinPlanner::Idm)]
@@ -67,8 +91,8 @@ enum Command {
     },
     /// Measure the log → token → log round trip (ADE/FDE) over recorded scenes.
     TokenRoundtrip {
-        /// Folder of scenario files (searched recursively).
-        #[arg(long)]
+        /// Folder of scenario files (searched recursively); `data:REL` is in the shared data folder.
+        #[arg(long, value_parser = data_path)]
         scenes: PathBuf,
         /// Print JSON instead of a table.
         #[arg(long)]
@@ -76,11 +100,11 @@ enum Command {
     },
     /// Benchmarks: import time per scene per format, simulator steps per second.
     Bench {
-        /// Folder of scenario files (searched recursively).
-        #[arg(long, default_value = "../shared/data")]
+        /// Folder of scenario files (searched recursively); `data:` is the shared data folder.
+        #[arg(long, default_value = "data:", value_parser = data_path)]
         scenes: PathBuf,
-        /// Repetitions of each measurement (the median is reported).
-        #[arg(long, default_value_t = 3)]
+        /// Repetitions of each measurement (the median is reported), at least 1.
+        #[arg(long, default_value_t = 3, value_parser = at_least_one())]
         repeat: usize,
     },
     /// Run scenario suites (the same variants and metrics as `cargo test --test suites`).
@@ -88,7 +112,7 @@ enum Command {
         /// Suite spec files (`specs/suites/*.yaml`).
         #[arg(required = true)]
         suites: Vec<PathBuf>,
-        /// Also write a JSON report to this file.
+        /// Also write a JSON report to this file (`-`: standard output, the table then goes to stderr).
         #[arg(long, value_name = "OUT")]
         json: Option<PathBuf>,
         /// Folder for the recordings and pictures of failing variants.
@@ -101,13 +125,13 @@ enum Command {
     /// WOSAC 2025 realism metrics of a traffic policy: roll out every agent of each scene N times and score the rollouts against the log.
     #[command(after_help = realism::WINDOW_RULE_HELP)]
     Realism {
-        /// Folder of scenario files (searched recursively), or one file.
-        #[arg(long)]
+        /// Folder of scenario files (searched recursively), or one file; `data:REL` is in the shared data folder.
+        #[arg(long, value_parser = data_path)]
         scenes: PathBuf,
-        /// Rollouts per scene (WOSAC: 32).
-        #[arg(long, default_value_t = 32)]
+        /// Rollouts per scene (WOSAC: 32), at least 1.
+        #[arg(long, default_value_t = 32, value_parser = at_least_one())]
         rollouts: usize,
-        /// Also write a JSON report (per scene and aggregates) to this file.
+        /// Also write a JSON report (per scene and aggregates) to this file (`-`: standard output).
         #[arg(long, value_name = "OUT")]
         json: Option<PathBuf>,
         /// Policy driving every agent present at the window's start.
@@ -116,8 +140,8 @@ enum Command {
         /// Base seed (per-rollout seeds derive from it, the scenario id and the rollout index).
         #[arg(long, default_value_t = 0)]
         seed: u64,
-        /// Score at most this many scenes.
-        #[arg(long, value_name = "N")]
+        /// Score at most this many scenes (at least 1).
+        #[arg(long, value_name = "N", value_parser = at_least_one())]
         max_scenes: Option<usize>,
     },
     /// Print the JSON Schema of a spec kind (for editors: yaml-language-server `$schema`).
@@ -125,32 +149,32 @@ enum Command {
         /// Which spec.
         #[arg(value_enum)]
         kind: SpecKind,
-        /// Write to this file instead of stdout.
+        /// Write to this file instead of stdout (`-`: stdout).
         #[arg(long, value_name = "FILE")]
         out: Option<PathBuf>,
     },
     /// Latency of the learned models in tract (map encoding, CBV query, full-scene step), against onnxruntime/PyTorch.
     BenchModels {
-        /// Scenes to pick the busiest from.
-        #[arg(long, default_value = "../shared/data/womd-tfrecord")]
+        /// Scenes to pick the busiest from; `data:REL` is in the shared data folder.
+        #[arg(long, default_value = "data:womd-tfrecord", value_parser = data_path)]
         scenes: PathBuf,
-        /// Folder of the models and their cards.
-        #[arg(long, default_value = "models")]
-        models: PathBuf,
-        /// Repetitions (the median is reported).
-        #[arg(long, default_value_t = 200)]
+        /// Folder of the models and their cards (default: $SAFER_MODELS, else `models/` of the project).
+        #[arg(long)]
+        models: Option<PathBuf>,
+        /// Repetitions (the median is reported), at least 1.
+        #[arg(long, default_value_t = 200, value_parser = at_least_one())]
         repeat: usize,
     },
     /// Dual-stage evaluation of adversary methods: CR, SR, SR on critical variants, witness rate, VJ, AJ.
     Evaluate {
-        /// Folder of recorded scenes (searched recursively); scenes need an ego and a CBV.
-        #[arg(long)]
+        /// Folder of recorded scenes (searched recursively); scenes need an ego and a CBV; `data:REL` is in the shared data folder.
+        #[arg(long, value_parser = data_path)]
         scenes: PathBuf,
         /// Methods to compare, one table row each.
         #[arg(long, value_enum, value_delimiter = ',', default_values_t = [AdversaryMethod::Safer, AdversaryMethod::NoLfr, AdversaryMethod::NoTrustRegion, AdversaryMethod::NoMda, AdversaryMethod::Prior, AdversaryMethod::Log])]
         methods: Vec<AdversaryMethod>,
-        /// Seeds per scene and method.
-        #[arg(long, default_value_t = 10)]
+        /// Seeds per scene and method, at least 1.
+        #[arg(long, default_value_t = 10, value_parser = clap::value_parser!(u32).range(1..))]
         seeds: u32,
         /// Base seed.
         #[arg(long, default_value_t = 0)]
@@ -158,8 +182,8 @@ enum Command {
         /// Reactive planner driving the ego in stage 2.
         #[arg(long, value_enum, default_value_t = BuiltinPlanner::Evasive)]
         planner: BuiltinPlanner,
-        /// Trust-region size n (top-n tokens of the prior).
-        #[arg(long, default_value_t = 20)]
+        /// Trust-region size n (top-n tokens of the prior), from 1 to the vocabulary size.
+        #[arg(long, default_value_t = 20, value_parser = RangedU64ValueParser::<usize>::new().range(1..=VOCABULARY_SIZE as u64))]
         trust_region: usize,
         /// Who drives the background agents.
         #[arg(long, value_enum, default_value_t = BackgroundDriver::Configured)]
@@ -167,20 +191,20 @@ enum Command {
         /// The CBV in stage 2: replaying its stage-1 trajectory, or driven by the method again.
         #[arg(long, value_enum, default_value_t = Stage2Cbv::Replay)]
         stage2_cbv: Stage2Cbv,
-        /// Horizon of both stages from the scene's current step, s.
-        #[arg(long, default_value_t = 8.0)]
+        /// Horizon of both stages from the scene's current step, s (positive, finite).
+        #[arg(long, default_value_t = 8.0, value_parser = positive_finite, allow_negative_numbers = true)]
         horizon_s: f64,
-        /// Evaluate only the first N scenes (by id).
-        #[arg(long, value_name = "N")]
+        /// Evaluate only the first N scenes (by id), at least 1.
+        #[arg(long, value_name = "N", value_parser = at_least_one())]
         max_scenes: Option<usize>,
-        /// Also write every variant and the table as JSON.
+        /// Also write every variant and the table as JSON (`-`: standard output).
         #[arg(long, value_name = "OUT")]
         json: Option<PathBuf>,
     },
     /// Write the feasibility value's training transitions (NGSIM + synthetic, several ego and CBV policies).
     FeasibilityDataset {
-        /// Recorded scenes whose licence allows training the shipped models (NGSIM).
-        #[arg(long, default_value = "../shared/data/commonroad-ngsim")]
+        /// Recorded scenes whose licence allows training the shipped models (NGSIM); `data:REL` is in the shared data folder.
+        #[arg(long, default_value = "data:commonroad-ngsim", value_parser = data_path)]
         recorded: PathBuf,
         /// Output folder.
         #[arg(long, default_value = "training/data/feasibility")]
@@ -197,8 +221,8 @@ enum Command {
     },
     /// Accuracy of the shipped V_h against the witness search on held-out states, V_h latency, and the LFR picture.
     FeasibilityEval {
-        /// Recorded scenes of the collection (NGSIM).
-        #[arg(long, default_value = "../shared/data/commonroad-ngsim")]
+        /// Recorded scenes of the collection (NGSIM); `data:REL` is in the shared data folder.
+        #[arg(long, default_value = "data:commonroad-ngsim", value_parser = data_path)]
         recorded: PathBuf,
         /// Synthetic scenes of the collection (same as for `feasibility-dataset`).
         #[arg(long, default_value_t = 300)]
@@ -206,8 +230,8 @@ enum Command {
         /// Base seed of the collection.
         #[arg(long, default_value_t = 0)]
         seed: u64,
-        /// Most held-out states to label.
-        #[arg(long, default_value_t = 3000)]
+        /// Most held-out states to label, at least 1.
+        #[arg(long, default_value_t = 3000, value_parser = at_least_one())]
         states: usize,
         /// Where to draw V_h over relative CBV positions.
         #[arg(long, default_value = "docs/feasibility-lfr.svg")]
@@ -215,8 +239,8 @@ enum Command {
     },
     /// Write the realism prior's training shards (NGSIM scenes + calibrated synthetic traffic).
     PriorDataset {
-        /// Recorded scenes whose licence allows training the shipped models (NGSIM).
-        #[arg(long, default_value = "../shared/data/commonroad-ngsim")]
+        /// Recorded scenes whose licence allows training the shipped models (NGSIM); `data:REL` is in the shared data folder.
+        #[arg(long, default_value = "data:commonroad-ngsim", value_parser = data_path)]
         recorded: PathBuf,
         /// Output folder for the shards.
         #[arg(long, default_value = "training/data/prior")]
@@ -230,8 +254,8 @@ enum Command {
         /// Base seed of the synthetic traffic.
         #[arg(long, default_value_t = 0)]
         seed: u64,
-        /// Samples per shard.
-        #[arg(long, default_value_t = 50_000)]
+        /// Samples per shard, at least 1.
+        #[arg(long, default_value_t = 50_000, value_parser = at_least_one())]
         shard_size: usize,
         /// Replace shards already in the output folder.
         #[arg(long)]
@@ -239,12 +263,13 @@ enum Command {
     },
     /// Draw a scenario (a recorded file or a scenario spec YAML) as an SVG picture.
     Render {
-        /// A recorded scenario (.tfrecord, .json, .xml, .parquet / AV2 folder) or a scenario spec (.yaml).
+        /// A recorded scenario (.tfrecord, .json, .xml, .parquet / AV2 folder; `data:REL`: in the shared data folder) or a scenario spec (.yaml).
+        #[arg(value_parser = data_path)]
         file: PathBuf,
         /// Step whose footprints are drawn (default: the scenario's current step).
         #[arg(long, value_name = "N")]
         step: Option<usize>,
-        /// Output file (default: `<stem>.svg` in the current folder); a folder when FILE holds several scenarios.
+        /// Output file (default: `<stem>.svg` in the current folder; `-`: standard output); a folder when FILE holds several scenarios.
         #[arg(long, value_name = "OUT")]
         out: Option<PathBuf>,
         /// Overwrite existing pictures.
@@ -280,6 +305,9 @@ pub enum CliError {
     /// An artefact could not be written.
     #[error(transparent)]
     Record(#[from] RecordError),
+    /// A learned model could not be loaded or run.
+    #[error(transparent)]
+    Model(#[from] ModelError),
     /// The arguments ask for something that cannot be done.
     #[error("{0}")]
     Usage(String),
@@ -292,7 +320,7 @@ pub fn main() -> ExitCode {
         Command::Inspect { file, json } => inspect::run(&file, json),
         Command::Simulate { path, planner, background, json } => simulate::run(&path, planner, background, json),
         Command::TokenRoundtrip { scenes, json } => token_roundtrip::run(&scenes, json),
-        Command::Bench { scenes, repeat } => bench::run(&scenes, repeat.max(1)),
+        Command::Bench { scenes, repeat } => bench::run(&scenes, repeat),
         Command::Run { suites, json, artifacts, filter } => {
             run::run(&suites, json.as_deref(), &artifacts, filter.as_deref())
         }
@@ -301,7 +329,9 @@ pub fn main() -> ExitCode {
         }
         Command::Schema { kind, out } => schema::run(kind, out.as_deref()),
         Command::Render { file, step, out, force } => render::run(&file, step, out.as_deref(), force),
-        Command::BenchModels { scenes, models, repeat } => bench_models::run(&scenes, &models, repeat.max(1)),
+        Command::BenchModels { scenes, models, repeat } => {
+            bench_models::run(&scenes, &models.unwrap_or_else(crate::models::models_dir), repeat)
+        }
         Command::Evaluate {
             scenes,
             methods,
@@ -317,15 +347,15 @@ pub fn main() -> ExitCode {
         } => {
             let request = EvaluationRequest {
                 methods,
-                seeds: seeds.max(1),
+                seeds,
                 base_seed: seed,
                 planner,
-                trust_region: trust_region.clamp(1, crate::motion::tokens::VOCABULARY_SIZE),
+                trust_region,
                 background,
                 stage2_cbv,
                 horizon_s,
             };
-            evaluate::run(&scenes, &request, max_scenes, json.as_ref())
+            evaluate::run(&scenes, &request, max_scenes, json.as_deref())
         }
         Command::FeasibilityDataset { recorded, out, synthetic_scenes, seed, force } => {
             feasibility_dataset::run(&feasibility_dataset::FeasibilityDatasetRequest {
@@ -354,7 +384,7 @@ pub fn main() -> ExitCode {
                 template_scenes,
                 recorded_map_scenes,
                 seed,
-                shard_size: shard_size.max(1),
+                shard_size,
                 force,
             })
         }
@@ -367,9 +397,63 @@ pub fn main() -> ExitCode {
             ExitCode::from(2)
         }
         Err(e) => {
-            eprintln!("error: {e}");
+            eprintln!("{}", error_report(&e));
             ExitCode::from(2)
         }
+    }
+}
+
+/// `error: MESSAGE` and, one per line, each cause the message does not
+/// already include (the sources carried by the error enums).
+fn error_report(e: &(dyn std::error::Error + 'static)) -> String {
+    let mut text = format!("error: {e}");
+    let mut source = e.source();
+    while let Some(cause) = source {
+        let line = cause.to_string();
+        if !text.contains(&line) {
+            text.push_str("\n  caused by: ");
+            text.push_str(&line);
+        }
+        source = cause.source();
+    }
+    text
+}
+
+/// A command-line path: `data:REL` is `REL` in the shared recorded-data
+/// folder, by the rule of [`crate::spec::paths`] for the project this
+/// binary was built from; anything else is taken as written.
+fn data_path(written: &str) -> Result<PathBuf, String> {
+    if written.starts_with("data:") {
+        Ok(crate::spec::paths::resolve(Path::new(env!("CARGO_MANIFEST_DIR")), written))
+    } else {
+        Ok(PathBuf::from(written))
+    }
+}
+
+/// Parses a count that must be at least 1 (clap names the flag and the
+/// range when it is not).
+fn at_least_one() -> impl TypedValueParser<Value = usize> {
+    RangedU64ValueParser::<usize>::new().range(1..)
+}
+
+/// Parses a positive, finite number (durations, distances).
+fn positive_finite(written: &str) -> Result<f64, String> {
+    let v: f64 = written.trim().parse().map_err(|_| format!("`{written}` is not a number; expected 0 < x < inf"))?;
+    if v.is_finite() && v > 0.0 {
+        Ok(v)
+    } else {
+        Err(format!("{v} is outside the accepted range 0 < x < inf (a positive, finite number)"))
+    }
+}
+
+/// Where a command's human-readable table goes: standard output, or
+/// standard error when the JSON report takes standard output (`--json -`),
+/// so the JSON stays parseable.
+fn table_writer(json: Option<&Path>) -> Box<dyn std::io::Write> {
+    if json.is_some_and(crate::record::is_stdout) {
+        Box::new(std::io::stderr().lock())
+    } else {
+        Box::new(std::io::stdout().lock())
     }
 }
 

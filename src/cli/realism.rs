@@ -9,6 +9,7 @@
 //! output does not depend on the thread count.
 
 use std::collections::BTreeMap;
+use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::sync::Arc;
@@ -70,7 +71,7 @@ impl RealismPolicy {
         self.prior_variant()
             .map(|v| RealismPrior::load(&crate::models::models_dir(), v).map(Arc::new))
             .transpose()
-            .map_err(|e| CliError::Usage(e.to_string()))
+            .map_err(CliError::from)
     }
 }
 
@@ -136,23 +137,36 @@ fn score_one(
         None => None,
     };
     let start = window.start_step;
-    let members: Vec<usize> = (0..scenario.tracks.len()).filter(|&i| scenario.tracks[i].state(start).is_some()).collect();
+    let members: Vec<usize> =
+        (0..scenario.tracks.len()).filter(|&i| scenario.tracks[i].state(start).is_some()).collect();
     let mut rollouts = Vec::with_capacity(args.rollouts);
     for r in 0..args.rollouts {
         let seed = variant_seed(args.seed, &scenario.id, r as u32);
         let traffic = prior.as_ref().map(|(p, shared, map)| {
-            PriorTraffic::new(p.clone(), shared.clone(), map.clone(), start, members.clone(), TokenSampling::default(), seed)
+            PriorTraffic::new(
+                p.clone(),
+                shared.clone(),
+                map.clone(),
+                start,
+                members.clone(),
+                TokenSampling::default(),
+                seed,
+            )
         });
         let states = simulate_all_agents(scenario, start, window.end_step(), |agent| -> Box<dyn AgentPolicy> {
             match (&traffic, args.policy) {
                 (Some(t), _) => Box::new(PriorAgent::new(t.clone())),
-                (None, RealismPolicy::ConstantVelocity) => BackgroundPolicy::ConstantVelocity.instantiate(scenario, agent),
+                (None, RealismPolicy::ConstantVelocity) => {
+                    BackgroundPolicy::ConstantVelocity.instantiate(scenario, agent)
+                }
                 (None, RealismPolicy::Idm) => BackgroundPolicy::Idm.instantiate(scenario, agent),
                 (None, _) => BackgroundPolicy::LogReplay.instantiate(scenario, agent),
             }
         })
         .map_err(|e| e.to_string())?;
-        if let Some(e) = traffic.as_ref().and_then(|t| t.lock().unwrap_or_else(|p| p.into_inner()).error().map(|e| e.to_string())) {
+        if let Some(e) =
+            traffic.as_ref().and_then(|t| t.lock().unwrap_or_else(|p| p.into_inner()).error().map(|e| e.to_string()))
+        {
             return Err(format!("prior inference failed: {e}"));
         }
         rollouts.push(states);
@@ -161,8 +175,12 @@ fn score_one(
 }
 
 pub(super) fn run(args: &RealismArgs) -> Result<ExitCode, CliError> {
+    if let Some(out) = &args.json {
+        crate::record::output::check_output(out)?;
+    }
     let prior = args.policy.load()?;
     if args.rollouts == 0 {
+        // The command line refuses 0 already; this guards other callers.
         return Err(CliError::Usage("--rollouts must be at least 1".to_string()));
     }
     let config = RealismConfig::wosac_2025();
@@ -221,7 +239,9 @@ pub(super) fn run(args: &RealismArgs) -> Result<ExitCode, CliError> {
     let by_format: BTreeMap<SourceFormat, RealismAggregate> =
         formats.into_iter().map(|(f, rs)| (f, RealismAggregate::mean(rs, &config))).collect();
     let overall = RealismAggregate::mean(&results, &config);
-    print_table(args, &by_format, &overall, &skipped, mean_scene_s, wall_s);
+    let mut table = super::table_writer(args.json.as_deref());
+    print_table(&mut table, args, &by_format, &overall, &skipped, mean_scene_s, wall_s)?;
+    table.flush()?;
     if let Some(out) = &args.json {
         let report = Report {
             policy: args.policy,
@@ -241,36 +261,47 @@ pub(super) fn run(args: &RealismArgs) -> Result<ExitCode, CliError> {
     Ok(if skipped.iter().any(|s| s.error) { ExitCode::from(1) } else { ExitCode::SUCCESS })
 }
 
+/// Writes the report by the rules of [`crate::record::output`], creating
+/// the folder of a file path first.
 fn write_json(path: &Path, report: &Report<'_>) -> Result<(), CliError> {
-    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir)?;
+    if !crate::record::is_stdout(path)
+        && let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty())
+    {
+        std::fs::create_dir_all(dir)
+            .map_err(|source| crate::record::RecordError::Io { path: dir.to_path_buf(), source })?;
     }
-    std::fs::write(path, serde_json::to_string_pretty(report)?)?;
+    crate::record::write_output(path, (serde_json::to_string_pretty(report)? + "\n").as_bytes())?;
     Ok(())
 }
 
+/// The human-readable table (on stdout, or stderr when the JSON report
+/// takes stdout); scenes that failed go to stderr.
 fn print_table(
+    out: &mut dyn Write,
     args: &RealismArgs,
     by_format: &BTreeMap<SourceFormat, RealismAggregate>,
     overall: &RealismAggregate,
     skipped: &[Skipped],
     mean_scene_s: f64,
     wall_s: f64,
-) {
+) -> std::io::Result<()> {
     let policy = serde_json::to_value(args.policy).ok().and_then(|v| v.as_str().map(str::to_string));
-    println!(
+    writeln!(
+        out,
         "WOSAC 2025 realism, policy {}, {} rollouts per scene, seed {}",
         policy.as_deref().unwrap_or("?"),
         args.rollouts,
         args.seed
-    );
-    println!(
+    )?;
+    writeln!(
+        out,
         "{:<12} {:>6} {:>10} {:>12} {:>10} {:>8} {:>8} {:>10} {:>9}",
         "format", "scenes", "kinematic", "interactive", "map-based", "meta", "minADE", "collision", "off-road"
-    );
+    )?;
     let cell = |v: Option<f64>, digits: usize| v.map_or("-".to_string(), |x| format!("{x:.digits$}"));
-    let row = |name: &str, a: &RealismAggregate| {
-        println!(
+    let row = |out: &mut dyn Write, name: &str, a: &RealismAggregate| {
+        writeln!(
+            out,
             "{:<12} {:>6} {:>10} {:>12} {:>10} {:>8} {:>8} {:>10} {:>9}",
             name,
             a.scenarios,
@@ -281,23 +312,25 @@ fn print_table(
             cell(a.min_average_displacement_error_m, 2),
             cell(a.simulated_collision_rate, 3),
             cell(a.simulated_offroad_rate, 3),
-        );
+        )
     };
     for (format, a) in by_format {
         let name = serde_json::to_value(format).ok().and_then(|v| v.as_str().map(str::to_string));
-        row(name.as_deref().unwrap_or("?"), a);
+        row(out, name.as_deref().unwrap_or("?"), a)?;
     }
-    row("overall", overall);
+    row(out, "overall", overall)?;
     let short = skipped.iter().filter(|s| !s.error).count();
     let failed: Vec<&Skipped> = skipped.iter().filter(|s| s.error).collect();
     if short > 0 {
-        println!("{short} scenes too short for the window, skipped");
+        writeln!(out, "{short} scenes too short for the window, skipped")?;
     }
     for s in &failed {
         eprintln!("error: {} {}: {}", s.path.display(), s.scenario, s.reason);
     }
-    println!(
+    writeln!(
+        out,
         "{mean_scene_s:.2} s per scene on one thread ({} rollouts and scoring); {wall_s:.1} s wall",
         args.rollouts
-    );
+    )?;
+    Ok(())
 }

@@ -3,10 +3,12 @@
 //! authored scenario spec (`specs/scenarios/*.yaml`).
 //!
 //! One scenario goes to `--out` (default `<stem>.svg` in the current
-//! folder); a file holding several (a TFRecord) needs `--out DIR` and gets
-//! one `<id>.svg` each. Existing pictures are never overwritten without
-//! `--force`, and every check runs before the first write, so a refused
-//! call leaves nothing half done.
+//! folder; `-` is standard output); a file holding several (a TFRecord)
+//! needs `--out DIR` and gets one `<id>.svg` each. Existing pictures
+//! (regular files, also behind a symlink) are never overwritten without
+//! `--force`; a FIFO or device is written in place ([`record::output`]).
+//! Every check runs before the first write, so a refused call leaves
+//! nothing half done.
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -31,19 +33,30 @@ pub(super) fn run(file: &Path, step: Option<usize>, out: Option<&Path>, force: b
             }
         }
     }
-    if !force && let Some(existing) = targets.iter().find(|(p, _)| p.exists()) {
+    // `metadata` follows symlinks: a link to an existing picture counts.
+    let is_picture = |p: &Path| !record::is_stdout(p) && std::fs::metadata(p).is_ok_and(|m| m.is_file());
+    if !force && let Some(existing) = targets.iter().find(|(p, _)| is_picture(p)) {
         return Err(CliError::Usage(format!("{} already exists; pass --force to overwrite it", existing.0.display())));
+    }
+    for (path, _) in &targets {
+        record::output::check_output(path)?;
     }
     let opts = SvgOptions { step, ..SvgOptions::default() };
     for (path, scenario) in &targets {
         record::write_svg(path, &record::render_scenario_svg(scenario, &opts))?;
         let shown = step.unwrap_or(scenario.current_step);
-        println!(
+        let line = format!(
             "wrote {} (scenario {}, step {shown} of 0..={})",
-            path.display(),
+            if record::is_stdout(path) { "standard output".into() } else { path.display().to_string() },
             scenario.id,
             scenario.num_steps().saturating_sub(1)
         );
+        // With the picture on stdout, the note goes to stderr.
+        if record::is_stdout(path) {
+            eprintln!("{line}");
+        } else {
+            println!("{line}");
+        }
     }
     Ok(ExitCode::SUCCESS)
 }
@@ -80,6 +93,7 @@ fn targets<'a>(
     };
     match (scenarios, out) {
         ([one], None) => Ok(vec![(stem(), one)]),
+        ([one], Some(path)) if record::is_stdout(path) => Ok(vec![(path.to_path_buf(), one)]),
         // An existing folder as --out gets the default name inside it.
         ([one], Some(dir)) if dir.is_dir() => Ok(vec![(dir.join(stem()), one)]),
         ([one], Some(path)) => Ok(vec![(path.to_path_buf(), one)]),
@@ -89,6 +103,13 @@ fn targets<'a>(
             many.len()
         ))),
         (many, Some(dir)) => {
+            if record::is_stdout(dir) {
+                return Err(CliError::Usage(format!(
+                    "{} holds {} scenarios, so --out must be a folder, not standard output",
+                    file.display(),
+                    many.len()
+                )));
+            }
             if dir.exists() && !dir.is_dir() {
                 return Err(CliError::Usage(format!(
                     "{} holds {} scenarios, so --out must be a folder, and {} is a file",

@@ -11,6 +11,8 @@
 //! (`suite::metric`) contains it; a selected metric runs all of its suite's
 //! variants, as the metric trial of `cargo test --test suites` does.
 //!
+//! `--json -` writes the report to standard output and the table to stderr.
+//!
 //! Exit code: 0 when every selected variant and metric passed, 1 when one
 //! failed (or could not run), 2 on usage errors and suites that do not load.
 
@@ -153,6 +155,9 @@ pub(super) fn run(
     artifacts: &Path,
     filter: Option<&str>,
 ) -> Result<ExitCode, CliError> {
+    if let Some(out) = json {
+        crate::record::output::check_output(out)?;
+    }
     let mut load_errors = Vec::new();
     let mut suites: Vec<(PathBuf, Suite)> = Vec::new();
     for file in files {
@@ -222,10 +227,12 @@ pub(super) fn run(
     let load_failed = !load_errors.is_empty();
     let report = Report { passed: !load_failed && reports.iter().all(|r| r.passed), load_errors, suites: reports };
 
-    print_report(&report);
+    let mut table = super::table_writer(json);
+    print_report(&mut table, &report)?;
+    table.flush()?;
     if let Some(out) = json {
         let text = serde_json::to_string_pretty(&report)? + "\n";
-        crate::record::write_atomically(out, text.as_bytes())?;
+        crate::record::write_output(out, text.as_bytes())?;
     }
     Ok(if load_failed {
         ExitCode::from(2)
@@ -332,15 +339,16 @@ fn opt(v: Option<f64>, decimals: usize) -> String {
     v.map_or_else(|| "-".to_string(), |x| format!("{x:.decimals$}"))
 }
 
-/// The human-readable table on stdout.
-fn print_report(report: &Report) {
+/// The human-readable table (on stdout, or stderr when the JSON report
+/// takes stdout).
+fn print_report(out: &mut dyn Write, report: &Report) -> std::io::Result<()> {
     let mut failing = Vec::new();
     let (mut variants, mut variants_failed, mut checks, mut checks_failed) = (0, 0, 0, 0);
     for (i, s) in report.suites.iter().enumerate() {
         if i > 0 {
-            println!();
+            writeln!(out)?;
         }
-        println!("suite {} ({}), planner {}", s.name, s.file, s.planner);
+        writeln!(out, "suite {} ({}), planner {}", s.name, s.file, s.planner)?;
         let width = s
             .variants
             .iter()
@@ -352,7 +360,11 @@ fn print_report(report: &Report) {
             .unwrap_or(0)
             .max("variant".len());
         if !s.variants.is_empty() {
-            println!("  {:<width$}  {:>11}  {:>9}  {:>9}  stage 2", "variant", "S1 CBV hit", "min gap m", "min TTC s");
+            writeln!(
+                out,
+                "  {:<width$}  {:>11}  {:>9}  {:>9}  stage 2",
+                "variant", "S1 CBV hit", "min gap m", "min TTC s"
+            )?;
         }
         for v in &s.variants {
             variants += 1;
@@ -368,22 +380,28 @@ fn print_report(report: &Report) {
                             format!("FAIL {first}{more}")
                         }
                     };
-                    println!(
+                    writeln!(
+                        out,
                         "  {:<width$}  {:>11}  {:>9}  {:>9}  {result}",
                         summary.variant,
                         if summary.stage1_cbv_hit_ego { "yes" } else { "no" },
                         opt(summary.stage2_min_gap_m, 2),
                         opt(summary.stage2_min_ttc_s, 1),
-                    );
+                    )?;
                 }
                 VariantEntry::Error { variant, error, .. } => {
                     variants_failed += 1;
-                    println!("  {variant:<width$}  {:>11}  {:>9}  {:>9}  ERROR could not run: {error}", "-", "-", "-");
+                    writeln!(
+                        out,
+                        "  {variant:<width$}  {:>11}  {:>9}  {:>9}  ERROR could not run: {error}",
+                        "-", "-", "-"
+                    )?;
                 }
             }
         }
         if let Some(m) = &s.metrics {
-            println!(
+            writeln!(
+                out,
                 "  metrics over {}: CR {}  SR {}  SR(critical) {}  VJ {}  AJ {}",
                 count(m.variants, "variant"),
                 opt(m.collision_rate, 3),
@@ -391,7 +409,7 @@ fn print_report(report: &Report) {
                 opt(m.solution_rate_critical, 3),
                 opt(m.velocity_jsd, 3),
                 opt(m.acceleration_jsd, 3)
-            );
+            )?;
         }
         let metric_width = s.checks.iter().map(|c| s.name.len() + 2 + c.name.len()).max().unwrap_or(0);
         for c in &s.checks {
@@ -402,16 +420,16 @@ fn print_report(report: &Report) {
                 checks_failed += 1;
                 format!("FAIL {}", c.message.as_deref().unwrap_or_default())
             };
-            println!("  {:<metric_width$}  {:>7}  {verdict}", format!("{}::{}", s.name, c.name), opt(c.value, 3));
+            writeln!(out, "  {:<metric_width$}  {:>7}  {verdict}", format!("{}::{}", s.name, c.name), opt(c.value, 3))?;
         }
     }
     if !failing.is_empty() {
-        println!("\nartefacts of failing variants:");
+        writeln!(out, "\nartefacts of failing variants:")?;
         for (name, artefacts, error) in failing {
-            println!("  {name}");
+            writeln!(out, "  {name}")?;
             match (artefacts, error) {
-                (Some(a), _) => println!("    recording: {}\n    picture:   {}", a.mcap, a.svg),
-                (None, Some(e)) => println!("    (could not write artefacts: {e})"),
+                (Some(a), _) => writeln!(out, "    recording: {}\n    picture:   {}", a.mcap, a.svg)?,
+                (None, Some(e)) => writeln!(out, "    (could not write artefacts: {e})")?,
                 (None, None) => {}
             }
         }
@@ -421,10 +439,12 @@ fn print_report(report: &Report) {
     } else {
         format!("; {} could not be loaded", count(report.load_errors.len(), "suite file"))
     };
-    println!(
+    writeln!(
+        out,
         "\n{}: {}, {variants_failed} failed; {}, {checks_failed} failed{load}",
         if report.passed { "PASS" } else { "FAIL" },
         count(variants, "variant"),
         count(checks, "metric check"),
-    );
+    )?;
+    Ok(())
 }

@@ -19,8 +19,9 @@ fn schema_text(kind: SpecKind) -> Result<String, CliError> {
 pub(super) fn run(kind: SpecKind, out: Option<&Path>) -> Result<ExitCode, CliError> {
     let text = schema_text(kind)?;
     match out {
-        // Atomic, so an editor watching the file never reads half a schema.
-        Some(path) => crate::record::write_atomically(path, text.as_bytes())?,
+        // Atomic for a file, so an editor watching it never reads half a
+        // schema; `-` is stdout, a device is written in place.
+        Some(path) => crate::record::write_output(path, text.as_bytes())?,
         None => print!("{text}"),
     }
     Ok(ExitCode::SUCCESS)

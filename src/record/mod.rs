@@ -12,7 +12,11 @@
 //!   the map once, ego/CBV paths, extra trajectories, collision events).
 //!   Entry points: [`encode_rollout_mcap`], [`write_rollout_mcap`].
 //! - [`atomic`]: write-to-temporary-then-rename, so a reader never sees a
-//!   half-written artefact.
+//!   half-written artefact; stale temporaries of killed runs are removed.
+//! - [`output`]: the one way to write a path the user chose (`-` is
+//!   standard output, symlinks followed, devices and FIFOs written in
+//!   place, folders refused); everything the CLI and the harness write
+//!   goes through [`write_output`].
 //!
 //! It sits above `sim` (it reads [`Rollout`]s and [`Scenario`]s) and below
 //! `harness` and `cli`, which decide when and where artefacts are written.
@@ -26,6 +30,7 @@
 
 pub mod atomic;
 pub mod mcap;
+pub mod output;
 pub mod svg;
 
 use std::path::{Path, PathBuf};
@@ -36,6 +41,7 @@ use crate::sim::Rollout;
 
 pub use atomic::{write_atomically, write_atomically_with};
 pub use mcap::encode_rollout_mcap;
+pub use output::{is_stdout, write_output, write_output_with};
 pub use svg::SvgOptions;
 
 /// Why an artefact could not be written.
@@ -186,13 +192,15 @@ pub fn render_rollout_svg_with(
     svg::render_rollout(scenario, rollout, extra, opts)
 }
 
-/// Writes a picture (or any text artefact) atomically.
+/// Writes a picture (or any text artefact) by the rules of [`output`]
+/// (a file is replaced atomically).
 pub fn write_svg(path: &Path, svg: &str) -> Result<(), RecordError> {
-    atomic::write_atomically(path, svg.as_bytes())
+    output::write_output(path, svg.as_bytes())
 }
 
-/// Writes the rollout's MCAP recording to `path` atomically (see [`mcap`]
-/// for the topics). The same inputs give the same bytes.
+/// Writes the rollout's MCAP recording to `path` by the rules of
+/// [`output`] (a file is replaced atomically; see [`mcap`] for the topics).
+/// The same inputs give the same bytes.
 pub fn write_rollout_mcap(
     path: &Path,
     scenario: &Scenario,
@@ -200,7 +208,7 @@ pub fn write_rollout_mcap(
     extra: &[NamedTrajectory],
 ) -> Result<(), RecordError> {
     let bytes = mcap::encode_rollout_mcap(scenario, rollout, extra)?;
-    atomic::write_atomically(path, &bytes)
+    output::write_output(path, &bytes)
 }
 
 /// Fixtures shared by this layer's tests: a crossing where the ego, driven
