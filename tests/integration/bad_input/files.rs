@@ -1,1 +1,190 @@
-//! Bad input: files (see the parent module).
+//! Bad input: output paths and numbers. What a user owns is never damaged
+//! (a symlink stays a link, a device stays a device, `-` is standard
+//! output and not a file named `-`), a bad number is refused naming the
+//! flag instead of being clamped, and data defaults follow
+//! `SAFER_DATA_DIR`. Each case runs the real `safer` binary with a
+//! deadline, in a fresh temporary folder.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+use std::sync::atomic::{AtomicU32, Ordering};
+use std::time::{Duration, Instant};
+
+fn fixture(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/bad-input/files").join(name)
+}
+
+/// A fresh folder per test (tests run in parallel and share the process id).
+fn temp_dir(tag: &str) -> PathBuf {
+    static NEXT: AtomicU32 = AtomicU32::new(0);
+    let n = NEXT.fetch_add(1, Ordering::Relaxed);
+    let dir = std::env::temp_dir().join(format!("safer-bad-files-{tag}-{}-{n}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("create temp dir");
+    dir
+}
+
+/// Runs `safer ARGS` in `cwd` with extra environment variables, killing it
+/// after `deadline`; panics on a timeout.
+fn safer_in(cwd: &Path, env: &[(&str, &Path)], args: &[&str], deadline: Duration) -> Output {
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_safer"));
+    cmd.args(args).current_dir(cwd).stdin(Stdio::null()).stdout(Stdio::piped()).stderr(Stdio::piped());
+    for (k, v) in env {
+        cmd.env(k, v);
+    }
+    let mut child = cmd.spawn().expect("start safer");
+    let started = Instant::now();
+    // Drain both pipes on threads: a JSON report on stdout can outgrow the pipe buffer.
+    let mut stdout = child.stdout.take().expect("stdout piped");
+    let mut stderr = child.stderr.take().expect("stderr piped");
+    let out = std::thread::spawn(move || {
+        let mut b = Vec::new();
+        std::io::Read::read_to_end(&mut stdout, &mut b).map(|_| b)
+    });
+    let err = std::thread::spawn(move || {
+        let mut b = Vec::new();
+        std::io::Read::read_to_end(&mut stderr, &mut b).map(|_| b)
+    });
+    let status = loop {
+        if let Some(status) = child.try_wait().expect("wait for safer") {
+            break status;
+        }
+        if started.elapsed() > deadline {
+            let _ = child.kill();
+            let _ = child.wait();
+            panic!("`safer {}` did not end within {deadline:?}", args.join(" "));
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    let stdout = out.join().expect("stdout reader").expect("read stdout");
+    let stderr = err.join().expect("stderr reader").expect("read stderr");
+    Output { status, stdout, stderr }
+}
+
+fn text(out: &Output) -> String {
+    format!("stdout:\n{}\nstderr:\n{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr))
+}
+
+const RUN_DEADLINE: Duration = Duration::from_secs(180);
+
+#[cfg(unix)]
+#[test]
+fn json_onto_a_symlink_fills_its_target_and_keeps_the_link() {
+    let dir = temp_dir("symlink");
+    std::fs::create_dir(dir.join("reports")).unwrap();
+    std::fs::write(dir.join("reports/latest.json"), b"previous report").unwrap();
+    std::os::unix::fs::symlink("reports/latest.json", dir.join("report.json")).unwrap();
+    let suite = fixture("one-overtake.suite.yaml");
+    let out = safer_in(&dir, &[], &["run", suite.to_str().unwrap(), "--json", "report.json"], RUN_DEADLINE);
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out));
+    let link = std::fs::symlink_metadata(dir.join("report.json")).unwrap();
+    assert!(link.file_type().is_symlink(), "the link was replaced by a {:?}", link.file_type());
+    let v: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.join("reports/latest.json")).unwrap()).expect("JSON in the target");
+    assert_eq!(v["suites"][0]["name"], "one-overtake");
+    let mut left: Vec<String> = std::fs::read_dir(dir.join("reports"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().into_string().unwrap())
+        .collect();
+    left.sort();
+    assert_eq!(left, vec!["latest.json".to_string()], "temporaries left beside the target");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn json_dash_prints_the_report_on_stdout_and_creates_no_file() {
+    let dir = temp_dir("dash");
+    let suite = fixture("one-overtake.suite.yaml");
+    let out = safer_in(&dir, &[], &["run", suite.to_str().unwrap(), "--json", "-"], RUN_DEADLINE);
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out));
+    // Only the JSON on stdout: the table moved to stderr.
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap_or_else(|e| panic!("{e}\n{}", text(&out)));
+    assert_eq!(v["passed"], true);
+    assert!(String::from_utf8_lossy(&out.stderr).contains("one-overtake::"), "{}", text(&out));
+    assert!(!dir.join("-").exists(), "a file named `-` was created");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[cfg(target_os = "linux")]
+#[test]
+fn json_onto_dev_full_fails_naming_it_and_leaves_the_device() {
+    use std::os::unix::fs::FileTypeExt;
+    let full = Path::new("/dev/full");
+    let is_char_device = |p: &Path| std::fs::metadata(p).is_ok_and(|m| m.file_type().is_char_device());
+    if !is_char_device(full) {
+        println!("skipped: /dev/full is not a character device here");
+        return;
+    }
+    let dir = temp_dir("dev-full");
+    let suite = fixture("one-overtake.suite.yaml");
+    let out = safer_in(&dir, &[], &["run", suite.to_str().unwrap(), "--json", "/dev/full"], RUN_DEADLINE);
+    assert!(!out.status.success(), "writing to /dev/full must fail: {}", text(&out));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("/dev/full"), "{}", text(&out));
+    assert!(stderr.to_lowercase().contains("no space left"), "{}", text(&out));
+    assert!(is_char_device(full), "/dev/full is no longer a character device");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn json_onto_a_folder_is_refused_before_the_run() {
+    let dir = temp_dir("folder");
+    std::fs::create_dir(dir.join("out")).unwrap();
+    let suite = fixture("one-overtake.suite.yaml");
+    let out = safer_in(&dir, &[], &["run", suite.to_str().unwrap(), "--json", "out"], RUN_DEADLINE);
+    assert_eq!(out.status.code(), Some(2), "{}", text(&out));
+    let t = text(&out);
+    assert!(t.contains("out") && t.contains("folder"), "{t}");
+    assert!(!t.contains("one-overtake::"), "the suite ran before the output was refused: {t}");
+    assert!(dir.join("out").is_dir());
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn bad_numbers_are_refused_naming_the_flag_and_the_range() {
+    let dir = temp_dir("numbers");
+    let scenes = dir.to_str().unwrap();
+    let cases: [(&[&str], &str); 7] = [
+        (&["evaluate", "--scenes", scenes, "--seeds", "0"], "--seeds"),
+        (&["evaluate", "--scenes", scenes, "--horizon-s", "nan"], "--horizon-s"),
+        (&["evaluate", "--scenes", scenes, "--horizon-s", "-1"], "--horizon-s"),
+        (&["evaluate", "--scenes", scenes, "--trust-region", "0"], "--trust-region"),
+        (&["realism", "--scenes", scenes, "--rollouts", "0"], "--rollouts"),
+        (&["bench", "--repeat", "0"], "--repeat"),
+        (&["prior-dataset", "--shard-size", "0"], "--shard-size"),
+    ];
+    for (args, flag) in cases {
+        let out = safer_in(&dir, &[], args, Duration::from_secs(30));
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "`safer {}` was accepted: {}", args.join(" "), text(&out));
+        assert!(stderr.contains(flag), "`safer {}` did not name {flag}: {stderr}", args.join(" "));
+        assert!(stderr.contains("invalid value"), "`safer {}`: {stderr}", args.join(" "));
+    }
+    // The accepted range is part of the message.
+    let out = safer_in(&dir, &[], &["evaluate", "--scenes", scenes, "--seeds", "0"], Duration::from_secs(30));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("1.."), "{}", text(&out));
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn the_data_default_follows_safer_data_dir() {
+    let dir = temp_dir("data-dir");
+    let data = dir.join("my-data");
+    std::fs::create_dir(&data).unwrap();
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/fixtures/bad-input/hangs/folder-with-one-bad-scene/a-good-scene.json");
+    std::fs::copy(&scene, data.join("a-good-scene.json")).unwrap();
+    // Run from an unrelated folder: the default must not depend on it.
+    let out = safer_in(&dir, &[("SAFER_DATA_DIR", &data)], &["bench", "--repeat", "1"], Duration::from_secs(120));
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out));
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let row = stdout.lines().find(|l| l.starts_with("womd-json")).unwrap_or_else(|| panic!("{}", text(&out)));
+    assert_eq!(row.split_whitespace().nth(1), Some("1"), "one scene expected: {row}");
+
+    // A missing data folder is an error naming the folder SAFER_DATA_DIR chose.
+    let missing = dir.join("no-such-data");
+    let out = safer_in(&dir, &[("SAFER_DATA_DIR", &missing)], &["bench", "--repeat", "1"], Duration::from_secs(60));
+    assert!(!out.status.success(), "{}", text(&out));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("no-such-data"), "{}", text(&out));
+    std::fs::remove_dir_all(&dir).ok();
+}
