@@ -27,7 +27,7 @@ use crate::record::svg::render_lfr_svg;
 /// Runs the command.
 pub fn run(request: &FeasibilityDatasetRequest, max_states: usize, svg: &Path) -> Result<ExitCode, CliError> {
     let models_dir = crate::models::models_dir();
-    let value = FeasibilityValue::load(&models_dir).map_err(|e| CliError::Usage(e.to_string()))?;
+    let value = FeasibilityValue::load(&models_dir)?;
     let models = ModelSet::shipped();
     let maps = MapEncodings::default();
     let collection = collection(request, &models)?;
@@ -74,7 +74,7 @@ pub fn run(request: &FeasibilityDatasetRequest, max_states: usize, svg: &Path) -
         let mut times = Vec::with_capacity(1000);
         for _ in 0..1000 {
             let t = Instant::now();
-            value.evaluate(&batch).map_err(|e| CliError::Usage(e.to_string()))?;
+            value.evaluate(&batch)?;
             times.push(t.elapsed().as_secs_f64() * 1e6);
         }
         times.sort_by(f64::total_cmp);
@@ -84,7 +84,7 @@ pub fn run(request: &FeasibilityDatasetRequest, max_states: usize, svg: &Path) -
             if cfg!(debug_assertions) { "debug" } else { "release" }
         );
     }
-    let panels = lfr_panels(&value, LfrGrid::FIGURE).map_err(|e| CliError::Usage(e.to_string()))?;
+    let panels = lfr_panels(&value, LfrGrid::FIGURE)?;
     for p in &panels {
         print_panel(p);
     }

@@ -33,14 +33,13 @@ pub struct DatasetRequest {
 }
 
 /// The dataset commands report a [`DatasetError`] through the variant that
-/// carries its source (a licence or shard problem reads as a usage error).
+/// carries its source (a licence or shard-metadata problem reads as a usage error).
 impl From<DatasetError> for CliError {
     fn from(e: DatasetError) -> Self {
         match e {
             DatasetError::Import(e) => Self::Import(e),
-            e @ (DatasetError::Licence { .. } | DatasetError::Model(_) | DatasetError::Metadata { .. }) => {
-                Self::Usage(e.to_string())
-            }
+            DatasetError::Model(e) => Self::Model(e),
+            e @ (DatasetError::Licence { .. } | DatasetError::Metadata { .. }) => Self::Usage(e.to_string()),
         }
     }
 }
