@@ -92,7 +92,7 @@ impl Adversary {
             return Ok(ranked.first().copied());
         };
         let candidates = match self.trust_region {
-            TrustRegion::TopN(n) => &ranked[..n.clamp(1, ranked.len())],
+            TrustRegion::TopN(n) => &ranked[..n.max(1).min(ranked.len())],
             TrustRegion::WholeVocabulary => &ranked[..],
         };
         let ego_next = ego_prediction(ego_now);

@@ -263,7 +263,10 @@ impl IdmLaneFollower {
                     .max(0.0);
             (desired_gap / gap.max(0.1)).powi(2)
         });
-        let accel = (p.max_accel_mps2 * (free - interaction)).clamp(-p.max_decel_mps2, p.max_accel_mps2);
+        // max/min, not clamp: clamp panics on NaN or crossed bounds, and
+        // parameters reach here unchecked through the library API (a NaN
+        // control is refused by the simulator, naming the agent).
+        let accel = (p.max_accel_mps2 * (free - interaction)).max(-p.max_decel_mps2).min(p.max_accel_mps2);
         Some(Action { accel_mps2: accel, yaw_rate_radps: yaw_rate })
     }
 }

@@ -21,6 +21,10 @@ use crate::planners::{Observation, PerceivedAgent, Planner, PlannerOutput};
 use crate::policies::{AgentAction, AgentPolicy, BackgroundPolicy, WorldView};
 use crate::scenario::{AgentBody, AgentState, Scenario, TrackIndex};
 
+/// Largest length or width of a simulated agent's box, m: no road user
+/// comes close, and a box–box query on absurd boxes is not meaningful.
+pub const MAX_BODY_M: f64 = 100.0;
+
 /// Relative difference between a scenario's step and the simulator's that is accepted.
 pub const DT_TOLERANCE: f64 = 0.025;
 
@@ -234,10 +238,19 @@ impl<'a> Simulation<'a> {
     }
 
     /// The first agent (in track order) whose state is implausible, with why.
+    /// A present agent's box must be finite, positive and at most
+    /// [`MAX_BODY_M`] on each side too: the box–box queries assume it.
     fn first_invalid(&self, states: &[Option<AgentState>]) -> Option<(crate::scenario::AgentId, String)> {
         states.iter().enumerate().find_map(|(i, s)| {
-            let why = crate::scenario::bounds::implausibility(s.as_ref()?)?;
-            Some((self.scenario.tracks[i].id.clone(), why))
+            let track = &self.scenario.tracks[i];
+            let why = crate::scenario::bounds::implausibility(s.as_ref()?).or_else(|| {
+                let sides = [("length", track.length_m), ("width", track.width_m)];
+                sides
+                    .into_iter()
+                    .find(|(_, v)| !(*v > 0.0 && *v <= MAX_BODY_M))
+                    .map(|(name, v)| format!("{name} = {v:e} m is outside the simulation bounds (0, {MAX_BODY_M:e} m]"))
+            })?;
+            Some((track.id.clone(), why))
         })
     }
 
@@ -553,5 +566,57 @@ mod tests {
         let r = Simulation::new(&s, SimConfig::default()).unwrap().run(p.as_mut());
         assert!(matches!(r.termination, Termination::InvalidAgentState { step: 0, .. }), "{:?}", r.termination);
         assert_eq!(r.states[0][1], None);
+    }
+
+    /// IDM parameters a spec could once carry: a driver accelerating to 1e300 m/s.
+    fn absurd_idm() -> crate::policies::IdmParams {
+        crate::policies::IdmParams { desired_speed_mps: Some(1e300), max_accel_mps2: 1e300, ..Default::default() }
+    }
+
+    #[test]
+    fn an_idm_planner_with_absurd_parameters_fails_instead_of_hanging() {
+        let s = stopped_car_ahead();
+        let mut p = crate::planners::IdmPlanner::new(absurd_idm());
+        let r = Simulation::new(&s, SimConfig::default()).unwrap().run(&mut p);
+        match &r.termination {
+            Termination::PlannerFailed { step: 0, reason } => {
+                assert!(reason.contains("outside the simulation bounds"), "{reason}")
+            }
+            other => panic!("{other:?}"),
+        }
+    }
+
+    #[test]
+    fn a_background_idm_with_absurd_parameters_aborts_naming_the_agent() {
+        let mut s = stopped_car_ahead();
+        // The stopped car wants to go: with IDM it accelerates at 1e300 m/s².
+        s.tracks[1].states[0].as_mut().unwrap().velocity_mps = Vector2::new(1.0, 0.0);
+        let mut sim = Simulation::new(&s, SimConfig::default()).unwrap();
+        sim.set_policy(TrackIndex(1), Box::new(crate::policies::IdmLaneFollower::new(absurd_idm())));
+        let mut p = BuiltinPlanner::Idm.instantiate(&s, TrackIndex(0));
+        let r = sim.run(p.as_mut());
+        match &r.termination {
+            Termination::InvalidAgentState { step: 1, agent, reason } => {
+                assert_eq!(agent.0, "stopped");
+                assert!(reason.contains("outside the simulation bounds"), "{reason}");
+            }
+            other => panic!("{other:?}"),
+        }
+    }
+
+    #[test]
+    fn an_absurd_box_aborts_before_the_first_step() {
+        // A NaN-wide box once reached parry's box–box distance and panicked there.
+        let mut s = stopped_car_ahead();
+        s.tracks[1].width_m = f64::NAN;
+        let mut p = BuiltinPlanner::ConstantVelocity.instantiate(&s, TrackIndex(0));
+        let r = Simulation::new(&s, SimConfig::default()).unwrap().run(p.as_mut());
+        match &r.termination {
+            Termination::InvalidAgentState { step: 0, agent, reason } => {
+                assert_eq!(agent.0, "stopped");
+                assert!(reason.starts_with("width = NaN m is outside"), "{reason}");
+            }
+            other => panic!("{other:?}"),
+        }
     }
 }
