@@ -10,7 +10,7 @@ use crate::scenario::Scenario;
 use crate::spec::planner::{PlannerAdapter, PlannerSpec};
 use crate::spec::scenario::ScenarioSpec;
 use crate::spec::suite::{PlannerRef, ScenarioSource, SuiteSpec};
-use crate::spec::{Loaded, SpecError, load_yaml};
+use crate::spec::{Loaded, SpecError, SpecLocation, load_yaml};
 
 /// A scenario of a suite, by name and source.
 #[derive(Debug, Clone)]
@@ -19,6 +19,28 @@ pub struct SuiteScenario {
     pub name: String,
     /// Where it comes from.
     pub source: ScenarioSource,
+    /// The `scenarios:` entry it was listed by, where errors found when it
+    /// is imported (a recorded log that does not import) are reported.
+    pub entry: SuiteEntry,
+}
+
+/// A `scenarios:` entry of a suite file: the file, the entry's place and
+/// the file's text (shared by every scenario the entry lists).
+#[derive(Debug, Clone)]
+pub struct SuiteEntry {
+    /// The suite file.
+    pub suite: PathBuf,
+    /// Where the entry is written.
+    pub location: Option<SpecLocation>,
+    /// The suite file's text, for rendering the snippet.
+    pub text: Arc<str>,
+}
+
+impl SuiteEntry {
+    /// A [`SpecError::Reference`] at this entry.
+    fn reference(&self, message: String) -> SpecError {
+        SpecError::Reference { path: self.suite.clone(), location: self.location, message, text: self.text.to_string() }
+    }
 }
 
 /// A loaded suite.
@@ -40,11 +62,7 @@ pub fn sanitize(name: &str) -> String {
 impl Suite {
     /// Loads and validates a suite file (and its planner and scenario specs' names).
     pub fn load(path: &Path) -> Result<Suite, SpecError> {
-        let text =
-            std::fs::read_to_string(path).map_err(|source| SpecError::Io { path: path.to_path_buf(), source })?;
-        crate::spec::suite::check_shapes(&text, path)?;
-        let spec = crate::spec::parse_yaml::<SuiteSpec>(&text, path)?;
-        spec.validate()?;
+        let spec = crate::spec::suite::load(path)?;
         let planner = match &spec.value.planner {
             PlannerRef::Builtin { builtin } => PlannerAdapter::Builtin {
                 name: serde_json::to_value(builtin).ok().and_then(|v| v.as_str().map(String::from)).unwrap_or_default(),
@@ -60,11 +78,13 @@ impl Suite {
             }
         };
         let mut scenarios = Vec::new();
-        for source in spec.scenario_sources()? {
+        let text: Arc<str> = Arc::from(spec.text.as_str());
+        for (i, source) in spec.scenario_sources()? {
+            let at = format!("scenarios[{i}]");
             let name = match &source {
                 ScenarioSource::Spec(p) => {
                     let scenario = load_yaml::<ScenarioSpec>(p)?;
-                    crate::spec::suite::check_test_name(&scenario, "name", &scenario.value.name)?;
+                    scenario.validate()?;
                     scenario.value.name
                 }
                 ScenarioSource::Recorded(p) => {
@@ -72,11 +92,28 @@ impl Suite {
                 }
             };
             let name = sanitize(&name);
-            if scenarios.iter().any(|s: &SuiteScenario| s.name == name) {
-                return Err(spec
-                    .invalid_at("scenarios", format!("two scenarios are named `{name}`; test names must be unique")));
+            if name.is_empty() || name == "." || name == ".." {
+                // A recorded file named `...json`: the stem would climb out of the artefacts folder.
+                return Err(spec.invalid_at(
+                    &at,
+                    format!(
+                        "{} gives the scenario name `{name}`, which cannot be a test name or folder",
+                        source_path(&source).display()
+                    ),
+                ));
             }
-            scenarios.push(SuiteScenario { name, source });
+            if let Some(first) = scenarios.iter().find(|s: &&SuiteScenario| s.name == name) {
+                return Err(spec.invalid_at(
+                    &at,
+                    format!(
+                        "two scenarios are named `{name}` ({} and {}); test names must be unique",
+                        source_path(&first.source).display(),
+                        source_path(&source).display()
+                    ),
+                ));
+            }
+            let entry = SuiteEntry { suite: spec.path.clone(), location: spec.at(&at), text: text.clone() };
+            scenarios.push(SuiteScenario { name, source, entry });
         }
         Ok(Suite { spec, planner, scenarios })
     }
@@ -106,13 +143,17 @@ impl Suite {
     }
 }
 
+fn source_path(source: &ScenarioSource) -> &Path {
+    match source {
+        ScenarioSource::Spec(p) | ScenarioSource::Recorded(p) => p,
+    }
+}
+
 impl SuiteScenario {
     /// The base scenario, built once per process and shared.
     pub fn load(&self) -> Result<Arc<Scenario>, SpecError> {
         static CACHE: OnceLock<Mutex<HashMap<PathBuf, Arc<Scenario>>>> = OnceLock::new();
-        let key = match &self.source {
-            ScenarioSource::Spec(p) | ScenarioSource::Recorded(p) => p.clone(),
-        };
+        let key = source_path(&self.source).to_path_buf();
         let cache = CACHE.get_or_init(Default::default);
         if let Some(s) = cache.lock().expect("scenario cache").get(&key) {
             return Ok(s.clone());
@@ -120,21 +161,11 @@ impl SuiteScenario {
         let scenario = match &self.source {
             ScenarioSource::Spec(p) => load_yaml::<ScenarioSpec>(p)?.build()?.into_iter().next(),
             ScenarioSource::Recorded(p) => crate::scenario::import::load(p)
-                .map_err(|e| SpecError::Reference {
-                    path: p.clone(),
-                    location: None,
-                    message: e.to_string(),
-                    text: String::new(),
-                })?
+                .map_err(|e| self.entry.reference(format!("recorded log {} does not import: {e}", p.display())))?
                 .into_iter()
                 .next(),
         }
-        .ok_or_else(|| SpecError::Reference {
-            path: key.clone(),
-            location: None,
-            message: "no scenario in the file".into(),
-            text: String::new(),
-        })?;
+        .ok_or_else(|| self.entry.reference(format!("no scenario in {}", key.display())))?;
         let scenario = Arc::new(scenario);
         cache.lock().expect("scenario cache").insert(key, scenario.clone());
         Ok(scenario)

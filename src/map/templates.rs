@@ -45,25 +45,48 @@ pub mod limits {
     pub const SPEED_LIMIT_MPS: std::ops::RangeInclusive<f64> = 1.0..=60.0;
 }
 
+/// A template parameter outside its range: which one, and why.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{parameter} must be in {range}, got {got}")]
+pub struct InvalidParameter {
+    /// The parameter as written in a spec (`length_m`).
+    pub parameter: &'static str,
+    /// The accepted range (`30..=5000`).
+    pub range: String,
+    /// The value given.
+    pub got: String,
+}
+
 fn check_range<T: PartialOrd + std::fmt::Display>(
-    name: &str,
+    parameter: &'static str,
     v: T,
     r: &std::ops::RangeInclusive<T>,
-) -> Result<(), String> {
-    if r.contains(&v) { Ok(()) } else { Err(format!("{name} must be in {}..={}, got {v}", r.start(), r.end())) }
+) -> Result<(), InvalidParameter> {
+    if r.contains(&v) {
+        Ok(())
+    } else {
+        Err(InvalidParameter { parameter, range: format!("{}..={}", r.start(), r.end()), got: v.to_string() })
+    }
 }
 
 impl MapTemplate {
-    /// Checks the parameters against [`limits`] and each other; `build`
-    /// assumes they passed.
-    pub fn validate(&self) -> Result<(), String> {
+    /// The template's key in a spec (`straight`, `merge`, `intersection`).
+    pub fn key(&self) -> &'static str {
+        match self {
+            Self::Straight(_) => "straight",
+            Self::Merge(_) => "merge",
+            Self::Intersection(_) => "intersection",
+        }
+    }
+
+    /// Checks the parameters against [`limits`] and each other (NaN is
+    /// outside every range); `build` assumes they passed.
+    pub fn validate(&self) -> Result<(), InvalidParameter> {
         let limit = |v: Option<f64>| v.map_or(Ok(()), |v| check_range("speed_limit_mps", v, &limits::SPEED_LIMIT_MPS));
         match self {
             Self::Straight(p) => {
                 check_range("lanes", p.lanes, &limits::LANES)?;
-                if p.oncoming_lanes > *limits::LANES.end() {
-                    return Err(format!("oncoming_lanes must be at most {}", limits::LANES.end()));
-                }
+                check_range("oncoming_lanes", p.oncoming_lanes, &(0..=*limits::LANES.end()))?;
                 check_range("lane_width_m", p.lane_width_m, &limits::LANE_WIDTH_M)?;
                 check_range("length_m", p.length_m, &limits::LENGTH_M)?;
                 limit(p.speed_limit_mps)
@@ -573,7 +596,9 @@ mod tests {
             acceleration_lane_m: 60.0,
             speed_limit_mps: None,
         });
-        assert!(tiny_merge.validate().unwrap_err().contains("length_m must be in 30..=5000"));
+        let e = tiny_merge.validate().unwrap_err();
+        assert_eq!(e.parameter, "length_m");
+        assert_eq!(e.to_string(), "length_m must be in 30..=5000, got 20");
         let _ = tiny_merge.build(); // does not panic even unvalidated
         let huge = MapTemplate::Straight(StraightRoad {
             lanes: 3_000_000,
@@ -582,7 +607,7 @@ mod tests {
             length_m: 100.0,
             speed_limit_mps: None,
         });
-        assert!(huge.validate().unwrap_err().contains("lanes must be in 1..=8"));
+        assert_eq!(huge.validate().unwrap_err().to_string(), "lanes must be in 1..=8, got 3000000");
         let nan = MapTemplate::Straight(StraightRoad {
             lanes: 2,
             oncoming_lanes: 0,
@@ -590,7 +615,7 @@ mod tests {
             length_m: 100.0,
             speed_limit_mps: None,
         });
-        assert!(nan.validate().is_err());
+        assert_eq!(nan.validate().unwrap_err().parameter, "lane_width_m");
     }
 
     #[test]

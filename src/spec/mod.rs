@@ -314,7 +314,8 @@ mod tests {
 
     #[test]
     fn numbers_out_of_range_or_nan_are_refused_at_their_value() {
-        let spec = parse_yaml::<serde_json::Value>("x:\n  gap: .nan\n", Path::new("s.yaml")).unwrap();
+        // The value checked is passed in; the text only places it.
+        let spec = parse_yaml::<serde_json::Value>("x:\n  gap: 1\n", Path::new("s.yaml")).unwrap();
         let e = spec.check_number("x.gap", f64::NAN, NumberRange::closed(0.0, 1.0), "m").unwrap_err();
         assert_eq!(e.to_string(), "s.yaml:2:8: `gap` must be a number in [0, 1] m, got NaN");
         assert!(spec.check_number("x.gap", 0.0, NumberRange::above(0.0, 1.0), "m").is_err());

@@ -51,16 +51,18 @@ pub struct ExternalSpec {
     /// which is also the working directory.
     #[serde(default)]
     pub args: Vec<String>,
-    /// Per-step answer timeout, ms.
+    /// Per-step answer timeout, ms, 1..=600000 (10 min).
     #[serde(default = "default_step_timeout")]
+    #[schemars(range(min = 1, max = 600_000))]
     pub step_timeout_ms: u64,
-    /// Time allowed to start and answer `hello`, ms.
+    /// Time allowed to start and answer `hello`, ms, 1..=600000 (10 min).
     #[serde(default = "default_startup_timeout")]
+    #[schemars(range(min = 1, max = 600_000))]
     pub startup_timeout_ms: u64,
     /// Extra environment variables for the process (added to the harness's own).
     #[serde(default)]
     pub env: std::collections::BTreeMap<String, String>,
-    /// Working directory, relative to the planner spec's folder (default: that folder).
+    /// Working directory, relative to the planner spec's folder (default: that folder); must exist.
     #[serde(default)]
     pub working_dir: Option<String>,
 }
@@ -174,5 +176,72 @@ impl super::Loaded<PlannerSpec> {
             "onnx",
             "ONNX planner policies are not supported yet (tract integration lands with the learned models); use `builtin` or `external`",
         ))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::spec::parse_yaml;
+    use std::path::Path;
+
+    const EXTERNAL: &str = "\
+name: p
+external:
+  command: python3
+  step_timeout_ms: 1000
+";
+
+    fn validate(text: &str, path: &Path) -> Result<PlannerAdapter, crate::spec::SpecError> {
+        parse_yaml::<PlannerSpec>(text, path)?.validate()
+    }
+
+    #[test]
+    fn timeouts_beyond_ten_minutes_or_zero_are_refused_at_their_value() {
+        let e = validate(&EXTERNAL.replace("1000", "86400000"), Path::new("p.yaml")).unwrap_err().to_string();
+        assert_eq!(e, "p.yaml:4:20: `step_timeout_ms` must be 1..=600000 ms (10 min), got 86400000");
+        let text = format!("{EXTERNAL}  startup_timeout_ms: 0\n");
+        let e = validate(&text, Path::new("p.yaml")).unwrap_err().to_string();
+        assert!(e.starts_with("p.yaml:5:23: `startup_timeout_ms` must be 1..=600000 ms"), "{e}");
+    }
+
+    #[test]
+    fn env_and_working_dir_reach_the_adapter() {
+        let dir = std::env::temp_dir().join(format!("safer-planner-spec-{}", std::process::id()));
+        std::fs::create_dir_all(dir.join("bin")).unwrap();
+        let spec = dir.join("p.yaml");
+        let text = format!("{EXTERNAL}  working_dir: bin\n  env: {{ PYTHONHASHSEED: \"0\" }}\n");
+        let adapter = validate(&text, &spec);
+        let missing = validate(&text.replace("working_dir: bin", "working_dir: nope"), &spec);
+        std::fs::remove_dir_all(&dir).unwrap();
+        let PlannerAdapter::External { spec: external, working_dir, .. } = adapter.unwrap() else { panic!() };
+        assert_eq!(working_dir, dir.join("bin"));
+        assert_eq!(external.env.get("PYTHONHASHSEED").map(String::as_str), Some("0"));
+        let e = missing.unwrap_err().to_string();
+        assert!(e.contains(":5:16: working directory") && e.ends_with("nope does not exist"), "{e}");
+        // Without `working_dir`, the spec's folder; `.` for a bare file name.
+        let PlannerAdapter::External { working_dir, .. } = validate(EXTERNAL, Path::new("p.yaml")).unwrap() else {
+            panic!()
+        };
+        assert_eq!(working_dir, Path::new("."));
+        let e = validate(&format!("{EXTERNAL}  env: {{ \"A=B\": x }}\n"), Path::new("p.yaml")).unwrap_err();
+        assert!(e.to_string().contains("environment variable name `A=B` is not valid"), "{e}");
+    }
+
+    #[test]
+    fn implausible_idm_parameters_are_refused_at_their_value() {
+        let text = "name: i\nbuiltin: idm\nidm:\n  max_accel_mps2: 1e300\n";
+        let e = validate(text, Path::new("i.yaml")).unwrap_err().to_string();
+        assert_eq!(e, "i.yaml:4:19: `idm.max_accel_mps2` must be a number in (0, 10], got 1e300");
+        let e = validate(&text.replace("max_accel_mps2: 1e300", "time_headway_s: .nan"), Path::new("i.yaml"));
+        assert!(e.unwrap_err().to_string().contains("`idm.time_headway_s` must be a number in [0, 10], got NaN"));
+        let e = validate("name: i\nbuiltin: evasive\nidm: {}\n", Path::new("i.yaml")).unwrap_err();
+        assert!(e.to_string().starts_with("i.yaml:3:6: `idm:` parameters apply only to `builtin: idm`"), "{e}");
+    }
+
+    #[test]
+    fn exactly_one_kind_is_required() {
+        let e = validate("name: two\nbuiltin: idm\nexternal: { command: x }\n", Path::new("p.yaml")).unwrap_err();
+        assert!(e.to_string().starts_with("p.yaml:1:7: planner `two` must have exactly one of"), "{e}");
     }
 }

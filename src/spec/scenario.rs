@@ -56,8 +56,9 @@ pub struct ScenarioSpec {
     #[serde(default)]
     #[schemars(with = "Option<String>")]
     pub cbv: Option<Spanned<String>>,
-    /// Authored: duration, s.
+    /// Authored: duration, s, in [0.1, 60].
     #[serde(default)]
+    #[schemars(range(min = 0.1, max = 60))]
     pub duration_s: Option<f64>,
     /// A recorded log instead of an authored scene.
     #[serde(default)]
@@ -120,37 +121,46 @@ pub struct AgentSpec {
     /// Type.
     #[serde(default)]
     pub kind: AgentKindSpec,
-    /// Length, m (default by kind).
+    /// Length, m, in (0, 30] (default by kind).
     #[serde(default)]
+    #[schemars(extend("exclusiveMinimum" = 0, "maximum" = 30))]
     pub length_m: Option<f64>,
-    /// Width, m (default by kind).
+    /// Width, m, in (0, 10] (default by kind).
     #[serde(default)]
+    #[schemars(extend("exclusiveMinimum" = 0, "maximum" = 10))]
     pub width_m: Option<f64>,
     /// Lane id of the template (see the template's docs).
     #[serde(default)]
     pub lane: Option<i64>,
-    /// Arc length along the lane's centreline, m.
+    /// Arc length along the lane's centreline, m, from 0 to the lane's length.
     #[serde(default)]
+    #[schemars(range(min = 0, max = 100_000))]
     pub s_m: Option<f64>,
-    /// Offset to the left of the centreline, m.
+    /// Offset to the left of the centreline, m, in [-20, 20].
     #[serde(default)]
+    #[schemars(range(min = -20, max = 20))]
     pub lateral_offset_m: Option<f64>,
-    /// Position x, m (pose placement).
+    /// Position x, m (pose placement), in [-100000, 100000].
     #[serde(default)]
+    #[schemars(range(min = -100_000, max = 100_000))]
     pub x_m: Option<f64>,
-    /// Position y, m (pose placement).
+    /// Position y, m (pose placement), in [-100000, 100000].
     #[serde(default)]
+    #[schemars(range(min = -100_000, max = 100_000))]
     pub y_m: Option<f64>,
-    /// Heading, degrees counter-clockwise from +x (pose placement).
+    /// Heading, degrees counter-clockwise from +x (pose placement), in [-720, 720].
     #[serde(default)]
+    #[schemars(range(min = -720, max = 720))]
     pub heading_deg: Option<f64>,
-    /// Initial speed, m/s.
+    /// Initial speed, m/s, in [0, 70].
+    #[schemars(range(min = 0, max = 70))]
     pub speed_mps: f64,
     /// Behaviour while the scene's log is generated.
     #[serde(default)]
     pub behaviour: BehaviourSpec,
-    /// Desired speed for `idm`, m/s (default: lane limit, else start speed).
+    /// Desired speed for `idm`, m/s, in (0, 70] (default: lane limit, else start speed).
     #[serde(default)]
+    #[schemars(extend("exclusiveMinimum" = 0, "maximum" = 70))]
     pub desired_speed_mps: Option<f64>,
 }
 
@@ -167,13 +177,40 @@ fn default_size(kind: AgentKindSpec) -> (f64, f64) {
 }
 
 impl Loaded<ScenarioSpec> {
-    /// Builds the scenarios this spec describes (a recorded TFRecord may hold several).
+    /// Builds the scenarios this spec describes (a recorded TFRecord may
+    /// hold several), after [`Self::validate`].
     pub fn build(&self) -> Result<Vec<Scenario>, SpecError> {
+        self.validate()?;
+        match &self.value.recorded {
+            Some(r) => self.build_recorded(r),
+            None => Ok(vec![self.build_authored()?]),
+        }
+    }
+
+    /// Checks everything that needs neither the map nor an import, each
+    /// error at its value: the name (a test-name part and an artefact
+    /// folder), recorded or authored, the recorded file's existence, the
+    /// duration, the template's parameters and every agent's numbers. Cheap:
+    /// a suite runs it on each scenario when it loads.
+    pub fn validate(&self) -> Result<(), SpecError> {
         let s = &self.value;
+        super::suite::check_test_name(self, "name", &s.name)?;
         let authored = s.map.is_some() || !s.agents.is_empty() || s.ego.is_some() || s.duration_s.is_some();
         match (&s.recorded, authored) {
-            (Some(r), false) => self.build_recorded(r),
-            (None, true) => Ok(vec![self.build_authored()?]),
+            (Some(r), false) => {
+                let path = paths::resolve(self.dir(), &r.path.value);
+                if !path.exists() {
+                    return Err(self.reference_at(
+                        "recorded.path",
+                        format!(
+                            "{} does not exist (recorded data: set SAFER_DATA_DIR or put it at ../shared/data)",
+                            path.display()
+                        ),
+                    ));
+                }
+                Ok(())
+            }
+            (None, true) => self.validate_authored(),
             (Some(_), true) => Err(self.invalid_at(
                 "recorded",
                 "a scenario is either `recorded:` or authored (`map`, `agents`, `ego`, `duration_s`), not both",
@@ -183,6 +220,38 @@ impl Loaded<ScenarioSpec> {
                 "empty scenario: give `recorded: {path: ...}` or `map:`, `agents:`, `ego:` and `duration_s:`",
             )),
         }
+    }
+
+    fn validate_authored(&self) -> Result<(), SpecError> {
+        let s = &self.value;
+        let template = s.map.as_ref().ok_or_else(|| {
+            self.invalid_at("map", "authored scenario needs `map:` (straight, merge or intersection)")
+        })?;
+        let duration_s =
+            s.duration_s.ok_or_else(|| self.invalid_at("duration_s", "authored scenario needs `duration_s:`"))?;
+        // At least one simulation step (0.1 s), at most a minute.
+        self.check_number("duration_s", duration_s, NumberRange::closed(0.1, 60.0), "s")?;
+        template
+            .validate()
+            .map_err(|e| self.invalid_at(&format!("map.{}.{}", template.key(), e.parameter), format!("map: {e}")))?;
+        for (i, a) in s.agents.iter().enumerate() {
+            for (name, value, range, unit) in [
+                ("length_m", a.length_m, NumberRange::above(0.0, 30.0), "m"),
+                ("width_m", a.width_m, NumberRange::above(0.0, 10.0), "m"),
+                ("s_m", a.s_m, NumberRange::closed(0.0, 1e5), "m"),
+                ("lateral_offset_m", a.lateral_offset_m, NumberRange::closed(-20.0, 20.0), "m"),
+                ("x_m", a.x_m, NumberRange::closed(-1e5, 1e5), "m"),
+                ("y_m", a.y_m, NumberRange::closed(-1e5, 1e5), "m"),
+                ("heading_deg", a.heading_deg, NumberRange::closed(-720.0, 720.0), "°"),
+                ("speed_mps", Some(a.speed_mps), NumberRange::closed(0.0, 70.0), "m/s"),
+                ("desired_speed_mps", a.desired_speed_mps, NumberRange::above(0.0, 70.0), "m/s"),
+            ] {
+                if let Some(v) = value {
+                    self.check_number(&format!("agents[{i}].{name}"), v, range, unit)?;
+                }
+            }
+        }
+        Ok(())
     }
 
     fn build_recorded(&self, r: &RecordedSpec) -> Result<Vec<Scenario>, SpecError> {
@@ -228,27 +297,10 @@ impl Loaded<ScenarioSpec> {
         })?;
         let duration_s =
             s.duration_s.ok_or_else(|| self.invalid_at("duration_s", "authored scenario needs `duration_s:`"))?;
-        // At least one simulation step (0.1 s), at most a minute.
-        self.check_number("duration_s", duration_s, NumberRange::closed(0.1, 60.0), "s")?;
-        template.validate().map_err(|e| self.invalid_at("map", format!("map: {e}")))?;
         let map = template.build();
         let mut agents = Vec::new();
         for (i, a) in s.agents.iter().enumerate() {
             let field = |name: &str| format!("agents[{i}].{name}");
-            for (name, value, range, unit) in [
-                ("length_m", a.length_m, NumberRange::above(0.0, 30.0), "m"),
-                ("width_m", a.width_m, NumberRange::above(0.0, 10.0), "m"),
-                ("lateral_offset_m", a.lateral_offset_m, NumberRange::closed(-20.0, 20.0), "m"),
-                ("x_m", a.x_m, NumberRange::closed(-1e5, 1e5), "m"),
-                ("y_m", a.y_m, NumberRange::closed(-1e5, 1e5), "m"),
-                ("heading_deg", a.heading_deg, NumberRange::closed(-720.0, 720.0), "°"),
-                ("speed_mps", Some(a.speed_mps), NumberRange::closed(0.0, 70.0), "m/s"),
-                ("desired_speed_mps", a.desired_speed_mps, NumberRange::above(0.0, 70.0), "m/s"),
-            ] {
-                if let Some(v) = value {
-                    self.check_number(&field(name), v, range, unit)?;
-                }
-            }
             if agents.iter().any(|x: &AuthoredAgent| x.id.0 == a.id.value) {
                 return Err(self.invalid(loc(&a.id), format!("duplicate agent id `{}`", a.id.value)));
             }
@@ -256,8 +308,8 @@ impl Loaded<ScenarioSpec> {
                 (Some(lane), Some(s_m), None, None, None) => {
                     let l = map.lane(MapElementId(lane)).ok_or_else(|| {
                         let ids: Vec<String> = map.lanes.iter().map(|l| l.id.0.to_string()).collect();
-                        self.invalid(
-                            loc(&a.id),
+                        self.invalid_at(
+                            &field("lane"),
                             format!("agent `{}`: no lane {lane} in this map; lanes are {}", a.id.value, ids.join(", ")),
                         )
                     })?;
@@ -288,9 +340,6 @@ impl Loaded<ScenarioSpec> {
                     ));
                 }
             };
-            if !(a.speed_mps.is_finite() && a.speed_mps >= 0.0) {
-                return Err(self.invalid(loc(&a.id), format!("agent `{}`: speed_mps must be ≥ 0", a.id.value)));
-            }
             let (dl, dw) = default_size(a.kind);
             let kind = match a.kind {
                 AgentKindSpec::Vehicle => AgentKind::Vehicle,
@@ -423,6 +472,49 @@ cbv: cbv
         )
         .unwrap_err();
         assert!(err.to_string().contains("length_m"), "{err}");
+    }
+
+    #[test]
+    fn nan_negative_and_huge_numbers_are_refused_at_their_value() {
+        let cases = [
+            (
+                "s_m: 60, speed_mps: 20",
+                "s_m: .nan, speed_mps: 20",
+                "6:30: `s_m` must be a number in [0, 100000] m, got NaN",
+            ),
+            (
+                "speed_mps: 20 }",
+                "speed_mps: 20, length_m: -4 }",
+                "6:59: `length_m` must be a number in (0, 30] m, got -4",
+            ),
+            ("speed_mps: 20 }", "speed_mps: 20, length_m: 0 }", "got 0"),
+            (
+                "speed_mps: 20 }",
+                "speed_mps: 20, width_m: 1e300 }",
+                "`width_m` must be a number in (0, 10] m, got 1e300",
+            ),
+            ("speed_mps: 20 }", "speed_mps: -1 }", "6:45: `speed_mps` must be a number in [0, 70] m/s, got -1"),
+            (
+                "speed_mps: 20 }",
+                "speed_mps: 20, desired_speed_mps: .nan }",
+                "`desired_speed_mps` must be a number in (0, 70]",
+            ),
+            ("duration_s: 6", "duration_s: 0.01", "2:13: `duration_s` must be a number in [0.1, 60] s, got 0.01"),
+            ("duration_s: 6", "duration_s: .inf", "`duration_s` must be a number in [0.1, 60] s, got inf"),
+            ("length_m: 400 }", "length_m: .nan }", "4:35: map: length_m must be in 30..=5000, got NaN"),
+            ("lanes: 2,", "lanes: 2, lane_width_m: 60,", "4:39: map: lane_width_m must be in 2..=6, got 60"),
+        ];
+        for (from, to, words) in cases {
+            assert!(CUT_IN.contains(from), "{from}");
+            let e = load(&CUT_IN.replacen(from, to, 1)).unwrap_err().to_string();
+            assert!(e.starts_with("specs/scenarios/t.yaml:") && e.contains(words), "{to}: {e}");
+        }
+    }
+
+    #[test]
+    fn a_scenario_name_that_cannot_be_a_test_or_path_part_is_refused() {
+        let e = load(&CUT_IN.replace("name: cut-in", "name: ..")).unwrap_err().to_string();
+        assert!(e.starts_with("specs/scenarios/t.yaml:1:7: name `..` cannot be used"), "{e}");
     }
 
     #[test]

@@ -39,8 +39,9 @@ pub struct SuiteSpec {
     /// How variants are generated.
     #[serde(default)]
     pub adversary: AdversarySpec,
-    /// Variants (seeds) per scenario.
+    /// Variants (seeds) per scenario, 1..=1000; 1 with `method: log`, which samples nothing.
     #[serde(default = "one")]
+    #[schemars(range(min = 1, max = 1000))]
     pub variants: u32,
     /// Base seed; variant k uses a seed derived from (seed, scenario, k).
     #[serde(default)]
@@ -54,38 +55,45 @@ fn one() -> u32 {
     1
 }
 
-/// One entry of `scenarios:`. Untagged, so serde alone would ignore a
-/// mistyped key; [`check_shapes`] refuses those before the typed parse.
+/// One entry of `scenarios:`: a scenario spec path, `glob: PATTERN`, or
+/// `recorded: PATH` with an optional `limit: N`.
+// Untagged: serde refuses a mistyped key (`deny_unknown_fields`) but says
+// only "did not match any variant", so `check_shapes` refuses those first,
+// at the key, listing the forms.
 #[derive(Debug, Clone, Deserialize, JsonSchema)]
 #[serde(untagged, deny_unknown_fields)]
 pub enum ScenarioEntry {
     /// A scenario spec file.
     File(#[schemars(with = "String")] Spanned<String>),
     /// Scenario spec files matching a glob.
+    #[schemars(extend("additionalProperties" = false))]
     Glob {
         /// The pattern, relative to the suite.
         #[schemars(with = "String")]
         glob: Spanned<String>,
     },
     /// Every recorded log in a file or folder.
+    #[schemars(extend("additionalProperties" = false))]
     Recorded {
         /// File or folder; `data:REL` for the shared data.
         #[schemars(with = "String")]
         recorded: Spanned<String>,
-        /// At most this many scenes (in path order).
+        /// At most this many scenes (in path order), at least 1.
         #[serde(default)]
+        #[schemars(range(min = 1))]
         limit: Option<usize>,
     },
 }
 
-/// The planner under test (checked by [`check_shapes`] like
-/// [`ScenarioEntry`]).
+/// The planner under test: a planner spec file, or `builtin: NAME`.
+// Untagged and checked by `check_shapes` like `ScenarioEntry`.
 #[derive(Debug, Clone, Deserialize, JsonSchema)]
 #[serde(untagged, deny_unknown_fields)]
 pub enum PlannerRef {
     /// A planner spec file.
     File(#[schemars(with = "String")] Spanned<String>),
     /// Inline built-in.
+    #[schemars(extend("additionalProperties" = false))]
     Builtin {
         /// Which built-in.
         builtin: crate::planners::BuiltinPlanner,
@@ -119,8 +127,9 @@ pub struct AdversarySpec {
     /// Method.
     #[serde(default)]
     pub method: AdversaryMethod,
-    /// Trust-region size n (top-n tokens of the prior).
+    /// Trust-region size n (top-n tokens of the prior), 1..=3969.
     #[serde(default = "twenty")]
+    #[schemars(range(min = 1, max = 3969))]
     pub trust_region: usize,
     /// Policy of the other agents.
     #[serde(default)]
@@ -164,13 +173,16 @@ pub struct VariantAcceptance {
     /// The ego must stay on the road.
     #[serde(default)]
     pub no_off_road: bool,
-    /// Minimum box distance to any agent, m.
+    /// Minimum box distance to any agent, m, in [0, 100].
     #[serde(default)]
+    #[schemars(range(min = 0, max = 100))]
     pub min_gap_m: Option<f64>,
-    /// Minimum time to collision (constant-velocity extrapolation), s.
+    /// Minimum time to collision (constant-velocity extrapolation), s, in [0, 60].
     #[serde(default)]
+    #[schemars(range(min = 0, max = 60))]
     pub min_ttc_s: Option<f64>,
-    /// The planner must answer at every step (external planners).
+    /// The planner must answer at every step (external planners); always
+    /// true (`false` is refused: a planner that fails never passes).
     #[serde(default = "yes")]
     pub planner_must_answer: bool,
 }
@@ -197,17 +209,23 @@ impl Default for VariantAcceptance {
 #[serde(deny_unknown_fields)]
 pub struct SuiteAcceptance {
     /// Stage 1 (ego on log replay): share of variants where the CBV hits the ego must be at least this
-    /// (the generator must actually produce conflicts).
+    /// (the generator must actually produce conflicts). In [0, 1].
     #[serde(default)]
+    #[schemars(range(min = 0, max = 1))]
     pub collision_rate_min: Option<f64>,
-    /// Stage 2: share of variants the planner under test survives must be at least this.
+    /// Stage 2: share of variants the planner under test survives must be at least this. In [0, 1].
     #[serde(default)]
+    #[schemars(range(min = 0, max = 1))]
     pub solution_rate_min: Option<f64>,
-    /// Jensen–Shannon divergence of the CBV's speed vs its logged speed must be at most this.
+    /// Jensen–Shannon divergence (base 2, in [0, 1]) of the CBV's speed vs its logged speed must be
+    /// at most this. Not with `method: log`, where it compares the log with itself.
     #[serde(default)]
+    #[schemars(range(min = 0, max = 1))]
     pub velocity_jsd_max: Option<f64>,
-    /// Jensen–Shannon divergence of the CBV's acceleration vs logged must be at most this.
+    /// Jensen–Shannon divergence (base 2, in [0, 1]) of the CBV's acceleration vs logged must be at
+    /// most this. Not with `method: log`.
     #[serde(default)]
+    #[schemars(range(min = 0, max = 1))]
     pub acceleration_jsd_max: Option<f64>,
 }
 
@@ -220,9 +238,20 @@ pub enum ScenarioSource {
     Recorded(std::path::PathBuf),
 }
 
+/// Reads, parses and validates a suite file: the one way a suite is read,
+/// so no caller can skip [`check_shapes`] or [`Loaded::validate`].
+pub fn load(path: &std::path::Path) -> Result<Loaded<SuiteSpec>, SpecError> {
+    let text = std::fs::read_to_string(path).map_err(|source| SpecError::Io { path: path.to_path_buf(), source })?;
+    check_shapes(&text, path)?;
+    let spec = super::parse_yaml::<SuiteSpec>(&text, path)?;
+    spec.validate()?;
+    Ok(spec)
+}
+
 impl Loaded<SuiteSpec> {
-    /// Resolves `scenarios:` to files, in order, failing on entries that match nothing.
-    pub fn scenario_sources(&self) -> Result<Vec<ScenarioSource>, SpecError> {
+    /// Resolves `scenarios:` to files, in order, each with the index of the
+    /// entry it came from; fails on entries that match nothing.
+    pub fn scenario_sources(&self) -> Result<Vec<(usize, ScenarioSource)>, SpecError> {
         let mut out = Vec::new();
         for (i, entry) in self.value.scenarios.iter().enumerate() {
             match entry {
@@ -232,7 +261,7 @@ impl Loaded<SuiteSpec> {
                         let at = format!("scenarios[{i}]");
                         return Err(self.reference_at(&at, format!("scenario spec {} does not exist", p.display())));
                     }
-                    out.push(ScenarioSource::Spec(p));
+                    out.push((i, ScenarioSource::Spec(p)));
                 }
                 ScenarioEntry::Glob { glob } => {
                     let at = format!("scenarios[{i}].glob");
@@ -244,7 +273,7 @@ impl Loaded<SuiteSpec> {
                     if files.is_empty() {
                         return Err(self.reference_at(&at, format!("glob {} matches no file", pattern.display())));
                     }
-                    out.extend(files.into_iter().map(ScenarioSource::Spec));
+                    out.extend(files.into_iter().map(|f| (i, ScenarioSource::Spec(f))));
                 }
                 ScenarioEntry::Recorded { recorded, limit } => {
                     let at = format!("scenarios[{i}].recorded");
@@ -265,11 +294,8 @@ impl Loaded<SuiteSpec> {
                     if files.is_empty() {
                         return Err(self.reference_at(&at, format!("no scenario files under {}", p.display())));
                     }
-                    if *limit == Some(0) {
-                        return Err(self.invalid_at(&format!("scenarios[{i}].limit"), "`limit` must be at least 1"));
-                    }
                     let n = limit.unwrap_or(usize::MAX);
-                    out.extend(files.into_iter().take(n).map(ScenarioSource::Recorded));
+                    out.extend(files.into_iter().take(n).map(|f| (i, ScenarioSource::Recorded(f))));
                 }
             }
         }
@@ -281,6 +307,11 @@ impl Loaded<SuiteSpec> {
         use super::NumberRange;
         let s = &self.value;
         check_test_name(self, "name", &s.name)?;
+        for (i, entry) in s.scenarios.iter().enumerate() {
+            if let ScenarioEntry::Recorded { limit: Some(0), .. } = entry {
+                return Err(self.invalid_at(&format!("scenarios[{i}].limit"), "`limit` must be at least 1"));
+            }
+        }
         if s.variants == 0 || s.variants > 1000 {
             return Err(self.invalid_at("variants", format!("variants must be 1..=1000, got {}", s.variants)));
         }
@@ -426,4 +457,107 @@ pub fn check_shapes(text: &str, path: &std::path::Path) -> Result<(), SpecError>
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::spec::parse_yaml;
+    use std::path::Path;
+
+    const SUITE: &str = "\
+name: s
+scenarios:
+  - recorded: data:x
+planner: { builtin: idm }
+adversary: { method: prior }
+variants: 2
+acceptance:
+  variant: { min_gap_m: 0.5 }
+  suite: { velocity_jsd_max: 0.2 }
+";
+
+    /// The suite with `from` replaced by `to`, checked as `Suite::load` does.
+    fn error(from: &str, to: &str) -> String {
+        assert!(SUITE.contains(from), "{from}");
+        let text = SUITE.replace(from, to);
+        let path = Path::new("s.yaml");
+        check_shapes(&text, path)
+            .and_then(|()| parse_yaml::<SuiteSpec>(&text, path)?.validate())
+            .expect_err("must be refused")
+            .to_string()
+    }
+
+    #[test]
+    fn the_base_suite_is_valid() {
+        let spec = parse_yaml::<SuiteSpec>(SUITE, Path::new("s.yaml")).unwrap();
+        check_shapes(SUITE, Path::new("s.yaml")).unwrap();
+        spec.validate().unwrap();
+    }
+
+    #[test]
+    fn a_mistyped_key_in_an_entry_is_refused_at_the_key_even_without_the_shape_check() {
+        let text = SUITE.replace("data:x\n", "data:x\n    limt: 1\n");
+        let e = check_shapes(&text, Path::new("s.yaml")).unwrap_err().to_string();
+        assert!(e.starts_with("s.yaml:4:5: unknown key `limt` in scenarios[0]"), "{e}");
+        assert!(e.contains("`recorded: PATH` with an optional `limit: N`"), "{e}");
+        // The typed parse alone refuses it too (never silently ignored).
+        assert!(parse_yaml::<SuiteSpec>(&text, Path::new("s.yaml")).is_err());
+        let e = error("- recorded: data:x", "- { recorded: data:x, glob: '*.yaml' }");
+        assert!(e.contains("both `glob` and `recorded`"), "{e}");
+        let e = error("- recorded: data:x", "- { glob: '*.yaml', limit: 2 }");
+        assert!(e.starts_with("s.yaml:3:23: `limit` applies to `recorded:` entries only"), "{e}");
+    }
+
+    #[test]
+    fn an_unknown_builtin_lists_the_builtins_at_its_value() {
+        let e = error("builtin: idm", "builtin: idmm");
+        assert!(e.starts_with("s.yaml:4:21: unknown built-in planner `idmm`; the built-ins are"), "{e}");
+        assert!(e.contains("idm") && e.contains("constant-velocity"), "{e}");
+        let e = error("{ builtin: idm }", "{ builtin: idm, timeout: 3 }");
+        assert!(e.starts_with("s.yaml:4:26: unknown key `timeout` in `planner:`"), "{e}");
+    }
+
+    #[test]
+    fn nan_negative_and_out_of_range_criteria_are_refused_at_their_value() {
+        let e = error("min_gap_m: 0.5", "min_gap_m: .nan");
+        assert_eq!(e, "s.yaml:8:25: `min_gap_m` must be a number in [0, 100] m, got NaN");
+        assert!(error("min_gap_m: 0.5", "min_gap_m: -5").contains("got -5"));
+        let e = error("min_gap_m: 0.5", "min_ttc_s: .inf");
+        assert!(e.starts_with("s.yaml:8:25: `min_ttc_s` must be a number in [0, 60] s, got inf"), "{e}");
+        let e = error("velocity_jsd_max: 0.2", "velocity_jsd_max: -1");
+        assert!(e.starts_with("s.yaml:9:30: `velocity_jsd_max` must be a number in [0, 1]"), "{e}");
+        let e = error("velocity_jsd_max: 0.2", "solution_rate_min: 1.5");
+        assert!(e.contains("`solution_rate_min` must be a number in [0, 1]"), "{e}");
+        assert!(error("variants: 2", "variants: 0").starts_with("s.yaml:6:11: variants must be 1..=1000, got 0"));
+        let e = error("method: prior }", "method: prior, trust_region: 0 }");
+        assert!(e.contains("trust_region must be 1..=3969, got 0"), "{e}");
+        let e = error("data:x\n", "data:x\n    limit: 0\n");
+        assert!(e.starts_with("s.yaml:4:12: `limit` must be at least 1"), "{e}");
+    }
+
+    #[test]
+    fn method_log_refuses_more_than_one_variant_and_jsd_bounds() {
+        let e = error("method: prior", "method: log");
+        assert!(e.starts_with("s.yaml:6:11: with `adversary.method: log` every seed gives the same variant"), "{e}");
+        let e = error("method: prior }\nvariants: 2", "method: log }\nvariants: 1");
+        assert!(e.starts_with("s.yaml:9:30: `velocity_jsd_max` with `adversary.method: log` compares the log"), "{e}");
+    }
+
+    #[test]
+    fn names_that_cannot_be_test_or_path_parts_are_refused() {
+        for bad in ["..", ".", "''", "a/b", "a b", "x::y"] {
+            let e = error("name: s", &format!("name: {bad}"));
+            assert!(e.starts_with("s.yaml:1:7: name `"), "{bad}: {e}");
+            assert!(e.contains("use letters, digits, `-`, `_` and `.`"), "{e}");
+        }
+        let spec = parse_yaml::<SuiteSpec>(&SUITE.replace("name: s", "name: highway-2.b_c"), Path::new("s.yaml"));
+        spec.unwrap().validate().unwrap();
+    }
+
+    #[test]
+    fn planner_must_answer_false_is_refused() {
+        let e = error("min_gap_m: 0.5", "planner_must_answer: false");
+        assert!(e.starts_with("s.yaml:8:35: `planner_must_answer: false` is not allowed"), "{e}");
+    }
 }

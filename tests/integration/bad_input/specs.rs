@@ -40,7 +40,12 @@ const CASES: &[(&str, u64, u64, &str)] = &[
     ("jsd-bound-negative.suite.yaml", 10, 27, "`acceleration_jsd_max` must be a number in [0, 1]"),
     ("solution-rate-above-one.suite.yaml", 7, 31, "`solution_rate_min` must be a number in [0, 1]"),
     ("recorded-entry-typo-limt.suite.yaml", 5, 5, "unknown key `limt` in scenarios[0]"),
-    ("unknown-builtin-idmm.suite.yaml", 5, 21, "unknown built-in planner `idmm`; the built-ins are log-replay, constant-velocity, idm, evasive"),
+    (
+        "unknown-builtin-idmm.suite.yaml",
+        5,
+        21,
+        "unknown built-in planner `idmm`; the built-ins are log-replay, constant-velocity, idm, evasive",
+    ),
     ("suite-named-dotdot.suite.yaml", 2, 7, "name `..` cannot be used in test names and artefact paths"),
     ("log-method-two-variants.suite.yaml", 7, 11, "every seed gives the same variant"),
     ("log-method-jsd-bound.suite.yaml", 8, 30, "compares the log with itself"),
@@ -55,13 +60,23 @@ const CASES: &[(&str, u64, u64, &str)] = &[
     ("length-1e300.scenario.yaml", 8, 61, "`length_m` must be a number in (0, 30] m, got 1e300"),
     ("desired-speed-nan.scenario.yaml", 8, 70, "`desired_speed_mps` must be a number in (0, 70] m/s, got NaN"),
     ("desired-speed-negative.scenario.yaml", 8, 70, "`desired_speed_mps` must be a number in (0, 70] m/s, got -3"),
-    ("ego-s-nan.scenario.yaml", 7, 30, "s_m NaN is outside lane 0"),
+    ("ego-s-nan.scenario.yaml", 7, 30, "`s_m` must be a number in [0, 100000] m, got NaN"),
     ("agent-at-nan.scenario.yaml", 8, 23, "`x_m` must be a number in [-100000, 100000] m, got NaN"),
     ("duration-0.01.scenario.yaml", 3, 13, "`duration_s` must be a number in [0.1, 60] s, got 0.01"),
     ("step-timeout-huge.planner.yaml", 5, 20, "`step_timeout_ms` must be 1..=600000 ms"),
     ("idm-1e300.planner.yaml", 5, 19, "`idm.max_accel_mps2` must be a number in (0, 10], got 1e300"),
     ("working-dir-missing.planner.yaml", 5, 16, "no-such-folder does not exist"),
+    ("startup-timeout-zero.planner.yaml", 5, 23, "`startup_timeout_ms` must be 1..=600000 ms (10 min), got 0"),
+    ("scenario-named-dotdot.scenario.yaml", 2, 7, "name `..` cannot be used in test names and artefact paths"),
+    ("template-length-nan.scenario.yaml", 7, 15, "map: length_m must be in 30..=5000, got NaN"),
+    ("unknown-lane.scenario.yaml", 7, 22, "agent `ego`: no lane 5 in this map; lanes are 0, 1"),
+    ("recorded-limit-zero.suite.yaml", 5, 12, "`limit` must be at least 1"),
+    ("missing-planner-file.suite.yaml", 5, 10, "no-such-planner.yaml does not exist"),
+    ("duplicate-scenario-name.suite.yaml", 5, 5, "two scenarios are named `highway-overtake`"),
 ];
+
+/// Fixtures asserted by their own tests below (not through [`CASES`]).
+const OTHER_FIXTURES: &[&str] = &["lists-a-broken-scenario.suite.yaml", "recorded-not-a-log.suite.yaml"];
 
 #[test]
 fn every_broken_spec_is_refused_at_its_value_with_what_is_wrong() {
@@ -85,7 +100,8 @@ fn every_fixture_in_the_folder_is_a_case() {
         .filter(|n| n.ends_with(".yaml"))
         .collect();
     files.sort();
-    let mut cases: Vec<String> = CASES.iter().map(|c| c.0.to_string()).collect();
+    let mut cases: Vec<String> =
+        CASES.iter().map(|c| c.0.to_string()).chain(OTHER_FIXTURES.iter().map(|n| n.to_string())).collect();
     cases.sort();
     assert_eq!(files, cases);
 }
@@ -98,4 +114,22 @@ fn safer_run_refuses_a_broken_suite_with_exit_2_and_the_located_message() {
     assert_eq!(out.status.code(), Some(2), "{stderr}");
     assert!(stderr.contains("min-gap-nan.suite.yaml:7:45"), "{stderr}");
     assert!(stderr.contains("got NaN"), "{stderr}");
+}
+
+#[test]
+fn a_suite_refuses_a_broken_scenario_when_it_loads_not_when_the_variant_runs() {
+    let e = load_error("lists-a-broken-scenario.suite.yaml").to_string();
+    let place = format!("{}:12:15: ", fixture("length-nan.scenario.yaml").display());
+    assert!(e.starts_with(&place), "{e}");
+    assert!(e.contains("`length_m` must be a number in (0, 30] m, got NaN"), "{e}");
+}
+
+#[test]
+fn a_recorded_log_that_does_not_import_is_reported_at_its_suite_entry() {
+    let path = fixture("recorded-not-a-log.suite.yaml");
+    let suite = Suite::load(&path).expect("listing does not import");
+    let e = suite.scenarios[0].load().expect_err("not a log").to_string();
+    let place = format!("{}:5:5: recorded log ", path.display());
+    assert!(e.starts_with(&place), "{e}");
+    assert!(e.contains("not-a-log.json does not import"), "{e}");
 }
