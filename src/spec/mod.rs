@@ -258,6 +258,21 @@ fn plain_words(message: &str) -> String {
         return "a spec file holds one YAML document, but a second one starts here (`---`); move it to its own file"
             .to_string();
     }
+    if message.starts_with("unexpected end of input") {
+        return "the file is empty or ends early: a spec is one YAML mapping (`key: value` lines)".to_string();
+    }
+    if message == "expected mapping start" {
+        return "expected a mapping (`key: value` lines) here".to_string();
+    }
+    if let Some(kind) = message.strip_prefix("invalid ").filter(|k| ["u8", "u16", "u32", "u64", "usize"].contains(k)) {
+        let max = match kind {
+            "u8" => u64::from(u8::MAX),
+            "u16" => u64::from(u16::MAX),
+            "u32" => u64::from(u32::MAX),
+            _ => u64::MAX,
+        };
+        return format!("expected a whole number from 0 to {max} here");
+    }
     message.to_string()
 }
 
@@ -304,6 +319,21 @@ mod tests {
         assert!(!m.contains("DuplicateKeyPolicy"), "{m}");
         let m = parse_error("name: a\n---\nname: b\n").to_string();
         assert!(m.contains("one YAML document") && !m.contains("from_str_multiple"), "{m}");
+    }
+
+    #[test]
+    fn empty_files_and_negative_or_fractional_counts_are_explained_in_plain_words() {
+        #[derive(Debug, serde::Deserialize)]
+        struct Counts {
+            #[allow(dead_code)]
+            n: u32,
+        }
+        for text in ["n: -1\n", "n: 1e300\n", "n: 1.5\n"] {
+            let e = parse_yaml::<Counts>(text, Path::new("s.yaml")).unwrap_err().to_string();
+            assert_eq!(e, "s.yaml:1:4: expected a whole number from 0 to 4294967295 here", "{text}");
+        }
+        let e = parse_yaml::<Counts>("", Path::new("s.yaml")).unwrap_err().to_string();
+        assert!(e.starts_with("s.yaml:1:1: the file is empty or ends early"), "{e}");
     }
 
     #[test]

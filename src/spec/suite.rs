@@ -307,6 +307,11 @@ impl Loaded<SuiteSpec> {
         use super::NumberRange;
         let s = &self.value;
         check_test_name(self, "name", &s.name)?;
+        if s.scenarios.is_empty() {
+            return Err(
+                self.invalid_at("scenarios", "`scenarios:` lists no scenario; a suite that runs nothing cannot pass")
+            );
+        }
         for (i, entry) in s.scenarios.iter().enumerate() {
             if let ScenarioEntry::Recorded { limit: Some(0), .. } = entry {
                 return Err(self.invalid_at(&format!("scenarios[{i}].limit"), "`limit` must be at least 1"));
@@ -411,8 +416,15 @@ pub fn check_shapes(text: &str, path: &std::path::Path) -> Result<(), SpecError>
             "an entry is a scenario spec path, `glob: PATTERN`, or `recorded: PATH` with an optional `limit: N`";
         for (i, item) in items.iter().enumerate() {
             let keys = item.keys();
-            if keys.is_empty() {
-                continue;
+            match item {
+                Node::Scalar { .. } => continue,
+                Node::Sequence { .. } => {
+                    return Err(invalid(item.at(), format!("scenarios[{i}] is a list: {FORMS}")));
+                }
+                Node::Mapping { .. } if keys.is_empty() => {
+                    return Err(invalid(item.at(), format!("scenarios[{i}] is empty: {FORMS}")));
+                }
+                Node::Mapping { .. } => {}
             }
             if let Some((key, at)) = keys.iter().find(|(k, _)| !["glob", "recorded", "limit"].contains(k)) {
                 return Err(invalid(*at, format!("unknown key `{key}` in scenarios[{i}]: {FORMS}")));
@@ -440,11 +452,16 @@ pub fn check_shapes(text: &str, path: &std::path::Path) -> Result<(), SpecError>
             .iter()
             .filter_map(|b| serde_json::to_value(b).ok().and_then(|v| v.as_str().map(String::from)))
             .collect();
+        const FORMS: &str = "give a planner spec file or `builtin: NAME`";
         if let Some((key, at)) = planner.keys().into_iter().find(|(k, _)| *k != "builtin") {
-            return Err(invalid(
-                at,
-                format!("unknown key `{key}` in `planner:`: give a planner spec file or `builtin: NAME`"),
-            ));
+            return Err(invalid(at, format!("unknown key `{key}` in `planner:`: {FORMS}")));
+        }
+        match planner {
+            Node::Sequence { .. } => return Err(invalid(planner.at(), format!("`planner:` is a list: {FORMS}"))),
+            Node::Mapping { entries, .. } if entries.is_empty() => {
+                return Err(invalid(planner.at(), format!("`planner:` is empty: {FORMS}")));
+            }
+            _ => {}
         }
         if let Some((_, name)) = planner.entry("builtin")
             && let Some(text) = name.text()
@@ -505,6 +522,12 @@ acceptance:
         assert!(parse_yaml::<SuiteSpec>(&text, Path::new("s.yaml")).is_err());
         let e = error("- recorded: data:x", "- { recorded: data:x, glob: '*.yaml' }");
         assert!(e.contains("both `glob` and `recorded`"), "{e}");
+        let e = error("- recorded: data:x", "- [a, b]");
+        assert!(e.starts_with("s.yaml:3:5: scenarios[0] is a list: an entry is a scenario spec path"), "{e}");
+        let e = error("- recorded: data:x", "- {}");
+        assert!(e.starts_with("s.yaml:3:5: scenarios[0] is empty"), "{e}");
+        let e = error("{ builtin: idm }", "{}");
+        assert!(e.starts_with("s.yaml:4:10: `planner:` is empty: give a planner spec file or `builtin: NAME`"), "{e}");
         let e = error("- recorded: data:x", "- { glob: '*.yaml', limit: 2 }");
         assert!(e.starts_with("s.yaml:3:23: `limit` applies to `recorded:` entries only"), "{e}");
     }
@@ -532,6 +555,8 @@ acceptance:
         assert!(error("variants: 2", "variants: 0").starts_with("s.yaml:6:11: variants must be 1..=1000, got 0"));
         let e = error("method: prior }", "method: prior, trust_region: 0 }");
         assert!(e.contains("trust_region must be 1..=3969, got 0"), "{e}");
+        let e = error("scenarios:\n  - recorded: data:x\n", "scenarios: []\n");
+        assert!(e.starts_with("s.yaml:2:12: `scenarios:` lists no scenario"), "{e}");
         let e = error("data:x\n", "data:x\n    limit: 0\n");
         assert!(e.starts_with("s.yaml:4:12: `limit` must be at least 1"), "{e}");
     }

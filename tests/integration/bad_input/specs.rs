@@ -73,6 +73,8 @@ const CASES: &[(&str, u64, u64, &str)] = &[
     ("recorded-limit-zero.suite.yaml", 5, 12, "`limit` must be at least 1"),
     ("missing-planner-file.suite.yaml", 5, 10, "no-such-planner.yaml does not exist"),
     ("duplicate-scenario-name.suite.yaml", 5, 5, "two scenarios are named `highway-overtake`"),
+    ("no-scenarios.suite.yaml", 3, 12, "`scenarios:` lists no scenario; a suite that runs nothing cannot pass"),
+    ("variants-negative.suite.yaml", 6, 11, "expected a whole number from 0 to 4294967295 here"),
 ];
 
 /// Fixtures asserted by their own tests below (not through [`CASES`]).
@@ -107,13 +109,25 @@ fn every_fixture_in_the_folder_is_a_case() {
 }
 
 #[test]
-fn safer_run_refuses_a_broken_suite_with_exit_2_and_the_located_message() {
-    let file = fixture("min-gap-nan.suite.yaml");
-    let out = super::hangs::safer_within(&["run", file.to_str().unwrap()], Duration::from_secs(60));
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(2), "{stderr}");
-    assert!(stderr.contains("min-gap-nan.suite.yaml:7:45"), "{stderr}");
-    assert!(stderr.contains("got NaN"), "{stderr}");
+fn safer_run_refuses_broken_suites_with_exit_2_and_the_located_message() {
+    let artefacts = std::env::temp_dir().join(format!("safer-bad-specs-{}", std::process::id()));
+    let suites = CASES.iter().filter(|c| c.0.ends_with(".suite.yaml"));
+    let mut wrong = Vec::new();
+    for &(name, line, column, words) in suites {
+        let file = fixture(name);
+        let args = ["run", file.to_str().unwrap(), "--artifacts", artefacts.to_str().unwrap()];
+        let out = super::hangs::safer_within(&args, Duration::from_secs(60));
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        let place = format!("{name}:{line}:{column}");
+        // The report may wrap the message (with a `│` margin): compare without layout.
+        let flat = |t: &str| t.chars().filter(|c| !c.is_whitespace() && *c != '│').collect::<String>();
+        if out.status.code() != Some(2) || !stderr.contains(&place) || !flat(&stderr).contains(&flat(words)) {
+            wrong.push(format!("{name}: exit {:?}, expected {place} … {words}\n{stderr}", out.status.code()));
+        }
+    }
+    // Refused before anything ran: no artefact written.
+    assert!(!artefacts.exists(), "{} was written", artefacts.display());
+    assert!(wrong.is_empty(), "{}", wrong.join("\n"));
 }
 
 #[test]
