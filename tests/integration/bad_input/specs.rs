@@ -147,3 +147,47 @@ fn a_recorded_log_that_does_not_import_is_reported_at_its_suite_entry() {
     assert!(e.starts_with(&place), "{e}");
     assert!(e.contains("not-a-log.json does not import"), "{e}");
 }
+
+/// `safer run s.yaml` from the suite's own folder: the spec's folder is `.`,
+/// not the empty path that once made an external planner fail to start.
+#[test]
+fn a_suite_given_by_a_bare_file_name_runs_its_external_planner_in_that_folder() {
+    use std::process::{Command, Stdio};
+    use std::time::Instant;
+
+    let dir = std::env::temp_dir().join(format!("safer-bare-name-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let repo = Path::new(env!("CARGO_MANIFEST_DIR"));
+    std::fs::copy(repo.join("planners/example_planner.py"), dir.join("example_planner.py")).unwrap();
+    let files = [
+        ("p.yaml", "name: py\nexternal:\n  command: python3\n  args: [example_planner.py]\n  step_timeout_ms: 5000\n"),
+        (
+            "road.yaml",
+            "name: road\nduration_s: 1\nmap:\n  straight: { lanes: 1, length_m: 200 }\n\
+             agents:\n  - { id: ego, lane: 0, s_m: 20, speed_mps: 10 }\n  - { id: lead, lane: 0, s_m: 80, speed_mps: 10 }\n\
+             ego: ego\ncbv: lead\n",
+        ),
+        ("s.yaml", "name: bare\nscenarios: [road.yaml]\nplanner: p.yaml\n"),
+    ];
+    for (name, text) in files {
+        std::fs::write(dir.join(name), text).unwrap();
+    }
+    let mut child = Command::new(env!("CARGO_BIN_EXE_safer"))
+        .args(["run", "s.yaml", "--artifacts", "artefacts"])
+        .current_dir(&dir)
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("start safer");
+    let started = Instant::now();
+    while child.try_wait().expect("wait for safer").is_none() && started.elapsed() < Duration::from_secs(60) {
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let _ = child.kill();
+    let out = child.wait_with_output().expect("collect safer's output");
+    std::fs::remove_dir_all(&dir).ok();
+    let text = format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+    assert_eq!(out.status.code(), Some(0), "{text}");
+    assert!(text.contains("bare::road::seed-0") && !text.contains("No such file"), "{text}");
+}
