@@ -85,6 +85,14 @@ impl Suite {
                 ScenarioSource::Spec(p) => {
                     let scenario = load_yaml::<ScenarioSpec>(p)?;
                     scenario.validate()?;
+                    // Both stages drive the CBV; an authored scene gets none unless it names one.
+                    if scenario.value.recorded.is_none() && scenario.value.cbv.is_none() {
+                        return Err(scenario.invalid_at(
+                            "ego",
+                            "no `cbv:`: a suite drives the scenario's critical background vehicle, so name one of \
+                             the agents with `cbv:`",
+                        ));
+                    }
                     scenario.value.name
                 }
                 ScenarioSource::Recorded(p) => {

@@ -182,6 +182,25 @@ pub fn locate(text: &str, path: &str) -> Option<SpecLocation> {
     Some(root.walk(&parse_path(path)).0.at())
 }
 
+/// For a key written twice in one mapping, the place of its first
+/// occurrence, given the place of the second (where the YAML parser stops).
+pub fn first_occurrence_of_key_at(text: &str, second: SpecLocation) -> Option<SpecLocation> {
+    fn search(node: &Node, second: SpecLocation) -> Option<SpecLocation> {
+        match node {
+            Node::Scalar { .. } => None,
+            Node::Sequence { items, .. } => items.iter().find_map(|n| search(n, second)),
+            Node::Mapping { entries, .. } => {
+                if let Some((key, _)) = entries.iter().find(|(k, _)| k.at() == second) {
+                    let first = entries.iter().find(|(k, _)| k.text().is_some() && k.text() == key.text())?;
+                    return (first.0.at() != second).then(|| first.0.at());
+                }
+                entries.iter().find_map(|(_, v)| search(v, second))
+            }
+        }
+    }
+    search(&tree(text)?, second)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -215,6 +234,13 @@ mod tests {
             entry.keys(),
             vec![("recorded", SpecLocation { line: 4, column: 5 }), ("limt", SpecLocation { line: 5, column: 5 })]
         );
+    }
+
+    #[test]
+    fn the_first_of_a_duplicated_key_is_found_from_the_second() {
+        let text = "a: 1\nb:\n  x: 1\n  y: 2\n  x: 3\n";
+        assert_eq!(first_occurrence_of_key_at(text, SpecLocation { line: 5, column: 3 }), at(3, 3));
+        assert_eq!(first_occurrence_of_key_at(text, SpecLocation { line: 3, column: 3 }), None);
     }
 
     #[test]

@@ -226,12 +226,18 @@ pub fn parse_yaml<T: DeserializeOwned>(text: &str, path: &Path) -> Result<Loaded
     // serde-saphyr's default budgets guard against YAML bombs.
     match serde_saphyr::from_str::<T>(text) {
         Ok(value) => Ok(Loaded { value, path: path.to_path_buf(), text: text.to_string() }),
-        Err(e) => Err(SpecError::Parse {
-            path: path.to_path_buf(),
-            location: e.location().as_ref().and_then(SpecLocation::from_saphyr),
-            message: first_line_message(&e),
-            text: text.to_string(),
-        }),
+        Err(e) => {
+            let location = e.location().as_ref().and_then(SpecLocation::from_saphyr);
+            let mut message = first_line_message(&e);
+            // Say where the first of a duplicated key is.
+            if let Some(key) = message.strip_prefix("key `").and_then(|m| m.split_once("` appears twice")).map(|k| k.0)
+                && let Some(first) = location.and_then(|at| locate::first_occurrence_of_key_at(text, at))
+            {
+                message =
+                    format!("key `{key}` appears twice in the same mapping (first at line {}); keep one", first.line);
+            }
+            Err(SpecError::Parse { path: path.to_path_buf(), location, message, text: text.to_string() })
+        }
     }
 }
 
@@ -315,7 +321,7 @@ mod tests {
     fn duplicate_keys_and_second_documents_are_explained_in_plain_words() {
         let e = parse_error("name: a\nname: b\n");
         let m = e.to_string();
-        assert!(m.starts_with("s.yaml:2:1: key `name` appears twice"), "{m}");
+        assert_eq!(m, "s.yaml:2:1: key `name` appears twice in the same mapping (first at line 1); keep one");
         assert!(!m.contains("DuplicateKeyPolicy"), "{m}");
         let m = parse_error("name: a\n---\nname: b\n").to_string();
         assert!(m.contains("one YAML document") && !m.contains("from_str_multiple"), "{m}");

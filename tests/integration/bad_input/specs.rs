@@ -52,7 +52,7 @@ const CASES: &[(&str, u64, u64, &str)] = &[
     ("variants-zero.suite.yaml", 6, 11, "variants must be 1..=1000, got 0"),
     ("missing-scenario-file.suite.yaml", 4, 5, "no-such-scenario.yaml does not exist"),
     ("planner-must-answer-false.suite.yaml", 7, 35, "`planner_must_answer: false` is not allowed"),
-    ("duplicate-key.suite.yaml", 7, 1, "key `variants` appears twice in the same mapping"),
+    ("duplicate-key.suite.yaml", 7, 1, "key `variants` appears twice in the same mapping (first at line 6)"),
     ("two-documents.suite.yaml", 7, 1, "a spec file holds one YAML document"),
     ("length-negative.scenario.yaml", 8, 61, "`length_m` must be a number in (0, 30] m, got -4"),
     ("length-zero.scenario.yaml", 8, 61, "`length_m` must be a number in (0, 30] m, got 0"),
@@ -78,7 +78,12 @@ const CASES: &[(&str, u64, u64, &str)] = &[
 ];
 
 /// Fixtures asserted by their own tests below (not through [`CASES`]).
-const OTHER_FIXTURES: &[&str] = &["lists-a-broken-scenario.suite.yaml", "recorded-not-a-log.suite.yaml"];
+const OTHER_FIXTURES: &[&str] = &[
+    "lists-a-broken-scenario.suite.yaml",
+    "recorded-not-a-log.suite.yaml",
+    "lists-a-scenario-without-cbv.suite.yaml",
+    "without-cbv.scenario.yaml",
+];
 
 #[test]
 fn every_broken_spec_is_refused_at_its_value_with_what_is_wrong() {
@@ -136,6 +141,16 @@ fn a_suite_refuses_a_broken_scenario_when_it_loads_not_when_the_variant_runs() {
     let place = format!("{}:12:15: ", fixture("length-nan.scenario.yaml").display());
     assert!(e.starts_with(&place), "{e}");
     assert!(e.contains("`length_m` must be a number in (0, 30] m, got NaN"), "{e}");
+}
+
+#[test]
+fn a_suite_refuses_an_authored_scenario_without_a_cbv_when_it_loads() {
+    // The scene itself is valid (it renders); only a suite needs a CBV.
+    load_yaml::<ScenarioSpec>(&fixture("without-cbv.scenario.yaml")).unwrap().build().unwrap();
+    let e = load_error("lists-a-scenario-without-cbv.suite.yaml").to_string();
+    let place = format!("{}:9:6: ", fixture("without-cbv.scenario.yaml").display());
+    assert!(e.starts_with(&place), "{e}");
+    assert!(e.contains("no `cbv:`: a suite drives the scenario's critical background vehicle"), "{e}");
 }
 
 #[test]
