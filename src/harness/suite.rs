@@ -60,7 +60,11 @@ pub fn sanitize(name: &str) -> String {
 }
 
 impl Suite {
-    /// Loads and validates a suite file (and its planner and scenario specs' names).
+    /// Loads and validates a suite file, its planner spec and each scenario
+    /// spec (name, numbers, template parameters, a named CBV), every error
+    /// located at its value. Recorded logs are only found, not imported: one
+    /// that does not import is reported at its `scenarios:` entry when its
+    /// variant runs ([`SuiteScenario::load`]).
     pub fn load(path: &Path) -> Result<Suite, SpecError> {
         let spec = crate::spec::suite::load(path)?;
         let planner = match &spec.value.planner {

@@ -3,9 +3,12 @@
 //!
 //! Every spec is a serde struct with `deny_unknown_fields`, so a typo is an
 //! error. Parsing errors come from serde-saphyr with line, column and a
-//! snippet; our own validation (an `ego:` naming no agent, a placement that
-//! is neither lane nor pose) points into the file through `Spanned` values.
-//! Errors carry the file's text so the CLI can render them with miette.
+//! snippet (library-facing wording put in a spec author's words); our own
+//! validation (every number finite and in a documented range, an `ego:`
+//! naming no agent, a name that cannot be a path part) points at the
+//! offending value through [`locate`] (a dotted path such as
+//! `agents[2].length_m`) or `Spanned` values. Errors carry the file's text
+//! so the CLI can render them with miette.
 //! `safer schema` exports a JSON Schema per spec kind for editors.
 
 pub mod locate;
