@@ -55,7 +55,9 @@ fn variant_trial(suite: Arc<Suite>, scenario: usize, index: u32) -> Result<(), F
     }
     if !o.failures.is_empty() {
         match harness::artefacts::write(&artefacts_dir(), o) {
-            Ok(a) => verdict.push_str(&format!("  recording: {}\n  picture:   {}\n", a.mcap.display(), a.svg.display())),
+            Ok(a) => {
+                verdict.push_str(&format!("  recording: {}\n  picture:   {}\n", a.mcap.display(), a.svg.display()))
+            }
             Err(e) => verdict.push_str(&format!("  (could not write artefacts: {e})\n")),
         }
         // Printed before the snapshot comparison, whose diff insta prints itself.

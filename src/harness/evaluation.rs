@@ -22,8 +22,8 @@ use rayon::prelude::*;
 use super::HarnessError;
 use super::methods::{BackgroundDriver, MapEncodings, MethodSettings, ModelSet};
 use super::metrics::{SuiteMetrics, VariantTally};
-pub use super::pipeline::{Stage2Cbv, VariantProfile};
 use super::pipeline::{self, Stage2Verdict, VariantSetup};
+pub use super::pipeline::{Stage2Cbv, VariantProfile};
 use super::variant::variant_seed;
 use crate::planners::BuiltinPlanner;
 use crate::policies::prior_sampling::TokenSampling;
@@ -227,9 +227,8 @@ pub fn table(records: &[VariantRecord], methods: &[AdversaryMethod]) -> Vec<Meth
             let ok: Vec<&VariantRecord> = all.iter().copied().filter(|r| r.error.is_none()).collect();
             let metrics = SuiteMetrics::aggregate(ok.iter().map(|r| &r.tally));
             let searched: Vec<&VariantRecord> = ok.iter().copied().filter(|r| r.witness.is_some()).collect();
-            let witness_rate = (!searched.is_empty()).then(|| {
-                searched.iter().filter(|r| r.witness == Some(true)).count() as f64 / searched.len() as f64
-            });
+            let witness_rate = (!searched.is_empty())
+                .then(|| searched.iter().filter(|r| r.witness == Some(true)).count() as f64 / searched.len() as f64);
             let n = ok.len().max(1) as f64;
             let mut profile = VariantProfile::default();
             for r in &ok {

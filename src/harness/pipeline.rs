@@ -185,6 +185,7 @@ pub fn make_planner(
             let mut config = ExternalPlannerConfig::new(name.clone(), spec.command.clone());
             config.args = spec.args.clone();
             config.working_dir = Some(working_dir.clone());
+            config.env = spec.env.clone();
             config.step_timeout_ms = spec.step_timeout_ms;
             config.startup_timeout_ms = spec.startup_timeout_ms;
             let body = scenario.track(ego).body();
@@ -289,8 +290,14 @@ mod tests {
                 })
                 .collect(),
         };
-        Scenario::new("two-cars", ScenarioSource::authored("test"), 0.1, map, vec![track("ego", 0.0), track("lead", 40.0)])
-            .with_roles(TrackIndex(0), Some(TrackIndex(1)))
+        Scenario::new(
+            "two-cars",
+            ScenarioSource::authored("test"),
+            0.1,
+            map,
+            vec![track("ego", 0.0), track("lead", 40.0)],
+        )
+        .with_roles(TrackIndex(0), Some(TrackIndex(1)))
     }
 
     /// Answers `ok_steps` times by holding speed, then fails.

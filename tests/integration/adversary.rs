@@ -99,10 +99,7 @@ fn every_ablation_runs_by_name() {
 struct NanFeasibility;
 
 impl safer::policies::adversary::FeasibilityOracle for NanFeasibility {
-    fn values(
-        &self,
-        pairs: &[safer::policies::adversary::EgoCbvState],
-    ) -> Result<Vec<f32>, safer::models::ModelError> {
+    fn values(&self, pairs: &[safer::policies::adversary::EgoCbvState]) -> Result<Vec<f32>, safer::models::ModelError> {
         Ok(vec![f32::NAN; pairs.len()])
     }
 }

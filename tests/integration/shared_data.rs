@@ -43,7 +43,11 @@ pub fn all_scenes() -> &'static [safer::scenario::Scenario] {
         let loaded: Vec<Vec<safer::scenario::Scenario>> =
             paths.par_iter().map(|p| safer::scenario::import::load(p).unwrap_or_else(|e| panic!("{e}"))).collect();
         let scenes: Vec<safer::scenario::Scenario> = loaded.into_iter().flatten().collect();
-        assert!(!scenes.is_empty(), "no recorded scene in {}: the shared data is missing or empty", data_dir().display());
+        assert!(
+            !scenes.is_empty(),
+            "no recorded scene in {}: the shared data is missing or empty",
+            data_dir().display()
+        );
         scenes
     })
 }
