@@ -88,11 +88,13 @@ pub fn run(request: &FeasibilityDatasetRequest, max_states: usize, svg: &Path) -
     for p in &panels {
         print_panel(p);
     }
-    if let Some(dir) = svg.parent().filter(|d| !d.as_os_str().is_empty()) {
+    if let Some(dir) = svg.parent().filter(|d| !d.as_os_str().is_empty() && !crate::record::output::is_stdout(svg)) {
         std::fs::create_dir_all(dir)?;
     }
-    std::fs::write(svg, render_lfr_svg(&panels))?;
-    println!("wrote {}", svg.display());
+    crate::record::write_output(svg, render_lfr_svg(&panels).as_bytes())?;
+    if !crate::record::output::is_stdout(svg) {
+        println!("wrote {}", svg.display());
+    }
     Ok(ExitCode::SUCCESS)
 }
 

@@ -30,28 +30,36 @@ pub(super) fn run(
     json: bool,
 ) -> Result<ExitCode, CliError> {
     let paths = scene_paths(path)?;
-    // Files in parallel; results come back in path order, so output is deterministic.
-    let results: Vec<Result<Vec<RolloutSummary>, CliError>> = paths
+    // Files in parallel; results come back in path order, so output is
+    // deterministic. An import error names its file already; a simulation
+    // error gets the file and scenario here.
+    let results: Vec<Result<Vec<RolloutSummary>, String>> = paths
         .par_iter()
         .map(|p| {
-            let scenarios = import::load(p)?;
-            scenarios.iter().map(|s| simulate_one(s, planner, background).map_err(CliError::from)).collect()
+            let scenarios = import::load(p).map_err(|e| e.to_string())?;
+            scenarios
+                .iter()
+                .map(|s| {
+                    simulate_one(s, planner, background)
+                        .map_err(|e| format!("{}: scenario {}: {e}", p.display(), s.id))
+                })
+                .collect()
         })
         .collect();
     let mut failures = 0;
     let mut summaries = Vec::new();
-    for (p, r) in paths.iter().zip(results) {
+    for r in results {
         match r {
             Ok(s) => summaries.extend(s),
-            Err(e) => {
+            Err(message) => {
                 failures += 1;
-                eprintln!("error: {}: {e}", p.display());
+                eprintln!("error: {message}");
             }
         }
     }
     if json {
         println!("{}", serde_json::to_string_pretty(&summaries)?);
-    } else {
+    } else if !(summaries.is_empty() && failures > 0) {
         print_table(&summaries);
     }
     Ok(if failures > 0 { ExitCode::from(1) } else { ExitCode::SUCCESS })

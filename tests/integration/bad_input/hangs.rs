@@ -61,6 +61,7 @@ fn a_folder_with_one_bad_scene_reports_it_and_runs_the_others() {
     let t = text(&out);
     assert!(!out.status.success(), "a folder with a broken file must not exit 0: {t}");
     assert!(t.contains("b-sample-at-x-1e20.json") && t.contains("x = 1e20 m"), "{t}");
+    assert_eq!(t.matches("b-sample-at-x-1e20.json").count(), 1, "the broken file is named once: {t}");
     assert!(t.contains("trimmed-307 ") && t.contains("1 rollouts"), "the good scene did not run: {t}");
 }
 
