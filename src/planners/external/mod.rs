@@ -40,7 +40,9 @@
 //! On Unix the process runs in its own process group, and ending it
 //! (after `bye`, on a failure, on drop) kills the whole group: a wrapper
 //! script need not `exec` the real planner, and helpers a planner starts do
-//! not outlive it (unless they leave the group, e.g. with `setsid`).
+//! not outlive it (unless they leave the group, e.g. with `setsid`). Its
+//! own group does not receive the terminal's Ctrl-C, so the harness kills
+//! the groups of live planners when SIGINT, SIGTERM or SIGHUP ends it.
 //!
 //! # Layout
 //!
@@ -48,8 +50,9 @@
 //! handshaking, one exchange per step, latching the first failure, a fresh
 //! process per rollout. `wire` holds the message types and the schema,
 //! `encoding` turns observations into messages and replies into planner
-//! outputs ([`decode_reply`]), and `process` runs the child process and
-//! its I/O.
+//! outputs ([`decode_reply`]), `process` runs the child process and
+//! its I/O, and `interrupt` ends live planners when the harness is
+//! interrupted.
 //!
 //! # Determinism
 //!
@@ -58,6 +61,7 @@
 //! timeout ran out.
 
 mod encoding;
+mod interrupt;
 mod process;
 mod wire;
 

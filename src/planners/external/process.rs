@@ -4,7 +4,8 @@
 //! line lengths, one request/reply exchange under a timeout, the stderr tail
 //! kept for crash reports, and ending it: `bye`, a grace period, then
 //! SIGKILL to the whole process group (so children of a wrapper script or
-//! of the planner die with it), always reaping the process.
+//! of the planner die with it), always reaping the process. Live groups are
+//! registered with [`super::interrupt`] so an interrupted harness ends them.
 
 use std::collections::VecDeque;
 use std::io::{BufRead, BufReader, Read, Write};
@@ -109,6 +110,9 @@ impl Process {
         let (stdout_tx, from_stdout) = mpsc::sync_channel(STDOUT_QUEUE_LINES);
         let (stderr_done_tx, stderr_done) = mpsc::channel::<()>();
         let stderr_tail = Arc::new(Mutex::new(VecDeque::new()));
+        // Killed with the harness on SIGINT/SIGTERM/SIGHUP, which its own
+        // process group would not otherwise receive.
+        super::interrupt::register(pid);
         let mut process = Process {
             child,
             pid,
@@ -273,6 +277,7 @@ impl Process {
         // (the pid could be reused only after a full cycle of pids, which
         // cannot pass between the reap just now and this call).
         kill_group(self.pid);
+        super::interrupt::unregister(self.pid);
     }
 
     /// `bye`, close stdin, wait [`BYE_GRACE`], then kill.

@@ -94,3 +94,72 @@ fn a_recorded_road_point_at_x_1e20_is_refused_naming_the_file_and_the_map_featur
     assert!(t.contains("map road edge") && t.contains("point 3"), "{t}");
     assert!(t.contains("implausible map point (1e20, "), "{t}");
 }
+
+/// Children of `parent` whose command line contains `needle`, from `/proc`.
+#[cfg(target_os = "linux")]
+fn children_running(parent: u32, needle: &str) -> Vec<u32> {
+    let Ok(entries) = std::fs::read_dir("/proc") else { return Vec::new() };
+    entries
+        .filter_map(|e| e.ok()?.file_name().to_str()?.parse::<u32>().ok())
+        .filter(|pid| {
+            let Ok(stat) = std::fs::read_to_string(format!("/proc/{pid}/stat")) else { return false };
+            let Some((_, rest)) = stat.rsplit_once(')') else { return false };
+            let fields: Vec<&str> = rest.split_whitespace().collect();
+            let cmdline = std::fs::read(format!("/proc/{pid}/cmdline")).unwrap_or_default();
+            fields.len() > 1
+                && !matches!(fields[0], "Z" | "X")
+                && fields[1] == parent.to_string()
+                && String::from_utf8_lossy(&cmdline).contains(needle)
+        })
+        .collect()
+}
+
+#[cfg(target_os = "linux")]
+#[test]
+fn ctrl_c_on_the_harness_ends_a_planner_that_never_reads_its_stdin() {
+    use std::os::unix::process::ExitStatusExt;
+    // The planner runs in its own process group, so the terminal's SIGINT
+    // reaches only the harness; before the handler, the deaf planner
+    // outlived it for good.
+    let suite = fixture("deaf.suite.yaml");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_safer"))
+        .args(["run", suite.to_str().unwrap()])
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("start safer");
+    let harness = child.id();
+    let started = Instant::now();
+    let planner = loop {
+        if let Some(&pid) = children_running(harness, "deaf").first() {
+            break pid;
+        }
+        if started.elapsed() > Duration::from_secs(60) || child.try_wait().expect("wait").is_some() {
+            let _ = child.kill();
+            panic!("the deaf planner never started under safer");
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    // Let it answer hello and the harness block on the first step.
+    std::thread::sleep(Duration::from_millis(500));
+    let sent = Command::new("kill").args(["-INT", &harness.to_string()]).status().expect("run kill");
+    assert!(sent.success());
+    let status = child.wait().expect("wait for safer");
+    assert_eq!(status.signal(), Some(2), "the harness dies of SIGINT as without a handler: {status:?}");
+    let deadline = Instant::now() + Duration::from_secs(2);
+    while std::path::Path::new(&format!("/proc/{planner}")).exists() && Instant::now() < deadline {
+        // A killed orphan is reaped by init; until then it may show as a zombie.
+        let state = std::fs::read_to_string(format!("/proc/{planner}/stat")).unwrap_or_default();
+        if state.rsplit_once(')').is_some_and(|(_, rest)| rest.trim_start().starts_with('Z')) {
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    let state = std::fs::read_to_string(format!("/proc/{planner}/stat")).unwrap_or_default();
+    let alive = state.rsplit_once(')').is_some_and(|(_, rest)| !rest.trim_start().starts_with('Z'));
+    if alive {
+        let _ = Command::new("kill").args(["-KILL", &planner.to_string()]).status();
+    }
+    assert!(!alive, "planner {planner} outlived the interrupted harness");
+}
