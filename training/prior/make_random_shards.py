@@ -6,7 +6,7 @@ Writes `shard-*.safetensors` files with every tensor of the feature contract
 (docs/prior-features.md, version 1) at the contract's shapes and dtypes, plus
 `next_token` (i64 [B]) and `scene` (i64 [B]), and the metadata keys
 `contract_version` = "1" and `scenes` (JSON list of {id, source, split}), i.e.
-what `safer prior-dataset` (src/models/prior_dataset.rs) writes, plus
+what `safer prior-dataset` (src/datasets/prior_shards.rs) writes, plus
 `generator` naming this script: `export.py` reads it, labels the card's
 training data as random and refuses to write such a model into `models/`. Values are
 random but keep the contract's structure: padded rows are all zeros where
