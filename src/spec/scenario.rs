@@ -222,13 +222,20 @@ impl Loaded<ScenarioSpec> {
         }
     }
 
-    fn validate_authored(&self) -> Result<(), SpecError> {
+    /// The map template and duration every authored scenario must give.
+    fn authored_map_and_duration(&self) -> Result<(&MapTemplate, f64), SpecError> {
         let s = &self.value;
         let template = s.map.as_ref().ok_or_else(|| {
             self.invalid_at("map", "authored scenario needs `map:` (straight, merge or intersection)")
         })?;
         let duration_s =
             s.duration_s.ok_or_else(|| self.invalid_at("duration_s", "authored scenario needs `duration_s:`"))?;
+        Ok((template, duration_s))
+    }
+
+    fn validate_authored(&self) -> Result<(), SpecError> {
+        let s = &self.value;
+        let (template, duration_s) = self.authored_map_and_duration()?;
         // At least one simulation step (0.1 s), at most a minute.
         self.check_number("duration_s", duration_s, NumberRange::closed(0.1, 60.0), "s")?;
         template
@@ -292,11 +299,7 @@ impl Loaded<ScenarioSpec> {
 
     fn build_authored(&self) -> Result<Scenario, SpecError> {
         let s = &self.value;
-        let template = s.map.as_ref().ok_or_else(|| {
-            self.invalid_at("map", "authored scenario needs `map:` (straight, merge or intersection)")
-        })?;
-        let duration_s =
-            s.duration_s.ok_or_else(|| self.invalid_at("duration_s", "authored scenario needs `duration_s:`"))?;
+        let (template, duration_s) = self.authored_map_and_duration()?;
         let map = template.build();
         let mut agents = Vec::new();
         for (i, a) in s.agents.iter().enumerate() {

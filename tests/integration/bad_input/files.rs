@@ -6,9 +6,10 @@
 //! deadline, in a fresh temporary folder.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
 use std::sync::atomic::{AtomicU32, Ordering};
-use std::time::{Duration, Instant};
+use std::time::Duration;
+
+use super::binary::{safer_in, text};
 
 fn fixture(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/bad-input/files").join(name)
@@ -22,47 +23,6 @@ fn temp_dir(tag: &str) -> PathBuf {
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).expect("create temp dir");
     dir
-}
-
-/// Runs `safer ARGS` in `cwd` with extra environment variables, killing it
-/// after `deadline`; panics on a timeout.
-fn safer_in(cwd: &Path, env: &[(&str, &Path)], args: &[&str], deadline: Duration) -> Output {
-    let mut cmd = Command::new(env!("CARGO_BIN_EXE_safer"));
-    cmd.args(args).current_dir(cwd).stdin(Stdio::null()).stdout(Stdio::piped()).stderr(Stdio::piped());
-    for (k, v) in env {
-        cmd.env(k, v);
-    }
-    let mut child = cmd.spawn().expect("start safer");
-    let started = Instant::now();
-    // Drain both pipes on threads: a JSON report on stdout can outgrow the pipe buffer.
-    let mut stdout = child.stdout.take().expect("stdout piped");
-    let mut stderr = child.stderr.take().expect("stderr piped");
-    let out = std::thread::spawn(move || {
-        let mut b = Vec::new();
-        std::io::Read::read_to_end(&mut stdout, &mut b).map(|_| b)
-    });
-    let err = std::thread::spawn(move || {
-        let mut b = Vec::new();
-        std::io::Read::read_to_end(&mut stderr, &mut b).map(|_| b)
-    });
-    let status = loop {
-        if let Some(status) = child.try_wait().expect("wait for safer") {
-            break status;
-        }
-        if started.elapsed() > deadline {
-            let _ = child.kill();
-            let _ = child.wait();
-            panic!("`safer {}` did not end within {deadline:?}", args.join(" "));
-        }
-        std::thread::sleep(Duration::from_millis(20));
-    };
-    let stdout = out.join().expect("stdout reader").expect("read stdout");
-    let stderr = err.join().expect("stderr reader").expect("read stderr");
-    Output { status, stdout, stderr }
-}
-
-fn text(out: &Output) -> String {
-    format!("stdout:\n{}\nstderr:\n{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr))
 }
 
 const RUN_DEADLINE: Duration = Duration::from_secs(180);

@@ -4,43 +4,13 @@
 //! message names the file and the place.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
+use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
+
+use super::binary::{is_live, live_children, safer_within, text};
 
 fn fixture(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/bad-input/hangs").join(name)
-}
-
-/// Runs `safer ARGS`, killing it after `deadline`; panics on a timeout.
-pub(crate) fn safer_within(args: &[&str], deadline: Duration) -> Output {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_safer"))
-        .args(args)
-        .stdin(Stdio::null())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("start safer");
-    let started = Instant::now();
-    loop {
-        if child.try_wait().expect("wait for safer").is_some() {
-            return child.wait_with_output().expect("collect safer's output");
-        }
-        if started.elapsed() > deadline {
-            let _ = child.kill();
-            let out = child.wait_with_output().expect("collect safer's output");
-            panic!(
-                "`safer {}` did not end within {deadline:?}\nstdout: {}\nstderr: {}",
-                args.join(" "),
-                String::from_utf8_lossy(&out.stdout),
-                String::from_utf8_lossy(&out.stderr)
-            );
-        }
-        std::thread::sleep(Duration::from_millis(20));
-    }
-}
-
-fn text(out: &Output) -> String {
-    format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr))
 }
 
 #[test]
@@ -95,25 +65,6 @@ fn a_recorded_road_point_at_x_1e20_is_refused_naming_the_file_and_the_map_featur
     assert!(t.contains("implausible map point (1e20, "), "{t}");
 }
 
-/// Children of `parent` whose command line contains `needle`, from `/proc`.
-#[cfg(target_os = "linux")]
-fn children_running(parent: u32, needle: &str) -> Vec<u32> {
-    let Ok(entries) = std::fs::read_dir("/proc") else { return Vec::new() };
-    entries
-        .filter_map(|e| e.ok()?.file_name().to_str()?.parse::<u32>().ok())
-        .filter(|pid| {
-            let Ok(stat) = std::fs::read_to_string(format!("/proc/{pid}/stat")) else { return false };
-            let Some((_, rest)) = stat.rsplit_once(')') else { return false };
-            let fields: Vec<&str> = rest.split_whitespace().collect();
-            let cmdline = std::fs::read(format!("/proc/{pid}/cmdline")).unwrap_or_default();
-            fields.len() > 1
-                && !matches!(fields[0], "Z" | "X")
-                && fields[1] == parent.to_string()
-                && String::from_utf8_lossy(&cmdline).contains(needle)
-        })
-        .collect()
-}
-
 #[cfg(target_os = "linux")]
 #[test]
 fn ctrl_c_on_the_harness_ends_a_planner_that_never_reads_its_stdin() {
@@ -132,7 +83,7 @@ fn ctrl_c_on_the_harness_ends_a_planner_that_never_reads_its_stdin() {
     let harness = child.id();
     let started = Instant::now();
     let planner = loop {
-        if let Some(&pid) = children_running(harness, "deaf").first() {
+        if let Some(&pid) = live_children(harness, "deaf").first() {
             break pid;
         }
         if started.elapsed() > Duration::from_secs(60) || child.try_wait().expect("wait").is_some() {
@@ -148,16 +99,10 @@ fn ctrl_c_on_the_harness_ends_a_planner_that_never_reads_its_stdin() {
     let status = child.wait().expect("wait for safer");
     assert_eq!(status.signal(), Some(2), "the harness dies of SIGINT as without a handler: {status:?}");
     let deadline = Instant::now() + Duration::from_secs(2);
-    while std::path::Path::new(&format!("/proc/{planner}")).exists() && Instant::now() < deadline {
-        // A killed orphan is reaped by init; until then it may show as a zombie.
-        let state = std::fs::read_to_string(format!("/proc/{planner}/stat")).unwrap_or_default();
-        if state.rsplit_once(')').is_some_and(|(_, rest)| rest.trim_start().starts_with('Z')) {
-            break;
-        }
+    while is_live(planner) && Instant::now() < deadline {
         std::thread::sleep(Duration::from_millis(10));
     }
-    let state = std::fs::read_to_string(format!("/proc/{planner}/stat")).unwrap_or_default();
-    let alive = state.rsplit_once(')').is_some_and(|(_, rest)| !rest.trim_start().starts_with('Z'));
+    let alive = is_live(planner);
     if alive {
         let _ = Command::new("kill").args(["-KILL", &planner.to_string()]).status();
     }

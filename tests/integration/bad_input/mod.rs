@@ -6,6 +6,7 @@
 //! and column (or the record) of the offending value. Nothing outside the
 //! chosen output paths is written.
 
+mod binary;
 mod files;
 mod hangs;
 mod planners;

@@ -11,6 +11,8 @@ use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
 use safer::geometry::{Point2, Vector2};
+
+use super::binary::live_group_members;
 use safer::map::templates::StraightRoad;
 use safer::planners::external::{ExternalPlanner, ExternalPlannerConfig};
 use safer::scenario::{AgentId, AgentKind, AgentState, Scenario, ScenarioSource, Track, TrackIndex};
@@ -94,23 +96,6 @@ fn failure(r: &Rollout) -> (usize, String) {
         Termination::PlannerFailed { step, reason } => (*step, reason.clone()),
         other => panic!("expected a planner failure, got {other:?}"),
     }
-}
-
-/// Live (not zombie) processes in process group `pgid`, from `/proc`.
-fn live_group_members(pgid: u32) -> Vec<u32> {
-    let Ok(entries) = std::fs::read_dir("/proc") else { return Vec::new() };
-    let mut pids: Vec<u32> = entries
-        .filter_map(|e| e.ok()?.file_name().to_str()?.parse::<u32>().ok())
-        .filter(|pid| {
-            // `pid (comm) state ppid pgrp ...`; comm may hold spaces.
-            let Ok(stat) = std::fs::read_to_string(format!("/proc/{pid}/stat")) else { return false };
-            let Some((_, rest)) = stat.rsplit_once(')') else { return false };
-            let fields: Vec<&str> = rest.split_whitespace().collect();
-            fields.len() > 2 && !matches!(fields[0], "Z" | "X") && fields[2] == pgid.to_string()
-        })
-        .collect();
-    pids.sort_unstable();
-    pids
 }
 
 /// No process of the group is left; allows a moment for SIGKILL to land.

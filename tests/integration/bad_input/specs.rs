@@ -121,7 +121,7 @@ fn safer_run_refuses_broken_suites_with_exit_2_and_the_located_message() {
     for &(name, line, column, words) in suites {
         let file = fixture(name);
         let args = ["run", file.to_str().unwrap(), "--artifacts", artefacts.to_str().unwrap()];
-        let out = super::hangs::safer_within(&args, Duration::from_secs(60));
+        let out = super::binary::safer_within(&args, Duration::from_secs(60));
         let stderr = String::from_utf8_lossy(&out.stderr);
         let place = format!("{name}:{line}:{column}");
         // The report may wrap the message (with a `│` margin): compare without layout.
@@ -167,9 +167,6 @@ fn a_recorded_log_that_does_not_import_is_reported_at_its_suite_entry() {
 /// not the empty path that once made an external planner fail to start.
 #[test]
 fn a_suite_given_by_a_bare_file_name_runs_its_external_planner_in_that_folder() {
-    use std::process::{Command, Stdio};
-    use std::time::Instant;
-
     let dir = std::env::temp_dir().join(format!("safer-bare-name-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let repo = Path::new(env!("CARGO_MANIFEST_DIR"));
@@ -187,20 +184,8 @@ fn a_suite_given_by_a_bare_file_name_runs_its_external_planner_in_that_folder() 
     for (name, text) in files {
         std::fs::write(dir.join(name), text).unwrap();
     }
-    let mut child = Command::new(env!("CARGO_BIN_EXE_safer"))
-        .args(["run", "s.yaml", "--artifacts", "artefacts"])
-        .current_dir(&dir)
-        .stdin(Stdio::null())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("start safer");
-    let started = Instant::now();
-    while child.try_wait().expect("wait for safer").is_none() && started.elapsed() < Duration::from_secs(60) {
-        std::thread::sleep(Duration::from_millis(20));
-    }
-    let _ = child.kill();
-    let out = child.wait_with_output().expect("collect safer's output");
+    let out =
+        super::binary::safer_in(&dir, &[], &["run", "s.yaml", "--artifacts", "artefacts"], Duration::from_secs(60));
     std::fs::remove_dir_all(&dir).ok();
     let text = format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
     assert_eq!(out.status.code(), Some(0), "{text}");
