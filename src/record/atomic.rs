@@ -173,17 +173,23 @@ fn sync_directory(path: &Path) {
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
 
-    fn scratch_dir(name: &str) -> PathBuf {
-        let dir = std::env::temp_dir().join(format!("safer-record-atomic-{name}-{}", std::process::id()));
+    /// A fresh, empty folder for one test of `module`.
+    pub(in crate::record) fn scratch_dir_of(module: &str, name: &str) -> PathBuf {
+        let dir = std::env::temp_dir().join(format!("safer-record-{module}-{name}-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&dir);
         std::fs::create_dir_all(&dir).unwrap();
         dir
     }
 
-    fn entries(dir: &Path) -> Vec<String> {
+    fn scratch_dir(name: &str) -> PathBuf {
+        scratch_dir_of("atomic", name)
+    }
+
+    /// The names in `dir`, sorted.
+    pub(in crate::record) fn entries(dir: &Path) -> Vec<String> {
         let mut names: Vec<String> =
             std::fs::read_dir(dir).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
         names.sort();

@@ -156,18 +156,10 @@ mod tests {
     use super::*;
     use std::os::unix::fs::FileTypeExt;
 
-    fn scratch_dir(name: &str) -> PathBuf {
-        let dir = std::env::temp_dir().join(format!("safer-record-output-{name}-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
-        std::fs::create_dir_all(&dir).unwrap();
-        dir
-    }
+    use crate::record::atomic::tests::{entries, scratch_dir_of};
 
-    fn entries(dir: &Path) -> Vec<String> {
-        let mut names: Vec<String> =
-            std::fs::read_dir(dir).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
-        names.sort();
-        names
+    fn scratch_dir(name: &str) -> PathBuf {
+        scratch_dir_of("output", name)
     }
 
     #[test]
