@@ -73,13 +73,18 @@ fn ctrl_c_on_the_harness_ends_a_planner_that_never_reads_its_stdin() {
     // reaches only the harness; before the handler, the deaf planner
     // outlived it for good.
     let suite = fixture("deaf.suite.yaml");
-    let mut child = Command::new(env!("CARGO_BIN_EXE_safer"))
-        .args(["run", suite.to_str().unwrap()])
-        .stdin(Stdio::null())
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .expect("start safer");
+    let mut command = Command::new(env!("CARGO_BIN_EXE_safer"));
+    command.args(["run", suite.to_str().unwrap()]).stdin(Stdio::null()).stdout(Stdio::null()).stderr(Stdio::null());
+    // As at a terminal: a test run started in the background of a shell
+    // without job control inherits SIGINT ignored, which safer keeps.
+    // SAFETY: only signal(2), async-signal-safe, between fork and exec.
+    unsafe {
+        std::os::unix::process::CommandExt::pre_exec(&mut command, || {
+            libc::signal(libc::SIGINT, libc::SIG_DFL);
+            Ok(())
+        });
+    }
+    let mut child = command.spawn().expect("start safer");
     let harness = child.id();
     let started = Instant::now();
     let planner = loop {
@@ -96,7 +101,18 @@ fn ctrl_c_on_the_harness_ends_a_planner_that_never_reads_its_stdin() {
     std::thread::sleep(Duration::from_millis(500));
     let sent = Command::new("kill").args(["-INT", &harness.to_string()]).status().expect("run kill");
     assert!(sent.success());
-    let status = child.wait().expect("wait for safer");
+    let deadline = Instant::now() + Duration::from_secs(30);
+    let status = loop {
+        if let Some(status) = child.try_wait().expect("wait for safer") {
+            break status;
+        }
+        if Instant::now() > deadline {
+            let _ = child.kill();
+            let _ = Command::new("kill").args(["-KILL", &planner.to_string()]).status();
+            panic!("safer did not end within 30 s of SIGINT");
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    };
     assert_eq!(status.signal(), Some(2), "the harness dies of SIGINT as without a handler: {status:?}");
     let deadline = Instant::now() + Duration::from_secs(2);
     while is_live(planner) && Instant::now() < deadline {
