@@ -40,8 +40,7 @@ pub(super) fn run(
             scenarios
                 .iter()
                 .map(|s| {
-                    simulate_one(s, planner, background)
-                        .map_err(|e| format!("{}: scenario {}: {e}", p.display(), s.id))
+                    simulate_one(s, planner, background).map_err(|e| format!("{}: scenario {}: {e}", p.display(), s.id))
                 })
                 .collect()
         })
