@@ -371,7 +371,12 @@ fn print_report(out: &mut dyn Write, report: &Report) -> std::io::Result<()> {
             match v {
                 VariantEntry::Ran { summary, artefacts, artefacts_error } => {
                     let result = match summary.failures.first() {
-                        None => "pass".to_string(),
+                        // The criteria may allow a collision (not at fault);
+                        // say so, as it does not count as solved.
+                        None => match &summary.stage2_collision {
+                            Some(collision) => format!("pass (ego collision: {collision}; not solved)"),
+                            None => "pass".to_string(),
+                        },
                         Some(first) => {
                             variants_failed += 1;
                             let more = summary.failures.len() - 1;
