@@ -88,11 +88,9 @@ pub fn run(request: &FeasibilityDatasetRequest, max_states: usize, svg: &Path) -
     for p in &panels {
         print_panel(p);
     }
-    if let Some(dir) = svg.parent().filter(|d| !d.as_os_str().is_empty() && !crate::record::output::is_stdout(svg)) {
-        std::fs::create_dir_all(dir)?;
-    }
+    crate::record::create_parent_folder(svg)?;
     crate::record::write_output(svg, render_lfr_svg(&panels).as_bytes())?;
-    if !crate::record::output::is_stdout(svg) {
+    if !crate::record::is_stdout(svg) {
         println!("wrote {}", svg.display());
     }
     Ok(ExitCode::SUCCESS)

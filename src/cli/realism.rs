@@ -264,12 +264,7 @@ pub(super) fn run(args: &RealismArgs) -> Result<ExitCode, CliError> {
 /// Writes the report by the rules of [`crate::record::output`], creating
 /// the folder of a file path first.
 fn write_json(path: &Path, report: &Report<'_>) -> Result<(), CliError> {
-    if !crate::record::is_stdout(path)
-        && let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty())
-    {
-        std::fs::create_dir_all(dir)
-            .map_err(|source| crate::record::RecordError::Io { path: dir.to_path_buf(), source })?;
-    }
+    crate::record::create_parent_folder(path)?;
     crate::record::write_output(path, (serde_json::to_string_pretty(report)? + "\n").as_bytes())?;
     Ok(())
 }

@@ -49,6 +49,16 @@ pub fn check_output(path: &Path) -> Result<(), RecordError> {
     }
 }
 
+/// Creates the folder that will hold output file `path` (nothing for `-`
+/// or a bare file name), for commands whose default output lies in a
+/// folder that may not exist yet.
+pub fn create_parent_folder(path: &Path) -> Result<(), RecordError> {
+    match path.parent().filter(|d| !d.as_os_str().is_empty() && !is_stdout(path)) {
+        Some(dir) => std::fs::create_dir_all(dir).map_err(|source| RecordError::Io { path: dir.to_path_buf(), source }),
+        None => Ok(()),
+    }
+}
+
 /// Writes `bytes` to `path` by the rules of this module.
 pub fn write_output(path: &Path, bytes: &[u8]) -> Result<(), RecordError> {
     write_output_with(path, |w| w.write_all(bytes))
