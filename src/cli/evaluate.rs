@@ -74,6 +74,24 @@ fn print_table(
             r.time_per_variant_s
         )?;
     }
+    writeln!(out, "\nplausibility of the CBV and the reference planner:")?;
+    writeln!(
+        out,
+        "{:<16} {:>12} {:>14} {:>12} {:>14} {:>12}",
+        "method", "CBV-bg coll", "CBV at fault", "CBV off-road", "off-road s/var", "SR-witnessed"
+    )?;
+    for r in rows {
+        writeln!(
+            out,
+            "{:<16} {:>12} {:>14} {:>12} {:>14} {:>12}",
+            serde_json::to_value(r.method).ok().and_then(|v| v.as_str().map(String::from)).unwrap_or_default(),
+            fmt(r.cbv_background_collision_rate),
+            fmt(r.cbv_at_fault_background_collision_rate),
+            fmt(r.cbv_off_road_rate),
+            fmt(r.cbv_off_road_s),
+            fmt(r.sr_witnessed)
+        )?;
+    }
     writeln!(out, "\nwhere the time goes (mean s per variant):")?;
     writeln!(
         out,

@@ -233,9 +233,18 @@ enum Command {
         /// Most held-out states to label, at least 1.
         #[arg(long, default_value_t = 3000, value_parser = at_least_one())]
         states: usize,
-        /// Where to draw V_h over relative CBV positions.
-        #[arg(long, default_value = "docs/feasibility-lfr.svg")]
-        svg: PathBuf,
+        /// Where to draw V_h over relative CBV positions (the README's
+        /// picture is `docs/feasibility-lfr.svg`); none unless asked.
+        #[arg(long)]
+        svg: Option<PathBuf>,
+        /// Write the figures as JSON (`-`: standard output, the table then on stderr).
+        #[arg(long, value_name = "OUT")]
+        json: Option<PathBuf>,
+        /// Which scenes' states to label: the held-out ones (never trained
+        /// on; the reported figures) or the training ones (to calibrate a
+        /// decision threshold on without touching the held-out set).
+        #[arg(long, value_enum, default_value = "held-out")]
+        split: crate::datasets::held_out::Split,
     },
     /// Write the realism prior's training shards (NGSIM scenes + calibrated synthetic traffic).
     PriorDataset {
@@ -366,17 +375,21 @@ pub fn main() -> ExitCode {
                 force,
             })
         }
-        Command::FeasibilityEval { recorded, synthetic_scenes, seed, states, svg } => feasibility_eval::run(
-            &feasibility_dataset::FeasibilityDatasetRequest {
-                recorded,
-                out: PathBuf::new(),
-                synthetic_scenes,
-                seed,
-                force: false,
-            },
-            states,
-            &svg,
-        ),
+        Command::FeasibilityEval { recorded, synthetic_scenes, seed, states, svg, json, split } => {
+            feasibility_eval::run(
+                &feasibility_dataset::FeasibilityDatasetRequest {
+                    recorded,
+                    out: PathBuf::new(),
+                    synthetic_scenes,
+                    seed,
+                    force: false,
+                },
+                states,
+                split,
+                svg.as_deref(),
+                json.as_deref(),
+            )
+        }
         Command::PriorDataset { recorded, out, template_scenes, recorded_map_scenes, seed, shard_size, force } => {
             prior_dataset::run(&prior_dataset::DatasetRequest {
                 recorded,

@@ -242,7 +242,12 @@ impl Collection {
 
     /// The episodes of the held-out scenes, in order.
     pub fn held_out_episodes(&self) -> Vec<Episode> {
-        self.episodes.iter().filter(|e| self.scenes[e.scene].split == Split::HeldOut).copied().collect()
+        self.episodes_of(Split::HeldOut)
+    }
+
+    /// The episodes of the scenes in `split`, in order.
+    pub fn episodes_of(&self, split: Split) -> Vec<Episode> {
+        self.episodes.iter().filter(|e| self.scenes[e.scene].split == split).copied().collect()
     }
 
     /// Runs `episode` (`None` when it cannot be set up).

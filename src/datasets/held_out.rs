@@ -32,7 +32,7 @@ pub fn is_held_out(position: usize) -> bool {
 
 /// Which part of the data a scene belongs to (written into shard metadata
 /// as `train` / `held-out`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize, clap::ValueEnum)]
 #[serde(rename_all = "kebab-case")]
 pub enum Split {
     /// Used for training.

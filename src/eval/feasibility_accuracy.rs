@@ -97,15 +97,21 @@ pub struct ConfusionTable {
 }
 
 impl ConfusionTable {
-    /// The table of `labelled`.
+    /// The table of `labelled` at the shipped decision rule (V_h > 0 predicts infeasible).
     pub fn of(labelled: &[LabelledState]) -> Self {
+        Self::at_threshold(labelled, 0.0)
+    }
+
+    /// The table of `labelled` when V_h > `threshold` predicts infeasible:
+    /// how a calibrated decision threshold would score.
+    pub fn at_threshold(labelled: &[LabelledState], threshold: f32) -> Self {
         let mut t = Self::default();
         for l in labelled {
             if l.value.is_nan() {
                 t.unscored += 1;
                 continue;
             }
-            match (l.value > 0.0, !l.witness_found) {
+            match (l.value > threshold, !l.witness_found) {
                 (true, true) => t.true_infeasible += 1,
                 (true, false) => t.false_infeasible += 1,
                 (false, true) => t.missed_infeasible += 1,
@@ -144,6 +150,30 @@ impl ConfusionTable {
     pub fn accuracy(&self) -> Option<f64> {
         ratio(self.true_infeasible + self.true_feasible, self.scored())
     }
+}
+
+/// The threshold with the best precision among those whose recall of
+/// "infeasible" is at least `min_recall`, tried at every distinct V_h of
+/// `labelled` (and 0), with its table; `None` when no state is infeasible.
+pub fn best_threshold_at_recall(labelled: &[LabelledState], min_recall: f64) -> Option<(f32, ConfusionTable)> {
+    let mut thresholds: Vec<f32> = labelled.iter().map(|l| l.value).filter(|v| !v.is_nan()).collect();
+    // A state is predicted infeasible when V_h > threshold: try just below each value.
+    thresholds.iter_mut().for_each(|v| *v -= 1e-5 * v.abs().max(1.0));
+    thresholds.push(0.0);
+    thresholds.sort_by(f32::total_cmp);
+    thresholds.dedup();
+    let mut best: Option<(f32, ConfusionTable)> = None;
+    for t in thresholds {
+        let table = ConfusionTable::at_threshold(labelled, t);
+        if table.recall().is_none_or(|r| r < min_recall) {
+            continue;
+        }
+        let p = table.precision().unwrap_or(0.0);
+        if best.as_ref().is_none_or(|(_, b)| p > b.precision().unwrap_or(0.0)) {
+            best = Some((t, table));
+        }
+    }
+    best
 }
 
 fn ratio(numerator: usize, denominator: usize) -> Option<f64> {
@@ -250,6 +280,23 @@ mod tests {
 
     fn labelled(value: f32, witness_found: bool) -> LabelledState {
         LabelledState { value, witness_found, witness_s: 0.0 }
+    }
+
+    #[test]
+    fn the_calibrated_threshold_keeps_the_recall_and_maximises_precision() {
+        // Infeasible states at V_h 3, 2, 1 and -1; feasible ones at 2.5, 0.5, 0.2, -2.
+        let mut l: Vec<LabelledState> = [3.0, 2.0, 1.0, -1.0].iter().map(|&v| labelled(v, false)).collect();
+        l.extend([2.5, 0.5, 0.2, -2.0].iter().map(|&v| labelled(v, true)));
+        // Recall ≥ 0.75 needs the threshold below 1: the best keeps 3 true, 1 false alarm (2.5).
+        let (t, table) = best_threshold_at_recall(&l, 0.75).unwrap();
+        assert!((0.5..1.0).contains(&t), "{t}");
+        assert_eq!((table.true_infeasible, table.false_infeasible), (3, 1));
+        // Recall 1 needs every infeasible state flagged, so a threshold below -1.
+        let (t, table) = best_threshold_at_recall(&l, 1.0).unwrap();
+        assert!((-2.0..-1.0).contains(&t), "{t}");
+        assert_eq!(table.recall(), Some(1.0));
+        assert_eq!(table.false_infeasible, 3);
+        assert!(best_threshold_at_recall(&[labelled(1.0, true)], 0.9).is_none());
     }
 
     #[test]

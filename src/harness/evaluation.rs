@@ -101,6 +101,17 @@ pub struct MethodRow {
     pub sr_critical: Option<f64>,
     /// Share of stage-1 collisions with a feasibility witness.
     pub witness_rate: Option<f64>,
+    /// Solution rate over the witnessed stage-1 collisions: how much of
+    /// what is provably avoidable the stage-2 planner avoids.
+    pub sr_witnessed: Option<f64>,
+    /// Share of variants whose CBV hit a background agent in stage 1.
+    pub cbv_background_collision_rate: Option<f64>,
+    /// Share of variants where the CBV was at fault in such a collision.
+    pub cbv_at_fault_background_collision_rate: Option<f64>,
+    /// Share of variants whose CBV left the road in stage 1.
+    pub cbv_off_road_rate: Option<f64>,
+    /// Mean time the CBV spent off the road per variant, s.
+    pub cbv_off_road_s: Option<f64>,
     /// Jensen–Shannon divergence of CBV speed vs the log.
     pub vj: Option<f64>,
     /// Jensen–Shannon divergence of CBV acceleration vs the log.
@@ -229,6 +240,9 @@ pub fn table(records: &[VariantRecord], methods: &[AdversaryMethod]) -> Vec<Meth
             let searched: Vec<&VariantRecord> = ok.iter().copied().filter(|r| r.witness.is_some()).collect();
             let witness_rate = (!searched.is_empty())
                 .then(|| searched.iter().filter(|r| r.witness == Some(true)).count() as f64 / searched.len() as f64);
+            let witnessed: Vec<&VariantRecord> = searched.iter().copied().filter(|r| r.witness == Some(true)).collect();
+            let sr_witnessed = (!witnessed.is_empty())
+                .then(|| witnessed.iter().filter(|r| r.tally.solved).count() as f64 / witnessed.len() as f64);
             let n = ok.len().max(1) as f64;
             let mut profile = VariantProfile::default();
             for r in &ok {
@@ -243,6 +257,11 @@ pub fn table(records: &[VariantRecord], methods: &[AdversaryMethod]) -> Vec<Meth
                 sr: metrics.solution_rate,
                 sr_critical: metrics.solution_rate_critical,
                 witness_rate,
+                sr_witnessed,
+                cbv_background_collision_rate: metrics.cbv_background_collision_rate,
+                cbv_at_fault_background_collision_rate: metrics.cbv_at_fault_background_collision_rate,
+                cbv_off_road_rate: metrics.cbv_off_road_rate,
+                cbv_off_road_s: metrics.cbv_off_road_s,
                 vj: metrics.velocity_jsd,
                 aj: metrics.acceleration_jsd,
                 time_per_variant_s: ok.iter().map(|r| r.time_s).sum::<f64>() / n,

@@ -3,7 +3,11 @@
 //! planner under test solves — see [`Stage2Verdict`]), SR over the
 //! stage-1-critical variants, and VJ / AJ (Jensen–Shannon divergence of the
 //! CBV's stage-1 speed and acceleration against its logged values over the
-//! same steps; bins in [`crate::eval::divergence`]).
+//! same steps; bins in [`crate::eval::divergence`]). Two plausibility
+//! rates say whether the CBV stayed a road user in stage 1: the share of
+//! variants where it collided with a background agent, and the share where
+//! it left the road (centre off the road while it started on it), with the
+//! mean time it spent off the road.
 //!
 //! This is the one definition of these metrics: the suite runner, `safer
 //! run` and `safer evaluate` each reduce a variant to a [`VariantTally`] and
@@ -13,7 +17,8 @@
 
 use super::pipeline::DualStage;
 use crate::eval::{Histogram, jensen_shannon};
-use crate::scenario::Scenario;
+use crate::scenario::{Scenario, TrackIndex};
+use crate::sim::EgoCollisionKind;
 use crate::sim::Rollout;
 use crate::spec::suite::SuiteAcceptance;
 
@@ -71,6 +76,15 @@ pub struct VariantTally {
     pub solved: bool,
     /// The CBV's kinematics (`None` without a CBV).
     pub cbv: Option<CbvKinematics>,
+    /// The CBV collided with a background agent (not the ego) in stage 1.
+    pub cbv_hit_background: bool,
+    /// ... and was at fault in at least one such collision (classified as
+    /// an ego collision is, from the CBV's side: not stopped, not hit from
+    /// behind); the rest are a replayed background driving into it.
+    pub cbv_at_fault_with_background: bool,
+    /// Time the CBV's centre spent off the road in stage 1, having started
+    /// on it, s (0 when it started off the road: a car park is not a fault).
+    pub cbv_off_road_s: f64,
 }
 
 impl VariantTally {
@@ -80,7 +94,43 @@ impl VariantTally {
             critical: stages.stage1_cbv_hit_ego(),
             solved: stages.verdict.solved(),
             cbv: CbvKinematics::of_stage1(scenario, &stages.stage1),
+            cbv_hit_background: !cbv_background_collisions(&stages.stage1).is_empty(),
+            cbv_at_fault_with_background: cbv_background_collisions(&stages.stage1).into_iter().any(|f| f),
+            cbv_off_road_s: cbv_off_road_s(scenario, &stages.stage1),
         }
+    }
+}
+
+/// The CBV's collisions with anyone but the ego in `stage1`, each as
+/// whether the CBV was at fault.
+fn cbv_background_collisions(stage1: &Rollout) -> Vec<bool> {
+    let Some(cbv) = stage1.cbv else { return Vec::new() };
+    let state = |step: usize, agent: TrackIndex| {
+        stage1.states.get(step.checked_sub(stage1.start_step)?)?.get(agent.0).copied().flatten()
+    };
+    stage1
+        .collisions
+        .iter()
+        .filter(|c| !c.involves_ego && (c.a == cbv || c.b == cbv))
+        .map(|c| {
+            let other = if c.a == cbv { c.b } else { c.a };
+            match (state(c.step, cbv), state(c.step, other)) {
+                (Some(me), Some(them)) => EgoCollisionKind::classify(&me, &them).ego_at_fault(),
+                _ => true,
+            }
+        })
+        .collect()
+}
+
+/// Seconds the CBV's centre was off the road in `stage1`, when it started on it.
+fn cbv_off_road_s(scenario: &Scenario, stage1: &Rollout) -> f64 {
+    let Some(cbv) = stage1.cbv else { return 0.0 };
+    let mut states = stage1.states.iter().filter_map(|row| row.get(cbv.0).copied().flatten());
+    match states.next() {
+        Some(first) if !scenario.map.is_off_road(&first.position) => {
+            states.filter(|s| scenario.map.is_off_road(&s.position)).count() as f64 * stage1.dt_s
+        }
+        _ => 0.0,
     }
 }
 
@@ -99,6 +149,14 @@ pub struct SuiteMetrics {
     pub velocity_jsd: Option<f64>,
     /// AJ: JSD of CBV acceleration, generated vs logged.
     pub acceleration_jsd: Option<f64>,
+    /// Share of variants whose CBV collided with a background agent in stage 1.
+    pub cbv_background_collision_rate: Option<f64>,
+    /// Share of variants where the CBV was at fault in such a collision.
+    pub cbv_at_fault_background_collision_rate: Option<f64>,
+    /// Share of variants whose CBV left the road in stage 1.
+    pub cbv_off_road_rate: Option<f64>,
+    /// Mean time the CBV spent off the road per variant, s.
+    pub cbv_off_road_s: Option<f64>,
 }
 
 /// One suite-level check (a test).
@@ -126,6 +184,7 @@ impl SuiteMetrics {
     /// Aggregates variant tallies.
     pub fn aggregate<'a>(tallies: impl IntoIterator<Item = &'a VariantTally>) -> SuiteMetrics {
         let (mut n, mut critical, mut solved, mut solved_critical) = (0, 0, 0, 0);
+        let (mut hit_background, mut at_fault, mut off_road, mut off_road_s) = (0, 0, 0, 0.0);
         let (mut gv, mut ga, mut lv, mut la) =
             (Histogram::speed(), Histogram::acceleration(), Histogram::speed(), Histogram::acceleration());
         for t in tallies {
@@ -133,6 +192,10 @@ impl SuiteMetrics {
             critical += usize::from(t.critical);
             solved += usize::from(t.solved);
             solved_critical += usize::from(t.critical && t.solved);
+            hit_background += usize::from(t.cbv_hit_background);
+            at_fault += usize::from(t.cbv_at_fault_with_background);
+            off_road += usize::from(t.cbv_off_road_s > 0.0);
+            off_road_s += t.cbv_off_road_s;
             if let Some(cbv) = &t.cbv {
                 cbv.generated.speeds_mps.iter().for_each(|v| gv.add(*v));
                 cbv.generated.accels_mps2.iter().for_each(|a| ga.add(*a));
@@ -147,6 +210,10 @@ impl SuiteMetrics {
             solution_rate_critical: share(solved_critical, critical),
             velocity_jsd: jensen_shannon(&gv, &lv),
             acceleration_jsd: jensen_shannon(&ga, &la),
+            cbv_background_collision_rate: share(hit_background, n),
+            cbv_at_fault_background_collision_rate: share(at_fault, n),
+            cbv_off_road_rate: share(off_road, n),
+            cbv_off_road_s: (n > 0).then(|| off_road_s / n as f64),
         }
     }
 
@@ -209,7 +276,7 @@ mod tests {
     use super::*;
 
     fn tally(critical: bool, solved: bool) -> VariantTally {
-        VariantTally { critical, solved, cbv: None }
+        VariantTally { critical, solved, ..VariantTally::default() }
     }
 
     fn acceptance(sr_min: Option<f64>, cr_min: Option<f64>) -> SuiteAcceptance {

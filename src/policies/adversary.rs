@@ -5,28 +5,53 @@
 //! with the least loss: the box distance to the ego when the feasibility
 //! value says the ego can still avoid a collision (V_h ≤ 0), else V_h + Δ
 //! (so an unavoidable state is chosen only when nothing else is left). The
-//! ablations are the same policy with a part switched off.
+//! choice is the paper's strict arg min, ties broken by the prior's logit
+//! and then the token id, so it is a pure function of the world.
+//!
+//! Two things the paper leaves open are fixed here:
+//! - **Seeds.** With the background on log replay an arg min gives every
+//!   seed the same variant. The seed instead sets an *approach phase*: the
+//!   prior samples the CBV's first 1–4 tokens (0.5–2 s, drawn from the
+//!   seed) before the adversary engages, so each seed starts the attack
+//!   from a different, realistic state.
+//! - **Plausibility.** A candidate is kept out of the choice, while any
+//!   other remains, when its 0.5 s rollout takes the CBV from the road onto
+//!   the off-road area, or when the CBV, braking as hard as it can after
+//!   it, would still run into a background vehicle (predicted at constant
+//!   velocity over 2 s): the CBV must stay a plausible road user. The same
+//!   rule restricts the prior's draws in the approach phase.
+//!
+//! The ablations are the same policy with a part switched off.
 
 use std::sync::{Arc, Mutex};
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-use super::prior_sampling::{PriorTraffic, draw_seed, ranked_tokens};
+use super::prior_sampling::{PriorTraffic, draw_seed, ranked_tokens, sample_token};
 use super::{AgentAction, AgentPolicy, WorldView};
 use crate::geometry::OrientedBox;
 use crate::models::ModelError;
 pub use crate::models::feasibility_oracle::{EgoCbvState, FeasibilityOracle};
-use crate::motion::KinematicState;
-use crate::motion::tokens::{TOKEN_PERIOD_S, TOKEN_PERIOD_STEPS, Token, TokenGrid};
+use crate::motion::tokens::{MAX_ACCEL_MPS2, TOKEN_PERIOD_S, TOKEN_PERIOD_STEPS, Token, TokenGrid};
+use crate::motion::{Action, KinematicState, kinematic_step};
 use crate::scenario::{AgentState, TrackIndex};
 
 /// Penalty added to V_h for candidates outside the feasible region (the paper's Δ).
 pub const INFEASIBLE_PENALTY: f64 = 50.0;
 
-/// Candidates whose loss is within this of the best are equally adversarial
-/// (m of box distance; V_h differences above it matter).
-pub const NEAR_OPTIMAL_LOSS_M: f64 = 0.25;
+/// The approach phase: the prior drives the CBV for this many token
+/// periods (drawn per seed, uniformly) before the adversary engages.
+pub const APPROACH_TOKENS: std::ops::RangeInclusive<usize> = 1..=4;
+
+/// Background agents farther than this from the CBV cannot be reached
+/// within the plausibility check's horizon and are not checked, m.
+const BACKGROUND_CHECK_RANGE_M: f64 = 80.0;
+
+/// After a candidate token the plausibility check brakes the CBV this many
+/// simulator steps (2 s) to see whether it could still stop short of the
+/// background traffic.
+const BRAKING_CHECK_STEPS: usize = 20;
 
 /// Which tokens the adversary may choose from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -84,7 +109,6 @@ impl Adversary {
     /// when the prior has no opinion (the CBV is absent).
     fn choose(&mut self, world: &WorldView<'_>, cbv: TrackIndex) -> Result<Option<Token>, ModelError> {
         let mut shared = self.shared.lock().unwrap_or_else(|p| p.into_inner());
-        let seed = shared.seed();
         let Some(logits) = shared.logits_at(cbv.0, world.step).cloned() else { return Ok(None) };
         drop(shared);
         let ranked = ranked_tokens(&logits);
@@ -98,9 +122,8 @@ impl Adversary {
         let ego_next = ego_prediction(ego_now);
         let (ego_body, cbv_body) = (world.body(self.ego), world.body(cbv));
         let ego_box = OrientedBox::new(ego_next.pose(), ego_body.length_m, ego_body.width_m);
-        let from = KinematicState::from_agent_state(cbv_now);
-        let predicted: Vec<AgentState> =
-            candidates.iter().map(|t| TokenGrid::rollout(&from, *t)[TOKEN_PERIOD_STEPS - 1].to_agent_state()).collect();
+        let rollouts = token_rollouts(cbv_now, candidates);
+        let predicted: Vec<AgentState> = rollouts.iter().map(|r| r[TOKEN_PERIOD_STEPS - 1]).collect();
         let distances: Vec<f64> = predicted
             .iter()
             .map(|s| ego_box.distance(&OrientedBox::new(s.pose(), cbv_body.length_m, cbv_body.width_m)))
@@ -132,35 +155,110 @@ impl Adversary {
                     .collect()
             }
         };
-        // Among the candidates (nearly) as adversarial as the best, draw one
-        // by its prior probability with the variant's seed: seeds then give
-        // different, equally adversarial variants, and likelier tokens win.
-        // A NaN distance (never expected: states are bounds-checked) ranks last.
-        let losses: Vec<f64> = losses.into_iter().map(|l| if l.is_nan() { f64::INFINITY } else { l }).collect();
-        let best_loss = losses.iter().copied().fold(f64::INFINITY, f64::min);
-        let near: Vec<usize> =
-            (0..candidates.len()).filter(|&i| losses[i] <= best_loss + NEAR_OPTIMAL_LOSS_M).collect();
-        let Some(&last) = near.last() else {
-            // Every loss infinite: no candidate is better than another, so
-            // the prior's likeliest token drives the CBV.
-            return Ok(candidates.first().copied());
+        let implausible = implausible_candidates(world, cbv, self.ego, &rollouts);
+        // The strict arg min: plausible candidates first, then the loss (a NaN
+        // distance, never expected as states are bounds-checked, ranks
+        // last), then the likelier token, then the lower id.
+        let key = |i: usize| {
+            let loss = if losses[i].is_nan() { f64::INFINITY } else { losses[i] };
+            (implausible[i], loss, -logits[candidates[i].0 as usize], candidates[i].0)
         };
-        let weights: Vec<f64> = {
-            let top = near.iter().map(|&i| logits[candidates[i].0 as usize]).fold(f32::NEG_INFINITY, f32::max);
-            near.iter().map(|&i| ((logits[candidates[i].0 as usize] - top) as f64).exp()).collect()
-        };
-        let mut rng = ChaCha8Rng::seed_from_u64(draw_seed(seed, cbv.0, world.step));
-        let mut u = rng.random::<f64>() * weights.iter().sum::<f64>();
-        let mut best = last;
-        for (&i, w) in near.iter().zip(&weights) {
-            if u < *w {
-                best = i;
-                break;
-            }
-            u -= w;
-        }
-        Ok(Some(candidates[best]))
+        let best = (0..candidates.len()).min_by(|&i, &j| {
+            let (a, b) = (key(i), key(j));
+            a.0.cmp(&b.0).then(a.1.total_cmp(&b.1)).then(a.2.total_cmp(&b.2)).then(a.3.cmp(&b.3))
+        });
+        Ok(best.map(|i| candidates[i]))
     }
+
+    /// The approach phase's token: a draw from the prior (with the
+    /// rollout's seed and sampling) among the plausible candidates of its
+    /// top k, or among all of them when none is plausible.
+    fn approach_token(&self, world: &WorldView<'_>, cbv: TrackIndex) -> Option<Token> {
+        let mut shared = self.shared.lock().unwrap_or_else(|p| p.into_inner());
+        let (seed, sampling) = (shared.seed(), shared.sampling());
+        let logits = shared.logits_at(cbv.0, world.step)?.clone();
+        drop(shared);
+        let ranked = ranked_tokens(&logits);
+        let top = &ranked[..sampling.top_k.clamp(1, ranked.len())];
+        let mut masked = logits.clone();
+        if let Some(cbv_now) = world.state(cbv) {
+            let implausible = implausible_candidates(world, cbv, self.ego, &token_rollouts(cbv_now, top));
+            if implausible.iter().any(|bad| !bad) {
+                for (t, bad) in top.iter().zip(implausible) {
+                    if bad {
+                        masked[t.0 as usize] = f32::NEG_INFINITY;
+                    }
+                }
+            }
+        }
+        // Masked tokens rank last, so the top k keeps every plausible one.
+        let mut rng = ChaCha8Rng::seed_from_u64(draw_seed(seed, cbv.0, world.step));
+        Some(sample_token(&masked, sampling, &mut rng))
+    }
+
+    /// How many token periods of the approach phase this rollout's seed gives.
+    fn approach_tokens(seed: u64, cbv: TrackIndex) -> usize {
+        let mut rng = ChaCha8Rng::seed_from_u64(draw_seed(seed, cbv.0, usize::MAX));
+        rng.random_range(APPROACH_TOKENS)
+    }
+}
+
+/// The CBV's states over one token period from `now` under each token.
+fn token_rollouts(now: &AgentState, tokens: &[Token]) -> Vec<Vec<AgentState>> {
+    let from = KinematicState::from_agent_state(now);
+    tokens.iter().map(|t| TokenGrid::rollout(&from, *t).iter().map(KinematicState::to_agent_state).collect()).collect()
+}
+
+/// For each candidate rollout of the CBV (one state per simulator step of
+/// the token), whether it is implausible for a road user: it leaves the
+/// road while the CBV is on it now, or the CBV, braking as hard as it can
+/// after the token, would still overlap a background agent predicted at
+/// constant velocity.
+fn implausible_candidates(
+    world: &WorldView<'_>,
+    cbv: TrackIndex,
+    ego: TrackIndex,
+    rollouts: &[Vec<AgentState>],
+) -> Vec<bool> {
+    let Some(cbv_now) = world.state(cbv) else { return vec![false; rollouts.len()] };
+    let cbv_body = world.body(cbv);
+    let dt = TOKEN_PERIOD_S / TOKEN_PERIOD_STEPS as f64;
+    let horizon = TOKEN_PERIOD_STEPS + BRAKING_CHECK_STEPS;
+    // Each nearby background agent's predicted boxes, one per step of the check.
+    let background: Vec<Vec<OrientedBox>> = (0..world.states.len())
+        .filter(|&i| i != cbv.0 && i != ego.0)
+        .filter_map(|i| world.states[i].map(|s| (i, s)))
+        .filter(|(_, s)| (s.position - cbv_now.position).norm() < BACKGROUND_CHECK_RANGE_M)
+        .map(|(i, s)| {
+            let b = world.bodies[i];
+            (1..=horizon)
+                .map(|k| {
+                    let at = AgentState { position: s.position + s.velocity_mps * (k as f64 * dt), ..s };
+                    OrientedBox::new(at.pose(), b.length_m, b.width_m)
+                })
+                .collect()
+        })
+        .collect();
+    let on_road_now = !world.map.is_off_road(&cbv_now.position);
+    let brake = Action { accel_mps2: -MAX_ACCEL_MPS2, yaw_rate_radps: 0.0 };
+    rollouts
+        .iter()
+        .map(|r| {
+            let Some(end) = r.last() else { return false };
+            if on_road_now && r.iter().any(|s| world.map.is_off_road(&s.position)) {
+                return true;
+            }
+            let mut braking = KinematicState::from_agent_state(end);
+            let path = r.iter().copied().chain((0..BRAKING_CHECK_STEPS).map(|_| {
+                braking = kinematic_step(&braking, brake, dt);
+                braking.to_agent_state()
+            }));
+            path.enumerate().any(|(k, s)| {
+                let own = OrientedBox::new(s.pose(), cbv_body.length_m, cbv_body.width_m);
+                background.iter().any(|boxes| boxes.get(k).is_some_and(|b| b.intersects(&own)))
+            })
+        })
+        .collect()
 }
 
 impl AgentPolicy for Adversary {
@@ -179,6 +277,13 @@ impl AgentPolicy for Adversary {
         }
         let boundary = world.step.saturating_sub(start) % TOKEN_PERIOD_STEPS == 0;
         if boundary || self.current.is_none() {
+            let seed = self.shared.lock().unwrap_or_else(|p| p.into_inner()).seed();
+            let token_index = world.step.saturating_sub(start) / TOKEN_PERIOD_STEPS;
+            if token_index < Self::approach_tokens(seed, agent) {
+                // The approach phase: the prior drives the CBV.
+                self.current = self.approach_token(world, agent).or(self.current);
+                return AgentAction::Control(self.current.map(TokenGrid::action).unwrap_or_default());
+            }
             match self.choose(world, agent) {
                 Ok(Some(t)) => self.current = Some(t),
                 Ok(None) => {}
@@ -190,5 +295,64 @@ impl AgentPolicy for Adversary {
             }
         }
         AgentAction::Control(self.current.map(TokenGrid::action).unwrap_or_default())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::{Point2, Vector2};
+    use crate::map::RoadMap;
+    use crate::motion::Action;
+    use crate::scenario::{AgentBody, AgentKind};
+
+    fn car(x: f64, y: f64, speed_mps: f64) -> Option<AgentState> {
+        Some(AgentState { position: Point2::new(x, y), heading_rad: 0.0, velocity_mps: Vector2::new(speed_mps, 0.0) })
+    }
+
+    fn token(accel_mps2: f64) -> Token {
+        TokenGrid::quantize(Action { accel_mps2, yaw_rate_radps: 0.0 })
+    }
+
+    #[test]
+    fn a_token_the_cbv_cannot_brake_out_of_is_implausible() {
+        // Ego far away; the CBV at 15 m/s, 25 m behind a stopped car. Full
+        // acceleration for 0.5 s leaves it no room to stop (about 8 m at
+        // 19 m/s / 5 m/s² needs 36 m); full braking does.
+        let map = RoadMap::default();
+        let body = AgentBody { kind: AgentKind::Vehicle, length_m: 4.5, width_m: 2.0 };
+        let bodies = [body; 3];
+        let states = [car(0.0, 100.0, 10.0), car(0.0, 0.0, 15.0), car(30.0, 0.0, 0.0)];
+        let world = WorldView { map: &map, step: 10, bodies: &bodies, states: &states };
+        let (ego, cbv) = (TrackIndex(0), TrackIndex(1));
+        let tokens = [token(MAX_ACCEL_MPS2), token(0.0), token(-MAX_ACCEL_MPS2)];
+        let rollouts = token_rollouts(states[1].as_ref().unwrap(), &tokens);
+        assert_eq!(implausible_candidates(&world, cbv, ego, &rollouts), vec![true, true, false]);
+        // The same tokens with the stopped car in the next lane are all plausible.
+        let beside = [states[0], states[1], car(30.0, 4.0, 0.0)];
+        let world = WorldView { states: &beside, ..world };
+        assert_eq!(implausible_candidates(&world, cbv, ego, &rollouts), vec![false; 3]);
+    }
+
+    #[test]
+    fn the_ego_is_never_an_obstacle_of_the_plausibility_check() {
+        // The adversary exists to reach the ego: closing on it is not implausible.
+        let map = RoadMap::default();
+        let bodies = [AgentBody { kind: AgentKind::Vehicle, length_m: 4.5, width_m: 2.0 }; 2];
+        let states = [car(20.0, 0.0, 0.0), car(0.0, 0.0, 15.0)];
+        let world = WorldView { map: &map, step: 0, bodies: &bodies, states: &states };
+        let rollouts = token_rollouts(states[1].as_ref().unwrap(), &[token(MAX_ACCEL_MPS2)]);
+        assert_eq!(implausible_candidates(&world, TrackIndex(1), TrackIndex(0), &rollouts), vec![false]);
+    }
+
+    #[test]
+    fn approach_phases_cover_the_range_and_depend_on_the_seed() {
+        let lengths: Vec<usize> = (0..64).map(|seed| Adversary::approach_tokens(seed, TrackIndex(3))).collect();
+        assert!(lengths.iter().all(|n| APPROACH_TOKENS.contains(n)), "{lengths:?}");
+        for n in APPROACH_TOKENS {
+            assert!(lengths.contains(&n), "{n} never drawn in {lengths:?}");
+        }
+        // A pure function of the seed.
+        assert_eq!(Adversary::approach_tokens(5, TrackIndex(3)), Adversary::approach_tokens(5, TrackIndex(3)));
     }
 }

@@ -236,6 +236,11 @@ impl PriorTraffic {
         Some(token)
     }
 
+    /// How the rollout's tokens are drawn.
+    pub fn sampling(&self) -> TokenSampling {
+        self.sampling
+    }
+
     /// The rollout's seed.
     pub fn seed(&self) -> u64 {
         self.seed

@@ -184,6 +184,9 @@ pub enum RoleOrigin {
     Source,
     /// Chosen by conflict mining (see [`roles`]).
     ConflictMining,
+    /// The source's labelled interacting pair (WOMD `objects_of_interest`)
+    /// when it leaves out the SDC (see [`roles::assign`]).
+    LabelledPair,
     /// Not assigned.
     Unassigned,
 }

@@ -1,6 +1,16 @@
 //! Ego and CBV assignment by conflict mining, for sources that name no ego
 //! (CommonRoad NGSIM, older WOMD JSON) or no critical background vehicle.
 //!
+//! A labelled interacting pair comes first: WOMD's interactive scenes name
+//! two `objects_of_interest`, and the paper makes the object of interest
+//! the CBV. When the SDC is one of the two, the importer already made the
+//! other the CBV. When it is not and both are vehicles, the pair becomes ego
+//! and CBV (the SDC drives as background): the labelled interaction is the
+//! conflict to test, and the SDC is often nowhere near it. Of the two, the
+//! ego is the one with more valid future steps, ties to the lower index (as
+//! in mining). A pair with a pedestrian or cyclist falls back to mining a
+//! CBV for the SDC.
+//!
 //! The conflict of two vehicles is their closest approach: the minimum box
 //! distance over the steps from `current_step` on where both are valid. The
 //! ego/CBV pair is the pair of *moving* vehicles with the closest approach;
@@ -115,6 +125,24 @@ pub fn mine_pair(scenario: &Scenario) -> Option<(TrackIndex, TrackIndex)> {
     Some(if future(b) > future(a) { (b, a) } else { (a, b) })
 }
 
+/// The labelled pair as (ego, CBV): two objects of interest, both moving
+/// vehicles with enough future, neither of them the ego already named.
+fn labelled_pair(scenario: &Scenario) -> Option<(TrackIndex, TrackIndex)> {
+    let [a, b] = scenario.objects_of_interest[..] else { return None };
+    if a == b || scenario.ego.is_some_and(|e| e == a || e == b) {
+        return None;
+    }
+    let cands = candidates(scenario);
+    // Same rules as mining: moving vehicles with a future, whose recorded
+    // boxes never overlap (an overlap is an annotation error).
+    if !(cands.contains(&a) && cands.contains(&b)) || closest_approach(scenario, a, b)?.distance_m <= 0.0 {
+        return None;
+    }
+    let (a, b) = if a < b { (a, b) } else { (b, a) };
+    let future = |t: TrackIndex| scenario.track(t).states[scenario.current_step..].iter().flatten().count();
+    Some(if future(b) > future(a) { (b, a) } else { (a, b) })
+}
+
 /// Why conflict mining found nothing, for the scenario's notes.
 fn no_candidates_note(scenario: &Scenario, role: &str) -> String {
     let future = scenario.num_steps().saturating_sub(scenario.current_step + 1);
@@ -128,6 +156,21 @@ fn no_candidates_note(scenario: &Scenario, role: &str) -> String {
 /// Fills in ego and CBV where the source named none, recording how (or,
 /// in the notes, why not).
 pub fn assign(scenario: &mut Scenario) {
+    if scenario.cbv.is_none()
+        && let Some((ego, cbv)) = labelled_pair(scenario)
+    {
+        if let Some(sdc) = scenario.ego {
+            let id = &scenario.track(sdc).id.0;
+            scenario.source.notes.push(format!(
+                "ego and CBV are the labelled interacting pair (objects_of_interest); the SDC ({id}) is background"
+            ));
+        }
+        scenario.ego = Some(ego);
+        scenario.ego_origin = RoleOrigin::LabelledPair;
+        scenario.cbv = Some(cbv);
+        scenario.cbv_origin = RoleOrigin::LabelledPair;
+        return;
+    }
     match scenario.ego {
         None => match mine_pair(scenario) {
             Some((ego, cbv)) => {
@@ -213,6 +256,34 @@ mod tests {
         assert_eq!(s.ego, Some(TrackIndex(1)));
         // Track 2 (y = 6) is 24 m from the ego (y = 30); track 0 is 30 m away.
         assert_eq!(s.cbv, Some(TrackIndex(2)));
+        assert_eq!(s.cbv_origin, RoleOrigin::ConflictMining);
+    }
+
+    #[test]
+    fn a_labelled_pair_without_the_sdc_becomes_ego_and_cbv() {
+        // The SDC (0) is far from the labelled pair (1, 2); 2 has the longer future.
+        let mut short = track("1", 100.0, 0.0, 10.0, 0.0);
+        short.states[35..].iter_mut().for_each(|s| *s = None);
+        let mut s = scenario(vec![track("0", 0.0, 50.0, 10.0, 0.0), short, track("2", 90.0, 4.0, 12.0, 0.0)]);
+        s.ego = Some(TrackIndex(0));
+        s.ego_origin = RoleOrigin::Source;
+        s.objects_of_interest = vec![TrackIndex(1), TrackIndex(2)];
+        assign(&mut s);
+        assert_eq!((s.ego, s.cbv), (Some(TrackIndex(2)), Some(TrackIndex(1))));
+        assert_eq!((s.ego_origin, s.cbv_origin), (RoleOrigin::LabelledPair, RoleOrigin::LabelledPair));
+        assert!(s.source.notes.iter().any(|n| n.contains("SDC (0) is background")), "{:?}", s.source.notes);
+    }
+
+    #[test]
+    fn a_labelled_pair_with_a_pedestrian_falls_back_to_mining_for_the_sdc() {
+        let mut walker = track("1", 0.0, 6.0, 1.5, 0.0);
+        walker.kind = AgentKind::Pedestrian;
+        let mut s = scenario(vec![track("0", 0.0, 0.0, 10.0, 0.0), walker, track("2", 0.0, 5.0, 10.0, 0.0)]);
+        s.ego = Some(TrackIndex(0));
+        s.ego_origin = RoleOrigin::Source;
+        s.objects_of_interest = vec![TrackIndex(1), TrackIndex(2)];
+        assign(&mut s);
+        assert_eq!((s.ego, s.cbv), (Some(TrackIndex(0)), Some(TrackIndex(2))));
         assert_eq!(s.cbv_origin, RoleOrigin::ConflictMining);
     }
 }

@@ -120,3 +120,54 @@ fn a_feasibility_model_answering_nan_fails_the_variant_naming_the_model() {
     let error = records[0].error.as_deref().expect("the variant must fail, not pass on NaN");
     assert!(error.contains("feasibility value V_h") && error.contains("NaN"), "{error}");
 }
+
+#[test]
+fn seeds_give_distinct_safer_variants() {
+    // The arg min is deterministic; the seed's approach phase must still
+    // make the CBV's stage-1 trajectories of one scene differ.
+    use safer::harness::methods::{MapEncodings, MethodSettings};
+    use safer::harness::pipeline::{self, VariantSetup};
+    use safer::policies::prior_sampling::TokenSampling;
+    use safer::sim::SimConfig;
+    use safer::spec::planner::PlannerAdapter;
+
+    let models = ModelSet::shipped();
+    let maps = MapEncodings::default();
+    let sim = SimConfig::default();
+    let planner = PlannerAdapter::Builtin {
+        name: "constant-velocity".into(),
+        planner: BuiltinPlanner::ConstantVelocity,
+        idm: Default::default(),
+    };
+    for scenario in &scenes() {
+        let cbv = scenario.cbv.unwrap();
+        let end_states: Vec<_> = (0..3u64)
+            .map(|seed| {
+                let stages = pipeline::run(VariantSetup {
+                    scenario,
+                    settings: MethodSettings {
+                        method: AdversaryMethod::Safer,
+                        trust_region: 20,
+                        background: BackgroundDriver::Configured,
+                        sampling: TokenSampling::default(),
+                    },
+                    seed,
+                    sim: &sim,
+                    stage2_cbv: Stage2Cbv::Replay,
+                    planner: &planner,
+                    models: &models,
+                    maps: &maps,
+                })
+                .unwrap();
+                let track: Vec<_> = stages.stage1.states.iter().filter_map(|row| row[cbv.0]).collect();
+                format!("{:?}", track.last().map(|s| s.position))
+            })
+            .collect();
+        assert!(
+            end_states.iter().any(|e| *e != end_states[0]),
+            "{}: every seed ends the CBV at {}",
+            scenario.id,
+            end_states[0]
+        );
+    }
+}

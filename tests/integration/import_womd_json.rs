@@ -35,11 +35,20 @@ fn womd_json_every_file_imports_with_invariants() {
         } else {
             radians += 1;
         }
-        // The source names an ego exactly when it has metadata.
+        // The source names an ego exactly when it has metadata; a labelled
+        // interacting pair without the SDC replaces it.
         let text = String::from_utf8_lossy(&bytes);
         if text.contains("\"metadata\"") && text.contains("\"sdc_track_index\"") {
             with_ego += 1;
-            assert_eq!(s.ego_origin, RoleOrigin::Source, "{}", path.display());
+            match s.ego_origin {
+                RoleOrigin::Source => {}
+                RoleOrigin::LabelledPair => {
+                    let (ego, cbv) = (s.ego.unwrap(), s.cbv.unwrap());
+                    assert!(s.objects_of_interest.contains(&ego) && s.objects_of_interest.contains(&cbv));
+                    assert!(s.source.notes.iter().any(|n| n.contains("the SDC")), "{:?}", s.source.notes);
+                }
+                other => panic!("{}: ego origin {other:?} despite an SDC", path.display()),
+            }
         } else {
             assert_ne!(s.ego_origin, RoleOrigin::Source, "{}", path.display());
         }

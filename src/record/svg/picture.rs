@@ -101,6 +101,7 @@ impl<'a> Picture<'a> {
         let origin = |o: RoleOrigin| match o {
             RoleOrigin::Source => "named by the source",
             RoleOrigin::ConflictMining => "by conflict mining",
+            RoleOrigin::LabelledPair => "the labelled interacting pair",
             RoleOrigin::Unassigned => "unassigned",
         };
         let line2 = format!(
