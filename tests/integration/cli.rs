@@ -52,3 +52,33 @@ fn a_corrupt_file_is_an_error_naming_it_not_a_panic() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("not a scenario file"));
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn feasibility_eval_writes_its_figures_as_json_and_nothing_into_docs_unless_asked() {
+    let dir = std::env::temp_dir().join(format!("safer-feasibility-eval-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let recorded = data_dir().join("commonroad-ngsim");
+    let out = Command::new(env!("CARGO_BIN_EXE_safer"))
+        .current_dir(&dir)
+        .env("SAFER_MODELS", concat!(env!("CARGO_MANIFEST_DIR"), "/models"))
+        .args(["feasibility-eval", "--recorded", recorded.to_str().unwrap()])
+        .args(["--synthetic-scenes", "2", "--states", "40", "--json", "-"])
+        .output()
+        .expect("run safer");
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON on stdout");
+    assert_eq!(v["split"], "held-out");
+    assert_eq!(v["states"], 40);
+    for key in ["precision", "recall", "accuracy"] {
+        assert!(v[key].is_null() || (0.0..=1.0).contains(&v[key].as_f64().unwrap()), "{key}: {}", v[key]);
+    }
+    assert!(v["mean_vh"].as_f64().is_some_and(f64::is_finite), "{}", v["mean_vh"]);
+    let cells = ["true_infeasible", "false_infeasible", "missed_infeasible", "true_feasible"];
+    let scored: u64 = cells.iter().map(|c| v["at_zero"][c].as_u64().unwrap()).sum();
+    assert_eq!(scored + v["unscored"].as_u64().unwrap(), 40);
+    // The table went to stderr, and no picture was drawn anywhere.
+    assert!(String::from_utf8_lossy(&out.stderr).contains("held-out states: 40"));
+    let written: Vec<_> = std::fs::read_dir(&dir).unwrap().collect();
+    assert!(written.is_empty(), "feasibility-eval wrote {written:?} without --svg");
+    std::fs::remove_dir_all(&dir).ok();
+}
