@@ -3,6 +3,9 @@
 //! critical variants, witness rate, VJ, AJ, time per variant), with a
 //! progress bar, rayon across variants, and an optional JSON report with
 //! every variant (`--json -`: on standard output, the table then on stderr).
+//! Scenes whose recorded ego touches another agent (annotation overlaps)
+//! are skipped with a warning: every variant of them would count against
+//! the planner whatever it did.
 
 use std::io::Write;
 use std::path::Path;
@@ -136,7 +139,21 @@ pub(super) fn run(
     if let Some(path) = json {
         crate::record::output::check_output(path)?;
     }
-    let scenes = load_scenes(scenes_dir, max_scenes)?;
+    let scenes: Vec<Arc<Scenario>> = load_scenes(scenes_dir, max_scenes)?
+        .into_iter()
+        .filter(|s| match crate::scenario::roles::recorded_ego_contact(s) {
+            Some((other, step)) => {
+                eprintln!(
+                    "warning: skipping {}: the recorded ego touches agent {} at t = {:.1} s (an annotation overlap: no planner can solve it)",
+                    s.id,
+                    s.track(other).id.0,
+                    step.saturating_sub(s.current_step) as f64 * s.dt_s
+                );
+                false
+            }
+            None => true,
+        })
+        .collect();
     if scenes.is_empty() {
         return Err(CliError::Usage(format!("{}: no scene with both an ego and a CBV", scenes_dir.display())));
     }

@@ -9,6 +9,16 @@
 //! the step; an episode ends at the horizon or at the ego's first
 //! collision.
 //!
+//! The expectile in V_h's training can only learn escapes that the data
+//! shows, and these ego policies rarely escape a close, fast CBV. So every
+//! episode also gets *witness branches*: from states of its rollout where
+//! the CBV is close (box distance up to [`BRANCH_MAX_DISTANCE_M`]), the
+//! witness search looks for an ego trajectory that keeps every agent
+//! beyond d_th while they replay the rollout; each one found is a branch
+//! whose transitions show that escape (the paper's stage 2 replays the CBV
+//! the same way). They cover the boundary of the feasible region, where
+//! V_h decides between adversarial and unavoidable.
+//!
 //! The [`Collection`] (scenes, their roles and [`Split`], the episodes) is
 //! a pure function of the recorded scenes, the number of synthetic scenes
 //! and the seed, so `safer feasibility-eval` rebuilds exactly the episodes
@@ -24,8 +34,10 @@ use rayon::prelude::*;
 
 use super::held_out::Split;
 use super::{DatasetError, source_name};
+use crate::eval::witness::{FixedTraffic, Witness, WitnessBudget, search_witness};
 use crate::geometry::wrap_angle;
 use crate::harness::methods::{BackgroundDriver, MapEncodings, MethodSettings, ModelSet};
+use crate::models::feasibility::DISTANCE_THRESHOLD_M;
 use crate::models::feasibility::{FEASIBILITY_FEATURES, box_distance_m, constraint_cost, feasibility_features, pair};
 use crate::models::shard::{ShardColumn, write_shard};
 use crate::planners::BuiltinPlanner;
@@ -47,6 +59,15 @@ const MAX_BOX_DISTANCE_M: f64 = 60.0;
 pub const BOX_DISTANCE_FEATURE: usize = 12;
 /// Values per action: the ego's acceleration (m/s²) and yaw rate (rad/s).
 pub const ACTION_VALUES: usize = 2;
+/// A witness branch starts where the ego–CBV box distance is at most this, m.
+pub const BRANCH_MAX_DISTANCE_M: f64 = 10.0;
+/// Branch starts are tried every this many steps (0.5 s) ...
+const BRANCH_EVERY_STEPS: usize = 5;
+/// ... at most this many per episode, closest first.
+const MAX_BRANCHES_PER_EPISODE: usize = 6;
+/// A branch (and the witness search) looks this far ahead, steps (4 s, as
+/// the witness labels of `safer feasibility-eval`).
+const BRANCH_STEPS: usize = 40;
 /// Steps of a synthetic collection scene (10 s at 0.1 s).
 const SYNTHETIC_STEPS: usize = 101;
 /// The ego policies of every scene.
@@ -266,7 +287,11 @@ impl Collection {
             .map(|&e| {
                 let t = self.run(e, seed, models, maps).map(|r| {
                     let cbv = self.scenes[e.scene].cbv;
-                    transitions(&r, e.scene, r.ego, cbv)
+                    let mut t = transitions(&r, e.scene, r.ego, cbv);
+                    for branch in witness_branches(&r, cbv) {
+                        t.extend(transitions(&branch, e.scene, r.ego, cbv));
+                    }
+                    t
                 });
                 (e.cbv_policy, t)
             })
@@ -368,6 +393,50 @@ pub fn run_episode(
     sim.set_policy(cbv, policy);
     let mut planner = episode.ego_planner.instantiate(s, ego);
     Some(sim.run(planner.as_mut()))
+}
+
+/// The witness branches of `rollout` (see the module documentation): each
+/// a copy of a stretch of it from a close ego–CBV state on, with the ego
+/// following a witness trajectory that keeps every other agent (replaying
+/// the rollout) beyond d_th.
+pub fn witness_branches(rollout: &Rollout, cbv: TrackIndex) -> Vec<Rollout> {
+    let ego = rollout.ego;
+    let body = rollout.bodies[ego.0];
+    let distance = |k: usize| {
+        let (e, c) =
+            (rollout.states[k].get(ego.0).copied().flatten()?, rollout.states[k].get(cbv.0).copied().flatten()?);
+        Some(box_distance_m(&pair(e, body, c, rollout.bodies[cbv.0])))
+    };
+    let mut starts: Vec<(f64, usize)> = (0..rollout.states.len().saturating_sub(BRANCH_EVERY_STEPS))
+        .step_by(BRANCH_EVERY_STEPS)
+        .filter_map(|k| distance(k).map(|d| (d, k)))
+        .filter(|(d, _)| *d > DISTANCE_THRESHOLD_M && *d <= BRANCH_MAX_DISTANCE_M)
+        .collect();
+    starts.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+    starts.truncate(MAX_BRANCHES_PER_EPISODE);
+    starts.sort_by_key(|&(_, k)| k);
+    let budget = WitnessBudget { margin_m: DISTANCE_THRESHOLD_M, ..WitnessBudget::default() };
+    starts
+        .into_iter()
+        .filter_map(|(_, k)| {
+            let end = (k + BRANCH_STEPS + 1).min(rollout.states.len());
+            let ahead = &rollout.states[k..end];
+            let start = ahead[0][ego.0]?;
+            let traffic = FixedTraffic { states: ahead, bodies: &rollout.bodies, ego: ego.0 };
+            let Witness::Found { trajectory, .. } = search_witness(&start, body, &traffic, ahead.len() - 1, budget)
+            else {
+                return None;
+            };
+            let mut branch = rollout.clone();
+            branch.start_step = rollout.start_step + k;
+            branch.states = ahead.to_vec();
+            for (row, s) in branch.states.iter_mut().zip(trajectory) {
+                row[ego.0] = Some(s);
+            }
+            branch.collisions.clear();
+            Some(branch)
+        })
+        .collect()
 }
 
 /// The transitions of a rollout between `ego` and `cbv`: one per step with
@@ -476,6 +545,36 @@ mod tests {
         assert!(t.done[..n - 1].iter().all(|&d| d == 0.0));
         assert_eq!(t.violating(), t.cost.iter().filter(|&&h| h == VIOLATION_COST as f32).count());
         assert!(t.within(5.0) >= t.within(2.0));
+    }
+
+    #[test]
+    fn witness_branches_escape_a_pursuing_cbv_that_the_constant_velocity_ego_does_not() {
+        let c = Collection::new(vec![scene()], 0, 0, false);
+        let (ego, cbv) = (c.scenes[0].ego, c.scenes[0].cbv);
+        let branches: Vec<Rollout> = (1..=3)
+            .flat_map(|style| {
+                let episode = Episode {
+                    scene: 0,
+                    ego_planner: BuiltinPlanner::ConstantVelocity,
+                    cbv_policy: CollectionCbv::Pursuit(style),
+                };
+                let rollout = c.run(episode, 3, &no_models(), &MapEncodings::default()).expect("the episode runs");
+                witness_branches(&rollout, cbv)
+            })
+            .collect();
+        assert!(!branches.is_empty(), "a pursuing CBV comes within 10 m and the witness escapes it at least once");
+        for b in &branches {
+            assert!(b.states.len() > 1 && b.states.len() <= BRANCH_STEPS + 1);
+            let t = transitions(b, 0, ego, cbv);
+            // Every branch state keeps the CBV beyond d_th: the escape is in the data.
+            assert!(!t.is_empty() && t.violating() == 0, "{} of {} violating", t.violating(), t.len());
+            assert!(
+                t.state
+                    .chunks_exact(FEASIBILITY_FEATURES)
+                    .all(|r| f64::from(r[BOX_DISTANCE_FEATURE]) > DISTANCE_THRESHOLD_M)
+            );
+            assert!(t.done.iter().filter(|&&d| d == 1.0).count() <= 1);
+        }
     }
 
     #[test]

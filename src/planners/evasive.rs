@@ -5,7 +5,8 @@
 //! Every step it rolls out a lattice of candidates for a few seconds through
 //! the kinematic model `K`: each a constant acceleration combined with
 //! pure-pursuit tracking of the route at a lateral offset (stay in lane,
-//! or swerve half / one lane either way). Other agents are predicted at
+//! or swerve half / one lane either way); the ego steers only as it moves
+//! (a car does not turn on the spot). Other agents are predicted at
 //! constant velocity. A candidate that hits a predicted box (with a safety
 //! margin), runs a red light or leaves the road is heavily penalised, and
 //! one that lets another agent into about a second of headway ahead is
@@ -41,7 +42,7 @@ impl Default for EvasiveParams {
     fn default() -> Self {
         Self {
             horizon_s: 4.0,
-            accelerations_mps2: vec![-MAX_ACCEL_MPS2, -3.0, -1.5, 0.0, 1.0, 2.0],
+            accelerations_mps2: vec![-MAX_ACCEL_MPS2, -3.0, -1.5, 0.0, 1.0, 2.0, 3.0],
             lateral_offsets_m: vec![-3.5, -1.75, 0.0, 1.75, 3.5],
             desired_speed_mps: None,
             safety_margin_m: 0.3,
@@ -185,18 +186,21 @@ impl EvasivePlanner {
             let s_here = proj.map_or(travelled_s, |p| p.arc_length_m);
             travelled_s = s_here;
             let lookahead = (0.8 * s.speed_mps).max(5.0);
+            // Accelerate only up to the desired speed.
+            let a = if accel > 0.0 && s.speed_mps >= v_des { 0.0 } else { accel };
+            // Pure pursuit's yaw rate at the speed the step ends with: none
+            // at a standstill, where a car cannot turn.
+            let moving_mps = (s.speed_mps + a * SIM_DT_S).max(0.0);
             let yaw_rate = match route.path.sample(s_here + lookahead) {
                 Some((p, t)) => {
                     let target = p + Vector2::new(-t.y, t.x) * offset;
                     let to = target - s.position;
                     let alpha = wrap_angle(to.y.atan2(to.x) - s.heading_rad);
-                    (2.0 * alpha.sin() / to.norm().max(1e-3) * s.speed_mps.max(0.5))
+                    (2.0 * alpha.sin() / to.norm().max(1e-3) * moving_mps)
                         .clamp(-MAX_YAW_RATE_RADPS, MAX_YAW_RATE_RADPS)
                 }
                 None => 0.0,
             };
-            // Accelerate only up to the desired speed.
-            let a = if accel > 0.0 && s.speed_mps >= v_des { 0.0 } else { accel };
             let action = Action { accel_mps2: a, yaw_rate_radps: yaw_rate };
             first.get_or_insert(action);
             s = kinematic_step(&s, action, SIM_DT_S);
@@ -232,5 +236,51 @@ impl EvasivePlanner {
         // Swerving is a last resort: a full lane costs about as much as a second in the headway zone.
         cost += 10.0 * offset * offset + 0.5 * accel * accel;
         Candidate { first: first.unwrap_or_default(), cost }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::{Point2, Polyline};
+    use crate::map::{Lane, MapElementId, RoadMap};
+    use crate::planners::PerceivedAgent;
+    use crate::scenario::{AgentId, AgentState};
+
+    #[test]
+    fn a_stopped_ego_that_does_not_move_off_does_not_turn_on_the_spot() {
+        // The lane runs along +x; the ego stands at 0.3 rad to it with a
+        // stopped car 1 m ahead of its bumper: every way forward collides,
+        // so it holds still, and a car that holds still cannot steer.
+        let lane = Lane::new(MapElementId(1), Polyline::new(vec![Point2::new(-50.0, 0.0), Point2::new(500.0, 0.0)]));
+        let map = RoadMap::new(vec![lane], vec![], vec![], vec![], vec![], vec![], vec![]);
+        let ego = AgentState { position: Point2::new(0.0, 0.0), heading_rad: 0.3, velocity_mps: Vector2::zeros() };
+        let ahead = ego.position + Vector2::new(0.3f64.cos(), 0.3f64.sin()) * 5.5;
+        let blocker = PerceivedAgent {
+            id: AgentId("blocker".into()),
+            kind: AgentKind::Vehicle,
+            length_m: 4.5,
+            width_m: 2.0,
+            state: AgentState { position: ahead, heading_rad: 0.3, velocity_mps: Vector2::zeros() },
+        };
+        let obs = Observation {
+            step: 0,
+            time_s: 0.0,
+            dt_s: SIM_DT_S,
+            ego,
+            ego_length_m: 4.5,
+            ego_width_m: 2.0,
+            agents: vec![blocker],
+            map: &map,
+            signals: vec![],
+        };
+        let mut planner = EvasivePlanner::new(EvasiveParams::default());
+        match planner.plan(&obs).unwrap() {
+            PlannerOutput::Control(a) => {
+                assert!(a.accel_mps2 <= 0.0, "{a:?}");
+                assert_eq!(a.yaw_rate_radps, 0.0, "{a:?}");
+            }
+            other => panic!("{other:?}"),
+        }
     }
 }

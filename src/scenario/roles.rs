@@ -60,6 +60,21 @@ pub fn closest_approach(scenario: &Scenario, a: TrackIndex, b: TrackIndex) -> Op
     best
 }
 
+/// The first recorded contact of the ego with another agent from the
+/// current step on, as (agent, step): in the shared data an annotation
+/// error (the recorded boxes of two agents overlap), and a scene where the
+/// recorded ego cannot drive without contact is no test for a planner.
+pub fn recorded_ego_contact(scenario: &Scenario) -> Option<(TrackIndex, usize)> {
+    let ego = scenario.ego?;
+    (scenario.current_step..scenario.num_steps()).find_map(|step| {
+        let own = scenario.track(ego).footprint(step)?;
+        (0..scenario.tracks.len())
+            .filter(|&i| i != ego.0)
+            .find(|&i| scenario.tracks[i].footprint(step).is_some_and(|b| b.intersects(&own)))
+            .map(|i| (TrackIndex(i), step))
+    })
+}
+
 /// Vehicles valid at the current step that move and have enough future.
 fn candidates(scenario: &Scenario) -> Vec<TrackIndex> {
     let now = scenario.current_step;
@@ -285,5 +300,19 @@ mod tests {
         assign(&mut s);
         assert_eq!((s.ego, s.cbv), (Some(TrackIndex(0)), Some(TrackIndex(2))));
         assert_eq!(s.cbv_origin, RoleOrigin::ConflictMining);
+    }
+
+    #[test]
+    fn a_recorded_ego_overlapping_another_agent_is_found_with_the_step() {
+        // 1 drives head-on towards the ego (0): boxes meet when the centres are 4.5 m apart.
+        let mut s = scenario(vec![track("0", 0.0, 0.0, 5.0, 0.0), track("1", 30.0, 0.5, -5.0, 0.0)]);
+        s.ego = Some(TrackIndex(0));
+        let (other, step) = recorded_ego_contact(&s).expect("they overlap");
+        assert_eq!(other, TrackIndex(1));
+        // Centre gap 30 - 10 t ≤ 4.5 first at t = 2.6 s.
+        assert_eq!(step, 26);
+        let mut apart = scenario(vec![track("0", 0.0, 0.0, 5.0, 0.0), track("1", 30.0, 3.0, -5.0, 0.0)]);
+        apart.ego = Some(TrackIndex(0));
+        assert_eq!(recorded_ego_contact(&apart), None);
     }
 }
