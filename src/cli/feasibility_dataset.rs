@@ -55,6 +55,12 @@ pub fn run(request: &FeasibilityDatasetRequest) -> Result<ExitCode, CliError> {
         all.within(2.0),
         all.within(5.0)
     );
+    println!(
+        "witness branches: {} ({} transitions, escapes from states with the CBV within {} m)",
+        collected.witness_branches,
+        collected.witness_branch_transitions,
+        crate::datasets::feasibility_transitions::BRANCH_MAX_DISTANCE_M
+    );
     let mut per_cbv: Vec<(String, usize, usize)> =
         collected.per_cbv.iter().map(|(c, k)| (format!("{c:?}"), k.transitions, k.violating)).collect();
     per_cbv.sort();

@@ -44,7 +44,7 @@ use crate::planners::BuiltinPlanner;
 use crate::policies::cbv_rules::EgoPursuit;
 use crate::policies::prior_sampling::TokenSampling;
 use crate::policies::{AgentPolicy, BackgroundPolicy};
-use crate::scenario::{AgentKind, Scenario, TrackIndex};
+use crate::scenario::{AgentKind, AgentState, Scenario, TrackIndex};
 use crate::sim::synthetic::{SpeedSample, SyntheticTraffic, random_template};
 use crate::sim::{Rollout, SimConfig, Simulation};
 use crate::spec::suite::AdversaryMethod;
@@ -64,7 +64,11 @@ pub const BRANCH_MAX_DISTANCE_M: f64 = 10.0;
 /// Branch starts are tried every this many steps (0.5 s) ...
 const BRANCH_EVERY_STEPS: usize = 5;
 /// ... at most this many per episode, closest first.
-const MAX_BRANCHES_PER_EPISODE: usize = 6;
+const MAX_BRANCHES_PER_EPISODE: usize = 4;
+/// Agents this close to the ego when a branch starts are its obstacles, m
+/// (at 30 m/s closing speed, 4 s covers 120 m; the collection's closing
+/// speeds stay far below that, and the CBV is within 10 m).
+const BRANCH_OBSTACLE_RANGE_M: f64 = 60.0;
 /// A branch (and the witness search) looks this far ahead, steps (4 s, as
 /// the witness labels of `safer feasibility-eval`).
 const BRANCH_STEPS: usize = 40;
@@ -281,27 +285,33 @@ impl Collection {
     /// episode order, with the count of transitions and of violating ones
     /// per CBV policy.
     pub fn collect(&self, seed: u64, models: &ModelSet, maps: &MapEncodings) -> CollectedTransitions {
-        let per_episode: Vec<(CollectionCbv, Option<Transitions>)> = self
+        let per_episode: Vec<(CollectionCbv, Option<(Transitions, usize, usize)>)> = self
             .episodes
             .par_iter()
             .map(|&e| {
                 let t = self.run(e, seed, models, maps).map(|r| {
                     let cbv = self.scenes[e.scene].cbv;
                     let mut t = transitions(&r, e.scene, r.ego, cbv);
+                    let (mut branches, mut branch_transitions) = (0, 0);
                     for branch in witness_branches(&r, cbv) {
-                        t.extend(transitions(&branch, e.scene, r.ego, cbv));
+                        let b = transitions(&branch, e.scene, r.ego, cbv);
+                        branches += 1;
+                        branch_transitions += b.len();
+                        t.extend(b);
                     }
-                    t
+                    (t, branches, branch_transitions)
                 });
                 (e.cbv_policy, t)
             })
             .collect();
         let mut out = CollectedTransitions::default();
         for (cbv, t) in per_episode {
-            let Some(t) = t else { continue };
+            let Some((t, branches, branch_transitions)) = t else { continue };
             let entry = out.per_cbv.entry(cbv).or_default();
             entry.transitions += t.len();
             entry.violating += t.violating();
+            out.witness_branches += branches;
+            out.witness_branch_transitions += branch_transitions;
             out.transitions.extend(t);
         }
         out
@@ -339,6 +349,10 @@ pub struct CollectedTransitions {
     pub transitions: Transitions,
     /// Per CBV policy (episodes that could not be set up count nothing).
     pub per_cbv: BTreeMap<CollectionCbv, CbvCoverage>,
+    /// Witness branches found (see [`witness_branches`]).
+    pub witness_branches: usize,
+    /// Transitions they hold (included in `transitions`).
+    pub witness_branch_transitions: usize,
 }
 
 /// What one CBV policy contributed.
@@ -420,9 +434,20 @@ pub fn witness_branches(rollout: &Rollout, cbv: TrackIndex) -> Vec<Rollout> {
         .into_iter()
         .filter_map(|(_, k)| {
             let end = (k + BRANCH_STEPS + 1).min(rollout.states.len());
+            let start = rollout.states[k][ego.0]?;
+            // Only agents that can come near the ego within the branch are
+            // obstacles (the search's cost is per obstacle and step); the
+            // branch itself keeps everyone.
+            let near: Vec<bool> = rollout.states[k]
+                .iter()
+                .map(|a| a.is_some_and(|a| (a.position - start.position).norm() < BRANCH_OBSTACLE_RANGE_M))
+                .collect();
+            let obstacles: Vec<Vec<Option<AgentState>>> = rollout.states[k..end]
+                .iter()
+                .map(|row| row.iter().zip(&near).map(|(a, &n)| if n { *a } else { None }).collect())
+                .collect();
             let ahead = &rollout.states[k..end];
-            let start = ahead[0][ego.0]?;
-            let traffic = FixedTraffic { states: ahead, bodies: &rollout.bodies, ego: ego.0 };
+            let traffic = FixedTraffic { states: &obstacles, bodies: &rollout.bodies, ego: ego.0 };
             let Witness::Found { trajectory, .. } = search_witness(&start, body, &traffic, ahead.len() - 1, budget)
             else {
                 return None;

@@ -3,7 +3,9 @@
     training/.venv/bin/python training/feasibility/train.py --data training/data/feasibility --out models
 
 Data: transitions (s, a, h(s), s', done) written by `safer feasibility-dataset`
-(h = -1 if the ego-CBV box distance > 0.3 m else M = 16).
+(h = -1 if the ego-CBV box distance > 0.3 m else M = 16), including the
+witness branches (escapes found by the witness search from close states), so
+that the expectile can learn escapes the collection's ego policies never drove.
 
 Losses (FISOR, Zheng et al. 2024, eqs. for the feasible value; FREA uses the same):
   Q_h(s, a) regresses onto the reachability target
@@ -175,6 +177,7 @@ architecture: "MLP 13 -> 256 -> 256 -> 1 (GELU); trained with a Q_h(s, a) MLP of
 training:
   data:
     - "closed-loop rollouts from `safer feasibility-dataset`: NGSIM scenes (US public domain) and synthetic traffic, ego = IDM / evasive / constant velocity, CBV = aggressive pursuit (3 random aim styles), IDM, constant velocity, SaFeR adversary without the feasibility constraint"
+    - "witness branches: from states of those rollouts with the CBV within 10 m, the witness search's escape (every agent replaying the rollout, 4 s, margin d_th), up to 4 per episode, agents within 60 m as obstacles"
     - "not trained on Waymo or Argoverse data (non-commercial licences)"
   licence: "US public domain (NGSIM) + project (synthetic)"
   command: "cargo run --release -- feasibility-dataset && training/.venv/bin/python training/feasibility/train.py --epochs {a.epochs}"
