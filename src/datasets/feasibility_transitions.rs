@@ -285,7 +285,7 @@ impl Collection {
     /// episode order, with the count of transitions and of violating ones
     /// per CBV policy.
     pub fn collect(&self, seed: u64, models: &ModelSet, maps: &MapEncodings) -> CollectedTransitions {
-        let per_episode: Vec<(CollectionCbv, Option<(Transitions, usize, usize)>)> = self
+        let per_episode: Vec<(CollectionCbv, Option<EpisodeTransitions>)> = self
             .episodes
             .par_iter()
             .map(|&e| {
@@ -299,14 +299,14 @@ impl Collection {
                         branch_transitions += b.len();
                         t.extend(b);
                     }
-                    (t, branches, branch_transitions)
+                    EpisodeTransitions { transitions: t, branches, branch_transitions }
                 });
                 (e.cbv_policy, t)
             })
             .collect();
         let mut out = CollectedTransitions::default();
         for (cbv, t) in per_episode {
-            let Some((t, branches, branch_transitions)) = t else { continue };
+            let Some(EpisodeTransitions { transitions: t, branches, branch_transitions }) = t else { continue };
             let entry = out.per_cbv.entry(cbv).or_default();
             entry.transitions += t.len();
             entry.violating += t.violating();
@@ -353,6 +353,13 @@ pub struct CollectedTransitions {
     pub witness_branches: usize,
     /// Transitions they hold (included in `transitions`).
     pub witness_branch_transitions: usize,
+}
+
+/// One episode's transitions, witness branches included, with the branches' share.
+struct EpisodeTransitions {
+    transitions: Transitions,
+    branches: usize,
+    branch_transitions: usize,
 }
 
 /// What one CBV policy contributed.
