@@ -65,7 +65,7 @@ fn print_table(
         writeln!(
             out,
             "{:<16} {:>8} {:>7} {:>7} {:>7} {:>9} {:>9} {:>7} {:>7} {:>11.3}",
-            serde_json::to_value(r.method).ok().and_then(|v| v.as_str().map(String::from)).unwrap_or_default(),
+            crate::spec::spec_name(&r.method),
             r.variants,
             r.errors,
             fmt(r.cr),
@@ -87,7 +87,7 @@ fn print_table(
         writeln!(
             out,
             "{:<16} {:>12} {:>14} {:>12} {:>14} {:>12}",
-            serde_json::to_value(r.method).ok().and_then(|v| v.as_str().map(String::from)).unwrap_or_default(),
+            crate::spec::spec_name(&r.method),
             fmt(r.cbv_background_collision_rate),
             fmt(r.cbv_at_fault_background_collision_rate),
             fmt(r.cbv_off_road_rate),
@@ -106,7 +106,7 @@ fn print_table(
         writeln!(
             out,
             "{:<16} {:>9.3} {:>10.3} {:>9.3} {:>12.3} {:>9.3} {:>9.3}",
-            serde_json::to_value(r.method).ok().and_then(|v| v.as_str().map(String::from)).unwrap_or_default(),
+            crate::spec::spec_name(&r.method),
             p.stage1_s,
             p.stage1_features_s,
             p.stage1_decoder_s,

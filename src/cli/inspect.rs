@@ -74,16 +74,8 @@ pub(super) fn run(file: &Path, json: bool) -> Result<ExitCode, CliError> {
         println!("scenario      {}", s.scenario_id);
         println!("file          {}", s.file);
         println!("format        {}", serde_json::to_value(s.format)?.as_str().unwrap_or_default());
-        let kinds: Vec<String> = s
-            .agents_by_kind
-            .iter()
-            .map(|(k, n)| {
-                format!(
-                    "{n} {}",
-                    serde_json::to_value(k).ok().and_then(|v| v.as_str().map(String::from)).unwrap_or_default()
-                )
-            })
-            .collect();
+        let kinds: Vec<String> =
+            s.agents_by_kind.iter().map(|(k, n)| format!("{n} {}", crate::spec::spec_name(k))).collect();
         println!("agents        {} ({})", s.agents, kinds.join(", "));
         println!("steps         {} × {:.4} s = {:.1} s, now = step {}", s.steps, s.dt_s, s.duration_s, s.current_step);
         let m = &s.map;

@@ -142,7 +142,7 @@ fn run_one(
     let end = (start + (request.horizon_s / scenario.dt_s).round() as usize).min(scenario.num_steps() - 1);
     let sim = SimConfig { start_step: Some(start), end_step: Some(end), ..SimConfig::default() };
     let planner = PlannerAdapter::Builtin {
-        name: serde_json::to_value(request.planner).ok().and_then(|v| v.as_str().map(String::from)).unwrap_or_default(),
+        name: crate::spec::spec_name(&request.planner),
         planner: request.planner,
         idm: Default::default(),
     };
@@ -238,9 +238,8 @@ pub fn table(records: &[VariantRecord], methods: &[AdversaryMethod]) -> Vec<Meth
             let ok: Vec<&VariantRecord> = all.iter().copied().filter(|r| r.error.is_none()).collect();
             let metrics = SuiteMetrics::aggregate(ok.iter().map(|r| &r.tally));
             let searched: Vec<&VariantRecord> = ok.iter().copied().filter(|r| r.witness.is_some()).collect();
-            let witness_rate = (!searched.is_empty())
-                .then(|| searched.iter().filter(|r| r.witness == Some(true)).count() as f64 / searched.len() as f64);
             let witnessed: Vec<&VariantRecord> = searched.iter().copied().filter(|r| r.witness == Some(true)).collect();
+            let witness_rate = (!searched.is_empty()).then(|| witnessed.len() as f64 / searched.len() as f64);
             let sr_witnessed = (!witnessed.is_empty())
                 .then(|| witnessed.iter().filter(|r| r.tally.solved).count() as f64 / witnessed.len() as f64);
             let n = ok.len().max(1) as f64;

@@ -90,12 +90,13 @@ pub struct VariantTally {
 impl VariantTally {
     /// The tally of a finished variant.
     pub fn of(scenario: &Scenario, stages: &DualStage) -> Self {
+        let background = cbv_background_collisions(&stages.stage1);
         VariantTally {
             critical: stages.stage1_cbv_hit_ego(),
             solved: stages.verdict.solved(),
             cbv: CbvKinematics::of_stage1(scenario, &stages.stage1),
-            cbv_hit_background: !cbv_background_collisions(&stages.stage1).is_empty(),
-            cbv_at_fault_with_background: cbv_background_collisions(&stages.stage1).into_iter().any(|f| f),
+            cbv_hit_background: !background.is_empty(),
+            cbv_at_fault_with_background: background.into_iter().any(|at_fault| at_fault),
             cbv_off_road_s: cbv_off_road_s(scenario, &stages.stage1),
         }
     }

@@ -69,7 +69,7 @@ impl Suite {
         let spec = crate::spec::suite::load(path)?;
         let planner = match &spec.value.planner {
             PlannerRef::Builtin { builtin } => PlannerAdapter::Builtin {
-                name: serde_json::to_value(builtin).ok().and_then(|v| v.as_str().map(String::from)).unwrap_or_default(),
+                name: crate::spec::spec_name(&builtin),
                 planner: *builtin,
                 idm: Default::default(),
             },

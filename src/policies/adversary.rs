@@ -33,7 +33,7 @@ use super::{AgentAction, AgentPolicy, WorldView};
 use crate::geometry::OrientedBox;
 use crate::models::ModelError;
 pub use crate::models::feasibility_oracle::{EgoCbvState, FeasibilityOracle};
-use crate::motion::tokens::{MAX_ACCEL_MPS2, TOKEN_PERIOD_S, TOKEN_PERIOD_STEPS, Token, TokenGrid};
+use crate::motion::tokens::{MAX_ACCEL_MPS2, SIM_DT_S, TOKEN_PERIOD_S, TOKEN_PERIOD_STEPS, Token, TokenGrid};
 use crate::motion::{Action, KinematicState, kinematic_step};
 use crate::scenario::{AgentState, TrackIndex};
 
@@ -155,18 +155,21 @@ impl Adversary {
                     .collect()
             }
         };
-        let implausible = implausible_candidates(world, cbv, self.ego, &rollouts);
-        // The strict arg min: plausible candidates first, then the loss (a NaN
-        // distance, never expected as states are bounds-checked, ranks
-        // last), then the likelier token, then the lower id.
-        let key = |i: usize| {
-            let loss = if losses[i].is_nan() { f64::INFINITY } else { losses[i] };
-            (implausible[i], loss, -logits[candidates[i].0 as usize], candidates[i].0)
-        };
-        let best = (0..candidates.len()).min_by(|&i, &j| {
-            let (a, b) = (key(i), key(j));
-            a.0.cmp(&b.0).then(a.1.total_cmp(&b.1)).then(a.2.total_cmp(&b.2)).then(a.3.cmp(&b.3))
+        // The strict arg min: by loss (a NaN distance, never expected as
+        // states are bounds-checked, ranks last), then the likelier token,
+        // then the lower id; the first plausible candidate in that order,
+        // or the first of all when none is. Plausibility is the costly
+        // check, so it is asked only until a plausible one is found.
+        let loss = |i: usize| if losses[i].is_nan() { f64::INFINITY } else { losses[i] };
+        let mut order: Vec<usize> = (0..candidates.len()).collect();
+        order.sort_by(|&i, &j| {
+            loss(i)
+                .total_cmp(&loss(j))
+                .then(logits[candidates[j].0 as usize].total_cmp(&logits[candidates[i].0 as usize]))
+                .then(candidates[i].0.cmp(&candidates[j].0))
         });
+        let check = PlausibilityCheck::new(world, cbv, self.ego);
+        let best = order.iter().copied().find(|&i| !check.implausible(&rollouts[i])).or(order.first().copied());
         Ok(best.map(|i| candidates[i]))
     }
 
@@ -182,7 +185,8 @@ impl Adversary {
         let top = &ranked[..sampling.top_k.clamp(1, ranked.len())];
         let mut masked = logits.clone();
         if let Some(cbv_now) = world.state(cbv) {
-            let implausible = implausible_candidates(world, cbv, self.ego, &token_rollouts(cbv_now, top));
+            let check = PlausibilityCheck::new(world, cbv, self.ego);
+            let implausible: Vec<bool> = token_rollouts(cbv_now, top).iter().map(|r| check.implausible(r)).collect();
             if implausible.iter().any(|bad| !bad) {
                 for (t, bad) in top.iter().zip(implausible) {
                     if bad {
@@ -209,56 +213,59 @@ fn token_rollouts(now: &AgentState, tokens: &[Token]) -> Vec<Vec<AgentState>> {
     tokens.iter().map(|t| TokenGrid::rollout(&from, *t).iter().map(KinematicState::to_agent_state).collect()).collect()
 }
 
-/// For each candidate rollout of the CBV (one state per simulator step of
-/// the token), whether it is implausible for a road user: it leaves the
-/// road while the CBV is on it now, or the CBV, braking as hard as it can
-/// after the token, would still overlap a background agent predicted at
-/// constant velocity.
-fn implausible_candidates(
-    world: &WorldView<'_>,
-    cbv: TrackIndex,
-    ego: TrackIndex,
-    rollouts: &[Vec<AgentState>],
-) -> Vec<bool> {
-    let Some(cbv_now) = world.state(cbv) else { return vec![false; rollouts.len()] };
-    let cbv_body = world.body(cbv);
-    let dt = TOKEN_PERIOD_S / TOKEN_PERIOD_STEPS as f64;
-    let horizon = TOKEN_PERIOD_STEPS + BRAKING_CHECK_STEPS;
-    // Each nearby background agent's predicted boxes, one per step of the check.
-    let background: Vec<Vec<OrientedBox>> = (0..world.states.len())
-        .filter(|&i| i != cbv.0 && i != ego.0)
-        .filter_map(|i| world.states[i].map(|s| (i, s)))
-        .filter(|(_, s)| (s.position - cbv_now.position).norm() < BACKGROUND_CHECK_RANGE_M)
-        .map(|(i, s)| {
-            let b = world.bodies[i];
-            (1..=horizon)
-                .map(|k| {
-                    let at = AgentState { position: s.position + s.velocity_mps * (k as f64 * dt), ..s };
-                    OrientedBox::new(at.pose(), b.length_m, b.width_m)
-                })
-                .collect()
-        })
-        .collect();
-    let on_road_now = !world.map.is_off_road(&cbv_now.position);
-    let brake = Action { accel_mps2: -MAX_ACCEL_MPS2, yaw_rate_radps: 0.0 };
-    rollouts
-        .iter()
-        .map(|r| {
-            let Some(end) = r.last() else { return false };
-            if on_road_now && r.iter().any(|s| world.map.is_off_road(&s.position)) {
-                return true;
-            }
-            let mut braking = KinematicState::from_agent_state(end);
-            let path = r.iter().copied().chain((0..BRAKING_CHECK_STEPS).map(|_| {
-                braking = kinematic_step(&braking, brake, dt);
-                braking.to_agent_state()
-            }));
-            path.enumerate().any(|(k, s)| {
-                let own = OrientedBox::new(s.pose(), cbv_body.length_m, cbv_body.width_m);
-                background.iter().any(|boxes| boxes.get(k).is_some_and(|b| b.intersects(&own)))
+/// Whether a candidate rollout of the CBV (one state per simulator step of
+/// the token) is implausible for a road user: it leaves the road while the
+/// CBV is on it now, or the CBV, braking as hard as it can after the token,
+/// would still overlap a background agent predicted at constant velocity.
+/// The background's predicted boxes are built once per decision.
+struct PlausibilityCheck<'w> {
+    world: &'w WorldView<'w>,
+    cbv_body: crate::scenario::AgentBody,
+    /// Each nearby background agent's boxes, one per step of the check.
+    background: Vec<Vec<OrientedBox>>,
+    on_road_now: bool,
+}
+
+impl<'w> PlausibilityCheck<'w> {
+    fn new(world: &'w WorldView<'w>, cbv: TrackIndex, ego: TrackIndex) -> Self {
+        let cbv_body = world.body(cbv);
+        let Some(cbv_now) = world.state(cbv) else {
+            return Self { world, cbv_body, background: Vec::new(), on_road_now: false };
+        };
+        let horizon = TOKEN_PERIOD_STEPS + BRAKING_CHECK_STEPS;
+        let background = (0..world.states.len())
+            .filter(|&i| i != cbv.0 && i != ego.0)
+            .filter_map(|i| world.states[i].map(|s| (i, s)))
+            .filter(|(_, s)| (s.position - cbv_now.position).norm() < BACKGROUND_CHECK_RANGE_M)
+            .map(|(i, s)| {
+                let b = world.bodies[i];
+                (1..=horizon)
+                    .map(|k| {
+                        let at = AgentState { position: s.position + s.velocity_mps * (k as f64 * SIM_DT_S), ..s };
+                        OrientedBox::new(at.pose(), b.length_m, b.width_m)
+                    })
+                    .collect()
             })
+            .collect();
+        Self { world, cbv_body, background, on_road_now: !world.map.is_off_road(&cbv_now.position) }
+    }
+
+    fn implausible(&self, rollout: &[AgentState]) -> bool {
+        let Some(end) = rollout.last() else { return false };
+        if self.on_road_now && rollout.iter().any(|s| self.world.map.is_off_road(&s.position)) {
+            return true;
+        }
+        let brake = Action { accel_mps2: -MAX_ACCEL_MPS2, yaw_rate_radps: 0.0 };
+        let mut braking = KinematicState::from_agent_state(end);
+        let path = rollout.iter().copied().chain((0..BRAKING_CHECK_STEPS).map(|_| {
+            braking = kinematic_step(&braking, brake, SIM_DT_S);
+            braking.to_agent_state()
+        }));
+        path.enumerate().any(|(k, s)| {
+            let own = OrientedBox::new(s.pose(), self.cbv_body.length_m, self.cbv_body.width_m);
+            self.background.iter().any(|boxes| boxes.get(k).is_some_and(|b| b.intersects(&own)))
         })
-        .collect()
+    }
 }
 
 impl AgentPolicy for Adversary {
@@ -279,12 +286,13 @@ impl AgentPolicy for Adversary {
         if boundary || self.current.is_none() {
             let seed = self.shared.lock().unwrap_or_else(|p| p.into_inner()).seed();
             let token_index = world.step.saturating_sub(start) / TOKEN_PERIOD_STEPS;
-            if token_index < Self::approach_tokens(seed, agent) {
+            let chosen = if token_index < Self::approach_tokens(seed, agent) {
                 // The approach phase: the prior drives the CBV.
-                self.current = self.approach_token(world, agent).or(self.current);
-                return AgentAction::Control(self.current.map(TokenGrid::action).unwrap_or_default());
-            }
-            match self.choose(world, agent) {
+                Ok(self.approach_token(world, agent))
+            } else {
+                self.choose(world, agent)
+            };
+            match chosen {
                 Ok(Some(t)) => self.current = Some(t),
                 Ok(None) => {}
                 Err(e) => {
@@ -327,11 +335,15 @@ mod tests {
         let (ego, cbv) = (TrackIndex(0), TrackIndex(1));
         let tokens = [token(MAX_ACCEL_MPS2), token(0.0), token(-MAX_ACCEL_MPS2)];
         let rollouts = token_rollouts(states[1].as_ref().unwrap(), &tokens);
-        assert_eq!(implausible_candidates(&world, cbv, ego, &rollouts), vec![true, true, false]);
+        let implausible = |world: &WorldView<'_>| {
+            let check = PlausibilityCheck::new(world, cbv, ego);
+            rollouts.iter().map(|r| check.implausible(r)).collect::<Vec<bool>>()
+        };
+        assert_eq!(implausible(&world), vec![true, true, false]);
         // The same tokens with the stopped car in the next lane are all plausible.
         let beside = [states[0], states[1], car(30.0, 4.0, 0.0)];
         let world = WorldView { states: &beside, ..world };
-        assert_eq!(implausible_candidates(&world, cbv, ego, &rollouts), vec![false; 3]);
+        assert_eq!(implausible(&world), vec![false; 3]);
     }
 
     #[test]
@@ -342,7 +354,7 @@ mod tests {
         let states = [car(20.0, 0.0, 0.0), car(0.0, 0.0, 15.0)];
         let world = WorldView { map: &map, step: 0, bodies: &bodies, states: &states };
         let rollouts = token_rollouts(states[1].as_ref().unwrap(), &[token(MAX_ACCEL_MPS2)]);
-        assert_eq!(implausible_candidates(&world, TrackIndex(1), TrackIndex(0), &rollouts), vec![false]);
+        assert!(!PlausibilityCheck::new(&world, TrackIndex(1), TrackIndex(0)).implausible(&rollouts[0]));
     }
 
     #[test]

@@ -21,6 +21,12 @@ use std::path::{Path, PathBuf};
 
 use serde::de::DeserializeOwned;
 
+/// The name a unit enum value has in spec files and reports (its serde
+/// name, e.g. `no-lfr`); empty for a value that is not serialised as a string.
+pub fn spec_name<T: serde::Serialize>(value: &T) -> String {
+    serde_json::to_value(value).ok().and_then(|v| v.as_str().map(String::from)).unwrap_or_default()
+}
+
 /// A position in a spec file.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct SpecLocation {
