@@ -7,11 +7,12 @@
 //! environment's `training/prior/bench_latency.py`, when it is installed),
 //! and the ratios printed side by side.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::{Command, ExitCode};
 use std::time::{Duration, Instant};
 
 use super::{CliError, evaluate::load_scenes};
+use crate::models::ModelSource;
 use crate::models::prior::{PriorVariant, RealismPrior, SCENE_BATCH};
 use crate::models::prior_features::{MapTokens, StateHistory, build_query};
 use crate::scenario::{AgentState, Scenario};
@@ -41,7 +42,7 @@ fn median_us(repeat: usize, mut f: impl FnMut()) -> f64 {
 }
 
 /// Runs the command.
-pub(super) fn run(scenes: &Path, models: &Path, repeat: usize) -> Result<ExitCode, CliError> {
+pub(super) fn run(scenes: &Path, models: &ModelSource, repeat: usize) -> Result<ExitCode, CliError> {
     let profile = if cfg!(debug_assertions) { "debug" } else { "release" };
     let scenes = load_scenes(scenes, None)?;
     // The busiest scene is the honest case for a full-scene step.
@@ -116,10 +117,16 @@ pub(super) fn run(scenes: &Path, models: &Path, repeat: usize) -> Result<ExitCod
     // The same graphs in onnxruntime and PyTorch, in this run.
     let python = Path::new("training/.venv/bin/python");
     let script = Path::new("training/prior/bench_latency.py");
+    // The reference scripts live in a checkout (training/), whose models/
+    // holds the originals of the embedded files.
+    let reference_models = match models {
+        ModelSource::Folder(dir) => dir.clone(),
+        ModelSource::Embedded => PathBuf::from(crate::models::source::MODELS_FOLDER),
+    };
     if python.exists() && script.exists() {
         let out = Command::new(python)
             .arg(script)
-            .args(["--models", &models.display().to_string(), "--batches", &format!("1,{SCENE_BATCH}")])
+            .args(["--models", &reference_models.display().to_string(), "--batches", &format!("1,{SCENE_BATCH}")])
             .args(["--repeat", &repeat.to_string()])
             .output()?;
         let text = String::from_utf8_lossy(&out.stdout);

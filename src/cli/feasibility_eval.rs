@@ -95,8 +95,7 @@ pub fn run(
     } else {
         Box::new(std::io::stdout())
     };
-    let models_dir = crate::models::models_dir();
-    let value = FeasibilityValue::load(&models_dir)?;
+    let value = FeasibilityValue::load(&crate::models::ModelSource::shipped())?;
     let models = ModelSet::shipped();
     let maps = MapEncodings::default();
     let collection = collection(request, &models)?;

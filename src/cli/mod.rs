@@ -158,7 +158,7 @@ enum Command {
         /// Scenes to pick the busiest from; `data:REL` is in the shared data folder.
         #[arg(long, default_value = "data:womd-tfrecord", value_parser = data_path)]
         scenes: PathBuf,
-        /// Folder of the models and their cards (default: $SAFER_MODELS, else `models/` of the project).
+        /// Folder of the models and their cards (default: $SAFER_MODELS, else the models embedded in safer).
         #[arg(long)]
         models: Option<PathBuf>,
         /// Repetitions (the median is reported), at least 1.
@@ -339,7 +339,7 @@ pub fn main() -> ExitCode {
         Command::Schema { kind, out } => schema::run(kind, out.as_deref()),
         Command::Render { file, step, out, force } => render::run(&file, step, out.as_deref(), force),
         Command::BenchModels { scenes, models, repeat } => {
-            bench_models::run(&scenes, &models.unwrap_or_else(crate::models::models_dir), repeat)
+            bench_models::run(&scenes, &crate::models::ModelSource::folder_or_shipped(models), repeat)
         }
         Command::Evaluate {
             scenes,

@@ -69,7 +69,7 @@ impl RealismPolicy {
     /// Loads what the policy needs, failing early with the model's error.
     fn load(self) -> Result<Option<Arc<RealismPrior>>, CliError> {
         self.prior_variant()
-            .map(|v| RealismPrior::load(&crate::models::models_dir(), v).map(Arc::new))
+            .map(|v| RealismPrior::load(&crate::models::ModelSource::shipped(), v).map(Arc::new))
             .transpose()
             .map_err(CliError::from)
     }

@@ -518,7 +518,7 @@ mod tests {
 
     /// Models that are not there: the episodes under test need none.
     fn no_models() -> ModelSet {
-        ModelSet::load(PathBuf::from("/nonexistent/safer-models"))
+        ModelSet::load(crate::models::ModelSource::Folder(PathBuf::from("/nonexistent/safer-models")))
     }
 
     #[test]

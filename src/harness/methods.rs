@@ -5,12 +5,12 @@
 //! scenario's map is encoded once per prior ([`MapEncodings`]).
 
 use std::collections::HashMap;
-use std::path::PathBuf;
+
 use std::sync::{Arc, Mutex, OnceLock};
 
 use super::HarnessError;
-use crate::models::ModelError;
 use crate::models::prior::{PriorVariant, RealismPrior};
+use crate::models::{ModelError, ModelSource};
 use crate::policies::LogReplay;
 use crate::policies::adversary::{Adversary, FeasibilityOracle, TrustRegion};
 use crate::policies::prior_sampling::{PriorAgent, PriorTraffic, ScenarioMapEncoding, TokenSampling, TrafficTimings};
@@ -21,7 +21,7 @@ use crate::spec::suite::AdversaryMethod;
 /// The learned models a method may need.
 pub struct ModelSet {
     /// Where they were loaded from.
-    pub dir: PathBuf,
+    pub source: ModelSource,
     /// The prior with differential attention.
     pub prior: Result<Arc<RealismPrior>, Arc<ModelError>>,
     /// The prior with plain attention (`no-mda`).
@@ -32,24 +32,24 @@ pub struct ModelSet {
 
 impl std::fmt::Debug for ModelSet {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("ModelSet").field("dir", &self.dir).finish()
+        f.debug_struct("ModelSet").field("source", &self.source).finish()
     }
 }
 
 static SHIPPED: OnceLock<Arc<ModelSet>> = OnceLock::new();
 
 impl ModelSet {
-    /// Loads what is in `dir`; a model that fails to load keeps its error,
+    /// Loads what is in `source`; a model that fails to load keeps its error,
     /// reported when a method needs it.
-    pub fn load(dir: PathBuf) -> Self {
-        let prior = |v| RealismPrior::load(&dir, v).map(Arc::new).map_err(Arc::new);
-        let feasibility = crate::models::feasibility_oracle(&dir).map_err(Arc::new);
-        Self { prior: prior(PriorVariant::Differential), prior_plain: prior(PriorVariant::Plain), feasibility, dir }
+    pub fn load(source: ModelSource) -> Self {
+        let prior = |v| RealismPrior::load(&source, v).map(Arc::new).map_err(Arc::new);
+        let feasibility = crate::models::feasibility_oracle(&source).map_err(Arc::new);
+        Self { prior: prior(PriorVariant::Differential), prior_plain: prior(PriorVariant::Plain), feasibility, source }
     }
 
-    /// The shipped models (`models/`, or `SAFER_MODELS`), loaded once per process.
+    /// The shipped models (embedded, or the folder in `SAFER_MODELS`), loaded once per process.
     pub fn shipped() -> Arc<ModelSet> {
-        SHIPPED.get_or_init(|| Arc::new(Self::load(crate::models::models_dir()))).clone()
+        SHIPPED.get_or_init(|| Arc::new(Self::load(ModelSource::shipped()))).clone()
     }
 
     /// The prior a method drives the CBV with.

@@ -157,11 +157,17 @@ pub struct ExpectedContract {
 }
 
 impl ModelCard {
-    /// Reads and parses a card; errors carry the file and the YAML location.
+    /// Reads and parses a card file; errors carry the file and the YAML location.
     pub fn load(path: &Path) -> Result<Self, ModelError> {
-        let text =
-            std::fs::read_to_string(path).map_err(|source| ModelError::Io { path: path.to_path_buf(), source })?;
-        serde_saphyr::from_str::<ModelCard>(&text)
+        let bytes = std::fs::read(path).map_err(|source| ModelError::Io { path: path.to_path_buf(), source })?;
+        Self::parse(&bytes, path)
+    }
+
+    /// Parses a card's bytes; `path` names it in errors.
+    pub fn parse(bytes: &[u8], path: &Path) -> Result<Self, ModelError> {
+        let text = std::str::from_utf8(bytes)
+            .map_err(|e| ModelError::Card { path: path.to_path_buf(), message: format!("not UTF-8: {e}") })?;
+        serde_saphyr::from_str::<ModelCard>(text)
             .map_err(|e| ModelError::Card { path: path.to_path_buf(), message: e.to_string() })
     }
 

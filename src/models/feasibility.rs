@@ -7,14 +7,12 @@
 //! V_h(s) ≤ 0 means the ego can still keep the CBV out of the d_th box
 //! distance; V_h > 0 means it cannot (the CBV state is outside the region).
 
-use std::path::Path;
-
 use tract_onnx::prelude::*;
 
-use super::ModelError;
 use super::card::{DType, ExpectedContract, ModelKind};
 use super::feasibility_oracle::{EgoCbvState, FeasibilityOracle};
 use super::onnx::{OnnxModel, f32_values};
+use super::{ModelError, ModelSource};
 use crate::geometry::{OrientedBox, Pose2, Vector2, wrap_angle};
 use crate::scenario::{AgentBody, AgentState};
 
@@ -95,10 +93,10 @@ pub struct FeasibilityValue {
 }
 
 impl FeasibilityValue {
-    /// Loads `feasibility-value` from `dir`, checked against its card.
-    pub fn load(dir: &Path) -> Result<Self, ModelError> {
-        let card = dir.join(format!("{FEASIBILITY_MODEL}.card.yaml"));
-        Ok(Self { model: OnnxModel::load(&card, &feasibility_contract(), FEASIBILITY_BATCH)? })
+    /// Loads `feasibility-value` from `source`, checked against its card.
+    pub fn load(source: &ModelSource) -> Result<Self, ModelError> {
+        let card = format!("{FEASIBILITY_MODEL}.card.yaml");
+        Ok(Self { model: OnnxModel::load(source, card, &feasibility_contract(), FEASIBILITY_BATCH)? })
     }
 
     /// The underlying model (for golden replay).

@@ -12,28 +12,19 @@ pub mod prior;
 pub mod prior_dataset;
 pub mod prior_features;
 pub mod shard;
+pub mod source;
 
 use std::path::PathBuf;
 
 pub use card::{DType, Dim, ExpectedContract, ModelCard, ModelKind, TensorSpec};
 pub use onnx::{GoldenReplay, OnnxModel};
+pub use source::ModelSource;
 
-/// Where the shipped models live, relative to the crate root.
-pub const MODELS_DIR: &str = "models";
-
-/// The shipped models folder: `SAFER_MODELS` if set, else `models/` of this crate.
-pub fn models_dir() -> PathBuf {
-    std::env::var_os("SAFER_MODELS")
-        .filter(|v| !v.is_empty())
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join(MODELS_DIR))
-}
-
-/// The shipped feasibility value V_h in `dir`, as the adversary asks it.
+/// The feasibility value V_h in `source`, as the adversary asks it.
 pub fn feasibility_oracle(
-    dir: &std::path::Path,
+    source: &ModelSource,
 ) -> Result<std::sync::Arc<dyn feasibility_oracle::FeasibilityOracle>, ModelError> {
-    feasibility::FeasibilityValue::load(dir)
+    feasibility::FeasibilityValue::load(source)
         .map(|v| std::sync::Arc::new(v) as std::sync::Arc<dyn feasibility_oracle::FeasibilityOracle>)
 }
 

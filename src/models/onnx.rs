@@ -10,14 +10,17 @@ use std::sync::Arc;
 use sha2::{Digest, Sha256};
 use tract_onnx::prelude::*;
 
-use super::ModelError;
 use super::card::{DType, Dim, ExpectedContract, ModelCard};
+use super::{ModelError, ModelSource};
 
 /// A loaded, optimised model with its card.
 #[derive(Debug, Clone)]
 pub struct OnnxModel {
     card: ModelCard,
-    card_path: PathBuf,
+    /// Where the card, the graph and the goldens were read from.
+    source: ModelSource,
+    /// The card's file name in `source`.
+    card_file: PathBuf,
     batch: usize,
     plan: Arc<TypedRunnableModel>,
 }
@@ -44,15 +47,21 @@ pub fn sha256_hex(bytes: &[u8]) -> String {
 }
 
 impl OnnxModel {
-    /// Loads the card at `card_path`, checks it against `expected`, checks
-    /// the ONNX file's checksum and graph I/O names, and optimises the graph
-    /// with every symbolic dimension fixed to `batch`.
-    pub fn load(card_path: &Path, expected: &ExpectedContract, batch: usize) -> Result<Self, ModelError> {
-        let card = ModelCard::load(card_path)?;
+    /// Loads the card `card_file` of `source`, checks it against
+    /// `expected`, checks the ONNX file's checksum and graph I/O names, and
+    /// optimises the graph with every symbolic dimension fixed to `batch`.
+    pub fn load(
+        source: &ModelSource,
+        card_file: impl AsRef<Path>,
+        expected: &ExpectedContract,
+        batch: usize,
+    ) -> Result<Self, ModelError> {
+        let card_file = card_file.as_ref();
+        let card_path = &source.path(card_file);
+        let card = ModelCard::parse(&source.read(card_file)?, card_path)?;
         card.check(card_path, expected)?;
-        let dir = card_path.parent().unwrap_or(Path::new("."));
-        let onnx_path = dir.join(&card.file);
-        let bytes = std::fs::read(&onnx_path).map_err(|source| ModelError::Io { path: onnx_path.clone(), source })?;
+        let onnx_path = source.path(&card.file);
+        let bytes = source.read(&card.file)?;
         let found = sha256_hex(&bytes);
         if !found.eq_ignore_ascii_case(&card.sha256) {
             return Err(ModelError::CardMismatch {
@@ -63,7 +72,7 @@ impl OnnxModel {
             });
         }
         let onnx_err = |e: TractError| ModelError::Onnx { path: onnx_path.clone(), message: format!("{e:#}") };
-        let mut model = tract_onnx::onnx().model_for_read(&mut bytes.as_slice()).map_err(onnx_err)?;
+        let mut model = tract_onnx::onnx().model_for_read(&mut &bytes[..]).map_err(onnx_err)?;
         let graph_inputs: Vec<String> =
             model.input_outlets().map_err(onnx_err)?.iter().map(|o| model.node(o.node).name.clone()).collect();
         let card_inputs: Vec<String> = card.inputs.iter().map(|s| s.name.clone()).collect();
@@ -103,12 +112,22 @@ impl OnnxModel {
             });
         }
         let plan = optimised.into_runnable().map_err(onnx_err)?;
-        Ok(Self { card, card_path: card_path.to_path_buf(), batch, plan })
+        Ok(Self { card, source: source.clone(), card_file: card_file.to_path_buf(), batch, plan })
     }
 
     /// The card.
     pub fn card(&self) -> &ModelCard {
         &self.card
+    }
+
+    /// Where the model was read from.
+    pub fn source(&self) -> &ModelSource {
+        &self.source
+    }
+
+    /// The card's path (or embedded name), for messages.
+    pub fn card_path(&self) -> PathBuf {
+        self.source.path(&self.card_file)
     }
 
     /// The batch size the symbolic dimensions were fixed to.
@@ -126,9 +145,8 @@ impl OnnxModel {
     /// Replays the golden file: feeds `input.<name>` tensors, compares with
     /// `output.<name>`. NaN anywhere fails (a NaN never passes a `<=`).
     pub fn replay_golden(&self) -> Result<GoldenReplay, ModelError> {
-        let dir = self.card_path.parent().unwrap_or(Path::new("."));
-        let path = dir.join(&self.card.golden);
-        let bytes = std::fs::read(&path).map_err(|source| ModelError::Io { path: path.clone(), source })?;
+        let path = self.source.path(&self.card.golden);
+        let bytes = self.source.read(&self.card.golden)?;
         let golden = safetensors::SafeTensors::deserialize(&bytes)
             .map_err(|e| ModelError::Golden { path: path.clone(), message: e.to_string() })?;
         let tensor = |name: &str| -> Result<Tensor, ModelError> {

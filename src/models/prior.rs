@@ -15,7 +15,7 @@ use super::prior_features::{
     HISTORY_FEATURES, HISTORY_POINTS, MAP_ENCODER_CHUNK, MAP_TOKEN_FEATURES, MAP_TOKENS, MapTokens, NEIGHBOUR_FEATURES,
     NEIGHBOURS, POSE_FEATURES, QueryFeatures, SELF_FEATURES, SIGNAL_FEATURES,
 };
-use super::{Dim, ModelError};
+use super::{Dim, ModelError, ModelSource};
 use crate::motion::tokens::VOCABULARY_SIZE;
 
 /// Which decoder: the paper's differential attention, or plain attention
@@ -95,11 +95,12 @@ pub fn decoder_contract() -> ExpectedContract {
 }
 
 impl RealismPrior {
-    /// Loads `variant` from `dir` (usually [`super::models_dir`]).
-    pub fn load(dir: &Path, variant: PriorVariant) -> Result<Self, ModelError> {
+    /// Loads `variant` from `source` (usually [`ModelSource::shipped`]).
+    pub fn load(source: &ModelSource, variant: PriorVariant) -> Result<Self, ModelError> {
         let (enc, dec) = variant.stems();
-        let card = |stem: &str| dir.join(format!("{stem}.card.yaml"));
-        let map_encoder = OnnxModel::load(&card(enc), &map_encoder_contract(), MAP_ENCODER_CHUNK)?;
+        let card_file = |stem: &str| format!("{stem}.card.yaml");
+        let card = |stem: &str| source.path(Path::new(&card_file(stem)));
+        let map_encoder = OnnxModel::load(source, card_file(enc), &map_encoder_contract(), MAP_ENCODER_CHUNK)?;
         let d = match map_encoder.card().outputs[0].shape.get(1) {
             Some(Dim::Fixed(d)) => *d,
             other => {
@@ -111,7 +112,7 @@ impl RealismPrior {
                 });
             }
         };
-        let decoder_single = OnnxModel::load(&card(dec), &decoder_contract(), 1)?;
+        let decoder_single = OnnxModel::load(source, card_file(dec), &decoder_contract(), 1)?;
         let width_ok = matches!(decoder_single.card().inputs[5].shape.get(2), Some(Dim::Fixed(w)) if *w == d);
         if !width_ok {
             return Err(ModelError::CardMismatch {
@@ -121,7 +122,7 @@ impl RealismPrior {
                 found: format!("{:?}", decoder_single.card().inputs[5].shape.get(2)),
             });
         }
-        let decoder_scene = OnnxModel::load(&card(dec), &decoder_contract(), SCENE_BATCH)?;
+        let decoder_scene = OnnxModel::load(source, card_file(dec), &decoder_contract(), SCENE_BATCH)?;
         Ok(Self { variant, map_encoder, decoder_single, decoder_scene, d })
     }
 

@@ -109,7 +109,7 @@ fn a_feasibility_model_answering_nan_fails_the_variant_naming_the_model() {
     // It once made every loss NaN and the adversary index an empty list.
     let shipped = ModelSet::shipped();
     let models = ModelSet {
-        dir: shipped.dir.clone(),
+        source: shipped.source.clone(),
         prior: shipped.prior.clone(),
         prior_plain: shipped.prior_plain.clone(),
         feasibility: Ok(Arc::new(NanFeasibility)),

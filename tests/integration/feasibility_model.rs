@@ -3,8 +3,8 @@
 //! obviously violating one.
 
 use safer::geometry::{Point2, Vector2};
+use safer::models::ModelSource;
 use safer::models::feasibility::{FeasibilityValue, pair};
-use safer::models::models_dir;
 use safer::scenario::{AgentBody, AgentKind, AgentState};
 
 fn car() -> AgentBody {
@@ -21,7 +21,7 @@ fn at(x: f64, y: f64, heading: f64, v: f64) -> AgentState {
 
 #[test]
 fn shipped_feasibility_value_reproduces_its_goldens() {
-    let v = FeasibilityValue::load(&models_dir()).unwrap();
+    let v = FeasibilityValue::load(&ModelSource::Embedded).unwrap();
     let replay = v.model().replay_golden().unwrap();
     assert_eq!(replay.values, 20);
     assert!(replay.max_abs_diff <= replay.tolerance, "{replay:?}");
@@ -29,7 +29,7 @@ fn shipped_feasibility_value_reproduces_its_goldens() {
 
 #[test]
 fn far_states_are_feasible_and_overlapping_states_are_not() {
-    let v = FeasibilityValue::load(&models_dir()).unwrap();
+    let v = FeasibilityValue::load(&ModelSource::Embedded).unwrap();
     let ego = at(0.0, 0.0, 0.0, 10.0);
     let states = [
         pair(ego, car(), at(40.0, 0.0, 0.0, 10.0), car()), // 40 m ahead, same speed

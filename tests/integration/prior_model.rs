@@ -8,7 +8,12 @@ use std::sync::Arc;
 
 use safer::models::OnnxModel;
 use safer::models::prior::{PriorVariant, RealismPrior, decoder_contract, map_encoder_contract};
-use safer::models::{ModelCard, models_dir};
+use safer::models::{ModelCard, ModelSource};
+
+/// This checkout's `models/`, whose files the library embeds.
+fn models_dir() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("models")
+}
 
 fn card(stem: &str) -> PathBuf {
     models_dir().join(format!("{stem}.card.yaml"))
@@ -24,17 +29,21 @@ fn golden_batch(card_path: &Path) -> usize {
 
 #[test]
 fn shipped_priors_reproduce_their_goldens_in_tract() {
-    for variant in [PriorVariant::Differential, PriorVariant::Plain] {
-        let (enc, dec) = variant.stems();
-        let encoder = OnnxModel::load(&card(enc), &map_encoder_contract(), 256).unwrap();
-        let replay = encoder.replay_golden().unwrap();
-        assert!(replay.values > 0 && replay.max_abs_diff <= replay.tolerance, "{enc}: {replay:?}");
-        let batch = golden_batch(&card(dec));
-        let decoder = OnnxModel::load(&card(dec), &decoder_contract(), batch).unwrap();
-        let replay = decoder.replay_golden().unwrap();
-        assert!(replay.values >= 3969 && replay.max_abs_diff <= replay.tolerance, "{dec}: {replay:?}");
-        // The runtime wrapper loads too (batch 1 and 32).
-        RealismPrior::load(&models_dir(), variant).unwrap();
+    // The embedded copies (what a dependent crate gets) and the folder.
+    for source in [ModelSource::Embedded, ModelSource::Folder(models_dir())] {
+        for variant in [PriorVariant::Differential, PriorVariant::Plain] {
+            let (enc, dec) = variant.stems();
+            let card_file = |stem: &str| format!("{stem}.card.yaml");
+            let encoder = OnnxModel::load(&source, card_file(enc), &map_encoder_contract(), 256).unwrap();
+            let replay = encoder.replay_golden().unwrap();
+            assert!(replay.values > 0 && replay.max_abs_diff <= replay.tolerance, "{source} {enc}: {replay:?}");
+            let batch = golden_batch(&card(dec));
+            let decoder = OnnxModel::load(&source, card_file(dec), &decoder_contract(), batch).unwrap();
+            let replay = decoder.replay_golden().unwrap();
+            assert!(replay.values >= 3969 && replay.max_abs_diff <= replay.tolerance, "{source} {dec}: {replay:?}");
+            // The runtime wrapper loads too (batch 1 and 32).
+            RealismPrior::load(&source, variant).unwrap();
+        }
     }
 }
 
@@ -65,7 +74,8 @@ fn a_card_whose_model_file_changed_is_refused_naming_the_field() {
         std::fs::copy(models_dir().join(&c.golden), dir.join(&c.golden)).unwrap();
         let text = std::fs::read_to_string(card(stem)).unwrap().replace(&c.sha256, &"0".repeat(64));
         std::fs::write(dir.join(format!("{stem}.card.yaml")), text).unwrap();
-        let err = OnnxModel::load(&dir.join(format!("{stem}.card.yaml")), &map_encoder_contract(), 256).unwrap_err();
+        let source = ModelSource::Folder(dir.clone());
+        let err = OnnxModel::load(&source, format!("{stem}.card.yaml"), &map_encoder_contract(), 256).unwrap_err();
         assert!(err.to_string().contains("sha256"), "{err}");
     }
 }
@@ -78,7 +88,8 @@ fn a_card_with_the_wrong_input_shape_is_refused_naming_the_field() {
     std::fs::copy(models_dir().join(&c.file), dir.join(&c.file)).unwrap();
     let text = std::fs::read_to_string(card(stem)).unwrap().replacen("[256, 7]", "[256, 9]", 1);
     std::fs::write(dir.join(format!("{stem}.card.yaml")), text).unwrap();
-    let err = OnnxModel::load(&dir.join(format!("{stem}.card.yaml")), &map_encoder_contract(), 256).unwrap_err();
+    let source = ModelSource::Folder(dir.clone());
+    let err = OnnxModel::load(&source, format!("{stem}.card.yaml"), &map_encoder_contract(), 256).unwrap_err();
     assert!(err.to_string().contains("inputs[0].shape (map_tokens)"), "{err}");
 }
 
