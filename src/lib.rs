@@ -23,6 +23,7 @@
 //! | [`record`] | MCAP recordings with Foxglove schemas, SVG pictures |
 //! | [`datasets`] | training data for the shipped models: prior shards, feasibility transitions, the held-out rule |
 //! | [`cli`] | the `safer` command line |
+//! | [`runner`] | the scenario-suite test runner a planner crate's test target calls |
 
 #![warn(missing_docs)]
 
@@ -37,6 +38,7 @@ pub mod motion;
 pub mod planners;
 pub mod policies;
 pub mod record;
+pub mod runner;
 pub mod scenario;
 pub mod sim;
 pub mod spec;

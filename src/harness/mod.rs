@@ -56,4 +56,7 @@ pub enum HarnessError {
     /// A scenario has no CBV to drive.
     #[error("scenario {0} has no CBV (name one with `cbv:` in the scenario spec)")]
     NoCbv(String),
+    /// A suite names an in-process planner that this process did not register.
+    #[error("no in-process planner named `{0}` is registered in this process")]
+    UnregisteredPlanner(String),
 }

@@ -181,6 +181,9 @@ pub fn make_planner(
     match adapter {
         PlannerAdapter::Builtin { planner: BuiltinPlanner::Idm, idm, .. } => Ok(Box::new(IdmPlanner::new(*idm))),
         PlannerAdapter::Builtin { planner, .. } => Ok(planner.instantiate(scenario, ego)),
+        PlannerAdapter::InProcess { name } => crate::planners::registry::lookup(name)
+            .map(|factory| factory(scenario, ego))
+            .ok_or_else(|| HarnessError::UnregisteredPlanner(name.clone())),
         PlannerAdapter::External { name, spec, working_dir } => {
             let mut config = ExternalPlannerConfig::new(name.clone(), spec.command.clone());
             config.args = spec.args.clone();

@@ -73,6 +73,25 @@ impl Suite {
                 planner: *builtin,
                 idm: Default::default(),
             },
+            PlannerRef::Rust { rust } => {
+                if crate::planners::registry::lookup(&rust.value).is_none() {
+                    let registered = crate::planners::registry::registered_names();
+                    let registered = if registered.is_empty() {
+                        "none is registered in this process".to_string()
+                    } else {
+                        format!("registered: {}", registered.join(", "))
+                    };
+                    return Err(spec.reference_at(
+                        "planner.rust",
+                        format!(
+                            "no in-process planner named `{}` ({registered}); a `rust:` planner runs under the test \
+                             target that registers it (`safer::runner::Runner::planner`), not under `safer run`",
+                            rust.value
+                        ),
+                    ));
+                }
+                PlannerAdapter::InProcess { name: rust.value.clone() }
+            }
             PlannerRef::File(f) => {
                 let p = crate::spec::paths::resolve(spec.dir(), &f.value);
                 if !p.is_file() {

@@ -1,10 +1,12 @@
 //! The ego under test: the [`Planner`] trait every planner implements
-//! (built-ins, external processes speaking the JSON-lines protocol; ONNX
-//! policies later), the observation it receives and the output it returns.
+//! (built-ins, in-process planners a test target registers by name,
+//! external processes speaking the JSON-lines protocol; ONNX policies
+//! later), the observation it receives and the output it returns.
 
 pub mod builtin;
 pub mod evasive;
 pub mod external;
+pub mod registry;
 
 pub use builtin::{BuiltinPlanner, ConstantVelocityPlanner, IdmPlanner, LogReplayPlanner};
 pub use evasive::{EvasiveParams, EvasivePlanner};

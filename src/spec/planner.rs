@@ -98,6 +98,12 @@ pub enum PlannerAdapter {
         /// IDM parameters.
         idm: IdmParams,
     },
+    /// An in-process planner registered under `name`
+    /// ([`crate::planners::registry`]).
+    InProcess {
+        /// The registered name, also used in reports.
+        name: String,
+    },
     /// External process, started in `working_dir` with `spec.env` added
     /// to its environment.
     External {
@@ -115,7 +121,7 @@ impl PlannerAdapter {
     /// Name for reports and test names.
     pub fn name(&self) -> &str {
         match self {
-            Self::Builtin { name, .. } | Self::External { name, .. } => name,
+            Self::Builtin { name, .. } | Self::InProcess { name } | Self::External { name, .. } => name,
         }
     }
 }

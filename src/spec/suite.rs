@@ -34,7 +34,8 @@ pub struct SuiteSpec {
     pub description: Option<String>,
     /// Base scenarios.
     pub scenarios: Vec<ScenarioEntry>,
-    /// The planner under test: a planner spec file, or `builtin: NAME` inline.
+    /// The planner under test: a planner spec file, `builtin: NAME`, or
+    /// `rust: NAME` (an in-process planner the test target registers).
     pub planner: PlannerRef,
     /// How variants are generated.
     #[serde(default)]
@@ -85,7 +86,8 @@ pub enum ScenarioEntry {
     },
 }
 
-/// The planner under test: a planner spec file, or `builtin: NAME`.
+/// The planner under test: a planner spec file, `builtin: NAME`, or
+/// `rust: NAME`.
 // Untagged and checked by `check_shapes` like `ScenarioEntry`.
 #[derive(Debug, Clone, Deserialize, JsonSchema)]
 #[serde(untagged, deny_unknown_fields)]
@@ -97,6 +99,14 @@ pub enum PlannerRef {
     Builtin {
         /// Which built-in.
         builtin: crate::planners::BuiltinPlanner,
+    },
+    /// An in-process Rust planner registered under this name by the test
+    /// target running the suite (`safer::runner::Runner::planner`).
+    #[schemars(extend("additionalProperties" = false))]
+    Rust {
+        /// The registered name.
+        #[schemars(with = "String")]
+        rust: Spanned<String>,
     },
 }
 
@@ -452,9 +462,12 @@ pub fn check_shapes(text: &str, path: &std::path::Path) -> Result<(), SpecError>
             .iter()
             .filter_map(|b| serde_json::to_value(b).ok().and_then(|v| v.as_str().map(String::from)))
             .collect();
-        const FORMS: &str = "give a planner spec file or `builtin: NAME`";
-        if let Some((key, at)) = planner.keys().into_iter().find(|(k, _)| *k != "builtin") {
+        const FORMS: &str = "give a planner spec file, `builtin: NAME` or `rust: NAME`";
+        if let Some((key, at)) = planner.keys().into_iter().find(|(k, _)| !matches!(*k, "builtin" | "rust")) {
             return Err(invalid(at, format!("unknown key `{key}` in `planner:`: {FORMS}")));
+        }
+        if let [_, (_, second)] = planner.keys().as_slice() {
+            return Err(invalid(*second, format!("`planner:` names both a built-in and a Rust planner: {FORMS}")));
         }
         match planner {
             Node::Sequence { .. } => return Err(invalid(planner.at(), format!("`planner:` is a list: {FORMS}"))),
@@ -527,7 +540,17 @@ acceptance:
         let e = error("- recorded: data:x", "- {}");
         assert!(e.starts_with("s.yaml:3:5: scenarios[0] is empty"), "{e}");
         let e = error("{ builtin: idm }", "{}");
-        assert!(e.starts_with("s.yaml:4:10: `planner:` is empty: give a planner spec file or `builtin: NAME`"), "{e}");
+        assert!(
+            e.starts_with(
+                "s.yaml:4:10: `planner:` is empty: give a planner spec file, `builtin: NAME` or `rust: NAME`"
+            ),
+            "{e}"
+        );
+        let e = error("{ builtin: idm }", "{ builtin: idm, rust: mine }");
+        assert!(e.contains("`planner:` names both a built-in and a Rust planner"), "{e}");
+        assert!(
+            parse_yaml::<SuiteSpec>(&SUITE.replace("{ builtin: idm }", "{ rust: mine }"), Path::new("s.yaml")).is_ok()
+        );
         let e = error("- recorded: data:x", "- { glob: '*.yaml', limit: 2 }");
         assert!(e.starts_with("s.yaml:3:23: `limit` applies to `recorded:` entries only"), "{e}");
     }

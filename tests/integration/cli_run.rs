@@ -130,7 +130,7 @@ fn a_passing_variant_with_an_allowed_collision_says_it_collided_and_is_not_solve
     // recorded-regression allows collisions that are not the ego's fault
     // (logged followers cannot react); on USA_Peach-4_2_T-1 the IDM ego is
     // rear-ended. The row must not read as a clean pass.
-    let out = safer(&["run", "specs/suites/recorded-regression.yaml", "--filter", "USA_Peach-4_2_T-1"]);
+    let out = safer(&["run", "specs/extended/recorded-regression.yaml", "--filter", "USA_Peach-4_2_T-1"]);
     let stdout = text(&out.stdout);
     assert_eq!(out.status.code(), Some(0), "{stdout}\n{}", text(&out.stderr));
     let row = stdout.lines().find(|l| l.contains("USA_Peach-4_2_T-1::seed-0")).unwrap_or_else(|| panic!("{stdout}"));

@@ -15,6 +15,7 @@ mod import_womd_json;
 mod import_womd_proto;
 mod prior_model;
 mod realism;
+mod runner;
 mod simulate_recorded;
 mod token_roundtrip;
 mod verdicts;

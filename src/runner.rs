@@ -1,0 +1,270 @@
+//! The scenario-suite test runner a planner crate puts in its own
+//! repository: a test target with `harness = false` whose `main` is a few
+//! lines,
+//!
+//! ```no_run
+//! // tests/scenarios.rs of a planner crate
+//! fn main() {
+//!     safer::runner::Runner::new(env!("CARGO_MANIFEST_DIR"))
+//!         .planner("my-planner", |_scenario, _ego| safer::planners::ConstantVelocityPlanner)
+//!         .run()
+//! }
+//! ```
+//!
+//! turns every `specs/suites/*.yaml` of that crate into tests run by
+//! libtest-mimic: `suite::scenario::seed-k` per variant and `suite::metric`
+//! per suite metric, so `cargo test -- FILTER`, `--list`, `--exact`,
+//! `--ignored` and cargo-nextest (`--partition hash:k/n`) work as for
+//! ordinary tests. Listing only parses YAML; scenarios are built inside the
+//! trials and shared per process.
+//!
+//! Each variant's stable summary is an insta snapshot in the crate's
+//! `snapshots/`; a failing variant prints what happened, the failed
+//! criteria and the paths of its MCAP recording and SVG picture (under the
+//! crate's `target/safer-artifacts/`, `$CARGO_TARGET_DIR/safer-artifacts/`
+//! or `$SAFER_ARTIFACTS_DIR`). In-process planners are registered by name
+//! ([`Runner::planner`]) and named in a suite with `planner: { rust: NAME }`.
+
+// The example shows the whole test target a planner crate writes, `main` included.
+#![allow(clippy::needless_doctest_main)]
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex, OnceLock};
+
+use libtest_mimic::{Arguments, Conclusion, Failed, Trial};
+
+use crate::harness::{self, Suite, SuiteMetrics, VariantOutcome};
+use crate::planners::Planner;
+use crate::planners::registry::{self, PlannerFactory};
+use crate::scenario::{Scenario, TrackIndex};
+
+/// Where a planner crate keeps its suites, snapshots and artefacts, and
+/// which in-process planners it registers.
+#[derive(Debug, Clone)]
+pub struct Runner {
+    root: PathBuf,
+    suite_dirs: Vec<PathBuf>,
+    snapshots: PathBuf,
+    artefacts: PathBuf,
+    /// Registration errors, reported as failing tests (a builder cannot
+    /// fail without making every caller handle it).
+    registration_errors: Vec<String>,
+}
+
+impl Runner {
+    /// A runner for the crate at `root` (pass `env!("CARGO_MANIFEST_DIR")`):
+    /// suites in `root/specs/suites`, snapshots in `root/snapshots`,
+    /// artefacts in `$SAFER_ARTIFACTS_DIR`, else
+    /// `$CARGO_TARGET_DIR/safer-artifacts`, else `root/target/safer-artifacts`.
+    pub fn new(root: impl Into<PathBuf>) -> Self {
+        let root = root.into();
+        let artefacts = std::env::var_os("SAFER_ARTIFACTS_DIR")
+            .map(PathBuf::from)
+            .or_else(|| std::env::var_os("CARGO_TARGET_DIR").map(|t| root.join(t).join("safer-artifacts")))
+            .unwrap_or_else(|| root.join("target/safer-artifacts"));
+        Self {
+            suite_dirs: Vec::new(),
+            snapshots: root.join("snapshots"),
+            artefacts,
+            registration_errors: Vec::new(),
+            root,
+        }
+    }
+
+    /// Adds a folder of suites (`*.yaml`), relative to the root unless
+    /// absolute. Without any, the runner reads `specs/suites`.
+    pub fn suites(mut self, dir: impl AsRef<Path>) -> Self {
+        self.suite_dirs.push(self.root.join(dir));
+        self
+    }
+
+    /// The snapshots folder, relative to the root unless absolute.
+    pub fn snapshots(mut self, dir: impl AsRef<Path>) -> Self {
+        self.snapshots = self.root.join(dir);
+        self
+    }
+
+    /// The artefacts folder (recordings and pictures of failing variants),
+    /// relative to the root unless absolute; `$SAFER_ARTIFACTS_DIR` still wins.
+    pub fn artefacts(mut self, dir: impl AsRef<Path>) -> Self {
+        if std::env::var_os("SAFER_ARTIFACTS_DIR").is_none() {
+            self.artefacts = self.root.join(dir);
+        }
+        self
+    }
+
+    /// Registers an in-process planner under `name`, for suites that say
+    /// `planner: { rust: NAME }`. `make` builds a fresh planner for each
+    /// variant from the scenario and its ego.
+    pub fn planner<P, F>(mut self, name: &str, make: F) -> Self
+    where
+        P: Planner + 'static,
+        F: Fn(&Scenario, TrackIndex) -> P + Send + Sync + 'static,
+    {
+        let factory: PlannerFactory = Arc::new(move |s: &Scenario, ego: TrackIndex| Box::new(make(s, ego)) as _);
+        if let Err(e) = registry::register(name, factory) {
+            self.registration_errors.push(e.to_string());
+        }
+        self
+    }
+
+    /// The suite folders read: those given, else `specs/suites`.
+    fn suite_dirs(&self) -> Vec<PathBuf> {
+        if self.suite_dirs.is_empty() { vec![self.root.join("specs/suites")] } else { self.suite_dirs.clone() }
+    }
+
+    /// One trial per variant and per suite metric of every suite; a suite
+    /// that does not load is one failing trial, a folder without suites too
+    /// (zero trials would "pass").
+    pub fn trials(&self) -> Vec<Trial> {
+        let mut out = Vec::new();
+        for (i, message) in self.registration_errors.iter().enumerate() {
+            let message = message.clone();
+            out.push(Trial::test(format!("runner::planner-{i}"), move || Err(Failed::from(message))));
+        }
+        let context = Arc::new(TrialContext { snapshots: self.snapshots.clone(), artefacts: self.artefacts.clone() });
+        for dir in self.suite_dirs() {
+            let files = Suite::discover(&dir);
+            if files.is_empty() {
+                let message = format!("no suite (*.yaml) found in {}", dir.display());
+                out.push(Trial::test(format!("suites::discover::{}", dir.display()), move || {
+                    Err(Failed::from(message))
+                }));
+            }
+            for path in files {
+                suite_trials(&path, &context, &mut out);
+            }
+        }
+        out
+    }
+
+    /// Runs the trials selected by `args`.
+    pub fn run_with(&self, args: &Arguments) -> Conclusion {
+        libtest_mimic::run(args, self.trials())
+    }
+
+    /// Runs the trials selected by the command line (libtest's and
+    /// nextest's arguments) and exits with libtest's exit code.
+    pub fn run(self) -> ! {
+        self.run_with(&Arguments::from_args()).exit()
+    }
+}
+
+/// What every trial of a run needs besides its suite.
+#[derive(Debug)]
+struct TrialContext {
+    snapshots: PathBuf,
+    artefacts: PathBuf,
+}
+
+/// The trials of one suite file.
+fn suite_trials(path: &Path, context: &Arc<TrialContext>, out: &mut Vec<Trial>) {
+    let file = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    let suite = match Suite::load(path) {
+        Ok(s) => Arc::new(s),
+        Err(e) => {
+            // A broken suite is one failing test; the other suites still run.
+            let report = format!("{:?}", e.to_report());
+            out.push(Trial::test(format!("{file}::load"), move || Err(Failed::from(report))));
+            return;
+        }
+    };
+    let name = suite.name();
+    for (si, scenario) in suite.scenarios.iter().enumerate() {
+        for k in 0..suite.spec.value.variants {
+            let (s, c) = (suite.clone(), context.clone());
+            out.push(
+                Trial::test(suite.variant_name(scenario, k), move || variant_trial(&s, &c, si, k)).with_kind("variant"),
+            );
+        }
+    }
+    for metric in harness::metrics::metric_names(&suite.spec.value.acceptance.suite) {
+        let s = suite.clone();
+        out.push(Trial::test(format!("{name}::{metric}"), move || metric_trial(&s, metric)).with_kind("metric"));
+    }
+}
+
+type Shared = Arc<Result<VariantOutcome, String>>;
+
+/// Variant outcomes computed in this process, shared by the variant trial
+/// and the suite's metric trials (nextest runs each in its own process, so
+/// metric trials then compute the variants themselves).
+fn outcome(suite: &Suite, scenario: usize, index: u32) -> Shared {
+    static CACHE: OnceLock<Mutex<HashMap<String, Shared>>> = OnceLock::new();
+    let name = suite.variant_name(&suite.scenarios[scenario], index);
+    let cache = CACHE.get_or_init(Default::default);
+    if let Some(o) = cache.lock().unwrap_or_else(|p| p.into_inner()).get(&name) {
+        return o.clone();
+    }
+    let o = Arc::new(harness::run_variant(suite, &suite.scenarios[scenario], index).map_err(|e| e.to_string()));
+    cache.lock().unwrap_or_else(|p| p.into_inner()).entry(name).or_insert(o).clone()
+}
+
+/// The verdict comes first: a variant that fails its criteria reports what
+/// happened and where its artefacts are, and only then is its snapshot
+/// compared (a snapshot diff must never hide a failing verdict).
+fn variant_trial(suite: &Suite, context: &TrialContext, scenario: usize, index: u32) -> Result<(), Failed> {
+    let shared = outcome(suite, scenario, index);
+    let o = shared.as_ref().as_ref().map_err(|e| Failed::from(format!("could not run the variant: {e}")))?;
+    let mut verdict = String::new();
+    for f in &o.failures {
+        verdict.push_str(&format!("  ✗ {}: {}\n", f.criterion, f.what));
+    }
+    if !o.failures.is_empty() {
+        match harness::artefacts::write(&context.artefacts, o) {
+            Ok(a) => {
+                verdict.push_str(&format!("  recording: {}\n  picture:   {}\n", a.mcap.display(), a.svg.display()))
+            }
+            Err(e) => verdict.push_str(&format!("  (could not write artefacts: {e})\n")),
+        }
+        // Printed before the snapshot comparison, whose diff insta prints itself.
+        eprintln!("{}:\n{verdict}", o.name);
+    }
+    let summary = o.summary();
+    let mut settings = insta::Settings::clone_current();
+    settings.set_snapshot_path(&context.snapshots);
+    settings.set_prepend_module_to_snapshot(false);
+    settings.set_omit_expression(true);
+    // Explicit names: automatic ones race between parallel trials.
+    let snapshot = o.name.replace("::", "__");
+    let compared = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        settings.bind(|| insta::assert_yaml_snapshot!(snapshot.as_str(), summary))
+    }));
+    let snapshot_note = compared.err().map(|_| {
+        format!(
+            "  snapshot {} differs (diff above; `cargo insta review` to accept)\n",
+            context.snapshots.join(format!("{snapshot}.snap")).display()
+        )
+    });
+    match (o.failures.is_empty(), snapshot_note) {
+        (true, None) => Ok(()),
+        (true, Some(note)) => Err(Failed::from(note)),
+        (false, note) => Err(Failed::from(verdict + &note.unwrap_or_default())),
+    }
+}
+
+fn metric_trial(suite: &Suite, metric: &'static str) -> Result<(), Failed> {
+    let v = suite.spec.value.variants;
+    let mut outcomes = Vec::new();
+    for s in 0..suite.scenarios.len() {
+        for k in 0..v {
+            let shared = outcome(suite, s, k);
+            match shared.as_ref() {
+                Ok(o) => outcomes.push(o.clone()),
+                Err(e) => {
+                    return Err(
+                        format!("variant {} could not run: {e}", suite.variant_name(&suite.scenarios[s], k)).into()
+                    );
+                }
+            }
+        }
+    }
+    let metrics = SuiteMetrics::compute(&outcomes);
+    let check = metrics
+        .checks(&suite.spec.value.acceptance.suite)
+        .into_iter()
+        .find(|c| c.name == metric)
+        .ok_or_else(|| Failed::from(format!("metric {metric} not configured")))?;
+    check.result.map_err(Failed::from)
+}
