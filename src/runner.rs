@@ -228,14 +228,14 @@ fn variant_trial(suite: &Suite, context: &TrialContext, scenario: usize, index: 
     settings.set_omit_expression(true);
     // Explicit names: automatic ones race between parallel trials.
     let snapshot = o.name.replace("::", "__");
+    let file = context.snapshots.join(format!("{snapshot}.snap"));
+    let existed = file.is_file();
     let compared = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
         settings.bind(|| insta::assert_yaml_snapshot!(snapshot.as_str(), summary))
     }));
     let snapshot_note = compared.err().map(|_| {
-        format!(
-            "  snapshot {} differs (diff above; `cargo insta review` to accept)\n",
-            context.snapshots.join(format!("{snapshot}.snap")).display()
-        )
+        let what = if existed { "differs (diff above" } else { "is new (content above" };
+        format!("  snapshot {} {what}; `cargo insta review` to accept)\n", file.display())
     });
     match (o.failures.is_empty(), snapshot_note) {
         (true, None) => Ok(()),
