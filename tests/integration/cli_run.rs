@@ -470,6 +470,8 @@ fn headless(args: &[&str], url: &str, profile: &Path) -> Output {
 #[test]
 #[ignore = "needs Chromium (/usr/bin/chromium or $SAFER_CHROMIUM); run with -- --ignored"]
 fn review_page_in_chromium() {
+    // Fails before the run when the browser is missing.
+    chromium();
     let dir = temp_dir("chromium");
     let page = write_review_page(&dir);
     let url = format!("file://{}", page.join("index.html").display());
