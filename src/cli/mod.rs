@@ -115,6 +115,12 @@ enum Command {
         /// Also write a JSON report to this file (`-`: standard output, the table then goes to stderr).
         #[arg(long, value_name = "OUT")]
         json: Option<PathBuf>,
+        /// Also write a JUnit XML report to this file (`-`: standard output, the table then goes to stderr): one testcase per variant and per suite metric.
+        #[arg(long, value_name = "FILE")]
+        junit: Option<PathBuf>,
+        /// Also write a static review page (index.html and the pictures of failing variants) into this folder; it must be missing, empty, or hold an earlier review page.
+        #[arg(long, value_name = "DIR")]
+        html: Option<PathBuf>,
         /// Folder for the recordings and pictures of failing variants.
         #[arg(long, value_name = "DIR", default_value = "target/safer-artifacts")]
         artifacts: PathBuf,
@@ -330,8 +336,20 @@ pub fn main() -> ExitCode {
         Command::Simulate { path, planner, background, json } => simulate::run(&path, planner, background, json),
         Command::TokenRoundtrip { scenes, json } => token_roundtrip::run(&scenes, json),
         Command::Bench { scenes, repeat } => bench::run(&scenes, repeat),
-        Command::Run { suites, json, artifacts, filter } => {
-            run::run(&suites, json.as_deref(), &artifacts, filter.as_deref())
+        Command::Run { suites, json, junit, html, artifacts, filter } => {
+            if json.as_deref().is_some_and(crate::record::is_stdout)
+                && junit.as_deref().is_some_and(crate::record::is_stdout)
+            {
+                Err(CliError::Usage("--json - and --junit - cannot both take standard output".into()))
+            } else {
+                let outputs = run::RunOutputs {
+                    json: json.as_deref(),
+                    junit: junit.as_deref(),
+                    html: html.as_deref(),
+                    artifacts: &artifacts,
+                };
+                run::run(&suites, outputs, filter.as_deref())
+            }
         }
         Command::Realism { scenes, rollouts, json, policy, seed, max_scenes } => {
             realism::run(&realism::RealismArgs { scenes, rollouts, json, policy, seed, max_scenes })

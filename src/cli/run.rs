@@ -11,7 +11,11 @@
 //! (`suite::metric`) contains it; a selected metric runs all of its suite's
 //! variants, as the metric trial of `cargo test --test suites` does.
 //!
-//! `--json -` writes the report to standard output and the table to stderr.
+//! `--json -` (or `--junit -`) writes that report to standard output and
+//! the table to stderr. `--junit FILE` writes a JUnit XML report
+//! ([`harness::junit`]); `--html DIR` a static review page
+//! ([`harness::review_page`]). All reports are written from one
+//! [`RunResults`].
 //!
 //! Exit code: 0 when every selected variant and metric passed, 1 when one
 //! failed (or could not run), 2 on usage errors and suites that do not load.
@@ -25,7 +29,8 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use super::CliError;
-use crate::harness::{self, HarnessError, Suite, SuiteMetrics, VariantOutcome, VariantSummary};
+use crate::harness::report::{RunResults, SuiteLoadFailure, SuiteRun, VariantRun};
+use crate::harness::{self, HarnessError, MetricCheck, Suite, SuiteMetrics, VariantOutcome, VariantSummary};
 
 /// One variant to run.
 struct Job {
@@ -149,23 +154,35 @@ impl Progress {
     }
 }
 
-pub(super) fn run(
-    files: &[PathBuf],
-    json: Option<&Path>,
-    artifacts: &Path,
-    filter: Option<&str>,
-) -> Result<ExitCode, CliError> {
-    if let Some(out) = json {
+/// Where `safer run` writes its reports besides the table.
+pub(super) struct RunOutputs<'a> {
+    /// The JSON report.
+    pub json: Option<&'a Path>,
+    /// The JUnit XML report.
+    pub junit: Option<&'a Path>,
+    /// The folder of the review page.
+    pub html: Option<&'a Path>,
+    /// The folder of failing variants' recordings and pictures.
+    pub artifacts: &'a Path,
+}
+
+pub(super) fn run(files: &[PathBuf], outputs: RunOutputs<'_>, filter: Option<&str>) -> Result<ExitCode, CliError> {
+    let RunOutputs { json, junit, html, artifacts } = outputs;
+    // Refused before anything runs: a report that cannot be written should not cost a run.
+    for out in [json, junit].into_iter().flatten() {
         crate::record::output::check_output(out)?;
     }
-    let mut load_errors = Vec::new();
+    if let Some(dir) = html {
+        harness::review_page::check_folder(dir)?;
+    }
+    let mut load_failures = Vec::new();
     let mut suites: Vec<(PathBuf, Suite)> = Vec::new();
     for file in files {
         match Suite::load(file) {
             Ok(s) => suites.push((file.clone(), s)),
             Err(e) => {
                 eprintln!("{:?}", e.to_report());
-                load_errors.push(LoadErrorReport { file: file.display().to_string(), message: e.to_string() });
+                load_failures.push(SuiteLoadFailure { file: file.clone(), message: e.to_string() });
             }
         }
     }
@@ -215,24 +232,42 @@ pub(super) fn run(
         .collect();
     progress.finish();
 
-    let mut reports = Vec::new();
-    for (si, (file, suite)) in suites.iter().enumerate() {
-        let mut mine: Vec<(&Job, &Done)> = jobs.iter().zip(&done).filter(|(j, _)| j.suite == si).collect();
-        mine.sort_by(|a, b| {
-            let key = |j: &Job| (suite.scenarios[j.scenario].name.clone(), j.index);
-            key(a.0).cmp(&key(b.0))
-        });
-        reports.push(suite_report(file, suite, &mine, &metrics_selected[si]));
+    // Each suite's jobs, sorted by scenario name and seed number so the
+    // reports do not depend on scheduling.
+    let mut per_suite: Vec<Vec<(Job, Done)>> = suites.iter().map(|_| Vec::new()).collect();
+    for (j, d) in jobs.into_iter().zip(done) {
+        per_suite[j.suite].push((j, d));
     }
-    let load_failed = !load_errors.is_empty();
-    let report = Report { passed: !load_failed && reports.iter().all(|r| r.passed), load_errors, suites: reports };
+    let mut results = RunResults { load_failures, suites: Vec::new() };
+    for ((file, suite), (mut mine, metrics)) in suites.iter().zip(per_suite.into_iter().zip(&metrics_selected)) {
+        mine.sort_by_cached_key(|(j, _)| (suite.scenarios[j.scenario].name.clone(), j.index));
+        results.suites.push(suite_run(file, suite, mine, metrics));
+    }
+    let load_failed = !results.load_failures.is_empty();
+    let report = Report {
+        passed: results.passed(),
+        load_errors: results
+            .load_failures
+            .iter()
+            .map(|f| LoadErrorReport { file: f.file.display().to_string(), message: f.message.clone() })
+            .collect(),
+        suites: results.suites.iter().map(suite_report).collect(),
+    };
 
-    let mut table = super::table_writer(json);
+    // The table goes to stderr when a report takes standard output.
+    let mut table = super::table_writer([json, junit].into_iter().flatten().find(|p| crate::record::is_stdout(p)));
     print_report(&mut table, &report)?;
     table.flush()?;
     if let Some(out) = json {
         let text = serde_json::to_string_pretty(&report)? + "\n";
         crate::record::write_output(out, text.as_bytes())?;
+    }
+    if let Some(out) = junit {
+        crate::record::write_output(out, harness::junit::junit_xml(&results).as_bytes())?;
+    }
+    if let Some(dir) = html {
+        let page = harness::review_page::write_review_page(dir, &results)?;
+        eprintln!("review page: {}", page.display());
     }
     Ok(if load_failed {
         ExitCode::from(2)
@@ -243,13 +278,62 @@ pub(super) fn run(
     })
 }
 
-/// The report of one suite: its shown variants and its selected metrics.
-fn suite_report(file: &Path, suite: &Suite, jobs: &[(&Job, &Done)], metrics: &[&'static str]) -> SuiteReport {
-    let mut variants = Vec::new();
-    for (job, done) in jobs.iter().filter(|(j, _)| j.shown) {
-        variants.push(match &done.outcome {
+/// The results of one suite: its shown variants and its selected metrics.
+fn suite_run(file: &Path, suite: &Suite, jobs: Vec<(Job, Done)>, metrics: &[&'static str]) -> SuiteRun {
+    let (suite_metrics, checks) = if metrics.is_empty() {
+        (None, Vec::new())
+    } else {
+        // Same rule as the metric trials of the cargo-test runner: every
+        // variant must have run, otherwise the metric fails naming the first.
+        let broken = jobs.iter().find_map(|(job, done)| {
+            done.outcome.as_ref().err().map(|e| {
+                let name = suite.variant_name(&suite.scenarios[job.scenario], job.index);
+                format!("variant {name} could not run: {e}")
+            })
+        });
+        match broken {
+            Some(why) => {
+                (None, metrics.iter().map(|m| MetricCheck { name: m, value: None, result: Err(why.clone()) }).collect())
+            }
+            None => {
+                let m =
+                    SuiteMetrics::aggregate(jobs.iter().filter_map(|(_, d)| d.outcome.as_ref().ok()).map(|o| &o.tally));
+                let checks = m
+                    .checks(&suite.spec.value.acceptance.suite)
+                    .into_iter()
+                    .filter(|c| metrics.contains(&c.name))
+                    .collect();
+                (Some(m), checks)
+            }
+        }
+    };
+    let variants = jobs
+        .into_iter()
+        .filter(|(j, _)| j.shown)
+        .map(|(job, done)| VariantRun {
+            name: suite.variant_name(&suite.scenarios[job.scenario], job.index),
+            outcome: done.outcome.map_err(|e| e.to_string()),
+            artefacts: done.artefacts,
+        })
+        .collect();
+    SuiteRun {
+        file: file.to_path_buf(),
+        name: suite.name(),
+        planner: suite.planner.name().to_string(),
+        variants,
+        metrics: suite_metrics,
+        checks,
+    }
+}
+
+/// The JSON report of one suite.
+fn suite_report(run: &SuiteRun) -> SuiteReport {
+    let variants = run
+        .variants
+        .iter()
+        .map(|v| match &v.outcome {
             Ok(o) => {
-                let (artefacts, artefacts_error) = match &done.artefacts {
+                let (artefacts, artefacts_error) = match &v.artefacts {
                     Some(Ok(a)) => (
                         Some(ArtefactReport { mcap: a.mcap.display().to_string(), svg: a.svg.display().to_string() }),
                         None,
@@ -259,73 +343,26 @@ fn suite_report(file: &Path, suite: &Suite, jobs: &[(&Job, &Done)], metrics: &[&
                 };
                 VariantEntry::Ran { summary: Box::new(o.summary()), artefacts, artefacts_error }
             }
-            Err(e) => VariantEntry::Error {
-                variant: suite.variant_name(&suite.scenarios[job.scenario], job.index),
-                passed: false,
-                error: e.to_string(),
-            },
-        });
-    }
-
-    let (suite_metrics, checks) = if metrics.is_empty() {
-        (None, Vec::new())
-    } else {
-        // Same rule as the metric trials of the cargo-test runner: every
-        // variant must have run, otherwise the metric fails naming the first.
-        let mut outcomes = Vec::new();
-        let mut broken = None;
-        for (job, done) in jobs {
-            match &done.outcome {
-                Ok(o) => outcomes.push(o.clone()),
-                Err(e) if broken.is_none() => {
-                    let name = suite.variant_name(&suite.scenarios[job.scenario], job.index);
-                    broken = Some(format!("variant {name} could not run: {e}"));
-                }
-                Err(_) => {}
-            }
-        }
-        match broken {
-            Some(why) => (
-                None,
-                metrics
-                    .iter()
-                    .map(|m| CheckReport {
-                        name: m.to_string(),
-                        value: None,
-                        passed: false,
-                        message: Some(why.clone()),
-                    })
-                    .collect(),
-            ),
-            None => {
-                let m = SuiteMetrics::compute(&outcomes);
-                let checks = m
-                    .checks(&suite.spec.value.acceptance.suite)
-                    .into_iter()
-                    .filter(|c| metrics.contains(&c.name))
-                    .map(|c| CheckReport {
-                        name: c.name.to_string(),
-                        value: c.value,
-                        passed: c.result.is_ok(),
-                        message: c.result.err(),
-                    })
-                    .collect();
-                (Some(m), checks)
-            }
-        }
-    };
-
-    let passed = variants.iter().all(|v| match v {
-        VariantEntry::Ran { summary, .. } => summary.passed,
-        VariantEntry::Error { .. } => false,
-    }) && checks.iter().all(|c| c.passed);
+            Err(e) => VariantEntry::Error { variant: v.name.clone(), passed: false, error: e.clone() },
+        })
+        .collect();
+    let checks = run
+        .checks
+        .iter()
+        .map(|c| CheckReport {
+            name: c.name.to_string(),
+            value: c.value,
+            passed: c.result.is_ok(),
+            message: c.result.clone().err(),
+        })
+        .collect();
     SuiteReport {
-        file: file.display().to_string(),
-        name: suite.name(),
-        planner: suite.planner.name().to_string(),
-        passed,
+        file: run.file.display().to_string(),
+        name: run.name.clone(),
+        planner: run.planner.clone(),
+        passed: run.passed(),
         variants,
-        metrics: suite_metrics,
+        metrics: run.metrics.clone(),
         checks,
     }
 }

@@ -10,19 +10,26 @@
 //! (`tests/suites.rs`) and `safer run` call [`run_variant`], `safer
 //! evaluate` calls [`evaluation::evaluate`]; both run [`pipeline::run`] and
 //! reduce variants to [`metrics::VariantTally`] for CR, SR, VJ and AJ.
+//!
+//! The results of a run ([`report::RunResults`]) are written as a JUnit
+//! XML report ([`junit`]) and a static review page ([`review_page`]).
 
 pub mod acceptance;
 pub mod artefacts;
 pub mod evaluation;
+pub mod junit;
 pub mod methods;
 pub mod metrics;
 pub mod pipeline;
+pub mod report;
+pub mod review_page;
 pub mod suite;
 pub mod variant;
 
 pub use acceptance::AcceptanceFailure;
 pub use metrics::{MetricCheck, SuiteMetrics, VariantTally};
 pub use pipeline::{DualStage, Stage2Verdict};
+pub use report::{RunResults, SuiteLoadFailure, SuiteRun, VariantRun};
 pub use suite::{Suite, SuiteScenario};
 pub use variant::{VariantOutcome, VariantSummary, run_variant};
 

@@ -11,6 +11,9 @@
 //! - [`mcap`]: one MCAP file per rollout (`foxglove.SceneUpdate` per step,
 //!   the map once, ego/CBV paths, extra trajectories, collision events).
 //!   Entry points: [`encode_rollout_mcap`], [`write_rollout_mcap`].
+//! - [`animation`]: a rollout as per-step agent poses and the map lines
+//!   around the conflict, for the review page's animated view
+//!   ([`animation::RolloutAnimation`]).
 //! - [`atomic`]: write-to-temporary-then-rename, so a reader never sees a
 //!   half-written artefact; stale temporaries of killed runs are removed.
 //! - [`output`]: the one way to write a path the user chose (`-` is
@@ -28,6 +31,7 @@
 //! skipped in pictures; recordings refuse inconsistent rollouts with a
 //! [`RecordError`].
 
+pub mod animation;
 pub mod atomic;
 pub mod mcap;
 pub mod output;

@@ -252,3 +252,250 @@ fn render_a_broken_spec_shows_the_yaml_line() {
     assert!(!dir.join("x.svg").exists());
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// A JUnit testcase as an independent parser reads it.
+#[derive(Debug)]
+struct JunitCase {
+    classname: String,
+    name: String,
+    failure: Option<String>,
+    failure_text: Option<String>,
+    error: Option<String>,
+}
+
+/// The testcases of a JUnit document.
+fn junit_cases(xml: &str) -> Vec<JunitCase> {
+    let doc = roxmltree::Document::parse(xml).unwrap_or_else(|e| panic!("JUnit XML is not well-formed: {e}\n{xml}"));
+    doc.descendants()
+        .filter(|n| n.has_tag_name("testcase"))
+        .map(|c| {
+            let child = |tag: &str| c.children().find(|n| n.has_tag_name(tag));
+            JunitCase {
+                classname: c.attribute("classname").unwrap_or_default().to_string(),
+                name: c.attribute("name").unwrap_or_default().to_string(),
+                failure: child("failure").and_then(|f| f.attribute("message")).map(String::from),
+                failure_text: child("failure").and_then(|f| f.text()).map(String::from),
+                error: child("error").and_then(|f| f.attribute("message")).map(String::from),
+            }
+        })
+        .collect()
+}
+
+#[test]
+fn run_junit_reports_a_failing_and_a_passing_suite() {
+    let dir = temp_dir("junit");
+    let junit = dir.join("junit.xml");
+    let artefacts = dir.join("artefacts");
+    let out = safer(&[
+        "run",
+        "specs/examples/constant-velocity-fails.yaml",
+        "specs/suites/authored.yaml",
+        "--junit",
+        junit.to_str().unwrap(),
+        "--artifacts",
+        artefacts.to_str().unwrap(),
+    ]);
+    let stdout = text(&out.stdout);
+    assert_eq!(out.status.code(), Some(1), "{stdout}\n{}", text(&out.stderr));
+    // The table is unchanged by --junit.
+    assert!(stdout.contains("FAIL: 6 variants, 1 failed; 2 metric checks, 1 failed"), "{stdout}");
+    let xml = std::fs::read_to_string(&junit).expect("JUnit report written");
+    let doc = roxmltree::Document::parse(&xml).unwrap();
+    let root = doc.root_element();
+    assert_eq!(root.tag_name().name(), "testsuites");
+    assert_eq!(
+        (root.attribute("tests"), root.attribute("failures"), root.attribute("errors")),
+        (Some("8"), Some("2"), Some("0"))
+    );
+    let cases = junit_cases(&xml);
+    // 3 variants + solution_rate per suite.
+    assert_eq!(cases.len(), 8, "{xml}");
+    let fails: Vec<_> = cases.iter().filter(|c| c.classname == "constant-velocity-fails").collect();
+    let passes: Vec<_> = cases.iter().filter(|c| c.classname == "authored").collect();
+    assert_eq!((fails.len(), passes.len()), (4, 4), "{xml}");
+    assert!(passes.iter().all(|c| c.failure.is_none() && c.error.is_none()), "{xml}");
+    let names: Vec<&str> = passes.iter().map(|c| c.name.as_str()).collect();
+    assert_eq!(
+        names,
+        ["highway-overtake::seed-0", "on-ramp-merge::seed-0", "signalised-crossing::seed-0", "solution_rate"]
+    );
+
+    let failing = fails.iter().find(|c| c.name == "highway-overtake::seed-0").expect("failing variant");
+    let message = failing.failure.as_deref().expect("a <failure>");
+    assert!(message.starts_with("no_collision: ego collided with agent lead at t = "), "{message}");
+    assert!(message.contains("; min_gap_m: "), "{message}");
+    let body = failing.failure_text.as_deref().expect("failure text");
+    assert!(body.contains("stage 2 (planner constant-velocity"), "{body}");
+    for ext in ["mcap", "svg"] {
+        let p = artefacts.join("constant-velocity-fails/highway-overtake/seed-0").with_extension(ext);
+        assert!(p.is_file(), "{} missing", p.display());
+        assert!(body.contains(&p.display().to_string()), "{body}");
+    }
+    let metric = fails.iter().find(|c| c.name == "solution_rate").expect("metric testcase");
+    assert!(metric.failure.as_deref().is_some_and(|m| m.starts_with("solution_rate = 0.667 < 1")), "{metric:?}");
+    assert!(fails.iter().filter(|c| c.failure.is_none()).count() == 2, "{xml}");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn run_junit_reports_a_suite_that_does_not_load_as_an_error() {
+    let dir = temp_dir("junit-load");
+    let suite = dir.join("typo.yaml");
+    std::fs::write(&suite, "name: typo\nscenarios: []\nplanner: { builtin: idm }\nvariantz: 2\n").unwrap();
+    let out = safer(&["run", suite.to_str().unwrap(), "--junit", "-"]);
+    assert_eq!(out.status.code(), Some(2), "{}", text(&out.stderr));
+    // --junit - takes standard output; the table goes to stderr.
+    let xml = text(&out.stdout);
+    let cases = junit_cases(&xml);
+    assert_eq!(cases.len(), 1, "{xml}");
+    assert_eq!((cases[0].classname.as_str(), cases[0].name.as_str()), ("typo", "load"));
+    assert!(cases[0].error.as_deref().is_some_and(|m| m.contains("typo.yaml")), "{xml}");
+    assert!(xml.contains("variantz"), "{xml}");
+    assert!(text(&out.stderr).contains("FAIL: 0 variants"), "{}", text(&out.stderr));
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// Runs the failing example and the authored suite with `--html`; returns
+/// the page folder (inside `dir`).
+fn write_review_page(dir: &Path) -> PathBuf {
+    let page = dir.join("review");
+    let out = safer(&[
+        "run",
+        "specs/examples/constant-velocity-fails.yaml",
+        "specs/suites/authored.yaml",
+        "--html",
+        page.to_str().unwrap(),
+        "--artifacts",
+        dir.join("artefacts").to_str().unwrap(),
+    ]);
+    assert_eq!(out.status.code(), Some(1), "{}\n{}", text(&out.stdout), text(&out.stderr));
+    page
+}
+
+#[test]
+fn run_html_writes_a_well_formed_review_page_with_the_failing_variants_frames() {
+    let dir = temp_dir("html");
+    let page = write_review_page(&dir);
+    let html = std::fs::read_to_string(page.join("index.html")).expect("index.html written");
+    let options = roxmltree::ParsingOptions { allow_dtd: true, ..Default::default() };
+    let doc =
+        roxmltree::Document::parse_with_options(&html, options).unwrap_or_else(|e| panic!("not well-formed: {e}"));
+    // Nothing loads from the network.
+    for n in doc.descendants() {
+        for a in ["src", "href"] {
+            if let Some(v) = n.attribute(a) {
+                assert!(!v.contains("://"), "external reference {v}");
+            }
+        }
+    }
+    let rows: Vec<String> = doc
+        .descendants()
+        .filter(|n| n.has_tag_name("table") && n.attribute("class") == Some("variants"))
+        .flat_map(|t| t.descendants().filter(|n| n.has_tag_name("tr")).skip(1))
+        .map(|tr| tr.children().find(|n| n.has_tag_name("td")).and_then(|td| td.text()).unwrap_or_default().to_string())
+        .collect();
+    let mut expected = Vec::new();
+    for suite in ["constant-velocity-fails", "authored"] {
+        for scenario in ["highway-overtake", "on-ramp-merge", "signalised-crossing"] {
+            expected.push(format!("{suite}::{scenario}::seed-0"));
+        }
+    }
+    assert_eq!(rows, expected);
+    // One player, for the one failing variant, with its rollout's frames.
+    let players: Vec<_> = doc.descendants().filter(|n| n.attribute("class") == Some("player")).collect();
+    assert_eq!(players.len(), 1);
+    assert_eq!(players[0].attribute("data-variant"), Some("constant-velocity-fails::highway-overtake::seed-0"));
+    let json = players[0]
+        .descendants()
+        .find(|n| n.attribute("class") == Some("rollout"))
+        .and_then(|n| n.text())
+        .expect("rollout data");
+    let data: serde_json::Value = serde_json::from_str(json).unwrap();
+    let frames = data["frames"].as_array().unwrap();
+    assert!(frames.len() > 50, "{} frames", frames.len());
+    let agents = data["agents"].as_array().unwrap();
+    assert_eq!(agents[0]["role"], "ego");
+    assert!(agents.iter().any(|a| a["id"] == "lead"), "{agents:?}");
+    assert!(frames.iter().all(|f| f.as_array().unwrap().len() == agents.len()));
+    assert!(data["collisions"].as_array().is_some_and(|c| !c.is_empty()));
+    // The picture beside the page and the recording it links to.
+    let picture = page.join("pictures/constant-velocity-fails/highway-overtake/seed-0.svg");
+    assert!(picture.is_file(), "{}", picture.display());
+    let mcap = doc.descendants().find(|n| n.attribute("class") == Some("mcap")).and_then(|a| a.attribute("href"));
+    let mcap = page.join(mcap.expect("a link to the recording"));
+    assert!(mcap.is_file(), "{}", mcap.display());
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// Chromium, when asked for: `SAFER_CHROMIUM` or `/usr/bin/chromium`.
+fn chromium() -> PathBuf {
+    let path = std::env::var_os("SAFER_CHROMIUM").map_or_else(|| PathBuf::from("/usr/bin/chromium"), PathBuf::from);
+    assert!(
+        path.is_file(),
+        "{} not found: this browser test needs Chromium (Debian: apt-get install chromium; or set SAFER_CHROMIUM)",
+        path.display()
+    );
+    path
+}
+
+/// Runs headless Chromium on `url` with `args`; the machine's closed
+/// network needs the background-networking flags.
+fn headless(args: &[&str], url: &str, profile: &Path) -> Output {
+    let out = Command::new(chromium())
+        .args([
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--disable-quic",
+            "--no-first-run",
+            "--disable-background-networking",
+            "--disable-component-update",
+            "--disable-sync",
+            "--window-size=1400,1000",
+        ])
+        .arg(format!("--user-data-dir={}", profile.display()))
+        .args(args)
+        .arg(url)
+        .output()
+        .expect("run chromium");
+    assert!(out.status.success(), "chromium failed: {}", text(&out.stderr));
+    out
+}
+
+/// The review page in a real browser: its script builds the animated view
+/// without an error, and a screenshot is taken. Ignored by default (it
+/// needs Chromium); run it with
+/// `cargo test --test integration review_page_in_chromium -- --ignored`,
+/// where a missing browser fails it.
+#[test]
+#[ignore = "needs Chromium (/usr/bin/chromium or $SAFER_CHROMIUM); run with -- --ignored"]
+fn review_page_in_chromium() {
+    // Fails before the run when the browser is missing.
+    chromium();
+    let dir = temp_dir("chromium");
+    let page = write_review_page(&dir);
+    let url = format!("file://{}", page.join("index.html").display());
+    let profile = dir.join("profile");
+    let dom = text(&headless(&["--dump-dom"], &url, &profile).stdout);
+    let player = dom.split("class=\"player\"").nth(1).expect("the player is in the DOM");
+    let player = player.split("</figure>").next().unwrap();
+    assert!(player.contains("data-ready=\"true\""), "the script did not finish:\n{player}");
+    // Every agent of the rollout got a box with corners, ego and CBV among them.
+    let boxes = player.matches("<polygon class=\"box\" points=\"").count();
+    let agents = player.matches("<g class=\"agent ").count();
+    assert!(agents >= 3 && boxes == agents, "{agents} agents, {boxes} boxes drawn");
+    assert!(player.contains("<g class=\"agent ego") && player.contains("<g class=\"agent cbv"), "{player}");
+    // The ego rear-ends the leader at 3.6 s: that frame is shown first.
+    assert!(player.contains("<output class=\"time\">t = 3.6 s (step 36 of 80)</output>"), "{player}");
+    let errors = dom.split("id=\"js-errors\"").nth(1).unwrap().split("</pre>").next().unwrap();
+    assert!(errors.starts_with(" hidden=\"hidden\">") && errors.ends_with('>'), "script errors: {errors}");
+
+    let shot = std::env::var_os("SAFER_SCREENSHOT").map_or_else(|| dir.join("review.png"), PathBuf::from);
+    headless(&[&format!("--screenshot={}", shot.display())], &url, &profile);
+    let png = std::fs::read(&shot).expect("screenshot written");
+    assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
+    let (w, h) =
+        (u32::from_be_bytes(png[16..20].try_into().unwrap()), u32::from_be_bytes(png[20..24].try_into().unwrap()));
+    assert_eq!((w, h), (1400, 1000));
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -1,0 +1,303 @@
+//! A JUnit XML report of a run of suites, for CI systems that show test
+//! results (GitLab, Jenkins, GitHub test-report actions): one `<testsuite>`
+//! per suite file, one `<testcase>` per variant (classname = the suite,
+//! name = `scenario::seed-k`) and per suite metric (name = the metric).
+//!
+//! - A variant that fails its criteria is a `<failure>` whose message is
+//!   the failed criteria and whose body says what happened in both stages
+//!   and where its recording (MCAP) and picture (SVG) are; the paths are
+//!   repeated as `[[ATTACHMENT|path]]` lines in `<system-out>`, the form
+//!   Jenkins' attachments plugin picks up.
+//! - A variant that could not run is an `<error>`, and so is a metric that
+//!   could not be computed because such a variant is missing.
+//! - A suite file that did not load is a testsuite named after the file
+//!   with one testcase, `load`, holding an `<error>` (the cargo runner's
+//!   trial for such a file has the same name).
+//!
+//! Written by hand: the format is a dozen elements, and escaping is the
+//! only subtle part. Text and attributes escape `& < > " '`; attributes
+//! also keep line breaks and tabs as character references; characters
+//! XML 1.0 cannot hold (control characters such as ANSI colour codes) are
+//! written as `\u{..}`. No timestamps, host names or durations: the same
+//! results give the same bytes.
+
+use std::fmt::Write as _;
+
+use super::report::{RunResults, SuiteLoadFailure, SuiteRun, VariantRun};
+use super::{MetricCheck, VariantOutcome};
+
+/// The JUnit XML document of `results`.
+pub fn junit_xml(results: &RunResults) -> String {
+    let mut suites = String::new();
+    let (mut tests, mut failures, mut errors) = (0, 0, 0);
+    for failure in &results.load_failures {
+        load_failure_suite(&mut suites, failure);
+        tests += 1;
+        errors += 1;
+    }
+    for run in &results.suites {
+        let counts = suite(&mut suites, run);
+        tests += counts.tests;
+        failures += counts.failures;
+        errors += counts.errors;
+    }
+    format!(
+        "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<testsuites name=\"safer\" tests=\"{tests}\" \
+         failures=\"{failures}\" errors=\"{errors}\">\n{suites}</testsuites>\n"
+    )
+}
+
+/// Test counts of one testsuite.
+#[derive(Debug, Default)]
+struct Counts {
+    tests: usize,
+    failures: usize,
+    errors: usize,
+}
+
+/// What a testcase ended with.
+enum Verdict {
+    Passed,
+    /// The test ran and did not hold: (message, body).
+    Failure(String, String),
+    /// The test could not run: (message, body).
+    Error(String, String),
+}
+
+fn load_failure_suite(out: &mut String, failure: &SuiteLoadFailure) {
+    let stem =
+        failure.file.file_stem().map_or_else(|| failure.file.display().to_string(), |s| s.to_string_lossy().into());
+    let file = attr(&failure.file.display().to_string());
+    let _ = writeln!(
+        out,
+        "  <testsuite name=\"{}\" file=\"{file}\" tests=\"1\" failures=\"0\" errors=\"1\" skipped=\"0\">",
+        attr(&stem)
+    );
+    let message = format!("suite file {} could not be loaded", failure.file.display());
+    testcase(out, &stem, "load", &Verdict::Error(message, failure.message.clone()), &[]);
+    out.push_str("  </testsuite>\n");
+}
+
+fn suite(out: &mut String, run: &SuiteRun) -> Counts {
+    let mut cases = String::new();
+    let mut counts = Counts::default();
+    let mut count = |v: &Verdict| {
+        counts.tests += 1;
+        match v {
+            Verdict::Passed => {}
+            Verdict::Failure(..) => counts.failures += 1,
+            Verdict::Error(..) => counts.errors += 1,
+        }
+    };
+    for variant in &run.variants {
+        let (verdict, attachments) = variant_verdict(variant);
+        count(&verdict);
+        testcase(&mut cases, &run.name, variant.name_in_suite(), &verdict, &attachments);
+    }
+    for check in &run.checks {
+        let verdict = metric_verdict(run, check);
+        count(&verdict);
+        testcase(&mut cases, &run.name, check.name, &verdict, &[]);
+    }
+    let _ = writeln!(
+        out,
+        "  <testsuite name=\"{}\" file=\"{}\" tests=\"{}\" failures=\"{}\" errors=\"{}\" skipped=\"0\">\n    \
+         <properties>\n      <property name=\"planner\" value=\"{}\"/>\n    </properties>",
+        attr(&run.name),
+        attr(&run.file.display().to_string()),
+        counts.tests,
+        counts.failures,
+        counts.errors,
+        attr(&run.planner),
+    );
+    out.push_str(&cases);
+    out.push_str("  </testsuite>\n");
+    counts
+}
+
+/// A variant's verdict and the artefact paths to attach.
+fn variant_verdict(variant: &VariantRun) -> (Verdict, Vec<String>) {
+    let outcome = match &variant.outcome {
+        Err(e) => return (Verdict::Error(format!("could not run the variant: {e}"), e.clone()), Vec::new()),
+        Ok(o) if o.failures.is_empty() => return (Verdict::Passed, Vec::new()),
+        Ok(o) => o,
+    };
+    let message =
+        outcome.failures.iter().map(|f| format!("{}: {}", f.criterion, f.what)).collect::<Vec<_>>().join("; ");
+    let mut body = String::new();
+    for f in &outcome.failures {
+        let _ = writeln!(body, "✗ {}: {}", f.criterion, f.what);
+    }
+    body.push_str(&what_happened(outcome));
+    let mut attachments = Vec::new();
+    match &variant.artefacts {
+        Some(Ok(a)) => {
+            let (mcap, svg) = (a.mcap.display().to_string(), a.svg.display().to_string());
+            let _ = writeln!(body, "recording: {mcap}   (Foxglove, 3D panel)\npicture:   {svg}");
+            attachments = vec![mcap, svg];
+        }
+        Some(Err(e)) => {
+            let _ = writeln!(body, "(could not write artefacts: {e})");
+        }
+        None => {}
+    }
+    (Verdict::Failure(message, body), attachments)
+}
+
+/// Both stages of a variant in a few lines.
+fn what_happened(o: &VariantOutcome) -> String {
+    let s = o.summary();
+    let gap = |g: Option<f64>| g.map_or_else(|| "-".into(), |g| format!("{g:.2} m"));
+    let mut text = format!(
+        "stage 1 (ego replays its log, CBV {}): CBV hit the ego: {}; closest gap {}\n",
+        s.cbv.as_deref().unwrap_or("none"),
+        if s.stage1_cbv_hit_ego { "yes" } else { "no" },
+        gap(s.stage1_min_gap_m),
+    );
+    let _ = write!(text, "stage 2 (planner {} drives ego {}): ", s.planner, s.ego);
+    match &s.stage2_collision {
+        Some(c) => {
+            let _ = write!(text, "ego collided with {c}");
+        }
+        None => text.push_str("no ego collision"),
+    }
+    if let Some(t) = s.stage2_off_road_s {
+        let _ = write!(text, "; off the road from {t:.1} s");
+    }
+    let _ = writeln!(
+        text,
+        "; closest gap {}; minimum TTC {}; ended: {}",
+        gap(s.stage2_min_gap_m),
+        s.stage2_min_ttc_s.map_or_else(|| "-".into(), |t| format!("{t:.1} s")),
+        s.stage2_termination
+    );
+    if let crate::harness::Stage2Verdict::Aborted { reason } = &o.verdict {
+        let _ = writeln!(text, "aborted: {reason}");
+    }
+    text
+}
+
+fn metric_verdict(run: &SuiteRun, check: &MetricCheck) -> Verdict {
+    match &check.result {
+        Ok(()) => Verdict::Passed,
+        // A variant it needs did not run: the metric was never measured.
+        Err(why) if run.checks_unmeasured() => Verdict::Error(why.clone(), why.clone()),
+        Err(why) => {
+            let value = check.value.map_or_else(|| "not measured".into(), |v| format!("{v:.3}"));
+            let over = run.metrics.as_ref().map_or(0, |m| m.variants);
+            Verdict::Failure(
+                why.clone(),
+                format!("{}::{} = {value} over {over} variants\n{why}\n", run.name, check.name),
+            )
+        }
+    }
+}
+
+fn testcase(out: &mut String, classname: &str, name: &str, verdict: &Verdict, attachments: &[String]) {
+    let _ = write!(out, "    <testcase classname=\"{}\" name=\"{}\"", attr(classname), attr(name));
+    let (tag, message, body) = match verdict {
+        Verdict::Passed => {
+            out.push_str("/>\n");
+            return;
+        }
+        Verdict::Failure(m, b) => ("failure", m, b),
+        Verdict::Error(m, b) => ("error", m, b),
+    };
+    let kind = if tag == "failure" { "acceptance" } else { "could-not-run" };
+    let _ = writeln!(out, ">\n      <{tag} message=\"{}\" type=\"{kind}\">{}</{tag}>", attr(message), text(body));
+    if !attachments.is_empty() {
+        let lines: String = attachments.iter().map(|p| format!("[[ATTACHMENT|{p}]]\n")).collect();
+        let _ = writeln!(out, "      <system-out>{}</system-out>", text(&lines));
+    }
+    out.push_str("    </testcase>\n");
+}
+
+/// Escapes element text.
+fn text(s: &str) -> String {
+    escape(s, false)
+}
+
+/// Escapes an attribute value (written between double quotes).
+fn attr(s: &str) -> String {
+    escape(s, true)
+}
+
+fn escape(s: &str, attribute: bool) -> String {
+    let mut out = String::with_capacity(s.len());
+    for c in s.chars() {
+        match c {
+            '&' => out.push_str("&amp;"),
+            '<' => out.push_str("&lt;"),
+            '>' => out.push_str("&gt;"),
+            '"' => out.push_str("&quot;"),
+            '\'' => out.push_str("&apos;"),
+            // Attribute-value normalisation would turn these into spaces.
+            '\n' if attribute => out.push_str("&#10;"),
+            '\r' if attribute => out.push_str("&#13;"),
+            '\t' if attribute => out.push_str("&#9;"),
+            '\n' | '\r' | '\t' => out.push(c),
+            // Not allowed in XML 1.0, not even as a character reference.
+            c if (c as u32) < 0x20 || c == '\u{fffe}' || c == '\u{ffff}' => {
+                let _ = write!(out, "\\u{{{:x}}}", c as u32);
+            }
+            c => out.push(c),
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::harness::report::tests_support::{failing_variant, passing_run};
+    use crate::harness::report::{RunResults, SuiteLoadFailure};
+
+    #[test]
+    fn escaping_keeps_markup_out_and_refuses_characters_xml_cannot_hold() {
+        let nasty = "a<b>&\"c\" 'd'\n\te\u{1b}[31m\u{0}";
+        let doc = format!("<x a=\"{}\">{}</x>", attr(nasty), text(nasty));
+        let parsed = roxmltree::Document::parse(&doc).expect("well-formed");
+        let root = parsed.root_element();
+        assert_eq!(root.attribute("a"), Some("a<b>&\"c\" 'd'\n\te\\u{1b}[31m\\u{0}"));
+        assert_eq!(root.text(), Some("a<b>&\"c\" 'd'\n\te\\u{1b}[31m\\u{0}"));
+    }
+
+    #[test]
+    fn a_failing_variant_an_error_and_a_load_failure_are_counted_and_described() {
+        let mut run = passing_run();
+        run.variants.push(failing_variant(&run.name));
+        run.variants.push(VariantRun {
+            name: format!("{}::broken::seed-0", run.name),
+            outcome: Err("planner `x` could not be started: no such file".into()),
+            artefacts: None,
+        });
+        let results = RunResults {
+            load_failures: vec![SuiteLoadFailure {
+                file: "specs/suites/typo.yaml".into(),
+                message: "line 5: <oops>".into(),
+            }],
+            suites: vec![run],
+        };
+        let xml = junit_xml(&results);
+        let doc = roxmltree::Document::parse(&xml).expect("well-formed");
+        let root = doc.root_element();
+        assert_eq!(root.tag_name().name(), "testsuites");
+        let cases: Vec<_> = doc.descendants().filter(|n| n.has_tag_name("testcase")).collect();
+        // load + passing variant + failing + broken + one metric
+        assert_eq!(cases.len(), 5, "{xml}");
+        assert_eq!(root.attribute("tests"), Some("5"));
+        assert_eq!(root.attribute("failures"), Some("1"));
+        assert_eq!(root.attribute("errors"), Some("2"));
+        let failure = doc.descendants().find(|n| n.has_tag_name("failure")).expect("a failure");
+        let case = failure.parent().unwrap();
+        assert_eq!(case.attribute("classname"), Some("unit"));
+        assert_eq!(case.attribute("name"), Some("crossing::seed-1"));
+        assert!(failure.attribute("message").unwrap().starts_with("no_collision: "), "{xml}");
+        let body = failure.text().unwrap();
+        assert!(body.contains("recording: out/unit/crossing/seed-1.mcap"), "{body}");
+        assert!(body.contains("stage 2 (planner"), "{body}");
+        let load = cases.iter().find(|c| c.attribute("name") == Some("load")).unwrap();
+        assert_eq!(load.attribute("classname"), Some("typo"));
+        assert!(load.children().any(|n| n.has_tag_name("error") && n.text() == Some("line 5: <oops>")));
+    }
+}

@@ -1,0 +1,666 @@
+//! A static review page of a run of suites: one `index.html` that opens
+//! from the file system with no network (no external script, style sheet
+//! or font), and the pictures of the failing variants beside it under
+//! `pictures/suite/scenario/seed-k.svg`.
+//!
+//! The page shows every suite with its verdict, a table of its variants
+//! (verdict, stage-1 and stage-2 key figures, the failed criteria), its
+//! suite metrics and their checks; suite files that did not load, with
+//! their message; and for each failing variant what happened, its
+//! picture, a link to its MCAP recording (relative to the page, for
+//! Foxglove) and an animated top-down view of the stage-2 rollout (the
+//! ego, the CBV and the other agents as oriented boxes over the road,
+//! [`RolloutAnimation`]) with a step slider and a play button. The
+//! animation's data is embedded as JSON and drawn by a small inline script.
+//!
+//! All text from specs, logs and planners is escaped; JSON inside the page
+//! has every `<`, `>` and `&` written as `\u003c`, `\u003e`, `\u0026`, so
+//! no string can close its script element. The markup is also well-formed
+//! XML (void elements closed, scripts in commented CDATA sections), so
+//! tests and tools can read it with an XML parser. The page has no timestamp: the same results give the same
+//! bytes. The folder must be missing, empty, or hold an earlier review
+//! page ([`check_folder`]): the page never writes into a folder of the
+//! user's other files.
+
+use std::fmt::Write as _;
+use std::path::{Component, Path, PathBuf};
+
+use super::report::{RunResults, SuiteRun, VariantRun};
+use super::{Stage2Verdict, VariantOutcome};
+use crate::record::animation::RolloutAnimation;
+use crate::record::{self, RecordError, SvgOptions};
+
+/// The page's file name in its folder.
+pub const PAGE_FILE: &str = "index.html";
+/// Marks a page this module wrote, so a later run may replace it.
+const GENERATOR: &str = "safer review page";
+
+/// Checks, before a run, that `dir` can take a review page: it does not
+/// exist yet, is empty, or holds an earlier review page.
+pub fn check_folder(dir: &Path) -> Result<(), RecordError> {
+    let refuse = |reason: String| RecordError::InvalidPath { path: dir.to_path_buf(), reason };
+    let entries = match std::fs::read_dir(dir) {
+        Ok(entries) => entries,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(()),
+        Err(_) if dir.exists() && !dir.is_dir() => {
+            return Err(refuse("it is not a folder (the review page is a folder: index.html and pictures)".into()));
+        }
+        Err(source) => return Err(RecordError::Io { path: dir.to_path_buf(), source }),
+    };
+    if entries.count() == 0 {
+        return Ok(());
+    }
+    let page = dir.join(PAGE_FILE);
+    let ours = std::fs::read_to_string(&page).is_ok_and(|t| t.contains(GENERATOR));
+    if ours {
+        Ok(())
+    } else {
+        Err(refuse(format!(
+            "the folder holds other files and no earlier review page ({} written by safer); \
+             choose a new or empty folder",
+            page.display()
+        )))
+    }
+}
+
+/// Writes the review page of `results` into `dir` (created if missing; see
+/// [`check_folder`]) and the pictures of failing variants beside it;
+/// returns the page's path. Links to recordings are relative to `dir`.
+pub fn write_review_page(dir: &Path, results: &RunResults) -> Result<PathBuf, RecordError> {
+    check_folder(dir)?;
+    std::fs::create_dir_all(dir).map_err(|source| RecordError::Io { path: dir.to_path_buf(), source })?;
+    let mut pictures = Vec::new();
+    let html = page_html(results, dir, &mut pictures);
+    for (path, svg) in pictures {
+        record::create_parent_folder(&path)?;
+        record::write_svg(&path, &svg)?;
+    }
+    let page = dir.join(PAGE_FILE);
+    record::write_output(&page, html.as_bytes())?;
+    Ok(page)
+}
+
+/// Escapes text for HTML element content and double-quoted attributes.
+fn esc(s: &str) -> String {
+    let mut out = String::with_capacity(s.len());
+    for c in s.chars() {
+        match c {
+            '&' => out.push_str("&amp;"),
+            '<' => out.push_str("&lt;"),
+            '>' => out.push_str("&gt;"),
+            '"' => out.push_str("&quot;"),
+            '\'' => out.push_str("&#39;"),
+            c => out.push(c),
+        }
+    }
+    out
+}
+
+/// A relative path as a URL path: every byte but unreserved ones and `/` percent-encoded.
+fn url_path(path: &Path) -> String {
+    let parts: Vec<String> = path.components().map(|c| c.as_os_str().to_string_lossy().into_owned()).collect();
+    let mut out = String::new();
+    for (i, part) in parts.iter().enumerate() {
+        if i > 0 {
+            out.push('/');
+        }
+        for b in part.bytes() {
+            if b.is_ascii_alphanumeric() || b"-._~".contains(&b) {
+                out.push(b as char);
+            } else {
+                let _ = write!(out, "%{b:02X}");
+            }
+        }
+    }
+    out
+}
+
+/// `path` made absolute and `..` resolved by name (without touching the file system).
+fn lexical_absolute(path: &Path) -> PathBuf {
+    let abs = std::path::absolute(path).unwrap_or_else(|_| path.to_path_buf());
+    let mut out = PathBuf::new();
+    for c in abs.components() {
+        match c {
+            Component::ParentDir => {
+                out.pop();
+            }
+            Component::CurDir => {}
+            c => out.push(c),
+        }
+    }
+    out
+}
+
+/// `target` relative to the folder `base`.
+fn relative_to(base: &Path, target: &Path) -> PathBuf {
+    let (base, target) = (lexical_absolute(base), lexical_absolute(target));
+    let (b, t): (Vec<_>, Vec<_>) = (base.components().collect(), target.components().collect());
+    let common = b.iter().zip(&t).take_while(|(x, y)| x == y).count();
+    if common == 0 {
+        // Nothing shared (another drive): only an absolute path names it.
+        return target;
+    }
+    let mut rel = PathBuf::new();
+    for _ in common..b.len() {
+        rel.push("..");
+    }
+    for c in &t[common..] {
+        rel.push(c);
+    }
+    rel
+}
+
+fn count(n: usize, what: &str) -> String {
+    format!("{n} {what}{}", if n == 1 { "" } else { "s" })
+}
+
+fn opt(v: Option<f64>, decimals: usize) -> String {
+    v.map_or_else(|| "–".to_string(), |x| format!("{x:.decimals$}"))
+}
+
+/// Stage 2 in a few words.
+fn stage2_text(o: &VariantOutcome) -> String {
+    match &o.verdict {
+        Stage2Verdict::Solved => "solved".into(),
+        Stage2Verdict::Collided { .. } => {
+            let s = o.stage2.summary();
+            match s.ego_collision {
+                Some(c) => format!(
+                    "collided with {} at {:.1} s ({}at fault)",
+                    c.other,
+                    c.time_s,
+                    if c.at_fault { "" } else { "not " }
+                ),
+                None => "collided".into(),
+            }
+        }
+        Stage2Verdict::Aborted { reason } => format!("aborted: {reason}"),
+    }
+}
+
+/// The page; pictures to write are pushed to `pictures` (path, SVG).
+fn page_html(results: &RunResults, dir: &Path, pictures: &mut Vec<(PathBuf, String)>) -> String {
+    let (mut variants, mut failed, mut checks, mut checks_failed) = (0, 0, 0, 0);
+    for s in &results.suites {
+        variants += s.variants.len();
+        failed += s.variants.iter().filter(|v| !v.passed()).count();
+        checks += s.checks.len();
+        checks_failed += s.checks.iter().filter(|c| c.result.is_err()).count();
+    }
+    let verdict = if results.passed() { "PASS" } else { "FAIL" };
+    let mut summary = format!(
+        "{verdict}: {}, {failed} failed; {}, {checks_failed} failed",
+        count(variants, "variant"),
+        count(checks, "metric check")
+    );
+    if !results.load_failures.is_empty() {
+        let _ = write!(summary, "; {} could not be loaded", count(results.load_failures.len(), "suite file"));
+    }
+
+    let mut h = String::with_capacity(64 * 1024);
+    let _ = write!(
+        h,
+        "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\"/>\n\
+         <meta name=\"generator\" content=\"{GENERATOR}\"/>\n\
+         <meta name=\"viewport\" content=\"width=device-width, initial-scale=1\"/>\n\
+         <title>safer review: {}</title>\n<style>{STYLE}</style>\n</head>\n<body>\n<header>\n<h1>safer review</h1>\n\
+         <p class=\"summary {}\">{}</p>\n",
+        esc(&summary),
+        verdict.to_lowercase(),
+        esc(&summary)
+    );
+    if results.suites.len() + results.load_failures.len() > 1 {
+        h.push_str("<nav>");
+        for (si, s) in results.suites.iter().enumerate() {
+            let class = if s.passed() { "pass" } else { "fail" };
+            let _ = write!(h, "<a class=\"{class}\" href=\"#suite-{si}\">{}</a> ", esc(&s.name));
+        }
+        if !results.load_failures.is_empty() {
+            h.push_str("<a class=\"fail\" href=\"#load-failures\">not loaded</a>");
+        }
+        h.push_str("</nav>\n");
+    }
+    h.push_str("</header>\n<main>\n");
+    if !results.load_failures.is_empty() {
+        h.push_str("<section id=\"load-failures\">\n<h2>Suite files that could not be loaded</h2>\n");
+        for f in &results.load_failures {
+            let _ = writeln!(
+                h,
+                "<div class=\"load-failure\"><h3>{}</h3><pre>{}</pre></div>",
+                esc(&f.file.display().to_string()),
+                esc(&f.message)
+            );
+        }
+        h.push_str("</section>\n");
+    }
+    for (si, s) in results.suites.iter().enumerate() {
+        suite_html(&mut h, si, s, dir, pictures);
+    }
+    let _ = write!(
+        h,
+        "</main>\n<pre id=\"js-errors\" hidden=\"hidden\"></pre>\n<script>//<![CDATA[\n{ERROR_SCRIPT}\n//]]></script>\n<script>//<![CDATA[{PLAYER_SCRIPT}//]]></script>\n\
+         </body>\n</html>\n"
+    );
+    h
+}
+
+fn suite_html(h: &mut String, si: usize, s: &SuiteRun, dir: &Path, pictures: &mut Vec<(PathBuf, String)>) {
+    let (class, verdict) = if s.passed() { ("pass", "PASS") } else { ("fail", "FAIL") };
+    let _ = write!(
+        h,
+        "<section class=\"suite\" id=\"suite-{si}\">\n<h2>suite {} <span class=\"badge {class}\">{verdict}</span></h2>\n\
+         <p class=\"meta\">{} · planner <b>{}</b> · {}</p>\n",
+        esc(&s.name),
+        esc(&s.file.display().to_string()),
+        esc(&s.planner),
+        count(s.variants.len(), "variant")
+    );
+    if !s.variants.is_empty() {
+        h.push_str(
+            "<table class=\"variants\">\n<thead><tr><th>variant</th><th>verdict</th><th>stage 1: CBV hit ego</th>\
+             <th>stage 1: min gap m</th><th>stage 2</th><th>min gap m</th><th>min TTC s</th><th>off road from s</th>\
+             </tr></thead>\n<tbody>\n",
+        );
+        for (vi, v) in s.variants.iter().enumerate() {
+            variant_row(h, si, vi, v);
+        }
+        h.push_str("</tbody>\n</table>\n");
+    }
+    if let Some(m) = &s.metrics {
+        let _ = writeln!(
+            h,
+            "<p class=\"metrics-line\">metrics over {}: CR {} · SR {} · SR(critical) {} · VJ {} · AJ {}</p>",
+            count(m.variants, "variant"),
+            opt(m.collision_rate, 3),
+            opt(m.solution_rate, 3),
+            opt(m.solution_rate_critical, 3),
+            opt(m.velocity_jsd, 3),
+            opt(m.acceleration_jsd, 3)
+        );
+    }
+    if !s.checks.is_empty() {
+        h.push_str("<table class=\"checks\">\n<thead><tr><th>suite metric</th><th>value</th><th>check</th></tr></thead>\n<tbody>\n");
+        for c in &s.checks {
+            let result = match &c.result {
+                Ok(()) => "<span class=\"badge pass\">PASS</span>".to_string(),
+                Err(why) => format!("<span class=\"badge fail\">FAIL</span> {}", esc(why)),
+            };
+            let _ = writeln!(
+                h,
+                "<tr><td>{}::{}</td><td class=\"num\">{}</td><td>{result}</td></tr>",
+                esc(&s.name),
+                esc(c.name),
+                opt(c.value, 3)
+            );
+        }
+        h.push_str("</tbody>\n</table>\n");
+    }
+    for (vi, v) in s.variants.iter().enumerate() {
+        if let Ok(o) = &v.outcome
+            && !o.failures.is_empty()
+        {
+            failing_variant_html(h, si, vi, v, o, dir, pictures);
+        }
+    }
+    h.push_str("</section>\n");
+}
+
+fn variant_row(h: &mut String, si: usize, vi: usize, v: &VariantRun) {
+    match &v.outcome {
+        Err(e) => {
+            let _ = writeln!(
+                h,
+                "<tr class=\"error\"><td>{}</td><td><span class=\"badge fail\">ERROR</span> could not run: {}</td>\
+                 <td>–</td><td>–</td><td>–</td><td>–</td><td>–</td><td>–</td></tr>",
+                esc(&v.name),
+                esc(e)
+            );
+        }
+        Ok(o) => {
+            let s = o.summary();
+            let verdict = if o.failures.is_empty() {
+                "<span class=\"badge pass\">PASS</span>".to_string()
+            } else {
+                let criteria: Vec<String> =
+                    o.failures.iter().map(|f| esc(&format!("{}: {}", f.criterion, f.what))).collect();
+                format!("<a class=\"badge fail\" href=\"#v-{si}-{vi}\">FAIL</a> {}", criteria.join("<br/>"))
+            };
+            let class = if o.failures.is_empty() { "pass" } else { "fail" };
+            let _ = writeln!(
+                h,
+                "<tr class=\"{class}\"><td>{}</td><td>{verdict}</td><td>{}</td><td class=\"num\">{}</td><td>{}</td>\
+                 <td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td></tr>",
+                esc(&v.name),
+                if s.stage1_cbv_hit_ego { "yes" } else { "no" },
+                opt(s.stage1_min_gap_m, 2),
+                esc(&stage2_text(o)),
+                opt(s.stage2_min_gap_m, 2),
+                opt(s.stage2_min_ttc_s, 1),
+                opt(s.stage2_off_road_s, 1),
+            );
+        }
+    }
+}
+
+fn failing_variant_html(
+    h: &mut String,
+    si: usize,
+    vi: usize,
+    v: &VariantRun,
+    o: &VariantOutcome,
+    dir: &Path,
+    pictures: &mut Vec<(PathBuf, String)>,
+) {
+    let _ =
+        write!(h, "<article class=\"failing\" id=\"v-{si}-{vi}\">\n<h3>{}</h3>\n<ul class=\"failures\">", esc(&v.name));
+    for f in &o.failures {
+        let _ = write!(h, "<li>✗ <b>{}</b>: {}</li>", esc(&f.criterion), esc(&f.what));
+    }
+    let s = o.summary();
+    let _ = writeln!(
+        h,
+        "</ul>\n<p class=\"what\">stage 1 (ego replays its log, the adversary drives CBV {}): CBV hit the ego: {}, \
+         closest gap {} m · stage 2 (planner {} drives ego {}): {}, closest gap {} m, min TTC {} s, ended: {}</p>",
+        esc(s.cbv.as_deref().unwrap_or("none")),
+        if s.stage1_cbv_hit_ego { "yes" } else { "no" },
+        opt(s.stage1_min_gap_m, 2),
+        esc(&s.planner),
+        esc(&s.ego),
+        esc(&stage2_text(o)),
+        opt(s.stage2_min_gap_m, 2),
+        opt(s.stage2_min_ttc_s, 1),
+        esc(&s.stage2_termination),
+    );
+
+    // Links: the recording (relative to the page) and the picture.
+    h.push_str("<p class=\"links\">");
+    match &v.artefacts {
+        Some(Ok(a)) => {
+            let rel = relative_to(dir, &a.mcap);
+            let _ = write!(
+                h,
+                "recording: <a class=\"mcap\" href=\"{}\">{}</a> (open in Foxglove, 3D panel)",
+                esc(&url_path(&rel)),
+                esc(&a.mcap.display().to_string())
+            );
+        }
+        Some(Err(e)) => {
+            let _ = write!(h, "recording: could not be written: {}", esc(e));
+        }
+        None => h.push_str("recording: none was written"),
+    }
+    let picture = super::artefacts::relative_path(Path::new("pictures"), &v.name)
+        .map(|rel| Path::new("pictures").join(rel).with_extension("svg"));
+    let img = match picture {
+        Ok(rel) => {
+            let svg = record::render_rollout_svg(&o.scenario, &o.stage2, &SvgOptions::default());
+            pictures.push((dir.join(&rel), svg));
+            let href = esc(&url_path(&rel));
+            let _ = write!(h, " · picture: <a href=\"{href}\">{}</a>", esc(&rel.display().to_string()));
+            format!("<img class=\"picture\" src=\"{href}\" alt=\"picture of {}\"/>", esc(&v.name))
+        }
+        Err(e) => format!("<p>no picture: {}</p>", esc(&e.to_string())),
+    };
+    h.push_str("</p>\n<div class=\"views\">\n");
+    let _ = writeln!(
+        h,
+        "<figure>{img}<figcaption>the picture: paths of the whole rollout, boxes at the ego's collision (or the \
+         last step)</figcaption></figure>"
+    );
+
+    let animation = RolloutAnimation::of_rollout(&o.scenario, &o.stage2);
+    // `<`, `>` and `&` only occur inside JSON strings, where the escapes
+    // mean the same: no id can close the script element or break the markup.
+    let json = serde_json::to_string(&animation)
+        .unwrap_or_else(|_| "null".into())
+        .replace('<', "\\u003c")
+        .replace('>', "\\u003e")
+        .replace('&', "\\u0026");
+    let _ = write!(
+        h,
+        "<figure class=\"player\" data-variant=\"{}\">\n<svg class=\"scene\" xmlns=\"http://www.w3.org/2000/svg\" \
+         role=\"img\" aria-label=\"stage 2 of {}\"></svg>\n<div class=\"controls\"><button type=\"button\" \
+         class=\"play\">▶ play</button><input type=\"range\" class=\"step\" min=\"0\" max=\"0\" value=\"0\" \
+         aria-label=\"step\"/><output class=\"time\"></output><label><input type=\"checkbox\" class=\"follow\" \
+         checked=\"checked\"/> follow the ego</label></div>\n<figcaption><span class=\"key ego\"></span>ego \
+         <span class=\"key cbv\"></span>CBV <span class=\"key other\"></span>other agents \
+         <span class=\"key collided\"></span>collided · stage 2, step by step</figcaption>\n\
+         <script type=\"application/json\" class=\"rollout\">{json}</script>\n</figure>\n</div>\n</article>\n",
+        esc(&v.name),
+        esc(&v.name),
+    );
+}
+
+/// The page's style sheet (colours as in the SVG pictures).
+const STYLE: &str = "\
+body{font-family:DejaVu Sans,Helvetica,Arial,sans-serif;margin:0;color:#1b1b1b;background:#fafafa}\
+header{background:#fff;border-bottom:1px solid #ddd;padding:10px 24px}\
+h1{font-size:22px;margin:4px 0}\
+main{padding:0 24px 24px}\
+nav a{margin-right:12px;text-decoration:none;font-weight:bold}\
+nav a.pass{color:#1a7a36}nav a.fail{color:#c0392b}\
+.summary{font-weight:bold;margin:4px 0}.summary.pass{color:#1a7a36}.summary.fail{color:#c0392b}\
+section.suite{background:#fff;border:1px solid #ddd;border-radius:6px;margin:18px 0;padding:4px 16px 12px}\
+h2{font-size:18px}h3{font-size:15px;margin:14px 0 6px}\
+.meta{color:#555;font-size:13px}\
+table{border-collapse:collapse;font-size:13px;margin:8px 0}\
+th,td{border:1px solid #ddd;padding:3px 8px;text-align:left;vertical-align:top}\
+th{background:#f3f3f3}td.num{text-align:right;font-variant-numeric:tabular-nums}\
+tr.fail td:first-child,tr.error td:first-child{border-left:4px solid #c0392b}\
+.badge{display:inline-block;padding:0 6px;border-radius:3px;color:#fff;font-weight:bold;font-size:12px;text-decoration:none}\
+.badge.pass{background:#1a7a36}.badge.fail{background:#c0392b}\
+.metrics-line{font-size:13px;color:#333}\
+article.failing{border-top:1px solid #eee;margin-top:12px}\
+.failures{margin:4px 0;padding-left:18px;font-size:14px}.what,.links{font-size:13px;color:#333}\
+.views{display:flex;flex-wrap:wrap;gap:16px;align-items:flex-start}\
+figure{margin:0;flex:1 1 560px;max-width:720px}figcaption{font-size:12px;color:#555}\
+img.picture{width:100%;height:auto;border:1px solid #ddd}\
+svg.scene{width:100%;height:auto;max-height:560px;border:1px solid #ddd;background:#fff;display:block}\
+.controls{display:flex;align-items:center;gap:10px;margin:6px 0}\
+.controls input.step{flex:1}.controls label{font-size:13px;white-space:nowrap}.controls output{font-size:13px;min-width:190px;font-variant-numeric:tabular-nums}\
+.ground{fill:#ffffff}\
+.map{fill:none;vector-effect:non-scaling-stroke}\
+.map.drivable{fill:#eef1f5;stroke:none}\
+.map.lane{stroke:#a9bdd3;stroke-width:1;stroke-dasharray:6 4}\
+.map.line{stroke:#9a9a9a;stroke-width:1.1}\
+.map.edge{stroke:#3b3b3b;stroke-width:1.8}\
+.path{fill:none;stroke-width:2;stroke-opacity:0.5;vector-effect:non-scaling-stroke}\
+.path.ego{stroke:#1f6fd1}.path.cbv{stroke:#ef8a00}\
+.agent .box{fill:#c3c8ce;stroke:#59616b;stroke-width:1;vector-effect:non-scaling-stroke}\
+.agent.pedestrian .box{fill:#cdb9e8;stroke:#5f4596}.agent.cyclist .box{fill:#a8dcc8;stroke:#23795c}\
+.agent.ego .box{fill:#1f6fd1;stroke:#0b3a78;stroke-width:1.6}\
+.agent.cbv .box{fill:#ef8a00;stroke:#8a4f00;stroke-width:1.6}\
+.agent.collided .box{stroke:#d62728;stroke-width:3}\
+.agent .head{stroke:#ffffff;stroke-width:1.5;vector-effect:non-scaling-stroke}\
+.agent text{font-size:1.7px;font-weight:bold;paint-order:stroke;stroke:#fff;stroke-width:0.35px}\
+.agent.ego text{fill:#0b3a78}.agent.cbv text{fill:#8a4f00}\
+.key{display:inline-block;width:12px;height:10px;margin:0 4px 0 10px;border:1px solid #555;vertical-align:middle}\
+.key.ego{background:#1f6fd1}.key.cbv{background:#ef8a00}.key.other{background:#c3c8ce}\
+.key.collided{background:#fff;border:2px solid #d62728}\
+#js-errors{color:#c0392b;background:#fff0f0;padding:8px;margin:0 24px}\
+.load-failure pre{background:#fff0f0;padding:8px;overflow-x:auto;font-size:12px}";
+
+/// Shows script errors on the page (a test looks for them).
+const ERROR_SCRIPT: &str = "window.addEventListener('error',function(e){var p=document.getElementById('js-errors');\
+p.hidden=false;p.textContent+=(e.message||'error')+' ('+(e.lineno||0)+':'+(e.colno||0)+')\\n';});";
+
+/// Builds each failing variant's animated view from its JSON data.
+const PLAYER_SCRIPT: &str = r#"
+(function () {
+  'use strict';
+  var NS = 'http://www.w3.org/2000/svg';
+  function make(parent, name, attrs) {
+    var e = document.createElementNS(NS, name);
+    for (var k in attrs) { e.setAttribute(k, attrs[k]); }
+    parent.appendChild(e);
+    return e;
+  }
+  // Scenario y is up; SVG y is down.
+  function pts(list) {
+    return list.map(function (p) { return p[0] + ',' + (-p[1]); }).join(' ');
+  }
+  function corners(s, a) {
+    var c = Math.cos(s[2]), n = Math.sin(s[2]), l = a.length_m / 2, w = a.width_m / 2;
+    return [[l, w], [l, -w], [-l, -w], [-l, w]].map(function (d) {
+      return [s[0] + c * d[0] - n * d[1], s[1] + n * d[0] + c * d[1]];
+    });
+  }
+  function setup(player) {
+    var data = JSON.parse(player.querySelector('script.rollout').textContent);
+    var svg = player.querySelector('svg.scene');
+    var v = data.view, w = v[2] - v[0], h = v[3] - v[1], last = data.frames.length - 1;
+    var follow = player.querySelector('input.follow');
+    // The whole view, or a 16:9 window of at most 80 m around the ego (and the CBV when near).
+    function frameView(f) {
+      var fw = Math.min(w, 80), fh = Math.min(h, fw * 9 / 16), e = f[0];
+      var c = data.agents.length > 1 && data.agents[1].role === 'cbv' ? f[1] : null;
+      if (!follow.checked || !e || (fw >= w && fh >= h)) { return [v[0], -v[3], w, h]; }
+      var x = e[0], y = e[1];
+      if (c && Math.abs(c[0] - x) < fw * 0.6 && Math.abs(c[1] - y) < fh * 0.6) { x = (x + c[0]) / 2; y = (y + c[1]) / 2; }
+      x = Math.max(v[0] + fw / 2, Math.min(v[2] - fw / 2, x));
+      y = Math.max(v[1] + fh / 2, Math.min(v[3] - fh / 2, y));
+      return [x - fw / 2, -(y + fh / 2), fw, fh];
+    }
+    svg.setAttribute('viewBox', [v[0], -v[3], w, h].join(' '));
+    make(svg, 'rect', { x: v[0], y: -v[3], width: w, height: h, 'class': 'ground' });
+    data.map.forEach(function (line) {
+      make(svg, line.kind === 'drivable' ? 'polygon' : 'polyline', { points: pts(line.points), 'class': 'map ' + line.kind });
+    });
+    data.agents.forEach(function (a, i) {
+      if (a.role === 'ego' || a.role === 'cbv') {
+        var path = data.frames.map(function (f) { return f[i]; }).filter(Boolean);
+        make(svg, 'polyline', { points: pts(path), 'class': 'path ' + a.role });
+      }
+    });
+    // Others first, ego and CBV last: drawn on top.
+    var order = data.agents.map(function (a, i) { return i; }).filter(function (i) {
+      return data.agents[i].role !== 'ego' && data.agents[i].role !== 'cbv';
+    }).concat(data.agents.map(function (a, i) { return i; }).filter(function (i) {
+      return data.agents[i].role === 'ego' || data.agents[i].role === 'cbv';
+    }));
+    var boxes = [];
+    order.forEach(function (i) {
+      var a = data.agents[i];
+      var g = make(svg, 'g', { 'class': 'agent ' + a.role });
+      make(g, 'title', {}).textContent = a.id + ' (' + a.role + ')';
+      var box = { g: g, poly: make(g, 'polygon', { 'class': 'box' }), head: make(g, 'line', { 'class': 'head' }) };
+      if (a.role === 'ego' || a.role === 'cbv') { box.label = make(g, 'text', {}); box.label.textContent = a.role === 'ego' ? 'ego' : 'CBV'; }
+      boxes[i] = box;
+    });
+    var slider = player.querySelector('input.step'), out = player.querySelector('output.time');
+    var button = player.querySelector('button.play'), timer = null;
+    slider.max = last;
+    function show(k) {
+      var f = data.frames[k];
+      boxes.forEach(function (b, i) {
+        var s = f[i];
+        if (!s) { b.g.setAttribute('visibility', 'hidden'); return; }
+        b.g.removeAttribute('visibility');
+        var c = corners(s, data.agents[i]);
+        b.poly.setAttribute('points', pts(c));
+        b.head.setAttribute('x1', s[0]); b.head.setAttribute('y1', -s[1]);
+        b.head.setAttribute('x2', (c[0][0] + c[1][0]) / 2); b.head.setAttribute('y2', -(c[0][1] + c[1][1]) / 2);
+        if (b.label) { b.label.setAttribute('x', s[0] - 1.2); b.label.setAttribute('y', -s[1] - data.agents[i].width_m / 2 - 0.5); }
+        var hit = data.collisions.some(function (x) { return x.frame <= k && x.agents.indexOf(i) >= 0; });
+        b.g.classList.toggle('collided', hit);
+      });
+      svg.setAttribute('viewBox', frameView(f).join(' '));
+      slider.value = k;
+      out.textContent = 't = ' + (k * data.dt_s).toFixed(1) + ' s (step ' + k + ' of ' + last + ')';
+    }
+    function stop() {
+      if (timer !== null) { clearInterval(timer); timer = null; }
+      button.textContent = '\u25b6 play';
+    }
+    slider.addEventListener('input', function () { stop(); show(+slider.value); });
+    follow.addEventListener('change', function () { show(+slider.value); });
+    button.addEventListener('click', function () {
+      if (timer !== null) { stop(); return; }
+      var k = +slider.value >= last ? 0 : +slider.value;
+      button.textContent = '\u275a\u275a pause';
+      // Real time: one frame per simulation step.
+      timer = setInterval(function () { show(k); k += 1; if (k > last) { stop(); } }, data.dt_s * 1000);
+    });
+    show(Math.min(data.initial_frame, last));
+    player.setAttribute('data-ready', 'true');
+    player.setAttribute('data-frames', String(data.frames.length));
+  }
+  Array.prototype.forEach.call(document.querySelectorAll('.player'), setup);
+})();
+"#;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::harness::report::tests_support::{failing_variant, passing_run};
+    use crate::harness::report::{RunResults, SuiteLoadFailure};
+
+    fn results() -> RunResults {
+        let mut run = passing_run();
+        run.name = "un<i>t".into();
+        run.variants.push(failing_variant("unit"));
+        RunResults {
+            load_failures: vec![SuiteLoadFailure { file: "typo.yaml".into(), message: "</script><b>".into() }],
+            suites: vec![run],
+        }
+    }
+
+    #[test]
+    fn text_is_escaped_and_the_failing_variant_gets_a_picture_and_frames() {
+        let mut pictures = Vec::new();
+        let html = page_html(&results(), Path::new("/tmp/page"), &mut pictures);
+        roxmltree::Document::parse_with_options(
+            &html,
+            roxmltree::ParsingOptions { allow_dtd: true, ..Default::default() },
+        )
+        .expect("the page is well-formed XML");
+        assert!(html.contains("un&lt;i&gt;t") && !html.contains("un<i>t"), "suite name not escaped");
+        assert!(html.contains("&lt;/script&gt;&lt;b&gt;") && !html.contains("</script><b>"));
+        assert_eq!(pictures.len(), 1);
+        assert_eq!(pictures[0].0, Path::new("/tmp/page/pictures/unit/crossing/seed-1.svg"));
+        assert!(html.contains("src=\"pictures/unit/crossing/seed-1.svg\""));
+        // The recording link is relative to the page folder.
+        let rel = relative_to(Path::new("/tmp/page"), &std::path::absolute("out/unit/crossing/seed-1.mcap").unwrap());
+        assert!(html.contains(&format!("href=\"{}\"", url_path(&rel))), "{html}");
+        // One player, with every frame of the rollout.
+        assert_eq!(html.matches("class=\"player\"").count(), 1);
+        let json = html.split("class=\"rollout\">").nth(1).unwrap().split("</script>").next().unwrap();
+        let v: serde_json::Value = serde_json::from_str(json).unwrap();
+        let run = results();
+        let o = run.suites[0].variants[1].outcome.as_ref().unwrap();
+        assert_eq!(v["frames"].as_array().unwrap().len(), o.stage2.states.len());
+        assert_eq!(v["agents"][0]["role"], "ego");
+        // Both variants are in the table.
+        assert!(html.contains(">unit::crossing::seed-0<") && html.contains(">unit::crossing::seed-1<"));
+    }
+
+    #[test]
+    fn relative_links_and_url_paths() {
+        assert_eq!(relative_to(Path::new("/a/b/page"), Path::new("/a/c/x.mcap")), Path::new("../../c/x.mcap"));
+        assert_eq!(relative_to(Path::new("/a/b"), Path::new("/a/b/../b/x")), Path::new("x"));
+        assert_eq!(url_path(Path::new("../a b/#1?.mcap")), "../a%20b/%231%3F.mcap");
+    }
+
+    #[test]
+    fn a_folder_of_other_files_is_refused_and_an_earlier_page_replaced() {
+        let dir = std::env::temp_dir().join(format!("safer-review-page-unit-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        assert!(check_folder(&dir).is_ok(), "missing folder");
+        std::fs::create_dir_all(&dir).unwrap();
+        assert!(check_folder(&dir).is_ok(), "empty folder");
+        std::fs::write(dir.join("notes.txt"), "mine").unwrap();
+        let err = check_folder(&dir).unwrap_err();
+        assert!(err.to_string().contains("holds other files"), "{err}");
+        std::fs::remove_file(dir.join("notes.txt")).unwrap();
+        let page = write_review_page(&dir, &results()).unwrap();
+        assert!(dir.join("pictures/unit/crossing/seed-1.svg").is_file());
+        std::fs::write(dir.join("notes.txt"), "mine").unwrap();
+        // An earlier page marks the folder as the page's own.
+        assert!(check_folder(&dir).is_ok());
+        assert!(write_review_page(&dir, &results()).is_ok());
+        assert!(std::fs::read_to_string(&page).unwrap().contains(GENERATOR));
+        let file = dir.join("notes.txt");
+        assert!(matches!(check_folder(&file), Err(RecordError::InvalidPath { .. })));
+        std::fs::remove_dir_all(&dir).ok();
+    }
+}
