@@ -34,7 +34,8 @@ use std::sync::{Arc, Mutex, OnceLock};
 
 use libtest_mimic::{Arguments, Conclusion, Failed, Trial};
 
-use crate::harness::{self, Suite, SuiteMetrics, VariantOutcome};
+use crate::harness::artefacts::Artefacts;
+use crate::harness::{self, RunResults, Suite, SuiteLoadFailure, SuiteMetrics, SuiteRun, VariantOutcome, VariantRun};
 use crate::planners::Planner;
 use crate::planners::registry::{self, PlannerFactory};
 use crate::scenario::{Scenario, TrackIndex};
@@ -118,30 +119,49 @@ impl Runner {
     /// that does not load is one failing trial, a folder without suites too
     /// (zero trials would "pass").
     pub fn trials(&self) -> Vec<Trial> {
-        let mut out = Vec::new();
+        self.load().trials
+    }
+
+    fn load(&self) -> Loaded {
+        let mut loaded = Loaded::default();
         for (i, message) in self.registration_errors.iter().enumerate() {
             let message = message.clone();
-            out.push(Trial::test(format!("runner::planner-{i}"), move || Err(Failed::from(message))));
+            loaded.trials.push(Trial::test(format!("runner::planner-{i}"), move || Err(Failed::from(message))));
         }
         let context = Arc::new(TrialContext { snapshots: self.snapshots.clone(), artefacts: self.artefacts.clone() });
         for dir in self.suite_dirs() {
             let files = Suite::discover(&dir);
             if files.is_empty() {
                 let message = format!("no suite (*.yaml) found in {}", dir.display());
-                out.push(Trial::test(format!("suites::discover::{}", dir.display()), move || {
+                loaded.trials.push(Trial::test(format!("suites::discover::{}", dir.display()), move || {
                     Err(Failed::from(message))
                 }));
             }
             for path in files {
-                suite_trials(&path, &context, &mut out);
+                suite_trials(&path, &context, &mut loaded);
             }
         }
-        out
+        loaded
     }
 
-    /// Runs the trials selected by `args`.
+    /// Runs the trials selected by `args`. When a variant or metric
+    /// failed, it also writes the review page of what ran
+    /// ([`harness::review_page`]) to `ARTEFACTS/review/index.html` and says
+    /// where; not under nextest, whose processes each run one test.
     pub fn run_with(&self, args: &Arguments) -> Conclusion {
-        libtest_mimic::run(args, self.trials())
+        let loaded = self.load();
+        let (suites, load_failures) = (loaded.suites, loaded.load_failures);
+        let conclusion = libtest_mimic::run(args, loaded.trials);
+        let under_nextest = std::env::var_os("NEXTEST").is_some();
+        if conclusion.has_failed() && !args.list && !under_nextest {
+            let results = results_of_this_process(&suites, load_failures);
+            let dir = self.artefacts.join("review");
+            match harness::review_page::write_review_page(&dir, &results) {
+                Ok(page) => eprintln!("review page: {}", page.display()),
+                Err(e) => eprintln!("(could not write the review page: {e})"),
+            }
+        }
+        conclusion
     }
 
     /// Runs the trials selected by the command line (libtest's and
@@ -149,6 +169,56 @@ impl Runner {
     pub fn run(self) -> ! {
         self.run_with(&Arguments::from_args()).exit()
     }
+}
+
+/// The trials of a run and what they were made from.
+#[derive(Default)]
+struct Loaded {
+    trials: Vec<Trial>,
+    suites: Vec<(PathBuf, Arc<Suite>)>,
+    load_failures: Vec<SuiteLoadFailure>,
+}
+
+/// The review page's input: every variant this process ran (in suite,
+/// scenario and seed order), with the suite checks where all of a suite's
+/// variants ran.
+fn results_of_this_process(suites: &[(PathBuf, Arc<Suite>)], load_failures: Vec<SuiteLoadFailure>) -> RunResults {
+    let mut results = RunResults { load_failures, suites: Vec::new() };
+    for (file, suite) in suites {
+        let mut variants = Vec::new();
+        let mut all_ran = true;
+        for scenario in &suite.scenarios {
+            for k in 0..suite.spec.value.variants {
+                let name = suite.variant_name(scenario, k);
+                match ran(&name) {
+                    Some((outcome, artefacts)) => {
+                        all_ran &= outcome.is_ok();
+                        variants.push(VariantRun { name, outcome: outcome.as_ref().clone(), artefacts })
+                    }
+                    None => all_ran = false,
+                }
+            }
+        }
+        if variants.is_empty() {
+            continue;
+        }
+        let (metrics, checks) = if all_ran {
+            let m = SuiteMetrics::aggregate(variants.iter().filter_map(|v| v.outcome.as_ref().ok()).map(|o| &o.tally));
+            let checks = m.checks(&suite.spec.value.acceptance.suite);
+            (Some(m), checks)
+        } else {
+            (None, Vec::new())
+        };
+        results.suites.push(SuiteRun {
+            file: file.clone(),
+            name: suite.name(),
+            planner: suite.planner.name().to_string(),
+            variants,
+            metrics,
+            checks,
+        });
+    }
+    results
 }
 
 /// What every trial of a run needs besides its suite.
@@ -159,17 +229,20 @@ struct TrialContext {
 }
 
 /// The trials of one suite file.
-fn suite_trials(path: &Path, context: &Arc<TrialContext>, out: &mut Vec<Trial>) {
+fn suite_trials(path: &Path, context: &Arc<TrialContext>, loaded: &mut Loaded) {
     let file = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    let out = &mut loaded.trials;
     let suite = match Suite::load(path) {
         Ok(s) => Arc::new(s),
         Err(e) => {
             // A broken suite is one failing test; the other suites still run.
             let report = format!("{:?}", e.to_report());
+            loaded.load_failures.push(SuiteLoadFailure { file: path.to_path_buf(), message: e.to_string() });
             out.push(Trial::test(format!("{file}::load"), move || Err(Failed::from(report))));
             return;
         }
     };
+    loaded.suites.push((path.to_path_buf(), suite.clone()));
     let name = suite.name();
     for (si, scenario) in suite.scenarios.iter().enumerate() {
         for k in 0..suite.spec.value.variants {
@@ -186,19 +259,29 @@ fn suite_trials(path: &Path, context: &Arc<TrialContext>, out: &mut Vec<Trial>) 
 }
 
 type Shared = Arc<Result<VariantOutcome, String>>;
+type WrittenArtefacts = Option<Result<Artefacts, String>>;
 
 /// Variant outcomes computed in this process, shared by the variant trial
 /// and the suite's metric trials (nextest runs each in its own process, so
-/// metric trials then compute the variants themselves).
+/// metric trials then compute the variants themselves), with the artefacts
+/// the variant trial wrote.
+fn cache() -> &'static Mutex<HashMap<String, (Shared, WrittenArtefacts)>> {
+    static CACHE: OnceLock<Mutex<HashMap<String, (Shared, WrittenArtefacts)>>> = OnceLock::new();
+    CACHE.get_or_init(Default::default)
+}
+
 fn outcome(suite: &Suite, scenario: usize, index: u32) -> Shared {
-    static CACHE: OnceLock<Mutex<HashMap<String, Shared>>> = OnceLock::new();
     let name = suite.variant_name(&suite.scenarios[scenario], index);
-    let cache = CACHE.get_or_init(Default::default);
-    if let Some(o) = cache.lock().unwrap_or_else(|p| p.into_inner()).get(&name) {
+    if let Some((o, _)) = cache().lock().unwrap_or_else(|p| p.into_inner()).get(&name) {
         return o.clone();
     }
     let o = Arc::new(harness::run_variant(suite, &suite.scenarios[scenario], index).map_err(|e| e.to_string()));
-    cache.lock().unwrap_or_else(|p| p.into_inner()).entry(name).or_insert(o).clone()
+    cache().lock().unwrap_or_else(|p| p.into_inner()).entry(name).or_insert((o, None)).0.clone()
+}
+
+/// The outcome and artefacts of a variant this process ran.
+fn ran(name: &str) -> Option<(Shared, WrittenArtefacts)> {
+    cache().lock().unwrap_or_else(|p| p.into_inner()).get(name).cloned()
 }
 
 /// The verdict comes first: a variant that fails its criteria reports what
@@ -212,11 +295,15 @@ fn variant_trial(suite: &Suite, context: &TrialContext, scenario: usize, index: 
         verdict.push_str(&format!("  ✗ {}: {}\n", f.criterion, f.what));
     }
     if !o.failures.is_empty() {
-        match harness::artefacts::write(&context.artefacts, o) {
+        let written = harness::artefacts::write(&context.artefacts, o);
+        match &written {
             Ok(a) => {
                 verdict.push_str(&format!("  recording: {}\n  picture:   {}\n", a.mcap.display(), a.svg.display()))
             }
             Err(e) => verdict.push_str(&format!("  (could not write artefacts: {e})\n")),
+        }
+        if let Some(entry) = cache().lock().unwrap_or_else(|p| p.into_inner()).get_mut(&o.name) {
+            entry.1 = Some(written.map_err(|e| e.to_string()));
         }
         // Printed before the snapshot comparison, whose diff insta prints itself.
         eprintln!("{}:\n{verdict}", o.name);

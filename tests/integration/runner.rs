@@ -41,6 +41,9 @@ fn a_registered_planner_runs_and_its_failure_leaves_artefacts_in_the_crates_own_
     for file in ["seed-0.mcap", "seed-0.svg"] {
         assert!(artefacts.join(file).is_file(), "{} missing", artefacts.join(file).display());
     }
+    // A failing run leaves the review page of what it ran beside them.
+    let page = std::fs::read_to_string(root.join("target/safer-artifacts/review/index.html")).unwrap();
+    assert!(page.contains("mine::highway-overtake::seed-0") || page.contains("highway-overtake"), "{page}");
 }
 
 #[test]
