@@ -140,8 +140,8 @@ enum Command {
         /// Also write a JSON report (per scene and aggregates) to this file (`-`: standard output).
         #[arg(long, value_name = "OUT")]
         json: Option<PathBuf>,
-        /// Policy driving every agent present at the window's start.
-        #[arg(long, value_enum, default_value_t = realism::RealismPolicy::Idm)]
+        /// Policy driving every agent present at the window's start (default: the shipped realism prior).
+        #[arg(long, value_enum, default_value_t = realism::RealismPolicy::Prior)]
         policy: realism::RealismPolicy,
         /// Base seed (per-rollout seeds derive from it, the scenario id and the rollout index).
         #[arg(long, default_value_t = 0)]

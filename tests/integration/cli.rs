@@ -82,3 +82,13 @@ fn feasibility_eval_writes_its_figures_as_json_and_nothing_into_docs_unless_aske
     assert!(written.is_empty(), "feasibility-eval wrote {written:?} without --svg");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn realism_scores_the_shipped_prior_unless_told_otherwise() {
+    // One rollout of one shipped NGSIM scene: the report names the policy it scored.
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/ngsim/USA_US101-4_3_T-1.xml");
+    let out = safer(&["realism", "--scenes", scene, "--rollouts", "1"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("realism, policy prior,"), "{text}");
+}
