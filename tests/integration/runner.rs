@@ -24,8 +24,11 @@ fn crate_root(name: &str, planner: &str) -> PathBuf {
     root
 }
 
+/// One thread, and the inner runner's report in a log file, so that its
+/// "test result: FAILED" lines do not mix with this test binary's output.
 fn one_thread() -> Arguments {
-    Arguments { test_threads: Some(1), quiet: true, ..Arguments::default() }
+    let log = std::env::temp_dir().join(format!("safer-runner-{}.log", std::process::id()));
+    Arguments { test_threads: Some(1), quiet: true, logfile: Some(log.display().to_string()), ..Arguments::default() }
 }
 
 #[test]
