@@ -247,14 +247,12 @@ fn suite_trials(path: &Path, context: &Arc<TrialContext>, loaded: &mut Loaded) {
     for (si, scenario) in suite.scenarios.iter().enumerate() {
         for k in 0..suite.spec.value.variants {
             let (s, c) = (suite.clone(), context.clone());
-            out.push(
-                Trial::test(suite.variant_name(scenario, k), move || variant_trial(&s, &c, si, k)).with_kind("variant"),
-            );
+            out.push(Trial::test(suite.variant_name(scenario, k), move || variant_trial(&s, &c, si, k)));
         }
     }
     for metric in harness::metrics::metric_names(&suite.spec.value.acceptance.suite) {
         let s = suite.clone();
-        out.push(Trial::test(format!("{name}::{metric}"), move || metric_trial(&s, metric)).with_kind("metric"));
+        out.push(Trial::test(format!("{name}::{metric}"), move || metric_trial(&s, metric)));
     }
 }
 
