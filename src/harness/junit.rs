@@ -25,6 +25,7 @@ use std::fmt::Write as _;
 
 use super::report::{RunResults, SuiteLoadFailure, SuiteRun, VariantRun};
 use super::{MetricCheck, VariantOutcome};
+use crate::record::markup::{escape_attribute as attr, escape_text as text};
 
 /// The JUnit XML document of `results`.
 pub fn junit_xml(results: &RunResults) -> String {
@@ -210,40 +211,6 @@ fn testcase(out: &mut String, classname: &str, name: &str, verdict: &Verdict, at
         let _ = writeln!(out, "      <system-out>{}</system-out>", text(&lines));
     }
     out.push_str("    </testcase>\n");
-}
-
-/// Escapes element text.
-fn text(s: &str) -> String {
-    escape(s, false)
-}
-
-/// Escapes an attribute value (written between double quotes).
-fn attr(s: &str) -> String {
-    escape(s, true)
-}
-
-fn escape(s: &str, attribute: bool) -> String {
-    let mut out = String::with_capacity(s.len());
-    for c in s.chars() {
-        match c {
-            '&' => out.push_str("&amp;"),
-            '<' => out.push_str("&lt;"),
-            '>' => out.push_str("&gt;"),
-            '"' => out.push_str("&quot;"),
-            '\'' => out.push_str("&apos;"),
-            // Attribute-value normalisation would turn these into spaces.
-            '\n' if attribute => out.push_str("&#10;"),
-            '\r' if attribute => out.push_str("&#13;"),
-            '\t' if attribute => out.push_str("&#9;"),
-            '\n' | '\r' | '\t' => out.push(c),
-            // Not allowed in XML 1.0, not even as a character reference.
-            c if (c as u32) < 0x20 || c == '\u{fffe}' || c == '\u{ffff}' => {
-                let _ = write!(out, "\\u{{{:x}}}", c as u32);
-            }
-            c => out.push(c),
-        }
-    }
-    out
 }
 
 #[cfg(test)]

@@ -28,6 +28,7 @@ use std::path::{Component, Path, PathBuf};
 use super::report::{RunResults, SuiteRun, VariantRun};
 use super::{Stage2Verdict, VariantOutcome};
 use crate::record::animation::RolloutAnimation;
+use crate::record::markup::escape_attribute as esc;
 use crate::record::{self, RecordError, SvgOptions};
 
 /// The page's file name in its folder.
@@ -78,22 +79,6 @@ pub fn write_review_page(dir: &Path, results: &RunResults) -> Result<PathBuf, Re
     let page = dir.join(PAGE_FILE);
     record::write_output(&page, html.as_bytes())?;
     Ok(page)
-}
-
-/// Escapes text for HTML element content and double-quoted attributes.
-fn esc(s: &str) -> String {
-    let mut out = String::with_capacity(s.len());
-    for c in s.chars() {
-        match c {
-            '&' => out.push_str("&amp;"),
-            '<' => out.push_str("&lt;"),
-            '>' => out.push_str("&gt;"),
-            '"' => out.push_str("&quot;"),
-            '\'' => out.push_str("&#39;"),
-            c => out.push(c),
-        }
-    }
-    out
 }
 
 /// A relative path as a URL path: every byte but unreserved ones and `/` percent-encoded.

@@ -33,6 +33,7 @@
 
 pub mod animation;
 pub mod atomic;
+pub mod markup;
 pub mod mcap;
 pub mod output;
 pub mod svg;
