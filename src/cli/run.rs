@@ -87,6 +87,9 @@ enum VariantEntry {
         artefacts: Option<ArtefactReport>,
         #[serde(skip_serializing_if = "Option::is_none")]
         artefacts_error: Option<String>,
+        /// Wall-clock time per planner answer (not in the snapshot summary).
+        #[serde(skip_serializing_if = "Option::is_none")]
+        planner_latency: Option<harness::pipeline::PlannerLatency>,
     },
     Error {
         variant: String,
@@ -99,6 +102,8 @@ enum VariantEntry {
 struct ArtefactReport {
     mcap: String,
     svg: String,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    stderr: Option<String>,
 }
 
 #[derive(Debug, Serialize)]
@@ -251,13 +256,22 @@ fn suite_report(file: &Path, suite: &Suite, jobs: &[(&Job, &Done)], metrics: &[&
             Ok(o) => {
                 let (artefacts, artefacts_error) = match &done.artefacts {
                     Some(Ok(a)) => (
-                        Some(ArtefactReport { mcap: a.mcap.display().to_string(), svg: a.svg.display().to_string() }),
+                        Some(ArtefactReport {
+                            mcap: a.mcap.display().to_string(),
+                            svg: a.svg.display().to_string(),
+                            stderr: a.stderr.as_ref().map(|p| p.display().to_string()),
+                        }),
                         None,
                     ),
                     Some(Err(e)) => (None, Some(e.clone())),
                     None => (None, None),
                 };
-                VariantEntry::Ran { summary: Box::new(o.summary()), artefacts, artefacts_error }
+                VariantEntry::Ran {
+                    summary: Box::new(o.summary()),
+                    artefacts,
+                    artefacts_error,
+                    planner_latency: o.planner_latency,
+                }
             }
             Err(e) => VariantEntry::Error {
                 variant: suite.variant_name(&suite.scenarios[job.scenario], job.index),
@@ -369,7 +383,7 @@ fn print_report(out: &mut dyn Write, report: &Report) -> std::io::Result<()> {
         for v in &s.variants {
             variants += 1;
             match v {
-                VariantEntry::Ran { summary, artefacts, artefacts_error } => {
+                VariantEntry::Ran { summary, artefacts, artefacts_error, .. } => {
                     let result = match summary.failures.first() {
                         // The criteria may allow a collision (not at fault);
                         // say so, as it does not count as solved.

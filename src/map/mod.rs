@@ -465,6 +465,26 @@ impl RoadMap {
         }
     }
 
+    /// Whether `p` lies past the end of the mapped road: ahead of the end
+    /// of a lane within 10 m that has no successor (where the recording's
+    /// map was cut off, e.g. NGSIM's study area), not beside a lane. A
+    /// vehicle there has left the mapped area rather than the road.
+    pub fn is_past_mapped_end(&self, p: &Point2) -> bool {
+        const SEARCH_M: f64 = 10.0;
+        self.lane_segments.candidates(p, SEARCH_M).into_keys().any(|lane_index| {
+            let lane = &self.lanes[lane_index];
+            let points = lane.centreline.points();
+            if !lane.successors.is_empty() || points.len() < 2 {
+                return false;
+            }
+            let (a, b) = (points[points.len() - 2], points[points.len() - 1]);
+            let along = (b - a).normalize();
+            let from_end = p - b;
+            // Ahead of the end, within a lane's reach sideways of its line.
+            from_end.dot(&along) > 0.0 && (from_end.x * along.y - from_end.y * along.x).abs() <= SEARCH_M
+        })
+    }
+
     /// Whether `p` is off the road. Unknown (no edges, no drivable areas) is
     /// treated as on-road.
     pub fn is_off_road(&self, p: &Point2) -> bool {

@@ -218,6 +218,10 @@ impl<'a> Simulation<'a> {
                 termination = Termination::EgoCollision { step: step + 1 };
                 break;
             }
+            if let Some(left) = detector.left_mapped_area() {
+                termination = Termination::LeftMappedArea { step: left };
+                break;
+            }
         }
         let (collisions, off_road, min_distance) = detector.finish();
         Rollout {

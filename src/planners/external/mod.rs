@@ -60,25 +60,33 @@
 //! `serde_json`, maps in id order). Wall-clock time only decides whether a
 //! timeout ran out.
 
+mod context;
 mod encoding;
 mod interrupt;
 mod process;
+mod route;
 mod wire;
 
 use std::collections::BTreeMap;
 use std::path::PathBuf;
+use std::time::Instant;
 
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use super::{Observation, Planner, PlannerError, PlannerOutput};
+use crate::map::RoadMap;
 use crate::motion::tokens::SIM_DT_S;
+use crate::scenario::AgentState;
+pub use context::{PLACEHOLDERS, RolloutContext, check_placeholders, expand};
 pub use encoding::{MAP_RADIUS_M, MAP_SPACING_M, ROUTE_LENGTH_M, decode_reply};
-use encoding::{ReplyError, observation_message, reply_output};
+use encoding::{ReplyError, full_map, observation_message, observation_message_v11, reply_output};
 use process::Process;
 pub(crate) use process::format_stderr_tail;
+use route::StableRoute;
+pub use route::{ROUTE_AHEAD_MIN_M, ROUTE_AHEAD_PLANNED_M, ROUTE_BEHIND_M, ROUTE_LEAVE_M};
 use wire::{EgoSize, HarnessMessage, PlannerMessage};
-pub use wire::{PROTOCOL_VERSION, protocol_schema};
+pub use wire::{PROTOCOL_MINOR, PROTOCOL_VERSION, protocol_schema};
 
 fn default_step_timeout_ms() -> u64 {
     1000
@@ -96,29 +104,37 @@ pub struct ExternalPlannerConfig {
     pub name: String,
     /// Program to run: looked up on `PATH` unless it contains a slash.
     pub command: String,
-    /// Arguments passed to the program.
+    /// Arguments passed to the program; `{scenario}`, `{variant}`, `{seed}`,
+    /// `{format}` and `{source}` are replaced when a rollout context is known.
     #[serde(default)]
     pub args: Vec<String>,
     /// Working directory of the process; the harness's own when absent.
     #[serde(default)]
     pub working_dir: Option<PathBuf>,
     /// Extra environment variables (name → value), set on top of the
-    /// harness's environment; a name given here replaces the harness's value.
+    /// harness's environment and its `SAFER_*` variables; a name given here
+    /// replaces theirs. Values take the placeholders of `args`.
     #[serde(default)]
     pub env: BTreeMap<String, String>,
     /// Time allowed to answer one observation, ms (from the observation
     /// being handed to the writer to the reply line arriving).
     #[serde(default = "default_step_timeout_ms")]
     pub step_timeout_ms: u64,
-    /// Time allowed from starting the process to its `ready` line, ms
-    /// (planners may import large libraries or load models first).
+    /// Time allowed to answer the first observation, ms; `step_timeout_ms`
+    /// when absent (a planner that compiles or warms up on its first plan).
+    #[serde(default)]
+    pub first_step_timeout_ms: Option<u64>,
+    /// Time allowed from starting the process to its `ready` line (and, in
+    /// protocol 1.1, from there to its `prepared` line), ms: planners may
+    /// import large libraries or load models first.
     #[serde(default = "default_startup_timeout_ms")]
     pub startup_timeout_ms: u64,
 }
 
 impl ExternalPlannerConfig {
     /// A config with no arguments, environment or working directory and the
-    /// default timeouts (1000 ms per step, 10 000 ms to start).
+    /// default timeouts (1000 ms per step, the same for the first, 10 000 ms
+    /// to start).
     pub fn new(name: impl Into<String>, command: impl Into<String>) -> Self {
         Self {
             name: name.into(),
@@ -127,22 +143,60 @@ impl ExternalPlannerConfig {
             working_dir: None,
             env: BTreeMap::new(),
             step_timeout_ms: default_step_timeout_ms(),
+            first_step_timeout_ms: None,
             startup_timeout_ms: default_startup_timeout_ms(),
         }
     }
+
+    /// The config with placeholders replaced and the context's `SAFER_*`
+    /// variables added (under the configured ones).
+    fn for_context(&self, context: Option<&RolloutContext>) -> Result<ExternalPlannerConfig, String> {
+        let Some(c) = context else { return Ok(self.clone()) };
+        let mut config = self.clone();
+        config.args = self.args.iter().map(|a| c.expand(a)).collect::<Result<_, _>>()?;
+        let mut env: BTreeMap<String, String> = c.env().into_iter().collect();
+        for (k, v) in &self.env {
+            env.insert(k.clone(), c.expand(v)?);
+        }
+        config.env = env;
+        Ok(config)
+    }
+}
+
+/// The protocol revision agreed with a running process.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Revision {
+    /// 1.0: the map near the ego and the route hint in every observation.
+    V1_0,
+    /// 1.1: `prepare` with the whole map once, then the stable route.
+    V1_1,
 }
 
 /// A planner running in a child process, spoken to in JSON lines.
 pub struct ExternalPlanner {
     config: ExternalPlannerConfig,
+    /// The scene and variant, for `hello`, placeholders and the route.
+    context: Option<RolloutContext>,
     /// The running process, once started and until it fails or is replaced.
     process: Option<Process>,
+    /// The protocol revision agreed with the running process.
+    revision: Revision,
+    /// Whether the 1.1 `prepare` exchange is done for the running process.
+    prepared: bool,
+    /// The 1.1 route of this rollout.
+    route: StableRoute,
+    /// The ego's recorded positions (the route's guide at forks).
+    recorded_path: Vec<crate::geometry::Point2>,
+    /// Observations answered in this rollout (the first gets its own timeout).
+    answered: usize,
     /// The name the process announced in `ready`.
     announced_name: Option<String>,
     /// The first failure of this rollout; returned by every later call.
     failure: Option<PlannerError>,
     /// `plan` calls so far, to recognise the start of a new rollout.
     calls: usize,
+    /// Stderr of this rollout's processes that are gone.
+    stderr_log: String,
 }
 
 impl std::fmt::Debug for ExternalPlanner {
@@ -159,7 +213,30 @@ impl std::fmt::Debug for ExternalPlanner {
 impl ExternalPlanner {
     /// A planner whose process starts on the first [`Planner::plan`] call.
     pub fn new(config: ExternalPlannerConfig) -> Self {
-        Self { config, process: None, announced_name: None, failure: None, calls: 0 }
+        Self {
+            config,
+            context: None,
+            process: None,
+            revision: Revision::V1_0,
+            prepared: false,
+            route: StableRoute::default(),
+            recorded_path: Vec::new(),
+            answered: 0,
+            announced_name: None,
+            failure: None,
+            calls: 0,
+            stderr_log: String::new(),
+        }
+    }
+
+    /// A planner that knows the scene and variant it drives: `hello` names
+    /// them, placeholders in `args`/`env` are replaced, `SAFER_*` variables
+    /// are set, and the 1.1 route follows the ego's recording at forks.
+    pub fn with_context(config: ExternalPlannerConfig, context: RolloutContext) -> Self {
+        let mut planner = Self::new(config);
+        planner.recorded_path = context.recorded_path();
+        planner.context = Some(context);
+        planner
     }
 
     /// Starts the process now and completes the `hello`/`ready` handshake
@@ -167,6 +244,22 @@ impl ExternalPlanner {
     pub fn start(config: ExternalPlannerConfig, ego_length_m: f64, ego_width_m: f64) -> Result<Self, PlannerError> {
         let mut planner = Self::new(config);
         planner.launch(SIM_DT_S, ego_length_m, ego_width_m)?;
+        Ok(planner)
+    }
+
+    /// Starts the process of a planner made [`Self::with_context`] now,
+    /// through `hello` and (in 1.1) `prepare` with the scenario's map and
+    /// the ego's start state, so that the first observation finds it ready.
+    pub fn start_with_context(config: ExternalPlannerConfig, context: RolloutContext) -> Result<Self, PlannerError> {
+        let scenario = context.scenario.clone();
+        let track = scenario.track(context.ego);
+        let start_state = track.state(context.start_step).copied();
+        let mut planner = Self::with_context(config, context);
+        let started = Instant::now();
+        planner.launch(SIM_DT_S, track.length_m, track.width_m)?;
+        if let Some(ego) = start_state {
+            planner.prepare(&scenario.map, &ego, started)?;
+        }
         Ok(planner)
     }
 
@@ -186,6 +279,15 @@ impl ExternalPlanner {
         self.announced_name.as_deref()
     }
 
+    /// The protocol revision agreed with the running process, as `1.0` or
+    /// `1.1` (`None` before the handshake).
+    pub fn protocol(&self) -> Option<&'static str> {
+        self.process.as_ref().map(|_| match self.revision {
+            Revision::V1_0 => "1.0",
+            Revision::V1_1 => "1.1",
+        })
+    }
+
     /// The failure that ended this rollout for the planner, if any.
     pub fn failure(&self) -> Option<&PlannerError> {
         self.failure.as_ref()
@@ -196,21 +298,45 @@ impl ExternalPlanner {
         self.process.as_ref().map(|p| p.stderr_tail()).unwrap_or_default()
     }
 
+    /// Everything this rollout's process wrote to stderr so far (up to
+    /// 8 MiB), whether it is still running or not.
+    pub fn stderr_log(&self) -> String {
+        let mut log = self.stderr_log.clone();
+        if let Some(p) = &self.process {
+            log.push_str(&p.stderr_log());
+        }
+        log
+    }
+
     /// Starts the process and waits for `ready`; on failure the process is
     /// killed and the error recorded.
     fn launch(&mut self, dt_s: f64, ego_length_m: f64, ego_width_m: f64) -> Result<(), PlannerError> {
         let name = self.config.name.clone();
-        let result = Process::spawn(&self.config).and_then(|mut process| {
+        let during = "during startup";
+        let config = self.config.for_context(self.context.as_ref()).map_err(|message| PlannerError::SpawnFailed {
+            planner: name.clone(),
+            command: self.config.command.clone(),
+            reason: message,
+        });
+        let result = config.and_then(|config| Process::spawn(&config)).and_then(|mut process| {
+            let c = self.context.as_ref();
             let hello = HarnessMessage::Hello {
                 protocol: PROTOCOL_VERSION,
+                protocol_minor: PROTOCOL_MINOR,
                 dt_s,
                 ego: EgoSize { length_m: ego_length_m, width_m: ego_width_m },
+                scenario: c.map(|c| c.wire_scenario()),
+                origin_world: c.map(|c| [c.scenario.origin_world.x, c.scenario.origin_world.y]),
+                horizon: c.map(|c| c.wire_horizon(dt_s)),
+                goal: c.and_then(|c| c.wire_goal()),
             };
-            let during = "during startup";
             let timeout_ms = self.config.startup_timeout_ms;
             match process.exchange(&name, &hello, during, timeout_ms) {
-                Ok(PlannerMessage::Ready { protocol, name: announced }) if protocol == PROTOCOL_VERSION => {
-                    Ok((process, announced))
+                Ok(PlannerMessage::Ready { protocol, protocol_minor, name: announced })
+                    if protocol == PROTOCOL_VERSION =>
+                {
+                    let revision = if protocol_minor >= 1 { Revision::V1_1 } else { Revision::V1_0 };
+                    Ok((process, announced, revision))
                 }
                 Ok(PlannerMessage::Ready { protocol, .. }) => Err(process.fail(PlannerError::Protocol {
                     planner: name.clone(),
@@ -233,9 +359,11 @@ impl ExternalPlanner {
             }
         });
         match result {
-            Ok((process, announced)) => {
+            Ok((process, announced, revision)) => {
                 self.process = Some(process);
                 self.announced_name = announced;
+                self.revision = revision;
+                self.prepared = false;
                 Ok(())
             }
             Err(e) => {
@@ -245,12 +373,57 @@ impl ExternalPlanner {
         }
     }
 
-    /// Records a failure and kills the process at once: a planner that
-    /// misbehaved gets no more observations, and a spinning one must not keep
-    /// a core busy until the planner is dropped.
+    /// Protocol 1.1: sends `prepare` (the whole map) and waits for
+    /// `prepared`, within what is left of the startup timeout counted from
+    /// `started`. Nothing to do in 1.0 or when already prepared.
+    fn prepare(&mut self, map: &RoadMap, ego: &AgentState, started: Instant) -> Result<(), PlannerError> {
+        if self.revision != Revision::V1_1 || self.prepared {
+            return Ok(());
+        }
+        let name = self.config.name.clone();
+        let during = "during prepare";
+        let elapsed_ms = started.elapsed().as_millis() as u64;
+        let timeout_ms = self.config.startup_timeout_ms.saturating_sub(elapsed_ms).max(1);
+        self.route = StableRoute::default();
+        self.route.update(map, ego, &self.recorded_path);
+        let message = HarnessMessage::Prepare { map: full_map(map) };
+        let Some(process) = self.process.as_mut() else {
+            return Ok(());
+        };
+        let reply = match process.exchange(&name, &message, during, timeout_ms) {
+            Ok(PlannerMessage::Prepared {}) => Ok(()),
+            Ok(PlannerMessage::Error { message }) => Err(PlannerError::Reported {
+                planner: name.clone(),
+                during: during.into(),
+                message: message.unwrap_or_default(),
+            }),
+            Ok(other) => Err(PlannerError::Protocol {
+                planner: name.clone(),
+                during: during.into(),
+                message: format!("expected `prepared` in answer to `prepare`, got `{}`", other.kind()),
+            }),
+            Err(PlannerError::Timeout { planner, during, .. }) => {
+                // Name the whole startup allowance: that is what ran out.
+                Err(PlannerError::Timeout { planner, during, timeout_ms: self.config.startup_timeout_ms })
+            }
+            Err(e) => Err(e),
+        };
+        match reply {
+            Ok(()) => {
+                self.prepared = true;
+                Ok(())
+            }
+            Err(e) => Err(self.fail(e)),
+        }
+    }
+
+    /// Kills the process (if any) and records `error` as this rollout's
+    /// failure; it is returned by every later call until the next rollout.
+    /// The process's stderr is kept for [`Self::stderr_log`].
     fn fail(&mut self, error: PlannerError) -> PlannerError {
         if let Some(mut p) = self.process.take() {
             p.kill();
+            self.stderr_log.push_str(&p.stderr_log());
         }
         self.failure = Some(error.clone());
         error
@@ -263,20 +436,32 @@ impl ExternalPlanner {
         }
         self.announced_name = None;
         self.failure = None;
+        self.answered = 0;
+        self.stderr_log.clear();
     }
 
     /// One observation → reply round trip, validated into a planner output.
     fn step(&mut self, obs: &Observation<'_>) -> Result<PlannerOutput, PlannerError> {
         let name = self.config.name.clone();
         let during = format!("at step {}", obs.step);
-        let timeout_ms = self.config.step_timeout_ms;
+        let timeout_ms = match (self.answered, self.config.first_step_timeout_ms) {
+            (0, Some(first)) => first,
+            _ => self.config.step_timeout_ms,
+        };
+        let message = match self.revision {
+            Revision::V1_0 => observation_message(obs),
+            Revision::V1_1 => {
+                let s = self.route.update(obs.map, &obs.ego, &self.recorded_path);
+                observation_message_v11(obs, &self.route, s)
+            }
+        };
         let Some(process) = self.process.as_mut() else {
             // Unreachable in practice (plan starts the process first); an
             // error rather than a panic all the same.
             return Err(PlannerError::NoOutput { step: obs.step, reason: format!("planner `{name}` is not running") });
         };
-        let message = observation_message(obs);
         let reply = process.exchange(&name, &message, &during, timeout_ms)?;
+        self.answered += 1;
         reply_output(reply, obs.dt_s).map_err(|e| match e {
             ReplyError::Protocol(message) => PlannerError::Protocol { planner: name, during, message },
             ReplyError::Reported(message) => PlannerError::Reported { planner: name, during, message },
@@ -299,10 +484,17 @@ impl Planner for ExternalPlanner {
         if let Some(e) = &self.failure {
             return Err(e.clone());
         }
+        let started = Instant::now();
         if self.process.is_none() {
             self.launch(obs.dt_s, obs.ego_length_m, obs.ego_width_m)?;
         }
+        // 1.1: once per process (a no-op in 1.0 and once prepared).
+        self.prepare(obs.map, &obs.ego, started)?;
         self.step(obs).map_err(|e| self.fail(e))
+    }
+
+    fn stderr_log(&self) -> Option<String> {
+        Some(ExternalPlanner::stderr_log(self))
     }
 }
 
