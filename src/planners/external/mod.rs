@@ -779,6 +779,140 @@ mod tests {
         assert!(t0.elapsed() < BYE_GRACE, "{:?}", t0.elapsed());
     }
 
+    fn probe(args: &[&str]) -> ExternalPlannerConfig {
+        let mut c = ExternalPlannerConfig::new("probe", "python3");
+        let script = format!("{}/tests/fixtures/planners/probe_planner.py", env!("CARGO_MANIFEST_DIR"));
+        c.args = std::iter::once(script).chain(args.iter().map(|a| a.to_string())).collect();
+        c
+    }
+
+    fn context(s: &Scenario) -> RolloutContext {
+        RolloutContext {
+            scenario: std::sync::Arc::new(s.clone()),
+            ego: TrackIndex(0),
+            start_step: 0,
+            end_step: s.num_steps() - 1,
+            variant: Some("probe-suite::external-stopped-car-ahead::seed-3".into()),
+            seed: Some(42),
+        }
+    }
+
+    /// The probe's reports (`probe: {...}` stderr lines), in order.
+    fn reports(planner: &ExternalPlanner) -> Vec<serde_json::Value> {
+        planner
+            .stderr_log()
+            .lines()
+            .filter_map(|l| l.strip_prefix("probe: "))
+            .map(|l| serde_json::from_str(l).unwrap())
+            .collect()
+    }
+
+    #[test]
+    fn protocol_1_1_names_the_scene_in_hello_and_sends_the_map_once() {
+        let s = stopped_car_ahead();
+        let mut planner = ExternalPlanner::with_context(probe(&[]), context(&s));
+        let r = run(&s, &mut planner);
+        assert_eq!(r.termination, Termination::Completed);
+        assert_eq!(planner.protocol(), Some("1.1"));
+        let reports = reports(&planner);
+        let hello = &reports[0]["message"];
+        assert_eq!(hello["protocol"], 1);
+        assert_eq!(hello["protocol_minor"], 1);
+        assert_eq!(hello["scenario"]["id"], "external-stopped-car-ahead");
+        assert_eq!(hello["scenario"]["format"], "authored");
+        assert_eq!(hello["scenario"]["variant"], "probe-suite::external-stopped-car-ahead::seed-3");
+        assert_eq!(hello["scenario"]["seed"], 42);
+        assert_eq!(hello["origin_world"], serde_json::json!([0.0, 0.0]));
+        assert_eq!(
+            hello["horizon"],
+            serde_json::json!({"start_step": 0, "steps": 120, "dt_s": 0.1, "duration_s": 12.0})
+        );
+        assert_eq!(hello["goal"]["x"], 10.0 + 12.0 * 10.0);
+        // The map exactly once, before the first observation, with links and ids.
+        let kinds: Vec<&str> = reports.iter().map(|r| r["type"].as_str().unwrap()).collect();
+        assert_eq!(kinds.iter().filter(|k| **k == "prepare").count(), 1);
+        assert_eq!(kinds[1], "prepare");
+        assert_eq!(kinds.iter().filter(|k| **k == "observation").count(), 120);
+        assert_eq!(reports[1]["lanes"], 2);
+        for key in ["successors", "left_neighbours", "right_boundary", "speed_limit_mps", "width_m"] {
+            assert!(reports[1]["lane_keys"].as_array().unwrap().iter().any(|k| k == key), "{key}");
+        }
+        // Observations: no map, a stable route of 20 m behind + the rest of the road ahead.
+        let observations: Vec<&serde_json::Value> = reports.iter().filter(|r| r["type"] == "observation").collect();
+        for o in &observations {
+            assert!(!o["keys"].as_array().unwrap().iter().any(|k| k == "map"), "{o}");
+            assert_eq!(o["route_revision"], 0, "{o}");
+            assert_eq!(o["route_first"], observations[0]["route_first"], "the route moved: {o}");
+        }
+        assert_eq!(observations[0]["route_first"], serde_json::json!([[0.0, 1.75]]));
+        assert_eq!(observations[0]["route_length_m"], 300.0);
+        assert_eq!(observations[0]["route_s_m"], 10.0);
+        assert_eq!(observations[10]["route_s_m"], 20.0);
+    }
+
+    #[test]
+    fn a_1_0_planner_gets_no_prepare_and_the_map_in_every_observation() {
+        let s = stopped_car_ahead();
+        let mut planner = ExternalPlanner::with_context(probe(&["--minor", "0"]), context(&s));
+        let r = run(&s, &mut planner);
+        assert_eq!(r.termination, Termination::Completed);
+        assert_eq!(planner.protocol(), Some("1.0"));
+        let reports = reports(&planner);
+        assert!(reports.iter().all(|r| r["type"] != "prepare"));
+        let first = reports.iter().find(|r| r["type"] == "observation").unwrap();
+        assert!(first["keys"].as_array().unwrap().iter().any(|k| k == "map"), "{first}");
+        assert!(first["route_revision"].is_null());
+        // The 1.0 hint: 100 m from the ego.
+        assert_eq!(first["route_length_m"], 100.0);
+    }
+
+    #[test]
+    fn a_slow_first_answer_passes_with_first_step_timeout_ms_and_fails_without() {
+        let s = stopped_car_ahead();
+        let r = run(&s, &mut ExternalPlanner::with_context(probe(&["--sleep-first", "2"]), context(&s)));
+        assert_eq!(failed(&r), (0, "external planner `probe` did not answer at step 0 within 1000 ms"));
+        let mut config = probe(&["--sleep-first", "2"]);
+        config.first_step_timeout_ms = Some(4000);
+        let r = run(&s, &mut ExternalPlanner::with_context(config, context(&s)));
+        assert_eq!(r.termination, Termination::Completed);
+    }
+
+    #[test]
+    fn a_slow_prepare_counts_against_the_startup_timeout() {
+        let s = stopped_car_ahead();
+        let mut config = probe(&["--sleep-prepare", "1.5"]);
+        config.startup_timeout_ms = 1000;
+        let err = ExternalPlanner::start_with_context(config.clone(), context(&s)).unwrap_err();
+        assert_eq!(err.to_string(), "external planner `probe` did not answer during prepare within 1000 ms");
+        config.startup_timeout_ms = 5000;
+        let mut planner = ExternalPlanner::start_with_context(config, context(&s)).unwrap();
+        assert_eq!(run(&s, &mut planner).termination, Termination::Completed);
+    }
+
+    #[test]
+    fn placeholders_env_and_working_dir_reach_the_process() {
+        let s = stopped_car_ahead();
+        let dir = std::env::temp_dir().join(format!("safer-probe-cwd-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let mut config = probe(&["--scene={scenario}", "{seed}", "{{x}}"]);
+        config.working_dir = Some(dir.clone());
+        config.env.insert("PROBE_VARIANT".into(), "v={variant}".into());
+        config.env.insert("SAFER_SEED".into(), "overridden".into());
+        let mut planner = ExternalPlanner::with_context(config, context(&s));
+        run(&s, &mut planner);
+        let hello = reports(&planner).into_iter().next().unwrap();
+        std::fs::remove_dir_all(&dir).unwrap();
+        assert_eq!(hello["args"], serde_json::json!(["--scene=external-stopped-car-ahead", "42", "{x}"]));
+        assert_eq!(std::path::Path::new(hello["cwd"].as_str().unwrap()), dir.canonicalize().unwrap_or(dir.clone()));
+        let env = &hello["env"];
+        assert_eq!(env["PROBE_VARIANT"], "v=probe-suite::external-stopped-car-ahead::seed-3");
+        assert_eq!(env["SAFER_SCENARIO"], "external-stopped-car-ahead");
+        assert_eq!(env["SAFER_VARIANT"], "probe-suite::external-stopped-car-ahead::seed-3");
+        assert_eq!(env["SAFER_SEED"], "overridden", "the spec's env wins over the harness's");
+        assert_eq!(env["SAFER_FORMAT"], "authored");
+        assert_eq!(env["SAFER_PROTOCOL"], "1.1");
+    }
+
     #[test]
     fn config_deserialises_with_defaults_and_rejects_unknown_fields() {
         let c: ExternalPlannerConfig =
