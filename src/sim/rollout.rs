@@ -14,8 +14,9 @@ pub enum Termination {
         /// Step of the collision.
         step: usize,
     },
-    /// Stopped when the ego drove past a dead end of the map (the end of a
-    /// lane with no successor, where the recording's map was cut off): the
+    /// Stopped when the ego drove past the end of the map (the end of a
+    /// lane with no successor where the road edges end too: the recording's
+    /// map was cut off there, see [`crate::map::RoadMap::is_past_mapped_end`]): the
     /// scene is over there, not the road. Not an off-road event; the rollout
     /// counts as run to its end (see `docs/planner-protocol.md`).
     LeftMappedArea {
