@@ -95,3 +95,58 @@ fn driving_past_the_end_of_an_ngsim_map_is_leaving_the_mapped_area_not_the_road(
     let nose = ego.position + safer::geometry::Vector2::new(ego.heading_rad.cos(), ego.heading_rad.sin()) * half;
     assert!(s.map.is_off_road(&nose) && s.map.is_past_mapped_end(&nose), "{nose:?}");
 }
+
+/// Runs the `safer` binary from the repository root.
+fn safer(args: &[&str]) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_safer")).args(args).current_dir(repo()).output().expect("run safer")
+}
+
+#[test]
+fn evaluate_takes_a_planner_spec_and_jobs_and_reports_latency() {
+    let scene = data_dir().join(SCENE);
+    let scene = scene.to_str().unwrap();
+    let common = ["evaluate", "--scenes", scene, "--methods", "log", "--seeds", "1", "--json", "-"];
+    let out = safer(&[&common[..], &["--planner", "planners/lane-follower.yaml", "--jobs", "1"]].concat());
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let variant = &report["variants"][0];
+    assert_eq!(variant["stage2"]["verdict"], "solved", "{variant}");
+    let latency = &variant["planner_latency"];
+    assert!(latency["steps"].as_u64().unwrap() > 10, "{latency}");
+    for key in ["p50_ms", "p95_ms", "max_ms"] {
+        assert!(latency[key].as_f64().unwrap() > 0.0, "{latency}");
+    }
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("stage 2 planner `lane-follower`"), "{err}");
+    // Not a built-in, not a file; no thread at all.
+    let out = safer(&[&common[..], &["--planner", "no-such-planner"]].concat());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("neither a built-in planner"));
+    let out = safer(&[&common[..], &["--jobs", "0"]].concat());
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--jobs"), "{}", String::from_utf8_lossy(&out.stderr));
+}
+
+#[test]
+fn run_reports_latency_per_variant() {
+    let planner = repo().join("planners/lane-follower.yaml");
+    let (_, dir) = suite("run-latency", &planner.display().to_string());
+    let suite_file = dir.join("suite.yaml");
+    let out = safer(&["run", suite_file.to_str().unwrap(), "--jobs", "1", "--json", "-"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let variant = &report["suites"][0]["variants"][0];
+    assert!(variant["planner_latency"]["p95_ms"].as_f64().unwrap() > 0.0, "{variant}");
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+#[test]
+fn a_dead_end_inside_a_womd_map_is_still_off_road() {
+    // In this shipped adversarial variant the evasive ego leaves the road at
+    // 6.9 s past the end of a lane without successor, 90 m inside the map:
+    // the kerbs go on around it, so that is off-road, not the map's edge.
+    let suite = Suite::load(&repo().join("specs/suites/adversarial-recorded.yaml")).unwrap_or_else(|e| panic!("{e}"));
+    let entry = suite.scenarios.iter().find(|s| s.name.contains("2d84b1ab55ab81d3")).expect("scene in the suite");
+    let outcome = run_variant(&suite, entry, 0).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(outcome.stage2.termination, Termination::Completed);
+    assert_eq!(outcome.stage2.summary().ego_off_road_s, Some(6.9));
+}
