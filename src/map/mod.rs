@@ -63,6 +63,9 @@ pub struct Lane {
     pub right_boundary: Option<Polyline>,
     /// Whether this lane lies inside an intersection.
     pub in_intersection: bool,
+    /// Midpoint of the lane's stop line, where the source has one
+    /// (CommonRoad `stopLine`, also on lanes without a signal).
+    pub stop_line: Option<Point2>,
 }
 
 impl Lane {
@@ -81,6 +84,7 @@ impl Lane {
             left_boundary: None,
             right_boundary: None,
             in_intersection: false,
+            stop_line: None,
         }
     }
 }
@@ -351,6 +355,7 @@ impl RoadMap {
                 centreline: shift_line(&l.centreline),
                 left_boundary: l.left_boundary.as_ref().map(shift_line),
                 right_boundary: l.right_boundary.as_ref().map(shift_line),
+                stop_line: l.stop_line.map(|p| p - offset),
                 ..l
             })
             .collect();

@@ -150,3 +150,20 @@ fn a_dead_end_inside_a_womd_map_is_still_off_road() {
     assert_eq!(outcome.stage2.termination, Termination::Completed);
     assert_eq!(outcome.stage2.summary().ego_off_road_s, Some(6.9));
 }
+
+#[test]
+fn commonroad_stop_lines_are_kept_on_their_lanes() {
+    let path = data_dir().join("commonroad-ngsim/USA_Lanker-1_1_T-1.xml");
+    let xml = std::fs::read_to_string(&path).unwrap();
+    let in_file = xml.matches("<stopLine").count();
+    assert!(in_file > 0, "the fixture scene has no stop line");
+    let s = import::load(&path).unwrap_or_else(|e| panic!("{e}")).remove(0);
+    let with_stop_line: Vec<_> = s.map.lanes.iter().filter(|l| l.stop_line.is_some()).collect();
+    assert_eq!(with_stop_line.len(), in_file);
+    // Each near its lane's end, in the re-centred frame.
+    for l in with_stop_line {
+        let end = *l.centreline.points().last().unwrap();
+        let d = (l.stop_line.unwrap() - end).norm();
+        assert!(d < 10.0, "lane {}: stop line {d} m from its end", l.id.0);
+    }
+}

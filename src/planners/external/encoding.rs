@@ -79,6 +79,7 @@ pub(super) fn full_map(map: &RoadMap) -> WireFullMap {
                     left_neighbours: ids(&l.left_neighbours),
                     right_neighbours: ids(&l.right_neighbours),
                     in_intersection: l.in_intersection,
+                    stop_line: l.stop_line.map(|p| [p.x, p.y]),
                 }
             })
             .collect(),

@@ -210,6 +210,9 @@ pub(super) struct WireFullLane {
     pub(super) right_neighbours: Vec<i64>,
     /// Whether it lies inside an intersection.
     pub(super) in_intersection: bool,
+    /// Midpoint of the lane's stop line, [x, y] in m, where the source has
+    /// one (CommonRoad `stopLine`); null otherwise.
+    pub(super) stop_line: Option<[f64; 2]>,
 }
 
 /// A stop sign.
