@@ -1,12 +1,18 @@
 //! External planners: a child process that drives the ego by speaking the
-//! JSON-lines planner protocol (version 1, specified in
-//! `docs/planner-protocol.md`, schema in `docs/planner-protocol.schema.json`).
+//! JSON-lines planner protocol (version 1, revisions 1.0 and 1.1, specified
+//! in `docs/planner-protocol.md`, schema in `docs/planner-protocol.schema.json`).
 //!
 //! One JSON object per line in each direction: the harness writes `hello`,
 //! then one `observation` per simulation step, then `bye` on the child's
 //! stdin; the planner answers `hello` with `ready` and every observation with
-//! a `control`, a `trajectory` or an `error` on its stdout. Its stderr is
-//! free-form logging; the harness keeps the last lines to explain failures.
+//! a `control`, a `trajectory` or an `error` on its stdout. A planner whose
+//! `ready` says `protocol_minor: 1` also gets `prepare` (the whole map, once;
+//! answered by `prepared`) and the stable route (`route`) instead of the
+//! per-step map; one that does not is spoken to in 1.0. A [`RolloutContext`]
+//! (the scene and variant, given by the pipeline) fills `hello`'s 1.1 fields,
+//! the `args`/`env` placeholders and the `SAFER_*` variables. Its stderr is
+//! free-form logging; the harness keeps the last lines to explain failures
+//! and the whole of it ([`ExternalPlanner::stderr_log`]) for the artefacts.
 //!
 //! Coordinates are the scenario's local frame: metres, re-centred on the
 //! scenario (not UTM/world coordinates), x/y as in the map, headings in
@@ -47,8 +53,10 @@
 //! # Layout
 //!
 //! This module owns the [`ExternalPlanner`] session: starting and
-//! handshaking, one exchange per step, latching the first failure, a fresh
-//! process per rollout. `wire` holds the message types and the schema,
+//! handshaking (and the 1.1 `prepare`), one exchange per step, latching the
+//! first failure, a fresh process per rollout. `context` holds what the
+//! planner is told of the scene, `route` the 1.1 stable route, `wire` the
+//! message types and the schema,
 //! `encoding` turns observations into messages and replies into planner
 //! outputs ([`decode_reply`]), `process` runs the child process and
 //! its I/O, and `interrupt` ends live planners when the harness is
