@@ -447,7 +447,12 @@ fn print_report(out: &mut dyn Write, report: &Report) -> std::io::Result<()> {
         for (name, artefacts, error) in failing {
             writeln!(out, "  {name}")?;
             match (artefacts, error) {
-                (Some(a), _) => writeln!(out, "    recording: {}\n    picture:   {}", a.mcap, a.svg)?,
+                (Some(a), _) => {
+                    writeln!(out, "    recording: {}\n    picture:   {}", a.mcap, a.svg)?;
+                    if let Some(stderr) = &a.stderr {
+                        writeln!(out, "    stderr:    {stderr}")?;
+                    }
+                }
                 (None, Some(e)) => writeln!(out, "    (could not write artefacts: {e})")?,
                 (None, None) => {}
             }
