@@ -296,7 +296,10 @@ fn variant_trial(suite: &Suite, context: &TrialContext, scenario: usize, index: 
         let written = harness::artefacts::write(&context.artefacts, o);
         match &written {
             Ok(a) => {
-                verdict.push_str(&format!("  recording: {}\n  picture:   {}\n", a.mcap.display(), a.svg.display()))
+                verdict.push_str(&format!("  recording: {}\n  picture:   {}\n", a.mcap.display(), a.svg.display()));
+                if let Some(stderr) = &a.stderr {
+                    verdict.push_str(&format!("  planner stderr: {}\n", stderr.display()));
+                }
             }
             Err(e) => verdict.push_str(&format!("  (could not write artefacts: {e})\n")),
         }

@@ -53,8 +53,11 @@ fn print_table(
 ) -> std::io::Result<()> {
     writeln!(
         out,
-        "{scenes} scenes × {} seeds; stage 2 planner `{:?}`, trust region n = {}, horizon {} s",
-        request.seeds, request.planner, request.trust_region, request.horizon_s
+        "{scenes} scenes × {} seeds; stage 2 planner `{}`, trust region n = {}, horizon {} s",
+        request.seeds,
+        request.planner.name(),
+        request.trust_region,
+        request.horizon_s
     )?;
     writeln!(
         out,

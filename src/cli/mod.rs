@@ -45,6 +45,7 @@ use crate::policies::BackgroundPolicy;
 use crate::record::RecordError;
 use crate::scenario::import::ImportError;
 use crate::sim::SimError;
+use crate::spec::planner::PlannerAdapter;
 use crate::spec::suite::AdversaryMethod;
 use crate::spec::{SpecError, SpecKind};
 
@@ -127,6 +128,9 @@ enum Command {
         /// Only variants and metrics whose test name contains this.
         #[arg(long, value_name = "SUBSTR")]
         filter: Option<String>,
+        /// Worker threads for the variants (default: one per core).
+        #[arg(long, value_name = "N", value_parser = at_least_one())]
+        jobs: Option<usize>,
     },
     /// WOSAC 2025 realism metrics of a traffic policy: roll out every agent of each scene N times and score the rollouts against the log.
     #[command(after_help = realism::WINDOW_RULE_HELP)]
@@ -185,9 +189,9 @@ enum Command {
         /// Base seed.
         #[arg(long, default_value_t = 0)]
         seed: u64,
-        /// Reactive planner driving the ego in stage 2.
-        #[arg(long, value_enum, default_value_t = BuiltinPlanner::Evasive)]
-        planner: BuiltinPlanner,
+        /// Reactive planner driving the ego in stage 2: a built-in (log-replay, constant-velocity, idm, evasive) or a planner spec file (`planners/NAME.yaml`).
+        #[arg(long, default_value = "evasive", value_parser = planner_arg, value_name = "BUILTIN|SPEC.yaml")]
+        planner: PlannerAdapter,
         /// Trust-region size n (top-n tokens of the prior), from 1 to the vocabulary size.
         #[arg(long, default_value_t = 20, value_parser = RangedU64ValueParser::<usize>::new().range(1..=VOCABULARY_SIZE as u64))]
         trust_region: usize,
@@ -206,6 +210,9 @@ enum Command {
         /// Also write every variant and the table as JSON (`-`: standard output).
         #[arg(long, value_name = "OUT")]
         json: Option<PathBuf>,
+        /// Worker threads for the variants (default: one per core).
+        #[arg(long, value_name = "N", value_parser = at_least_one())]
+        jobs: Option<usize>,
     },
     /// Write the feasibility value's training transitions (NGSIM + synthetic, several ego and CBV policies).
     FeasibilityDataset {
@@ -336,7 +343,7 @@ pub fn main() -> ExitCode {
         Command::Simulate { path, planner, background, json } => simulate::run(&path, planner, background, json),
         Command::TokenRoundtrip { scenes, json } => token_roundtrip::run(&scenes, json),
         Command::Bench { scenes, repeat } => bench::run(&scenes, repeat),
-        Command::Run { suites, json, junit, html, artifacts, filter } => {
+        Command::Run { suites, json, junit, html, artifacts, filter, jobs } => {
             if json.as_deref().is_some_and(crate::record::is_stdout)
                 && junit.as_deref().is_some_and(crate::record::is_stdout)
             {
@@ -348,7 +355,7 @@ pub fn main() -> ExitCode {
                     html: html.as_deref(),
                     artifacts: &artifacts,
                 };
-                run::run(&suites, outputs, filter.as_deref())
+                set_jobs(jobs).and_then(|()| run::run(&suites, outputs, filter.as_deref()))
             }
         }
         Command::Realism { scenes, rollouts, json, policy, seed, max_scenes } => {
@@ -371,6 +378,7 @@ pub fn main() -> ExitCode {
             horizon_s,
             max_scenes,
             json,
+            jobs,
         } => {
             let request = EvaluationRequest {
                 methods,
@@ -382,7 +390,7 @@ pub fn main() -> ExitCode {
                 stage2_cbv,
                 horizon_s,
             };
-            evaluate::run(&scenes, &request, max_scenes, json.as_deref())
+            set_jobs(jobs).and_then(|()| evaluate::run(&scenes, &request, max_scenes, json.as_deref()))
         }
         Command::FeasibilityDataset { recorded, out, synthetic_scenes, seed, force } => {
             feasibility_dataset::run(&feasibility_dataset::FeasibilityDatasetRequest {
@@ -459,6 +467,29 @@ fn data_path(written: &str) -> Result<PathBuf, String> {
     } else {
         Ok(PathBuf::from(written))
     }
+}
+
+/// Parses `--planner`: a built-in's name, else a planner spec file.
+fn planner_arg(written: &str) -> Result<PlannerAdapter, String> {
+    if let Ok(builtin) = <BuiltinPlanner as clap::ValueEnum>::from_str(written, false) {
+        return Ok(PlannerAdapter::builtin(builtin));
+    }
+    let path = Path::new(written);
+    if !path.exists() {
+        return Err(format!(
+            "`{written}` is neither a built-in planner (log-replay, constant-velocity, idm, evasive) nor a planner spec file"
+        ));
+    }
+    PlannerAdapter::load(path).map_err(|e| e.to_string())
+}
+
+/// Sets the number of rayon worker threads (`--jobs`).
+fn set_jobs(jobs: Option<usize>) -> Result<(), CliError> {
+    let Some(n) = jobs else { return Ok(()) };
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(n)
+        .build_global()
+        .map_err(|e| CliError::Usage(format!("--jobs {n}: could not set up the worker threads: {e}")))
 }
 
 /// Parses a count that must be at least 1 (clap names the flag and the

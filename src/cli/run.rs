@@ -92,6 +92,9 @@ enum VariantEntry {
         artefacts: Option<ArtefactReport>,
         #[serde(skip_serializing_if = "Option::is_none")]
         artefacts_error: Option<String>,
+        /// Wall-clock time per planner answer (not in the snapshot summary).
+        #[serde(skip_serializing_if = "Option::is_none")]
+        planner_latency: Option<harness::pipeline::PlannerLatency>,
     },
     Error {
         variant: String,
@@ -104,6 +107,8 @@ enum VariantEntry {
 struct ArtefactReport {
     mcap: String,
     svg: String,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    stderr: Option<String>,
 }
 
 #[derive(Debug, Serialize)]
@@ -335,13 +340,22 @@ fn suite_report(run: &SuiteRun) -> SuiteReport {
             Ok(o) => {
                 let (artefacts, artefacts_error) = match &v.artefacts {
                     Some(Ok(a)) => (
-                        Some(ArtefactReport { mcap: a.mcap.display().to_string(), svg: a.svg.display().to_string() }),
+                        Some(ArtefactReport {
+                            mcap: a.mcap.display().to_string(),
+                            svg: a.svg.display().to_string(),
+                            stderr: a.stderr.as_ref().map(|p| p.display().to_string()),
+                        }),
                         None,
                     ),
                     Some(Err(e)) => (None, Some(e.clone())),
                     None => (None, None),
                 };
-                VariantEntry::Ran { summary: Box::new(o.summary()), artefacts, artefacts_error }
+                VariantEntry::Ran {
+                    summary: Box::new(o.summary()),
+                    artefacts,
+                    artefacts_error,
+                    planner_latency: o.planner_latency,
+                }
             }
             Err(e) => VariantEntry::Error { variant: v.name.clone(), passed: false, error: e.clone() },
         })
@@ -406,7 +420,7 @@ fn print_report(out: &mut dyn Write, report: &Report) -> std::io::Result<()> {
         for v in &s.variants {
             variants += 1;
             match v {
-                VariantEntry::Ran { summary, artefacts, artefacts_error } => {
+                VariantEntry::Ran { summary, artefacts, artefacts_error, .. } => {
                     let result = match summary.failures.first() {
                         // The criteria may allow a collision (not at fault);
                         // say so, as it does not count as solved.
@@ -470,7 +484,12 @@ fn print_report(out: &mut dyn Write, report: &Report) -> std::io::Result<()> {
         for (name, artefacts, error) in failing {
             writeln!(out, "  {name}")?;
             match (artefacts, error) {
-                (Some(a), _) => writeln!(out, "    recording: {}\n    picture:   {}", a.mcap, a.svg)?,
+                (Some(a), _) => {
+                    writeln!(out, "    recording: {}\n    picture:   {}", a.mcap, a.svg)?;
+                    if let Some(stderr) = &a.stderr {
+                        writeln!(out, "    stderr:    {stderr}")?;
+                    }
+                }
                 (None, Some(e)) => writeln!(out, "    (could not write artefacts: {e})")?,
                 (None, None) => {}
             }

@@ -21,7 +21,7 @@ pub fn check(criteria: &VariantAcceptance, rollout: &Rollout, min_ttc_s: Option<
     // A rollout that could not run to its end never passes, whatever the
     // criteria say: a planner that stops answering has not solved anything.
     match &rollout.termination {
-        Termination::Completed | Termination::EgoCollision { .. } => {}
+        Termination::Completed | Termination::EgoCollision { .. } | Termination::LeftMappedArea { .. } => {}
         Termination::PlannerFailed { step, reason } => {
             let t = step.saturating_sub(rollout.start_step) as f64 * rollout.dt_s;
             out.push(fail(

@@ -1,7 +1,8 @@
 //! What a person needs to review a failed variant: an MCAP recording of the
-//! stage-2 rollout (opens in Foxglove's 3D panel) and an SVG picture, both
-//! written by [`crate::record::write_output`] under
-//! `<dir>/<suite>/<scenario>/<variant>.{mcap,svg}`.
+//! stage-2 rollout (opens in Foxglove's 3D panel), an SVG picture and, for
+//! an external planner, everything it wrote to stderr, all written by
+//! [`crate::record::write_output`] under
+//! `<dir>/<suite>/<scenario>/<variant>.{mcap,svg,stderr.txt}`.
 //!
 //! Every path stays inside `<dir>` whatever the suite and scenario are
 //! called: each `::`-separated part of the variant name must be a plain
@@ -21,6 +22,8 @@ pub struct Artefacts {
     pub mcap: PathBuf,
     /// The picture.
     pub svg: PathBuf,
+    /// The planner's stderr (external planners only, even when empty).
+    pub stderr: Option<PathBuf>,
 }
 
 /// Writes the artefacts of `outcome` under `dir`.
@@ -33,7 +36,15 @@ pub fn write(dir: &Path, outcome: &VariantOutcome) -> Result<Artefacts, RecordEr
     let svg = base.with_extension("svg");
     record::write_rollout_mcap(&mcap, &outcome.scenario, &outcome.stage2, &[])?;
     record::write_svg(&svg, &record::render_rollout_svg(&outcome.scenario, &outcome.stage2, &SvgOptions::default()))?;
-    Ok(Artefacts { mcap, svg })
+    let stderr = match &outcome.planner_stderr {
+        Some(log) => {
+            let path = base.with_extension("stderr.txt");
+            record::write_output(&path, log.as_bytes())?;
+            Some(path)
+        }
+        None => None,
+    };
+    Ok(Artefacts { mcap, svg, stderr })
 }
 
 /// The artefacts' path under `dir` (without extension) for the variant

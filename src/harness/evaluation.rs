@@ -22,10 +22,9 @@ use rayon::prelude::*;
 use super::HarnessError;
 use super::methods::{BackgroundDriver, MapEncodings, MethodSettings, ModelSet};
 use super::metrics::{SuiteMetrics, VariantTally};
-use super::pipeline::{self, Stage2Verdict, VariantSetup};
+use super::pipeline::{self, PlannerLatency, Stage2Verdict, VariantSetup};
 pub use super::pipeline::{Stage2Cbv, VariantProfile};
 use super::variant::variant_seed;
-use crate::planners::BuiltinPlanner;
 use crate::policies::prior_sampling::TokenSampling;
 use crate::scenario::Scenario;
 use crate::sim::{Rollout, SimConfig};
@@ -41,8 +40,8 @@ pub struct EvaluationRequest {
     pub seeds: u32,
     /// Base seed.
     pub base_seed: u64,
-    /// Reactive planner of stage 2.
-    pub planner: BuiltinPlanner,
+    /// Reactive planner of stage 2: a built-in or a planner spec.
+    pub planner: PlannerAdapter,
     /// Trust-region size n.
     pub trust_region: usize,
     /// Who drives the background agents.
@@ -77,6 +76,8 @@ pub struct VariantRecord {
     pub time_s: f64,
     /// Where the time went, s.
     pub profile: VariantProfile,
+    /// How long the stage-2 planner took per observation (wall clock).
+    pub planner_latency: Option<PlannerLatency>,
     /// Why the variant could not be run, if it could not.
     pub error: Option<String>,
     /// What the variant contributes to CR, SR, VJ and AJ.
@@ -141,11 +142,7 @@ fn run_one(
     let start = scenario.current_step;
     let end = (start + (request.horizon_s / scenario.dt_s).round() as usize).min(scenario.num_steps() - 1);
     let sim = SimConfig { start_step: Some(start), end_step: Some(end), ..SimConfig::default() };
-    let planner = PlannerAdapter::Builtin {
-        name: crate::spec::spec_name(&request.planner),
-        planner: request.planner,
-        idm: Default::default(),
-    };
+    let variant = format!("{}::{}::seed-{seed_index}", scenario.id, crate::spec::spec_name(&method));
     let stages = pipeline::run(VariantSetup {
         scenario,
         settings: MethodSettings {
@@ -157,9 +154,10 @@ fn run_one(
         seed: variant_seed(request.base_seed, &format!("{}/{method:?}", scenario.id), seed_index),
         sim: &sim,
         stage2_cbv: request.stage2_cbv,
-        planner: &planner,
+        planner: &request.planner,
         models,
         maps,
+        variant: Some(&variant),
     })?;
     let tally = VariantTally::of(scenario, &stages);
     let mut profile = stages.profile;
@@ -180,6 +178,7 @@ fn run_one(
         stage1_min_gap_m: stages.stage1.summary().min_distance_to_ego_m,
         time_s: clock.elapsed().as_secs_f64(),
         profile,
+        planner_latency: stages.planner_latency,
         error: None,
         tally,
     })
@@ -216,6 +215,7 @@ pub fn evaluate(
                     stage1_min_gap_m: None,
                     time_s: 0.0,
                     profile: VariantProfile::default(),
+                    planner_latency: None,
                     error: Some(e.to_string()),
                     tally: VariantTally::default(),
                 });

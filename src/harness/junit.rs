@@ -136,6 +136,11 @@ fn variant_verdict(variant: &VariantRun) -> (Verdict, Vec<String>) {
             let (mcap, svg) = (a.mcap.display().to_string(), a.svg.display().to_string());
             let _ = writeln!(body, "recording: {mcap}   (Foxglove, 3D panel)\npicture:   {svg}");
             attachments = vec![mcap, svg];
+            if let Some(stderr) = &a.stderr {
+                let stderr = stderr.display().to_string();
+                let _ = writeln!(body, "planner stderr: {stderr}");
+                attachments.push(stderr);
+            }
         }
         Some(Err(e)) => {
             let _ = writeln!(body, "(could not write artefacts: {e})");

@@ -17,8 +17,8 @@ use std::time::Instant;
 use super::HarnessError;
 use super::methods::{self, MapEncodings, MethodSettings, ModelSet};
 use crate::eval::min_time_to_collision;
-use crate::planners::external::{ExternalPlanner, ExternalPlannerConfig};
-use crate::planners::{BuiltinPlanner, IdmPlanner, Planner};
+use crate::planners::external::{ExternalPlanner, ExternalPlannerConfig, RolloutContext};
+use crate::planners::{BuiltinPlanner, IdmPlanner, Observation, Planner, PlannerError, PlannerOutput};
 use crate::policies::LogReplay;
 use crate::scenario::{Scenario, Track, TrackIndex};
 use crate::sim::{Rollout, SimConfig, Simulation, Termination};
@@ -54,6 +54,9 @@ pub struct VariantSetup<'a> {
     pub models: &'a ModelSet,
     /// Map encodings shared across variants.
     pub maps: &'a MapEncodings,
+    /// The variant's name (`suite::scenario::seed-k`), told to external
+    /// planners (`{variant}`, `SAFER_VARIANT`); `None`: the scenario id.
+    pub variant: Option<&'a str>,
 }
 
 /// Where a variant's time went, s.
@@ -97,6 +100,66 @@ impl VariantProfile {
     }
 }
 
+/// How long the planner under test took to answer, over the observations
+/// of one stage-2 rollout (wall clock of each `plan` call: for an external
+/// planner the whole round trip, message encoding and pipes included).
+/// Percentiles are nearest-rank. Not deterministic: reports carry it, test
+/// snapshots do not.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct PlannerLatency {
+    /// Observations answered (or failed).
+    pub steps: usize,
+    /// The first answer, ms (includes a lazily started process's startup).
+    pub first_ms: f64,
+    /// Median, ms.
+    pub p50_ms: f64,
+    /// 95th percentile, ms.
+    pub p95_ms: f64,
+    /// Slowest, ms.
+    pub max_ms: f64,
+}
+
+impl PlannerLatency {
+    /// The summary of per-call times in ms; `None` for none.
+    pub fn of(times_ms: &[f64]) -> Option<PlannerLatency> {
+        let first_ms = *times_ms.first()?;
+        let mut sorted = times_ms.to_vec();
+        sorted.sort_by(f64::total_cmp);
+        let rank = |q: f64| sorted[((q * sorted.len() as f64).ceil() as usize).clamp(1, sorted.len()) - 1];
+        let round = |x: f64| (x * 1000.0).round() / 1000.0;
+        Some(PlannerLatency {
+            steps: sorted.len(),
+            first_ms: round(first_ms),
+            p50_ms: round(rank(0.5)),
+            p95_ms: round(rank(0.95)),
+            max_ms: round(sorted[sorted.len() - 1]),
+        })
+    }
+}
+
+/// A planner whose `plan` calls are timed.
+struct Timed<'p> {
+    inner: &'p mut dyn Planner,
+    times_ms: Vec<f64>,
+}
+
+impl Planner for Timed<'_> {
+    fn name(&self) -> &str {
+        self.inner.name()
+    }
+
+    fn plan(&mut self, observation: &Observation<'_>) -> Result<PlannerOutput, PlannerError> {
+        let clock = Instant::now();
+        let out = self.inner.plan(observation);
+        self.times_ms.push(clock.elapsed().as_secs_f64() * 1e3);
+        out
+    }
+
+    fn stderr_log(&self) -> Option<String> {
+        self.inner.stderr_log()
+    }
+}
+
 /// What the planner under test made of stage 2.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 #[serde(rename_all = "kebab-case", tag = "verdict")]
@@ -122,10 +185,12 @@ impl Stage2Verdict {
     /// The verdict on a finished stage-2 rollout.
     pub fn of(stage2: &Rollout) -> Stage2Verdict {
         match &stage2.termination {
-            Termination::Completed | Termination::EgoCollision { .. } => match stage2.ego_collision() {
-                Some(c) => Stage2Verdict::Collided { time_s: (c.step - stage2.start_step) as f64 * stage2.dt_s },
-                None => Stage2Verdict::Solved,
-            },
+            Termination::Completed | Termination::EgoCollision { .. } | Termination::LeftMappedArea { .. } => {
+                match stage2.ego_collision() {
+                    Some(c) => Stage2Verdict::Collided { time_s: (c.step - stage2.start_step) as f64 * stage2.dt_s },
+                    None => Stage2Verdict::Solved,
+                }
+            }
             other => Stage2Verdict::Aborted { reason: termination_reason(other, stage2) },
         }
     }
@@ -146,7 +211,7 @@ fn termination_reason(termination: &Termination, rollout: &Rollout) -> String {
         Termination::InvalidAgentState { step, agent, reason } => {
             format!("the rollout was aborted at t = {:.1} s: agent {agent} has an invalid state: {reason}", at(*step))
         }
-        Termination::Completed | Termination::EgoCollision { .. } => String::new(),
+        Termination::Completed | Termination::EgoCollision { .. } | Termination::LeftMappedArea { .. } => String::new(),
     }
 }
 
@@ -163,6 +228,10 @@ pub struct DualStage {
     pub min_ttc_s: Option<f64>,
     /// Where the time went (the witness part is left at zero).
     pub profile: VariantProfile,
+    /// How long the planner under test took per observation.
+    pub planner_latency: Option<PlannerLatency>,
+    /// What the planner under test wrote to stderr (external planners).
+    pub planner_stderr: Option<String>,
 }
 
 impl DualStage {
@@ -172,17 +241,16 @@ impl DualStage {
     }
 }
 
-/// A fresh planner for the ego of `scenario`.
-pub fn make_planner(
-    adapter: &PlannerAdapter,
-    scenario: &Scenario,
-    ego: TrackIndex,
-) -> Result<Box<dyn Planner>, HarnessError> {
+/// A fresh planner for the ego of the context's scenario. An external
+/// planner is started at once (through `hello` and, in protocol 1.1,
+/// `prepare`), told the scene and variant of `context`.
+pub fn make_planner(adapter: &PlannerAdapter, context: RolloutContext) -> Result<Box<dyn Planner>, HarnessError> {
+    let scenario = &context.scenario;
     match adapter {
         PlannerAdapter::Builtin { planner: BuiltinPlanner::Idm, idm, .. } => Ok(Box::new(IdmPlanner::new(*idm))),
-        PlannerAdapter::Builtin { planner, .. } => Ok(planner.instantiate(scenario, ego)),
+        PlannerAdapter::Builtin { planner, .. } => Ok(planner.instantiate(scenario, context.ego)),
         PlannerAdapter::InProcess { name } => crate::planners::registry::lookup(name)
-            .map(|factory| factory(scenario, ego))
+            .map(|factory| factory(scenario, context.ego))
             .ok_or_else(|| HarnessError::UnregisteredPlanner(name.clone())),
         PlannerAdapter::External { name, spec, working_dir } => {
             let mut config = ExternalPlannerConfig::new(name.clone(), spec.command.clone());
@@ -190,9 +258,9 @@ pub fn make_planner(
             config.working_dir = Some(working_dir.clone());
             config.env = spec.env.clone();
             config.step_timeout_ms = spec.step_timeout_ms;
+            config.first_step_timeout_ms = spec.first_step_timeout_ms;
             config.startup_timeout_ms = spec.startup_timeout_ms;
-            let body = scenario.track(ego).body();
-            ExternalPlanner::start(config, body.length_m, body.width_m)
+            ExternalPlanner::start_with_context(config, context)
                 .map(|p| Box::new(p) as Box<dyn Planner>)
                 .map_err(|source| HarnessError::PlannerStart { planner: name.clone(), source })
         }
@@ -247,8 +315,20 @@ pub fn run(setup: VariantSetup<'_>) -> Result<DualStage, HarnessError> {
         }
         Stage2Cbv::ClosedLoop => Some(install(&mut stage2)?),
     };
-    let mut planner = make_planner(setup.planner, scenario, ego)?;
-    let stage2 = stage2.run(planner.as_mut());
+    let end = setup.sim.end_step.unwrap_or(scenario.num_steps().saturating_sub(1));
+    let context = RolloutContext {
+        scenario: scenario.clone(),
+        ego,
+        start_step: start,
+        end_step: end,
+        variant: setup.variant.map(String::from),
+        seed: Some(setup.seed),
+    };
+    let mut planner = make_planner(setup.planner, context)?;
+    let mut timed = Timed { inner: planner.as_mut(), times_ms: Vec::new() };
+    let stage2 = stage2.run(&mut timed);
+    let planner_latency = PlannerLatency::of(&timed.times_ms);
+    let planner_stderr = timed.stderr_log();
     // Dropping the planner ends an external process before the next variant starts one.
     drop(planner);
     if let Some(source) = closed_loop.and_then(|i| i.error()) {
@@ -262,6 +342,8 @@ pub fn run(setup: VariantSetup<'_>) -> Result<DualStage, HarnessError> {
         stage1,
         stage2,
         profile,
+        planner_latency,
+        planner_stderr,
     })
 }
 
@@ -346,6 +428,15 @@ mod tests {
     fn a_planner_that_answers_to_the_end_without_contact_solves_it() {
         let r = stage2_with(&mut StopsAnswering { ok_steps: usize::MAX });
         assert_eq!(Stage2Verdict::of(&r), Stage2Verdict::Solved);
+    }
+
+    #[test]
+    fn latency_percentiles_are_nearest_rank() {
+        let times: Vec<f64> = (1..=100).map(f64::from).collect();
+        let l = PlannerLatency::of(&times).unwrap();
+        assert_eq!((l.steps, l.first_ms, l.p50_ms, l.p95_ms, l.max_ms), (100, 1.0, 50.0, 95.0, 100.0));
+        assert_eq!(PlannerLatency::of(&[7.0]).unwrap().p95_ms, 7.0);
+        assert!(PlannerLatency::of(&[]).is_none());
     }
 
     #[test]

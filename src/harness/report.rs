@@ -125,6 +125,8 @@ pub(crate) mod tests_support {
             min_ttc_s: Some(0.4),
             tally: VariantTally { critical: true, ..VariantTally::default() },
             failures,
+            planner_latency: None,
+            planner_stderr: None,
         }
     }
 
@@ -136,6 +138,7 @@ pub(crate) mod tests_support {
             artefacts: Some(Ok(Artefacts {
                 mcap: format!("out/{suite}/crossing/seed-1.mcap").into(),
                 svg: format!("out/{suite}/crossing/seed-1.svg").into(),
+                stderr: None,
             })),
             name,
         }

@@ -368,6 +368,15 @@ fn failing_variant_html(
                 esc(&url_path(&rel)),
                 esc(&a.mcap.display().to_string())
             );
+            if let Some(stderr) = &a.stderr {
+                let rel = relative_to(dir, stderr);
+                let _ = write!(
+                    h,
+                    " · planner stderr: <a class=\"stderr\" href=\"{}\">{}</a>",
+                    esc(&url_path(&rel)),
+                    esc(&stderr.display().to_string())
+                );
+            }
         }
         Some(Err(e)) => {
             let _ = write!(h, "recording: could not be written: {}", esc(e));

@@ -7,7 +7,7 @@ use std::sync::Arc;
 use super::acceptance::{self, AcceptanceFailure};
 use super::methods::{BackgroundDriver, MapEncodings, MethodSettings, ModelSet};
 use super::metrics::VariantTally;
-use super::pipeline::{self, Stage2Cbv, Stage2Verdict, VariantSetup};
+use super::pipeline::{self, PlannerLatency, Stage2Cbv, Stage2Verdict, VariantSetup};
 use super::{HarnessError, Suite, SuiteScenario};
 use crate::policies::prior_sampling::TokenSampling;
 use crate::scenario::Scenario;
@@ -34,6 +34,11 @@ pub struct VariantOutcome {
     pub tally: VariantTally,
     /// Failed acceptance criteria (empty: the variant passes).
     pub failures: Vec<AcceptanceFailure>,
+    /// How long the planner took per observation in stage 2 (not in the
+    /// snapshot summary: wall-clock times are not stable).
+    pub planner_latency: Option<PlannerLatency>,
+    /// What an external planner wrote to stderr in stage 2.
+    pub planner_stderr: Option<String>,
 }
 
 impl VariantOutcome {
@@ -130,6 +135,7 @@ pub fn run_variant(suite: &Suite, scenario: &SuiteScenario, index: u32) -> Resul
     let seed = variant_seed(spec.seed, &scenario.name, index);
     let sim = SimConfig { background: spec.adversary.background, ..SimConfig::default() };
     let models = ModelSet::shipped();
+    let name = suite.variant_name(scenario, index);
     let stages = pipeline::run(VariantSetup {
         scenario: &base,
         settings: MethodSettings {
@@ -144,10 +150,11 @@ pub fn run_variant(suite: &Suite, scenario: &SuiteScenario, index: u32) -> Resul
         planner: &suite.planner,
         models: &models,
         maps: &MAP_ENCODINGS,
+        variant: Some(&name),
     })?;
     let failures = acceptance::check(&spec.acceptance.variant, &stages.stage2, stages.min_ttc_s);
     Ok(VariantOutcome {
-        name: suite.variant_name(scenario, index),
+        name,
         seed,
         tally: VariantTally::of(&base, &stages),
         scenario: base,
@@ -156,5 +163,7 @@ pub fn run_variant(suite: &Suite, scenario: &SuiteScenario, index: u32) -> Resul
         stage1: stages.stage1,
         stage2: stages.stage2,
         failures,
+        planner_latency: stages.planner_latency,
+        planner_stderr: stages.planner_stderr,
     })
 }

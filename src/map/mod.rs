@@ -63,6 +63,9 @@ pub struct Lane {
     pub right_boundary: Option<Polyline>,
     /// Whether this lane lies inside an intersection.
     pub in_intersection: bool,
+    /// Midpoint of the lane's stop line, where the source has one
+    /// (CommonRoad `stopLine`, also on lanes without a signal).
+    pub stop_line: Option<Point2>,
 }
 
 impl Lane {
@@ -81,6 +84,7 @@ impl Lane {
             left_boundary: None,
             right_boundary: None,
             in_intersection: false,
+            stop_line: None,
         }
     }
 }
@@ -351,6 +355,7 @@ impl RoadMap {
                 centreline: shift_line(&l.centreline),
                 left_boundary: l.left_boundary.as_ref().map(shift_line),
                 right_boundary: l.right_boundary.as_ref().map(shift_line),
+                stop_line: l.stop_line.map(|p| p - offset),
                 ..l
             })
             .collect();
@@ -429,12 +434,10 @@ impl RoadMap {
         best.map(|(_, _, lane_index, projection)| LaneMatch { lane_index, projection })
     }
 
-    /// Signed distance from `p` to the nearest road edge, metres: negative on
-    /// the road, positive off it. Where drivable areas exist, membership in
-    /// any of them decides the sign. `None` when the map has no road edges.
-    pub fn signed_distance_to_road_edge(&self, p: &Point2) -> Option<f64> {
-        // A non-finite point has no distance; the simulator refuses such
-        // states, and the ring search below would never reach its bound.
+    /// The road edge nearest to `p` (its index) and `p`'s projection on it.
+    /// `None` without edges, and for a non-finite point (the simulator
+    /// refuses such states, and the ring search would never reach its bound).
+    fn nearest_road_edge(&self, p: &Point2) -> Option<(usize, PolylineProjection)> {
         if !(p.x.is_finite() && p.y.is_finite()) {
             return None;
         }
@@ -442,27 +445,66 @@ impl RoadMap {
         // the ring reaches the farthest indexed point after at most ~256
         // quadruplings even from 1e300 m away.
         let mut radius = 8.0;
-        let nearest = loop {
-            let mut best: Option<PolylineProjection> = None;
+        loop {
+            let mut best: Option<(usize, PolylineProjection)> = None;
             for (edge, segs) in self.edge_segments.candidates(p, radius) {
                 if let Some(proj) = self.road_edges[edge].polyline.project_segments(p, segs)
-                    && best.is_none_or(|b| proj.distance_m < b.distance_m)
+                    && best.is_none_or(|(_, b)| proj.distance_m < b.distance_m)
                 {
-                    best = Some(proj);
+                    best = Some((edge, proj));
                 }
             }
             match best {
-                Some(b) if b.distance_m <= radius => break Some(b),
+                Some((_, b)) if b.distance_m <= radius => break best,
                 _ if radius >= self.edge_segments.max_distance_from(p) => break best,
                 _ => radius *= 4.0,
             }
-        }?;
+        }
+    }
+
+    /// Signed distance from `p` to the nearest road edge, metres: negative on
+    /// the road, positive off it. Where drivable areas exist, membership in
+    /// any of them decides the sign. `None` when the map has no road edges
+    /// (or `p` is not finite).
+    pub fn signed_distance_to_road_edge(&self, p: &Point2) -> Option<f64> {
+        let (_, nearest) = self.nearest_road_edge(p)?;
         if self.drivable_areas.is_empty() {
             Some(nearest.signed_distance_m)
         } else {
             let on_road = self.drivable_areas.iter().any(|a| a.contains(p));
             Some(if on_road { -nearest.distance_m } else { nearest.distance_m })
         }
+    }
+
+    /// Whether `p` lies past the end of the mapped road: ahead of the end
+    /// of a lane within 10 m that has no successor, *and* past the end of
+    /// the nearest road edge (its closest point is the edge's first or last
+    /// point): where the recording's map was cut off (NGSIM's study area,
+    /// WOMD's crop), not a dead end inside the map, whose kerbs go on
+    /// around it. A vehicle there has left the mapped area rather than the
+    /// road.
+    pub fn is_past_mapped_end(&self, p: &Point2) -> bool {
+        const SEARCH_M: f64 = 10.0;
+        let edge_ends_here = match self.nearest_road_edge(p) {
+            None => true,
+            Some((edge, proj)) => {
+                let length = self.road_edges[edge].polyline.length_m();
+                proj.arc_length_m <= 1e-6 || proj.arc_length_m >= length - 1e-6
+            }
+        };
+        edge_ends_here
+            && self.lane_segments.candidates(p, SEARCH_M).into_keys().any(|lane_index| {
+                let lane = &self.lanes[lane_index];
+                let points = lane.centreline.points();
+                if !lane.successors.is_empty() || points.len() < 2 {
+                    return false;
+                }
+                let (a, b) = (points[points.len() - 2], points[points.len() - 1]);
+                let along = (b - a).normalize();
+                let from_end = p - b;
+                // Ahead of the end, within a lane's reach sideways of its line.
+                from_end.dot(&along) > 0.0 && (from_end.x * along.y - from_end.y * along.x).abs() <= SEARCH_M
+            })
     }
 
     /// Whether `p` is off the road. Unknown (no edges, no drivable areas) is
@@ -524,6 +566,38 @@ mod tests {
 
     fn pl(pts: &[(f64, f64)]) -> Polyline {
         Polyline::new(pts.iter().map(|&(x, y)| Point2::new(x, y)).collect())
+    }
+
+    #[test]
+    fn past_the_mapped_end_only_where_lane_and_edges_stop() {
+        // A lane from x = 0 to 100 between edges at y = ±2 that stop with it.
+        let edge =
+            |id, pts: &[(f64, f64)]| RoadEdge { id: MapElementId(id), polyline: pl(pts), kind: RoadEdgeKind::Boundary };
+        let lane = Lane::new(MapElementId(1), pl(&[(0.0, 0.0), (100.0, 0.0)]));
+        let cut = RoadMap::new(
+            vec![lane.clone()],
+            vec![edge(2, &[(0.0, -2.0), (100.0, -2.0)]), edge(3, &[(100.0, 2.0), (0.0, 2.0)])],
+            vec![],
+            vec![],
+            vec![],
+            vec![],
+            vec![],
+        );
+        assert!(cut.is_past_mapped_end(&Point2::new(101.0, 1.0)));
+        assert!(!cut.is_past_mapped_end(&Point2::new(50.0, 3.0)), "beside the lane: off-road");
+        assert!(!cut.is_past_mapped_end(&Point2::new(-1.0, 0.0)), "before its start");
+        // The same lane ending at a kerb that closes the road (a dead end
+        // inside the map): past the lane's end, but the edge goes on.
+        let dead_end = RoadMap::new(
+            vec![lane],
+            vec![edge(2, &[(0.0, -2.0), (103.0, -2.0), (103.0, 2.0), (0.0, 2.0)])],
+            vec![],
+            vec![],
+            vec![],
+            vec![],
+            vec![],
+        );
+        assert!(!dead_end.is_past_mapped_end(&Point2::new(104.0, 1.0)));
     }
 
     fn straight_road() -> RoadMap {

@@ -152,4 +152,9 @@ pub trait Planner: Send {
     fn name(&self) -> &str;
     /// Plans from the observation at one step.
     fn plan(&mut self, observation: &Observation<'_>) -> Result<PlannerOutput, PlannerError>;
+    /// What the planner wrote to its error stream in this rollout (external
+    /// processes: their whole stderr); `None` for planners without one.
+    fn stderr_log(&self) -> Option<String> {
+        None
+    }
 }

@@ -712,6 +712,11 @@ impl Recorder<'_> {
                 log::Level::Info,
                 format!("rollout stopped at the ego's first collision ({})", self.time_text(*step)),
             )),
+            Termination::LeftMappedArea { step } => out.push(log(
+                at(*step),
+                log::Level::Info,
+                format!("rollout ended: the ego left the mapped area ({})", self.time_text(*step)),
+            )),
             Termination::PlannerFailed { step, reason } => out.push(log(
                 at(*step),
                 log::Level::Error,

@@ -104,6 +104,8 @@ pub(super) struct EventDetector<'a> {
     collisions: Vec<CollisionEvent>,
     ego_was_off_road: bool,
     off_road: Vec<OffRoadEvent>,
+    /// Step at which the ego left the mapped area (went past a dead end of the map).
+    left_mapped_area: Option<usize>,
     closest: Option<ClosestApproach>,
 }
 
@@ -156,18 +158,28 @@ impl<'a> EventDetector<'a> {
             collisions: Vec::new(),
             ego_was_off_road: false,
             off_road: Vec::new(),
+            left_mapped_area: None,
             closest: None,
         };
-        d.ego_was_off_road = d.ego_off_road_distance(start_states).is_some_and(|x| x > 0.0);
+        d.ego_was_off_road = d.ego_off_road_distance(start_states).is_some_and(|(x, _)| x > 0.0);
         d.track_closest(start, start_states);
         d
     }
 
-    /// Most off-road corner of the ego, m (Waymo convention: positive off road).
-    fn ego_off_road_distance(&self, states: &[Option<AgentState>]) -> Option<f64> {
+    /// Most off-road corner of the ego: its signed distance, m (Waymo
+    /// convention: positive off road), and where it is.
+    fn ego_off_road_distance(&self, states: &[Option<AgentState>]) -> Option<(f64, crate::geometry::Point2)> {
         let s = states[self.ego.0]?;
         let corners = footprint(&self.bodies[self.ego.0], &s).corners();
-        corners.iter().filter_map(|c| self.scenario.map.signed_distance_to_road_edge(c)).reduce(f64::max)
+        corners
+            .iter()
+            .filter_map(|c| self.scenario.map.signed_distance_to_road_edge(c).map(|d| (d, *c)))
+            .reduce(|a, b| if b.0 > a.0 { b } else { a })
+    }
+
+    /// The step at which the ego left the mapped area, if it did.
+    pub(super) fn left_mapped_area(&self) -> Option<usize> {
+        self.left_mapped_area
     }
 
     fn track_closest(&mut self, step: usize, states: &[Option<AgentState>]) {
@@ -212,10 +224,16 @@ impl<'a> EventDetector<'a> {
             });
             self.collisions.push(CollisionEvent { step, a: TrackIndex(i), b: TrackIndex(j), involves_ego, ego_kind });
         }
-        if let Some(d) = self.ego_off_road_distance(states) {
+        if let Some((d, corner)) = self.ego_off_road_distance(states) {
             let off = d > 0.0;
             if off && !self.ego_was_off_road {
-                self.off_road.push(OffRoadEvent { step, distance_m: d });
+                // Past a dead end of the map the road is not known to end:
+                // the recording's map does. That is not leaving the road.
+                if self.scenario.map.is_past_mapped_end(&corner) {
+                    self.left_mapped_area = Some(step);
+                } else {
+                    self.off_road.push(OffRoadEvent { step, distance_m: d });
+                }
             }
             self.ego_was_off_road = off;
         }

@@ -218,6 +218,10 @@ impl<'a> Simulation<'a> {
                 termination = Termination::EgoCollision { step: step + 1 };
                 break;
             }
+            if let Some(left) = detector.left_mapped_area() {
+                termination = Termination::LeftMappedArea { step: left };
+                break;
+            }
         }
         let (collisions, off_road, min_distance) = detector.finish();
         Rollout {
@@ -420,6 +424,66 @@ mod tests {
         let s = stopped_car_ahead();
         let mut p = planner.instantiate(&s, TrackIndex(0));
         Simulation::new(&s, SimConfig::default()).unwrap().run(p.as_mut())
+    }
+
+    /// A 350 m road (lane, edges and drivable area from x = -50 to 300, as a
+    /// CommonRoad map cut off at the end of its recording); the ego alone at
+    /// x = 250 doing 12 m/s, heading `heading_rad`.
+    fn road_that_ends(heading_rad: f64) -> Scenario {
+        let straight = |y0: f64, x0: f64, x1: f64| Polyline::new(vec![Point2::new(x0, y0), Point2::new(x1, y0)]);
+        let lane = Lane::new(MapElementId(1), straight(0.0, -50.0, 300.0));
+        let edges = vec![
+            RoadEdge { id: MapElementId(2), polyline: straight(-2.0, -50.0, 300.0), kind: RoadEdgeKind::Boundary },
+            RoadEdge { id: MapElementId(3), polyline: straight(2.0, 300.0, -50.0), kind: RoadEdgeKind::Boundary },
+        ];
+        let area = crate::geometry::Polygon::new(vec![
+            Point2::new(-50.0, -2.0),
+            Point2::new(300.0, -2.0),
+            Point2::new(300.0, 2.0),
+            Point2::new(-50.0, 2.0),
+        ]);
+        let map = RoadMap::new(vec![lane], edges, vec![], vec![], vec![area], vec![], vec![]);
+        let v = Vector2::new(heading_rad.cos(), heading_rad.sin()) * 12.0;
+        let ego = Track {
+            id: AgentId("ego".into()),
+            kind: AgentKind::Vehicle,
+            length_m: 4.5,
+            width_m: 2.0,
+            states: (0..81)
+                .map(|k| {
+                    Some(AgentState {
+                        position: Point2::new(250.0, 0.0) + v * 0.1 * k as f64,
+                        heading_rad,
+                        velocity_mps: v,
+                    })
+                })
+                .collect(),
+        };
+        Scenario::new("road-that-ends", ScenarioSource::authored("test"), 0.1, map, vec![ego])
+            .with_roles(TrackIndex(0), None)
+    }
+
+    fn run_constant_velocity(s: &Scenario) -> Rollout {
+        let mut p = BuiltinPlanner::ConstantVelocity.instantiate(s, TrackIndex(0));
+        Simulation::new(s, SimConfig::default()).unwrap().run(p.as_mut())
+    }
+
+    #[test]
+    fn driving_past_the_end_of_the_map_ends_the_rollout_and_is_not_off_road() {
+        let r = run_constant_velocity(&road_that_ends(0.0));
+        // The front corners pass x = 300 at step 40 (250 + 1.2 k + 2.25 > 300).
+        assert_eq!(r.termination, Termination::LeftMappedArea { step: 40 });
+        assert!(r.off_road.is_empty(), "{:?}", r.off_road);
+        assert_eq!(r.summary().ego_off_road_s, None);
+        assert_eq!(r.states.len(), 41, "nothing is simulated past the map");
+    }
+
+    #[test]
+    fn leaving_the_road_sideways_is_still_off_road() {
+        let r = run_constant_velocity(&road_that_ends(0.2));
+        assert_eq!(r.termination, Termination::Completed);
+        assert_eq!(r.off_road.len(), 1, "{:?}", r.off_road);
+        assert!(r.off_road[0].step < 10, "{:?}", r.off_road);
     }
 
     #[test]

@@ -14,6 +14,15 @@ pub enum Termination {
         /// Step of the collision.
         step: usize,
     },
+    /// Stopped when the ego drove past the end of the map (the end of a
+    /// lane with no successor where the road edges end too: the recording's
+    /// map was cut off there, see [`crate::map::RoadMap::is_past_mapped_end`]): the
+    /// scene is over there, not the road. Not an off-road event; the rollout
+    /// counts as run to its end (see `docs/planner-protocol.md`).
+    LeftMappedArea {
+        /// Step at which the ego's leading corner crossed the map's end.
+        step: usize,
+    },
     /// The planner failed (crashed, hung, answered garbage, or drove the
     /// ego to a non-finite or out-of-bounds state); the rollout stops there.
     PlannerFailed {

@@ -47,19 +47,27 @@ pub struct PlannerSpec {
 pub struct ExternalSpec {
     /// Program to run (looked up on PATH unless it contains a slash).
     pub command: String,
-    /// Arguments; relative file arguments are relative to the spec's folder,
-    /// which is also the working directory.
+    /// Arguments; relative file arguments are relative to the working
+    /// directory. `{scenario}`, `{variant}`, `{seed}`, `{format}` and
+    /// `{source}` are replaced per variant (`{{`/`}}`: literal braces).
     #[serde(default)]
     pub args: Vec<String>,
     /// Per-step answer timeout, ms, 1..=600000 (10 min).
     #[serde(default = "default_step_timeout")]
     #[schemars(range(min = 1, max = 600_000))]
     pub step_timeout_ms: u64,
-    /// Time allowed to start and answer `hello`, ms, 1..=600000 (10 min).
+    /// Answer timeout of the first observation, ms, 1..=600000 (10 min);
+    /// `step_timeout_ms` when absent.
+    #[serde(default)]
+    #[schemars(range(min = 1, max = 600_000))]
+    pub first_step_timeout_ms: Option<u64>,
+    /// Time allowed to start and answer `hello` (and, in protocol 1.1,
+    /// `prepare`), ms, 1..=600000 (10 min).
     #[serde(default = "default_startup_timeout")]
     #[schemars(range(min = 1, max = 600_000))]
     pub startup_timeout_ms: u64,
-    /// Extra environment variables for the process (added to the harness's own).
+    /// Extra environment variables for the process (added to the harness's
+    /// own and its `SAFER_*` ones); values take the placeholders of `args`.
     #[serde(default)]
     pub env: std::collections::BTreeMap<String, String>,
     /// Working directory, relative to the planner spec's folder (default: that folder); must exist.
@@ -118,6 +126,16 @@ pub enum PlannerAdapter {
 }
 
 impl PlannerAdapter {
+    /// A built-in planner with default parameters, named as in specs (`idm`, `evasive`, ...).
+    pub fn builtin(planner: BuiltinPlanner) -> Self {
+        Self::Builtin { name: super::spec_name(&planner), planner, idm: IdmParams::default() }
+    }
+
+    /// A planner spec file (`planners/NAME.yaml`), loaded and validated.
+    pub fn load(path: &std::path::Path) -> Result<Self, super::SpecError> {
+        super::load_yaml::<PlannerSpec>(path)?.validate()
+    }
+
     /// Name for reports and test names.
     pub fn name(&self) -> &str {
         match self {
@@ -152,7 +170,12 @@ impl super::Loaded<PlannerSpec> {
             return Ok(PlannerAdapter::Builtin { name: s.name.clone(), planner: b, idm: s.idm.unwrap_or_default() });
         }
         if let Some(e) = &s.external {
-            for (key, value) in [("step_timeout_ms", e.step_timeout_ms), ("startup_timeout_ms", e.startup_timeout_ms)] {
+            let timeouts = [
+                ("step_timeout_ms", Some(e.step_timeout_ms)),
+                ("first_step_timeout_ms", e.first_step_timeout_ms),
+                ("startup_timeout_ms", Some(e.startup_timeout_ms)),
+            ];
+            for (key, value) in timeouts.into_iter().filter_map(|(k, v)| Some((k, v?))) {
                 if value == 0 || value > MAX_TIMEOUT_MS {
                     return Err(self.invalid_at(
                         &format!("external.{key}"),
@@ -162,6 +185,16 @@ impl super::Loaded<PlannerSpec> {
             }
             if let Some(bad) = e.env.keys().find(|k| k.is_empty() || k.contains('=') || k.contains('\0')) {
                 return Err(self.invalid_at("external.env", format!("environment variable name `{bad}` is not valid")));
+            }
+            for (i, arg) in e.args.iter().enumerate() {
+                if let Err(why) = crate::planners::external::check_placeholders(arg) {
+                    return Err(self.invalid_at(&format!("external.args.{i}"), why));
+                }
+            }
+            for (k, v) in &e.env {
+                if let Err(why) = crate::planners::external::check_placeholders(v) {
+                    return Err(self.invalid_at(&format!("external.env.{k}"), why));
+                }
             }
             let working_dir = match &e.working_dir {
                 None => self.dir().to_path_buf(),

@@ -26,7 +26,7 @@ fn request(methods: Vec<AdversaryMethod>, seeds: u32) -> EvaluationRequest {
         methods,
         seeds,
         base_seed: 7,
-        planner: BuiltinPlanner::Evasive,
+        planner: safer::spec::planner::PlannerAdapter::builtin(BuiltinPlanner::Evasive),
         trust_region: 20,
         background: BackgroundDriver::Configured,
         stage2_cbv: Stage2Cbv::Replay,
@@ -157,6 +157,7 @@ fn seeds_give_distinct_safer_variants() {
                     planner: &planner,
                     models: &models,
                     maps: &maps,
+                    variant: None,
                 })
                 .unwrap();
                 let track: Vec<_> = stages.stage1.states.iter().filter_map(|row| row[cbv.0]).collect();

@@ -14,6 +14,7 @@ mod import_commonroad;
 mod import_womd_json;
 mod import_womd_proto;
 mod prior_model;
+mod protocol;
 mod realism;
 mod runner;
 mod simulate_recorded;

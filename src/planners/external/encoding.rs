@@ -6,7 +6,11 @@
 //! numbers named, trajectories checked). Offending lines are quoted in the
 //! errors, truncated to 200 characters.
 
-use super::wire::{HarnessMessage, PlannerMessage, WireAgent, WireEgo, WireLane, WireMap, WirePoint, WireSignal};
+use super::route::StableRoute;
+use super::wire::{
+    HarnessMessage, PlannerMessage, WireAgent, WireEgo, WireFullLane, WireFullMap, WireLane, WireMap, WirePoint,
+    WireSignal, WireSignalStop, WireStopSign,
+};
 use crate::geometry::{Point2, Polyline, Vector2};
 use crate::map::RoadMap;
 use crate::motion::Action;
@@ -33,16 +37,114 @@ const ROUTE_MAX_LANES: usize = 64;
 /// Characters of an offending line quoted in an error.
 const QUOTE_CHARS: usize = 200;
 
-/// The `observation` message for one step.
+/// The `observation` message of protocol 1.1 for one step: no map (the
+/// planner has it from `prepare`) and the stable route.
+pub(super) fn observation_message_v11(obs: &Observation<'_>, route: &StableRoute, route_s_m: f64) -> HarnessMessage {
+    observation_with(
+        obs,
+        None,
+        route.points.clone(),
+        Some(route.lanes.iter().map(|l| l.0).collect()),
+        Some(route.revision),
+        Some(route_s_m),
+    )
+}
+
+/// A polyline resampled every [`MAP_SPACING_M`] or less, as [x, y] pairs.
+fn resampled(line: &Polyline) -> Vec<[f64; 2]> {
+    samples(line, 0.0, line.length_m()).map(|p| [p.x, p.y]).collect()
+}
+
+/// The whole map, for `prepare`.
+pub(super) fn full_map(map: &RoadMap) -> WireFullMap {
+    let ids = |v: &[crate::map::MapElementId]| v.iter().map(|i| i.0).collect::<Vec<_>>();
+    WireFullMap {
+        lanes: map
+            .lanes
+            .iter()
+            .map(|l| {
+                let width_m = match (&l.left_boundary, &l.right_boundary) {
+                    (Some(left), Some(right)) => mean_distance(left, right),
+                    _ => None,
+                };
+                WireFullLane {
+                    id: l.id.0,
+                    centreline: resampled(&l.centreline),
+                    left_boundary: l.left_boundary.as_ref().map(resampled),
+                    right_boundary: l.right_boundary.as_ref().map(resampled),
+                    width_m,
+                    speed_limit_mps: l.speed_limit_mps,
+                    predecessors: ids(&l.predecessors),
+                    successors: ids(&l.successors),
+                    left_neighbours: ids(&l.left_neighbours),
+                    right_neighbours: ids(&l.right_neighbours),
+                    in_intersection: l.in_intersection,
+                    stop_line: l.stop_line.map(|p| [p.x, p.y]),
+                }
+            })
+            .collect(),
+        road_edges: map.road_edges.iter().map(|e| resampled(&e.polyline)).collect(),
+        stop_signs: map
+            .stop_signs
+            .iter()
+            .map(|s| WireStopSign { position: [s.position.x, s.position.y], lanes: ids(&s.lanes) })
+            .collect(),
+        signal_stops: map
+            .traffic_signals
+            .iter()
+            .filter_map(|s| {
+                let point =
+                    s.stop_point.or_else(|| map.lane(s.lane).and_then(|l| l.centreline.points().last().copied()))?;
+                Some(WireSignalStop { lane: s.lane.0, stop_point: [point.x, point.y] })
+            })
+            .collect(),
+    }
+}
+
+/// Mean distance from the points of `a` to the polyline `b`, m (rounded
+/// to the centimetre: a width, not a measurement).
+fn mean_distance(a: &Polyline, b: &Polyline) -> Option<f64> {
+    let d: Vec<f64> = a.points().iter().filter_map(|p| b.project(p)).map(|p| p.distance_m).collect();
+    (!d.is_empty()).then(|| (d.iter().sum::<f64>() / d.len() as f64 * 100.0).round() / 100.0)
+}
+
+/// The `observation` message of protocol 1.0 for one step.
 pub(super) fn observation_message(obs: &Observation<'_>) -> HarnessMessage {
+    let centre = obs.ego.position;
+    let map = WireMap {
+        lanes: obs
+            .map
+            .lanes
+            .iter()
+            .filter_map(|l| {
+                clip(&l.centreline, &centre, MAP_RADIUS_M).map(|centreline| WireLane {
+                    id: l.id.0,
+                    centreline,
+                    speed_limit_mps: l.speed_limit_mps,
+                })
+            })
+            .collect(),
+        road_edges: obs.map.road_edges.iter().filter_map(|e| clip(&e.polyline, &centre, MAP_RADIUS_M)).collect(),
+    };
+    observation_with(obs, Some(map), route_ahead(obs.map, &obs.ego), None, None, None)
+}
+
+/// An `observation` message with the given map and route fields.
+fn observation_with(
+    obs: &Observation<'_>,
+    map: Option<WireMap>,
+    route: Vec<[f64; 2]>,
+    route_lanes: Option<Vec<i64>>,
+    route_revision: Option<u32>,
+    route_s_m: Option<f64>,
+) -> HarnessMessage {
     let ego = &obs.ego;
-    let centre = ego.position;
     HarnessMessage::Observation {
         step: obs.step,
         time_s: obs.time_s,
         ego: WireEgo {
-            x: centre.x,
-            y: centre.y,
+            x: ego.position.x,
+            y: ego.position.y,
             heading_rad: ego.heading_rad,
             speed_mps: ego.speed_mps(),
             vx: ego.velocity_mps.x,
@@ -65,29 +167,18 @@ pub(super) fn observation_message(obs: &Observation<'_>) -> HarnessMessage {
                 width_m: a.width_m,
             })
             .collect(),
-        map: WireMap {
-            lanes: obs
-                .map
-                .lanes
-                .iter()
-                .filter_map(|l| {
-                    clip(&l.centreline, &centre, MAP_RADIUS_M).map(|centreline| WireLane {
-                        id: l.id.0,
-                        centreline,
-                        speed_limit_mps: l.speed_limit_mps,
-                    })
-                })
-                .collect(),
-            road_edges: obs.map.road_edges.iter().filter_map(|e| clip(&e.polyline, &centre, MAP_RADIUS_M)).collect(),
-        },
+        map,
         signals: obs.signals.iter().map(|(lane, state)| WireSignal { lane: lane.0, state: (*state).into() }).collect(),
-        route: route_ahead(obs.map, ego),
+        route,
+        route_lanes,
+        route_revision,
+        route_s_m,
     }
 }
 
 /// Points at equal arc-length steps of at most [`MAP_SPACING_M`] over
 /// `[s0, s0 + length]`, both ends included.
-fn samples(line: &Polyline, s0: f64, length_m: f64) -> impl Iterator<Item = Point2> + '_ {
+pub(super) fn samples(line: &Polyline, s0: f64, length_m: f64) -> impl Iterator<Item = Point2> + '_ {
     let n = (length_m / MAP_SPACING_M).ceil().max(1.0) as usize;
     (0..=n).filter_map(move |k| line.sample(s0 + length_m * k as f64 / n as f64).map(|(p, _)| p))
 }
@@ -173,9 +264,10 @@ pub(super) fn reply_output(reply: PlannerMessage, dt_s: f64) -> Result<PlannerOu
         }
         PlannerMessage::Trajectory { points } => trajectory(&points, dt_s).map_err(ReplyError::Protocol),
         PlannerMessage::Error { message } => Err(ReplyError::Reported(message.unwrap_or_default())),
-        PlannerMessage::Ready { .. } => Err(ReplyError::Protocol(
-            "expected `control`, `trajectory` or `error` in answer to an observation, got `ready`".into(),
-        )),
+        other @ (PlannerMessage::Ready { .. } | PlannerMessage::Prepared {}) => Err(ReplyError::Protocol(format!(
+            "expected `control`, `trajectory` or `error` in answer to an observation, got `{}`",
+            other.kind()
+        ))),
     }
 }
 

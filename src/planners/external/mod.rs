@@ -1,12 +1,18 @@
 //! External planners: a child process that drives the ego by speaking the
-//! JSON-lines planner protocol (version 1, specified in
-//! `docs/planner-protocol.md`, schema in `docs/planner-protocol.schema.json`).
+//! JSON-lines planner protocol (version 1, revisions 1.0 and 1.1, specified
+//! in `docs/planner-protocol.md`, schema in `docs/planner-protocol.schema.json`).
 //!
 //! One JSON object per line in each direction: the harness writes `hello`,
 //! then one `observation` per simulation step, then `bye` on the child's
 //! stdin; the planner answers `hello` with `ready` and every observation with
-//! a `control`, a `trajectory` or an `error` on its stdout. Its stderr is
-//! free-form logging; the harness keeps the last lines to explain failures.
+//! a `control`, a `trajectory` or an `error` on its stdout. A planner whose
+//! `ready` says `protocol_minor: 1` also gets `prepare` (the whole map, once;
+//! answered by `prepared`) and the stable route (`route`) instead of the
+//! per-step map; one that does not is spoken to in 1.0. A [`RolloutContext`]
+//! (the scene and variant, given by the pipeline) fills `hello`'s 1.1 fields,
+//! the `args`/`env` placeholders and the `SAFER_*` variables. Its stderr is
+//! free-form logging; the harness keeps the last lines to explain failures
+//! and the whole of it ([`ExternalPlanner::stderr_log`]) for the artefacts.
 //!
 //! Coordinates are the scenario's local frame: metres, re-centred on the
 //! scenario (not UTM/world coordinates), x/y as in the map, headings in
@@ -47,8 +53,10 @@
 //! # Layout
 //!
 //! This module owns the [`ExternalPlanner`] session: starting and
-//! handshaking, one exchange per step, latching the first failure, a fresh
-//! process per rollout. `wire` holds the message types and the schema,
+//! handshaking (and the 1.1 `prepare`), one exchange per step, latching the
+//! first failure, a fresh process per rollout. `context` holds what the
+//! planner is told of the scene, `route` the 1.1 stable route, `wire` the
+//! message types and the schema,
 //! `encoding` turns observations into messages and replies into planner
 //! outputs ([`decode_reply`]), `process` runs the child process and
 //! its I/O, and `interrupt` ends live planners when the harness is
@@ -60,25 +68,33 @@
 //! `serde_json`, maps in id order). Wall-clock time only decides whether a
 //! timeout ran out.
 
+mod context;
 mod encoding;
 mod interrupt;
 mod process;
+mod route;
 mod wire;
 
 use std::collections::BTreeMap;
 use std::path::PathBuf;
+use std::time::Instant;
 
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use super::{Observation, Planner, PlannerError, PlannerOutput};
+use crate::map::RoadMap;
 use crate::motion::tokens::SIM_DT_S;
+use crate::scenario::AgentState;
+pub use context::{PLACEHOLDERS, RolloutContext, check_placeholders, expand};
 pub use encoding::{MAP_RADIUS_M, MAP_SPACING_M, ROUTE_LENGTH_M, decode_reply};
-use encoding::{ReplyError, observation_message, reply_output};
+use encoding::{ReplyError, full_map, observation_message, observation_message_v11, reply_output};
 use process::Process;
 pub(crate) use process::format_stderr_tail;
+use route::StableRoute;
+pub use route::{ROUTE_AHEAD_MIN_M, ROUTE_AHEAD_PLANNED_M, ROUTE_BEHIND_M, ROUTE_LEAVE_M};
 use wire::{EgoSize, HarnessMessage, PlannerMessage};
-pub use wire::{PROTOCOL_VERSION, protocol_schema};
+pub use wire::{PROTOCOL_MINOR, PROTOCOL_VERSION, protocol_schema};
 
 fn default_step_timeout_ms() -> u64 {
     1000
@@ -96,29 +112,37 @@ pub struct ExternalPlannerConfig {
     pub name: String,
     /// Program to run: looked up on `PATH` unless it contains a slash.
     pub command: String,
-    /// Arguments passed to the program.
+    /// Arguments passed to the program; `{scenario}`, `{variant}`, `{seed}`,
+    /// `{format}` and `{source}` are replaced when a rollout context is known.
     #[serde(default)]
     pub args: Vec<String>,
     /// Working directory of the process; the harness's own when absent.
     #[serde(default)]
     pub working_dir: Option<PathBuf>,
     /// Extra environment variables (name → value), set on top of the
-    /// harness's environment; a name given here replaces the harness's value.
+    /// harness's environment and its `SAFER_*` variables; a name given here
+    /// replaces theirs. Values take the placeholders of `args`.
     #[serde(default)]
     pub env: BTreeMap<String, String>,
     /// Time allowed to answer one observation, ms (from the observation
     /// being handed to the writer to the reply line arriving).
     #[serde(default = "default_step_timeout_ms")]
     pub step_timeout_ms: u64,
-    /// Time allowed from starting the process to its `ready` line, ms
-    /// (planners may import large libraries or load models first).
+    /// Time allowed to answer the first observation, ms; `step_timeout_ms`
+    /// when absent (a planner that compiles or warms up on its first plan).
+    #[serde(default)]
+    pub first_step_timeout_ms: Option<u64>,
+    /// Time allowed from starting the process to its `ready` line (and, in
+    /// protocol 1.1, from there to its `prepared` line), ms: planners may
+    /// import large libraries or load models first.
     #[serde(default = "default_startup_timeout_ms")]
     pub startup_timeout_ms: u64,
 }
 
 impl ExternalPlannerConfig {
     /// A config with no arguments, environment or working directory and the
-    /// default timeouts (1000 ms per step, 10 000 ms to start).
+    /// default timeouts (1000 ms per step, the same for the first, 10 000 ms
+    /// to start).
     pub fn new(name: impl Into<String>, command: impl Into<String>) -> Self {
         Self {
             name: name.into(),
@@ -127,22 +151,60 @@ impl ExternalPlannerConfig {
             working_dir: None,
             env: BTreeMap::new(),
             step_timeout_ms: default_step_timeout_ms(),
+            first_step_timeout_ms: None,
             startup_timeout_ms: default_startup_timeout_ms(),
         }
     }
+
+    /// The config with placeholders replaced and the context's `SAFER_*`
+    /// variables added (under the configured ones).
+    fn for_context(&self, context: Option<&RolloutContext>) -> Result<ExternalPlannerConfig, String> {
+        let Some(c) = context else { return Ok(self.clone()) };
+        let mut config = self.clone();
+        config.args = self.args.iter().map(|a| c.expand(a)).collect::<Result<_, _>>()?;
+        let mut env: BTreeMap<String, String> = c.env().into_iter().collect();
+        for (k, v) in &self.env {
+            env.insert(k.clone(), c.expand(v)?);
+        }
+        config.env = env;
+        Ok(config)
+    }
+}
+
+/// The protocol revision agreed with a running process.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Revision {
+    /// 1.0: the map near the ego and the route hint in every observation.
+    V1_0,
+    /// 1.1: `prepare` with the whole map once, then the stable route.
+    V1_1,
 }
 
 /// A planner running in a child process, spoken to in JSON lines.
 pub struct ExternalPlanner {
     config: ExternalPlannerConfig,
+    /// The scene and variant, for `hello`, placeholders and the route.
+    context: Option<RolloutContext>,
     /// The running process, once started and until it fails or is replaced.
     process: Option<Process>,
+    /// The protocol revision agreed with the running process.
+    revision: Revision,
+    /// Whether the 1.1 `prepare` exchange is done for the running process.
+    prepared: bool,
+    /// The 1.1 route of this rollout.
+    route: StableRoute,
+    /// The ego's recorded positions (the route's guide at forks).
+    recorded_path: Vec<crate::geometry::Point2>,
+    /// Observations answered in this rollout (the first gets its own timeout).
+    answered: usize,
     /// The name the process announced in `ready`.
     announced_name: Option<String>,
     /// The first failure of this rollout; returned by every later call.
     failure: Option<PlannerError>,
     /// `plan` calls so far, to recognise the start of a new rollout.
     calls: usize,
+    /// Stderr of this rollout's processes that are gone.
+    stderr_log: String,
 }
 
 impl std::fmt::Debug for ExternalPlanner {
@@ -159,7 +221,30 @@ impl std::fmt::Debug for ExternalPlanner {
 impl ExternalPlanner {
     /// A planner whose process starts on the first [`Planner::plan`] call.
     pub fn new(config: ExternalPlannerConfig) -> Self {
-        Self { config, process: None, announced_name: None, failure: None, calls: 0 }
+        Self {
+            config,
+            context: None,
+            process: None,
+            revision: Revision::V1_0,
+            prepared: false,
+            route: StableRoute::default(),
+            recorded_path: Vec::new(),
+            answered: 0,
+            announced_name: None,
+            failure: None,
+            calls: 0,
+            stderr_log: String::new(),
+        }
+    }
+
+    /// A planner that knows the scene and variant it drives: `hello` names
+    /// them, placeholders in `args`/`env` are replaced, `SAFER_*` variables
+    /// are set, and the 1.1 route follows the ego's recording at forks.
+    pub fn with_context(config: ExternalPlannerConfig, context: RolloutContext) -> Self {
+        let mut planner = Self::new(config);
+        planner.recorded_path = context.recorded_path();
+        planner.context = Some(context);
+        planner
     }
 
     /// Starts the process now and completes the `hello`/`ready` handshake
@@ -167,6 +252,22 @@ impl ExternalPlanner {
     pub fn start(config: ExternalPlannerConfig, ego_length_m: f64, ego_width_m: f64) -> Result<Self, PlannerError> {
         let mut planner = Self::new(config);
         planner.launch(SIM_DT_S, ego_length_m, ego_width_m)?;
+        Ok(planner)
+    }
+
+    /// Starts the process of a planner made [`Self::with_context`] now,
+    /// through `hello` and (in 1.1) `prepare` with the scenario's map and
+    /// the ego's start state, so that the first observation finds it ready.
+    pub fn start_with_context(config: ExternalPlannerConfig, context: RolloutContext) -> Result<Self, PlannerError> {
+        let scenario = context.scenario.clone();
+        let track = scenario.track(context.ego);
+        let start_state = track.state(context.start_step).copied();
+        let mut planner = Self::with_context(config, context);
+        let started = Instant::now();
+        planner.launch(SIM_DT_S, track.length_m, track.width_m)?;
+        if let Some(ego) = start_state {
+            planner.prepare(&scenario.map, &ego, started)?;
+        }
         Ok(planner)
     }
 
@@ -186,6 +287,15 @@ impl ExternalPlanner {
         self.announced_name.as_deref()
     }
 
+    /// The protocol revision agreed with the running process, as `1.0` or
+    /// `1.1` (`None` before the handshake).
+    pub fn protocol(&self) -> Option<&'static str> {
+        self.process.as_ref().map(|_| match self.revision {
+            Revision::V1_0 => "1.0",
+            Revision::V1_1 => "1.1",
+        })
+    }
+
     /// The failure that ended this rollout for the planner, if any.
     pub fn failure(&self) -> Option<&PlannerError> {
         self.failure.as_ref()
@@ -196,21 +306,45 @@ impl ExternalPlanner {
         self.process.as_ref().map(|p| p.stderr_tail()).unwrap_or_default()
     }
 
+    /// Everything this rollout's process wrote to stderr so far (up to
+    /// 8 MiB), whether it is still running or not.
+    pub fn stderr_log(&self) -> String {
+        let mut log = self.stderr_log.clone();
+        if let Some(p) = &self.process {
+            log.push_str(&p.stderr_log());
+        }
+        log
+    }
+
     /// Starts the process and waits for `ready`; on failure the process is
     /// killed and the error recorded.
     fn launch(&mut self, dt_s: f64, ego_length_m: f64, ego_width_m: f64) -> Result<(), PlannerError> {
         let name = self.config.name.clone();
-        let result = Process::spawn(&self.config).and_then(|mut process| {
+        let during = "during startup";
+        let config = self.config.for_context(self.context.as_ref()).map_err(|message| PlannerError::SpawnFailed {
+            planner: name.clone(),
+            command: self.config.command.clone(),
+            reason: message,
+        });
+        let result = config.and_then(|config| Process::spawn(&config)).and_then(|mut process| {
+            let c = self.context.as_ref();
             let hello = HarnessMessage::Hello {
                 protocol: PROTOCOL_VERSION,
+                protocol_minor: PROTOCOL_MINOR,
                 dt_s,
                 ego: EgoSize { length_m: ego_length_m, width_m: ego_width_m },
+                scenario: c.map(|c| c.wire_scenario()),
+                origin_world: c.map(|c| [c.scenario.origin_world.x, c.scenario.origin_world.y]),
+                horizon: c.map(|c| c.wire_horizon(dt_s)),
+                goal: c.and_then(|c| c.wire_goal()),
             };
-            let during = "during startup";
             let timeout_ms = self.config.startup_timeout_ms;
             match process.exchange(&name, &hello, during, timeout_ms) {
-                Ok(PlannerMessage::Ready { protocol, name: announced }) if protocol == PROTOCOL_VERSION => {
-                    Ok((process, announced))
+                Ok(PlannerMessage::Ready { protocol, protocol_minor, name: announced })
+                    if protocol == PROTOCOL_VERSION =>
+                {
+                    let revision = if protocol_minor >= 1 { Revision::V1_1 } else { Revision::V1_0 };
+                    Ok((process, announced, revision))
                 }
                 Ok(PlannerMessage::Ready { protocol, .. }) => Err(process.fail(PlannerError::Protocol {
                     planner: name.clone(),
@@ -233,9 +367,11 @@ impl ExternalPlanner {
             }
         });
         match result {
-            Ok((process, announced)) => {
+            Ok((process, announced, revision)) => {
                 self.process = Some(process);
                 self.announced_name = announced;
+                self.revision = revision;
+                self.prepared = false;
                 Ok(())
             }
             Err(e) => {
@@ -245,12 +381,57 @@ impl ExternalPlanner {
         }
     }
 
-    /// Records a failure and kills the process at once: a planner that
-    /// misbehaved gets no more observations, and a spinning one must not keep
-    /// a core busy until the planner is dropped.
+    /// Protocol 1.1: sends `prepare` (the whole map) and waits for
+    /// `prepared`, within what is left of the startup timeout counted from
+    /// `started`. Nothing to do in 1.0 or when already prepared.
+    fn prepare(&mut self, map: &RoadMap, ego: &AgentState, started: Instant) -> Result<(), PlannerError> {
+        if self.revision != Revision::V1_1 || self.prepared {
+            return Ok(());
+        }
+        let name = self.config.name.clone();
+        let during = "during prepare";
+        let elapsed_ms = started.elapsed().as_millis() as u64;
+        let timeout_ms = self.config.startup_timeout_ms.saturating_sub(elapsed_ms).max(1);
+        self.route = StableRoute::default();
+        self.route.update(map, ego, &self.recorded_path);
+        let message = HarnessMessage::Prepare { map: full_map(map) };
+        let Some(process) = self.process.as_mut() else {
+            return Ok(());
+        };
+        let reply = match process.exchange(&name, &message, during, timeout_ms) {
+            Ok(PlannerMessage::Prepared {}) => Ok(()),
+            Ok(PlannerMessage::Error { message }) => Err(PlannerError::Reported {
+                planner: name.clone(),
+                during: during.into(),
+                message: message.unwrap_or_default(),
+            }),
+            Ok(other) => Err(PlannerError::Protocol {
+                planner: name.clone(),
+                during: during.into(),
+                message: format!("expected `prepared` in answer to `prepare`, got `{}`", other.kind()),
+            }),
+            Err(PlannerError::Timeout { planner, during, .. }) => {
+                // Name the whole startup allowance: that is what ran out.
+                Err(PlannerError::Timeout { planner, during, timeout_ms: self.config.startup_timeout_ms })
+            }
+            Err(e) => Err(e),
+        };
+        match reply {
+            Ok(()) => {
+                self.prepared = true;
+                Ok(())
+            }
+            Err(e) => Err(self.fail(e)),
+        }
+    }
+
+    /// Kills the process (if any) and records `error` as this rollout's
+    /// failure; it is returned by every later call until the next rollout.
+    /// The process's stderr is kept for [`Self::stderr_log`].
     fn fail(&mut self, error: PlannerError) -> PlannerError {
         if let Some(mut p) = self.process.take() {
             p.kill();
+            self.stderr_log.push_str(&p.stderr_log());
         }
         self.failure = Some(error.clone());
         error
@@ -263,20 +444,32 @@ impl ExternalPlanner {
         }
         self.announced_name = None;
         self.failure = None;
+        self.answered = 0;
+        self.stderr_log.clear();
     }
 
     /// One observation → reply round trip, validated into a planner output.
     fn step(&mut self, obs: &Observation<'_>) -> Result<PlannerOutput, PlannerError> {
         let name = self.config.name.clone();
         let during = format!("at step {}", obs.step);
-        let timeout_ms = self.config.step_timeout_ms;
+        let timeout_ms = match (self.answered, self.config.first_step_timeout_ms) {
+            (0, Some(first)) => first,
+            _ => self.config.step_timeout_ms,
+        };
+        let message = match self.revision {
+            Revision::V1_0 => observation_message(obs),
+            Revision::V1_1 => {
+                let s = self.route.update(obs.map, &obs.ego, &self.recorded_path);
+                observation_message_v11(obs, &self.route, s)
+            }
+        };
         let Some(process) = self.process.as_mut() else {
             // Unreachable in practice (plan starts the process first); an
             // error rather than a panic all the same.
             return Err(PlannerError::NoOutput { step: obs.step, reason: format!("planner `{name}` is not running") });
         };
-        let message = observation_message(obs);
         let reply = process.exchange(&name, &message, &during, timeout_ms)?;
+        self.answered += 1;
         reply_output(reply, obs.dt_s).map_err(|e| match e {
             ReplyError::Protocol(message) => PlannerError::Protocol { planner: name, during, message },
             ReplyError::Reported(message) => PlannerError::Reported { planner: name, during, message },
@@ -299,10 +492,17 @@ impl Planner for ExternalPlanner {
         if let Some(e) = &self.failure {
             return Err(e.clone());
         }
+        let started = Instant::now();
         if self.process.is_none() {
             self.launch(obs.dt_s, obs.ego_length_m, obs.ego_width_m)?;
         }
+        // 1.1: once per process (a no-op in 1.0 and once prepared).
+        self.prepare(obs.map, &obs.ego, started)?;
         self.step(obs).map_err(|e| self.fail(e))
+    }
+
+    fn stderr_log(&self) -> Option<String> {
+        Some(ExternalPlanner::stderr_log(self))
     }
 }
 
@@ -585,6 +785,140 @@ mod tests {
         assert!(process_gone(pid));
         // It exited on `bye`: no grace period ran out, no kill was needed.
         assert!(t0.elapsed() < BYE_GRACE, "{:?}", t0.elapsed());
+    }
+
+    fn probe(args: &[&str]) -> ExternalPlannerConfig {
+        let mut c = ExternalPlannerConfig::new("probe", "python3");
+        let script = format!("{}/tests/fixtures/planners/probe_planner.py", env!("CARGO_MANIFEST_DIR"));
+        c.args = std::iter::once(script).chain(args.iter().map(|a| a.to_string())).collect();
+        c
+    }
+
+    fn context(s: &Scenario) -> RolloutContext {
+        RolloutContext {
+            scenario: std::sync::Arc::new(s.clone()),
+            ego: TrackIndex(0),
+            start_step: 0,
+            end_step: s.num_steps() - 1,
+            variant: Some("probe-suite::external-stopped-car-ahead::seed-3".into()),
+            seed: Some(42),
+        }
+    }
+
+    /// The probe's reports (`probe: {...}` stderr lines), in order.
+    fn reports(planner: &ExternalPlanner) -> Vec<serde_json::Value> {
+        planner
+            .stderr_log()
+            .lines()
+            .filter_map(|l| l.strip_prefix("probe: "))
+            .map(|l| serde_json::from_str(l).unwrap())
+            .collect()
+    }
+
+    #[test]
+    fn protocol_1_1_names_the_scene_in_hello_and_sends_the_map_once() {
+        let s = stopped_car_ahead();
+        let mut planner = ExternalPlanner::with_context(probe(&[]), context(&s));
+        let r = run(&s, &mut planner);
+        assert_eq!(r.termination, Termination::Completed);
+        assert_eq!(planner.protocol(), Some("1.1"));
+        let reports = reports(&planner);
+        let hello = &reports[0]["message"];
+        assert_eq!(hello["protocol"], 1);
+        assert_eq!(hello["protocol_minor"], 1);
+        assert_eq!(hello["scenario"]["id"], "external-stopped-car-ahead");
+        assert_eq!(hello["scenario"]["format"], "authored");
+        assert_eq!(hello["scenario"]["variant"], "probe-suite::external-stopped-car-ahead::seed-3");
+        assert_eq!(hello["scenario"]["seed"], 42);
+        assert_eq!(hello["origin_world"], serde_json::json!([0.0, 0.0]));
+        assert_eq!(
+            hello["horizon"],
+            serde_json::json!({"start_step": 0, "steps": 120, "dt_s": 0.1, "duration_s": 12.0})
+        );
+        assert_eq!(hello["goal"]["x"], 10.0 + 12.0 * 10.0);
+        // The map exactly once, before the first observation, with links and ids.
+        let kinds: Vec<&str> = reports.iter().map(|r| r["type"].as_str().unwrap()).collect();
+        assert_eq!(kinds.iter().filter(|k| **k == "prepare").count(), 1);
+        assert_eq!(kinds[1], "prepare");
+        assert_eq!(kinds.iter().filter(|k| **k == "observation").count(), 120);
+        assert_eq!(reports[1]["lanes"], 2);
+        for key in ["successors", "left_neighbours", "right_boundary", "speed_limit_mps", "width_m"] {
+            assert!(reports[1]["lane_keys"].as_array().unwrap().iter().any(|k| k == key), "{key}");
+        }
+        // Observations: no map, a stable route of 20 m behind + the rest of the road ahead.
+        let observations: Vec<&serde_json::Value> = reports.iter().filter(|r| r["type"] == "observation").collect();
+        for o in &observations {
+            assert!(!o["keys"].as_array().unwrap().iter().any(|k| k == "map"), "{o}");
+            assert_eq!(o["route_revision"], 0, "{o}");
+            assert_eq!(o["route_first"], observations[0]["route_first"], "the route moved: {o}");
+        }
+        assert_eq!(observations[0]["route_first"], serde_json::json!([[0.0, 1.75]]));
+        assert_eq!(observations[0]["route_length_m"], 300.0);
+        assert_eq!(observations[0]["route_s_m"], 10.0);
+        assert_eq!(observations[10]["route_s_m"], 20.0);
+    }
+
+    #[test]
+    fn a_1_0_planner_gets_no_prepare_and_the_map_in_every_observation() {
+        let s = stopped_car_ahead();
+        let mut planner = ExternalPlanner::with_context(probe(&["--minor", "0"]), context(&s));
+        let r = run(&s, &mut planner);
+        assert_eq!(r.termination, Termination::Completed);
+        assert_eq!(planner.protocol(), Some("1.0"));
+        let reports = reports(&planner);
+        assert!(reports.iter().all(|r| r["type"] != "prepare"));
+        let first = reports.iter().find(|r| r["type"] == "observation").unwrap();
+        assert!(first["keys"].as_array().unwrap().iter().any(|k| k == "map"), "{first}");
+        assert!(first["route_revision"].is_null());
+        // The 1.0 hint: 100 m from the ego.
+        assert_eq!(first["route_length_m"], 100.0);
+    }
+
+    #[test]
+    fn a_slow_first_answer_passes_with_first_step_timeout_ms_and_fails_without() {
+        let s = stopped_car_ahead();
+        let r = run(&s, &mut ExternalPlanner::with_context(probe(&["--sleep-first", "2"]), context(&s)));
+        assert_eq!(failed(&r), (0, "external planner `probe` did not answer at step 0 within 1000 ms"));
+        let mut config = probe(&["--sleep-first", "2"]);
+        config.first_step_timeout_ms = Some(4000);
+        let r = run(&s, &mut ExternalPlanner::with_context(config, context(&s)));
+        assert_eq!(r.termination, Termination::Completed);
+    }
+
+    #[test]
+    fn a_slow_prepare_counts_against_the_startup_timeout() {
+        let s = stopped_car_ahead();
+        let mut config = probe(&["--sleep-prepare", "1.5"]);
+        config.startup_timeout_ms = 1000;
+        let err = ExternalPlanner::start_with_context(config.clone(), context(&s)).unwrap_err();
+        assert_eq!(err.to_string(), "external planner `probe` did not answer during prepare within 1000 ms");
+        config.startup_timeout_ms = 5000;
+        let mut planner = ExternalPlanner::start_with_context(config, context(&s)).unwrap();
+        assert_eq!(run(&s, &mut planner).termination, Termination::Completed);
+    }
+
+    #[test]
+    fn placeholders_env_and_working_dir_reach_the_process() {
+        let s = stopped_car_ahead();
+        let dir = std::env::temp_dir().join(format!("safer-probe-cwd-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let mut config = probe(&["--scene={scenario}", "{seed}", "{{x}}"]);
+        config.working_dir = Some(dir.clone());
+        config.env.insert("PROBE_VARIANT".into(), "v={variant}".into());
+        config.env.insert("SAFER_SEED".into(), "overridden".into());
+        let mut planner = ExternalPlanner::with_context(config, context(&s));
+        run(&s, &mut planner);
+        let hello = reports(&planner).into_iter().next().unwrap();
+        std::fs::remove_dir_all(&dir).unwrap();
+        assert_eq!(hello["args"], serde_json::json!(["--scene=external-stopped-car-ahead", "42", "{x}"]));
+        assert_eq!(std::path::Path::new(hello["cwd"].as_str().unwrap()), dir.canonicalize().unwrap_or(dir.clone()));
+        let env = &hello["env"];
+        assert_eq!(env["PROBE_VARIANT"], "v=probe-suite::external-stopped-car-ahead::seed-3");
+        assert_eq!(env["SAFER_SCENARIO"], "external-stopped-car-ahead");
+        assert_eq!(env["SAFER_VARIANT"], "probe-suite::external-stopped-car-ahead::seed-3");
+        assert_eq!(env["SAFER_SEED"], "overridden", "the spec's env wins over the harness's");
+        assert_eq!(env["SAFER_FORMAT"], "authored");
+        assert_eq!(env["SAFER_PROTOCOL"], "1.1");
     }
 
     #[test]

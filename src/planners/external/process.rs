@@ -22,6 +22,10 @@ use crate::planners::PlannerError;
 
 /// Stderr lines kept for error messages.
 const STDERR_LINES: usize = 20;
+/// Bytes of stderr kept in full for the variant's artefacts; the rest is
+/// dropped and `[truncated]` marks the cut (a planner logging without end
+/// must not exhaust the harness's memory).
+pub(super) const STDERR_LOG_BYTES: usize = 8 << 20;
 /// Characters kept of each stderr line.
 const STDERR_LINE_CHARS: usize = 500;
 /// Bytes read of one stdout line before it is refused: a planner that
@@ -64,6 +68,8 @@ pub(super) struct Process {
     from_stdout: Receiver<StdoutEvent>,
     /// The last stderr lines.
     stderr_tail: Arc<Mutex<VecDeque<String>>>,
+    /// Everything it wrote to stderr, up to [`STDERR_LOG_BYTES`].
+    stderr_log: Arc<Mutex<String>>,
     /// Disconnects when the stderr reader has read everything.
     stderr_done: Receiver<()>,
     threads: Vec<JoinHandle<()>>,
@@ -110,6 +116,7 @@ impl Process {
         let (stdout_tx, from_stdout) = mpsc::sync_channel(STDOUT_QUEUE_LINES);
         let (stderr_done_tx, stderr_done) = mpsc::channel::<()>();
         let stderr_tail = Arc::new(Mutex::new(VecDeque::new()));
+        let stderr_log = Arc::new(Mutex::new(String::new()));
         // Killed with the harness on SIGINT/SIGTERM/SIGHUP, which its own
         // process group would not otherwise receive.
         super::interrupt::register(pid);
@@ -119,6 +126,7 @@ impl Process {
             to_stdin: Some(to_stdin),
             from_stdout,
             stderr_tail: stderr_tail.clone(),
+            stderr_log: stderr_log.clone(),
             stderr_done,
             threads: Vec::new(),
             exited: None,
@@ -134,7 +142,7 @@ impl Process {
                 .spawn(move || read_stdout(stdout, stdout_tx)),
             std::thread::Builder::new()
                 .name(format!("planner {name} stderr"))
-                .spawn(move || read_stderr(stderr, stderr_tail, stderr_done_tx)),
+                .spawn(move || read_stderr(stderr, stderr_tail, stderr_log, stderr_done_tx)),
         ];
         for thread in spawned {
             match thread {
@@ -228,6 +236,11 @@ impl Process {
     pub(super) fn fail(&mut self, error: PlannerError) -> PlannerError {
         self.kill();
         error
+    }
+
+    /// Everything it wrote to stderr so far (lines, each ending in `\n`).
+    pub(super) fn stderr_log(&self) -> String {
+        self.stderr_log.lock().unwrap_or_else(|e| e.into_inner()).clone()
     }
 
     pub(super) fn stderr_tail(&self) -> Vec<String> {
@@ -372,15 +385,24 @@ fn read_stdout(stdout: impl Read, events: SyncSender<StdoutEvent>) {
     }
 }
 
-/// Stderr reader: keeps the last [`STDERR_LINES`] lines; `done` is dropped
-/// at end of file.
-fn read_stderr(stderr: impl Read, tail: Arc<Mutex<VecDeque<String>>>, done: Sender<()>) {
+/// Stderr reader: keeps the last [`STDERR_LINES`] lines and the whole
+/// log up to [`STDERR_LOG_BYTES`]; `done` is dropped at end of file.
+fn read_stderr(stderr: impl Read, tail: Arc<Mutex<VecDeque<String>>>, log: Arc<Mutex<String>>, done: Sender<()>) {
     let mut reader = BufReader::new(stderr);
     loop {
         let mut line = Vec::new();
         match read_line_limited(&mut reader, &mut line, MAX_STDERR_LINE_BYTES) {
             Ok(LineRead::Eof) | Err(_) => break,
             Ok(LineRead::Complete | LineRead::Truncated) => {
+                {
+                    let mut log = log.lock().unwrap_or_else(|e| e.into_inner());
+                    if log.len() < STDERR_LOG_BYTES {
+                        log.push_str(&String::from_utf8_lossy(&line));
+                        log.push('\n');
+                    } else if !log.ends_with("[truncated]\n") {
+                        log.push_str("[truncated]\n");
+                    }
+                }
                 let mut tail = tail.lock().unwrap_or_else(|e| e.into_inner());
                 tail.push_back(truncate_chars(&String::from_utf8_lossy(&line), STDERR_LINE_CHARS));
                 while tail.len() > STDERR_LINES {
@@ -465,9 +487,14 @@ mod tests {
     fn stderr_keeps_a_bounded_tail_and_long_lines_are_cut() {
         let text: String = (0..100).map(|i| format!("line {i}\n")).collect::<String>() + &"y".repeat(10_000);
         let tail = Arc::new(Mutex::new(VecDeque::new()));
+        let log = Arc::new(Mutex::new(String::new()));
         let (done, done_rx) = mpsc::channel();
-        read_stderr(text.as_bytes(), tail.clone(), done);
+        read_stderr(text.as_bytes(), tail.clone(), log.clone(), done);
         assert!(matches!(done_rx.recv(), Err(mpsc::RecvError)));
+        // The whole log is kept (each line cut at 4096 bytes, like the pipe reader's).
+        let log = log.lock().unwrap();
+        assert!(log.starts_with("line 0\nline 1\n") && log.contains("line 99\n"), "{}", &log[..40]);
+        assert_eq!(log.lines().count(), 101);
         let tail = tail.lock().unwrap();
         assert_eq!(tail.len(), STDERR_LINES);
         assert_eq!(tail[0], "line 81");
@@ -529,8 +556,13 @@ mod tests {
         let mut process = Process::spawn(&c).unwrap();
         let hello = HarnessMessage::Hello {
             protocol: 1,
+            protocol_minor: 1,
             dt_s: 0.1,
             ego: super::super::wire::EgoSize { length_m: 4.5, width_m: 2.0 },
+            scenario: None,
+            origin_world: None,
+            horizon: None,
+            goal: None,
         };
         let ready = process.exchange("wrapped", &hello, "during startup", 10_000).unwrap();
         assert_eq!(ready.kind(), "ready");

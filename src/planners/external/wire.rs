@@ -1,6 +1,7 @@
-//! The wire format of planner protocol version 1: every message the harness
-//! writes (`hello`, `observation`, `bye`) and every message a planner may
-//! answer (`ready`, `control`, `trajectory`, `error`), as serde types, and
+//! The wire format of planner protocol version 1 (minor revisions 0 and 1):
+//! every message the harness writes (`hello`, `prepare`, `observation`,
+//! `bye`) and every message a planner may answer (`ready`, `prepared`,
+//! `control`, `trajectory`, `error`), as serde types, and
 //! [`protocol_schema`], the JSON Schema generated from them. Their doc
 //! comments become the descriptions in the committed schema
 //! (`docs/planner-protocol.schema.json`), so they are written for planner
@@ -16,6 +17,12 @@ use crate::scenario::AgentKind;
 /// The protocol version this harness speaks (`protocol` in `hello` and `ready`).
 pub const PROTOCOL_VERSION: u32 = 1;
 
+/// The highest minor revision of [`PROTOCOL_VERSION`] this harness speaks
+/// (`protocol_minor` in `hello`); a planner opts in with `protocol_minor`
+/// in `ready`, and one that leaves it out gets revision 0 (version 1 as
+/// first published).
+pub const PROTOCOL_MINOR: u32 = 1;
+
 /// A message from the harness to the planner (one line on its stdin).
 #[derive(Debug, Clone, Serialize, JsonSchema)]
 #[serde(tag = "type", rename_all = "snake_case")]
@@ -24,10 +31,40 @@ pub(super) enum HarnessMessage {
     Hello {
         /// Protocol version the harness speaks (1).
         protocol: u32,
+        /// Highest minor revision the harness speaks (1). Answer `ready` with
+        /// `protocol_minor: 1` to get the 1.1 messages (`prepare`, the stable
+        /// route); leave it out to be spoken to in 1.0.
+        protocol_minor: u32,
         /// Simulation step: time between two observations, s.
         dt_s: f64,
         /// The ego's box.
         ego: EgoSize,
+        /// Since 1.1 (sent to every planner; 1.0 planners ignore it): which
+        /// scene and variant runs. Absent when the harness has no scenario
+        /// context (a planner driven outside the pipeline).
+        #[serde(skip_serializing_if = "Option::is_none")]
+        scenario: Option<WireScenario>,
+        /// Since 1.1: world coordinates of the scenario frame's origin, [x, y]
+        /// in m (the source's frame, e.g. UTM for NGSIM); a point's world
+        /// position is its scenario-frame position plus this.
+        #[serde(skip_serializing_if = "Option::is_none")]
+        origin_world: Option<[f64; 2]>,
+        /// Since 1.1: how long the rollout runs.
+        #[serde(skip_serializing_if = "Option::is_none")]
+        horizon: Option<WireHorizon>,
+        /// Since 1.1: where the ego's recording ends (its last valid recorded
+        /// state, scenario frame), as a goal; absent for scenes without one.
+        #[serde(skip_serializing_if = "Option::is_none")]
+        goal: Option<WireGoal>,
+    },
+    /// Since 1.1, only to planners that answered `ready` with
+    /// `protocol_minor` ≥ 1: the whole road map, once, before the first
+    /// observation. Answer with `prepared` (or `error`) within the startup
+    /// timeout, which counts from the start of the process: load models and
+    /// precompute here.
+    Prepare {
+        /// The whole map of the scenario (not clipped).
+        map: WireFullMap,
     },
     /// The world at one simulation step. Answer with exactly one `control`,
     /// `trajectory` or `error` line within the step timeout.
@@ -40,15 +77,32 @@ pub(super) enum HarnessMessage {
         ego: WireEgo,
         /// Other road users within the ego's perception range, in track order.
         agents: Vec<WireAgent>,
-        /// Map elements within 60 m of the ego.
-        map: WireMap,
+        /// Map elements within 60 m of the ego. Protocol 1.0 only: a 1.1
+        /// planner has the whole map from `prepare`.
+        #[serde(skip_serializing_if = "Option::is_none")]
+        map: Option<WireMap>,
         /// Traffic-signal states now, per controlled lane.
         signals: Vec<WireSignal>,
-        /// Hint: the centreline of the ego's current lane from the ego's
-        /// projection onto it forward, following each lane's first successor,
-        /// up to 100 m, sampled every 2 m or less ([x, y] in m). Empty when
-        /// no lane within 10 m runs in the ego's direction.
+        /// 1.0: a hint, the centreline of the ego's current lane from the
+        /// ego's projection onto it forward, following each lane's first
+        /// successor, up to 100 m, sampled every 2 m or less ([x, y] in m);
+        /// empty when no lane within 10 m runs in the ego's direction.
+        /// 1.1: the stable route: lane centrelines from 20 m behind the ego
+        /// (where it was planned) through `route_lanes`, at least 200 m ahead
+        /// of the ego where the map has that much, sampled every 2 m or less;
+        /// the same points at every step until `route_revision` changes.
         route: Vec<[f64; 2]>,
+        /// Since 1.1: the lanes `route` runs along, in order (ids as in
+        /// `prepare`'s map).
+        #[serde(skip_serializing_if = "Option::is_none")]
+        route_lanes: Option<Vec<i64>>,
+        /// Since 1.1: increases by one whenever the route is planned anew
+        /// (the ego left it, or it ran short and was extended); 0 at first.
+        #[serde(skip_serializing_if = "Option::is_none")]
+        route_revision: Option<u32>,
+        /// Since 1.1: the ego's arc length along `route`, m, from its first point.
+        #[serde(skip_serializing_if = "Option::is_none")]
+        route_s_m: Option<f64>,
     },
     /// The rollout is over: exit (status 0). Stdin is closed right after;
     /// a process still alive 1 s later is killed.
@@ -62,6 +116,124 @@ pub(super) struct EgoSize {
     pub(super) length_m: f64,
     /// Width, m.
     pub(super) width_m: f64,
+}
+
+/// Which scene and variant runs (since 1.1).
+#[derive(Debug, Clone, Serialize, JsonSchema)]
+#[schemars(rename = "Scenario")]
+pub(super) struct WireScenario {
+    /// Scenario id (from the source, else the file stem).
+    pub(super) id: String,
+    /// Source format: `womd-proto`, `womd-json`, `common-road`, `argoverse2`
+    /// or `authored`.
+    pub(super) format: String,
+    /// File the scenario was read from, as the harness was given it.
+    pub(super) source_file: String,
+    /// The variant's name (`suite::scenario::seed-k` for suites), when the
+    /// harness runs one.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub(super) variant: Option<String>,
+    /// The variant's seed, when the harness runs one.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub(super) seed: Option<u64>,
+}
+
+/// How long the rollout runs (since 1.1).
+#[derive(Debug, Clone, Copy, Serialize, JsonSchema)]
+#[schemars(rename = "Horizon")]
+pub(super) struct WireHorizon {
+    /// `step` of the first observation (scenario numbering).
+    pub(super) start_step: usize,
+    /// Observations the planner will get at most (the rollout may end
+    /// earlier: a collision, a failure, the ego leaving the mapped area).
+    pub(super) steps: usize,
+    /// Time between two observations, s.
+    pub(super) dt_s: f64,
+    /// `steps` × `dt_s`, s.
+    pub(super) duration_s: f64,
+}
+
+/// Where the ego's recording ends (since 1.1).
+#[derive(Debug, Clone, Copy, Serialize, JsonSchema)]
+#[schemars(rename = "Goal")]
+pub(super) struct WireGoal {
+    /// Box centre x, m (scenario frame).
+    pub(super) x: f64,
+    /// Box centre y, m (scenario frame).
+    pub(super) y: f64,
+    /// Heading there, rad.
+    pub(super) heading_rad: f64,
+    /// `step` at which the recording reaches it (may be after the rollout's end).
+    pub(super) step: usize,
+}
+
+/// The whole map (since 1.1, in `prepare`).
+#[derive(Debug, Clone, Serialize, JsonSchema)]
+#[schemars(rename = "FullMap")]
+pub(super) struct WireFullMap {
+    /// Every lane, in id order.
+    pub(super) lanes: Vec<WireFullLane>,
+    /// Road edges (kerbs, boundaries), each a polyline of [x, y] points in
+    /// m, the road on its left side.
+    pub(super) road_edges: Vec<Vec<[f64; 2]>>,
+    /// Stop signs.
+    pub(super) stop_signs: Vec<WireStopSign>,
+    /// Signal-controlled lanes and where their traffic stops (`signals` in
+    /// observations give the states).
+    pub(super) signal_stops: Vec<WireSignalStop>,
+}
+
+/// A lane of the whole map.
+#[derive(Debug, Clone, Serialize, JsonSchema)]
+#[schemars(rename = "FullLane")]
+pub(super) struct WireFullLane {
+    /// Lane id: the source's own (CommonRoad lanelet id, WOMD map feature
+    /// id, Argoverse 2 lane segment id; authored maps number from 0).
+    pub(super) id: i64,
+    /// Centreline in the direction of travel, [x, y] in m, every 2 m or less.
+    pub(super) centreline: Vec<[f64; 2]>,
+    /// Left boundary (in the direction of travel), where the source has one.
+    pub(super) left_boundary: Option<Vec<[f64; 2]>>,
+    /// Right boundary, where the source has one.
+    pub(super) right_boundary: Option<Vec<[f64; 2]>>,
+    /// Mean width, m, from the boundaries; null when the source has none.
+    pub(super) width_m: Option<f64>,
+    /// Speed limit, m/s; null when the source gives none (WOMD never does).
+    pub(super) speed_limit_mps: Option<f64>,
+    /// Lanes whose end joins this lane's start.
+    pub(super) predecessors: Vec<i64>,
+    /// Lanes this lane's end joins.
+    pub(super) successors: Vec<i64>,
+    /// Adjacent lanes on the left.
+    pub(super) left_neighbours: Vec<i64>,
+    /// Adjacent lanes on the right.
+    pub(super) right_neighbours: Vec<i64>,
+    /// Whether it lies inside an intersection.
+    pub(super) in_intersection: bool,
+    /// Midpoint of the lane's stop line, [x, y] in m, where the source has
+    /// one (CommonRoad `stopLine`); null otherwise.
+    pub(super) stop_line: Option<[f64; 2]>,
+}
+
+/// A stop sign.
+#[derive(Debug, Clone, Serialize, JsonSchema)]
+#[schemars(rename = "StopSign")]
+pub(super) struct WireStopSign {
+    /// Position of the sign, [x, y] in m.
+    pub(super) position: [f64; 2],
+    /// The lanes it controls.
+    pub(super) lanes: Vec<i64>,
+}
+
+/// Where traffic on a signal-controlled lane stops.
+#[derive(Debug, Clone, Serialize, JsonSchema)]
+#[schemars(rename = "SignalStop")]
+pub(super) struct WireSignalStop {
+    /// The controlled lane.
+    pub(super) lane: i64,
+    /// The stop line's point, [x, y] in m: the source's stop line, else the
+    /// lane's end.
+    pub(super) stop_point: [f64; 2],
 }
 
 /// The ego at one step.
@@ -221,10 +393,17 @@ pub(super) enum PlannerMessage {
     Ready {
         /// Protocol version the planner speaks; must be 1.
         protocol: u32,
+        /// Minor revision the planner speaks: 1 for the 1.1 messages, absent
+        /// or 0 for 1.0. A revision above the harness's is spoken to as the
+        /// harness's.
+        #[serde(default)]
+        protocol_minor: u32,
         /// The planner's own name, for logs.
         #[serde(default)]
         name: Option<String>,
     },
+    /// Since 1.1: answer to `prepare`, the planner is ready for the first observation.
+    Prepared {},
     /// Answer to an observation: a control applied for one step through the
     /// kinematic unicycle model (speed += accel·dt, clamped at 0; heading +=
     /// yaw_rate·dt; then move along the new heading). Not clipped.
@@ -253,6 +432,7 @@ impl PlannerMessage {
     pub(super) fn kind(&self) -> &'static str {
         match self {
             Self::Ready { .. } => "ready",
+            Self::Prepared {} => "prepared",
             Self::Control { .. } => "control",
             Self::Trajectory { .. } => "trajectory",
             Self::Error { .. } => "error",
@@ -285,7 +465,7 @@ pub fn protocol_schema() -> serde_json::Value {
     let defs = generator.take_definitions(true);
     serde_json::json!({
         "$schema": "https://json-schema.org/draft/2020-12/schema",
-        "title": format!("SaFeR planner protocol, version {PROTOCOL_VERSION}"),
+        "title": format!("SaFeR planner protocol, version {PROTOCOL_VERSION}.{PROTOCOL_MINOR}"),
         "description": "One JSON object per line. HarnessMessage: harness to planner (stdin). PlannerMessage: planner to harness (stdout). See docs/planner-protocol.md.",
         "oneOf": [to_planner, to_harness],
         "$defs": defs,

@@ -204,7 +204,7 @@ impl<'a> Picture<'a> {
                 let when = to_k(*step).map_or_else(|| "?".to_string(), |k| time_text(k, rollout.dt_s));
                 let _ = write!(line2, " · aborted at {when}: agent {agent}: {reason}");
             }
-            Termination::Completed | Termination::EgoCollision { .. } => {}
+            Termination::Completed | Termination::EgoCollision { .. } | Termination::LeftMappedArea { .. } => {}
         }
         Picture {
             title: format!("rollout of scenario {} with planner {}", rollout.scenario_id, rollout.planner),

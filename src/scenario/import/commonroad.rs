@@ -391,6 +391,9 @@ struct RawLanelet {
     light_refs: Vec<i64>,
     /// Midpoint of the stop line's points, when it has them.
     stop_line_mid: Option<Point2>,
+    /// Whether the lanelet has a `stopLine` (one without points lies at the
+    /// lanelet's end, CommonRoad 2020a §3.2).
+    has_stop_line: bool,
 }
 
 /// Movement through an intersection, from `<incoming>`'s successor lists.
@@ -557,6 +560,8 @@ fn read_map(
 
         let speed_limit_mps = l.sign_refs.iter().filter_map(|r| speed_limits.get(r).copied()).reduce(f64::min);
         let in_intersection = movement_of.contains_key(&l.id);
+        let stop_line =
+            if l.has_stop_line { l.stop_line_mid.or_else(|| centreline.points().last().copied()) } else { None };
         lanes.push(Lane {
             id: MapElementId(l.id),
             centreline,
@@ -569,6 +574,7 @@ fn read_map(
             left_boundary: Some(left),
             right_boundary: Some(right),
             in_intersection,
+            stop_line,
         });
     }
     if !traffic_signals.is_empty() {
@@ -684,6 +690,7 @@ fn read_lanelet(cx: &Cx<'_, '_>, node: Node<'_, '_>) -> Result<RawLanelet, Impor
         sign_refs: refs("trafficSignRef")?,
         light_refs: refs("trafficLightRef")?,
         stop_line_mid,
+        has_stop_line: child(node, "stopLine").is_some(),
     })
 }
 

@@ -469,6 +469,7 @@ impl Converter<'_> {
                     left_boundary: None,
                     right_boundary: None,
                     in_intersection: false,
+                    stop_line: None,
                 }),
                 "road_edge" => road_edges.push(RoadEdge {
                     id,

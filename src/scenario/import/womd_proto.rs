@@ -626,6 +626,7 @@ impl Converter<'_> {
                         // WOMD has no intersection flag; `interpolating` lanes are
                         // often intersection connectors but not only those.
                         in_intersection: false,
+                        stop_line: None,
                     });
                 }
                 Some(F::RoadLine(l)) => road_lines.push(RoadLine {

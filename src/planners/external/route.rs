@@ -1,0 +1,211 @@
+//! The stable route of protocol 1.1: a path of lane centrelines planned once
+//! from where the ego is and sent unchanged at every step until the ego
+//! leaves it (then planned anew from there) or it runs short (then planned
+//! anew, so that at least [`ROUTE_AHEAD_MIN_M`] lie ahead where the map has
+//! them). A planner can cache it by its revision and never sees it jitter
+//! with the ego's position, unlike the 1.0 route hint.
+//!
+//! At a fork the route takes the successor that the ego's *recording* passes
+//! closest to (the harness knows where the recorded ego went; that is the
+//! scene's intended route), else the first successor.
+
+use crate::geometry::{Point2, Polyline, Vector2};
+use crate::map::{MapElementId, RoadMap};
+use crate::scenario::AgentState;
+
+/// Route length planned behind the ego's projection, m (so a planner can
+/// project the ego onto it even after braking back a little).
+pub const ROUTE_BEHIND_M: f64 = 20.0;
+/// The route is planned anew when less than this lies ahead of the ego, m
+/// (unless the map ends sooner).
+pub const ROUTE_AHEAD_MIN_M: f64 = 200.0;
+/// Route length planned ahead of the ego, m.
+pub const ROUTE_AHEAD_PLANNED_M: f64 = 400.0;
+/// The ego has left the route when its centre is farther than this from
+/// it, m (more than half a lane beyond a lane change's end).
+pub const ROUTE_LEAVE_M: f64 = 2.5;
+/// Where the ego's lane is searched, m.
+const LANE_SEARCH_M: f64 = 10.0;
+/// Lanes followed at most (guards against zero-length successor cycles).
+const MAX_LANES: usize = 256;
+
+/// A planned route and its revision.
+#[derive(Debug, Clone, Default)]
+pub(super) struct StableRoute {
+    /// The lanes it runs along, in order.
+    pub(super) lanes: Vec<MapElementId>,
+    /// Its points, every [`super::MAP_SPACING_M`] or less.
+    pub(super) points: Vec<[f64; 2]>,
+    line: Polyline,
+    /// 0 for the first plan, +1 for every new one.
+    pub(super) revision: u32,
+    planned: bool,
+    /// Whether the map ended before [`ROUTE_AHEAD_PLANNED_M`] (no point in
+    /// planning anew when it runs short).
+    ends_with_map: bool,
+}
+
+impl StableRoute {
+    /// Keeps the route while the ego is on it with enough ahead; otherwise
+    /// plans it anew from the ego. `recorded` are the ego's recorded
+    /// positions (for the choice at forks). Returns the ego's arc length
+    /// along the route (0 when there is none).
+    pub(super) fn update(&mut self, map: &RoadMap, ego: &AgentState, recorded: &[Point2]) -> f64 {
+        if self.planned
+            && let Some(s) = self.keeps(ego)
+        {
+            return s;
+        }
+        let revision = if self.planned { self.revision + 1 } else { 0 };
+        *self = plan(map, ego, recorded);
+        self.revision = revision;
+        self.planned = true;
+        self.line.project(&ego.position).map_or(0.0, |p| p.arc_length_m)
+    }
+
+    /// The ego's arc length when the current route still serves it.
+    fn keeps(&self, ego: &AgentState) -> Option<f64> {
+        if self.points.len() < 2 {
+            // No route (off the map): try again at every step.
+            return None;
+        }
+        let p = self.line.project(&ego.position)?;
+        let forward = Vector2::new(ego.heading_rad.cos(), ego.heading_rad.sin());
+        let on_it = p.distance_m <= ROUTE_LEAVE_M && p.tangent.dot(&forward) > 0.0;
+        let long_enough = self.ends_with_map || self.line.length_m() - p.arc_length_m >= ROUTE_AHEAD_MIN_M;
+        (on_it && long_enough).then_some(p.arc_length_m)
+    }
+}
+
+/// Plans a route from the ego's lane (the nearest within 10 m running its
+/// way), [`ROUTE_BEHIND_M`] behind it to [`ROUTE_AHEAD_PLANNED_M`] ahead.
+fn plan(map: &RoadMap, ego: &AgentState, recorded: &[Point2]) -> StableRoute {
+    let mut route = StableRoute::default();
+    let Some(m) = map.nearest_lane(&ego.position, Some(ego.heading_rad), LANE_SEARCH_M) else {
+        return route;
+    };
+    let forward = Vector2::new(ego.heading_rad.cos(), ego.heading_rad.sin());
+    if m.projection.tangent.dot(&forward) <= 0.0 {
+        return route;
+    }
+    let mut lane = &map.lanes[m.lane_index];
+    let mut s0 = (m.projection.arc_length_m - ROUTE_BEHIND_M).max(0.0);
+    let mut remaining = ROUTE_AHEAD_PLANNED_M + (m.projection.arc_length_m - s0);
+    route.ends_with_map = true;
+    for _ in 0..MAX_LANES {
+        route.lanes.push(lane.id);
+        let take = (lane.centreline.length_m() - s0).max(0.0).min(remaining);
+        for p in super::encoding::samples(&lane.centreline, s0, take) {
+            // Consecutive lanes share their joining point: keep it once.
+            if route.points.last().is_none_or(|q| (q[0] - p.x).hypot(q[1] - p.y) > 1e-6) {
+                route.points.push([p.x, p.y]);
+            }
+        }
+        remaining -= take;
+        if remaining <= 1e-9 {
+            route.ends_with_map = false;
+            break;
+        }
+        let Some(next) = choose_successor(map, &lane.successors, recorded) else {
+            break;
+        };
+        lane = next;
+        s0 = 0.0;
+    }
+    route.line = Polyline::new(route.points.iter().map(|p| Point2::new(p[0], p[1])).collect());
+    route
+}
+
+/// The successor the recording passes closest to (the first on ties or
+/// without a recording).
+fn choose_successor<'m>(
+    map: &'m RoadMap,
+    successors: &[MapElementId],
+    recorded: &[Point2],
+) -> Option<&'m crate::map::Lane> {
+    let lanes: Vec<&crate::map::Lane> = successors.iter().filter_map(|id| map.lane(*id)).collect();
+    if lanes.len() <= 1 || recorded.is_empty() {
+        return lanes.first().copied();
+    }
+    let closest = |l: &crate::map::Lane| {
+        recorded.iter().filter_map(|p| l.centreline.project(p)).map(|p| p.distance_m).fold(f64::INFINITY, f64::min)
+    };
+    let mut best = (f64::INFINITY, 0);
+    for (i, l) in lanes.iter().enumerate() {
+        let d = closest(l);
+        // A clear margin: two successors that both pass near the recording
+        // (a split that rejoins) keep the first, as 1.0 does.
+        if d + 0.5 < best.0 {
+            best = (d, i);
+        }
+    }
+    Some(lanes[best.1])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::map::{Lane, LaneKind};
+
+    fn lane(id: i64, pts: &[(f64, f64)], successors: &[i64]) -> Lane {
+        Lane {
+            kind: LaneKind::SurfaceStreet,
+            successors: successors.iter().map(|&i| MapElementId(i)).collect(),
+            ..Lane::new(MapElementId(id), Polyline::new(pts.iter().map(|&(x, y)| Point2::new(x, y)).collect()))
+        }
+    }
+
+    fn ego(x: f64, y: f64) -> AgentState {
+        AgentState { position: Point2::new(x, y), heading_rad: 0.0, velocity_mps: Vector2::new(10.0, 0.0) }
+    }
+
+    /// A 100 m lane forking into one going left (north) and one going right.
+    fn fork() -> RoadMap {
+        RoadMap::new(
+            vec![
+                lane(1, &[(0.0, 0.0), (100.0, 0.0)], &[2, 3]),
+                lane(2, &[(100.0, 0.0), (200.0, 100.0), (200.0, 1000.0)], &[]),
+                lane(3, &[(100.0, 0.0), (200.0, -100.0), (200.0, -1000.0)], &[]),
+            ],
+            vec![],
+            vec![],
+            vec![],
+            vec![],
+            vec![],
+            vec![],
+        )
+    }
+
+    #[test]
+    fn the_route_does_not_move_while_the_ego_follows_it_and_is_replanned_when_it_leaves() {
+        let map = fork();
+        let mut route = StableRoute::default();
+        let s = route.update(&map, &ego(30.0, 0.0), &[]);
+        assert_eq!((route.revision, s), (0, ROUTE_BEHIND_M));
+        assert_eq!(route.points[0], [10.0, 0.0]);
+        assert_eq!(route.lanes, vec![MapElementId(1), MapElementId(2)], "first successor without a recording");
+        let first = route.points.clone();
+        // Drifting within the lane, moving on: the same points.
+        for (x, y) in [(31.0, 0.4), (40.0, -1.0), (60.0, 2.0)] {
+            let s = route.update(&map, &ego(x, y), &[]);
+            assert_eq!(route.points, first);
+            assert_eq!(route.revision, 0);
+            assert!((s - (x - 10.0)).abs() < 1e-9, "{s}");
+        }
+        // Beyond 2.5 m from it: planned anew from where the ego is.
+        route.update(&map, &ego(70.0, 3.0), &[]);
+        assert_eq!(route.revision, 1);
+        assert_eq!(route.points[0], [50.0, 0.0]);
+        // At least 200 m ahead, every 2 m or less.
+        assert!(route.line.length_m() - 20.0 >= ROUTE_AHEAD_MIN_M);
+        assert!(route.points.windows(2).all(|w| (w[1][0] - w[0][0]).hypot(w[1][1] - w[0][1]) <= 2.0 + 1e-9));
+    }
+
+    #[test]
+    fn at_a_fork_the_route_follows_the_recording() {
+        let map = fork();
+        let mut route = StableRoute::default();
+        route.update(&map, &ego(30.0, 0.0), &[Point2::new(30.0, 0.0), Point2::new(150.0, -50.0)]);
+        assert_eq!(route.lanes, vec![MapElementId(1), MapElementId(3)]);
+    }
+}

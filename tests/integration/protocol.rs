@@ -1,0 +1,169 @@
+//! Planner protocol 1.1 on recorded scenes: the protocol-1.1 lane follower
+//! (`planners/lane-follower.yaml`) drives a recorded NGSIM scene through
+//! the suite pipeline and solves it where constant velocity collides; the
+//! version-1 example planner still drives it; the planner's stderr lands
+//! beside the artefacts; and driving past the end of NGSIM's map ends the
+//! rollout as "left the mapped area", not as an off-road event.
+
+use std::path::{Path, PathBuf};
+
+use safer::harness::{Suite, artefacts, pipeline::Stage2Verdict, variant::run_variant};
+use safer::planners::BuiltinPlanner;
+use safer::scenario::import;
+use safer::sim::{SimConfig, Simulation, Termination};
+
+use crate::shared_data::data_dir;
+
+/// A recorded US 101 scene where a constant-velocity ego rear-ends its
+/// leader and the recorded ego later drives past the end of the map.
+const SCENE: &str = "commonroad-ngsim/USA_US101-21_1_T-1.xml";
+
+fn repo() -> &'static Path {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// A one-scene, one-variant suite with `planner` (a YAML value), written
+/// to a fresh folder.
+fn suite(tag: &str, planner: &str) -> (Suite, PathBuf) {
+    let dir = std::env::temp_dir().join(format!("safer-protocol-{tag}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let scene = data_dir().join(SCENE);
+    assert!(scene.is_file(), "{} is missing", scene.display());
+    let text = format!(
+        "name: protocol-{tag}\nscenarios:\n  - recorded: {}\nplanner: {planner}\nadversary: {{ method: log, background: log-replay }}\nvariants: 1\nacceptance:\n  variant: {{ no_collision: true }}\n",
+        scene.display()
+    );
+    let path = dir.join("suite.yaml");
+    std::fs::write(&path, text).unwrap();
+    (Suite::load(&path).unwrap_or_else(|e| panic!("{e}")), dir)
+}
+
+#[test]
+fn the_lane_follower_solves_a_recorded_scene_that_constant_velocity_does_not() {
+    let planner = repo().join("planners/lane-follower.yaml");
+    let (lf, dir) = suite("lane-follower", &planner.display().to_string());
+    let outcome = run_variant(&lf, &lf.scenarios[0], 0).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(outcome.verdict, Stage2Verdict::Solved, "{:?}", outcome.stage2.summary());
+    assert!(outcome.failures.is_empty(), "{:?}", outcome.failures);
+    let latency = outcome.planner_latency.expect("timed");
+    assert_eq!(latency.steps, outcome.stage2.steps());
+    assert!(latency.p50_ms > 0.0 && latency.p50_ms <= latency.p95_ms && latency.p95_ms <= latency.max_ms);
+    // Its stderr is kept beside the recording and the picture, not only on a crash.
+    let written = artefacts::write(&dir, &outcome).unwrap();
+    let stderr = written.stderr.expect("an external planner's stderr file");
+    assert_eq!(stderr.parent(), written.mcap.parent());
+    let log = std::fs::read_to_string(&stderr).unwrap();
+    assert!(log.contains("lane_follower: hello: scenario USA_US101-21_1_T-1 variant protocol-lane-follower::USA_US101-21_1_T-1::seed-0"), "{log}");
+    assert!(log.contains("lane_follower: prepared:"), "{log}");
+
+    let (cv, cv_dir) = suite("constant-velocity", "{ builtin: constant-velocity }");
+    let outcome = run_variant(&cv, &cv.scenarios[0], 0).unwrap_or_else(|e| panic!("{e}"));
+    assert!(matches!(outcome.verdict, Stage2Verdict::Collided { .. }), "{:?}", outcome.verdict);
+    assert!(outcome.planner_stderr.is_none(), "a built-in has no stderr");
+    std::fs::remove_dir_all(dir).unwrap();
+    std::fs::remove_dir_all(cv_dir).unwrap();
+}
+
+#[test]
+fn the_version_1_example_planner_still_drives_recorded_scenes() {
+    let planner = repo().join("planners/example-python.yaml");
+    let (s, dir) = suite("example", &planner.display().to_string());
+    let outcome = run_variant(&s, &s.scenarios[0], 0).unwrap_or_else(|e| panic!("{e}"));
+    assert!(!matches!(outcome.verdict, Stage2Verdict::Aborted { .. }), "{:?}", outcome.verdict);
+    assert!(outcome.stage2.steps() > 30, "{:?}", outcome.stage2.summary());
+    let log = outcome.planner_stderr.expect("stderr");
+    assert!(log.contains("example_planner: hello: ego"), "{log}");
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+#[test]
+fn driving_past_the_end_of_an_ngsim_map_is_leaving_the_mapped_area_not_the_road() {
+    // The recording's map ends about 60 m ahead; an IDM ego keeps driving.
+    let scene = data_dir().join("commonroad-ngsim/USA_US101-16_1_T-1.xml");
+    let s = import::load(&scene).unwrap_or_else(|e| panic!("{e}")).remove(0);
+    let mut planner = BuiltinPlanner::Idm.instantiate(&s, s.ego.unwrap());
+    let r = Simulation::new(&s, SimConfig::default()).unwrap().run(planner.as_mut());
+    let Termination::LeftMappedArea { step } = r.termination else { panic!("{:?}", r.termination) };
+    assert!(step > r.start_step, "{step}");
+    assert!(r.off_road.is_empty(), "{:?}", r.off_road);
+    assert!(r.ego_collision().is_none());
+    assert_eq!(Stage2Verdict::of(&r), Stage2Verdict::Solved);
+    // The ego's nose is past the last lanes' ends, off the drivable area.
+    let ego = r.states.last().unwrap()[r.ego.0].unwrap();
+    let half = s.track(r.ego).length_m / 2.0;
+    let nose = ego.position + safer::geometry::Vector2::new(ego.heading_rad.cos(), ego.heading_rad.sin()) * half;
+    assert!(s.map.is_off_road(&nose) && s.map.is_past_mapped_end(&nose), "{nose:?}");
+}
+
+/// Runs the `safer` binary from the repository root.
+fn safer(args: &[&str]) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_safer")).args(args).current_dir(repo()).output().expect("run safer")
+}
+
+#[test]
+fn evaluate_takes_a_planner_spec_and_jobs_and_reports_latency() {
+    let scene = data_dir().join(SCENE);
+    let scene = scene.to_str().unwrap();
+    let common = ["evaluate", "--scenes", scene, "--methods", "log", "--seeds", "1", "--json", "-"];
+    let out = safer(&[&common[..], &["--planner", "planners/lane-follower.yaml", "--jobs", "1"]].concat());
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let variant = &report["variants"][0];
+    assert_eq!(variant["stage2"]["verdict"], "solved", "{variant}");
+    let latency = &variant["planner_latency"];
+    assert!(latency["steps"].as_u64().unwrap() > 10, "{latency}");
+    for key in ["p50_ms", "p95_ms", "max_ms"] {
+        assert!(latency[key].as_f64().unwrap() > 0.0, "{latency}");
+    }
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("stage 2 planner `lane-follower`"), "{err}");
+    // Not a built-in, not a file; no thread at all.
+    let out = safer(&[&common[..], &["--planner", "no-such-planner"]].concat());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("neither a built-in planner"));
+    let out = safer(&[&common[..], &["--jobs", "0"]].concat());
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--jobs"), "{}", String::from_utf8_lossy(&out.stderr));
+}
+
+#[test]
+fn run_reports_latency_per_variant() {
+    let planner = repo().join("planners/lane-follower.yaml");
+    let (_, dir) = suite("run-latency", &planner.display().to_string());
+    let suite_file = dir.join("suite.yaml");
+    let out = safer(&["run", suite_file.to_str().unwrap(), "--jobs", "1", "--json", "-"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let variant = &report["suites"][0]["variants"][0];
+    assert!(variant["planner_latency"]["p95_ms"].as_f64().unwrap() > 0.0, "{variant}");
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+#[test]
+fn a_dead_end_inside_a_womd_map_is_still_off_road() {
+    // In this shipped adversarial variant the evasive ego leaves the road at
+    // 6.9 s past the end of a lane without successor, 90 m inside the map:
+    // the kerbs go on around it, so that is off-road, not the map's edge.
+    let suite = Suite::load(&repo().join("specs/extended/adversarial-recorded.yaml")).unwrap_or_else(|e| panic!("{e}"));
+    let entry = suite.scenarios.iter().find(|s| s.name.contains("2d84b1ab55ab81d3")).expect("scene in the suite");
+    let outcome = run_variant(&suite, entry, 0).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(outcome.stage2.termination, Termination::Completed);
+    assert_eq!(outcome.stage2.summary().ego_off_road_s, Some(6.9));
+}
+
+#[test]
+fn commonroad_stop_lines_are_kept_on_their_lanes() {
+    let path = data_dir().join("commonroad-ngsim/USA_Lanker-1_1_T-1.xml");
+    let xml = std::fs::read_to_string(&path).unwrap();
+    let in_file = xml.matches("<stopLine").count();
+    assert!(in_file > 0, "the fixture scene has no stop line");
+    let s = import::load(&path).unwrap_or_else(|e| panic!("{e}")).remove(0);
+    let with_stop_line: Vec<_> = s.map.lanes.iter().filter(|l| l.stop_line.is_some()).collect();
+    assert_eq!(with_stop_line.len(), in_file);
+    // Each near its lane's end, in the re-centred frame.
+    for l in with_stop_line {
+        let end = *l.centreline.points().last().unwrap();
+        let d = (l.stop_line.unwrap() - end).norm();
+        assert!(d < 10.0, "lane {}: stop line {d} m from its end", l.id.0);
+    }
+}
