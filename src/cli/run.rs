@@ -456,16 +456,7 @@ fn print_report(out: &mut dyn Write, report: &Report) -> std::io::Result<()> {
             }
         }
         if let Some(m) = &s.metrics {
-            writeln!(
-                out,
-                "  metrics over {}: CR {}  SR {}  SR(critical) {}  VJ {}  AJ {}",
-                count(m.variants, "variant"),
-                opt(m.collision_rate, 3),
-                opt(m.solution_rate, 3),
-                opt(m.solution_rate_critical, 3),
-                opt(m.velocity_jsd, 3),
-                opt(m.acceleration_jsd, 3)
-            )?;
+            writeln!(out, "  {}", m.headline("  "))?;
         }
         let metric_width = s.checks.iter().map(|c| s.name.len() + 2 + c.name.len()).max().unwrap_or(0);
         for c in &s.checks {

@@ -177,6 +177,22 @@ fn share(k: usize, of: usize) -> Option<f64> {
 }
 
 impl SuiteMetrics {
+    /// "metrics over N variants: CR … SR … SR(critical) … VJ … AJ …", the
+    /// items joined by `separator`, unmeasured values as `-`: the line the
+    /// run table and the review page both print.
+    pub fn headline(&self, separator: &str) -> String {
+        let value = |v: Option<f64>| v.map_or_else(|| "-".to_string(), |x| format!("{x:.3}"));
+        let plural = if self.variants == 1 { "" } else { "s" };
+        [
+            format!("metrics over {} variant{plural}: CR {}", self.variants, value(self.collision_rate)),
+            format!("SR {}", value(self.solution_rate)),
+            format!("SR(critical) {}", value(self.solution_rate_critical)),
+            format!("VJ {}", value(self.velocity_jsd)),
+            format!("AJ {}", value(self.acceleration_jsd)),
+        ]
+        .join(separator)
+    }
+
     /// The metrics of a suite's variant outcomes.
     pub fn compute(outcomes: &[super::VariantOutcome]) -> SuiteMetrics {
         Self::aggregate(outcomes.iter().map(|o| &o.tally))
@@ -274,6 +290,18 @@ pub fn metric_names(acceptance: &SuiteAcceptance) -> Vec<&'static str> {
 
 #[cfg(test)]
 mod tests {
+
+    #[test]
+    fn the_headline_names_every_rate_and_dashes_what_was_not_measured() {
+        let solved = VariantTally { critical: true, solved: true, ..VariantTally::default() };
+        let failed = VariantTally::default();
+        let m = SuiteMetrics::aggregate([&solved, &failed]);
+        let line = m.headline(" · ");
+        assert!(line.starts_with("metrics over 2 variants: CR 0.500 · SR 0.500 · SR(critical) 1.000"), "{line}");
+        // No velocity profiles were tallied: VJ and AJ are unmeasured, not 0.
+        assert!(line.ends_with("VJ - · AJ -"), "{line}");
+    }
+
     use super::*;
 
     fn tally(critical: bool, solved: bool) -> VariantTally {

@@ -252,16 +252,7 @@ fn suite_html(h: &mut String, si: usize, s: &SuiteRun, dir: &Path, pictures: &mu
         h.push_str("</tbody>\n</table>\n");
     }
     if let Some(m) = &s.metrics {
-        let _ = writeln!(
-            h,
-            "<p class=\"metrics-line\">metrics over {}: CR {} · SR {} · SR(critical) {} · VJ {} · AJ {}</p>",
-            count(m.variants, "variant"),
-            opt(m.collision_rate, 3),
-            opt(m.solution_rate, 3),
-            opt(m.solution_rate_critical, 3),
-            opt(m.velocity_jsd, 3),
-            opt(m.acceleration_jsd, 3)
-        );
+        let _ = writeln!(h, "<p class=\"metrics-line\">{}</p>", esc(&m.headline(" · ")));
     }
     if !s.checks.is_empty() {
         h.push_str("<table class=\"checks\">\n<thead><tr><th>suite metric</th><th>value</th><th>check</th></tr></thead>\n<tbody>\n");
