@@ -73,10 +73,27 @@ pub fn ranked_tokens(logits: &[f32]) -> Vec<Token> {
     ids.into_iter().map(Token).collect()
 }
 
+/// The `k` most likely tokens in the order of [`ranked_tokens`], found
+/// without sorting the whole vocabulary (a sampled token needs only these;
+/// the order is total, so the result is exactly `ranked_tokens(logits)[..k]`).
+pub fn top_tokens(logits: &[f32], k: usize) -> Vec<Token> {
+    let mut ids: Vec<u16> = (0..logits.len() as u16).collect();
+    let order = |a: &u16, b: &u16| logits[*b as usize].total_cmp(&logits[*a as usize]).then(a.cmp(b));
+    let k = k.min(ids.len());
+    if k == 0 {
+        return Vec::new();
+    }
+    if k < ids.len() {
+        ids.select_nth_unstable_by(k - 1, order);
+        ids.truncate(k);
+    }
+    ids.sort_by(order);
+    ids.into_iter().map(Token).collect()
+}
+
 /// Draws a token from the top `k` of `logits` at `temperature`.
 pub fn sample_token(logits: &[f32], sampling: TokenSampling, rng: &mut impl Rng) -> Token {
-    let ranked = ranked_tokens(logits);
-    let top = &ranked[..sampling.top_k.clamp(1, ranked.len())];
+    let top = &top_tokens(logits, sampling.top_k.clamp(1, logits.len()))[..];
     let t = sampling.temperature.max(1e-6);
     let best = logits[top[0].0 as usize] as f64;
     let weights: Vec<f64> = top.iter().map(|k| ((logits[k.0 as usize] as f64 - best) / t).exp()).collect();
@@ -396,6 +413,20 @@ mod tests {
             let t = sample_token(&logits, TokenSampling { top_k: 3, temperature: 1.0 }, &mut rng);
             assert!(t.0 >= 97, "{t:?}");
         }
+    }
+
+    #[test]
+    fn top_tokens_are_the_head_of_the_ranking_ties_included() {
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        for _ in 0..50 {
+            // Few distinct values: many ties, broken by the lower id.
+            let logits: Vec<f32> = (0..300).map(|_| (rng.random::<u8>() % 7) as f32 * 0.5).collect();
+            let ranked = ranked_tokens(&logits);
+            for k in [1, 10, 299, 300, 400] {
+                assert_eq!(top_tokens(&logits, k), ranked[..k.min(300)], "k {k}");
+            }
+        }
+        assert!(top_tokens(&[], 3).is_empty());
     }
 
     #[test]
