@@ -22,10 +22,12 @@ use super::{CliError, scene_paths};
 use crate::eval::realism::{RealismAggregate, RealismConfig, RealismWindow, ScenarioRealism, score_scenario};
 use crate::harness::variant::variant_seed;
 use crate::models::prior::{PriorVariant, RealismPrior};
-use crate::policies::prior_sampling::{PriorAgent, PriorTraffic, ScenarioMapEncoding, TokenSampling};
+use crate::policies::prior_sampling::{
+    PriorAgent, PriorTraffic, ScenarioMapEncoding, TokenSampling, decode_rollouts_together,
+};
 use crate::policies::{AgentPolicy, BackgroundPolicy};
 use crate::scenario::{Scenario, SourceFormat, import};
-use crate::sim::traffic::simulate_all_agents;
+use crate::sim::traffic::{simulate_all_agents, simulate_rollouts_in_lockstep};
 
 /// The rule that picks each scene's window, for the help text and reports.
 pub const WINDOW_RULE: &str = "80 future steps (8 s) from the scene's current step when it has at least \
@@ -139,38 +141,54 @@ fn score_one(
     let start = window.start_step;
     let members: Vec<usize> =
         (0..scenario.tracks.len()).filter(|&i| scenario.tracks[i].state(start).is_some()).collect();
-    let mut rollouts = Vec::with_capacity(args.rollouts);
-    for r in 0..args.rollouts {
-        let seed = variant_seed(args.seed, &scenario.id, r as u32);
-        let traffic = prior.as_ref().map(|(p, shared, map)| {
-            PriorTraffic::new(
-                p.clone(),
-                shared.clone(),
-                map.clone(),
+    let rollouts = match &prior {
+        // The prior's rollouts run side by side, so each token boundary
+        // decodes every rollout's agents in one set of full batches.
+        Some((p, shared, map)) => {
+            let traffics: Vec<_> = (0..args.rollouts)
+                .map(|r| {
+                    let seed = variant_seed(args.seed, &scenario.id, r as u32);
+                    PriorTraffic::new(
+                        p.clone(),
+                        shared.clone(),
+                        map.clone(),
+                        start,
+                        members.clone(),
+                        TokenSampling::default(),
+                        seed,
+                    )
+                })
+                .collect();
+            let rollouts = simulate_rollouts_in_lockstep(
+                scenario,
                 start,
-                members.clone(),
-                TokenSampling::default(),
-                seed,
+                window.end_step(),
+                args.rollouts,
+                |r, _| -> Box<dyn AgentPolicy> { Box::new(PriorAgent::new(traffics[r].clone())) },
+                |worlds| decode_rollouts_together(&traffics, worlds),
             )
-        });
-        let states = simulate_all_agents(scenario, start, window.end_step(), |agent| -> Box<dyn AgentPolicy> {
-            match (&traffic, args.policy) {
-                (Some(t), _) => Box::new(PriorAgent::new(t.clone())),
-                (None, RealismPolicy::ConstantVelocity) => {
-                    BackgroundPolicy::ConstantVelocity.instantiate(scenario, agent)
+            .map_err(|e| e.to_string())?;
+            for t in &traffics {
+                if let Some(e) = t.lock().unwrap_or_else(|p| p.into_inner()).error() {
+                    return Err(format!("prior inference failed: {e}"));
                 }
-                (None, RealismPolicy::Idm) => BackgroundPolicy::Idm.instantiate(scenario, agent),
-                (None, _) => BackgroundPolicy::LogReplay.instantiate(scenario, agent),
             }
-        })
-        .map_err(|e| e.to_string())?;
-        if let Some(e) =
-            traffic.as_ref().and_then(|t| t.lock().unwrap_or_else(|p| p.into_inner()).error().map(|e| e.to_string()))
-        {
-            return Err(format!("prior inference failed: {e}"));
+            rollouts
         }
-        rollouts.push(states);
-    }
+        None => {
+            let mut rollouts = Vec::with_capacity(args.rollouts);
+            for _ in 0..args.rollouts {
+                let states = simulate_all_agents(scenario, start, window.end_step(), |agent| match args.policy {
+                    RealismPolicy::ConstantVelocity => BackgroundPolicy::ConstantVelocity.instantiate(scenario, agent),
+                    RealismPolicy::Idm => BackgroundPolicy::Idm.instantiate(scenario, agent),
+                    _ => BackgroundPolicy::LogReplay.instantiate(scenario, agent),
+                })
+                .map_err(|e| e.to_string())?;
+                rollouts.push(states);
+            }
+            rollouts
+        }
+    };
     score_scenario(scenario, window, &rollouts, config).map(Some).map_err(|e| e.to_string())
 }
 

@@ -42,6 +42,12 @@ impl PriorVariant {
 /// Decoder batch for full-scene steps; smaller batches are padded.
 pub const SCENE_BATCH: usize = 32;
 
+/// Decoder batch for what is left after the full [`SCENE_BATCH`] chunks
+/// (padded), so a tail of a few queries does not pay for 32 rows. Each
+/// query's logits are the same bits at batch 1, 8 and 32 (tract computes
+/// the rows independently; checked by `batch_sizes_give_identical_logits`).
+pub const TAIL_BATCH: usize = 8;
+
 /// The map embedding of one scenario: one row of width `d` per map token.
 #[derive(Debug, Clone)]
 pub struct MapEmbedding {
@@ -61,6 +67,7 @@ pub struct RealismPrior {
     map_encoder: OnnxModel,
     decoder_single: OnnxModel,
     decoder_scene: OnnxModel,
+    decoder_tail: OnnxModel,
     d: usize,
 }
 
@@ -123,7 +130,8 @@ impl RealismPrior {
             });
         }
         let decoder_scene = OnnxModel::load(source, card_file(dec), &decoder_contract(), SCENE_BATCH)?;
-        Ok(Self { variant, map_encoder, decoder_single, decoder_scene, d })
+        let decoder_tail = OnnxModel::load(source, card_file(dec), &decoder_contract(), TAIL_BATCH)?;
+        Ok(Self { variant, map_encoder, decoder_single, decoder_scene, decoder_tail, d })
     }
 
     /// Which decoder this is.
@@ -159,24 +167,50 @@ impl RealismPrior {
         ModelError::Input { model: self.decoder_single.card().name.clone(), message: e.to_string() }
     }
 
-    /// Next-token logits of each query, in order (one decoder call for a
-    /// single query, chunks of [`SCENE_BATCH`] otherwise).
+    /// Next-token logits of each query, in order: chunks of
+    /// [`SCENE_BATCH`], the rest in chunks of [`TAIL_BATCH`], and a single
+    /// query (alone or left over) at batch 1, so little is padded.
     pub fn logits(&self, queries: &[&QueryFeatures], map: &MapEmbedding) -> Result<Vec<TokenLogits>, ModelError> {
-        if map.d != self.d {
-            return Err(self.input_error(format!("map embedding width {} != {}", map.d, self.d)));
-        }
         let mut out = Vec::with_capacity(queries.len());
-        for chunk in queries.chunks(SCENE_BATCH) {
-            let (model, batch) =
-                if chunk.len() == 1 { (&self.decoder_single, 1) } else { (&self.decoder_scene, SCENE_BATCH) };
-            let inputs = self.batch_inputs(chunk, batch, map)?;
-            let result = model.run(inputs)?;
-            let logits = f32_values(&result[0]).map_err(|e| self.input_error(e))?;
-            for q in 0..chunk.len() {
-                out.push(logits[q * VOCABULARY_SIZE..(q + 1) * VOCABULARY_SIZE].to_vec());
-            }
+        let full = queries.len() / SCENE_BATCH * SCENE_BATCH;
+        let (head, tail) = queries.split_at(full);
+        for chunk in head.chunks(SCENE_BATCH) {
+            out.extend(self.logits_on(&self.decoder_scene, chunk, map)?);
+        }
+        for chunk in tail.chunks(TAIL_BATCH) {
+            let model = if chunk.len() == 1 { &self.decoder_single } else { &self.decoder_tail };
+            out.extend(self.logits_on(model, chunk, map)?);
         }
         Ok(out)
+    }
+
+    /// Loads this prior's decoder again with its batch fixed to `batch`
+    /// (tract plans are fixed-shape: one plan per batch size).
+    pub fn load_decoder(&self, source: &ModelSource, batch: usize) -> Result<OnnxModel, ModelError> {
+        let (_, dec) = self.variant.stems();
+        OnnxModel::load(source, format!("{dec}.card.yaml"), &decoder_contract(), batch)
+    }
+
+    /// Runs `model` (a decoder of this prior) once on `chunk`, padded to
+    /// the model's batch: the logits of each query, in order.
+    pub fn logits_on(
+        &self,
+        model: &OnnxModel,
+        chunk: &[&QueryFeatures],
+        map: &MapEmbedding,
+    ) -> Result<Vec<TokenLogits>, ModelError> {
+        let batch = model.batch();
+        if chunk.len() > batch || map.d != self.d {
+            return Err(self.input_error(format!(
+                "{} queries for a decoder of batch {batch} (map width {} vs {})",
+                chunk.len(),
+                map.d,
+                self.d
+            )));
+        }
+        let result = model.run(self.batch_inputs(chunk, batch, map)?)?;
+        let logits = f32_values(&result[0]).map_err(|e| self.input_error(e))?;
+        Ok((0..chunk.len()).map(|q| logits[q * VOCABULARY_SIZE..(q + 1) * VOCABULARY_SIZE].to_vec()).collect())
     }
 
     fn batch_inputs(
@@ -238,3 +272,71 @@ impl RealismPrior {
 
 /// A prior shared by every worker.
 pub type SharedPrior = Arc<RealismPrior>;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A query with every feature filled from a small generator, map rows
+    /// spread over the embedding.
+    fn query(seed: u32, map_tokens: u32) -> QueryFeatures {
+        let mut x = seed.wrapping_mul(2_654_435_761).wrapping_add(1);
+        let mut next = || {
+            x ^= x << 13;
+            x ^= x >> 17;
+            x ^= x << 5;
+            (x % 2000) as f32 / 1000.0 - 1.0
+        };
+        let mut q = QueryFeatures {
+            history: [0.0; HISTORY_POINTS * HISTORY_FEATURES],
+            agent_self: [0.0; SELF_FEATURES],
+            neighbours: [0.0; NEIGHBOURS * NEIGHBOUR_FEATURES],
+            neighbour_pose: [0.0; NEIGHBOURS * POSE_FEATURES],
+            neighbour_mask: [1.0; NEIGHBOURS],
+            map_index: [0; MAP_TOKENS],
+            map_pose: [0.0; MAP_TOKENS * POSE_FEATURES],
+            map_signal: [0.0; MAP_TOKENS * SIGNAL_FEATURES],
+            map_mask: [1.0; MAP_TOKENS],
+        };
+        for v in q.history.iter_mut().chain(&mut q.agent_self).chain(&mut q.neighbours).chain(&mut q.neighbour_pose) {
+            *v = next();
+        }
+        for v in q.map_pose.iter_mut().chain(&mut q.map_signal) {
+            *v = next();
+        }
+        for (n, i) in q.map_index.iter_mut().enumerate() {
+            *i = (seed + n as u32) % map_tokens;
+        }
+        q.neighbour_mask[seed as usize % NEIGHBOURS] = 0.0;
+        q
+    }
+
+    /// Batching rollouts together relies on this: a query's logits are the
+    /// same bits whatever the batch size, its place in the batch, the other
+    /// queries beside it and the padding.
+    #[test]
+    fn batch_sizes_give_identical_logits() {
+        let source = ModelSource::shipped();
+        let prior = RealismPrior::load(&source, PriorVariant::Differential).unwrap();
+        let rows = 20;
+        let map = MapEmbedding {
+            rows: (0..rows * prior.d).map(|i| ((i * 37) % 101) as f32 / 50.0 - 1.0).collect(),
+            d: prior.d,
+        };
+        let queries: Vec<QueryFeatures> = (0..40).map(|s| query(s, rows as u32)).collect();
+        let refs: Vec<&QueryFeatures> = queries.iter().collect();
+        let alone: Vec<TokenLogits> =
+            refs.iter().map(|q| prior.logits_on(&prior.decoder_single, &[q], &map).unwrap().remove(0)).collect();
+        let mut shifted = refs.clone();
+        shifted.rotate_left(3);
+        for (model, chunk) in [(&prior.decoder_scene, 32), (&prior.decoder_tail, 8), (&prior.decoder_tail, 5)] {
+            let out: Vec<TokenLogits> =
+                shifted.chunks(chunk).flat_map(|c| prior.logits_on(model, c, &map).unwrap()).collect();
+            for (i, l) in out.iter().enumerate() {
+                assert_eq!(l, &alone[(i + 3) % refs.len()], "batch {}, chunks of {chunk}, row {i}", model.batch());
+            }
+        }
+        assert_eq!(prior.logits(&refs, &map).unwrap(), alone);
+        assert_ne!(alone[0], alone[1]);
+    }
+}

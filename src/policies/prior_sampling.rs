@@ -20,7 +20,7 @@ use rand_chacha::ChaCha8Rng;
 use super::{AgentAction, AgentPolicy, WorldView};
 use crate::models::ModelError;
 use crate::models::prior::{MapEmbedding, RealismPrior, TokenLogits};
-use crate::models::prior_features::{MapTokens, StateHistory, build_query};
+use crate::models::prior_features::{MapTokens, QueryFeatures, StateHistory, build_query};
 use crate::motion::tokens::{TOKEN_PERIOD_STEPS, Token, TokenGrid};
 use crate::scenario::{AgentBody, AgentState, Scenario, TrackIndex};
 
@@ -73,10 +73,27 @@ pub fn ranked_tokens(logits: &[f32]) -> Vec<Token> {
     ids.into_iter().map(Token).collect()
 }
 
+/// The `k` most likely tokens in the order of [`ranked_tokens`], found
+/// without sorting the whole vocabulary (a sampled token needs only these;
+/// the order is total, so the result is exactly `ranked_tokens(logits)[..k]`).
+pub fn top_tokens(logits: &[f32], k: usize) -> Vec<Token> {
+    let mut ids: Vec<u16> = (0..logits.len() as u16).collect();
+    let order = |a: &u16, b: &u16| logits[*b as usize].total_cmp(&logits[*a as usize]).then(a.cmp(b));
+    let k = k.min(ids.len());
+    if k == 0 {
+        return Vec::new();
+    }
+    if k < ids.len() {
+        ids.select_nth_unstable_by(k - 1, order);
+        ids.truncate(k);
+    }
+    ids.sort_by(order);
+    ids.into_iter().map(Token).collect()
+}
+
 /// Draws a token from the top `k` of `logits` at `temperature`.
 pub fn sample_token(logits: &[f32], sampling: TokenSampling, rng: &mut impl Rng) -> Token {
-    let ranked = ranked_tokens(logits);
-    let top = &ranked[..sampling.top_k.clamp(1, ranked.len())];
+    let top = &top_tokens(logits, sampling.top_k.clamp(1, logits.len()))[..];
     let t = sampling.temperature.max(1e-6);
     let best = logits[top[0].0 as usize] as f64;
     let weights: Vec<f64> = top.iter().map(|k| ((logits[k.0 as usize] as f64 - best) / t).exp()).collect();
@@ -197,8 +214,8 @@ impl PriorTraffic {
         self.logits.get(&(agent, step))
     }
 
-    fn run_decoder(&mut self, step: usize) {
-        let clock = std::time::Instant::now();
+    /// The query of every member present at `step`: (agents, features).
+    fn queries(&self, step: usize) -> (Vec<usize>, Vec<QueryFeatures>) {
         let history = RolloutHistory { scenario: &self.scenario, start: self.start, frames: &self.frames };
         let mut agents = Vec::new();
         let mut queries = Vec::new();
@@ -208,6 +225,12 @@ impl PriorTraffic {
                 queries.push(q);
             }
         }
+        (agents, queries)
+    }
+
+    fn run_decoder(&mut self, step: usize) {
+        let clock = std::time::Instant::now();
+        let (agents, queries) = self.queries(step);
         let refs: Vec<_> = queries.iter().collect();
         let features_done = std::time::Instant::now();
         self.timings.features_s += (features_done - clock).as_secs_f64();
@@ -272,6 +295,77 @@ impl PriorTraffic {
     }
 }
 
+/// Runs the decoder once for every rollout of a scene at a token boundary:
+/// `traffics[r]` is rollout `r`'s shared state and `worlds[r]` its world
+/// now (as [`crate::sim::traffic::simulate_rollouts_in_lockstep`] gives
+/// them before the agents act). All rollouts' queries go into the decoder
+/// together, in full batches, and a query equal to rollout 0's query of the
+/// same agent (every rollout's first boundary, where no rollout has moved
+/// yet) is decoded once. Each rollout then finds its logits as if its first
+/// agent had run the decoder for it: the same queries, and the same logits,
+/// since the decoder computes each query's row alone whatever the batch.
+/// Off a boundary, or for rollouts of different priors or maps, nothing is
+/// done and the agents decode lazily as before.
+pub fn decode_rollouts_together(traffics: &[Arc<Mutex<PriorTraffic>>], worlds: &[WorldView<'_>]) {
+    let Some(first) = traffics.first() else { return };
+    let Some(step) = worlds.first().map(|w| w.step) else { return };
+    let (prior, map) = {
+        let t = first.lock().unwrap_or_else(|p| p.into_inner());
+        if step < t.start || !(step - t.start).is_multiple_of(TOKEN_PERIOD_STEPS) {
+            return;
+        }
+        (t.prior.clone(), t.map.clone())
+    };
+    let clock = std::time::Instant::now();
+    // Per rollout: (agent, index into `unique`) of each query.
+    let mut slots: Vec<Vec<(usize, usize)>> = Vec::with_capacity(traffics.len());
+    let mut unique: Vec<QueryFeatures> = Vec::new();
+    let mut first_rollout: HashMap<usize, usize> = HashMap::new();
+    for (r, (traffic, world)) in traffics.iter().zip(worlds).enumerate() {
+        let mut t = traffic.lock().unwrap_or_else(|p| p.into_inner());
+        let shares = Arc::ptr_eq(&t.prior, &prior) && Arc::ptr_eq(&t.map.embedding, &map.embedding);
+        if world.step != step || t.start > step || !shares || t.error.is_some() {
+            slots.push(Vec::new());
+            continue;
+        }
+        t.observe(world);
+        let (agents, queries) = t.queries(step);
+        let mut mine = Vec::with_capacity(agents.len());
+        for (a, q) in agents.into_iter().zip(queries) {
+            let same = first_rollout.get(&a).filter(|&&i| r > 0 && unique[i] == q).copied();
+            let index = same.unwrap_or_else(|| {
+                unique.push(q);
+                unique.len() - 1
+            });
+            if r == 0 {
+                first_rollout.insert(a, index);
+            }
+            mine.push((a, index));
+        }
+        slots.push(mine);
+    }
+    let features_done = std::time::Instant::now();
+    let refs: Vec<&QueryFeatures> = unique.iter().collect();
+    let result = prior.logits(&refs, &map.embedding);
+    let share = traffics.len().max(1) as f64;
+    let (features_s, decoder_s) =
+        ((features_done - clock).as_secs_f64() / share, features_done.elapsed().as_secs_f64() / share);
+    let result = result.map_err(Arc::new);
+    for (traffic, mine) in traffics.iter().zip(slots) {
+        let mut t = traffic.lock().unwrap_or_else(|p| p.into_inner());
+        t.timings.features_s += features_s;
+        t.timings.decoder_s += decoder_s;
+        match &result {
+            Ok(all) => {
+                for (a, i) in mine {
+                    t.logits.insert((a, step), all[i].clone());
+                }
+            }
+            Err(e) => t.record_error(e.clone()),
+        }
+    }
+}
+
 /// One agent driven by the prior through a shared [`PriorTraffic`].
 #[derive(Debug)]
 pub struct PriorAgent {
@@ -322,12 +416,69 @@ mod tests {
     }
 
     #[test]
+    fn top_tokens_are_the_head_of_the_ranking_ties_included() {
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        for _ in 0..50 {
+            // Few distinct values: many ties, broken by the lower id.
+            let logits: Vec<f32> = (0..300).map(|_| (rng.random::<u8>() % 7) as f32 * 0.5).collect();
+            let ranked = ranked_tokens(&logits);
+            for k in [1, 10, 299, 300, 400] {
+                assert_eq!(top_tokens(&logits, k), ranked[..k.min(300)], "k {k}");
+            }
+        }
+        assert!(top_tokens(&[], 3).is_empty());
+    }
+
+    #[test]
     fn a_cold_temperature_takes_the_most_likely_token() {
         let mut logits = vec![0.0f32; 50];
         logits[17] = 2.0;
         let mut rng = ChaCha8Rng::seed_from_u64(2);
         let t = sample_token(&logits, TokenSampling { top_k: 10, temperature: 1e-3 }, &mut rng);
         assert_eq!(t, Token(17));
+    }
+
+    /// Rollouts decoded together (every rollout's agents in one batch per
+    /// token boundary, the first boundary decoded once) move exactly as
+    /// rollouts decoded alone, one decoder call per boundary each.
+    #[test]
+    fn rollouts_decoded_together_equal_rollouts_decoded_alone() {
+        use crate::models::ModelSource;
+        use crate::models::prior::PriorVariant;
+        use crate::sim::traffic::{simulate_all_agents, simulate_rollouts_in_lockstep};
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/ngsim/USA_US101-15_1_T-1.xml");
+        let scenario = Arc::new(crate::scenario::import::load(&path).unwrap().remove(0));
+        let prior = Arc::new(RealismPrior::load(&ModelSource::shipped(), PriorVariant::Differential).unwrap());
+        let map = ScenarioMapEncoding::new(&prior, &scenario).unwrap();
+        let (start, end, rollouts) = (10, 30, 3);
+        let members: Vec<usize> =
+            (0..scenario.tracks.len()).filter(|&i| scenario.tracks[i].state(start).is_some()).collect();
+        assert!(members.len() > 1, "the scene needs several agents");
+        let traffic = |r: usize| {
+            let sampling = TokenSampling::default();
+            PriorTraffic::new(prior.clone(), scenario.clone(), map.clone(), start, members.clone(), sampling, r as u64)
+        };
+        let together: Vec<_> = (0..rollouts).map(traffic).collect();
+        let batched = simulate_rollouts_in_lockstep(
+            &scenario,
+            start,
+            end,
+            rollouts,
+            |r, _| -> Box<dyn AgentPolicy> { Box::new(PriorAgent::new(together[r].clone())) },
+            |worlds| decode_rollouts_together(&together, worlds),
+        )
+        .unwrap();
+        for (r, shared) in together.iter().enumerate() {
+            let alone = traffic(r);
+            let states =
+                simulate_all_agents(&scenario, start, end, |_| Box::new(PriorAgent::new(alone.clone()))).unwrap();
+            assert_eq!(states, batched[r], "rollout {r}");
+            let t = shared.lock().unwrap();
+            assert!(t.error().is_none());
+            assert_eq!(t.timings().decoder_calls, 0, "rollout {r} decoded on its own");
+            assert_eq!(alone.lock().unwrap().timings().decoder_calls, (end - start) / TOKEN_PERIOD_STEPS);
+        }
+        assert_ne!(batched[0], batched[1], "different seeds, different rollouts");
     }
 
     #[test]

@@ -26,6 +26,25 @@ pub fn simulate_all_agents(
     end_step: usize,
     mut policies: impl FnMut(TrackIndex) -> Box<dyn AgentPolicy>,
 ) -> Result<Vec<Vec<Option<AgentState>>>, SimError> {
+    let mut all = simulate_rollouts_in_lockstep(scenario, start_step, end_step, 1, |_, a| policies(a), |_| {})?;
+    Ok(all.pop().unwrap_or_default())
+}
+
+/// Simulates `rollouts` independent rollouts of `scenario` (each as
+/// [`simulate_all_agents`]) step by step side by side, so that work shared
+/// by the rollouts can be done once per step: `before_step` sees the world
+/// of every rollout at each step before any agent acts (the prior's
+/// decoder batches every rollout's queries there). `policies(r, agent)` is
+/// asked rollout by rollout, in track order. Each rollout's result is the
+/// same as simulating it alone with the same policies.
+pub fn simulate_rollouts_in_lockstep(
+    scenario: &Scenario,
+    start_step: usize,
+    end_step: usize,
+    rollouts: usize,
+    mut policies: impl FnMut(usize, TrackIndex) -> Box<dyn AgentPolicy>,
+    mut before_step: impl FnMut(&[WorldView<'_>]),
+) -> Result<Vec<Vec<Vec<Option<AgentState>>>>, SimError> {
     if (scenario.dt_s - SIM_DT_S).abs() > DT_TOLERANCE * SIM_DT_S {
         return Err(SimError::StepMismatch { scenario: scenario.id.clone(), dt_s: scenario.dt_s });
     }
@@ -38,27 +57,46 @@ pub fn simulate_all_agents(
         });
     }
     let bodies: Vec<AgentBody> = scenario.tracks.iter().map(|t| t.body()).collect();
-    let mut drivers: Vec<Box<dyn AgentPolicy>> = (0..scenario.tracks.len())
-        .map(|i| {
-            let agent = TrackIndex(i);
-            if scenario.track(agent).state(start_step).is_some() {
-                policies(agent)
-            } else {
-                Box::new(LogReplay::new(scenario.track(agent).clone())) as Box<dyn AgentPolicy>
-            }
+    let mut drivers: Vec<Vec<Box<dyn AgentPolicy>>> = (0..rollouts)
+        .map(|r| {
+            (0..scenario.tracks.len())
+                .map(|i| {
+                    let agent = TrackIndex(i);
+                    if scenario.track(agent).state(start_step).is_some() {
+                        policies(r, agent)
+                    } else {
+                        Box::new(LogReplay::new(scenario.track(agent).clone())) as Box<dyn AgentPolicy>
+                    }
+                })
+                .collect()
         })
         .collect();
-    let mut states: Vec<Option<AgentState>> = scenario.tracks.iter().map(|t| t.state(start_step).copied()).collect();
-    let mut record = Vec::with_capacity(end_step - start_step + 1);
-    record.push(states.clone());
+    let initial: Vec<Option<AgentState>> = scenario.tracks.iter().map(|t| t.state(start_step).copied()).collect();
+    let mut states: Vec<Vec<Option<AgentState>>> = vec![initial; rollouts];
+    let mut records: Vec<Vec<Vec<Option<AgentState>>>> = states
+        .iter()
+        .map(|s| {
+            let mut record = Vec::with_capacity(end_step - start_step + 1);
+            record.push(s.clone());
+            record
+        })
+        .collect();
     for step in start_step..end_step {
-        let world = WorldView { map: &scenario.map, step, bodies: &bodies, states: &states };
-        let actions: Vec<AgentAction> =
-            drivers.iter_mut().enumerate().map(|(i, p)| p.act(&world, TrackIndex(i))).collect();
-        states = advance(&states, &actions);
-        record.push(states.clone());
+        let worlds: Vec<WorldView<'_>> =
+            states.iter().map(|s| WorldView { map: &scenario.map, step, bodies: &bodies, states: s }).collect();
+        before_step(&worlds);
+        let actions: Vec<Vec<AgentAction>> = drivers
+            .iter_mut()
+            .zip(&worlds)
+            .map(|(d, world)| d.iter_mut().enumerate().map(|(i, p)| p.act(world, TrackIndex(i))).collect())
+            .collect();
+        drop(worlds);
+        for ((s, a), record) in states.iter_mut().zip(&actions).zip(&mut records) {
+            *s = advance(s, a);
+            record.push(s.clone());
+        }
     }
-    Ok(record)
+    Ok(records)
 }
 
 #[cfg(test)]
@@ -109,6 +147,25 @@ mod tests {
         for (k, row) in states.iter().enumerate() {
             assert_eq!(row[1], s.tracks[1].states[k], "step {k}");
         }
+    }
+
+    #[test]
+    fn rollouts_in_lockstep_equal_rollouts_alone_and_the_hook_sees_every_step() {
+        let s = scene();
+        let policy = |r: usize, a: TrackIndex| match r {
+            0 => Box::new(ConstantVelocity) as Box<dyn AgentPolicy>,
+            _ => BackgroundPolicy::LogReplay.instantiate(&s, a),
+        };
+        let mut seen = Vec::new();
+        let together = simulate_rollouts_in_lockstep(&s, 1, 11, 2, policy, |worlds| {
+            seen.push((worlds.len(), worlds[0].step, worlds[1].step));
+        })
+        .unwrap();
+        assert_eq!(seen, (1..11).map(|k| (2, k, k)).collect::<Vec<_>>());
+        for (r, states) in together.iter().enumerate() {
+            assert_eq!(states, &simulate_all_agents(&s, 1, 11, |a| policy(r, a)).unwrap(), "rollout {r}");
+        }
+        assert_ne!(together[0], together[1]);
     }
 
     #[test]
