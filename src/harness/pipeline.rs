@@ -155,8 +155,8 @@ impl Planner for Timed<'_> {
         out
     }
 
-    fn stderr_log(&self) -> Option<String> {
-        self.inner.stderr_log()
+    fn end_rollout(&mut self) -> Option<String> {
+        self.inner.end_rollout()
     }
 }
 
@@ -328,8 +328,9 @@ pub fn run(setup: VariantSetup<'_>) -> Result<DualStage, HarnessError> {
     let mut timed = Timed { inner: planner.as_mut(), times_ms: Vec::new() };
     let stage2 = stage2.run(&mut timed);
     let planner_latency = PlannerLatency::of(&timed.times_ms);
-    let planner_stderr = timed.stderr_log();
-    // Dropping the planner ends an external process before the next variant starts one.
+    // Ends an external process before the next variant starts one, and
+    // only then reads its stderr: lines still in the pipe are not lost.
+    let planner_stderr = timed.end_rollout();
     drop(planner);
     if let Some(source) = closed_loop.and_then(|i| i.error()) {
         return Err(HarnessError::Model { method, source });

@@ -152,9 +152,10 @@ pub trait Planner: Send {
     fn name(&self) -> &str;
     /// Plans from the observation at one step.
     fn plan(&mut self, observation: &Observation<'_>) -> Result<PlannerOutput, PlannerError>;
-    /// What the planner wrote to its error stream in this rollout (external
-    /// processes: their whole stderr); `None` for planners without one.
-    fn stderr_log(&self) -> Option<String> {
+    /// Ends the rollout and returns what the planner wrote to its error
+    /// stream in it (external processes: told `bye` and waited for, so the
+    /// log is complete up to their exit); `None` for planners without one.
+    fn end_rollout(&mut self) -> Option<String> {
         None
     }
 }

@@ -501,8 +501,14 @@ impl Planner for ExternalPlanner {
         self.step(obs).map_err(|e| self.fail(e))
     }
 
-    fn stderr_log(&self) -> Option<String> {
-        Some(ExternalPlanner::stderr_log(self))
+    fn end_rollout(&mut self) -> Option<String> {
+        if let Some(mut p) = self.process.take() {
+            // `bye`, wait for the exit, join the reader threads: the log is
+            // then complete.
+            p.shutdown();
+            self.stderr_log.push_str(&p.stderr_log());
+        }
+        Some(self.stderr_log.clone())
     }
 }
 
@@ -806,9 +812,11 @@ mod tests {
     }
 
     /// The probe's reports (`probe: {...}` stderr lines), in order.
-    fn reports(planner: &ExternalPlanner) -> Vec<serde_json::Value> {
-        planner
-            .stderr_log()
+    /// What the probe planner reported, read after the rollout ended (the
+    /// process has exited, so every line it wrote is in).
+    fn reports(planner: &mut ExternalPlanner) -> Vec<serde_json::Value> {
+        Planner::end_rollout(planner)
+            .unwrap_or_default()
             .lines()
             .filter_map(|l| l.strip_prefix("probe: "))
             .map(|l| serde_json::from_str(l).unwrap())
@@ -822,7 +830,7 @@ mod tests {
         let r = run(&s, &mut planner);
         assert_eq!(r.termination, Termination::Completed);
         assert_eq!(planner.protocol(), Some("1.1"));
-        let reports = reports(&planner);
+        let reports = reports(&mut planner);
         let hello = &reports[0]["message"];
         assert_eq!(hello["protocol"], 1);
         assert_eq!(hello["protocol_minor"], 1);
@@ -865,7 +873,7 @@ mod tests {
         let r = run(&s, &mut planner);
         assert_eq!(r.termination, Termination::Completed);
         assert_eq!(planner.protocol(), Some("1.0"));
-        let reports = reports(&planner);
+        let reports = reports(&mut planner);
         assert!(reports.iter().all(|r| r["type"] != "prepare"));
         let first = reports.iter().find(|r| r["type"] == "observation").unwrap();
         assert!(first["keys"].as_array().unwrap().iter().any(|k| k == "map"), "{first}");
@@ -908,7 +916,7 @@ mod tests {
         config.env.insert("SAFER_SEED".into(), "overridden".into());
         let mut planner = ExternalPlanner::with_context(config, context(&s));
         run(&s, &mut planner);
-        let hello = reports(&planner).into_iter().next().unwrap();
+        let hello = reports(&mut planner).into_iter().next().unwrap();
         std::fs::remove_dir_all(&dir).unwrap();
         assert_eq!(hello["args"], serde_json::json!(["--scene=external-stopped-car-ahead", "42", "{x}"]));
         assert_eq!(std::path::Path::new(hello["cwd"].as_str().unwrap()), dir.canonicalize().unwrap_or(dir.clone()));
