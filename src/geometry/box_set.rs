@@ -31,9 +31,18 @@ pub struct BoxSet {
     max_radius_m: f64,
 }
 
-/// Half the diagonal: the radius of a box's bounding circle.
+/// Half the diagonal: the radius of a box's bounding circle (a plain
+/// square root, cheaper than `hypot`; its rounding is far inside [`SLACK_M`]).
 fn radius(b: &OrientedBox) -> f64 {
-    0.5 * b.length_m.hypot(b.width_m)
+    0.5 * (b.length_m * b.length_m + b.width_m * b.width_m).sqrt()
+}
+
+/// Whether the bounding circles of two boxes `d2` (squared centre distance)
+/// apart, with radii summing to `reach`, surely overlap: then the circle
+/// reject of [`OrientedBox::intersects`] cannot fire and its exact test
+/// alone gives the same answer.
+fn surely_within(d2: f64, reach: f64) -> bool {
+    reach > SLACK_M && d2 < (reach - SLACK_M) * (reach - SLACK_M)
 }
 
 impl BoxSet {
@@ -74,9 +83,16 @@ impl BoxSet {
     pub fn any_intersects(&self, query: &OrientedBox) -> bool {
         let (qx, qy, qr) = (query.pose.position.x, query.pose.position.y, radius(query));
         self.within_x(qx, qr + self.max_radius_m + SLACK_M).iter().any(|e| {
-            let reach = qr + e.radius_m + SLACK_M;
+            let reach = qr + e.radius_m;
             let (dx, dy) = (e.x - qx, e.y - qy);
-            dx * dx + dy * dy <= reach * reach && e.shape.intersects(query)
+            let d2 = dx * dx + dy * dy;
+            if d2 > (reach + SLACK_M) * (reach + SLACK_M) {
+                false
+            } else if surely_within(d2, reach) {
+                e.shape.intersects_exact(query)
+            } else {
+                e.shape.intersects(query)
+            }
         })
     }
 
@@ -95,7 +111,12 @@ impl BoxSet {
             if reach.is_finite() && dx * dx + dy * dy > reach * reach {
                 continue;
             }
-            let d = if query.intersects(&e.shape) { 0.0 } else { query.distance(&e.shape) };
+            let touches = if surely_within(dx * dx + dy * dy, qr + e.radius_m) {
+                query.intersects_exact(&e.shape)
+            } else {
+                query.intersects(&e.shape)
+            };
+            let d = if touches { 0.0 } else { query.distance(&e.shape) };
             nearest = nearest.min(d);
         }
         nearest
