@@ -5,8 +5,10 @@
 //! tract, single-threaded. As the reference, the same ONNX graphs are timed
 //! in onnxruntime and PyTorch in the same run (by the training
 //! environment's `training/prior/bench_latency.py`, when it is installed),
-//! and the ratios printed side by side.
+//! and the ratios printed side by side; when it is not installed the
+//! report says so (in the table and in `--json OUT`) instead of failing.
 
+use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::{Command, ExitCode};
 use std::time::{Duration, Instant};
@@ -41,8 +43,68 @@ fn median_us(repeat: usize, mut f: impl FnMut()) -> f64 {
     times[times.len() / 2].as_secs_f64() * 1e6
 }
 
+/// The whole report (`--json`).
+#[derive(Debug, serde::Serialize)]
+struct BenchModelsReport {
+    /// `release` or `debug`.
+    profile: &'static str,
+    repeat: usize,
+    scene: String,
+    agents_present: usize,
+    map_tokens: usize,
+    /// tract, single-threaded, µs.
+    tract: TractFigures,
+    reference: Reference,
+}
+
+/// tract's figures, µs (medians).
+#[derive(Debug, serde::Serialize)]
+struct TractFigures {
+    map_encoding_us: f64,
+    cbv_query_features_us: f64,
+    cbv_query_us: f64,
+    full_scene_step_us: f64,
+    decoder_batch_1_us: f64,
+    /// The batch of `decoder_scene_batch_us`.
+    scene_batch: usize,
+    decoder_scene_batch_us: f64,
+}
+
+/// The onnxruntime / PyTorch reference of the same run.
+#[derive(Debug, serde::Serialize)]
+struct Reference {
+    /// Whether the reference ran and gave figures.
+    available: bool,
+    /// Why not, in words (`None` when it ran).
+    missing_because: Option<String>,
+    /// One row per engine and batch size.
+    rows: Vec<ReferenceRow>,
+}
+
+/// The decoder in a reference engine against tract.
+#[derive(Debug, serde::Serialize)]
+struct ReferenceRow {
+    /// `onnxruntime` or `torch`.
+    engine: String,
+    batch: usize,
+    reference_us: f64,
+    tract_us: f64,
+    /// `tract / reference`.
+    ratio: f64,
+}
+
 /// Runs the command.
-pub(super) fn run(scenes: &Path, models: &ModelSource, repeat: usize) -> Result<ExitCode, CliError> {
+pub(super) fn run(
+    scenes: &Path,
+    models: &ModelSource,
+    repeat: usize,
+    python: &Path,
+    json: Option<&Path>,
+) -> Result<ExitCode, CliError> {
+    if let Some(path) = json {
+        crate::record::output::check_output(path)?;
+    }
+    let mut out = super::table_writer(json);
     let profile = if cfg!(debug_assertions) { "debug" } else { "release" };
     let scenes = load_scenes(scenes, None)?;
     // The busiest scene is the honest case for a full-scene step.
@@ -53,11 +115,12 @@ pub(super) fn run(scenes: &Path, models: &ModelSource, repeat: usize) -> Result<
     let step = scene.current_step;
     let present: Vec<usize> = (0..scene.tracks.len()).filter(|&i| scene.tracks[i].state(step).is_some()).collect();
     let cbv = scene.cbv.map_or(present[0], |c| c.0);
-    println!(
+    writeln!(
+        out,
         "safer bench-models: {profile} build, single-threaded tract, median of {repeat} runs; scene {} ({} agents present)",
         scene.id,
         present.len()
-    );
+    )?;
     let prior = RealismPrior::load(models, PriorVariant::Differential)?;
     let history = LogHistory(scene);
     let bodies: Vec<_> = scene.tracks.iter().map(|t| t.body()).collect();
@@ -81,19 +144,21 @@ pub(super) fn run(scenes: &Path, models: &ModelSource, repeat: usize) -> Result<
         let refs: Vec<_> = qs.iter().collect();
         prior.logits(&refs, &embedding).expect("decoder ran once");
     });
-    println!("{:<52} {:>12}", "tract", "µs");
-    println!(
+    writeln!(out, "{:<52} {:>12}", "tract", "µs")?;
+    writeln!(
+        out,
         "{:<52} {:>12.0}",
         format!("map encoding, whole scenario ({} map tokens)", tokens.tokens.len()),
         encode_us
-    );
-    println!("{:<52} {:>12.0}", "CBV query: features only", features_us);
-    println!("{:<52} {:>12.0}", "CBV query: features + decoder (batch 1)", query_us);
-    println!(
+    )?;
+    writeln!(out, "{:<52} {:>12.0}", "CBV query: features only", features_us)?;
+    writeln!(out, "{:<52} {:>12.0}", "CBV query: features + decoder (batch 1)", query_us)?;
+    writeln!(
+        out,
         "{:<52} {:>12.0}",
         format!("full-scene step: {} agents, decoder batch {SCENE_BATCH}", present.len()),
         scene_us
-    );
+    )?;
     let decoder_batch_us = {
         let qs: Vec<_> = present
             .iter()
@@ -111,11 +176,10 @@ pub(super) fn run(scenes: &Path, models: &ModelSource, repeat: usize) -> Result<
             prior.logits(&[&q], &embedding).expect("decoder ran once");
         })
     };
-    println!("{:<52} {:>12.0}", "decoder only, batch 1", decoder_single_us);
-    println!("{:<52} {:>12.0}", format!("decoder only, batch {SCENE_BATCH}"), decoder_batch_us);
+    writeln!(out, "{:<52} {:>12.0}", "decoder only, batch 1", decoder_single_us)?;
+    writeln!(out, "{:<52} {:>12.0}", format!("decoder only, batch {SCENE_BATCH}"), decoder_batch_us)?;
 
     // The same graphs in onnxruntime and PyTorch, in this run.
-    let python = Path::new("training/.venv/bin/python");
     let script = Path::new("training/prior/bench_latency.py");
     // The reference scripts live in a checkout (training/), whose models/
     // holds the originals of the embedded files.
@@ -123,39 +187,97 @@ pub(super) fn run(scenes: &Path, models: &ModelSource, repeat: usize) -> Result<
         ModelSource::Folder(dir) => dir.clone(),
         ModelSource::Embedded => PathBuf::from(crate::models::source::MODELS_FOLDER),
     };
+    let mut reference = Reference { available: false, missing_because: None, rows: Vec::new() };
     if python.exists() && script.exists() {
-        let out = Command::new(python)
+        let ran = Command::new(python)
             .arg(script)
             .args(["--models", &reference_models.display().to_string(), "--batches", &format!("1,{SCENE_BATCH}")])
             .args(["--repeat", &repeat.to_string()])
-            .output()?;
-        let text = String::from_utf8_lossy(&out.stdout);
-        match text.lines().rev().find_map(|l| serde_json::from_str::<serde_json::Value>(l).ok()) {
-            Some(v) => {
-                println!("\nreference (same ONNX graph, same machine, this run; single thread):");
-                println!("{:<28} {:>12} {:>12} {:>14}", "decoder", "µs", "tract µs", "tract / ref");
-                for (engine, key) in [("onnxruntime", "onnxruntime"), ("PyTorch (eager)", "torch")] {
-                    for (batch, ours) in [(1, decoder_single_us), (SCENE_BATCH, decoder_batch_us)] {
-                        if let Some(us) = v.get(key).and_then(|e| e.get(batch.to_string())).and_then(|x| x.as_f64()) {
-                            println!(
-                                "{:<28} {:>12.0} {:>12.0} {:>14.2}",
-                                format!("{engine}, batch {batch}"),
-                                us,
-                                ours,
-                                ours / us.max(1e-9)
-                            );
+            .output();
+        match ran {
+            Ok(ran) => {
+                let text = String::from_utf8_lossy(&ran.stdout);
+                match text.lines().rev().find_map(|l| serde_json::from_str::<serde_json::Value>(l).ok()) {
+                    Some(v) => {
+                        for key in ["onnxruntime", "torch"] {
+                            for (batch, ours) in [(1, decoder_single_us), (SCENE_BATCH, decoder_batch_us)] {
+                                if let Some(us) =
+                                    v.get(key).and_then(|e| e.get(batch.to_string())).and_then(|x| x.as_f64())
+                                {
+                                    reference.rows.push(ReferenceRow {
+                                        engine: key.to_string(),
+                                        batch,
+                                        reference_us: us,
+                                        tract_us: ours,
+                                        ratio: ours / us.max(1e-9),
+                                    });
+                                }
+                            }
                         }
+                        reference.available = !reference.rows.is_empty();
+                        if !reference.available {
+                            reference.missing_because = Some(format!("{} gave no figures", script.display()));
+                        }
+                    }
+                    None => {
+                        reference.missing_because = Some(format!(
+                            "{} gave no JSON (exit {:?}): {}",
+                            script.display(),
+                            ran.status.code(),
+                            String::from_utf8_lossy(&ran.stderr).lines().last().unwrap_or("")
+                        ))
                     }
                 }
             }
-            None => eprintln!(
-                "reference run gave no JSON (exit {:?}): {}",
-                out.status.code(),
-                String::from_utf8_lossy(&out.stderr).lines().last().unwrap_or("")
-            ),
+            Err(e) => reference.missing_because = Some(format!("{} could not be started: {e}", python.display())),
         }
     } else {
-        println!("\n(no reference: install the training environment, see training/README.md)");
+        reference.missing_because = Some(format!(
+            "the training environment is not installed ({} or {} missing; see training/README.md)",
+            python.display(),
+            script.display()
+        ));
+    }
+    if reference.available {
+        writeln!(out, "\nreference (same ONNX graph, same machine, this run; single thread):")?;
+        writeln!(out, "{:<28} {:>12} {:>12} {:>14}", "decoder", "µs", "tract µs", "tract / ref")?;
+        for r in &reference.rows {
+            let engine = if r.engine == "torch" { "PyTorch (eager)" } else { r.engine.as_str() };
+            writeln!(
+                out,
+                "{:<28} {:>12.0} {:>12.0} {:>14.2}",
+                format!("{engine}, batch {}", r.batch),
+                r.reference_us,
+                r.tract_us,
+                r.ratio
+            )?;
+        }
+    } else {
+        writeln!(out, "\nno reference in this run: {}", reference.missing_because.as_deref().unwrap_or("unknown"))?;
+    }
+    out.flush()?;
+    if let Some(path) = json {
+        let report = BenchModelsReport {
+            profile,
+            repeat,
+            scene: scene.id.clone(),
+            agents_present: present.len(),
+            map_tokens: tokens.tokens.len(),
+            tract: TractFigures {
+                map_encoding_us: encode_us,
+                cbv_query_features_us: features_us,
+                cbv_query_us: query_us,
+                full_scene_step_us: scene_us,
+                decoder_batch_1_us: decoder_single_us,
+                scene_batch: SCENE_BATCH,
+                decoder_scene_batch_us: decoder_batch_us,
+            },
+            reference,
+        };
+        crate::record::write_output(path, (serde_json::to_string_pretty(&report)? + "\n").as_bytes())?;
+        if !crate::record::is_stdout(path) {
+            eprintln!("wrote {}", path.display());
+        }
     }
     Ok(ExitCode::SUCCESS)
 }

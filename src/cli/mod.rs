@@ -99,7 +99,7 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
-    /// Benchmarks: import time per scene per format, simulator steps per second.
+    /// Benchmarks: import time per scene per format, simulator steps per second, one SaFeR variant and its witness search; each beside its reference.
     Bench {
         /// Folder of scenario files (searched recursively); `data:` is the shared data folder.
         #[arg(long, default_value = "data:", value_parser = data_path)]
@@ -107,6 +107,9 @@ enum Command {
         /// Repetitions of each measurement (the median is reported), at least 1.
         #[arg(long, default_value_t = 3, value_parser = at_least_one())]
         repeat: usize,
+        /// Also write the figures as JSON (`-`: standard output, the table then goes to stderr).
+        #[arg(long, value_name = "OUT")]
+        json: Option<PathBuf>,
     },
     /// Run scenario suites (the same variants and metrics as `cargo test --test suites`).
     Run {
@@ -174,6 +177,12 @@ enum Command {
         /// Repetitions (the median is reported), at least 1.
         #[arg(long, default_value_t = 200, value_parser = at_least_one())]
         repeat: usize,
+        /// Python of the training environment, which times the reference (onnxruntime, PyTorch); without it the report says there is none.
+        #[arg(long, default_value = "training/.venv/bin/python")]
+        python: PathBuf,
+        /// Also write the figures as JSON (`-`: standard output, the table then goes to stderr).
+        #[arg(long, value_name = "OUT")]
+        json: Option<PathBuf>,
     },
     /// Dual-stage evaluation of adversary methods: CR, SR, SR on critical variants, witness rate, VJ, AJ.
     Evaluate {
@@ -342,7 +351,7 @@ pub fn main() -> ExitCode {
         Command::Inspect { file, json } => inspect::run(&file, json),
         Command::Simulate { path, planner, background, json } => simulate::run(&path, planner, background, json),
         Command::TokenRoundtrip { scenes, json } => token_roundtrip::run(&scenes, json),
-        Command::Bench { scenes, repeat } => bench::run(&scenes, repeat),
+        Command::Bench { scenes, repeat, json } => bench::run(&scenes, repeat, json.as_deref()),
         Command::Run { suites, json, junit, html, artifacts, filter, jobs } => {
             if json.as_deref().is_some_and(crate::record::is_stdout)
                 && junit.as_deref().is_some_and(crate::record::is_stdout)
@@ -363,9 +372,13 @@ pub fn main() -> ExitCode {
         }
         Command::Schema { kind, out } => schema::run(kind, out.as_deref()),
         Command::Render { file, step, out, force } => render::run(&file, step, out.as_deref(), force),
-        Command::BenchModels { scenes, models, repeat } => {
-            bench_models::run(&scenes, &crate::models::ModelSource::folder_or_shipped(models), repeat)
-        }
+        Command::BenchModels { scenes, models, repeat, python, json } => bench_models::run(
+            &scenes,
+            &crate::models::ModelSource::folder_or_shipped(models),
+            repeat,
+            &python,
+            json.as_deref(),
+        ),
         Command::Evaluate {
             scenes,
             methods,

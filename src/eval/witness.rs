@@ -9,7 +9,7 @@
 //! that none was found within its budget (which is not a proof of
 //! infeasibility).
 
-use crate::geometry::OrientedBox;
+use crate::geometry::{BoxSet, OrientedBox};
 use crate::motion::tokens::{MAX_ACCEL_MPS2, MAX_YAW_RATE_RADPS, SIM_DT_S, TOKEN_PERIOD_STEPS};
 use crate::motion::{Action, KinematicState, kinematic_step};
 use crate::scenario::{AgentBody, AgentState};
@@ -74,28 +74,48 @@ pub struct FixedTraffic<'a> {
     pub ego: usize,
 }
 
-#[derive(Debug, Clone)]
+/// One beam entry: the states of its last token period, linked to the
+/// entry of the period before it it grew from (so expanding a candidate
+/// copies five states, not its whole history).
+#[derive(Debug, Clone, Copy)]
 struct Candidate {
-    trajectory: Vec<KinematicState>,
+    /// Index of the parent in the previous period's beam (unused in period 0).
+    parent: usize,
+    /// The states of this period, `segment[..len]`.
+    segment: [KinematicState; TOKEN_PERIOD_STEPS],
+    len: usize,
     clearance_m: f64,
 }
 
-impl FixedTraffic<'_> {
-    /// Smallest box distance from the ego at `step` to any other agent.
-    fn clearance(&self, step: usize, ego: &KinematicState, body: AgentBody) -> f64 {
-        let Some(row) = self.states.get(step) else { return f64::INFINITY };
-        let ego_box = OrientedBox::new(ego.to_agent_state().pose(), body.length_m, body.width_m);
-        row.iter()
-            .enumerate()
-            .filter(|(i, _)| *i != self.ego)
-            .filter_map(|(i, s)| s.map(|s| (i, s)))
-            .map(|(i, s)| {
-                let b = self.bodies[i];
-                let other = OrientedBox::new(s.pose(), b.length_m, b.width_m);
-                if ego_box.intersects(&other) { 0.0 } else { ego_box.distance(&other) }
-            })
-            .fold(f64::INFINITY, f64::min)
+impl Candidate {
+    fn last(&self, start: &KinematicState) -> KinematicState {
+        if self.len == 0 { *start } else { self.segment[self.len - 1] }
     }
+}
+
+impl FixedTraffic<'_> {
+    /// Every other agent's box at every step, for the broad phase.
+    fn obstacles(&self) -> Vec<BoxSet> {
+        self.states
+            .iter()
+            .map(|row| {
+                BoxSet::new(row.iter().enumerate().filter(|(i, _)| *i != self.ego).filter_map(|(i, s)| {
+                    s.map(|s| {
+                        let b = self.bodies[i];
+                        OrientedBox::new(s.pose(), b.length_m, b.width_m)
+                    })
+                }))
+            })
+            .collect()
+    }
+}
+
+/// The smaller of `bound` and the smallest box distance from the ego at
+/// `step` to any other agent (infinite past the recorded steps).
+fn clearance_below(obstacles: &[BoxSet], step: usize, ego: &KinematicState, body: AgentBody, bound: f64) -> f64 {
+    let Some(set) = obstacles.get(step) else { return bound };
+    let ego_box = OrientedBox::new(ego.to_agent_state().pose(), body.length_m, body.width_m);
+    set.clearance_below(&ego_box, bound)
 }
 
 /// Searches an ego trajectory from `start` over `horizon_steps` simulator
@@ -108,17 +128,21 @@ pub fn search_witness(
     budget: WitnessBudget,
 ) -> Witness {
     let start = KinematicState::from_agent_state(start);
-    let first_clearance = traffic.clearance(0, &start, body);
+    let obstacles = traffic.obstacles();
+    let first_clearance = clearance_below(&obstacles, 0, &start, body, f64::INFINITY);
     if first_clearance <= budget.margin_m {
         // Already touching at the start: nothing the ego does can undo it.
         return Witness::NoneWithinBudget { expansions: 0 };
     }
-    let mut beam = vec![Candidate { trajectory: vec![start], clearance_m: first_clearance }];
+    let root = Candidate { parent: 0, segment: [start; TOKEN_PERIOD_STEPS], len: 0, clearance_m: first_clearance };
+    // `beams[p]`: the beam after period p (`beams[0]`: the start alone).
+    let mut beams: Vec<Vec<Candidate>> = vec![vec![root]];
     let mut expansions = 0;
     let periods = horizon_steps.div_ceil(TOKEN_PERIOD_STEPS);
     for period in 0..periods {
+        let beam = beams.last().expect("the start's beam");
         let mut next: Vec<Candidate> = Vec::with_capacity(beam.len() * ACCELS_MPS2.len() * YAW_RATES_RADPS.len());
-        for c in &beam {
+        for (parent, c) in beam.iter().enumerate() {
             for &a in &ACCELS_MPS2 {
                 for &w in &YAW_RATES_RADPS {
                     if expansions >= budget.max_expansions {
@@ -127,23 +151,24 @@ pub fn search_witness(
                     expansions += 1;
                     let action =
                         Action { accel_mps2: a, yaw_rate_radps: w.clamp(-MAX_YAW_RATE_RADPS, MAX_YAW_RATE_RADPS) };
-                    let mut s = *c.trajectory.last().expect("non-empty");
-                    let mut clearance = c.clearance_m;
-                    let mut trajectory = c.trajectory.clone();
+                    let mut s = c.last(&start);
+                    let mut child =
+                        Candidate { parent, segment: [s; TOKEN_PERIOD_STEPS], len: 0, clearance_m: c.clearance_m };
                     for k in 0..TOKEN_PERIOD_STEPS {
                         let step = period * TOKEN_PERIOD_STEPS + k + 1;
                         if step > horizon_steps {
                             break;
                         }
                         s = kinematic_step(&s, action, SIM_DT_S);
-                        clearance = clearance.min(traffic.clearance(step, &s, body));
-                        if clearance <= budget.margin_m {
+                        child.clearance_m = clearance_below(&obstacles, step, &s, body, child.clearance_m);
+                        if child.clearance_m <= budget.margin_m {
                             break;
                         }
-                        trajectory.push(s);
+                        child.segment[child.len] = s;
+                        child.len += 1;
                     }
-                    if clearance > budget.margin_m {
-                        next.push(Candidate { trajectory, clearance_m: clearance });
+                    if child.clearance_m > budget.margin_m {
+                        next.push(child);
                     }
                 }
             }
@@ -154,14 +179,20 @@ pub fn search_witness(
         // Keep the widest margins; ties by the order tried (deterministic).
         next.sort_by(|a, b| b.clearance_m.total_cmp(&a.clearance_m));
         next.truncate(budget.beam_width);
-        beam = next;
+        beams.push(next);
     }
-    let best = beam.swap_remove(0);
-    Witness::Found {
-        trajectory: best.trajectory.iter().map(KinematicState::to_agent_state).collect(),
-        min_clearance_m: best.clearance_m,
-        expansions,
+    // Walk the best candidate's links back to the start.
+    let best = &beams.last().expect("the start's beam")[0];
+    let mut segments = Vec::with_capacity(beams.len());
+    let mut at = 0;
+    for beam in beams.iter().rev() {
+        let c = &beam[at];
+        segments.push(&c.segment[..c.len]);
+        at = c.parent;
     }
+    let mut trajectory = vec![start.to_agent_state()];
+    trajectory.extend(segments.iter().rev().flat_map(|seg| seg.iter().map(KinematicState::to_agent_state)));
+    Witness::Found { trajectory, min_clearance_m: best.clearance_m, expansions }
 }
 
 #[cfg(test)]

@@ -7,11 +7,13 @@
 //! else. Coordinates are re-centred per scenario (see `scenario`), so the
 //! `f32` conversion at the parry boundary keeps millimetre precision.
 
+pub mod box_set;
 pub mod oriented_box;
 pub mod polygon;
 pub mod polyline;
 pub mod pose;
 
+pub use box_set::BoxSet;
 pub use oriented_box::OrientedBox;
 pub use polygon::Polygon;
 pub use polyline::{Polyline, PolylineProjection};

@@ -47,6 +47,13 @@ impl OrientedBox {
         if (self.pose.position - other.pose.position).norm_squared() > reach * reach {
             return false;
         }
+        self.intersects_exact(other)
+    }
+
+    /// The separating-axis test of [`Self::intersects`] without its
+    /// bounding-circle reject, for callers whose own broad phase has already
+    /// shown that reject would not fire (see [`super::BoxSet`]).
+    pub(crate) fn intersects_exact(&self, other: &OrientedBox) -> bool {
         intersection_test_cuboid_cuboid(&self.relative_pose(other), &self.cuboid(), &other.cuboid())
     }
 

@@ -15,7 +15,7 @@
 //! applied, and the lattice is rebuilt at the next step.
 
 use super::{Observation, Planner, PlannerError, PlannerOutput};
-use crate::geometry::{OrientedBox, Pose2, Vector2, wrap_angle};
+use crate::geometry::{BoxSet, OrientedBox, Pose2, Vector2, wrap_angle};
 use crate::motion::tokens::{MAX_ACCEL_MPS2, MAX_YAW_RATE_RADPS, SIM_DT_S};
 use crate::motion::{Action, KinematicState, kinematic_step};
 use crate::policies::{Route, build_route};
@@ -116,22 +116,20 @@ impl Planner for EvasivePlanner {
         // Bounded for any horizon (an infinite one would never finish): 10 minutes at most.
         let steps = (self.params.horizon_s / SIM_DT_S).round().clamp(1.0, 6000.0) as usize;
 
-        // Constant-velocity predictions of everyone within range.
-        let predictions: Vec<Vec<OrientedBox>> = obs
-            .agents
-            .iter()
-            .filter(|a| (a.state.position - ego.position).norm() < PREDICTION_RANGE_M)
-            .map(|a| {
-                (1..=steps)
-                    .map(|k| {
-                        let t = k as f64 * SIM_DT_S;
-                        let pose = Pose2 {
-                            position: a.state.position + a.state.velocity_mps * t,
-                            heading_rad: a.state.heading_rad,
-                        };
-                        OrientedBox::new(pose, a.length_m, a.width_m)
-                    })
-                    .collect()
+        // Constant-velocity predictions of everyone within range, one box
+        // set per step (`predictions[k]`: after k + 1 steps).
+        let near: Vec<_> =
+            obs.agents.iter().filter(|a| (a.state.position - ego.position).norm() < PREDICTION_RANGE_M).collect();
+        let predictions: Vec<BoxSet> = (1..=steps)
+            .map(|k| {
+                let t = k as f64 * SIM_DT_S;
+                BoxSet::new(near.iter().map(|a| {
+                    let pose = Pose2 {
+                        position: a.state.position + a.state.velocity_mps * t,
+                        heading_rad: a.state.heading_rad,
+                    };
+                    OrientedBox::new(pose, a.length_m, a.width_m)
+                }))
             })
             .collect();
         // The first red stop line ahead on the route, as an arc length.
@@ -166,7 +164,7 @@ impl EvasivePlanner {
         &self,
         obs: &Observation<'_>,
         route: &Route,
-        predictions: &[Vec<OrientedBox>],
+        predictions: &[BoxSet],
         red_stop_s: Option<f64>,
         start_s: f64,
         v_des: f64,
@@ -180,7 +178,7 @@ impl EvasivePlanner {
         let mut cost = 0.0;
         let mut first = None;
         let mut travelled_s = start_s;
-        for k in 0..steps {
+        for (k, others) in predictions.iter().enumerate().take(steps) {
             // Pure pursuit towards the route point ahead, shifted sideways by `offset`.
             let proj = route.path.project(&s.position);
             let s_here = proj.map_or(travelled_s, |p| p.arc_length_m);
@@ -205,7 +203,7 @@ impl EvasivePlanner {
             first.get_or_insert(action);
             s = kinematic_step(&s, action, SIM_DT_S);
             let ego_box = OrientedBox::new(Pose2 { position: s.position, heading_rad: s.heading_rad }, len, wid);
-            if predictions.iter().any(|p| p[k].intersects(&ego_box)) {
+            if others.any_intersects(&ego_box) {
                 // Earlier collisions are worse; this dominates every other term.
                 cost += COLLISION_COST * (2.0 - k as f64 / steps as f64);
                 break;
@@ -218,7 +216,7 @@ impl EvasivePlanner {
                 headway_m,
                 wid,
             );
-            if predictions.iter().any(|p| p[k].intersects(&zone)) {
+            if others.any_intersects(&zone) {
                 cost += HEADWAY_COST;
             }
             if let Some(stop) = red_stop_s

@@ -6,6 +6,7 @@ mod shared_data;
 
 mod adversary;
 mod bad_input;
+mod bench;
 mod cli;
 mod cli_run;
 mod feasibility_model;

@@ -1,0 +1,119 @@
+//! `safer bench` and `safer bench-models` write their figures, each beside
+//! its reference, as JSON; a missing training environment (the reference of
+//! `bench-models`) is said in the JSON, not an error.
+
+use std::process::Command;
+
+use super::shared_data;
+
+/// The smallest shared WOMD JSON scene (it has an ego and a CBV).
+fn small_scene() -> std::path::PathBuf {
+    shared_data::files("womd-json", "json")
+        .into_iter()
+        .min_by_key(|p| (std::fs::metadata(p).map(|m| m.len()).unwrap_or(u64::MAX), p.clone()))
+        .expect("files() is never empty")
+}
+
+/// A fresh scratch folder for one test.
+fn scratch(name: &str) -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!("safer-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn read_json(path: &std::path::Path) -> serde_json::Value {
+    let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    serde_json::from_str(&text).unwrap_or_else(|e| panic!("{}: {e}\n{text}", path.display()))
+}
+
+#[test]
+fn bench_writes_every_figure_beside_its_reference_as_json() {
+    let dir = scratch("bench-json");
+    let out = dir.join("bench.json");
+    let run = Command::new(env!("CARGO_BIN_EXE_safer"))
+        .args(["bench", "--repeat", "1", "--scenes"])
+        .arg(small_scene())
+        .arg("--json")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    let v = read_json(&out);
+    assert_eq!(v["repeat"], 1);
+    let import = v["import"].as_array().expect("import rows");
+    assert_eq!(import.len(), 1, "{import:?}");
+    assert_eq!(import[0]["format"], "womd-json");
+    assert!(import[0]["ratio_to_file_read"].as_f64().unwrap() > 0.0);
+    let variant = &v["variant"];
+    for key in ["stage1_ms", "stage2_ms", "variant_ms", "witness_ms"] {
+        assert!(variant[key].as_f64().is_some_and(|ms| ms > 0.0), "{key}: {variant}");
+    }
+    assert_eq!(variant["variant_target_ms"], 50.0);
+    assert_eq!(variant["witness_target_ms"], 10.0);
+    let ratio = variant["variant_ratio_to_target"].as_f64().unwrap();
+    assert!((ratio - variant["variant_ms"].as_f64().unwrap() / 50.0).abs() < 1e-9, "{variant}");
+    assert!(variant["witness_found"].is_boolean());
+    // The table still went to stdout.
+    assert!(String::from_utf8_lossy(&run.stdout).contains("SaFeR variant"));
+}
+
+#[test]
+fn bench_models_json_says_plainly_when_the_reference_is_missing() {
+    let dir = scratch("bench-models-no-reference");
+    let out = dir.join("models.json");
+    let run = Command::new(env!("CARGO_BIN_EXE_safer"))
+        .args(["bench-models", "--repeat", "1", "--python"])
+        .arg(dir.join("no-such-python"))
+        .arg("--scenes")
+        .arg(small_scene())
+        .arg("--json")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    let v = read_json(&out);
+    for key in ["map_encoding_us", "cbv_query_us", "full_scene_step_us", "decoder_batch_1_us", "decoder_scene_batch_us"]
+    {
+        assert!(v["tract"][key].as_f64().is_some_and(|us| us > 0.0), "{key}: {v}");
+    }
+    assert_eq!(v["reference"]["available"], false);
+    let why = v["reference"]["missing_because"].as_str().expect("a reason");
+    assert!(why.contains("not installed") && why.contains("no-such-python"), "{why}");
+    assert!(String::from_utf8_lossy(&run.stdout).contains("no reference in this run"));
+}
+
+#[test]
+fn bench_models_json_carries_the_reference_ratios_when_the_training_environment_exists() {
+    // `$SAFER_TRAINING_PYTHON` names an environment installed elsewhere
+    // (another checkout's training/.venv).
+    let python = std::env::var_os("SAFER_TRAINING_PYTHON")
+        .map(std::path::PathBuf::from)
+        .unwrap_or_else(|| std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("training/.venv/bin/python"));
+    if !python.exists() {
+        // CI without the training environment: the test above covers the JSON.
+        eprintln!("skipped: {} is not installed", python.display());
+        return;
+    }
+    let dir = scratch("bench-models-reference");
+    let out = dir.join("models.json");
+    let run = Command::new(env!("CARGO_BIN_EXE_safer"))
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .args(["bench-models", "--repeat", "2", "--python"])
+        .arg(&python)
+        .arg("--scenes")
+        .arg(small_scene())
+        .arg("--json")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    let v = read_json(&out);
+    assert_eq!(v["reference"]["available"], true, "{v}");
+    let rows = v["reference"]["rows"].as_array().unwrap();
+    assert!(rows.iter().any(|r| r["engine"] == "onnxruntime"), "{rows:?}");
+    for r in rows {
+        let (ours, theirs) = (r["tract_us"].as_f64().unwrap(), r["reference_us"].as_f64().unwrap());
+        assert!((r["ratio"].as_f64().unwrap() - ours / theirs).abs() < 1e-9, "{r}");
+    }
+}
