@@ -12,7 +12,7 @@ use super::wire::{
     WireSignal, WireSignalStop, WireStopSign,
 };
 use crate::geometry::{Point2, Polyline, Vector2};
-use crate::map::RoadMap;
+use crate::map::{Lane, MapElementId, RoadMap};
 use crate::motion::Action;
 use crate::planners::{Observation, PlannerOutput, TrajectoryPoint};
 use crate::scenario::AgentState;
@@ -200,38 +200,69 @@ fn clip(line: &Polyline, centre: &Point2, radius_m: f64) -> Option<Vec<[f64; 2]>
 /// The route hint: the ego's lane centreline ahead, following first
 /// successors, up to [`ROUTE_LENGTH_M`].
 fn route_ahead(map: &RoadMap, ego: &AgentState) -> Vec<[f64; 2]> {
-    let mut route: Vec<[f64; 2]> = Vec::new();
-    let Some(m) = map.nearest_lane(&ego.position, Some(ego.heading_rad), ROUTE_LANE_SEARCH_M) else {
-        return route;
-    };
+    let first_successor = |lane: &Lane| lane.successors.first().and_then(|id| map.lane(*id));
+    walk_lanes(map, ego, ROUTE_LANE_SEARCH_M, 0.0, ROUTE_LENGTH_M, ROUTE_MAX_LANES, first_successor)
+        .map(|walk| walk.points)
+        .unwrap_or_default()
+}
+
+/// A path along lane centrelines: the lanes, in order, and their points.
+#[derive(Debug, Default)]
+pub(super) struct LaneWalk {
+    /// The lanes walked, in order.
+    pub(super) lanes: Vec<MapElementId>,
+    /// Points every [`MAP_SPACING_M`] or less, joints kept once.
+    pub(super) points: Vec<[f64; 2]>,
+    /// Whether the walk reached the length asked for (else the lanes ran out).
+    pub(super) reached_length: bool,
+}
+
+/// Walks from the ego's lane (the nearest within `search_m` running its
+/// way; `None` when there is none) from `behind_m` behind the ego's
+/// projection to `ahead_m` ahead, taking `next(lane)` at each lane's end,
+/// over at most `max_lanes` lanes. Both routes of the protocol (the 1.0 hint
+/// and the 1.1 stable route) are such walks.
+pub(super) fn walk_lanes<'m>(
+    map: &'m RoadMap,
+    ego: &AgentState,
+    search_m: f64,
+    behind_m: f64,
+    ahead_m: f64,
+    max_lanes: usize,
+    mut next: impl FnMut(&'m Lane) -> Option<&'m Lane>,
+) -> Option<LaneWalk> {
+    let m = map.nearest_lane(&ego.position, Some(ego.heading_rad), search_m)?;
     // nearest_lane prefers lanes in the ego's direction but falls back to
     // others; a route against the traffic would mislead.
     let forward = Vector2::new(ego.heading_rad.cos(), ego.heading_rad.sin());
     if m.projection.tangent.dot(&forward) <= 0.0 {
-        return route;
+        return None;
     }
+    let mut walk = LaneWalk::default();
     let mut lane = &map.lanes[m.lane_index];
-    let mut s0 = m.projection.arc_length_m;
-    let mut remaining = ROUTE_LENGTH_M;
-    for _ in 0..ROUTE_MAX_LANES {
+    let mut s0 = (m.projection.arc_length_m - behind_m).max(0.0);
+    let mut remaining = ahead_m + (m.projection.arc_length_m - s0);
+    for _ in 0..max_lanes {
+        walk.lanes.push(lane.id);
         let take = (lane.centreline.length_m() - s0).max(0.0).min(remaining);
         for p in samples(&lane.centreline, s0, take) {
             // Consecutive lanes share their joining point: keep it once.
-            if route.last().is_none_or(|q| (q[0] - p.x).hypot(q[1] - p.y) > 1e-6) {
-                route.push([p.x, p.y]);
+            if walk.points.last().is_none_or(|q| (q[0] - p.x).hypot(q[1] - p.y) > 1e-6) {
+                walk.points.push([p.x, p.y]);
             }
         }
         remaining -= take;
         if remaining <= 1e-9 {
+            walk.reached_length = true;
             break;
         }
-        let Some(next) = lane.successors.first().and_then(|id| map.lane(*id)) else {
+        let Some(following) = next(lane) else {
             break;
         };
-        lane = next;
+        lane = following;
         s0 = 0.0;
     }
-    route
+    Some(walk)
 }
 /// Why a reply to an observation gives no [`PlannerOutput`].
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]

@@ -80,40 +80,19 @@ impl StableRoute {
 /// Plans a route from the ego's lane (the nearest within 10 m running its
 /// way), [`ROUTE_BEHIND_M`] behind it to [`ROUTE_AHEAD_PLANNED_M`] ahead.
 fn plan(map: &RoadMap, ego: &AgentState, recorded: &[Point2]) -> StableRoute {
-    let mut route = StableRoute::default();
-    let Some(m) = map.nearest_lane(&ego.position, Some(ego.heading_rad), LANE_SEARCH_M) else {
-        return route;
+    let at_fork = |lane: &crate::map::Lane| choose_successor(map, &lane.successors, recorded);
+    let Some(walk) =
+        super::encoding::walk_lanes(map, ego, LANE_SEARCH_M, ROUTE_BEHIND_M, ROUTE_AHEAD_PLANNED_M, MAX_LANES, at_fork)
+    else {
+        return StableRoute::default();
     };
-    let forward = Vector2::new(ego.heading_rad.cos(), ego.heading_rad.sin());
-    if m.projection.tangent.dot(&forward) <= 0.0 {
-        return route;
+    StableRoute {
+        line: Polyline::new(walk.points.iter().map(|p| Point2::new(p[0], p[1])).collect()),
+        lanes: walk.lanes,
+        points: walk.points,
+        ends_with_map: !walk.reached_length,
+        ..StableRoute::default()
     }
-    let mut lane = &map.lanes[m.lane_index];
-    let mut s0 = (m.projection.arc_length_m - ROUTE_BEHIND_M).max(0.0);
-    let mut remaining = ROUTE_AHEAD_PLANNED_M + (m.projection.arc_length_m - s0);
-    route.ends_with_map = true;
-    for _ in 0..MAX_LANES {
-        route.lanes.push(lane.id);
-        let take = (lane.centreline.length_m() - s0).max(0.0).min(remaining);
-        for p in super::encoding::samples(&lane.centreline, s0, take) {
-            // Consecutive lanes share their joining point: keep it once.
-            if route.points.last().is_none_or(|q| (q[0] - p.x).hypot(q[1] - p.y) > 1e-6) {
-                route.points.push([p.x, p.y]);
-            }
-        }
-        remaining -= take;
-        if remaining <= 1e-9 {
-            route.ends_with_map = false;
-            break;
-        }
-        let Some(next) = choose_successor(map, &lane.successors, recorded) else {
-            break;
-        };
-        lane = next;
-        s0 = 0.0;
-    }
-    route.line = Polyline::new(route.points.iter().map(|p| Point2::new(p[0], p[1])).collect());
-    route
 }
 
 /// The successor the recording passes closest to (the first on ties or
