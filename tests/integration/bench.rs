@@ -58,19 +58,26 @@ fn bench_writes_every_figure_beside_its_reference_as_json() {
     assert!(String::from_utf8_lossy(&run.stdout).contains("SaFeR variant"));
 }
 
+/// `safer bench-models` on the small scene with `python` as the reference's
+/// interpreter, from the crate root (where the reference scripts are).
+fn bench_models(python: &std::path::Path, repeat: &str, out: &std::path::Path) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_safer"))
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .args(["bench-models", "--repeat", repeat, "--python"])
+        .arg(python)
+        .arg("--scenes")
+        .arg(small_scene())
+        .arg("--json")
+        .arg(out)
+        .output()
+        .unwrap()
+}
+
 #[test]
 fn bench_models_json_says_plainly_when_the_reference_is_missing() {
     let dir = scratch("bench-models-no-reference");
     let out = dir.join("models.json");
-    let run = Command::new(env!("CARGO_BIN_EXE_safer"))
-        .args(["bench-models", "--repeat", "1", "--python"])
-        .arg(dir.join("no-such-python"))
-        .arg("--scenes")
-        .arg(small_scene())
-        .arg("--json")
-        .arg(&out)
-        .output()
-        .unwrap();
+    let run = bench_models(&dir.join("no-such-python"), "1", &out);
     assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
     let v = read_json(&out);
     for key in ["map_encoding_us", "cbv_query_us", "full_scene_step_us", "decoder_batch_1_us", "decoder_scene_batch_us"]
@@ -97,16 +104,7 @@ fn bench_models_json_carries_the_reference_ratios_when_the_training_environment_
     assert!(python.exists(), "{} is not installed (see training/README.md)", python.display());
     let dir = scratch("bench-models-reference");
     let out = dir.join("models.json");
-    let run = Command::new(env!("CARGO_BIN_EXE_safer"))
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .args(["bench-models", "--repeat", "2", "--python"])
-        .arg(&python)
-        .arg("--scenes")
-        .arg(small_scene())
-        .arg("--json")
-        .arg(&out)
-        .output()
-        .unwrap();
+    let run = bench_models(&python, "2", &out);
     assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
     let v = read_json(&out);
     assert_eq!(v["reference"]["available"], true, "{v}");
