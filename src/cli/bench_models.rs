@@ -15,6 +15,7 @@ use std::time::{Duration, Instant};
 
 use super::{CliError, evaluate::load_scenes};
 use crate::models::ModelSource;
+use crate::models::onnx::NodeCost;
 use crate::models::prior::{PriorVariant, RealismPrior, SCENE_BATCH};
 use crate::models::prior_features::{MapTokens, StateHistory, build_query};
 use crate::scenario::{AgentState, Scenario};
@@ -55,6 +56,52 @@ struct BenchModelsReport {
     /// tract, single-threaded, µs.
     tract: TractFigures,
     reference: Reference,
+    /// Where the decoder's time goes (`--profile`; empty without it).
+    decoder_profiles: Vec<DecoderProfile>,
+}
+
+/// Where the decoder's time goes at one batch size: tract's plan timed node
+/// by node (the sum exceeds the plain run by the timing overhead).
+#[derive(Debug, serde::Serialize)]
+struct DecoderProfile {
+    batch: usize,
+    /// Sum of the node medians, µs.
+    total_us: f64,
+    /// Time per operator kind, µs, the costliest first.
+    per_op: Vec<(String, f64)>,
+    /// Every node, the costliest first.
+    nodes: Vec<NodeCost>,
+}
+
+impl DecoderProfile {
+    fn new(batch: usize, nodes: Vec<NodeCost>) -> Self {
+        let mut per_op = std::collections::BTreeMap::<String, f64>::new();
+        for n in &nodes {
+            *per_op.entry(n.op.clone()).or_default() += n.median_us;
+        }
+        let mut per_op: Vec<_> = per_op.into_iter().collect();
+        per_op.sort_by(|a, b| b.1.total_cmp(&a.1).then_with(|| a.0.cmp(&b.0)));
+        Self { batch, total_us: nodes.iter().map(|n| n.median_us).sum(), per_op, nodes }
+    }
+
+    fn print(&self, out: &mut impl Write, top: usize) -> std::io::Result<()> {
+        writeln!(
+            out,
+            "\ndecoder profile, batch {}: {} nodes, {:.0} µs in all (node medians)",
+            self.batch,
+            self.nodes.len(),
+            self.total_us
+        )?;
+        writeln!(out, "{:<40} {:>10} {:>7}", "operator", "µs", "share")?;
+        for (op, us) in self.per_op.iter().take(top) {
+            writeln!(out, "{:<40} {:>10.1} {:>6.1}%", op, us, 100.0 * us / self.total_us.max(1e-9))?;
+        }
+        writeln!(out, "{:<64} {:<16} {:>10}", "node", "operator", "µs")?;
+        for n in self.nodes.iter().take(top) {
+            writeln!(out, "{:<64} {:<16} {:>10.1}", n.node, n.op, n.median_us)?;
+        }
+        Ok(())
+    }
 }
 
 /// tract's figures, µs (medians).
@@ -99,6 +146,7 @@ pub(super) fn run(
     models: &ModelSource,
     repeat: usize,
     python: &Path,
+    profile_top: Option<usize>,
     json: Option<&Path>,
 ) -> Result<ExitCode, CliError> {
     if let Some(path) = json {
@@ -178,6 +226,22 @@ pub(super) fn run(
     };
     writeln!(out, "{:<52} {:>12.0}", "decoder only, batch 1", decoder_single_us)?;
     writeln!(out, "{:<52} {:>12.0}", format!("decoder only, batch {SCENE_BATCH}"), decoder_batch_us)?;
+
+    let mut profiles = Vec::new();
+    if let Some(top) = profile_top {
+        let qs: Vec<_> = present
+            .iter()
+            .take(SCENE_BATCH)
+            .filter_map(|&a| build_query(&history, &bodies, &tokens, &scene.map, a, step))
+            .collect();
+        let refs: Vec<_> = qs.iter().collect();
+        for batch in [1, SCENE_BATCH] {
+            let nodes = prior.profile_decoder(batch, &refs[..batch.min(refs.len())], &embedding, repeat.min(50))?;
+            let profile = DecoderProfile::new(batch, nodes);
+            profile.print(&mut out, top)?;
+            profiles.push(profile);
+        }
+    }
 
     // The same graphs in onnxruntime and PyTorch, in this run.
     let script = Path::new("training/prior/bench_latency.py");
@@ -273,6 +337,7 @@ pub(super) fn run(
                 decoder_scene_batch_us: decoder_batch_us,
             },
             reference,
+            decoder_profiles: profiles,
         };
         crate::record::write_output(path, (serde_json::to_string_pretty(&report)? + "\n").as_bytes())?;
         if !crate::record::is_stdout(path) {

@@ -180,6 +180,9 @@ enum Command {
         /// Python of the training environment, which times the reference (onnxruntime, PyTorch); without it the report says there is none.
         #[arg(long, default_value = "training/.venv/bin/python")]
         python: PathBuf,
+        /// Also print where the decoder's time goes: the N costliest nodes of tract's plan and the time per operator, at batch 1 and the scene batch.
+        #[arg(long, value_name = "N")]
+        profile: Option<usize>,
         /// Also write the figures as JSON (`-`: standard output, the table then goes to stderr).
         #[arg(long, value_name = "OUT")]
         json: Option<PathBuf>,
@@ -372,11 +375,12 @@ pub fn main() -> ExitCode {
         }
         Command::Schema { kind, out } => schema::run(kind, out.as_deref()),
         Command::Render { file, step, out, force } => render::run(&file, step, out.as_deref(), force),
-        Command::BenchModels { scenes, models, repeat, python, json } => bench_models::run(
+        Command::BenchModels { scenes, models, repeat, python, profile, json } => bench_models::run(
             &scenes,
             &crate::models::ModelSource::folder_or_shipped(models),
             repeat,
             &python,
+            profile,
             json.as_deref(),
         ),
         Command::Evaluate {

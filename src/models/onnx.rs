@@ -36,6 +36,17 @@ pub struct GoldenReplay {
     pub values: usize,
 }
 
+/// Time spent in one node of the optimised plan (`OnnxModel::profile`).
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct NodeCost {
+    /// The node's name in the optimised plan.
+    pub node: String,
+    /// The operator, as tract names it (e.g. `EinSum`, `OptMatMul`).
+    pub op: String,
+    /// Median over the profiled runs, µs.
+    pub median_us: f64,
+}
+
 /// The values of an `f32` tensor, in row-major order.
 pub fn f32_values(t: &Tensor) -> TractResult<Vec<f32>> {
     Ok(t.to_plain_array_view::<f32>()?.iter().copied().collect())
@@ -140,6 +151,42 @@ impl OnnxModel {
         self.plan
             .run(inputs)
             .map_err(|e| ModelError::Inference { model: self.card.name.clone(), message: format!("{e:#}") })
+    }
+
+    /// Runs the plan `repeat` times on `inputs` timing every node, and
+    /// returns each node's median time, the costliest first. This is the
+    /// per-node view tract's own `profile` tooling gives, without its CLI.
+    pub fn profile(&self, inputs: &TVec<TValue>, repeat: usize) -> Result<Vec<NodeCost>, ModelError> {
+        let fail = |e: TractError| ModelError::Inference { model: self.card.name.clone(), message: format!("{e:#}") };
+        let mut state = self.plan.spawn().map_err(fail)?;
+        let nodes = self.plan.model().nodes();
+        let mut samples: Vec<Vec<f64>> = vec![Vec::with_capacity(repeat); nodes.len()];
+        // One warm-up run, then the timed ones.
+        for run in 0..=repeat.max(1) {
+            let mut eval = |ctx: &tract_onnx::tract_core::plan::EvalContext<'_>,
+                            op_state: Option<&mut (dyn tract_onnx::tract_core::ops::OpState + 'static)>,
+                            node: &TypedNode,
+                            input: TVec<TValue>| {
+                let started = std::time::Instant::now();
+                let out = tract_onnx::tract_core::plan::eval(ctx, op_state, node, input);
+                if run > 0 {
+                    samples[node.id].push(started.elapsed().as_secs_f64() * 1e6);
+                }
+                out
+            };
+            state.run_plan_with_eval(inputs.clone(), &mut eval).map_err(fail)?;
+        }
+        let mut costs: Vec<NodeCost> = nodes
+            .iter()
+            .zip(samples)
+            .filter(|(_, s)| !s.is_empty())
+            .map(|(node, mut s)| {
+                s.sort_by(f64::total_cmp);
+                NodeCost { node: node.name.clone(), op: node.op().name().to_string(), median_us: s[s.len() / 2] }
+            })
+            .collect();
+        costs.sort_by(|a, b| b.median_us.total_cmp(&a.median_us).then_with(|| a.node.cmp(&b.node)));
+        Ok(costs)
     }
 
     /// Replays the golden file: feeds `input.<name>` tensors, compares with

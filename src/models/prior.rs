@@ -10,7 +10,7 @@ use std::sync::Arc;
 use tract_onnx::prelude::*;
 
 use super::card::{DType, ExpectedContract, ModelKind};
-use super::onnx::{OnnxModel, f32_values};
+use super::onnx::{NodeCost, OnnxModel, f32_values};
 use super::prior_features::{
     HISTORY_FEATURES, HISTORY_POINTS, MAP_ENCODER_CHUNK, MAP_TOKEN_FEATURES, MAP_TOKENS, MapTokens, NEIGHBOUR_FEATURES,
     NEIGHBOURS, POSE_FEATURES, QueryFeatures, SELF_FEATURES, SIGNAL_FEATURES,
@@ -189,6 +189,32 @@ impl RealismPrior {
     pub fn load_decoder(&self, source: &ModelSource, batch: usize) -> Result<OnnxModel, ModelError> {
         let (_, dec) = self.variant.stems();
         OnnxModel::load(source, format!("{dec}.card.yaml"), &decoder_contract(), batch)
+    }
+
+    /// Profiles the decoder loaded for `model_batch` (1, [`TAIL_BATCH`] or
+    /// [`SCENE_BATCH`]) on `chunk`: each node's median time over `repeat`
+    /// runs, the costliest first (`safer bench-models --profile`).
+    pub fn profile_decoder(
+        &self,
+        model_batch: usize,
+        chunk: &[&QueryFeatures],
+        map: &MapEmbedding,
+        repeat: usize,
+    ) -> Result<Vec<NodeCost>, ModelError> {
+        let model = match model_batch {
+            1 => &self.decoder_single,
+            TAIL_BATCH => &self.decoder_tail,
+            SCENE_BATCH => &self.decoder_scene,
+            other => {
+                return Err(self.input_error(format!(
+                    "no decoder loaded for batch {other} (1, {TAIL_BATCH} and {SCENE_BATCH} are)"
+                )));
+            }
+        };
+        if chunk.len() > model_batch {
+            return Err(self.input_error(format!("{} queries for a decoder of batch {model_batch}", chunk.len())));
+        }
+        model.profile(&self.batch_inputs(chunk, model_batch, map)?, repeat)
     }
 
     /// Runs `model` (a decoder of this prior) once on `chunk`, padded to
