@@ -21,6 +21,10 @@ pub struct OnnxModel {
     source: ModelSource,
     /// The card's file name in `source`.
     card_file: PathBuf,
+    /// The parsed graph before its shapes were fixed, checked against the
+    /// card: kept so that other batch sizes are optimised without reading
+    /// and hashing the file again (`with_batch`).
+    graph: Arc<InferenceModel>,
     batch: usize,
     plan: Arc<TypedRunnableModel>,
 }
@@ -83,7 +87,7 @@ impl OnnxModel {
             });
         }
         let onnx_err = |e: TractError| ModelError::Onnx { path: onnx_path.clone(), message: format!("{e:#}") };
-        let mut model = tract_onnx::onnx().model_for_read(&mut &bytes[..]).map_err(onnx_err)?;
+        let model = tract_onnx::onnx().model_for_read(&mut &bytes[..]).map_err(onnx_err)?;
         let graph_inputs: Vec<String> =
             model.input_outlets().map_err(onnx_err)?.iter().map(|o| model.node(o.node).name.clone()).collect();
         let card_inputs: Vec<String> = card.inputs.iter().map(|s| s.name.clone()).collect();
@@ -95,6 +99,37 @@ impl OnnxModel {
                 found: graph_inputs.join(", "),
             });
         }
+        let plan = Self::plan_for(&card, card_path, &onnx_path, &model, batch)?;
+        Ok(Self {
+            card,
+            source: source.clone(),
+            card_file: card_file.to_path_buf(),
+            graph: Arc::new(model),
+            batch,
+            plan,
+        })
+    }
+
+    /// The same model optimised with every symbolic dimension fixed to
+    /// `batch` (tract plans are fixed-shape), from the graph parsed and
+    /// checked at load.
+    pub fn with_batch(&self, batch: usize) -> Result<Self, ModelError> {
+        let plan =
+            Self::plan_for(&self.card, &self.card_path(), &self.source.path(&self.card.file), &self.graph, batch)?;
+        Ok(Self { batch, plan, ..self.clone() })
+    }
+
+    /// Fixes the symbolic dimensions of `graph` to `batch`, optimises it and
+    /// checks its outputs against the card.
+    fn plan_for(
+        card: &ModelCard,
+        card_path: &Path,
+        onnx_path: &Path,
+        graph: &InferenceModel,
+        batch: usize,
+    ) -> Result<Arc<TypedRunnableModel>, ModelError> {
+        let onnx_err = |e: TractError| ModelError::Onnx { path: onnx_path.to_path_buf(), message: format!("{e:#}") };
+        let mut model = graph.clone();
         for (i, spec) in card.inputs.iter().enumerate() {
             let shape: Vec<usize> = spec
                 .shape
@@ -122,8 +157,7 @@ impl OnnxModel {
                 found: graph_outputs.len().to_string(),
             });
         }
-        let plan = optimised.into_runnable().map_err(onnx_err)?;
-        Ok(Self { card, source: source.clone(), card_file: card_file.to_path_buf(), batch, plan })
+        optimised.into_runnable().map_err(onnx_err)
     }
 
     /// The card.

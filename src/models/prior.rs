@@ -5,7 +5,7 @@
 //! shared read-only by every worker thread.
 
 use std::path::Path;
-use std::sync::Arc;
+use std::sync::{Arc, OnceLock};
 
 use tract_onnx::prelude::*;
 
@@ -66,8 +66,11 @@ pub struct RealismPrior {
     variant: PriorVariant,
     map_encoder: OnnxModel,
     decoder_single: OnnxModel,
-    decoder_scene: OnnxModel,
-    decoder_tail: OnnxModel,
+    /// The decoder at [`SCENE_BATCH`] and [`TAIL_BATCH`], optimised on first
+    /// use (from the graph parsed for batch 1): a CBV-only user such as the
+    /// adversary never pays for them.
+    decoder_scene: OnceLock<OnnxModel>,
+    decoder_tail: OnceLock<OnnxModel>,
     d: usize,
 }
 
@@ -129,9 +132,14 @@ impl RealismPrior {
                 found: format!("{:?}", decoder_single.card().inputs[5].shape.get(2)),
             });
         }
-        let decoder_scene = OnnxModel::load(source, card_file(dec), &decoder_contract(), SCENE_BATCH)?;
-        let decoder_tail = OnnxModel::load(source, card_file(dec), &decoder_contract(), TAIL_BATCH)?;
-        Ok(Self { variant, map_encoder, decoder_single, decoder_scene, decoder_tail, d })
+        Ok(Self {
+            variant,
+            map_encoder,
+            decoder_single,
+            decoder_scene: OnceLock::new(),
+            decoder_tail: OnceLock::new(),
+            d,
+        })
     }
 
     /// Which decoder this is.
@@ -175,20 +183,34 @@ impl RealismPrior {
         let full = queries.len() / SCENE_BATCH * SCENE_BATCH;
         let (head, tail) = queries.split_at(full);
         for chunk in head.chunks(SCENE_BATCH) {
-            out.extend(self.logits_on(&self.decoder_scene, chunk, map)?);
+            out.extend(self.logits_on(self.decoder_at(SCENE_BATCH)?, chunk, map)?);
         }
         for chunk in tail.chunks(TAIL_BATCH) {
-            let model = if chunk.len() == 1 { &self.decoder_single } else { &self.decoder_tail };
-            out.extend(self.logits_on(model, chunk, map)?);
+            let batch = if chunk.len() == 1 { 1 } else { TAIL_BATCH };
+            out.extend(self.logits_on(self.decoder_at(batch)?, chunk, map)?);
         }
         Ok(out)
     }
 
-    /// Loads this prior's decoder again with its batch fixed to `batch`
-    /// (tract plans are fixed-shape: one plan per batch size).
-    pub fn load_decoder(&self, source: &ModelSource, batch: usize) -> Result<OnnxModel, ModelError> {
-        let (_, dec) = self.variant.stems();
-        OnnxModel::load(source, format!("{dec}.card.yaml"), &decoder_contract(), batch)
+    /// The decoder loaded for `batch` (1, [`TAIL_BATCH`] or [`SCENE_BATCH`]),
+    /// optimised on first use.
+    pub fn decoder_at(&self, batch: usize) -> Result<&OnnxModel, ModelError> {
+        let lazy = match batch {
+            1 => return Ok(&self.decoder_single),
+            TAIL_BATCH => &self.decoder_tail,
+            SCENE_BATCH => &self.decoder_scene,
+            other => {
+                return Err(
+                    self.input_error(format!("no decoder for batch {other} (1, {TAIL_BATCH} and {SCENE_BATCH} are)"))
+                );
+            }
+        };
+        if let Some(model) = lazy.get() {
+            return Ok(model);
+        }
+        let model = self.decoder_single.with_batch(batch)?;
+        // Another thread may have set it meanwhile: both are the same plan.
+        Ok(lazy.get_or_init(|| model))
     }
 
     /// Profiles the decoder loaded for `model_batch` (1, [`TAIL_BATCH`] or
@@ -201,16 +223,7 @@ impl RealismPrior {
         map: &MapEmbedding,
         repeat: usize,
     ) -> Result<Vec<NodeCost>, ModelError> {
-        let model = match model_batch {
-            1 => &self.decoder_single,
-            TAIL_BATCH => &self.decoder_tail,
-            SCENE_BATCH => &self.decoder_scene,
-            other => {
-                return Err(self.input_error(format!(
-                    "no decoder loaded for batch {other} (1, {TAIL_BATCH} and {SCENE_BATCH} are)"
-                )));
-            }
-        };
+        let model = self.decoder_at(model_batch)?;
         if chunk.len() > model_batch {
             return Err(self.input_error(format!("{} queries for a decoder of batch {model_batch}", chunk.len())));
         }
@@ -352,10 +365,11 @@ mod tests {
         let queries: Vec<QueryFeatures> = (0..40).map(|s| query(s, rows as u32)).collect();
         let refs: Vec<&QueryFeatures> = queries.iter().collect();
         let alone: Vec<TokenLogits> =
-            refs.iter().map(|q| prior.logits_on(&prior.decoder_single, &[q], &map).unwrap().remove(0)).collect();
+            refs.iter().map(|q| prior.logits_on(prior.decoder_at(1).unwrap(), &[q], &map).unwrap().remove(0)).collect();
         let mut shifted = refs.clone();
         shifted.rotate_left(3);
-        for (model, chunk) in [(&prior.decoder_scene, 32), (&prior.decoder_tail, 8), (&prior.decoder_tail, 5)] {
+        for (batch, chunk) in [(SCENE_BATCH, 32), (TAIL_BATCH, 8), (TAIL_BATCH, 5)] {
+            let model = prior.decoder_at(batch).unwrap();
             let out: Vec<TokenLogits> =
                 shifted.chunks(chunk).flat_map(|c| prior.logits_on(model, c, &map).unwrap()).collect();
             for (i, l) in out.iter().enumerate() {
