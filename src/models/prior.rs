@@ -378,5 +378,8 @@ mod tests {
         }
         assert_eq!(prior.logits(&refs, &map).unwrap(), alone);
         assert_ne!(alone[0], alone[1]);
+        // Only the three planned batch sizes exist; another is an error, not a panic.
+        let err = prior.decoder_at(5).unwrap_err().to_string();
+        assert!(err.contains("no decoder for batch 5"), "{err}");
     }
 }
