@@ -126,6 +126,9 @@ struct Reference {
     missing_because: Option<String>,
     /// One row per engine and batch size.
     rows: Vec<ReferenceRow>,
+    /// Why PyTorch gave no figures while onnxruntime did (its checkpoint is
+    /// not on this machine), in words.
+    torch_missing_because: Option<String>,
 }
 
 /// The decoder in a reference engine against tract.
@@ -251,7 +254,8 @@ pub(super) fn run(
         ModelSource::Folder(dir) => dir.clone(),
         ModelSource::Embedded => PathBuf::from(crate::models::source::MODELS_FOLDER),
     };
-    let mut reference = Reference { available: false, missing_because: None, rows: Vec::new() };
+    let mut reference =
+        Reference { available: false, missing_because: None, rows: Vec::new(), torch_missing_because: None };
     if python.exists() && script.exists() {
         let ran = Command::new(python)
             .arg(script)
@@ -279,6 +283,8 @@ pub(super) fn run(
                             }
                         }
                         reference.available = !reference.rows.is_empty();
+                        reference.torch_missing_because =
+                            v.get("torch_missing_because").and_then(|x| x.as_str()).map(str::to_string);
                         if !reference.available {
                             reference.missing_because = Some(format!("{} gave no figures", script.display()));
                         }
@@ -315,6 +321,9 @@ pub(super) fn run(
                 r.tract_us,
                 r.ratio
             )?;
+        }
+        if let Some(why) = &reference.torch_missing_because {
+            writeln!(out, "no PyTorch reference in this run: {why}")?;
         }
     } else {
         writeln!(out, "\nno reference in this run: {}", reference.missing_because.as_deref().unwrap_or("unknown"))?;

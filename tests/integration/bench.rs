@@ -114,4 +114,11 @@ fn bench_models_json_carries_the_reference_ratios_when_the_training_environment_
         let (ours, theirs) = (r["tract_us"].as_f64().unwrap(), r["reference_us"].as_f64().unwrap());
         assert!((r["ratio"].as_f64().unwrap() - ours / theirs).abs() < 1e-9, "{r}");
     }
+    // PyTorch either gave figures or the report says why not.
+    let torch_rows = rows.iter().any(|r| r["engine"] == "torch");
+    let torch_missing = v["reference"]["torch_missing_because"].as_str();
+    assert!(torch_rows != torch_missing.is_some(), "{v}");
+    if let Some(why) = torch_missing {
+        assert!(String::from_utf8_lossy(&run.stdout).contains(why), "the table says why: {why}");
+    }
 }

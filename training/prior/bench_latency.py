@@ -5,7 +5,9 @@
 Times the shipped decoder ONNX graph in onnxruntime (one intra-op thread) and
 the same weights in PyTorch eager (one thread; the checkpoint named in the
 card's training command), on the golden inputs tiled to each batch size.
-Prints one JSON line: {"onnxruntime": {"1": µs, ...}, "torch": {...}}.
+Prints one JSON line: {"onnxruntime": {"1": µs, ...}, "torch": {...}}, with
+"torch_missing_because" instead of torch figures when the checkpoint is not
+on this machine (training/runs/ is not part of the repository).
 """
 import argparse, json, os, re, sys, time
 
@@ -47,13 +49,20 @@ def main():
     card = open(os.path.join(a.models, a.name + ".card.yaml")).read()
     run = re.search(r"train\.py[^&]*--out (\S+)", card)  # the run folder in the card's training command
     model = None
-    if run and os.path.exists(os.path.join(run.group(1), "best.pt")):
+    torch_missing = None
+    if not run:
+        torch_missing = "the card's training command names no run folder"
+    elif not os.path.exists(os.path.join(run.group(1), "best.pt")):
+        torch_missing = f"no checkpoint {os.path.join(run.group(1), 'best.pt')} on this machine (training/runs/ is not kept)"
+    else:
         ck = torch.load(os.path.join(run.group(1), "best.pt"))
         args = ck["args"]
         model = Prior(args["d"], args["heads"], args["layers"], args["attention"])
         model.load_state_dict(ck["model"])
         model.eval()
     out = {"onnxruntime": {}, "torch": {}}
+    if torch_missing:
+        out["torch_missing_because"] = torch_missing
     for b in [int(x) for x in a.batches.split(",")]:
         feeds = {}
         for n in NAMES:
