@@ -248,7 +248,16 @@ impl RealismPrior {
             )));
         }
         let result = model.run(self.batch_inputs(chunk, batch, map)?)?;
-        let logits = f32_values(&result[0]).map_err(|e| self.input_error(e))?;
+        // Rows are copied straight out of the output tensor (one copy, not two).
+        let view = result[0].to_plain_array_view::<f32>().map_err(|e| self.input_error(e))?;
+        let copied;
+        let logits = match view.as_slice() {
+            Some(contiguous) => contiguous,
+            None => {
+                copied = view.iter().copied().collect::<Vec<f32>>();
+                &copied
+            }
+        };
         Ok((0..chunk.len()).map(|q| logits[q * VOCABULARY_SIZE..(q + 1) * VOCABULARY_SIZE].to_vec()).collect())
     }
 
@@ -293,7 +302,10 @@ impl RealismPrior {
             }
         }
         let t = |shape: &[usize], v: Vec<f32>| -> Result<TValue, ModelError> {
-            Tensor::from_shape(shape, &v).map(|t| t.into_tvalue()).map_err(|e| self.input_error(e))
+            // The vector becomes the tensor's storage (no copy).
+            tract_ndarray::ArrayD::from_shape_vec(shape, v)
+                .map(|a| a.into_tensor().into_tvalue())
+                .map_err(|e| self.input_error(e))
         };
         Ok(tvec![
             t(&[batch, HISTORY_POINTS, HISTORY_FEATURES], history)?,
