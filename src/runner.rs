@@ -35,7 +35,7 @@ use std::sync::{Arc, Mutex, OnceLock};
 use libtest_mimic::{Arguments, Conclusion, Failed, Trial};
 
 use crate::harness::artefacts::Artefacts;
-use crate::harness::{self, RunResults, Suite, SuiteLoadFailure, SuiteMetrics, SuiteRun, VariantOutcome, VariantRun};
+use crate::harness::{self, RunResults, Suite, SuiteLoadFailure, SuiteRun, VariantOutcome, VariantRun};
 use crate::planners::Planner;
 use crate::planners::registry::{self, PlannerFactory};
 use crate::scenario::{Scenario, TrackIndex};
@@ -192,7 +192,6 @@ fn results_of_this_process(suites: &[(PathBuf, Arc<Suite>)], load_failures: Vec<
                 let name = suite.variant_name(scenario, k);
                 match ran(&name) {
                     Some((outcome, artefacts)) => {
-                        all_ran &= outcome.is_ok();
                         variants.push(VariantRun { name, outcome: outcome.as_ref().clone(), artefacts })
                     }
                     None => all_ran = false,
@@ -202,10 +201,13 @@ fn results_of_this_process(suites: &[(PathBuf, Arc<Suite>)], load_failures: Vec<
         if variants.is_empty() {
             continue;
         }
+        // Metrics are shown only where this process ran every variant of
+        // the suite (a filtered run has no verdict on the rest).
         let (metrics, checks) = if all_ran {
-            let m = SuiteMetrics::aggregate(variants.iter().filter_map(|v| v.outcome.as_ref().ok()).map(|o| &o.tally));
-            let checks = m.checks(&suite.spec.value.acceptance.suite);
-            (Some(m), checks)
+            harness::metrics::suite_verdict(
+                &suite.spec.value.acceptance.suite,
+                variants.iter().map(|v| (v.name.clone(), v.outcome.as_ref().map(|o| &o.tally).map_err(Clone::clone))),
+            )
         } else {
             (None, Vec::new())
         };
@@ -333,24 +335,17 @@ fn variant_trial(suite: &Suite, context: &TrialContext, scenario: usize, index: 
 }
 
 fn metric_trial(suite: &Suite, metric: &'static str) -> Result<(), Failed> {
-    let v = suite.spec.value.variants;
     let mut outcomes = Vec::new();
     for s in 0..suite.scenarios.len() {
-        for k in 0..v {
-            let shared = outcome(suite, s, k);
-            match shared.as_ref() {
-                Ok(o) => outcomes.push(o.clone()),
-                Err(e) => {
-                    return Err(
-                        format!("variant {} could not run: {e}", suite.variant_name(&suite.scenarios[s], k)).into()
-                    );
-                }
-            }
+        for k in 0..suite.spec.value.variants {
+            outcomes.push((suite.variant_name(&suite.scenarios[s], k), outcome(suite, s, k)));
         }
     }
-    let metrics = SuiteMetrics::compute(&outcomes);
-    let check = metrics
-        .checks(&suite.spec.value.acceptance.suite)
+    let variants = outcomes
+        .iter()
+        .map(|(name, o)| (name.clone(), o.as_ref().as_ref().map(|o| &o.tally).map_err(|e| e.to_string())));
+    let (_, checks) = harness::metrics::suite_verdict(&suite.spec.value.acceptance.suite, variants);
+    let check = checks
         .into_iter()
         .find(|c| c.name == metric)
         .ok_or_else(|| Failed::from(format!("metric {metric} not configured")))?;

@@ -30,7 +30,7 @@ use serde::Serialize;
 
 use super::CliError;
 use crate::harness::report::{RunResults, SuiteLoadFailure, SuiteRun, VariantRun};
-use crate::harness::{self, HarnessError, MetricCheck, Suite, SuiteMetrics, VariantOutcome, VariantSummary};
+use crate::harness::{self, HarnessError, Suite, SuiteMetrics, VariantOutcome, VariantSummary};
 
 /// One variant to run.
 struct Job {
@@ -288,29 +288,14 @@ fn suite_run(file: &Path, suite: &Suite, jobs: Vec<(Job, Done)>, metrics: &[&'st
     let (suite_metrics, checks) = if metrics.is_empty() {
         (None, Vec::new())
     } else {
-        // Same rule as the metric trials of the cargo-test runner: every
-        // variant must have run, otherwise the metric fails naming the first.
-        let broken = jobs.iter().find_map(|(job, done)| {
-            done.outcome.as_ref().err().map(|e| {
+        let (m, checks) = harness::metrics::suite_verdict(
+            &suite.spec.value.acceptance.suite,
+            jobs.iter().map(|(job, done)| {
                 let name = suite.variant_name(&suite.scenarios[job.scenario], job.index);
-                format!("variant {name} could not run: {e}")
-            })
-        });
-        match broken {
-            Some(why) => {
-                (None, metrics.iter().map(|m| MetricCheck { name: m, value: None, result: Err(why.clone()) }).collect())
-            }
-            None => {
-                let m =
-                    SuiteMetrics::aggregate(jobs.iter().filter_map(|(_, d)| d.outcome.as_ref().ok()).map(|o| &o.tally));
-                let checks = m
-                    .checks(&suite.spec.value.acceptance.suite)
-                    .into_iter()
-                    .filter(|c| metrics.contains(&c.name))
-                    .collect();
-                (Some(m), checks)
-            }
-        }
+                (name, done.outcome.as_ref().map(|o| &o.tally).map_err(|e| e.to_string()))
+            }),
+        );
+        (m, checks.into_iter().filter(|c| metrics.contains(&c.name)).collect())
     };
     let variants = jobs
         .into_iter()

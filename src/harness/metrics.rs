@@ -288,6 +288,35 @@ pub fn metric_names(acceptance: &SuiteAcceptance) -> Vec<&'static str> {
     .collect()
 }
 
+/// The suite's verdict over all its variants, in order: when a variant
+/// could not run, there are no metrics and every configured metric fails
+/// naming the first such variant (an error is never a pass, and a rate over
+/// the variants that happened to run would be silently wrong); otherwise
+/// the aggregate and its checks. The one rule behind the metric tests of
+/// the cargo-test runner, `safer run` and the review page.
+pub fn suite_verdict<'a>(
+    acceptance: &SuiteAcceptance,
+    variants: impl IntoIterator<Item = (String, Result<&'a VariantTally, String>)>,
+) -> (Option<SuiteMetrics>, Vec<MetricCheck>) {
+    let mut tallies = Vec::new();
+    for (name, tally) in variants {
+        match tally {
+            Ok(t) => tallies.push(t),
+            Err(e) => {
+                let why = format!("variant {name} could not run: {e}");
+                let checks = metric_names(acceptance)
+                    .into_iter()
+                    .map(|m| MetricCheck { name: m, value: None, result: Err(why.clone()) })
+                    .collect();
+                return (None, checks);
+            }
+        }
+    }
+    let metrics = SuiteMetrics::aggregate(tallies);
+    let checks = metrics.checks(acceptance);
+    (Some(metrics), checks)
+}
+
 #[cfg(test)]
 mod tests {
 
@@ -320,6 +349,29 @@ mod tests {
         assert_eq!(m.collision_rate, Some(0.5));
         assert_eq!(m.solution_rate, Some(0.5));
         assert_eq!(m.solution_rate_critical, Some(0.5));
+    }
+
+    #[test]
+    fn a_variant_that_could_not_run_fails_every_metric_and_hides_the_rates() {
+        let (ok, broken) = (tally(true, true), "planner exited with status 3".to_string());
+        let variants = vec![
+            ("s::a::seed-0".to_string(), Ok(&ok)),
+            ("s::b::seed-0".to_string(), Err(broken)),
+            ("s::c::seed-0".to_string(), Err("timed out".to_string())),
+        ];
+        let (metrics, checks) = suite_verdict(&acceptance(Some(0.0), Some(0.0)), variants);
+        // No rate over the variants that happened to run.
+        assert_eq!(metrics, None);
+        assert_eq!(checks.iter().map(|c| c.name).collect::<Vec<_>>(), ["collision_rate", "solution_rate"]);
+        for c in &checks {
+            let err = c.result.clone().unwrap_err();
+            assert_eq!(err, "variant s::b::seed-0 could not run: planner exited with status 3");
+        }
+        // Every variant ran: the aggregate and its checks.
+        let (metrics, checks) =
+            suite_verdict(&acceptance(Some(1.0), None), vec![("s::a::seed-0".to_string(), Ok(&ok))]);
+        assert_eq!(metrics.and_then(|m| m.solution_rate), Some(1.0));
+        assert!(checks.iter().all(|c| c.result.is_ok()), "{checks:?}");
     }
 
     #[test]
