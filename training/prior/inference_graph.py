@@ -147,13 +147,12 @@ class InferenceAttention(nn.Module):
 
 
 def max_over_keys(s):
-    """max over the last axis as a tree of element-wise maxima of overlapping halves (exact: max is
-    idempotent); tract's ReduceMax was 10 % of the decoder's time."""
-    while s.shape[-1] > 1:
-        n = s.shape[-1]
-        half = (n + 1) // 2
-        s = torch.maximum(s[..., :half], s[..., n - half:])
-    return s
+    """max over the last axis of [B, J, N] as a 1-D max pool with the window N (exact): tract's ReduceMax
+    took ~200 us for a [32, 16, 6] tensor (a third of the decoder at batch 32), a tree of element-wise
+    maxima over slices 8 %, its max pool ~1 %."""
+    B, J, N = s.shape
+    N = int(N)  # a fixed axis; the pool's window must be a plain int when traced
+    return F.max_pool1d(s.reshape(-1, 1, N), kernel_size=N).reshape(B, J, 1)
 
 
 class InferenceBlock(nn.Module):
