@@ -8,8 +8,20 @@
 //! it returns the first collision-free trajectory it completes, or says
 //! that none was found within its budget (which is not a proof of
 //! infeasibility).
+//!
+//! The search skips only work that cannot change its answer: a candidate
+//! that can no longer enter the beam is dropped as soon as that is certain
+//! (it still counts as an expansion), boxes the ego cannot reach in time
+//! are left out of each step's obstacles, and clearance queries repeated
+//! for the same pose at the same step are answered from memory. Its result
+//! is bit for bit that of the plain beam search.
 
-use crate::geometry::{BoxSet, OrientedBox};
+use std::cmp::Reverse;
+use std::collections::{BinaryHeap, HashMap};
+use std::hash::BuildHasherDefault;
+
+use crate::geometry::{BoxSet, OrientedBox, Point2, Pose2};
+use crate::motion::kinematics::max_travel_m;
 use crate::motion::tokens::{MAX_ACCEL_MPS2, MAX_YAW_RATE_RADPS, SIM_DT_S, TOKEN_PERIOD_STEPS};
 use crate::motion::{Action, KinematicState, kinematic_step};
 use crate::scenario::{AgentBody, AgentState};
@@ -94,29 +106,163 @@ impl Candidate {
 }
 
 impl FixedTraffic<'_> {
-    /// Every other agent's box at every step, for the broad phase.
-    fn obstacles(&self) -> Vec<BoxSet> {
-        self.states
-            .iter()
-            .map(|row| {
-                BoxSet::new(row.iter().enumerate().filter(|(i, _)| *i != self.ego).filter_map(|(i, s)| {
-                    s.map(|s| {
-                        let b = self.bodies[i];
-                        OrientedBox::new(s.pose(), b.length_m, b.width_m)
-                    })
-                }))
-            })
-            .collect()
+    /// The other agents' boxes at `step`, less those whose centre lies
+    /// farther than `keep_within_m` (plus the box's bounding radius) from
+    /// `around`.
+    fn obstacles_at(&self, step: usize, around: &Point2, keep_within_m: f64) -> BoxSet {
+        let row = self.states.get(step).map_or(&[][..], Vec::as_slice);
+        BoxSet::new(row.iter().enumerate().filter(|(i, _)| *i != self.ego).filter_map(|(i, s)| {
+            let b = self.bodies[i];
+            let s = s.as_ref()?;
+            let far = (s.position - around).norm() > keep_within_m + 0.5 * b.length_m.hypot(b.width_m);
+            (!far).then(|| OrientedBox::new(s.pose(), b.length_m, b.width_m))
+        }))
     }
 }
 
-/// The smaller of `bound` and the smallest box distance from the ego at
-/// `step` to any other agent (infinite past the recorded steps).
-fn clearance_below(obstacles: &[BoxSet], step: usize, ego: &KinematicState, body: AgentBody, bound: f64) -> f64 {
-    let Some(set) = obstacles.get(step) else { return bound };
-    let ego_box = OrientedBox::new(ego.to_agent_state().pose(), body.length_m, body.width_m);
-    set.clearance_below(&ego_box, bound)
+/// Slack of the reach filter of the obstacles, m: far above the rounding of
+/// the positions it bounds, small beside the distances it prunes.
+const REACH_SLACK_M: f64 = 0.1;
+
+/// What one clearance query showed about the clearance of one ego pose at
+/// one step to every box there (the unbounded answer `D`).
+#[derive(Debug, Clone, Copy)]
+enum Known {
+    /// `D` itself.
+    Exactly(f64),
+    /// `D >= this`.
+    AtLeast(f64),
+    /// `D <= this`.
+    AtMost(f64),
 }
+
+/// An ego pose at a step, bit for bit: the key of [`ClearanceMemo`].
+type PoseKey = (usize, u64, u64, u64);
+
+/// FxHash's word step: the memo's keys are a few machine words, and SipHash
+/// would cost about as much as the query it saves.
+#[derive(Default)]
+struct PoseHasher(u64);
+
+impl std::hash::Hasher for PoseHasher {
+    fn finish(&self) -> u64 {
+        self.0
+    }
+    fn write(&mut self, bytes: &[u8]) {
+        for b in bytes {
+            self.write_u64(u64::from(*b));
+        }
+    }
+    fn write_u64(&mut self, word: u64) {
+        self.0 = (self.0.rotate_left(5) ^ word).wrapping_mul(0x51_7c_c1_b7_27_22_0a_95);
+    }
+    fn write_usize(&mut self, word: usize) {
+        self.write_u64(word as u64);
+    }
+}
+
+/// Clearance queries already answered, by exact ego pose and step. The
+/// beam often holds candidates in the same pose (a stopped ego stays put
+/// whichever braking it picks, and their children coincide too), and a
+/// repeated query is answered from here when what is known settles it:
+/// the answer is then the one the query itself would give (see
+/// [`ClearanceMemo::clearance_below`]).
+#[derive(Default)]
+struct ClearanceMemo {
+    known: HashMap<PoseKey, Known, BuildHasherDefault<PoseHasher>>,
+}
+
+impl ClearanceMemo {
+    /// [`BoxSet::clearance_below_unless_at_most`] on the boxes at `step`
+    /// (infinite clearance past the recorded steps) for the ego at `ego`,
+    /// remembered. From memory it answers `min(bound, D)` where `D` is
+    /// known, `bound` where `D >= bound` is known, and a known upper bound
+    /// of `D` that is `<= floor` (a value `<= floor`, all the query promises
+    /// there); otherwise it runs the query.
+    fn clearance_below(
+        &mut self,
+        obstacles: &[BoxSet],
+        step: usize,
+        ego: &KinematicState,
+        body: AgentBody,
+        bound: f64,
+        floor: f64,
+    ) -> f64 {
+        let Some(set) = obstacles.get(step) else { return bound };
+        let key = (step, ego.position.x.to_bits(), ego.position.y.to_bits(), ego.heading_rad.to_bits());
+        let known = self.known.get(&key).copied();
+        match known {
+            Some(Known::Exactly(d)) => return bound.min(d),
+            Some(Known::AtLeast(lo)) if bound <= lo => return bound,
+            Some(Known::AtMost(hi)) if hi <= floor => return hi,
+            _ => {}
+        }
+        let pose = Pose2 { position: ego.position, heading_rad: ego.heading_rad };
+        let r = set.clearance_below_unless_at_most(&OrientedBox::new(pose, body.length_m, body.width_m), bound, floor);
+        // Above the floor the answer is exact: `min(bound, D)`. At or below
+        // it, the answer is a clearance to some box, so `D <= r` when `r`
+        // came from a box rather than the bound.
+        let learnt = if r > floor {
+            if r < bound { Some(Known::Exactly(r)) } else { Some(Known::AtLeast(bound)) }
+        } else {
+            (r < bound).then_some(Known::AtMost(r))
+        };
+        if let Some(learnt) = learnt
+            && !matches!(known, Some(Known::Exactly(_)))
+        {
+            self.known.insert(key, learnt);
+        }
+        r
+    }
+}
+
+/// A clearance ordered by `f64::total_cmp`, for the heap of [`BeamFloor`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Clearance(f64);
+
+impl Eq for Clearance {}
+
+impl PartialOrd for Clearance {
+    fn partial_cmp(&self, other: &Self) -> Option<std::cmp::Ordering> {
+        Some(self.cmp(other))
+    }
+}
+
+impl Ord for Clearance {
+    fn cmp(&self, other: &Self) -> std::cmp::Ordering {
+        self.0.total_cmp(&other.0)
+    }
+}
+
+/// The clearances of the best `width` candidates of a period kept so far.
+/// The beam keeps the largest clearances, ties to the earlier candidate, so
+/// once `width` are kept a later candidate whose clearance falls to the
+/// smallest of them cannot enter it: the search drops it at once.
+struct BeamFloor {
+    width: usize,
+    kept: BinaryHeap<Reverse<Clearance>>,
+}
+
+impl BeamFloor {
+    fn new(width: usize) -> Self {
+        Self { width, kept: BinaryHeap::with_capacity(width + 1) }
+    }
+
+    /// The clearance a later candidate must beat, once the beam is full.
+    fn get(&self) -> Option<f64> {
+        (self.width > 0 && self.kept.len() == self.width).then(|| self.kept.peek().map_or(f64::INFINITY, |c| c.0.0))
+    }
+
+    fn keep(&mut self, clearance_m: f64) {
+        self.kept.push(Reverse(Clearance(clearance_m)));
+        if self.kept.len() > self.width {
+            self.kept.pop();
+        }
+    }
+}
+
+/// Choices tried per candidate and period.
+const ACTIONS: usize = ACCELS_MPS2.len() * YAW_RATES_RADPS.len();
 
 /// Searches an ego trajectory from `start` over `horizon_steps` simulator
 /// steps that avoids every agent of `traffic`.
@@ -128,27 +274,55 @@ pub fn search_witness(
     budget: WitnessBudget,
 ) -> Witness {
     let start = KinematicState::from_agent_state(start);
-    let obstacles = traffic.obstacles();
-    let first_clearance = clearance_below(&obstacles, 0, &start, body, f64::INFINITY);
+    let mut obstacles = vec![traffic.obstacles_at(0, &start.position, f64::INFINITY)];
+    let pose = Pose2 { position: start.position, heading_rad: start.heading_rad };
+    let first_clearance =
+        obstacles[0].clearance_below(&OrientedBox::new(pose, body.length_m, body.width_m), f64::INFINITY);
     if first_clearance <= budget.margin_m {
         // Already touching at the start: nothing the ego does can undo it.
         return Witness::NoneWithinBudget { expansions: 0 };
     }
+    // Clearances only fall from the first one, and by step k the ego is at
+    // most `max_travel_m` from its start: a box farther than that plus the
+    // first clearance and both bounding radii never decides a clearance.
+    let max_accel_mps2 = ACCELS_MPS2.iter().copied().fold(0.0, f64::max);
+    let ego_radius_m = 0.5 * body.length_m.hypot(body.width_m);
+    obstacles.extend((1..traffic.states.len()).map(|k| {
+        let travel_m = max_travel_m(start.speed_mps, max_accel_mps2, SIM_DT_S, k);
+        let keep_within_m = travel_m + first_clearance + ego_radius_m + REACH_SLACK_M;
+        traffic.obstacles_at(k, &start.position, if keep_within_m.is_nan() { f64::INFINITY } else { keep_within_m })
+    }));
     let root = Candidate { parent: 0, segment: [start; TOKEN_PERIOD_STEPS], len: 0, clearance_m: first_clearance };
     // `beams[p]`: the beam after period p (`beams[0]`: the start alone).
     let mut beams: Vec<Vec<Candidate>> = vec![vec![root]];
+    let mut memo = ClearanceMemo::default();
     let mut expansions = 0;
     let periods = horizon_steps.div_ceil(TOKEN_PERIOD_STEPS);
     for period in 0..periods {
         let beam = beams.last().expect("the start's beam");
-        let mut next: Vec<Candidate> = Vec::with_capacity(beam.len() * ACCELS_MPS2.len() * YAW_RATES_RADPS.len());
+        let mut next: Vec<Candidate> = Vec::with_capacity(2 * budget.beam_width.min(beam.len() * ACTIONS));
+        let mut floor = BeamFloor::new(budget.beam_width);
         for (parent, c) in beam.iter().enumerate() {
+            // A child never has more clearance than its parent, and the beam
+            // is sorted best first: once a parent is no better than the
+            // floor, neither its children nor any later parent's can enter
+            // the beam. They still count as tried, as when they were run.
+            if floor.get().is_some_and(|f| c.clearance_m <= f) {
+                let skipped = (beam.len() - parent) * ACTIONS;
+                if expansions + skipped > budget.max_expansions {
+                    return Witness::NoneWithinBudget { expansions: budget.max_expansions.max(expansions) };
+                }
+                expansions += skipped;
+                break;
+            }
             for &a in &ACCELS_MPS2 {
                 for &w in &YAW_RATES_RADPS {
                     if expansions >= budget.max_expansions {
                         return Witness::NoneWithinBudget { expansions };
                     }
                     expansions += 1;
+                    // Dropped at or below the margin, or at or below the floor.
+                    let drop_at_m = floor.get().map_or(budget.margin_m, |f| f.max(budget.margin_m));
                     let action =
                         Action { accel_mps2: a, yaw_rate_radps: w.clamp(-MAX_YAW_RATE_RADPS, MAX_YAW_RATE_RADPS) };
                     let mut s = c.last(&start);
@@ -160,14 +334,16 @@ pub fn search_witness(
                             break;
                         }
                         s = kinematic_step(&s, action, SIM_DT_S);
-                        child.clearance_m = clearance_below(&obstacles, step, &s, body, child.clearance_m);
-                        if child.clearance_m <= budget.margin_m {
+                        child.clearance_m =
+                            memo.clearance_below(&obstacles, step, &s, body, child.clearance_m, drop_at_m);
+                        if child.clearance_m <= drop_at_m {
                             break;
                         }
                         child.segment[child.len] = s;
                         child.len += 1;
                     }
-                    if child.clearance_m > budget.margin_m {
+                    if child.clearance_m > drop_at_m {
+                        floor.keep(child.clearance_m);
                         next.push(child);
                     }
                 }
@@ -207,6 +383,159 @@ mod tests {
 
     fn at(x: f64, y: f64, v: f64) -> AgentState {
         AgentState { position: Point2::new(x, y), heading_rad: 0.0, velocity_mps: Vector2::new(v, 0.0) }
+    }
+
+    /// The search as it was before its pruning and memo: every child of
+    /// every candidate run to the end of its period, every clearance a full
+    /// query over all boxes.
+    fn plain_search(
+        start: &AgentState,
+        body: AgentBody,
+        traffic: &FixedTraffic<'_>,
+        horizon_steps: usize,
+        budget: WitnessBudget,
+    ) -> Witness {
+        let clearance = |step: usize, s: &KinematicState, bound: f64| {
+            let Some(row) = traffic.states.get(step) else { return bound };
+            let ego_box = OrientedBox::new(s.to_agent_state().pose(), body.length_m, body.width_m);
+            row.iter()
+                .enumerate()
+                .filter(|(i, _)| *i != traffic.ego)
+                .filter_map(|(i, o)| o.map(|o| (traffic.bodies[i], o)))
+                .map(|(b, o)| OrientedBox::new(o.pose(), b.length_m, b.width_m))
+                .map(|b| if ego_box.intersects(&b) { 0.0 } else { ego_box.distance(&b) })
+                .fold(bound, f64::min)
+        };
+        let start = KinematicState::from_agent_state(start);
+        let first_clearance = clearance(0, &start, f64::INFINITY);
+        if first_clearance <= budget.margin_m {
+            return Witness::NoneWithinBudget { expansions: 0 };
+        }
+        let root = Candidate { parent: 0, segment: [start; TOKEN_PERIOD_STEPS], len: 0, clearance_m: first_clearance };
+        let mut beams: Vec<Vec<Candidate>> = vec![vec![root]];
+        let mut expansions = 0;
+        for period in 0..horizon_steps.div_ceil(TOKEN_PERIOD_STEPS) {
+            let beam = beams.last().unwrap();
+            let mut next = Vec::new();
+            for (parent, c) in beam.iter().enumerate() {
+                for &a in &ACCELS_MPS2 {
+                    for &w in &YAW_RATES_RADPS {
+                        if expansions >= budget.max_expansions {
+                            return Witness::NoneWithinBudget { expansions };
+                        }
+                        expansions += 1;
+                        let action =
+                            Action { accel_mps2: a, yaw_rate_radps: w.clamp(-MAX_YAW_RATE_RADPS, MAX_YAW_RATE_RADPS) };
+                        let mut s = c.last(&start);
+                        let mut child =
+                            Candidate { parent, segment: [s; TOKEN_PERIOD_STEPS], len: 0, clearance_m: c.clearance_m };
+                        for k in 0..TOKEN_PERIOD_STEPS {
+                            let step = period * TOKEN_PERIOD_STEPS + k + 1;
+                            if step > horizon_steps {
+                                break;
+                            }
+                            s = kinematic_step(&s, action, SIM_DT_S);
+                            child.clearance_m = clearance(step, &s, child.clearance_m);
+                            if child.clearance_m <= budget.margin_m {
+                                break;
+                            }
+                            child.segment[child.len] = s;
+                            child.len += 1;
+                        }
+                        if child.clearance_m > budget.margin_m {
+                            next.push(child);
+                        }
+                    }
+                }
+            }
+            if next.is_empty() {
+                return Witness::NoneWithinBudget { expansions };
+            }
+            next.sort_by(|a, b| b.clearance_m.total_cmp(&a.clearance_m));
+            next.truncate(budget.beam_width);
+            beams.push(next);
+        }
+        let best = &beams.last().unwrap()[0];
+        let mut segments = Vec::new();
+        let mut at = 0;
+        for beam in beams.iter().rev() {
+            let c = &beam[at];
+            segments.push(&c.segment[..c.len]);
+            at = c.parent;
+        }
+        let mut trajectory = vec![start.to_agent_state()];
+        trajectory.extend(segments.iter().rev().flat_map(|seg| seg.iter().map(KinematicState::to_agent_state)));
+        Witness::Found { trajectory, min_clearance_m: best.clearance_m, expansions }
+    }
+
+    /// Traffic around a start at the origin: `n` cars on straight lines,
+    /// some parked, from a fixed seed; some come and go mid-way.
+    fn random_traffic(n: usize, steps: usize, seed: u64) -> (Vec<Vec<Option<AgentState>>>, Vec<AgentBody>) {
+        let mut state = seed;
+        let mut next = move || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let agents: Vec<(Point2, f64, f64, AgentBody, usize)> = (0..n)
+            .map(|_| {
+                // Clear of the start, so most searches get going.
+                let mut p = Point2::new(0.0, 0.0);
+                while p.coords.norm() < 6.0 {
+                    p = Point2::new(next() * 60.0 - 20.0, next() * 24.0 - 12.0);
+                }
+                let heading = next() * 6.3 - 3.15;
+                let speed = if next() < 0.4 { 0.0 } else { next() * 12.0 };
+                let body = AgentBody { kind: AgentKind::Vehicle, length_m: 3.5 + next() * 5.0, width_m: 1.6 + next() };
+                (p, heading, speed, body, (next() * steps as f64 * 1.5) as usize)
+            })
+            .collect();
+        let states = (0..=steps)
+            .map(|k| {
+                let t = k as f64 * SIM_DT_S;
+                let mut row = vec![None];
+                row.extend(agents.iter().map(|&(p, h, v, _, gone)| {
+                    let dir = Vector2::new(h.cos(), h.sin());
+                    (k < gone).then(|| AgentState { position: p + dir * v * t, heading_rad: h, velocity_mps: dir * v })
+                }));
+                row
+            })
+            .collect();
+        let mut bodies = vec![car()];
+        bodies.extend(agents.iter().map(|a| a.3));
+        (states, bodies)
+    }
+
+    #[test]
+    fn the_pruned_search_finds_what_the_plain_search_finds() {
+        // Same witness or none, same trajectory bit for bit, same clearance
+        // and expansions, for stopped and moving starts, wide and narrow
+        // beams, and budgets that run out mid-search.
+        let mut outcomes = [0usize; 3];
+        for seed in 0..16u64 {
+            let (states, bodies) = random_traffic(10 + (seed as usize % 4) * 8, 30, seed);
+            let traffic = FixedTraffic { states: &states, bodies: &bodies, ego: 0 };
+            let start = at(0.0, 0.0, [0.0, 0.0, 4.0, 9.0][seed as usize % 4]);
+            for budget in [
+                WitnessBudget::default(),
+                WitnessBudget { beam_width: 5, ..WitnessBudget::default() },
+                WitnessBudget { beam_width: 12, max_expansions: 1_000, margin_m: 0.3 },
+                WitnessBudget { beam_width: 1, max_expansions: 200, margin_m: 0.05 },
+            ] {
+                let plain = plain_search(&start, car(), &traffic, 30, budget);
+                let pruned = search_witness(&start, car(), &traffic, 30, budget);
+                assert_eq!(format!("{pruned:?}"), format!("{plain:?}"), "seed {seed} {budget:?}");
+                outcomes[match plain {
+                    Witness::Found { .. } => 0,
+                    Witness::NoneWithinBudget { expansions } if expansions == budget.max_expansions => 1,
+                    Witness::NoneWithinBudget { expansions } => {
+                        assert!(expansions > 0, "seed {seed}: touching at the start");
+                        2
+                    }
+                }] += 1;
+            }
+        }
+        // Found, out of budget, and boxed in all occur.
+        assert!(outcomes.iter().all(|&n| n > 0), "{outcomes:?}");
     }
 
     #[test]

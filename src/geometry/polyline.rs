@@ -130,10 +130,7 @@ impl Polyline {
     ) -> Option<PolylineProjection> {
         let mut best: Option<(f64, usize, f64)> = None; // (dist², segment, t)
         for i in segments {
-            let (a, b) = (self.points[i], self.points[i + 1]);
-            let ab = b - a;
-            let t = ((p - a).dot(&ab) / ab.norm_squared()).clamp(0.0, 1.0);
-            let d2 = (a + ab * t - p).norm_squared();
+            let (d2, t) = self.segment_distance_squared(p, i);
             if best.is_none_or(|(bd, _, _)| d2 < bd) {
                 best = Some((d2, i, t));
             }
@@ -154,6 +151,16 @@ impl Polyline {
             tangent,
             segment: i,
         })
+    }
+
+    /// The squared distance from `p` to segment `i` (`points[i]` to
+    /// `points[i + 1]`) and the parameter of its closest point, exactly as
+    /// [`Self::project_segments`] computes them.
+    pub fn segment_distance_squared(&self, p: &Point2, i: usize) -> (f64, f64) {
+        let (a, b) = (self.points[i], self.points[i + 1]);
+        let ab = b - a;
+        let t = ((p - a).dot(&ab) / ab.norm_squared()).clamp(0.0, 1.0);
+        ((a + ab * t - p).norm_squared(), t)
     }
 
     /// Positive when `p` is on the port side of segment `i` at parameter

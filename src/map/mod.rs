@@ -446,20 +446,54 @@ impl RoadMap {
         // quadruplings even from 1e300 m away.
         let mut radius = 8.0;
         loop {
-            let mut best: Option<(usize, PolylineProjection)> = None;
-            for (edge, segs) in self.edge_segments.candidates(p, radius) {
-                if let Some(proj) = self.road_edges[edge].polyline.project_segments(p, segs)
-                    && best.is_none_or(|(_, b)| proj.distance_m < b.distance_m)
-                {
-                    best = Some((edge, proj));
-                }
-            }
+            let best = self.nearest_road_edge_within(p, radius);
             match best {
                 Some((_, b)) if b.distance_m <= radius => break best,
                 _ if radius >= self.edge_segments.max_distance_from(p) => break best,
                 _ => radius *= 4.0,
             }
         }
+    }
+
+    /// The nearest of the road edges with a segment in the index cells
+    /// within `radius_m` of `p`: by distance, ties to the lower edge index,
+    /// and on that edge the projection onto its nearest candidate segment,
+    /// ties to the lower segment index. That is one order over all the
+    /// (edge, segment) pairs, so the pairs are taken as the index yields
+    /// them, unsorted and some twice; only a NaN distance (from absurd map
+    /// coordinates, where that order is not total) falls back to visiting
+    /// them sorted, edge by edge.
+    fn nearest_road_edge_within(&self, p: &Point2, radius_m: f64) -> Option<(usize, PolylineProjection)> {
+        // (distance, edge, distance², segment)
+        let mut best: Option<(f64, usize, f64, usize)> = None;
+        let mut nan = false;
+        self.edge_segments.for_each_candidate(p, radius_m, |(edge, seg)| {
+            let (edge, seg) = (edge as usize, seg as usize);
+            let (d2, _) = self.road_edges[edge].polyline.segment_distance_squared(p, seg);
+            nan |= d2.is_nan();
+            let key = (d2.sqrt(), edge, d2, seg);
+            if best.is_none_or(|b| key < b) {
+                best = Some(key);
+            }
+        });
+        if !nan {
+            return best.and_then(|(_, edge, _, seg)| {
+                self.road_edges[edge].polyline.project_segments(p, [seg]).map(|proj| (edge, proj))
+            });
+        }
+        let mut pairs = Vec::new();
+        self.edge_segments.candidate_pairs_into(p, radius_m, &mut pairs);
+        let mut best: Option<(usize, PolylineProjection)> = None;
+        for run in pairs.chunk_by(|a, b| a.0 == b.0) {
+            let edge = run[0].0 as usize;
+            let segs = run.iter().map(|&(_, seg)| seg as usize);
+            if let Some(proj) = self.road_edges[edge].polyline.project_segments(p, segs)
+                && best.is_none_or(|(_, b)| proj.distance_m < b.distance_m)
+            {
+                best = Some((edge, proj));
+            }
+        }
+        best
     }
 
     /// Signed distance from `p` to the nearest road edge, metres: negative on
@@ -598,6 +632,50 @@ mod tests {
             vec![],
         );
         assert!(!dead_end.is_past_mapped_end(&Point2::new(104.0, 1.0)));
+    }
+
+    #[test]
+    fn the_unsorted_nearest_edge_search_answers_as_the_sorted_one() {
+        // Edges on a lattice, so distances tie between edges and between
+        // segments of one edge, plus a duplicate edge and one that doubles
+        // back on itself; queries on the lattice too.
+        let edge = |id, pts: Vec<(f64, f64)>| RoadEdge {
+            id: MapElementId(id),
+            polyline: pl(&pts),
+            kind: RoadEdgeKind::Boundary,
+        };
+        let mut edges: Vec<RoadEdge> = (0..12)
+            .map(|k| {
+                let (x0, y0) = ((k % 4) as f64 * 10.0, (k / 4) as f64 * 10.0);
+                edge(k, vec![(x0, y0), (x0 + 10.0, y0), (x0 + 10.0, y0 + 10.0), (x0, y0 + 10.0)])
+            })
+            .collect();
+        edges.push(edge(20, vec![(0.0, 0.0), (10.0, 0.0), (10.0, 10.0), (0.0, 10.0)]));
+        edges.push(edge(21, vec![(5.0, 5.0), (25.0, 5.0), (5.0, 5.0), (5.0, 25.0)]));
+        let map = RoadMap::new(vec![], edges, vec![], vec![], vec![], vec![], vec![]);
+        let sorted = |p: &Point2, r: f64| {
+            let mut best: Option<(usize, PolylineProjection)> = None;
+            for (edge, segs) in map.edge_segments.candidates(p, r) {
+                if let Some(proj) = map.road_edges[edge].polyline.project_segments(p, segs)
+                    && best.is_none_or(|(_, b)| proj.distance_m < b.distance_m)
+                {
+                    best = Some((edge, proj));
+                }
+            }
+            best
+        };
+        let mut checked = 0;
+        for i in 0..=50 {
+            for j in 0..=40 {
+                let p = Point2::new(i as f64 * 1.25 - 5.0, j as f64 * 1.25 - 5.0);
+                for r in [0.5, 8.0, 32.0, f64::INFINITY] {
+                    let (fast, plain) = (map.nearest_road_edge_within(&p, r), sorted(&p, r));
+                    assert_eq!(format!("{fast:?}"), format!("{plain:?}"), "{p:?} r {r}");
+                    checked += usize::from(plain.is_some());
+                }
+            }
+        }
+        assert!(checked > 5000, "{checked}");
     }
 
     fn straight_road() -> RoadMap {

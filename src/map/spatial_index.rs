@@ -109,9 +109,32 @@ impl SegmentIndex {
     /// farther than `radius_m`; callers check the distance. A non-finite `p`
     /// or a NaN radius has no candidates; an infinite radius has all.
     pub fn candidates(&self, p: &Point2, radius_m: f64) -> BTreeMap<usize, Vec<usize>> {
+        let mut pairs = Vec::new();
+        self.candidate_pairs_into(p, radius_m, &mut pairs);
         let mut out: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
+        for (pi, si) in pairs {
+            out.entry(pi as usize).or_default().push(si as usize);
+        }
+        out
+    }
+
+    /// The candidates of [`Self::candidates`] as `(polyline, segment)`
+    /// pairs, sorted and without repeats, written into `out` (cleared
+    /// first): for hot callers, with no map and no vector per polyline.
+    pub fn candidate_pairs_into(&self, p: &Point2, radius_m: f64, out: &mut Vec<(u32, u32)>) {
+        out.clear();
+        self.for_each_candidate(p, radius_m, |pair| out.push(pair));
+        out.sort_unstable();
+        out.dedup();
+    }
+
+    /// Calls `visit` with every candidate of [`Self::candidates`] as a
+    /// `(polyline, segment)` pair, in no particular order and some more
+    /// than once (a segment is in every cell it crosses): for callers whose
+    /// answer depends on neither, with no sorting at all.
+    pub fn for_each_candidate(&self, p: &Point2, radius_m: f64, mut visit: impl FnMut((u32, u32))) {
         if !(p.x.is_finite() && p.y.is_finite()) || radius_m.is_nan() {
-            return out;
+            return;
         }
         let r = radius_m.max(0.0);
         // Cell bounds as f64: exact for any cell the index can hold, and free
@@ -120,18 +143,13 @@ impl SegmentIndex {
         let (lo_x, hi_x) = (((p.x - r) / CELL_M).floor(), ((p.x + r) / CELL_M).floor());
         let (lo_y, hi_y) = (((p.y - r) / CELL_M).floor(), ((p.y + r) / CELL_M).floor());
         let span = (hi_x - lo_x + 1.0) * (hi_y - lo_y + 1.0);
-        let mut push = |refs: &[(u32, u32)]| {
-            for &(pi, si) in refs {
-                out.entry(pi as usize).or_default().push(si as usize);
-            }
-        };
-        push(&self.oversized);
+        self.oversized.iter().copied().for_each(&mut visit);
         if span.is_finite() && span <= self.cells.len() as f64 {
             // Few enough cells to look each up; all bounds are small integers here.
             for cx in lo_x as i64..=hi_x as i64 {
                 for cy in lo_y as i64..=hi_y as i64 {
                     if let Some(refs) = self.cells.get(&(cx, cy)) {
-                        push(refs);
+                        refs.iter().copied().for_each(&mut visit);
                     }
                 }
             }
@@ -140,15 +158,10 @@ impl SegmentIndex {
             for (cell, refs) in &self.cells {
                 let (cx, cy) = (cell.0 as f64, cell.1 as f64);
                 if (lo_x..=hi_x).contains(&cx) && (lo_y..=hi_y).contains(&cy) {
-                    push(refs);
+                    refs.iter().copied().for_each(&mut visit);
                 }
             }
         }
-        for segs in out.values_mut() {
-            segs.sort_unstable();
-            segs.dedup();
-        }
-        out
     }
 }
 

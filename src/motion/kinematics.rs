@@ -52,6 +52,19 @@ pub fn step(state: &KinematicState, action: Action, dt_s: f64) -> KinematicState
     KinematicState { position, heading_rad, speed_mps }
 }
 
+/// An upper bound on how far [`step`] can carry a state of speed
+/// `speed_mps` in `steps` steps of `dt_s` with accelerations of at most
+/// `max_accel_mps2` and any yaw rates, metres: the speed grows by at most
+/// `max_accel_mps2·dt_s` a step and each step moves the position by the
+/// new speed times `dt_s`. A negative or NaN speed or acceleration counts
+/// as 0, as in [`step`], where the speed is clamped the same way. Exact in
+/// real arithmetic; callers that compare it with rounded positions add a
+/// little.
+pub fn max_travel_m(speed_mps: f64, max_accel_mps2: f64, dt_s: f64, steps: usize) -> f64 {
+    let k = steps as f64;
+    dt_s * (k * speed_mps.max(0.0) + max_accel_mps2.max(0.0) * dt_s * k * (k + 1.0) / 2.0)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -67,6 +80,29 @@ mod tests {
         assert!((s.speed_mps - 11.0).abs() < 1e-12);
         assert!((s.position.x - 5.3).abs() < 1e-12);
         assert!(s.position.y.abs() < 1e-12);
+    }
+
+    #[test]
+    fn max_travel_bounds_every_rollout_and_is_reached_at_full_throttle() {
+        let s0 = KinematicState { position: Point2::new(3.0, -1.0), heading_rad: 0.4, speed_mps: 7.0 };
+        let actions = [(2.5, 0.0), (2.5, 0.6), (-4.0, 0.3), (0.0, -0.6), (1.0, 0.1)];
+        for (i, &(a, w)) in actions.iter().enumerate() {
+            let mut s = s0;
+            for k in 1..=60 {
+                // Alternate with braking so speeds are not monotone.
+                let accel = if k % 7 == 0 { -5.0 } else { a };
+                s = step(&s, Action { accel_mps2: accel, yaw_rate_radps: w }, 0.1);
+                let bound = max_travel_m(s0.speed_mps, 2.5, 0.1, k);
+                assert!((s.position - s0.position).norm() <= bound + 1e-9, "action {i} step {k}");
+            }
+        }
+        let mut s = s0;
+        for _ in 0..20 {
+            s = step(&s, Action { accel_mps2: 2.5, yaw_rate_radps: 0.0 }, 0.1);
+        }
+        assert!(((s.position - s0.position).norm() - max_travel_m(7.0, 2.5, 0.1, 20)).abs() < 1e-9);
+        assert_eq!(max_travel_m(0.0, -1.0, 0.1, 10), 0.0);
+        assert_eq!(max_travel_m(f64::NAN, 1.0, 0.1, 3), max_travel_m(0.0, 1.0, 0.1, 3));
     }
 
     #[test]

@@ -16,6 +16,7 @@
 
 use super::{Observation, Planner, PlannerError, PlannerOutput};
 use crate::geometry::{BoxSet, OrientedBox, Pose2, Vector2, wrap_angle};
+use crate::motion::kinematics::max_travel_m;
 use crate::motion::tokens::{MAX_ACCEL_MPS2, MAX_YAW_RATE_RADPS, SIM_DT_S};
 use crate::motion::{Action, KinematicState, kinematic_step};
 use crate::policies::{Route, build_route};
@@ -54,6 +55,9 @@ impl Default for EvasiveParams {
 const ROUTE_REBUILD_M: f64 = 60.0;
 /// Agents farther than this are not predicted, m.
 const PREDICTION_RANGE_M: f64 = 80.0;
+/// Slack of the reach filter of the predictions, m: far above the rounding
+/// of the positions it bounds, small beside the distances it prunes.
+const REACH_SLACK_M: f64 = 0.1;
 /// Every this many steps a candidate's position is checked for off-road.
 const OFF_ROAD_CHECK_EVERY: usize = 10;
 
@@ -64,6 +68,9 @@ const HEADWAY_COST: f64 = 200.0;
 const HEADWAY_S: f64 = 1.0;
 const RED_LIGHT_COST: f64 = 5.0e3;
 const OFF_ROAD_COST: f64 = 2.0e3;
+/// A candidate is dropped once its cost is sure to exceed the best one's by
+/// this much: far above the rounding of the sums, far below any term.
+const ABANDON_SLACK: f64 = 0.01;
 
 /// The evasive planner.
 #[derive(Debug, Clone, Default)]
@@ -117,18 +124,32 @@ impl Planner for EvasivePlanner {
         let steps = (self.params.horizon_s / SIM_DT_S).round().clamp(1.0, 6000.0) as usize;
 
         // Constant-velocity predictions of everyone within range, one box
-        // set per step (`predictions[k]`: after k + 1 steps).
-        let near: Vec<_> =
-            obs.agents.iter().filter(|a| (a.state.position - ego.position).norm() < PREDICTION_RANGE_M).collect();
+        // set per step (`predictions[k]`: after k + 1 steps). A box that no
+        // candidate's ego box or headway zone can reach by then is left out
+        // of that step's set: it could not touch either, so every answer
+        // stays the same.
+        let near: Vec<_> = obs
+            .agents
+            .iter()
+            .filter(|a| (a.state.position - ego.position).norm() < PREDICTION_RANGE_M)
+            .map(|a| (a, a.state.heading_rad.sin_cos(), 0.5 * a.length_m.hypot(a.width_m)))
+            .collect();
+        let start_speed_mps = KinematicState::from_agent_state(&ego).speed_mps;
+        let max_accel_mps2 = self.params.accelerations_mps2.iter().copied().fold(0.0, f64::max);
+        let (len, wid) = self.checked_extent_m(obs);
+        let ego_radius_m = 0.5 * len.hypot(wid);
         let predictions: Vec<BoxSet> = (1..=steps)
             .map(|k| {
                 let t = k as f64 * SIM_DT_S;
-                BoxSet::new(near.iter().map(|a| {
-                    let pose = Pose2 {
-                        position: a.state.position + a.state.velocity_mps * t,
-                        heading_rad: a.state.heading_rad,
-                    };
-                    OrientedBox::new(pose, a.length_m, a.width_m)
+                let travel_m = max_travel_m(start_speed_mps, max_accel_mps2, SIM_DT_S, k);
+                let headway_m = (HEADWAY_S * (start_speed_mps + max_accel_mps2 * t)).max(3.0);
+                let zone_reach_m = 0.5 * (len + headway_m) + 0.5 * headway_m.hypot(wid);
+                let reach_m = travel_m + ego_radius_m.max(zone_reach_m) + REACH_SLACK_M;
+                BoxSet::with_sin_cos(near.iter().filter_map(|&(a, sin_cos, radius_m)| {
+                    let position = a.state.position + a.state.velocity_mps * t;
+                    let far = (position - ego.position).norm_squared() > (reach_m + radius_m).powi(2);
+                    let pose = Pose2 { position, heading_rad: a.state.heading_rad };
+                    (!far).then(|| (OrientedBox::new(pose, a.length_m, a.width_m), sin_cos))
                 }))
             })
             .collect();
@@ -144,41 +165,103 @@ impl Planner for EvasivePlanner {
             .map(|(_, _, end)| *end)
             .next();
 
-        let mut best: Option<Candidate> = None;
-        for &offset in &self.params.lateral_offsets_m {
-            for &accel in &self.params.accelerations_mps2 {
-                let c = self.evaluate(obs, route, &predictions, red_stop_s, here, v_des, steps, accel, offset);
-                if best.as_ref().is_none_or(|b| c.cost < b.cost) {
-                    best = Some(c);
+        let ctx = PlanContext {
+            obs,
+            route,
+            predictions: &predictions,
+            red_stop_s,
+            start_s: here,
+            v_des,
+            steps,
+            max_progress_m: route.path.length_m() - here,
+        };
+        // The best candidate is the cheapest, ties to the first in the
+        // configured order (offsets, then accelerations). Trying the
+        // smallest offsets first finds a cheap candidate early, and a later
+        // one is dropped as soon as even its best possible ending costs more
+        // (see `evaluate`): it could not have won. With anything non-finite
+        // about, where costs may be NaN and the order matters, every
+        // candidate runs to the end in the configured order, as a plain loop.
+        let n_accels = self.params.accelerations_mps2.len();
+        let finite = [v_des, here, ctx.max_progress_m, ego.position.x, ego.position.y, ego.heading_rad]
+            .iter()
+            .chain(&[ego.velocity_mps.x, ego.velocity_mps.y, obs.ego_length_m, obs.ego_width_m])
+            .chain(&self.params.accelerations_mps2)
+            .chain(&self.params.lateral_offsets_m)
+            .all(|x| x.is_finite());
+        let mut offsets: Vec<usize> = (0..self.params.lateral_offsets_m.len()).collect();
+        if finite {
+            offsets.sort_by(|&a, &b| {
+                self.params.lateral_offsets_m[a].abs().total_cmp(&self.params.lateral_offsets_m[b].abs())
+            });
+        }
+        let mut best: Option<(Candidate, usize)> = None;
+        for &o in &offsets {
+            let offset = self.params.lateral_offsets_m[o];
+            for (a, &accel) in self.params.accelerations_mps2.iter().enumerate() {
+                let index = o * n_accels + a;
+                let abandon_above =
+                    best.as_ref().filter(|_| finite).map_or(f64::INFINITY, |(b, _)| b.cost + ABANDON_SLACK);
+                let Some(c) = self.evaluate(&ctx, accel, offset, abandon_above) else { continue };
+                let better = best.as_ref().is_none_or(|(b, i)| c.cost < b.cost || (c.cost == b.cost && index < *i));
+                if better {
+                    best = Some((c, index));
                 }
             }
         }
-        let best = best.ok_or_else(|| PlannerError::InvalidOutput("no candidates configured".into()))?;
+        let (best, _) = best.ok_or_else(|| PlannerError::InvalidOutput("no candidates configured".into()))?;
         Ok(PlannerOutput::Control(best.first))
     }
 }
 
+/// What every candidate of one plan shares.
+struct PlanContext<'a> {
+    obs: &'a Observation<'a>,
+    route: &'a Route,
+    /// `predictions[k]`: the other agents after k + 1 steps.
+    predictions: &'a [BoxSet],
+    /// The first red stop line ahead on the route, as an arc length.
+    red_stop_s: Option<f64>,
+    /// The ego's arc length on the route at the start.
+    start_s: f64,
+    /// Desired speed, m/s.
+    v_des: f64,
+    /// Steps per candidate.
+    steps: usize,
+    /// The most progress along the route a candidate can be credited with
+    /// (to the route's end), m.
+    max_progress_m: f64,
+}
+
 impl EvasivePlanner {
-    #[allow(clippy::too_many_arguments)]
-    fn evaluate(
-        &self,
-        obs: &Observation<'_>,
-        route: &Route,
-        predictions: &[BoxSet],
-        red_stop_s: Option<f64>,
-        start_s: f64,
-        v_des: f64,
-        steps: usize,
-        accel: f64,
-        offset: f64,
-    ) -> Candidate {
+    /// Length and width of the ego's box in the collision check (with the
+    /// safety margin), m.
+    fn checked_extent_m(&self, obs: &Observation<'_>) -> (f64, f64) {
+        (obs.ego_length_m + 2.0 * self.params.safety_margin_m, obs.ego_width_m + 2.0 * self.params.safety_margin_m)
+    }
+
+    /// The candidate with this acceleration and lateral offset, or `None`
+    /// once its cost is sure to end above `abandon_above`: every term
+    /// added along the way is non-negative, and the progress credit at the
+    /// end is at most `max_progress_m`, so the running cost plus the
+    /// offset and acceleration terms less the largest credit bounds the
+    /// final cost from below.
+    fn evaluate(&self, ctx: &PlanContext<'_>, accel: f64, offset: f64, abandon_above: f64) -> Option<Candidate> {
+        let obs = ctx.obs;
+        let route = ctx.route;
+        let (start_s, v_des, steps) = (ctx.start_s, ctx.v_des, ctx.steps);
+        // Swerving is a last resort: a full lane costs about as much as a second in the headway zone.
+        let choice_cost = 10.0 * offset * offset + 0.5 * accel * accel;
+        let least_to_come = choice_cost - 0.5 * ctx.max_progress_m;
         let mut s = KinematicState::from_agent_state(&obs.ego);
-        let (len, wid) =
-            (obs.ego_length_m + 2.0 * self.params.safety_margin_m, obs.ego_width_m + 2.0 * self.params.safety_margin_m);
+        let (len, wid) = self.checked_extent_m(obs);
         let mut cost = 0.0;
         let mut first = None;
         let mut travelled_s = start_s;
-        for (k, others) in predictions.iter().enumerate().take(steps) {
+        for (k, others) in ctx.predictions.iter().enumerate().take(steps) {
+            if cost + least_to_come > abandon_above {
+                return None;
+            }
             // Pure pursuit towards the route point ahead, shifted sideways by `offset`.
             let proj = route.path.project(&s.position);
             let s_here = proj.map_or(travelled_s, |p| p.arc_length_m);
@@ -219,7 +302,7 @@ impl EvasivePlanner {
             if others.any_intersects(&zone) {
                 cost += HEADWAY_COST;
             }
-            if let Some(stop) = red_stop_s
+            if let Some(stop) = ctx.red_stop_s
                 && s_here + 0.5 * obs.ego_length_m > stop
             {
                 cost += RED_LIGHT_COST;
@@ -231,9 +314,8 @@ impl EvasivePlanner {
             cost += 0.01 * (s.speed_mps - v_des).powi(2);
         }
         cost -= 0.5 * (travelled_s - start_s);
-        // Swerving is a last resort: a full lane costs about as much as a second in the headway zone.
-        cost += 10.0 * offset * offset + 0.5 * accel * accel;
-        Candidate { first: first.unwrap_or_default(), cost }
+        cost += choice_cost;
+        Some(Candidate { first: first.unwrap_or_default(), cost })
     }
 }
 

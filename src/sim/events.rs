@@ -99,6 +99,8 @@ pub(super) struct EventDetector<'a> {
     scenario: &'a Scenario,
     ego: TrackIndex,
     bodies: &'a [AgentBody],
+    /// `diagonals(bodies)`.
+    diagonals: Vec<f64>,
     previous: Vec<Option<AgentState>>,
     reported: BTreeSet<(usize, usize)>,
     collisions: Vec<CollisionEvent>,
@@ -113,26 +115,35 @@ fn footprint(body: &AgentBody, s: &AgentState) -> OrientedBox {
     OrientedBox::new(s.pose(), body.length_m, body.width_m)
 }
 
-fn radius(body: &AgentBody) -> f64 {
-    0.5 * body.length_m.hypot(body.width_m)
+/// Each body's diagonal, `length.hypot(width)`: worked out once per rollout
+/// rather than per pair and step.
+fn diagonals(bodies: &[AgentBody]) -> Vec<f64> {
+    bodies.iter().map(|b| b.length_m.hypot(b.width_m)).collect()
 }
 
-/// Every overlapping pair `(i, j)`, `i < j`, in ascending order.
-fn overlapping_pairs(bodies: &[AgentBody], states: &[Option<AgentState>]) -> Vec<(usize, usize)> {
+/// Every overlapping pair `(i, j)`, `i < j`, in ascending order. The pair
+/// test is [`OrientedBox::intersects`] with the bodies' diagonals looked up
+/// (the same bounding-circle reject, then the same exact test).
+fn overlapping_pairs(bodies: &[AgentBody], diagonals: &[f64], states: &[Option<AgentState>]) -> Vec<(usize, usize)> {
+    let radius = |i: usize| 0.5 * diagonals[i];
     let mut present: Vec<(f64, usize)> =
-        states.iter().enumerate().filter_map(|(i, s)| s.map(|s| (s.position.x - radius(&bodies[i]), i))).collect();
+        states.iter().enumerate().filter_map(|(i, s)| s.map(|s| (s.position.x - radius(i), i))).collect();
     present.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
     let mut out = Vec::new();
     for (k, &(min_x, i)) in present.iter().enumerate() {
         let si = states[i].expect("present");
-        let max_x = min_x + 2.0 * radius(&bodies[i]);
+        let max_x = min_x + 2.0 * radius(i);
         let bi = footprint(&bodies[i], &si);
         for &(other_min_x, j) in &present[k + 1..] {
             if other_min_x > max_x {
                 break;
             }
             let sj = states[j].expect("present");
-            if bi.intersects(&footprint(&bodies[j], &sj)) {
+            let reach = 0.5 * (diagonals[i] + diagonals[j]);
+            if (si.position - sj.position).norm_squared() > reach * reach {
+                continue;
+            }
+            if bi.intersects_exact(&footprint(&bodies[j], &sj)) {
                 out.push((i.min(j), i.max(j)));
             }
         }
@@ -153,6 +164,7 @@ impl<'a> EventDetector<'a> {
             scenario,
             ego,
             bodies,
+            diagonals: diagonals(bodies),
             previous: start_states.to_vec(),
             reported: BTreeSet::new(),
             collisions: Vec::new(),
@@ -184,14 +196,14 @@ impl<'a> EventDetector<'a> {
 
     fn track_closest(&mut self, step: usize, states: &[Option<AgentState>]) {
         let Some(ego) = states[self.ego.0] else { return };
-        let ego_body = &self.bodies[self.ego.0];
-        let ego_box = footprint(ego_body, &ego);
+        let ego_box = footprint(&self.bodies[self.ego.0], &ego);
+        let ego_radius_m = 0.5 * self.diagonals[self.ego.0];
         for (i, s) in states.iter().enumerate() {
             let Some(s) = s else { continue };
             if i == self.ego.0 {
                 continue;
             }
-            let lower = (s.position - ego.position).norm() - radius(ego_body) - radius(&self.bodies[i]);
+            let lower = (s.position - ego.position).norm() - ego_radius_m - 0.5 * self.diagonals[i];
             if self.closest.is_some_and(|c| lower >= c.distance_m) {
                 continue;
             }
@@ -205,7 +217,7 @@ impl<'a> EventDetector<'a> {
     /// Records events at `step`; returns whether the ego collided for the first time.
     pub(super) fn observe(&mut self, step: usize, states: &[Option<AgentState>]) -> bool {
         let mut ego_hit = false;
-        for (i, j) in overlapping_pairs(self.bodies, states) {
+        for (i, j) in overlapping_pairs(self.bodies, &self.diagonals, states) {
             let apart_before = match (self.previous[i], self.previous[j]) {
                 (Some(pi), Some(pj)) => !footprint(&self.bodies[i], &pi).intersects(&footprint(&self.bodies[j], &pj)),
                 _ => false,
