@@ -101,8 +101,13 @@ struct VariantBench {
     steps: usize,
     /// Stage 1 (the CBV on SaFeR, the ego on log replay), ms.
     stage1_ms: f64,
+    /// Of which: the prior's features and decoder and the feasibility
+    /// value (the rest is the simulator and the adversary's own work), ms.
+    stage1_models_ms: f64,
     /// Stage 2 (the evasive planner drives the ego), ms.
     stage2_ms: f64,
+    /// Of which: the planner's `plan` calls (the rest is the simulator), ms.
+    stage2_planner_ms: f64,
     /// Both stages, ms (median of whole runs, not the sum of the medians).
     variant_ms: f64,
     variant_target_ms: f64,
@@ -245,7 +250,9 @@ pub(super) fn run(scenes: &Path, repeat: usize, json: Option<&Path>) -> Result<E
             )?;
             writeln!(out, "{}: {} agents present, {} steps", v.scene, v.agents_present, v.steps)?;
             writeln!(out, "{:<52} {:>10.1}", "  stage 1 (SaFeR CBV, ego on log replay)", v.stage1_ms)?;
+            writeln!(out, "{:<52} {:>10.1}", "    of which prior and feasibility models", v.stage1_models_ms)?;
             writeln!(out, "{:<52} {:>10.1}", "  stage 2 (evasive planner)", v.stage2_ms)?;
+            writeln!(out, "{:<52} {:>10.1}", "    of which the planner's plan calls", v.stage2_planner_ms)?;
             writeln!(
                 out,
                 "{:<52} {:>10.1} {:>10.0} {:>10.2}",
@@ -317,7 +324,9 @@ fn bench_variant(scenes: &[Scenario], repeat: usize) -> Result<Option<VariantBen
     for _ in 0..repeat {
         let t = Instant::now();
         let stages = pipeline::run(setup)?;
-        runs.push((t.elapsed(), stages.profile.stage1_s, stages.profile.stage2_s));
+        let p = &stages.profile;
+        let models_s = p.stage1_features_s + p.stage1_decoder_s + p.stage1_feasibility_s;
+        runs.push((t.elapsed(), p.stage1_s, p.stage2_s, models_s, p.stage2_planner_s));
         last = Some(stages);
     }
     let stages = last.expect("repeat >= 1");
@@ -328,6 +337,8 @@ fn bench_variant(scenes: &[Scenario], repeat: usize) -> Result<Option<VariantBen
     let variant_ms = ms(median(runs.iter().map(|r| r.0).collect()));
     let stage1_ms = mid(runs.iter().map(|r| r.1 * 1e3).collect());
     let stage2_ms = mid(runs.iter().map(|r| r.2 * 1e3).collect());
+    let stage1_models_ms = mid(runs.iter().map(|r| r.3 * 1e3).collect());
+    let stage2_planner_ms = mid(runs.iter().map(|r| r.4 * 1e3).collect());
 
     let stage1 = &stages.stage1;
     let ego = stage1.ego.0;
@@ -344,7 +355,9 @@ fn bench_variant(scenes: &[Scenario], repeat: usize) -> Result<Option<VariantBen
         agents_present: present(&scenario),
         steps: stage1.states.len(),
         stage1_ms,
+        stage1_models_ms,
         stage2_ms,
+        stage2_planner_ms,
         variant_ms,
         variant_target_ms: VARIANT_TARGET_MS,
         variant_ratio_to_target: variant_ms / VARIANT_TARGET_MS,

@@ -72,6 +72,9 @@ pub struct VariantProfile {
     pub stage1_feasibility_s: f64,
     /// Stage 2 (the planner under test).
     pub stage2_s: f64,
+    /// Of which: the planner's `plan` calls (the rest is the simulator:
+    /// the other agents, events).
+    pub stage2_planner_s: f64,
     /// The witness search (only `safer evaluate` runs it).
     pub witness_s: f64,
 }
@@ -84,6 +87,7 @@ impl VariantProfile {
         self.stage1_decoder_s += o.stage1_decoder_s;
         self.stage1_feasibility_s += o.stage1_feasibility_s;
         self.stage2_s += o.stage2_s;
+        self.stage2_planner_s += o.stage2_planner_s;
         self.witness_s += o.witness_s;
     }
 
@@ -95,6 +99,7 @@ impl VariantProfile {
             stage1_decoder_s: self.stage1_decoder_s * k,
             stage1_feasibility_s: self.stage1_feasibility_s * k,
             stage2_s: self.stage2_s * k,
+            stage2_planner_s: self.stage2_planner_s * k,
             witness_s: self.witness_s * k,
         }
     }
@@ -328,6 +333,7 @@ pub fn run(setup: VariantSetup<'_>) -> Result<DualStage, HarnessError> {
     let mut timed = Timed { inner: planner.as_mut(), times_ms: Vec::new() };
     let stage2 = stage2.run(&mut timed);
     let planner_latency = PlannerLatency::of(&timed.times_ms);
+    profile.stage2_planner_s = timed.times_ms.iter().sum::<f64>() / 1e3;
     // Ends an external process before the next variant starts one, and
     // only then reads its stderr: lines still in the pipe are not lost.
     let planner_stderr = timed.end_rollout();

@@ -460,14 +460,15 @@ impl RoadMap {
     /// and on that edge the projection onto its nearest candidate segment,
     /// ties to the lower segment index. That is one order over all the
     /// (edge, segment) pairs, so the pairs are taken as the index yields
-    /// them, unsorted and some twice; only a NaN distance (from absurd map
+    /// them, unsorted, some twice, nearest cells first and cells wholly
+    /// beyond the best so far skipped; only a NaN distance (from absurd map
     /// coordinates, where that order is not total) falls back to visiting
-    /// them sorted, edge by edge.
+    /// them all sorted, edge by edge.
     fn nearest_road_edge_within(&self, p: &Point2, radius_m: f64) -> Option<(usize, PolylineProjection)> {
         // (distance, edge, distance², segment)
         let mut best: Option<(f64, usize, f64, usize)> = None;
         let mut nan = false;
-        self.edge_segments.for_each_candidate(p, radius_m, |(edge, seg)| {
+        self.edge_segments.for_each_candidate_nearest_first(p, radius_m, |(edge, seg)| {
             let (edge, seg) = (edge as usize, seg as usize);
             let (d2, _) = self.road_edges[edge].polyline.segment_distance_squared(p, seg);
             nan |= d2.is_nan();
@@ -475,6 +476,7 @@ impl RoadMap {
             if best.is_none_or(|b| key < b) {
                 best = Some(key);
             }
+            best.map_or(f64::INFINITY, |b| b.0)
         });
         if !nan {
             return best.and_then(|(_, edge, _, seg)| {

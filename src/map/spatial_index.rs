@@ -20,10 +20,38 @@ const CELL_M: f64 = 10.0;
 /// are kept aside and offered to every query, so building stays linear.
 const MAX_PIECES: f64 = (1u32 << 20) as f64;
 
+/// Most cells [`SegmentIndex::for_each_candidate_nearest_first`] orders
+/// (a ring of up to 10 m radius spans at most 3 × 3); wider queries visit
+/// their cells unordered and unpruned.
+const MAX_ORDERED_CELLS: usize = 16;
+
+/// Slack of the cell pruning, m: far above the rounding of the distances it
+/// compares, far below anything that matters.
+const PRUNE_SLACK_M: f64 = 0.01;
+
+/// The segments of one cell and the bounding box of those whole segments
+/// (which may reach beyond the cell).
+#[derive(Debug, Clone)]
+struct Cell {
+    refs: Vec<(u32, u32)>,
+    lo: Point2,
+    hi: Point2,
+}
+
+impl Cell {
+    /// Distance from `p` to the bounding box of the cell's segments: none
+    /// of them is nearer.
+    fn distance_from(&self, p: &Point2) -> f64 {
+        let dx = (self.lo.x - p.x).max(p.x - self.hi.x).max(0.0);
+        let dy = (self.lo.y - p.y).max(p.y - self.hi.y).max(0.0);
+        (dx * dx + dy * dy).sqrt()
+    }
+}
+
 /// Grid of segment references `(polyline, segment)` keyed by cell.
 #[derive(Debug, Clone, Default)]
 pub struct SegmentIndex {
-    cells: HashMap<(i64, i64), Vec<(u32, u32)>>,
+    cells: HashMap<(i64, i64), Cell>,
     /// Finite segments too long to walk cell by cell: candidates of every query.
     oversized: Vec<(u32, u32)>,
     /// Bounding box of all indexed points, `None` when empty.
@@ -39,7 +67,7 @@ impl SegmentIndex {
     /// segment with a non-finite end is near nothing and is left out; the
     /// work is linear in the total segment length (in cells) for any input.
     pub fn build<'a>(polylines: impl IntoIterator<Item = &'a Polyline>) -> Self {
-        let mut cells: HashMap<(i64, i64), Vec<(u32, u32)>> = HashMap::new();
+        let mut cells: HashMap<(i64, i64), Cell> = HashMap::new();
         let mut oversized = Vec::new();
         let (mut lo, mut hi) = (Point2::new(f64::MAX, f64::MAX), Point2::new(f64::MIN, f64::MIN));
         for (pi, line) in polylines.into_iter().enumerate() {
@@ -78,8 +106,13 @@ impl SegmentIndex {
                 }
                 touched.sort_unstable();
                 touched.dedup();
+                let (seg_lo, seg_hi) =
+                    (Point2::new(a.x.min(b.x), a.y.min(b.y)), Point2::new(a.x.max(b.x), a.y.max(b.y)));
                 for cell in touched {
-                    cells.entry(cell).or_default().push((pi as u32, si as u32));
+                    let c = cells.entry(cell).or_insert(Cell { refs: Vec::new(), lo: seg_lo, hi: seg_hi });
+                    c.refs.push((pi as u32, si as u32));
+                    c.lo = Point2::new(c.lo.x.min(seg_lo.x), c.lo.y.min(seg_lo.y));
+                    c.hi = Point2::new(c.hi.x.max(seg_hi.x), c.hi.y.max(seg_hi.y));
                 }
             }
         }
@@ -128,6 +161,59 @@ impl SegmentIndex {
         out.dedup();
     }
 
+    /// As [`Self::for_each_candidate`], for searches of the segment nearest
+    /// to `p`: `visit` returns the distance of its best segment so far
+    /// (infinite while it has none), and the cells within reach are visited
+    /// nearest first, skipping every cell whose segments all lie farther
+    /// than that (with a centimetre to spare), so such a search finds what
+    /// it would find visiting them all. Segments may still be visited more
+    /// than once.
+    pub fn for_each_candidate_nearest_first(
+        &self,
+        p: &Point2,
+        radius_m: f64,
+        mut visit: impl FnMut((u32, u32)) -> f64,
+    ) {
+        if !(p.x.is_finite() && p.y.is_finite()) || radius_m.is_nan() {
+            return;
+        }
+        let r = radius_m.max(0.0);
+        let (lo_x, hi_x) = (((p.x - r) / CELL_M).floor(), ((p.x + r) / CELL_M).floor());
+        let (lo_y, hi_y) = (((p.y - r) / CELL_M).floor(), ((p.y + r) / CELL_M).floor());
+        let span = (hi_x - lo_x + 1.0) * (hi_y - lo_y + 1.0);
+        // (NaN or infinite spans too.)
+        if span.is_nan() || span > MAX_ORDERED_CELLS as f64 {
+            self.for_each_candidate(p, radius_m, |pair| {
+                visit(pair);
+            });
+            return;
+        }
+        let mut near: [(f64, Option<&Cell>); MAX_ORDERED_CELLS] = [(0.0, None); MAX_ORDERED_CELLS];
+        let mut n = 0;
+        for cx in lo_x as i64..=hi_x as i64 {
+            for cy in lo_y as i64..=hi_y as i64 {
+                if let Some(cell) = self.cells.get(&(cx, cy)) {
+                    near[n] = (cell.distance_from(p), Some(cell));
+                    n += 1;
+                }
+            }
+        }
+        let near = &mut near[..n];
+        near.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
+        let mut best_m = f64::INFINITY;
+        for &pair in &self.oversized {
+            best_m = visit(pair);
+        }
+        for (distance_m, cell) in near.iter() {
+            if *distance_m > best_m + PRUNE_SLACK_M {
+                break;
+            }
+            for &pair in cell.map_or(&[][..], |c| c.refs.as_slice()) {
+                best_m = visit(pair);
+            }
+        }
+    }
+
     /// Calls `visit` with every candidate of [`Self::candidates`] as a
     /// `(polyline, segment)` pair, in no particular order and some more
     /// than once (a segment is in every cell it crosses): for callers whose
@@ -148,17 +234,17 @@ impl SegmentIndex {
             // Few enough cells to look each up; all bounds are small integers here.
             for cx in lo_x as i64..=hi_x as i64 {
                 for cy in lo_y as i64..=hi_y as i64 {
-                    if let Some(refs) = self.cells.get(&(cx, cy)) {
-                        refs.iter().copied().for_each(&mut visit);
+                    if let Some(cell) = self.cells.get(&(cx, cy)) {
+                        cell.refs.iter().copied().for_each(&mut visit);
                     }
                 }
             }
         } else {
             // A query wider than the whole index scans every occupied cell once.
-            for (cell, refs) in &self.cells {
-                let (cx, cy) = (cell.0 as f64, cell.1 as f64);
+            for (key, cell) in &self.cells {
+                let (cx, cy) = (key.0 as f64, key.1 as f64);
                 if (lo_x..=hi_x).contains(&cx) && (lo_y..=hi_y).contains(&cy) {
-                    refs.iter().copied().for_each(&mut visit);
+                    cell.refs.iter().copied().for_each(&mut visit);
                 }
             }
         }
@@ -177,6 +263,54 @@ mod tests {
         assert!(index.cell_count() < 5_000, "{}", index.cell_count());
         let hits = index.candidates(&Point2::new(5_000.0, 5_000.0), 1.0);
         assert_eq!(hits.get(&0), Some(&vec![0]));
+    }
+
+    #[test]
+    fn nearest_first_visits_finds_the_same_nearest_segment_with_fewer_visits() {
+        // Short random segments over 200 m × 200 m; for points all over it,
+        // the nearest segment among the candidates (by distance, then pair)
+        // is the same with cells pruned as with all cells visited.
+        let mut state = 11u64;
+        let mut next = move || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let lines: Vec<Polyline> = (0..1500)
+            .map(|_| {
+                let a = Point2::new(next() * 200.0, next() * 200.0);
+                let b = a + crate::geometry::Vector2::new(next() * 12.0 - 6.0, next() * 12.0 - 6.0);
+                Polyline::new(vec![a, b, b + crate::geometry::Vector2::new(next() * 4.0, 1.0)])
+            })
+            .collect();
+        let index = SegmentIndex::build(&lines);
+        let distance =
+            |p: &Point2, (pi, si): (u32, u32)| lines[pi as usize].segment_distance_squared(p, si as usize).0.sqrt();
+        let (mut all_visits, mut pruned_visits) = (0, 0);
+        for k in 0..2000 {
+            let p = Point2::new(next() * 220.0 - 10.0, next() * 220.0 - 10.0);
+            for r in [3.0, 8.0, 30.0] {
+                let mut all: Option<(f64, (u32, u32))> = None;
+                index.for_each_candidate(&p, r, |pair| {
+                    all_visits += usize::from(r < 10.0);
+                    let key = (distance(&p, pair), pair);
+                    if all.is_none_or(|b| key < b) {
+                        all = Some(key);
+                    }
+                });
+                let mut pruned: Option<(f64, (u32, u32))> = None;
+                index.for_each_candidate_nearest_first(&p, r, |pair| {
+                    pruned_visits += usize::from(r < 10.0);
+                    let key = (distance(&p, pair), pair);
+                    if pruned.is_none_or(|b| key < b) {
+                        pruned = Some(key);
+                    }
+                    pruned.map_or(f64::INFINITY, |b| b.0)
+                });
+                assert_eq!(pruned, all, "point {k} {p:?} radius {r}");
+            }
+        }
+        // Rings of up to 10 m are ordered and pruned; wider ones are not.
+        assert!(pruned_visits * 4 < all_visits * 3, "{pruned_visits} of {all_visits}");
     }
 
     fn two_segments() -> SegmentIndex {

@@ -46,9 +46,12 @@ fn bench_writes_every_figure_beside_its_reference_as_json() {
     assert_eq!(import[0]["format"], "womd-json");
     assert!(import[0]["ratio_to_file_read"].as_f64().unwrap() > 0.0);
     let variant = &v["variant"];
-    for key in ["stage1_ms", "stage2_ms", "variant_ms", "witness_ms"] {
+    for key in ["stage1_ms", "stage1_models_ms", "stage2_ms", "stage2_planner_ms", "variant_ms", "witness_ms"] {
         assert!(variant[key].as_f64().is_some_and(|ms| ms > 0.0), "{key}: {variant}");
     }
+    // The parts are parts (medians of the same runs).
+    let ms = |key: &str| variant[key].as_f64().unwrap();
+    assert!(ms("stage1_models_ms") <= ms("stage1_ms") && ms("stage2_planner_ms") <= ms("stage2_ms"), "{variant}");
     assert_eq!(variant["variant_target_ms"], 50.0);
     assert_eq!(variant["witness_target_ms"], 10.0);
     let ratio = variant["variant_ratio_to_target"].as_f64().unwrap();
