@@ -5,12 +5,12 @@
 //! only looks at those within reach along x; then only those whose bounding
 //! circles are within reach are looked at further, and a separating-axis
 //! gap computed in `f64` (a lower bound on the boxes' distance) settles
-//! every case that is not within [`SLACK_M`] of the answer's edge. Only the
+//! every case that is not within 1 cm (`SLACK_M`) of the answer's edge. Only the
 //! rest go to parry's exact tests.
 //!
 //! The broad phase only skips boxes that the exact answer cannot depend on,
 //! and decides a touch by itself only where the gap is more than
-//! [`SLACK_M`] either side of zero (parry's `f32` tests cannot disagree
+//! 1 cm either side of zero (parry's `f32` tests cannot disagree
 //! there); the exact tests are the same calls in the same argument order as
 //! a plain loop over the boxes, so every answer is bit-identical to that
 //! loop's.
