@@ -5,12 +5,12 @@
 //! only looks at those within reach along x; then only those whose bounding
 //! circles are within reach are looked at further, and a separating-axis
 //! gap computed in `f64` (a lower bound on the boxes' distance) settles
-//! every case that is not within [`SLACK_M`] of the answer's edge. Only the
+//! every case that is not within 1 cm (`SLACK_M`) of the answer's edge. Only the
 //! rest go to parry's exact tests.
 //!
 //! The broad phase only skips boxes that the exact answer cannot depend on,
 //! and decides a touch by itself only where the gap is more than
-//! [`SLACK_M`] either side of zero (parry's `f32` tests cannot disagree
+//! 1 cm either side of zero (parry's `f32` tests cannot disagree
 //! there); the exact tests are the same calls in the same argument order as
 //! a plain loop over the boxes, so every answer is bit-identical to that
 //! loop's.
@@ -75,6 +75,8 @@ struct Entry {
     frame: Frame,
     radius_m: f64,
     shape: OrientedBox,
+    /// Place in the input: ties in x keep the input order, as in a stable sort.
+    rank: usize,
 }
 
 /// Boxes sorted by centre x, with their bounding-circle radii and axes.
@@ -107,17 +109,24 @@ impl BoxSet {
     /// The set of `boxes`, each with its heading's `sin_cos()` (worked out
     /// once by a caller whose boxes keep their headings over many sets).
     pub fn with_sin_cos(boxes: impl IntoIterator<Item = (OrientedBox, (f64, f64))>) -> Self {
-        let mut entries: Vec<Entry> = boxes
-            .into_iter()
-            .map(|(shape, sin_cos)| Entry {
-                frame: Frame::with_sin_cos(&shape, sin_cos),
-                radius_m: radius(&shape),
-                shape,
-            })
-            .collect();
-        entries.sort_by(|a, b| a.frame.x.total_cmp(&b.frame.x));
-        let max_radius_m = entries.iter().map(|e| e.radius_m).fold(0.0, f64::max);
-        Self { entries, max_radius_m }
+        let mut set = Self::default();
+        set.refill_with_sin_cos(boxes);
+        set
+    }
+
+    /// Makes this the set [`Self::with_sin_cos`] would make of `boxes`,
+    /// keeping its storage: for callers that build many sets a second.
+    pub fn refill_with_sin_cos(&mut self, boxes: impl IntoIterator<Item = (OrientedBox, (f64, f64))>) {
+        self.entries.clear();
+        self.entries.extend(boxes.into_iter().enumerate().map(|(rank, (shape, sin_cos))| Entry {
+            frame: Frame::with_sin_cos(&shape, sin_cos),
+            radius_m: radius(&shape),
+            shape,
+            rank,
+        }));
+        // By x, ties in input order (a stable sort's order, without its buffer).
+        self.entries.sort_unstable_by(|a, b| a.frame.x.total_cmp(&b.frame.x).then(a.rank.cmp(&b.rank)));
+        self.max_radius_m = self.entries.iter().map(|e| e.radius_m).fold(0.0, f64::max);
     }
 
     /// Number of boxes.

@@ -78,12 +78,15 @@ pub struct EvasivePlanner {
     params: EvasiveParams,
     route: Option<Route>,
     desired_speed_mps: Option<f64>,
+    /// The predictions' storage, kept from one plan to the next (it is
+    /// refilled every step; only the allocations are reused).
+    predictions: Vec<BoxSet>,
 }
 
 impl EvasivePlanner {
     /// A planner with these parameters.
     pub fn new(params: EvasiveParams) -> Self {
-        Self { params, route: None, desired_speed_mps: None }
+        Self { params, route: None, desired_speed_mps: None, predictions: Vec::new() }
     }
 }
 
@@ -138,21 +141,21 @@ impl Planner for EvasivePlanner {
         let max_accel_mps2 = self.params.accelerations_mps2.iter().copied().fold(0.0, f64::max);
         let (len, wid) = self.checked_extent_m(obs);
         let ego_radius_m = 0.5 * len.hypot(wid);
-        let predictions: Vec<BoxSet> = (1..=steps)
-            .map(|k| {
-                let t = k as f64 * SIM_DT_S;
-                let travel_m = max_travel_m(start_speed_mps, max_accel_mps2, SIM_DT_S, k);
-                let headway_m = (HEADWAY_S * (start_speed_mps + max_accel_mps2 * t)).max(3.0);
-                let zone_reach_m = 0.5 * (len + headway_m) + 0.5 * headway_m.hypot(wid);
-                let reach_m = travel_m + ego_radius_m.max(zone_reach_m) + REACH_SLACK_M;
-                BoxSet::with_sin_cos(near.iter().filter_map(|&(a, sin_cos, radius_m)| {
-                    let position = a.state.position + a.state.velocity_mps * t;
-                    let far = (position - ego.position).norm_squared() > (reach_m + radius_m).powi(2);
-                    let pose = Pose2 { position, heading_rad: a.state.heading_rad };
-                    (!far).then(|| (OrientedBox::new(pose, a.length_m, a.width_m), sin_cos))
-                }))
-            })
-            .collect();
+        let mut predictions = std::mem::take(&mut self.predictions);
+        predictions.resize_with(steps, BoxSet::default);
+        for (set, k) in predictions.iter_mut().zip(1..) {
+            let t = k as f64 * SIM_DT_S;
+            let travel_m = max_travel_m(start_speed_mps, max_accel_mps2, SIM_DT_S, k);
+            let headway_m = (HEADWAY_S * (start_speed_mps + max_accel_mps2 * t)).max(3.0);
+            let zone_reach_m = 0.5 * (len + headway_m) + 0.5 * headway_m.hypot(wid);
+            let reach_m = travel_m + ego_radius_m.max(zone_reach_m) + REACH_SLACK_M;
+            set.refill_with_sin_cos(near.iter().filter_map(|&(a, sin_cos, radius_m)| {
+                let position = a.state.position + a.state.velocity_mps * t;
+                let far = (position - ego.position).norm_squared() > (reach_m + radius_m).powi(2);
+                let pose = Pose2 { position, heading_rad: a.state.heading_rad };
+                (!far).then(|| (OrientedBox::new(pose, a.length_m, a.width_m), sin_cos))
+            }));
+        }
         // The first red stop line ahead on the route, as an arc length.
         let here = route.path.project(&ego.position).map_or(0.0, |p| p.arc_length_m);
         let red_stop_s = route
@@ -209,6 +212,7 @@ impl Planner for EvasivePlanner {
                 }
             }
         }
+        self.predictions = predictions;
         let (best, _) = best.ok_or_else(|| PlannerError::InvalidOutput("no candidates configured".into()))?;
         Ok(PlannerOutput::Control(best.first))
     }

@@ -28,7 +28,7 @@ use std::sync::{Arc, Mutex};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-use super::prior_sampling::{PriorTraffic, draw_seed, ranked_tokens, sample_token};
+use super::prior_sampling::{PriorTraffic, draw_seed, sample_token, top_tokens};
 use super::{AgentAction, AgentPolicy, WorldView};
 use crate::geometry::OrientedBox;
 use crate::models::ModelError;
@@ -111,13 +111,15 @@ impl Adversary {
         let mut shared = self.shared.lock().unwrap_or_else(|p| p.into_inner());
         let Some(logits) = shared.logits_at(cbv.0, world.step).cloned() else { return Ok(None) };
         drop(shared);
-        let ranked = ranked_tokens(&logits);
-        let (Some(cbv_now), Some(ego_now)) = (world.state(cbv), world.state(self.ego)) else {
-            return Ok(ranked.first().copied());
+        // The trust region, most likely first: the top of `ranked_tokens`
+        // without sorting the whole vocabulary.
+        let k = match self.trust_region {
+            TrustRegion::TopN(n) => n.max(1).min(logits.len()),
+            TrustRegion::WholeVocabulary => logits.len(),
         };
-        let candidates = match self.trust_region {
-            TrustRegion::TopN(n) => &ranked[..n.max(1).min(ranked.len())],
-            TrustRegion::WholeVocabulary => &ranked[..],
+        let candidates = &top_tokens(&logits, k)[..];
+        let (Some(cbv_now), Some(ego_now)) = (world.state(cbv), world.state(self.ego)) else {
+            return Ok(candidates.first().copied());
         };
         let ego_next = ego_prediction(ego_now);
         let (ego_body, cbv_body) = (world.body(self.ego), world.body(cbv));
@@ -181,8 +183,7 @@ impl Adversary {
         let (seed, sampling) = (shared.seed(), shared.sampling());
         let logits = shared.logits_at(cbv.0, world.step)?.clone();
         drop(shared);
-        let ranked = ranked_tokens(&logits);
-        let top = &ranked[..sampling.top_k.clamp(1, ranked.len())];
+        let top = &top_tokens(&logits, sampling.top_k.clamp(1, logits.len()))[..];
         let mut masked = logits.clone();
         if let Some(cbv_now) = world.state(cbv) {
             let check = PlausibilityCheck::new(world, cbv, self.ego);
