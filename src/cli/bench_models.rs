@@ -210,17 +210,16 @@ pub(super) fn run(
         format!("full-scene step: {} agents, decoder batch {SCENE_BATCH}", present.len()),
         scene_us
     )?;
-    let decoder_batch_us = {
-        let qs: Vec<_> = present
-            .iter()
-            .take(SCENE_BATCH)
-            .filter_map(|&a| build_query(&history, &bodies, &tokens, &scene.map, a, step))
-            .collect();
-        let refs: Vec<_> = qs.iter().collect();
-        median_us(repeat.min(50), || {
-            prior.logits(&refs, &embedding).expect("decoder ran once");
-        })
-    };
+    // One scene batch of real queries, for the decoder-only figure and the profile.
+    let scene_queries: Vec<_> = present
+        .iter()
+        .take(SCENE_BATCH)
+        .filter_map(|&a| build_query(&history, &bodies, &tokens, &scene.map, a, step))
+        .collect();
+    let scene_refs: Vec<_> = scene_queries.iter().collect();
+    let decoder_batch_us = median_us(repeat.min(50), || {
+        prior.logits(&scene_refs, &embedding).expect("decoder ran once");
+    });
     let decoder_single_us = {
         let q = build_query(&history, &bodies, &tokens, &scene.map, cbv, step).expect("CBV present");
         median_us(repeat, || {
@@ -232,14 +231,9 @@ pub(super) fn run(
 
     let mut profiles = Vec::new();
     if let Some(top) = profile_top {
-        let qs: Vec<_> = present
-            .iter()
-            .take(SCENE_BATCH)
-            .filter_map(|&a| build_query(&history, &bodies, &tokens, &scene.map, a, step))
-            .collect();
-        let refs: Vec<_> = qs.iter().collect();
         for batch in [1, SCENE_BATCH] {
-            let nodes = prior.profile_decoder(batch, &refs[..batch.min(refs.len())], &embedding, repeat.min(50))?;
+            let chunk = &scene_refs[..batch.min(scene_refs.len())];
+            let nodes = prior.profile_decoder(batch, chunk, &embedding, repeat.min(50))?;
             let profile = DecoderProfile::new(batch, nodes);
             profile.print(&mut out, top)?;
             profiles.push(profile);
