@@ -72,6 +72,12 @@ pub struct VariantRecord {
     pub witness: Option<bool>,
     /// Stage-1 closest ego–CBV gap, m.
     pub stage1_min_gap_m: Option<f64>,
+    /// Stage 1: the CBV collided with a background agent.
+    pub cbv_hit_background: bool,
+    /// ... and was at fault in at least one such collision.
+    pub cbv_at_fault_with_background: bool,
+    /// Stage 1: time the CBV spent off the road, having started on it, s.
+    pub cbv_off_road_s: f64,
     /// Wall time of the variant (both stages and the witness), s.
     pub time_s: f64,
     /// Where the time went, s.
@@ -176,6 +182,9 @@ fn run_one(
         stage2: Some(stages.verdict),
         witness,
         stage1_min_gap_m: stages.stage1.summary().min_distance_to_ego_m,
+        cbv_hit_background: tally.cbv_hit_background,
+        cbv_at_fault_with_background: tally.cbv_at_fault_with_background,
+        cbv_off_road_s: (tally.cbv_off_road_s * 10.0).round() / 10.0,
         time_s: clock.elapsed().as_secs_f64(),
         profile,
         planner_latency: stages.planner_latency,
@@ -213,6 +222,9 @@ pub fn evaluate(
                     stage2: None,
                     witness: None,
                     stage1_min_gap_m: None,
+                    cbv_hit_background: false,
+                    cbv_at_fault_with_background: false,
+                    cbv_off_road_s: 0.0,
                     time_s: 0.0,
                     profile: VariantProfile::default(),
                     planner_latency: None,

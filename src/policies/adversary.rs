@@ -14,12 +14,22 @@
 //!   prior samples the CBV's first 1–4 tokens (0.5–2 s, drawn from the
 //!   seed) before the adversary engages, so each seed starts the attack
 //!   from a different, realistic state.
-//! - **Plausibility.** A candidate is kept out of the choice, while any
-//!   other remains, when its 0.5 s rollout takes the CBV from the road onto
-//!   the off-road area, or when the CBV, braking as hard as it can after
-//!   it, would still run into a background vehicle (predicted at constant
-//!   velocity over 2 s): the CBV must stay a plausible road user. The same
-//!   rule restricts the prior's draws in the approach phase.
+//! - **Plausibility.** The CBV must stay a plausible road user. A
+//!   candidate is implausible when its 0.5 s rollout takes the CBV from the
+//!   road onto the off-road area (or, off the road already, farther from
+//!   it), when a background agent (predicted at constant velocity) and the
+//!   moving CBV touch during the token, or when the CBV, braking as hard as
+//!   it can after the token (holding its curvature, as a driver braking in
+//!   a bend does), would leave the road or run into one within 2 s (at
+//!   fault as the metrics judge it: a follower running into a braking CBV
+//!   is not the CBV's doing). A plausible token leaves the CBV room to stop
+//!   on the road. The arg min is taken over the plausible candidates
+//!   of the trust region; when none is plausible the CBV takes the likeliest
+//!   plausible token of the whole vocabulary (what a careful driver would
+//!   do: the trust region is for realism, and leaving the road or hitting
+//!   traffic is not realistic), and only when no token at all is plausible
+//!   the trust region's arg min. The same rule restricts the prior's draws
+//!   in the approach phase.
 //!
 //! The ablations are the same policy with a part switched off.
 
@@ -28,13 +38,16 @@ use std::sync::{Arc, Mutex};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-use super::prior_sampling::{PriorTraffic, draw_seed, sample_token, top_tokens};
+use super::prior_sampling::{PriorTraffic, draw_seed, ranked_tokens, sample_token, top_tokens};
 use super::{AgentAction, AgentPolicy, WorldView};
-use crate::geometry::OrientedBox;
+use crate::geometry::{OrientedBox, wrap_angle};
 use crate::models::ModelError;
 pub use crate::models::feasibility_oracle::{EgoCbvState, FeasibilityOracle};
-use crate::motion::tokens::{MAX_ACCEL_MPS2, SIM_DT_S, TOKEN_PERIOD_S, TOKEN_PERIOD_STEPS, Token, TokenGrid};
+use crate::motion::tokens::{
+    MAX_ACCEL_MPS2, MAX_YAW_RATE_RADPS, SIM_DT_S, TOKEN_PERIOD_S, TOKEN_PERIOD_STEPS, Token, TokenGrid,
+};
 use crate::motion::{Action, KinematicState, kinematic_step};
+use crate::scenario::contact::EgoCollisionKind;
 use crate::scenario::{AgentState, TrackIndex};
 
 /// Penalty added to V_h for candidates outside the feasible region (the paper's Δ).
@@ -171,8 +184,11 @@ impl Adversary {
                 .then(candidates[i].0.cmp(&candidates[j].0))
         });
         let check = PlausibilityCheck::new(world, cbv, self.ego);
-        let best = order.iter().copied().find(|&i| !check.implausible(&rollouts[i])).or(order.first().copied());
-        Ok(best.map(|i| candidates[i]))
+        if let Some(i) = order.iter().copied().find(|&i| !check.implausible(&rollouts[i])) {
+            return Ok(Some(candidates[i]));
+        }
+        let outside_trust_region = candidates.len()..logits.len();
+        Ok(check.likeliest_plausible(&logits, outside_trust_region).or_else(|| order.first().map(|&i| candidates[i])))
     }
 
     /// The approach phase's token: a draw from the prior (with the
@@ -188,7 +204,13 @@ impl Adversary {
         if let Some(cbv_now) = world.state(cbv) {
             let check = PlausibilityCheck::new(world, cbv, self.ego);
             let implausible: Vec<bool> = token_rollouts(cbv_now, top).iter().map(|r| check.implausible(r)).collect();
-            if implausible.iter().any(|bad| !bad) {
+            if implausible.iter().all(|bad| *bad) {
+                // Nothing plausible to draw from: the likeliest plausible
+                // token of the vocabulary, as in the adversary's choice.
+                if let Some(t) = check.likeliest_plausible(&logits, top.len()..logits.len()) {
+                    return Some(t);
+                }
+            } else {
                 for (t, bad) in top.iter().zip(implausible) {
                     if bad {
                         masked[t.0 as usize] = f32::NEG_INFINITY;
@@ -214,57 +236,133 @@ fn token_rollouts(now: &AgentState, tokens: &[Token]) -> Vec<Vec<AgentState>> {
     tokens.iter().map(|t| TokenGrid::rollout(&from, *t).iter().map(KinematicState::to_agent_state).collect()).collect()
 }
 
+/// The CBV's states over [`BRAKING_CHECK_STEPS`] steps after `rollout`
+/// (a token's states), braking as hard as it can while holding the
+/// curvature it ends the token with: a driver braking in a bend keeps
+/// steering along it.
+fn braking_after(rollout: &[AgentState]) -> impl Iterator<Item = AgentState> + use<> {
+    let curvature_per_m = match rollout {
+        [.., before, end] => {
+            let travelled_m = (end.position - before.position).norm();
+            if travelled_m > 1e-3 { wrap_angle(end.heading_rad - before.heading_rad) / travelled_m } else { 0.0 }
+        }
+        _ => 0.0,
+    };
+    let mut braking = rollout.last().map(KinematicState::from_agent_state);
+    (0..BRAKING_CHECK_STEPS).map_while(move |_| {
+        let now = braking.as_mut()?;
+        let speed_mps = (now.speed_mps - MAX_ACCEL_MPS2 * SIM_DT_S).max(0.0);
+        let yaw_rate_radps = (curvature_per_m * speed_mps).clamp(-MAX_YAW_RATE_RADPS, MAX_YAW_RATE_RADPS);
+        *now = kinematic_step(now, Action { accel_mps2: -MAX_ACCEL_MPS2, yaw_rate_radps }, SIM_DT_S);
+        Some(now.to_agent_state())
+    })
+}
+
 /// Whether a candidate rollout of the CBV (one state per simulator step of
-/// the token) is implausible for a road user: it leaves the road while the
-/// CBV is on it now, or the CBV, braking as hard as it can after the token,
-/// would still overlap a background agent predicted at constant velocity.
-/// The background's predicted boxes are built once per decision.
+/// the token) is implausible for a road user (the module's rule: leaving
+/// the road, touching background traffic during the token, or no room to
+/// brake short of it). The background's predicted states and boxes are
+/// built once per decision.
 struct PlausibilityCheck<'w> {
     world: &'w WorldView<'w>,
     cbv_body: crate::scenario::AgentBody,
-    /// Each nearby background agent's boxes, one per step of the check.
-    background: Vec<Vec<OrientedBox>>,
+    /// The CBV now (`None`: absent, nothing is implausible).
+    cbv_now: Option<AgentState>,
+    /// Each nearby background agent's predicted state and box, one per step of the check.
+    background: Vec<Vec<(AgentState, OrientedBox)>>,
+    /// The CBV's signed distance to the road edge now, m (positive: off
+    /// the road; `None` where the map has no road edges near it).
+    edge_distance_now: Option<f64>,
     on_road_now: bool,
 }
 
 impl<'w> PlausibilityCheck<'w> {
     fn new(world: &'w WorldView<'w>, cbv: TrackIndex, ego: TrackIndex) -> Self {
         let cbv_body = world.body(cbv);
-        let Some(cbv_now) = world.state(cbv) else {
-            return Self { world, cbv_body, background: Vec::new(), on_road_now: false };
+        let cbv_now = world.state(cbv).copied();
+        let Some(now) = cbv_now else {
+            return Self {
+                world,
+                cbv_body,
+                cbv_now,
+                background: Vec::new(),
+                edge_distance_now: None,
+                on_road_now: false,
+            };
         };
         let horizon = TOKEN_PERIOD_STEPS + BRAKING_CHECK_STEPS;
         let background = (0..world.states.len())
             .filter(|&i| i != cbv.0 && i != ego.0)
             .filter_map(|i| world.states[i].map(|s| (i, s)))
-            .filter(|(_, s)| (s.position - cbv_now.position).norm() < BACKGROUND_CHECK_RANGE_M)
+            .filter(|(_, s)| (s.position - now.position).norm() < BACKGROUND_CHECK_RANGE_M)
             .map(|(i, s)| {
                 let b = world.bodies[i];
                 (1..=horizon)
                     .map(|k| {
                         let at = AgentState { position: s.position + s.velocity_mps * (k as f64 * SIM_DT_S), ..s };
-                        OrientedBox::new(at.pose(), b.length_m, b.width_m)
+                        (at, OrientedBox::new(at.pose(), b.length_m, b.width_m))
                     })
                     .collect()
             })
             .collect();
-        Self { world, cbv_body, background, on_road_now: !world.map.is_off_road(&cbv_now.position) }
+        Self {
+            world,
+            cbv_body,
+            cbv_now,
+            background,
+            edge_distance_now: world.map.signed_distance_to_road_edge(&now.position),
+            on_road_now: !world.map.is_off_road(&now.position),
+        }
     }
 
     fn implausible(&self, rollout: &[AgentState]) -> bool {
         let Some(end) = rollout.last() else { return false };
-        if self.on_road_now && rollout.iter().any(|s| self.world.map.is_off_road(&s.position)) {
+        let map = self.world.map;
+        let path: Vec<AgentState> = rollout.iter().copied().chain(braking_after(rollout)).collect();
+        if self.on_road_now {
+            // Moving states only: a stopped CBV stays where it stopped.
+            let mut moving = path.iter().take_while(|s| s.speed_mps() > 0.0);
+            if moving.any(|s| map.is_off_road(&s.position)) {
+                return true;
+            }
+        } else if let (Some(now), Some(then)) =
+            (self.edge_distance_now, map.signed_distance_to_road_edge(&end.position))
+            && then > now
+        {
+            // Off the road already: head back to it, not farther away.
             return true;
         }
-        let brake = Action { accel_mps2: -MAX_ACCEL_MPS2, yaw_rate_radps: 0.0 };
-        let mut braking = KinematicState::from_agent_state(end);
-        let path = rollout.iter().copied().chain((0..BRAKING_CHECK_STEPS).map(|_| {
-            braking = kinematic_step(&braking, brake, SIM_DT_S);
-            braking.to_agent_state()
-        }));
-        path.enumerate().any(|(k, s)| {
-            let own = OrientedBox::new(s.pose(), self.cbv_body.length_m, self.cbv_body.width_m);
-            self.background.iter().any(|boxes| boxes.get(k).is_some_and(|b| b.intersects(&own)))
+        // Each background agent's first contact with the path is judged,
+        // as the metrics judge a collision by its onset (a follower at
+        // constant velocity would otherwise drive through the stopped CBV
+        // and seem to be hit from the front).
+        let boxes: Vec<OrientedBox> =
+            path.iter().map(|s| OrientedBox::new(s.pose(), self.cbv_body.length_m, self.cbv_body.width_m)).collect();
+        self.background.iter().any(|predicted| {
+            let first_contact = predicted.iter().zip(&boxes).position(|((_, theirs), own)| theirs.intersects(own));
+            first_contact.is_some_and(|k| {
+                let kind = EgoCollisionKind::classify(&path[k], &predicted[k].0);
+                if k < rollout.len() {
+                    // During the token: any contact of the moving CBV.
+                    kind != EgoCollisionKind::StoppedEgo
+                } else {
+                    // Braking after it: only what the CBV runs into.
+                    kind.ego_at_fault()
+                }
+            })
+        })
+    }
+
+    /// The likeliest plausible token among the ranks `ranks` of the prior's
+    /// ranking of `logits` (most likely first), if any.
+    fn likeliest_plausible(&self, logits: &[f32], ranks: std::ops::Range<usize>) -> Option<Token> {
+        let now = self.cbv_now.as_ref()?;
+        let ranked = ranked_tokens(logits);
+        let from = KinematicState::from_agent_state(now);
+        ranked.get(ranks)?.iter().copied().find(|t| {
+            let rollout: Vec<AgentState> =
+                TokenGrid::rollout(&from, *t).iter().map(KinematicState::to_agent_state).collect();
+            !self.implausible(&rollout)
         })
     }
 }
@@ -356,6 +454,85 @@ mod tests {
         let world = WorldView { map: &map, step: 0, bodies: &bodies, states: &states };
         let rollouts = token_rollouts(states[1].as_ref().unwrap(), &[token(MAX_ACCEL_MPS2)]);
         assert!(!PlausibilityCheck::new(&world, TrackIndex(1), TrackIndex(0)).implausible(&rollouts[0]));
+    }
+
+    /// A road 8 m wide along +x (y from -2 to 6) that ends at x = 40: one
+    /// road edge with the road on its left.
+    fn dead_end_road() -> RoadMap {
+        use crate::geometry::Polyline;
+        use crate::map::{MapElementId, RoadEdge, RoadEdgeKind};
+        let points = [(-50.0, -2.0), (40.0, -2.0), (40.0, 6.0), (-50.0, 6.0)];
+        let polyline = Polyline::new(points.iter().map(|&(x, y)| Point2::new(x, y)).collect());
+        let edge = RoadEdge { id: MapElementId(1), polyline, kind: RoadEdgeKind::Boundary };
+        RoadMap::new(vec![], vec![edge], vec![], vec![], vec![], vec![], vec![])
+    }
+
+    fn implausible_tokens(world: &WorldView<'_>, cbv: TrackIndex, tokens: &[Token]) -> Vec<bool> {
+        let check = PlausibilityCheck::new(world, cbv, TrackIndex(0));
+        token_rollouts(world.states[cbv.0].as_ref().unwrap(), tokens).iter().map(|r| check.implausible(r)).collect()
+    }
+
+    #[test]
+    fn a_token_after_which_the_cbv_cannot_stop_on_the_road_is_implausible() {
+        // 30 m before the dead end at 15 m/s: full braking stops it on the
+        // road (about 23 m); full acceleration for 0.5 s leaves it no room,
+        // though the token itself stays on the road.
+        let map = dead_end_road();
+        let bodies = [AgentBody { kind: AgentKind::Vehicle, length_m: 4.5, width_m: 2.0 }; 2];
+        let states = [car(-40.0, 0.0, 0.0), car(10.0, 2.0, 15.0)];
+        let world = WorldView { map: &map, step: 0, bodies: &bodies, states: &states };
+        assert_eq!(
+            implausible_tokens(&world, TrackIndex(1), &[token(MAX_ACCEL_MPS2), token(-MAX_ACCEL_MPS2)]),
+            vec![true, false]
+        );
+    }
+
+    #[test]
+    fn off_the_road_the_cbv_must_head_back_to_it() {
+        // 2 m beside the road's left edge (y = 6), heading along it.
+        let map = dead_end_road();
+        let bodies = [AgentBody { kind: AgentKind::Vehicle, length_m: 4.5, width_m: 2.0 }; 2];
+        let states = [car(-40.0, 0.0, 0.0), car(0.0, 8.0, 5.0)];
+        let world = WorldView { map: &map, step: 0, bodies: &bodies, states: &states };
+        let turn = |yaw_rate_radps| TokenGrid::quantize(Action { accel_mps2: 0.0, yaw_rate_radps });
+        assert_eq!(implausible_tokens(&world, TrackIndex(1), &[turn(0.5), turn(-0.5)]), vec![true, false]);
+    }
+
+    #[test]
+    fn a_follower_running_into_the_braking_cbv_is_not_the_cbvs_doing() {
+        // A follower 3.5 m behind at the same 10 m/s (constant velocity):
+        // braking hard after the token, the CBV is hit from behind, which
+        // the check does not hold against it; the follower touching it
+        // within the token itself does count.
+        let map = RoadMap::default();
+        let bodies = [AgentBody { kind: AgentKind::Vehicle, length_m: 4.5, width_m: 2.0 }; 3];
+        let states = [car(0.0, 100.0, 0.0), car(0.0, 0.0, 10.0), car(-8.0, 0.0, 10.0)];
+        let world = WorldView { map: &map, step: 0, bodies: &bodies, states: &states };
+        assert_eq!(
+            implausible_tokens(&world, TrackIndex(1), &[token(0.0), token(-MAX_ACCEL_MPS2)]),
+            vec![false, false]
+        );
+        let tailgated = [states[0], states[1], car(-4.6, 0.0, 10.0)];
+        let world = WorldView { states: &tailgated, ..world };
+        assert_eq!(implausible_tokens(&world, TrackIndex(1), &[token(0.0), token(-MAX_ACCEL_MPS2)]), vec![false, true]);
+    }
+
+    #[test]
+    fn with_no_plausible_token_in_the_trust_region_the_likeliest_plausible_one_is_taken() {
+        // Before the dead end: the prior likes accelerating (implausible);
+        // among the rest it prefers -4 m/s² to -5 m/s².
+        let map = dead_end_road();
+        let bodies = [AgentBody { kind: AgentKind::Vehicle, length_m: 4.5, width_m: 2.0 }; 2];
+        let states = [car(-40.0, 0.0, 0.0), car(10.0, 2.0, 15.0)];
+        let world = WorldView { map: &map, step: 0, bodies: &bodies, states: &states };
+        let mut logits = vec![-10.0f32; crate::motion::tokens::VOCABULARY_SIZE];
+        logits[token(MAX_ACCEL_MPS2).0 as usize] = 5.0;
+        logits[token(3.0).0 as usize] = 4.0;
+        logits[token(-4.0).0 as usize] = 2.0;
+        logits[token(-MAX_ACCEL_MPS2).0 as usize] = 1.0;
+        let check = PlausibilityCheck::new(&world, TrackIndex(1), TrackIndex(0));
+        assert_eq!(check.likeliest_plausible(&logits, 0..2), None, "the trust region of two holds none");
+        assert_eq!(check.likeliest_plausible(&logits, 2..logits.len()), Some(token(-4.0)));
     }
 
     #[test]

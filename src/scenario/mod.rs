@@ -9,6 +9,7 @@
 //! offset so outputs can be mapped back.
 
 pub mod bounds;
+pub mod contact;
 pub mod import;
 pub mod roles;
 
