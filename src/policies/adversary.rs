@@ -18,7 +18,9 @@
 //!   candidate is implausible when its 0.5 s rollout takes the CBV from the
 //!   road onto the off-road area (or, off the road already, farther from
 //!   it), when a background agent (predicted at constant velocity) and the
-//!   moving CBV touch during the token, or when the CBV, braking as hard as
+//!   CBV touch during the token or the second after it with the token held
+//!   (no brake checks on followers, no stopping in the way of crossing
+//!   traffic), or when the CBV, braking as hard as
 //!   it can after the token (holding its curvature, as a driver braking in
 //!   a bend does), would leave the road or run into one within 2 s (at
 //!   fault as the metrics judge it: a follower running into a braking CBV
@@ -28,8 +30,8 @@
 //!   plausible token of the whole vocabulary (what a careful driver would
 //!   do: the trust region is for realism, and leaving the road or hitting
 //!   traffic is not realistic), and only when no token at all is plausible
-//!   the trust region's arg min. The same rule restricts the prior's draws
-//!   in the approach phase.
+//!   the trust region's token that breaks the rule latest. The same rule
+//!   restricts the prior's draws in the approach phase.
 //!
 //! The ablations are the same policy with a part switched off.
 
@@ -65,6 +67,11 @@ const BACKGROUND_CHECK_RANGE_M: f64 = 80.0;
 /// simulator steps (2 s) to see whether it could still stop short of the
 /// background traffic.
 const BRAKING_CHECK_STEPS: usize = 20;
+
+/// A token held this many steps (1 s) more must not bring the CBV and a
+/// background agent (predicted at constant velocity) into contact: no
+/// brake checks on followers, no stopping in the way of crossing traffic.
+const HOLDING_CHECK_STEPS: usize = 10;
 
 /// Which tokens the adversary may choose from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -124,71 +131,18 @@ impl Adversary {
         let mut shared = self.shared.lock().unwrap_or_else(|p| p.into_inner());
         let Some(logits) = shared.logits_at(cbv.0, world.step).cloned() else { return Ok(None) };
         drop(shared);
-        // The trust region, most likely first: the top of `ranked_tokens`
-        // without sorting the whole vocabulary.
-        let k = match self.trust_region {
-            TrustRegion::TopN(n) => n.max(1).min(logits.len()),
-            TrustRegion::WholeVocabulary => logits.len(),
-        };
-        let candidates = &top_tokens(&logits, k)[..];
-        let (Some(cbv_now), Some(ego_now)) = (world.state(cbv), world.state(self.ego)) else {
-            return Ok(candidates.first().copied());
-        };
-        let ego_next = ego_prediction(ego_now);
-        let (ego_body, cbv_body) = (world.body(self.ego), world.body(cbv));
-        let ego_box = OrientedBox::new(ego_next.pose(), ego_body.length_m, ego_body.width_m);
-        let rollouts = token_rollouts(cbv_now, candidates);
-        let predicted: Vec<AgentState> = rollouts.iter().map(|r| r[TOKEN_PERIOD_STEPS - 1]).collect();
-        let distances: Vec<f64> = predicted
-            .iter()
-            .map(|s| ego_box.distance(&OrientedBox::new(s.pose(), cbv_body.length_m, cbv_body.width_m)))
-            .collect();
-        let losses: Vec<f64> = match &self.feasibility {
-            None => distances,
-            Some(oracle) => {
-                let pairs: Vec<EgoCbvState> =
-                    predicted.iter().map(|s| EgoCbvState { ego: ego_next, ego_body, cbv: *s, cbv_body }).collect();
-                let clock = std::time::Instant::now();
-                let values = oracle.values(&pairs);
-                self.shared
-                    .lock()
-                    .unwrap_or_else(|p| p.into_inner())
-                    .add_feasibility_time(clock.elapsed().as_secs_f64());
-                let values = values?;
-                // A NaN value is a broken model, not a feasible state: fail
-                // the variant with the model named rather than guess.
-                if let Some(i) = values.iter().position(|v| v.is_nan()) {
-                    return Err(ModelError::Inference {
-                        model: "feasibility value V_h".into(),
-                        message: format!("returned NaN for candidate token {} of {}", i, values.len()),
-                    });
-                }
-                distances
-                    .iter()
-                    .zip(values)
-                    .map(|(d, v)| if v <= 0.0 { *d } else { v as f64 + INFEASIBLE_PENALTY })
-                    .collect()
-            }
-        };
-        // The strict arg min: by loss (a NaN distance, never expected as
-        // states are bounds-checked, ranks last), then the likelier token,
-        // then the lower id; the first plausible candidate in that order,
-        // or the first of all when none is. Plausibility is the costly
-        // check, so it is asked only until a plausible one is found.
-        let loss = |i: usize| if losses[i].is_nan() { f64::INFINITY } else { losses[i] };
-        let mut order: Vec<usize> = (0..candidates.len()).collect();
-        order.sort_by(|&i, &j| {
-            loss(i)
-                .total_cmp(&loss(j))
-                .then(logits[candidates[j].0 as usize].total_cmp(&logits[candidates[i].0 as usize]))
-                .then(candidates[i].0.cmp(&candidates[j].0))
-        });
-        let check = PlausibilityCheck::new(world, cbv, self.ego);
-        if let Some(i) = order.iter().copied().find(|&i| !check.implausible(&rollouts[i])) {
-            return Ok(Some(candidates[i]));
-        }
-        let outside_trust_region = candidates.len()..logits.len();
-        Ok(check.likeliest_plausible(&logits, outside_trust_region).or_else(|| order.first().map(|&i| candidates[i])))
+        let mut feasibility_s = 0.0;
+        let chosen = safer_choice(
+            world,
+            cbv,
+            self.ego,
+            &logits,
+            self.trust_region,
+            self.feasibility.as_deref(),
+            &mut feasibility_s,
+        );
+        self.shared.lock().unwrap_or_else(|p| p.into_inner()).add_feasibility_time(feasibility_s);
+        chosen
     }
 
     /// The approach phase's token: a draw from the prior (with the
@@ -230,6 +184,94 @@ impl Adversary {
     }
 }
 
+/// SaFeR's choice at one token boundary, given the prior's `logits` for
+/// the CBV: the plausible token of the trust region with the least loss
+/// (the box distance to the ego's constant-velocity prediction where
+/// `feasibility` says the ego can still avoid a collision, else V_h + Δ;
+/// distance only without `feasibility`), ties broken by the likelier token
+/// and then the lower id; the fallbacks of the module's plausibility rule
+/// when none is plausible. Time spent in `feasibility` is added to
+/// `feasibility_s`. `None` only for empty `logits`.
+pub fn safer_choice(
+    world: &WorldView<'_>,
+    cbv: TrackIndex,
+    ego: TrackIndex,
+    logits: &[f32],
+    trust_region: TrustRegion,
+    feasibility: Option<&dyn FeasibilityOracle>,
+    feasibility_s: &mut f64,
+) -> Result<Option<Token>, ModelError> {
+    // The trust region, most likely first: the top of `ranked_tokens`
+    // without sorting the whole vocabulary.
+    let k = match trust_region {
+        TrustRegion::TopN(n) => n.max(1).min(logits.len()),
+        TrustRegion::WholeVocabulary => logits.len(),
+    };
+    let candidates = &top_tokens(logits, k)[..];
+    let (Some(cbv_now), Some(ego_now)) = (world.state(cbv), world.state(ego)) else {
+        return Ok(candidates.first().copied());
+    };
+    let ego_next = ego_prediction(ego_now);
+    let (ego_body, cbv_body) = (world.body(ego), world.body(cbv));
+    let ego_box = OrientedBox::new(ego_next.pose(), ego_body.length_m, ego_body.width_m);
+    let rollouts = token_rollouts(cbv_now, candidates);
+    let predicted: Vec<AgentState> = rollouts.iter().map(|r| r[TOKEN_PERIOD_STEPS - 1]).collect();
+    let distances: Vec<f64> = predicted
+        .iter()
+        .map(|s| ego_box.distance(&OrientedBox::new(s.pose(), cbv_body.length_m, cbv_body.width_m)))
+        .collect();
+    let losses: Vec<f64> = match feasibility {
+        None => distances,
+        Some(oracle) => {
+            let pairs: Vec<EgoCbvState> =
+                predicted.iter().map(|s| EgoCbvState { ego: ego_next, ego_body, cbv: *s, cbv_body }).collect();
+            let clock = std::time::Instant::now();
+            let values = oracle.values(&pairs);
+            *feasibility_s += clock.elapsed().as_secs_f64();
+            let values = values?;
+            // A NaN value is a broken model, not a feasible state: fail
+            // the variant with the model named rather than guess.
+            if let Some(i) = values.iter().position(|v| v.is_nan()) {
+                return Err(ModelError::Inference {
+                    model: "feasibility value V_h".into(),
+                    message: format!("returned NaN for candidate token {} of {}", i, values.len()),
+                });
+            }
+            distances
+                .iter()
+                .zip(values)
+                .map(|(d, v)| if v <= 0.0 { *d } else { v as f64 + INFEASIBLE_PENALTY })
+                .collect()
+        }
+    };
+    // The strict arg min: by loss (a NaN distance, never expected as
+    // states are bounds-checked, ranks last), then the likelier token,
+    // then the lower id; the first plausible candidate in that order,
+    // or the first of all when none is. Plausibility is the costly
+    // check, so it is asked only until a plausible one is found.
+    let loss = |i: usize| if losses[i].is_nan() { f64::INFINITY } else { losses[i] };
+    let mut order: Vec<usize> = (0..candidates.len()).collect();
+    order.sort_by(|&i, &j| {
+        loss(i)
+            .total_cmp(&loss(j))
+            .then(logits[candidates[j].0 as usize].total_cmp(&logits[candidates[i].0 as usize]))
+            .then(candidates[i].0.cmp(&candidates[j].0))
+    });
+    let check = PlausibilityCheck::new(world, cbv, ego);
+    let mut violations = Vec::with_capacity(order.len());
+    for &i in &order {
+        match check.first_violation(&rollouts[i]) {
+            None => return Ok(Some(candidates[i])),
+            Some(k) => violations.push((i, k)),
+        }
+    }
+    let outside_trust_region = candidates.len()..logits.len();
+    // With no plausible token at all, the trust region's token that
+    // breaks the rule latest (the first such in arg-min order).
+    let latest = violations.iter().rev().max_by_key(|(_, k)| *k).map(|(i, _)| candidates[*i]);
+    Ok(check.likeliest_plausible(logits, outside_trust_region).or(latest))
+}
+
 /// The CBV's states over one token period from `now` under each token.
 fn token_rollouts(now: &AgentState, tokens: &[Token]) -> Vec<Vec<AgentState>> {
     let from = KinematicState::from_agent_state(now);
@@ -241,6 +283,22 @@ fn token_rollouts(now: &AgentState, tokens: &[Token]) -> Vec<Vec<AgentState>> {
 /// curvature it ends the token with: a driver braking in a bend keeps
 /// steering along it.
 fn braking_after(rollout: &[AgentState]) -> impl Iterator<Item = AgentState> + use<> {
+    continued_after(rollout, -MAX_ACCEL_MPS2, BRAKING_CHECK_STEPS)
+}
+
+/// The CBV's states over [`HOLDING_CHECK_STEPS`] steps after `rollout`,
+/// holding the token's acceleration and curvature.
+fn holding_after(rollout: &[AgentState]) -> impl Iterator<Item = AgentState> + use<> {
+    let accel_mps2 = match rollout {
+        [.., before, end] => (end.speed_mps() - before.speed_mps()) / SIM_DT_S,
+        _ => 0.0,
+    };
+    continued_after(rollout, accel_mps2.clamp(-MAX_ACCEL_MPS2, MAX_ACCEL_MPS2), HOLDING_CHECK_STEPS)
+}
+
+/// `steps` states after `rollout` at `accel_mps2`, holding the curvature
+/// the rollout ends with.
+fn continued_after(rollout: &[AgentState], accel_mps2: f64, steps: usize) -> impl Iterator<Item = AgentState> + use<> {
     let curvature_per_m = match rollout {
         [.., before, end] => {
             let travelled_m = (end.position - before.position).norm();
@@ -248,12 +306,12 @@ fn braking_after(rollout: &[AgentState]) -> impl Iterator<Item = AgentState> + u
         }
         _ => 0.0,
     };
-    let mut braking = rollout.last().map(KinematicState::from_agent_state);
-    (0..BRAKING_CHECK_STEPS).map_while(move |_| {
-        let now = braking.as_mut()?;
-        let speed_mps = (now.speed_mps - MAX_ACCEL_MPS2 * SIM_DT_S).max(0.0);
+    let mut state = rollout.last().map(KinematicState::from_agent_state);
+    (0..steps).map_while(move |_| {
+        let now = state.as_mut()?;
+        let speed_mps = (now.speed_mps + accel_mps2 * SIM_DT_S).max(0.0);
         let yaw_rate_radps = (curvature_per_m * speed_mps).clamp(-MAX_YAW_RATE_RADPS, MAX_YAW_RATE_RADPS);
-        *now = kinematic_step(now, Action { accel_mps2: -MAX_ACCEL_MPS2, yaw_rate_radps }, SIM_DT_S);
+        *now = kinematic_step(now, Action { accel_mps2, yaw_rate_radps }, SIM_DT_S);
         Some(now.to_agent_state())
     })
 }
@@ -316,41 +374,55 @@ impl<'w> PlausibilityCheck<'w> {
     }
 
     fn implausible(&self, rollout: &[AgentState]) -> bool {
-        let Some(end) = rollout.last() else { return false };
+        self.first_violation(rollout).is_some()
+    }
+
+    /// The first step (counted from the token's first state) at which
+    /// `rollout` breaks the rule, or `None` for a plausible token.
+    fn first_violation(&self, rollout: &[AgentState]) -> Option<usize> {
+        let end = rollout.last()?;
         let map = self.world.map;
-        let path: Vec<AgentState> = rollout.iter().copied().chain(braking_after(rollout)).collect();
+        let braking: Vec<AgentState> = rollout.iter().copied().chain(braking_after(rollout)).collect();
+        let mut first: Option<usize> = None;
+        let mut note = |k: usize| first = Some(first.map_or(k, |f| f.min(k)));
         if self.on_road_now {
             // Moving states only: a stopped CBV stays where it stopped.
-            let mut moving = path.iter().take_while(|s| s.speed_mps() > 0.0);
-            if moving.any(|s| map.is_off_road(&s.position)) {
-                return true;
+            if let Some(k) =
+                braking.iter().take_while(|s| s.speed_mps() > 0.0).position(|s| map.is_off_road(&s.position))
+            {
+                note(k);
             }
         } else if let (Some(now), Some(then)) =
             (self.edge_distance_now, map.signed_distance_to_road_edge(&end.position))
             && then > now
         {
             // Off the road already: head back to it, not farther away.
-            return true;
+            note(rollout.len() - 1);
         }
-        // Each background agent's first contact with the path is judged,
-        // as the metrics judge a collision by its onset (a follower at
-        // constant velocity would otherwise drive through the stopped CBV
-        // and seem to be hit from the front).
-        let boxes: Vec<OrientedBox> =
-            path.iter().map(|s| OrientedBox::new(s.pose(), self.cbv_body.length_m, self.cbv_body.width_m)).collect();
-        self.background.iter().any(|predicted| {
-            let first_contact = predicted.iter().zip(&boxes).position(|((_, theirs), own)| theirs.intersects(own));
-            first_contact.is_some_and(|k| {
-                let kind = EgoCollisionKind::classify(&path[k], &predicted[k].0);
-                if k < rollout.len() {
-                    // During the token: any contact of the moving CBV.
-                    kind != EgoCollisionKind::StoppedEgo
-                } else {
-                    // Braking after it: only what the CBV runs into.
-                    kind.ego_at_fault()
-                }
-            })
-        })
+        // Each background agent's first contact is judged, as the metrics
+        // judge a collision by its onset (a follower at constant velocity
+        // would otherwise drive through the stopped CBV and seem to be hit
+        // from the front). Holding the token, any contact counts: stopping
+        // in the way of traffic is the CBV's doing too.
+        let held: Vec<AgentState> = rollout.iter().copied().chain(holding_after(rollout)).collect();
+        let body = |s: &AgentState| OrientedBox::new(s.pose(), self.cbv_body.length_m, self.cbv_body.width_m);
+        let (held_boxes, braking_boxes): (Vec<OrientedBox>, Vec<OrientedBox>) =
+            (held.iter().map(body).collect(), braking.iter().map(body).collect());
+        let first_contact = |predicted: &[(AgentState, OrientedBox)], own: &[OrientedBox]| {
+            predicted.iter().zip(own).position(|((_, theirs), own)| theirs.intersects(own))
+        };
+        for predicted in &self.background {
+            if let Some(k) = first_contact(predicted, &held_boxes) {
+                note(k);
+            }
+            // Braking after the token: only what the CBV runs into.
+            if let Some(k) = first_contact(predicted, &braking_boxes)
+                && EgoCollisionKind::classify(&braking[k], &predicted[k].0).ego_at_fault()
+            {
+                note(k);
+            }
+        }
+        first
     }
 
     /// The likeliest plausible token among the ranks `ranks` of the prior's
@@ -499,22 +571,45 @@ mod tests {
     }
 
     #[test]
-    fn a_follower_running_into_the_braking_cbv_is_not_the_cbvs_doing() {
-        // A follower 3.5 m behind at the same 10 m/s (constant velocity):
-        // braking hard after the token, the CBV is hit from behind, which
-        // the check does not hold against it; the follower touching it
-        // within the token itself does count.
+    fn no_brake_checks_on_a_follower_but_stopping_room_is_judged_on_what_the_cbv_hits() {
+        // A follower 3.5 m behind at the same 10 m/s (constant velocity).
+        // Keeping speed is plausible, though braking hard after the token
+        // would get the CBV hit from behind (the follower's doing, not the
+        // CBV's); braking hard as the token, held for a second, is a brake
+        // check and implausible.
         let map = RoadMap::default();
         let bodies = [AgentBody { kind: AgentKind::Vehicle, length_m: 4.5, width_m: 2.0 }; 3];
         let states = [car(0.0, 100.0, 0.0), car(0.0, 0.0, 10.0), car(-8.0, 0.0, 10.0)];
         let world = WorldView { map: &map, step: 0, bodies: &bodies, states: &states };
+        assert_eq!(implausible_tokens(&world, TrackIndex(1), &[token(0.0), token(-MAX_ACCEL_MPS2)]), vec![false, true]);
+        // The follower 20 m behind: braking hard is no brake check.
+        let far = [states[0], states[1], car(-20.0, 0.0, 10.0)];
+        let world = WorldView { states: &far, ..world };
         assert_eq!(
             implausible_tokens(&world, TrackIndex(1), &[token(0.0), token(-MAX_ACCEL_MPS2)]),
             vec![false, false]
         );
-        let tailgated = [states[0], states[1], car(-4.6, 0.0, 10.0)];
-        let world = WorldView { states: &tailgated, ..world };
-        assert_eq!(implausible_tokens(&world, TrackIndex(1), &[token(0.0), token(-MAX_ACCEL_MPS2)]), vec![false, true]);
+    }
+
+    #[test]
+    fn stopping_in_the_way_of_crossing_traffic_is_implausible() {
+        // The CBV at 2 m/s stands in the path of a car crossing at 10 m/s,
+        // 1 s away. Stopping there gets it hit (a stopped CBV is not at
+        // fault by the metrics' rule, but it chose to stop there);
+        // accelerating clears the path in time.
+        let map = RoadMap::default();
+        let bodies = [AgentBody { kind: AgentKind::Vehicle, length_m: 4.5, width_m: 2.0 }; 3];
+        let crossing = AgentState {
+            position: Point2::new(8.0, -12.0),
+            heading_rad: std::f64::consts::FRAC_PI_2,
+            velocity_mps: Vector2::new(0.0, 10.0),
+        };
+        let states = [car(0.0, 100.0, 0.0), car(8.0, 0.0, 2.0), Some(crossing)];
+        let world = WorldView { map: &map, step: 0, bodies: &bodies, states: &states };
+        assert_eq!(
+            implausible_tokens(&world, TrackIndex(1), &[token(-MAX_ACCEL_MPS2), token(MAX_ACCEL_MPS2)]),
+            vec![true, false]
+        );
     }
 
     #[test]
@@ -533,6 +628,63 @@ mod tests {
         let check = PlausibilityCheck::new(&world, TrackIndex(1), TrackIndex(0));
         assert_eq!(check.likeliest_plausible(&logits, 0..2), None, "the trust region of two holds none");
         assert_eq!(check.likeliest_plausible(&logits, 2..logits.len()), Some(token(-4.0)));
+    }
+
+    /// A feasibility value from a rule on the candidate state.
+    struct StubOracle(fn(&EgoCbvState) -> f32);
+    impl FeasibilityOracle for StubOracle {
+        fn values(&self, pairs: &[EgoCbvState]) -> Result<Vec<f32>, ModelError> {
+            Ok(pairs.iter().map(self.0).collect())
+        }
+    }
+
+    /// The choice with the CBV 30 m behind the ego, both at 10 m/s along
+    /// +x on an open plane, and the prior liking the accelerations
+    /// `liked` (m/s², logit) and nothing else.
+    fn choice(liked: &[(f64, f32)], trust_region: TrustRegion, oracle: Option<&dyn FeasibilityOracle>) -> Token {
+        let map = RoadMap::default();
+        let bodies = [AgentBody { kind: AgentKind::Vehicle, length_m: 4.5, width_m: 2.0 }; 2];
+        let states = [car(30.0, 0.0, 10.0), car(0.0, 0.0, 10.0)];
+        let world = WorldView { map: &map, step: 0, bodies: &bodies, states: &states };
+        let mut logits = vec![-30.0f32; crate::motion::tokens::VOCABULARY_SIZE];
+        for &(accel_mps2, logit) in liked {
+            logits[token(accel_mps2).0 as usize] = logit;
+        }
+        let mut feasibility_s = 0.0;
+        safer_choice(&world, TrackIndex(1), TrackIndex(0), &logits, trust_region, oracle, &mut feasibility_s)
+            .unwrap()
+            .unwrap()
+    }
+
+    const LIKED: [(f64, f32); 5] = [(-5.0, 5.0), (-2.0, 4.0), (0.0, 3.0), (2.0, 2.0), (5.0, 1.0)];
+
+    #[test]
+    fn the_choice_is_the_arg_min_of_the_distance_within_the_trust_region() {
+        // Closing on the ego ahead: the hardest acceleration of the region.
+        assert_eq!(choice(&LIKED, TrustRegion::TopN(5), None), token(5.0));
+        // The region of the three likeliest leaves out +2 and +5.
+        assert_eq!(choice(&LIKED, TrustRegion::TopN(3), None), token(0.0));
+    }
+
+    #[test]
+    fn an_infeasible_candidate_is_chosen_only_when_nothing_feasible_is_left() {
+        // V_h > 0 (the ego could not escape) once the CBV is faster than 11 m/s.
+        let fast_is_infeasible = StubOracle(|p| if p.cbv.speed_mps() > 11.5 { 0.5 } else { -1.0 });
+        assert_eq!(choice(&LIKED, TrustRegion::TopN(5), Some(&fast_is_infeasible)), token(2.0));
+        // Everything infeasible: the least V_h wins, whatever the distance.
+        let slow_is_worse = StubOracle(|p| 20.0 - p.cbv.speed_mps() as f32);
+        assert_eq!(choice(&LIKED, TrustRegion::TopN(5), Some(&slow_is_worse)), token(5.0));
+        let fast_is_worse = StubOracle(|p| p.cbv.speed_mps() as f32);
+        assert_eq!(choice(&LIKED, TrustRegion::TopN(5), Some(&fast_is_worse)), token(-5.0));
+    }
+
+    #[test]
+    fn equal_losses_go_to_the_likelier_token_then_the_lower_id() {
+        let all_equal = StubOracle(|_| 1.0);
+        assert_eq!(choice(&LIKED, TrustRegion::TopN(5), Some(&all_equal)), token(-5.0));
+        let level = [(-2.0, 2.0), (2.0, 2.0), (0.0, 1.0)];
+        let lower = token(-2.0).min(token(2.0));
+        assert_eq!(choice(&level, TrustRegion::TopN(3), Some(&all_equal)), lower);
     }
 
     #[test]
