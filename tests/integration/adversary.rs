@@ -1,11 +1,12 @@
 //! The SaFeR adversary end to end on recorded scenes with the shipped
-//! models: it drives the CBV closer to the ego than the log does, its
+//! models: it drives the CBV closer to the ego than the log does, collides
+//! more often than the prior while keeping the CBV plausible, its
 //! variants are deterministic whatever the thread count, and the ablations
 //! run by name.
 
 use std::sync::Arc;
 
-use safer::harness::evaluation::{EvaluationRequest, Stage2Cbv, evaluate, table};
+use safer::harness::evaluation::{EvaluationRequest, MethodRow, Stage2Cbv, evaluate, table};
 use safer::harness::methods::{BackgroundDriver, ModelSet};
 use safer::planners::BuiltinPlanner;
 use safer::scenario::Scenario;
@@ -60,6 +61,35 @@ fn the_adversary_brings_the_cbv_closer_than_the_log() {
     let rows = table(&records, &req.methods);
     // The log CBV reproduces its recording: no divergence from itself.
     assert_eq!(rows[0].vj, Some(0.0));
+}
+
+/// Issue 10's goal CR(safer) ≥ 1.5 × CR(prior), on the first 12 WOMD
+/// interactive scenes (their labelled pairs) with 3 seeds; and the
+/// plausibility rule at work: SaFeR's CBV leaves the road and runs into
+/// background traffic less often than the prior's unfiltered samples.
+#[test]
+fn safer_is_more_critical_than_the_prior_and_keeps_the_cbv_plausible() {
+    let dir = crate::shared_data::data_dir().join("womd-interactive");
+    let mut scenes: Vec<Arc<Scenario>> = Vec::new();
+    for p in safer::scenario::import::discover(&dir).unwrap() {
+        scenes.extend(safer::scenario::import::load(&p).unwrap().into_iter().filter(|s| s.cbv.is_some()).map(Arc::new));
+    }
+    scenes.sort_by(|a, b| a.id.cmp(&b.id));
+    scenes.truncate(12);
+    assert_eq!(scenes.len(), 12, "WOMD interactive scenes with a CBV in {}", dir.display());
+    let req = request(vec![AdversaryMethod::Safer, AdversaryMethod::Prior], 3);
+    let records = evaluate(&scenes, &req, &ModelSet::shipped(), None, &|| {});
+    assert!(records.iter().all(|r| r.error.is_none()), "{:?}", records.iter().find(|r| r.error.is_some()));
+    let rows = table(&records, &req.methods);
+    let (safer, prior) = (&rows[0], &rows[1]);
+    let (cr_safer, cr_prior) = (safer.cr.unwrap(), prior.cr.unwrap());
+    assert!(cr_safer > 0.0 && cr_safer >= 1.5 * cr_prior, "CR safer {cr_safer} vs prior {cr_prior}");
+    let (off_road, at_fault) = (
+        |r: &MethodRow| r.cbv_off_road_rate.unwrap(),
+        |r: &MethodRow| r.cbv_at_fault_background_collision_rate.unwrap(),
+    );
+    assert!(off_road(safer) < off_road(prior), "off road {safer:?} vs {prior:?}");
+    assert!(at_fault(safer) < at_fault(prior), "at fault {safer:?} vs {prior:?}");
 }
 
 #[test]
