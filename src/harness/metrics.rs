@@ -17,8 +17,9 @@
 
 use super::pipeline::DualStage;
 use crate::eval::{Histogram, jensen_shannon};
+use crate::geometry::OrientedBox;
 use crate::scenario::{Scenario, TrackIndex};
-use crate::sim::EgoCollisionKind;
+use crate::sim::EgoContact;
 use crate::sim::Rollout;
 use crate::spec::suite::SuiteAcceptance;
 
@@ -90,7 +91,7 @@ pub struct VariantTally {
 impl VariantTally {
     /// The tally of a finished variant.
     pub fn of(scenario: &Scenario, stages: &DualStage) -> Self {
-        let background = cbv_background_collisions(&stages.stage1);
+        let background = cbv_background_collisions(scenario, &stages.stage1);
         VariantTally {
             critical: stages.stage1_cbv_hit_ego(),
             solved: stages.verdict.solved(),
@@ -104,8 +105,9 @@ impl VariantTally {
 
 /// The CBV's collisions with anyone but the ego in `stage1`, each as
 /// whether the CBV was at fault.
-fn cbv_background_collisions(stage1: &Rollout) -> Vec<bool> {
+fn cbv_background_collisions(scenario: &Scenario, stage1: &Rollout) -> Vec<bool> {
     let Some(cbv) = stage1.cbv else { return Vec::new() };
+    let Some(body) = scenario.tracks.get(cbv.0) else { return Vec::new() };
     let state = |step: usize, agent: TrackIndex| {
         stage1.states.get(step.checked_sub(stage1.start_step)?)?.get(agent.0).copied().flatten()
     };
@@ -116,7 +118,10 @@ fn cbv_background_collisions(stage1: &Rollout) -> Vec<bool> {
         .map(|c| {
             let other = if c.a == cbv { c.b } else { c.a };
             match (state(c.step, cbv), state(c.step, other)) {
-                (Some(me), Some(them)) => EgoCollisionKind::classify(&me, &them).ego_at_fault(),
+                (Some(me), Some(them)) => {
+                    let own_box = OrientedBox::new(me.pose(), body.length_m, body.width_m);
+                    EgoContact::judge(&scenario.map, &me, &own_box, &them).at_fault()
+                }
                 _ => true,
             }
         })

@@ -18,6 +18,15 @@ use std::collections::BTreeMap;
 
 use crate::geometry::{Point2, Polygon, Polyline, PolylineProjection};
 
+/// A lane's half-width where the source maps no boundary on that side, m
+/// (half of a 3.7 m lane, the US freeway standard and WOMD's typical width).
+pub const DEFAULT_LANE_HALF_WIDTH_M: f64 = 1.85;
+/// The narrowest half-width a mapped boundary may give a lane, m.
+pub const MIN_LANE_HALF_WIDTH_M: f64 = 1.2;
+/// The widest half-width a mapped boundary may give a lane, m (a boundary
+/// farther than this is a shoulder or a road edge, not the lane's).
+pub const MAX_LANE_HALF_WIDTH_M: f64 = 2.5;
+
 /// Identifier of a map element, unique within one map.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub struct MapElementId(pub i64);
@@ -432,6 +441,51 @@ impl RoadMap {
             }
         }
         best.map(|(_, _, lane_index, projection)| LaneMatch { lane_index, projection })
+    }
+
+    /// The lanes whose area holds `p`, driven in `heading_rad`'s direction
+    /// (to within 90°), by id. A lane's area is its centreline swept
+    /// sideways by its half-width: the distance from the centreline to its
+    /// boundary on `p`'s side where the source maps one there (clamped to
+    /// [`MIN_LANE_HALF_WIDTH_M`, `MAX_LANE_HALF_WIDTH_M`]), else
+    /// [`DEFAULT_LANE_HALF_WIDTH_M`]. A point before a lane's start or past
+    /// its end is not on it (its predecessor or successor holds it).
+    pub fn lanes_containing(&self, p: &Point2, heading_rad: f64) -> Vec<MapElementId> {
+        // A corner may sit on a joint between two segments, a little off
+        // both perpendiculars: this much overhang still counts.
+        const END_TOLERANCE_M: f64 = 0.25;
+        let heading = crate::geometry::Vector2::new(heading_rad.cos(), heading_rad.sin());
+        let mut out: Vec<MapElementId> = self
+            .lane_segments
+            .candidates(p, MAX_LANE_HALF_WIDTH_M)
+            .into_iter()
+            .filter_map(|(lane_index, segs)| {
+                let lane = &self.lanes[lane_index];
+                let proj = lane.centreline.project_segments(p, segs)?;
+                let offset = p - proj.point;
+                let overhang = offset.dot(&proj.tangent).abs();
+                let left = proj.tangent.x * offset.y - proj.tangent.y * offset.x > 0.0;
+                let boundary = if left { &lane.left_boundary } else { &lane.right_boundary };
+                let half_width = boundary
+                    .as_ref()
+                    .and_then(|b| b.project(&proj.point))
+                    // A partial boundary that ends before this point says nothing here.
+                    .filter(|b| (proj.point - b.point).dot(&b.tangent).abs() < END_TOLERANCE_M)
+                    .map_or(DEFAULT_LANE_HALF_WIDTH_M, |b| {
+                        b.distance_m.clamp(MIN_LANE_HALF_WIDTH_M, MAX_LANE_HALF_WIDTH_M)
+                    });
+                let inside = overhang <= END_TOLERANCE_M && proj.distance_m <= half_width;
+                (inside && proj.tangent.dot(&heading) > 0.0).then_some(lane.id)
+            })
+            .collect();
+        out.sort_unstable();
+        out
+    }
+
+    /// Whether lanes `a` and `b` are one lane or one continues the other.
+    pub fn lanes_connected(&self, a: MapElementId, b: MapElementId) -> bool {
+        let follows = |x: MapElementId, y: MapElementId| self.lane(x).is_some_and(|l| l.successors.contains(&y));
+        a == b || follows(a, b) || follows(b, a)
     }
 
     /// The road edge nearest to `p` (its index) and `p`'s projection on it.

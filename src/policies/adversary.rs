@@ -49,7 +49,7 @@ use crate::motion::tokens::{
     MAX_ACCEL_MPS2, MAX_YAW_RATE_RADPS, SIM_DT_S, TOKEN_PERIOD_S, TOKEN_PERIOD_STEPS, Token, TokenGrid,
 };
 use crate::motion::{Action, KinematicState, kinematic_step};
-use crate::scenario::contact::EgoCollisionKind;
+use crate::scenario::contact::EgoContact;
 use crate::scenario::{AgentState, TrackIndex};
 
 /// Penalty added to V_h for candidates outside the feasible region (the paper's Δ).
@@ -417,7 +417,7 @@ impl<'w> PlausibilityCheck<'w> {
             }
             // Braking after the token: only what the CBV runs into.
             if let Some(k) = first_contact(predicted, &braking_boxes)
-                && EgoCollisionKind::classify(&braking[k], &predicted[k].0).ego_at_fault()
+                && EgoContact::judge(map, &braking[k], &braking_boxes[k], &predicted[k].0).at_fault()
             {
                 note(k);
             }

@@ -13,7 +13,7 @@
 use std::collections::BTreeSet;
 
 use crate::geometry::OrientedBox;
-pub use crate::scenario::contact::EgoCollisionKind;
+pub use crate::scenario::contact::{EgoCollisionKind, EgoContact, LaneOccupancy};
 use crate::scenario::{AgentBody, AgentKind, AgentState, Scenario, TrackIndex};
 
 /// Two agents' boxes touched.
@@ -27,8 +27,9 @@ pub struct CollisionEvent {
     pub b: TrackIndex,
     /// Whether the ego is one of the two.
     pub involves_ego: bool,
-    /// How the ego was involved, when it was.
-    pub ego_kind: Option<EgoCollisionKind>,
+    /// How the ego was involved and where it was among the lanes, when it
+    /// was one of the two (judged at the first contact).
+    pub ego_contact: Option<EgoContact>,
 }
 
 /// The ego left the road.
@@ -186,11 +187,19 @@ impl<'a> EventDetector<'a> {
             let involves_ego = i == self.ego.0 || j == self.ego.0;
             let first_for_ego = involves_ego && !self.collisions.iter().any(|c| c.involves_ego);
             ego_hit |= first_for_ego;
-            let ego_kind = involves_ego.then(|| {
+            let ego_contact = involves_ego.then(|| {
                 let other = if i == self.ego.0 { j } else { i };
-                EgoCollisionKind::classify(&states[self.ego.0].expect("present"), &states[other].expect("present"))
+                let ego = states[self.ego.0].expect("present");
+                let ego_box = footprint(&self.bodies[self.ego.0], &ego);
+                EgoContact::judge(&self.scenario.map, &ego, &ego_box, &states[other].expect("present"))
             });
-            self.collisions.push(CollisionEvent { step, a: TrackIndex(i), b: TrackIndex(j), involves_ego, ego_kind });
+            self.collisions.push(CollisionEvent {
+                step,
+                a: TrackIndex(i),
+                b: TrackIndex(j),
+                involves_ego,
+                ego_contact,
+            });
         }
         if let Some((d, corner)) = self.ego_off_road_distance(states) {
             let off = d > 0.0;

@@ -12,7 +12,7 @@ mod rollout;
 pub mod synthetic;
 pub mod traffic;
 
-pub use events::{CollisionEvent, EgoCollisionKind, OffRoadEvent};
+pub use events::{CollisionEvent, EgoCollisionKind, EgoContact, LaneOccupancy, OffRoadEvent};
 pub use rollout::{Rollout, RolloutSummary, Termination};
 
 use crate::geometry::Vector2;
@@ -484,6 +484,54 @@ mod tests {
         assert_eq!(r.termination, Termination::Completed);
         assert_eq!(r.off_road.len(), 1, "{:?}", r.off_road);
         assert!(r.off_road[0].step < 10, "{:?}", r.off_road);
+    }
+
+    /// Two 3.5 m lanes eastbound (lane 0 centred on y = 1.75, lane 1 on
+    /// y = 5.25); the ego in lane 0 and a neighbour level with it in lane
+    /// 1, both at 12 m/s, each drifting sideways towards the other at the
+    /// given speed, m/s.
+    fn side_by_side(ego_drift_mps: f64, neighbour_drift_mps: f64) -> Scenario {
+        let map = crate::map::templates::StraightRoad {
+            lanes: 2,
+            oncoming_lanes: 0,
+            lane_width_m: 3.5,
+            length_m: 300.0,
+            speed_limit_mps: None,
+        }
+        .build();
+        let track = |id: &str, y0: f64, drift: f64| {
+            let v = Vector2::new(12.0, drift);
+            Track {
+                id: AgentId(id.into()),
+                kind: AgentKind::Vehicle,
+                length_m: 4.5,
+                width_m: 1.9,
+                states: (0..81)
+                    .map(|k| {
+                        Some(AgentState {
+                            position: Point2::new(20.0, y0) + v * 0.1 * k as f64,
+                            heading_rad: drift.atan2(12.0),
+                            velocity_mps: v,
+                        })
+                    })
+                    .collect(),
+            }
+        };
+        let tracks = vec![track("ego", 1.75, ego_drift_mps), track("neighbour", 5.25, -neighbour_drift_mps)];
+        Scenario::new("side-by-side", ScenarioSource::authored("test"), 0.1, map, tracks)
+            .with_roles(TrackIndex(0), Some(TrackIndex(1)))
+    }
+
+    #[test]
+    fn sideswiped_in_its_own_lane_the_ego_is_not_at_fault_drifting_across_the_line_it_is() {
+        // The neighbour cuts into the ego's lane; the ego holds it.
+        let c = run_constant_velocity(&side_by_side(0.0, 1.0)).summary().ego_collision.expect("contact");
+        assert_eq!((c.kind, c.lanes), (EgoCollisionKind::ActiveLateral, LaneOccupancy::OneLane));
+        assert!(!c.at_fault);
+        // The ego drifts over the line into the neighbour, who holds its lane.
+        let c = run_constant_velocity(&side_by_side(1.0, 0.0)).summary().ego_collision.expect("contact");
+        assert_eq!((c.kind, c.lanes), (EgoCollisionKind::ActiveLateral, LaneOccupancy::SeveralLanes));
+        assert!(c.at_fault);
     }
 
     #[test]

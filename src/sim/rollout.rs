@@ -1,6 +1,6 @@
 //! The record of one closed-loop run and its summary.
 
-use super::events::{ClosestApproach, CollisionEvent, EgoCollisionKind, OffRoadEvent};
+use super::events::{ClosestApproach, CollisionEvent, EgoCollisionKind, EgoContact, LaneOccupancy, OffRoadEvent};
 use crate::scenario::{AgentBody, AgentId, AgentKind, AgentState, TrackIndex};
 
 /// How a rollout ended.
@@ -90,7 +90,9 @@ pub struct EgoCollision {
     pub with_cbv: bool,
     /// How the ego was involved.
     pub kind: EgoCollisionKind,
-    /// Whether the ego is at fault (see [`EgoCollisionKind`]).
+    /// Where the ego's footprint lay among the lanes at the contact.
+    pub lanes: LaneOccupancy,
+    /// Whether the ego is at fault (see [`EgoContact::at_fault`]).
     pub at_fault: bool,
 }
 
@@ -153,14 +155,18 @@ impl Rollout {
         let time = |step: usize| ((step - self.start_step) as f64 * self.dt_s * 1e3).round() / 1e3;
         let ego_collision = self.ego_collision().map(|c| {
             let other = if c.a == self.ego { c.b } else { c.a };
-            // Detected ego collisions always carry a kind; a hand-built event without one counts as at fault.
-            let kind = c.ego_kind.unwrap_or(EgoCollisionKind::ActiveFront);
+            // Detected ego collisions always carry a judgement; a hand-built
+            // event without one counts as an at-fault front contact.
+            let contact = c
+                .ego_contact
+                .unwrap_or(EgoContact { kind: EgoCollisionKind::ActiveFront, lanes: LaneOccupancy::Unmapped });
             EgoCollision {
                 time_s: time(c.step),
                 other: self.agent_ids[other.0].clone(),
                 with_cbv: Some(other) == self.cbv,
-                kind,
-                at_fault: kind.ego_at_fault(),
+                kind: contact.kind,
+                lanes: contact.lanes,
+                at_fault: contact.at_fault(),
             }
         });
         RolloutSummary {

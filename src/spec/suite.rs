@@ -176,8 +176,9 @@ pub struct VariantAcceptance {
     #[serde(default = "yes")]
     pub no_collision: bool,
     /// The ego must not cause a collision: contacts where it was hit from
-    /// behind or while stopped are allowed (nuPlan's at-fault rule). Use this
-    /// against non-reactive logged traffic, which cannot avoid the ego.
+    /// behind or while stopped, and side contacts while it kept within one
+    /// lane, are allowed (nuPlan's at-fault rule). Use this against
+    /// non-reactive logged traffic, which cannot avoid the ego.
     #[serde(default)]
     pub no_at_fault_collision: bool,
     /// The ego must stay on the road.
