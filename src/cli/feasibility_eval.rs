@@ -24,8 +24,9 @@ use crate::eval::feasibility_accuracy::{
     label_state, lfr_panels, sample_states,
 };
 use crate::harness::methods::{MapEncodings, ModelSet};
-use crate::models::feasibility::FeasibilityValue;
+use crate::models::feasibility::{FEASIBILITY_FEATURES, FeasibilityValue, feasibility_features};
 use crate::models::feasibility_oracle::EgoCbvState;
+use crate::models::shard::{ShardColumn, write_shard};
 use crate::record::svg::render_lfr_svg;
 
 /// The recall of "infeasible" the issue asks a calibrated V_h to keep.
@@ -85,8 +86,9 @@ pub fn run(
     split: Split,
     svg: Option<&Path>,
     json: Option<&Path>,
+    labels: Option<&Path>,
 ) -> Result<ExitCode, CliError> {
-    if let Some(path) = json {
+    for path in json.into_iter().chain(labels) {
         crate::record::output::check_output(path)?;
     }
     // The table goes to stderr when the JSON report takes stdout.
@@ -113,6 +115,9 @@ pub fn run(
     let samples: Vec<SampledState> = samples.into_iter().take(max_states).collect();
     let labelled: Vec<LabelledState> = samples.par_iter().map(|s| label_state(&value, s)).collect();
     let table = ConfusionTable::of(&labelled);
+    if let Some(path) = labels {
+        write_labels(path, split, &samples, &labelled)?;
+    }
     let show = |r: Option<f64>| r.map_or("n/a".to_string(), |r| format!("{r:.3}"));
     writeln!(out, "{split_name} states: {} (from {} episodes)", labelled.len(), episodes.len())?;
     writeln!(out, "witness label: infeasible {}, feasible {}", table.infeasible(), table.feasible())?;
@@ -203,6 +208,31 @@ pub fn run(
         crate::record::write_output(path, format!("{text}\n").as_bytes())?;
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// Writes the labelled states as a safetensors file: `state` [N, 13] (the
+/// V_h features), `witness_found` [N] (1 = the witness search found an
+/// escape), `value` [N] (the shipped V_h), and the split in the metadata.
+fn write_labels(
+    path: &Path,
+    split: Split,
+    samples: &[SampledState],
+    labelled: &[LabelledState],
+) -> Result<(), CliError> {
+    let n = labelled.len();
+    let state: Vec<f32> = samples.iter().take(n).flat_map(|s| feasibility_features(&s.pair)).collect();
+    let found: Vec<f32> = labelled.iter().map(|l| if l.witness_found { 1.0 } else { 0.0 }).collect();
+    let value: Vec<f32> = labelled.iter().map(|l| l.value).collect();
+    let columns = [
+        ShardColumn::f32("state", vec![n, FEASIBILITY_FEATURES], &state),
+        ShardColumn::f32("witness_found", vec![n], &found),
+        ShardColumn::f32("value", vec![n], &value),
+    ];
+    let split = serde_json::to_string(&split).map_err(|e| CliError::Usage(e.to_string()))?;
+    crate::record::create_parent_folder(path)?;
+    write_shard(path, &columns, std::collections::HashMap::from([("split".to_string(), split)]))?;
+    eprintln!("wrote {} labelled states to {}", n, path.display());
+    Ok(())
 }
 
 fn print_panel(out: &mut dyn Write, p: &LfrPanel) -> std::io::Result<()> {

@@ -270,6 +270,12 @@ enum Command {
         /// decision threshold on without touching the held-out set).
         #[arg(long, value_enum, default_value = "held-out")]
         split: crate::datasets::held_out::Split,
+        /// Write every labelled state (its V_h features, witness label and
+        /// V_h) as a safetensors file, for `training/feasibility/train.py
+        /// --calibration` (label the training split for that, never the
+        /// held-out one).
+        #[arg(long, value_name = "OUT")]
+        labels: Option<PathBuf>,
     },
     /// Write the realism prior's training shards (NGSIM scenes + calibrated synthetic traffic).
     PriorDataset {
@@ -418,7 +424,7 @@ pub fn main() -> ExitCode {
                 force,
             })
         }
-        Command::FeasibilityEval { recorded, synthetic_scenes, seed, states, svg, json, split } => {
+        Command::FeasibilityEval { recorded, synthetic_scenes, seed, states, svg, json, split, labels } => {
             feasibility_eval::run(
                 &feasibility_dataset::FeasibilityDatasetRequest {
                     recorded,
@@ -431,6 +437,7 @@ pub fn main() -> ExitCode {
                 split,
                 svg.as_deref(),
                 json.as_deref(),
+                labels.as_deref(),
             )
         }
         Command::PriorDataset { recorded, out, template_scenes, recorded_map_scenes, seed, shard_size, force } => {

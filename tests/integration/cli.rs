@@ -84,6 +84,43 @@ fn feasibility_eval_writes_its_figures_as_json_and_nothing_into_docs_unless_aske
 }
 
 #[test]
+fn feasibility_eval_writes_the_labelled_states_for_calibration() {
+    let dir = std::env::temp_dir().join(format!("safer-feasibility-labels-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let labels = dir.join("labels.safetensors");
+    let recorded = data_dir().join("commonroad-ngsim");
+    let out = Command::new(env!("CARGO_BIN_EXE_safer"))
+        .env("SAFER_MODELS", concat!(env!("CARGO_MANIFEST_DIR"), "/models"))
+        .args(["feasibility-eval", "--recorded", recorded.to_str().unwrap(), "--split", "train"])
+        .args(["--synthetic-scenes", "2", "--states", "40", "--json", "-", "--labels", labels.to_str().unwrap()])
+        .output()
+        .expect("run safer");
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON on stdout");
+    let bytes = std::fs::read(&labels).expect("labels written");
+    let (_, meta) = safetensors::SafeTensors::read_metadata(&bytes).unwrap();
+    assert_eq!(meta.metadata().as_ref().and_then(|m| m.get("split")).map(String::as_str), Some("\"train\""));
+    let file = safetensors::SafeTensors::deserialize(&bytes).unwrap();
+    let column = |name: &str| {
+        let t = file.tensor(name).unwrap();
+        let values: Vec<f32> = t.data().chunks_exact(4).map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]])).collect();
+        (t.shape().to_vec(), values)
+    };
+    let (state_shape, _) = column("state");
+    assert_eq!(state_shape, vec![40, 13]);
+    let (found_shape, found) = column("witness_found");
+    assert_eq!(found_shape, vec![40]);
+    assert!(found.iter().all(|f| *f == 0.0 || *f == 1.0), "{found:?}");
+    // The file's labels are the report's: its infeasible states are the ones without a witness.
+    let infeasible =
+        v["at_zero"]["true_infeasible"].as_u64().unwrap() + v["at_zero"]["missed_infeasible"].as_u64().unwrap();
+    assert_eq!(found.iter().filter(|f| **f == 0.0).count() as u64, infeasible);
+    let (_, value) = column("value");
+    assert!(value.iter().all(|x| x.is_finite()));
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
 fn realism_scores_the_shipped_prior_unless_told_otherwise() {
     // One rollout of one shipped NGSIM scene: the report names the policy it scored.
     let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/ngsim/USA_US101-4_3_T-1.xml");
