@@ -27,6 +27,11 @@ pub const MIN_LANE_HALF_WIDTH_M: f64 = 1.2;
 /// farther than this is a shoulder or a road edge, not the lane's).
 pub const MAX_LANE_HALF_WIDTH_M: f64 = 2.5;
 
+/// The largest angle between an agent's heading and a lane's direction at
+/// which the lane still counts as going the agent's way (lane changes and
+/// the start of a turn stay well inside it; a crossing lane does not).
+pub const ALIGNED_LANE_MAX_ANGLE_RAD: f64 = std::f64::consts::FRAC_PI_4;
+
 /// Identifier of a map element, unique within one map.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub struct MapElementId(pub i64);
@@ -416,7 +421,9 @@ impl RoadMap {
 
     /// The lane centreline closest to `p` within `radius_m`, preferring
     /// lanes whose direction agrees with `heading_rad` (when given) to within
-    /// 90°. Ties break on lane id, so the answer is deterministic.
+    /// [`ALIGNED_LANE_MAX_ANGLE_RAD`]: at an intersection a crossing lane
+    /// may be nearer than the agent's own, and is not the agent's. Ties
+    /// break on lane id, so the answer is deterministic.
     pub fn nearest_lane(&self, p: &Point2, heading_rad: Option<f64>, radius_m: f64) -> Option<LaneMatch> {
         let mut best: Option<(bool, f64, usize, PolylineProjection)> = None;
         for (lane_index, segs) in self.lane_segments.candidates(p, radius_m) {
@@ -429,7 +436,7 @@ impl RoadMap {
             }
             let misaligned = heading_rad.is_some_and(|h| {
                 let f = crate::geometry::Vector2::new(h.cos(), h.sin());
-                f.dot(&proj.tangent) < 0.0
+                f.dot(&proj.tangent) < ALIGNED_LANE_MAX_ANGLE_RAD.cos()
             });
             let key = (misaligned, proj.distance_m, lane_index);
             let better = match &best {
@@ -746,6 +753,24 @@ mod tests {
             RoadEdge { id: MapElementId(11), polyline: pl(&[(100.0, 5.5), (0.0, 5.5)]), kind: RoadEdgeKind::Boundary },
         ];
         RoadMap::new(vec![lane(2, 3.5), lane(1, 0.0)], edges, vec![], vec![], vec![], vec![], vec![])
+    }
+
+    #[test]
+    fn a_nearer_crossing_lane_is_not_the_agents() {
+        // The agent drives east on lane 1 (y = 0), 1.5 m off its centreline;
+        // lane 2 crosses northwards at x = 50.5, 0.5 m away, and lane 3
+        // runs 80° off east: near, and within 90°, but crossing.
+        let own = Lane::new(MapElementId(1), pl(&[(0.0, -1.5), (100.0, -1.5)]));
+        let crossing = Lane::new(MapElementId(2), pl(&[(50.5, -50.0), (50.5, 50.0)]));
+        let skew = 80f64.to_radians();
+        let oblique =
+            Lane::new(MapElementId(3), pl(&[(50.0, 0.5), (50.0 + 40.0 * skew.cos(), 0.5 + 40.0 * skew.sin())]));
+        let map = RoadMap::new(vec![own, crossing, oblique], vec![], vec![], vec![], vec![], vec![], vec![]);
+        let hit = map.nearest_lane(&Point2::new(50.0, 0.0), Some(0.0), 4.0).unwrap();
+        assert_eq!(map.lanes[hit.lane_index].id, MapElementId(1));
+        // With nothing aligned in reach, the nearest lane is still returned.
+        let hit = map.nearest_lane(&Point2::new(50.0, 0.0), Some(0.0), 1.0).unwrap();
+        assert_ne!(map.lanes[hit.lane_index].id, MapElementId(1));
     }
 
     #[test]

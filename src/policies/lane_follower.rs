@@ -126,7 +126,9 @@ pub fn build_route(map: &RoadMap, state: &AgentState, kind: AgentKind) -> Route 
         return straight();
     };
     let mut lane = &map.lanes[m.lane_index];
-    if lane.centreline.tangent_dot(&m.projection, state.heading_rad) < 0.0 {
+    // Only an aligned lane is the agent's (nearest_lane falls back to a
+    // misaligned one when it finds nothing else).
+    if lane.centreline.tangent_dot(&m.projection, state.heading_rad) < crate::map::ALIGNED_LANE_MAX_ANGLE_RAD.cos() {
         return straight();
     }
     // Start slightly behind the agent so the projection is never clamped to the route start.

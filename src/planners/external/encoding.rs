@@ -233,9 +233,9 @@ pub(super) fn walk_lanes<'m>(
 ) -> Option<LaneWalk> {
     let m = map.nearest_lane(&ego.position, Some(ego.heading_rad), search_m)?;
     // nearest_lane prefers lanes in the ego's direction but falls back to
-    // others; a route against the traffic would mislead.
+    // others; a route against the traffic or across it would mislead.
     let forward = Vector2::new(ego.heading_rad.cos(), ego.heading_rad.sin());
-    if m.projection.tangent.dot(&forward) <= 0.0 {
+    if m.projection.tangent.dot(&forward) < crate::map::ALIGNED_LANE_MAX_ANGLE_RAD.cos() {
         return None;
     }
     let mut walk = LaneWalk::default();
