@@ -25,6 +25,7 @@ use super::metrics::{SuiteMetrics, VariantTally};
 use super::pipeline::{self, PlannerLatency, Stage2Verdict, VariantSetup};
 pub use super::pipeline::{Stage2Cbv, VariantProfile};
 use super::variant::variant_seed;
+use crate::policies::BackgroundPolicy;
 use crate::policies::prior_sampling::TokenSampling;
 use crate::scenario::Scenario;
 use crate::sim::{Rollout, SimConfig};
@@ -147,7 +148,11 @@ fn run_one(
     let clock = Instant::now();
     let start = scenario.current_step;
     let end = (start + (request.horizon_s / scenario.dt_s).round() as usize).min(scenario.num_steps() - 1);
-    let sim = SimConfig { start_step: Some(start), end_step: Some(end), ..SimConfig::default() };
+    let background = match request.background {
+        BackgroundDriver::ReactiveLogReplay => BackgroundPolicy::ReactiveLogReplay,
+        BackgroundDriver::Configured | BackgroundDriver::Prior => SimConfig::default().background,
+    };
+    let sim = SimConfig { start_step: Some(start), end_step: Some(end), background, ..SimConfig::default() };
     let variant = format!("{}::{}::seed-{seed_index}", scenario.id, crate::spec::spec_name(&method));
     let stages = pipeline::run(VariantSetup {
         scenario,

@@ -88,6 +88,9 @@ pub enum BackgroundDriver {
     Configured,
     /// The realism prior drives every background agent.
     Prior,
+    /// Reactive log replay in both stages: each agent keeps to its recorded
+    /// path, braking along it for road users in its way.
+    ReactiveLogReplay,
 }
 
 /// What a method installed, to be asked for errors after the run.

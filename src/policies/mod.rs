@@ -1,6 +1,7 @@
-//! Who drives a background agent in closed loop: log replay, constant
-//! velocity, and an IDM-style lane follower (later also the learned prior
-//! and the SaFeR adversary). A policy sees the world at step `k` and says
+//! Who drives a background agent in closed loop: log replay (plain, or
+//! reactive: braking along the recorded path for whoever is in the way),
+//! constant velocity, an IDM-style lane follower, the learned prior and the
+//! SaFeR adversary. A policy sees the world at step `k` and says
 //! what the agent does until `k + 1`.
 
 pub mod adversary;
@@ -10,10 +11,12 @@ pub mod lane_follower;
 pub mod log_replay;
 pub mod noisy_idm;
 pub mod prior_sampling;
+pub mod reactive_log_replay;
 
 pub use constant_velocity::ConstantVelocity;
 pub use lane_follower::{IdmLaneFollower, IdmParams, Route, build_route};
 pub use log_replay::LogReplay;
+pub use reactive_log_replay::ReactiveLogReplay;
 
 use crate::map::RoadMap;
 use crate::motion::Action;
@@ -81,6 +84,9 @@ pub enum BackgroundPolicy {
     /// Replay the recorded trajectory (non-reactive).
     #[default]
     LogReplay,
+    /// Replay the recorded path, braking along it for road users in the way,
+    /// then catching up with the recording.
+    ReactiveLogReplay,
     /// Keep speed and heading from the start state.
     ConstantVelocity,
     /// Follow the lane, brake for leaders and red lights (IDM).
@@ -92,6 +98,7 @@ impl BackgroundPolicy {
     pub fn instantiate(self, scenario: &Scenario, agent: TrackIndex) -> Box<dyn AgentPolicy> {
         match self {
             Self::LogReplay => Box::new(LogReplay::new(scenario.track(agent).clone())),
+            Self::ReactiveLogReplay => Box::new(ReactiveLogReplay::new(scenario.track(agent).clone())),
             Self::ConstantVelocity => Box::new(ConstantVelocity),
             Self::Idm => Box::new(IdmLaneFollower::new(IdmParams::default())),
         }

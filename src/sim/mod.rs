@@ -131,7 +131,13 @@ impl<'a> Simulation<'a> {
                 let agent = TrackIndex(i);
                 (agent != ego).then(|| {
                     let present = scenario.track(agent).state(start).is_some();
-                    let policy = if present { config.background } else { BackgroundPolicy::LogReplay };
+                    // Agents that enter later replay their entry; the reactive
+                    // replay handles its own agent's presence.
+                    let policy = if present || config.background == BackgroundPolicy::ReactiveLogReplay {
+                        config.background
+                    } else {
+                        BackgroundPolicy::LogReplay
+                    };
                     policy.instantiate(scenario, agent)
                 })
             })
@@ -558,6 +564,41 @@ mod tests {
         let last = r.states.last().unwrap()[0].unwrap();
         assert!(last.speed_mps() < 1.0, "ego still at {} m/s", last.speed_mps());
         assert_eq!(r.termination, Termination::Completed);
+    }
+
+    #[test]
+    fn a_reactive_follower_stops_behind_an_ego_that_brakes_a_replayed_one_runs_into_it() {
+        // The IDM ego stops behind the stopped car; a follower recorded 20 m
+        // behind at the ego's recorded 12 m/s drives on.
+        let base = stopped_car_ahead();
+        let mut follower = base.tracks[0].clone();
+        follower.id = AgentId("follower".into());
+        for s in follower.states.iter_mut().flatten() {
+            s.position.x -= 20.0;
+        }
+        let mut tracks = base.tracks.clone();
+        tracks.push(follower);
+        let s = Scenario::new(
+            "stopped-car-ahead-with-follower",
+            ScenarioSource::authored("test"),
+            0.1,
+            base.map.clone(),
+            tracks,
+        )
+        .with_roles(TrackIndex(0), Some(TrackIndex(1)));
+        let run_with = |background| {
+            let mut p = BuiltinPlanner::Idm.instantiate(&s, TrackIndex(0));
+            Simulation::new(&s, SimConfig { background, ..SimConfig::default() }).unwrap().run(p.as_mut())
+        };
+        let replayed = run_with(BackgroundPolicy::LogReplay).summary().ego_collision.expect("rear-ended");
+        assert_eq!((replayed.other.0.as_str(), replayed.kind), ("follower", EgoCollisionKind::ActiveRear));
+        assert!(!replayed.at_fault);
+        let reactive = run_with(BackgroundPolicy::ReactiveLogReplay);
+        assert!(reactive.collisions.is_empty(), "{:?}", reactive.collisions);
+        // The stopped car is recorded stopped: the reactive replay leaves it there.
+        let last = reactive.states.last().unwrap();
+        assert_eq!(last[1].unwrap().position.x, 60.0);
+        assert!(last[2].unwrap().speed_mps() < 0.5, "{:?}", last[2]);
     }
 
     #[test]
