@@ -102,6 +102,14 @@ impl Polyline {
         }
     }
 
+    /// Indices of the segments that reach arc lengths `from_m..=to_m` (for
+    /// [`Polyline::project_segments`] on a stretch of the line).
+    pub fn segments_between(&self, from_m: f64, to_m: f64) -> std::ops::Range<usize> {
+        let first = self.cumulative_m.partition_point(|&a| a < from_m).saturating_sub(1);
+        let end = self.cumulative_m.partition_point(|&a| a <= to_m).min(self.points.len().saturating_sub(1));
+        first..end.max(first)
+    }
+
     /// Cosine between the polyline's direction at `projection` and a heading:
     /// positive when travelling along the polyline.
     pub fn tangent_dot(&self, projection: &PolylineProjection, heading_rad: f64) -> f64 {
@@ -197,6 +205,16 @@ mod tests {
 
     fn line(pts: &[(f64, f64)]) -> Polyline {
         Polyline::new(pts.iter().map(|&(x, y)| Point2::new(x, y)).collect())
+    }
+
+    #[test]
+    fn segments_between_cover_the_stretch() {
+        // Points at arc lengths 0, 10, 20, 30: segments 0, 1, 2.
+        let l = line(&[(0.0, 0.0), (10.0, 0.0), (20.0, 0.0), (30.0, 0.0)]);
+        assert_eq!(l.segments_between(5.0, 15.0), 0..2);
+        assert_eq!(l.segments_between(10.0, 10.0), 0..2, "a vertex touches both its segments");
+        assert_eq!(l.segments_between(25.0, 100.0), 2..3);
+        assert!(l.segments_between(40.0, 50.0).is_empty());
     }
 
     #[test]

@@ -17,7 +17,6 @@
 
 use super::pipeline::DualStage;
 use crate::eval::{Histogram, jensen_shannon};
-use crate::geometry::OrientedBox;
 use crate::scenario::{Scenario, TrackIndex};
 use crate::sim::EgoContact;
 use crate::sim::Rollout;
@@ -107,7 +106,7 @@ impl VariantTally {
 /// whether the CBV was at fault.
 fn cbv_background_collisions(scenario: &Scenario, stage1: &Rollout) -> Vec<bool> {
     let Some(cbv) = stage1.cbv else { return Vec::new() };
-    let Some(body) = scenario.tracks.get(cbv.0) else { return Vec::new() };
+    let Some(body) = stage1.bodies.get(cbv.0) else { return Vec::new() };
     let state = |step: usize, agent: TrackIndex| {
         stage1.states.get(step.checked_sub(stage1.start_step)?)?.get(agent.0).copied().flatten()
     };
@@ -118,10 +117,7 @@ fn cbv_background_collisions(scenario: &Scenario, stage1: &Rollout) -> Vec<bool>
         .map(|c| {
             let other = if c.a == cbv { c.b } else { c.a };
             match (state(c.step, cbv), state(c.step, other)) {
-                (Some(me), Some(them)) => {
-                    let own_box = OrientedBox::new(me.pose(), body.length_m, body.width_m);
-                    EgoContact::judge(&scenario.map, &me, &own_box, &them).at_fault()
-                }
+                (Some(me), Some(them)) => EgoContact::judge(&scenario.map, &me, &body.footprint(&me), &them).at_fault(),
                 _ => true,
             }
         })

@@ -275,7 +275,12 @@ pub fn safer_choice(
 /// The CBV's states over one token period from `now` under each token.
 fn token_rollouts(now: &AgentState, tokens: &[Token]) -> Vec<Vec<AgentState>> {
     let from = KinematicState::from_agent_state(now);
-    tokens.iter().map(|t| TokenGrid::rollout(&from, *t).iter().map(KinematicState::to_agent_state).collect()).collect()
+    tokens.iter().map(|t| token_rollout(&from, *t)).collect()
+}
+
+/// The CBV's states over one token period from `from` under `token`.
+fn token_rollout(from: &KinematicState, token: Token) -> Vec<AgentState> {
+    TokenGrid::rollout(from, token).iter().map(KinematicState::to_agent_state).collect()
 }
 
 /// The CBV's states over [`BRAKING_CHECK_STEPS`] steps after `rollout`
@@ -358,7 +363,7 @@ impl<'w> PlausibilityCheck<'w> {
                 (1..=horizon)
                     .map(|k| {
                         let at = AgentState { position: s.position + s.velocity_mps * (k as f64 * SIM_DT_S), ..s };
-                        (at, OrientedBox::new(at.pose(), b.length_m, b.width_m))
+                        (at, b.footprint(&at))
                     })
                     .collect()
             })
@@ -404,10 +409,13 @@ impl<'w> PlausibilityCheck<'w> {
         // would otherwise drive through the stopped CBV and seem to be hit
         // from the front). Holding the token, any contact counts: stopping
         // in the way of traffic is the CBV's doing too.
-        let held: Vec<AgentState> = rollout.iter().copied().chain(holding_after(rollout)).collect();
-        let body = |s: &AgentState| OrientedBox::new(s.pose(), self.cbv_body.length_m, self.cbv_body.width_m);
-        let (held_boxes, braking_boxes): (Vec<OrientedBox>, Vec<OrientedBox>) =
-            (held.iter().map(body).collect(), braking.iter().map(body).collect());
+        // Both paths start with the token's own states: their boxes are built once.
+        let body = |s: &AgentState| self.cbv_body.footprint(s);
+        let token_boxes: Vec<OrientedBox> = rollout.iter().map(body).collect();
+        let held_boxes: Vec<OrientedBox> =
+            token_boxes.iter().copied().chain(holding_after(rollout).map(|s| body(&s))).collect();
+        let braking_boxes: Vec<OrientedBox> =
+            token_boxes.into_iter().chain(braking[rollout.len()..].iter().map(body)).collect();
         let first_contact = |predicted: &[(AgentState, OrientedBox)], own: &[OrientedBox]| {
             predicted.iter().zip(own).position(|((_, theirs), own)| theirs.intersects(own))
         };
@@ -431,11 +439,7 @@ impl<'w> PlausibilityCheck<'w> {
         let now = self.cbv_now.as_ref()?;
         let ranked = ranked_tokens(logits);
         let from = KinematicState::from_agent_state(now);
-        ranked.get(ranks)?.iter().copied().find(|t| {
-            let rollout: Vec<AgentState> =
-                TokenGrid::rollout(&from, *t).iter().map(KinematicState::to_agent_state).collect();
-            !self.implausible(&rollout)
-        })
+        ranked.get(ranks)?.iter().copied().find(|t| !self.implausible(&token_rollout(&from, *t)))
     }
 }
 

@@ -94,6 +94,16 @@ pub enum BackgroundPolicy {
 }
 
 impl BackgroundPolicy {
+    /// The policy for an agent that enters after the rollout starts: the
+    /// replays follow its recorded entry; the others need a start state,
+    /// so such an agent replays its log.
+    pub fn for_late_entrant(self) -> Self {
+        match self {
+            Self::LogReplay | Self::ReactiveLogReplay => self,
+            Self::ConstantVelocity | Self::Idm => Self::LogReplay,
+        }
+    }
+
     /// A fresh policy instance for `agent` of `scenario`.
     pub fn instantiate(self, scenario: &Scenario, agent: TrackIndex) -> Box<dyn AgentPolicy> {
         match self {

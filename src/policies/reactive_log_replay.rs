@@ -9,7 +9,7 @@
 //! the closer following that recorded drivers show does not trigger it.
 
 use super::{AgentAction, AgentPolicy, WorldView};
-use crate::geometry::{Point2, Vector2};
+use crate::geometry::{Point2, Polyline};
 use crate::motion::tokens::SIM_DT_S;
 use crate::scenario::{AgentState, Track, TrackIndex};
 
@@ -35,10 +35,9 @@ const MIN_STEP_M: f64 = 0.05;
 pub struct ReactiveLogReplay {
     track: Track,
     /// The recorded positions in order, jitter merged.
-    path: Vec<Point2>,
-    /// Arc length of each path point.
-    arc_m: Vec<f64>,
-    /// Arc length of the recorded position at each step (`None`: absent).
+    path: Polyline,
+    /// Arc length along `path` of the recorded position at each step
+    /// (`None`: absent).
     schedule_m: Vec<Option<f64>>,
     /// Own progress and speed while behind the recording.
     behind: Option<(f64, f64)>,
@@ -47,46 +46,32 @@ pub struct ReactiveLogReplay {
 impl ReactiveLogReplay {
     /// Replays `track`.
     pub fn new(track: Track) -> Self {
-        let mut path: Vec<Point2> = Vec::new();
-        let mut arc_m: Vec<f64> = Vec::new();
+        let mut points: Vec<Point2> = Vec::new();
+        let mut arc_m = 0.0;
         let schedule_m = track
             .states
             .iter()
             .map(|s| {
                 let s = s.as_ref()?;
-                match path.last() {
+                match points.last() {
                     Some(last) if (s.position - last).norm() < MIN_STEP_M => {}
-                    Some(last) => {
-                        arc_m.push(arc_m.last().copied().unwrap_or(0.0) + (s.position - last).norm());
-                        path.push(s.position);
-                    }
-                    None => {
-                        arc_m.push(0.0);
-                        path.push(s.position);
+                    last => {
+                        arc_m += last.map_or(0.0, |l| (s.position - l).norm());
+                        points.push(s.position);
                     }
                 }
-                arc_m.last().copied()
+                Some(arc_m)
             })
             .collect();
-        Self { track, path, arc_m, schedule_m, behind: None }
-    }
-
-    /// The point and unit tangent at arc length `s_m` (clamped to the path).
-    fn at(&self, s_m: f64) -> (Point2, Vector2) {
-        let i = self.arc_m.partition_point(|&a| a <= s_m).clamp(1, self.path.len() - 1);
-        let (a, b) = (self.path[i - 1], self.path[i]);
-        let length = self.arc_m[i] - self.arc_m[i - 1];
-        let t = ((s_m - self.arc_m[i - 1]) / length).clamp(0.0, 1.0);
-        (a + (b - a) * t, (b - a) / length)
+        Self { track, path: Polyline::new(points), schedule_m, behind: None }
     }
 
     /// The nearest road user on the path ahead of arc length `s_m`:
     /// (bumper-to-bumper gap along the path, its speed along the path).
     fn leader(&self, world: &WorldView<'_>, agent: TrackIndex, s_m: f64) -> Option<(f64, f64)> {
         let me = world.body(agent);
-        let first = self.arc_m.partition_point(|&a| a < s_m).saturating_sub(1);
-        let last = self.arc_m.partition_point(|&a| a <= s_m + LOOKAHEAD_M).min(self.path.len() - 1);
-        let (here, _) = self.at(s_m);
+        let ahead = self.path.segments_between(s_m, s_m + LOOKAHEAD_M);
+        let (here, _) = self.path.sample(s_m)?;
         world
             .states
             .iter()
@@ -96,19 +81,10 @@ impl ReactiveLogReplay {
                 let s = s.as_ref()?;
                 let other = world.bodies[j];
                 // Its nearest point on the path's segments ahead.
-                let (d2, seg, t) = (first..last)
-                    .map(|i| {
-                        let (a, b) = (self.path[i], self.path[i + 1]);
-                        let ab = b - a;
-                        let t = ((s.position - a).dot(&ab) / ab.norm_squared()).clamp(0.0, 1.0);
-                        ((s.position - (a + ab * t)).norm_squared(), i, t)
-                    })
-                    .min_by(|x, y| x.0.total_cmp(&y.0))?;
-                let along = self.arc_m[seg] + t * (self.arc_m[seg + 1] - self.arc_m[seg]);
-                let in_path = d2.sqrt() < 0.5 * (me.width_m + other.width_m);
-                let gap = along - s_m - 0.5 * (me.length_m + other.length_m);
-                let tangent = (self.path[seg + 1] - self.path[seg]).normalize();
-                (in_path && along > s_m).then_some((gap, s.velocity_mps.dot(&tangent)))
+                let on_path = self.path.project_segments(&s.position, ahead.clone())?;
+                let in_path = on_path.distance_m < 0.5 * (me.width_m + other.width_m);
+                let gap = on_path.arc_length_m - s_m - 0.5 * (me.length_m + other.length_m);
+                (in_path && on_path.arc_length_m > s_m).then_some((gap, s.velocity_mps.dot(&on_path.tangent)))
             })
             .min_by(|x, y| x.0.total_cmp(&y.0))
     }
@@ -164,7 +140,9 @@ impl AgentPolicy for ReactiveLogReplay {
             return AgentAction::Teleport(logged_next);
         }
         self.behind = Some((s_next, v_next));
-        let (position, tangent) = self.at(s_next);
+        let Some((position, tangent)) = self.path.sample(s_next) else {
+            return AgentAction::Teleport(logged_next);
+        };
         AgentAction::Teleport(AgentState {
             position,
             heading_rad: tangent.y.atan2(tangent.x),
@@ -176,6 +154,7 @@ impl AgentPolicy for ReactiveLogReplay {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geometry::Vector2;
     use crate::scenario::{AgentBody, AgentId, AgentKind};
 
     /// A car recorded driving east at 10 m/s along y = 0 for 5 s.

@@ -81,6 +81,13 @@ pub struct AgentBody {
     pub width_m: f64,
 }
 
+impl AgentBody {
+    /// The footprint of this body at `state`.
+    pub fn footprint(&self, state: &AgentState) -> OrientedBox {
+        OrientedBox::new(state.pose(), self.length_m, self.width_m)
+    }
+}
+
 /// An agent's recorded (or simulated) trajectory.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Track {

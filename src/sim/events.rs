@@ -12,7 +12,6 @@
 
 use std::collections::BTreeSet;
 
-use crate::geometry::OrientedBox;
 pub use crate::scenario::contact::{EgoCollisionKind, EgoContact, LaneOccupancy};
 use crate::scenario::{AgentBody, AgentKind, AgentState, Scenario, TrackIndex};
 
@@ -68,10 +67,6 @@ pub(super) struct EventDetector<'a> {
     closest: Option<ClosestApproach>,
 }
 
-fn footprint(body: &AgentBody, s: &AgentState) -> OrientedBox {
-    OrientedBox::new(s.pose(), body.length_m, body.width_m)
-}
-
 /// Each body's diagonal, `length.hypot(width)`: worked out once per rollout
 /// rather than per pair and step.
 fn diagonals(bodies: &[AgentBody]) -> Vec<f64> {
@@ -90,7 +85,7 @@ fn overlapping_pairs(bodies: &[AgentBody], diagonals: &[f64], states: &[Option<A
     for (k, &(min_x, i)) in present.iter().enumerate() {
         let si = states[i].expect("present");
         let max_x = min_x + 2.0 * radius(i);
-        let bi = footprint(&bodies[i], &si);
+        let bi = bodies[i].footprint(&si);
         for &(other_min_x, j) in &present[k + 1..] {
             if other_min_x > max_x {
                 break;
@@ -100,7 +95,7 @@ fn overlapping_pairs(bodies: &[AgentBody], diagonals: &[f64], states: &[Option<A
             if (si.position - sj.position).norm_squared() > reach * reach {
                 continue;
             }
-            if bi.intersects_exact(&footprint(&bodies[j], &sj)) {
+            if bi.intersects_exact(&bodies[j].footprint(&sj)) {
                 out.push((i.min(j), i.max(j)));
             }
         }
@@ -139,7 +134,7 @@ impl<'a> EventDetector<'a> {
     /// convention: positive off road), and where it is.
     fn ego_off_road_distance(&self, states: &[Option<AgentState>]) -> Option<(f64, crate::geometry::Point2)> {
         let s = states[self.ego.0]?;
-        let corners = footprint(&self.bodies[self.ego.0], &s).corners();
+        let corners = self.bodies[self.ego.0].footprint(&s).corners();
         corners
             .iter()
             .filter_map(|c| self.scenario.map.signed_distance_to_road_edge(c).map(|d| (d, *c)))
@@ -153,7 +148,7 @@ impl<'a> EventDetector<'a> {
 
     fn track_closest(&mut self, step: usize, states: &[Option<AgentState>]) {
         let Some(ego) = states[self.ego.0] else { return };
-        let ego_box = footprint(&self.bodies[self.ego.0], &ego);
+        let ego_box = self.bodies[self.ego.0].footprint(&ego);
         let ego_radius_m = 0.5 * self.diagonals[self.ego.0];
         for (i, s) in states.iter().enumerate() {
             let Some(s) = s else { continue };
@@ -164,7 +159,7 @@ impl<'a> EventDetector<'a> {
             if self.closest.is_some_and(|c| lower >= c.distance_m) {
                 continue;
             }
-            let d = ego_box.distance(&footprint(&self.bodies[i], s));
+            let d = ego_box.distance(&self.bodies[i].footprint(s));
             if self.closest.is_none_or(|c| d < c.distance_m) {
                 self.closest = Some(ClosestApproach { distance_m: d, step, agent: TrackIndex(i) });
             }
@@ -176,7 +171,7 @@ impl<'a> EventDetector<'a> {
         let mut ego_hit = false;
         for (i, j) in overlapping_pairs(self.bodies, &self.diagonals, states) {
             let apart_before = match (self.previous[i], self.previous[j]) {
-                (Some(pi), Some(pj)) => !footprint(&self.bodies[i], &pi).intersects(&footprint(&self.bodies[j], &pj)),
+                (Some(pi), Some(pj)) => !self.bodies[i].footprint(&pi).intersects(&self.bodies[j].footprint(&pj)),
                 _ => false,
             };
             let both_pedestrians =
@@ -190,7 +185,7 @@ impl<'a> EventDetector<'a> {
             let ego_contact = involves_ego.then(|| {
                 let other = if i == self.ego.0 { j } else { i };
                 let ego = states[self.ego.0].expect("present");
-                let ego_box = footprint(&self.bodies[self.ego.0], &ego);
+                let ego_box = self.bodies[self.ego.0].footprint(&ego);
                 EgoContact::judge(&self.scenario.map, &ego, &ego_box, &states[other].expect("present"))
             });
             self.collisions.push(CollisionEvent {

@@ -131,13 +131,7 @@ impl<'a> Simulation<'a> {
                 let agent = TrackIndex(i);
                 (agent != ego).then(|| {
                     let present = scenario.track(agent).state(start).is_some();
-                    // Agents that enter later replay their entry; the reactive
-                    // replay handles its own agent's presence.
-                    let policy = if present || config.background == BackgroundPolicy::ReactiveLogReplay {
-                        config.background
-                    } else {
-                        BackgroundPolicy::LogReplay
-                    };
+                    let policy = if present { config.background } else { config.background.for_late_entrant() };
                     policy.instantiate(scenario, agent)
                 })
             })
