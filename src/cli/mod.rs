@@ -193,7 +193,7 @@ enum Command {
         #[arg(long, value_parser = data_path)]
         scenes: PathBuf,
         /// Methods to compare, one table row each.
-        #[arg(long, value_enum, value_delimiter = ',', default_values_t = [AdversaryMethod::Safer, AdversaryMethod::NoLfr, AdversaryMethod::NoTrustRegion, AdversaryMethod::NoMda, AdversaryMethod::Prior, AdversaryMethod::Log])]
+        #[arg(long, value_enum, value_delimiter = ',', default_values_t = [AdversaryMethod::Safer, AdversaryMethod::SaferLookahead, AdversaryMethod::NoLfr, AdversaryMethod::NoTrustRegion, AdversaryMethod::NoMda, AdversaryMethod::Prior, AdversaryMethod::Log])]
         methods: Vec<AdversaryMethod>,
         /// Seeds per scene and method, at least 1.
         #[arg(long, default_value_t = 10, value_parser = clap::value_parser!(u32).range(1..))]

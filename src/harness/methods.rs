@@ -12,7 +12,7 @@ use super::HarnessError;
 use crate::models::prior::{PriorVariant, RealismPrior};
 use crate::models::{ModelError, ModelSource};
 use crate::policies::LogReplay;
-use crate::policies::adversary::{Adversary, FeasibilityOracle, TrustRegion};
+use crate::policies::adversary::{Adversary, FeasibilityOracle, LOOKAHEAD_TOKENS, Search, TrustRegion};
 use crate::policies::prior_sampling::{PriorAgent, PriorTraffic, ScenarioMapEncoding, TokenSampling, TrafficTimings};
 use crate::scenario::{Scenario, TrackIndex};
 use crate::sim::Simulation;
@@ -165,18 +165,20 @@ pub fn install(
     }
     let feasibility =
         || models.feasibility.clone().map_err(|source| HarnessError::Model { method: settings.method, source });
-    let n = TrustRegion::TopN(settings.trust_region);
+    let n = Search::one_step(TrustRegion::TopN(settings.trust_region));
+    let adversary = |search, feasibility| Box::new(Adversary::new(traffic.clone(), ego, search, feasibility));
     match settings.method {
         AdversaryMethod::Log => sim.set_policy(cbv, Box::new(LogReplay::new(scenario.track(cbv).clone()))),
         AdversaryMethod::Prior => sim.set_policy(cbv, Box::new(PriorAgent::new(traffic.clone()))),
-        AdversaryMethod::Safer | AdversaryMethod::NoMda => {
-            sim.set_policy(cbv, Box::new(Adversary::new(traffic.clone(), ego, n, Some(feasibility()?))))
+        AdversaryMethod::Safer | AdversaryMethod::NoMda => sim.set_policy(cbv, adversary(n, Some(feasibility()?))),
+        AdversaryMethod::SaferLookahead => {
+            let search = Search { lookahead_tokens: LOOKAHEAD_TOKENS, ..n };
+            sim.set_policy(cbv, adversary(search, Some(feasibility()?)))
         }
-        AdversaryMethod::NoLfr => sim.set_policy(cbv, Box::new(Adversary::new(traffic.clone(), ego, n, None))),
-        AdversaryMethod::NoTrustRegion => sim.set_policy(
-            cbv,
-            Box::new(Adversary::new(traffic.clone(), ego, TrustRegion::WholeVocabulary, Some(feasibility()?))),
-        ),
+        AdversaryMethod::NoLfr => sim.set_policy(cbv, adversary(n, None)),
+        AdversaryMethod::NoTrustRegion => {
+            sim.set_policy(cbv, adversary(Search::one_step(TrustRegion::WholeVocabulary), Some(feasibility()?)))
+        }
     }
     Ok(InstalledMethod { traffic: Some(traffic) })
 }

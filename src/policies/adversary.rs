@@ -17,8 +17,10 @@
 //! - **Plausibility.** The CBV must stay a plausible road user. A
 //!   candidate is implausible when its 0.5 s rollout takes the CBV from the
 //!   road onto the off-road area (or, off the road already, farther from
-//!   it), when a background agent (predicted at constant velocity) and the
-//!   CBV touch during the token or the second after it with the token held
+//!   it), when a background agent (replayed agents where their recording
+//!   puts them, the others at constant velocity: [`BackgroundForecast`])
+//!   and the CBV touch during the token or the second after it with the
+//!   token held
 //!   (no brake checks on followers, no stopping in the way of crossing
 //!   traffic), or when the CBV, braking as hard as
 //!   it can after the token (holding its curvature, as a driver braking in
@@ -33,7 +35,9 @@
 //!   the trust region's token that breaks the rule latest. The same rule
 //!   restricts the prior's draws in the approach phase.
 //!
-//! The ablations are the same policy with a part switched off.
+//! The ablations are the same policy with a part switched off;
+//! `safer-lookahead` (beyond the paper) is the same policy scoring tokens
+//! over a receding horizon ([`Lookahead`]).
 
 use std::sync::{Arc, Mutex};
 
@@ -82,11 +86,36 @@ pub enum TrustRegion {
     WholeVocabulary,
 }
 
+/// What the adversary searches at each token boundary.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Search {
+    /// Which tokens it may choose from.
+    pub trust_region: TrustRegion,
+    /// How many token periods ahead a candidate is scored: 1 is the
+    /// paper's one-step arg min (`safer`), more is the receding-horizon
+    /// `safer-lookahead` (see [`LOOKAHEAD_TOKENS`]).
+    pub lookahead_tokens: usize,
+}
+
+impl Search {
+    /// The paper's one-step search over `trust_region`.
+    pub fn one_step(trust_region: TrustRegion) -> Self {
+        Self { trust_region, lookahead_tokens: 1 }
+    }
+}
+
+/// How many token periods `safer-lookahead` scores ahead (1.5 s).
+pub const LOOKAHEAD_TOKENS: usize = 3;
+
+/// What `safer-lookahead` adds to a continuation's score per token period
+/// after the first, m: of two equally close approaches the sooner wins.
+pub const LOOKAHEAD_DELAY_PENALTY_M: f64 = 0.5;
+
 /// The adversary of one rollout's CBV.
 pub struct Adversary {
     shared: Arc<Mutex<PriorTraffic>>,
     ego: TrackIndex,
-    trust_region: TrustRegion,
+    search: Search,
     feasibility: Option<Arc<dyn FeasibilityOracle>>,
     current: Option<Token>,
     error: Option<Arc<ModelError>>,
@@ -96,7 +125,7 @@ impl std::fmt::Debug for Adversary {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("Adversary")
             .field("ego", &self.ego)
-            .field("trust_region", &self.trust_region)
+            .field("search", &self.search)
             .field("feasibility", &self.feasibility.is_some())
             .finish()
     }
@@ -114,10 +143,10 @@ impl Adversary {
     pub fn new(
         shared: Arc<Mutex<PriorTraffic>>,
         ego: TrackIndex,
-        trust_region: TrustRegion,
+        search: Search,
         feasibility: Option<Arc<dyn FeasibilityOracle>>,
     ) -> Self {
-        Self { shared, ego, trust_region, feasibility, current: None, error: None }
+        Self { shared, ego, search, feasibility, current: None, error: None }
     }
 
     /// The first error met (inference), if any.
@@ -130,14 +159,16 @@ impl Adversary {
     fn choose(&mut self, world: &WorldView<'_>, cbv: TrackIndex) -> Result<Option<Token>, ModelError> {
         let mut shared = self.shared.lock().unwrap_or_else(|p| p.into_inner());
         let Some(logits) = shared.logits_at(cbv.0, world.step).cloned() else { return Ok(None) };
+        let (scenario, prior_driven) = (shared.scenario().clone(), shared.members());
         drop(shared);
+        let forecast = BackgroundForecast { recording: Some(&scenario), not_replayed: &prior_driven };
         let mut feasibility_s = 0.0;
         let chosen = safer_choice(
             world,
-            cbv,
-            self.ego,
+            (cbv, self.ego),
             &logits,
-            self.trust_region,
+            self.search,
+            &forecast,
             self.feasibility.as_deref(),
             &mut feasibility_s,
         );
@@ -152,11 +183,13 @@ impl Adversary {
         let mut shared = self.shared.lock().unwrap_or_else(|p| p.into_inner());
         let (seed, sampling) = (shared.seed(), shared.sampling());
         let logits = shared.logits_at(cbv.0, world.step)?.clone();
+        let (scenario, prior_driven) = (shared.scenario().clone(), shared.members());
         drop(shared);
+        let forecast = BackgroundForecast { recording: Some(&scenario), not_replayed: &prior_driven };
         let top = &top_tokens(&logits, sampling.top_k.clamp(1, logits.len()))[..];
         let mut masked = logits.clone();
         if let Some(cbv_now) = world.state(cbv) {
-            let check = PlausibilityCheck::new(world, cbv, self.ego);
+            let check = PlausibilityCheck::new(world, cbv, self.ego, &forecast);
             let implausible: Vec<bool> = token_rollouts(cbv_now, top).iter().map(|r| check.implausible(r)).collect();
             if implausible.iter().all(|bad| *bad) {
                 // Nothing plausible to draw from: the likeliest plausible
@@ -184,26 +217,28 @@ impl Adversary {
     }
 }
 
-/// SaFeR's choice at one token boundary, given the prior's `logits` for
-/// the CBV: the plausible token of the trust region with the least loss
+/// SaFeR's choice at one token boundary for the CBV of the pair (CBV,
+/// ego), given the prior's `logits` for the CBV: the plausible token of the trust region with the least loss
 /// (the box distance to the ego's constant-velocity prediction where
 /// `feasibility` says the ego can still avoid a collision, else V_h + Δ;
 /// distance only without `feasibility`), ties broken by the likelier token
 /// and then the lower id; the fallbacks of the module's plausibility rule
-/// when none is plausible. Time spent in `feasibility` is added to
+/// when none is plausible (the background predicted by `forecast`). With
+/// a lookahead the loss of a feasible candidate is the best score of its
+/// continuations (see [`Lookahead`]). Time spent in `feasibility` is added to
 /// `feasibility_s`. `None` only for empty `logits`.
 pub fn safer_choice(
     world: &WorldView<'_>,
-    cbv: TrackIndex,
-    ego: TrackIndex,
+    (cbv, ego): (TrackIndex, TrackIndex),
     logits: &[f32],
-    trust_region: TrustRegion,
+    search: Search,
+    forecast: &BackgroundForecast<'_>,
     feasibility: Option<&dyn FeasibilityOracle>,
     feasibility_s: &mut f64,
 ) -> Result<Option<Token>, ModelError> {
     // The trust region, most likely first: the top of `ranked_tokens`
     // without sorting the whole vocabulary.
-    let k = match trust_region {
+    let k = match search.trust_region {
         TrustRegion::TopN(n) => n.max(1).min(logits.len()),
         TrustRegion::WholeVocabulary => logits.len(),
     };
@@ -220,30 +255,31 @@ pub fn safer_choice(
         .iter()
         .map(|s| ego_box.distance(&OrientedBox::new(s.pose(), cbv_body.length_m, cbv_body.width_m)))
         .collect();
-    let losses: Vec<f64> = match feasibility {
-        None => distances,
-        Some(oracle) => {
-            let pairs: Vec<EgoCbvState> =
-                predicted.iter().map(|s| EgoCbvState { ego: ego_next, ego_body, cbv: *s, cbv_body }).collect();
-            let clock = std::time::Instant::now();
-            let values = oracle.values(&pairs);
-            *feasibility_s += clock.elapsed().as_secs_f64();
-            let values = values?;
-            // A NaN value is a broken model, not a feasible state: fail
-            // the variant with the model named rather than guess.
-            if let Some(i) = values.iter().position(|v| v.is_nan()) {
-                return Err(ModelError::Inference {
-                    model: "feasibility value V_h".into(),
-                    message: format!("returned NaN for candidate token {} of {}", i, values.len()),
-                });
-            }
-            distances
-                .iter()
-                .zip(values)
-                .map(|(d, v)| if v <= 0.0 { *d } else { v as f64 + INFEASIBLE_PENALTY })
-                .collect()
-        }
+    let values = match feasibility {
+        None => None,
+        Some(oracle) => Some(feasibility_values(oracle, &predicted, ego_next, ego_body, cbv_body, feasibility_s)?),
     };
+    let mut losses: Vec<f64> = match &values {
+        None => distances.clone(),
+        Some(values) => distances
+            .iter()
+            .zip(values)
+            .map(|(d, v)| if *v <= 0.0 { *d } else { *v as f64 + INFEASIBLE_PENALTY })
+            .collect(),
+    };
+    if search.lookahead_tokens > 1 {
+        let lookahead = Lookahead {
+            world,
+            ego_now: *ego_now,
+            ego_body,
+            cbv_body,
+            candidates,
+            tokens: search.lookahead_tokens,
+            on_road_now: !world.map.is_off_road(&cbv_now.position),
+        };
+        let first = FirstTokens { states: &predicted, distances_m: &distances, values: values.as_deref() };
+        lookahead.lower_losses(cbv_now, first, &mut losses, feasibility, feasibility_s)?;
+    }
     // The strict arg min: by loss (a NaN distance, never expected as
     // states are bounds-checked, ranks last), then the likelier token,
     // then the lower id; the first plausible candidate in that order,
@@ -257,7 +293,7 @@ pub fn safer_choice(
             .then(logits[candidates[j].0 as usize].total_cmp(&logits[candidates[i].0 as usize]))
             .then(candidates[i].0.cmp(&candidates[j].0))
     });
-    let check = PlausibilityCheck::new(world, cbv, ego);
+    let check = PlausibilityCheck::new(world, cbv, ego, forecast);
     let mut violations = Vec::with_capacity(order.len());
     for &i in &order {
         match check.first_violation(&rollouts[i]) {
@@ -270,6 +306,163 @@ pub fn safer_choice(
     // breaks the rule latest (the first such in arg-min order).
     let latest = violations.iter().rev().max_by_key(|(_, k)| *k).map(|(i, _)| candidates[*i]);
     Ok(check.likeliest_plausible(logits, outside_trust_region).or(latest))
+}
+
+/// V_h of the CBV in each of `predicted` against the ego in `ego`, timed
+/// into `feasibility_s`; a NaN is a broken model and an error.
+fn feasibility_values(
+    oracle: &dyn FeasibilityOracle,
+    predicted: &[AgentState],
+    ego: AgentState,
+    ego_body: crate::scenario::AgentBody,
+    cbv_body: crate::scenario::AgentBody,
+    feasibility_s: &mut f64,
+) -> Result<Vec<f32>, ModelError> {
+    let pairs: Vec<EgoCbvState> = predicted.iter().map(|s| EgoCbvState { ego, ego_body, cbv: *s, cbv_body }).collect();
+    let clock = std::time::Instant::now();
+    let values = oracle.values(&pairs);
+    *feasibility_s += clock.elapsed().as_secs_f64();
+    let values = values?;
+    // A NaN value is a broken model, not a feasible state: fail the
+    // variant with the model named rather than guess.
+    if let Some(i) = values.iter().position(|v| v.is_nan()) {
+        return Err(ModelError::Inference {
+            model: "feasibility value V_h".into(),
+            message: format!("returned NaN for candidate token {} of {}", i, values.len()),
+        });
+    }
+    Ok(values)
+}
+
+/// The receding-horizon search of `safer-lookahead` (beyond the paper).
+///
+/// One-step greed steers the CBV at where the ego will be in 0.5 s and
+/// stops it at the edge of the feasible set, where it hovers beside the
+/// ego: the conflict is threatened, not made. The lookahead scores a
+/// first token by the best its continuations reach over `tokens` token
+/// periods, with the ego at constant velocity and inside the same
+/// constraints:
+/// - every continuation token comes from the same trust region (the
+///   prior's current top n stands in for its later ones, which would need
+///   the prior run on hypothetical histories);
+/// - a continuation ends at its first state where V_h > 0 or that leaves
+///   the road; only a *contact* with the ego may end it infeasibly, and
+///   only straight from a feasible state (V_h ≤ 0: the ego could still
+///   have escaped one token earlier, and it is that escape the witness
+///   later looks for).
+///
+/// A continuation scores its distance to the ego plus
+/// [`LOOKAHEAD_DELAY_PENALTY_M`] per token after the first (sooner is
+/// better; a contact scores 0 plus that delay), and a first token takes
+/// the least score of its continuations when below its one-step loss. The
+/// search is a beam as wide as the trust region ranked by distance, a pure
+/// function of the world like the one-step choice.
+struct Lookahead<'a> {
+    world: &'a WorldView<'a>,
+    ego_now: AgentState,
+    ego_body: crate::scenario::AgentBody,
+    cbv_body: crate::scenario::AgentBody,
+    /// The trust region, most likely first.
+    candidates: &'a [Token],
+    /// How many token periods ahead (at least 1).
+    tokens: usize,
+    /// Whether the CBV is on the road now (then a continuation must stay on it).
+    on_road_now: bool,
+}
+
+/// The one-step search's results for each candidate of the trust region.
+struct FirstTokens<'a> {
+    /// Where the CBV ends the token.
+    states: &'a [AgentState],
+    /// Its box distance to the ego's prediction there, m.
+    distances_m: &'a [f64],
+    /// V_h there (`None`: no feasibility constraint).
+    values: Option<&'a [f32]>,
+}
+
+/// One continuation of the beam: which first token it extends, where the
+/// CBV is at its end, and its distance to the ego there.
+struct Continuation {
+    root: usize,
+    state: KinematicState,
+    distance_m: f64,
+}
+
+impl Lookahead<'_> {
+    /// Lowers each candidate's one-step loss in `losses` to the best score
+    /// of its continuations (see [`Lookahead`]).
+    fn lower_losses(
+        &self,
+        cbv_now: &AgentState,
+        first: FirstTokens<'_>,
+        losses: &mut [f64],
+        feasibility: Option<&dyn FeasibilityOracle>,
+        feasibility_s: &mut f64,
+    ) -> Result<(), ModelError> {
+        let feasible = |i: usize| first.values.is_none_or(|v| v[i] <= 0.0);
+        // A contact in the first token, straight from a feasible state now.
+        if let (Some(oracle), Some(values)) = (feasibility, first.values) {
+            let now =
+                feasibility_values(oracle, &[*cbv_now], self.ego_now, self.ego_body, self.cbv_body, feasibility_s)?;
+            if now[0] <= 0.0 {
+                for (i, loss) in losses.iter_mut().enumerate() {
+                    if values[i] > 0.0 && first.distances_m[i] <= 0.0 {
+                        *loss = 0.0;
+                    }
+                }
+            }
+        }
+        let mut beam: Vec<Continuation> = (0..first.states.len())
+            .filter(|&i| feasible(i) && first.distances_m[i] > 0.0)
+            .map(|i| Continuation {
+                root: i,
+                state: KinematicState::from_agent_state(&first.states[i]),
+                distance_m: first.distances_m[i],
+            })
+            .collect();
+        Self::keep_best(&mut beam, self.candidates.len());
+        for depth in 2..=self.tokens {
+            let ahead_s = TOKEN_PERIOD_S * depth as f64;
+            let ego =
+                AgentState { position: self.ego_now.position + self.ego_now.velocity_mps * ahead_s, ..self.ego_now };
+            let ego_box = self.ego_body.footprint(&ego);
+            let mut children: Vec<Continuation> = Vec::with_capacity(beam.len() * self.candidates.len());
+            for parent in &beam {
+                for &t in self.candidates {
+                    let end = TokenGrid::rollout(&parent.state, t)[TOKEN_PERIOD_STEPS - 1];
+                    let at = end.to_agent_state();
+                    if self.on_road_now && self.world.map.is_off_road(&at.position) {
+                        continue;
+                    }
+                    let distance_m = ego_box.distance(&self.cbv_body.footprint(&at));
+                    children.push(Continuation { root: parent.root, state: end, distance_m });
+                }
+            }
+            if let Some(oracle) = feasibility {
+                let states: Vec<AgentState> = children.iter().map(|c| c.state.to_agent_state()).collect();
+                let values = feasibility_values(oracle, &states, ego, self.ego_body, self.cbv_body, feasibility_s)?;
+                // Parents are feasible: an infeasible contact is one the ego could have escaped.
+                let mut values = values.into_iter();
+                children.retain(|c| values.next().is_some_and(|v| v <= 0.0) || c.distance_m <= 0.0);
+            }
+            let delay_m = LOOKAHEAD_DELAY_PENALTY_M * (depth - 1) as f64;
+            for c in &children {
+                losses[c.root] = losses[c.root].min(c.distance_m.max(0.0) + delay_m);
+            }
+            // A contact ends its continuation.
+            children.retain(|c| c.distance_m > 0.0);
+            Self::keep_best(&mut children, self.candidates.len());
+            beam = children;
+        }
+        Ok(())
+    }
+
+    /// Keeps the `width` continuations closest to the ego (ties: the
+    /// likelier first token, then the order they were made in).
+    fn keep_best(beam: &mut Vec<Continuation>, width: usize) {
+        beam.sort_by(|a, b| a.distance_m.total_cmp(&b.distance_m).then(a.root.cmp(&b.root)));
+        beam.truncate(width);
+    }
 }
 
 /// The CBV's states over one token period from `now` under each token.
@@ -321,6 +514,50 @@ fn continued_after(rollout: &[AgentState], accel_mps2: f64, steps: usize) -> imp
     })
 }
 
+/// What the adversary knows of the background's next seconds. An agent the
+/// rollout replays from its recording (log replay, and reactive replay
+/// while it keeps to the recording) will be where its recording says: the
+/// scenario generator replays it, so it knows. Any other agent (driven by
+/// the prior or a rule, or off its recording) is predicted at constant
+/// velocity. Without a recording every agent is.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct BackgroundForecast<'a> {
+    /// The scenario whose recordings replayed agents follow.
+    pub recording: Option<&'a crate::scenario::Scenario>,
+    /// Agents that are not replayed (the prior drives them), sorted.
+    pub not_replayed: &'a [usize],
+}
+
+/// How far an agent may be from its recorded position and still be taken
+/// to follow its recording, m (reactive replay falls behind it when it
+/// brakes; then it is predicted at constant velocity).
+const ON_RECORDING_TOLERANCE_M: f64 = 0.5;
+
+impl BackgroundForecast<'_> {
+    /// `agent`'s predicted states over the `steps` simulator steps after
+    /// `world.step` (`None`: absent at that step).
+    fn states(&self, world: &WorldView<'_>, agent: TrackIndex, steps: usize) -> Vec<Option<AgentState>> {
+        let now = world.state(agent);
+        let recorded = self
+            .recording
+            .filter(|_| self.not_replayed.binary_search(&agent.0).is_err())
+            .and_then(|r| r.tracks.get(agent.0))
+            .filter(|track| match (now, track.state(world.step)) {
+                (Some(now), Some(then)) => (now.position - then.position).norm() <= ON_RECORDING_TOLERANCE_M,
+                // A replayed agent enters (or leaves) as recorded.
+                (None, _) => true,
+                (Some(_), None) => false,
+            });
+        match (recorded, now) {
+            (Some(track), _) => (1..=steps).map(|k| track.state(world.step + k).copied()).collect(),
+            (None, Some(s)) => (1..=steps)
+                .map(|k| Some(AgentState { position: s.position + s.velocity_mps * (k as f64 * SIM_DT_S), ..*s }))
+                .collect(),
+            (None, None) => Vec::new(),
+        }
+    }
+}
+
 /// Whether a candidate rollout of the CBV (one state per simulator step of
 /// the token) is implausible for a road user (the module's rule: leaving
 /// the road, touching background traffic during the token, or no room to
@@ -331,8 +568,9 @@ struct PlausibilityCheck<'w> {
     cbv_body: crate::scenario::AgentBody,
     /// The CBV now (`None`: absent, nothing is implausible).
     cbv_now: Option<AgentState>,
-    /// Each nearby background agent's predicted state and box, one per step of the check.
-    background: Vec<Vec<(AgentState, OrientedBox)>>,
+    /// Each nearby background agent's predicted state and box, one per
+    /// step of the check (`None`: absent at that step).
+    background: Vec<Vec<Option<(AgentState, OrientedBox)>>>,
     /// The CBV's signed distance to the road edge now, m (positive: off
     /// the road; `None` where the map has no road edges near it).
     edge_distance_now: Option<f64>,
@@ -340,7 +578,7 @@ struct PlausibilityCheck<'w> {
 }
 
 impl<'w> PlausibilityCheck<'w> {
-    fn new(world: &'w WorldView<'w>, cbv: TrackIndex, ego: TrackIndex) -> Self {
+    fn new(world: &'w WorldView<'w>, cbv: TrackIndex, ego: TrackIndex, forecast: &BackgroundForecast<'_>) -> Self {
         let cbv_body = world.body(cbv);
         let cbv_now = world.state(cbv).copied();
         let Some(now) = cbv_now else {
@@ -354,18 +592,16 @@ impl<'w> PlausibilityCheck<'w> {
             };
         };
         let horizon = TOKEN_PERIOD_STEPS + BRAKING_CHECK_STEPS;
+        let in_range = |s: &AgentState| (s.position - now.position).norm() < BACKGROUND_CHECK_RANGE_M;
         let background = (0..world.states.len())
             .filter(|&i| i != cbv.0 && i != ego.0)
-            .filter_map(|i| world.states[i].map(|s| (i, s)))
-            .filter(|(_, s)| (s.position - now.position).norm() < BACKGROUND_CHECK_RANGE_M)
-            .map(|(i, s)| {
+            .filter_map(|i| {
+                let states: Vec<Option<AgentState>> = forecast.states(world, TrackIndex(i), horizon);
+                states.iter().flatten().next().is_some_and(in_range).then_some((i, states))
+            })
+            .map(|(i, states)| {
                 let b = world.bodies[i];
-                (1..=horizon)
-                    .map(|k| {
-                        let at = AgentState { position: s.position + s.velocity_mps * (k as f64 * SIM_DT_S), ..s };
-                        (at, b.footprint(&at))
-                    })
-                    .collect()
+                states.into_iter().map(|s| s.map(|at| (at, b.footprint(&at)))).collect()
             })
             .collect();
         Self {
@@ -416,8 +652,8 @@ impl<'w> PlausibilityCheck<'w> {
             token_boxes.iter().copied().chain(holding_after(rollout).map(|s| body(&s))).collect();
         let braking_boxes: Vec<OrientedBox> =
             token_boxes.into_iter().chain(braking[rollout.len()..].iter().map(body)).collect();
-        let first_contact = |predicted: &[(AgentState, OrientedBox)], own: &[OrientedBox]| {
-            predicted.iter().zip(own).position(|((_, theirs), own)| theirs.intersects(own))
+        let first_contact = |predicted: &[Option<(AgentState, OrientedBox)>], own: &[OrientedBox]| {
+            predicted.iter().zip(own).position(|(theirs, own)| theirs.is_some_and(|(_, b)| b.intersects(own)))
         };
         for predicted in &self.background {
             if let Some(k) = first_contact(predicted, &held_boxes) {
@@ -425,7 +661,8 @@ impl<'w> PlausibilityCheck<'w> {
             }
             // Braking after the token: only what the CBV runs into.
             if let Some(k) = first_contact(predicted, &braking_boxes)
-                && EgoContact::judge(map, &braking[k], &braking_boxes[k], &predicted[k].0).at_fault()
+                && let Some((theirs, _)) = predicted[k]
+                && EgoContact::judge(map, &braking[k], &braking_boxes[k], &theirs).at_fault()
             {
                 note(k);
             }
@@ -511,7 +748,7 @@ mod tests {
         let tokens = [token(MAX_ACCEL_MPS2), token(0.0), token(-MAX_ACCEL_MPS2)];
         let rollouts = token_rollouts(states[1].as_ref().unwrap(), &tokens);
         let implausible = |world: &WorldView<'_>| {
-            let check = PlausibilityCheck::new(world, cbv, ego);
+            let check = PlausibilityCheck::new(world, cbv, ego, &BackgroundForecast::default());
             rollouts.iter().map(|r| check.implausible(r)).collect::<Vec<bool>>()
         };
         assert_eq!(implausible(&world), vec![true, true, false]);
@@ -519,6 +756,60 @@ mod tests {
         let beside = [states[0], states[1], car(30.0, 4.0, 0.0)];
         let world = WorldView { states: &beside, ..world };
         assert_eq!(implausible(&world), vec![false; 3]);
+    }
+
+    /// Ego far away, the CBV at 10 m/s, and a car 12 m ahead of it at
+    /// 10 m/s whose recording brakes at 8 m/s² to a stop (6.25 m on).
+    fn behind_a_recorded_braking_car() -> (crate::scenario::Scenario, [Option<AgentState>; 3]) {
+        use crate::scenario::{AgentId, ScenarioSource, Track};
+        let states = [car(0.0, 100.0, 0.0), car(0.0, 0.0, 10.0), car(12.0, 0.0, 10.0)];
+        let braking = (0..40)
+            .map(|k| {
+                let t = (k as f64 * SIM_DT_S).min(1.25);
+                car(12.0 + 10.0 * t - 4.0 * t * t, 0.0, 10.0 - 8.0 * t)
+            })
+            .collect();
+        let held = |s: Option<AgentState>| (0..40).map(|_| s).collect();
+        let track = |id: &str, states| Track {
+            id: AgentId(id.into()),
+            kind: AgentKind::Vehicle,
+            length_m: 4.5,
+            width_m: 2.0,
+            states,
+        };
+        let tracks = vec![track("ego", held(states[0])), track("cbv", held(states[1])), track("lead", braking)];
+        let scenario = crate::scenario::Scenario::new(
+            "braking-lead",
+            ScenarioSource::authored("test"),
+            SIM_DT_S,
+            RoadMap::default(),
+            tracks,
+        )
+        .with_roles(TrackIndex(0), Some(TrackIndex(1)));
+        (scenario, states)
+    }
+
+    #[test]
+    fn a_replayed_car_is_forecast_by_its_recording_and_others_at_constant_velocity() {
+        let (scenario, states) = behind_a_recorded_braking_car();
+        let bodies = [AgentBody { kind: AgentKind::Vehicle, length_m: 4.5, width_m: 2.0 }; 3];
+        let world = WorldView { map: &scenario.map, step: 0, bodies: &bodies, states: &states };
+        let tokens = [token(0.0), token(-MAX_ACCEL_MPS2)];
+        let rollouts = token_rollouts(states[1].as_ref().unwrap(), &tokens);
+        let implausible = |world: &WorldView<'_>, forecast: BackgroundForecast<'_>| {
+            let check = PlausibilityCheck::new(world, TrackIndex(1), TrackIndex(0), &forecast);
+            rollouts.iter().map(|r| check.implausible(r)).collect::<Vec<bool>>()
+        };
+        // Replayed: holding speed runs into the car as it brakes; braking does not.
+        let replayed = BackgroundForecast { recording: Some(&scenario), not_replayed: &[] };
+        assert_eq!(implausible(&world, replayed), vec![true, false]);
+        // At constant velocity the car keeps its 10 m/s: both are plausible.
+        assert_eq!(implausible(&world, BackgroundForecast::default()), vec![false, false]);
+        // Driven by the prior, or 1 m off its recording: constant velocity too.
+        assert_eq!(implausible(&world, BackgroundForecast { not_replayed: &[2], ..replayed }), vec![false, false]);
+        let off = [states[0], states[1], car(13.0, 0.0, 10.0)];
+        let world = WorldView { states: &off, ..world };
+        assert_eq!(implausible(&world, replayed), vec![false, false]);
     }
 
     #[test]
@@ -529,7 +820,10 @@ mod tests {
         let states = [car(20.0, 0.0, 0.0), car(0.0, 0.0, 15.0)];
         let world = WorldView { map: &map, step: 0, bodies: &bodies, states: &states };
         let rollouts = token_rollouts(states[1].as_ref().unwrap(), &[token(MAX_ACCEL_MPS2)]);
-        assert!(!PlausibilityCheck::new(&world, TrackIndex(1), TrackIndex(0)).implausible(&rollouts[0]));
+        assert!(
+            !PlausibilityCheck::new(&world, TrackIndex(1), TrackIndex(0), &BackgroundForecast::default())
+                .implausible(&rollouts[0])
+        );
     }
 
     /// A road 8 m wide along +x (y from -2 to 6) that ends at x = 40: one
@@ -544,7 +838,7 @@ mod tests {
     }
 
     fn implausible_tokens(world: &WorldView<'_>, cbv: TrackIndex, tokens: &[Token]) -> Vec<bool> {
-        let check = PlausibilityCheck::new(world, cbv, TrackIndex(0));
+        let check = PlausibilityCheck::new(world, cbv, TrackIndex(0), &BackgroundForecast::default());
         token_rollouts(world.states[cbv.0].as_ref().unwrap(), tokens).iter().map(|r| check.implausible(r)).collect()
     }
 
@@ -629,7 +923,7 @@ mod tests {
         logits[token(3.0).0 as usize] = 4.0;
         logits[token(-4.0).0 as usize] = 2.0;
         logits[token(-MAX_ACCEL_MPS2).0 as usize] = 1.0;
-        let check = PlausibilityCheck::new(&world, TrackIndex(1), TrackIndex(0));
+        let check = PlausibilityCheck::new(&world, TrackIndex(1), TrackIndex(0), &BackgroundForecast::default());
         assert_eq!(check.likeliest_plausible(&logits, 0..2), None, "the trust region of two holds none");
         assert_eq!(check.likeliest_plausible(&logits, 2..logits.len()), Some(token(-4.0)));
     }
@@ -646,18 +940,36 @@ mod tests {
     /// +x on an open plane, and the prior liking the accelerations
     /// `liked` (m/s², logit) and nothing else.
     fn choice(liked: &[(f64, f32)], trust_region: TrustRegion, oracle: Option<&dyn FeasibilityOracle>) -> Token {
+        let states = [car(30.0, 0.0, 10.0), car(0.0, 0.0, 10.0)];
+        choice_in(states, liked, Search::one_step(trust_region), oracle)
+    }
+
+    /// The choice with the ego and the CBV in `states` on an open plane.
+    fn choice_in(
+        states: [Option<AgentState>; 2],
+        liked: &[(f64, f32)],
+        search: Search,
+        oracle: Option<&dyn FeasibilityOracle>,
+    ) -> Token {
         let map = RoadMap::default();
         let bodies = [AgentBody { kind: AgentKind::Vehicle, length_m: 4.5, width_m: 2.0 }; 2];
-        let states = [car(30.0, 0.0, 10.0), car(0.0, 0.0, 10.0)];
         let world = WorldView { map: &map, step: 0, bodies: &bodies, states: &states };
         let mut logits = vec![-30.0f32; crate::motion::tokens::VOCABULARY_SIZE];
         for &(accel_mps2, logit) in liked {
             logits[token(accel_mps2).0 as usize] = logit;
         }
         let mut feasibility_s = 0.0;
-        safer_choice(&world, TrackIndex(1), TrackIndex(0), &logits, trust_region, oracle, &mut feasibility_s)
-            .unwrap()
-            .unwrap()
+        safer_choice(
+            &world,
+            (TrackIndex(1), TrackIndex(0)),
+            &logits,
+            search,
+            &BackgroundForecast::default(),
+            oracle,
+            &mut feasibility_s,
+        )
+        .unwrap()
+        .unwrap()
     }
 
     const LIKED: [(f64, f32); 5] = [(-5.0, 5.0), (-2.0, 4.0), (0.0, 3.0), (2.0, 2.0), (5.0, 1.0)];
@@ -689,6 +1001,57 @@ mod tests {
         let level = [(-2.0, 2.0), (2.0, 2.0), (0.0, 1.0)];
         let lower = token(-2.0).min(token(2.0));
         assert_eq!(choice(&level, TrustRegion::TopN(3), Some(&all_equal)), lower);
+    }
+
+    /// The box gap between the ego and the CBV of a feasibility query, m.
+    fn gap_m(p: &EgoCbvState) -> f64 {
+        p.ego_body.footprint(&p.ego).distance(&p.cbv_body.footprint(&p.cbv))
+    }
+
+    /// The CBV 2.5 m (box gap) behind the ego, closing at 4 m/s: after one
+    /// token at +5 m/s² it touches the ego's prediction, at +2 m/s² it is
+    /// about 0.25 m from it, holding speed 0.5 m.
+    const CLOSING: [Option<AgentState>; 2] = [
+        Some(AgentState {
+            position: crate::geometry::Point2::new(7.0, 0.0),
+            heading_rad: 0.0,
+            velocity_mps: crate::geometry::Vector2::new(10.0, 0.0),
+        }),
+        Some(AgentState {
+            position: crate::geometry::Point2::new(0.0, 0.0),
+            heading_rad: 0.0,
+            velocity_mps: crate::geometry::Vector2::new(14.0, 0.0),
+        }),
+    ];
+
+    #[test]
+    fn the_lookahead_takes_a_contact_the_ego_could_still_have_escaped_and_the_paper_does_not() {
+        // V_h > 0 closer than 0.3 m: contacts are infeasible states.
+        let close_is_infeasible = StubOracle(|p| if gap_m(p) < 0.3 { 1.0 } else { -1.0 });
+        let one_step = Search::one_step(TrustRegion::TopN(5));
+        let lookahead = Search { lookahead_tokens: LOOKAHEAD_TOKENS, ..one_step };
+        // The paper's arg min stops at the closest feasible state.
+        assert_eq!(choice_in(CLOSING, &LIKED, one_step, Some(&close_is_infeasible)), token(0.0));
+        // From a feasible state (2.5 m) the contact is a conflict the ego could escape.
+        assert_eq!(choice_in(CLOSING, &LIKED, lookahead, Some(&close_is_infeasible)), token(5.0));
+        // From an infeasible state it is not: the least V_h (the widest gap) wins, as in the paper.
+        let near_is_infeasible = StubOracle(|p| 3.0 - gap_m(p) as f32);
+        assert_eq!(choice_in(CLOSING, &LIKED, lookahead, Some(&near_is_infeasible)), token(-5.0));
+        assert_eq!(choice_in(CLOSING, &LIKED, one_step, Some(&near_is_infeasible)), token(-5.0));
+    }
+
+    #[test]
+    fn the_lookahead_scores_what_a_continuation_reaches_inside_the_constraints() {
+        // 30 m behind the ego at the same speed: no contact within 1.5 s.
+        // Every state feasible: hardest acceleration closes most, as in one step.
+        let states = [car(30.0, 0.0, 10.0), car(0.0, 0.0, 10.0)];
+        let lookahead = Search { lookahead_tokens: LOOKAHEAD_TOKENS, ..Search::one_step(TrustRegion::TopN(5)) };
+        let feasible = StubOracle(|_| -1.0);
+        assert_eq!(choice_in(states, &LIKED, lookahead, Some(&feasible)), token(5.0));
+        // Faster than 12 m/s is infeasible: +5 (12.5 m/s after the token)
+        // is out; the closest feasible approach starts with +2.
+        let fast_is_infeasible = StubOracle(|p| if p.cbv.speed_mps() > 12.01 { 1.0 } else { -1.0 });
+        assert_eq!(choice_in(states, &LIKED, lookahead, Some(&fast_is_infeasible)), token(2.0));
     }
 
     #[test]

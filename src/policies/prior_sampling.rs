@@ -274,6 +274,18 @@ impl PriorTraffic {
         self.start
     }
 
+    /// The scenario being rolled out.
+    pub fn scenario(&self) -> &Arc<Scenario> {
+        &self.scenario
+    }
+
+    /// The agents the prior drives, sorted.
+    pub fn members(&self) -> Vec<usize> {
+        let mut members = self.members.clone();
+        members.sort_unstable();
+        members
+    }
+
     /// Keeps the first error met by an agent of this rollout.
     pub fn record_error(&mut self, error: Arc<ModelError>) {
         self.error.get_or_insert(error);

@@ -128,6 +128,10 @@ pub enum AdversaryMethod {
     NoTrustRegion,
     /// Ablation: SaFeR with the plain-attention prior instead of differential attention.
     NoMda,
+    /// Beyond the paper: SaFeR scoring each token by its best continuation
+    /// over 1.5 s (receding horizon) inside the same trust region and
+    /// feasibility constraint.
+    SaferLookahead,
 }
 
 /// How variants are made.
