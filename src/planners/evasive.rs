@@ -7,7 +7,10 @@
 //! pure-pursuit tracking of the route at a lateral offset (stay in lane,
 //! or swerve half / one lane either way); the ego steers only as it moves
 //! (a car does not turn on the spot). Other agents are predicted at
-//! constant velocity. A candidate that hits a predicted box (with a safety
+//! constant velocity and, where they were seen a step earlier, also at
+//! the turn rate and acceleration they showed since (a car cutting in or
+//! braking is where constant velocity is most wrong); a candidate must
+//! clear both. A candidate that hits a predicted box (with a safety
 //! margin), runs a red light or leaves the road is heavily penalised, and
 //! one that lets another agent into about a second of headway ahead is
 //! penalised softly; among the rest, progress towards the desired speed,
@@ -20,7 +23,7 @@ use crate::motion::kinematics::max_travel_m;
 use crate::motion::tokens::{MAX_ACCEL_MPS2, MAX_YAW_RATE_RADPS, SIM_DT_S};
 use crate::motion::{Action, KinematicState, kinematic_step};
 use crate::policies::{Route, build_route};
-use crate::scenario::AgentKind;
+use crate::scenario::{AgentKind, AgentState};
 
 /// Parameters of the evasive planner.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -37,6 +40,9 @@ pub struct EvasiveParams {
     pub desired_speed_mps: Option<f64>,
     /// Margin added around the ego's box in the collision check, m.
     pub safety_margin_m: f64,
+    /// Also predict each agent at the turn rate and acceleration it showed
+    /// since the previous step (as well as at constant velocity).
+    pub turning_predictions: bool,
 }
 
 impl Default for EvasiveParams {
@@ -47,6 +53,7 @@ impl Default for EvasiveParams {
             lateral_offsets_m: vec![-3.5, -1.75, 0.0, 1.75, 3.5],
             desired_speed_mps: None,
             safety_margin_m: 0.3,
+            turning_predictions: true,
         }
     }
 }
@@ -58,6 +65,18 @@ const PREDICTION_RANGE_M: f64 = 80.0;
 /// Slack of the reach filter of the predictions, m: far above the rounding
 /// of the positions it bounds, small beside the distances it prunes.
 const REACH_SLACK_M: f64 = 0.1;
+/// The largest turn rate a turning prediction keeps, rad/s: a lane change
+/// turns at about 0.1–0.3 rad/s, a tight urban turn at 0.5; more than this
+/// is noise in the heading, not a turn to extrapolate.
+const TURNING_PREDICTION_MAX_YAW_RATE_RADPS: f64 = 0.5;
+/// The turn rate and acceleration of a turning prediction are measured
+/// over this much of the past, s: long enough to average out the noise of
+/// recorded headings and speeds, short enough to catch a cut-in starting.
+const TURNING_PREDICTION_WINDOW_S: f64 = 0.5;
+/// Below this turn rate and acceleration an agent is going straight at a
+/// constant speed, and its constant-velocity prediction is enough.
+const TURNING_PREDICTION_MIN_YAW_RATE_RADPS: f64 = 0.02;
+const TURNING_PREDICTION_MIN_ACCEL_MPS2: f64 = 0.5;
 /// Every this many steps a candidate's position is checked for off-road.
 const OFF_ROAD_CHECK_EVERY: usize = 10;
 
@@ -81,12 +100,33 @@ pub struct EvasivePlanner {
     /// The predictions' storage, kept from one plan to the next (it is
     /// refilled every step; only the allocations are reused).
     predictions: Vec<BoxSet>,
+    /// The agents as seen at the last few plans (up to
+    /// [`TURNING_PREDICTION_WINDOW_S`] back), and when, oldest first.
+    seen: std::collections::VecDeque<(f64, std::collections::HashMap<crate::scenario::AgentId, AgentState>)>,
 }
 
 impl EvasivePlanner {
     /// A planner with these parameters.
     pub fn new(params: EvasiveParams) -> Self {
-        Self { params, route: None, desired_speed_mps: None, predictions: Vec::new() }
+        Self { params, route: None, desired_speed_mps: None, predictions: Vec::new(), seen: Default::default() }
+    }
+
+    /// The turn rate (rad/s) and acceleration (m/s²) `agent` showed over
+    /// the window (since the oldest plan kept that saw it), when either is
+    /// worth extrapolating.
+    fn observed_turning(&self, now_s: f64, agent: &crate::planners::PerceivedAgent) -> Option<Action> {
+        let (then_s, before) = self.seen.iter().find_map(|(t, seen)| Some((*t, seen.get(&agent.id)?)))?;
+        let dt_s = now_s - then_s;
+        // Not seen before now (or a NaN clock): nothing to measure.
+        if dt_s.is_nan() || dt_s <= 0.0 {
+            return None;
+        }
+        let yaw_rate_radps = (wrap_angle(agent.state.heading_rad - before.heading_rad) / dt_s)
+            .clamp(-TURNING_PREDICTION_MAX_YAW_RATE_RADPS, TURNING_PREDICTION_MAX_YAW_RATE_RADPS);
+        let accel_mps2 = ((agent.state.speed_mps() - before.speed_mps()) / dt_s).clamp(-MAX_ACCEL_MPS2, MAX_ACCEL_MPS2);
+        let worth = yaw_rate_radps.abs() >= TURNING_PREDICTION_MIN_YAW_RATE_RADPS
+            || accel_mps2.abs() >= TURNING_PREDICTION_MIN_ACCEL_MPS2;
+        (worth && yaw_rate_radps.is_finite() && accel_mps2.is_finite()).then_some(Action { accel_mps2, yaw_rate_radps })
     }
 }
 
@@ -137,6 +177,35 @@ impl Planner for EvasivePlanner {
             .filter(|a| (a.state.position - ego.position).norm() < PREDICTION_RANGE_M)
             .map(|a| (a, a.state.heading_rad.sin_cos(), 0.5 * a.length_m.hypot(a.width_m)))
             .collect();
+        // The turning predictions: each near agent's states over the
+        // horizon at the turn rate and acceleration it showed.
+        if obs.time_s == 0.0 {
+            self.seen.clear();
+        }
+        let turning: Vec<(usize, Vec<KinematicState>)> = if self.params.turning_predictions {
+            near.iter()
+                .enumerate()
+                .filter_map(|(i, (a, _, _))| Some((i, self.observed_turning(obs.time_s, a)?, a)))
+                .map(|(i, action, a)| {
+                    let mut s = KinematicState::from_agent_state(&a.state);
+                    (
+                        i,
+                        (0..steps)
+                            .map(|_| {
+                                s = kinematic_step(&s, action, SIM_DT_S);
+                                s
+                            })
+                            .collect(),
+                    )
+                })
+                .collect()
+        } else {
+            Vec::new()
+        };
+        self.seen.push_back((obs.time_s, obs.agents.iter().map(|a| (a.id.clone(), a.state)).collect()));
+        while self.seen.front().is_some_and(|(t, _)| obs.time_s - t > TURNING_PREDICTION_WINDOW_S + 1e-6) {
+            self.seen.pop_front();
+        }
         let start_speed_mps = KinematicState::from_agent_state(&ego).speed_mps;
         let max_accel_mps2 = self.params.accelerations_mps2.iter().copied().fold(0.0, f64::max);
         let (len, wid) = self.checked_extent_m(obs);
@@ -149,12 +218,22 @@ impl Planner for EvasivePlanner {
             let headway_m = (HEADWAY_S * (start_speed_mps + max_accel_mps2 * t)).max(3.0);
             let zone_reach_m = 0.5 * (len + headway_m) + 0.5 * headway_m.hypot(wid);
             let reach_m = travel_m + ego_radius_m.max(zone_reach_m) + REACH_SLACK_M;
-            set.refill_with_sin_cos(near.iter().filter_map(|&(a, sin_cos, radius_m)| {
+            let reachable = |position: crate::geometry::Point2, radius_m: f64| {
+                (position - ego.position).norm_squared() <= (reach_m + radius_m).powi(2)
+            };
+            let constant_velocity = near.iter().filter_map(|&(a, sin_cos, radius_m)| {
                 let position = a.state.position + a.state.velocity_mps * t;
-                let far = (position - ego.position).norm_squared() > (reach_m + radius_m).powi(2);
                 let pose = Pose2 { position, heading_rad: a.state.heading_rad };
-                (!far).then(|| (OrientedBox::new(pose, a.length_m, a.width_m), sin_cos))
-            }));
+                reachable(position, radius_m).then(|| (OrientedBox::new(pose, a.length_m, a.width_m), sin_cos))
+            });
+            let turning_boxes = turning.iter().filter_map(|(i, states)| {
+                let (a, _, radius_m) = near[*i];
+                let at = states[k - 1];
+                let pose = Pose2 { position: at.position, heading_rad: at.heading_rad };
+                reachable(at.position, radius_m)
+                    .then(|| (OrientedBox::new(pose, a.length_m, a.width_m), at.heading_rad.sin_cos()))
+            });
+            set.refill_with_sin_cos(constant_velocity.chain(turning_boxes));
         }
         // The first red stop line ahead on the route, as an arc length.
         let here = route.path.project(&ego.position).map_or(0.0, |p| p.arc_length_m);
@@ -330,6 +409,62 @@ mod tests {
     use crate::map::{Lane, MapElementId, RoadMap};
     use crate::planners::PerceivedAgent;
     use crate::scenario::{AgentId, AgentState};
+
+    /// The ego's first control at 0.1 s with a car 12 m ahead in the lane
+    /// to its left, both at 10 m/s, that has begun to turn towards the
+    /// ego's lane at 0.2 rad/s (heading 0 at 0 s, -0.02 rad at 0.1 s).
+    fn control_beside_a_car_cutting_in(turning_predictions: bool) -> Action {
+        let lane = Lane::new(MapElementId(1), Polyline::new(vec![Point2::new(-50.0, 0.0), Point2::new(500.0, 0.0)]));
+        let map = RoadMap::new(vec![lane], vec![], vec![], vec![], vec![], vec![], vec![]);
+        let mut planner = EvasivePlanner::new(EvasiveParams { turning_predictions, ..EvasiveParams::default() });
+        let mut output = None;
+        for (k, heading_rad) in [0.0f64, -0.02].into_iter().enumerate() {
+            let t = k as f64 * SIM_DT_S;
+            let ego = AgentState {
+                position: Point2::new(10.0 * t, 0.0),
+                heading_rad: 0.0,
+                velocity_mps: Vector2::new(10.0, 0.0),
+            };
+            let car = PerceivedAgent {
+                id: AgentId("cutting-in".into()),
+                kind: AgentKind::Vehicle,
+                length_m: 4.5,
+                width_m: 2.0,
+                state: AgentState {
+                    position: Point2::new(12.0 + 10.0 * t, 3.5),
+                    heading_rad,
+                    velocity_mps: Vector2::new(heading_rad.cos(), heading_rad.sin()) * 10.0,
+                },
+            };
+            let obs = Observation {
+                step: k,
+                time_s: t,
+                dt_s: SIM_DT_S,
+                ego,
+                ego_length_m: 4.5,
+                ego_width_m: 2.0,
+                agents: vec![car],
+                map: &map,
+                signals: vec![],
+            };
+            output = Some(planner.plan(&obs).unwrap());
+        }
+        match output {
+            Some(PlannerOutput::Control(a)) => a,
+            other => panic!("{other:?}"),
+        }
+    }
+
+    #[test]
+    fn a_car_turning_into_the_lane_is_predicted_where_its_turn_takes_it() {
+        // At constant velocity the car drifts 0.2 m/s sideways and stays
+        // clear of the ego's lane for the 4 s horizon: no reason to brake.
+        let straight = control_beside_a_car_cutting_in(false);
+        assert!(straight.accel_mps2 >= 0.0, "{straight:?}");
+        // Held, its turn brings it into the ego's lane ahead within 2 s.
+        let turning = control_beside_a_car_cutting_in(true);
+        assert!(turning.accel_mps2 < 0.0, "{turning:?}");
+    }
 
     #[test]
     fn a_stopped_ego_that_does_not_move_off_does_not_turn_on_the_spot() {
