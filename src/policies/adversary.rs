@@ -159,7 +159,7 @@ impl Adversary {
     fn choose(&mut self, world: &WorldView<'_>, cbv: TrackIndex) -> Result<Option<Token>, ModelError> {
         let mut shared = self.shared.lock().unwrap_or_else(|p| p.into_inner());
         let Some(logits) = shared.logits_at(cbv.0, world.step).cloned() else { return Ok(None) };
-        let (scenario, prior_driven) = (shared.scenario().clone(), shared.members());
+        let (scenario, prior_driven) = (shared.scenario().clone(), shared.members().to_vec());
         drop(shared);
         let forecast = BackgroundForecast { recording: Some(&scenario), not_replayed: &prior_driven };
         let mut feasibility_s = 0.0;
@@ -183,7 +183,7 @@ impl Adversary {
         let mut shared = self.shared.lock().unwrap_or_else(|p| p.into_inner());
         let (seed, sampling) = (shared.seed(), shared.sampling());
         let logits = shared.logits_at(cbv.0, world.step)?.clone();
-        let (scenario, prior_driven) = (shared.scenario().clone(), shared.members());
+        let (scenario, prior_driven) = (shared.scenario().clone(), shared.members().to_vec());
         drop(shared);
         let forecast = BackgroundForecast { recording: Some(&scenario), not_replayed: &prior_driven };
         let top = &top_tokens(&logits, sampling.top_k.clamp(1, logits.len()))[..];
@@ -248,13 +248,10 @@ pub fn safer_choice(
     };
     let ego_next = ego_prediction(ego_now);
     let (ego_body, cbv_body) = (world.body(ego), world.body(cbv));
-    let ego_box = OrientedBox::new(ego_next.pose(), ego_body.length_m, ego_body.width_m);
+    let ego_box = ego_body.footprint(&ego_next);
     let rollouts = token_rollouts(cbv_now, candidates);
     let predicted: Vec<AgentState> = rollouts.iter().map(|r| r[TOKEN_PERIOD_STEPS - 1]).collect();
-    let distances: Vec<f64> = predicted
-        .iter()
-        .map(|s| ego_box.distance(&OrientedBox::new(s.pose(), cbv_body.length_m, cbv_body.width_m)))
-        .collect();
+    let distances: Vec<f64> = predicted.iter().map(|s| ego_box.distance(&cbv_body.footprint(s))).collect();
     let values = match feasibility {
         None => None,
         Some(oracle) => Some(feasibility_values(oracle, &predicted, ego_next, ego_body, cbv_body, feasibility_s)?),

@@ -92,6 +92,23 @@ impl Default for IdmParams {
     }
 }
 
+/// IDM's desired gap s* = s0 + max(0, v·T + v·Δv / (2·√(a·b))), m, for
+/// speed v closing on its leader at Δv (positive: faster than it), with
+/// standstill gap s0, time headway T, acceleration a and comfortable
+/// deceleration b.
+pub fn idm_desired_gap_m(
+    speed_mps: f64,
+    closing_mps: f64,
+    min_gap_m: f64,
+    time_headway_s: f64,
+    max_accel_mps2: f64,
+    comfort_decel_mps2: f64,
+) -> f64 {
+    min_gap_m
+        + (speed_mps * time_headway_s + speed_mps * closing_mps / (2.0 * (max_accel_mps2 * comfort_decel_mps2).sqrt()))
+            .max(0.0)
+}
+
 /// Route length built ahead of the agent, m.
 const ROUTE_HORIZON_M: f64 = 200.0;
 /// Rebuild the route when less than this remains ahead, m.
@@ -259,10 +276,14 @@ impl IdmLaneFollower {
         let p = &self.params;
         let free = 1.0 - (speed / v0.max(0.1)).powf(p.exponent);
         let interaction = leader.map_or(0.0, |(gap, v_lead)| {
-            let dv = speed - v_lead;
-            let desired_gap = p.min_gap_m
-                + (speed * p.time_headway_s + speed * dv / (2.0 * (p.max_accel_mps2 * p.comfort_decel_mps2).sqrt()))
-                    .max(0.0);
+            let desired_gap = idm_desired_gap_m(
+                speed,
+                speed - v_lead,
+                p.min_gap_m,
+                p.time_headway_s,
+                p.max_accel_mps2,
+                p.comfort_decel_mps2,
+            );
             (desired_gap / gap.max(0.1)).powi(2)
         });
         // max/min, not clamp: clamp panics on NaN or crossed bounds, and

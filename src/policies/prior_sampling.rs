@@ -166,7 +166,7 @@ impl std::fmt::Debug for PriorTraffic {
 
 impl PriorTraffic {
     /// Shared state for a rollout of `scenario` from `start`; `members` are
-    /// the agents the prior drives.
+    /// the agents the prior drives (kept sorted).
     pub fn new(
         prior: Arc<RealismPrior>,
         scenario: Arc<Scenario>,
@@ -177,6 +177,8 @@ impl PriorTraffic {
         seed: u64,
     ) -> Arc<Mutex<Self>> {
         let bodies = scenario.tracks.iter().map(|t| t.body()).collect();
+        let mut members = members;
+        members.sort_unstable();
         Arc::new(Mutex::new(Self {
             prior,
             scenario,
@@ -280,10 +282,8 @@ impl PriorTraffic {
     }
 
     /// The agents the prior drives, sorted.
-    pub fn members(&self) -> Vec<usize> {
-        let mut members = self.members.clone();
-        members.sort_unstable();
-        members
+    pub fn members(&self) -> &[usize] {
+        &self.members
     }
 
     /// Keeps the first error met by an agent of this rollout.

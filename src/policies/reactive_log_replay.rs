@@ -8,6 +8,7 @@
 //! follows the log. The safe gap is short (1.5 m plus 0.5 s of headway), so
 //! the closer following that recorded drivers show does not trigger it.
 
+use super::lane_follower::idm_desired_gap_m;
 use super::{AgentAction, AgentPolicy, WorldView};
 use crate::geometry::{Point2, Polyline};
 use crate::motion::tokens::SIM_DT_S;
@@ -117,10 +118,14 @@ impl AgentPolicy for ReactiveLogReplay {
             },
         };
         let braking = self.leader(world, agent, s).and_then(|(gap, leader_mps)| {
-            let closing = v - leader_mps;
-            let wanted = SAFE_GAP_M
-                + (v * SAFE_HEADWAY_S + v * closing / (2.0 * (IDM_ACCEL_MPS2 * IDM_COMFORT_DECEL_MPS2).sqrt()))
-                    .max(0.0);
+            let wanted = idm_desired_gap_m(
+                v,
+                v - leader_mps,
+                SAFE_GAP_M,
+                SAFE_HEADWAY_S,
+                IDM_ACCEL_MPS2,
+                IDM_COMFORT_DECEL_MPS2,
+            );
             (gap < wanted).then(|| (-IDM_ACCEL_MPS2 * (wanted / gap.max(0.1)).powi(2)).max(-MAX_DECEL_MPS2))
         });
         let (v_next, s_next) = match braking {
