@@ -425,29 +425,54 @@ impl RoadMap {
     /// may be nearer than the agent's own, and is not the agent's. Ties
     /// break on lane id, so the answer is deterministic.
     pub fn nearest_lane(&self, p: &Point2, heading_rad: Option<f64>, radius_m: f64) -> Option<LaneMatch> {
-        let mut best: Option<(bool, f64, usize, PolylineProjection)> = None;
-        for (lane_index, segs) in self.lane_segments.candidates(p, radius_m) {
-            let lane = &self.lanes[lane_index];
-            let Some(proj) = lane.centreline.project_segments(p, segs) else {
-                continue;
-            };
-            if proj.distance_m > radius_m {
-                continue;
-            }
-            let misaligned = heading_rad.is_some_and(|h| {
-                let f = crate::geometry::Vector2::new(h.cos(), h.sin());
-                f.dot(&proj.tangent) < ALIGNED_LANE_MAX_ANGLE_RAD.cos()
-            });
-            let key = (misaligned, proj.distance_m, lane_index);
-            let better = match &best {
-                None => true,
-                Some((m, d, i, _)) => key < (*m, *d, *i),
-            };
-            if better {
-                best = Some((misaligned, proj.distance_m, lane_index, proj));
-            }
+        thread_local! {
+            // The candidates' storage, reused: this query runs in hot loops
+            // (every step of every prediction), where allocating per call showed.
+            static CANDIDATES: std::cell::RefCell<Vec<(u32, u32)>> = const { std::cell::RefCell::new(Vec::new()) };
         }
-        best.map(|(_, _, lane_index, projection)| LaneMatch { lane_index, projection })
+        CANDIDATES
+            .with_borrow_mut(|pairs| {
+                self.lane_segments.candidate_pairs_into(p, radius_m, pairs);
+                // Sorted by lane, then segment: one run of segments per lane, in
+                // the order `candidates` would group them.
+                pairs
+                    .chunk_by(|a, b| a.0 == b.0)
+                    .map(|run| (run[0].0 as usize, run.iter().map(|&(_, segment)| segment as usize)))
+                    .fold(None, |best, (lane_index, segs)| {
+                        self.nearer_lane(best, p, heading_rad, radius_m, lane_index, segs)
+                    })
+            })
+            .map(|(_, _, lane_index, projection)| LaneMatch { lane_index, projection })
+    }
+
+    /// [`Self::nearest_lane`]'s step: `best` or lane `lane_index`
+    /// (projected on `segs`), whichever is nearer, aligned lanes first.
+    fn nearer_lane(
+        &self,
+        best: Option<(bool, f64, usize, PolylineProjection)>,
+        p: &Point2,
+        heading_rad: Option<f64>,
+        radius_m: f64,
+        lane_index: usize,
+        segs: impl IntoIterator<Item = usize>,
+    ) -> Option<(bool, f64, usize, PolylineProjection)> {
+        let lane = &self.lanes[lane_index];
+        let Some(proj) = lane.centreline.project_segments(p, segs) else {
+            return best;
+        };
+        if proj.distance_m > radius_m {
+            return best;
+        }
+        let misaligned = heading_rad.is_some_and(|h| {
+            let f = crate::geometry::Vector2::new(h.cos(), h.sin());
+            f.dot(&proj.tangent) < ALIGNED_LANE_MAX_ANGLE_RAD.cos()
+        });
+        let key = (misaligned, proj.distance_m, lane_index);
+        let better = match &best {
+            None => true,
+            Some((m, d, i, _)) => key < (*m, *d, *i),
+        };
+        if better { Some((misaligned, proj.distance_m, lane_index, proj)) } else { best }
     }
 
     /// The lanes whose area holds `p`, driven in `heading_rad`'s direction

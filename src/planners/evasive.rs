@@ -9,8 +9,8 @@
 //! (a car does not turn on the spot). Other agents are predicted at
 //! constant velocity and, where they were seen a step earlier, also at
 //! the turn rate and acceleration they showed since (a car cutting in or
-//! braking is where constant velocity is most wrong); a candidate must
-//! clear both. A candidate that hits a predicted box (with a safety
+//! braking is where constant velocity is most wrong), turning no further
+//! than the lanes turn and not off the road; a candidate must clear both. A candidate that hits a predicted box (with a safety
 //! margin), runs a red light or leaves the road is heavily penalised, and
 //! one that lets another agent into about a second of headway ahead is
 //! penalised softly; among the rest, progress towards the desired speed,
@@ -77,6 +77,22 @@ const TURNING_PREDICTION_WINDOW_S: f64 = 0.5;
 /// constant speed, and its constant-velocity prediction is enough.
 const TURNING_PREDICTION_MIN_YAW_RATE_RADPS: f64 = 0.02;
 const TURNING_PREDICTION_MIN_ACCEL_MPS2: f64 = 0.5;
+/// A turning prediction turns no further than this from the direction of
+/// the nearest lane, rad: about the angle of a brisk lane change (a turn
+/// through a junction follows its connecting lane and stays well inside).
+const TURNING_PREDICTION_MAX_LANE_DEVIATION_RAD: f64 = 0.35;
+/// The nearest lane of a turning prediction is searched this far, m.
+const TURNING_PREDICTION_LANE_SEARCH_M: f64 = 5.0;
+/// A turning prediction ends where it would carry the agent's centre this
+/// far past the road's edge, m: about a car's width, no place to drive to
+/// (an adversarial CBV near the kerb is still predicted up to it).
+const TURNING_PREDICTION_MAX_OFF_ROAD_M: f64 = 2.0;
+/// Every this many steps a turning prediction's heading is checked against
+/// the nearest lane's: it overshoots the bound by at most
+/// [`TURNING_PREDICTION_MAX_YAW_RATE_RADPS`] times this many steps (0.1 rad).
+const TURNING_PREDICTION_LANE_CHECK_EVERY: usize = 2;
+/// Every this many steps a turning prediction is checked for leaving the road.
+const TURNING_PREDICTION_OFF_ROAD_CHECK_EVERY: usize = 5;
 /// Every this many steps a candidate's position is checked for off-road.
 const OFF_ROAD_CHECK_EVERY: usize = 10;
 
@@ -128,6 +144,49 @@ impl EvasivePlanner {
             || accel_mps2.abs() >= TURNING_PREDICTION_MIN_ACCEL_MPS2;
         (worth && yaw_rate_radps.is_finite() && accel_mps2.is_finite()).then_some(Action { accel_mps2, yaw_rate_radps })
     }
+}
+
+/// The states of a turning prediction over `steps` steps (fewer where it
+/// ends): the agent holds the turn rate and acceleration it showed, as far
+/// as the road allows. Held regardless of the map, a turn seen in noisy
+/// headings sweeps a box across lanes and kerbs where no driver goes, and
+/// the ego swerves off the road or brakes for it. So the turn stops (the
+/// heading is then held) once it has carried the agent more than
+/// [`TURNING_PREDICTION_MAX_LANE_DEVIATION_RAD`] off the direction of the
+/// nearest lane and would carry it further, and the prediction ends where
+/// it would take the agent more than [`TURNING_PREDICTION_MAX_OFF_ROAD_M`]
+/// past the road's edge (the constant-velocity prediction still covers
+/// the agent there).
+fn road_bounded_turn(
+    map: &crate::map::RoadMap,
+    start: &AgentState,
+    mut action: Action,
+    steps: usize,
+) -> Vec<KinematicState> {
+    let mut s = KinematicState::from_agent_state(start);
+    let mut states = Vec::with_capacity(steps);
+    for k in 0..steps {
+        s = kinematic_step(&s, action, SIM_DT_S);
+        let lane = (action.yaw_rate_radps != 0.0 && k % TURNING_PREDICTION_LANE_CHECK_EVERY == 0)
+            .then(|| map.nearest_lane(&s.position, Some(s.heading_rad), TURNING_PREDICTION_LANE_SEARCH_M))
+            .flatten();
+        if let Some(lane) = lane {
+            let tangent = lane.projection.tangent;
+            let deviation_rad = wrap_angle(s.heading_rad - tangent.y.atan2(tangent.x));
+            if deviation_rad.abs() > TURNING_PREDICTION_MAX_LANE_DEVIATION_RAD
+                && deviation_rad.signum() == action.yaw_rate_radps.signum()
+            {
+                action.yaw_rate_radps = 0.0;
+            }
+        }
+        if k % TURNING_PREDICTION_OFF_ROAD_CHECK_EVERY == 0
+            && map.signed_distance_to_road_edge(&s.position).is_some_and(|d| d > TURNING_PREDICTION_MAX_OFF_ROAD_M)
+        {
+            break;
+        }
+        states.push(s);
+    }
+    states
 }
 
 /// One candidate's rollout and its cost.
@@ -186,18 +245,7 @@ impl Planner for EvasivePlanner {
             near.iter()
                 .enumerate()
                 .filter_map(|(i, (a, _, _))| Some((i, self.observed_turning(obs.time_s, a)?, a)))
-                .map(|(i, action, a)| {
-                    let mut s = KinematicState::from_agent_state(&a.state);
-                    (
-                        i,
-                        (0..steps)
-                            .map(|_| {
-                                s = kinematic_step(&s, action, SIM_DT_S);
-                                s
-                            })
-                            .collect(),
-                    )
-                })
+                .map(|(i, action, a)| (i, road_bounded_turn(obs.map, &a.state, action, steps)))
                 .collect()
         } else {
             Vec::new()
@@ -228,7 +276,8 @@ impl Planner for EvasivePlanner {
             });
             let turning_boxes = turning.iter().filter_map(|(i, states)| {
                 let (a, _, radius_m) = near[*i];
-                let at = states[k - 1];
+                // A prediction that left the road has ended.
+                let at = *states.get(k - 1)?;
                 let pose = Pose2 { position: at.position, heading_rad: at.heading_rad };
                 reachable(at.position, radius_m)
                     .then(|| (OrientedBox::new(pose, a.length_m, a.width_m), at.heading_rad.sin_cos()))
@@ -464,6 +513,44 @@ mod tests {
         // Held, its turn brings it into the ego's lane ahead within 2 s.
         let turning = control_beside_a_car_cutting_in(true);
         assert!(turning.accel_mps2 < 0.0, "{turning:?}");
+    }
+
+    #[test]
+    fn a_turning_prediction_turns_no_further_than_the_lanes_and_ends_off_the_road() {
+        use crate::map::{RoadEdge, RoadEdgeKind};
+        // A straight road along +x, its edges 4 m either side of the lane.
+        let lane = Lane::new(MapElementId(1), Polyline::new(vec![Point2::new(-50.0, 0.0), Point2::new(500.0, 0.0)]));
+        let edge = |id, y: f64, from: f64, to: f64| RoadEdge {
+            id: MapElementId(id),
+            polyline: Polyline::new(vec![Point2::new(from, y), Point2::new(to, y)]),
+            kind: RoadEdgeKind::Boundary,
+        };
+        let map = RoadMap::new(
+            vec![lane],
+            vec![edge(2, -4.0, -50.0, 500.0), edge(3, 4.0, 500.0, -50.0)],
+            vec![],
+            vec![],
+            vec![],
+            vec![],
+            vec![],
+        );
+        let start =
+            AgentState { position: Point2::new(0.0, 0.0), heading_rad: 0.0, velocity_mps: Vector2::new(10.0, 0.0) };
+        let turn = Action { accel_mps2: 0.0, yaw_rate_radps: 0.5 };
+        let states = road_bounded_turn(&map, &start, turn, 40);
+        // Held for 4 s the turn would reach 2 rad; along the lane it stops
+        // within a lane check (0.1 rad) of the deviation bound.
+        let max_heading = states.iter().map(|s| s.heading_rad).fold(f64::MIN, f64::max);
+        assert!(max_heading > TURNING_PREDICTION_MAX_LANE_DEVIATION_RAD, "{max_heading}");
+        assert!(max_heading <= TURNING_PREDICTION_MAX_LANE_DEVIATION_RAD + 0.1 + 1e-9, "{max_heading}");
+        // Crossing the edge at y = 4 it ends, within a check of the bound.
+        assert!(states.len() < 40, "{}", states.len());
+        let last_y = states.last().unwrap().position.y;
+        assert!(last_y <= 4.0 + TURNING_PREDICTION_MAX_OFF_ROAD_M + 0.5 * 10.0 * 0.35f64.sin(), "{last_y}");
+        // Without a map the turn is held all the way.
+        let free = road_bounded_turn(&RoadMap::default(), &start, turn, 40);
+        assert_eq!(free.len(), 40);
+        assert!((free[39].heading_rad - 2.0).abs() < 1e-9, "{}", free[39].heading_rad);
     }
 
     #[test]
