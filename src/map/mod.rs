@@ -426,23 +426,54 @@ impl RoadMap {
     /// break on lane id, so the answer is deterministic.
     pub fn nearest_lane(&self, p: &Point2, heading_rad: Option<f64>, radius_m: f64) -> Option<LaneMatch> {
         thread_local! {
-            // The candidates' storage, reused: this query runs in hot loops
-            // (every step of every prediction), where allocating per call showed.
-            static CANDIDATES: std::cell::RefCell<Vec<(u32, u32)>> = const { std::cell::RefCell::new(Vec::new()) };
+            // Each candidate lane's nearest segment so far, reused from call
+            // to call: this query runs in hot loops (every step of every
+            // prediction), where allocating and sorting per call showed.
+            static NEAREST: std::cell::RefCell<Vec<(u32, u32, f64)>> = const { std::cell::RefCell::new(Vec::new()) };
         }
-        CANDIDATES
-            .with_borrow_mut(|pairs| {
-                self.lane_segments.candidate_pairs_into(p, radius_m, pairs);
-                // Sorted by lane, then segment: one run of segments per lane, in
-                // the order `candidates` would group them.
-                pairs
-                    .chunk_by(|a, b| a.0 == b.0)
-                    .map(|run| (run[0].0 as usize, run.iter().map(|&(_, segment)| segment as usize)))
-                    .fold(None, |best, (lane_index, segs)| {
-                        self.nearer_lane(best, p, heading_rad, radius_m, lane_index, segs)
-                    })
+        let nearest = NEAREST.with_borrow_mut(|per_lane| {
+            per_lane.clear();
+            let mut nan = false;
+            // Each lane's segment of least distance, ties to the lowest
+            // index: what `project_segments` picks from its sorted run.
+            self.lane_segments.for_each_candidate(p, radius_m, |(lane, segment)| {
+                let (d2, _) = self.lanes[lane as usize].centreline.segment_distance_squared(p, segment as usize);
+                nan |= d2.is_nan();
+                let entry = match per_lane.last_mut() {
+                    Some(last) if last.0 == lane => Some(last),
+                    _ => per_lane.iter_mut().find(|e| e.0 == lane),
+                };
+                match entry {
+                    None => per_lane.push((lane, segment, d2)),
+                    Some(e) if d2 < e.2 || (d2 == e.2 && segment < e.1) => *e = (lane, segment, d2),
+                    Some(_) => {}
+                }
+            });
+            // A degenerate segment's NaN distance makes the pick depend on
+            // the visiting order: then the sorted search decides.
+            (!nan).then(|| {
+                per_lane.iter().fold(None, |best, &(lane, segment, _)| {
+                    self.nearer_lane(best, p, heading_rad, radius_m, lane as usize, [segment as usize])
+                })
             })
+        });
+        nearest
+            .unwrap_or_else(|| self.nearest_lane_sorted(p, heading_rad, radius_m))
             .map(|(_, _, lane_index, projection)| LaneMatch { lane_index, projection })
+    }
+
+    /// [`Self::nearest_lane`] over the candidates sorted by lane and
+    /// segment, as `project_segments` takes them.
+    fn nearest_lane_sorted(
+        &self,
+        p: &Point2,
+        heading_rad: Option<f64>,
+        radius_m: f64,
+    ) -> Option<(bool, f64, usize, PolylineProjection)> {
+        self.lane_segments
+            .candidates(p, radius_m)
+            .into_iter()
+            .fold(None, |best, (lane_index, segs)| self.nearer_lane(best, p, heading_rad, radius_m, lane_index, segs))
     }
 
     /// [`Self::nearest_lane`]'s step: `best` or lane `lane_index`
@@ -796,6 +827,56 @@ mod tests {
         // With nothing aligned in reach, the nearest lane is still returned.
         let hit = map.nearest_lane(&Point2::new(50.0, 0.0), Some(0.0), 1.0).unwrap();
         assert_ne!(map.lanes[hit.lane_index].id, MapElementId(1));
+    }
+
+    #[test]
+    fn nearest_lane_answers_as_the_sorted_search_does() {
+        // Crossing, curving and parallel lanes, finely sampled as recorded
+        // maps are: many lanes and segments share each grid cell.
+        let arc = |id, cx: f64, cy: f64, r: f64, from: f64, to: f64| {
+            let pts: Vec<(f64, f64)> = (0..=60)
+                .map(|i| from + (to - from) * i as f64 / 60.0)
+                .map(|a: f64| (cx + r * a.cos(), cy + r * a.sin()))
+                .collect();
+            Lane::new(MapElementId(id), pl(&pts))
+        };
+        let line = |id, a: (f64, f64), b: (f64, f64)| {
+            let pts: Vec<(f64, f64)> =
+                (0..=80).map(|i| i as f64 / 80.0).map(|t| (a.0 + (b.0 - a.0) * t, a.1 + (b.1 - a.1) * t)).collect();
+            Lane::new(MapElementId(id), pl(&pts))
+        };
+        let lanes = vec![
+            line(1, (-40.0, 0.0), (40.0, 0.0)),
+            line(2, (40.0, 3.5), (-40.0, 3.5)),
+            line(3, (0.0, -40.0), (0.0, 40.0)),
+            line(4, (-3.5, 40.0), (-3.5, -40.0)),
+            arc(5, 0.0, 0.0, 12.0, 0.0, 3.0),
+            arc(6, 10.0, -10.0, 8.0, 2.0, -1.0),
+            line(7, (-30.0, -30.0), (30.0, 30.0)),
+        ];
+        let map = RoadMap::new(lanes, vec![], vec![], vec![], vec![], vec![], vec![]);
+        let mut checked = 0;
+        for ix in -30..=30 {
+            for iy in -30..=30 {
+                let p = Point2::new(ix as f64 * 1.3, iy as f64 * 1.3);
+                for heading_rad in [None, Some(0.0), Some(1.2), Some(-2.5), Some(3.1)] {
+                    for radius_m in [1.0, 5.0, 25.0] {
+                        let fast = map.nearest_lane(&p, heading_rad, radius_m);
+                        let sorted = map.nearest_lane_sorted(&p, heading_rad, radius_m);
+                        let key = |m: Option<(usize, PolylineProjection)>| {
+                            m.map(|(i, pr)| (i, pr.segment, pr.distance_m, pr.arc_length_m))
+                        };
+                        assert_eq!(
+                            key(fast.map(|m| (m.lane_index, m.projection))),
+                            key(sorted.map(|(_, _, i, pr)| (i, pr))),
+                            "at {p:?}, heading {heading_rad:?}, radius {radius_m}"
+                        );
+                        checked += usize::from(fast.is_some());
+                    }
+                }
+            }
+        }
+        assert!(checked > 10_000, "{checked}");
     }
 
     #[test]

@@ -77,10 +77,16 @@ const TURNING_PREDICTION_WINDOW_S: f64 = 0.5;
 /// constant speed, and its constant-velocity prediction is enough.
 const TURNING_PREDICTION_MIN_YAW_RATE_RADPS: f64 = 0.02;
 const TURNING_PREDICTION_MIN_ACCEL_MPS2: f64 = 0.5;
+/// Below this speed an agent's turn is not extrapolated, m/s.
+const TURNING_PREDICTION_MIN_SPEED_MPS: f64 = 1.0;
 /// A turning prediction turns no further than this from the direction of
 /// the nearest lane, rad: about the angle of a brisk lane change (a turn
 /// through a junction follows its connecting lane and stays well inside).
 const TURNING_PREDICTION_MAX_LANE_DEVIATION_RAD: f64 = 0.35;
+/// A turning prediction is held to the map once it has turned this far
+/// from the agent's heading, rad: a car's width of sideways drift within
+/// the 4 s horizon at urban speeds, and beyond what noisy headings give.
+const TURNING_PREDICTION_MAP_CHECK_AFTER_RAD: f64 = 0.15;
 /// The nearest lane of a turning prediction is searched this far, m.
 const TURNING_PREDICTION_LANE_SEARCH_M: f64 = 5.0;
 /// A turning prediction ends where it would carry the agent's centre this
@@ -140,6 +146,10 @@ impl EvasivePlanner {
         let yaw_rate_radps = (wrap_angle(agent.state.heading_rad - before.heading_rad) / dt_s)
             .clamp(-TURNING_PREDICTION_MAX_YAW_RATE_RADPS, TURNING_PREDICTION_MAX_YAW_RATE_RADPS);
         let accel_mps2 = ((agent.state.speed_mps() - before.speed_mps()) / dt_s).clamp(-MAX_ACCEL_MPS2, MAX_ACCEL_MPS2);
+        // A car turns only as it moves: the heading of one that stands (or
+        // creeps) is noise, and held it would spin the box on the spot.
+        let yaw_rate_radps =
+            if agent.state.speed_mps() < TURNING_PREDICTION_MIN_SPEED_MPS { 0.0 } else { yaw_rate_radps };
         let worth = yaw_rate_radps.abs() >= TURNING_PREDICTION_MIN_YAW_RATE_RADPS
             || accel_mps2.abs() >= TURNING_PREDICTION_MIN_ACCEL_MPS2;
         (worth && yaw_rate_radps.is_finite() && accel_mps2.is_finite()).then_some(Action { accel_mps2, yaw_rate_radps })
@@ -150,8 +160,11 @@ impl EvasivePlanner {
 /// ends): the agent holds the turn rate and acceleration it showed, as far
 /// as the road allows. Held regardless of the map, a turn seen in noisy
 /// headings sweeps a box across lanes and kerbs where no driver goes, and
-/// the ego swerves off the road or brakes for it. So the turn stops (the
-/// heading is then held) once it has carried the agent more than
+/// the ego swerves off the road or brakes for it. So once the prediction
+/// has turned [`TURNING_PREDICTION_MAP_CHECK_AFTER_RAD`] away from the
+/// agent's heading (less, and it stays near the constant-velocity one,
+/// which is not held to the map either), the turn stops (the heading is
+/// then held) where it has carried the agent more than
 /// [`TURNING_PREDICTION_MAX_LANE_DEVIATION_RAD`] off the direction of the
 /// nearest lane and would carry it further, and the prediction ends where
 /// it would take the agent more than [`TURNING_PREDICTION_MAX_OFF_ROAD_M`]
@@ -167,19 +180,21 @@ fn road_bounded_turn(
     let mut states = Vec::with_capacity(steps);
     for k in 0..steps {
         s = kinematic_step(&s, action, SIM_DT_S);
-        let lane = (action.yaw_rate_radps != 0.0 && k % TURNING_PREDICTION_LANE_CHECK_EVERY == 0)
-            .then(|| map.nearest_lane(&s.position, Some(s.heading_rad), TURNING_PREDICTION_LANE_SEARCH_M))
-            .flatten();
-        if let Some(lane) = lane {
-            let tangent = lane.projection.tangent;
-            let deviation_rad = wrap_angle(s.heading_rad - tangent.y.atan2(tangent.x));
-            if deviation_rad.abs() > TURNING_PREDICTION_MAX_LANE_DEVIATION_RAD
-                && deviation_rad.signum() == action.yaw_rate_radps.signum()
-            {
+        let turned = wrap_angle(s.heading_rad - start.heading_rad).abs() > TURNING_PREDICTION_MAP_CHECK_AFTER_RAD;
+        if turned && action.yaw_rate_radps != 0.0 && k % TURNING_PREDICTION_LANE_CHECK_EVERY == 0 {
+            let lane = map.nearest_lane(&s.position, Some(s.heading_rad), TURNING_PREDICTION_LANE_SEARCH_M);
+            let deviation_rad = lane.map(|lane| {
+                let tangent = lane.projection.tangent;
+                wrap_angle(s.heading_rad - tangent.y.atan2(tangent.x))
+            });
+            if deviation_rad.is_some_and(|d| {
+                d.abs() > TURNING_PREDICTION_MAX_LANE_DEVIATION_RAD && d.signum() == action.yaw_rate_radps.signum()
+            }) {
                 action.yaw_rate_radps = 0.0;
             }
         }
-        if k % TURNING_PREDICTION_OFF_ROAD_CHECK_EVERY == 0
+        if turned
+            && k % TURNING_PREDICTION_OFF_ROAD_CHECK_EVERY == 0
             && map.signed_distance_to_road_edge(&s.position).is_some_and(|d| d > TURNING_PREDICTION_MAX_OFF_ROAD_M)
         {
             break;
