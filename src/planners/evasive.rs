@@ -10,8 +10,9 @@
 //! constant velocity and, where they were seen a step earlier, also at
 //! the turn rate and acceleration they showed since (a car cutting in or
 //! braking is where constant velocity is most wrong), turning no further
-//! than the lanes turn and not off the road; a candidate must clear both. A candidate that hits a predicted box (with a safety
-//! margin), runs a red light or leaves the road is heavily penalised, and
+//! than the lanes turn and not off the road; a candidate must clear both.
+//! A candidate that hits a predicted box (with a safety margin), runs a
+//! red light or leaves the road is heavily penalised, and
 //! one that lets another agent into about a second of headway ahead is
 //! penalised softly; among the rest, progress towards the desired speed,
 //! staying centred and gentle accelerations win. The first control of the best candidate is
@@ -566,6 +567,30 @@ mod tests {
         let free = road_bounded_turn(&RoadMap::default(), &start, turn, 40);
         assert_eq!(free.len(), 40);
         assert!((free[39].heading_rad - 2.0).abs() < 1e-9, "{}", free[39].heading_rad);
+    }
+
+    #[test]
+    fn a_standing_agent_is_not_predicted_to_turn() {
+        let mut planner = EvasivePlanner::new(EvasiveParams::default());
+        let seen = |heading_rad: f64, speed_mps: f64| AgentState {
+            position: Point2::new(0.0, 0.0),
+            heading_rad,
+            velocity_mps: Vector2::new(heading_rad.cos(), heading_rad.sin()) * speed_mps,
+        };
+        let agent = |state| PerceivedAgent {
+            id: AgentId("parked".into()),
+            kind: AgentKind::Vehicle,
+            length_m: 4.5,
+            width_m: 2.0,
+            state,
+        };
+        // Its heading jumped 0.1 rad in 0.5 s: a turn at 0.2 rad/s if it moves.
+        planner.seen.push_back((0.0, [(AgentId("parked".into()), seen(0.0, 0.5))].into_iter().collect()));
+        assert_eq!(planner.observed_turning(0.5, &agent(seen(0.1, 0.5))), None);
+        planner.seen.clear();
+        planner.seen.push_back((0.0, [(AgentId("parked".into()), seen(0.0, 5.0))].into_iter().collect()));
+        let moving = planner.observed_turning(0.5, &agent(seen(0.1, 5.0))).unwrap();
+        assert!((moving.yaw_rate_radps - 0.2).abs() < 1e-9, "{moving:?}");
     }
 
     #[test]

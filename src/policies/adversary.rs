@@ -560,6 +560,58 @@ impl BackgroundForecast<'_> {
 /// the road, touching background traffic during the token, or no room to
 /// brake short of it). The background's predicted states and boxes are
 /// built once per decision.
+/// An axis-aligned rectangle holding a set of boxes (each box's centre
+/// plus its half-diagonal either way), for a broad phase: boxes in two
+/// disjoint ones cannot touch.
+#[derive(Debug, Clone, Copy)]
+struct Bounds {
+    min: crate::geometry::Point2,
+    max: crate::geometry::Point2,
+}
+
+impl Bounds {
+    /// The bounds of `boxes` (empty, and overlapping nothing, for none; the
+    /// whole plane if a box has a NaN centre or size).
+    fn of<'a>(boxes: impl IntoIterator<Item = &'a OrientedBox>) -> Self {
+        let mut bounds = Self {
+            min: crate::geometry::Point2::new(f64::INFINITY, f64::INFINITY),
+            max: crate::geometry::Point2::new(f64::NEG_INFINITY, f64::NEG_INFINITY),
+        };
+        for b in boxes {
+            let reach_m = 0.5 * b.length_m.hypot(b.width_m);
+            let p = b.pose.position;
+            if [p.x, p.y, reach_m].iter().any(|v| v.is_nan()) {
+                // Where such a box is is unknown: it may be anywhere.
+                return Self {
+                    min: crate::geometry::Point2::new(f64::NEG_INFINITY, f64::NEG_INFINITY),
+                    max: crate::geometry::Point2::new(f64::INFINITY, f64::INFINITY),
+                };
+            }
+            bounds.min.x = bounds.min.x.min(p.x - reach_m);
+            bounds.min.y = bounds.min.y.min(p.y - reach_m);
+            bounds.max.x = bounds.max.x.max(p.x + reach_m);
+            bounds.max.y = bounds.max.y.max(p.y + reach_m);
+        }
+        bounds
+    }
+
+    /// Whether the two rectangles may share a point: false only where one
+    /// lies wholly beside the other (a NaN coordinate proves nothing, and
+    /// leaves the exact tests to decide).
+    fn overlaps(&self, other: &Bounds) -> bool {
+        !(self.max.x < other.min.x || other.max.x < self.min.x || self.max.y < other.min.y || other.max.y < self.min.y)
+    }
+}
+
+/// Which violation of the plausibility rule a check looks for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Violation {
+    /// The first step at which the rule is broken.
+    First,
+    /// Any step at which it is: whether it is broken at all.
+    Any,
+}
+
 struct PlausibilityCheck<'w> {
     world: &'w WorldView<'w>,
     cbv_body: crate::scenario::AgentBody,
@@ -568,6 +620,10 @@ struct PlausibilityCheck<'w> {
     /// Each nearby background agent's predicted state and box, one per
     /// step of the check (`None`: absent at that step).
     background: Vec<Vec<Option<(AgentState, OrientedBox)>>>,
+    /// The bounds of each of those agents' predicted boxes over all the
+    /// steps: a CBV path whose boxes lie outside them touches none of
+    /// that agent's, and its box tests are skipped.
+    background_bounds: Vec<Bounds>,
     /// The CBV's signed distance to the road edge now, m (positive: off
     /// the road; `None` where the map has no road edges near it).
     edge_distance_now: Option<f64>,
@@ -584,6 +640,7 @@ impl<'w> PlausibilityCheck<'w> {
                 cbv_body,
                 cbv_now,
                 background: Vec::new(),
+                background_bounds: Vec::new(),
                 edge_distance_now: None,
                 on_road_now: false,
             };
@@ -600,42 +657,57 @@ impl<'w> PlausibilityCheck<'w> {
                 let b = world.bodies[i];
                 states.into_iter().map(|s| s.map(|at| (at, b.footprint(&at)))).collect()
             })
-            .collect();
+            .collect::<Vec<Vec<_>>>();
+        let background_bounds =
+            background.iter().map(|predicted| Bounds::of(predicted.iter().flatten().map(|(_, b)| b))).collect();
         Self {
             world,
             cbv_body,
             cbv_now,
             background,
+            background_bounds,
             edge_distance_now: world.map.signed_distance_to_road_edge(&now.position),
             on_road_now: !world.map.is_off_road(&now.position),
         }
     }
 
+    /// Whether `rollout` breaks the rule: the checks stop at the first
+    /// violation found (the plausibility fallback ranks the whole
+    /// vocabulary, where most tokens break it).
     fn implausible(&self, rollout: &[AgentState]) -> bool {
-        self.first_violation(rollout).is_some()
+        self.violation(rollout, Violation::Any).is_some()
     }
 
     /// The first step (counted from the token's first state) at which
     /// `rollout` breaks the rule, or `None` for a plausible token.
     fn first_violation(&self, rollout: &[AgentState]) -> Option<usize> {
+        self.violation(rollout, Violation::First)
+    }
+
+    /// A step at which `rollout` breaks the rule: the first one, or (for
+    /// [`Violation::Any`]) the first one the checks come to.
+    fn violation(&self, rollout: &[AgentState], wanted: Violation) -> Option<usize> {
         let end = rollout.last()?;
         let map = self.world.map;
         let braking: Vec<AgentState> = rollout.iter().copied().chain(braking_after(rollout)).collect();
         let mut first: Option<usize> = None;
-        let mut note = |k: usize| first = Some(first.map_or(k, |f| f.min(k)));
+        let note = |first: &mut Option<usize>, k: usize| *first = Some(first.map_or(k, |f| f.min(k)));
         if self.on_road_now {
             // Moving states only: a stopped CBV stays where it stopped.
             if let Some(k) =
                 braking.iter().take_while(|s| s.speed_mps() > 0.0).position(|s| map.is_off_road(&s.position))
             {
-                note(k);
+                note(&mut first, k);
             }
         } else if let (Some(now), Some(then)) =
             (self.edge_distance_now, map.signed_distance_to_road_edge(&end.position))
             && then > now
         {
             // Off the road already: head back to it, not farther away.
-            note(rollout.len() - 1);
+            note(&mut first, rollout.len() - 1);
+        }
+        if wanted == Violation::Any && first.is_some() {
+            return first;
         }
         // Each background agent's first contact is judged, as the metrics
         // judge a collision by its onset (a follower at constant velocity
@@ -652,16 +724,23 @@ impl<'w> PlausibilityCheck<'w> {
         let first_contact = |predicted: &[Option<(AgentState, OrientedBox)>], own: &[OrientedBox]| {
             predicted.iter().zip(own).position(|(theirs, own)| theirs.is_some_and(|(_, b)| b.intersects(own)))
         };
-        for predicted in &self.background {
+        let own_bounds = Bounds::of(held_boxes.iter().chain(&braking_boxes));
+        for (predicted, bounds) in self.background.iter().zip(&self.background_bounds) {
+            if wanted == Violation::Any && first.is_some() {
+                break;
+            }
+            if !bounds.overlaps(&own_bounds) {
+                continue;
+            }
             if let Some(k) = first_contact(predicted, &held_boxes) {
-                note(k);
+                note(&mut first, k);
             }
             // Braking after the token: only what the CBV runs into.
             if let Some(k) = first_contact(predicted, &braking_boxes)
                 && let Some((theirs, _)) = predicted[k]
                 && EgoContact::judge(map, &braking[k], &braking_boxes[k], &theirs).at_fault()
             {
-                note(k);
+                note(&mut first, k);
             }
         }
         first
@@ -832,6 +911,24 @@ mod tests {
         let polyline = Polyline::new(points.iter().map(|&(x, y)| Point2::new(x, y)).collect());
         let edge = RoadEdge { id: MapElementId(1), polyline, kind: RoadEdgeKind::Boundary };
         RoadMap::new(vec![], vec![edge], vec![], vec![], vec![], vec![], vec![])
+    }
+
+    #[test]
+    fn bounds_hold_their_boxes_and_only_disjoint_ones_are_told_apart() {
+        use crate::geometry::{Point2, Pose2};
+        let at = |x: f64, y: f64, heading_rad: f64| {
+            OrientedBox::new(Pose2 { position: Point2::new(x, y), heading_rad }, 4.0, 2.0)
+        };
+        let path = Bounds::of(&[at(0.0, 0.0, 0.0), at(10.0, 0.0, 0.7)]);
+        // A box touching the path's last box at a corner is inside the bounds.
+        let touching = at(12.5, 1.9, 0.0);
+        assert!(touching.intersects(&at(10.0, 0.0, 0.7)));
+        assert!(path.overlaps(&Bounds::of(&[touching])));
+        // One 3 m clear of them is not.
+        assert!(!path.overlaps(&Bounds::of(&[at(10.0, 8.0, 0.0)])));
+        // No boxes overlap nothing; NaN proves nothing.
+        assert!(!path.overlaps(&Bounds::of(&[])));
+        assert!(path.overlaps(&Bounds::of(&[at(f64::NAN, 0.0, 0.0)])));
     }
 
     fn implausible_tokens(world: &WorldView<'_>, cbv: TrackIndex, tokens: &[Token]) -> Vec<bool> {
