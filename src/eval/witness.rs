@@ -665,9 +665,33 @@ mod tests {
         let Witness::Found { trajectory, min_clearance_m, .. } = w else { panic!("{w:?}") };
         assert_eq!(trajectory.len(), horizon + 1);
         assert!(min_clearance_m > 0.0);
+        assert_touches_no_car(&trajectory, &states);
+    }
+
+    /// Each step's agents, from steps 0 to `horizon`, by `at_time_s`.
+    fn states_over(horizon: usize, at_time_s: impl Fn(f64) -> Vec<Option<AgentState>>) -> Vec<Vec<Option<AgentState>>> {
+        (0..=horizon).map(|k| at_time_s(k as f64 * SIM_DT_S)).collect()
+    }
+
+    /// `search` from `start` (ego index 0) with the default budget, every agent a car.
+    fn search_among_cars(
+        search: fn(&AgentState, AgentBody, &FixedTraffic<'_>, usize, WitnessBudget) -> Witness,
+        start: &AgentState,
+        states: &[Vec<Option<AgentState>>],
+        horizon: usize,
+    ) -> Witness {
+        let bodies = vec![car(); states[0].len()];
+        let traffic = FixedTraffic { states, bodies: &bodies, ego: 0 };
+        search(start, car(), &traffic, horizon, WitnessBudget::default())
+    }
+
+    /// Every state of `trajectory` (a car) clear of every car in `states`.
+    fn assert_touches_no_car(trajectory: &[AgentState], states: &[Vec<Option<AgentState>>]) {
         for (k, s) in trajectory.iter().enumerate() {
-            let other = OrientedBox::new(states[k][1].unwrap().pose(), 4.5, 2.0);
-            assert!(!OrientedBox::new(s.pose(), 4.5, 2.0).intersects(&other), "step {k}");
+            let ego = OrientedBox::new(s.pose(), 4.5, 2.0);
+            for other in states[k].iter().flatten() {
+                assert!(!ego.intersects(&OrientedBox::new(other.pose(), 4.5, 2.0)), "step {k}");
+            }
         }
     }
 
@@ -679,29 +703,19 @@ mod tests {
         // by clearance alone, the ties went to the order tried: the beam
         // filled with hard braking and the search found no escape.
         let horizon = 60;
-        let states: Vec<Vec<Option<AgentState>>> = (0..=horizon)
-            .map(|k| {
-                let t = k as f64 * SIM_DT_S;
-                vec![
-                    None,
-                    Some(at(10.0 * t, 3.0, 10.0)),
-                    Some(at(-30.0 + 18.0 * t, 0.0, 18.0)),
-                    Some(at(8.0 + 10.0 * t, -4.0, 10.0)),
-                ]
-            })
-            .collect();
-        let bodies = [car(), car(), car(), car()];
-        let traffic = FixedTraffic { states: &states, bodies: &bodies, ego: 0 };
+        let states = states_over(horizon, |t| {
+            vec![
+                None,
+                Some(at(10.0 * t, 3.0, 10.0)),
+                Some(at(-30.0 + 18.0 * t, 0.0, 18.0)),
+                Some(at(8.0 + 10.0 * t, -4.0, 10.0)),
+            ]
+        });
         // The narrow beam alone, without the widening.
-        let w = beam_search(&at(0.0, 0.0, 10.0), car(), &traffic, horizon, WitnessBudget::default());
+        let w = search_among_cars(beam_search, &at(0.0, 0.0, 10.0), &states, horizon);
         let Witness::Found { trajectory, min_clearance_m, .. } = w else { panic!("{w:?}") };
         assert!(min_clearance_m > WitnessBudget::default().margin_m);
-        for (k, s) in trajectory.iter().enumerate() {
-            let ego = OrientedBox::new(s.pose(), 4.5, 2.0);
-            for other in states[k].iter().flatten() {
-                assert!(!ego.intersects(&OrientedBox::new(other.pose(), 4.5, 2.0)), "step {k}");
-            }
-        }
+        assert_touches_no_car(&trajectory, &states);
     }
 
     #[test]
@@ -709,21 +723,16 @@ mod tests {
         // Ego stopped between a wall of cars left, right and ahead; a car from
         // behind at 20 m/s arrives within 0.5 s: no action gets away in time.
         let horizon = 20;
-        let states: Vec<Vec<Option<AgentState>>> = (0..=horizon)
-            .map(|k| {
-                let t = k as f64 * SIM_DT_S;
-                vec![
-                    None,
-                    Some(at(-10.0 + 20.0 * t, 0.0, 20.0)),
-                    Some(at(5.0, 0.0, 0.0)),
-                    Some(at(0.0, 2.3, 0.0)),
-                    Some(at(0.0, -2.3, 0.0)),
-                ]
-            })
-            .collect();
-        let bodies = [car(), car(), car(), car(), car()];
-        let traffic = FixedTraffic { states: &states, bodies: &bodies, ego: 0 };
-        let w = search_witness(&at(0.0, 0.0, 0.0), car(), &traffic, horizon, WitnessBudget::default());
+        let states = states_over(horizon, |t| {
+            vec![
+                None,
+                Some(at(-10.0 + 20.0 * t, 0.0, 20.0)),
+                Some(at(5.0, 0.0, 0.0)),
+                Some(at(0.0, 2.3, 0.0)),
+                Some(at(0.0, -2.3, 0.0)),
+            ]
+        });
+        let w = search_among_cars(search_witness, &at(0.0, 0.0, 0.0), &states, horizon);
         assert!(!w.is_found(), "{w:?}");
     }
 
