@@ -5,7 +5,8 @@
 //! Every step it rolls out a lattice of candidates for a few seconds through
 //! the kinematic model `K`: each a constant acceleration combined with
 //! pure-pursuit tracking of the route at a lateral offset (stay in lane,
-//! or swerve half / one lane either way); the ego steers only as it moves
+//! or swerve half a lane up to two lanes either way, in half-lane steps);
+//! the ego steers only as it moves
 //! (a car does not turn on the spot). Other agents are predicted at
 //! constant velocity and, where they were seen a step earlier, also at
 //! the turn rate and acceleration they showed since (a car cutting in or
@@ -51,7 +52,10 @@ impl Default for EvasiveParams {
         Self {
             horizon_s: 4.0,
             accelerations_mps2: vec![-MAX_ACCEL_MPS2, -3.0, -1.5, 0.0, 1.0, 2.0, 3.0],
-            lateral_offsets_m: vec![-3.5, -1.75, 0.0, 1.75, 3.5],
+            // Up to two lanes (of 3.5 m) either way: with one lane at most,
+            // the planner failed more of the conflicts that the witness
+            // search shows a way out of (issue 10, sixth round).
+            lateral_offsets_m: vec![-7.0, -5.25, -3.5, -1.75, 0.0, 1.75, 3.5, 5.25, 7.0],
             desired_speed_mps: None,
             safety_margin_m: 0.3,
             turning_predictions: true,
@@ -518,6 +522,63 @@ mod tests {
             Some(PlannerOutput::Control(a)) => a,
             other => panic!("{other:?}"),
         }
+    }
+
+    /// Closed loop for 8 s: the ego at 10 m/s along a lane on +x, and a
+    /// wall of three cars coming the other way at 8 m/s, 60 m ahead, in its
+    /// lane and the lanes either side. Whether the ego touches one.
+    fn ego_hits_an_oncoming_wall(params: EvasiveParams) -> bool {
+        let lane = Lane::new(MapElementId(1), Polyline::new(vec![Point2::new(-50.0, 0.0), Point2::new(500.0, 0.0)]));
+        let map = RoadMap::new(vec![lane], vec![], vec![], vec![], vec![], vec![], vec![]);
+        let mut planner = EvasivePlanner::new(params);
+        let mut ego = KinematicState::from_agent_state(&AgentState {
+            position: Point2::new(0.0, 0.0),
+            heading_rad: 0.0,
+            velocity_mps: Vector2::new(10.0, 0.0),
+        });
+        for k in 0..80 {
+            let t = k as f64 * SIM_DT_S;
+            let cars: Vec<PerceivedAgent> = [-3.5, 0.0, 3.5]
+                .iter()
+                .map(|&y| PerceivedAgent {
+                    id: AgentId(format!("oncoming-{y}")),
+                    kind: AgentKind::Vehicle,
+                    length_m: 4.5,
+                    width_m: 2.0,
+                    state: AgentState {
+                        position: Point2::new(60.0 - 8.0 * t, y),
+                        heading_rad: std::f64::consts::PI,
+                        velocity_mps: Vector2::new(-8.0, 0.0),
+                    },
+                })
+                .collect();
+            let ego_box = OrientedBox::new(Pose2 { position: ego.position, heading_rad: ego.heading_rad }, 4.5, 2.0);
+            if cars.iter().any(|c| ego_box.intersects(&OrientedBox::new(c.state.pose(), 4.5, 2.0))) {
+                return true;
+            }
+            let obs = Observation {
+                step: k,
+                time_s: t,
+                dt_s: SIM_DT_S,
+                ego: ego.to_agent_state(),
+                ego_length_m: 4.5,
+                ego_width_m: 2.0,
+                agents: cars,
+                map: &map,
+                signals: vec![],
+            };
+            let PlannerOutput::Control(action) = planner.plan(&obs).unwrap() else { panic!("not a control") };
+            ego = kinematic_step(&ego, action, SIM_DT_S);
+        }
+        false
+    }
+
+    #[test]
+    fn a_swerve_of_two_lanes_escapes_an_oncoming_wall_that_one_lane_does_not() {
+        assert!(!ego_hits_an_oncoming_wall(EvasiveParams::default()));
+        let one_lane =
+            EvasiveParams { lateral_offsets_m: vec![-3.5, -1.75, 0.0, 1.75, 3.5], ..EvasiveParams::default() };
+        assert!(ego_hits_an_oncoming_wall(one_lane));
     }
 
     #[test]
