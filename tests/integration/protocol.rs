@@ -142,13 +142,13 @@ fn run_reports_latency_per_variant() {
 #[test]
 fn a_dead_end_inside_a_womd_map_is_still_off_road() {
     // In this shipped adversarial variant the evasive ego leaves the road at
-    // 6.9 s past the end of a lane without successor, 90 m inside the map:
+    // 6.8 s past the end of a lane without successor, 90 m inside the map:
     // the kerbs go on around it, so that is off-road, not the map's edge.
     let suite = Suite::load(&repo().join("specs/extended/adversarial-recorded.yaml")).unwrap_or_else(|e| panic!("{e}"));
     let entry = suite.scenarios.iter().find(|s| s.name.contains("2d84b1ab55ab81d3")).expect("scene in the suite");
     let outcome = run_variant(&suite, entry, 0).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(outcome.stage2.termination, Termination::Completed);
-    assert_eq!(outcome.stage2.summary().ego_off_road_s, Some(6.9));
+    assert_eq!(outcome.stage2.summary().ego_off_road_s, Some(6.8));
 }
 
 #[test]
