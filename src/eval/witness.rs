@@ -79,6 +79,12 @@ impl Witness {
     pub fn is_found(&self) -> bool {
         matches!(self, Witness::Found { .. })
     }
+
+    /// Candidates expanded by the search, whatever it found.
+    pub fn expansions(&self) -> usize {
+        let (Witness::Found { expansions, .. } | Witness::NoneWithinBudget { expansions }) = self;
+        *expansions
+    }
 }
 
 /// The obstacles: every other agent's state per simulator step from the start
@@ -310,19 +316,15 @@ pub fn search_witness(
         // Nothing to widen, or touching at the start.
         return narrow;
     }
-    let wide = WitnessBudget {
+    let wide_budget = WitnessBudget {
         beam_width: budget.beam_width.saturating_mul(budget.widening),
         max_expansions: budget.max_expansions.saturating_mul(budget.widening),
         ..budget
     };
-    match beam_search(start, body, traffic, horizon_steps, wide) {
-        Witness::Found { trajectory, min_clearance_m, expansions } => {
-            Witness::Found { trajectory, min_clearance_m, expansions: narrow_expansions + expansions }
-        }
-        Witness::NoneWithinBudget { expansions } => {
-            Witness::NoneWithinBudget { expansions: narrow_expansions + expansions }
-        }
-    }
+    let mut wide = beam_search(start, body, traffic, horizon_steps, wide_budget);
+    let (Witness::Found { expansions, .. } | Witness::NoneWithinBudget { expansions }) = &mut wide;
+    *expansions += narrow_expansions;
+    wide
 }
 
 /// One beam search of [`search_witness`] with `budget`'s beam and
@@ -642,11 +644,8 @@ mod tests {
                 (Witness::Found { .. }, _) => assert_eq!(got, first, "seed {seed}"),
                 (Witness::NoneWithinBudget { expansions: 0 }, _) => assert_eq!(got, first, "seed {seed}"),
                 (Witness::NoneWithinBudget { expansions: e1 }, second) => {
-                    let total = |w: &Witness| match w {
-                        Witness::Found { expansions, .. } | Witness::NoneWithinBudget { expansions } => *expansions,
-                    };
                     assert_eq!(got.is_found(), second.is_found(), "seed {seed}");
-                    assert_eq!(total(&got), e1 + total(&second), "seed {seed}");
+                    assert_eq!(got.expansions(), e1 + second.expansions(), "seed {seed}");
                     rescued += usize::from(second.is_found());
                 }
             }
