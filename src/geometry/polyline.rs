@@ -11,6 +11,46 @@ pub struct Polyline {
     points: Vec<Point2>,
     /// Cumulative arc length at each point, metres (`cumulative_m[0] == 0`).
     cumulative_m: Vec<f64>,
+    /// The axis-aligned bounds of each run of [`CHUNK_SEGMENTS`] segments
+    /// (empty for a line of fewer than two runs): the broad phase of
+    /// [`Polyline::project`], which a planner calls thousands of times a
+    /// step on a route of hundreds of points.
+    chunks: Vec<ChunkBounds>,
+}
+
+/// Segments per run of the projection's broad phase.
+const CHUNK_SEGMENTS: usize = 16;
+
+/// A run's bounds are skipped only when this much farther than the best
+/// segment found, m: far above the rounding of a closest point's
+/// coordinates, so pruning never changes which segment wins.
+const CHUNK_PRUNE_SLACK_M: f64 = 1e-6;
+
+/// The axis-aligned bounds of a run of segments.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct ChunkBounds {
+    min: Point2,
+    max: Point2,
+}
+
+impl ChunkBounds {
+    /// The bounds of `points`.
+    fn of(points: &[Point2]) -> Self {
+        let mut b = Self { min: points[0], max: points[0] };
+        for p in &points[1..] {
+            b.min = Point2::new(b.min.x.min(p.x), b.min.y.min(p.y));
+            b.max = Point2::new(b.max.x.max(p.x), b.max.y.max(p.y));
+        }
+        b
+    }
+
+    /// The squared distance from `p` to the rectangle (0 inside it): no
+    /// segment of the run is nearer.
+    fn distance_squared(&self, p: &Point2) -> f64 {
+        let dx = (self.min.x - p.x).max(p.x - self.max.x).max(0.0);
+        let dy = (self.min.y - p.y).max(p.y - self.max.y).max(0.0);
+        dx * dx + dy * dy
+    }
 }
 
 /// Where a point projects onto a polyline.
@@ -54,7 +94,19 @@ impl Polyline {
             }
             cumulative_m.push(s);
         }
-        Self { points: pts, cumulative_m }
+        let n_segments = pts.len().saturating_sub(1);
+        // Non-finite points would make the bounds meaningless: such a line
+        // is projected by the plain scan.
+        let finite = pts.iter().all(|p| p.x.is_finite() && p.y.is_finite());
+        let chunks = if finite && n_segments >= 2 * CHUNK_SEGMENTS {
+            (0..n_segments)
+                .step_by(CHUNK_SEGMENTS)
+                .map(|first| ChunkBounds::of(&pts[first..=(first + CHUNK_SEGMENTS).min(n_segments)]))
+                .collect()
+        } else {
+            Vec::new()
+        };
+        Self { points: pts, cumulative_m, chunks }
     }
 
     /// The points, in order.
@@ -126,7 +178,34 @@ impl Polyline {
     /// Closest point on the polyline to `p`, with arc length and side.
     /// `None` for a polyline with fewer than two points.
     pub fn project(&self, p: &Point2) -> Option<PolylineProjection> {
-        self.project_segments(p, 0..self.points.len().saturating_sub(1))
+        let n_segments = self.points.len().saturating_sub(1);
+        let finite = p.x.is_finite() && p.y.is_finite();
+        if self.chunks.is_empty() || !finite {
+            return self.project_segments(p, 0..n_segments);
+        }
+        // The same answer as scanning every segment (the least distance,
+        // ties to the lowest segment), with runs that cannot hold it
+        // skipped: the nearest run first, then the others in order.
+        let run = |c: usize| c * CHUNK_SEGMENTS..((c + 1) * CHUNK_SEGMENTS).min(n_segments);
+        let nearest = (0..self.chunks.len())
+            .min_by(|&a, &b| self.chunks[a].distance_squared(p).total_cmp(&self.chunks[b].distance_squared(p)))?;
+        let mut best: Option<(f64, usize, f64)> = None;
+        let scan = |segments: std::ops::Range<usize>, best: &mut Option<(f64, usize, f64)>| {
+            for i in segments {
+                let (d2, t) = self.segment_distance_squared(p, i);
+                if best.is_none_or(|(bd, bi, _)| d2 < bd || (d2 == bd && i < bi)) {
+                    *best = Some((d2, i, t));
+                }
+            }
+        };
+        scan(run(nearest), &mut best);
+        for c in (0..self.chunks.len()).filter(|&c| c != nearest) {
+            let bound_m = best.map_or(f64::INFINITY, |(bd, _, _)| bd.sqrt() + CHUNK_PRUNE_SLACK_M);
+            if self.chunks[c].distance_squared(p) <= bound_m * bound_m {
+                scan(run(c), &mut best);
+            }
+        }
+        best.map(|closest| self.projection_at(p, closest))
     }
 
     /// As [`Polyline::project`], restricted to the given segment indices
@@ -143,7 +222,12 @@ impl Polyline {
                 best = Some((d2, i, t));
             }
         }
-        let (d2, i, t) = best?;
+        best.map(|closest| self.projection_at(p, closest))
+    }
+
+    /// The projection of `p` whose closest point lies on segment `i` at
+    /// parameter `t`, `d2` from `p` (squared).
+    fn projection_at(&self, p: &Point2, (d2, i, t): (f64, usize, f64)) -> PolylineProjection {
         let (a, b) = (self.points[i], self.points[i + 1]);
         let ab = b - a;
         let len = ab.norm();
@@ -151,14 +235,14 @@ impl Polyline {
         let closest = a + ab * t;
         let distance_m = d2.sqrt();
         let side = self.side_of(p, i, t);
-        Some(PolylineProjection {
+        PolylineProjection {
             point: closest,
             arc_length_m: self.cumulative_m[i] + t * len,
             distance_m,
             signed_distance_m: if side > 0.0 { -distance_m } else { distance_m },
             tangent,
             segment: i,
-        })
+        }
     }
 
     /// The squared distance from `p` to segment `i` (`points[i]` to
@@ -205,6 +289,34 @@ mod tests {
 
     fn line(pts: &[(f64, f64)]) -> Polyline {
         Polyline::new(pts.iter().map(|&(x, y)| Point2::new(x, y)).collect())
+    }
+
+    #[test]
+    fn the_pruned_projection_is_the_full_scan() {
+        // A long route that winds and doubles back past itself (so a far
+        // run of it lies near a point too), queried on a grid that also
+        // hits vertices and points equidistant from two segments.
+        let points: Vec<(f64, f64)> = (0..400)
+            .map(|k| {
+                let s = k as f64 * 0.5;
+                (30.0 * (s / 40.0).sin() + 0.1 * s, 25.0 * (s / 25.0).sin())
+            })
+            .collect();
+        let l = line(&points);
+        assert!(!l.chunks.is_empty(), "the line is long enough to be split into runs");
+        let all = 0..l.len() - 1;
+        let mut queries: Vec<Point2> = points.iter().map(|&(x, y)| Point2::new(x, y)).collect();
+        for i in -40..=80 {
+            for j in -40..=40 {
+                queries.push(Point2::new(i as f64 * 0.75, j as f64 * 0.75));
+            }
+        }
+        for q in &queries {
+            assert_eq!(l.project(q), l.project_segments(q, all.clone()), "at {q:?}");
+        }
+        // Non-finite queries keep the plain scan's answer.
+        let nan = Point2::new(f64::NAN, 1.0);
+        assert_eq!(format!("{:?}", l.project(&nan)), format!("{:?}", l.project_segments(&nan, all.clone())));
     }
 
     #[test]
