@@ -13,6 +13,27 @@ use tract_onnx::prelude::*;
 use super::card::{DType, Dim, ExpectedContract, ModelCard};
 use super::{ModelError, ModelSource};
 
+/// The instruction sets tract may not use, as its `TRACT_CPU_ISA` knob
+/// writes them. tract picks its matrix kernels by the CPU: on a machine
+/// with AVX-512 it multiplies a batch of one and a batch of 32 with
+/// different kernels that sum in different orders, so a query's logits
+/// differed in the last bits with the batch around it (and from an AVX2
+/// machine's), and the contract that a variant is the same on any machine
+/// broke (measured: the batch-invariance test of the prior failed on an
+/// AVX-512 Xeon and passes with these removed). The AVX2/FMA kernels are
+/// what every x86-64 machine this runs on has.
+const WITHOUT_INSTRUCTION_SETS: &str = "-avx512f,-avx512vnni,-avx512fp16";
+
+/// Keeps tract on the same kernels on every x86-64 machine (see
+/// [`WITHOUT_INSTRUCTION_SETS`]): set before tract first probes the CPU,
+/// which it does once, when the first graph is optimised.
+fn pin_kernels() {
+    static PINNED: std::sync::Once = std::sync::Once::new();
+    PINNED.call_once(|| {
+        tract_onnx::tract_core::tract_linalg::knobs::TRACT_CPU_ISA.set(Some(WITHOUT_INSTRUCTION_SETS.to_string()));
+    });
+}
+
 /// A loaded, optimised model with its card.
 #[derive(Debug, Clone)]
 pub struct OnnxModel {
@@ -71,6 +92,7 @@ impl OnnxModel {
         expected: &ExpectedContract,
         batch: usize,
     ) -> Result<Self, ModelError> {
+        pin_kernels();
         let card_file = card_file.as_ref();
         let card_path = &source.path(card_file);
         let card = ModelCard::parse(&source.read(card_file)?, card_path)?;
