@@ -51,7 +51,11 @@ impl Default for EvasiveParams {
     fn default() -> Self {
         Self {
             horizon_s: 4.0,
-            accelerations_mps2: vec![-MAX_ACCEL_MPS2, -3.0, -1.5, 0.0, 1.0, 2.0, 3.0],
+            // Up to the kinematic limit either way: the witness search
+            // escapes with full acceleration too, and with 3 m/s² at most
+            // the planner lost variants it showed a way out of (a CBV or a
+            // replayed follower closing from behind; issue 10, seventh round).
+            accelerations_mps2: vec![-MAX_ACCEL_MPS2, -3.0, -1.5, 0.0, 1.0, 2.0, 3.0, MAX_ACCEL_MPS2],
             // Up to two lanes (of 3.5 m) either way: with one lane at most,
             // the planner failed more of the conflicts that the witness
             // search shows a way out of (issue 10, sixth round).
@@ -105,7 +109,7 @@ const TURNING_PREDICTION_LANE_CHECK_EVERY: usize = 2;
 /// Every this many steps a turning prediction is checked for leaving the road.
 const TURNING_PREDICTION_OFF_ROAD_CHECK_EVERY: usize = 5;
 /// Every this many steps a candidate's position is checked for off-road.
-const OFF_ROAD_CHECK_EVERY: usize = 10;
+const OFF_ROAD_CHECK_EVERY: usize = 5;
 
 const COLLISION_COST: f64 = 1.0e4;
 /// Per step with another agent inside the headway zone ahead of the ego.
@@ -524,34 +528,42 @@ mod tests {
         }
     }
 
-    /// Closed loop for 8 s: the ego at 10 m/s along a lane on +x, and a
-    /// wall of three cars coming the other way at 8 m/s, 60 m ahead, in its
-    /// lane and the lanes either side. Whether the ego touches one.
-    fn ego_hits_an_oncoming_wall(params: EvasiveParams) -> bool {
+    /// A wall of cars, one in each of the lanes at `lanes_y_m`, 4.5 m long
+    /// and 2 m wide, heading along +x at `speed_mps` (negative: the other
+    /// way) with their centres at `x_m`.
+    fn wall(lanes_y_m: &[f64], x_m: f64, speed_mps: f64) -> Vec<PerceivedAgent> {
+        let heading_rad = if speed_mps < 0.0 { std::f64::consts::PI } else { 0.0 };
+        lanes_y_m
+            .iter()
+            .map(|&y| PerceivedAgent {
+                id: AgentId(format!("wall-{y}")),
+                kind: AgentKind::Vehicle,
+                length_m: 4.5,
+                width_m: 2.0,
+                state: AgentState {
+                    position: Point2::new(x_m, y),
+                    heading_rad,
+                    velocity_mps: Vector2::new(speed_mps, 0.0),
+                },
+            })
+            .collect()
+    }
+
+    /// Closed loop for 8 s: the ego (4.5 m by 2 m) from the origin at
+    /// `speed_mps` along a lane on +x, the others `traffic(t)` at time t.
+    /// Whether the ego touches one of them.
+    fn ego_is_hit(params: EvasiveParams, speed_mps: f64, traffic: impl Fn(f64) -> Vec<PerceivedAgent>) -> bool {
         let lane = Lane::new(MapElementId(1), Polyline::new(vec![Point2::new(-50.0, 0.0), Point2::new(500.0, 0.0)]));
         let map = RoadMap::new(vec![lane], vec![], vec![], vec![], vec![], vec![], vec![]);
         let mut planner = EvasivePlanner::new(params);
         let mut ego = KinematicState::from_agent_state(&AgentState {
             position: Point2::new(0.0, 0.0),
             heading_rad: 0.0,
-            velocity_mps: Vector2::new(10.0, 0.0),
+            velocity_mps: Vector2::new(speed_mps, 0.0),
         });
         for k in 0..80 {
             let t = k as f64 * SIM_DT_S;
-            let cars: Vec<PerceivedAgent> = [-3.5, 0.0, 3.5]
-                .iter()
-                .map(|&y| PerceivedAgent {
-                    id: AgentId(format!("oncoming-{y}")),
-                    kind: AgentKind::Vehicle,
-                    length_m: 4.5,
-                    width_m: 2.0,
-                    state: AgentState {
-                        position: Point2::new(60.0 - 8.0 * t, y),
-                        heading_rad: std::f64::consts::PI,
-                        velocity_mps: Vector2::new(-8.0, 0.0),
-                    },
-                })
-                .collect();
+            let cars = traffic(t);
             let ego_box = OrientedBox::new(Pose2 { position: ego.position, heading_rad: ego.heading_rad }, 4.5, 2.0);
             if cars.iter().any(|c| ego_box.intersects(&OrientedBox::new(c.state.pose(), 4.5, 2.0))) {
                 return true;
@@ -573,12 +585,34 @@ mod tests {
         false
     }
 
+    /// The ego at 10 m/s and a wall of three cars coming the other way at
+    /// 8 m/s, 60 m ahead, in its lane and the lanes either side.
+    fn ego_hits_an_oncoming_wall(params: EvasiveParams) -> bool {
+        ego_is_hit(params, 10.0, |t| wall(&[-3.5, 0.0, 3.5], 60.0 - 8.0 * t, -8.0))
+    }
+
     #[test]
     fn a_swerve_of_two_lanes_escapes_an_oncoming_wall_that_one_lane_does_not() {
         assert!(!ego_hits_an_oncoming_wall(EvasiveParams::default()));
         let one_lane =
             EvasiveParams { lateral_offsets_m: vec![-3.5, -1.75, 0.0, 1.75, 3.5], ..EvasiveParams::default() };
         assert!(ego_hits_an_oncoming_wall(one_lane));
+    }
+
+    #[test]
+    fn full_acceleration_escapes_a_wall_closing_from_behind_that_three_metres_per_second_squared_does_not() {
+        // The ego at 8 m/s with a wall across all five lanes a swerve could
+        // reach closing from behind at 14 m/s, 5 m bumper to bumper: the gap
+        // shrinks by 6²/(2a) m before the ego matches the wall's speed, 6 m
+        // at 3 m/s² (too much), 3.6 m at 5 m/s². The desired speed is above
+        // the wall's so that the ego may run from it.
+        let hit = |accelerations_mps2: Vec<f64>| {
+            let params =
+                EvasiveParams { accelerations_mps2, desired_speed_mps: Some(20.0), ..EvasiveParams::default() };
+            ego_is_hit(params, 8.0, |t| wall(&[-7.0, -3.5, 0.0, 3.5, 7.0], -9.5 + 14.0 * t, 14.0))
+        };
+        assert!(!hit(EvasiveParams::default().accelerations_mps2));
+        assert!(hit(vec![-MAX_ACCEL_MPS2, -3.0, -1.5, 0.0, 1.0, 2.0, 3.0]));
     }
 
     #[test]

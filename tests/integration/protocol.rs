@@ -141,14 +141,19 @@ fn run_reports_latency_per_variant() {
 
 #[test]
 fn a_dead_end_inside_a_womd_map_is_still_off_road() {
-    // In this shipped adversarial variant the evasive ego leaves the road at
-    // 6.8 s past the end of a lane without successor, 90 m inside the map:
-    // the kerbs go on around it, so that is off-road, not the map's edge.
-    let suite = Suite::load(&repo().join("specs/extended/adversarial-recorded.yaml")).unwrap_or_else(|e| panic!("{e}"));
-    let entry = suite.scenarios.iter().find(|s| s.name.contains("2d84b1ab55ab81d3")).expect("scene in the suite");
-    let outcome = run_variant(&suite, entry, 0).unwrap_or_else(|e| panic!("{e}"));
-    assert_eq!(outcome.stage2.termination, Termination::Completed);
-    assert_eq!(outcome.stage2.summary().ego_off_road_s, Some(6.8));
+    // Lane 142 of this WOMD scene ends without a successor about 110 m
+    // from the ego's start, well inside the map: the kerbs go on around its
+    // end, so driving on past it is off-road, not the map's edge (the
+    // evasive ego used to leave the road there at 6.8 s).
+    let path = data_dir().join("womd-json/tfrecord-00000-of-00150_2d84b1ab55ab81d3.json");
+    let scene = import::load(&path).unwrap_or_else(|e| panic!("{e}")).remove(0);
+    let lane = scene.map.lanes.iter().find(|l| l.id.0 == 142).expect("lane 142 in the scene");
+    assert!(lane.successors.is_empty(), "lane 142 is a dead end");
+    let points = lane.centreline.points();
+    let end = points[points.len() - 1];
+    let beyond = end + (end - points[points.len() - 2]).normalize() * 3.0;
+    assert!(scene.map.is_off_road(&beyond), "3 m past the dead end is off the road");
+    assert!(!scene.map.is_past_mapped_end(&beyond), "a dead end inside the map is not the map's edge");
 }
 
 #[test]
