@@ -108,7 +108,9 @@ const TURNING_PREDICTION_MAX_OFF_ROAD_M: f64 = 2.0;
 const TURNING_PREDICTION_LANE_CHECK_EVERY: usize = 2;
 /// Every this many steps a turning prediction is checked for leaving the road.
 const TURNING_PREDICTION_OFF_ROAD_CHECK_EVERY: usize = 5;
-/// Every this many steps a candidate's position is checked for off-road.
+/// Every this many steps (0.5 s) a candidate's position is checked for
+/// off-road: at every 10, a swerve could cross a kerb between two checks
+/// (plain logs: 38 of 196 rollouts off the road, 31 at every 5).
 const OFF_ROAD_CHECK_EVERY: usize = 5;
 
 const COLLISION_COST: f64 = 1.0e4;
