@@ -187,8 +187,12 @@ impl Polyline {
         // ties to the lowest segment), with runs that cannot hold it
         // skipped: the nearest run first, then the others in order.
         let run = |c: usize| c * CHUNK_SEGMENTS..((c + 1) * CHUNK_SEGMENTS).min(n_segments);
-        let nearest = (0..self.chunks.len())
-            .min_by(|&a, &b| self.chunks[a].distance_squared(p).total_cmp(&self.chunks[b].distance_squared(p)))?;
+        let (_, nearest) = self
+            .chunks
+            .iter()
+            .enumerate()
+            .map(|(c, bounds)| (bounds.distance_squared(p), c))
+            .min_by(|a, b| a.0.total_cmp(&b.0))?;
         let mut best: Option<(f64, usize, f64)> = None;
         let scan = |segments: std::ops::Range<usize>, best: &mut Option<(f64, usize, f64)>| {
             for i in segments {
