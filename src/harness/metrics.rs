@@ -124,13 +124,16 @@ fn cbv_background_collisions(scenario: &Scenario, stage1: &Rollout) -> Vec<bool>
         .collect()
 }
 
-/// Seconds the CBV's centre was off the road in `stage1`, when it started on it.
+/// Seconds the CBV's centre was off the road in `stage1`, when it started on
+/// it. Past the mapped end of the road (where the recording's map was cut
+/// off) the road is not known to end, so that is not counted.
 fn cbv_off_road_s(scenario: &Scenario, stage1: &Rollout) -> f64 {
     let Some(cbv) = stage1.cbv else { return 0.0 };
     let mut states = stage1.states.iter().filter_map(|row| row.get(cbv.0).copied().flatten());
+    let map = &scenario.map;
     match states.next() {
-        Some(first) if !scenario.map.is_off_road(&first.position) => {
-            states.filter(|s| scenario.map.is_off_road(&s.position)).count() as f64 * stage1.dt_s
+        Some(first) if !map.is_off_road_within_map(&first.position) => {
+            states.filter(|s| map.is_off_road_within_map(&s.position)).count() as f64 * stage1.dt_s
         }
         _ => 0.0,
     }

@@ -638,15 +638,19 @@ impl RoadMap {
     /// road.
     pub fn is_past_mapped_end(&self, p: &Point2) -> bool {
         const SEARCH_M: f64 = 10.0;
-        let edge_ends_here = match self.nearest_road_edge(p) {
-            None => true,
+        // Far past the cut the lane's end is as far away as the edge's:
+        // search that far (up to a limit), not only the 10 m beside `p`.
+        const FARTHEST_PAST_END_M: f64 = 100.0;
+        let (edge_ends_here, past_edge_end_m) = match self.nearest_road_edge(p) {
+            None => (true, 0.0),
             Some((edge, proj)) => {
                 let length = self.road_edges[edge].polyline.length_m();
-                proj.arc_length_m <= 1e-6 || proj.arc_length_m >= length - 1e-6
+                (proj.arc_length_m <= 1e-6 || proj.arc_length_m >= length - 1e-6, proj.distance_m)
             }
         };
+        let search_m = SEARCH_M + past_edge_end_m.min(FARTHEST_PAST_END_M);
         edge_ends_here
-            && self.lane_segments.candidates(p, SEARCH_M).into_keys().any(|lane_index| {
+            && self.lane_segments.candidates(p, search_m).into_keys().any(|lane_index| {
                 let lane = &self.lanes[lane_index];
                 let points = lane.centreline.points();
                 if !lane.successors.is_empty() || points.len() < 2 {
@@ -658,6 +662,15 @@ impl RoadMap {
                 // Ahead of the end, within a lane's reach sideways of its line.
                 from_end.dot(&along) > 0.0 && (from_end.x * along.y - from_end.y * along.x).abs() <= SEARCH_M
             })
+    }
+
+    /// Whether `p` is off the road inside the mapped area: off the road
+    /// ([`Self::is_off_road`]) and not past the mapped end of it
+    /// ([`Self::is_past_mapped_end`]), where the road goes on beyond what
+    /// the recording mapped. What a road user must not do; driving on past
+    /// the map's cut is not leaving the road.
+    pub fn is_off_road_within_map(&self, p: &Point2) -> bool {
+        self.is_off_road(p) && !self.is_past_mapped_end(p)
     }
 
     /// Whether `p` is off the road. Unknown (no edges, no drivable areas) is
@@ -737,6 +750,8 @@ mod tests {
             vec![],
         );
         assert!(cut.is_past_mapped_end(&Point2::new(101.0, 1.0)));
+        assert!(cut.is_past_mapped_end(&Point2::new(125.0, 3.0)), "far past the cut, still ahead of the lane");
+        assert!(!cut.is_past_mapped_end(&Point2::new(125.0, 15.0)), "ahead, but beside the lane's line");
         assert!(!cut.is_past_mapped_end(&Point2::new(50.0, 3.0)), "beside the lane: off-road");
         assert!(!cut.is_past_mapped_end(&Point2::new(-1.0, 0.0)), "before its start");
         // The same lane ending at a kerb that closes the road (a dead end
@@ -751,6 +766,20 @@ mod tests {
             vec![],
         );
         assert!(!dead_end.is_past_mapped_end(&Point2::new(104.0, 1.0)));
+        // Off the road inside the map: beside the lane and at the dead end;
+        // past the cut the road is not known to end. With the lane's
+        // surface as a drivable area (as CommonRoad maps have) the point
+        // past the cut is off the road; only the mapped area ends there.
+        let lane_surface = crate::geometry::Polygon::new(
+            [(0.0, -2.0), (100.0, -2.0), (100.0, 2.0), (0.0, 2.0)].iter().map(|&(x, y)| Point2::new(x, y)).collect(),
+        );
+        let cut = RoadMap { drivable_areas: vec![lane_surface], ..cut };
+        let past = Point2::new(101.0, 1.0);
+        assert!(cut.is_off_road(&past) && cut.is_past_mapped_end(&past));
+        assert!(!cut.is_off_road_within_map(&past));
+        assert!(cut.is_off_road_within_map(&Point2::new(50.0, 3.0)));
+        assert!(dead_end.is_off_road_within_map(&Point2::new(104.0, 1.0)));
+        assert!(!cut.is_off_road_within_map(&Point2::new(50.0, 1.0)), "on the road");
     }
 
     #[test]

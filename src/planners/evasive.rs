@@ -119,6 +119,8 @@ const HEADWAY_COST: f64 = 200.0;
 /// The headway zone reaches this many seconds of travel ahead (at least 3 m).
 const HEADWAY_S: f64 = 1.0;
 const RED_LIGHT_COST: f64 = 5.0e3;
+/// Per check of a candidate off the road inside the mapped area (driving on
+/// past the map's cut is not leaving the road: the ego need not stop there).
 const OFF_ROAD_COST: f64 = 2.0e3;
 /// A candidate is dropped once its cost is sure to exceed the best one's by
 /// this much: far above the rounding of the sums, far below any term.
@@ -466,7 +468,7 @@ impl EvasivePlanner {
                 cost += RED_LIGHT_COST;
                 break;
             }
-            if k % OFF_ROAD_CHECK_EVERY == OFF_ROAD_CHECK_EVERY - 1 && obs.map.is_off_road(&s.position) {
+            if k % OFF_ROAD_CHECK_EVERY == OFF_ROAD_CHECK_EVERY - 1 && obs.map.is_off_road_within_map(&s.position) {
                 cost += OFF_ROAD_COST;
             }
             cost += 0.01 * (s.speed_mps - v_des).powi(2);

@@ -17,23 +17,28 @@
 //! - **Plausibility.** The CBV must stay a plausible road user. A
 //!   candidate is implausible when its 0.5 s rollout takes the CBV from the
 //!   road onto the off-road area (or, off the road already, farther from
-//!   it), when a background agent (replayed agents where their recording
-//!   puts them, the others at constant velocity: [`BackgroundForecast`])
-//!   and the CBV touch during the token or the second after it with the
-//!   token held
-//!   (no brake checks on followers, no stopping in the way of crossing
-//!   traffic), or when the CBV, braking as hard as
-//!   it can after the token (holding its curvature, as a driver braking in
-//!   a bend does), would leave the road or run into one within 2 s (at
-//!   fault as the metrics judge it: a follower running into a braking CBV
-//!   is not the CBV's doing). A plausible token leaves the CBV room to stop
-//!   on the road. The arg min is taken over the plausible candidates
-//!   of the trust region; when none is plausible the CBV takes the likeliest
-//!   plausible token of the whole vocabulary (what a careful driver would
-//!   do: the trust region is for realism, and leaving the road or hitting
-//!   traffic is not realistic), and only when no token at all is plausible
-//!   the trust region's token that breaks the rule latest. The same rule
-//!   restricts the prior's draws in the approach phase.
+//!   it; driving on past the mapped end of the road, where the recording's
+//!   map was cut off, is not leaving it), when a background agent
+//!   (replayed agents where their recording puts them, the others at
+//!   constant velocity: [`BackgroundForecast`]) and the CBV touch during
+//!   the token or the second after it with the token held (no brake checks
+//!   on followers, no stopping in the way of crossing traffic), or when the
+//!   CBV, braking as hard as it can after the token (holding its
+//!   curvature, as a driver braking in a bend does), would leave the road
+//!   or run into one within 2 s (at fault as the metrics judge it: a
+//!   follower running into a braking CBV is not the CBV's doing). A
+//!   plausible token leaves the CBV room to stop on the road. The arg min
+//!   is taken over the plausible candidates of the trust region; when none
+//!   is plausible the CBV takes the likeliest plausible token of the whole
+//!   vocabulary (what a careful driver would do: the trust region is for
+//!   realism, and leaving the road or hitting traffic is not realistic).
+//!   When no token at all is plausible, a replayed agent is about to run
+//!   into the CBV whatever it does (replay cannot yield); then the same
+//!   two steps are taken with only the contacts the CBV would be at fault
+//!   for counted: waiting to be hit is better than fleeing into someone
+//!   else. Only when even that leaves nothing, the trust region's token
+//!   that breaks the rule latest. The same rule restricts the prior's
+//!   draws in the approach phase.
 //!
 //! The ablations are the same policy with a part switched off;
 //! `safer-lookahead` (beyond the paper) is the same policy scoring tokens
@@ -178,7 +183,8 @@ impl Adversary {
 
     /// The approach phase's token: a draw from the prior (with the
     /// rollout's seed and sampling) among the plausible candidates of its
-    /// top k, or among all of them when none is plausible.
+    /// top k, the fallbacks of the module's plausibility rule when none is,
+    /// or a draw among all of them when nothing is plausible at all.
     fn approach_token(&self, world: &WorldView<'_>, cbv: TrackIndex) -> Option<Token> {
         let mut shared = self.shared.lock().unwrap_or_else(|p| p.into_inner());
         let (seed, sampling) = (shared.seed(), shared.sampling());
@@ -190,18 +196,22 @@ impl Adversary {
         let mut masked = logits.clone();
         if let Some(cbv_now) = world.state(cbv) {
             let check = PlausibilityCheck::new(world, cbv, self.ego, &forecast);
-            let implausible: Vec<bool> = token_rollouts(cbv_now, top).iter().map(|r| check.implausible(r)).collect();
-            if implausible.iter().all(|bad| *bad) {
-                // Nothing plausible to draw from: the likeliest plausible
-                // token of the vocabulary, as in the adversary's choice.
-                if let Some(t) = check.likeliest_plausible(&logits, top.len()..logits.len()) {
-                    return Some(t);
-                }
-            } else {
-                for (t, bad) in top.iter().zip(implausible) {
-                    if bad {
-                        masked[t.0 as usize] = f32::NEG_INFINITY;
+            let rollouts = token_rollouts(cbv_now, top);
+            // As in the adversary's choice: the plausible tokens of the top
+            // k, else the likeliest plausible one of the vocabulary; under
+            // the strict rule first, then counting only the CBV's own faults.
+            for rule in [ContactRule::Any, ContactRule::AtFaultOnly] {
+                let implausible: Vec<bool> = rollouts.iter().map(|r| check.implausible(r, rule)).collect();
+                if implausible.iter().any(|bad| !*bad) {
+                    for (t, bad) in top.iter().zip(implausible) {
+                        if bad {
+                            masked[t.0 as usize] = f32::NEG_INFINITY;
+                        }
                     }
+                    break;
+                }
+                if let Some(t) = check.likeliest_plausible(&logits, top.len()..logits.len(), rule) {
+                    return Some(t);
                 }
             }
         }
@@ -272,7 +282,7 @@ pub fn safer_choice(
             cbv_body,
             candidates,
             tokens: search.lookahead_tokens,
-            on_road_now: !world.map.is_off_road(&cbv_now.position),
+            on_road_now: !world.map.is_off_road_within_map(&cbv_now.position),
         };
         let first = FirstTokens { states: &predicted, distances_m: &distances, values: values.as_deref() };
         lookahead.lower_losses(cbv_now, first, &mut losses, feasibility, feasibility_s)?;
@@ -293,16 +303,28 @@ pub fn safer_choice(
     let check = PlausibilityCheck::new(world, cbv, ego, forecast);
     let mut violations = Vec::with_capacity(order.len());
     for &i in &order {
-        match check.first_violation(&rollouts[i]) {
+        match check.first_violation(&rollouts[i], ContactRule::Any) {
             None => return Ok(Some(candidates[i])),
             Some(k) => violations.push((i, k)),
         }
     }
     let outside_trust_region = candidates.len()..logits.len();
+    if let Some(t) = check.likeliest_plausible(logits, outside_trust_region.clone(), ContactRule::Any) {
+        return Ok(Some(t));
+    }
+    // Nothing is plausible: whatever the CBV does, a replayed agent runs
+    // into it. The same two steps counting only its own faults.
+    if let Some(&(i, _)) =
+        violations.iter().find(|(i, _)| check.first_violation(&rollouts[*i], ContactRule::AtFaultOnly).is_none())
+    {
+        return Ok(Some(candidates[i]));
+    }
+    if let Some(t) = check.likeliest_plausible(logits, outside_trust_region, ContactRule::AtFaultOnly) {
+        return Ok(Some(t));
+    }
     // With no plausible token at all, the trust region's token that
     // breaks the rule latest (the first such in arg-min order).
-    let latest = violations.iter().rev().max_by_key(|(_, k)| *k).map(|(i, _)| candidates[*i]);
-    Ok(check.likeliest_plausible(logits, outside_trust_region).or(latest))
+    Ok(violations.iter().rev().max_by_key(|(_, k)| *k).map(|(i, _)| candidates[*i]))
 }
 
 /// V_h of the CBV in each of `predicted` against the ego in `ego`, timed
@@ -428,7 +450,7 @@ impl Lookahead<'_> {
                 for &t in self.candidates {
                     let end = TokenGrid::rollout(&parent.state, t)[TOKEN_PERIOD_STEPS - 1];
                     let at = end.to_agent_state();
-                    if self.on_road_now && self.world.map.is_off_road(&at.position) {
+                    if self.on_road_now && self.world.map.is_off_road_within_map(&at.position) {
                         continue;
                     }
                     let distance_m = ego_box.distance(&self.cbv_body.footprint(&at));
@@ -603,6 +625,19 @@ impl Bounds {
     }
 }
 
+/// Which contacts with background traffic break the plausibility rule.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum ContactRule {
+    /// Any contact while the CBV holds its token (being run into included:
+    /// no brake checks, no stopping in the way), and running into someone
+    /// while it brakes after the token: the rule.
+    Any,
+    /// Only contacts the CBV is at fault for, as the metrics judge them:
+    /// the fallback when a replayed agent will run into the CBV whatever
+    /// it does.
+    AtFaultOnly,
+}
+
 /// Which violation of the plausibility rule a check looks for.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Violation {
@@ -667,26 +702,26 @@ impl<'w> PlausibilityCheck<'w> {
             background,
             background_bounds,
             edge_distance_now: world.map.signed_distance_to_road_edge(&now.position),
-            on_road_now: !world.map.is_off_road(&now.position),
+            on_road_now: !world.map.is_off_road_within_map(&now.position),
         }
     }
 
     /// Whether `rollout` breaks the rule: the checks stop at the first
     /// violation found (the plausibility fallback ranks the whole
     /// vocabulary, where most tokens break it).
-    fn implausible(&self, rollout: &[AgentState]) -> bool {
-        self.violation(rollout, Violation::Any).is_some()
+    fn implausible(&self, rollout: &[AgentState], rule: ContactRule) -> bool {
+        self.violation(rollout, Violation::Any, rule).is_some()
     }
 
     /// The first step (counted from the token's first state) at which
     /// `rollout` breaks the rule, or `None` for a plausible token.
-    fn first_violation(&self, rollout: &[AgentState]) -> Option<usize> {
-        self.violation(rollout, Violation::First)
+    fn first_violation(&self, rollout: &[AgentState], rule: ContactRule) -> Option<usize> {
+        self.violation(rollout, Violation::First, rule)
     }
 
     /// A step at which `rollout` breaks the rule: the first one, or (for
     /// [`Violation::Any`]) the first one the checks come to.
-    fn violation(&self, rollout: &[AgentState], wanted: Violation) -> Option<usize> {
+    fn violation(&self, rollout: &[AgentState], wanted: Violation, rule: ContactRule) -> Option<usize> {
         let end = rollout.last()?;
         let map = self.world.map;
         let braking: Vec<AgentState> = rollout.iter().copied().chain(braking_after(rollout)).collect();
@@ -695,7 +730,7 @@ impl<'w> PlausibilityCheck<'w> {
         if self.on_road_now {
             // Moving states only: a stopped CBV stays where it stopped.
             if let Some(k) =
-                braking.iter().take_while(|s| s.speed_mps() > 0.0).position(|s| map.is_off_road(&s.position))
+                braking.iter().take_while(|s| s.speed_mps() > 0.0).position(|s| map.is_off_road_within_map(&s.position))
             {
                 note(&mut first, k);
             }
@@ -717,8 +752,9 @@ impl<'w> PlausibilityCheck<'w> {
         // Both paths start with the token's own states: their boxes are built once.
         let body = |s: &AgentState| self.cbv_body.footprint(s);
         let token_boxes: Vec<OrientedBox> = rollout.iter().map(body).collect();
+        let held: Vec<AgentState> = rollout.iter().copied().chain(holding_after(rollout)).collect();
         let held_boxes: Vec<OrientedBox> =
-            token_boxes.iter().copied().chain(holding_after(rollout).map(|s| body(&s))).collect();
+            token_boxes.iter().copied().chain(held[rollout.len()..].iter().map(body)).collect();
         let braking_boxes: Vec<OrientedBox> =
             token_boxes.into_iter().chain(braking[rollout.len()..].iter().map(body)).collect();
         let first_contact = |predicted: &[Option<(AgentState, OrientedBox)>], own: &[OrientedBox]| {
@@ -732,7 +768,10 @@ impl<'w> PlausibilityCheck<'w> {
             if !bounds.overlaps(&own_bounds) {
                 continue;
             }
-            if let Some(k) = first_contact(predicted, &held_boxes) {
+            if let Some(k) = first_contact(predicted, &held_boxes)
+                && let Some((theirs, _)) = predicted[k]
+                && (rule == ContactRule::Any || EgoContact::judge(map, &held[k], &held_boxes[k], &theirs).at_fault())
+            {
                 note(&mut first, k);
             }
             // Braking after the token: only what the CBV runs into.
@@ -748,11 +787,11 @@ impl<'w> PlausibilityCheck<'w> {
 
     /// The likeliest plausible token among the ranks `ranks` of the prior's
     /// ranking of `logits` (most likely first), if any.
-    fn likeliest_plausible(&self, logits: &[f32], ranks: std::ops::Range<usize>) -> Option<Token> {
+    fn likeliest_plausible(&self, logits: &[f32], ranks: std::ops::Range<usize>, rule: ContactRule) -> Option<Token> {
         let now = self.cbv_now.as_ref()?;
         let ranked = ranked_tokens(logits);
         let from = KinematicState::from_agent_state(now);
-        ranked.get(ranks)?.iter().copied().find(|t| !self.implausible(&token_rollout(&from, *t)))
+        ranked.get(ranks)?.iter().copied().find(|t| !self.implausible(&token_rollout(&from, *t), rule))
     }
 }
 
@@ -825,7 +864,7 @@ mod tests {
         let rollouts = token_rollouts(states[1].as_ref().unwrap(), &tokens);
         let implausible = |world: &WorldView<'_>| {
             let check = PlausibilityCheck::new(world, cbv, ego, &BackgroundForecast::default());
-            rollouts.iter().map(|r| check.implausible(r)).collect::<Vec<bool>>()
+            rollouts.iter().map(|r| check.implausible(r, ContactRule::Any)).collect::<Vec<bool>>()
         };
         assert_eq!(implausible(&world), vec![true, true, false]);
         // The same tokens with the stopped car in the next lane are all plausible.
@@ -874,7 +913,7 @@ mod tests {
         let rollouts = token_rollouts(states[1].as_ref().unwrap(), &tokens);
         let implausible = |world: &WorldView<'_>, forecast: BackgroundForecast<'_>| {
             let check = PlausibilityCheck::new(world, TrackIndex(1), TrackIndex(0), &forecast);
-            rollouts.iter().map(|r| check.implausible(r)).collect::<Vec<bool>>()
+            rollouts.iter().map(|r| check.implausible(r, ContactRule::Any)).collect::<Vec<bool>>()
         };
         // Replayed: holding speed runs into the car as it brakes; braking does not.
         let replayed = BackgroundForecast { recording: Some(&scenario), not_replayed: &[] };
@@ -898,7 +937,7 @@ mod tests {
         let rollouts = token_rollouts(states[1].as_ref().unwrap(), &[token(MAX_ACCEL_MPS2)]);
         assert!(
             !PlausibilityCheck::new(&world, TrackIndex(1), TrackIndex(0), &BackgroundForecast::default())
-                .implausible(&rollouts[0])
+                .implausible(&rollouts[0], ContactRule::Any)
         );
     }
 
@@ -933,7 +972,10 @@ mod tests {
 
     fn implausible_tokens(world: &WorldView<'_>, cbv: TrackIndex, tokens: &[Token]) -> Vec<bool> {
         let check = PlausibilityCheck::new(world, cbv, TrackIndex(0), &BackgroundForecast::default());
-        token_rollouts(world.states[cbv.0].as_ref().unwrap(), tokens).iter().map(|r| check.implausible(r)).collect()
+        token_rollouts(world.states[cbv.0].as_ref().unwrap(), tokens)
+            .iter()
+            .map(|r| check.implausible(r, ContactRule::Any))
+            .collect()
     }
 
     #[test]
@@ -1018,8 +1060,12 @@ mod tests {
         logits[token(-4.0).0 as usize] = 2.0;
         logits[token(-MAX_ACCEL_MPS2).0 as usize] = 1.0;
         let check = PlausibilityCheck::new(&world, TrackIndex(1), TrackIndex(0), &BackgroundForecast::default());
-        assert_eq!(check.likeliest_plausible(&logits, 0..2), None, "the trust region of two holds none");
-        assert_eq!(check.likeliest_plausible(&logits, 2..logits.len()), Some(token(-4.0)));
+        assert_eq!(
+            check.likeliest_plausible(&logits, 0..2, ContactRule::Any),
+            None,
+            "the trust region of two holds none"
+        );
+        assert_eq!(check.likeliest_plausible(&logits, 2..logits.len(), ContactRule::Any), Some(token(-4.0)));
     }
 
     /// A feasibility value from a rule on the candidate state.
@@ -1064,6 +1110,43 @@ mod tests {
         )
         .unwrap()
         .unwrap()
+    }
+
+    #[test]
+    fn when_a_follower_will_hit_the_cbv_whatever_it_does_it_waits_rather_than_run_into_the_car_ahead() {
+        // The CBV stopped 2.5 m behind a stopped car, a follower closing at
+        // 12 m/s 5.5 m behind it (constant velocity: it cannot yield). Every
+        // token breaks the rule: waiting is being run into, fleeing at
+        // 5 m/s² runs into the car ahead within the held second. The prior
+        // likes fleeing; the CBV must wait (not at fault).
+        let map = RoadMap::default();
+        let bodies = [AgentBody { kind: AgentKind::Vehicle, length_m: 4.5, width_m: 2.0 }; 4];
+        let states = [car(0.0, 100.0, 0.0), car(0.0, 0.0, 0.0), car(-10.0, 0.0, 12.0), car(7.0, 0.0, 0.0)];
+        let world = WorldView { map: &map, step: 0, bodies: &bodies, states: &states };
+        let mut logits = vec![-30.0f32; crate::motion::tokens::VOCABULARY_SIZE];
+        for (accel_mps2, logit) in [(MAX_ACCEL_MPS2, 5.0), (0.0, 1.0)] {
+            logits[token(accel_mps2).0 as usize] = logit;
+        }
+        let check = PlausibilityCheck::new(&world, TrackIndex(1), TrackIndex(0), &BackgroundForecast::default());
+        let rollouts = token_rollouts(states[1].as_ref().unwrap(), &[token(MAX_ACCEL_MPS2), token(0.0)]);
+        for rule in [ContactRule::Any, ContactRule::AtFaultOnly] {
+            let implausible: Vec<bool> = rollouts.iter().map(|r| check.implausible(r, rule)).collect();
+            let expected = if rule == ContactRule::Any { vec![true, true] } else { vec![true, false] };
+            assert_eq!(implausible, expected, "{rule:?}");
+        }
+        assert_eq!(check.likeliest_plausible(&logits, 0..logits.len(), ContactRule::Any), None);
+        let mut feasibility_s = 0.0;
+        let search = Search::one_step(TrustRegion::TopN(2));
+        let chosen = safer_choice(
+            &world,
+            (TrackIndex(1), TrackIndex(0)),
+            &logits,
+            search,
+            &BackgroundForecast::default(),
+            None,
+            &mut feasibility_s,
+        );
+        assert_eq!(chosen.unwrap(), Some(token(0.0)));
     }
 
     const LIKED: [(f64, f32); 5] = [(-5.0, 5.0), (-2.0, 4.0), (0.0, 3.0), (2.0, 2.0), (5.0, 1.0)];
