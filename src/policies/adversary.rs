@@ -49,7 +49,7 @@ use std::sync::{Arc, Mutex};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-use super::prior_sampling::{PriorTraffic, draw_seed, ranked_tokens, sample_token, top_tokens};
+use super::prior_sampling::{PriorTraffic, TokenSampling, draw_seed, ranked_tokens, sample_token, top_tokens};
 use super::{AgentAction, AgentPolicy, WorldView};
 use crate::geometry::{OrientedBox, wrap_angle};
 use crate::models::ModelError;
@@ -181,10 +181,8 @@ impl Adversary {
         chosen
     }
 
-    /// The approach phase's token: a draw from the prior (with the
-    /// rollout's seed and sampling) among the plausible candidates of its
-    /// top k, the fallbacks of the module's plausibility rule when none is,
-    /// or a draw among all of them when nothing is plausible at all.
+    /// The approach phase's token: [`approach_draw`] with the rollout's
+    /// seed and sampling.
     fn approach_token(&self, world: &WorldView<'_>, cbv: TrackIndex) -> Option<Token> {
         let mut shared = self.shared.lock().unwrap_or_else(|p| p.into_inner());
         let (seed, sampling) = (shared.seed(), shared.sampling());
@@ -192,32 +190,8 @@ impl Adversary {
         let (scenario, prior_driven) = (shared.scenario().clone(), shared.members().to_vec());
         drop(shared);
         let forecast = BackgroundForecast { recording: Some(&scenario), not_replayed: &prior_driven };
-        let top = &top_tokens(&logits, sampling.top_k.clamp(1, logits.len()))[..];
-        let mut masked = logits.clone();
-        if let Some(cbv_now) = world.state(cbv) {
-            let check = PlausibilityCheck::new(world, cbv, self.ego, &forecast);
-            let rollouts = token_rollouts(cbv_now, top);
-            // As in the adversary's choice: the plausible tokens of the top
-            // k, else the likeliest plausible one of the vocabulary; under
-            // the strict rule first, then counting only the CBV's own faults.
-            for rule in [ContactRule::Any, ContactRule::AtFaultOnly] {
-                let implausible: Vec<bool> = rollouts.iter().map(|r| check.implausible(r, rule)).collect();
-                if implausible.iter().any(|bad| !*bad) {
-                    for (t, bad) in top.iter().zip(implausible) {
-                        if bad {
-                            masked[t.0 as usize] = f32::NEG_INFINITY;
-                        }
-                    }
-                    break;
-                }
-                if let Some(t) = check.likeliest_plausible(&logits, top.len()..logits.len(), rule) {
-                    return Some(t);
-                }
-            }
-        }
-        // Masked tokens rank last, so the top k keeps every plausible one.
         let mut rng = ChaCha8Rng::seed_from_u64(draw_seed(seed, cbv.0, world.step));
-        Some(sample_token(&masked, sampling, &mut rng))
+        Some(approach_draw(world, (cbv, self.ego), &logits, sampling, &forecast, &mut rng))
     }
 
     /// How many token periods of the approach phase this rollout's seed gives.
@@ -225,6 +199,46 @@ impl Adversary {
         let mut rng = ChaCha8Rng::seed_from_u64(draw_seed(seed, cbv.0, usize::MAX));
         rng.random_range(APPROACH_TOKENS)
     }
+}
+
+/// The approach phase's token for the CBV of the pair (CBV, ego): a draw
+/// from the prior (`sampling`, with `rng`) among the plausible tokens of
+/// its top k; when none is, the fallbacks of the module's plausibility
+/// rule; a draw among the top k as they are when nothing is plausible at
+/// all (or the CBV is absent).
+fn approach_draw(
+    world: &WorldView<'_>,
+    (cbv, ego): (TrackIndex, TrackIndex),
+    logits: &[f32],
+    sampling: TokenSampling,
+    forecast: &BackgroundForecast<'_>,
+    rng: &mut impl Rng,
+) -> Token {
+    let top = &top_tokens(logits, sampling.top_k.clamp(1, logits.len()))[..];
+    let Some(cbv_now) = world.state(cbv) else { return sample_token(logits, sampling, rng) };
+    let check = PlausibilityCheck::new(world, cbv, ego, forecast);
+    let rollouts = token_rollouts(cbv_now, top);
+    // As in the adversary's choice: the plausible tokens of the top k,
+    // else the likeliest plausible one of the vocabulary; under the strict
+    // rule first, then counting only the CBV's own faults.
+    for rule in [ContactRule::Any, ContactRule::AtFaultOnly] {
+        let plausible: Vec<Token> =
+            top.iter().zip(&rollouts).filter(|(_, r)| !check.implausible(r, rule)).map(|(t, _)| *t).collect();
+        if !plausible.is_empty() {
+            // Only the checked, plausible tokens keep their logits: a draw
+            // from the top k of logits merely masked where implausible
+            // would reach past the top k to tokens never checked.
+            let mut masked = vec![f32::NEG_INFINITY; logits.len()];
+            for t in &plausible {
+                masked[t.0 as usize] = logits[t.0 as usize];
+            }
+            return sample_token(&masked, TokenSampling { top_k: plausible.len(), ..sampling }, rng);
+        }
+        if let Some(t) = check.likeliest_plausible(logits, top.len()..logits.len(), rule) {
+            return t;
+        }
+    }
+    sample_token(logits, sampling, rng)
 }
 
 /// SaFeR's choice at one token boundary for the CBV of the pair (CBV,
@@ -1110,6 +1124,35 @@ mod tests {
         )
         .unwrap()
         .unwrap()
+    }
+
+    #[test]
+    fn the_approach_draws_only_among_the_checked_plausible_tokens_of_the_top_k() {
+        // 25 m behind a stopped car at 15 m/s: of the top two, full
+        // acceleration is implausible and full braking plausible; holding
+        // speed (implausible too, ranked third and as likely as braking)
+        // lies outside the top two and is never checked, so never drawn.
+        let map = RoadMap::default();
+        let bodies = [AgentBody { kind: AgentKind::Vehicle, length_m: 4.5, width_m: 2.0 }; 3];
+        let states = [car(0.0, 100.0, 10.0), car(0.0, 0.0, 15.0), car(30.0, 0.0, 0.0)];
+        let world = WorldView { map: &map, step: 10, bodies: &bodies, states: &states };
+        let mut logits = vec![-30.0f32; crate::motion::tokens::VOCABULARY_SIZE];
+        logits[token(MAX_ACCEL_MPS2).0 as usize] = 5.0;
+        logits[token(-MAX_ACCEL_MPS2).0 as usize] = 4.0;
+        logits[token(0.0).0 as usize] = 4.0 - 1e-6;
+        let sampling = TokenSampling { top_k: 2, temperature: 1.0 };
+        for seed in 0..32 {
+            let mut rng = ChaCha8Rng::seed_from_u64(seed);
+            let drawn = approach_draw(
+                &world,
+                (TrackIndex(1), TrackIndex(0)),
+                &logits,
+                sampling,
+                &BackgroundForecast::default(),
+                &mut rng,
+            );
+            assert_eq!(drawn, token(-MAX_ACCEL_MPS2), "seed {seed}");
+        }
     }
 
     #[test]
