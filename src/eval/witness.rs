@@ -50,10 +50,15 @@ impl Default for WitnessBudget {
     }
 }
 
-/// Accelerations tried per period, m/s² (full braking to firm acceleration).
-const ACCELS_MPS2: [f64; 7] = [-MAX_ACCEL_MPS2, -3.5, -2.0, -0.8, 0.0, 1.0, 2.5];
-/// Yaw rates tried per period, rad/s.
-const YAW_RATES_RADPS: [f64; 7] = [-0.6, -0.3, -0.1, 0.0, 0.1, 0.3, 0.6];
+/// Accelerations tried per period, m/s²: full braking to full acceleration
+/// (the token grid's range; an escape from a car closing from behind may
+/// need all of it).
+const ACCELS_MPS2: [f64; 8] = [-MAX_ACCEL_MPS2, -3.5, -2.0, -0.8, 0.0, 1.0, 2.5, MAX_ACCEL_MPS2];
+/// Yaw rates tried per period, rad/s (the grid allows ±1.5; ±1 rad/s is a
+/// 10 m radius at 10 m/s, the sharpest swerve most escapes need; more
+/// choices per period would outgrow the expansion budget of an 8 s
+/// search: 48 candidates × 72 actions × 16 periods = 55 296 of 60 000).
+const YAW_RATES_RADPS: [f64; 9] = [-1.0, -0.6, -0.3, -0.1, 0.0, 0.1, 0.3, 0.6, 1.0];
 
 /// What the search found.
 #[derive(Debug, Clone, PartialEq)]
@@ -715,6 +720,23 @@ mod tests {
         let Witness::Found { trajectory, min_clearance_m, .. } = w else { panic!("{w:?}") };
         assert!(min_clearance_m > WitnessBudget::default().margin_m);
         assert_touches_no_car(&trajectory, &states);
+    }
+
+    #[test]
+    fn a_wall_closing_from_behind_is_escaped_at_full_acceleration() {
+        // Ego at 10 m/s, a wall 40 m wide 4 m behind it at 15 m/s: no swerve
+        // clears it, braking or holding speed is hit within a second, and
+        // 2.5 m/s² (the firmest acceleration the search tried before) is
+        // caught after 1.1 s; 5 m/s² keeps 1.5 m clear.
+        let horizon = 20;
+        let wall = AgentBody { kind: AgentKind::Vehicle, length_m: 4.0, width_m: 40.0 };
+        let states = states_over(horizon, |t| vec![None, Some(at(-8.25 + 15.0 * t, 0.0, 15.0))]);
+        let traffic = FixedTraffic { states: &states, bodies: &[car(), wall], ego: 0 };
+        let w = search_witness(&at(0.0, 0.0, 10.0), car(), &traffic, horizon, WitnessBudget::default());
+        let Witness::Found { trajectory, min_clearance_m, .. } = w else { panic!("{w:?}") };
+        assert!(min_clearance_m > WitnessBudget::default().margin_m);
+        // Faster than 2.5 m/s² could make it over the first second.
+        assert!(trajectory[10].speed_mps() > 10.0 + 2.5 + 1.0, "{:?}", trajectory[10]);
     }
 
     #[test]
