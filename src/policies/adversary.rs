@@ -315,26 +315,21 @@ pub fn safer_choice(
             .then(candidates[i].0.cmp(&candidates[j].0))
     });
     let check = PlausibilityCheck::new(world, cbv, ego, forecast);
+    // The strict rule first; when nothing at all is plausible, whatever the
+    // CBV does a replayed agent runs into it, and the same two steps are
+    // taken counting only its own faults.
     let mut violations = Vec::with_capacity(order.len());
-    for &i in &order {
-        match check.first_violation(&rollouts[i], ContactRule::Any) {
-            None => return Ok(Some(candidates[i])),
-            Some(k) => violations.push((i, k)),
+    for rule in [ContactRule::Any, ContactRule::AtFaultOnly] {
+        for &i in &order {
+            match check.first_violation(&rollouts[i], rule) {
+                None => return Ok(Some(candidates[i])),
+                Some(k) if rule == ContactRule::Any => violations.push((i, k)),
+                Some(_) => {}
+            }
         }
-    }
-    let outside_trust_region = candidates.len()..logits.len();
-    if let Some(t) = check.likeliest_plausible(logits, outside_trust_region.clone(), ContactRule::Any) {
-        return Ok(Some(t));
-    }
-    // Nothing is plausible: whatever the CBV does, a replayed agent runs
-    // into it. The same two steps counting only its own faults.
-    if let Some(&(i, _)) =
-        violations.iter().find(|(i, _)| check.first_violation(&rollouts[*i], ContactRule::AtFaultOnly).is_none())
-    {
-        return Ok(Some(candidates[i]));
-    }
-    if let Some(t) = check.likeliest_plausible(logits, outside_trust_region, ContactRule::AtFaultOnly) {
-        return Ok(Some(t));
+        if let Some(t) = check.likeliest_plausible(logits, candidates.len()..logits.len(), rule) {
+            return Ok(Some(t));
+        }
     }
     // With no plausible token at all, the trust region's token that
     // breaks the rule latest (the first such in arg-min order).
@@ -1095,19 +1090,20 @@ mod tests {
     /// `liked` (m/s², logit) and nothing else.
     fn choice(liked: &[(f64, f32)], trust_region: TrustRegion, oracle: Option<&dyn FeasibilityOracle>) -> Token {
         let states = [car(30.0, 0.0, 10.0), car(0.0, 0.0, 10.0)];
-        choice_in(states, liked, Search::one_step(trust_region), oracle)
+        choice_in(&states, liked, Search::one_step(trust_region), oracle)
     }
 
-    /// The choice with the ego and the CBV in `states` on an open plane.
+    /// The choice with the ego (index 0), the CBV (index 1) and any other
+    /// cars (background at constant velocity) in `states` on an open plane.
     fn choice_in(
-        states: [Option<AgentState>; 2],
+        states: &[Option<AgentState>],
         liked: &[(f64, f32)],
         search: Search,
         oracle: Option<&dyn FeasibilityOracle>,
     ) -> Token {
         let map = RoadMap::default();
-        let bodies = [AgentBody { kind: AgentKind::Vehicle, length_m: 4.5, width_m: 2.0 }; 2];
-        let world = WorldView { map: &map, step: 0, bodies: &bodies, states: &states };
+        let bodies = vec![AgentBody { kind: AgentKind::Vehicle, length_m: 4.5, width_m: 2.0 }; states.len()];
+        let world = WorldView { map: &map, step: 0, bodies: &bodies, states };
         let mut logits = vec![-30.0f32; crate::motion::tokens::VOCABULARY_SIZE];
         for &(accel_mps2, logit) in liked {
             logits[token(accel_mps2).0 as usize] = logit;
@@ -1166,8 +1162,9 @@ mod tests {
         let bodies = [AgentBody { kind: AgentKind::Vehicle, length_m: 4.5, width_m: 2.0 }; 4];
         let states = [car(0.0, 100.0, 0.0), car(0.0, 0.0, 0.0), car(-10.0, 0.0, 12.0), car(7.0, 0.0, 0.0)];
         let world = WorldView { map: &map, step: 0, bodies: &bodies, states: &states };
+        let liked = [(MAX_ACCEL_MPS2, 5.0), (0.0, 1.0)];
         let mut logits = vec![-30.0f32; crate::motion::tokens::VOCABULARY_SIZE];
-        for (accel_mps2, logit) in [(MAX_ACCEL_MPS2, 5.0), (0.0, 1.0)] {
+        for (accel_mps2, logit) in liked {
             logits[token(accel_mps2).0 as usize] = logit;
         }
         let check = PlausibilityCheck::new(&world, TrackIndex(1), TrackIndex(0), &BackgroundForecast::default());
@@ -1178,18 +1175,7 @@ mod tests {
             assert_eq!(implausible, expected, "{rule:?}");
         }
         assert_eq!(check.likeliest_plausible(&logits, 0..logits.len(), ContactRule::Any), None);
-        let mut feasibility_s = 0.0;
-        let search = Search::one_step(TrustRegion::TopN(2));
-        let chosen = safer_choice(
-            &world,
-            (TrackIndex(1), TrackIndex(0)),
-            &logits,
-            search,
-            &BackgroundForecast::default(),
-            None,
-            &mut feasibility_s,
-        );
-        assert_eq!(chosen.unwrap(), Some(token(0.0)));
+        assert_eq!(choice_in(&states, &liked, Search::one_step(TrustRegion::TopN(2)), None), token(0.0));
     }
 
     const LIKED: [(f64, f32); 5] = [(-5.0, 5.0), (-2.0, 4.0), (0.0, 3.0), (2.0, 2.0), (5.0, 1.0)];
@@ -1251,13 +1237,13 @@ mod tests {
         let one_step = Search::one_step(TrustRegion::TopN(5));
         let lookahead = Search { lookahead_tokens: LOOKAHEAD_TOKENS, ..one_step };
         // The paper's arg min stops at the closest feasible state.
-        assert_eq!(choice_in(CLOSING, &LIKED, one_step, Some(&close_is_infeasible)), token(0.0));
+        assert_eq!(choice_in(&CLOSING, &LIKED, one_step, Some(&close_is_infeasible)), token(0.0));
         // From a feasible state (2.5 m) the contact is a conflict the ego could escape.
-        assert_eq!(choice_in(CLOSING, &LIKED, lookahead, Some(&close_is_infeasible)), token(5.0));
+        assert_eq!(choice_in(&CLOSING, &LIKED, lookahead, Some(&close_is_infeasible)), token(5.0));
         // From an infeasible state it is not: the least V_h (the widest gap) wins, as in the paper.
         let near_is_infeasible = StubOracle(|p| 3.0 - gap_m(p) as f32);
-        assert_eq!(choice_in(CLOSING, &LIKED, lookahead, Some(&near_is_infeasible)), token(-5.0));
-        assert_eq!(choice_in(CLOSING, &LIKED, one_step, Some(&near_is_infeasible)), token(-5.0));
+        assert_eq!(choice_in(&CLOSING, &LIKED, lookahead, Some(&near_is_infeasible)), token(-5.0));
+        assert_eq!(choice_in(&CLOSING, &LIKED, one_step, Some(&near_is_infeasible)), token(-5.0));
     }
 
     #[test]
@@ -1267,11 +1253,11 @@ mod tests {
         let states = [car(30.0, 0.0, 10.0), car(0.0, 0.0, 10.0)];
         let lookahead = Search { lookahead_tokens: LOOKAHEAD_TOKENS, ..Search::one_step(TrustRegion::TopN(5)) };
         let feasible = StubOracle(|_| -1.0);
-        assert_eq!(choice_in(states, &LIKED, lookahead, Some(&feasible)), token(5.0));
+        assert_eq!(choice_in(&states, &LIKED, lookahead, Some(&feasible)), token(5.0));
         // Faster than 12 m/s is infeasible: +5 (12.5 m/s after the token)
         // is out; the closest feasible approach starts with +2.
         let fast_is_infeasible = StubOracle(|p| if p.cbv.speed_mps() > 12.01 { 1.0 } else { -1.0 });
-        assert_eq!(choice_in(states, &LIKED, lookahead, Some(&fast_is_infeasible)), token(2.0));
+        assert_eq!(choice_in(&states, &LIKED, lookahead, Some(&fast_is_infeasible)), token(2.0));
     }
 
     #[test]
