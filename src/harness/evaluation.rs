@@ -120,6 +120,11 @@ pub struct MethodRow {
     pub cbv_off_road_rate: Option<f64>,
     /// Mean time the CBV spent off the road per variant, s.
     pub cbv_off_road_s: Option<f64>,
+    /// Distinct variants per variant: how many different CBV paths the
+    /// seeds of each scene made (stage 1, to the centimetre), summed over
+    /// the scenes, over the variants that ran. 1 when every seed gives its
+    /// own variant; `None` when no variant ran.
+    pub distinct_rate: Option<f64>,
     /// Jensen–Shannon divergence of CBV speed vs the log.
     pub vj: Option<f64>,
     /// Jensen–Shannon divergence of CBV acceleration vs the log.
@@ -244,6 +249,15 @@ pub fn evaluate(
     records
 }
 
+/// The share of `variants` (of one method) that differ from every other
+/// seed's variant of their scene: distinct CBV paths per scene, summed,
+/// over the variants; `None` for none.
+fn distinct_rate(variants: &[&VariantRecord]) -> Option<f64> {
+    let distinct: std::collections::BTreeSet<(&str, Option<u64>)> =
+        variants.iter().map(|r| (r.scenario.as_str(), r.tally.cbv_path_digest)).collect();
+    (!variants.is_empty()).then(|| distinct.len() as f64 / variants.len() as f64)
+}
+
 /// One row per method, in the requested order. CR, SR, SR-crit, VJ and AJ
 /// are the suite metrics ([`SuiteMetrics::aggregate`]) over the variants
 /// that ran; variants that could not run are counted in `errors`.
@@ -278,10 +292,47 @@ pub fn table(records: &[VariantRecord], methods: &[AdversaryMethod]) -> Vec<Meth
                 cbv_at_fault_background_collision_rate: metrics.cbv_at_fault_background_collision_rate,
                 cbv_off_road_rate: metrics.cbv_off_road_rate,
                 cbv_off_road_s: metrics.cbv_off_road_s,
+                distinct_rate: distinct_rate(&ok),
                 vj: metrics.velocity_jsd,
                 aj: metrics.acceleration_jsd,
                 time_per_variant_s: ok.iter().map(|r| r.time_s).sum::<f64>() / n,
             }
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn record(scenario: &str, seed: u32, digest: u64) -> VariantRecord {
+        VariantRecord {
+            scenario: scenario.into(),
+            method: AdversaryMethod::Safer,
+            seed,
+            stage1_collision: false,
+            stage2_collision: false,
+            stage2: None,
+            witness: None,
+            stage1_min_gap_m: None,
+            cbv_hit_background: false,
+            cbv_at_fault_with_background: false,
+            cbv_off_road_s: 0.0,
+            time_s: 0.0,
+            profile: VariantProfile::default(),
+            planner_latency: None,
+            error: None,
+            tally: VariantTally { cbv_path_digest: Some(digest), ..VariantTally::default() },
+        }
+    }
+
+    #[test]
+    fn seeds_that_made_the_same_variant_count_once_and_only_within_their_scene() {
+        // Scene a: seeds 0 and 2 made the same path; scene b's path has a's
+        // digest but is another scene's variant.
+        let records = [record("a", 0, 7), record("a", 1, 8), record("a", 2, 7), record("b", 0, 7)];
+        let rows = table(&records, &[AdversaryMethod::Safer]);
+        assert_eq!(rows[0].distinct_rate, Some(0.75));
+        assert_eq!(table(&[], &[AdversaryMethod::Safer])[0].distinct_rate, None);
+    }
 }

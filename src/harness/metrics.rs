@@ -85,6 +85,9 @@ pub struct VariantTally {
     /// Time the CBV's centre spent off the road in stage 1, having started
     /// on it, s (0 when it started off the road: a car park is not a fault).
     pub cbv_off_road_s: f64,
+    /// A digest of the CBV's stage-1 path ([`cbv_path_digest`]): two
+    /// seeds with equal digests made the same variant.
+    pub cbv_path_digest: Option<u64>,
 }
 
 impl VariantTally {
@@ -98,6 +101,7 @@ impl VariantTally {
             cbv_hit_background: !background.is_empty(),
             cbv_at_fault_with_background: background.into_iter().any(|at_fault| at_fault),
             cbv_off_road_s: cbv_off_road_s(scenario, &stages.stage1),
+            cbv_path_digest: cbv_path_digest(&stages.stage1),
         }
     }
 }
@@ -122,6 +126,37 @@ fn cbv_background_collisions(scenario: &Scenario, stage1: &Rollout) -> Vec<bool>
             }
         })
         .collect()
+}
+
+/// The digest ([`path_digest`]) of the CBV's path in `stage1`; `None`
+/// without a CBV.
+fn cbv_path_digest(stage1: &Rollout) -> Option<u64> {
+    let cbv = stage1.cbv?;
+    Some(path_digest(stage1.states.iter().map(|row| row.get(cbv.0).copied().flatten().map(|s| s.position))))
+}
+
+/// A digest (64-bit FNV-1a, the same on every machine) of a path: its
+/// position at every step, to the centimetre, and the steps where it is
+/// absent (`None`).
+fn path_digest(positions: impl Iterator<Item = Option<crate::geometry::Point2>>) -> u64 {
+    const FNV_OFFSET: u64 = 0xcbf2_9ce4_8422_2325;
+    const FNV_PRIME: u64 = 0x0100_0000_01b3;
+    let mut digest = FNV_OFFSET;
+    let mut eat = |bytes: [u8; 8]| {
+        for b in bytes {
+            digest = (digest ^ u64::from(b)).wrapping_mul(FNV_PRIME);
+        }
+    };
+    for p in positions {
+        match p {
+            Some(p) => {
+                eat(((p.x * 100.0).round() as i64).to_le_bytes());
+                eat(((p.y * 100.0).round() as i64).to_le_bytes());
+            }
+            None => eat(i64::MIN.to_le_bytes()),
+        }
+    }
+    digest
 }
 
 /// Seconds the CBV's centre was off the road in `stage1`, when it started on
@@ -405,6 +440,20 @@ mod tests {
         let m = SuiteMetrics::aggregate(&[tally(false, true)]);
         let checks = m.checks(&acceptance(Some(f64::NAN), None));
         assert!(checks[0].result.is_err(), "{checks:?}");
+    }
+
+    #[test]
+    fn paths_have_the_same_digest_only_when_they_agree_to_the_centimetre() {
+        use crate::geometry::Point2;
+        let path = |last_x: f64| path_digest([Some(Point2::new(0.0, 0.0)), Some(Point2::new(last_x, 1.0))].into_iter());
+        assert_eq!(path(2.0), path(2.004));
+        assert_ne!(path(2.0), path(2.01));
+        // Absent at a step is not being at the origin.
+        let absent = path_digest([None, Some(Point2::new(2.0, 1.0))].into_iter());
+        assert_ne!(absent, path(2.0));
+        // Pinned (FNV-1a of the little-endian centimetres 0, 0, 200, 100):
+        // the same on every machine and build.
+        assert_eq!(path(2.0), 0xe8b4_3378_21d3_5b49);
     }
 
     #[test]

@@ -22,7 +22,10 @@
 //!   (replayed agents where their recording puts them, the others at
 //!   constant velocity: [`BackgroundForecast`]) and the CBV touch during
 //!   the token or the second after it with the token held (no brake checks
-//!   on followers, no stopping in the way of crossing traffic), or when the
+//!   on followers, no stopping in the way of crossing traffic), when a
+//!   replayed agent would run into the CBV in the 2 s after that with the
+//!   CBV keeping its speed (replay cannot yield: no slowing down in front
+//!   of traffic closing fast), or when the
 //!   CBV, braking as hard as it can after the token (holding its
 //!   curvature, as a driver braking in a bend does), would leave the road
 //!   or run into one within 2 s (at fault as the metrics judge it: a
@@ -69,8 +72,9 @@ pub const INFEASIBLE_PENALTY: f64 = 50.0;
 pub const APPROACH_TOKENS: std::ops::RangeInclusive<usize> = 1..=4;
 
 /// Background agents farther than this from the CBV cannot be reached
-/// within the plausibility check's horizon and are not checked, m.
-const BACKGROUND_CHECK_RANGE_M: f64 = 80.0;
+/// within the plausibility check's horizon (3.5 s at a closing speed of
+/// up to about 34 m/s) and are not checked, m.
+const BACKGROUND_CHECK_RANGE_M: f64 = 120.0;
 
 /// After a candidate token the plausibility check brakes the CBV this many
 /// simulator steps (2 s) to see whether it could still stop short of the
@@ -81,6 +85,19 @@ const BRAKING_CHECK_STEPS: usize = 20;
 /// background agent (predicted at constant velocity) into contact: no
 /// brake checks on followers, no stopping in the way of crossing traffic.
 const HOLDING_CHECK_STEPS: usize = 10;
+
+/// After the held token the CBV keeps its speed (and curvature) this many
+/// steps (2 s) more, and a replayed agent that would run into it within
+/// them makes the token implausible: a replayed car cannot yield (agents
+/// the prior or a rule drives can, and are not checked here), and a
+/// driver does not slow down or stop in front of traffic closing on it
+/// faster than it could get out of the way (seen on WOMD interactive: a
+/// CBV slowing in a lane where a car came up at 25 m/s, a CBV stopped in
+/// the path of crossing traffic 2 s away; 1 s of holding saw both only
+/// when no token could avoid them any more). Contacts the CBV would be at
+/// fault for are not counted here: running into someone at constant speed
+/// seconds ahead is what the braking check is for.
+const CLOSING_CHECK_STEPS: usize = 20;
 
 /// Which tokens the adversary may choose from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -513,13 +530,18 @@ fn braking_after(rollout: &[AgentState]) -> impl Iterator<Item = AgentState> + u
 }
 
 /// The CBV's states over [`HOLDING_CHECK_STEPS`] steps after `rollout`,
-/// holding the token's acceleration and curvature.
-fn holding_after(rollout: &[AgentState]) -> impl Iterator<Item = AgentState> + use<> {
+/// holding the token's acceleration and curvature, then over
+/// [`CLOSING_CHECK_STEPS`] more at the speed reached, still holding the
+/// curvature.
+fn holding_after(rollout: &[AgentState]) -> Vec<AgentState> {
     let accel_mps2 = match rollout {
         [.., before, end] => (end.speed_mps() - before.speed_mps()) / SIM_DT_S,
         _ => 0.0,
     };
-    continued_after(rollout, accel_mps2.clamp(-MAX_ACCEL_MPS2, MAX_ACCEL_MPS2), HOLDING_CHECK_STEPS)
+    let mut held: Vec<AgentState> = rollout.to_vec();
+    held.extend(continued_after(rollout, accel_mps2.clamp(-MAX_ACCEL_MPS2, MAX_ACCEL_MPS2), HOLDING_CHECK_STEPS));
+    held.extend(continued_after(&held, 0.0, CLOSING_CHECK_STEPS));
+    held.split_off(rollout.len())
 }
 
 /// `steps` states after `rollout` at `accel_mps2`, holding the curvature
@@ -562,12 +584,11 @@ pub struct BackgroundForecast<'a> {
 const ON_RECORDING_TOLERANCE_M: f64 = 0.5;
 
 impl BackgroundForecast<'_> {
-    /// `agent`'s predicted states over the `steps` simulator steps after
-    /// `world.step` (`None`: absent at that step).
-    fn states(&self, world: &WorldView<'_>, agent: TrackIndex, steps: usize) -> Vec<Option<AgentState>> {
+    /// The recorded track `agent` follows now, if it is replayed from it
+    /// (not driven by the prior, and where its recording puts it).
+    fn replayed_track(&self, world: &WorldView<'_>, agent: TrackIndex) -> Option<&crate::scenario::Track> {
         let now = world.state(agent);
-        let recorded = self
-            .recording
+        self.recording
             .filter(|_| self.not_replayed.binary_search(&agent.0).is_err())
             .and_then(|r| r.tracks.get(agent.0))
             .filter(|track| match (now, track.state(world.step)) {
@@ -575,13 +596,22 @@ impl BackgroundForecast<'_> {
                 // A replayed agent enters (or leaves) as recorded.
                 (None, _) => true,
                 (Some(_), None) => false,
-            });
-        match (recorded, now) {
-            (Some(track), _) => (1..=steps).map(|k| track.state(world.step + k).copied()).collect(),
-            (None, Some(s)) => (1..=steps)
-                .map(|k| Some(AgentState { position: s.position + s.velocity_mps * (k as f64 * SIM_DT_S), ..*s }))
-                .collect(),
-            (None, None) => Vec::new(),
+            })
+    }
+
+    /// `agent`'s predicted states over the `steps` simulator steps after
+    /// `world.step` (`None`: absent at that step), and whether they come
+    /// from its recording (a replayed agent, which cannot yield).
+    fn states(&self, world: &WorldView<'_>, agent: TrackIndex, steps: usize) -> (Vec<Option<AgentState>>, bool) {
+        match (self.replayed_track(world, agent), world.state(agent)) {
+            (Some(track), _) => ((1..=steps).map(|k| track.state(world.step + k).copied()).collect(), true),
+            (None, Some(s)) => (
+                (1..=steps)
+                    .map(|k| Some(AgentState { position: s.position + s.velocity_mps * (k as f64 * SIM_DT_S), ..*s }))
+                    .collect(),
+                false,
+            ),
+            (None, None) => (Vec::new(), false),
         }
     }
 }
@@ -664,6 +694,8 @@ struct PlausibilityCheck<'w> {
     /// Each nearby background agent's predicted state and box, one per
     /// step of the check (`None`: absent at that step).
     background: Vec<Vec<Option<(AgentState, OrientedBox)>>>,
+    /// Whether each of those agents is replayed from its recording.
+    replayed: Vec<bool>,
     /// The bounds of each of those agents' predicted boxes over all the
     /// steps: a CBV path whose boxes lie outside them touches none of
     /// that agent's, and its box tests are skipped.
@@ -684,24 +716,25 @@ impl<'w> PlausibilityCheck<'w> {
                 cbv_body,
                 cbv_now,
                 background: Vec::new(),
+                replayed: Vec::new(),
                 background_bounds: Vec::new(),
                 edge_distance_now: None,
                 on_road_now: false,
             };
         };
-        let horizon = TOKEN_PERIOD_STEPS + BRAKING_CHECK_STEPS;
+        let horizon = TOKEN_PERIOD_STEPS + BRAKING_CHECK_STEPS.max(HOLDING_CHECK_STEPS + CLOSING_CHECK_STEPS);
         let in_range = |s: &AgentState| (s.position - now.position).norm() < BACKGROUND_CHECK_RANGE_M;
-        let background = (0..world.states.len())
+        let (background, replayed): (Vec<Vec<_>>, Vec<bool>) = (0..world.states.len())
             .filter(|&i| i != cbv.0 && i != ego.0)
             .filter_map(|i| {
-                let states: Vec<Option<AgentState>> = forecast.states(world, TrackIndex(i), horizon);
-                states.iter().flatten().next().is_some_and(in_range).then_some((i, states))
+                let (states, replayed) = forecast.states(world, TrackIndex(i), horizon);
+                states.iter().flatten().next().is_some_and(in_range).then_some((i, states, replayed))
             })
-            .map(|(i, states)| {
+            .map(|(i, states, replayed)| {
                 let b = world.bodies[i];
-                states.into_iter().map(|s| s.map(|at| (at, b.footprint(&at)))).collect()
+                (states.into_iter().map(|s| s.map(|at| (at, b.footprint(&at)))).collect(), replayed)
             })
-            .collect::<Vec<Vec<_>>>();
+            .unzip();
         let background_bounds =
             background.iter().map(|predicted| Bounds::of(predicted.iter().flatten().map(|(_, b)| b))).collect();
         Self {
@@ -709,6 +742,7 @@ impl<'w> PlausibilityCheck<'w> {
             cbv_body,
             cbv_now,
             background,
+            replayed,
             background_bounds,
             edge_distance_now: world.map.signed_distance_to_road_edge(&now.position),
             on_road_now: !world.map.is_off_road_within_map(&now.position),
@@ -770,7 +804,8 @@ impl<'w> PlausibilityCheck<'w> {
             predicted.iter().zip(own).position(|(theirs, own)| theirs.is_some_and(|(_, b)| b.intersects(own)))
         };
         let own_bounds = Bounds::of(held_boxes.iter().chain(&braking_boxes));
-        for (predicted, bounds) in self.background.iter().zip(&self.background_bounds) {
+        for ((predicted, bounds), &replayed) in self.background.iter().zip(&self.background_bounds).zip(&self.replayed)
+        {
             if wanted == Violation::Any && first.is_some() {
                 break;
             }
@@ -779,9 +814,18 @@ impl<'w> PlausibilityCheck<'w> {
             }
             if let Some(k) = first_contact(predicted, &held_boxes)
                 && let Some((theirs, _)) = predicted[k]
-                && (rule == ContactRule::Any || EgoContact::judge(map, &held[k], &held_boxes[k], &theirs).at_fault())
             {
-                note(&mut first, k);
+                let at_fault = || EgoContact::judge(map, &held[k], &held_boxes[k], &theirs).at_fault();
+                let breaks_rule = if k < rollout.len() + HOLDING_CHECK_STEPS {
+                    rule == ContactRule::Any || at_fault()
+                } else {
+                    // Keeping its speed: only replayed traffic closing on
+                    // the CBV (the others react).
+                    replayed && rule == ContactRule::Any && !at_fault()
+                };
+                if breaks_rule {
+                    note(&mut first, k);
+                }
             }
             // Braking after the token: only what the CBV runs into.
             if let Some(k) = first_contact(predicted, &braking_boxes)
@@ -934,6 +978,67 @@ mod tests {
         let off = [states[0], states[1], car(13.0, 0.0, 10.0)];
         let world = WorldView { states: &off, ..world };
         assert_eq!(implausible(&world, replayed), vec![false, false]);
+    }
+
+    /// A recording in which every agent of `states` keeps its velocity for 4 s.
+    fn recorded_at_constant_velocity(states: &[Option<AgentState>]) -> crate::scenario::Scenario {
+        use crate::scenario::{AgentId, ScenarioSource, Track};
+        let tracks = states
+            .iter()
+            .enumerate()
+            .map(|(i, s)| Track {
+                id: AgentId(format!("agent-{i}")),
+                kind: AgentKind::Vehicle,
+                length_m: 4.5,
+                width_m: 2.0,
+                states: (0..40)
+                    .map(|k| {
+                        s.map(|s| AgentState { position: s.position + s.velocity_mps * (k as f64 * SIM_DT_S), ..s })
+                    })
+                    .collect(),
+            })
+            .collect();
+        crate::scenario::Scenario::new(
+            "constant-velocity",
+            ScenarioSource::authored("test"),
+            SIM_DT_S,
+            RoadMap::default(),
+            tracks,
+        )
+        .with_roles(TrackIndex(0), Some(TrackIndex(1)))
+    }
+
+    #[test]
+    fn slowing_in_front_of_replayed_traffic_closing_fast_is_implausible_seconds_before_contact() {
+        // Ego far away; the CBV at 10 m/s and a replayed car 40 m behind it
+        // at 25 m/s (35.5 m between the boxes, 15 m/s faster: contact in
+        // 2.4 s at constant speeds, after the token and its 1 s hold).
+        let bodies = [AgentBody { kind: AgentKind::Vehicle, length_m: 4.5, width_m: 2.0 }; 3];
+        let tokens = [token(MAX_ACCEL_MPS2), token(0.0), token(-2.0)];
+        let implausible = |states: &[Option<AgentState>; 3], not_replayed: &[usize]| {
+            let scenario = recorded_at_constant_velocity(states);
+            let world = WorldView { map: &scenario.map, step: 0, bodies: &bodies, states };
+            let forecast = BackgroundForecast { recording: Some(&scenario), not_replayed };
+            let check = PlausibilityCheck::new(&world, TrackIndex(1), TrackIndex(0), &forecast);
+            token_rollouts(states[1].as_ref().unwrap(), &tokens)
+                .iter()
+                .map(|r| check.implausible(r, ContactRule::Any))
+                .collect::<Vec<bool>>()
+        };
+        let closing = [car(0.0, 100.0, 10.0), car(0.0, 0.0, 10.0), car(-40.0, 0.0, 25.0)];
+        // Speeding up keeps ahead of it; keeping the speed or slowing down
+        // is to be run into.
+        assert_eq!(implausible(&closing, &[]), vec![false, true, true]);
+        // A car the prior drives can brake: only the 1 s hold is checked.
+        assert_eq!(implausible(&closing, &[2]), vec![false; 3]);
+        // 80 m behind, it reaches the CBV in none of the three within 3.5 s.
+        let far = [closing[0], closing[1], car(-80.0, 0.0, 25.0)];
+        assert_eq!(implausible(&far, &[]), vec![false; 3]);
+        // What the CBV would run into seconds ahead at its speed is left to
+        // the braking check: a stopped car 25.5 m ahead is reached in
+        // 2.55 s, and the CBV can still stop short of it.
+        let ahead = [closing[0], closing[1], car(30.0, 0.0, 0.0)];
+        assert_eq!(implausible(&ahead, &[]), vec![false; 3]);
     }
 
     #[test]
