@@ -139,24 +139,17 @@ fn cbv_path_digest(stage1: &Rollout) -> Option<u64> {
 /// position at every step, to the centimetre, and the steps where it is
 /// absent (`None`).
 fn path_digest(positions: impl Iterator<Item = Option<crate::geometry::Point2>>) -> u64 {
-    const FNV_OFFSET: u64 = 0xcbf2_9ce4_8422_2325;
-    const FNV_PRIME: u64 = 0x0100_0000_01b3;
-    let mut digest = FNV_OFFSET;
-    let mut eat = |bytes: [u8; 8]| {
-        for b in bytes {
-            digest = (digest ^ u64::from(b)).wrapping_mul(FNV_PRIME);
-        }
-    };
+    let mut bytes = Vec::new();
     for p in positions {
         match p {
             Some(p) => {
-                eat(((p.x * 100.0).round() as i64).to_le_bytes());
-                eat(((p.y * 100.0).round() as i64).to_le_bytes());
+                bytes.extend(((p.x * 100.0).round() as i64).to_le_bytes());
+                bytes.extend(((p.y * 100.0).round() as i64).to_le_bytes());
             }
-            None => eat(i64::MIN.to_le_bytes()),
+            None => bytes.extend(i64::MIN.to_le_bytes()),
         }
     }
-    digest
+    super::variant::fnv1a(&bytes)
 }
 
 /// Seconds the CBV's centre was off the road in `stage1`, when it started on

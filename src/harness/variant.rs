@@ -117,8 +117,9 @@ pub struct VariantSummary {
 /// Map encodings shared by every variant of the process.
 static MAP_ENCODINGS: std::sync::LazyLock<MapEncodings> = std::sync::LazyLock::new(MapEncodings::default);
 
-/// FNV-1a, 64 bit: a stable hash for seeds (std's hasher is not stable across releases).
-fn fnv1a(bytes: &[u8]) -> u64 {
+/// FNV-1a, 64 bit: a stable hash for seeds and path digests (std's hasher
+/// is not stable across releases).
+pub(super) fn fnv1a(bytes: &[u8]) -> u64 {
     bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, b| (h ^ *b as u64).wrapping_mul(0x0000_0100_0000_01b3))
 }
 
