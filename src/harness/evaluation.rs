@@ -92,6 +92,30 @@ pub struct VariantRecord {
     tally: VariantTally,
 }
 
+impl VariantRecord {
+    /// The record of a variant that could not run, and why.
+    fn failed(scenario: &str, method: AdversaryMethod, seed: u32, error: String) -> Self {
+        VariantRecord {
+            scenario: scenario.into(),
+            method,
+            seed,
+            stage1_collision: false,
+            stage2_collision: false,
+            stage2: None,
+            witness: None,
+            stage1_min_gap_m: None,
+            cbv_hit_background: false,
+            cbv_at_fault_with_background: false,
+            cbv_off_road_s: 0.0,
+            time_s: 0.0,
+            profile: VariantProfile::default(),
+            planner_latency: None,
+            error: Some(error),
+            tally: VariantTally::default(),
+        }
+    }
+}
+
 /// One row of the table.
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct MethodRow {
@@ -222,25 +246,8 @@ pub fn evaluate(
         .par_iter()
         .map(|&(i, method, seed)| {
             let scenario = &scenes[i];
-            let r =
-                run_one(scenario, method, seed, request, models, &maps, witness).unwrap_or_else(|e| VariantRecord {
-                    scenario: scenario.id.clone(),
-                    method,
-                    seed,
-                    stage1_collision: false,
-                    stage2_collision: false,
-                    stage2: None,
-                    witness: None,
-                    stage1_min_gap_m: None,
-                    cbv_hit_background: false,
-                    cbv_at_fault_with_background: false,
-                    cbv_off_road_s: 0.0,
-                    time_s: 0.0,
-                    profile: VariantProfile::default(),
-                    planner_latency: None,
-                    error: Some(e.to_string()),
-                    tally: VariantTally::default(),
-                });
+            let r = run_one(scenario, method, seed, request, models, &maps, witness)
+                .unwrap_or_else(|e| VariantRecord::failed(&scenario.id, method, seed, e.to_string()));
             tick();
             r
         })
@@ -305,24 +312,12 @@ pub fn table(records: &[VariantRecord], methods: &[AdversaryMethod]) -> Vec<Meth
 mod tests {
     use super::*;
 
+    /// A variant of `scenario` that ran and whose CBV path has `digest`.
     fn record(scenario: &str, seed: u32, digest: u64) -> VariantRecord {
         VariantRecord {
-            scenario: scenario.into(),
-            method: AdversaryMethod::Safer,
-            seed,
-            stage1_collision: false,
-            stage2_collision: false,
-            stage2: None,
-            witness: None,
-            stage1_min_gap_m: None,
-            cbv_hit_background: false,
-            cbv_at_fault_with_background: false,
-            cbv_off_road_s: 0.0,
-            time_s: 0.0,
-            profile: VariantProfile::default(),
-            planner_latency: None,
             error: None,
             tally: VariantTally { cbv_path_digest: Some(digest), ..VariantTally::default() },
+            ..VariantRecord::failed(scenario, AdversaryMethod::Safer, seed, String::new())
         }
     }
 
