@@ -58,6 +58,11 @@ fn the_adversary_brings_the_cbv_closer_than_the_log() {
         gap(AdversaryMethod::Safer),
         gap(AdversaryMethod::Log)
     );
+    // The table's variety column: the logged CBV is one variant whatever
+    // the seed; SaFeR's seeds make more than one per scene.
+    let rows = table(&records, &[AdversaryMethod::Log, AdversaryMethod::Safer]);
+    assert_eq!(rows[0].distinct_rate, Some(0.5), "log: 2 seeds, one path per scene");
+    assert!(rows[1].distinct_rate.is_some_and(|d| d > 0.5), "safer: {:?}", rows[1].distinct_rate);
     let rows = table(&records, &req.methods);
     // The log CBV reproduces its recording: no divergence from itself.
     assert_eq!(rows[0].vj, Some(0.0));
