@@ -1,6 +1,8 @@
 //! `safer evaluate`: the dual-stage evaluation of adversary methods over a
 //! folder of scenes (rows = methods; columns CR, SR, SR on the stage-1
-//! critical variants, witness rate, VJ, AJ, time per variant), with a
+//! critical variants, witness rate, VJ, AJ, time per variant; and CR, SR,
+//! witness rate and SR on witnessed collisions over the held-out scenes
+//! beside the rest), with a
 //! progress bar, rayon across variants, and an optional JSON report with
 //! every variant (`--json -`: on standard output, the table then on stderr).
 //! Scenes whose recorded ego touches another agent (annotation overlaps)
@@ -17,7 +19,7 @@ use rayon::prelude::*;
 
 use super::{CliError, scene_paths};
 use crate::eval::witness::{FixedTraffic, WitnessBudget, search_witness};
-use crate::harness::evaluation::{self, EvaluationRequest, MethodRow, VariantRecord};
+use crate::harness::evaluation::{self, EvaluationRequest, HeldOutSplit, MethodRow, VariantRecord};
 use crate::harness::methods::ModelSet;
 use crate::scenario::{Scenario, import};
 
@@ -48,6 +50,7 @@ fn fmt(v: Option<f64>) -> String {
 fn print_table(
     out: &mut dyn Write,
     rows: &[MethodRow],
+    held_out: &HeldOutSplit,
     scenes: usize,
     request: &EvaluationRequest,
 ) -> std::io::Result<()> {
@@ -99,6 +102,32 @@ fn print_table(
             fmt(r.sr_witnessed)
         )?;
     }
+    writeln!(
+        out,
+        "\nheld out (every tenth scene by id: {} of {}) | the other scenes:",
+        held_out.scenes.len(),
+        held_out.of_scenes
+    )?;
+    writeln!(
+        out,
+        "{:<16} {:>7} {:>7} {:>9} {:>12} | {:>7} {:>7} {:>9} {:>12}",
+        "method", "CR", "SR", "witness", "SR-witnessed", "CR", "SR", "witness", "SR-witnessed"
+    )?;
+    for (h, r) in held_out.held_out.iter().zip(&held_out.rest) {
+        writeln!(
+            out,
+            "{:<16} {:>7} {:>7} {:>9} {:>12} | {:>7} {:>7} {:>9} {:>12}",
+            crate::spec::spec_name(&h.method),
+            fmt(h.cr),
+            fmt(h.sr),
+            fmt(h.witness_rate),
+            fmt(h.sr_witnessed),
+            fmt(r.cr),
+            fmt(r.sr),
+            fmt(r.witness_rate),
+            fmt(r.sr_witnessed)
+        )?;
+    }
     writeln!(out, "\nwhere the time goes (mean s per variant):")?;
     writeln!(
         out,
@@ -134,6 +163,8 @@ fn print_table(
 struct Report<'a> {
     scenes: usize,
     rows: &'a [MethodRow],
+    /// The same rows over the held-out scenes and over the rest.
+    held_out: &'a HeldOutSplit,
     variants: &'a [VariantRecord],
 }
 
@@ -185,11 +216,12 @@ pub(super) fn run(
         eprintln!("error: {} {:?} seed {}: {}", r.scenario, r.method, r.seed, r.error.as_deref().unwrap_or(""));
     }
     let rows = evaluation::table(&records, &request.methods);
+    let held_out = evaluation::held_out_split(&records, &request.methods);
     let mut table = super::table_writer(json);
-    print_table(&mut table, &rows, scenes.len(), request)?;
+    print_table(&mut table, &rows, &held_out, scenes.len(), request)?;
     table.flush()?;
     if let Some(path) = json {
-        let report = Report { scenes: scenes.len(), rows: &rows, variants: &records };
+        let report = Report { scenes: scenes.len(), rows: &rows, held_out: &held_out, variants: &records };
         crate::record::write_output(path, (serde_json::to_string_pretty(&report)? + "\n").as_bytes())?;
         if !crate::record::is_stdout(path) {
             eprintln!("wrote {}", path.display());

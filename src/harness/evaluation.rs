@@ -256,6 +256,36 @@ pub fn evaluate(
     records
 }
 
+/// The held-out part of an evaluation: every tenth scene by sorted id (the
+/// 10th, 20th, …), looked at to report, never to tune on; and the table
+/// over those scenes and over the rest.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct HeldOutSplit {
+    /// The held-out scene ids, sorted.
+    pub scenes: Vec<String>,
+    /// How many scenes the evaluation had in all.
+    pub of_scenes: usize,
+    /// The table over the held-out scenes' variants.
+    pub held_out: Vec<MethodRow>,
+    /// The table over the other scenes' variants.
+    pub rest: Vec<MethodRow>,
+}
+
+/// Splits `records` into the held-out scenes and the rest (see
+/// [`HeldOutSplit`]), one row per method of `methods` on each side.
+pub fn held_out_split(records: &[VariantRecord], methods: &[AdversaryMethod]) -> HeldOutSplit {
+    let ids: std::collections::BTreeSet<&str> = records.iter().map(|r| r.scenario.as_str()).collect();
+    let held: std::collections::BTreeSet<&str> = ids.iter().copied().skip(9).step_by(10).collect();
+    let (inside, outside): (Vec<VariantRecord>, Vec<VariantRecord>) =
+        records.iter().cloned().partition(|r| held.contains(r.scenario.as_str()));
+    HeldOutSplit {
+        scenes: held.iter().map(|s| s.to_string()).collect(),
+        of_scenes: ids.len(),
+        held_out: table(&inside, methods),
+        rest: table(&outside, methods),
+    }
+}
+
 /// The share of `variants` (of one method) that differ from every other
 /// seed's variant of their scene: distinct CBV paths per scene, summed,
 /// over the variants; `None` for none.
@@ -329,5 +359,28 @@ mod tests {
         let rows = table(&records, &[AdversaryMethod::Safer]);
         assert_eq!(rows[0].distinct_rate, Some(0.75));
         assert_eq!(table(&[], &[AdversaryMethod::Safer])[0].distinct_rate, None);
+    }
+
+    #[test]
+    fn every_tenth_scene_by_id_is_held_out_and_each_side_gets_its_own_rows() {
+        // 25 scenes, named so that their sorted order is s00 … s24; only
+        // the held-out ones (s09, s19) collide.
+        let records: Vec<VariantRecord> = (0..25)
+            .map(|i| {
+                let id = format!("s{i:02}");
+                let mut r = record(&id, 0, i);
+                r.tally.critical = i % 10 == 9;
+                r
+            })
+            .rev()
+            .collect();
+        let split = held_out_split(&records, &[AdversaryMethod::Safer]);
+        assert_eq!(split.scenes, ["s09", "s19"]);
+        assert_eq!(split.of_scenes, 25);
+        assert_eq!((split.held_out[0].variants, split.held_out[0].cr), (2, Some(1.0)));
+        assert_eq!((split.rest[0].variants, split.rest[0].cr), (23, Some(0.0)));
+        // Fewer than ten scenes: nothing is held out.
+        let few = held_out_split(&records[..9], &[AdversaryMethod::Safer]);
+        assert!(few.scenes.is_empty() && few.held_out[0].variants == 0 && few.rest[0].variants == 9);
     }
 }
