@@ -529,11 +529,11 @@ fn braking_after(rollout: &[AgentState]) -> impl Iterator<Item = AgentState> + u
     continued_after(rollout, -MAX_ACCEL_MPS2, BRAKING_CHECK_STEPS)
 }
 
-/// The CBV's states over [`HOLDING_CHECK_STEPS`] steps after `rollout`,
-/// holding the token's acceleration and curvature, then over
-/// [`CLOSING_CHECK_STEPS`] more at the speed reached, still holding the
-/// curvature.
-fn holding_after(rollout: &[AgentState]) -> Vec<AgentState> {
+/// The CBV's path while it holds the token: `rollout` (the token's states),
+/// then [`HOLDING_CHECK_STEPS`] steps holding the token's acceleration and
+/// curvature, then [`CLOSING_CHECK_STEPS`] more at the speed reached,
+/// still holding the curvature.
+fn held_path(rollout: &[AgentState]) -> Vec<AgentState> {
     let accel_mps2 = match rollout {
         [.., before, end] => (end.speed_mps() - before.speed_mps()) / SIM_DT_S,
         _ => 0.0,
@@ -541,7 +541,7 @@ fn holding_after(rollout: &[AgentState]) -> Vec<AgentState> {
     let mut held: Vec<AgentState> = rollout.to_vec();
     held.extend(continued_after(rollout, accel_mps2.clamp(-MAX_ACCEL_MPS2, MAX_ACCEL_MPS2), HOLDING_CHECK_STEPS));
     held.extend(continued_after(&held, 0.0, CLOSING_CHECK_STEPS));
-    held.split_off(rollout.len())
+    held
 }
 
 /// `steps` states after `rollout` at `accel_mps2`, holding the curvature
@@ -795,7 +795,7 @@ impl<'w> PlausibilityCheck<'w> {
         // Both paths start with the token's own states: their boxes are built once.
         let body = |s: &AgentState| self.cbv_body.footprint(s);
         let token_boxes: Vec<OrientedBox> = rollout.iter().map(body).collect();
-        let held: Vec<AgentState> = rollout.iter().copied().chain(holding_after(rollout)).collect();
+        let held = held_path(rollout);
         let held_boxes: Vec<OrientedBox> =
             token_boxes.iter().copied().chain(held[rollout.len()..].iter().map(body)).collect();
         let braking_boxes: Vec<OrientedBox> =
