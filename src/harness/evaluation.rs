@@ -276,13 +276,12 @@ pub struct HeldOutSplit {
 pub fn held_out_split(records: &[VariantRecord], methods: &[AdversaryMethod]) -> HeldOutSplit {
     let ids: std::collections::BTreeSet<&str> = records.iter().map(|r| r.scenario.as_str()).collect();
     let held: std::collections::BTreeSet<&str> = ids.iter().copied().skip(9).step_by(10).collect();
-    let (inside, outside): (Vec<VariantRecord>, Vec<VariantRecord>) =
-        records.iter().cloned().partition(|r| held.contains(r.scenario.as_str()));
+    let held_out = |r: &VariantRecord| held.contains(r.scenario.as_str());
     HeldOutSplit {
         scenes: held.iter().map(|s| s.to_string()).collect(),
         of_scenes: ids.len(),
-        held_out: table(&inside, methods),
-        rest: table(&outside, methods),
+        held_out: table_of(records, methods, held_out),
+        rest: table_of(records, methods, |r| !held_out(r)),
     }
 }
 
@@ -299,10 +298,19 @@ fn distinct_rate(variants: &[&VariantRecord]) -> Option<f64> {
 /// are the suite metrics ([`SuiteMetrics::aggregate`]) over the variants
 /// that ran; variants that could not run are counted in `errors`.
 pub fn table(records: &[VariantRecord], methods: &[AdversaryMethod]) -> Vec<MethodRow> {
+    table_of(records, methods, |_| true)
+}
+
+/// [`table`] over the records that `keep` keeps.
+fn table_of(
+    records: &[VariantRecord],
+    methods: &[AdversaryMethod],
+    keep: impl Fn(&VariantRecord) -> bool,
+) -> Vec<MethodRow> {
     methods
         .iter()
         .map(|&method| {
-            let all: Vec<&VariantRecord> = records.iter().filter(|r| r.method == method).collect();
+            let all: Vec<&VariantRecord> = records.iter().filter(|r| r.method == method && keep(r)).collect();
             let ok: Vec<&VariantRecord> = all.iter().copied().filter(|r| r.error.is_none()).collect();
             let metrics = SuiteMetrics::aggregate(ok.iter().map(|r| &r.tally));
             let searched: Vec<&VariantRecord> = ok.iter().copied().filter(|r| r.witness.is_some()).collect();
