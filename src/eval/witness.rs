@@ -23,9 +23,10 @@ use std::collections::{BinaryHeap, HashMap};
 use std::hash::BuildHasherDefault;
 
 use crate::geometry::{BoxSet, OrientedBox, Point2, Pose2};
+use crate::motion::KinematicState;
 use crate::motion::kinematics::max_travel_m;
+use crate::motion::kinematics::{step_to_heading, turned_heading_rad};
 use crate::motion::tokens::{MAX_ACCEL_MPS2, MAX_YAW_RATE_RADPS, SIM_DT_S, TOKEN_PERIOD_STEPS};
-use crate::motion::{Action, KinematicState, kinematic_step};
 use crate::scenario::{AgentBody, AgentState};
 
 /// Search settings.
@@ -223,6 +224,7 @@ impl ClearanceMemo {
         obstacles: &[BoxSet],
         step: usize,
         ego: &KinematicState,
+        sin_cos: (f64, f64),
         body: AgentBody,
         bound: f64,
         floor: f64,
@@ -237,7 +239,8 @@ impl ClearanceMemo {
             _ => {}
         }
         let pose = Pose2 { position: ego.position, heading_rad: ego.heading_rad };
-        let r = set.clearance_below_unless_at_most(&OrientedBox::new(pose, body.length_m, body.width_m), bound, floor);
+        let ego_box = OrientedBox::new(pose, body.length_m, body.width_m);
+        let r = set.clearance_below_unless_at_most_with_sin_cos(&ego_box, sin_cos, bound, floor);
         // Above the floor the answer is exact: `min(bound, D)`. At or below
         // it, the answer is a clearance to some box, so `D <= r` when `r`
         // came from a box rather than the bound.
@@ -390,17 +393,30 @@ fn beam_search(
                 expansions += skipped;
                 break;
             }
+            // A child's headings depend on its yaw rate only, not on its
+            // acceleration: each yaw rate's headings over the period, and
+            // their sines and cosines (the costliest part of a step), are
+            // worked out once for all accelerations.
+            let from = c.last(&start);
+            let turns = YAW_RATES_RADPS.map(|w| {
+                let w = w.clamp(-MAX_YAW_RATE_RADPS, MAX_YAW_RATE_RADPS);
+                let mut heading_rad = from.heading_rad;
+                [(); TOKEN_PERIOD_STEPS].map(|()| {
+                    heading_rad = turned_heading_rad(heading_rad, w, SIM_DT_S);
+                    (heading_rad, heading_rad.sin_cos())
+                })
+            });
             for &a in &ACCELS_MPS2 {
-                for &w in &YAW_RATES_RADPS {
+                for turn in &turns {
                     if expansions >= budget.max_expansions {
                         return Witness::NoneWithinBudget { expansions };
                     }
                     expansions += 1;
                     // Dropped at or below the margin, or below the floor.
                     let drop_at_m = floor.get().map_or(budget.margin_m, |f| f.next_down().max(budget.margin_m));
-                    let action =
-                        Action { accel_mps2: a, yaw_rate_radps: w.clamp(-MAX_YAW_RATE_RADPS, MAX_YAW_RATE_RADPS) };
-                    let mut s = c.last(&start);
+                    let mut s = from;
+                    // The heading's `sin_cos()` of the last state stepped to.
+                    let mut sin_cos = None;
                     let mut child = Candidate {
                         parent,
                         segment: [s; TOKEN_PERIOD_STEPS],
@@ -408,14 +424,14 @@ fn beam_search(
                         clearance_m: c.clearance_m,
                         room_m: 0.0,
                     };
-                    for k in 0..TOKEN_PERIOD_STEPS {
+                    for (k, &(heading_rad, trig)) in turn.iter().enumerate() {
                         let step = period * TOKEN_PERIOD_STEPS + k + 1;
                         if step > horizon_steps {
                             break;
                         }
-                        s = kinematic_step(&s, action, SIM_DT_S);
+                        (s, sin_cos) = (step_to_heading(&s, a, heading_rad, trig, SIM_DT_S), Some(trig));
                         child.clearance_m =
-                            memo.clearance_below(&obstacles, step, &s, body, child.clearance_m, drop_at_m);
+                            memo.clearance_below(&obstacles, step, &s, trig, body, child.clearance_m, drop_at_m);
                         if child.clearance_m <= drop_at_m {
                             break;
                         }
@@ -424,7 +440,9 @@ fn beam_search(
                     }
                     if child.clearance_m > drop_at_m {
                         let step = period * TOKEN_PERIOD_STEPS + child.len;
-                        child.room_m = memo.clearance_below(&obstacles, step, &s, body, ROOM_CAP_M, f64::NEG_INFINITY);
+                        let trig = sin_cos.unwrap_or_else(|| s.heading_rad.sin_cos());
+                        child.room_m =
+                            memo.clearance_below(&obstacles, step, &s, trig, body, ROOM_CAP_M, f64::NEG_INFINITY);
                         floor.keep(child.clearance_m);
                         next.push(child);
                     }
@@ -458,6 +476,7 @@ fn beam_search(
 mod tests {
     use super::*;
     use crate::geometry::{Point2, Vector2};
+    use crate::motion::{Action, kinematic_step};
     use crate::scenario::AgentKind;
 
     fn car() -> AgentBody {

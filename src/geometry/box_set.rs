@@ -34,6 +34,7 @@ struct Frame {
 }
 
 impl Frame {
+    #[cfg(test)]
     fn of(b: &OrientedBox) -> Self {
         Self::with_sin_cos(b, b.pose.heading_rad.sin_cos())
     }
@@ -153,7 +154,13 @@ impl BoxSet {
     /// Whether any box touches `query`: the same answer as
     /// `boxes.iter().any(|b| b.intersects(query))`.
     pub fn any_intersects(&self, query: &OrientedBox) -> bool {
-        let q = Frame::of(query);
+        self.any_intersects_with_sin_cos(query, query.pose.heading_rad.sin_cos())
+    }
+
+    /// [`Self::any_intersects`], with the query's heading's `sin_cos()`
+    /// already at hand (the same answer when they are that heading's).
+    pub fn any_intersects_with_sin_cos(&self, query: &OrientedBox, sin_cos: (f64, f64)) -> bool {
+        let q = Frame::with_sin_cos(query, sin_cos);
         let qr = radius(query);
         self.within_x(q.x, qr + self.max_radius_m + SLACK_M).iter().any(|e| {
             let reach = qr + e.radius_m;
@@ -190,7 +197,20 @@ impl BoxSet {
     /// box that brings the clearance down to `floor`). For callers that
     /// drop a candidate whose clearance falls to `floor`.
     pub fn clearance_below_unless_at_most(&self, query: &OrientedBox, bound: f64, floor: f64) -> f64 {
-        let q = Frame::of(query);
+        self.clearance_below_unless_at_most_with_sin_cos(query, query.pose.heading_rad.sin_cos(), bound, floor)
+    }
+
+    /// [`Self::clearance_below_unless_at_most`], with the query's heading's
+    /// `sin_cos()` already at hand (the same answer when they are that
+    /// heading's).
+    pub fn clearance_below_unless_at_most_with_sin_cos(
+        &self,
+        query: &OrientedBox,
+        sin_cos: (f64, f64),
+        bound: f64,
+        floor: f64,
+    ) -> f64 {
+        let q = Frame::with_sin_cos(query, sin_cos);
         let qr = radius(query);
         let mut nearest = bound;
         for e in self.within_x(q.x, bound + qr + self.max_radius_m + SLACK_M) {

@@ -431,6 +431,8 @@ impl RoadMap {
             // prediction), where allocating and sorting per call showed.
             static NEAREST: std::cell::RefCell<Vec<(u32, u32, f64)>> = const { std::cell::RefCell::new(Vec::new()) };
         }
+        // The heading's direction, worked out once for all candidate lanes.
+        let forward = heading_rad.map(|h| crate::geometry::Vector2::new(h.cos(), h.sin()));
         let nearest = NEAREST.with_borrow_mut(|per_lane| {
             per_lane.clear();
             let mut nan = false;
@@ -453,7 +455,7 @@ impl RoadMap {
             // the visiting order: then the sorted search decides.
             (!nan).then(|| {
                 per_lane.iter().fold(None, |best, &(lane, segment, _)| {
-                    self.nearer_lane(best, p, heading_rad, radius_m, lane as usize, [segment as usize])
+                    self.nearer_lane(best, p, forward, radius_m, lane as usize, [segment as usize])
                 })
             })
         });
@@ -470,19 +472,21 @@ impl RoadMap {
         heading_rad: Option<f64>,
         radius_m: f64,
     ) -> Option<(bool, f64, usize, PolylineProjection)> {
+        let forward = heading_rad.map(|h| crate::geometry::Vector2::new(h.cos(), h.sin()));
         self.lane_segments
             .candidates(p, radius_m)
             .into_iter()
-            .fold(None, |best, (lane_index, segs)| self.nearer_lane(best, p, heading_rad, radius_m, lane_index, segs))
+            .fold(None, |best, (lane_index, segs)| self.nearer_lane(best, p, forward, radius_m, lane_index, segs))
     }
 
     /// [`Self::nearest_lane`]'s step: `best` or lane `lane_index`
-    /// (projected on `segs`), whichever is nearer, aligned lanes first.
+    /// (projected on `segs`), whichever is nearer, aligned lanes first
+    /// (aligned with the unit vector `forward`, when given).
     fn nearer_lane(
         &self,
         best: Option<(bool, f64, usize, PolylineProjection)>,
         p: &Point2,
-        heading_rad: Option<f64>,
+        forward: Option<crate::geometry::Vector2>,
         radius_m: f64,
         lane_index: usize,
         segs: impl IntoIterator<Item = usize>,
@@ -494,10 +498,7 @@ impl RoadMap {
         if proj.distance_m > radius_m {
             return best;
         }
-        let misaligned = heading_rad.is_some_and(|h| {
-            let f = crate::geometry::Vector2::new(h.cos(), h.sin());
-            f.dot(&proj.tangent) < ALIGNED_LANE_MAX_ANGLE_RAD.cos()
-        });
+        let misaligned = forward.is_some_and(|f| f.dot(&proj.tangent) < ALIGNED_LANE_MAX_ANGLE_RAD.cos());
         let key = (misaligned, proj.distance_m, lane_index);
         let better = match &best {
             None => true,

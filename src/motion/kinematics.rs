@@ -46,9 +46,40 @@ impl KinematicState {
 /// Advances `state` by one step of `dt_s` seconds under `action`.
 #[inline]
 pub fn step(state: &KinematicState, action: Action, dt_s: f64) -> KinematicState {
-    let speed_mps = (state.speed_mps + action.accel_mps2 * dt_s).max(0.0);
-    let heading_rad = wrap_angle(state.heading_rad + action.yaw_rate_radps * dt_s);
-    let position = state.position + Vector2::new(heading_rad.cos(), heading_rad.sin()) * (speed_mps * dt_s);
+    step_with_sin_cos(state, action, dt_s).0
+}
+
+/// [`step`], also giving the new heading's `sin_cos()`: a caller that
+/// puts a box at the new state (a collision or clearance query) needs them
+/// again, and sine and cosine are the costliest part of a step.
+#[inline]
+pub fn step_with_sin_cos(state: &KinematicState, action: Action, dt_s: f64) -> (KinematicState, (f64, f64)) {
+    let heading_rad = turned_heading_rad(state.heading_rad, action.yaw_rate_radps, dt_s);
+    let sin_cos = heading_rad.sin_cos();
+    (step_to_heading(state, action.accel_mps2, heading_rad, sin_cos, dt_s), sin_cos)
+}
+
+/// The heading [`step`] turns `heading_rad` to under `yaw_rate_radps`: it
+/// does not depend on the speed or acceleration.
+#[inline]
+pub fn turned_heading_rad(heading_rad: f64, yaw_rate_radps: f64, dt_s: f64) -> f64 {
+    wrap_angle(heading_rad + yaw_rate_radps * dt_s)
+}
+
+/// [`step`] with its new heading (see [`turned_heading_rad`]) and that
+/// heading's `sin_cos()` worked out already: for a caller that rolls out
+/// many accelerations under one sequence of yaw rates, whose headings are
+/// all the same.
+#[inline]
+pub fn step_to_heading(
+    state: &KinematicState,
+    accel_mps2: f64,
+    heading_rad: f64,
+    (sin, cos): (f64, f64),
+    dt_s: f64,
+) -> KinematicState {
+    let speed_mps = (state.speed_mps + accel_mps2 * dt_s).max(0.0);
+    let position = state.position + Vector2::new(cos, sin) * (speed_mps * dt_s);
     KinematicState { position, heading_rad, speed_mps }
 }
 

@@ -9,5 +9,5 @@ pub mod kinematics;
 pub mod tokens;
 
 pub use inversion::{TokenizedTrack, tokenize_track};
-pub use kinematics::{KinematicState, step as kinematic_step};
+pub use kinematics::{KinematicState, step as kinematic_step, step_with_sin_cos as kinematic_step_with_sin_cos};
 pub use tokens::{Action, TOKEN_PERIOD_S, TOKEN_PERIOD_STEPS, Token, TokenGrid};

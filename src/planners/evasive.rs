@@ -23,7 +23,7 @@ use super::{Observation, Planner, PlannerError, PlannerOutput};
 use crate::geometry::{BoxSet, OrientedBox, Pose2, Vector2, wrap_angle};
 use crate::motion::kinematics::max_travel_m;
 use crate::motion::tokens::{MAX_ACCEL_MPS2, MAX_YAW_RATE_RADPS, SIM_DT_S};
-use crate::motion::{Action, KinematicState, kinematic_step};
+use crate::motion::{Action, KinematicState, kinematic_step_with_sin_cos};
 use crate::policies::{Route, build_route};
 use crate::scenario::{AgentKind, AgentState};
 
@@ -188,11 +188,23 @@ fn road_bounded_turn(
     start: &AgentState,
     mut action: Action,
     steps: usize,
-) -> Vec<KinematicState> {
+) -> Vec<(KinematicState, (f64, f64))> {
     let mut s = KinematicState::from_agent_state(start);
     let mut states = Vec::with_capacity(steps);
+    // The heading's sine and cosine, computed again only when it changes
+    // (most predictions hold it for most steps): `kinematic_step` and the
+    // box set both need them, and they were a fifth of an evaluation.
+    let mut trig: Option<(f64, (f64, f64))> = None;
     for k in 0..steps {
-        s = kinematic_step(&s, action, SIM_DT_S);
+        // `kinematic_step`, with the trigonometry cached.
+        let speed_mps = (s.speed_mps + action.accel_mps2 * SIM_DT_S).max(0.0);
+        let heading_rad = wrap_angle(s.heading_rad + action.yaw_rate_radps * SIM_DT_S);
+        let (sin, cos) = match trig {
+            Some((h, sin_cos)) if h.to_bits() == heading_rad.to_bits() => sin_cos,
+            _ => trig.insert((heading_rad, heading_rad.sin_cos())).1,
+        };
+        let position = s.position + Vector2::new(cos, sin) * (speed_mps * SIM_DT_S);
+        s = KinematicState { position, heading_rad, speed_mps };
         let turned = wrap_angle(s.heading_rad - start.heading_rad).abs() > TURNING_PREDICTION_MAP_CHECK_AFTER_RAD;
         if turned && action.yaw_rate_radps != 0.0 && k % TURNING_PREDICTION_LANE_CHECK_EVERY == 0 {
             let lane = map.nearest_lane(&s.position, Some(s.heading_rad), TURNING_PREDICTION_LANE_SEARCH_M);
@@ -212,7 +224,7 @@ fn road_bounded_turn(
         {
             break;
         }
-        states.push(s);
+        states.push((s, (sin, cos)));
     }
     states
 }
@@ -269,10 +281,32 @@ impl Planner for EvasivePlanner {
         if obs.time_s == 0.0 {
             self.seen.clear();
         }
-        let turning: Vec<(usize, Vec<KinematicState>)> = if self.params.turning_predictions {
+        let start_speed_mps = KinematicState::from_agent_state(&ego).speed_mps;
+        let max_accel_mps2 = self.params.accelerations_mps2.iter().copied().fold(0.0, f64::max);
+        let (len, wid) = self.checked_extent_m(obs);
+        let ego_radius_m = 0.5 * len.hypot(wid);
+        // How far from the ego's start a box can still touch a candidate's
+        // box or headway zone after k steps; grows with k.
+        let reach_m = |k: usize| {
+            let t = k as f64 * SIM_DT_S;
+            let travel_m = max_travel_m(start_speed_mps, max_accel_mps2, SIM_DT_S, k);
+            let headway_m = (HEADWAY_S * (start_speed_mps + max_accel_mps2 * t)).max(3.0);
+            let zone_reach_m = 0.5 * (len + headway_m) + 0.5 * headway_m.hypot(wid);
+            travel_m + ego_radius_m.max(zone_reach_m) + REACH_SLACK_M
+        };
+        let turning: Vec<(usize, Vec<(KinematicState, (f64, f64))>)> = if self.params.turning_predictions {
             near.iter()
                 .enumerate()
-                .filter_map(|(i, (a, _, _))| Some((i, self.observed_turning(obs.time_s, a)?, a)))
+                .filter_map(|(i, (a, _, radius_m))| {
+                    let action = self.observed_turning(obs.time_s, a)?;
+                    // An agent that cannot come within reach of any
+                    // candidate in the horizon, however it turns, is not
+                    // rolled out: none of its boxes would be kept below.
+                    let speed_mps = KinematicState::from_agent_state(&a.state).speed_mps;
+                    let agent_travel_m = max_travel_m(speed_mps, action.accel_mps2, SIM_DT_S, steps);
+                    let gap_m = (a.state.position - ego.position).norm();
+                    (gap_m <= reach_m(steps) + radius_m + agent_travel_m + REACH_SLACK_M).then_some((i, action, a))
+                })
                 .map(|(i, action, a)| (i, road_bounded_turn(obs.map, &a.state, action, steps)))
                 .collect()
         } else {
@@ -282,18 +316,11 @@ impl Planner for EvasivePlanner {
         while self.seen.front().is_some_and(|(t, _)| obs.time_s - t > TURNING_PREDICTION_WINDOW_S + 1e-6) {
             self.seen.pop_front();
         }
-        let start_speed_mps = KinematicState::from_agent_state(&ego).speed_mps;
-        let max_accel_mps2 = self.params.accelerations_mps2.iter().copied().fold(0.0, f64::max);
-        let (len, wid) = self.checked_extent_m(obs);
-        let ego_radius_m = 0.5 * len.hypot(wid);
         let mut predictions = std::mem::take(&mut self.predictions);
         predictions.resize_with(steps, BoxSet::default);
         for (set, k) in predictions.iter_mut().zip(1..) {
             let t = k as f64 * SIM_DT_S;
-            let travel_m = max_travel_m(start_speed_mps, max_accel_mps2, SIM_DT_S, k);
-            let headway_m = (HEADWAY_S * (start_speed_mps + max_accel_mps2 * t)).max(3.0);
-            let zone_reach_m = 0.5 * (len + headway_m) + 0.5 * headway_m.hypot(wid);
-            let reach_m = travel_m + ego_radius_m.max(zone_reach_m) + REACH_SLACK_M;
+            let reach_m = reach_m(k);
             let reachable = |position: crate::geometry::Point2, radius_m: f64| {
                 (position - ego.position).norm_squared() <= (reach_m + radius_m).powi(2)
             };
@@ -305,10 +332,9 @@ impl Planner for EvasivePlanner {
             let turning_boxes = turning.iter().filter_map(|(i, states)| {
                 let (a, _, radius_m) = near[*i];
                 // A prediction that left the road has ended.
-                let at = *states.get(k - 1)?;
+                let (at, sin_cos) = *states.get(k - 1)?;
                 let pose = Pose2 { position: at.position, heading_rad: at.heading_rad };
-                reachable(at.position, radius_m)
-                    .then(|| (OrientedBox::new(pose, a.length_m, a.width_m), at.heading_rad.sin_cos()))
+                reachable(at.position, radius_m).then(|| (OrientedBox::new(pose, a.length_m, a.width_m), sin_cos))
             });
             set.refill_with_sin_cos(constant_velocity.chain(turning_boxes));
         }
@@ -444,22 +470,23 @@ impl EvasivePlanner {
             };
             let action = Action { accel_mps2: a, yaw_rate_radps: yaw_rate };
             first.get_or_insert(action);
-            s = kinematic_step(&s, action, SIM_DT_S);
+            let (next, sin_cos) = kinematic_step_with_sin_cos(&s, action, SIM_DT_S);
+            s = next;
             let ego_box = OrientedBox::new(Pose2 { position: s.position, heading_rad: s.heading_rad }, len, wid);
-            if others.any_intersects(&ego_box) {
+            if others.any_intersects_with_sin_cos(&ego_box, sin_cos) {
                 // Earlier collisions are worse; this dominates every other term.
                 cost += COLLISION_COST * (2.0 - k as f64 / steps as f64);
                 break;
             }
             // Soft: keep about a second of headway to whatever is ahead.
             let headway_m = (HEADWAY_S * s.speed_mps).max(3.0);
-            let forward = Vector2::new(s.heading_rad.cos(), s.heading_rad.sin());
+            let forward = Vector2::new(sin_cos.1, sin_cos.0);
             let zone = OrientedBox::new(
                 Pose2 { position: s.position + forward * (0.5 * (len + headway_m)), heading_rad: s.heading_rad },
                 headway_m,
                 wid,
             );
-            if others.any_intersects(&zone) {
+            if others.any_intersects_with_sin_cos(&zone, sin_cos) {
                 cost += HEADWAY_COST;
             }
             if let Some(stop) = ctx.red_stop_s
@@ -484,6 +511,7 @@ mod tests {
     use super::*;
     use crate::geometry::{Point2, Polyline};
     use crate::map::{Lane, MapElementId, RoadMap};
+    use crate::motion::kinematic_step;
     use crate::planners::PerceivedAgent;
     use crate::scenario::{AgentId, AgentState};
 
@@ -652,7 +680,7 @@ mod tests {
         let start =
             AgentState { position: Point2::new(0.0, 0.0), heading_rad: 0.0, velocity_mps: Vector2::new(10.0, 0.0) };
         let turn = Action { accel_mps2: 0.0, yaw_rate_radps: 0.5 };
-        let states = road_bounded_turn(&map, &start, turn, 40);
+        let states: Vec<_> = road_bounded_turn(&map, &start, turn, 40).into_iter().map(|(s, _)| s).collect();
         // Held for 4 s the turn would reach 2 rad; along the lane it stops
         // within a lane check (0.1 rad) of the deviation bound.
         let max_heading = states.iter().map(|s| s.heading_rad).fold(f64::MIN, f64::max);
@@ -665,7 +693,33 @@ mod tests {
         // Without a map the turn is held all the way.
         let free = road_bounded_turn(&RoadMap::default(), &start, turn, 40);
         assert_eq!(free.len(), 40);
-        assert!((free[39].heading_rad - 2.0).abs() < 1e-9, "{}", free[39].heading_rad);
+        assert!((free[39].0.heading_rad - 2.0).abs() < 1e-9, "{}", free[39].0.heading_rad);
+    }
+
+    #[test]
+    fn a_turning_prediction_steps_exactly_as_the_kinematic_model_with_its_headings_trigonometry() {
+        // The rollout caches the heading's sine and cosine; every state and
+        // every cached pair must be what the model and `sin_cos` give, to
+        // the bit, whether the heading turns, is held, or is held after a turn.
+        let start =
+            AgentState { position: Point2::new(3.0, -2.0), heading_rad: 3.1, velocity_mps: Vector2::new(-7.0, 0.3) };
+        for action in [
+            Action { accel_mps2: -2.0, yaw_rate_radps: 0.0 },
+            Action { accel_mps2: 1.0, yaw_rate_radps: 0.3 },
+            Action { accel_mps2: 0.0, yaw_rate_radps: -0.45 },
+        ] {
+            let rollout = road_bounded_turn(&RoadMap::default(), &start, action, 40);
+            assert_eq!(rollout.len(), 40);
+            let mut s = KinematicState::from_agent_state(&start);
+            for (at, (sin, cos)) in rollout {
+                s = kinematic_step(&s, action, SIM_DT_S);
+                assert_eq!(at, s, "{action:?}");
+                assert_eq!(
+                    (sin.to_bits(), cos.to_bits()),
+                    (s.heading_rad.sin().to_bits(), s.heading_rad.cos().to_bits())
+                );
+            }
+        }
     }
 
     #[test]
