@@ -214,7 +214,7 @@ struct ClearanceMemo {
 
 impl ClearanceMemo {
     /// [`BoxSet::clearance_below_unless_at_most`] on the boxes at `step`
-    /// (infinite clearance past the recorded steps) for the ego at `ego`,
+    /// (infinite clearance past the recorded steps) for the ego at `ego` (its state and heading's `sin_cos()`),
     /// remembered. From memory it answers `min(bound, D)` where `D` is
     /// known, `bound` where `D >= bound` is known, and a known upper bound
     /// of `D` that is `<= floor` (a value `<= floor`, all the query promises
@@ -223,8 +223,7 @@ impl ClearanceMemo {
         &mut self,
         obstacles: &[BoxSet],
         step: usize,
-        ego: &KinematicState,
-        sin_cos: (f64, f64),
+        (ego, sin_cos): (&KinematicState, (f64, f64)),
         body: AgentBody,
         bound: f64,
         floor: f64,
@@ -431,7 +430,7 @@ fn beam_search(
                         }
                         (s, sin_cos) = (step_to_heading(&s, a, heading_rad, trig, SIM_DT_S), Some(trig));
                         child.clearance_m =
-                            memo.clearance_below(&obstacles, step, &s, trig, body, child.clearance_m, drop_at_m);
+                            memo.clearance_below(&obstacles, step, (&s, trig), body, child.clearance_m, drop_at_m);
                         if child.clearance_m <= drop_at_m {
                             break;
                         }
@@ -442,7 +441,7 @@ fn beam_search(
                         let step = period * TOKEN_PERIOD_STEPS + child.len;
                         let trig = sin_cos.unwrap_or_else(|| s.heading_rad.sin_cos());
                         child.room_m =
-                            memo.clearance_below(&obstacles, step, &s, trig, body, ROOM_CAP_M, f64::NEG_INFINITY);
+                            memo.clearance_below(&obstacles, step, (&s, trig), body, ROOM_CAP_M, f64::NEG_INFINITY);
                         floor.keep(child.clearance_m);
                         next.push(child);
                     }

@@ -169,6 +169,9 @@ impl EvasivePlanner {
     }
 }
 
+/// A turning prediction's states, each with its heading's `sin_cos()`.
+type TurningPrediction = Vec<(KinematicState, (f64, f64))>;
+
 /// The states of a turning prediction over `steps` steps (fewer where it
 /// ends): the agent holds the turn rate and acceleration it showed, as far
 /// as the road allows. Held regardless of the map, a turn seen in noisy
@@ -188,7 +191,7 @@ fn road_bounded_turn(
     start: &AgentState,
     mut action: Action,
     steps: usize,
-) -> Vec<(KinematicState, (f64, f64))> {
+) -> TurningPrediction {
     let mut s = KinematicState::from_agent_state(start);
     let mut states = Vec::with_capacity(steps);
     // The heading's sine and cosine, computed again only when it changes
@@ -294,7 +297,7 @@ impl Planner for EvasivePlanner {
             let zone_reach_m = 0.5 * (len + headway_m) + 0.5 * headway_m.hypot(wid);
             travel_m + ego_radius_m.max(zone_reach_m) + REACH_SLACK_M
         };
-        let turning: Vec<(usize, Vec<(KinematicState, (f64, f64))>)> = if self.params.turning_predictions {
+        let turning: Vec<(usize, TurningPrediction)> = if self.params.turning_predictions {
             near.iter()
                 .enumerate()
                 .filter_map(|(i, (a, _, radius_m))| {
