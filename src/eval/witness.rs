@@ -214,8 +214,8 @@ struct ClearanceMemo {
 
 impl ClearanceMemo {
     /// [`BoxSet::clearance_below_unless_at_most`] on the boxes at `step`
-    /// (infinite clearance past the recorded steps) for the ego at `ego` (its state and heading's `sin_cos()`),
-    /// remembered. From memory it answers `min(bound, D)` where `D` is
+    /// (infinite clearance past the recorded steps) for the ego at `ego`
+    /// (its state and its heading's `sin_cos()`), remembered. From memory it answers `min(bound, D)` where `D` is
     /// known, `bound` where `D >= bound` is known, and a known upper bound
     /// of `D` that is `<= floor` (a value `<= floor`, all the query promises
     /// there); otherwise it runs the query.
