@@ -215,8 +215,9 @@ struct ClearanceMemo {
 impl ClearanceMemo {
     /// [`BoxSet::clearance_below_unless_at_most`] on the boxes at `step`
     /// (infinite clearance past the recorded steps) for the ego at `ego`
-    /// (its state and its heading's `sin_cos()`), remembered. From memory it answers `min(bound, D)` where `D` is
-    /// known, `bound` where `D >= bound` is known, and a known upper bound
+    /// (its state and its heading's `sin_cos()`), remembered. From memory
+    /// it answers `min(bound, D)` where `D` is known, `bound` where
+    /// `D >= bound` is known, and a known upper bound
     /// of `D` that is `<= floor` (a value `<= floor`, all the query promises
     /// there); otherwise it runs the query.
     fn clearance_below(
@@ -254,6 +255,35 @@ impl ClearanceMemo {
             self.known.insert(key, learnt);
         }
         r
+    }
+}
+
+/// Each yaw rate's headings over one period from a start heading, with
+/// their `sin_cos()`: `turns[w][k]` after k + 1 steps at `YAW_RATES_RADPS[w]`.
+type Turns = [[(f64, (f64, f64)); TOKEN_PERIOD_STEPS]; YAW_RATES_RADPS.len()];
+
+/// [`Turns`] by start heading (its bits), remembered over a search. A
+/// child's headings depend on its parent's heading and its yaw rate only,
+/// not on its acceleration or position, and many candidates in a beam share
+/// a heading (they differ in speed only): sines and cosines were most of
+/// the search's time.
+#[derive(Default)]
+struct TurnsMemo {
+    known: HashMap<u64, Box<Turns>, BuildHasherDefault<PoseHasher>>,
+}
+
+impl TurnsMemo {
+    fn from(&mut self, heading_rad: f64) -> &Turns {
+        self.known.entry(heading_rad.to_bits()).or_insert_with(|| {
+            Box::new(YAW_RATES_RADPS.map(|w| {
+                let w = w.clamp(-MAX_YAW_RATE_RADPS, MAX_YAW_RATE_RADPS);
+                let mut heading_rad = heading_rad;
+                [(); TOKEN_PERIOD_STEPS].map(|()| {
+                    heading_rad = turned_heading_rad(heading_rad, w, SIM_DT_S);
+                    (heading_rad, heading_rad.sin_cos())
+                })
+            }))
+        })
     }
 }
 
@@ -373,6 +403,7 @@ fn beam_search(
     // `beams[p]`: the beam after period p (`beams[0]`: the start alone).
     let mut beams: Vec<Vec<Candidate>> = vec![vec![root]];
     let mut memo = ClearanceMemo::default();
+    let mut turns_memo = TurnsMemo::default();
     let mut expansions = 0;
     let periods = horizon_steps.div_ceil(TOKEN_PERIOD_STEPS);
     for period in 0..periods {
@@ -392,21 +423,10 @@ fn beam_search(
                 expansions += skipped;
                 break;
             }
-            // A child's headings depend on its yaw rate only, not on its
-            // acceleration: each yaw rate's headings over the period, and
-            // their sines and cosines (the costliest part of a step), are
-            // worked out once for all accelerations.
             let from = c.last(&start);
-            let turns = YAW_RATES_RADPS.map(|w| {
-                let w = w.clamp(-MAX_YAW_RATE_RADPS, MAX_YAW_RATE_RADPS);
-                let mut heading_rad = from.heading_rad;
-                [(); TOKEN_PERIOD_STEPS].map(|()| {
-                    heading_rad = turned_heading_rad(heading_rad, w, SIM_DT_S);
-                    (heading_rad, heading_rad.sin_cos())
-                })
-            });
+            let turns = turns_memo.from(from.heading_rad);
             for &a in &ACCELS_MPS2 {
-                for turn in &turns {
+                for turn in turns {
                     if expansions >= budget.max_expansions {
                         return Witness::NoneWithinBudget { expansions };
                     }

@@ -518,30 +518,38 @@ impl RoadMap {
         // A corner may sit on a joint between two segments, a little off
         // both perpendiculars: this much overhang still counts.
         const END_TOLERANCE_M: f64 = 0.25;
+        thread_local! {
+            // The candidate (lane, segment) pairs, sorted: reused from call
+            // to call, as this query runs for every corner of every contact
+            // the adversary's plausibility check judges.
+            static PAIRS: std::cell::RefCell<Vec<(u32, u32)>> = const { std::cell::RefCell::new(Vec::new()) };
+        }
         let heading = crate::geometry::Vector2::new(heading_rad.cos(), heading_rad.sin());
-        let mut out: Vec<MapElementId> = self
-            .lane_segments
-            .candidates(p, MAX_LANE_HALF_WIDTH_M)
-            .into_iter()
-            .filter_map(|(lane_index, segs)| {
-                let lane = &self.lanes[lane_index];
-                let proj = lane.centreline.project_segments(p, segs)?;
-                let offset = p - proj.point;
-                let overhang = offset.dot(&proj.tangent).abs();
-                let left = proj.tangent.x * offset.y - proj.tangent.y * offset.x > 0.0;
-                let boundary = if left { &lane.left_boundary } else { &lane.right_boundary };
-                let half_width = boundary
-                    .as_ref()
-                    .and_then(|b| b.project(&proj.point))
-                    // A partial boundary that ends before this point says nothing here.
-                    .filter(|b| (proj.point - b.point).dot(&b.tangent).abs() < END_TOLERANCE_M)
-                    .map_or(DEFAULT_LANE_HALF_WIDTH_M, |b| {
-                        b.distance_m.clamp(MIN_LANE_HALF_WIDTH_M, MAX_LANE_HALF_WIDTH_M)
-                    });
-                let inside = overhang <= END_TOLERANCE_M && proj.distance_m <= half_width;
-                (inside && proj.tangent.dot(&heading) > 0.0).then_some(lane.id)
-            })
-            .collect();
+        let mut out: Vec<MapElementId> = PAIRS.with_borrow_mut(|pairs| {
+            self.lane_segments.candidate_pairs_into(p, MAX_LANE_HALF_WIDTH_M, pairs);
+            // Each lane's run of segments, as `candidates` would group them.
+            pairs
+                .chunk_by(|a, b| a.0 == b.0)
+                .filter_map(|run| {
+                    let lane = &self.lanes[run[0].0 as usize];
+                    let proj = lane.centreline.project_segments(p, run.iter().map(|&(_, s)| s as usize))?;
+                    let offset = p - proj.point;
+                    let overhang = offset.dot(&proj.tangent).abs();
+                    let left = proj.tangent.x * offset.y - proj.tangent.y * offset.x > 0.0;
+                    let boundary = if left { &lane.left_boundary } else { &lane.right_boundary };
+                    let half_width = boundary
+                        .as_ref()
+                        .and_then(|b| b.project(&proj.point))
+                        // A partial boundary that ends before this point says nothing here.
+                        .filter(|b| (proj.point - b.point).dot(&b.tangent).abs() < END_TOLERANCE_M)
+                        .map_or(DEFAULT_LANE_HALF_WIDTH_M, |b| {
+                            b.distance_m.clamp(MIN_LANE_HALF_WIDTH_M, MAX_LANE_HALF_WIDTH_M)
+                        });
+                    let inside = overhang <= END_TOLERANCE_M && proj.distance_m <= half_width;
+                    (inside && proj.tangent.dot(&heading) > 0.0).then_some(lane.id)
+                })
+                .collect()
+        });
         out.sort_unstable();
         out
     }
