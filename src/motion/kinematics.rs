@@ -114,6 +114,27 @@ mod tests {
     }
 
     #[test]
+    fn a_step_with_its_trigonometry_at_hand_is_the_plain_step_to_the_bit() {
+        // The planners and the witness search step with sines and cosines
+        // worked out once (`step_with_sin_cos`, `step_to_heading`); every
+        // verdict they reach assumes these are the plain step's numbers.
+        let mut s = KinematicState { position: Point2::new(-3.2e3, 7.5e2), heading_rad: 3.0, speed_mps: 12.3 };
+        for k in 0..200 {
+            let action = Action { accel_mps2: [-6.0, 2.5, 0.0][k % 3], yaw_rate_radps: [0.9, -0.3, 0.0, 1.5][k % 4] };
+            let plain = step(&s, action, 0.1);
+            let (with_trig, (sin, cos)) = step_with_sin_cos(&s, action, 0.1);
+            assert_eq!(with_trig, plain);
+            assert_eq!(
+                (sin.to_bits(), cos.to_bits()),
+                (plain.heading_rad.sin().to_bits(), plain.heading_rad.cos().to_bits())
+            );
+            let heading_rad = turned_heading_rad(s.heading_rad, action.yaw_rate_radps, 0.1);
+            assert_eq!(step_to_heading(&s, action.accel_mps2, heading_rad, (sin, cos), 0.1), plain);
+            s = plain;
+        }
+    }
+
+    #[test]
     fn max_travel_bounds_every_rollout_and_is_reached_at_full_throttle() {
         let s0 = KinematicState { position: Point2::new(3.0, -1.0), heading_rad: 0.4, speed_mps: 7.0 };
         let actions = [(2.5, 0.0), (2.5, 0.6), (-4.0, 0.3), (0.0, -0.6), (1.0, 0.1)];
