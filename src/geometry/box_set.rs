@@ -85,10 +85,6 @@ struct Entry {
 pub struct BoxSet {
     entries: Vec<Entry>,
     max_radius_m: f64,
-    /// Storage reused by [`Self::refill_with_sin_cos`]: the entries in
-    /// input order, and their sort keys (centre x, rank).
-    unsorted: Vec<Entry>,
-    keys: Vec<(f64, usize)>,
 }
 
 /// Half the diagonal: the radius of a box's bounding circle (a plain
@@ -122,21 +118,15 @@ impl BoxSet {
     /// Makes this the set [`Self::with_sin_cos`] would make of `boxes`,
     /// keeping its storage: for callers that build many sets a second.
     pub fn refill_with_sin_cos(&mut self, boxes: impl IntoIterator<Item = (OrientedBox, (f64, f64))>) {
-        self.unsorted.clear();
-        self.unsorted.extend(boxes.into_iter().enumerate().map(|(rank, (shape, sin_cos))| Entry {
+        self.entries.clear();
+        self.entries.extend(boxes.into_iter().enumerate().map(|(rank, (shape, sin_cos))| Entry {
             frame: Frame::with_sin_cos(&shape, sin_cos),
             radius_m: radius(&shape),
             shape,
             rank,
         }));
-        // By x, ties in input order (a stable sort's order, without its
-        // buffer). The small keys are sorted and the entries gathered after
-        // them, rather than the large entries moved about by the sort.
-        self.keys.clear();
-        self.keys.extend(self.unsorted.iter().map(|e| (e.frame.x, e.rank)));
-        self.keys.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-        self.entries.clear();
-        self.entries.extend(self.keys.iter().map(|&(_, rank)| self.unsorted[rank]));
+        // By x, ties in input order (a stable sort's order, without its buffer).
+        self.entries.sort_unstable_by(|a, b| a.frame.x.total_cmp(&b.frame.x).then(a.rank.cmp(&b.rank)));
         self.max_radius_m = self.entries.iter().map(|e| e.radius_m).fold(0.0, f64::max);
     }
 
