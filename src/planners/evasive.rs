@@ -21,7 +21,7 @@
 
 use super::{Observation, Planner, PlannerError, PlannerOutput};
 use crate::geometry::{BoxSet, OrientedBox, Pose2, Vector2, wrap_angle};
-use crate::motion::kinematics::max_travel_m;
+use crate::motion::kinematics::{max_travel_m, step_to_heading, turned_heading_rad};
 use crate::motion::tokens::{MAX_ACCEL_MPS2, MAX_YAW_RATE_RADPS, SIM_DT_S};
 use crate::motion::{Action, KinematicState, kinematic_step_with_sin_cos};
 use crate::policies::{Route, build_route};
@@ -200,14 +200,12 @@ fn road_bounded_turn(
     let mut trig: Option<(f64, (f64, f64))> = None;
     for k in 0..steps {
         // `kinematic_step`, with the trigonometry cached.
-        let speed_mps = (s.speed_mps + action.accel_mps2 * SIM_DT_S).max(0.0);
-        let heading_rad = wrap_angle(s.heading_rad + action.yaw_rate_radps * SIM_DT_S);
-        let (sin, cos) = match trig {
+        let heading_rad = turned_heading_rad(s.heading_rad, action.yaw_rate_radps, SIM_DT_S);
+        let sin_cos = match trig {
             Some((h, sin_cos)) if h.to_bits() == heading_rad.to_bits() => sin_cos,
             _ => trig.insert((heading_rad, heading_rad.sin_cos())).1,
         };
-        let position = s.position + Vector2::new(cos, sin) * (speed_mps * SIM_DT_S);
-        s = KinematicState { position, heading_rad, speed_mps };
+        s = step_to_heading(&s, action.accel_mps2, heading_rad, sin_cos, SIM_DT_S);
         let turned = wrap_angle(s.heading_rad - start.heading_rad).abs() > TURNING_PREDICTION_MAP_CHECK_AFTER_RAD;
         if turned && action.yaw_rate_radps != 0.0 && k % TURNING_PREDICTION_LANE_CHECK_EVERY == 0 {
             let lane = map.nearest_lane(&s.position, Some(s.heading_rad), TURNING_PREDICTION_LANE_SEARCH_M);
@@ -227,7 +225,7 @@ fn road_bounded_turn(
         {
             break;
         }
-        states.push((s, (sin, cos)));
+        states.push((s, sin_cos));
     }
     states
 }
