@@ -121,7 +121,13 @@ mod tests {
         let mut s = KinematicState { position: Point2::new(-3.2e3, 7.5e2), heading_rad: 3.0, speed_mps: 12.3 };
         for k in 0..200 {
             let action = Action { accel_mps2: [-6.0, 2.5, 0.0][k % 3], yaw_rate_radps: [0.9, -0.3, 0.0, 1.5][k % 4] };
-            let plain = step(&s, action, 0.1);
+            // The step as written out before the trigonometry was shared,
+            // with separate calls to `cos` and `sin`.
+            let speed_mps = (s.speed_mps + action.accel_mps2 * 0.1).max(0.0);
+            let heading_rad = wrap_angle(s.heading_rad + action.yaw_rate_radps * 0.1);
+            let position = s.position + Vector2::new(heading_rad.cos(), heading_rad.sin()) * (speed_mps * 0.1);
+            let plain = KinematicState { position, heading_rad, speed_mps };
+            assert_eq!(step(&s, action, 0.1), plain);
             let (with_trig, (sin, cos)) = step_with_sin_cos(&s, action, 0.1);
             assert_eq!(with_trig, plain);
             assert_eq!(
