@@ -282,32 +282,10 @@ impl Planner for EvasivePlanner {
         if obs.time_s == 0.0 {
             self.seen.clear();
         }
-        let start_speed_mps = KinematicState::from_agent_state(&ego).speed_mps;
-        let max_accel_mps2 = self.params.accelerations_mps2.iter().copied().fold(0.0, f64::max);
-        let (len, wid) = self.checked_extent_m(obs);
-        let ego_radius_m = 0.5 * len.hypot(wid);
-        // How far from the ego's start a box can still touch a candidate's
-        // box or headway zone after k steps; grows with k.
-        let reach_m = |k: usize| {
-            let t = k as f64 * SIM_DT_S;
-            let travel_m = max_travel_m(start_speed_mps, max_accel_mps2, SIM_DT_S, k);
-            let headway_m = (HEADWAY_S * (start_speed_mps + max_accel_mps2 * t)).max(3.0);
-            let zone_reach_m = 0.5 * (len + headway_m) + 0.5 * headway_m.hypot(wid);
-            travel_m + ego_radius_m.max(zone_reach_m) + REACH_SLACK_M
-        };
         let turning: Vec<(usize, TurningPrediction)> = if self.params.turning_predictions {
             near.iter()
                 .enumerate()
-                .filter_map(|(i, (a, _, radius_m))| {
-                    let action = self.observed_turning(obs.time_s, a)?;
-                    // An agent that cannot come within reach of any
-                    // candidate in the horizon, however it turns, is not
-                    // rolled out: none of its boxes would be kept below.
-                    let speed_mps = KinematicState::from_agent_state(&a.state).speed_mps;
-                    let agent_travel_m = max_travel_m(speed_mps, action.accel_mps2, SIM_DT_S, steps);
-                    let gap_m = (a.state.position - ego.position).norm();
-                    (gap_m <= reach_m(steps) + radius_m + agent_travel_m + REACH_SLACK_M).then_some((i, action, a))
-                })
+                .filter_map(|(i, (a, _, _))| Some((i, self.observed_turning(obs.time_s, a)?, a)))
                 .map(|(i, action, a)| (i, road_bounded_turn(obs.map, &a.state, action, steps)))
                 .collect()
         } else {
@@ -317,11 +295,18 @@ impl Planner for EvasivePlanner {
         while self.seen.front().is_some_and(|(t, _)| obs.time_s - t > TURNING_PREDICTION_WINDOW_S + 1e-6) {
             self.seen.pop_front();
         }
+        let start_speed_mps = KinematicState::from_agent_state(&ego).speed_mps;
+        let max_accel_mps2 = self.params.accelerations_mps2.iter().copied().fold(0.0, f64::max);
+        let (len, wid) = self.checked_extent_m(obs);
+        let ego_radius_m = 0.5 * len.hypot(wid);
         let mut predictions = std::mem::take(&mut self.predictions);
         predictions.resize_with(steps, BoxSet::default);
         for (set, k) in predictions.iter_mut().zip(1..) {
             let t = k as f64 * SIM_DT_S;
-            let reach_m = reach_m(k);
+            let travel_m = max_travel_m(start_speed_mps, max_accel_mps2, SIM_DT_S, k);
+            let headway_m = (HEADWAY_S * (start_speed_mps + max_accel_mps2 * t)).max(3.0);
+            let zone_reach_m = 0.5 * (len + headway_m) + 0.5 * headway_m.hypot(wid);
+            let reach_m = travel_m + ego_radius_m.max(zone_reach_m) + REACH_SLACK_M;
             let reachable = |position: crate::geometry::Point2, radius_m: f64| {
                 (position - ego.position).norm_squared() <= (reach_m + radius_m).powi(2)
             };
