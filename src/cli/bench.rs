@@ -343,7 +343,7 @@ fn bench_variant(scenes: &[Scenario], repeat: usize) -> Result<Option<VariantBen
     let stage1 = &stages.stage1;
     let ego = stage1.ego.0;
     let body = scenario.track(stage1.ego).body();
-    let traffic = FixedTraffic { states: &stage1.states, bodies: &stage1.bodies, ego };
+    let traffic = FixedTraffic { states: &stage1.states, bodies: &stage1.bodies, ego, road: Some(&scenario.map) };
     let start_state = stage1.states.first().and_then(|row| row[ego]);
     let (witness_t, found) = time(repeat, || {
         start_state.is_some_and(|s| {

@@ -205,7 +205,7 @@ pub(super) fn run(
     let search = |scenario: &Scenario, stage1: &crate::sim::Rollout| -> bool {
         let ego = stage1.ego.0;
         let Some(start) = stage1.states.first().and_then(|row| row[ego]) else { return false };
-        let traffic = FixedTraffic { states: &stage1.states, bodies: &stage1.bodies, ego };
+        let traffic = FixedTraffic { states: &stage1.states, bodies: &stage1.bodies, ego, road: Some(&scenario.map) };
         let body = scenario.track(stage1.ego).body();
         search_witness(&start, body, &traffic, stage1.states.len() - 1, WitnessBudget::default()).is_found()
     };

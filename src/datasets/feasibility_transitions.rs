@@ -454,7 +454,7 @@ pub fn witness_branches(rollout: &Rollout, cbv: TrackIndex) -> Vec<Rollout> {
                 .map(|row| row.iter().zip(&near).map(|(a, &n)| if n { *a } else { None }).collect())
                 .collect();
             let ahead = &rollout.states[k..end];
-            let traffic = FixedTraffic { states: &obstacles, bodies: &rollout.bodies, ego: ego.0 };
+            let traffic = FixedTraffic { states: &obstacles, bodies: &rollout.bodies, ego: ego.0, road: None };
             let Witness::Found { trajectory, .. } = search_witness(&start, body, &traffic, ahead.len() - 1, budget)
             else {
                 return None;

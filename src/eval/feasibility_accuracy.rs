@@ -70,7 +70,7 @@ pub fn label_state(value: &dyn FeasibilityOracle, state: &SampledState) -> Label
     let p = &state.pair;
     let states: Vec<Vec<Option<AgentState>>> = state.cbv_future.iter().map(|c| vec![None, *c]).collect();
     let bodies = [p.ego_body, p.cbv_body];
-    let traffic = FixedTraffic { states: &states, bodies: &bodies, ego: 0 };
+    let traffic = FixedTraffic { states: &states, bodies: &bodies, ego: 0, road: None };
     let budget = WitnessBudget { margin_m: DISTANCE_THRESHOLD_M, ..WitnessBudget::default() };
     let t = Instant::now();
     let horizon = states.len().saturating_sub(1);

@@ -5,11 +5,22 @@
 //! kinematic model — that touches no other agent over the horizon. The
 //! search is a beam search over one (acceleration, yaw rate) choice per
 //! token period, keeping the candidates with the largest clearance so far
-//! (among equal ones, those with the most room at the period's end); it
-//! returns the first collision-free trajectory it completes, or says that
-//! none was found within its budget (which is not a proof of
-//! infeasibility). When the beam finds nothing, the search runs once more
-//! with a wider one.
+//! (among equal ones, those with the most room at the period's end), a few
+//! of them in every speed band however they rank overall; it returns the
+//! first collision-free trajectory it completes, or says that none was
+//! found within its budget (which is not a proof of infeasibility). When
+//! the beam finds nothing, the search runs once more with a wider one.
+//!
+//! The ego keeps to the road as the CBV is held to it: its centre stays on
+//! the road inside the mapped area (see [`RoadCells`]; an ego that starts
+//! off it is not held to it). Without that, the escape with the most
+//! clearance is often to leave the road, through whatever is beside it.
+//!
+//! The ego turns no tighter than a car can: its yaw rate is bounded by its
+//! speed over [`MIN_TURN_RADIUS_M`] at every step (the token grid's model
+//! alone would let a standing car turn in place), and children of one
+//! candidate that drive the very same states (a standing car's yaw rates
+//! all collapse to one) are tried once.
 //!
 //! The search skips only work that cannot change its answer: a candidate
 //! that can no longer enter the beam is dropped as soon as that is certain
@@ -23,6 +34,7 @@ use std::collections::{BinaryHeap, HashMap};
 use std::hash::BuildHasherDefault;
 
 use crate::geometry::{BoxSet, OrientedBox, Point2, Pose2};
+use crate::map::RoadMap;
 use crate::motion::KinematicState;
 use crate::motion::kinematics::max_travel_m;
 use crate::motion::kinematics::{step_to_heading, turned_heading_rad};
@@ -43,12 +55,60 @@ pub struct WitnessBudget {
     /// Most witnesses are found by the narrow beam; a few need the wide
     /// one, and the narrow one keeps the usual case cheap.
     pub widening: usize,
+    /// Candidates the beam keeps in every speed band ([`SPEED_BAND_MPS`])
+    /// whatever their clearance, on top of the best overall up to
+    /// `beam_width` (the beam may grow past it by these). Ranked by
+    /// clearance alone, the beam fills with braking (slower means farther
+    /// from a car closing head-on for the first seconds) and loses the
+    /// swerves at speed that escape; widened with the beam.
+    pub per_speed_band: usize,
 }
 
 impl Default for WitnessBudget {
     fn default() -> Self {
-        Self { beam_width: 48, max_expansions: 60_000, margin_m: 0.05, widening: 8 }
+        Self { beam_width: 48, max_expansions: 60_000, margin_m: 0.05, widening: 8, per_speed_band: 3 }
     }
+}
+
+/// Tightest turning radius of the witness's ego, m: a passenger car's
+/// (about 5 m kerb to kerb for a small car, more for most). Its yaw rate at
+/// a step is at most the step's speed over it.
+pub const MIN_TURN_RADIUS_M: f64 = 5.0;
+
+/// Width of the beam's speed bands, m/s: the most one period's acceleration
+/// changes the speed (5 m/s² for 0.5 s), so a child lands in its parent's
+/// band or a neighbour.
+pub const SPEED_BAND_MPS: f64 = MAX_ACCEL_MPS2 * TOKEN_PERIOD_STEPS as f64 * SIM_DT_S;
+
+/// The speed band of `speed_mps` (a NaN speed counts as band 0; speeds
+/// beyond any car's share the last band).
+fn speed_band(speed_mps: f64) -> usize {
+    ((speed_mps / SPEED_BAND_MPS) as usize).min(LAST_SPEED_BAND)
+}
+
+/// The last speed band (160 m/s and beyond).
+const LAST_SPEED_BAND: usize = 63;
+
+/// `yaw_rate_radps` bounded by what a car at `speed_mps` can turn (see
+/// [`MIN_TURN_RADIUS_M`]); the unbounded rate, bit for bit, where it is
+/// within reach.
+fn turn_bounded_yaw_rate(yaw_rate_radps: f64, speed_mps: f64) -> f64 {
+    let most = speed_mps / MIN_TURN_RADIUS_M;
+    // Not `clamp`: a NaN speed leaves the rate as it is instead of panicking.
+    yaw_rate_radps.max(-most).min(most)
+}
+
+/// The speeds over one period of `steps` steps from `speed_mps` at
+/// `accel_mps2`, as [`step_to_heading`] computes them (`speeds[k]` after
+/// k + 1 steps; the rest unused).
+fn period_speeds(speed_mps: f64, accel_mps2: f64, steps: usize) -> [f64; TOKEN_PERIOD_STEPS] {
+    let mut v = speed_mps;
+    let mut speeds = [0.0; TOKEN_PERIOD_STEPS];
+    for s in speeds.iter_mut().take(steps) {
+        v = (v + accel_mps2 * SIM_DT_S).max(0.0);
+        *s = v;
+    }
+    speeds
 }
 
 /// Accelerations tried per period, m/s²: full braking to full acceleration
@@ -95,7 +155,7 @@ impl Witness {
 
 /// The obstacles: every other agent's state per simulator step from the start
 /// (`obstacles[k]` = the agents at step k), with their bodies.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, Copy)]
 pub struct FixedTraffic<'a> {
     /// `states[k][i]`: agent i at step k (`None` = absent).
     pub states: &'a [Vec<Option<AgentState>>],
@@ -103,6 +163,47 @@ pub struct FixedTraffic<'a> {
     pub bodies: &'a [AgentBody],
     /// The ego's index in `states` (ignored as an obstacle).
     pub ego: usize,
+    /// The road the ego must keep to (`None`: it may drive anywhere, as
+    /// for V_h's labels: V_h sees no map either).
+    pub road: Option<&'a RoadMap>,
+}
+
+/// Side of the cells at whose centres [`RoadCells`] judges the road, m:
+/// well below a car's width, so the rule is the exact one to within 0.36 m.
+pub const ROAD_CELL_M: f64 = 0.5;
+
+/// Where the witness's ego may put its centre: on the road inside the mapped
+/// area ([`RoadMap::is_off_road_within_map`], the rule the CBV's off-road
+/// time counts by), judged at the centre of the [`ROAD_CELL_M`] grid cell
+/// it falls in and remembered per cell (a search visits the same few
+/// thousand cells again and again; a map query per step would cost more
+/// than the search). Anywhere, without a map or when the ego starts off
+/// the road.
+pub struct RoadCells<'a> {
+    map: Option<&'a RoadMap>,
+    on_road: HashMap<(i64, i64), bool, BuildHasherDefault<PoseHasher>>,
+}
+
+impl<'a> RoadCells<'a> {
+    /// The rule for an ego starting at `start` on `map`.
+    pub fn new(map: Option<&'a RoadMap>, start: &Point2) -> Self {
+        let mut cells = Self { map, on_road: HashMap::default() };
+        if !cells.allows(start) {
+            cells.map = None;
+        }
+        cells
+    }
+
+    /// Whether the ego's centre may be at `p`.
+    pub fn allows(&mut self, p: &Point2) -> bool {
+        let Some(map) = self.map else { return true };
+        // A NaN coordinate falls into cell 0 (saturating casts).
+        let cell = ((p.x / ROAD_CELL_M).floor() as i64, (p.y / ROAD_CELL_M).floor() as i64);
+        *self.on_road.entry(cell).or_insert_with(|| {
+            let centre = Point2::new((cell.0 as f64 + 0.5) * ROAD_CELL_M, (cell.1 as f64 + 0.5) * ROAD_CELL_M);
+            !map.is_off_road_within_map(&centre)
+        })
+    }
 }
 
 /// One beam entry: the states of its last token period, linked to the
@@ -126,6 +227,72 @@ impl Candidate {
     fn last(&self, start: &KinematicState) -> KinematicState {
         if self.len == 0 { *start } else { self.segment[self.len - 1] }
     }
+
+    /// Whether `self` and `other` drive the very same states this period.
+    fn drives_as(&self, other: &Candidate) -> bool {
+        self.len == other.len && self.segment[..self.len] == other.segment[..other.len]
+    }
+
+    /// A hash of this period's states, for [`Candidate::drives_as`].
+    fn segment_hash(&self) -> u64 {
+        use std::hash::Hasher;
+        let mut h = PoseHasher::default();
+        for s in &self.segment[..self.len] {
+            for word in [s.position.x, s.position.y, s.heading_rad, s.speed_mps] {
+                h.write_u64(word.to_bits());
+            }
+        }
+        h.finish()
+    }
+}
+
+/// The children of one candidate kept so far, by [`Candidate::segment_hash`]
+/// (index into the period's list): a child that drives as an earlier one
+/// has the same clearance, room and future, and is not kept twice.
+type Siblings = HashMap<u64, usize, BuildHasherDefault<PoseHasher>>;
+
+/// Whether `child` drives as a sibling kept before it in `next` (and if
+/// not, notes it as kept; `child` is then pushed at `next.len()`).
+fn repeats_a_sibling(siblings: &mut Siblings, next: &[Candidate], child: &Candidate) -> bool {
+    match siblings.entry(child.segment_hash()) {
+        std::collections::hash_map::Entry::Occupied(e) => {
+            // Equal hashes of different states (never seen) keep both.
+            next[*e.get()].drives_as(child)
+        }
+        std::collections::hash_map::Entry::Vacant(e) => {
+            e.insert(next.len());
+            false
+        }
+    }
+}
+
+/// The beam kept of a period's candidates `sorted` in [`beam_order`]: the
+/// best `per_band` of every speed band and, of the rest, the best until
+/// there are `width` in all; in [`beam_order`].
+fn select_beam(sorted: Vec<Candidate>, start: &KinematicState, width: usize, per_band: usize) -> Vec<Candidate> {
+    let mut in_band = [0usize; LAST_SPEED_BAND + 1];
+    let reserved: Vec<bool> = sorted
+        .iter()
+        .map(|c| {
+            let band = &mut in_band[speed_band(c.last(start).speed_mps)];
+            let reserved = *band < per_band;
+            *band += usize::from(reserved);
+            reserved
+        })
+        .collect();
+    let mut fill = width.saturating_sub(reserved.iter().filter(|r| **r).count());
+    sorted
+        .into_iter()
+        .zip(reserved)
+        .filter(|&(_, reserved)| {
+            reserved
+                || (fill > 0 && {
+                    fill -= 1;
+                    true
+                })
+        })
+        .map(|(c, _)| c)
+        .collect()
 }
 
 impl FixedTraffic<'_> {
@@ -333,6 +500,38 @@ impl BeamFloor {
     }
 }
 
+/// The clearances of the best candidates of a period kept so far in each
+/// speed band (see [`BeamFloor`]): the band's floor is the clearance a
+/// later candidate must beat to be among its band's reserved best.
+struct BandFloors {
+    per_band: usize,
+    floors: Vec<BeamFloor>,
+}
+
+impl BandFloors {
+    fn new(per_band: usize) -> Self {
+        Self { per_band, floors: Vec::new() }
+    }
+
+    /// The clearance a later candidate in `band` must beat to be among its
+    /// band's reserved best, once that is certain (no band reserves
+    /// anything: nothing gets in that way).
+    fn get(&self, band: usize) -> Option<f64> {
+        if self.per_band == 0 { Some(f64::INFINITY) } else { self.floors.get(band).and_then(BeamFloor::get) }
+    }
+
+    fn keep(&mut self, band: usize, clearance_m: f64) {
+        if self.per_band == 0 {
+            return;
+        }
+        if self.floors.len() <= band {
+            let per_band = self.per_band;
+            self.floors.resize_with(band + 1, || BeamFloor::new(per_band));
+        }
+        self.floors[band].keep(clearance_m);
+    }
+}
+
 /// Choices tried per candidate and period.
 const ACTIONS: usize = ACCELS_MPS2.len() * YAW_RATES_RADPS.len();
 
@@ -347,7 +546,8 @@ pub fn search_witness(
     horizon_steps: usize,
     budget: WitnessBudget,
 ) -> Witness {
-    let narrow = beam_search(start, body, traffic, horizon_steps, budget);
+    let mut road = RoadCells::new(traffic.road, &start.position);
+    let narrow = beam_search_on(start, body, traffic, &mut road, horizon_steps, budget);
     let Witness::NoneWithinBudget { expansions: narrow_expansions } = narrow else { return narrow };
     if budget.widening <= 1 || narrow_expansions == 0 {
         // Nothing to widen, or touching at the start.
@@ -356,9 +556,10 @@ pub fn search_witness(
     let wide_budget = WitnessBudget {
         beam_width: budget.beam_width.saturating_mul(budget.widening),
         max_expansions: budget.max_expansions.saturating_mul(budget.widening),
+        per_speed_band: budget.per_speed_band.saturating_mul(budget.widening),
         ..budget
     };
-    let mut wide = beam_search(start, body, traffic, horizon_steps, wide_budget);
+    let mut wide = beam_search_on(start, body, traffic, &mut road, horizon_steps, wide_budget);
     let (Witness::Found { expansions, .. } | Witness::NoneWithinBudget { expansions }) = &mut wide;
     *expansions += narrow_expansions;
     wide
@@ -366,10 +567,25 @@ pub fn search_witness(
 
 /// One beam search of [`search_witness`] with `budget`'s beam and
 /// expansions (its `widening` unused).
+#[cfg(test)]
 fn beam_search(
     start: &AgentState,
     body: AgentBody,
     traffic: &FixedTraffic<'_>,
+    horizon_steps: usize,
+    budget: WitnessBudget,
+) -> Witness {
+    let mut road = RoadCells::new(traffic.road, &start.position);
+    beam_search_on(start, body, traffic, &mut road, horizon_steps, budget)
+}
+
+/// One beam search of [`search_witness`] with `budget`'s beam and
+/// expansions (its `widening` unused), keeping to `road`.
+fn beam_search_on(
+    start: &AgentState,
+    body: AgentBody,
+    traffic: &FixedTraffic<'_>,
+    road: &mut RoadCells<'_>,
     horizon_steps: usize,
     budget: WitnessBudget,
 ) -> Witness {
@@ -408,34 +624,46 @@ fn beam_search(
     let periods = horizon_steps.div_ceil(TOKEN_PERIOD_STEPS);
     for period in 0..periods {
         let beam = beams.last().expect("the start's beam");
+        let steps = TOKEN_PERIOD_STEPS.min(horizon_steps - period * TOKEN_PERIOD_STEPS);
         let mut next: Vec<Candidate> = Vec::with_capacity(2 * budget.beam_width.min(beam.len() * ACTIONS));
         let mut floor = BeamFloor::new(budget.beam_width);
+        let mut band_floors = BandFloors::new(budget.per_speed_band);
+        let mut siblings = Siblings::default();
         for (parent, c) in beam.iter().enumerate() {
-            // A child never has more clearance than its parent, and the beam
-            // is sorted best first: once a parent is no better than the
-            // floor, neither its children nor any later parent's can enter
-            // the beam. They still count as tried, as when they were run.
-            if floor.get().is_some_and(|f| c.clearance_m < f) {
-                let skipped = (beam.len() - parent) * ACTIONS;
-                if expansions + skipped > budget.max_expansions {
+            let from = c.last(&start);
+            let speeds = ACCELS_MPS2.map(|a| period_speeds(from.speed_mps, a, steps));
+            // A child never has more clearance than its parent: once the
+            // parent is below the floor of the beam and of every band its
+            // children can land in, none of them can enter. They still
+            // count as tried, as when they were run.
+            let below = |f: Option<f64>| f.is_some_and(|f| c.clearance_m < f);
+            if below(floor.get()) && speeds.iter().all(|v| below(band_floors.get(speed_band(v[steps - 1])))) {
+                if expansions + ACTIONS > budget.max_expansions {
                     return Witness::NoneWithinBudget { expansions: budget.max_expansions.max(expansions) };
                 }
-                expansions += skipped;
-                break;
+                expansions += ACTIONS;
+                continue;
             }
-            let from = c.last(&start);
+            siblings.clear();
             let turns = turns_memo.from(from.heading_rad);
-            for &a in &ACCELS_MPS2 {
-                for turn in turns {
+            for (&a, speeds) in ACCELS_MPS2.iter().zip(&speeds) {
+                let band = speed_band(speeds[steps - 1]);
+                for (&yaw_rate_radps, turn) in YAW_RATES_RADPS.iter().zip(turns) {
                     if expansions >= budget.max_expansions {
                         return Witness::NoneWithinBudget { expansions };
                     }
                     expansions += 1;
-                    // Dropped at or below the margin, or below the floor.
-                    let drop_at_m = floor.get().map_or(budget.margin_m, |f| f.next_down().max(budget.margin_m));
+                    // Dropped at or below the margin, or below both the
+                    // beam's floor and its band's.
+                    let enter_at = floor.get().zip(band_floors.get(band)).map(|(f, b)| f.min(b));
+                    let drop_at_m = enter_at.map_or(budget.margin_m, |f| f.next_down().max(budget.margin_m));
+                    let yaw_rate_radps = yaw_rate_radps.clamp(-MAX_YAW_RATE_RADPS, MAX_YAW_RATE_RADPS);
                     let mut s = from;
+                    // Whether every step so far turned at the full rate, so
+                    // that the remembered headings apply.
+                    let mut as_remembered = true;
                     // The heading's `sin_cos()` of the last state stepped to.
-                    let mut sin_cos = None;
+                    let mut sin_cos = (0.0, 0.0);
                     let mut child = Candidate {
                         parent,
                         segment: [s; TOKEN_PERIOD_STEPS],
@@ -443,12 +671,22 @@ fn beam_search(
                         clearance_m: c.clearance_m,
                         room_m: 0.0,
                     };
-                    for (k, &(heading_rad, trig)) in turn.iter().enumerate() {
+                    for (k, &remembered) in turn.iter().enumerate().take(steps) {
                         let step = period * TOKEN_PERIOD_STEPS + k + 1;
-                        if step > horizon_steps {
+                        let bounded = turn_bounded_yaw_rate(yaw_rate_radps, speeds[k]);
+                        as_remembered &= bounded == yaw_rate_radps;
+                        let (heading_rad, trig) = if as_remembered {
+                            remembered
+                        } else {
+                            let heading_rad = turned_heading_rad(s.heading_rad, bounded, SIM_DT_S);
+                            (heading_rad, heading_rad.sin_cos())
+                        };
+                        (s, sin_cos) = (step_to_heading(&s, a, heading_rad, trig, SIM_DT_S), trig);
+                        if !road.allows(&s.position) {
+                            // Off the road: dropped as if it touched something.
+                            child.clearance_m = f64::NEG_INFINITY;
                             break;
                         }
-                        (s, sin_cos) = (step_to_heading(&s, a, heading_rad, trig, SIM_DT_S), Some(trig));
                         child.clearance_m =
                             memo.clearance_below(&obstacles, step, (&s, trig), body, child.clearance_m, drop_at_m);
                         if child.clearance_m <= drop_at_m {
@@ -457,12 +695,12 @@ fn beam_search(
                         child.segment[child.len] = s;
                         child.len += 1;
                     }
-                    if child.clearance_m > drop_at_m {
+                    if child.clearance_m > drop_at_m && !repeats_a_sibling(&mut siblings, &next, &child) {
                         let step = period * TOKEN_PERIOD_STEPS + child.len;
-                        let trig = sin_cos.unwrap_or_else(|| s.heading_rad.sin_cos());
                         child.room_m =
-                            memo.clearance_below(&obstacles, step, (&s, trig), body, ROOM_CAP_M, f64::NEG_INFINITY);
+                            memo.clearance_below(&obstacles, step, (&s, sin_cos), body, ROOM_CAP_M, f64::NEG_INFINITY);
                         floor.keep(child.clearance_m);
+                        band_floors.keep(band, child.clearance_m);
                         next.push(child);
                     }
                 }
@@ -471,11 +709,10 @@ fn beam_search(
         if next.is_empty() {
             return Witness::NoneWithinBudget { expansions };
         }
-        // Keep the widest margins, then the most room; full ties by the
-        // order tried (deterministic).
+        // Keep the widest margins, then the most room, and a few of every
+        // speed band; full ties by the order tried (deterministic).
         next.sort_by(beam_order);
-        next.truncate(budget.beam_width);
-        beams.push(next);
+        beams.push(select_beam(next, &start, budget.beam_width, budget.per_speed_band));
     }
     // Walk the best candidate's links back to the start.
     let best = &beams.last().expect("the start's beam")[0];
@@ -527,6 +764,13 @@ mod tests {
                 .map(|b| if ego_box.intersects(&b) { 0.0 } else { ego_box.distance(&b) })
                 .fold(bound, f64::min)
         };
+        // The road rule queried afresh at every step, at the cell's centre.
+        let cell_off_road = |p: &Point2| {
+            let cell = |x: f64| ((x / ROAD_CELL_M).floor() + 0.5) * ROAD_CELL_M;
+            traffic.road.is_some_and(|map| map.is_off_road_within_map(&Point2::new(cell(p.x), cell(p.y))))
+        };
+        let starts_off_road = cell_off_road(&start.position);
+        let off_road = |p: &Point2| !starts_off_road && cell_off_road(p);
         let start = KinematicState::from_agent_state(start);
         let first_clearance = clearance(0, &start, f64::INFINITY);
         if first_clearance <= budget.margin_m {
@@ -545,14 +789,14 @@ mod tests {
             let beam = beams.last().unwrap();
             let mut next = Vec::new();
             for (parent, c) in beam.iter().enumerate() {
+                let mut siblings = Siblings::default();
                 for &a in &ACCELS_MPS2 {
                     for &w in &YAW_RATES_RADPS {
                         if expansions >= budget.max_expansions {
                             return Witness::NoneWithinBudget { expansions };
                         }
                         expansions += 1;
-                        let action =
-                            Action { accel_mps2: a, yaw_rate_radps: w.clamp(-MAX_YAW_RATE_RADPS, MAX_YAW_RATE_RADPS) };
+                        let w = w.clamp(-MAX_YAW_RATE_RADPS, MAX_YAW_RATE_RADPS);
                         let mut s = c.last(&start);
                         let mut child = Candidate {
                             parent,
@@ -566,7 +810,15 @@ mod tests {
                             if step > horizon_steps {
                                 break;
                             }
-                            s = kinematic_step(&s, action, SIM_DT_S);
+                            // The car's turning radius bounds the rate at the step's new speed.
+                            let speed_mps = (s.speed_mps + a * SIM_DT_S).max(0.0);
+                            let yaw_rate_radps =
+                                w.max(-speed_mps / MIN_TURN_RADIUS_M).min(speed_mps / MIN_TURN_RADIUS_M);
+                            s = kinematic_step(&s, Action { accel_mps2: a, yaw_rate_radps }, SIM_DT_S);
+                            if off_road(&s.position) {
+                                child.clearance_m = f64::NEG_INFINITY;
+                                break;
+                            }
                             child.clearance_m = clearance(step, &s, child.clearance_m);
                             if child.clearance_m <= budget.margin_m {
                                 break;
@@ -574,7 +826,7 @@ mod tests {
                             child.segment[child.len] = s;
                             child.len += 1;
                         }
-                        if child.clearance_m > budget.margin_m {
+                        if child.clearance_m > budget.margin_m && !repeats_a_sibling(&mut siblings, &next, &child) {
                             child.room_m = clearance(period * TOKEN_PERIOD_STEPS + child.len, &s, ROOM_CAP_M);
                             next.push(child);
                         }
@@ -585,8 +837,7 @@ mod tests {
                 return Witness::NoneWithinBudget { expansions };
             }
             next.sort_by(beam_order);
-            next.truncate(budget.beam_width);
-            beams.push(next);
+            beams.push(select_beam(next, &start, budget.beam_width, budget.per_speed_band));
         }
         let best = &beams.last().unwrap()[0];
         let mut segments = Vec::new();
@@ -646,13 +897,15 @@ mod tests {
         let mut outcomes = [0usize; 3];
         for seed in 0..16u64 {
             let (states, bodies) = random_traffic(10 + (seed as usize % 4) * 8, 30, seed);
-            let traffic = FixedTraffic { states: &states, bodies: &bodies, ego: 0 };
+            let traffic = FixedTraffic { states: &states, bodies: &bodies, ego: 0, road: None };
             let start = at(0.0, 0.0, [0.0, 0.0, 4.0, 9.0][seed as usize % 4]);
             for budget in [
                 WitnessBudget::default(),
                 WitnessBudget { beam_width: 5, ..WitnessBudget::default() },
-                WitnessBudget { beam_width: 12, max_expansions: 1_000, margin_m: 0.3, widening: 1 },
-                WitnessBudget { beam_width: 1, max_expansions: 200, margin_m: 0.05, widening: 1 },
+                WitnessBudget { per_speed_band: 0, ..WitnessBudget::default() },
+                WitnessBudget { beam_width: 12, max_expansions: 1_000, margin_m: 0.3, widening: 1, per_speed_band: 2 },
+                WitnessBudget { beam_width: 1, max_expansions: 200, margin_m: 0.05, widening: 1, per_speed_band: 1 },
+                WitnessBudget { beam_width: 3, max_expansions: 5_000, margin_m: 0.05, widening: 1, per_speed_band: 0 },
             ] {
                 let plain = plain_search(&start, car(), &traffic, 30, budget);
                 let pruned = beam_search(&start, car(), &traffic, 30, budget);
@@ -671,15 +924,91 @@ mod tests {
         assert!(outcomes.iter().all(|&n| n > 0), "{outcomes:?}");
     }
 
+    /// A straight road 200 m long with `lanes` lanes of 3.5 m, the first
+    /// lane's centre on the x axis and the origin 100 m from either end.
+    fn straight_road(lanes: usize) -> RoadMap {
+        let road = crate::map::templates::StraightRoad {
+            lanes,
+            oncoming_lanes: 0,
+            lane_width_m: 3.5,
+            length_m: 200.0,
+            speed_limit_mps: None,
+        };
+        road.build().translated(&Vector2::new(100.0, 1.75))
+    }
+
+    #[test]
+    fn the_pruned_search_keeps_to_the_road_as_the_plain_search_does() {
+        let road = straight_road(3);
+        let mut kept_to_it = 0;
+        for seed in 0..12u64 {
+            let (states, bodies) = random_traffic(14, 30, seed);
+            let traffic = FixedTraffic { states: &states, bodies: &bodies, ego: 0, road: Some(&road) };
+            let start = at(0.0, 0.0, [0.0, 4.0, 9.0][seed as usize % 3]);
+            for budget in [
+                WitnessBudget::default(),
+                WitnessBudget { beam_width: 6, per_speed_band: 1, ..WitnessBudget::default() },
+            ] {
+                let plain = plain_search(&start, car(), &traffic, 30, budget);
+                assert_eq!(
+                    format!("{:?}", beam_search(&start, car(), &traffic, 30, budget)),
+                    format!("{plain:?}"),
+                    "seed {seed}"
+                );
+                let free = FixedTraffic { road: None, ..traffic };
+                kept_to_it += usize::from(plain != plain_search(&start, car(), &free, 30, budget));
+            }
+        }
+        assert!(kept_to_it > 0, "the road changed no search");
+    }
+
+    #[test]
+    fn an_escape_only_off_the_road_is_no_witness() {
+        // A car head-on in the ego's lane: swerving 2.05 m aside escapes, on
+        // one lane only by leaving the road, on two by the other lane.
+        let horizon = 60;
+        let states = oncoming_car(horizon);
+        let bodies = [car(), car()];
+        let one_lane = straight_road(1);
+        let two_lanes = straight_road(2);
+        let search = |road: Option<&RoadMap>| {
+            let traffic = FixedTraffic { states: &states, bodies: &bodies, ego: 0, road };
+            search_witness(&at(0.0, 0.0, 4.0), car(), &traffic, horizon, WitnessBudget::default())
+        };
+        let Witness::Found { trajectory, .. } = search(None) else { panic!("no escape anywhere") };
+        assert!(trajectory.iter().any(|s| one_lane.is_off_road_within_map(&s.position)));
+        let w = search(Some(&one_lane));
+        assert!(!w.is_found(), "{w:?}");
+        let Witness::Found { trajectory, .. } = search(Some(&two_lanes)) else { panic!("no escape on two lanes") };
+        assert_touches_no_car(&trajectory, &states);
+        for s in &trajectory {
+            // On the road to within the grid's half diagonal.
+            let past_edge_m = two_lanes.signed_distance_to_road_edge(&s.position).unwrap();
+            assert!(past_edge_m <= ROAD_CELL_M * std::f64::consts::FRAC_1_SQRT_2, "{s:?}: {past_edge_m} m off");
+        }
+    }
+
+    #[test]
+    fn an_ego_starting_off_the_road_is_not_held_to_it() {
+        let road = straight_road(1);
+        let states = vec![vec![None]; 11];
+        let bodies = [car()];
+        let traffic = FixedTraffic { states: &states, bodies: &bodies, ego: 0, road: Some(&road) };
+        // 10 m beside the road, heading away from it.
+        let start = AgentState { heading_rad: 1.5, ..at(0.0, 12.0, 5.0) };
+        assert!(search_witness(&start, car(), &traffic, 10, WitnessBudget::default()).is_found());
+    }
+
     #[test]
     fn the_search_widens_its_beam_only_when_the_narrow_one_finds_nothing() {
-        let narrow = WitnessBudget { beam_width: 1, max_expansions: 2_000, margin_m: 0.05, widening: 1 };
+        let narrow =
+            WitnessBudget { beam_width: 1, max_expansions: 2_000, margin_m: 0.05, widening: 1, per_speed_band: 0 };
         let widened = WitnessBudget { widening: 8, ..narrow };
         let wide = WitnessBudget { beam_width: 8, max_expansions: 16_000, ..narrow };
         let mut rescued = 0;
         for seed in 0..24u64 {
             let (states, bodies) = random_traffic(26, 30, seed);
-            let traffic = FixedTraffic { states: &states, bodies: &bodies, ego: 0 };
+            let traffic = FixedTraffic { states: &states, bodies: &bodies, ego: 0, road: None };
             let start = at(0.0, 0.0, [0.0, 4.0, 9.0][seed as usize % 3]);
             let first = beam_search(&start, car(), &traffic, 30, narrow);
             let got = search_witness(&start, car(), &traffic, 30, widened);
@@ -702,7 +1031,7 @@ mod tests {
         let horizon = 50;
         let states: Vec<Vec<Option<AgentState>>> =
             (0..=horizon).map(|_| vec![None, Some(at(20.0, 0.0, 0.0))]).collect();
-        let traffic = FixedTraffic { states: &states, bodies: &[car(), car()], ego: 0 };
+        let traffic = FixedTraffic { states: &states, bodies: &[car(), car()], ego: 0, road: None };
         let w = search_witness(&at(0.0, 0.0, 10.0), car(), &traffic, horizon, WitnessBudget::default());
         let Witness::Found { trajectory, min_clearance_m, .. } = w else { panic!("{w:?}") };
         assert_eq!(trajectory.len(), horizon + 1);
@@ -723,7 +1052,7 @@ mod tests {
         horizon: usize,
     ) -> Witness {
         let bodies = vec![car(); states[0].len()];
-        let traffic = FixedTraffic { states, bodies: &bodies, ego: 0 };
+        let traffic = FixedTraffic { states, bodies: &bodies, ego: 0, road: None };
         search(start, car(), &traffic, horizon, WitnessBudget::default())
     }
 
@@ -769,7 +1098,7 @@ mod tests {
         let horizon = 20;
         let wall = AgentBody { kind: AgentKind::Vehicle, length_m: 4.0, width_m: 40.0 };
         let states = states_over(horizon, |t| vec![None, Some(at(-8.25 + 15.0 * t, 0.0, 15.0))]);
-        let traffic = FixedTraffic { states: &states, bodies: &[car(), wall], ego: 0 };
+        let traffic = FixedTraffic { states: &states, bodies: &[car(), wall], ego: 0, road: None };
         let w = search_witness(&at(0.0, 0.0, 10.0), car(), &traffic, horizon, WitnessBudget::default());
         let Witness::Found { trajectory, min_clearance_m, .. } = w else { panic!("{w:?}") };
         assert!(min_clearance_m > WitnessBudget::default().margin_m);
@@ -795,10 +1124,151 @@ mod tests {
         assert!(!w.is_found(), "{w:?}");
     }
 
+    /// Every step of `trajectory` turns no tighter than [`MIN_TURN_RADIUS_M`]
+    /// at the step's speed.
+    fn assert_turns_like_a_car(trajectory: &[AgentState]) {
+        for (k, pair) in trajectory.windows(2).enumerate() {
+            let turned_rad = crate::geometry::wrap_angle(pair[1].heading_rad - pair[0].heading_rad).abs();
+            let travelled_m = pair[1].speed_mps() * SIM_DT_S;
+            assert!(
+                turned_rad <= travelled_m / MIN_TURN_RADIUS_M + 1e-12,
+                "step {k}: {turned_rad} rad in {travelled_m} m"
+            );
+        }
+    }
+
+    /// A car head-on from 40 m ahead at 10 m/s, from steps 0 to `horizon`.
+    fn oncoming_car(horizon: usize) -> Vec<Vec<Option<AgentState>>> {
+        states_over(horizon, |t| {
+            let x = 40.0 - 10.0 * t;
+            vec![
+                None,
+                Some(AgentState {
+                    position: Point2::new(x, 0.0),
+                    heading_rad: std::f64::consts::PI,
+                    velocity_mps: Vector2::new(-10.0, 0.0),
+                }),
+            ]
+        })
+    }
+
+    #[test]
+    fn a_car_head_on_is_escaped_by_swerving_at_speed_not_by_braking() {
+        // Ego at 4 m/s: stopping takes 0.8 s and the car still arrives, so
+        // only a swerve escapes. Braking keeps the most clearance for the
+        // first seconds, and a beam ranked by clearance alone kept only
+        // braking candidates (and, turning no tighter than a car, found
+        // nothing even widened); its speed bands keep swerves at speed.
+        let horizon = 60;
+        let states = oncoming_car(horizon);
+        let bodies = [car(), car()];
+        let traffic = FixedTraffic { states: &states, bodies: &bodies, ego: 0, road: None };
+        let greedy = WitnessBudget { per_speed_band: 0, ..WitnessBudget::default() };
+        assert!(!search_witness(&at(0.0, 0.0, 4.0), car(), &traffic, horizon, greedy).is_found());
+        let w = beam_search(&at(0.0, 0.0, 4.0), car(), &traffic, horizon, WitnessBudget::default());
+        let Witness::Found { trajectory, .. } = w else { panic!("{w:?}") };
+        assert_touches_no_car(&trajectory, &states);
+        assert_turns_like_a_car(&trajectory);
+        assert!(trajectory.iter().map(|s| s.position.y.abs()).fold(0.0, f64::max) > 2.0);
+    }
+
+    #[test]
+    fn a_standing_car_moves_off_before_it_turns() {
+        // Ego standing, the car head-on: it must pull away and steer out of
+        // the lane; it may not turn in place.
+        let horizon = 60;
+        let states = oncoming_car(horizon);
+        let w = search_among_cars(search_witness, &at(0.0, 0.0, 0.0), &states, horizon);
+        let Witness::Found { trajectory, .. } = w else { panic!("{w:?}") };
+        assert_touches_no_car(&trajectory, &states);
+        assert_turns_like_a_car(&trajectory);
+    }
+
+    #[test]
+    fn witnesses_turn_no_tighter_than_a_car_and_a_standing_car_tries_its_choices_once() {
+        let mut found = 0;
+        for seed in 0..12u64 {
+            let (states, bodies) = random_traffic(18, 30, seed);
+            let traffic = FixedTraffic { states: &states, bodies: &bodies, ego: 0, road: None };
+            let start = at(0.0, 0.0, [0.0, 1.0, 4.0, 9.0][seed as usize % 4]);
+            if let Witness::Found { trajectory, .. } =
+                search_witness(&start, car(), &traffic, 30, WitnessBudget::default())
+            {
+                assert_turns_like_a_car(&trajectory);
+                found += 1;
+            }
+        }
+        assert!(found > 6, "{found} of 12 found");
+        // Alone and standing: braking and holding still are one choice
+        // whatever the yaw rate (5 accelerations x 9 rates), and pulling
+        // away slowly turns the same at the sharper rates.
+        let states = vec![vec![None]; 6];
+        let traffic = FixedTraffic { states: &states, bodies: &[car()], ego: 0, road: None };
+        let mut next = Vec::new();
+        let start = KinematicState::from_agent_state(&at(0.0, 0.0, 0.0));
+        let mut siblings = Siblings::default();
+        for &a in &ACCELS_MPS2 {
+            for &w in &YAW_RATES_RADPS {
+                let mut child = Candidate {
+                    parent: 0,
+                    segment: [start; TOKEN_PERIOD_STEPS],
+                    len: 0,
+                    clearance_m: 1.0,
+                    room_m: 0.0,
+                };
+                let mut s = start;
+                for k in 0..TOKEN_PERIOD_STEPS {
+                    let v = (s.speed_mps + a * SIM_DT_S).max(0.0);
+                    s = kinematic_step(
+                        &s,
+                        Action { accel_mps2: a, yaw_rate_radps: turn_bounded_yaw_rate(w, v) },
+                        SIM_DT_S,
+                    );
+                    child.segment[k] = s;
+                }
+                child.len = TOKEN_PERIOD_STEPS;
+                if !repeats_a_sibling(&mut siblings, &next, &child) {
+                    next.push(child);
+                }
+            }
+        }
+        assert_eq!(next.iter().filter(|c| c.segment[4].speed_mps == 0.0).count(), 1);
+        for (i, c) in next.iter().enumerate() {
+            assert!(next[..i].iter().all(|d| !d.drives_as(c)), "child {i} repeats one");
+        }
+        // At 1 m/s² the speed stays below 0.5 m/s: at most 0.1 rad/s, so the
+        // rates beyond it one way or the other collapse (3 of 9 stay).
+        let moving = next.len() - 1;
+        assert!(moving < 3 * YAW_RATES_RADPS.len(), "{moving}");
+        assert_eq!(next.iter().filter(|c| c.segment[4].speed_mps == 0.5).count(), 3);
+        let w = search_witness(&at(0.0, 0.0, 0.0), car(), &traffic, 5, WitnessBudget::default());
+        assert!(w.is_found() && w.expansions() == ACTIONS, "{w:?}");
+    }
+
+    #[test]
+    fn the_beam_keeps_the_best_of_every_speed_band_then_the_best_overall() {
+        let start = KinematicState::from_agent_state(&at(0.0, 0.0, 0.0));
+        // Sorted best first: four at 1 m/s (band 0), then one each at 3
+        // and 8 m/s (bands 1 and 3).
+        let sorted: Vec<Candidate> = [(9.0, 1.0), (8.0, 1.0), (7.0, 1.0), (6.0, 1.0), (5.0, 3.0), (4.0, 8.0)]
+            .map(|(clearance_m, speed_mps)| {
+                let s = KinematicState { speed_mps, ..start };
+                Candidate { parent: 0, segment: [s; TOKEN_PERIOD_STEPS], len: 1, clearance_m, room_m: 0.0 }
+            })
+            .to_vec();
+        let clearances = |beam: Vec<Candidate>| beam.iter().map(|c| c.clearance_m).collect::<Vec<_>>();
+        assert_eq!(clearances(select_beam(sorted.clone(), &start, 3, 0)), [9.0, 8.0, 7.0]);
+        assert_eq!(clearances(select_beam(sorted.clone(), &start, 3, 1)), [9.0, 5.0, 4.0]);
+        assert_eq!(clearances(select_beam(sorted.clone(), &start, 4, 1)), [9.0, 8.0, 5.0, 4.0]);
+        // The reserve may outgrow the width.
+        assert_eq!(clearances(select_beam(sorted.clone(), &start, 1, 2)), [9.0, 8.0, 5.0, 4.0]);
+        assert_eq!(clearances(select_beam(sorted, &start, 10, 1)), [9.0, 8.0, 7.0, 6.0, 5.0, 4.0]);
+    }
+
     #[test]
     fn a_start_already_touching_has_no_witness() {
         let states = vec![vec![None, Some(at(1.0, 0.0, 0.0))]; 11];
-        let traffic = FixedTraffic { states: &states, bodies: &[car(), car()], ego: 0 };
+        let traffic = FixedTraffic { states: &states, bodies: &[car(), car()], ego: 0, road: None };
         assert_eq!(
             search_witness(&at(0.0, 0.0, 5.0), car(), &traffic, 10, WitnessBudget::default()),
             Witness::NoneWithinBudget { expansions: 0 }
