@@ -175,9 +175,9 @@ impl BoxSet {
             } else if gap < -SLACK_M {
                 true
             } else if surely_within(d2, reach) {
-                e.shape.intersects_exact(query)
+                e.shape.intersects_exact_with_sin_cos(query, (e.frame.sin, e.frame.cos))
             } else {
-                e.shape.intersects(query)
+                e.shape.intersects_with_sin_cos(query, (e.frame.sin, e.frame.cos))
             }
         })
     }
@@ -230,11 +230,11 @@ impl BoxSet {
             let touches = if gap > SLACK_M {
                 false
             } else if surely_within(d2, qr + e.radius_m) {
-                query.intersects_exact(&e.shape)
+                query.intersects_exact_with_sin_cos(&e.shape, sin_cos)
             } else {
-                query.intersects(&e.shape)
+                query.intersects_with_sin_cos(&e.shape, sin_cos)
             };
-            let d = if touches { 0.0 } else { query.distance(&e.shape) };
+            let d = if touches { 0.0 } else { query.distance_with_sin_cos(&e.shape, sin_cos) };
             nearest = nearest.min(d);
             if nearest <= floor {
                 break;

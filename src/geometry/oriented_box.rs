@@ -35,19 +35,32 @@ impl OrientedBox {
 
     /// Pose of `other` in this box's body frame, narrowed to `f32`.
     fn relative_pose(&self, other: &OrientedBox) -> Pose {
-        let t = self.pose.to_body(&other.pose.position);
+        self.relative_pose_with_sin_cos(other, self.pose.heading_rad.sin_cos())
+    }
+
+    /// [`Self::relative_pose`] with this box's heading's `sin_cos()` at hand
+    /// (the same bits as [`Pose2::to_body`] works out).
+    fn relative_pose_with_sin_cos(&self, other: &OrientedBox, (s, c): (f64, f64)) -> Pose {
+        let d = other.pose.position - self.pose.position;
+        let t = Vector2::new(c * d.x + s * d.y, -s * d.x + c * d.y);
         let yaw = other.pose.heading_rad - self.pose.heading_rad;
         Pose::new(Vec2::new(t.x as f32, t.y as f32), yaw as f32)
     }
 
     /// Whether the two boxes overlap (touching counts).
     pub fn intersects(&self, other: &OrientedBox) -> bool {
+        self.intersects_with_sin_cos(other, self.pose.heading_rad.sin_cos())
+    }
+
+    /// [`Self::intersects`] with this box's heading's `sin_cos()` at hand
+    /// (see [`Self::intersects_exact_with_sin_cos`]).
+    pub(crate) fn intersects_with_sin_cos(&self, other: &OrientedBox, sin_cos: (f64, f64)) -> bool {
         // Cheap reject on bounding circles before the exact SAT test.
         let reach = 0.5 * (self.length_m.hypot(self.width_m) + other.length_m.hypot(other.width_m));
         if (self.pose.position - other.pose.position).norm_squared() > reach * reach {
             return false;
         }
-        self.intersects_exact(other)
+        self.intersects_exact_with_sin_cos(other, sin_cos)
     }
 
     /// The separating-axis test of [`Self::intersects`] without its
@@ -60,6 +73,22 @@ impl OrientedBox {
     /// Separation distance between the boxes in metres; 0 when they overlap.
     pub fn distance(&self, other: &OrientedBox) -> f64 {
         distance_cuboid_cuboid(&self.relative_pose(other), &self.cuboid(), &other.cuboid()) as f64
+    }
+
+    /// [`Self::intersects_exact`] and [`Self::distance`] with this box's
+    /// heading's `sin_cos()` at hand, for a caller that queries one box
+    /// against many: the same answers, bit for bit.
+    pub(crate) fn intersects_exact_with_sin_cos(&self, other: &OrientedBox, sin_cos: (f64, f64)) -> bool {
+        intersection_test_cuboid_cuboid(
+            &self.relative_pose_with_sin_cos(other, sin_cos),
+            &self.cuboid(),
+            &other.cuboid(),
+        )
+    }
+
+    /// See [`Self::intersects_exact_with_sin_cos`].
+    pub(crate) fn distance_with_sin_cos(&self, other: &OrientedBox, sin_cos: (f64, f64)) -> f64 {
+        distance_cuboid_cuboid(&self.relative_pose_with_sin_cos(other, sin_cos), &self.cuboid(), &other.cuboid()) as f64
     }
 
     /// The four corners, counter-clockwise starting front-left.

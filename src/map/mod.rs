@@ -629,7 +629,13 @@ impl RoadMap {
     /// any of them decides the sign. `None` when the map has no road edges
     /// (or `p` is not finite).
     pub fn signed_distance_to_road_edge(&self, p: &Point2) -> Option<f64> {
-        let (_, nearest) = self.nearest_road_edge(p)?;
+        self.signed_distance_given(p, self.nearest_road_edge(p).as_ref())
+    }
+
+    /// [`Self::signed_distance_to_road_edge`] with [`Self::nearest_road_edge`]'s
+    /// answer for `p` at hand.
+    fn signed_distance_given(&self, p: &Point2, nearest: Option<&(usize, PolylineProjection)>) -> Option<f64> {
+        let (_, nearest) = nearest?;
         if self.drivable_areas.is_empty() {
             Some(nearest.signed_distance_m)
         } else {
@@ -646,13 +652,19 @@ impl RoadMap {
     /// around it. A vehicle there has left the mapped area rather than the
     /// road.
     pub fn is_past_mapped_end(&self, p: &Point2) -> bool {
+        self.is_past_mapped_end_given(p, self.nearest_road_edge(p).as_ref())
+    }
+
+    /// [`Self::is_past_mapped_end`] with [`Self::nearest_road_edge`]'s answer
+    /// for `p` at hand.
+    fn is_past_mapped_end_given(&self, p: &Point2, nearest: Option<&(usize, PolylineProjection)>) -> bool {
         const SEARCH_M: f64 = 10.0;
         // Far past the cut the lane's end is as far away as the edge's:
         // search that far (up to a limit), not only the 10 m beside `p`.
         const FARTHEST_PAST_END_M: f64 = 100.0;
-        let (edge_ends_here, past_edge_end_m) = match self.nearest_road_edge(p) {
+        let (edge_ends_here, past_edge_end_m) = match nearest {
             None => (true, 0.0),
-            Some((edge, proj)) => {
+            Some(&(edge, proj)) => {
                 let length = self.road_edges[edge].polyline.length_m();
                 (proj.arc_length_m <= 1e-6 || proj.arc_length_m >= length - 1e-6, proj.distance_m)
             }
@@ -679,7 +691,9 @@ impl RoadMap {
     /// the recording mapped. What a road user must not do; driving on past
     /// the map's cut is not leaving the road.
     pub fn is_off_road_within_map(&self, p: &Point2) -> bool {
-        self.is_off_road(p) && !self.is_past_mapped_end(p)
+        // The nearest edge is looked up once for both tests (none without edges).
+        let nearest = if self.road_edges.is_empty() { None } else { self.nearest_road_edge(p) };
+        self.is_off_road_given(p, nearest.as_ref()) && !self.is_past_mapped_end_given(p, nearest.as_ref())
     }
 
     /// Whether `p` is off the road. Unknown (no edges, no drivable areas) is
@@ -689,6 +703,15 @@ impl RoadMap {
             return !self.drivable_areas.iter().any(|a| a.contains(p));
         }
         self.signed_distance_to_road_edge(p).is_some_and(|d| d > 0.0)
+    }
+
+    /// [`Self::is_off_road`] with [`Self::nearest_road_edge`]'s answer for
+    /// `p` at hand.
+    fn is_off_road_given(&self, p: &Point2, nearest: Option<&(usize, PolylineProjection)>) -> bool {
+        if self.road_edges.is_empty() && !self.drivable_areas.is_empty() {
+            return !self.drivable_areas.iter().any(|a| a.contains(p));
+        }
+        self.signed_distance_given(p, nearest).is_some_and(|d| d > 0.0)
     }
 
     /// The first map point with a coordinate that is not finite or exceeds
@@ -741,6 +764,45 @@ mod tests {
 
     fn pl(pts: &[(f64, f64)]) -> Polyline {
         Polyline::new(pts.iter().map(|&(x, y)| Point2::new(x, y)).collect())
+    }
+
+    #[test]
+    fn off_road_within_the_map_is_off_road_and_not_past_the_mapped_end() {
+        // The combined query shares one nearest-edge lookup; its answer is
+        // the two queries' everywhere, on maps with and without drivable
+        // areas (the template's and the same edges alone).
+        use crate::map::templates::{Intersection, Merge};
+        let merge = Merge {
+            lanes: 2,
+            lane_width_m: 3.5,
+            length_m: 200.0,
+            merge_end_m: 120.0,
+            acceleration_lane_m: 60.0,
+            speed_limit_mps: None,
+        }
+        .build();
+        let crossing = Intersection {
+            lanes_per_direction: 1,
+            lane_width_m: 3.5,
+            arm_length_m: 40.0,
+            green_s: None,
+            speed_limit_mps: None,
+        }
+        .build();
+        let edges_only =
+            RoadMap::new(merge.lanes.clone(), merge.road_edges.clone(), vec![], vec![], vec![], vec![], vec![]);
+        let mut off = 0;
+        for map in [&merge, &crossing, &edges_only] {
+            for i in 0..80 {
+                for j in 0..40 {
+                    let p = Point2::new(-60.0 + i as f64 * 4.1, -50.0 + j as f64 * 2.7);
+                    let expected = map.is_off_road(&p) && !map.is_past_mapped_end(&p);
+                    assert_eq!(map.is_off_road_within_map(&p), expected, "{p:?}");
+                    off += usize::from(expected);
+                }
+            }
+        }
+        assert!(off > 100 && off < 3 * 80 * 40 - 100, "{off}");
     }
 
     #[test]
