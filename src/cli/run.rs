@@ -109,6 +109,9 @@ struct ArtefactReport {
     svg: String,
     #[serde(skip_serializing_if = "Option::is_none")]
     stderr: Option<String>,
+    /// What the witness search said about the ego's collision.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    witness: Option<harness::artefacts::CollisionWitness>,
 }
 
 #[derive(Debug, Serialize)]
@@ -329,6 +332,7 @@ fn suite_report(run: &SuiteRun) -> SuiteReport {
                             mcap: a.mcap.display().to_string(),
                             svg: a.svg.display().to_string(),
                             stderr: a.stderr.as_ref().map(|p| p.display().to_string()),
+                            witness: a.witness,
                         }),
                         None,
                     ),
@@ -464,6 +468,9 @@ fn print_report(out: &mut dyn Write, report: &Report) -> std::io::Result<()> {
                     writeln!(out, "    recording: {}\n    picture:   {}", a.mcap, a.svg)?;
                     if let Some(stderr) = &a.stderr {
                         writeln!(out, "    stderr:    {stderr}")?;
+                    }
+                    if let Some(witness) = a.witness {
+                        writeln!(out, "    witness:   {}", witness.describe())?;
                     }
                 }
                 (None, Some(e)) => writeln!(out, "    (could not write artefacts: {e})")?,

@@ -2,7 +2,10 @@
 //! stage-2 rollout (opens in Foxglove's 3D panel), an SVG picture and, for
 //! an external planner, everything it wrote to stderr, all written by
 //! [`crate::record::write_output`] under
-//! `<dir>/<suite>/<scenario>/<variant>.{mcap,svg,stderr.txt}`.
+//! `<dir>/<suite>/<scenario>/<variant>.{mcap,svg,stderr.txt}`. Where the
+//! ego collided, both show the feasibility witness beside it when the
+//! search finds one: an ego path that avoids every agent as they drove,
+//! the evidence that the collision was avoidable.
 //!
 //! Every path stays inside `<dir>` whatever the suite and scenario are
 //! called: each `::`-separated part of the variant name must be a plain
@@ -12,11 +15,12 @@
 
 use std::path::{Component, Path, PathBuf};
 
-use super::VariantOutcome;
-use crate::record::{self, RecordError, SvgOptions};
+use super::{Stage2Verdict, VariantOutcome};
+use crate::eval::witness::{FixedTraffic, Witness, WitnessBudget, search_witness};
+use crate::record::{self, NamedTrajectory, RecordError, SvgOptions, TimedPose, TrajectoryRole};
 
 /// Paths of a variant's artefacts.
-#[derive(Debug, Clone, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct Artefacts {
     /// The recording.
     pub mcap: PathBuf,
@@ -24,6 +28,65 @@ pub struct Artefacts {
     pub svg: PathBuf,
     /// The planner's stderr (external planners only, even when empty).
     pub stderr: Option<PathBuf>,
+    /// What the witness search said about the ego's collision (`None`: it
+    /// did not collide).
+    pub witness: Option<CollisionWitness>,
+    /// The escape drawn in both, when one was found.
+    pub witness_path: Option<NamedTrajectory>,
+}
+
+/// What the feasibility witness search said about a stage-2 collision.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum CollisionWitness {
+    /// An escape exists, drawn in the recording and the picture: the
+    /// collision was avoidable.
+    Found,
+    /// The search found none within its budget (not a proof that none
+    /// exists).
+    NoneWithinBudget,
+}
+
+impl CollisionWitness {
+    /// One line for a person reading the run's report.
+    pub fn describe(self) -> &'static str {
+        match self {
+            Self::Found => "found: the collision was avoidable (the escape is drawn in both)",
+            Self::NoneWithinBudget => "none found within the search's budget (not a proof it was unavoidable)",
+        }
+    }
+}
+
+/// The feasibility witness of a variant whose ego collided in stage 2: an
+/// ego path from the same start, within the ego's limits and on the road,
+/// that touches no agent as they drove in stage 1 (the CBV replays that in
+/// stage 2, and replayed background agents drive the same), searched as
+/// `safer evaluate` does. `None` when the ego did not collide.
+pub fn feasibility_witness(outcome: &VariantOutcome) -> Option<(CollisionWitness, Option<NamedTrajectory>)> {
+    if !matches!(outcome.verdict, Stage2Verdict::Collided { .. }) {
+        return None;
+    }
+    let stage1 = &outcome.stage1;
+    let ego = stage1.ego.0;
+    let body = outcome.scenario.track(stage1.ego).body();
+    let traffic =
+        FixedTraffic { states: &stage1.states, bodies: &stage1.bodies, ego, road: Some(&outcome.scenario.map) };
+    let found = stage1.states.first().and_then(|row| row.get(ego).copied().flatten()).map(|start| {
+        search_witness(&start, body, &traffic, stage1.states.len().saturating_sub(1), WitnessBudget::default())
+    });
+    let Some(Witness::Found { trajectory, min_clearance_m, .. }) = found else {
+        return Some((CollisionWitness::NoneWithinBudget, None));
+    };
+    let poses = trajectory
+        .iter()
+        .enumerate()
+        .map(|(k, s)| TimedPose { time_s: k as f64 * stage1.dt_s, pose: s.pose() })
+        .collect();
+    let name = format!("an escape keeping {min_clearance_m:.2} m from every agent");
+    Some((
+        CollisionWitness::Found,
+        Some(NamedTrajectory { name, role: TrajectoryRole::FeasibilityWitness, body: Some(body), poses }),
+    ))
 }
 
 /// Writes the artefacts of `outcome` under `dir`.
@@ -34,8 +97,11 @@ pub fn write(dir: &Path, outcome: &VariantOutcome) -> Result<Artefacts, RecordEr
     }
     let mcap = base.with_extension("mcap");
     let svg = base.with_extension("svg");
-    record::write_rollout_mcap(&mcap, &outcome.scenario, &outcome.stage2, &[])?;
-    record::write_svg(&svg, &record::render_rollout_svg(&outcome.scenario, &outcome.stage2, &SvgOptions::default()))?;
+    let witness = feasibility_witness(outcome);
+    let extra: Vec<NamedTrajectory> = witness.iter().filter_map(|(_, t)| t.clone()).collect();
+    record::write_rollout_mcap(&mcap, &outcome.scenario, &outcome.stage2, &extra)?;
+    let picture = record::render_rollout_svg_with(&outcome.scenario, &outcome.stage2, &extra, &SvgOptions::default());
+    record::write_svg(&svg, &picture)?;
     let stderr = match &outcome.planner_stderr {
         Some(log) => {
             let path = base.with_extension("stderr.txt");
@@ -44,7 +110,8 @@ pub fn write(dir: &Path, outcome: &VariantOutcome) -> Result<Artefacts, RecordEr
         }
         None => None,
     };
-    Ok(Artefacts { mcap, svg, stderr })
+    let (witness, witness_path) = witness.map_or((None, None), |(w, path)| (Some(w), path));
+    Ok(Artefacts { mcap, svg, stderr, witness, witness_path })
 }
 
 /// The artefacts' path under `dir` (without extension) for the variant

@@ -139,6 +139,8 @@ pub(crate) mod tests_support {
                 mcap: format!("out/{suite}/crossing/seed-1.mcap").into(),
                 svg: format!("out/{suite}/crossing/seed-1.svg").into(),
                 stderr: None,
+                witness: None,
+                witness_path: None,
             })),
             name,
         }

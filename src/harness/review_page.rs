@@ -368,6 +368,9 @@ fn failing_variant_html(
                     esc(&stderr.display().to_string())
                 );
             }
+            if let Some(witness) = a.witness {
+                let _ = write!(h, " · feasibility witness: {}", esc(witness.describe()));
+            }
         }
         Some(Err(e)) => {
             let _ = write!(h, "recording: could not be written: {}", esc(e));
@@ -378,7 +381,12 @@ fn failing_variant_html(
         .map(|rel| Path::new("pictures").join(rel).with_extension("svg"));
     let img = match picture {
         Ok(rel) => {
-            let svg = record::render_rollout_svg(&o.scenario, &o.stage2, &SvgOptions::default());
+            // The witness found when the artefacts were written, drawn again here.
+            let witness = match &v.artefacts {
+                Some(Ok(a)) => a.witness_path.as_slice(),
+                _ => &[],
+            };
+            let svg = record::render_rollout_svg_with(&o.scenario, &o.stage2, witness, &SvgOptions::default());
             pictures.push((dir.join(&rel), svg));
             let href = esc(&url_path(&rel));
             let _ = write!(h, " · picture: <a href=\"{href}\">{}</a>", esc(&rel.display().to_string()));

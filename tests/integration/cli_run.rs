@@ -122,6 +122,18 @@ fn run_failing_planner_exits_1_and_leaves_artefacts() {
     assert_eq!(v["passed"], false);
     assert_eq!(v["suites"][0]["variants"][0]["passed"], false);
     assert!(v["suites"][0]["variants"][0]["artefacts"]["mcap"].is_string());
+    // It ran into the leader, which braking avoids: the witness search
+    // finds the escape, and both artefacts draw it.
+    assert!(v["suites"][0]["variants"][0]["stage2_collision"].is_string(), "{v}");
+    assert_eq!(v["suites"][0]["variants"][0]["artefacts"]["witness"], "found");
+    assert!(stdout.contains("witness:   found: the collision was avoidable"), "{stdout}");
+    let svg = std::fs::read_to_string(base.with_extension("svg")).unwrap();
+    assert!(svg.contains("feasibility witness: an escape keeping"), "the picture draws no witness");
+    let mcap = std::fs::read(base.with_extension("mcap")).unwrap();
+    assert!(
+        mcap.windows(b"feasibility witness".len()).any(|w| w == b"feasibility witness"),
+        "the recording has no witness"
+    );
     std::fs::remove_dir_all(&dir).ok();
 }
 
