@@ -433,6 +433,10 @@ fn run_html_writes_a_well_formed_review_page_with_the_failing_variants_frames() 
     // The picture beside the page and the recording it links to.
     let picture = page.join("pictures/constant-velocity-fails/highway-overtake/seed-0.svg");
     assert!(picture.is_file(), "{}", picture.display());
+    // The collision was avoidable: the page says so and its picture draws the escape.
+    assert!(html.contains("feasibility witness: found: the collision was avoidable"));
+    let svg = std::fs::read_to_string(&picture).unwrap();
+    assert!(svg.contains("feasibility witness: an escape keeping"), "the page's picture draws no witness");
     let mcap = doc.descendants().find(|n| n.attribute("class") == Some("mcap")).and_then(|a| a.attribute("href"));
     let mcap = page.join(mcap.expect("a link to the recording"));
     assert!(mcap.is_file(), "{}", mcap.display());
