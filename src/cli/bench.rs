@@ -15,7 +15,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use super::{CliError, scene_paths};
-use crate::eval::witness::{FixedTraffic, WitnessBudget, search_witness};
+use crate::eval::witness::{FixedTraffic, RoadKeeping, RoadRule, WitnessBudget, search_witness};
 use crate::harness::methods::{BackgroundDriver, MapEncodings, MethodSettings, ModelSet};
 use crate::harness::pipeline::{self, Stage2Cbv, VariantSetup};
 use crate::planners::BuiltinPlanner;
@@ -343,7 +343,12 @@ fn bench_variant(scenes: &[Scenario], repeat: usize) -> Result<Option<VariantBen
     let stage1 = &stages.stage1;
     let ego = stage1.ego.0;
     let body = scenario.track(stage1.ego).body();
-    let traffic = FixedTraffic { states: &stage1.states, bodies: &stage1.bodies, ego, road: Some(&scenario.map) };
+    let traffic = FixedTraffic {
+        states: &stage1.states,
+        bodies: &stage1.bodies,
+        ego,
+        road: Some(RoadRule { map: &scenario.map, keeping: RoadKeeping::default() }),
+    };
     let start_state = stage1.states.first().and_then(|row| row[ego]);
     let (witness_t, found) = time(repeat, || {
         start_state.is_some_and(|s| {

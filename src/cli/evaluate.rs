@@ -18,7 +18,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
 
 use super::{CliError, scene_paths};
-use crate::eval::witness::{FixedTraffic, WitnessBudget, search_witness};
+use crate::eval::witness::{FixedTraffic, RoadKeeping, RoadRule, WitnessBudget, search_witness};
 use crate::harness::evaluation::{self, EvaluationRequest, HeldOutSplit, MethodRow, VariantRecord};
 use crate::harness::methods::ModelSet;
 use crate::scenario::{Scenario, import};
@@ -53,14 +53,19 @@ fn print_table(
     held_out: &HeldOutSplit,
     scenes: usize,
     request: &EvaluationRequest,
+    witness_road: RoadKeeping,
 ) -> std::io::Result<()> {
     writeln!(
         out,
-        "{scenes} scenes × {} seeds; stage 2 planner `{}`, trust region n = {}, horizon {} s",
+        "{scenes} scenes × {} seeds; stage 2 planner `{}`, trust region n = {}, horizon {} s{}",
         request.seeds,
         request.planner.name(),
         request.trust_region,
-        request.horizon_s
+        request.horizon_s,
+        match witness_road {
+            RoadKeeping::Centre => "",
+            RoadKeeping::WholeWidth => "; the witness keeps its whole width on the road",
+        }
     )?;
     writeln!(
         out,
@@ -174,6 +179,7 @@ pub(super) fn run(
     request: &EvaluationRequest,
     max_scenes: Option<usize>,
     json: Option<&Path>,
+    witness_road: RoadKeeping,
 ) -> Result<ExitCode, CliError> {
     if let Some(path) = json {
         crate::record::output::check_output(path)?;
@@ -202,10 +208,15 @@ pub(super) fn run(
         ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} variants ({per_sec}, eta {eta})")
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
-    let search = |scenario: &Scenario, stage1: &crate::sim::Rollout| -> bool {
+    let search = move |scenario: &Scenario, stage1: &crate::sim::Rollout| -> bool {
         let ego = stage1.ego.0;
         let Some(start) = stage1.states.first().and_then(|row| row[ego]) else { return false };
-        let traffic = FixedTraffic { states: &stage1.states, bodies: &stage1.bodies, ego, road: Some(&scenario.map) };
+        let traffic = FixedTraffic {
+            states: &stage1.states,
+            bodies: &stage1.bodies,
+            ego,
+            road: Some(RoadRule { map: &scenario.map, keeping: witness_road }),
+        };
         let body = scenario.track(stage1.ego).body();
         search_witness(&start, body, &traffic, stage1.states.len() - 1, WitnessBudget::default()).is_found()
     };
@@ -218,7 +229,7 @@ pub(super) fn run(
     let rows = evaluation::table(&records, &request.methods);
     let held_out = evaluation::held_out_split(&records, &request.methods);
     let mut table = super::table_writer(json);
-    print_table(&mut table, &rows, &held_out, scenes.len(), request)?;
+    print_table(&mut table, &rows, &held_out, scenes.len(), request, witness_road)?;
     table.flush()?;
     if let Some(path) = json {
         let report = Report { scenes: scenes.len(), rows: &rows, held_out: &held_out, variants: &records };

@@ -35,6 +35,7 @@ use std::process::ExitCode;
 use clap::builder::{RangedU64ValueParser, TypedValueParser};
 use clap::{Parser, Subcommand};
 
+use crate::eval::witness::RoadKeeping;
 use crate::harness::HarnessError;
 use crate::harness::evaluation::{EvaluationRequest, Stage2Cbv};
 use crate::harness::methods::BackgroundDriver;
@@ -225,6 +226,9 @@ enum Command {
         /// Worker threads for the variants (default: one per core).
         #[arg(long, value_name = "N", value_parser = at_least_one())]
         jobs: Option<usize>,
+        /// How much of the witness's ego must stay on the road: its centre (the CBV's rule), or its whole width (no escape over the edge line).
+        #[arg(long, value_enum, default_value_t = RoadKeeping::Centre)]
+        witness_road: RoadKeeping,
     },
     /// Write the feasibility value's training transitions (NGSIM + synthetic, several ego and CBV policies).
     FeasibilityDataset {
@@ -402,6 +406,7 @@ pub fn main() -> ExitCode {
             max_scenes,
             json,
             jobs,
+            witness_road,
         } => {
             let request = EvaluationRequest {
                 methods,
@@ -413,7 +418,7 @@ pub fn main() -> ExitCode {
                 stage2_cbv,
                 horizon_s,
             };
-            set_jobs(jobs).and_then(|()| evaluate::run(&scenes, &request, max_scenes, json.as_deref()))
+            set_jobs(jobs).and_then(|()| evaluate::run(&scenes, &request, max_scenes, json.as_deref(), witness_road))
         }
         Command::FeasibilityDataset { recorded, out, synthetic_scenes, seed, force } => {
             feasibility_dataset::run(&feasibility_dataset::FeasibilityDatasetRequest {

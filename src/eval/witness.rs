@@ -165,7 +165,30 @@ pub struct FixedTraffic<'a> {
     pub ego: usize,
     /// The road the ego must keep to (`None`: it may drive anywhere, as
     /// for V_h's labels: V_h sees no map either).
-    pub road: Option<&'a RoadMap>,
+    pub road: Option<RoadRule<'a>>,
+}
+
+/// The road a witness keeps to and how much of the ego must stay on it.
+#[derive(Debug, Clone, Copy)]
+pub struct RoadRule<'a> {
+    /// The map.
+    pub map: &'a RoadMap,
+    /// How much of the ego must stay on the road.
+    pub keeping: RoadKeeping,
+}
+
+/// How much of the witness's ego must stay on the road.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum RoadKeeping {
+    /// Its centre: the rule the CBV's off-road time counts by; half the
+    /// car may be over the edge (on a shoulder, say).
+    #[default]
+    Centre,
+    /// Its whole width: the centre at least half the ego's width inside the
+    /// road's edge. An ego that starts closer to the edge than that is held
+    /// to its centre instead.
+    WholeWidth,
 }
 
 /// Side of the cells at whose centres [`RoadCells`] judges the road, m:
@@ -180,28 +203,42 @@ pub const ROAD_CELL_M: f64 = 0.5;
 /// memo). Anywhere, without a map or when the ego starts off
 /// the road.
 pub struct RoadCells<'a> {
-    map: Option<&'a RoadMap>,
+    rule: Option<RoadRule<'a>>,
+    /// Half the ego's width, m (how far inside the edge [`RoadKeeping::WholeWidth`] keeps the centre).
+    half_width_m: f64,
     on_road: HashMap<(i64, i64), bool, BuildHasherDefault<PoseHasher>>,
 }
 
 impl<'a> RoadCells<'a> {
-    /// The rule for an ego starting at `start` on `map`.
-    pub fn new(map: Option<&'a RoadMap>, start: &Point2) -> Self {
-        let mut cells = Self { map, on_road: HashMap::default() };
-        if !cells.allows(start) {
-            cells.map = None;
+    /// The rule for an ego of `body` starting at `start`.
+    pub fn new(rule: Option<RoadRule<'a>>, body: AgentBody, start: &Point2) -> Self {
+        let half_width_m = 0.5 * body.width_m;
+        let with = |rule| Self { rule, half_width_m, on_road: HashMap::default() };
+        let centre = rule.map(|r| RoadRule { keeping: RoadKeeping::Centre, ..r });
+        if !with(centre).allows(start) {
+            // Off the road at the start: not held to it.
+            return with(None);
         }
-        cells
+        if rule.is_some_and(|r| r.keeping == RoadKeeping::WholeWidth) && !with(rule).allows(start) {
+            // Closer to the edge than half its width at the start.
+            return with(centre);
+        }
+        with(rule)
     }
 
     /// Whether the ego's centre may be at `p`.
     pub fn allows(&mut self, p: &Point2) -> bool {
-        let Some(map) = self.map else { return true };
+        let Some(RoadRule { map, keeping }) = self.rule else { return true };
+        let half_width_m = self.half_width_m;
         // A NaN coordinate falls into cell 0 (saturating casts).
         let cell = ((p.x / ROAD_CELL_M).floor() as i64, (p.y / ROAD_CELL_M).floor() as i64);
         *self.on_road.entry(cell).or_insert_with(|| {
             let centre = Point2::new((cell.0 as f64 + 0.5) * ROAD_CELL_M, (cell.1 as f64 + 0.5) * ROAD_CELL_M);
-            !map.is_off_road_within_map(&centre)
+            match (keeping, map.signed_distance_to_road_edge(&centre)) {
+                (RoadKeeping::WholeWidth, Some(d)) => d <= -half_width_m || map.is_past_mapped_end(&centre),
+                // Without road edges the drivable areas decide alone.
+                (RoadKeeping::Centre, _) | (RoadKeeping::WholeWidth, None) => !map.is_off_road_within_map(&centre),
+            }
         })
     }
 }
@@ -549,7 +586,7 @@ pub fn search_witness(
     horizon_steps: usize,
     budget: WitnessBudget,
 ) -> Witness {
-    let mut road = RoadCells::new(traffic.road, &start.position);
+    let mut road = RoadCells::new(traffic.road, body, &start.position);
     let narrow = beam_search_on(start, body, traffic, &mut road, horizon_steps, budget);
     let Witness::NoneWithinBudget { expansions: narrow_expansions } = narrow else { return narrow };
     if budget.widening <= 1 || narrow_expansions == 0 {
@@ -578,7 +615,7 @@ fn beam_search(
     horizon_steps: usize,
     budget: WitnessBudget,
 ) -> Witness {
-    let mut road = RoadCells::new(traffic.road, &start.position);
+    let mut road = RoadCells::new(traffic.road, body, &start.position);
     beam_search_on(start, body, traffic, &mut road, horizon_steps, budget)
 }
 
@@ -770,7 +807,7 @@ mod tests {
         // The road rule queried afresh at every step, at the cell's centre.
         let cell_off_road = |p: &Point2| {
             let cell = |x: f64| ((x / ROAD_CELL_M).floor() + 0.5) * ROAD_CELL_M;
-            traffic.road.is_some_and(|map| map.is_off_road_within_map(&Point2::new(cell(p.x), cell(p.y))))
+            traffic.road.is_some_and(|r| r.map.is_off_road_within_map(&Point2::new(cell(p.x), cell(p.y))))
         };
         let starts_off_road = cell_off_road(&start.position);
         let off_road = |p: &Point2| !starts_off_road && cell_off_road(p);
@@ -930,14 +967,24 @@ mod tests {
     /// A straight road 200 m long with `lanes` lanes of 3.5 m, the first
     /// lane's centre on the x axis and the origin 100 m from either end.
     fn straight_road(lanes: usize) -> RoadMap {
+        straight_road_of(lanes, 3.5)
+    }
+
+    /// [`straight_road`] with lanes `lane_width_m` wide.
+    fn straight_road_of(lanes: usize, lane_width_m: f64) -> RoadMap {
         let road = crate::map::templates::StraightRoad {
             lanes,
             oncoming_lanes: 0,
-            lane_width_m: 3.5,
+            lane_width_m,
             length_m: 200.0,
             speed_limit_mps: None,
         };
-        road.build().translated(&Vector2::new(100.0, 1.75))
+        road.build().translated(&Vector2::new(100.0, 0.5 * lane_width_m))
+    }
+
+    /// The rule keeping the ego's centre on `map`.
+    fn centre_on(map: &RoadMap) -> Option<RoadRule<'_>> {
+        Some(RoadRule { map, keeping: RoadKeeping::Centre })
     }
 
     #[test]
@@ -946,7 +993,12 @@ mod tests {
         let mut kept_to_it = 0;
         for seed in 0..12u64 {
             let (states, bodies) = random_traffic(14, 30, seed);
-            let traffic = FixedTraffic { states: &states, bodies: &bodies, ego: 0, road: Some(&road) };
+            let traffic = FixedTraffic {
+                states: &states,
+                bodies: &bodies,
+                ego: 0,
+                road: Some(RoadRule { map: &road, keeping: RoadKeeping::Centre }),
+            };
             let start = at(0.0, 0.0, [0.0, 4.0, 9.0][seed as usize % 3]);
             for budget in [
                 WitnessBudget::default(),
@@ -974,15 +1026,15 @@ mod tests {
         let bodies = [car(), car()];
         let one_lane = straight_road(1);
         let two_lanes = straight_road(2);
-        let search = |road: Option<&RoadMap>| {
+        let search = |road: Option<RoadRule<'_>>| {
             let traffic = FixedTraffic { states: &states, bodies: &bodies, ego: 0, road };
             search_witness(&at(0.0, 0.0, 4.0), car(), &traffic, horizon, WitnessBudget::default())
         };
         let Witness::Found { trajectory, .. } = search(None) else { panic!("no escape anywhere") };
         assert!(trajectory.iter().any(|s| one_lane.is_off_road_within_map(&s.position)));
-        let w = search(Some(&one_lane));
+        let w = search(centre_on(&one_lane));
         assert!(!w.is_found(), "{w:?}");
-        let Witness::Found { trajectory, .. } = search(Some(&two_lanes)) else { panic!("no escape on two lanes") };
+        let Witness::Found { trajectory, .. } = search(centre_on(&two_lanes)) else { panic!("no escape on two lanes") };
         assert_touches_no_car(&trajectory, &states);
         for s in &trajectory {
             // On the road to within the grid's half diagonal.
@@ -992,11 +1044,50 @@ mod tests {
     }
 
     #[test]
+    fn keeping_the_whole_width_on_the_road_forbids_the_escape_over_the_edge_line() {
+        // One lane 5.5 m wide, a car head-on in it: swerving 2.05 m aside
+        // puts the centre 0.7 m from the edge, half the car over it.
+        let horizon = 60;
+        let states = oncoming_car(horizon);
+        let bodies = [car(), car()];
+        let wide_lane = straight_road_of(1, 5.5);
+        let search = |keeping| {
+            let road = Some(RoadRule { map: &wide_lane, keeping });
+            let traffic = FixedTraffic { states: &states, bodies: &bodies, ego: 0, road };
+            search_witness(&at(0.0, 0.0, 4.0), car(), &traffic, horizon, WitnessBudget::default())
+        };
+        assert!(search(RoadKeeping::Centre).is_found());
+        let w = search(RoadKeeping::WholeWidth);
+        assert!(!w.is_found(), "{w:?}");
+        // On two lanes of 3.5 m the other lane leaves room for the whole car.
+        let two_lanes = straight_road(2);
+        let road = Some(RoadRule { map: &two_lanes, keeping: RoadKeeping::WholeWidth });
+        let traffic = FixedTraffic { states: &states, bodies: &bodies, ego: 0, road };
+        let w = search_witness(&at(0.0, 0.0, 4.0), car(), &traffic, horizon, WitnessBudget::default());
+        let Witness::Found { trajectory, .. } = w else { panic!("{w:?}") };
+        for s in &trajectory {
+            let edge_m = two_lanes.signed_distance_to_road_edge(&s.position).unwrap();
+            assert!(edge_m <= -1.0 + ROAD_CELL_M * std::f64::consts::FRAC_1_SQRT_2, "{s:?}: {edge_m} m");
+        }
+        // An ego starting nearer the edge than half its width is held to its
+        // centre instead of having no move at all.
+        let near_edge = at(0.0, -1.2, 4.0);
+        let alone = vec![vec![None, None]; horizon + 1];
+        let traffic = FixedTraffic { states: &alone, bodies: &bodies, ego: 0, road };
+        assert!(search_witness(&near_edge, car(), &traffic, horizon, WitnessBudget::default()).is_found());
+    }
+
+    #[test]
     fn an_ego_starting_off_the_road_is_not_held_to_it() {
         let road = straight_road(1);
         let states = vec![vec![None]; 11];
         let bodies = [car()];
-        let traffic = FixedTraffic { states: &states, bodies: &bodies, ego: 0, road: Some(&road) };
+        let traffic = FixedTraffic {
+            states: &states,
+            bodies: &bodies,
+            ego: 0,
+            road: Some(RoadRule { map: &road, keeping: RoadKeeping::Centre }),
+        };
         // 10 m beside the road, heading away from it.
         let start = AgentState { heading_rad: 1.5, ..at(0.0, 12.0, 5.0) };
         assert!(search_witness(&start, car(), &traffic, 10, WitnessBudget::default()).is_found());

@@ -124,6 +124,17 @@ fn evaluate_takes_a_planner_spec_and_jobs_and_reports_latency() {
     let out = safer(&[&common[..], &["--jobs", "0"]].concat());
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("--jobs"), "{}", String::from_utf8_lossy(&out.stderr));
+    // The witness's road rule: named in the table's heading when not the default, refused when unknown.
+    let out = safer(&[&common[..], &["--witness-road", "whole-width"]].concat());
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("the witness keeps its whole width on the road"));
+    let out = safer(&[&common[..], &["--witness-road", "kerb"]].concat());
+    assert!(!out.status.success());
+    assert!(
+        String::from_utf8_lossy(&out.stderr).contains("--witness-road"),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
 }
 
 #[test]
