@@ -197,7 +197,8 @@ pub const ROAD_CELL_M: f64 = 0.5;
 
 /// Where the witness's ego may put its centre: on the road inside the mapped
 /// area ([`RoadMap::is_off_road_within_map`], the rule the CBV's off-road
-/// time counts by), judged at the centre of the [`ROAD_CELL_M`] grid cell
+/// time counts by), or that far inside it that its whole width is (see
+/// [`RoadKeeping`]), judged at the centre of the [`ROAD_CELL_M`] grid cell
 /// it falls in and remembered per cell (a search visits the same cells
 /// again and again; the map queries were a quarter of its time with the
 /// memo). Anywhere, without a map or when the ego starts off
@@ -234,10 +235,13 @@ impl<'a> RoadCells<'a> {
         let cell = ((p.x / ROAD_CELL_M).floor() as i64, (p.y / ROAD_CELL_M).floor() as i64);
         *self.on_road.entry(cell).or_insert_with(|| {
             let centre = Point2::new((cell.0 as f64 + 0.5) * ROAD_CELL_M, (cell.1 as f64 + 0.5) * ROAD_CELL_M);
-            match (keeping, map.signed_distance_to_road_edge(&centre)) {
-                (RoadKeeping::WholeWidth, Some(d)) => d <= -half_width_m || map.is_past_mapped_end(&centre),
-                // Without road edges the drivable areas decide alone.
-                (RoadKeeping::Centre, _) | (RoadKeeping::WholeWidth, None) => !map.is_off_road_within_map(&centre),
+            match keeping {
+                RoadKeeping::Centre => !map.is_off_road_within_map(&centre),
+                RoadKeeping::WholeWidth => match map.signed_distance_to_road_edge(&centre) {
+                    Some(d) => d <= -half_width_m || map.is_past_mapped_end(&centre),
+                    // Without road edges the drivable areas decide alone.
+                    None => !map.is_off_road_within_map(&centre),
+                },
             }
         })
     }
