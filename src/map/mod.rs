@@ -691,18 +691,15 @@ impl RoadMap {
     /// the recording mapped. What a road user must not do; driving on past
     /// the map's cut is not leaving the road.
     pub fn is_off_road_within_map(&self, p: &Point2) -> bool {
-        // The nearest edge is looked up once for both tests (none without edges).
-        let nearest = if self.road_edges.is_empty() { None } else { self.nearest_road_edge(p) };
+        // The nearest edge is looked up once for both tests.
+        let nearest = self.nearest_road_edge(p);
         self.is_off_road_given(p, nearest.as_ref()) && !self.is_past_mapped_end_given(p, nearest.as_ref())
     }
 
     /// Whether `p` is off the road. Unknown (no edges, no drivable areas) is
     /// treated as on-road.
     pub fn is_off_road(&self, p: &Point2) -> bool {
-        if self.road_edges.is_empty() && !self.drivable_areas.is_empty() {
-            return !self.drivable_areas.iter().any(|a| a.contains(p));
-        }
-        self.signed_distance_to_road_edge(p).is_some_and(|d| d > 0.0)
+        self.is_off_road_given(p, self.nearest_road_edge(p).as_ref())
     }
 
     /// [`Self::is_off_road`] with [`Self::nearest_road_edge`]'s answer for
