@@ -15,7 +15,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use super::{CliError, scene_paths};
-use crate::eval::witness::{FixedTraffic, RoadKeeping, RoadRule, WitnessBudget, search_witness};
+use crate::eval::witness::{RoadKeeping, search_rollout_witness};
 use crate::harness::methods::{BackgroundDriver, MapEncodings, MethodSettings, ModelSet};
 use crate::harness::pipeline::{self, Stage2Cbv, VariantSetup};
 use crate::planners::BuiltinPlanner;
@@ -341,20 +341,8 @@ fn bench_variant(scenes: &[Scenario], repeat: usize) -> Result<Option<VariantBen
     let stage2_planner_ms = mid(runs.iter().map(|r| r.4 * 1e3).collect());
 
     let stage1 = &stages.stage1;
-    let ego = stage1.ego.0;
-    let body = scenario.track(stage1.ego).body();
-    let traffic = FixedTraffic {
-        states: &stage1.states,
-        bodies: &stage1.bodies,
-        ego,
-        road: Some(RoadRule { map: &scenario.map, keeping: RoadKeeping::default() }),
-    };
-    let start_state = stage1.states.first().and_then(|row| row[ego]);
-    let (witness_t, found) = time(repeat, || {
-        start_state.is_some_and(|s| {
-            search_witness(&s, body, &traffic, stage1.states.len() - 1, WitnessBudget::default()).is_found()
-        })
-    });
+    let (witness_t, found) =
+        time(repeat, || search_rollout_witness(&scenario, stage1, RoadKeeping::default()).is_found());
     Ok(Some(VariantBench {
         scene: scenario.id.clone(),
         agents_present: present(&scenario),

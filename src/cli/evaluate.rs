@@ -18,7 +18,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
 
 use super::{CliError, scene_paths};
-use crate::eval::witness::{FixedTraffic, RoadKeeping, RoadRule, WitnessBudget, search_witness};
+use crate::eval::witness::{RoadKeeping, search_rollout_witness};
 use crate::harness::evaluation::{self, EvaluationRequest, HeldOutSplit, MethodRow, VariantRecord};
 use crate::harness::methods::ModelSet;
 use crate::scenario::{Scenario, import};
@@ -209,16 +209,7 @@ pub(super) fn run(
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     let search = move |scenario: &Scenario, stage1: &crate::sim::Rollout| -> bool {
-        let ego = stage1.ego.0;
-        let Some(start) = stage1.states.first().and_then(|row| row[ego]) else { return false };
-        let traffic = FixedTraffic {
-            states: &stage1.states,
-            bodies: &stage1.bodies,
-            ego,
-            road: Some(RoadRule { map: &scenario.map, keeping: witness_road }),
-        };
-        let body = scenario.track(stage1.ego).body();
-        search_witness(&start, body, &traffic, stage1.states.len() - 1, WitnessBudget::default()).is_found()
+        search_rollout_witness(scenario, stage1, witness_road).is_found()
     };
     let witness: Option<&evaluation::WitnessSearch> = Some(&search);
     let records = evaluation::evaluate(&scenes, request, &models, witness, &|| bar.inc(1));

@@ -39,7 +39,8 @@ use crate::motion::KinematicState;
 use crate::motion::kinematics::max_travel_m;
 use crate::motion::kinematics::{step_to_heading, turned_heading_rad};
 use crate::motion::tokens::{MAX_ACCEL_MPS2, MAX_YAW_RATE_RADPS, SIM_DT_S, TOKEN_PERIOD_STEPS};
-use crate::scenario::{AgentBody, AgentState};
+use crate::scenario::{AgentBody, AgentState, Scenario};
+use crate::sim::Rollout;
 
 /// Search settings.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -578,6 +579,26 @@ impl BandFloors {
 
 /// Choices tried per candidate and period.
 const ACTIONS: usize = ACCELS_MPS2.len() * YAW_RATES_RADPS.len();
+
+/// The witness of a rollout's ego, as `safer evaluate` and a failing
+/// variant's artefacts search it: from the ego's first state in `rollout`,
+/// against every other agent as they drove in it, over its whole length,
+/// keeping to `scenario`'s road by `keeping`, with the default budget. None
+/// within budget (no expansion) when the ego has no first state.
+pub fn search_rollout_witness(scenario: &Scenario, rollout: &Rollout, keeping: RoadKeeping) -> Witness {
+    let ego = rollout.ego.0;
+    let Some(start) = rollout.states.first().and_then(|row| row.get(ego).copied().flatten()) else {
+        return Witness::NoneWithinBudget { expansions: 0 };
+    };
+    let traffic = FixedTraffic {
+        states: &rollout.states,
+        bodies: &rollout.bodies,
+        ego,
+        road: Some(RoadRule { map: &scenario.map, keeping }),
+    };
+    let body = scenario.track(rollout.ego).body();
+    search_witness(&start, body, &traffic, rollout.states.len().saturating_sub(1), WitnessBudget::default())
+}
 
 /// Searches an ego trajectory from `start` over `horizon_steps` simulator
 /// steps that avoids every agent of `traffic`: a beam search, widened once

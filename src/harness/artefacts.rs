@@ -16,7 +16,7 @@
 use std::path::{Component, Path, PathBuf};
 
 use super::{Stage2Verdict, VariantOutcome};
-use crate::eval::witness::{FixedTraffic, RoadKeeping, RoadRule, Witness, WitnessBudget, search_witness};
+use crate::eval::witness::{RoadKeeping, Witness, search_rollout_witness};
 use crate::record::{self, NamedTrajectory, RecordError, SvgOptions, TimedPose, TrajectoryRole};
 
 /// Paths of a variant's artefacts.
@@ -67,20 +67,12 @@ pub fn feasibility_witness(outcome: &VariantOutcome) -> Option<(CollisionWitness
         return None;
     }
     let stage1 = &outcome.stage1;
-    let ego = stage1.ego.0;
-    let body = outcome.scenario.track(stage1.ego).body();
-    let traffic = FixedTraffic {
-        states: &stage1.states,
-        bodies: &stage1.bodies,
-        ego,
-        road: Some(RoadRule { map: &outcome.scenario.map, keeping: RoadKeeping::default() }),
-    };
-    let found = stage1.states.first().and_then(|row| row.get(ego).copied().flatten()).map(|start| {
-        search_witness(&start, body, &traffic, stage1.states.len().saturating_sub(1), WitnessBudget::default())
-    });
-    let Some(Witness::Found { trajectory, min_clearance_m, .. }) = found else {
+    let Witness::Found { trajectory, min_clearance_m, .. } =
+        search_rollout_witness(&outcome.scenario, stage1, RoadKeeping::default())
+    else {
         return Some((CollisionWitness::NoneWithinBudget, None));
     };
+    let body = outcome.scenario.track(stage1.ego).body();
     let poses = trajectory
         .iter()
         .enumerate()
