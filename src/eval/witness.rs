@@ -11,6 +11,14 @@
 //! found within its budget (which is not a proof of infeasibility). When
 //! the beam finds nothing, the search runs once more with a wider one.
 //!
+//! Before each period the first few candidates of the beam are tried on
+//! to the horizon straight on, braking to a standstill or holding their
+//! speed (see [`COMPLETIONS_MPS2`]): once the ego is past the conflict one of
+//! them is usually clear, and the witness is then that candidate's
+//! trajectory so far and its completion. Each completion is checked as
+//! every beam step is (clearance above the margin, on the road), so it can
+//! only find witnesses the beam might have missed, never accept a touch.
+//!
 //! The ego keeps to the road as the CBV is held to it: its centre stays on
 //! the road inside the mapped area (see [`RoadCells`]; an ego that starts
 //! off it is not held to it). Without that, the escape with the most
@@ -580,6 +588,99 @@ impl BandFloors {
 /// Choices tried per candidate and period.
 const ACTIONS: usize = ACCELS_MPS2.len() * YAW_RATES_RADPS.len();
 
+/// The accelerations with which a candidate may finish the horizon
+/// straight on, without more search, in the order tried: braking as hard as
+/// the token grid allows to a standstill (the minimal-risk manoeuvre of an
+/// automated car) and holding its speed. Once the ego is past the conflict
+/// one of them is usually clear of everything, and the beam's remaining
+/// periods would only confirm it.
+const COMPLETIONS_MPS2: [f64; 2] = [-MAX_ACCEL_MPS2, 0.0];
+
+/// Candidates of each beam, in beam order, whose completions are tried
+/// (each completion costs up to one clearance query per remaining step).
+const COMPLETED_PER_BEAM: usize = 3;
+
+/// Where the search stands when it tries completions: the step obstacles,
+/// the memo and the road rule it shares with the beam.
+struct Completer<'s, 'r> {
+    obstacles: &'s [BoxSet],
+    memo: &'s mut ClearanceMemo,
+    road: &'s mut RoadCells<'r>,
+    body: AgentBody,
+    margin_m: f64,
+    horizon_steps: usize,
+}
+
+impl Completer<'_, '_> {
+    /// The states after `from` (the ego at `step`, `clearance_m` kept so
+    /// far) up to the horizon, driving straight on at `accel_mps2`, and the
+    /// clearance kept over them all; `None` when they come within the
+    /// margin of a box or leave the road.
+    fn complete(
+        &mut self,
+        from: &KinematicState,
+        step: usize,
+        clearance_m: f64,
+        accel_mps2: f64,
+    ) -> Option<(Vec<KinematicState>, f64)> {
+        let trig = from.heading_rad.sin_cos();
+        let mut s = *from;
+        let mut clearance_m = clearance_m;
+        let mut states = Vec::with_capacity(self.horizon_steps - step);
+        for k in step + 1..=self.horizon_steps {
+            s = step_to_heading(&s, accel_mps2, from.heading_rad, trig, SIM_DT_S);
+            if !self.road.allows(&s.position) {
+                return None;
+            }
+            clearance_m =
+                self.memo.clearance_below(self.obstacles, k, (&s, trig), self.body, clearance_m, self.margin_m);
+            if clearance_m <= self.margin_m {
+                return None;
+            }
+            states.push(s);
+        }
+        Some((states, clearance_m))
+    }
+
+    /// The first of the first [`COMPLETED_PER_BEAM`] candidates of `beams`'
+    /// last beam (ending at `step`) whose completion by one of
+    /// [`COMPLETIONS_MPS2`] keeps clear to the horizon, tried in that
+    /// order: its whole trajectory from `start` and its clearance.
+    fn first_clear(
+        &mut self,
+        beams: &[Vec<Candidate>],
+        start: &KinematicState,
+        step: usize,
+    ) -> Option<(Vec<AgentState>, f64)> {
+        let beam = beams.last()?;
+        for (at, c) in beam.iter().enumerate().take(COMPLETED_PER_BEAM) {
+            for accel_mps2 in COMPLETIONS_MPS2 {
+                if let Some((rest, clearance_m)) = self.complete(&c.last(start), step, c.clearance_m, accel_mps2) {
+                    let mut trajectory = trajectory_to(beams, at, start);
+                    trajectory.extend(rest.iter().map(KinematicState::to_agent_state));
+                    return Some((trajectory, clearance_m));
+                }
+            }
+        }
+        None
+    }
+}
+
+/// The trajectory from `start` of candidate `at` of the last of `beams`,
+/// walking its links back.
+fn trajectory_to(beams: &[Vec<Candidate>], at: usize, start: &KinematicState) -> Vec<AgentState> {
+    let mut segments = Vec::with_capacity(beams.len());
+    let mut at = at;
+    for beam in beams.iter().rev() {
+        let c = &beam[at];
+        segments.push(&c.segment[..c.len]);
+        at = c.parent;
+    }
+    let mut trajectory = vec![start.to_agent_state()];
+    trajectory.extend(segments.iter().rev().flat_map(|seg| seg.iter().map(KinematicState::to_agent_state)));
+    trajectory
+}
+
 /// The witness of a rollout's ego, as `safer evaluate` and a failing
 /// variant's artefacts search it: from the ego's first state in `rollout`,
 /// against every other agent as they drove in it, over its whole length,
@@ -688,6 +789,13 @@ fn beam_search_on(
     let mut expansions = 0;
     let periods = horizon_steps.div_ceil(TOKEN_PERIOD_STEPS);
     for period in 0..periods {
+        // Before expanding: can one of the best so far finish straight on?
+        let step = period * TOKEN_PERIOD_STEPS;
+        let mut completer =
+            Completer { obstacles: &obstacles, memo: &mut memo, road, body, margin_m: budget.margin_m, horizon_steps };
+        if let Some((trajectory, min_clearance_m)) = completer.first_clear(&beams, &start, step) {
+            return Witness::Found { trajectory, min_clearance_m, expansions };
+        }
         let beam = beams.last().expect("the start's beam");
         let steps = TOKEN_PERIOD_STEPS.min(horizon_steps - period * TOKEN_PERIOD_STEPS);
         let mut next: Vec<Candidate> = Vec::with_capacity(2 * budget.beam_width.min(beam.len() * ACTIONS));
@@ -779,18 +887,8 @@ fn beam_search_on(
         next.sort_by(beam_order);
         beams.push(select_beam(next, &start, budget.beam_width, budget.per_speed_band));
     }
-    // Walk the best candidate's links back to the start.
     let best = &beams.last().expect("the start's beam")[0];
-    let mut segments = Vec::with_capacity(beams.len());
-    let mut at = 0;
-    for beam in beams.iter().rev() {
-        let c = &beam[at];
-        segments.push(&c.segment[..c.len]);
-        at = c.parent;
-    }
-    let mut trajectory = vec![start.to_agent_state()];
-    trajectory.extend(segments.iter().rev().flat_map(|seg| seg.iter().map(KinematicState::to_agent_state)));
-    Witness::Found { trajectory, min_clearance_m: best.clearance_m, expansions }
+    Witness::Found { trajectory: trajectory_to(&beams, 0, &start), min_clearance_m: best.clearance_m, expansions }
 }
 
 #[cfg(test)]
@@ -852,6 +950,28 @@ mod tests {
         let mut expansions = 0;
         for period in 0..horizon_steps.div_ceil(TOKEN_PERIOD_STEPS) {
             let beam = beams.last().unwrap();
+            // The completions of the first few, straight on to the horizon.
+            for (at, c) in beam.iter().enumerate().take(COMPLETED_PER_BEAM) {
+                for a in COMPLETIONS_MPS2 {
+                    let mut s = c.last(&start);
+                    let mut clearance_m = c.clearance_m;
+                    let mut rest = Vec::new();
+                    for step in period * TOKEN_PERIOD_STEPS + 1..=horizon_steps {
+                        s = kinematic_step(&s, Action { accel_mps2: a, yaw_rate_radps: 0.0 }, SIM_DT_S);
+                        clearance_m =
+                            if off_road(&s.position) { f64::NEG_INFINITY } else { clearance(step, &s, clearance_m) };
+                        if clearance_m <= budget.margin_m {
+                            break;
+                        }
+                        rest.push(s.to_agent_state());
+                    }
+                    if clearance_m > budget.margin_m {
+                        let mut trajectory = trajectory_to(&beams, at, &start);
+                        trajectory.extend(rest);
+                        return Witness::Found { trajectory, min_clearance_m: clearance_m, expansions };
+                    }
+                }
+            }
             let mut next = Vec::new();
             for (parent, c) in beam.iter().enumerate() {
                 let mut siblings = Siblings::default();
@@ -1152,10 +1272,51 @@ mod tests {
             (0..=horizon).map(|_| vec![None, Some(at(20.0, 0.0, 0.0))]).collect();
         let traffic = FixedTraffic { states: &states, bodies: &[car(), car()], ego: 0, road: None };
         let w = search_witness(&at(0.0, 0.0, 10.0), car(), &traffic, horizon, WitnessBudget::default());
-        let Witness::Found { trajectory, min_clearance_m, .. } = w else { panic!("{w:?}") };
+        let Witness::Found { trajectory, min_clearance_m, expansions } = w else { panic!("{w:?}") };
         assert_eq!(trajectory.len(), horizon + 1);
         assert!(min_clearance_m > 0.0);
         assert_touches_no_car(&trajectory, &states);
+        // Found by braking straight on from the start, no search needed:
+        // standing 9.5 m on (the model's semi-implicit steps), heading kept.
+        assert_eq!(expansions, 0);
+        let last = trajectory.last().unwrap();
+        assert_eq!((last.speed_mps(), last.heading_rad, last.position.y), (0.0, 0.0, 0.0));
+        assert!((last.position.x - 9.5).abs() < 1e-9, "{last:?}");
+    }
+
+    #[test]
+    fn a_completion_run_into_later_is_not_taken() {
+        // A car closes from 40 m behind at 20 m/s on an ego at 10 m/s:
+        // braking or holding its speed straight on, the ego is hit within
+        // 4 s. The search goes on and escapes it another way.
+        let horizon = 50;
+        let states = states_over(horizon, |t| vec![None, Some(at(-40.0 + 20.0 * t, 0.0, 20.0))]);
+        let w = search_among_cars(search_witness, &at(0.0, 0.0, 10.0), &states, horizon);
+        let Witness::Found { trajectory, expansions, .. } = w else { panic!("{w:?}") };
+        assert!(expansions > 0);
+        assert_touches_no_car(&trajectory, &states);
+        assert_turns_like_a_car(&trajectory);
+    }
+
+    #[test]
+    fn a_completion_that_leaves_the_road_is_not_taken() {
+        // Alone on one lane, heading 0.3 rad towards its edge at 10 m/s:
+        // straight on, braking (10 m) or not, the ego leaves the road, so
+        // the witness must steer back.
+        let road = straight_road(1);
+        let states = vec![vec![None]; 31];
+        let traffic = FixedTraffic { states: &states, bodies: &[car()], ego: 0, road: centre_on(&road) };
+        let mut start = at(0.0, 0.0, 10.0);
+        start.heading_rad = 0.3;
+        start.velocity_mps = Vector2::new(0.3f64.cos(), 0.3f64.sin()) * 10.0;
+        let w = search_witness(&start, car(), &traffic, 30, WitnessBudget::default());
+        let Witness::Found { trajectory, expansions, .. } = w else { panic!("{w:?}") };
+        assert!(expansions > 0);
+        for s in &trajectory {
+            let past_edge_m = road.signed_distance_to_road_edge(&s.position).unwrap();
+            assert!(past_edge_m <= ROAD_CELL_M * std::f64::consts::FRAC_1_SQRT_2, "{s:?}: {past_edge_m} m off");
+        }
+        assert!(trajectory.iter().any(|s| s.heading_rad < 0.3), "never steered back");
     }
 
     /// Each step's agents, from steps 0 to `horizon`, by `at_time_s`.
@@ -1177,10 +1338,17 @@ mod tests {
 
     /// Every state of `trajectory` (a car) clear of every car in `states`.
     fn assert_touches_no_car(trajectory: &[AgentState], states: &[Vec<Option<AgentState>>]) {
+        assert_touches_none_of(trajectory, states, &vec![car(); states[0].len()]);
+    }
+
+    /// Every state of `trajectory` (a car) clear of every agent (of
+    /// `bodies`) in `states`.
+    fn assert_touches_none_of(trajectory: &[AgentState], states: &[Vec<Option<AgentState>>], bodies: &[AgentBody]) {
         for (k, s) in trajectory.iter().enumerate() {
             let ego = OrientedBox::new(s.pose(), 4.5, 2.0);
-            for other in states[k].iter().flatten() {
-                assert!(!ego.intersects(&OrientedBox::new(other.pose(), 4.5, 2.0)), "step {k}");
+            for (other, b) in states[k].iter().zip(bodies).skip(1) {
+                let Some(other) = other else { continue };
+                assert!(!ego.intersects(&OrientedBox::new(other.pose(), b.length_m, b.width_m)), "step {k}");
             }
         }
     }
@@ -1314,6 +1482,7 @@ mod tests {
                 search_witness(&start, car(), &traffic, 30, WitnessBudget::default())
             {
                 assert_turns_like_a_car(&trajectory);
+                assert_touches_none_of(&trajectory, &states, &bodies);
                 found += 1;
             }
         }
@@ -1360,8 +1529,9 @@ mod tests {
         let moving = next.len() - 1;
         assert!(moving < 3 * YAW_RATES_RADPS.len(), "{moving}");
         assert_eq!(next.iter().filter(|c| c.segment[4].speed_mps == 0.5).count(), 3);
+        // Alone, standing on is clear from the start: no expansion at all.
         let w = search_witness(&at(0.0, 0.0, 0.0), car(), &traffic, 5, WitnessBudget::default());
-        assert!(w.is_found() && w.expansions() == ACTIONS, "{w:?}");
+        assert!(w.is_found() && w.expansions() == 0, "{w:?}");
     }
 
     #[test]
