@@ -1033,16 +1033,7 @@ mod tests {
             beams.push(select_beam(next, &start, budget.beam_width, budget.per_speed_band));
         }
         let best = &beams.last().unwrap()[0];
-        let mut segments = Vec::new();
-        let mut at = 0;
-        for beam in beams.iter().rev() {
-            let c = &beam[at];
-            segments.push(&c.segment[..c.len]);
-            at = c.parent;
-        }
-        let mut trajectory = vec![start.to_agent_state()];
-        trajectory.extend(segments.iter().rev().flat_map(|seg| seg.iter().map(KinematicState::to_agent_state)));
-        Witness::Found { trajectory, min_clearance_m: best.clearance_m, expansions }
+        Witness::Found { trajectory: trajectory_to(&beams, 0, &start), min_clearance_m: best.clearance_m, expansions }
     }
 
     /// Traffic around a start at the origin: `n` cars on straight lines,
