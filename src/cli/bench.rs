@@ -15,7 +15,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use super::{CliError, scene_paths};
-use crate::eval::witness::{RoadKeeping, search_rollout_witness};
+use crate::eval::witness::{RoadKeeping, WitnessBudget, search_rollout_witness};
 use crate::harness::methods::{BackgroundDriver, MapEncodings, MethodSettings, ModelSet};
 use crate::harness::pipeline::{self, Stage2Cbv, VariantSetup};
 use crate::planners::BuiltinPlanner;
@@ -341,8 +341,9 @@ fn bench_variant(scenes: &[Scenario], repeat: usize) -> Result<Option<VariantBen
     let stage2_planner_ms = mid(runs.iter().map(|r| r.4 * 1e3).collect());
 
     let stage1 = &stages.stage1;
-    let (witness_t, found) =
-        time(repeat, || search_rollout_witness(&scenario, stage1, RoadKeeping::default()).is_found());
+    let (witness_t, found) = time(repeat, || {
+        search_rollout_witness(&scenario, stage1, RoadKeeping::default(), WitnessBudget::default()).is_found()
+    });
     Ok(Some(VariantBench {
         scene: scenario.id.clone(),
         agents_present: present(&scenario),

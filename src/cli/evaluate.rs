@@ -18,7 +18,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
 
 use super::{CliError, scene_paths};
-use crate::eval::witness::{RoadKeeping, search_rollout_witness};
+use crate::eval::witness::{DEFAULT_WIDEST, RoadKeeping, WitnessBudget, search_rollout_witness};
 use crate::harness::evaluation::{self, EvaluationRequest, HeldOutSplit, MethodRow, VariantRecord};
 use crate::harness::methods::ModelSet;
 use crate::scenario::{Scenario, import};
@@ -45,6 +45,15 @@ fn fmt(v: Option<f64>) -> String {
     v.map_or("—".into(), |x| format!("{x:.3}"))
 }
 
+/// What the witness search holds an escape to, and how hard it looks.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct WitnessSettings {
+    /// How much of the ego must stay on the road.
+    pub road: RoadKeeping,
+    /// The widest beam tried, as a multiple of the narrow one.
+    pub widest: usize,
+}
+
 /// The human-readable table (on stdout, or stderr when the JSON report
 /// takes stdout).
 fn print_table(
@@ -53,18 +62,23 @@ fn print_table(
     held_out: &HeldOutSplit,
     scenes: usize,
     request: &EvaluationRequest,
-    witness_road: RoadKeeping,
+    witness: WitnessSettings,
 ) -> std::io::Result<()> {
     writeln!(
         out,
-        "{scenes} scenes × {} seeds; stage 2 planner `{}`, trust region n = {}, horizon {} s{}",
+        "{scenes} scenes × {} seeds; stage 2 planner `{}`, trust region n = {}, horizon {} s{}{}",
         request.seeds,
         request.planner.name(),
         request.trust_region,
         request.horizon_s,
-        match witness_road {
+        match witness.road {
             RoadKeeping::Centre => "",
             RoadKeeping::WholeWidth => "; the witness keeps its whole width on the road",
+        },
+        if witness.widest == DEFAULT_WIDEST {
+            String::new()
+        } else {
+            format!("; the witness search widens its beam up to ×{}", witness.widest)
         }
     )?;
     writeln!(
@@ -179,7 +193,7 @@ pub(super) fn run(
     request: &EvaluationRequest,
     max_scenes: Option<usize>,
     json: Option<&Path>,
-    witness_road: RoadKeeping,
+    witness: WitnessSettings,
 ) -> Result<ExitCode, CliError> {
     if let Some(path) = json {
         crate::record::output::check_output(path)?;
@@ -208,11 +222,11 @@ pub(super) fn run(
         ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} variants ({per_sec}, eta {eta})")
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
+    let budget = WitnessBudget::widening_up_to(witness.widest);
     let search = move |scenario: &Scenario, stage1: &crate::sim::Rollout| -> bool {
-        search_rollout_witness(scenario, stage1, witness_road).is_found()
+        search_rollout_witness(scenario, stage1, witness.road, budget).is_found()
     };
-    let witness: Option<&evaluation::WitnessSearch> = Some(&search);
-    let records = evaluation::evaluate(&scenes, request, &models, witness, &|| bar.inc(1));
+    let records = evaluation::evaluate(&scenes, request, &models, Some(&search), &|| bar.inc(1));
     bar.finish_and_clear();
     for r in records.iter().filter(|r| r.error.is_some()).take(5) {
         eprintln!("error: {} {:?} seed {}: {}", r.scenario, r.method, r.seed, r.error.as_deref().unwrap_or(""));
@@ -220,7 +234,7 @@ pub(super) fn run(
     let rows = evaluation::table(&records, &request.methods);
     let held_out = evaluation::held_out_split(&records, &request.methods);
     let mut table = super::table_writer(json);
-    print_table(&mut table, &rows, &held_out, scenes.len(), request, witness_road)?;
+    print_table(&mut table, &rows, &held_out, scenes.len(), request, witness)?;
     table.flush()?;
     if let Some(path) = json {
         let report = Report { scenes: scenes.len(), rows: &rows, held_out: &held_out, variants: &records };

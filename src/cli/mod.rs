@@ -229,6 +229,9 @@ enum Command {
         /// How much of the witness's ego must stay on the road: its centre (the CBV's rule), or its whole width (no escape over the edge line).
         #[arg(long, value_enum, default_value_t = RoadKeeping::Centre)]
         witness_road: RoadKeeping,
+        /// The widest beam the witness search tries when narrower ones find nothing, as a multiple of the narrow one (48 candidates); at least 1. Wider finds escapes narrower ones miss, at seconds a search where none exists.
+        #[arg(long, value_name = "N", default_value_t = crate::eval::witness::DEFAULT_WIDEST, value_parser = at_least_one())]
+        witness_widest: usize,
     },
     /// Write the feasibility value's training transitions (NGSIM + synthetic, several ego and CBV policies).
     FeasibilityDataset {
@@ -407,6 +410,7 @@ pub fn main() -> ExitCode {
             json,
             jobs,
             witness_road,
+            witness_widest,
         } => {
             let request = EvaluationRequest {
                 methods,
@@ -418,7 +422,8 @@ pub fn main() -> ExitCode {
                 stage2_cbv,
                 horizon_s,
             };
-            set_jobs(jobs).and_then(|()| evaluate::run(&scenes, &request, max_scenes, json.as_deref(), witness_road))
+            let witness = evaluate::WitnessSettings { road: witness_road, widest: witness_widest };
+            set_jobs(jobs).and_then(|()| evaluate::run(&scenes, &request, max_scenes, json.as_deref(), witness))
         }
         Command::FeasibilityDataset { recorded, out, synthetic_scenes, seed, force } => {
             feasibility_dataset::run(&feasibility_dataset::FeasibilityDatasetRequest {

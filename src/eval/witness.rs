@@ -78,10 +78,34 @@ pub struct WitnessBudget {
 
 impl Default for WitnessBudget {
     fn default() -> Self {
-        // ×64 after ×8: the ×8 beam missed escapes from stage-1 collisions
-        // on recorded scenes that the ×64 one finds (README, issue 10's
-        // twelfth round); only a search that finds nothing pays for it.
-        Self { beam_width: 48, max_expansions: 60_000, margin_m: 0.05, widenings: [8, 64], per_speed_band: 3 }
+        Self {
+            beam_width: 48,
+            max_expansions: 60_000,
+            margin_m: 0.05,
+            widenings: [FIRST_WIDENING, DEFAULT_WIDEST],
+            per_speed_band: 3,
+        }
+    }
+}
+
+/// The first widening of the default search: most witnesses the narrow
+/// beam misses, the ×8 one finds.
+pub const FIRST_WIDENING: usize = 8;
+
+/// The widest beam the default search tries, as a multiple of the narrow
+/// one: the ×8 beam missed escapes from stage-1 collisions on recorded
+/// scenes that the ×64 one finds (README, issue 10's twelfth round); only
+/// a search that finds nothing pays for it (seconds on a busy scene).
+pub const DEFAULT_WIDEST: usize = 64;
+
+impl WitnessBudget {
+    /// The default budget, widening at most to `widest` times the narrow
+    /// beam: first ×[`FIRST_WIDENING`] when `widest` is larger, then
+    /// ×`widest` (1: no widening). A wider search finds escapes a narrower
+    /// one misses, at more time where none exists.
+    pub fn widening_up_to(widest: usize) -> Self {
+        let widenings = if widest > FIRST_WIDENING { [FIRST_WIDENING, widest] } else { [widest, 1] };
+        Self { widenings, ..Self::default() }
     }
 }
 
@@ -690,9 +714,14 @@ fn trajectory_to(beams: &[Vec<Candidate>], at: usize, start: &KinematicState) ->
 /// The witness of a rollout's ego, as `safer evaluate` and a failing
 /// variant's artefacts search it: from the ego's first state in `rollout`,
 /// against every other agent as they drove in it, over its whole length,
-/// keeping to `scenario`'s road by `keeping`, with the default budget. None
+/// keeping to `scenario`'s road by `keeping`, within `budget`. None
 /// within budget (no expansion) when the ego has no first state.
-pub fn search_rollout_witness(scenario: &Scenario, rollout: &Rollout, keeping: RoadKeeping) -> Witness {
+pub fn search_rollout_witness(
+    scenario: &Scenario,
+    rollout: &Rollout,
+    keeping: RoadKeeping,
+    budget: WitnessBudget,
+) -> Witness {
     let ego = rollout.ego.0;
     let Some(start) = rollout.states.first().and_then(|row| row.get(ego).copied().flatten()) else {
         return Witness::NoneWithinBudget { expansions: 0 };
@@ -704,7 +733,7 @@ pub fn search_rollout_witness(scenario: &Scenario, rollout: &Rollout, keeping: R
         road: Some(RoadRule { map: &scenario.map, keeping }),
     };
     let body = scenario.track(rollout.ego).body();
-    search_witness(&start, body, &traffic, rollout.states.len().saturating_sub(1), WitnessBudget::default())
+    search_witness(&start, body, &traffic, rollout.states.len().saturating_sub(1), budget)
 }
 
 /// Searches an ego trajectory from `start` over `horizon_steps` simulator
@@ -1253,6 +1282,16 @@ mod tests {
         // 10 m beside the road, heading away from it.
         let start = AgentState { heading_rad: 1.5, ..at(0.0, 12.0, 5.0) };
         assert!(search_witness(&start, car(), &traffic, 10, WitnessBudget::default()).is_found());
+    }
+
+    #[test]
+    fn a_budget_widening_up_to_n_ends_its_ladder_at_n() {
+        assert_eq!(WitnessBudget::widening_up_to(DEFAULT_WIDEST), WitnessBudget::default());
+        assert_eq!(WitnessBudget::widening_up_to(512).widenings, [FIRST_WIDENING, 512]);
+        // Up to the first rung: that rung alone, or none.
+        assert_eq!(WitnessBudget::widening_up_to(FIRST_WIDENING).widenings, [FIRST_WIDENING, 1]);
+        assert_eq!(WitnessBudget::widening_up_to(4).widenings, [4, 1]);
+        assert_eq!(WitnessBudget::widening_up_to(1).widenings, [1, 1]);
     }
 
     #[test]

@@ -16,7 +16,7 @@
 use std::path::{Component, Path, PathBuf};
 
 use super::{Stage2Verdict, VariantOutcome};
-use crate::eval::witness::{RoadKeeping, Witness, search_rollout_witness};
+use crate::eval::witness::{RoadKeeping, Witness, WitnessBudget, search_rollout_witness};
 use crate::record::{self, NamedTrajectory, RecordError, SvgOptions, TimedPose, TrajectoryRole};
 
 /// Paths of a variant's artefacts.
@@ -68,7 +68,7 @@ pub fn feasibility_witness(outcome: &VariantOutcome) -> Option<(CollisionWitness
     }
     let stage1 = &outcome.stage1;
     let Witness::Found { trajectory, min_clearance_m, .. } =
-        search_rollout_witness(&outcome.scenario, stage1, RoadKeeping::default())
+        search_rollout_witness(&outcome.scenario, stage1, RoadKeeping::default(), WitnessBudget::default())
     else {
         return Some((CollisionWitness::NoneWithinBudget, None));
     };

@@ -121,20 +121,25 @@ fn evaluate_takes_a_planner_spec_and_jobs_and_reports_latency() {
     // Not a built-in, not a file; no thread at all.
     let out = safer(&[&common[..], &["--planner", "no-such-planner"]].concat());
     assert!(String::from_utf8_lossy(&out.stderr).contains("neither a built-in planner"));
-    let out = safer(&[&common[..], &["--jobs", "0"]].concat());
-    assert!(!out.status.success());
-    assert!(String::from_utf8_lossy(&out.stderr).contains("--jobs"), "{}", String::from_utf8_lossy(&out.stderr));
+    // Refused, naming the option.
+    let refused = |option: &str, value: &str| {
+        let out = safer(&[&common[..], &[option, value]].concat());
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success() && err.contains(option), "{option} {value}: {err}");
+    };
+    refused("--jobs", "0");
     // The witness's road rule: named in the table's heading when not the default, refused when unknown.
     let out = safer(&[&common[..], &["--witness-road", "whole-width"]].concat());
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     assert!(String::from_utf8_lossy(&out.stderr).contains("the witness keeps its whole width on the road"));
-    let out = safer(&[&common[..], &["--witness-road", "kerb"]].concat());
-    assert!(!out.status.success());
-    assert!(
-        String::from_utf8_lossy(&out.stderr).contains("--witness-road"),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    refused("--witness-road", "kerb");
+    // The witness search's widest beam: named when not the default, at least 1.
+    let out = safer(&[&common[..], &["--witness-widest", "512"]].concat());
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("the witness search widens its beam up to ×512"));
+    let out = safer(&common);
+    assert!(!String::from_utf8_lossy(&out.stderr).contains("widens its beam"));
+    refused("--witness-widest", "0");
 }
 
 #[test]
