@@ -62,11 +62,11 @@ pub struct WitnessBudget {
     pub margin_m: f64,
     /// When the search finds nothing, it searches again with the beam and
     /// the expansion budget the first of these times as large, and when
-    /// that finds nothing either, the second (1: that search is skipped).
+    /// that finds nothing either, the next (1: that search is skipped).
     /// Most witnesses are found by the narrow beam and a few need a wide
     /// one; the narrow one keeps the usual case cheap, and only a search
     /// that finds nothing pays for the widest.
-    pub widenings: [usize; 2],
+    pub widenings: [usize; 3],
     /// Candidates the beam keeps in every speed band ([`SPEED_BAND_MPS`])
     /// whatever their clearance, on top of the best overall up to
     /// `beam_width` (the beam may grow past it by these). Ranked by
@@ -82,7 +82,7 @@ impl Default for WitnessBudget {
             beam_width: 48,
             max_expansions: 60_000,
             margin_m: 0.05,
-            widenings: [FIRST_WIDENING, DEFAULT_WIDEST],
+            widenings: [FIRST_WIDENING, DEFAULT_WIDEST, 1],
             per_speed_band: 3,
         }
     }
@@ -100,11 +100,19 @@ pub const DEFAULT_WIDEST: usize = 64;
 
 impl WitnessBudget {
     /// The default budget, widening at most to `widest` times the narrow
-    /// beam: first ×[`FIRST_WIDENING`] when `widest` is larger, then
-    /// ×`widest` (1: no widening). A wider search finds escapes a narrower
-    /// one misses, at more time where none exists.
+    /// beam: through the default's rungs (×[`FIRST_WIDENING`],
+    /// ×[`DEFAULT_WIDEST`]) below `widest`, then ×`widest` (1: no
+    /// widening), so that every witness the default finds is found as it
+    /// finds it. A wider search finds escapes a narrower one misses, at
+    /// more time where none exists.
     pub fn widening_up_to(widest: usize) -> Self {
-        let widenings = if widest > FIRST_WIDENING { [FIRST_WIDENING, widest] } else { [widest, 1] };
+        let widenings = if widest > DEFAULT_WIDEST {
+            [FIRST_WIDENING, DEFAULT_WIDEST, widest]
+        } else if widest > FIRST_WIDENING {
+            [FIRST_WIDENING, widest, 1]
+        } else {
+            [widest, 1, 1]
+        };
         Self { widenings, ..Self::default() }
     }
 }
@@ -1120,21 +1128,21 @@ mod tests {
                     beam_width: 12,
                     max_expansions: 1_000,
                     margin_m: 0.3,
-                    widenings: [1, 1],
+                    widenings: [1, 1, 1],
                     per_speed_band: 2,
                 },
                 WitnessBudget {
                     beam_width: 1,
                     max_expansions: 200,
                     margin_m: 0.05,
-                    widenings: [1, 1],
+                    widenings: [1, 1, 1],
                     per_speed_band: 1,
                 },
                 WitnessBudget {
                     beam_width: 3,
                     max_expansions: 5_000,
                     margin_m: 0.05,
-                    widenings: [1, 1],
+                    widenings: [1, 1, 1],
                     per_speed_band: 0,
                 },
             ] {
@@ -1287,26 +1295,29 @@ mod tests {
     #[test]
     fn a_budget_widening_up_to_n_ends_its_ladder_at_n() {
         assert_eq!(WitnessBudget::widening_up_to(DEFAULT_WIDEST), WitnessBudget::default());
-        assert_eq!(WitnessBudget::widening_up_to(512).widenings, [FIRST_WIDENING, 512]);
+        // Wider than the default: through its rungs first.
+        assert_eq!(WitnessBudget::widening_up_to(512).widenings, [FIRST_WIDENING, DEFAULT_WIDEST, 512]);
+        assert_eq!(WitnessBudget::widening_up_to(16).widenings, [FIRST_WIDENING, 16, 1]);
         // Up to the first rung: that rung alone, or none.
-        assert_eq!(WitnessBudget::widening_up_to(FIRST_WIDENING).widenings, [FIRST_WIDENING, 1]);
-        assert_eq!(WitnessBudget::widening_up_to(4).widenings, [4, 1]);
-        assert_eq!(WitnessBudget::widening_up_to(1).widenings, [1, 1]);
+        assert_eq!(WitnessBudget::widening_up_to(FIRST_WIDENING).widenings, [FIRST_WIDENING, 1, 1]);
+        assert_eq!(WitnessBudget::widening_up_to(4).widenings, [4, 1, 1]);
+        assert_eq!(WitnessBudget::widening_up_to(1).widenings, [1, 1, 1]);
     }
 
     #[test]
     fn the_search_widens_its_beam_only_while_it_finds_nothing() {
-        // Narrow, then ×4, then ×16: each runs only when the one before found
-        // nothing (touching at the start is not widened), the expansions of
-        // every search run add up, and each widening rescues some search.
+        // Narrow, then ×4, then ×16 (a rung of 1 between them is skipped):
+        // each runs only when the one before found nothing (touching at the
+        // start is not widened), the expansions of every search run add up,
+        // and each widening rescues some search.
         let narrow = WitnessBudget {
             beam_width: 1,
             max_expansions: 2_000,
             margin_m: 0.05,
-            widenings: [1, 1],
+            widenings: [1, 1, 1],
             per_speed_band: 0,
         };
-        let ladder = WitnessBudget { widenings: [4, 16], ..narrow };
+        let ladder = WitnessBudget { widenings: [4, 1, 16], ..narrow };
         let times = |k: usize| WitnessBudget { beam_width: k, max_expansions: 2_000 * k, ..narrow };
         let mut rescued_by = [0usize; 3];
         for seed in 0..48u64 {
