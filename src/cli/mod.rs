@@ -229,8 +229,8 @@ enum Command {
         /// How much of the witness's ego must stay on the road: its centre (the CBV's rule), or its whole width (no escape over the edge line).
         #[arg(long, value_enum, default_value_t = RoadKeeping::Centre)]
         witness_road: RoadKeeping,
-        /// The widest beam the witness search tries when narrower ones find nothing, as a multiple of the narrow one (48 candidates); at least 1. Wider finds escapes narrower ones miss, at seconds a search where none exists.
-        #[arg(long, value_name = "N", default_value_t = crate::eval::witness::DEFAULT_WIDEST, value_parser = at_least_one())]
+        /// The widest beam the witness search tries when narrower ones find nothing, as a multiple of the narrow one (48 candidates); 1 to 4096. Wider finds escapes narrower ones miss, at seconds to minutes a search where none exists.
+        #[arg(long, value_name = "N", default_value_t = crate::eval::witness::DEFAULT_WIDEST, value_parser = RangedU64ValueParser::<usize>::new().range(1..=crate::eval::witness::MOST_WIDEST as u64))]
         witness_widest: usize,
     },
     /// Write the feasibility value's training transitions (NGSIM + synthetic, several ego and CBV policies).

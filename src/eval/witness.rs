@@ -98,6 +98,11 @@ pub const FIRST_WIDENING: usize = 8;
 /// a search that finds nothing pays for it (seconds on a busy scene).
 pub const DEFAULT_WIDEST: usize = 64;
 
+/// The widest beam `safer evaluate --witness-widest` accepts, as a multiple
+/// of the narrow one (×512 already takes about a minute a search that finds
+/// nothing on a busy scene).
+pub const MOST_WIDEST: usize = 4096;
+
 impl WitnessBudget {
     /// The default budget, widening at most to `widest` times the narrow
     /// beam: through the default's rungs (×[`FIRST_WIDENING`],
@@ -563,6 +568,9 @@ impl Ord for Clearance {
     }
 }
 
+/// Most clearances a [`BeamFloor`] makes room for before it is filled.
+const PREALLOCATED_FLOOR: usize = 4096;
+
 /// The clearances of the best `width` candidates of a period kept so far.
 /// The beam keeps the largest clearances (ties to more room), so once
 /// `width` are kept a later candidate whose clearance falls below the
@@ -575,7 +583,9 @@ struct BeamFloor {
 
 impl BeamFloor {
     fn new(width: usize) -> Self {
-        Self { width, kept: BinaryHeap::with_capacity(width + 1) }
+        // The heap grows to `width + 1`; storage for a usual beam up front,
+        // not for an enormous one asked for (`--witness-widest`).
+        Self { width, kept: BinaryHeap::with_capacity(width.min(PREALLOCATED_FLOOR).saturating_add(1)) }
     }
 
     /// The clearance a later candidate must beat, once the beam is full.

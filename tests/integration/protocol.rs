@@ -133,13 +133,14 @@ fn evaluate_takes_a_planner_spec_and_jobs_and_reports_latency() {
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     assert!(String::from_utf8_lossy(&out.stderr).contains("the witness keeps its whole width on the road"));
     refused("--witness-road", "kerb");
-    // The witness search's widest beam: named when not the default, at least 1.
+    // The witness search's widest beam: named when not the default, 1 to 4096.
     let out = safer(&[&common[..], &["--witness-widest", "512"]].concat());
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     assert!(String::from_utf8_lossy(&out.stderr).contains("the witness search widens its beam up to ×512"));
     let out = safer(&common);
     assert!(!String::from_utf8_lossy(&out.stderr).contains("widens its beam"));
     refused("--witness-widest", "0");
+    refused("--witness-widest", "4097");
 }
 
 #[test]
