@@ -302,8 +302,8 @@ fn variant_trial(suite: &Suite, context: &TrialContext, scenario: usize, index: 
                 if let Some(stderr) = &a.stderr {
                     verdict.push_str(&format!("  planner stderr: {}\n", stderr.display()));
                 }
-                if let Some(witness) = a.witness {
-                    verdict.push_str(&format!("  feasibility witness: {}\n", witness.describe()));
+                if let Some(witness) = &a.witness {
+                    verdict.push_str(&format!("  feasibility witness: {}\n", witness.verdict().describe()));
                 }
             }
             Err(e) => verdict.push_str(&format!("  (could not write artefacts: {e})\n")),

@@ -332,7 +332,7 @@ fn suite_report(run: &SuiteRun) -> SuiteReport {
                             mcap: a.mcap.display().to_string(),
                             svg: a.svg.display().to_string(),
                             stderr: a.stderr.as_ref().map(|p| p.display().to_string()),
-                            witness: a.witness,
+                            witness: a.witness.as_ref().map(harness::artefacts::WitnessArtefact::verdict),
                         }),
                         None,
                     ),

@@ -28,11 +28,36 @@ pub struct Artefacts {
     pub svg: PathBuf,
     /// The planner's stderr (external planners only, even when empty).
     pub stderr: Option<PathBuf>,
-    /// What the witness search said about the ego's collision (`None`: it
+    /// What the witness search found for the ego's collision (`None`: it
     /// did not collide).
-    pub witness: Option<CollisionWitness>,
-    /// The escape drawn in both, when one was found.
-    pub witness_path: Option<NamedTrajectory>,
+    pub witness: Option<WitnessArtefact>,
+}
+
+/// What the feasibility witness search found for a stage-2 collision.
+#[derive(Debug, Clone, PartialEq)]
+pub enum WitnessArtefact {
+    /// An escape, drawn in the recording and the picture.
+    Found(NamedTrajectory),
+    /// None within the search's budget.
+    NoneWithinBudget,
+}
+
+impl WitnessArtefact {
+    /// The verdict, for reports.
+    pub fn verdict(&self) -> CollisionWitness {
+        match self {
+            Self::Found(_) => CollisionWitness::Found,
+            Self::NoneWithinBudget => CollisionWitness::NoneWithinBudget,
+        }
+    }
+
+    /// The escape, when one was found.
+    pub fn path(&self) -> Option<&NamedTrajectory> {
+        match self {
+            Self::Found(path) => Some(path),
+            Self::NoneWithinBudget => None,
+        }
+    }
 }
 
 /// What the feasibility witness search said about a stage-2 collision.
@@ -62,7 +87,7 @@ impl CollisionWitness {
 /// that touches no agent as they drove in stage 1 (the CBV replays that in
 /// stage 2, and replayed background agents drive the same), searched as
 /// `safer evaluate` does. `None` when the ego did not collide.
-pub fn feasibility_witness(outcome: &VariantOutcome) -> Option<(CollisionWitness, Option<NamedTrajectory>)> {
+pub fn feasibility_witness(outcome: &VariantOutcome) -> Option<WitnessArtefact> {
     if !matches!(outcome.verdict, Stage2Verdict::Collided { .. }) {
         return None;
     }
@@ -70,7 +95,7 @@ pub fn feasibility_witness(outcome: &VariantOutcome) -> Option<(CollisionWitness
     let Witness::Found { trajectory, min_clearance_m, .. } =
         search_rollout_witness(&outcome.scenario, stage1, RoadKeeping::default(), WitnessBudget::default())
     else {
-        return Some((CollisionWitness::NoneWithinBudget, None));
+        return Some(WitnessArtefact::NoneWithinBudget);
     };
     let body = outcome.scenario.track(stage1.ego).body();
     let poses = trajectory
@@ -79,10 +104,12 @@ pub fn feasibility_witness(outcome: &VariantOutcome) -> Option<(CollisionWitness
         .map(|(k, s)| TimedPose { time_s: k as f64 * stage1.dt_s, pose: s.pose() })
         .collect();
     let name = format!("an escape keeping {min_clearance_m:.2} m from every agent");
-    Some((
-        CollisionWitness::Found,
-        Some(NamedTrajectory { name, role: TrajectoryRole::FeasibilityWitness, body: Some(body), poses }),
-    ))
+    Some(WitnessArtefact::Found(NamedTrajectory {
+        name,
+        role: TrajectoryRole::FeasibilityWitness,
+        body: Some(body),
+        poses,
+    }))
 }
 
 /// Writes the artefacts of `outcome` under `dir`.
@@ -94,7 +121,7 @@ pub fn write(dir: &Path, outcome: &VariantOutcome) -> Result<Artefacts, RecordEr
     let mcap = base.with_extension("mcap");
     let svg = base.with_extension("svg");
     let witness = feasibility_witness(outcome);
-    let extra: Vec<NamedTrajectory> = witness.iter().filter_map(|(_, t)| t.clone()).collect();
+    let extra: Vec<NamedTrajectory> = witness.iter().filter_map(WitnessArtefact::path).cloned().collect();
     record::write_rollout_mcap(&mcap, &outcome.scenario, &outcome.stage2, &extra)?;
     let picture = record::render_rollout_svg_with(&outcome.scenario, &outcome.stage2, &extra, &SvgOptions::default());
     record::write_svg(&svg, &picture)?;
@@ -106,8 +133,7 @@ pub fn write(dir: &Path, outcome: &VariantOutcome) -> Result<Artefacts, RecordEr
         }
         None => None,
     };
-    let (witness, witness_path) = witness.map_or((None, None), |(w, path)| (Some(w), path));
-    Ok(Artefacts { mcap, svg, stderr, witness, witness_path })
+    Ok(Artefacts { mcap, svg, stderr, witness })
 }
 
 /// The artefacts' path under `dir` (without extension) for the variant

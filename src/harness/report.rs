@@ -140,7 +140,6 @@ pub(crate) mod tests_support {
                 svg: format!("out/{suite}/crossing/seed-1.svg").into(),
                 stderr: None,
                 witness: None,
-                witness_path: None,
             })),
             name,
         }

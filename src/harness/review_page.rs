@@ -25,6 +25,7 @@
 use std::fmt::Write as _;
 use std::path::{Component, Path, PathBuf};
 
+use super::artefacts::WitnessArtefact;
 use super::report::{RunResults, SuiteRun, VariantRun};
 use super::{Stage2Verdict, VariantOutcome};
 use crate::record::animation::RolloutAnimation;
@@ -368,8 +369,8 @@ fn failing_variant_html(
                     esc(&stderr.display().to_string())
                 );
             }
-            if let Some(witness) = a.witness {
-                let _ = write!(h, " · feasibility witness: {}", esc(witness.describe()));
+            if let Some(witness) = &a.witness {
+                let _ = write!(h, " · feasibility witness: {}", esc(witness.verdict().describe()));
             }
         }
         Some(Err(e)) => {
@@ -383,7 +384,7 @@ fn failing_variant_html(
         Ok(rel) => {
             // The witness found when the artefacts were written, drawn again here.
             let witness = match &v.artefacts {
-                Some(Ok(a)) => a.witness_path.as_slice(),
+                Some(Ok(a)) => a.witness.as_ref().and_then(WitnessArtefact::path).map_or(&[][..], std::slice::from_ref),
                 _ => &[],
             };
             let svg = record::render_rollout_svg_with(&o.scenario, &o.stage2, witness, &SvgOptions::default());
