@@ -38,8 +38,9 @@
 //!   When no token at all is plausible, a replayed agent is about to run
 //!   into the CBV whatever it does (replay cannot yield); then the same
 //!   two steps are taken with only the contacts the CBV would be at fault
-//!   for counted: waiting to be hit is better than fleeing into someone
-//!   else. Only when even that leaves nothing, the trust region's token
+//!   for counted (and cut-ins: hit from behind in a lane it moved into,
+//!   which nuPlan's rule does not blame): waiting to be hit is better than
+//!   fleeing into someone else. Only when even that leaves nothing, the trust region's token
 //!   that breaks the rule latest. The same rule restricts the prior's
 //!   draws in the approach phase.
 //!
@@ -61,7 +62,7 @@ use crate::motion::tokens::{
     MAX_ACCEL_MPS2, MAX_YAW_RATE_RADPS, SIM_DT_S, TOKEN_PERIOD_S, TOKEN_PERIOD_STEPS, Token, TokenGrid,
 };
 use crate::motion::{Action, KinematicState, kinematic_step};
-use crate::scenario::contact::EgoContact;
+use crate::scenario::contact::{EgoCollisionKind, EgoContact};
 use crate::scenario::{AgentState, TrackIndex};
 
 /// Penalty added to V_h for candidates outside the feasible region (the paper's Δ).
@@ -671,9 +672,9 @@ enum ContactRule {
     /// no brake checks, no stopping in the way), and running into someone
     /// while it brakes after the token: the rule.
     Any,
-    /// Only contacts the CBV is at fault for, as the metrics judge them:
-    /// the fallback when a replayed agent will run into the CBV whatever
-    /// it does.
+    /// Only contacts the CBV is at fault for, as the metrics judge them,
+    /// and cut-ins ([`PlausibilityCheck::cut_in`]): the fallback when a
+    /// replayed agent will run into the CBV whatever it does.
     AtFaultOnly,
 }
 
@@ -704,6 +705,9 @@ struct PlausibilityCheck<'w> {
     /// the road; `None` where the map has no road edges near it).
     edge_distance_now: Option<f64>,
     on_road_now: bool,
+    /// The lanes holding the CBV's centre now, driven its way (empty off
+    /// the lanes or on a map without them): what it cuts in from.
+    lanes_now: Vec<crate::map::MapElementId>,
 }
 
 impl<'w> PlausibilityCheck<'w> {
@@ -720,6 +724,7 @@ impl<'w> PlausibilityCheck<'w> {
                 background_bounds: Vec::new(),
                 edge_distance_now: None,
                 on_road_now: false,
+                lanes_now: Vec::new(),
             };
         };
         let horizon = TOKEN_PERIOD_STEPS + BRAKING_CHECK_STEPS.max(HOLDING_CHECK_STEPS + CLOSING_CHECK_STEPS);
@@ -746,7 +751,29 @@ impl<'w> PlausibilityCheck<'w> {
             background_bounds,
             edge_distance_now: world.map.signed_distance_to_road_edge(&now.position),
             on_road_now: !world.map.is_off_road_within_map(&now.position),
+            lanes_now: world.map.lanes_containing(&now.position, now.heading_rad),
         }
+    }
+
+    /// Whether the CBV, hit by `theirs` at `at`, cut in: it was hit from
+    /// behind (or standing) in a lane that neither holds nor continues
+    /// any of its lanes now. nuPlan does not blame a car hit from behind,
+    /// but a driver moving into a lane must leave the traffic in it room:
+    /// in the fallbacks, where only the CBV's own faults count, a cut-in
+    /// in front of a replayed car (which cannot yield) counts as one.
+    /// Undecided (false) where the CBV is in no lane now or then.
+    fn cut_in(&self, at: &AgentState, theirs: &AgentState) -> bool {
+        let hit_from_behind = matches!(
+            EgoCollisionKind::classify(at, theirs),
+            EgoCollisionKind::ActiveRear | EgoCollisionKind::StoppedEgo
+        );
+        if !hit_from_behind || self.lanes_now.is_empty() {
+            return false;
+        }
+        let map = self.world.map;
+        let lanes_then = map.lanes_containing(&at.position, at.heading_rad);
+        !lanes_then.is_empty()
+            && !lanes_then.iter().any(|&then| self.lanes_now.iter().any(|&now| map.lanes_connected(now, then)))
     }
 
     /// Whether `rollout` breaks the rule: the checks stop at the first
@@ -816,12 +843,15 @@ impl<'w> PlausibilityCheck<'w> {
                 && let Some((theirs, _)) = predicted[k]
             {
                 let at_fault = || EgoContact::judge(map, &held[k], &held_boxes[k], &theirs).at_fault();
-                let breaks_rule = if k < rollout.len() + HOLDING_CHECK_STEPS {
-                    rule == ContactRule::Any || at_fault()
-                } else {
+                let breaks_rule = match rule {
+                    ContactRule::Any if k < rollout.len() + HOLDING_CHECK_STEPS => true,
                     // Keeping its speed: only replayed traffic closing on
                     // the CBV (the others react).
-                    replayed && rule == ContactRule::Any && !at_fault()
+                    ContactRule::Any => replayed && !at_fault(),
+                    ContactRule::AtFaultOnly if k < rollout.len() + HOLDING_CHECK_STEPS => {
+                        at_fault() || self.cut_in(&held[k], &theirs)
+                    }
+                    ContactRule::AtFaultOnly => replayed && self.cut_in(&held[k], &theirs),
                 };
                 if breaks_rule {
                     note(&mut first, k);
@@ -1281,6 +1311,39 @@ mod tests {
         }
         assert_eq!(check.likeliest_plausible(&logits, 0..logits.len(), ContactRule::Any), None);
         assert_eq!(choice_in(&states, &liked, Search::one_step(TrustRegion::TopN(2)), None), token(0.0));
+    }
+
+    #[test]
+    fn in_the_fallback_a_cut_in_hit_from_behind_is_the_cbvs_fault_and_keeping_its_lane_is_not() {
+        // Two eastbound lanes (y 0–3.5 and 3.5–7). The CBV at 10 m/s with
+        // its centre just inside the left lane (y = 3.6); a follower in the
+        // right lane 8 m behind at 20 m/s. Keeping its lane, the follower
+        // clips the CBV's rear corner: hit from behind in its own lane, not
+        // its fault (nuPlan). Moving over into the right lane in front of
+        // the follower (a crabbing path, to keep the geometry plain), the
+        // same hit from behind is a cut-in: its fault in the fallback.
+        let map = crate::map::templates::StraightRoad {
+            lanes: 2,
+            oncoming_lanes: 0,
+            lane_width_m: 3.5,
+            length_m: 200.0,
+            speed_limit_mps: None,
+        }
+        .build();
+        let bodies = [AgentBody { kind: AgentKind::Vehicle, length_m: 4.5, width_m: 2.0 }; 3];
+        let states = [car(150.0, 5.25, 10.0), car(100.0, 3.6, 10.0), car(92.0, 1.75, 20.0)];
+        let world = WorldView { map: &map, step: 0, bodies: &bodies, states: &states };
+        let check = PlausibilityCheck::new(&world, TrackIndex(1), TrackIndex(0), &BackgroundForecast::default());
+        let path = |lateral_m: fn(usize) -> f64| -> Vec<AgentState> {
+            (1..=TOKEN_PERIOD_STEPS)
+                .map(|k| car(100.0 + k as f64 * 10.0 * SIM_DT_S, lateral_m(k), 10.0).unwrap())
+                .collect()
+        };
+        let keeping_its_lane = path(|_| 3.6);
+        let cutting_in = path(|k| 3.6 - 0.2 * k as f64);
+        assert!(check.implausible(&keeping_its_lane, ContactRule::Any), "the follower hits it");
+        assert!(!check.implausible(&keeping_its_lane, ContactRule::AtFaultOnly));
+        assert!(check.implausible(&cutting_in, ContactRule::AtFaultOnly));
     }
 
     const LIKED: [(f64, f32); 5] = [(-5.0, 5.0), (-2.0, 4.0), (0.0, 3.0), (2.0, 2.0), (5.0, 1.0)];
