@@ -28,9 +28,10 @@
 //!   of traffic closing fast), or when the
 //!   CBV, braking as hard as it can after the token (holding its
 //!   curvature, as a driver braking in a bend does), would leave the road
-//!   or run into one within 2 s (at fault as the metrics judge it: a
-//!   follower running into a braking CBV is not the CBV's doing). A
-//!   plausible token leaves the CBV room to stop on the road. The arg min
+//!   before it stands, or run into one within 2 s (at fault as the
+//!   metrics judge it: a follower running into a braking CBV is not the
+//!   CBV's doing). A plausible token leaves the CBV room to stop on the
+//!   road. The arg min
 //!   is taken over the plausible candidates of the trust region; when none
 //!   is plausible the CBV takes the likeliest plausible token of the whole
 //!   vocabulary (what a careful driver would do: the trust region is for
@@ -40,9 +41,9 @@
 //!   two steps are taken with only the contacts the CBV would be at fault
 //!   for counted (and cut-ins: hit from behind in a lane it moved into,
 //!   which nuPlan's rule does not blame): waiting to be hit is better than
-//!   fleeing into someone else. Only when even that leaves nothing, the trust region's token
-//!   that breaks the rule latest. The same rule restricts the prior's
-//!   draws in the approach phase.
+//!   fleeing into someone else. Only when even that leaves nothing, the
+//!   trust region's token that breaks the rule latest. The same rule
+//!   restricts the prior's draws in the approach phase.
 //!
 //! The ablations are the same policy with a part switched off;
 //! `safer-lookahead` (beyond the paper) is the same policy scoring tokens
@@ -81,6 +82,13 @@ const BACKGROUND_CHECK_RANGE_M: f64 = 120.0;
 /// simulator steps (2 s) to see whether it could still stop short of the
 /// background traffic.
 const BRAKING_CHECK_STEPS: usize = 20;
+
+/// The road check of the braking path goes on past
+/// [`BRAKING_CHECK_STEPS`] until the CBV stands, for at most this many
+/// steps more (8 s in all: enough to stop from 40 m/s at the hardest
+/// braking). Only the road is checked that far: the background forecast
+/// is not.
+const STANDSTILL_CHECK_MAX_STEPS: usize = 60;
 
 /// A token held this many steps (1 s) more must not bring the CBV and a
 /// background agent (predicted at constant velocity) into contact: no
@@ -799,8 +807,17 @@ impl<'w> PlausibilityCheck<'w> {
         let note = |first: &mut Option<usize>, k: usize| *first = Some(first.map_or(k, |f| f.min(k)));
         if self.on_road_now {
             // Moving states only: a stopped CBV stays where it stopped.
-            if let Some(k) =
-                braking.iter().take_while(|s| s.speed_mps() > 0.0).position(|s| map.is_off_road_within_map(&s.position))
+            // On to a standstill: 2 s of braking from motorway speed
+            // still leaves a bend to run out of (seen on WOMD
+            // interactive: a CBV at 21 m/s judged able to stop on the road
+            // that, a token later, had no token left that stayed on it).
+            let to_standstill = continued_after(&braking, -MAX_ACCEL_MPS2, STANDSTILL_CHECK_MAX_STEPS);
+            if let Some(k) = braking
+                .iter()
+                .copied()
+                .chain(to_standstill)
+                .take_while(|s| s.speed_mps() > 0.0)
+                .position(|s| map.is_off_road_within_map(&s.position))
             {
                 note(&mut first, k);
             }
@@ -1135,6 +1152,19 @@ mod tests {
             implausible_tokens(&world, TrackIndex(1), &[token(MAX_ACCEL_MPS2), token(-MAX_ACCEL_MPS2)]),
             vec![true, false]
         );
+    }
+
+    #[test]
+    fn room_to_stop_is_judged_to_a_standstill_not_over_the_first_two_seconds() {
+        // 67 m before the dead end at 25 m/s. Holding speed for the token,
+        // 2 s of full braking end 14.5 m short of the end, still at
+        // 15 m/s: the standstill lies 8 m past it. Braking as the token
+        // stops it 4.5 m short.
+        let map = dead_end_road();
+        let bodies = [AgentBody { kind: AgentKind::Vehicle, length_m: 4.5, width_m: 2.0 }; 2];
+        let states = [car(-45.0, 0.0, 0.0), car(-27.0, 2.0, 25.0)];
+        let world = WorldView { map: &map, step: 0, bodies: &bodies, states: &states };
+        assert_eq!(implausible_tokens(&world, TrackIndex(1), &[token(0.0), token(-MAX_ACCEL_MPS2)]), vec![true, false]);
     }
 
     #[test]
