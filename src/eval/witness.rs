@@ -94,8 +94,9 @@ pub const FIRST_WIDENING: usize = 8;
 
 /// The widest beam the default search tries, as a multiple of the narrow
 /// one: the ×8 beam missed escapes from stage-1 collisions on recorded
-/// scenes that the ×64 one finds (README, issue 10's twelfth round); only
-/// a search that finds nothing pays for it (seconds on a busy scene).
+/// scenes that the ×64 one finds (`docs/evaluation/issue-10-rounds.md`,
+/// the twelfth round); only a search that finds nothing pays for it
+/// (seconds on a busy scene).
 pub const DEFAULT_WIDEST: usize = 64;
 
 /// The widest beam `safer evaluate --witness-widest` accepts, as a multiple
