@@ -3,7 +3,9 @@
 //! second with every agent on log replay (against a bare replay loop that
 //! only copies the recorded states, as the reference), and the time of one
 //! SaFeR variant (both stages, the evasive reference planner) and of its
-//! witness search on the busiest WOMD scene (against the targets).
+//! witness search on the busiest WOMD scene (against their targets), with
+//! the same variant's stage 2 closed loop (against the replay variant) and
+//! the closed-loop witness of a stage-1 collision of that scene.
 //! Every figure is printed beside its reference, as a ratio, and the whole
 //! report is written as JSON with `--json OUT`.
 
@@ -15,6 +17,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use super::{CliError, scene_paths};
+use crate::eval::escape::EscapeBudget;
 use crate::eval::witness::{RoadKeeping, WitnessBudget, search_rollout_witness};
 use crate::harness::methods::{BackgroundDriver, MapEncodings, MethodSettings, ModelSet};
 use crate::harness::pipeline::{self, Stage2Cbv, VariantSetup};
@@ -29,6 +32,10 @@ use crate::spec::suite::AdversaryMethod;
 const VARIANT_TARGET_MS: f64 = 50.0;
 /// Target for the witness search of one variant, ms.
 const WITNESS_TARGET_MS: f64 = 10.0;
+/// Most a closed-loop variant may cost, as a multiple of the replay variant.
+const CLOSED_LOOP_RATIO_TARGET: f64 = 2.0;
+/// Target for the closed-loop witness of one collision, ms.
+const CLOSED_LOOP_WITNESS_TARGET_MS: f64 = 2000.0;
 /// Horizon of the benchmarked variant, s (`safer evaluate`'s default).
 const VARIANT_HORIZON_S: f64 = 8.0;
 
@@ -120,6 +127,29 @@ struct VariantBench {
     witness_ratio_to_target: f64,
     /// Whether the search found a witness (run whether or not the variant is critical).
     witness_found: bool,
+    /// The same variant with the CBV closed loop in stage 2, ms.
+    closed_loop_variant_ms: f64,
+    /// `closed loop / replay variant` (target at most 2).
+    closed_loop_ratio_to_replay: f64,
+    /// The closed-loop witness of a stage-1 collision (the CBV reacting to
+    /// the escapes tried), ms; `None` when no seed of 0..20 collides.
+    closed_loop_witness: Option<ClosedLoopWitnessBench>,
+}
+
+/// The closed-loop witness of one collision on the bench scene.
+#[derive(Debug, serde::Serialize)]
+struct ClosedLoopWitnessBench {
+    /// The seed index whose stage 1 collided (the first of 0..20).
+    seed: u32,
+    /// Median time, ms.
+    ms: f64,
+    target_ms: f64,
+    /// `time / target`.
+    ratio_to_target: f64,
+    /// Whether the collision was shown avoidable.
+    avoidable: bool,
+    /// Closed-loop rollouts played.
+    rollouts: usize,
 }
 
 /// Runs the command.
@@ -266,6 +296,31 @@ pub(super) fn run(scenes: &Path, repeat: usize, json: Option<&Path>) -> Result<E
                 v.witness_target_ms,
                 v.witness_ratio_to_target
             )?;
+            writeln!(
+                out,
+                "{:<52} {:>10.1} {:>10} {:>10.2}",
+                "  variant, stage-2 CBV closed loop",
+                v.closed_loop_variant_ms,
+                format!("{CLOSED_LOOP_RATIO_TARGET}× replay"),
+                v.closed_loop_ratio_to_replay / CLOSED_LOOP_RATIO_TARGET
+            )?;
+            writeln!(out, "{:<52} {:>10.2}", "    closed loop / replay variant (same run)", v.closed_loop_ratio_to_replay)?;
+            match &v.closed_loop_witness {
+                Some(w) => writeln!(
+                    out,
+                    "{:<52} {:>10.1} {:>10.0} {:>10.2}",
+                    format!(
+                        "  closed-loop witness, seed {} ({}, {} rollouts)",
+                        w.seed,
+                        if w.avoidable { "avoidable" } else { "no escape" },
+                        w.rollouts
+                    ),
+                    w.ms,
+                    w.target_ms,
+                    w.ratio_to_target
+                )?,
+                None => writeln!(out, "  closed-loop witness: no seed of 0..20 collides in stage 1")?,
+            }
         }
         None => writeln!(out, "\n(no WOMD scene with an ego and a CBV among the scenes: no variant timed)")?,
     }
@@ -316,6 +371,7 @@ fn bench_variant(scenes: &[Scenario], repeat: usize) -> Result<Option<VariantBen
         models: &models,
         maps: &maps,
         variant: None,
+        escape: None,
     };
     // Warm-up: encodes the map once, as an evaluation does for all its variants.
     pipeline::run(setup)?;
@@ -344,6 +400,46 @@ fn bench_variant(scenes: &[Scenario], repeat: usize) -> Result<Option<VariantBen
     let (witness_t, found) = time(repeat, || {
         search_rollout_witness(&scenario, stage1, RoadKeeping::default(), WitnessBudget::default()).is_found()
     });
+
+    // The same variant with the CBV driven closed loop in stage 2,
+    // alternating with the replay variant so that both see the same machine.
+    let closed = VariantSetup { stage2_cbv: Stage2Cbv::ClosedLoop, ..setup };
+    let (mut replay_times, mut closed_times) = (Vec::new(), Vec::new());
+    for _ in 0..repeat {
+        replay_times.push(time(1, || pipeline::run(setup)).0);
+        closed_times.push(time(1, || pipeline::run(closed)).0);
+    }
+    let (replay_ms, closed_loop_variant_ms) = (ms(median(replay_times)), ms(median(closed_times)));
+
+    // The closed-loop witness of a collision: the ego on log replay against
+    // a closed-loop CBV is stage 1 itself, so a critical seed's stage 1 is
+    // a stage-2 collision to witness.
+    let log_replay = PlannerAdapter::builtin(BuiltinPlanner::LogReplay);
+    let mut closed_loop_witness = None;
+    for seed in 0..20 {
+        let at_seed = VariantSetup {
+            seed: crate::harness::variant::variant_seed(0, &format!("{}/{method:?}", scenario.id), seed),
+            planner: &log_replay,
+            ..closed
+        };
+        let stages = pipeline::run(at_seed)?;
+        if !stages.stage1_cbv_hit_ego() {
+            continue;
+        }
+        let (t, search) = time(repeat, || {
+            pipeline::search_stage2_escape(&at_seed, &stages.stage1, &stages.stage1, EscapeBudget::default())
+        });
+        let search = search?;
+        closed_loop_witness = Some(ClosedLoopWitnessBench {
+            seed,
+            ms: ms(t),
+            target_ms: CLOSED_LOOP_WITNESS_TARGET_MS,
+            ratio_to_target: ms(t) / CLOSED_LOOP_WITNESS_TARGET_MS,
+            avoidable: search.as_ref().is_some_and(|s| s.avoidable()),
+            rollouts: search.as_ref().map_or(0, |s| s.rollouts),
+        });
+        break;
+    }
     Ok(Some(VariantBench {
         scene: scenario.id.clone(),
         agents_present: present(&scenario),
@@ -359,5 +455,8 @@ fn bench_variant(scenes: &[Scenario], repeat: usize) -> Result<Option<VariantBen
         witness_target_ms: WITNESS_TARGET_MS,
         witness_ratio_to_target: ms(witness_t) / WITNESS_TARGET_MS,
         witness_found: found,
+        closed_loop_variant_ms,
+        closed_loop_ratio_to_replay: closed_loop_variant_ms / replay_ms,
+        closed_loop_witness,
     }))
 }

@@ -19,7 +19,7 @@ use rayon::prelude::*;
 
 use super::{CliError, scene_paths};
 use crate::eval::witness::{DEFAULT_WIDEST, RoadKeeping, WitnessBudget, search_rollout_witness};
-use crate::harness::evaluation::{self, EvaluationRequest, HeldOutSplit, MethodRow, VariantRecord};
+use crate::harness::evaluation::{self, EvaluationRequest, HeldOutSplit, MethodRow, Stage2Cbv, VariantRecord};
 use crate::harness::methods::ModelSet;
 use crate::scenario::{Scenario, import};
 
@@ -45,6 +45,13 @@ fn fmt(v: Option<f64>) -> String {
     v.map_or("—".into(), |x| format!("{x:.3}"))
 }
 
+/// A row's name: the method, and its stage-2 CBV mode when the table holds
+/// more than one.
+fn label(method: crate::spec::suite::AdversaryMethod, mode: Stage2Cbv, modes: usize) -> String {
+    let method = crate::spec::spec_name(&method);
+    if modes > 1 { format!("{method} ({})", crate::spec::spec_name(&mode)) } else { method }
+}
+
 /// What the witness search holds an escape to, and how hard it looks.
 #[derive(Debug, Clone, Copy)]
 pub(super) struct WitnessSettings {
@@ -64,11 +71,14 @@ fn print_table(
     request: &EvaluationRequest,
     witness: WitnessSettings,
 ) -> std::io::Result<()> {
+    let modes = request.stage2_cbv.len();
+    let name = |r: &MethodRow| label(r.method, r.stage2_cbv, modes);
     writeln!(
         out,
-        "{scenes} scenes × {} seeds; stage 2 planner `{}`, trust region n = {}, horizon {} s{}{}",
+        "{scenes} scenes × {} seeds; stage 2 planner `{}`, stage-2 CBV {}, trust region n = {}, horizon {} s{}{}",
         request.seeds,
         request.planner.name(),
+        request.stage2_cbv.iter().map(crate::spec::spec_name).collect::<Vec<_>>().join(" and "),
         request.trust_region,
         request.horizon_s,
         match witness.road {
@@ -83,14 +93,14 @@ fn print_table(
     )?;
     writeln!(
         out,
-        "{:<16} {:>8} {:>7} {:>7} {:>7} {:>9} {:>9} {:>7} {:>7} {:>11}",
+        "{:<28} {:>8} {:>7} {:>7} {:>7} {:>9} {:>9} {:>7} {:>7} {:>11}",
         "method", "variants", "errors", "CR", "SR", "SR-crit", "witness", "VJ", "AJ", "s/variant"
     )?;
     for r in rows {
         writeln!(
             out,
-            "{:<16} {:>8} {:>7} {:>7} {:>7} {:>9} {:>9} {:>7} {:>7} {:>11.3}",
-            crate::spec::spec_name(&r.method),
+            "{:<28} {:>8} {:>7} {:>7} {:>7} {:>9} {:>9} {:>7} {:>7} {:>11.3}",
+            name(r),
             r.variants,
             r.errors,
             fmt(r.cr),
@@ -105,14 +115,14 @@ fn print_table(
     writeln!(out, "\nplausibility of the CBV, the seeds' variety and the reference planner:")?;
     writeln!(
         out,
-        "{:<16} {:>12} {:>14} {:>12} {:>14} {:>9} {:>12}",
+        "{:<28} {:>12} {:>14} {:>12} {:>14} {:>9} {:>12}",
         "method", "CBV-bg coll", "CBV at fault", "CBV off-road", "off-road s/var", "distinct", "SR-witnessed"
     )?;
     for r in rows {
         writeln!(
             out,
-            "{:<16} {:>12} {:>14} {:>12} {:>14} {:>9} {:>12}",
-            crate::spec::spec_name(&r.method),
+            "{:<28} {:>12} {:>14} {:>12} {:>14} {:>9} {:>12}",
+            name(r),
             fmt(r.cbv_background_collision_rate),
             fmt(r.cbv_at_fault_background_collision_rate),
             fmt(r.cbv_off_road_rate),
@@ -129,14 +139,14 @@ fn print_table(
     )?;
     writeln!(
         out,
-        "{:<16} {:>7} {:>7} {:>9} {:>12} | {:>7} {:>7} {:>9} {:>12}",
+        "{:<28} {:>7} {:>7} {:>9} {:>12} | {:>7} {:>7} {:>9} {:>12}",
         "method", "CR", "SR", "witness", "SR-witnessed", "CR", "SR", "witness", "SR-witnessed"
     )?;
     for (h, r) in held_out.held_out.iter().zip(&held_out.rest) {
         writeln!(
             out,
-            "{:<16} {:>7} {:>7} {:>9} {:>12} | {:>7} {:>7} {:>9} {:>12}",
-            crate::spec::spec_name(&h.method),
+            "{:<28} {:>7} {:>7} {:>9} {:>12} | {:>7} {:>7} {:>9} {:>12}",
+            name(h),
             fmt(h.cr),
             fmt(h.sr),
             fmt(h.witness_rate),
@@ -147,24 +157,62 @@ fn print_table(
             fmt(r.sr_witnessed)
         )?;
     }
+    writeln!(out, "\nconflicts at the planner under test (stage 2):")?;
+    writeln!(
+        out,
+        "{:<28} {:>7} {:>10} {:>9} {:>10} {:>10} {:>9} {:>9} | {:>7} {:>10} {:>9}",
+        "method",
+        "reach",
+        "reach-crit",
+        "SR-avoid",
+        "avoid-fail",
+        "no-escape",
+        "refuted",
+        "failures",
+        "reach",
+        "reach-crit",
+        "SR-avoid"
+    )?;
+    for (r, (h, rest)) in rows.iter().zip(held_out.held_out.iter().zip(&held_out.rest)) {
+        let _ = rest;
+        writeln!(
+            out,
+            "{:<28} {:>7} {:>10} {:>9} {:>10} {:>10} {:>9} {:>9} | {:>7} {:>10} {:>9}",
+            name(r),
+            fmt(r.conflict_reach),
+            fmt(r.conflict_reach_critical),
+            fmt(r.sr_avoidable),
+            r.avoidable_failures,
+            r.no_escape_collisions,
+            r.precheck_refuted,
+            r.failures,
+            fmt(h.conflict_reach),
+            fmt(h.conflict_reach_critical),
+            fmt(h.sr_avoidable),
+        )?;
+    }
+    if let Some(line) = failures_beyond_log(rows) {
+        writeln!(out, "{line}")?;
+    }
     writeln!(out, "\nwhere the time goes (mean s per variant):")?;
     writeln!(
         out,
-        "{:<16} {:>9} {:>10} {:>9} {:>12} {:>9} {:>9}",
-        "method", "stage 1", "features", "decoder", "feasibility", "stage 2", "witness"
+        "{:<28} {:>9} {:>10} {:>9} {:>12} {:>9} {:>9} {:>9}",
+        "method", "stage 1", "features", "decoder", "feasibility", "stage 2", "witness", "escape"
     )?;
     for r in rows {
         let p = &r.profile;
         writeln!(
             out,
-            "{:<16} {:>9.3} {:>10.3} {:>9.3} {:>12.3} {:>9.3} {:>9.3}",
-            crate::spec::spec_name(&r.method),
+            "{:<28} {:>9.3} {:>10.3} {:>9.3} {:>12.3} {:>9.3} {:>9.3} {:>9.3}",
+            name(r),
             p.stage1_s,
             p.stage1_features_s,
             p.stage1_decoder_s,
             p.stage1_feasibility_s,
             p.stage2_s,
-            p.witness_s
+            p.witness_s,
+            p.escape_s
         )?;
     }
     writeln!(
@@ -173,9 +221,35 @@ fn print_table(
     )?;
     writeln!(
         out,
+        "reach: share of variants whose CBV came within 1 m (box distance) of the planner's ego in stage 2 (reach-crit: of the stage-1-critical ones; right of | : the held-out scenes). SR-avoid: SR over the avoidable conflicts (reached or collided, less collisions without an escape); avoid-fail: the planner's failures among them. no-escape: stage-2 collisions whose closed-loop witness found no escape within budget (the generator's fault); refuted: of those, the ones whose pre-check found an escape from the CBV as it drove."
+    )?;
+    writeln!(
+        out,
         "distinct: distinct stage-1 CBV paths (to the centimetre) per variant, over each scene's seeds; 1.000 when no two seeds made the same variant."
     )?;
     Ok(())
+}
+
+/// For each method with both stage-2 modes, how many more planner
+/// failures closed loop finds beyond plain log replay's than replay does:
+/// (closed-loop failures − `log` failures) / (replay failures − `log`
+/// failures); `None` without a `log` row and both modes.
+fn failures_beyond_log(rows: &[MethodRow]) -> Option<String> {
+    use crate::spec::suite::AdversaryMethod;
+    let log = rows.iter().find(|r| r.method == AdversaryMethod::Log)?.failures as f64;
+    let parts: Vec<String> = rows
+        .iter()
+        .filter(|r| r.method != AdversaryMethod::Log && r.stage2_cbv == Stage2Cbv::ClosedLoop)
+        .filter_map(|closed| {
+            let replay = rows.iter().find(|r| r.method == closed.method && r.stage2_cbv == Stage2Cbv::Replay)?;
+            let (c, p) = (closed.failures as f64 - log, replay.failures as f64 - log);
+            let ratio = if p > 0.0 { format!("{:.2}×", c / p) } else { "—".into() };
+            Some(format!("{}: {c} / {p} = {ratio}", crate::spec::spec_name(&closed.method)))
+        })
+        .collect();
+    (!parts.is_empty()).then(|| {
+        format!("failures beyond log replay's ({log}), closed loop / replay: {}", parts.join("; "))
+    })
 }
 
 #[derive(serde::Serialize)]

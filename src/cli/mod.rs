@@ -211,9 +211,9 @@ enum Command {
         /// Who drives the background agents.
         #[arg(long, value_enum, default_value_t = BackgroundDriver::Configured)]
         background: BackgroundDriver,
-        /// The CBV in stage 2: replaying its stage-1 trajectory, or driven by the method again.
-        #[arg(long, value_enum, default_value_t = Stage2Cbv::Replay)]
-        stage2_cbv: Stage2Cbv,
+        /// The CBV in stage 2: replaying its stage-1 trajectory (the paper's protocol), or driven by the method again against the planner's ego (closed-loop); `replay,closed-loop` reports both side by side.
+        #[arg(long, value_enum, value_delimiter = ',', default_values_t = [Stage2Cbv::Replay])]
+        stage2_cbv: Vec<Stage2Cbv>,
         /// Horizon of both stages from the scene's current step, s (positive, finite).
         #[arg(long, default_value_t = 8.0, value_parser = positive_finite, allow_negative_numbers = true)]
         horizon_s: f64,
@@ -412,6 +412,10 @@ pub fn main() -> ExitCode {
             witness_road,
             witness_widest,
         } => {
+            let mut stage2_cbv = stage2_cbv;
+            stage2_cbv.sort();
+            stage2_cbv.dedup();
+            let escape = crate::eval::escape::EscapeBudget { keeping: witness_road, ..Default::default() };
             let request = EvaluationRequest {
                 methods,
                 seeds,
@@ -420,6 +424,7 @@ pub fn main() -> ExitCode {
                 trust_region,
                 background,
                 stage2_cbv,
+                escape: Some(escape),
                 horizon_s,
             };
             let witness = evaluate::WitnessSettings { road: witness_road, widest: witness_widest };

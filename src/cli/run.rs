@@ -111,7 +111,7 @@ struct ArtefactReport {
     stderr: Option<String>,
     /// What the witness search said about the ego's collision.
     #[serde(skip_serializing_if = "Option::is_none")]
-    witness: Option<harness::artefacts::CollisionWitness>,
+    witness: Option<harness::variant::CollisionEscape>,
 }
 
 #[derive(Debug, Serialize)]
@@ -402,8 +402,8 @@ fn print_report(out: &mut dyn Write, report: &Report) -> std::io::Result<()> {
         if !s.variants.is_empty() {
             writeln!(
                 out,
-                "  {:<width$}  {:>11}  {:>9}  {:>9}  stage 2",
-                "variant", "S1 CBV hit", "min gap m", "min TTC s"
+                "  {:<width$}  {:>10}  {:>9}  {:>9}  {:>5}  {:>9}  stage 2",
+                "variant", "S1 CBV hit", "gap CBV m", "min gap m", "reach", "min TTC s"
             )?;
         }
         for v in &s.variants {
@@ -413,9 +413,12 @@ fn print_report(out: &mut dyn Write, report: &Report) -> std::io::Result<()> {
                     let result = match summary.failures.first() {
                         // The criteria may allow a collision (not at fault);
                         // say so, as it does not count as solved.
-                        None => match &summary.stage2_collision {
-                            Some(collision) => format!("pass (ego collision: {collision}; not solved)"),
-                            None => "pass".to_string(),
+                        None => match (&summary.stage2_collision, summary.stage2_escape) {
+                            (Some(collision), Some(escape)) if !escape.avoidable() => {
+                                format!("pass (ego collision: {collision}; no escape within budget: the generator's fault; not solved)")
+                            }
+                            (Some(collision), _) => format!("pass (ego collision: {collision}; not solved)"),
+                            (None, _) => "pass".to_string(),
                         },
                         Some(first) => {
                             variants_failed += 1;
@@ -427,10 +430,12 @@ fn print_report(out: &mut dyn Write, report: &Report) -> std::io::Result<()> {
                     };
                     writeln!(
                         out,
-                        "  {:<width$}  {:>11}  {:>9}  {:>9}  {result}",
+                        "  {:<width$}  {:>10}  {:>9}  {:>9}  {:>5}  {:>9}  {result}",
                         summary.variant,
                         if summary.stage1_cbv_hit_ego { "yes" } else { "no" },
+                        opt(summary.stage2_min_gap_to_cbv_m, 2),
                         opt(summary.stage2_min_gap_m, 2),
+                        if summary.conflict_reached { "yes" } else { "no" },
                         opt(summary.stage2_min_ttc_s, 1),
                     )?;
                 }
@@ -438,8 +443,8 @@ fn print_report(out: &mut dyn Write, report: &Report) -> std::io::Result<()> {
                     variants_failed += 1;
                     writeln!(
                         out,
-                        "  {variant:<width$}  {:>11}  {:>9}  {:>9}  ERROR could not run: {error}",
-                        "-", "-", "-"
+                        "  {variant:<width$}  {:>10}  {:>9}  {:>9}  {:>5}  {:>9}  ERROR could not run: {error}",
+                        "-", "-", "-", "-", "-"
                     )?;
                 }
             }

@@ -1,13 +1,17 @@
 //! Evaluation measures over rollouts: time to collision, and the
 //! Jensen–Shannon divergence of speed/acceleration distributions (VJ, AJ).
 //! (CR, SR, realism metrics and the feasibility witness join here;
-//! [`feasibility_accuracy`] checks V_h against the witness.)
+//! [`feasibility_accuracy`] checks V_h against the witness; [`escape`] is
+//! the witness of a stage-2 collision when the CBV reacts to the ego.)
 
+pub mod conflict_reach;
 pub mod divergence;
+pub mod escape;
 pub mod feasibility_accuracy;
 pub mod realism;
 pub mod ttc;
 pub mod witness;
 
+pub use conflict_reach::{CONFLICT_REACH_M, ConflictReach};
 pub use divergence::{Histogram, jensen_shannon};
 pub use ttc::min_time_to_collision;

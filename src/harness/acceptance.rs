@@ -1,6 +1,7 @@
 //! Per-variant acceptance: what the planner under test's rollout must
 //! satisfy, each failure a sentence saying what happened, when and with whom.
 
+use super::variant::CollisionEscape;
 use crate::sim::{Rollout, Termination};
 use crate::spec::suite::VariantAcceptance;
 
@@ -13,8 +14,17 @@ pub struct AcceptanceFailure {
     pub what: String,
 }
 
-/// Checks a stage-2 rollout; empty when it passes.
-pub fn check(criteria: &VariantAcceptance, rollout: &Rollout, min_ttc_s: Option<f64>) -> Vec<AcceptanceFailure> {
+/// Checks a stage-2 rollout; empty when it passes. `escape` is the
+/// closed-loop witness's verdict on the ego's collision: a collision with
+/// no escape within its budget is the generator's fault, not the
+/// planner's, and fails neither collision criterion (it still does not
+/// count as solved); a collision no witness was searched for fails.
+pub fn check(
+    criteria: &VariantAcceptance,
+    rollout: &Rollout,
+    min_ttc_s: Option<f64>,
+    escape: Option<CollisionEscape>,
+) -> Vec<AcceptanceFailure> {
     let mut out = Vec::new();
     let summary = rollout.summary();
     let fail = |criterion: &str, what: String| AcceptanceFailure { criterion: criterion.to_string(), what };
@@ -37,7 +47,9 @@ pub fn check(criteria: &VariantAcceptance, rollout: &Rollout, min_ttc_s: Option<
             ));
         }
     }
+    let against_the_planner = escape.is_none_or(CollisionEscape::avoidable);
     if criteria.no_collision
+        && against_the_planner
         && let Some(c) = &summary.ego_collision
     {
         let role = if c.with_cbv { " (the CBV)" } else { "" };
@@ -49,6 +61,7 @@ pub fn check(criteria: &VariantAcceptance, rollout: &Rollout, min_ttc_s: Option<
     }
     if criteria.no_at_fault_collision
         && !criteria.no_collision
+        && against_the_planner
         && let Some(c) = summary.ego_collision.as_ref().filter(|c| c.at_fault)
     {
         let role = if c.with_cbv { " (the CBV)" } else { "" };
@@ -75,4 +88,40 @@ pub fn check(criteria: &VariantAcceptance, rollout: &Rollout, min_ttc_s: Option<
         out.push(fail("min_ttc_s", format!("time to collision fell to {ttc:.1} s < {min} s")));
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::record::test_support::{crossing_rollout, crossing_scenario};
+
+    fn criteria(no_collision: bool, no_at_fault_collision: bool) -> VariantAcceptance {
+        VariantAcceptance { no_collision, no_at_fault_collision, ..VariantAcceptance::default() }
+    }
+
+    fn failed(escape: Option<CollisionEscape>, criteria: &VariantAcceptance) -> Vec<String> {
+        let rollout = crossing_rollout(&crossing_scenario());
+        assert!(rollout.ego_collision().is_some(), "the fixture's ego must collide");
+        check(criteria, &rollout, None, escape).into_iter().map(|f| f.criterion).collect()
+    }
+
+    #[test]
+    fn an_avoidable_collision_fails_and_one_without_an_escape_is_the_generators_fault() {
+        let strict = criteria(true, false);
+        assert_eq!(failed(Some(CollisionEscape::Avoidable), &strict), ["no_collision"]);
+        assert!(failed(Some(CollisionEscape::NoEscapeFound), &strict).is_empty());
+        assert!(failed(Some(CollisionEscape::NoEscapeVerified), &strict).is_empty());
+        // No witness searched: the collision counts against the planner.
+        assert_eq!(failed(None, &strict), ["no_collision"]);
+    }
+
+    #[test]
+    fn the_at_fault_rule_follows_the_same_verdict() {
+        let at_fault = criteria(false, true);
+        let rollout = crossing_rollout(&crossing_scenario());
+        let is_at_fault = rollout.summary().ego_collision.is_some_and(|c| c.at_fault);
+        let expected: &[&str] = if is_at_fault { &["no_at_fault_collision"] } else { &[] };
+        assert_eq!(failed(Some(CollisionEscape::Avoidable), &at_fault), expected);
+        assert!(failed(Some(CollisionEscape::NoEscapeFound), &at_fault).is_empty());
+    }
 }

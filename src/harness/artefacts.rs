@@ -3,9 +3,10 @@
 //! an external planner, everything it wrote to stderr, all written by
 //! [`crate::record::write_output`] under
 //! `<dir>/<suite>/<scenario>/<variant>.{mcap,svg,stderr.txt}`. Where the
-//! ego collided, both show the feasibility witness beside it when the
-//! search finds one: an ego path that avoids every agent as they drove,
-//! the evidence that the collision was avoidable.
+//! ego collided, both show the closed-loop feasibility witness beside it
+//! when the search verified one: an ego path that, played again with the
+//! CBV reacting, touches nobody, the evidence that the collision was
+//! avoidable.
 //!
 //! Every path stays inside `<dir>` whatever the suite and scenario are
 //! called: each `::`-separated part of the variant name must be a plain
@@ -15,8 +16,9 @@
 
 use std::path::{Component, Path, PathBuf};
 
+use super::variant::CollisionEscape;
 use super::{Stage2Verdict, VariantOutcome};
-use crate::eval::witness::{RoadKeeping, Witness, WitnessBudget, search_rollout_witness};
+use crate::eval::escape::EscapeVerdict;
 use crate::record::{self, NamedTrajectory, RecordError, SvgOptions, TimedPose, TrajectoryRole};
 
 /// Paths of a variant's artefacts.
@@ -33,21 +35,21 @@ pub struct Artefacts {
     pub witness: Option<WitnessArtefact>,
 }
 
-/// What the feasibility witness search found for a stage-2 collision.
+/// What the closed-loop feasibility witness found for a stage-2 collision.
 #[derive(Debug, Clone, PartialEq)]
 pub enum WitnessArtefact {
-    /// An escape, drawn in the recording and the picture.
+    /// A verified escape, drawn in the recording and the picture.
     Found(NamedTrajectory),
-    /// None within the search's budget.
-    NoneWithinBudget,
+    /// None within the search's budget (how it ended).
+    NoneWithinBudget(CollisionEscape),
 }
 
 impl WitnessArtefact {
     /// The verdict, for reports.
-    pub fn verdict(&self) -> CollisionWitness {
+    pub fn verdict(&self) -> CollisionEscape {
         match self {
-            Self::Found(_) => CollisionWitness::Found,
-            Self::NoneWithinBudget => CollisionWitness::NoneWithinBudget,
+            Self::Found(_) => CollisionEscape::Avoidable,
+            Self::NoneWithinBudget(verdict) => *verdict,
         }
     }
 
@@ -55,55 +57,32 @@ impl WitnessArtefact {
     pub fn path(&self) -> Option<&NamedTrajectory> {
         match self {
             Self::Found(path) => Some(path),
-            Self::NoneWithinBudget => None,
+            Self::NoneWithinBudget(_) => None,
         }
     }
 }
 
-/// What the feasibility witness search said about a stage-2 collision.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum CollisionWitness {
-    /// An escape exists, drawn in the recording and the picture: the
-    /// collision was avoidable.
-    Found,
-    /// The search found none within its budget (not a proof that none
-    /// exists).
-    NoneWithinBudget,
-}
-
-impl CollisionWitness {
-    /// One line for a person reading the run's report.
-    pub fn describe(self) -> &'static str {
-        match self {
-            Self::Found => "found: the collision was avoidable (the escape is drawn in both)",
-            Self::NoneWithinBudget => "none found within the search's budget (not a proof it was unavoidable)",
-        }
-    }
-}
-
-/// The feasibility witness of a variant whose ego collided in stage 2: an
-/// ego path from the same start, within the ego's limits and on the road,
-/// that touches no agent as they drove in stage 1 (the CBV replays that in
-/// stage 2, and replayed background agents drive the same), searched as
-/// `safer evaluate` does. `None` when the ego did not collide.
+/// The feasibility witness of a variant whose ego collided in stage 2, as
+/// the variant's closed-loop witness search found it: an ego path from the
+/// same start, within the ego's limits and on the road, that touched
+/// nobody when stage 2 was played again with it, the CBV reacting as it
+/// did. `None` when the ego did not collide (or no witness was searched).
 pub fn feasibility_witness(outcome: &VariantOutcome) -> Option<WitnessArtefact> {
     if !matches!(outcome.verdict, Stage2Verdict::Collided { .. }) {
         return None;
     }
-    let stage1 = &outcome.stage1;
-    let Witness::Found { trajectory, min_clearance_m, .. } =
-        search_rollout_witness(&outcome.scenario, stage1, RoadKeeping::default(), WitnessBudget::default())
-    else {
-        return Some(WitnessArtefact::NoneWithinBudget);
+    let search = outcome.escape.as_ref()?;
+    let EscapeVerdict::Verified { trajectory, min_gap_m } = &search.verdict else {
+        return Some(WitnessArtefact::NoneWithinBudget(CollisionEscape::of(search)));
     };
-    let body = outcome.scenario.track(stage1.ego).body();
+    let dt_s = outcome.stage2.dt_s;
+    let body = outcome.scenario.track(outcome.stage2.ego).body();
     let poses = trajectory
         .iter()
         .enumerate()
-        .map(|(k, s)| TimedPose { time_s: k as f64 * stage1.dt_s, pose: s.pose() })
+        .map(|(k, s)| TimedPose { time_s: k as f64 * dt_s, pose: s.pose() })
         .collect();
-    let name = format!("an escape keeping {min_clearance_m:.2} m from every agent");
+    let name = format!("an escape keeping {min_gap_m:.2} m from every agent, the CBV reacting");
     Some(WitnessArtefact::Found(NamedTrajectory {
         name,
         role: TrajectoryRole::FeasibilityWitness,

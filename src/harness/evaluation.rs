@@ -4,9 +4,11 @@
 //! CBV–ego collision counts toward the collision rate CR. Stage 2 — a
 //! reactive planner drives the ego through the same variant with the CBV
 //! replaying its stage-1 trajectory (or, optionally, driven by the method
-//! again, closed loop); surviving without an ego collision counts toward
-//! the solution rate SR. Each stage-1 collision is checked for a
-//! feasibility witness. VJ and AJ compare the CBV's stage-1 speed and
+//! again, closed loop; both modes side by side when asked); surviving
+//! without an ego collision counts toward the solution rate SR. Each
+//! stage-1 collision is checked for a feasibility witness, and each
+//! stage-2 collision for a closed-loop one ([`crate::eval::escape`]);
+//! stage 2 also says whether the conflict reached the planner's ego. VJ and AJ compare the CBV's stage-1 speed and
 //! acceleration with the logged CBV's (see [`Histogram::speed`] and
 //! [`Histogram::acceleration`] for the bins).
 //!
@@ -23,6 +25,8 @@ use super::HarnessError;
 use super::methods::{BackgroundDriver, MapEncodings, MethodSettings, ModelSet};
 use super::metrics::{SuiteMetrics, VariantTally};
 use super::pipeline::{self, PlannerLatency, Stage2Verdict, VariantSetup};
+use super::variant::CollisionEscape;
+use crate::eval::escape::EscapeBudget;
 pub use super::pipeline::{Stage2Cbv, VariantProfile};
 use super::variant::variant_seed;
 use crate::policies::BackgroundPolicy;
@@ -47,8 +51,12 @@ pub struct EvaluationRequest {
     pub trust_region: usize,
     /// Who drives the background agents.
     pub background: BackgroundDriver,
-    /// Stage-2 CBV.
-    pub stage2_cbv: Stage2Cbv,
+    /// Stage-2 CBV modes, each a row per method (replay: the paper's
+    /// protocol).
+    pub stage2_cbv: Vec<Stage2Cbv>,
+    /// The closed-loop witness's budget for stage-2 collisions (`None`:
+    /// not searched).
+    pub escape: Option<EscapeBudget>,
     /// Horizon of both stages from the scene's current step, s.
     pub horizon_s: f64,
 }
@@ -60,6 +68,8 @@ pub struct VariantRecord {
     pub scenario: String,
     /// Method.
     pub method: AdversaryMethod,
+    /// The CBV in stage 2.
+    pub stage2_cbv: Stage2Cbv,
     /// Seed index.
     pub seed: u32,
     /// Stage 1: the CBV hit the ego.
@@ -73,6 +83,19 @@ pub struct VariantRecord {
     pub witness: Option<bool>,
     /// Stage-1 closest ego–CBV gap, m.
     pub stage1_min_gap_m: Option<f64>,
+    /// Stage-2 closest gap to any agent, m.
+    pub stage2_min_gap_m: Option<f64>,
+    /// Stage-2 closest gap between the planner's ego and the CBV, m.
+    pub stage2_min_gap_to_cbv_m: Option<f64>,
+    /// Stage 2: the CBV came within 1 m of the planner's ego.
+    pub conflict_reached: bool,
+    /// For a stage-2 collision: the closed-loop witness's verdict.
+    pub stage2_escape: Option<CollisionEscape>,
+    /// ... whether its pre-check (an escape from the CBV as it drove)
+    /// found one.
+    pub stage2_escape_precheck: Option<bool>,
+    /// ... and the closed-loop rollouts it played.
+    pub stage2_escape_rollouts: Option<usize>,
     /// Stage 1: the CBV collided with a background agent.
     pub cbv_hit_background: bool,
     /// ... and was at fault in at least one such collision.
@@ -94,16 +117,23 @@ pub struct VariantRecord {
 
 impl VariantRecord {
     /// The record of a variant that could not run, and why.
-    fn failed(scenario: &str, method: AdversaryMethod, seed: u32, error: String) -> Self {
+    fn failed(scenario: &str, method: AdversaryMethod, stage2_cbv: Stage2Cbv, seed: u32, error: String) -> Self {
         VariantRecord {
             scenario: scenario.into(),
             method,
+            stage2_cbv,
             seed,
             stage1_collision: false,
             stage2_collision: false,
             stage2: None,
             witness: None,
             stage1_min_gap_m: None,
+            stage2_min_gap_m: None,
+            stage2_min_gap_to_cbv_m: None,
+            conflict_reached: false,
+            stage2_escape: None,
+            stage2_escape_precheck: None,
+            stage2_escape_rollouts: None,
             cbv_hit_background: false,
             cbv_at_fault_with_background: false,
             cbv_off_road_s: 0.0,
@@ -121,6 +151,8 @@ impl VariantRecord {
 pub struct MethodRow {
     /// Method.
     pub method: AdversaryMethod,
+    /// The CBV in stage 2.
+    pub stage2_cbv: Stage2Cbv,
     /// Variants run.
     pub variants: usize,
     /// Variants that could not run.
@@ -149,6 +181,26 @@ pub struct MethodRow {
     /// the scenes, over the variants that ran. 1 when every seed gives its
     /// own variant; `None` when no variant ran.
     pub distinct_rate: Option<f64>,
+    /// Stage 2: share of variants whose CBV came within 1 m of the
+    /// planner's ego.
+    pub conflict_reach: Option<f64>,
+    /// The same over the stage-1-critical variants.
+    pub conflict_reach_critical: Option<f64>,
+    /// SR over the avoidable conflicts (reached or collided, less the
+    /// collisions without an escape).
+    pub sr_avoidable: Option<f64>,
+    /// The planner's failures on avoidable conflicts.
+    pub avoidable_failures: usize,
+    /// Stage-2 collisions with no closed-loop escape within budget (the
+    /// generator's fault).
+    pub no_escape_collisions: usize,
+    /// Their share of the variants.
+    pub no_escape_collision_rate: Option<f64>,
+    /// Stage-2 collisions whose pre-check found an escape from the CBV as
+    /// it drove that the reacting CBV then refuted (no closed-loop escape).
+    pub precheck_refuted: usize,
+    /// Variants the planner did not solve.
+    pub failures: usize,
     /// Jensen–Shannon divergence of CBV speed vs the log.
     pub vj: Option<f64>,
     /// Jensen–Shannon divergence of CBV acceleration vs the log.
@@ -168,6 +220,7 @@ pub type WitnessSearch = dyn Fn(&Scenario, &Rollout) -> bool + Sync;
 fn run_one(
     scenario: &Arc<Scenario>,
     method: AdversaryMethod,
+    stage2_cbv: Stage2Cbv,
     seed_index: u32,
     request: &EvaluationRequest,
     models: &ModelSet,
@@ -193,11 +246,12 @@ fn run_one(
         },
         seed: variant_seed(request.base_seed, &format!("{}/{method:?}", scenario.id), seed_index),
         sim: &sim,
-        stage2_cbv: request.stage2_cbv,
+        stage2_cbv,
         planner: &request.planner,
         models,
         maps,
         variant: Some(&variant),
+        escape: request.escape,
     })?;
     let tally = VariantTally::of(scenario, &stages);
     let mut profile = stages.profile;
@@ -207,15 +261,23 @@ fn run_one(
         _ => None,
     };
     profile.witness_s = witness_clock.elapsed().as_secs_f64();
+    let stage2_summary = stages.stage2.summary();
     Ok(VariantRecord {
         scenario: scenario.id.clone(),
         method,
+        stage2_cbv,
         seed: seed_index,
         stage1_collision: tally.critical,
         stage2_collision: stages.stage2.ego_collision().is_some(),
         stage2: Some(stages.verdict),
         witness,
         stage1_min_gap_m: stages.stage1.summary().min_distance_to_ego_m,
+        stage2_min_gap_m: stage2_summary.min_distance_to_ego_m,
+        stage2_min_gap_to_cbv_m: stages.reach.min_gap_to_cbv_m,
+        conflict_reached: stages.reach.reached,
+        stage2_escape: stages.escape.as_ref().map(CollisionEscape::of),
+        stage2_escape_precheck: stages.escape.as_ref().map(|e| e.precheck_found),
+        stage2_escape_rollouts: stages.escape.as_ref().map(|e| e.rollouts),
         cbv_hit_background: tally.cbv_hit_background,
         cbv_at_fault_with_background: tally.cbv_at_fault_with_background,
         cbv_off_road_s: (tally.cbv_off_road_s * 10.0).round() / 10.0,
@@ -237,22 +299,28 @@ pub fn evaluate(
     tick: &(dyn Fn() + Sync),
 ) -> Vec<VariantRecord> {
     let maps = MapEncodings::default();
-    let jobs: Vec<(usize, AdversaryMethod, u32)> = scenes
+    let jobs: Vec<(usize, AdversaryMethod, Stage2Cbv, u32)> = scenes
         .iter()
         .enumerate()
-        .flat_map(|(i, _)| request.methods.iter().flat_map(move |&m| (0..request.seeds).map(move |s| (i, m, s))))
+        .flat_map(|(i, _)| {
+            request.methods.iter().flat_map(move |&m| {
+                request.stage2_cbv.iter().flat_map(move |&mode| (0..request.seeds).map(move |s| (i, m, mode, s)))
+            })
+        })
         .collect();
     let mut records: Vec<VariantRecord> = jobs
         .par_iter()
-        .map(|&(i, method, seed)| {
+        .map(|&(i, method, mode, seed)| {
             let scenario = &scenes[i];
-            let r = run_one(scenario, method, seed, request, models, &maps, witness)
-                .unwrap_or_else(|e| VariantRecord::failed(&scenario.id, method, seed, e.to_string()));
+            let r = run_one(scenario, method, mode, seed, request, models, &maps, witness)
+                .unwrap_or_else(|e| VariantRecord::failed(&scenario.id, method, mode, seed, e.to_string()));
             tick();
             r
         })
         .collect();
-    records.sort_by(|a, b| (a.method, &a.scenario, a.seed).cmp(&(b.method, &b.scenario, b.seed)));
+    records.sort_by(|a, b| {
+        (a.method, a.stage2_cbv, &a.scenario, a.seed).cmp(&(b.method, b.stage2_cbv, &b.scenario, b.seed))
+    });
     records
 }
 
@@ -294,9 +362,11 @@ fn distinct_rate(variants: &[&VariantRecord]) -> Option<f64> {
     (!variants.is_empty()).then(|| distinct.len() as f64 / variants.len() as f64)
 }
 
-/// One row per method, in the requested order. CR, SR, SR-crit, VJ and AJ
-/// are the suite metrics ([`SuiteMetrics::aggregate`]) over the variants
-/// that ran; variants that could not run are counted in `errors`.
+/// One row per method, in the requested order, and within a method one
+/// per stage-2 CBV mode the records hold (replay first), side by side. CR,
+/// SR, SR-crit, VJ, AJ, reach and SR over avoidable conflicts are the
+/// suite metrics ([`SuiteMetrics::aggregate`]) over the variants that ran;
+/// variants that could not run are counted in `errors`.
 pub fn table(records: &[VariantRecord], methods: &[AdversaryMethod]) -> Vec<MethodRow> {
     table_of(records, methods, |_| true)
 }
@@ -307,10 +377,18 @@ fn table_of(
     methods: &[AdversaryMethod],
     keep: impl Fn(&VariantRecord) -> bool,
 ) -> Vec<MethodRow> {
+    let mut modes: Vec<Stage2Cbv> = records.iter().map(|r| r.stage2_cbv).collect();
+    modes.sort();
+    modes.dedup();
+    if modes.is_empty() {
+        modes.push(Stage2Cbv::Replay);
+    }
     methods
         .iter()
-        .map(|&method| {
-            let all: Vec<&VariantRecord> = records.iter().filter(|r| r.method == method && keep(r)).collect();
+        .flat_map(|&method| modes.iter().map(move |&mode| (method, mode)))
+        .map(|(method, mode)| {
+            let all: Vec<&VariantRecord> =
+                records.iter().filter(|r| r.method == method && r.stage2_cbv == mode && keep(r)).collect();
             let ok: Vec<&VariantRecord> = all.iter().copied().filter(|r| r.error.is_none()).collect();
             let metrics = SuiteMetrics::aggregate(ok.iter().map(|r| &r.tally));
             let searched: Vec<&VariantRecord> = ok.iter().copied().filter(|r| r.witness.is_some()).collect();
@@ -326,6 +404,7 @@ fn table_of(
             MethodRow {
                 profile: profile.scaled(1.0 / n),
                 method,
+                stage2_cbv: mode,
                 variants: all.len(),
                 errors: all.len() - ok.len(),
                 cr: metrics.collision_rate,
@@ -338,6 +417,17 @@ fn table_of(
                 cbv_off_road_rate: metrics.cbv_off_road_rate,
                 cbv_off_road_s: metrics.cbv_off_road_s,
                 distinct_rate: distinct_rate(&ok),
+                conflict_reach: metrics.conflict_reach,
+                conflict_reach_critical: metrics.conflict_reach_critical,
+                sr_avoidable: metrics.solution_rate_avoidable,
+                avoidable_failures: metrics.avoidable_failures,
+                no_escape_collisions: metrics.no_escape_collisions,
+                no_escape_collision_rate: metrics.no_escape_collision_rate,
+                precheck_refuted: ok
+                    .iter()
+                    .filter(|r| r.stage2_escape_precheck == Some(true) && r.stage2_escape.is_some_and(|e| !e.avoidable()))
+                    .count(),
+                failures: ok.iter().filter(|r| !r.tally.solved).count(),
                 vj: metrics.velocity_jsd,
                 aj: metrics.acceleration_jsd,
                 time_per_variant_s: ok.iter().map(|r| r.time_s).sum::<f64>() / n,
@@ -355,7 +445,7 @@ mod tests {
         VariantRecord {
             error: None,
             tally: VariantTally { cbv_path_digest: Some(digest), ..VariantTally::default() },
-            ..VariantRecord::failed(scenario, AdversaryMethod::Safer, seed, String::new())
+            ..VariantRecord::failed(scenario, AdversaryMethod::Safer, Stage2Cbv::Replay, seed, String::new())
         }
     }
 

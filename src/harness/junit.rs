@@ -100,10 +100,10 @@ fn suite(out: &mut String, run: &SuiteRun) -> Counts {
         count(&verdict);
         testcase(&mut cases, &run.name, check.name, &verdict, &[]);
     }
-    let _ = writeln!(
+    let _ = write!(
         out,
         "  <testsuite name=\"{}\" file=\"{}\" tests=\"{}\" failures=\"{}\" errors=\"{}\" skipped=\"0\">\n    \
-         <properties>\n      <property name=\"planner\" value=\"{}\"/>\n    </properties>",
+         <properties>\n      <property name=\"planner\" value=\"{}\"/>\n",
         attr(&run.name),
         attr(&run.file.display().to_string()),
         counts.tests,
@@ -111,6 +111,20 @@ fn suite(out: &mut String, run: &SuiteRun) -> Counts {
         counts.errors,
         attr(&run.planner),
     );
+    // Whether the conflicts reached the planner, as CI dashboards read them.
+    if let Some(m) = &run.metrics {
+        let rate = |v: Option<f64>| v.map_or_else(|| "-".to_string(), |x| format!("{x:.3}"));
+        for (name, value) in [
+            ("conflict_reach", rate(m.conflict_reach)),
+            ("conflict_reach_critical", rate(m.conflict_reach_critical)),
+            ("solution_rate_avoidable", rate(m.solution_rate_avoidable)),
+            ("avoidable_failures", m.avoidable_failures.to_string()),
+            ("no_escape_collisions", m.no_escape_collisions.to_string()),
+        ] {
+            let _ = writeln!(out, "      <property name=\"{name}\" value=\"{}\"/>", attr(&value));
+        }
+    }
+    out.push_str("    </properties>\n");
     out.push_str(&cases);
     out.push_str("  </testsuite>\n");
     counts
@@ -170,9 +184,14 @@ fn what_happened(o: &VariantOutcome) -> String {
     if let Some(t) = s.stage2_off_road_s {
         let _ = write!(text, "; off the road from {t:.1} s");
     }
+    if let Some(escape) = s.stage2_escape {
+        let _ = write!(text, "; collision {}", escape.describe());
+    }
     let _ = writeln!(
         text,
-        "; closest gap {}; minimum TTC {}; ended: {}",
+        "; closest gap to the CBV {} (conflict reached the ego: {}); closest gap {}; minimum TTC {}; ended: {}",
+        gap(s.stage2_min_gap_to_cbv_m),
+        if s.conflict_reached { "yes" } else { "no" },
         gap(s.stage2_min_gap_m),
         s.stage2_min_ttc_s.map_or_else(|| "-".into(), |t| format!("{t:.1} s")),
         s.stage2_termination

@@ -9,6 +9,14 @@
 //! it left the road (centre off the road while it started on it), with the
 //! mean time it spent off the road.
 //!
+//! Three more say whether the conflict reached the planner under test in
+//! stage 2: *conflict reach* (the share of variants, and of the
+//! stage-1-critical ones, whose CBV came within 1 m of the planner's ego),
+//! SR over the *avoidable conflicts* (variants the conflict reached, or
+//! where the ego collided, less the collisions with no escape), and the
+//! share of variants whose ego collision has no escape within the
+//! closed-loop witness's budget (the generator's fault).
+//!
 //! This is the one definition of these metrics: the suite runner, `safer
 //! run` and `safer evaluate` each reduce a variant to a [`VariantTally`] and
 //! aggregate tallies with [`SuiteMetrics::aggregate`].
@@ -88,6 +96,21 @@ pub struct VariantTally {
     /// A digest of the CBV's stage-1 path ([`cbv_path_digest`]): two
     /// seeds with equal digests made the same variant.
     pub cbv_path_digest: Option<u64>,
+    /// Stage 2: the CBV came within 1 m of the planner's ego.
+    pub reached: bool,
+    /// Stage 2: the ego collided (with anyone).
+    pub collided: bool,
+    /// Stage 2: for an ego collision, whether the closed-loop witness
+    /// verified an escape (`None`: no collision, or not searched).
+    pub escape: Option<bool>,
+}
+
+impl VariantTally {
+    /// Whether the variant is an avoidable conflict: the CBV reached the
+    /// ego or the ego collided, and not in a collision without an escape.
+    pub fn avoidable_conflict(&self) -> bool {
+        (self.reached || self.collided) && self.escape != Some(false)
+    }
 }
 
 impl VariantTally {
@@ -102,6 +125,9 @@ impl VariantTally {
             cbv_at_fault_with_background: background.into_iter().any(|at_fault| at_fault),
             cbv_off_road_s: cbv_off_road_s(scenario, &stages.stage1),
             cbv_path_digest: cbv_path_digest(&stages.stage1),
+            reached: stages.reach.reached,
+            collided: stages.stage2.ego_collision().is_some(),
+            escape: stages.escape.as_ref().map(crate::eval::escape::EscapeSearch::avoidable),
         }
     }
 }
@@ -190,6 +216,24 @@ pub struct SuiteMetrics {
     pub cbv_off_road_rate: Option<f64>,
     /// Mean time the CBV spent off the road per variant, s.
     pub cbv_off_road_s: Option<f64>,
+    /// Stage 2: share of variants whose CBV came within 1 m of the
+    /// planner's ego.
+    pub conflict_reach: Option<f64>,
+    /// The same over the stage-1-critical variants (`None` if none were).
+    pub conflict_reach_critical: Option<f64>,
+    /// Stage 2: variants that were avoidable conflicts (see
+    /// [`VariantTally::avoidable_conflict`]).
+    pub avoidable_conflicts: usize,
+    /// Of which the planner did not solve: its failures on conflicts it
+    /// could have avoided.
+    pub avoidable_failures: usize,
+    /// SR over the avoidable conflicts (`None` if there were none).
+    pub solution_rate_avoidable: Option<f64>,
+    /// Stage 2: ego collisions with no escape within the witness's budget
+    /// (the generator's fault).
+    pub no_escape_collisions: usize,
+    /// Their share of the variants.
+    pub no_escape_collision_rate: Option<f64>,
 }
 
 /// One suite-level check (a test).
@@ -221,6 +265,9 @@ impl SuiteMetrics {
             format!("SR(critical) {}", value(self.solution_rate_critical)),
             format!("VJ {}", value(self.velocity_jsd)),
             format!("AJ {}", value(self.acceleration_jsd)),
+            format!("reach {}", value(self.conflict_reach)),
+            format!("SR(avoidable) {}", value(self.solution_rate_avoidable)),
+            format!("no-escape collisions {}", self.no_escape_collisions),
         ]
         .join(separator)
     }
@@ -234,6 +281,7 @@ impl SuiteMetrics {
     pub fn aggregate<'a>(tallies: impl IntoIterator<Item = &'a VariantTally>) -> SuiteMetrics {
         let (mut n, mut critical, mut solved, mut solved_critical) = (0, 0, 0, 0);
         let (mut hit_background, mut at_fault, mut off_road, mut off_road_s) = (0, 0, 0, 0.0);
+        let (mut reached, mut reached_critical, mut avoidable, mut avoidable_solved, mut no_escape) = (0, 0, 0, 0, 0);
         let (mut gv, mut ga, mut lv, mut la) =
             (Histogram::speed(), Histogram::acceleration(), Histogram::speed(), Histogram::acceleration());
         for t in tallies {
@@ -245,6 +293,11 @@ impl SuiteMetrics {
             at_fault += usize::from(t.cbv_at_fault_with_background);
             off_road += usize::from(t.cbv_off_road_s > 0.0);
             off_road_s += t.cbv_off_road_s;
+            reached += usize::from(t.reached);
+            reached_critical += usize::from(t.reached && t.critical);
+            avoidable += usize::from(t.avoidable_conflict());
+            avoidable_solved += usize::from(t.avoidable_conflict() && t.solved);
+            no_escape += usize::from(t.escape == Some(false));
             if let Some(cbv) = &t.cbv {
                 cbv.generated.speeds_mps.iter().for_each(|v| gv.add(*v));
                 cbv.generated.accels_mps2.iter().for_each(|a| ga.add(*a));
@@ -263,6 +316,13 @@ impl SuiteMetrics {
             cbv_at_fault_background_collision_rate: share(at_fault, n),
             cbv_off_road_rate: share(off_road, n),
             cbv_off_road_s: (n > 0).then(|| off_road_s / n as f64),
+            conflict_reach: share(reached, n),
+            conflict_reach_critical: share(reached_critical, critical),
+            avoidable_conflicts: avoidable,
+            avoidable_failures: avoidable - avoidable_solved,
+            solution_rate_avoidable: share(avoidable_solved, avoidable),
+            no_escape_collisions: no_escape,
+            no_escape_collision_rate: share(no_escape, n),
         }
     }
 
@@ -275,16 +335,19 @@ impl SuiteMetrics {
         let why = |name: &str| match (n, name) {
             (0, _) => "no variant ran",
             (_, "velocity_jsd" | "acceleration_jsd") => "no CBV speeds in stage 1 or in the log",
+            (_, "conflict_reach") => "no variant was critical in stage 1",
             _ => "no variant qualified",
         };
         let mut out = Vec::new();
         // (metric, value, lower bound, upper bound)
         type Bounds = (&'static str, Option<f64>, Option<f64>, Option<f64>);
-        let bounds: [Bounds; 4] = [
+        let bounds: [Bounds; 6] = [
             ("collision_rate", self.collision_rate, acceptance.collision_rate_min, None),
             ("solution_rate", self.solution_rate, acceptance.solution_rate_min, None),
             ("velocity_jsd", self.velocity_jsd, None, acceptance.velocity_jsd_max),
             ("acceleration_jsd", self.acceleration_jsd, None, acceptance.acceleration_jsd_max),
+            ("conflict_reach", self.conflict_reach_critical, acceptance.conflict_reach_min, None),
+            ("no_escape_collision_rate", self.no_escape_collision_rate, None, acceptance.no_escape_collision_rate_max),
         ];
         for (name, value, min, max) in bounds {
             if min.is_none() && max.is_none() {
@@ -314,6 +377,8 @@ pub fn metric_names(acceptance: &SuiteAcceptance) -> Vec<&'static str> {
         ("solution_rate", acceptance.solution_rate_min.is_some()),
         ("velocity_jsd", acceptance.velocity_jsd_max.is_some()),
         ("acceleration_jsd", acceptance.acceleration_jsd_max.is_some()),
+        ("conflict_reach", acceptance.conflict_reach_min.is_some()),
+        ("no_escape_collision_rate", acceptance.no_escape_collision_rate_max.is_some()),
     ]
     .into_iter()
     .filter_map(|(n, on)| on.then_some(n))
@@ -360,7 +425,8 @@ mod tests {
         let line = m.headline(" · ");
         assert!(line.starts_with("metrics over 2 variants: CR 0.500 · SR 0.500 · SR(critical) 1.000"), "{line}");
         // No velocity profiles were tallied: VJ and AJ are unmeasured, not 0.
-        assert!(line.ends_with("VJ - · AJ -"), "{line}");
+        assert!(line.contains("VJ - · AJ -"), "{line}");
+        assert!(line.ends_with("reach 0.000 · SR(avoidable) - · no-escape collisions 0"), "{line}");
     }
 
     use super::*;
@@ -433,6 +499,49 @@ mod tests {
         let m = SuiteMetrics::aggregate(&[tally(false, true)]);
         let checks = m.checks(&acceptance(Some(f64::NAN), None));
         assert!(checks[0].result.is_err(), "{checks:?}");
+    }
+
+    #[test]
+    fn reach_counts_the_critical_variants_and_sr_avoidable_leaves_out_no_escape_collisions() {
+        let t = |critical, reached, collided, escape: Option<bool>| VariantTally {
+            critical,
+            reached,
+            collided,
+            escape,
+            solved: !collided,
+            ..VariantTally::default()
+        };
+        let tallies = [
+            // Critical, reached, solved: an avoidable conflict the planner met.
+            t(true, true, false, None),
+            // Critical, never reached: replay missed the planner's ego.
+            t(true, false, false, None),
+            // Reached, collided with an escape: a planner failure.
+            t(false, true, true, Some(true)),
+            // Collided with no escape: the generator's fault, not counted.
+            t(true, true, true, Some(false)),
+        ];
+        let m = SuiteMetrics::aggregate(&tallies);
+        assert_eq!(m.conflict_reach, Some(0.75));
+        assert_eq!(m.conflict_reach_critical, Some(2.0 / 3.0));
+        assert_eq!((m.avoidable_conflicts, m.avoidable_failures), (2, 1));
+        assert_eq!(m.solution_rate_avoidable, Some(0.5));
+        assert_eq!((m.no_escape_collisions, m.no_escape_collision_rate), (1, Some(0.25)));
+        // The suite checks: reach is over the critical variants.
+        let acceptance = SuiteAcceptance {
+            conflict_reach_min: Some(0.8),
+            no_escape_collision_rate_max: Some(0.25),
+            ..SuiteAcceptance::default()
+        };
+        let checks = m.checks(&acceptance);
+        assert_eq!(checks[0].name, "conflict_reach");
+        assert_eq!(checks[0].result, Err("conflict_reach = 0.667 < 0.8 over 4 variants".to_string()));
+        assert_eq!(checks[1].name, "no_escape_collision_rate");
+        assert!(checks[1].result.is_ok(), "{checks:?}");
+        // With no critical variant, reach cannot be measured: it fails.
+        let none = SuiteMetrics::aggregate(&[t(false, true, false, None)]);
+        let err = none.checks(&acceptance)[0].result.clone().unwrap_err();
+        assert!(err.contains("no variant was critical in stage 1"), "{err}");
     }
 
     #[test]

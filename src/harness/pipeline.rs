@@ -6,7 +6,11 @@
 //! replaying its stage-1 trajectory (the paper's protocol) or driven by the
 //! method again, closed loop; the planner *solves* the variant only if the
 //! rollout ran to its end without an ego collision and without the planner
-//! failing ([`Stage2Verdict`]).
+//! failing ([`Stage2Verdict`]). Stage 2 also measures whether the conflict
+//! reached the planner ([`ConflictReach`]) and, for an ego collision, runs
+//! the closed-loop feasibility witness ([`crate::eval::escape`]): stage 2
+//! played again, everything driven as it was, with the ego on a candidate
+//! escape.
 //!
 //! A variant is a pure function of (scenario, planner, method settings,
 //! seed): the pipeline reads no clock except to report where time went.
@@ -16,7 +20,8 @@ use std::time::Instant;
 
 use super::HarnessError;
 use super::methods::{self, MapEncodings, MethodSettings, ModelSet};
-use crate::eval::min_time_to_collision;
+use crate::eval::escape::{EscapeBudget, EscapeSearch, PlannedPath, search_escape};
+use crate::eval::{ConflictReach, min_time_to_collision};
 use crate::planners::external::{ExternalPlanner, ExternalPlannerConfig, RolloutContext};
 use crate::planners::{BuiltinPlanner, IdmPlanner, Observation, Planner, PlannerError, PlannerOutput};
 use crate::policies::LogReplay;
@@ -24,16 +29,7 @@ use crate::scenario::{Scenario, Track, TrackIndex};
 use crate::sim::{Rollout, SimConfig, Simulation, Termination};
 use crate::spec::planner::PlannerAdapter;
 
-/// How the CBV behaves in stage 2.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum, serde::Serialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum Stage2Cbv {
-    /// Replays its stage-1 trajectory (the paper's protocol).
-    #[default]
-    Replay,
-    /// Is driven by the method again, reacting to the planner.
-    ClosedLoop,
-}
+pub use crate::spec::suite::Stage2Cbv;
 
 /// Everything that defines one variant.
 #[derive(Debug, Clone, Copy)]
@@ -57,6 +53,9 @@ pub struct VariantSetup<'a> {
     /// The variant's name (`suite::scenario::seed-k`), told to external
     /// planners (`{variant}`, `SAFER_VARIANT`); `None`: the scenario id.
     pub variant: Option<&'a str>,
+    /// The closed-loop witness's budget for an ego collision in stage 2
+    /// (`None`: no witness is searched).
+    pub escape: Option<EscapeBudget>,
 }
 
 /// Where a variant's time went, s.
@@ -75,8 +74,10 @@ pub struct VariantProfile {
     /// Of which: the planner's `plan` calls (the rest is the simulator:
     /// the other agents, events).
     pub stage2_planner_s: f64,
-    /// The witness search (only `safer evaluate` runs it).
+    /// The stage-1 witness search (only `safer evaluate` runs it).
     pub witness_s: f64,
+    /// The closed-loop witness of a stage-2 collision.
+    pub escape_s: f64,
 }
 
 impl VariantProfile {
@@ -89,6 +90,7 @@ impl VariantProfile {
         self.stage2_s += o.stage2_s;
         self.stage2_planner_s += o.stage2_planner_s;
         self.witness_s += o.witness_s;
+        self.escape_s += o.escape_s;
     }
 
     /// Every part multiplied by `k`.
@@ -101,6 +103,7 @@ impl VariantProfile {
             stage2_s: self.stage2_s * k,
             stage2_planner_s: self.stage2_planner_s * k,
             witness_s: self.witness_s * k,
+            escape_s: self.escape_s * k,
         }
     }
 }
@@ -231,7 +234,12 @@ pub struct DualStage {
     pub verdict: Stage2Verdict,
     /// Minimum time to collision in stage 2, s.
     pub min_ttc_s: Option<f64>,
-    /// Where the time went (the witness part is left at zero).
+    /// How close the CBV came to the planner's ego in stage 2.
+    pub reach: ConflictReach,
+    /// The closed-loop witness of an ego collision in stage 2 (`None`: no
+    /// collision, or no witness asked for).
+    pub escape: Option<EscapeSearch>,
+    /// Where the time went (the stage-1 witness part is left at zero).
     pub profile: VariantProfile,
     /// How long the planner under test took per observation.
     pub planner_latency: Option<PlannerLatency>,
@@ -312,14 +320,7 @@ pub fn run(setup: VariantSetup<'_>) -> Result<DualStage, HarnessError> {
 
     // Stage 2: the planner under test.
     let stage2_clock = Instant::now();
-    let mut stage2 = Simulation::new(scenario, setup.sim.clone())?;
-    let closed_loop = match setup.stage2_cbv {
-        Stage2Cbv::Replay => {
-            stage2.set_policy(cbv, Box::new(LogReplay::new(track_from_rollout(scenario, &stage1, cbv))));
-            None
-        }
-        Stage2Cbv::ClosedLoop => Some(install(&mut stage2)?),
-    };
+    let (stage2, closed_loop) = stage2_simulation(&setup, &stage1)?;
     let end = setup.sim.end_step.unwrap_or(scenario.num_steps().saturating_sub(1));
     let context = RolloutContext {
         scenario: scenario.clone(),
@@ -343,15 +344,77 @@ pub fn run(setup: VariantSetup<'_>) -> Result<DualStage, HarnessError> {
     }
     profile.stage2_s = stage2_clock.elapsed().as_secs_f64();
 
+    let verdict = Stage2Verdict::of(&stage2);
+    let escape_clock = Instant::now();
+    let escape = match (setup.escape, &verdict) {
+        (Some(budget), Stage2Verdict::Collided { .. }) => search_stage2_escape(&setup, &stage1, &stage2, budget)?,
+        _ => None,
+    };
+    profile.escape_s = escape_clock.elapsed().as_secs_f64();
+
     Ok(DualStage {
-        verdict: Stage2Verdict::of(&stage2),
+        verdict,
         min_ttc_s: min_time_to_collision(&stage2),
+        reach: ConflictReach::of(&stage2),
+        escape,
         stage1,
         stage2,
         profile,
         planner_latency,
         planner_stderr,
     })
+}
+
+/// Stage 2 of `setup` set up to run: the CBV replaying its `stage1` path
+/// or driven by the method again (then also its installation, whose
+/// error the caller reads after the run).
+fn stage2_simulation<'s>(
+    setup: &VariantSetup<'s>,
+    stage1: &Rollout,
+) -> Result<(Simulation<'s>, Option<methods::InstalledMethod>), HarnessError> {
+    let scenario = setup.scenario;
+    let cbv = scenario.cbv.ok_or_else(|| HarnessError::NoCbv(scenario.id.clone()))?;
+    let start = setup.sim.start_step.unwrap_or(scenario.current_step);
+    let mut stage2 = Simulation::new(scenario, setup.sim.clone())?;
+    let installed = match setup.stage2_cbv {
+        Stage2Cbv::Replay => {
+            stage2.set_policy(cbv, Box::new(LogReplay::new(track_from_rollout(scenario, stage1, cbv))));
+            None
+        }
+        Stage2Cbv::ClosedLoop => Some(methods::install(
+            &mut stage2,
+            scenario,
+            cbv,
+            start,
+            setup.settings,
+            setup.models,
+            setup.maps,
+            setup.seed,
+        )?),
+    };
+    Ok((stage2, installed))
+}
+
+/// The closed-loop witness of `stage2`'s ego collision: each candidate
+/// escape is played as stage 2 again, the CBV replaying or driven by the
+/// method exactly as in `stage2` (same seed), the background by its policy,
+/// the ego on the candidate. `None` when the ego has no start state.
+pub fn search_stage2_escape(
+    setup: &VariantSetup<'_>,
+    stage1: &Rollout,
+    stage2: &Rollout,
+    budget: EscapeBudget,
+) -> Result<Option<EscapeSearch>, HarnessError> {
+    let method = setup.settings.method;
+    let mut replay = |plan: &[crate::scenario::AgentState]| -> Result<Rollout, HarnessError> {
+        let (sim, installed) = stage2_simulation(setup, stage1)?;
+        let played = sim.run(&mut PlannedPath::new(plan.to_vec()));
+        match installed.and_then(|i| i.error()) {
+            Some(source) => Err(HarnessError::Model { method, source }),
+            None => Ok(played),
+        }
+    };
+    search_escape(setup.scenario, stage2, budget, &mut replay)
 }
 
 #[cfg(test)]

@@ -123,6 +123,8 @@ pub(crate) mod tests_support {
             stage2: rollout,
             verdict: Stage2Verdict::Collided { time_s: 3.9 },
             min_ttc_s: Some(0.4),
+            reach: crate::eval::ConflictReach { min_gap_to_cbv_m: Some(0.0), reached: true },
+            escape: None,
             tally: VariantTally { critical: true, ..VariantTally::default() },
             failures,
             planner_latency: None,

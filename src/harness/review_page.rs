@@ -337,13 +337,16 @@ fn failing_variant_html(
     let _ = writeln!(
         h,
         "</ul>\n<p class=\"what\">stage 1 (ego replays its log, the adversary drives CBV {}): CBV hit the ego: {}, \
-         closest gap {} m · stage 2 (planner {} drives ego {}): {}, closest gap {} m, min TTC {} s, ended: {}</p>",
+         closest gap {} m · stage 2 (planner {} drives ego {}): {}, closest gap to the CBV {} m (conflict reached \
+         the ego: {}), closest gap {} m, min TTC {} s, ended: {}</p>",
         esc(s.cbv.as_deref().unwrap_or("none")),
         if s.stage1_cbv_hit_ego { "yes" } else { "no" },
         opt(s.stage1_min_gap_m, 2),
         esc(&s.planner),
         esc(&s.ego),
         esc(&stage2_text(o)),
+        opt(s.stage2_min_gap_to_cbv_m, 2),
+        if s.conflict_reached { "yes" } else { "no" },
         opt(s.stage2_min_gap_m, 2),
         opt(s.stage2_min_ttc_s, 1),
         esc(&s.stage2_termination),
@@ -370,7 +373,7 @@ fn failing_variant_html(
                 );
             }
             if let Some(witness) = &a.witness {
-                let _ = write!(h, " · feasibility witness: {}", esc(witness.verdict().describe()));
+                let _ = write!(h, " · closed-loop feasibility witness: {}", esc(witness.verdict().describe()));
             }
         }
         Some(Err(e)) => {

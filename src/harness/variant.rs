@@ -7,8 +7,10 @@ use std::sync::Arc;
 use super::acceptance::{self, AcceptanceFailure};
 use super::methods::{BackgroundDriver, MapEncodings, MethodSettings, ModelSet};
 use super::metrics::VariantTally;
-use super::pipeline::{self, PlannerLatency, Stage2Cbv, Stage2Verdict, VariantSetup};
+use super::pipeline::{self, PlannerLatency, Stage2Verdict, VariantSetup};
 use super::{HarnessError, Suite, SuiteScenario};
+use crate::eval::ConflictReach;
+use crate::eval::escape::{EscapeBudget, EscapeSearch, EscapeVerdict, NoEscapeReason};
 use crate::policies::prior_sampling::TokenSampling;
 use crate::scenario::Scenario;
 use crate::sim::{Rollout, SimConfig};
@@ -24,12 +26,17 @@ pub struct VariantOutcome {
     pub scenario: Arc<Scenario>,
     /// Stage 1: ego on log replay, CBV by the method.
     pub stage1: Rollout,
-    /// Stage 2: the planner under test, CBV replaying its stage-1 trajectory.
+    /// Stage 2: the planner under test, the CBV closed loop or replaying
+    /// its stage-1 trajectory (the suite's `adversary.stage2_cbv`).
     pub stage2: Rollout,
     /// Stage 2's verdict (solved, collided, aborted).
     pub verdict: Stage2Verdict,
     /// Minimum time to collision in stage 2, s.
     pub min_ttc_s: Option<f64>,
+    /// How close the CBV came to the planner's ego in stage 2.
+    pub reach: ConflictReach,
+    /// The closed-loop witness of an ego collision in stage 2.
+    pub escape: Option<EscapeSearch>,
     /// What the variant contributes to the suite metrics.
     pub tally: VariantTally,
     /// Failed acceptance criteria (empty: the variant passes).
@@ -70,6 +77,9 @@ impl VariantOutcome {
             stage2_collision: s2.ego_collision.as_ref().map(|c| format!("{} at {:.1} s", c.other, c.time_s)),
             stage2_off_road_s: s2.ego_off_road_s.map(|t| (t * 10.0).round() / 10.0),
             stage2_min_gap_m: s2.min_distance_to_ego_m.map(round),
+            stage2_min_gap_to_cbv_m: self.reach.min_gap_to_cbv_m.map(round),
+            conflict_reached: self.reach.reached,
+            stage2_escape: self.escape.as_ref().map(CollisionEscape::of),
             stage2_min_ttc_s: self.min_ttc_s.map(|t| (t * 10.0).round() / 10.0),
             stage2_termination: serde_json::to_value(&s2.termination)
                 .ok()
@@ -102,8 +112,14 @@ pub struct VariantSummary {
     pub stage2_collision: Option<String>,
     /// Stage 2: when the ego left the road, s.
     pub stage2_off_road_s: Option<f64>,
-    /// Stage 2: closest gap, m (2 decimals).
+    /// Stage 2: closest gap to any agent, m (2 decimals).
     pub stage2_min_gap_m: Option<f64>,
+    /// Stage 2: closest gap to the CBV, m (2 decimals).
+    pub stage2_min_gap_to_cbv_m: Option<f64>,
+    /// Stage 2: the CBV came within 1 m of the planner's ego.
+    pub conflict_reached: bool,
+    /// Stage 2: for an ego collision, the closed-loop witness's verdict.
+    pub stage2_escape: Option<CollisionEscape>,
     /// Stage 2: minimum TTC, s (1 decimal).
     pub stage2_min_ttc_s: Option<f64>,
     /// Stage 2: how the rollout ended.
@@ -112,6 +128,53 @@ pub struct VariantSummary {
     pub passed: bool,
     /// The failed criteria.
     pub failures: Vec<String>,
+}
+
+/// The closed-loop witness's verdict on a stage-2 collision, as reports
+/// and snapshots carry it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum CollisionEscape {
+    /// An escape, played closed loop with the CBV reacting, touched
+    /// nobody: the collision was avoidable, a planner failure.
+    Avoidable,
+    /// The fixed-traffic search found no escape from the last rollout's
+    /// traffic: counted as the generator's fault, not the planner's.
+    NoEscapeFound,
+    /// Every verification rollout was spent on an escape the reacting CBV
+    /// still hit: counted as the generator's fault, not the planner's.
+    NoEscapeVerified,
+}
+
+impl CollisionEscape {
+    /// The verdict of a search.
+    pub fn of(search: &EscapeSearch) -> Self {
+        match search.verdict {
+            EscapeVerdict::Verified { .. } => Self::Avoidable,
+            EscapeVerdict::NoneWithinBudget(NoEscapeReason::SearchFoundNone) => Self::NoEscapeFound,
+            EscapeVerdict::NoneWithinBudget(NoEscapeReason::VerificationsSpent) => Self::NoEscapeVerified,
+        }
+    }
+
+    /// Whether the collision counts against the planner.
+    pub fn avoidable(self) -> bool {
+        self == Self::Avoidable
+    }
+
+    /// One line for a person reading the report.
+    pub fn describe(self) -> &'static str {
+        match self {
+            Self::Avoidable => {
+                "avoidable: an escape played closed loop, the CBV reacting, touches nobody (drawn in the recording and picture)"
+            }
+            Self::NoEscapeFound => {
+                "no escape found within budget: the generator's fault, not the planner's (not a proof that none exists)"
+            }
+            Self::NoEscapeVerified => {
+                "no escape survived the reacting CBV within budget: the generator's fault, not the planner's (not a proof that none exists)"
+            }
+        }
+    }
 }
 
 /// Map encodings shared by every variant of the process.
@@ -147,13 +210,15 @@ pub fn run_variant(suite: &Suite, scenario: &SuiteScenario, index: u32) -> Resul
         },
         seed,
         sim: &sim,
-        stage2_cbv: Stage2Cbv::Replay,
+        stage2_cbv: spec.adversary.stage2_cbv,
         planner: &suite.planner,
         models: &models,
         maps: &MAP_ENCODINGS,
         variant: Some(&name),
+        escape: Some(EscapeBudget::default()),
     })?;
-    let failures = acceptance::check(&spec.acceptance.variant, &stages.stage2, stages.min_ttc_s);
+    let escape = stages.escape.as_ref().map(CollisionEscape::of);
+    let failures = acceptance::check(&spec.acceptance.variant, &stages.stage2, stages.min_ttc_s, escape);
     Ok(VariantOutcome {
         name,
         seed,
@@ -161,6 +226,8 @@ pub fn run_variant(suite: &Suite, scenario: &SuiteScenario, index: u32) -> Resul
         scenario: base,
         verdict: stages.verdict,
         min_ttc_s: stages.min_ttc_s,
+        reach: stages.reach,
+        escape: stages.escape,
         stage1: stages.stage1,
         stage2: stages.stage2,
         failures,

@@ -9,7 +9,8 @@
 //!   - recorded: data:womd-tfrecord          # every log in a file or folder
 //! planner: ../../planners/idm.yaml
 //! adversary:
-//!   method: log
+//!   method: safer
+//!   stage2_cbv: closed-loop   # the default: SaFeR drives the CBV against the planner's ego
 //! variants: 3
 //! acceptance:
 //!   variant: { no_collision: true, no_off_road: true, min_gap_m: 0.2 }
@@ -148,16 +149,45 @@ pub struct AdversarySpec {
     /// Policy of the other agents.
     #[serde(default)]
     pub background: BackgroundPolicy,
+    /// The CBV while the planner under test drives (stage 2):
+    /// `closed-loop` (the default) drives it by the method again, against
+    /// the planner's actual ego, so the conflict meets the planner;
+    /// `replay` replays its stage-1 path, made against the recorded ego
+    /// (the paper's protocol, which benchmarks the generator).
+    #[serde(default = "closed_loop")]
+    pub stage2_cbv: Stage2Cbv,
 }
 
 fn twenty() -> usize {
     20
 }
 
+fn closed_loop() -> Stage2Cbv {
+    Stage2Cbv::ClosedLoop
+}
+
 impl Default for AdversarySpec {
     fn default() -> Self {
-        Self { method: AdversaryMethod::Log, trust_region: 20, background: BackgroundPolicy::LogReplay }
+        Self {
+            method: AdversaryMethod::Log,
+            trust_region: 20,
+            background: BackgroundPolicy::LogReplay,
+            stage2_cbv: Stage2Cbv::ClosedLoop,
+        }
     }
+}
+
+/// How the CBV behaves while the planner under test drives (stage 2).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Deserialize, JsonSchema, serde::Serialize, clap::ValueEnum)]
+#[serde(rename_all = "kebab-case")]
+pub enum Stage2Cbv {
+    /// Replays its stage-1 trajectory, made against the recorded ego (the
+    /// paper's protocol: it measures the generator).
+    Replay,
+    /// Is driven by the method again, closed loop: the same trust region,
+    /// plausibility rule and seed, with the feasibility value taken on the
+    /// planner's actual ego at every token (it tests the planner).
+    ClosedLoop,
 }
 
 /// Pass/fail criteria.
@@ -242,6 +272,18 @@ pub struct SuiteAcceptance {
     #[serde(default)]
     #[schemars(range(min = 0, max = 1))]
     pub acceleration_jsd_max: Option<f64>,
+    /// Stage 2: share of the stage-1-critical variants whose CBV came
+    /// within 1 m (box distance) of the planner's ego must be at least
+    /// this: the conflicts must reach the planner under test. In [0, 1].
+    #[serde(default)]
+    #[schemars(range(min = 0, max = 1))]
+    pub conflict_reach_min: Option<f64>,
+    /// Stage 2: share of variants whose ego collision has no escape within
+    /// the closed-loop witness's budget (the generator's fault, not the
+    /// planner's) must be at most this. In [0, 1].
+    #[serde(default)]
+    #[schemars(range(min = 0, max = 1))]
+    pub no_escape_collision_rate_max: Option<f64>,
 }
 
 /// Where a scenario of the suite comes from, resolved.
@@ -368,8 +410,12 @@ impl Loaded<SuiteSpec> {
             ));
         }
         let u = &s.acceptance.suite;
-        for (name, value) in [("collision_rate_min", u.collision_rate_min), ("solution_rate_min", u.solution_rate_min)]
-        {
+        for (name, value) in [
+            ("collision_rate_min", u.collision_rate_min),
+            ("solution_rate_min", u.solution_rate_min),
+            ("conflict_reach_min", u.conflict_reach_min),
+            ("no_escape_collision_rate_max", u.no_escape_collision_rate_max),
+        ] {
             if let Some(x) = value {
                 self.check_number(&format!("acceptance.suite.{name}"), x, NumberRange::closed(0.0, 1.0), "")?;
             }

@@ -30,7 +30,8 @@ fn request(methods: Vec<AdversaryMethod>, seeds: u32) -> EvaluationRequest {
         planner: safer::spec::planner::PlannerAdapter::builtin(BuiltinPlanner::Evasive),
         trust_region: 20,
         background: BackgroundDriver::Configured,
-        stage2_cbv: Stage2Cbv::Replay,
+        stage2_cbv: vec![Stage2Cbv::Replay],
+        escape: None,
         horizon_s: 8.0,
     }
 }
@@ -193,6 +194,7 @@ fn seeds_give_distinct_safer_variants() {
                     models: &models,
                     maps: &maps,
                     variant: None,
+                    escape: None,
                 })
                 .unwrap();
                 let track: Vec<_> = stages.stage1.states.iter().filter_map(|row| row[cbv.0]).collect();
