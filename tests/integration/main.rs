@@ -7,6 +7,7 @@ mod shared_data;
 mod adversary;
 mod bad_input;
 mod bench;
+mod closed_loop;
 mod cli;
 mod cli_run;
 mod feasibility_model;
