@@ -304,7 +304,11 @@ pub(super) fn run(scenes: &Path, repeat: usize, json: Option<&Path>) -> Result<E
                 format!("{CLOSED_LOOP_RATIO_TARGET}× replay"),
                 v.closed_loop_ratio_to_replay / CLOSED_LOOP_RATIO_TARGET
             )?;
-            writeln!(out, "{:<52} {:>10.2}", "    closed loop / replay variant (same run)", v.closed_loop_ratio_to_replay)?;
+            writeln!(
+                out,
+                "{:<52} {:>10.2}",
+                "    closed loop / replay variant (same run)", v.closed_loop_ratio_to_replay
+            )?;
             match &v.closed_loop_witness {
                 Some(w) => writeln!(
                     out,

@@ -247,9 +247,8 @@ fn failures_beyond_log(rows: &[MethodRow]) -> Option<String> {
             Some(format!("{}: {c} / {p} = {ratio}", crate::spec::spec_name(&closed.method)))
         })
         .collect();
-    (!parts.is_empty()).then(|| {
-        format!("failures beyond log replay's ({log}), closed loop / replay: {}", parts.join("; "))
-    })
+    (!parts.is_empty())
+        .then(|| format!("failures beyond log replay's ({log}), closed loop / replay: {}", parts.join("; ")))
 }
 
 #[derive(serde::Serialize)]

@@ -415,7 +415,9 @@ fn print_report(out: &mut dyn Write, report: &Report) -> std::io::Result<()> {
                         // say so, as it does not count as solved.
                         None => match (&summary.stage2_collision, summary.stage2_escape) {
                             (Some(collision), Some(escape)) if !escape.avoidable() => {
-                                format!("pass (ego collision: {collision}; no escape within budget: the generator's fault; not solved)")
+                                format!(
+                                    "pass (ego collision: {collision}; no escape within budget: the generator's fault; not solved)"
+                                )
                             }
                             (Some(collision), _) => format!("pass (ego collision: {collision}; not solved)"),
                             (None, _) => "pass".to_string(),

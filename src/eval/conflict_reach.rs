@@ -44,7 +44,9 @@ mod tests {
     /// A rollout of two cars along x, the CBV at `cbv_x[k]` at step k and
     /// the ego standing at 0.
     fn rollout(cbv_x: &[f64]) -> Rollout {
-        let at = |x: f64| Some(AgentState { position: Point2::new(x, 0.0), heading_rad: 0.0, velocity_mps: Vector2::zeros() });
+        let at = |x: f64| {
+            Some(AgentState { position: Point2::new(x, 0.0), heading_rad: 0.0, velocity_mps: Vector2::zeros() })
+        };
         let body = AgentBody { kind: AgentKind::Vehicle, length_m: 4.0, width_m: 2.0 };
         Rollout {
             scenario_id: "reach".into(),

@@ -191,7 +191,10 @@ fn agent_path(rollout: &Rollout, agent: usize) -> Vec<Option<AgentState>> {
 
 /// The traffic of `latest` with each of `earlier` as one more agent (with
 /// the CBV's body), as the fixed-traffic search takes it.
-fn traffic_with(latest: &Rollout, earlier: &[Vec<Option<AgentState>>]) -> (Vec<Vec<Option<AgentState>>>, Vec<AgentBody>) {
+fn traffic_with(
+    latest: &Rollout,
+    earlier: &[Vec<Option<AgentState>>],
+) -> (Vec<Vec<Option<AgentState>>>, Vec<AgentBody>) {
     let mut bodies = latest.bodies.clone();
     let cbv_body = latest.cbv.and_then(|c| latest.bodies.get(c.0).copied());
     let Some(cbv_body) = cbv_body.filter(|_| !earlier.is_empty()) else {
@@ -251,8 +254,18 @@ mod tests {
     /// A three-lane road along x (lanes at y = -3.5, 0, 3.5); the ego at the
     /// origin at 10 m/s, a CBV 25 m ahead coming head-on at `cbv_speed`.
     fn head_on(cbv_speed_mps: f64) -> Scenario {
-        let lane = |id, y: f64| Lane::new(MapElementId(id), Polyline::new(vec![Point2::new(-100.0, y), Point2::new(300.0, y)]));
-        let map = RoadMap::new(vec![lane(1, -3.5), lane(2, 0.0), lane(3, 3.5)], vec![], vec![], vec![], vec![], vec![], vec![]);
+        let lane = |id, y: f64| {
+            Lane::new(MapElementId(id), Polyline::new(vec![Point2::new(-100.0, y), Point2::new(300.0, y)]))
+        };
+        let map = RoadMap::new(
+            vec![lane(1, -3.5), lane(2, 0.0), lane(3, 3.5)],
+            vec![],
+            vec![],
+            vec![],
+            vec![],
+            vec![],
+            vec![],
+        );
         let track = |id: &str, x0: f64, vx: f64, heading: f64| Track {
             id: AgentId(id.into()),
             kind: AgentKind::Vehicle,
@@ -291,7 +304,11 @@ mod tests {
             let to = ego.position - mine.position;
             let heading = to.y.atan2(to.x);
             let velocity = Vector2::new(heading.cos(), heading.sin()) * self.speed_mps;
-            AgentAction::Teleport(AgentState { position: mine.position + velocity * SIM_DT_S, heading_rad: heading, velocity_mps: velocity })
+            AgentAction::Teleport(AgentState {
+                position: mine.position + velocity * SIM_DT_S,
+                heading_rad: heading,
+                velocity_mps: velocity,
+            })
         }
     }
 

@@ -77,11 +77,8 @@ pub fn feasibility_witness(outcome: &VariantOutcome) -> Option<WitnessArtefact> 
     };
     let dt_s = outcome.stage2.dt_s;
     let body = outcome.scenario.track(outcome.stage2.ego).body();
-    let poses = trajectory
-        .iter()
-        .enumerate()
-        .map(|(k, s)| TimedPose { time_s: k as f64 * dt_s, pose: s.pose() })
-        .collect();
+    let poses =
+        trajectory.iter().enumerate().map(|(k, s)| TimedPose { time_s: k as f64 * dt_s, pose: s.pose() }).collect();
     let name = format!("an escape keeping {min_gap_m:.2} m from every agent, the CBV reacting");
     Some(WitnessArtefact::Found(NamedTrajectory {
         name,

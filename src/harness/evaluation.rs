@@ -25,10 +25,10 @@ use super::HarnessError;
 use super::methods::{BackgroundDriver, MapEncodings, MethodSettings, ModelSet};
 use super::metrics::{SuiteMetrics, VariantTally};
 use super::pipeline::{self, PlannerLatency, Stage2Verdict, VariantSetup};
-use super::variant::CollisionEscape;
-use crate::eval::escape::EscapeBudget;
 pub use super::pipeline::{Stage2Cbv, VariantProfile};
+use super::variant::CollisionEscape;
 use super::variant::variant_seed;
+use crate::eval::escape::EscapeBudget;
 use crate::policies::BackgroundPolicy;
 use crate::policies::prior_sampling::TokenSampling;
 use crate::scenario::Scenario;
@@ -219,9 +219,7 @@ pub type WitnessSearch = dyn Fn(&Scenario, &Rollout) -> bool + Sync;
 /// Runs one variant.
 fn run_one(
     scenario: &Arc<Scenario>,
-    method: AdversaryMethod,
-    stage2_cbv: Stage2Cbv,
-    seed_index: u32,
+    (method, stage2_cbv, seed_index): (AdversaryMethod, Stage2Cbv, u32),
     request: &EvaluationRequest,
     models: &ModelSet,
     maps: &MapEncodings,
@@ -312,7 +310,7 @@ pub fn evaluate(
         .par_iter()
         .map(|&(i, method, mode, seed)| {
             let scenario = &scenes[i];
-            let r = run_one(scenario, method, mode, seed, request, models, &maps, witness)
+            let r = run_one(scenario, (method, mode, seed), request, models, &maps, witness)
                 .unwrap_or_else(|e| VariantRecord::failed(&scenario.id, method, mode, seed, e.to_string()));
             tick();
             r
@@ -425,7 +423,9 @@ fn table_of(
                 no_escape_collision_rate: metrics.no_escape_collision_rate,
                 precheck_refuted: ok
                     .iter()
-                    .filter(|r| r.stage2_escape_precheck == Some(true) && r.stage2_escape.is_some_and(|e| !e.avoidable()))
+                    .filter(|r| {
+                        r.stage2_escape_precheck == Some(true) && r.stage2_escape.is_some_and(|e| !e.avoidable())
+                    })
                     .count(),
                 failures: ok.iter().filter(|r| !r.tally.solved).count(),
                 vj: metrics.velocity_jsd,

@@ -178,7 +178,9 @@ impl Default for AdversarySpec {
 }
 
 /// How the CBV behaves while the planner under test drives (stage 2).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Deserialize, JsonSchema, serde::Serialize, clap::ValueEnum)]
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Deserialize, JsonSchema, serde::Serialize, clap::ValueEnum,
+)]
 #[serde(rename_all = "kebab-case")]
 pub enum Stage2Cbv {
     /// Replays its stage-1 trajectory, made against the recorded ego (the

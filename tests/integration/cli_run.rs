@@ -122,11 +122,12 @@ fn run_failing_planner_exits_1_and_leaves_artefacts() {
     assert_eq!(v["passed"], false);
     assert_eq!(v["suites"][0]["variants"][0]["passed"], false);
     assert!(v["suites"][0]["variants"][0]["artefacts"]["mcap"].is_string());
-    // It ran into the leader, which braking avoids: the witness search
-    // finds the escape, and both artefacts draw it.
+    // It ran into the leader, which braking avoids: the closed-loop witness
+    // verifies the escape by playing it, and both artefacts draw it.
     assert!(v["suites"][0]["variants"][0]["stage2_collision"].is_string(), "{v}");
-    assert_eq!(v["suites"][0]["variants"][0]["artefacts"]["witness"], "found");
-    assert!(stdout.contains("witness:   found: the collision was avoidable"), "{stdout}");
+    assert_eq!(v["suites"][0]["variants"][0]["stage2_escape"], "avoidable");
+    assert_eq!(v["suites"][0]["variants"][0]["artefacts"]["witness"], "avoidable");
+    assert!(stdout.contains("witness:   avoidable: an escape played closed loop"), "{stdout}");
     let svg = std::fs::read_to_string(base.with_extension("svg")).unwrap();
     assert!(svg.contains("feasibility witness: an escape keeping"), "the picture draws no witness");
     let mcap = std::fs::read(base.with_extension("mcap")).unwrap();
@@ -338,6 +339,20 @@ fn run_junit_reports_a_failing_and_a_passing_suite() {
     assert!(message.contains("; min_gap_m: "), "{message}");
     let body = failing.failure_text.as_deref().expect("failure text");
     assert!(body.contains("stage 2 (planner constant-velocity"), "{body}");
+    // The collision's closed-loop verdict and the gap to the CBV.
+    assert!(body.contains("collision avoidable: an escape played closed loop"), "{body}");
+    assert!(body.contains("closest gap to the CBV "), "{body}");
+    // Whether the conflicts reached the planner, as suite properties.
+    let properties: Vec<(&str, &str)> = doc
+        .descendants()
+        .filter(|n| n.has_tag_name("property"))
+        .filter_map(|n| Some((n.attribute("name")?, n.attribute("value")?)))
+        .collect();
+    for name in ["conflict_reach", "solution_rate_avoidable", "avoidable_failures", "no_escape_collisions"] {
+        assert!(properties.iter().any(|(n, _)| *n == name), "no {name} property: {xml}");
+    }
+    // The table names the gap to the CBV and the reach beside the gap to anyone.
+    assert!(stdout.contains("gap CBV m  min gap m  reach"), "{stdout}");
     for ext in ["mcap", "svg"] {
         let p = artefacts.join("constant-velocity-fails/highway-overtake/seed-0").with_extension(ext);
         assert!(p.is_file(), "{} missing", p.display());
@@ -434,7 +449,7 @@ fn run_html_writes_a_well_formed_review_page_with_the_failing_variants_frames() 
     let picture = page.join("pictures/constant-velocity-fails/highway-overtake/seed-0.svg");
     assert!(picture.is_file(), "{}", picture.display());
     // The collision was avoidable: the page says so and its picture draws the escape.
-    assert!(html.contains("feasibility witness: found: the collision was avoidable"));
+    assert!(html.contains("closed-loop feasibility witness: avoidable: an escape played closed loop"));
     let svg = std::fs::read_to_string(&picture).unwrap();
     assert!(svg.contains("feasibility witness: an escape keeping"), "the page's picture draws no witness");
     let mcap = doc.descendants().find(|n| n.attribute("class") == Some("mcap")).and_then(|a| a.attribute("href"));

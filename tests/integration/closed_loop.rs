@@ -7,10 +7,10 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use safer::harness::{Suite, SuiteMetrics, VariantOutcome, run_variant};
-use safer::spec::suite::SuiteAcceptance;
 use safer::motion::Action;
 use safer::planners::registry;
 use safer::planners::{Observation, Planner, PlannerError, PlannerOutput};
+use safer::spec::suite::SuiteAcceptance;
 
 fn fixture(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/closed_loop").join(name)
