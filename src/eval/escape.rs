@@ -113,11 +113,13 @@ impl EscapeSearch {
     }
 }
 
-/// Whether a rollout is an escape: it ran to its end (or past the mapped
-/// area, as a solved variant may) without an ego collision.
-pub fn is_clear(rollout: &Rollout) -> bool {
-    matches!(rollout.termination, Termination::Completed | Termination::LeftMappedArea { .. })
-        && rollout.ego_collision().is_none()
+/// Whether a rollout is an escape over its first `steps` states: it did
+/// not abort (a planner failure, an invalid state) and the ego touched
+/// nobody before that. The realised rollout may have ended early (the ego
+/// left the mapped area): an escape need not outlast what it escapes.
+pub fn is_clear_over(rollout: &Rollout, steps: usize) -> bool {
+    let aborted = !matches!(rollout.termination, Termination::Completed | Termination::LeftMappedArea { .. });
+    !aborted && rollout.ego_collision().is_none_or(|c| c.step >= rollout.start_step + steps)
 }
 
 /// Searches a verified escape for the ego of `realised` (a stage-2 rollout
@@ -164,7 +166,7 @@ pub fn search_escape<E>(
         }
         let played = replay(&trajectory)?;
         out.rollouts += 1;
-        if is_clear(&played) {
+        if is_clear_over(&played, realised.states.len()) {
             let min_gap_m = played.summary().min_distance_to_ego_m.unwrap_or(f64::INFINITY);
             out.verdict = EscapeVerdict::Verified { trajectory, min_gap_m };
             return Ok(Some(out));
@@ -348,7 +350,7 @@ mod tests {
         assert!(found.avoidable(), "{found:?}");
         let plan = found.trajectory().unwrap().to_vec();
         let played = rollout(&scenario, 2.0, &mut PlannedPath::new(plan));
-        assert!(is_clear(&played), "the verdict's escape must be clear when played");
+        assert!(is_clear_over(&played, played.states.len()), "the verdict's escape must be clear when played");
         assert!(found.rollouts >= 1);
     }
 
@@ -364,6 +366,20 @@ mod tests {
         assert!(!found.avoidable(), "{found:?}");
         assert_eq!(found.rollouts, EscapeBudget::default().verifications, "{found:?}");
         assert_eq!(found.verdict, EscapeVerdict::NoneWithinBudget(NoEscapeReason::VerificationsSpent));
+    }
+
+    #[test]
+    fn an_escape_need_not_outlast_the_rollout_it_escapes() {
+        // The realised rollout ended after 27 states (the ego left the
+        // mapped area); a played escape that touches someone at state 40
+        // still escaped everything the realised rollout had.
+        let scenario = head_on(2.0);
+        let mut played = rollout(&scenario, 2.0, &mut Straight);
+        let first = played.ego_collision().expect("a collision").step - played.start_step;
+        assert!(!is_clear_over(&played, first + 1));
+        assert!(is_clear_over(&played, first));
+        played.termination = Termination::PlannerFailed { step: 3, reason: "crashed".into() };
+        assert!(!is_clear_over(&played, first), "an aborted rollout is never an escape");
     }
 
     #[test]
