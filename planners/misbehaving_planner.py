@@ -88,6 +88,18 @@ def main():
             send({"type": "control", "accel_mps2": 0.0})
         elif mode == "huge":
             send({"type": "control", "accel_mps2": 1e100, "yaw_rate_radps": 0.0})
+        elif mode == "teleport":
+            # 70 m ahead in 0.1 s, at the speed it had.
+            ego = message["ego"]
+            send({"type": "trajectory", "points": [{"t": 0.1, "x": ego["x"] + 70.0, "y": ego["y"],
+                                                    "heading_rad": ego["heading_rad"], "speed_mps": ego["speed_mps"]}]})
+        elif mode == "instant-stop":
+            send({"type": "control", "accel_mps2": -1e6, "yaw_rate_radps": 0.0})
+        elif mode == "reverse-reporting-standstill":
+            # 15 m/s backwards, reported as standing.
+            ego = message["ego"]
+            send({"type": "trajectory", "points": [{"t": 0.1, "x": ego["x"] - 1.5, "y": ego["y"],
+                                                    "heading_rad": ego["heading_rad"], "speed_mps": 0.0}]})
         elif mode == "error":
             send({"type": "error", "message": "planner lost its localisation"})
         elif mode == "chatty":

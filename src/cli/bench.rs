@@ -376,6 +376,7 @@ fn bench_variant(scenes: &[Scenario], repeat: usize) -> Result<Option<VariantBen
         maps: &maps,
         variant: None,
         escape: None,
+        ego_limits: Some(crate::sim::VehicleLimits::default()),
     };
     // Warm-up: encodes the map once, as an evaluation does for all its variants.
     pipeline::run(setup)?;

@@ -18,7 +18,9 @@ pub fn simulate_one(
     background: BackgroundPolicy,
 ) -> Result<RolloutSummary, SimError> {
     let ego = scenario.ego.ok_or_else(|| SimError::NoEgo(scenario.id.clone()))?;
-    let sim = Simulation::new(scenario, SimConfig { background, ..SimConfig::default() })?;
+    // The ego is held to the default vehicle limits unless it replays its log.
+    let ego_limits = (planner != BuiltinPlanner::LogReplay).then(crate::sim::VehicleLimits::default);
+    let sim = Simulation::new(scenario, SimConfig { background, ego_limits, ..SimConfig::default() })?;
     let mut p = planner.instantiate(scenario, ego);
     Ok(sim.run(p.as_mut()).summary())
 }

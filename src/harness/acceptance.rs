@@ -39,6 +39,13 @@ pub fn check(
                 format!("planner `{}` failed at t = {t:.1} s: {reason}", rollout.planner),
             ));
         }
+        Termination::VehicleLimitExceeded { step, reason } => {
+            let t = step.saturating_sub(rollout.start_step) as f64 * rollout.dt_s;
+            out.push(fail(
+                "vehicle_limits",
+                format!("planner `{}` drove the ego beyond its vehicle limits at t = {t:.1} s: {reason}", rollout.planner),
+            ));
+        }
         Termination::InvalidAgentState { step, agent, reason } => {
             let t = step.saturating_sub(rollout.start_step) as f64 * rollout.dt_s;
             out.push(fail(
@@ -113,6 +120,21 @@ mod tests {
         assert!(failed(Some(CollisionEscape::NoEscapeVerified), &strict).is_empty());
         // No witness searched: the collision counts against the planner.
         assert_eq!(failed(None, &strict), ["no_collision"]);
+    }
+
+    #[test]
+    fn an_ego_beyond_its_vehicle_limits_fails_whatever_the_criteria_and_is_never_solved() {
+        let mut rollout = crossing_rollout(&crossing_scenario());
+        rollout.termination = crate::sim::Termination::VehicleLimitExceeded {
+            step: rollout.start_step + 12,
+            reason: "deceleration 98.000 m/s² exceeds the vehicle limit max_decel_mps2 = 12 m/s²".into(),
+        };
+        let lax = criteria(false, false);
+        let failures = check(&lax, &rollout, None, None);
+        assert_eq!(failures.len(), 1, "{failures:?}");
+        assert_eq!(failures[0].criterion, "vehicle_limits");
+        assert!(failures[0].what.contains("at t = 1.2 s: deceleration 98.000"), "{}", failures[0].what);
+        assert!(!crate::harness::Stage2Verdict::of(&rollout).solved());
     }
 
     #[test]

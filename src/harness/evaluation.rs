@@ -250,6 +250,7 @@ fn run_one(
         maps,
         variant: Some(&variant),
         escape: request.escape,
+        ego_limits: Some(crate::sim::VehicleLimits::default()),
     })?;
     let tally = VariantTally::of(scenario, &stages);
     let mut profile = stages.profile;

@@ -26,7 +26,7 @@ use crate::planners::external::{ExternalPlanner, ExternalPlannerConfig, RolloutC
 use crate::planners::{BuiltinPlanner, IdmPlanner, Observation, Planner, PlannerError, PlannerOutput};
 use crate::policies::LogReplay;
 use crate::scenario::{Scenario, Track, TrackIndex};
-use crate::sim::{Rollout, SimConfig, Simulation, Termination};
+use crate::sim::{Rollout, SimConfig, Simulation, Termination, VehicleLimits};
 use crate::spec::planner::PlannerAdapter;
 
 pub use crate::spec::suite::Stage2Cbv;
@@ -56,6 +56,9 @@ pub struct VariantSetup<'a> {
     /// The closed-loop witness's budget for an ego collision in stage 2
     /// (`None`: no witness is searched).
     pub escape: Option<EscapeBudget>,
+    /// The limits the planner under test's ego is held to in stage 2
+    /// (`None`, or a planner replaying the log: unchecked).
+    pub ego_limits: Option<VehicleLimits>,
 }
 
 /// Where a variant's time went, s.
@@ -216,6 +219,9 @@ fn termination_reason(termination: &Termination, rollout: &Rollout) -> String {
         Termination::PlannerFailed { step, reason } => {
             format!("planner `{}` failed at t = {:.1} s: {reason}", rollout.planner, at(*step))
         }
+        Termination::VehicleLimitExceeded { step, reason } => {
+            format!("planner `{}` drove the ego beyond its vehicle limits at t = {:.1} s: {reason}", rollout.planner, at(*step))
+        }
         Termination::InvalidAgentState { step, agent, reason } => {
             format!("the rollout was aborted at t = {:.1} s: agent {agent} has an invalid state: {reason}", at(*step))
         }
@@ -375,7 +381,9 @@ fn stage2_simulation<'s>(
     let scenario = setup.scenario;
     let cbv = scenario.cbv.ok_or_else(|| HarnessError::NoCbv(scenario.id.clone()))?;
     let start = setup.sim.start_step.unwrap_or(scenario.current_step);
-    let mut stage2 = Simulation::new(scenario, setup.sim.clone())?;
+    let replays_the_log = matches!(setup.planner, PlannerAdapter::Builtin { planner: BuiltinPlanner::LogReplay, .. });
+    let config = SimConfig { ego_limits: setup.ego_limits.filter(|_| !replays_the_log), ..setup.sim.clone() };
+    let mut stage2 = Simulation::new(scenario, config)?;
     let installed = match setup.stage2_cbv {
         Stage2Cbv::Replay => {
             stage2.set_policy(cbv, Box::new(LogReplay::new(track_from_rollout(scenario, stage1, cbv))));

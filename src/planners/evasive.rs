@@ -68,6 +68,11 @@ impl Default for EvasiveParams {
 }
 
 /// Re-plan the route when less than this remains ahead, m.
+/// Tightest path the planner steers, 1/m: a 5 m radius, a passenger car's
+/// (pure pursuit towards a route point close by would otherwise ask for a
+/// turn on the spot, beyond the vehicle limits the harness holds it to).
+const MAX_CURVATURE_PER_M: f64 = 0.2;
+
 const ROUTE_REBUILD_M: f64 = 60.0;
 /// Agents farther than this are not predicted, m.
 const PREDICTION_RANGE_M: f64 = 80.0;
@@ -449,8 +454,9 @@ impl EvasivePlanner {
                     let target = p + Vector2::new(-t.y, t.x) * offset;
                     let to = target - s.position;
                     let alpha = wrap_angle(to.y.atan2(to.x) - s.heading_rad);
-                    (2.0 * alpha.sin() / to.norm().max(1e-3) * moving_mps)
-                        .clamp(-MAX_YAW_RATE_RADPS, MAX_YAW_RATE_RADPS)
+                    let curvature_per_m = (2.0 * alpha.sin() / to.norm().max(1e-3))
+                        .clamp(-MAX_CURVATURE_PER_M, MAX_CURVATURE_PER_M);
+                    (curvature_per_m * moving_mps).clamp(-MAX_YAW_RATE_RADPS, MAX_YAW_RATE_RADPS)
                 }
                 None => 0.0,
             };

@@ -722,6 +722,11 @@ impl Recorder<'_> {
                 log::Level::Error,
                 format!("planner failed at {}: {reason}", self.time_text(*step)),
             )),
+            Termination::VehicleLimitExceeded { step, reason } => out.push(log(
+                at(*step),
+                log::Level::Error,
+                format!("the planner drove the ego beyond its vehicle limits at {}: {reason}", self.time_text(*step)),
+            )),
             Termination::InvalidAgentState { step, agent, reason } => out.push(log(
                 at(*step),
                 log::Level::Error,

@@ -10,10 +10,12 @@ pub mod authoring;
 mod events;
 mod rollout;
 pub mod synthetic;
+pub mod vehicle_limits;
 pub mod traffic;
 
 pub use events::{CollisionEvent, EgoCollisionKind, EgoContact, LaneOccupancy, OffRoadEvent};
 pub use rollout::{Rollout, RolloutSummary, Termination};
+pub use vehicle_limits::{LimitViolation, VehicleLimits};
 
 use crate::geometry::Vector2;
 use crate::motion::{KinematicState, kinematic_step, tokens::SIM_DT_S};
@@ -44,6 +46,9 @@ pub struct SimConfig {
     /// Stop at the ego's first collision (stage-1/2 evaluation needs only
     /// the first one).
     pub stop_on_ego_collision: bool,
+    /// The limits the ego's motion is held to at every step (the planner
+    /// under test); `None`: unchecked (a replayed log is what it is).
+    pub ego_limits: Option<VehicleLimits>,
 }
 
 impl Default for SimConfig {
@@ -54,6 +59,7 @@ impl Default for SimConfig {
             background: BackgroundPolicy::LogReplay,
             perception_range_m: 120.0,
             stop_on_ego_collision: false,
+            ego_limits: None,
         }
     }
 }
@@ -201,7 +207,14 @@ impl<'a> Simulation<'a> {
                 Some(why) => Err(format!("the planner's output puts the ego at an invalid state: {why}")),
             });
             match ego_next {
-                Ok(s) => next[self.ego.0] = Some(s),
+                Ok(s) => {
+                    let ego_now = states[self.ego.0].expect("ego present while running");
+                    if let Some(violation) = self.config.ego_limits.and_then(|l| l.check(&ego_now, &s, SIM_DT_S)) {
+                        termination = Termination::VehicleLimitExceeded { step, reason: violation.to_string() };
+                        break;
+                    }
+                    next[self.ego.0] = Some(s)
+                }
                 Err(reason) => {
                     termination = Termination::PlannerFailed { step, reason };
                     break;

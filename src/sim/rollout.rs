@@ -31,6 +31,16 @@ pub enum Termination {
         /// What went wrong.
         reason: String,
     },
+    /// The planner's output moved the ego beyond its vehicle limits (see
+    /// [`super::VehicleLimits`]): a teleport, an instant stop, a turn on the
+    /// spot, a reverse reported as standing. The rollout stops there; the
+    /// variant is never solved.
+    VehicleLimitExceeded {
+        /// Step at which the planner was asked.
+        step: usize,
+        /// Which limit, the value and the bound.
+        reason: String,
+    },
     /// A non-ego agent's state is non-finite or outside the plausible
     /// bounds of [`crate::scenario::bounds`] (±1e7 m from the scene origin,
     /// ≤ 1e3 m/s): its policy produced it, or its recorded start state is

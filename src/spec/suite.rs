@@ -232,6 +232,11 @@ pub struct VariantAcceptance {
     /// true (`false` is refused: a planner that fails never passes).
     #[serde(default = "yes")]
     pub planner_must_answer: bool,
+    /// The physics the ego is held to at every step: a planner that moves
+    /// it beyond these limits fails the variant, which is never solved.
+    /// Each key is optional, with a documented default.
+    #[serde(default)]
+    pub vehicle_limits: crate::sim::VehicleLimits,
 }
 
 fn yes() -> bool {
@@ -247,6 +252,7 @@ impl Default for VariantAcceptance {
             min_gap_m: None,
             min_ttc_s: None,
             planner_must_answer: true,
+            vehicle_limits: crate::sim::VehicleLimits::default(),
         }
     }
 }
@@ -403,6 +409,10 @@ impl Loaded<SuiteSpec> {
         }
         if let Some(x) = v.min_ttc_s {
             self.check_number("acceptance.variant.min_ttc_s", x, NumberRange::closed(0.0, 60.0), "s")?;
+        }
+        for (name, value, unit) in v.vehicle_limits.entries() {
+            let path = format!("acceptance.variant.vehicle_limits.{name}");
+            self.check_number(&path, value, NumberRange::closed(0.0, 1e3), unit)?;
         }
         if !v.planner_must_answer {
             return Err(self.invalid_at(
@@ -635,6 +645,10 @@ acceptance:
         assert!(e.starts_with("s.yaml:2:12: `scenarios:` lists no scenario"), "{e}");
         let e = error("data:x\n", "data:x\n    limit: 0\n");
         assert!(e.starts_with("s.yaml:4:12: `limit` must be at least 1"), "{e}");
+        let e = error("min_gap_m: 0.5", "min_gap_m: 0.5, vehicle_limits: { max_decel_mps2: -1 }");
+        assert!(e.contains("`max_decel_mps2` must be a number in [0, 1000] m/s², got -1"), "{e}");
+        let e = error("min_gap_m: 0.5", "min_gap_m: 0.5, vehicle_limits: { max_decel: 9 }");
+        assert!(e.contains("max_decel"), "a misspelt limit is refused: {e}");
     }
 
     #[test]

@@ -195,6 +195,7 @@ fn seeds_give_distinct_safer_variants() {
                     maps: &maps,
                     variant: None,
                     escape: None,
+                    ego_limits: None,
                 })
                 .unwrap();
                 let track: Vec<_> = stages.stage1.states.iter().filter_map(|row| row[cbv.0]).collect();

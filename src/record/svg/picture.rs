@@ -200,6 +200,10 @@ impl<'a> Picture<'a> {
                 let when = to_k(*step).map_or_else(|| "?".to_string(), |k| time_text(k, rollout.dt_s));
                 let _ = write!(line2, " · planner failed at {when}: {reason}");
             }
+            Termination::VehicleLimitExceeded { step, reason } => {
+                let when = to_k(*step).map_or_else(|| "?".to_string(), |k| time_text(k, rollout.dt_s));
+                let _ = write!(line2, " · beyond the vehicle limits at {when}: {reason}");
+            }
             Termination::InvalidAgentState { step, agent, reason } => {
                 let when = to_k(*step).map_or_else(|| "?".to_string(), |k| time_text(k, rollout.dt_s));
                 let _ = write!(line2, " · aborted at {when}: agent {agent}: {reason}");

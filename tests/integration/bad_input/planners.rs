@@ -16,7 +16,7 @@ use super::binary::live_group_members;
 use safer::map::templates::StraightRoad;
 use safer::planners::external::{ExternalPlanner, ExternalPlannerConfig};
 use safer::scenario::{AgentId, AgentKind, AgentState, Scenario, ScenarioSource, Track, TrackIndex};
-use safer::sim::{Rollout, SimConfig, Simulation, Termination};
+use safer::sim::{Rollout, SimConfig, Simulation, Termination, VehicleLimits};
 
 /// Time a case may take; every one needs well under a second or two.
 const DEADLINE: Duration = Duration::from_secs(30);
@@ -211,4 +211,58 @@ fn a_planner_replying_accel_1e100_fails_its_variant_naming_the_invalid_state() {
     assert!(reason.contains("invalid state"), "{reason}");
     assert!(rollout.ego_collision().is_none());
     assert_group_gone(pgid);
+}
+
+/// Runs the scene with `config` and the default vehicle limits, as a
+/// suite's stage 2 holds the planner under test to them.
+fn run_with_limits(config: ExternalPlannerConfig) -> Rollout {
+    let name = config.name.clone();
+    within_deadline(&format!("a variant with planner `{name}`"), move || {
+        let mut planner = ExternalPlanner::start(config, 4.5, 2.0).expect("the planner starts");
+        let config = SimConfig { ego_limits: Some(VehicleLimits::default()), ..SimConfig::default() };
+        Simulation::new(&scene(), config).unwrap().run(&mut planner)
+    })
+}
+
+/// The step and reason of a rollout ended by a vehicle limit.
+fn limit_exceeded(r: &Rollout) -> (usize, String) {
+    match &r.termination {
+        Termination::VehicleLimitExceeded { step, reason } => (*step, reason.clone()),
+        other => panic!("expected a vehicle limit to end the rollout, got {other:?}"),
+    }
+}
+
+#[test]
+fn a_planner_that_teleports_the_ego_is_stopped_at_the_step_naming_the_limit() {
+    let rollout = run_with_limits(misbehaving("teleport", 3));
+    let (step, reason) = limit_exceeded(&rollout);
+    assert_eq!(step, 3);
+    assert!(reason.contains("exceeds the vehicle limit max_position_error_m = 0.5 m"), "{reason}");
+    // The ego never reached the teleported state: the record stops before it.
+    assert_eq!(rollout.states.len(), 4);
+}
+
+#[test]
+fn a_planner_that_stops_the_ego_instantly_is_stopped_naming_the_deceleration() {
+    let (step, reason) = limit_exceeded(&run_with_limits(misbehaving("instant-stop", 2)));
+    assert_eq!(step, 2);
+    // From about 9.8 m/s (two steps of −1 m/s²) to 0 in 0.1 s.
+    assert!(reason.starts_with("deceleration 98.000 m/s² exceeds the vehicle limit max_decel_mps2 = 12"), "{reason}");
+}
+
+#[test]
+fn a_planner_reversing_while_reporting_a_standstill_is_stopped_naming_the_reversing_speed() {
+    let (step, reason) = limit_exceeded(&run_with_limits(misbehaving("reverse-reporting-standstill", 0)));
+    assert_eq!(step, 0);
+    // Backwards 1.5 m in 0.1 s: 15 m/s; the speed drop from 10 m/s to the
+    // reported 0 comes first (100 m/s²).
+    assert!(reason.contains("exceeds the vehicle limit max_decel_mps2"), "{reason}");
+}
+
+#[test]
+fn without_limits_the_same_replies_run_on_which_is_what_the_check_exists_for() {
+    // The unchecked simulator accepts a teleport: the check, not the
+    // simulator, is what stops it.
+    let (rollout, _, _) = run_variant(misbehaving("teleport", 3));
+    assert!(matches!(rollout.termination, Termination::Completed | Termination::LeftMappedArea { .. }), "{rollout:?}");
 }
