@@ -270,6 +270,12 @@ pub(super) fn run(
 ) -> Result<ExitCode, CliError> {
     if let Some(path) = json {
         crate::record::output::check_output(path)?;
+        // The report must not replace a scene it reads, nor the planner's spec.
+        let mut inputs = scene_paths(scenes_dir)?;
+        if let crate::spec::planner::PlannerAdapter::External { spec, working_dir, .. } = &request.planner {
+            inputs.extend(spec.args.iter().map(|a| working_dir.join(a)).filter(|p| p.is_file()));
+        }
+        crate::record::check_outputs_apart(&[crate::record::NamedOutput { flag: "--json", path }], &inputs)?;
     }
     let scenes: Vec<Arc<Scenario>> = load_scenes(scenes_dir, max_scenes)?
         .into_iter()

@@ -195,6 +195,13 @@ pub(super) fn run(files: &[PathBuf], outputs: RunOutputs<'_>, filter: Option<&st
         }
     }
 
+    // No report may replace a file the run reads, or another report.
+    let inputs: Vec<PathBuf> = files.iter().cloned().chain(suites.iter().flat_map(|(_, s)| s.input_files())).collect();
+    let named = [("--json", json), ("--junit", junit)];
+    let outputs: Vec<crate::record::NamedOutput<'_>> =
+        named.iter().filter_map(|(flag, p)| p.map(|path| crate::record::NamedOutput { flag, path })).collect();
+    crate::record::check_outputs_apart(&outputs, &inputs)?;
+
     let selects = |name: &str| filter.is_none_or(|f| name.contains(f));
     let mut jobs = Vec::new();
     let mut metrics_selected: Vec<Vec<&'static str>> = Vec::new();

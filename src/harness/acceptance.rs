@@ -43,7 +43,10 @@ pub fn check(
             let t = step.saturating_sub(rollout.start_step) as f64 * rollout.dt_s;
             out.push(fail(
                 "vehicle_limits",
-                format!("planner `{}` drove the ego beyond its vehicle limits at t = {t:.1} s: {reason}", rollout.planner),
+                format!(
+                    "planner `{}` drove the ego beyond its vehicle limits at t = {t:.1} s: {reason}",
+                    rollout.planner
+                ),
             ));
         }
         Termination::InvalidAgentState { step, agent, reason } => {

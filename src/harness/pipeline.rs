@@ -220,7 +220,11 @@ fn termination_reason(termination: &Termination, rollout: &Rollout) -> String {
             format!("planner `{}` failed at t = {:.1} s: {reason}", rollout.planner, at(*step))
         }
         Termination::VehicleLimitExceeded { step, reason } => {
-            format!("planner `{}` drove the ego beyond its vehicle limits at t = {:.1} s: {reason}", rollout.planner, at(*step))
+            format!(
+                "planner `{}` drove the ego beyond its vehicle limits at t = {:.1} s: {reason}",
+                rollout.planner,
+                at(*step)
+            )
         }
         Termination::InvalidAgentState { step, agent, reason } => {
             format!("the rollout was aborted at t = {:.1} s: agent {agent} has an invalid state: {reason}", at(*step))

@@ -41,6 +41,9 @@ const GENERATOR: &str = "safer review page";
 /// exist yet, is empty, or holds an earlier review page.
 pub fn check_folder(dir: &Path) -> Result<(), RecordError> {
     let refuse = |reason: String| RecordError::InvalidPath { path: dir.to_path_buf(), reason };
+    if crate::record::is_stdout(dir) {
+        return Err(refuse("the review page is a folder (index.html and pictures), not standard output".into()));
+    }
     let entries = match std::fs::read_dir(dir) {
         Ok(entries) => entries,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(()),

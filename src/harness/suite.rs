@@ -149,6 +149,21 @@ impl Suite {
         Ok(Suite { spec, planner, scenarios })
     }
 
+    /// The files a run of the suite reads: the suite, its planner spec and
+    /// an external planner's file arguments, and each scenario's spec or
+    /// recorded file. A run's outputs must not overwrite any of them.
+    pub fn input_files(&self) -> Vec<std::path::PathBuf> {
+        let mut files = vec![self.spec.path.clone()];
+        if let PlannerRef::File(f) = &self.spec.value.planner {
+            files.push(crate::spec::paths::resolve(self.spec.dir(), &f.value));
+        }
+        if let PlannerAdapter::External { spec, working_dir, .. } = &self.planner {
+            files.extend(spec.args.iter().map(|a| working_dir.join(a)).filter(|p| p.is_file()));
+        }
+        files.extend(self.scenarios.iter().map(|s| source_path(&s.source).to_path_buf()));
+        files
+    }
+
     /// The suite's name as used in test names.
     pub fn name(&self) -> String {
         sanitize(&self.spec.value.name)

@@ -458,8 +458,8 @@ impl EvasivePlanner {
                     let target = p + Vector2::new(-t.y, t.x) * offset;
                     let to = target - s.position;
                     let alpha = wrap_angle(to.y.atan2(to.x) - s.heading_rad);
-                    let curvature_per_m = (2.0 * alpha.sin() / to.norm().max(1e-3))
-                        .clamp(-MAX_CURVATURE_PER_M, MAX_CURVATURE_PER_M);
+                    let curvature_per_m =
+                        (2.0 * alpha.sin() / to.norm().max(1e-3)).clamp(-MAX_CURVATURE_PER_M, MAX_CURVATURE_PER_M);
                     (curvature_per_m * moving_mps).clamp(-MAX_YAW_RATE_RADPS, MAX_YAW_RATE_RADPS)
                 }
                 None => 0.0,

@@ -91,6 +91,92 @@ pub fn write_output_with(
     }
 }
 
+/// One output of a command: the flag that named it and the path.
+#[derive(Debug, Clone, Copy)]
+pub struct NamedOutput<'a> {
+    /// The flag (`--json`).
+    pub flag: &'a str,
+    /// The path given.
+    pub path: &'a Path,
+}
+
+/// Checks, before anything runs, that no output would overwrite one of
+/// `inputs` (the files the run reads: through symbolic links and
+/// different spellings of the same path) or another output, and that each
+/// output's folder exists. Standard output may take one output only.
+pub fn check_outputs_apart(outputs: &[NamedOutput<'_>], inputs: &[PathBuf]) -> Result<(), RecordError> {
+    for (i, out) in outputs.iter().enumerate() {
+        if is_stdout(out.path) {
+            if let Some(other) = outputs[..i].iter().find(|o| is_stdout(o.path)) {
+                return Err(RecordError::InvalidPath {
+                    path: out.path.to_path_buf(),
+                    reason: format!(
+                        "{} and {} both write to standard output; give one of them a file",
+                        other.flag, out.flag
+                    ),
+                });
+            }
+            continue;
+        }
+        if let Some(dir) = out.path.parent().filter(|d| !d.as_os_str().is_empty())
+            && !dir.is_dir()
+        {
+            return Err(RecordError::InvalidPath {
+                path: out.path.to_path_buf(),
+                reason: format!("{}: the folder {} does not exist", out.flag, dir.display()),
+            });
+        }
+        let identity = FileIdentity::of(out.path);
+        if let Some(input) = inputs.iter().find(|input| FileIdentity::of(input) == identity) {
+            return Err(RecordError::InvalidPath {
+                path: out.path.to_path_buf(),
+                reason: format!(
+                    "{} would overwrite {}, which this run reads; write the report elsewhere",
+                    out.flag,
+                    input.display()
+                ),
+            });
+        }
+        if let Some(other) = outputs[..i].iter().find(|o| !is_stdout(o.path) && FileIdentity::of(o.path) == identity) {
+            return Err(RecordError::InvalidPath {
+                path: out.path.to_path_buf(),
+                reason: format!(
+                    "{} and {} name the same file; one report would replace the other",
+                    other.flag, out.flag
+                ),
+            });
+        }
+    }
+    Ok(())
+}
+
+/// What makes two paths the same file: the device and inode of an
+/// existing file (after links), else the absolute path of a file not yet
+/// there (its folder resolved).
+#[derive(Debug, PartialEq, Eq)]
+enum FileIdentity {
+    Existing(u64, u64),
+    Planned(PathBuf),
+}
+
+impl FileIdentity {
+    fn of(path: &Path) -> Self {
+        if let Ok(m) = std::fs::metadata(path) {
+            #[cfg(unix)]
+            {
+                use std::os::unix::fs::MetadataExt;
+                return FileIdentity::Existing(m.dev(), m.ino());
+            }
+            #[cfg(not(unix))]
+            let _ = m;
+        }
+        let target = follow_links(path).unwrap_or_else(|_| path.to_path_buf());
+        let folder = target.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
+        let folder = std::fs::canonicalize(folder).unwrap_or_else(|_| folder.to_path_buf());
+        FileIdentity::Planned(folder.join(target.file_name().unwrap_or_default()))
+    }
+}
+
 fn refused(path: &Path, what: &str) -> RecordError {
     RecordError::InvalidPath {
         path: path.to_path_buf(),

@@ -10,8 +10,8 @@ pub mod authoring;
 mod events;
 mod rollout;
 pub mod synthetic;
-pub mod vehicle_limits;
 pub mod traffic;
+pub mod vehicle_limits;
 
 pub use events::{CollisionEvent, EgoCollisionKind, EgoContact, LaneOccupancy, OffRoadEvent};
 pub use rollout::{Rollout, RolloutSummary, Termination};

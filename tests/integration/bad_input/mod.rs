@@ -9,5 +9,6 @@
 mod binary;
 mod files;
 mod hangs;
+mod outputs;
 mod planners;
 mod specs;

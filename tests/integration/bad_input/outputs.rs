@@ -1,0 +1,109 @@
+//! Bad input: output paths that would harm what the user wrote. `run` and
+//! `evaluate` refuse, before anything runs, a report path that is a file
+//! the run reads (also through a symbolic link or another spelling), two
+//! reports on the same file, a report in a folder that does not exist and
+//! a review page on standard output; the files are left as they were.
+
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU32, Ordering};
+use std::time::Duration;
+
+use super::binary::{safer_in, text};
+
+const DEADLINE: Duration = Duration::from_secs(60);
+
+/// A fresh folder with a copy of the authored overtake scene and a suite
+/// running it with the IDM planner.
+fn workspace(tag: &str) -> PathBuf {
+    static NEXT: AtomicU32 = AtomicU32::new(0);
+    let n = NEXT.fetch_add(1, Ordering::Relaxed);
+    let dir = std::env::temp_dir().join(format!("safer-bad-outputs-{tag}-{}-{n}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let repo = Path::new(env!("CARGO_MANIFEST_DIR"));
+    std::fs::copy(repo.join("specs/scenarios/highway-overtake.yaml"), dir.join("overtake.yaml")).unwrap();
+    std::fs::write(
+        dir.join("suite.yaml"),
+        "name: outputs\nscenarios:\n  - overtake.yaml\nplanner: { builtin: idm }\nvariants: 1\n",
+    )
+    .unwrap();
+    dir
+}
+
+/// Runs `safer ARGS` in `dir`; asserts it is refused (exit 2) with
+/// `message`, and that `kept` still holds what it held.
+fn refused(dir: &Path, args: &[&str], message: &str, kept: &[&str]) {
+    let before: Vec<Vec<u8>> = kept.iter().map(|f| std::fs::read(dir.join(f)).unwrap()).collect();
+    let out = safer_in(dir, &[], args, DEADLINE);
+    assert_eq!(out.status.code(), Some(2), "{}", text(&out));
+    assert!(text(&out).contains(message), "expected `{message}` in\n{}", text(&out));
+    for (f, bytes) in kept.iter().zip(before) {
+        assert_eq!(std::fs::read(dir.join(f)).unwrap(), bytes, "{f} was changed");
+    }
+}
+
+#[test]
+fn a_report_onto_the_suite_it_runs_is_refused_and_the_suite_kept() {
+    let dir = workspace("suite");
+    refused(&dir, &["run", "suite.yaml", "--json", "suite.yaml"], "--json would overwrite suite.yaml", &["suite.yaml"]);
+    // Another spelling of the same file.
+    let spelled = format!("../{}/./suite.yaml", dir.file_name().unwrap().to_string_lossy());
+    refused(&dir, &["run", "suite.yaml", "--json", &spelled], "which this run reads", &["suite.yaml"]);
+}
+
+#[test]
+fn a_junit_report_onto_a_scenario_the_suite_uses_or_a_link_to_it_is_refused() {
+    let dir = workspace("scenario");
+    refused(&dir, &["run", "suite.yaml", "--junit", "overtake.yaml"], "--junit would overwrite", &["overtake.yaml"]);
+    #[cfg(unix)]
+    {
+        std::os::unix::fs::symlink(dir.join("overtake.yaml"), dir.join("link.xml")).unwrap();
+        refused(&dir, &["run", "suite.yaml", "--junit", "link.xml"], "--junit would overwrite", &["overtake.yaml"]);
+    }
+}
+
+#[test]
+fn two_reports_on_one_file_are_refused() {
+    let dir = workspace("same");
+    refused(
+        &dir,
+        &["run", "suite.yaml", "--json", "r.out", "--junit", "r.out"],
+        "--json and --junit name the same file",
+        &[],
+    );
+    refused(&dir, &["run", "suite.yaml", "--json", "-", "--junit", "-"], "cannot both take standard output", &[]);
+    assert!(!dir.join("r.out").exists());
+}
+
+#[test]
+fn a_report_in_a_missing_folder_is_refused_before_the_run() {
+    let dir = workspace("parent");
+    refused(
+        &dir,
+        &["run", "suite.yaml", "--json", "no/such/folder/r.json"],
+        "the folder no/such/folder does not exist",
+        &[],
+    );
+}
+
+#[test]
+fn a_review_page_on_standard_output_is_refused_and_no_folder_named_dash_is_made() {
+    let dir = workspace("html");
+    refused(&dir, &["run", "suite.yaml", "--html", "-"], "not standard output", &[]);
+    assert!(!dir.join("-").exists());
+}
+
+#[test]
+fn an_evaluation_report_onto_a_scene_it_reads_is_refused() {
+    let dir = workspace("evaluate");
+    let scenes = dir.join("scenes");
+    std::fs::create_dir_all(&scenes).unwrap();
+    let repo = Path::new(env!("CARGO_MANIFEST_DIR"));
+    std::fs::copy(repo.join("scenes/ngsim/USA_US101-4_3_T-1.xml"), scenes.join("scene.xml")).unwrap();
+    refused(
+        &dir,
+        &["evaluate", "--scenes", "scenes", "--seeds", "1", "--json", "scenes/scene.xml"],
+        "--json would overwrite",
+        &["scenes/scene.xml"],
+    );
+}
