@@ -2,6 +2,7 @@
 //! satisfy, each failure a sentence saying what happened, when and with whom.
 
 use super::variant::CollisionEscape;
+use crate::map::RoadMap;
 use crate::sim::{Rollout, Termination};
 use crate::spec::suite::VariantAcceptance;
 
@@ -22,6 +23,7 @@ pub struct AcceptanceFailure {
 pub fn check(
     criteria: &VariantAcceptance,
     rollout: &Rollout,
+    map: &RoadMap,
     min_ttc_s: Option<f64>,
     escape: Option<CollisionEscape>,
 ) -> Vec<AcceptanceFailure> {
@@ -80,10 +82,16 @@ pub fn check(
             format!("ego caused a collision ({:?}) with agent {}{role} at t = {:.1} s", c.kind, c.other, c.time_s),
         ));
     }
-    if criteria.no_off_road
-        && let Some(t) = summary.ego_off_road_s
-    {
-        out.push(fail("no_off_road", format!("ego left the road at t = {t:.1} s")));
+    if criteria.no_off_road {
+        if map.road_edges.is_empty() {
+            // Without road edges nothing is off the road: not a pass.
+            out.push(fail(
+                "no_off_road",
+                "cannot be measured: the scene's map has no road edges (no roads or lanelets)".to_string(),
+            ));
+        } else if let Some(t) = summary.ego_off_road_s {
+            out.push(fail("no_off_road", format!("ego left the road at t = {t:.1} s")));
+        }
     }
     // A NaN gap (an agent at a non-finite position) fails.
     if let (Some(min), Some(gap)) = (criteria.min_gap_m, summary.min_distance_to_ego_m)
@@ -110,9 +118,10 @@ mod tests {
     }
 
     fn failed(escape: Option<CollisionEscape>, criteria: &VariantAcceptance) -> Vec<String> {
-        let rollout = crossing_rollout(&crossing_scenario());
+        let scenario = crossing_scenario();
+        let rollout = crossing_rollout(&scenario);
         assert!(rollout.ego_collision().is_some(), "the fixture's ego must collide");
-        check(criteria, &rollout, None, escape).into_iter().map(|f| f.criterion).collect()
+        check(criteria, &rollout, &scenario.map, None, escape).into_iter().map(|f| f.criterion).collect()
     }
 
     #[test]
@@ -133,11 +142,24 @@ mod tests {
             reason: "deceleration 98.000 m/s² exceeds the vehicle limit max_decel_mps2 = 12 m/s²".into(),
         };
         let lax = criteria(false, false);
-        let failures = check(&lax, &rollout, None, None);
+        let failures = check(&lax, &rollout, &crossing_scenario().map, None, None);
         assert_eq!(failures.len(), 1, "{failures:?}");
         assert_eq!(failures[0].criterion, "vehicle_limits");
         assert!(failures[0].what.contains("at t = 1.2 s: deceleration 98.000"), "{}", failures[0].what);
         assert!(!crate::harness::Stage2Verdict::of(&rollout).solved());
+    }
+
+    #[test]
+    fn no_off_road_on_a_map_without_road_edges_fails_as_unmeasurable() {
+        let scenario = crossing_scenario();
+        let rollout = crossing_rollout(&scenario);
+        let off_road = VariantAcceptance { no_collision: false, no_off_road: true, ..VariantAcceptance::default() };
+        let empty = RoadMap::new(vec![], vec![], vec![], vec![], vec![], vec![], vec![]);
+        let failures = check(&off_road, &rollout, &empty, None, None);
+        assert_eq!(failures.len(), 1, "{failures:?}");
+        assert!(failures[0].what.starts_with("cannot be measured"), "{failures:?}");
+        assert!(!scenario.map.road_edges.is_empty());
+        assert!(check(&off_road, &rollout, &scenario.map, None, None).iter().all(|f| f.criterion != "no_off_road"));
     }
 
     #[test]

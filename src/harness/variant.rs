@@ -219,7 +219,7 @@ pub fn run_variant(suite: &Suite, scenario: &SuiteScenario, index: u32) -> Resul
         ego_limits: Some(spec.acceptance.variant.vehicle_limits),
     })?;
     let escape = stages.escape.as_ref().map(CollisionEscape::of);
-    let failures = acceptance::check(&spec.acceptance.variant, &stages.stage2, stages.min_ttc_s, escape);
+    let failures = acceptance::check(&spec.acceptance.variant, &stages.stage2, &base.map, stages.min_ttc_s, escape);
     Ok(VariantOutcome {
         name,
         seed,

@@ -31,6 +31,11 @@ pub struct CollisionEvent {
     pub ego_contact: Option<EgoContact>,
 }
 
+/// How much farther off the road than at its start an ego that starts off
+/// it must go to count as leaving it, m: recorded starts are noisy, but a
+/// start 0.1 m over the edge must not excuse driving 16 m off.
+pub const OFF_ROAD_START_TOLERANCE_M: f64 = 0.5;
+
 /// The ego left the road.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct OffRoadEvent {
@@ -61,6 +66,10 @@ pub(super) struct EventDetector<'a> {
     reported: BTreeSet<(usize, usize)>,
     collisions: Vec<CollisionEvent>,
     ego_was_off_road: bool,
+    /// How far off the road the ego started, m, while it has not yet been
+    /// back on it: it counts as leaving the road only once it is
+    /// [`OFF_ROAD_START_TOLERANCE_M`] farther off than that.
+    started_off_road_m: Option<f64>,
     off_road: Vec<OffRoadEvent>,
     /// Step at which the ego left the mapped area (went past a dead end of the map).
     left_mapped_area: Option<usize>,
@@ -121,11 +130,12 @@ impl<'a> EventDetector<'a> {
             reported: BTreeSet::new(),
             collisions: Vec::new(),
             ego_was_off_road: false,
+            started_off_road_m: None,
             off_road: Vec::new(),
             left_mapped_area: None,
             closest: None,
         };
-        d.ego_was_off_road = d.ego_off_road_distance(start_states).is_some_and(|(x, _)| x > 0.0);
+        d.started_off_road_m = d.ego_off_road_distance(start_states).map(|(x, _)| x).filter(|x| *x > 0.0);
         d.track_closest(start, start_states);
         d
     }
@@ -197,7 +207,12 @@ impl<'a> EventDetector<'a> {
             });
         }
         if let Some((d, corner)) = self.ego_off_road_distance(states) {
-            let off = d > 0.0;
+            // A recorded ego may start with a corner over the edge (or in a
+            // car park): that is excused, driving farther off is not.
+            let off = d > 0.0 && self.started_off_road_m.is_none_or(|d0| d > d0 + OFF_ROAD_START_TOLERANCE_M);
+            if d <= 0.0 {
+                self.started_off_road_m = None;
+            }
             if off && !self.ego_was_off_road {
                 // Past a dead end of the map the road is not known to end:
                 // the recording's map does. That is not leaving the road.

@@ -491,6 +491,29 @@ mod tests {
         assert_eq!(r.states.len(), 41, "nothing is simulated past the map");
     }
 
+    /// [`road_that_ends`] with the ego moved `dy` sideways (towards +y).
+    fn shifted(mut s: Scenario, dy: f64) -> Scenario {
+        for state in s.tracks[0].states.iter_mut().flatten() {
+            state.position.y += dy;
+        }
+        s
+    }
+
+    #[test]
+    fn an_ego_starting_over_the_edge_is_excused_only_while_it_gets_no_farther_off() {
+        // The ego's box reaches y = dy + 1 and the road's edge is y = 2: a
+        // corner 0.1 m over at the start.
+        let along = run_constant_velocity(&shifted(road_that_ends(0.0), 1.1));
+        assert!(along.off_road.is_empty(), "keeping its start's offset is excused: {:?}", along.off_road);
+        // The same start heading 0.2 rad off the road: before the fix the
+        // start excused the whole departure (16 m off and more).
+        let away = run_constant_velocity(&shifted(road_that_ends(0.2), 1.1));
+        assert_eq!(away.off_road.len(), 1, "{:?}", away.off_road);
+        let first = away.off_road[0];
+        assert!(first.distance_m > 0.1 + crate::sim::events::OFF_ROAD_START_TOLERANCE_M, "{first:?}");
+        assert!(away.summary().ego_off_road_s.is_some());
+    }
+
     #[test]
     fn leaving_the_road_sideways_is_still_off_road() {
         let r = run_constant_velocity(&road_that_ends(0.2));
