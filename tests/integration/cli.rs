@@ -129,3 +129,15 @@ fn realism_scores_the_shipped_prior_unless_told_otherwise() {
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(text.contains("realism, policy prior,"), "{text}");
 }
+
+#[test]
+fn jobs_beyond_the_bound_are_refused_naming_the_range() {
+    for command in [&["run", "specs/suites/authored.yaml"][..], &["evaluate", "--scenes", "scenes/ngsim"][..]] {
+        let mut args = command.to_vec();
+        args.extend(["--jobs", "10000"]);
+        let out = safer(&args);
+        assert_eq!(out.status.code(), Some(2));
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(stderr.contains("10000 is not in 1..=256"), "{stderr}");
+    }
+}
