@@ -195,6 +195,19 @@ pub(super) fn run(files: &[PathBuf], outputs: RunOutputs<'_>, filter: Option<&st
         }
     }
 
+    // Two suites of one name would share test names and artefact paths,
+    // and one recording would silently replace the other.
+    for (i, (file, suite)) in suites.iter().enumerate() {
+        if let Some((first, _)) = suites[..i].iter().find(|(_, s)| s.name() == suite.name()) {
+            return Err(CliError::Usage(format!(
+                "{} and {} are both named `{}`; suites run together need different names (their tests and \
+                 artefacts are named after them)",
+                first.display(),
+                file.display(),
+                suite.name()
+            )));
+        }
+    }
     // No report may replace a file the run reads, or another report.
     let inputs: Vec<PathBuf> = files.iter().cloned().chain(suites.iter().flat_map(|(_, s)| s.input_files())).collect();
     let named = [("--json", json), ("--junit", junit)];

@@ -8,7 +8,9 @@ use std::path::{Path, PathBuf};
 
 /// The shared recorded-data folder for a spec at `spec_dir`.
 pub fn data_dir(spec_dir: &Path) -> PathBuf {
-    if let Some(d) = std::env::var_os("SAFER_DATA_DIR") {
+    // Set but empty is unset: "" would resolve `data:` against the
+    // current folder.
+    if let Some(d) = std::env::var_os("SAFER_DATA_DIR").filter(|d| !d.is_empty()) {
         return PathBuf::from(d);
     }
     let start = std::fs::canonicalize(spec_dir).unwrap_or_else(|_| spec_dir.to_path_buf());

@@ -454,9 +454,24 @@ impl Loaded<SuiteSpec> {
     }
 }
 
+/// Longest suite or scenario name, bytes: each is a folder of the
+/// artefacts' paths, and file systems take 255 bytes a component (less the
+/// room a variant's `seed-N.stderr.txt` needs beside it).
+pub const MAX_NAME_BYTES: usize = 200;
+
 /// Refuses a name that cannot be a test-name part and an artefact folder:
-/// empty, `.`/`..`, or anything but letters, digits, `-`, `_` and `.`.
+/// empty, `.`/`..`, anything but letters, digits, `-`, `_` and `.`, or
+/// longer than [`MAX_NAME_BYTES`].
 pub(crate) fn check_test_name<T>(spec: &Loaded<T>, path: &str, name: &str) -> Result<(), SpecError> {
+    if name.len() > MAX_NAME_BYTES {
+        return Err(spec.invalid_at(
+            path,
+            format!(
+                "the name is {} bytes long; names are folders of the artefacts' paths and may have at most                  {MAX_NAME_BYTES}",
+                name.len()
+            ),
+        ));
+    }
     let allowed = |c: char| c.is_ascii_alphanumeric() || c == '-' || c == '_' || c == '.';
     if name.is_empty() || name == "." || name == ".." || !name.chars().all(allowed) {
         return Err(spec.invalid_at(

@@ -170,6 +170,19 @@ pub fn load(path: &Path) -> Result<Vec<Scenario>, ImportError> {
                 format!("implausible recorded state: {why}"),
             ));
         }
+        // One id, two tracks: the ego and the CBV could share it, and every
+        // report naming an agent would be ambiguous.
+        let mut seen = std::collections::HashMap::new();
+        for (i, t) in s.tracks.iter().enumerate() {
+            if let Some(first) = seen.insert(&t.id, i) {
+                return Err(ImportError::malformed(
+                    path,
+                    format,
+                    Location::Element(format!("{scenario}agent {}", t.id)),
+                    format!("two tracks have this id (tracks {first} and {i}); agent ids must be unique"),
+                ));
+            }
+        }
         if let Some((what, p)) = s.map.first_point_outside(max_abs_m) {
             return Err(ImportError::malformed(
                 path,

@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::time::Duration;
 
-use super::binary::{safer_in, text};
+use super::binary::{safer_in, safer_within, text};
 
 fn fixture(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/bad-input/files").join(name)
@@ -146,5 +146,26 @@ fn the_data_default_follows_safer_data_dir() {
     let out = safer_in(&dir, &[("SAFER_DATA_DIR", &missing)], &["bench", "--repeat", "1"], Duration::from_secs(60));
     assert!(!out.status.success(), "{}", text(&out));
     assert!(String::from_utf8_lossy(&out.stderr).contains("no-such-data"), "{}", text(&out));
+
+    // Set but empty is unset: `data:` is the shared folder, not the current one.
+    let shared = "data:commonroad-ngsim/USA_US101-4_3_T-1.xml";
+    let out = safer_in(&dir, &[("SAFER_DATA_DIR", Path::new(""))], &["inspect", shared], Duration::from_secs(60));
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out));
     std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn a_recorded_scene_with_two_tracks_of_one_id_is_refused_naming_the_id() {
+    // The shipped NGSIM scene with obstacle 375 renamed 373: the ego or the
+    // CBV could share an id with another track.
+    let dir = temp_dir("duplicate-id");
+    let scene =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/ngsim/USA_US101-4_3_T-1.xml"))
+            .unwrap()
+            .replace("<dynamicObstacle id=\"375\"", "<dynamicObstacle id=\"373\"");
+    let file = dir.join("two-tracks-with-id-373.xml");
+    std::fs::write(&file, scene).unwrap();
+    let out = safer_within(&["inspect", file.to_str().unwrap()], Duration::from_secs(30));
+    assert_eq!(out.status.code(), Some(2), "{}", text(&out));
+    assert!(text(&out).contains("agent 373: two tracks have this id"), "{}", text(&out));
 }

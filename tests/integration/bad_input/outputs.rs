@@ -2,7 +2,8 @@
 //! `evaluate` refuse, before anything runs, a report path that is a file
 //! the run reads (also through a symbolic link or another spelling), two
 //! reports on the same file, a report in a folder that does not exist and
-//! a review page on standard output; the files are left as they were.
+//! a review page on standard output, and suites whose artefact folders
+//! would collide or could not be made; the files are left as they were.
 
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU32, Ordering};
@@ -106,4 +107,22 @@ fn an_evaluation_report_onto_a_scene_it_reads_is_refused() {
         "--json would overwrite",
         &["scenes/scene.xml"],
     );
+}
+
+#[test]
+fn two_suites_of_one_name_are_refused_as_their_artefacts_would_collide() {
+    let dir = workspace("same-name");
+    std::fs::copy(dir.join("suite.yaml"), dir.join("copy.yaml")).unwrap();
+    refused(&dir, &["run", "suite.yaml", "copy.yaml"], "are both named `outputs`", &[]);
+}
+
+#[test]
+fn a_suite_name_too_long_for_an_artefact_folder_is_refused_at_load() {
+    let dir = workspace("long-name");
+    let suite = format!("name: {}\nscenarios:\n  - overtake.yaml\nplanner: {{ builtin: idm }}\n", "a".repeat(70_000));
+    std::fs::write(dir.join("long.yaml"), suite).unwrap();
+    let out = safer_in(&dir, &[], &["run", "long.yaml"], DEADLINE);
+    assert_eq!(out.status.code(), Some(2), "{}", text(&out));
+    assert!(text(&out).contains("the name is 70000 bytes long"), "{}", text(&out));
+    assert!(!text(&out).contains("panicked"), "{}", text(&out));
 }
