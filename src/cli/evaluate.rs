@@ -28,9 +28,25 @@ pub(super) fn load_scenes(path: &Path, max_scenes: Option<usize>) -> Result<Vec<
     let paths = scene_paths(path)?;
     let loaded: Vec<Result<Vec<Scenario>, _>> = paths.par_iter().map(|p| import::load(p)).collect();
     let mut scenes = Vec::new();
+    // Records, seeds and the held-out split go by scenario id: one id in
+    // two files would merge two scenes' rows silently.
+    let mut files_of: std::collections::HashMap<String, &Path> = std::collections::HashMap::new();
     for (p, r) in paths.iter().zip(loaded) {
         match r {
-            Ok(s) => scenes.extend(s.into_iter().filter(|s| s.ego.is_some() && s.cbv.is_some()).map(Arc::new)),
+            Ok(s) => {
+                for scene in &s {
+                    if let Some(first) = files_of.insert(scene.id.clone(), p).filter(|first| first != p) {
+                        return Err(CliError::Usage(format!(
+                            "scenario id `{}` is in both {} and {}; an evaluation tells scenes apart by id, so \
+                             keep one of the files",
+                            scene.id,
+                            first.display(),
+                            p.display()
+                        )));
+                    }
+                }
+                scenes.extend(s.into_iter().filter(|s| s.ego.is_some() && s.cbv.is_some()).map(Arc::new))
+            }
             Err(e) => eprintln!("warning: skipping {}: {e}", p.display()),
         }
     }

@@ -227,7 +227,9 @@ fn run_one(
 ) -> Result<VariantRecord, HarnessError> {
     let clock = Instant::now();
     let start = scenario.current_step;
-    let end = (start + (request.horizon_s / scenario.dt_s).round() as usize).min(scenario.num_steps() - 1);
+    // Saturating: a horizon of 1e19 s is the whole recording, not an
+    // overflow to an empty range.
+    let end = start.saturating_add((request.horizon_s / scenario.dt_s).round() as usize).min(scenario.num_steps() - 1);
     let background = match request.background {
         BackgroundDriver::ReactiveLogReplay => BackgroundPolicy::ReactiveLogReplay,
         BackgroundDriver::Configured | BackgroundDriver::Prior => SimConfig::default().background,

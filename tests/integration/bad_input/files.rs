@@ -169,3 +169,28 @@ fn a_recorded_scene_with_two_tracks_of_one_id_is_refused_naming_the_id() {
     assert_eq!(out.status.code(), Some(2), "{}", text(&out));
     assert!(text(&out).contains("agent 373: two tracks have this id"), "{}", text(&out));
 }
+
+#[test]
+fn an_evaluation_with_one_scenario_id_in_two_files_is_refused_naming_both() {
+    let dir = temp_dir("same-id");
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/ngsim/USA_US101-4_3_T-1.xml");
+    std::fs::copy(&scene, dir.join("a.xml")).unwrap();
+    std::fs::copy(&scene, dir.join("copy-of-a.xml")).unwrap();
+    let out = safer_within(&["evaluate", "--scenes", dir.to_str().unwrap(), "--seeds", "1"], Duration::from_secs(60));
+    assert_eq!(out.status.code(), Some(2), "{}", text(&out));
+    let t = text(&out);
+    assert!(t.contains("scenario id `USA_US101-4_3_T-1` is in both") && t.contains("copy-of-a.xml"), "{t}");
+}
+
+#[test]
+fn a_horizon_beyond_the_recording_is_the_whole_recording() {
+    // 1e19 s once overflowed into an empty step range.
+    let out = safer_within(
+        &["evaluate", "--scenes", "scenes/ngsim", "--seeds", "1", "--methods", "log", "--horizon-s", "1e19"],
+        Duration::from_secs(120),
+    );
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out));
+    let t = text(&out);
+    assert!(!t.contains("error:"), "{t}");
+    assert!(t.lines().any(|l| l.starts_with("log ") && l.split_whitespace().nth(2) == Some("0")), "no errors: {t}");
+}
