@@ -17,6 +17,10 @@ pub const MAX_ABS_POSITION_M: f64 = 1e7;
 /// before re-centring, m: world frames such as UTM reach 1e7 m.
 pub const MAX_ABS_WORLD_POSITION_M: f64 = 1e8;
 
+/// Largest side of an agent's box, m: beyond any road vehicle (a road
+/// train is about 50 m), and what the box–box queries assume.
+pub const MAX_BODY_M: f64 = 100.0;
+
 /// Largest simulated speed, m/s (about 3,600 km/h): no road user gets
 /// close, yet it leaves room for noisy recorded velocities.
 pub const MAX_SPEED_MPS: f64 = 1e3;

@@ -346,6 +346,16 @@ impl Scenario {
             if !(t.length_m.is_finite() && t.length_m > 0.0 && t.width_m.is_finite() && t.width_m > 0.0) {
                 return fail(format!("track {} ({}) has size {} x {} m", i, t.id, t.length_m, t.width_m));
             }
+            if t.length_m.max(t.width_m) > bounds::MAX_BODY_M {
+                return fail(format!(
+                    "track {} ({}) has size {:e} x {:e} m, beyond the {} m an agent's box may have",
+                    i,
+                    t.id,
+                    t.length_m,
+                    t.width_m,
+                    bounds::MAX_BODY_M
+                ));
+            }
             for (k, s) in t.states.iter().enumerate() {
                 let Some(s) = s else { continue };
                 let finite = s.position.x.is_finite()

@@ -23,9 +23,9 @@ use crate::planners::{Observation, PerceivedAgent, Planner, PlannerOutput};
 use crate::policies::{AgentAction, AgentPolicy, BackgroundPolicy, WorldView};
 use crate::scenario::{AgentBody, AgentState, Scenario, TrackIndex};
 
-/// Largest length or width of a simulated agent's box, m: no road user
-/// comes close, and a box–box query on absurd boxes is not meaningful.
-pub const MAX_BODY_M: f64 = 100.0;
+/// Largest length or width of a simulated agent's box, m (the scenario
+/// layer's bound, which importers already hold recorded boxes to).
+pub use crate::scenario::bounds::MAX_BODY_M;
 
 /// Relative difference between a scenario's step and the simulator's that is accepted.
 pub const DT_TOLERANCE: f64 = 0.025;

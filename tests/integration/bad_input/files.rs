@@ -194,3 +194,18 @@ fn a_horizon_beyond_the_recording_is_the_whole_recording() {
     assert!(!t.contains("error:"), "{t}");
     assert!(t.lines().any(|l| l.starts_with("log ") && l.split_whitespace().nth(2) == Some("0")), "no errors: {t}");
 }
+
+#[test]
+fn a_recorded_agent_longer_than_any_road_vehicle_is_refused_at_import() {
+    // The shipped NGSIM scene with one vehicle 1e20 m long.
+    let dir = temp_dir("huge-box");
+    let scene =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/ngsim/USA_US101-4_3_T-1.xml"))
+            .unwrap()
+            .replacen("<length>4.7244", "<length>1e20", 1);
+    let file = dir.join("a-vehicle-1e20-m-long.xml");
+    std::fs::write(&file, scene).unwrap();
+    let out = safer_within(&["inspect", file.to_str().unwrap()], Duration::from_secs(30));
+    assert_eq!(out.status.code(), Some(2), "{}", text(&out));
+    assert!(text(&out).contains("beyond the 100 m an agent's box may have"), "{}", text(&out));
+}
