@@ -201,9 +201,10 @@ impl super::Loaded<PlannerSpec> {
                 Some(w) => {
                     let dir = self.dir().join(w);
                     if !dir.is_dir() {
+                        let why = if dir.exists() { "is not a folder" } else { "does not exist" };
                         return Err(self.reference_at(
                             "external.working_dir",
-                            format!("working directory {} does not exist", dir.display()),
+                            format!("working directory {} {why}", dir.display()),
                         ));
                     }
                     dir
@@ -252,7 +253,11 @@ external:
         let text = format!("{EXTERNAL}  working_dir: bin\n  env: {{ PYTHONHASHSEED: \"0\" }}\n");
         let adapter = validate(&text, &spec);
         let missing = validate(&text.replace("working_dir: bin", "working_dir: nope"), &spec);
+        std::fs::write(dir.join("a-file"), "").unwrap();
+        let a_file = validate(&text.replace("working_dir: bin", "working_dir: a-file"), &spec);
         std::fs::remove_dir_all(&dir).unwrap();
+        let e = a_file.unwrap_err().to_string();
+        assert!(e.ends_with("a-file is not a folder"), "{e}");
         let PlannerAdapter::External { spec: external, working_dir, .. } = adapter.unwrap() else { panic!() };
         assert_eq!(working_dir, dir.join("bin"));
         assert_eq!(external.env.get("PYTHONHASHSEED").map(String::as_str), Some("0"));
