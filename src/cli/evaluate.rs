@@ -328,15 +328,23 @@ pub(super) fn run(
     }
     let rows = evaluation::table(&records, &request.methods);
     let held_out = evaluation::held_out_split(&records, &request.methods);
-    let mut table = super::table_writer(json);
-    print_table(&mut table, &rows, &held_out, scenes.len(), request, witness)?;
-    table.flush()?;
-    if let Some(path) = json {
+    // The file report first: a reader that closes standard output early
+    // (`| head`) must not cost the evaluation its report.
+    if let Some(path) = json.filter(|p| !crate::record::is_stdout(p)) {
         let report = Report { scenes: scenes.len(), rows: &rows, held_out: &held_out, variants: &records };
         crate::record::write_output(path, (serde_json::to_string_pretty(&report)? + "\n").as_bytes())?;
-        if !crate::record::is_stdout(path) {
-            eprintln!("wrote {}", path.display());
-        }
+        eprintln!("wrote {}", path.display());
+    }
+    let mut table = super::table_writer(json);
+    let printed =
+        print_table(&mut table, &rows, &held_out, scenes.len(), request, witness).and_then(|()| table.flush());
+    match printed {
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => {}
+        other => other?,
+    }
+    if let Some(path) = json.filter(|p| crate::record::is_stdout(p)) {
+        let report = Report { scenes: scenes.len(), rows: &rows, held_out: &held_out, variants: &records };
+        crate::record::write_output(path, (serde_json::to_string_pretty(&report)? + "\n").as_bytes())?;
     }
     let failed = rows.iter().any(|r| r.errors == r.variants && r.variants > 0);
     Ok(if failed { ExitCode::from(1) } else { ExitCode::SUCCESS })

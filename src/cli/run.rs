@@ -283,15 +283,31 @@ pub(super) fn run(files: &[PathBuf], outputs: RunOutputs<'_>, filter: Option<&st
     };
 
     // The table goes to stderr when a report takes standard output.
-    let mut table = super::table_writer([json, junit].into_iter().flatten().find(|p| crate::record::is_stdout(p)));
-    print_report(&mut table, &report)?;
-    table.flush()?;
-    if let Some(out) = json {
+    // File reports before anything goes to standard output: a reader that
+    // closes it early (`| head`) must not cost the run its reports.
+    let to_file = |p: &&Path| !crate::record::is_stdout(p);
+    let to_stdout = |p: &&Path| crate::record::is_stdout(p);
+    let write_json = |out: &Path| -> Result<(), CliError> {
         let text = serde_json::to_string_pretty(&report)? + "\n";
-        crate::record::write_output(out, text.as_bytes())?;
+        Ok(crate::record::write_output(out, text.as_bytes())?)
+    };
+    let write_junit = |out: &Path| crate::record::write_output(out, harness::junit::junit_xml(&results).as_bytes());
+    if let Some(out) = json.filter(to_file) {
+        write_json(out)?;
     }
-    if let Some(out) = junit {
-        crate::record::write_output(out, harness::junit::junit_xml(&results).as_bytes())?;
+    if let Some(out) = junit.filter(to_file) {
+        write_junit(out)?;
+    }
+    let mut table = super::table_writer([json, junit].into_iter().flatten().find(|p| crate::record::is_stdout(p)));
+    match print_report(&mut table, &report).and_then(|()| table.flush()) {
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => {}
+        other => other?,
+    }
+    if let Some(out) = json.filter(to_stdout) {
+        write_json(out)?;
+    }
+    if let Some(out) = junit.filter(to_stdout) {
+        write_junit(out)?;
     }
     if let Some(dir) = html {
         let page = harness::review_page::write_review_page(dir, &results)?;

@@ -209,3 +209,40 @@ fn a_recorded_agent_longer_than_any_road_vehicle_is_refused_at_import() {
     assert_eq!(out.status.code(), Some(2), "{}", text(&out));
     assert!(text(&out).contains("beyond the 100 m an agent's box may have"), "{}", text(&out));
 }
+
+#[test]
+fn a_closed_standard_output_does_not_cost_the_file_report() {
+    // `safer evaluate --json F | true`: the reader is gone before the
+    // table is printed; the report file is written first and the run
+    // succeeds.
+    let dir = temp_dir("closed-stdout");
+    let report = dir.join("report.json");
+    let script = format!(
+        "'{}' evaluate --scenes scenes/ngsim --seeds 1 --methods log --json '{}' | true; exit ${{PIPESTATUS[0]}}",
+        env!("CARGO_BIN_EXE_safer"),
+        report.display()
+    );
+    let out = std::process::Command::new("bash")
+        .args(["-c", &script])
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("run bash");
+    assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stderr));
+    let json: serde_json::Value = serde_json::from_slice(&std::fs::read(&report).expect("the report")).unwrap();
+    assert_eq!(json["scenes"], 3);
+    // `safer run` the same, with both file reports.
+    let (json_out, junit_out) = (dir.join("run.json"), dir.join("run.xml"));
+    let script = format!(
+        "'{}' run specs/suites/authored.yaml --json '{}' --junit '{}' | true; exit ${{PIPESTATUS[0]}}",
+        env!("CARGO_BIN_EXE_safer"),
+        json_out.display(),
+        junit_out.display()
+    );
+    let out = std::process::Command::new("bash")
+        .args(["-c", &script])
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("run bash");
+    assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(json_out.is_file() && junit_out.is_file());
+}
