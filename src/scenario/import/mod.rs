@@ -130,7 +130,16 @@ pub fn detect_format(path: &Path) -> Result<SourceFormat, ImportError> {
     }
 }
 
+/// Reads a recorded file: a regular file only (through links). A FIFO or a
+/// device would block or never end: it is refused before it is opened.
 fn read(path: &Path) -> Result<Vec<u8>, ImportError> {
+    let meta = std::fs::metadata(path).map_err(|source| ImportError::Io { path: path.to_path_buf(), source })?;
+    if !meta.is_file() {
+        return Err(ImportError::UnknownFormat {
+            path: path.to_path_buf(),
+            reason: "not a regular file (a FIFO, device or socket is not read: it could block forever)".into(),
+        });
+    }
     std::fs::read(path).map_err(|source| ImportError::Io { path: path.to_path_buf(), source })
 }
 
@@ -206,7 +215,13 @@ pub fn load(path: &Path) -> Result<Vec<Scenario>, ImportError> {
 pub fn discover(dir: &Path) -> Result<Vec<PathBuf>, ImportError> {
     let mut out = Vec::new();
     let mut stack = vec![dir.to_path_buf()];
+    // Folders already walked, by their real path: a symbolic link back up
+    // the tree would otherwise be walked forever.
+    let mut visited = std::collections::HashSet::new();
     while let Some(d) = stack.pop() {
+        if !visited.insert(std::fs::canonicalize(&d).unwrap_or_else(|_| d.clone())) {
+            continue;
+        }
         let entries = std::fs::read_dir(&d).map_err(|source| ImportError::Io { path: d.clone(), source })?;
         for e in entries {
             let p = e.map_err(|source| ImportError::Io { path: d.clone(), source })?.path();
@@ -216,6 +231,9 @@ pub fn discover(dir: &Path) -> Result<Vec<PathBuf>, ImportError> {
                 } else {
                     stack.push(p);
                 }
+            } else if !p.is_file() {
+                // A FIFO, device or socket is no scenario file (and reading it could block).
+                continue;
             } else if detect_format(&p).is_ok() && p.extension().is_none_or(|e| e != "parquet") {
                 out.push(p);
             } else if p.extension().is_some_and(|e| e == "parquet") && !out.contains(&d) {

@@ -124,3 +124,39 @@ fn ctrl_c_on_the_harness_ends_a_planner_that_never_reads_its_stdin() {
     }
     assert!(!alive, "planner {planner} outlived the interrupted harness");
 }
+
+/// A fresh folder for one case.
+fn temp(tag: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("safer-bad-hangs-{tag}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+#[cfg(unix)]
+#[test]
+fn a_recorded_folder_with_a_link_back_up_the_tree_is_walked_once() {
+    let dir = temp("link-loop");
+    std::fs::create_dir(dir.join("scenes")).unwrap();
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/ngsim/USA_US101-4_3_T-1.xml");
+    std::fs::copy(scene, dir.join("scenes/one.xml")).unwrap();
+    std::os::unix::fs::symlink("..", dir.join("scenes/up")).unwrap();
+    let out = safer_within(&["simulate", dir.to_str().unwrap(), "--planner", "log-replay"], Duration::from_secs(60));
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out));
+    assert!(text(&out).contains("1 rollouts"), "the scene once, however many links lead to it: {}", text(&out));
+}
+
+#[cfg(unix)]
+#[test]
+fn a_fifo_given_as_a_scene_is_refused_without_blocking() {
+    let dir = temp("fifo");
+    let fifo = dir.join("scene.xml");
+    let made = Command::new("mkfifo").arg(&fifo).status().expect("mkfifo");
+    assert!(made.success());
+    let out = safer_within(&["inspect", fifo.to_str().unwrap()], Duration::from_secs(30));
+    assert_eq!(out.status.code(), Some(2), "{}", text(&out));
+    assert!(text(&out).contains("not a regular file"), "{}", text(&out));
+    // In a folder it is skipped; the folder holds no scene.
+    let out = safer_within(&["simulate", dir.to_str().unwrap()], Duration::from_secs(30));
+    assert!(!text(&out).contains("rollouts: 1"), "{}", text(&out));
+}
