@@ -189,8 +189,7 @@ fn print_table(
         "reach-crit",
         "SR-avoid"
     )?;
-    for (r, (h, rest)) in rows.iter().zip(held_out.held_out.iter().zip(&held_out.rest)) {
-        let _ = rest;
+    for (r, h) in rows.iter().zip(&held_out.held_out) {
         writeln!(
             out,
             "{:<28} {:>7} {:>10} {:>9} {:>10} {:>10} {:>9} {:>9} | {:>7} {:>10} {:>9}",
@@ -288,9 +287,7 @@ pub(super) fn run(
         crate::record::output::check_output(path)?;
         // The report must not replace a scene it reads, nor the planner's spec.
         let mut inputs = scene_paths(scenes_dir)?;
-        if let crate::spec::planner::PlannerAdapter::External { spec, working_dir, .. } = &request.planner {
-            inputs.extend(spec.args.iter().map(|a| working_dir.join(a)).filter(|p| p.is_file()));
-        }
+        inputs.extend(request.planner.argument_files());
         crate::record::check_outputs_apart(&[crate::record::NamedOutput { flag: "--json", path }], &inputs)?;
     }
     let scenes: Vec<Arc<Scenario>> = load_scenes(scenes_dir, max_scenes)?
@@ -330,9 +327,10 @@ pub(super) fn run(
     let held_out = evaluation::held_out_split(&records, &request.methods);
     // The file report first: a reader that closes standard output early
     // (`| head`) must not cost the evaluation its report.
+    let report = Report { scenes: scenes.len(), rows: &rows, held_out: &held_out, variants: &records };
+    let report_text = || serde_json::to_string_pretty(&report).map(|t| t + "\n");
     if let Some(path) = json.filter(|p| !crate::record::is_stdout(p)) {
-        let report = Report { scenes: scenes.len(), rows: &rows, held_out: &held_out, variants: &records };
-        crate::record::write_output(path, (serde_json::to_string_pretty(&report)? + "\n").as_bytes())?;
+        crate::record::write_output(path, report_text()?.as_bytes())?;
         eprintln!("wrote {}", path.display());
     }
     let mut table = super::table_writer(json);
@@ -343,8 +341,7 @@ pub(super) fn run(
         other => other?,
     }
     if let Some(path) = json.filter(|p| crate::record::is_stdout(p)) {
-        let report = Report { scenes: scenes.len(), rows: &rows, held_out: &held_out, variants: &records };
-        crate::record::write_output(path, (serde_json::to_string_pretty(&report)? + "\n").as_bytes())?;
+        crate::record::write_output(path, report_text()?.as_bytes())?;
     }
     let failed = rows.iter().any(|r| r.errors == r.variants && r.variants > 0);
     Ok(if failed { ExitCode::from(1) } else { ExitCode::SUCCESS })

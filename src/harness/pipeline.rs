@@ -304,21 +304,16 @@ pub fn run(setup: VariantSetup<'_>) -> Result<DualStage, HarnessError> {
     let scenario = setup.scenario;
     let clock = Instant::now();
     let ego = scenario.ego.ok_or_else(|| crate::sim::SimError::NoEgo(scenario.id.clone()))?;
-    let cbv = scenario.cbv.ok_or_else(|| HarnessError::NoCbv(scenario.id.clone()))?;
+    // A scene without a CBV is refused before anything is simulated.
+    scenario.cbv.ok_or_else(|| HarnessError::NoCbv(scenario.id.clone()))?;
     let start = setup.sim.start_step.unwrap_or(scenario.current_step);
-    let method = setup.settings.method;
-    let install = |sim: &mut Simulation<'_>| {
-        methods::install(sim, scenario, cbv, start, setup.settings, setup.models, setup.maps, setup.seed)
-    };
 
     // Stage 1: the ego replays its log; the CBV is driven by the method.
     let mut stage1 = Simulation::new(scenario, setup.sim.clone())?;
-    let installed = install(&mut stage1)?;
+    let installed = install_method(&setup, &mut stage1)?;
     let mut replay_ego = BuiltinPlanner::LogReplay.instantiate(scenario, ego);
     let stage1 = stage1.run(replay_ego.as_mut());
-    if let Some(source) = installed.error() {
-        return Err(HarnessError::Model { method, source });
-    }
+    model_error(&setup, Some(&installed))?;
     let models_time = installed.timings();
     let mut profile = VariantProfile {
         stage1_s: clock.elapsed().as_secs_f64(),
@@ -349,9 +344,7 @@ pub fn run(setup: VariantSetup<'_>) -> Result<DualStage, HarnessError> {
     // only then reads its stderr: lines still in the pipe are not lost.
     let planner_stderr = timed.end_rollout();
     drop(planner);
-    if let Some(source) = closed_loop.and_then(|i| i.error()) {
-        return Err(HarnessError::Model { method, source });
-    }
+    model_error(&setup, closed_loop.as_ref())?;
     profile.stage2_s = stage2_clock.elapsed().as_secs_f64();
 
     let verdict = Stage2Verdict::of(&stage2);
@@ -375,6 +368,26 @@ pub fn run(setup: VariantSetup<'_>) -> Result<DualStage, HarnessError> {
     })
 }
 
+/// Installs `setup`'s method for the CBV in `sim` (stage 1, or stage 2
+/// closed loop: the same seed, so the same policy).
+fn install_method(
+    setup: &VariantSetup<'_>,
+    sim: &mut Simulation<'_>,
+) -> Result<methods::InstalledMethod, HarnessError> {
+    let scenario = setup.scenario;
+    let cbv = scenario.cbv.ok_or_else(|| HarnessError::NoCbv(scenario.id.clone()))?;
+    let start = setup.sim.start_step.unwrap_or(scenario.current_step);
+    methods::install(sim, scenario, cbv, start, setup.settings, setup.models, setup.maps, setup.seed)
+}
+
+/// The first model error an installed method met during its rollout.
+fn model_error(setup: &VariantSetup<'_>, installed: Option<&methods::InstalledMethod>) -> Result<(), HarnessError> {
+    match installed.and_then(methods::InstalledMethod::error) {
+        Some(source) => Err(HarnessError::Model { method: setup.settings.method, source }),
+        None => Ok(()),
+    }
+}
+
 /// Stage 2 of `setup` set up to run: the CBV replaying its `stage1` path
 /// or driven by the method again (then also its installation, whose
 /// error the caller reads after the run).
@@ -384,7 +397,6 @@ fn stage2_simulation<'s>(
 ) -> Result<(Simulation<'s>, Option<methods::InstalledMethod>), HarnessError> {
     let scenario = setup.scenario;
     let cbv = scenario.cbv.ok_or_else(|| HarnessError::NoCbv(scenario.id.clone()))?;
-    let start = setup.sim.start_step.unwrap_or(scenario.current_step);
     let replays_the_log = matches!(setup.planner, PlannerAdapter::Builtin { planner: BuiltinPlanner::LogReplay, .. });
     let config = SimConfig { ego_limits: setup.ego_limits.filter(|_| !replays_the_log), ..setup.sim.clone() };
     let mut stage2 = Simulation::new(scenario, config)?;
@@ -393,16 +405,7 @@ fn stage2_simulation<'s>(
             stage2.set_policy(cbv, Box::new(LogReplay::new(track_from_rollout(scenario, stage1, cbv))));
             None
         }
-        Stage2Cbv::ClosedLoop => Some(methods::install(
-            &mut stage2,
-            scenario,
-            cbv,
-            start,
-            setup.settings,
-            setup.models,
-            setup.maps,
-            setup.seed,
-        )?),
+        Stage2Cbv::ClosedLoop => Some(install_method(setup, &mut stage2)?),
     };
     Ok((stage2, installed))
 }
@@ -417,14 +420,10 @@ pub fn search_stage2_escape(
     stage2: &Rollout,
     budget: EscapeBudget,
 ) -> Result<Option<EscapeSearch>, HarnessError> {
-    let method = setup.settings.method;
     let mut replay = |plan: &[crate::scenario::AgentState]| -> Result<Rollout, HarnessError> {
         let (sim, installed) = stage2_simulation(setup, stage1)?;
         let played = sim.run(&mut PlannedPath::new(plan.to_vec()));
-        match installed.and_then(|i| i.error()) {
-            Some(source) => Err(HarnessError::Model { method, source }),
-            None => Ok(played),
-        }
+        model_error(setup, installed.as_ref()).map(|()| played)
     };
     search_escape(setup.scenario, stage2, budget, &mut replay)
 }

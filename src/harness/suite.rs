@@ -157,9 +157,7 @@ impl Suite {
         if let PlannerRef::File(f) = &self.spec.value.planner {
             files.push(crate::spec::paths::resolve(self.spec.dir(), &f.value));
         }
-        if let PlannerAdapter::External { spec, working_dir, .. } = &self.planner {
-            files.extend(spec.args.iter().map(|a| working_dir.join(a)).filter(|p| p.is_file()));
-        }
+        files.extend(self.planner.argument_files());
         files.extend(self.scenarios.iter().map(|s| source_path(&s.source).to_path_buf()));
         files
     }

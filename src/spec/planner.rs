@@ -142,6 +142,17 @@ impl PlannerAdapter {
             Self::Builtin { name, .. } | Self::InProcess { name } | Self::External { name, .. } => name,
         }
     }
+
+    /// The files an external planner's arguments name (its program, say),
+    /// resolved in its working folder: inputs a run must not overwrite.
+    pub fn argument_files(&self) -> Vec<std::path::PathBuf> {
+        match self {
+            Self::External { spec, working_dir, .. } => {
+                spec.args.iter().map(|a| working_dir.join(a)).filter(|p| p.is_file()).collect()
+            }
+            Self::Builtin { .. } | Self::InProcess { .. } => Vec::new(),
+        }
+    }
 }
 
 impl super::Loaded<PlannerSpec> {

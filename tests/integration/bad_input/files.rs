@@ -154,20 +154,30 @@ fn the_data_default_follows_safer_data_dir() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
-#[test]
-fn a_recorded_scene_with_two_tracks_of_one_id_is_refused_naming_the_id() {
-    // The shipped NGSIM scene with obstacle 375 renamed 373: the ego or the
-    // CBV could share an id with another track.
-    let dir = temp_dir("duplicate-id");
-    let scene =
-        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/ngsim/USA_US101-4_3_T-1.xml"))
-            .unwrap()
-            .replace("<dynamicObstacle id=\"375\"", "<dynamicObstacle id=\"373\"");
-    let file = dir.join("two-tracks-with-id-373.xml");
-    std::fs::write(&file, scene).unwrap();
+/// The shipped NGSIM scene with its first `from` replaced by `to`, as
+/// `name` in a fresh folder; `safer inspect` on it must refuse it with
+/// `message`.
+fn edited_ngsim_scene_is_refused(name: &str, from: &str, to: &str, message: &str) {
+    let shipped = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/ngsim/USA_US101-4_3_T-1.xml");
+    let scene = std::fs::read_to_string(shipped).unwrap();
+    assert!(scene.contains(from), "{from}");
+    let file = temp_dir(name).join(name);
+    std::fs::write(&file, scene.replacen(from, to, 1)).unwrap();
     let out = safer_within(&["inspect", file.to_str().unwrap()], Duration::from_secs(30));
     assert_eq!(out.status.code(), Some(2), "{}", text(&out));
-    assert!(text(&out).contains("agent 373: two tracks have this id"), "{}", text(&out));
+    assert!(text(&out).contains(message), "{}", text(&out));
+}
+
+#[test]
+fn a_recorded_scene_with_two_tracks_of_one_id_is_refused_naming_the_id() {
+    // Obstacle 375 renamed 373: the ego or the CBV could share an id with
+    // another track.
+    edited_ngsim_scene_is_refused(
+        "two-tracks-with-id-373.xml",
+        "<dynamicObstacle id=\"375\"",
+        "<dynamicObstacle id=\"373\"",
+        "agent 373: two tracks have this id",
+    );
 }
 
 #[test]
@@ -197,52 +207,46 @@ fn a_horizon_beyond_the_recording_is_the_whole_recording() {
 
 #[test]
 fn a_recorded_agent_longer_than_any_road_vehicle_is_refused_at_import() {
-    // The shipped NGSIM scene with one vehicle 1e20 m long.
-    let dir = temp_dir("huge-box");
-    let scene =
-        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/ngsim/USA_US101-4_3_T-1.xml"))
-            .unwrap()
-            .replacen("<length>4.7244", "<length>1e20", 1);
-    let file = dir.join("a-vehicle-1e20-m-long.xml");
-    std::fs::write(&file, scene).unwrap();
-    let out = safer_within(&["inspect", file.to_str().unwrap()], Duration::from_secs(30));
-    assert_eq!(out.status.code(), Some(2), "{}", text(&out));
-    assert!(text(&out).contains("beyond the 100 m an agent's box may have"), "{}", text(&out));
+    // One vehicle 1e20 m long.
+    edited_ngsim_scene_is_refused(
+        "a-vehicle-1e20-m-long.xml",
+        "<length>4.7244",
+        "<length>1e20",
+        "beyond the 100 m an agent's box may have",
+    );
+}
+
+/// Runs `safer ARGS | true` from the repository (the reader gone before
+/// the table is printed) and returns safer's own exit status.
+fn safer_into_a_closed_pipe(args: &str) -> std::process::Output {
+    let script = format!("'{}' {args} | true; exit ${{PIPESTATUS[0]}}", env!("CARGO_BIN_EXE_safer"));
+    std::process::Command::new("bash")
+        .args(["-c", &script])
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("run bash")
 }
 
 #[test]
 fn a_closed_standard_output_does_not_cost_the_file_report() {
-    // `safer evaluate --json F | true`: the reader is gone before the
-    // table is printed; the report file is written first and the run
-    // succeeds.
+    // `safer evaluate --json F | true`: the report file is written first
+    // and the run succeeds.
     let dir = temp_dir("closed-stdout");
     let report = dir.join("report.json");
-    let script = format!(
-        "'{}' evaluate --scenes scenes/ngsim --seeds 1 --methods log --json '{}' | true; exit ${{PIPESTATUS[0]}}",
-        env!("CARGO_BIN_EXE_safer"),
+    let out = safer_into_a_closed_pipe(&format!(
+        "evaluate --scenes scenes/ngsim --seeds 1 --methods log --json '{}'",
         report.display()
-    );
-    let out = std::process::Command::new("bash")
-        .args(["-c", &script])
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output()
-        .expect("run bash");
+    ));
     assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stderr));
     let json: serde_json::Value = serde_json::from_slice(&std::fs::read(&report).expect("the report")).unwrap();
     assert_eq!(json["scenes"], 3);
     // `safer run` the same, with both file reports.
     let (json_out, junit_out) = (dir.join("run.json"), dir.join("run.xml"));
-    let script = format!(
-        "'{}' run specs/suites/authored.yaml --json '{}' --junit '{}' | true; exit ${{PIPESTATUS[0]}}",
-        env!("CARGO_BIN_EXE_safer"),
+    let out = safer_into_a_closed_pipe(&format!(
+        "run specs/suites/authored.yaml --json '{}' --junit '{}'",
         json_out.display(),
         junit_out.display()
-    );
-    let out = std::process::Command::new("bash")
-        .args(["-c", &script])
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output()
-        .expect("run bash");
+    ));
     assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stderr));
     assert!(json_out.is_file() && junit_out.is_file());
 }
