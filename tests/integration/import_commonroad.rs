@@ -7,7 +7,7 @@
 
 use std::path::{Path, PathBuf};
 
-use safer::geometry::{Point2, wrap_angle};
+use safer::geometry::{Point2, Vector2, wrap_angle};
 use safer::scenario::import::{ImportError, Location, commonroad, discover, load};
 use safer::scenario::{AgentKind, DataLicence, RoleOrigin, Scenario};
 
@@ -119,6 +119,25 @@ fn check(path: &Path, s: &Scenario) {
     }
 }
 
+/// Road-edge segments whose off-road side (starboard, 0.3 m out from the
+/// middle) lies in a lanelet, and all road-edge segments.
+fn edge_segments_with_road_beyond(s: &Scenario) -> (usize, usize) {
+    let (mut through_road, mut total) = (0, 0);
+    for edge in &s.map.road_edges {
+        for pair in edge.polyline.points().windows(2) {
+            let along = pair[1] - pair[0];
+            if along.norm() < 1e-6 {
+                continue;
+            }
+            total += 1;
+            let starboard = Vector2::new(along.y, -along.x).normalize() * 0.3;
+            let probe = Point2::from((pair[0].coords + pair[1].coords) * 0.5) + starboard;
+            through_road += usize::from(s.map.drivable_areas.iter().any(|a| a.contains(&probe)));
+        }
+    }
+    (through_road, total)
+}
+
 #[test]
 fn commonroad_every_file_imports_with_invariants() {
     let paths = files("commonroad-ngsim", "xml");
@@ -126,6 +145,7 @@ fn commonroad_every_file_imports_with_invariants() {
     let mut timings = ImportTimings::default();
     let (mut agree_sum, mut samples_sum) = (0.0f64, 0usize);
     let (mut on_road_sum, mut points_sum) = (0.0f64, 0usize);
+    let mut edges_sum = 0usize;
     let (mut with_signals, mut with_ego, mut at_step_10) = (0, 0, 0);
     for path in &paths {
         let TimedImport { bytes, scenarios, parse_s, .. } = timings.import(path, commonroad::parse);
@@ -151,6 +171,16 @@ fn commonroad_every_file_imports_with_invariants() {
         );
         on_road_sum += on_road * points as f64;
         points_sum += points;
+        // A road edge has road on one side only: none runs through an
+        // intersection or between lanes the file does not call adjacent.
+        let (through_road, edge_segments) = edge_segments_with_road_beyond(s);
+        assert_eq!(
+            through_road,
+            0,
+            "{}: {through_road} of {edge_segments} road-edge segments have a lanelet on their off-road side",
+            path.display()
+        );
+        edges_sum += edge_segments;
 
         // Lankershim and Peachtree-4 files have signals; their lanelets must
         // carry them.
@@ -174,7 +204,7 @@ fn commonroad_every_file_imports_with_invariants() {
         );
     }
     println!(
-        "commonroad: {} files, {}; heading follows motion {:.2}% of {samples_sum}; centreline on road {:.2}% of {points_sum}; {with_signals} with signals; {with_ego} with a mined ego; {at_step_10} with now = step 10",
+        "commonroad: {} files, {}; heading follows motion {:.2}% of {samples_sum}; centreline on road {:.2}% of {points_sum}; {edges_sum} road-edge segments, none with road beyond; {with_signals} with signals; {with_ego} with a mined ego; {at_step_10} with now = step 10",
         paths.len(),
         timings.summary(),
         100.0 * agree_sum / samples_sum.max(1) as f64,

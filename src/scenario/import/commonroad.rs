@@ -512,7 +512,7 @@ fn read_map(
     // with a lanelet's.
     let mut next_edge_id = max_id.saturating_add(1);
     let mut lanes = Vec::with_capacity(lanelets.len());
-    let mut road_edges = Vec::new();
+    let mut candidate_edges = Vec::new();
     let mut drivable_areas = Vec::with_capacity(lanelets.len());
     let mut traffic_signals = Vec::new();
     let mut signalled_by_movement = 0usize;
@@ -524,21 +524,14 @@ fn read_map(
         // Road on the port side: the right bound runs with traffic and has
         // the road on its left; the left bound does after reversal. An
         // adjacent lanelet of either direction means the road goes on.
+        // Bounds without one are only candidates: where another lanelet
+        // lies beyond them (an intersection, a lane the file does not
+        // declare adjacent) they are trimmed below.
         if l.adjacent_right.is_none() {
-            road_edges.push(RoadEdge {
-                id: MapElementId(next_edge_id),
-                polyline: right.clone(),
-                kind: RoadEdgeKind::Boundary,
-            });
-            next_edge_id = next_edge_id.saturating_add(1);
+            candidate_edges.push(right.clone());
         }
         if l.adjacent_left.is_none() {
-            road_edges.push(RoadEdge {
-                id: MapElementId(next_edge_id),
-                polyline: left.reversed(),
-                kind: RoadEdgeKind::Boundary,
-            });
-            next_edge_id = next_edge_id.saturating_add(1);
+            candidate_edges.push(left.reversed());
         }
         drivable_areas.push(Polygon::new(l.right.iter().chain(l.left.iter().rev()).copied().collect()));
 
@@ -577,6 +570,14 @@ fn read_map(
             stop_line,
         });
     }
+    let road_edges: Vec<RoadEdge> = uncovered_parts(&candidate_edges, &drivable_areas)
+        .into_iter()
+        .map(|polyline| {
+            let id = MapElementId(next_edge_id);
+            next_edge_id = next_edge_id.saturating_add(1);
+            RoadEdge { id, polyline, kind: RoadEdgeKind::Boundary }
+        })
+        .collect();
     if !traffic_signals.is_empty() {
         notes.push(format!(
             "{} traffic lights mapped to {} signal-controlled lanelets (stop at the lanelet's end); \
@@ -586,6 +587,80 @@ fn read_map(
         ));
     }
     Ok(RoadMap::new(lanes, road_edges, Vec::new(), Vec::new(), drivable_areas, Vec::new(), traffic_signals))
+}
+
+/// How far beyond a bound the road is probed, metres: past the rounding of
+/// shared bound points, well inside any lane.
+const EDGE_PROBE_M: f64 = 0.3;
+
+/// The longest stretch of a bound judged by one probe, metres: a lanelet
+/// shorter than this beyond a bound can be missed.
+const EDGE_PROBE_SPACING_M: f64 = 1.0;
+
+/// The parts of the candidate edges (road on their port side) with no
+/// lanelet on their starboard side: the outer boundary of the lanelet
+/// union. A lanelet bound that runs through an intersection, or beside a
+/// lane the file does not declare adjacent, has road on both sides and is
+/// no road edge. Each candidate is cut into pieces of at most
+/// [`EDGE_PROBE_SPACING_M`]; a piece is kept when the point
+/// [`EDGE_PROBE_M`] off its middle, to starboard, lies in no lanelet, and
+/// each run of kept pieces becomes one edge with the candidate's own
+/// vertices plus the points where coverage changes, placed by bisection.
+fn uncovered_parts(candidates: &[Polyline], lanelets: &[Polygon]) -> Vec<Polyline> {
+    let bounds: Vec<Option<(Point2, Point2)>> = lanelets.iter().map(Polygon::bounds).collect();
+    let covered = |p: Point2| {
+        lanelets.iter().zip(&bounds).any(|(area, b)| {
+            b.is_some_and(|(lo, hi)| p.x >= lo.x && p.x <= hi.x && p.y >= lo.y && p.y <= hi.y) && area.contains(&p)
+        })
+    };
+    let mut parts = Vec::new();
+    for candidate in candidates {
+        let mut run: Vec<Point2> = Vec::new();
+        for pair in candidate.points().windows(2) {
+            let (a, b) = (pair[0], pair[1]);
+            let along = b - a;
+            let length = along.norm();
+            if !(length > 1e-9) {
+                continue;
+            }
+            let starboard = Vector2::new(along.y, -along.x) * (EDGE_PROBE_M / length);
+            let pieces = ((length / EDGE_PROBE_SPACING_M).ceil() as usize).max(1);
+            let at = |t: f64| a + along * (t / pieces as f64);
+            let piece_covered: Vec<bool> = (0..pieces).map(|j| covered(at(j as f64 + 0.5) + starboard)).collect();
+            for (j, &is_covered) in piece_covered.iter().enumerate() {
+                if is_covered {
+                    if run.len() >= 2 {
+                        parts.push(Polyline::new(std::mem::take(&mut run)));
+                    }
+                    run.clear();
+                    continue;
+                }
+                // A run keeps the candidate's vertices and the points where
+                // coverage changes (found to a millimetre between the two
+                // pieces' probes), not every piece's end.
+                let change = |from: f64, to: f64| {
+                    let (mut kept, mut cut) = (from, to);
+                    while (cut - kept).abs() * length / pieces as f64 > 1e-3 {
+                        let t = 0.5 * (kept + cut);
+                        if covered(at(t) + starboard) { cut = t } else { kept = t }
+                    }
+                    at(0.5 * (kept + cut))
+                };
+                if run.is_empty() {
+                    run.push(if j > 0 { change(j as f64 + 0.5, j as f64 - 0.5) } else { a });
+                }
+                if j + 1 == pieces {
+                    run.push(b);
+                } else if piece_covered[j + 1] {
+                    run.push(change(j as f64 + 0.5, j as f64 + 1.5));
+                }
+            }
+        }
+        if run.len() >= 2 {
+            parts.push(Polyline::new(run));
+        }
+    }
+    parts
 }
 
 fn same_direction(adjacent: Option<(i64, bool)>) -> Vec<MapElementId> {
@@ -830,6 +905,39 @@ mod tests {
         assert!(s.map.is_off_road(&Point2::new(50.0, -1.0)));
         assert!(s.map.is_off_road(&Point2::new(50.0, 8.0)));
         s.validate().unwrap();
+    }
+
+    /// A northbound lanelet crossing an eastbound one: no bound of either
+    /// is a road edge inside the crossing, and both go on beyond it.
+    #[test]
+    fn road_edges_stop_at_a_crossing() {
+        let northbound = r#"<lanelet id="2">
+  <leftBound><point><x>48</x><y>-50</y></point><point><x>48</x><y>50</y></point></leftBound>
+  <rightBound><point><x>52</x><y>-50</y></point><point><x>52</x><y>50</y></point></rightBound>
+  <laneletType>urban</laneletType>
+</lanelet>"#;
+        let xml =
+            format!("{HEADER}{}{northbound}{}</commonRoad>", lanelet(1, 0.0, ""), obstacle(7, &[(0, 10.0), (1, 11.0)]));
+        let map = parse_str(&xml).unwrap().map;
+        // Each of the four bounds is cut in two by the other lanelet.
+        assert_eq!(map.road_edges.len(), 8, "{:#?}", map.road_edges);
+        let inside_crossing = |p: &Point2| p.x > 48.0 + 1e-9 && p.x < 52.0 - 1e-9 && p.y > 1e-9 && p.y < 3.5 - 1e-9;
+        for edge in &map.road_edges {
+            for pair in edge.polyline.points().windows(2) {
+                let mid = Point2::from((pair[0].coords + pair[1].coords) * 0.5);
+                assert!(!inside_crossing(&mid) && !inside_crossing(&pair[0]), "edge through the crossing: {edge:?}");
+            }
+        }
+        // The middle of the crossing is as far from the kerb as its corners.
+        let centre = Point2::new(50.0, 1.75);
+        let d = map.signed_distance_to_road_edge(&centre).unwrap();
+        assert!((d + (2.0f64.powi(2) + 1.75f64.powi(2)).sqrt()).abs() < 5e-3, "{d}");
+        // Beside the crossing the kerbs are where they were.
+        assert!(map.is_off_road(&Point2::new(20.0, -0.5)));
+        assert!(map.is_off_road(&Point2::new(55.0, 20.0)));
+        assert!(!map.is_off_road(&Point2::new(50.0, -0.5)), "the northbound lane is road");
+        let d = map.signed_distance_to_road_edge(&Point2::new(20.0, 1.0)).unwrap();
+        assert!((d + 1.0).abs() < 1e-9, "{d}");
     }
 
     #[test]
