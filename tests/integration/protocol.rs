@@ -189,3 +189,63 @@ fn commonroad_stop_lines_are_kept_on_their_lanes() {
         assert!(d < 10.0, "lane {}: stop line {d} m from its end", l.id.0);
     }
 }
+
+/// The stable route on arterial scenes, Peachtree and Lankershim (recorded
+/// egos that start off their lane's centreline, lanes that begin just
+/// behind them), driven by the probe planner, which holds its heading and
+/// speed: the ego stays near the lane it started beside, so the route it
+/// was given is not planned anew at every step, and it reaches 20 m
+/// behind the ego where the map has lanes there.
+#[test]
+fn the_stable_route_is_not_planned_anew_while_the_ego_stays_beside_it() {
+    let probe = repo().join("tests/fixtures/planners/probe_planner.py");
+    let scenes = crate::shared_data::files("commonroad-ngsim", "xml");
+    let arterial = |p: &&PathBuf| {
+        p.file_name().is_some_and(|n| ["USA_Peach", "USA_Lanker-1_"].iter().any(|s| n.to_string_lossy().starts_with(s)))
+    };
+    let arterials: Vec<&PathBuf> = scenes.iter().filter(arterial).collect();
+    assert_eq!(arterials.len(), 18, "Peachtree and Lankershim-1 scenes");
+    let mut report = Vec::new();
+    for scene in arterials {
+        let dir = std::env::temp_dir().join(format!("safer-route-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        let spec = format!("name: probe\nexternal: {{ command: python3, args: ['{}'] }}\n", probe.display());
+        std::fs::write(dir.join("probe.yaml"), spec).unwrap();
+        let text = format!(
+            "name: route\nscenarios:\n  - recorded: {}\nplanner: probe.yaml\nadversary: {{ method: log, background: log-replay }}\nvariants: 1\nacceptance:\n  variant: {{ no_collision: true }}\n",
+            scene.display(),
+        );
+        std::fs::write(dir.join("suite.yaml"), text).unwrap();
+        let suite = Suite::load(&dir.join("suite.yaml")).unwrap_or_else(|e| panic!("{e}"));
+        let Ok(outcome) = run_variant(&suite, &suite.scenarios[0], 0) else {
+            // Scenes without an ego or a CBV are not runnable suites.
+            continue;
+        };
+        let log = outcome.planner_stderr.unwrap_or_default();
+        let observations: Vec<serde_json::Value> = log
+            .lines()
+            .filter_map(|l| l.strip_prefix("probe: "))
+            .filter_map(|l| serde_json::from_str::<serde_json::Value>(l).ok())
+            .filter(|r| r["type"] == "observation")
+            .collect();
+        assert!(!observations.is_empty(), "{}: no observations in the probe's log:\n{log}", scene.display());
+        let revisions = observations.iter().filter_map(|o| o["route_revision"].as_u64()).max().unwrap_or(0);
+        let first_s = observations[0]["route_s_m"].as_f64().unwrap_or(0.0);
+        report.push((
+            scene.file_name().unwrap().to_string_lossy().into_owned(),
+            observations.len(),
+            revisions,
+            first_s,
+        ));
+        std::fs::remove_dir_all(dir).unwrap();
+    }
+    println!("(scene, steps, last route revision, ego's arc length on the first route) {report:?}");
+    assert!(report.len() >= 10, "{report:?}");
+    for (scene, steps, revisions, _) in &report {
+        assert!(*revisions <= 2, "{scene}: route revision {revisions} after {steps} steps");
+    }
+    // 20 m back unless the mapped lanes end sooner (18.9 m on Lankershim).
+    let short: Vec<_> = report.iter().filter(|r| r.3 < 15.0 || r.3 > 20.0 + 1e-6).collect();
+    assert!(short.is_empty(), "the first route does not reach 15–20 m behind the ego: {short:?}");
+}

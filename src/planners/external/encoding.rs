@@ -200,7 +200,7 @@ fn clip(line: &Polyline, centre: &Point2, radius_m: f64) -> Option<Vec<[f64; 2]>
 /// The route hint: the ego's lane centreline ahead, following first
 /// successors, up to [`ROUTE_LENGTH_M`].
 fn route_ahead(map: &RoadMap, ego: &AgentState) -> Vec<[f64; 2]> {
-    let first_successor = |lane: &Lane| lane.successors.first().and_then(|id| map.lane(*id));
+    let first_successor = |lane: &Lane, _| lane.successors.first().and_then(|id| map.lane(*id));
     walk_lanes(map, ego, ROUTE_LANE_SEARCH_M, 0.0, ROUTE_LENGTH_M, ROUTE_MAX_LANES, first_successor)
         .map(|walk| walk.points)
         .unwrap_or_default()
@@ -217,11 +217,23 @@ pub(super) struct LaneWalk {
     pub(super) reached_length: bool,
 }
 
+/// Which way a [`walk_lanes`] step goes from a lane: to one of its
+/// successors (ahead) or one of its predecessors (behind the ego).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum WalkDirection {
+    /// Past the lane's end, among its successors.
+    Ahead,
+    /// Back before the lane's start, among its predecessors.
+    Behind,
+}
+
 /// Walks from the ego's lane (the nearest within `search_m` running its
 /// way; `None` when there is none) from `behind_m` behind the ego's
-/// projection to `ahead_m` ahead, taking `next(lane)` at each lane's end,
-/// over at most `max_lanes` lanes. Both routes of the protocol (the 1.0 hint
-/// and the 1.1 stable route) are such walks.
+/// projection to `ahead_m` ahead, taking `next(lane, direction)` at each
+/// lane's end (ahead) or start (behind, where the ego's lane begins less
+/// than `behind_m` back), over at most `max_lanes` lanes each way. Both
+/// routes of the protocol (the 1.0 hint and the 1.1 stable route) are such
+/// walks.
 pub(super) fn walk_lanes<'m>(
     map: &'m RoadMap,
     ego: &AgentState,
@@ -229,7 +241,7 @@ pub(super) fn walk_lanes<'m>(
     behind_m: f64,
     ahead_m: f64,
     max_lanes: usize,
-    mut next: impl FnMut(&'m Lane) -> Option<&'m Lane>,
+    mut next: impl FnMut(&'m Lane, WalkDirection) -> Option<&'m Lane>,
 ) -> Option<LaneWalk> {
     let m = map.nearest_lane(&ego.position, Some(ego.heading_rad), search_m)?;
     // nearest_lane prefers lanes in the ego's direction but falls back to
@@ -238,11 +250,31 @@ pub(super) fn walk_lanes<'m>(
     if m.projection.tangent.dot(&forward) < crate::map::ALIGNED_LANE_MAX_ANGLE_RAD.cos() {
         return None;
     }
+    let own = &map.lanes[m.lane_index];
+    // Back from the ego's projection: into the predecessors where the ego's
+    // lane starts too close behind it.
+    let mut start = (own, (m.projection.arc_length_m - behind_m).max(0.0));
+    let mut back_m = behind_m - m.projection.arc_length_m;
+    let mut walked_back = 0.0;
+    let mut earlier = Vec::new();
+    while back_m > 1e-9 && earlier.len() < max_lanes {
+        let Some(previous) = next(start.0, WalkDirection::Behind) else {
+            break;
+        };
+        let length = previous.centreline.length_m();
+        let take = length.min(back_m);
+        earlier.push(start.0);
+        start = (previous, length - take);
+        back_m -= take;
+        walked_back += take;
+    }
+    earlier.reverse();
     let mut walk = LaneWalk::default();
-    let mut lane = &map.lanes[m.lane_index];
-    let mut s0 = (m.projection.arc_length_m - behind_m).max(0.0);
-    let mut remaining = ahead_m + (m.projection.arc_length_m - s0);
-    for _ in 0..max_lanes {
+    let (mut lane, mut s0) = start;
+    let behind_on_own_m = m.projection.arc_length_m - if earlier.is_empty() { s0 } else { 0.0 };
+    let mut remaining = walked_back + behind_on_own_m + ahead_m;
+    let mut queued = earlier.into_iter();
+    for _ in 0..max_lanes.saturating_mul(2) {
         walk.lanes.push(lane.id);
         let take = (lane.centreline.length_m() - s0).max(0.0).min(remaining);
         for p in samples(&lane.centreline, s0, take) {
@@ -256,7 +288,7 @@ pub(super) fn walk_lanes<'m>(
             walk.reached_length = true;
             break;
         }
-        let Some(following) = next(lane) else {
+        let Some(following) = queued.next().or_else(|| next(lane, WalkDirection::Ahead)) else {
             break;
         };
         lane = following;
@@ -264,6 +296,7 @@ pub(super) fn walk_lanes<'m>(
     }
     Some(walk)
 }
+
 /// Why a reply to an observation gives no [`PlannerOutput`].
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 pub enum ReplyError {

@@ -13,6 +13,8 @@ use crate::geometry::{Point2, Polyline, Vector2};
 use crate::map::{MapElementId, RoadMap};
 use crate::scenario::AgentState;
 
+use super::encoding::WalkDirection;
+
 /// Route length planned behind the ego's projection, m (so a planner can
 /// project the ego onto it even after braking back a little).
 pub const ROUTE_BEHIND_M: f64 = 20.0;
@@ -22,7 +24,10 @@ pub const ROUTE_AHEAD_MIN_M: f64 = 200.0;
 /// Route length planned ahead of the ego, m.
 pub const ROUTE_AHEAD_PLANNED_M: f64 = 400.0;
 /// The ego has left the route when its centre is farther than this from
-/// it, m (more than half a lane beyond a lane change's end).
+/// it, m (more than half a lane beyond a lane change's end), beyond the
+/// distance it had when the route was planned: an ego that starts off its
+/// lane's centreline (a lane the map lacks, a recording between lanes)
+/// has not left a route planned from there.
 pub const ROUTE_LEAVE_M: f64 = 2.5;
 /// Where the ego's lane is searched, m.
 const LANE_SEARCH_M: f64 = 10.0;
@@ -43,6 +48,9 @@ pub(super) struct StableRoute {
     /// Whether the map ended before [`ROUTE_AHEAD_PLANNED_M`] (no point in
     /// planning anew when it runs short).
     ends_with_map: bool,
+    /// How far the ego may be from the route before it has left it, m:
+    /// [`ROUTE_LEAVE_M`] beyond its distance when the route was planned.
+    leave_m: f64,
 }
 
 impl StableRoute {
@@ -60,7 +68,9 @@ impl StableRoute {
         *self = plan(map, ego, recorded);
         self.revision = revision;
         self.planned = true;
-        self.line.project(&ego.position).map_or(0.0, |p| p.arc_length_m)
+        let at = self.line.project(&ego.position);
+        self.leave_m = ROUTE_LEAVE_M + at.map_or(0.0, |p| p.distance_m);
+        at.map_or(0.0, |p| p.arc_length_m)
     }
 
     /// The ego's arc length when the current route still serves it.
@@ -71,16 +81,23 @@ impl StableRoute {
         }
         let p = self.line.project(&ego.position)?;
         let forward = Vector2::new(ego.heading_rad.cos(), ego.heading_rad.sin());
-        let on_it = p.distance_m <= ROUTE_LEAVE_M && p.tangent.dot(&forward) > 0.0;
+        let on_it = p.distance_m <= self.leave_m && p.tangent.dot(&forward) > 0.0;
         let long_enough = self.ends_with_map || self.line.length_m() - p.arc_length_m >= ROUTE_AHEAD_MIN_M;
         (on_it && long_enough).then_some(p.arc_length_m)
     }
 }
 
 /// Plans a route from the ego's lane (the nearest within 10 m running its
-/// way), [`ROUTE_BEHIND_M`] behind it to [`ROUTE_AHEAD_PLANNED_M`] ahead.
+/// way), [`ROUTE_BEHIND_M`] behind it (into the lanes before it where its
+/// lane starts closer behind) to [`ROUTE_AHEAD_PLANNED_M`] ahead.
 fn plan(map: &RoadMap, ego: &AgentState, recorded: &[Point2]) -> StableRoute {
-    let at_fork = |lane: &crate::map::Lane| choose_successor(map, &lane.successors, recorded);
+    let at_fork = |lane: &'_ crate::map::Lane, direction| {
+        let choices = match direction {
+            WalkDirection::Ahead => &lane.successors,
+            WalkDirection::Behind => &lane.predecessors,
+        };
+        choose_lane(map, choices, recorded)
+    };
     let Some(walk) =
         super::encoding::walk_lanes(map, ego, LANE_SEARCH_M, ROUTE_BEHIND_M, ROUTE_AHEAD_PLANNED_M, MAX_LANES, at_fork)
     else {
@@ -95,14 +112,10 @@ fn plan(map: &RoadMap, ego: &AgentState, recorded: &[Point2]) -> StableRoute {
     }
 }
 
-/// The successor the recording passes closest to (the first on ties or
-/// without a recording).
-fn choose_successor<'m>(
-    map: &'m RoadMap,
-    successors: &[MapElementId],
-    recorded: &[Point2],
-) -> Option<&'m crate::map::Lane> {
-    let lanes: Vec<&crate::map::Lane> = successors.iter().filter_map(|id| map.lane(*id)).collect();
+/// The lane of `choices` (successors or predecessors) the recording passes
+/// closest to (the first on ties or without a recording).
+fn choose_lane<'m>(map: &'m RoadMap, choices: &[MapElementId], recorded: &[Point2]) -> Option<&'m crate::map::Lane> {
+    let lanes: Vec<&crate::map::Lane> = choices.iter().filter_map(|id| map.lane(*id)).collect();
     if lanes.len() <= 1 || recorded.is_empty() {
         return lanes.first().copied();
     }
@@ -140,19 +153,15 @@ mod tests {
 
     /// A 100 m lane forking into one going left (north) and one going right.
     fn fork() -> RoadMap {
-        RoadMap::new(
-            vec![
-                lane(1, &[(0.0, 0.0), (100.0, 0.0)], &[2, 3]),
-                lane(2, &[(100.0, 0.0), (200.0, 100.0), (200.0, 1000.0)], &[]),
-                lane(3, &[(100.0, 0.0), (200.0, -100.0), (200.0, -1000.0)], &[]),
-            ],
-            vec![],
-            vec![],
-            vec![],
-            vec![],
-            vec![],
-            vec![],
-        )
+        let mut lanes = vec![
+            lane(1, &[(0.0, 0.0), (100.0, 0.0)], &[2, 3]),
+            lane(2, &[(100.0, 0.0), (200.0, 100.0), (200.0, 1000.0)], &[]),
+            lane(3, &[(100.0, 0.0), (200.0, -100.0), (200.0, -1000.0)], &[]),
+        ];
+        for l in &mut lanes[1..] {
+            l.predecessors = vec![MapElementId(1)];
+        }
+        RoadMap::new(lanes, vec![], vec![], vec![], vec![], vec![], vec![])
     }
 
     #[test]
@@ -178,6 +187,36 @@ mod tests {
         // At least 200 m ahead, every 2 m or less.
         assert!(route.line.length_m() - 20.0 >= ROUTE_AHEAD_MIN_M);
         assert!(route.points.windows(2).all(|w| (w[1][0] - w[0][0]).hypot(w[1][1] - w[0][1]) <= 2.0 + 1e-9));
+    }
+
+    #[test]
+    fn at_a_lane_start_the_route_reaches_back_into_the_lane_before() {
+        let map = fork();
+        let mut route = StableRoute::default();
+        // 5 m into lane 3, heading along it (south-east).
+        let heading = (-1.0f64).atan2(1.0);
+        let start = Point2::new(100.0, 0.0) + Vector2::new(heading.cos(), heading.sin()) * 5.0;
+        let ego = AgentState { position: start, heading_rad: heading, velocity_mps: Vector2::zeros() };
+        let s = route.update(&map, &ego, &[start]);
+        assert_eq!(route.lanes[..2], [MapElementId(1), MapElementId(3)], "{:?}", route.lanes);
+        assert!((s - ROUTE_BEHIND_M).abs() < 1e-6, "the ego is {s} m along the route, not {ROUTE_BEHIND_M}");
+        assert_eq!(route.points[0], [85.0, 0.0]);
+        // (Sampling every 2 m cuts the corner at (200, -100) a little.)
+        assert!(route.line.length_m() - s >= ROUTE_AHEAD_PLANNED_M - 1.0, "{}", route.line.length_m() - s);
+    }
+
+    #[test]
+    fn an_ego_planned_off_its_lane_keeps_its_route_until_it_moves_further_away() {
+        let map = fork();
+        let mut route = StableRoute::default();
+        // 3.7 m beside the only lane running its way (a lane the map lacks).
+        for step in 0..30 {
+            route.update(&map, &ego(10.0 + step as f64, 3.7), &[]);
+            assert_eq!(route.revision, 0, "step {step}: planned anew with the same lanes");
+        }
+        // 2.5 m further out it has left the route.
+        route.update(&map, &ego(45.0, 6.3), &[]);
+        assert_eq!(route.revision, 1);
     }
 
     #[test]
