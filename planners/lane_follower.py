@@ -1,12 +1,13 @@
 #!/usr/bin/env python3
-"""Lane-following planner for SaFeR, speaking planner protocol 1.1.
+"""Lane-following planner for SaFeR, speaking planner protocol 1.2.
 
 Standard library only. It uses nothing but what the protocol sends:
 
 - `hello` (protocol 1.1 fields): the scenario it drives, logged to stderr.
 - `prepare`: the whole map once; the lanes' speed limits are kept.
 - each `observation`: the stable `route` (with `route_lanes` and the ego's
-  `route_s_m` along it), the ego and the agents around it.
+  `route_s_m` along it), the ego and the agents around it; each reply
+  names the `step` it answers (1.2).
 
 Driving: pure pursuit on the route for steering; for speed an intelligent
 driver model (IDM) towards a desired speed (the speed limit of the lane
@@ -17,7 +18,7 @@ it keeps its heading and speed.
 
 Protocol: docs/planner-protocol.md. By hand:
 
-    echo '{"type":"hello","protocol":1,"protocol_minor":1,"dt_s":0.1,"ego":{"length_m":4.5,"width_m":2}}' \
+    echo '{"type":"hello","protocol":1,"protocol_minor":2,"dt_s":0.1,"ego":{"length_m":4.5,"width_m":2}}' \
         | python3 planners/lane_follower.py
 """
 
@@ -26,7 +27,7 @@ import math
 import sys
 
 PROTOCOL = 1
-PROTOCOL_MINOR = 1
+PROTOCOL_MINOR = 2
 
 MAX_ACCEL_MPS2 = 1.5  # IDM "a"
 COMFORT_DECEL_MPS2 = 2.5  # IDM "b"
@@ -253,8 +254,8 @@ def main():
         message = json.loads(line)
         kind = message.get("type")
         if kind == "hello":
-            if message.get("protocol") != PROTOCOL or message.get("protocol_minor", 0) < PROTOCOL_MINOR:
-                send({"type": "error", "message": "lane_follower needs protocol 1.1"})
+            if message.get("protocol") != PROTOCOL or message.get("protocol_minor", 0) < 1:
+                send({"type": "error", "message": "lane_follower needs protocol 1.1 or later"})
                 return 1
             scenario = message.get("scenario") or {}
             log("hello: scenario", scenario.get("id"), "variant", scenario.get("variant"),
@@ -268,7 +269,7 @@ def main():
                 send({"type": "error", "message": f"prepare: {type(e).__name__}: {e}"})
         elif kind == "observation":
             try:
-                send(planner.plan(message))
+                send(dict(planner.plan(message), step=message["step"]))
             except Exception as e:
                 send({"type": "error", "message": f"{type(e).__name__}: {e}"})
         elif kind == "bye":

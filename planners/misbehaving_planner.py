@@ -2,10 +2,12 @@
 """A deliberately broken external planner, for testing how the harness
 handles planner failures. Standard library only.
 
-Usage: misbehaving_planner.py MODE [N]
+Usage: misbehaving_planner.py MODE [N [MINOR]]
 
-It handshakes normally (except in the startup modes), answers the first N
-observations (default 0) with a gentle braking control, then misbehaves:
+It handshakes normally (except in the startup modes), speaking protocol
+1.MINOR (default 1.0; from 1.1 it answers `prepare`, from 1.2 its replies
+name their step), answers the first N observations (default 0) with a
+gentle braking control, then misbehaves:
 
   crash          writes a traceback-like message to stderr and exits with status 3
   hang           stops answering (sleeps forever, reading nothing)
@@ -23,6 +25,12 @@ observations (default 0) with a gentle braking control, then misbehaves:
                  name, `misbehaving-spawn-child child=PID`), then answers
                  every observation and exits on bye, leaving the child behind
   huge           answers with a finite but absurd control, accel_mps2 = 1e100
+  untagged       answers every observation with a control naming no step
+                 (what 1.0 and 1.1 planners send)
+  wrong-step     answers with a control naming the next observation's step
+  extra-reply    answers one observation twice (both replies name its step
+                 in 1.2), then answers each later one once: every later
+                 reply the harness reads is one step late
 """
 
 import json
@@ -43,7 +51,14 @@ def send(message):
 def main():
     mode = sys.argv[1] if len(sys.argv) > 1 else "crash"
     good_steps = int(sys.argv[2]) if len(sys.argv) > 2 else 0
+    minor = int(sys.argv[3]) if len(sys.argv) > 3 else 0
     answered = 0
+
+    def reply(message, step):
+        if minor >= 2:
+            message = dict(message, step=step)
+        send(message)
+
     for line in sys.stdin:
         message = json.loads(line)
         kind = message["type"]
@@ -60,16 +75,20 @@ def main():
                 child = subprocess.Popen(["sleep", "600"])
                 name += f" child={child.pid}"
                 good_steps = float("inf")
-            send({"type": "ready", "protocol": version, "name": name})
+            send({"type": "ready", "protocol": version, "protocol_minor": minor, "name": name})
             if mode == "deaf":
                 while True:
                     time.sleep(3600)
             continue
         if kind == "bye":
             return 0
+        if kind == "prepare":
+            send({"type": "prepared"})
+            continue
+        step = message["step"]
         if answered < good_steps:
             answered += 1
-            send({"type": "control", "accel_mps2": -1.0, "yaw_rate_radps": 0.0})
+            reply({"type": "control", "accel_mps2": -1.0, "yaw_rate_radps": 0.0}, step)
             continue
         if mode == "crash":
             print("Traceback (most recent call last):", file=sys.stderr)
@@ -102,6 +121,15 @@ def main():
                                                     "heading_rad": ego["heading_rad"], "speed_mps": 0.0}]})
         elif mode == "error":
             send({"type": "error", "message": "planner lost its localisation"})
+        elif mode == "untagged":
+            send({"type": "control", "accel_mps2": -1.0, "yaw_rate_radps": 0.0})
+        elif mode == "wrong-step":
+            send({"type": "control", "accel_mps2": -1.0, "yaw_rate_radps": 0.0, "step": step + 1})
+        elif mode == "extra-reply":
+            if answered == good_steps:
+                reply({"type": "control", "accel_mps2": -1.0, "yaw_rate_radps": 0.0}, step)
+            answered += 1
+            reply({"type": "control", "accel_mps2": -1.0, "yaw_rate_radps": 0.0}, step)
         elif mode == "chatty":
             send_raw("debug: thinking...")
             send({"type": "control", "accel_mps2": 0.0, "yaw_rate_radps": 0.0})

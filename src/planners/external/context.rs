@@ -47,7 +47,7 @@ impl RolloutContext {
 
     /// The environment variables the harness sets for the planner:
     /// `SAFER_SCENARIO`, `SAFER_VARIANT`, `SAFER_SEED` (empty without a
-    /// seed), `SAFER_FORMAT`, `SAFER_SOURCE`, and `SAFER_PROTOCOL` (`1.1`).
+    /// seed), `SAFER_FORMAT`, `SAFER_SOURCE`, and `SAFER_PROTOCOL` (the harness's revision, `1.2`).
     pub fn env(&self) -> Vec<(String, String)> {
         let mut env: Vec<(String, String)> =
             self.values().into_iter().map(|(k, v)| (format!("SAFER_{}", k.to_uppercase()), v)).collect();

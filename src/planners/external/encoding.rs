@@ -320,14 +320,35 @@ pub fn decode_reply(line: &[u8], dt_s: f64) -> Result<PlannerOutput, ReplyError>
     reply_output(parse_reply(line).map_err(ReplyError::Protocol)?, dt_s)
 }
 
+/// Whether `reply` may answer the observation of `step`: a step it names
+/// must be that one, and a planner speaking 1.2 (`required`) must name one.
+/// An `error` passes either way: giving up fails the rollout regardless.
+pub(super) fn check_reply_step(reply: &PlannerMessage, step: usize, required: bool) -> Result<(), ReplyError> {
+    if matches!(reply, PlannerMessage::Error { .. }) {
+        return Ok(());
+    }
+    match reply.step() {
+        Some(answered) if answered != step => Err(ReplyError::Protocol(format!(
+            "its `{}` answers step {answered}, but the observation was step {step} (one reply per observation: \
+             a reply too many or too few puts every later one out of step)",
+            reply.kind()
+        ))),
+        None if required => Err(ReplyError::Protocol(format!(
+            "its `{}` names no `step`; a planner speaking protocol 1.2 names the step it answers ({step} here)",
+            reply.kind()
+        ))),
+        _ => Ok(()),
+    }
+}
+
 /// The planner output a parsed reply to an observation stands for.
 pub(super) fn reply_output(reply: PlannerMessage, dt_s: f64) -> Result<PlannerOutput, ReplyError> {
     match reply {
-        PlannerMessage::Control { accel_mps2, yaw_rate_radps } => {
+        PlannerMessage::Control { accel_mps2, yaw_rate_radps, .. } => {
             Ok(PlannerOutput::Control(Action { accel_mps2, yaw_rate_radps }))
         }
-        PlannerMessage::Trajectory { points } => trajectory(&points, dt_s).map_err(ReplyError::Protocol),
-        PlannerMessage::Error { message } => Err(ReplyError::Reported(message.unwrap_or_default())),
+        PlannerMessage::Trajectory { points, .. } => trajectory(&points, dt_s).map_err(ReplyError::Protocol),
+        PlannerMessage::Error { message, .. } => Err(ReplyError::Reported(message.unwrap_or_default())),
         other @ (PlannerMessage::Ready { .. } | PlannerMessage::Prepared {}) => Err(ReplyError::Protocol(format!(
             "expected `control`, `trajectory` or `error` in answer to an observation, got `{}`",
             other.kind()
@@ -514,10 +535,10 @@ mod tests {
     #[test]
     fn replies_are_parsed_strictly() {
         let ok = parse_reply(br#"{"type":"control","accel_mps2":-2,"yaw_rate_radps":0.5,"debug":"x"}"#).unwrap();
-        assert!(matches!(ok, PlannerMessage::Control { accel_mps2: -2.0, yaw_rate_radps: 0.5 }));
+        assert!(matches!(ok, PlannerMessage::Control { accel_mps2: -2.0, yaw_rate_radps: 0.5, step: None }));
         // NaN inside a string is just text.
         let ok = parse_reply(br#"{"type":"error","message":"got NaN and -Infinity"}"#).unwrap();
-        assert!(matches!(ok, PlannerMessage::Error { message: Some(m) } if m == "got NaN and -Infinity"));
+        assert!(matches!(ok, PlannerMessage::Error { message: Some(m), .. } if m == "got NaN and -Infinity"));
         for (line, token) in [
             (r#"{"type":"control","accel_mps2":Infinity,"yaw_rate_radps":0}"#, "`Infinity`"),
             (r#"{"type":"control","accel_mps2":-Infinity,"yaw_rate_radps":0}"#, "`-Infinity`"),

@@ -1,5 +1,5 @@
 //! External planners: a child process that drives the ego by speaking the
-//! JSON-lines planner protocol (version 1, revisions 1.0 and 1.1, specified
+//! JSON-lines planner protocol (version 1, revisions 1.0, 1.1 and 1.2, specified
 //! in `docs/planner-protocol.md`, schema in `docs/planner-protocol.schema.json`).
 //!
 //! One JSON object per line in each direction: the harness writes `hello`,
@@ -8,7 +8,10 @@
 //! a `control`, a `trajectory` or an `error` on its stdout. A planner whose
 //! `ready` says `protocol_minor: 1` also gets `prepare` (the whole map, once;
 //! answered by `prepared`) and the stable route (`route`) instead of the
-//! per-step map; one that does not is spoken to in 1.0. A [`RolloutContext`]
+//! per-step map; one that does not is spoken to in 1.0. With
+//! `protocol_minor: 2` every reply names the step it answers, and a reply
+//! for another step fails the rollout (a step it names is checked in every
+//! revision). A [`RolloutContext`]
 //! (the scene and variant, given by the pipeline) fills `hello`'s 1.1 fields,
 //! the `args`/`env` placeholders and the `SAFER_*` variables. Its stderr is
 //! free-form logging; the harness keeps the last lines to explain failures
@@ -88,7 +91,7 @@ use crate::motion::tokens::SIM_DT_S;
 use crate::scenario::AgentState;
 pub use context::{PLACEHOLDERS, RolloutContext, check_placeholders, expand};
 pub use encoding::{MAP_RADIUS_M, MAP_SPACING_M, ROUTE_LENGTH_M, decode_reply};
-use encoding::{ReplyError, full_map, observation_message, observation_message_v11, reply_output};
+use encoding::{ReplyError, check_reply_step, full_map, observation_message, observation_message_v11, reply_output};
 use process::Process;
 pub(crate) use process::format_stderr_tail;
 use route::StableRoute;
@@ -171,13 +174,28 @@ impl ExternalPlannerConfig {
     }
 }
 
-/// The protocol revision agreed with a running process.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+/// The protocol revision agreed with a running process (later revisions
+/// order after earlier ones and keep what they brought).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
 enum Revision {
     /// 1.0: the map near the ego and the route hint in every observation.
     V1_0,
     /// 1.1: `prepare` with the whole map once, then the stable route.
     V1_1,
+    /// 1.2: as 1.1, and every reply names the step it answers.
+    V1_2,
+}
+
+impl Revision {
+    /// The revision a planner's `ready` asks for (above the harness's: the
+    /// harness's).
+    fn from_minor(protocol_minor: u32) -> Self {
+        match protocol_minor {
+            0 => Self::V1_0,
+            1 => Self::V1_1,
+            _ => Self::V1_2,
+        }
+    }
 }
 
 /// A planner running in a child process, spoken to in JSON lines.
@@ -287,12 +305,13 @@ impl ExternalPlanner {
         self.announced_name.as_deref()
     }
 
-    /// The protocol revision agreed with the running process, as `1.0` or
-    /// `1.1` (`None` before the handshake).
+    /// The protocol revision agreed with the running process, as `1.0`,
+    /// `1.1` or `1.2` (`None` before the handshake).
     pub fn protocol(&self) -> Option<&'static str> {
         self.process.as_ref().map(|_| match self.revision {
             Revision::V1_0 => "1.0",
             Revision::V1_1 => "1.1",
+            Revision::V1_2 => "1.2",
         })
     }
 
@@ -343,7 +362,7 @@ impl ExternalPlanner {
                 Ok(PlannerMessage::Ready { protocol, protocol_minor, name: announced })
                     if protocol == PROTOCOL_VERSION =>
                 {
-                    let revision = if protocol_minor >= 1 { Revision::V1_1 } else { Revision::V1_0 };
+                    let revision = Revision::from_minor(protocol_minor);
                     Ok((process, announced, revision))
                 }
                 Ok(PlannerMessage::Ready { protocol, .. }) => Err(process.fail(PlannerError::Protocol {
@@ -353,7 +372,7 @@ impl ExternalPlanner {
                         "it speaks protocol version {protocol}; this harness speaks version {PROTOCOL_VERSION}"
                     ),
                 })),
-                Ok(PlannerMessage::Error { message }) => Err(process.fail(PlannerError::Reported {
+                Ok(PlannerMessage::Error { message, .. }) => Err(process.fail(PlannerError::Reported {
                     planner: name.clone(),
                     during: during.into(),
                     message: message.unwrap_or_default(),
@@ -385,7 +404,7 @@ impl ExternalPlanner {
     /// `prepared`, within what is left of the startup timeout counted from
     /// `started`. Nothing to do in 1.0 or when already prepared.
     fn prepare(&mut self, map: &RoadMap, ego: &AgentState, started: Instant) -> Result<(), PlannerError> {
-        if self.revision != Revision::V1_1 || self.prepared {
+        if self.revision < Revision::V1_1 || self.prepared {
             return Ok(());
         }
         let name = self.config.name.clone();
@@ -400,7 +419,7 @@ impl ExternalPlanner {
         };
         let reply = match process.exchange(&name, &message, during, timeout_ms) {
             Ok(PlannerMessage::Prepared {}) => Ok(()),
-            Ok(PlannerMessage::Error { message }) => Err(PlannerError::Reported {
+            Ok(PlannerMessage::Error { message, .. }) => Err(PlannerError::Reported {
                 planner: name.clone(),
                 during: during.into(),
                 message: message.unwrap_or_default(),
@@ -458,7 +477,7 @@ impl ExternalPlanner {
         };
         let message = match self.revision {
             Revision::V1_0 => observation_message(obs),
-            Revision::V1_1 => {
+            Revision::V1_1 | Revision::V1_2 => {
                 let s = self.route.update(obs.map, &obs.ego, &self.recorded_path);
                 observation_message_v11(obs, &self.route, s)
             }
@@ -470,7 +489,8 @@ impl ExternalPlanner {
         };
         let reply = process.exchange(&name, &message, &during, timeout_ms)?;
         self.answered += 1;
-        reply_output(reply, obs.dt_s).map_err(|e| match e {
+        let tagged = self.revision >= Revision::V1_2;
+        check_reply_step(&reply, obs.step, tagged).and_then(|()| reply_output(reply, obs.dt_s)).map_err(|e| match e {
             ReplyError::Protocol(message) => PlannerError::Protocol { planner: name, during, message },
             ReplyError::Reported(message) => PlannerError::Reported { planner: name, during, message },
         })
@@ -833,7 +853,7 @@ mod tests {
         let reports = reports(&mut planner);
         let hello = &reports[0]["message"];
         assert_eq!(hello["protocol"], 1);
-        assert_eq!(hello["protocol_minor"], 1);
+        assert_eq!(hello["protocol_minor"], 2);
         assert_eq!(hello["scenario"]["id"], "external-stopped-car-ahead");
         assert_eq!(hello["scenario"]["format"], "authored");
         assert_eq!(hello["scenario"]["variant"], "probe-suite::external-stopped-car-ahead::seed-3");
@@ -926,7 +946,7 @@ mod tests {
         assert_eq!(env["SAFER_VARIANT"], "probe-suite::external-stopped-car-ahead::seed-3");
         assert_eq!(env["SAFER_SEED"], "overridden", "the spec's env wins over the harness's");
         assert_eq!(env["SAFER_FORMAT"], "authored");
-        assert_eq!(env["SAFER_PROTOCOL"], "1.1");
+        assert_eq!(env["SAFER_PROTOCOL"], "1.2");
     }
 
     #[test]

@@ -172,6 +172,15 @@ impl Process {
         loop {
             match self.from_stdout.try_recv() {
                 Ok(StdoutEvent::Line(l)) if is_blank(&l) => continue,
+                Ok(StdoutEvent::Line(l)) if parse_reply(&l).is_ok() => {
+                    // A protocol message: most likely a second reply to the
+                    // last observation.
+                    return Err(protocol(format!(
+                        "it sent a message nobody asked for: {} (one reply per observation: a reply too many \
+                         puts every later one out of step)",
+                        quote(&l)
+                    )));
+                }
                 Ok(StdoutEvent::Line(l) | StdoutEvent::TooLong(l)) => {
                     return Err(protocol(format!(
                         "it printed a line nobody asked for: {} (stdout is for protocol messages only; log to stderr)",

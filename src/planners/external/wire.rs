@@ -1,4 +1,4 @@
-//! The wire format of planner protocol version 1 (minor revisions 0 and 1):
+//! The wire format of planner protocol version 1 (minor revisions 0, 1 and 2):
 //! every message the harness writes (`hello`, `prepare`, `observation`,
 //! `bye`) and every message a planner may answer (`ready`, `prepared`,
 //! `control`, `trajectory`, `error`), as serde types, and
@@ -21,7 +21,7 @@ pub const PROTOCOL_VERSION: u32 = 1;
 /// (`protocol_minor` in `hello`); a planner opts in with `protocol_minor`
 /// in `ready`, and one that leaves it out gets revision 0 (version 1 as
 /// first published).
-pub const PROTOCOL_MINOR: u32 = 1;
+pub const PROTOCOL_MINOR: u32 = 2;
 
 /// A message from the harness to the planner (one line on its stdin).
 #[derive(Debug, Clone, Serialize, JsonSchema)]
@@ -31,9 +31,11 @@ pub(super) enum HarnessMessage {
     Hello {
         /// Protocol version the harness speaks (1).
         protocol: u32,
-        /// Highest minor revision the harness speaks (1). Answer `ready` with
-        /// `protocol_minor: 1` to get the 1.1 messages (`prepare`, the stable
-        /// route); leave it out to be spoken to in 1.0.
+        /// Highest minor revision the harness speaks (2). Answer `ready` with
+        /// `protocol_minor: 2` to get the 1.1 messages (`prepare`, the stable
+        /// route) and have every reply checked against the step it names
+        /// (1.2); `protocol_minor: 1` for 1.1; leave it out to be spoken to
+        /// in 1.0.
         protocol_minor: u32,
         /// Simulation step: time between two observations, s.
         dt_s: f64,
@@ -69,7 +71,8 @@ pub(super) enum HarnessMessage {
     /// The world at one simulation step. Answer with exactly one `control`,
     /// `trajectory` or `error` line within the step timeout.
     Observation {
-        /// Step index in the scenario's numbering.
+        /// Step index in the scenario's numbering. Since 1.2 the reply names
+        /// it back (`step`): a reply for another step is a protocol error.
         step: usize,
         /// Time since the rollout started, s.
         time_s: f64,
@@ -393,9 +396,9 @@ pub(super) enum PlannerMessage {
     Ready {
         /// Protocol version the planner speaks; must be 1.
         protocol: u32,
-        /// Minor revision the planner speaks: 1 for the 1.1 messages, absent
-        /// or 0 for 1.0. A revision above the harness's is spoken to as the
-        /// harness's.
+        /// Minor revision the planner speaks: 2 for 1.2 (the 1.1 messages and
+        /// step-tagged replies), 1 for the 1.1 messages, absent or 0 for 1.0.
+        /// A revision above the harness's is spoken to as the harness's.
         #[serde(default)]
         protocol_minor: u32,
         /// The planner's own name, for logs.
@@ -408,6 +411,10 @@ pub(super) enum PlannerMessage {
     /// kinematic unicycle model (speed += accel·dt, clamped at 0; heading +=
     /// yaw_rate·dt; then move along the new heading). Not clipped.
     Control {
+        /// Since 1.2 (required from planners that speak it): the `step` of
+        /// the observation this answers. Checked whenever given.
+        #[serde(default)]
+        step: Option<usize>,
         /// Longitudinal acceleration, m/s² (negative brakes).
         accel_mps2: f64,
         /// Yaw rate, rad/s (positive turns left).
@@ -416,11 +423,19 @@ pub(super) enum PlannerMessage {
     /// Answer to an observation: planned states; the ego follows it exactly,
     /// taking the state interpolated at t = dt_s.
     Trajectory {
+        /// Since 1.2 (required from planners that speak it): the `step` of
+        /// the observation this answers. Checked whenever given.
+        #[serde(default)]
+        step: Option<usize>,
         /// Planned states, times positive and increasing, the last at t ≥ dt_s.
         points: Vec<WirePoint>,
     },
     /// The planner gives up: the rollout fails with this message.
     Error {
+        /// The step it gives up at (optional in every revision: giving up
+        /// fails the rollout whatever the step).
+        #[serde(default)]
+        step: Option<usize>,
         /// Why.
         #[serde(default)]
         message: Option<String>,
@@ -428,6 +443,14 @@ pub(super) enum PlannerMessage {
 }
 
 impl PlannerMessage {
+    /// The step a reply to an observation names (1.2), if any.
+    pub(super) fn step(&self) -> Option<usize> {
+        match self {
+            Self::Control { step, .. } | Self::Trajectory { step, .. } | Self::Error { step, .. } => *step,
+            Self::Ready { .. } | Self::Prepared {} => None,
+        }
+    }
+
     /// The `type` tag, for error messages.
     pub(super) fn kind(&self) -> &'static str {
         match self {

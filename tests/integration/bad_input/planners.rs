@@ -32,6 +32,13 @@ fn misbehaving(mode: &str, good_steps: usize) -> ExternalPlannerConfig {
     c
 }
 
+/// `misbehaving_planner.py MODE GOOD_STEPS MINOR`: speaking protocol 1.MINOR.
+fn misbehaving_speaking(mode: &str, good_steps: usize, minor: u32) -> ExternalPlannerConfig {
+    let mut c = misbehaving(mode, good_steps);
+    c.args.push(minor.to_string());
+    c
+}
+
 /// The same planner behind a shell script that does not `exec` it.
 fn wrapped(mode: &str, good_steps: usize) -> ExternalPlannerConfig {
     let mut c = ExternalPlannerConfig::new(format!("wrapped-{mode}"), "sh");
@@ -265,4 +272,49 @@ fn without_limits_the_same_replies_run_on_which_is_what_the_check_exists_for() {
     // simulator, is what stops it.
     let (rollout, _, _) = run_variant(misbehaving("teleport", 3));
     assert!(matches!(rollout.termination, Termination::Completed | Termination::LeftMappedArea { .. }), "{rollout:?}");
+}
+
+/// One reply too many puts every later reply one step late. A planner
+/// speaking 1.2 names the step each reply answers, so the run fails at the
+/// next step, every time, naming the step answered twice (the second reply
+/// is either waiting before the next observation is sent or read as its
+/// answer: both fail there).
+#[test]
+fn an_extra_reply_from_a_1_2_planner_fails_the_next_step_every_time() {
+    for run in 0..6 {
+        let (rollout, pgid, _) = run_variant(misbehaving_speaking("extra-reply", 4, 2));
+        let (step, reason) = failure(&rollout);
+        assert_eq!(step, 5, "run {run}: {reason}");
+        assert!(reason.contains("\"step\": 4}") || reason.contains("answers step 4"), "run {run}: {reason}");
+        assert!(reason.contains("out of step"), "run {run}: {reason}");
+        assert_group_gone(pgid);
+    }
+}
+
+/// A 1.2 planner that leaves `step` out of a reply breaks the protocol.
+#[test]
+fn a_1_2_reply_without_its_step_fails_naming_the_step_expected() {
+    // Speaks 1.2 in `ready` but its replies carry no step, as in 1.1.
+    let (rollout, pgid, _) = run_variant(misbehaving_speaking("untagged", 0, 2));
+    let (step, reason) = failure(&rollout);
+    assert_eq!(step, 0);
+    assert_eq!(
+        reason,
+        "external planner `untagged` broke the protocol at step 0: its `control` names no `step`; a planner speaking protocol 1.2 names the step it answers (0 here)"
+    );
+    assert_group_gone(pgid);
+}
+
+/// 1.0 and 1.1 planners name no step and keep working; a step they do
+/// name is checked.
+#[test]
+fn older_planners_run_untagged_and_a_step_they_name_is_checked() {
+    for minor in [0, 1] {
+        let (rollout, _, _) = run_variant(misbehaving_speaking("untagged", 0, minor));
+        assert_eq!(rollout.termination, Termination::Completed, "1.{minor}");
+    }
+    let (rollout, _, _) = run_variant(misbehaving_speaking("wrong-step", 2, 1));
+    let (step, reason) = failure(&rollout);
+    assert_eq!(step, 2);
+    assert!(reason.contains("answers step 3, but the observation was step 2"), "{reason}");
 }
