@@ -2,13 +2,15 @@
 //! Jensen–Shannon divergence of speed/acceleration distributions (VJ, AJ).
 //! (CR, SR, realism metrics and the feasibility witness join here;
 //! [`feasibility_accuracy`] checks V_h against the witness; [`escape`] is
-//! the witness of a stage-2 collision when the CBV reacts to the ego.)
+//! the witness of a stage-2 collision when the CBV reacts to the ego;
+//! [`traffic_rules`] judges wrong-way driving and red-light running.)
 
 pub mod conflict_reach;
 pub mod divergence;
 pub mod escape;
 pub mod feasibility_accuracy;
 pub mod realism;
+pub mod traffic_rules;
 pub mod ttc;
 pub mod witness;
 

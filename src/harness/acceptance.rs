@@ -2,6 +2,7 @@
 //! satisfy, each failure a sentence saying what happened, when and with whom.
 
 use super::variant::CollisionEscape;
+use crate::eval::traffic_rules;
 use crate::map::RoadMap;
 use crate::sim::{Rollout, Termination};
 use crate::spec::suite::VariantAcceptance;
@@ -92,6 +93,30 @@ pub fn check(
         } else if let Some(t) = summary.ego_off_road_s {
             out.push(fail("no_off_road", format!("ego left the road at t = {t:.1} s")));
         }
+    }
+    if criteria.no_wrong_way {
+        if map.lanes.is_empty() {
+            out.push(fail(
+                "no_wrong_way",
+                "cannot be measured: the scene's map has no lanes to tell the traffic's direction".to_string(),
+            ));
+        } else if let Some(w) = traffic_rules::wrong_way(rollout, map) {
+            out.push(fail(
+                "no_wrong_way",
+                format!(
+                    "ego drove against the traffic of lane {} for {:.1} s from t = {:.1} s",
+                    w.lane.0, w.duration_s, w.start_s
+                ),
+            ));
+        }
+    }
+    if criteria.no_red_light
+        && let Some(r) = traffic_rules::red_light_run(rollout, map)
+    {
+        out.push(fail(
+            "no_red_light",
+            format!("ego passed the stop line of lane {} on {:?} at t = {:.1} s", r.lane.0, r.state, r.time_s),
+        ));
     }
     // A NaN gap (an agent at a non-finite position) fails.
     if let (Some(min), Some(gap)) = (criteria.min_gap_m, summary.min_distance_to_ego_m)

@@ -220,6 +220,17 @@ pub struct VariantAcceptance {
     /// The ego must stay on the road.
     #[serde(default)]
     pub no_off_road: bool,
+    /// The ego must not drive against the traffic of a lane: its centre in
+    /// a lane whose direction is more than 120° from its heading, in none
+    /// running its way, outside intersections, while moving. Fails as
+    /// unmeasurable on a map without lanes.
+    #[serde(default)]
+    pub no_wrong_way: bool,
+    /// The ego must not pass a stop line while its signal shows red (a red
+    /// light or a red arrow for its lane; its centre passing the line
+    /// counts). Passes trivially on a map without signals.
+    #[serde(default)]
+    pub no_red_light: bool,
     /// Minimum box distance to any agent, m, in [0, 100].
     #[serde(default)]
     #[schemars(range(min = 0, max = 100))]
@@ -249,6 +260,8 @@ impl Default for VariantAcceptance {
             no_collision: true,
             no_at_fault_collision: false,
             no_off_road: false,
+            no_wrong_way: false,
+            no_red_light: false,
             min_gap_m: None,
             min_ttc_s: None,
             planner_must_answer: true,

@@ -12,3 +12,4 @@ mod hangs;
 mod outputs;
 mod planners;
 mod specs;
+mod traffic_rules;

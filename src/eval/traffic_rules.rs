@@ -1,0 +1,233 @@
+//! Traffic rules over the ego's rollout, the checks planner teams expect
+//! from a scenario runner (CARLA ScenarioRunner's `WrongLaneTest` and
+//! `RunningRedLightTest`): driving against the traffic of a lane, and
+//! passing a stop line while its signal shows red.
+//!
+//! Both read the rollout's ego states and the map. **Wrong way**: the
+//! ego's centre lies in a lane (its area, as [`RoadMap::lanes_containing`]
+//! measures it) whose direction is more than [`WRONG_WAY_MIN_ANGLE_RAD`]
+//! from the ego's heading, in no lane running the ego's way, outside
+//! intersections (where lanes cross at every angle), while the ego moves.
+//! **Red light**: the ego's centre passes the stop point of a signal that
+//! shows red (a red circle or a red arrow for its lane; flashing red means
+//! stop, then go, and is not counted) at the step it passes, while the
+//! ego is in that lane. The centre, not the front bumper, so that stopping
+//! a little over the line is not running the light.
+
+use crate::geometry::Vector2;
+use crate::map::{MapElementId, RoadMap, SignalState};
+use crate::sim::Rollout;
+
+/// The smallest angle between the ego's heading and a lane's direction
+/// that counts as driving against it (CARLA's `WrongLaneTest` uses 120°).
+pub const WRONG_WAY_MIN_ANGLE_RAD: f64 = 2.0 * std::f64::consts::FRAC_PI_3;
+
+/// Below this speed the ego is not driving anywhere, m/s.
+const MOVING_MIN_MPS: f64 = 0.5;
+
+/// The ego's longest stretch against the traffic of a lane.
+#[derive(Debug, Clone, PartialEq)]
+pub struct WrongWay {
+    /// When it began, s after the rollout's start.
+    pub start_s: f64,
+    /// How long it lasted, s (one step counts as `dt_s`).
+    pub duration_s: f64,
+    /// The lane whose traffic the ego drove against when it began.
+    pub lane: MapElementId,
+}
+
+/// The ego passing a red light.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RedLightRun {
+    /// When its centre passed the stop point, s after the rollout's start.
+    pub time_s: f64,
+    /// The signal-controlled lane.
+    pub lane: MapElementId,
+    /// The signal's state then.
+    pub state: SignalState,
+}
+
+/// The ego's longest stretch of driving against a lane's traffic, or
+/// `None` when it never did. Ties go to the earliest.
+pub fn wrong_way(rollout: &Rollout, map: &RoadMap) -> Option<WrongWay> {
+    let ego = rollout.ego.0;
+    let against_at = |row: &Vec<Option<crate::scenario::AgentState>>| -> Option<MapElementId> {
+        let s = row.get(ego)?.as_ref()?;
+        if s.speed_mps() < MOVING_MIN_MPS || !map.lanes_containing(&s.position, s.heading_rad).is_empty() {
+            return None;
+        }
+        let heading = Vector2::new(s.heading_rad.cos(), s.heading_rad.sin());
+        let reversed = s.heading_rad + std::f64::consts::PI;
+        map.lanes_containing(&s.position, reversed).into_iter().find(|id| {
+            map.lane(*id).is_some_and(|lane| {
+                !lane.in_intersection
+                    && lane
+                        .centreline
+                        .project(&s.position)
+                        .is_some_and(|p| p.tangent.dot(&heading) <= WRONG_WAY_MIN_ANGLE_RAD.cos())
+            })
+        })
+    };
+    let mut best: Option<WrongWay> = None;
+    let mut current: Option<(usize, usize, MapElementId)> = None; // (first step, steps, lane)
+    let flush = |current: Option<(usize, usize, MapElementId)>, best: &mut Option<WrongWay>| {
+        if let Some((first, steps, lane)) = current
+            && best.as_ref().is_none_or(|b| steps as f64 * rollout.dt_s > b.duration_s + 1e-9)
+        {
+            *best =
+                Some(WrongWay { start_s: first as f64 * rollout.dt_s, duration_s: steps as f64 * rollout.dt_s, lane });
+        }
+    };
+    for (k, row) in rollout.states.iter().enumerate() {
+        match (against_at(row), current.as_mut()) {
+            (Some(_), Some(run)) => run.1 += 1,
+            (Some(lane), None) => current = Some((k, 1, lane)),
+            (None, _) => flush(current.take(), &mut best),
+        }
+    }
+    flush(current, &mut best);
+    best
+}
+
+/// The first time the ego's centre passed a stop point on red, if it did.
+pub fn red_light_run(rollout: &Rollout, map: &RoadMap) -> Option<RedLightRun> {
+    let ego = rollout.ego.0;
+    for (k, pair) in rollout.states.windows(2).enumerate() {
+        let (Some(Some(from)), Some(Some(to))) = (pair[0].get(ego), pair[1].get(ego)) else { continue };
+        let step = rollout.start_step + k;
+        for signal in &map.traffic_signals {
+            let Some(state) = signal.states.get(step).copied() else { continue };
+            if !matches!(state, SignalState::Stop | SignalState::ArrowStop) {
+                continue;
+            }
+            let (Some(stop), Some(lane)) = (signal.stop_point, map.lane(signal.lane)) else { continue };
+            // In the controlled lane when it passes: its area holds the
+            // centre before or after the step.
+            let in_lane =
+                [from, to].iter().any(|s| map.lanes_containing(&s.position, s.heading_rad).contains(&lane.id));
+            if !in_lane {
+                continue;
+            }
+            let (Some(a), Some(b), Some(line)) = (
+                lane.centreline.project(&from.position),
+                lane.centreline.project(&to.position),
+                lane.centreline.project(&stop),
+            ) else {
+                continue;
+            };
+            if a.arc_length_m < line.arc_length_m && b.arc_length_m >= line.arc_length_m {
+                return Some(RedLightRun { time_s: (k + 1) as f64 * rollout.dt_s, lane: lane.id, state });
+            }
+        }
+    }
+    None
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::Point2;
+    use crate::map::templates::{Intersection, StraightRoad};
+    use crate::scenario::{AgentBody, AgentId, AgentKind, AgentState, TrackIndex};
+    use crate::sim::Termination;
+
+    /// A one-car rollout through `states` (0.1 s apart), starting at step 0.
+    fn rollout(states: Vec<AgentState>) -> Rollout {
+        Rollout {
+            scenario_id: "rules".into(),
+            dt_s: 0.1,
+            start_step: 0,
+            ego: TrackIndex(0),
+            cbv: None,
+            agent_ids: vec![AgentId("ego".into())],
+            bodies: vec![AgentBody { kind: AgentKind::Vehicle, length_m: 4.5, width_m: 1.9 }],
+            states: states.into_iter().map(|s| vec![Some(s)]).collect(),
+            collisions: Vec::new(),
+            off_road: Vec::new(),
+            min_distance_to_ego: None,
+            termination: Termination::Completed,
+            planner: "test".into(),
+        }
+    }
+
+    /// Driving along +x at `speed` from `x0` at height `y`, `steps` steps.
+    fn drive(x0: f64, y: f64, heading_rad: f64, speed: f64, steps: usize) -> Vec<AgentState> {
+        let v = Vector2::new(heading_rad.cos(), heading_rad.sin()) * speed;
+        (0..steps)
+            .map(|k| AgentState { position: Point2::new(x0, y) + v * (k as f64 * 0.1), heading_rad, velocity_mps: v })
+            .collect()
+    }
+
+    fn two_way_road() -> RoadMap {
+        StraightRoad { lanes: 1, oncoming_lanes: 1, lane_width_m: 3.5, length_m: 200.0, speed_limit_mps: None }.build()
+    }
+
+    fn lane_centre_y(map: &RoadMap, id: i64) -> f64 {
+        map.lane(MapElementId(id)).unwrap().centreline.points()[0].y
+    }
+
+    #[test]
+    fn driving_in_the_oncoming_lane_is_wrong_way_for_as_long_as_it_lasts() {
+        let map = two_way_road();
+        let oncoming = lane_centre_y(&map, 100);
+        // 25 steps (2.5 s) along +x in the lane whose traffic runs along −x.
+        let w = wrong_way(&rollout(drive(20.0, oncoming, 0.0, 10.0, 25)), &map).expect("wrong way");
+        assert_eq!((w.start_s, w.lane), (0.0, MapElementId(100)));
+        assert!((w.duration_s - 2.5).abs() < 1e-9, "{w:?}");
+        // The same drive in the ego's own lane, and standing in the oncoming one.
+        let own = lane_centre_y(&map, 0);
+        assert_eq!(wrong_way(&rollout(drive(20.0, own, 0.0, 10.0, 25)), &map), None);
+        assert_eq!(wrong_way(&rollout(drive(20.0, oncoming, 0.0, 0.0, 25)), &map), None);
+        // Crossing the oncoming lane at 60° is a turn, not wrong way.
+        assert_eq!(wrong_way(&rollout(drive(20.0, own, 1.05, 5.0, 12)), &map), None);
+    }
+
+    #[test]
+    fn the_longest_stretch_against_the_traffic_is_reported() {
+        let map = two_way_road();
+        let (own, oncoming) = (lane_centre_y(&map, 0), lane_centre_y(&map, 100));
+        let mut states = drive(20.0, oncoming, 0.0, 10.0, 3);
+        states.extend(drive(23.0, own, 0.0, 10.0, 5));
+        states.extend(drive(28.0, oncoming, 0.0, 10.0, 7));
+        let w = wrong_way(&rollout(states), &map).unwrap();
+        assert!((w.start_s - 0.8).abs() < 1e-9 && (w.duration_s - 0.7).abs() < 1e-9, "{w:?}");
+    }
+
+    /// The template crossing: east–west green for the first 12 s, so the
+    /// northern approach (arm 1, lane 10, driving south) is red.
+    fn crossing() -> RoadMap {
+        Intersection {
+            lanes_per_direction: 1,
+            lane_width_m: 3.5,
+            arm_length_m: 60.0,
+            green_s: Some(12.0),
+            speed_limit_mps: None,
+        }
+        .build_with_signals(200, 0.1)
+    }
+
+    /// An ego on `lane` from `s_m` along it, driving its way at `speed`.
+    fn along(map: &RoadMap, lane: i64, s_m: f64, speed: f64, steps: usize) -> Vec<AgentState> {
+        let line = &map.lane(MapElementId(lane)).unwrap().centreline;
+        let (p, t) = line.sample(s_m).unwrap();
+        let heading = t.y.atan2(t.x);
+        drive(p.x, p.y, heading, speed, steps)
+    }
+
+    #[test]
+    fn passing_the_stop_line_on_red_is_running_it_and_stopping_before_it_is_not() {
+        let map = crossing();
+        let red_lane = map.lane(MapElementId(10)).unwrap();
+        assert!(map.signal_state(MapElementId(10), 0).is_some_and(SignalState::requires_stop));
+        let length = red_lane.centreline.length_m();
+        // 10 m before the line at 10 m/s: past it at t = 1.0 s.
+        let run = red_light_run(&rollout(along(&map, 10, length - 10.0, 10.0, 20)), &map).expect("ran the red");
+        assert_eq!((run.lane, run.state), (MapElementId(10), SignalState::Stop));
+        assert!((run.time_s - 1.0).abs() < 0.1 + 1e-9, "{run:?}");
+        // Standing 10 m short of it.
+        assert_eq!(red_light_run(&rollout(along(&map, 10, length - 10.0, 0.0, 20)), &map), None);
+        // The east approach is green: passing its line is allowed.
+        let east = map.lane(MapElementId(0)).unwrap().centreline.length_m();
+        assert_eq!(red_light_run(&rollout(along(&map, 0, east - 10.0, 10.0, 20)), &map), None);
+    }
+}
