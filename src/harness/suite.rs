@@ -19,6 +19,9 @@ pub struct SuiteScenario {
     pub name: String,
     /// Where it comes from.
     pub source: ScenarioSource,
+    /// Which scene of a recorded file holding several (a WOMD TFRecord
+    /// shard), by record index; `None`: the file's only scene.
+    pub record: Option<usize>,
     /// The `scenarios:` entry it was listed by, where errors found when it
     /// is imported (a recorded log that does not import) are reported.
     pub entry: SuiteEntry,
@@ -102,8 +105,39 @@ impl Suite {
         };
         let mut scenarios = Vec::new();
         let text: Arc<str> = Arc::from(spec.text.as_str());
+        let mut per_entry: HashMap<usize, usize> = HashMap::new();
         for (i, source) in spec.scenario_sources()? {
             let at = format!("scenarios[{i}]");
+            // A TFRecord shard holds many scenes: one suite scenario each,
+            // named `STEM-SCENARIO_ID`, `limit` counting scenes.
+            if let ScenarioSource::Recorded(p) = &source
+                && let Some(ids) = crate::scenario::import::scenario_ids(p)
+                    .map_err(|e| spec.reference_at(&at, format!("recorded log {} does not import: {e}", p.display())))?
+                && ids.len() > 1
+            {
+                let limit = match &spec.value.scenarios[i] {
+                    crate::spec::suite::ScenarioEntry::Recorded { limit, .. } => limit.unwrap_or(usize::MAX),
+                    _ => usize::MAX,
+                };
+                let stem = p.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+                for (record, id) in ids.iter().enumerate() {
+                    let taken = per_entry.entry(i).or_default();
+                    if *taken >= limit {
+                        break;
+                    }
+                    *taken += 1;
+                    let name = sanitize(&format!("{stem}-{id}"));
+                    let entry = SuiteEntry { suite: spec.path.clone(), location: spec.at(&at), text: text.clone() };
+                    push_unique(
+                        &spec,
+                        &at,
+                        &mut scenarios,
+                        SuiteScenario { name, source: source.clone(), record: Some(record), entry },
+                    )?;
+                }
+                continue;
+            }
+            *per_entry.entry(i).or_default() += 1;
             let name = match &source {
                 ScenarioSource::Spec(p) => {
                     let scenario = load_yaml::<ScenarioSpec>(p)?;
@@ -133,18 +167,8 @@ impl Suite {
                     ),
                 ));
             }
-            if let Some(first) = scenarios.iter().find(|s: &&SuiteScenario| s.name == name) {
-                return Err(spec.invalid_at(
-                    &at,
-                    format!(
-                        "two scenarios are named `{name}` ({} and {}); test names must be unique",
-                        source_path(&first.source).display(),
-                        source_path(&source).display()
-                    ),
-                ));
-            }
             let entry = SuiteEntry { suite: spec.path.clone(), location: spec.at(&at), text: text.clone() };
-            scenarios.push(SuiteScenario { name, source, entry });
+            push_unique(&spec, &at, &mut scenarios, SuiteScenario { name, source, record: None, entry })?;
         }
         Ok(Suite { spec, planner, scenarios })
     }
@@ -187,6 +211,29 @@ impl Suite {
     }
 }
 
+/// Adds `scenario`, refusing a name already taken (test names and artefact
+/// folders must be unique).
+fn push_unique(
+    spec: &Loaded<SuiteSpec>,
+    at: &str,
+    scenarios: &mut Vec<SuiteScenario>,
+    scenario: SuiteScenario,
+) -> Result<(), SpecError> {
+    if let Some(first) = scenarios.iter().find(|s| s.name == scenario.name) {
+        return Err(spec.invalid_at(
+            at,
+            format!(
+                "two scenarios are named `{}` ({} and {}); test names must be unique",
+                scenario.name,
+                source_path(&first.source).display(),
+                source_path(&scenario.source).display()
+            ),
+        ));
+    }
+    scenarios.push(scenario);
+    Ok(())
+}
+
 fn source_path(source: &ScenarioSource) -> &Path {
     match source {
         ScenarioSource::Spec(p) | ScenarioSource::Recorded(p) => p,
@@ -196,20 +243,25 @@ fn source_path(source: &ScenarioSource) -> &Path {
 impl SuiteScenario {
     /// The base scenario, built once per process and shared.
     pub fn load(&self) -> Result<Arc<Scenario>, SpecError> {
-        static CACHE: OnceLock<Mutex<HashMap<PathBuf, Arc<Scenario>>>> = OnceLock::new();
-        let key = source_path(&self.source).to_path_buf();
+        static CACHE: OnceLock<Mutex<HashMap<(PathBuf, Option<usize>), Arc<Scenario>>>> = OnceLock::new();
+        let key = (source_path(&self.source).to_path_buf(), self.record);
         let cache = CACHE.get_or_init(Default::default);
         if let Some(s) = cache.lock().expect("scenario cache").get(&key) {
             return Ok(s.clone());
         }
-        let scenario = match &self.source {
-            ScenarioSource::Spec(p) => load_yaml::<ScenarioSpec>(p)?.build()?.into_iter().next(),
-            ScenarioSource::Recorded(p) => crate::scenario::import::load(p)
-                .map_err(|e| self.entry.reference(format!("recorded log {} does not import: {e}", p.display())))?
-                .into_iter()
-                .next(),
+        let not_imported = |p: &Path, e: crate::scenario::import::ImportError| {
+            self.entry.reference(format!("recorded log {} does not import: {e}", p.display()))
+        };
+        let scenario = match (&self.source, self.record) {
+            (ScenarioSource::Spec(p), _) => load_yaml::<ScenarioSpec>(p)?.build()?.into_iter().next(),
+            (ScenarioSource::Recorded(p), Some(record)) => {
+                Some(crate::scenario::import::load_one(p, record).map_err(|e| not_imported(p, e))?)
+            }
+            (ScenarioSource::Recorded(p), None) => {
+                crate::scenario::import::load(p).map_err(|e| not_imported(p, e))?.into_iter().next()
+            }
         }
-        .ok_or_else(|| self.entry.reference(format!("no scenario in {}", key.display())))?;
+        .ok_or_else(|| self.entry.reference(format!("no scenario in {}", key.0.display())))?;
         let scenario = Arc::new(scenario);
         cache.lock().expect("scenario cache").insert(key, scenario.clone());
         Ok(scenario)

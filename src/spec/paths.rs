@@ -25,3 +25,103 @@ pub fn resolve(spec_dir: &Path, written: &str) -> PathBuf {
         None => spec_dir.join(written),
     }
 }
+
+/// Entries a `glob:` walk visits at most before it gives up: a pattern
+/// over a huge or endless tree (`/proc/**`) fails instead of hanging.
+pub const MAX_GLOB_ENTRIES: usize = 200_000;
+
+/// The files matching `pattern` (`*`, `?` and `[...]` within one path
+/// component, `**` across folders), sorted. The walk starts at the
+/// pattern's literal folder prefix, does not follow symbolic links to
+/// folders (a link back up the tree would never end; linked files match),
+/// stays on one file system, goes no deeper than the pattern reaches, and
+/// fails after [`MAX_GLOB_ENTRIES`] entries.
+pub fn glob_files(pattern: &Path) -> Result<Vec<PathBuf>, String> {
+    let text = pattern.to_string_lossy();
+    let compiled = glob::Pattern::new(&text).map_err(|e| format!("bad glob: {e}"))?;
+    let is_wild = |c: &std::path::Component<'_>| c.as_os_str().to_string_lossy().contains(['*', '?', '[']);
+    let components: Vec<std::path::Component<'_>> = pattern.components().collect();
+    let literal = components.iter().take_while(|c| !is_wild(c)).count();
+    if literal == components.len() {
+        return Ok(if pattern.is_file() { vec![pattern.to_path_buf()] } else { Vec::new() });
+    }
+    let base: PathBuf = components[..literal].iter().collect();
+    let base = if base.as_os_str().is_empty() { PathBuf::from(".") } else { base };
+    let rest = &components[literal..];
+    let max_depth = if rest.iter().any(|c| c.as_os_str() == "**") { usize::MAX } else { rest.len() };
+    let options = glob::MatchOptions {
+        case_sensitive: true,
+        require_literal_separator: true,
+        require_literal_leading_dot: false,
+    };
+    let mut files = Vec::new();
+    let walk =
+        walkdir::WalkDir::new(&base).follow_links(false).same_file_system(true).min_depth(1).max_depth(max_depth);
+    for (visited, entry) in walk.into_iter().enumerate() {
+        if visited >= MAX_GLOB_ENTRIES {
+            return Err(format!(
+                "glob {} visited {MAX_GLOB_ENTRIES} entries under {} without finishing; narrow the pattern",
+                pattern.display(),
+                base.display()
+            ));
+        }
+        // Unreadable folders (permissions, entries vanishing under /proc)
+        // are skipped, as `ls` would report and go on.
+        let Ok(entry) = entry else { continue };
+        let path = entry.path();
+        let matched = if base == Path::new(".") && !text.starts_with("./") {
+            path.strip_prefix(".").is_ok_and(|p| compiled.matches_path_with(p, options))
+        } else {
+            compiled.matches_path_with(path, options)
+        };
+        if matched && path.is_file() {
+            files.push(path.to_path_buf());
+        }
+    }
+    files.sort();
+    Ok(files)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn glob_matches_within_and_across_folders_without_following_links_up() {
+        let dir = std::env::temp_dir().join(format!("safer-glob-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(dir.join("a/b")).unwrap();
+        for f in ["x.yaml", "a/y.yaml", "a/b/z.yaml", "a/b/w.txt"] {
+            std::fs::write(dir.join(f), "").unwrap();
+        }
+        #[cfg(unix)]
+        std::os::unix::fs::symlink(&dir, dir.join("a/b/loop")).unwrap();
+        let names = |pattern: &str| -> Vec<String> {
+            glob_files(&dir.join(pattern))
+                .unwrap()
+                .iter()
+                .map(|p| p.strip_prefix(&dir).unwrap().display().to_string())
+                .collect()
+        };
+        assert_eq!(names("*.yaml"), ["x.yaml"]);
+        assert_eq!(names("a/*.yaml"), ["a/y.yaml"]);
+        assert_eq!(names("**/*.yaml"), ["a/b/z.yaml", "a/y.yaml", "x.yaml"]);
+        assert_eq!(names("a/b/z.yaml"), ["a/b/z.yaml"]);
+        assert!(names("nothing/*.yaml").is_empty());
+        assert!(glob_files(&dir.join("[.yaml")).unwrap_err().contains("bad glob"));
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[cfg(target_os = "linux")]
+    #[test]
+    fn a_glob_over_proc_ends() {
+        // Unbounded before: links under /proc lead back to `/`.
+        let t0 = std::time::Instant::now();
+        let result = glob_files(Path::new("/proc/**/*.yaml"));
+        assert!(
+            result.as_ref().is_ok_and(|f| f.is_empty()) || result.as_ref().is_err_and(|e| e.contains("narrow")),
+            "{result:?}"
+        );
+        assert!(t0.elapsed() < std::time::Duration::from_secs(60), "{:?}", t0.elapsed());
+    }
+}

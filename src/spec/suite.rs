@@ -74,13 +74,14 @@ pub enum ScenarioEntry {
         #[schemars(with = "String")]
         glob: Spanned<String>,
     },
-    /// Every recorded log in a file or folder.
+    /// Every recorded log in a file or folder; every scene of a file that
+    /// holds several (a WOMD TFRecord shard, each named `STEM-SCENARIO_ID`).
     #[schemars(extend("additionalProperties" = false))]
     Recorded {
         /// File or folder; `data:REL` for the shared data.
         #[schemars(with = "String")]
         recorded: Spanned<String>,
-        /// At most this many scenes (in path order), at least 1.
+        /// At most this many scenes (in path order, then record order), at least 1.
         #[serde(default)]
         #[schemars(range(min = 1))]
         limit: Option<usize>,
@@ -344,10 +345,7 @@ impl Loaded<SuiteSpec> {
                 ScenarioEntry::Glob { glob } => {
                     let at = format!("scenarios[{i}].glob");
                     let pattern = paths::resolve(self.dir(), &glob.value);
-                    let matches = ::glob::glob(&pattern.to_string_lossy())
-                        .map_err(|e| self.invalid_at(&at, format!("bad glob: {e}")))?;
-                    let mut files: Vec<_> = matches.filter_map(Result::ok).filter(|p| p.is_file()).collect();
-                    files.sort();
+                    let files = paths::glob_files(&pattern).map_err(|e| self.invalid_at(&at, e))?;
                     if files.is_empty() {
                         return Err(self.reference_at(&at, format!("glob {} matches no file", pattern.display())));
                     }

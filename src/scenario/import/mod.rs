@@ -162,52 +162,100 @@ pub fn load(path: &Path) -> Result<Vec<Scenario>, ImportError> {
     };
     let several = scenarios.len() > 1;
     for s in &mut scenarios {
-        // Before re-centring, which would spread one absurd sample's offset
-        // over every other agent (and the map).
-        let max_abs_m = super::bounds::MAX_ABS_WORLD_POSITION_M;
-        let scenario = if several { format!("scenario {}, ", s.id) } else { String::new() };
-        if let Some((track, step, why)) = s.first_implausible_state(max_abs_m) {
-            let t = s.track(track);
-            let time_s = step as f64 * s.dt_s;
-            return Err(ImportError::malformed(
-                path,
-                format,
-                Location::Element(format!(
-                    "{scenario}agent {} (track {}), step {step} (t = {time_s:.1} s)",
-                    t.id, track.0
-                )),
-                format!("implausible recorded state: {why}"),
-            ));
-        }
-        // One id, two tracks: the ego and the CBV could share it, and every
-        // report naming an agent would be ambiguous.
-        let mut seen = std::collections::HashMap::new();
-        for (i, t) in s.tracks.iter().enumerate() {
-            if let Some(first) = seen.insert(&t.id, i) {
-                return Err(ImportError::malformed(
-                    path,
-                    format,
-                    Location::Element(format!("{scenario}agent {}", t.id)),
-                    format!("two tracks have this id (tracks {first} and {i}); agent ids must be unique"),
-                ));
-            }
-        }
-        if let Some((what, p)) = s.map.first_point_outside(max_abs_m) {
-            return Err(ImportError::malformed(
-                path,
-                format,
-                Location::Element(format!("{scenario}map {what}")),
-                format!(
-                    "implausible map point ({:e}, {:e}): coordinates must be finite and within ±{max_abs_m:e} m",
-                    p.x, p.y
-                ),
-            ));
-        }
-        s.recentre();
-        roles::assign(s);
-        s.validate().map_err(|v| ImportError::malformed(path, format, Location::File, v.to_string()))?;
+        finish(path, format, s, several)?;
     }
     Ok(scenarios)
+}
+
+/// The scenario ids a recorded file holds, in order, when it can hold
+/// several (a WOMD TFRecord; read without decoding the scenes); `None` for
+/// the formats that hold exactly one.
+pub fn scenario_ids(path: &Path) -> Result<Option<Vec<String>>, ImportError> {
+    match detect_format(path)? {
+        SourceFormat::WomdProto => womd_proto::scenario_ids(&read(path)?, path).map(Some),
+        _ => Ok(None),
+    }
+}
+
+/// The scenario at `index` of a recorded file, loaded as [`load`] loads
+/// every one; a TFRecord decodes that record only (a shard holds hundreds).
+pub fn load_one(path: &Path, index: usize) -> Result<Scenario, ImportError> {
+    let format = detect_format(path)?;
+    if format != SourceFormat::WomdProto {
+        let mut all = load(path)?;
+        return if index < all.len() {
+            Ok(all.swap_remove(index))
+        } else {
+            Err(ImportError::malformed(
+                path,
+                format,
+                Location::File,
+                format!("no scenario {index}: the file holds {}", all.len()),
+            ))
+        };
+    }
+    let bytes = read(path)?;
+    let records = tfrecord::read_records(&bytes, path)?;
+    let record = records.get(index).ok_or_else(|| {
+        ImportError::malformed(
+            path,
+            format,
+            Location::File,
+            format!("no record {index}: the file holds {}", records.len()),
+        )
+    })?;
+    let mut scenario = womd_proto::parse_record(record, path)?;
+    finish(path, format, &mut scenario, records.len() > 1)?;
+    Ok(scenario)
+}
+
+/// What every imported scenario goes through: implausible states and map
+/// points and duplicate ids refused, then re-centred, roles assigned and
+/// invariants checked. `several`: the file holds more than one scenario
+/// (errors then name the scenario).
+fn finish(path: &Path, format: SourceFormat, s: &mut Scenario, several: bool) -> Result<(), ImportError> {
+    // Before re-centring, which would spread one absurd sample's offset
+    // over every other agent (and the map).
+    let max_abs_m = super::bounds::MAX_ABS_WORLD_POSITION_M;
+    let scenario = if several { format!("scenario {}, ", s.id) } else { String::new() };
+    if let Some((track, step, why)) = s.first_implausible_state(max_abs_m) {
+        let t = s.track(track);
+        let time_s = step as f64 * s.dt_s;
+        return Err(ImportError::malformed(
+            path,
+            format,
+            Location::Element(format!("{scenario}agent {} (track {}), step {step} (t = {time_s:.1} s)", t.id, track.0)),
+            format!("implausible recorded state: {why}"),
+        ));
+    }
+    // One id, two tracks: the ego and the CBV could share it, and every
+    // report naming an agent would be ambiguous.
+    let mut seen = std::collections::HashMap::new();
+    for (i, t) in s.tracks.iter().enumerate() {
+        if let Some(first) = seen.insert(&t.id, i) {
+            return Err(ImportError::malformed(
+                path,
+                format,
+                Location::Element(format!("{scenario}agent {}", t.id)),
+                format!("two tracks have this id (tracks {first} and {i}); agent ids must be unique"),
+            ));
+        }
+    }
+    if let Some((what, p)) = s.map.first_point_outside(max_abs_m) {
+        return Err(ImportError::malformed(
+            path,
+            format,
+            Location::Element(format!("{scenario}map {what}")),
+            format!(
+                "implausible map point ({:e}, {:e}): coordinates must be finite and within ±{max_abs_m:e} m",
+                p.x, p.y
+            ),
+        ));
+    }
+    s.recentre();
+    roles::assign(s);
+    s.validate().map_err(|v| ImportError::malformed(path, format, Location::File, v.to_string()))?;
+    Ok(())
 }
 
 /// Every scenario file under `dir` (recursively), sorted by path, each

@@ -351,6 +351,38 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<Vec<Scenario>, ImportError> {
     records.iter().map(|record| parse_record(record, path)).collect()
 }
 
+/// The scenario id of every record of a TFRecord file, in order, without
+/// decoding the scenes (only the id field is read; the rest is skipped).
+/// A record without an id gets the one [`parse_record`] gives it
+/// (`STEM#index`). Framing errors are reported as [`parse`] reports them.
+pub fn scenario_ids(bytes: &[u8], path: &Path) -> Result<Vec<String>, ImportError> {
+    /// `Scenario` with only its id: prost skips every other field.
+    #[derive(Clone, PartialEq, prost::Message)]
+    struct IdOnly {
+        #[prost(string, optional, tag = "5")]
+        scenario_id: Option<String>,
+    }
+    let records = tfrecord::read_records(bytes, path)?;
+    if records.is_empty() {
+        return Err(ImportError::malformed(path, SourceFormat::WomdProto, Location::File, "empty file: no records"));
+    }
+    let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    records
+        .iter()
+        .map(|record| {
+            let message = IdOnly::decode(record.payload).map_err(|e| {
+                ImportError::malformed(
+                    path,
+                    SourceFormat::WomdProto,
+                    record.location(),
+                    format!("not a WOMD Scenario protobuf: {e}"),
+                )
+            })?;
+            Ok(message.scenario_id.filter(|id| !id.is_empty()).unwrap_or_else(|| format!("{stem}#{}", record.index)))
+        })
+        .collect()
+}
+
 /// Decodes one record and maps it into the crate model.
 pub fn parse_record(record: &Record<'_>, path: &Path) -> Result<Scenario, ImportError> {
     let message = proto::Scenario::decode(record.payload).map_err(|e| {

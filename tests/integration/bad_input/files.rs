@@ -250,3 +250,37 @@ fn a_closed_standard_output_does_not_cost_the_file_report() {
     assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stderr));
     assert!(json_out.is_file() && junit_out.is_file());
 }
+
+/// A WOMD TFRecord shard holds many scenes; a suite listing it ran only the
+/// first. Two shipped single-scene files, concatenated, are a valid
+/// two-record shard: the suite runs both (named `STEM-SCENARIO_ID`), each
+/// variant on its own scene, and `limit` counts scenes.
+#[test]
+fn a_suite_over_a_tfrecord_shard_runs_every_scene_it_holds() {
+    use safer::harness::{Suite, run_variant};
+    let dir = temp_dir("shard");
+    let data = crate::shared_data::data_dir().join("womd-tfrecord");
+    let mut shard = Vec::new();
+    for f in ["womd_scenario_input.tfrecord", "motion_data_one_scenario.tfrecord"] {
+        shard.extend(std::fs::read(data.join(f)).unwrap_or_else(|e| panic!("{f}: {e}")));
+    }
+    std::fs::write(dir.join("shard.tfrecord"), shard).unwrap();
+    let suite_text = |limit: &str| {
+        format!(
+            "name: shard\nscenarios:\n  - {{ recorded: shard.tfrecord{limit} }}\nplanner: {{ builtin: constant-velocity }}\n\
+             adversary: {{ method: log }}\nvariants: 1\nacceptance:\n  variant: {{ no_collision: false }}\n"
+        )
+    };
+    std::fs::write(dir.join("shard.suite.yaml"), suite_text("")).unwrap();
+    let suite = Suite::load(&dir.join("shard.suite.yaml")).unwrap_or_else(|e| panic!("{e}"));
+    let names: Vec<&str> = suite.scenarios.iter().map(|s| s.name.as_str()).collect();
+    assert_eq!(names, ["shard-ee519cf571686d19", "shard-637f20cafde22ff8"]);
+    for (scenario, id) in suite.scenarios.iter().zip(["ee519cf571686d19", "637f20cafde22ff8"]) {
+        let outcome = run_variant(&suite, scenario, 0).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(outcome.stage2.scenario_id, id);
+    }
+    std::fs::write(dir.join("shard.suite.yaml"), suite_text(", limit: 1")).unwrap();
+    let suite = Suite::load(&dir.join("shard.suite.yaml")).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(suite.scenarios.len(), 1);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
