@@ -142,6 +142,12 @@ impl Suite {
                 ScenarioSource::Spec(p) => {
                     let scenario = load_yaml::<ScenarioSpec>(p)?;
                     scenario.validate()?;
+                    if scenario.value.recorded.is_none() {
+                        // Errors that need the map (a lane that does not
+                        // exist, agents overlapping at the start) show at
+                        // load, not when the first variant runs.
+                        scenario.build()?;
+                    }
                     // Both stages drive the CBV; an authored scene gets none unless it names one.
                     if scenario.value.recorded.is_none() && scenario.value.cbv.is_none() {
                         return Err(scenario.invalid_at(

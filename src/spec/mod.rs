@@ -276,6 +276,16 @@ fn plain_words(message: &str) -> String {
     if message.starts_with("unexpected end of input") {
         return "the file is empty or ends early: a spec is one YAML mapping (`key: value` lines)".to_string();
     }
+    // The two untagged enums of a suite (their shapes are checked first,
+    // so what reaches here is a value of the wrong type).
+    if message.starts_with("data did not match any variant of untagged enum PlannerRef") {
+        return "`planner:` takes a planner spec file (a path), `builtin: NAME` or `rust: NAME`".to_string();
+    }
+    if message.starts_with("data did not match any variant of untagged enum ScenarioEntry") {
+        return "a `scenarios:` entry is a scenario spec path, `glob: PATTERN`, or `recorded: PATH` with an optional \
+                `limit: N` (a whole number of scenes, at least 1)"
+            .to_string();
+    }
     if message == "expected mapping start" {
         return "expected a mapping (`key: value` lines) here".to_string();
     }

@@ -367,6 +367,21 @@ impl Loaded<ScenarioSpec> {
                 behaviour,
             });
         }
+        // Two boxes that overlap at the start would be a collision from the
+        // first step, which recorded scenes excuse as annotation noise and an
+        // authored scene must not need: refuse it where it is written.
+        for (j, b) in agents.iter().enumerate() {
+            let later = b.body.footprint(&b.initial);
+            if let Some(a) = agents[..j].iter().find(|a| a.body.footprint(&a.initial).intersects(&later)) {
+                return Err(self.invalid(
+                    loc(&s.agents[j].id),
+                    format!(
+                        "agents `{}` and `{}` overlap at the start (their boxes intersect); place them apart",
+                        a.id.0, b.id.0
+                    ),
+                ));
+            }
+        }
         let find = |id: &Spanned<String>, role: &str| {
             agents.iter().position(|a| a.id.0 == id.value).ok_or_else(|| {
                 let ids: Vec<&str> = agents.iter().map(|a| a.id.0.as_str()).collect();
@@ -414,6 +429,19 @@ cbv: cbv
 
     fn load(text: &str) -> Result<Vec<Scenario>, SpecError> {
         parse_yaml::<ScenarioSpec>(text, Path::new("specs/scenarios/t.yaml"))?.build()
+    }
+
+    #[test]
+    fn agents_overlapping_at_the_start_are_refused_at_the_later_one() {
+        let overlapping = CUT_IN.replace(
+            "s_m: 40, speed_mps: 24",
+            "s_m: 40, speed_mps: 24 }\n  - { id: lead, lane: 0, s_m: 63, speed_mps: 20",
+        );
+        let e = load(&overlapping).unwrap_err().to_string();
+        assert!(e.contains("agents `ego` and `lead` overlap at the start"), "{e}");
+        assert!(e.contains("t.yaml:8:"), "at the `lead` entry: {e}");
+        // 5 m apart (a 4.5 m car) is not an overlap.
+        assert!(load(&overlapping.replace("s_m: 63", "s_m: 65")).is_ok());
     }
 
     #[test]

@@ -544,6 +544,15 @@ pub fn check_shapes(text: &str, path: &std::path::Path) -> Result<(), SpecError>
                 }
                 _ => {}
             }
+            if let Some((_, value)) = item.entry("limit")
+                && let Some(text) = value.text()
+                && text.trim().parse::<u64>().is_err()
+            {
+                return Err(invalid(
+                    value.at(),
+                    format!("`limit` must be a whole number of scenes, at least 1, got {}", text.trim()),
+                ));
+            }
         }
     }
     if let Some((_, planner)) = root.entry("planner") {

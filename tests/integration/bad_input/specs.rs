@@ -75,6 +75,14 @@ const CASES: &[(&str, u64, u64, &str)] = &[
     ("duplicate-scenario-name.suite.yaml", 5, 5, "two scenarios are named `highway-overtake`"),
     ("no-scenarios.suite.yaml", 3, 12, "`scenarios:` lists no scenario; a suite that runs nothing cannot pass"),
     ("variants-negative.suite.yaml", 6, 11, "expected a whole number from 0 to 4294967295 here"),
+    ("recorded-limit-negative.suite.yaml", 5, 12, "`limit` must be a whole number of scenes, at least 1, got -3"),
+    (
+        "planner-is-a-number.suite.yaml",
+        5,
+        10,
+        "`planner:` takes a planner spec file (a path), `builtin: NAME` or `rust: NAME`",
+    ),
+    ("ego-overlaps-the-car-ahead.scenario.yaml", 9, 11, "agents `ego` and `lead` overlap at the start"),
 ];
 
 /// Fixtures asserted by their own tests below (not through [`CASES`]).
