@@ -41,8 +41,20 @@ impl RolloutContext {
             ("variant", self.variant.clone().unwrap_or_else(|| s.id.clone())),
             ("seed", self.seed.map(|v| v.to_string()).unwrap_or_default()),
             ("format", crate::spec::spec_name(&s.source.format)),
-            ("source", s.source.path.display().to_string()),
+            ("source", self.source_file()),
         ]
+    }
+
+    /// The scene's file as an absolute path: the planner runs in its own
+    /// working folder, where a path relative to the harness's would name
+    /// another file or none. Links are resolved where the file exists.
+    fn source_file(&self) -> String {
+        let path = &self.scenario.source.path;
+        std::fs::canonicalize(path)
+            .or_else(|_| std::path::absolute(path))
+            .unwrap_or_else(|_| path.clone())
+            .display()
+            .to_string()
     }
 
     /// The environment variables the harness sets for the planner:
@@ -66,7 +78,7 @@ impl RolloutContext {
         WireScenario {
             id: s.id.clone(),
             format: crate::spec::spec_name(&s.source.format),
-            source_file: s.source.path.display().to_string(),
+            source_file: self.source_file(),
             variant: self.variant.clone(),
             seed: self.seed,
         }

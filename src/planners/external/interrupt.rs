@@ -2,9 +2,12 @@
 //! runs in its own process group, so the terminal's Ctrl-C (SIGINT to the
 //! foreground group) does not reach it, and a planner that does not read
 //! its stdin never sees the harness go. This module keeps the process
-//! groups of live planners in a fixed table and, on SIGINT, SIGTERM or
-//! SIGHUP, sends SIGKILL to each before the harness dies of the signal as
-//! it would have without the handler (same signal, same exit status).
+//! groups of live planners in a fixed table and, on SIGINT, SIGTERM,
+//! SIGHUP or SIGQUIT, sends SIGKILL to each before the harness dies of the
+//! signal as it would have without the handler (same signal, same exit
+//! status). SIGKILL runs no handler: there the kernel ends each planner's
+//! own process (Linux's parent-death signal, set when it starts), not the
+//! helpers it started.
 //!
 //! The handler is installed at the first planner start, and only for a
 //! signal whose disposition is still the default: a program that ignores
@@ -27,7 +30,7 @@ static INSTALL: Once = Once::new();
 
 /// The signals that end the harness and should end its planners.
 #[cfg(unix)]
-const SIGNALS: [libc::c_int; 3] = [libc::SIGINT, libc::SIGTERM, libc::SIGHUP];
+const SIGNALS: [libc::c_int; 4] = [libc::SIGINT, libc::SIGTERM, libc::SIGHUP, libc::SIGQUIT];
 
 /// Records `pgid` as a live planner's group (installing the handler on
 /// first use). Whether a slot was free.

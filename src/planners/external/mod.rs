@@ -930,7 +930,7 @@ mod tests {
         let s = stopped_car_ahead();
         let dir = std::env::temp_dir().join(format!("safer-probe-cwd-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
-        let mut config = probe(&["--scene={scenario}", "{seed}", "{{x}}"]);
+        let mut config = probe(&["--scene={scenario}", "{seed}", "{{x}}", "{source}"]);
         config.working_dir = Some(dir.clone());
         config.env.insert("PROBE_VARIANT".into(), "v={variant}".into());
         config.env.insert("SAFER_SEED".into(), "overridden".into());
@@ -938,7 +938,12 @@ mod tests {
         run(&s, &mut planner);
         let hello = reports(&mut planner).into_iter().next().unwrap();
         std::fs::remove_dir_all(&dir).unwrap();
-        assert_eq!(hello["args"], serde_json::json!(["--scene=external-stopped-car-ahead", "42", "{x}"]));
+        // The scene file as an absolute path: the planner runs elsewhere.
+        let source = std::path::absolute(&s.source.path).unwrap().display().to_string();
+        assert!(!s.source.path.is_absolute(), "the fixture's path is relative: {}", s.source.path.display());
+        assert_eq!(hello["args"], serde_json::json!(["--scene=external-stopped-car-ahead", "42", "{x}", source]));
+        assert_eq!(hello["message"]["scenario"]["source_file"], source);
+        assert_eq!(hello["env"]["SAFER_SOURCE"], source);
         assert_eq!(std::path::Path::new(hello["cwd"].as_str().unwrap()), dir.canonicalize().unwrap_or(dir.clone()));
         let env = &hello["env"];
         assert_eq!(env["PROBE_VARIANT"], "v=probe-suite::external-stopped-car-ahead::seed-3");

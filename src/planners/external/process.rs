@@ -96,6 +96,26 @@ impl Process {
         // whatever it started: a wrapper script's planner, a planner's helpers.
         #[cfg(unix)]
         std::os::unix::process::CommandExt::process_group(&mut command, 0);
+        // A harness killed outright (SIGKILL) runs no handler: the kernel
+        // kills the planner's own process when the harness thread that
+        // started it dies (helpers it started are not covered). A planner
+        // lives within one rollout on the thread that started it.
+        // SAFETY: only prctl(2) and getppid(2), async-signal-safe, between
+        // fork and exec.
+        #[cfg(target_os = "linux")]
+        unsafe {
+            let harness = libc::getpid();
+            std::os::unix::process::CommandExt::pre_exec(&mut command, move || {
+                if libc::prctl(libc::PR_SET_PDEATHSIG, libc::SIGKILL) == -1 {
+                    return Err(std::io::Error::last_os_error());
+                }
+                // The harness may have died between fork and prctl.
+                if libc::getppid() != harness {
+                    libc::_exit(1);
+                }
+                Ok(())
+            });
+        }
         if let Some(dir) = &config.working_dir {
             command.current_dir(dir);
         }

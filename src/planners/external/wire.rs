@@ -130,7 +130,7 @@ pub(super) struct WireScenario {
     /// Source format: `womd-proto`, `womd-json`, `common-road`, `argoverse2`
     /// or `authored`.
     pub(super) format: String,
-    /// File the scenario was read from, as the harness was given it.
+    /// File the scenario was read from, as an absolute path.
     pub(super) source_file: String,
     /// The variant's name (`suite::scenario::seed-k` for suites), when the
     /// harness runs one.

@@ -68,19 +68,42 @@ fn a_recorded_road_point_at_x_1e20_is_refused_naming_the_file_and_the_map_featur
 #[cfg(target_os = "linux")]
 #[test]
 fn ctrl_c_on_the_harness_ends_a_planner_that_never_reads_its_stdin() {
-    use std::os::unix::process::ExitStatusExt;
     // The planner runs in its own process group, so the terminal's SIGINT
     // reaches only the harness; before the handler, the deaf planner
     // outlived it for good.
+    the_planner_dies_with_the_harness("INT", 2);
+}
+
+#[cfg(target_os = "linux")]
+#[test]
+fn sigquit_on_the_harness_ends_a_planner_that_never_reads_its_stdin() {
+    the_planner_dies_with_the_harness("QUIT", 3);
+}
+
+#[cfg(target_os = "linux")]
+#[test]
+fn sigkill_of_the_harness_ends_a_planner_that_never_reads_its_stdin() {
+    // No handler runs: the kernel's parent-death signal ends the planner.
+    the_planner_dies_with_the_harness("KILL", 9);
+}
+
+/// Runs the deaf-planner suite under `safer`, sends the harness `signal`
+/// once the planner is blocking it, and checks that the harness dies of
+/// that signal (number `expected`) and takes the planner with it.
+#[cfg(target_os = "linux")]
+fn the_planner_dies_with_the_harness(signal: &str, expected: i32) {
+    use std::os::unix::process::ExitStatusExt;
     let suite = fixture("deaf.suite.yaml");
     let mut command = Command::new(env!("CARGO_BIN_EXE_safer"));
     command.args(["run", suite.to_str().unwrap()]).stdin(Stdio::null()).stdout(Stdio::null()).stderr(Stdio::null());
     // As at a terminal: a test run started in the background of a shell
-    // without job control inherits SIGINT ignored, which safer keeps.
+    // without job control inherits SIGINT and SIGQUIT ignored, which safer
+    // keeps.
     // SAFETY: only signal(2), async-signal-safe, between fork and exec.
     unsafe {
         std::os::unix::process::CommandExt::pre_exec(&mut command, || {
             libc::signal(libc::SIGINT, libc::SIG_DFL);
+            libc::signal(libc::SIGQUIT, libc::SIG_DFL);
             Ok(())
         });
     }
@@ -99,7 +122,7 @@ fn ctrl_c_on_the_harness_ends_a_planner_that_never_reads_its_stdin() {
     };
     // Let it answer hello and the harness block on the first step.
     std::thread::sleep(Duration::from_millis(500));
-    let sent = Command::new("kill").args(["-INT", &harness.to_string()]).status().expect("run kill");
+    let sent = Command::new("kill").args([&format!("-{signal}"), &harness.to_string()]).status().expect("run kill");
     assert!(sent.success());
     let deadline = Instant::now() + Duration::from_secs(30);
     let status = loop {
@@ -109,11 +132,11 @@ fn ctrl_c_on_the_harness_ends_a_planner_that_never_reads_its_stdin() {
         if Instant::now() > deadline {
             let _ = child.kill();
             let _ = Command::new("kill").args(["-KILL", &planner.to_string()]).status();
-            panic!("safer did not end within 30 s of SIGINT");
+            panic!("safer did not end within 30 s of SIG{signal}");
         }
         std::thread::sleep(Duration::from_millis(10));
     };
-    assert_eq!(status.signal(), Some(2), "the harness dies of SIGINT as without a handler: {status:?}");
+    assert_eq!(status.signal(), Some(expected), "the harness dies of SIG{signal} as without a handler: {status:?}");
     let deadline = Instant::now() + Duration::from_secs(2);
     while is_live(planner) && Instant::now() < deadline {
         std::thread::sleep(Duration::from_millis(10));
@@ -122,7 +145,7 @@ fn ctrl_c_on_the_harness_ends_a_planner_that_never_reads_its_stdin() {
     if alive {
         let _ = Command::new("kill").args(["-KILL", &planner.to_string()]).status();
     }
-    assert!(!alive, "planner {planner} outlived the interrupted harness");
+    assert!(!alive, "planner {planner} outlived the harness killed by SIG{signal}");
 }
 
 /// A fresh folder for one case.
