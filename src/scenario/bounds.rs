@@ -25,6 +25,23 @@ pub const MAX_BODY_M: f64 = 100.0;
 /// close, yet it leaves room for noisy recorded velocities.
 pub const MAX_SPEED_MPS: f64 = 1e3;
 
+/// Largest |heading| a recording may give before wrapping, rad: sources
+/// write angles within a turn or two of zero; 1e300 rad wraps to an
+/// arbitrary angle (its digits below a turn are gone).
+pub const MAX_ABS_RECORDED_HEADING_RAD: f64 = 1e3;
+
+/// A recorded heading, wrapped into (−π, π]; an error saying why when it
+/// is not finite or beyond [`MAX_ABS_RECORDED_HEADING_RAD`].
+pub fn recorded_heading(raw_rad: f64) -> Result<f64, String> {
+    if raw_rad.is_finite() && raw_rad.abs() <= MAX_ABS_RECORDED_HEADING_RAD {
+        Ok(crate::geometry::wrap_angle(raw_rad))
+    } else {
+        Err(format!(
+            "heading {raw_rad:e} rad is not a plausible angle (at most {MAX_ABS_RECORDED_HEADING_RAD} rad either way)"
+        ))
+    }
+}
+
 /// Why `state` is not a plausible state in a scene frame, or `None` when it is.
 pub fn implausibility(state: &AgentState) -> Option<String> {
     implausibility_within(state, MAX_ABS_POSITION_M)

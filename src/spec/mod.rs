@@ -303,8 +303,33 @@ fn plain_words(message: &str) -> String {
 
 /// Reads and parses a YAML spec file.
 pub fn load_yaml<T: DeserializeOwned>(path: &Path) -> Result<Loaded<T>, SpecError> {
-    let text = std::fs::read_to_string(path).map_err(|source| SpecError::Io { path: path.to_path_buf(), source })?;
-    parse_yaml(&text, path)
+    parse_yaml(&read_text(path)?, path)
+}
+
+/// A spec file's text; a file that is not UTF-8 is refused at its first
+/// bad byte.
+pub fn read_text(path: &Path) -> Result<String, SpecError> {
+    let bytes = std::fs::read(path).map_err(|source| SpecError::Io { path: path.to_path_buf(), source })?;
+    String::from_utf8(bytes).map_err(|e| not_utf8(path, e))
+}
+
+/// A spec that is not UTF-8: where the first bad byte is (line, column in
+/// characters), with the text shown up to there.
+fn not_utf8(path: &Path, e: std::string::FromUtf8Error) -> SpecError {
+    let valid_up_to = e.utf8_error().valid_up_to();
+    let bytes = e.into_bytes();
+    let before = std::str::from_utf8(&bytes[..valid_up_to]).unwrap_or_default();
+    let line = before.matches('\n').count() as u64 + 1;
+    let column = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) as u64 + 1;
+    SpecError::Parse {
+        path: path.to_path_buf(),
+        location: Some(SpecLocation { line, column }),
+        message: format!(
+            "not UTF-8 text: byte 0x{:02x} at offset {valid_up_to}; save the spec as UTF-8",
+            bytes.get(valid_up_to).copied().unwrap_or_default()
+        ),
+        text: String::from_utf8_lossy(&bytes).into_owned(),
+    }
 }
 
 /// The JSON Schema of each spec kind, for editors (`safer schema`).

@@ -320,7 +320,7 @@ pub enum ScenarioSource {
 /// Reads, parses and validates a suite file: the one way a suite is read,
 /// so no caller can skip [`check_shapes`] or [`Loaded::validate`].
 pub fn load(path: &std::path::Path) -> Result<Loaded<SuiteSpec>, SpecError> {
-    let text = std::fs::read_to_string(path).map_err(|source| SpecError::Io { path: path.to_path_buf(), source })?;
+    let text = super::read_text(path)?;
     check_shapes(&text, path)?;
     let spec = super::parse_yaml::<SuiteSpec>(&text, path)?;
     spec.validate()?;

@@ -21,7 +21,7 @@ use parquet::file::reader::{FileReader, SerializedFileReader};
 use parquet::record::Field;
 
 use super::{ImportError, Location};
-use crate::geometry::{Point2, Polygon, Polyline, Vector2, wrap_angle};
+use crate::geometry::{Point2, Polygon, Polyline, Vector2};
 use crate::map::{AreaKind, Lane, LaneKind, MapArea, MapElementId, RoadEdge, RoadEdgeKind, RoadMap};
 use crate::scenario::{
     AgentId, AgentKind, AgentState, DataLicence, Scenario, ScenarioSource, SourceFormat, Track, TrackIndex,
@@ -360,9 +360,11 @@ fn read_parquet(bytes: &[u8], path: &Path) -> Result<Table, ImportError> {
             }
             Ok(v)
         };
+        let heading_rad =
+            crate::scenario::bounds::recorded_heading(cell.number("heading")?).map_err(|e| cell.error("heading", e))?;
         let state = AgentState {
             position: Point2::new(coordinate("position_x")?, coordinate("position_y")?),
-            heading_rad: wrap_angle(cell.number("heading")?),
+            heading_rad,
             velocity_mps: Vector2::new(cell.number("velocity_x")?, cell.number("velocity_y")?),
         };
 

@@ -18,7 +18,7 @@ use std::path::Path;
 use roxmltree::{Document, Node, ParsingOptions};
 
 use super::{ImportError, Location};
-use crate::geometry::{Point2, Polygon, Polyline, Vector2, wrap_angle};
+use crate::geometry::{Point2, Polygon, Polyline, Vector2};
 use crate::map::{Lane, LaneKind, MapElementId, RoadEdge, RoadEdgeKind, RoadMap, SignalState, TrafficSignal};
 use crate::scenario::{AgentId, AgentKind, AgentState, DataLicence, Scenario, ScenarioSource, SourceFormat, Track};
 
@@ -366,7 +366,9 @@ fn read_state(cx: &Cx<'_, '_>, node: Node<'_, '_>) -> Result<(usize, AgentState)
         return Err(cx.err(position, "<position> is not a <point> (uncertain positions are not supported)"));
     };
     let position = cx.point(point)?;
-    let heading_rad = wrap_angle(cx.value(cx.req(node, "orientation")?)?);
+    let orientation = cx.req(node, "orientation")?;
+    let heading_rad =
+        crate::scenario::bounds::recorded_heading(cx.value(orientation)?).map_err(|e| cx.err(orientation, e))?;
     let speed_mps = cx.value(cx.req(node, "velocity")?)?;
     let velocity_mps = Vector2::new(heading_rad.cos(), heading_rad.sin()) * speed_mps;
     // The range check above makes this conversion lossless.

@@ -255,9 +255,11 @@ impl Converter<'_> {
                 if ![p.x, p.y, h, v.x, v.y].iter().all(|x| x.is_finite()) {
                     return Err(self.at(format!("objects[{i}].position[{k}]"), "non-finite value in a valid step"));
                 }
+                let heading_rad = crate::scenario::bounds::recorded_heading(unit.to_radians(h))
+                    .map_err(|e| self.at(format!("objects[{i}].heading[{k}]"), e))?;
                 states.push(Some(AgentState {
                     position: Point2::new(p.x, p.y),
-                    heading_rad: wrap_angle(unit.to_radians(h)),
+                    heading_rad,
                     velocity_mps: Vector2::new(v.x, v.y),
                 }));
             }

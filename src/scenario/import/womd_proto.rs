@@ -19,7 +19,7 @@ use prost::Message;
 
 use super::tfrecord::{self, Record};
 use super::{ImportError, Location};
-use crate::geometry::{Point2, Polygon, Polyline, Vector2, wrap_angle};
+use crate::geometry::{Point2, Polygon, Polyline, Vector2};
 use crate::map::{
     AreaKind, Lane, LaneKind, MapArea, MapElementId, RoadEdge, RoadEdgeKind, RoadLine, RoadLineKind, RoadMap,
     SignalState, StopSign, TrafficSignal,
@@ -565,9 +565,11 @@ impl Converter<'_> {
                 }
                 size = Some((f64::from(length), f64::from(width)));
             }
+            let heading_rad = crate::scenario::bounds::recorded_heading(heading)
+                .map_err(|e| self.at(element(&format!(".states[{k}]")), e))?;
             states.push(Some(AgentState {
                 position: Point2::new(x, y),
-                heading_rad: wrap_angle(heading),
+                heading_rad,
                 velocity_mps: Vector2::new(vx, vy),
             }));
         }

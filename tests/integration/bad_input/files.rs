@@ -284,3 +284,14 @@ fn a_suite_over_a_tfrecord_shard_runs_every_scene_it_holds() {
     assert_eq!(suite.scenarios.len(), 1);
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn a_recorded_heading_of_1e300_rad_is_refused_at_import() {
+    // It wrapped into an arbitrary angle and was accepted.
+    edited_ngsim_scene_is_refused(
+        "a-heading-of-1e300-rad.xml",
+        "<exact>-0.74444</exact>",
+        "<exact>1e300</exact>",
+        "heading 1e300 rad is not a plausible angle",
+    );
+}

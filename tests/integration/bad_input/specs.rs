@@ -83,6 +83,7 @@ const CASES: &[(&str, u64, u64, &str)] = &[
         "`planner:` takes a planner spec file (a path), `builtin: NAME` or `rust: NAME`",
     ),
     ("ego-overlaps-the-car-ahead.scenario.yaml", 9, 11, "agents `ego` and `lead` overlap at the start"),
+    ("latin-1.suite.yaml", 1, 33, "not UTF-8 text: byte 0xe9 at offset 32"),
 ];
 
 /// Fixtures asserted by their own tests below (not through [`CASES`]).
