@@ -6,7 +6,10 @@
 //! `control` / `trajectory` / `error` message whose numbers are arbitrary
 //! JSON number texts (huge exponents, long digit strings, `1e400`, `-0`,
 //! `NaN`). Any input must give an error or a rollout, never a panic, and
-//! every number of a decoded output must be finite.
+//! every number of a decoded output must be finite. The rollout runs with
+//! the default vehicle limits, as suites run it: every step it kept must
+//! pass the limits (checked again here, independently of where the
+//! simulator checks), and one it stopped at must name a limit and a value.
 
 #![no_main]
 
@@ -19,7 +22,7 @@ use safer::map::templates::StraightRoad;
 use safer::planners::external::decode_reply;
 use safer::planners::{Observation, Planner, PlannerError, PlannerOutput};
 use safer::scenario::{AgentId, AgentKind, AgentState, Scenario, ScenarioSource, Track, TrackIndex};
-use safer::sim::{SimConfig, Simulation};
+use safer::sim::{SimConfig, Simulation, Termination, VehicleLimits};
 
 /// The simulator's step, s (what `hello` announces).
 const DT_S: f64 = 0.1;
@@ -151,11 +154,22 @@ fuzz_target!(|data: &[u8]| {
             }
         }
     }
-    let config = SimConfig { start_step: Some(0), ..SimConfig::default() };
+    let limits = VehicleLimits::default();
+    let config = SimConfig { start_step: Some(0), ego_limits: Some(limits), ..SimConfig::default() };
     let Ok(sim) = Simulation::new(scene(), config) else {
         return;
     };
     let rollout = sim.run(&mut Replay(output));
     let _ = rollout.summary();
     assert!(!rollout.states.is_empty(), "a rollout records at least its start");
+    // Every step the rollout kept is within the limits.
+    let ego = rollout.ego.0;
+    for (k, pair) in rollout.states.windows(2).enumerate() {
+        if let (Some(now), Some(next)) = (&pair[0][ego], &pair[1][ego]) {
+            assert!(limits.check(now, next, DT_S).is_none(), "step {k} kept beyond the limits: {now:?} -> {next:?}");
+        }
+    }
+    if let Termination::VehicleLimitExceeded { reason, .. } = &rollout.termination {
+        assert!(reason.contains("max_") || reason.contains("limit"), "{reason}");
+    }
 });

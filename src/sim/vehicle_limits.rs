@@ -115,7 +115,8 @@ impl VehicleLimits {
     /// breaks, or `None`.
     pub fn check(&self, now: &AgentState, next: &AgentState, dt_s: f64) -> Option<LimitViolation> {
         let broke = |limit, quantity, value: f64, bound: f64, unit| {
-            (value > bound + SLACK).then_some(LimitViolation { limit, quantity, value, bound, unit })
+            // A NaN quantity (from absurd states) breaks the limit too.
+            (!(value <= bound + SLACK)).then_some(LimitViolation { limit, quantity, value, bound, unit })
         };
         let (v0, v1) = (now.speed_mps(), next.speed_mps());
         let driven = next.position - now.position;
