@@ -28,6 +28,8 @@ gentle braking control, then misbehaves:
   untagged       answers every observation with a control naming no step
                  (what 1.0 and 1.1 planners send)
   wrong-step     answers with a control naming the next observation's step
+  blind          after `ready`, writes 100 controls without reading a thing
+                 (a planner that never looks at its input), then sleeps
   extra-reply    answers one observation twice (both replies name its step
                  in 1.2), then answers each later one once: every later
                  reply the harness reads is one step late
@@ -77,6 +79,11 @@ def main():
                 good_steps = float("inf")
             send({"type": "ready", "protocol": version, "protocol_minor": minor, "name": name})
             if mode == "deaf":
+                while True:
+                    time.sleep(3600)
+            if mode == "blind":
+                for _ in range(100):
+                    send({"type": "control", "accel_mps2": 0.0, "yaw_rate_radps": 0.0})
                 while True:
                     time.sleep(3600)
             continue

@@ -318,3 +318,17 @@ fn older_planners_run_untagged_and_a_step_they_name_is_checked() {
     assert_eq!(step, 2);
     assert!(reason.contains("answers step 3, but the observation was step 2"), "{reason}");
 }
+
+/// A planner that writes controls without reading its observations passed
+/// every variant before: its lines are answers to no question, and the run
+/// fails within its first steps saying so.
+#[test]
+fn a_planner_writing_controls_without_reading_fails_at_once() {
+    let mut config = misbehaving("blind", 0);
+    config.step_timeout_ms = 2000;
+    let (rollout, pgid, _) = run_variant(config);
+    let (step, reason) = failure(&rollout);
+    assert!(step <= 2, "step {step}: {reason}");
+    assert!(reason.contains("nobody asked for"), "{reason}");
+    assert_group_gone(pgid);
+}
