@@ -246,10 +246,13 @@ fn source_path(source: &ScenarioSource) -> &Path {
     }
 }
 
+/// A loaded scene's cache key: its file and, for a file of several, its record.
+type SceneKey = (PathBuf, Option<usize>);
+
 impl SuiteScenario {
     /// The base scenario, built once per process and shared.
     pub fn load(&self) -> Result<Arc<Scenario>, SpecError> {
-        static CACHE: OnceLock<Mutex<HashMap<(PathBuf, Option<usize>), Arc<Scenario>>>> = OnceLock::new();
+        static CACHE: OnceLock<Mutex<HashMap<SceneKey, Arc<Scenario>>>> = OnceLock::new();
         let key = (source_path(&self.source).to_path_buf(), self.record);
         let cache = CACHE.get_or_init(Default::default);
         if let Some(s) = cache.lock().expect("scenario cache").get(&key) {

@@ -116,7 +116,7 @@ impl VehicleLimits {
     pub fn check(&self, now: &AgentState, next: &AgentState, dt_s: f64) -> Option<LimitViolation> {
         let broke = |limit, quantity, value: f64, bound: f64, unit| {
             // A NaN quantity (from absurd states) breaks the limit too.
-            (!(value <= bound + SLACK)).then_some(LimitViolation { limit, quantity, value, bound, unit })
+            (value.is_nan() || value > bound + SLACK).then_some(LimitViolation { limit, quantity, value, bound, unit })
         };
         let (v0, v1) = (now.speed_mps(), next.speed_mps());
         let driven = next.position - now.position;

@@ -622,7 +622,7 @@ fn uncovered_parts(candidates: &[Polyline], lanelets: &[Polygon]) -> Vec<Polylin
             let (a, b) = (pair[0], pair[1]);
             let along = b - a;
             let length = along.norm();
-            if !(length > 1e-9) {
+            if length.is_nan() || length <= 1e-9 {
                 continue;
             }
             let starboard = Vector2::new(along.y, -along.x) * (EDGE_PROBE_M / length);
