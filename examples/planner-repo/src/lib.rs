@@ -30,6 +30,8 @@ pub struct EgoState {
 pub struct RoadUser {
     /// Centre.
     pub position: Point,
+    /// Heading, rad.
+    pub heading_rad: f64,
     /// Speed along its heading, m/s.
     pub speed_mps: f64,
     /// Length, m.
@@ -77,6 +79,9 @@ pub struct CautiousCruiser {
     pub max_brake_mps2: f64,
     /// Half-width of the corridor searched for a leader, m.
     pub corridor_half_width_m: f64,
+    /// How far ahead a road user's lateral motion is followed when judging
+    /// whether it cuts into the corridor, s.
+    pub cut_in_lookahead_s: f64,
 }
 
 impl Default for CautiousCruiser {
@@ -89,6 +94,7 @@ impl Default for CautiousCruiser {
             comfort_brake_mps2: 2.5,
             max_brake_mps2: 8.0,
             corridor_half_width_m: 1.8,
+            cut_in_lookahead_s: 1.0,
         }
     }
 }
@@ -130,7 +136,14 @@ impl CautiousCruiser {
                 let (dx, dy) = (o.position.x - ego.position.x, o.position.y - ego.position.y);
                 let ahead = dx * c + dy * s;
                 let lateral = -dx * s + dy * c;
-                let in_corridor = lateral.abs() < self.corridor_half_width_m + o.width_m / 2.0;
+                // A road user cutting in counts before it is in the lane:
+                // where it will be in `cut_in_lookahead_s`, at its speed and
+                // heading, relative to where the ego will be.
+                let t = self.cut_in_lookahead_s;
+                let (vx, vy) = (o.speed_mps * o.heading_rad.cos(), o.speed_mps * o.heading_rad.sin());
+                let lateral_then = -(dx + (vx - ego.speed_mps * c) * t) * s + (dy + (vy - ego.speed_mps * s) * t) * c;
+                let reach = self.corridor_half_width_m + o.width_m / 2.0;
+                let in_corridor = lateral.abs() < reach || lateral_then.abs() < reach;
                 let gap = ahead - (ego.length_m + o.length_m) / 2.0;
                 (ahead > 0.0 && in_corridor).then_some((gap, o.speed_mps))
             })
@@ -168,9 +181,35 @@ mod tests {
     #[test]
     #[cfg_attr(feature = "regression", ignore = "the regression build ignores leaders on purpose")]
     fn brakes_hard_for_a_stopped_car_close_ahead() {
-        let stopped = RoadUser { position: Point { x: 15.0, y: 0.0 }, speed_mps: 0.0, length_m: 4.5, width_m: 1.9 };
+        let stopped = RoadUser {
+            position: Point { x: 15.0, y: 0.0 },
+            heading_rad: 0.0,
+            speed_mps: 0.0,
+            length_m: 4.5,
+            width_m: 1.9,
+        };
         let scene = Scene { ego: ego(20.0), reference_path: straight(), speed_limit_mps: None, others: vec![stopped] };
         assert!(CautiousCruiser::default().plan(&scene).accel_mps2 <= -7.9);
+    }
+
+    #[test]
+    #[cfg_attr(feature = "regression", ignore = "the regression build ignores leaders on purpose")]
+    fn brakes_for_a_car_cutting_in_before_it_is_in_the_lane() {
+        // 3.5 m to the left, 12 m ahead, angled 15° into the ego's lane.
+        let cutting_in = RoadUser {
+            position: Point { x: 12.0, y: 3.5 },
+            heading_rad: -0.26,
+            speed_mps: 12.0,
+            length_m: 4.5,
+            width_m: 1.9,
+        };
+        let scene =
+            Scene { ego: ego(20.0), reference_path: straight(), speed_limit_mps: None, others: vec![cutting_in] };
+        assert!(CautiousCruiser::default().plan(&scene).accel_mps2 < -2.0);
+        // Going straight on in its own lane, it is no leader.
+        let beside = RoadUser { heading_rad: 0.0, ..cutting_in };
+        let scene = Scene { others: vec![beside], ..scene };
+        assert!(CautiousCruiser::default().plan(&scene).accel_mps2 > 0.0);
     }
 
     #[test]

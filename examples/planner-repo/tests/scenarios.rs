@@ -87,6 +87,7 @@ impl Planner for Adapter {
             .iter()
             .map(|a| RoadUser {
                 position: point(&a.state.position),
+                heading_rad: a.state.heading_rad,
                 speed_mps: a.state.velocity_mps.norm(),
                 length_m: a.length_m,
                 width_m: a.width_m,
