@@ -344,11 +344,36 @@ pub mod proto {
 /// errors and implausible values are reported with the record's index and
 /// byte offset; an empty file is an error (it holds no scenario).
 pub fn parse(bytes: &[u8], path: &Path) -> Result<Vec<Scenario>, ImportError> {
+    scenario_records(bytes, path)?.iter().map(|record| parse_record(record, path)).collect()
+}
+
+/// The records of a TFRecord file; an empty file is an error (it holds no
+/// scenario).
+fn scenario_records<'a>(bytes: &'a [u8], path: &Path) -> Result<Vec<Record<'a>>, ImportError> {
     let records = tfrecord::read_records(bytes, path)?;
     if records.is_empty() {
         return Err(ImportError::malformed(path, SourceFormat::WomdProto, Location::File, "empty file: no records"));
     }
-    records.iter().map(|record| parse_record(record, path)).collect()
+    Ok(records)
+}
+
+/// Decodes a record's payload as `M` (the whole `Scenario`, or a part of
+/// it), an error naming the record when it is not one.
+fn decode<M: Message + Default>(record: &Record<'_>, path: &Path) -> Result<M, ImportError> {
+    M::decode(record.payload).map_err(|e| {
+        ImportError::malformed(
+            path,
+            SourceFormat::WomdProto,
+            record.location(),
+            format!("not a WOMD Scenario protobuf: {e}"),
+        )
+    })
+}
+
+/// The id of a record without a scenario id of its own.
+fn fallback_id(path: &Path, index: usize) -> String {
+    let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    format!("{stem}#{index}")
 }
 
 /// The scenario id of every record of a TFRecord file, in order, without
@@ -362,37 +387,18 @@ pub fn scenario_ids(bytes: &[u8], path: &Path) -> Result<Vec<String>, ImportErro
         #[prost(string, optional, tag = "5")]
         scenario_id: Option<String>,
     }
-    let records = tfrecord::read_records(bytes, path)?;
-    if records.is_empty() {
-        return Err(ImportError::malformed(path, SourceFormat::WomdProto, Location::File, "empty file: no records"));
-    }
-    let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
-    records
+    scenario_records(bytes, path)?
         .iter()
         .map(|record| {
-            let message = IdOnly::decode(record.payload).map_err(|e| {
-                ImportError::malformed(
-                    path,
-                    SourceFormat::WomdProto,
-                    record.location(),
-                    format!("not a WOMD Scenario protobuf: {e}"),
-                )
-            })?;
-            Ok(message.scenario_id.filter(|id| !id.is_empty()).unwrap_or_else(|| format!("{stem}#{}", record.index)))
+            let message: IdOnly = decode(record, path)?;
+            Ok(message.scenario_id.filter(|id| !id.is_empty()).unwrap_or_else(|| fallback_id(path, record.index)))
         })
         .collect()
 }
 
 /// Decodes one record and maps it into the crate model.
 pub fn parse_record(record: &Record<'_>, path: &Path) -> Result<Scenario, ImportError> {
-    let message = proto::Scenario::decode(record.payload).map_err(|e| {
-        ImportError::malformed(
-            path,
-            SourceFormat::WomdProto,
-            record.location(),
-            format!("not a WOMD Scenario protobuf: {e}"),
-        )
-    })?;
+    let message: proto::Scenario = decode(record, path)?;
     Converter { path, record }.scenario(message)
 }
 
@@ -470,10 +476,7 @@ impl Converter<'_> {
         let map = self.map(&message.map_features, &message.dynamic_map_states, num_steps)?;
         let id = match message.scenario_id {
             Some(id) if !id.is_empty() => id,
-            _ => {
-                let stem = self.path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
-                format!("{stem}#{}", self.record.index)
-            }
+            _ => fallback_id(self.path, self.record.index),
         };
         Ok(Scenario {
             current_step,
