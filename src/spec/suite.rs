@@ -223,8 +223,9 @@ pub struct VariantAcceptance {
     pub no_off_road: bool,
     /// The ego must not drive against the traffic of a lane: its centre in
     /// a lane whose direction is more than 120° from its heading, in none
-    /// running its way, outside intersections, while moving. Fails as
-    /// unmeasurable on a map without lanes.
+    /// running its way and more than 3 m from any such lane's centreline,
+    /// outside intersections, while moving. Fails as unmeasurable on a map
+    /// without lanes.
     #[serde(default)]
     pub no_wrong_way: bool,
     /// The ego must not pass a stop line while its signal shows red (a red

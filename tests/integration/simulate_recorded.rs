@@ -93,3 +93,32 @@ fn idm_rollouts_are_identical_on_one_and_two_threads() {
         assert!(a == b, "{}: rollout differs between 1 and 2 threads", s.id);
     }
 }
+
+/// The traffic-rule criteria on the recorded drivers themselves: the
+/// logged ego of every shared scene, replayed. Real drivers rarely drive
+/// against a lane's traffic or through a red light, so the rules must not
+/// flag them wholesale; each flagged one is printed for a look.
+#[test]
+fn recorded_egos_mostly_keep_the_traffic_rules() {
+    use safer::eval::traffic_rules::{red_light_run, wrong_way};
+    let scenes: Vec<&Scenario> = all_scenes().iter().filter(|s| s.ego.is_some()).collect();
+    let flagged: Vec<(String, Option<String>, Option<String>)> = scenes
+        .par_iter()
+        .filter_map(|s| {
+            let r = rollout(s, BuiltinPlanner::LogReplay, BackgroundPolicy::LogReplay);
+            let wrong = wrong_way(&r, &s.map)
+                .map(|w| format!("{:.1} s against lane {} from {:.1} s", w.duration_s, w.lane.0, w.start_s));
+            let red =
+                red_light_run(&r, &s.map).map(|x| format!("lane {} at {:.1} s ({:?})", x.lane.0, x.time_s, x.state));
+            (wrong.is_some() || red.is_some()).then(|| (s.id.clone(), wrong, red))
+        })
+        .collect();
+    let (wrong, red) =
+        (flagged.iter().filter(|f| f.1.is_some()).count(), flagged.iter().filter(|f| f.2.is_some()).count());
+    println!("{} recorded egos: {wrong} wrong way, {red} red light", scenes.len());
+    for f in &flagged {
+        println!("  {f:?}");
+    }
+    assert!(wrong * 20 <= scenes.len(), "{wrong} of {} recorded egos drove the wrong way: {flagged:?}", scenes.len());
+    assert!(red * 20 <= scenes.len(), "{red} of {} recorded egos ran a red light: {flagged:?}", scenes.len());
+}
