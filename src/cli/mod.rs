@@ -81,9 +81,10 @@ enum Command {
         /// A scenario file, or a folder searched recursively for scenario files (`data:REL`: in the shared data folder).
         #[arg(value_parser = data_path)]
         path: PathBuf,
-        /// Planner driving the ego.
-        #[arg(long, value_enum, default_value_t = BuiltinPlanner::Idm)]
-        planner: BuiltinPlanner,
+        /// Planner driving the ego: a built-in (log-replay, constant-velocity,
+        /// idm, evasive) or a planner spec file, as `run` and `evaluate` take.
+        #[arg(long, default_value = "idm", value_parser = planner_arg, value_name = "BUILTIN|SPEC.yaml")]
+        planner: PlannerAdapter,
         /// Policy driving the other agents.
         #[arg(long, value_enum, default_value_t = BackgroundPolicy::LogReplay)]
         background: BackgroundPolicy,
@@ -365,7 +366,7 @@ pub fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Inspect { file, json } => inspect::run(&file, json),
-        Command::Simulate { path, planner, background, json } => simulate::run(&path, planner, background, json),
+        Command::Simulate { path, planner, background, json } => simulate::run(&path, &planner, background, json),
         Command::TokenRoundtrip { scenes, json } => token_roundtrip::run(&scenes, json),
         Command::Bench { scenes, repeat, json } => bench::run(&scenes, repeat, json.as_deref()),
         Command::Run { suites, json, junit, html, artifacts, filter, jobs } => {

@@ -6,28 +6,43 @@ use std::process::ExitCode;
 use rayon::prelude::*;
 
 use super::{CliError, scene_paths};
+use crate::harness::pipeline::make_planner;
 use crate::planners::BuiltinPlanner;
+use crate::planners::external::RolloutContext;
 use crate::policies::BackgroundPolicy;
 use crate::scenario::{Scenario, import};
-use crate::sim::{RolloutSummary, SimConfig, SimError, Simulation};
+use crate::sim::{RolloutSummary, SimConfig, Simulation};
+use crate::spec::planner::PlannerAdapter;
 
-/// Runs one rollout of `scenario`.
+/// Runs one rollout of `scenario` with the planner `planner` describes (a
+/// built-in, or an external process started for this scene and told it
+/// in `hello`).
 pub fn simulate_one(
     scenario: &Scenario,
-    planner: BuiltinPlanner,
+    planner: &PlannerAdapter,
     background: BackgroundPolicy,
-) -> Result<RolloutSummary, SimError> {
-    let ego = scenario.ego.ok_or_else(|| SimError::NoEgo(scenario.id.clone()))?;
+) -> Result<RolloutSummary, String> {
+    let ego = scenario.ego.ok_or_else(|| crate::sim::SimError::NoEgo(scenario.id.clone()).to_string())?;
     // The ego is held to the default vehicle limits unless it replays its log.
-    let ego_limits = (planner != BuiltinPlanner::LogReplay).then(crate::sim::VehicleLimits::default);
-    let sim = Simulation::new(scenario, SimConfig { background, ego_limits, ..SimConfig::default() })?;
-    let mut p = planner.instantiate(scenario, ego);
+    let replays_log = matches!(planner, PlannerAdapter::Builtin { planner: BuiltinPlanner::LogReplay, .. });
+    let ego_limits = (!replays_log).then(crate::sim::VehicleLimits::default);
+    let sim = Simulation::new(scenario, SimConfig { background, ego_limits, ..SimConfig::default() })
+        .map_err(|e| e.to_string())?;
+    let context = RolloutContext {
+        scenario: std::sync::Arc::new(scenario.clone()),
+        ego,
+        start_step: scenario.current_step,
+        end_step: scenario.num_steps().saturating_sub(1),
+        variant: None,
+        seed: None,
+    };
+    let mut p = make_planner(planner, context).map_err(|e| e.to_string())?;
     Ok(sim.run(p.as_mut()).summary())
 }
 
 pub(super) fn run(
     path: &Path,
-    planner: BuiltinPlanner,
+    planner: &PlannerAdapter,
     background: BackgroundPolicy,
     json: bool,
 ) -> Result<ExitCode, CliError> {

@@ -1,5 +1,6 @@
 //! The `safer` binary end to end: what a user sees.
 
+use std::path::Path;
 use std::process::Command;
 
 use crate::shared_data::data_dir;
@@ -32,6 +33,25 @@ fn simulate_prints_a_row_per_scene_and_a_total() {
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(text.contains("637f20cafde22ff8") && text.contains("ee519cf571686d19"), "{text}");
     assert!(text.contains("2 rollouts:"), "{text}");
+}
+
+/// `simulate --planner` takes a planner spec file as `run` and `evaluate`
+/// do: the protocol-1.2 lane follower drives a shipped NGSIM scene, and a
+/// name that is neither is refused saying what it takes.
+#[test]
+fn simulate_drives_a_scene_with_a_planner_spec_file() {
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/ngsim/USA_US101-15_1_T-1.xml");
+    let spec = Path::new(env!("CARGO_MANIFEST_DIR")).join("planners/lane-follower.yaml");
+    let out = safer(&["simulate", scene.to_str().unwrap(), "--planner", spec.to_str().unwrap(), "--json"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let rows: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(rows[0]["scenario"], "USA_US101-15_1_T-1");
+    assert_eq!(rows[0]["planner"], "lane-follower", "{rows}");
+    assert!(rows[0]["steps"].as_u64().unwrap() > 10, "{rows}");
+    let out = safer(&["simulate", scene.to_str().unwrap(), "--planner", "no-such-planner"]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("neither a built-in planner") && err.contains("nor a planner spec file"), "{err}");
 }
 
 #[test]
