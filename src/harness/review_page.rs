@@ -331,8 +331,18 @@ fn failing_variant_html(
     dir: &Path,
     pictures: &mut Vec<(PathBuf, String)>,
 ) {
-    let _ =
-        write!(h, "<article class=\"failing\" id=\"v-{si}-{vi}\">\n<h3>{}</h3>\n<ul class=\"failures\">", esc(&v.name));
+    // The variant is named after its file; the picture and the recording
+    // after the scene's own id (a WOMD shard's scenario id): show both.
+    let source = &o.scenario.source.path;
+    let file = source.file_name().map_or_else(|| source.display().to_string(), |f| f.to_string_lossy().into_owned());
+    let _ = write!(
+        h,
+        "<article class=\"failing\" id=\"v-{si}-{vi}\">\n<h3>{} <span class=\"scene\">scenario {} from {}</span></h3>\n\
+         <ul class=\"failures\">",
+        esc(&v.name),
+        esc(&o.scenario.id),
+        esc(&file)
+    );
     for f in &o.failures {
         let _ = write!(h, "<li>✗ <b>{}</b>: {}</li>", esc(&f.criterion), esc(&f.what));
     }
@@ -453,7 +463,7 @@ tr.fail td:first-child,tr.error td:first-child{border-left:4px solid #c0392b}\
 article.failing{border-top:1px solid #eee;margin-top:12px}\
 .failures{margin:4px 0;padding-left:18px;font-size:14px}.what,.links{font-size:13px;color:#333}\
 .views{display:flex;flex-wrap:wrap;gap:16px;align-items:flex-start}\
-figure{margin:0;flex:1 1 560px;max-width:720px}figcaption{font-size:12px;color:#555}\
+figure{margin:0;flex:1 1 560px;max-width:720px}figcaption{font-size:12px;color:#555}h3 .scene{font-size:12px;font-weight:normal;color:#555}\
 img.picture{width:100%;height:auto;border:1px solid #ddd}\
 svg.scene{width:100%;height:auto;max-height:560px;border:1px solid #ddd;background:#fff;display:block}\
 .controls{display:flex;align-items:center;gap:10px;margin:6px 0}\
@@ -632,6 +642,10 @@ mod tests {
         assert_eq!(v["agents"][0]["role"], "ego");
         // Both variants are in the table.
         assert!(html.contains(">unit::crossing::seed-0<") && html.contains(">unit::crossing::seed-1<"));
+        // The failing variant's heading names the scene's own id and file too.
+        let scene = &o.scenario;
+        let file = scene.source.path.file_name().unwrap().to_string_lossy();
+        assert!(html.contains(&format!("<span class=\"scene\">scenario {} from {file}</span>", scene.id)), "{html}");
     }
 
     #[test]
