@@ -128,6 +128,9 @@ pub struct PlannerLatency {
     pub p95_ms: f64,
     /// Slowest, ms.
     pub max_ms: f64,
+    /// How long the planner took to start before its first observation
+    /// (an external process: to `ready`, and to answer `prepare`).
+    pub startup: Option<crate::planners::PlannerStartup>,
 }
 
 impl PlannerLatency {
@@ -144,6 +147,7 @@ impl PlannerLatency {
             p50_ms: round(rank(0.5)),
             p95_ms: round(rank(0.95)),
             max_ms: round(sorted[sorted.len() - 1]),
+            startup: None,
         })
     }
 }
@@ -168,6 +172,10 @@ impl Planner for Timed<'_> {
 
     fn end_rollout(&mut self) -> Option<String> {
         self.inner.end_rollout()
+    }
+
+    fn startup(&self) -> Option<crate::planners::PlannerStartup> {
+        self.inner.startup()
     }
 }
 
@@ -338,7 +346,12 @@ pub fn run(setup: VariantSetup<'_>) -> Result<DualStage, HarnessError> {
     let mut planner = make_planner(setup.planner, context)?;
     let mut timed = Timed { inner: planner.as_mut(), times_ms: Vec::new() };
     let stage2 = stage2.run(&mut timed);
-    let planner_latency = PlannerLatency::of(&timed.times_ms);
+    let round = |ms: f64| (ms * 1000.0).round() / 1000.0;
+    let startup = timed.startup().map(|s| crate::planners::PlannerStartup {
+        launch_ms: round(s.launch_ms),
+        prepare_ms: s.prepare_ms.map(round),
+    });
+    let planner_latency = PlannerLatency::of(&timed.times_ms).map(|l| PlannerLatency { startup, ..l });
     profile.stage2_planner_s = timed.times_ms.iter().sum::<f64>() / 1e3;
     // Ends an external process before the next variant starts one, and
     // only then reads its stderr: lines still in the pipe are not lost.

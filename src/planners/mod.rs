@@ -158,4 +158,19 @@ pub trait Planner: Send {
     fn end_rollout(&mut self) -> Option<String> {
         None
     }
+    /// How long this rollout's start took, for planners that start
+    /// something (an external process); `None` for the others.
+    fn startup(&self) -> Option<PlannerStartup> {
+        None
+    }
+}
+
+/// How long a planner took to start, before its first observation.
+#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize)]
+pub struct PlannerStartup {
+    /// From starting the process to its `ready`, ms.
+    pub launch_ms: f64,
+    /// Its answer to the whole map (`prepare` → `prepared`, protocol 1.1
+    /// and later), ms; `None` when it was not sent.
+    pub prepare_ms: Option<f64>,
 }

@@ -49,6 +49,9 @@ fn the_lane_follower_solves_a_recorded_scene_that_constant_velocity_does_not() {
     let latency = outcome.planner_latency.expect("timed");
     assert_eq!(latency.steps, outcome.stage2.steps());
     assert!(latency.p50_ms > 0.0 && latency.p50_ms <= latency.p95_ms && latency.p95_ms <= latency.max_ms);
+    // Its start is reported apart: to `ready`, and its answer to `prepare`.
+    let startup = latency.startup.expect("an external planner's start-up");
+    assert!(startup.launch_ms > 0.0 && startup.prepare_ms.is_some_and(|ms| ms > 0.0), "{startup:?}");
     // Its stderr is kept beside the recording and the picture, not only on a crash.
     let written = artefacts::write(&dir, &outcome).unwrap();
     let stderr = written.stderr.expect("an external planner's stderr file");
@@ -61,6 +64,7 @@ fn the_lane_follower_solves_a_recorded_scene_that_constant_velocity_does_not() {
     let outcome = run_variant(&cv, &cv.scenarios[0], 0).unwrap_or_else(|e| panic!("{e}"));
     assert!(matches!(outcome.verdict, Stage2Verdict::Collided { .. }), "{:?}", outcome.verdict);
     assert!(outcome.planner_stderr.is_none(), "a built-in has no stderr");
+    assert!(outcome.planner_latency.is_some_and(|l| l.startup.is_none()), "a built-in starts nothing");
     std::fs::remove_dir_all(dir).unwrap();
     std::fs::remove_dir_all(cv_dir).unwrap();
 }

@@ -223,6 +223,8 @@ pub struct ExternalPlanner {
     calls: usize,
     /// Stderr of this rollout's processes that are gone.
     stderr_log: String,
+    /// How long this rollout's process took to start and to prepare.
+    startup: Option<super::PlannerStartup>,
 }
 
 impl std::fmt::Debug for ExternalPlanner {
@@ -252,6 +254,7 @@ impl ExternalPlanner {
             failure: None,
             calls: 0,
             stderr_log: String::new(),
+            startup: None,
         }
     }
 
@@ -338,6 +341,7 @@ impl ExternalPlanner {
     /// Starts the process and waits for `ready`; on failure the process is
     /// killed and the error recorded.
     fn launch(&mut self, dt_s: f64, ego_length_m: f64, ego_width_m: f64) -> Result<(), PlannerError> {
+        let clock = Instant::now();
         let name = self.config.name.clone();
         let during = "during startup";
         let config = self.config.for_context(self.context.as_ref()).map_err(|message| PlannerError::SpawnFailed {
@@ -388,6 +392,8 @@ impl ExternalPlanner {
         match result {
             Ok((process, announced, revision)) => {
                 self.process = Some(process);
+                self.startup =
+                    Some(super::PlannerStartup { launch_ms: clock.elapsed().as_secs_f64() * 1e3, prepare_ms: None });
                 self.announced_name = announced;
                 self.revision = revision;
                 self.prepared = false;
@@ -417,6 +423,7 @@ impl ExternalPlanner {
         let Some(process) = self.process.as_mut() else {
             return Ok(());
         };
+        let clock = Instant::now();
         let reply = match process.exchange(&name, &message, during, timeout_ms) {
             Ok(PlannerMessage::Prepared {}) => Ok(()),
             Ok(PlannerMessage::Error { message, .. }) => Err(PlannerError::Reported {
@@ -438,6 +445,9 @@ impl ExternalPlanner {
         match reply {
             Ok(()) => {
                 self.prepared = true;
+                if let Some(startup) = self.startup.as_mut() {
+                    startup.prepare_ms = Some(clock.elapsed().as_secs_f64() * 1e3);
+                }
                 Ok(())
             }
             Err(e) => Err(self.fail(e)),
@@ -465,6 +475,7 @@ impl ExternalPlanner {
         self.failure = None;
         self.answered = 0;
         self.stderr_log.clear();
+        self.startup = None;
     }
 
     /// One observation → reply round trip, validated into a planner output.
@@ -498,6 +509,10 @@ impl ExternalPlanner {
 }
 
 impl Planner for ExternalPlanner {
+    fn startup(&self) -> Option<super::PlannerStartup> {
+        self.startup
+    }
+
     fn name(&self) -> &str {
         &self.config.name
     }
