@@ -112,6 +112,9 @@ pub fn red_light_run(rollout: &Rollout, map: &RoadMap) -> Option<RedLightRun> {
     for (k, pair) in rollout.states.windows(2).enumerate() {
         let (Some(Some(from)), Some(Some(to))) = (pair[0].get(ego), pair[1].get(ego)) else { continue };
         let step = rollout.start_step + k;
+        // The lanes holding the centre before and after the step, looked
+        // up once per step and only when a light there is red.
+        let mut holding: Option<Vec<MapElementId>> = None;
         for signal in &map.traffic_signals {
             let Some(state) = signal.states.get(step).copied() else { continue };
             if !matches!(state, SignalState::Stop | SignalState::ArrowStop) {
@@ -120,9 +123,10 @@ pub fn red_light_run(rollout: &Rollout, map: &RoadMap) -> Option<RedLightRun> {
             let (Some(stop), Some(lane)) = (signal.stop_point, map.lane(signal.lane)) else { continue };
             // In the controlled lane when it passes: its area holds the
             // centre before or after the step.
-            let in_lane =
-                [from, to].iter().any(|s| map.lanes_containing(&s.position, s.heading_rad).contains(&lane.id));
-            if !in_lane {
+            let holding = holding.get_or_insert_with(|| {
+                [from, to].iter().flat_map(|s| map.lanes_containing(&s.position, s.heading_rad)).collect()
+            });
+            if !holding.contains(&lane.id) {
                 continue;
             }
             let (Some(a), Some(b), Some(line)) = (

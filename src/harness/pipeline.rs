@@ -134,8 +134,9 @@ pub struct PlannerLatency {
 }
 
 impl PlannerLatency {
-    /// The summary of per-call times in ms; `None` for none.
-    pub fn of(times_ms: &[f64]) -> Option<PlannerLatency> {
+    /// The summary of per-call times in ms and of the planner's start,
+    /// each rounded to the microsecond; `None` for no call.
+    pub fn of(times_ms: &[f64], startup: Option<crate::planners::PlannerStartup>) -> Option<PlannerLatency> {
         let first_ms = *times_ms.first()?;
         let mut sorted = times_ms.to_vec();
         sorted.sort_by(f64::total_cmp);
@@ -147,7 +148,10 @@ impl PlannerLatency {
             p50_ms: round(rank(0.5)),
             p95_ms: round(rank(0.95)),
             max_ms: round(sorted[sorted.len() - 1]),
-            startup: None,
+            startup: startup.map(|s| crate::planners::PlannerStartup {
+                launch_ms: round(s.launch_ms),
+                prepare_ms: s.prepare_ms.map(round),
+            }),
         })
     }
 }
@@ -346,12 +350,7 @@ pub fn run(setup: VariantSetup<'_>) -> Result<DualStage, HarnessError> {
     let mut planner = make_planner(setup.planner, context)?;
     let mut timed = Timed { inner: planner.as_mut(), times_ms: Vec::new() };
     let stage2 = stage2.run(&mut timed);
-    let round = |ms: f64| (ms * 1000.0).round() / 1000.0;
-    let startup = timed.startup().map(|s| crate::planners::PlannerStartup {
-        launch_ms: round(s.launch_ms),
-        prepare_ms: s.prepare_ms.map(round),
-    });
-    let planner_latency = PlannerLatency::of(&timed.times_ms).map(|l| PlannerLatency { startup, ..l });
+    let planner_latency = PlannerLatency::of(&timed.times_ms, timed.startup());
     profile.stage2_planner_s = timed.times_ms.iter().sum::<f64>() / 1e3;
     // Ends an external process before the next variant starts one, and
     // only then reads its stderr: lines still in the pipe are not lost.
@@ -527,10 +526,10 @@ mod tests {
     #[test]
     fn latency_percentiles_are_nearest_rank() {
         let times: Vec<f64> = (1..=100).map(f64::from).collect();
-        let l = PlannerLatency::of(&times).unwrap();
+        let l = PlannerLatency::of(&times, None).unwrap();
         assert_eq!((l.steps, l.first_ms, l.p50_ms, l.p95_ms, l.max_ms), (100, 1.0, 50.0, 95.0, 100.0));
-        assert_eq!(PlannerLatency::of(&[7.0]).unwrap().p95_ms, 7.0);
-        assert!(PlannerLatency::of(&[]).is_none());
+        assert_eq!(PlannerLatency::of(&[7.0], None).unwrap().p95_ms, 7.0);
+        assert!(PlannerLatency::of(&[], None).is_none());
     }
 
     #[test]

@@ -145,8 +145,11 @@ impl Suite {
                     if scenario.value.recorded.is_none() {
                         // Errors that need the map (a lane that does not
                         // exist, agents overlapping at the start) show at
-                        // load, not when the first variant runs.
-                        scenario.build()?;
+                        // load, not when the first variant runs; the scene
+                        // built is the one the variants run.
+                        if let Some(built) = scenario.build()?.into_iter().next() {
+                            scene_cache().lock().expect("scenario cache").insert((p.clone(), None), Arc::new(built));
+                        }
                     }
                     // Both stages drive the CBV; an authored scene gets none unless it names one.
                     if scenario.value.recorded.is_none() && scenario.value.cbv.is_none() {
@@ -249,12 +252,17 @@ fn source_path(source: &ScenarioSource) -> &Path {
 /// A loaded scene's cache key: its file and, for a file of several, its record.
 type SceneKey = (PathBuf, Option<usize>);
 
+/// The scenes built or imported in this process, shared by every variant.
+fn scene_cache() -> &'static Mutex<HashMap<SceneKey, Arc<Scenario>>> {
+    static CACHE: OnceLock<Mutex<HashMap<SceneKey, Arc<Scenario>>>> = OnceLock::new();
+    CACHE.get_or_init(Default::default)
+}
+
 impl SuiteScenario {
     /// The base scenario, built once per process and shared.
     pub fn load(&self) -> Result<Arc<Scenario>, SpecError> {
-        static CACHE: OnceLock<Mutex<HashMap<SceneKey, Arc<Scenario>>>> = OnceLock::new();
         let key = (source_path(&self.source).to_path_buf(), self.record);
-        let cache = CACHE.get_or_init(Default::default);
+        let cache = scene_cache();
         if let Some(s) = cache.lock().expect("scenario cache").get(&key) {
             return Ok(s.clone());
         }
