@@ -4,41 +4,119 @@
 //! SaFeR method (feasibility-constrained token resampling): safety-critical,
 //! realistic and *avoidable* traffic conflicts on every `cargo test`.
 //!
-//! The modules follow the layers of the design; a lower layer never imports
-//! a higher one:
+//! A planner crate describes its tests as YAML suites (`specs/suites/*.yaml`:
+//! which scenes, which planner, how many adversarial variants, which
+//! acceptance criteria) and adds one test target whose `main` hands them to
+//! the [`Runner`]. Every variant becomes a test; a failing one prints what
+//! happened and leaves an MCAP recording and a picture behind.
 //!
-//! | layer | owns |
-//! | --- | --- |
-//! | [`geometry`] | points, poses, oriented boxes (parry2d), polylines, polygons |
-//! | [`map`] | typed map elements, lane graph, spatial index, road-edge distance |
-//! | [`scenario`] | the in-memory scenario and the importers of recorded logs |
-//! | [`motion`] | kinematic model, the 63×63 token grid, log-to-token inversion |
-//! | [`models`] | ONNX models run by tract, model cards, feature builders |
-//! | [`policies`] | who drives a background agent: log replay, constant velocity, IDM |
-//! | [`planners`] | the ego under test: the planner trait and built-in planners |
-//! | [`sim`] | the closed-loop engine, collision and off-road events, rollouts, authored scenes |
-//! | [`eval`] | time to collision, Jensen–Shannon divergence (VJ, AJ), the feasibility witness and V_h's accuracy against it |
-//! | [`spec`] | typed YAML specs (scenarios, planners, suites), JSON Schema export |
-//! | [`harness`] | suites to variants, the dual-stage pipeline, acceptance, metrics, failure artefacts |
-//! | [`record`] | MCAP recordings with Foxglove schemas, SVG pictures |
-//! | [`datasets`] | training data for the shipped models: prior shards, feasibility transitions, the held-out rule |
-//! | [`cli`] | the `safer` command line |
-//! | [`runner`] | the scenario-suite test runner a planner crate's test target calls |
-
+//! ## Quick start
+//!
+//! Implement [`Planner`] for your planner (or wrap it in an adapter): it
+//! reads an [`Observation`] (the ego, the perceived road users, the map,
+//! the signals) and answers a control or a trajectory.
+//!
+//! ```
+//! use safer::prelude::*;
+//!
+//! /// Holds its lane's heading and brakes for anyone within 20 m ahead.
+//! struct Cautious;
+//!
+//! impl Planner for Cautious {
+//!     fn name(&self) -> &str {
+//!         "cautious"
+//!     }
+//!
+//!     fn plan(&mut self, obs: &Observation<'_>) -> Result<PlannerOutput, PlannerError> {
+//!         let heading = obs.ego.heading_rad;
+//!         let ahead = obs.agents.iter().any(|agent| {
+//!             let offset = agent.state.position - obs.ego.position;
+//!             let along_m = offset.x * heading.cos() + offset.y * heading.sin();
+//!             (0.0..20.0).contains(&along_m) && (offset.norm_squared() - along_m * along_m).sqrt() < 2.0
+//!         });
+//!         let accel_mps2 = if ahead { -4.0 } else { 0.0 };
+//!         Ok(PlannerOutput::Control(Action { accel_mps2, yaw_rate_radps: 0.0 }))
+//!     }
+//! }
+//!
+//! # let _ = Cautious.name();
+//! ```
+//!
+//! Then register it in the crate's scenario test target (`tests/scenarios.rs`,
+//! with `harness = false` in `Cargo.toml`) and name it in a suite with
+//! `planner: { rust: cautious }`:
+//!
+//! ```no_run
+//! # use safer::prelude::*;
+//! # struct Cautious;
+//! # impl Planner for Cautious {
+//! #     fn name(&self) -> &str { "cautious" }
+//! #     fn plan(&mut self, _: &Observation<'_>) -> Result<PlannerOutput, PlannerError> {
+//! #         Ok(PlannerOutput::Control(Action::default()))
+//! #     }
+//! # }
+//! fn main() {
+//!     Runner::new(env!("CARGO_MANIFEST_DIR"))
+//!         .planner("cautious", |_scenario, _ego| Cautious)
+//!         .run()
+//! }
+//! ```
+//!
+//! `cargo test` now runs every variant of every suite; `cargo test --
+//! FILTER`, `--list` and cargo-nextest's partitions work as for any test.
+//! Planners in other languages speak the JSON-lines planner protocol
+//! instead (`docs/planner-protocol.md`; a Python kit is in `python/`).
+//!
+//! ## What is public
+//!
+//! The items re-exported here (and in [`prelude`]) are the API a planner
+//! crate builds on. The modules behind them are the implementation of the
+//! `safer` command line, its tests and benchmarks; they are reachable but
+//! hidden from these docs and carry no stability promise. The layers and
+//! what each owns are described in `ARCHITECTURE.md`.
 #![warn(missing_docs)]
+// The quick start shows the whole test target a planner crate writes, `main` included.
+#![allow(clippy::needless_doctest_main)]
 
-pub mod cli;
+#[doc(hidden)]
 pub mod datasets;
+#[doc(hidden)]
 pub mod eval;
+#[doc(hidden)]
 pub mod geometry;
+#[doc(hidden)]
 pub mod harness;
+#[doc(hidden)]
 pub mod map;
+#[doc(hidden)]
 pub mod models;
+#[doc(hidden)]
 pub mod motion;
+#[doc(hidden)]
 pub mod planners;
+#[doc(hidden)]
 pub mod policies;
+#[doc(hidden)]
 pub mod record;
 pub mod runner;
+#[doc(hidden)]
 pub mod scenario;
+#[doc(hidden)]
 pub mod sim;
+#[doc(hidden)]
 pub mod spec;
+
+pub use geometry::{Point2, Polyline};
+pub use map::{Lane, MapElementId, RoadMap, SignalState};
+pub use motion::Action;
+pub use planners::{Observation, PerceivedAgent, Planner, PlannerError, PlannerOutput, PlannerStartup, TrajectoryPoint};
+pub use runner::Runner;
+pub use scenario::{AgentId, AgentKind, AgentState, Scenario, TrackIndex};
+
+/// What a planner crate needs, in one import: `use safer::prelude::*;`.
+pub mod prelude {
+    pub use crate::{
+        Action, AgentId, AgentKind, AgentState, Lane, MapElementId, Observation, PerceivedAgent, Planner, PlannerError, PlannerOutput,
+        Point2, Polyline, RoadMap, Runner, Scenario, SignalState, TrackIndex, TrajectoryPoint,
+    };
+}

@@ -1,5 +1,7 @@
-//! The `safer` binary; everything lives in [`safer::cli`].
+//! The `safer` binary: the command line over the library (`cli`).
+
+mod cli;
 
 fn main() -> std::process::ExitCode {
-    safer::cli::main()
+    cli::main()
 }

@@ -153,6 +153,7 @@ fuzz_target!(|data: &[u8]| {
                 assert!(values.iter().all(|v| v.is_finite()), "{p:?}");
             }
         }
+        other => panic!("a reply decodes to a control or a trajectory, not {other:?}"),
     }
     let limits = VehicleLimits::default();
     let config = SimConfig { start_step: Some(0), ego_limits: Some(limits), ..SimConfig::default() };

@@ -17,16 +17,16 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use super::{CliError, scene_paths};
-use crate::eval::escape::EscapeBudget;
-use crate::eval::witness::{RoadKeeping, WitnessBudget, search_rollout_witness};
-use crate::harness::methods::{BackgroundDriver, MapEncodings, MethodSettings, ModelSet};
-use crate::harness::pipeline::{self, Stage2Cbv, VariantSetup};
-use crate::planners::BuiltinPlanner;
-use crate::policies::prior_sampling::TokenSampling;
-use crate::scenario::{Scenario, SourceFormat, import};
-use crate::sim::{SimConfig, Simulation};
-use crate::spec::planner::PlannerAdapter;
-use crate::spec::suite::AdversaryMethod;
+use safer::eval::escape::EscapeBudget;
+use safer::eval::witness::{RoadKeeping, WitnessBudget, search_rollout_witness};
+use safer::harness::methods::{BackgroundDriver, MapEncodings, MethodSettings, ModelSet};
+use safer::harness::pipeline::{self, Stage2Cbv, VariantSetup};
+use safer::planners::BuiltinPlanner;
+use safer::policies::prior_sampling::TokenSampling;
+use safer::scenario::{Scenario, SourceFormat, import};
+use safer::sim::{SimConfig, Simulation};
+use safer::spec::planner::PlannerAdapter;
+use safer::spec::suite::AdversaryMethod;
 
 /// Target for one SaFeR variant (both stages, no witness), ms.
 const VARIANT_TARGET_MS: f64 = 50.0;
@@ -155,7 +155,7 @@ struct ClosedLoopWitnessBench {
 /// Runs the command.
 pub(super) fn run(scenes: &Path, repeat: usize, json: Option<&Path>) -> Result<ExitCode, CliError> {
     if let Some(path) = json {
-        crate::record::output::check_output(path)?;
+        safer::record::output::check_output(path)?;
     }
     let mut out = super::table_writer(json);
     let profile = if cfg!(debug_assertions) { "debug" } else { "release" };
@@ -331,8 +331,8 @@ pub(super) fn run(scenes: &Path, repeat: usize, json: Option<&Path>) -> Result<E
     out.flush()?;
     if let Some(path) = json {
         let report = BenchReport { profile, cpus, repeat, import: import_rows, simulator: simulator_rows, variant };
-        crate::record::write_output(path, (serde_json::to_string_pretty(&report)? + "\n").as_bytes())?;
-        if !crate::record::is_stdout(path) {
+        safer::record::write_output(path, (serde_json::to_string_pretty(&report)? + "\n").as_bytes())?;
+        if !safer::record::is_stdout(path) {
             eprintln!("wrote {}", path.display());
         }
     }
@@ -347,7 +347,7 @@ fn bench_variant(scenes: &[Scenario], repeat: usize) -> Result<Option<VariantBen
     let present = |s: &Scenario| s.tracks.iter().filter(|t| t.state(s.current_step).is_some()).count();
     let Some(scene) = scenes
         .iter()
-        .filter(|s| s.ego.is_some() && s.cbv.is_some() && crate::scenario::roles::recorded_ego_contact(s).is_none())
+        .filter(|s| s.ego.is_some() && s.cbv.is_some() && safer::scenario::roles::recorded_ego_contact(s).is_none())
         .max_by_key(|s| (present(s), s.id.clone()))
     else {
         return Ok(None);
@@ -368,7 +368,7 @@ fn bench_variant(scenes: &[Scenario], repeat: usize) -> Result<Option<VariantBen
             background: BackgroundDriver::Configured,
             sampling: TokenSampling::default(),
         },
-        seed: crate::harness::variant::variant_seed(0, &format!("{}/{method:?}", scenario.id), 0),
+        seed: safer::harness::variant::variant_seed(0, &format!("{}/{method:?}", scenario.id), 0),
         sim: &sim,
         stage2_cbv: Stage2Cbv::Replay,
         planner: &planner,
@@ -376,7 +376,7 @@ fn bench_variant(scenes: &[Scenario], repeat: usize) -> Result<Option<VariantBen
         maps: &maps,
         variant: None,
         escape: None,
-        ego_limits: Some(crate::sim::VehicleLimits::default()),
+        ego_limits: Some(safer::sim::VehicleLimits::default()),
     };
     // Warm-up: encodes the map once, as an evaluation does for all its variants.
     pipeline::run(setup)?;
@@ -423,7 +423,7 @@ fn bench_variant(scenes: &[Scenario], repeat: usize) -> Result<Option<VariantBen
     let mut closed_loop_witness = None;
     for seed in 0..20 {
         let at_seed = VariantSetup {
-            seed: crate::harness::variant::variant_seed(0, &format!("{}/{method:?}", scenario.id), seed),
+            seed: safer::harness::variant::variant_seed(0, &format!("{}/{method:?}", scenario.id), seed),
             planner: &log_replay,
             ..closed
         };

@@ -14,11 +14,11 @@ use std::process::{Command, ExitCode};
 use std::time::{Duration, Instant};
 
 use super::{CliError, evaluate::load_scenes};
-use crate::models::ModelSource;
-use crate::models::onnx::NodeCost;
-use crate::models::prior::{PriorVariant, RealismPrior, SCENE_BATCH};
-use crate::models::prior_features::{MapTokens, StateHistory, build_query};
-use crate::scenario::{AgentState, Scenario};
+use safer::models::ModelSource;
+use safer::models::onnx::NodeCost;
+use safer::models::prior::{PriorVariant, RealismPrior, SCENE_BATCH};
+use safer::models::prior_features::{MapTokens, StateHistory, build_query};
+use safer::scenario::{AgentState, Scenario};
 
 struct LogHistory<'a>(&'a Scenario);
 
@@ -153,7 +153,7 @@ pub(super) fn run(
     json: Option<&Path>,
 ) -> Result<ExitCode, CliError> {
     if let Some(path) = json {
-        crate::record::output::check_output(path)?;
+        safer::record::output::check_output(path)?;
     }
     let mut out = super::table_writer(json);
     let profile = if cfg!(debug_assertions) { "debug" } else { "release" };
@@ -246,7 +246,7 @@ pub(super) fn run(
     // holds the originals of the embedded files.
     let reference_models = match models {
         ModelSource::Folder(dir) => dir.clone(),
-        ModelSource::Embedded => PathBuf::from(crate::models::source::MODELS_FOLDER),
+        ModelSource::Embedded => PathBuf::from(safer::models::source::MODELS_FOLDER),
     };
     let mut reference =
         Reference { available: false, missing_because: None, rows: Vec::new(), torch_missing_because: None };
@@ -342,8 +342,8 @@ pub(super) fn run(
             reference,
             decoder_profiles: profiles,
         };
-        crate::record::write_output(path, (serde_json::to_string_pretty(&report)? + "\n").as_bytes())?;
-        if !crate::record::is_stdout(path) {
+        safer::record::write_output(path, (serde_json::to_string_pretty(&report)? + "\n").as_bytes())?;
+        if !safer::record::is_stdout(path) {
             eprintln!("wrote {}", path.display());
         }
     }

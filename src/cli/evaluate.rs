@@ -18,10 +18,10 @@ use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
 
 use super::{CliError, scene_paths};
-use crate::eval::witness::{DEFAULT_WIDEST, RoadKeeping, WitnessBudget, search_rollout_witness};
-use crate::harness::evaluation::{self, EvaluationRequest, HeldOutSplit, MethodRow, Stage2Cbv, VariantRecord};
-use crate::harness::methods::ModelSet;
-use crate::scenario::{Scenario, import};
+use safer::eval::witness::{DEFAULT_WIDEST, RoadKeeping, WitnessBudget, search_rollout_witness};
+use safer::harness::evaluation::{self, EvaluationRequest, HeldOutSplit, MethodRow, Stage2Cbv, VariantRecord};
+use safer::harness::methods::ModelSet;
+use safer::scenario::{Scenario, import};
 
 /// Loads every scene under `path` that has an ego and a CBV.
 pub(super) fn load_scenes(path: &Path, max_scenes: Option<usize>) -> Result<Vec<Arc<Scenario>>, CliError> {
@@ -63,9 +63,9 @@ fn fmt(v: Option<f64>) -> String {
 
 /// A row's name: the method, and its stage-2 CBV mode when the table holds
 /// more than one.
-fn label(method: crate::spec::suite::AdversaryMethod, mode: Stage2Cbv, modes: usize) -> String {
-    let method = crate::spec::spec_name(&method);
-    if modes > 1 { format!("{method} ({})", crate::spec::spec_name(&mode)) } else { method }
+fn label(method: safer::spec::suite::AdversaryMethod, mode: Stage2Cbv, modes: usize) -> String {
+    let method = safer::spec::spec_name(&method);
+    if modes > 1 { format!("{method} ({})", safer::spec::spec_name(&mode)) } else { method }
 }
 
 /// What the witness search holds an escape to, and how hard it looks.
@@ -94,7 +94,7 @@ fn print_table(
         "{scenes} scenes × {} seeds; stage 2 planner `{}`, stage-2 CBV {}, trust region n = {}, horizon {} s{}{}",
         request.seeds,
         request.planner.name(),
-        request.stage2_cbv.iter().map(crate::spec::spec_name).collect::<Vec<_>>().join(" and "),
+        request.stage2_cbv.iter().map(safer::spec::spec_name).collect::<Vec<_>>().join(" and "),
         request.trust_region,
         request.horizon_s,
         match witness.road {
@@ -250,7 +250,7 @@ fn print_table(
 /// (closed-loop failures − `log` failures) / (replay failures − `log`
 /// failures); `None` without a `log` row and both modes.
 fn failures_beyond_log(rows: &[MethodRow]) -> Option<String> {
-    use crate::spec::suite::AdversaryMethod;
+    use safer::spec::suite::AdversaryMethod;
     let log = rows.iter().find(|r| r.method == AdversaryMethod::Log)?.failures as f64;
     let parts: Vec<String> = rows
         .iter()
@@ -259,7 +259,7 @@ fn failures_beyond_log(rows: &[MethodRow]) -> Option<String> {
             let replay = rows.iter().find(|r| r.method == closed.method && r.stage2_cbv == Stage2Cbv::Replay)?;
             let (c, p) = (closed.failures as f64 - log, replay.failures as f64 - log);
             let ratio = if p > 0.0 { format!("{:.2}×", c / p) } else { "—".into() };
-            Some(format!("{}: {c} / {p} = {ratio}", crate::spec::spec_name(&closed.method)))
+            Some(format!("{}: {c} / {p} = {ratio}", safer::spec::spec_name(&closed.method)))
         })
         .collect();
     (!parts.is_empty())
@@ -284,15 +284,15 @@ pub(super) fn run(
     witness: WitnessSettings,
 ) -> Result<ExitCode, CliError> {
     if let Some(path) = json {
-        crate::record::output::check_output(path)?;
+        safer::record::output::check_output(path)?;
         // The report must not replace a scene it reads, nor the planner's spec.
         let mut inputs = scene_paths(scenes_dir)?;
         inputs.extend(request.planner.argument_files());
-        crate::record::check_outputs_apart(&[crate::record::NamedOutput { flag: "--json", path }], &inputs)?;
+        safer::record::check_outputs_apart(&[safer::record::NamedOutput { flag: "--json", path }], &inputs)?;
     }
     let scenes: Vec<Arc<Scenario>> = load_scenes(scenes_dir, max_scenes)?
         .into_iter()
-        .filter(|s| match crate::scenario::roles::recorded_ego_contact(s) {
+        .filter(|s| match safer::scenario::roles::recorded_ego_contact(s) {
             Some((other, step)) => {
                 eprintln!(
                     "warning: skipping {}: the recorded ego touches agent {} at t = {:.1} s (an annotation overlap: no planner can solve it)",
@@ -315,7 +315,7 @@ pub(super) fn run(
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     let budget = WitnessBudget::widening_up_to(witness.widest);
-    let search = move |scenario: &Scenario, stage1: &crate::sim::Rollout| -> bool {
+    let search = move |scenario: &Scenario, stage1: &safer::sim::Rollout| -> bool {
         search_rollout_witness(scenario, stage1, witness.road, budget).is_found()
     };
     let records = evaluation::evaluate(&scenes, request, &models, Some(&search), &|| bar.inc(1));
@@ -329,8 +329,8 @@ pub(super) fn run(
     // (`| head`) must not cost the evaluation its report.
     let report = Report { scenes: scenes.len(), rows: &rows, held_out: &held_out, variants: &records };
     let report_text = || serde_json::to_string_pretty(&report).map(|t| t + "\n");
-    if let Some(path) = json.filter(|p| !crate::record::is_stdout(p)) {
-        crate::record::write_output(path, report_text()?.as_bytes())?;
+    if let Some(path) = json.filter(|p| !safer::record::is_stdout(p)) {
+        safer::record::write_output(path, report_text()?.as_bytes())?;
         eprintln!("wrote {}", path.display());
     }
     let mut table = super::table_writer(json);
@@ -340,8 +340,8 @@ pub(super) fn run(
         Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => {}
         other => other?,
     }
-    if let Some(path) = json.filter(|p| crate::record::is_stdout(p)) {
-        crate::record::write_output(path, report_text()?.as_bytes())?;
+    if let Some(path) = json.filter(|p| safer::record::is_stdout(p)) {
+        safer::record::write_output(path, report_text()?.as_bytes())?;
     }
     let failed = rows.iter().any(|r| r.errors == r.variants && r.variants > 0);
     Ok(if failed { ExitCode::from(1) } else { ExitCode::SUCCESS })

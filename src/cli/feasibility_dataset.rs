@@ -1,14 +1,14 @@
 //! `safer feasibility-dataset`: collects the transitions (s, a, h(s), s',
-//! done) V_h is trained on ([`crate::datasets::feasibility_transitions`])
+//! done) V_h is trained on ([`safer::datasets::feasibility_transitions`])
 //! and prints their coverage (violations, near states, per CBV policy).
 
 use std::path::PathBuf;
 use std::process::ExitCode;
 
 use super::{CliError, scene_paths};
-use crate::datasets::feasibility_transitions::Collection;
-use crate::datasets::load_training_scenes;
-use crate::harness::methods::{MapEncodings, ModelSet};
+use safer::datasets::feasibility_transitions::Collection;
+use safer::datasets::load_training_scenes;
+use safer::harness::methods::{MapEncodings, ModelSet};
 
 /// Settings of the command.
 #[derive(Debug, Clone)]
@@ -59,7 +59,7 @@ pub fn run(request: &FeasibilityDatasetRequest) -> Result<ExitCode, CliError> {
         "witness branches: {} ({} transitions, escapes from states with the CBV within {} m)",
         collected.witness_branches,
         collected.witness_branch_transitions,
-        crate::datasets::feasibility_transitions::BRANCH_MAX_DISTANCE_M
+        safer::datasets::feasibility_transitions::BRANCH_MAX_DISTANCE_M
     );
     let mut per_cbv: Vec<(String, usize, usize)> =
         collected.per_cbv.iter().map(|(c, k)| (format!("{c:?}"), k.transitions, k.violating)).collect();

@@ -1,8 +1,8 @@
 //! `safer feasibility-eval`: how well the shipped V_h tells feasible from
 //! infeasible ego–CBV states, on the held-out scenes of the feasibility
-//! collection (never trained on; [`crate::datasets::held_out`]). States
+//! collection (never trained on; [`safer::datasets::held_out`]). States
 //! sampled from their episodes are labelled by the witness search and
-//! compared with sign(V_h) ([`crate::eval::feasibility_accuracy`]); prints
+//! compared with sign(V_h) ([`safer::eval::feasibility_accuracy`]); prints
 //! the confusion table with precision and recall of "infeasible", the V_h
 //! batch-20 latency in tract and the witness time, the threshold that a
 //! calibration would pick (best precision at recall ≥ 0.9) and mean V_h;
@@ -18,16 +18,16 @@ use rayon::prelude::*;
 
 use super::CliError;
 use super::feasibility_dataset::{FeasibilityDatasetRequest, collection};
-use crate::datasets::held_out::Split;
-use crate::eval::feasibility_accuracy::{
+use safer::datasets::held_out::Split;
+use safer::eval::feasibility_accuracy::{
     ConfusionTable, LabelledState, LfrGrid, LfrPanel, SampledState, WITNESS_HORIZON_STEPS, best_threshold_at_recall,
     label_state, lfr_panels, sample_states,
 };
-use crate::harness::methods::{MapEncodings, ModelSet};
-use crate::models::feasibility::{FEASIBILITY_FEATURES, FeasibilityValue, feasibility_features};
-use crate::models::feasibility_oracle::EgoCbvState;
-use crate::models::shard::{ShardColumn, write_shard};
-use crate::record::svg::render_lfr_svg;
+use safer::harness::methods::{MapEncodings, ModelSet};
+use safer::models::feasibility::{FEASIBILITY_FEATURES, FeasibilityValue, feasibility_features};
+use safer::models::feasibility_oracle::EgoCbvState;
+use safer::models::shard::{ShardColumn, write_shard};
+use safer::record::svg::render_lfr_svg;
 
 /// The recall of "infeasible" the issue asks a calibrated V_h to keep.
 const TARGET_RECALL: f64 = 0.9;
@@ -89,15 +89,15 @@ pub fn run(
     labels: Option<&Path>,
 ) -> Result<ExitCode, CliError> {
     for path in json.into_iter().chain(labels) {
-        crate::record::output::check_output(path)?;
+        safer::record::output::check_output(path)?;
     }
     // The table goes to stderr when the JSON report takes stdout.
-    let mut out: Box<dyn Write> = if json.is_some_and(crate::record::is_stdout) {
+    let mut out: Box<dyn Write> = if json.is_some_and(safer::record::is_stdout) {
         Box::new(std::io::stderr())
     } else {
         Box::new(std::io::stdout())
     };
-    let value = FeasibilityValue::load(&crate::models::ModelSource::shipped())?;
+    let value = FeasibilityValue::load(&safer::models::ModelSource::shipped())?;
     let models = ModelSet::shipped();
     let maps = MapEncodings::default();
     let collection = collection(request, &models)?;
@@ -183,9 +183,9 @@ pub fn run(
         print_panel(&mut out, p)?;
     }
     if let Some(svg) = svg {
-        crate::record::create_parent_folder(svg)?;
-        crate::record::write_output(svg, render_lfr_svg(&panels).as_bytes())?;
-        if !crate::record::is_stdout(svg) {
+        safer::record::create_parent_folder(svg)?;
+        safer::record::write_output(svg, render_lfr_svg(&panels).as_bytes())?;
+        if !safer::record::is_stdout(svg) {
             writeln!(out, "wrote {}", svg.display())?;
         }
     }
@@ -205,7 +205,7 @@ pub fn run(
             witness_p95_ms,
         };
         let text = serde_json::to_string_pretty(&report).map_err(|e| CliError::Usage(e.to_string()))?;
-        crate::record::write_output(path, format!("{text}\n").as_bytes())?;
+        safer::record::write_output(path, format!("{text}\n").as_bytes())?;
     }
     Ok(ExitCode::SUCCESS)
 }
@@ -229,7 +229,7 @@ fn write_labels(
         ShardColumn::f32("value", vec![n], &value),
     ];
     let split = serde_json::to_string(&split).map_err(|e| CliError::Usage(e.to_string()))?;
-    crate::record::create_parent_folder(path)?;
+    safer::record::create_parent_folder(path)?;
     write_shard(path, &columns, std::collections::HashMap::from([("split".to_string(), split)]))?;
     eprintln!("wrote {} labelled states to {}", n, path.display());
     Ok(())

@@ -7,8 +7,8 @@ use std::process::ExitCode;
 use serde::Serialize;
 
 use super::CliError;
-use crate::map::MapCounts;
-use crate::scenario::{AgentKind, RoleOrigin, Scenario, SourceFormat, import};
+use safer::map::MapCounts;
+use safer::scenario::{AgentKind, RoleOrigin, Scenario, SourceFormat, import};
 
 /// A role holder in the summary.
 #[derive(Debug, Serialize)]
@@ -42,7 +42,7 @@ fn summarise(s: &Scenario) -> ScenarioSummary {
     for t in &s.tracks {
         *by_kind.entry(t.kind).or_insert(0) += 1;
     }
-    let role = |i: Option<crate::scenario::TrackIndex>, origin| {
+    let role = |i: Option<safer::scenario::TrackIndex>, origin| {
         i.map(|i| RoleSummary { id: s.track(i).id.to_string(), kind: s.track(i).kind, assigned_by: origin })
     };
     ScenarioSummary {
@@ -75,7 +75,7 @@ pub(super) fn run(file: &Path, json: bool) -> Result<ExitCode, CliError> {
         println!("file          {}", s.file);
         println!("format        {}", serde_json::to_value(s.format)?.as_str().unwrap_or_default());
         let kinds: Vec<String> =
-            s.agents_by_kind.iter().map(|(k, n)| format!("{n} {}", crate::spec::spec_name(k))).collect();
+            s.agents_by_kind.iter().map(|(k, n)| format!("{n} {}", safer::spec::spec_name(k))).collect();
         println!("agents        {} ({})", s.agents, kinds.join(", "));
         println!("steps         {} × {:.4} s = {:.1} s, now = step {}", s.steps, s.dt_s, s.duration_s, s.current_step);
         let m = &s.map;

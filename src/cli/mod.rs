@@ -12,8 +12,8 @@
 //! [`record::write_output`] (`-` is standard output, symlinks followed,
 //! devices written in place, folders refused).
 //!
-//! [`spec::paths`]: crate::spec::paths
-//! [`record::write_output`]: crate::record::write_output
+//! [`spec::paths`]: safer::spec::paths
+//! [`record::write_output`]: safer::record::write_output
 
 mod bench;
 mod bench_models;
@@ -35,20 +35,20 @@ use std::process::ExitCode;
 use clap::builder::{RangedU64ValueParser, TypedValueParser};
 use clap::{Parser, Subcommand};
 
-use crate::eval::witness::RoadKeeping;
-use crate::harness::HarnessError;
-use crate::harness::evaluation::{EvaluationRequest, Stage2Cbv};
-use crate::harness::methods::BackgroundDriver;
-use crate::models::ModelError;
-use crate::motion::tokens::VOCABULARY_SIZE;
-use crate::planners::BuiltinPlanner;
-use crate::policies::BackgroundPolicy;
-use crate::record::RecordError;
-use crate::scenario::import::ImportError;
-use crate::sim::SimError;
-use crate::spec::planner::PlannerAdapter;
-use crate::spec::suite::AdversaryMethod;
-use crate::spec::{SpecError, SpecKind};
+use safer::eval::witness::RoadKeeping;
+use safer::harness::HarnessError;
+use safer::harness::evaluation::{EvaluationRequest, Stage2Cbv};
+use safer::harness::methods::BackgroundDriver;
+use safer::models::ModelError;
+use safer::motion::tokens::VOCABULARY_SIZE;
+use safer::planners::BuiltinPlanner;
+use safer::policies::BackgroundPolicy;
+use safer::record::RecordError;
+use safer::scenario::import::ImportError;
+use safer::sim::SimError;
+use safer::spec::planner::PlannerAdapter;
+use safer::spec::suite::AdversaryMethod;
+use safer::spec::{SpecError, SpecKind};
 
 /// How `data:` paths and output paths are read, for `safer --help`.
 const PATHS_HELP: &str = "Paths: `data:REL` names REL in the shared recorded-data folder: $SAFER_DATA_DIR if set, \
@@ -231,7 +231,7 @@ enum Command {
         #[arg(long, value_enum, default_value_t = RoadKeeping::Centre)]
         witness_road: RoadKeeping,
         /// The widest beam the witness search tries when narrower ones find nothing, as a multiple of the narrow one (48 candidates); 1 to 4096. Wider finds escapes narrower ones miss, at seconds to minutes a search where none exists.
-        #[arg(long, value_name = "N", default_value_t = crate::eval::witness::DEFAULT_WIDEST, value_parser = RangedU64ValueParser::<usize>::new().range(1..=crate::eval::witness::MOST_WIDEST as u64))]
+        #[arg(long, value_name = "N", default_value_t = safer::eval::witness::DEFAULT_WIDEST, value_parser = RangedU64ValueParser::<usize>::new().range(1..=safer::eval::witness::MOST_WIDEST as u64))]
         witness_widest: usize,
     },
     /// Write the feasibility value's training transitions (NGSIM + synthetic, several ego and CBV policies).
@@ -277,7 +277,7 @@ enum Command {
         /// on; the reported figures) or the training ones (to calibrate a
         /// decision threshold on without touching the held-out set).
         #[arg(long, value_enum, default_value = "held-out")]
-        split: crate::datasets::held_out::Split,
+        split: safer::datasets::held_out::Split,
         /// Write every labelled state (its V_h features, witness label and
         /// V_h) as a safetensors file, for `training/feasibility/train.py
         /// --calibration` (label the training split for that, never the
@@ -370,8 +370,8 @@ pub fn main() -> ExitCode {
         Command::TokenRoundtrip { scenes, json } => token_roundtrip::run(&scenes, json),
         Command::Bench { scenes, repeat, json } => bench::run(&scenes, repeat, json.as_deref()),
         Command::Run { suites, json, junit, html, artifacts, filter, jobs } => {
-            if json.as_deref().is_some_and(crate::record::is_stdout)
-                && junit.as_deref().is_some_and(crate::record::is_stdout)
+            if json.as_deref().is_some_and(safer::record::is_stdout)
+                && junit.as_deref().is_some_and(safer::record::is_stdout)
             {
                 Err(CliError::Usage("--json - and --junit - cannot both take standard output".into()))
             } else {
@@ -391,7 +391,7 @@ pub fn main() -> ExitCode {
         Command::Render { file, step, out, force } => render::run(&file, step, out.as_deref(), force),
         Command::BenchModels { scenes, models, repeat, python, profile, json } => bench_models::run(
             &scenes,
-            &crate::models::ModelSource::folder_or_shipped(models),
+            &safer::models::ModelSource::folder_or_shipped(models),
             repeat,
             &python,
             profile,
@@ -416,7 +416,7 @@ pub fn main() -> ExitCode {
             let mut stage2_cbv = stage2_cbv;
             stage2_cbv.sort();
             stage2_cbv.dedup();
-            let escape = crate::eval::escape::EscapeBudget { keeping: witness_road, ..Default::default() };
+            let escape = safer::eval::escape::EscapeBudget { keeping: witness_road, ..Default::default() };
             let request = EvaluationRequest {
                 methods,
                 seeds,
@@ -499,11 +499,11 @@ fn error_report(e: &(dyn std::error::Error + 'static)) -> String {
 }
 
 /// A command-line path: `data:REL` is `REL` in the shared recorded-data
-/// folder, by the rule of [`crate::spec::paths`] for the project this
+/// folder, by the rule of [`safer::spec::paths`] for the project this
 /// binary was built from; anything else is taken as written.
 fn data_path(written: &str) -> Result<PathBuf, String> {
     if written.starts_with("data:") {
-        Ok(crate::spec::paths::resolve(Path::new(env!("CARGO_MANIFEST_DIR")), written))
+        Ok(safer::spec::paths::resolve(Path::new(env!("CARGO_MANIFEST_DIR")), written))
     } else {
         Ok(PathBuf::from(written))
     }
@@ -556,7 +556,7 @@ fn positive_finite(written: &str) -> Result<f64, String> {
 /// standard error when the JSON report takes standard output (`--json -`),
 /// so the JSON stays parseable.
 fn table_writer(json: Option<&Path>) -> Box<dyn std::io::Write> {
-    if json.is_some_and(crate::record::is_stdout) {
+    if json.is_some_and(safer::record::is_stdout) {
         Box::new(std::io::stderr().lock())
     } else {
         Box::new(std::io::stdout().lock())
@@ -565,9 +565,9 @@ fn table_writer(json: Option<&Path>) -> Box<dyn std::io::Write> {
 
 /// Scenario files under `path` (or `path` itself when it is a file).
 fn scene_paths(path: &std::path::Path) -> Result<Vec<PathBuf>, CliError> {
-    let is_av2_folder = crate::scenario::import::argoverse2::find_scenario_files(path).is_ok();
+    let is_av2_folder = safer::scenario::import::argoverse2::find_scenario_files(path).is_ok();
     if path.is_dir() && !is_av2_folder {
-        let found = crate::scenario::import::discover(path)?;
+        let found = safer::scenario::import::discover(path)?;
         if found.is_empty() {
             return Err(CliError::NoScenes(path.to_path_buf()));
         }

@@ -1,6 +1,6 @@
 //! `safer prior-dataset`: writes the realism prior's training shards from
 //! recorded scenes whose licence allows training shipped models (NGSIM) and
-//! from calibrated synthetic traffic ([`crate::datasets::prior_shards`]),
+//! from calibrated synthetic traffic ([`safer::datasets::prior_shards`]),
 //! and prints the calibration (recorded vs synthetic speeds and
 //! accelerations, with their Jensen–Shannon divergence) so it can be judged.
 
@@ -8,10 +8,10 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use super::{CliError, scene_paths};
-use crate::datasets::prior_shards::{Calibration, SyntheticPlan, shard_scenes, synthetic_scenes, write_shards};
-use crate::datasets::{DatasetError, load_training_scenes};
-use crate::motion::tokens::TOKEN_PERIOD_STEPS;
-use crate::sim::synthetic::SpeedSample;
+use safer::datasets::prior_shards::{Calibration, SyntheticPlan, shard_scenes, synthetic_scenes, write_shards};
+use safer::datasets::{DatasetError, load_training_scenes};
+use safer::motion::tokens::TOKEN_PERIOD_STEPS;
+use safer::sim::synthetic::SpeedSample;
 
 /// What to generate.
 #[derive(Debug, Clone)]

@@ -19,15 +19,15 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use super::{CliError, scene_paths};
-use crate::eval::realism::{RealismAggregate, RealismConfig, RealismWindow, ScenarioRealism, score_scenario};
-use crate::harness::variant::variant_seed;
-use crate::models::prior::{PriorVariant, RealismPrior};
-use crate::policies::prior_sampling::{
+use safer::eval::realism::{RealismAggregate, RealismConfig, RealismWindow, ScenarioRealism, score_scenario};
+use safer::harness::variant::variant_seed;
+use safer::models::prior::{PriorVariant, RealismPrior};
+use safer::policies::prior_sampling::{
     PriorAgent, PriorTraffic, ScenarioMapEncoding, TokenSampling, decode_rollouts_together,
 };
-use crate::policies::{AgentPolicy, BackgroundPolicy};
-use crate::scenario::{Scenario, SourceFormat, import};
-use crate::sim::traffic::{simulate_all_agents, simulate_rollouts_in_lockstep};
+use safer::policies::{AgentPolicy, BackgroundPolicy};
+use safer::scenario::{Scenario, SourceFormat, import};
+use safer::sim::traffic::{simulate_all_agents, simulate_rollouts_in_lockstep};
 
 /// The rule that picks each scene's window, for the help text and reports.
 pub const WINDOW_RULE: &str = "80 future steps (8 s) from the scene's current step when it has at least \
@@ -71,7 +71,7 @@ impl RealismPolicy {
     /// Loads what the policy needs, failing early with the model's error.
     fn load(self) -> Result<Option<Arc<RealismPrior>>, CliError> {
         self.prior_variant()
-            .map(|v| RealismPrior::load(&crate::models::ModelSource::shipped(), v).map(Arc::new))
+            .map(|v| RealismPrior::load(&safer::models::ModelSource::shipped(), v).map(Arc::new))
             .transpose()
             .map_err(CliError::from)
     }
@@ -194,7 +194,7 @@ fn score_one(
 
 pub(super) fn run(args: &RealismArgs) -> Result<ExitCode, CliError> {
     if let Some(out) = &args.json {
-        crate::record::output::check_output(out)?;
+        safer::record::output::check_output(out)?;
     }
     let prior = args.policy.load()?;
     if args.rollouts == 0 {
@@ -279,11 +279,11 @@ pub(super) fn run(args: &RealismArgs) -> Result<ExitCode, CliError> {
     Ok(if skipped.iter().any(|s| s.error) { ExitCode::from(1) } else { ExitCode::SUCCESS })
 }
 
-/// Writes the report by the rules of [`crate::record::output`], creating
+/// Writes the report by the rules of [`safer::record::output`], creating
 /// the folder of a file path first.
 fn write_json(path: &Path, report: &Report<'_>) -> Result<(), CliError> {
-    crate::record::create_parent_folder(path)?;
-    crate::record::write_output(path, (serde_json::to_string_pretty(report)? + "\n").as_bytes())?;
+    safer::record::create_parent_folder(path)?;
+    safer::record::write_output(path, (serde_json::to_string_pretty(report)? + "\n").as_bytes())?;
     Ok(())
 }
 

@@ -14,10 +14,10 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use super::CliError;
-use crate::harness::suite::sanitize;
-use crate::record::{self, SvgOptions};
-use crate::scenario::{Scenario, import};
-use crate::spec::{self, scenario::ScenarioSpec};
+use safer::harness::suite::sanitize;
+use safer::record::{self, SvgOptions};
+use safer::scenario::{Scenario, import};
+use safer::spec::{self, scenario::ScenarioSpec};
 
 pub(super) fn run(file: &Path, step: Option<usize>, out: Option<&Path>, force: bool) -> Result<ExitCode, CliError> {
     let scenarios = load(file)?;

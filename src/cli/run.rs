@@ -1,6 +1,6 @@
 //! `safer run SUITE.yaml... [--json OUT] [--artifacts DIR] [--filter SUBSTR]`:
 //! the scenario suites outside `cargo test`, with the same variants, the
-//! same outcomes and the same artefacts (both go through [`crate::harness`]).
+//! same outcomes and the same artefacts (both go through [`safer::harness`]).
 //!
 //! Every suite is loaded first; one that does not load is reported with its
 //! YAML snippet and the others still run. Variants of all suites run in
@@ -29,8 +29,8 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use super::CliError;
-use crate::harness::report::{RunResults, SuiteLoadFailure, SuiteRun, VariantRun};
-use crate::harness::{self, HarnessError, Suite, SuiteMetrics, VariantOutcome, VariantSummary};
+use safer::harness::report::{RunResults, SuiteLoadFailure, SuiteRun, VariantRun};
+use safer::harness::{self, HarnessError, Suite, SuiteMetrics, VariantOutcome, VariantSummary};
 
 /// One variant to run.
 struct Job {
@@ -178,7 +178,7 @@ pub(super) fn run(files: &[PathBuf], outputs: RunOutputs<'_>, filter: Option<&st
     let RunOutputs { json, junit, html, artifacts } = outputs;
     // Refused before anything runs: a report that cannot be written should not cost a run.
     for out in [json, junit].into_iter().flatten() {
-        crate::record::output::check_output(out)?;
+        safer::record::output::check_output(out)?;
     }
     if let Some(dir) = html {
         harness::review_page::check_folder(dir)?;
@@ -211,9 +211,9 @@ pub(super) fn run(files: &[PathBuf], outputs: RunOutputs<'_>, filter: Option<&st
     // No report may replace a file the run reads, or another report.
     let inputs: Vec<PathBuf> = files.iter().cloned().chain(suites.iter().flat_map(|(_, s)| s.input_files())).collect();
     let named = [("--json", json), ("--junit", junit)];
-    let outputs: Vec<crate::record::NamedOutput<'_>> =
-        named.iter().filter_map(|(flag, p)| p.map(|path| crate::record::NamedOutput { flag, path })).collect();
-    crate::record::check_outputs_apart(&outputs, &inputs)?;
+    let outputs: Vec<safer::record::NamedOutput<'_>> =
+        named.iter().filter_map(|(flag, p)| p.map(|path| safer::record::NamedOutput { flag, path })).collect();
+    safer::record::check_outputs_apart(&outputs, &inputs)?;
 
     let selects = |name: &str| filter.is_none_or(|f| name.contains(f));
     let mut jobs = Vec::new();
@@ -285,20 +285,20 @@ pub(super) fn run(files: &[PathBuf], outputs: RunOutputs<'_>, filter: Option<&st
     // The table goes to stderr when a report takes standard output.
     // File reports before anything goes to standard output: a reader that
     // closes it early (`| head`) must not cost the run its reports.
-    let to_file = |p: &&Path| !crate::record::is_stdout(p);
-    let to_stdout = |p: &&Path| crate::record::is_stdout(p);
+    let to_file = |p: &&Path| !safer::record::is_stdout(p);
+    let to_stdout = |p: &&Path| safer::record::is_stdout(p);
     let write_json = |out: &Path| -> Result<(), CliError> {
         let text = serde_json::to_string_pretty(&report)? + "\n";
-        Ok(crate::record::write_output(out, text.as_bytes())?)
+        Ok(safer::record::write_output(out, text.as_bytes())?)
     };
-    let write_junit = |out: &Path| crate::record::write_output(out, harness::junit::junit_xml(&results).as_bytes());
+    let write_junit = |out: &Path| safer::record::write_output(out, harness::junit::junit_xml(&results).as_bytes());
     if let Some(out) = json.filter(to_file) {
         write_json(out)?;
     }
     if let Some(out) = junit.filter(to_file) {
         write_junit(out)?;
     }
-    let mut table = super::table_writer([json, junit].into_iter().flatten().find(|p| crate::record::is_stdout(p)));
+    let mut table = super::table_writer([json, junit].into_iter().flatten().find(|p| safer::record::is_stdout(p)));
     match print_report(&mut table, &report).and_then(|()| table.flush()) {
         Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => {}
         other => other?,

@@ -7,7 +7,7 @@ use std::path::Path;
 use std::process::ExitCode;
 
 use super::CliError;
-use crate::spec::{SpecKind, json_schema};
+use safer::spec::{SpecKind, json_schema};
 
 /// The schema of `kind` as the text `safer schema` prints and `schemas/`
 /// holds: pretty JSON (keys sorted, so regenerating gives the same bytes)
@@ -21,7 +21,7 @@ pub(super) fn run(kind: SpecKind, out: Option<&Path>) -> Result<ExitCode, CliErr
     match out {
         // Atomic for a file, so an editor watching it never reads half a
         // schema; `-` is stdout, a device is written in place.
-        Some(path) => crate::record::write_output(path, text.as_bytes())?,
+        Some(path) => safer::record::write_output(path, text.as_bytes())?,
         None => print!("{text}"),
     }
     Ok(ExitCode::SUCCESS)

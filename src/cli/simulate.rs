@@ -6,13 +6,13 @@ use std::process::ExitCode;
 use rayon::prelude::*;
 
 use super::{CliError, scene_paths};
-use crate::harness::pipeline::make_planner;
-use crate::planners::BuiltinPlanner;
-use crate::planners::external::RolloutContext;
-use crate::policies::BackgroundPolicy;
-use crate::scenario::{Scenario, import};
-use crate::sim::{RolloutSummary, SimConfig, Simulation};
-use crate::spec::planner::PlannerAdapter;
+use safer::harness::pipeline::make_planner;
+use safer::planners::BuiltinPlanner;
+use safer::planners::external::RolloutContext;
+use safer::policies::BackgroundPolicy;
+use safer::scenario::{Scenario, import};
+use safer::sim::{RolloutSummary, SimConfig, Simulation};
+use safer::spec::planner::PlannerAdapter;
 
 /// Runs one rollout of `scenario` with the planner `planner` describes (a
 /// built-in, or an external process started for this scene and told it
@@ -22,10 +22,10 @@ pub fn simulate_one(
     planner: &PlannerAdapter,
     background: BackgroundPolicy,
 ) -> Result<RolloutSummary, String> {
-    let ego = scenario.ego.ok_or_else(|| crate::sim::SimError::NoEgo(scenario.id.clone()).to_string())?;
+    let ego = scenario.ego.ok_or_else(|| safer::sim::SimError::NoEgo(scenario.id.clone()).to_string())?;
     // The ego is held to the default vehicle limits unless it replays its log.
     let replays_log = matches!(planner, PlannerAdapter::Builtin { planner: BuiltinPlanner::LogReplay, .. });
-    let ego_limits = (!replays_log).then(crate::sim::VehicleLimits::default);
+    let ego_limits = (!replays_log).then(safer::sim::VehicleLimits::default);
     let sim = Simulation::new(scenario, SimConfig { background, ego_limits, ..SimConfig::default() })
         .map_err(|e| e.to_string())?;
     let context = RolloutContext {

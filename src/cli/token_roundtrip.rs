@@ -9,9 +9,9 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use super::{CliError, scene_paths};
-use crate::motion::inversion::{RoundTripError, round_trip_error};
-use crate::motion::tokenize_track;
-use crate::scenario::{AgentKind, SourceFormat, import};
+use safer::motion::inversion::{RoundTripError, round_trip_error};
+use safer::motion::tokenize_track;
+use safer::scenario::{AgentKind, SourceFormat, import};
 
 #[derive(Debug, Serialize)]
 struct Row {

@@ -33,6 +33,7 @@ pub struct PerceivedAgent {
 
 /// What a planner sees at one step.
 #[derive(Debug, Clone)]
+#[non_exhaustive]
 pub struct Observation<'a> {
     /// Step index in the scenario's numbering.
     pub step: usize,
@@ -65,6 +66,7 @@ pub struct TrajectoryPoint {
 
 /// What a planner returns.
 #[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
 pub enum PlannerOutput {
     /// A control applied through the kinematic model for one step.
     Control(Action),
@@ -75,6 +77,7 @@ pub enum PlannerOutput {
 
 /// Why a planner failed to answer.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum PlannerError {
     /// The planner has nothing to say at this step (e.g. a log-replay ego
     /// whose recording ends).

@@ -7,12 +7,10 @@
 //! is all the glue between safer's observation and the planner's own types.
 
 use cautious_cruiser::{CautiousCruiser, Command, EgoState, Point, RoadUser, Scene};
-use safer::map::{Lane, MapElementId, RoadMap};
-use safer::motion::Action;
-use safer::planners::{Observation, Planner, PlannerError, PlannerOutput};
+use safer::prelude::*;
 
 fn main() {
-    safer::runner::Runner::new(env!("CARGO_MANIFEST_DIR"))
+    Runner::new(env!("CARGO_MANIFEST_DIR"))
         .planner("cautious-cruiser", |_scenario, _ego| Adapter::default())
         .run()
 }
@@ -58,7 +56,7 @@ impl Planner for Adapter {
     }
 
     fn plan(&mut self, obs: &Observation<'_>) -> Result<PlannerOutput, PlannerError> {
-        let point = |p: &safer::geometry::Point2| Point { x: p.x, y: p.y };
+        let point = |p: &Point2| Point { x: p.x, y: p.y };
         let ego = EgoState {
             position: point(&obs.ego.position),
             heading_rad: obs.ego.heading_rad,
