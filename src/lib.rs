@@ -109,14 +109,16 @@ pub mod spec;
 pub use geometry::{Point2, Polyline};
 pub use map::{Lane, MapElementId, RoadMap, SignalState};
 pub use motion::Action;
-pub use planners::{Observation, PerceivedAgent, Planner, PlannerError, PlannerOutput, PlannerStartup, TrajectoryPoint};
+pub use planners::{
+    Observation, PerceivedAgent, Planner, PlannerError, PlannerOutput, PlannerStartup, TrajectoryPoint,
+};
 pub use runner::Runner;
 pub use scenario::{AgentId, AgentKind, AgentState, Scenario, TrackIndex};
 
 /// What a planner crate needs, in one import: `use safer::prelude::*;`.
 pub mod prelude {
     pub use crate::{
-        Action, AgentId, AgentKind, AgentState, Lane, MapElementId, Observation, PerceivedAgent, Planner, PlannerError, PlannerOutput,
-        Point2, Polyline, RoadMap, Runner, Scenario, SignalState, TrackIndex, TrajectoryPoint,
+        Action, AgentId, AgentKind, AgentState, Lane, MapElementId, Observation, PerceivedAgent, Planner, PlannerError,
+        PlannerOutput, Point2, Polyline, RoadMap, Runner, Scenario, SignalState, TrackIndex, TrajectoryPoint,
     };
 }

@@ -17,6 +17,7 @@
 
 mod bench;
 mod bench_models;
+mod choice;
 mod evaluate;
 mod feasibility_dataset;
 mod feasibility_eval;
@@ -32,6 +33,7 @@ mod token_roundtrip;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
+use choice::choice;
 use clap::builder::{RangedU64ValueParser, TypedValueParser};
 use clap::{Parser, Subcommand};
 
@@ -86,7 +88,7 @@ enum Command {
         #[arg(long, default_value = "idm", value_parser = planner_arg, value_name = "BUILTIN|SPEC.yaml")]
         planner: PlannerAdapter,
         /// Policy driving the other agents.
-        #[arg(long, value_enum, default_value_t = BackgroundPolicy::LogReplay)]
+        #[arg(long, value_parser = choice(BackgroundPolicy::ALL), default_value = "log-replay")]
         background: BackgroundPolicy,
         /// Print JSON instead of a table.
         #[arg(long)]
@@ -162,7 +164,7 @@ enum Command {
     /// Print the JSON Schema of a spec kind (for editors: yaml-language-server `$schema`).
     Schema {
         /// Which spec.
-        #[arg(value_enum)]
+        #[arg(value_parser = choice(SpecKind::ALL))]
         kind: SpecKind,
         /// Write to this file instead of stdout (`-`: stdout).
         #[arg(long, value_name = "FILE")]
@@ -195,7 +197,7 @@ enum Command {
         #[arg(long, value_parser = data_path)]
         scenes: PathBuf,
         /// Methods to compare, one table row each.
-        #[arg(long, value_enum, value_delimiter = ',', default_values_t = [AdversaryMethod::Safer, AdversaryMethod::SaferLookahead, AdversaryMethod::NoLfr, AdversaryMethod::NoTrustRegion, AdversaryMethod::NoMda, AdversaryMethod::Prior, AdversaryMethod::Log])]
+        #[arg(long, value_parser = choice(AdversaryMethod::ALL), value_delimiter = ',', default_values = ["safer", "safer-lookahead", "no-lfr", "no-trust-region", "no-mda", "prior", "log"])]
         methods: Vec<AdversaryMethod>,
         /// Seeds per scene and method, at least 1.
         #[arg(long, default_value_t = 10, value_parser = clap::value_parser!(u32).range(1..))]
@@ -210,10 +212,10 @@ enum Command {
         #[arg(long, default_value_t = 20, value_parser = RangedU64ValueParser::<usize>::new().range(1..=VOCABULARY_SIZE as u64))]
         trust_region: usize,
         /// Who drives the background agents.
-        #[arg(long, value_enum, default_value_t = BackgroundDriver::Configured)]
+        #[arg(long, value_parser = choice(BackgroundDriver::ALL), default_value = "configured")]
         background: BackgroundDriver,
         /// The CBV in stage 2: replaying its stage-1 trajectory (the paper's protocol), or driven by the method again against the planner's ego (closed-loop); `replay,closed-loop` reports both side by side.
-        #[arg(long, value_enum, value_delimiter = ',', default_values_t = [Stage2Cbv::Replay])]
+        #[arg(long, value_parser = choice(Stage2Cbv::ALL), value_delimiter = ',', default_values = ["replay"])]
         stage2_cbv: Vec<Stage2Cbv>,
         /// Horizon of both stages from the scene's current step, s (positive, finite).
         #[arg(long, default_value_t = 8.0, value_parser = positive_finite, allow_negative_numbers = true)]
@@ -228,7 +230,7 @@ enum Command {
         #[arg(long, value_name = "N", value_parser = RangedU64ValueParser::<usize>::new().range(1..=MAX_JOBS as u64))]
         jobs: Option<usize>,
         /// How much of the witness's ego must stay on the road: its centre (the CBV's rule), or its whole width (no escape over the edge line).
-        #[arg(long, value_enum, default_value_t = RoadKeeping::Centre)]
+        #[arg(long, value_parser = choice(RoadKeeping::ALL), default_value = "centre")]
         witness_road: RoadKeeping,
         /// The widest beam the witness search tries when narrower ones find nothing, as a multiple of the narrow one (48 candidates); 1 to 4096. Wider finds escapes narrower ones miss, at seconds to minutes a search where none exists.
         #[arg(long, value_name = "N", default_value_t = safer::eval::witness::DEFAULT_WIDEST, value_parser = RangedU64ValueParser::<usize>::new().range(1..=safer::eval::witness::MOST_WIDEST as u64))]
@@ -276,7 +278,7 @@ enum Command {
         /// Which scenes' states to label: the held-out ones (never trained
         /// on; the reported figures) or the training ones (to calibrate a
         /// decision threshold on without touching the held-out set).
-        #[arg(long, value_enum, default_value = "held-out")]
+        #[arg(long, value_parser = choice(safer::datasets::held_out::Split::ALL), default_value = "held-out")]
         split: safer::datasets::held_out::Split,
         /// Write every labelled state (its V_h features, witness label and
         /// V_h) as a safetensors file, for `training/feasibility/train.py
@@ -511,7 +513,7 @@ fn data_path(written: &str) -> Result<PathBuf, String> {
 
 /// Parses `--planner`: a built-in's name, else a planner spec file.
 fn planner_arg(written: &str) -> Result<PlannerAdapter, String> {
-    if let Ok(builtin) = <BuiltinPlanner as clap::ValueEnum>::from_str(written, false) {
+    if let Ok(builtin) = BuiltinPlanner::ALL.iter().copied().find(|b| safer::spec::spec_name(b) == written).ok_or(()) {
         return Ok(PlannerAdapter::builtin(builtin));
     }
     let path = Path::new(written);

@@ -32,13 +32,18 @@ pub fn is_held_out(position: usize) -> bool {
 
 /// Which part of the data a scene belongs to (written into shard metadata
 /// as `train` / `held-out`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Split {
     /// Used for training.
     Train,
     /// Held out for evaluation.
     HeldOut,
+}
+
+impl Split {
+    /// Every variant, in declaration order (for choosers such as the command line).
+    pub const ALL: &'static [Self] = &[Self::Train, Self::HeldOut];
 }
 
 impl Split {

@@ -231,7 +231,7 @@ pub struct RoadRule<'a> {
 }
 
 /// How much of the witness's ego must stay on the road.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum RoadKeeping {
     /// Its centre: the rule the CBV's off-road time counts by; half the
@@ -242,6 +242,11 @@ pub enum RoadKeeping {
     /// road's edge. An ego that starts closer to the edge than that is held
     /// to its centre instead.
     WholeWidth,
+}
+
+impl RoadKeeping {
+    /// Every variant, in declaration order (for choosers such as the command line).
+    pub const ALL: &'static [Self] = &[Self::Centre, Self::WholeWidth];
 }
 
 /// Side of the cells at whose centres [`RoadCells`] judges the road, m:

@@ -80,7 +80,7 @@ impl MapEncodings {
 }
 
 /// Who drives the background agents in stage 1.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum BackgroundDriver {
     /// As the simulation configuration says (log replay by default).
@@ -91,6 +91,11 @@ pub enum BackgroundDriver {
     /// Reactive log replay in both stages: each agent keeps to its recorded
     /// path, braking along it for road users in its way.
     ReactiveLogReplay,
+}
+
+impl BackgroundDriver {
+    /// Every variant, in declaration order (for choosers such as the command line).
+    pub const ALL: &'static [Self] = &[Self::Configured, Self::Prior, Self::ReactiveLogReplay];
 }
 
 /// What a method installed, to be asked for errors after the run.

@@ -175,7 +175,7 @@ fn path_digest(positions: impl Iterator<Item = Option<crate::geometry::Point2>>)
             None => bytes.extend(i64::MIN.to_le_bytes()),
         }
     }
-    super::variant::fnv1a(&bytes)
+    super::stable_hash::fnv1a(&bytes)
 }
 
 /// Seconds the CBV's centre was off the road in `stage1`, when it started on

@@ -23,6 +23,7 @@ pub mod metrics;
 pub mod pipeline;
 pub mod report;
 pub mod review_page;
+mod stable_hash;
 pub mod suite;
 pub mod variant;
 

@@ -8,6 +8,7 @@ use super::acceptance::{self, AcceptanceFailure};
 use super::methods::{BackgroundDriver, MapEncodings, MethodSettings, ModelSet};
 use super::metrics::VariantTally;
 use super::pipeline::{self, PlannerLatency, Stage2Verdict, VariantSetup};
+use super::stable_hash::fnv1a;
 use super::{HarnessError, Suite, SuiteScenario};
 use crate::eval::ConflictReach;
 use crate::eval::escape::{EscapeBudget, EscapeSearch, EscapeVerdict, NoEscapeReason};
@@ -179,12 +180,6 @@ impl CollisionEscape {
 
 /// Map encodings shared by every variant of the process.
 static MAP_ENCODINGS: std::sync::LazyLock<MapEncodings> = std::sync::LazyLock::new(MapEncodings::default);
-
-/// FNV-1a, 64 bit: a stable hash for seeds and path digests (std's hasher
-/// is not stable across releases).
-pub(super) fn fnv1a(bytes: &[u8]) -> u64 {
-    bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, b| (h ^ *b as u64).wrapping_mul(0x0000_0100_0000_01b3))
-}
 
 /// The seed of variant `index` of `scenario` in a suite seeded `base`: a pure
 /// function of the variant's identity.

@@ -20,13 +20,18 @@ use crate::motion::tokens::VOCABULARY_SIZE;
 
 /// Which decoder: the paper's differential attention, or plain attention
 /// (the `no-mda` ablation).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, clap::ValueEnum, serde::Serialize, serde::Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum PriorVariant {
     /// Multi-head differential attention (the default).
     Differential,
     /// Plain multi-head attention of the same size.
     Plain,
+}
+
+impl PriorVariant {
+    /// Every variant, in declaration order (for choosers such as the command line).
+    pub const ALL: &'static [Self] = &[Self::Differential, Self::Plain];
 }
 
 impl PriorVariant {

@@ -7,18 +7,7 @@ use crate::policies::{IdmLaneFollower, IdmParams, WorldView};
 use crate::scenario::{AgentBody, AgentKind, Scenario, Track, TrackIndex};
 
 /// The built-in planners, selectable by name.
-#[derive(
-    Debug,
-    Clone,
-    Copy,
-    PartialEq,
-    Eq,
-    Default,
-    clap::ValueEnum,
-    serde::Serialize,
-    serde::Deserialize,
-    schemars::JsonSchema,
-)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize, schemars::JsonSchema)]
 #[serde(rename_all = "kebab-case")]
 pub enum BuiltinPlanner {
     /// Replay the ego's recording (non-reactive).
@@ -30,6 +19,11 @@ pub enum BuiltinPlanner {
     Idm,
     /// Sample and roll out evasive manoeuvres against predicted traffic.
     Evasive,
+}
+
+impl BuiltinPlanner {
+    /// Every variant, in declaration order (for choosers such as the command line).
+    pub const ALL: &'static [Self] = &[Self::LogReplay, Self::ConstantVelocity, Self::Idm, Self::Evasive];
 }
 
 impl BuiltinPlanner {

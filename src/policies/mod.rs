@@ -67,18 +67,7 @@ pub trait AgentPolicy: Send {
 }
 
 /// The built-in background policies, selectable by name.
-#[derive(
-    Debug,
-    Clone,
-    Copy,
-    PartialEq,
-    Eq,
-    Default,
-    clap::ValueEnum,
-    serde::Serialize,
-    serde::Deserialize,
-    schemars::JsonSchema,
-)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize, schemars::JsonSchema)]
 #[serde(rename_all = "kebab-case")]
 pub enum BackgroundPolicy {
     /// Replay the recorded trajectory (non-reactive).
@@ -91,6 +80,11 @@ pub enum BackgroundPolicy {
     ConstantVelocity,
     /// Follow the lane, brake for leaders and red lights (IDM).
     Idm,
+}
+
+impl BackgroundPolicy {
+    /// Every variant, in declaration order (for choosers such as the command line).
+    pub const ALL: &'static [Self] = &[Self::LogReplay, Self::ReactiveLogReplay, Self::ConstantVelocity, Self::Idm];
 }
 
 impl BackgroundPolicy {

@@ -141,6 +141,20 @@ pub enum SourceFormat {
     Authored,
 }
 
+impl SourceFormat {
+    /// Its name in specs, reports and the planner protocol (`womd-proto`,
+    /// `common-road`, …).
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::WomdProto => "womd-proto",
+            Self::WomdJson => "womd-json",
+            Self::CommonRoad => "common-road",
+            Self::Argoverse2 => "argoverse2",
+            Self::Authored => "authored",
+        }
+    }
+}
+
 /// Licence of the data a scenario was recorded from; decides whether it
 /// may be used to train shipped models.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
@@ -385,5 +399,23 @@ impl Scenario {
             return fail("ego and CBV are the same track".to_string());
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::SourceFormat;
+
+    #[test]
+    fn a_source_format_is_named_as_it_serialises() {
+        for format in [
+            SourceFormat::WomdProto,
+            SourceFormat::WomdJson,
+            SourceFormat::CommonRoad,
+            SourceFormat::Argoverse2,
+            SourceFormat::Authored,
+        ] {
+            assert_eq!(serde_json::to_value(format).unwrap(), format.name());
+        }
     }
 }

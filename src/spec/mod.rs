@@ -343,7 +343,8 @@ pub fn json_schema(kind: SpecKind) -> serde_json::Value {
 }
 
 /// The kinds of spec file.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
 pub enum SpecKind {
     /// `specs/scenarios/*.yaml`.
     Scenario,
@@ -351,6 +352,11 @@ pub enum SpecKind {
     Suite,
     /// `planners/*.yaml`.
     Planner,
+}
+
+impl SpecKind {
+    /// Every variant, in declaration order (for choosers such as the command line).
+    pub const ALL: &'static [Self] = &[Self::Scenario, Self::Suite, Self::Planner];
 }
 
 #[cfg(test)]

@@ -115,7 +115,7 @@ pub enum PlannerRef {
 /// Adversarial variant generation methods.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, JsonSchema, serde::Serialize)]
 #[serde(rename_all = "kebab-case")]
-#[derive(clap::ValueEnum, Hash, PartialOrd, Ord)]
+#[derive(Hash, PartialOrd, Ord)]
 pub enum AdversaryMethod {
     /// The CBV replays its log (no adversary): the baseline.
     #[default]
@@ -134,6 +134,12 @@ pub enum AdversaryMethod {
     /// over 1.5 s (receding horizon) inside the same trust region and
     /// feasibility constraint.
     SaferLookahead,
+}
+
+impl AdversaryMethod {
+    /// Every variant, in declaration order (for choosers such as the command line).
+    pub const ALL: &'static [Self] =
+        &[Self::Log, Self::Prior, Self::Safer, Self::NoLfr, Self::NoTrustRegion, Self::NoMda, Self::SaferLookahead];
 }
 
 /// How variants are made.
@@ -179,9 +185,7 @@ impl Default for AdversarySpec {
 }
 
 /// How the CBV behaves while the planner under test drives (stage 2).
-#[derive(
-    Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Deserialize, JsonSchema, serde::Serialize, clap::ValueEnum,
-)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Deserialize, JsonSchema, serde::Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Stage2Cbv {
     /// Replays its stage-1 trajectory, made against the recorded ego (the
@@ -191,6 +195,11 @@ pub enum Stage2Cbv {
     /// plausibility rule and seed, with the feasibility value taken on the
     /// planner's actual ego at every token (it tests the planner).
     ClosedLoop,
+}
+
+impl Stage2Cbv {
+    /// Every variant, in declaration order (for choosers such as the command line).
+    pub const ALL: &'static [Self] = &[Self::Replay, Self::ClosedLoop];
 }
 
 /// Pass/fail criteria.
@@ -557,7 +566,7 @@ pub fn check_shapes(text: &str, path: &std::path::Path) -> Result<(), SpecError>
         }
     }
     if let Some((_, planner)) = root.entry("planner") {
-        let builtins: Vec<String> = <crate::planners::BuiltinPlanner as clap::ValueEnum>::value_variants()
+        let builtins: Vec<String> = crate::planners::BuiltinPlanner::ALL
             .iter()
             .filter_map(|b| serde_json::to_value(b).ok().and_then(|v| v.as_str().map(String::from)))
             .collect();

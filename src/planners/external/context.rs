@@ -40,7 +40,7 @@ impl RolloutContext {
             ("scenario", s.id.clone()),
             ("variant", self.variant.clone().unwrap_or_else(|| s.id.clone())),
             ("seed", self.seed.map(|v| v.to_string()).unwrap_or_default()),
-            ("format", crate::spec::spec_name(&s.source.format)),
+            ("format", s.source.format.name().to_owned()),
             ("source", self.source_file()),
         ]
     }
@@ -77,7 +77,7 @@ impl RolloutContext {
         let s = &self.scenario;
         WireScenario {
             id: s.id.clone(),
-            format: crate::spec::spec_name(&s.source.format),
+            format: s.source.format.name().to_owned(),
             source_file: self.source_file(),
             variant: self.variant.clone(),
             seed: self.seed,

@@ -74,6 +74,7 @@
 mod context;
 mod encoding;
 mod interrupt;
+mod lane_walk;
 mod process;
 mod route;
 mod wire;

@@ -13,7 +13,7 @@ use crate::geometry::{Point2, Polyline, Vector2};
 use crate::map::{MapElementId, RoadMap};
 use crate::scenario::AgentState;
 
-use super::encoding::WalkDirection;
+use super::lane_walk::{WalkDirection, walk_lanes};
 
 /// Route length planned behind the ego's projection, m (so a planner can
 /// project the ego onto it even after braking back a little).
@@ -98,8 +98,7 @@ fn plan(map: &RoadMap, ego: &AgentState, recorded: &[Point2]) -> StableRoute {
         };
         choose_lane(map, choices, recorded)
     };
-    let Some(walk) =
-        super::encoding::walk_lanes(map, ego, LANE_SEARCH_M, ROUTE_BEHIND_M, ROUTE_AHEAD_PLANNED_M, MAX_LANES, at_fork)
+    let Some(walk) = walk_lanes(map, ego, LANE_SEARCH_M, ROUTE_BEHIND_M, ROUTE_AHEAD_PLANNED_M, MAX_LANES, at_fork)
     else {
         return StableRoute::default();
     };
