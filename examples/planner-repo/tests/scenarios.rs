@@ -10,9 +10,7 @@ use cautious_cruiser::{CautiousCruiser, Command, EgoState, Point, RoadUser, Scen
 use safer::prelude::*;
 
 fn main() {
-    Runner::new(env!("CARGO_MANIFEST_DIR"))
-        .planner("cautious-cruiser", |_scenario, _ego| Adapter::default())
-        .run()
+    Runner::new(env!("CARGO_MANIFEST_DIR")).planner("cautious-cruiser", |_scenario, _ego| Adapter::default()).run()
 }
 
 /// The planner behind safer's [`Planner`] trait.
