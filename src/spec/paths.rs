@@ -1,8 +1,12 @@
 //! How paths in specs resolve: relative to the spec file's folder, except
-//! `data:REL`, which names a file in the shared recorded-data folder
-//! (`$SAFER_DATA_DIR`, else `../shared/data` beside the project root, the
-//! nearest folder above the spec holding a `Cargo.toml`), so suites over
-//! recorded logs work from any checkout.
+//! - `data:REL`, which names a file in the recorded-data folder
+//!   (`$SAFER_DATA_DIR`, else `../shared/data` beside the project root, the
+//!   nearest folder above the spec holding a `Cargo.toml`), so suites over
+//!   recorded logs work from any checkout;
+//! - `safer:REL`, which names a file safer itself ships (`scenes/`,
+//!   `planners/`, `specs/`), inside the safer crate a planner crate depends
+//!   on: its checkout for a path dependency, the unpacked package for a
+//!   registry one. A planner crate needs no relative path into safer's tree.
 
 use std::path::{Path, PathBuf};
 
@@ -18,11 +22,20 @@ pub fn data_dir(spec_dir: &Path) -> PathBuf {
     root.join("../shared/data")
 }
 
+/// The folder of the safer crate this library was built from, where the
+/// files it ships lie (`safer:` paths).
+pub fn shipped_dir() -> &'static Path {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+}
+
 /// Resolves a path written in a spec in `spec_dir`.
 pub fn resolve(spec_dir: &Path, written: &str) -> PathBuf {
-    match written.strip_prefix("data:") {
-        Some(rel) => data_dir(spec_dir).join(rel.trim_start_matches('/')),
-        None => spec_dir.join(written),
+    if let Some(rel) = written.strip_prefix("data:") {
+        data_dir(spec_dir).join(rel.trim_start_matches('/'))
+    } else if let Some(rel) = written.strip_prefix("safer:") {
+        shipped_dir().join(rel.trim_start_matches('/'))
+    } else {
+        spec_dir.join(written)
     }
 }
 
@@ -113,6 +126,15 @@ mod tests {
     }
 
     #[cfg(target_os = "linux")]
+    #[test]
+    fn a_safer_path_names_a_file_the_crate_ships_from_anywhere() {
+        let anywhere = Path::new("/nonexistent/planner-crate/specs/suites");
+        let scene = resolve(anywhere, "safer:scenes/ngsim/USA_US101-4_3_T-1.xml");
+        assert!(scene.is_file(), "{}", scene.display());
+        assert_eq!(resolve(anywhere, "safer:/planners/idm.yaml"), shipped_dir().join("planners/idm.yaml"));
+        assert_eq!(resolve(anywhere, "scenes/x.xml"), anywhere.join("scenes/x.xml"));
+    }
+
     #[test]
     fn a_glob_over_proc_ends() {
         // Unbounded before: links under /proc lead back to `/`.

@@ -69,7 +69,7 @@ pub struct ScenarioSpec {
 #[derive(Debug, Clone, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct RecordedSpec {
-    /// The file (WOMD .tfrecord/.json, CommonRoad .xml, AV2 folder); `data:REL` for the shared data.
+    /// The file (WOMD .tfrecord/.json, CommonRoad .xml, AV2 folder); `data:REL` for the recorded-data folder, `safer:REL` for a file safer ships.
     #[schemars(with = "String")]
     pub path: Spanned<String>,
     /// Override the ego by agent id.

@@ -78,7 +78,7 @@ pub enum ScenarioEntry {
     /// holds several (a WOMD TFRecord shard, each named `STEM-SCENARIO_ID`).
     #[schemars(extend("additionalProperties" = false))]
     Recorded {
-        /// File or folder; `data:REL` for the shared data.
+        /// File or folder; `data:REL` for the recorded-data folder, `safer:REL` for a file safer ships.
         #[schemars(with = "String")]
         recorded: Spanned<String>,
         /// At most this many scenes (in path order, then record order), at least 1.
