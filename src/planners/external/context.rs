@@ -32,14 +32,25 @@ pub struct RolloutContext {
     pub seed: Option<u64>,
 }
 
+/// The largest seed a planner is told: 2^53 − 1, the largest integer every
+/// JSON reader holds exactly (JavaScript's numbers are doubles).
+pub const MAX_PLANNER_SEED: u64 = (1 << 53) - 1;
+
 impl RolloutContext {
+    /// The seed the planner is told (`hello.scenario.seed`, `{seed}`,
+    /// `SAFER_SEED`): the variant's 64-bit seed's top 53 bits, so it is the
+    /// same number in every language, and still one per variant.
+    pub fn planner_seed(&self) -> Option<u64> {
+        self.seed.map(|seed| seed >> 11)
+    }
+
     /// The values of the placeholders (and of the `SAFER_*` variables).
     fn values(&self) -> [(&'static str, String); 5] {
         let s = &self.scenario;
         [
             ("scenario", s.id.clone()),
             ("variant", self.variant.clone().unwrap_or_else(|| s.id.clone())),
-            ("seed", self.seed.map(|v| v.to_string()).unwrap_or_default()),
+            ("seed", self.planner_seed().map(|v| v.to_string()).unwrap_or_default()),
             ("format", s.source.format.name().to_owned()),
             ("source", self.source_file()),
         ]
@@ -80,7 +91,7 @@ impl RolloutContext {
             format: s.source.format.name().to_owned(),
             source_file: self.source_file(),
             variant: self.variant.clone(),
-            seed: self.seed,
+            seed: self.planner_seed(),
         }
     }
 

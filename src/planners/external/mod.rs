@@ -843,7 +843,8 @@ mod tests {
             start_step: 0,
             end_step: s.num_steps() - 1,
             variant: Some("probe-suite::external-stopped-car-ahead::seed-3".into()),
-            seed: Some(42),
+            // A variant seed above 2^53, as most are.
+            seed: Some(0xfedc_ba98_7654_3210),
         }
     }
 
@@ -873,7 +874,9 @@ mod tests {
         assert_eq!(hello["scenario"]["id"], "external-stopped-car-ahead");
         assert_eq!(hello["scenario"]["format"], "authored");
         assert_eq!(hello["scenario"]["variant"], "probe-suite::external-stopped-car-ahead::seed-3");
-        assert_eq!(hello["scenario"]["seed"], 42);
+        // Its top 53 bits: exact in every JSON reader, JavaScript's included.
+        assert_eq!(hello["scenario"]["seed"], 0xfedc_ba98_7654_3210_u64 >> 11);
+        assert!(hello["scenario"]["seed"].as_u64().unwrap() <= context::MAX_PLANNER_SEED);
         assert_eq!(hello["origin_world"], serde_json::json!([0.0, 0.0]));
         assert_eq!(
             hello["horizon"],

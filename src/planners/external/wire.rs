@@ -136,8 +136,11 @@ pub(super) struct WireScenario {
     /// harness runs one.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub(super) variant: Option<String>,
-    /// The variant's seed, when the harness runs one.
+    /// The variant's seed, when the harness runs one: an integer below
+    /// 2^53, so every JSON reader holds it exactly (one per variant; the
+    /// top 53 bits of the harness's 64-bit variant seed).
     #[serde(skip_serializing_if = "Option::is_none")]
+    #[schemars(range(max = 9_007_199_254_740_991u64))]
     pub(super) seed: Option<u64>,
 }
 
