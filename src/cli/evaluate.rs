@@ -19,9 +19,13 @@ use rayon::prelude::*;
 
 use super::{CliError, scene_paths};
 use safer::eval::witness::{DEFAULT_WIDEST, RoadKeeping, WitnessBudget, search_rollout_witness};
-use safer::harness::evaluation::{self, EvaluationRequest, HeldOutSplit, MethodRow, Stage2Cbv, VariantRecord};
+use safer::harness::evaluation::{
+    self, EvaluationRequest, HeldOutSplit, MethodRow, Partition, Stage2Cbv, VariantRecord,
+};
+use safer::harness::methods::BackgroundDriver;
 use safer::harness::methods::ModelSet;
 use safer::scenario::{Scenario, import};
+use safer::spec::suite::AdversaryMethod;
 
 /// Loads every scene under `path` that has an ego and a CBV.
 pub(super) fn load_scenes(path: &Path, max_scenes: Option<usize>) -> Result<Vec<Arc<Scenario>>, CliError> {
@@ -69,12 +73,46 @@ fn label(method: safer::spec::suite::AdversaryMethod, mode: Stage2Cbv, modes: us
 }
 
 /// What the witness search holds an escape to, and how hard it looks.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub(super) struct WitnessSettings {
     /// How much of the ego must stay on the road.
     pub road: RoadKeeping,
     /// The widest beam tried, as a multiple of the narrow one.
     pub widest: usize,
+}
+
+/// What an evaluation was asked, as its report records it: partitions of
+/// one evaluation have equal settings, and the merge checks that they do.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub(super) struct EvaluationSettings {
+    methods: Vec<AdversaryMethod>,
+    seeds: u32,
+    base_seed: u64,
+    /// The stage-2 planner's name.
+    planner: String,
+    trust_region: usize,
+    background: BackgroundDriver,
+    stage2_cbv: Vec<Stage2Cbv>,
+    horizon_s: f64,
+    max_scenes: Option<usize>,
+    witness: WitnessSettings,
+}
+
+impl EvaluationSettings {
+    fn of(request: &EvaluationRequest, max_scenes: Option<usize>, witness: WitnessSettings) -> Self {
+        EvaluationSettings {
+            methods: request.methods.clone(),
+            seeds: request.seeds,
+            base_seed: request.base_seed,
+            planner: request.planner.name().to_string(),
+            trust_region: request.trust_region,
+            background: request.background,
+            stage2_cbv: request.stage2_cbv.clone(),
+            horizon_s: request.horizon_s,
+            max_scenes,
+            witness,
+        }
+    }
 }
 
 /// The human-readable table (on stdout, or stderr when the JSON report
@@ -84,16 +122,16 @@ fn print_table(
     rows: &[MethodRow],
     held_out: &HeldOutSplit,
     scenes: usize,
-    request: &EvaluationRequest,
-    witness: WitnessSettings,
+    request: &EvaluationSettings,
 ) -> std::io::Result<()> {
+    let witness = request.witness;
     let modes = request.stage2_cbv.len();
     let name = |r: &MethodRow| label(r.method, r.stage2_cbv, modes);
     writeln!(
         out,
         "{scenes} scenes × {} seeds; stage 2 planner `{}`, stage-2 CBV {}, trust region n = {}, horizon {} s{}{}",
         request.seeds,
-        request.planner.name(),
+        request.planner,
         request.stage2_cbv.iter().map(safer::spec::spec_name).collect::<Vec<_>>().join(" and "),
         request.trust_region,
         request.horizon_s,
@@ -266,13 +304,28 @@ fn failures_beyond_log(rows: &[MethodRow]) -> Option<String> {
         .then(|| format!("failures beyond log replay's ({log}), closed loop / replay: {}", parts.join("; ")))
 }
 
+/// The JSON report: the settings, the tables and every variant (with what
+/// it contributes to the tables, so that partitions merge).
 #[derive(serde::Serialize)]
 struct Report<'a> {
+    settings: &'a EvaluationSettings,
+    /// Which part of a partitioned evaluation this is (`None`: all of it).
+    partition: Option<Partition>,
     scenes: usize,
     rows: &'a [MethodRow],
     /// The same rows over the held-out scenes and over the rest.
     held_out: &'a HeldOutSplit,
     variants: &'a [VariantRecord],
+}
+
+/// A report as read back for merging: the settings, the partition and the
+/// variants (the tables are made again from the variants).
+#[derive(serde::Deserialize)]
+struct PartReport {
+    settings: EvaluationSettings,
+    partition: Option<Partition>,
+    scenes: usize,
+    variants: Vec<VariantRecord>,
 }
 
 /// Runs the command.
@@ -282,13 +335,22 @@ pub(super) fn run(
     max_scenes: Option<usize>,
     json: Option<&Path>,
     witness: WitnessSettings,
+    partition: Option<Partition>,
 ) -> Result<ExitCode, CliError> {
+    let mut outputs = Vec::new();
     if let Some(path) = json {
         safer::record::output::check_output(path)?;
-        // The report must not replace a scene it reads, nor the planner's spec.
+        outputs.push(safer::record::NamedOutput { flag: "--json", path });
+    }
+    if let Some(path) = request.artefacts.as_deref() {
+        outputs.push(safer::record::NamedOutput { flag: "--artifacts", path });
+    }
+    if !outputs.is_empty() {
+        // The outputs must not replace a scene the evaluation reads, nor
+        // the planner's spec.
         let mut inputs = scene_paths(scenes_dir)?;
         inputs.extend(request.planner.argument_files());
-        safer::record::check_outputs_apart(&[safer::record::NamedOutput { flag: "--json", path }], &inputs)?;
+        safer::record::check_outputs_apart(&outputs, &inputs)?;
     }
     let scenes: Vec<Arc<Scenario>> = load_scenes(scenes_dir, max_scenes)?
         .into_iter()
@@ -308,6 +370,15 @@ pub(super) fn run(
     if scenes.is_empty() {
         return Err(CliError::Usage(format!("{}: no scene with both an ego and a CBV", scenes_dir.display())));
     }
+    let scenes = match partition {
+        Some(part) => {
+            let all = scenes.len();
+            let mine = part.select(scenes);
+            eprintln!("partition {}/{}: {} of {all} scenes", part.index, part.count, mine.len());
+            mine
+        }
+        None => scenes,
+    };
     let models = ModelSet::shipped();
     let total = (scenes.len() * request.methods.len() * request.seeds as usize) as u64;
     let bar = ProgressBar::new(total).with_style(
@@ -323,19 +394,31 @@ pub(super) fn run(
     for r in records.iter().filter(|r| r.error.is_some()).take(5) {
         eprintln!("error: {} {:?} seed {}: {}", r.scenario, r.method, r.seed, r.error.as_deref().unwrap_or(""));
     }
-    let rows = evaluation::table(&records, &request.methods);
-    let held_out = evaluation::held_out_split(&records, &request.methods);
+    let settings = EvaluationSettings::of(request, max_scenes, witness);
+    report(&settings, partition, scenes.len(), &records, json)
+}
+
+/// Prints the tables of `records` and writes the JSON report; exit code 1
+/// when every variant of some row failed to run.
+fn report(
+    settings: &EvaluationSettings,
+    partition: Option<Partition>,
+    scenes: usize,
+    records: &[VariantRecord],
+    json: Option<&Path>,
+) -> Result<ExitCode, CliError> {
+    let rows = evaluation::table(records, &settings.methods);
+    let held_out = evaluation::held_out_split(records, &settings.methods);
     // The file report first: a reader that closes standard output early
     // (`| head`) must not cost the evaluation its report.
-    let report = Report { scenes: scenes.len(), rows: &rows, held_out: &held_out, variants: &records };
+    let report = Report { settings, partition, scenes, rows: &rows, held_out: &held_out, variants: records };
     let report_text = || serde_json::to_string_pretty(&report).map(|t| t + "\n");
     if let Some(path) = json.filter(|p| !safer::record::is_stdout(p)) {
         safer::record::write_output(path, report_text()?.as_bytes())?;
         eprintln!("wrote {}", path.display());
     }
     let mut table = super::table_writer(json);
-    let printed =
-        print_table(&mut table, &rows, &held_out, scenes.len(), request, witness).and_then(|()| table.flush());
+    let printed = print_table(&mut table, &rows, &held_out, scenes, settings).and_then(|()| table.flush());
     match printed {
         Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => {}
         other => other?,
@@ -345,4 +428,78 @@ pub(super) fn run(
     }
     let failed = rows.iter().any(|r| r.errors == r.variants && r.variants > 0);
     Ok(if failed { ExitCode::from(1) } else { ExitCode::SUCCESS })
+}
+
+/// `safer evaluate-merge`: the reports of an evaluation's partitions (each
+/// `safer evaluate --partition K/N --json F`) as one run's table and
+/// report. The parts must share their settings and be the N distinct parts
+/// of one N-way split.
+pub(super) fn merge(parts: &[std::path::PathBuf], json: Option<&Path>) -> Result<ExitCode, CliError> {
+    if let Some(path) = json {
+        safer::record::output::check_output(path)?;
+        safer::record::check_outputs_apart(&[safer::record::NamedOutput { flag: "--json", path }], parts)?;
+    }
+    let mut read: Vec<(&Path, PartReport)> = Vec::new();
+    for path in parts {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| CliError::Usage(format!("{}: cannot read the report: {e}", path.display())))?;
+        let part: PartReport = serde_json::from_str(&text).map_err(|e| {
+            CliError::Usage(format!(
+                "{}: not a report of `safer evaluate --json` from this version (line {}, column {}: {e})",
+                path.display(),
+                e.line(),
+                e.column()
+            ))
+        })?;
+        read.push((path, part));
+    }
+    let Some((first_path, first)) = read.first() else {
+        return Err(CliError::Usage("name the partitions' reports to merge".into()));
+    };
+    let count = match first.partition {
+        Some(p) => p.count,
+        None => {
+            return Err(CliError::Usage(format!(
+                "{}: not a partition's report (run `safer evaluate --partition K/N --json F`)",
+                first_path.display()
+            )));
+        }
+    };
+    let mut seen: Vec<Option<&Path>> = vec![None; count];
+    for (path, part) in &read {
+        if part.settings != first.settings {
+            return Err(CliError::Usage(format!(
+                "{} and {} are parts of different evaluations: their settings differ ({:?} against {:?})",
+                first_path.display(),
+                path.display(),
+                first.settings,
+                part.settings
+            )));
+        }
+        let p = part.partition.filter(|p| p.count == count).ok_or_else(|| {
+            CliError::Usage(format!(
+                "{}: not one of {count} partitions, as {} is",
+                path.display(),
+                first_path.display()
+            ))
+        })?;
+        if let Some(other) = seen[p.index - 1].replace(path) {
+            return Err(CliError::Usage(format!(
+                "{} and {} are both partition {}/{count}",
+                other.display(),
+                path.display(),
+                p.index
+            )));
+        }
+    }
+    let missing: Vec<String> =
+        seen.iter().enumerate().filter(|(_, s)| s.is_none()).map(|(i, _)| format!("{}/{count}", i + 1)).collect();
+    if !missing.is_empty() {
+        return Err(CliError::Usage(format!("partitions {} are missing", missing.join(", "))));
+    }
+    let settings = first.settings.clone();
+    let scenes = read.iter().map(|(_, p)| p.scenes).sum();
+    let mut records: Vec<VariantRecord> = read.into_iter().flat_map(|(_, p)| p.variants).collect();
+    evaluation::sort_records(&mut records);
+    report(&settings, None, scenes, &records, json)
 }

@@ -39,7 +39,7 @@ use clap::{Parser, Subcommand};
 
 use safer::eval::witness::RoadKeeping;
 use safer::harness::HarnessError;
-use safer::harness::evaluation::{EvaluationRequest, Stage2Cbv};
+use safer::harness::evaluation::{EvaluationRequest, Partition, Stage2Cbv};
 use safer::harness::methods::BackgroundDriver;
 use safer::models::ModelError;
 use safer::motion::tokens::VOCABULARY_SIZE;
@@ -235,6 +235,21 @@ enum Command {
         /// The widest beam the witness search tries when narrower ones find nothing, as a multiple of the narrow one (48 candidates); 1 to 4096. Wider finds escapes narrower ones miss, at seconds to minutes a search where none exists.
         #[arg(long, value_name = "N", default_value_t = safer::eval::witness::DEFAULT_WIDEST, value_parser = RangedU64ValueParser::<usize>::new().range(1..=safer::eval::witness::MOST_WIDEST as u64))]
         witness_widest: usize,
+        /// Run only part K of N (1 ≤ K ≤ N): scene i of the sorted scene list belongs to part i mod N + 1. Merge the parts' `--json` reports with `safer evaluate-merge`.
+        #[arg(long, value_name = "K/N", value_parser = clap::value_parser!(Partition))]
+        partition: Option<Partition>,
+        /// Write each failing variant's MCAP recording, SVG picture and planner stderr under DIR/METHOD/SCENARIO/seed-K.* (as `safer run` does).
+        #[arg(long, value_name = "DIR")]
+        artifacts: Option<PathBuf>,
+    },
+    /// Merge the JSON reports of `safer evaluate --partition K/N` runs into the table and report one run would give.
+    EvaluateMerge {
+        /// The partitions' reports, one per part, in any order.
+        #[arg(required = true, value_name = "PART.json")]
+        parts: Vec<PathBuf>,
+        /// Also write the merged report as JSON (`-`: standard output).
+        #[arg(long, value_name = "OUT")]
+        json: Option<PathBuf>,
     },
     /// Write the feasibility value's training transitions (NGSIM + synthetic, several ego and CBV policies).
     FeasibilityDataset {
@@ -414,6 +429,8 @@ pub fn main() -> ExitCode {
             jobs,
             witness_road,
             witness_widest,
+            partition,
+            artifacts,
         } => {
             let mut stage2_cbv = stage2_cbv;
             stage2_cbv.sort();
@@ -429,10 +446,13 @@ pub fn main() -> ExitCode {
                 stage2_cbv,
                 escape: Some(escape),
                 horizon_s,
+                artefacts: artifacts,
             };
             let witness = evaluate::WitnessSettings { road: witness_road, widest: witness_widest };
-            set_jobs(jobs).and_then(|()| evaluate::run(&scenes, &request, max_scenes, json.as_deref(), witness))
+            set_jobs(jobs)
+                .and_then(|()| evaluate::run(&scenes, &request, max_scenes, json.as_deref(), witness, partition))
         }
+        Command::EvaluateMerge { parts, json } => evaluate::merge(&parts, json.as_deref()),
         Command::FeasibilityDataset { recorded, out, synthetic_scenes, seed, force } => {
             feasibility_dataset::run(&feasibility_dataset::FeasibilityDatasetRequest {
                 recorded,

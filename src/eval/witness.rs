@@ -231,7 +231,7 @@ pub struct RoadRule<'a> {
 }
 
 /// How much of the witness's ego must stay on the road.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum RoadKeeping {
     /// Its centre: the rule the CBV's off-road time counts by; half the

@@ -16,18 +16,20 @@
 //! (scene, method, seed), and results are sorted, so the table does not
 //! depend on the thread count.
 
+use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Instant;
 
 use rayon::prelude::*;
 
 use super::HarnessError;
+use super::artefacts;
 use super::methods::{BackgroundDriver, MapEncodings, MethodSettings, ModelSet};
 use super::metrics::{SuiteMetrics, VariantTally};
 use super::pipeline::{self, PlannerLatency, Stage2Verdict, VariantSetup};
 pub use super::pipeline::{Stage2Cbv, VariantProfile};
-use super::variant::CollisionEscape;
 use super::variant::variant_seed;
+use super::variant::{CollisionEscape, VariantOutcome};
 use crate::eval::escape::EscapeBudget;
 use crate::policies::BackgroundPolicy;
 use crate::policies::prior_sampling::TokenSampling;
@@ -59,10 +61,63 @@ pub struct EvaluationRequest {
     pub escape: Option<EscapeBudget>,
     /// Horizon of both stages from the scene's current step, s.
     pub horizon_s: f64,
+    /// Where to write a failing variant's recording, picture and planner
+    /// stderr (as `safer run` does), `<dir>/<method>/<scenario>/seed-k.*`;
+    /// `None`: nowhere.
+    pub artefacts: Option<PathBuf>,
+}
+
+/// One of `count` parts of an evaluation, for running it on several
+/// machines: scene `i` of the sorted scene list belongs to part
+/// `i mod count + 1`, so the parts are disjoint, cover every scene, and
+/// differ in size by one scene at most. Each variant is a pure function
+/// of its (scene, method, seed), so the parts' records merged are the
+/// records one run makes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct Partition {
+    /// Which part, from 1.
+    pub index: usize,
+    /// How many parts.
+    pub count: usize,
+}
+
+impl Partition {
+    /// The scenes of this part, from the whole sorted list.
+    pub fn select<T>(&self, scenes: Vec<T>) -> Vec<T> {
+        scenes.into_iter().enumerate().filter(|(i, _)| i % self.count + 1 == self.index).map(|(_, s)| s).collect()
+    }
+}
+
+impl std::str::FromStr for Partition {
+    type Err = String;
+
+    /// `K/N`, 1 ≤ K ≤ N.
+    fn from_str(text: &str) -> Result<Self, String> {
+        let (k, n) = text.split_once('/').ok_or_else(|| format!("`{text}` is not K/N (e.g. 2/4)"))?;
+        let number =
+            |t: &str| t.trim().parse::<usize>().map_err(|_| format!("`{t}` in `{text}` is not a whole number"));
+        let (index, count) = (number(k)?, number(n)?);
+        if count == 0 || index == 0 || index > count {
+            return Err(format!("`{text}`: the part must be from 1 to the number of parts, which must be at least 1"));
+        }
+        Ok(Partition { index, count })
+    }
+}
+
+/// The planner's ego's first collision in stage 2: with whom, and whose
+/// fault.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Stage2Contact {
+    /// The other agent's id.
+    pub other: String,
+    /// Whether it was the CBV.
+    pub with_cbv: bool,
+    /// Whether the ego was at fault.
+    pub at_fault: bool,
 }
 
 /// The outcome of one variant.
-#[derive(Debug, Clone, serde::Serialize)]
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
 pub struct VariantRecord {
     /// Scenario id.
     pub scenario: String,
@@ -79,6 +134,8 @@ pub struct VariantRecord {
     /// Stage 2's verdict: solved, collided, or aborted (planner failure);
     /// `None` when the variant could not run.
     pub stage2: Option<Stage2Verdict>,
+    /// Stage 2: the ego's first collision, with whom and whose fault.
+    pub stage2_contact: Option<Stage2Contact>,
     /// For a stage-1 collision: whether a feasibility witness was found.
     pub witness: Option<bool>,
     /// Stage-1 closest ego–CBV gap, m.
@@ -110,9 +167,13 @@ pub struct VariantRecord {
     pub planner_latency: Option<PlannerLatency>,
     /// Why the variant could not be run, if it could not.
     pub error: Option<String>,
-    /// What the variant contributes to CR, SR, VJ and AJ.
-    #[serde(skip)]
-    tally: VariantTally,
+    /// The failing variant's recording, picture and planner stderr, where
+    /// the evaluation was asked to write them.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub artefacts: Vec<PathBuf>,
+    /// What the variant contributes to CR, SR, VJ and AJ (in the report,
+    /// so that partitions' reports merge into the same table).
+    pub tally: VariantTally,
 }
 
 impl VariantRecord {
@@ -126,6 +187,7 @@ impl VariantRecord {
             stage1_collision: false,
             stage2_collision: false,
             stage2: None,
+            stage2_contact: None,
             witness: None,
             stage1_min_gap_m: None,
             stage2_min_gap_m: None,
@@ -141,6 +203,7 @@ impl VariantRecord {
             profile: VariantProfile::default(),
             planner_latency: None,
             error: Some(error),
+            artefacts: Vec::new(),
             tally: VariantTally::default(),
         }
     }
@@ -236,6 +299,7 @@ fn run_one(
     };
     let sim = SimConfig { start_step: Some(start), end_step: Some(end), background, ..SimConfig::default() };
     let variant = format!("{}::{}::seed-{seed_index}", scenario.id, crate::spec::spec_name(&method));
+    let seed = variant_seed(request.base_seed, &format!("{}/{method:?}", scenario.id), seed_index);
     let stages = pipeline::run(VariantSetup {
         scenario,
         settings: MethodSettings {
@@ -244,7 +308,7 @@ fn run_one(
             background: request.background,
             sampling: TokenSampling::default(),
         },
-        seed: variant_seed(request.base_seed, &format!("{}/{method:?}", scenario.id), seed_index),
+        seed,
         sim: &sim,
         stage2_cbv,
         planner: &request.planner,
@@ -263,14 +327,20 @@ fn run_one(
     };
     profile.witness_s = witness_clock.elapsed().as_secs_f64();
     let stage2_summary = stages.stage2.summary();
-    Ok(VariantRecord {
+    let stage2_contact = stage2_summary.ego_collision.as_ref().map(|c| Stage2Contact {
+        other: c.other.0.clone(),
+        with_cbv: c.with_cbv,
+        at_fault: c.at_fault,
+    });
+    let mut record = VariantRecord {
         scenario: scenario.id.clone(),
         method,
         stage2_cbv,
         seed: seed_index,
         stage1_collision: tally.critical,
         stage2_collision: stages.stage2.ego_collision().is_some(),
-        stage2: Some(stages.verdict),
+        stage2: Some(stages.verdict.clone()),
+        stage2_contact,
         witness,
         stage1_min_gap_m: stages.stage1.summary().min_distance_to_ego_m,
         stage2_min_gap_m: stage2_summary.min_distance_to_ego_m,
@@ -282,12 +352,44 @@ fn run_one(
         cbv_hit_background: tally.cbv_hit_background,
         cbv_at_fault_with_background: tally.cbv_at_fault_with_background,
         cbv_off_road_s: (tally.cbv_off_road_s * 10.0).round() / 10.0,
-        time_s: clock.elapsed().as_secs_f64(),
+        time_s: 0.0,
         profile,
         planner_latency: stages.planner_latency,
         error: None,
-        tally,
-    })
+        artefacts: Vec::new(),
+        tally: tally.clone(),
+    };
+    if let Some(dir) = request.artefacts.as_deref().filter(|_| !tally.solved) {
+        let outcome = VariantOutcome {
+            name: format!("{}::{}::seed-{seed_index}", row_name(method, stage2_cbv), scenario.id),
+            seed,
+            scenario: scenario.clone(),
+            stage1: stages.stage1,
+            stage2: stages.stage2,
+            verdict: stages.verdict,
+            min_ttc_s: stages.min_ttc_s,
+            reach: stages.reach,
+            escape: stages.escape,
+            tally,
+            failures: Vec::new(),
+            planner_latency: stages.planner_latency,
+            planner_stderr: stages.planner_stderr,
+        };
+        let written = artefacts::write(dir, &outcome).map_err(HarnessError::Artefacts)?;
+        record.artefacts = [Some(written.mcap), Some(written.svg), written.stderr].into_iter().flatten().collect();
+    }
+    record.time_s = clock.elapsed().as_secs_f64();
+    Ok(record)
+}
+
+/// A method's name in reports, with its stage-2 CBV mode when that is
+/// closed loop (`safer`, `safer-closed-loop`).
+fn row_name(method: AdversaryMethod, stage2_cbv: Stage2Cbv) -> String {
+    let method = crate::spec::spec_name(&method);
+    match stage2_cbv {
+        Stage2Cbv::Replay => method,
+        Stage2Cbv::ClosedLoop => format!("{method}-closed-loop"),
+    }
 }
 
 /// Runs every (scene, method, seed); `tick` is called after each variant.
@@ -319,10 +421,17 @@ pub fn evaluate(
             r
         })
         .collect();
+    sort_records(&mut records);
+    records
+}
+
+/// Puts records in the order an evaluation reports them: by method,
+/// stage-2 mode, scenario id and seed (whatever order they ran in, on
+/// however many threads or machines).
+pub fn sort_records(records: &mut [VariantRecord]) {
     records.sort_by(|a, b| {
         (a.method, a.stage2_cbv, &a.scenario, a.seed).cmp(&(b.method, b.stage2_cbv, &b.scenario, b.seed))
     });
-    records
 }
 
 /// The held-out part of an evaluation: every tenth scene by sorted id (the

@@ -80,7 +80,7 @@ impl MapEncodings {
 }
 
 /// Who drives the background agents in stage 1.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum BackgroundDriver {
     /// As the simulation configuration says (log replay by default).

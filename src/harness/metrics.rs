@@ -31,7 +31,7 @@ use crate::sim::Rollout;
 use crate::spec::suite::SuiteAcceptance;
 
 /// Speeds and accelerations of one agent over a stretch of steps.
-#[derive(Debug, Clone, Default, PartialEq)]
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct KinematicSamples {
     /// Speed at every step the agent is present, m/s.
     pub speeds_mps: Vec<f64>,
@@ -52,7 +52,7 @@ impl KinematicSamples {
 
 /// The CBV's kinematics in a variant: as generated in stage 1, and as
 /// logged over exactly the steps stage 1 covered.
-#[derive(Debug, Clone, Default, PartialEq)]
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct CbvKinematics {
     /// Stage 1, driven by the method.
     pub generated: KinematicSamples,
@@ -75,8 +75,9 @@ impl CbvKinematics {
     }
 }
 
-/// What one variant contributes to the suite metrics.
-#[derive(Debug, Clone, Default, PartialEq)]
+/// What one variant contributes to the suite metrics (serialised in
+/// evaluation reports, so that partitions' reports merge into one table).
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct VariantTally {
     /// The CBV hit the ego in stage 1.
     pub critical: bool,

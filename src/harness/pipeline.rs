@@ -62,7 +62,7 @@ pub struct VariantSetup<'a> {
 }
 
 /// Where a variant's time went, s.
-#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct VariantProfile {
     /// Stage 1, whole (simulation, CBV method, models).
     pub stage1_s: f64,
@@ -116,7 +116,7 @@ impl VariantProfile {
 /// planner the whole round trip, message encoding and pipes included).
 /// Percentiles are nearest-rank. Not deterministic: reports carry it, test
 /// snapshots do not.
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct PlannerLatency {
     /// Observations answered (or failed).
     pub steps: usize,
@@ -184,7 +184,7 @@ impl Planner for Timed<'_> {
 }
 
 /// What the planner under test made of stage 2.
-#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "kebab-case", tag = "verdict")]
 pub enum Stage2Verdict {
     /// Ran to the end without an ego collision.

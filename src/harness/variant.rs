@@ -133,7 +133,7 @@ pub struct VariantSummary {
 
 /// The closed-loop witness's verdict on a stage-2 collision, as reports
 /// and snapshots carry it.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum CollisionEscape {
     /// An escape, played closed loop with the CBV reacting, touched

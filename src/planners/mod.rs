@@ -169,7 +169,7 @@ pub trait Planner: Send {
 }
 
 /// How long a planner took to start, before its first observation.
-#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize, serde::Deserialize)]
 pub struct PlannerStartup {
     /// From starting the process to its `ready`, ms.
     pub launch_ms: f64,

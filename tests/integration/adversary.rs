@@ -33,6 +33,7 @@ fn request(methods: Vec<AdversaryMethod>, seeds: u32) -> EvaluationRequest {
         stage2_cbv: vec![Stage2Cbv::Replay],
         escape: None,
         horizon_s: 8.0,
+        artefacts: None,
     }
 }
 

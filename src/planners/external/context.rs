@@ -32,10 +32,6 @@ pub struct RolloutContext {
     pub seed: Option<u64>,
 }
 
-/// The largest seed a planner is told: 2^53 − 1, the largest integer every
-/// JSON reader holds exactly (JavaScript's numbers are doubles).
-pub const MAX_PLANNER_SEED: u64 = (1 << 53) - 1;
-
 impl RolloutContext {
     /// The seed the planner is told (`hello.scenario.seed`, `{seed}`,
     /// `SAFER_SEED`): the variant's 64-bit seed's top 53 bits, so it is the

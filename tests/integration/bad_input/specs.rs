@@ -194,7 +194,13 @@ fn a_suite_given_by_a_bare_file_name_runs_its_external_planner_in_that_folder() 
         std::fs::write(dir.join(name), text).unwrap();
     }
     let out =
-        super::binary::safer_in(&dir, &[], &["run", "s.yaml", "--artifacts", "artefacts"], Duration::from_secs(60));
+        // The planner imports safer's Python planner kit, found on PYTHONPATH.
+        super::binary::safer_in(
+            &dir,
+            &[("PYTHONPATH", &repo.join("python"))],
+            &["run", "s.yaml", "--artifacts", "artefacts"],
+            Duration::from_secs(60),
+        );
     std::fs::remove_dir_all(&dir).ok();
     let text = format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
     assert_eq!(out.status.code(), Some(0), "{text}");

@@ -1,0 +1,168 @@
+//! `safer evaluate --partition K/N` and `safer evaluate-merge`: the parts
+//! of an evaluation, run apart and merged, give the table and report one
+//! run gives; and `--artifacts` leaves a failing variant's recording,
+//! picture and collision record behind.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+use serde_json::Value;
+
+fn safer(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_safer")).args(args).output().expect("run safer")
+}
+
+fn ok(out: Output) -> String {
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    String::from_utf8(out.stdout).expect("UTF-8 table")
+}
+
+/// The table without what the clock decides: the `s/variant` column of
+/// the first table and the time-profile table.
+fn without_times(table: &str) -> String {
+    let mut kept = Vec::new();
+    let mut in_first_table = false;
+    let mut in_profile = false;
+    for line in table.lines() {
+        if line.starts_with("method") && line.ends_with("s/variant") {
+            in_first_table = true;
+        } else if line.is_empty() {
+            in_first_table = false;
+        }
+        if line.starts_with("where the time goes") {
+            in_profile = true;
+        } else if line.starts_with("VJ/AJ:") {
+            in_profile = false;
+        }
+        if in_profile {
+            continue;
+        }
+        let line = if in_first_table { line.rsplit_once(' ').map_or(line, |(head, _)| head) } else { line };
+        kept.push(line.to_string());
+    }
+    kept.join("\n")
+}
+
+/// A report without what the clock decides (times, profiles, latencies)
+/// and without where artefacts went.
+fn report_without_times(path: &Path) -> Value {
+    let mut v: Value = serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
+    fn strip(v: &mut Value) {
+        match v {
+            Value::Object(map) => {
+                for key in ["time_s", "time_per_variant_s", "profile", "planner_latency", "artefacts", "partition"] {
+                    map.remove(key);
+                }
+                map.values_mut().for_each(strip);
+            }
+            Value::Array(items) => items.iter_mut().for_each(strip),
+            _ => {}
+        }
+    }
+    strip(&mut v);
+    v
+}
+
+#[test]
+fn an_evaluation_run_in_three_parts_and_merged_is_the_one_run() {
+    let out = tempfile_dir("partitions");
+    let scenes = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/ngsim");
+    let common =
+        ["evaluate", "--scenes", scenes.to_str().unwrap(), "--methods", "safer,log", "--seeds", "2", "--jobs", "2"];
+    let run = |extra: &[&str]| safer(&[&common[..], extra].concat());
+    let whole = out.join("whole.json");
+    let whole_table = ok(run(&["--json", whole.to_str().unwrap()]));
+    let mut parts = Vec::new();
+    for k in 1..=3 {
+        let part = out.join(format!("part-{k}.json"));
+        let partition = format!("{k}/3");
+        let out = run(&["--partition", &partition, "--json", part.to_str().unwrap()]);
+        let stderr = String::from_utf8_lossy(&out.stderr).to_string();
+        ok(out);
+        assert!(stderr.contains(&format!("partition {k}/3: 1 of 3 scenes")), "{stderr}");
+        parts.push(part);
+    }
+    let merged = out.join("merged.json");
+    // In another order than the parts' numbers: the merge sorts.
+    let order = [&parts[2], &parts[0], &parts[1]].map(|p| p.to_str().unwrap());
+    let merged_table = ok(safer(&[&["evaluate-merge"][..], &order, &["--json", merged.to_str().unwrap()]].concat()));
+    assert_eq!(without_times(&merged_table), without_times(&whole_table));
+    assert!(merged_table.starts_with("3 scenes × 2 seeds"), "{merged_table}");
+    assert_eq!(report_without_times(&merged), report_without_times(&whole));
+    let report = report_without_times(&whole);
+    assert_eq!(report["variants"].as_array().unwrap().len(), 12);
+    assert!(report["variants"][0]["tally"].is_object(), "the tallies travel with the report");
+
+    // Parts missing, given twice, or of another evaluation are refused.
+    let two = safer(&["evaluate-merge", order[0], order[1]]);
+    let text = String::from_utf8_lossy(&two.stderr);
+    assert!(!two.status.success() && text.contains("partitions 2/3 are missing"), "{text}");
+    let twice = safer(&["evaluate-merge", order[0], order[0], order[1], order[2]]);
+    let text = String::from_utf8_lossy(&twice.stderr);
+    assert!(!twice.status.success() && text.contains("are both partition 3/3"), "{text}");
+    let other = out.join("other.json");
+    ok(safer(&[&common[..], &["--seed", "7", "--partition", "1/3", "--json", other.to_str().unwrap()]].concat()));
+    let mixed = safer(&["evaluate-merge", other.to_str().unwrap(), order[0], order[2]]);
+    let text = String::from_utf8_lossy(&mixed.stderr);
+    assert!(!mixed.status.success() && text.contains("parts of different evaluations"), "{text}");
+    let unpartitioned = safer(&["evaluate-merge", whole.to_str().unwrap()]);
+    let text = String::from_utf8_lossy(&unpartitioned.stderr);
+    assert!(!unpartitioned.status.success() && text.contains("not a partition's report"), "{text}");
+    let bad = safer(&[&common[..], &["--partition", "4/3"]].concat());
+    let text = String::from_utf8_lossy(&bad.stderr);
+    assert!(!bad.status.success() && text.contains("from 1 to the number of parts"), "{text}");
+}
+
+#[test]
+fn evaluate_writes_a_failing_variants_artefacts_and_whom_it_hit() {
+    let out = tempfile_dir("artefacts");
+    let scenes = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/ngsim");
+    let json = out.join("report.json");
+    let artefacts = out.join("artefacts");
+    // Log replay in stage 2: every stage-1 collision replays into a failure.
+    ok(safer(&[
+        "evaluate",
+        "--scenes",
+        scenes.to_str().unwrap(),
+        "--methods",
+        "safer",
+        "--seeds",
+        "4",
+        "--planner",
+        "log-replay",
+        "--jobs",
+        "2",
+        "--json",
+        json.to_str().unwrap(),
+        "--artifacts",
+        artefacts.to_str().unwrap(),
+    ]));
+    let report: Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let variants = report["variants"].as_array().unwrap();
+    let failing: Vec<&Value> = variants.iter().filter(|v| v["stage2"]["verdict"] != "solved").collect();
+    assert!(!failing.is_empty(), "log replay fails no SaFeR variant of the shipped scenes");
+    for v in &failing {
+        let files: Vec<&str> = v["artefacts"].as_array().unwrap().iter().map(|f| f.as_str().unwrap()).collect();
+        assert!(files.iter().any(|f| f.ends_with(".mcap")) && files.iter().any(|f| f.ends_with(".svg")), "{v}");
+        for f in &files {
+            assert!(std::fs::metadata(f).unwrap().len() > 0, "{f} is empty");
+            let expected = format!("artefacts/safer/{}/seed-{}.", v["scenario"].as_str().unwrap(), v["seed"]);
+            assert!(f.contains(&expected), "{f} is not under {expected}");
+        }
+        if v["stage2_collision"] == true {
+            let contact = &v["stage2_contact"];
+            assert!(contact["other"].is_string() && contact["at_fault"].is_boolean(), "{v}");
+        }
+    }
+    for v in variants.iter().filter(|v| v["stage2"]["verdict"] == "solved") {
+        assert!(v.get("artefacts").is_none(), "a solved variant has no artefacts: {v}");
+    }
+}
+
+/// A fresh folder for one test's files under the target folder.
+fn tempfile_dir(name: &str) -> std::path::PathBuf {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("evaluate-{name}"));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
