@@ -960,7 +960,8 @@ mod tests {
         // The scene file as an absolute path: the planner runs elsewhere.
         let source = std::path::absolute(&s.source.path).unwrap().display().to_string();
         assert!(!s.source.path.is_absolute(), "the fixture's path is relative: {}", s.source.path.display());
-        assert_eq!(hello["args"], serde_json::json!(["--scene=external-stopped-car-ahead", "42", "{x}", source]));
+        let seed = (0xfedc_ba98_7654_3210_u64 >> 11).to_string();
+        assert_eq!(hello["args"], serde_json::json!(["--scene=external-stopped-car-ahead", seed, "{x}", source]));
         assert_eq!(hello["message"]["scenario"]["source_file"], source);
         assert_eq!(hello["env"]["SAFER_SOURCE"], source);
         assert_eq!(std::path::Path::new(hello["cwd"].as_str().unwrap()), dir.canonicalize().unwrap_or(dir.clone()));
