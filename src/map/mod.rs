@@ -216,10 +216,13 @@ impl RoadMap {
 mod tests {
     use super::*;
 
+    /// A polyline through `pts`.
     pub(super) fn pl(pts: &[(f64, f64)]) -> Polyline {
         Polyline::new(pts.iter().map(|&(x, y)| Point2::new(x, y)).collect())
     }
 
+    /// Two lanes along +x from 0 to 100 m (centrelines at y = 0 and 3.5)
+    /// between road edges at y = -2 and 5.5.
     pub(super) fn straight_road() -> RoadMap {
         let lane = |id, y| Lane::new(MapElementId(id), pl(&[(0.0, y), (100.0, y)]));
         // Edges: right edge runs +x (road to its left), left edge runs -x.

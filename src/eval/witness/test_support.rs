@@ -7,10 +7,12 @@ use crate::map::RoadMap;
 use crate::motion::tokens::SIM_DT_S;
 use crate::scenario::{AgentBody, AgentKind, AgentState};
 
+/// A car's body, 4.5 m by 2 m.
 pub(super) fn car() -> AgentBody {
     AgentBody { kind: AgentKind::Vehicle, length_m: 4.5, width_m: 2.0 }
 }
 
+/// An agent at (`x`, `y`) heading along +x at `v` m/s.
 pub(super) fn at(x: f64, y: f64, v: f64) -> AgentState {
     AgentState { position: Point2::new(x, y), heading_rad: 0.0, velocity_mps: Vector2::new(v, 0.0) }
 }

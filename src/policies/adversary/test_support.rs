@@ -10,10 +10,12 @@ use crate::motion::tokens::{Token, TokenGrid};
 use crate::policies::WorldView;
 use crate::scenario::{AgentBody, AgentKind, AgentState, TrackIndex};
 
+/// A car at (`x`, `y`) heading along +x at `speed_mps`.
 pub(super) fn car(x: f64, y: f64, speed_mps: f64) -> Option<AgentState> {
     Some(AgentState { position: Point2::new(x, y), heading_rad: 0.0, velocity_mps: Vector2::new(speed_mps, 0.0) })
 }
 
+/// The token of `accel_mps2` driving straight on.
 pub(super) fn token(accel_mps2: f64) -> Token {
     TokenGrid::quantize(Action { accel_mps2, yaw_rate_radps: 0.0 })
 }
