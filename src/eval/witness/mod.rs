@@ -14,7 +14,7 @@
 //!
 //! Before each period the first few candidates of the beam are tried on
 //! to the horizon straight on, braking to a standstill or holding their
-//! speed (see [`COMPLETIONS_MPS2`](completion::COMPLETIONS_MPS2)): once the
+//! speed (see `completion::COMPLETIONS_MPS2`): once the
 //! ego is past the conflict one of them is usually clear, and the witness
 //! is then that candidate's
 //! trajectory so far and its completion. Each completion is checked as

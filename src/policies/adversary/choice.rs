@@ -60,8 +60,8 @@ fn ego_prediction(ego: &AgentState) -> AgentState {
 /// and then the lower id; the fallbacks of the module's plausibility rule
 /// when none is plausible (the background predicted by `forecast`). With
 /// a lookahead the loss of a feasible candidate is the best score of its
-/// continuations (see [`Lookahead`]). Time spent in `feasibility` is added to
-/// `feasibility_s`. `None` only for empty `logits`.
+/// continuations (see [`Search::lookahead_tokens`]). Time spent in
+/// `feasibility` is added to `feasibility_s`. `None` only for empty `logits`.
 pub fn safer_choice(
     world: &WorldView<'_>,
     (cbv, ego): (TrackIndex, TrackIndex),
