@@ -53,12 +53,12 @@ impl Default for EvasiveParams {
             horizon_s: 4.0,
             // Up to the kinematic limit either way: the witness search
             // escapes with full acceleration too, and with 3 m/s² at most
-            // the planner lost variants it showed a way out of (a CBV or a
-            // replayed follower closing from behind; issue 10, seventh round).
+            // the planner loses variants the witness shows a way out of (a
+            // CBV or a replayed follower closing from behind).
             accelerations_mps2: vec![-MAX_ACCEL_MPS2, -3.0, -1.5, 0.0, 1.0, 2.0, 3.0, MAX_ACCEL_MPS2],
             // Up to two lanes (of 3.5 m) either way: with one lane at most,
-            // the planner failed more of the conflicts that the witness
-            // search shows a way out of (issue 10, sixth round).
+            // the planner fails more of the conflicts that the witness
+            // search shows a way out of.
             lateral_offsets_m: vec![-7.0, -5.25, -3.5, -1.75, 0.0, 1.75, 3.5, 5.25, 7.0],
             desired_speed_mps: None,
             safety_margin_m: 0.3,

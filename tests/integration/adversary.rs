@@ -70,7 +70,7 @@ fn the_adversary_brings_the_cbv_closer_than_the_log() {
     assert_eq!(rows[0].vj, Some(0.0));
 }
 
-/// Issue 10's goal CR(safer) ≥ 1.5 × CR(prior), on the first 12 WOMD
+/// SaFeR's aim, CR(safer) ≥ 1.5 × CR(prior), on the first 12 WOMD
 /// interactive scenes (their labelled pairs) with 3 seeds; and the
 /// plausibility rule at work: SaFeR's CBV leaves the road and runs into
 /// background traffic less often than the prior's unfiltered samples.

@@ -1,0 +1,311 @@
+//! Road-edge queries on a [`RoadMap`]: the nearest road edge, the signed
+//! distance to it, whether a point is off the road, past the mapped end of
+//! it, or off the road inside the mapped area.
+
+use super::RoadMap;
+use crate::geometry::{Point2, PolylineProjection};
+
+impl RoadMap {
+    /// The road edge nearest to `p` (its index) and `p`'s projection on it.
+    /// `None` without edges, and for a non-finite point (the simulator
+    /// refuses such states, and the ring search would never reach its bound).
+    fn nearest_road_edge(&self, p: &Point2) -> Option<(usize, PolylineProjection)> {
+        if !(p.x.is_finite() && p.y.is_finite()) {
+            return None;
+        }
+        // Edges are searched in growing rings so most queries touch few cells;
+        // the ring reaches the farthest indexed point after at most ~256
+        // quadruplings even from 1e300 m away.
+        let mut radius = 8.0;
+        loop {
+            let best = self.nearest_road_edge_within(p, radius);
+            match best {
+                Some((_, b)) if b.distance_m <= radius => break best,
+                _ if radius >= self.edge_segments.max_distance_from(p) => break best,
+                _ => radius *= 4.0,
+            }
+        }
+    }
+
+    /// The nearest of the road edges with a segment in the index cells
+    /// within `radius_m` of `p`: by distance, ties to the lower edge index,
+    /// and on that edge the projection onto its nearest candidate segment,
+    /// ties to the lower segment index. That is one order over all the
+    /// (edge, segment) pairs, so the pairs are taken as the index yields
+    /// them, unsorted, some twice, nearest cells first and cells wholly
+    /// beyond the best so far skipped; only a NaN distance (from absurd map
+    /// coordinates, where that order is not total) falls back to visiting
+    /// them all sorted, edge by edge.
+    fn nearest_road_edge_within(&self, p: &Point2, radius_m: f64) -> Option<(usize, PolylineProjection)> {
+        // (distance, edge, distance², segment)
+        let mut best: Option<(f64, usize, f64, usize)> = None;
+        let mut nan = false;
+        self.edge_segments.for_each_candidate_nearest_first(p, radius_m, |(edge, seg)| {
+            let (edge, seg) = (edge as usize, seg as usize);
+            let (d2, _) = self.road_edges[edge].polyline.segment_distance_squared(p, seg);
+            nan |= d2.is_nan();
+            let key = (d2.sqrt(), edge, d2, seg);
+            if best.is_none_or(|b| key < b) {
+                best = Some(key);
+            }
+            best.map_or(f64::INFINITY, |b| b.0)
+        });
+        if !nan {
+            return best.and_then(|(_, edge, _, seg)| {
+                self.road_edges[edge].polyline.project_segments(p, [seg]).map(|proj| (edge, proj))
+            });
+        }
+        let mut pairs = Vec::new();
+        self.edge_segments.candidate_pairs_into(p, radius_m, &mut pairs);
+        let mut best: Option<(usize, PolylineProjection)> = None;
+        for run in pairs.chunk_by(|a, b| a.0 == b.0) {
+            let edge = run[0].0 as usize;
+            let segs = run.iter().map(|&(_, seg)| seg as usize);
+            if let Some(proj) = self.road_edges[edge].polyline.project_segments(p, segs)
+                && best.is_none_or(|(_, b)| proj.distance_m < b.distance_m)
+            {
+                best = Some((edge, proj));
+            }
+        }
+        best
+    }
+
+    /// Signed distance from `p` to the nearest road edge, metres: negative on
+    /// the road, positive off it. Where drivable areas exist, membership in
+    /// any of them decides the sign. `None` when the map has no road edges
+    /// (or `p` is not finite).
+    pub fn signed_distance_to_road_edge(&self, p: &Point2) -> Option<f64> {
+        self.signed_distance_given(p, self.nearest_road_edge(p).as_ref())
+    }
+
+    /// [`Self::signed_distance_to_road_edge`] with [`Self::nearest_road_edge`]'s
+    /// answer for `p` at hand.
+    fn signed_distance_given(&self, p: &Point2, nearest: Option<&(usize, PolylineProjection)>) -> Option<f64> {
+        let (_, nearest) = nearest?;
+        if self.drivable_areas.is_empty() {
+            Some(nearest.signed_distance_m)
+        } else {
+            let on_road = self.drivable_areas.iter().any(|a| a.contains(p));
+            Some(if on_road { -nearest.distance_m } else { nearest.distance_m })
+        }
+    }
+
+    /// Whether `p` lies past the end of the mapped road: ahead of the end
+    /// of a lane within 10 m that has no successor, *and* past the end of
+    /// the nearest road edge (its closest point is the edge's first or last
+    /// point): where the recording's map was cut off (NGSIM's study area,
+    /// WOMD's crop), not a dead end inside the map, whose kerbs go on
+    /// around it. A vehicle there has left the mapped area rather than the
+    /// road.
+    pub fn is_past_mapped_end(&self, p: &Point2) -> bool {
+        self.is_past_mapped_end_given(p, self.nearest_road_edge(p).as_ref())
+    }
+
+    /// [`Self::is_past_mapped_end`] with [`Self::nearest_road_edge`]'s answer
+    /// for `p` at hand.
+    fn is_past_mapped_end_given(&self, p: &Point2, nearest: Option<&(usize, PolylineProjection)>) -> bool {
+        const SEARCH_M: f64 = 10.0;
+        // Far past the cut the lane's end is as far away as the edge's:
+        // search that far (up to a limit), not only the 10 m beside `p`.
+        const FARTHEST_PAST_END_M: f64 = 100.0;
+        let (edge_ends_here, past_edge_end_m) = match nearest {
+            None => (true, 0.0),
+            Some(&(edge, proj)) => {
+                let length = self.road_edges[edge].polyline.length_m();
+                (proj.arc_length_m <= 1e-6 || proj.arc_length_m >= length - 1e-6, proj.distance_m)
+            }
+        };
+        let search_m = SEARCH_M + past_edge_end_m.min(FARTHEST_PAST_END_M);
+        edge_ends_here
+            && self.lane_segments.candidates(p, search_m).into_keys().any(|lane_index| {
+                let lane = &self.lanes[lane_index];
+                let points = lane.centreline.points();
+                if !lane.successors.is_empty() || points.len() < 2 {
+                    return false;
+                }
+                let (a, b) = (points[points.len() - 2], points[points.len() - 1]);
+                let along = (b - a).normalize();
+                let from_end = p - b;
+                // Ahead of the end, within a lane's reach sideways of its line.
+                from_end.dot(&along) > 0.0 && (from_end.x * along.y - from_end.y * along.x).abs() <= SEARCH_M
+            })
+    }
+
+    /// Whether `p` is off the road inside the mapped area: off the road
+    /// ([`Self::is_off_road`]) and not past the mapped end of it
+    /// ([`Self::is_past_mapped_end`]), where the road goes on beyond what
+    /// the recording mapped. What a road user must not do; driving on past
+    /// the map's cut is not leaving the road.
+    pub fn is_off_road_within_map(&self, p: &Point2) -> bool {
+        // The nearest edge is looked up once for both tests.
+        let nearest = self.nearest_road_edge(p);
+        self.is_off_road_given(p, nearest.as_ref()) && !self.is_past_mapped_end_given(p, nearest.as_ref())
+    }
+
+    /// Whether `p` is off the road. Unknown (no edges, no drivable areas) is
+    /// treated as on-road.
+    pub fn is_off_road(&self, p: &Point2) -> bool {
+        self.is_off_road_given(p, self.nearest_road_edge(p).as_ref())
+    }
+
+    /// [`Self::is_off_road`] with [`Self::nearest_road_edge`]'s answer for
+    /// `p` at hand.
+    fn is_off_road_given(&self, p: &Point2, nearest: Option<&(usize, PolylineProjection)>) -> bool {
+        if self.road_edges.is_empty() && !self.drivable_areas.is_empty() {
+            return !self.drivable_areas.iter().any(|a| a.contains(p));
+        }
+        self.signed_distance_given(p, nearest).is_some_and(|d| d > 0.0)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::map::tests::{pl, straight_road};
+    use crate::map::{Lane, MapElementId, RoadEdge, RoadEdgeKind};
+
+    #[test]
+    fn off_road_within_the_map_is_off_road_and_not_past_the_mapped_end() {
+        // The combined query shares one nearest-edge lookup; its answer is
+        // the two queries' everywhere, on maps with and without drivable
+        // areas (the template's and the same edges alone).
+        use crate::map::templates::{Intersection, Merge};
+        let merge = Merge {
+            lanes: 2,
+            lane_width_m: 3.5,
+            length_m: 200.0,
+            merge_end_m: 120.0,
+            acceleration_lane_m: 60.0,
+            speed_limit_mps: None,
+        }
+        .build();
+        let crossing = Intersection {
+            lanes_per_direction: 1,
+            lane_width_m: 3.5,
+            arm_length_m: 40.0,
+            green_s: None,
+            speed_limit_mps: None,
+        }
+        .build();
+        let edges_only =
+            RoadMap::new(merge.lanes.clone(), merge.road_edges.clone(), vec![], vec![], vec![], vec![], vec![]);
+        let mut off = 0;
+        for map in [&merge, &crossing, &edges_only] {
+            for i in 0..80 {
+                for j in 0..40 {
+                    let p = Point2::new(-60.0 + i as f64 * 4.1, -50.0 + j as f64 * 2.7);
+                    let expected = map.is_off_road(&p) && !map.is_past_mapped_end(&p);
+                    assert_eq!(map.is_off_road_within_map(&p), expected, "{p:?}");
+                    off += usize::from(expected);
+                }
+            }
+        }
+        assert!(off > 100 && off < 3 * 80 * 40 - 100, "{off}");
+    }
+
+    #[test]
+    fn past_the_mapped_end_only_where_lane_and_edges_stop() {
+        // A lane from x = 0 to 100 between edges at y = ±2 that stop with it.
+        let edge =
+            |id, pts: &[(f64, f64)]| RoadEdge { id: MapElementId(id), polyline: pl(pts), kind: RoadEdgeKind::Boundary };
+        let lane = Lane::new(MapElementId(1), pl(&[(0.0, 0.0), (100.0, 0.0)]));
+        let cut = RoadMap::new(
+            vec![lane.clone()],
+            vec![edge(2, &[(0.0, -2.0), (100.0, -2.0)]), edge(3, &[(100.0, 2.0), (0.0, 2.0)])],
+            vec![],
+            vec![],
+            vec![],
+            vec![],
+            vec![],
+        );
+        assert!(cut.is_past_mapped_end(&Point2::new(101.0, 1.0)));
+        assert!(cut.is_past_mapped_end(&Point2::new(125.0, 3.0)), "far past the cut, still ahead of the lane");
+        assert!(!cut.is_past_mapped_end(&Point2::new(125.0, 15.0)), "ahead, but beside the lane's line");
+        assert!(!cut.is_past_mapped_end(&Point2::new(50.0, 3.0)), "beside the lane: off-road");
+        assert!(!cut.is_past_mapped_end(&Point2::new(-1.0, 0.0)), "before its start");
+        // The same lane ending at a kerb that closes the road (a dead end
+        // inside the map): past the lane's end, but the edge goes on.
+        let dead_end = RoadMap::new(
+            vec![lane],
+            vec![edge(2, &[(0.0, -2.0), (103.0, -2.0), (103.0, 2.0), (0.0, 2.0)])],
+            vec![],
+            vec![],
+            vec![],
+            vec![],
+            vec![],
+        );
+        assert!(!dead_end.is_past_mapped_end(&Point2::new(104.0, 1.0)));
+        // Off the road inside the map: beside the lane and at the dead end;
+        // past the cut the road is not known to end. With the lane's
+        // surface as a drivable area (as CommonRoad maps have) the point
+        // past the cut is off the road; only the mapped area ends there.
+        let lane_surface = crate::geometry::Polygon::new(
+            [(0.0, -2.0), (100.0, -2.0), (100.0, 2.0), (0.0, 2.0)].iter().map(|&(x, y)| Point2::new(x, y)).collect(),
+        );
+        let cut = RoadMap { drivable_areas: vec![lane_surface], ..cut };
+        let past = Point2::new(101.0, 1.0);
+        assert!(cut.is_off_road(&past) && cut.is_past_mapped_end(&past));
+        assert!(!cut.is_off_road_within_map(&past));
+        assert!(cut.is_off_road_within_map(&Point2::new(50.0, 3.0)));
+        assert!(dead_end.is_off_road_within_map(&Point2::new(104.0, 1.0)));
+        assert!(!cut.is_off_road_within_map(&Point2::new(50.0, 1.0)), "on the road");
+    }
+
+    #[test]
+    fn the_unsorted_nearest_edge_search_answers_as_the_sorted_one() {
+        // Edges on a lattice, so distances tie between edges and between
+        // segments of one edge, plus a duplicate edge and one that doubles
+        // back on itself; queries on the lattice too.
+        let edge = |id, pts: Vec<(f64, f64)>| RoadEdge {
+            id: MapElementId(id),
+            polyline: pl(&pts),
+            kind: RoadEdgeKind::Boundary,
+        };
+        let mut edges: Vec<RoadEdge> = (0..12)
+            .map(|k| {
+                let (x0, y0) = ((k % 4) as f64 * 10.0, (k / 4) as f64 * 10.0);
+                edge(k, vec![(x0, y0), (x0 + 10.0, y0), (x0 + 10.0, y0 + 10.0), (x0, y0 + 10.0)])
+            })
+            .collect();
+        edges.push(edge(20, vec![(0.0, 0.0), (10.0, 0.0), (10.0, 10.0), (0.0, 10.0)]));
+        edges.push(edge(21, vec![(5.0, 5.0), (25.0, 5.0), (5.0, 5.0), (5.0, 25.0)]));
+        let map = RoadMap::new(vec![], edges, vec![], vec![], vec![], vec![], vec![]);
+        let sorted = |p: &Point2, r: f64| {
+            let mut best: Option<(usize, PolylineProjection)> = None;
+            for (edge, segs) in map.edge_segments.candidates(p, r) {
+                if let Some(proj) = map.road_edges[edge].polyline.project_segments(p, segs)
+                    && best.is_none_or(|(_, b)| proj.distance_m < b.distance_m)
+                {
+                    best = Some((edge, proj));
+                }
+            }
+            best
+        };
+        let mut checked = 0;
+        for i in 0..=50 {
+            for j in 0..=40 {
+                let p = Point2::new(i as f64 * 1.25 - 5.0, j as f64 * 1.25 - 5.0);
+                for r in [0.5, 8.0, 32.0, f64::INFINITY] {
+                    let (fast, plain) = (map.nearest_road_edge_within(&p, r), sorted(&p, r));
+                    assert_eq!(format!("{fast:?}"), format!("{plain:?}"), "{p:?} r {r}");
+                    checked += usize::from(plain.is_some());
+                }
+            }
+        }
+        assert!(checked > 5000, "{checked}");
+    }
+
+    #[test]
+    fn road_edge_sign_and_off_road() {
+        let m = straight_road();
+        let inside = m.signed_distance_to_road_edge(&Point2::new(30.0, 0.0)).unwrap();
+        assert!((inside + 2.0).abs() < 1e-9, "{inside}");
+        let outside = m.signed_distance_to_road_edge(&Point2::new(30.0, 9.0)).unwrap();
+        assert!((outside - 3.5).abs() < 1e-9, "{outside}");
+        assert!(m.is_off_road(&Point2::new(30.0, -3.0)));
+        assert!(!m.is_off_road(&Point2::new(30.0, 1.0)));
+        // Far away: the ring search widens until it finds an edge.
+        let far = m.signed_distance_to_road_edge(&Point2::new(30.0, 300.0)).unwrap();
+        assert!((far - 294.5).abs() < 1e-9, "{far}");
+    }
+}

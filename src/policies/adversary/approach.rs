@@ -1,0 +1,97 @@
+//! The approach phase: for the first 1–4 token periods (drawn from the
+//! seed, [`APPROACH_TOKENS`]) the prior drives the CBV, restricted to
+//! plausible tokens, before the adversary engages.
+
+use rand::Rng;
+
+use super::background_forecast::BackgroundForecast;
+use super::plausibility::{ContactRule, PlausibilityCheck};
+use super::rollout::token_rollouts;
+use crate::motion::tokens::Token;
+use crate::policies::WorldView;
+use crate::policies::prior_sampling::{TokenSampling, sample_token, top_tokens};
+use crate::scenario::TrackIndex;
+
+/// The approach phase: the prior drives the CBV for this many token
+/// periods (drawn per seed, uniformly) before the adversary engages.
+pub const APPROACH_TOKENS: std::ops::RangeInclusive<usize> = 1..=4;
+
+/// The approach phase's token for the CBV of the pair (CBV, ego): a draw
+/// from the prior (`sampling`, with `rng`) among the plausible tokens of
+/// its top k; when none is, the fallbacks of the module's plausibility
+/// rule; a draw among the top k as they are when nothing is plausible at
+/// all (or the CBV is absent).
+pub(super) fn approach_draw(
+    world: &WorldView<'_>,
+    (cbv, ego): (TrackIndex, TrackIndex),
+    logits: &[f32],
+    sampling: TokenSampling,
+    forecast: &BackgroundForecast<'_>,
+    rng: &mut impl Rng,
+) -> Token {
+    let top = &top_tokens(logits, sampling.top_k.clamp(1, logits.len()))[..];
+    let Some(cbv_now) = world.state(cbv) else { return sample_token(logits, sampling, rng) };
+    let check = PlausibilityCheck::new(world, cbv, ego, forecast);
+    let rollouts = token_rollouts(cbv_now, top);
+    // As in the adversary's choice: the plausible tokens of the top k,
+    // else the likeliest plausible one of the vocabulary; under the strict
+    // rule first, then counting only the CBV's own faults.
+    for rule in [ContactRule::Any, ContactRule::AtFaultOnly] {
+        let plausible: Vec<Token> =
+            top.iter().zip(&rollouts).filter(|(_, r)| !check.implausible(r, rule)).map(|(t, _)| *t).collect();
+        if !plausible.is_empty() {
+            // Only the checked, plausible tokens keep their logits: a draw
+            // from the top k of logits merely masked where implausible
+            // would reach past the top k to tokens never checked.
+            let mut masked = vec![f32::NEG_INFINITY; logits.len()];
+            for t in &plausible {
+                masked[t.0 as usize] = logits[t.0 as usize];
+            }
+            return sample_token(&masked, TokenSampling { top_k: plausible.len(), ..sampling }, rng);
+        }
+        if let Some(t) = check.likeliest_plausible(logits, top.len()..logits.len(), rule) {
+            return t;
+        }
+    }
+    sample_token(logits, sampling, rng)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::map::RoadMap;
+    use crate::motion::tokens::MAX_ACCEL_MPS2;
+    use crate::policies::adversary::test_support::{car, token};
+    use crate::scenario::{AgentBody, AgentKind};
+    use rand::SeedableRng;
+    use rand_chacha::ChaCha8Rng;
+
+    #[test]
+    fn the_approach_draws_only_among_the_checked_plausible_tokens_of_the_top_k() {
+        // 25 m behind a stopped car at 15 m/s: of the top two, full
+        // acceleration is implausible and full braking plausible; holding
+        // speed (implausible too, ranked third and as likely as braking)
+        // lies outside the top two and is never checked, so never drawn.
+        let map = RoadMap::default();
+        let bodies = [AgentBody { kind: AgentKind::Vehicle, length_m: 4.5, width_m: 2.0 }; 3];
+        let states = [car(0.0, 100.0, 10.0), car(0.0, 0.0, 15.0), car(30.0, 0.0, 0.0)];
+        let world = WorldView { map: &map, step: 10, bodies: &bodies, states: &states };
+        let mut logits = vec![-30.0f32; crate::motion::tokens::VOCABULARY_SIZE];
+        logits[token(MAX_ACCEL_MPS2).0 as usize] = 5.0;
+        logits[token(-MAX_ACCEL_MPS2).0 as usize] = 4.0;
+        logits[token(0.0).0 as usize] = 4.0 - 1e-6;
+        let sampling = TokenSampling { top_k: 2, temperature: 1.0 };
+        for seed in 0..32 {
+            let mut rng = ChaCha8Rng::seed_from_u64(seed);
+            let drawn = approach_draw(
+                &world,
+                (TrackIndex(1), TrackIndex(0)),
+                &logits,
+                sampling,
+                &BackgroundForecast::default(),
+                &mut rng,
+            );
+            assert_eq!(drawn, token(-MAX_ACCEL_MPS2), "seed {seed}");
+        }
+    }
+}

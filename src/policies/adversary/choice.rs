@@ -1,0 +1,221 @@
+//! SaFeR's choice at a token boundary ([`safer_choice`]): the trust region
+//! ([`TrustRegion`]) and the [`Search`] over it, each candidate's loss
+//! (the box distance to the ego, or V_h + [`INFEASIBLE_PENALTY`] where the
+//! ego could no longer escape), the strict arg min over the plausible
+//! candidates, and the fallbacks when none is plausible.
+
+use super::background_forecast::BackgroundForecast;
+use super::feasibility::feasibility_values;
+use super::lookahead::{FirstTokens, Lookahead};
+use super::plausibility::{ContactRule, PlausibilityCheck};
+use super::rollout::token_rollouts;
+use crate::models::ModelError;
+use crate::models::feasibility_oracle::FeasibilityOracle;
+use crate::motion::tokens::{TOKEN_PERIOD_S, TOKEN_PERIOD_STEPS, Token};
+use crate::policies::WorldView;
+use crate::policies::prior_sampling::top_tokens;
+use crate::scenario::{AgentState, TrackIndex};
+
+/// Penalty added to V_h for candidates outside the feasible region (the paper's Δ).
+pub const INFEASIBLE_PENALTY: f64 = 50.0;
+
+/// Which tokens the adversary may choose from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum TrustRegion {
+    /// The prior's n most likely tokens.
+    TopN(usize),
+    /// The whole vocabulary (the `no-trust-region` ablation).
+    WholeVocabulary,
+}
+
+/// What the adversary searches at each token boundary.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Search {
+    /// Which tokens it may choose from.
+    pub trust_region: TrustRegion,
+    /// How many token periods ahead a candidate is scored: 1 is the
+    /// paper's one-step arg min (`safer`), more is the receding-horizon
+    /// `safer-lookahead` (see [`LOOKAHEAD_TOKENS`](super::LOOKAHEAD_TOKENS)).
+    pub lookahead_tokens: usize,
+}
+
+impl Search {
+    /// The paper's one-step search over `trust_region`.
+    pub fn one_step(trust_region: TrustRegion) -> Self {
+        Self { trust_region, lookahead_tokens: 1 }
+    }
+}
+
+/// Where the ego will be after one token period if it keeps its velocity
+/// (the adversary does not know the ego's plan).
+fn ego_prediction(ego: &AgentState) -> AgentState {
+    AgentState { position: ego.position + ego.velocity_mps * TOKEN_PERIOD_S, ..*ego }
+}
+
+/// SaFeR's choice at one token boundary for the CBV of the pair (CBV,
+/// ego), given the prior's `logits` for the CBV: the plausible token of the trust region with the least loss
+/// (the box distance to the ego's constant-velocity prediction where
+/// `feasibility` says the ego can still avoid a collision, else V_h + Δ;
+/// distance only without `feasibility`), ties broken by the likelier token
+/// and then the lower id; the fallbacks of the module's plausibility rule
+/// when none is plausible (the background predicted by `forecast`). With
+/// a lookahead the loss of a feasible candidate is the best score of its
+/// continuations (see [`Search::lookahead_tokens`]). Time spent in
+/// `feasibility` is added to `feasibility_s`. `None` only for empty `logits`.
+pub fn safer_choice(
+    world: &WorldView<'_>,
+    (cbv, ego): (TrackIndex, TrackIndex),
+    logits: &[f32],
+    search: Search,
+    forecast: &BackgroundForecast<'_>,
+    feasibility: Option<&dyn FeasibilityOracle>,
+    feasibility_s: &mut f64,
+) -> Result<Option<Token>, ModelError> {
+    // The trust region, most likely first: the top of `ranked_tokens`
+    // without sorting the whole vocabulary.
+    let k = match search.trust_region {
+        TrustRegion::TopN(n) => n.max(1).min(logits.len()),
+        TrustRegion::WholeVocabulary => logits.len(),
+    };
+    let candidates = &top_tokens(logits, k)[..];
+    let (Some(cbv_now), Some(ego_now)) = (world.state(cbv), world.state(ego)) else {
+        return Ok(candidates.first().copied());
+    };
+    let ego_next = ego_prediction(ego_now);
+    let (ego_body, cbv_body) = (world.body(ego), world.body(cbv));
+    let ego_box = ego_body.footprint(&ego_next);
+    let rollouts = token_rollouts(cbv_now, candidates);
+    let predicted: Vec<AgentState> = rollouts.iter().map(|r| r[TOKEN_PERIOD_STEPS - 1]).collect();
+    let distances: Vec<f64> = predicted.iter().map(|s| ego_box.distance(&cbv_body.footprint(s))).collect();
+    let values = match feasibility {
+        None => None,
+        Some(oracle) => Some(feasibility_values(oracle, &predicted, ego_next, ego_body, cbv_body, feasibility_s)?),
+    };
+    let mut losses: Vec<f64> = match &values {
+        None => distances.clone(),
+        Some(values) => distances
+            .iter()
+            .zip(values)
+            .map(|(d, v)| if *v <= 0.0 { *d } else { *v as f64 + INFEASIBLE_PENALTY })
+            .collect(),
+    };
+    if search.lookahead_tokens > 1 {
+        let lookahead = Lookahead {
+            world,
+            ego_now: *ego_now,
+            ego_body,
+            cbv_body,
+            candidates,
+            tokens: search.lookahead_tokens,
+            on_road_now: !world.map.is_off_road_within_map(&cbv_now.position),
+        };
+        let first = FirstTokens { states: &predicted, distances_m: &distances, values: values.as_deref() };
+        lookahead.lower_losses(cbv_now, first, &mut losses, feasibility, feasibility_s)?;
+    }
+    // The strict arg min: by loss (a NaN distance, never expected as
+    // states are bounds-checked, ranks last), then the likelier token,
+    // then the lower id; the first plausible candidate in that order,
+    // or the first of all when none is. Plausibility is the costly
+    // check, so it is asked only until a plausible one is found.
+    let loss = |i: usize| if losses[i].is_nan() { f64::INFINITY } else { losses[i] };
+    let mut order: Vec<usize> = (0..candidates.len()).collect();
+    order.sort_by(|&i, &j| {
+        loss(i)
+            .total_cmp(&loss(j))
+            .then(logits[candidates[j].0 as usize].total_cmp(&logits[candidates[i].0 as usize]))
+            .then(candidates[i].0.cmp(&candidates[j].0))
+    });
+    let check = PlausibilityCheck::new(world, cbv, ego, forecast);
+    // The strict rule first; when nothing at all is plausible, whatever the
+    // CBV does a replayed agent runs into it, and the same two steps are
+    // taken counting only its own faults.
+    let mut violations = Vec::with_capacity(order.len());
+    for rule in [ContactRule::Any, ContactRule::AtFaultOnly] {
+        for &i in &order {
+            match check.first_violation(&rollouts[i], rule) {
+                None => return Ok(Some(candidates[i])),
+                Some(k) if rule == ContactRule::Any => violations.push((i, k)),
+                Some(_) => {}
+            }
+        }
+        if let Some(t) = check.likeliest_plausible(logits, candidates.len()..logits.len(), rule) {
+            return Ok(Some(t));
+        }
+    }
+    // With no plausible token at all, the trust region's token that
+    // breaks the rule latest (the first such in arg-min order).
+    Ok(violations.iter().rev().max_by_key(|(_, k)| *k).map(|(i, _)| candidates[*i]))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::map::RoadMap;
+    use crate::motion::tokens::MAX_ACCEL_MPS2;
+    use crate::policies::adversary::test_support::{LIKED, StubOracle, car, choice_in, token};
+    use crate::scenario::{AgentBody, AgentKind};
+
+    /// The choice with the CBV 30 m behind the ego, both at 10 m/s along
+    /// +x on an open plane, and the prior liking the accelerations
+    /// `liked` (m/s², logit) and nothing else.
+    fn choice(liked: &[(f64, f32)], trust_region: TrustRegion, oracle: Option<&dyn FeasibilityOracle>) -> Token {
+        let states = [car(30.0, 0.0, 10.0), car(0.0, 0.0, 10.0)];
+        choice_in(&states, liked, Search::one_step(trust_region), oracle)
+    }
+
+    #[test]
+    fn the_choice_is_the_arg_min_of_the_distance_within_the_trust_region() {
+        // Closing on the ego ahead: the hardest acceleration of the region.
+        assert_eq!(choice(&LIKED, TrustRegion::TopN(5), None), token(5.0));
+        // The region of the three likeliest leaves out +2 and +5.
+        assert_eq!(choice(&LIKED, TrustRegion::TopN(3), None), token(0.0));
+    }
+
+    #[test]
+    fn an_infeasible_candidate_is_chosen_only_when_nothing_feasible_is_left() {
+        // V_h > 0 (the ego could not escape) once the CBV is faster than 11 m/s.
+        let fast_is_infeasible = StubOracle(|p| if p.cbv.speed_mps() > 11.5 { 0.5 } else { -1.0 });
+        assert_eq!(choice(&LIKED, TrustRegion::TopN(5), Some(&fast_is_infeasible)), token(2.0));
+        // Everything infeasible: the least V_h wins, whatever the distance.
+        let slow_is_worse = StubOracle(|p| 20.0 - p.cbv.speed_mps() as f32);
+        assert_eq!(choice(&LIKED, TrustRegion::TopN(5), Some(&slow_is_worse)), token(5.0));
+        let fast_is_worse = StubOracle(|p| p.cbv.speed_mps() as f32);
+        assert_eq!(choice(&LIKED, TrustRegion::TopN(5), Some(&fast_is_worse)), token(-5.0));
+    }
+
+    #[test]
+    fn equal_losses_go_to_the_likelier_token_then_the_lower_id() {
+        let all_equal = StubOracle(|_| 1.0);
+        assert_eq!(choice(&LIKED, TrustRegion::TopN(5), Some(&all_equal)), token(-5.0));
+        let level = [(-2.0, 2.0), (2.0, 2.0), (0.0, 1.0)];
+        let lower = token(-2.0).min(token(2.0));
+        assert_eq!(choice(&level, TrustRegion::TopN(3), Some(&all_equal)), lower);
+    }
+
+    #[test]
+    fn when_a_follower_will_hit_the_cbv_whatever_it_does_it_waits_rather_than_run_into_the_car_ahead() {
+        // The CBV stopped 2.5 m behind a stopped car, a follower closing at
+        // 12 m/s 5.5 m behind it (constant velocity: it cannot yield). Every
+        // token breaks the rule: waiting is being run into, fleeing at
+        // 5 m/s² runs into the car ahead within the held second. The prior
+        // likes fleeing; the CBV must wait (not at fault).
+        let map = RoadMap::default();
+        let bodies = [AgentBody { kind: AgentKind::Vehicle, length_m: 4.5, width_m: 2.0 }; 4];
+        let states = [car(0.0, 100.0, 0.0), car(0.0, 0.0, 0.0), car(-10.0, 0.0, 12.0), car(7.0, 0.0, 0.0)];
+        let world = WorldView { map: &map, step: 0, bodies: &bodies, states: &states };
+        let liked = [(MAX_ACCEL_MPS2, 5.0), (0.0, 1.0)];
+        let mut logits = vec![-30.0f32; crate::motion::tokens::VOCABULARY_SIZE];
+        for (accel_mps2, logit) in liked {
+            logits[token(accel_mps2).0 as usize] = logit;
+        }
+        let check = PlausibilityCheck::new(&world, TrackIndex(1), TrackIndex(0), &BackgroundForecast::default());
+        let rollouts = token_rollouts(states[1].as_ref().unwrap(), &[token(MAX_ACCEL_MPS2), token(0.0)]);
+        for rule in [ContactRule::Any, ContactRule::AtFaultOnly] {
+            let implausible: Vec<bool> = rollouts.iter().map(|r| check.implausible(r, rule)).collect();
+            let expected = if rule == ContactRule::Any { vec![true, true] } else { vec![true, false] };
+            assert_eq!(implausible, expected, "{rule:?}");
+        }
+        assert_eq!(check.likeliest_plausible(&logits, 0..logits.len(), ContactRule::Any), None);
+        assert_eq!(choice_in(&states, &liked, Search::one_step(TrustRegion::TopN(2)), None), token(0.0));
+    }
+}

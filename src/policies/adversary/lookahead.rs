@@ -1,0 +1,208 @@
+//! The receding-horizon search of `safer-lookahead` ([`Lookahead`]): a
+//! first token scored by the best its continuations reach over
+//! [`LOOKAHEAD_TOKENS`] token periods, inside the same constraints as the
+//! one-step choice.
+
+use super::feasibility::feasibility_values;
+use crate::models::ModelError;
+use crate::models::feasibility_oracle::FeasibilityOracle;
+use crate::motion::KinematicState;
+use crate::motion::tokens::{TOKEN_PERIOD_S, TOKEN_PERIOD_STEPS, Token, TokenGrid};
+use crate::policies::WorldView;
+use crate::scenario::AgentState;
+
+/// How many token periods `safer-lookahead` scores ahead (1.5 s).
+pub const LOOKAHEAD_TOKENS: usize = 3;
+
+/// What `safer-lookahead` adds to a continuation's score per token period
+/// after the first, m: of two equally close approaches the sooner wins.
+pub const LOOKAHEAD_DELAY_PENALTY_M: f64 = 0.5;
+
+/// The receding-horizon search of `safer-lookahead` (beyond the paper).
+///
+/// One-step greed steers the CBV at where the ego will be in 0.5 s and
+/// stops it at the edge of the feasible set, where it hovers beside the
+/// ego: the conflict is threatened, not made. The lookahead scores a
+/// first token by the best its continuations reach over `tokens` token
+/// periods, with the ego at constant velocity and inside the same
+/// constraints:
+/// - every continuation token comes from the same trust region (the
+///   prior's current top n stands in for its later ones, which would need
+///   the prior run on hypothetical histories);
+/// - a continuation ends at its first state where V_h > 0 or that leaves
+///   the road; only a *contact* with the ego may end it infeasibly, and
+///   only straight from a feasible state (V_h ≤ 0: the ego could still
+///   have escaped one token earlier, and it is that escape the witness
+///   later looks for).
+///
+/// A continuation scores its distance to the ego plus
+/// [`LOOKAHEAD_DELAY_PENALTY_M`] per token after the first (sooner is
+/// better; a contact scores 0 plus that delay), and a first token takes
+/// the least score of its continuations when below its one-step loss. The
+/// search is a beam as wide as the trust region ranked by distance, a pure
+/// function of the world like the one-step choice.
+pub(super) struct Lookahead<'a> {
+    pub(super) world: &'a WorldView<'a>,
+    pub(super) ego_now: AgentState,
+    pub(super) ego_body: crate::scenario::AgentBody,
+    pub(super) cbv_body: crate::scenario::AgentBody,
+    /// The trust region, most likely first.
+    pub(super) candidates: &'a [Token],
+    /// How many token periods ahead (at least 1).
+    pub(super) tokens: usize,
+    /// Whether the CBV is on the road now (then a continuation must stay on it).
+    pub(super) on_road_now: bool,
+}
+
+/// The one-step search's results for each candidate of the trust region.
+pub(super) struct FirstTokens<'a> {
+    /// Where the CBV ends the token.
+    pub(super) states: &'a [AgentState],
+    /// Its box distance to the ego's prediction there, m.
+    pub(super) distances_m: &'a [f64],
+    /// V_h there (`None`: no feasibility constraint).
+    pub(super) values: Option<&'a [f32]>,
+}
+
+/// One continuation of the beam: which first token it extends, where the
+/// CBV is at its end, and its distance to the ego there.
+struct Continuation {
+    root: usize,
+    state: KinematicState,
+    distance_m: f64,
+}
+
+impl Lookahead<'_> {
+    /// Lowers each candidate's one-step loss in `losses` to the best score
+    /// of its continuations (see [`Lookahead`]).
+    pub(super) fn lower_losses(
+        &self,
+        cbv_now: &AgentState,
+        first: FirstTokens<'_>,
+        losses: &mut [f64],
+        feasibility: Option<&dyn FeasibilityOracle>,
+        feasibility_s: &mut f64,
+    ) -> Result<(), ModelError> {
+        let feasible = |i: usize| first.values.is_none_or(|v| v[i] <= 0.0);
+        // A contact in the first token, straight from a feasible state now.
+        if let (Some(oracle), Some(values)) = (feasibility, first.values) {
+            let now =
+                feasibility_values(oracle, &[*cbv_now], self.ego_now, self.ego_body, self.cbv_body, feasibility_s)?;
+            if now[0] <= 0.0 {
+                for (i, loss) in losses.iter_mut().enumerate() {
+                    if values[i] > 0.0 && first.distances_m[i] <= 0.0 {
+                        *loss = 0.0;
+                    }
+                }
+            }
+        }
+        let mut beam: Vec<Continuation> = (0..first.states.len())
+            .filter(|&i| feasible(i) && first.distances_m[i] > 0.0)
+            .map(|i| Continuation {
+                root: i,
+                state: KinematicState::from_agent_state(&first.states[i]),
+                distance_m: first.distances_m[i],
+            })
+            .collect();
+        Self::keep_best(&mut beam, self.candidates.len());
+        for depth in 2..=self.tokens {
+            let ahead_s = TOKEN_PERIOD_S * depth as f64;
+            let ego =
+                AgentState { position: self.ego_now.position + self.ego_now.velocity_mps * ahead_s, ..self.ego_now };
+            let ego_box = self.ego_body.footprint(&ego);
+            let mut children: Vec<Continuation> = Vec::with_capacity(beam.len() * self.candidates.len());
+            for parent in &beam {
+                for &t in self.candidates {
+                    let end = TokenGrid::rollout(&parent.state, t)[TOKEN_PERIOD_STEPS - 1];
+                    let at = end.to_agent_state();
+                    if self.on_road_now && self.world.map.is_off_road_within_map(&at.position) {
+                        continue;
+                    }
+                    let distance_m = ego_box.distance(&self.cbv_body.footprint(&at));
+                    children.push(Continuation { root: parent.root, state: end, distance_m });
+                }
+            }
+            if let Some(oracle) = feasibility {
+                let states: Vec<AgentState> = children.iter().map(|c| c.state.to_agent_state()).collect();
+                let values = feasibility_values(oracle, &states, ego, self.ego_body, self.cbv_body, feasibility_s)?;
+                // Parents are feasible: an infeasible contact is one the ego could have escaped.
+                let mut values = values.into_iter();
+                children.retain(|c| values.next().is_some_and(|v| v <= 0.0) || c.distance_m <= 0.0);
+            }
+            let delay_m = LOOKAHEAD_DELAY_PENALTY_M * (depth - 1) as f64;
+            for c in &children {
+                losses[c.root] = losses[c.root].min(c.distance_m.max(0.0) + delay_m);
+            }
+            // A contact ends its continuation.
+            children.retain(|c| c.distance_m > 0.0);
+            Self::keep_best(&mut children, self.candidates.len());
+            beam = children;
+        }
+        Ok(())
+    }
+
+    /// Keeps the `width` continuations closest to the ego (ties: the
+    /// likelier first token, then the order they were made in).
+    fn keep_best(beam: &mut Vec<Continuation>, width: usize) {
+        beam.sort_by(|a, b| a.distance_m.total_cmp(&b.distance_m).then(a.root.cmp(&b.root)));
+        beam.truncate(width);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::policies::adversary::test_support::{LIKED, StubOracle, car, choice_in, token};
+    use crate::policies::adversary::{EgoCbvState, Search, TrustRegion};
+
+    /// The box gap between the ego and the CBV of a feasibility query, m.
+    fn gap_m(p: &EgoCbvState) -> f64 {
+        p.ego_body.footprint(&p.ego).distance(&p.cbv_body.footprint(&p.cbv))
+    }
+
+    /// The CBV 2.5 m (box gap) behind the ego, closing at 4 m/s: after one
+    /// token at +5 m/s² it touches the ego's prediction, at +2 m/s² it is
+    /// about 0.25 m from it, holding speed 0.5 m.
+    const CLOSING: [Option<AgentState>; 2] = [
+        Some(AgentState {
+            position: crate::geometry::Point2::new(7.0, 0.0),
+            heading_rad: 0.0,
+            velocity_mps: crate::geometry::Vector2::new(10.0, 0.0),
+        }),
+        Some(AgentState {
+            position: crate::geometry::Point2::new(0.0, 0.0),
+            heading_rad: 0.0,
+            velocity_mps: crate::geometry::Vector2::new(14.0, 0.0),
+        }),
+    ];
+
+    #[test]
+    fn the_lookahead_takes_a_contact_the_ego_could_still_have_escaped_and_the_paper_does_not() {
+        // V_h > 0 closer than 0.3 m: contacts are infeasible states.
+        let close_is_infeasible = StubOracle(|p| if gap_m(p) < 0.3 { 1.0 } else { -1.0 });
+        let one_step = Search::one_step(TrustRegion::TopN(5));
+        let lookahead = Search { lookahead_tokens: LOOKAHEAD_TOKENS, ..one_step };
+        // The paper's arg min stops at the closest feasible state.
+        assert_eq!(choice_in(&CLOSING, &LIKED, one_step, Some(&close_is_infeasible)), token(0.0));
+        // From a feasible state (2.5 m) the contact is a conflict the ego could escape.
+        assert_eq!(choice_in(&CLOSING, &LIKED, lookahead, Some(&close_is_infeasible)), token(5.0));
+        // From an infeasible state it is not: the least V_h (the widest gap) wins, as in the paper.
+        let near_is_infeasible = StubOracle(|p| 3.0 - gap_m(p) as f32);
+        assert_eq!(choice_in(&CLOSING, &LIKED, lookahead, Some(&near_is_infeasible)), token(-5.0));
+        assert_eq!(choice_in(&CLOSING, &LIKED, one_step, Some(&near_is_infeasible)), token(-5.0));
+    }
+
+    #[test]
+    fn the_lookahead_scores_what_a_continuation_reaches_inside_the_constraints() {
+        // 30 m behind the ego at the same speed: no contact within 1.5 s.
+        // Every state feasible: hardest acceleration closes most, as in one step.
+        let states = [car(30.0, 0.0, 10.0), car(0.0, 0.0, 10.0)];
+        let lookahead = Search { lookahead_tokens: LOOKAHEAD_TOKENS, ..Search::one_step(TrustRegion::TopN(5)) };
+        let feasible = StubOracle(|_| -1.0);
+        assert_eq!(choice_in(&states, &LIKED, lookahead, Some(&feasible)), token(5.0));
+        // Faster than 12 m/s is infeasible: +5 (12.5 m/s after the token)
+        // is out; the closest feasible approach starts with +2.
+        let fast_is_infeasible = StubOracle(|p| if p.cbv.speed_mps() > 12.01 { 1.0 } else { -1.0 });
+        assert_eq!(choice_in(&states, &LIKED, lookahead, Some(&fast_is_infeasible)), token(2.0));
+    }
+}

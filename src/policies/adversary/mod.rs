@@ -1,0 +1,76 @@
+//! The SaFeR adversary: drives the critical background vehicle (CBV) token
+//! by token. Every token period it takes the realism prior's top-n tokens
+//! (the trust region, which keeps the behaviour human-like), predicts the
+//! CBV's state after each through the kinematic model, and picks the token
+//! with the least loss: the box distance to the ego when the feasibility
+//! value says the ego can still avoid a collision (V_h ≤ 0), else V_h + Δ
+//! (so an unavoidable state is chosen only when nothing else is left). The
+//! choice is the paper's strict arg min, ties broken by the prior's logit
+//! and then the token id, so it is a pure function of the world.
+//!
+//! Two things the paper leaves open are fixed here:
+//! - **Seeds.** With the background on log replay an arg min gives every
+//!   seed the same variant. The seed instead sets an *approach phase*: the
+//!   prior samples the CBV's first 1–4 tokens (0.5–2 s, drawn from the
+//!   seed) before the adversary engages, so each seed starts the attack
+//!   from a different, realistic state.
+//! - **Plausibility.** The CBV must stay a plausible road user. A
+//!   candidate is implausible when its 0.5 s rollout takes the CBV from the
+//!   road onto the off-road area (or, off the road already, farther from
+//!   it; driving on past the mapped end of the road, where the recording's
+//!   map was cut off, is not leaving it), when a background agent
+//!   (replayed agents where their recording puts them, the others at
+//!   constant velocity: [`BackgroundForecast`]) and the CBV touch during
+//!   the token or the second after it with the token held (no brake checks
+//!   on followers, no stopping in the way of crossing traffic), when a
+//!   replayed agent would run into the CBV in the 2 s after that with the
+//!   CBV keeping its speed (replay cannot yield: no slowing down in front
+//!   of traffic closing fast), or when the
+//!   CBV, braking as hard as it can after the token (holding its
+//!   curvature, as a driver braking in a bend does), would leave the road
+//!   before it stands, or run into one within 2 s (at fault as the
+//!   metrics judge it: a follower running into a braking CBV is not the
+//!   CBV's doing). A plausible token leaves the CBV room to stop on the
+//!   road. The arg min
+//!   is taken over the plausible candidates of the trust region; when none
+//!   is plausible the CBV takes the likeliest plausible token of the whole
+//!   vocabulary (what a careful driver would do: the trust region is for
+//!   realism, and leaving the road or hitting traffic is not realistic).
+//!   When no token at all is plausible, a replayed agent is about to run
+//!   into the CBV whatever it does (replay cannot yield); then the same
+//!   two steps are taken with only the contacts the CBV would be at fault
+//!   for counted (and cut-ins: hit from behind in a lane it moved into,
+//!   which nuPlan's rule does not blame): waiting to be hit is better than
+//!   fleeing into someone else. Only when even that leaves nothing, the
+//!   trust region's token that breaks the rule latest. The same rule
+//!   restricts the prior's draws in the approach phase.
+//!
+//! The ablations are the same policy with a part switched off;
+//! `safer-lookahead` (beyond the paper) is the same policy scoring tokens
+//! over a receding horizon (see [`Search::lookahead_tokens`]).
+//!
+//! One file per concept: the [`Adversary`] policy (`policy`), the
+//! approach phase (`approach`), SaFeR's choice ([`safer_choice`],
+//! `choice`) and the lookahead of `safer-lookahead` (`lookahead`), V_h of
+//! candidate states (`feasibility`), the CBV's states under a token
+//! (`rollout`), the [`BackgroundForecast`], and the plausibility check
+//! (`plausibility`, with its broad phase in `broad_phase`).
+
+mod approach;
+mod background_forecast;
+mod broad_phase;
+mod choice;
+mod feasibility;
+mod lookahead;
+mod plausibility;
+mod policy;
+mod rollout;
+#[cfg(test)]
+mod test_support;
+
+pub use crate::models::feasibility_oracle::{EgoCbvState, FeasibilityOracle};
+pub use approach::APPROACH_TOKENS;
+pub use background_forecast::BackgroundForecast;
+pub use choice::{INFEASIBLE_PENALTY, Search, TrustRegion, safer_choice};
+pub use lookahead::{LOOKAHEAD_DELAY_PENALTY_M, LOOKAHEAD_TOKENS};
+pub use policy::Adversary;

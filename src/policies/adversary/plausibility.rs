@@ -1,0 +1,568 @@
+//! The plausibility check ([`PlausibilityCheck`]): whether a candidate
+//! token keeps the CBV a plausible road user (the rule in the module's
+//! documentation): it stays on the road with room to stop on it, it
+//! touches no background agent while it holds the token, it does not slow
+//! in front of replayed traffic closing on it, and it runs into no one
+//! while it brakes after the token; with the fallback rule counting only
+//! the CBV's own faults ([`ContactRule`]).
+
+use super::background_forecast::BackgroundForecast;
+use super::broad_phase::Bounds;
+use super::rollout::{continued_after, token_rollout};
+use crate::geometry::OrientedBox;
+use crate::motion::KinematicState;
+use crate::motion::tokens::{MAX_ACCEL_MPS2, SIM_DT_S, TOKEN_PERIOD_STEPS, Token};
+use crate::policies::WorldView;
+use crate::policies::prior_sampling::ranked_tokens;
+use crate::scenario::contact::{EgoCollisionKind, EgoContact};
+use crate::scenario::{AgentState, TrackIndex};
+
+/// Background agents farther than this from the CBV cannot be reached
+/// within the plausibility check's horizon (3.5 s at a closing speed of
+/// up to about 34 m/s) and are not checked, m.
+const BACKGROUND_CHECK_RANGE_M: f64 = 120.0;
+
+/// After a candidate token the plausibility check brakes the CBV this many
+/// simulator steps (2 s) to see whether it could still stop short of the
+/// background traffic.
+const BRAKING_CHECK_STEPS: usize = 20;
+
+/// The road check of the braking path goes on past
+/// [`BRAKING_CHECK_STEPS`] until the CBV stands, for at most this many
+/// steps more (8 s in all: enough to stop from 40 m/s at the hardest
+/// braking). Only the road is checked that far: the background forecast
+/// is not.
+const STANDSTILL_CHECK_MAX_STEPS: usize = 60;
+
+/// A token held this many steps (1 s) more must not bring the CBV and a
+/// background agent (predicted at constant velocity) into contact: no
+/// brake checks on followers, no stopping in the way of crossing traffic.
+const HOLDING_CHECK_STEPS: usize = 10;
+
+/// After the held token the CBV keeps its speed (and curvature) this many
+/// steps (2 s) more, and a replayed agent that would run into it within
+/// them makes the token implausible: a replayed car cannot yield (agents
+/// the prior or a rule drives can, and are not checked here), and a
+/// driver does not slow down or stop in front of traffic closing on it
+/// faster than it could get out of the way (seen on WOMD interactive: a
+/// CBV slowing in a lane where a car came up at 25 m/s, a CBV stopped in
+/// the path of crossing traffic 2 s away; 1 s of holding saw both only
+/// when no token could avoid them any more). Contacts the CBV would be at
+/// fault for are not counted here: running into someone at constant speed
+/// seconds ahead is what the braking check is for.
+const CLOSING_CHECK_STEPS: usize = 20;
+
+/// The CBV's states over [`BRAKING_CHECK_STEPS`] steps after `rollout`
+/// (a token's states), braking as hard as it can while holding the
+/// curvature it ends the token with: a driver braking in a bend keeps
+/// steering along it.
+fn braking_after(rollout: &[AgentState]) -> impl Iterator<Item = AgentState> + use<> {
+    continued_after(rollout, -MAX_ACCEL_MPS2, BRAKING_CHECK_STEPS)
+}
+
+/// The CBV's path while it holds the token: `rollout` (the token's states),
+/// then [`HOLDING_CHECK_STEPS`] steps holding the token's acceleration and
+/// curvature, then [`CLOSING_CHECK_STEPS`] more at the speed reached,
+/// still holding the curvature.
+fn held_path(rollout: &[AgentState]) -> Vec<AgentState> {
+    let accel_mps2 = match rollout {
+        [.., before, end] => (end.speed_mps() - before.speed_mps()) / SIM_DT_S,
+        _ => 0.0,
+    };
+    let mut held: Vec<AgentState> = rollout.to_vec();
+    held.extend(continued_after(rollout, accel_mps2.clamp(-MAX_ACCEL_MPS2, MAX_ACCEL_MPS2), HOLDING_CHECK_STEPS));
+    held.extend(continued_after(&held, 0.0, CLOSING_CHECK_STEPS));
+    held
+}
+
+/// Which contacts with background traffic break the plausibility rule.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum ContactRule {
+    /// Any contact while the CBV holds its token (being run into included:
+    /// no brake checks, no stopping in the way), and running into someone
+    /// while it brakes after the token: the rule.
+    Any,
+    /// Only contacts the CBV is at fault for, as the metrics judge them,
+    /// and cut-ins ([`PlausibilityCheck::cut_in`]): the fallback when a
+    /// replayed agent will run into the CBV whatever it does.
+    AtFaultOnly,
+}
+
+/// Which violation of the plausibility rule a check looks for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Violation {
+    /// The first step at which the rule is broken.
+    First,
+    /// Any step at which it is: whether it is broken at all.
+    Any,
+}
+
+/// The check of whether a candidate rollout of the CBV (one state per
+/// simulator step of the token) is implausible for a road user (the
+/// module's rule: leaving the road, touching background traffic during the
+/// token, or no room to brake short of it). The background's predicted
+/// states and boxes are built once per decision.
+pub(super) struct PlausibilityCheck<'w> {
+    world: &'w WorldView<'w>,
+    cbv_body: crate::scenario::AgentBody,
+    /// The CBV now (`None`: absent, nothing is implausible).
+    cbv_now: Option<AgentState>,
+    /// Each nearby background agent's predicted state and box, one per
+    /// step of the check (`None`: absent at that step).
+    background: Vec<Vec<Option<(AgentState, OrientedBox)>>>,
+    /// Whether each of those agents is replayed from its recording.
+    replayed: Vec<bool>,
+    /// The bounds of each of those agents' predicted boxes over all the
+    /// steps: a CBV path whose boxes lie outside them touches none of
+    /// that agent's, and its box tests are skipped.
+    background_bounds: Vec<Bounds>,
+    /// The CBV's signed distance to the road edge now, m (positive: off
+    /// the road; `None` where the map has no road edges near it).
+    edge_distance_now: Option<f64>,
+    on_road_now: bool,
+    /// The lanes holding the CBV's centre now, driven its way (empty off
+    /// the lanes or on a map without them): what it cuts in from.
+    lanes_now: Vec<crate::map::MapElementId>,
+}
+
+impl<'w> PlausibilityCheck<'w> {
+    pub(super) fn new(
+        world: &'w WorldView<'w>,
+        cbv: TrackIndex,
+        ego: TrackIndex,
+        forecast: &BackgroundForecast<'_>,
+    ) -> Self {
+        let cbv_body = world.body(cbv);
+        let cbv_now = world.state(cbv).copied();
+        let Some(now) = cbv_now else {
+            return Self {
+                world,
+                cbv_body,
+                cbv_now,
+                background: Vec::new(),
+                replayed: Vec::new(),
+                background_bounds: Vec::new(),
+                edge_distance_now: None,
+                on_road_now: false,
+                lanes_now: Vec::new(),
+            };
+        };
+        let horizon = TOKEN_PERIOD_STEPS + BRAKING_CHECK_STEPS.max(HOLDING_CHECK_STEPS + CLOSING_CHECK_STEPS);
+        let in_range = |s: &AgentState| (s.position - now.position).norm() < BACKGROUND_CHECK_RANGE_M;
+        let (background, replayed): (Vec<Vec<_>>, Vec<bool>) = (0..world.states.len())
+            .filter(|&i| i != cbv.0 && i != ego.0)
+            .filter_map(|i| {
+                let (states, replayed) = forecast.states(world, TrackIndex(i), horizon);
+                states.iter().flatten().next().is_some_and(in_range).then_some((i, states, replayed))
+            })
+            .map(|(i, states, replayed)| {
+                let b = world.bodies[i];
+                (states.into_iter().map(|s| s.map(|at| (at, b.footprint(&at)))).collect(), replayed)
+            })
+            .unzip();
+        let background_bounds =
+            background.iter().map(|predicted| Bounds::of(predicted.iter().flatten().map(|(_, b)| b))).collect();
+        Self {
+            world,
+            cbv_body,
+            cbv_now,
+            background,
+            replayed,
+            background_bounds,
+            edge_distance_now: world.map.signed_distance_to_road_edge(&now.position),
+            on_road_now: !world.map.is_off_road_within_map(&now.position),
+            lanes_now: world.map.lanes_containing(&now.position, now.heading_rad),
+        }
+    }
+
+    /// Whether the CBV, hit by `theirs` at `at`, cut in: it was hit from
+    /// behind (or standing) in a lane that neither holds nor continues
+    /// any of its lanes now. nuPlan does not blame a car hit from behind,
+    /// but a driver moving into a lane must leave the traffic in it room:
+    /// in the fallbacks, where only the CBV's own faults count, a cut-in
+    /// in front of a replayed car (which cannot yield) counts as one.
+    /// Undecided (false) where the CBV is in no lane now or then.
+    fn cut_in(&self, at: &AgentState, theirs: &AgentState) -> bool {
+        let hit_from_behind = matches!(
+            EgoCollisionKind::classify(at, theirs),
+            EgoCollisionKind::ActiveRear | EgoCollisionKind::StoppedEgo
+        );
+        if !hit_from_behind || self.lanes_now.is_empty() {
+            return false;
+        }
+        let map = self.world.map;
+        let lanes_then = map.lanes_containing(&at.position, at.heading_rad);
+        !lanes_then.is_empty()
+            && !lanes_then.iter().any(|&then| self.lanes_now.iter().any(|&now| map.lanes_connected(now, then)))
+    }
+
+    /// Whether `rollout` breaks the rule: the checks stop at the first
+    /// violation found (the plausibility fallback ranks the whole
+    /// vocabulary, where most tokens break it).
+    pub(super) fn implausible(&self, rollout: &[AgentState], rule: ContactRule) -> bool {
+        self.violation(rollout, Violation::Any, rule).is_some()
+    }
+
+    /// The first step (counted from the token's first state) at which
+    /// `rollout` breaks the rule, or `None` for a plausible token.
+    pub(super) fn first_violation(&self, rollout: &[AgentState], rule: ContactRule) -> Option<usize> {
+        self.violation(rollout, Violation::First, rule)
+    }
+
+    /// A step at which `rollout` breaks the rule: the first one, or (for
+    /// [`Violation::Any`]) the first one the checks come to.
+    fn violation(&self, rollout: &[AgentState], wanted: Violation, rule: ContactRule) -> Option<usize> {
+        let end = rollout.last()?;
+        let map = self.world.map;
+        let braking: Vec<AgentState> = rollout.iter().copied().chain(braking_after(rollout)).collect();
+        let mut first: Option<usize> = None;
+        let note = |first: &mut Option<usize>, k: usize| *first = Some(first.map_or(k, |f| f.min(k)));
+        if self.on_road_now {
+            // Moving states only: a stopped CBV stays where it stopped.
+            // On to a standstill: 2 s of braking from motorway speed
+            // still leaves a bend to run out of (seen on WOMD
+            // interactive: a CBV at 21 m/s judged able to stop on the road
+            // that, a token later, had no token left that stayed on it).
+            let to_standstill = continued_after(&braking, -MAX_ACCEL_MPS2, STANDSTILL_CHECK_MAX_STEPS);
+            if let Some(k) = braking
+                .iter()
+                .copied()
+                .chain(to_standstill)
+                .take_while(|s| s.speed_mps() > 0.0)
+                .position(|s| map.is_off_road_within_map(&s.position))
+            {
+                note(&mut first, k);
+            }
+        } else if let (Some(now), Some(then)) =
+            (self.edge_distance_now, map.signed_distance_to_road_edge(&end.position))
+            && then > now
+        {
+            // Off the road already: head back to it, not farther away.
+            note(&mut first, rollout.len() - 1);
+        }
+        if wanted == Violation::Any && first.is_some() {
+            return first;
+        }
+        // Each background agent's first contact is judged, as the metrics
+        // judge a collision by its onset (a follower at constant velocity
+        // would otherwise drive through the stopped CBV and seem to be hit
+        // from the front). Holding the token, any contact counts: stopping
+        // in the way of traffic is the CBV's doing too.
+        // Both paths start with the token's own states: their boxes are built once.
+        let body = |s: &AgentState| self.cbv_body.footprint(s);
+        let token_boxes: Vec<OrientedBox> = rollout.iter().map(body).collect();
+        let held = held_path(rollout);
+        let held_boxes: Vec<OrientedBox> =
+            token_boxes.iter().copied().chain(held[rollout.len()..].iter().map(body)).collect();
+        let braking_boxes: Vec<OrientedBox> =
+            token_boxes.into_iter().chain(braking[rollout.len()..].iter().map(body)).collect();
+        let first_contact = |predicted: &[Option<(AgentState, OrientedBox)>], own: &[OrientedBox]| {
+            predicted.iter().zip(own).position(|(theirs, own)| theirs.is_some_and(|(_, b)| b.intersects(own)))
+        };
+        let own_bounds = Bounds::of(held_boxes.iter().chain(&braking_boxes));
+        for ((predicted, bounds), &replayed) in self.background.iter().zip(&self.background_bounds).zip(&self.replayed)
+        {
+            if wanted == Violation::Any && first.is_some() {
+                break;
+            }
+            if !bounds.overlaps(&own_bounds) {
+                continue;
+            }
+            if let Some(k) = first_contact(predicted, &held_boxes)
+                && let Some((theirs, _)) = predicted[k]
+            {
+                let at_fault = || EgoContact::judge(map, &held[k], &held_boxes[k], &theirs).at_fault();
+                let breaks_rule = match rule {
+                    ContactRule::Any if k < rollout.len() + HOLDING_CHECK_STEPS => true,
+                    // Keeping its speed: only replayed traffic closing on
+                    // the CBV (the others react).
+                    ContactRule::Any => replayed && !at_fault(),
+                    ContactRule::AtFaultOnly if k < rollout.len() + HOLDING_CHECK_STEPS => {
+                        at_fault() || self.cut_in(&held[k], &theirs)
+                    }
+                    ContactRule::AtFaultOnly => replayed && self.cut_in(&held[k], &theirs),
+                };
+                if breaks_rule {
+                    note(&mut first, k);
+                }
+            }
+            // Braking after the token: only what the CBV runs into.
+            if let Some(k) = first_contact(predicted, &braking_boxes)
+                && let Some((theirs, _)) = predicted[k]
+                && EgoContact::judge(map, &braking[k], &braking_boxes[k], &theirs).at_fault()
+            {
+                note(&mut first, k);
+            }
+        }
+        first
+    }
+
+    /// The likeliest plausible token among the ranks `ranks` of the prior's
+    /// ranking of `logits` (most likely first), if any.
+    pub(super) fn likeliest_plausible(
+        &self,
+        logits: &[f32],
+        ranks: std::ops::Range<usize>,
+        rule: ContactRule,
+    ) -> Option<Token> {
+        let now = self.cbv_now.as_ref()?;
+        let ranked = ranked_tokens(logits);
+        let from = KinematicState::from_agent_state(now);
+        ranked.get(ranks)?.iter().copied().find(|t| !self.implausible(&token_rollout(&from, *t), rule))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::{Point2, Vector2};
+    use crate::map::RoadMap;
+    use crate::motion::Action;
+    use crate::motion::tokens::TokenGrid;
+    use crate::policies::adversary::rollout::token_rollouts;
+    use crate::policies::adversary::test_support::{car, dead_end_road, token};
+    use crate::scenario::{AgentBody, AgentKind};
+
+    /// A recording in which every agent of `states` keeps its velocity for 4 s.
+    fn recorded_at_constant_velocity(states: &[Option<AgentState>]) -> crate::scenario::Scenario {
+        use crate::scenario::{AgentId, ScenarioSource, Track};
+        let tracks = states
+            .iter()
+            .enumerate()
+            .map(|(i, s)| Track {
+                id: AgentId(format!("agent-{i}")),
+                kind: AgentKind::Vehicle,
+                length_m: 4.5,
+                width_m: 2.0,
+                states: (0..40)
+                    .map(|k| {
+                        s.map(|s| AgentState { position: s.position + s.velocity_mps * (k as f64 * SIM_DT_S), ..s })
+                    })
+                    .collect(),
+            })
+            .collect();
+        crate::scenario::Scenario::new(
+            "constant-velocity",
+            ScenarioSource::authored("test"),
+            SIM_DT_S,
+            RoadMap::default(),
+            tracks,
+        )
+        .with_roles(TrackIndex(0), Some(TrackIndex(1)))
+    }
+
+    fn implausible_tokens(world: &WorldView<'_>, cbv: TrackIndex, tokens: &[Token]) -> Vec<bool> {
+        let check = PlausibilityCheck::new(world, cbv, TrackIndex(0), &BackgroundForecast::default());
+        token_rollouts(world.states[cbv.0].as_ref().unwrap(), tokens)
+            .iter()
+            .map(|r| check.implausible(r, ContactRule::Any))
+            .collect()
+    }
+
+    #[test]
+    fn a_token_the_cbv_cannot_brake_out_of_is_implausible() {
+        // Ego far away; the CBV at 15 m/s, 25 m behind a stopped car. Full
+        // acceleration for 0.5 s leaves it no room to stop (about 8 m at
+        // 19 m/s / 5 m/s² needs 36 m); full braking does.
+        let map = RoadMap::default();
+        let body = AgentBody { kind: AgentKind::Vehicle, length_m: 4.5, width_m: 2.0 };
+        let bodies = [body; 3];
+        let states = [car(0.0, 100.0, 10.0), car(0.0, 0.0, 15.0), car(30.0, 0.0, 0.0)];
+        let world = WorldView { map: &map, step: 10, bodies: &bodies, states: &states };
+        let (ego, cbv) = (TrackIndex(0), TrackIndex(1));
+        let tokens = [token(MAX_ACCEL_MPS2), token(0.0), token(-MAX_ACCEL_MPS2)];
+        let rollouts = token_rollouts(states[1].as_ref().unwrap(), &tokens);
+        let implausible = |world: &WorldView<'_>| {
+            let check = PlausibilityCheck::new(world, cbv, ego, &BackgroundForecast::default());
+            rollouts.iter().map(|r| check.implausible(r, ContactRule::Any)).collect::<Vec<bool>>()
+        };
+        assert_eq!(implausible(&world), vec![true, true, false]);
+        // The same tokens with the stopped car in the next lane are all plausible.
+        let beside = [states[0], states[1], car(30.0, 4.0, 0.0)];
+        let world = WorldView { states: &beside, ..world };
+        assert_eq!(implausible(&world), vec![false; 3]);
+    }
+
+    #[test]
+    fn slowing_in_front_of_replayed_traffic_closing_fast_is_implausible_seconds_before_contact() {
+        // Ego far away; the CBV at 10 m/s and a replayed car 40 m behind it
+        // at 25 m/s (35.5 m between the boxes, 15 m/s faster: contact in
+        // 2.4 s at constant speeds, after the token and its 1 s hold).
+        let bodies = [AgentBody { kind: AgentKind::Vehicle, length_m: 4.5, width_m: 2.0 }; 3];
+        let tokens = [token(MAX_ACCEL_MPS2), token(0.0), token(-2.0)];
+        let implausible = |states: &[Option<AgentState>; 3], not_replayed: &[usize]| {
+            let scenario = recorded_at_constant_velocity(states);
+            let world = WorldView { map: &scenario.map, step: 0, bodies: &bodies, states };
+            let forecast = BackgroundForecast { recording: Some(&scenario), not_replayed };
+            let check = PlausibilityCheck::new(&world, TrackIndex(1), TrackIndex(0), &forecast);
+            token_rollouts(states[1].as_ref().unwrap(), &tokens)
+                .iter()
+                .map(|r| check.implausible(r, ContactRule::Any))
+                .collect::<Vec<bool>>()
+        };
+        let closing = [car(0.0, 100.0, 10.0), car(0.0, 0.0, 10.0), car(-40.0, 0.0, 25.0)];
+        // Speeding up keeps ahead of it; keeping the speed or slowing down
+        // is to be run into.
+        assert_eq!(implausible(&closing, &[]), vec![false, true, true]);
+        // A car the prior drives can brake: only the 1 s hold is checked.
+        assert_eq!(implausible(&closing, &[2]), vec![false; 3]);
+        // 80 m behind, it reaches the CBV in none of the three within 3.5 s.
+        let far = [closing[0], closing[1], car(-80.0, 0.0, 25.0)];
+        assert_eq!(implausible(&far, &[]), vec![false; 3]);
+        // What the CBV would run into seconds ahead at its speed is left to
+        // the braking check: a stopped car 25.5 m ahead is reached in
+        // 2.55 s, and the CBV can still stop short of it.
+        let ahead = [closing[0], closing[1], car(30.0, 0.0, 0.0)];
+        assert_eq!(implausible(&ahead, &[]), vec![false; 3]);
+    }
+
+    #[test]
+    fn the_ego_is_never_an_obstacle_of_the_plausibility_check() {
+        // The adversary exists to reach the ego: closing on it is not implausible.
+        let map = RoadMap::default();
+        let bodies = [AgentBody { kind: AgentKind::Vehicle, length_m: 4.5, width_m: 2.0 }; 2];
+        let states = [car(20.0, 0.0, 0.0), car(0.0, 0.0, 15.0)];
+        let world = WorldView { map: &map, step: 0, bodies: &bodies, states: &states };
+        let rollouts = token_rollouts(states[1].as_ref().unwrap(), &[token(MAX_ACCEL_MPS2)]);
+        assert!(
+            !PlausibilityCheck::new(&world, TrackIndex(1), TrackIndex(0), &BackgroundForecast::default())
+                .implausible(&rollouts[0], ContactRule::Any)
+        );
+    }
+
+    #[test]
+    fn a_token_after_which_the_cbv_cannot_stop_on_the_road_is_implausible() {
+        // 30 m before the dead end at 15 m/s: full braking stops it on the
+        // road (about 23 m); full acceleration for 0.5 s leaves it no room,
+        // though the token itself stays on the road.
+        let map = dead_end_road();
+        let bodies = [AgentBody { kind: AgentKind::Vehicle, length_m: 4.5, width_m: 2.0 }; 2];
+        let states = [car(-40.0, 0.0, 0.0), car(10.0, 2.0, 15.0)];
+        let world = WorldView { map: &map, step: 0, bodies: &bodies, states: &states };
+        assert_eq!(
+            implausible_tokens(&world, TrackIndex(1), &[token(MAX_ACCEL_MPS2), token(-MAX_ACCEL_MPS2)]),
+            vec![true, false]
+        );
+    }
+
+    #[test]
+    fn room_to_stop_is_judged_to_a_standstill_not_over_the_first_two_seconds() {
+        // 67 m before the dead end at 25 m/s. Holding speed for the token,
+        // 2 s of full braking end 14.5 m short of the end, still at
+        // 15 m/s: the standstill lies 8 m past it. Braking as the token
+        // stops it 4.5 m short.
+        let map = dead_end_road();
+        let bodies = [AgentBody { kind: AgentKind::Vehicle, length_m: 4.5, width_m: 2.0 }; 2];
+        let states = [car(-45.0, 0.0, 0.0), car(-27.0, 2.0, 25.0)];
+        let world = WorldView { map: &map, step: 0, bodies: &bodies, states: &states };
+        assert_eq!(implausible_tokens(&world, TrackIndex(1), &[token(0.0), token(-MAX_ACCEL_MPS2)]), vec![true, false]);
+    }
+
+    #[test]
+    fn off_the_road_the_cbv_must_head_back_to_it() {
+        // 2 m beside the road's left edge (y = 6), heading along it.
+        let map = dead_end_road();
+        let bodies = [AgentBody { kind: AgentKind::Vehicle, length_m: 4.5, width_m: 2.0 }; 2];
+        let states = [car(-40.0, 0.0, 0.0), car(0.0, 8.0, 5.0)];
+        let world = WorldView { map: &map, step: 0, bodies: &bodies, states: &states };
+        let turn = |yaw_rate_radps| TokenGrid::quantize(Action { accel_mps2: 0.0, yaw_rate_radps });
+        assert_eq!(implausible_tokens(&world, TrackIndex(1), &[turn(0.5), turn(-0.5)]), vec![true, false]);
+    }
+
+    #[test]
+    fn no_brake_checks_on_a_follower_but_stopping_room_is_judged_on_what_the_cbv_hits() {
+        // A follower 3.5 m behind at the same 10 m/s (constant velocity).
+        // Keeping speed is plausible, though braking hard after the token
+        // would get the CBV hit from behind (the follower's doing, not the
+        // CBV's); braking hard as the token, held for a second, is a brake
+        // check and implausible.
+        let map = RoadMap::default();
+        let bodies = [AgentBody { kind: AgentKind::Vehicle, length_m: 4.5, width_m: 2.0 }; 3];
+        let states = [car(0.0, 100.0, 0.0), car(0.0, 0.0, 10.0), car(-8.0, 0.0, 10.0)];
+        let world = WorldView { map: &map, step: 0, bodies: &bodies, states: &states };
+        assert_eq!(implausible_tokens(&world, TrackIndex(1), &[token(0.0), token(-MAX_ACCEL_MPS2)]), vec![false, true]);
+        // The follower 20 m behind: braking hard is no brake check.
+        let far = [states[0], states[1], car(-20.0, 0.0, 10.0)];
+        let world = WorldView { states: &far, ..world };
+        assert_eq!(
+            implausible_tokens(&world, TrackIndex(1), &[token(0.0), token(-MAX_ACCEL_MPS2)]),
+            vec![false, false]
+        );
+    }
+
+    #[test]
+    fn stopping_in_the_way_of_crossing_traffic_is_implausible() {
+        // The CBV at 2 m/s stands in the path of a car crossing at 10 m/s,
+        // 1 s away. Stopping there gets it hit (a stopped CBV is not at
+        // fault by the metrics' rule, but it chose to stop there);
+        // accelerating clears the path in time.
+        let map = RoadMap::default();
+        let bodies = [AgentBody { kind: AgentKind::Vehicle, length_m: 4.5, width_m: 2.0 }; 3];
+        let crossing = AgentState {
+            position: Point2::new(8.0, -12.0),
+            heading_rad: std::f64::consts::FRAC_PI_2,
+            velocity_mps: Vector2::new(0.0, 10.0),
+        };
+        let states = [car(0.0, 100.0, 0.0), car(8.0, 0.0, 2.0), Some(crossing)];
+        let world = WorldView { map: &map, step: 0, bodies: &bodies, states: &states };
+        assert_eq!(
+            implausible_tokens(&world, TrackIndex(1), &[token(-MAX_ACCEL_MPS2), token(MAX_ACCEL_MPS2)]),
+            vec![true, false]
+        );
+    }
+
+    #[test]
+    fn with_no_plausible_token_in_the_trust_region_the_likeliest_plausible_one_is_taken() {
+        // Before the dead end: the prior likes accelerating (implausible);
+        // among the rest it prefers -4 m/s² to -5 m/s².
+        let map = dead_end_road();
+        let bodies = [AgentBody { kind: AgentKind::Vehicle, length_m: 4.5, width_m: 2.0 }; 2];
+        let states = [car(-40.0, 0.0, 0.0), car(10.0, 2.0, 15.0)];
+        let world = WorldView { map: &map, step: 0, bodies: &bodies, states: &states };
+        let mut logits = vec![-10.0f32; crate::motion::tokens::VOCABULARY_SIZE];
+        logits[token(MAX_ACCEL_MPS2).0 as usize] = 5.0;
+        logits[token(3.0).0 as usize] = 4.0;
+        logits[token(-4.0).0 as usize] = 2.0;
+        logits[token(-MAX_ACCEL_MPS2).0 as usize] = 1.0;
+        let check = PlausibilityCheck::new(&world, TrackIndex(1), TrackIndex(0), &BackgroundForecast::default());
+        assert_eq!(
+            check.likeliest_plausible(&logits, 0..2, ContactRule::Any),
+            None,
+            "the trust region of two holds none"
+        );
+        assert_eq!(check.likeliest_plausible(&logits, 2..logits.len(), ContactRule::Any), Some(token(-4.0)));
+    }
+
+    #[test]
+    fn in_the_fallback_a_cut_in_hit_from_behind_is_the_cbvs_fault_and_keeping_its_lane_is_not() {
+        // Two eastbound lanes (y 0–3.5 and 3.5–7). The CBV at 10 m/s with
+        // its centre just inside the left lane (y = 3.6); a follower in the
+        // right lane 8 m behind at 20 m/s. Keeping its lane, the follower
+        // clips the CBV's rear corner: hit from behind in its own lane, not
+        // its fault (nuPlan). Moving over into the right lane in front of
+        // the follower (a crabbing path, to keep the geometry plain), the
+        // same hit from behind is a cut-in: its fault in the fallback.
+        let map = crate::map::templates::StraightRoad {
+            lanes: 2,
+            oncoming_lanes: 0,
+            lane_width_m: 3.5,
+            length_m: 200.0,
+            speed_limit_mps: None,
+        }
+        .build();
+        let bodies = [AgentBody { kind: AgentKind::Vehicle, length_m: 4.5, width_m: 2.0 }; 3];
+        let states = [car(150.0, 5.25, 10.0), car(100.0, 3.6, 10.0), car(92.0, 1.75, 20.0)];
+        let world = WorldView { map: &map, step: 0, bodies: &bodies, states: &states };
+        let check = PlausibilityCheck::new(&world, TrackIndex(1), TrackIndex(0), &BackgroundForecast::default());
+        let path = |lateral_m: fn(usize) -> f64| -> Vec<AgentState> {
+            (1..=TOKEN_PERIOD_STEPS)
+                .map(|k| car(100.0 + k as f64 * 10.0 * SIM_DT_S, lateral_m(k), 10.0).unwrap())
+                .collect()
+        };
+        let keeping_its_lane = path(|_| 3.6);
+        let cutting_in = path(|k| 3.6 - 0.2 * k as f64);
+        assert!(check.implausible(&keeping_its_lane, ContactRule::Any), "the follower hits it");
+        assert!(!check.implausible(&keeping_its_lane, ContactRule::AtFaultOnly));
+        assert!(check.implausible(&cutting_in, ContactRule::AtFaultOnly));
+    }
+}

@@ -1,0 +1,151 @@
+//! The [`Adversary`] policy of one rollout's CBV: the approach phase's
+//! draws from the prior, then SaFeR's choice at every token boundary,
+//! each token held for its period.
+
+use std::sync::{Arc, Mutex};
+
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+use super::approach::{APPROACH_TOKENS, approach_draw};
+use super::background_forecast::BackgroundForecast;
+use super::choice::{Search, safer_choice};
+use crate::models::ModelError;
+use crate::models::feasibility_oracle::FeasibilityOracle;
+use crate::motion::tokens::{TOKEN_PERIOD_STEPS, Token, TokenGrid};
+use crate::policies::prior_sampling::{PriorTraffic, draw_seed};
+use crate::policies::{AgentAction, AgentPolicy, WorldView};
+use crate::scenario::TrackIndex;
+
+/// The adversary of one rollout's CBV.
+pub struct Adversary {
+    shared: Arc<Mutex<PriorTraffic>>,
+    ego: TrackIndex,
+    search: Search,
+    feasibility: Option<Arc<dyn FeasibilityOracle>>,
+    current: Option<Token>,
+    error: Option<Arc<ModelError>>,
+}
+
+impl std::fmt::Debug for Adversary {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Adversary")
+            .field("ego", &self.ego)
+            .field("search", &self.search)
+            .field("feasibility", &self.feasibility.is_some())
+            .finish()
+    }
+}
+
+impl Adversary {
+    /// The adversary; `feasibility: None` is the `no-lfr` ablation
+    /// (distance only). `shared` must have the CBV as a member.
+    pub fn new(
+        shared: Arc<Mutex<PriorTraffic>>,
+        ego: TrackIndex,
+        search: Search,
+        feasibility: Option<Arc<dyn FeasibilityOracle>>,
+    ) -> Self {
+        Self { shared, ego, search, feasibility, current: None, error: None }
+    }
+
+    /// The first error met (inference), if any.
+    pub fn error(&self) -> Option<&Arc<ModelError>> {
+        self.error.as_ref()
+    }
+
+    /// The token minimising the SaFeR loss among the trust region, or `None`
+    /// when the prior has no opinion (the CBV is absent).
+    fn choose(&mut self, world: &WorldView<'_>, cbv: TrackIndex) -> Result<Option<Token>, ModelError> {
+        let mut shared = self.shared.lock().unwrap_or_else(|p| p.into_inner());
+        let Some(logits) = shared.logits_at(cbv.0, world.step).cloned() else { return Ok(None) };
+        let (scenario, prior_driven) = (shared.scenario().clone(), shared.members().to_vec());
+        drop(shared);
+        let forecast = BackgroundForecast { recording: Some(&scenario), not_replayed: &prior_driven };
+        let mut feasibility_s = 0.0;
+        let chosen = safer_choice(
+            world,
+            (cbv, self.ego),
+            &logits,
+            self.search,
+            &forecast,
+            self.feasibility.as_deref(),
+            &mut feasibility_s,
+        );
+        self.shared.lock().unwrap_or_else(|p| p.into_inner()).add_feasibility_time(feasibility_s);
+        chosen
+    }
+
+    /// The approach phase's token: [`approach_draw`] with the rollout's
+    /// seed and sampling.
+    fn approach_token(&self, world: &WorldView<'_>, cbv: TrackIndex) -> Option<Token> {
+        let mut shared = self.shared.lock().unwrap_or_else(|p| p.into_inner());
+        let (seed, sampling) = (shared.seed(), shared.sampling());
+        let logits = shared.logits_at(cbv.0, world.step)?.clone();
+        let (scenario, prior_driven) = (shared.scenario().clone(), shared.members().to_vec());
+        drop(shared);
+        let forecast = BackgroundForecast { recording: Some(&scenario), not_replayed: &prior_driven };
+        let mut rng = ChaCha8Rng::seed_from_u64(draw_seed(seed, cbv.0, world.step));
+        Some(approach_draw(world, (cbv, self.ego), &logits, sampling, &forecast, &mut rng))
+    }
+
+    /// How many token periods of the approach phase this rollout's seed gives.
+    fn approach_tokens(seed: u64, cbv: TrackIndex) -> usize {
+        let mut rng = ChaCha8Rng::seed_from_u64(draw_seed(seed, cbv.0, usize::MAX));
+        rng.random_range(APPROACH_TOKENS)
+    }
+}
+
+impl AgentPolicy for Adversary {
+    fn name(&self) -> &'static str {
+        "safer-adversary"
+    }
+
+    fn act(&mut self, world: &WorldView<'_>, agent: TrackIndex) -> AgentAction {
+        let start = {
+            let mut shared = self.shared.lock().unwrap_or_else(|p| p.into_inner());
+            shared.observe(world);
+            shared.start()
+        };
+        if world.state(agent).is_none() {
+            return AgentAction::Absent;
+        }
+        let boundary = world.step.saturating_sub(start) % TOKEN_PERIOD_STEPS == 0;
+        if boundary || self.current.is_none() {
+            let seed = self.shared.lock().unwrap_or_else(|p| p.into_inner()).seed();
+            let token_index = world.step.saturating_sub(start) / TOKEN_PERIOD_STEPS;
+            let chosen = if token_index < Self::approach_tokens(seed, agent) {
+                // The approach phase: the prior drives the CBV.
+                Ok(self.approach_token(world, agent))
+            } else {
+                self.choose(world, agent)
+            };
+            match chosen {
+                Ok(Some(t)) => self.current = Some(t),
+                Ok(None) => {}
+                Err(e) => {
+                    let error = Arc::new(e);
+                    self.shared.lock().unwrap_or_else(|p| p.into_inner()).record_error(error.clone());
+                    self.error.get_or_insert(error);
+                }
+            }
+        }
+        AgentAction::Control(self.current.map(TokenGrid::action).unwrap_or_default())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn approach_phases_cover_the_range_and_depend_on_the_seed() {
+        let lengths: Vec<usize> = (0..64).map(|seed| Adversary::approach_tokens(seed, TrackIndex(3))).collect();
+        assert!(lengths.iter().all(|n| APPROACH_TOKENS.contains(n)), "{lengths:?}");
+        for n in APPROACH_TOKENS {
+            assert!(lengths.contains(&n), "{n} never drawn in {lengths:?}");
+        }
+        // A pure function of the seed.
+        assert_eq!(Adversary::approach_tokens(5, TrackIndex(3)), Adversary::approach_tokens(5, TrackIndex(3)));
+    }
+}

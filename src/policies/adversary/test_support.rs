@@ -1,0 +1,72 @@
+//! What the adversary's unit tests share: cars, tokens, a dead-end road,
+//! a stub feasibility oracle and the choice on an open plane.
+
+use super::{BackgroundForecast, EgoCbvState, FeasibilityOracle, Search, safer_choice};
+use crate::geometry::{Point2, Vector2};
+use crate::map::RoadMap;
+use crate::models::ModelError;
+use crate::motion::Action;
+use crate::motion::tokens::{Token, TokenGrid};
+use crate::policies::WorldView;
+use crate::scenario::{AgentBody, AgentKind, AgentState, TrackIndex};
+
+/// A car at (`x`, `y`) heading along +x at `speed_mps`.
+pub(super) fn car(x: f64, y: f64, speed_mps: f64) -> Option<AgentState> {
+    Some(AgentState { position: Point2::new(x, y), heading_rad: 0.0, velocity_mps: Vector2::new(speed_mps, 0.0) })
+}
+
+/// The token of `accel_mps2` driving straight on.
+pub(super) fn token(accel_mps2: f64) -> Token {
+    TokenGrid::quantize(Action { accel_mps2, yaw_rate_radps: 0.0 })
+}
+
+/// A road 8 m wide along +x (y from -2 to 6) that ends at x = 40: one
+/// road edge with the road on its left.
+pub(super) fn dead_end_road() -> RoadMap {
+    use crate::geometry::Polyline;
+    use crate::map::{MapElementId, RoadEdge, RoadEdgeKind};
+    let points = [(-50.0, -2.0), (40.0, -2.0), (40.0, 6.0), (-50.0, 6.0)];
+    let polyline = Polyline::new(points.iter().map(|&(x, y)| Point2::new(x, y)).collect());
+    let edge = RoadEdge { id: MapElementId(1), polyline, kind: RoadEdgeKind::Boundary };
+    RoadMap::new(vec![], vec![edge], vec![], vec![], vec![], vec![], vec![])
+}
+
+/// The choice with the ego (index 0), the CBV (index 1) and any other
+/// cars (background at constant velocity) in `states` on an open plane.
+pub(super) fn choice_in(
+    states: &[Option<AgentState>],
+    liked: &[(f64, f32)],
+    search: Search,
+    oracle: Option<&dyn FeasibilityOracle>,
+) -> Token {
+    let map = RoadMap::default();
+    let bodies = vec![AgentBody { kind: AgentKind::Vehicle, length_m: 4.5, width_m: 2.0 }; states.len()];
+    let world = WorldView { map: &map, step: 0, bodies: &bodies, states };
+    let mut logits = vec![-30.0f32; crate::motion::tokens::VOCABULARY_SIZE];
+    for &(accel_mps2, logit) in liked {
+        logits[token(accel_mps2).0 as usize] = logit;
+    }
+    let mut feasibility_s = 0.0;
+    safer_choice(
+        &world,
+        (TrackIndex(1), TrackIndex(0)),
+        &logits,
+        search,
+        &BackgroundForecast::default(),
+        oracle,
+        &mut feasibility_s,
+    )
+    .unwrap()
+    .unwrap()
+}
+
+/// A feasibility value from a rule on the candidate state.
+pub(super) struct StubOracle(pub(super) fn(&EgoCbvState) -> f32);
+impl FeasibilityOracle for StubOracle {
+    fn values(&self, pairs: &[EgoCbvState]) -> Result<Vec<f32>, ModelError> {
+        Ok(pairs.iter().map(self.0).collect())
+    }
+}
+
+/// The accelerations (m/s², logit) the prior likes in the choice tests.
+pub(super) const LIKED: [(f64, f32); 5] = [(-5.0, 5.0), (-2.0, 4.0), (0.0, 3.0), (2.0, 2.0), (5.0, 1.0)];
