@@ -503,8 +503,8 @@ mod tests {
 
     #[test]
     fn a_planner_that_stops_answering_has_not_solved_the_variant() {
-        // Before the fix a crashed planner's short rollout had no collision
-        // and so counted as solved.
+        // A crashed planner's short rollout has no collision: judged by
+        // collisions alone, it would count as solved.
         let r = stage2_with(&mut StopsAnswering { ok_steps: 5 });
         assert!(r.ego_collision().is_none());
         let verdict = Stage2Verdict::of(&r);

@@ -505,8 +505,8 @@ mod tests {
         // corner 0.1 m over at the start.
         let along = run_constant_velocity(&shifted(road_that_ends(0.0), 1.1));
         assert!(along.off_road.is_empty(), "keeping its start's offset is excused: {:?}", along.off_road);
-        // The same start heading 0.2 rad off the road: before the fix the
-        // start excused the whole departure (16 m off and more).
+        // The same start heading 0.2 rad off the road: the start must not
+        // excuse the whole departure (16 m off and more).
         let away = run_constant_velocity(&shifted(road_that_ends(0.2), 1.1));
         assert_eq!(away.off_road.len(), 1, "{:?}", away.off_road);
         let first = away.off_road[0];
