@@ -32,7 +32,8 @@
 //!         let ahead = obs.agents.iter().any(|agent| {
 //!             let offset = agent.state.position - obs.ego.position;
 //!             let along_m = offset.x * heading.cos() + offset.y * heading.sin();
-//!             (0.0..20.0).contains(&along_m) && (offset.norm_squared() - along_m * along_m).sqrt() < 2.0
+//!             let across_m = offset.x * heading.sin() - offset.y * heading.cos();
+//!             (0.0..20.0).contains(&along_m) && across_m.abs() < 2.0
 //!         });
 //!         let accel_mps2 = if ahead { -4.0 } else { 0.0 };
 //!         Ok(PlannerOutput::Control(Action { accel_mps2, yaw_rate_radps: 0.0 }))

@@ -99,13 +99,13 @@ pub struct Transitions {
     pub state: Vec<f32>,
     /// a: [n × ACTION_VALUES].
     pub action: Vec<f32>,
-    /// h(s): [n].
+    /// h(s): `[n]`.
     pub cost: Vec<f32>,
     /// s': [n × FEASIBILITY_FEATURES].
     pub next_state: Vec<f32>,
-    /// 1 on an episode's last transition: [n].
+    /// 1 on an episode's last transition: `[n]`.
     pub done: Vec<f32>,
-    /// Index of the scene in the collection: [n].
+    /// Index of the scene in the collection: `[n]`.
     pub scene: Vec<i64>,
 }
 

@@ -9,8 +9,8 @@
 //! stage-1 collision is checked for a feasibility witness, and each
 //! stage-2 collision for a closed-loop one ([`crate::eval::escape`]);
 //! stage 2 also says whether the conflict reached the planner's ego. VJ and AJ compare the CBV's stage-1 speed and
-//! acceleration with the logged CBV's (see [`Histogram::speed`] and
-//! [`Histogram::acceleration`] for the bins).
+//! acceleration with the logged CBV's (see [`crate::eval::Histogram::speed`] and
+//! [`crate::eval::Histogram::acceleration`] for the bins).
 //!
 //! Variants run in parallel with rayon; each is a pure function of its
 //! (scene, method, seed), and results are sorted, so the table does not

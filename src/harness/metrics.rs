@@ -94,7 +94,7 @@ pub struct VariantTally {
     /// Time the CBV's centre spent off the road in stage 1, having started
     /// on it, s (0 when it started off the road: a car park is not a fault).
     pub cbv_off_road_s: f64,
-    /// A digest of the CBV's stage-1 path ([`cbv_path_digest`]): two
+    /// A digest of the CBV's stage-1 path (`cbv_path_digest`): two
     /// seeds with equal digests made the same variant.
     pub cbv_path_digest: Option<u64>,
     /// Stage 2: the CBV came within 1 m of the planner's ego.

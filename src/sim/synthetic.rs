@@ -1,6 +1,6 @@
 //! Synthetic traffic: random vehicles placed on the lanes of a map (a
 //! procedural template or a real recorded map) with per-driver IDM
-//! parameters and a seeded acceleration disturbance ([`NoisyIdm`]),
+//! parameters and a seeded acceleration disturbance ([`crate::policies::noisy_idm::NoisyIdm`]),
 //! simulated into a full scenario like a recording. Used to make training
 //! data whose licence allows shipping the models trained on it.
 //!

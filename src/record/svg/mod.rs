@@ -21,10 +21,10 @@
 //! byte-identical SVG. Non-finite states and map points are skipped.
 //!
 //! This module holds the entry points and the order of the layers;
-//! [`picture`] gathers what a picture shows from a scenario or a rollout,
-//! [`canvas`] maps metres to pixels, [`map`], [`agents`], [`labels`] and
-//! [`legend`] draw the layers, [`style`] holds the stylesheet and colours,
-//! and [`lfr`] draws the feasibility-region figure (a different picture).
+//! `picture` gathers what a picture shows from a scenario or a rollout,
+//! `canvas` maps metres to pixels, `map`, `agents`, `labels` and `legend`
+//! draw the layers, `style` holds the stylesheet and colours, and `lfr`
+//! draws the feasibility-region figure (a different picture).
 
 mod agents;
 mod canvas;
