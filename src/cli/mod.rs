@@ -29,6 +29,7 @@ mod run;
 mod schema;
 mod simulate;
 mod token_roundtrip;
+mod trust_region;
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -242,6 +243,36 @@ enum Command {
         #[arg(long, value_name = "DIR")]
         artifacts: Option<PathBuf>,
     },
+    /// What the realism prior's trust region offers the adversary: per method's prior, the probability mass of the top n tokens, their acceleration and yaw-rate range, distinct behaviours and plausible share, at the CBV's token boundaries of stage 1.
+    TrustRegion {
+        /// Folder of recorded scenes (searched recursively); scenes need an ego and a CBV; `data:REL` is in the shared data folder.
+        #[arg(long, value_parser = data_path)]
+        scenes: PathBuf,
+        /// Methods whose stage 1 is profiled, one row each (`no-mda` runs the plain-attention prior; `$SAFER_MODELS` swaps in another model set).
+        #[arg(long, value_parser = choice(AdversaryMethod::ALL), value_delimiter = ',', default_values = ["safer", "no-mda"])]
+        methods: Vec<AdversaryMethod>,
+        /// Seeds per scene and method, at least 1.
+        #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..))]
+        seeds: u32,
+        /// Base seed.
+        #[arg(long, default_value_t = 0)]
+        seed: u64,
+        /// Trust-region size n (top-n tokens of the prior), from 1 to the vocabulary size.
+        #[arg(long, default_value_t = 20, value_parser = RangedU64ValueParser::<usize>::new().range(1..=VOCABULARY_SIZE as u64))]
+        trust_region: usize,
+        /// Horizon of stage 1 from the scene's current step, s (positive, finite).
+        #[arg(long, default_value_t = 8.0, value_parser = positive_finite, allow_negative_numbers = true)]
+        horizon_s: f64,
+        /// Profile only the first N scenes (by id), at least 1.
+        #[arg(long, value_name = "N", value_parser = at_least_one())]
+        max_scenes: Option<usize>,
+        /// Also write the summaries and every boundary's profile as JSON (`-`: standard output).
+        #[arg(long, value_name = "OUT")]
+        json: Option<PathBuf>,
+        /// Worker threads, 1 to 256 (default: one per core).
+        #[arg(long, value_name = "N", value_parser = RangedU64ValueParser::<usize>::new().range(1..=MAX_JOBS as u64))]
+        jobs: Option<usize>,
+    },
     /// Merge the JSON reports of `safer evaluate --partition K/N` runs into the table and report one run would give.
     EvaluateMerge {
         /// The partitions' reports, one per part, in any order.
@@ -453,6 +484,22 @@ pub fn main() -> ExitCode {
                 .and_then(|()| evaluate::run(&scenes, &request, max_scenes, json.as_deref(), witness, partition))
         }
         Command::EvaluateMerge { parts, json } => evaluate::merge(&parts, json.as_deref()),
+        Command::TrustRegion { scenes, methods, seeds, seed, trust_region, horizon_s, max_scenes, json, jobs } => {
+            let request = EvaluationRequest {
+                methods,
+                seeds,
+                base_seed: seed,
+                // Stage 2 is not run.
+                planner: PlannerAdapter::builtin(BuiltinPlanner::LogReplay),
+                trust_region,
+                background: BackgroundDriver::Configured,
+                stage2_cbv: vec![Stage2Cbv::Replay],
+                escape: None,
+                horizon_s,
+                artefacts: None,
+            };
+            set_jobs(jobs).and_then(|()| trust_region::run(&scenes, &request, max_scenes, json.as_deref()))
+        }
         Command::FeasibilityDataset { recorded, out, synthetic_scenes, seed, force } => {
             feasibility_dataset::run(&feasibility_dataset::FeasibilityDatasetRequest {
                 recorded,

@@ -279,6 +279,27 @@ pub struct MethodRow {
 /// found within budget.
 pub type WitnessSearch = dyn Fn(&Scenario, &Rollout) -> bool + Sync;
 
+/// The simulation settings and the variant seed of `method`'s variant
+/// `seed_index` of `scenario` in an evaluation: both stages from the
+/// scene's current step over the request's horizon.
+pub fn stage1_setup(
+    scenario: &Scenario,
+    method: AdversaryMethod,
+    seed_index: u32,
+    request: &EvaluationRequest,
+) -> (SimConfig, u64) {
+    let start = scenario.current_step;
+    // Saturating: a horizon of 1e19 s is the whole recording, not an
+    // overflow to an empty range.
+    let end = start.saturating_add((request.horizon_s / scenario.dt_s).round() as usize).min(scenario.num_steps() - 1);
+    let background = match request.background {
+        BackgroundDriver::ReactiveLogReplay => BackgroundPolicy::ReactiveLogReplay,
+        BackgroundDriver::Configured | BackgroundDriver::Prior => SimConfig::default().background,
+    };
+    let sim = SimConfig { start_step: Some(start), end_step: Some(end), background, ..SimConfig::default() };
+    (sim, variant_seed(request.base_seed, &format!("{}/{method:?}", scenario.id), seed_index))
+}
+
 /// Runs one variant.
 fn run_one(
     scenario: &Arc<Scenario>,
@@ -289,17 +310,8 @@ fn run_one(
     witness: Option<&WitnessSearch>,
 ) -> Result<VariantRecord, HarnessError> {
     let clock = Instant::now();
-    let start = scenario.current_step;
-    // Saturating: a horizon of 1e19 s is the whole recording, not an
-    // overflow to an empty range.
-    let end = start.saturating_add((request.horizon_s / scenario.dt_s).round() as usize).min(scenario.num_steps() - 1);
-    let background = match request.background {
-        BackgroundDriver::ReactiveLogReplay => BackgroundPolicy::ReactiveLogReplay,
-        BackgroundDriver::Configured | BackgroundDriver::Prior => SimConfig::default().background,
-    };
-    let sim = SimConfig { start_step: Some(start), end_step: Some(end), background, ..SimConfig::default() };
+    let (sim, seed) = stage1_setup(scenario, method, seed_index, request);
     let variant = format!("{}::{}::seed-{seed_index}", scenario.id, crate::spec::spec_name(&method));
-    let seed = variant_seed(request.base_seed, &format!("{}/{method:?}", scenario.id), seed_index);
     let stages = pipeline::run(VariantSetup {
         scenario,
         settings: MethodSettings {
@@ -453,14 +465,22 @@ pub struct HeldOutSplit {
 /// [`HeldOutSplit`]), one row per method of `methods` on each side.
 pub fn held_out_split(records: &[VariantRecord], methods: &[AdversaryMethod]) -> HeldOutSplit {
     let ids: std::collections::BTreeSet<&str> = records.iter().map(|r| r.scenario.as_str()).collect();
-    let held: std::collections::BTreeSet<&str> = ids.iter().copied().skip(9).step_by(10).collect();
+    let of_scenes = ids.len();
+    let held = held_out_scenes(ids);
     let held_out = |r: &VariantRecord| held.contains(r.scenario.as_str());
     HeldOutSplit {
-        scenes: held.iter().map(|s| s.to_string()).collect(),
-        of_scenes: ids.len(),
+        scenes: held.iter().cloned().collect(),
+        of_scenes,
         held_out: table_of(records, methods, held_out),
         rest: table_of(records, methods, |r| !held_out(r)),
     }
+}
+
+/// The held-out scenes among `ids`: every tenth by sorted id (the 10th,
+/// 20th, …).
+pub fn held_out_scenes<'a>(ids: impl IntoIterator<Item = &'a str>) -> std::collections::BTreeSet<String> {
+    let sorted: std::collections::BTreeSet<&str> = ids.into_iter().collect();
+    sorted.into_iter().skip(9).step_by(10).map(String::from).collect()
 }
 
 /// The share of `variants` (of one method) that differ from every other

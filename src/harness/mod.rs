@@ -25,6 +25,7 @@ pub mod report;
 pub mod review_page;
 mod stable_hash;
 pub mod suite;
+pub mod trust_region;
 pub mod variant;
 
 pub use acceptance::AcceptanceFailure;

@@ -25,6 +25,7 @@ use crate::eval::{ConflictReach, min_time_to_collision};
 use crate::planners::external::{ExternalPlanner, ExternalPlannerConfig, RolloutContext};
 use crate::planners::{BuiltinPlanner, IdmPlanner, Observation, Planner, PlannerError, PlannerOutput};
 use crate::policies::LogReplay;
+use crate::policies::prior_sampling::TrafficTimings;
 use crate::scenario::{Scenario, Track, TrackIndex};
 use crate::sim::{Rollout, SimConfig, Simulation, Termination, VehicleLimits};
 use crate::spec::planner::PlannerAdapter;
@@ -320,13 +321,7 @@ pub fn run(setup: VariantSetup<'_>) -> Result<DualStage, HarnessError> {
     scenario.cbv.ok_or_else(|| HarnessError::NoCbv(scenario.id.clone()))?;
     let start = setup.sim.start_step.unwrap_or(scenario.current_step);
 
-    // Stage 1: the ego replays its log; the CBV is driven by the method.
-    let mut stage1 = Simulation::new(scenario, setup.sim.clone())?;
-    let installed = install_method(&setup, &mut stage1)?;
-    let mut replay_ego = BuiltinPlanner::LogReplay.instantiate(scenario, ego);
-    let stage1 = stage1.run(replay_ego.as_mut());
-    model_error(&setup, Some(&installed))?;
-    let models_time = installed.timings();
+    let (stage1, models_time) = stage1(&setup)?;
     let mut profile = VariantProfile {
         stage1_s: clock.elapsed().as_secs_f64(),
         stage1_features_s: models_time.features_s,
@@ -378,6 +373,24 @@ pub fn run(setup: VariantSetup<'_>) -> Result<DualStage, HarnessError> {
         planner_latency,
         planner_stderr,
     })
+}
+
+/// Stage 1 alone: the ego replays its log while `setup`'s method drives
+/// the CBV (what [`run`] does first).
+pub fn run_stage1(setup: &VariantSetup<'_>) -> Result<Rollout, HarnessError> {
+    stage1(setup).map(|(rollout, _)| rollout)
+}
+
+/// Stage 1 and the time its models took.
+fn stage1(setup: &VariantSetup<'_>) -> Result<(Rollout, TrafficTimings), HarnessError> {
+    let scenario = setup.scenario;
+    let ego = scenario.ego.ok_or_else(|| crate::sim::SimError::NoEgo(scenario.id.clone()))?;
+    let mut stage1 = Simulation::new(scenario, setup.sim.clone())?;
+    let installed = install_method(setup, &mut stage1)?;
+    let mut replay_ego = BuiltinPlanner::LogReplay.instantiate(scenario, ego);
+    let stage1 = stage1.run(replay_ego.as_mut());
+    model_error(setup, Some(&installed))?;
+    Ok((stage1, installed.timings()))
 }
 
 /// Installs `setup`'s method for the CBV in `sim` (stage 1, or stage 2

@@ -22,4 +22,5 @@ mod realism;
 mod runner;
 mod simulate_recorded;
 mod token_roundtrip;
+mod trust_region;
 mod verdicts;

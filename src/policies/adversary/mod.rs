@@ -54,7 +54,9 @@
 //! `choice`) and the lookahead of `safer-lookahead` (`lookahead`), V_h of
 //! candidate states (`feasibility`), the CBV's states under a token
 //! (`rollout`), the [`BackgroundForecast`], and the plausibility check
-//! (`plausibility`, with its broad phase in `broad_phase`).
+//! (`plausibility`, with its broad phase in `broad_phase`); and the
+//! [`TrustRegionProfile`] that diagnoses what a prior's region offers
+//! (`trust_region_profile`).
 
 mod approach;
 mod background_forecast;
@@ -67,6 +69,7 @@ mod policy;
 mod rollout;
 #[cfg(test)]
 mod test_support;
+mod trust_region_profile;
 
 pub use crate::models::feasibility_oracle::{EgoCbvState, FeasibilityOracle};
 pub use approach::APPROACH_TOKENS;
@@ -74,3 +77,6 @@ pub use background_forecast::BackgroundForecast;
 pub use choice::{INFEASIBLE_PENALTY, Search, TrustRegion, safer_choice};
 pub use lookahead::{LOOKAHEAD_DELAY_PENALTY_M, LOOKAHEAD_TOKENS};
 pub use policy::Adversary;
+pub use trust_region_profile::{
+    BEHAVIOUR_HOLD_S, BEHAVIOUR_SEPARATION_M, TrustRegionProfile, profile_trust_region, rank_of_driven_token,
+};

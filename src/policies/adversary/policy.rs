@@ -89,8 +89,10 @@ impl Adversary {
         Some(approach_draw(world, (cbv, self.ego), &logits, sampling, &forecast, &mut rng))
     }
 
-    /// How many token periods of the approach phase this rollout's seed gives.
-    fn approach_tokens(seed: u64, cbv: TrackIndex) -> usize {
+    /// How many token periods of the approach phase a rollout seeded
+    /// `seed` gives the CBV `cbv` (the prior drives it that long before
+    /// the adversary engages).
+    pub fn approach_tokens(seed: u64, cbv: TrackIndex) -> usize {
         let mut rng = ChaCha8Rng::seed_from_u64(draw_seed(seed, cbv.0, usize::MAX));
         rng.random_range(APPROACH_TOKENS)
     }

@@ -323,7 +323,8 @@ fn older_planners_run_untagged_and_a_step_they_name_is_checked() {
 /// every variant before. Speaking 1.0 its lines are answers to no question:
 /// the run fails as soon as one is found waiting (which step depends on
 /// how fast its lines arrive). Speaking 1.2 it cannot name the step it
-/// answers, and fails at the first.
+/// answers (or its lines arrive in place of `prepared`), and fails at the
+/// first.
 #[test]
 fn a_planner_writing_controls_without_reading_fails() {
     let mut config = misbehaving("blind", 0);
@@ -335,6 +336,9 @@ fn a_planner_writing_controls_without_reading_fails() {
     let (rollout, pgid, _) = run_variant(misbehaving_speaking("blind", 0, 2));
     let (step, reason) = failure(&rollout);
     assert_eq!(step, 0, "{reason}");
-    assert!(reason.contains("names no `step`") || reason.contains("nobody asked for"), "{reason}");
+    // Which of its stray lines the harness meets first depends on timing:
+    // one in place of `prepared` (under load), or an untagged reply.
+    let broke_the_protocol = ["names no `step`", "nobody asked for", "expected `prepared` in answer to `prepare`"];
+    assert!(broke_the_protocol.iter().any(|m| reason.contains(m)), "{reason}");
     assert_group_gone(pgid);
 }
