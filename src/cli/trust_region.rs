@@ -99,16 +99,19 @@ pub(super) fn run(
     let summary = summarise(&profiles, &request.methods);
     let held_out = summarise(&held_out, &request.methods);
     let rest = summarise(&rest, &request.methods);
+    let report = Report {
+        scenes: scenes.len(),
+        trust_region: request.trust_region,
+        summary: &summary,
+        held_out: &held_out,
+        rest: &rest,
+        boundaries: &profiles,
+    };
+    let report_text = || serde_json::to_string_pretty(&report).map(|t| t + "\n");
+    // The file report first: a reader that closes standard output early
+    // (`| head`) must not cost the run its report.
     if let Some(path) = json.filter(|p| !safer::record::is_stdout(p)) {
-        let report = Report {
-            scenes: scenes.len(),
-            trust_region: request.trust_region,
-            summary: &summary,
-            held_out: &held_out,
-            rest: &rest,
-            boundaries: &profiles,
-        };
-        safer::record::write_output(path, (serde_json::to_string_pretty(&report)? + "\n").as_bytes())?;
+        safer::record::write_output(path, report_text()?.as_bytes())?;
         eprintln!("wrote {}", path.display());
     }
     let mut out = super::table_writer(json);
@@ -138,15 +141,7 @@ pub(super) fn run(
         other => other?,
     }
     if let Some(path) = json.filter(|p| safer::record::is_stdout(p)) {
-        let report = Report {
-            scenes: scenes.len(),
-            trust_region: request.trust_region,
-            summary: &summary,
-            held_out: &held_out,
-            rest: &rest,
-            boundaries: &profiles,
-        };
-        safer::record::write_output(path, (serde_json::to_string_pretty(&report)? + "\n").as_bytes())?;
+        safer::record::write_output(path, report_text()?.as_bytes())?;
     }
     Ok(if errors.is_empty() { ExitCode::SUCCESS } else { ExitCode::from(1) })
 }
