@@ -247,6 +247,24 @@ fn print_table(
     if let Some(line) = failures_beyond_log(rows) {
         writeln!(out, "{line}")?;
     }
+    writeln!(out, "\nkinds of conflict (stage 1, with the recorded ego / stage 2, with the planner's):")?;
+    let kinds = safer::eval::ConflictKind::ALL;
+    writeln!(
+        out,
+        "{:<28} {}",
+        "method",
+        kinds.iter().map(|k| format!("{:>22}", k.name())).collect::<Vec<_>>().join("")
+    )?;
+    for r in rows {
+        let cells: Vec<String> = kinds
+            .iter()
+            .map(|&kind| {
+                let c = r.conflicts.iter().find(|c| c.kind == kind);
+                format!("{:>22}", format!("{} / {}", c.map_or(0, |c| c.stage1), c.map_or(0, |c| c.variants)))
+            })
+            .collect();
+        writeln!(out, "{:<28} {}", name(r), cells.join(""))?;
+    }
     writeln!(out, "\nwhere the time goes (mean s per variant):")?;
     writeln!(
         out,

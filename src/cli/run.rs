@@ -489,6 +489,9 @@ fn print_report(out: &mut dyn Write, report: &Report) -> std::io::Result<()> {
         }
         if let Some(m) = &s.metrics {
             writeln!(out, "  {}", m.headline("  "))?;
+            for line in m.coverage_table() {
+                writeln!(out, "  {line}")?;
+            }
         }
         let metric_width = s.checks.iter().map(|c| s.name.len() + 2 + c.name.len()).max().unwrap_or(0);
         for c in &s.checks {

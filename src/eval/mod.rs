@@ -5,6 +5,7 @@
 //! the witness of a stage-2 collision when the CBV reacts to the ego;
 //! [`traffic_rules`] judges wrong-way driving and red-light running.)
 
+pub mod conflict_kind;
 pub mod conflict_reach;
 pub mod divergence;
 pub mod escape;
@@ -14,6 +15,7 @@ pub mod traffic_rules;
 pub mod ttc;
 pub mod witness;
 
+pub use conflict_kind::{ConflictKind, ConflictParty, classify_conflict, rollout_conflict};
 pub use conflict_reach::{CONFLICT_REACH_M, ConflictReach};
 pub use divergence::{Histogram, jensen_shannon};
 pub use ttc::min_time_to_collision;

@@ -270,6 +270,10 @@ pub struct MethodRow {
     pub aj: Option<f64>,
     /// Mean wall time per variant, s.
     pub time_per_variant_s: f64,
+    /// The kinds of conflict the variants made: per kind, with the
+    /// recorded ego (stage 1) and with the planner's (stage 2), and the
+    /// planner's failures there.
+    pub conflicts: Vec<super::metrics::KindCoverage>,
     /// Mean time per variant by part, s.
     pub profile: VariantProfile,
 }
@@ -563,6 +567,7 @@ fn table_of(
                 vj: metrics.velocity_jsd,
                 aj: metrics.acceleration_jsd,
                 time_per_variant_s: ok.iter().map(|r| r.time_s).sum::<f64>() / n,
+                conflicts: metrics.coverage,
             }
         })
         .collect()

@@ -123,6 +123,13 @@ fn suite(out: &mut String, run: &SuiteRun) -> Counts {
         ] {
             let _ = writeln!(out, "      <property name=\"{name}\" value=\"{}\"/>", attr(&value));
         }
+        // Conflict coverage: per kind, the variants whose conflict reached
+        // the planner and its failures among them.
+        for c in &m.coverage {
+            let kind = c.kind.name();
+            let _ = writeln!(out, "      <property name=\"conflict.{kind}\" value=\"{}\"/>", c.variants);
+            let _ = writeln!(out, "      <property name=\"conflict.{kind}.failures\" value=\"{}\"/>", c.failures);
+        }
     }
     out.push_str("    </properties>\n");
     out.push_str(&cases);

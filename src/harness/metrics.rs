@@ -24,7 +24,7 @@
 //! [`Stage2Verdict`]: super::pipeline::Stage2Verdict
 
 use super::pipeline::DualStage;
-use crate::eval::{Histogram, jensen_shannon};
+use crate::eval::{ConflictKind, Histogram, jensen_shannon, rollout_conflict};
 use crate::scenario::{Scenario, TrackIndex};
 use crate::sim::EgoContact;
 use crate::sim::Rollout;
@@ -104,6 +104,13 @@ pub struct VariantTally {
     /// Stage 2: for an ego collision, whether the closed-loop witness
     /// verified an escape (`None`: no collision, or not searched).
     pub escape: Option<bool>,
+    /// Stage 1: the kind of conflict the CBV made with the recorded ego
+    /// (`None`: it never came within 1 m).
+    #[serde(default)]
+    pub stage1_conflict: Option<ConflictKind>,
+    /// Stage 2: the kind of conflict the CBV made with the planner's ego.
+    #[serde(default)]
+    pub conflict: Option<ConflictKind>,
 }
 
 impl VariantTally {
@@ -129,6 +136,8 @@ impl VariantTally {
             reached: stages.reach.reached,
             collided: stages.stage2.ego_collision().is_some(),
             escape: stages.escape.as_ref().map(crate::eval::escape::EscapeSearch::avoidable),
+            stage1_conflict: rollout_conflict(&scenario.map, &stages.stage1),
+            conflict: rollout_conflict(&scenario.map, &stages.stage2),
         }
     }
 }
@@ -235,6 +244,45 @@ pub struct SuiteMetrics {
     pub no_escape_collisions: usize,
     /// Their share of the variants.
     pub no_escape_collision_rate: Option<f64>,
+    /// Per kind of conflict met by any variant, in [`ConflictKind::ALL`]'s
+    /// order: how many variants made it in each stage, and how the
+    /// planner fared where it met it.
+    pub coverage: Vec<KindCoverage>,
+}
+
+/// One row of a suite's conflict coverage.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct KindCoverage {
+    /// The kind.
+    pub kind: ConflictKind,
+    /// Variants whose CBV made it with the recorded ego (stage 1).
+    pub stage1: usize,
+    /// Variants whose CBV made it with the planner's ego (stage 2): the
+    /// conflicts the planner met.
+    pub variants: usize,
+    /// Of those, the ones the planner did not solve.
+    pub failures: usize,
+    /// SR over them (`None` over none).
+    pub solution_rate: Option<f64>,
+}
+
+/// The coverage of `tallies` (see [`SuiteMetrics::coverage`]).
+fn coverage<'a>(tallies: impl IntoIterator<Item = &'a VariantTally> + Clone) -> Vec<KindCoverage> {
+    ConflictKind::ALL
+        .iter()
+        .map(|&kind| {
+            let (mut stage1, mut variants, mut failures) = (0, 0, 0);
+            for t in tallies.clone() {
+                stage1 += usize::from(t.stage1_conflict == Some(kind));
+                if t.conflict == Some(kind) {
+                    variants += 1;
+                    failures += usize::from(!t.solved);
+                }
+            }
+            KindCoverage { kind, stage1, variants, failures, solution_rate: share(variants - failures, variants) }
+        })
+        .filter(|c| c.stage1 > 0 || c.variants > 0)
+        .collect()
 }
 
 /// One suite-level check (a test).
@@ -273,6 +321,30 @@ impl SuiteMetrics {
         .join(separator)
     }
 
+    /// The conflict coverage as a small table, one line per kind met (none
+    /// when no variant made a conflict): kind, stage-1 variants, variants
+    /// whose conflict reached the planner, its failures among them, SR.
+    pub fn coverage_table(&self) -> Vec<String> {
+        if self.coverage.is_empty() {
+            return Vec::new();
+        }
+        let mut lines = vec![format!(
+            "{:<22} {:>7} {:>7} {:>8} {:>6}",
+            "conflict coverage", "stage 1", "planner", "failures", "SR"
+        )];
+        for c in &self.coverage {
+            lines.push(format!(
+                "{:<22} {:>7} {:>7} {:>8} {:>6}",
+                c.kind.name(),
+                c.stage1,
+                c.variants,
+                c.failures,
+                c.solution_rate.map_or("-".into(), |sr| format!("{sr:.3}"))
+            ));
+        }
+        lines
+    }
+
     /// The metrics of a suite's variant outcomes.
     pub fn compute(outcomes: &[super::VariantOutcome]) -> SuiteMetrics {
         Self::aggregate(outcomes.iter().map(|o| &o.tally))
@@ -280,12 +352,13 @@ impl SuiteMetrics {
 
     /// Aggregates variant tallies.
     pub fn aggregate<'a>(tallies: impl IntoIterator<Item = &'a VariantTally>) -> SuiteMetrics {
+        let tallies: Vec<&VariantTally> = tallies.into_iter().collect();
         let (mut n, mut critical, mut solved, mut solved_critical) = (0, 0, 0, 0);
         let (mut hit_background, mut at_fault, mut off_road, mut off_road_s) = (0, 0, 0, 0.0);
         let (mut reached, mut reached_critical, mut avoidable, mut avoidable_solved, mut no_escape) = (0, 0, 0, 0, 0);
         let (mut gv, mut ga, mut lv, mut la) =
             (Histogram::speed(), Histogram::acceleration(), Histogram::speed(), Histogram::acceleration());
-        for t in tallies {
+        for &t in &tallies {
             n += 1;
             critical += usize::from(t.critical);
             solved += usize::from(t.solved);
@@ -324,6 +397,7 @@ impl SuiteMetrics {
             solution_rate_avoidable: share(avoidable_solved, avoidable),
             no_escape_collisions: no_escape,
             no_escape_collision_rate: share(no_escape, n),
+            coverage: coverage(tallies.iter().copied()),
         }
     }
 
@@ -367,6 +441,24 @@ impl SuiteMetrics {
             };
             out.push(MetricCheck { name, value, result });
         }
+        if let Some(required) = &acceptance.conflict_coverage_min {
+            let met = |kind: ConflictKind| self.coverage.iter().find(|c| c.kind == kind).map_or(0, |c| c.variants);
+            let short: Vec<String> = required
+                .iter()
+                .filter(|&(&kind, &min)| met(kind) < min)
+                .map(|(&kind, min)| format!("{} {} < {min}", kind.name(), met(kind)))
+                .collect();
+            let result = if short.is_empty() {
+                Ok(())
+            } else {
+                Err(format!(
+                    "conflict coverage short: {} (conflicts the planner met, over {n} variants)",
+                    short.join(", ")
+                ))
+            };
+            let covered = required.iter().filter(|&(&kind, &min)| met(kind) >= min).count();
+            out.push(MetricCheck { name: "conflict_coverage", value: Some(covered as f64), result });
+        }
         out
     }
 }
@@ -380,6 +472,7 @@ pub fn metric_names(acceptance: &SuiteAcceptance) -> Vec<&'static str> {
         ("acceleration_jsd", acceptance.acceleration_jsd_max.is_some()),
         ("conflict_reach", acceptance.conflict_reach_min.is_some()),
         ("no_escape_collision_rate", acceptance.no_escape_collision_rate_max.is_some()),
+        ("conflict_coverage", acceptance.conflict_coverage_min.is_some()),
     ]
     .into_iter()
     .filter_map(|(n, on)| on.then_some(n))
@@ -557,6 +650,48 @@ mod tests {
         // Pinned (FNV-1a of the little-endian centimetres 0, 0, 200, 100):
         // the same on every machine and build.
         assert_eq!(path(2.0), 0xe8b4_3378_21d3_5b49);
+    }
+
+    #[test]
+    fn coverage_counts_each_kind_per_stage_and_the_criterion_fails_when_a_kind_is_short() {
+        use crate::eval::ConflictKind::{Crossing, CutIn, RearEnd};
+        let tally = |stage1, stage2, solved| VariantTally {
+            stage1_conflict: stage1,
+            conflict: stage2,
+            solved,
+            ..VariantTally::default()
+        };
+        let tallies = [
+            tally(Some(CutIn), Some(CutIn), false),
+            tally(Some(CutIn), Some(RearEnd), true),
+            tally(Some(Crossing), None, true),
+            tally(None, None, true),
+        ];
+        let m = SuiteMetrics::aggregate(&tallies);
+        let row = |k| m.coverage.iter().find(|c| c.kind == k).cloned();
+        let cut_in = row(CutIn).unwrap();
+        assert_eq!((cut_in.stage1, cut_in.variants, cut_in.failures, cut_in.solution_rate), (2, 1, 1, Some(0.0)));
+        let rear_end = row(RearEnd).unwrap();
+        assert_eq!((rear_end.stage1, rear_end.variants, rear_end.solution_rate), (0, 1, Some(1.0)));
+        // Made against the recorded ego only: in the table, not met by the planner.
+        let crossing = row(Crossing).unwrap();
+        assert_eq!((crossing.stage1, crossing.variants, crossing.solution_rate), (1, 0, None));
+        assert_eq!(m.coverage.len(), 3, "kinds nobody made are left out");
+        let acceptance = |required: &[(crate::eval::ConflictKind, usize)]| SuiteAcceptance {
+            conflict_coverage_min: Some(required.iter().copied().collect()),
+            ..SuiteAcceptance::default()
+        };
+        let check = |required: &[(crate::eval::ConflictKind, usize)]| m.checks(&acceptance(required)).pop().unwrap();
+        assert_eq!(check(&[(CutIn, 1), (RearEnd, 1)]).result, Ok(()));
+        // The crossing was made against the recorded ego, never met by the planner: short.
+        let short = check(&[(CutIn, 1), (Crossing, 1)]);
+        assert_eq!(short.name, "conflict_coverage");
+        assert_eq!(
+            short.result,
+            Err("conflict coverage short: crossing 0 < 1 (conflicts the planner met, over 4 variants)".into())
+        );
+        assert_eq!(short.value, Some(1.0));
+        assert!(metric_names(&acceptance(&[(CutIn, 2)])).contains(&"conflict_coverage"));
     }
 
     #[test]

@@ -257,6 +257,10 @@ fn suite_html(h: &mut String, si: usize, s: &SuiteRun, dir: &Path, pictures: &mu
     }
     if let Some(m) = &s.metrics {
         let _ = writeln!(h, "<p class=\"metrics-line\">{}</p>", esc(&m.headline(" · ")));
+        let coverage = m.coverage_table();
+        if !coverage.is_empty() {
+            let _ = writeln!(h, "<pre class=\"coverage\">{}</pre>", esc(&coverage.join("\n")));
+        }
     }
     if !s.checks.is_empty() {
         h.push_str("<table class=\"checks\">\n<thead><tr><th>suite metric</th><th>value</th><th>check</th></tr></thead>\n<tbody>\n");

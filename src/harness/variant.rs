@@ -80,6 +80,8 @@ impl VariantOutcome {
             stage2_min_gap_m: s2.min_distance_to_ego_m.map(round),
             stage2_min_gap_to_cbv_m: self.reach.min_gap_to_cbv_m.map(round),
             conflict_reached: self.reach.reached,
+            stage1_conflict: self.tally.stage1_conflict,
+            conflict: self.tally.conflict,
             stage2_escape: self.escape.as_ref().map(CollisionEscape::of),
             stage2_min_ttc_s: self.min_ttc_s.map(|t| (t * 10.0).round() / 10.0),
             stage2_termination: serde_json::to_value(&s2.termination)
@@ -119,6 +121,11 @@ pub struct VariantSummary {
     pub stage2_min_gap_to_cbv_m: Option<f64>,
     /// Stage 2: the CBV came within 1 m of the planner's ego.
     pub conflict_reached: bool,
+    /// Stage 1: the kind of conflict the CBV made with the recorded ego
+    /// (`None`: it never came within 1 m).
+    pub stage1_conflict: Option<crate::eval::ConflictKind>,
+    /// Stage 2: the kind of conflict the CBV made with the planner's ego.
+    pub conflict: Option<crate::eval::ConflictKind>,
     /// Stage 2: for an ego collision, the closed-loop witness's verdict.
     pub stage2_escape: Option<CollisionEscape>,
     /// Stage 2: minimum TTC, s (1 decimal).

@@ -316,6 +316,12 @@ pub struct SuiteAcceptance {
     #[serde(default)]
     #[schemars(range(min = 0, max = 1))]
     pub no_escape_collision_rate_max: Option<f64>,
+    /// Stage 2: at least this many variants must make each named kind of
+    /// conflict with the planner's ego (`{ crossing: 2, cut-in: 1 }`);
+    /// kinds: rear-end, cut-in, merge, crossing, left-turn-across-path,
+    /// head-on, sideswipe, other. The suite fails when a kind is short.
+    #[serde(default)]
+    pub conflict_coverage_min: Option<std::collections::BTreeMap<crate::eval::ConflictKind, usize>>,
 }
 
 /// Where a scenario of the suite comes from, resolved.
@@ -451,6 +457,18 @@ impl Loaded<SuiteSpec> {
         ] {
             if let Some(x) = value {
                 self.check_number(&format!("acceptance.suite.{name}"), x, NumberRange::closed(0.0, 1.0), "")?;
+            }
+        }
+        if let Some(required) = &u.conflict_coverage_min {
+            let path = "acceptance.suite.conflict_coverage_min";
+            if required.is_empty() {
+                return Err(self.invalid_at(path, "names no kind of conflict: name at least one, or remove the key"));
+            }
+            if let Some((kind, _)) = required.iter().find(|&(_, &min)| min == 0) {
+                return Err(self.invalid_at(
+                    path,
+                    &format!("`{}: 0` requires nothing: give at least 1, or remove the kind", kind.name()),
+                ));
             }
         }
         for (name, value) in

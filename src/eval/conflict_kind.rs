@@ -1,0 +1,323 @@
+//! What kind of conflict a CBV made with the ego, from the geometry at
+//! their closest approach: the kinds a planner team's coverage table
+//! counts (`rear-end`, `cut-in`, `merge`, `crossing`,
+//! `left-turn-across-path`, `head-on`, `sideswipe`, `other`). Headings
+//! come from the states, lanes from the map where it has them.
+//!
+//! The rules, in the order they are tried, with Δ the angle between the
+//! two headings at the closest approach and "before" the states
+//! [`LOOKBACK_S`] earlier (or the first both were present):
+//! 1. no conflict unless the boxes came within [`NEAR_MISS_M`];
+//! 2. `other` when either is not a vehicle;
+//! 3. `head-on` when Δ ≥ 150°;
+//! 4. `left-turn-across-path` when Δ ≥ 45°, the two drove opposite ways
+//!    before (≥ 135° apart) and one of them has since turned left by 30°
+//!    or more; `crossing` for every other Δ ≥ 45°;
+//! 5. below 45° (the same direction): `merge` when the CBV came from a
+//!    lane other than the ego's that runs into the ego's lane (a successor
+//!    of the CBV's lane is the ego's lane, or both lanes lead into one: an
+//!    on-ramp, a lane drop); `cut-in` when the CBV moved sideways into the ego's
+//!    path ahead of it (in the map: from a lane neighbouring the ego's into
+//!    the ego's; without lanes: from more than [`LANE_OFFSET_M`] to the side
+//!    to less than half of it); `rear-end` when one is behind the other
+//!    (the other's centre within 45° of its heading or its tail);
+//!    `sideswipe` otherwise (side by side).
+
+use crate::geometry::wrap_angle;
+use crate::map::{MapElementId, RoadMap};
+use crate::scenario::{AgentBody, AgentKind, AgentState};
+use crate::sim::Rollout;
+
+/// Closest approach under which the pair counts as a conflict (a
+/// collision or a near miss), m (box distance).
+pub const NEAR_MISS_M: f64 = 1.0;
+
+/// How far before the closest approach "before" is, s.
+pub const LOOKBACK_S: f64 = 3.0;
+
+/// Lateral offset of a neighbouring lane's car, where the map has no lanes, m.
+pub const LANE_OFFSET_M: f64 = 2.5;
+
+/// The kinds of conflict.
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, serde::Serialize, serde::Deserialize, schemars::JsonSchema,
+)]
+#[serde(rename_all = "kebab-case")]
+pub enum ConflictKind {
+    /// One drives into the other from behind, in one lane.
+    RearEnd,
+    /// The CBV moves sideways into the ego's lane just ahead of it.
+    CutIn,
+    /// The CBV's lane runs into the ego's (an on-ramp, a lane drop).
+    Merge,
+    /// Paths crossing at an angle (an intersection, a driveway).
+    Crossing,
+    /// One turns left across the path of the other coming the other way.
+    LeftTurnAcrossPath,
+    /// Driving at each other.
+    HeadOn,
+    /// Side by side, the same direction.
+    Sideswipe,
+    /// Anything else (a pedestrian or cyclist involved).
+    Other,
+}
+
+impl ConflictKind {
+    /// Every kind, in the order tables list them.
+    pub const ALL: &'static [Self] = &[
+        Self::RearEnd,
+        Self::CutIn,
+        Self::Merge,
+        Self::Crossing,
+        Self::LeftTurnAcrossPath,
+        Self::HeadOn,
+        Self::Sideswipe,
+        Self::Other,
+    ];
+
+    /// Its name in reports and specs (`rear-end`, `cut-in`, …).
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::RearEnd => "rear-end",
+            Self::CutIn => "cut-in",
+            Self::Merge => "merge",
+            Self::Crossing => "crossing",
+            Self::LeftTurnAcrossPath => "left-turn-across-path",
+            Self::HeadOn => "head-on",
+            Self::Sideswipe => "sideswipe",
+            Self::Other => "other",
+        }
+    }
+}
+
+/// One of the pair over a rollout: its body and its state per step
+/// (`None`: absent).
+#[derive(Debug, Clone, Copy)]
+pub struct ConflictParty<'a> {
+    /// Type and size.
+    pub body: AgentBody,
+    /// State per step, the same steps for both parties.
+    pub states: &'a [Option<AgentState>],
+}
+
+/// The kind of conflict between a rollout's ego and CBV (`None`: no CBV,
+/// or it never came within [`NEAR_MISS_M`]).
+pub fn rollout_conflict(map: &RoadMap, rollout: &Rollout) -> Option<ConflictKind> {
+    let cbv = rollout.cbv?;
+    let column = |agent: usize| -> Vec<Option<AgentState>> {
+        rollout.states.iter().map(|row| row.get(agent).copied().flatten()).collect()
+    };
+    let (ego_states, cbv_states) = (column(rollout.ego.0), column(cbv.0));
+    classify_conflict(
+        map,
+        ConflictParty { body: *rollout.bodies.get(rollout.ego.0)?, states: &ego_states },
+        ConflictParty { body: *rollout.bodies.get(cbv.0)?, states: &cbv_states },
+        rollout.dt_s,
+    )
+}
+
+/// The kind of conflict between `ego` and `cbv` over a rollout at `dt_s`
+/// per step (the module's rules), or `None` when their boxes never came
+/// within [`NEAR_MISS_M`].
+pub fn classify_conflict(
+    map: &RoadMap,
+    ego: ConflictParty<'_>,
+    cbv: ConflictParty<'_>,
+    dt_s: f64,
+) -> Option<ConflictKind> {
+    let both = |k: usize| Some((ego.states.get(k).copied().flatten()?, cbv.states.get(k).copied().flatten()?));
+    let steps = ego.states.len().min(cbv.states.len());
+    // The closest approach (the first step at the least distance).
+    let (closest, gap_m) = (0..steps)
+        .filter_map(|k| both(k).map(|(e, c)| (k, ego.body.footprint(&e).distance(&cbv.body.footprint(&c)))))
+        .min_by(|a, b| a.1.total_cmp(&b.1))?;
+    if gap_m.is_nan() || gap_m > NEAR_MISS_M {
+        return None;
+    }
+    let vehicle = |b: &AgentBody| b.kind == AgentKind::Vehicle;
+    if !vehicle(&ego.body) || !vehicle(&cbv.body) {
+        return Some(ConflictKind::Other);
+    }
+    let (e, c) = both(closest)?;
+    let lookback = (LOOKBACK_S / dt_s).round() as usize;
+    let (e0, c0) = (closest.saturating_sub(lookback)..=closest).find_map(both)?;
+    let apart = |a: f64, b: f64| wrap_angle(a - b).abs().to_degrees();
+    let delta = apart(c.heading_rad, e.heading_rad);
+    if delta >= 150.0 {
+        return Some(ConflictKind::HeadOn);
+    }
+    if delta >= 45.0 {
+        let turned_left = |now: f64, then: f64| wrap_angle(now - then).to_degrees() >= 30.0;
+        let opposite_before = apart(c0.heading_rad, e0.heading_rad) >= 135.0;
+        let left_turn = turned_left(c.heading_rad, c0.heading_rad) || turned_left(e.heading_rad, e0.heading_rad);
+        return Some(if opposite_before && left_turn {
+            ConflictKind::LeftTurnAcrossPath
+        } else {
+            ConflictKind::Crossing
+        });
+    }
+    let lanes = |s: &AgentState| map.lanes_containing(&s.position, s.heading_rad);
+    let (ego_now, ego_then, cbv_now, cbv_then) = (lanes(&e), lanes(&e0), lanes(&c), lanes(&c0));
+    let ego_lanes: Vec<MapElementId> = ego_now.iter().chain(&ego_then).copied().collect();
+    let connected =
+        |a: &[MapElementId], b: &[MapElementId]| a.iter().any(|&x| b.iter().any(|&y| map.lanes_connected(x, y)));
+    let beside = |a: &[MapElementId], b: &[MapElementId]| {
+        a.iter()
+            .filter_map(|&x| map.lane(x))
+            .any(|l| l.left_neighbours.iter().chain(&l.right_neighbours).any(|n| b.contains(n)))
+    };
+    let successors = |ids: &[MapElementId]| -> Vec<MapElementId> {
+        ids.iter().filter_map(|&x| map.lane(x)).flat_map(|l| l.successors.iter().copied()).collect()
+    };
+    let from_elsewhere = !cbv_then.is_empty() && !ego_then.is_empty() && !connected(&cbv_then, &ego_lanes);
+    if from_elsewhere {
+        let cbv_next = successors(&cbv_then);
+        let runs_into_ego = cbv_next.iter().any(|n| ego_lanes.contains(n))
+            || cbv_next.iter().any(|n| successors(&ego_then).contains(n));
+        if runs_into_ego {
+            return Some(ConflictKind::Merge);
+        }
+    }
+    let ahead = e.pose().to_body(&c.position).x > 0.0;
+    let side_then = e0.pose().to_body(&c0.position).y.abs();
+    let side_now = e.pose().to_body(&c.position).y.abs();
+    let moved_in = if !cbv_then.is_empty() && !ego_then.is_empty() {
+        from_elsewhere && beside(&cbv_then, &ego_then) && connected(&cbv_now, &ego_lanes)
+    } else {
+        side_then > LANE_OFFSET_M && side_now < LANE_OFFSET_M / 2.0
+    };
+    if moved_in && ahead {
+        return Some(ConflictKind::CutIn);
+    }
+    let bearing = |from: &AgentState, to: &AgentState| {
+        let rel = from.pose().to_body(&to.position);
+        rel.y.atan2(rel.x).abs().to_degrees()
+    };
+    let in_line = |b: f64| b <= 45.0 || b >= 135.0;
+    Some(if in_line(bearing(&e, &c)) && in_line(bearing(&c, &e)) {
+        ConflictKind::RearEnd
+    } else {
+        ConflictKind::Sideswipe
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::{Point2, Vector2};
+    use crate::map::templates::{MapTemplate, Merge, StraightRoad};
+    use crate::motion::{Action, KinematicState, kinematic_step};
+
+    const DT_S: f64 = 0.1;
+    const CAR: AgentBody = AgentBody { kind: AgentKind::Vehicle, length_m: 4.5, width_m: 2.0 };
+
+    /// 8 s from (x, y, heading°) at `speed_mps`, the yaw rate (°/s) given
+    /// per second by `turn`.
+    fn drive(x: f64, y: f64, heading_deg: f64, speed_mps: f64, turn: impl Fn(f64) -> f64) -> Vec<Option<AgentState>> {
+        let h = heading_deg.to_radians();
+        let mut state = KinematicState::from_agent_state(&AgentState {
+            position: Point2::new(x, y),
+            heading_rad: h,
+            velocity_mps: Vector2::new(h.cos(), h.sin()) * speed_mps,
+        });
+        (0..80)
+            .map(|k| {
+                let now = state.to_agent_state();
+                let action = Action { accel_mps2: 0.0, yaw_rate_radps: turn(k as f64 * DT_S).to_radians() };
+                state = kinematic_step(&state, action, DT_S);
+                Some(now)
+            })
+            .collect()
+    }
+
+    fn straight(x: f64, y: f64, heading_deg: f64, speed_mps: f64) -> Vec<Option<AgentState>> {
+        drive(x, y, heading_deg, speed_mps, |_| 0.0)
+    }
+
+    fn kind(map: &RoadMap, ego: &[Option<AgentState>], cbv: &[Option<AgentState>]) -> Option<ConflictKind> {
+        classify_conflict(map, ConflictParty { body: CAR, states: ego }, ConflictParty { body: CAR, states: cbv }, DT_S)
+    }
+
+    /// Two lanes along +x, 3.5 m wide: lane 0 at y = 1.75, lane 1 at 5.25.
+    fn two_lanes() -> RoadMap {
+        let road: StraightRoad = serde_json::from_value(serde_json::json!({"lanes": 2, "length_m": 400})).unwrap();
+        MapTemplate::Straight(road).build()
+    }
+
+    #[test]
+    fn a_faster_car_behind_in_the_same_lane_is_a_rear_end() {
+        let map = two_lanes();
+        assert_eq!(
+            kind(&map, &straight(50.0, 1.75, 0.0, 10.0), &straight(20.0, 1.75, 0.0, 20.0)),
+            Some(ConflictKind::RearEnd)
+        );
+    }
+
+    #[test]
+    fn a_car_from_the_next_lane_ahead_is_a_cut_in_and_beside_it_a_sideswipe() {
+        let map = two_lanes();
+        let ego = straight(0.0, 1.75, 0.0, 10.0);
+        // 12 m ahead, slower, heading 8° into lane 0: it is in the ego's lane when they touch.
+        let cutting_in = straight(12.0, 5.25, -8.0, 7.0);
+        assert_eq!(kind(&map, &ego, &cutting_in), Some(ConflictKind::CutIn));
+        // Without lanes, the same by lateral offset.
+        assert_eq!(kind(&RoadMap::default(), &ego, &cutting_in), Some(ConflictKind::CutIn));
+        // Level with the ego, drifting in: they touch side by side, the CBV still in lane 1.
+        assert_eq!(kind(&map, &ego, &straight(0.5, 5.25, -8.0, 10.0)), Some(ConflictKind::Sideswipe));
+    }
+
+    #[test]
+    fn a_car_from_the_on_ramp_is_a_merge() {
+        let merge: Merge = serde_json::from_value(serde_json::json!({
+            "lanes": 2, "length_m": 400, "merge_end_m": 200, "acceleration_lane_m": 70
+        }))
+        .unwrap();
+        let map = MapTemplate::Merge(merge).build();
+        // The ramp runs at y = -1.75 from x = 130 to 200 and leads into lane 10, lane 0's successor.
+        let ego = straight(135.0, 1.75, 0.0, 11.0);
+        assert_eq!(kind(&map, &ego, &straight(140.0, -1.75, 7.0, 10.0)), Some(ConflictKind::Merge));
+    }
+
+    #[test]
+    fn crossing_paths_left_turns_and_head_on() {
+        let open = RoadMap::default();
+        let ego = straight(-30.0, 0.0, 0.0, 10.0);
+        assert_eq!(kind(&open, &ego, &straight(0.0, -30.0, 90.0, 10.0)), Some(ConflictKind::Crossing));
+        assert_eq!(kind(&open, &ego, &straight(60.0, 0.5, 180.0, 10.0)), Some(ConflictKind::HeadOn));
+        // The CBV drives east for 2 s, then turns left by 60° over 2 s.
+        let turning = drive(-30.0, -1.75, 0.0, 8.0, |t| if (2.0..4.0).contains(&t) { 30.0 } else { 0.0 });
+        let at_4s = turning[40].unwrap().position;
+        // Oncoming from the east, timed to meet it there: a left turn across its path.
+        let oncoming = straight(at_4s.x + 2.0 + 40.0, at_4s.y, 180.0, 10.0);
+        assert_eq!(kind(&open, &oncoming, &turning), Some(ConflictKind::LeftTurnAcrossPath));
+        // The same turn met by a car from the north: they did not come from opposite ways.
+        let from_north = straight(at_4s.x, at_4s.y + 2.0 + 40.0, -90.0, 10.0);
+        assert_eq!(kind(&open, &from_north, &turning), Some(ConflictKind::Crossing));
+    }
+
+    #[test]
+    fn a_pedestrian_is_other_and_a_pair_never_near_is_no_conflict() {
+        let open = RoadMap::default();
+        let ego = straight(-30.0, 0.0, 0.0, 10.0);
+        let walker = AgentBody { kind: AgentKind::Pedestrian, length_m: 0.5, width_m: 0.5 };
+        let crossing = straight(0.0, -4.0, 90.0, 1.4);
+        let got = classify_conflict(
+            &open,
+            ConflictParty { body: CAR, states: &ego },
+            ConflictParty { body: walker, states: &crossing },
+            DT_S,
+        );
+        assert_eq!(got, Some(ConflictKind::Other));
+        assert_eq!(kind(&open, &ego, &straight(-30.0, 10.0, 0.0, 10.0)), None);
+        // 1 m is still a near miss; 1.2 m is not.
+        assert_eq!(kind(&open, &ego, &straight(-30.0, 3.0, 0.0, 10.0)), Some(ConflictKind::Sideswipe));
+        assert_eq!(kind(&open, &ego, &straight(-30.0, 3.2, 0.0, 10.0)), None);
+    }
+
+    #[test]
+    fn kinds_are_named_as_they_serialise() {
+        for kind in ConflictKind::ALL {
+            assert_eq!(serde_json::to_value(kind).unwrap(), kind.name());
+        }
+    }
+}
