@@ -133,6 +133,12 @@ enum Command {
         /// Folder for the recordings and pictures of failing variants.
         #[arg(long, value_name = "DIR", default_value = "target/safer-artifacts")]
         artifacts: PathBuf,
+        /// Write each failing variant as a CommonRoad 2020a scenario (the lanelet network, every other agent as a dynamic obstacle on its stage-2 trajectory, the ego as the planning problem) under DIR/SUITE/SCENARIO/seed-K.xml.
+        #[arg(long, value_name = "DIR")]
+        export_commonroad: Option<PathBuf>,
+        /// With --export-commonroad: every variant, not only the failing ones.
+        #[arg(long, requires = "export_commonroad")]
+        export_commonroad_all: bool,
         /// Only variants and metrics whose test name contains this.
         #[arg(long, value_name = "SUBSTR")]
         filter: Option<String>,
@@ -417,7 +423,17 @@ pub fn main() -> ExitCode {
         Command::Simulate { path, planner, background, json } => simulate::run(&path, &planner, background, json),
         Command::TokenRoundtrip { scenes, json } => token_roundtrip::run(&scenes, json),
         Command::Bench { scenes, repeat, json } => bench::run(&scenes, repeat, json.as_deref()),
-        Command::Run { suites, json, junit, html, artifacts, filter, jobs } => {
+        Command::Run {
+            suites,
+            json,
+            junit,
+            html,
+            artifacts,
+            export_commonroad,
+            export_commonroad_all,
+            filter,
+            jobs,
+        } => {
             if json.as_deref().is_some_and(safer::record::is_stdout)
                 && junit.as_deref().is_some_and(safer::record::is_stdout)
             {
@@ -428,6 +444,7 @@ pub fn main() -> ExitCode {
                     junit: junit.as_deref(),
                     html: html.as_deref(),
                     artifacts: &artifacts,
+                    commonroad: export_commonroad.as_deref().map(|dir| (dir, export_commonroad_all)),
                 };
                 set_jobs(jobs).and_then(|()| run::run(&suites, outputs, filter.as_deref()))
             }

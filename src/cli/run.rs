@@ -172,10 +172,24 @@ pub(super) struct RunOutputs<'a> {
     pub html: Option<&'a Path>,
     /// The folder of failing variants' recordings and pictures.
     pub artifacts: &'a Path,
+    /// Where to write variants as CommonRoad scenarios, and whether every
+    /// variant (else the failing ones).
+    pub commonroad: Option<(&'a Path, bool)>,
+}
+
+/// Writes `outcome`'s stage 2 as a CommonRoad scenario under `dir`, at the
+/// variant's artefact path with `.xml`.
+fn export_commonroad(dir: &Path, outcome: &harness::VariantOutcome) -> Result<PathBuf, String> {
+    let path = dir.join(harness::artefacts::relative_path(dir, &outcome.name).map_err(|e| e.to_string())?);
+    let path = path.with_extension("xml");
+    safer::record::create_parent_folder(&path).map_err(|e| e.to_string())?;
+    safer::record::commonroad::write_commonroad(&path, &outcome.scenario, &outcome.stage2, &outcome.name)
+        .map_err(|e| e.to_string())?;
+    Ok(path)
 }
 
 pub(super) fn run(files: &[PathBuf], outputs: RunOutputs<'_>, filter: Option<&str>) -> Result<ExitCode, CliError> {
-    let RunOutputs { json, junit, html, artifacts } = outputs;
+    let RunOutputs { json, junit, html, artifacts, commonroad } = outputs;
     // Refused before anything runs: a report that cannot be written should not cost a run.
     for out in [json, junit].into_iter().flatten() {
         safer::record::output::check_output(out)?;
@@ -243,6 +257,7 @@ pub(super) fn run(files: &[PathBuf], outputs: RunOutputs<'_>, filter: Option<&st
     }
 
     let progress = Progress::new(jobs.len());
+    let exports: std::sync::Mutex<Vec<(String, Result<PathBuf, String>)>> = std::sync::Mutex::new(Vec::new());
     let done: Vec<Done> = jobs
         .par_iter()
         .map(|j| {
@@ -254,6 +269,13 @@ pub(super) fn run(files: &[PathBuf], outputs: RunOutputs<'_>, filter: Option<&st
                 }
                 _ => None,
             };
+            if let (Ok(o), Some((dir, all))) = (&outcome, commonroad)
+                && j.shown
+                && (all || !o.failures.is_empty())
+            {
+                let written = export_commonroad(dir, o);
+                exports.lock().unwrap_or_else(|p| p.into_inner()).push((o.name.clone(), written));
+            }
             progress.tick();
             Done { outcome, artefacts }
         })
@@ -313,9 +335,21 @@ pub(super) fn run(files: &[PathBuf], outputs: RunOutputs<'_>, filter: Option<&st
         let page = harness::review_page::write_review_page(dir, &results)?;
         eprintln!("review page: {}", page.display());
     }
+    let mut exports = exports.into_inner().unwrap_or_else(|p| p.into_inner());
+    exports.sort_by(|a, b| a.0.cmp(&b.0));
+    let export_failed = exports.iter().any(|(_, r)| r.is_err());
+    if let Some((dir, _)) = commonroad {
+        for (variant, written) in &exports {
+            if let Err(e) = written {
+                eprintln!("error: {variant} could not be exported as a CommonRoad scenario: {e}");
+            }
+        }
+        let ok = exports.iter().filter(|(_, r)| r.is_ok()).count();
+        eprintln!("CommonRoad scenarios: {ok} written under {}", dir.display());
+    }
     Ok(if load_failed {
         ExitCode::from(2)
-    } else if report.passed {
+    } else if report.passed && !export_failed {
         ExitCode::SUCCESS
     } else {
         ExitCode::from(1)

@@ -33,6 +33,7 @@
 
 pub mod animation;
 pub mod atomic;
+pub mod commonroad;
 pub mod markup;
 pub mod mcap;
 pub mod output;

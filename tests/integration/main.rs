@@ -10,6 +10,7 @@ mod bench;
 mod cli;
 mod cli_run;
 mod closed_loop;
+mod commonroad_export;
 mod conflict_coverage;
 mod evaluate_partitions;
 mod feasibility_model;
