@@ -295,6 +295,12 @@ fn variant_trial(suite: &Suite, context: &TrialContext, scenario: usize, index: 
         verdict.push_str(&format!("  ✗ {}: {}\n", f.criterion, f.what));
     }
     if !o.failures.is_empty() {
+        if let Some(shrunk) = o.summary().shrunk {
+            verdict.push_str(&format!(
+                "  shrunk: {} (the recording and picture show the shrunk variant; `.unshrunk` ones the variant as made)\n",
+                shrunk.describe()
+            ));
+        }
         let written = harness::artefacts::write(&context.artefacts, o);
         match &written {
             Ok(a) => {

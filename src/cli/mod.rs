@@ -139,6 +139,12 @@ enum Command {
         /// With --export-commonroad: every variant, not only the failing ones.
         #[arg(long, requires = "export_commonroad")]
         export_commonroad_all: bool,
+        /// Do not shrink failing variants (by default each is shrunk to the smallest deviation from the logged CBV that fails the same way, shown first in its artefacts).
+        #[arg(long)]
+        no_shrink: bool,
+        /// Candidate rollouts a failing variant's shrink may play, at least 1.
+        #[arg(long, value_name = "N", default_value_t = safer::harness::shrink::DEFAULT_SHRINK_BUDGET, value_parser = at_least_one())]
+        shrink_budget: usize,
         /// Only variants and metrics whose test name contains this.
         #[arg(long, value_name = "SUBSTR")]
         filter: Option<String>,
@@ -431,6 +437,8 @@ pub fn main() -> ExitCode {
             artifacts,
             export_commonroad,
             export_commonroad_all,
+            no_shrink,
+            shrink_budget,
             filter,
             jobs,
         } => {
@@ -446,7 +454,8 @@ pub fn main() -> ExitCode {
                     artifacts: &artifacts,
                     commonroad: export_commonroad.as_deref().map(|dir| (dir, export_commonroad_all)),
                 };
-                set_jobs(jobs).and_then(|()| run::run(&suites, outputs, filter.as_deref()))
+                let budget = if no_shrink { 0 } else { shrink_budget };
+                set_jobs(jobs).and_then(|()| run::run(&suites, outputs, filter.as_deref(), budget))
             }
         }
         Command::Realism { scenes, rollouts, json, policy, seed, max_scenes } => {

@@ -188,7 +188,12 @@ fn export_commonroad(dir: &Path, outcome: &harness::VariantOutcome) -> Result<Pa
     Ok(path)
 }
 
-pub(super) fn run(files: &[PathBuf], outputs: RunOutputs<'_>, filter: Option<&str>) -> Result<ExitCode, CliError> {
+pub(super) fn run(
+    files: &[PathBuf],
+    outputs: RunOutputs<'_>,
+    filter: Option<&str>,
+    shrink_budget: usize,
+) -> Result<ExitCode, CliError> {
     let RunOutputs { json, junit, html, artifacts, commonroad } = outputs;
     // Refused before anything runs: a report that cannot be written should not cost a run.
     for out in [json, junit].into_iter().flatten() {
@@ -201,7 +206,7 @@ pub(super) fn run(files: &[PathBuf], outputs: RunOutputs<'_>, filter: Option<&st
     let mut suites: Vec<(PathBuf, Suite)> = Vec::new();
     for file in files {
         match Suite::load(file) {
-            Ok(s) => suites.push((file.clone(), s)),
+            Ok(s) => suites.push((file.clone(), Suite { shrink_budget, ..s })),
             Err(e) => {
                 eprintln!("{:?}", e.to_report());
                 load_failures.push(SuiteLoadFailure { file: file.clone(), message: e.to_string() });
@@ -510,6 +515,9 @@ fn print_report(out: &mut dyn Write, report: &Report) -> std::io::Result<()> {
                         if summary.conflict_reached { "yes" } else { "no" },
                         opt(summary.stage2_min_ttc_s, 1),
                     )?;
+                    if let Some(shrunk) = &summary.shrunk {
+                        writeln!(out, "  {:<width$}  shrunk: {}", "", shrunk.describe())?;
+                    }
                 }
                 VariantEntry::Error { variant, error, .. } => {
                     variants_failed += 1;

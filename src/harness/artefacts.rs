@@ -33,6 +33,10 @@ pub struct Artefacts {
     /// What the witness search found for the ego's collision (`None`: it
     /// did not collide).
     pub witness: Option<WitnessArtefact>,
+    /// For a shrunk variant, the recording and picture of the variant as
+    /// the adversary made it (`seed-K.unshrunk.{mcap,svg}`); the main ones
+    /// show the shrunk variant.
+    pub unshrunk: Option<(PathBuf, PathBuf)>,
 }
 
 /// What the closed-loop feasibility witness found for a stage-2 collision.
@@ -98,9 +102,26 @@ pub fn write(dir: &Path, outcome: &VariantOutcome) -> Result<Artefacts, RecordEr
     let svg = base.with_extension("svg");
     let witness = feasibility_witness(outcome);
     let extra: Vec<NamedTrajectory> = witness.iter().filter_map(WitnessArtefact::path).cloned().collect();
-    record::write_rollout_mcap(&mcap, &outcome.scenario, &outcome.stage2, &extra)?;
-    let picture = record::render_rollout_svg_with(&outcome.scenario, &outcome.stage2, &extra, &SvgOptions::default());
-    record::write_svg(&svg, &picture)?;
+    let write_pair = |mcap: &Path, svg: &Path, rollout: &crate::sim::Rollout, extra: &[NamedTrajectory]| {
+        record::write_rollout_mcap(mcap, &outcome.scenario, rollout, extra)?;
+        let picture = record::render_rollout_svg_with(&outcome.scenario, rollout, extra, &SvgOptions::default());
+        record::write_svg(svg, &picture)
+    };
+    // A shrunk variant is shown first; the escape drawn belongs to the
+    // variant as made, so it goes with the unshrunk files.
+    let unshrunk = match &outcome.shrunk {
+        Some(shrunk) => {
+            let (original_mcap, original_svg) =
+                (base.with_extension("unshrunk.mcap"), base.with_extension("unshrunk.svg"));
+            write_pair(&original_mcap, &original_svg, &outcome.stage2, &extra)?;
+            write_pair(&mcap, &svg, &shrunk.stage2, &[])?;
+            Some((original_mcap, original_svg))
+        }
+        None => {
+            write_pair(&mcap, &svg, &outcome.stage2, &extra)?;
+            None
+        }
+    };
     let stderr = match &outcome.planner_stderr {
         Some(log) => {
             let path = base.with_extension("stderr.txt");
@@ -109,7 +130,7 @@ pub fn write(dir: &Path, outcome: &VariantOutcome) -> Result<Artefacts, RecordEr
         }
         None => None,
     };
-    Ok(Artefacts { mcap, svg, stderr, witness })
+    Ok(Artefacts { mcap, svg, stderr, witness, unshrunk })
 }
 
 /// The artefacts' path under `dir` (without extension) for the variant

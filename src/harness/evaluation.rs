@@ -390,6 +390,7 @@ fn run_one(
             failures: Vec::new(),
             planner_latency: stages.planner_latency,
             planner_stderr: stages.planner_stderr,
+            shrunk: None,
         };
         let written = artefacts::write(dir, &outcome).map_err(HarnessError::Artefacts)?;
         record.artefacts = [Some(written.mcap), Some(written.svg), written.stderr].into_iter().flatten().collect();

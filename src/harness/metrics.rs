@@ -144,7 +144,7 @@ impl VariantTally {
 
 /// The CBV's collisions with anyone but the ego in `stage1`, each as
 /// whether the CBV was at fault.
-fn cbv_background_collisions(scenario: &Scenario, stage1: &Rollout) -> Vec<bool> {
+pub(crate) fn cbv_background_collisions(scenario: &Scenario, stage1: &Rollout) -> Vec<bool> {
     let Some(cbv) = stage1.cbv else { return Vec::new() };
     let Some(body) = stage1.bodies.get(cbv.0) else { return Vec::new() };
     let state = |step: usize, agent: TrackIndex| {
@@ -191,7 +191,7 @@ fn path_digest(positions: impl Iterator<Item = Option<crate::geometry::Point2>>)
 /// Seconds the CBV's centre was off the road in `stage1`, when it started on
 /// it. Past the mapped end of the road (where the recording's map was cut
 /// off) the road is not known to end, so that is not counted.
-fn cbv_off_road_s(scenario: &Scenario, stage1: &Rollout) -> f64 {
+pub(crate) fn cbv_off_road_s(scenario: &Scenario, stage1: &Rollout) -> f64 {
     let Some(cbv) = stage1.cbv else { return 0.0 };
     let mut states = stage1.states.iter().filter_map(|row| row.get(cbv.0).copied().flatten());
     let map = &scenario.map;

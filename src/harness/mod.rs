@@ -23,6 +23,7 @@ pub mod metrics;
 pub mod pipeline;
 pub mod report;
 pub mod review_page;
+pub mod shrink;
 mod stable_hash;
 pub mod suite;
 pub mod trust_region;

@@ -316,10 +316,9 @@ pub fn track_from_rollout(scenario: &Scenario, rollout: &Rollout, agent: TrackIn
 pub fn run(setup: VariantSetup<'_>) -> Result<DualStage, HarnessError> {
     let scenario = setup.scenario;
     let clock = Instant::now();
-    let ego = scenario.ego.ok_or_else(|| crate::sim::SimError::NoEgo(scenario.id.clone()))?;
+    scenario.ego.ok_or_else(|| crate::sim::SimError::NoEgo(scenario.id.clone()))?;
     // A scene without a CBV is refused before anything is simulated.
     scenario.cbv.ok_or_else(|| HarnessError::NoCbv(scenario.id.clone()))?;
-    let start = setup.sim.start_step.unwrap_or(scenario.current_step);
 
     let (stage1, models_time) = stage1(&setup)?;
     let mut profile = VariantProfile {
@@ -332,26 +331,8 @@ pub fn run(setup: VariantSetup<'_>) -> Result<DualStage, HarnessError> {
 
     // Stage 2: the planner under test.
     let stage2_clock = Instant::now();
-    let (stage2, closed_loop) = stage2_simulation(&setup, &stage1)?;
-    let end = setup.sim.end_step.unwrap_or(scenario.num_steps().saturating_sub(1));
-    let context = RolloutContext {
-        scenario: scenario.clone(),
-        ego,
-        start_step: start,
-        end_step: end,
-        variant: setup.variant.map(String::from),
-        seed: Some(setup.seed),
-    };
-    let mut planner = make_planner(setup.planner, context)?;
-    let mut timed = Timed { inner: planner.as_mut(), times_ms: Vec::new() };
-    let stage2 = stage2.run(&mut timed);
-    let planner_latency = PlannerLatency::of(&timed.times_ms, timed.startup());
-    profile.stage2_planner_s = timed.times_ms.iter().sum::<f64>() / 1e3;
-    // Ends an external process before the next variant starts one, and
-    // only then reads its stderr: lines still in the pipe are not lost.
-    let planner_stderr = timed.end_rollout();
-    drop(planner);
-    model_error(&setup, closed_loop.as_ref())?;
+    let PlayedStage2 { stage2, planner_latency, planner_stderr, planner_s } = play_stage2(&setup, &stage1)?;
+    profile.stage2_planner_s = planner_s;
     profile.stage2_s = stage2_clock.elapsed().as_secs_f64();
 
     let verdict = Stage2Verdict::of(&stage2);
@@ -373,6 +354,48 @@ pub fn run(setup: VariantSetup<'_>) -> Result<DualStage, HarnessError> {
         planner_latency,
         planner_stderr,
     })
+}
+
+/// A stage 2 played: the rollout and what the planner cost.
+pub struct PlayedStage2 {
+    /// The rollout.
+    pub stage2: Rollout,
+    /// The planner's time per observation.
+    pub planner_latency: Option<PlannerLatency>,
+    /// What it wrote to its error stream.
+    pub planner_stderr: Option<String>,
+    /// Its total time answering, s.
+    pub planner_s: f64,
+}
+
+/// Stage 2 of `setup` after `stage1`: the planner under test drives the
+/// ego, the CBV replays its stage-1 path or is driven again by the method
+/// (`setup.stage2_cbv`).
+pub fn play_stage2(setup: &VariantSetup<'_>, stage1: &Rollout) -> Result<PlayedStage2, HarnessError> {
+    let scenario = setup.scenario;
+    let ego = scenario.ego.ok_or_else(|| crate::sim::SimError::NoEgo(scenario.id.clone()))?;
+    let start = setup.sim.start_step.unwrap_or(scenario.current_step);
+    let (stage2, closed_loop) = stage2_simulation(setup, stage1)?;
+    let end = setup.sim.end_step.unwrap_or(scenario.num_steps().saturating_sub(1));
+    let context = RolloutContext {
+        scenario: scenario.clone(),
+        ego,
+        start_step: start,
+        end_step: end,
+        variant: setup.variant.map(String::from),
+        seed: Some(setup.seed),
+    };
+    let mut planner = make_planner(setup.planner, context)?;
+    let mut timed = Timed { inner: planner.as_mut(), times_ms: Vec::new() };
+    let stage2 = stage2.run(&mut timed);
+    let planner_latency = PlannerLatency::of(&timed.times_ms, timed.startup());
+    let planner_s = timed.times_ms.iter().sum::<f64>() / 1e3;
+    // Ends an external process before the next variant starts one, and
+    // only then reads its stderr: lines still in the pipe are not lost.
+    let planner_stderr = timed.end_rollout();
+    drop(planner);
+    model_error(setup, closed_loop.as_ref())?;
+    Ok(PlayedStage2 { stage2, planner_latency, planner_stderr, planner_s })
 }
 
 /// Stage 1 alone: the ego replays its log while `setup`'s method drives

@@ -129,6 +129,7 @@ pub(crate) mod tests_support {
             failures,
             planner_latency: None,
             planner_stderr: None,
+            shrunk: None,
         }
     }
 
@@ -142,6 +143,7 @@ pub(crate) mod tests_support {
                 svg: format!("out/{suite}/crossing/seed-1.svg").into(),
                 stderr: None,
                 witness: None,
+                unshrunk: None,
             })),
             name,
         }

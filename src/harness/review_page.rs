@@ -351,6 +351,15 @@ fn failing_variant_html(
         let _ = write!(h, "<li>✗ <b>{}</b>: {}</li>", esc(&f.criterion), esc(&f.what));
     }
     let s = o.summary();
+    if let Some(shrunk) = &s.shrunk {
+        let _ = write!(
+            h,
+            "<li>shrunk: {}; the recording and picture show the shrunk variant ({}), the variant as made is \
+             beside them (<code>.unshrunk</code>)</li>",
+            esc(&shrunk.describe()),
+            esc(&shrunk.failure)
+        );
+    }
     let _ = writeln!(
         h,
         "</ul>\n<p class=\"what\">stage 1 (ego replays its log, the adversary drives CBV {}): CBV hit the ego: {}, \

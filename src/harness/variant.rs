@@ -8,6 +8,7 @@ use super::acceptance::{self, AcceptanceFailure};
 use super::methods::{BackgroundDriver, MapEncodings, MethodSettings, ModelSet};
 use super::metrics::VariantTally;
 use super::pipeline::{self, PlannerLatency, Stage2Verdict, VariantSetup};
+use super::shrink::{FailingVariant, shrink};
 use super::stable_hash::fnv1a;
 use super::{HarnessError, Suite, SuiteScenario};
 use crate::eval::ConflictReach;
@@ -47,6 +48,9 @@ pub struct VariantOutcome {
     pub planner_latency: Option<PlannerLatency>,
     /// What an external planner wrote to stderr in stage 2.
     pub planner_stderr: Option<String>,
+    /// The failing variant shrunk (see [`super::shrink`]): the smallest
+    /// deviation from the log that fails the planner the same way.
+    pub shrunk: Option<super::shrink::Shrunk>,
 }
 
 impl VariantOutcome {
@@ -90,7 +94,47 @@ impl VariantOutcome {
                 .unwrap_or_default(),
             passed: self.failures.is_empty(),
             failures: self.failures.iter().map(|f| format!("{}: {}", f.criterion, f.what)).collect(),
+            shrunk: self.shrunk.as_ref().map(|s| ShrunkSummary {
+                adversarial_tokens: [s.before.adversarial_tokens, s.after.adversarial_tokens],
+                max_distance_from_log_m: [round(s.before.max_distance_m), round(s.after.max_distance_m)],
+                tokens_changed: s.tokens_changed,
+                candidates: s.candidates,
+                failure: s.failures.first().map(|f| format!("{}: {}", f.criterion, f.what)).unwrap_or_default(),
+            }),
         }
+    }
+}
+
+/// What a failing variant's shrink found, as reports and snapshots carry it.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct ShrunkSummary {
+    /// Adversarial tokens (periods whose token is not the log's), before
+    /// and after.
+    pub adversarial_tokens: [usize; 2],
+    /// The CBV's largest distance from its recorded path, before and after,
+    /// m (2 decimals).
+    pub max_distance_from_log_m: [f64; 2],
+    /// Periods given back to the log.
+    pub tokens_changed: usize,
+    /// Candidate rollouts played.
+    pub candidates: usize,
+    /// The shrunk variant's first failure (the same criterion as the
+    /// variant's).
+    pub failure: String,
+}
+
+impl ShrunkSummary {
+    /// "9 → 3 adversarial tokens, 4.12 → 1.20 m from the logged CBV path
+    /// (12 candidate rollouts)".
+    pub fn describe(&self) -> String {
+        format!(
+            "{} → {} adversarial tokens, {:.2} → {:.2} m from the logged CBV path ({} candidate rollouts)",
+            self.adversarial_tokens[0],
+            self.adversarial_tokens[1],
+            self.max_distance_from_log_m[0],
+            self.max_distance_from_log_m[1],
+            self.candidates
+        )
     }
 }
 
@@ -136,6 +180,9 @@ pub struct VariantSummary {
     pub passed: bool,
     /// The failed criteria.
     pub failures: Vec<String>,
+    /// A failing variant shrunk: the smallest deviation from the log that
+    /// fails the same way (`None`: passed, not shrunk, or nothing kept).
+    pub shrunk: Option<ShrunkSummary>,
 }
 
 /// The closed-loop witness's verdict on a stage-2 collision, as reports
@@ -202,7 +249,7 @@ pub fn run_variant(suite: &Suite, scenario: &SuiteScenario, index: u32) -> Resul
     let sim = SimConfig { background: spec.adversary.background, ..SimConfig::default() };
     let models = ModelSet::shipped();
     let name = suite.variant_name(scenario, index);
-    let stages = pipeline::run(VariantSetup {
+    let setup = VariantSetup {
         scenario: &base,
         settings: MethodSettings {
             method: spec.adversary.method,
@@ -219,9 +266,22 @@ pub fn run_variant(suite: &Suite, scenario: &SuiteScenario, index: u32) -> Resul
         variant: Some(&name),
         escape: Some(EscapeBudget::default()),
         ego_limits: Some(spec.acceptance.variant.vehicle_limits),
-    })?;
+    };
+    let stages = pipeline::run(setup)?;
     let escape = stages.escape.as_ref().map(CollisionEscape::of);
     let failures = acceptance::check(&spec.acceptance.variant, &stages.stage2, &base.map, stages.min_ttc_s, escape);
+    let shrunk = if failures.is_empty() || suite.shrink_budget == 0 {
+        None
+    } else {
+        let failing = FailingVariant {
+            setup,
+            stage1: &stages.stage1,
+            stage2: &stages.stage2,
+            failures: &failures,
+            criteria: &spec.acceptance.variant,
+        };
+        shrink(&failing, suite.shrink_budget)?
+    };
     Ok(VariantOutcome {
         name,
         seed,
@@ -236,5 +296,6 @@ pub fn run_variant(suite: &Suite, scenario: &SuiteScenario, index: u32) -> Resul
         failures,
         planner_latency: stages.planner_latency,
         planner_stderr: stages.planner_stderr,
+        shrunk,
     })
 }

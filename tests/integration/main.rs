@@ -3,6 +3,7 @@
 //! `$SAFER_DATA_DIR`) fail loudly when it is missing; see [`shared_data`].
 
 mod shared_data;
+mod shrink;
 
 mod adversary;
 mod bad_input;
