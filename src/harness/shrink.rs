@@ -202,7 +202,12 @@ fn driven_tokens(rollout: &Rollout, cbv: TrackIndex) -> Option<Vec<Token>> {
             TokenGrid::rollout(&from, t)
                 .iter()
                 .zip(targets)
-                .all(|(s, target)| (s.position - target.position).norm() < 1e-6)
+                .all(|(s, target)| {
+                    // Heading too: a standing CBV's position is the same under every yaw rate.
+                    (s.position - target.position).norm() < 1e-6
+                        && crate::geometry::wrap_angle(s.heading_rad - target.heading_rad).abs() < 1e-6
+                        && (s.speed_mps - KinematicState::from_agent_state(target).speed_mps).abs() < 1e-6
+                })
         };
         tokens.push((0..VOCABULARY_SIZE as u16).map(Token).find(|&t| matches(t))?);
     }
