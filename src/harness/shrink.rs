@@ -199,15 +199,12 @@ fn driven_tokens(rollout: &Rollout, cbv: TrackIndex) -> Option<Vec<Token>> {
         let from = KinematicState::from_agent_state(&states[k]);
         let targets = &states[k + 1..(k + 1 + TOKEN_PERIOD_STEPS).min(states.len())];
         let matches = |t: Token| {
-            TokenGrid::rollout(&from, t)
-                .iter()
-                .zip(targets)
-                .all(|(s, target)| {
-                    // Heading too: a standing CBV's position is the same under every yaw rate.
-                    (s.position - target.position).norm() < 1e-6
-                        && crate::geometry::wrap_angle(s.heading_rad - target.heading_rad).abs() < 1e-6
-                        && (s.speed_mps - KinematicState::from_agent_state(target).speed_mps).abs() < 1e-6
-                })
+            TokenGrid::rollout(&from, t).iter().zip(targets).all(|(s, target)| {
+                // Heading too: a standing CBV's position is the same under every yaw rate.
+                (s.position - target.position).norm() < 1e-6
+                    && crate::geometry::wrap_angle(s.heading_rad - target.heading_rad).abs() < 1e-6
+                    && (s.speed_mps - KinematicState::from_agent_state(target).speed_mps).abs() < 1e-6
+            })
         };
         tokens.push((0..VOCABULARY_SIZE as u16).map(Token).find(|&t| matches(t))?);
     }
