@@ -38,7 +38,7 @@ const GOAL_SIZE_M: (f64, f64) = (10.0, 4.0);
 /// CommonRoad 2020a document.
 pub fn commonroad_xml(scenario: &Scenario, rollout: &Rollout, variant: &str) -> Result<String, RecordError> {
     let inconsistent = |what: String| RecordError::InconsistentRollout { scenario: scenario.id.clone(), what };
-    if !(rollout.dt_s > 0.0) {
+    if rollout.dt_s.is_nan() || rollout.dt_s <= 0.0 {
         return Err(inconsistent(format!("step length {} s is not positive", rollout.dt_s)));
     }
     let ego = rollout.ego.0;

@@ -467,7 +467,7 @@ impl Loaded<SuiteSpec> {
             if let Some((kind, _)) = required.iter().find(|&(_, &min)| min == 0) {
                 return Err(self.invalid_at(
                     path,
-                    &format!("`{}: 0` requires nothing: give at least 1, or remove the kind", kind.name()),
+                    format!("`{}: 0` requires nothing: give at least 1, or remove the kind", kind.name()),
                 ));
             }
         }
