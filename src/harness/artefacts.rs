@@ -114,7 +114,22 @@ pub fn write(dir: &Path, outcome: &VariantOutcome) -> Result<Artefacts, RecordEr
             let (original_mcap, original_svg) =
                 (base.with_extension("unshrunk.mcap"), base.with_extension("unshrunk.svg"));
             write_pair(&original_mcap, &original_svg, &outcome.stage2, &extra)?;
-            write_pair(&mcap, &svg, &shrunk.stage2, &[])?;
+            let dt_s = shrunk.stage2.dt_s;
+            let escape = NamedTrajectory {
+                name: format!(
+                    "an escape keeping {:.2} m from every agent, the CBV on its shrunk path",
+                    shrunk.escape_clearance_m
+                ),
+                role: TrajectoryRole::FeasibilityWitness,
+                body: Some(outcome.scenario.track(shrunk.stage2.ego).body()),
+                poses: shrunk
+                    .escape
+                    .iter()
+                    .enumerate()
+                    .map(|(k, s)| TimedPose { time_s: k as f64 * dt_s, pose: s.pose() })
+                    .collect(),
+            };
+            write_pair(&mcap, &svg, &shrunk.stage2, &[escape])?;
             Some((original_mcap, original_svg))
         }
         None => {

@@ -31,7 +31,7 @@ use super::acceptance::{self, AcceptanceFailure};
 use super::metrics::{cbv_background_collisions, cbv_off_road_s};
 use super::pipeline::{self, Stage2Cbv, VariantSetup};
 use crate::eval::min_time_to_collision;
-use crate::eval::witness::{RoadKeeping, WitnessBudget, search_rollout_witness};
+use crate::eval::witness::{RoadKeeping, Witness, WitnessBudget, search_rollout_witness};
 use crate::motion::inversion::best_token;
 use crate::motion::tokens::VOCABULARY_SIZE;
 use crate::motion::{KinematicState, TOKEN_PERIOD_STEPS, Token, TokenGrid};
@@ -68,6 +68,12 @@ pub struct Shrunk {
     pub candidates: usize,
     /// Wall time of the search, s.
     pub time_s: f64,
+    /// The escape the witness search found from the shrunk conflict: the
+    /// ego's states, one per step from the start, touching nobody while
+    /// the CBV drives the shrunk path (it does not react).
+    pub escape: Vec<AgentState>,
+    /// That escape's smallest clearance to any agent, m.
+    pub escape_clearance_m: f64,
 }
 
 /// One period of a CBV script.
@@ -169,9 +175,14 @@ pub fn shrink(variant: &FailingVariant<'_>, budget: usize) -> Result<Option<Shru
         }
     }
     // The smallest kept script whose conflict has an escape.
-    let escapable =
-        |r: &Rollout| search_rollout_witness(scenario, r, RoadKeeping::Centre, WitnessBudget::default()).is_found();
-    let Some((script, stage2, failures)) = kept.into_iter().rev().find(|(_, r, _)| escapable(r)) else {
+    let escape_from =
+        |r: &Rollout| match search_rollout_witness(scenario, r, RoadKeeping::Centre, WitnessBudget::default()) {
+            Witness::Found { trajectory, min_clearance_m, .. } => Some((trajectory, min_clearance_m)),
+            Witness::NoneWithinBudget { .. } => None,
+        };
+    let Some(((script, stage2, failures), (escape, escape_clearance_m))) =
+        kept.into_iter().rev().find_map(|k| escape_from(&k.1).map(|e| (k, e)))
+    else {
         return Ok(None);
     };
     let before = path_of(&original).1;
@@ -184,6 +195,8 @@ pub fn shrink(variant: &FailingVariant<'_>, budget: usize) -> Result<Option<Shru
         tokens_changed: original.iter().zip(&script).filter(|(a, b)| a != b).count(),
         candidates: candidates.get(),
         time_s: clock.elapsed().as_secs_f64(),
+        escape,
+        escape_clearance_m,
     }))
 }
 
