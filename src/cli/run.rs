@@ -180,9 +180,7 @@ pub(super) struct RunOutputs<'a> {
 /// Writes `outcome`'s stage 2 as a CommonRoad scenario under `dir`, at the
 /// variant's artefact path with `.xml`.
 fn export_commonroad(dir: &Path, outcome: &harness::VariantOutcome) -> Result<PathBuf, String> {
-    let path = dir.join(harness::artefacts::relative_path(dir, &outcome.name).map_err(|e| e.to_string())?);
-    let path = path.with_extension("xml");
-    safer::record::create_parent_folder(&path).map_err(|e| e.to_string())?;
+    let path = harness::artefacts::base_path(dir, &outcome.name).map_err(|e| e.to_string())?.with_extension("xml");
     safer::record::commonroad::write_commonroad(&path, &outcome.scenario, &outcome.stage2, &outcome.name)
         .map_err(|e| e.to_string())?;
     Ok(path)

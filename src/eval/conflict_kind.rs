@@ -171,9 +171,8 @@ pub fn classify_conflict(
     };
     let from_elsewhere = !cbv_then.is_empty() && !ego_then.is_empty() && !connected(&cbv_then, &ego_lanes);
     if from_elsewhere {
-        let cbv_next = successors(&cbv_then);
-        let runs_into_ego = cbv_next.iter().any(|n| ego_lanes.contains(n))
-            || cbv_next.iter().any(|n| successors(&ego_then).contains(n));
+        let (cbv_next, ego_next) = (successors(&cbv_then), successors(&ego_then));
+        let runs_into_ego = cbv_next.iter().any(|n| ego_lanes.contains(n) || ego_next.contains(n));
         if runs_into_ego {
             return Some(ConflictKind::Merge);
         }

@@ -79,25 +79,40 @@ pub fn feasibility_witness(outcome: &VariantOutcome) -> Option<WitnessArtefact> 
     let EscapeVerdict::Verified { trajectory, min_gap_m } = &search.verdict else {
         return Some(WitnessArtefact::NoneWithinBudget(CollisionEscape::of(search)));
     };
-    let dt_s = outcome.stage2.dt_s;
-    let body = outcome.scenario.track(outcome.stage2.ego).body();
-    let poses =
-        trajectory.iter().enumerate().map(|(k, s)| TimedPose { time_s: k as f64 * dt_s, pose: s.pose() }).collect();
     let name = format!("an escape keeping {min_gap_m:.2} m from every agent, the CBV reacting");
-    Some(WitnessArtefact::Found(NamedTrajectory {
+    Some(WitnessArtefact::Found(escape_trajectory(outcome, &outcome.stage2, trajectory, name)))
+}
+
+/// An ego escape from `rollout`'s start, drawn beside it: `states` one per
+/// step, the ego's body.
+fn escape_trajectory(
+    outcome: &VariantOutcome,
+    rollout: &crate::sim::Rollout,
+    states: &[crate::scenario::AgentState],
+    name: String,
+) -> NamedTrajectory {
+    let dt_s = rollout.dt_s;
+    NamedTrajectory {
         name,
         role: TrajectoryRole::FeasibilityWitness,
-        body: Some(body),
-        poses,
-    }))
+        body: Some(outcome.scenario.track(rollout.ego).body()),
+        poses: states.iter().enumerate().map(|(k, s)| TimedPose { time_s: k as f64 * dt_s, pose: s.pose() }).collect(),
+    }
+}
+
+/// Where `variant`'s artefacts go under `dir`, without extension
+/// ([`relative_path`]), its folder created.
+pub fn base_path(dir: &Path, variant: &str) -> Result<PathBuf, RecordError> {
+    let base = dir.join(relative_path(dir, variant)?);
+    if let Some(parent) = base.parent() {
+        std::fs::create_dir_all(parent).map_err(|source| RecordError::Io { path: parent.to_path_buf(), source })?;
+    }
+    Ok(base)
 }
 
 /// Writes the artefacts of `outcome` under `dir`.
 pub fn write(dir: &Path, outcome: &VariantOutcome) -> Result<Artefacts, RecordError> {
-    let base = dir.join(relative_path(dir, &outcome.name)?);
-    if let Some(parent) = base.parent() {
-        std::fs::create_dir_all(parent).map_err(|source| RecordError::Io { path: parent.to_path_buf(), source })?;
-    }
+    let base = base_path(dir, &outcome.name)?;
     let mcap = base.with_extension("mcap");
     let svg = base.with_extension("svg");
     let witness = feasibility_witness(outcome);
@@ -114,21 +129,11 @@ pub fn write(dir: &Path, outcome: &VariantOutcome) -> Result<Artefacts, RecordEr
             let (original_mcap, original_svg) =
                 (base.with_extension("unshrunk.mcap"), base.with_extension("unshrunk.svg"));
             write_pair(&original_mcap, &original_svg, &outcome.stage2, &extra)?;
-            let dt_s = shrunk.stage2.dt_s;
-            let escape = NamedTrajectory {
-                name: format!(
-                    "an escape keeping {:.2} m from every agent, the CBV on its shrunk path",
-                    shrunk.escape_clearance_m
-                ),
-                role: TrajectoryRole::FeasibilityWitness,
-                body: Some(outcome.scenario.track(shrunk.stage2.ego).body()),
-                poses: shrunk
-                    .escape
-                    .iter()
-                    .enumerate()
-                    .map(|(k, s)| TimedPose { time_s: k as f64 * dt_s, pose: s.pose() })
-                    .collect(),
-            };
+            let name = format!(
+                "an escape keeping {:.2} m from every agent, the CBV on its shrunk path",
+                shrunk.escape_clearance_m
+            );
+            let escape = escape_trajectory(outcome, &shrunk.stage2, &shrunk.escape, name);
             write_pair(&mcap, &svg, &shrunk.stage2, &[escape])?;
             Some((original_mcap, original_svg))
         }

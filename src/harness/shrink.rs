@@ -210,16 +210,8 @@ fn driven_tokens(rollout: &Rollout, cbv: TrackIndex) -> Option<Vec<Token>> {
     let mut tokens = Vec::new();
     for k in (0..states.len().saturating_sub(1)).step_by(TOKEN_PERIOD_STEPS) {
         let from = KinematicState::from_agent_state(&states[k]);
-        let targets = &states[k + 1..(k + 1 + TOKEN_PERIOD_STEPS).min(states.len())];
-        let matches = |t: Token| {
-            TokenGrid::rollout(&from, t).iter().zip(targets).all(|(s, target)| {
-                // Heading too: a standing CBV's position is the same under every yaw rate.
-                (s.position - target.position).norm() < 1e-6
-                    && crate::geometry::wrap_angle(s.heading_rad - target.heading_rad).abs() < 1e-6
-                    && (s.speed_mps - KinematicState::from_agent_state(target).speed_mps).abs() < 1e-6
-            })
-        };
-        tokens.push((0..VOCABULARY_SIZE as u16).map(Token).find(|&t| matches(t))?);
+        let period = &states[k + 1..(k + 1 + TOKEN_PERIOD_STEPS).min(states.len())];
+        tokens.push((0..VOCABULARY_SIZE as u16).map(Token).find(|&t| TokenGrid::reproduces(&from, t, period))?);
     }
     Some(tokens)
 }

@@ -100,8 +100,10 @@ pub fn profile_variant(
             continue;
         };
         let state = |k: usize| stage1.states.get(k).and_then(|row| row.get(cbv.0).copied().flatten());
-        let driven_rank = match (state(k), state(k + TOKEN_PERIOD_STEPS)) {
-            (Some(now), Some(next)) => rank_of_driven_token(&now, &next, &logits, request.trust_region),
+        // The whole next period, the CBV present throughout.
+        let period: Option<Vec<_>> = (k + 1..=k + TOKEN_PERIOD_STEPS).map(state).collect();
+        let driven_rank = match (state(k), period) {
+            (Some(now), Some(period)) => rank_of_driven_token(&now, &period, &logits, request.trust_region),
             _ => None,
         };
         profiles.push(BoundaryProfile {
@@ -196,13 +198,11 @@ pub fn summarise(profiles: &[BoundaryProfile], methods: &[AdversaryMethod]) -> V
             let ps: Vec<&TrustRegionProfile> = engaged.iter().map(|b| &b.profile).collect();
             let ranks: Vec<usize> = engaged.iter().filter_map(|b| b.driven_rank).collect();
             // Boundaries followed by another one with the CBV present.
+            let at: std::collections::HashSet<(&str, u32, usize)> =
+                engaged.iter().map(|b| (b.scenario.as_str(), b.seed, b.step)).collect();
             let followed: Vec<&&BoundaryProfile> = engaged
                 .iter()
-                .filter(|b| {
-                    engaged
-                        .iter()
-                        .any(|n| n.scenario == b.scenario && n.seed == b.seed && n.step == b.step + TOKEN_PERIOD_STEPS)
-                })
+                .filter(|b| at.contains(&(b.scenario.as_str(), b.seed, b.step + TOKEN_PERIOD_STEPS)))
                 .collect();
             let n = ps.len() as f64;
             let mean = |f: &dyn Fn(&TrustRegionProfile) -> f64| {

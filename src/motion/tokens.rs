@@ -99,6 +99,19 @@ impl TokenGrid {
         (0..VOCABULARY_SIZE as u16).map(Token)
     }
 
+    /// Whether holding `token` from `from` passes through `states`, the
+    /// states after the period's first `states.len()` steps: positions
+    /// within 1e-6 m, headings within 1e-9 rad, speeds within 1e-6 m/s.
+    /// Heading and speed count because a standing car's position is the
+    /// same under every yaw rate. How a rollout's token is read back.
+    pub fn reproduces(from: &KinematicState, token: Token, states: &[crate::scenario::AgentState]) -> bool {
+        Self::rollout(from, token).iter().zip(states).all(|(s, target)| {
+            (s.position - target.position).norm() < 1e-6
+                && crate::geometry::wrap_angle(s.heading_rad - target.heading_rad).abs() < 1e-9
+                && (s.speed_mps - KinematicState::from_agent_state(target).speed_mps).abs() < 1e-6
+        })
+    }
+
     /// Holds `token` for one token period from `state`; returns the state
     /// after each of the 5 simulator steps.
     pub fn rollout(state: &KinematicState, token: Token) -> [KinematicState; TOKEN_PERIOD_STEPS] {

@@ -105,16 +105,13 @@ pub fn profile_trust_region(
 }
 
 /// Where in the top `n` of `logits` the token lies that took the CBV from
-/// `now` to `next` one token period later (rank 0: the likeliest), or
-/// `None` when no token of the region did (the plausibility fallback chose
-/// from outside it, or something else drove the CBV).
-pub fn rank_of_driven_token(now: &AgentState, next: &AgentState, logits: &[f32], n: usize) -> Option<usize> {
-    let tokens = top_tokens(logits, n.max(1));
-    token_rollouts(now, &tokens).iter().position(|r| {
-        r.last().is_some_and(|end| {
-            (end.position - next.position).norm() < 1e-6 && (end.heading_rad - next.heading_rad).abs() < 1e-9
-        })
-    })
+/// `now` through `period` (its states after each step of the token period;
+/// rank 0: the likeliest), or `None` when no token of the region did (the
+/// plausibility fallback chose from outside it, or something else drove the
+/// CBV).
+pub fn rank_of_driven_token(now: &AgentState, period: &[AgentState], logits: &[f32], n: usize) -> Option<usize> {
+    let from = KinematicState::from_agent_state(now);
+    top_tokens(logits, n.max(1)).into_iter().position(|t| TokenGrid::reproduces(&from, t, period))
 }
 
 #[cfg(test)]
@@ -167,10 +164,10 @@ mod tests {
         let logits = logits(&liked);
         let now = car(0.0, 0.0, 10.0).unwrap();
         let third = top_tokens(&logits, 4)[2];
-        let next = *token_rollouts(&now, &[third])[0].last().unwrap();
-        assert_eq!(rank_of_driven_token(&now, &next, &logits, 4), Some(2));
+        let period = token_rollouts(&now, &[third]).remove(0);
+        assert_eq!(rank_of_driven_token(&now, &period, &logits, 4), Some(2));
         // Outside a region of two.
-        assert_eq!(rank_of_driven_token(&now, &next, &logits, 2), None);
+        assert_eq!(rank_of_driven_token(&now, &period, &logits, 2), None);
     }
 
     #[test]
