@@ -365,6 +365,24 @@ enum Command {
         /// Samples per shard, at least 1.
         #[arg(long, default_value_t = 50_000, value_parser = at_least_one())]
         shard_size: usize,
+        /// Synthetic drivers keep their lane and go straight at junctions
+        /// (the first shipped prior's data) instead of turning, changing
+        /// lanes and accepting gaps.
+        #[arg(long)]
+        no_driver_choices: bool,
+        /// Chance that a training scene's token reconstruction applies a
+        /// perturbed token in a period (0 turns the drift off); held-out
+        /// scenes never drift.
+        #[arg(long, default_value_t = 0.3)]
+        token_drift: f64,
+        /// Largest token perturbation, in bins per axis.
+        #[arg(long, default_value_t = 3)]
+        token_drift_bins: usize,
+        /// Accept recorded scenes under any licence (Waymo, Argoverse) for
+        /// a model that is measured and never shipped: the shards say so and
+        /// `training/prior/export.py` refuses to write it into `models/`.
+        #[arg(long)]
+        evaluation_only: bool,
         /// Replace shards already in the output folder.
         #[arg(long)]
         force: bool,
@@ -551,17 +569,31 @@ pub fn main() -> ExitCode {
                 labels.as_deref(),
             )
         }
-        Command::PriorDataset { recorded, out, template_scenes, recorded_map_scenes, seed, shard_size, force } => {
-            prior_dataset::run(&prior_dataset::DatasetRequest {
-                recorded,
-                out,
-                template_scenes,
-                recorded_map_scenes,
-                seed,
-                shard_size,
-                force,
-            })
-        }
+        Command::PriorDataset {
+            recorded,
+            out,
+            template_scenes,
+            recorded_map_scenes,
+            seed,
+            shard_size,
+            no_driver_choices,
+            token_drift,
+            token_drift_bins,
+            evaluation_only,
+            force,
+        } => prior_dataset::run(&prior_dataset::DatasetRequest {
+            recorded,
+            out,
+            template_scenes,
+            recorded_map_scenes,
+            seed,
+            shard_size,
+            driver_choices: !no_driver_choices,
+            token_drift,
+            token_drift_bins,
+            evaluation_only,
+            force,
+        }),
     };
     match result {
         Ok(code) => code,

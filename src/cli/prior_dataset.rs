@@ -8,8 +8,11 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use super::{CliError, scene_paths};
-use safer::datasets::prior_shards::{Calibration, SyntheticPlan, shard_scenes, synthetic_scenes, write_shards};
-use safer::datasets::{DatasetError, load_training_scenes};
+use safer::datasets::prior_shards::{
+    Calibration, ShardOptions, SyntheticPlan, shard_scenes, synthetic_scenes, write_shards,
+};
+use safer::datasets::{DatasetError, TrainingPurpose, load_scenes_for};
+use safer::models::prior_dataset::TokenDrift;
 use safer::motion::tokens::TOKEN_PERIOD_STEPS;
 use safer::sim::synthetic::SpeedSample;
 
@@ -28,6 +31,14 @@ pub struct DatasetRequest {
     pub seed: u64,
     /// Samples per shard (at least 1).
     pub shard_size: usize,
+    /// Whether synthetic drivers turn, change lanes and accept gaps.
+    pub driver_choices: bool,
+    /// Chance of a perturbed token per period in training scenes (0: no drift).
+    pub token_drift: f64,
+    /// Largest perturbation, bins per axis.
+    pub token_drift_bins: usize,
+    /// Accept any licence, for a model that is never shipped.
+    pub evaluation_only: bool,
     /// Replace shards already in `out`.
     pub force: bool,
 }
@@ -62,19 +73,33 @@ pub fn run(request: &DatasetRequest) -> Result<ExitCode, CliError> {
         std::fs::remove_file(p)?;
     }
 
-    let recorded = load_training_scenes(&scene_paths(&request.recorded)?)?;
+    if !(0.0..=1.0).contains(&request.token_drift) {
+        return Err(CliError::Usage(format!(
+            "--token-drift must be a probability in [0, 1], got {}",
+            request.token_drift
+        )));
+    }
+    let purpose = if request.evaluation_only { TrainingPurpose::EvaluationOnly } else { TrainingPurpose::Shipped };
+    let recorded = load_scenes_for(&scene_paths(&request.recorded)?, purpose)?;
     eprintln!("recorded scenes: {}", recorded.len());
     let plan = SyntheticPlan {
         template_scenes: request.template_scenes,
         recorded_map_scenes: request.recorded_map_scenes,
         seed: request.seed,
+        driver_choices: request.driver_choices,
     };
     let (synthetic, calibration) = synthetic_scenes(&recorded, plan);
     print_calibration(&calibration);
 
     // Samples, written shard by shard in a fixed order (recorded, then synthetic).
     let scenes = shard_scenes(&recorded, &synthetic);
-    let totals = write_shards(&scenes, &request.out, request.shard_size, |path, samples| {
+    let drift = (request.token_drift > 0.0 && request.token_drift_bins > 0).then_some(TokenDrift {
+        probability: request.token_drift,
+        max_bins: request.token_drift_bins,
+        seed: request.seed,
+    });
+    let options = ShardOptions { shard_size: request.shard_size, drift, purpose };
+    let totals = write_shards(&scenes, &request.out, options, |path, samples| {
         eprintln!("wrote {} ({samples} samples)", path.display());
     })?;
     println!(
@@ -92,23 +117,30 @@ pub fn run(request: &DatasetRequest) -> Result<ExitCode, CliError> {
 
 fn print_calibration(calibration: &Calibration) {
     println!("calibration (moving vehicles, 0.5 s token periods):");
-    println!("  {:<22} {:>10} {:>10} {:>10} {:>12}", "source", "samples", "speed p50", "speed p90", "accel std");
+    println!(
+        "  {:<22} {:>10} {:>10} {:>10} {:>12} {:>14}",
+        "source", "samples", "speed p50", "speed p90", "accel std", "steering ≥0.1"
+    );
     for (name, k) in [("recorded (NGSIM)", &calibration.recorded), ("synthetic", &calibration.synthetic)] {
         let q = SpeedSample::new(k.speeds_mps.clone());
         let accel_std = k.accel_std_mps2().map_or("n/a".to_string(), |s| format!("{s:.2}"));
+        let steering = k.steering_share(0.1).map_or("n/a".to_string(), |s| format!("{s:.3}"));
         println!(
-            "  {:<22} {:>10} {:>8.1} m/s {:>6.1} m/s {:>8} m/s²",
+            "  {:<22} {:>10} {:>8.1} m/s {:>6.1} m/s {:>8} m/s² {:>14}",
             name,
             k.len(),
             q.quantile(0.5),
             q.quantile(0.9),
-            accel_std
+            accel_std,
+            steering
         );
     }
     let show = |j: Option<f64>| j.map_or("n/a".to_string(), |j| format!("{j:.3}"));
     println!(
-        "  JSD synthetic vs recorded: speed {} (35 bins of 1 m/s), accel {} (20 bins of 0.5 m/s²)",
+        "  JSD synthetic vs recorded: speed {} (35 bins of 1 m/s), accel {} (20 bins of 0.5 m/s²), yaw rate {} (24 bins of 0.05 rad/s)",
         show(calibration.speed_jsd),
-        show(calibration.accel_jsd)
+        show(calibration.accel_jsd),
+        show(calibration.yaw_rate_jsd)
     );
+    println!("  (steering ≥0.1: share of token periods with a yaw rate of at least 0.1 rad/s either way)");
 }

@@ -57,15 +57,35 @@ pub enum DatasetError {
     },
 }
 
+/// What a model trained on the data may become.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum TrainingPurpose {
+    /// A model shipped in `models/`: only data whose licence allows it.
+    Shipped,
+    /// A model for measurements only, never committed: any licence (the
+    /// shards say so, and the exporter refuses to write it into `models/`).
+    EvaluationOnly,
+}
+
 /// The scenes in `paths` (each file may hold several), sorted by id; fails
 /// on the first scene (in path order) whose licence does not allow training
 /// the shipped models.
 pub fn load_training_scenes(paths: &[PathBuf]) -> Result<Vec<Scenario>, DatasetError> {
+    load_scenes_for(paths, TrainingPurpose::Shipped)
+}
+
+/// The scenes in `paths`, sorted by id, for a model of `purpose`: a
+/// shipped model's data fails on the first scene whose licence does not
+/// allow it.
+pub fn load_scenes_for(paths: &[PathBuf], purpose: TrainingPurpose) -> Result<Vec<Scenario>, DatasetError> {
     let loaded: Vec<Result<Vec<Scenario>, ImportError>> = paths.par_iter().map(|p| import::load(p)).collect();
     let mut scenes = Vec::new();
     for file in loaded {
         for scene in file? {
-            check_licence(&scene)?;
+            if purpose == TrainingPurpose::Shipped {
+                check_licence(&scene)?;
+            }
             scenes.push(scene);
         }
     }

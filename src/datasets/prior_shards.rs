@@ -18,10 +18,10 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 
-use super::DatasetError;
 use super::held_out::Split;
+use super::{DatasetError, TrainingPurpose};
 use crate::eval::{Histogram, jensen_shannon};
-use crate::models::prior_dataset::{PriorSample, TokenizedScene, scene_samples};
+use crate::models::prior_dataset::{PriorSample, TokenDrift, TokenizedScene, scene_samples};
 use crate::models::prior_features::{
     HISTORY_FEATURES, HISTORY_POINTS, MAP_TOKEN_FEATURES, MAP_TOKENS, NEIGHBOUR_FEATURES, NEIGHBOURS, POSE_FEATURES,
     SELF_FEATURES, SIGNAL_FEATURES,
@@ -29,17 +29,22 @@ use crate::models::prior_features::{
 use crate::models::shard::{ShardColumn, write_shard};
 use crate::motion::tokens::TokenGrid;
 use crate::scenario::{AgentKind, Scenario};
-use crate::sim::synthetic::{SpeedSample, SyntheticTraffic, random_template};
+use crate::sim::synthetic::{SpeedSample, SyntheticTraffic, random_template_with_unsignalised};
 
 /// Length of a synthetic scene, s.
 pub const SYNTHETIC_DURATION_S: f64 = 12.0;
 /// Simulator step of the synthetic scenes, s.
 const SYNTHETIC_DT_S: f64 = 0.1;
+/// Share of synthetic crossings without signals, where drivers settle who
+/// goes by gap acceptance.
+const UNSIGNALISED_SHARE: f64 = 1.0 / 3.0;
 /// Scenes whose samples are built at once (and the granularity at which a
 /// shard is closed once it reaches its size).
 const SCENES_PER_CHUNK: usize = 32;
-/// Source name of the recorded scenes in shard metadata.
+/// Source name of the recorded public-domain (NGSIM) scenes in shard metadata.
 pub const RECORDED_SOURCE: &str = "ngsim";
+/// Source name of recorded scenes under another licence (evaluation-only shards).
+pub const RECORDED_EVALUATION_ONLY_SOURCE: &str = "recorded-evaluation-only";
 /// Source name of the synthetic scenes in shard metadata.
 pub const SYNTHETIC_SOURCE: &str = "synthetic";
 
@@ -55,13 +60,25 @@ pub struct ShardScene {
 }
 
 /// Accumulates samples and writes them as one safetensors shard.
-#[derive(Debug, Default)]
+#[derive(Debug)]
 pub struct ShardWriter {
+    purpose: TrainingPurpose,
     scenes: Vec<ShardScene>,
     samples: Vec<(usize, PriorSample)>,
 }
 
+impl Default for ShardWriter {
+    fn default() -> Self {
+        Self::new(TrainingPurpose::Shipped)
+    }
+}
+
 impl ShardWriter {
+    /// An empty shard whose metadata names `purpose`.
+    pub fn new(purpose: TrainingPurpose) -> Self {
+        Self { purpose, scenes: Vec::new(), samples: Vec::new() }
+    }
+
     /// Adds a scene's samples.
     pub fn add_scene(&mut self, scene: ShardScene, samples: Vec<PriorSample>) {
         let index = self.scenes.len();
@@ -133,8 +150,15 @@ impl ShardWriter {
             .collect();
         let scenes = serde_json::to_string(&self.scenes)
             .map_err(|source| DatasetError::Metadata { path: path.to_path_buf(), source })?;
-        let metadata =
-            HashMap::from([("scenes".to_string(), scenes), ("contract_version".to_string(), "1".to_string())]);
+        let purpose = match self.purpose {
+            TrainingPurpose::Shipped => "shipped",
+            TrainingPurpose::EvaluationOnly => "evaluation-only",
+        };
+        let metadata = HashMap::from([
+            ("scenes".to_string(), scenes),
+            ("contract_version".to_string(), "1".to_string()),
+            ("purpose".to_string(), purpose.to_string()),
+        ]);
         Ok(write_shard(path, &columns, metadata)?)
     }
 }
@@ -147,6 +171,8 @@ pub struct VehicleKinematics {
     pub speeds_mps: Vec<f64>,
     /// Accelerations of the applied tokens, m/s².
     pub accels_mps2: Vec<f64>,
+    /// Yaw rates of the applied tokens, rad/s.
+    pub yaw_rates_radps: Vec<f64>,
 }
 
 impl VehicleKinematics {
@@ -156,6 +182,7 @@ impl VehicleKinematics {
         per_scene.into_iter().fold(Self::default(), |mut all, s| {
             all.speeds_mps.extend(s.speeds_mps);
             all.accels_mps2.extend(s.accels_mps2);
+            all.yaw_rates_radps.extend(s.yaw_rates_radps);
             all
         })
     }
@@ -174,7 +201,9 @@ impl VehicleKinematics {
                 && state.speed_mps() > 1.0
             {
                 out.speeds_mps.push(state.speed_mps());
-                out.accels_mps2.push(TokenGrid::action(t.labels[key]).accel_mps2);
+                let action = TokenGrid::action(t.labels[key]);
+                out.accels_mps2.push(action.accel_mps2);
+                out.yaw_rates_radps.push(action.yaw_rate_radps);
             }
         }
         out
@@ -193,6 +222,15 @@ impl VehicleKinematics {
     /// Standard deviation of the accelerations (`None` without any), m/s².
     pub fn accel_std_mps2(&self) -> Option<f64> {
         std_dev(&self.accels_mps2)
+    }
+
+    /// Share of token periods steering at least `min_radps` either way
+    /// (`None` without any): how often the traffic makes a lateral choice.
+    pub fn steering_share(&self, min_radps: f64) -> Option<f64> {
+        (!self.yaw_rates_radps.is_empty()).then(|| {
+            self.yaw_rates_radps.iter().filter(|w| w.abs() >= min_radps).count() as f64
+                / self.yaw_rates_radps.len() as f64
+        })
     }
 }
 
@@ -225,6 +263,8 @@ pub struct Calibration {
     pub speed_jsd: Option<f64>,
     /// Jensen–Shannon divergence of the accelerations (20 bins of 0.5 m/s² over ±5 m/s²).
     pub accel_jsd: Option<f64>,
+    /// Jensen–Shannon divergence of the yaw rates (24 bins of 0.05 rad/s over ±0.6 rad/s).
+    pub yaw_rate_jsd: Option<f64>,
 }
 
 impl Calibration {
@@ -238,7 +278,11 @@ impl Calibration {
             &histogram(&recorded.accels_mps2, -5.0, 5.0, 20),
             &histogram(&synthetic.accels_mps2, -5.0, 5.0, 20),
         );
-        Self { recorded, synthetic, speed_jsd, accel_jsd }
+        let yaw_rate_jsd = jensen_shannon(
+            &histogram(&recorded.yaw_rates_radps, -0.6, 0.6, 24),
+            &histogram(&synthetic.yaw_rates_radps, -0.6, 0.6, 24),
+        );
+        Self { recorded, synthetic, speed_jsd, accel_jsd, yaw_rate_jsd }
     }
 }
 
@@ -251,10 +295,13 @@ pub struct SyntheticPlan {
     pub recorded_map_scenes: usize,
     /// Base seed.
     pub seed: u64,
+    /// Whether the drivers turn, change lanes and accept gaps (else they
+    /// keep their lane and go straight, as the first shipped prior's data did).
+    pub driver_choices: bool,
 }
 
 /// The synthetic traffic generator calibrated against the recorded kinematics.
-pub fn calibrated_traffic(recorded: &VehicleKinematics) -> SyntheticTraffic {
+pub fn calibrated_traffic(recorded: &VehicleKinematics, driver_choices: bool) -> SyntheticTraffic {
     SyntheticTraffic {
         speeds: SpeedSample::new(recorded.speeds_mps.clone()),
         // IDM alone already varies acceleration; the disturbance supplies
@@ -262,6 +309,7 @@ pub fn calibrated_traffic(recorded: &VehicleKinematics) -> SyntheticTraffic {
         accel_noise_std_mps2: 0.6 * recorded.accel_std_mps2().unwrap_or(0.0),
         duration_s: SYNTHETIC_DURATION_S,
         max_agents: 80,
+        choices: driver_choices,
     }
 }
 
@@ -270,7 +318,7 @@ pub fn calibrated_traffic(recorded: &VehicleKinematics) -> SyntheticTraffic {
 /// calibration of their kinematics against `recorded`.
 pub fn synthetic_scenes(recorded: &[Scenario], plan: SyntheticPlan) -> (Vec<Scenario>, Calibration) {
     let recorded_kinematics = VehicleKinematics::of(recorded);
-    let traffic = calibrated_traffic(&recorded_kinematics);
+    let traffic = calibrated_traffic(&recorded_kinematics, plan.driver_choices);
     let steps = (SYNTHETIC_DURATION_S / SYNTHETIC_DT_S).round() as usize + 1;
     let jobs: Vec<(String, u64, Option<usize>)> = (0..plan.template_scenes)
         .map(|i| (format!("synthetic-template-{i:05}"), plan.seed.wrapping_add(i as u64), None))
@@ -288,7 +336,10 @@ pub fn synthetic_scenes(recorded: &[Scenario], plan: SyntheticPlan) -> (Vec<Scen
             let mut rng = ChaCha8Rng::seed_from_u64(*seed);
             let map = match map_of {
                 Some(i) => recorded[*i].map.clone(),
-                None => random_template(&mut rng, steps, SYNTHETIC_DT_S).1,
+                None => {
+                    let unsignalised = if plan.driver_choices { UNSIGNALISED_SHARE } else { 0.0 };
+                    random_template_with_unsignalised(&mut rng, steps, SYNTHETIC_DT_S, unsignalised).1
+                }
             };
             traffic.generate(id, map, seed.wrapping_mul(0x9E37_79B9_7F4A_7C15))
         })
@@ -306,10 +357,17 @@ pub fn shard_scenes<'a>(recorded: &'a [Scenario], synthetic: &'a [Scenario]) -> 
         source: source.to_string(),
         split: Split::of(i),
     };
+    let recorded_source = |s: &Scenario| {
+        if s.source.licence.allows_training_shipped_models() {
+            RECORDED_SOURCE
+        } else {
+            RECORDED_EVALUATION_ONLY_SOURCE
+        }
+    };
     recorded
         .iter()
         .enumerate()
-        .map(|(i, s)| (s, entry(RECORDED_SOURCE, i, s)))
+        .map(|(i, s)| (s, entry(recorded_source(s), i, s)))
         .chain(synthetic.iter().enumerate().map(|(i, s)| (s, entry(SYNTHETIC_SOURCE, i, s))))
         .collect()
 }
@@ -325,27 +383,50 @@ pub struct ShardTotals {
     pub shards: Vec<PathBuf>,
 }
 
-/// Writes the samples of `scenes` into `out/shard-NNN.safetensors`, a new
-/// shard once one holds at least `shard_size` samples (checked every
-/// 32 scenes); `on_shard` hears of each shard written (path, samples).
+/// How the samples of [`write_shards`] are made.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ShardOptions {
+    /// Samples per shard: a new shard once one holds at least this many (checked every 32 scenes).
+    pub shard_size: usize,
+    /// Drift of the training scenes' reconstructions (held-out scenes stay
+    /// undrifted, so the held-out NLL measures the recorded behaviour);
+    /// its seed is offset by each scene's position.
+    pub drift: Option<TokenDrift>,
+    /// What the model trained on them may become.
+    pub purpose: TrainingPurpose,
+}
+
+/// Writes the samples of `scenes` into `out/shard-NNN.safetensors`;
+/// `on_shard` hears of each shard written (path, samples).
 pub fn write_shards(
     scenes: &[(&Scenario, ShardScene)],
     out: &Path,
-    shard_size: usize,
+    options: ShardOptions,
     mut on_shard: impl FnMut(&Path, usize),
 ) -> Result<ShardTotals, DatasetError> {
+    let shard_size = options.shard_size;
     let mut totals = ShardTotals::default();
-    let mut writer = ShardWriter::default();
+    let mut writer = ShardWriter::new(options.purpose);
     let mut flush = |writer: &mut ShardWriter, totals: &mut ShardTotals| -> Result<(), DatasetError> {
         let path = out.join(format!("shard-{:03}.safetensors", totals.shards.len()));
         writer.write(&path)?;
         on_shard(&path, writer.len());
         totals.shards.push(path);
-        *writer = ShardWriter::default();
+        *writer = ShardWriter::new(options.purpose);
         Ok(())
     };
-    for chunk in scenes.chunks(SCENES_PER_CHUNK) {
-        let samples: Vec<Vec<PriorSample>> = chunk.par_iter().map(|(s, _)| scene_samples(s)).collect();
+    for (c, chunk) in scenes.chunks(SCENES_PER_CHUNK).enumerate() {
+        let samples: Vec<Vec<PriorSample>> = chunk
+            .par_iter()
+            .enumerate()
+            .map(|(k, (s, entry))| {
+                let drift = options
+                    .drift
+                    .filter(|_| entry.split == Split::Train)
+                    .map(|d| TokenDrift { seed: d.seed.wrapping_add(((c * SCENES_PER_CHUNK + k) as u64) << 20), ..d });
+                scene_samples(s, drift)
+            })
+            .collect();
         for ((_, entry), samples) in chunk.iter().zip(samples) {
             match entry.split {
                 Split::Train => totals.train_samples += samples.len(),
@@ -369,6 +450,7 @@ mod tests {
 
     use super::*;
     use crate::motion::tokens::VOCABULARY_SIZE;
+    use crate::sim::synthetic::random_template;
 
     /// A small synthetic scene on a procedural template.
     fn synthetic_scene(seed: u64) -> Scenario {
@@ -377,6 +459,7 @@ mod tests {
             accel_noise_std_mps2: 0.3,
             duration_s: 4.0,
             max_agents: 6,
+            choices: true,
         };
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         (0..20)
@@ -413,7 +496,7 @@ mod tests {
     #[test]
     fn a_synthetic_scene_becomes_a_well_formed_shard() {
         let scene = synthetic_scene(7);
-        let samples = scene_samples(&scene);
+        let samples = scene_samples(&scene, None);
         assert!(!samples.is_empty(), "a 4 s scene with moving vehicles has token boundaries");
         let n = samples.len();
         let dir = std::env::temp_dir().join(format!("safer-datasets-prior-{}", std::process::id()));
@@ -421,7 +504,8 @@ mod tests {
         let mut written = Vec::new();
         let entries =
             vec![(&scene, ShardScene { id: scene.id.clone(), source: "synthetic".into(), split: Split::HeldOut })];
-        let totals = write_shards(&entries, &dir, 1, |p, k| written.push((p.to_path_buf(), k))).unwrap();
+        let options = ShardOptions { shard_size: 1, drift: None, purpose: TrainingPurpose::Shipped };
+        let totals = write_shards(&entries, &dir, options, |p, k| written.push((p.to_path_buf(), k))).unwrap();
         assert_eq!(totals.held_out_samples, n);
         assert_eq!(totals.train_samples, 0);
         assert_eq!(written, vec![(dir.join("shard-000.safetensors"), n)]);
@@ -465,13 +549,13 @@ mod tests {
     #[test]
     fn synthetic_traffic_is_calibrated_against_the_recorded_kinematics() {
         let recorded = vec![synthetic_scene(3)];
-        let plan = SyntheticPlan { template_scenes: 2, recorded_map_scenes: 1, seed: 5 };
+        let plan = SyntheticPlan { template_scenes: 2, recorded_map_scenes: 1, seed: 5, driver_choices: true };
         let (synthetic, calibration) = synthetic_scenes(&recorded, plan);
         assert!(!synthetic.is_empty() && synthetic.len() <= 3);
         assert!(!calibration.recorded.is_empty());
         let jsd = calibration.speed_jsd.expect("both sides have speeds");
         assert!((0.0..=1.0).contains(&jsd), "JSD in bits: {jsd}");
-        let traffic = calibrated_traffic(&calibration.recorded);
+        let traffic = calibrated_traffic(&calibration.recorded, true);
         let expected = 0.6 * calibration.recorded.accel_std_mps2().unwrap();
         assert!((traffic.accel_noise_std_mps2 - expected).abs() < 1e-12);
     }

@@ -162,33 +162,51 @@ pub fn best_token(from: &KinematicState, log: &[Option<&AgentState>]) -> Token {
 /// when the log is valid at its start and end; a gap ends the segment, and
 /// the next one restarts from the logged state.
 pub fn tokenize_track(track: &Track, anchor_step: usize) -> TokenizedTrack {
+    tokenize_track_drifting(track, anchor_step, &mut |t| t).0
+}
+
+/// [`tokenize_track`] whose rollout applies `drift(best)` in place of each
+/// period's best token, so the reconstructed states wander off the log the
+/// way a closed-loop rollout does and the following periods' best tokens
+/// steer back. Returns the track of applied tokens and, per segment, the
+/// best (intended) token of each period.
+pub fn tokenize_track_drifting(
+    track: &Track,
+    anchor_step: usize,
+    drift: &mut dyn FnMut(Token) -> Token,
+) -> (TokenizedTrack, Vec<Vec<Token>>) {
     let n = track.states.len();
     let mut segments = Vec::new();
-    let mut current: Option<(TokenSegment, KinematicState)> = None;
+    let mut intended = Vec::new();
+    let mut current: Option<(TokenSegment, KinematicState, Vec<Token>)> = None;
     let mut b = anchor_step % TOKEN_PERIOD_STEPS;
     while b + TOKEN_PERIOD_STEPS < n {
         let end = b + TOKEN_PERIOD_STEPS;
         let usable = track.state(b).is_some() && track.state(end).is_some();
         if !usable {
-            if let Some((seg, _)) = current.take() {
+            if let Some((seg, _, best)) = current.take() {
                 segments.push(seg);
+                intended.push(best);
             }
         } else {
-            let (seg, from) = current.get_or_insert_with(|| {
+            let (seg, from, best) = current.get_or_insert_with(|| {
                 let initial = KinematicState::from_agent_state(track.state(b).expect("checked valid"));
-                (TokenSegment { start_step: b, initial, tokens: Vec::new() }, initial)
+                (TokenSegment { start_step: b, initial, tokens: Vec::new() }, initial, Vec::new())
             });
             let log: Vec<Option<&AgentState>> = (b + 1..=end).map(|k| track.state(k)).collect();
             let token = best_token(from, &log);
-            *from = TokenGrid::rollout(from, token)[TOKEN_PERIOD_STEPS - 1];
-            seg.tokens.push(token);
+            let applied = drift(token);
+            *from = TokenGrid::rollout(from, applied)[TOKEN_PERIOD_STEPS - 1];
+            seg.tokens.push(applied);
+            best.push(token);
         }
         b = end;
     }
-    if let Some((seg, _)) = current {
+    if let Some((seg, _, best)) = current {
         segments.push(seg);
+        intended.push(best);
     }
-    TokenizedTrack { segments }
+    (TokenizedTrack { segments }, intended)
 }
 
 /// Round-trip error of `tokenized` against the log of `track`.

@@ -9,7 +9,7 @@
 
 use super::{AgentAction, AgentPolicy, WorldView};
 use crate::geometry::{Point2, Polyline, Vector2, wrap_angle};
-use crate::map::{MapElementId, RoadMap};
+use crate::map::{Lane, MapElementId, RoadMap};
 use crate::motion::Action;
 use crate::motion::tokens::{MAX_ACCEL_MPS2, MAX_YAW_RATE_RADPS};
 use crate::scenario::{AgentKind, AgentState, TrackIndex};
@@ -112,7 +112,7 @@ pub fn idm_desired_gap_m(
 /// Route length built ahead of the agent, m.
 const ROUTE_HORIZON_M: f64 = 200.0;
 /// Rebuild the route when less than this remains ahead, m.
-const ROUTE_REBUILD_M: f64 = 60.0;
+pub const ROUTE_REBUILD_M: f64 = 60.0;
 /// Lateral offset from the route under which another agent is "on it", m.
 const ON_ROUTE_LATERAL_M: f64 = 1.8;
 /// How far from a lane centreline an agent may start and still follow it, m.
@@ -132,6 +132,18 @@ pub struct Route {
 /// id); a straight line along the heading off the lane graph or for
 /// pedestrians.
 pub fn build_route(map: &RoadMap, state: &AgentState, kind: AgentKind) -> Route {
+    build_route_choosing(map, state, kind, &mut |_, _| 0)
+}
+
+/// [`build_route`] with the successor at each junction picked by `choose`:
+/// it gets the lane the route leaves and the successors ordered from the
+/// straightest (ties to the lower id), and returns an index into them.
+pub fn build_route_choosing(
+    map: &RoadMap,
+    state: &AgentState,
+    kind: AgentKind,
+    choose: &mut SuccessorChoice<'_>,
+) -> Route {
     let straight = || {
         let f = Vector2::new(state.heading_rad.cos(), state.heading_rad.sin());
         Route { path: Polyline::new(vec![state.position, state.position + f * ROUTE_HORIZON_M]), lanes: vec![] }
@@ -142,21 +154,35 @@ pub fn build_route(map: &RoadMap, state: &AgentState, kind: AgentKind) -> Route 
     let Some(m) = map.nearest_lane(&state.position, Some(state.heading_rad), LANE_SEARCH_RADIUS_M) else {
         return straight();
     };
-    let mut lane = &map.lanes[m.lane_index];
+    let lane = &map.lanes[m.lane_index];
     // Only an aligned lane is the agent's (nearest_lane falls back to a
     // misaligned one when it finds nothing else).
     if lane.centreline.tangent_dot(&m.projection, state.heading_rad) < crate::map::ALIGNED_LANE_MAX_ANGLE_RAD.cos() {
         return straight();
     }
     // Start slightly behind the agent so the projection is never clamped to the route start.
-    let s0 = (m.projection.arc_length_m - 5.0).max(0.0);
+    route_along_lanes(map, lane, (m.projection.arc_length_m - 5.0).max(0.0), choose).unwrap_or_else(straight)
+}
+
+/// Picks a junction's successor: (the lane left, its successors from the
+/// straightest) → index.
+pub type SuccessorChoice<'a> = dyn FnMut(&Lane, &[&Lane]) -> usize + 'a;
+
+/// About 200 m of lane centrelines from arc length `s0_m` of `lane` on,
+/// with `choose` picking at each junction; `None` when that is under two points.
+pub fn route_along_lanes<'m>(
+    map: &'m RoadMap,
+    mut lane: &'m Lane,
+    s0_m: f64,
+    choose: &mut SuccessorChoice<'_>,
+) -> Option<Route> {
     let mut points: Vec<Point2> = Vec::new();
     let mut lanes = Vec::new();
     let mut covered = 0.0;
     let mut first = true;
     loop {
         let pts = lane.centreline.points();
-        let start_s = if first { s0 } else { 0.0 };
+        let start_s = if first { s0_m } else { 0.0 };
         let lane_start_on_path = covered;
         let mut seg_pts: Vec<Point2> = Vec::new();
         if let Some((p, _)) = lane.centreline.sample(start_s) {
@@ -176,22 +202,103 @@ pub fn build_route(map: &RoadMap, state: &AgentState, kind: AgentKind) -> Route 
         if covered >= ROUTE_HORIZON_M || lanes.len() > 64 {
             break;
         }
-        // Go as straight as possible: the successor whose direction 10 m in
-        // deviates least from this lane's end direction; ties to the lower id.
+        // Successors from the straightest: the least deviation of the
+        // direction 10 m in from this lane's end direction; ties to the lower id.
         let Some((_, end_dir)) = lane.centreline.sample(lane.centreline.length_m()) else { break };
-        let next = lane
+        let mut next: Vec<(&'m Lane, f64)> = lane
             .successors
             .iter()
             .filter_map(|id| map.lane(*id))
             .filter_map(|l| l.centreline.sample(10.0).map(|(_, d)| (l, -d.dot(&end_dir))))
-            .min_by(|a, b| a.1.total_cmp(&b.1).then(a.0.id.cmp(&b.0.id)));
-        match next {
-            Some((l, _)) => lane = l,
-            None => break,
+            .collect();
+        if next.is_empty() {
+            break;
         }
+        next.sort_by(|a, b| a.1.total_cmp(&b.1).then(a.0.id.cmp(&b.0.id)));
+        let ordered: Vec<&'m Lane> = next.into_iter().map(|(l, _)| l).collect();
+        lane = ordered[choose(lane, &ordered).min(ordered.len() - 1)];
     }
     let path = Polyline::new(points);
-    if path.len() < 2 { straight() } else { Route { path, lanes } }
+    (path.len() >= 2).then_some(Route { path, lanes })
+}
+
+/// Pure-pursuit yaw rate towards the route point a look-ahead past arc
+/// length `here_s` (the agent's projection), rad/s.
+pub fn pursuit_yaw_rate(route: &Route, here_s: f64, state: &AgentState, params: &IdmParams) -> Option<f64> {
+    let speed = state.speed_mps();
+    let lookahead = (params.lookahead_time_s * speed).max(params.min_lookahead_m);
+    let (target, _) = route.path.sample(here_s + lookahead)?;
+    let to_target = target - state.position;
+    let alpha = wrap_angle(to_target.y.atan2(to_target.x) - state.heading_rad);
+    let curvature = 2.0 * alpha.sin() / to_target.norm().max(1e-3);
+    Some((curvature * speed.max(0.5)).clamp(-MAX_YAW_RATE_RADPS, MAX_YAW_RATE_RADPS))
+}
+
+/// What IDM brakes for on the route: (gap, m; its speed along the route,
+/// m/s) of the closest agent on the route ahead or a red signal's stop line.
+pub fn route_leader(
+    world: &WorldView<'_>,
+    agent: TrackIndex,
+    route: &Route,
+    here_s: f64,
+    params: &IdmParams,
+) -> Option<(f64, f64)> {
+    let state = world.state(agent)?;
+    let body = world.body(agent);
+    let mut leader: Option<(f64, f64)> = None;
+    let mut consider = |gap: f64, v: f64| {
+        if leader.is_none_or(|(g, _)| gap < g) {
+            leader = Some((gap, v));
+        }
+    };
+    let forward = Vector2::new(state.heading_rad.cos(), state.heading_rad.sin());
+    for (j, other) in world.states.iter().enumerate() {
+        let Some(other) = other else { continue };
+        if j == agent.0 {
+            continue;
+        }
+        let d = other.position - state.position;
+        if d.norm() > params.sensing_range_m || d.dot(&forward) < 0.0 {
+            continue;
+        }
+        let Some(p) = route.path.project(&other.position) else { continue };
+        let ahead = p.arc_length_m - here_s;
+        if p.distance_m > ON_ROUTE_LATERAL_M || ahead <= 0.0 {
+            continue;
+        }
+        let gap = ahead - 0.5 * (body.length_m + world.bodies[j].length_m);
+        consider(gap, other.velocity_mps.dot(&p.tangent));
+    }
+    for &(lane, _, end_s) in &route.lanes {
+        let red = world.map.signal_state(lane, world.step).is_some_and(|s| s.requires_stop());
+        let ahead = end_s - here_s;
+        if red && ahead > 0.5 * body.length_m && ahead < params.sensing_range_m {
+            consider(ahead - 0.5 * body.length_m, 0.0);
+        }
+    }
+    leader
+}
+
+/// IDM's acceleration at `speed_mps` towards desired speed `v0_mps`,
+/// braking for `leader` (gap m, speed m/s), within the parameters' limits.
+pub fn idm_accel_mps2(params: &IdmParams, speed_mps: f64, v0_mps: f64, leader: Option<(f64, f64)>) -> f64 {
+    let p = params;
+    let free = 1.0 - (speed_mps / v0_mps.max(0.1)).powf(p.exponent);
+    let interaction = leader.map_or(0.0, |(gap, v_lead)| {
+        let desired_gap = idm_desired_gap_m(
+            speed_mps,
+            speed_mps - v_lead,
+            p.min_gap_m,
+            p.time_headway_s,
+            p.max_accel_mps2,
+            p.comfort_decel_mps2,
+        );
+        (desired_gap / gap.max(0.1)).powi(2)
+    });
+    // max/min, not clamp: clamp panics on NaN or crossed bounds, and
+    // parameters reach here unchecked through the library API (a NaN
+    // control is refused by the simulator, naming the agent).
+    (p.max_accel_mps2 * (free - interaction)).max(-p.max_decel_mps2).min(p.max_accel_mps2)
 }
 
 /// The IDM lane follower for one agent.
@@ -211,7 +318,6 @@ impl IdmLaneFollower {
     /// The control for `agent` at `world.step`, or `None` when it is absent.
     pub fn control(&mut self, world: &WorldView<'_>, agent: TrackIndex) -> Option<Action> {
         let state = *world.state(agent)?;
-        let body = world.body(agent);
         let map = world.map;
         let rebuild = match &self.route {
             None => true,
@@ -220,7 +326,7 @@ impl IdmLaneFollower {
             }
         };
         if rebuild {
-            self.route = Some(build_route(map, &state, body.kind));
+            self.route = Some(build_route(map, &state, world.body(agent).kind));
         }
         let route = self.route.as_ref()?;
         let here = route.path.project(&state.position)?;
@@ -231,66 +337,9 @@ impl IdmLaneFollower {
                 limit.unwrap_or(speed.max(self.params.fallback_speed_mps))
             })
         });
-
-        // Steering: pure pursuit towards a point on the route ahead.
-        let lookahead = (self.params.lookahead_time_s * speed).max(self.params.min_lookahead_m);
-        let (target, _) = route.path.sample(here.arc_length_m + lookahead)?;
-        let to_target = target - state.position;
-        let alpha = wrap_angle(to_target.y.atan2(to_target.x) - state.heading_rad);
-        let curvature = 2.0 * alpha.sin() / to_target.norm().max(1e-3);
-        let yaw_rate = (curvature * speed.max(0.5)).clamp(-MAX_YAW_RATE_RADPS, MAX_YAW_RATE_RADPS);
-
-        // Leader: the closest agent on the route ahead, or a red signal's stop line.
-        let mut leader: Option<(f64, f64)> = None; // (gap m, speed along route m/s)
-        let mut consider = |gap: f64, v: f64| {
-            if leader.is_none_or(|(g, _)| gap < g) {
-                leader = Some((gap, v));
-            }
-        };
-        let forward = Vector2::new(state.heading_rad.cos(), state.heading_rad.sin());
-        for (j, other) in world.states.iter().enumerate() {
-            let Some(other) = other else { continue };
-            if j == agent.0 {
-                continue;
-            }
-            let d = other.position - state.position;
-            if d.norm() > self.params.sensing_range_m || d.dot(&forward) < 0.0 {
-                continue;
-            }
-            let Some(p) = route.path.project(&other.position) else { continue };
-            let ahead = p.arc_length_m - here.arc_length_m;
-            if p.distance_m > ON_ROUTE_LATERAL_M || ahead <= 0.0 {
-                continue;
-            }
-            let gap = ahead - 0.5 * (body.length_m + world.bodies[j].length_m);
-            consider(gap, other.velocity_mps.dot(&p.tangent));
-        }
-        for &(lane, _, end_s) in &route.lanes {
-            let red = map.signal_state(lane, world.step).is_some_and(|s| s.requires_stop());
-            let ahead = end_s - here.arc_length_m;
-            if red && ahead > 0.5 * body.length_m && ahead < self.params.sensing_range_m {
-                consider(ahead - 0.5 * body.length_m, 0.0);
-            }
-        }
-
-        let p = &self.params;
-        let free = 1.0 - (speed / v0.max(0.1)).powf(p.exponent);
-        let interaction = leader.map_or(0.0, |(gap, v_lead)| {
-            let desired_gap = idm_desired_gap_m(
-                speed,
-                speed - v_lead,
-                p.min_gap_m,
-                p.time_headway_s,
-                p.max_accel_mps2,
-                p.comfort_decel_mps2,
-            );
-            (desired_gap / gap.max(0.1)).powi(2)
-        });
-        // max/min, not clamp: clamp panics on NaN or crossed bounds, and
-        // parameters reach here unchecked through the library API (a NaN
-        // control is refused by the simulator, naming the agent).
-        let accel = (p.max_accel_mps2 * (free - interaction)).max(-p.max_decel_mps2).min(p.max_accel_mps2);
-        Some(Action { accel_mps2: accel, yaw_rate_radps: yaw_rate })
+        let yaw_rate = pursuit_yaw_rate(route, here.arc_length_m, &state, &self.params)?;
+        let leader = route_leader(world, agent, route, here.arc_length_m, &self.params);
+        Some(Action { accel_mps2: idm_accel_mps2(&self.params, speed, v0, leader), yaw_rate_radps: yaw_rate })
     }
 }
 

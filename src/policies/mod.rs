@@ -12,6 +12,7 @@ pub mod log_replay;
 pub mod noisy_idm;
 pub mod prior_sampling;
 pub mod reactive_log_replay;
+pub mod synthetic_driver;
 
 pub use constant_velocity::ConstantVelocity;
 pub use lane_follower::{IdmLaneFollower, IdmParams, Route, build_route};

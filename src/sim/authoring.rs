@@ -6,6 +6,7 @@
 
 use crate::map::RoadMap;
 use crate::policies::noisy_idm::{DriverNoise, NoisyIdm};
+use crate::policies::synthetic_driver::{DriverChoices, SyntheticDriver};
 use crate::policies::{AgentAction, AgentPolicy, ConstantVelocity, IdmLaneFollower, IdmParams, WorldView};
 use crate::scenario::{AgentBody, AgentId, AgentState, Scenario, ScenarioSource, Track, TrackIndex};
 
@@ -21,6 +22,9 @@ pub enum AuthoredBehaviour {
     Idm(IdmParams),
     /// Follow the lane with IDM speed control and a seeded acceleration disturbance.
     NoisyIdm(IdmParams, DriverNoise),
+    /// Noisy IDM that also turns at junctions, changes lanes and accepts
+    /// or refuses gaps in crossing traffic.
+    Synthetic(IdmParams, DriverNoise, DriverChoices),
     /// Stay where it is.
     Parked,
 }
@@ -84,6 +88,7 @@ pub fn synthesize(authored: &AuthoredScenario) -> Scenario {
                 AuthoredBehaviour::ConstantVelocity => Box::new(ConstantVelocity),
                 AuthoredBehaviour::Idm(p) => Box::new(IdmLaneFollower::new(p)),
                 AuthoredBehaviour::NoisyIdm(p, noise) => Box::new(NoisyIdm::new(p, noise)),
+                AuthoredBehaviour::Synthetic(p, noise, choices) => Box::new(SyntheticDriver::new(p, noise, choices)),
                 AuthoredBehaviour::Parked => Box::new(Parked),
             }
         })

@@ -6,8 +6,10 @@
 //!
 //! Desired speeds are drawn from a [`SpeedSample`] of recorded speeds (the
 //! caller calibrates it against real scenes), scaled to the map's limit.
-//! Drivers keep their lane (no lane changes) and go straight at junctions;
-//! the variety comes from the maps, densities, speeds and disturbances.
+//! Drivers make lateral choices ([`SyntheticDriver`](crate::policies::synthetic_driver::SyntheticDriver)):
+//! they turn at junctions, change lanes when there is room and accept or
+//! refuse gaps in crossing traffic, each at its own drawn rate; with
+//! [`SyntheticTraffic::choices`] off they keep their lane and go straight.
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -18,6 +20,7 @@ use crate::map::RoadMap;
 use crate::map::templates::{Intersection, Merge, StraightRoad};
 use crate::policies::IdmParams;
 use crate::policies::noisy_idm::DriverNoise;
+use crate::policies::synthetic_driver::DriverChoices;
 use crate::scenario::{AgentBody, AgentId, AgentKind, AgentState, Scenario};
 
 /// Recorded speeds that synthetic desired speeds are drawn from, m/s.
@@ -64,11 +67,26 @@ pub struct SyntheticTraffic {
     pub duration_s: f64,
     /// Most vehicles placed.
     pub max_agents: usize,
+    /// Whether drivers turn, change lanes and accept gaps (else they keep
+    /// their lane and go straight).
+    pub choices: bool,
 }
 
 /// A random procedural map: a straight multi-lane road (sometimes with
 /// oncoming lanes), an on-ramp merge, or a signalised four-way crossing.
 pub fn random_template(rng: &mut impl Rng, steps: usize, dt_s: f64) -> (String, RoadMap) {
+    random_template_with_unsignalised(rng, steps, dt_s, 0.0)
+}
+
+/// [`random_template`] with a share of the crossings left without signals
+/// (drivers then settle who goes by gap acceptance); a share of zero draws
+/// exactly what [`random_template`] draws.
+pub fn random_template_with_unsignalised(
+    rng: &mut impl Rng,
+    steps: usize,
+    dt_s: f64,
+    unsignalised_share: f64,
+) -> (String, RoadMap) {
     let width = rng.random_range(3.2..3.9);
     match rng.random_range(0..3) {
         0 => {
@@ -97,7 +115,11 @@ pub fn random_template(rng: &mut impl Rng, steps: usize, dt_s: f64) -> (String, 
                 lanes_per_direction: rng.random_range(1..=2),
                 lane_width_m: width,
                 arm_length_m: 150.0,
-                green_s: Some(rng.random_range(6.0..20.0)),
+                green_s: if unsignalised_share > 0.0 && rng.random_bool(unsignalised_share.min(1.0)) {
+                    None
+                } else {
+                    Some(rng.random_range(6.0..20.0))
+                },
                 speed_limit_mps: Some(rng.random_range(11.0..17.0)),
             };
             ("intersection".into(), crossing.build_with_signals(steps, dt_s))
@@ -152,6 +174,18 @@ impl SyntheticTraffic {
                         correlation_time_s: rng.random_range(1.0..4.0),
                         seed: rng.random(),
                     };
+                    let behaviour = if self.choices {
+                        let choices = DriverChoices {
+                            turn_probability: rng.random_range(0.4..0.9),
+                            lane_change_rate_per_s: rng.random_range(0.02..0.25),
+                            lane_change_duration_s: rng.random_range(3.0..6.0),
+                            accepted_gap_s: if rng.random_bool(0.15) { 0.0 } else { rng.random_range(1.5..4.5) },
+                            seed: rng.random(),
+                        };
+                        AuthoredBehaviour::Synthetic(params, noise, choices)
+                    } else {
+                        AuthoredBehaviour::NoisyIdm(params, noise)
+                    };
                     placed.push(footprint);
                     agents.push(AuthoredAgent {
                         id: AgentId(format!("synthetic-{}", agents.len())),
@@ -161,7 +195,7 @@ impl SyntheticTraffic {
                             heading_rad: heading,
                             velocity_mps: Vector2::new(heading.cos(), heading.sin()) * speed,
                         },
-                        behaviour: AuthoredBehaviour::NoisyIdm(params, noise),
+                        behaviour,
                     });
                 }
                 s += body.length_m + 4.0 + rng.random_range(0.0..2.0) / density_per_m;
@@ -209,6 +243,7 @@ mod tests {
             accel_noise_std_mps2: 0.4,
             duration_s: 6.0,
             max_agents: 40,
+            choices: true,
         }
     }
 
@@ -235,6 +270,136 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// One car of the synthetic driver, placed on a template map.
+    fn driver(id: &str, pose: Pose2, speed_mps: f64, choices: DriverChoices) -> AuthoredAgent {
+        let noise = DriverNoise { accel_std_mps2: 0.0, correlation_time_s: 2.0, seed: 0 };
+        AuthoredAgent {
+            id: AgentId(id.into()),
+            body: AgentBody { kind: AgentKind::Vehicle, length_m: 4.5, width_m: 1.9 },
+            initial: AgentState {
+                position: pose.position,
+                heading_rad: pose.heading_rad,
+                velocity_mps: Vector2::new(pose.heading_rad.cos(), pose.heading_rad.sin()) * speed_mps,
+            },
+            behaviour: AuthoredBehaviour::Synthetic(
+                IdmParams { desired_speed_mps: Some(speed_mps), ..IdmParams::default() },
+                noise,
+                choices,
+            ),
+        }
+    }
+
+    fn keeps_going(seed: u64) -> DriverChoices {
+        DriverChoices {
+            turn_probability: 0.0,
+            lane_change_rate_per_s: 0.0,
+            lane_change_duration_s: 4.0,
+            accepted_gap_s: 3.0,
+            seed,
+        }
+    }
+
+    fn simulate(map: RoadMap, agents: Vec<AuthoredAgent>, duration_s: f64) -> Scenario {
+        synthesize(&AuthoredScenario {
+            id: "choices".into(),
+            path: "synthetic:choices".into(),
+            map,
+            agents,
+            ego: 0,
+            cbv: None,
+            duration_s,
+        })
+    }
+
+    fn crossing() -> Intersection {
+        Intersection {
+            lanes_per_direction: 1,
+            lane_width_m: 3.5,
+            arm_length_m: 80.0,
+            green_s: None,
+            speed_limit_mps: Some(12.0),
+        }
+    }
+
+    /// Heading change of a track from its first to its last state, rad.
+    fn turned_rad(s: &Scenario, track: usize) -> f64 {
+        let t = &s.tracks[track];
+        let (a, b) = (t.states.first().unwrap().unwrap(), t.states.last().unwrap().unwrap());
+        crate::geometry::wrap_angle(b.heading_rad - a.heading_rad)
+    }
+
+    #[test]
+    fn a_driver_that_always_turns_leaves_the_crossing_on_another_arm() {
+        let c = crossing();
+        let start = c.approach_pose(0, 0, 25.0);
+        let straight = simulate(c.build(), vec![driver("a", start, 8.0, keeps_going(1))], 10.0);
+        assert!(turned_rad(&straight, 0).abs() < 0.1, "went straight: {}", turned_rad(&straight, 0));
+        let turns: Vec<f64> = (0..8)
+            .map(|seed| {
+                let choices = DriverChoices { turn_probability: 1.0, ..keeps_going(seed) };
+                turned_rad(&simulate(c.build(), vec![driver("a", start, 8.0, choices)], 10.0), 0)
+            })
+            .collect();
+        assert!(turns.iter().all(|t| (t.abs() - std::f64::consts::FRAC_PI_2).abs() < 0.35), "{turns:?}");
+        assert!(turns.iter().any(|t| *t > 0.0) && turns.iter().any(|t| *t < 0.0), "left and right: {turns:?}");
+    }
+
+    #[test]
+    fn a_driver_changes_lanes_only_when_the_neighbour_lane_has_room() {
+        let road =
+            StraightRoad { lanes: 2, oncoming_lanes: 0, lane_width_m: 3.5, length_m: 400.0, speed_limit_mps: None };
+        let start = Pose2::new(20.0, 0.5 * 3.5, 0.0);
+        let eager = DriverChoices { lane_change_rate_per_s: 100.0, ..keeps_going(3) };
+        let free = simulate(road.build(), vec![driver("a", start, 12.0, eager)], 8.0);
+        let end = free.tracks[0].states.last().unwrap().unwrap();
+        assert!((end.position.y - 1.5 * 3.5).abs() < 0.4, "in the left lane at the end: y = {}", end.position.y);
+        let beside = driver("b", Pose2::new(20.0, 1.5 * 3.5, 0.0), 12.0, keeps_going(4));
+        let blocked = simulate(road.build(), vec![driver("a", start, 12.0, eager), beside], 8.0);
+        let max_offset =
+            blocked.tracks[0].states.iter().flatten().map(|s| (s.position.y - 1.75).abs()).fold(0.0, f64::max);
+        assert!(max_offset < 0.3, "stayed in its lane beside a car: offset {max_offset}");
+    }
+
+    #[test]
+    fn a_turning_driver_yields_to_oncoming_traffic_unless_it_accepts_no_gap() {
+        let c = crossing();
+        // A seed whose driver turns left from arm 0.
+        let left = (0..32)
+            .map(|seed| DriverChoices { turn_probability: 1.0, ..keeps_going(seed) })
+            .find(|ch| {
+                turned_rad(&simulate(c.build(), vec![driver("a", c.approach_pose(0, 0, 25.0), 8.0, *ch)], 10.0), 0)
+                    > 1.0
+            })
+            .expect("one of 32 seeds turns left");
+        let oncoming = driver("b", c.approach_pose(2, 0, 30.0), 10.0, keeps_going(9));
+        let min_speed =
+            |s: &Scenario| s.tracks[0].states.iter().flatten().map(|s| s.speed_mps()).fold(f64::INFINITY, f64::min);
+        let careful =
+            simulate(c.build(), vec![driver("a", c.approach_pose(0, 0, 25.0), 8.0, left), oncoming.clone()], 10.0);
+        let bold = DriverChoices { accepted_gap_s: 0.0, ..left };
+        let rushed = simulate(c.build(), vec![driver("a", c.approach_pose(0, 0, 25.0), 8.0, bold), oncoming], 10.0);
+        // Steps at which a track is inside the crossing's box.
+        let h = c.half_box_m();
+        let in_box = |s: &Scenario, t: usize| -> Vec<usize> {
+            (0..s.num_steps())
+                .filter(|&k| s.tracks[t].state(k).is_some_and(|p| p.position.x.abs() < h && p.position.y.abs() < h))
+                .collect()
+        };
+        let (careful_speed, rushed_speed) = (min_speed(&careful), min_speed(&rushed));
+        assert!(careful_speed < 3.0 && rushed_speed > careful_speed + 3.0, "waited: {careful_speed} vs {rushed_speed}");
+        assert!(turned_rad(&careful, 0) > 1.0, "and then turned");
+        // The careful turner enters the box after the oncoming car has left it; the bold one before.
+        let (a, b) = (in_box(&careful, 0), in_box(&careful, 1));
+        assert!(
+            a.first() > b.last(),
+            "careful turner entered at step {:?}, oncoming left at {:?}",
+            a.first(),
+            b.last()
+        );
+        let (a, b) = (in_box(&rushed, 0), in_box(&rushed, 1));
+        assert!(a.first() < b.last(), "bold turner entered at step {:?}, oncoming left at {:?}", a.first(), b.last());
     }
 
     #[test]
