@@ -98,8 +98,23 @@ pub fn run(request: &DatasetRequest) -> Result<ExitCode, CliError> {
         max_bins: request.token_drift_bins,
         seed: request.seed,
     });
-    let options = ShardOptions { shard_size: request.shard_size, drift, purpose };
-    let totals = write_shards(&scenes, &request.out, options, |path, samples| {
+    let drivers = if request.driver_choices {
+        "synthetic drivers turn at junctions, change lanes and accept or refuse gaps (a third of template crossings unsignalised)"
+    } else {
+        "synthetic drivers keep their lane and go straight"
+    };
+    let drift_text = drift.map_or("no token drift".to_string(), |d| {
+        format!("token drift on training scenes: p = {} per period, up to ±{} bins", d.probability, d.max_bins)
+    });
+    let recipe = format!(
+        "{} recorded + {} template + {} recorded-map synthetic scenes (seed {}); {drivers}; {drift_text}",
+        recorded.len(),
+        request.template_scenes,
+        request.recorded_map_scenes,
+        request.seed
+    );
+    let options = ShardOptions { shard_size: request.shard_size, drift, purpose, recipe };
+    let totals = write_shards(&scenes, &request.out, &options, |path, samples| {
         eprintln!("wrote {} ({samples} samples)", path.display());
     })?;
     println!(

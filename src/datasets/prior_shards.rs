@@ -63,20 +63,21 @@ pub struct ShardScene {
 #[derive(Debug)]
 pub struct ShardWriter {
     purpose: TrainingPurpose,
+    recipe: String,
     scenes: Vec<ShardScene>,
     samples: Vec<(usize, PriorSample)>,
 }
 
 impl Default for ShardWriter {
     fn default() -> Self {
-        Self::new(TrainingPurpose::Shipped)
+        Self::new(TrainingPurpose::Shipped, String::new())
     }
 }
 
 impl ShardWriter {
-    /// An empty shard whose metadata names `purpose`.
-    pub fn new(purpose: TrainingPurpose) -> Self {
-        Self { purpose, scenes: Vec::new(), samples: Vec::new() }
+    /// An empty shard whose metadata names `purpose` and the data `recipe`.
+    pub fn new(purpose: TrainingPurpose, recipe: String) -> Self {
+        Self { purpose, recipe, scenes: Vec::new(), samples: Vec::new() }
     }
 
     /// Adds a scene's samples.
@@ -158,6 +159,7 @@ impl ShardWriter {
             ("scenes".to_string(), scenes),
             ("contract_version".to_string(), "1".to_string()),
             ("purpose".to_string(), purpose.to_string()),
+            ("recipe".to_string(), self.recipe.clone()),
         ]);
         Ok(write_shard(path, &columns, metadata)?)
     }
@@ -384,7 +386,7 @@ pub struct ShardTotals {
 }
 
 /// How the samples of [`write_shards`] are made.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct ShardOptions {
     /// Samples per shard: a new shard once one holds at least this many (checked every 32 scenes).
     pub shard_size: usize,
@@ -394,6 +396,8 @@ pub struct ShardOptions {
     pub drift: Option<TokenDrift>,
     /// What the model trained on them may become.
     pub purpose: TrainingPurpose,
+    /// One line on how the data was made, for the model card.
+    pub recipe: String,
 }
 
 /// Writes the samples of `scenes` into `out/shard-NNN.safetensors`;
@@ -401,18 +405,18 @@ pub struct ShardOptions {
 pub fn write_shards(
     scenes: &[(&Scenario, ShardScene)],
     out: &Path,
-    options: ShardOptions,
+    options: &ShardOptions,
     mut on_shard: impl FnMut(&Path, usize),
 ) -> Result<ShardTotals, DatasetError> {
     let shard_size = options.shard_size;
     let mut totals = ShardTotals::default();
-    let mut writer = ShardWriter::new(options.purpose);
+    let mut writer = ShardWriter::new(options.purpose, options.recipe.clone());
     let mut flush = |writer: &mut ShardWriter, totals: &mut ShardTotals| -> Result<(), DatasetError> {
         let path = out.join(format!("shard-{:03}.safetensors", totals.shards.len()));
         writer.write(&path)?;
         on_shard(&path, writer.len());
         totals.shards.push(path);
-        *writer = ShardWriter::new(options.purpose);
+        *writer = ShardWriter::new(options.purpose, options.recipe.clone());
         Ok(())
     };
     for (c, chunk) in scenes.chunks(SCENES_PER_CHUNK).enumerate() {
@@ -504,8 +508,9 @@ mod tests {
         let mut written = Vec::new();
         let entries =
             vec![(&scene, ShardScene { id: scene.id.clone(), source: "synthetic".into(), split: Split::HeldOut })];
-        let options = ShardOptions { shard_size: 1, drift: None, purpose: TrainingPurpose::Shipped };
-        let totals = write_shards(&entries, &dir, options, |p, k| written.push((p.to_path_buf(), k))).unwrap();
+        let options =
+            ShardOptions { shard_size: 1, drift: None, purpose: TrainingPurpose::Shipped, recipe: "test".into() };
+        let totals = write_shards(&entries, &dir, &options, |p, k| written.push((p.to_path_buf(), k))).unwrap();
         assert_eq!(totals.held_out_samples, n);
         assert_eq!(totals.train_samples, 0);
         assert_eq!(written, vec![(dir.join("shard-000.safetensors"), n)]);

@@ -67,11 +67,16 @@ def yaml_str(s):
 
 REAL_DATA = [
     "NGSIM US-101, Lankershim and Peachtree (CommonRoad 2020a conversion, ../shared/data/commonroad-ngsim, 84 scenes)",
-    "synthetic traffic from `safer prior-dataset`: noisy-IDM drivers calibrated to the NGSIM speeds, on procedural "
-    "straight roads, merges and signalised crossings and on the NGSIM maps",
+    "synthetic traffic from `safer prior-dataset`: IDM drivers calibrated to the NGSIM speeds, on procedural "
+    "straight roads, merges and crossings and on the NGSIM maps",
     "not trained on Waymo or Argoverse data (non-commercial licences; used for evaluation only)",
 ]
 REAL_LICENCE = "US public domain (NGSIM) + project (synthetic)"
+EVALUATION_ONLY_DATA = [
+    "EVALUATION ONLY: recorded scenes under a non-commercial licence (Waymo / Argoverse) plus synthetic traffic; "
+    "measured beside the shipped prior, never committed or shipped",
+]
+EVALUATION_ONLY_LICENCE = "non-commercial (evaluation only): never commit or ship"
 RANDOM_DATA = ["RANDOM smoke-test shards from training/prior/make_random_shards.py: not a usable model, never ship it"]
 RANDOM_LICENCE = "none (random data, smoke test only)"
 
@@ -135,7 +140,7 @@ def main():
     ap.add_argument("--out", default="models")
     a = ap.parse_args()
     torch.set_num_threads(1)
-    ck = torch.load(os.path.join(a.run, "best.pt"))
+    ck = torch.load(os.path.join(a.run, "best.pt"), map_location="cpu")
     args = ck["args"]
     summary = json.load(open(os.path.join(a.run, "summary.json")))
     model = Prior(args["d"], args["heads"], args["layers"], args["attention"])
@@ -146,9 +151,11 @@ def main():
     d = args["d"]
     os.makedirs(a.out, exist_ok=True)
     train_data = args.get("data", a.data)
+    budget = f"--steps {args['steps']}" if args.get("steps") else f"--minutes {args['minutes']}"
     command = (f"cargo run --release -- prior-dataset --out {train_data} && training/.venv/bin/python "
-               f"training/prior/train.py --data {train_data} --attention {args['attention']} --minutes {args['minutes']} "
-               f"--threads {args['threads']} --out {a.run} && "
+               f"training/prior/train.py --data {train_data} --attention {args['attention']} {budget} "
+               f"--threads {args['threads']} --batch {args['batch']} --lr {args['lr']} "
+               f"--device {args.get('device', 'cpu')} --out {a.run} && "
                f"training/.venv/bin/python training/prior/export.py --run {a.run} --data {a.data} --out {a.out}")
     arch = (f"{args['attention']} attention; D = {d}, H = {args['heads']} heads, L = {args['layers']} layers of "
             f"temporal / agent-agent / agent-map attention for the query token, pre-LayerNorm, FFN 2D; "
@@ -165,7 +172,16 @@ def main():
     random = shards_are_random(files + train_files)
     if random and os.path.realpath(a.out) == os.path.realpath(os.path.join(REPO, "models")):
         sys.exit("refusing to write a model trained or checked on random smoke-test shards into models/")
+    dataset = ck.get("dataset", {"purpose": "shipped", "recipe": ""})
+    evaluation_only = dataset["purpose"] == "evaluation-only"
+    into_models = os.path.realpath(a.out) == os.path.realpath(os.path.join(REPO, "models"))
+    if evaluation_only and into_models:
+        sys.exit("refusing to write an evaluation-only model (trained on non-commercial data) into models/")
     data_lines, licence = (RANDOM_DATA, RANDOM_LICENCE) if random else (REAL_DATA, REAL_LICENCE)
+    if evaluation_only:
+        data_lines, licence = EVALUATION_ONLY_DATA, EVALUATION_ONLY_LICENCE
+    if dataset["recipe"]:
+        data_lines = data_lines + ["recipe: " + dataset["recipe"]]
     if random:
         command = command.replace(f"cargo run --release -- prior-dataset --out {train_data}",
                                   f"training/.venv/bin/python training/prior/make_random_shards.py --out {train_data}")

@@ -35,8 +35,11 @@ KEYS = ["history", "agent_self", "neighbours", "neighbour_pose", "neighbour_mask
 
 
 def load_shards(folder):
+    """The shards' tensors, held-out mask, recorded mask and files; exits on
+    a contract mismatch or on shards that disagree about their purpose."""
     parts = {k: [] for k in KEYS + ["next_token"]}
     split, source = [], []
+    purposes, recipes = set(), set()
     files = sorted(glob.glob(os.path.join(folder, "shard-*.safetensors")))
     if not files:
         sys.exit(f"no shards in {folder}: run `cargo run --release -- prior-dataset` first")
@@ -46,13 +49,24 @@ def load_shards(folder):
             if meta.get("contract_version") != "1":
                 sys.exit(f"{f}: contract version {meta.get('contract_version')}, this trainer reads 1")
             scenes = json.loads(meta["scenes"])
+            purposes.add(meta.get("purpose", "shipped"))
+            recipes.add(meta.get("recipe", ""))
             for k in parts:
                 parts[k].append(st.get_tensor(k))
             sc = st.get_tensor("scene")
             split.append(np.array([scenes[i]["split"] == "held-out" for i in sc]))
-            source.append(np.array([scenes[i]["source"] == "ngsim" for i in sc]))
+            source.append(np.array([scenes[i]["source"] != "synthetic" for i in sc]))
+    if len(purposes) > 1 or len(recipes) > 1:
+        sys.exit(f"{folder}: shards of different datasets (purposes {sorted(purposes)}, recipes {sorted(recipes)})")
     data = {k: torch.from_numpy(np.concatenate(v)) for k, v in parts.items()}
     return data, np.concatenate(split), np.concatenate(source), files
+
+
+def shard_metadata(files):
+    """The dataset-wide metadata of the shards: purpose (shipped or evaluation-only) and recipe."""
+    with safe_open(files[0], "np") as st:
+        meta = st.metadata() or {}
+    return {"purpose": meta.get("purpose", "shipped"), "recipe": meta.get("recipe", "")}
 
 
 def batch_of(data, idx):
@@ -63,8 +77,9 @@ def batch_of(data, idx):
 def evaluate(model, data, idx, bs=2048):
     model.eval()
     nll, top1, top5, n = 0.0, 0, 0, 0
+    device = data["next_token"].device
     for i in range(0, len(idx), bs):
-        j = idx[i:i + bs]
+        j = torch.as_tensor(idx[i:i + bs], device=device)
         logits = model(batch_of(data, j))
         y = data["next_token"][j]
         nll += F.cross_entropy(logits, y, reduction="sum").item()
@@ -88,7 +103,8 @@ def main():
     ap.add_argument("--d", type=int, default=64)
     ap.add_argument("--heads", type=int, default=8)
     ap.add_argument("--layers", type=int, default=3)
-    ap.add_argument("--ngsim-weight", type=float, default=3.0)
+    ap.add_argument("--ngsim-weight", type=float, default=3.0, help="sampling weight of recorded vs synthetic samples")
+    ap.add_argument("--device", default="cpu", help="cpu, or cuda where a GPU is present")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--eval-every", type=int, default=500)
     ap.add_argument("--out", required=True)
@@ -99,16 +115,24 @@ def main():
     os.makedirs(a.out, exist_ok=True)
 
     data, held, ngsim, files = load_shards(a.data)
+    dataset = shard_metadata(files)
+    data = {k: v.to(a.device) for k, v in data.items()}
     train_idx = np.flatnonzero(~held)
     held_idx = np.flatnonzero(held)
     # A fixed evaluation subset during training; the whole held-out set at the end.
     probe = np.sort(rng.choice(held_idx, size=min(20000, len(held_idx)), replace=False))
     weights = np.where(ngsim[train_idx], a.ngsim_weight, 1.0)
     weights /= weights.sum()
+    # rng.choice(train_idx, p=weights) rebuilds this CDF on every call (O(samples)
+    # a step); drawing through it once made is the same draw, without the cost.
+    cdf = weights.cumsum()
+    cdf /= cdf[-1]
+    if a.device.startswith("cuda"):
+        torch.set_float32_matmul_precision("high")
     print(f"samples: {len(train_idx)} train ({ngsim[train_idx].sum()} NGSIM), {len(held_idx)} held out "
           f"({ngsim[held_idx].sum()} NGSIM) from {len(files)} shards", flush=True)
 
-    model = Prior(a.d, a.heads, a.layers, a.attention)
+    model = Prior(a.d, a.heads, a.layers, a.attention).to(a.device)
     params = sum(p.numel() for p in model.parameters())
     opt = torch.optim.AdamW(model.parameters(), lr=a.lr, weight_decay=0.01)
     budget_s = a.minutes * 60
@@ -128,7 +152,7 @@ def main():
         lr = a.lr * min(1.0, (step + 1) / warmup) * 0.5 * (1 + math.cos(math.pi * min(progress, 1.0)))
         for g in opt.param_groups:
             g["lr"] = lr
-        idx = rng.choice(train_idx, size=a.batch, p=weights)
+        idx = torch.as_tensor(train_idx[cdf.searchsorted(rng.random(a.batch), side="right")], device=a.device)
         loss = F.cross_entropy(model(batch_of(data, idx)), data["next_token"][idx])
         opt.zero_grad(set_to_none=True)
         loss.backward()
@@ -150,14 +174,15 @@ def main():
                   f"top5 {ev['top5']:.3f} ({time.time() - t0:.0f} s)", flush=True)
             if ev["nll"] < best:
                 best = ev["nll"]
-                torch.save({"model": model.state_dict(), "args": vars(a), "step": step}, best_path)
+                state = {k: v.detach().cpu() for k, v in model.state_dict().items()}
+                torch.save({"model": state, "args": vars(a), "step": step, "dataset": dataset}, best_path)
             eval_s += time.time() - te
         if last:
             break
     train_s = time.time() - t0
     if not os.path.exists(best_path):  # held-out NLL was never finite
         sys.exit(f"held-out NLL was not finite at any evaluation: no checkpoint written to {best_path}")
-    ck = torch.load(best_path)
+    ck = torch.load(best_path, map_location=a.device)
     model.load_state_dict(ck["model"])
     full = evaluate(model, data, held_idx)
     ng = evaluate(model, data, held_idx[ngsim[held_idx]]) if ngsim[held_idx].any() else None
@@ -170,7 +195,8 @@ def main():
         "held_out_samples": full["n"],
         "held_out_ngsim_nll": ng and ng["nll"], "held_out_ngsim_top1": ng and ng["top1"],
         "held_out_synthetic_nll": syn["nll"], "held_out_synthetic_top1": syn["top1"],
-        "uniform_nll": math.log(3969),
+        "uniform_nll": math.log(3969), "device": a.device, "batch": a.batch,
+        "purpose": dataset["purpose"], "recipe": dataset["recipe"],
     }
     json.dump(summary, open(os.path.join(a.out, "summary.json"), "w"), indent=2)
     print(json.dumps(summary), flush=True)
