@@ -136,7 +136,7 @@ fn print_calibration(calibration: &Calibration) {
         "  {:<22} {:>10} {:>10} {:>10} {:>12} {:>14}",
         "source", "samples", "speed p50", "speed p90", "accel std", "steering ≥0.1"
     );
-    for (name, k) in [("recorded (NGSIM)", &calibration.recorded), ("synthetic", &calibration.synthetic)] {
+    for (name, k) in [("recorded", &calibration.recorded), ("synthetic", &calibration.synthetic)] {
         let q = SpeedSample::new(k.speeds_mps.clone());
         let accel_std = k.accel_std_mps2().map_or("n/a".to_string(), |s| format!("{s:.2}"));
         let steering = k.steering_share(0.1).map_or("n/a".to_string(), |s| format!("{s:.3}"));

@@ -519,6 +519,9 @@ mod tests {
         let (_, meta) = SafeTensors::read_metadata(&bytes).unwrap();
         let scenes = meta.metadata().as_ref().unwrap()["scenes"].clone();
         assert_eq!(scenes, format!(r#"[{{"id":"{}","source":"synthetic","split":"held-out"}}]"#, scene.id));
+        let metadata = meta.metadata().as_ref().unwrap();
+        assert_eq!(metadata["purpose"], "shipped");
+        assert_eq!(metadata["recipe"], "test");
         let shard = SafeTensors::deserialize(&bytes).unwrap();
         let expect = [
             ("history", vec![n, HISTORY_POINTS, HISTORY_FEATURES]),

@@ -161,3 +161,34 @@ fn jobs_beyond_the_bound_are_refused_naming_the_range() {
         assert!(stderr.contains("10000 is not in 1..=256"), "{stderr}");
     }
 }
+
+#[test]
+fn prior_dataset_refuses_non_commercial_scenes_unless_the_model_is_for_evaluation_only() {
+    let dir = std::env::temp_dir().join(format!("safer-prior-dataset-purpose-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let recorded = data_dir().join("womd-tfrecord");
+    let run = |extra: &[&str]| {
+        safer(
+            &[
+                &["prior-dataset", "--recorded", recorded.to_str().unwrap(), "--out", dir.to_str().unwrap()],
+                &["--template-scenes", "1", "--recorded-map-scenes", "0", "--force"][..],
+                extra,
+            ]
+            .concat(),
+        )
+    };
+    let refused = run(&[]);
+    assert!(!refused.status.success());
+    let err = String::from_utf8_lossy(&refused.stderr);
+    assert!(err.contains("womd") && err.to_lowercase().contains("licen"), "{err}");
+
+    let out = run(&["--evaluation-only"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let bytes = std::fs::read(dir.join("shard-000.safetensors")).expect("a shard");
+    let (_, meta) = safetensors::SafeTensors::read_metadata(&bytes).unwrap();
+    let meta = meta.metadata().as_ref().unwrap();
+    assert_eq!(meta["purpose"], "evaluation-only");
+    assert!(meta["scenes"].contains("\"source\":\"recorded-evaluation-only\""), "{}", meta["scenes"]);
+    assert!(meta["recipe"].contains("token drift"), "{}", meta["recipe"]);
+    std::fs::remove_dir_all(&dir).ok();
+}

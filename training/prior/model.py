@@ -174,7 +174,7 @@ class Decoder(nn.Module):
         x = self.x0(torch.cat([h.reshape(B, -1), self.self_scale(agent_self)], dim=-1))
         hist = self.hist_emb(h) + self.time_emb
         hist_mask = history[:, :, 7]
-        ones = torch.ones(B, 1, dtype=history.dtype)
+        ones = torch.ones(B, 1, dtype=history.dtype, device=history.device)
         nb = self.nb_emb(self.nb_scale(neighbours)) + self.nb_pose(self.pose_scale(neighbour_pose))
         nb = torch.cat([self.null[0].expand(B, 1, self.d), nb], dim=1)
         nb_mask = torch.cat([ones, neighbour_mask], dim=1)

@@ -103,7 +103,8 @@ def main():
     ap.add_argument("--d", type=int, default=64)
     ap.add_argument("--heads", type=int, default=8)
     ap.add_argument("--layers", type=int, default=3)
-    ap.add_argument("--ngsim-weight", type=float, default=3.0, help="sampling weight of recorded vs synthetic samples")
+    ap.add_argument("--recorded-weight", "--ngsim-weight", dest="ngsim_weight", type=float, default=3.0,
+                    help="sampling weight of a recorded sample against a synthetic one")
     ap.add_argument("--device", default="cpu", help="cpu, or cuda where a GPU is present")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--eval-every", type=int, default=500)
@@ -129,8 +130,8 @@ def main():
     cdf /= cdf[-1]
     if a.device.startswith("cuda"):
         torch.set_float32_matmul_precision("high")
-    print(f"samples: {len(train_idx)} train ({ngsim[train_idx].sum()} NGSIM), {len(held_idx)} held out "
-          f"({ngsim[held_idx].sum()} NGSIM) from {len(files)} shards", flush=True)
+    print(f"samples: {len(train_idx)} train ({ngsim[train_idx].sum()} recorded), {len(held_idx)} held out "
+          f"({ngsim[held_idx].sum()} recorded) from {len(files)} shards", flush=True)
 
     model = Prior(a.d, a.heads, a.layers, a.attention).to(a.device)
     params = sum(p.numel() for p in model.parameters())
