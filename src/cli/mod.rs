@@ -353,11 +353,11 @@ enum Command {
         /// Output folder for the shards.
         #[arg(long, default_value = "training/data/prior")]
         out: PathBuf,
-        /// Synthetic scenes on procedural templates (straight roads, merges, signalised crossings).
-        #[arg(long, default_value_t = 600)]
+        /// Synthetic scenes on procedural templates (straight roads, merges, crossings).
+        #[arg(long, default_value_t = 1200)]
         template_scenes: usize,
         /// Synthetic scenes on the recorded maps.
-        #[arg(long, default_value_t = 200)]
+        #[arg(long, default_value_t = 400)]
         recorded_map_scenes: usize,
         /// Base seed of the synthetic traffic.
         #[arg(long, default_value_t = 0)]

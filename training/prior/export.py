@@ -138,6 +138,8 @@ def main():
     ap.add_argument("--run", required=True)
     ap.add_argument("--data", default="training/data/prior")
     ap.add_argument("--out", default="models")
+    ap.add_argument("--train-data", help="the shards' folder named in the card's command, when training ran on "
+                    "another machine (default: the folder the run trained on)")
     a = ap.parse_args()
     torch.set_num_threads(1)
     ck = torch.load(os.path.join(a.run, "best.pt"), map_location="cpu")
@@ -150,7 +152,7 @@ def main():
     enc_name, dec_name = f"prior-map-encoder{suffix}", f"prior-decoder{suffix}"
     d = args["d"]
     os.makedirs(a.out, exist_ok=True)
-    train_data = args.get("data", a.data)
+    train_data = a.train_data or args.get("data", a.data)
     budget = f"--steps {args['steps']}" if args.get("steps") else f"--minutes {args['minutes']}"
     command = (f"cargo run --release -- prior-dataset --out {train_data} && training/.venv/bin/python "
                f"training/prior/train.py --data {train_data} --attention {args['attention']} {budget} "
@@ -159,8 +161,9 @@ def main():
                f"training/.venv/bin/python training/prior/export.py --run {a.run} --data {a.data} --out {a.out}")
     arch = (f"{args['attention']} attention; D = {d}, H = {args['heads']} heads, L = {args['layers']} layers of "
             f"temporal / agent-agent / agent-map attention for the query token, pre-LayerNorm, FFN 2D; "
-            f"{summary['params']} parameters. D = {d} so that one thread trains {summary['samples_per_s']:.0f} "
-            f"samples/s ({summary['train_minutes']:.0f} min budget) and tract answers a CBV query in well under a "
+            f"{summary['params']} parameters, trained at {summary['samples_per_s']:.0f} samples/s on "
+            f"{'one GPU' if summary.get('device', 'cpu').startswith('cuda') else str(args['threads']) + ' CPU thread(s)'} "
+            f"({summary['train_minutes']:.1f} min budget). D = {d} so that tract answers a CBV query in well under a "
             f"millisecond; see docs/prior-features.md. Exported as the inference graph of "
             f"training/prior/inference_graph.py: the same weights, with each attention written as products with "
             f"constant matrices (query folded into the key weights, value projection after the weighted sum, no "
