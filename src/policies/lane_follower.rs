@@ -349,10 +349,6 @@ impl AgentPolicy for IdmLaneFollower {
     }
 
     fn act(&mut self, world: &WorldView<'_>, agent: TrackIndex) -> AgentAction {
-        match self.control(world, agent) {
-            Some(a) => AgentAction::Control(a),
-            None if world.state(agent).is_some() => AgentAction::Control(Action::default()),
-            None => AgentAction::Absent,
-        }
+        AgentAction::from_control(world, agent, self.control(world, agent))
     }
 }

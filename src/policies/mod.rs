@@ -34,6 +34,18 @@ pub enum AgentAction {
     Absent,
 }
 
+impl AgentAction {
+    /// A controller's output as an action: its control, or holding still
+    /// (zero control) while present without one, or absent.
+    pub fn from_control(world: &WorldView<'_>, agent: TrackIndex, control: Option<Action>) -> Self {
+        match control {
+            Some(a) => Self::Control(a),
+            None if world.state(agent).is_some() => Self::Control(Action::default()),
+            None => Self::Absent,
+        }
+    }
+}
+
 /// The world as every policy sees it at one step.
 #[derive(Debug, Clone, Copy)]
 pub struct WorldView<'a> {

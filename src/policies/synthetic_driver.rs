@@ -147,10 +147,10 @@ impl SyntheticDriver {
         });
         let yaw_rate = pursuit_yaw_rate(route, here_s, &state, &self.params)?;
         let mut leader = route_leader(world, agent, route, here_s, &self.params);
-        if let Some(stop_gap) = self.yield_gap_m(world, agent, route, here_s) {
-            if leader.is_none_or(|(g, _)| stop_gap < g) {
-                leader = Some((stop_gap, 0.0));
-            }
+        if let Some(stop_gap) = self.yield_gap_m(world, agent, route, here_s)
+            && leader.is_none_or(|(g, _)| stop_gap < g)
+        {
+            leader = Some((stop_gap, 0.0));
         }
         let accel = idm_accel_mps2(&self.params, speed, v0, leader) + self.disturbance.step();
         Some(Action { accel_mps2: accel.clamp(-MAX_ACCEL_MPS2, MAX_ACCEL_MPS2), yaw_rate_radps: yaw_rate })
@@ -328,10 +328,6 @@ impl AgentPolicy for SyntheticDriver {
     }
 
     fn act(&mut self, world: &WorldView<'_>, agent: TrackIndex) -> AgentAction {
-        match self.control(world, agent) {
-            Some(a) => AgentAction::Control(a),
-            None if world.state(agent).is_some() => AgentAction::Control(Action::default()),
-            None => AgentAction::Absent,
-        }
+        AgentAction::from_control(world, agent, self.control(world, agent))
     }
 }
