@@ -20,7 +20,7 @@ fn suite(name: &str, coverage: &str) -> PathBuf {
     std::fs::write(
         &path,
         format!(
-            "name: {name}\nscenarios:\n  - {}\nplanner: {{ builtin: evasive }}\nadversary: {{ method: safer, trust_region: 50 }}\n\
+            "name: {name}\nscenarios:\n  - {}\nplanner: {{ builtin: evasive }}\nadversary: {{ method: safer }}\n\
              variants: 4\nacceptance:\n  variant: {{ no_collision: false }}\n  suite: {{ conflict_coverage_min: {coverage} }}\n",
             scene.display()
         ),
