@@ -77,7 +77,6 @@ impl Default for EvasiveParams {
 /// scenes (SR 1.000 → 0.981).
 const MAX_CURVATURE_PER_M: f64 = 0.8;
 
-const ROUTE_REBUILD_M: f64 = 60.0;
 /// Agents farther than this are not predicted, m.
 const PREDICTION_RANGE_M: f64 = 80.0;
 /// Slack of the reach filter of the predictions, m: far above the rounding
@@ -252,12 +251,7 @@ impl Planner for EvasivePlanner {
 
     fn plan(&mut self, obs: &Observation<'_>) -> Result<PlannerOutput, PlannerError> {
         let ego = obs.ego;
-        let rebuild = match &self.route {
-            None => true,
-            Some(r) => {
-                r.path.project(&ego.position).is_none_or(|p| r.path.length_m() - p.arc_length_m < ROUTE_REBUILD_M)
-            }
-        };
+        let rebuild = Route::needs_rebuild(self.route.as_ref(), &ego.position);
         if obs.time_s == 0.0 || rebuild {
             if obs.time_s == 0.0 {
                 self.desired_speed_mps = None;

@@ -112,7 +112,7 @@ pub fn idm_desired_gap_m(
 /// Route length built ahead of the agent, m.
 const ROUTE_HORIZON_M: f64 = 200.0;
 /// Rebuild the route when less than this remains ahead, m.
-pub const ROUTE_REBUILD_M: f64 = 60.0;
+const ROUTE_REBUILD_M: f64 = 60.0;
 /// Lateral offset from the route under which another agent is "on it", m.
 const ON_ROUTE_LATERAL_M: f64 = 1.8;
 /// How far from a lane centreline an agent may start and still follow it, m.
@@ -125,6 +125,27 @@ pub struct Route {
     pub path: Polyline,
     /// (lane, arc length of its start on the path, arc length of its end).
     pub lanes: Vec<(MapElementId, f64, f64)>,
+}
+
+impl Route {
+    /// Whether a route (or none yet) must be rebuilt for an agent at
+    /// `position`: none, `position` does not project onto it, or less
+    /// than 60 m of it remain ahead.
+    pub fn needs_rebuild(route: Option<&Route>, position: &Point2) -> bool {
+        route.is_none_or(|r| {
+            r.path.project(position).is_none_or(|p| r.path.length_m() - p.arc_length_m < ROUTE_REBUILD_M)
+        })
+    }
+
+    /// The desired speed of an agent starting on this route at `speed_mps`:
+    /// `params`' own, else the first lane's limit, else the larger of the
+    /// start speed and the fallback speed.
+    pub fn desired_speed_mps(&self, map: &RoadMap, params: &IdmParams, speed_mps: f64) -> f64 {
+        params.desired_speed_mps.unwrap_or_else(|| {
+            let limit = self.lanes.first().and_then(|(id, _, _)| map.lane(*id)).and_then(|l| l.speed_limit_mps);
+            limit.unwrap_or(speed_mps.max(params.fallback_speed_mps))
+        })
+    }
 }
 
 /// A route of about 200 m from `state`: the nearest lane going the agent's
@@ -318,25 +339,13 @@ impl IdmLaneFollower {
     /// The control for `agent` at `world.step`, or `None` when it is absent.
     pub fn control(&mut self, world: &WorldView<'_>, agent: TrackIndex) -> Option<Action> {
         let state = *world.state(agent)?;
-        let map = world.map;
-        let rebuild = match &self.route {
-            None => true,
-            Some(r) => {
-                r.path.project(&state.position).is_none_or(|p| r.path.length_m() - p.arc_length_m < ROUTE_REBUILD_M)
-            }
-        };
-        if rebuild {
-            self.route = Some(build_route(map, &state, world.body(agent).kind));
+        if Route::needs_rebuild(self.route.as_ref(), &state.position) {
+            self.route = Some(build_route(world.map, &state, world.body(agent).kind));
         }
         let route = self.route.as_ref()?;
         let here = route.path.project(&state.position)?;
         let speed = state.speed_mps();
-        let v0 = *self.desired_speed_mps.get_or_insert_with(|| {
-            self.params.desired_speed_mps.unwrap_or_else(|| {
-                let limit = route.lanes.first().and_then(|(id, _, _)| map.lane(*id)).and_then(|l| l.speed_limit_mps);
-                limit.unwrap_or(speed.max(self.params.fallback_speed_mps))
-            })
-        });
+        let v0 = *self.desired_speed_mps.get_or_insert_with(|| route.desired_speed_mps(world.map, &self.params, speed));
         let yaw_rate = pursuit_yaw_rate(route, here.arc_length_m, &state, &self.params)?;
         let leader = route_leader(world, agent, route, here.arc_length_m, &self.params);
         Some(Action { accel_mps2: idm_accel_mps2(&self.params, speed, v0, leader), yaw_rate_radps: yaw_rate })

@@ -12,13 +12,11 @@
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-use super::lane_follower::{
-    ROUTE_REBUILD_M, build_route_choosing, idm_accel_mps2, pursuit_yaw_rate, route_along_lanes, route_leader,
-};
+use super::lane_follower::{build_route_choosing, idm_accel_mps2, pursuit_yaw_rate, route_along_lanes, route_leader};
 use super::noisy_idm::{AccelDisturbance, DriverNoise};
 use super::{AgentAction, AgentPolicy, IdmParams, Route, WorldView};
 use crate::geometry::{Point2, Polyline, Vector2, wrap_angle};
-use crate::map::{Lane, RoadMap};
+use crate::map::Lane;
 use crate::motion::Action;
 use crate::motion::tokens::{MAX_ACCEL_MPS2, SIM_DT_S};
 use crate::scenario::{AgentState, TrackIndex};
@@ -110,43 +108,29 @@ impl SyntheticDriver {
         }
     }
 
-    fn build_route(&self, map: &RoadMap, state: &AgentState, world: &WorldView<'_>, agent: TrackIndex) -> Route {
-        let choices = self.choices;
-        build_route_choosing(map, state, world.body(agent).kind, &mut |from, next| choices.successor(from, next))
-    }
-
     /// The control for `agent`, or `None` when it is absent.
     fn control(&mut self, world: &WorldView<'_>, agent: TrackIndex) -> Option<Action> {
         let state = *world.state(agent)?;
-        let map = world.map;
         if self.lane_change.is_some_and(|c| world.step >= c.until_step) {
             self.lane_change = None;
         }
-        let rebuild = self.lane_change.is_none()
-            && match &self.route {
-                None => true,
-                Some(r) => {
-                    r.path.project(&state.position).is_none_or(|p| r.path.length_m() - p.arc_length_m < ROUTE_REBUILD_M)
-                }
-            };
-        if rebuild {
-            self.route = Some(self.build_route(map, &state, world, agent));
+        if self.lane_change.is_none() && Route::needs_rebuild(self.route.as_ref(), &state.position) {
+            let choices = self.choices;
+            let kind = world.body(agent).kind;
+            self.route =
+                Some(build_route_choosing(world.map, &state, kind, &mut |from, next| choices.successor(from, next)));
         }
         let speed = state.speed_mps();
-        let here_s = self.route.as_ref()?.path.project(&state.position)?.arc_length_m;
-        let leader = route_leader(world, agent, self.route.as_ref()?, here_s, &self.params);
-        self.maybe_change_lane(world, agent, &state, leader);
-
+        let mut here_s = self.route.as_ref()?.path.project(&state.position)?.arc_length_m;
+        let mut leader = route_leader(world, agent, self.route.as_ref()?, here_s, &self.params);
+        if self.maybe_change_lane(world, agent, &state, leader) {
+            // A new path: where the driver is on it and what it brakes for there.
+            here_s = self.route.as_ref()?.path.project(&state.position)?.arc_length_m;
+            leader = route_leader(world, agent, self.route.as_ref()?, here_s, &self.params);
+        }
         let route = self.route.as_ref()?;
-        let here_s = route.path.project(&state.position)?.arc_length_m;
-        let v0 = *self.desired_speed_mps.get_or_insert_with(|| {
-            self.params.desired_speed_mps.unwrap_or_else(|| {
-                let limit = route.lanes.first().and_then(|(id, _, _)| map.lane(*id)).and_then(|l| l.speed_limit_mps);
-                limit.unwrap_or(speed.max(self.params.fallback_speed_mps))
-            })
-        });
+        let v0 = *self.desired_speed_mps.get_or_insert_with(|| route.desired_speed_mps(world.map, &self.params, speed));
         let yaw_rate = pursuit_yaw_rate(route, here_s, &state, &self.params)?;
-        let mut leader = route_leader(world, agent, route, here_s, &self.params);
         if let Some(stop_gap) = self.yield_gap_m(world, agent, route, here_s)
             && leader.is_none_or(|(g, _)| stop_gap < g)
         {
@@ -157,28 +141,29 @@ impl SyntheticDriver {
     }
 
     /// Starts a lane change with the driver's rate when a neighbour lane
-    /// going the same way has room beside and ahead.
+    /// going the same way has room beside and ahead; whether it did (the
+    /// route is then the lane change's path).
     fn maybe_change_lane(
         &mut self,
         world: &WorldView<'_>,
         agent: TrackIndex,
         state: &AgentState,
         leader: Option<(f64, f64)>,
-    ) {
+    ) -> bool {
         let speed = state.speed_mps();
         if self.lane_change.is_some() || world.step < self.next_lane_change_step || speed < LANE_CHANGE_MIN_SPEED_MPS {
-            return;
+            return false;
         }
         let slow_leader = leader.is_some_and(|(gap, v)| gap < 40.0 && v < 0.85 * speed.max(1.0));
         let rate = self.choices.lane_change_rate_per_s * if slow_leader { 3.0 } else { 1.0 };
         if self.rng.random::<f64>() >= rate * SIM_DT_S {
-            return;
+            return false;
         }
         let map = world.map;
-        let Some(m) = map.nearest_lane(&state.position, Some(state.heading_rad), 2.5) else { return };
+        let Some(m) = map.nearest_lane(&state.position, Some(state.heading_rad), 2.5) else { return false };
         let lane = &map.lanes[m.lane_index];
         if lane.in_intersection {
-            return;
+            return false;
         }
         let mut sides: Vec<&Lane> = lane
             .left_neighbours
@@ -188,33 +173,34 @@ impl SyntheticDriver {
             .filter(|l| !l.in_intersection)
             .collect();
         if sides.is_empty() {
-            return;
+            return false;
         }
         let target = sides.swap_remove(self.rng.random_range(0..sides.len()));
-        let Some(on_target) = target.centreline.project(&state.position) else { return };
+        let Some(on_target) = target.centreline.project(&state.position) else { return false };
         // Same direction, beside the driver (not past the neighbour's end).
         if target.centreline.tangent_dot(&on_target, state.heading_rad) < 0.9 || on_target.distance_m > 6.0 {
-            return;
+            return false;
         }
         let length = (speed * self.choices.lane_change_duration_s).max(LANE_CHANGE_MIN_LENGTH_M);
         if !target_lane_has_room(world, agent, target, on_target.arc_length_m, speed) {
-            return;
+            return false;
         }
         let choices = self.choices;
         let Some(after) =
             route_along_lanes(map, target, on_target.arc_length_m, &mut |from, next| choices.successor(from, next))
         else {
-            return;
+            return false;
         };
         if after.path.length_m() < length + 20.0 {
-            return;
+            return false;
         }
-        let Some(current) = self.route.as_ref() else { return };
-        let Some(here) = current.path.project(&state.position) else { return };
+        let Some(current) = self.route.as_ref() else { return false };
+        let Some(here) = current.path.project(&state.position) else { return false };
         self.route = Some(blended_route(current, here.arc_length_m, &after, state, length));
         let duration_steps = (length / speed / SIM_DT_S).ceil() as usize;
         self.lane_change = Some(LaneChange { until_step: world.step + duration_steps });
         self.next_lane_change_step = world.step + duration_steps + (LANE_CHANGE_COOLDOWN_S / SIM_DT_S) as usize;
+        true
     }
 
     /// Gap to the point where the driver stops to yield to crossing
