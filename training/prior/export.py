@@ -157,7 +157,11 @@ def main():
     command = (f"cargo run --release -- prior-dataset --out {train_data} && training/.venv/bin/python "
                f"training/prior/train.py --data {train_data} --attention {args['attention']} {budget} "
                f"--threads {args['threads']} --batch {args['batch']} --lr {args['lr']} "
-               f"--device {args.get('device', 'cpu')} --out {a.run} && "
+               f"--device {args.get('device', 'cpu')} "
+               + (f"--label-smoothing {args['label_smoothing']} --label-smoothing-axis "
+                  f"{args['label_smoothing_axis']} --label-smoothing-bins {args['label_smoothing_bins']} "
+                  if args.get("label_smoothing") else "")
+               + f"--out {a.run} && "
                f"training/.venv/bin/python training/prior/export.py --run {a.run} --data {a.data} --out {a.out}")
     arch = (f"{args['attention']} attention; D = {d}, H = {args['heads']} heads, L = {args['layers']} layers of "
             f"temporal / agent-agent / agent-map attention for the query token, pre-LayerNorm, FFN 2D; "

@@ -91,6 +91,35 @@ def evaluate(model, data, idx, bs=2048):
     return {"nll": nll / n, "top1": top1 / n, "top5": top5 / n, "n": n}
 
 
+BINS = 63  # per axis; token id = accel_bin * 63 + yaw_rate_bin (motion::tokens)
+
+
+def bin_spread(sigma_bins):
+    """[63, 63]: row i is how a label in bin i of the smoothed axis spreads
+    its smoothed share over that axis's other bins (Gaussian in bins, none on
+    i itself, rows summing to 1)."""
+    j = torch.arange(BINS, dtype=torch.float32)
+    w = torch.exp(-0.5 * ((j[None, :] - j[:, None]) / max(sigma_bins, 1e-6)) ** 2)
+    w.fill_diagonal_(0.0)
+    return w / w.sum(dim=1, keepdim=True)
+
+
+def token_loss(logits, target, smoothing, axis, spread):
+    """Cross-entropy against the label token, with `smoothing` of its mass
+    moved along one axis of the grid (`spread` rows): to neighbouring
+    acceleration bins at the label's yaw rate (`axis` "accel"), or to
+    neighbouring yaw-rate bins at its acceleration ("yaw-rate")."""
+    if smoothing <= 0.0:
+        return F.cross_entropy(logits, target)
+    logp = F.log_softmax(logits, dim=-1).view(-1, BINS, BINS)  # [B, accel bin, yaw-rate bin]
+    accel, yaw = target // BINS, target % BINS
+    rows = torch.arange(len(target), device=logits.device)
+    line, own_bin = (logp[rows, :, yaw], accel) if axis == "accel" else (logp[rows, accel], yaw)  # [B, 63]
+    own = line.gather(1, own_bin[:, None])[:, 0]
+    spread_part = (spread[own_bin] * line).sum(dim=1)
+    return -((1.0 - smoothing) * own + smoothing * spread_part).mean()
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--data", default="training/data/prior")
@@ -108,6 +137,15 @@ def main():
     ap.add_argument("--device", default="cpu", help="cpu, or cuda where a GPU is present")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--eval-every", type=int, default=500)
+    ap.add_argument("--label-smoothing", type=float, default=0.0,
+                    help="share of each label's probability spread over neighbouring bins of one axis of the "
+                         "token grid, the other axis held (0: plain cross-entropy on the token)")
+    ap.add_argument("--label-smoothing-axis", choices=["accel", "yaw-rate"], default="accel",
+                    help="the axis the smoothed share spreads along")
+    ap.add_argument("--label-smoothing-bins", type=float, default=3.0,
+                    help="width (standard deviation, in bins) of that spread")
+    ap.add_argument("--init", help="start from this checkpoint's weights (a best.pt of the same architecture) "
+                                   "instead of a random initialisation")
     ap.add_argument("--out", required=True)
     a = ap.parse_args()
     torch.set_num_threads(a.threads)
@@ -133,7 +171,10 @@ def main():
     print(f"samples: {len(train_idx)} train ({ngsim[train_idx].sum()} recorded), {len(held_idx)} held out "
           f"({ngsim[held_idx].sum()} recorded) from {len(files)} shards", flush=True)
 
+    spread = bin_spread(a.label_smoothing_bins).to(a.device)
     model = Prior(a.d, a.heads, a.layers, a.attention).to(a.device)
+    if a.init:
+        model.load_state_dict(torch.load(a.init, map_location=a.device)["model"])
     params = sum(p.numel() for p in model.parameters())
     opt = torch.optim.AdamW(model.parameters(), lr=a.lr, weight_decay=0.01)
     budget_s = a.minutes * 60
@@ -154,7 +195,7 @@ def main():
         for g in opt.param_groups:
             g["lr"] = lr
         idx = torch.as_tensor(train_idx[cdf.searchsorted(rng.random(a.batch), side="right")], device=a.device)
-        loss = F.cross_entropy(model(batch_of(data, idx)), data["next_token"][idx])
+        loss = token_loss(model(batch_of(data, idx)), data["next_token"][idx], a.label_smoothing, a.label_smoothing_axis, spread)
         opt.zero_grad(set_to_none=True)
         loss.backward()
         torch.nn.utils.clip_grad_norm_(model.parameters(), 1.0)
@@ -198,6 +239,8 @@ def main():
         "held_out_synthetic_nll": syn["nll"], "held_out_synthetic_top1": syn["top1"],
         "uniform_nll": math.log(3969), "device": a.device, "batch": a.batch,
         "purpose": dataset["purpose"], "recipe": dataset["recipe"],
+        "label_smoothing": a.label_smoothing, "label_smoothing_axis": a.label_smoothing_axis,
+        "label_smoothing_bins": a.label_smoothing_bins,
     }
     json.dump(summary, open(os.path.join(a.out, "summary.json"), "w"), indent=2)
     print(json.dumps(summary), flush=True)
