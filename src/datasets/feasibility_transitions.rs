@@ -620,7 +620,8 @@ mod tests {
         t.cost.push(SAFE_COST as f32);
         t.done.push(1.0);
         t.scene.push(0);
-        let path = std::env::temp_dir().join(format!("safer-datasets-transitions-{}.safetensors", std::process::id()));
+        let tmp = tempfile::Builder::new().prefix("safer-datasets-transitions-").tempdir().unwrap();
+        let path = tmp.path().join("transitions.safetensors");
         c.write(&t, &path).unwrap();
         let bytes = std::fs::read(&path).unwrap();
         let (_, meta) = safetensors::SafeTensors::read_metadata(&bytes).unwrap();

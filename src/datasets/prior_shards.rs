@@ -503,7 +503,8 @@ mod tests {
         let samples = scene_samples(&scene, None);
         assert!(!samples.is_empty(), "a 4 s scene with moving vehicles has token boundaries");
         let n = samples.len();
-        let dir = std::env::temp_dir().join(format!("safer-datasets-prior-{}", std::process::id()));
+        let tmp = tempfile::Builder::new().prefix("safer-datasets-prior-").tempdir().unwrap();
+        let dir = tmp.path().to_path_buf();
         std::fs::create_dir_all(&dir).unwrap();
         let mut written = Vec::new();
         let entries =

@@ -670,8 +670,8 @@ mod tests {
 
     #[test]
     fn a_folder_of_other_files_is_refused_and_an_earlier_page_replaced() {
-        let dir = std::env::temp_dir().join(format!("safer-review-page-unit-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
+        let tmp = tempfile::Builder::new().prefix("safer-review-page-unit-").tempdir().unwrap();
+        let dir = tmp.path().join("page");
         assert!(check_folder(&dir).is_ok(), "missing folder");
         std::fs::create_dir_all(&dir).unwrap();
         assert!(check_folder(&dir).is_ok(), "empty folder");

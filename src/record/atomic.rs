@@ -176,15 +176,13 @@ fn sync_directory(path: &Path) {
 pub(super) mod tests {
     use super::*;
 
-    /// A fresh, empty folder for one test of `module`.
-    pub(in crate::record) fn scratch_dir_of(module: &str, name: &str) -> PathBuf {
-        let dir = std::env::temp_dir().join(format!("safer-record-{module}-{name}-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
-        std::fs::create_dir_all(&dir).unwrap();
-        dir
+    /// A fresh, empty folder for one test of `module`, removed (with all
+    /// in it) when dropped.
+    pub(in crate::record) fn scratch_dir_of(module: &str, name: &str) -> tempfile::TempDir {
+        tempfile::Builder::new().prefix(&format!("safer-record-{module}-{name}-")).tempdir().unwrap()
     }
 
-    fn scratch_dir(name: &str) -> PathBuf {
+    fn scratch_dir(name: &str) -> tempfile::TempDir {
         scratch_dir_of("atomic", name)
     }
 
@@ -198,29 +196,32 @@ pub(super) mod tests {
 
     #[test]
     fn atomic_write_replaces_the_file_and_leaves_no_temporary() {
-        let dir = scratch_dir("replace");
+        let tmp = scratch_dir("replace");
+        let dir = tmp.path();
         let path = dir.join("a.svg");
         write_atomically(&path, b"first").unwrap();
         write_atomically(&path, b"second").unwrap();
         assert_eq!(std::fs::read(&path).unwrap(), b"second");
-        assert_eq!(entries(&dir), vec!["a.svg".to_string()]);
-        std::fs::remove_dir_all(&dir).unwrap();
+        assert_eq!(entries(dir), vec!["a.svg".to_string()]);
+        std::fs::remove_dir_all(dir).unwrap();
     }
 
     #[test]
     fn atomic_write_into_a_missing_directory_fails_without_leftovers() {
-        let dir = scratch_dir("missing");
+        let tmp = scratch_dir("missing");
+        let dir = tmp.path();
         let path = dir.join("no-such-dir").join("a.mcap");
         let err = write_atomically(&path, b"x").unwrap_err();
         assert!(matches!(err, RecordError::Io { .. }), "{err}");
         assert!(err.to_string().contains("a.mcap"), "{err}");
-        assert!(entries(&dir).is_empty());
-        std::fs::remove_dir_all(&dir).unwrap();
+        assert!(entries(dir).is_empty());
+        std::fs::remove_dir_all(dir).unwrap();
     }
 
     #[test]
     fn atomic_write_failing_midway_keeps_the_old_file() {
-        let dir = scratch_dir("midway");
+        let tmp = scratch_dir("midway");
+        let dir = tmp.path();
         let path = dir.join("a.mcap");
         write_atomically(&path, b"old").unwrap();
         let err = write_atomically_with(&path, |w| {
@@ -230,21 +231,22 @@ pub(super) mod tests {
         .unwrap_err();
         assert!(err.to_string().contains("simulated failure"), "{err}");
         assert_eq!(std::fs::read(&path).unwrap(), b"old");
-        assert_eq!(entries(&dir), vec!["a.mcap".to_string()]);
-        std::fs::remove_dir_all(&dir).unwrap();
+        assert_eq!(entries(dir), vec!["a.mcap".to_string()]);
+        std::fs::remove_dir_all(dir).unwrap();
     }
 
     #[cfg(unix)]
     #[test]
     fn atomic_write_keeps_the_permissions_of_the_file_it_replaces() {
         use std::os::unix::fs::PermissionsExt;
-        let dir = scratch_dir("mode");
+        let tmp = scratch_dir("mode");
+        let dir = tmp.path();
         let path = dir.join("report.json");
         write_atomically(&path, b"old").unwrap();
         std::fs::set_permissions(&path, std::fs::Permissions::from_mode(0o640)).unwrap();
         write_atomically(&path, b"new").unwrap();
         assert_eq!(std::fs::metadata(&path).unwrap().permissions().mode() & 0o777, 0o640);
-        std::fs::remove_dir_all(&dir).unwrap();
+        std::fs::remove_dir_all(dir).unwrap();
     }
 
     #[test]
@@ -285,7 +287,8 @@ pub(super) mod tests {
     #[cfg(target_os = "linux")]
     #[test]
     fn a_write_removes_stale_temporaries_of_dead_writers_and_nothing_else() {
-        let dir = scratch_dir("stale");
+        let tmp = scratch_dir("stale");
+        let dir = tmp.path();
         let dead = dead_pid();
         let live = std::process::id();
         let stale = format!(".report.json{TEMP_MARKER}{dead}-0");
@@ -303,8 +306,8 @@ pub(super) mod tests {
         write_atomically(&dir.join("other.svg"), b"picture").unwrap();
         let mut expected = vec![fresh_dead, live_one, lookalike, folder, "other.svg".to_string()];
         expected.sort();
-        assert_eq!(entries(&dir), expected);
-        std::fs::remove_dir_all(&dir).unwrap();
+        assert_eq!(entries(dir), expected);
+        std::fs::remove_dir_all(dir).unwrap();
     }
 
     #[test]

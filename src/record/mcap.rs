@@ -881,9 +881,8 @@ mod tests {
 
     #[test]
     fn mcap_write_is_atomic_and_fails_cleanly_into_a_missing_directory() {
-        let dir = std::env::temp_dir().join(format!("safer-record-mcap-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
-        std::fs::create_dir_all(&dir).unwrap();
+        let tmp = tempfile::Builder::new().prefix("safer-record-mcap-").tempdir().unwrap();
+        let dir = tmp.path().to_path_buf();
         let s = crossing_scenario();
         let r = crossing_rollout(&s);
         let path = dir.join("crossing.mcap");

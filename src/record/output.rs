@@ -254,13 +254,14 @@ mod tests {
 
     use crate::record::atomic::tests::{entries, scratch_dir_of};
 
-    fn scratch_dir(name: &str) -> PathBuf {
+    fn scratch_dir(name: &str) -> tempfile::TempDir {
         scratch_dir_of("output", name)
     }
 
     #[test]
     fn a_symlink_is_followed_and_stays_a_link() {
-        let dir = scratch_dir("symlink");
+        let tmp = scratch_dir("symlink");
+        let dir = tmp.path();
         std::fs::create_dir(dir.join("real")).unwrap();
         std::fs::write(dir.join("real/report.json"), b"old").unwrap();
         // Relative, and through a second link, as a user's dotfiles often are.
@@ -272,33 +273,36 @@ mod tests {
         }
         assert_eq!(std::fs::read(dir.join("real/report.json")).unwrap(), b"new");
         assert_eq!(entries(&dir.join("real")), vec!["report.json".to_string()]);
-        std::fs::remove_dir_all(&dir).unwrap();
+        std::fs::remove_dir_all(dir).unwrap();
     }
 
     #[test]
     fn a_dangling_symlink_creates_its_target() {
-        let dir = scratch_dir("dangling");
+        let tmp = scratch_dir("dangling");
+        let dir = tmp.path();
         std::os::unix::fs::symlink("made.json", dir.join("link.json")).unwrap();
         write_output(&dir.join("link.json"), b"{}").unwrap();
         assert!(std::fs::symlink_metadata(dir.join("link.json")).unwrap().file_type().is_symlink());
         assert_eq!(std::fs::read(dir.join("made.json")).unwrap(), b"{}");
-        std::fs::remove_dir_all(&dir).unwrap();
+        std::fs::remove_dir_all(dir).unwrap();
     }
 
     #[test]
     fn a_symlink_loop_is_an_error_not_a_hang() {
-        let dir = scratch_dir("loop");
+        let tmp = scratch_dir("loop");
+        let dir = tmp.path();
         std::os::unix::fs::symlink("b", dir.join("a")).unwrap();
         std::os::unix::fs::symlink("a", dir.join("b")).unwrap();
         let err = write_output(&dir.join("a"), b"x").unwrap_err();
         assert!(matches!(err, RecordError::InvalidPath { .. }), "{err}");
-        assert_eq!(entries(&dir), vec!["a".to_string(), "b".to_string()]);
-        std::fs::remove_dir_all(&dir).unwrap();
+        assert_eq!(entries(dir), vec!["a".to_string(), "b".to_string()]);
+        std::fs::remove_dir_all(dir).unwrap();
     }
 
     #[test]
     fn a_fifo_is_written_in_place() {
-        let dir = scratch_dir("fifo");
+        let tmp = scratch_dir("fifo");
+        let dir = tmp.path();
         let fifo = dir.join("pipe");
         let made = std::process::Command::new("mkfifo").arg(&fifo).status().expect("run mkfifo");
         assert!(made.success());
@@ -309,8 +313,8 @@ mod tests {
         write_output(&fifo, b"through the pipe").unwrap();
         assert_eq!(reader.join().unwrap(), b"through the pipe");
         assert!(std::fs::symlink_metadata(&fifo).unwrap().file_type().is_fifo());
-        assert_eq!(entries(&dir), vec!["pipe".to_string()]);
-        std::fs::remove_dir_all(&dir).unwrap();
+        assert_eq!(entries(dir), vec!["pipe".to_string()]);
+        std::fs::remove_dir_all(dir).unwrap();
     }
 
     #[test]
@@ -340,7 +344,8 @@ mod tests {
 
     #[test]
     fn a_folder_is_refused_and_left_alone() {
-        let dir = scratch_dir("folder");
+        let tmp = scratch_dir("folder");
+        let dir = tmp.path();
         std::fs::create_dir(dir.join("out")).unwrap();
         assert!(check_output(&dir.join("out")).is_err());
         assert!(check_output(&dir.join("new.json")).is_ok());
@@ -350,7 +355,7 @@ mod tests {
         assert!(err.to_string().contains("folder"), "{err}");
         assert!(dir.join("out").is_dir());
         assert!(entries(&dir.join("out")).is_empty());
-        std::fs::remove_dir_all(&dir).unwrap();
+        std::fs::remove_dir_all(dir).unwrap();
     }
 
     #[test]
@@ -366,12 +371,13 @@ mod tests {
 
     #[test]
     fn a_regular_file_is_replaced_atomically() {
-        let dir = scratch_dir("regular");
+        let tmp = scratch_dir("regular");
+        let dir = tmp.path();
         let path = dir.join("report.json");
         write_output(&path, b"one").unwrap();
         write_output_with(&path, |w| w.write_all(b"two")).unwrap();
         assert_eq!(std::fs::read(&path).unwrap(), b"two");
-        assert_eq!(entries(&dir), vec!["report.json".to_string()]);
-        std::fs::remove_dir_all(&dir).unwrap();
+        assert_eq!(entries(dir), vec!["report.json".to_string()]);
+        std::fs::remove_dir_all(dir).unwrap();
     }
 }

@@ -101,8 +101,8 @@ mod tests {
 
     #[test]
     fn glob_matches_within_and_across_folders_without_following_links_up() {
-        let dir = std::env::temp_dir().join(format!("safer-glob-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
+        let tmp = tempfile::Builder::new().prefix("safer-glob-").tempdir().unwrap();
+        let dir = tmp.path().to_path_buf();
         std::fs::create_dir_all(dir.join("a/b")).unwrap();
         for f in ["x.yaml", "a/y.yaml", "a/b/z.yaml", "a/b/w.txt"] {
             std::fs::write(dir.join(f), "").unwrap();

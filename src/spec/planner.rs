@@ -258,7 +258,8 @@ external:
 
     #[test]
     fn env_and_working_dir_reach_the_adapter() {
-        let dir = std::env::temp_dir().join(format!("safer-planner-spec-{}", std::process::id()));
+        let tmp = tempfile::Builder::new().prefix("safer-planner-spec-").tempdir().unwrap();
+        let dir = tmp.path().to_path_buf();
         std::fs::create_dir_all(dir.join("bin")).unwrap();
         let spec = dir.join("p.yaml");
         let text = format!("{EXTERNAL}  working_dir: bin\n  env: {{ PYTHONHASHSEED: \"0\" }}\n");

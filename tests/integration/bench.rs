@@ -15,11 +15,8 @@ fn small_scene() -> std::path::PathBuf {
 }
 
 /// A fresh scratch folder for one test.
-fn scratch(name: &str) -> std::path::PathBuf {
-    let dir = std::env::temp_dir().join(format!("safer-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+fn scratch(name: &str) -> crate::scratch::Scratch {
+    crate::scratch::Scratch::new(name)
 }
 
 fn read_json(path: &std::path::Path) -> serde_json::Value {

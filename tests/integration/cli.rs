@@ -56,8 +56,7 @@ fn simulate_drives_a_scene_with_a_planner_spec_file() {
 
 #[test]
 fn a_corrupt_file_is_an_error_naming_it_not_a_panic() {
-    let dir = std::env::temp_dir().join(format!("safer-cli-test-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = crate::scratch::Scratch::new("cli-test");
     let bad = dir.join("broken.tfrecord");
     std::fs::write(&bad, b"\x10\x00\x00\x00\x00\x00\x00\x00garbage").unwrap();
     let out = safer(&["inspect", bad.to_str().unwrap()]);
@@ -75,8 +74,7 @@ fn a_corrupt_file_is_an_error_naming_it_not_a_panic() {
 
 #[test]
 fn feasibility_eval_writes_its_figures_as_json_and_nothing_into_docs_unless_asked() {
-    let dir = std::env::temp_dir().join(format!("safer-feasibility-eval-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = crate::scratch::Scratch::new("feasibility-eval");
     let recorded = data_dir().join("commonroad-ngsim");
     let out = Command::new(env!("CARGO_BIN_EXE_safer"))
         .current_dir(&dir)
@@ -105,8 +103,7 @@ fn feasibility_eval_writes_its_figures_as_json_and_nothing_into_docs_unless_aske
 
 #[test]
 fn feasibility_eval_writes_the_labelled_states_for_calibration() {
-    let dir = std::env::temp_dir().join(format!("safer-feasibility-labels-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = crate::scratch::Scratch::new("feasibility-labels");
     let labels = dir.join("labels.safetensors");
     let recorded = data_dir().join("commonroad-ngsim");
     let out = Command::new(env!("CARGO_BIN_EXE_safer"))
@@ -164,8 +161,8 @@ fn jobs_beyond_the_bound_are_refused_naming_the_range() {
 
 #[test]
 fn prior_dataset_refuses_non_commercial_scenes_unless_the_model_is_for_evaluation_only() {
-    let dir = std::env::temp_dir().join(format!("safer-prior-dataset-purpose-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
+    let scratch = crate::scratch::Scratch::new("prior-dataset-purpose");
+    let dir = scratch.join("shards");
     let recorded = data_dir().join("womd-tfrecord");
     let run = |extra: &[&str]| {
         safer(
@@ -190,5 +187,4 @@ fn prior_dataset_refuses_non_commercial_scenes_unless_the_model_is_for_evaluatio
     assert_eq!(meta["purpose"], "evaluation-only");
     assert!(meta["scenes"].contains("\"source\":\"recorded-evaluation-only\""), "{}", meta["scenes"]);
     assert!(meta["recipe"].contains("token drift"), "{}", meta["recipe"]);
-    std::fs::remove_dir_all(&dir).ok();
 }

@@ -4,7 +4,6 @@
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
-use std::sync::atomic::{AtomicU32, Ordering};
 
 use safer::spec::{SpecKind, json_schema};
 
@@ -18,13 +17,8 @@ fn safer(args: &[&str]) -> Output {
 }
 
 /// A fresh folder per test (tests run in parallel and share the process id).
-fn temp_dir(tag: &str) -> PathBuf {
-    static NEXT: AtomicU32 = AtomicU32::new(0);
-    let n = NEXT.fetch_add(1, Ordering::Relaxed);
-    let dir = std::env::temp_dir().join(format!("safer-cli-run-{tag}-{}-{n}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("create temp dir");
-    dir
+fn temp_dir(tag: &str) -> crate::scratch::Scratch {
+    crate::scratch::Scratch::new(&format!("cli-run-{tag}"))
 }
 
 fn text(bytes: &[u8]) -> String {

@@ -177,24 +177,6 @@ fn argoverse2_finds_its_files_from_folder_or_parquet() {
     assert_eq!(from_folder.map, map_path());
 }
 
-/// A scratch folder under the system temp dir, removed on drop.
-struct ScratchDir(PathBuf);
-
-impl ScratchDir {
-    fn new(name: &str) -> Self {
-        let dir = std::env::temp_dir().join(format!("safer-av2-{name}-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
-        std::fs::create_dir_all(&dir).unwrap();
-        Self(dir)
-    }
-}
-
-impl Drop for ScratchDir {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
-}
-
 fn malformed_at(err: &ImportError, path: &Path) -> Location {
     assert!(err.to_string().contains(&path.display().to_string()), "file not named: {err}");
     match err {
@@ -205,22 +187,22 @@ fn malformed_at(err: &ImportError, path: &Path) -> Location {
 
 #[test]
 fn argoverse2_folder_without_map_is_an_error_naming_it() {
-    let scratch = ScratchDir::new("no-map");
-    let parquet = scratch.0.join(format!("scenario_{SCENARIO_ID}.parquet"));
+    let scratch = crate::scratch::Scratch::new("av2-no-map");
+    let parquet = scratch.join(format!("scenario_{SCENARIO_ID}.parquet"));
     std::fs::copy(parquet_path(), &parquet).unwrap();
 
-    let err = argoverse2::find_scenario_files(&scratch.0).expect_err("no map");
+    let err = argoverse2::find_scenario_files(&scratch).expect_err("no map");
     assert_eq!(malformed_at(&err, &parquet), Location::File);
     assert!(err.to_string().contains(&format!("log_map_archive_{SCENARIO_ID}.json")), "{err}");
     let err = load(&parquet).expect_err("no map");
     assert!(err.to_string().contains("map is missing"), "{err}");
     // Through the folder, `load` refuses it as a scenario folder, naming it.
-    let err = load(&scratch.0).expect_err("no map");
-    assert!(err.to_string().contains(&scratch.0.display().to_string()), "{err}");
+    let err = load(&scratch).expect_err("no map");
+    assert!(err.to_string().contains(&scratch.display().to_string()), "{err}");
 
     // A map under another id is taken when it is the only one.
-    std::fs::copy(map_path(), scratch.0.join("log_map_archive_other.json")).unwrap();
-    let files = argoverse2::find_scenario_files(&scratch.0).unwrap_or_else(|e| panic!("{e}"));
+    std::fs::copy(map_path(), scratch.join("log_map_archive_other.json")).unwrap();
+    let files = argoverse2::find_scenario_files(&scratch).unwrap_or_else(|e| panic!("{e}"));
     assert!(files.map.ends_with("log_map_archive_other.json"));
 }
 

@@ -2,6 +2,7 @@
 //! Tests that need the recorded scenes in `../shared/data` (or
 //! `$SAFER_DATA_DIR`) fail loudly when it is missing; see [`shared_data`].
 
+mod scratch;
 mod shared_data;
 mod shrink;
 

@@ -74,7 +74,7 @@ fn a_card_whose_model_file_changed_is_refused_naming_the_field() {
         std::fs::copy(models_dir().join(&c.golden), dir.join(&c.golden)).unwrap();
         let text = std::fs::read_to_string(card(stem)).unwrap().replace(&c.sha256, &"0".repeat(64));
         std::fs::write(dir.join(format!("{stem}.card.yaml")), text).unwrap();
-        let source = ModelSource::Folder(dir.clone());
+        let source = ModelSource::Folder(dir.to_path_buf());
         let err = OnnxModel::load(&source, format!("{stem}.card.yaml"), &map_encoder_contract(), 256).unwrap_err();
         assert!(err.to_string().contains("sha256"), "{err}");
     }
@@ -88,7 +88,7 @@ fn a_card_with_the_wrong_input_shape_is_refused_naming_the_field() {
     std::fs::copy(models_dir().join(&c.file), dir.join(&c.file)).unwrap();
     let text = std::fs::read_to_string(card(stem)).unwrap().replacen("[256, 7]", "[256, 9]", 1);
     std::fs::write(dir.join(format!("{stem}.card.yaml")), text).unwrap();
-    let source = ModelSource::Folder(dir.clone());
+    let source = ModelSource::Folder(dir.to_path_buf());
     let err = OnnxModel::load(&source, format!("{stem}.card.yaml"), &map_encoder_contract(), 256).unwrap_err();
     assert!(err.to_string().contains("inputs[0].shape (map_tokens)"), "{err}");
 }
@@ -130,8 +130,6 @@ fn the_prior_drives_recorded_traffic_closed_loop() {
     assert!(max_speed < 40.0, "{max_speed}");
 }
 
-fn tempdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("safer-test-{name}-{}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d
+fn tempdir(name: &str) -> crate::scratch::Scratch {
+    crate::scratch::Scratch::new(&format!("test-{name}"))
 }

@@ -24,10 +24,8 @@ fn repo() -> &'static Path {
 
 /// A one-scene, one-variant suite with `planner` (a YAML value), written
 /// to a fresh folder.
-fn suite(tag: &str, planner: &str) -> (Suite, PathBuf) {
-    let dir = std::env::temp_dir().join(format!("safer-protocol-{tag}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
+fn suite(tag: &str, planner: &str) -> (Suite, crate::scratch::Scratch) {
+    let dir = crate::scratch::Scratch::new(&format!("protocol-{tag}"));
     let scene = data_dir().join(SCENE);
     assert!(scene.is_file(), "{} is missing", scene.display());
     let text = format!(
@@ -211,9 +209,7 @@ fn the_stable_route_is_not_planned_anew_while_the_ego_stays_beside_it() {
     assert_eq!(arterials.len(), 18, "Peachtree and Lankershim-1 scenes");
     let mut report = Vec::new();
     for scene in arterials {
-        let dir = std::env::temp_dir().join(format!("safer-route-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
-        std::fs::create_dir_all(&dir).unwrap();
+        let dir = crate::scratch::Scratch::new("route");
         let spec = format!("name: probe\nexternal: {{ command: python3, args: ['{}'] }}\n", probe.display());
         std::fs::write(dir.join("probe.yaml"), spec).unwrap();
         let text = format!(

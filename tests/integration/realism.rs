@@ -103,7 +103,8 @@ fn scoring_is_deterministic() {
 #[test]
 fn cli_realism_writes_a_sorted_json_report() {
     let dir = data_dir().join("womd-json");
-    let out_file = std::env::temp_dir().join(format!("safer-realism-{}.json", std::process::id()));
+    let scratch = crate::scratch::Scratch::new("realism");
+    let out_file = scratch.join("report.json");
     let run = |policy: &str| {
         Command::new(env!("CARGO_BIN_EXE_safer"))
             .args(["realism", "--scenes", dir.to_str().unwrap(), "--max-scenes", "2", "--rollouts", "4"])
@@ -123,5 +124,4 @@ fn cli_realism_writes_a_sorted_json_report() {
     let mut sorted = ids.clone();
     sorted.sort();
     assert_eq!(ids, sorted, "results are sorted by scenario id");
-    let _ = std::fs::remove_file(&out_file);
 }

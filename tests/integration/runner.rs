@@ -3,16 +3,15 @@
 //! writes artefacts under the crate's own folders, and reports a suite that
 //! names an unregistered planner as a failing test.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use libtest_mimic::Arguments;
 use safer::planners::{ConstantVelocityPlanner, IdmPlanner};
 use safer::runner::Runner;
 
 /// A fresh "planner crate" root with one suite naming `planner`.
-fn crate_root(name: &str, planner: &str) -> PathBuf {
-    let root = std::env::temp_dir().join(format!("safer-runner-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&root);
+fn crate_root(name: &str, planner: &str) -> crate::scratch::Scratch {
+    let root = crate::scratch::Scratch::new(&format!("runner-{name}"));
     std::fs::create_dir_all(root.join("specs/suites")).unwrap();
     let scenario = Path::new(env!("CARGO_MANIFEST_DIR")).join("specs/scenarios/highway-overtake.yaml");
     let suite = format!(
@@ -27,14 +26,14 @@ fn crate_root(name: &str, planner: &str) -> PathBuf {
 /// One thread, and the inner runner's report in a log file, so that its
 /// "test result: FAILED" lines do not mix with this test binary's output.
 fn one_thread() -> Arguments {
-    let log = std::env::temp_dir().join(format!("safer-runner-{}.log", std::process::id()));
+    let log = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("runner-{}.log", std::process::id()));
     Arguments { test_threads: Some(1), quiet: true, logfile: Some(log.display().to_string()), ..Arguments::default() }
 }
 
 #[test]
 fn a_registered_planner_runs_and_its_failure_leaves_artefacts_in_the_crates_own_target() {
     let root = crate_root("failing", "runner-test-cv");
-    let runner = Runner::new(&root).planner("runner-test-cv", |_, _| ConstantVelocityPlanner);
+    let runner = Runner::new(&*root).planner("runner-test-cv", |_, _| ConstantVelocityPlanner);
     let names: Vec<String> = runner.trials().iter().map(|t| t.name().to_string()).collect();
     assert_eq!(names, ["mine::highway-overtake::seed-0"]);
     let conclusion = runner.run_with(&one_thread());
@@ -52,7 +51,7 @@ fn a_registered_planner_runs_and_its_failure_leaves_artefacts_in_the_crates_own_
 #[test]
 fn a_suite_naming_an_unregistered_planner_is_one_failing_test_and_listing_it_says_why() {
     let root = crate_root("unregistered", "runner-test-nobody");
-    let runner = Runner::new(&root).planner("runner-test-idm", |_, _| IdmPlanner::new(Default::default()));
+    let runner = Runner::new(&*root).planner("runner-test-idm", |_, _| IdmPlanner::new(Default::default()));
     let names: Vec<String> = runner.trials().iter().map(|t| t.name().to_string()).collect();
     assert_eq!(names, ["mine::load"]);
     let conclusion = runner.run_with(&one_thread());
@@ -62,7 +61,7 @@ fn a_suite_naming_an_unregistered_planner_is_one_failing_test_and_listing_it_say
 #[test]
 fn registering_two_planners_under_one_name_is_a_failing_test_not_a_panic() {
     let root = crate_root("duplicate", "runner-test-twice");
-    let runner = Runner::new(&root)
+    let runner = Runner::new(&*root)
         .planner("runner-test-twice", |_, _| ConstantVelocityPlanner)
         .planner("runner-test-twice", |_, _| ConstantVelocityPlanner);
     let names: Vec<String> = runner.trials().iter().map(|t| t.name().to_string()).collect();
@@ -71,8 +70,7 @@ fn registering_two_planners_under_one_name_is_a_failing_test_not_a_panic() {
 
 #[test]
 fn a_crate_without_suites_fails_instead_of_passing_zero_tests() {
-    let root = std::env::temp_dir().join(format!("safer-runner-empty-{}", std::process::id()));
-    std::fs::create_dir_all(&root).unwrap();
-    let conclusion = Runner::new(&root).run_with(&one_thread());
+    let root = crate::scratch::Scratch::new("runner-empty");
+    let conclusion = Runner::new(&*root).run_with(&one_thread());
     assert_eq!((conclusion.num_passed, conclusion.num_failed), (0, 1));
 }

@@ -947,7 +947,8 @@ mod tests {
     #[test]
     fn placeholders_env_and_working_dir_reach_the_process() {
         let s = stopped_car_ahead();
-        let dir = std::env::temp_dir().join(format!("safer-probe-cwd-{}", std::process::id()));
+        let tmp = tempfile::Builder::new().prefix("safer-probe-cwd-").tempdir().unwrap();
+        let dir = tmp.path().to_path_buf();
         std::fs::create_dir_all(&dir).unwrap();
         let mut config = probe(&["--scene={scenario}", "{seed}", "{{x}}", "{source}"]);
         config.working_dir = Some(dir.clone());

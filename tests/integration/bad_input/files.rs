@@ -6,7 +6,7 @@
 //! deadline, in a fresh temporary folder.
 
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicU32, Ordering};
+
 use std::time::Duration;
 
 use super::binary::{safer_in, safer_within, text};
@@ -16,13 +16,8 @@ fn fixture(name: &str) -> PathBuf {
 }
 
 /// A fresh folder per test (tests run in parallel and share the process id).
-fn temp_dir(tag: &str) -> PathBuf {
-    static NEXT: AtomicU32 = AtomicU32::new(0);
-    let n = NEXT.fetch_add(1, Ordering::Relaxed);
-    let dir = std::env::temp_dir().join(format!("safer-bad-files-{tag}-{}-{n}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("create temp dir");
-    dir
+fn temp_dir(tag: &str) -> crate::scratch::Scratch {
+    crate::scratch::Scratch::new(&format!("bad-files-{tag}"))
 }
 
 const RUN_DEADLINE: Duration = Duration::from_secs(180);
@@ -161,7 +156,8 @@ fn edited_ngsim_scene_is_refused(name: &str, from: &str, to: &str, message: &str
     let shipped = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/ngsim/USA_US101-4_3_T-1.xml");
     let scene = std::fs::read_to_string(shipped).unwrap();
     assert!(scene.contains(from), "{from}");
-    let file = temp_dir(name).join(name);
+    let dir = temp_dir(name);
+    let file = dir.join(name);
     std::fs::write(&file, scene.replacen(from, to, 1)).unwrap();
     let out = safer_within(&["inspect", file.to_str().unwrap()], Duration::from_secs(30));
     assert_eq!(out.status.code(), Some(2), "{}", text(&out));

@@ -149,11 +149,8 @@ fn the_planner_dies_with_the_harness(signal: &str, expected: i32) {
 }
 
 /// A fresh folder for one case.
-fn temp(tag: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("safer-bad-hangs-{tag}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+fn temp(tag: &str) -> crate::scratch::Scratch {
+    crate::scratch::Scratch::new(&format!("bad-hangs-{tag}"))
 }
 
 #[cfg(unix)]

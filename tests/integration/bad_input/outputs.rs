@@ -5,8 +5,7 @@
 //! a review page on standard output, and suites whose artefact folders
 //! would collide or could not be made; the files are left as they were.
 
-use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicU32, Ordering};
+use std::path::Path;
 use std::time::Duration;
 
 use super::binary::{safer_in, text};
@@ -15,12 +14,8 @@ const DEADLINE: Duration = Duration::from_secs(60);
 
 /// A fresh folder with a copy of the authored overtake scene and a suite
 /// running it with the IDM planner.
-fn workspace(tag: &str) -> PathBuf {
-    static NEXT: AtomicU32 = AtomicU32::new(0);
-    let n = NEXT.fetch_add(1, Ordering::Relaxed);
-    let dir = std::env::temp_dir().join(format!("safer-bad-outputs-{tag}-{}-{n}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
+fn workspace(tag: &str) -> crate::scratch::Scratch {
+    let dir = crate::scratch::Scratch::new(&format!("bad-outputs-{tag}"));
     let repo = Path::new(env!("CARGO_MANIFEST_DIR"));
     std::fs::copy(repo.join("specs/scenarios/highway-overtake.yaml"), dir.join("overtake.yaml")).unwrap();
     std::fs::write(

@@ -124,7 +124,8 @@ fn every_fixture_in_the_folder_is_a_case() {
 
 #[test]
 fn safer_run_refuses_broken_suites_with_exit_2_and_the_located_message() {
-    let artefacts = std::env::temp_dir().join(format!("safer-bad-specs-{}", std::process::id()));
+    let scratch = crate::scratch::Scratch::new("bad-specs");
+    let artefacts = scratch.join("artefacts");
     let suites = CASES.iter().filter(|c| c.0.ends_with(".suite.yaml"));
     let mut wrong = Vec::new();
     for &(name, line, column, words) in suites {
@@ -176,8 +177,7 @@ fn a_recorded_log_that_does_not_import_is_reported_at_its_suite_entry() {
 /// not the empty path that once made an external planner fail to start.
 #[test]
 fn a_suite_given_by_a_bare_file_name_runs_its_external_planner_in_that_folder() {
-    let dir = std::env::temp_dir().join(format!("safer-bare-name-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = crate::scratch::Scratch::new("bare-name");
     let repo = Path::new(env!("CARGO_MANIFEST_DIR"));
     std::fs::copy(repo.join("planners/example_planner.py"), dir.join("example_planner.py")).unwrap();
     let files = [
