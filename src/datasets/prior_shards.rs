@@ -505,7 +505,6 @@ mod tests {
         let n = samples.len();
         let tmp = tempfile::Builder::new().prefix("safer-datasets-prior-").tempdir().unwrap();
         let dir = tmp.path().to_path_buf();
-        std::fs::create_dir_all(&dir).unwrap();
         let mut written = Vec::new();
         let entries =
             vec![(&scene, ShardScene { id: scene.id.clone(), source: "synthetic".into(), split: Split::HeldOut })];

@@ -77,6 +77,9 @@ impl Default for EvasiveParams {
 /// scenes (SR 1.000 → 0.981).
 const MAX_CURVATURE_PER_M: f64 = 0.8;
 
+/// Desired speed on a route without a speed limit, when the ego starts
+/// slower than this, m/s.
+const FALLBACK_SPEED_MPS: f64 = 10.0;
 /// Agents farther than this are not predicted, m.
 const PREDICTION_RANGE_M: f64 = 80.0;
 /// Slack of the reach filter of the predictions, m: far above the rounding
@@ -260,11 +263,7 @@ impl Planner for EvasivePlanner {
         }
         let route = self.route.as_ref().ok_or_else(|| PlannerError::InvalidOutput("no route".into()))?;
         let v_des = *self.desired_speed_mps.get_or_insert_with(|| {
-            self.params.desired_speed_mps.unwrap_or_else(|| {
-                let limit =
-                    route.lanes.first().and_then(|(id, _, _)| obs.map.lane(*id)).and_then(|l| l.speed_limit_mps);
-                limit.unwrap_or(ego.speed_mps().max(10.0))
-            })
+            route.desired_speed_mps(obs.map, self.params.desired_speed_mps, ego.speed_mps(), FALLBACK_SPEED_MPS)
         });
         // Bounded for any horizon (an infinite one would never finish): 10 minutes at most.
         let steps = (self.params.horizon_s / SIM_DT_S).round().clamp(1.0, 6000.0) as usize;

@@ -137,13 +137,13 @@ impl Route {
         })
     }
 
-    /// The desired speed of an agent starting on this route at `speed_mps`:
-    /// `params`' own, else the first lane's limit, else the larger of the
-    /// start speed and the fallback speed.
-    pub fn desired_speed_mps(&self, map: &RoadMap, params: &IdmParams, speed_mps: f64) -> f64 {
-        params.desired_speed_mps.unwrap_or_else(|| {
+    /// The desired speed of an agent starting on this route at
+    /// `start_speed_mps`: its `own` when configured, else the first lane's
+    /// limit, else the larger of the start speed and `fallback_mps`.
+    pub fn desired_speed_mps(&self, map: &RoadMap, own: Option<f64>, start_speed_mps: f64, fallback_mps: f64) -> f64 {
+        own.unwrap_or_else(|| {
             let limit = self.lanes.first().and_then(|(id, _, _)| map.lane(*id)).and_then(|l| l.speed_limit_mps);
-            limit.unwrap_or(speed_mps.max(params.fallback_speed_mps))
+            limit.unwrap_or(start_speed_mps.max(fallback_mps))
         })
     }
 }
@@ -345,7 +345,9 @@ impl IdmLaneFollower {
         let route = self.route.as_ref()?;
         let here = route.path.project(&state.position)?;
         let speed = state.speed_mps();
-        let v0 = *self.desired_speed_mps.get_or_insert_with(|| route.desired_speed_mps(world.map, &self.params, speed));
+        let v0 = *self.desired_speed_mps.get_or_insert_with(|| {
+            route.desired_speed_mps(world.map, self.params.desired_speed_mps, speed, self.params.fallback_speed_mps)
+        });
         let yaw_rate = pursuit_yaw_rate(route, here.arc_length_m, &state, &self.params)?;
         let leader = route_leader(world, agent, route, here.arc_length_m, &self.params);
         Some(Action { accel_mps2: idm_accel_mps2(&self.params, speed, v0, leader), yaw_rate_radps: yaw_rate })

@@ -129,7 +129,9 @@ impl SyntheticDriver {
             leader = route_leader(world, agent, self.route.as_ref()?, here_s, &self.params);
         }
         let route = self.route.as_ref()?;
-        let v0 = *self.desired_speed_mps.get_or_insert_with(|| route.desired_speed_mps(world.map, &self.params, speed));
+        let v0 = *self.desired_speed_mps.get_or_insert_with(|| {
+            route.desired_speed_mps(world.map, self.params.desired_speed_mps, speed, self.params.fallback_speed_mps)
+        });
         let yaw_rate = pursuit_yaw_rate(route, here_s, &state, &self.params)?;
         if let Some(stop_gap) = self.yield_gap_m(world, agent, route, here_s)
             && leader.is_none_or(|(g, _)| stop_gap < g)

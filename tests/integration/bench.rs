@@ -4,6 +4,7 @@
 
 use std::process::Command;
 
+use super::scratch::Scratch;
 use super::shared_data;
 
 /// The smallest shared WOMD JSON scene (it has an ego and a CBV).
@@ -14,11 +15,6 @@ fn small_scene() -> std::path::PathBuf {
         .expect("files() is never empty")
 }
 
-/// A fresh scratch folder for one test.
-fn scratch(name: &str) -> crate::scratch::Scratch {
-    crate::scratch::Scratch::new(name)
-}
-
 fn read_json(path: &std::path::Path) -> serde_json::Value {
     let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     serde_json::from_str(&text).unwrap_or_else(|e| panic!("{}: {e}\n{text}", path.display()))
@@ -26,7 +22,7 @@ fn read_json(path: &std::path::Path) -> serde_json::Value {
 
 #[test]
 fn bench_writes_every_figure_beside_its_reference_as_json() {
-    let dir = scratch("bench-json");
+    let dir = Scratch::new("bench-json");
     let out = dir.join("bench.json");
     let run = Command::new(env!("CARGO_BIN_EXE_safer"))
         .args(["bench", "--repeat", "1", "--scenes"])
@@ -75,7 +71,7 @@ fn bench_models(python: &std::path::Path, repeat: &str, out: &std::path::Path) -
 
 #[test]
 fn bench_models_json_says_plainly_when_the_reference_is_missing() {
-    let dir = scratch("bench-models-no-reference");
+    let dir = Scratch::new("bench-models-no-reference");
     let out = dir.join("models.json");
     let run = bench_models(&dir.join("no-such-python"), "1", &out);
     assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
@@ -102,7 +98,7 @@ fn bench_models_json_carries_the_reference_ratios_when_the_training_environment_
         .map(std::path::PathBuf::from)
         .unwrap_or_else(|| std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("training/.venv/bin/python"));
     assert!(python.exists(), "{} is not installed (see training/README.md)", python.display());
-    let dir = scratch("bench-models-reference");
+    let dir = Scratch::new("bench-models-reference");
     let out = dir.join("models.json");
     let run = bench_models(&python, "2", &out);
     assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));

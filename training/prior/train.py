@@ -195,7 +195,8 @@ def main():
         for g in opt.param_groups:
             g["lr"] = lr
         idx = torch.as_tensor(train_idx[cdf.searchsorted(rng.random(a.batch), side="right")], device=a.device)
-        loss = token_loss(model(batch_of(data, idx)), data["next_token"][idx], a.label_smoothing, a.label_smoothing_axis, spread)
+        loss = token_loss(model(batch_of(data, idx)), data["next_token"][idx], a.label_smoothing,
+                          a.label_smoothing_axis, spread)
         opt.zero_grad(set_to_none=True)
         loss.backward()
         torch.nn.utils.clip_grad_norm_(model.parameters(), 1.0)

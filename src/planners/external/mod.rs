@@ -949,7 +949,6 @@ mod tests {
         let s = stopped_car_ahead();
         let tmp = tempfile::Builder::new().prefix("safer-probe-cwd-").tempdir().unwrap();
         let dir = tmp.path().to_path_buf();
-        std::fs::create_dir_all(&dir).unwrap();
         let mut config = probe(&["--scene={scenario}", "{seed}", "{{x}}", "{source}"]);
         config.working_dir = Some(dir.clone());
         config.env.insert("PROBE_VARIANT".into(), "v={variant}".into());
