@@ -16,16 +16,18 @@ pub fn min_time_to_collision(rollout: &Rollout) -> Option<f64> {
     let ego = rollout.ego.0;
     let eb = rollout.bodies[ego];
     let mut best: Option<f64> = None;
+    // Each body's half-diagonal, once per rollout rather than per state.
+    let half_diagonal_m: Vec<f64> = rollout.bodies.iter().map(|b| 0.5 * b.length_m.hypot(b.width_m)).collect();
     for row in &rollout.states {
         let Some(e) = row[ego] else { continue };
-        let reach_ego = 0.5 * eb.length_m.hypot(eb.width_m);
+        let reach_ego = half_diagonal_m[ego];
         for (i, s) in row.iter().enumerate() {
             let Some(s) = s else { continue };
             if i == ego {
                 continue;
             }
             let b = rollout.bodies[i];
-            let reach = reach_ego + 0.5 * b.length_m.hypot(b.width_m);
+            let reach = reach_ego + half_diagonal_m[i];
             let rel_v = (s.velocity_mps - e.velocity_mps).norm();
             // Cannot meet within the horizon (or within the best so far).
             let horizon = best.unwrap_or(TTC_HORIZON_S).min(TTC_HORIZON_S);

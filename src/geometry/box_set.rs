@@ -76,8 +76,6 @@ struct Entry {
     frame: Frame,
     radius_m: f64,
     shape: OrientedBox,
-    /// Place in the input: ties in x keep the input order, as in a stable sort.
-    rank: usize,
 }
 
 /// Boxes sorted by centre x, with their bounding-circle radii and axes.
@@ -85,6 +83,10 @@ struct Entry {
 pub struct BoxSet {
     entries: Vec<Entry>,
     max_radius_m: f64,
+    /// Storage kept from one refill to the next: the entries in input
+    /// order, and their sort keys (centre x, place in the input).
+    unsorted: Vec<Entry>,
+    keys: Vec<(f64, u32)>,
 }
 
 /// Half the diagonal: the radius of a box's bounding circle (a plain
@@ -118,15 +120,21 @@ impl BoxSet {
     /// Makes this the set [`Self::with_sin_cos`] would make of `boxes`,
     /// keeping its storage: for callers that build many sets a second.
     pub fn refill_with_sin_cos(&mut self, boxes: impl IntoIterator<Item = (OrientedBox, (f64, f64))>) {
-        self.entries.clear();
-        self.entries.extend(boxes.into_iter().enumerate().map(|(rank, (shape, sin_cos))| Entry {
+        self.unsorted.clear();
+        self.unsorted.extend(boxes.into_iter().map(|(shape, sin_cos)| Entry {
             frame: Frame::with_sin_cos(&shape, sin_cos),
             radius_m: radius(&shape),
             shape,
-            rank,
         }));
-        // By x, ties in input order (a stable sort's order, without its buffer).
-        self.entries.sort_unstable_by(|a, b| a.frame.x.total_cmp(&b.frame.x).then(a.rank.cmp(&b.rank)));
+        // By x, ties in input order (a stable sort's order, without its
+        // buffer). The small keys are sorted and the entries (a hundred
+        // bytes each) moved once: moving the entries in the sort itself
+        // was a sixth of the evasive planner's time.
+        self.keys.clear();
+        self.keys.extend(self.unsorted.iter().enumerate().map(|(i, e)| (e.frame.x, i as u32)));
+        self.keys.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        self.entries.clear();
+        self.entries.extend(self.keys.iter().map(|&(_, i)| self.unsorted[i as usize]));
         self.max_radius_m = self.entries.iter().map(|e| e.radius_m).fold(0.0, f64::max);
     }
 

@@ -55,8 +55,12 @@ impl OrientedBox {
     /// [`Self::intersects`] with this box's heading's `sin_cos()` at hand
     /// (see [`Self::intersects_exact_with_sin_cos`]).
     pub(crate) fn intersects_with_sin_cos(&self, other: &OrientedBox, sin_cos: (f64, f64)) -> bool {
-        // Cheap reject on bounding circles before the exact SAT test.
-        let reach = 0.5 * (self.length_m.hypot(self.width_m) + other.length_m.hypot(other.width_m));
+        // Cheap reject on bounding circles before the exact SAT test. The
+        // diagonals by `sqrt` (several times cheaper than `hypot`, and within
+        // an ulp of it), with a micrometre to spare: a reject only ever
+        // skips a test that would have said no.
+        let diagonal = |b: &OrientedBox| (b.length_m * b.length_m + b.width_m * b.width_m).sqrt();
+        let reach = 0.5 * (diagonal(self) + diagonal(other)) + 1e-6;
         if (self.pose.position - other.pose.position).norm_squared() > reach * reach {
             return false;
         }

@@ -157,7 +157,7 @@ pub(crate) fn cbv_background_collisions(scenario: &Scenario, stage1: &Rollout) -
         .map(|c| {
             let other = if c.a == cbv { c.b } else { c.a };
             match (state(c.step, cbv), state(c.step, other)) {
-                (Some(me), Some(them)) => EgoContact::judge(&scenario.map, &me, &body.footprint(&me), &them).at_fault(),
+                (Some(me), Some(them)) => EgoContact::ego_at_fault(&scenario.map, &me, &body.footprint(&me), &them),
                 _ => true,
             }
         })

@@ -47,7 +47,7 @@ impl RoadMap {
             let mut nan = false;
             // Each lane's segment of least distance, ties to the lowest
             // index: what `project_segments` picks from its sorted run.
-            self.lane_segments.for_each_candidate(p, radius_m, |(lane, segment)| {
+            self.lane_segments.for_each_candidate_within(p, radius_m, |(lane, segment)| {
                 let (d2, _) = self.lanes[lane as usize].centreline.segment_distance_squared(p, segment as usize);
                 nan |= d2.is_nan();
                 let entry = match per_lane.last_mut() {
@@ -135,7 +135,7 @@ impl RoadMap {
         }
         let heading = crate::geometry::Vector2::new(heading_rad.cos(), heading_rad.sin());
         let mut out: Vec<MapElementId> = PAIRS.with_borrow_mut(|pairs| {
-            self.lane_segments.candidate_pairs_into(p, MAX_LANE_HALF_WIDTH_M, pairs);
+            self.lane_segments.candidate_pairs_within_into(p, MAX_LANE_HALF_WIDTH_M, pairs);
             // Each lane's run of segments, as `candidates` would group them.
             pairs
                 .chunk_by(|a, b| a.0 == b.0)

@@ -25,33 +25,99 @@ const MAX_PIECES: f64 = (1u32 << 20) as f64;
 /// their cells unordered and unpruned.
 const MAX_ORDERED_CELLS: usize = 16;
 
-/// Slack of the cell pruning, m: far above the rounding of the distances it
-/// compares, far below anything that matters.
+/// Slack of the cell and run pruning, m: far above the rounding of the
+/// distances it compares, far below anything that matters.
 const PRUNE_SLACK_M: f64 = 0.01;
 
-/// The segments of one cell and the bounding box of those whole segments
-/// (which may reach beyond the cell).
+/// Most segments in one run of a cell (see [`Run`]): recorded maps sample
+/// a lane every metre or less, so a 10 m cell holds runs of 10–20
+/// consecutive segments of each lane; runs of 8 let a query skip most of
+/// a lane that only brushes its search circle.
+const MAX_RUN_SEGMENTS: usize = 8;
+
+/// A segment reference `(polyline, segment)` with its bounding box, as a
+/// cell is built from them.
+type BoxedSegment = ((u32, u32), Point2, Point2);
+
+/// The distance from `p` to the axis-aligned box `lo`–`hi`: no point in it
+/// is nearer.
+fn box_distance_m(lo: &Point2, hi: &Point2, p: &Point2) -> f64 {
+    let dx = (lo.x - p.x).max(p.x - hi.x).max(0.0);
+    let dy = (lo.y - p.y).max(p.y - hi.y).max(0.0);
+    (dx * dx + dy * dy).sqrt()
+}
+
+/// Consecutive segments of one polyline within a cell (at most
+/// [`MAX_RUN_SEGMENTS`]), with the bounding box of those whole segments: a
+/// query skips a run whose box lies beyond its reach.
+#[derive(Debug, Clone, Copy)]
+struct Run {
+    /// End of the run in the cell's `refs` (exclusive; it starts where the
+    /// previous run ends).
+    end: u32,
+    lo: Point2,
+    hi: Point2,
+}
+
+/// The segments of one cell, sorted by polyline and segment and cut into
+/// runs, and the bounding box of those whole segments (which may reach
+/// beyond the cell).
 #[derive(Debug, Clone)]
 struct Cell {
     refs: Vec<(u32, u32)>,
+    runs: Vec<Run>,
     lo: Point2,
     hi: Point2,
 }
 
 impl Cell {
+    /// A cell of these segments, each with its bounding box.
+    fn new(mut segments: Vec<BoxedSegment>) -> Self {
+        segments.sort_unstable_by_key(|s| s.0);
+        let mut runs: Vec<Run> = Vec::new();
+        let mut run_start = 0;
+        for (i, &((line, seg), lo, hi)) in segments.iter().enumerate() {
+            let continues =
+                i > run_start && i - run_start < MAX_RUN_SEGMENTS && segments[i - 1].0 == (line, seg.wrapping_sub(1));
+            match runs.last_mut() {
+                Some(run) if continues => {
+                    run.end = i as u32 + 1;
+                    run.lo = Point2::new(run.lo.x.min(lo.x), run.lo.y.min(lo.y));
+                    run.hi = Point2::new(run.hi.x.max(hi.x), run.hi.y.max(hi.y));
+                }
+                _ => {
+                    run_start = i;
+                    runs.push(Run { end: i as u32 + 1, lo, hi });
+                }
+            }
+        }
+        let lo =
+            runs.iter().fold(Point2::new(f64::MAX, f64::MAX), |b, r| Point2::new(b.x.min(r.lo.x), b.y.min(r.lo.y)));
+        let hi =
+            runs.iter().fold(Point2::new(f64::MIN, f64::MIN), |b, r| Point2::new(b.x.max(r.hi.x), b.y.max(r.hi.y)));
+        Self { refs: segments.into_iter().map(|s| s.0).collect(), runs, lo, hi }
+    }
+
     /// Distance from `p` to the bounding box of the cell's segments: none
     /// of them is nearer.
     fn distance_from(&self, p: &Point2) -> f64 {
-        let dx = (self.lo.x - p.x).max(p.x - self.hi.x).max(0.0);
-        let dy = (self.lo.y - p.y).max(p.y - self.hi.y).max(0.0);
-        (dx * dx + dy * dy).sqrt()
+        box_distance_m(&self.lo, &self.hi, p)
+    }
+
+    /// The cell's runs, each with its segments.
+    fn runs(&self) -> impl Iterator<Item = (&Run, &[(u32, u32)])> {
+        let starts = std::iter::once(0).chain(self.runs.iter().map(|r| r.end as usize));
+        self.runs.iter().zip(starts).map(|(run, start)| (run, &self.refs[start..run.end as usize]))
     }
 }
 
 /// Grid of segment references `(polyline, segment)` keyed by cell.
 #[derive(Debug, Clone, Default)]
 pub struct SegmentIndex {
-    cells: HashMap<(i64, i64), Cell>,
+    /// Hashed with foldhash's fixed state: cell lookups are the hot path of
+    /// every query, where the default SipHash showed; a fixed state keeps
+    /// the scan order of wide queries the same from run to run.
+    cells: HashMap<(i64, i64), Cell, foldhash::fast::FixedState>,
     /// Finite segments too long to walk cell by cell: candidates of every query.
     oversized: Vec<(u32, u32)>,
     /// Bounding box of all indexed points, `None` when empty.
@@ -67,7 +133,7 @@ impl SegmentIndex {
     /// segment with a non-finite end is near nothing and is left out; the
     /// work is linear in the total segment length (in cells) for any input.
     pub fn build<'a>(polylines: impl IntoIterator<Item = &'a Polyline>) -> Self {
-        let mut cells: HashMap<(i64, i64), Cell> = HashMap::new();
+        let mut cells: HashMap<(i64, i64), Vec<BoxedSegment>> = HashMap::new();
         let mut oversized = Vec::new();
         let (mut lo, mut hi) = (Point2::new(f64::MAX, f64::MAX), Point2::new(f64::MIN, f64::MIN));
         for (pi, line) in polylines.into_iter().enumerate() {
@@ -109,14 +175,16 @@ impl SegmentIndex {
                 let (seg_lo, seg_hi) =
                     (Point2::new(a.x.min(b.x), a.y.min(b.y)), Point2::new(a.x.max(b.x), a.y.max(b.y)));
                 for cell in touched {
-                    let c = cells.entry(cell).or_insert(Cell { refs: Vec::new(), lo: seg_lo, hi: seg_hi });
-                    c.refs.push((pi as u32, si as u32));
-                    c.lo = Point2::new(c.lo.x.min(seg_lo.x), c.lo.y.min(seg_lo.y));
-                    c.hi = Point2::new(c.hi.x.max(seg_hi.x), c.hi.y.max(seg_hi.y));
+                    cells.entry(cell).or_default().push(((pi as u32, si as u32), seg_lo, seg_hi));
                 }
             }
         }
         let bounds = (lo.x <= hi.x).then_some((lo, hi));
+        let cells = cells.into_iter().map(|(key, segments)| (key, Cell::new(segments))).collect::<HashMap<
+            _,
+            _,
+            foldhash::fast::FixedState,
+        >>();
         Self { cells, oversized, bounds }
     }
 
@@ -208,10 +276,41 @@ impl SegmentIndex {
             if *distance_m > best_m + PRUNE_SLACK_M {
                 break;
             }
-            for &pair in cell.map_or(&[][..], |c| c.refs.as_slice()) {
-                best_m = visit(pair);
+            for (run, pairs) in cell.iter().flat_map(|c| c.runs()) {
+                if box_distance_m(&run.lo, &run.hi, p) > best_m + PRUNE_SLACK_M {
+                    continue;
+                }
+                for &pair in pairs {
+                    best_m = visit(pair);
+                }
             }
         }
+    }
+
+    /// As [`Self::for_each_candidate`], leaving out runs of segments that
+    /// all lie farther than `radius_m` from `p` (with a centimetre to
+    /// spare): for callers that ignore segments beyond `radius_m` anyway.
+    /// Every segment within `radius_m` is still visited.
+    pub fn for_each_candidate_within(&self, p: &Point2, radius_m: f64, mut visit: impl FnMut((u32, u32))) {
+        if radius_m.is_nan() {
+            return;
+        }
+        let reach_m = radius_m.max(0.0) + PRUNE_SLACK_M;
+        self.for_each_cell(p, radius_m, &mut visit, |cell, visit| {
+            for (run, pairs) in cell.runs() {
+                if box_distance_m(&run.lo, &run.hi, p) <= reach_m {
+                    pairs.iter().copied().for_each(&mut *visit);
+                }
+            }
+        });
+    }
+
+    /// As [`Self::candidate_pairs_into`], for [`Self::for_each_candidate_within`].
+    pub fn candidate_pairs_within_into(&self, p: &Point2, radius_m: f64, out: &mut Vec<(u32, u32)>) {
+        out.clear();
+        self.for_each_candidate_within(p, radius_m, |pair| out.push(pair));
+        out.sort_unstable();
+        out.dedup();
     }
 
     /// Calls `visit` with every candidate of [`Self::candidates`] as a
@@ -219,6 +318,19 @@ impl SegmentIndex {
     /// than once (a segment is in every cell it crosses): for callers whose
     /// answer depends on neither, with no sorting at all.
     pub fn for_each_candidate(&self, p: &Point2, radius_m: f64, mut visit: impl FnMut((u32, u32))) {
+        self.for_each_cell(p, radius_m, &mut visit, |cell, visit| cell.refs.iter().copied().for_each(visit));
+    }
+
+    /// Offers the oversized segments to `visit` and calls `in_cell` on
+    /// every occupied cell within `radius_m` of `p` (nothing for a
+    /// non-finite `p` or a NaN radius).
+    fn for_each_cell<V: FnMut((u32, u32))>(
+        &self,
+        p: &Point2,
+        radius_m: f64,
+        visit: &mut V,
+        mut in_cell: impl FnMut(&Cell, &mut V),
+    ) {
         if !(p.x.is_finite() && p.y.is_finite()) || radius_m.is_nan() {
             return;
         }
@@ -229,13 +341,13 @@ impl SegmentIndex {
         let (lo_x, hi_x) = (((p.x - r) / CELL_M).floor(), ((p.x + r) / CELL_M).floor());
         let (lo_y, hi_y) = (((p.y - r) / CELL_M).floor(), ((p.y + r) / CELL_M).floor());
         let span = (hi_x - lo_x + 1.0) * (hi_y - lo_y + 1.0);
-        self.oversized.iter().copied().for_each(&mut visit);
+        self.oversized.iter().copied().for_each(&mut *visit);
         if span.is_finite() && span <= self.cells.len() as f64 {
             // Few enough cells to look each up; all bounds are small integers here.
             for cx in lo_x as i64..=hi_x as i64 {
                 for cy in lo_y as i64..=hi_y as i64 {
                     if let Some(cell) = self.cells.get(&(cx, cy)) {
-                        cell.refs.iter().copied().for_each(&mut visit);
+                        in_cell(cell, visit);
                     }
                 }
             }
@@ -244,7 +356,7 @@ impl SegmentIndex {
             for (key, cell) in &self.cells {
                 let (cx, cy) = (key.0 as f64, key.1 as f64);
                 if (lo_x..=hi_x).contains(&cx) && (lo_y..=hi_y).contains(&cy) {
-                    cell.refs.iter().copied().for_each(&mut visit);
+                    in_cell(cell, visit);
                 }
             }
         }
@@ -311,6 +423,79 @@ mod tests {
         }
         // Rings of up to 10 m are ordered and pruned; wider ones are not.
         assert!(pruned_visits * 4 < all_visits * 3, "{pruned_visits} of {all_visits}");
+    }
+
+    #[test]
+    fn a_search_within_a_radius_visits_every_segment_within_it_and_few_beyond() {
+        // Finely sampled curves (as recorded lanes are), many to a cell: the
+        // runs beyond the radius are skipped, none within it.
+        let lines: Vec<Polyline> = (0..40)
+            .map(|i| {
+                let (cx, cy, r) = (i as f64 * 7.0 % 90.0, i as f64 * 13.0 % 70.0, 10.0 + i as f64);
+                Polyline::new(
+                    (0..=120)
+                        .map(|k| k as f64 * 0.02)
+                        .map(|a: f64| Point2::new(cx + r * a.cos(), cy + r * a.sin()))
+                        .collect(),
+                )
+            })
+            .collect();
+        let index = SegmentIndex::build(&lines);
+        let within = |p: &Point2, r: f64, (pi, si): (u32, u32)| {
+            lines[pi as usize].segment_distance_squared(p, si as usize).0 <= r * r
+        };
+        let (mut all_visits, mut pruned_visits, mut found) = (0, 0, 0);
+        for ix in 0..60 {
+            for iy in 0..50 {
+                let p = Point2::new(ix as f64 * 2.1 - 10.0, iy as f64 * 2.3 - 10.0);
+                for r in [0.0, 2.5, 5.0, 12.0] {
+                    let (mut all, mut pruned) = (Vec::new(), Vec::new());
+                    index.for_each_candidate(&p, r, |pair| {
+                        all_visits += 1;
+                        all.extend(within(&p, r, pair).then_some(pair));
+                    });
+                    index.for_each_candidate_within(&p, r, |pair| {
+                        pruned_visits += 1;
+                        pruned.extend(within(&p, r, pair).then_some(pair));
+                    });
+                    for v in [&mut all, &mut pruned] {
+                        v.sort_unstable();
+                        v.dedup();
+                    }
+                    assert_eq!(pruned, all, "{p:?} within {r} m");
+                    found += all.len();
+                    let mut pairs = Vec::new();
+                    index.candidate_pairs_within_into(&p, r, &mut pairs);
+                    assert!(all.iter().all(|pair| pairs.binary_search(pair).is_ok()));
+                    assert!(pairs.windows(2).all(|w| w[0] < w[1]));
+                }
+            }
+        }
+        assert!(found > 10_000, "{found}");
+        assert!(pruned_visits * 2 < all_visits, "{pruned_visits} of {all_visits}");
+    }
+
+    #[test]
+    fn a_cells_runs_hold_consecutive_segments_of_one_polyline() {
+        let line = Polyline::new((0..=40).map(|k| Point2::new(k as f64 * 0.2, 1.0)).collect());
+        let other = Polyline::new(vec![Point2::new(1.0, 0.0), Point2::new(1.0, 9.0)]);
+        let index = SegmentIndex::build([&line, &other]);
+        let cell = &index.cells[&(0, 0)];
+        let mut start = 0;
+        for (run, pairs) in cell.runs() {
+            assert!(!pairs.is_empty() && pairs.len() <= MAX_RUN_SEGMENTS);
+            assert!(pairs.windows(2).all(|w| w[1] == (w[0].0, w[0].1 + 1)), "{pairs:?}");
+            for &(pi, si) in pairs {
+                let pts = [&line, &other][pi as usize].points();
+                for q in [pts[si as usize], pts[si as usize + 1]] {
+                    assert!(run.lo.x <= q.x && q.x <= run.hi.x && run.lo.y <= q.y && q.y <= run.hi.y);
+                }
+            }
+            start += pairs.len();
+        }
+        assert_eq!(start, cell.refs.len());
+        assert_eq!(cell.refs.len(), 41);
+        assert_eq!(cell.runs.len(), 6);
     }
 
     fn two_segments() -> SegmentIndex {

@@ -109,6 +109,17 @@ impl EgoContact {
         Self { kind, lanes: LaneOccupancy::of_footprint(map, ego_box, ego.heading_rad) }
     }
 
+    /// Whether the ego, with footprint `ego_box`, is at fault for a
+    /// contact with `other`: [`Self::judge`]'s [`Self::at_fault`], with the
+    /// lanes looked up only where the answer depends on them (a lateral
+    /// contact), for hot callers that need no report.
+    pub fn ego_at_fault(map: &RoadMap, ego: &AgentState, ego_box: &OrientedBox, other: &AgentState) -> bool {
+        match EgoCollisionKind::classify(ego, other) {
+            EgoCollisionKind::ActiveLateral => Self::judge(map, ego, ego_box, other).at_fault(),
+            kind => Self { kind, lanes: LaneOccupancy::Unmapped }.at_fault(),
+        }
+    }
+
     /// Whether the ego is at fault. As in nuPlan: never for a stopped ego
     /// or a hit from behind; always for a front contact or one with a
     /// stopped agent; for a lateral contact only when the ego was not
@@ -214,5 +225,28 @@ mod tests {
             EgoContact { kind: EgoCollisionKind::ActiveLateral, lanes: LaneOccupancy::SeveralLanes }
         );
         assert!(cutter_side.at_fault());
+    }
+
+    #[test]
+    fn the_quick_fault_answer_is_the_full_judgements() {
+        // Every kind of contact, in and between lanes and off the road.
+        let map = two_lanes();
+        let mut kinds = std::collections::BTreeSet::new();
+        for (x, y, heading_rad, speed_mps) in
+            [(100.0, 1.75, 0.0, 10.0), (100.0, 3.5, 0.1, 8.0), (100.0, 0.4, -0.2, 5.0)]
+        {
+            let (ego, ego_box) = car(x, y, heading_rad, speed_mps);
+            for dx in [-6.0, -3.0, 0.0, 3.0, 6.0] {
+                for dy in [-2.5, 0.0, 2.5] {
+                    for other_speed_mps in [0.0, 9.0] {
+                        let (other, _) = car(x + dx, y + dy, 0.0, other_speed_mps);
+                        let full = EgoContact::judge(&map, &ego, &ego_box, &other);
+                        assert_eq!(EgoContact::ego_at_fault(&map, &ego, &ego_box, &other), full.at_fault(), "{full:?}");
+                        kinds.insert(format!("{:?}/{:?}", full.kind, full.lanes));
+                    }
+                }
+            }
+        }
+        assert!(kinds.len() >= 6, "{kinds:?}");
     }
 }

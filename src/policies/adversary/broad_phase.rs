@@ -22,7 +22,10 @@ impl Bounds {
             max: crate::geometry::Point2::new(f64::NEG_INFINITY, f64::NEG_INFINITY),
         };
         for b in boxes {
-            let reach_m = 0.5 * b.length_m.hypot(b.width_m);
+            // The half-diagonal by `sqrt` (several times cheaper than
+            // `hypot`, within an ulp of it), a micrometre wider: the bounds
+            // only ever hold a little more.
+            let reach_m = 0.5 * (b.length_m * b.length_m + b.width_m * b.width_m).sqrt() + 1e-6;
             let p = b.pose.position;
             if [p.x, p.y, reach_m].iter().any(|v| v.is_nan()) {
                 // Where such a box is is unknown: it may be anywhere.

@@ -271,7 +271,7 @@ impl<'w> PlausibilityCheck<'w> {
             if let Some(k) = first_contact(predicted, &held_boxes)
                 && let Some((theirs, _)) = predicted[k]
             {
-                let at_fault = || EgoContact::judge(map, &held[k], &held_boxes[k], &theirs).at_fault();
+                let at_fault = || EgoContact::ego_at_fault(map, &held[k], &held_boxes[k], &theirs);
                 let breaks_rule = match rule {
                     ContactRule::Any if k < rollout.len() + HOLDING_CHECK_STEPS => true,
                     // Keeping its speed: only replayed traffic closing on
@@ -289,7 +289,7 @@ impl<'w> PlausibilityCheck<'w> {
             // Braking after the token: only what the CBV runs into.
             if let Some(k) = first_contact(predicted, &braking_boxes)
                 && let Some((theirs, _)) = predicted[k]
-                && EgoContact::judge(map, &braking[k], &braking_boxes[k], &theirs).at_fault()
+                && EgoContact::ego_at_fault(map, &braking[k], &braking_boxes[k], &theirs)
             {
                 note(&mut first, k);
             }
