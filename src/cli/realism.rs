@@ -338,7 +338,13 @@ fn print_table(
         writeln!(out, "{short} scenes too short for the window, skipped")?;
     }
     for s in &failed {
-        eprintln!("error: {} {}: {}", s.path.display(), s.scenario, s.reason);
+        let path = s.path.display().to_string();
+        match (s.scenario.as_str(), s.reason.starts_with(&path)) {
+            // A file that did not load: its error names it already.
+            ("", true) => eprintln!("error: {}", s.reason),
+            ("", false) => eprintln!("error: {path}: {}", s.reason),
+            (scenario, _) => eprintln!("error: {path} {scenario}: {}", s.reason),
+        }
     }
     writeln!(
         out,

@@ -72,6 +72,16 @@ pub struct PolylineProjection {
     pub segment: usize,
 }
 
+/// The squared distance from `p` to the segment from `a` to `b` and the
+/// parameter of its closest point: [`Polyline::segment_distance_squared`]
+/// for a segment whose ends are at hand (the same arithmetic, so the same
+/// bits).
+pub fn segment_distance_squared([a, b]: &[Point2; 2], p: &Point2) -> (f64, f64) {
+    let ab = b - a;
+    let t = ((p - a).dot(&ab) / ab.norm_squared()).clamp(0.0, 1.0);
+    ((a + ab * t - p).norm_squared(), t)
+}
+
 fn cross(a: &Vector2, b: &Vector2) -> f64 {
     a.x * b.y - a.y * b.x
 }
@@ -253,10 +263,7 @@ impl Polyline {
     /// `points[i + 1]`) and the parameter of its closest point, exactly as
     /// [`Self::project_segments`] computes them.
     pub fn segment_distance_squared(&self, p: &Point2, i: usize) -> (f64, f64) {
-        let (a, b) = (self.points[i], self.points[i + 1]);
-        let ab = b - a;
-        let t = ((p - a).dot(&ab) / ab.norm_squared()).clamp(0.0, 1.0);
-        ((a + ab * t - p).norm_squared(), t)
+        segment_distance_squared(&[self.points[i], self.points[i + 1]], p)
     }
 
     /// Positive when `p` is on the port side of segment `i` at parameter

@@ -27,6 +27,11 @@ pub struct LaneMatch {
     /// Projection of the query point on the lane's centreline.
     pub projection: PolylineProjection,
 }
+/// A lane's nearest segment to a query point so far in
+/// [`RoadMap::nearest_lane`]: lane, segment, squared distance, and the
+/// segment's ends.
+type LaneCandidate = (u32, u32, f64, [Point2; 2]);
+
 impl RoadMap {
     /// The lane centreline closest to `p` within `radius_m`, preferring
     /// lanes whose direction agrees with `heading_rad` (when given) to within
@@ -38,7 +43,7 @@ impl RoadMap {
             // Each candidate lane's nearest segment so far, reused from call
             // to call: this query runs in hot loops (every step of every
             // prediction), where allocating and sorting per call showed.
-            static NEAREST: std::cell::RefCell<Vec<(u32, u32, f64)>> = const { std::cell::RefCell::new(Vec::new()) };
+            static NEAREST: std::cell::RefCell<Vec<LaneCandidate>> = const { std::cell::RefCell::new(Vec::new()) };
         }
         // The heading's direction, worked out once for all candidate lanes.
         let forward = heading_rad.map(|h| crate::geometry::Vector2::new(h.cos(), h.sin()));
@@ -47,26 +52,44 @@ impl RoadMap {
             let mut nan = false;
             // Each lane's segment of least distance, ties to the lowest
             // index: what `project_segments` picks from its sorted run.
-            self.lane_segments.for_each_candidate_within(p, radius_m, |(lane, segment)| {
-                let (d2, _) = self.lanes[lane as usize].centreline.segment_distance_squared(p, segment as usize);
+            self.lane_segments.for_each_candidate_within(p, radius_m, |(lane, segment), ends| {
+                let (d2, _) = crate::geometry::polyline::segment_distance_squared(ends, p);
                 nan |= d2.is_nan();
                 let entry = match per_lane.last_mut() {
                     Some(last) if last.0 == lane => Some(last),
                     _ => per_lane.iter_mut().find(|e| e.0 == lane),
                 };
                 match entry {
-                    None => per_lane.push((lane, segment, d2)),
-                    Some(e) if d2 < e.2 || (d2 == e.2 && segment < e.1) => *e = (lane, segment, d2),
+                    None => per_lane.push((lane, segment, d2, *ends)),
+                    Some(e) if d2 < e.2 || (d2 == e.2 && segment < e.1) => *e = (lane, segment, d2, *ends),
                     Some(_) => {}
                 }
             });
             // A degenerate segment's NaN distance makes the pick depend on
             // the visiting order: then the sorted search decides.
-            (!nan).then(|| {
-                per_lane.iter().fold(None, |best, &(lane, segment, _)| {
-                    self.nearer_lane(best, p, forward, radius_m, lane as usize, [segment as usize])
-                })
-            })
+            if nan {
+                return None;
+            }
+            // `nearer_lane`'s choice, from each lane's nearest segment as
+            // its projection would give it (the distance is the square
+            // root of `d2`, the tangent the segment's direction): only the
+            // winner is projected.
+            let best =
+                per_lane.iter().fold(None, |best: Option<(bool, f64, usize, u32)>, &(lane, segment, d2, [a, b])| {
+                    let distance_m = d2.sqrt();
+                    if distance_m > radius_m {
+                        return best;
+                    }
+                    let tangent = (b - a) / (b - a).norm();
+                    let misaligned = forward.is_some_and(|f| f.dot(&tangent) < ALIGNED_LANE_MAX_ANGLE_RAD.cos());
+                    let key = (misaligned, distance_m, lane as usize);
+                    let better = best.is_none_or(|(m, d, i, _)| key < (m, d, i));
+                    if better { Some((misaligned, distance_m, lane as usize, segment)) } else { best }
+                });
+            Some(best.and_then(|(misaligned, distance_m, lane_index, segment)| {
+                let projection = self.lanes[lane_index].centreline.project_segments(p, [segment as usize])?;
+                Some((misaligned, distance_m, lane_index, projection))
+            }))
         });
         nearest
             .unwrap_or_else(|| self.nearest_lane_sorted(p, heading_rad, radius_m))

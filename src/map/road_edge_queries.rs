@@ -40,9 +40,9 @@ impl RoadMap {
         // (distance, edge, distance², segment)
         let mut best: Option<(f64, usize, f64, usize)> = None;
         let mut nan = false;
-        self.edge_segments.for_each_candidate_nearest_first(p, radius_m, |(edge, seg)| {
+        self.edge_segments.for_each_candidate_nearest_first(p, radius_m, |(edge, seg), ends| {
             let (edge, seg) = (edge as usize, seg as usize);
-            let (d2, _) = self.road_edges[edge].polyline.segment_distance_squared(p, seg);
+            let (d2, _) = crate::geometry::polyline::segment_distance_squared(ends, p);
             nan |= d2.is_nan();
             let key = (d2.sqrt(), edge, d2, seg);
             if best.is_none_or(|b| key < b) {

@@ -35,9 +35,17 @@ const PRUNE_SLACK_M: f64 = 0.01;
 /// a lane that only brushes its search circle.
 const MAX_RUN_SEGMENTS: usize = 8;
 
-/// A segment reference `(polyline, segment)` with its bounding box, as a
-/// cell is built from them.
-type BoxedSegment = ((u32, u32), Point2, Point2);
+/// A segment's two ends.
+type SegmentEnds = [Point2; 2];
+
+/// A segment reference `(polyline, segment)` with its two ends, as a cell
+/// is built from them.
+type EndedSegment = ((u32, u32), SegmentEnds);
+
+/// The bounding box of a segment's ends.
+fn segment_box([a, b]: &[Point2; 2]) -> (Point2, Point2) {
+    (Point2::new(a.x.min(b.x), a.y.min(b.y)), Point2::new(a.x.max(b.x), a.y.max(b.y)))
+}
 
 /// The distance from `p` to the axis-aligned box `lo`–`hi`: no point in it
 /// is nearer.
@@ -65,18 +73,24 @@ struct Run {
 #[derive(Debug, Clone)]
 struct Cell {
     refs: Vec<(u32, u32)>,
+    /// Each reference's segment ends, beside it: a query reads them from
+    /// here, in order, rather than from each polyline's points scattered
+    /// over the heap (which, with the planner's own data about, cost
+    /// several times the arithmetic).
+    ends: Vec<[Point2; 2]>,
     runs: Vec<Run>,
     lo: Point2,
     hi: Point2,
 }
 
 impl Cell {
-    /// A cell of these segments, each with its bounding box.
-    fn new(mut segments: Vec<BoxedSegment>) -> Self {
+    /// A cell of these segments.
+    fn new(mut segments: Vec<EndedSegment>) -> Self {
         segments.sort_unstable_by_key(|s| s.0);
         let mut runs: Vec<Run> = Vec::new();
         let mut run_start = 0;
-        for (i, &((line, seg), lo, hi)) in segments.iter().enumerate() {
+        for (i, &((line, seg), ends)) in segments.iter().enumerate() {
+            let (lo, hi) = segment_box(&ends);
             let continues =
                 i > run_start && i - run_start < MAX_RUN_SEGMENTS && segments[i - 1].0 == (line, seg.wrapping_sub(1));
             match runs.last_mut() {
@@ -95,7 +109,8 @@ impl Cell {
             runs.iter().fold(Point2::new(f64::MAX, f64::MAX), |b, r| Point2::new(b.x.min(r.lo.x), b.y.min(r.lo.y)));
         let hi =
             runs.iter().fold(Point2::new(f64::MIN, f64::MIN), |b, r| Point2::new(b.x.max(r.hi.x), b.y.max(r.hi.y)));
-        Self { refs: segments.into_iter().map(|s| s.0).collect(), runs, lo, hi }
+        let (refs, ends) = segments.into_iter().unzip();
+        Self { refs, ends, runs, lo, hi }
     }
 
     /// Distance from `p` to the bounding box of the cell's segments: none
@@ -104,10 +119,13 @@ impl Cell {
         box_distance_m(&self.lo, &self.hi, p)
     }
 
-    /// The cell's runs, each with its segments.
-    fn runs(&self) -> impl Iterator<Item = (&Run, &[(u32, u32)])> {
+    /// The cell's runs, each with its segment references and their ends.
+    fn runs(&self) -> impl Iterator<Item = (&Run, &[(u32, u32)], &[SegmentEnds])> {
         let starts = std::iter::once(0).chain(self.runs.iter().map(|r| r.end as usize));
-        self.runs.iter().zip(starts).map(|(run, start)| (run, &self.refs[start..run.end as usize]))
+        self.runs.iter().zip(starts).map(|(run, start)| {
+            let range = start..run.end as usize;
+            (run, &self.refs[range.clone()], &self.ends[range])
+        })
     }
 }
 
@@ -119,7 +137,7 @@ pub struct SegmentIndex {
     /// the scan order of wide queries the same from run to run.
     cells: HashMap<(i64, i64), Cell, foldhash::fast::FixedState>,
     /// Finite segments too long to walk cell by cell: candidates of every query.
-    oversized: Vec<(u32, u32)>,
+    oversized: Vec<EndedSegment>,
     /// Bounding box of all indexed points, `None` when empty.
     bounds: Option<(Point2, Point2)>,
 }
@@ -133,7 +151,7 @@ impl SegmentIndex {
     /// segment with a non-finite end is near nothing and is left out; the
     /// work is linear in the total segment length (in cells) for any input.
     pub fn build<'a>(polylines: impl IntoIterator<Item = &'a Polyline>) -> Self {
-        let mut cells: HashMap<(i64, i64), Vec<BoxedSegment>> = HashMap::new();
+        let mut cells: HashMap<(i64, i64), Vec<EndedSegment>> = HashMap::new();
         let mut oversized = Vec::new();
         let (mut lo, mut hi) = (Point2::new(f64::MAX, f64::MAX), Point2::new(f64::MIN, f64::MIN));
         for (pi, line) in polylines.into_iter().enumerate() {
@@ -153,7 +171,7 @@ impl SegmentIndex {
                 // two finite points can overflow to infinity: oversized too.)
                 let pieces = ((b - a).norm() / (0.5 * CELL_M)).ceil().max(1.0);
                 if pieces > MAX_PIECES {
-                    oversized.push((pi as u32, si as u32));
+                    oversized.push(((pi as u32, si as u32), [a, b]));
                     continue;
                 }
                 let pieces = pieces as usize;
@@ -172,10 +190,8 @@ impl SegmentIndex {
                 }
                 touched.sort_unstable();
                 touched.dedup();
-                let (seg_lo, seg_hi) =
-                    (Point2::new(a.x.min(b.x), a.y.min(b.y)), Point2::new(a.x.max(b.x), a.y.max(b.y)));
                 for cell in touched {
-                    cells.entry(cell).or_default().push(((pi as u32, si as u32), seg_lo, seg_hi));
+                    cells.entry(cell).or_default().push(((pi as u32, si as u32), [a, b]));
                 }
             }
         }
@@ -240,7 +256,7 @@ impl SegmentIndex {
         &self,
         p: &Point2,
         radius_m: f64,
-        mut visit: impl FnMut((u32, u32)) -> f64,
+        mut visit: impl FnMut((u32, u32), &[Point2; 2]) -> f64,
     ) {
         if !(p.x.is_finite() && p.y.is_finite()) || radius_m.is_nan() {
             return;
@@ -251,9 +267,14 @@ impl SegmentIndex {
         let span = (hi_x - lo_x + 1.0) * (hi_y - lo_y + 1.0);
         // (NaN or infinite spans too.)
         if span.is_nan() || span > MAX_ORDERED_CELLS as f64 {
-            self.for_each_candidate(p, radius_m, |pair| {
-                visit(pair);
-            });
+            self.for_each_cell(
+                p,
+                radius_m,
+                &mut |pair, ends| {
+                    visit(pair, ends);
+                },
+                |cell, visit| cell.refs.iter().zip(&cell.ends).for_each(|(&pair, ends)| visit(pair, ends)),
+            );
             return;
         }
         let mut near: [(f64, Option<&Cell>); MAX_ORDERED_CELLS] = [(0.0, None); MAX_ORDERED_CELLS];
@@ -269,19 +290,19 @@ impl SegmentIndex {
         let near = &mut near[..n];
         near.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
         let mut best_m = f64::INFINITY;
-        for &pair in &self.oversized {
-            best_m = visit(pair);
+        for (pair, ends) in &self.oversized {
+            best_m = visit(*pair, ends);
         }
         for (distance_m, cell) in near.iter() {
             if *distance_m > best_m + PRUNE_SLACK_M {
                 break;
             }
-            for (run, pairs) in cell.iter().flat_map(|c| c.runs()) {
+            for (run, pairs, ends) in cell.iter().flat_map(|c| c.runs()) {
                 if box_distance_m(&run.lo, &run.hi, p) > best_m + PRUNE_SLACK_M {
                     continue;
                 }
-                for &pair in pairs {
-                    best_m = visit(pair);
+                for (&pair, ends) in pairs.iter().zip(ends) {
+                    best_m = visit(pair, ends);
                 }
             }
         }
@@ -291,15 +312,21 @@ impl SegmentIndex {
     /// all lie farther than `radius_m` from `p` (with a centimetre to
     /// spare): for callers that ignore segments beyond `radius_m` anyway.
     /// Every segment within `radius_m` is still visited.
-    pub fn for_each_candidate_within(&self, p: &Point2, radius_m: f64, mut visit: impl FnMut((u32, u32))) {
+    /// Each segment comes with its two ends (as the polyline holds them).
+    pub fn for_each_candidate_within(
+        &self,
+        p: &Point2,
+        radius_m: f64,
+        mut visit: impl FnMut((u32, u32), &[Point2; 2]),
+    ) {
         if radius_m.is_nan() {
             return;
         }
         let reach_m = radius_m.max(0.0) + PRUNE_SLACK_M;
         self.for_each_cell(p, radius_m, &mut visit, |cell, visit| {
-            for (run, pairs) in cell.runs() {
+            for (run, pairs, ends) in cell.runs() {
                 if box_distance_m(&run.lo, &run.hi, p) <= reach_m {
-                    pairs.iter().copied().for_each(&mut *visit);
+                    pairs.iter().zip(ends).for_each(|(&pair, ends)| visit(pair, ends));
                 }
             }
         });
@@ -308,7 +335,7 @@ impl SegmentIndex {
     /// As [`Self::candidate_pairs_into`], for [`Self::for_each_candidate_within`].
     pub fn candidate_pairs_within_into(&self, p: &Point2, radius_m: f64, out: &mut Vec<(u32, u32)>) {
         out.clear();
-        self.for_each_candidate_within(p, radius_m, |pair| out.push(pair));
+        self.for_each_candidate_within(p, radius_m, |pair, _| out.push(pair));
         out.sort_unstable();
         out.dedup();
     }
@@ -318,13 +345,15 @@ impl SegmentIndex {
     /// than once (a segment is in every cell it crosses): for callers whose
     /// answer depends on neither, with no sorting at all.
     pub fn for_each_candidate(&self, p: &Point2, radius_m: f64, mut visit: impl FnMut((u32, u32))) {
-        self.for_each_cell(p, radius_m, &mut visit, |cell, visit| cell.refs.iter().copied().for_each(visit));
+        self.for_each_cell(p, radius_m, &mut |pair, _: &[Point2; 2]| visit(pair), |cell, visit| {
+            cell.refs.iter().zip(&cell.ends).for_each(|(&pair, ends)| visit(pair, ends))
+        });
     }
 
     /// Offers the oversized segments to `visit` and calls `in_cell` on
     /// every occupied cell within `radius_m` of `p` (nothing for a
     /// non-finite `p` or a NaN radius).
-    fn for_each_cell<V: FnMut((u32, u32))>(
+    fn for_each_cell<V: FnMut((u32, u32), &[Point2; 2])>(
         &self,
         p: &Point2,
         radius_m: f64,
@@ -341,7 +370,7 @@ impl SegmentIndex {
         let (lo_x, hi_x) = (((p.x - r) / CELL_M).floor(), ((p.x + r) / CELL_M).floor());
         let (lo_y, hi_y) = (((p.y - r) / CELL_M).floor(), ((p.y + r) / CELL_M).floor());
         let span = (hi_x - lo_x + 1.0) * (hi_y - lo_y + 1.0);
-        self.oversized.iter().copied().for_each(&mut *visit);
+        self.oversized.iter().for_each(|(pair, ends)| visit(*pair, ends));
         if span.is_finite() && span <= self.cells.len() as f64 {
             // Few enough cells to look each up; all bounds are small integers here.
             for cx in lo_x as i64..=hi_x as i64 {
@@ -410,7 +439,7 @@ mod tests {
                     }
                 });
                 let mut pruned: Option<(f64, (u32, u32))> = None;
-                index.for_each_candidate_nearest_first(&p, r, |pair| {
+                index.for_each_candidate_nearest_first(&p, r, |pair, _| {
                     pruned_visits += usize::from(r < 10.0);
                     let key = (distance(&p, pair), pair);
                     if pruned.is_none_or(|b| key < b) {
@@ -454,8 +483,10 @@ mod tests {
                         all_visits += 1;
                         all.extend(within(&p, r, pair).then_some(pair));
                     });
-                    index.for_each_candidate_within(&p, r, |pair| {
+                    index.for_each_candidate_within(&p, r, |pair, ends| {
                         pruned_visits += 1;
+                        let (line, seg) = (&lines[pair.0 as usize], pair.1 as usize);
+                        assert_eq!(ends, &[line.points()[seg], line.points()[seg + 1]], "the segment's own ends");
                         pruned.extend(within(&p, r, pair).then_some(pair));
                     });
                     for v in [&mut all, &mut pruned] {
@@ -482,7 +513,7 @@ mod tests {
         let index = SegmentIndex::build([&line, &other]);
         let cell = &index.cells[&(0, 0)];
         let mut start = 0;
-        for (run, pairs) in cell.runs() {
+        for (run, pairs, _) in cell.runs() {
             assert!(!pairs.is_empty() && pairs.len() <= MAX_RUN_SEGMENTS);
             assert!(pairs.windows(2).all(|w| w[1] == (w[0].0, w[0].1 + 1)), "{pairs:?}");
             for &(pi, si) in pairs {

@@ -69,6 +69,13 @@ fn a_corrupt_file_is_an_error_naming_it_not_a_panic() {
     let out = safer(&["inspect", unknown.to_str().unwrap()]);
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("not a scenario file"));
+    // A path that is not there says so, whatever its name.
+    for missing in [dir.join("no-such-set"), dir.join("no-such-scene.json")] {
+        let out = safer(&["inspect", missing.to_str().unwrap()]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{err}");
+        assert!(err.contains("No such file or directory") && !err.contains("not a scenario file"), "{err}");
+    }
     std::fs::remove_dir_all(&dir).ok();
 }
 

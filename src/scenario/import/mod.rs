@@ -124,6 +124,9 @@ pub fn detect_format(path: &Path) -> Result<SourceFormat, ImportError> {
         }
         "json" => Ok(SourceFormat::WomdJson),
         _ if name.contains(".tfrecord") => Ok(SourceFormat::WomdProto),
+        // A path that is not there is missing, not of an unknown format (a
+        // mistyped `data:` set once read "not a scenario file this tool reads").
+        _ if let Err(source) = std::fs::metadata(path) => Err(ImportError::Io { path: path.to_path_buf(), source }),
         _ => Err(unknown(
             "expected .tfrecord (WOMD), .json (WOMD JSON), .xml (CommonRoad) or .parquet / a folder (Argoverse 2)",
         )),
