@@ -21,7 +21,7 @@
 
 use super::{Observation, Planner, PlannerError, PlannerOutput};
 use crate::geometry::{BoxSet, OrientedBox, Pose2, Vector2, wrap_angle};
-use crate::motion::kinematics::{max_travel_m, step_to_heading, turned_heading_rad};
+use crate::motion::kinematics::{step_to_heading, turned_heading_rad};
 use crate::motion::tokens::{MAX_ACCEL_MPS2, MAX_YAW_RATE_RADPS, SIM_DT_S};
 use crate::motion::{Action, KinematicState, kinematic_step_with_sin_cos};
 use crate::policies::{Route, build_route};
@@ -301,12 +301,26 @@ impl Planner for EvasivePlanner {
         let max_accel_mps2 = self.params.accelerations_mps2.iter().copied().fold(0.0, f64::max);
         let (len, wid) = self.checked_extent_m(obs);
         let ego_radius_m = 0.5 * len.hypot(wid);
+        // No candidate drives faster than this: one accelerates only while
+        // below the desired speed (see `evaluate`), so it passes it by at
+        // most one step's acceleration (none for a NaN desired speed).
+        let speed_cap_mps = if v_des.is_nan() {
+            f64::INFINITY
+        } else {
+            start_speed_mps.max(v_des + max_accel_mps2 * SIM_DT_S)
+        };
+        // A bound on every candidate's speed and distance travelled after
+        // k steps: `max_travel_m`'s, step by step, with the speed held to
+        // the cap (on a busy road it halves the reach at the horizon, and
+        // with it the boxes each set holds).
+        let (mut speed_bound_mps, mut travel_m) = (start_speed_mps.max(0.0), 0.0);
         let mut predictions = std::mem::take(&mut self.predictions);
         predictions.resize_with(steps, BoxSet::default);
         for (set, k) in predictions.iter_mut().zip(1..) {
             let t = k as f64 * SIM_DT_S;
-            let travel_m = max_travel_m(start_speed_mps, max_accel_mps2, SIM_DT_S, k);
-            let headway_m = (HEADWAY_S * (start_speed_mps + max_accel_mps2 * t)).max(3.0);
+            speed_bound_mps = (speed_bound_mps + max_accel_mps2 * SIM_DT_S).min(speed_cap_mps);
+            travel_m += speed_bound_mps * SIM_DT_S;
+            let headway_m = (HEADWAY_S * speed_bound_mps).max(3.0);
             let zone_reach_m = 0.5 * (len + headway_m) + 0.5 * headway_m.hypot(wid);
             let reach_m = travel_m + ego_radius_m.max(zone_reach_m) + REACH_SLACK_M;
             let reachable = |position: crate::geometry::Point2, radius_m: f64| {
