@@ -134,8 +134,17 @@ impl MapTokens {
                 }
             }
         }
-        found.sort_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)));
-        found.truncate(k);
+        // The nearest `k` by selection, then only they sorted: a 60 m
+        // circle holds far more tokens than the query keeps.
+        let order = |a: &(u32, f64), b: &(u32, f64)| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0));
+        if k == 0 {
+            return Vec::new();
+        }
+        if found.len() > k {
+            found.select_nth_unstable_by(k - 1, order);
+            found.truncate(k);
+        }
+        found.sort_by(order);
         found
     }
 
@@ -475,5 +484,17 @@ mod tests {
         assert!(near.windows(2).all(|w| w[0].1 <= w[1].1));
         assert!(near.iter().all(|(_, d)| *d <= 20.0));
         assert!(tokens.encoder_input().len().is_multiple_of(MAP_ENCODER_CHUNK * MAP_TOKEN_FEATURES));
+        // The head of the full ranking (by distance, ties by index), for any k.
+        for (x, y) in [(3.0, 0.0), (-20.0, 35.0), (0.0, 90.0)] {
+            let p = Point2::new(x, y);
+            let mut all: Vec<(u32, f64)> = (0..tokens.tokens.len() as u32)
+                .map(|i| (i, (tokens.tokens[i as usize].midpoint - p).norm()))
+                .filter(|&(_, d)| d <= 60.0)
+                .collect();
+            all.sort_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)));
+            for k in [0, 1, 5, 48, all.len(), all.len() + 3] {
+                assert_eq!(tokens.nearest(&p, k, 60.0), all[..k.min(all.len())], "k {k} at {p:?}");
+            }
+        }
     }
 }

@@ -304,11 +304,8 @@ impl Planner for EvasivePlanner {
         // No candidate drives faster than this: one accelerates only while
         // below the desired speed (see `evaluate`), so it passes it by at
         // most one step's acceleration (none for a NaN desired speed).
-        let speed_cap_mps = if v_des.is_nan() {
-            f64::INFINITY
-        } else {
-            start_speed_mps.max(v_des + max_accel_mps2 * SIM_DT_S)
-        };
+        let speed_cap_mps =
+            if v_des.is_nan() { f64::INFINITY } else { start_speed_mps.max(v_des + max_accel_mps2 * SIM_DT_S) };
         // A bound on every candidate's speed and distance travelled after
         // k steps: `max_travel_m`'s, step by step, with the speed held to
         // the cap (on a busy road it halves the reach at the horizon, and

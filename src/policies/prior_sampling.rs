@@ -77,12 +77,31 @@ pub fn ranked_tokens(logits: &[f32]) -> Vec<Token> {
 /// without sorting the whole vocabulary (a sampled token needs only these;
 /// the order is total, so the result is exactly `ranked_tokens(logits)[..k]`).
 pub fn top_tokens(logits: &[f32], k: usize) -> Vec<Token> {
-    let mut ids: Vec<u16> = (0..logits.len() as u16).collect();
-    let order = |a: &u16, b: &u16| logits[*b as usize].total_cmp(&logits[*a as usize]).then(a.cmp(b));
-    let k = k.min(ids.len());
+    /// Up to this many, the head is kept in one pass over the logits.
+    const ONE_PASS_MAX_K: usize = 64;
+    let k = k.min(logits.len());
     if k == 0 {
         return Vec::new();
     }
+    if k <= ONE_PASS_MAX_K {
+        // The best `k` so far, in ranking order. Ids come in increasing
+        // order, so a later id enters only with a strictly larger logit
+        // (ties go to the lower id), and most are turned away by one
+        // comparison with the last kept: a tenth of the time of selecting
+        // over the whole vocabulary, which showed in realism rollouts.
+        let mut head: Vec<(f32, u16)> = Vec::with_capacity(k + 1);
+        for (id, &logit) in logits.iter().enumerate() {
+            if head.len() == k && logit.total_cmp(&head[k - 1].0).is_le() {
+                continue;
+            }
+            let at = head.partition_point(|&(kept, _)| kept.total_cmp(&logit).is_ge());
+            head.insert(at, (logit, id as u16));
+            head.truncate(k);
+        }
+        return head.into_iter().map(|(_, id)| Token(id)).collect();
+    }
+    let mut ids: Vec<u16> = (0..logits.len() as u16).collect();
+    let order = |a: &u16, b: &u16| logits[*b as usize].total_cmp(&logits[*a as usize]).then(a.cmp(b));
     if k < ids.len() {
         ids.select_nth_unstable_by(k - 1, order);
         ids.truncate(k);
@@ -434,7 +453,7 @@ mod tests {
             // Few distinct values: many ties, broken by the lower id.
             let logits: Vec<f32> = (0..300).map(|_| (rng.random::<u8>() % 7) as f32 * 0.5).collect();
             let ranked = ranked_tokens(&logits);
-            for k in [1, 10, 299, 300, 400] {
+            for k in [1, 2, 10, 63, 64, 65, 299, 300, 400] {
                 assert_eq!(top_tokens(&logits, k), ranked[..k.min(300)], "k {k}");
             }
         }
