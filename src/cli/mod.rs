@@ -23,6 +23,7 @@ mod feasibility_dataset;
 mod feasibility_eval;
 mod inspect;
 mod prior_dataset;
+mod prior_fit;
 mod realism;
 mod render;
 mod run;
@@ -171,6 +172,24 @@ enum Command {
         #[arg(long, default_value_t = 0)]
         seed: u64,
         /// Score at most this many scenes (at least 1).
+        #[arg(long, value_name = "N", value_parser = at_least_one())]
+        max_scenes: Option<usize>,
+    },
+    /// How well the realism prior predicts recorded driving: NLL, top-1 and how often the recorded token is in the top n, at every token boundary of every moving vehicle, with the history ending at the boundary (as in closed loop) and one step late (a probe of whether the prior reads the start of the token it predicts).
+    PriorFit {
+        /// Folder of scenario files (searched recursively), or one file; `data:REL` is in the shared data folder.
+        #[arg(long, value_parser = data_path)]
+        scenes: PathBuf,
+        /// Trust-region size n (top-n tokens of the prior), from 1 to the vocabulary size.
+        #[arg(long, default_value_t = 20, value_parser = RangedU64ValueParser::<usize>::new().range(1..=VOCABULARY_SIZE as u64))]
+        top_n: usize,
+        /// Vehicles slower than this at a boundary are not scored, m/s (non-negative, finite; standing cars' tokens are trivial).
+        #[arg(long, default_value_t = 1.0, value_parser = non_negative_finite, allow_negative_numbers = true)]
+        min_speed_mps: f64,
+        /// Which prior: the differential-attention one (default) or the plain-attention one; `$SAFER_MODELS` swaps in another model set.
+        #[arg(long, value_parser = choice(safer::models::prior::PriorVariant::ALL), default_value = "differential")]
+        prior: safer::models::prior::PriorVariant,
+        /// Score at most this many scenes (by id), at least 1.
         #[arg(long, value_name = "N", value_parser = at_least_one())]
         max_scenes: Option<usize>,
     },
@@ -479,6 +498,9 @@ pub fn main() -> ExitCode {
         Command::Realism { scenes, rollouts, json, policy, seed, max_scenes } => {
             realism::run(&realism::RealismArgs { scenes, rollouts, json, policy, seed, max_scenes })
         }
+        Command::PriorFit { scenes, top_n, min_speed_mps, prior, max_scenes } => {
+            prior_fit::run(&prior_fit::PriorFitArgs { scenes, top_n, min_speed_mps, variant: prior, max_scenes })
+        }
         Command::Schema { kind, out } => schema::run(kind, out.as_deref()),
         Command::Render { file, step, out, force } => render::run(&file, step, out.as_deref(), force),
         Command::BenchModels { scenes, models, repeat, python, profile, json } => bench_models::run(
@@ -676,6 +698,16 @@ fn positive_finite(written: &str) -> Result<f64, String> {
         Ok(v)
     } else {
         Err(format!("{v} is outside the accepted range 0 < x < inf (a positive, finite number)"))
+    }
+}
+
+/// Parses a non-negative, finite number (speeds, thresholds).
+fn non_negative_finite(written: &str) -> Result<f64, String> {
+    let v: f64 = written.trim().parse().map_err(|_| format!("`{written}` is not a number; expected 0 <= x < inf"))?;
+    if v.is_finite() && v >= 0.0 {
+        Ok(v)
+    } else {
+        Err(format!("{v} is outside the accepted range 0 <= x < inf (a non-negative, finite number)"))
     }
 }
 

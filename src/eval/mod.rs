@@ -10,6 +10,7 @@ pub mod conflict_reach;
 pub mod divergence;
 pub mod escape;
 pub mod feasibility_accuracy;
+pub mod prior_fit;
 pub mod realism;
 pub mod traffic_rules;
 pub mod ttc;

@@ -195,3 +195,29 @@ fn prior_dataset_refuses_non_commercial_scenes_unless_the_model_is_for_evaluatio
     assert!(meta["scenes"].contains("\"source\":\"recorded-evaluation-only\""), "{}", meta["scenes"]);
     assert!(meta["recipe"].contains("token drift"), "{}", meta["recipe"]);
 }
+
+#[test]
+fn prior_fit_scores_both_history_alignments_and_refuses_a_negative_speed() {
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/ngsim/USA_US101-15_1_T-1.xml");
+    let out = safer(&["prior-fit", "--scenes", scene]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{text}{}", String::from_utf8_lossy(&out.stderr));
+    let rows: Vec<Vec<&str>> = text
+        .lines()
+        .filter(|l| l.starts_with("at boundary") || l.starts_with("one step late"))
+        .map(|l| l.split_whitespace().collect())
+        .collect();
+    assert_eq!(rows.len(), 6, "{text}");
+    // "at boundary all N NLL ...": the same samples both ways, and a NLL
+    // below the uniform distribution's 8.29 nats.
+    let samples = |r: &Vec<&str>| r[r.len() - 6].parse::<usize>().unwrap();
+    assert!(samples(&rows[0]) > 20 && samples(&rows[0]) == samples(&rows[3]), "{text}");
+    assert!(rows[0][rows[0].len() - 5].parse::<f64>().unwrap() < 8.29, "{text}");
+    let out = safer(&["prior-fit", "--scenes", scene, "--min-speed-mps", "-1"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(
+        String::from_utf8_lossy(&out.stderr).contains("--min-speed-mps"),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}

@@ -1,0 +1,242 @@
+//! How well the realism prior predicts recorded driving ([`PriorFit`]): at
+//! every token boundary of every moving agent of a recorded scene, the
+//! prior's distribution over the next token against the token the agent
+//! applied (the log-to-token inversion's), as held-out negative
+//! log-likelihood, top-1 accuracy and how often the recorded token is in
+//! the top n (the trust region), with the top n's acceleration and
+//! yaw-rate range.
+//!
+//! The history the prior reads can be aligned two ways
+//! ([`HistoryAlignment`]): ending at the boundary, as in closed loop, or one
+//! step late, ending 0.1 s into the token to be predicted. A prior that
+//! fits much better one step late has learned to read the start of the
+//! answer from its input, which it never has in closed loop.
+
+use crate::models::ModelError;
+use crate::models::prior::RealismPrior;
+use crate::models::prior_dataset::TokenizedScene;
+use crate::models::prior_features::{MapTokens, QueryFeatures, StateHistory, build_query};
+use crate::motion::Token;
+use crate::motion::tokens::TokenGrid;
+use crate::policies::prior_sampling::top_tokens;
+use crate::scenario::{AgentKind, AgentState, Scenario};
+
+/// Which states the prior's history holds at a token boundary.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum HistoryAlignment {
+    /// The history ends at the boundary: what the prior sees in closed loop.
+    AtBoundary,
+    /// The history ends one simulator step (0.1 s) into the token to be
+    /// predicted: a probe of whether the prior reads the answer's start.
+    OneStepLate,
+}
+
+/// The tokenized scene as a history seen one step late.
+struct OneStepLate<'a>(&'a TokenizedScene);
+
+impl StateHistory for OneStepLate<'_> {
+    fn state(&self, step: usize, agent: usize) -> Option<AgentState> {
+        self.0.state(step + 1, agent)
+    }
+    fn agents(&self) -> usize {
+        self.0.agents()
+    }
+}
+
+/// Sums over the samples of one or more scenes (add them with
+/// `+`; the means are the sums over `samples`).
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
+pub struct PriorFit {
+    /// Samples: (moving vehicle, token boundary) pairs with a recorded token.
+    pub samples: usize,
+    /// Sum of the negative log-likelihoods of the recorded tokens, nats.
+    pub nll_sum: f64,
+    /// Samples whose recorded token is the prior's most likely one.
+    pub top1: usize,
+    /// Samples whose recorded token is among the prior's top n.
+    pub in_top_n: usize,
+    /// Sum of the top n's acceleration ranges, m/s².
+    pub accel_range_sum_mps2: f64,
+    /// Sum of the top n's yaw-rate ranges, rad/s.
+    pub yaw_rate_range_sum_radps: f64,
+}
+
+impl std::ops::Add for PriorFit {
+    type Output = PriorFit;
+
+    /// Both sums together.
+    fn add(self, other: PriorFit) -> PriorFit {
+        PriorFit {
+            samples: self.samples + other.samples,
+            nll_sum: self.nll_sum + other.nll_sum,
+            top1: self.top1 + other.top1,
+            in_top_n: self.in_top_n + other.in_top_n,
+            accel_range_sum_mps2: self.accel_range_sum_mps2 + other.accel_range_sum_mps2,
+            yaw_rate_range_sum_radps: self.yaw_rate_range_sum_radps + other.yaw_rate_range_sum_radps,
+        }
+    }
+}
+
+impl PriorFit {
+    /// Mean of a sum over the samples (`None` without samples).
+    fn mean(&self, sum: f64) -> Option<f64> {
+        (self.samples > 0).then(|| sum / self.samples as f64)
+    }
+
+    /// Mean negative log-likelihood of the recorded token, nats.
+    pub fn nll(&self) -> Option<f64> {
+        self.mean(self.nll_sum)
+    }
+
+    /// Share of samples whose recorded token is the most likely one.
+    pub fn top1_share(&self) -> Option<f64> {
+        self.mean(self.top1 as f64)
+    }
+
+    /// Share of samples whose recorded token is among the top n.
+    pub fn in_top_n_share(&self) -> Option<f64> {
+        self.mean(self.in_top_n as f64)
+    }
+
+    /// Mean acceleration range of the top n, m/s².
+    pub fn accel_range_mps2(&self) -> Option<f64> {
+        self.mean(self.accel_range_sum_mps2)
+    }
+
+    /// Mean yaw-rate range of the top n, rad/s.
+    pub fn yaw_rate_range_radps(&self) -> Option<f64> {
+        self.mean(self.yaw_rate_range_sum_radps)
+    }
+}
+
+/// The negative log-likelihood (nats) of `token` under the softmax of
+/// `logits`.
+pub fn token_nll(logits: &[f32], token: Token) -> f64 {
+    let max = logits.iter().copied().fold(f32::NEG_INFINITY, f32::max) as f64;
+    let log_sum = max + logits.iter().map(|&x| (x as f64 - max).exp()).sum::<f64>().ln();
+    log_sum - logits[token.0 as usize] as f64
+}
+
+/// The range (largest less smallest) of `value` over `tokens`.
+fn range(tokens: &[Token], value: impl Fn(Token) -> f64) -> f64 {
+    let (lo, hi) =
+        tokens.iter().map(|&t| value(t)).fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| (lo.min(v), hi.max(v)));
+    if tokens.is_empty() { 0.0 } else { hi - lo }
+}
+
+/// The prior's fit on `scenario`: every vehicle moving faster than
+/// `min_speed_mps` at a token boundary where the inversion gives its next
+/// token (and, so that both alignments score the same samples, whose
+/// state one step later is known), with its history aligned by
+/// `alignment`; `top_n` is the trust region's size.
+pub fn prior_fit(
+    prior: &RealismPrior,
+    scenario: &Scenario,
+    alignment: HistoryAlignment,
+    top_n: usize,
+    min_speed_mps: f64,
+) -> Result<PriorFit, ModelError> {
+    let scene = TokenizedScene::new(scenario);
+    let map = MapTokens::build(&scenario.map);
+    let late = OneStepLate(&scene);
+    let history: &dyn StateHistory = match alignment {
+        HistoryAlignment::AtBoundary => &scene,
+        HistoryAlignment::OneStepLate => &late,
+    };
+    let mut keys: Vec<(usize, usize)> = scene.labels.keys().map(|&(agent, step)| (step, agent)).collect();
+    keys.sort_unstable();
+    let samples: Vec<(QueryFeatures, Token)> = keys
+        .into_iter()
+        .filter(|&(step, agent)| {
+            scene.bodies[agent].kind == AgentKind::Vehicle
+                && scene.state(step, agent).is_some_and(|s| s.speed_mps() > min_speed_mps)
+                && scene.state(step + 1, agent).is_some()
+        })
+        .filter_map(|(step, agent)| {
+            let query = build_query(history, &scene.bodies, &map, &scenario.map, agent, step)?;
+            Some((query, scene.labels[&(agent, step)]))
+        })
+        .collect();
+    if samples.is_empty() {
+        return Ok(PriorFit::default());
+    }
+    let embedding = prior.encode_map(&map)?;
+    let queries: Vec<&QueryFeatures> = samples.iter().map(|(q, _)| q).collect();
+    let logits = prior.logits(&queries, &embedding)?;
+    let mut fit = PriorFit::default();
+    for ((_, recorded), logits) in samples.iter().zip(&logits) {
+        let top = top_tokens(logits, top_n);
+        fit = fit
+            + PriorFit {
+                samples: 1,
+                nll_sum: token_nll(logits, *recorded),
+                top1: usize::from(top.first() == Some(recorded)),
+                in_top_n: usize::from(top.contains(recorded)),
+                accel_range_sum_mps2: range(&top, |t| TokenGrid::action(t).accel_mps2),
+                yaw_rate_range_sum_radps: range(&top, |t| TokenGrid::action(t).yaw_rate_radps),
+            };
+    }
+    Ok(fit)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_nll_of_a_token_is_minus_its_log_softmax() {
+        // Uniform over four: ln 4 each.
+        assert!((token_nll(&[0.0; 4], Token(2)) - 4f64.ln()).abs() < 1e-12);
+        // Shifting every logit changes nothing; a likelier token costs less.
+        let logits = [1.0f32, 3.0, 0.5, -2.0];
+        let shifted: Vec<f32> = logits.iter().map(|x| x + 100.0).collect();
+        assert!((token_nll(&logits, Token(1)) - token_nll(&shifted, Token(1))).abs() < 1e-4);
+        assert!(token_nll(&logits, Token(1)) < token_nll(&logits, Token(0)));
+        let p1 = (3.0f64).exp() / logits.iter().map(|&x| (x as f64).exp()).sum::<f64>();
+        assert!((token_nll(&logits, Token(1)) + p1.ln()).abs() < 1e-9);
+    }
+
+    #[test]
+    fn sums_add_and_means_divide_by_the_samples() {
+        let a = PriorFit {
+            samples: 2,
+            nll_sum: 3.0,
+            top1: 1,
+            in_top_n: 2,
+            accel_range_sum_mps2: 4.0,
+            yaw_rate_range_sum_radps: 0.2,
+        };
+        let both = a + PriorFit { samples: 2, nll_sum: 1.0, top1: 0, in_top_n: 1, ..PriorFit::default() };
+        assert_eq!(both.samples, 4);
+        assert_eq!(both.nll(), Some(1.0));
+        assert_eq!(both.top1_share(), Some(0.25));
+        assert_eq!(both.in_top_n_share(), Some(0.75));
+        assert_eq!(both.accel_range_mps2(), Some(1.0));
+        assert_eq!(PriorFit::default().nll(), None);
+    }
+
+    #[test]
+    fn a_prior_fit_scores_the_moving_vehicles_of_a_recorded_scene() {
+        use crate::models::ModelSource;
+        use crate::models::prior::PriorVariant;
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/ngsim/USA_US101-15_1_T-1.xml");
+        let scenario = crate::scenario::import::load(&path).unwrap().remove(0);
+        let prior = RealismPrior::load(&ModelSource::Embedded, PriorVariant::Differential).unwrap();
+        let at = prior_fit(&prior, &scenario, HistoryAlignment::AtBoundary, 20, 1.0).unwrap();
+        let late = prior_fit(&prior, &scenario, HistoryAlignment::OneStepLate, 20, 1.0).unwrap();
+        // The same samples either way, and a real distribution: better
+        // than uniform (ln 3969 = 8.29 nats), ranges inside the grid.
+        assert!(at.samples > 20, "{at:?}");
+        assert_eq!(at.samples, late.samples);
+        for fit in [at, late] {
+            assert!(fit.nll().unwrap() < 8.29, "{fit:?}");
+            assert!(fit.in_top_n >= fit.top1);
+            assert!((0.0..=10.0).contains(&fit.accel_range_mps2().unwrap()), "{fit:?}");
+            assert!((0.0..=3.0).contains(&fit.yaw_rate_range_radps().unwrap()), "{fit:?}");
+        }
+        // Nothing moving, nothing scored.
+        let none = prior_fit(&prior, &scenario, HistoryAlignment::AtBoundary, 20, 1e9).unwrap();
+        assert_eq!(none, PriorFit::default());
+    }
+}
