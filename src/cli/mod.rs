@@ -192,6 +192,9 @@ enum Command {
         /// Score at most this many scenes (by id), at least 1.
         #[arg(long, value_name = "N", value_parser = at_least_one())]
         max_scenes: Option<usize>,
+        /// Also write the fits (all, held-out and other scenes, and each scene's sums) as JSON (`-`: standard output).
+        #[arg(long, value_name = "OUT")]
+        json: Option<PathBuf>,
     },
     /// Print the JSON Schema of a spec kind (for editors: yaml-language-server `$schema`).
     Schema {
@@ -498,8 +501,8 @@ pub fn main() -> ExitCode {
         Command::Realism { scenes, rollouts, json, policy, seed, max_scenes } => {
             realism::run(&realism::RealismArgs { scenes, rollouts, json, policy, seed, max_scenes })
         }
-        Command::PriorFit { scenes, top_n, min_speed_mps, prior, max_scenes } => {
-            prior_fit::run(&prior_fit::PriorFitArgs { scenes, top_n, min_speed_mps, variant: prior, max_scenes })
+        Command::PriorFit { scenes, top_n, min_speed_mps, prior, max_scenes, json } => {
+            prior_fit::run(&prior_fit::PriorFitArgs { scenes, top_n, min_speed_mps, variant: prior, max_scenes, json })
         }
         Command::Schema { kind, out } => schema::run(kind, out.as_deref()),
         Command::Render { file, step, out, force } => render::run(&file, step, out.as_deref(), force),

@@ -33,20 +33,72 @@ pub struct PriorFitArgs {
     pub variant: PriorVariant,
     /// Score at most this many scenes (by id).
     pub max_scenes: Option<usize>,
+    /// Also write the JSON report here (`-`: standard output).
+    pub json: Option<PathBuf>,
+}
+
+/// One group's fit, as the table and the JSON report give it (means, `None`
+/// without samples).
+#[derive(Debug, serde::Serialize)]
+struct FitRow {
+    history: HistoryAlignment,
+    /// `all`, `held-out` (every tenth scene by id) or `rest`.
+    scenes: &'static str,
+    samples: usize,
+    nll: Option<f64>,
+    top1: Option<f64>,
+    in_top_n: Option<f64>,
+    accel_range_mps2: Option<f64>,
+    yaw_rate_range_radps: Option<f64>,
+}
+
+impl FitRow {
+    fn new(history: HistoryAlignment, scenes: &'static str, fit: &PriorFit) -> Self {
+        Self {
+            history,
+            scenes,
+            samples: fit.samples,
+            nll: fit.nll(),
+            top1: fit.top1_share(),
+            in_top_n: fit.in_top_n_share(),
+            accel_range_mps2: fit.accel_range_mps2(),
+            yaw_rate_range_radps: fit.yaw_rate_range_radps(),
+        }
+    }
+}
+
+/// One scene's sums under both alignments.
+#[derive(Debug, serde::Serialize)]
+struct SceneFit<'a> {
+    scenario: &'a str,
+    at_boundary: PriorFit,
+    one_step_late: PriorFit,
+}
+
+/// The JSON report.
+#[derive(Debug, serde::Serialize)]
+struct Report<'a> {
+    scenes: usize,
+    held_out_scenes: usize,
+    prior: &'a str,
+    top_n: usize,
+    min_speed_mps: f64,
+    rows: &'a [FitRow],
+    per_scene: Vec<SceneFit<'a>>,
 }
 
 /// One row's figures, `—` where there are no samples.
-fn row(out: &mut dyn Write, history: &str, scenes: &str, fit: &PriorFit) -> std::io::Result<()> {
+fn row(out: &mut dyn Write, history: &str, scenes: &str, r: &FitRow) -> std::io::Result<()> {
     let f = |v: Option<f64>, d: usize| v.map_or("—".to_string(), |v| format!("{v:.d$}"));
     writeln!(
         out,
         "{history:<15} {scenes:<9} {:>8} {:>7} {:>7} {:>9} {:>11} {:>10}",
-        fit.samples,
-        f(fit.nll(), 3),
-        f(fit.top1_share(), 3),
-        f(fit.in_top_n_share(), 3),
-        f(fit.accel_range_mps2(), 2),
-        f(fit.yaw_rate_range_radps(), 3),
+        r.samples,
+        f(r.nll, 3),
+        f(r.top1, 3),
+        f(r.in_top_n, 3),
+        f(r.accel_range_mps2, 2),
+        f(r.yaw_rate_range_radps, 3),
     )
 }
 
@@ -73,31 +125,77 @@ pub(super) fn run(args: &PriorFitArgs) -> Result<ExitCode, CliError> {
     let total = |keep: &dyn Fn(&Scenario) -> bool, a: usize| {
         scenes.iter().zip(&per_scene).filter(|(s, _)| keep(s)).fold(PriorFit::default(), |acc, (_, f)| acc + f[a])
     };
-    let out = &mut std::io::stdout().lock();
-    writeln!(
-        out,
-        "{} scenes; {} prior; moving vehicles (> {} m/s) at token boundaries; top n = {}",
-        scenes.len(),
-        serde_json::to_value(args.variant)?.as_str().unwrap_or("?"),
-        args.min_speed_mps,
-        args.top_n
-    )?;
-    writeln!(
-        out,
-        "{:<15} {:<9} {:>8} {:>7} {:>7} {:>9} {:>11} {:>10}",
-        "history", "scenes", "samples", "NLL", "top-1", "in top n", "accel m/s²", "yaw rad/s"
-    )?;
-    for (a, history) in ["at boundary", "one step late"].iter().enumerate() {
-        row(out, history, "all", &total(&|_| true, a))?;
-        row(out, history, "held out", &total(&|s| held_out.contains(s.id.as_str()), a))?;
-        row(out, history, "rest", &total(&|s| !held_out.contains(s.id.as_str()), a))?;
+    let groups: [(&str, &dyn Fn(&Scenario) -> bool); 3] = [
+        ("all", &|_| true),
+        ("held-out", &|s| held_out.contains(s.id.as_str())),
+        ("rest", &|s| !held_out.contains(s.id.as_str())),
+    ];
+    let rows: Vec<FitRow> = alignments
+        .iter()
+        .enumerate()
+        .flat_map(|(a, &history)| {
+            groups.iter().map(move |&(scenes, keep)| (history, scenes, a, keep)).collect::<Vec<_>>()
+        })
+        .map(|(history, group, a, keep)| FitRow::new(history, group, &total(keep, a)))
+        .collect();
+    let prior_name = serde_json::to_value(args.variant)?.as_str().unwrap_or("?").to_string();
+    let report = Report {
+        scenes: scenes.len(),
+        held_out_scenes: held_out.len(),
+        prior: &prior_name,
+        top_n: args.top_n,
+        min_speed_mps: args.min_speed_mps,
+        rows: &rows,
+        per_scene: scenes
+            .iter()
+            .zip(&per_scene)
+            .map(|(s, f)| SceneFit { scenario: &s.id, at_boundary: f[0], one_step_late: f[1] })
+            .collect(),
+    };
+    let report_text = || serde_json::to_string_pretty(&report).map(|t| t + "\n");
+    // The file report first: a reader that closes standard output early
+    // (`| head`) must not cost the run its report.
+    let json = args.json.as_deref();
+    if let Some(path) = json.filter(|p| !safer::record::is_stdout(p)) {
+        safer::record::write_output(path, report_text()?.as_bytes())?;
+        eprintln!("wrote {}", path.display());
     }
-    writeln!(
-        out,
-        "history at boundary: ending at the token boundary, as in closed loop; one step late: ending 0.1 s into \
-         the token to be predicted (a prior that fits far better so reads the token's start from its input)"
-    )?;
-    writeln!(out, "held out: every tenth scene by id ({} of {})", held_out.len(), scenes.len())?;
-    writeln!(out, "NLL in nats (uniform over the 3 969 tokens: 8.29); accel / yaw: mean range of the top n")?;
+    let mut out = super::table_writer(json);
+    let printed = (|| {
+        writeln!(
+            out,
+            "{} scenes; {prior_name} prior; moving vehicles (> {} m/s) at token boundaries; top n = {}",
+            scenes.len(),
+            args.min_speed_mps,
+            args.top_n
+        )?;
+        writeln!(
+            out,
+            "{:<15} {:<9} {:>8} {:>7} {:>7} {:>9} {:>11} {:>10}",
+            "history", "scenes", "samples", "NLL", "top-1", "in top n", "accel m/s²", "yaw rad/s"
+        )?;
+        for r in &rows {
+            let history = match r.history {
+                HistoryAlignment::AtBoundary => "at boundary",
+                HistoryAlignment::OneStepLate => "one step late",
+            };
+            row(&mut out, history, &r.scenes.replace('-', " "), r)?;
+        }
+        writeln!(
+            out,
+            "history at boundary: ending at the token boundary, as in closed loop; one step late: ending 0.1 s \
+             into the token to be predicted (a prior that fits far better so reads the token's start from its input)"
+        )?;
+        writeln!(out, "held out: every tenth scene by id ({} of {})", held_out.len(), scenes.len())?;
+        writeln!(out, "NLL in nats (uniform over the 3 969 tokens: 8.29); accel / yaw: mean range of the top n")?;
+        out.flush()
+    })();
+    match printed {
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => {}
+        other => other?,
+    }
+    if let Some(path) = json.filter(|p| safer::record::is_stdout(p)) {
+        safer::record::write_output(path, report_text()?.as_bytes())?;
+    }
     Ok(ExitCode::SUCCESS)
 }

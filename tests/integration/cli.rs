@@ -213,6 +213,15 @@ fn prior_fit_scores_both_history_alignments_and_refuses_a_negative_speed() {
     let samples = |r: &Vec<&str>| r[r.len() - 6].parse::<usize>().unwrap();
     assert!(samples(&rows[0]) > 20 && samples(&rows[0]) == samples(&rows[3]), "{text}");
     assert!(rows[0][rows[0].len() - 5].parse::<f64>().unwrap() < 8.29, "{text}");
+    // The JSON report carries the same rows, and each scene's sums.
+    let out = safer(&["prior-fit", "--scenes", scene, "--json", "-"]);
+    assert!(out.status.success());
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let json_rows = report["rows"].as_array().unwrap();
+    assert_eq!(json_rows.len(), 6);
+    assert_eq!(json_rows[0]["history"], "at-boundary");
+    assert_eq!(json_rows[0]["samples"].as_u64().unwrap() as usize, samples(&rows[0]));
+    assert_eq!(report["per_scene"][0]["at_boundary"]["samples"].as_u64().unwrap() as usize, samples(&rows[0]));
     let out = safer(&["prior-fit", "--scenes", scene, "--min-speed-mps", "-1"]);
     assert_eq!(out.status.code(), Some(2));
     assert!(
