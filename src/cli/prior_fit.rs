@@ -37,6 +37,9 @@ pub struct PriorFitArgs {
     pub json: Option<PathBuf>,
 }
 
+/// Which scenes a row sums over.
+type SceneFilter<'a> = dyn Fn(&Scenario) -> bool + 'a;
+
 /// One group's fit, as the table and the JSON report give it (means, `None`
 /// without samples).
 #[derive(Debug, serde::Serialize)]
@@ -122,10 +125,10 @@ pub(super) fn run(args: &PriorFitArgs) -> Result<ExitCode, CliError> {
             Ok([fit(alignments[0])?, fit(alignments[1])?])
         })
         .collect::<Result<_, _>>()?;
-    let total = |keep: &dyn Fn(&Scenario) -> bool, a: usize| {
+    let total = |keep: &SceneFilter, a: usize| {
         scenes.iter().zip(&per_scene).filter(|(s, _)| keep(s)).fold(PriorFit::default(), |acc, (_, f)| acc + f[a])
     };
-    let groups: [(&str, &dyn Fn(&Scenario) -> bool); 3] = [
+    let groups: [(&str, &SceneFilter); 3] = [
         ("all", &|_| true),
         ("held-out", &|s| held_out.contains(s.id.as_str())),
         ("rest", &|s| !held_out.contains(s.id.as_str())),
