@@ -27,6 +27,14 @@ pub struct LaneMatch {
     /// Projection of the query point on the lane's centreline.
     pub projection: PolylineProjection,
 }
+
+/// Whether a lane of direction `tangent` (a unit vector) goes against the
+/// agent's `forward` unit vector by more than
+/// [`ALIGNED_LANE_MAX_ANGLE_RAD`] (never without a heading).
+fn misaligned(forward: Option<crate::geometry::Vector2>, tangent: &crate::geometry::Vector2) -> bool {
+    forward.is_some_and(|f| f.dot(tangent) < ALIGNED_LANE_MAX_ANGLE_RAD.cos())
+}
+
 /// A lane's nearest segment to a query point so far in
 /// [`RoadMap::nearest_lane`]: lane, segment, squared distance, and the
 /// segment's ends.
@@ -81,7 +89,7 @@ impl RoadMap {
                         return best;
                     }
                     let tangent = (b - a) / (b - a).norm();
-                    let misaligned = forward.is_some_and(|f| f.dot(&tangent) < ALIGNED_LANE_MAX_ANGLE_RAD.cos());
+                    let misaligned = misaligned(forward, &tangent);
                     let key = (misaligned, distance_m, lane as usize);
                     let better = best.is_none_or(|(m, d, i, _)| key < (m, d, i));
                     if better { Some((misaligned, distance_m, lane as usize, segment)) } else { best }
@@ -130,7 +138,7 @@ impl RoadMap {
         if proj.distance_m > radius_m {
             return best;
         }
-        let misaligned = forward.is_some_and(|f| f.dot(&proj.tangent) < ALIGNED_LANE_MAX_ANGLE_RAD.cos());
+        let misaligned = misaligned(forward, &proj.tangent);
         let key = (misaligned, proj.distance_m, lane_index);
         let better = match &best {
             None => true,

@@ -43,7 +43,7 @@ type SegmentEnds = [Point2; 2];
 type EndedSegment = ((u32, u32), SegmentEnds);
 
 /// The bounding box of a segment's ends.
-fn segment_box([a, b]: &[Point2; 2]) -> (Point2, Point2) {
+fn segment_box([a, b]: &SegmentEnds) -> (Point2, Point2) {
     (Point2::new(a.x.min(b.x), a.y.min(b.y)), Point2::new(a.x.max(b.x), a.y.max(b.y)))
 }
 
@@ -77,7 +77,7 @@ struct Cell {
     /// here, in order, rather than from each polyline's points scattered
     /// over the heap (which, with the planner's own data about, cost
     /// several times the arithmetic).
-    ends: Vec<[Point2; 2]>,
+    ends: Vec<SegmentEnds>,
     runs: Vec<Run>,
     lo: Point2,
     hi: Point2,
@@ -129,13 +129,17 @@ impl Cell {
     }
 }
 
+/// The occupied cells by cell coordinates, hashed with foldhash's fixed
+/// state.
+type CellMap = HashMap<(i64, i64), Cell, foldhash::fast::FixedState>;
+
 /// Grid of segment references `(polyline, segment)` keyed by cell.
 #[derive(Debug, Clone, Default)]
 pub struct SegmentIndex {
     /// Hashed with foldhash's fixed state: cell lookups are the hot path of
     /// every query, where the default SipHash showed; a fixed state keeps
     /// the scan order of wide queries the same from run to run.
-    cells: HashMap<(i64, i64), Cell, foldhash::fast::FixedState>,
+    cells: CellMap,
     /// Finite segments too long to walk cell by cell: candidates of every query.
     oversized: Vec<EndedSegment>,
     /// Bounding box of all indexed points, `None` when empty.
@@ -196,11 +200,7 @@ impl SegmentIndex {
             }
         }
         let bounds = (lo.x <= hi.x).then_some((lo, hi));
-        let cells = cells.into_iter().map(|(key, segments)| (key, Cell::new(segments))).collect::<HashMap<
-            _,
-            _,
-            foldhash::fast::FixedState,
-        >>();
+        let cells: CellMap = cells.into_iter().map(|(key, segments)| (key, Cell::new(segments))).collect();
         Self { cells, oversized, bounds }
     }
 
@@ -248,15 +248,16 @@ impl SegmentIndex {
     /// As [`Self::for_each_candidate`], for searches of the segment nearest
     /// to `p`: `visit` returns the distance of its best segment so far
     /// (infinite while it has none), and the cells within reach are visited
-    /// nearest first, skipping every cell whose segments all lie farther
-    /// than that (with a centimetre to spare), so such a search finds what
-    /// it would find visiting them all. Segments may still be visited more
+    /// nearest first, skipping every cell and every run of segments in a
+    /// cell that lie wholly farther than that (with a centimetre to spare),
+    /// so such a search finds what it would find visiting them all. Each
+    /// segment comes with its two ends; segments may still be visited more
     /// than once.
     pub fn for_each_candidate_nearest_first(
         &self,
         p: &Point2,
         radius_m: f64,
-        mut visit: impl FnMut((u32, u32), &[Point2; 2]) -> f64,
+        mut visit: impl FnMut((u32, u32), &SegmentEnds) -> f64,
     ) {
         if !(p.x.is_finite() && p.y.is_finite()) || radius_m.is_nan() {
             return;
@@ -311,13 +312,13 @@ impl SegmentIndex {
     /// As [`Self::for_each_candidate`], leaving out runs of segments that
     /// all lie farther than `radius_m` from `p` (with a centimetre to
     /// spare): for callers that ignore segments beyond `radius_m` anyway.
-    /// Every segment within `radius_m` is still visited.
-    /// Each segment comes with its two ends (as the polyline holds them).
+    /// Every segment within `radius_m` is still visited, with its two ends
+    /// (as the polyline holds them).
     pub fn for_each_candidate_within(
         &self,
         p: &Point2,
         radius_m: f64,
-        mut visit: impl FnMut((u32, u32), &[Point2; 2]),
+        mut visit: impl FnMut((u32, u32), &SegmentEnds),
     ) {
         if radius_m.is_nan() {
             return;
@@ -345,7 +346,7 @@ impl SegmentIndex {
     /// than once (a segment is in every cell it crosses): for callers whose
     /// answer depends on neither, with no sorting at all.
     pub fn for_each_candidate(&self, p: &Point2, radius_m: f64, mut visit: impl FnMut((u32, u32))) {
-        self.for_each_cell(p, radius_m, &mut |pair, _: &[Point2; 2]| visit(pair), |cell, visit| {
+        self.for_each_cell(p, radius_m, &mut |pair, _: &SegmentEnds| visit(pair), |cell, visit| {
             cell.refs.iter().zip(&cell.ends).for_each(|(&pair, ends)| visit(pair, ends))
         });
     }
@@ -353,7 +354,7 @@ impl SegmentIndex {
     /// Offers the oversized segments to `visit` and calls `in_cell` on
     /// every occupied cell within `radius_m` of `p` (nothing for a
     /// non-finite `p` or a NaN radius).
-    fn for_each_cell<V: FnMut((u32, u32), &[Point2; 2])>(
+    fn for_each_cell<V: FnMut((u32, u32), &SegmentEnds)>(
         &self,
         p: &Point2,
         radius_m: f64,
