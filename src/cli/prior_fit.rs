@@ -108,9 +108,18 @@ fn row(out: &mut dyn Write, history: &str, scenes: &str, r: &FitRow) -> std::io:
 /// Runs the command.
 pub(super) fn run(args: &PriorFitArgs) -> Result<ExitCode, CliError> {
     let prior = RealismPrior::load(&ModelSource::shipped(), args.variant)?;
+    // A file that does not load is reported and the others are scored; the
+    // run then ends with status 1.
     let mut scenes: Vec<Scenario> = Vec::new();
+    let mut failed = 0;
     for path in scene_paths(&args.scenes)? {
-        scenes.extend(import::load(&path)?);
+        match import::load(&path) {
+            Ok(loaded) => scenes.extend(loaded),
+            Err(e) => {
+                eprintln!("error: {e}");
+                failed += 1;
+            }
+        }
     }
     scenes.sort_by(|a, b| a.id.cmp(&b.id));
     if let Some(n) = args.max_scenes {
@@ -199,6 +208,10 @@ pub(super) fn run(args: &PriorFitArgs) -> Result<ExitCode, CliError> {
     }
     if let Some(path) = json.filter(|p| safer::record::is_stdout(p)) {
         safer::record::write_output(path, report_text()?.as_bytes())?;
+    }
+    if failed > 0 {
+        eprintln!("error: {failed} scene file(s) could not be read; the figures leave them out");
+        return Ok(ExitCode::from(1));
     }
     Ok(ExitCode::SUCCESS)
 }

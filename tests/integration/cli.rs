@@ -197,7 +197,7 @@ fn prior_dataset_refuses_non_commercial_scenes_unless_the_model_is_for_evaluatio
 }
 
 #[test]
-fn prior_fit_scores_both_history_alignments_and_refuses_a_negative_speed() {
+fn prior_fit_scores_both_history_alignments_names_unreadable_files_and_refuses_a_negative_speed() {
     let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/ngsim/USA_US101-15_1_T-1.xml");
     let out = safer(&["prior-fit", "--scenes", scene]);
     let text = String::from_utf8_lossy(&out.stdout);
@@ -222,6 +222,16 @@ fn prior_fit_scores_both_history_alignments_and_refuses_a_negative_speed() {
     assert_eq!(json_rows[0]["history"], "at-boundary");
     assert_eq!(json_rows[0]["samples"].as_u64().unwrap() as usize, samples(&rows[0]));
     assert_eq!(report["per_scene"][0]["at_boundary"]["samples"].as_u64().unwrap() as usize, samples(&rows[0]));
+    // A file that does not load is named, the others are scored, and the
+    // run fails.
+    let dir = crate::scratch::Scratch::new("prior-fit");
+    std::fs::copy(scene, dir.join("good.xml")).unwrap();
+    std::fs::write(dir.join("broken.xml"), "<commonRoad>").unwrap();
+    let out = safer(&["prior-fit", "--scenes", dir.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains("broken.xml") && !err.contains("panicked"), "{err}");
+    assert!(String::from_utf8_lossy(&out.stdout).contains(&format!(" {} ", samples(&rows[0]))));
     let out = safer(&["prior-fit", "--scenes", scene, "--min-speed-mps", "-1"]);
     assert_eq!(out.status.code(), Some(2));
     assert!(
