@@ -427,23 +427,8 @@ fn report(
 ) -> Result<ExitCode, CliError> {
     let rows = evaluation::table(records, &settings.methods);
     let held_out = evaluation::held_out_split(records, &settings.methods);
-    // The file report first: a reader that closes standard output early
-    // (`| head`) must not cost the evaluation its report.
     let report = Report { settings, partition, scenes, rows: &rows, held_out: &held_out, variants: records };
-    let report_text = || serde_json::to_string_pretty(&report).map(|t| t + "\n");
-    if let Some(path) = json.filter(|p| !safer::record::is_stdout(p)) {
-        safer::record::write_output(path, report_text()?.as_bytes())?;
-        eprintln!("wrote {}", path.display());
-    }
-    let mut table = super::table_writer(json);
-    let printed = print_table(&mut table, &rows, &held_out, scenes, settings).and_then(|()| table.flush());
-    match printed {
-        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => {}
-        other => other?,
-    }
-    if let Some(path) = json.filter(|p| safer::record::is_stdout(p)) {
-        safer::record::write_output(path, report_text()?.as_bytes())?;
-    }
+    super::write_report_and_table(json, &report, |table| print_table(table, &rows, &held_out, scenes, settings))?;
     let failed = rows.iter().any(|r| r.errors == r.variants && r.variants > 0);
     Ok(if failed { ExitCode::from(1) } else { ExitCode::SUCCESS })
 }

@@ -714,6 +714,37 @@ fn non_negative_finite(written: &str) -> Result<f64, String> {
     }
 }
 
+/// A mean to `decimals` places for a table, `—` where there is none.
+fn figure(value: Option<f64>, decimals: usize) -> String {
+    value.map_or("—".into(), |v| format!("{v:.decimals$}"))
+}
+
+/// Writes a command's JSON report to `json` (if asked) and its table
+/// (`print`) to standard output, or to standard error when the report
+/// takes standard output. A report file is written before the table: a
+/// reader that closes standard output early (`| head`) must not cost the
+/// run its report, and a closed pipe ends the table quietly.
+fn write_report_and_table(
+    json: Option<&Path>,
+    report: &impl serde::Serialize,
+    print: impl FnOnce(&mut dyn std::io::Write) -> std::io::Result<()>,
+) -> Result<(), CliError> {
+    let report_text = || serde_json::to_string_pretty(report).map(|t| t + "\n");
+    if let Some(path) = json.filter(|p| !safer::record::is_stdout(p)) {
+        safer::record::write_output(path, report_text()?.as_bytes())?;
+        eprintln!("wrote {}", path.display());
+    }
+    let mut table = table_writer(json);
+    match print(&mut table).and_then(|()| table.flush()) {
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => {}
+        other => other?,
+    }
+    if let Some(path) = json.filter(|p| safer::record::is_stdout(p)) {
+        safer::record::write_output(path, report_text()?.as_bytes())?;
+    }
+    Ok(())
+}
+
 /// Where a command's human-readable table goes: standard output, or
 /// standard error when the JSON report takes standard output (`--json -`),
 /// so the JSON stays parseable.

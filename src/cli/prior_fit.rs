@@ -13,7 +13,7 @@ use std::process::ExitCode;
 
 use rayon::prelude::*;
 
-use super::{CliError, scene_paths};
+use super::{CliError, figure, scene_paths};
 use safer::eval::prior_fit::{HistoryAlignment, PriorFit, prior_fit};
 use safer::harness::evaluation::held_out_scenes;
 use safer::models::ModelSource;
@@ -92,16 +92,15 @@ struct Report<'a> {
 
 /// One row's figures, `—` where there are no samples.
 fn row(out: &mut dyn Write, history: &str, scenes: &str, r: &FitRow) -> std::io::Result<()> {
-    let f = |v: Option<f64>, d: usize| v.map_or("—".to_string(), |v| format!("{v:.d$}"));
     writeln!(
         out,
         "{history:<15} {scenes:<9} {:>8} {:>7} {:>7} {:>9} {:>11} {:>10}",
         r.samples,
-        f(r.nll, 3),
-        f(r.top1, 3),
-        f(r.in_top_n, 3),
-        f(r.accel_range_mps2, 2),
-        f(r.yaw_rate_range_radps, 3),
+        figure(r.nll, 3),
+        figure(r.top1, 3),
+        figure(r.in_top_n, 3),
+        figure(r.accel_range_mps2, 2),
+        figure(r.yaw_rate_range_radps, 3),
     )
 }
 
@@ -164,16 +163,7 @@ pub(super) fn run(args: &PriorFitArgs) -> Result<ExitCode, CliError> {
             .map(|(s, f)| SceneFit { scenario: &s.id, at_boundary: f[0], one_step_late: f[1] })
             .collect(),
     };
-    let report_text = || serde_json::to_string_pretty(&report).map(|t| t + "\n");
-    // The file report first: a reader that closes standard output early
-    // (`| head`) must not cost the run its report.
-    let json = args.json.as_deref();
-    if let Some(path) = json.filter(|p| !safer::record::is_stdout(p)) {
-        safer::record::write_output(path, report_text()?.as_bytes())?;
-        eprintln!("wrote {}", path.display());
-    }
-    let mut out = super::table_writer(json);
-    let printed = (|| {
+    super::write_report_and_table(args.json.as_deref(), &report, |out| {
         writeln!(
             out,
             "{} scenes; {prior_name} prior; moving vehicles (> {} m/s) at token boundaries; top n = {}",
@@ -191,7 +181,7 @@ pub(super) fn run(args: &PriorFitArgs) -> Result<ExitCode, CliError> {
                 HistoryAlignment::AtBoundary => "at boundary",
                 HistoryAlignment::OneStepLate => "one step late",
             };
-            row(&mut out, history, &r.scenes.replace('-', " "), r)?;
+            row(out, history, &r.scenes.replace('-', " "), r)?;
         }
         writeln!(
             out,
@@ -200,15 +190,8 @@ pub(super) fn run(args: &PriorFitArgs) -> Result<ExitCode, CliError> {
         )?;
         writeln!(out, "held out: every tenth scene by id ({} of {})", held_out.len(), scenes.len())?;
         writeln!(out, "NLL in nats (uniform over the 3 969 tokens: 8.29); accel / yaw: mean range of the top n")?;
-        out.flush()
-    })();
-    match printed {
-        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => {}
-        other => other?,
-    }
-    if let Some(path) = json.filter(|p| safer::record::is_stdout(p)) {
-        safer::record::write_output(path, report_text()?.as_bytes())?;
-    }
+        Ok(())
+    })?;
     if failed > 0 {
         eprintln!("error: {failed} scene file(s) could not be read; the figures leave them out");
         return Ok(ExitCode::from(1));

@@ -11,16 +11,11 @@ use std::io::Write;
 use std::path::Path;
 use std::process::ExitCode;
 
-use super::CliError;
 use super::evaluate::load_scenes;
+use super::{CliError, figure};
 use safer::harness::evaluation::{EvaluationRequest, held_out_scenes};
 use safer::harness::methods::ModelSet;
 use safer::harness::trust_region::{BoundaryProfile, TrustRegionSummary, profile_scenes, summarise};
-
-/// A mean to `decimals` places, `—` where there is none.
-fn fmt(value: Option<f64>, decimals: usize) -> String {
-    value.map_or("—".into(), |v| format!("{v:.decimals$}"))
-}
 
 fn print(out: &mut dyn Write, title: &str, rows: &[TrustRegionSummary]) -> std::io::Result<()> {
     writeln!(out, "{title}")?;
@@ -47,17 +42,17 @@ fn print(out: &mut dyn Write, title: &str, rows: &[TrustRegionSummary]) -> std::
             "{:<18} {:>10} {:>6} {:>10} {:>7} {:>11} {:>6} {:>9} {:>10} {:>9} {:>9} {:>6} {:>8}",
             safer::spec::spec_name(&r.method),
             r.boundaries,
-            fmt(r.probability_mass, 3),
-            fmt(r.accel_range_mps2, 2),
-            fmt(r.accel_bins, 1),
-            fmt(r.yaw_rate_range_radps, 3),
-            fmt(r.yaw_rate_bins, 1),
-            fmt(r.no_steering_share, 3),
-            fmt(r.behaviours, 1),
-            fmt(r.plausible_share, 3),
-            fmt(r.none_plausible_share, 3),
-            fmt(r.driven_rank, 1),
-            fmt(r.outside_share, 3)
+            figure(r.probability_mass, 3),
+            figure(r.accel_range_mps2, 2),
+            figure(r.accel_bins, 1),
+            figure(r.yaw_rate_range_radps, 3),
+            figure(r.yaw_rate_bins, 1),
+            figure(r.no_steering_share, 3),
+            figure(r.behaviours, 1),
+            figure(r.plausible_share, 3),
+            figure(r.none_plausible_share, 3),
+            figure(r.driven_rank, 1),
+            figure(r.outside_share, 3)
         )?;
     }
     Ok(())
@@ -107,15 +102,7 @@ pub(super) fn run(
         rest: &rest,
         boundaries: &profiles,
     };
-    let report_text = || serde_json::to_string_pretty(&report).map(|t| t + "\n");
-    // The file report first: a reader that closes standard output early
-    // (`| head`) must not cost the run its report.
-    if let Some(path) = json.filter(|p| !safer::record::is_stdout(p)) {
-        safer::record::write_output(path, report_text()?.as_bytes())?;
-        eprintln!("wrote {}", path.display());
-    }
-    let mut out = super::table_writer(json);
-    let printed = (|| {
+    super::write_report_and_table(json, &report, |out| {
         writeln!(
             out,
             "{} scenes × {} seeds; trust region n = {}; the CBV's token boundaries after the approach phase, stage 1",
@@ -123,25 +110,14 @@ pub(super) fn run(
             request.seeds,
             request.trust_region
         )?;
-        print(&mut out, "all scenes:", &summary)?;
-        print(
-            &mut out,
-            &format!("held out (every tenth scene by id: {} of {}):", held.len(), scenes.len()),
-            &held_out,
-        )?;
-        print(&mut out, "the other scenes:", &rest)?;
+        print(out, "all scenes:", &summary)?;
+        print(out, &format!("held out (every tenth scene by id: {} of {}):", held.len(), scenes.len()), &held_out)?;
+        print(out, "the other scenes:", &rest)?;
         writeln!(
             out,
             "mass: the prior's probability of the top-n tokens together; accel/yaw: the range of the tokens' bin centres (longitudinal and lateral choice) and the distinct bins; no-steer: share of boundaries with one yaw-rate bin; behaviours: groups of the tokens' end positions after 2 s held, more than 1 m apart; plausible: share of the tokens the plausibility rule allows; none-pl.: share of boundaries where it allows none; rank: mean rank in the region of the token the adversary drove (0: the likeliest); outside: share of boundaries where it drove one from outside the region (the plausibility fallback)."
         )?;
-        out.flush()
-    })();
-    match printed {
-        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => {}
-        other => other?,
-    }
-    if let Some(path) = json.filter(|p| safer::record::is_stdout(p)) {
-        safer::record::write_output(path, report_text()?.as_bytes())?;
-    }
+        Ok(())
+    })?;
     Ok(if errors.is_empty() { ExitCode::SUCCESS } else { ExitCode::from(1) })
 }
