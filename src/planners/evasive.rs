@@ -137,6 +137,12 @@ const OFF_ROAD_COST: f64 = 2.0e3;
 /// this much: far above the rounding of the sums, far below any term.
 const ABANDON_SLACK: f64 = 0.01;
 
+/// The agents one plan saw, by id. Hashed with foldhash's fixed state: a
+/// plan builds one map of every agent and looks each near one up in the
+/// last few, where SipHash showed; only lookups are made, so the order
+/// of the map never matters.
+type SeenAgents = std::collections::HashMap<crate::scenario::AgentId, AgentState, foldhash::fast::FixedState>;
+
 /// The evasive planner.
 #[derive(Debug, Clone, Default)]
 pub struct EvasivePlanner {
@@ -148,7 +154,7 @@ pub struct EvasivePlanner {
     predictions: Vec<BoxSet>,
     /// The agents as seen at the last few plans (up to
     /// [`TURNING_PREDICTION_WINDOW_S`] back), and when, oldest first.
-    seen: std::collections::VecDeque<(f64, std::collections::HashMap<crate::scenario::AgentId, AgentState>)>,
+    seen: std::collections::VecDeque<(f64, SeenAgents)>,
 }
 
 impl EvasivePlanner {
