@@ -126,12 +126,9 @@ pub(super) fn run(args: &PriorFitArgs) -> Result<ExitCode, CliError> {
     }
     let held_out = held_out_scenes(scenes.iter().map(|s| s.id.as_str()));
     let alignments = [HistoryAlignment::AtBoundary, HistoryAlignment::OneStepLate];
-    let per_scene: Vec<[PriorFit; 2]> = scenes
+    let per_scene: Vec<Vec<PriorFit>> = scenes
         .par_iter()
-        .map(|scenario| -> Result<[PriorFit; 2], CliError> {
-            let fit = |a| prior_fit(&prior, scenario, a, args.top_n, args.min_speed_mps);
-            Ok([fit(alignments[0])?, fit(alignments[1])?])
-        })
+        .map(|scenario| prior_fit(&prior, scenario, &alignments, args.top_n, args.min_speed_mps))
         .collect::<Result<_, _>>()?;
     let total = |keep: &SceneFilter, a: usize| {
         scenes.iter().zip(&per_scene).filter(|(s, _)| keep(s)).fold(PriorFit::default(), |acc, (_, f)| acc + f[a])
@@ -141,14 +138,12 @@ pub(super) fn run(args: &PriorFitArgs) -> Result<ExitCode, CliError> {
         ("held-out", &|s| held_out.contains(s.id.as_str())),
         ("rest", &|s| !held_out.contains(s.id.as_str())),
     ];
-    let rows: Vec<FitRow> = alignments
-        .iter()
-        .enumerate()
-        .flat_map(|(a, &history)| {
-            groups.iter().map(move |&(scenes, keep)| (history, scenes, a, keep)).collect::<Vec<_>>()
-        })
-        .map(|(history, group, a, keep)| FitRow::new(history, group, &total(keep, a)))
-        .collect();
+    let mut rows: Vec<FitRow> = Vec::new();
+    for (a, &history) in alignments.iter().enumerate() {
+        for &(group, keep) in &groups {
+            rows.push(FitRow::new(history, group, &total(keep, a)));
+        }
+    }
     let prior_name = serde_json::to_value(args.variant)?.as_str().unwrap_or("?").to_string();
     let report = Report {
         scenes: scenes.len(),

@@ -118,66 +118,65 @@ pub fn token_nll(logits: &[f32], token: Token) -> f64 {
     log_sum - logits[token.0 as usize] as f64
 }
 
-/// The range (largest less smallest) of `value` over `tokens`.
-fn range(tokens: &[Token], value: impl Fn(Token) -> f64) -> f64 {
-    let (lo, hi) =
-        tokens.iter().map(|&t| value(t)).fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| (lo.min(v), hi.max(v)));
-    if tokens.is_empty() { 0.0 } else { hi - lo }
-}
-
-/// The prior's fit on `scenario`: every vehicle moving faster than
-/// `min_speed_mps` at a token boundary where the inversion gives its next
-/// token (and, so that both alignments score the same samples, whose
-/// state one step later is known), with its history aligned by
-/// `alignment`; `top_n` is the trust region's size.
+/// The prior's fit on `scenario`, once for each of `alignments` (in
+/// their order): every vehicle moving faster than `min_speed_mps` at a
+/// token boundary where the inversion gives its next token (and, so that
+/// every alignment scores the same samples, whose state one step later is
+/// known); `top_n` is the trust region's size. The scene is tokenized and
+/// its map encoded once for all the alignments.
 pub fn prior_fit(
     prior: &RealismPrior,
     scenario: &Scenario,
-    alignment: HistoryAlignment,
+    alignments: &[HistoryAlignment],
     top_n: usize,
     min_speed_mps: f64,
-) -> Result<PriorFit, ModelError> {
+) -> Result<Vec<PriorFit>, ModelError> {
     let scene = TokenizedScene::new(scenario);
-    let map = MapTokens::build(&scenario.map);
-    let late = OneStepLate(&scene);
-    let history: &dyn StateHistory = match alignment {
-        HistoryAlignment::AtBoundary => &scene,
-        HistoryAlignment::OneStepLate => &late,
-    };
-    let mut keys: Vec<(usize, usize)> = scene.labels.keys().map(|&(agent, step)| (step, agent)).collect();
-    keys.sort_unstable();
-    let samples: Vec<(QueryFeatures, Token)> = keys
+    let boundaries: Vec<(usize, usize)> = scene
+        .labelled_boundaries()
         .into_iter()
         .filter(|&(step, agent)| {
             scene.bodies[agent].kind == AgentKind::Vehicle
                 && scene.state(step, agent).is_some_and(|s| s.speed_mps() > min_speed_mps)
                 && scene.state(step + 1, agent).is_some()
         })
-        .filter_map(|(step, agent)| {
-            let query = build_query(history, &scene.bodies, &map, &scenario.map, agent, step)?;
-            Some((query, scene.labels[&(agent, step)]))
-        })
         .collect();
-    if samples.is_empty() {
-        return Ok(PriorFit::default());
+    if boundaries.is_empty() {
+        return Ok(vec![PriorFit::default(); alignments.len()]);
     }
+    let map = MapTokens::build(&scenario.map);
     let embedding = prior.encode_map(&map)?;
-    let queries: Vec<&QueryFeatures> = samples.iter().map(|(q, _)| q).collect();
-    let logits = prior.logits(&queries, &embedding)?;
-    let mut fit = PriorFit::default();
-    for ((_, recorded), logits) in samples.iter().zip(&logits) {
-        let top = top_tokens(logits, top_n);
-        fit = fit
-            + PriorFit {
-                samples: 1,
-                nll_sum: token_nll(logits, *recorded),
-                top1: usize::from(top.first() == Some(recorded)),
-                in_top_n: usize::from(top.contains(recorded)),
-                accel_range_sum_mps2: range(&top, |t| TokenGrid::action(t).accel_mps2),
-                yaw_rate_range_sum_radps: range(&top, |t| TokenGrid::action(t).yaw_rate_radps),
+    let late = OneStepLate(&scene);
+    alignments
+        .iter()
+        .map(|alignment| {
+            let history: &dyn StateHistory = match alignment {
+                HistoryAlignment::AtBoundary => &scene,
+                HistoryAlignment::OneStepLate => &late,
             };
-    }
-    Ok(fit)
+            let samples: Vec<(QueryFeatures, Token)> = boundaries
+                .iter()
+                .filter_map(|&(step, agent)| {
+                    let query = build_query(history, &scene.bodies, &map, &scenario.map, agent, step)?;
+                    Some((query, scene.labels[&(agent, step)]))
+                })
+                .collect();
+            let queries: Vec<&QueryFeatures> = samples.iter().map(|(q, _)| q).collect();
+            let logits = prior.logits(&queries, &embedding)?;
+            Ok(samples.iter().zip(&logits).fold(PriorFit::default(), |fit, ((_, recorded), logits)| {
+                let top = top_tokens(logits, top_n);
+                let (accel_range_mps2, yaw_rate_range_radps) = TokenGrid::ranges(&top);
+                fit + PriorFit {
+                    samples: 1,
+                    nll_sum: token_nll(logits, *recorded),
+                    top1: usize::from(top.first() == Some(recorded)),
+                    in_top_n: usize::from(top.contains(recorded)),
+                    accel_range_sum_mps2: accel_range_mps2,
+                    yaw_rate_range_sum_radps: yaw_rate_range_radps,
+                }
+            }))
+        })
+        .collect()
 }
 
 #[cfg(test)]
@@ -223,8 +222,8 @@ mod tests {
         let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/ngsim/USA_US101-15_1_T-1.xml");
         let scenario = crate::scenario::import::load(&path).unwrap().remove(0);
         let prior = RealismPrior::load(&ModelSource::Embedded, PriorVariant::Differential).unwrap();
-        let at = prior_fit(&prior, &scenario, HistoryAlignment::AtBoundary, 20, 1.0).unwrap();
-        let late = prior_fit(&prior, &scenario, HistoryAlignment::OneStepLate, 20, 1.0).unwrap();
+        let both = [HistoryAlignment::AtBoundary, HistoryAlignment::OneStepLate];
+        let [at, late] = prior_fit(&prior, &scenario, &both, 20, 1.0).unwrap()[..] else { panic!("two fits") };
         // The same samples either way, and a real distribution: better
         // than uniform (ln 3969 = 8.29 nats), ranges inside the grid.
         assert!(at.samples > 20, "{at:?}");
@@ -236,7 +235,9 @@ mod tests {
             assert!((0.0..=3.0).contains(&fit.yaw_rate_range_radps().unwrap()), "{fit:?}");
         }
         // Nothing moving, nothing scored.
-        let none = prior_fit(&prior, &scenario, HistoryAlignment::AtBoundary, 20, 1e9).unwrap();
-        assert_eq!(none, PriorFit::default());
+        let none = prior_fit(&prior, &scenario, &both, 20, 1e9).unwrap();
+        assert_eq!(none, vec![PriorFit::default(); 2]);
+        // One alignment alone is that alignment's fit.
+        assert_eq!(prior_fit(&prior, &scenario, &both[1..], 20, 1.0).unwrap(), vec![late]);
     }
 }

@@ -74,6 +74,14 @@ impl TokenDrift {
 }
 
 impl TokenizedScene {
+    /// Every labelled `(step, agent)`: each agent at each token boundary
+    /// where the inversion gives its next token, by step, then agent.
+    pub fn labelled_boundaries(&self) -> Vec<(usize, usize)> {
+        let mut keys: Vec<(usize, usize)> = self.labels.keys().map(|&(agent, step)| (step, agent)).collect();
+        keys.sort_unstable();
+        keys
+    }
+
     /// Tokenizes every track on periods aligned to the scene's current step.
     pub fn new(scenario: &Scenario) -> Self {
         Self::drifting(scenario, None)
@@ -128,9 +136,9 @@ pub struct PriorSample {
 pub fn scene_samples(scenario: &Scenario, drift: Option<TokenDrift>) -> Vec<PriorSample> {
     let scene = TokenizedScene::drifting(scenario, drift);
     let map = MapTokens::build(&scenario.map);
-    let mut keys: Vec<(usize, usize)> = scene.labels.keys().map(|&(agent, step)| (step, agent)).collect();
-    keys.sort_unstable();
-    keys.into_iter()
+    scene
+        .labelled_boundaries()
+        .into_iter()
         .filter_map(|(step, agent)| {
             let query = build_query(&scene, &scene.bodies, &map, &scenario.map, agent, step)?;
             let mut map_tokens = vec![0.0f32; MAP_TOKENS * MAP_TOKEN_FEATURES];

@@ -99,6 +99,23 @@ impl TokenGrid {
         (0..VOCABULARY_SIZE as u16).map(Token)
     }
 
+    /// The range (largest less smallest bin centre) of acceleration, m/s²,
+    /// and of yaw rate, rad/s, that `tokens` span: how much longitudinal
+    /// and lateral choice a set of tokens offers (0 for none).
+    pub fn ranges(tokens: &[Token]) -> (f64, f64) {
+        if tokens.is_empty() {
+            return (0.0, 0.0);
+        }
+        let range = |value: &dyn Fn(Action) -> f64| {
+            let (lo, hi) = tokens
+                .iter()
+                .map(|&t| value(Self::action(t)))
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| (lo.min(v), hi.max(v)));
+            hi - lo
+        };
+        (range(&|a| a.accel_mps2), range(&|a| a.yaw_rate_radps))
+    }
+
     /// Whether holding `token` from `from` passes through `states`, the
     /// states after the period's first `states.len()` steps: positions
     /// within 1e-6 m, headings within 1e-9 rad, speeds within 1e-6 m/s.

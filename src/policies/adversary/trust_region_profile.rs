@@ -72,10 +72,7 @@ pub fn profile_trust_region(
     let total: f64 = logits.iter().map(|&l| weight(l)).sum();
     let mass = tokens.iter().map(|t| weight(logits[t.0 as usize])).sum::<f64>() / total;
     let actions: Vec<_> = tokens.iter().map(|t| TokenGrid::action(*t)).collect();
-    let range = |values: &mut dyn Iterator<Item = f64>| {
-        let (lo, hi) = values.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| (lo.min(v), hi.max(v)));
-        hi - lo
-    };
+    let (accel_range_mps2, yaw_rate_range_radps) = TokenGrid::ranges(&tokens);
     let distinct = |bins: &mut dyn Iterator<Item = usize>| bins.collect::<std::collections::BTreeSet<_>>().len();
     let from = KinematicState::from_agent_state(now);
     let hold_steps = (BEHAVIOUR_HOLD_S / SIM_DT_S).round() as usize;
@@ -95,9 +92,9 @@ pub fn profile_trust_region(
     Some(TrustRegionProfile {
         tokens: tokens.len(),
         probability_mass: mass,
-        accel_range_mps2: range(&mut actions.iter().map(|a| a.accel_mps2)),
+        accel_range_mps2,
         accel_bins: distinct(&mut tokens.iter().map(|t| t.accel_bin())),
-        yaw_rate_range_radps: range(&mut actions.iter().map(|a| a.yaw_rate_radps)),
+        yaw_rate_range_radps,
         yaw_rate_bins: distinct(&mut tokens.iter().map(|t| t.yaw_rate_bin())),
         behaviours: leaders.len(),
         plausible,
