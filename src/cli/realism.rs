@@ -338,12 +338,10 @@ fn print_table(
         writeln!(out, "{short} scenes too short for the window, skipped")?;
     }
     for s in &failed {
-        let path = s.path.display().to_string();
-        match (s.scenario.as_str(), s.reason.starts_with(&path)) {
-            // A file that did not load: its error names it already.
-            ("", true) => eprintln!("error: {}", s.reason),
-            ("", false) => eprintln!("error: {path}: {}", s.reason),
-            (scenario, _) => eprintln!("error: {path} {scenario}: {}", s.reason),
+        match s.scenario.as_str() {
+            // A file that did not load: its import error names it.
+            "" => eprintln!("error: {}", s.reason),
+            scenario => eprintln!("error: {} {scenario}: {}", s.path.display(), s.reason),
         }
     }
     writeln!(

@@ -89,12 +89,6 @@ pub struct BoxSet {
     keys: Vec<(f64, u32)>,
 }
 
-/// Half the diagonal: the radius of a box's bounding circle (a plain
-/// square root, cheaper than `hypot`; its rounding is far inside [`SLACK_M`]).
-fn radius(b: &OrientedBox) -> f64 {
-    0.5 * (b.length_m * b.length_m + b.width_m * b.width_m).sqrt()
-}
-
 /// Whether the bounding circles of two boxes `d2` (squared centre distance)
 /// apart, with radii summing to `reach`, surely overlap: then the circle
 /// reject of [`OrientedBox::intersects`] cannot fire and its exact test
@@ -123,7 +117,7 @@ impl BoxSet {
         self.unsorted.clear();
         self.unsorted.extend(boxes.into_iter().map(|(shape, sin_cos)| Entry {
             frame: Frame::with_sin_cos(&shape, sin_cos),
-            radius_m: radius(&shape),
+            radius_m: shape.half_diagonal_m(),
             shape,
         }));
         // By x, ties in input order (a stable sort's order, without its
@@ -169,7 +163,7 @@ impl BoxSet {
     /// already at hand (the same answer when they are that heading's).
     pub fn any_intersects_with_sin_cos(&self, query: &OrientedBox, sin_cos: (f64, f64)) -> bool {
         let q = Frame::with_sin_cos(query, sin_cos);
-        let qr = radius(query);
+        let qr = query.half_diagonal_m();
         self.within_x(q.x, qr + self.max_radius_m + SLACK_M).iter().any(|e| {
             let reach = qr + e.radius_m;
             let (dx, dy) = (e.frame.x - q.x, e.frame.y - q.y);
@@ -219,7 +213,7 @@ impl BoxSet {
         floor: f64,
     ) -> f64 {
         let q = Frame::with_sin_cos(query, sin_cos);
-        let qr = radius(query);
+        let qr = query.half_diagonal_m();
         let mut nearest = bound;
         for e in self.within_x(q.x, bound + qr + self.max_radius_m + SLACK_M) {
             let reach = nearest + qr + e.radius_m + SLACK_M;

@@ -22,10 +22,9 @@ impl Bounds {
             max: crate::geometry::Point2::new(f64::NEG_INFINITY, f64::NEG_INFINITY),
         };
         for b in boxes {
-            // The half-diagonal by `sqrt` (several times cheaper than
-            // `hypot`, within an ulp of it), a micrometre wider: the bounds
-            // only ever hold a little more.
-            let reach_m = 0.5 * (b.length_m * b.length_m + b.width_m * b.width_m).sqrt() + 1e-6;
+            // A micrometre wider than the half-diagonal: the bounds only
+            // ever hold a little more.
+            let reach_m = b.half_diagonal_m() + 1e-6;
             let p = b.pose.position;
             if [p.x, p.y, reach_m].iter().any(|v| v.is_nan()) {
                 // Where such a box is is unknown: it may be anywhere.
