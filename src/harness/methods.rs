@@ -180,6 +180,10 @@ pub fn install(
             let search = Search { lookahead_tokens: LOOKAHEAD_TOKENS, ..n };
             sim.set_policy(cbv, adversary(search, Some(feasibility()?)))
         }
+        AdversaryMethod::SaferDistinct => {
+            let search = Search::one_step(TrustRegion::DistinctBehaviours(settings.trust_region));
+            sim.set_policy(cbv, adversary(search, Some(feasibility()?)))
+        }
         AdversaryMethod::NoLfr => sim.set_policy(cbv, adversary(n, None)),
         AdversaryMethod::NoTrustRegion => {
             sim.set_policy(cbv, adversary(Search::one_step(TrustRegion::WholeVocabulary), Some(feasibility()?)))

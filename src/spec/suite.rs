@@ -134,12 +134,25 @@ pub enum AdversaryMethod {
     /// over 1.5 s (receding horizon) inside the same trust region and
     /// feasibility constraint.
     SaferLookahead,
+    /// Beyond the paper: SaFeR whose trust region holds the prior's n
+    /// likeliest distinct behaviours (tokens whose 2 s holds end more than
+    /// 1 m apart) instead of its n likeliest tokens, which on the fine
+    /// token grid are often near-duplicates of one manoeuvre.
+    SaferDistinct,
 }
 
 impl AdversaryMethod {
     /// Every variant, in declaration order (for choosers such as the command line).
-    pub const ALL: &'static [Self] =
-        &[Self::Log, Self::Prior, Self::Safer, Self::NoLfr, Self::NoTrustRegion, Self::NoMda, Self::SaferLookahead];
+    pub const ALL: &'static [Self] = &[
+        Self::Log,
+        Self::Prior,
+        Self::Safer,
+        Self::NoLfr,
+        Self::NoTrustRegion,
+        Self::NoMda,
+        Self::SaferLookahead,
+        Self::SaferDistinct,
+    ];
 }
 
 /// How variants are made.

@@ -10,7 +10,8 @@ fn safer(args: &[&str]) -> Output {
 }
 
 /// A suite over the authored scene with the CBV closing from behind in
-/// the next lane (SaFeR variants, the evasive planner), requiring `coverage`.
+/// the next lane (SaFeR variants with the distinct-behaviour trust region,
+/// whose CBV cuts in; the evasive planner), requiring `coverage`.
 fn suite(name: &str, coverage: &str) -> PathBuf {
     let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("conflict-coverage");
     std::fs::create_dir_all(&dir).unwrap();
@@ -20,7 +21,7 @@ fn suite(name: &str, coverage: &str) -> PathBuf {
     std::fs::write(
         &path,
         format!(
-            "name: {name}\nscenarios:\n  - {}\nplanner: {{ builtin: evasive }}\nadversary: {{ method: safer }}\n\
+            "name: {name}\nscenarios:\n  - {}\nplanner: {{ builtin: evasive }}\nadversary: {{ method: safer-distinct }}\n\
              variants: 4\nacceptance:\n  variant: {{ no_collision: false }}\n  suite: {{ conflict_coverage_min: {coverage} }}\n",
             scene.display()
         ),

@@ -174,7 +174,7 @@ def main():
             f"per-head einsums), which tract runs about 3x faster at batch 32.")
 
     # Real held-out queries for the goldens.
-    data, held, _, files = load_shards(a.data)
+    data, held, _, files = load_shards(a.data, held_out_only=True)
     train_files = sorted(glob.glob(os.path.join(train_data, "shard-*.safetensors")))
     random = shards_are_random(files + train_files)
     if random and os.path.realpath(a.out) == os.path.realpath(os.path.join(REPO, "models")):

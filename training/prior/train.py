@@ -34,9 +34,12 @@ KEYS = ["history", "agent_self", "neighbours", "neighbour_pose", "neighbour_mask
         "map_tokens", "map_pose", "map_signal", "map_mask"]
 
 
-def load_shards(folder):
+def load_shards(folder, held_out_only=False):
     """The shards' tensors, held-out mask, recorded mask and files; exits on
-    a contract mismatch or on shards that disagree about their purpose."""
+    a contract mismatch or on shards that disagree about their purpose.
+    `held_out_only` keeps the held-out samples alone, in the same order (the
+    golden files need no more, and the whole set does not fit in memory
+    beside a training run)."""
     parts = {k: [] for k in KEYS + ["next_token"]}
     split, source = [], []
     purposes, recipes = set(), set()
@@ -51,11 +54,13 @@ def load_shards(folder):
             scenes = json.loads(meta["scenes"])
             purposes.add(meta.get("purpose", "shipped"))
             recipes.add(meta.get("recipe", ""))
-            for k in parts:
-                parts[k].append(st.get_tensor(k))
             sc = st.get_tensor("scene")
-            split.append(np.array([scenes[i]["split"] == "held-out" for i in sc]))
-            source.append(np.array([scenes[i]["source"] != "synthetic" for i in sc]))
+            held = np.array([scenes[i]["split"] == "held-out" for i in sc], dtype=bool)
+            keep = held if held_out_only else slice(None)
+            for k in parts:
+                parts[k].append(st.get_tensor(k)[keep])
+            split.append(held[keep])
+            source.append(np.array([scenes[i]["source"] != "synthetic" for i in sc])[keep])
     if len(purposes) > 1 or len(recipes) > 1:
         sys.exit(f"{folder}: shards of different datasets (purposes {sorted(purposes)}, recipes {sorted(recipes)})")
     data = {k: torch.from_numpy(np.concatenate(v)) for k, v in parts.items()}

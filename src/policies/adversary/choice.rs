@@ -5,12 +5,14 @@
 //! candidates, and the fallbacks when none is plausible.
 
 use super::background_forecast::BackgroundForecast;
+use super::behaviours::distinct_behaviours;
 use super::feasibility::feasibility_values;
 use super::lookahead::{FirstTokens, Lookahead};
 use super::plausibility::{ContactRule, PlausibilityCheck};
 use super::rollout::token_rollouts;
 use crate::models::ModelError;
 use crate::models::feasibility_oracle::FeasibilityOracle;
+use crate::motion::KinematicState;
 use crate::motion::tokens::{TOKEN_PERIOD_S, TOKEN_PERIOD_STEPS, Token};
 use crate::policies::WorldView;
 use crate::policies::prior_sampling::top_tokens;
@@ -22,11 +24,44 @@ pub const INFEASIBLE_PENALTY: f64 = 50.0;
 /// Which tokens the adversary may choose from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum TrustRegion {
-    /// The prior's n most likely tokens.
+    /// The prior's n most likely tokens (the paper's trust region).
     TopN(usize),
+    /// The prior's n most likely distinct behaviours: scanning its tokens
+    /// most likely first, a token joins when, held for
+    /// [`BEHAVIOUR_HOLD_S`](super::BEHAVIOUR_HOLD_S), it ends more than
+    /// [`BEHAVIOUR_SEPARATION_M`](super::BEHAVIOUR_SEPARATION_M) from every
+    /// token already in (the fine grid's near-duplicates do not fill the
+    /// region).
+    DistinctBehaviours(usize),
     /// The whole vocabulary (the `no-trust-region` ablation).
     WholeVocabulary,
 }
+
+impl TrustRegion {
+    /// The region's tokens for a CBV at `cbv_now` whose prior gave
+    /// `logits`, most likely first.
+    pub fn tokens(self, logits: &[f32], cbv_now: &AgentState) -> Vec<Token> {
+        match self {
+            // The top of `ranked_tokens` without sorting the whole vocabulary.
+            TrustRegion::TopN(n) => top_tokens(logits, n.max(1)),
+            TrustRegion::WholeVocabulary => top_tokens(logits, logits.len()),
+            TrustRegion::DistinctBehaviours(n) => {
+                let from = KinematicState::from_agent_state(cbv_now);
+                // A region of 20 behaviours lies within the likeliest few
+                // hundred tokens; the whole ranking only when it does not.
+                let head = distinct_behaviours(&from, top_tokens(logits, DISTINCT_SCAN_HEAD), n.max(1));
+                if head.len() >= n.max(1) || logits.len() <= DISTINCT_SCAN_HEAD {
+                    head
+                } else {
+                    distinct_behaviours(&from, top_tokens(logits, logits.len()), n.max(1))
+                }
+            }
+        }
+    }
+}
+
+/// How many of the likeliest tokens the distinct-behaviour region scans first.
+const DISTINCT_SCAN_HEAD: usize = 400;
 
 /// What the adversary searches at each token boundary.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -71,16 +106,10 @@ pub fn safer_choice(
     feasibility: Option<&dyn FeasibilityOracle>,
     feasibility_s: &mut f64,
 ) -> Result<Option<Token>, ModelError> {
-    // The trust region, most likely first: the top of `ranked_tokens`
-    // without sorting the whole vocabulary.
-    let k = match search.trust_region {
-        TrustRegion::TopN(n) => n.max(1).min(logits.len()),
-        TrustRegion::WholeVocabulary => logits.len(),
-    };
-    let candidates = &top_tokens(logits, k)[..];
     let (Some(cbv_now), Some(ego_now)) = (world.state(cbv), world.state(ego)) else {
-        return Ok(candidates.first().copied());
+        return Ok(top_tokens(logits, 1).first().copied());
     };
+    let candidates = &search.trust_region.tokens(logits, cbv_now)[..];
     let ego_next = ego_prediction(ego_now);
     let (ego_body, cbv_body) = (world.body(ego), world.body(cbv));
     let ego_box = ego_body.footprint(&ego_next);
@@ -169,6 +198,31 @@ mod tests {
         assert_eq!(choice(&LIKED, TrustRegion::TopN(5), None), token(5.0));
         // The region of the three likeliest leaves out +2 and +5.
         assert_eq!(choice(&LIKED, TrustRegion::TopN(3), None), token(0.0));
+    }
+
+    #[test]
+    fn the_distinct_behaviour_region_skips_near_duplicates_of_likelier_tokens() {
+        // The prior likes braking, then two tokens one bin (0.16 m/s²)
+        // harder, then closing at 2 m/s²: the top 3 are three ways to
+        // brake, the 3 distinct behaviours reach the closing one.
+        let bin_mps2 = 2.0 * MAX_ACCEL_MPS2 / 62.0;
+        let liked = [(-2.0, 5.0), (-2.0 - bin_mps2, 4.0), (-2.0 + bin_mps2, 3.0), (2.0, 2.0)];
+        assert_eq!(choice(&liked, TrustRegion::TopN(3), None), token(-2.0 + bin_mps2));
+        assert_eq!(choice(&liked, TrustRegion::DistinctBehaviours(3), None), token(2.0));
+        let now = car(0.0, 0.0, 10.0).unwrap();
+        let mut logits = vec![-30.0f32; crate::motion::tokens::VOCABULARY_SIZE];
+        for (accel_mps2, logit) in liked {
+            logits[token(accel_mps2).0 as usize] = logit;
+        }
+        // Two behaviours among the liked tokens, likeliest first; the
+        // third distinct one comes from the unliked rest of the ranking.
+        let region = TrustRegion::DistinctBehaviours(3).tokens(&logits, &now);
+        assert_eq!(region[..2], [token(-2.0), token(2.0)]);
+        assert_eq!(region.len(), 3);
+        assert_eq!(
+            TrustRegion::TopN(3).tokens(&logits, &now),
+            [token(-2.0), token(-2.0 - bin_mps2), token(-2.0 + bin_mps2)]
+        );
     }
 
     #[test]

@@ -60,6 +60,7 @@
 
 mod approach;
 mod background_forecast;
+mod behaviours;
 mod broad_phase;
 mod choice;
 mod feasibility;
@@ -74,9 +75,8 @@ mod trust_region_profile;
 pub use crate::models::feasibility_oracle::{EgoCbvState, FeasibilityOracle};
 pub use approach::APPROACH_TOKENS;
 pub use background_forecast::BackgroundForecast;
+pub use behaviours::{BEHAVIOUR_HOLD_S, BEHAVIOUR_SEPARATION_M, distinct_behaviours};
 pub use choice::{INFEASIBLE_PENALTY, Search, TrustRegion, safer_choice};
 pub use lookahead::{LOOKAHEAD_DELAY_PENALTY_M, LOOKAHEAD_TOKENS};
 pub use policy::Adversary;
-pub use trust_region_profile::{
-    BEHAVIOUR_HOLD_S, BEHAVIOUR_SEPARATION_M, TrustRegionProfile, profile_trust_region, rank_of_driven_token,
-};
+pub use trust_region_profile::{TrustRegionProfile, profile_trust_region, rank_of_driven_token};

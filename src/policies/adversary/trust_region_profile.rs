@@ -9,20 +9,16 @@
 //! change, cut-in or turn towards the ego.
 
 use super::background_forecast::BackgroundForecast;
+use super::behaviours::distinct_behaviours;
+#[cfg(doc)]
+use super::behaviours::{BEHAVIOUR_HOLD_S, BEHAVIOUR_SEPARATION_M};
 use super::plausibility::{ContactRule, PlausibilityCheck};
 use super::rollout::token_rollouts;
-use crate::geometry::Point2;
-use crate::motion::tokens::{SIM_DT_S, TokenGrid};
-use crate::motion::{KinematicState, kinematic_step};
+use crate::motion::KinematicState;
+use crate::motion::tokens::TokenGrid;
 use crate::policies::WorldView;
 use crate::policies::prior_sampling::top_tokens;
 use crate::scenario::{AgentState, TrackIndex};
-
-/// How long each token is held to tell behaviours apart, s.
-pub const BEHAVIOUR_HOLD_S: f64 = 2.0;
-
-/// End positions closer than this are one behaviour, m.
-pub const BEHAVIOUR_SEPARATION_M: f64 = 1.0;
 
 /// The trust region at one token boundary.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -71,21 +67,9 @@ pub fn profile_trust_region(
     let weight = |l: f32| (l as f64 - top_logit).exp();
     let total: f64 = logits.iter().map(|&l| weight(l)).sum();
     let mass = tokens.iter().map(|t| weight(logits[t.0 as usize])).sum::<f64>() / total;
-    let actions: Vec<_> = tokens.iter().map(|t| TokenGrid::action(*t)).collect();
     let (accel_range_mps2, yaw_rate_range_radps) = TokenGrid::ranges(&tokens);
     let distinct = |bins: &mut dyn Iterator<Item = usize>| bins.collect::<std::collections::BTreeSet<_>>().len();
     let from = KinematicState::from_agent_state(now);
-    let hold_steps = (BEHAVIOUR_HOLD_S / SIM_DT_S).round() as usize;
-    let ends: Vec<Point2> = actions
-        .iter()
-        .map(|action| (0..hold_steps).fold(from, |state, _| kinematic_step(&state, *action, SIM_DT_S)).position)
-        .collect();
-    let mut leaders: Vec<Point2> = Vec::new();
-    for end in &ends {
-        if leaders.iter().all(|l| (l - end).norm() > BEHAVIOUR_SEPARATION_M) {
-            leaders.push(*end);
-        }
-    }
     let check = PlausibilityCheck::new(world, cbv, ego, forecast);
     let plausible =
         token_rollouts(now, &tokens).iter().filter(|r| check.first_violation(r, ContactRule::Any).is_none()).count();
@@ -96,7 +80,7 @@ pub fn profile_trust_region(
         accel_bins: distinct(&mut tokens.iter().map(|t| t.accel_bin())),
         yaw_rate_range_radps,
         yaw_rate_bins: distinct(&mut tokens.iter().map(|t| t.yaw_rate_bin())),
-        behaviours: leaders.len(),
+        behaviours: distinct_behaviours(&from, tokens.iter().copied(), usize::MAX).len(),
         plausible,
     })
 }
