@@ -129,6 +129,15 @@ pub struct MethodSettings {
     pub sampling: TokenSampling,
 }
 
+/// The trust region `method` searches, for a region of `n`.
+pub fn trust_region_of(method: AdversaryMethod, n: usize) -> TrustRegion {
+    match method {
+        AdversaryMethod::NoTrustRegion => TrustRegion::WholeVocabulary,
+        AdversaryMethod::SaferDistinct => TrustRegion::DistinctBehaviours(n),
+        _ => TrustRegion::TopN(n),
+    }
+}
+
 /// Installs the method's CBV policy (and a prior-driven background, if
 /// asked) in a stage-1 simulation starting at `start`.
 #[allow(clippy::too_many_arguments)]
@@ -170,24 +179,20 @@ pub fn install(
     }
     let feasibility =
         || models.feasibility.clone().map_err(|source| HarnessError::Model { method: settings.method, source });
-    let n = Search::one_step(TrustRegion::TopN(settings.trust_region));
+    let search = Search::one_step(trust_region_of(settings.method, settings.trust_region));
     let adversary = |search, feasibility| Box::new(Adversary::new(traffic.clone(), ego, search, feasibility));
     match settings.method {
         AdversaryMethod::Log => sim.set_policy(cbv, Box::new(LogReplay::new(scenario.track(cbv).clone()))),
         AdversaryMethod::Prior => sim.set_policy(cbv, Box::new(PriorAgent::new(traffic.clone()))),
-        AdversaryMethod::Safer | AdversaryMethod::NoMda => sim.set_policy(cbv, adversary(n, Some(feasibility()?))),
+        AdversaryMethod::Safer
+        | AdversaryMethod::NoMda
+        | AdversaryMethod::NoTrustRegion
+        | AdversaryMethod::SaferDistinct => sim.set_policy(cbv, adversary(search, Some(feasibility()?))),
         AdversaryMethod::SaferLookahead => {
-            let search = Search { lookahead_tokens: LOOKAHEAD_TOKENS, ..n };
+            let search = Search { lookahead_tokens: LOOKAHEAD_TOKENS, ..search };
             sim.set_policy(cbv, adversary(search, Some(feasibility()?)))
         }
-        AdversaryMethod::SaferDistinct => {
-            let search = Search::one_step(TrustRegion::DistinctBehaviours(settings.trust_region));
-            sim.set_policy(cbv, adversary(search, Some(feasibility()?)))
-        }
-        AdversaryMethod::NoLfr => sim.set_policy(cbv, adversary(n, None)),
-        AdversaryMethod::NoTrustRegion => {
-            sim.set_policy(cbv, adversary(Search::one_step(TrustRegion::WholeVocabulary), Some(feasibility()?)))
-        }
+        AdversaryMethod::NoLfr => sim.set_policy(cbv, adversary(search, None)),
     }
     Ok(InstalledMethod { traffic: Some(traffic) })
 }

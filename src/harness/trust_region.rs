@@ -2,7 +2,8 @@
 //! as an evaluation runs it (the ego replaying its log, the method driving
 //! the CBV), then the prior's logits at every CBV token boundary, decoded
 //! again from the rollout's own history (what the adversary saw), and the
-//! [`TrustRegionProfile`] of the top n tokens there. The summary says
+//! [`TrustRegionProfile`] of the method's region there (the top n tokens, or
+//! the n likeliest distinct behaviours for `safer-distinct`). The summary says
 //! whether a prior offers the adversary different behaviours or only
 //! speed choices: the probability the region holds, its longitudinal and
 //! lateral range, its distinct behaviours and how many it may take.
@@ -47,8 +48,8 @@ pub struct BoundaryProfile {
 }
 
 /// The profiles at every CBV token boundary of stage 1 of `method` on
-/// `scenario` with seed `seed_index`, the region being the prior's top
-/// `request.trust_region` tokens.
+/// `scenario` with seed `seed_index`, the region being the one `method`
+/// searches with `request.trust_region` tokens.
 pub fn profile_variant(
     scenario: &Arc<Scenario>,
     method: AdversaryMethod,
@@ -85,6 +86,7 @@ pub fn profile_variant(
     let mut traffic = traffic.lock().unwrap_or_else(|p| p.into_inner());
     let forecast = BackgroundForecast { recording: Some(scenario), not_replayed: &[cbv.0] };
     let approach = Adversary::approach_tokens(seed, cbv);
+    let region = super::methods::trust_region_of(method, request.trust_region);
     let mut profiles = Vec::new();
     for (k, states) in stage1.states.iter().enumerate() {
         let world = WorldView { map: &scenario.map, step: start + k, bodies: &stage1.bodies, states };
@@ -96,14 +98,14 @@ pub fn profile_variant(
         if let Some(error) = traffic.error() {
             return Err(HarnessError::Model { method, source: error.clone() });
         }
-        let Some(profile) = profile_trust_region(&world, (cbv, ego), &logits, request.trust_region, &forecast) else {
+        let Some(profile) = profile_trust_region(&world, (cbv, ego), &logits, region, &forecast) else {
             continue;
         };
         let state = |k: usize| stage1.states.get(k).and_then(|row| row.get(cbv.0).copied().flatten());
         // The whole next period, the CBV present throughout.
         let period: Option<Vec<_>> = (k + 1..=k + TOKEN_PERIOD_STEPS).map(state).collect();
         let driven_rank = match (state(k), period) {
-            (Some(now), Some(period)) => rank_of_driven_token(&now, &period, &logits, request.trust_region),
+            (Some(now), Some(period)) => rank_of_driven_token(&now, &period, &logits, region),
             _ => None,
         };
         profiles.push(BoundaryProfile {

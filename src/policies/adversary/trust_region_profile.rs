@@ -12,12 +12,12 @@ use super::background_forecast::BackgroundForecast;
 use super::behaviours::distinct_behaviours;
 #[cfg(doc)]
 use super::behaviours::{BEHAVIOUR_HOLD_S, BEHAVIOUR_SEPARATION_M};
+use super::choice::TrustRegion;
 use super::plausibility::{ContactRule, PlausibilityCheck};
 use super::rollout::token_rollouts;
 use crate::motion::KinematicState;
 use crate::motion::tokens::TokenGrid;
 use crate::policies::WorldView;
-use crate::policies::prior_sampling::top_tokens;
 use crate::scenario::{AgentState, TrackIndex};
 
 /// The trust region at one token boundary.
@@ -47,18 +47,18 @@ pub struct TrustRegionProfile {
     pub plausible: usize,
 }
 
-/// The profile of the top `n` tokens of `logits` for the CBV of the pair
+/// The profile of `region`'s tokens of `logits` for the CBV of the pair
 /// (CBV, ego) in `world` (the background predicted by `forecast`); `None`
 /// when the CBV is absent or `logits` is empty.
 pub fn profile_trust_region(
     world: &WorldView<'_>,
     (cbv, ego): (TrackIndex, TrackIndex),
     logits: &[f32],
-    n: usize,
+    region: TrustRegion,
     forecast: &BackgroundForecast<'_>,
 ) -> Option<TrustRegionProfile> {
     let now = world.state(cbv)?;
-    let tokens = top_tokens(logits, n.max(1));
+    let tokens = region.tokens(logits, now);
     if tokens.is_empty() {
         return None;
     }
@@ -85,14 +85,19 @@ pub fn profile_trust_region(
     })
 }
 
-/// Where in the top `n` of `logits` the token lies that took the CBV from
-/// `now` through `period` (its states after each step of the token period;
-/// rank 0: the likeliest), or `None` when no token of the region did (the
-/// plausibility fallback chose from outside it, or something else drove the
-/// CBV).
-pub fn rank_of_driven_token(now: &AgentState, period: &[AgentState], logits: &[f32], n: usize) -> Option<usize> {
+/// Where in `region`'s tokens of `logits` (most likely first) the token
+/// lies that took the CBV from `now` through `period` (its states after
+/// each step of the token period; rank 0: the likeliest), or `None` when
+/// no token of the region did (the plausibility fallback chose from
+/// outside it, or something else drove the CBV).
+pub fn rank_of_driven_token(
+    now: &AgentState,
+    period: &[AgentState],
+    logits: &[f32],
+    region: TrustRegion,
+) -> Option<usize> {
     let from = KinematicState::from_agent_state(now);
-    top_tokens(logits, n.max(1)).into_iter().position(|t| TokenGrid::reproduces(&from, t, period))
+    region.tokens(logits, now).into_iter().position(|t| TokenGrid::reproduces(&from, t, period))
 }
 
 #[cfg(test)]
@@ -118,8 +123,14 @@ mod tests {
         let bodies = [AgentBody { kind: AgentKind::Vehicle, length_m: 4.5, width_m: 2.0 }; 2];
         let states = [car(0.0, 0.0, 10.0), car(-30.0, 0.0, 10.0)];
         let world = WorldView { map: &map, step: 0, bodies: &bodies, states: &states };
-        profile_trust_region(&world, (TrackIndex(1), TrackIndex(0)), &logits(liked), n, &BackgroundForecast::default())
-            .unwrap()
+        profile_trust_region(
+            &world,
+            (TrackIndex(1), TrackIndex(0)),
+            &logits(liked),
+            TrustRegion::TopN(n),
+            &BackgroundForecast::default(),
+        )
+        .unwrap()
     }
 
     #[test]
@@ -144,11 +155,11 @@ mod tests {
         let liked: Vec<_> = [20, 28, 34, 42].iter().map(|&a| ((a, 31), 5.0 - a as f32 / 100.0)).collect();
         let logits = logits(&liked);
         let now = car(0.0, 0.0, 10.0).unwrap();
-        let third = top_tokens(&logits, 4)[2];
+        let third = crate::policies::prior_sampling::top_tokens(&logits, 4)[2];
         let period = token_rollouts(&now, &[third]).remove(0);
-        assert_eq!(rank_of_driven_token(&now, &period, &logits, 4), Some(2));
+        assert_eq!(rank_of_driven_token(&now, &period, &logits, TrustRegion::TopN(4)), Some(2));
         // Outside a region of two.
-        assert_eq!(rank_of_driven_token(&now, &period, &logits, 2), None);
+        assert_eq!(rank_of_driven_token(&now, &period, &logits, TrustRegion::TopN(2)), None);
     }
 
     #[test]
