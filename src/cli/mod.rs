@@ -232,7 +232,7 @@ enum Command {
         #[arg(long, value_parser = data_path)]
         scenes: PathBuf,
         /// Methods to compare, one table row each.
-        #[arg(long, value_parser = choice(AdversaryMethod::ALL), value_delimiter = ',', default_values = ["safer", "safer-lookahead", "no-lfr", "no-trust-region", "no-mda", "prior", "log"])]
+        #[arg(long, value_parser = choice(AdversaryMethod::ALL), value_delimiter = ',', default_values = ["safer", "safer-distinct", "safer-lookahead", "no-lfr", "no-trust-region", "no-mda", "prior", "log"])]
         methods: Vec<AdversaryMethod>,
         /// Seeds per scene and method, at least 1.
         #[arg(long, default_value_t = 10, value_parser = clap::value_parser!(u32).range(1..))]
@@ -277,13 +277,13 @@ enum Command {
         #[arg(long, value_name = "DIR")]
         artifacts: Option<PathBuf>,
     },
-    /// What the realism prior's trust region offers the adversary: per method's prior, the probability mass of the top n tokens, their acceleration and yaw-rate range, distinct behaviours and plausible share, at the CBV's token boundaries of stage 1.
+    /// What the realism prior's trust region offers the adversary: per method, the probability mass of the tokens of its region (the top n, or the n likeliest distinct behaviours for `safer-distinct`), their acceleration and yaw-rate range, distinct behaviours and plausible share, at the CBV's token boundaries of stage 1.
     TrustRegion {
         /// Folder of recorded scenes (searched recursively); scenes need an ego and a CBV; `data:REL` is in the shared data folder.
         #[arg(long, value_parser = data_path)]
         scenes: PathBuf,
         /// Methods whose stage 1 is profiled, one row each (`no-mda` runs the plain-attention prior; `$SAFER_MODELS` swaps in another model set).
-        #[arg(long, value_parser = choice(AdversaryMethod::ALL), value_delimiter = ',', default_values = ["safer", "no-mda"])]
+        #[arg(long, value_parser = choice(AdversaryMethod::ALL), value_delimiter = ',', default_values = ["safer", "safer-distinct", "no-mda"])]
         methods: Vec<AdversaryMethod>,
         /// Seeds per scene and method, at least 1.
         #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..))]
