@@ -139,7 +139,7 @@ fn shipped_priors_predict_best_from_the_history_they_see_in_closed_loop() {
     // boundary (the priors shipped before scored 6.6 against 4.0 nats on
     // these scenes). The shipped priors must do no worse at the boundary,
     // on the shipped NGSIM scenes their training held out.
-    use safer::eval::prior_fit::{HistoryAlignment, prior_fit};
+    use safer::eval::prior_fit::{HistoryAlignment, PriorFit, prior_fit};
     let scenes = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/ngsim");
     let scenarios: Vec<_> = safer::scenario::import::discover(&scenes)
         .unwrap()
@@ -150,7 +150,7 @@ fn shipped_priors_predict_best_from_the_history_they_see_in_closed_loop() {
     for variant in [PriorVariant::Differential, PriorVariant::Plain] {
         let prior = RealismPrior::load(&ModelSource::shipped(), variant).unwrap();
         let alignments = [HistoryAlignment::AtBoundary, HistoryAlignment::OneStepLate];
-        let (mut at_boundary, mut one_step_late) = (Default::default(), Default::default());
+        let (mut at_boundary, mut one_step_late) = (PriorFit::default(), PriorFit::default());
         for scenario in &scenarios {
             let fits = prior_fit(&prior, scenario, &alignments, 20, 1.0).unwrap();
             at_boundary = at_boundary + fits[0];
