@@ -167,6 +167,10 @@ pub fn safer_choice(
                 Some(_) => {}
             }
         }
+        // The likeliest plausible token ranked below the region's size: for
+        // a top-n region, the rest of the vocabulary; for a distinct-
+        // behaviour region, the near-duplicates it skipped above that rank
+        // are left out too (near-duplicates of tokens that just failed).
         if let Some(t) = check.likeliest_plausible(logits, candidates.len()..logits.len(), rule) {
             return Ok(Some(t));
         }
