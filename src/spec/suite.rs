@@ -162,7 +162,8 @@ pub struct AdversarySpec {
     /// Method.
     #[serde(default)]
     pub method: AdversaryMethod,
-    /// Trust-region size n (top-n tokens of the prior), 1..=3969.
+    /// Trust-region size n (the prior's top n tokens; for `safer-distinct`, its
+    /// n likeliest distinct behaviours), 1..=3969.
     #[serde(default = "twenty")]
     #[schemars(range(min = 1, max = 3969))]
     pub trust_region: usize,
