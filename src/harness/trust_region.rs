@@ -98,16 +98,16 @@ pub fn profile_variant(
         if let Some(error) = traffic.error() {
             return Err(HarnessError::Model { method, source: error.clone() });
         }
-        let Some(profile) = profile_trust_region(&world, (cbv, ego), &logits, region, &forecast) else {
+        let state = |k: usize| stage1.states.get(k).and_then(|row| row.get(cbv.0).copied().flatten());
+        // The CBV is present at this boundary (checked above).
+        let Some(now) = state(k) else { continue };
+        let tokens = region.tokens(&logits, &now);
+        let Some(profile) = profile_trust_region(&world, (cbv, ego), &logits, &tokens, &forecast) else {
             continue;
         };
-        let state = |k: usize| stage1.states.get(k).and_then(|row| row.get(cbv.0).copied().flatten());
         // The whole next period, the CBV present throughout.
         let period: Option<Vec<_>> = (k + 1..=k + TOKEN_PERIOD_STEPS).map(state).collect();
-        let driven_rank = match (state(k), period) {
-            (Some(now), Some(period)) => rank_of_driven_token(&now, &period, &logits, region),
-            _ => None,
-        };
+        let driven_rank = period.and_then(|period| rank_of_driven_token(&now, &period, &tokens));
         profiles.push(BoundaryProfile {
             scenario: scenario.id.clone(),
             method,

@@ -31,13 +31,18 @@ fn behaviour_end(from: &KinematicState, token: Token) -> Point2 {
 /// likeliest token.
 pub fn distinct_behaviours(from: &KinematicState, tokens: impl IntoIterator<Item = Token>, limit: usize) -> Vec<Token> {
     let mut leaders: Vec<(Token, Point2)> = Vec::new();
+    if limit == 0 {
+        return Vec::new();
+    }
+    // The scan stops at the limit without asking `tokens` for another: a
+    // lazy tail (the rest of a ranking) is then never computed.
     for token in tokens {
-        if leaders.len() >= limit {
-            break;
-        }
         let end = behaviour_end(from, token);
         if leaders.iter().all(|(_, l)| (l - end).norm() > BEHAVIOUR_SEPARATION_M) {
             leaders.push((token, end));
+            if leaders.len() == limit {
+                break;
+            }
         }
     }
     leaders.into_iter().map(|(t, _)| t).collect()

@@ -15,7 +15,7 @@ use crate::models::feasibility_oracle::FeasibilityOracle;
 use crate::motion::KinematicState;
 use crate::motion::tokens::{TOKEN_PERIOD_S, TOKEN_PERIOD_STEPS, Token};
 use crate::policies::WorldView;
-use crate::policies::prior_sampling::top_tokens;
+use crate::policies::prior_sampling::{ranked_tokens, top_tokens};
 use crate::scenario::{AgentState, TrackIndex};
 
 /// Penalty added to V_h for candidates outside the feasible region (the paper's Δ).
@@ -48,13 +48,13 @@ impl TrustRegion {
             TrustRegion::DistinctBehaviours(n) => {
                 let from = KinematicState::from_agent_state(cbv_now);
                 // A region of 20 behaviours lies within the likeliest few
-                // hundred tokens; the whole ranking only when it does not.
-                let head = distinct_behaviours(&from, top_tokens(logits, DISTINCT_SCAN_HEAD), n.max(1));
-                if head.len() >= n.max(1) || logits.len() <= DISTINCT_SCAN_HEAD {
-                    head
-                } else {
-                    distinct_behaviours(&from, top_tokens(logits, logits.len()), n.max(1))
-                }
+                // hundred tokens: those are ranked first, and the rest of the
+                // ranking only when the scan reaches it (`top_tokens(k)` is
+                // `ranked_tokens()[..k]`).
+                let head = top_tokens(logits, DISTINCT_SCAN_HEAD);
+                let rest =
+                    std::iter::once(()).flat_map(|()| ranked_tokens(logits).into_iter().skip(DISTINCT_SCAN_HEAD));
+                distinct_behaviours(&from, head.into_iter().chain(rest), n.max(1))
             }
         }
     }

@@ -12,11 +12,12 @@ use super::background_forecast::BackgroundForecast;
 use super::behaviours::distinct_behaviours;
 #[cfg(doc)]
 use super::behaviours::{BEHAVIOUR_HOLD_S, BEHAVIOUR_SEPARATION_M};
+#[cfg(doc)]
 use super::choice::TrustRegion;
 use super::plausibility::{ContactRule, PlausibilityCheck};
 use super::rollout::token_rollouts;
 use crate::motion::KinematicState;
-use crate::motion::tokens::TokenGrid;
+use crate::motion::tokens::{Token, TokenGrid};
 use crate::policies::WorldView;
 use crate::scenario::{AgentState, TrackIndex};
 
@@ -47,18 +48,18 @@ pub struct TrustRegionProfile {
     pub plausible: usize,
 }
 
-/// The profile of `region`'s tokens of `logits` for the CBV of the pair
-/// (CBV, ego) in `world` (the background predicted by `forecast`); `None`
-/// when the CBV is absent or `logits` is empty.
+/// The profile of a region's `tokens` ([`TrustRegion::tokens`] of
+/// `logits`) for the CBV of the pair (CBV, ego) in `world` (the background
+/// predicted by `forecast`); `None` when the CBV is absent or `tokens` is
+/// empty.
 pub fn profile_trust_region(
     world: &WorldView<'_>,
     (cbv, ego): (TrackIndex, TrackIndex),
     logits: &[f32],
-    region: TrustRegion,
+    tokens: &[Token],
     forecast: &BackgroundForecast<'_>,
 ) -> Option<TrustRegionProfile> {
     let now = world.state(cbv)?;
-    let tokens = region.tokens(logits, now);
     if tokens.is_empty() {
         return None;
     }
@@ -67,12 +68,12 @@ pub fn profile_trust_region(
     let weight = |l: f32| (l as f64 - top_logit).exp();
     let total: f64 = logits.iter().map(|&l| weight(l)).sum();
     let mass = tokens.iter().map(|t| weight(logits[t.0 as usize])).sum::<f64>() / total;
-    let (accel_range_mps2, yaw_rate_range_radps) = TokenGrid::ranges(&tokens);
+    let (accel_range_mps2, yaw_rate_range_radps) = TokenGrid::ranges(tokens);
     let distinct = |bins: &mut dyn Iterator<Item = usize>| bins.collect::<std::collections::BTreeSet<_>>().len();
     let from = KinematicState::from_agent_state(now);
     let check = PlausibilityCheck::new(world, cbv, ego, forecast);
     let plausible =
-        token_rollouts(now, &tokens).iter().filter(|r| check.first_violation(r, ContactRule::Any).is_none()).count();
+        token_rollouts(now, tokens).iter().filter(|r| check.first_violation(r, ContactRule::Any).is_none()).count();
     Some(TrustRegionProfile {
         tokens: tokens.len(),
         probability_mass: mass,
@@ -85,26 +86,22 @@ pub fn profile_trust_region(
     })
 }
 
-/// Where in `region`'s tokens of `logits` (most likely first) the token
-/// lies that took the CBV from `now` through `period` (its states after
-/// each step of the token period; rank 0: the likeliest), or `None` when
-/// no token of the region did (the plausibility fallback chose from
-/// outside it, or something else drove the CBV).
-pub fn rank_of_driven_token(
-    now: &AgentState,
-    period: &[AgentState],
-    logits: &[f32],
-    region: TrustRegion,
-) -> Option<usize> {
+/// Where in a region's `tokens` (most likely first) the token lies that
+/// took the CBV from `now` through `period` (its states after each step of
+/// the token period; rank 0: the likeliest), or `None` when no token of the
+/// region did (the plausibility fallback chose from outside it, or
+/// something else drove the CBV).
+pub fn rank_of_driven_token(now: &AgentState, period: &[AgentState], tokens: &[Token]) -> Option<usize> {
     let from = KinematicState::from_agent_state(now);
-    region.tokens(logits, now).into_iter().position(|t| TokenGrid::reproduces(&from, t, period))
+    tokens.iter().position(|t| TokenGrid::reproduces(&from, *t, period))
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::map::RoadMap;
-    use crate::motion::tokens::{Token, VOCABULARY_SIZE};
+    use crate::motion::tokens::VOCABULARY_SIZE;
+    use crate::policies::adversary::choice::TrustRegion;
     use crate::policies::adversary::test_support::car;
     use crate::scenario::{AgentBody, AgentKind};
 
@@ -123,14 +120,10 @@ mod tests {
         let bodies = [AgentBody { kind: AgentKind::Vehicle, length_m: 4.5, width_m: 2.0 }; 2];
         let states = [car(0.0, 0.0, 10.0), car(-30.0, 0.0, 10.0)];
         let world = WorldView { map: &map, step: 0, bodies: &bodies, states: &states };
-        profile_trust_region(
-            &world,
-            (TrackIndex(1), TrackIndex(0)),
-            &logits(liked),
-            TrustRegion::TopN(n),
-            &BackgroundForecast::default(),
-        )
-        .unwrap()
+        let logits = logits(liked);
+        let tokens = TrustRegion::TopN(n).tokens(&logits, states[1].as_ref().unwrap());
+        profile_trust_region(&world, (TrackIndex(1), TrackIndex(0)), &logits, &tokens, &BackgroundForecast::default())
+            .unwrap()
     }
 
     #[test]
@@ -157,9 +150,10 @@ mod tests {
         let now = car(0.0, 0.0, 10.0).unwrap();
         let third = crate::policies::prior_sampling::top_tokens(&logits, 4)[2];
         let period = token_rollouts(&now, &[third]).remove(0);
-        assert_eq!(rank_of_driven_token(&now, &period, &logits, TrustRegion::TopN(4)), Some(2));
+        let region = |n| TrustRegion::TopN(n).tokens(&logits, &now);
+        assert_eq!(rank_of_driven_token(&now, &period, &region(4)), Some(2));
         // Outside a region of two.
-        assert_eq!(rank_of_driven_token(&now, &period, &logits, TrustRegion::TopN(2)), None);
+        assert_eq!(rank_of_driven_token(&now, &period, &region(2)), None);
     }
 
     #[test]
