@@ -56,20 +56,24 @@ impl OrientedBox {
 
     /// Whether the two boxes overlap (touching counts).
     pub fn intersects(&self, other: &OrientedBox) -> bool {
-        self.intersects_with_sin_cos(other, self.pose.heading_rad.sin_cos())
+        // The heading's sine and cosine only once the cheap reject has
+        // passed: most pairs a caller tests are far apart.
+        self.within_reach(other) && self.intersects_exact_with_sin_cos(other, self.pose.heading_rad.sin_cos())
     }
 
     /// [`Self::intersects`] with this box's heading's `sin_cos()` at hand
     /// (see [`Self::intersects_exact_with_sin_cos`]).
     pub(crate) fn intersects_with_sin_cos(&self, other: &OrientedBox, sin_cos: (f64, f64)) -> bool {
-        // Cheap reject on bounding circles before the exact SAT test, with a
-        // micrometre to spare: a reject only ever skips a test that would
-        // have said no.
+        self.within_reach(other) && self.intersects_exact_with_sin_cos(other, sin_cos)
+    }
+
+    /// The cheap reject before the exact SAT test: whether the boxes'
+    /// bounding circles meet, with a micrometre to spare (a reject only
+    /// ever skips a test that would have said no; a NaN distance is left
+    /// to the exact test).
+    fn within_reach(&self, other: &OrientedBox) -> bool {
         let reach = self.half_diagonal_m() + other.half_diagonal_m() + 1e-6;
-        if (self.pose.position - other.pose.position).norm_squared() > reach * reach {
-            return false;
-        }
-        self.intersects_exact_with_sin_cos(other, sin_cos)
+        !((self.pose.position - other.pose.position).norm_squared() > reach * reach)
     }
 
     /// The separating-axis test of [`Self::intersects`] without its

@@ -158,14 +158,9 @@ pub fn safer_choice(
     // The strict rule first; when nothing at all is plausible, whatever the
     // CBV does a replayed agent runs into it, and the same two steps are
     // taken counting only its own faults.
-    let mut violations = Vec::with_capacity(order.len());
     for rule in [ContactRule::Any, ContactRule::AtFaultOnly] {
-        for &i in &order {
-            match check.first_violation(&rollouts[i], rule) {
-                None => return Ok(Some(candidates[i])),
-                Some(k) if rule == ContactRule::Any => violations.push((i, k)),
-                Some(_) => {}
-            }
+        if let Some(&i) = order.iter().find(|&&i| !check.implausible(&rollouts[i], rule)) {
+            return Ok(Some(candidates[i]));
         }
         // The likeliest plausible token ranked below the region's size: for
         // a top-n region, the rest of the vocabulary; for a distinct-
@@ -176,8 +171,11 @@ pub fn safer_choice(
         }
     }
     // With no plausible token at all, the trust region's token that
-    // breaks the rule latest (the first such in arg-min order).
-    Ok(violations.iter().rev().max_by_key(|(_, k)| *k).map(|(i, _)| candidates[*i]))
+    // breaks the rule latest (the first such in arg-min order). Only here
+    // is the first violating step needed: the checks above stop at any.
+    let violations =
+        order.iter().filter_map(|&i| check.first_violation(&rollouts[i], ContactRule::Any).map(|k| (i, k)));
+    Ok(violations.collect::<Vec<_>>().iter().rev().max_by_key(|(_, k)| *k).map(|(i, _)| candidates[*i]))
 }
 
 #[cfg(test)]

@@ -212,37 +212,67 @@ impl<'w> PlausibilityCheck<'w> {
     /// A step at which `rollout` breaks the rule: the first one, or (for
     /// [`Violation::Any`]) the first one the checks come to.
     fn violation(&self, rollout: &[AgentState], wanted: Violation, rule: ContactRule) -> Option<usize> {
-        let end = rollout.last()?;
-        let map = self.world.map;
+        rollout.last()?;
         let braking: Vec<AgentState> = rollout.iter().copied().chain(braking_after(rollout)).collect();
+        match wanted {
+            Violation::First => {
+                let road = self.road_violation(rollout, &braking, wanted);
+                let contact = self.contact_violation(rollout, &braking, wanted, rule);
+                road.into_iter().chain(contact).min()
+            }
+            // Whether at all: the contact checks first, as they are the
+            // cheaper (box tests behind a bounds test, against a road
+            // check's nearest-edge query per step); the answer is the
+            // same in either order.
+            Violation::Any => self
+                .contact_violation(rollout, &braking, wanted, rule)
+                .or_else(|| self.road_violation(rollout, &braking, wanted)),
+        }
+    }
+
+    /// A step at which the CBV following `rollout` and then `braking` (the
+    /// token's states and the braking after them) leaves the road, or
+    /// heads farther off it when it is off already.
+    fn road_violation(&self, rollout: &[AgentState], braking: &[AgentState], wanted: Violation) -> Option<usize> {
+        let map = self.world.map;
+        if !self.on_road_now {
+            // Off the road already: head back to it, not farther away.
+            let end = rollout.last()?;
+            let (now, then) = (self.edge_distance_now?, map.signed_distance_to_road_edge(&end.position)?);
+            return (then > now).then_some(rollout.len() - 1);
+        }
+        // Moving states only: a stopped CBV stays where it stopped. On to
+        // a standstill: 2 s of braking from motorway speed still leaves a
+        // bend to run out of (seen on WOMD interactive: a CBV at 21 m/s
+        // judged able to stop on the road that, a token later, had no
+        // token left that stayed on it).
+        let to_standstill = continued_after(braking, -MAX_ACCEL_MPS2, STANDSTILL_CHECK_MAX_STEPS);
+        let mut moving = braking.iter().copied().chain(to_standstill).take_while(|s| s.speed_mps() > 0.0);
+        match wanted {
+            Violation::First => moving.position(|s| map.is_off_road_within_map(&s.position)),
+            // Whether at all: the farthest states first, where a path that
+            // leaves the road is off it (one query instead of one per step
+            // up to the road's edge).
+            Violation::Any => {
+                let path: Vec<AgentState> = moving.collect();
+                path.iter().rposition(|s| map.is_off_road_within_map(&s.position))
+            }
+        }
+    }
+
+    /// A step at which the CBV following `rollout` (and holding it, or
+    /// braking after it along `braking`) meets background traffic in a way
+    /// `rule` forbids.
+    fn contact_violation(
+        &self,
+        rollout: &[AgentState],
+        braking: &[AgentState],
+        wanted: Violation,
+        rule: ContactRule,
+    ) -> Option<usize> {
+        let map = self.world.map;
         let mut first: Option<usize> = None;
         let note = |first: &mut Option<usize>, k: usize| *first = Some(first.map_or(k, |f| f.min(k)));
-        if self.on_road_now {
-            // Moving states only: a stopped CBV stays where it stopped.
-            // On to a standstill: 2 s of braking from motorway speed
-            // still leaves a bend to run out of (seen on WOMD
-            // interactive: a CBV at 21 m/s judged able to stop on the road
-            // that, a token later, had no token left that stayed on it).
-            let to_standstill = continued_after(&braking, -MAX_ACCEL_MPS2, STANDSTILL_CHECK_MAX_STEPS);
-            if let Some(k) = braking
-                .iter()
-                .copied()
-                .chain(to_standstill)
-                .take_while(|s| s.speed_mps() > 0.0)
-                .position(|s| map.is_off_road_within_map(&s.position))
-            {
-                note(&mut first, k);
-            }
-        } else if let (Some(now), Some(then)) =
-            (self.edge_distance_now, map.signed_distance_to_road_edge(&end.position))
-            && then > now
-        {
-            // Off the road already: head back to it, not farther away.
-            note(&mut first, rollout.len() - 1);
-        }
-        if wanted == Violation::Any && first.is_some() {
-            return first;
-        }
         // Each background agent's first contact is judged, as the metrics
         // judge a collision by its onset (a follower at constant velocity
         // would otherwise drive through the stopped CBV and seem to be hit

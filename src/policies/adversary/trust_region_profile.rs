@@ -72,8 +72,7 @@ pub fn profile_trust_region(
     let distinct = |bins: &mut dyn Iterator<Item = usize>| bins.collect::<std::collections::BTreeSet<_>>().len();
     let from = KinematicState::from_agent_state(now);
     let check = PlausibilityCheck::new(world, cbv, ego, forecast);
-    let plausible =
-        token_rollouts(now, tokens).iter().filter(|r| check.first_violation(r, ContactRule::Any).is_none()).count();
+    let plausible = token_rollouts(now, tokens).iter().filter(|r| !check.implausible(r, ContactRule::Any)).count();
     Some(TrustRegionProfile {
         tokens: tokens.len(),
         probability_mass: mass,
