@@ -49,7 +49,7 @@ pub(super) fn approach_draw(
             }
             return sample_token(&masked, TokenSampling { top_k: plausible.len(), ..sampling }, rng);
         }
-        if let Some(t) = check.likeliest_plausible(logits, top.len()..logits.len(), rule) {
+        if let Some(t) = check.likeliest_plausible_outside(logits, top, rule) {
             return t;
         }
     }

@@ -162,11 +162,10 @@ pub fn safer_choice(
         if let Some(&i) = order.iter().find(|&&i| !check.implausible(&rollouts[i], rule)) {
             return Ok(Some(candidates[i]));
         }
-        // The likeliest plausible token ranked below the region's size: for
-        // a top-n region, the rest of the vocabulary; for a distinct-
-        // behaviour region, the near-duplicates it skipped above that rank
-        // are left out too (near-duplicates of tokens that just failed).
-        if let Some(t) = check.likeliest_plausible(logits, candidates.len()..logits.len(), rule) {
+        // The likeliest plausible token outside the region: for a top-n
+        // region, the rest of the vocabulary; for a distinct-behaviour
+        // region, the near-duplicates it skipped as well.
+        if let Some(t) = check.likeliest_plausible_outside(logits, candidates, rule) {
             return Ok(Some(t));
         }
     }
@@ -271,7 +270,7 @@ mod tests {
             let expected = if rule == ContactRule::Any { vec![true, true] } else { vec![true, false] };
             assert_eq!(implausible, expected, "{rule:?}");
         }
-        assert_eq!(check.likeliest_plausible(&logits, 0..logits.len(), ContactRule::Any), None);
+        assert_eq!(check.likeliest_plausible_outside(&logits, &[], ContactRule::Any), None);
         assert_eq!(choice_in(&states, &liked, Search::one_step(TrustRegion::TopN(2)), None), token(0.0));
     }
 }

@@ -327,18 +327,29 @@ impl<'w> PlausibilityCheck<'w> {
         first
     }
 
-    /// The likeliest plausible token among the ranks `ranks` of the prior's
-    /// ranking of `logits` (most likely first), if any.
-    pub(super) fn likeliest_plausible(
+    /// The likeliest plausible token of the prior's ranking of `logits`
+    /// (most likely first) that `region` does not hold, if any: the
+    /// plausibility fallback, once every token of the trust region has
+    /// failed. For a top-n region these are the ranks from n on; for a
+    /// distinct-behaviour region, also the near-duplicates it skipped.
+    pub(super) fn likeliest_plausible_outside(
         &self,
         logits: &[f32],
-        ranks: std::ops::Range<usize>,
+        region: &[Token],
         rule: ContactRule,
     ) -> Option<Token> {
         let now = self.cbv_now.as_ref()?;
-        let ranked = ranked_tokens(logits);
         let from = KinematicState::from_agent_state(now);
-        ranked.get(ranks)?.iter().copied().find(|t| !self.implausible(&token_rollout(&from, *t), rule))
+        let mut in_region = vec![false; logits.len()];
+        for t in region {
+            if let Some(slot) = in_region.get_mut(t.0 as usize) {
+                *slot = true;
+            }
+        }
+        ranked_tokens(logits)
+            .into_iter()
+            .filter(|t| !in_region[t.0 as usize])
+            .find(|t| !self.implausible(&token_rollout(&from, *t), rule))
     }
 }
 
@@ -556,11 +567,19 @@ mod tests {
         logits[token(-MAX_ACCEL_MPS2).0 as usize] = 1.0;
         let check = PlausibilityCheck::new(&world, TrackIndex(1), TrackIndex(0), &BackgroundForecast::default());
         assert_eq!(
-            check.likeliest_plausible(&logits, 0..2, ContactRule::Any),
-            None,
-            "the trust region of two holds none"
+            check.likeliest_plausible_outside(&logits, &[], ContactRule::Any),
+            Some(token(-4.0)),
+            "the likeliest plausible of all"
         );
-        assert_eq!(check.likeliest_plausible(&logits, 2..logits.len(), ContactRule::Any), Some(token(-4.0)));
+        let region = [token(MAX_ACCEL_MPS2), token(3.0)];
+        assert_eq!(check.likeliest_plausible_outside(&logits, &region, ContactRule::Any), Some(token(-4.0)));
+        // A region that holds the likeliest plausible token leaves the next one.
+        let region = [token(MAX_ACCEL_MPS2), token(-4.0)];
+        assert_eq!(
+            check.likeliest_plausible_outside(&logits, &region, ContactRule::Any),
+            Some(token(-MAX_ACCEL_MPS2)),
+            "skipped over the region, not over the ranks it would fill"
+        );
     }
 
     #[test]
