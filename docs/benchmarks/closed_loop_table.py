@@ -35,8 +35,13 @@ def main(args):
                     f"| {r['avoidable_failures']} | {r['no_escape_collisions']} ({r['precheck_refuted']}) "
                     f"| {r['failures']} ({beyond[mode]}) | {rate(h['conflict_reach_critical'])} / {rate(h['sr_avoidable'])} |"
                 )
-            ratio = beyond["closed-loop"] / beyond["replay"] if beyond["replay"] > 0 else float("nan")
-            print(f"| {name} | {planner} | `{method}` | closed loop / replay, beyond `log` ({log}) | {ratio:.2f}× | | | | | | | | |")
+            # A ratio only where both counts are failures beyond log replay's:
+            # fewer failures than the recorded CBV causes has no ratio.
+            if beyond["replay"] > 0 and beyond["closed-loop"] >= 0:
+                ratio = f"{beyond['closed-loop'] / beyond['replay']:.2f}×"
+            else:
+                ratio = "–"
+            print(f"| {name} | {planner} | `{method}` | closed loop / replay, beyond `log` ({log}) | {ratio} | | | | | | | | |")
 
 
 if __name__ == "__main__":
