@@ -212,52 +212,47 @@ impl<'w> PlausibilityCheck<'w> {
     /// A step at which `rollout` breaks the rule: the first one, or (for
     /// [`Violation::Any`]) the first one the checks come to.
     fn violation(&self, rollout: &[AgentState], wanted: Violation, rule: ContactRule) -> Option<usize> {
-        rollout.last()?;
+        let end = rollout.last()?;
+        let map = self.world.map;
         let braking: Vec<AgentState> = rollout.iter().copied().chain(braking_after(rollout)).collect();
+        let contact = |wanted| self.contact_violation(rollout, &braking, wanted, rule);
+        if !self.on_road_now {
+            // Off the road already: head back to it, not farther away.
+            let farther_off = match (self.edge_distance_now, map.signed_distance_to_road_edge(&end.position)) {
+                (Some(now), Some(then)) if then > now => Some(rollout.len() - 1),
+                _ => None,
+            };
+            return match wanted {
+                Violation::First => farther_off.into_iter().chain(contact(wanted)).min(),
+                Violation::Any => farther_off.or_else(|| contact(wanted)),
+            };
+        }
+        let path = Self::moving_path(&braking);
+        let off_road = |s: &AgentState| map.is_off_road_within_map(&s.position);
         match wanted {
-            Violation::First => {
-                let road = self.road_violation(rollout, &braking, wanted);
-                let contact = self.contact_violation(rollout, &braking, wanted, rule);
-                road.into_iter().chain(contact).min()
-            }
-            // Whether at all: the contact checks first, as they are the
-            // cheaper (box tests behind a bounds test, against a road
-            // check's nearest-edge query per step); the answer is the
-            // same in either order.
-            Violation::Any => self
-                .contact_violation(rollout, &braking, wanted, rule)
-                .or_else(|| self.road_violation(rollout, &braking, wanted)),
+            Violation::First => path.iter().position(off_road).into_iter().chain(contact(wanted)).min(),
+            // Whether at all, in the order that finds a violation soonest
+            // (the answer is the same in any order): the farthest state
+            // first (a path that leaves the road ends off it: one
+            // nearest-edge query), then the contacts (box tests behind a
+            // bounds test), then the rest of the path from the far end.
+            Violation::Any => match path.split_last() {
+                Some((last, _)) if off_road(last) => Some(path.len() - 1),
+                Some((_, rest)) => contact(wanted).or_else(|| rest.iter().rposition(off_road)),
+                None => contact(wanted),
+            },
         }
     }
 
-    /// A step at which the CBV following `rollout` and then `braking` (the
-    /// token's states and the braking after them) leaves the road, or
-    /// heads farther off it when it is off already.
-    fn road_violation(&self, rollout: &[AgentState], braking: &[AgentState], wanted: Violation) -> Option<usize> {
-        let map = self.world.map;
-        if !self.on_road_now {
-            // Off the road already: head back to it, not farther away.
-            let end = rollout.last()?;
-            let (now, then) = (self.edge_distance_now?, map.signed_distance_to_road_edge(&end.position)?);
-            return (then > now).then_some(rollout.len() - 1);
-        }
-        // Moving states only: a stopped CBV stays where it stopped. On to
-        // a standstill: 2 s of braking from motorway speed still leaves a
-        // bend to run out of (seen on WOMD interactive: a CBV at 21 m/s
-        // judged able to stop on the road that, a token later, had no
-        // token left that stayed on it).
+    /// The road check's path: `braking` (the token's states and the
+    /// braking after them) on to a standstill, moving states only (a
+    /// stopped CBV stays where it stopped). On to a standstill: 2 s of
+    /// braking from motorway speed still leaves a bend to run out of (seen
+    /// on WOMD interactive: a CBV at 21 m/s judged able to stop on the road
+    /// that, a token later, had no token left that stayed on it).
+    fn moving_path(braking: &[AgentState]) -> Vec<AgentState> {
         let to_standstill = continued_after(braking, -MAX_ACCEL_MPS2, STANDSTILL_CHECK_MAX_STEPS);
-        let mut moving = braking.iter().copied().chain(to_standstill).take_while(|s| s.speed_mps() > 0.0);
-        match wanted {
-            Violation::First => moving.position(|s| map.is_off_road_within_map(&s.position)),
-            // Whether at all: the farthest states first, where a path that
-            // leaves the road is off it (one query instead of one per step
-            // up to the road's edge).
-            Violation::Any => {
-                let path: Vec<AgentState> = moving.collect();
-                path.iter().rposition(|s| map.is_off_road_within_map(&s.position))
-            }
-        }
+        braking.iter().copied().chain(to_standstill).take_while(|s| s.speed_mps() > 0.0).collect()
     }
 
     /// A step at which the CBV following `rollout` (and holding it, or
