@@ -73,7 +73,8 @@ impl OrientedBox {
     /// to the exact test).
     fn within_reach(&self, other: &OrientedBox) -> bool {
         let reach = self.half_diagonal_m() + other.half_diagonal_m() + 1e-6;
-        !((self.pose.position - other.pose.position).norm_squared() > reach * reach)
+        let d2 = (self.pose.position - other.pose.position).norm_squared();
+        d2.partial_cmp(&(reach * reach)) != Some(std::cmp::Ordering::Greater)
     }
 
     /// The separating-axis test of [`Self::intersects`] without its
