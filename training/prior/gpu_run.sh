@@ -1,0 +1,74 @@
+#!/bin/bash
+# Train realism priors on a GPU machine that has PyTorch but not the
+# repository's build: write the shards there from a carried `safer` release
+# binary and the public-domain NGSIM scenes, then train one prior per named
+# run at once on the one GPU (a 500 k-parameter model leaves the GPU mostly
+# idle, so side-by-side runs cost little more than one).
+#
+#   training/prior/gpu_run.sh BINARY NGSIM OUT NAME:ATTENTION[:EXTRA_ARGS] ...
+#
+# BINARY: the `safer` release binary (or an .xz of it); NGSIM: the
+# `commonroad-ngsim` folder (or a .tar.xz holding it); OUT: where each run's
+# `best.pt`, `log.csv`, `summary.json` and training log go (`OUT/NAME/`), and
+# `run.log`. Every run trains with `--device cuda --batch 1024 --threads 4`
+# and `STEPS` steps (default 6648, the shipped priors' count); EXTRA_ARGS,
+# comma-separated, are passed to train.py as they are. Shards written
+# elsewhere are the same (the dataset is deterministic), so the runs come
+# back to `training/prior/export.py --run OUT/NAME --train-data /tmp/shards`.
+# SHARDS=DIR trains on shards already written there instead (BINARY and
+# NGSIM are then not read); DEVICE=cpu runs the same plumbing without a GPU
+# (a smoke test, with random shards from make_random_shards.py).
+#
+# Example (the shipped recipe trained twice as long, both attentions):
+#   STEPS=13296 training/prior/gpu_run.sh safer.xz ngsim.tar.xz $OUT long:differential long-plain:plain
+set -u
+if [ $# -lt 4 ]; then
+  sed -n 2,24p "$0" >&2
+  exit 2
+fi
+binary=$1 ngsim=$2 out=$3
+shift 3
+t0=$(date +%s)
+cd "$(dirname "$0")/../.."
+mkdir -p "$out" /tmp/data
+log="$out/run.log"
+say() { echo "$@" | tee -a "$log"; }
+
+shards=${SHARDS:-}
+if [ -z "$shards" ]; then
+  case "$binary" in
+    *.xz) xz -dc "$binary" > /tmp/safer ;;
+    *) cp "$binary" /tmp/safer ;;
+  esac
+  chmod +x /tmp/safer
+  case "$ngsim" in
+    *.tar.xz) xz -dc "$ngsim" | tar xf - -C /tmp/data; ngsim=/tmp/data/commonroad-ngsim ;;
+  esac
+  say "$(nvidia-smi --query-gpu=name,memory.total --format=csv,noheader 2>&1)"
+  shards=/tmp/shards
+  /tmp/safer prior-dataset --recorded "$ngsim" --out "$shards" --force 2>&1 | grep -v wrote | tail -3 | tee -a "$log"
+  say "shards ready after $(( $(date +%s) - t0 )) s"
+fi
+
+export PYTHONUNBUFFERED=1
+pids=()
+for spec in "$@"; do
+  IFS=: read -r name attention extra <<< "$spec"
+  mkdir -p "$out/$name"
+  # shellcheck disable=SC2086  # EXTRA_ARGS are separate words on purpose
+  "${PYTHON:-python3}" training/prior/train.py --data "$shards" --device "${DEVICE:-cuda}" --batch 1024 --threads 4 \
+    --steps "${STEPS:-6648}" --attention "$attention" --eval-every 2000 ${extra//,/ } \
+    --out "$out/$name" > "$out/$name/train.log" 2>&1 &
+  pids+=($!)
+done
+status=0
+for pid in "${pids[@]}"; do
+  wait "$pid" || status=1
+done
+for spec in "$@"; do
+  name=${spec%%:*}
+  say "== $name"
+  tail -2 "$out/$name/train.log" | tee -a "$log"
+done
+say "done after $(( $(date +%s) - t0 )) s"
+exit $status
