@@ -30,10 +30,10 @@ fn behaviour_end(from: &KinematicState, token: Token) -> Point2 {
 /// token. Given the tokens most likely first, these are each behaviour's
 /// likeliest token.
 pub fn distinct_behaviours(from: &KinematicState, tokens: impl IntoIterator<Item = Token>, limit: usize) -> Vec<Token> {
-    let mut leaders: Vec<(Token, Point2)> = Vec::new();
     if limit == 0 {
         return Vec::new();
     }
+    let mut leaders: Vec<(Token, Point2)> = Vec::new();
     // The scan stops at the limit without asking `tokens` for another: a
     // lazy tail (the rest of a ranking) is then never computed.
     for token in tokens {

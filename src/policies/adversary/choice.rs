@@ -172,9 +172,10 @@ pub fn safer_choice(
     // With no plausible token at all, the trust region's token that
     // breaks the rule latest (the first such in arg-min order). Only here
     // is the first violating step needed: the checks above stop at any.
+    // (`max_by_key` keeps the last of equal keys: scanned from the back.)
     let violations =
-        order.iter().filter_map(|&i| check.first_violation(&rollouts[i], ContactRule::Any).map(|k| (i, k)));
-    Ok(violations.collect::<Vec<_>>().iter().rev().max_by_key(|(_, k)| *k).map(|(i, _)| candidates[*i]))
+        order.iter().rev().filter_map(|&i| check.first_violation(&rollouts[i], ContactRule::Any).map(|k| (i, k)));
+    Ok(violations.max_by_key(|(_, k)| *k).map(|(i, _)| candidates[i]))
 }
 
 #[cfg(test)]
