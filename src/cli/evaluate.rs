@@ -247,6 +247,21 @@ fn print_table(
     if let Some(line) = failures_beyond_log(rows) {
         writeln!(out, "{line}")?;
     }
+    writeln!(out, "\nclosest approach of the CBV to the recorded ego (stage 1, shares of the variants):")?;
+    writeln!(out, "{:<28} {:>9} {:>16} {:>16} {:>9}", "method", "contact", "no contact <0.5m", "0.5-1 m", ">=1 m")?;
+    for r in rows {
+        let c = r.stage1_closest;
+        let share = |f: fn(&safer::harness::evaluation::ClosestApproach) -> f64| fmt(c.as_ref().map(f));
+        writeln!(
+            out,
+            "{:<28} {:>9} {:>16} {:>16} {:>9}",
+            name(r),
+            share(|c| c.contact),
+            share(|c| c.under_half_m),
+            share(|c| c.under_1_m),
+            share(|c| c.farther)
+        )?;
+    }
     writeln!(out, "\nkinds of conflict (stage 1, with the recorded ego / stage 2, with the planner's):")?;
     let kinds = safer::eval::ConflictKind::ALL;
     writeln!(

@@ -239,6 +239,9 @@ pub struct MethodRow {
     pub cbv_off_road_rate: Option<f64>,
     /// Mean time the CBV spent off the road per variant, s.
     pub cbv_off_road_s: Option<f64>,
+    /// How close the CBV came to the recorded ego in stage 1; `None` when
+    /// no variant ran.
+    pub stage1_closest: Option<ClosestApproach>,
     /// Distinct variants per variant: how many different CBV paths the
     /// seeds of each scene made (stage 1, to the centimetre), summed over
     /// the scenes, over the variants that ran. 1 when every seed gives its
@@ -488,6 +491,45 @@ pub fn held_out_scenes<'a>(ids: impl IntoIterator<Item = &'a str>) -> std::colle
     sorted.into_iter().skip(9).step_by(10).map(String::from).collect()
 }
 
+/// How close the CBV came to the recorded ego in stage 1 (box distance),
+/// as shares of the variants that ran; the four add up to one. It tells a
+/// CBV that never got near the ego (the trust region offered no way there)
+/// from one held off the last half metre (a state within d_th of the ego is
+/// infeasible by definition, so a stage-1 contact needs the recorded ego
+/// to leave its predicted path).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct ClosestApproach {
+    /// Contact: a stage-1 collision (the collision rate).
+    pub contact: f64,
+    /// No contact, closest gap under 0.5 m.
+    pub under_half_m: f64,
+    /// No contact, closest gap from 0.5 m to under 1 m.
+    pub under_1_m: f64,
+    /// Never within 1 m (or no gap measured: the two never met on the road).
+    pub farther: f64,
+}
+
+/// Lower bounds of the [`ClosestApproach`] bands, m.
+const CLOSEST_APPROACH_BANDS_M: [f64; 2] = [0.5, 1.0];
+
+impl ClosestApproach {
+    /// The shares over `variants` (that ran); `None` for none.
+    fn of(variants: &[&VariantRecord]) -> Option<Self> {
+        let n = variants.len();
+        let count = |band: &dyn Fn(f64) -> bool| {
+            variants.iter().filter(|r| !r.tally.critical && r.stage1_min_gap_m.is_some_and(band)).count() as f64
+                / n as f64
+        };
+        let [half, one] = CLOSEST_APPROACH_BANDS_M;
+        (n > 0).then(|| {
+            let contact = variants.iter().filter(|r| r.tally.critical).count() as f64 / n as f64;
+            let under_half_m = count(&|g| g < half);
+            let under_1_m = count(&|g| (half..one).contains(&g));
+            Self { contact, under_half_m, under_1_m, farther: 1.0 - contact - under_half_m - under_1_m }
+        })
+    }
+}
+
 /// The share of `variants` (of one method) that differ from every other
 /// seed's variant of their scene: distinct CBV paths per scene, summed,
 /// over the variants; `None` for none.
@@ -551,6 +593,7 @@ fn table_of(
                 cbv_at_fault_background_collision_rate: metrics.cbv_at_fault_background_collision_rate,
                 cbv_off_road_rate: metrics.cbv_off_road_rate,
                 cbv_off_road_s: metrics.cbv_off_road_s,
+                stage1_closest: ClosestApproach::of(&ok),
                 distinct_rate: distinct_rate(&ok),
                 conflict_reach: metrics.conflict_reach,
                 conflict_reach_critical: metrics.conflict_reach_critical,
@@ -585,6 +628,28 @@ mod tests {
             tally: VariantTally { cbv_path_digest: Some(digest), ..VariantTally::default() },
             ..VariantRecord::failed(scenario, AdversaryMethod::Safer, Stage2Cbv::Replay, seed, String::new())
         }
+    }
+
+    #[test]
+    fn the_closest_approach_puts_each_variant_in_one_band_and_contact_before_any_gap() {
+        // A contact (whose gap reads 0), gaps of 0.2 and 0.5 m (the band's
+        // lower bound belongs to it), 0.99 m, 1.0 m and none measured.
+        let gaps = [(true, Some(0.0)), (false, Some(0.2)), (false, Some(0.5)), (false, Some(0.99))];
+        let rest = [(false, Some(1.0)), (false, None)];
+        let records: Vec<VariantRecord> = gaps
+            .iter()
+            .chain(&rest)
+            .enumerate()
+            .map(|(i, &(critical, gap))| VariantRecord {
+                stage1_min_gap_m: gap,
+                tally: VariantTally { critical, ..record("a", i as u32, i as u64).tally },
+                ..record("a", i as u32, i as u64)
+            })
+            .collect();
+        let c = table(&records, &[AdversaryMethod::Safer])[0].stage1_closest.unwrap();
+        assert_eq!((c.contact, c.under_half_m, c.under_1_m), (1.0 / 6.0, 1.0 / 6.0, 2.0 / 6.0));
+        assert!((c.farther - 2.0 / 6.0).abs() < 1e-12);
+        assert_eq!(table(&[], &[AdversaryMethod::Safer])[0].stage1_closest, None);
     }
 
     #[test]
