@@ -120,6 +120,13 @@ fn evaluate_takes_a_planner_spec_and_jobs_and_reports_latency() {
     }
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("stage 2 planner `lane-follower`"), "{err}");
+    // The recorded CBV never touches the recorded ego: its closest approach
+    // is one of the gap bands, and the four shares add up to one.
+    assert!(err.contains("closest approach of the CBV to the recorded ego"), "{err}");
+    let closest = &report["rows"][0]["stage1_closest"];
+    assert_eq!(closest["contact"], 0.0, "{closest}");
+    let bands = ["contact", "under_half_m", "under_1_m", "farther"].map(|k| closest[k].as_f64().unwrap());
+    assert!((bands.iter().sum::<f64>() - 1.0).abs() < 1e-9, "{closest}");
     // Not a built-in, not a file; no thread at all.
     let out = safer(&[&common[..], &["--planner", "no-such-planner"]].concat());
     assert!(String::from_utf8_lossy(&out.stderr).contains("neither a built-in planner"));
