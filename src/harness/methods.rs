@@ -172,6 +172,9 @@ pub fn install(
     }
     members.sort_unstable();
     let traffic = PriorTraffic::new(prior, scenario.clone(), map, start, members.clone(), settings.sampling, seed);
+    if !settings.method.prior_sees_ego() {
+        traffic.lock().unwrap_or_else(|p| p.into_inner()).hide_from(cbv.0, ego.0);
+    }
     for &m in &members {
         if m != cbv.0 {
             sim.set_policy(TrackIndex(m), Box::new(PriorAgent::new(traffic.clone())));
@@ -187,7 +190,8 @@ pub fn install(
         AdversaryMethod::Safer
         | AdversaryMethod::NoMda
         | AdversaryMethod::NoTrustRegion
-        | AdversaryMethod::SaferDistinct => sim.set_policy(cbv, adversary(search, Some(feasibility()?))),
+        | AdversaryMethod::SaferDistinct
+        | AdversaryMethod::SaferInattentive => sim.set_policy(cbv, adversary(search, Some(feasibility()?))),
         AdversaryMethod::SaferLookahead => {
             let search = Search { lookahead_tokens: LOOKAHEAD_TOKENS, ..search };
             sim.set_policy(cbv, adversary(search, Some(feasibility()?)))

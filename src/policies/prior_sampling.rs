@@ -162,6 +162,25 @@ pub struct PriorTraffic {
     logits: HashMap<(usize, usize), TokenLogits>,
     error: Option<Arc<ModelError>>,
     timings: TrafficTimings,
+    /// (viewer, hidden): the member whose queries do not see the other
+    /// agent (see [`PriorTraffic::hide_from`]).
+    unseen: Option<(usize, usize)>,
+}
+
+/// A history in which one agent is absent: what a viewer that has not
+/// noticed it reads.
+struct WithoutAgent<'a> {
+    history: &'a dyn StateHistory,
+    hidden: usize,
+}
+
+impl StateHistory for WithoutAgent<'_> {
+    fn state(&self, step: usize, agent: usize) -> Option<AgentState> {
+        if agent == self.hidden { None } else { self.history.state(step, agent) }
+    }
+    fn agents(&self) -> usize {
+        self.history.agents()
+    }
 }
 
 /// Where a rollout's learned-model time went, s.
@@ -212,6 +231,7 @@ impl PriorTraffic {
             logits: HashMap::new(),
             error: None,
             timings: TrafficTimings::default(),
+            unseen: None,
         }))
     }
 
@@ -235,13 +255,29 @@ impl PriorTraffic {
         self.logits.get(&(agent, step))
     }
 
+    /// From now on `viewer`'s queries leave `hidden` out of its
+    /// neighbours: the prior predicts `viewer` as a driver who has not
+    /// noticed `hidden` (the other members still see it). Logits already
+    /// computed stay as they were.
+    pub fn hide_from(&mut self, viewer: usize, hidden: usize) {
+        self.unseen = Some((viewer, hidden));
+    }
+
     /// The query of every member present at `step`: (agents, features).
     fn queries(&self, step: usize) -> (Vec<usize>, Vec<QueryFeatures>) {
         let history = RolloutHistory { scenario: &self.scenario, start: self.start, frames: &self.frames };
         let mut agents = Vec::new();
         let mut queries = Vec::new();
         for &a in &self.members {
-            if let Some(q) = build_query(&history, &self.bodies, &self.map.tokens, &self.scenario.map, a, step) {
+            let without;
+            let seen: &dyn StateHistory = match self.unseen {
+                Some((viewer, hidden)) if viewer == a => {
+                    without = WithoutAgent { history: &history, hidden };
+                    &without
+                }
+                _ => &history,
+            };
+            if let Some(q) = build_query(seen, &self.bodies, &self.map.tokens, &self.scenario.map, a, step) {
                 agents.push(a);
                 queries.push(q);
             }
@@ -510,6 +546,69 @@ mod tests {
             assert_eq!(alone.lock().unwrap().timings().decoder_calls, (end - start) / TOKEN_PERIOD_STEPS);
         }
         assert_ne!(batched[0], batched[1], "different seeds, different rollouts");
+    }
+
+    /// An agent hidden from a viewer is missing from the viewer's
+    /// neighbours only: the other members still see it.
+    #[test]
+    fn an_agent_hidden_from_the_viewer_is_gone_from_its_query_only() {
+        use crate::models::ModelSource;
+        use crate::models::prior::PriorVariant;
+        use crate::models::prior_features::{NEIGHBOUR_RADIUS_M, NEIGHBOURS, POSE_FEATURES};
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/ngsim/USA_US101-15_1_T-1.xml");
+        let scenario = Arc::new(crate::scenario::import::load(&path).unwrap().remove(0));
+        let prior = Arc::new(RealismPrior::load(&ModelSource::shipped(), PriorVariant::Differential).unwrap());
+        let map = ScenarioMapEncoding::new(&prior, &scenario).unwrap();
+        let start = 10;
+        let states: Vec<Option<AgentState>> = scenario.tracks.iter().map(|t| t.state(start).copied()).collect();
+        let bodies: Vec<AgentBody> = scenario.tracks.iter().map(|t| t.body()).collect();
+        let present: Vec<usize> = (0..states.len()).filter(|&i| states[i].is_some()).collect();
+        let distance = |i: usize, j: usize| (states[i].unwrap().position - states[j].unwrap().position).norm();
+        // The viewer, its nearest neighbour (hidden from it), and another
+        // agent that sees the hidden one too.
+        let viewer = present[0];
+        let hidden = *present
+            .iter()
+            .filter(|&&j| j != viewer)
+            .min_by(|&&a, &&b| distance(viewer, a).total_cmp(&distance(viewer, b)))
+            .unwrap();
+        let other =
+            *present.iter().find(|&&j| j != viewer && j != hidden && distance(j, hidden) < NEIGHBOUR_RADIUS_M).unwrap();
+        let queries = |hide: bool| {
+            let traffic = PriorTraffic::new(
+                prior.clone(),
+                scenario.clone(),
+                map.clone(),
+                start,
+                vec![viewer, other],
+                TokenSampling::default(),
+                0,
+            );
+            let mut t = traffic.lock().unwrap();
+            if hide {
+                t.hide_from(viewer, hidden);
+            }
+            t.observe(&WorldView { map: &scenario.map, step: start, bodies: &bodies, states: &states });
+            let (agents, queries) = t.queries(start);
+            assert_eq!(agents, vec![viewer.min(other), viewer.max(other)]);
+            agents.into_iter().zip(queries).collect::<std::collections::HashMap<_, _>>()
+        };
+        let (seen, unseen) = (queries(false), queries(true));
+        // The hidden agent's position in the viewer's frame, among its neighbours' poses.
+        let now = states[viewer].unwrap();
+        let frame = crate::geometry::Pose2 { position: now.position, heading_rad: now.heading_rad };
+        let at = frame.to_body(&states[hidden].unwrap().position);
+        let holds_hidden = |q: &QueryFeatures| {
+            (0..NEIGHBOURS).any(|n| {
+                q.neighbour_mask[n] == 1.0
+                    && q.neighbour_pose[n * POSE_FEATURES] == at.x as f32
+                    && q.neighbour_pose[n * POSE_FEATURES + 1] == at.y as f32
+            })
+        };
+        assert!(holds_hidden(&seen[&viewer]), "the viewer sees its nearest neighbour");
+        assert!(!holds_hidden(&unseen[&viewer]), "hidden from the viewer");
+        assert_eq!(seen[&other].neighbours, unseen[&other].neighbours, "the other member still sees it");
+        assert_eq!(seen[&other].neighbour_pose, unseen[&other].neighbour_pose);
     }
 
     #[test]

@@ -139,9 +139,20 @@ pub enum AdversaryMethod {
     /// 1 m apart) instead of its n likeliest tokens, which on the fine
     /// token grid are often near-duplicates of one manoeuvre.
     SaferDistinct,
+    /// Beyond the paper: SaFeR whose trust region comes from the prior
+    /// predicting the CBV with the ego hidden from its view (an
+    /// inattentive driver): a prior that sees the ego ranks the tokens that
+    /// yield to it first, the conflicts the adversary looks for last.
+    SaferInattentive,
 }
 
 impl AdversaryMethod {
+    /// Whether the realism prior sees the ego when it predicts the CBV
+    /// (all but `safer-inattentive`).
+    pub fn prior_sees_ego(self) -> bool {
+        self != Self::SaferInattentive
+    }
+
     /// Every variant, in declaration order (for choosers such as the command line).
     pub const ALL: &'static [Self] = &[
         Self::Log,
@@ -152,6 +163,7 @@ impl AdversaryMethod {
         Self::NoMda,
         Self::SaferLookahead,
         Self::SaferDistinct,
+        Self::SaferInattentive,
     ];
 }
 

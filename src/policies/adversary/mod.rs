@@ -47,7 +47,10 @@
 //!
 //! The ablations are the same policy with a part switched off;
 //! `safer-lookahead` (beyond the paper) is the same policy scoring tokens
-//! over a receding horizon (see [`Search::lookahead_tokens`]).
+//! over a receding horizon (see [`Search::lookahead_tokens`]);
+//! `safer-inattentive` (beyond the paper) the same policy fed by a prior
+//! that does not see the ego (see
+//! [`PriorTraffic::hide_from`](crate::policies::prior_sampling::PriorTraffic::hide_from)).
 //!
 //! One file per concept: the [`Adversary`] policy (`policy`), the
 //! approach phase (`approach`), SaFeR's choice ([`safer_choice`],
