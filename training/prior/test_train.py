@@ -8,7 +8,7 @@ import torch
 import torch.nn.functional as F
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from train import BINS, bin_spread, token_loss  # noqa: E402
+from train import BINS, MAP_IN_INTERSECTION, MAP_SPEED_LIMIT, bin_spread, drop_map_features, token_loss  # noqa: E402
 
 
 def explicit_target(target, smoothing, axis, spread):
@@ -55,3 +55,24 @@ class TokenLossTest(unittest.TestCase):
 
 if __name__ == "__main__":
     unittest.main()
+
+
+class MapFeatureDropoutTest(unittest.TestCase):
+    def test_dropped_samples_lose_speed_limits_and_intersection_flags_and_nothing_else(self):
+        tokens = torch.rand(2000, 48, 7) + 0.5
+        before = tokens.clone()
+        batch = drop_map_features({"map_tokens": tokens}, 0.3, torch.Generator().manual_seed(0))
+        after = batch["map_tokens"]
+        limit_gone = (after[:, :, MAP_SPEED_LIMIT] == 0).all(dim=1)
+        flag_gone = (after[:, :, MAP_IN_INTERSECTION] == 0).all(dim=1)
+        # About 30 % of the samples each, drawn apart, whole samples at a time.
+        self.assertAlmostEqual(limit_gone.float().mean().item(), 0.3, delta=0.04)
+        self.assertAlmostEqual(flag_gone.float().mean().item(), 0.3, delta=0.04)
+        self.assertFalse(torch.equal(limit_gone, flag_gone))
+        self.assertTrue(((after[:, :, MAP_SPEED_LIMIT] == 0) == limit_gone[:, None]).all())
+        kept = [c for c in range(7) if c not in (MAP_SPEED_LIMIT, MAP_IN_INTERSECTION)]
+        self.assertTrue(torch.equal(after[:, :, kept], before[:, :, kept]))
+
+    def test_no_dropout_changes_nothing(self):
+        tokens = torch.rand(10, 48, 7)
+        self.assertTrue(torch.equal(drop_map_features({"map_tokens": tokens.clone()}, 0.0)["map_tokens"], tokens))

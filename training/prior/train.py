@@ -78,6 +78,24 @@ def batch_of(data, idx):
     return {k: data[k][idx] for k in KEYS}
 
 
+# Columns of a map token (docs/prior-features.md): the lane's intersection flag and speed limit.
+MAP_IN_INTERSECTION, MAP_SPEED_LIMIT = 5, 6
+
+
+def drop_map_features(batch, p, generator=None):
+    """With probability `p` per sample, zero the speed limit of all its map
+    tokens (0 is what a map without limits gives), and, drawn apart, their
+    intersection flags. Changes `batch["map_tokens"]` (a copy made by
+    `batch_of`) in place; returns it."""
+    if p <= 0.0:
+        return batch
+    tokens = batch["map_tokens"]
+    for column in (MAP_SPEED_LIMIT, MAP_IN_INTERSECTION):
+        drop = torch.rand(tokens.shape[0], device=tokens.device, generator=generator) < p
+        tokens[drop, :, column] = 0.0
+    return batch
+
+
 @torch.no_grad()
 def evaluate(model, data, idx, bs=2048):
     model.eval()
@@ -149,6 +167,10 @@ def main():
                     help="the axis the smoothed share spreads along")
     ap.add_argument("--label-smoothing-bins", type=float, default=3.0,
                     help="width (standard deviation, in bins) of that spread")
+    ap.add_argument("--map-feature-dropout", type=float, default=0.0,
+                    help="per training sample, the probability that its map tokens lose their speed limits, and "
+                         "(drawn apart) their intersection flags: run-time maps without them (WOMD JSON keeps "
+                         "neither) are then familiar; 0 (the shipped priors) keeps every feature")
     ap.add_argument("--init", help="start from this checkpoint's weights (a best.pt of the same architecture) "
                                    "instead of a random initialisation")
     ap.add_argument("--out", required=True)
@@ -200,7 +222,8 @@ def main():
         for g in opt.param_groups:
             g["lr"] = lr
         idx = torch.as_tensor(train_idx[cdf.searchsorted(rng.random(a.batch), side="right")], device=a.device)
-        loss = token_loss(model(batch_of(data, idx)), data["next_token"][idx], a.label_smoothing,
+        batch = drop_map_features(batch_of(data, idx), a.map_feature_dropout)
+        loss = token_loss(model(batch), data["next_token"][idx], a.label_smoothing,
                           a.label_smoothing_axis, spread)
         opt.zero_grad(set_to_none=True)
         loss.backward()
@@ -246,7 +269,7 @@ def main():
         "uniform_nll": math.log(3969), "device": a.device, "batch": a.batch,
         "purpose": dataset["purpose"], "recipe": dataset["recipe"],
         "label_smoothing": a.label_smoothing, "label_smoothing_axis": a.label_smoothing_axis,
-        "label_smoothing_bins": a.label_smoothing_bins,
+        "label_smoothing_bins": a.label_smoothing_bins, "map_feature_dropout": a.map_feature_dropout,
     }
     json.dump(summary, open(os.path.join(a.out, "summary.json"), "w"), indent=2)
     print(json.dumps(summary), flush=True)
