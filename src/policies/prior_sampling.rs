@@ -505,18 +505,24 @@ mod tests {
         assert_eq!(t, Token(17));
     }
 
+    /// A shipped NGSIM scene with the shipped differential prior and its map encoding.
+    fn ngsim_scene_with_prior() -> (Arc<Scenario>, Arc<RealismPrior>, ScenarioMapEncoding) {
+        use crate::models::ModelSource;
+        use crate::models::prior::PriorVariant;
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/ngsim/USA_US101-15_1_T-1.xml");
+        let scenario = Arc::new(crate::scenario::import::load(&path).unwrap().remove(0));
+        let prior = Arc::new(RealismPrior::load(&ModelSource::shipped(), PriorVariant::Differential).unwrap());
+        let map = ScenarioMapEncoding::new(&prior, &scenario).unwrap();
+        (scenario, prior, map)
+    }
+
     /// Rollouts decoded together (every rollout's agents in one batch per
     /// token boundary, the first boundary decoded once) move exactly as
     /// rollouts decoded alone, one decoder call per boundary each.
     #[test]
     fn rollouts_decoded_together_equal_rollouts_decoded_alone() {
-        use crate::models::ModelSource;
-        use crate::models::prior::PriorVariant;
         use crate::sim::traffic::{simulate_all_agents, simulate_rollouts_in_lockstep};
-        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/ngsim/USA_US101-15_1_T-1.xml");
-        let scenario = Arc::new(crate::scenario::import::load(&path).unwrap().remove(0));
-        let prior = Arc::new(RealismPrior::load(&ModelSource::shipped(), PriorVariant::Differential).unwrap());
-        let map = ScenarioMapEncoding::new(&prior, &scenario).unwrap();
+        let (scenario, prior, map) = ngsim_scene_with_prior();
         let (start, end, rollouts) = (10, 30, 3);
         let members: Vec<usize> =
             (0..scenario.tracks.len()).filter(|&i| scenario.tracks[i].state(start).is_some()).collect();
@@ -552,13 +558,8 @@ mod tests {
     /// neighbours only: the other members still see it.
     #[test]
     fn an_agent_hidden_from_the_viewer_is_gone_from_its_query_only() {
-        use crate::models::ModelSource;
-        use crate::models::prior::PriorVariant;
         use crate::models::prior_features::{NEIGHBOUR_RADIUS_M, NEIGHBOURS, POSE_FEATURES};
-        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/ngsim/USA_US101-15_1_T-1.xml");
-        let scenario = Arc::new(crate::scenario::import::load(&path).unwrap().remove(0));
-        let prior = Arc::new(RealismPrior::load(&ModelSource::shipped(), PriorVariant::Differential).unwrap());
-        let map = ScenarioMapEncoding::new(&prior, &scenario).unwrap();
+        let (scenario, prior, map) = ngsim_scene_with_prior();
         let start = 10;
         let states: Vec<Option<AgentState>> = scenario.tracks.iter().map(|t| t.state(start).copied()).collect();
         let bodies: Vec<AgentBody> = scenario.tracks.iter().map(|t| t.body()).collect();
