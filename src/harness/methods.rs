@@ -138,6 +138,14 @@ pub fn trust_region_of(method: AdversaryMethod, n: usize) -> TrustRegion {
     }
 }
 
+/// Sets up what the prior sees when it predicts the CBV for `method`:
+/// for `safer-inattentive`, the CBV's queries leave the ego out.
+pub(super) fn set_cbv_view(method: AdversaryMethod, traffic: &mut PriorTraffic, cbv: TrackIndex, ego: TrackIndex) {
+    if !method.prior_sees_ego() {
+        traffic.hide_from(cbv.0, ego.0);
+    }
+}
+
 /// Installs the method's CBV policy (and a prior-driven background, if
 /// asked) in a stage-1 simulation starting at `start`.
 #[allow(clippy::too_many_arguments)]
@@ -172,9 +180,7 @@ pub fn install(
     }
     members.sort_unstable();
     let traffic = PriorTraffic::new(prior, scenario.clone(), map, start, members.clone(), settings.sampling, seed);
-    if !settings.method.prior_sees_ego() {
-        traffic.lock().unwrap_or_else(|p| p.into_inner()).hide_from(cbv.0, ego.0);
-    }
+    set_cbv_view(settings.method, &mut traffic.lock().unwrap_or_else(|p| p.into_inner()), cbv, ego);
     for &m in &members {
         if m != cbv.0 {
             sim.set_policy(TrackIndex(m), Box::new(PriorAgent::new(traffic.clone())));

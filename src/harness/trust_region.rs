@@ -84,9 +84,7 @@ pub fn profile_variant(
     let start = stage1.start_step;
     let traffic = PriorTraffic::new(prior, scenario.clone(), map, start, vec![cbv.0], TokenSampling::default(), seed);
     let mut traffic = traffic.lock().unwrap_or_else(|p| p.into_inner());
-    if !method.prior_sees_ego() {
-        traffic.hide_from(cbv.0, ego.0);
-    }
+    super::methods::set_cbv_view(method, &mut traffic, cbv, ego);
     let forecast = BackgroundForecast { recording: Some(scenario), not_replayed: &[cbv.0] };
     let approach = Adversary::approach_tokens(seed, cbv);
     let region = super::methods::trust_region_of(method, request.trust_region);
