@@ -15,7 +15,9 @@
 # comma-separated, are passed to train.py as they are. Shards written
 # elsewhere are the same (the dataset is deterministic), so the runs come
 # back to `training/prior/export.py --run OUT/NAME --train-data /tmp/shards`.
-# SHARDS=DIR trains on shards already written there instead (BINARY and
+# PACK=1 packs each finished run's folder into `OUT/NAME.tar` (and removes
+# the folder), for a device runner that returns only a few files per
+# command. SHARDS=DIR trains on shards already written there instead (BINARY and
 # NGSIM are then not read); DEVICE=cpu runs the same plumbing without a GPU
 # (a smoke test, with random shards from make_random_shards.py).
 #
@@ -23,7 +25,7 @@
 #   STEPS=13296 training/prior/gpu_run.sh safer.xz ngsim.tar.xz $OUT long:differential long-plain:plain
 set -u
 if [ $# -lt 4 ]; then
-  sed -n 2,24p "$0" >&2
+  sed -n 2,25p "$0" >&2
   exit 2
 fi
 binary=$1 ngsim=$2 out=$3
@@ -69,6 +71,9 @@ for spec in "$@"; do
   name=${spec%%:*}
   say "== $name"
   tail -2 "$out/$name/train.log" | tee -a "$log"
+  if [ -n "${PACK:-}" ]; then
+    tar cf "$out/$name.tar" -C "$out" "$name" && rm -r "${out:?}/$name"
+  fi
 done
 say "done after $(( $(date +%s) - t0 )) s"
 exit $status
