@@ -174,6 +174,12 @@ enum Command {
         /// Score at most this many scenes (at least 1).
         #[arg(long, value_name = "N", value_parser = at_least_one())]
         max_scenes: Option<usize>,
+        /// The prior policies draw each token among this many most likely ones (default 10), from 1 to the vocabulary size.
+        #[arg(long, value_name = "K", value_parser = RangedU64ValueParser::<usize>::new().range(1..=VOCABULARY_SIZE as u64))]
+        top_k: Option<usize>,
+        /// Softmax temperature of the prior policies' draw (default 1: the model's distribution; lower is greedier), positive and finite.
+        #[arg(long, value_parser = positive_finite)]
+        temperature: Option<f64>,
     },
     /// How well the realism prior predicts recorded driving: NLL, top-1 and how often the recorded token is in the top n, at every token boundary of every moving vehicle, with the history ending at the boundary (as in closed loop) and one step late (a probe of whether the prior reads the start of the token it predicts).
     PriorFit {
@@ -498,8 +504,10 @@ pub fn main() -> ExitCode {
                 set_jobs(jobs).and_then(|()| run::run(&suites, outputs, filter.as_deref(), budget))
             }
         }
-        Command::Realism { scenes, rollouts, json, policy, seed, max_scenes } => {
-            realism::run(&realism::RealismArgs { scenes, rollouts, json, policy, seed, max_scenes })
+        Command::Realism { scenes, rollouts, json, policy, seed, max_scenes, top_k, temperature } => {
+            realism::sampling_for(policy, top_k, temperature).and_then(|sampling| {
+                realism::run(&realism::RealismArgs { scenes, rollouts, json, policy, seed, max_scenes, sampling })
+            })
         }
         Command::PriorFit { scenes, top_n, min_speed_mps, prior, max_scenes, json } => {
             prior_fit::run(&prior_fit::PriorFitArgs { scenes, top_n, min_speed_mps, variant: prior, max_scenes, json })

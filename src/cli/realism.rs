@@ -92,6 +92,27 @@ pub struct RealismArgs {
     pub seed: u64,
     /// Score at most this many scenes (the first by file path, then id).
     pub max_scenes: Option<usize>,
+    /// How the prior policies draw their tokens.
+    pub sampling: TokenSampling,
+}
+
+/// The token sampling of `policy` from the command line's `--top-k` and
+/// `--temperature`: the defaults where they are not given, and an error
+/// where they are given to a policy that draws no tokens (they would be
+/// silently ignored).
+pub fn sampling_for(
+    policy: RealismPolicy,
+    top_k: Option<usize>,
+    temperature: Option<f64>,
+) -> Result<TokenSampling, CliError> {
+    if policy.prior_variant().is_none() && (top_k.is_some() || temperature.is_some()) {
+        return Err(CliError::Usage(format!(
+            "--top-k and --temperature apply to the prior policies (prior, prior-plain), not to `{}`",
+            serde_json::to_value(policy).ok().and_then(|v| v.as_str().map(str::to_owned)).unwrap_or_default()
+        )));
+    }
+    let default = TokenSampling::default();
+    Ok(TokenSampling { top_k: top_k.unwrap_or(default.top_k), temperature: temperature.unwrap_or(default.temperature) })
 }
 
 /// A scene that was not scored, and why.
@@ -107,6 +128,10 @@ struct Skipped {
 #[derive(Debug, Serialize)]
 struct Report<'a> {
     policy: RealismPolicy,
+    /// The prior policies' draw: among the `top_k` likeliest tokens at
+    /// `temperature` (absent for the other policies).
+    top_k: Option<usize>,
+    temperature: Option<f64>,
     rollouts: usize,
     seed: u64,
     window_rule: &'static str,
@@ -154,7 +179,7 @@ fn score_one(
                         map.clone(),
                         start,
                         members.clone(),
-                        TokenSampling::default(),
+                        args.sampling,
                         seed,
                     )
                 })
@@ -261,8 +286,11 @@ pub(super) fn run(args: &RealismArgs) -> Result<ExitCode, CliError> {
     print_table(&mut table, args, &by_format, &overall, &skipped, mean_scene_s, wall_s)?;
     table.flush()?;
     if let Some(out) = &args.json {
+        let draws = args.policy.prior_variant().is_some();
         let report = Report {
             policy: args.policy,
+            top_k: draws.then_some(args.sampling.top_k),
+            temperature: draws.then_some(args.sampling.temperature),
             rollouts: args.rollouts,
             seed: args.seed,
             window_rule: WINDOW_RULE,
@@ -287,6 +315,14 @@ fn write_json(path: &Path, report: &Report<'_>) -> Result<(), CliError> {
     Ok(())
 }
 
+/// The prior's sampling for the table's title where it is not the default.
+fn sampling_note(args: &RealismArgs) -> String {
+    if args.policy.prior_variant().is_none() || args.sampling == TokenSampling::default() {
+        return String::new();
+    }
+    format!(" (top-{}, temperature {})", args.sampling.top_k, args.sampling.temperature)
+}
+
 /// The human-readable table (on stdout, or stderr when the JSON report
 /// takes stdout); scenes that failed go to stderr.
 fn print_table(
@@ -301,8 +337,9 @@ fn print_table(
     let policy = serde_json::to_value(args.policy).ok().and_then(|v| v.as_str().map(str::to_string));
     writeln!(
         out,
-        "WOSAC 2025 realism, policy {}, {} rollouts per scene, seed {}",
+        "WOSAC 2025 realism, policy {}{}, {} rollouts per scene, seed {}",
         policy.as_deref().unwrap_or("?"),
+        sampling_note(args),
         args.rollouts,
         args.seed
     )?;

@@ -125,3 +125,39 @@ fn cli_realism_writes_a_sorted_json_report() {
     sorted.sort();
     assert_eq!(ids, sorted, "results are sorted by scenario id");
 }
+
+#[test]
+fn cli_realism_draws_the_prior_as_asked_and_refuses_sampling_for_other_policies() {
+    let scene = files("womd-json", "json").into_iter().next().expect("a WOMD JSON scene");
+    let scratch = crate::scratch::Scratch::new("realism-sampling");
+    let out_file = scratch.join("report.json");
+    let run = |extra: &[&str]| {
+        let out = Command::new(env!("CARGO_BIN_EXE_safer"))
+            .args(["realism", "--scenes", scene.to_str().unwrap(), "--rollouts", "3"])
+            .args(["--json", out_file.to_str().unwrap()])
+            .args(extra)
+            .output()
+            .expect("run safer");
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&out_file).unwrap()).unwrap();
+        (String::from_utf8_lossy(&out.stdout).into_owned(), v)
+    };
+    // The default draw: among the ten likeliest tokens, so the rollouts differ.
+    let (text, v) = run(&[]);
+    assert_eq!((v["top_k"].as_u64(), v["temperature"].as_f64()), (Some(10), Some(1.0)));
+    assert!(!text.contains("top-"), "the default draw is not announced: {text}");
+    assert!(v["scenes"][0]["distinct_rollouts"].as_u64().unwrap() > 1, "{}", v["scenes"][0]);
+    // The likeliest token only: every rollout is the same.
+    let (text, v) = run(&["--top-k", "1", "--temperature", "0.5"]);
+    assert_eq!((v["top_k"].as_u64(), v["temperature"].as_f64()), (Some(1), Some(0.5)));
+    assert!(text.contains("policy prior (top-1, temperature 0.5)"), "{text}");
+    assert_eq!(v["scenes"][0]["distinct_rollouts"].as_u64(), Some(1), "{}", v["scenes"][0]);
+    // A policy that draws no tokens would ignore them: refused, naming them.
+    let out = Command::new(env!("CARGO_BIN_EXE_safer"))
+        .args(["realism", "--scenes", scene.to_str().unwrap(), "--policy", "idm", "--top-k", "5"])
+        .output()
+        .expect("run safer");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "accepted: {stderr}");
+    assert!(stderr.contains("--top-k") && stderr.contains("idm"), "{stderr}");
+}

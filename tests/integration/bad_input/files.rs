@@ -99,12 +99,15 @@ fn json_onto_a_folder_is_refused_before_the_run() {
 fn bad_numbers_are_refused_naming_the_flag_and_the_range() {
     let dir = temp_dir("numbers");
     let scenes = dir.to_str().unwrap();
-    let cases: [(&[&str], &str); 7] = [
+    let cases: [(&[&str], &str); 10] = [
         (&["evaluate", "--scenes", scenes, "--seeds", "0"], "--seeds"),
         (&["evaluate", "--scenes", scenes, "--horizon-s", "nan"], "--horizon-s"),
         (&["evaluate", "--scenes", scenes, "--horizon-s", "-1"], "--horizon-s"),
         (&["evaluate", "--scenes", scenes, "--trust-region", "0"], "--trust-region"),
         (&["realism", "--scenes", scenes, "--rollouts", "0"], "--rollouts"),
+        (&["realism", "--scenes", scenes, "--top-k", "0"], "--top-k"),
+        (&["realism", "--scenes", scenes, "--temperature", "0"], "--temperature"),
+        (&["realism", "--scenes", scenes, "--temperature", "nan"], "--temperature"),
         (&["bench", "--repeat", "0"], "--repeat"),
         (&["prior-dataset", "--shard-size", "0"], "--shard-size"),
     ];
