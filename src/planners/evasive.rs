@@ -152,6 +152,8 @@ pub struct EvasivePlanner {
     /// The predictions' storage, kept from one plan to the next (it is
     /// refilled every step; only the allocations are reused).
     predictions: Vec<BoxSet>,
+    /// The standing agents' boxes (one set for every step), the same way.
+    standing: BoxSet,
     /// The agents as seen at the last few plans (up to
     /// [`TURNING_PREDICTION_WINDOW_S`] back), and when, oldest first.
     seen: std::collections::VecDeque<(f64, SeenAgents)>,
@@ -160,7 +162,14 @@ pub struct EvasivePlanner {
 impl EvasivePlanner {
     /// A planner with these parameters.
     pub fn new(params: EvasiveParams) -> Self {
-        Self { params, route: None, desired_speed_mps: None, predictions: Vec::new(), seen: Default::default() }
+        Self {
+            params,
+            route: None,
+            desired_speed_mps: None,
+            predictions: Vec::new(),
+            standing: BoxSet::default(),
+            seen: Default::default(),
+        }
     }
 
     /// The turn rate (rad/s) and acceleration (m/s²) `agent` showed over
@@ -278,13 +287,19 @@ impl Planner for EvasivePlanner {
         // set per step (`predictions[k]`: after k + 1 steps). A box that no
         // candidate's ego box or headway zone can reach by then is left out
         // of that step's set: it could not touch either, so every answer
-        // stays the same.
+        // stays the same. An agent that stands (a velocity of exactly zero:
+        // most of a car park) has the same box at every step, so those
+        // boxes go into one set for the whole horizon (`standing`) instead
+        // of into every step's: the sets are only asked whether any box
+        // touches, and that answer is the same for the union.
         let near: Vec<_> = obs
             .agents
             .iter()
             .filter(|a| (a.state.position - ego.position).norm() < PREDICTION_RANGE_M)
             .map(|a| (a, a.state.heading_rad.sin_cos(), 0.5 * a.length_m.hypot(a.width_m)))
             .collect();
+        let stands =
+            |a: &crate::planners::PerceivedAgent| a.state.velocity_mps.x == 0.0 && a.state.velocity_mps.y == 0.0;
         // The turning predictions: each near agent's states over the
         // horizon at the turn rate and acceleration it showed.
         if obs.time_s == 0.0 {
@@ -319,6 +334,9 @@ impl Planner for EvasivePlanner {
         let (mut speed_bound_mps, mut travel_m) = (start_speed_mps.max(0.0), 0.0);
         let mut predictions = std::mem::take(&mut self.predictions);
         predictions.resize_with(steps, BoxSet::default);
+        // The reach at the horizon, the largest (it grows step by step): a
+        // standing box beyond it is beyond every step's.
+        let mut horizon_reach_m = f64::NAN;
         for (set, k) in predictions.iter_mut().zip(1..) {
             let t = k as f64 * SIM_DT_S;
             speed_bound_mps = (speed_bound_mps + max_accel_mps2 * SIM_DT_S).min(speed_cap_mps);
@@ -326,10 +344,11 @@ impl Planner for EvasivePlanner {
             let headway_m = (HEADWAY_S * speed_bound_mps).max(3.0);
             let zone_reach_m = 0.5 * (len + headway_m) + 0.5 * headway_m.hypot(wid);
             let reach_m = travel_m + ego_radius_m.max(zone_reach_m) + REACH_SLACK_M;
+            horizon_reach_m = reach_m;
             let reachable = |position: crate::geometry::Point2, radius_m: f64| {
                 (position - ego.position).norm_squared() <= (reach_m + radius_m).powi(2)
             };
-            let constant_velocity = near.iter().filter_map(|&(a, sin_cos, radius_m)| {
+            let constant_velocity = near.iter().filter(|(a, _, _)| !stands(a)).filter_map(|&(a, sin_cos, radius_m)| {
                 let position = a.state.position + a.state.velocity_mps * t;
                 let pose = Pose2 { position, heading_rad: a.state.heading_rad };
                 reachable(position, radius_m).then(|| (OrientedBox::new(pose, a.length_m, a.width_m), sin_cos))
@@ -343,6 +362,14 @@ impl Planner for EvasivePlanner {
             });
             set.refill_with_sin_cos(constant_velocity.chain(turning_boxes));
         }
+        let mut standing = std::mem::take(&mut self.standing);
+        standing.refill_with_sin_cos(near.iter().filter(|(a, _, _)| stands(a)).filter_map(
+            |&(a, sin_cos, radius_m)| {
+                let reachable =
+                    (a.state.position - ego.position).norm_squared() <= (horizon_reach_m + radius_m).powi(2);
+                reachable.then(|| (OrientedBox::new(a.state.pose(), a.length_m, a.width_m), sin_cos))
+            },
+        ));
         // The first red stop line ahead on the route, as an arc length.
         let here = route.path.project(&ego.position).map_or(0.0, |p| p.arc_length_m);
         let red_stop_s = route
@@ -359,6 +386,7 @@ impl Planner for EvasivePlanner {
             obs,
             route,
             predictions: &predictions,
+            standing: &standing,
             red_stop_s,
             start_s: here,
             v_des,
@@ -400,6 +428,7 @@ impl Planner for EvasivePlanner {
             }
         }
         self.predictions = predictions;
+        self.standing = standing;
         let (best, _) = best.ok_or_else(|| PlannerError::InvalidOutput("no candidates configured".into()))?;
         Ok(PlannerOutput::Control(best.first))
     }
@@ -409,8 +438,10 @@ impl Planner for EvasivePlanner {
 struct PlanContext<'a> {
     obs: &'a Observation<'a>,
     route: &'a Route,
-    /// `predictions[k]`: the other agents after k + 1 steps.
+    /// `predictions[k]`: the moving agents after k + 1 steps.
     predictions: &'a [BoxSet],
+    /// The standing agents, at every step.
+    standing: &'a BoxSet,
     /// The first red stop line ahead on the route, as an arc length.
     red_stop_s: Option<f64>,
     /// The ego's arc length on the route at the start.
@@ -479,7 +510,10 @@ impl EvasivePlanner {
             let (next, sin_cos) = kinematic_step_with_sin_cos(&s, action, SIM_DT_S);
             s = next;
             let ego_box = OrientedBox::new(Pose2 { position: s.position, heading_rad: s.heading_rad }, len, wid);
-            if others.any_intersects_with_sin_cos(&ego_box, sin_cos) {
+            let touches = |b: &OrientedBox| {
+                others.any_intersects_with_sin_cos(b, sin_cos) || ctx.standing.any_intersects_with_sin_cos(b, sin_cos)
+            };
+            if touches(&ego_box) {
                 // Earlier collisions are worse; this dominates every other term.
                 cost += COLLISION_COST * (2.0 - k as f64 / steps as f64);
                 break;
@@ -492,7 +526,7 @@ impl EvasivePlanner {
                 headway_m,
                 wid,
             );
-            if others.any_intersects_with_sin_cos(&zone, sin_cos) {
+            if touches(&zone) {
                 cost += HEADWAY_COST;
             }
             if let Some(stop) = ctx.red_stop_s
