@@ -20,6 +20,7 @@ use serde::Serialize;
 
 use super::{CliError, scene_paths};
 use safer::eval::realism::{RealismAggregate, RealismConfig, RealismWindow, ScenarioRealism, score_scenario};
+use safer::harness::evaluation::held_out_scenes;
 use safer::harness::variant::variant_seed;
 use safer::models::prior::{PriorVariant, RealismPrior};
 use safer::policies::prior_sampling::{
@@ -115,6 +116,16 @@ pub fn sampling_for(
     Ok(TokenSampling { top_k: top_k.unwrap_or(default.top_k), temperature: temperature.unwrap_or(default.temperature) })
 }
 
+/// The aggregates of the held-out scenes (every tenth by id) and of the
+/// rest.
+#[derive(Debug, Serialize)]
+struct HeldOutRealism {
+    /// How many scenes were held out (scored or not).
+    held_out_scenes: usize,
+    held_out: RealismAggregate,
+    rest: RealismAggregate,
+}
+
 /// A scene that was not scored, and why.
 #[derive(Debug, Clone, Serialize)]
 struct Skipped {
@@ -138,6 +149,7 @@ struct Report<'a> {
     config: &'a RealismConfig,
     overall: RealismAggregate,
     by_format: BTreeMap<SourceFormat, RealismAggregate>,
+    held_out: HeldOutRealism,
     scenes: &'a [ScenarioRealism],
     skipped: &'a [Skipped],
     wall_s: f64,
@@ -282,8 +294,18 @@ pub(super) fn run(args: &RealismArgs) -> Result<ExitCode, CliError> {
     let by_format: BTreeMap<SourceFormat, RealismAggregate> =
         formats.into_iter().map(|(f, rs)| (f, RealismAggregate::mean(rs, &config))).collect();
     let overall = RealismAggregate::mean(&results, &config);
+    // Every tenth scene by id, as `evaluate`, `prior-fit` and
+    // `trust-region` hold out of the same folder.
+    let held_out_ids = held_out_scenes(scenes.iter().map(|(_, s)| s.id.as_str()));
+    let (held, rest): (Vec<&ScenarioRealism>, Vec<&ScenarioRealism>) =
+        results.iter().partition(|r| held_out_ids.contains(&r.scenario_id));
+    let split = HeldOutRealism {
+        held_out_scenes: held_out_ids.len(),
+        held_out: RealismAggregate::mean(held, &config),
+        rest: RealismAggregate::mean(rest, &config),
+    };
     let mut table = super::table_writer(args.json.as_deref());
-    print_table(&mut table, args, &by_format, &overall, &skipped, mean_scene_s, wall_s)?;
+    print_table(&mut table, args, &by_format, &overall, &split, &skipped, mean_scene_s, wall_s)?;
     table.flush()?;
     if let Some(out) = &args.json {
         let draws = args.policy.prior_variant().is_some();
@@ -297,6 +319,7 @@ pub(super) fn run(args: &RealismArgs) -> Result<ExitCode, CliError> {
             config: &config,
             overall,
             by_format,
+            held_out: split,
             scenes: &results,
             skipped: &skipped,
             wall_s,
@@ -330,6 +353,7 @@ fn print_table(
     args: &RealismArgs,
     by_format: &BTreeMap<SourceFormat, RealismAggregate>,
     overall: &RealismAggregate,
+    split: &HeldOutRealism,
     skipped: &[Skipped],
     mean_scene_s: f64,
     wall_s: f64,
@@ -369,6 +393,9 @@ fn print_table(
         row(out, name.as_deref().unwrap_or("?"), a)?;
     }
     row(out, "overall", overall)?;
+    row(out, "held out", &split.held_out)?;
+    row(out, "the rest", &split.rest)?;
+    writeln!(out, "held out: every tenth scene by id ({} scenes)", split.held_out_scenes)?;
     let short = skipped.iter().filter(|s| !s.error).count();
     let failed: Vec<&Skipped> = skipped.iter().filter(|s| s.error).collect();
     if short > 0 {

@@ -161,3 +161,30 @@ fn cli_realism_draws_the_prior_as_asked_and_refuses_sampling_for_other_policies(
     assert!(!out.status.success(), "accepted: {stderr}");
     assert!(stderr.contains("--top-k") && stderr.contains("idm"), "{stderr}");
 }
+
+#[test]
+fn cli_realism_reports_the_held_out_tenth_beside_the_rest() {
+    let dir = data_dir().join("womd-json");
+    let scratch = crate::scratch::Scratch::new("realism-held-out");
+    let out_file = scratch.join("report.json");
+    let out = Command::new(env!("CARGO_BIN_EXE_safer"))
+        .args(["realism", "--scenes", dir.to_str().unwrap(), "--max-scenes", "10", "--rollouts", "1"])
+        .args(["--policy", "constant-velocity", "--json", out_file.to_str().unwrap()])
+        .output()
+        .expect("run safer");
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("held out ") && text.contains("the rest "), "{text}");
+    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&out_file).unwrap()).unwrap();
+    let scenes = v["scenes"].as_array().unwrap();
+    assert_eq!(scenes.len(), 10);
+    // Every tenth scene by id: of ten, the last.
+    let split = &v["held_out"];
+    assert_eq!(split["held_out_scenes"].as_u64(), Some(1), "{split}");
+    assert_eq!(split["held_out"]["scenarios"].as_u64(), Some(1), "{split}");
+    assert_eq!(split["rest"]["scenarios"].as_u64(), Some(9), "{split}");
+    let meta = |s: &serde_json::Value| s["meta_metric"].as_f64().expect("meta metric");
+    assert_eq!(meta(&split["held_out"]), meta(&scenes[9]), "the held-out row is the tenth scene's");
+    let rest_mean = scenes[..9].iter().map(meta).sum::<f64>() / 9.0;
+    assert!((meta(&split["rest"]) - rest_mean).abs() < 1e-9, "{} vs {rest_mean}", meta(&split["rest"]));
+}
