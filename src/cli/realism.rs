@@ -116,6 +116,15 @@ pub fn sampling_for(
     Ok(TokenSampling { top_k: top_k.unwrap_or(default.top_k), temperature: temperature.unwrap_or(default.temperature) })
 }
 
+/// The aggregates a run reports: over all its scenes, per source format,
+/// and held out against the rest.
+#[derive(Debug, Serialize)]
+struct RealismSummary {
+    overall: RealismAggregate,
+    by_format: BTreeMap<SourceFormat, RealismAggregate>,
+    held_out: HeldOutRealism,
+}
+
 /// The aggregates of the held-out scenes (every tenth by id) and of the
 /// rest.
 #[derive(Debug, Serialize)]
@@ -147,9 +156,8 @@ struct Report<'a> {
     seed: u64,
     window_rule: &'static str,
     config: &'a RealismConfig,
-    overall: RealismAggregate,
-    by_format: BTreeMap<SourceFormat, RealismAggregate>,
-    held_out: HeldOutRealism,
+    #[serde(flatten)]
+    summary: RealismSummary,
     scenes: &'a [ScenarioRealism],
     skipped: &'a [Skipped],
     wall_s: f64,
@@ -304,8 +312,9 @@ pub(super) fn run(args: &RealismArgs) -> Result<ExitCode, CliError> {
         held_out: RealismAggregate::mean(held, &config),
         rest: RealismAggregate::mean(rest, &config),
     };
+    let summary = RealismSummary { by_format, overall, held_out: split };
     let mut table = super::table_writer(args.json.as_deref());
-    print_table(&mut table, args, &by_format, &overall, &split, &skipped, mean_scene_s, wall_s)?;
+    print_table(&mut table, args, &summary, &skipped, mean_scene_s, wall_s)?;
     table.flush()?;
     if let Some(out) = &args.json {
         let draws = args.policy.prior_variant().is_some();
@@ -317,9 +326,7 @@ pub(super) fn run(args: &RealismArgs) -> Result<ExitCode, CliError> {
             seed: args.seed,
             window_rule: WINDOW_RULE,
             config: &config,
-            overall,
-            by_format,
-            held_out: split,
+            summary,
             scenes: &results,
             skipped: &skipped,
             wall_s,
@@ -351,9 +358,7 @@ fn sampling_note(args: &RealismArgs) -> String {
 fn print_table(
     out: &mut dyn Write,
     args: &RealismArgs,
-    by_format: &BTreeMap<SourceFormat, RealismAggregate>,
-    overall: &RealismAggregate,
-    split: &HeldOutRealism,
+    summary: &RealismSummary,
     skipped: &[Skipped],
     mean_scene_s: f64,
     wall_s: f64,
@@ -388,14 +393,14 @@ fn print_table(
             cell(a.simulated_offroad_rate, 3),
         )
     };
-    for (format, a) in by_format {
+    for (format, a) in &summary.by_format {
         let name = serde_json::to_value(format).ok().and_then(|v| v.as_str().map(str::to_string));
         row(out, name.as_deref().unwrap_or("?"), a)?;
     }
-    row(out, "overall", overall)?;
-    row(out, "held out", &split.held_out)?;
-    row(out, "the rest", &split.rest)?;
-    writeln!(out, "held out: every tenth scene by id ({} scenes)", split.held_out_scenes)?;
+    row(out, "overall", &summary.overall)?;
+    row(out, "held out", &summary.held_out.held_out)?;
+    row(out, "the rest", &summary.held_out.rest)?;
+    writeln!(out, "held out: every tenth scene by id ({} scenes)", summary.held_out.held_out_scenes)?;
     let short = skipped.iter().filter(|s| !s.error).count();
     let failed: Vec<&Skipped> = skipped.iter().filter(|s| s.error).collect();
     if short > 0 {
