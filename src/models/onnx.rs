@@ -4,10 +4,12 @@
 //! immutable and `Send + Sync`: load once, share it (e.g. in an `Arc`) with
 //! every rayon worker; tract runs each call single-threaded.
 
+use std::cell::RefCell;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use sha2::{Digest, Sha256};
+use thread_local::ThreadLocal;
 use tract_onnx::prelude::*;
 
 use super::card::{DType, Dim, ExpectedContract, ModelCard};
@@ -48,7 +50,14 @@ pub struct OnnxModel {
     graph: Arc<InferenceModel>,
     batch: usize,
     plan: Arc<TypedRunnableModel>,
+    /// Each thread's session of `plan`, kept from run to run: a run on a
+    /// fresh session allocates the intermediate tensors anew. Clones share
+    /// them (they share the plan); dropped with the last clone.
+    sessions: Arc<ThreadLocal<RefCell<TypedSimpleState>>>,
 }
+
+/// A session of an optimised plan.
+type TypedSimpleState = tract_onnx::tract_core::plan::SimpleState<TypedFact, Box<dyn TypedOp>>;
 
 /// Result of replaying a model's golden file.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -129,6 +138,7 @@ impl OnnxModel {
             graph: Arc::new(model),
             batch,
             plan,
+            sessions: Arc::default(),
         })
     }
 
@@ -138,7 +148,7 @@ impl OnnxModel {
     pub fn with_batch(&self, batch: usize) -> Result<Self, ModelError> {
         let plan =
             Self::plan_for(&self.card, &self.card_path(), &self.source.path(&self.card.file), &self.graph, batch)?;
-        Ok(Self { batch, plan, ..self.clone() })
+        Ok(Self { batch, plan, sessions: Arc::default(), ..self.clone() })
     }
 
     /// Fixes the symbolic dimensions of `graph` to `batch`, optimises it and
@@ -204,9 +214,14 @@ impl OnnxModel {
 
     /// Runs the graph on inputs in card order (shapes as fixed at load).
     pub fn run(&self, inputs: TVec<TValue>) -> Result<TVec<TValue>, ModelError> {
-        self.plan
-            .run(inputs)
-            .map_err(|e| ModelError::Inference { model: self.card.name.clone(), message: format!("{e:#}") })
+        let fail = |e: TractError| ModelError::Inference { model: self.card.name.clone(), message: format!("{e:#}") };
+        let session = self.sessions.get_or_try(|| self.plan.spawn().map(RefCell::new)).map_err(fail)?;
+        match session.try_borrow_mut() {
+            Ok(mut session) => session.run(inputs).map_err(fail),
+            // Only a run inside a run on this thread finds it taken: that
+            // one gets a session of its own.
+            Err(_) => self.plan.run(inputs).map_err(fail),
+        }
     }
 
     /// Runs the plan `repeat` times on `inputs` timing every node, and
@@ -339,5 +354,32 @@ impl OnnxModel {
             });
         }
         Ok(replay)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::models::feasibility::FeasibilityValue;
+
+    /// Each thread keeps its session of a plan from run to run: the
+    /// answers must not depend on how many runs a session has made, on
+    /// which thread, or on a clone sharing the sessions.
+    #[test]
+    fn reused_sessions_answer_as_fresh_ones() {
+        let model = FeasibilityValue::load(&ModelSource::shipped()).expect("shipped model").model().clone();
+        let first = model.replay_golden().expect("golden").max_abs_diff;
+        for _ in 0..3 {
+            assert_eq!(model.replay_golden().unwrap().max_abs_diff.to_bits(), first.to_bits());
+        }
+        let clone = model.clone();
+        let elsewhere = std::thread::spawn(move || {
+            (0..3).map(|_| clone.replay_golden().unwrap().max_abs_diff.to_bits()).collect::<Vec<_>>()
+        })
+        .join()
+        .unwrap();
+        assert_eq!(elsewhere, vec![first.to_bits(); 3]);
+        let rebatched = model.with_batch(model.batch()).expect("same batch");
+        assert_eq!(rebatched.replay_golden().unwrap().max_abs_diff.to_bits(), first.to_bits());
     }
 }
