@@ -193,13 +193,14 @@ fn print_table(
     )?;
     writeln!(
         out,
-        "{:<28} {:>7} {:>7} {:>9} {:>12} | {:>7} {:>7} {:>9} {:>12}",
-        "method", "CR", "SR", "witness", "SR-witnessed", "CR", "SR", "witness", "SR-witnessed"
+        "{:<28} {:>7} {:>7} {:>9} {:>12} | {:>7} {:>7} {:>9} {:>12} | {:>13}",
+        "method", "CR", "SR", "witness", "SR-witnessed", "CR", "SR", "witness", "SR-witnessed", "CR by chance"
     )?;
-    for (h, r) in held_out.held_out.iter().zip(&held_out.rest) {
+    for ((h, r), chance) in held_out.held_out.iter().zip(&held_out.rest).zip(&held_out.cr_by_chance) {
+        let chance = chance.map_or("—".to_string(), |[lo, hi]| format!("{lo:.3}–{hi:.3}"));
         writeln!(
             out,
-            "{:<28} {:>7} {:>7} {:>9} {:>12} | {:>7} {:>7} {:>9} {:>12}",
+            "{:<28} {:>7} {:>7} {:>9} {:>12} | {:>7} {:>7} {:>9} {:>12} | {:>13}",
             name(h),
             fmt(h.cr),
             fmt(h.sr),
@@ -208,7 +209,16 @@ fn print_table(
             fmt(r.cr),
             fmt(r.sr),
             fmt(r.witness_rate),
-            fmt(r.sr_witnessed)
+            fmt(r.sr_witnessed),
+            chance
+        )?;
+    }
+    if !held_out.scenes.is_empty() {
+        writeln!(
+            out,
+            "CR by chance: where the CR of {} scenes drawn at random from all {} falls in 95 % of draws",
+            held_out.scenes.len(),
+            held_out.of_scenes
         )?;
     }
     writeln!(out, "\nconflicts at the planner under test (stage 2):")?;

@@ -467,7 +467,14 @@ pub struct HeldOutSplit {
     pub held_out: Vec<MethodRow>,
     /// The table over the other scenes' variants.
     pub rest: Vec<MethodRow>,
+    /// For each row of `held_out`: the range (2.5th to 97.5th percentile)
+    /// of the CR that as many scenes drawn at random from all of them
+    /// give; `None` where nothing is held out or nothing ran.
+    pub cr_by_chance: Vec<Option<[f64; 2]>>,
 }
+
+/// Random draws behind [`HeldOutSplit::cr_by_chance`].
+const CHANCE_DRAWS: usize = 2000;
 
 /// Splits `records` into the held-out scenes and the rest (see
 /// [`HeldOutSplit`]), one row per method of `methods` on each side.
@@ -476,12 +483,60 @@ pub fn held_out_split(records: &[VariantRecord], methods: &[AdversaryMethod]) ->
     let of_scenes = ids.len();
     let held = held_out_scenes(ids);
     let held_out = |r: &VariantRecord| held.contains(r.scenario.as_str());
+    let held_out_rows = table_of(records, methods, held_out);
+    let cr_by_chance = held_out_rows
+        .iter()
+        .map(|row| {
+            let of_row = |r: &VariantRecord| r.method == row.method && r.stage2_cbv == row.stage2_cbv;
+            let scenes_held = records.iter().filter(|r| of_row(r) && held_out(r) && r.error.is_none());
+            let k = scenes_held.map(|r| r.scenario.as_str()).collect::<std::collections::BTreeSet<_>>().len();
+            cr_of_random_scenes(records.iter().filter(|r| of_row(r)), k)
+        })
+        .collect();
     HeldOutSplit {
         scenes: held.iter().cloned().collect(),
         of_scenes,
-        held_out: table_of(records, methods, held_out),
+        held_out: held_out_rows,
         rest: table_of(records, methods, |r| !held_out(r)),
+        cr_by_chance,
     }
+}
+
+/// The 2.5th and 97.5th percentiles of the CR of `k` scenes drawn at
+/// random (without replacement) from those of `records` that ran, over
+/// [`CHANCE_DRAWS`] draws of a fixed seed: how far a held-out CR over `k`
+/// scenes may lie from the rest's by the luck of which scenes it got
+/// (variants of one scene are not independent, so scenes are drawn, not
+/// variants). `None` for `k` of 0 or more than there are scenes.
+fn cr_of_random_scenes<'r>(records: impl Iterator<Item = &'r VariantRecord>, k: usize) -> Option<[f64; 2]> {
+    use rand::{Rng, SeedableRng};
+    // Per scene, in id order: (collisions, variants that ran).
+    let mut per_scene: std::collections::BTreeMap<&str, (usize, usize)> = std::collections::BTreeMap::new();
+    for r in records.filter(|r| r.error.is_none()) {
+        let e = per_scene.entry(r.scenario.as_str()).or_default();
+        e.0 += usize::from(r.tally.critical);
+        e.1 += 1;
+    }
+    let scenes: Vec<(usize, usize)> = per_scene.into_values().collect();
+    if k == 0 || k > scenes.len() {
+        return None;
+    }
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0x5afe_0001);
+    let mut order: Vec<usize> = (0..scenes.len()).collect();
+    let mut crs: Vec<f64> = (0..CHANCE_DRAWS)
+        .map(|_| {
+            // The first k of a partial Fisher–Yates shuffle.
+            for i in 0..k {
+                let j = rng.random_range(i..order.len());
+                order.swap(i, j);
+            }
+            let (hits, n) = order[..k].iter().fold((0, 0), |(h, n), &i| (h + scenes[i].0, n + scenes[i].1));
+            hits as f64 / n as f64
+        })
+        .collect();
+    crs.sort_by(f64::total_cmp);
+    let at = |q: f64| crs[((q * (CHANCE_DRAWS - 1) as f64).round() as usize).min(CHANCE_DRAWS - 1)];
+    Some([at(0.025), at(0.975)])
 }
 
 /// The held-out scenes among `ids`: every tenth by sorted id (the 10th,
@@ -683,5 +738,34 @@ mod tests {
         // Fewer than ten scenes: nothing is held out.
         let few = held_out_split(&records[..9], &[AdversaryMethod::Safer]);
         assert!(few.scenes.is_empty() && few.held_out[0].variants == 0 && few.rest[0].variants == 9);
+        assert_eq!(few.cr_by_chance, [None]);
+        // Two of 25 scenes collide: two scenes at random make a CR of 0,
+        // 0.5 or (rarely: 1 draw in 300) 1.
+        let [lo, hi] = split.cr_by_chance[0].expect("two scenes held out");
+        assert_eq!((lo, hi), (0.0, 0.5));
+    }
+
+    #[test]
+    fn the_cr_by_chance_draws_scenes_not_variants() {
+        // Ten scenes of ten variants: one scene always collides, the others
+        // never. One scene drawn at random makes a CR of 0 or 1, never
+        // between; variants drawn one by one would.
+        let records: Vec<VariantRecord> = (0..10)
+            .flat_map(|i| {
+                (0..10).map(move |seed| {
+                    let mut r = record(&format!("s{i}"), seed, u64::from(seed));
+                    r.tally.critical = i == 3;
+                    r
+                })
+            })
+            .collect();
+        let [lo, hi] = cr_of_random_scenes(records.iter(), 1).unwrap();
+        assert_eq!((lo, hi), (0.0, 1.0));
+        // All ten: the overall CR, every draw.
+        assert_eq!(cr_of_random_scenes(records.iter(), 10), Some([0.1, 0.1]));
+        assert_eq!(cr_of_random_scenes(records.iter(), 11), None);
+        assert_eq!(cr_of_random_scenes(records.iter(), 0), None);
+        // The same draws on any machine: a fixed seed.
+        assert_eq!(cr_of_random_scenes(records.iter(), 3), cr_of_random_scenes(records.iter(), 3));
     }
 }
