@@ -29,6 +29,7 @@ use safer::policies::prior_sampling::{
 use safer::policies::{AgentPolicy, BackgroundPolicy};
 use safer::scenario::{Scenario, SourceFormat, import};
 use safer::sim::traffic::{simulate_all_agents, simulate_rollouts_in_lockstep};
+use safer::spec::spec_name;
 
 /// The rule that picks each scene's window, for the help text and reports.
 pub const WINDOW_RULE: &str = "80 future steps (8 s) from the scene's current step when it has at least \
@@ -109,7 +110,7 @@ pub fn sampling_for(
     if policy.prior_variant().is_none() && (top_k.is_some() || temperature.is_some()) {
         return Err(CliError::Usage(format!(
             "--top-k and --temperature apply to the prior policies (prior, prior-plain), not to `{}`",
-            serde_json::to_value(policy).ok().and_then(|v| v.as_str().map(str::to_owned)).unwrap_or_default()
+            spec_name(&policy)
         )));
     }
     let default = TokenSampling::default();

@@ -256,6 +256,13 @@ fn road_bounded_turn(
     states
 }
 
+/// Whether a box of bounding radius `radius_m` centred at `position` is
+/// within `reach_m` of the ego's position: the one test both the per-step
+/// sets and the standing set filter their boxes by.
+fn within_reach(position: crate::geometry::Point2, ego: &AgentState, reach_m: f64, radius_m: f64) -> bool {
+    (position - ego.position).norm_squared() <= (reach_m + radius_m).powi(2)
+}
+
 /// One candidate's rollout and its cost.
 struct Candidate {
     first: Action,
@@ -345,9 +352,8 @@ impl Planner for EvasivePlanner {
             let zone_reach_m = 0.5 * (len + headway_m) + 0.5 * headway_m.hypot(wid);
             let reach_m = travel_m + ego_radius_m.max(zone_reach_m) + REACH_SLACK_M;
             horizon_reach_m = reach_m;
-            let reachable = |position: crate::geometry::Point2, radius_m: f64| {
-                (position - ego.position).norm_squared() <= (reach_m + radius_m).powi(2)
-            };
+            let reachable =
+                |position: crate::geometry::Point2, radius_m: f64| within_reach(position, &ego, reach_m, radius_m);
             let constant_velocity = near.iter().filter(|(a, _, _)| !stands(a)).filter_map(|&(a, sin_cos, radius_m)| {
                 let position = a.state.position + a.state.velocity_mps * t;
                 let pose = Pose2 { position, heading_rad: a.state.heading_rad };
@@ -363,13 +369,13 @@ impl Planner for EvasivePlanner {
             set.refill_with_sin_cos(constant_velocity.chain(turning_boxes));
         }
         let mut standing = std::mem::take(&mut self.standing);
-        standing.refill_with_sin_cos(near.iter().filter(|(a, _, _)| stands(a)).filter_map(
-            |&(a, sin_cos, radius_m)| {
-                let reachable =
-                    (a.state.position - ego.position).norm_squared() <= (horizon_reach_m + radius_m).powi(2);
-                reachable.then(|| (OrientedBox::new(a.state.pose(), a.length_m, a.width_m), sin_cos))
-            },
-        ));
+        standing.refill_with_sin_cos(
+            near.iter()
+                .filter(|&&(a, _, radius_m)| {
+                    stands(a) && within_reach(a.state.position, &ego, horizon_reach_m, radius_m)
+                })
+                .map(|&(a, sin_cos, _)| (OrientedBox::new(a.state.pose(), a.length_m, a.width_m), sin_cos)),
+        );
         // The first red stop line ahead on the route, as an arc length.
         let here = route.path.project(&ego.position).map_or(0.0, |p| p.arc_length_m);
         let red_stop_s = route
