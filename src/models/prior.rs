@@ -62,8 +62,10 @@ pub struct MapEmbedding {
     pub d: usize,
 }
 
-/// Per-token logits of one query.
-pub type TokenLogits = Vec<f32>;
+/// Per-token logits of one query ([`VOCABULARY_SIZE`] values). Shared, not
+/// copied: a rollout batch decodes thousands of queries per token
+/// boundary, and each is read by its agent, the adversary and profilers.
+pub type TokenLogits = Arc<[f32]>;
 
 /// The loaded prior.
 #[derive(Debug, Clone)]
@@ -263,7 +265,7 @@ impl RealismPrior {
                 &copied
             }
         };
-        Ok((0..chunk.len()).map(|q| logits[q * VOCABULARY_SIZE..(q + 1) * VOCABULARY_SIZE].to_vec()).collect())
+        Ok((0..chunk.len()).map(|q| TokenLogits::from(&logits[q * VOCABULARY_SIZE..(q + 1) * VOCABULARY_SIZE])).collect())
     }
 
     fn batch_inputs(
