@@ -367,6 +367,7 @@ fn bench_variant(scenes: &[Scenario], repeat: usize) -> Result<Option<VariantBen
             trust_region: 20,
             background: BackgroundDriver::Configured,
             sampling: TokenSampling::default(),
+            approach: safer::policies::adversary::ApproachPhase::default(),
         },
         seed: safer::harness::variant::variant_seed(0, &format!("{}/{method:?}", scenario.id), 0),
         sim: &sim,

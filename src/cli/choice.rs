@@ -30,6 +30,7 @@ mod tests {
         for all in [
             AdversaryMethod::ALL.iter().map(name_of).collect::<Vec<_>>(),
             safer::spec::suite::Stage2Cbv::ALL.iter().map(name_of).collect(),
+            safer::policies::adversary::ApproachPhase::ALL.iter().map(name_of).collect(),
             safer::spec::SpecKind::ALL.iter().map(name_of).collect(),
             safer::harness::methods::BackgroundDriver::ALL.iter().map(name_of).collect(),
             safer::policies::BackgroundPolicy::ALL.iter().map(name_of).collect(),

@@ -24,6 +24,7 @@ use safer::harness::evaluation::{
 };
 use safer::harness::methods::BackgroundDriver;
 use safer::harness::methods::ModelSet;
+use safer::policies::adversary::ApproachPhase;
 use safer::scenario::{Scenario, import};
 use safer::spec::suite::AdversaryMethod;
 
@@ -91,6 +92,9 @@ pub(super) struct EvaluationSettings {
     /// The stage-2 planner's name.
     planner: String,
     trust_region: usize,
+    /// Reports written before the option existed had the seeded phase.
+    #[serde(default)]
+    approach: ApproachPhase,
     background: BackgroundDriver,
     stage2_cbv: Vec<Stage2Cbv>,
     horizon_s: f64,
@@ -106,6 +110,7 @@ impl EvaluationSettings {
             base_seed: request.base_seed,
             planner: request.planner.name().to_string(),
             trust_region: request.trust_region,
+            approach: request.approach,
             background: request.background,
             stage2_cbv: request.stage2_cbv.clone(),
             horizon_s: request.horizon_s,
@@ -129,12 +134,16 @@ fn print_table(
     let name = |r: &MethodRow| label(r.method, r.stage2_cbv, modes);
     writeln!(
         out,
-        "{scenes} scenes × {} seeds; stage 2 planner `{}`, stage-2 CBV {}, trust region n = {}, horizon {} s{}{}",
+        "{scenes} scenes × {} seeds; stage 2 planner `{}`, stage-2 CBV {}, trust region n = {}, horizon {} s{}{}{}",
         request.seeds,
         request.planner,
         request.stage2_cbv.iter().map(safer::spec::spec_name).collect::<Vec<_>>().join(" and "),
         request.trust_region,
         request.horizon_s,
+        match request.approach {
+            ApproachPhase::Seeded => "",
+            ApproachPhase::None => "; no approach phase (the adversary engages at the first token)",
+        },
         match witness.road {
             RoadKeeping::Centre => "",
             RoadKeeping::WholeWidth => "; the witness keeps its whole width on the road",

@@ -47,6 +47,7 @@ use safer::models::ModelError;
 use safer::motion::tokens::VOCABULARY_SIZE;
 use safer::planners::BuiltinPlanner;
 use safer::policies::BackgroundPolicy;
+use safer::policies::adversary::ApproachPhase;
 use safer::record::RecordError;
 use safer::scenario::import::ImportError;
 use safer::sim::SimError;
@@ -255,6 +256,9 @@ enum Command {
         /// Who drives the background agents.
         #[arg(long, value_parser = choice(BackgroundDriver::ALL), default_value = "configured")]
         background: BackgroundDriver,
+        /// The approach phase of the SaFeR methods: `seeded`, the prior drives the CBV for 1-4 tokens drawn from the variant's seed before the adversary engages, so that seeds differ; `none`, the adversary engages at the first token (the paper's protocol: with the background on log replay every seed of a scene gives the same variant).
+        #[arg(long, value_parser = choice(ApproachPhase::ALL), default_value = "seeded")]
+        approach_phase: ApproachPhase,
         /// The CBV in stage 2: replaying its stage-1 trajectory (the paper's protocol), or driven by the method again against the planner's ego (closed-loop); `replay,closed-loop` reports both side by side.
         #[arg(long, value_parser = choice(Stage2Cbv::ALL), value_delimiter = ',', default_values = ["replay"])]
         stage2_cbv: Vec<Stage2Cbv>,
@@ -530,6 +534,7 @@ pub fn main() -> ExitCode {
             planner,
             trust_region,
             background,
+            approach_phase,
             stage2_cbv,
             horizon_s,
             max_scenes,
@@ -550,6 +555,7 @@ pub fn main() -> ExitCode {
                 base_seed: seed,
                 planner,
                 trust_region,
+                approach: approach_phase,
                 background,
                 stage2_cbv,
                 escape: Some(escape),
@@ -569,6 +575,7 @@ pub fn main() -> ExitCode {
                 // Stage 2 is not run.
                 planner: PlannerAdapter::builtin(BuiltinPlanner::LogReplay),
                 trust_region,
+                approach: ApproachPhase::Seeded,
                 background: BackgroundDriver::Configured,
                 stage2_cbv: vec![Stage2Cbv::Replay],
                 escape: None,

@@ -406,6 +406,7 @@ pub fn run_episode(
                 trust_region: 20,
                 background: BackgroundDriver::Configured,
                 sampling: TokenSampling::default(),
+                approach: crate::policies::adversary::ApproachPhase::default(),
             };
             crate::harness::methods::install(&mut sim, s, cbv, start, settings, models, maps, seed).ok()?;
             let mut planner = episode.ego_planner.instantiate(s, ego);

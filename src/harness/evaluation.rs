@@ -32,6 +32,7 @@ use super::variant::variant_seed;
 use super::variant::{CollisionEscape, VariantOutcome};
 use crate::eval::escape::EscapeBudget;
 use crate::policies::BackgroundPolicy;
+use crate::policies::adversary::ApproachPhase;
 use crate::policies::prior_sampling::TokenSampling;
 use crate::scenario::Scenario;
 use crate::sim::{Rollout, SimConfig};
@@ -51,6 +52,9 @@ pub struct EvaluationRequest {
     pub planner: PlannerAdapter,
     /// Trust-region size n.
     pub trust_region: usize,
+    /// Whether the prior drives the CBV for a while before the adversary
+    /// engages (seeded, the default) or not at all (the paper's protocol).
+    pub approach: ApproachPhase,
     /// Who drives the background agents.
     pub background: BackgroundDriver,
     /// Stage-2 CBV modes, each a row per method (replay: the paper's
@@ -326,6 +330,7 @@ fn run_one(
             trust_region: request.trust_region,
             background: request.background,
             sampling: TokenSampling::default(),
+            approach: request.approach,
         },
         seed,
         sim: &sim,

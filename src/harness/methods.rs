@@ -12,7 +12,7 @@ use super::HarnessError;
 use crate::models::prior::{PriorVariant, RealismPrior};
 use crate::models::{ModelError, ModelSource};
 use crate::policies::LogReplay;
-use crate::policies::adversary::{Adversary, FeasibilityOracle, LOOKAHEAD_TOKENS, Search, TrustRegion};
+use crate::policies::adversary::{Adversary, ApproachPhase, FeasibilityOracle, LOOKAHEAD_TOKENS, Search, TrustRegion};
 use crate::policies::prior_sampling::{PriorAgent, PriorTraffic, ScenarioMapEncoding, TokenSampling, TrafficTimings};
 use crate::scenario::{Scenario, TrackIndex};
 use crate::sim::Simulation;
@@ -127,6 +127,9 @@ pub struct MethodSettings {
     pub background: BackgroundDriver,
     /// How the prior's tokens are drawn (for `prior` and a prior-driven background).
     pub sampling: TokenSampling,
+    /// Whether the prior drives the CBV for a while before the adversary
+    /// engages (the SaFeR methods).
+    pub approach: ApproachPhase,
 }
 
 /// The trust region `method` searches, for a region of `n`.
@@ -189,7 +192,9 @@ pub fn install(
     let feasibility =
         || models.feasibility.clone().map_err(|source| HarnessError::Model { method: settings.method, source });
     let search = Search::one_step(trust_region_of(settings.method, settings.trust_region));
-    let adversary = |search, feasibility| Box::new(Adversary::new(traffic.clone(), ego, search, feasibility));
+    let adversary = |search, feasibility| {
+        Box::new(Adversary::new(traffic.clone(), ego, search, feasibility).with_approach(settings.approach))
+    };
     match settings.method {
         AdversaryMethod::Log => sim.set_policy(cbv, Box::new(LogReplay::new(scenario.track(cbv).clone()))),
         AdversaryMethod::Prior => sim.set_policy(cbv, Box::new(PriorAgent::new(traffic.clone()))),

@@ -18,9 +18,7 @@ use super::methods::{MapEncodings, ModelSet};
 use super::pipeline;
 use crate::motion::tokens::TOKEN_PERIOD_STEPS;
 use crate::policies::WorldView;
-use crate::policies::adversary::{
-    Adversary, BackgroundForecast, TrustRegionProfile, profile_trust_region, rank_of_driven_token,
-};
+use crate::policies::adversary::{BackgroundForecast, TrustRegionProfile, profile_trust_region, rank_of_driven_token};
 use crate::policies::prior_sampling::{PriorTraffic, TokenSampling};
 use crate::scenario::Scenario;
 use crate::spec::suite::AdversaryMethod;
@@ -66,6 +64,7 @@ pub fn profile_variant(
             trust_region: request.trust_region,
             background: request.background,
             sampling: TokenSampling::default(),
+            approach: request.approach,
         },
         seed,
         sim: &sim,
@@ -86,7 +85,7 @@ pub fn profile_variant(
     let mut traffic = traffic.lock().unwrap_or_else(|p| p.into_inner());
     super::methods::set_cbv_view(method, &mut traffic, cbv, ego);
     let forecast = BackgroundForecast { recording: Some(scenario), not_replayed: &[cbv.0] };
-    let approach = Adversary::approach_tokens(seed, cbv);
+    let approach = request.approach.tokens(seed, cbv);
     let region = super::methods::trust_region_of(method, request.trust_region);
     let mut profiles = Vec::new();
     for (k, states) in stage1.states.iter().enumerate() {

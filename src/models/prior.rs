@@ -265,7 +265,9 @@ impl RealismPrior {
                 &copied
             }
         };
-        Ok((0..chunk.len()).map(|q| TokenLogits::from(&logits[q * VOCABULARY_SIZE..(q + 1) * VOCABULARY_SIZE])).collect())
+        Ok((0..chunk.len())
+            .map(|q| TokenLogits::from(&logits[q * VOCABULARY_SIZE..(q + 1) * VOCABULARY_SIZE]))
+            .collect())
     }
 
     fn batch_inputs(

@@ -29,6 +29,7 @@ fn request(methods: Vec<AdversaryMethod>, seeds: u32) -> EvaluationRequest {
         base_seed: 7,
         planner: safer::spec::planner::PlannerAdapter::builtin(BuiltinPlanner::Evasive),
         trust_region: 20,
+        approach: safer::policies::adversary::ApproachPhase::Seeded,
         background: BackgroundDriver::Configured,
         stage2_cbv: vec![Stage2Cbv::Replay],
         escape: None,
@@ -68,6 +69,27 @@ fn the_adversary_brings_the_cbv_closer_than_the_log() {
     let rows = table(&records, &req.methods);
     // The log CBV reproduces its recording: no divergence from itself.
     assert_eq!(rows[0].vj, Some(0.0));
+}
+
+/// Without an approach phase (the paper's protocol) the adversary chooses
+/// from the first token, and with the background on log replay its arg
+/// min gives every seed of a scene the same variant.
+#[test]
+fn without_an_approach_phase_every_seed_gives_the_same_variant() {
+    let scenes = scenes();
+    let req = EvaluationRequest {
+        approach: safer::policies::adversary::ApproachPhase::None,
+        ..request(vec![AdversaryMethod::Safer], 2)
+    };
+    let records = evaluate(&scenes, &req, &ModelSet::shipped(), None, &|| {});
+    assert!(records.iter().all(|r| r.error.is_none()), "{:?}", records.iter().find(|r| r.error.is_some()));
+    let rows = table(&records, &req.methods);
+    assert_eq!(rows[0].distinct_rate, Some(0.5), "2 seeds, one path per scene");
+    for scene in &scenes {
+        let gaps: Vec<_> = records.iter().filter(|r| r.scenario == scene.id).map(|r| r.stage1_min_gap_m).collect();
+        assert_eq!(gaps.len(), 2);
+        assert_eq!(gaps[0], gaps[1], "{}", scene.id);
+    }
 }
 
 /// SaFeR's aim, CR(safer) ≥ 1.5 × CR(prior), on the first 12 WOMD
@@ -187,6 +209,7 @@ fn seeds_give_distinct_safer_variants() {
                         trust_region: 20,
                         background: BackgroundDriver::Configured,
                         sampling: TokenSampling::default(),
+                        approach: safer::policies::adversary::ApproachPhase::default(),
                     },
                     seed,
                     sim: &sim,

@@ -114,6 +114,7 @@ fn the_prior_drives_recorded_traffic_closed_loop() {
             trust_region: 20,
             background: BackgroundDriver::Prior,
             sampling: TokenSampling::default(),
+            approach: safer::policies::adversary::ApproachPhase::default(),
         };
         let cbv = scenario.cbv.unwrap();
         let installed =

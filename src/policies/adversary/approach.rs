@@ -1,20 +1,56 @@
 //! The approach phase: for the first 1–4 token periods (drawn from the
 //! seed, [`APPROACH_TOKENS`]) the prior drives the CBV, restricted to
-//! plausible tokens, before the adversary engages.
+//! plausible tokens, before the adversary engages; or none at all
+//! ([`ApproachPhase::None`], the paper's protocol).
 
-use rand::Rng;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
 
 use super::background_forecast::BackgroundForecast;
 use super::plausibility::{ContactRule, PlausibilityCheck};
 use super::rollout::token_rollouts;
 use crate::motion::tokens::Token;
 use crate::policies::WorldView;
-use crate::policies::prior_sampling::{TokenSampling, sample_token, top_tokens};
+use crate::policies::prior_sampling::{TokenSampling, draw_seed, sample_token, top_tokens};
 use crate::scenario::TrackIndex;
 
 /// The approach phase: the prior drives the CBV for this many token
 /// periods (drawn per seed, uniformly) before the adversary engages.
 pub const APPROACH_TOKENS: std::ops::RangeInclusive<usize> = 1..=4;
+
+/// Whether the prior drives the CBV for a while before the adversary
+/// engages.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ApproachPhase {
+    /// [`APPROACH_TOKENS`] token periods, drawn from the variant's seed:
+    /// with the background on log replay a strict arg min from the first
+    /// token would give every seed the same variant, so each seed starts
+    /// the attack from a different, realistic state.
+    #[default]
+    Seeded,
+    /// None: the adversary chooses from the first token on, as in the
+    /// paper. With the background on log replay every seed of a scene then
+    /// gives the same variant.
+    None,
+}
+
+impl ApproachPhase {
+    /// Every variant, in declaration order (for choosers such as the command line).
+    pub const ALL: &'static [Self] = &[Self::Seeded, Self::None];
+
+    /// How many token periods the prior drives the CBV `cbv` of a rollout
+    /// seeded `seed` before the adversary engages.
+    pub fn tokens(self, seed: u64, cbv: TrackIndex) -> usize {
+        match self {
+            Self::Seeded => {
+                let mut rng = ChaCha8Rng::seed_from_u64(draw_seed(seed, cbv.0, usize::MAX));
+                rng.random_range(APPROACH_TOKENS)
+            }
+            Self::None => 0,
+        }
+    }
+}
 
 /// The approach phase's token for the CBV of the pair (CBV, ego): a draw
 /// from the prior (`sampling`, with `rng`) among the plausible tokens of
@@ -93,5 +129,21 @@ mod tests {
             );
             assert_eq!(drawn, token(-MAX_ACCEL_MPS2), "seed {seed}");
         }
+    }
+
+    #[test]
+    fn seeded_approach_phases_cover_the_range_and_depend_on_the_seed() {
+        let lengths: Vec<usize> = (0..64).map(|seed| ApproachPhase::Seeded.tokens(seed, TrackIndex(3))).collect();
+        assert!(lengths.iter().all(|n| APPROACH_TOKENS.contains(n)), "{lengths:?}");
+        for n in APPROACH_TOKENS {
+            assert!(lengths.contains(&n), "{n} never drawn in {lengths:?}");
+        }
+        // A pure function of the seed.
+        assert_eq!(ApproachPhase::Seeded.tokens(5, TrackIndex(3)), ApproachPhase::Seeded.tokens(5, TrackIndex(3)));
+    }
+
+    #[test]
+    fn without_an_approach_phase_the_adversary_engages_at_once() {
+        assert!((0..64).all(|seed| ApproachPhase::None.tokens(seed, TrackIndex(3)) == 0));
     }
 }

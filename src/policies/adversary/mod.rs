@@ -76,7 +76,7 @@ mod test_support;
 mod trust_region_profile;
 
 pub use crate::models::feasibility_oracle::{EgoCbvState, FeasibilityOracle};
-pub use approach::APPROACH_TOKENS;
+pub use approach::{APPROACH_TOKENS, ApproachPhase};
 pub use background_forecast::BackgroundForecast;
 pub use behaviours::{BEHAVIOUR_HOLD_S, BEHAVIOUR_SEPARATION_M, distinct_behaviours};
 pub use choice::{INFEASIBLE_PENALTY, Search, TrustRegion, safer_choice};

@@ -4,10 +4,10 @@
 
 use std::sync::{Arc, Mutex};
 
-use rand::{Rng, SeedableRng};
+use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
-use super::approach::{APPROACH_TOKENS, approach_draw};
+use super::approach::{ApproachPhase, approach_draw};
 use super::background_forecast::BackgroundForecast;
 use super::choice::{Search, safer_choice};
 use crate::models::ModelError;
@@ -23,6 +23,7 @@ pub struct Adversary {
     ego: TrackIndex,
     search: Search,
     feasibility: Option<Arc<dyn FeasibilityOracle>>,
+    approach: ApproachPhase,
     current: Option<Token>,
     error: Option<Arc<ModelError>>,
 }
@@ -33,6 +34,7 @@ impl std::fmt::Debug for Adversary {
             .field("ego", &self.ego)
             .field("search", &self.search)
             .field("feasibility", &self.feasibility.is_some())
+            .field("approach", &self.approach)
             .finish()
     }
 }
@@ -46,7 +48,13 @@ impl Adversary {
         search: Search,
         feasibility: Option<Arc<dyn FeasibilityOracle>>,
     ) -> Self {
-        Self { shared, ego, search, feasibility, current: None, error: None }
+        Self { shared, ego, search, feasibility, approach: ApproachPhase::default(), current: None, error: None }
+    }
+
+    /// The same adversary with `approach` as its approach phase (the
+    /// default is [`ApproachPhase::Seeded`]).
+    pub fn with_approach(self, approach: ApproachPhase) -> Self {
+        Self { approach, ..self }
     }
 
     /// The first error met (inference), if any.
@@ -88,14 +96,6 @@ impl Adversary {
         let mut rng = ChaCha8Rng::seed_from_u64(draw_seed(seed, cbv.0, world.step));
         Some(approach_draw(world, (cbv, self.ego), &logits, sampling, &forecast, &mut rng))
     }
-
-    /// How many token periods of the approach phase a rollout seeded
-    /// `seed` gives the CBV `cbv` (the prior drives it that long before
-    /// the adversary engages).
-    pub fn approach_tokens(seed: u64, cbv: TrackIndex) -> usize {
-        let mut rng = ChaCha8Rng::seed_from_u64(draw_seed(seed, cbv.0, usize::MAX));
-        rng.random_range(APPROACH_TOKENS)
-    }
 }
 
 impl AgentPolicy for Adversary {
@@ -116,7 +116,7 @@ impl AgentPolicy for Adversary {
         if boundary || self.current.is_none() {
             let seed = self.shared.lock().unwrap_or_else(|p| p.into_inner()).seed();
             let token_index = world.step.saturating_sub(start) / TOKEN_PERIOD_STEPS;
-            let chosen = if token_index < Self::approach_tokens(seed, agent) {
+            let chosen = if token_index < self.approach.tokens(seed, agent) {
                 // The approach phase: the prior drives the CBV.
                 Ok(self.approach_token(world, agent))
             } else {
@@ -133,21 +133,5 @@ impl AgentPolicy for Adversary {
             }
         }
         AgentAction::Control(self.current.map(TokenGrid::action).unwrap_or_default())
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn approach_phases_cover_the_range_and_depend_on_the_seed() {
-        let lengths: Vec<usize> = (0..64).map(|seed| Adversary::approach_tokens(seed, TrackIndex(3))).collect();
-        assert!(lengths.iter().all(|n| APPROACH_TOKENS.contains(n)), "{lengths:?}");
-        for n in APPROACH_TOKENS {
-            assert!(lengths.contains(&n), "{n} never drawn in {lengths:?}");
-        }
-        // A pure function of the seed.
-        assert_eq!(Adversary::approach_tokens(5, TrackIndex(3)), Adversary::approach_tokens(5, TrackIndex(3)));
     }
 }
