@@ -304,6 +304,9 @@ enum Command {
         /// Trust-region size n (top-n tokens of the prior), from 1 to the vocabulary size.
         #[arg(long, default_value_t = 20, value_parser = RangedU64ValueParser::<usize>::new().range(1..=VOCABULARY_SIZE as u64))]
         trust_region: usize,
+        /// The approach phase of the SaFeR methods, as in `safer evaluate`: `seeded` (1-4 tokens of the prior, drawn from the seed, before the adversary engages) or `none` (the adversary from the first token).
+        #[arg(long, value_parser = choice(ApproachPhase::ALL), default_value = "seeded")]
+        approach_phase: ApproachPhase,
         /// Horizon of stage 1 from the scene's current step, s (positive, finite).
         #[arg(long, default_value_t = 8.0, value_parser = positive_finite, allow_negative_numbers = true)]
         horizon_s: f64,
@@ -567,7 +570,18 @@ pub fn main() -> ExitCode {
                 .and_then(|()| evaluate::run(&scenes, &request, max_scenes, json.as_deref(), witness, partition))
         }
         Command::EvaluateMerge { parts, json } => evaluate::merge(&parts, json.as_deref()),
-        Command::TrustRegion { scenes, methods, seeds, seed, trust_region, horizon_s, max_scenes, json, jobs } => {
+        Command::TrustRegion {
+            scenes,
+            methods,
+            seeds,
+            seed,
+            trust_region,
+            approach_phase,
+            horizon_s,
+            max_scenes,
+            json,
+            jobs,
+        } => {
             let request = EvaluationRequest {
                 methods,
                 seeds,
@@ -575,7 +589,7 @@ pub fn main() -> ExitCode {
                 // Stage 2 is not run.
                 planner: PlannerAdapter::builtin(BuiltinPlanner::LogReplay),
                 trust_region,
-                approach: ApproachPhase::Seeded,
+                approach: approach_phase,
                 background: BackgroundDriver::Configured,
                 stage2_cbv: vec![Stage2Cbv::Replay],
                 escape: None,

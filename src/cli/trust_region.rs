@@ -16,6 +16,7 @@ use super::{CliError, figure};
 use safer::harness::evaluation::{EvaluationRequest, held_out_scenes};
 use safer::harness::methods::ModelSet;
 use safer::harness::trust_region::{BoundaryProfile, TrustRegionSummary, profile_scenes, summarise};
+use safer::policies::adversary::ApproachPhase;
 
 fn print(out: &mut dyn Write, title: &str, rows: &[TrustRegionSummary]) -> std::io::Result<()> {
     writeln!(out, "{title}")?;
@@ -62,6 +63,7 @@ fn print(out: &mut dyn Write, title: &str, rows: &[TrustRegionSummary]) -> std::
 struct Report<'a> {
     scenes: usize,
     trust_region: usize,
+    approach: ApproachPhase,
     summary: &'a [TrustRegionSummary],
     held_out: &'a [TrustRegionSummary],
     rest: &'a [TrustRegionSummary],
@@ -97,6 +99,7 @@ pub(super) fn run(
     let report = Report {
         scenes: scenes.len(),
         trust_region: request.trust_region,
+        approach: request.approach,
         summary: &summary,
         held_out: &held_out,
         rest: &rest,
@@ -105,10 +108,14 @@ pub(super) fn run(
     super::write_report_and_table(json, &report, |out| {
         writeln!(
             out,
-            "{} scenes × {} seeds; trust region n = {}; the CBV's token boundaries after the approach phase, stage 1",
+            "{} scenes × {} seeds; trust region n = {}; the CBV's token boundaries {}, stage 1",
             scenes.len(),
             request.seeds,
-            request.trust_region
+            request.trust_region,
+            match request.approach {
+                ApproachPhase::Seeded => "after the approach phase",
+                ApproachPhase::None => "from the first (no approach phase)",
+            }
         )?;
         print(out, "all scenes:", &summary)?;
         print(out, &format!("held out (every tenth scene by id: {} of {}):", held.len(), scenes.len()), &held_out)?;
