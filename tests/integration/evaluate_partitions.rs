@@ -105,6 +105,13 @@ fn an_evaluation_run_in_three_parts_and_merged_is_the_one_run() {
     let mixed = safer(&["evaluate-merge", other.to_str().unwrap(), order[0], order[2]]);
     let text = String::from_utf8_lossy(&mixed.stderr);
     assert!(!mixed.status.success() && text.contains("parts of different evaluations"), "{text}");
+    let paper = out.join("paper.json");
+    ok(safer(
+        &[&common[..], &["--approach-phase", "none", "--partition", "1/3", "--json", paper.to_str().unwrap()]].concat(),
+    ));
+    let mixed = safer(&["evaluate-merge", paper.to_str().unwrap(), order[0], order[2]]);
+    let text = String::from_utf8_lossy(&mixed.stderr);
+    assert!(!mixed.status.success() && text.contains("approach: None"), "{text}");
     let unpartitioned = safer(&["evaluate-merge", whole.to_str().unwrap()]);
     let text = String::from_utf8_lossy(&unpartitioned.stderr);
     assert!(!unpartitioned.status.success() && text.contains("not a partition's report"), "{text}");
