@@ -256,7 +256,7 @@ pub fn run_variant(suite: &Suite, scenario: &SuiteScenario, index: u32) -> Resul
             trust_region: spec.adversary.trust_region,
             background: BackgroundDriver::Configured,
             sampling: TokenSampling::default(),
-            approach: crate::policies::adversary::ApproachPhase::default(),
+            approach: spec.adversary.approach_phase,
         },
         seed,
         sim: &sim,

@@ -23,6 +23,7 @@ use serde_saphyr::Spanned;
 
 use super::{Loaded, SpecError, SpecLocation, paths};
 use crate::policies::BackgroundPolicy;
+use crate::policies::adversary::ApproachPhase;
 
 /// A suite.
 #[derive(Debug, Clone, Deserialize, JsonSchema)]
@@ -153,6 +154,12 @@ impl AdversaryMethod {
         self != Self::SaferInattentive
     }
 
+    /// Whether the SaFeR adversary drives the CBV (every method but `log`
+    /// and `prior`): the methods with an approach phase.
+    pub fn is_adversary(self) -> bool {
+        !matches!(self, Self::Log | Self::Prior)
+    }
+
     /// Every variant, in declaration order (for choosers such as the command line).
     pub const ALL: &'static [Self] = &[
         Self::Log,
@@ -189,6 +196,13 @@ pub struct AdversarySpec {
     /// (the paper's protocol, which benchmarks the generator).
     #[serde(default = "closed_loop")]
     pub stage2_cbv: Stage2Cbv,
+    /// The approach phase of the SaFeR methods: `seeded` (the default), the
+    /// prior drives the CBV for 1–4 tokens drawn from the variant's seed
+    /// before the adversary engages, so that seeds differ; `none`, the
+    /// adversary engages at the first token (the paper's protocol), and
+    /// every seed gives the same variant.
+    #[serde(default)]
+    pub approach_phase: ApproachPhase,
 }
 
 fn twenty() -> usize {
@@ -206,6 +220,7 @@ impl Default for AdversarySpec {
             trust_region: 20,
             background: BackgroundPolicy::LogReplay,
             stage2_cbv: Stage2Cbv::ClosedLoop,
+            approach_phase: ApproachPhase::Seeded,
         }
     }
 }
@@ -449,6 +464,29 @@ impl Loaded<SuiteSpec> {
                     s.variants
                 ),
             ));
+        }
+        if s.adversary.approach_phase == ApproachPhase::None {
+            if !s.adversary.method.is_adversary() {
+                return Err(self.invalid_at(
+                    "adversary.approach_phase",
+                    format!(
+                        "`approach_phase` applies to the SaFeR methods (safer, no-lfr, …); `{}` has none: remove \
+                         the key",
+                        crate::spec::spec_name(&s.adversary.method)
+                    ),
+                ));
+            }
+            if s.variants > 1 {
+                return Err(self.invalid_at(
+                    "variants",
+                    format!(
+                        "with `adversary.approach_phase: none` every seed gives the same variant (the adversary's \
+                         choice is a strict arg min and the background is deterministic), so variants: {} would run \
+                         one variant {0} times; set `variants: 1` or remove `approach_phase`",
+                        s.variants
+                    ),
+                ));
+            }
         }
         if s.adversary.trust_region == 0 || s.adversary.trust_region > crate::motion::tokens::VOCABULARY_SIZE {
             return Err(self.invalid_at(
@@ -738,6 +776,20 @@ acceptance:
         assert!(e.contains("`max_decel_mps2` must be a number in [0, 1000] m/s², got -1"), "{e}");
         let e = error("min_gap_m: 0.5", "min_gap_m: 0.5, vehicle_limits: { max_decel: 9 }");
         assert!(e.contains("max_decel"), "a misspelt limit is refused: {e}");
+    }
+
+    #[test]
+    fn approach_phase_none_is_for_one_variant_of_a_safer_method() {
+        let e = error("method: prior }", "method: prior, approach_phase: none }");
+        assert!(e.starts_with("s.yaml:5:45: `approach_phase` applies to the SaFeR methods"), "{e}");
+        let e = error("method: prior }", "method: safer, approach_phase: none }");
+        assert!(e.starts_with("s.yaml:6:11: with `adversary.approach_phase: none` every seed gives the same"), "{e}");
+        let e = error("method: prior }", "method: safer, approach_phase: nope }");
+        assert!(e.contains("nope") && e.contains("seeded"), "a misspelt phase is refused, naming the choices: {e}");
+        let text = SUITE.replace("method: prior }\nvariants: 2", "method: safer, approach_phase: none }\nvariants: 1");
+        let spec = parse_yaml::<SuiteSpec>(&text, Path::new("s.yaml")).unwrap();
+        spec.validate().unwrap();
+        assert_eq!(spec.value.adversary.approach_phase, ApproachPhase::None);
     }
 
     #[test]

@@ -120,6 +120,21 @@ fn a_closed_loop_cbv_follows_an_ego_that_swerves_where_a_replayed_one_misses_it(
 }
 
 #[test]
+fn without_an_approach_phase_the_adversary_drives_from_the_first_token_whatever_the_seed() {
+    register();
+    let mut suite = Suite::load(&fixture("swerving-ego.no-approach.yaml")).unwrap_or_else(|e| panic!("{e}"));
+    let scene = suite.scenarios[0].clone();
+    let first = run_variant(&suite, &scene, 0).unwrap_or_else(|e| panic!("{e}"));
+    suite.spec.value.seed = 12_345;
+    let other_seed = run_variant(&suite, &scene, 0).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(first.stage1.states, other_seed.stage1.states, "the seed changed a variant without an approach phase");
+    // The replay suite's first variant, with the same seed, lets the prior
+    // drive the CBV for its approach phase first: another path.
+    let seeded = &outcomes("swerving-ego.replay.yaml")[0];
+    assert_ne!(first.stage1.states, seeded.stage1.states);
+}
+
+#[test]
 fn a_stage_2_collision_with_the_reacting_cbv_carries_its_closed_loop_witness() {
     let closed = outcomes("swerving-ego.closed-loop.yaml");
     let collided: Vec<&VariantOutcome> = closed.iter().filter(|o| o.stage2.ego_collision().is_some()).collect();

@@ -20,7 +20,9 @@ pub const APPROACH_TOKENS: std::ops::RangeInclusive<usize> = 1..=4;
 
 /// Whether the prior drives the CBV for a while before the adversary
 /// engages.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
+#[derive(
+    Debug, Clone, Copy, Default, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize, schemars::JsonSchema,
+)]
 #[serde(rename_all = "kebab-case")]
 pub enum ApproachPhase {
     /// [`APPROACH_TOKENS`] token periods, drawn from the variant's seed:
