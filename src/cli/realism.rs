@@ -364,11 +364,10 @@ fn print_table(
     mean_scene_s: f64,
     wall_s: f64,
 ) -> std::io::Result<()> {
-    let policy = serde_json::to_value(args.policy).ok().and_then(|v| v.as_str().map(str::to_string));
     writeln!(
         out,
         "WOSAC 2025 realism, policy {}{}, {} rollouts per scene, seed {}",
-        policy.as_deref().unwrap_or("?"),
+        spec_name(&args.policy),
         sampling_note(args),
         args.rollouts,
         args.seed
@@ -395,8 +394,7 @@ fn print_table(
         )
     };
     for (format, a) in &summary.by_format {
-        let name = serde_json::to_value(format).ok().and_then(|v| v.as_str().map(str::to_string));
-        row(out, name.as_deref().unwrap_or("?"), a)?;
+        row(out, &spec_name(format), a)?;
     }
     row(out, "overall", &summary.overall)?;
     row(out, "held out", &summary.held_out.held_out)?;
