@@ -1,14 +1,16 @@
 #!/bin/bash
 # Train realism priors on a GPU machine that has PyTorch but not the
 # repository's build: write the shards there from a carried `safer` release
-# binary and the public-domain NGSIM scenes, then train one prior per named
-# run at once on the one GPU (a 500 k-parameter model leaves the GPU mostly
-# idle, so side-by-side runs cost little more than one).
+# binary and recorded scenes (the public-domain NGSIM ones for the shipped
+# recipe), then train one prior per named run at once on the one GPU (a
+# 500 k-parameter model leaves the GPU mostly idle, so side-by-side runs
+# cost little more than one).
 #
-#   training/prior/gpu_run.sh BINARY NGSIM OUT NAME:ATTENTION[:EXTRA_ARGS] ...
+#   training/prior/gpu_run.sh BINARY RECORDED OUT NAME:ATTENTION[:EXTRA_ARGS] ...
 #
-# BINARY: the `safer` release binary (or an .xz of it); NGSIM: the
-# `commonroad-ngsim` folder (or a .tar.xz holding it); OUT: where each run's
+# BINARY: the `safer` release binary (or an .xz of it); RECORDED: the
+# recorded scenes' folder, `commonroad-ngsim` for the shipped recipe (or a
+# .tar.xz holding one folder); OUT: where each run's
 # `best.pt`, `log.csv`, `summary.json` and training log go (`OUT/NAME/`), and
 # `run.log`. Every run trains with `--device cuda --batch 1024 --threads 4`
 # and `STEPS` steps (default 6648, the shipped priors' count); EXTRA_ARGS,
@@ -18,17 +20,23 @@
 # PACK=1 packs each finished run's folder into `OUT/NAME.tar` (and removes
 # the folder), for a device runner that returns only a few files per
 # command. SHARDS=DIR trains on shards already written there instead (BINARY and
-# NGSIM are then not read); DEVICE=cpu runs the same plumbing without a GPU
-# (a smoke test, with random shards from make_random_shards.py).
+# RECORDED are then not read); DATASET_ARGS are passed to `safer
+# prior-dataset` as they are (`--evaluation-only` for recorded scenes under
+# a non-commercial licence: such a prior is measured, never shipped);
+# DEVICE=cpu runs the same plumbing without a GPU (a smoke test, with
+# random shards from make_random_shards.py).
 #
 # Example (the shipped recipe trained twice as long, both attentions):
 #   STEPS=13296 training/prior/gpu_run.sh safer.xz ngsim.tar.xz $OUT long:differential long-plain:plain
+# The evaluation-only in-domain prior (WOMD JSON scenes, never committed):
+#   DATASET_ARGS=--evaluation-only training/prior/gpu_run.sh safer.xz womd-json.tar.xz $OUT \
+#     womd-eval:differential:--recorded-weight,10
 set -u
 if [ $# -lt 4 ]; then
-  sed -n 2,25p "$0" >&2
+  sed -n 2,33p "$0" >&2
   exit 2
 fi
-binary=$1 ngsim=$2 out=$3
+binary=$1 recorded=$2 out=$3
 shift 3
 t0=$(date +%s)
 cd "$(dirname "$0")/../.."
@@ -43,12 +51,16 @@ if [ -z "$shards" ]; then
     *) cp "$binary" /tmp/safer ;;
   esac
   chmod +x /tmp/safer
-  case "$ngsim" in
-    *.tar.xz) xz -dc "$ngsim" | tar xf - -C /tmp/data; ngsim=/tmp/data/commonroad-ngsim ;;
+  case "$recorded" in
+    *.tar.xz)
+      top=$(xz -dc "$recorded" | tar tf - | head -1 | cut -d/ -f1)
+      xz -dc "$recorded" | tar xf - -C /tmp/data
+      recorded=/tmp/data/$top ;;
   esac
   say "$(nvidia-smi --query-gpu=name,memory.total --format=csv,noheader 2>&1)"
   shards=/tmp/shards
-  /tmp/safer prior-dataset --recorded "$ngsim" --out "$shards" --force 2>&1 | grep -v wrote | tail -3 | tee -a "$log"
+  # shellcheck disable=SC2086  # DATASET_ARGS are separate words on purpose
+  /tmp/safer prior-dataset --recorded "$recorded" ${DATASET_ARGS:-} --out "$shards" --force 2>&1 | grep -v wrote | tail -3 | tee -a "$log"
   say "shards ready after $(( $(date +%s) - t0 )) s"
 fi
 
