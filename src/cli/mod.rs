@@ -405,6 +405,11 @@ enum Command {
         /// lanes and accepting gaps.
         #[arg(long)]
         no_driver_choices: bool,
+        /// Share of the template crossings built as T-junctions (one arm
+        /// left out, so traffic arriving opposite it must turn); 0 draws
+        /// the shipped priors' data.
+        #[arg(long, default_value_t = 0.0)]
+        t_junction_share: f64,
         /// Chance that a training scene's token reconstruction applies a
         /// perturbed token in a period (0 turns the drift off); held-out
         /// scenes never drift.
@@ -631,6 +636,7 @@ pub fn main() -> ExitCode {
             seed,
             shard_size,
             no_driver_choices,
+            t_junction_share,
             token_drift,
             token_drift_bins,
             evaluation_only,
@@ -643,6 +649,7 @@ pub fn main() -> ExitCode {
             seed,
             shard_size,
             driver_choices: !no_driver_choices,
+            t_junction_share,
             token_drift,
             token_drift_bins,
             evaluation_only,

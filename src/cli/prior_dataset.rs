@@ -33,6 +33,8 @@ pub struct DatasetRequest {
     pub shard_size: usize,
     /// Whether synthetic drivers turn, change lanes and accept gaps.
     pub driver_choices: bool,
+    /// Share of the template crossings built as T-junctions.
+    pub t_junction_share: f64,
     /// Chance of a perturbed token per period in training scenes (0: no drift).
     pub token_drift: f64,
     /// Largest perturbation, bins per axis.
@@ -73,6 +75,12 @@ pub fn run(request: &DatasetRequest) -> Result<ExitCode, CliError> {
         std::fs::remove_file(p)?;
     }
 
+    if !(0.0..=1.0).contains(&request.t_junction_share) {
+        return Err(CliError::Usage(format!(
+            "--t-junction-share must be a share in [0, 1], got {}",
+            request.t_junction_share
+        )));
+    }
     if !(0.0..=1.0).contains(&request.token_drift) {
         return Err(CliError::Usage(format!(
             "--token-drift must be a probability in [0, 1], got {}",
@@ -87,6 +95,7 @@ pub fn run(request: &DatasetRequest) -> Result<ExitCode, CliError> {
         recorded_map_scenes: request.recorded_map_scenes,
         seed: request.seed,
         driver_choices: request.driver_choices,
+        t_junction_share: request.t_junction_share,
     };
     let (synthetic, calibration) = synthetic_scenes(&recorded, plan);
     print_calibration(&calibration);
@@ -103,11 +112,16 @@ pub fn run(request: &DatasetRequest) -> Result<ExitCode, CliError> {
     } else {
         "synthetic drivers keep their lane and go straight"
     };
+    let t_junctions = if request.t_junction_share > 0.0 {
+        format!("; {} of template crossings T-junctions", request.t_junction_share)
+    } else {
+        String::new()
+    };
     let drift_text = drift.map_or("no token drift".to_string(), |d| {
         format!("token drift on training scenes: p = {} per period, up to ±{} bins", d.probability, d.max_bins)
     });
     let recipe = format!(
-        "{} recorded + {} template + {} recorded-map synthetic scenes (seed {}); {drivers}; {drift_text}",
+        "{} recorded + {} template + {} recorded-map synthetic scenes (seed {}); {drivers}{t_junctions}; {drift_text}",
         recorded.len(),
         request.template_scenes,
         request.recorded_map_scenes,

@@ -29,7 +29,7 @@ use crate::models::prior_features::{
 use crate::models::shard::{ShardColumn, write_shard};
 use crate::motion::tokens::TokenGrid;
 use crate::scenario::{AgentKind, Scenario};
-use crate::sim::synthetic::{SpeedSample, SyntheticTraffic, random_template_with_unsignalised};
+use crate::sim::synthetic::{CrossingMix, SpeedSample, SyntheticTraffic, random_template_with};
 
 /// Length of a synthetic scene, s.
 pub const SYNTHETIC_DURATION_S: f64 = 12.0;
@@ -289,7 +289,7 @@ impl Calibration {
 }
 
 /// How much synthetic traffic to generate.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SyntheticPlan {
     /// Scenes on procedural templates.
     pub template_scenes: usize,
@@ -300,6 +300,9 @@ pub struct SyntheticPlan {
     /// Whether the drivers turn, change lanes and accept gaps (else they
     /// keep their lane and go straight, as the first shipped prior's data did).
     pub driver_choices: bool,
+    /// Share of the template crossings built as T-junctions (0: none, as
+    /// the shipped priors' data).
+    pub t_junction_share: f64,
 }
 
 /// The synthetic traffic generator calibrated against the recorded kinematics.
@@ -339,8 +342,11 @@ pub fn synthetic_scenes(recorded: &[Scenario], plan: SyntheticPlan) -> (Vec<Scen
             let map = match map_of {
                 Some(i) => recorded[*i].map.clone(),
                 None => {
-                    let unsignalised = if plan.driver_choices { UNSIGNALISED_SHARE } else { 0.0 };
-                    random_template_with_unsignalised(&mut rng, steps, SYNTHETIC_DT_S, unsignalised).1
+                    let mix = CrossingMix {
+                        unsignalised_share: if plan.driver_choices { UNSIGNALISED_SHARE } else { 0.0 },
+                        t_junction_share: plan.t_junction_share,
+                    };
+                    random_template_with(&mut rng, steps, SYNTHETIC_DT_S, mix).1
                 }
             };
             traffic.generate(id, map, seed.wrapping_mul(0x9E37_79B9_7F4A_7C15))
@@ -557,7 +563,13 @@ mod tests {
     #[test]
     fn synthetic_traffic_is_calibrated_against_the_recorded_kinematics() {
         let recorded = vec![synthetic_scene(3)];
-        let plan = SyntheticPlan { template_scenes: 2, recorded_map_scenes: 1, seed: 5, driver_choices: true };
+        let plan = SyntheticPlan {
+            template_scenes: 2,
+            recorded_map_scenes: 1,
+            seed: 5,
+            driver_choices: true,
+            t_junction_share: 0.0,
+        };
         let (synthetic, calibration) = synthetic_scenes(&recorded, plan);
         assert!(!synthetic.is_empty() && synthetic.len() <= 3);
         assert!(!calibration.recorded.is_empty());

@@ -218,6 +218,7 @@ mod tests {
     /// northern approach (arm 1, lane 10, driving south) is red.
     fn crossing() -> RoadMap {
         Intersection {
+            missing_arm: None,
             lanes_per_direction: 1,
             lane_width_m: 3.5,
             arm_length_m: 60.0,

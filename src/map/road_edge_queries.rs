@@ -180,6 +180,7 @@ mod tests {
         }
         .build();
         let crossing = Intersection {
+            missing_arm: None,
             lanes_per_direction: 1,
             lane_width_m: 3.5,
             arm_length_m: 40.0,

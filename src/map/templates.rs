@@ -104,6 +104,7 @@ impl MapTemplate {
                 check_range("lane_width_m", p.lane_width_m, &limits::LANE_WIDTH_M)?;
                 check_range("arm_length_m", p.arm_length_m, &limits::ARM_LENGTH_M)?;
                 p.green_s.map_or(Ok(()), |g| check_range("green_s", g, &limits::GREEN_S))?;
+                p.missing_arm.map_or(Ok(()), |a| check_range("missing_arm", a, &(0..=3)))?;
                 limit(p.speed_limit_mps)
             }
         }
@@ -354,7 +355,10 @@ impl Merge {
 /// lanes in (towards the centre) have ids `arm·10 + i`, lanes out
 /// `arm·10 + 5 + i`, with lane 0 next to the centre line here;
 /// connectors through the box `1000 + from·100 + to·10 + i`. Signals
-/// alternate east–west and north–south green with a fixed cycle.
+/// alternate east–west and north–south green with a fixed cycle. With
+/// `missing_arm` it is a T-junction: that arm, its connectors and signals
+/// are left out and a kerb closes the box on its side, so traffic
+/// arriving opposite it must turn.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Intersection {
@@ -373,6 +377,10 @@ pub struct Intersection {
     /// Speed limit, m/s.
     #[serde(default)]
     pub speed_limit_mps: Option<f64>,
+    /// The arm left out (0 east, 1 north, 2 west, 3 south), making a
+    /// T-junction; absent: all four.
+    #[serde(default)]
+    pub missing_arm: Option<usize>,
 }
 
 fn one() -> usize {
@@ -414,9 +422,10 @@ impl Intersection {
             let (s, c) = a.sin_cos();
             Point2::new(c * x - s * y, s * x + c * y)
         };
+        let present = |a: usize| self.missing_arm != Some(a);
         let mut lanes = Vec::new();
         let mut signals = Vec::new();
-        for a in 0..4 {
+        for a in (0..4).filter(|&a| present(a)) {
             // In the arm's frame the arm lies along +x; inbound lanes travel -x, so with
             // right-hand traffic they lie on the +y side and outbound lanes on the -y side.
             for i in 0..n {
@@ -446,9 +455,12 @@ impl Intersection {
         }
         // Connectors: from inbound lane i of arm a to outbound lane i of arm b.
         // Right-hand traffic: b = a+1 is a right turn, a+2 straight, a+3 left.
-        for a in 0..4 {
+        for a in (0..4).filter(|&a| present(a)) {
             for turn in 1..4 {
                 let b = (a + turn) % 4;
+                if !present(b) {
+                    continue;
+                }
                 for i in 0..n {
                     // Right turns only from the curb lane (i = n-1), left turns only from the lane by the centre line (i = 0).
                     if (turn == 1 && i + 1 != n) || (turn == 3 && i != 0) {
@@ -508,14 +520,28 @@ impl Intersection {
         // Curbs: per corner between arm a and arm a+1, an L from arm a's left side to arm a+1's right side.
         let half_road = n as f64 * w;
         let mut edges = Vec::new();
-        for a in 0..4 {
+        for a in (0..4).filter(|&a| present(a)) {
             let next = (a + 1) % 4;
-            let pts = vec![
-                rot(next, h + arm, -half_road),
-                rot(next, h, -half_road),
-                rot(a, h, half_road),
-                rot(a, h + arm, half_road),
-            ];
+            // Beside a missing arm the kerb runs on along the box's side to
+            // the arm after it.
+            let pts = if present(next) {
+                vec![
+                    rot(next, h + arm, -half_road),
+                    rot(next, h, -half_road),
+                    rot(a, h, half_road),
+                    rot(a, h + arm, half_road),
+                ]
+            } else {
+                let after = (next + 1) % 4;
+                vec![
+                    rot(after, h + arm, -half_road),
+                    rot(after, h, -half_road),
+                    rot(next, h, h),
+                    rot(next, h, -h),
+                    rot(a, h, half_road),
+                    rot(a, h + arm, half_road),
+                ]
+            };
             // Road on the port side: walking outward along arm a+1's right side, then in along arm a's left side
             // keeps the road on the left only if reversed; orient by testing the box centre.
             let pl = Polyline::new(pts);
@@ -528,7 +554,7 @@ impl Intersection {
         }
         let mut road_lines = Vec::new();
         let mut areas = Vec::new();
-        for a in 0..4 {
+        for a in (0..4).filter(|&a| present(a)) {
             road_lines.push(RoadLine {
                 id: MapElementId(400 + a as i64),
                 polyline: Polyline::new(vec![rot(a, h, 0.0), rot(a, h + arm, 0.0)]),
@@ -659,6 +685,7 @@ mod tests {
     #[test]
     fn intersection_connectivity_signals_and_road() {
         let p = Intersection {
+            missing_arm: None,
             lanes_per_direction: 1,
             lane_width_m: 3.5,
             arm_length_m: 60.0,
@@ -692,5 +719,47 @@ mod tests {
         // The approach pose faces the centre.
         let pose = p.approach_pose(0, 0, 20.0);
         assert!(pose.forward().dot(&(Point2::origin() - pose.position)) > 0.0);
+    }
+
+    #[test]
+    fn a_t_junction_leaves_its_arm_out_and_closes_the_box_with_a_kerb() {
+        let p = Intersection {
+            missing_arm: Some(0),
+            lanes_per_direction: 1,
+            lane_width_m: 3.5,
+            arm_length_m: 60.0,
+            green_s: Some(10.0),
+            speed_limit_mps: None,
+        };
+        assert!(MapTemplate::Intersection(p.clone()).validate().is_ok());
+        let m = p.build();
+        // No east arm: no lane, connector or signal of it.
+        assert!(m.lane(MapElementId(0)).is_none() && m.lane(MapElementId(5)).is_none());
+        assert!(m.lanes.iter().all(|l| !(l.id.0 >= 1000 && ((l.id.0 - 1000) / 100 == 0 || (l.id.0 / 10) % 10 == 0))));
+        assert!(m.signal_state(MapElementId(0), 0).is_none());
+        // Arriving from the west (lane 20, heading east) there is no way
+        // straight on: a right turn south or a left turn north.
+        let inbound = m.lane(MapElementId(20)).unwrap();
+        assert_eq!(inbound.successors, vec![MapElementId(1000 + 200 + 30), MapElementId(1000 + 200 + 10)]);
+        // The north and south arms still cross straight through.
+        let north_in = m.lane(MapElementId(10)).unwrap();
+        assert!(north_in.successors.contains(&MapElementId(1000 + 100 + 30)));
+        assert!(on_road_share(&m) > 0.99, "{}", on_road_share(&m));
+        // Beyond the box on the missing side is off the road, and a kerb
+        // runs along the box's side there: three kerbs in all.
+        let h = p.half_box_m();
+        assert!(m.is_off_road(&Point2::new(h + 10.0, 0.0)));
+        assert!(!m.is_off_road(&Point2::new(h - 1.0, 0.0)));
+        assert_eq!(m.road_edges.len(), 3);
+        let kerb_dist = m
+            .road_edges
+            .iter()
+            .filter_map(|e| e.polyline.project(&Point2::new(h + 0.5, 0.0)))
+            .map(|pr| pr.distance_m)
+            .fold(f64::INFINITY, f64::min);
+        assert!(kerb_dist < 1.0, "{kerb_dist}");
+        // An arm out of range is refused.
+        let bad = MapTemplate::Intersection(Intersection { missing_arm: Some(4), ..p });
+        assert_eq!(bad.validate().unwrap_err().parameter, "missing_arm");
     }
 }

@@ -75,18 +75,25 @@ pub struct SyntheticTraffic {
 /// A random procedural map: a straight multi-lane road (sometimes with
 /// oncoming lanes), an on-ramp merge, or a signalised four-way crossing.
 pub fn random_template(rng: &mut impl Rng, steps: usize, dt_s: f64) -> (String, RoadMap) {
-    random_template_with_unsignalised(rng, steps, dt_s, 0.0)
+    random_template_with(rng, steps, dt_s, CrossingMix::default())
 }
 
-/// [`random_template`] with a share of the crossings left without signals
-/// (drivers then settle who goes by gap acceptance); a share of zero draws
-/// exactly what [`random_template`] draws.
-pub fn random_template_with_unsignalised(
-    rng: &mut impl Rng,
-    steps: usize,
-    dt_s: f64,
-    unsignalised_share: f64,
-) -> (String, RoadMap) {
+/// What share of the template crossings [`random_template_with`] draws
+/// without signals and as T-junctions.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct CrossingMix {
+    /// Crossings without signals (drivers then settle who goes by gap
+    /// acceptance).
+    pub unsignalised_share: f64,
+    /// Crossings with one arm left out, where traffic arriving opposite it
+    /// must turn.
+    pub t_junction_share: f64,
+}
+
+/// [`random_template`] with the crossings drawn by `mix`; shares of zero
+/// draw exactly what [`random_template`] draws.
+pub fn random_template_with(rng: &mut impl Rng, steps: usize, dt_s: f64, mix: CrossingMix) -> (String, RoadMap) {
+    let unsignalised_share = mix.unsignalised_share;
     let width = rng.random_range(3.2..3.9);
     match rng.random_range(0..3) {
         0 => {
@@ -111,7 +118,7 @@ pub fn random_template_with_unsignalised(
             ("merge".into(), merge.build())
         }
         _ => {
-            let crossing = Intersection {
+            let mut crossing = Intersection {
                 lanes_per_direction: rng.random_range(1..=2),
                 lane_width_m: width,
                 arm_length_m: 150.0,
@@ -121,8 +128,15 @@ pub fn random_template_with_unsignalised(
                     Some(rng.random_range(6.0..20.0))
                 },
                 speed_limit_mps: Some(rng.random_range(11.0..17.0)),
+                missing_arm: None,
             };
-            ("intersection".into(), crossing.build_with_signals(steps, dt_s))
+            // Drawn last, and only when asked for, so that a share of zero
+            // leaves every other draw where it was.
+            if mix.t_junction_share > 0.0 && rng.random_bool(mix.t_junction_share.min(1.0)) {
+                crossing.missing_arm = Some(rng.random_range(0..4));
+            }
+            let key = if crossing.missing_arm.is_some() { "t-junction" } else { "intersection" };
+            (key.into(), crossing.build_with_signals(steps, dt_s))
         }
     }
 }
@@ -315,6 +329,7 @@ mod tests {
 
     fn crossing() -> Intersection {
         Intersection {
+            missing_arm: None,
             lanes_per_direction: 1,
             lane_width_m: 3.5,
             arm_length_m: 80.0,
@@ -344,6 +359,20 @@ mod tests {
             .collect();
         assert!(turns.iter().all(|t| (t.abs() - std::f64::consts::FRAC_PI_2).abs() < 0.35), "{turns:?}");
         assert!(turns.iter().any(|t| *t > 0.0) && turns.iter().any(|t| *t < 0.0), "left and right: {turns:?}");
+    }
+
+    #[test]
+    fn at_a_t_junction_a_driver_that_would_go_straight_turns_and_stays_on_the_road() {
+        // The north arm is missing: from the south (arm 3) there is no way on.
+        let t = Intersection { missing_arm: Some(1), ..crossing() };
+        let start = t.approach_pose(3, 0, 25.0);
+        for seed in 0..4 {
+            let scene = simulate(t.build(), vec![driver("a", start, 8.0, keeps_going(seed))], 10.0);
+            let turned = turned_rad(&scene, 0);
+            assert!((turned.abs() - std::f64::consts::FRAC_PI_2).abs() < 0.35, "seed {seed}: turned {turned}");
+            let off = scene.tracks[0].states.iter().flatten().filter(|s| scene.map.is_off_road(&s.position)).count();
+            assert_eq!(off, 0, "seed {seed}: {off} states off the road");
+        }
     }
 
     #[test]
