@@ -36,6 +36,7 @@ mod tests {
             safer::policies::BackgroundPolicy::ALL.iter().map(name_of).collect(),
             safer::eval::witness::RoadKeeping::ALL.iter().map(name_of).collect(),
             safer::planners::BuiltinPlanner::ALL.iter().map(name_of).collect(),
+            safer::harness::evaluation::ArtefactVariants::ALL.iter().map(name_of).collect(),
         ] {
             let mut unique = all.clone();
             unique.sort();

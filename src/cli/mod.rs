@@ -41,6 +41,7 @@ use clap::{Parser, Subcommand};
 
 use safer::eval::witness::RoadKeeping;
 use safer::harness::HarnessError;
+use safer::harness::evaluation::ArtefactVariants;
 use safer::harness::evaluation::{EvaluationRequest, Partition, Stage2Cbv};
 use safer::harness::methods::BackgroundDriver;
 use safer::models::ModelError;
@@ -286,6 +287,9 @@ enum Command {
         /// Write each failing variant's MCAP recording, SVG picture and planner stderr under DIR/METHOD/SCENARIO/seed-K.* (as `safer run` does).
         #[arg(long, value_name = "DIR")]
         artifacts: Option<PathBuf>,
+        /// Which variants `--artifacts` writes: the failing ones, or all (solved ones too, to see what the CBV did where nothing failed).
+        #[arg(long, value_parser = choice(ArtefactVariants::ALL), default_value = "failing", requires = "artifacts")]
+        artifacts_of: ArtefactVariants,
     },
     /// What the realism prior's trust region offers the adversary: per method, the probability mass of the tokens of its region (the top n, or the n likeliest distinct behaviours for `safer-distinct`), their acceleration and yaw-rate range, distinct behaviours and plausible share, at the CBV's token boundaries of stage 1.
     TrustRegion {
@@ -552,6 +556,7 @@ pub fn main() -> ExitCode {
             witness_widest,
             partition,
             artifacts,
+            artifacts_of,
         } => {
             let mut stage2_cbv = stage2_cbv;
             stage2_cbv.sort();
@@ -569,6 +574,7 @@ pub fn main() -> ExitCode {
                 escape: Some(escape),
                 horizon_s,
                 artefacts: artifacts,
+                artefacts_of: artifacts_of,
             };
             let witness = evaluate::WitnessSettings { road: witness_road, widest: witness_widest };
             set_jobs(jobs)
@@ -600,6 +606,7 @@ pub fn main() -> ExitCode {
                 escape: None,
                 horizon_s,
                 artefacts: None,
+                artefacts_of: ArtefactVariants::Failing,
             };
             set_jobs(jobs).and_then(|()| trust_region::run(&scenes, &request, max_scenes, json.as_deref()))
         }

@@ -69,6 +69,25 @@ pub struct EvaluationRequest {
     /// stderr (as `safer run` does), `<dir>/<method>/<scenario>/seed-k.*`;
     /// `None`: nowhere.
     pub artefacts: Option<PathBuf>,
+    /// Which variants get artefacts where `artefacts` names a folder.
+    pub artefacts_of: ArtefactVariants,
+}
+
+/// Which variants of an evaluation get their recording and picture.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ArtefactVariants {
+    /// The variants the planner did not solve (what a reviewer opens).
+    #[default]
+    Failing,
+    /// Every variant, solved ones too (to see what the adversary or a
+    /// prior-driven CBV did where nothing failed).
+    All,
+}
+
+impl ArtefactVariants {
+    /// Every variant, in declaration order (for choosers such as the command line).
+    pub const ALL: &'static [Self] = &[Self::Failing, Self::All];
 }
 
 /// One of `count` parts of an evaluation, for running it on several
@@ -383,7 +402,11 @@ fn run_one(
         artefacts: Vec::new(),
         tally: tally.clone(),
     };
-    if let Some(dir) = request.artefacts.as_deref().filter(|_| !tally.solved) {
+    let wanted = match request.artefacts_of {
+        ArtefactVariants::Failing => !tally.solved,
+        ArtefactVariants::All => true,
+    };
+    if let Some(dir) = request.artefacts.as_deref().filter(|_| wanted) {
         let outcome = VariantOutcome {
             name: format!("{}::{}::seed-{seed_index}", row_name(method, stage2_cbv), scenario.id),
             seed,

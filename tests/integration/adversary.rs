@@ -35,6 +35,7 @@ fn request(methods: Vec<AdversaryMethod>, seeds: u32) -> EvaluationRequest {
         escape: None,
         horizon_s: 8.0,
         artefacts: None,
+        artefacts_of: safer::harness::evaluation::ArtefactVariants::Failing,
     }
 }
 

@@ -166,6 +166,51 @@ fn evaluate_writes_a_failing_variants_artefacts_and_whom_it_hit() {
     }
 }
 
+#[test]
+fn evaluate_writes_every_variants_artefacts_when_asked_and_refuses_the_choice_alone() {
+    let out = tempfile_dir("artefacts-all");
+    let scenes = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/ngsim");
+    let json = out.join("report.json");
+    let artefacts = out.join("artefacts");
+    let args = |extra: &[&'static str]| -> Vec<String> {
+        let mut a: Vec<String> = [
+            "evaluate",
+            "--scenes",
+            scenes.to_str().unwrap(),
+            "--methods",
+            "log",
+            "--seeds",
+            "1",
+            "--jobs",
+            "2",
+            "--json",
+            json.to_str().unwrap(),
+        ]
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+        a.extend(extra.iter().map(|s| s.to_string()));
+        a
+    };
+    let run = |a: Vec<String>| safer(&a.iter().map(String::as_str).collect::<Vec<_>>());
+    // The recorded CBV against the evasive planner: solved variants, which
+    // the default writes nothing for.
+    let dir = artefacts.to_str().unwrap().to_string();
+    let mut with_all = args(&["--artifacts-of", "all", "--artifacts"]);
+    with_all.push(dir);
+    ok(run(with_all));
+    let report: Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let variants = report["variants"].as_array().unwrap();
+    assert!(variants.iter().any(|v| v["stage2"]["verdict"] == "solved"), "no solved variant to check");
+    for v in variants {
+        let files: Vec<&str> = v["artefacts"].as_array().unwrap().iter().map(|f| f.as_str().unwrap()).collect();
+        assert!(files.iter().any(|f| f.ends_with(".svg")) && files.iter().any(|f| f.ends_with(".mcap")), "{v}");
+    }
+    let alone = run(args(&["--artifacts-of", "all"]));
+    let text = String::from_utf8_lossy(&alone.stderr);
+    assert!(!alone.status.success() && text.contains("--artifacts"), "{text}");
+}
+
 /// A fresh folder for one test's files under the target folder.
 fn tempfile_dir(name: &str) -> std::path::PathBuf {
     let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("evaluate-{name}"));
