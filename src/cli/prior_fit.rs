@@ -14,7 +14,7 @@ use std::process::ExitCode;
 use rayon::prelude::*;
 
 use super::{CliError, figure, scene_paths};
-use safer::eval::prior_fit::{HistoryAlignment, PriorFit, prior_fit};
+use safer::eval::prior_fit::{HistoryAlignment, PriorFit, TURNING_YAW_RATE_RADPS, prior_fit};
 use safer::harness::evaluation::held_out_scenes;
 use safer::models::ModelSource;
 use safer::models::prior::{PriorVariant, RealismPrior};
@@ -53,6 +53,10 @@ struct FitRow {
     in_top_n: Option<f64>,
     accel_range_mps2: Option<f64>,
     yaw_rate_range_radps: Option<f64>,
+    /// Samples whose recorded token turns, their NLL and their share in the top n.
+    turning_samples: usize,
+    turning_nll: Option<f64>,
+    turning_in_top_n: Option<f64>,
 }
 
 impl FitRow {
@@ -66,6 +70,9 @@ impl FitRow {
             in_top_n: fit.in_top_n_share(),
             accel_range_mps2: fit.accel_range_mps2(),
             yaw_rate_range_radps: fit.yaw_rate_range_radps(),
+            turning_samples: fit.turning_samples,
+            turning_nll: fit.turning_nll(),
+            turning_in_top_n: fit.turning_in_top_n_share(),
         }
     }
 }
@@ -177,6 +184,21 @@ pub(super) fn run(args: &PriorFitArgs) -> Result<ExitCode, CliError> {
                 HistoryAlignment::OneStepLate => "one step late",
             };
             row(out, history, &r.scenes.replace('-', " "), r)?;
+        }
+        writeln!(
+            out,
+            "recorded token turning (yaw rate ≥ {TURNING_YAW_RATE_RADPS} rad/s either way), history at the boundary:"
+        )?;
+        writeln!(out, "{:<9} {:>8} {:>7} {:>9}", "scenes", "samples", "NLL", "in top n")?;
+        for r in rows.iter().filter(|r| r.history == HistoryAlignment::AtBoundary) {
+            writeln!(
+                out,
+                "{:<9} {:>8} {:>7} {:>9}",
+                r.scenes.replace('-', " "),
+                r.turning_samples,
+                figure(r.turning_nll, 3),
+                figure(r.turning_in_top_n, 3)
+            )?;
         }
         writeln!(
             out,

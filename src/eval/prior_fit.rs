@@ -4,7 +4,9 @@
 //! applied (the log-to-token inversion's), as held-out negative
 //! log-likelihood, top-1 accuracy and how often the recorded token is in
 //! the top n (the trust region), with the top n's acceleration and
-//! yaw-rate range.
+//! yaw-rate range; the same again over the samples whose recorded token
+//! turns (yaw rate of at least [`TURNING_YAW_RATE_RADPS`] either way), the
+//! tight urban turns a prior that only keeps its lane misses.
 //!
 //! The history the prior reads can be aligned two ways
 //! ([`HistoryAlignment`]): ending at the boundary, as in closed loop, or one
@@ -44,6 +46,10 @@ impl StateHistory for OneStepLate<'_> {
     }
 }
 
+/// The yaw rate from which a recorded token counts as turning, rad/s
+/// (a 20 m radius at 6 m/s).
+pub const TURNING_YAW_RATE_RADPS: f64 = 0.3;
+
 /// Sums over the samples of one or more scenes (add them with
 /// `+`; the means are the sums over `samples`).
 #[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
@@ -60,6 +66,12 @@ pub struct PriorFit {
     pub accel_range_sum_mps2: f64,
     /// Sum of the top n's yaw-rate ranges, rad/s.
     pub yaw_rate_range_sum_radps: f64,
+    /// Samples whose recorded token turns (see [`TURNING_YAW_RATE_RADPS`]).
+    pub turning_samples: usize,
+    /// Sum of their negative log-likelihoods, nats.
+    pub turning_nll_sum: f64,
+    /// Those whose recorded token is among the prior's top n.
+    pub turning_in_top_n: usize,
 }
 
 impl std::ops::Add for PriorFit {
@@ -74,6 +86,9 @@ impl std::ops::Add for PriorFit {
             in_top_n: self.in_top_n + other.in_top_n,
             accel_range_sum_mps2: self.accel_range_sum_mps2 + other.accel_range_sum_mps2,
             yaw_rate_range_sum_radps: self.yaw_rate_range_sum_radps + other.yaw_rate_range_sum_radps,
+            turning_samples: self.turning_samples + other.turning_samples,
+            turning_nll_sum: self.turning_nll_sum + other.turning_nll_sum,
+            turning_in_top_n: self.turning_in_top_n + other.turning_in_top_n,
         }
     }
 }
@@ -108,6 +123,22 @@ impl PriorFit {
     pub fn yaw_rate_range_radps(&self) -> Option<f64> {
         self.mean(self.yaw_rate_range_sum_radps)
     }
+
+    /// Mean negative log-likelihood of the recorded turning tokens, nats.
+    pub fn turning_nll(&self) -> Option<f64> {
+        (self.turning_samples > 0).then(|| self.turning_nll_sum / self.turning_samples as f64)
+    }
+
+    /// Share of the recorded turning tokens among the top n.
+    pub fn turning_in_top_n_share(&self) -> Option<f64> {
+        (self.turning_samples > 0).then(|| self.turning_in_top_n as f64 / self.turning_samples as f64)
+    }
+}
+
+/// Whether `token` turns: its yaw rate is at least
+/// [`TURNING_YAW_RATE_RADPS`] either way.
+pub fn is_turning(token: Token) -> bool {
+    TokenGrid::yaw_rate_centre(token.yaw_rate_bin()).abs() >= TURNING_YAW_RATE_RADPS
 }
 
 /// The negative log-likelihood (nats) of `token` under the softmax of
@@ -166,13 +197,19 @@ pub fn prior_fit(
             Ok(samples.iter().zip(&logits).fold(PriorFit::default(), |fit, ((_, recorded), logits)| {
                 let top = top_tokens(logits, top_n);
                 let (accel_range_mps2, yaw_rate_range_radps) = TokenGrid::ranges(&top);
+                let nll = token_nll(logits, *recorded);
+                let in_top_n = usize::from(top.contains(recorded));
+                let turning = is_turning(*recorded);
                 fit + PriorFit {
                     samples: 1,
-                    nll_sum: token_nll(logits, *recorded),
+                    nll_sum: nll,
                     top1: usize::from(top.first() == Some(recorded)),
-                    in_top_n: usize::from(top.contains(recorded)),
+                    in_top_n,
                     accel_range_sum_mps2: accel_range_mps2,
                     yaw_rate_range_sum_radps: yaw_rate_range_radps,
+                    turning_samples: usize::from(turning),
+                    turning_nll_sum: if turning { nll } else { 0.0 },
+                    turning_in_top_n: if turning { in_top_n } else { 0 },
                 }
             }))
         })
@@ -205,14 +242,45 @@ mod tests {
             in_top_n: 2,
             accel_range_sum_mps2: 4.0,
             yaw_rate_range_sum_radps: 0.2,
+            turning_samples: 1,
+            turning_nll_sum: 2.5,
+            turning_in_top_n: 0,
         };
-        let both = a + PriorFit { samples: 2, nll_sum: 1.0, top1: 0, in_top_n: 1, ..PriorFit::default() };
+        let both = a + PriorFit {
+            samples: 2,
+            nll_sum: 1.0,
+            top1: 0,
+            in_top_n: 1,
+            turning_samples: 1,
+            turning_nll_sum: 1.5,
+            turning_in_top_n: 1,
+            ..PriorFit::default()
+        };
         assert_eq!(both.samples, 4);
         assert_eq!(both.nll(), Some(1.0));
         assert_eq!(both.top1_share(), Some(0.25));
         assert_eq!(both.in_top_n_share(), Some(0.75));
         assert_eq!(both.accel_range_mps2(), Some(1.0));
         assert_eq!(PriorFit::default().nll(), None);
+        assert_eq!(both.turning_nll(), Some(2.0));
+        assert_eq!(both.turning_in_top_n_share(), Some(0.5));
+        assert_eq!(PriorFit::default().turning_nll(), None);
+    }
+
+    #[test]
+    fn a_token_turns_from_the_threshold_yaw_rate_either_way() {
+        use crate::motion::tokens::BINS_PER_AXIS;
+        let centre = BINS_PER_AXIS / 2;
+        assert!(!is_turning(Token::from_bins(centre, centre).unwrap()), "zero yaw rate");
+        let turning: Vec<usize> =
+            (0..BINS_PER_AXIS).filter(|&y| is_turning(Token::from_bins(centre, y).unwrap())).collect();
+        // Both ends of the grid turn, symmetrically, and every bin that
+        // turns is at or past the threshold.
+        assert!(turning.contains(&0) && turning.contains(&(BINS_PER_AXIS - 1)), "{turning:?}");
+        assert_eq!(turning.iter().filter(|&&y| y < centre).count(), turning.iter().filter(|&&y| y > centre).count());
+        for y in turning {
+            assert!(TokenGrid::yaw_rate_centre(y).abs() >= TURNING_YAW_RATE_RADPS);
+        }
     }
 
     #[test]

@@ -222,6 +222,10 @@ fn prior_fit_scores_both_history_alignments_names_unreadable_files_and_refuses_a
     assert_eq!(json_rows[0]["history"], "at-boundary");
     assert_eq!(json_rows[0]["samples"].as_u64().unwrap() as usize, samples(&rows[0]));
     assert_eq!(report["per_scene"][0]["at_boundary"]["samples"].as_u64().unwrap() as usize, samples(&rows[0]));
+    // The recorded turning tokens are a part of the samples, scored apart.
+    let turning = json_rows[0]["turning_samples"].as_u64().unwrap();
+    assert!(turning <= json_rows[0]["samples"].as_u64().unwrap(), "{}", json_rows[0]);
+    assert!(text.contains("recorded token turning"), "{text}");
     // A file that does not load is named, the others are scored, and the
     // run fails.
     let dir = crate::scratch::Scratch::new("prior-fit");
