@@ -8,7 +8,7 @@ import torch
 import torch.nn.functional as F
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from train import BINS, MAP_IN_INTERSECTION, MAP_SPEED_LIMIT, bin_spread, drop_map_features, token_loss  # noqa: E402
+from train import BINS, MAP_IN_INTERSECTION, MAP_SPEED_LIMIT, bin_spread, drop_map_features, is_turning, token_loss  # noqa: E402
 
 
 def explicit_target(target, smoothing, axis, spread):
@@ -52,6 +52,18 @@ class TokenLossTest(unittest.TestCase):
         self.assertTrue(torch.all(spread.diagonal() == 0))
         self.assertGreater(spread[30, 31].item(), spread[30, 35].item())
 
+
+
+class TurningTest(unittest.TestCase):
+    def test_a_token_turns_from_0_3_rad_per_s_either_way_whatever_its_acceleration(self):
+        import numpy as np
+        yaw_bins = np.arange(BINS)
+        centres = -1.5 + (yaw_bins + 0.5) * 3.0 / BINS
+        for accel_bin in (0, 31, 62):
+            got = is_turning(accel_bin * BINS + yaw_bins)
+            self.assertTrue(np.array_equal(got, np.abs(centres) >= 0.3))
+        self.assertFalse(is_turning(np.array([31 * BINS + 31]))[0])  # zero yaw rate
+        self.assertEqual(int(is_turning(yaw_bins).sum()) % 2, 0)  # as many left as right
 
 if __name__ == "__main__":
     unittest.main()

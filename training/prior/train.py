@@ -115,6 +115,15 @@ def evaluate(model, data, idx, bs=2048):
 
 
 BINS = 63  # per axis; token id = accel_bin * 63 + yaw_rate_bin (motion::tokens)
+MAX_YAW_RATE_RADPS = 1.5  # the grid's yaw-rate bound (motion::tokens)
+TURNING_YAW_RATE_RADPS = 0.3  # from here a token turns (eval::prior_fit)
+
+
+def is_turning(tokens):
+    """Whether each token id's yaw-rate bin centre is at least 0.3 rad/s either way."""
+    width = 2 * MAX_YAW_RATE_RADPS / BINS
+    centre = -MAX_YAW_RATE_RADPS + (np.asarray(tokens) % BINS + 0.5) * width
+    return np.abs(centre) >= TURNING_YAW_RATE_RADPS
 
 
 def bin_spread(sigma_bins):
@@ -171,6 +180,9 @@ def main():
                     help="per training sample, the probability that its map tokens lose their speed limits, and "
                          "(drawn apart) their intersection flags: run-time maps without them (WOMD JSON keeps "
                          "neither) are then familiar; 0 (the shipped priors) keeps every feature")
+    ap.add_argument("--turning-weight", type=float, default=1.0,
+                    help="draw training samples whose label turns (yaw rate of at least 0.3 rad/s either way) "
+                         "this many times as often")
     ap.add_argument("--init", help="start from this checkpoint's weights (a best.pt of the same architecture) "
                                    "instead of a random initialisation")
     ap.add_argument("--out", required=True)
@@ -188,6 +200,11 @@ def main():
     # A fixed evaluation subset during training; the whole held-out set at the end.
     probe = np.sort(rng.choice(held_idx, size=min(20000, len(held_idx)), replace=False))
     weights = np.where(ngsim[train_idx], a.ngsim_weight, 1.0)
+    if a.turning_weight != 1.0:
+        turning = is_turning(data["next_token"][train_idx].cpu().numpy())
+        weights = weights * np.where(turning, a.turning_weight, 1.0)
+        print(f"turning labels: {turning.mean():.3f} of the training samples, drawn {a.turning_weight}x as often",
+              flush=True)
     weights /= weights.sum()
     # rng.choice(train_idx, p=weights) rebuilds this CDF on every call (O(samples)
     # a step); drawing through it once made is the same draw, without the cost.
@@ -270,6 +287,7 @@ def main():
         "purpose": dataset["purpose"], "recipe": dataset["recipe"],
         "label_smoothing": a.label_smoothing, "label_smoothing_axis": a.label_smoothing_axis,
         "label_smoothing_bins": a.label_smoothing_bins, "map_feature_dropout": a.map_feature_dropout,
+        "turning_weight": a.turning_weight,
     }
     json.dump(summary, open(os.path.join(a.out, "summary.json"), "w"), indent=2)
     print(json.dumps(summary), flush=True)
