@@ -57,8 +57,19 @@ impl From<DatasetError> for CliError {
     }
 }
 
+/// Refuses a `flag` value (`what`: a share, a probability) outside [0, 1].
+fn in_unit_interval(flag: &str, what: &str, value: f64) -> Result<(), CliError> {
+    if (0.0..=1.0).contains(&value) {
+        Ok(())
+    } else {
+        Err(CliError::Usage(format!("{flag} must be {what} in [0, 1], got {value}")))
+    }
+}
+
 /// Runs the command.
 pub fn run(request: &DatasetRequest) -> Result<ExitCode, CliError> {
+    in_unit_interval("--t-junction-share", "a share", request.t_junction_share)?;
+    in_unit_interval("--token-drift", "a probability", request.token_drift)?;
     std::fs::create_dir_all(&request.out)?;
     let existing: Vec<PathBuf> = std::fs::read_dir(&request.out)?
         .filter_map(|e| e.ok().map(|e| e.path()))
@@ -71,22 +82,7 @@ pub fn run(request: &DatasetRequest) -> Result<ExitCode, CliError> {
             existing.len()
         )));
     }
-    for p in existing {
-        std::fs::remove_file(p)?;
-    }
 
-    if !(0.0..=1.0).contains(&request.t_junction_share) {
-        return Err(CliError::Usage(format!(
-            "--t-junction-share must be a share in [0, 1], got {}",
-            request.t_junction_share
-        )));
-    }
-    if !(0.0..=1.0).contains(&request.token_drift) {
-        return Err(CliError::Usage(format!(
-            "--token-drift must be a probability in [0, 1], got {}",
-            request.token_drift
-        )));
-    }
     let purpose = if request.evaluation_only { TrainingPurpose::EvaluationOnly } else { TrainingPurpose::Shipped };
     let recorded = load_scenes_for(&scene_paths(&request.recorded)?, purpose)?;
     eprintln!("recorded scenes: {}", recorded.len());
@@ -128,6 +124,11 @@ pub fn run(request: &DatasetRequest) -> Result<ExitCode, CliError> {
         request.seed
     );
     let options = ShardOptions { shard_size: request.shard_size, drift, purpose, recipe };
+    // Only now, with every input read and accepted: a typo or a refused
+    // licence must not cost the shards that `--force` was to replace.
+    for p in existing {
+        std::fs::remove_file(p)?;
+    }
     let totals = write_shards(&scenes, &request.out, &options, |path, samples| {
         eprintln!("wrote {} ({samples} samples)", path.display());
     })?;

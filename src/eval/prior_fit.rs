@@ -96,7 +96,7 @@ impl std::ops::Add for PriorFit {
 impl PriorFit {
     /// Mean of a sum over the samples (`None` without samples).
     fn mean(&self, sum: f64) -> Option<f64> {
-        (self.samples > 0).then(|| sum / self.samples as f64)
+        per_sample(sum, self.samples)
     }
 
     /// Mean negative log-likelihood of the recorded token, nats.
@@ -126,13 +126,18 @@ impl PriorFit {
 
     /// Mean negative log-likelihood of the recorded turning tokens, nats.
     pub fn turning_nll(&self) -> Option<f64> {
-        (self.turning_samples > 0).then(|| self.turning_nll_sum / self.turning_samples as f64)
+        per_sample(self.turning_nll_sum, self.turning_samples)
     }
 
     /// Share of the recorded turning tokens among the top n.
     pub fn turning_in_top_n_share(&self) -> Option<f64> {
-        (self.turning_samples > 0).then(|| self.turning_in_top_n as f64 / self.turning_samples as f64)
+        per_sample(self.turning_in_top_n as f64, self.turning_samples)
     }
+}
+
+/// `sum` over `samples` samples, per sample (`None` without samples).
+fn per_sample(sum: f64, samples: usize) -> Option<f64> {
+    (samples > 0).then(|| sum / samples as f64)
 }
 
 /// Whether `token` turns: its yaw rate is at least

@@ -93,7 +93,6 @@ pub struct CrossingMix {
 /// [`random_template`] with the crossings drawn by `mix`; shares of zero
 /// draw exactly what [`random_template`] draws.
 pub fn random_template_with(rng: &mut impl Rng, steps: usize, dt_s: f64, mix: CrossingMix) -> (String, RoadMap) {
-    let unsignalised_share = mix.unsignalised_share;
     let width = rng.random_range(3.2..3.9);
     match rng.random_range(0..3) {
         0 => {
@@ -122,7 +121,7 @@ pub fn random_template_with(rng: &mut impl Rng, steps: usize, dt_s: f64, mix: Cr
                 lanes_per_direction: rng.random_range(1..=2),
                 lane_width_m: width,
                 arm_length_m: 150.0,
-                green_s: if unsignalised_share > 0.0 && rng.random_bool(unsignalised_share.min(1.0)) {
+                green_s: if mix.unsignalised_share > 0.0 && rng.random_bool(mix.unsignalised_share.min(1.0)) {
                     None
                 } else {
                     Some(rng.random_range(6.0..20.0))

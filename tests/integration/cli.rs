@@ -181,10 +181,18 @@ fn prior_dataset_refuses_non_commercial_scenes_unless_the_model_is_for_evaluatio
             .concat(),
         )
     };
+    // Shards already there survive a refused run, even with --force.
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(dir.join("shard-000.safetensors"), b"earlier shards").unwrap();
     let refused = run(&[]);
     assert!(!refused.status.success());
     let err = String::from_utf8_lossy(&refused.stderr);
     assert!(err.contains("womd") && err.to_lowercase().contains("licen"), "{err}");
+    let typo = run(&["--evaluation-only", "--t-junction-share", "2"]);
+    assert_eq!(typo.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&typo.stderr);
+    assert!(err.contains("--t-junction-share must be a share in [0, 1], got 2"), "{err}");
+    assert_eq!(std::fs::read(dir.join("shard-000.safetensors")).unwrap(), b"earlier shards");
 
     let out = run(&["--evaluation-only"]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
