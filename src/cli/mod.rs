@@ -414,6 +414,11 @@ enum Command {
         /// the shipped priors' data.
         #[arg(long, default_value_t = 0.0)]
         t_junction_share: f64,
+        /// Share of synthetic scenes with pedestrians walking across the
+        /// road (on crosswalks, and mid-block on streets of at most 17 m/s),
+        /// whom the drivers yield to; 0 draws the shipped priors' data.
+        #[arg(long, default_value_t = 0.0)]
+        pedestrian_share: f64,
         /// Chance that a training scene's token reconstruction applies a
         /// perturbed token in a period (0 turns the drift off); held-out
         /// scenes never drift.
@@ -644,6 +649,7 @@ pub fn main() -> ExitCode {
             shard_size,
             no_driver_choices,
             t_junction_share,
+            pedestrian_share,
             token_drift,
             token_drift_bins,
             evaluation_only,
@@ -657,6 +663,7 @@ pub fn main() -> ExitCode {
             shard_size,
             driver_choices: !no_driver_choices,
             t_junction_share,
+            pedestrian_share,
             token_drift,
             token_drift_bins,
             evaluation_only,

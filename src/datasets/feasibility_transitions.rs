@@ -219,8 +219,14 @@ pub fn synthetic_collection_scenes(recorded: &[Scenario], count: usize, seed: u6
             .flat_map(|t| t.states.iter().step_by(5).flatten().map(|s| s.speed_mps()))
             .collect(),
     );
-    let traffic =
-        SyntheticTraffic { speeds, accel_noise_std_mps2: 1.0, duration_s: 10.0, max_agents: 60, choices: false };
+    let traffic = SyntheticTraffic {
+        speeds,
+        accel_noise_std_mps2: 1.0,
+        duration_s: 10.0,
+        max_agents: 60,
+        choices: false,
+        pedestrian_share: 0.0,
+    };
     (0..count)
         .into_par_iter()
         .filter_map(|i| {

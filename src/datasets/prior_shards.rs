@@ -303,10 +303,17 @@ pub struct SyntheticPlan {
     /// Share of the template crossings built as T-junctions (0: none, as
     /// the shipped priors' data).
     pub t_junction_share: f64,
+    /// Share of synthetic scenes with pedestrians crossing the road (0:
+    /// none, as the shipped priors' data).
+    pub pedestrian_share: f64,
 }
 
 /// The synthetic traffic generator calibrated against the recorded kinematics.
-pub fn calibrated_traffic(recorded: &VehicleKinematics, driver_choices: bool) -> SyntheticTraffic {
+pub fn calibrated_traffic(
+    recorded: &VehicleKinematics,
+    driver_choices: bool,
+    pedestrian_share: f64,
+) -> SyntheticTraffic {
     SyntheticTraffic {
         speeds: SpeedSample::new(recorded.speeds_mps.clone()),
         // IDM alone already varies acceleration; the disturbance supplies
@@ -315,6 +322,7 @@ pub fn calibrated_traffic(recorded: &VehicleKinematics, driver_choices: bool) ->
         duration_s: SYNTHETIC_DURATION_S,
         max_agents: 80,
         choices: driver_choices,
+        pedestrian_share,
     }
 }
 
@@ -323,7 +331,7 @@ pub fn calibrated_traffic(recorded: &VehicleKinematics, driver_choices: bool) ->
 /// calibration of their kinematics against `recorded`.
 pub fn synthetic_scenes(recorded: &[Scenario], plan: SyntheticPlan) -> (Vec<Scenario>, Calibration) {
     let recorded_kinematics = VehicleKinematics::of(recorded);
-    let traffic = calibrated_traffic(&recorded_kinematics, plan.driver_choices);
+    let traffic = calibrated_traffic(&recorded_kinematics, plan.driver_choices, plan.pedestrian_share);
     let steps = (SYNTHETIC_DURATION_S / SYNTHETIC_DT_S).round() as usize + 1;
     let jobs: Vec<(String, u64, Option<usize>)> = (0..plan.template_scenes)
         .map(|i| (format!("synthetic-template-{i:05}"), plan.seed.wrapping_add(i as u64), None))
@@ -470,6 +478,7 @@ mod tests {
             duration_s: 4.0,
             max_agents: 6,
             choices: true,
+            pedestrian_share: 0.0,
         };
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         (0..20)
@@ -569,13 +578,14 @@ mod tests {
             seed: 5,
             driver_choices: true,
             t_junction_share: 0.0,
+            pedestrian_share: 0.0,
         };
         let (synthetic, calibration) = synthetic_scenes(&recorded, plan);
         assert!(!synthetic.is_empty() && synthetic.len() <= 3);
         assert!(!calibration.recorded.is_empty());
         let jsd = calibration.speed_jsd.expect("both sides have speeds");
         assert!((0.0..=1.0).contains(&jsd), "JSD in bits: {jsd}");
-        let traffic = calibrated_traffic(&calibration.recorded, true);
+        let traffic = calibrated_traffic(&calibration.recorded, true, 0.0);
         let expected = 0.6 * calibration.recorded.accel_std_mps2().unwrap();
         assert!((traffic.accel_noise_std_mps2 - expected).abs() < 1e-12);
     }

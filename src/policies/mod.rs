@@ -7,6 +7,7 @@
 pub mod adversary;
 pub mod cbv_rules;
 pub mod constant_velocity;
+pub mod crossing_pedestrian;
 pub mod lane_follower;
 pub mod log_replay;
 pub mod noisy_idm;

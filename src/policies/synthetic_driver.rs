@@ -19,7 +19,7 @@ use crate::geometry::{Point2, Polyline, Vector2, wrap_angle};
 use crate::map::Lane;
 use crate::motion::Action;
 use crate::motion::tokens::{MAX_ACCEL_MPS2, SIM_DT_S};
-use crate::scenario::{AgentState, TrackIndex};
+use crate::scenario::{AgentKind, AgentState, TrackIndex};
 
 /// How far ahead on its route a driver looks for crossing conflicts, m.
 const CONFLICT_LOOKAHEAD_M: f64 = 45.0;
@@ -31,6 +31,10 @@ const CONFLICT_LATERAL_M: f64 = 2.5;
 const CROSSING_MIN_ANGLE_RAD: f64 = 35.0 * std::f64::consts::PI / 180.0;
 /// A route that turns by more than this within the look-ahead is a turning manoeuvre.
 const TURN_MIN_ANGLE_RAD: f64 = 30.0 * std::f64::consts::PI / 180.0;
+/// Time a driver leaves between itself and a pedestrian or cyclist crossing
+/// its route: it goes first only when it clears the crossing this much
+/// sooner, s (a bold turner that accepts no gap from cars still yields).
+const PEDESTRIAN_MARGIN_S: f64 = 2.0;
 /// Slowest speed at which another agent is still predicted to reach a conflict, m/s.
 const MOVING_MIN_MPS: f64 = 1.0;
 /// Slowest speed at which a lane change starts, m/s.
@@ -212,28 +216,31 @@ impl SyntheticDriver {
         let body = world.body(agent);
         let map = world.map;
         let ahead_end = here_s + CONFLICT_LOOKAHEAD_M;
-        // Where the junction on the route ahead begins (its stop line).
+        // Where the junction on the route ahead begins (its stop line). Away
+        // from junctions only people on foot or on a bicycle cross the route.
         let junction_start = route
             .lanes
             .iter()
             .find(|&&(id, start, end)| {
                 end > here_s && start < ahead_end && map.lane(id).is_some_and(|l| l.in_intersection)
             })
-            .map(|&(_, start, _)| start)?;
+            .map(|&(_, start, _)| start);
         let turning = {
             let (_, d0) = route.path.sample(here_s)?;
             let (_, d1) = route.path.sample(ahead_end)?;
             wrap_angle(d1.y.atan2(d1.x) - d0.y.atan2(d0.x)).abs() > TURN_MIN_ANGLE_RAD
         };
-        if turning && self.choices.accepted_gap_s <= 0.0 {
-            return None;
-        }
+        let refuses_gaps = turning && self.choices.accepted_gap_s <= 0.0;
         let my_speed = state.speed_mps().max(2.0);
         let mut stop: Option<f64> = None;
         for (j, other) in world.states.iter().enumerate() {
             let Some(other) = other else { continue };
             let v = other.velocity_mps;
             if j == agent.0 || v.norm() < MOVING_MIN_MPS || (other.position - state.position).norm() > 80.0 {
+                continue;
+            }
+            let vulnerable = world.bodies[j].kind != AgentKind::Vehicle;
+            if !vulnerable && (junction_start.is_none() || refuses_gaps) {
                 continue;
             }
             // The other's first predicted position on the route ahead, crossing it.
@@ -251,11 +258,23 @@ impl SyntheticDriver {
                 continue;
             }
             let t_me = ahead / my_speed;
-            let margin = if turning { self.choices.accepted_gap_s } else { 0.0 };
+            let margin = if vulnerable {
+                PEDESTRIAN_MARGIN_S
+            } else if turning {
+                self.choices.accepted_gap_s
+            } else {
+                0.0
+            };
             if t_other < t_me + margin {
                 // Wait at the stop line while still before it, else short of the conflict.
-                let to_line = junction_start - here_s - 0.5 * body.length_m;
-                let gap = if to_line > 0.0 { to_line } else { ahead - 0.5 * body.length_m - CONFLICT_LATERAL_M };
+                let to_line = junction_start.map_or(f64::NEG_INFINITY, |start| start - here_s - 0.5 * body.length_m);
+                let short_of_conflict = ahead - 0.5 * body.length_m - CONFLICT_LATERAL_M;
+                // A person may cross before the stop line (a crosswalk on the way in).
+                let gap = match (to_line > 0.0, vulnerable) {
+                    (true, false) => to_line,
+                    (true, true) => to_line.min(short_of_conflict),
+                    (false, _) => short_of_conflict,
+                };
                 stop = Some(stop.map_or(gap, |g: f64| g.min(gap)));
             }
         }

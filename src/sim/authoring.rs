@@ -5,6 +5,7 @@
 //! VJ/AJ) treats authored and recorded scenes alike.
 
 use crate::map::RoadMap;
+use crate::policies::crossing_pedestrian::CrossingPedestrian;
 use crate::policies::noisy_idm::{DriverNoise, NoisyIdm};
 use crate::policies::synthetic_driver::{DriverChoices, SyntheticDriver};
 use crate::policies::{AgentAction, AgentPolicy, ConstantVelocity, IdmLaneFollower, IdmParams, WorldView};
@@ -27,6 +28,9 @@ pub enum AuthoredBehaviour {
     Synthetic(IdmParams, DriverNoise, DriverChoices),
     /// Stay where it is.
     Parked,
+    /// Walk straight ahead at this pace (m/s), waiting while a vehicle is
+    /// in the way.
+    CrossingPedestrian(f64),
 }
 
 /// One agent of an authored scenario.
@@ -90,6 +94,7 @@ pub fn synthesize(authored: &AuthoredScenario) -> Scenario {
                 AuthoredBehaviour::NoisyIdm(p, noise) => Box::new(NoisyIdm::new(p, noise)),
                 AuthoredBehaviour::Synthetic(p, noise, choices) => Box::new(SyntheticDriver::new(p, noise, choices)),
                 AuthoredBehaviour::Parked => Box::new(Parked),
+                AuthoredBehaviour::CrossingPedestrian(speed_mps) => Box::new(CrossingPedestrian { speed_mps }),
             }
         })
         .collect();

@@ -10,14 +10,19 @@
 //! they turn at junctions, change lanes when there is room and accept or
 //! refuse gaps in crossing traffic, each at its own drawn rate; with
 //! [`SyntheticTraffic::choices`] off they keep their lane and go straight.
+//!
+//! With a [`SyntheticTraffic::pedestrian_share`], that share of the scenes
+//! also has pedestrians walking across the road, on its crosswalks and
+//! mid-block on urban streets, and the drivers yield to them: a prior
+//! trained on vehicles alone has never seen a person in its way.
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 use super::authoring::{AuthoredAgent, AuthoredBehaviour, AuthoredScenario, synthesize};
-use crate::geometry::{OrientedBox, Pose2, Vector2};
-use crate::map::RoadMap;
+use crate::geometry::{OrientedBox, Point2, Pose2, Vector2};
 use crate::map::templates::{Intersection, Merge, StraightRoad};
+use crate::map::{AreaKind, RoadMap};
 use crate::policies::IdmParams;
 use crate::policies::noisy_idm::DriverNoise;
 use crate::policies::synthetic_driver::DriverChoices;
@@ -70,7 +75,22 @@ pub struct SyntheticTraffic {
     /// Whether drivers turn, change lanes and accept gaps (else they keep
     /// their lane and go straight).
     pub choices: bool,
+    /// Share of scenes with pedestrians crossing the road (0: none). Drawn
+    /// from a generator of their own, so that the vehicles of a scene are
+    /// the same whatever the share.
+    pub pedestrian_share: f64,
 }
+
+/// Fastest speed limit of a street where pedestrians cross mid-block, m/s
+/// (about 60 km/h: urban streets, not highways).
+const MID_BLOCK_MAX_LIMIT_MPS: f64 = 17.0;
+/// Walking speeds, m/s.
+const WALKING_SPEED_MPS: std::ops::Range<f64> = 1.0..1.8;
+/// How far before the kerb a crossing pedestrian starts, m (so that its
+/// arrival at the road varies over the scene).
+const KERB_APPROACH_M: std::ops::Range<f64> = 0.5..9.0;
+/// Longest road crossing looked for, m.
+const MAX_CROSSING_M: f64 = 40.0;
 
 /// A random procedural map: a straight multi-lane road (sometimes with
 /// oncoming lanes), an on-ramp merge, or a signalised four-way crossing.
@@ -217,6 +237,24 @@ impl SyntheticTraffic {
         if agents.is_empty() {
             return None;
         }
+        if self.pedestrian_share > 0.0 {
+            let mut walkers = ChaCha8Rng::seed_from_u64(seed ^ 0x005E_ED0F_7ED5_u64);
+            if walkers.random_bool(self.pedestrian_share.min(1.0)) {
+                let first = agents.len();
+                for (k, initial) in crossing_pedestrians(&map, &mut walkers).into_iter().enumerate() {
+                    agents.push(AuthoredAgent {
+                        id: AgentId(format!("synthetic-pedestrian-{}", first + k)),
+                        body: AgentBody {
+                            kind: AgentKind::Pedestrian,
+                            length_m: walkers.random_range(0.5..0.9),
+                            width_m: walkers.random_range(0.5..0.9),
+                        },
+                        behaviour: AuthoredBehaviour::CrossingPedestrian(initial.speed_mps()),
+                        initial,
+                    });
+                }
+            }
+        }
         let authored = AuthoredScenario {
             id: id.to_string(),
             path: format!("synthetic:{id}").into(),
@@ -228,6 +266,70 @@ impl SyntheticTraffic {
         };
         Some(synthesize(&authored))
     }
+}
+
+/// Start states of pedestrians crossing `map`'s road: up to two on each
+/// crosswalk (along its long side, either way) and, on streets with a
+/// limit of at most [`MID_BLOCK_MAX_LIMIT_MPS`], a few mid-block. Each
+/// starts off the road, a random distance before the kerb, and walks
+/// straight across at its own pace.
+pub fn crossing_pedestrians(map: &RoadMap, rng: &mut impl Rng) -> Vec<AgentState> {
+    let mut lines: Vec<(Point2, Vector2)> = Vec::new();
+    for area in map.areas.iter().filter(|a| a.kind == AreaKind::Crosswalk) {
+        let v = &area.polygon.vertices;
+        if v.len() < 3 {
+            continue;
+        }
+        let centre = v.iter().fold(Vector2::zeros(), |acc, p| acc + p.coords) / v.len() as f64;
+        let (e1, e2) = (v[1] - v[0], v[2] - v[1]);
+        let along = if e1.norm() >= e2.norm() { e1 } else { e2 };
+        if along.norm() < 1e-6 {
+            continue;
+        }
+        for _ in 0..[1, 1, 2][rng.random_range(0..3)] {
+            // Where on the crosswalk's width the walker keeps, a little off the middle.
+            let across = Vector2::new(-along.y, along.x).normalize() * rng.random_range(-0.8..0.8);
+            lines.push((Point2::from(centre) + across, along.normalize()));
+        }
+    }
+    let streets: Vec<&crate::map::Lane> = map
+        .lanes
+        .iter()
+        .filter(|l| !l.in_intersection && l.speed_limit_mps.is_some_and(|v| v <= MID_BLOCK_MAX_LIMIT_MPS))
+        .collect();
+    if !streets.is_empty() {
+        for _ in 0..rng.random_range(0..=2) {
+            let lane = streets[rng.random_range(0..streets.len())];
+            let length = lane.centreline.length_m();
+            if length < 30.0 {
+                continue;
+            }
+            let Some((p, dir)) = lane.centreline.sample(rng.random_range(10.0..length - 10.0)) else { continue };
+            lines.push((p, Vector2::new(-dir.y, dir.x)));
+        }
+    }
+    let mut starts = Vec::new();
+    for (point, along) in lines {
+        if map.is_off_road(&point) {
+            continue;
+        }
+        // The road's extent along the walk, found by stepping out to each kerb.
+        let kerb = |sign: f64| {
+            (1..=(MAX_CROSSING_M / 0.5) as usize)
+                .map(|k| k as f64 * 0.5 * sign)
+                .find(|&t| map.is_off_road(&(point + along * t)))
+        };
+        let (Some(a), Some(b)) = (kerb(-1.0), kerb(1.0)) else { continue };
+        let (from, heading_vec) = if rng.random_bool(0.5) { (a, along) } else { (b, -along) };
+        let start = point + along * from - heading_vec * rng.random_range(KERB_APPROACH_M);
+        let speed = rng.random_range(WALKING_SPEED_MPS);
+        starts.push(AgentState {
+            position: start,
+            heading_rad: heading_vec.y.atan2(heading_vec.x),
+            velocity_mps: heading_vec * speed,
+        });
+    }
+    starts
 }
 
 fn random_vehicle(rng: &mut impl Rng) -> AgentBody {
@@ -257,6 +359,7 @@ mod tests {
             duration_s: 6.0,
             max_agents: 40,
             choices: true,
+            pedestrian_share: 0.0,
         }
     }
 
@@ -428,6 +531,99 @@ mod tests {
         );
         let (a, b) = (in_box(&rushed, 0), in_box(&rushed, 1));
         assert!(a.first() < b.last(), "bold turner entered at step {:?}, oncoming left at {:?}", a.first(), b.last());
+    }
+
+    /// Steps at which two tracks' footprints overlap.
+    fn contacts(s: &Scenario, a: usize, b: usize) -> usize {
+        (0..s.num_steps())
+            .filter(|&k| match (s.tracks[a].footprint(k), s.tracks[b].footprint(k)) {
+                (Some(x), Some(y)) => x.intersects(&y),
+                _ => false,
+            })
+            .count()
+    }
+
+    #[test]
+    fn pedestrians_walk_across_the_road_and_no_vehicle_touches_them() {
+        let walking = SyntheticTraffic { pedestrian_share: 1.0, duration_s: 10.0, max_agents: 80, ..traffic() };
+        let (mut scenes, mut pedestrians, mut on_road) = (0, 0, 0);
+        for seed in 0..40u64 {
+            let mut rng = ChaCha8Rng::seed_from_u64(seed);
+            let (key, map) = random_template(&mut rng, 101, 0.1);
+            let Some(s) = walking.generate("walk", map, seed) else { continue };
+            let people: Vec<usize> =
+                (0..s.tracks.len()).filter(|&i| s.tracks[i].kind == AgentKind::Pedestrian).collect();
+            if key != "intersection" {
+                // Nobody crosses a highway: only streets of at most 17 m/s have walkers.
+                let street = s.map.lanes.iter().any(|l| l.speed_limit_mps.is_some_and(|v| v <= 17.0));
+                assert!(street || people.is_empty(), "seed {seed}: {} pedestrians on a {key}", people.len());
+                continue;
+            }
+            scenes += 1;
+            pedestrians += people.len();
+            for &p in &people {
+                let states: Vec<&AgentState> = s.tracks[p].states.iter().flatten().collect();
+                assert!(s.map.is_off_road(&states[0].position), "seed {seed}: pedestrian {p} starts on the road");
+                on_road += usize::from(states.iter().any(|st| !s.map.is_off_road(&st.position)));
+                for v in (0..s.tracks.len()).filter(|&v| s.tracks[v].kind == AgentKind::Vehicle) {
+                    assert_eq!(contacts(&s, p, v), 0, "seed {seed}: vehicle {v} touched pedestrian {p}");
+                }
+            }
+        }
+        assert!(scenes >= 8 && pedestrians >= 4 * scenes, "{pedestrians} pedestrians in {scenes} crossings");
+        assert!(on_road * 10 >= pedestrians * 8, "only {on_road} of {pedestrians} stepped onto the road");
+    }
+
+    #[test]
+    fn the_pedestrian_share_leaves_the_vehicles_where_they_were() {
+        let map = crossing().build_with_signals(61, 0.1);
+        let without = traffic().generate("a", map.clone(), 21).unwrap();
+        let with = SyntheticTraffic { pedestrian_share: 1.0, ..traffic() }.generate("a", map, 21).unwrap();
+        assert!(without.tracks.iter().all(|t| t.kind == AgentKind::Vehicle));
+        assert!(with.tracks.len() > without.tracks.len(), "pedestrians were added");
+        for (a, b) in without.tracks.iter().zip(&with.tracks) {
+            assert_eq!((a.kind, a.state(0)), (b.kind, b.state(0)), "placed where it was without pedestrians");
+        }
+    }
+
+    #[test]
+    fn a_driver_stops_for_a_pedestrian_crossing_mid_block_and_then_drives_on() {
+        let road = StraightRoad {
+            lanes: 1,
+            oncoming_lanes: 1,
+            lane_width_m: 3.5,
+            length_m: 300.0,
+            speed_limit_mps: Some(12.0),
+        };
+        let car = driver("car", Pose2::new(20.0, 1.75, 0.0), 10.0, keeps_going(2));
+        // Two metres below the near kerb (y = 0), 40 m ahead, walking across to y > 7.
+        let walker = AuthoredAgent {
+            id: AgentId("walker".into()),
+            body: AgentBody { kind: AgentKind::Pedestrian, length_m: 0.6, width_m: 0.6 },
+            initial: AgentState {
+                position: Point2::new(60.0, -2.0),
+                heading_rad: std::f64::consts::FRAC_PI_2,
+                velocity_mps: Vector2::new(0.0, 1.4),
+            },
+            behaviour: AuthoredBehaviour::CrossingPedestrian(1.4),
+        };
+        let alone = simulate(road.build(), vec![car.clone()], 12.0);
+        let with = simulate(road.build(), vec![car, walker], 12.0);
+        let speeds = |s: &Scenario| s.tracks[0].states.iter().flatten().map(|s| s.speed_mps()).collect::<Vec<_>>();
+        let min = |v: &[f64]| v.iter().copied().fold(f64::INFINITY, f64::min);
+        assert!(min(&speeds(&alone)) > 8.0, "an empty street: {}", min(&speeds(&alone)));
+        assert!(min(&speeds(&with)) < 6.0, "slowed for the walker to {}", min(&speeds(&with)));
+        assert_eq!(contacts(&with, 0, 1), 0);
+        // When the car's front reaches the walker's line, the walker is out of the car's lane (0–3.5 m).
+        let reaches = (0..with.num_steps())
+            .find(|&k| with.tracks[0].state(k).is_some_and(|c| c.position.x + 2.25 >= 59.7))
+            .expect("the car reaches the crossing");
+        let y = with.tracks[1].state(reaches).unwrap().position.y;
+        assert!(!(-0.3..=3.8).contains(&y), "the walker was in the car's lane (y = {y}) as it passed");
+        let (car_end, walker_end) =
+            (with.tracks[0].states.last().unwrap().unwrap(), with.tracks[1].states.last().unwrap().unwrap());
+        assert!(walker_end.position.y > 7.0, "crossed: y = {}", walker_end.position.y);
+        assert!(car_end.position.x > 70.0 && car_end.speed_mps() > 4.0, "drove on: {car_end:?}");
     }
 
     #[test]
