@@ -178,16 +178,24 @@ fn print_table(
     writeln!(out, "\nplausibility of the CBV, the seeds' variety and the reference planner:")?;
     writeln!(
         out,
-        "{:<28} {:>12} {:>14} {:>12} {:>14} {:>9} {:>12}",
-        "method", "CBV-bg coll", "CBV at fault", "CBV off-road", "off-road s/var", "distinct", "SR-witnessed"
+        "{:<28} {:>12} {:>14} {:>15} {:>12} {:>14} {:>9} {:>12}",
+        "method",
+        "CBV-bg coll",
+        "CBV at fault",
+        "of it: ped/cyc",
+        "CBV off-road",
+        "off-road s/var",
+        "distinct",
+        "SR-witnessed"
     )?;
     for r in rows {
         writeln!(
             out,
-            "{:<28} {:>12} {:>14} {:>12} {:>14} {:>9} {:>12}",
+            "{:<28} {:>12} {:>14} {:>15} {:>12} {:>14} {:>9} {:>12}",
             name(r),
             fmt(r.cbv_background_collision_rate),
             fmt(r.cbv_at_fault_background_collision_rate),
+            fmt(r.cbv_at_fault_vulnerable_rate),
             fmt(r.cbv_off_road_rate),
             fmt(r.cbv_off_road_s),
             fmt(r.distinct_rate),

@@ -258,6 +258,9 @@ pub struct MethodRow {
     pub cbv_background_collision_rate: Option<f64>,
     /// Share of variants where the CBV was at fault in such a collision.
     pub cbv_at_fault_background_collision_rate: Option<f64>,
+    /// ... in one with a pedestrian or cyclist.
+    #[serde(default)]
+    pub cbv_at_fault_vulnerable_rate: Option<f64>,
     /// Share of variants whose CBV left the road in stage 1.
     pub cbv_off_road_rate: Option<f64>,
     /// Mean time the CBV spent off the road per variant, s.
@@ -674,6 +677,7 @@ fn table_of(
                 sr_witnessed,
                 cbv_background_collision_rate: metrics.cbv_background_collision_rate,
                 cbv_at_fault_background_collision_rate: metrics.cbv_at_fault_background_collision_rate,
+                cbv_at_fault_vulnerable_rate: metrics.cbv_at_fault_vulnerable_rate,
                 cbv_off_road_rate: metrics.cbv_off_road_rate,
                 cbv_off_road_s: metrics.cbv_off_road_s,
                 stage1_closest: ClosestApproach::of(&ok),

@@ -25,7 +25,7 @@
 
 use super::pipeline::DualStage;
 use crate::eval::{ConflictKind, Histogram, jensen_shannon, rollout_conflict};
-use crate::scenario::{Scenario, TrackIndex};
+use crate::scenario::{AgentKind, Scenario, TrackIndex};
 use crate::sim::EgoContact;
 use crate::sim::Rollout;
 use crate::spec::suite::SuiteAcceptance;
@@ -91,6 +91,10 @@ pub struct VariantTally {
     /// an ego collision is, from the CBV's side: not stopped, not hit from
     /// behind); the rest are a replayed background driving into it.
     pub cbv_at_fault_with_background: bool,
+    /// ... and at fault in one with a pedestrian or cyclist (older
+    /// reports lack it: read as `false`).
+    #[serde(default)]
+    pub cbv_at_fault_with_vulnerable: bool,
     /// Time the CBV's centre spent off the road in stage 1, having started
     /// on it, s (0 when it started off the road: a car park is not a fault).
     pub cbv_off_road_s: f64,
@@ -130,7 +134,8 @@ impl VariantTally {
             solved: stages.verdict.solved(),
             cbv: CbvKinematics::of_stage1(scenario, &stages.stage1),
             cbv_hit_background: !background.is_empty(),
-            cbv_at_fault_with_background: background.into_iter().any(|at_fault| at_fault),
+            cbv_at_fault_with_background: background.iter().any(|c| c.at_fault),
+            cbv_at_fault_with_vulnerable: background.iter().any(|c| c.at_fault && c.other_kind != AgentKind::Vehicle),
             cbv_off_road_s: cbv_off_road_s(scenario, &stages.stage1),
             cbv_path_digest: cbv_path_digest(&stages.stage1),
             reached: stages.reach.reached,
@@ -142,9 +147,17 @@ impl VariantTally {
     }
 }
 
-/// The CBV's collisions with anyone but the ego in `stage1`, each as
-/// whether the CBV was at fault.
-pub(crate) fn cbv_background_collisions(scenario: &Scenario, stage1: &Rollout) -> Vec<bool> {
+/// One collision of the CBV with anyone but the ego.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct CbvBackgroundContact {
+    /// Whether the CBV was at fault.
+    pub at_fault: bool,
+    /// What it hit.
+    pub other_kind: AgentKind,
+}
+
+/// The CBV's collisions with anyone but the ego in `stage1`.
+pub(crate) fn cbv_background_collisions(scenario: &Scenario, stage1: &Rollout) -> Vec<CbvBackgroundContact> {
     let Some(cbv) = stage1.cbv else { return Vec::new() };
     let Some(body) = stage1.bodies.get(cbv.0) else { return Vec::new() };
     let state = |step: usize, agent: TrackIndex| {
@@ -156,10 +169,12 @@ pub(crate) fn cbv_background_collisions(scenario: &Scenario, stage1: &Rollout) -
         .filter(|c| !c.involves_ego && (c.a == cbv || c.b == cbv))
         .map(|c| {
             let other = if c.a == cbv { c.b } else { c.a };
-            match (state(c.step, cbv), state(c.step, other)) {
+            let at_fault = match (state(c.step, cbv), state(c.step, other)) {
                 (Some(me), Some(them)) => EgoContact::ego_at_fault(&scenario.map, &me, &body.footprint(&me), &them),
                 _ => true,
-            }
+            };
+            let other_kind = stage1.bodies.get(other.0).map_or(AgentKind::Vehicle, |b| b.kind);
+            CbvBackgroundContact { at_fault, other_kind }
         })
         .collect()
 }
@@ -222,6 +237,8 @@ pub struct SuiteMetrics {
     pub cbv_background_collision_rate: Option<f64>,
     /// Share of variants where the CBV was at fault in such a collision.
     pub cbv_at_fault_background_collision_rate: Option<f64>,
+    /// ... in one with a pedestrian or cyclist.
+    pub cbv_at_fault_vulnerable_rate: Option<f64>,
     /// Share of variants whose CBV left the road in stage 1.
     pub cbv_off_road_rate: Option<f64>,
     /// Mean time the CBV spent off the road per variant, s.
@@ -355,6 +372,7 @@ impl SuiteMetrics {
         let tallies: Vec<&VariantTally> = tallies.into_iter().collect();
         let (mut n, mut critical, mut solved, mut solved_critical) = (0, 0, 0, 0);
         let (mut hit_background, mut at_fault, mut off_road, mut off_road_s) = (0, 0, 0, 0.0);
+        let mut at_fault_vulnerable = 0;
         let (mut reached, mut reached_critical, mut avoidable, mut avoidable_solved, mut no_escape) = (0, 0, 0, 0, 0);
         let (mut gv, mut ga, mut lv, mut la) =
             (Histogram::speed(), Histogram::acceleration(), Histogram::speed(), Histogram::acceleration());
@@ -365,6 +383,7 @@ impl SuiteMetrics {
             solved_critical += usize::from(t.critical && t.solved);
             hit_background += usize::from(t.cbv_hit_background);
             at_fault += usize::from(t.cbv_at_fault_with_background);
+            at_fault_vulnerable += usize::from(t.cbv_at_fault_with_vulnerable);
             off_road += usize::from(t.cbv_off_road_s > 0.0);
             off_road_s += t.cbv_off_road_s;
             reached += usize::from(t.reached);
@@ -388,6 +407,7 @@ impl SuiteMetrics {
             acceleration_jsd: jensen_shannon(&ga, &la),
             cbv_background_collision_rate: share(hit_background, n),
             cbv_at_fault_background_collision_rate: share(at_fault, n),
+            cbv_at_fault_vulnerable_rate: share(at_fault_vulnerable, n),
             cbv_off_road_rate: share(off_road, n),
             cbv_off_road_s: (n > 0).then(|| off_road_s / n as f64),
             conflict_reach: share(reached, n),

@@ -116,7 +116,8 @@ pub fn shrink(variant: &FailingVariant<'_>, budget: usize) -> Result<Option<Shru
     let path_of = |script: &[Choice]| cbv_path(scenario, cbv, start, cbv_start, script);
     let collided_with = |r: &Rollout| r.summary().ego_collision.map(|c| c.other);
     let baseline_off_road = cbv_off_road_s(scenario, variant.stage2);
-    let baseline_at_fault = cbv_background_collisions(scenario, variant.stage2).into_iter().filter(|f| *f).count();
+    let baseline_at_fault =
+        cbv_background_collisions(scenario, variant.stage2).into_iter().filter(|c| c.at_fault).count();
     let setup = VariantSetup { stage2_cbv: Stage2Cbv::Replay, escape: None, ..variant.setup };
     let candidates = std::cell::Cell::new(0);
     // Plays `script`; the rollout and failures when it fails as the variant did.
@@ -134,7 +135,8 @@ pub fn shrink(variant: &FailingVariant<'_>, budget: usize) -> Result<Option<Shru
         let same = failures.first().is_some_and(|f| f.criterion == first_failure.criterion)
             && collided_with(&stage2) == collided_with(variant.stage2);
         let plausible = cbv_off_road_s(scenario, &stage2) <= baseline_off_road
-            && cbv_background_collisions(scenario, &stage2).into_iter().filter(|f| *f).count() <= baseline_at_fault;
+            && cbv_background_collisions(scenario, &stage2).into_iter().filter(|c| c.at_fault).count()
+                <= baseline_at_fault;
         Ok((same && plausible).then_some((stage2, failures)))
     };
 

@@ -122,6 +122,25 @@ fn safer_is_more_critical_than_the_prior_and_keeps_the_cbv_plausible() {
     assert!(at_fault(safer) < at_fault(prior), "at fault {safer:?} vs {prior:?}");
 }
 
+/// In this scene a pedestrian crosses in front of the CBV; the prior, which
+/// learned from vehicles only, drives into them in most seeds. The contact
+/// must be counted at fault and as one with a pedestrian, in each variant
+/// and in the table.
+#[test]
+fn at_fault_contacts_with_pedestrians_are_counted_apart() {
+    let file = crate::shared_data::data_dir().join("womd-interactive/tfrecord-00029-of-00150_122.json");
+    let scenes: Vec<Arc<Scenario>> = safer::scenario::import::load(&file).unwrap().into_iter().map(Arc::new).collect();
+    assert_eq!(scenes[0].id, "5f1afb242983d951");
+    let req = request(vec![AdversaryMethod::Prior], 10);
+    let records = evaluate(&scenes, &req, &ModelSet::shipped(), None, &|| {});
+    let vulnerable = records.iter().filter(|r| r.tally.cbv_at_fault_with_vulnerable).count();
+    assert!(vulnerable > 0, "no seed's CBV hit the pedestrian at fault");
+    assert!(records.iter().all(|r| !r.tally.cbv_at_fault_with_vulnerable || r.cbv_at_fault_with_background));
+    let row = &table(&records, &req.methods)[0];
+    assert_eq!(row.cbv_at_fault_vulnerable_rate, Some(vulnerable as f64 / records.len() as f64));
+    assert!(row.cbv_at_fault_vulnerable_rate <= row.cbv_at_fault_background_collision_rate);
+}
+
 #[test]
 fn variants_do_not_depend_on_the_thread_count() {
     let scenes = scenes();
