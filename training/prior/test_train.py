@@ -8,7 +8,8 @@ import torch
 import torch.nn.functional as F
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from train import BINS, MAP_IN_INTERSECTION, MAP_SPEED_LIMIT, bin_spread, drop_map_features, is_turning, token_loss  # noqa: E402
+from train import (BINS, MAP_IN_INTERSECTION, MAP_SPEED_LIMIT, NEIGHBOUR_CYCLIST, NEIGHBOUR_PEDESTRIAN,  # noqa: E402
+                   bin_spread, drop_map_features, has_vulnerable_ahead, is_turning, token_loss)
 
 
 def explicit_target(target, smoothing, axis, spread):
@@ -65,8 +66,6 @@ class TurningTest(unittest.TestCase):
         self.assertFalse(is_turning(np.array([31 * BINS + 31]))[0])  # zero yaw rate
         self.assertEqual(int(is_turning(yaw_bins).sum()) % 2, 0)  # as many left as right
 
-if __name__ == "__main__":
-    unittest.main()
 
 
 class MapFeatureDropoutTest(unittest.TestCase):
@@ -88,3 +87,29 @@ class MapFeatureDropoutTest(unittest.TestCase):
     def test_no_dropout_changes_nothing(self):
         tokens = torch.rand(10, 48, 7)
         self.assertTrue(torch.equal(drop_map_features({"map_tokens": tokens.clone()}, 0.0)["map_tokens"], tokens))
+
+class VulnerableAheadTest(unittest.TestCase):
+    def test_a_pedestrian_or_cyclist_counts_only_ahead_within_the_window_and_unmasked(self):
+        import numpy as np
+        n = 6
+        neighbours = np.zeros((n, 16, 12), dtype=np.float32)
+        pose = np.zeros((n, 16, 5), dtype=np.float32)
+        mask = np.zeros((n, 16), dtype=np.float32)
+        cases = [  # (kind column, x, y, mask)
+            (NEIGHBOUR_PEDESTRIAN, 10.0, 1.0, 1.0),  # ahead: yes
+            (NEIGHBOUR_CYCLIST, 20.0, -4.0, 1.0),  # a cyclist ahead, to the right: yes
+            (NEIGHBOUR_PEDESTRIAN, -5.0, 0.0, 1.0),  # behind
+            (NEIGHBOUR_PEDESTRIAN, 10.0, 7.0, 1.0),  # too far to the side
+            (NEIGHBOUR_PEDESTRIAN, 10.0, 0.0, 0.0),  # padding
+            (5, 10.0, 0.0, 1.0),  # a vehicle ahead
+        ]
+        for i, (kind, x, y, m) in enumerate(cases):
+            neighbours[i, 3, kind] = 1.0
+            pose[i, 3, :2] = (x, y)
+            mask[i, 3] = m
+        got = has_vulnerable_ahead(neighbours, pose, mask)
+        self.assertEqual(got.tolist(), [True, True, False, False, False, False])
+
+
+if __name__ == "__main__":
+    unittest.main()

@@ -126,6 +126,21 @@ def is_turning(tokens):
     return np.abs(centre) >= TURNING_YAW_RATE_RADPS
 
 
+# Neighbour feature columns of a pedestrian's and a cyclist's kind flag, and
+# the ahead / beside window in the agent's frame (prior_features.rs).
+NEIGHBOUR_PEDESTRIAN, NEIGHBOUR_CYCLIST = 6, 7
+VULNERABLE_AHEAD_M, VULNERABLE_BESIDE_M = 25.0, 5.0
+
+
+def has_vulnerable_ahead(neighbours, pose, mask):
+    """Whether each sample sees a pedestrian or cyclist ahead of it: within
+    25 m in front and 5 m to either side, in its own frame."""
+    kind = (neighbours[:, :, NEIGHBOUR_PEDESTRIAN] > 0.5) | (neighbours[:, :, NEIGHBOUR_CYCLIST] > 0.5)
+    x, y = pose[:, :, 0], pose[:, :, 1]
+    ahead = (x > 0) & (x < VULNERABLE_AHEAD_M) & (np.abs(y) < VULNERABLE_BESIDE_M)
+    return (kind & ahead & (mask > 0.5)).any(axis=1)
+
+
 def bin_spread(sigma_bins):
     """[63, 63]: row i is how a label in bin i of the smoothed axis spreads
     its smoothed share over that axis's other bins (Gaussian in bins, none on
@@ -183,6 +198,9 @@ def main():
     ap.add_argument("--turning-weight", type=float, default=1.0,
                     help="draw training samples whose label turns (yaw rate of at least 0.3 rad/s either way) "
                          "this many times as often")
+    ap.add_argument("--vulnerable-ahead-weight", type=float, default=1.0,
+                    help="draw training samples that see a pedestrian or cyclist ahead (within 25 m in front and "
+                         "5 m to either side) this many times as often")
     ap.add_argument("--init", help="start from this checkpoint's weights (a best.pt of the same architecture) "
                                    "instead of a random initialisation")
     ap.add_argument("--out", required=True)
@@ -205,6 +223,12 @@ def main():
         weights = weights * np.where(turning, a.turning_weight, 1.0)
         print(f"turning labels: {turning.mean():.3f} of the training samples, drawn {a.turning_weight}x as often",
               flush=True)
+    if a.vulnerable_ahead_weight != 1.0:
+        ahead = has_vulnerable_ahead(*(data[k][train_idx].cpu().numpy()
+                                       for k in ("neighbours", "neighbour_pose", "neighbour_mask")))
+        weights = weights * np.where(ahead, a.vulnerable_ahead_weight, 1.0)
+        print(f"a pedestrian or cyclist ahead: {ahead.mean():.4f} of the training samples, drawn "
+              f"{a.vulnerable_ahead_weight}x as often", flush=True)
     weights /= weights.sum()
     # rng.choice(train_idx, p=weights) rebuilds this CDF on every call (O(samples)
     # a step); drawing through it once made is the same draw, without the cost.
@@ -288,6 +312,7 @@ def main():
         "label_smoothing": a.label_smoothing, "label_smoothing_axis": a.label_smoothing_axis,
         "label_smoothing_bins": a.label_smoothing_bins, "map_feature_dropout": a.map_feature_dropout,
         "turning_weight": a.turning_weight,
+        "vulnerable_ahead_weight": a.vulnerable_ahead_weight,
     }
     json.dump(summary, open(os.path.join(a.out, "summary.json"), "w"), indent=2)
     print(json.dumps(summary), flush=True)
