@@ -270,7 +270,7 @@ impl SyntheticTraffic {
 
 /// Start states of pedestrians crossing `map`'s road: up to two on each
 /// crosswalk (along its long side, either way) and, on streets with a
-/// limit of at most [`MID_BLOCK_MAX_LIMIT_MPS`], a few mid-block. Each
+/// limit of at most 17 m/s, a few mid-block. Each
 /// starts off the road, a random distance before the kerb, and walks
 /// straight across at its own pace.
 pub fn crossing_pedestrians(map: &RoadMap, rng: &mut impl Rng) -> Vec<AgentState> {
