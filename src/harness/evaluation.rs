@@ -25,7 +25,7 @@ use rayon::prelude::*;
 use super::HarnessError;
 use super::artefacts;
 use super::methods::{BackgroundDriver, MapEncodings, MethodSettings, ModelSet};
-use super::metrics::{SuiteMetrics, VariantTally};
+use super::metrics::{CbvBackgroundContact, SuiteMetrics, VariantTally, cbv_background_collisions};
 use super::pipeline::{self, PlannerLatency, Stage2Verdict, VariantSetup};
 pub use super::pipeline::{Stage2Cbv, VariantProfile};
 use super::variant::variant_seed;
@@ -180,6 +180,9 @@ pub struct VariantRecord {
     pub cbv_hit_background: bool,
     /// ... and was at fault in at least one such collision.
     pub cbv_at_fault_with_background: bool,
+    /// Those collisions: whom the CBV hit, when, and whether at fault.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub cbv_background_contacts: Vec<CbvBackgroundContact>,
     /// Stage 1: time the CBV spent off the road, having started on it, s.
     pub cbv_off_road_s: f64,
     /// Wall time of the variant (both stages and the witness), s.
@@ -221,6 +224,7 @@ impl VariantRecord {
             stage2_escape_rollouts: None,
             cbv_hit_background: false,
             cbv_at_fault_with_background: false,
+            cbv_background_contacts: Vec::new(),
             cbv_off_road_s: 0.0,
             time_s: 0.0,
             profile: VariantProfile::default(),
@@ -397,6 +401,7 @@ fn run_one(
         stage2_escape_rollouts: stages.escape.as_ref().map(|e| e.rollouts),
         cbv_hit_background: tally.cbv_hit_background,
         cbv_at_fault_with_background: tally.cbv_at_fault_with_background,
+        cbv_background_contacts: cbv_background_collisions(scenario, &stages.stage1),
         cbv_off_road_s: (tally.cbv_off_road_s * 10.0).round() / 10.0,
         time_s: 0.0,
         profile,

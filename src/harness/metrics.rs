@@ -147,17 +147,22 @@ impl VariantTally {
     }
 }
 
-/// One collision of the CBV with anyone but the ego.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub(crate) struct CbvBackgroundContact {
-    /// Whether the CBV was at fault.
-    pub at_fault: bool,
-    /// What it hit.
+/// One stage-1 collision of the CBV with anyone but the ego (in
+/// evaluation reports, to find what the CBV hit and when).
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct CbvBackgroundContact {
+    /// The other agent's id.
+    pub other: String,
+    /// What it is.
     pub other_kind: AgentKind,
+    /// When they first touched, s after the rollout's start.
+    pub t_s: f64,
+    /// Whether the CBV was at fault (judged as an ego's contact is).
+    pub at_fault: bool,
 }
 
 /// The CBV's collisions with anyone but the ego in `stage1`.
-pub(crate) fn cbv_background_collisions(scenario: &Scenario, stage1: &Rollout) -> Vec<CbvBackgroundContact> {
+pub fn cbv_background_collisions(scenario: &Scenario, stage1: &Rollout) -> Vec<CbvBackgroundContact> {
     let Some(cbv) = stage1.cbv else { return Vec::new() };
     let Some(body) = stage1.bodies.get(cbv.0) else { return Vec::new() };
     let state = |step: usize, agent: TrackIndex| {
@@ -173,8 +178,12 @@ pub(crate) fn cbv_background_collisions(scenario: &Scenario, stage1: &Rollout) -
                 (Some(me), Some(them)) => EgoContact::ego_at_fault(&scenario.map, &me, &body.footprint(&me), &them),
                 _ => true,
             };
-            let other_kind = stage1.bodies.get(other.0).map_or(AgentKind::Vehicle, |b| b.kind);
-            CbvBackgroundContact { at_fault, other_kind }
+            CbvBackgroundContact {
+                other: stage1.agent_ids.get(other.0).map_or_else(|| format!("#{}", other.0), |id| id.0.clone()),
+                other_kind: stage1.bodies.get(other.0).map_or(AgentKind::Vehicle, |b| b.kind),
+                t_s: (c.step.saturating_sub(stage1.start_step) as f64 * stage1.dt_s * 10.0).round() / 10.0,
+                at_fault,
+            }
         })
         .collect()
 }

@@ -34,7 +34,7 @@ impl std::fmt::Display for AgentId {
 pub struct TrackIndex(pub usize);
 
 /// What kind of road user a track is.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum AgentKind {
     /// Car, truck, bus, motorcycle.

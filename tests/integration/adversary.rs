@@ -9,7 +9,7 @@ use std::sync::Arc;
 use safer::harness::evaluation::{EvaluationRequest, MethodRow, Stage2Cbv, evaluate, table};
 use safer::harness::methods::{BackgroundDriver, ModelSet};
 use safer::planners::BuiltinPlanner;
-use safer::scenario::Scenario;
+use safer::scenario::{AgentKind, Scenario};
 use safer::spec::suite::AdversaryMethod;
 
 fn scenes() -> Vec<Arc<Scenario>> {
@@ -136,6 +136,13 @@ fn at_fault_contacts_with_pedestrians_are_counted_apart() {
     let vulnerable = records.iter().filter(|r| r.tally.cbv_at_fault_with_vulnerable).count();
     assert!(vulnerable > 0, "no seed's CBV hit the pedestrian at fault");
     assert!(records.iter().all(|r| !r.tally.cbv_at_fault_with_vulnerable || r.cbv_at_fault_with_background));
+    // Each such variant names the person, when, and that the CBV was at fault.
+    for r in records.iter().filter(|r| r.tally.cbv_at_fault_with_vulnerable) {
+        let hit = r.cbv_background_contacts.iter().find(|c| c.other_kind == AgentKind::Pedestrian && c.at_fault);
+        let hit = hit.unwrap_or_else(|| panic!("seed {}: {:?}", r.seed, r.cbv_background_contacts));
+        assert!(hit.t_s > 0.0 && hit.t_s <= 8.0 && !hit.other.is_empty(), "{hit:?}");
+    }
+    assert!(records.iter().all(|r| r.cbv_hit_background != r.cbv_background_contacts.is_empty()));
     let row = &table(&records, &req.methods)[0];
     assert_eq!(row.cbv_at_fault_vulnerable_rate, Some(vulnerable as f64 / records.len() as f64));
     assert!(row.cbv_at_fault_vulnerable_rate <= row.cbv_at_fault_background_collision_rate);
