@@ -368,7 +368,8 @@ fn run_one(
         escape: request.escape,
         ego_limits: Some(crate::sim::VehicleLimits::default()),
     })?;
-    let tally = VariantTally::of(scenario, &stages);
+    let background_contacts = cbv_background_collisions(scenario, &stages.stage1);
+    let tally = VariantTally::with_background(scenario, &stages, &background_contacts);
     let mut profile = stages.profile;
     let witness_clock = Instant::now();
     let witness = match (tally.critical, witness) {
@@ -401,7 +402,7 @@ fn run_one(
         stage2_escape_rollouts: stages.escape.as_ref().map(|e| e.rollouts),
         cbv_hit_background: tally.cbv_hit_background,
         cbv_at_fault_with_background: tally.cbv_at_fault_with_background,
-        cbv_background_contacts: cbv_background_collisions(scenario, &stages.stage1),
+        cbv_background_contacts: background_contacts,
         cbv_off_road_s: (tally.cbv_off_road_s * 10.0).round() / 10.0,
         time_s: 0.0,
         profile,

@@ -128,7 +128,12 @@ impl VariantTally {
 impl VariantTally {
     /// The tally of a finished variant.
     pub fn of(scenario: &Scenario, stages: &DualStage) -> Self {
-        let background = cbv_background_collisions(scenario, &stages.stage1);
+        Self::with_background(scenario, stages, &cbv_background_collisions(scenario, &stages.stage1))
+    }
+
+    /// [`VariantTally::of`], given the CBV's stage-1 contacts with
+    /// background traffic ([`cbv_background_collisions`]) already found.
+    pub fn with_background(scenario: &Scenario, stages: &DualStage, background: &[CbvBackgroundContact]) -> Self {
         VariantTally {
             critical: stages.stage1_cbv_hit_ego(),
             solved: stages.verdict.solved(),
