@@ -24,7 +24,12 @@
 # prior-dataset` as they are (`--evaluation-only` for recorded scenes under
 # a non-commercial licence: such a prior is measured, never shipped);
 # DEVICE=cpu runs the same plumbing without a GPU (a smoke test, with
-# random shards from make_random_shards.py).
+# random shards from make_random_shards.py). TRAIN_LIMIT_S=N stops each
+# training run N seconds after it started (a device call has a hard
+# limit): what the run saved by then (`best.pt` at its last evaluation,
+# every `--eval-every` steps) is still packed, and the script exits 1. Stop runs by
+# their process ids, never with `pkill -f train.py`: that pattern also
+# matches a shell whose command line names train.py and kills it.
 #
 # Example (the shipped recipe trained twice as long, both attentions):
 #   STEPS=13296 training/prior/gpu_run.sh safer.xz ngsim.tar.xz $OUT long:differential long-plain:plain
@@ -33,7 +38,7 @@
 #     womd-eval:differential:--recorded-weight,10
 set -u
 if [ $# -lt 4 ]; then
-  sed -n 2,33p "$0" >&2
+  sed -n 2,38p "$0" >&2
   exit 2
 fi
 binary=$1 recorded=$2 out=$3
@@ -70,7 +75,7 @@ for spec in "$@"; do
   IFS=: read -r name attention extra <<< "$spec"
   mkdir -p "$out/$name"
   # shellcheck disable=SC2086  # EXTRA_ARGS are separate words on purpose
-  "${PYTHON:-python3}" training/prior/train.py --data "$shards" --device "${DEVICE:-cuda}" --batch 1024 --threads 4 \
+  ${TRAIN_LIMIT_S:+timeout "$TRAIN_LIMIT_S"} "${PYTHON:-python3}" training/prior/train.py --data "$shards" --device "${DEVICE:-cuda}" --batch 1024 --threads 4 \
     --steps "${STEPS:-6648}" --attention "$attention" --eval-every 2000 ${extra//,/ } \
     --out "$out/$name" > "$out/$name/train.log" 2>&1 &
   pids+=($!)

@@ -11,8 +11,11 @@ map tokens per query and the share of each kind (lane centre, road edge,
 road line, area such as crosswalks), the share of lane tokens flagged in an
 intersection and with a speed limit, the share of map tokens with a known
 signal, neighbours per query and the share that are pedestrians or
-cyclists, queries whose own agent is not a vehicle, and the mean speed at
-the query. Features the run-time scenes have and training never showed (or
+cyclists, queries whose own agent is not a vehicle, the mean speed at
+the query, and how far ahead a moving vehicle's map tokens reach (the
+median over vehicles faster than 3 m/s of the furthest token midpoint
+ahead within 6 m to either side, in the query's frame: the 48 nearest
+tokens of a dense junction reach less far). Features the run-time scenes have and training never showed (or
 the reverse) are inputs the prior was not trained to read.
 """
 import argparse
@@ -31,6 +34,8 @@ NEIGHBOUR_KIND = slice(5, 9)  # vehicle, pedestrian, cyclist, other
 SELF_KIND = slice(2, 6)
 SIGNAL_NONE = 3
 HISTORY_SPEED = 4
+POSE_X, POSE_Y = 0, 1
+REACH_MIN_SPEED_MPS, REACH_HALF_WIDTH_M = 3.0, 6.0
 
 
 class Sums:
@@ -48,6 +53,7 @@ class Sums:
         self.neighbour_kinds = np.zeros(4)
         self.not_vehicle = 0
         self.speed = 0.0
+        self.reach_ahead_m = []
 
     def add(self, d, rows):
         m = d["map_mask"][rows] > 0
@@ -65,17 +71,32 @@ class Sums:
         self.neighbour_kinds += d["neighbours"][rows][nm][:, NEIGHBOUR_KIND].sum(0)
         self.not_vehicle += int((d["agent_self"][rows][:, SELF_KIND][:, 0] == 0).sum())
         self.speed += float(d["history"][rows][:, -1, HISTORY_SPEED].sum())
+        self.reach_ahead_m.append(reach_ahead_m(d, rows))
 
     def row(self, name):
         share = lambda a, b: a / b if b else float("nan")
         k = self.kinds / max(self.map_tokens, 1)
         nk = self.neighbour_kinds / max(self.neighbours, 1)
+        ahead = np.concatenate(self.reach_ahead_m) if self.reach_ahead_m else np.zeros(0)
+        reach = float(np.median(ahead)) if len(ahead) else float("nan")
         return (f"| {name} | {self.queries} | {share(self.map_tokens, self.queries):.1f} | "
                 f"{k[0]:.3f} / {k[1]:.3f} / {k[2]:.3f} / {k[3]:.3f} | "
                 f"{share(self.lanes_in_intersection, self.lanes):.3f} | {share(self.lanes_with_limit, self.lanes):.3f} | "
                 f"{share(self.signal_known, self.map_tokens):.3f} | {share(self.neighbours, self.queries):.1f} | "
                 f"{nk[1]:.3f} / {nk[2]:.3f} | {share(self.not_vehicle, self.queries):.3f} | "
-                f"{share(self.speed, self.queries):.2f} |")
+                f"{share(self.speed, self.queries):.2f} | {reach:.1f} |")
+
+
+def reach_ahead_m(d, rows):
+    """Per moving vehicle query of `rows`: the furthest map token midpoint
+    ahead of it within the corridor (0 when none is)."""
+    vehicle = d["agent_self"][rows][:, SELF_KIND][:, 0] > 0
+    moving = d["history"][rows][:, -1, HISTORY_SPEED] > REACH_MIN_SPEED_MPS
+    pose = d["map_pose"][rows]
+    m = d["map_mask"][rows] > 0
+    x, y = pose[:, :, POSE_X], pose[:, :, POSE_Y]
+    ahead = np.where(m & (x > 0) & (np.abs(y) < REACH_HALF_WIDTH_M), x, 0.0).max(1)
+    return ahead[vehicle & moving]
 
 
 def main():
@@ -84,8 +105,8 @@ def main():
     args = ap.parse_args()
     print("| folder: source | queries | map tokens / query | lane / edge / line / area | lanes in intersection | "
           "lanes with a speed limit | tokens with a signal | neighbours / query | pedestrian / cyclist neighbours | "
-          "queries not a vehicle | speed m/s |")
-    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
+          "queries not a vehicle | speed m/s | map reach ahead, moving vehicles (median m) |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
     for folder in args.folders:
         groups = {}
         for path in sorted(glob.glob(os.path.join(folder, "*.safetensors"))):

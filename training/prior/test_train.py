@@ -111,5 +111,32 @@ class VulnerableAheadTest(unittest.TestCase):
         self.assertEqual(got.tolist(), [True, True, False, False, False, False])
 
 
+class MapReachAheadTest(unittest.TestCase):
+    """`input_shift.reach_ahead_m`: the furthest map token ahead within the
+    corridor, for moving vehicles only."""
+
+    def test_counts_tokens_ahead_in_the_corridor_of_moving_vehicles(self):
+        import numpy as np
+        from input_shift import reach_ahead_m
+        n = 3
+        d = {
+            "agent_self": np.zeros((n, 6), np.float32),
+            "history": np.zeros((n, 6, 8), np.float32),
+            "map_pose": np.zeros((n, 48, 5), np.float32),
+            "map_mask": np.zeros((n, 48), np.float32),
+        }
+        d["agent_self"][[0, 1], 2] = 1.0  # vehicles; query 2 is a pedestrian
+        d["agent_self"][2, 3] = 1.0
+        d["history"][:, -1, 4] = [10.0, 1.0, 10.0]  # query 1 is too slow
+        # Query 0: a token 12 m ahead in the corridor, one 30 m ahead but
+        # 8 m to the side, one 40 m behind, and a padded row 50 m ahead.
+        d["map_pose"][0, :4, :2] = [[12.0, 1.0], [30.0, 8.0], [-40.0, 0.0], [50.0, 0.0]]
+        d["map_mask"][0, :3] = 1.0
+        d["map_pose"][[1, 2], 0, :2] = [20.0, 0.0]
+        d["map_mask"][[1, 2], 0] = 1.0
+        reach = reach_ahead_m(d, np.ones(n, bool))
+        self.assertEqual(reach.tolist(), [12.0])
+
+
 if __name__ == "__main__":
     unittest.main()
