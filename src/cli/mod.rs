@@ -414,6 +414,11 @@ enum Command {
         /// the shipped priors' data.
         #[arg(long, default_value_t = 0.0)]
         t_junction_share: f64,
+        /// Share of the template crossings with two lanes per direction
+        /// whose kerb lanes turn right only (dedicated right-turn lanes, so
+        /// traffic in them must turn); 0 draws the shipped priors' data.
+        #[arg(long, default_value_t = 0.0)]
+        right_turn_lane_share: f64,
         /// Share of synthetic scenes with pedestrians walking across the
         /// road (on crosswalks, and mid-block on streets of at most 17 m/s),
         /// whom the drivers yield to; 0 draws the shipped priors' data.
@@ -649,6 +654,7 @@ pub fn main() -> ExitCode {
             shard_size,
             no_driver_choices,
             t_junction_share,
+            right_turn_lane_share,
             pedestrian_share,
             token_drift,
             token_drift_bins,
@@ -663,6 +669,7 @@ pub fn main() -> ExitCode {
             shard_size,
             driver_choices: !no_driver_choices,
             t_junction_share,
+            right_turn_lane_share,
             pedestrian_share,
             token_drift,
             token_drift_bins,

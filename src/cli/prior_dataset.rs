@@ -35,6 +35,8 @@ pub struct DatasetRequest {
     pub driver_choices: bool,
     /// Share of the template crossings built as T-junctions.
     pub t_junction_share: f64,
+    /// Share of the two-lane template crossings whose kerb lanes turn right only.
+    pub right_turn_lane_share: f64,
     /// Share of synthetic scenes with pedestrians crossing the road.
     pub pedestrian_share: f64,
     /// Chance of a perturbed token per period in training scenes (0: no drift).
@@ -71,6 +73,7 @@ fn in_unit_interval(flag: &str, what: &str, value: f64) -> Result<(), CliError> 
 /// Runs the command.
 pub fn run(request: &DatasetRequest) -> Result<ExitCode, CliError> {
     in_unit_interval("--t-junction-share", "a share", request.t_junction_share)?;
+    in_unit_interval("--right-turn-lane-share", "a share", request.right_turn_lane_share)?;
     in_unit_interval("--pedestrian-share", "a share", request.pedestrian_share)?;
     in_unit_interval("--token-drift", "a probability", request.token_drift)?;
     std::fs::create_dir_all(&request.out)?;
@@ -95,6 +98,7 @@ pub fn run(request: &DatasetRequest) -> Result<ExitCode, CliError> {
         seed: request.seed,
         driver_choices: request.driver_choices,
         t_junction_share: request.t_junction_share,
+        right_turn_lane_share: request.right_turn_lane_share,
         pedestrian_share: request.pedestrian_share,
     };
     let (synthetic, calibration) = synthetic_scenes(&recorded, plan);
@@ -117,6 +121,11 @@ pub fn run(request: &DatasetRequest) -> Result<ExitCode, CliError> {
     } else {
         String::new()
     };
+    let right_turn_lanes = if request.right_turn_lane_share > 0.0 {
+        format!("; kerb lanes turn right only at {} of two-lane template crossings", request.right_turn_lane_share)
+    } else {
+        String::new()
+    };
     let pedestrians = if request.pedestrian_share > 0.0 {
         format!(
             "; pedestrians cross the road in {} of synthetic scenes, and drivers yield to them",
@@ -129,7 +138,7 @@ pub fn run(request: &DatasetRequest) -> Result<ExitCode, CliError> {
         format!("token drift on training scenes: p = {} per period, up to ±{} bins", d.probability, d.max_bins)
     });
     let recipe = format!(
-        "{} recorded + {} template + {} recorded-map synthetic scenes (seed {}); {drivers}{t_junctions}{pedestrians}; {drift_text}",
+        "{} recorded + {} template + {} recorded-map synthetic scenes (seed {}); {drivers}{t_junctions}{right_turn_lanes}{pedestrians}; {drift_text}",
         recorded.len(),
         request.template_scenes,
         request.recorded_map_scenes,

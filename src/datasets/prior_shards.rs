@@ -303,6 +303,9 @@ pub struct SyntheticPlan {
     /// Share of the template crossings built as T-junctions (0: none, as
     /// the shipped priors' data).
     pub t_junction_share: f64,
+    /// Share of the two-lane template crossings whose kerb lanes turn
+    /// right only (0: none, as the shipped priors' data).
+    pub right_turn_lane_share: f64,
     /// Share of synthetic scenes with pedestrians crossing the road (0:
     /// none, as the shipped priors' data).
     pub pedestrian_share: f64,
@@ -353,6 +356,7 @@ pub fn synthetic_scenes(recorded: &[Scenario], plan: SyntheticPlan) -> (Vec<Scen
                     let mix = CrossingMix {
                         unsignalised_share: if plan.driver_choices { UNSIGNALISED_SHARE } else { 0.0 },
                         t_junction_share: plan.t_junction_share,
+                        right_turn_lane_share: plan.right_turn_lane_share,
                     };
                     random_template_with(&mut rng, steps, SYNTHETIC_DT_S, mix).1
                 }
@@ -578,6 +582,7 @@ mod tests {
             seed: 5,
             driver_choices: true,
             t_junction_share: 0.0,
+            right_turn_lane_share: 0.0,
             pedestrian_share: 0.0,
         };
         let (synthetic, calibration) = synthetic_scenes(&recorded, plan);

@@ -219,6 +219,7 @@ mod tests {
     fn crossing() -> RoadMap {
         Intersection {
             missing_arm: None,
+            right_turn_lanes: false,
             lanes_per_direction: 1,
             lane_width_m: 3.5,
             arm_length_m: 60.0,

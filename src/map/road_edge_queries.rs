@@ -181,6 +181,7 @@ mod tests {
         .build();
         let crossing = Intersection {
             missing_arm: None,
+            right_turn_lanes: false,
             lanes_per_direction: 1,
             lane_width_m: 3.5,
             arm_length_m: 40.0,

@@ -105,6 +105,13 @@ impl MapTemplate {
                 check_range("arm_length_m", p.arm_length_m, &limits::ARM_LENGTH_M)?;
                 p.green_s.map_or(Ok(()), |g| check_range("green_s", g, &limits::GREEN_S))?;
                 p.missing_arm.map_or(Ok(()), |a| check_range("missing_arm", a, &(0..=3)))?;
+                if p.right_turn_lanes && p.lanes_per_direction < 2 {
+                    return Err(InvalidParameter {
+                        parameter: "lanes_per_direction",
+                        range: format!("2..={} with right_turn_lanes", limits::LANES.end()),
+                        got: p.lanes_per_direction.to_string(),
+                    });
+                }
                 limit(p.speed_limit_mps)
             }
         }
@@ -358,7 +365,8 @@ impl Merge {
 /// alternate east–west and north–south green with a fixed cycle. With
 /// `missing_arm` it is a T-junction: that arm, its connectors and signals
 /// are left out and a kerb closes the box on its side, so traffic
-/// arriving opposite it must turn.
+/// arriving opposite it must turn. With `right_turn_lanes` the kerb lane
+/// of every arm turns right only, like a dedicated right-turn lane.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Intersection {
@@ -381,6 +389,11 @@ pub struct Intersection {
     /// T-junction; absent: all four.
     #[serde(default)]
     pub missing_arm: Option<usize>,
+    /// The kerb lane of every arm has no way straight on, only the right
+    /// turn (a dedicated right-turn lane); needs two or more lanes per
+    /// direction, so that the lane beside it goes straight.
+    #[serde(default)]
+    pub right_turn_lanes: bool,
 }
 
 fn one() -> usize {
@@ -464,6 +477,10 @@ impl Intersection {
                 for i in 0..n {
                     // Right turns only from the curb lane (i = n-1), left turns only from the lane by the centre line (i = 0).
                     if (turn == 1 && i + 1 != n) || (turn == 3 && i != 0) {
+                        continue;
+                    }
+                    // A dedicated right-turn lane goes nowhere else.
+                    if self.right_turn_lanes && i + 1 == n && turn != 1 {
                         continue;
                     }
                     let y = (i as f64 + 0.5) * w;
@@ -691,6 +708,7 @@ mod tests {
             arm_length_m: 60.0,
             green_s: Some(10.0),
             speed_limit_mps: None,
+            right_turn_lanes: false,
         };
         let m = p.build();
         // Inbound east lane 0 (heading west) connects right to north-out 15, straight to west-out 25, left to south-out 35.
@@ -730,6 +748,7 @@ mod tests {
             arm_length_m: 60.0,
             green_s: Some(10.0),
             speed_limit_mps: None,
+            right_turn_lanes: false,
         };
         assert!(MapTemplate::Intersection(p.clone()).validate().is_ok());
         let m = p.build();
@@ -761,5 +780,37 @@ mod tests {
         // An arm out of range is refused.
         let bad = MapTemplate::Intersection(Intersection { missing_arm: Some(4), ..p });
         assert_eq!(bad.validate().unwrap_err().parameter, "missing_arm");
+    }
+
+    #[test]
+    fn a_right_turn_lane_turns_right_only_and_the_lane_beside_it_goes_straight() {
+        let p = Intersection {
+            missing_arm: None,
+            lanes_per_direction: 2,
+            lane_width_m: 3.5,
+            arm_length_m: 60.0,
+            green_s: None,
+            speed_limit_mps: None,
+            right_turn_lanes: true,
+        };
+        assert!(MapTemplate::Intersection(p.clone()).validate().is_ok());
+        let m = p.build();
+        // East arm, heading west: lane 1 is the kerb lane, lane 0 by the centre line.
+        let kerb = m.lane(MapElementId(1)).unwrap();
+        assert_eq!(kerb.successors, vec![MapElementId(1000 + 10 + 1)], "the right turn north only");
+        let beside = m.lane(MapElementId(0)).unwrap();
+        assert_eq!(beside.successors, vec![MapElementId(1000 + 20), MapElementId(1000 + 30)], "straight and left");
+        // Without the option the kerb lane also goes straight.
+        let plain = Intersection { right_turn_lanes: false, ..p.clone() }.build();
+        assert_eq!(
+            plain.lane(MapElementId(1)).unwrap().successors,
+            vec![MapElementId(1000 + 10 + 1), MapElementId(1000 + 20 + 1)]
+        );
+        assert!(on_road_share(&m) > 0.99, "{}", on_road_share(&m));
+        // One lane per direction has no lane beside the kerb lane to go straight.
+        let bad = MapTemplate::Intersection(Intersection { lanes_per_direction: 1, ..p });
+        let err = bad.validate().unwrap_err();
+        assert_eq!(err.parameter, "lanes_per_direction");
+        assert!(err.to_string().contains("right_turn_lanes"), "{err}");
     }
 }

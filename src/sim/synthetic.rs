@@ -108,6 +108,9 @@ pub struct CrossingMix {
     /// Crossings with one arm left out, where traffic arriving opposite it
     /// must turn.
     pub t_junction_share: f64,
+    /// Crossings of two lanes per direction whose kerb lanes turn right
+    /// only (share of those crossings).
+    pub right_turn_lane_share: f64,
 }
 
 /// [`random_template`] with the crossings drawn by `mix`; shares of zero
@@ -148,11 +151,18 @@ pub fn random_template_with(rng: &mut impl Rng, steps: usize, dt_s: f64, mix: Cr
                 },
                 speed_limit_mps: Some(rng.random_range(11.0..17.0)),
                 missing_arm: None,
+                right_turn_lanes: false,
             };
             // Drawn last, and only when asked for, so that a share of zero
             // leaves every other draw where it was.
             if mix.t_junction_share > 0.0 && rng.random_bool(mix.t_junction_share.min(1.0)) {
                 crossing.missing_arm = Some(rng.random_range(0..4));
+            }
+            if crossing.lanes_per_direction >= 2
+                && mix.right_turn_lane_share > 0.0
+                && rng.random_bool(mix.right_turn_lane_share.min(1.0))
+            {
+                crossing.right_turn_lanes = true;
             }
             let key = if crossing.missing_arm.is_some() { "t-junction" } else { "intersection" };
             (key.into(), crossing.build_with_signals(steps, dt_s))
@@ -432,6 +442,7 @@ mod tests {
     fn crossing() -> Intersection {
         Intersection {
             missing_arm: None,
+            right_turn_lanes: false,
             lanes_per_direction: 1,
             lane_width_m: 3.5,
             arm_length_m: 80.0,
@@ -474,6 +485,23 @@ mod tests {
             assert!((turned.abs() - std::f64::consts::FRAC_PI_2).abs() < 0.35, "seed {seed}: turned {turned}");
             let off = scene.tracks[0].states.iter().flatten().filter(|s| scene.map.is_off_road(&s.position)).count();
             assert_eq!(off, 0, "seed {seed}: {off} states off the road");
+        }
+    }
+
+    #[test]
+    fn in_a_right_turn_lane_a_driver_that_would_go_straight_turns_right_and_the_lane_beside_it_goes_on() {
+        let c = Intersection { lanes_per_direction: 2, right_turn_lanes: true, ..crossing() };
+        let kerb_lane = c.approach_pose(0, 1, 25.0);
+        let beside = c.approach_pose(0, 0, 25.0);
+        for seed in 0..4 {
+            let scene = simulate(c.build(), vec![driver("a", kerb_lane, 8.0, keeps_going(seed))], 10.0);
+            // Right-hand traffic: a right turn is clockwise, a negative heading change.
+            let turned = turned_rad(&scene, 0);
+            assert!((turned + std::f64::consts::FRAC_PI_2).abs() < 0.35, "seed {seed}: turned {turned}");
+            let off = scene.tracks[0].states.iter().flatten().filter(|s| scene.map.is_off_road(&s.position)).count();
+            assert_eq!(off, 0, "seed {seed}: {off} states off the road");
+            let straight = simulate(c.build(), vec![driver("b", beside, 8.0, keeps_going(seed))], 10.0);
+            assert!(turned_rad(&straight, 0).abs() < 0.1, "seed {seed}: beside it turned {}", turned_rad(&straight, 0));
         }
     }
 

@@ -196,6 +196,10 @@ fn prior_dataset_refuses_non_commercial_scenes_unless_the_model_is_for_evaluatio
     assert_eq!(typo.status.code(), Some(2));
     let err = String::from_utf8_lossy(&typo.stderr);
     assert!(err.contains("--pedestrian-share must be a share in [0, 1], got -0.5"), "{err}");
+    let typo = run(&["--evaluation-only", "--right-turn-lane-share", "1.5"]);
+    assert_eq!(typo.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&typo.stderr);
+    assert!(err.contains("--right-turn-lane-share must be a share in [0, 1], got 1.5"), "{err}");
     assert_eq!(std::fs::read(dir.join("shard-000.safetensors")).unwrap(), b"earlier shards");
 
     let out = run(&["--evaluation-only"]);
