@@ -27,9 +27,10 @@
 # random shards from make_random_shards.py). TRAIN_LIMIT_S=N stops each
 # training run N seconds after it started (a device call has a hard
 # limit): what the run saved by then (`best.pt` at its last evaluation,
-# every `--eval-every` steps) is still packed, and the script exits 1. Stop runs by
-# their process ids, never with `pkill -f train.py`: that pattern also
-# matches a shell whose command line names train.py and kills it.
+# every `--eval-every` steps) is still packed, and the script exits 1.
+# Stop runs by their process ids, never with `pkill -f train.py`: that
+# pattern also matches a shell whose command line names train.py and
+# kills it.
 #
 # Example (the shipped recipe trained twice as long, both attentions):
 #   STEPS=13296 training/prior/gpu_run.sh safer.xz ngsim.tar.xz $OUT long:differential long-plain:plain
@@ -38,7 +39,7 @@
 #     womd-eval:differential:--recorded-weight,10
 set -u
 if [ $# -lt 4 ]; then
-  sed -n 2,38p "$0" >&2
+  sed -n 2,39p "$0" >&2
   exit 2
 fi
 binary=$1 recorded=$2 out=$3

@@ -15,8 +15,9 @@ cyclists, queries whose own agent is not a vehicle, the mean speed at
 the query, and how far ahead a moving vehicle's map tokens reach (the
 median over vehicles faster than 3 m/s of the furthest token midpoint
 ahead within 6 m to either side, in the query's frame: the 48 nearest
-tokens of a dense junction reach less far). Features the run-time scenes have and training never showed (or
-the reverse) are inputs the prior was not trained to read.
+tokens of a dense junction reach less far). Features the run-time scenes
+have and training never showed (or the reverse) are inputs the prior was
+not trained to read.
 """
 import argparse
 import glob
