@@ -47,6 +47,10 @@ pub const RECORDED_SOURCE: &str = "ngsim";
 pub const RECORDED_EVALUATION_ONLY_SOURCE: &str = "recorded-evaluation-only";
 /// Source name of the synthetic scenes in shard metadata.
 pub const SYNTHETIC_SOURCE: &str = "synthetic";
+/// The feature contract the shards are written in (`contract_version` in
+/// their metadata): 2, with all [`MAP_TOKEN_FEATURES`] values per map
+/// token (the trainer takes the first 7 for a version-1 prior).
+pub const SHARD_CONTRACT_VERSION: u32 = 2;
 
 /// A scene's entry in a shard's metadata.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
@@ -157,7 +161,7 @@ impl ShardWriter {
         };
         let metadata = HashMap::from([
             ("scenes".to_string(), scenes),
-            ("contract_version".to_string(), "1".to_string()),
+            ("contract_version".to_string(), SHARD_CONTRACT_VERSION.to_string()),
             ("purpose".to_string(), purpose.to_string()),
             ("recipe".to_string(), self.recipe.clone()),
         ]);

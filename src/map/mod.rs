@@ -9,12 +9,14 @@
 //! those are present they decide on-/off-road and the edges give the
 //! distance.
 //!
-//! The element types are in `elements`, the lane queries in
+//! The element types are in `elements`, the lane graph to look ahead on
+//! in `lane_graph`, the lane queries in
 //! `lane_queries`, the road-edge and off-road queries in
 //! `road_edge_queries`; [`RoadMap`] itself (its elements, indices and
 //! bookkeeping) is here.
 
 mod elements;
+pub mod lane_graph;
 mod lane_queries;
 mod road_edge_queries;
 mod spatial_index;

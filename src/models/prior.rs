@@ -12,7 +12,7 @@ use tract_onnx::prelude::*;
 use super::card::{DType, ExpectedContract, ModelKind};
 use super::onnx::{NodeCost, OnnxModel, f32_values};
 use super::prior_features::{
-    HISTORY_FEATURES, HISTORY_POINTS, MAP_ENCODER_CHUNK, MAP_TOKEN_FEATURES, MAP_TOKENS, MapTokens, NEIGHBOUR_FEATURES,
+    HISTORY_FEATURES, HISTORY_POINTS, MAP_ENCODER_CHUNK, MAP_TOKENS, MapTokenWidth, MapTokens, NEIGHBOUR_FEATURES,
     NEIGHBOURS, POSE_FEATURES, QueryFeatures, SELF_FEATURES, SIGNAL_FEATURES,
 };
 use super::{Dim, ModelError, ModelSource};
@@ -79,13 +79,15 @@ pub struct RealismPrior {
     decoder_scene: OnceLock<OnnxModel>,
     decoder_tail: OnceLock<OnnxModel>,
     d: usize,
+    map_token_width: MapTokenWidth,
 }
 
 /// What this build expects of a map encoder.
 pub fn map_encoder_contract() -> ExpectedContract {
     ExpectedContract {
         kind: ModelKind::RealismPriorMapEncoder,
-        inputs: vec![("map_tokens", DType::F32, vec![Some(MAP_ENCODER_CHUNK), Some(MAP_TOKEN_FEATURES)])],
+        // 7 or 10 values per token (a MapTokenWidth), checked at load.
+        inputs: vec![("map_tokens", DType::F32, vec![Some(MAP_ENCODER_CHUNK), None])],
         outputs: vec![("map_embedding", DType::F32, vec![Some(MAP_ENCODER_CHUNK), None])],
         speaks_tokens: false,
     }
@@ -129,6 +131,21 @@ impl RealismPrior {
                 });
             }
         };
+        let width = map_encoder.card().inputs[0].shape.get(1);
+        let map_token_width = match width {
+            Some(Dim::Fixed(w)) => MapTokenWidth::from_values(*w),
+            _ => None,
+        }
+        .ok_or_else(|| ModelError::CardMismatch {
+            path: card(enc),
+            field: "inputs[0].shape[1] (values per map token)".into(),
+            expected: format!(
+                "{} (feature contract 1) or {} (2, with the lane's turn ahead)",
+                MapTokenWidth::Base.values(),
+                MapTokenWidth::WithTurnAhead.values()
+            ),
+            found: format!("{width:?}"),
+        })?;
         let decoder_single = OnnxModel::load(source, card_file(dec), &decoder_contract(), 1)?;
         let width_ok = matches!(decoder_single.card().inputs[5].shape.get(2), Some(Dim::Fixed(w)) if *w == d);
         if !width_ok {
@@ -146,12 +163,18 @@ impl RealismPrior {
             decoder_scene: OnceLock::new(),
             decoder_tail: OnceLock::new(),
             d,
+            map_token_width,
         })
     }
 
     /// Which decoder this is.
     pub fn variant(&self) -> PriorVariant {
         self.variant
+    }
+
+    /// Which map-token values the map encoder reads.
+    pub fn map_token_width(&self) -> MapTokenWidth {
+        self.map_token_width
     }
 
     /// The map encoder (for golden replay).
@@ -166,11 +189,11 @@ impl RealismPrior {
 
     /// Embeds every map token of a scenario (once per scenario).
     pub fn encode_map(&self, tokens: &MapTokens) -> Result<MapEmbedding, ModelError> {
-        let input = tokens.encoder_input();
+        let w = self.map_token_width.values();
+        let input = tokens.encoder_input(self.map_token_width);
         let mut rows = Vec::with_capacity(tokens.tokens.len() * self.d);
-        for chunk in input.chunks(MAP_ENCODER_CHUNK * MAP_TOKEN_FEATURES) {
-            let t =
-                Tensor::from_shape(&[MAP_ENCODER_CHUNK, MAP_TOKEN_FEATURES], chunk).map_err(|e| self.input_error(e))?;
+        for chunk in input.chunks(MAP_ENCODER_CHUNK * w) {
+            let t = Tensor::from_shape(&[MAP_ENCODER_CHUNK, w], chunk).map_err(|e| self.input_error(e))?;
             let out = self.map_encoder.run(tvec!(t.into_tvalue()))?;
             rows.extend(f32_values(&out[0]).map_err(|e| self.input_error(e))?);
         }

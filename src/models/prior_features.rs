@@ -1,4 +1,4 @@
-//! The realism prior's feature builder (contract version 1, documented in
+//! The realism prior's feature builder (contract version 2, documented in
 //! `docs/prior-features.md`): for one query agent at a token boundary, its
 //! recent states in its own frame, its nearest neighbours and map tokens
 //! with relative pose features d_ij, and padding masks. The same code writes
@@ -12,6 +12,7 @@
 use std::collections::HashMap;
 
 use crate::geometry::{Point2, Pose2, Vector2, wrap_angle};
+use crate::map::lane_graph::LaneGraph;
 use crate::map::{AreaKind, MapElementId, RoadMap, SignalState};
 use crate::motion::tokens::{TOKEN_PERIOD_S, TOKEN_PERIOD_STEPS};
 use crate::scenario::{AgentBody, AgentKind, AgentState};
@@ -30,8 +31,13 @@ pub const NEIGHBOUR_FEATURES: usize = 12;
 pub const NEIGHBOUR_RADIUS_M: f64 = 50.0;
 /// Map tokens per query.
 pub const MAP_TOKENS: usize = 48;
-/// Pose-free values per map token (the map encoder's input).
-pub const MAP_TOKEN_FEATURES: usize = 7;
+/// Pose-free values per map token: kind one-hot (4), length, in
+/// intersection, speed limit, then the lane's turn ahead (rightmost and
+/// leftmost heading change, reach). A map encoder reads the first
+/// [`MapTokenWidth`] of them.
+pub const MAP_TOKEN_FEATURES: usize = 10;
+/// How far ahead along the lane graph a lane token's turn is read, m.
+pub const LANE_LOOK_AHEAD_M: f64 = 40.0;
 /// Radius within which map tokens are taken, m.
 pub const MAP_RADIUS_M: f64 = 60.0;
 /// Longest map token, m.
@@ -44,6 +50,33 @@ pub const SIGNAL_FEATURES: usize = 4;
 pub const MAP_ENCODER_CHUNK: usize = 256;
 
 const GRID_CELL_M: f64 = 20.0;
+
+/// Which pose-free map-token values a map encoder reads: the width of its
+/// `map_tokens` input says it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum MapTokenWidth {
+    /// The first 7 values (feature contract version 1): kind, length, in
+    /// intersection, speed limit.
+    Base = 7,
+    /// All 10 (version 2): also the lane's turn ahead along the lane graph.
+    WithTurnAhead = 10,
+}
+
+impl MapTokenWidth {
+    /// The width with this many values, if a map encoder may read it.
+    pub fn from_values(values: usize) -> Option<Self> {
+        match values {
+            7 => Some(Self::Base),
+            10 => Some(Self::WithTurnAhead),
+            _ => None,
+        }
+    }
+
+    /// Values per map token.
+    pub fn values(self) -> usize {
+        self as usize
+    }
+}
 
 /// One piece of a map polyline.
 #[derive(Debug, Clone, PartialEq)]
@@ -74,11 +107,15 @@ fn cell(p: &Point2) -> (i32, i32) {
 impl MapTokens {
     /// Cuts every polyline of `map` into tokens.
     pub fn build(map: &RoadMap) -> Self {
+        let graph = LaneGraph::build(map);
         let mut tokens = Vec::new();
-        let mut add = |points: &[Point2], kind: usize, in_intersection: bool, speed_limit: f64, lane| {
+        let mut add = |points: &[Point2], kind: usize, in_intersection: bool, speed_limit: f64, lane: Option<usize>| {
+            let mut arc_m = 0.0;
             for (a, b) in pieces(points) {
                 let d = b - a;
                 let length = d.norm();
+                let mid_arc_m = arc_m + length / 2.0;
+                arc_m += length;
                 if length < 1e-3 {
                     continue;
                 }
@@ -87,6 +124,12 @@ impl MapTokens {
                 features[4] = length as f32;
                 features[5] = if in_intersection { 1.0 } else { 0.0 };
                 features[6] = speed_limit as f32;
+                if let Some(turn) = lane.and_then(|i| graph.turn_ahead(map, i, mid_arc_m, LANE_LOOK_AHEAD_M)) {
+                    features[7] = turn.rightmost_rad as f32;
+                    features[8] = turn.leftmost_rad as f32;
+                    features[9] = turn.reach_m as f32;
+                }
+                let lane = lane.map(|i| map.lanes[i].id);
                 tokens.push(MapToken {
                     midpoint: Point2::from((a.coords + b.coords) * 0.5),
                     direction_rad: d.y.atan2(d.x),
@@ -95,8 +138,8 @@ impl MapTokens {
                 });
             }
         };
-        for lane in &map.lanes {
-            add(lane.centreline.points(), 0, lane.in_intersection, lane.speed_limit_mps.unwrap_or(0.0), Some(lane.id));
+        for (i, lane) in map.lanes.iter().enumerate() {
+            add(lane.centreline.points(), 0, lane.in_intersection, lane.speed_limit_mps.unwrap_or(0.0), Some(i));
         }
         for edge in &map.road_edges {
             add(edge.polyline.points(), 1, false, 0.0, None);
@@ -148,13 +191,14 @@ impl MapTokens {
         found
     }
 
-    /// The pose-free features of every token, row-major, padded with zero
-    /// rows to a multiple of [`MAP_ENCODER_CHUNK`].
-    pub fn encoder_input(&self) -> Vec<f32> {
+    /// The first `width` pose-free features of every token, row-major,
+    /// padded with zero rows to a multiple of [`MAP_ENCODER_CHUNK`].
+    pub fn encoder_input(&self, width: MapTokenWidth) -> Vec<f32> {
+        let w = width.values();
         let rows = self.tokens.len().div_ceil(MAP_ENCODER_CHUNK).max(1) * MAP_ENCODER_CHUNK;
-        let mut out = vec![0.0f32; rows * MAP_TOKEN_FEATURES];
+        let mut out = vec![0.0f32; rows * w];
         for (i, t) in self.tokens.iter().enumerate() {
-            out[i * MAP_TOKEN_FEATURES..(i + 1) * MAP_TOKEN_FEATURES].copy_from_slice(&t.features);
+            out[i * w..(i + 1) * w].copy_from_slice(&t.features[..w]);
         }
         out
     }
@@ -466,6 +510,42 @@ mod tests {
     }
 
     #[test]
+    fn lane_tokens_carry_the_turn_ahead_and_other_tokens_none() {
+        use crate::map::{RoadEdge, RoadEdgeKind};
+        // An approach 0..30 m east whose only way on turns right (a quarter
+        // circle of 15 m), and a road edge beside it.
+        let approach = Lane::new(MapElementId(1), Polyline::new(vec![Point2::new(0.0, 0.0), Point2::new(30.0, 0.0)]));
+        let arc: Vec<Point2> = (0..=18)
+            .map(|k| {
+                let a = k as f64 / 18.0 * std::f64::consts::FRAC_PI_2;
+                Point2::new(30.0 + 15.0 * a.sin(), -15.0 * (1.0 - a.cos()))
+            })
+            .collect();
+        let right = Lane::new(MapElementId(2), Polyline::new(arc));
+        let edge = RoadEdge {
+            id: MapElementId(3),
+            polyline: Polyline::new(vec![Point2::new(0.0, 2.0), Point2::new(30.0, 2.0)]),
+            kind: RoadEdgeKind::Boundary,
+        };
+        let map = RoadMap::new(vec![approach, right], vec![edge], vec![], vec![], vec![], vec![], vec![]);
+        let tokens = MapTokens::build(&map);
+        let first = &tokens.tokens[0];
+        assert_eq!(first.lane, Some(MapElementId(1)));
+        // Its midpoint is 4 m in: 26 m of approach, then 14 m of the arc.
+        let expected = -14.0 / 15.0;
+        assert!((first.features[7] as f64 - expected).abs() < 0.06, "{:?}", first.features);
+        assert!((first.features[8] as f64 - expected).abs() < 0.06, "right is the only way: {:?}", first.features);
+        assert_eq!(first.features[9], LANE_LOOK_AHEAD_M as f32);
+        let edge_token = tokens.tokens.iter().find(|t| t.features[1] == 1.0).unwrap();
+        assert_eq!(&edge_token.features[7..], &[0.0, 0.0, 0.0]);
+        // A width-7 encoder reads the first seven values only.
+        let base = tokens.encoder_input(MapTokenWidth::Base);
+        assert_eq!(&base[..7], &first.features[..7]);
+        assert_eq!(MapTokenWidth::from_values(7), Some(MapTokenWidth::Base));
+        assert_eq!(MapTokenWidth::from_values(8), None);
+    }
+
+    #[test]
     fn history_before_the_log_is_masked() {
         let (frames, map) = northbound();
         let tokens = MapTokens::build(&map);
@@ -483,7 +563,9 @@ mod tests {
         assert_eq!(near.len(), 5);
         assert!(near.windows(2).all(|w| w[0].1 <= w[1].1));
         assert!(near.iter().all(|(_, d)| *d <= 20.0));
-        assert!(tokens.encoder_input().len().is_multiple_of(MAP_ENCODER_CHUNK * MAP_TOKEN_FEATURES));
+        for width in [MapTokenWidth::Base, MapTokenWidth::WithTurnAhead] {
+            assert!(tokens.encoder_input(width).len().is_multiple_of(MAP_ENCODER_CHUNK * width.values()));
+        }
         // The head of the full ranking (by distance, ties by index), for any k.
         for (x, y) in [(3.0, 0.0), (-20.0, 35.0), (0.0, 90.0)] {
             let p = Point2::new(x, y);

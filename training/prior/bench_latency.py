@@ -57,7 +57,7 @@ def main():
     else:
         ck = torch.load(os.path.join(run.group(1), "best.pt"))
         args = ck["args"]
-        model = Prior(args["d"], args["heads"], args["layers"], args["attention"])
+        model = Prior(args["d"], args["heads"], args["layers"], args["attention"], args.get("map_token_features", 7))
         model.load_state_dict(ck["model"])
         model.eval()
     out = {"onnxruntime": {}, "torch": {}}

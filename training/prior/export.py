@@ -35,6 +35,9 @@ from train import KEYS, load_shards  # noqa: E402
 REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 DEC_INPUTS = ["history", "agent_self", "neighbours", "neighbour_pose", "neighbour_mask",
               "map_embedding", "map_pose", "map_signal", "map_mask"]
+# train.py flags that change the model, with their defaults: the card's command names those that differ.
+RECIPE_DEFAULTS = {"d": 64, "heads": 8, "layers": 3, "seed": 0, "ngsim_weight": 3.0, "map_feature_dropout": 0.0,
+                   "turning_weight": 1.0, "vulnerable_ahead_weight": 1.0, "map_token_features": 7}
 MEANING = {
     "history": "6 history points (t-2.5 s .. t) in the agent's frame: x_m, y_m, cos dh, sin dh, speed_mps, accel_mps2, yaw_rate_radps, valid",
     "agent_self": "length_m, width_m, kind one-hot (vehicle, pedestrian, cyclist, other)",
@@ -46,6 +49,7 @@ MEANING = {
     "map_signal": "signal state of the token's lane: stop, caution, go, none (one-hot)",
     "map_mask": "1 = map token, 0 = padding",
     "map_tokens": "pose-free map token features: kind one-hot (lane centreline, road edge, road line, other), length_m, in_intersection, speed_limit_mps (0 = unknown)",
+    "map_tokens_turn_ahead": "pose-free map token features: kind one-hot (lane centreline, road edge, road line, other), length_m, in_intersection, speed_limit_mps (0 = unknown), then for lane tokens the turn ahead along the lane graph over 40 m: rightmost_rad, leftmost_rad (heading change, left positive), reach_m (0 for other tokens)",
 }
 
 
@@ -103,7 +107,8 @@ def write_card(path, *, name, kind, inputs, outputs, tokens, summary, args, gold
         "inputs:",
     ]
     for n, shape in inputs:
-        lines.append(f"  - {{name: {n}, dtype: f32, shape: [{', '.join(map(str, shape))}], meaning: {yaml_str(MEANING[n])}}}")
+        meaning = MEANING["map_tokens_turn_ahead"] if n == "map_tokens" and shape[-1] == 10 else MEANING[n]
+        lines.append(f"  - {{name: {n}, dtype: f32, shape: [{', '.join(map(str, shape))}], meaning: {yaml_str(meaning)}}}")
     lines.append("outputs:")
     for n, shape, meaning in outputs:
         lines.append(f"  - {{name: {n}, dtype: f32, shape: [{', '.join(map(str, shape))}], meaning: {yaml_str(meaning)}}}")
@@ -145,7 +150,8 @@ def main():
     ck = torch.load(os.path.join(a.run, "best.pt"), map_location="cpu")
     args = ck["args"]
     summary = json.load(open(os.path.join(a.run, "summary.json")))
-    model = Prior(args["d"], args["heads"], args["layers"], args["attention"])
+    width = args.get("map_token_features", 7)
+    model = Prior(args["d"], args["heads"], args["layers"], args["attention"], width)
     model.load_state_dict(ck["model"])
     model.eval()
     suffix = "" if args["attention"] == "differential" else "-plain"
@@ -161,6 +167,8 @@ def main():
                + (f"--label-smoothing {args['label_smoothing']} --label-smoothing-axis "
                   f"{args['label_smoothing_axis']} --label-smoothing-bins {args['label_smoothing_bins']} "
                   if args.get("label_smoothing") else "")
+               + "".join(f"--{flag.replace('_', '-')} {args[flag]} " for flag, default in RECIPE_DEFAULTS.items()
+                         if args.get(flag, default) != default)
                + f"--out {a.run} && "
                f"training/.venv/bin/python training/prior/export.py --run {a.run} --data {a.data} --out {a.out}")
     arch = (f"{args['attention']} attention; D = {d}, H = {args['heads']} heads, L = {args['layers']} layers of "
@@ -174,7 +182,7 @@ def main():
             f"per-head einsums), which tract runs about 3x faster at batch 32.")
 
     # Real held-out queries for the goldens.
-    data, held, _, files = load_shards(a.data, held_out_only=True)
+    data, held, _, files = load_shards(a.data, held_out_only=True, map_token_features=width)
     train_files = sorted(glob.glob(os.path.join(train_data, "shard-*.safetensors")))
     random = shards_are_random(files + train_files)
     if random and os.path.realpath(a.out) == os.path.realpath(os.path.join(REPO, "models")):
@@ -202,7 +210,7 @@ def main():
     with torch.no_grad():
         # Map encoder: a chunk of 256 map tokens from the golden queries.
         many = held_idx[:8]
-        tok = data["map_tokens"][many].reshape(-1, 7)[:256]
+        tok = data["map_tokens"][many].reshape(-1, width)[:256]
         emb = model.map_encoder(tok)
         enc_path = os.path.join(a.out, enc_name + ".onnx")
         torch.onnx.export(model.map_encoder, (tok,), enc_path, input_names=["map_tokens"],
@@ -231,7 +239,7 @@ def main():
         save_file(golden, os.path.join(a.out, dec_name + ".golden.safetensors"))
 
     write_card(os.path.join(a.out, enc_name + ".card.yaml"), name=enc_name, kind="realism-prior-map-encoder",
-               inputs=[("map_tokens", [256, 7])], outputs=[("map_embedding", [256, d], f"{d}-wide embedding per map token")],
+               inputs=[("map_tokens", [256, width])], outputs=[("map_embedding", [256, d], f"{d}-wide embedding per map token")],
                tokens=False, summary=summary, args=args, golden=enc_name + ".golden.safetensors", tolerance="1.0e-4",
                command=command, arch=arch, data_lines=data_lines, licence=licence)
     shapes = {"history": ["batch", 6, 8], "agent_self": ["batch", 6], "neighbours": ["batch", 16, 12],

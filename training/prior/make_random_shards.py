@@ -3,9 +3,9 @@
     training/.venv/bin/python training/prior/make_random_shards.py --out /tmp/prior-smoke --shards 2 --samples 4000
 
 Writes `shard-*.safetensors` files with every tensor of the feature contract
-(docs/prior-features.md, version 1) at the contract's shapes and dtypes, plus
+(docs/prior-features.md, version 2) at the contract's shapes and dtypes, plus
 `next_token` (i64 [B]) and `scene` (i64 [B]), and the metadata keys
-`contract_version` = "1" and `scenes` (JSON list of {id, source, split}), i.e.
+`contract_version` = "2" and `scenes` (JSON list of {id, source, split}), i.e.
 what `safer prior-dataset` (src/datasets/prior_shards.rs) writes, plus
 `generator` naming this script: `export.py` reads it, labels the card's
 training data as random and refuses to write such a model into `models/`. Values are
@@ -103,6 +103,13 @@ def random_shard(rng, b, n_scenes):
 
     next_token = token_of(history[:, 5, 5] + rng.normal(0, 0.3, b), history[:, 5, 6] + rng.normal(0, 0.05, b))
     scene = rng.integers(0, n_scenes, b).astype(np.int64)
+    # Contract 2: each lane token's turn ahead (rightmost, leftmost heading change, reach), zeros elsewhere.
+    rightmost = -rng.uniform(0, 1.6, (b, MAP_TOKENS, 1))
+    leftmost = rightmost + rng.uniform(0, 3.2, (b, MAP_TOKENS, 1))
+    reach = rng.choice([40.0, 12.5, 30.0], (b, MAP_TOKENS, 1))
+    lane = map_tokens[..., :1] * map_mask[..., None]
+    map_tokens = np.concatenate([map_tokens, (np.concatenate([rightmost, leftmost, reach], axis=-1) * lane)],
+                                axis=-1).astype(f32)
     return {
         "history": history, "agent_self": agent_self, "neighbours": neighbours, "neighbour_pose": neighbour_pose,
         "neighbour_mask": neighbour_mask, "map_tokens": map_tokens, "map_pose": map_pose, "map_signal": map_signal,
@@ -124,7 +131,7 @@ def main():
         scenes = [{"id": f"random-{s}-{i}", "source": "ngsim" if i % 4 == 0 else "synthetic",
                    "split": "held-out" if i % 10 == 0 else "train"} for i in range(a.scenes)]
         tensors = random_shard(rng, a.samples, a.scenes)
-        meta = {"contract_version": "1", "scenes": json.dumps(scenes, separators=(",", ":")),
+        meta = {"contract_version": "2", "scenes": json.dumps(scenes, separators=(",", ":")),
                 "generator": "make_random_shards.py (random smoke-test data)"}
         save_file(tensors, os.path.join(a.out, f"shard-{s:03d}.safetensors"), metadata=meta)
     print(f"wrote {a.shards} random shards of {a.samples} queries to {a.out}")

@@ -1,7 +1,7 @@
 """Realism prior (contract v1, docs/prior-features.md): map encoder + query decoder
 with L=3 layers of temporal / agent-agent / agent-map multi-head (differential) attention.
 
-`MapEncoder` is pose-free (map_tokens [N, 7] -> [N, D]) so a scenario's map is
+`MapEncoder` is pose-free (map_tokens [N, 7 or 10] -> [N, D]) so a scenario's map is
 encoded once; `Decoder` answers one query agent: x0 = MLP(scaled history +
 agent_self), then per layer a temporal attention over the 6 history points
 (+ learned time embedding, masked by `valid`), an agent-agent attention over
@@ -46,7 +46,11 @@ HIST_SCALE = [20.0, 20.0, 1.0, 1.0, 10.0, 5.0, 1.5, 1.0]
 SELF_SCALE = [5.0, 5.0, 1.0, 1.0, 1.0, 1.0]
 NB_SCALE = [10.0, 10.0, 10.0, 5.0, 5.0, 1.0, 1.0, 1.0, 1.0, 5.0, 5.0, 1.0]
 POSE_SCALE = [20.0, 20.0, 50.0, 1.0, 1.0]
-MAP_SCALE = [1.0, 1.0, 1.0, 1.0, 8.0, 1.0, 30.0]
+# Map token values: kind one-hot (4), length_m, in_intersection, speed_limit_mps, then (feature contract 2)
+# the lane's turn ahead: rightmost_rad, leftmost_rad, reach_m.
+MAP_SCALE = [1.0, 1.0, 1.0, 1.0, 8.0, 1.0, 30.0, 1.0, 1.0, 40.0]
+# Values per map token a map encoder may read: the first 7 (contract 1) or all 10 (contract 2).
+MAP_TOKEN_WIDTHS = (7, 10)
 
 
 def masked_softmax(scores, mask):
@@ -136,12 +140,14 @@ class Block(nn.Module):
 
 
 class MapEncoder(nn.Module):
-    """Pose-free map token encoder: map_tokens [N, 7] (physical units) -> map_embedding [N, D]."""
+    """Pose-free map token encoder: map_tokens [N, W] (physical units, W = 7 or 10) -> map_embedding [N, D]."""
 
-    def __init__(self, d):
+    def __init__(self, d, width=7):
         super().__init__()
-        self.scale = Scales(MAP_SCALE)
-        self.net = mlp(7, d, d)
+        if width not in MAP_TOKEN_WIDTHS:
+            raise ValueError(f"map tokens of {width} values; a map encoder reads {MAP_TOKEN_WIDTHS}")
+        self.scale = Scales(MAP_SCALE[:width])
+        self.net = mlp(width, d, d)
 
     def forward(self, map_tokens):
         return self.net(self.scale(map_tokens))
@@ -189,9 +195,9 @@ class Decoder(nn.Module):
 class Prior(nn.Module):
     """Map encoder + decoder; training feeds raw map tokens."""
 
-    def __init__(self, d=64, heads=8, layers=3, attention="differential"):
+    def __init__(self, d=64, heads=8, layers=3, attention="differential", map_token_features=7):
         super().__init__()
-        self.map_encoder = MapEncoder(d)
+        self.map_encoder = MapEncoder(d, map_token_features)
         self.decoder = Decoder(d, heads, layers, attention)
 
     def forward(self, batch):

@@ -140,3 +140,41 @@ class MapReachAheadTest(unittest.TestCase):
 
 if __name__ == "__main__":
     unittest.main()
+
+
+class MapTokenWidthTest(unittest.TestCase):
+    """Shards of contract 2 carry 10 values per map token; the trainer keeps
+    the first 7 for a contract-1 prior and refuses 10 from contract-1 shards."""
+
+    def write(self, folder, version):
+        import json
+        import numpy as np
+        from safetensors.numpy import save_file
+        from make_random_shards import random_shard
+        tensors = random_shard(np.random.default_rng(0), 200, 10)
+        if version == "1":
+            tensors["map_tokens"] = np.ascontiguousarray(tensors["map_tokens"][..., :7])
+        scenes = [{"id": f"s{i}", "source": "synthetic", "split": "held-out" if i % 2 else "train"} for i in range(10)]
+        save_file(tensors, os.path.join(folder, "shard-000.safetensors"),
+                  metadata={"contract_version": version, "scenes": json.dumps(scenes)})
+        return tensors
+
+    def test_widths(self):
+        import tempfile
+        from model import Prior
+        from train import load_shards
+        with tempfile.TemporaryDirectory() as v2:
+            written = self.write(v2, "2")
+            self.assertEqual(written["map_tokens"].shape[-1], 10)
+            for width in (7, 10):
+                data, _, _, _ = load_shards(v2, map_token_features=width)
+                self.assertEqual(tuple(data["map_tokens"].shape[1:]), (48, width))
+                self.assertTrue(torch.equal(data["map_tokens"], torch.from_numpy(written["map_tokens"][..., :width])))
+                logits = Prior(16, 8, 1, "differential", width)({k: data[k][:3] for k in data if k != "next_token"})
+                self.assertEqual(tuple(logits.shape), (3, BINS * BINS))
+        with tempfile.TemporaryDirectory() as v1:
+            self.write(v1, "1")
+            self.assertEqual(load_shards(v1)[0]["map_tokens"].shape[-1], 7)
+            with self.assertRaises(SystemExit) as refused:
+                load_shards(v1, map_token_features=10)
+            self.assertIn("needs shards of contract 2", str(refused.exception))

@@ -34,12 +34,18 @@ KEYS = ["history", "agent_self", "neighbours", "neighbour_pose", "neighbour_mask
         "map_tokens", "map_pose", "map_signal", "map_mask"]
 
 
-def load_shards(folder, held_out_only=False):
+# Values per map token in the shards of each feature contract version.
+SHARD_MAP_TOKEN_FEATURES = {"1": 7, "2": 10}
+
+
+def load_shards(folder, held_out_only=False, map_token_features=7):
     """The shards' tensors, held-out mask, recorded mask and files; exits on
     a contract mismatch or on shards that disagree about their purpose.
     `held_out_only` keeps the held-out samples alone, in the same order (the
     golden files need no more, and the whole set does not fit in memory
-    beside a training run)."""
+    beside a training run). `map_token_features` keeps the first 7 values
+    of each map token (contract 1) or all 10 (contract 2: the lane's turn
+    ahead), which needs shards of contract 2."""
     parts = {k: [] for k in KEYS + ["next_token"]}
     split, source = [], []
     purposes, recipes = set(), set()
@@ -49,8 +55,13 @@ def load_shards(folder, held_out_only=False):
     for f in files:
         with safe_open(f, "np") as st:
             meta = st.metadata()
-            if meta.get("contract_version") != "1":
-                sys.exit(f"{f}: contract version {meta.get('contract_version')}, this trainer reads 1")
+            have = SHARD_MAP_TOKEN_FEATURES.get(meta.get("contract_version"))
+            if have is None:
+                sys.exit(f"{f}: contract version {meta.get('contract_version')}, this trainer reads 1 and 2")
+            if have < map_token_features:
+                sys.exit(f"{f}: contract version {meta.get('contract_version')} has {have} values per map token, "
+                         f"--map-token-features {map_token_features} needs shards of contract 2 "
+                         "(write them again with `safer prior-dataset`)")
             scenes = json.loads(meta["scenes"])
             purposes.add(meta.get("purpose", "shipped"))
             recipes.add(meta.get("recipe", ""))
@@ -58,7 +69,8 @@ def load_shards(folder, held_out_only=False):
             held = np.array([scenes[i]["split"] == "held-out" for i in sc], dtype=bool)
             keep = held if held_out_only else slice(None)
             for k in parts:
-                parts[k].append(st.get_tensor(k)[keep])
+                t = st.get_tensor(k)[keep]
+                parts[k].append(t[..., :map_token_features] if k == "map_tokens" else t)
             split.append(held[keep])
             source.append(np.array([scenes[i]["source"] != "synthetic" for i in sc])[keep])
     if len(purposes) > 1 or len(recipes) > 1:
@@ -203,6 +215,9 @@ def main():
                          "5 m to either side) this many times as often")
     ap.add_argument("--init", help="start from this checkpoint's weights (a best.pt of the same architecture) "
                                    "instead of a random initialisation")
+    ap.add_argument("--map-token-features", type=int, choices=[7, 10], default=7,
+                    help="values per map token the map encoder reads: 7 (feature contract 1, the shipped prior's) or "
+                         "10 (contract 2: also the lane's turn ahead along the lane graph)")
     ap.add_argument("--out", required=True)
     a = ap.parse_args()
     torch.set_num_threads(a.threads)
@@ -210,7 +225,7 @@ def main():
     rng = np.random.default_rng(a.seed)
     os.makedirs(a.out, exist_ok=True)
 
-    data, held, ngsim, files = load_shards(a.data)
+    data, held, ngsim, files = load_shards(a.data, map_token_features=a.map_token_features)
     dataset = shard_metadata(files)
     data = {k: v.to(a.device) for k, v in data.items()}
     train_idx = np.flatnonzero(~held)
@@ -240,7 +255,7 @@ def main():
           f"({ngsim[held_idx].sum()} recorded) from {len(files)} shards", flush=True)
 
     spread = bin_spread(a.label_smoothing_bins).to(a.device)
-    model = Prior(a.d, a.heads, a.layers, a.attention).to(a.device)
+    model = Prior(a.d, a.heads, a.layers, a.attention, a.map_token_features).to(a.device)
     if a.init:
         model.load_state_dict(torch.load(a.init, map_location=a.device)["model"])
     params = sum(p.numel() for p in model.parameters())
