@@ -9,7 +9,7 @@ use std::sync::{Arc, OnceLock};
 
 use tract_onnx::prelude::*;
 
-use super::card::{DType, ExpectedContract, ModelKind};
+use super::card::{DType, ExpectedContract, ModelCard, ModelKind};
 use super::onnx::{NodeCost, OnnxModel, f32_values};
 use super::prior_features::{
     HISTORY_FEATURES, HISTORY_POINTS, MAP_ENCODER_CHUNK, MAP_TOKENS, MapTokenWidth, MapTokens, NEIGHBOUR_FEATURES,
@@ -82,12 +82,12 @@ pub struct RealismPrior {
     map_token_width: MapTokenWidth,
 }
 
-/// What this build expects of a map encoder.
-pub fn map_encoder_contract() -> ExpectedContract {
+/// What this build expects of a map encoder that reads `width` values per
+/// map token.
+pub fn map_encoder_contract(width: MapTokenWidth) -> ExpectedContract {
     ExpectedContract {
         kind: ModelKind::RealismPriorMapEncoder,
-        // 7 or 10 values per token (a MapTokenWidth), checked at load.
-        inputs: vec![("map_tokens", DType::F32, vec![Some(MAP_ENCODER_CHUNK), None])],
+        inputs: vec![("map_tokens", DType::F32, vec![Some(MAP_ENCODER_CHUNK), Some(width.values())])],
         outputs: vec![("map_embedding", DType::F32, vec![Some(MAP_ENCODER_CHUNK), None])],
         speaks_tokens: false,
     }
@@ -119,7 +119,26 @@ impl RealismPrior {
         let (enc, dec) = variant.stems();
         let card_file = |stem: &str| format!("{stem}.card.yaml");
         let card = |stem: &str| source.path(Path::new(&card_file(stem)));
-        let map_encoder = OnnxModel::load(source, card_file(enc), &map_encoder_contract(), MAP_ENCODER_CHUNK)?;
+        // The encoder's card says which map-token values it reads.
+        let enc_card_path = card(enc);
+        let enc_card = ModelCard::parse(&source.read(Path::new(&card_file(enc)))?, &enc_card_path)?;
+        let width = enc_card.inputs.first().and_then(|i| i.shape.get(1));
+        let map_token_width = match width {
+            Some(Dim::Fixed(w)) => MapTokenWidth::from_values(*w),
+            _ => None,
+        }
+        .ok_or_else(|| ModelError::CardMismatch {
+            path: enc_card_path.clone(),
+            field: "inputs[0].shape[1] (values per map token)".into(),
+            expected: format!(
+                "{} (feature contract 1) or {} (2, with the lane's turn ahead)",
+                MapTokenWidth::Base.values(),
+                MapTokenWidth::WithTurnAhead.values()
+            ),
+            found: format!("{width:?}"),
+        })?;
+        let map_encoder =
+            OnnxModel::load(source, card_file(enc), &map_encoder_contract(map_token_width), MAP_ENCODER_CHUNK)?;
         let d = match map_encoder.card().outputs[0].shape.get(1) {
             Some(Dim::Fixed(d)) => *d,
             other => {
@@ -131,21 +150,6 @@ impl RealismPrior {
                 });
             }
         };
-        let width = map_encoder.card().inputs[0].shape.get(1);
-        let map_token_width = match width {
-            Some(Dim::Fixed(w)) => MapTokenWidth::from_values(*w),
-            _ => None,
-        }
-        .ok_or_else(|| ModelError::CardMismatch {
-            path: card(enc),
-            field: "inputs[0].shape[1] (values per map token)".into(),
-            expected: format!(
-                "{} (feature contract 1) or {} (2, with the lane's turn ahead)",
-                MapTokenWidth::Base.values(),
-                MapTokenWidth::WithTurnAhead.values()
-            ),
-            found: format!("{width:?}"),
-        })?;
         let decoder_single = OnnxModel::load(source, card_file(dec), &decoder_contract(), 1)?;
         let width_ok = matches!(decoder_single.card().inputs[5].shape.get(2), Some(Dim::Fixed(w)) if *w == d);
         if !width_ok {

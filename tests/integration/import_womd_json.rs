@@ -171,3 +171,40 @@ fn womd_json_wrong_shapes_are_errors_not_panics() {
         assert!(e.contains("in-memory/broken.json"), "{what}: {e}");
     }
 }
+
+/// WOMD JSON keeps no lane connectivity; the lane graph's geometric join
+/// must still let the realism prior's map tokens read the turn ahead. In
+/// the slip-lane scene `7fe71b1ddd04e369` the CBV starts in a right-turn
+/// lane with no way straight on (the recorded CBV turns right; priors that
+/// read only the nearby geometry drive on straight and off the road): the
+/// lane token nearest to it must read a right turn and no other way, and
+/// the lanes beside it, which go on straight, must read that.
+#[test]
+fn womd_json_slip_lane_tokens_read_a_right_turn_ahead_and_no_way_straight_on() {
+    use safer::geometry::wrap_angle;
+    use safer::models::prior_features::MapTokens;
+    let path = crate::shared_data::data_dir().join("womd-interactive/tfrecord-00088-of-00150_48.json");
+    let s = load(&path).unwrap_or_else(|e| panic!("{e}")).remove(0);
+    assert_eq!(s.id, "7fe71b1ddd04e369");
+    let cbv = s.tracks[s.cbv.expect("a labelled CBV").0].states[s.current_step].expect("the CBV is present");
+    let tokens = MapTokens::build(&s.map);
+    let mut along: Vec<_> = tokens
+        .tokens
+        .iter()
+        .filter(|t| t.lane.is_some() && (t.midpoint - cbv.position).norm() < 6.0)
+        .filter(|t| wrap_angle(t.direction_rad - cbv.heading_rad).abs() < 0.5)
+        .collect();
+    along.sort_by(|a, b| (a.midpoint - cbv.position).norm().total_cmp(&(b.midpoint - cbv.position).norm()));
+    let turn = |t: &safer::models::prior_features::MapToken| [t.features[7], t.features[8], t.features[9]];
+    let [right, left, reach] = turn(along.first().expect("a lane token along the CBV within 6 m"));
+    let quarter = std::f32::consts::FRAC_PI_2;
+    assert!(
+        (right + quarter).abs() < 0.3 && (left + quarter).abs() < 0.3 && reach > 30.0,
+        "its lane: turn ahead {right} .. {left} rad over {reach} m"
+    );
+    let straight_beside = along.iter().filter(|t| t.lane != along[0].lane).any(|t| {
+        let [right, left, _] = turn(t);
+        right.abs() < 0.1 && left.abs() < 0.1
+    });
+    assert!(straight_beside, "no lane beside it goes straight on");
+}

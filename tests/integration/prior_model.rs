@@ -9,6 +9,7 @@ use std::sync::Arc;
 
 use safer::models::OnnxModel;
 use safer::models::prior::{PriorVariant, RealismPrior, decoder_contract, map_encoder_contract};
+use safer::models::prior_features::MapTokenWidth;
 use safer::models::{ModelCard, ModelSource};
 
 /// This checkout's `models/`, whose files the library embeds.
@@ -35,7 +36,8 @@ fn shipped_priors_reproduce_their_goldens_in_tract() {
         for variant in [PriorVariant::Differential, PriorVariant::Plain] {
             let (enc, dec) = variant.stems();
             let card_file = |stem: &str| format!("{stem}.card.yaml");
-            let encoder = OnnxModel::load(&source, card_file(enc), &map_encoder_contract(), 256).unwrap();
+            let encoder =
+                OnnxModel::load(&source, card_file(enc), &map_encoder_contract(MapTokenWidth::Base), 256).unwrap();
             let replay = encoder.replay_golden().unwrap();
             assert!(replay.values > 0 && replay.max_abs_diff <= replay.tolerance, "{source} {enc}: {replay:?}");
             let batch = golden_batch(&card(dec));
@@ -76,7 +78,9 @@ fn a_card_whose_model_file_changed_is_refused_naming_the_field() {
         let text = std::fs::read_to_string(card(stem)).unwrap().replace(&c.sha256, &"0".repeat(64));
         std::fs::write(dir.join(format!("{stem}.card.yaml")), text).unwrap();
         let source = ModelSource::Folder(dir.to_path_buf());
-        let err = OnnxModel::load(&source, format!("{stem}.card.yaml"), &map_encoder_contract(), 256).unwrap_err();
+        let err =
+            OnnxModel::load(&source, format!("{stem}.card.yaml"), &map_encoder_contract(MapTokenWidth::Base), 256)
+                .unwrap_err();
         assert!(err.to_string().contains("sha256"), "{err}");
     }
 }
@@ -90,8 +94,25 @@ fn a_card_with_the_wrong_input_shape_is_refused_naming_the_field() {
     let text = std::fs::read_to_string(card(stem)).unwrap().replacen("[256, 7]", "[256, 9]", 1);
     std::fs::write(dir.join(format!("{stem}.card.yaml")), text).unwrap();
     let source = ModelSource::Folder(dir.to_path_buf());
-    let err = OnnxModel::load(&source, format!("{stem}.card.yaml"), &map_encoder_contract(), 256).unwrap_err();
+    let err = OnnxModel::load(&source, format!("{stem}.card.yaml"), &map_encoder_contract(MapTokenWidth::Base), 256)
+        .unwrap_err();
     assert!(err.to_string().contains("inputs[0].shape (map_tokens)"), "{err}");
+}
+
+#[test]
+fn a_map_encoder_of_an_unknown_width_is_refused_naming_the_values_per_map_token() {
+    let dir = tempdir("unknown-width");
+    for stem in ["prior-map-encoder", "prior-decoder"] {
+        let c = ModelCard::load(&card(stem)).unwrap();
+        std::fs::copy(models_dir().join(&c.file), dir.join(&c.file)).unwrap();
+        std::fs::copy(models_dir().join(&c.golden), dir.join(&c.golden)).unwrap();
+        let text = std::fs::read_to_string(card(stem)).unwrap().replacen("[256, 7]", "[256, 9]", 1);
+        std::fs::write(dir.join(format!("{stem}.card.yaml")), text).unwrap();
+    }
+    let err = RealismPrior::load(&ModelSource::Folder(dir.to_path_buf()), PriorVariant::Differential).unwrap_err();
+    let message = err.to_string();
+    assert!(message.contains("values per map token") && message.contains("7 (feature contract 1) or 10"), "{message}");
+    assert!(message.contains("prior-map-encoder.card.yaml"), "{message}");
 }
 
 #[test]
