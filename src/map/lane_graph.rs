@@ -8,9 +8,11 @@
 //! join lets a consumer (the realism prior's map tokens) read the same
 //! "this lane turns right ahead" from every source.
 
+use std::collections::HashMap;
+
 use crate::geometry::wrap_angle;
 
-use super::RoadMap;
+use super::{Lane, RoadMap};
 
 /// A lane's end and another's start closer than this are joined, m.
 pub const JOIN_DISTANCE_M: f64 = 1.0;
@@ -57,50 +59,20 @@ impl LaneGraph {
     /// else the lanes starting within [`JOIN_DISTANCE_M`] of its end and
     /// within [`JOIN_MAX_ANGLE_RAD`] of its end direction.
     pub fn build(map: &RoadMap) -> Self {
-        let n = map.lanes.len();
-        let mut successors = vec![Vec::new(); n];
-        let mut source = vec![None; n];
-        // Lane starts on a grid of join-distance cells.
-        let cell = |x: f64| (x / JOIN_DISTANCE_M).floor() as i64;
-        let mut starts: std::collections::HashMap<(i64, i64), Vec<usize>> = std::collections::HashMap::new();
-        for (i, lane) in map.lanes.iter().enumerate() {
-            if let Some(p) = lane.centreline.points().first() {
-                starts.entry((cell(p.x), cell(p.y))).or_default().push(i);
-            }
-        }
-        for (i, lane) in map.lanes.iter().enumerate() {
+        let joined = successors_by_geometry(&map.lanes);
+        let mut successors = Vec::with_capacity(map.lanes.len());
+        let mut source = Vec::with_capacity(map.lanes.len());
+        for (lane, joined) in map.lanes.iter().zip(joined) {
             let recorded: Vec<usize> = lane.successors.iter().filter_map(|id| map.lane_index(*id)).collect();
-            if !recorded.is_empty() {
-                successors[i] = recorded;
-                source[i] = Some(SuccessorSource::Recorded);
-                continue;
-            }
-            let Some((end, end_dir)) = lane.centreline.sample(lane.centreline.length_m()) else { continue };
-            if lane.centreline.len() < 2 {
-                continue;
-            }
-            let (cx, cy) = (cell(end.x), cell(end.y));
-            let mut joined = Vec::new();
-            for dx in -1..=1 {
-                for dy in -1..=1 {
-                    for &j in starts.get(&(cx + dx, cy + dy)).map_or(&[][..], Vec::as_slice) {
-                        let other = &map.lanes[j].centreline;
-                        if j == i || other.len() < 2 {
-                            continue;
-                        }
-                        let Some((start, start_dir)) = other.sample(0.0) else { continue };
-                        if (start - end).norm() <= JOIN_DISTANCE_M && start_dir.dot(&end_dir) > JOIN_MAX_ANGLE_RAD.cos()
-                        {
-                            joined.push(j);
-                        }
-                    }
-                }
-            }
-            joined.sort_unstable();
-            if !joined.is_empty() {
-                source[i] = Some(SuccessorSource::Geometric);
-            }
-            successors[i] = joined;
+            let (next, from) = if !recorded.is_empty() {
+                (recorded, Some(SuccessorSource::Recorded))
+            } else if !joined.is_empty() {
+                (joined, Some(SuccessorSource::Geometric))
+            } else {
+                (Vec::new(), None)
+            };
+            successors.push(next);
+            source.push(from);
         }
         Self { successors, source }
     }
@@ -164,6 +136,49 @@ impl LaneGraph {
             self.walk(map, j, 0.0, left_m - remaining_on_lane, ahead_m, base_rad, depth + 1, ways, turn);
         }
     }
+}
+
+/// For each lane without recorded successors, the lanes (indices into
+/// `lanes`, ascending) that start within [`JOIN_DISTANCE_M`] of its end and
+/// within [`JOIN_MAX_ANGLE_RAD`] of its end direction; empty for a lane
+/// with recorded successors.
+fn successors_by_geometry(lanes: &[Lane]) -> Vec<Vec<usize>> {
+    let cell = |x: f64| (x / JOIN_DISTANCE_M).floor() as i64;
+    let mut starts: HashMap<(i64, i64), Vec<usize>> = HashMap::new();
+    for (i, lane) in lanes.iter().enumerate() {
+        if let Some(p) = lane.centreline.points().first() {
+            starts.entry((cell(p.x), cell(p.y))).or_default().push(i);
+        }
+    }
+    lanes
+        .iter()
+        .enumerate()
+        .map(|(i, lane)| {
+            if !lane.successors.is_empty() || lane.centreline.len() < 2 {
+                return Vec::new();
+            }
+            let Some((end, end_dir)) = lane.centreline.sample(lane.centreline.length_m()) else { return Vec::new() };
+            let (cx, cy) = (cell(end.x), cell(end.y));
+            let mut joined = Vec::new();
+            for dx in -1..=1 {
+                for dy in -1..=1 {
+                    for &j in starts.get(&(cx + dx, cy + dy)).map_or(&[][..], Vec::as_slice) {
+                        let other = &lanes[j].centreline;
+                        if j == i || other.len() < 2 {
+                            continue;
+                        }
+                        let Some((start, start_dir)) = other.sample(0.0) else { continue };
+                        if (start - end).norm() <= JOIN_DISTANCE_M && start_dir.dot(&end_dir) > JOIN_MAX_ANGLE_RAD.cos()
+                        {
+                            joined.push(j);
+                        }
+                    }
+                }
+            }
+            joined.sort_unstable();
+            joined
+        })
+        .collect()
 }
 
 #[cfg(test)]
