@@ -4,7 +4,7 @@
 //! and prints the calibration (recorded vs synthetic speeds and
 //! accelerations, with their Jensen–Shannon divergence) so it can be judged.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use super::{CliError, scene_paths};
@@ -47,6 +47,41 @@ pub struct DatasetRequest {
     pub evaluation_only: bool,
     /// Replace shards already in `out`.
     pub force: bool,
+}
+
+impl DatasetRequest {
+    /// The `safer prior-dataset` arguments that decide what the shards hold
+    /// (all but `--out` and `--force`), every one written out, so that a
+    /// model card can name the command that remakes its data. A recorded
+    /// folder inside the shared data folder is written `data:REL`.
+    pub fn data_arguments(&self) -> String {
+        let data_root = safer::spec::paths::resolve(Path::new(env!("CARGO_MANIFEST_DIR")), "data:");
+        let recorded = self
+            .recorded
+            .strip_prefix(&data_root)
+            .map_or_else(|_| self.recorded.display().to_string(), |rel| format!("data:{}", rel.display()));
+        let mut args = format!(
+            "--recorded {recorded} --template-scenes {} --recorded-map-scenes {} --seed {} --shard-size {} \
+             --t-junction-share {} --right-turn-lane-share {} --pedestrian-share {} --token-drift {} \
+             --token-drift-bins {}",
+            self.template_scenes,
+            self.recorded_map_scenes,
+            self.seed,
+            self.shard_size,
+            self.t_junction_share,
+            self.right_turn_lane_share,
+            self.pedestrian_share,
+            self.token_drift,
+            self.token_drift_bins
+        );
+        if !self.driver_choices {
+            args.push_str(" --no-driver-choices");
+        }
+        if self.evaluation_only {
+            args.push_str(" --evaluation-only");
+        }
+        args
+    }
 }
 
 /// The dataset commands report a [`DatasetError`] through the variant that
@@ -144,7 +179,8 @@ pub fn run(request: &DatasetRequest) -> Result<ExitCode, CliError> {
         request.recorded_map_scenes,
         request.seed
     );
-    let options = ShardOptions { shard_size: request.shard_size, drift, purpose, recipe };
+    let options =
+        ShardOptions { shard_size: request.shard_size, drift, purpose, recipe, arguments: request.data_arguments() };
     // Only now, with every input read and accepted: a typo or a refused
     // licence must not cost the shards that `--force` was to replace.
     for p in existing {

@@ -68,6 +68,7 @@ pub struct ShardScene {
 pub struct ShardWriter {
     purpose: TrainingPurpose,
     recipe: String,
+    arguments: String,
     scenes: Vec<ShardScene>,
     samples: Vec<(usize, PriorSample)>,
 }
@@ -81,7 +82,14 @@ impl Default for ShardWriter {
 impl ShardWriter {
     /// An empty shard whose metadata names `purpose` and the data `recipe`.
     pub fn new(purpose: TrainingPurpose, recipe: String) -> Self {
-        Self { purpose, recipe, scenes: Vec::new(), samples: Vec::new() }
+        Self { purpose, recipe, arguments: String::new(), scenes: Vec::new(), samples: Vec::new() }
+    }
+
+    /// The same, naming the `safer prior-dataset` arguments that made the
+    /// data (metadata `arguments`).
+    pub fn with_arguments(mut self, arguments: String) -> Self {
+        self.arguments = arguments;
+        self
     }
 
     /// Adds a scene's samples.
@@ -164,6 +172,7 @@ impl ShardWriter {
             ("contract_version".to_string(), SHARD_CONTRACT_VERSION.to_string()),
             ("purpose".to_string(), purpose.to_string()),
             ("recipe".to_string(), self.recipe.clone()),
+            ("arguments".to_string(), self.arguments.clone()),
         ]);
         Ok(write_shard(path, &columns, metadata)?)
     }
@@ -420,6 +429,9 @@ pub struct ShardOptions {
     pub purpose: TrainingPurpose,
     /// One line on how the data was made, for the model card.
     pub recipe: String,
+    /// The `safer prior-dataset` arguments that remake the data (all but
+    /// the output folder), for the model card's command.
+    pub arguments: String,
 }
 
 /// Writes the samples of `scenes` into `out/shard-NNN.safetensors`;
@@ -432,13 +444,15 @@ pub fn write_shards(
 ) -> Result<ShardTotals, DatasetError> {
     let shard_size = options.shard_size;
     let mut totals = ShardTotals::default();
-    let mut writer = ShardWriter::new(options.purpose, options.recipe.clone());
+    let new_writer =
+        || ShardWriter::new(options.purpose, options.recipe.clone()).with_arguments(options.arguments.clone());
+    let mut writer = new_writer();
     let mut flush = |writer: &mut ShardWriter, totals: &mut ShardTotals| -> Result<(), DatasetError> {
         let path = out.join(format!("shard-{:03}.safetensors", totals.shards.len()));
         writer.write(&path)?;
         on_shard(&path, writer.len());
         totals.shards.push(path);
-        *writer = ShardWriter::new(options.purpose, options.recipe.clone());
+        *writer = new_writer();
         Ok(())
     };
     for (c, chunk) in scenes.chunks(SCENES_PER_CHUNK).enumerate() {
@@ -531,8 +545,13 @@ mod tests {
         let mut written = Vec::new();
         let entries =
             vec![(&scene, ShardScene { id: scene.id.clone(), source: "synthetic".into(), split: Split::HeldOut })];
-        let options =
-            ShardOptions { shard_size: 1, drift: None, purpose: TrainingPurpose::Shipped, recipe: "test".into() };
+        let options = ShardOptions {
+            shard_size: 1,
+            drift: None,
+            purpose: TrainingPurpose::Shipped,
+            recipe: "test".into(),
+            arguments: "--seed 3".into(),
+        };
         let totals = write_shards(&entries, &dir, &options, |p, k| written.push((p.to_path_buf(), k))).unwrap();
         assert_eq!(totals.held_out_samples, n);
         assert_eq!(totals.train_samples, 0);
@@ -545,6 +564,7 @@ mod tests {
         let metadata = meta.metadata().as_ref().unwrap();
         assert_eq!(metadata["purpose"], "shipped");
         assert_eq!(metadata["recipe"], "test");
+        assert_eq!(metadata["arguments"], "--seed 3");
         let shard = SafeTensors::deserialize(&bytes).unwrap();
         let expect = [
             ("history", vec![n, HISTORY_POINTS, HISTORY_FEATURES]),

@@ -210,6 +210,22 @@ fn prior_dataset_refuses_non_commercial_scenes_unless_the_model_is_for_evaluatio
     assert_eq!(meta["purpose"], "evaluation-only");
     assert!(meta["scenes"].contains("\"source\":\"recorded-evaluation-only\""), "{}", meta["scenes"]);
     assert!(meta["recipe"].contains("token drift"), "{}", meta["recipe"]);
+    // The arguments that remake the data, every one written out (the
+    // model card's command names them), without the output folder.
+    assert_eq!(meta["contract_version"], "2");
+    let arguments = &meta["arguments"];
+    for part in [
+        "--template-scenes 1 ",
+        "--recorded-map-scenes 0 ",
+        "--pedestrian-share 0 ",
+        "--token-drift 0.3 ",
+        "--evaluation-only",
+    ] {
+        assert!(arguments.contains(part), "{part:?} not in {arguments}");
+    }
+    // The shared data folder's scenes are named as a user names them.
+    assert!(arguments.starts_with("--recorded data:womd-tfrecord "), "{arguments}");
+    assert!(!arguments.contains("--out") && !arguments.contains("--force"), "{arguments}");
 }
 
 #[test]

@@ -160,7 +160,9 @@ def main():
     os.makedirs(a.out, exist_ok=True)
     train_data = a.train_data or args.get("data", a.data)
     budget = f"--steps {args['steps']}" if args.get("steps") else f"--minutes {args['minutes']}"
-    command = (f"cargo run --release -- prior-dataset --out {train_data} && training/.venv/bin/python "
+    dataset = ck.get("dataset", {"purpose": "shipped", "recipe": ""})
+    data_arguments = dataset["arguments"] + " " if dataset.get("arguments") else ""
+    command = (f"cargo run --release -- prior-dataset {data_arguments}--out {train_data} && training/.venv/bin/python "
                f"training/prior/train.py --data {train_data} --attention {args['attention']} {budget} "
                f"--threads {args['threads']} --batch {args['batch']} --lr {args['lr']} "
                f"--device {args.get('device', 'cpu')} "
@@ -187,7 +189,6 @@ def main():
     random = shards_are_random(files + train_files)
     if random and os.path.realpath(a.out) == os.path.realpath(os.path.join(REPO, "models")):
         sys.exit("refusing to write a model trained or checked on random smoke-test shards into models/")
-    dataset = ck.get("dataset", {"purpose": "shipped", "recipe": ""})
     evaluation_only = dataset["purpose"] == "evaluation-only"
     into_models = os.path.realpath(a.out) == os.path.realpath(os.path.join(REPO, "models"))
     if evaluation_only and into_models:
@@ -198,7 +199,7 @@ def main():
     if dataset["recipe"]:
         data_lines = data_lines + ["recipe: " + dataset["recipe"]]
     if random:
-        command = command.replace(f"cargo run --release -- prior-dataset --out {train_data}",
+        command = command.replace(f"cargo run --release -- prior-dataset {data_arguments}--out {train_data}",
                                   f"training/.venv/bin/python training/prior/make_random_shards.py --out {train_data}")
     held_idx = np.flatnonzero(held)
     if len(held_idx) == 0:

@@ -80,10 +80,12 @@ def load_shards(folder, held_out_only=False, map_token_features=7):
 
 
 def shard_metadata(files):
-    """The dataset-wide metadata of the shards: purpose (shipped or evaluation-only) and recipe."""
+    """The dataset-wide metadata of the shards: purpose (shipped or evaluation-only), recipe and the
+    `safer prior-dataset` arguments that made them (empty for shards written before they were kept)."""
     with safe_open(files[0], "np") as st:
         meta = st.metadata() or {}
-    return {"purpose": meta.get("purpose", "shipped"), "recipe": meta.get("recipe", "")}
+    return {"purpose": meta.get("purpose", "shipped"), "recipe": meta.get("recipe", ""),
+            "arguments": meta.get("arguments", "")}
 
 
 def batch_of(data, idx):
