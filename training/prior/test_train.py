@@ -178,3 +178,29 @@ class MapTokenWidthTest(unittest.TestCase):
             with self.assertRaises(SystemExit) as refused:
                 load_shards(v1, map_token_features=10)
             self.assertIn("needs shards of contract 2", str(refused.exception))
+
+
+class TurnOnlyLaneTest(unittest.TestCase):
+    def test_the_own_lane_is_the_first_aligned_lane_token_beside_the_agent_and_it_must_turn_one_way(self):
+        import numpy as np
+        from train import on_turn_only_lane
+        b, n = 5, 4
+        tokens = np.zeros((b, n, 10), np.float32)
+        pose = np.zeros((b, n, 5), np.float32)
+        mask = np.ones((b, n), np.float32)
+        tokens[:, :, 0] = 1.0  # lane centrelines
+        pose[:, :, 3] = 1.0  # aligned
+        pose[:, :, 0] = 2.0  # 2 m ahead
+        # 0: right only. 1: right or straight. 2: left only, but 3 m to the side (a neighbour lane).
+        # 3: the first token is a road edge, the second (its lane) turns left only. 4: no lane token at all.
+        tokens[0, :, 7:9] = (-1.5, -1.4)
+        tokens[1, :, 7:9] = (-1.5, 0.0)
+        tokens[2, :, 7:9] = (1.5, 1.5)
+        pose[2, :, 1] = 3.0
+        tokens[3, 0, 0], tokens[3, 0, 1] = 0.0, 1.0
+        tokens[3, 0, 7:9] = (-1.5, -1.5)
+        tokens[3, 1:, 7:9] = (0.9, 1.2)
+        mask[4] = 0.0
+        self.assertEqual(on_turn_only_lane(tokens, pose, mask).tolist(), [True, False, False, True, False])
+        with self.assertRaises(ValueError):
+            on_turn_only_lane(tokens[..., :7], pose, mask)

@@ -155,6 +155,28 @@ def has_vulnerable_ahead(neighbours, pose, mask):
     return (kind & ahead & (mask > 0.5)).any(axis=1)
 
 
+# The sample's own lane: an aligned lane token (within ~18 deg of its heading) whose midpoint lies
+# within 6 m ahead or behind and 1.5 m to either side. Turn-only: every way ahead turns by 0.5 rad or more.
+OWN_LANE_AHEAD_M, OWN_LANE_BESIDE_M, OWN_LANE_MIN_COS, TURN_ONLY_RAD = 6.0, 1.5, 0.95, 0.5
+MAP_RIGHTMOST, MAP_LEFTMOST = 7, 8
+
+
+def on_turn_only_lane(map_tokens, map_pose, map_mask):
+    """Whether each sample's own lane (its nearest aligned lane token, by the
+    order the tokens come in: nearest first) turns one way only within the
+    look-ahead: all its ways turn right by 0.5 rad or more, or all left.
+    Needs the 10-value map tokens of feature contract 2."""
+    if map_tokens.shape[-1] <= MAP_LEFTMOST:
+        raise ValueError("the turn ahead needs map tokens of 10 values (--map-token-features 10)")
+    x, y, cos = map_pose[:, :, 0], map_pose[:, :, 1], map_pose[:, :, 3]
+    own = ((map_tokens[:, :, 0] > 0.5) & (map_mask > 0.5) & (cos > OWN_LANE_MIN_COS)
+           & (np.abs(x) < OWN_LANE_AHEAD_M) & (np.abs(y) < OWN_LANE_BESIDE_M))
+    first = np.argmax(own, axis=1)
+    rows = np.arange(len(first))
+    right, left = map_tokens[rows, first, MAP_RIGHTMOST], map_tokens[rows, first, MAP_LEFTMOST]
+    return own.any(axis=1) & ((left <= -TURN_ONLY_RAD) | (right >= TURN_ONLY_RAD))
+
+
 def bin_spread(sigma_bins):
     """[63, 63]: row i is how a label in bin i of the smoothed axis spreads
     its smoothed share over that axis's other bins (Gaussian in bins, none on
@@ -217,6 +239,9 @@ def main():
                          "5 m to either side) this many times as often")
     ap.add_argument("--init", help="start from this checkpoint's weights (a best.pt of the same architecture) "
                                    "instead of a random initialisation")
+    ap.add_argument("--turn-only-lane-weight", type=float, default=1.0,
+                    help="draw the training samples whose own lane turns one way only (every way ahead turns right, "
+                         "or every way left, by 0.5 rad or more) this many times as often; needs --map-token-features 10")
     ap.add_argument("--map-token-features", type=int, choices=[7, 10], default=7,
                     help="values per map token the map encoder reads: 7 (feature contract 1, the shipped prior's) or "
                          "10 (contract 2: also the lane's turn ahead along the lane graph)")
@@ -240,6 +265,14 @@ def main():
         weights = weights * np.where(turning, a.turning_weight, 1.0)
         print(f"turning labels: {turning.mean():.3f} of the training samples, drawn {a.turning_weight}x as often",
               flush=True)
+    if a.turn_only_lane_weight != 1.0:
+        # In chunks: a copy of every sample's map tokens would double the memory the run needs.
+        turn_only = np.concatenate([
+            on_turn_only_lane(*(data[k][i:i + 100_000].cpu().numpy() for k in ("map_tokens", "map_pose", "map_mask")))
+            for i in range(0, len(data["map_mask"]), 100_000)])[train_idx]
+        weights = weights * np.where(turn_only, a.turn_only_lane_weight, 1.0)
+        print(f"on a turn-only lane: {turn_only.mean():.4f} of the training samples, drawn "
+              f"{a.turn_only_lane_weight}x as often", flush=True)
     if a.vulnerable_ahead_weight != 1.0:
         ahead = has_vulnerable_ahead(*(data[k][train_idx].cpu().numpy()
                                        for k in ("neighbours", "neighbour_pose", "neighbour_mask")))
@@ -328,6 +361,7 @@ def main():
         "purpose": dataset["purpose"], "recipe": dataset["recipe"],
         "label_smoothing": a.label_smoothing, "label_smoothing_axis": a.label_smoothing_axis,
         "label_smoothing_bins": a.label_smoothing_bins, "map_feature_dropout": a.map_feature_dropout,
+        "turn_only_lane_weight": a.turn_only_lane_weight,
         "turning_weight": a.turning_weight,
         "vulnerable_ahead_weight": a.vulnerable_ahead_weight,
     }
