@@ -432,6 +432,11 @@ enum Command {
         /// Largest token perturbation, in bins per axis.
         #[arg(long, default_value_t = 3)]
         token_drift_bins: usize,
+        /// Largest perturbation of the yaw rate, in bins, where it should
+        /// differ from `--token-drift-bins` (which then bounds the
+        /// acceleration alone); 0 keeps the drift longitudinal.
+        #[arg(long, value_name = "BINS")]
+        token_drift_yaw_rate_bins: Option<usize>,
         /// Accept recorded scenes under any licence (Waymo, Argoverse) for
         /// a model that is measured and never shipped: the shards say so and
         /// `training/prior/export.py` refuses to write it into `models/`.
@@ -658,6 +663,7 @@ pub fn main() -> ExitCode {
             pedestrian_share,
             token_drift,
             token_drift_bins,
+            token_drift_yaw_rate_bins,
             evaluation_only,
             force,
         } => prior_dataset::run(&prior_dataset::DatasetRequest {
@@ -673,6 +679,7 @@ pub fn main() -> ExitCode {
             pedestrian_share,
             token_drift,
             token_drift_bins,
+            token_drift_yaw_rate_bins,
             evaluation_only,
             force,
         }),

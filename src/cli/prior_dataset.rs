@@ -43,6 +43,8 @@ pub struct DatasetRequest {
     pub token_drift: f64,
     /// Largest perturbation, bins per axis.
     pub token_drift_bins: usize,
+    /// Largest yaw-rate perturbation where it differs from `token_drift_bins`.
+    pub token_drift_yaw_rate_bins: Option<usize>,
     /// Accept any licence, for a model that is never shipped.
     pub evaluation_only: bool,
     /// Replace shards already in `out`.
@@ -74,6 +76,9 @@ impl DatasetRequest {
             self.token_drift,
             self.token_drift_bins
         );
+        if let Some(bins) = self.token_drift_yaw_rate_bins {
+            args.push_str(&format!(" --token-drift-yaw-rate-bins {bins}"));
+        }
         if !self.driver_choices {
             args.push_str(" --no-driver-choices");
         }
@@ -144,6 +149,7 @@ pub fn run(request: &DatasetRequest) -> Result<ExitCode, CliError> {
     let drift = (request.token_drift > 0.0 && request.token_drift_bins > 0).then_some(TokenDrift {
         probability: request.token_drift,
         max_bins: request.token_drift_bins,
+        max_yaw_rate_bins: request.token_drift_yaw_rate_bins,
         seed: request.seed,
     });
     let drivers = if request.driver_choices {
@@ -169,8 +175,12 @@ pub fn run(request: &DatasetRequest) -> Result<ExitCode, CliError> {
     } else {
         String::new()
     };
-    let drift_text = drift.map_or("no token drift".to_string(), |d| {
-        format!("token drift on training scenes: p = {} per period, up to ±{} bins", d.probability, d.max_bins)
+    let drift_text = drift.map_or("no token drift".to_string(), |d| match d.max_yaw_rate_bins {
+        Some(yaw) if yaw != d.max_bins => format!(
+            "token drift on training scenes: p = {} per period, up to ±{} bins of acceleration and ±{yaw} of yaw rate",
+            d.probability, d.max_bins
+        ),
+        _ => format!("token drift on training scenes: p = {} per period, up to ±{} bins", d.probability, d.max_bins),
     });
     let recipe = format!(
         "{} recorded + {} template + {} recorded-map synthetic scenes (seed {}); {drivers}{t_junctions}{right_turn_lanes}{pedestrians}; {drift_text}",

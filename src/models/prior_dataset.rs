@@ -51,24 +51,30 @@ impl StateHistory for TokenizedScene {
 pub struct TokenDrift {
     /// Chance that a period applies a perturbed token.
     pub probability: f64,
-    /// Largest perturbation, in bins on each axis (acceleration, yaw rate).
+    /// Largest perturbation of the acceleration, in bins (and of the yaw
+    /// rate, unless [`TokenDrift::max_yaw_rate_bins`] says otherwise).
     pub max_bins: usize,
+    /// Largest perturbation of the yaw rate, in bins, where it differs from
+    /// `max_bins` (`None`: the same).
+    pub max_yaw_rate_bins: Option<usize>,
     /// Seed of the draws.
     pub seed: u64,
 }
 
 impl TokenDrift {
-    /// `token` shifted by up to `max_bins` on each axis (clamped to the
-    /// grid), with the drift's probability.
+    /// `token` shifted by up to `max_bins` of acceleration and up to the
+    /// yaw-rate limit of yaw rate (clamped to the grid), with the drift's
+    /// probability.
     fn perturb(&self, rng: &mut ChaCha8Rng, token: Token) -> Token {
         if self.max_bins == 0 || rng.random::<f64>() >= self.probability {
             return token;
         }
-        let k = self.max_bins as i64;
-        let shift = |bin: usize, rng: &mut ChaCha8Rng| {
+        let shift = |bin: usize, k: usize, rng: &mut ChaCha8Rng| {
+            let k = k as i64;
             (bin as i64 + rng.random_range(-k..=k)).clamp(0, BINS_PER_AXIS as i64 - 1) as usize
         };
-        let (a, y) = (shift(token.accel_bin(), rng), shift(token.yaw_rate_bin(), rng));
+        let a = shift(token.accel_bin(), self.max_bins, rng);
+        let y = shift(token.yaw_rate_bin(), self.max_yaw_rate_bins.unwrap_or(self.max_bins), rng);
         Token::from_bins(a, y).unwrap_or(token)
     }
 }
@@ -181,7 +187,7 @@ mod tests {
     fn a_drifting_reconstruction_strays_from_the_log_and_its_labels_steer_back() {
         let scene = curving_scene();
         let clean = TokenizedScene::new(&scene);
-        let drift = TokenDrift { probability: 0.5, max_bins: 3, seed: 7 };
+        let drift = TokenDrift { probability: 0.5, max_bins: 3, max_yaw_rate_bins: None, seed: 7 };
         let drifted = TokenizedScene::drifting(&scene, Some(drift));
         assert_eq!(clean.labels.len(), drifted.labels.len(), "one label per period either way");
         // The clean reconstruction of a kinematic-model track is exact; the drifted one strays.
@@ -204,9 +210,29 @@ mod tests {
     }
 
     #[test]
+    fn a_drift_without_yaw_rate_bins_perturbs_the_acceleration_only() {
+        let drift = TokenDrift { probability: 1.0, max_bins: 3, max_yaw_rate_bins: Some(0), seed: 3 };
+        let token = Token::from_bins(30, 40).unwrap();
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        let drawn: Vec<Token> = (0..200).map(|_| drift.perturb(&mut rng, token)).collect();
+        assert!(drawn.iter().all(|t| t.yaw_rate_bin() == 40), "the yaw rate never moves");
+        assert!(drawn.iter().all(|t| t.accel_bin().abs_diff(30) <= 3));
+        assert!(drawn.iter().any(|t| t.accel_bin() != 30), "the acceleration does");
+        // Without its own limit the yaw rate moves as far as the acceleration.
+        let both = TokenDrift { max_yaw_rate_bins: None, ..drift };
+        let drawn: Vec<Token> = (0..200).map(|_| both.perturb(&mut rng, token)).collect();
+        assert!(
+            drawn.iter().any(|t| t.yaw_rate_bin() != 40) && drawn.iter().all(|t| t.yaw_rate_bin().abs_diff(40) <= 3)
+        );
+    }
+
+    #[test]
     fn no_drift_is_the_plain_reconstruction() {
         let scene = curving_scene();
-        let off = TokenizedScene::drifting(&scene, Some(TokenDrift { probability: 0.0, max_bins: 3, seed: 1 }));
+        let off = TokenizedScene::drifting(
+            &scene,
+            Some(TokenDrift { probability: 0.0, max_bins: 3, max_yaw_rate_bins: None, seed: 1 }),
+        );
         let plain = TokenizedScene::new(&scene);
         assert_eq!(off.labels, plain.labels);
         assert_eq!(off.frames, plain.frames);
