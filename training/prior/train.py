@@ -133,11 +133,15 @@ MAX_YAW_RATE_RADPS = 1.5  # the grid's yaw-rate bound (motion::tokens)
 TURNING_YAW_RATE_RADPS = 0.3  # from here a token turns (eval::prior_fit)
 
 
+def yaw_rate_centre(tokens):
+    """Each token id's yaw-rate bin centre, rad/s (motion::tokens::TokenGrid::yaw_rate_centre)."""
+    width = 2 * MAX_YAW_RATE_RADPS / BINS
+    return -MAX_YAW_RATE_RADPS + (np.asarray(tokens) % BINS + 0.5) * width
+
+
 def is_turning(tokens):
     """Whether each token id's yaw-rate bin centre is at least 0.3 rad/s either way."""
-    width = 2 * MAX_YAW_RATE_RADPS / BINS
-    centre = -MAX_YAW_RATE_RADPS + (np.asarray(tokens) % BINS + 0.5) * width
-    return np.abs(centre) >= TURNING_YAW_RATE_RADPS
+    return np.abs(yaw_rate_centre(tokens)) >= TURNING_YAW_RATE_RADPS
 
 
 # Neighbour feature columns of a pedestrian's and a cyclist's kind flag, and
@@ -161,11 +165,11 @@ OWN_LANE_AHEAD_M, OWN_LANE_BESIDE_M, OWN_LANE_MIN_COS, TURN_ONLY_RAD = 6.0, 1.5,
 MAP_RIGHTMOST, MAP_LEFTMOST = 7, 8
 
 
-def on_turn_only_lane(map_tokens, map_pose, map_mask):
-    """Whether each sample's own lane (its nearest aligned lane token, by the
-    order the tokens come in: nearest first) turns one way only within the
-    look-ahead: all its ways turn right by 0.5 rad or more, or all left.
-    Needs the 10-value map tokens of feature contract 2."""
+def own_lane_turn(map_tokens, map_pose, map_mask):
+    """(found, rightmost, leftmost) of each sample's own lane: its nearest
+    aligned lane token (by the order the tokens come in: nearest first)
+    within 6 m ahead or behind and 1.5 m to either side. Needs the 10-value
+    map tokens of feature contract 2."""
     if map_tokens.shape[-1] <= MAP_LEFTMOST:
         raise ValueError("the turn ahead needs map tokens of 10 values (--map-token-features 10)")
     x, y, cos = map_pose[:, :, 0], map_pose[:, :, 1], map_pose[:, :, 3]
@@ -173,8 +177,15 @@ def on_turn_only_lane(map_tokens, map_pose, map_mask):
            & (np.abs(x) < OWN_LANE_AHEAD_M) & (np.abs(y) < OWN_LANE_BESIDE_M))
     first = np.argmax(own, axis=1)
     rows = np.arange(len(first))
-    right, left = map_tokens[rows, first, MAP_RIGHTMOST], map_tokens[rows, first, MAP_LEFTMOST]
-    return own.any(axis=1) & ((left <= -TURN_ONLY_RAD) | (right >= TURN_ONLY_RAD))
+    return own.any(axis=1), map_tokens[rows, first, MAP_RIGHTMOST], map_tokens[rows, first, MAP_LEFTMOST]
+
+
+def on_turn_only_lane(map_tokens, map_pose, map_mask):
+    """Whether each sample's own lane (`own_lane_turn`) turns one way only
+    within the look-ahead: all its ways turn right by 0.5 rad or more, or
+    all left."""
+    found, right, left = own_lane_turn(map_tokens, map_pose, map_mask)
+    return found & ((left <= -TURN_ONLY_RAD) | (right >= TURN_ONLY_RAD))
 
 
 def bin_spread(sigma_bins):

@@ -4,7 +4,7 @@ turn ahead (feature contract 2), on shards written by `safer prior-dataset`:
     training/.venv/bin/python training/prior/turn_cue.py training/data/prior-ped-rtl-turn [--shards 4,12,20]
 
 Takes the moving vehicles (faster than 3 m/s at the query) whose own lane
-(`train.on_turn_only_lane`'s rule: the nearest aligned lane token within
+(`train.own_lane_turn`'s rule: the nearest aligned lane token within
 6 m ahead or behind and 1.5 m to the side) is found, and splits them into
 those on a lane that turns right only (every way ahead turns right by
 0.5 rad or more) and on a lane that only goes straight (both ends of the
@@ -25,22 +25,10 @@ import numpy as np
 from safetensors import safe_open
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from train import (MAP_LEFTMOST, MAP_RIGHTMOST, OWN_LANE_AHEAD_M, OWN_LANE_BESIDE_M,  # noqa: E402
-                   OWN_LANE_MIN_COS, TURN_ONLY_RAD)
+from train import TURN_ONLY_RAD, own_lane_turn, yaw_rate_centre  # noqa: E402
 
-BINS, MAX_YAW_RATE_RADPS = 63, 1.5
 HISTORY_SPEED, HISTORY_YAW_RATE, SELF_VEHICLE = 4, 6, 2
 MIN_SPEED_MPS, STRAIGHT_RAD, RIGHT_LABEL_RADPS = 3.0, 0.1, -0.1
-
-
-def own_lane_turn(map_tokens, map_pose, map_mask):
-    """(found, rightmost, leftmost) of each sample's own lane token."""
-    x, y, cos = map_pose[:, :, 0], map_pose[:, :, 1], map_pose[:, :, 3]
-    own = ((map_tokens[:, :, 0] > 0.5) & (map_mask > 0.5) & (cos > OWN_LANE_MIN_COS)
-           & (np.abs(x) < OWN_LANE_AHEAD_M) & (np.abs(y) < OWN_LANE_BESIDE_M))
-    first = np.argmax(own, axis=1)
-    rows = np.arange(len(first))
-    return own.any(axis=1), map_tokens[rows, first, MAP_RIGHTMOST], map_tokens[rows, first, MAP_LEFTMOST]
 
 
 def main():
@@ -54,7 +42,6 @@ def main():
         files = [f for f in files if int(os.path.basename(f)[6:9]) in wanted]
     if not files:
         sys.exit(f"no shards in {a.folder}")
-    yaw_centres = np.linspace(-MAX_YAW_RATE_RADPS, MAX_YAW_RATE_RADPS, BINS)
     sums = {}
     for f in files:
         with safe_open(f, "np") as st:
@@ -67,7 +54,7 @@ def main():
                                                st.get_tensor("map_mask"))
             history = st.get_tensor("history")
             vehicle = st.get_tensor("agent_self")[:, SELF_VEHICLE] > 0.5
-            label = yaw_centres[st.get_tensor("next_token") % BINS]
+            label = yaw_rate_centre(st.get_tensor("next_token"))
         moving = vehicle & (history[:, -1, HISTORY_SPEED] > MIN_SPEED_MPS)
         change = np.abs(label - history[:, -1, HISTORY_YAW_RATE])
         lanes = {"right only": found & (left <= -TURN_ONLY_RAD),
