@@ -1,8 +1,9 @@
 //! Lane queries on a [`RoadMap`]: the nearest lane to a point, preferring
 //! lanes going the agent's way ([`LaneMatch`]), the lanes whose area holds
-//! a point, and whether two lanes connect.
+//! a point, whether two lanes connect, and which of a junction's lanes a
+//! recorded path takes ([`lane_followed`]).
 
-use super::{MapElementId, RoadMap};
+use super::{Lane, MapElementId, RoadMap};
 use crate::geometry::{Point2, PolylineProjection};
 
 /// A lane's half-width where the source maps no boundary on that side, m
@@ -18,6 +19,42 @@ pub const MAX_LANE_HALF_WIDTH_M: f64 = 2.5;
 /// which the lane still counts as going the agent's way (lane changes and
 /// the start of a turn stay well inside it; a crossing lane does not).
 pub const ALIGNED_LANE_MAX_ANGLE_RAD: f64 = std::f64::consts::FRAC_PI_4;
+
+/// How far from a lane's centreline a path point still keeps to the lane,
+/// m (a default lane's half-width).
+pub const LANE_FOLLOW_LATERAL_M: f64 = DEFAULT_LANE_HALF_WIDTH_M;
+/// How much farther a path must keep to one of a junction's lanes than to
+/// any other before [`lane_followed`] names it, m: the lanes of a fork
+/// share their first metres, where every path keeps to all of them.
+pub const LANE_FOLLOW_MARGIN_M: f64 = 3.0;
+
+/// How much of `lane`'s centreline `path` keeps to, m: the span of arc
+/// lengths at which path points lie within [`LANE_FOLLOW_LATERAL_M`] of it
+/// (0 when none does).
+pub fn length_followed_m(lane: &Lane, path: &[Point2]) -> f64 {
+    let mut span: Option<(f64, f64)> = None;
+    for p in path {
+        let Some(at) = lane.centreline.project(p) else { continue };
+        if at.distance_m <= LANE_FOLLOW_LATERAL_M {
+            let (lo, hi) = span.get_or_insert((at.arc_length_m, at.arc_length_m));
+            *lo = lo.min(at.arc_length_m);
+            *hi = hi.max(at.arc_length_m);
+        }
+    }
+    span.map_or(0.0, |(lo, hi)| hi - lo)
+}
+
+/// Of `lanes` (a junction's successors, or predecessors), the index of the
+/// one `path` (a recording) keeps to the farthest, when it keeps to it by
+/// at least [`LANE_FOLLOW_MARGIN_M`] more than to any other; `None` when
+/// the path does not decide (it ends before the junction, or two lanes
+/// run together as far as it goes), so that the caller keeps its default.
+pub fn lane_followed(lanes: &[&Lane], path: &[Point2]) -> Option<usize> {
+    let followed: Vec<f64> = lanes.iter().map(|l| length_followed_m(l, path)).collect();
+    let (best, &most) = followed.iter().enumerate().max_by(|a, b| a.1.total_cmp(b.1))?;
+    let clear = followed.iter().enumerate().all(|(i, &m)| i == best || m + LANE_FOLLOW_MARGIN_M <= most);
+    (clear && most > 0.0).then_some(best)
+}
 
 /// Nearest-lane query result.
 #[derive(Debug, Clone, Copy)]
@@ -204,8 +241,44 @@ impl RoadMap {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::map::Lane;
     use crate::map::tests::{pl, straight_road};
+
+    /// A recorded path every metre along `pts`' segments.
+    fn dense(pts: &[(f64, f64)]) -> Vec<Point2> {
+        let line = pl(pts);
+        let n = line.length_m().floor() as usize;
+        (0..=n).filter_map(|i| line.sample(i as f64).map(|(p, _)| p)).collect()
+    }
+
+    #[test]
+    fn a_recording_through_a_fork_names_the_lane_it_takes_and_one_ending_before_names_none() {
+        // A straight lane and a right turn, both starting at the fork (0, 0).
+        let straight = Lane::new(MapElementId(1), pl(&[(0.0, 0.0), (40.0, 0.0)]));
+        let turn: Vec<(f64, f64)> = (0..=20)
+            .map(|i| std::f64::consts::FRAC_PI_2 * i as f64 / 20.0)
+            .map(|a| (15.0 * a.sin(), -15.0 * (1.0 - a.cos())))
+            .collect();
+        let right = Lane::new(MapElementId(2), pl(&turn));
+        let lanes = [&straight, &right];
+        // A dense recording, 0.6 m right of the turn's centreline (on a
+        // 14.4 m radius), from 20 m before the fork: it keeps to both lanes
+        // for their first metres, and to the turn only beyond.
+        let inner: Vec<(f64, f64)> = (0..=20)
+            .map(|i| std::f64::consts::FRAC_PI_2 * i as f64 / 20.0)
+            .map(|a| (14.4 * a.sin(), -15.0 + 14.4 * a.cos()))
+            .collect();
+        let mut taken = dense(&[(-20.0, -0.6), (0.0, -0.6)]);
+        taken.extend(dense(&inner));
+        assert!(length_followed_m(&straight, &taken) > 2.0, "the shared start counts for the straight lane too");
+        assert_eq!(lane_followed(&lanes, &taken), Some(1));
+        let on = dense(&[(-20.0, 0.3), (40.0, 0.3)]);
+        assert_eq!(lane_followed(&lanes, &on), Some(0));
+        // Ending before the fork, or just past it: no decision.
+        assert_eq!(lane_followed(&lanes, &dense(&[(-20.0, 0.0), (-1.0, 0.0)])), None);
+        assert_eq!(lane_followed(&lanes, &dense(&[(-20.0, 0.0), (1.5, 0.0)])), None);
+        assert_eq!(lane_followed(&lanes, &[]), None);
+        assert_eq!(lane_followed(&[], &on), None);
+    }
 
     #[test]
     fn a_nearer_crossing_lane_is_not_the_agents() {

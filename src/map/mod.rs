@@ -27,7 +27,8 @@ pub use elements::{
     StopSign, TrafficSignal,
 };
 pub use lane_queries::{
-    ALIGNED_LANE_MAX_ANGLE_RAD, DEFAULT_LANE_HALF_WIDTH_M, LaneMatch, MAX_LANE_HALF_WIDTH_M, MIN_LANE_HALF_WIDTH_M,
+    ALIGNED_LANE_MAX_ANGLE_RAD, DEFAULT_LANE_HALF_WIDTH_M, LANE_FOLLOW_LATERAL_M, LANE_FOLLOW_MARGIN_M, LaneMatch,
+    MAX_LANE_HALF_WIDTH_M, MIN_LANE_HALF_WIDTH_M, lane_followed, length_followed_m,
 };
 pub use spatial_index::SegmentIndex;
 

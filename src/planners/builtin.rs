@@ -33,7 +33,11 @@ impl BuiltinPlanner {
             Self::LogReplay => Box::new(LogReplayPlanner::new(scenario.track(ego).clone())),
             Self::ConstantVelocity => Box::new(ConstantVelocityPlanner),
             Self::Idm => Box::new(IdmPlanner::new(IdmParams::default())),
-            Self::Evasive => Box::new(super::EvasivePlanner::new(Default::default())),
+            Self::Evasive => {
+                // Its mission: the way the recorded ego went.
+                let mission = scenario.track(ego).states.iter().flatten().map(|s| s.position).collect();
+                Box::new(super::EvasivePlanner::new(Default::default()).with_mission(mission))
+            }
         }
     }
 }

@@ -18,13 +18,19 @@
 //! penalised softly; among the rest, progress towards the desired speed,
 //! staying centred and gentle accelerations win. The first control of the best candidate is
 //! applied, and the lattice is rebuilt at the next step.
+//!
+//! Its route follows the lanes from where the ego is; at a junction it
+//! takes the lane of its *mission* (the way the ego's recording went, as a
+//! route planner would give it) and the straightest lane where it has none
+//! or the mission does not decide.
 
 use super::{Observation, Planner, PlannerError, PlannerOutput};
+use crate::geometry::Point2;
 use crate::geometry::{BoxSet, OrientedBox, Pose2, Vector2, wrap_angle};
 use crate::motion::kinematics::{step_to_heading, turned_heading_rad};
 use crate::motion::tokens::{MAX_ACCEL_MPS2, MAX_YAW_RATE_RADPS, SIM_DT_S};
 use crate::motion::{Action, KinematicState, kinematic_step_with_sin_cos};
-use crate::policies::{Route, build_route};
+use crate::policies::{Route, build_route_choosing};
 use crate::scenario::{AgentKind, AgentState};
 
 /// Parameters of the evasive planner.
@@ -147,6 +153,9 @@ type SeenAgents = std::collections::HashMap<crate::scenario::AgentId, AgentState
 #[derive(Debug, Clone, Default)]
 pub struct EvasivePlanner {
     params: EvasiveParams,
+    /// The way the ego is to go: the route takes, at each junction, the
+    /// lane these points keep to (empty: the straightest).
+    mission: Vec<Point2>,
     route: Option<Route>,
     desired_speed_mps: Option<f64>,
     /// The predictions' storage, kept from one plan to the next (it is
@@ -164,12 +173,21 @@ impl EvasivePlanner {
     pub fn new(params: EvasiveParams) -> Self {
         Self {
             params,
+            mission: Vec::new(),
             route: None,
             desired_speed_mps: None,
             predictions: Vec::new(),
             standing: BoxSet::default(),
             seen: Default::default(),
         }
+    }
+
+    /// The same planner with a mission: the points of the way the ego is to
+    /// go (its recording, in a recorded scene), which pick the lane at each
+    /// junction of its route ([`crate::map::lane_followed`]).
+    pub fn with_mission(mut self, mission: Vec<Point2>) -> Self {
+        self.mission = mission;
+        self
     }
 
     /// The turn rate (rad/s) and acceleration (m/s²) `agent` showed over
@@ -281,7 +299,11 @@ impl Planner for EvasivePlanner {
             if obs.time_s == 0.0 {
                 self.desired_speed_mps = None;
             }
-            self.route = Some(build_route(obs.map, &ego, AgentKind::Vehicle));
+            let mission = &self.mission;
+            let mut at_junction = |_: &crate::map::Lane, next: &[&crate::map::Lane]| {
+                crate::map::lane_followed(next, mission).unwrap_or(0)
+            };
+            self.route = Some(build_route_choosing(obs.map, &ego, AgentKind::Vehicle, &mut at_junction));
         }
         let route = self.route.as_ref().ok_or_else(|| PlannerError::InvalidOutput("no route".into()))?;
         let v_des = *self.desired_speed_mps.get_or_insert_with(|| {
@@ -827,5 +849,47 @@ mod tests {
             }
             other => panic!("{other:?}"),
         }
+    }
+
+    #[test]
+    fn at_a_fork_the_route_takes_the_missions_lane_and_the_straightest_without_one() {
+        // Lane 1 runs east to a fork at (50, 0): lane 2 straight on, lane 3
+        // turning right (south) on a 20 m radius.
+        let line = |pts: Vec<Point2>| Polyline::new(pts);
+        let turn: Vec<Point2> = (0..=20)
+            .map(|i| std::f64::consts::FRAC_PI_2 * i as f64 / 20.0)
+            .map(|a| Point2::new(50.0 + 20.0 * a.sin(), -20.0 * (1.0 - a.cos())))
+            .chain([Point2::new(70.0, -200.0)])
+            .collect();
+        let mut lanes = vec![
+            Lane::new(MapElementId(1), line(vec![Point2::new(-50.0, 0.0), Point2::new(50.0, 0.0)])),
+            Lane::new(MapElementId(2), line(vec![Point2::new(50.0, 0.0), Point2::new(300.0, 0.0)])),
+            Lane::new(MapElementId(3), line(turn.clone())),
+        ];
+        lanes[0].successors = vec![MapElementId(2), MapElementId(3)];
+        let map = RoadMap::new(lanes, vec![], vec![], vec![], vec![], vec![], vec![]);
+        let ego =
+            AgentState { position: Point2::new(0.0, 0.0), heading_rad: 0.0, velocity_mps: Vector2::new(10.0, 0.0) };
+        let obs = Observation {
+            step: 0,
+            time_s: 0.0,
+            dt_s: SIM_DT_S,
+            ego,
+            ego_length_m: 4.5,
+            ego_width_m: 2.0,
+            agents: vec![],
+            map: &map,
+            signals: vec![],
+        };
+        let route_lanes = |mut planner: EvasivePlanner| {
+            planner.plan(&obs).unwrap();
+            planner.route.unwrap().lanes.iter().map(|(id, _, _)| id.0).collect::<Vec<_>>()
+        };
+        assert_eq!(route_lanes(EvasivePlanner::new(EvasiveParams::default())), vec![1, 2]);
+        // The recorded ego went right: points every metre along lane 1, then the turn.
+        let mut mission: Vec<Point2> = (-10..=50).map(|x| Point2::new(x as f64, 0.0)).collect();
+        let turning = Polyline::new(turn);
+        mission.extend((0..40).filter_map(|d| turning.sample(d as f64).map(|(p, _)| p)));
+        assert_eq!(route_lanes(EvasivePlanner::new(EvasiveParams::default()).with_mission(mission)), vec![1, 3]);
     }
 }

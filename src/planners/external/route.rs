@@ -5,9 +5,9 @@
 //! them). A planner can cache it by its revision and never sees it jitter
 //! with the ego's position, unlike the 1.0 route hint.
 //!
-//! At a fork the route takes the successor that the ego's *recording* passes
-//! closest to (the harness knows where the recorded ego went; that is the
-//! scene's intended route), else the first successor.
+//! At a fork the route takes the successor that the ego's *recording* keeps
+//! to (the harness knows where the recorded ego went; that is the scene's
+//! intended route), else the first successor.
 
 use crate::geometry::{Point2, Polyline, Vector2};
 use crate::map::{MapElementId, RoadMap};
@@ -111,26 +111,13 @@ fn plan(map: &RoadMap, ego: &AgentState, recorded: &[Point2]) -> StableRoute {
     }
 }
 
-/// The lane of `choices` (successors or predecessors) the recording passes
-/// closest to (the first on ties or without a recording).
+/// The lane of `choices` (successors or predecessors) the recording keeps
+/// to the farthest ([`crate::map::lane_followed`]); the first where the
+/// recording does not decide.
 fn choose_lane<'m>(map: &'m RoadMap, choices: &[MapElementId], recorded: &[Point2]) -> Option<&'m crate::map::Lane> {
     let lanes: Vec<&crate::map::Lane> = choices.iter().filter_map(|id| map.lane(*id)).collect();
-    if lanes.len() <= 1 || recorded.is_empty() {
-        return lanes.first().copied();
-    }
-    let closest = |l: &crate::map::Lane| {
-        recorded.iter().filter_map(|p| l.centreline.project(p)).map(|p| p.distance_m).fold(f64::INFINITY, f64::min)
-    };
-    let mut best = (f64::INFINITY, 0);
-    for (i, l) in lanes.iter().enumerate() {
-        let d = closest(l);
-        // A clear margin: two successors that both pass near the recording
-        // (a split that rejoins) keep the first, as 1.0 does.
-        if d + 0.5 < best.0 {
-            best = (d, i);
-        }
-    }
-    Some(lanes[best.1])
+    let taken = crate::map::lane_followed(&lanes, recorded).unwrap_or(0);
+    lanes.get(taken).copied()
 }
 
 #[cfg(test)]
@@ -222,7 +209,13 @@ mod tests {
     fn at_a_fork_the_route_follows_the_recording() {
         let map = fork();
         let mut route = StableRoute::default();
-        route.update(&map, &ego(30.0, 0.0), &[Point2::new(30.0, 0.0), Point2::new(150.0, -50.0)]);
+        // A recording every metre: it keeps to both successors for their
+        // first metres, and to lane 3 beyond.
+        let recorded: Vec<Point2> = (0..=170)
+            .map(|i| i as f64)
+            .map(|d| if d <= 100.0 { Point2::new(d, 0.0) } else { Point2::new(d, 100.0 - d) })
+            .collect();
+        route.update(&map, &ego(30.0, 0.0), &recorded);
         assert_eq!(route.lanes, vec![MapElementId(1), MapElementId(3)]);
     }
 }
