@@ -814,6 +814,21 @@ mod tests {
         assert!((moving.yaw_rate_radps - 0.2).abs() < 1e-9, "{moving:?}");
     }
 
+    /// The observation at a rollout's start of a 4.5 m × 2 m ego among `agents`.
+    fn first_observation(ego: AgentState, agents: Vec<PerceivedAgent>, map: &RoadMap) -> Observation<'_> {
+        Observation {
+            step: 0,
+            time_s: 0.0,
+            dt_s: SIM_DT_S,
+            ego,
+            ego_length_m: 4.5,
+            ego_width_m: 2.0,
+            agents,
+            map,
+            signals: vec![],
+        }
+    }
+
     #[test]
     fn a_stopped_ego_that_does_not_move_off_does_not_turn_on_the_spot() {
         // The lane runs along +x; the ego stands at 0.3 rad to it with a
@@ -830,17 +845,7 @@ mod tests {
             width_m: 2.0,
             state: AgentState { position: ahead, heading_rad: 0.3, velocity_mps: Vector2::zeros() },
         };
-        let obs = Observation {
-            step: 0,
-            time_s: 0.0,
-            dt_s: SIM_DT_S,
-            ego,
-            ego_length_m: 4.5,
-            ego_width_m: 2.0,
-            agents: vec![blocker],
-            map: &map,
-            signals: vec![],
-        };
+        let obs = first_observation(ego, vec![blocker], &map);
         let mut planner = EvasivePlanner::new(EvasiveParams::default());
         match planner.plan(&obs).unwrap() {
             PlannerOutput::Control(a) => {
@@ -870,17 +875,7 @@ mod tests {
         let map = RoadMap::new(lanes, vec![], vec![], vec![], vec![], vec![], vec![]);
         let ego =
             AgentState { position: Point2::new(0.0, 0.0), heading_rad: 0.0, velocity_mps: Vector2::new(10.0, 0.0) };
-        let obs = Observation {
-            step: 0,
-            time_s: 0.0,
-            dt_s: SIM_DT_S,
-            ego,
-            ego_length_m: 4.5,
-            ego_width_m: 2.0,
-            agents: vec![],
-            map: &map,
-            signals: vec![],
-        };
+        let obs = first_observation(ego, vec![], &map);
         let route_lanes = |mut planner: EvasivePlanner| {
             planner.plan(&obs).unwrap();
             planner.route.unwrap().lanes.iter().map(|(id, _, _)| id.0).collect::<Vec<_>>()
