@@ -175,12 +175,15 @@ pub fn run(request: &DatasetRequest) -> Result<ExitCode, CliError> {
     } else {
         String::new()
     };
-    let drift_text = drift.map_or("no token drift".to_string(), |d| match d.max_yaw_rate_bins {
-        Some(yaw) if yaw != d.max_bins => format!(
-            "token drift on training scenes: p = {} per period, up to ±{} bins of acceleration and ±{yaw} of yaw rate",
+    let drift_text = drift.map_or("no token drift".to_string(), |d| {
+        let yaw_rate = match d.max_yaw_rate_bins {
+            Some(yaw) if yaw != d.max_bins => format!(" of acceleration and ±{yaw} of yaw rate"),
+            _ => String::new(),
+        };
+        format!(
+            "token drift on training scenes: p = {} per period, up to ±{} bins{yaw_rate}",
             d.probability, d.max_bins
-        ),
-        _ => format!("token drift on training scenes: p = {} per period, up to ±{} bins", d.probability, d.max_bins),
+        )
     });
     let recipe = format!(
         "{} recorded + {} template + {} recorded-map synthetic scenes (seed {}); {drivers}{t_junctions}{right_turn_lanes}{pedestrians}; {drift_text}",

@@ -25,8 +25,7 @@
 //! or the mission does not decide.
 
 use super::{Observation, Planner, PlannerError, PlannerOutput};
-use crate::geometry::Point2;
-use crate::geometry::{BoxSet, OrientedBox, Pose2, Vector2, wrap_angle};
+use crate::geometry::{BoxSet, OrientedBox, Point2, Pose2, Vector2, wrap_angle};
 use crate::motion::kinematics::{step_to_heading, turned_heading_rad};
 use crate::motion::tokens::{MAX_ACCEL_MPS2, MAX_YAW_RATE_RADPS, SIM_DT_S};
 use crate::motion::{Action, KinematicState, kinematic_step_with_sin_cos};

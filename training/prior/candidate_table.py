@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import statistics
 import sys
 from pathlib import Path
@@ -95,7 +96,8 @@ def candidate(folder: Path) -> dict[str, float]:
     figures: dict[str, float] = {}
     for s in SETS:
         label = SET_LABELS[s]
-        figures[f"turns {label}"] = recorded_turns_in_top_n(_read(folder / f"prior-fit-{s}.txt"), folder)
+        path = folder / f"prior-fit-{s}.txt"
+        figures[f"turns {label}"] = recorded_turns_in_top_n(_read(path), path)
         path = folder / f"eval-{s}.json"
         try:
             report = json.loads(_read(path))
@@ -115,7 +117,7 @@ def candidate(folder: Path) -> dict[str, float]:
 
 def summary(values: list[float]) -> str:
     """Mean and range of one column over candidates."""
-    finite = [v for v in values if v == v and v != float("inf")]
+    finite = [v for v in values if math.isfinite(v)]
     if not finite:
         return "–"
     return f"{statistics.fmean(finite):.3f} ({min(finite):.3f}–{max(finite):.3f})"
