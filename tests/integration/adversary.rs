@@ -93,8 +93,8 @@ fn without_an_approach_phase_every_seed_gives_the_same_variant() {
     }
 }
 
-/// SaFeR's aim, CR(safer) ≥ 1.5 × CR(prior), on the first 12 WOMD
-/// interactive scenes (their labelled pairs) with 3 seeds; and the
+/// SaFeR's aim, CR(safer) ≥ 2 × CR(prior), on every WOMD interactive
+/// scene (their labelled pairs) with 2 seeds; and the
 /// plausibility rule at work: SaFeR's CBV leaves the road and runs into
 /// background traffic less often than the prior's unfiltered samples.
 #[test]
@@ -105,15 +105,14 @@ fn safer_is_more_critical_than_the_prior_and_keeps_the_cbv_plausible() {
         scenes.extend(safer::scenario::import::load(&p).unwrap().into_iter().filter(|s| s.cbv.is_some()).map(Arc::new));
     }
     scenes.sort_by(|a, b| a.id.cmp(&b.id));
-    scenes.truncate(12);
-    assert_eq!(scenes.len(), 12, "WOMD interactive scenes with a CBV in {}", dir.display());
-    let req = request(vec![AdversaryMethod::Safer, AdversaryMethod::Prior], 3);
+    assert!(scenes.len() >= 50, "{} WOMD interactive scenes with a CBV in {}", scenes.len(), dir.display());
+    let req = request(vec![AdversaryMethod::Safer, AdversaryMethod::Prior], 2);
     let records = evaluate(&scenes, &req, &ModelSet::shipped(), None, &|| {});
     assert!(records.iter().all(|r| r.error.is_none()), "{:?}", records.iter().find(|r| r.error.is_some()));
     let rows = table(&records, &req.methods);
     let (safer, prior) = (&rows[0], &rows[1]);
     let (cr_safer, cr_prior) = (safer.cr.unwrap(), prior.cr.unwrap());
-    assert!(cr_safer > 0.0 && cr_safer >= 1.5 * cr_prior, "CR safer {cr_safer} vs prior {cr_prior}");
+    assert!(cr_safer > 0.0 && cr_safer >= 2.0 * cr_prior, "CR safer {cr_safer} vs prior {cr_prior}");
     let (off_road, at_fault) = (
         |r: &MethodRow| r.cbv_off_road_rate.unwrap(),
         |r: &MethodRow| r.cbv_at_fault_background_collision_rate.unwrap(),
