@@ -1,0 +1,109 @@
+#!/usr/bin/env bash
+# Rewrites the tables in this folder that the shipped models make (the
+# commands are the ones docs/evaluation/README.md lists), from the release
+# build of this checkout. Each table ends with the run's wall time.
+#
+# usage: docs/evaluation/regenerate.sh [JOB...]
+#   JOB   one or more of the names below (default: all of them, in order)
+#
+#   evaluate          evaluate-{womd-interactive,womd-json,ngsim}.txt (every method
+#                     but no-mda: a method's variants do not depend on the
+#                     other rows, and this way each prior's tables can be
+#                     made without the other)
+#   plain             what the plain-attention prior (the no-mda ablation) makes:
+#                     evaluate-*-no-mda.txt, realism-prior-plain-womd16.txt,
+#                     prior-fit/shipped-plain-*.txt
+#   inattentive       evaluate-*-inattentive.txt
+#   held-out-chance   held-out-chance-*.txt
+#   trust-region      trust-region-*.txt (safer, safer-distinct, no-mda; and safer-inattentive)
+#   realism           realism-prior-*.txt
+#   prior-fit         prior-fit/shipped-*.txt
+#   n-sweep           evaluate-womd-interactive-n{10,50}.txt
+#   reactive          evaluate-{womd-interactive,ngsim}-reactive.txt
+#   n100              evaluate-womd-interactive-n100.txt (11 min on 2 cores)
+#
+# About 90 minutes for all on a quiet 2-core machine. The recorded sets are
+# read through `data:` ($SAFER_DATA_DIR or ../shared/data); the s/variant
+# and wall-time figures are those of the machine it runs on.
+set -euo pipefail
+self=$(realpath "$0")
+cd "$(dirname "$self")"
+all=(evaluate plain inattentive held-out-chance trust-region realism prior-fit n-sweep reactive n100)
+jobs=("$@")
+[[ ${#jobs[@]} -gt 0 ]] || jobs=("${all[@]}")
+usage() { sed -n '2,25p' "$self" | sed 's/^# \{0,1\}//'; }
+for job in "${jobs[@]}"; do
+    case $job in -h | --help) usage; exit 0 ;; esac
+    [[ " ${all[*]} " == *" $job "* ]] || { usage >&2; echo "error: no job $job" >&2; exit 2; }
+done
+(cd ../.. && cargo build --release --quiet)
+# A copy, so that a rebuild while this runs cannot change the binary halfway.
+safer=$(mktemp -d)/safer
+cp ../../target/release/safer "$safer"
+
+# run OUT ARGS...: safer ARGS, its output and warnings into OUT, then the wall time.
+run() {
+    local out=$1 start
+    shift
+    echo "== $out"
+    start=$(date +%s)
+    "$safer" "$@" >"$out.tmp" 2>&1
+    echo "(wall time $(($(date +%s) - start)) s)" >>"$out.tmp"
+    mv "$out.tmp" "$out"
+}
+
+sets=(womd-interactive:womd-interactive womd-json:womd-json commonroad-ngsim:ngsim)
+every=safer,safer-distinct,safer-lookahead,safer-inattentive,no-lfr,no-trust-region,no-mda,prior,log
+all_but_plain=${every/no-mda,/}
+for job in "${jobs[@]}"; do
+    case $job in
+    evaluate)
+        for s in "${sets[@]}"; do
+            run "evaluate-${s#*:}.txt" evaluate --scenes "data:${s%%:*}" --seeds 10 --methods "$all_but_plain"
+        done ;;
+    plain)
+        for s in "${sets[@]}"; do run "evaluate-${s#*:}-no-mda.txt" evaluate --scenes "data:${s%%:*}" --seeds 10 --methods no-mda; done
+        run realism-prior-plain-womd16.txt realism --scenes data:womd-json --policy prior-plain --rollouts 32 --max-scenes 16
+        for s in womd-interactive womd-json commonroad-ngsim; do
+            "$safer" prior-fit --scenes "data:$s" --prior plain >"prior-fit/shipped-plain-$s.txt"
+        done ;;
+    inattentive)
+        for s in "${sets[@]}"; do
+            run "evaluate-${s#*:}-inattentive.txt" evaluate --scenes "data:${s%%:*}" --seeds 10 --methods safer-inattentive
+        done ;;
+    held-out-chance)
+        for s in "${sets[@]}"; do
+            run "held-out-chance-${s%%:*}.txt" evaluate --scenes "data:${s%%:*}" --seeds 10 --methods safer,safer-inattentive,prior
+        done ;;
+    trust-region)
+        for s in "${sets[@]}"; do
+            run "trust-region-${s%%:*}.txt" trust-region --scenes "data:${s%%:*}" --seeds 3
+            run "trust-region-${s#*:}-inattentive.txt" trust-region --scenes "data:${s%%:*}" --seeds 3 \
+                --methods safer,safer-inattentive
+        done ;;
+    realism)
+        run realism-prior-womd-json-8.txt realism --scenes data:womd-json --policy prior --rollouts 8
+        run realism-prior-proto.txt realism --scenes data:womd-tfrecord --policy prior --rollouts 32
+        run realism-prior-womd16.txt realism --scenes data:womd-json --policy prior --rollouts 32 --max-scenes 16
+        run realism-prior-ngsim.txt realism --scenes data:commonroad-ngsim --policy prior --rollouts 32
+        run realism-prior-womd-all.txt realism --scenes data:womd-json --policy prior --rollouts 32 ;;
+    prior-fit)
+        for s in womd-interactive womd-json commonroad-ngsim; do
+            "$safer" prior-fit --scenes "data:$s" >"prior-fit/shipped-$s.txt"
+        done ;;
+    n-sweep)
+        for n in 10 50; do
+            run "evaluate-womd-interactive-n$n.txt" evaluate --scenes data:womd-interactive --seeds 10 \
+                --methods safer,safer-distinct,safer-lookahead --trust-region "$n"
+        done ;;
+    reactive)
+        for s in womd-interactive:womd-interactive commonroad-ngsim:ngsim; do
+            run "evaluate-${s#*:}-reactive.txt" evaluate --scenes "data:${s%%:*}" --seeds 10 --methods "$every" \
+                --background reactive-log-replay
+        done ;;
+    n100)
+        run evaluate-womd-interactive-n100.txt evaluate --scenes data:womd-interactive --seeds 10 \
+            --methods safer,safer-distinct,safer-lookahead --trust-region 100 ;;
+    esac
+done
+rm -r "$(dirname "$safer")"
