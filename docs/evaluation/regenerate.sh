@@ -20,9 +20,10 @@
 #   prior-fit         prior-fit/shipped-*.txt
 #   n-sweep           evaluate-womd-interactive-n{10,50}.txt
 #   reactive          evaluate-{womd-interactive,ngsim}-reactive.txt
-#   n100              evaluate-womd-interactive-n100.txt (11 min on 2 cores)
+#   n100              evaluate-womd-interactive-n100.txt (7 min on 2 cores)
 #
-# About 90 minutes for all on a quiet 2-core machine. The recorded sets are
+# About an hour for all on 2 cores (measured while a training run shared
+# them; each table ends with its own wall time). The recorded sets are
 # read through `data:` ($SAFER_DATA_DIR or ../shared/data); the s/variant
 # and wall-time figures are those of the machine it runs on.
 set -euo pipefail
@@ -31,7 +32,8 @@ cd "$(dirname "$self")"
 all=(evaluate plain inattentive held-out-chance trust-region realism prior-fit n-sweep reactive n100)
 jobs=("$@")
 [[ ${#jobs[@]} -gt 0 ]] || jobs=("${all[@]}")
-usage() { sed -n '2,25p' "$self" | sed 's/^# \{0,1\}//'; }
+# The usage is the comment block at the top of this file.
+usage() { awk 'NR > 1 && !/^#/ { exit } NR > 1 { sub(/^# ?/, ""); print }' "$self"; }
 for job in "${jobs[@]}"; do
     case $job in -h | --help) usage; exit 0 ;; esac
     [[ " ${all[*]} " == *" $job "* ]] || { usage >&2; echo "error: no job $job" >&2; exit 2; }
@@ -64,7 +66,7 @@ for job in "${jobs[@]}"; do
     plain)
         for s in "${sets[@]}"; do run "evaluate-${s#*:}-no-mda.txt" evaluate --scenes "data:${s%%:*}" --seeds 10 --methods no-mda; done
         run realism-prior-plain-womd16.txt realism --scenes data:womd-json --policy prior-plain --rollouts 32 --max-scenes 16
-        for s in womd-interactive womd-json commonroad-ngsim; do
+        for s in "${sets[@]%%:*}"; do
             "$safer" prior-fit --scenes "data:$s" --prior plain >"prior-fit/shipped-plain-$s.txt"
         done ;;
     inattentive)
@@ -88,7 +90,7 @@ for job in "${jobs[@]}"; do
         run realism-prior-ngsim.txt realism --scenes data:commonroad-ngsim --policy prior --rollouts 32
         run realism-prior-womd-all.txt realism --scenes data:womd-json --policy prior --rollouts 32 ;;
     prior-fit)
-        for s in womd-interactive womd-json commonroad-ngsim; do
+        for s in "${sets[@]%%:*}"; do
             "$safer" prior-fit --scenes "data:$s" >"prior-fit/shipped-$s.txt"
         done ;;
     n-sweep)

@@ -21,7 +21,8 @@
 # ($SAFER_DATA_DIR or ../shared/data).
 set -euo pipefail
 if [[ $# -lt 2 || $# -gt 3 || ( $# -eq 3 && $3 != --force ) ]]; then
-    sed -n '2,21p' "$0" | sed 's/^# \{0,1\}//' >&2
+    # The usage is the comment block at the top of this file.
+    awk 'NR > 1 && !/^#/ { exit } NR > 1 { sub(/^# ?/, ""); print }' "$0" >&2
     exit 2
 fi
 models=$(realpath "$1")
