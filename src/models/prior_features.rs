@@ -11,7 +11,7 @@
 
 use std::collections::HashMap;
 
-use crate::geometry::{Point2, Pose2, Vector2, wrap_angle};
+use crate::geometry::{Point2, Vector2, wrap_angle};
 use crate::map::lane_graph::LaneGraph;
 use crate::map::{AreaKind, MapElementId, RoadMap, SignalState};
 use crate::motion::tokens::{TOKEN_PERIOD_S, TOKEN_PERIOD_STEPS};
@@ -165,8 +165,16 @@ impl MapTokens {
         let r = (radius_m / GRID_CELL_M).ceil() as i32;
         let (cx, cy) = cell(p);
         let mut found: Vec<(u32, f64)> = Vec::new();
+        // Cells wholly beyond the radius are skipped (a 1 µm margin keeps
+        // every token that the exact test below would keep).
+        let gap = |lo: f64, x: f64| (lo - x).max(x - (lo + GRID_CELL_M)).max(0.0);
+        let reach2 = (radius_m + 1e-6).powi(2);
         for dx in -r..=r {
             for dy in -r..=r {
+                let (gx, gy) = (gap(f64::from(cx + dx) * GRID_CELL_M, p.x), gap(f64::from(cy + dy) * GRID_CELL_M, p.y));
+                if gx * gx + gy * gy > reach2 {
+                    continue;
+                }
                 if let Some(ids) = self.grid.get(&(cx + dx, cy + dy)) {
                     for &i in ids {
                         let d = (self.tokens[i as usize].midpoint - p).norm();
@@ -316,11 +324,11 @@ pub fn build_query(
     step: usize,
 ) -> Option<QueryFeatures> {
     let now = history.state(step, agent)?;
-    let frame = Pose2 { position: now.position, heading_rad: now.heading_rad };
-    let rotate = |v: &Vector2| {
-        let (s, c) = now.heading_rad.sin_cos();
-        Vector2::new(c * v.x + s * v.y, -s * v.x + c * v.y)
-    };
+    // The agent frame's rotation, computed once (`Pose2::to_body` would
+    // take the heading's sine and cosine at every call).
+    let (sin_h, cos_h) = now.heading_rad.sin_cos();
+    let rotate = |v: &Vector2| Vector2::new(cos_h * v.x + sin_h * v.y, -sin_h * v.x + cos_h * v.y);
+    let to_body = |p: &Point2| rotate(&(p - now.position));
     let at = |k: usize| -> Option<AgentState> {
         let back = (HISTORY_POINTS - 1 - k) * TOKEN_PERIOD_STEPS;
         step.checked_sub(back).and_then(|s| history.state(s, agent))
@@ -342,7 +350,7 @@ pub fn build_query(
     for k in 0..HISTORY_POINTS {
         let point = at(k);
         if let Some(s) = point {
-            let p = frame.to_body(&s.position);
+            let p = to_body(&s.position);
             let dh = wrap_angle(s.heading_rad - now.heading_rad);
             let (accel, yaw_rate) = match previous {
                 Some(prev) => (
@@ -376,7 +384,7 @@ pub fn build_query(
         .collect();
     others.sort_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)));
     for (n, (j, distance, s)) in others.into_iter().take(NEIGHBOURS).enumerate() {
-        let p = frame.to_body(&s.position);
+        let p = to_body(&s.position);
         let v = rotate(&s.velocity_mps);
         let dh = wrap_angle(s.heading_rad - now.heading_rad);
         let prev = step.checked_sub(TOKEN_PERIOD_STEPS).and_then(|sp| history.state(sp, j));
@@ -415,7 +423,7 @@ pub fn build_query(
 
     for (n, (i, distance)) in map.nearest(&now.position, MAP_TOKENS, MAP_RADIUS_M).into_iter().enumerate() {
         let token = &map.tokens[i as usize];
-        let p = frame.to_body(&token.midpoint);
+        let p = to_body(&token.midpoint);
         let dh = wrap_angle(token.direction_rad - now.heading_rad);
         q.map_index[n] = i;
         q.map_pose[n * POSE_FEATURES..(n + 1) * POSE_FEATURES].copy_from_slice(&[

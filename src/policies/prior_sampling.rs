@@ -89,14 +89,27 @@ pub fn top_tokens(logits: &[f32], k: usize) -> Vec<Token> {
         // (ties go to the lower id), and most are turned away by one
         // comparison with the last kept: a tenth of the time of selecting
         // over the whole vocabulary, which showed in realism rollouts.
+        // Once the head is full, whole chunks whose largest logit (in
+        // `total_cmp`'s order, through its integer key) does not beat the
+        // last kept are turned away at once: a scan the compiler
+        // vectorises.
+        const CHUNK: usize = 16;
         let mut head: Vec<(f32, u16)> = Vec::with_capacity(k + 1);
-        for (id, &logit) in logits.iter().enumerate() {
-            if head.len() == k && logit.total_cmp(&head[k - 1].0).is_le() {
-                continue;
+        for (c, chunk) in logits.chunks(CHUNK).enumerate() {
+            if head.len() == k {
+                let chunk_max = chunk.iter().map(|&l| total_order_key(l)).fold(i32::MIN, i32::max);
+                if chunk_max <= total_order_key(head[k - 1].0) {
+                    continue;
+                }
             }
-            let at = head.partition_point(|&(kept, _)| kept.total_cmp(&logit).is_ge());
-            head.insert(at, (logit, id as u16));
-            head.truncate(k);
+            for (i, &logit) in chunk.iter().enumerate() {
+                if head.len() == k && logit.total_cmp(&head[k - 1].0).is_le() {
+                    continue;
+                }
+                let at = head.partition_point(|&(kept, _)| kept.total_cmp(&logit).is_ge());
+                head.insert(at, (logit, (c * CHUNK + i) as u16));
+                head.truncate(k);
+            }
         }
         return head.into_iter().map(|(_, id)| Token(id)).collect();
     }
@@ -108,6 +121,13 @@ pub fn top_tokens(logits: &[f32], k: usize) -> Vec<Token> {
     }
     ids.sort_by(order);
     ids.into_iter().map(Token).collect()
+}
+
+/// An integer whose order is `f32::total_cmp`'s (the key that function
+/// compares).
+fn total_order_key(x: f32) -> i32 {
+    let bits = x.to_bits() as i32;
+    bits ^ (((bits >> 31) as u32) >> 1) as i32
 }
 
 /// Draws a token from the top `k` of `logits` at `temperature`.
@@ -504,6 +524,26 @@ mod tests {
             }
         }
         assert!(top_tokens(&[], 3).is_empty());
+    }
+
+    #[test]
+    fn top_tokens_follow_total_order_across_skipped_chunks() {
+        // Signed zeros, infinities and NaNs of both signs rank as
+        // `total_cmp` ranks them, whether a chunk is scanned or skipped.
+        let special = [0.0, -0.0, f32::INFINITY, f32::NEG_INFINITY, f32::NAN, -f32::NAN, f32::MIN_POSITIVE];
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        for _ in 0..50 {
+            let logits: Vec<f32> = (0..3969)
+                .map(|_| match rng.random::<u8>() % 16 {
+                    0 => special[rng.random::<u8>() as usize % special.len()],
+                    _ => (rng.random::<f32>() - 0.5) * 40.0,
+                })
+                .collect();
+            let ranked = ranked_tokens(&logits);
+            for k in [1, 5, 20, 64] {
+                assert_eq!(top_tokens(&logits, k), ranked[..k], "k {k}");
+            }
+        }
     }
 
     #[test]

@@ -405,17 +405,21 @@ impl<'a> SceneContext<'a> {
     }
 
     fn nearest_object_distance(&self, me_index: usize, me: &Placed, placed: &[Option<Placed>]) -> f64 {
-        let mut best = EXTREMELY_LARGE_DISTANCE;
-        for (o, other) in placed.iter().enumerate() {
-            let Some(other) = other else { continue };
-            if o == me_index {
-                continue;
+        // Centre distance minus both bounding radii: a lower bound on the
+        // box distance.
+        let lower_bound = |other: &Placed| (other.state.position - me.state.position).norm() - me.radius_m - other.radius_m;
+        let others = || placed.iter().enumerate().filter(|&(o, _)| o != me_index).filter_map(|(o, p)| Some((o, p.as_ref()?)));
+        // The object with the least bound first: its exact distance is
+        // usually the answer, and the bound then turns away the rest.
+        let Some((first, nearest)) = others().min_by(|a, b| lower_bound(a.1).total_cmp(&lower_bound(b.1))) else {
+            return EXTREMELY_LARGE_DISTANCE;
+        };
+        let mut best = EXTREMELY_LARGE_DISTANCE.min(signed_box_distance(&me.corners, &nearest.corners));
+        for (_, other) in others().filter(|&(o, _)| o != first) {
+            // (A NaN bound proves nothing: the exact distance is taken.)
+            if !(lower_bound(other) >= best) {
+                best = best.min(signed_box_distance(&me.corners, &other.corners));
             }
-            let lower = (other.state.position - me.state.position).norm() - me.radius_m - other.radius_m;
-            if lower >= best {
-                continue;
-            }
-            best = best.min(signed_box_distance(&me.corners, &other.corners));
         }
         best
     }
@@ -438,11 +442,19 @@ impl<'a> SceneContext<'a> {
             }
             let body = &self.bodies[o];
             let yaw_diff = (other.state.heading_rad - me.state.heading_rad).abs();
+            let d = other.state.position - me.state.position;
+            let rel_x = cos_h * d.x + sin_h * d.y;
+            // Exact early outs before the trigonometry (most pairs fail
+            // one): the heading rule, and an object not ahead of the front
+            // bumper (`long_offset` is never negative). Written so that a
+            // NaN is turned away, as the full test turns it away.
+            if !(yaw_diff <= MAX_HEADING_DIFF_RAD && rel_x - 0.5 * my_body.length_m > 0.0) {
+                continue;
+            }
             let (c, s) = (yaw_diff.cos().abs(), yaw_diff.sin().abs());
             let long_offset = 0.5 * body.length_m * c + 0.5 * body.width_m * s;
             let lat_offset = 0.5 * body.length_m * s + 0.5 * body.width_m * c;
-            let d = other.state.position - me.state.position;
-            let (rel_x, rel_y) = (cos_h * d.x + sin_h * d.y, -sin_h * d.x + cos_h * d.y);
+            let rel_y = -sin_h * d.x + cos_h * d.y;
             let long_distance = rel_x - 0.5 * my_body.length_m - long_offset;
             let lat_overlap = rel_y.abs() - 0.5 * my_body.width_m - lat_offset;
             let following = long_distance > 0.0
