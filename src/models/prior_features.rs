@@ -382,8 +382,15 @@ pub fn build_query(
         .filter_map(|j| history.state(step, j).map(|s| (j, (s.position - now.position).norm(), s)))
         .filter(|(_, d, _)| *d <= NEIGHBOUR_RADIUS_M)
         .collect();
-    others.sort_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)));
-    for (n, (j, distance, s)) in others.into_iter().take(NEIGHBOURS).enumerate() {
+    // The nearest NEIGHBOURS in order (distance, then index: a total
+    // order, so selecting them first and sorting only them is the same).
+    let order = |a: &(usize, f64, AgentState), b: &(usize, f64, AgentState)| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0));
+    if others.len() > NEIGHBOURS {
+        others.select_nth_unstable_by(NEIGHBOURS - 1, order);
+        others.truncate(NEIGHBOURS);
+    }
+    others.sort_by(order);
+    for (n, (j, distance, s)) in others.into_iter().enumerate() {
         let p = to_body(&s.position);
         let v = rotate(&s.velocity_mps);
         let dh = wrap_angle(s.heading_rad - now.heading_rad);
