@@ -407,8 +407,10 @@ impl<'a> SceneContext<'a> {
     fn nearest_object_distance(&self, me_index: usize, me: &Placed, placed: &[Option<Placed>]) -> f64 {
         // Centre distance minus both bounding radii: a lower bound on the
         // box distance.
-        let lower_bound = |other: &Placed| (other.state.position - me.state.position).norm() - me.radius_m - other.radius_m;
-        let others = || placed.iter().enumerate().filter(|&(o, _)| o != me_index).filter_map(|(o, p)| Some((o, p.as_ref()?)));
+        let lower_bound =
+            |other: &Placed| (other.state.position - me.state.position).norm() - me.radius_m - other.radius_m;
+        let others =
+            || placed.iter().enumerate().filter(|&(o, _)| o != me_index).filter_map(|(o, p)| Some((o, p.as_ref()?)));
         // The object with the least bound first: its exact distance is
         // usually the answer, and the bound then turns away the rest.
         let Some((first, nearest)) = others().min_by(|a, b| lower_bound(a.1).total_cmp(&lower_bound(b.1))) else {
