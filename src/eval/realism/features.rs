@@ -419,7 +419,8 @@ impl<'a> SceneContext<'a> {
         let mut best = EXTREMELY_LARGE_DISTANCE.min(signed_box_distance(&me.corners, &nearest.corners));
         for (_, other) in others().filter(|&(o, _)| o != first) {
             // (A NaN bound proves nothing: the exact distance is taken.)
-            if !(lower_bound(other) >= best) {
+            let bound = lower_bound(other);
+            if bound < best || bound.is_nan() {
                 best = best.min(signed_box_distance(&me.corners, &other.corners));
             }
         }
