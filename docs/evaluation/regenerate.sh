@@ -21,6 +21,8 @@
 #   n-sweep           evaluate-womd-interactive-n{10,50}.txt
 #   reactive          evaluate-{womd-interactive,ngsim}-reactive.txt
 #   n100              evaluate-womd-interactive-n100.txt (7 min on 2 cores)
+#   approach-none     approach-none/*.txt: the paper's protocol, one variant a
+#                     scene (the adversary engages at the first token)
 #
 # About an hour for all on 2 cores (measured while a training run shared
 # them; each table ends with its own wall time). The recorded sets are
@@ -29,7 +31,7 @@
 set -euo pipefail
 self=$(realpath "$0")
 cd "$(dirname "$self")"
-all=(evaluate plain inattentive held-out-chance trust-region realism prior-fit n-sweep reactive n100)
+all=(evaluate plain inattentive held-out-chance trust-region realism prior-fit n-sweep reactive n100 approach-none)
 jobs=("$@")
 [[ ${#jobs[@]} -gt 0 ]] || jobs=("${all[@]}")
 # The usage is the comment block at the top of this file.
@@ -106,6 +108,24 @@ for job in "${jobs[@]}"; do
     n100)
         run evaluate-womd-interactive-n100.txt evaluate --scenes data:womd-interactive --seeds 10 \
             --methods safer,safer-distinct,safer-lookahead --trust-region 100 ;;
+    approach-none)
+        once=(--approach-phase none --seeds 1)
+        for s in womd-interactive womd-json commonroad-ngsim; do
+            run "approach-none/evaluate-$s.txt" evaluate --scenes "data:$s" "${once[@]}" \
+                --methods safer,safer-inattentive,safer-lookahead,no-lfr,no-trust-region
+        done
+        for n in 10 50 100; do
+            run "approach-none/evaluate-womd-interactive-n$n.txt" evaluate --scenes data:womd-interactive "${once[@]}" \
+                --methods safer,safer-inattentive --trust-region "$n"
+        done
+        run approach-none/evaluate-womd-interactive-lookahead-n100.txt evaluate --scenes data:womd-interactive \
+            "${once[@]}" --methods safer-lookahead,safer-distinct --trust-region 100
+        for s in womd-json commonroad-ngsim; do
+            run "approach-none/evaluate-$s-lookahead-n100.txt" evaluate --scenes "data:$s" "${once[@]}" \
+                --methods safer-lookahead --trust-region 100
+        done
+        run approach-none/trust-region-womd-interactive.txt trust-region --scenes data:womd-interactive "${once[@]}" \
+            --methods safer,safer-inattentive ;;
     esac
 done
 rm -r "$(dirname "$safer")"
