@@ -164,6 +164,23 @@ struct Report<'a> {
     wall_s: f64,
     /// Mean time of one scene (all rollouts and scoring) on one thread, s.
     mean_scene_s: f64,
+    /// Of it, the rollouts (the policy driving every agent), s.
+    mean_rollouts_s: f64,
+    /// Of it, the scoring (the metrics' features and likelihoods), s.
+    mean_scoring_s: f64,
+}
+
+/// Where one scene's time went, s.
+#[derive(Debug, Clone, Copy, Default)]
+struct SceneTimes {
+    rollouts_s: f64,
+    scoring_s: f64,
+}
+
+impl SceneTimes {
+    fn total_s(&self) -> f64 {
+        self.rollouts_s + self.scoring_s
+    }
 }
 
 /// Rolls out and scores one scene.
@@ -172,10 +189,11 @@ fn score_one(
     args: &RealismArgs,
     config: &RealismConfig,
     prior: Option<&Arc<RealismPrior>>,
-) -> Result<Option<ScenarioRealism>, String> {
+) -> Result<Option<(ScenarioRealism, SceneTimes)>, String> {
     let Some(window) = RealismWindow::for_scenario(scenario, config.future_steps) else {
         return Ok(None);
     };
+    let started = Instant::now();
     // The prior's per-scene inputs: the map encoded once for all rollouts.
     let prior = match prior {
         Some(p) => {
@@ -235,7 +253,11 @@ fn score_one(
             rollouts
         }
     };
-    score_scenario(scenario, window, &rollouts, config).map(Some).map_err(|e| e.to_string())
+    let rolled_out = Instant::now();
+    let scored = score_scenario(scenario, window, &rollouts, config).map_err(|e| e.to_string())?;
+    let times =
+        SceneTimes { rollouts_s: (rolled_out - started).as_secs_f64(), scoring_s: rolled_out.elapsed().as_secs_f64() };
+    Ok(Some((scored, times)))
 }
 
 pub(super) fn run(args: &RealismArgs) -> Result<ExitCode, CliError> {
@@ -267,21 +289,16 @@ pub(super) fn run(args: &RealismArgs) -> Result<ExitCode, CliError> {
     if let Some(n) = args.max_scenes {
         scenes.truncate(n);
     }
-    let scored: Vec<(Result<Option<ScenarioRealism>, String>, f64)> = scenes
-        .par_iter()
-        .map(|(_, s)| {
-            let t = Instant::now();
-            let r = score_one(s, args, &config, prior.as_ref());
-            (r, t.elapsed().as_secs_f64())
-        })
-        .collect();
+    let scored: Vec<Result<Option<(ScenarioRealism, SceneTimes)>, String>> =
+        scenes.par_iter().map(|(_, s)| score_one(s, args, &config, prior.as_ref())).collect();
     let wall_s = started.elapsed().as_secs_f64();
     let mut results = Vec::new();
-    let mut busy_s = 0.0;
-    for ((path, scenario), (r, secs)) in scenes.iter().zip(scored) {
+    let mut busy = SceneTimes::default();
+    for ((path, scenario), r) in scenes.iter().zip(scored) {
         match r {
-            Ok(Some(result)) => {
-                busy_s += secs;
+            Ok(Some((result, times))) => {
+                busy.rollouts_s += times.rollouts_s;
+                busy.scoring_s += times.scoring_s;
                 results.push(result);
             }
             Ok(None) => skipped.push(Skipped {
@@ -295,7 +312,8 @@ pub(super) fn run(args: &RealismArgs) -> Result<ExitCode, CliError> {
             }
         }
     }
-    let mean_scene_s = if results.is_empty() { 0.0 } else { busy_s / results.len() as f64 };
+    let per_scene = |busy_s: f64| if results.is_empty() { 0.0 } else { busy_s / results.len() as f64 };
+    let mean = SceneTimes { rollouts_s: per_scene(busy.rollouts_s), scoring_s: per_scene(busy.scoring_s) };
     let mut formats: BTreeMap<SourceFormat, Vec<&ScenarioRealism>> = BTreeMap::new();
     for r in &results {
         formats.entry(r.format).or_default().push(r);
@@ -315,7 +333,7 @@ pub(super) fn run(args: &RealismArgs) -> Result<ExitCode, CliError> {
     };
     let summary = RealismSummary { by_format, overall, held_out: split };
     let mut table = super::table_writer(args.json.as_deref());
-    print_table(&mut table, args, &summary, &skipped, mean_scene_s, wall_s)?;
+    print_table(&mut table, args, &summary, &skipped, mean, wall_s)?;
     table.flush()?;
     if let Some(out) = &args.json {
         let draws = args.policy.prior_variant().is_some();
@@ -331,7 +349,9 @@ pub(super) fn run(args: &RealismArgs) -> Result<ExitCode, CliError> {
             scenes: &results,
             skipped: &skipped,
             wall_s,
-            mean_scene_s,
+            mean_scene_s: mean.total_s(),
+            mean_rollouts_s: mean.rollouts_s,
+            mean_scoring_s: mean.scoring_s,
         };
         write_json(out, &report)?;
     }
@@ -361,7 +381,7 @@ fn print_table(
     args: &RealismArgs,
     summary: &RealismSummary,
     skipped: &[Skipped],
-    mean_scene_s: f64,
+    mean: SceneTimes,
     wall_s: f64,
 ) -> std::io::Result<()> {
     writeln!(
@@ -414,8 +434,11 @@ fn print_table(
     }
     writeln!(
         out,
-        "{mean_scene_s:.2} s per scene on one thread ({} rollouts and scoring); {wall_s:.1} s wall",
-        args.rollouts
+        "{:.2} s per scene on one thread ({} rollouts {:.2} s, scoring {:.2} s); {wall_s:.1} s wall",
+        mean.total_s(),
+        args.rollouts,
+        mean.rollouts_s,
+        mean.scoring_s,
     )?;
     Ok(())
 }

@@ -124,6 +124,11 @@ fn cli_realism_writes_a_sorted_json_report() {
     let mut sorted = ids.clone();
     sorted.sort();
     assert_eq!(ids, sorted, "results are sorted by scenario id");
+    // The time per scene is its rollouts' and its scoring's.
+    let secs = |k: &str| v[k].as_f64().unwrap_or_else(|| panic!("{k} missing"));
+    let (scene, rollouts, scoring) = (secs("mean_scene_s"), secs("mean_rollouts_s"), secs("mean_scoring_s"));
+    assert!(rollouts > 0.0 && scoring > 0.0, "{rollouts} {scoring}");
+    assert!((scene - rollouts - scoring).abs() < 1e-9, "{scene} {rollouts} {scoring}");
 }
 
 #[test]
