@@ -44,9 +44,16 @@ impl RoadMap {
             let (edge, seg) = (edge as usize, seg as usize);
             let (d2, _) = crate::geometry::polyline::segment_distance_squared(ends, p);
             nan |= d2.is_nan();
-            let key = (d2.sqrt(), edge, d2, seg);
-            if best.is_none_or(|b| key < b) {
-                best = Some(key);
+            // Most candidates are clearly farther than the best so far:
+            // their square root (the costly part of the key) is never
+            // needed. The margin is far above the rounding that could make
+            // a larger d2 give an equal distance (and so a tie on it).
+            let clearly_farther = best.is_some_and(|b| d2 > b.2 * (1.0 + 1e-9));
+            if !clearly_farther {
+                let key = (d2.sqrt(), edge, d2, seg);
+                if best.is_none_or(|b| key < b) {
+                    best = Some(key);
+                }
             }
             best.map_or(f64::INFINITY, |b| b.0)
         });
