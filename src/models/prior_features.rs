@@ -377,10 +377,21 @@ pub fn build_query(
     let kind = kind_one_hot(body.kind);
     q.agent_self = [body.length_m as f32, body.width_m as f32, kind[0], kind[1], kind[2], kind[3]];
 
+    // Agents clearly beyond the radius are turned away on the squared
+    // distance (the margin is far above rounding); the rest take the
+    // exact test on the distance.
+    let clearly_beyond_m2 = NEIGHBOUR_RADIUS_M * NEIGHBOUR_RADIUS_M * (1.0 + 1e-9);
     let mut others: Vec<(usize, f64, AgentState)> = (0..history.agents())
         .filter(|&j| j != agent)
-        .filter_map(|j| history.state(step, j).map(|s| (j, (s.position - now.position).norm(), s)))
-        .filter(|(_, d, _)| *d <= NEIGHBOUR_RADIUS_M)
+        .filter_map(|j| {
+            let s = history.state(step, j)?;
+            let offset = s.position - now.position;
+            if !(offset.norm_squared() <= clearly_beyond_m2) {
+                return None;
+            }
+            let d = offset.norm();
+            (d <= NEIGHBOUR_RADIUS_M).then_some((j, d, s))
+        })
         .collect();
     // The nearest NEIGHBOURS in order (distance, then index: a total
     // order, so selecting them first and sorting only them is the same).
