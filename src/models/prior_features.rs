@@ -386,7 +386,8 @@ pub fn build_query(
         .filter_map(|j| {
             let s = history.state(step, j)?;
             let offset = s.position - now.position;
-            if !(offset.norm_squared() <= clearly_beyond_m2) {
+            let d2 = offset.norm_squared();
+            if d2 > clearly_beyond_m2 || d2.is_nan() {
                 return None;
             }
             let d = offset.norm();
