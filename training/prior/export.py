@@ -116,7 +116,8 @@ def write_card(path, *, name, kind, inputs, outputs, tokens, summary, args, gold
     lines.append("normalisation: " + yaml_str(
         "Inputs in physical units (m, m/s, m/s^2, rad, rad/s); the graph divides by fixed constants "
         "(positions /20 m, distances /50 m, speeds /10 m/s, accelerations /5, yaw rates /1.5, sizes /5 m, "
-        "map token length /8 m, speed limit /30 m/s). Logits are unnormalised; softmax gives P(token)."))
+        "map token length /8 m, speed limit /30 m/s; in the decoder the neighbour and pose divisions are folded "
+        "into the weights of the first layers that read them). Logits are unnormalised; softmax gives P(token)."))
     lines.append("architecture: " + yaml_str(arch))
     if tokens:
         lines += ["token_grid: {bins_per_axis: 63, max_accel_mps2: 5.0, max_yaw_rate_radps: 1.5}", "token_period_s: 0.5"]
