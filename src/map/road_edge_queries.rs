@@ -46,10 +46,8 @@ impl RoadMap {
             nan |= d2.is_nan();
             // Most candidates are clearly farther than the best so far:
             // their square root (the costly part of the key) is never
-            // needed. The margin is far above the rounding that could make
-            // a larger d2 give an equal distance (and so a tie on it).
-            let clearly_farther = best.is_some_and(|b| d2 > b.2 * (1.0 + 1e-9));
-            if !clearly_farther {
+            // needed, and could not tie with the best's.
+            if !best.is_some_and(|b| crate::geometry::clearly_farther_squared(d2, b.2)) {
                 let key = (d2.sqrt(), edge, d2, seg);
                 if best.is_none_or(|b| key < b) {
                     best = Some(key);

@@ -11,7 +11,7 @@
 
 use std::collections::HashMap;
 
-use crate::geometry::{Point2, Vector2, wrap_angle};
+use crate::geometry::{Point2, Vector2, clearly_farther_squared, wrap_angle};
 use crate::map::lane_graph::LaneGraph;
 use crate::map::{AreaKind, MapElementId, RoadMap, SignalState};
 use crate::motion::tokens::{TOKEN_PERIOD_S, TOKEN_PERIOD_STEPS};
@@ -378,16 +378,14 @@ pub fn build_query(
     q.agent_self = [body.length_m as f32, body.width_m as f32, kind[0], kind[1], kind[2], kind[3]];
 
     // Agents clearly beyond the radius are turned away on the squared
-    // distance (the margin is far above rounding); the rest take the
-    // exact test on the distance.
-    let clearly_beyond_m2 = NEIGHBOUR_RADIUS_M * NEIGHBOUR_RADIUS_M * (1.0 + 1e-9);
+    // distance; the rest take the exact test on the distance.
     let mut others: Vec<(usize, f64, AgentState)> = (0..history.agents())
         .filter(|&j| j != agent)
         .filter_map(|j| {
             let s = history.state(step, j)?;
             let offset = s.position - now.position;
             let d2 = offset.norm_squared();
-            if d2 > clearly_beyond_m2 || d2.is_nan() {
+            if clearly_farther_squared(d2, NEIGHBOUR_RADIUS_M * NEIGHBOUR_RADIUS_M) || d2.is_nan() {
                 return None;
             }
             let d = offset.norm();

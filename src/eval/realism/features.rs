@@ -413,7 +413,9 @@ impl<'a> SceneContext<'a> {
             || placed.iter().enumerate().filter(|&(o, _)| o != me_index).filter_map(|(o, p)| Some((o, p.as_ref()?)));
         // The object with the least bound first: its exact distance is
         // usually the answer, and the bound then turns away the rest.
-        let Some((first, nearest)) = others().min_by(|a, b| lower_bound(a.1).total_cmp(&lower_bound(b.1))) else {
+        let Some((first, nearest, _)) =
+            others().map(|(o, p)| (o, p, lower_bound(p))).min_by(|a, b| a.2.total_cmp(&b.2))
+        else {
             return EXTREMELY_LARGE_DISTANCE;
         };
         let mut best = EXTREMELY_LARGE_DISTANCE.min(signed_box_distance(&me.corners, &nearest.corners));
