@@ -77,6 +77,10 @@ fn misaligned(forward: Option<crate::geometry::Vector2>, tangent: &crate::geomet
 /// segment's ends.
 type LaneCandidate = (u32, u32, f64, [Point2; 2]);
 
+/// Slack of [`RoadMap::nearest_lane`]'s run pruning, m: far above the
+/// rounding of the distances it compares, far below anything that matters.
+const LANE_RUN_PRUNE_SLACK_M: f64 = 0.01;
+
 impl RoadMap {
     /// The lane centreline closest to `p` within `radius_m`, preferring
     /// lanes whose direction agrees with `heading_rad` (when given) to within
@@ -97,17 +101,32 @@ impl RoadMap {
             let mut nan = false;
             // Each lane's segment of least distance, ties to the lowest
             // index: what `project_segments` picks from its sorted run.
-            self.lane_segments.for_each_candidate_within(p, radius_m, |(lane, segment), ends| {
-                let (d2, _) = crate::geometry::polyline::segment_distance_squared(ends, p);
-                nan |= d2.is_nan();
-                let entry = match per_lane.last_mut() {
-                    Some(last) if last.0 == lane => Some(last),
-                    _ => per_lane.iter_mut().find(|e| e.0 == lane),
+            self.lane_segments.for_each_run_within(p, radius_m, |run_distance_m, pairs, ends| {
+                // A run is one lane's consecutive segments: one that lies
+                // wholly farther than that lane's nearest segment so far
+                // cannot change it (with a centimetre to spare).
+                let lane = pairs[0].0;
+                let at = match per_lane.last() {
+                    Some(last) if last.0 == lane => Some(per_lane.len() - 1),
+                    _ => per_lane.iter().position(|e| e.0 == lane),
                 };
-                match entry {
-                    None => per_lane.push((lane, segment, d2, *ends)),
-                    Some(e) if d2 < e.2 || (d2 == e.2 && segment < e.1) => *e = (lane, segment, d2, *ends),
-                    Some(_) => {}
+                if let Some(i) = at
+                    && run_distance_m > per_lane[i].2.sqrt() + LANE_RUN_PRUNE_SLACK_M
+                {
+                    return;
+                }
+                for (&(lane, segment), ends) in pairs.iter().zip(ends) {
+                    let (d2, _) = crate::geometry::polyline::segment_distance_squared(ends, p);
+                    nan |= d2.is_nan();
+                    let entry = match per_lane.last_mut() {
+                        Some(last) if last.0 == lane => Some(last),
+                        _ => per_lane.iter_mut().find(|e| e.0 == lane),
+                    };
+                    match entry {
+                        None => per_lane.push((lane, segment, d2, *ends)),
+                        Some(e) if d2 < e.2 || (d2 == e.2 && segment < e.1) => *e = (lane, segment, d2, *ends),
+                        Some(_) => {}
+                    }
                 }
             });
             // A degenerate segment's NaN distance makes the pick depend on

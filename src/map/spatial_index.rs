@@ -268,14 +268,14 @@ impl SegmentIndex {
         let span = (hi_x - lo_x + 1.0) * (hi_y - lo_y + 1.0);
         // (NaN or infinite spans too.)
         if span.is_nan() || span > MAX_ORDERED_CELLS as f64 {
-            self.for_each_cell(
-                p,
-                radius_m,
-                &mut |pair, ends| {
+            self.oversized.iter().for_each(|(pair, ends)| {
+                visit(*pair, ends);
+            });
+            self.for_each_cell(p, radius_m, |cell| {
+                cell.refs.iter().zip(&cell.ends).for_each(|(&pair, ends)| {
                     visit(pair, ends);
-                },
-                |cell, visit| cell.refs.iter().zip(&cell.ends).for_each(|(&pair, ends)| visit(pair, ends)),
-            );
+                })
+            });
             return;
         }
         let mut near: [(f64, Option<&Cell>); MAX_ORDERED_CELLS] = [(0.0, None); MAX_ORDERED_CELLS];
@@ -323,11 +323,33 @@ impl SegmentIndex {
         if radius_m.is_nan() {
             return;
         }
+        self.for_each_run_within(p, radius_m, |_, pairs, ends| {
+            pairs.iter().zip(ends).for_each(|(&pair, ends)| visit(pair, ends))
+        });
+    }
+
+    /// [`Self::for_each_candidate_within`] run by run: `visit` gets each
+    /// run's distance from `p` (no segment of it is nearer), its segment
+    /// references (consecutive segments of one polyline) and their ends.
+    /// The oversized segments come as runs of one at distance zero.
+    pub fn for_each_run_within(
+        &self,
+        p: &Point2,
+        radius_m: f64,
+        mut visit: impl FnMut(f64, &[(u32, u32)], &[SegmentEnds]),
+    ) {
+        if radius_m.is_nan() {
+            return;
+        }
         let reach_m = radius_m.max(0.0) + PRUNE_SLACK_M;
-        self.for_each_cell(p, radius_m, &mut visit, |cell, visit| {
+        for (pair, ends) in self.oversized_for(p, radius_m) {
+            visit(0.0, std::slice::from_ref(pair), std::slice::from_ref(ends));
+        }
+        self.for_each_cell(p, radius_m, |cell| {
             for (run, pairs, ends) in cell.runs() {
-                if box_distance_m(&run.lo, &run.hi, p) <= reach_m {
-                    pairs.iter().zip(ends).for_each(|(&pair, ends)| visit(pair, ends));
+                let distance_m = box_distance_m(&run.lo, &run.hi, p);
+                if distance_m <= reach_m {
+                    visit(distance_m, pairs, ends);
                 }
             }
         });
@@ -346,21 +368,19 @@ impl SegmentIndex {
     /// than once (a segment is in every cell it crosses): for callers whose
     /// answer depends on neither, with no sorting at all.
     pub fn for_each_candidate(&self, p: &Point2, radius_m: f64, mut visit: impl FnMut((u32, u32))) {
-        self.for_each_cell(p, radius_m, &mut |pair, _: &SegmentEnds| visit(pair), |cell, visit| {
-            cell.refs.iter().zip(&cell.ends).for_each(|(&pair, ends)| visit(pair, ends))
-        });
+        self.oversized_for(p, radius_m).iter().for_each(|(pair, _)| visit(*pair));
+        self.for_each_cell(p, radius_m, |cell| cell.refs.iter().for_each(|&pair| visit(pair)));
     }
 
-    /// Offers the oversized segments to `visit` and calls `in_cell` on
-    /// every occupied cell within `radius_m` of `p` (nothing for a
-    /// non-finite `p` or a NaN radius).
-    fn for_each_cell<V: FnMut((u32, u32), &SegmentEnds)>(
-        &self,
-        p: &Point2,
-        radius_m: f64,
-        visit: &mut V,
-        mut in_cell: impl FnMut(&Cell, &mut V),
-    ) {
+    /// The oversized segments, offered to every query (none for a
+    /// non-finite `p` or a NaN radius, which have no candidates).
+    fn oversized_for(&self, p: &Point2, radius_m: f64) -> &[EndedSegment] {
+        if !(p.x.is_finite() && p.y.is_finite()) || radius_m.is_nan() { &[] } else { &self.oversized }
+    }
+
+    /// Calls `in_cell` on every occupied cell within `radius_m` of `p`
+    /// (none for a non-finite `p` or a NaN radius).
+    fn for_each_cell(&self, p: &Point2, radius_m: f64, mut in_cell: impl FnMut(&Cell)) {
         if !(p.x.is_finite() && p.y.is_finite()) || radius_m.is_nan() {
             return;
         }
@@ -371,13 +391,12 @@ impl SegmentIndex {
         let (lo_x, hi_x) = (((p.x - r) / CELL_M).floor(), ((p.x + r) / CELL_M).floor());
         let (lo_y, hi_y) = (((p.y - r) / CELL_M).floor(), ((p.y + r) / CELL_M).floor());
         let span = (hi_x - lo_x + 1.0) * (hi_y - lo_y + 1.0);
-        self.oversized.iter().for_each(|(pair, ends)| visit(*pair, ends));
         if span.is_finite() && span <= self.cells.len() as f64 {
             // Few enough cells to look each up; all bounds are small integers here.
             for cx in lo_x as i64..=hi_x as i64 {
                 for cy in lo_y as i64..=hi_y as i64 {
                     if let Some(cell) = self.cells.get(&(cx, cy)) {
-                        in_cell(cell, visit);
+                        in_cell(cell);
                     }
                 }
             }
@@ -386,7 +405,7 @@ impl SegmentIndex {
             for (key, cell) in &self.cells {
                 let (cx, cy) = (key.0 as f64, key.1 as f64);
                 if (lo_x..=hi_x).contains(&cx) && (lo_y..=hi_y).contains(&cy) {
-                    in_cell(cell, visit);
+                    in_cell(cell);
                 }
             }
         }

@@ -165,6 +165,13 @@ pub struct EvasivePlanner {
     /// The agents as seen at the last few plans (up to
     /// [`TURNING_PREDICTION_WINDOW_S`] back), and when, oldest first.
     seen: std::collections::VecDeque<(f64, SeenAgents)>,
+    /// The candidate (offset, acceleration) the last plan chose: tried
+    /// first in the next one (see `plan`).
+    last_choice: Option<(usize, usize)>,
+    /// Every candidate runs to the end in the configured order: the plain
+    /// search the pruned one must agree with.
+    #[cfg(test)]
+    exhaustive: bool,
 }
 
 impl EvasivePlanner {
@@ -178,6 +185,9 @@ impl EvasivePlanner {
             predictions: Vec::new(),
             standing: BoxSet::default(),
             seen: Default::default(),
+            last_choice: None,
+            #[cfg(test)]
+            exhaustive: false,
         }
     }
 
@@ -278,6 +288,30 @@ fn road_bounded_turn(
 /// sets and the standing set filter their boxes by.
 fn within_reach(position: crate::geometry::Point2, ego: &AgentState, reach_m: f64, radius_m: f64) -> bool {
     (position - ego.position).norm_squared() <= (reach_m + radius_m).powi(2)
+}
+
+/// The speed terms of a candidate's cost (`0.01·(v − v_des)²` a step)
+/// from each step to the horizon, for a candidate of acceleration `accel`
+/// starting at `start_speed_mps`: its speeds follow from these alone, as
+/// [`EvasivePlanner::evaluate`] steps them. Each is capped at
+/// [`RED_LIGHT_COST`], the least that a rollout stopping early (at a
+/// collision or a red light) adds instead of the rest, so that each stays
+/// a lower bound on what is still to come. `steps + 1` values, the last 0.
+fn speed_costs_to_come(start_speed_mps: f64, accel: f64, v_des: f64, steps: usize) -> Vec<f64> {
+    let mut speed_mps = start_speed_mps;
+    let mut terms = Vec::with_capacity(steps + 1);
+    for _ in 0..steps {
+        let a = if accel > 0.0 && speed_mps >= v_des { 0.0 } else { accel };
+        speed_mps = (speed_mps + a * SIM_DT_S).max(0.0);
+        terms.push(0.01 * (speed_mps - v_des).powi(2));
+    }
+    terms.push(0.0);
+    let mut to_come = 0.0;
+    for t in terms.iter_mut().rev() {
+        to_come += *t;
+        *t = to_come.min(RED_LIGHT_COST);
+    }
+    terms
 }
 
 /// One candidate's rollout and its cost.
@@ -419,6 +453,12 @@ impl Planner for EvasivePlanner {
             v_des,
             steps,
             max_progress_m: route.path.length_m() - here,
+            speed_costs_to_come: self
+                .params
+                .accelerations_mps2
+                .iter()
+                .map(|&accel| speed_costs_to_come(start_speed_mps, accel, v_des, steps))
+                .collect(),
         };
         // The best candidate is the cheapest, ties to the first in the
         // configured order (offsets, then accelerations). Trying the
@@ -434,26 +474,38 @@ impl Planner for EvasivePlanner {
             .chain(&self.params.accelerations_mps2)
             .chain(&self.params.lateral_offsets_m)
             .all(|x| x.is_finite());
+        #[cfg(test)]
+        let finite = finite && !self.exhaustive;
         let mut offsets: Vec<usize> = (0..self.params.lateral_offsets_m.len()).collect();
         if finite {
             offsets.sort_by(|&a, &b| {
                 self.params.lateral_offsets_m[a].abs().total_cmp(&self.params.lateral_offsets_m[b].abs())
             });
         }
+        let mut order: Vec<(usize, usize)> = offsets.iter().flat_map(|&o| (0..n_accels).map(move |a| (o, a))).collect();
+        // The last plan's choice first: the traffic has moved a tenth of a
+        // second, and it is most often the best again or close to it, so
+        // the candidates after it are dropped early. Only the time spent
+        // depends on the order: a dropped candidate is one that could not
+        // have won or tied, whatever came before it.
+        if finite
+            && obs.time_s != 0.0
+            && let Some(at) = self.last_choice.and_then(|c| order.iter().position(|&o| o == c))
+        {
+            order[..=at].rotate_right(1);
+        }
         let mut best: Option<(Candidate, usize)> = None;
-        for &o in &offsets {
+        for (o, a) in order {
             let offset = self.params.lateral_offsets_m[o];
-            for (a, &accel) in self.params.accelerations_mps2.iter().enumerate() {
-                let index = o * n_accels + a;
-                let abandon_above =
-                    best.as_ref().filter(|_| finite).map_or(f64::INFINITY, |(b, _)| b.cost + ABANDON_SLACK);
-                let Some(c) = self.evaluate(&ctx, accel, offset, abandon_above) else { continue };
-                let better = best.as_ref().is_none_or(|(b, i)| c.cost < b.cost || (c.cost == b.cost && index < *i));
-                if better {
-                    best = Some((c, index));
-                }
+            let index = o * n_accels + a;
+            let abandon_above = best.as_ref().filter(|_| finite).map_or(f64::INFINITY, |(b, _)| b.cost + ABANDON_SLACK);
+            let Some(c) = self.evaluate(&ctx, a, offset, abandon_above) else { continue };
+            let better = best.as_ref().is_none_or(|(b, i)| c.cost < b.cost || (c.cost == b.cost && index < *i));
+            if better {
+                best = Some((c, index));
             }
         }
+        self.last_choice = best.as_ref().map(|(_, i)| (i / n_accels, i % n_accels));
         self.predictions = predictions;
         self.standing = standing;
         let (best, _) = best.ok_or_else(|| PlannerError::InvalidOutput("no candidates configured".into()))?;
@@ -480,6 +532,9 @@ struct PlanContext<'a> {
     /// The most progress along the route a candidate can be credited with
     /// (to the route's end), m.
     max_progress_m: f64,
+    /// For each configured acceleration, the speed terms of the cost
+    /// still to come before each step (see [`speed_costs_to_come`]).
+    speed_costs_to_come: Vec<Vec<f64>>,
 }
 
 impl EvasivePlanner {
@@ -489,16 +544,26 @@ impl EvasivePlanner {
         (obs.ego_length_m + 2.0 * self.params.safety_margin_m, obs.ego_width_m + 2.0 * self.params.safety_margin_m)
     }
 
-    /// The candidate with this acceleration and lateral offset, or `None`
-    /// once its cost is sure to end above `abandon_above`: every term
-    /// added along the way is non-negative, and the progress credit at the
-    /// end is at most `max_progress_m`, so the running cost plus the
-    /// offset and acceleration terms less the largest credit bounds the
-    /// final cost from below.
-    fn evaluate(&self, ctx: &PlanContext<'_>, accel: f64, offset: f64, abandon_above: f64) -> Option<Candidate> {
+    /// The candidate with acceleration `accel_index` (of the configured
+    /// ones) and this lateral offset, or `None` once its cost is sure to end
+    /// above `abandon_above`: every term added along the way is
+    /// non-negative, the speed terms still to come are known in advance
+    /// (a candidate's speeds do not depend on its path; a rollout that
+    /// stops early adds more than they could), and the progress credit at
+    /// the end is at most `max_progress_m`, so the running cost plus those
+    /// bounds the final cost from below.
+    fn evaluate(
+        &self,
+        ctx: &PlanContext<'_>,
+        accel_index: usize,
+        offset: f64,
+        abandon_above: f64,
+    ) -> Option<Candidate> {
         let obs = ctx.obs;
         let route = ctx.route;
         let (start_s, v_des, steps) = (ctx.start_s, ctx.v_des, ctx.steps);
+        let accel = self.params.accelerations_mps2[accel_index];
+        let speed_costs_to_come = &ctx.speed_costs_to_come[accel_index];
         // Swerving is a last resort: a full lane costs about as much as a second in the headway zone.
         let choice_cost = 10.0 * offset * offset + 0.5 * accel * accel;
         let least_to_come = choice_cost - 0.5 * ctx.max_progress_m;
@@ -508,7 +573,7 @@ impl EvasivePlanner {
         let mut first = None;
         let mut travelled_s = start_s;
         for (k, others) in ctx.predictions.iter().enumerate().take(steps) {
-            if cost + least_to_come > abandon_above {
+            if cost + least_to_come + speed_costs_to_come[k] > abandon_above {
                 return None;
             }
             // Pure pursuit towards the route point ahead, shifted sideways by `offset`.
@@ -688,6 +753,96 @@ mod tests {
     /// 8 m/s, 60 m ahead, in its lane and the lanes either side.
     fn ego_hits_an_oncoming_wall(params: EvasiveParams) -> bool {
         ego_is_hit(params, 10.0, |t| wall(&[-3.5, 0.0, 3.5], 60.0 - 8.0 * t, -8.0))
+    }
+
+    #[test]
+    fn the_pruned_search_chooses_what_running_every_candidate_to_the_end_chooses() {
+        // Busy traffic on a three-lane road with kerbs, some of it turning
+        // and braking: the pruned search (last choice first, candidates
+        // dropped on their cost bound) and the plain one must give the same
+        // control at every step, to the bit.
+        use crate::map::{RoadEdge, RoadEdgeKind};
+        let lane =
+            |id, y: f64| Lane::new(MapElementId(id), Polyline::new(vec![Point2::new(-50.0, y), Point2::new(400.0, y)]));
+        let edge = |id, y: f64, from: f64, to: f64| RoadEdge {
+            id: MapElementId(id),
+            polyline: Polyline::new(vec![Point2::new(from, y), Point2::new(to, y)]),
+            kind: RoadEdgeKind::Boundary,
+        };
+        let map = RoadMap::new(
+            vec![lane(1, 0.0), lane(2, 3.5), lane(3, -3.5)],
+            vec![edge(4, -5.5, -50.0, 400.0), edge(5, 5.5, 400.0, -50.0)],
+            vec![],
+            vec![],
+            vec![],
+            vec![],
+            vec![],
+        );
+        let car = |id: &str, x: f64, y: f64, heading_rad: f64, speed_mps: f64| PerceivedAgent {
+            id: AgentId(id.into()),
+            kind: AgentKind::Vehicle,
+            length_m: 4.5,
+            width_m: 2.0,
+            state: AgentState {
+                position: Point2::new(x, y),
+                heading_rad,
+                velocity_mps: Vector2::new(heading_rad.cos(), heading_rad.sin()) * speed_mps,
+            },
+        };
+        let traffic = |t: f64| {
+            vec![
+                // Braking ahead in the ego's lane.
+                car("lead", 25.0 + 8.0 * t - 1.0 * t * t, 0.0, 0.0, (8.0 - 2.0 * t).max(0.0)),
+                // Cutting in from the left.
+                car("cut-in", 15.0 + 11.0 * t, 3.5 - 0.6 * t, -0.05 * t, 11.0),
+                // Closing fast from behind on the right, and one oncoming.
+                car("behind", -20.0 + 16.0 * t, -3.5, 0.0, 16.0),
+                car("oncoming", 120.0 - 9.0 * t, 3.5, std::f64::consts::PI, 9.0),
+                // Standing at the kerb.
+                car("parked", 60.0, -4.5, 0.0, 0.0),
+            ]
+        };
+        // Starting slower, at and faster than it wants to go, so the speed
+        // terms of the bound weigh differently.
+        let mut choices = std::collections::BTreeSet::new();
+        for (start_mps, desired_mps) in [(3.0, 15.0), (10.0, 10.0), (18.0, 8.0), (6.0, 25.0)] {
+            let params = EvasiveParams { desired_speed_mps: Some(desired_mps), ..EvasiveParams::default() };
+            let mut pruned = EvasivePlanner::new(params.clone());
+            let mut plain = EvasivePlanner { exhaustive: true, ..EvasivePlanner::new(params) };
+            let mut ego = KinematicState::from_agent_state(&AgentState {
+                position: Point2::new(0.0, 0.0),
+                heading_rad: 0.0,
+                velocity_mps: Vector2::new(start_mps, 0.0),
+            });
+            for k in 0..50 {
+                let t = k as f64 * SIM_DT_S;
+                let obs = Observation {
+                    step: k,
+                    time_s: t,
+                    dt_s: SIM_DT_S,
+                    ego: ego.to_agent_state(),
+                    ego_length_m: 4.5,
+                    ego_width_m: 2.0,
+                    agents: traffic(t),
+                    map: &map,
+                    signals: vec![],
+                };
+                let (PlannerOutput::Control(a), PlannerOutput::Control(b)) =
+                    (pruned.plan(&obs).unwrap(), plain.plan(&obs).unwrap())
+                else {
+                    panic!("not a control")
+                };
+                assert_eq!(
+                    (a.accel_mps2.to_bits(), a.yaw_rate_radps.to_bits()),
+                    (b.accel_mps2.to_bits(), b.yaw_rate_radps.to_bits()),
+                    "from {start_mps} m/s wanting {desired_mps}, step {k}: {a:?} against {b:?}"
+                );
+                choices.insert(pruned.last_choice);
+                ego = kinematic_step(&ego, a, SIM_DT_S);
+            }
+        }
+        // The scene makes the planner change its mind, or it shows little.
+        assert!(choices.len() >= 5, "{choices:?}");
     }
 
     #[test]
