@@ -222,6 +222,57 @@ impl Polyline {
         best.map(|closest| self.projection_at(p, closest))
     }
 
+    /// [`Polyline::project`] for a point near one whose closest segment was
+    /// `hint` (a rollout's previous step): the same answer for any hint,
+    /// found with fewer distances when the hint is right or close. The
+    /// hint's distance bounds the search: a run, or a segment, that lies
+    /// farther (a segment's start less its length, a bound without a
+    /// division) cannot hold the answer.
+    pub fn project_near(&self, p: &Point2, hint: usize) -> Option<PolylineProjection> {
+        let n_segments = self.points.len().saturating_sub(1);
+        if n_segments == 0 || !(p.x.is_finite() && p.y.is_finite()) {
+            return self.project(p);
+        }
+        // Far above the rounding of the bounds' arithmetic (relative 1e-16,
+        // summed over at most millions of segments), small beside anything
+        // that matters.
+        let slack_m = CHUNK_PRUNE_SLACK_M + 1e-9 * (self.length_m() + p.x.abs() + p.y.abs());
+        let hint = hint.min(n_segments - 1);
+        let (d2, t) = self.segment_distance_squared(p, hint);
+        let mut best = (d2, hint, t);
+        let mut reach_m = d2.sqrt() + slack_m;
+        let mut nan = d2.is_nan();
+        let mut scan = |segments: std::ops::Range<usize>, best: &mut (f64, usize, f64), reach_m: &mut f64| {
+            for i in segments {
+                let length_m = self.cumulative_m[i + 1] - self.cumulative_m[i];
+                let bound_m = *reach_m + length_m;
+                if i == hint || (p - self.points[i]).norm_squared() > bound_m * bound_m {
+                    continue;
+                }
+                let (d2, t) = self.segment_distance_squared(p, i);
+                nan |= d2.is_nan();
+                if d2 < best.0 || (d2 == best.0 && i < best.1) {
+                    *best = (d2, i, t);
+                    *reach_m = d2.sqrt() + slack_m;
+                }
+            }
+        };
+        if self.chunks.is_empty() {
+            scan(0..n_segments, &mut best, &mut reach_m);
+        } else {
+            for (c, bounds) in self.chunks.iter().enumerate() {
+                if bounds.distance_squared(p) <= reach_m * reach_m {
+                    scan(c * CHUNK_SEGMENTS..((c + 1) * CHUNK_SEGMENTS).min(n_segments), &mut best, &mut reach_m);
+                }
+            }
+        }
+        // Absurd points (a NaN distance) order nothing: the plain search decides.
+        if nan {
+            return self.project(p);
+        }
+        Some(self.projection_at(p, best))
+    }
+
     /// As [`Polyline::project`], restricted to the given segment indices
     /// (used with a spatial index that pre-selects candidate segments).
     pub fn project_segments(
@@ -325,8 +376,25 @@ mod tests {
         for q in &queries {
             assert_eq!(l.project(q), l.project_segments(q, all.clone()), "at {q:?}");
         }
+        // From any hint, the hinted search gives the same answer too.
+        for q in queries.iter().step_by(7) {
+            let answer = l.project_segments(q, all.clone());
+            let right = answer.map_or(0, |a| a.segment);
+            for hint in [0, right.saturating_sub(1), right, right + 1, l.len() / 2, l.len() - 2, usize::MAX] {
+                assert_eq!(l.project_near(q, hint), answer, "at {q:?} from {hint}");
+            }
+        }
+        // A short line (no runs) and a single segment too.
+        for short in [line(&points[..20]), line(&points[..2])] {
+            for q in queries.iter().step_by(5) {
+                for hint in [0, 3, 18] {
+                    assert_eq!(short.project_near(q, hint), short.project(q), "at {q:?} from {hint}");
+                }
+            }
+        }
         // Non-finite queries keep the plain scan's answer.
         let nan = Point2::new(f64::NAN, 1.0);
+        assert_eq!(format!("{:?}", l.project_near(&nan, 3)), format!("{:?}", l.project_segments(&nan, all.clone())));
         assert_eq!(format!("{:?}", l.project(&nan)), format!("{:?}", l.project_segments(&nan, all.clone())));
     }
 

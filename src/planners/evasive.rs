@@ -432,7 +432,8 @@ impl Planner for EvasivePlanner {
                 .map(|&(a, sin_cos, _)| (OrientedBox::new(a.state.pose(), a.length_m, a.width_m), sin_cos)),
         );
         // The first red stop line ahead on the route, as an arc length.
-        let here = route.path.project(&ego.position).map_or(0.0, |p| p.arc_length_m);
+        let here_projection = route.path.project(&ego.position);
+        let here = here_projection.map_or(0.0, |p| p.arc_length_m);
         let red_stop_s = route
             .lanes
             .iter()
@@ -450,6 +451,7 @@ impl Planner for EvasivePlanner {
             standing: &standing,
             red_stop_s,
             start_s: here,
+            start_segment: here_projection.map_or(0, |p| p.segment),
             v_des,
             steps,
             max_progress_m: route.path.length_m() - here,
@@ -525,6 +527,8 @@ struct PlanContext<'a> {
     red_stop_s: Option<f64>,
     /// The ego's arc length on the route at the start.
     start_s: f64,
+    /// The route's segment nearest to the ego at the start.
+    start_segment: usize,
     /// Desired speed, m/s.
     v_des: f64,
     /// Steps per candidate.
@@ -572,12 +576,15 @@ impl EvasivePlanner {
         let mut cost = 0.0;
         let mut first = None;
         let mut travelled_s = start_s;
+        // Each step's projection starts from the last one's segment.
+        let mut segment = ctx.start_segment;
         for (k, others) in ctx.predictions.iter().enumerate().take(steps) {
             if cost + least_to_come + speed_costs_to_come[k] > abandon_above {
                 return None;
             }
             // Pure pursuit towards the route point ahead, shifted sideways by `offset`.
-            let proj = route.path.project(&s.position);
+            let proj = route.path.project_near(&s.position, segment);
+            segment = proj.map_or(segment, |p| p.segment);
             let s_here = proj.map_or(travelled_s, |p| p.arc_length_m);
             travelled_s = s_here;
             let lookahead = (0.8 * s.speed_mps).max(5.0);
