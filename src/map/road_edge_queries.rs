@@ -95,6 +95,21 @@ impl RoadMap {
         }
     }
 
+    /// Whether `p` lies more than `margin_m` (non-negative) past the road's
+    /// edge: `signed_distance_to_road_edge(p) > margin_m`, answered without
+    /// the nearest-edge search wherever an edge lies within `margin_m` (then
+    /// the distance to the nearest one is at most that, whatever its side).
+    pub fn is_beyond_road_edge(&self, p: &Point2, margin_m: f64) -> bool {
+        let mut edge_within = false;
+        self.edge_segments.for_each_run_within(p, margin_m, |_, _, ends| {
+            edge_within = edge_within
+                || ends
+                    .iter()
+                    .any(|ends| crate::geometry::polyline::segment_distance_squared(ends, p).0.sqrt() <= margin_m);
+        });
+        !edge_within && self.signed_distance_to_road_edge(p).is_some_and(|d| d > margin_m)
+    }
+
     /// Whether `p` lies past the end of the mapped road: ahead of the end
     /// of a lane within 10 m that has no successor, *and* past the end of
     /// the nearest road edge (its closest point is the edge's first or last
@@ -168,6 +183,38 @@ mod tests {
     use super::*;
     use crate::map::tests::{pl, straight_road};
     use crate::map::{Lane, MapElementId, RoadEdge, RoadEdgeKind};
+
+    #[test]
+    fn beyond_the_road_edge_is_the_signed_distance_past_the_margin() {
+        // On maps with and without drivable areas, on a grid that crosses
+        // the edges (and lies on them and at the margin from them).
+        use crate::map::templates::Intersection;
+        let crossing = Intersection {
+            missing_arm: None,
+            right_turn_lanes: false,
+            lanes_per_direction: 1,
+            lane_width_m: 3.5,
+            arm_length_m: 40.0,
+            green_s: None,
+            speed_limit_mps: None,
+        }
+        .build();
+        let (mut beyond, mut near) = (0, 0);
+        for map in [&straight_road(), &crossing, &RoadMap::default()] {
+            for i in -20..=120 {
+                for j in -60..=60 {
+                    let p = Point2::new(i as f64 * 0.5 - 5.0, j as f64 * 0.25 - 2.0);
+                    for margin_m in [0.0, 0.5, 2.0] {
+                        let expected = map.signed_distance_to_road_edge(&p).is_some_and(|d| d > margin_m);
+                        assert_eq!(map.is_beyond_road_edge(&p, margin_m), expected, "{p:?} {margin_m}");
+                        beyond += usize::from(expected);
+                        near += usize::from(map.signed_distance_to_road_edge(&p).is_some_and(|d| d.abs() <= margin_m));
+                    }
+                }
+            }
+        }
+        assert!(beyond > 1000 && near > 1000, "{beyond} {near}");
+    }
 
     #[test]
     fn off_road_within_the_map_is_off_road_and_not_past_the_mapped_end() {

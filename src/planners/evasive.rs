@@ -274,7 +274,7 @@ fn road_bounded_turn(
         }
         if turned
             && k % TURNING_PREDICTION_OFF_ROAD_CHECK_EVERY == 0
-            && map.signed_distance_to_road_edge(&s.position).is_some_and(|d| d > TURNING_PREDICTION_MAX_OFF_ROAD_M)
+            && map.is_beyond_road_edge(&s.position, TURNING_PREDICTION_MAX_OFF_ROAD_M)
         {
             break;
         }
