@@ -72,9 +72,28 @@ impl OrientedBox {
     /// ever skips a test that would have said no; a NaN distance is left
     /// to the exact test).
     fn within_reach(&self, other: &OrientedBox) -> bool {
-        let reach = self.half_diagonal_m() + other.half_diagonal_m() + 1e-6;
+        self.within(other, self.reach_to(other))
+    }
+
+    /// The reach of [`Self::intersects`]'s cheap reject for this box and
+    /// `other`: their bounding circles' radii and a micrometre. It depends
+    /// on the two boxes' sizes only, so a caller testing many pairs of the
+    /// same two sizes works it out once (see [`Self::intersects_within`]).
+    pub fn reach_to(&self, other: &OrientedBox) -> f64 {
+        self.half_diagonal_m() + other.half_diagonal_m() + 1e-6
+    }
+
+    /// Whether the centres are within `reach_m` (or NaN apart).
+    fn within(&self, other: &OrientedBox, reach_m: f64) -> bool {
         let d2 = (self.pose.position - other.pose.position).norm_squared();
-        d2.partial_cmp(&(reach * reach)) != Some(std::cmp::Ordering::Greater)
+        d2.partial_cmp(&(reach_m * reach_m)) != Some(std::cmp::Ordering::Greater)
+    }
+
+    /// [`Self::intersects`], with `reach_m` the [`Self::reach_to`] of this
+    /// box and `other` (or of any two boxes of their sizes): the same
+    /// answer, without the bounding circles' square roots.
+    pub fn intersects_within(&self, other: &OrientedBox, reach_m: f64) -> bool {
+        self.within(other, reach_m) && self.intersects_exact_with_sin_cos(other, self.pose.heading_rad.sin_cos())
     }
 
     /// The separating-axis test of [`Self::intersects`] without its
@@ -123,6 +142,26 @@ mod tests {
 
     fn car(x: f64, y: f64, h: f64) -> OrientedBox {
         OrientedBox::new(Pose2::new(x, y, h), 4.5, 2.0)
+    }
+
+    #[test]
+    fn a_reach_worked_out_once_gives_every_pair_of_those_sizes_the_same_answer() {
+        // A car against a person on foot on a grid of offsets and headings
+        // that crosses touching, grazing (the bounding circles' rim) and
+        // apart; one reach for all the pairs.
+        let person = |x: f64, y: f64, h: f64| OrientedBox::new(Pose2::new(x, y, h), 0.6, 0.6);
+        let reach_m = car(0.0, 0.0, 0.0).reach_to(&person(0.0, 0.0, 0.0));
+        let (mut touching, mut apart) = (0, 0);
+        for i in -40..=40 {
+            for j in -20..=20 {
+                for h in [0.0, 0.4, 1.3, -2.9] {
+                    let (a, b) = (car(0.0, 0.0, h), person(i as f64 * 0.07, j as f64 * 0.09, -h));
+                    assert_eq!(a.intersects_within(&b, reach_m), a.intersects(&b), "{a:?} {b:?}");
+                    if a.intersects(&b) { touching += 1 } else { apart += 1 }
+                }
+            }
+        }
+        assert!(touching > 1000 && apart > 1000, "{touching} {apart}");
     }
 
     #[test]

@@ -281,8 +281,14 @@ impl<'w> PlausibilityCheck<'w> {
             token_boxes.iter().copied().chain(held[rollout.len()..].iter().map(body)).collect();
         let braking_boxes: Vec<OrientedBox> =
             token_boxes.into_iter().chain(braking[rollout.len()..].iter().map(body)).collect();
+        // Every box of one agent (and of the CBV) has the same size, so
+        // one reach serves all of an agent's pairs.
         let first_contact = |predicted: &[Option<(AgentState, OrientedBox)>], own: &[OrientedBox]| {
-            predicted.iter().zip(own).position(|(theirs, own)| theirs.is_some_and(|(_, b)| b.intersects(own)))
+            let reach_m = predicted.iter().flatten().zip(own).next().map(|((_, b), own)| b.reach_to(own))?;
+            predicted
+                .iter()
+                .zip(own)
+                .position(|(theirs, own)| theirs.is_some_and(|(_, b)| b.intersects_within(own, reach_m)))
         };
         let own_bounds = Bounds::of(held_boxes.iter().chain(&braking_boxes));
         for ((predicted, bounds), &replayed) in self.background.iter().zip(&self.background_bounds).zip(&self.replayed)
