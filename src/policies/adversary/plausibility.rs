@@ -116,6 +116,9 @@ pub(super) struct PlausibilityCheck<'w> {
     /// steps: a CBV path whose boxes lie outside them touches none of
     /// that agent's, and its box tests are skipped.
     background_bounds: Vec<Bounds>,
+    /// The background agent that last made a token break the rule (an
+    /// index into `background`): checked first for the next token.
+    last_blocker: std::cell::Cell<Option<usize>>,
     /// The CBV's signed distance to the road edge now, m (positive: off
     /// the road; `None` where the map has no road edges near it).
     edge_distance_now: Option<f64>,
@@ -142,6 +145,7 @@ impl<'w> PlausibilityCheck<'w> {
                 background: Vec::new(),
                 replayed: Vec::new(),
                 background_bounds: Vec::new(),
+                last_blocker: Default::default(),
                 edge_distance_now: None,
                 on_road_now: false,
                 lanes_now: Vec::new(),
@@ -169,6 +173,7 @@ impl<'w> PlausibilityCheck<'w> {
             background,
             replayed,
             background_bounds,
+            last_blocker: Default::default(),
             edge_distance_now: world.map.signed_distance_to_road_edge(&now.position),
             on_road_now: !world.map.is_off_road_within_map(&now.position),
             lanes_now: world.map.lanes_containing(&now.position, now.heading_rad),
@@ -291,14 +296,21 @@ impl<'w> PlausibilityCheck<'w> {
                 .position(|(theirs, own)| theirs.is_some_and(|(_, b)| b.intersects_within(own, reach_m)))
         };
         let own_bounds = Bounds::of(held_boxes.iter().chain(&braking_boxes));
-        for ((predicted, bounds), &replayed) in self.background.iter().zip(&self.background_bounds).zip(&self.replayed)
-        {
+        // Whether a token breaks the rule at all does not depend on the
+        // order the agents are checked in: the agent that broke it for the
+        // last token checked is asked first (the tokens of one decision
+        // are most often blocked by the same car).
+        let blocker = self.last_blocker.get().filter(|&i| i < self.background.len());
+        let order = blocker.into_iter().chain((0..self.background.len()).filter(|&i| Some(i) != blocker));
+        for i in order {
             if wanted == Violation::Any && first.is_some() {
                 break;
             }
-            if !bounds.overlaps(&own_bounds) {
+            let (predicted, replayed) = (&self.background[i], self.replayed[i]);
+            if !self.background_bounds[i].overlaps(&own_bounds) {
                 continue;
             }
+            let before = first;
             if let Some(k) = first_contact(predicted, &held_boxes)
                 && let Some((theirs, _)) = predicted[k]
             {
@@ -323,6 +335,9 @@ impl<'w> PlausibilityCheck<'w> {
                 && EgoContact::ego_at_fault(map, &braking[k], &braking_boxes[k], &theirs)
             {
                 note(&mut first, k);
+            }
+            if first != before {
+                self.last_blocker.set(Some(i));
             }
         }
         first
@@ -399,6 +414,42 @@ mod tests {
             .iter()
             .map(|r| check.implausible(r, ContactRule::Any))
             .collect()
+    }
+
+    #[test]
+    fn one_check_judges_every_token_as_a_fresh_check_does_whoever_blocked_the_last() {
+        // The CBV at 12 m/s among cars ahead, beside and behind it: one
+        // check asked about the whole vocabulary in turn (it asks the
+        // agent that blocked the last token first) answers what a new
+        // check answers for each token alone, with the blocker changing.
+        let map = RoadMap::default();
+        let bodies = [AgentBody { kind: AgentKind::Vehicle, length_m: 4.5, width_m: 2.0 }; 6];
+        let states = [
+            car(0.0, 100.0, 10.0),
+            car(0.0, 0.0, 12.0),
+            car(16.0, 0.0, 4.0),
+            car(6.0, 3.6, 12.0),
+            car(-10.0, -3.6, 18.0),
+            car(22.0, -3.6, 0.0),
+        ];
+        let world = WorldView { map: &map, step: 10, bodies: &bodies, states: &states };
+        let (ego, cbv) = (TrackIndex(0), TrackIndex(1));
+        let tokens: Vec<Token> = (0..crate::motion::tokens::VOCABULARY_SIZE as u16).step_by(7).map(Token).collect();
+        let rollouts = token_rollouts(states[1].as_ref().unwrap(), &tokens);
+        let shared = PlausibilityCheck::new(&world, cbv, ego, &BackgroundForecast::default());
+        let mut blockers = std::collections::BTreeSet::new();
+        let mut implausible = 0;
+        for r in &rollouts {
+            let fresh = PlausibilityCheck::new(&world, cbv, ego, &BackgroundForecast::default());
+            for rule in [ContactRule::Any, ContactRule::AtFaultOnly] {
+                assert_eq!(shared.implausible(r, rule), fresh.implausible(r, rule));
+                assert_eq!(shared.first_violation(r, rule), fresh.first_violation(r, rule));
+            }
+            implausible += usize::from(fresh.implausible(r, ContactRule::Any));
+            blockers.insert(shared.last_blocker.get());
+        }
+        assert!(blockers.len() >= 3, "{blockers:?}");
+        assert!(implausible > 50 && implausible < rollouts.len() - 50, "{implausible} of {}", rollouts.len());
     }
 
     #[test]
