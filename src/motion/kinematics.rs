@@ -35,10 +35,17 @@ impl KinematicState {
 
     /// Back to an agent state, velocity along the heading.
     pub fn to_agent_state(&self) -> AgentState {
+        self.to_agent_state_with_sin_cos(self.heading_rad.sin_cos())
+    }
+
+    /// [`Self::to_agent_state`] with the heading's `sin_cos()` at hand (as
+    /// [`step_with_sin_cos`] gives it): the same state, without the
+    /// trigonometry again.
+    pub fn to_agent_state_with_sin_cos(&self, (sin, cos): (f64, f64)) -> AgentState {
         AgentState {
             position: self.position,
             heading_rad: self.heading_rad,
-            velocity_mps: Vector2::new(self.heading_rad.cos(), self.heading_rad.sin()) * self.speed_mps,
+            velocity_mps: Vector2::new(cos, sin) * self.speed_mps,
         }
     }
 }

@@ -3,8 +3,8 @@
 //! token ends with.
 
 use crate::geometry::wrap_angle;
-use crate::motion::tokens::{MAX_YAW_RATE_RADPS, SIM_DT_S, Token, TokenGrid};
-use crate::motion::{Action, KinematicState, kinematic_step};
+use crate::motion::tokens::{MAX_YAW_RATE_RADPS, SIM_DT_S, TOKEN_PERIOD_STEPS, Token, TokenGrid};
+use crate::motion::{Action, KinematicState, kinematic_step_with_sin_cos};
 use crate::scenario::AgentState;
 
 /// The CBV's states over one token period from `now` under each token.
@@ -15,7 +15,17 @@ pub(super) fn token_rollouts(now: &AgentState, tokens: &[Token]) -> Vec<Vec<Agen
 
 /// The CBV's states over one token period from `from` under `token`.
 pub(super) fn token_rollout(from: &KinematicState, token: Token) -> Vec<AgentState> {
-    TokenGrid::rollout(from, token).iter().map(KinematicState::to_agent_state).collect()
+    // `TokenGrid::rollout`'s steps, each state's velocity from the
+    // trigonometry its step worked out.
+    let action = TokenGrid::action(token);
+    let mut state = *from;
+    (0..TOKEN_PERIOD_STEPS)
+        .map(|_| {
+            let (next, sin_cos) = kinematic_step_with_sin_cos(&state, action, SIM_DT_S);
+            state = next;
+            state.to_agent_state_with_sin_cos(sin_cos)
+        })
+        .collect()
 }
 
 /// `steps` states after `rollout` at `accel_mps2`, holding the curvature
@@ -37,7 +47,8 @@ pub(super) fn continued_after(
         let now = state.as_mut()?;
         let speed_mps = (now.speed_mps + accel_mps2 * SIM_DT_S).max(0.0);
         let yaw_rate_radps = (curvature_per_m * speed_mps).clamp(-MAX_YAW_RATE_RADPS, MAX_YAW_RATE_RADPS);
-        *now = kinematic_step(now, Action { accel_mps2, yaw_rate_radps }, SIM_DT_S);
-        Some(now.to_agent_state())
+        let (next, sin_cos) = kinematic_step_with_sin_cos(now, Action { accel_mps2, yaw_rate_radps }, SIM_DT_S);
+        *now = next;
+        Some(next.to_agent_state_with_sin_cos(sin_cos))
     })
 }
