@@ -184,12 +184,10 @@ mod tests {
     use crate::map::tests::{pl, straight_road};
     use crate::map::{Lane, MapElementId, RoadEdge, RoadEdgeKind};
 
-    #[test]
-    fn beyond_the_road_edge_is_the_signed_distance_past_the_margin() {
-        // On maps with and without drivable areas, on a grid that crosses
-        // the edges (and lies on them and at the margin from them).
-        use crate::map::templates::Intersection;
-        let crossing = Intersection {
+    /// A four-arm crossing of one lane each way, from the template (with
+    /// its drivable areas).
+    fn crossing() -> RoadMap {
+        crate::map::templates::Intersection {
             missing_arm: None,
             right_turn_lanes: false,
             lanes_per_direction: 1,
@@ -198,7 +196,14 @@ mod tests {
             green_s: None,
             speed_limit_mps: None,
         }
-        .build();
+        .build()
+    }
+
+    #[test]
+    fn beyond_the_road_edge_is_the_signed_distance_past_the_margin() {
+        // On maps with and without drivable areas, on a grid that crosses
+        // the edges (and lies on them and at the margin from them).
+        let crossing = crossing();
         let (mut beyond, mut near) = (0, 0);
         for map in [&straight_road(), &crossing, &RoadMap::default()] {
             for i in -20..=120 {
@@ -221,7 +226,7 @@ mod tests {
         // The combined query shares one nearest-edge lookup; its answer is
         // the two queries' everywhere, on maps with and without drivable
         // areas (the template's and the same edges alone).
-        use crate::map::templates::{Intersection, Merge};
+        use crate::map::templates::Merge;
         let merge = Merge {
             lanes: 2,
             lane_width_m: 3.5,
@@ -231,16 +236,7 @@ mod tests {
             speed_limit_mps: None,
         }
         .build();
-        let crossing = Intersection {
-            missing_arm: None,
-            right_turn_lanes: false,
-            lanes_per_direction: 1,
-            lane_width_m: 3.5,
-            arm_length_m: 40.0,
-            green_s: None,
-            speed_limit_mps: None,
-        }
-        .build();
+        let crossing = crossing();
         let edges_only =
             RoadMap::new(merge.lanes.clone(), merge.road_edges.clone(), vec![], vec![], vec![], vec![], vec![]);
         let mut off = 0;

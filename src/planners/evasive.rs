@@ -720,6 +720,36 @@ mod tests {
             .collect()
     }
 
+    /// The ego's state at the origin, heading along +x at `speed_mps`.
+    fn at_the_origin(speed_mps: f64) -> KinematicState {
+        KinematicState::from_agent_state(&AgentState {
+            position: Point2::new(0.0, 0.0),
+            heading_rad: 0.0,
+            velocity_mps: Vector2::new(speed_mps, 0.0),
+        })
+    }
+
+    /// What the planner sees at step `k`: the ego (4.5 m by 2 m) at `ego`
+    /// among `agents` on `map`, no signals.
+    fn observation_at<'m>(
+        k: usize,
+        ego: &KinematicState,
+        agents: Vec<PerceivedAgent>,
+        map: &'m RoadMap,
+    ) -> Observation<'m> {
+        Observation {
+            step: k,
+            time_s: k as f64 * SIM_DT_S,
+            dt_s: SIM_DT_S,
+            ego: ego.to_agent_state(),
+            ego_length_m: 4.5,
+            ego_width_m: 2.0,
+            agents,
+            map,
+            signals: vec![],
+        }
+    }
+
     /// Closed loop for 8 s: the ego (4.5 m by 2 m) from the origin at
     /// `speed_mps` along a lane on +x, the others `traffic(t)` at time t.
     /// Whether the ego touches one of them.
@@ -727,11 +757,7 @@ mod tests {
         let lane = Lane::new(MapElementId(1), Polyline::new(vec![Point2::new(-50.0, 0.0), Point2::new(500.0, 0.0)]));
         let map = RoadMap::new(vec![lane], vec![], vec![], vec![], vec![], vec![], vec![]);
         let mut planner = EvasivePlanner::new(params);
-        let mut ego = KinematicState::from_agent_state(&AgentState {
-            position: Point2::new(0.0, 0.0),
-            heading_rad: 0.0,
-            velocity_mps: Vector2::new(speed_mps, 0.0),
-        });
+        let mut ego = at_the_origin(speed_mps);
         for k in 0..80 {
             let t = k as f64 * SIM_DT_S;
             let cars = traffic(t);
@@ -739,17 +765,7 @@ mod tests {
             if cars.iter().any(|c| ego_box.intersects(&OrientedBox::new(c.state.pose(), 4.5, 2.0))) {
                 return true;
             }
-            let obs = Observation {
-                step: k,
-                time_s: t,
-                dt_s: SIM_DT_S,
-                ego: ego.to_agent_state(),
-                ego_length_m: 4.5,
-                ego_width_m: 2.0,
-                agents: cars,
-                map: &map,
-                signals: vec![],
-            };
+            let obs = observation_at(k, &ego, cars, &map);
             let PlannerOutput::Control(action) = planner.plan(&obs).unwrap() else { panic!("not a control") };
             ego = kinematic_step(&ego, action, SIM_DT_S);
         }
@@ -816,24 +832,9 @@ mod tests {
             let params = EvasiveParams { desired_speed_mps: Some(desired_mps), ..EvasiveParams::default() };
             let mut pruned = EvasivePlanner::new(params.clone());
             let mut plain = EvasivePlanner { exhaustive: true, ..EvasivePlanner::new(params) };
-            let mut ego = KinematicState::from_agent_state(&AgentState {
-                position: Point2::new(0.0, 0.0),
-                heading_rad: 0.0,
-                velocity_mps: Vector2::new(start_mps, 0.0),
-            });
+            let mut ego = at_the_origin(start_mps);
             for k in 0..50 {
-                let t = k as f64 * SIM_DT_S;
-                let obs = Observation {
-                    step: k,
-                    time_s: t,
-                    dt_s: SIM_DT_S,
-                    ego: ego.to_agent_state(),
-                    ego_length_m: 4.5,
-                    ego_width_m: 2.0,
-                    agents: traffic(t),
-                    map: &map,
-                    signals: vec![],
-                };
+                let obs = observation_at(k, &ego, traffic(k as f64 * SIM_DT_S), &map);
                 let (PlannerOutput::Control(a), PlannerOutput::Control(b)) =
                     (pruned.plan(&obs).unwrap(), plain.plan(&obs).unwrap())
                 else {
