@@ -106,7 +106,7 @@ impl RoadMap {
                 // wholly farther than that lane's nearest segment so far
                 // cannot change it (with a centimetre to spare).
                 let lane = pairs[0].0;
-                let at = match per_lane.last() {
+                let mut at = match per_lane.last() {
                     Some(last) if last.0 == lane => Some(per_lane.len() - 1),
                     _ => per_lane.iter().position(|e| e.0 == lane),
                 };
@@ -115,17 +115,20 @@ impl RoadMap {
                 {
                     return;
                 }
-                for (&(lane, segment), ends) in pairs.iter().zip(ends) {
+                for (&(_, segment), ends) in pairs.iter().zip(ends) {
                     let (d2, _) = crate::geometry::polyline::segment_distance_squared(ends, p);
                     nan |= d2.is_nan();
-                    let entry = match per_lane.last_mut() {
-                        Some(last) if last.0 == lane => Some(last),
-                        _ => per_lane.iter_mut().find(|e| e.0 == lane),
-                    };
-                    match entry {
-                        None => per_lane.push((lane, segment, d2, *ends)),
-                        Some(e) if d2 < e.2 || (d2 == e.2 && segment < e.1) => *e = (lane, segment, d2, *ends),
-                        Some(_) => {}
+                    match at {
+                        None => {
+                            per_lane.push((lane, segment, d2, *ends));
+                            at = Some(per_lane.len() - 1);
+                        }
+                        Some(i) => {
+                            let e = &mut per_lane[i];
+                            if d2 < e.2 || (d2 == e.2 && segment < e.1) {
+                                *e = (lane, segment, d2, *ends);
+                            }
+                        }
                     }
                 }
             });

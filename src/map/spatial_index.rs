@@ -320,9 +320,6 @@ impl SegmentIndex {
         radius_m: f64,
         mut visit: impl FnMut((u32, u32), &SegmentEnds),
     ) {
-        if radius_m.is_nan() {
-            return;
-        }
         self.for_each_run_within(p, radius_m, |_, pairs, ends| {
             pairs.iter().zip(ends).for_each(|(&pair, ends)| visit(pair, ends))
         });

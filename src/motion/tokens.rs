@@ -3,7 +3,7 @@
 //! centres include 0; token id = `i_a · 63 + i_ψ` (3969 tokens). A token is
 //! held for one token period of 0.5 s (5 simulator steps of 0.1 s).
 
-use super::kinematics::{KinematicState, step};
+use super::kinematics::{KinematicState, step_with_sin_cos};
 
 /// Bins per axis.
 pub const BINS_PER_AXIS: usize = 63;
@@ -132,11 +132,22 @@ impl TokenGrid {
     /// Holds `token` for one token period from `state`; returns the state
     /// after each of the 5 simulator steps.
     pub fn rollout(state: &KinematicState, token: Token) -> [KinematicState; TOKEN_PERIOD_STEPS] {
+        Self::rollout_with_sin_cos(state, token).map(|(s, _)| s)
+    }
+
+    /// [`Self::rollout`], each state with its heading's `sin_cos()` (as
+    /// [`step_with_sin_cos`] works it out): for callers that need them
+    /// again, to turn the states into agent states or boxes.
+    pub fn rollout_with_sin_cos(
+        state: &KinematicState,
+        token: Token,
+    ) -> [(KinematicState, (f64, f64)); TOKEN_PERIOD_STEPS] {
         let action = Self::action(token);
         let mut s = *state;
         std::array::from_fn(|_| {
-            s = step(&s, action, SIM_DT_S);
-            s
+            let (next, sin_cos) = step_with_sin_cos(&s, action, SIM_DT_S);
+            s = next;
+            (s, sin_cos)
         })
     }
 }

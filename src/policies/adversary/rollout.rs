@@ -3,7 +3,7 @@
 //! token ends with.
 
 use crate::geometry::wrap_angle;
-use crate::motion::tokens::{MAX_YAW_RATE_RADPS, SIM_DT_S, TOKEN_PERIOD_STEPS, Token, TokenGrid};
+use crate::motion::tokens::{MAX_YAW_RATE_RADPS, SIM_DT_S, Token, TokenGrid};
 use crate::motion::{Action, KinematicState, kinematic_step_with_sin_cos};
 use crate::scenario::AgentState;
 
@@ -15,16 +15,9 @@ pub(super) fn token_rollouts(now: &AgentState, tokens: &[Token]) -> Vec<Vec<Agen
 
 /// The CBV's states over one token period from `from` under `token`.
 pub(super) fn token_rollout(from: &KinematicState, token: Token) -> Vec<AgentState> {
-    // `TokenGrid::rollout`'s steps, each state's velocity from the
-    // trigonometry its step worked out.
-    let action = TokenGrid::action(token);
-    let mut state = *from;
-    (0..TOKEN_PERIOD_STEPS)
-        .map(|_| {
-            let (next, sin_cos) = kinematic_step_with_sin_cos(&state, action, SIM_DT_S);
-            state = next;
-            state.to_agent_state_with_sin_cos(sin_cos)
-        })
+    TokenGrid::rollout_with_sin_cos(from, token)
+        .iter()
+        .map(|(s, sin_cos)| s.to_agent_state_with_sin_cos(*sin_cos))
         .collect()
 }
 
