@@ -16,6 +16,7 @@
 //! [`record::write_output`]: safer::record::write_output
 
 mod bench;
+mod bench_baseline;
 mod bench_models;
 mod choice;
 mod evaluate;
@@ -118,6 +119,12 @@ enum Command {
         /// Also write the figures as JSON (`-`: standard output, the table then goes to stderr).
         #[arg(long, value_name = "OUT")]
         json: Option<PathBuf>,
+        /// Another build's `safer` binary to compare with: both builds' bench run in turn, round by round, and each timed figure is printed for both with their ratio.
+        #[arg(long, value_name = "SAFER-BINARY")]
+        baseline: Option<PathBuf>,
+        /// Rounds of `--baseline`, each running both builds' bench once, at least 1.
+        #[arg(long, default_value_t = 5, value_parser = at_least_one(), requires = "baseline")]
+        rounds: usize,
     },
     /// Run scenario suites (the same variants and metrics as `cargo test --test suites`).
     Run {
@@ -493,6 +500,14 @@ pub enum CliError {
     /// A learned model could not be loaded or run.
     #[error(transparent)]
     Model(#[from] ModelError),
+    /// The `--baseline` build of `safer bench` could not be run or read.
+    #[error("--baseline {}: {problem}", binary.display())]
+    Baseline {
+        /// The baseline's binary, as given.
+        binary: PathBuf,
+        /// What went wrong, in words.
+        problem: String,
+    },
     /// The arguments ask for something that cannot be done.
     #[error("{0}")]
     Usage(String),
@@ -505,7 +520,13 @@ pub fn main() -> ExitCode {
         Command::Inspect { file, json } => inspect::run(&file, json),
         Command::Simulate { path, planner, background, json } => simulate::run(&path, &planner, background, json),
         Command::TokenRoundtrip { scenes, json } => token_roundtrip::run(&scenes, json),
-        Command::Bench { scenes, repeat, json } => bench::run(&scenes, repeat, json.as_deref()),
+        Command::Bench { scenes, repeat, json, baseline: None, rounds: _ } => {
+            bench::run(&scenes, repeat, json.as_deref())
+        }
+        Command::Bench { scenes, repeat, json, baseline: Some(baseline), rounds } => bench_baseline::run(
+            bench_baseline::BaselineBench { scenes: &scenes, repeat, rounds, baseline: &baseline },
+            json.as_deref(),
+        ),
         Command::Run {
             suites,
             json,

@@ -54,6 +54,81 @@ fn bench_writes_every_figure_beside_its_reference_as_json() {
     assert!(String::from_utf8_lossy(&run.stdout).contains("SaFeR variant"));
 }
 
+#[test]
+fn bench_against_a_baseline_build_gives_each_timed_figure_of_both_builds_and_their_ratio_by_round() {
+    // This build as its own baseline: the comparison's bookkeeping is what
+    // is tested, not a speed.
+    let dir = Scratch::new("bench-baseline");
+    let out = dir.join("against.json");
+    let run = Command::new(env!("CARGO_BIN_EXE_safer"))
+        .args(["bench", "--repeat", "1", "--rounds", "2", "--baseline", env!("CARGO_BIN_EXE_safer"), "--scenes"])
+        .arg(small_scene())
+        .arg("--json")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    let v = read_json(&out);
+    assert_eq!((v["rounds"].as_u64(), v["repeat"].as_u64()), (Some(2), Some(1)));
+    let figures = v["figures"].as_array().expect("figures");
+    let labels: Vec<&str> = figures.iter().filter_map(|f| f["figure"].as_str()).collect();
+    for want in
+        ["import[womd-json].import_ms_per_scene", "variant.stage1_ms", "variant.stage2_ms", "variant.variant_ms"]
+    {
+        assert!(labels.contains(&want), "{want} missing from {labels:?}");
+    }
+    assert!(!labels.iter().any(|l| l.contains("target") || l.contains("ratio")), "{labels:?}");
+    for f in figures {
+        let side = |key: &str| -> Vec<f64> {
+            f[key].as_array().unwrap().iter().map(|x| x.as_f64().expect("both builds report every figure")).collect()
+        };
+        let (baseline, this) = (side("baseline_ms"), side("this_ms"));
+        assert_eq!((baseline.len(), this.len()), (2, 2), "{f}");
+        // Two rounds: the median ratio is the mean of the two rounds' ratios.
+        let ratios: Vec<f64> = baseline.iter().zip(&this).filter(|(b, _)| **b > 0.0).map(|(b, t)| t / b).collect();
+        if ratios.len() == 2 {
+            let median = f["ratio_median"].as_f64().unwrap();
+            assert!((median - 0.5 * (ratios[0] + ratios[1])).abs() < 1e-9, "{f}");
+            // (serde_json's default float parsing may be off in the last bit.)
+            assert!((f["ratio_min"].as_f64().unwrap() - ratios[0].min(ratios[1])).abs() < 1e-9, "{f}");
+        }
+    }
+    let table = String::from_utf8_lossy(&run.stdout);
+    assert!(table.contains("this ÷ baseline") && table.contains("variant.variant_ms"), "{table}");
+    // Both builds ran in both rounds, the first round baseline first.
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    let order: Vec<&str> = stderr.lines().filter(|l| l.starts_with("round ")).collect();
+    assert_eq!(order.len(), 4, "{stderr}");
+    assert!(order[0].contains("baseline build") && order[1].contains("this build"), "{order:?}");
+    assert!(order[2].contains("this build") && order[3].contains("baseline build"), "{order:?}");
+}
+
+#[test]
+fn a_baseline_that_is_missing_or_not_a_safer_build_is_an_error_naming_it() {
+    let dir = Scratch::new("bench-baseline-bad");
+    let missing = dir.join("no-such-safer");
+    // `true` takes any arguments, succeeds and writes no report.
+    for (baseline, says) in
+        [(missing.as_path(), "no such file"), (std::path::Path::new("/bin/true"), "wrote no report")]
+    {
+        let run = Command::new(env!("CARGO_BIN_EXE_safer"))
+            .args(["bench", "--repeat", "1", "--rounds", "1", "--baseline"])
+            .arg(baseline)
+            .arg("--scenes")
+            .arg(small_scene())
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&run.stderr);
+        assert_eq!(run.status.code(), Some(2), "{stderr}");
+        assert!(stderr.contains(&format!("--baseline {}", baseline.display())) && stderr.contains(says), "{stderr}");
+        assert!(!stderr.contains("panicked"), "{stderr}");
+    }
+    // --rounds means nothing without a baseline.
+    let run = Command::new(env!("CARGO_BIN_EXE_safer")).args(["bench", "--rounds", "3"]).output().unwrap();
+    assert_eq!(run.status.code(), Some(2), "{}", String::from_utf8_lossy(&run.stderr));
+    assert!(String::from_utf8_lossy(&run.stderr).contains("--baseline"));
+}
+
 /// `safer bench-models` on the small scene with `python` as the reference's
 /// interpreter, from the crate root (where the reference scripts are).
 fn bench_models(python: &std::path::Path, repeat: &str, out: &std::path::Path) -> std::process::Output {
