@@ -21,10 +21,17 @@ impl Bounds {
             min: crate::geometry::Point2::new(f64::INFINITY, f64::INFINITY),
             max: crate::geometry::Point2::new(f64::NEG_INFINITY, f64::NEG_INFINITY),
         };
+        // The last box's size and reach: a path's boxes all have one size,
+        // so its square root is taken once.
+        let mut last: Option<((u64, u64), f64)> = None;
         for b in boxes {
             // A micrometre wider than the half-diagonal: the bounds only
             // ever hold a little more.
-            let reach_m = b.half_diagonal_m() + 1e-6;
+            let size = (b.length_m.to_bits(), b.width_m.to_bits());
+            let reach_m = match last {
+                Some((of, reach_m)) if of == size => reach_m,
+                _ => last.insert((size, b.half_diagonal_m() + 1e-6)).1,
+            };
             let p = b.pose.position;
             if [p.x, p.y, reach_m].iter().any(|v| v.is_nan()) {
                 // Where such a box is is unknown: it may be anywhere.

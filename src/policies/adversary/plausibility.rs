@@ -223,29 +223,35 @@ impl<'w> PlausibilityCheck<'w> {
         let contact = |wanted| self.contact_violation(rollout, &braking, wanted, rule);
         if !self.on_road_now {
             // Off the road already: head back to it, not farther away.
-            let farther_off = match (self.edge_distance_now, map.signed_distance_to_road_edge(&end.position)) {
+            let farther_off = || match (self.edge_distance_now, map.signed_distance_to_road_edge(&end.position)) {
                 (Some(now), Some(then)) if then > now => Some(rollout.len() - 1),
                 _ => None,
             };
             return match wanted {
-                Violation::First => farther_off.into_iter().chain(contact(wanted)).min(),
-                Violation::Any => farther_off.or_else(|| contact(wanted)),
+                Violation::First => farther_off().into_iter().chain(contact(wanted)).min(),
+                // Whether at all (the answer is the same in either order):
+                // the contacts first, as below.
+                Violation::Any => contact(wanted).or_else(farther_off),
             };
         }
-        let path = Self::moving_path(&braking);
         let off_road = |s: &AgentState| map.is_off_road_within_map(&s.position);
         match wanted {
-            Violation::First => path.iter().position(off_road).into_iter().chain(contact(wanted)).min(),
+            Violation::First => {
+                Self::moving_path(&braking).iter().position(off_road).into_iter().chain(contact(wanted)).min()
+            }
             // Whether at all, in the order that finds a violation soonest
-            // (the answer is the same in any order): the farthest state
-            // first (a path that leaves the road ends off it: one
-            // nearest-edge query), then the contacts (box tests behind a
-            // bounds test), then the rest of the path from the far end.
-            Violation::Any => match path.split_last() {
-                Some((last, _)) if off_road(last) => Some(path.len() - 1),
-                Some((_, rest)) => contact(wanted).or_else(|| rest.iter().rposition(off_road)),
-                None => contact(wanted),
-            },
+            // (the answer is the same in any order). The contacts first:
+            // box tests behind a bounds test, which reject most of the
+            // tokens the plausibility fallback ranks, each before its
+            // path to a standstill is rolled out and a nearest-edge query
+            // is made. Then the road: the farthest state first (a path
+            // that leaves the road ends off it), then the rest of the path
+            // from the far end.
+            Violation::Any => contact(wanted).or_else(|| {
+                let path = Self::moving_path(&braking);
+                let (last, rest) = path.split_last()?;
+                if off_road(last) { Some(path.len() - 1) } else { rest.iter().rposition(off_road) }
+            }),
         }
     }
 
@@ -329,8 +335,11 @@ impl<'w> PlausibilityCheck<'w> {
                     note(&mut first, k);
                 }
             }
-            // Braking after the token: only what the CBV runs into.
-            if let Some(k) = first_contact(predicted, &braking_boxes)
+            // Braking after the token: only what the CBV runs into (not
+            // asked once the held path has answered "implausible").
+            let answered = wanted == Violation::Any && first.is_some();
+            if !answered
+                && let Some(k) = first_contact(predicted, &braking_boxes)
                 && let Some((theirs, _)) = predicted[k]
                 && EgoContact::ego_at_fault(map, &braking[k], &braking_boxes[k], &theirs)
             {
@@ -450,6 +459,46 @@ mod tests {
         }
         assert!(blockers.len() >= 3, "{blockers:?}");
         assert!(implausible > 50 && implausible < rollouts.len() - 50, "{implausible} of {}", rollouts.len());
+    }
+
+    #[test]
+    fn whether_a_token_breaks_the_rule_at_all_is_whether_it_has_a_first_violation() {
+        // On the dead-end road with traffic, on it and (2 m past its left
+        // edge) off it: the early-stopping check (contacts first) says
+        // "implausible" exactly for the tokens that have a first violation,
+        // of either kind, under both rules.
+        let map = dead_end_road();
+        let bodies = [AgentBody { kind: AgentKind::Vehicle, length_m: 4.5, width_m: 2.0 }; 5];
+        let tokens: Vec<Token> = (0..crate::motion::tokens::VOCABULARY_SIZE as u16).step_by(5).map(Token).collect();
+        for (cbv_at, label) in [(car(0.0, 2.0, 12.0), "on the road"), (car(0.0, 8.0, 6.0), "off the road")] {
+            let states =
+                [car(-40.0, 0.0, 0.0), cbv_at, car(14.0, 2.0, 4.0), car(6.0, -0.5, 12.0), car(-9.0, 4.5, 16.0)];
+            let world = WorldView { map: &map, step: 10, bodies: &bodies, states: &states };
+            let check = PlausibilityCheck::new(&world, TrackIndex(1), TrackIndex(0), &BackgroundForecast::default());
+            let (mut road_first, mut contact_only, mut plausible) = (0, 0, 0);
+            for r in token_rollouts(states[1].as_ref().unwrap(), &tokens) {
+                for rule in [ContactRule::Any, ContactRule::AtFaultOnly] {
+                    let first = check.first_violation(&r, rule);
+                    assert_eq!(check.implausible(&r, rule), first.is_some(), "{label}, {rule:?}");
+                }
+                let contact = check.contact_violation(
+                    &r,
+                    &r.iter().copied().chain(braking_after(&r)).collect::<Vec<_>>(),
+                    Violation::First,
+                    ContactRule::Any,
+                );
+                match (check.first_violation(&r, ContactRule::Any), contact) {
+                    (None, _) => plausible += 1,
+                    (Some(k), Some(c)) if c == k => contact_only += 1,
+                    (Some(_), _) => road_first += 1,
+                }
+            }
+            // Both kinds of violation, and plausible tokens, are among them.
+            assert!(
+                road_first > 10 && contact_only > 10 && plausible > 10,
+                "{label}: {road_first} {contact_only} {plausible}"
+            );
+        }
     }
 
     #[test]

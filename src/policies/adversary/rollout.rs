@@ -3,8 +3,9 @@
 //! token ends with.
 
 use crate::geometry::wrap_angle;
+use crate::motion::KinematicState;
+use crate::motion::kinematics::{step_to_heading, turned_heading_rad};
 use crate::motion::tokens::{MAX_YAW_RATE_RADPS, SIM_DT_S, Token, TokenGrid};
-use crate::motion::{Action, KinematicState, kinematic_step_with_sin_cos};
 use crate::scenario::AgentState;
 
 /// The CBV's states over one token period from `now` under each token.
@@ -36,12 +37,59 @@ pub(super) fn continued_after(
         _ => 0.0,
     };
     let mut state = rollout.last().map(KinematicState::from_agent_state);
+    // The heading's sine and cosine, computed again only when the heading
+    // changes: a straight token's continuations (most of the plausibility
+    // fallback's) and a stopped CBV's hold it, and these were most of
+    // the fallback's trigonometry. `kinematic_step_with_sin_cos`'s step.
+    let mut trig: Option<(u64, (f64, f64))> = None;
     (0..steps).map_while(move |_| {
         let now = state.as_mut()?;
         let speed_mps = (now.speed_mps + accel_mps2 * SIM_DT_S).max(0.0);
         let yaw_rate_radps = (curvature_per_m * speed_mps).clamp(-MAX_YAW_RATE_RADPS, MAX_YAW_RATE_RADPS);
-        let (next, sin_cos) = kinematic_step_with_sin_cos(now, Action { accel_mps2, yaw_rate_radps }, SIM_DT_S);
+        let heading_rad = turned_heading_rad(now.heading_rad, yaw_rate_radps, SIM_DT_S);
+        let sin_cos = match trig {
+            Some((bits, sin_cos)) if bits == heading_rad.to_bits() => sin_cos,
+            _ => trig.insert((heading_rad.to_bits(), heading_rad.sin_cos())).1,
+        };
+        let next = step_to_heading(now, accel_mps2, heading_rad, sin_cos, SIM_DT_S);
         *now = next;
         Some(next.to_agent_state_with_sin_cos(sin_cos))
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::motion::{Action, kinematic_step_with_sin_cos};
+
+    #[test]
+    fn a_continuation_steps_exactly_as_the_kinematic_model_with_its_trigonometry_reused() {
+        // Straight, curving, braking to a standstill in a bend: each state
+        // is, to the bit, the plain kinematic step's from the last one.
+        let from =
+            KinematicState { position: crate::geometry::Point2::new(3.0, -1.0), heading_rad: 0.4, speed_mps: 9.0 };
+        for (token_action, accel_mps2) in
+            [((0.0, 0.0), 0.0), ((1.0, 0.3), 1.0), ((-2.0, -0.2), -MAX_ACCEL), ((0.0, 0.0), -MAX_ACCEL)]
+        {
+            let token = TokenGrid::quantize(Action { accel_mps2: token_action.0, yaw_rate_radps: token_action.1 });
+            let rollout = token_rollout(&from, token);
+            let curvature_per_m = {
+                let (before, end) = (&rollout[rollout.len() - 2], &rollout[rollout.len() - 1]);
+                wrap_angle(end.heading_rad - before.heading_rad) / (end.position - before.position).norm()
+            };
+            let mut plain = KinematicState::from_agent_state(rollout.last().unwrap());
+            let continued: Vec<AgentState> = continued_after(&rollout, accel_mps2, 60).collect();
+            assert_eq!(continued.len(), 60);
+            for s in &continued {
+                let speed_mps = (plain.speed_mps + accel_mps2 * SIM_DT_S).max(0.0);
+                let yaw_rate_radps = (curvature_per_m * speed_mps).clamp(-MAX_YAW_RATE_RADPS, MAX_YAW_RATE_RADPS);
+                let (next, sin_cos) =
+                    kinematic_step_with_sin_cos(&plain, Action { accel_mps2, yaw_rate_radps }, SIM_DT_S);
+                plain = next;
+                assert_eq!(*s, next.to_agent_state_with_sin_cos(sin_cos), "{token_action:?} at {accel_mps2}");
+            }
+        }
+    }
+
+    const MAX_ACCEL: f64 = crate::motion::tokens::MAX_ACCEL_MPS2;
 }
