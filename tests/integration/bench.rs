@@ -20,18 +20,26 @@ fn read_json(path: &std::path::Path) -> serde_json::Value {
     serde_json::from_str(&text).unwrap_or_else(|e| panic!("{}: {e}\n{text}", path.display()))
 }
 
+/// `safer bench --repeat 1 EXTRA… --scenes SMALL --json OUT`, which must succeed.
+fn bench_small_scene(extra: &[&str], out: &std::path::Path) -> std::process::Output {
+    let run = Command::new(env!("CARGO_BIN_EXE_safer"))
+        .args(["bench", "--repeat", "1"])
+        .args(extra)
+        .arg("--scenes")
+        .arg(small_scene())
+        .arg("--json")
+        .arg(out)
+        .output()
+        .unwrap();
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    run
+}
+
 #[test]
 fn bench_writes_every_figure_beside_its_reference_as_json() {
     let dir = Scratch::new("bench-json");
     let out = dir.join("bench.json");
-    let run = Command::new(env!("CARGO_BIN_EXE_safer"))
-        .args(["bench", "--repeat", "1", "--scenes"])
-        .arg(small_scene())
-        .arg("--json")
-        .arg(&out)
-        .output()
-        .unwrap();
-    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    let run = bench_small_scene(&[], &out);
     let v = read_json(&out);
     assert_eq!(v["repeat"], 1);
     let import = v["import"].as_array().expect("import rows");
@@ -60,14 +68,7 @@ fn bench_against_a_baseline_build_gives_each_timed_figure_of_both_builds_and_the
     // is tested, not a speed.
     let dir = Scratch::new("bench-baseline");
     let out = dir.join("against.json");
-    let run = Command::new(env!("CARGO_BIN_EXE_safer"))
-        .args(["bench", "--repeat", "1", "--rounds", "2", "--baseline", env!("CARGO_BIN_EXE_safer"), "--scenes"])
-        .arg(small_scene())
-        .arg("--json")
-        .arg(&out)
-        .output()
-        .unwrap();
-    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    let run = bench_small_scene(&["--rounds", "2", "--baseline", env!("CARGO_BIN_EXE_safer")], &out);
     let v = read_json(&out);
     assert_eq!((v["rounds"].as_u64(), v["repeat"].as_u64()), (Some(2), Some(1)));
     let figures = v["figures"].as_array().expect("figures");
