@@ -103,9 +103,9 @@ pub(super) fn run(bench: BaselineBench<'_>, json: Option<&Path>) -> Result<ExitC
             }
         }
     }
-    // This build's order first (the baseline's extra figures after it): a
-    // build lists its own figures in the order of its report.
-    order.sort_by_key(|f| reports[f][Build::This as usize].iter().all(Option::is_none));
+    // The variant's figures first, then the rest as they came (a stable
+    // sort); the figures only the baseline reports last.
+    order.sort_by_key(|f| (reports[f][Build::This as usize].iter().all(Option::is_none), table_rank(f)));
     let figures: Vec<FigureComparison> = order
         .into_iter()
         .map(|figure| {
@@ -210,6 +210,24 @@ impl FigureComparison {
             this_ms,
         }
     }
+}
+
+/// Where a figure goes in the table: the variant's, the headline, first,
+/// with its parts under it as `safer bench` prints them; every other
+/// figure after them. (The reports' own order is lost: serde_json's maps
+/// sort their keys.)
+fn table_rank(figure: &str) -> usize {
+    const VARIANT: [&str; 8] = [
+        "variant.variant_ms",
+        "variant.stage1_ms",
+        "variant.stage1_models_ms",
+        "variant.stage2_ms",
+        "variant.stage2_planner_ms",
+        "variant.witness_ms",
+        "variant.closed_loop_variant_ms",
+        "variant.closed_loop_witness.ms",
+    ];
+    VARIANT.iter().position(|v| *v == figure).unwrap_or(VARIANT.len())
 }
 
 /// The median (the mean of the middle two for an even count); `None` for none.

@@ -94,6 +94,7 @@ fn bench_against_a_baseline_build_gives_each_timed_figure_of_both_builds_and_the
             assert!((f["ratio_min"].as_f64().unwrap() - ratios[0].min(ratios[1])).abs() < 1e-9, "{f}");
         }
     }
+    assert_eq!(labels[..2], ["variant.variant_ms", "variant.stage1_ms"], "the headline first, its parts under it");
     let table = String::from_utf8_lossy(&run.stdout);
     assert!(table.contains("this ÷ baseline") && table.contains("variant.variant_ms"), "{table}");
     // Both builds ran in both rounds, the first round baseline first.
