@@ -76,6 +76,9 @@ pub(super) fn run(bench: BaselineBench<'_>, json: Option<&Path>) -> Result<ExitC
     if !bench.baseline.is_file() {
         return Err(fail("no such file".into()));
     }
+    // Run by its full path: a bare name would otherwise be looked up on
+    // PATH rather than in the folder where it was found.
+    let baseline = std::fs::canonicalize(bench.baseline).map_err(|e| fail(format!("cannot resolve its path: {e}")))?;
     let this_build = std::env::current_exe()
         .map_err(|e| CliError::Usage(format!("cannot find this build's own binary to run it: {e}")))?;
     let scratch = ReportFolder::new()?;
@@ -85,7 +88,7 @@ pub(super) fn run(bench: BaselineBench<'_>, json: Option<&Path>) -> Result<ExitC
         let builds = if round % 2 == 0 { [Build::Baseline, Build::This] } else { [Build::This, Build::Baseline] };
         for build in builds {
             let binary = match build {
-                Build::Baseline => bench.baseline,
+                Build::Baseline => baseline.as_path(),
                 Build::This => this_build.as_path(),
             };
             eprintln!("round {} of {}: {} build ({})", round + 1, bench.rounds, build.name(), binary.display());
@@ -120,7 +123,7 @@ pub(super) fn run(bench: BaselineBench<'_>, json: Option<&Path>) -> Result<ExitC
         "safer bench against a baseline build: {} rounds, each running both builds once (which goes first alternates), each run the median of {}\n  baseline:   {}\n  this build: {}\n",
         bench.rounds,
         bench.repeat,
-        bench.baseline.display(),
+        baseline.display(),
         this_build.display()
     )?;
     let width = figures.iter().map(|f| f.figure.chars().count()).max().unwrap_or(0).max(6);
@@ -148,7 +151,7 @@ pub(super) fn run(bench: BaselineBench<'_>, json: Option<&Path>) -> Result<ExitC
     out.flush()?;
     if let Some(path) = json {
         let report = BaselineReport {
-            baseline: bench.baseline.to_path_buf(),
+            baseline: baseline.clone(),
             this_build,
             rounds: bench.rounds,
             repeat: bench.repeat,

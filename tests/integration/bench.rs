@@ -106,6 +106,21 @@ fn bench_against_a_baseline_build_gives_each_timed_figure_of_both_builds_and_the
 }
 
 #[test]
+fn a_baseline_named_without_a_folder_is_the_file_in_the_working_folder_not_one_on_path() {
+    let dir = Scratch::new("bench-baseline-bare-name");
+    std::os::unix::fs::symlink(env!("CARGO_BIN_EXE_safer"), dir.join("safer-before")).unwrap();
+    let run = Command::new(env!("CARGO_BIN_EXE_safer"))
+        .current_dir(&dir)
+        .env("PATH", "/nonexistent")
+        .args(["bench", "--repeat", "1", "--rounds", "1", "--baseline", "safer-before", "--scenes"])
+        .arg(small_scene())
+        .output()
+        .unwrap();
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    assert!(String::from_utf8_lossy(&run.stdout).contains("variant.variant_ms"));
+}
+
+#[test]
 fn a_baseline_that_is_missing_or_not_a_safer_build_is_an_error_naming_it() {
     let dir = Scratch::new("bench-baseline-bad");
     let missing = dir.join("no-such-safer");
