@@ -117,52 +117,43 @@ pub(super) fn run(bench: BaselineBench<'_>, json: Option<&Path>) -> Result<ExitC
         })
         .collect();
 
-    let mut out = super::table_writer(json);
+    let report = BaselineReport { baseline, this_build, rounds: bench.rounds, repeat: bench.repeat, figures };
+    super::write_report_and_table(json, &report, |out| print_table(out, &report))?;
+    Ok(ExitCode::SUCCESS)
+}
+
+/// The comparison as a table: each figure's medians and ratio.
+fn print_table(out: &mut dyn Write, report: &BaselineReport) -> std::io::Result<()> {
     writeln!(
         out,
         "safer bench against a baseline build: {} rounds, each running both builds once (which goes first alternates), each run the median of {}\n  baseline:   {}\n  this build: {}\n",
-        bench.rounds,
-        bench.repeat,
-        baseline.display(),
-        this_build.display()
+        report.rounds,
+        report.repeat,
+        report.baseline.display(),
+        report.this_build.display()
     )?;
-    let width = figures.iter().map(|f| f.figure.chars().count()).max().unwrap_or(0).max(6);
+    let width = report.figures.iter().map(|f| f.figure.chars().count()).max().unwrap_or(0).max(6);
     writeln!(
         out,
         "{:<width$} {:>12} {:>12} {:>16} {:>15}",
         "figure", "baseline ms", "this ms", "this ÷ baseline", "rounds' range"
     )?;
-    let cell = |v: Option<f64>, digits: usize| v.map_or("–".to_string(), |x| format!("{x:.digits$}"));
-    for f in &figures {
+    for f in &report.figures {
         let range = match (f.ratio_min, f.ratio_max) {
             (Some(lo), Some(hi)) => format!("{lo:.2}–{hi:.2}"),
-            _ => "–".to_string(),
+            _ => super::figure(None, 0),
         };
         writeln!(
             out,
             "{:<width$} {:>12} {:>12} {:>16} {:>15}",
             f.figure,
-            cell(f.baseline_median_ms, 1),
-            cell(f.this_median_ms, 1),
-            cell(f.ratio_median, 2),
+            super::figure(f.baseline_median_ms, 1),
+            super::figure(f.this_median_ms, 1),
+            super::figure(f.ratio_median, 2),
             range
         )?;
     }
-    out.flush()?;
-    if let Some(path) = json {
-        let report = BaselineReport {
-            baseline: baseline.clone(),
-            this_build,
-            rounds: bench.rounds,
-            repeat: bench.repeat,
-            figures,
-        };
-        safer::record::write_output(path, (serde_json::to_string_pretty(&report)? + "\n").as_bytes())?;
-        if !safer::record::is_stdout(path) {
-            eprintln!("wrote {}", path.display());
-        }
-    }
-    Ok(ExitCode::SUCCESS)
+    Ok(())
 }
 
 /// A folder of this process's own for the builds' JSON reports, removed
