@@ -66,6 +66,29 @@ pub fn step_with_sin_cos(state: &KinematicState, action: Action, dt_s: f64) -> (
     (step_to_heading(state, action.accel_mps2, heading_rad, sin_cos, dt_s), sin_cos)
 }
 
+/// [`step_with_sin_cos`] for a rollout whose heading often holds from one
+/// step to the next (a straight prediction, a stopped agent, a turn that
+/// has ended): the heading's `sin_cos()` is worked out again only when the
+/// heading changes, so every step is the same to the bit.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct HeldHeadingStepper {
+    /// The last heading's bits and its `sin_cos()`.
+    last: Option<(u64, (f64, f64))>,
+}
+
+impl HeldHeadingStepper {
+    /// [`step_with_sin_cos`]`(state, action, dt_s)`.
+    #[inline]
+    pub fn step(&mut self, state: &KinematicState, action: Action, dt_s: f64) -> (KinematicState, (f64, f64)) {
+        let heading_rad = turned_heading_rad(state.heading_rad, action.yaw_rate_radps, dt_s);
+        let sin_cos = match self.last {
+            Some((bits, sin_cos)) if bits == heading_rad.to_bits() => sin_cos,
+            _ => self.last.insert((heading_rad.to_bits(), heading_rad.sin_cos())).1,
+        };
+        (step_to_heading(state, action.accel_mps2, heading_rad, sin_cos, dt_s), sin_cos)
+    }
+}
+
 /// The heading [`step`] turns `heading_rad` to under `yaw_rate_radps`: it
 /// does not depend on the speed or acceleration.
 #[inline]
@@ -106,6 +129,22 @@ pub fn max_travel_m(speed_mps: f64, max_accel_mps2: f64, dt_s: f64, steps: usize
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_held_heading_stepper_steps_as_the_plain_step_to_the_bit() {
+        // Straight on, a turn, the turn ended, braking to a standstill.
+        let mut plain = KinematicState { position: Point2::new(1.0, 2.0), heading_rad: 0.3, speed_mps: 6.0 };
+        let mut held = plain;
+        let mut stepper = HeldHeadingStepper::default();
+        let actions = [(0.5, 0.0), (0.0, 0.4), (-1.0, -0.2), (-5.0, 0.0), (-5.0, 0.3)];
+        for (accel_mps2, yaw_rate_radps) in actions.iter().flat_map(|&a| std::iter::repeat_n(a, 8)) {
+            let action = Action { accel_mps2, yaw_rate_radps };
+            let (next_plain, trig_plain) = step_with_sin_cos(&plain, action, 0.1);
+            let (next_held, trig_held) = stepper.step(&held, action, 0.1);
+            assert_eq!((next_held, trig_held), (next_plain, trig_plain), "{action:?}");
+            (plain, held) = (next_plain, next_held);
+        }
+    }
 
     #[test]
     fn straight_acceleration_matches_semi_implicit_euler() {

@@ -26,7 +26,7 @@
 
 use super::{Observation, Planner, PlannerError, PlannerOutput};
 use crate::geometry::{BoxSet, OrientedBox, Point2, Pose2, Vector2, wrap_angle};
-use crate::motion::kinematics::{step_to_heading, turned_heading_rad};
+use crate::motion::kinematics::HeldHeadingStepper;
 use crate::motion::tokens::{MAX_ACCEL_MPS2, MAX_YAW_RATE_RADPS, SIM_DT_S};
 use crate::motion::{Action, KinematicState, kinematic_step_with_sin_cos};
 use crate::policies::{Route, build_route_choosing};
@@ -301,17 +301,12 @@ fn road_bounded_turn(
     let mut s = KinematicState::from_agent_state(start);
     let mut states = Vec::with_capacity(steps);
     // The heading's sine and cosine, computed again only when it changes
-    // (most predictions hold it for most steps): `kinematic_step` and the
-    // box set both need them, and they were a fifth of an evaluation.
-    let mut trig: Option<(f64, (f64, f64))> = None;
+    // (most predictions hold it for most steps): the step and the box set
+    // both need them, and they were a fifth of an evaluation.
+    let mut stepper = HeldHeadingStepper::default();
     for k in 0..steps {
-        // `kinematic_step`, with the trigonometry cached.
-        let heading_rad = turned_heading_rad(s.heading_rad, action.yaw_rate_radps, SIM_DT_S);
-        let sin_cos = match trig {
-            Some((h, sin_cos)) if h.to_bits() == heading_rad.to_bits() => sin_cos,
-            _ => trig.insert((heading_rad, heading_rad.sin_cos())).1,
-        };
-        s = step_to_heading(&s, action.accel_mps2, heading_rad, sin_cos, SIM_DT_S);
+        let (next, sin_cos) = stepper.step(&s, action, SIM_DT_S);
+        s = next;
         let turned = wrap_angle(s.heading_rad - start.heading_rad).abs() > TURNING_PREDICTION_MAP_CHECK_AFTER_RAD;
         if turned && action.yaw_rate_radps != 0.0 && k % TURNING_PREDICTION_LANE_CHECK_EVERY == 0 {
             let lane = map.nearest_lane(&s.position, Some(s.heading_rad), TURNING_PREDICTION_LANE_SEARCH_M);
@@ -343,6 +338,17 @@ fn within_reach(position: crate::geometry::Point2, ego: &AgentState, reach_m: f6
     (position - ego.position).norm_squared() <= (reach_m + radius_m).powi(2)
 }
 
+/// The acceleration a candidate of acceleration `accel` applies at
+/// `speed_mps`: it accelerates only up to the desired speed `v_des`.
+fn applied_accel_mps2(accel: f64, speed_mps: f64, v_des: f64) -> f64 {
+    if accel > 0.0 && speed_mps >= v_des { 0.0 } else { accel }
+}
+
+/// A step's speed term of a candidate's cost at `speed_mps`.
+fn speed_cost(speed_mps: f64, v_des: f64) -> f64 {
+    0.01 * (speed_mps - v_des).powi(2)
+}
+
 /// The speed terms of a candidate's cost (`0.01·(v − v_des)²` a step)
 /// from each step to the horizon, for a candidate of acceleration `accel`
 /// starting at `start_speed_mps`: its speeds follow from these alone, as
@@ -354,9 +360,9 @@ fn speed_costs_to_come(start_speed_mps: f64, accel: f64, v_des: f64, steps: usiz
     let mut speed_mps = start_speed_mps;
     let mut terms = Vec::with_capacity(steps + 1);
     for _ in 0..steps {
-        let a = if accel > 0.0 && speed_mps >= v_des { 0.0 } else { accel };
+        let a = applied_accel_mps2(accel, speed_mps, v_des);
         speed_mps = (speed_mps + a * SIM_DT_S).max(0.0);
-        terms.push(0.01 * (speed_mps - v_des).powi(2));
+        terms.push(speed_cost(speed_mps, v_des));
     }
     terms.push(0.0);
     let mut to_come = 0.0;
@@ -638,8 +644,7 @@ impl EvasivePlanner {
             let s_here = proj.map_or(travelled_s, |p| p.arc_length_m);
             travelled_s = s_here;
             let lookahead = (0.8 * s.speed_mps).max(5.0);
-            // Accelerate only up to the desired speed.
-            let a = if accel > 0.0 && s.speed_mps >= v_des { 0.0 } else { accel };
+            let a = applied_accel_mps2(accel, s.speed_mps, v_des);
             // Pure pursuit's yaw rate at the speed the step ends with: none
             // at a standstill, where a car cannot turn.
             let moving_mps = (s.speed_mps + a * SIM_DT_S).max(0.0);
@@ -687,7 +692,7 @@ impl EvasivePlanner {
             if k % OFF_ROAD_CHECK_EVERY == OFF_ROAD_CHECK_EVERY - 1 && obs.map.is_off_road_within_map(&s.position) {
                 cost += OFF_ROAD_COST;
             }
-            cost += 0.01 * (s.speed_mps - v_des).powi(2);
+            cost += speed_cost(s.speed_mps, v_des);
         }
         cost -= 0.5 * (travelled_s - start_s);
         cost += choice_cost;

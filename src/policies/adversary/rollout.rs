@@ -3,9 +3,9 @@
 //! token ends with.
 
 use crate::geometry::wrap_angle;
-use crate::motion::KinematicState;
-use crate::motion::kinematics::{step_to_heading, turned_heading_rad};
+use crate::motion::kinematics::HeldHeadingStepper;
 use crate::motion::tokens::{MAX_YAW_RATE_RADPS, SIM_DT_S, Token, TokenGrid};
+use crate::motion::{Action, KinematicState};
 use crate::scenario::AgentState;
 
 /// The CBV's states over one token period from `now` under each token.
@@ -37,21 +37,15 @@ pub(super) fn continued_after(
         _ => 0.0,
     };
     let mut state = rollout.last().map(KinematicState::from_agent_state);
-    // The heading's sine and cosine, computed again only when the heading
-    // changes: a straight token's continuations (most of the plausibility
-    // fallback's) and a stopped CBV's hold it, and these were most of
-    // the fallback's trigonometry. `kinematic_step_with_sin_cos`'s step.
-    let mut trig: Option<(u64, (f64, f64))> = None;
+    // A straight token's continuations (most of the plausibility
+    // fallback's) and a stopped CBV's hold their heading: its sine and
+    // cosine, most of the fallback's trigonometry, are worked out once.
+    let mut stepper = HeldHeadingStepper::default();
     (0..steps).map_while(move |_| {
         let now = state.as_mut()?;
         let speed_mps = (now.speed_mps + accel_mps2 * SIM_DT_S).max(0.0);
         let yaw_rate_radps = (curvature_per_m * speed_mps).clamp(-MAX_YAW_RATE_RADPS, MAX_YAW_RATE_RADPS);
-        let heading_rad = turned_heading_rad(now.heading_rad, yaw_rate_radps, SIM_DT_S);
-        let sin_cos = match trig {
-            Some((bits, sin_cos)) if bits == heading_rad.to_bits() => sin_cos,
-            _ => trig.insert((heading_rad.to_bits(), heading_rad.sin_cos())).1,
-        };
-        let next = step_to_heading(now, accel_mps2, heading_rad, sin_cos, SIM_DT_S);
+        let (next, sin_cos) = stepper.step(now, Action { accel_mps2, yaw_rate_radps }, SIM_DT_S);
         *now = next;
         Some(next.to_agent_state_with_sin_cos(sin_cos))
     })
@@ -60,7 +54,7 @@ pub(super) fn continued_after(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::motion::{Action, kinematic_step_with_sin_cos};
+    use crate::motion::kinematic_step_with_sin_cos;
 
     #[test]
     fn a_continuation_steps_exactly_as_the_kinematic_model_with_its_trigonometry_reused() {
