@@ -308,8 +308,10 @@ impl<'w> PlausibilityCheck<'w> {
         // are most often blocked by the same car).
         let blocker = self.last_blocker.get().filter(|&i| i < self.background.len());
         let order = blocker.into_iter().chain((0..self.background.len()).filter(|&i| Some(i) != blocker));
+        // A check for any violation is answered by the first one found.
+        let answered = |first: Option<usize>| wanted == Violation::Any && first.is_some();
         for i in order {
-            if wanted == Violation::Any && first.is_some() {
+            if answered(first) {
                 break;
             }
             let (predicted, replayed) = (&self.background[i], self.replayed[i]);
@@ -336,9 +338,8 @@ impl<'w> PlausibilityCheck<'w> {
                 }
             }
             // Braking after the token: only what the CBV runs into (not
-            // asked once the held path has answered "implausible").
-            let answered = wanted == Violation::Any && first.is_some();
-            if !answered
+            // asked once the held path has answered).
+            if !answered(first)
                 && let Some(k) = first_contact(predicted, &braking_boxes)
                 && let Some((theirs, _)) = predicted[k]
                 && EgoContact::ego_at_fault(map, &braking[k], &braking_boxes[k], &theirs)
