@@ -202,6 +202,7 @@ fn print_table(
             fmt(r.sr_witnessed)
         )?;
     }
+    print_scenes_that_broke_the_rules(out, rows, &held_out.scenes, &name)?;
     writeln!(
         out,
         "\nheld out (every tenth scene by id: {} of {}) | the other scenes:",
@@ -340,6 +341,57 @@ fn print_table(
         out,
         "distinct: distinct stage-1 CBV paths (to the centimetre) per variant, over each scene's seeds; 1.000 when no two seeds made the same variant."
     )?;
+    Ok(())
+}
+
+/// How many scenes [`print_scenes_that_broke_the_rules`] names per list.
+const SCENES_NAMED: usize = 3;
+
+/// Where the CBV left the road or was at fault with background traffic,
+/// scene by scene, for the rows where it did: the scenes with the most
+/// such variants (of the scene's seeds), held-out ones starred, and how
+/// many more scenes share the rest. Nothing where no CBV broke a rule.
+fn print_scenes_that_broke_the_rules(
+    out: &mut dyn Write,
+    rows: &[MethodRow],
+    held_out: &[String],
+    name: &dyn Fn(&MethodRow) -> String,
+) -> std::io::Result<()> {
+    let listed = |scenes: &[safer::harness::evaluation::SceneCount]| {
+        let mut parts: Vec<String> = scenes
+            .iter()
+            .take(SCENES_NAMED)
+            .map(|c| {
+                let star = if held_out.binary_search(&c.scenario).is_ok() { "*" } else { "" };
+                format!("{}{star} {}/{}", c.scenario, c.variants, c.of)
+            })
+            .collect();
+        let more = scenes.len().saturating_sub(SCENES_NAMED);
+        if more > 0 {
+            let variants: usize = scenes[SCENES_NAMED..].iter().map(|c| c.variants).sum();
+            parts.push(format!("{variants} in {more} more scene{}", if more == 1 { "" } else { "s" }));
+        }
+        parts.join(", ")
+    };
+    let broke: Vec<&MethodRow> =
+        rows.iter().filter(|r| !r.off_road_scenes.is_empty() || !r.at_fault_scenes.is_empty()).collect();
+    if broke.is_empty() {
+        return Ok(());
+    }
+    writeln!(
+        out,
+        "where the CBV left the road / was at fault: the scenes with the most such variants, of each scene's (* held out)"
+    )?;
+    for r in broke {
+        for (i, (what, scenes)) in [("off road", &r.off_road_scenes), ("at fault", &r.at_fault_scenes)]
+            .into_iter()
+            .filter(|(_, scenes)| !scenes.is_empty())
+            .enumerate()
+        {
+            let method = if i == 0 { name(r) } else { String::new() };
+            writeln!(out, "{method:<28} {what}: {}", listed(scenes))?;
+        }
+    }
     Ok(())
 }
 

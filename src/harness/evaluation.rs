@@ -269,6 +269,13 @@ pub struct MethodRow {
     pub cbv_off_road_rate: Option<f64>,
     /// Mean time the CBV spent off the road per variant, s.
     pub cbv_off_road_s: Option<f64>,
+    /// The scenes where the CBV left the road in stage 1: how many of
+    /// each one's variants did, most first (a rate that one scene makes
+    /// reads differently from one spread over many).
+    pub off_road_scenes: Vec<SceneCount>,
+    /// The same for the CBV at fault in a collision with background
+    /// traffic.
+    pub at_fault_scenes: Vec<SceneCount>,
     /// How close the CBV came to the recorded ego in stage 1; `None` when
     /// no variant ran.
     pub stage1_closest: Option<ClosestApproach>,
@@ -309,6 +316,37 @@ pub struct MethodRow {
     pub conflicts: Vec<super::metrics::KindCoverage>,
     /// Mean time per variant by part, s.
     pub profile: VariantProfile,
+}
+
+/// How many of one scene's variants (of one method) something happened
+/// in.
+#[derive(Debug, Clone, PartialEq, Eq, serde::Serialize)]
+pub struct SceneCount {
+    /// Scenario id.
+    pub scenario: String,
+    /// The variants it happened in.
+    pub variants: usize,
+    /// The scene's variants that ran.
+    pub of: usize,
+}
+
+/// The scenes where `happened` holds for at least one of `variants`, with
+/// how many: most first, then by id.
+fn scenes_where(variants: &[&VariantRecord], happened: impl Fn(&VariantRecord) -> bool) -> Vec<SceneCount> {
+    let mut by_scene: std::collections::BTreeMap<&str, (usize, usize)> = Default::default();
+    for r in variants {
+        let (hits, of) = by_scene.entry(r.scenario.as_str()).or_default();
+        *hits += usize::from(happened(r));
+        *of += 1;
+    }
+    let mut scenes: Vec<SceneCount> = by_scene
+        .into_iter()
+        .filter(|&(_, (hits, _))| hits > 0)
+        .map(|(scenario, (variants, of))| SceneCount { scenario: scenario.to_string(), variants, of })
+        .collect();
+    // Stable: scenes with as many variants stay in id order.
+    scenes.sort_by_key(|c| std::cmp::Reverse(c.variants));
+    scenes
 }
 
 /// Searches a feasibility witness for a finished stage 1: `Some(true)` when
@@ -686,6 +724,8 @@ fn table_of(
                 cbv_at_fault_vulnerable_rate: metrics.cbv_at_fault_vulnerable_rate,
                 cbv_off_road_rate: metrics.cbv_off_road_rate,
                 cbv_off_road_s: metrics.cbv_off_road_s,
+                off_road_scenes: scenes_where(&ok, |r| r.tally.cbv_off_road_s > 0.0),
+                at_fault_scenes: scenes_where(&ok, |r| r.tally.cbv_at_fault_with_background),
                 stage1_closest: ClosestApproach::of(&ok),
                 distinct_rate: distinct_rate(&ok),
                 conflict_reach: metrics.conflict_reach,
@@ -743,6 +783,41 @@ mod tests {
         assert_eq!((c.contact, c.under_half_m, c.under_1_m), (1.0 / 6.0, 1.0 / 6.0, 2.0 / 6.0));
         assert!((c.farther - 2.0 / 6.0).abs() < 1e-12);
         assert_eq!(table(&[], &[AdversaryMethod::Safer])[0].stage1_closest, None);
+    }
+
+    #[test]
+    fn the_scenes_where_the_cbv_broke_a_rule_are_counted_by_scene_most_first() {
+        // Scene b: two of three variants off the road, one at fault; a: one
+        // of two off the road; c: none; d: one off the road, but it could
+        // not run, so it is no variant of the table's.
+        let broke = |scenario: &str, seed: u32, off_road_s: f64, at_fault: bool| VariantRecord {
+            tally: VariantTally {
+                cbv_off_road_s: off_road_s,
+                cbv_at_fault_with_background: at_fault,
+                ..record(scenario, seed, 0).tally
+            },
+            ..record(scenario, seed, 0)
+        };
+        let mut failed = broke("d", 0, 1.0, true);
+        failed.error = Some("the planner crashed".into());
+        let records = [
+            broke("a", 0, 0.5, false),
+            broke("a", 1, 0.0, false),
+            broke("b", 0, 2.0, false),
+            broke("b", 1, 0.1, true),
+            broke("b", 2, 0.0, false),
+            broke("c", 0, 0.0, false),
+            failed,
+        ];
+        let row = &table(&records, &[AdversaryMethod::Safer])[0];
+        let count = |scenario: &str, variants, of| SceneCount { scenario: scenario.into(), variants, of };
+        assert_eq!(row.off_road_scenes, [count("b", 2, 3), count("a", 1, 2)]);
+        assert_eq!(row.at_fault_scenes, [count("b", 1, 3)]);
+        // Scenes with as many variants come in id order.
+        let tie = [broke("z", 0, 1.0, false), broke("y", 0, 1.0, false)];
+        let row = &table(&tie, &[AdversaryMethod::Safer])[0];
+        assert_eq!(row.off_road_scenes, [count("y", 1, 1), count("z", 1, 1)]);
+        assert!(row.at_fault_scenes.is_empty());
     }
 
     #[test]
