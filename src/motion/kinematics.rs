@@ -108,9 +108,18 @@ pub fn step_to_heading(
     (sin, cos): (f64, f64),
     dt_s: f64,
 ) -> KinematicState {
-    let speed_mps = (state.speed_mps + accel_mps2 * dt_s).max(0.0);
+    let speed_mps = stepped_speed_mps(state.speed_mps, accel_mps2, dt_s);
     let position = state.position + Vector2::new(cos, sin) * (speed_mps * dt_s);
     KinematicState { position, heading_rad, speed_mps }
+}
+
+/// The speed [`step`] ends at from `speed_mps` under `accel_mps2`: the
+/// model brakes to a standstill and never reverses. Code that needs the
+/// step's new speed before stepping (a yaw rate bounded by it, a speed
+/// profile without positions) asks here, so it cannot drift from the step.
+#[inline]
+pub fn stepped_speed_mps(speed_mps: f64, accel_mps2: f64, dt_s: f64) -> f64 {
+    (speed_mps + accel_mps2 * dt_s).max(0.0)
 }
 
 /// An upper bound on how far [`step`] can carry a state of speed

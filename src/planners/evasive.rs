@@ -26,7 +26,7 @@
 
 use super::{Observation, Planner, PlannerError, PlannerOutput};
 use crate::geometry::{BoxSet, OrientedBox, Point2, Pose2, Vector2, wrap_angle};
-use crate::motion::kinematics::HeldHeadingStepper;
+use crate::motion::kinematics::{HeldHeadingStepper, stepped_speed_mps};
 use crate::motion::tokens::{MAX_ACCEL_MPS2, MAX_YAW_RATE_RADPS, SIM_DT_S};
 use crate::motion::{Action, KinematicState, kinematic_step_with_sin_cos};
 use crate::policies::{Route, build_route_choosing};
@@ -361,7 +361,7 @@ fn speed_costs_to_come(start_speed_mps: f64, accel: f64, v_des: f64, steps: usiz
     let mut terms = Vec::with_capacity(steps + 1);
     for _ in 0..steps {
         let a = applied_accel_mps2(accel, speed_mps, v_des);
-        speed_mps = (speed_mps + a * SIM_DT_S).max(0.0);
+        speed_mps = stepped_speed_mps(speed_mps, a, SIM_DT_S);
         terms.push(speed_cost(speed_mps, v_des));
     }
     terms.push(0.0);
@@ -647,7 +647,7 @@ impl EvasivePlanner {
             let a = applied_accel_mps2(accel, s.speed_mps, v_des);
             // Pure pursuit's yaw rate at the speed the step ends with: none
             // at a standstill, where a car cannot turn.
-            let moving_mps = (s.speed_mps + a * SIM_DT_S).max(0.0);
+            let moving_mps = stepped_speed_mps(s.speed_mps, a, SIM_DT_S);
             let yaw_rate = match route.path.sample(s_here + lookahead) {
                 Some((p, t)) => {
                     let target = p + Vector2::new(-t.y, t.x) * offset;

@@ -11,6 +11,7 @@
 use super::lane_follower::idm_desired_gap_m;
 use super::{AgentAction, AgentPolicy, WorldView};
 use crate::geometry::{Point2, Polyline};
+use crate::motion::kinematics::stepped_speed_mps;
 use crate::motion::tokens::SIM_DT_S;
 use crate::scenario::{AgentState, Track, TrackIndex};
 
@@ -130,7 +131,7 @@ impl AgentPolicy for ReactiveLogReplay {
         });
         let (v_next, s_next) = match braking {
             Some(a) => {
-                let v_next = (v + a * SIM_DT_S).max(0.0);
+                let v_next = stepped_speed_mps(v, a, SIM_DT_S);
                 (v_next, (s + 0.5 * (v + v_next) * SIM_DT_S).min(scheduled_next))
             }
             None if self.behind.is_none() => return AgentAction::Teleport(logged_next),

@@ -3,6 +3,7 @@
 //! car's turning limit: a yaw rate bounded by the speed over
 //! [`MIN_TURN_RADIUS_M`], so that a standing car cannot turn in place.
 
+use crate::motion::kinematics::stepped_speed_mps;
 use crate::motion::tokens::{MAX_ACCEL_MPS2, SIM_DT_S, TOKEN_PERIOD_STEPS};
 
 /// Tightest turning radius of the witness's ego, m: a passenger car's
@@ -26,7 +27,7 @@ pub(super) fn period_speeds(speed_mps: f64, accel_mps2: f64, steps: usize) -> [f
     let mut v = speed_mps;
     let mut speeds = [0.0; TOKEN_PERIOD_STEPS];
     for s in speeds.iter_mut().take(steps) {
-        v = (v + accel_mps2 * SIM_DT_S).max(0.0);
+        v = stepped_speed_mps(v, accel_mps2, SIM_DT_S);
         *s = v;
     }
     speeds

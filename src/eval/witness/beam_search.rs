@@ -222,6 +222,7 @@ mod tests {
     use crate::eval::witness::test_support::{at, car, random_traffic, straight_road};
     use crate::eval::witness::{MIN_TURN_RADIUS_M, ROAD_CELL_M, RoadKeeping, RoadRule};
     use crate::geometry::Point2;
+    use crate::motion::kinematics::stepped_speed_mps;
     use crate::motion::{Action, kinematic_step};
 
     /// The search without its pruning and memos: every child of
@@ -314,7 +315,7 @@ mod tests {
                                 break;
                             }
                             // The car's turning radius bounds the rate at the step's new speed.
-                            let speed_mps = (s.speed_mps + a * SIM_DT_S).max(0.0);
+                            let speed_mps = stepped_speed_mps(s.speed_mps, a, SIM_DT_S);
                             let yaw_rate_radps =
                                 w.max(-speed_mps / MIN_TURN_RADIUS_M).min(speed_mps / MIN_TURN_RADIUS_M);
                             s = kinematic_step(&s, Action { accel_mps2: a, yaw_rate_radps }, SIM_DT_S);

@@ -94,6 +94,7 @@ mod tests {
         assert_touches_none_of, assert_turns_like_a_car, at, car, random_traffic,
     };
     use crate::eval::witness::{FixedTraffic, Witness, WitnessBudget, search_witness};
+    use crate::motion::kinematics::stepped_speed_mps;
     use crate::motion::tokens::SIM_DT_S;
     use crate::motion::{Action, kinematic_step};
 
@@ -132,7 +133,7 @@ mod tests {
                 };
                 let mut s = start;
                 for k in 0..TOKEN_PERIOD_STEPS {
-                    let v = (s.speed_mps + a * SIM_DT_S).max(0.0);
+                    let v = stepped_speed_mps(s.speed_mps, a, SIM_DT_S);
                     s = kinematic_step(
                         &s,
                         Action { accel_mps2: a, yaw_rate_radps: turn_bounded_yaw_rate(w, v) },

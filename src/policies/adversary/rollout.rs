@@ -3,7 +3,7 @@
 //! token ends with.
 
 use crate::geometry::wrap_angle;
-use crate::motion::kinematics::HeldHeadingStepper;
+use crate::motion::kinematics::{HeldHeadingStepper, stepped_speed_mps};
 use crate::motion::tokens::{MAX_YAW_RATE_RADPS, SIM_DT_S, Token, TokenGrid};
 use crate::motion::{Action, KinematicState};
 use crate::scenario::AgentState;
@@ -43,7 +43,7 @@ pub(super) fn continued_after(
     let mut stepper = HeldHeadingStepper::default();
     (0..steps).map_while(move |_| {
         let now = state.as_mut()?;
-        let speed_mps = (now.speed_mps + accel_mps2 * SIM_DT_S).max(0.0);
+        let speed_mps = stepped_speed_mps(now.speed_mps, accel_mps2, SIM_DT_S);
         let yaw_rate_radps = (curvature_per_m * speed_mps).clamp(-MAX_YAW_RATE_RADPS, MAX_YAW_RATE_RADPS);
         let (next, sin_cos) = stepper.step(now, Action { accel_mps2, yaw_rate_radps }, SIM_DT_S);
         *now = next;
@@ -75,7 +75,7 @@ mod tests {
             let continued: Vec<AgentState> = continued_after(&rollout, accel_mps2, 60).collect();
             assert_eq!(continued.len(), 60);
             for s in &continued {
-                let speed_mps = (plain.speed_mps + accel_mps2 * SIM_DT_S).max(0.0);
+                let speed_mps = stepped_speed_mps(plain.speed_mps, accel_mps2, SIM_DT_S);
                 let yaw_rate_radps = (curvature_per_m * speed_mps).clamp(-MAX_YAW_RATE_RADPS, MAX_YAW_RATE_RADPS);
                 let (next, sin_cos) =
                     kinematic_step_with_sin_cos(&plain, Action { accel_mps2, yaw_rate_radps }, SIM_DT_S);
