@@ -9,7 +9,7 @@ import torch.nn.functional as F
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from train import (BINS, MAP_IN_INTERSECTION, MAP_SPEED_LIMIT, NEIGHBOUR_CYCLIST, NEIGHBOUR_PEDESTRIAN,  # noqa: E402
-                   bin_spread, drop_map_features, has_vulnerable_ahead, is_turning, token_loss)
+                   bin_spread, drop_lateral_history, drop_map_features, has_vulnerable_ahead, is_turning, token_loss)
 
 
 def explicit_target(target, smoothing, axis, spread):
@@ -87,6 +87,25 @@ class MapFeatureDropoutTest(unittest.TestCase):
     def test_no_dropout_changes_nothing(self):
         tokens = torch.rand(10, 48, 7)
         self.assertTrue(torch.equal(drop_map_features({"map_tokens": tokens.clone()}, 0.0)["map_tokens"], tokens))
+
+class HistoryDropoutTest(unittest.TestCase):
+    def test_dropped_samples_keep_only_the_current_speed_and_acceleration(self):
+        history = torch.rand(2000, 6, 8) + 0.5
+        before = history.clone()
+        after = drop_lateral_history({"history": history}, 0.3, torch.Generator().manual_seed(0))["history"]
+        dropped = (after[:, :5] == 0).all(dim=2).all(dim=1)
+        self.assertAlmostEqual(dropped.float().mean().item(), 0.3, delta=0.04)
+        # A dropped sample: no past point, no yaw rate now; everything else of now is kept.
+        self.assertTrue((after[dropped, 5, 6] == 0).all())
+        now_kept = [c for c in range(8) if c != 6]
+        self.assertTrue(torch.equal(after[:, 5, now_kept], before[:, 5, now_kept]))
+        # A kept sample is untouched.
+        self.assertTrue(torch.equal(after[~dropped], before[~dropped]))
+
+    def test_no_dropout_changes_nothing(self):
+        history = torch.rand(10, 6, 8)
+        self.assertTrue(torch.equal(drop_lateral_history({"history": history.clone()}, 0.0)["history"], history))
+
 
 class VulnerableAheadTest(unittest.TestCase):
     def test_a_pedestrian_or_cyclist_counts_only_ahead_within_the_window_and_unmasked(self):

@@ -110,6 +110,29 @@ def drop_map_features(batch, p, generator=None):
     return batch
 
 
+# History layout (docs/prior-features.md): 6 points, the last one now; a point's yaw rate column.
+HISTORY_NOW, HISTORY_YAW_RATE = 5, 6
+
+
+def drop_lateral_history(batch, p, generator=None):
+    """With probability `p` per sample, hide how the agent has been
+    steering: the history points before now are made invalid (all zeros)
+    and the yaw rate of the last period is zeroed; the current speed and
+    acceleration stay. A prior that reads its own yaw rate and continues it
+    never starts a turn its history has not started (in closed loop the
+    CBV drives straight on where its lane bends away); without that cue the
+    sample's steering has to be read from the lanes around it, as past-motion
+    dropout does for driving policies (ChauffeurNet). Changes
+    `batch["history"]` (a copy made by `batch_of`) in place; returns it."""
+    if p <= 0.0:
+        return batch
+    history = batch["history"]
+    drop = torch.rand(history.shape[0], device=history.device, generator=generator) < p
+    history[drop, :HISTORY_NOW, :] = 0.0
+    history[drop, HISTORY_NOW, HISTORY_YAW_RATE] = 0.0
+    return batch
+
+
 @torch.no_grad()
 def evaluate(model, data, idx, bs=2048):
     model.eval()
@@ -242,6 +265,10 @@ def main():
                     help="per training sample, the probability that its map tokens lose their speed limits, and "
                          "(drawn apart) their intersection flags: run-time maps without them (WOMD JSON keeps "
                          "neither) are then familiar; 0 (the shipped priors) keeps every feature")
+    ap.add_argument("--history-dropout", type=float, default=0.0,
+                    help="per training sample, the probability that its history before now and its last yaw rate "
+                         "are hidden, so that its steering is learned from the map around it (past-motion "
+                         "dropout); 0 (the shipped priors) keeps the whole history")
     ap.add_argument("--turning-weight", type=float, default=1.0,
                     help="draw training samples whose label turns (yaw rate of at least 0.3 rad/s either way) "
                          "this many times as often")
@@ -324,7 +351,8 @@ def main():
         for g in opt.param_groups:
             g["lr"] = lr
         idx = torch.as_tensor(train_idx[cdf.searchsorted(rng.random(a.batch), side="right")], device=a.device)
-        batch = drop_map_features(batch_of(data, idx), a.map_feature_dropout)
+        batch = drop_lateral_history(drop_map_features(batch_of(data, idx), a.map_feature_dropout),
+                                     a.history_dropout)
         loss = token_loss(model(batch), data["next_token"][idx], a.label_smoothing,
                           a.label_smoothing_axis, spread)
         opt.zero_grad(set_to_none=True)
@@ -372,6 +400,7 @@ def main():
         "purpose": dataset["purpose"], "recipe": dataset["recipe"],
         "label_smoothing": a.label_smoothing, "label_smoothing_axis": a.label_smoothing_axis,
         "label_smoothing_bins": a.label_smoothing_bins, "map_feature_dropout": a.map_feature_dropout,
+        "history_dropout": a.history_dropout,
         "turn_only_lane_weight": a.turn_only_lane_weight,
         "turning_weight": a.turning_weight,
         "vulnerable_ahead_weight": a.vulnerable_ahead_weight,
