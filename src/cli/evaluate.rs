@@ -99,11 +99,14 @@ pub(super) struct EvaluationSettings {
     stage2_cbv: Vec<Stage2Cbv>,
     horizon_s: f64,
     max_scenes: Option<usize>,
+    /// The scenario ids `--scene` named (none: every scene).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    only_scenes: Vec<String>,
     witness: WitnessSettings,
 }
 
 impl EvaluationSettings {
-    fn of(request: &EvaluationRequest, max_scenes: Option<usize>, witness: WitnessSettings) -> Self {
+    fn of(request: &EvaluationRequest, selection: &SceneSelection<'_>, witness: WitnessSettings) -> Self {
         EvaluationSettings {
             methods: request.methods.clone(),
             seeds: request.seeds,
@@ -114,7 +117,8 @@ impl EvaluationSettings {
             background: request.background,
             stage2_cbv: request.stage2_cbv.clone(),
             horizon_s: request.horizon_s,
-            max_scenes,
+            max_scenes: selection.max_scenes,
+            only_scenes: selection.ids.to_vec(),
             witness,
         }
     }
@@ -357,22 +361,6 @@ fn print_scenes_that_broke_the_rules(
     held_out: &[String],
     name: &dyn Fn(&MethodRow) -> String,
 ) -> std::io::Result<()> {
-    let listed = |scenes: &[safer::harness::evaluation::SceneCount]| {
-        let mut parts: Vec<String> = scenes
-            .iter()
-            .take(SCENES_NAMED)
-            .map(|c| {
-                let star = if held_out.binary_search(&c.scenario).is_ok() { "*" } else { "" };
-                format!("{}{star} {}/{}", c.scenario, c.variants, c.of)
-            })
-            .collect();
-        let more = scenes.len().saturating_sub(SCENES_NAMED);
-        if more > 0 {
-            let variants: usize = scenes[SCENES_NAMED..].iter().map(|c| c.variants).sum();
-            parts.push(format!("{variants} in {more} more scene{}", if more == 1 { "" } else { "s" }));
-        }
-        parts.join(", ")
-    };
     let broke: Vec<&MethodRow> =
         rows.iter().filter(|r| !r.off_road_scenes.is_empty() || !r.at_fault_scenes.is_empty()).collect();
     if broke.is_empty() {
@@ -380,7 +368,8 @@ fn print_scenes_that_broke_the_rules(
     }
     writeln!(
         out,
-        "where the CBV left the road / was at fault: the scenes with the most such variants, of each scene's (* held out)"
+        "where the CBV left the road / was at fault: the scenes with the most such variants, of each scene's (* held out; \
+         `--scene ID --artifacts DIR --artifacts-of all` draws them)"
     )?;
     for r in broke {
         for (i, (what, scenes)) in [("off road", &r.off_road_scenes), ("at fault", &r.at_fault_scenes)]
@@ -389,10 +378,30 @@ fn print_scenes_that_broke_the_rules(
             .enumerate()
         {
             let method = if i == 0 { name(r) } else { String::new() };
-            writeln!(out, "{method:<28} {what}: {}", listed(scenes))?;
+            writeln!(out, "{method:<28} {what}: {}", named_scenes(scenes, held_out))?;
         }
     }
     Ok(())
+}
+
+/// The first [`SCENES_NAMED`] of `scenes` as `ID k/n` (a star after a
+/// held-out id; `held_out` sorted), then how many variants the others
+/// hold between them.
+fn named_scenes(scenes: &[safer::harness::evaluation::SceneCount], held_out: &[String]) -> String {
+    let mut parts: Vec<String> = scenes
+        .iter()
+        .take(SCENES_NAMED)
+        .map(|c| {
+            let star = if held_out.binary_search(&c.scenario).is_ok() { "*" } else { "" };
+            format!("{}{star} {}/{}", c.scenario, c.variants, c.of)
+        })
+        .collect();
+    let more = scenes.len().saturating_sub(SCENES_NAMED);
+    if more > 0 {
+        let variants: usize = scenes[SCENES_NAMED..].iter().map(|c| c.variants).sum();
+        parts.push(format!("{variants} in {more} more scene{}", if more == 1 { "" } else { "s" }));
+    }
+    parts.join(", ")
 }
 
 /// For each method with both stage-2 modes, how many more planner
@@ -440,11 +449,39 @@ struct PartReport {
     variants: Vec<VariantRecord>,
 }
 
+/// Which of a folder's scenes an evaluation runs.
+pub(super) struct SceneSelection<'a> {
+    /// Only the first N by id.
+    pub max_scenes: Option<usize>,
+    /// Only these scenario ids (none: all).
+    pub ids: &'a [String],
+}
+
+impl SceneSelection<'_> {
+    /// The scenes under `dir` this selection keeps, by id; an id that no
+    /// scene with an ego and a CBV has is an error naming it.
+    fn load(&self, dir: &Path) -> Result<Vec<Arc<Scenario>>, CliError> {
+        let scenes = load_scenes(dir, self.max_scenes)?;
+        if self.ids.is_empty() {
+            return Ok(scenes);
+        }
+        if let Some(missing) = self.ids.iter().find(|id| !scenes.iter().any(|s| &s.id == *id)) {
+            return Err(CliError::Usage(format!(
+                "--scene {missing}: no scene with an ego and a CBV under {} has that id ({} do; the tables \
+                 name them)",
+                dir.display(),
+                scenes.len()
+            )));
+        }
+        Ok(scenes.into_iter().filter(|s| self.ids.contains(&s.id)).collect())
+    }
+}
+
 /// Runs the command.
 pub(super) fn run(
     scenes_dir: &Path,
     request: &EvaluationRequest,
-    max_scenes: Option<usize>,
+    selection: SceneSelection<'_>,
     json: Option<&Path>,
     witness: WitnessSettings,
     partition: Option<Partition>,
@@ -464,7 +501,8 @@ pub(super) fn run(
         inputs.extend(request.planner.argument_files());
         safer::record::check_outputs_apart(&outputs, &inputs)?;
     }
-    let scenes: Vec<Arc<Scenario>> = load_scenes(scenes_dir, max_scenes)?
+    let scenes: Vec<Arc<Scenario>> = selection
+        .load(scenes_dir)?
         .into_iter()
         .filter(|s| match safer::scenario::roles::recorded_ego_contact(s) {
             Some((other, step)) => {
@@ -506,7 +544,7 @@ pub(super) fn run(
     for r in records.iter().filter(|r| r.error.is_some()).take(5) {
         eprintln!("error: {} {:?} seed {}: {}", r.scenario, r.method, r.seed, r.error.as_deref().unwrap_or(""));
     }
-    let settings = EvaluationSettings::of(request, max_scenes, witness);
+    let settings = EvaluationSettings::of(request, &selection, witness);
     report(&settings, partition, scenes.len(), &records, json)
 }
 
@@ -599,4 +637,24 @@ pub(super) fn merge(parts: &[std::path::PathBuf], json: Option<&Path>) -> Result
     let mut records: Vec<VariantRecord> = read.into_iter().flat_map(|(_, p)| p.variants).collect();
     evaluation::sort_records(&mut records);
     report(&settings, None, scenes, &records, json)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use safer::harness::evaluation::SceneCount;
+
+    fn count(scenario: &str, variants: usize) -> SceneCount {
+        SceneCount { scenario: scenario.into(), variants, of: 10 }
+    }
+
+    #[test]
+    fn the_scene_list_names_the_first_three_stars_the_held_out_and_sums_the_rest() {
+        let held_out = ["b".to_string(), "e".to_string()];
+        let scenes = [count("a", 9), count("b", 7), count("c", 3), count("d", 2), count("e", 1)];
+        assert_eq!(named_scenes(&scenes, &held_out), "a 9/10, b* 7/10, c 3/10, 3 in 2 more scenes");
+        assert_eq!(named_scenes(&scenes[..4], &held_out), "a 9/10, b* 7/10, c 3/10, 2 in 1 more scene");
+        assert_eq!(named_scenes(&scenes[..3], &[]), "a 9/10, b 7/10, c 3/10");
+        assert_eq!(named_scenes(&[], &held_out), "");
+    }
 }

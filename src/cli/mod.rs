@@ -72,6 +72,9 @@ pub struct Cli {
     command: Command,
 }
 
+// Parsed once per process: a variant's size costs nothing, and boxing
+// the evaluation's options would only complicate clap's derive.
+#[allow(clippy::large_enum_variant)]
 #[derive(Debug, Subcommand)]
 enum Command {
     /// Summarise a scenario file: format, id, agents by type, steps, map, ego and CBV.
@@ -276,6 +279,9 @@ enum Command {
         /// Evaluate only the first N scenes (by id), at least 1.
         #[arg(long, value_name = "N", value_parser = at_least_one())]
         max_scenes: Option<usize>,
+        /// Evaluate only the scenes with these scenario ids (comma-separated, as the tables name them). Each variant is the one the whole set's evaluation makes: its seed comes from its scene's id, not the scene's place in the list. The held-out split is then drawn among these scenes.
+        #[arg(long, value_name = "ID,...", value_delimiter = ',', conflicts_with = "max_scenes")]
+        scene: Vec<String>,
         /// Also write every variant and the table as JSON (`-`: standard output).
         #[arg(long, value_name = "OUT")]
         json: Option<PathBuf>,
@@ -586,6 +592,7 @@ pub fn main() -> ExitCode {
             stage2_cbv,
             horizon_s,
             max_scenes,
+            scene,
             json,
             jobs,
             witness_road,
@@ -613,8 +620,16 @@ pub fn main() -> ExitCode {
                 artefacts_of: artifacts_of,
             };
             let witness = evaluate::WitnessSettings { road: witness_road, widest: witness_widest };
-            set_jobs(jobs)
-                .and_then(|()| evaluate::run(&scenes, &request, max_scenes, json.as_deref(), witness, partition))
+            set_jobs(jobs).and_then(|()| {
+                evaluate::run(
+                    &scenes,
+                    &request,
+                    evaluate::SceneSelection { max_scenes, ids: &scene },
+                    json.as_deref(),
+                    witness,
+                    partition,
+                )
+            })
         }
         Command::EvaluateMerge { parts, json } => evaluate::merge(&parts, json.as_deref()),
         Command::TrustRegion {

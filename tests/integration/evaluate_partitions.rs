@@ -121,6 +121,42 @@ fn an_evaluation_run_in_three_parts_and_merged_is_the_one_run() {
 }
 
 #[test]
+fn an_evaluation_of_named_scenes_makes_the_variants_the_whole_evaluation_makes_of_them() {
+    let out = tempfile_dir("named-scenes");
+    let scenes = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/ngsim");
+    let common =
+        ["evaluate", "--scenes", scenes.to_str().unwrap(), "--methods", "safer,prior", "--seeds", "2", "--jobs", "2"];
+    let run = |extra: &[&str]| safer(&[&common[..], extra].concat());
+    let whole = out.join("whole.json");
+    ok(run(&["--json", whole.to_str().unwrap()]));
+    let whole = report_without_times(&whole);
+    let ids: std::collections::BTreeSet<&str> =
+        whole["variants"].as_array().unwrap().iter().map(|v| v["scenario"].as_str().unwrap()).collect();
+    assert_eq!(ids.len(), 3, "{ids:?}");
+    // The last scene by id: its place in the list changes, its variants must not.
+    let last = *ids.iter().next_back().unwrap();
+    let named = out.join("named.json");
+    let table = ok(run(&["--scene", last, "--json", named.to_str().unwrap()]));
+    assert!(table.starts_with("1 scenes × 2 seeds"), "{table}");
+    let named = report_without_times(&named);
+    let of_last = |report: &Value| -> Vec<Value> {
+        report["variants"].as_array().unwrap().iter().filter(|v| v["scenario"] == last).cloned().collect()
+    };
+    assert_eq!(of_last(&named).len(), 4);
+    assert_eq!(of_last(&named), of_last(&whole));
+    assert_eq!(named["variants"].as_array().unwrap().len(), 4, "only the named scene runs");
+    assert_eq!(named["settings"]["only_scenes"], serde_json::json!([last]));
+
+    // An id no scene has is an error naming it; the first N and named ids do not mix.
+    let missing = run(&["--scene", &format!("{last},no-such-scene")]);
+    let text = String::from_utf8_lossy(&missing.stderr);
+    assert!(!missing.status.success() && text.contains("--scene no-such-scene: no scene"), "{text}");
+    let both = run(&["--scene", last, "--max-scenes", "1"]);
+    let text = String::from_utf8_lossy(&both.stderr);
+    assert!(!both.status.success() && text.contains("cannot be used with"), "{text}");
+}
+
+#[test]
 fn evaluate_writes_a_failing_variants_artefacts_and_whom_it_hit() {
     let out = tempfile_dir("artefacts");
     let scenes = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/ngsim");
