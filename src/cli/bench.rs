@@ -266,6 +266,9 @@ pub(super) fn run(scenes: &Path, repeat: usize, json: Option<&Path>) -> Result<E
         )?;
         simulator_rows.push(row);
     }
+    if simulator_rows.is_empty() {
+        writeln!(out, "(no WOMD protobuf scene with an ego among the scenes: the simulator is not timed)")?;
+    }
 
     let variant = bench_variant(&womd, repeat)?;
     match &variant {
