@@ -368,8 +368,8 @@ fn print_scenes_that_broke_the_rules(
     }
     writeln!(
         out,
-        "where the CBV left the road / was at fault: the scenes with the most such variants, of each scene's (* held out; \
-         `--scene ID --artifacts DIR --artifacts-of all` draws them)"
+        "where the CBV left the road / was at fault: the scenes with the most such variants (k/n: k of the scene's n; \
+         * held out; `--scene ID --artifacts DIR --artifacts-of all` draws them)"
     )?;
     for r in broke {
         for (i, (what, scenes)) in [("off road", &r.off_road_scenes), ("at fault", &r.at_fault_scenes)]
