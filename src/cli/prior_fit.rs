@@ -57,6 +57,8 @@ struct FitRow {
     turning_samples: usize,
     turning_nll: Option<f64>,
     turning_in_top_n: Option<f64>,
+    /// How many yaw-rate bins the top n miss the recorded turns by, mean.
+    turning_yaw_rate_miss_bins: Option<f64>,
 }
 
 impl FitRow {
@@ -73,6 +75,7 @@ impl FitRow {
             turning_samples: fit.turning_samples,
             turning_nll: fit.turning_nll(),
             turning_in_top_n: fit.turning_in_top_n_share(),
+            turning_yaw_rate_miss_bins: fit.turning_yaw_rate_miss_bins(),
         }
     }
 }
@@ -200,6 +203,16 @@ pub(super) fn run(args: &PriorFitArgs) -> Result<ExitCode, CliError> {
                 figure(r.turning_in_top_n, 3)
             )?;
         }
+        let misses: Vec<String> = rows
+            .iter()
+            .filter(|r| r.history == HistoryAlignment::AtBoundary)
+            .map(|r| format!("{} {}", figure(r.turning_yaw_rate_miss_bins, 2), r.scenes.replace('-', " ")))
+            .collect();
+        writeln!(
+            out,
+            "yaw-rate bins from a recorded turn to the nearest of the top n (0: one steers as it did), mean: {}",
+            misses.join(", ")
+        )?;
         writeln!(
             out,
             "history at boundary: ending at the token boundary, as in closed loop; one step late: ending 0.1 s \

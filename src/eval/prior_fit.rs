@@ -72,6 +72,10 @@ pub struct PriorFit {
     pub turning_nll_sum: f64,
     /// Those whose recorded token is among the prior's top n.
     pub turning_in_top_n: usize,
+    /// Sum over the turning samples of how far the top n's yaw rates fall
+    /// short of the recorded one, in yaw-rate bins (see
+    /// [`yaw_rate_miss_bins`]).
+    pub turning_yaw_rate_miss_bins_sum: f64,
 }
 
 impl std::ops::Add for PriorFit {
@@ -89,6 +93,7 @@ impl std::ops::Add for PriorFit {
             turning_samples: self.turning_samples + other.turning_samples,
             turning_nll_sum: self.turning_nll_sum + other.turning_nll_sum,
             turning_in_top_n: self.turning_in_top_n + other.turning_in_top_n,
+            turning_yaw_rate_miss_bins_sum: self.turning_yaw_rate_miss_bins_sum + other.turning_yaw_rate_miss_bins_sum,
         }
     }
 }
@@ -133,6 +138,21 @@ impl PriorFit {
     pub fn turning_in_top_n_share(&self) -> Option<f64> {
         per_sample(self.turning_in_top_n as f64, self.turning_samples)
     }
+
+    /// Mean over the recorded turning tokens of [`yaw_rate_miss_bins`]:
+    /// whether the top n miss a recorded turn by a bin or two (the grid's
+    /// resolution) or by many (the prior does not predict the turn).
+    pub fn turning_yaw_rate_miss_bins(&self) -> Option<f64> {
+        per_sample(self.turning_yaw_rate_miss_bins_sum, self.turning_samples)
+    }
+}
+
+/// How many yaw-rate bins separate `recorded` from the nearest yaw-rate bin
+/// among `top`: 0 when a token of `top` steers as it does, whatever its
+/// acceleration.
+pub fn yaw_rate_miss_bins(top: &[Token], recorded: Token) -> usize {
+    let bin = recorded.yaw_rate_bin();
+    top.iter().map(|t| t.yaw_rate_bin().abs_diff(bin)).min().unwrap_or(0)
 }
 
 /// `sum` over `samples` samples, per sample (`None` without samples).
@@ -215,6 +235,11 @@ pub fn prior_fit(
                     turning_samples: usize::from(turning),
                     turning_nll_sum: if turning { nll } else { 0.0 },
                     turning_in_top_n: if turning { in_top_n } else { 0 },
+                    turning_yaw_rate_miss_bins_sum: if turning {
+                        yaw_rate_miss_bins(&top, *recorded) as f64
+                    } else {
+                        0.0
+                    },
                 }
             }))
         })
@@ -250,6 +275,7 @@ mod tests {
             turning_samples: 1,
             turning_nll_sum: 2.5,
             turning_in_top_n: 0,
+            turning_yaw_rate_miss_bins_sum: 6.0,
         };
         let both = a + PriorFit {
             samples: 2,
@@ -270,6 +296,20 @@ mod tests {
         assert_eq!(both.turning_nll(), Some(2.0));
         assert_eq!(both.turning_in_top_n_share(), Some(0.5));
         assert_eq!(PriorFit::default().turning_nll(), None);
+        assert_eq!(both.turning_yaw_rate_miss_bins(), Some(3.0));
+        assert_eq!(PriorFit::default().turning_yaw_rate_miss_bins(), None);
+    }
+
+    #[test]
+    fn a_turn_is_missed_by_the_yaw_rate_bins_to_the_nearest_token_whatever_its_acceleration() {
+        let t = |accel, yaw| Token::from_bins(accel, yaw).unwrap();
+        let top = [t(30, 31), t(20, 33), t(40, 29)];
+        // A token of the top n steering as the recorded one does, at another acceleration: no miss.
+        assert_eq!(yaw_rate_miss_bins(&top, t(10, 33)), 0);
+        // Seven bins right of the nearest (29), four left of it (33).
+        assert_eq!(yaw_rate_miss_bins(&top, t(31, 22)), 7);
+        assert_eq!(yaw_rate_miss_bins(&top, t(31, 37)), 4);
+        assert_eq!(yaw_rate_miss_bins(&[], t(31, 37)), 0);
     }
 
     #[test]
