@@ -724,7 +724,7 @@ fn table_of(
                 cbv_at_fault_vulnerable_rate: metrics.cbv_at_fault_vulnerable_rate,
                 cbv_off_road_rate: metrics.cbv_off_road_rate,
                 cbv_off_road_s: metrics.cbv_off_road_s,
-                off_road_scenes: scenes_where(&ok, |r| r.tally.cbv_off_road_s > 0.0),
+                off_road_scenes: scenes_where(&ok, |r| r.tally.cbv_left_road()),
                 at_fault_scenes: scenes_where(&ok, |r| r.tally.cbv_at_fault_with_background),
                 stage1_closest: ClosestApproach::of(&ok),
                 distinct_rate: distinct_rate(&ok),

@@ -123,6 +123,12 @@ impl VariantTally {
     pub fn avoidable_conflict(&self) -> bool {
         (self.reached || self.collided) && self.escape != Some(false)
     }
+
+    /// Whether the CBV left the road in stage 1 (what the off-road rate
+    /// counts).
+    pub fn cbv_left_road(&self) -> bool {
+        self.cbv_off_road_s > 0.0
+    }
 }
 
 impl VariantTally {
@@ -398,7 +404,7 @@ impl SuiteMetrics {
             hit_background += usize::from(t.cbv_hit_background);
             at_fault += usize::from(t.cbv_at_fault_with_background);
             at_fault_vulnerable += usize::from(t.cbv_at_fault_with_vulnerable);
-            off_road += usize::from(t.cbv_off_road_s > 0.0);
+            off_road += usize::from(t.cbv_left_road());
             off_road_s += t.cbv_off_road_s;
             reached += usize::from(t.reached);
             reached_critical += usize::from(t.reached && t.critical);
