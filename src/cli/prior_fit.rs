@@ -14,7 +14,7 @@ use std::process::ExitCode;
 use rayon::prelude::*;
 
 use super::{CliError, figure, scene_paths};
-use safer::eval::prior_fit::{HistoryAlignment, PriorFit, TURNING_YAW_RATE_RADPS, prior_fit};
+use safer::eval::prior_fit::{HistoryAlignment, PriorFit, TURNING_YAW_RATE_RADPS, YAW_RATE_MISS_BUCKETS, prior_fit};
 use safer::harness::evaluation::held_out_scenes;
 use safer::models::ModelSource;
 use safer::models::prior::{PriorVariant, RealismPrior};
@@ -59,6 +59,9 @@ struct FitRow {
     turning_in_top_n: Option<f64>,
     /// How many yaw-rate bins the top n miss the recorded turns by, mean.
     turning_yaw_rate_miss_bins: Option<f64>,
+    /// Shares of the recorded turns by how many bins the top n miss them by
+    /// (0, 1-2, 3-5, 6+).
+    turning_yaw_rate_miss_shares: Option<[f64; YAW_RATE_MISS_BUCKETS.len()]>,
 }
 
 impl FitRow {
@@ -76,6 +79,7 @@ impl FitRow {
             turning_nll: fit.turning_nll(),
             turning_in_top_n: fit.turning_in_top_n_share(),
             turning_yaw_rate_miss_bins: fit.turning_yaw_rate_miss_bins(),
+            turning_yaw_rate_miss_shares: fit.turning_yaw_rate_miss_shares(),
         }
     }
 }
@@ -213,6 +217,16 @@ pub(super) fn run(args: &PriorFitArgs) -> Result<ExitCode, CliError> {
             "yaw-rate bins from a recorded turn to the nearest of the top n (0: one steers as it did), mean: {}",
             misses.join(", ")
         )?;
+        writeln!(out, "recorded turns by the yaw-rate bins from them to the nearest of the top n (shares):")?;
+        let header: String =
+            YAW_RATE_MISS_BUCKETS.iter().map(|(label, _)| format!(" {:>9}", format!("{label} bins"))).collect();
+        writeln!(out, "{:<9}{header}", "scenes")?;
+        for r in rows.iter().filter(|r| r.history == HistoryAlignment::AtBoundary) {
+            let shares: String = (0..YAW_RATE_MISS_BUCKETS.len())
+                .map(|i| format!(" {:>9}", figure(r.turning_yaw_rate_miss_shares.map(|shares| shares[i]), 3)))
+                .collect();
+            writeln!(out, "{:<9}{shares}", r.scenes.replace('-', " "))?;
+        }
         writeln!(
             out,
             "history at boundary: ending at the token boundary, as in closed loop; one step late: ending 0.1 s \

@@ -76,6 +76,20 @@ pub struct PriorFit {
     /// short of the recorded one, in yaw-rate bins (see
     /// [`yaw_rate_miss_bins`]).
     pub turning_yaw_rate_miss_bins_sum: f64,
+    /// The turning samples counted by how far the top n miss them, in the
+    /// buckets of [`YAW_RATE_MISS_BUCKETS`].
+    pub turning_yaw_rate_misses: [usize; YAW_RATE_MISS_BUCKETS.len()],
+}
+
+/// Buckets of [`yaw_rate_miss_bins`], as (label, fewest bins): none (a
+/// token of the top n steers as the recorded one), one or two (the grid's
+/// resolution: a turn slightly too gentle or too sharp), three to five,
+/// and six or more (0.29 rad/s: the turn is not on offer at all).
+pub const YAW_RATE_MISS_BUCKETS: [(&str, usize); 4] = [("0", 0), ("1-2", 1), ("3-5", 3), ("6+", 6)];
+
+/// The bucket of [`YAW_RATE_MISS_BUCKETS`] that a miss of `bins` falls in.
+pub fn yaw_rate_miss_bucket(bins: usize) -> usize {
+    YAW_RATE_MISS_BUCKETS.iter().rposition(|&(_, fewest)| bins >= fewest).unwrap_or(0)
 }
 
 impl std::ops::Add for PriorFit {
@@ -94,6 +108,9 @@ impl std::ops::Add for PriorFit {
             turning_nll_sum: self.turning_nll_sum + other.turning_nll_sum,
             turning_in_top_n: self.turning_in_top_n + other.turning_in_top_n,
             turning_yaw_rate_miss_bins_sum: self.turning_yaw_rate_miss_bins_sum + other.turning_yaw_rate_miss_bins_sum,
+            turning_yaw_rate_misses: std::array::from_fn(|i| {
+                self.turning_yaw_rate_misses[i] + other.turning_yaw_rate_misses[i]
+            }),
         }
     }
 }
@@ -144,6 +161,14 @@ impl PriorFit {
     /// resolution) or by many (the prior does not predict the turn).
     pub fn turning_yaw_rate_miss_bins(&self) -> Option<f64> {
         per_sample(self.turning_yaw_rate_miss_bins_sum, self.turning_samples)
+    }
+
+    /// Shares of the recorded turning tokens in each bucket of
+    /// [`YAW_RATE_MISS_BUCKETS`]: many small misses (a prior that turns too
+    /// gently) or few large ones (turns it does not predict) give the same
+    /// mean.
+    pub fn turning_yaw_rate_miss_shares(&self) -> Option<[f64; YAW_RATE_MISS_BUCKETS.len()]> {
+        (self.turning_samples > 0).then(|| self.turning_yaw_rate_misses.map(|n| n as f64 / self.turning_samples as f64))
     }
 }
 
@@ -225,6 +250,11 @@ pub fn prior_fit(
                 let nll = token_nll(logits, *recorded);
                 let in_top_n = usize::from(top.contains(recorded));
                 let turning = is_turning(*recorded);
+                let miss_bins = yaw_rate_miss_bins(&top, *recorded);
+                let mut turning_yaw_rate_misses = [0; YAW_RATE_MISS_BUCKETS.len()];
+                if turning {
+                    turning_yaw_rate_misses[yaw_rate_miss_bucket(miss_bins)] = 1;
+                }
                 fit + PriorFit {
                     samples: 1,
                     nll_sum: nll,
@@ -235,11 +265,8 @@ pub fn prior_fit(
                     turning_samples: usize::from(turning),
                     turning_nll_sum: if turning { nll } else { 0.0 },
                     turning_in_top_n: if turning { in_top_n } else { 0 },
-                    turning_yaw_rate_miss_bins_sum: if turning {
-                        yaw_rate_miss_bins(&top, *recorded) as f64
-                    } else {
-                        0.0
-                    },
+                    turning_yaw_rate_miss_bins_sum: if turning { miss_bins as f64 } else { 0.0 },
+                    turning_yaw_rate_misses,
                 }
             }))
         })
@@ -276,6 +303,7 @@ mod tests {
             turning_nll_sum: 2.5,
             turning_in_top_n: 0,
             turning_yaw_rate_miss_bins_sum: 6.0,
+            turning_yaw_rate_misses: [0, 0, 0, 1],
         };
         let both = a + PriorFit {
             samples: 2,
@@ -285,6 +313,7 @@ mod tests {
             turning_samples: 1,
             turning_nll_sum: 1.5,
             turning_in_top_n: 1,
+            turning_yaw_rate_misses: [1, 0, 0, 0],
             ..PriorFit::default()
         };
         assert_eq!(both.samples, 4);
@@ -298,6 +327,15 @@ mod tests {
         assert_eq!(PriorFit::default().turning_nll(), None);
         assert_eq!(both.turning_yaw_rate_miss_bins(), Some(3.0));
         assert_eq!(PriorFit::default().turning_yaw_rate_miss_bins(), None);
+        assert_eq!(both.turning_yaw_rate_miss_shares(), Some([0.5, 0.0, 0.0, 0.5]));
+        assert_eq!(PriorFit::default().turning_yaw_rate_miss_shares(), None);
+    }
+
+    #[test]
+    fn a_miss_falls_in_the_bucket_of_the_most_bins_it_reaches() {
+        let buckets: Vec<usize> = (0..9).map(yaw_rate_miss_bucket).collect();
+        assert_eq!(buckets, [0, 1, 1, 2, 2, 2, 3, 3, 3]);
+        assert_eq!(yaw_rate_miss_bucket(62), YAW_RATE_MISS_BUCKETS.len() - 1);
     }
 
     #[test]

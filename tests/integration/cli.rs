@@ -258,6 +258,13 @@ fn prior_fit_scores_both_history_alignments_names_unreadable_files_and_refuses_a
     let turning = json_rows[0]["turning_samples"].as_u64().unwrap();
     assert!(turning <= json_rows[0]["samples"].as_u64().unwrap(), "{}", json_rows[0]);
     assert!(text.contains("recorded token turning"), "{text}");
+    // Every recorded turn falls in one bucket of how far the top n miss it.
+    if turning > 0 {
+        let shares = json_rows[0]["turning_yaw_rate_miss_shares"].as_array().unwrap();
+        let total: f64 = shares.iter().map(|s| s.as_f64().unwrap()).sum();
+        assert!(shares.len() == 4 && (total - 1.0).abs() < 1e-9, "{}", json_rows[0]);
+    }
+    assert!(text.contains("6+ bins"), "{text}");
     // A file that does not load is named, the others are scored, and the
     // run fails.
     let dir = crate::scratch::Scratch::new("prior-fit");
