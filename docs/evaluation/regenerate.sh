@@ -24,7 +24,7 @@
 #   approach-none     approach-none/*.txt: the paper's protocol, one variant a
 #                     scene (the adversary engages at the first token)
 #
-# About an hour for all on 2 cores (measured while a training run shared
+# About 25 minutes for all on a quiet 2-core machine, an hour while a training run shared
 # them; each table ends with its own wall time). The recorded sets are
 # read through `data:` ($SAFER_DATA_DIR or ../shared/data); the s/variant
 # and wall-time figures are those of the machine it runs on.
