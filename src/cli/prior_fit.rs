@@ -14,7 +14,9 @@ use std::process::ExitCode;
 use rayon::prelude::*;
 
 use super::{CliError, figure, scene_paths};
-use safer::eval::prior_fit::{HistoryAlignment, PriorFit, TURNING_YAW_RATE_RADPS, YAW_RATE_MISS_BUCKETS, prior_fit};
+use safer::eval::prior_fit::{
+    HistoryAlignment, PriorFit, TURNING_YAW_RATE_RADPS, TokenKindFit, YAW_RATE_MISS_BUCKETS, prior_fit,
+};
 use safer::harness::evaluation::held_out_scenes;
 use safer::models::ModelSource;
 use safer::models::prior::{PriorVariant, RealismPrior};
@@ -53,15 +55,34 @@ struct FitRow {
     in_top_n: Option<f64>,
     accel_range_mps2: Option<f64>,
     yaw_rate_range_radps: Option<f64>,
-    /// Samples whose recorded token turns, their NLL and their share in the top n.
-    turning_samples: usize,
-    turning_nll: Option<f64>,
-    turning_in_top_n: Option<f64>,
-    /// How many yaw-rate bins the top n miss the recorded turns by, mean.
-    turning_yaw_rate_miss_bins: Option<f64>,
-    /// Shares of the recorded turns by how many bins the top n miss them by
-    /// (0, 1-2, 3-5, 6+).
-    turning_yaw_rate_miss_shares: Option<[f64; YAW_RATE_MISS_BUCKETS.len()]>,
+    /// The recorded turning tokens (yaw rate at least 0.3 rad/s).
+    turning: KindRow,
+    /// The recorded turn onsets (a turning token after one that does not turn).
+    turn_onset: KindRow,
+}
+
+/// One kind of recorded token in a row: samples, NLL, share in the top n
+/// and how many yaw-rate bins the top n miss them by (mean, and shares of
+/// 0, 1-2, 3-5, 6+ bins).
+#[derive(Debug, serde::Serialize)]
+struct KindRow {
+    samples: usize,
+    nll: Option<f64>,
+    in_top_n: Option<f64>,
+    yaw_rate_miss_bins: Option<f64>,
+    yaw_rate_miss_shares: Option<[f64; YAW_RATE_MISS_BUCKETS.len()]>,
+}
+
+impl KindRow {
+    fn new(fit: &TokenKindFit) -> Self {
+        Self {
+            samples: fit.samples,
+            nll: fit.nll(),
+            in_top_n: fit.in_top_n_share(),
+            yaw_rate_miss_bins: fit.yaw_rate_miss_bins(),
+            yaw_rate_miss_shares: fit.yaw_rate_miss_shares(),
+        }
+    }
 }
 
 impl FitRow {
@@ -75,11 +96,8 @@ impl FitRow {
             in_top_n: fit.in_top_n_share(),
             accel_range_mps2: fit.accel_range_mps2(),
             yaw_rate_range_radps: fit.yaw_rate_range_radps(),
-            turning_samples: fit.turning_samples,
-            turning_nll: fit.turning_nll(),
-            turning_in_top_n: fit.turning_in_top_n_share(),
-            turning_yaw_rate_miss_bins: fit.turning_yaw_rate_miss_bins(),
-            turning_yaw_rate_miss_shares: fit.turning_yaw_rate_miss_shares(),
+            turning: KindRow::new(&fit.turning),
+            turn_onset: KindRow::new(&fit.turn_onset),
         }
     }
 }
@@ -194,38 +212,36 @@ pub(super) fn run(args: &PriorFitArgs) -> Result<ExitCode, CliError> {
         }
         writeln!(
             out,
-            "recorded token turning (yaw rate ≥ {TURNING_YAW_RATE_RADPS} rad/s either way), history at the boundary:"
+            "recorded tokens that turn (yaw rate ≥ {TURNING_YAW_RATE_RADPS} rad/s either way) and that begin a turn \
+             (the token before does not turn), history at the boundary; miss: yaw-rate bins from the recorded token \
+             to the nearest of the top n (0: one steers as it did)"
         )?;
-        writeln!(out, "{:<9} {:>8} {:>7} {:>9}", "scenes", "samples", "NLL", "in top n")?;
-        for r in rows.iter().filter(|r| r.history == HistoryAlignment::AtBoundary) {
-            writeln!(
-                out,
-                "{:<9} {:>8} {:>7} {:>9}",
-                r.scenes.replace('-', " "),
-                r.turning_samples,
-                figure(r.turning_nll, 3),
-                figure(r.turning_in_top_n, 3)
-            )?;
-        }
-        let misses: Vec<String> = rows
-            .iter()
-            .filter(|r| r.history == HistoryAlignment::AtBoundary)
-            .map(|r| format!("{} {}", figure(r.turning_yaw_rate_miss_bins, 2), r.scenes.replace('-', " ")))
-            .collect();
+        let buckets: String =
+            YAW_RATE_MISS_BUCKETS.iter().map(|(label, _)| format!(" {:>9}", format!("{label} bins"))).collect();
         writeln!(
             out,
-            "yaw-rate bins from a recorded turn to the nearest of the top n (0: one steers as it did), mean: {}",
-            misses.join(", ")
+            "{:<16} {:<9} {:>8} {:>7} {:>9} {:>10}{buckets}",
+            "kind", "scenes", "samples", "NLL", "in top n", "miss mean"
         )?;
-        writeln!(out, "recorded turns by the yaw-rate bins from them to the nearest of the top n (shares):")?;
-        let header: String =
-            YAW_RATE_MISS_BUCKETS.iter().map(|(label, _)| format!(" {:>9}", format!("{label} bins"))).collect();
-        writeln!(out, "{:<9}{header}", "scenes")?;
-        for r in rows.iter().filter(|r| r.history == HistoryAlignment::AtBoundary) {
-            let shares: String = (0..YAW_RATE_MISS_BUCKETS.len())
-                .map(|i| format!(" {:>9}", figure(r.turning_yaw_rate_miss_shares.map(|shares| shares[i]), 3)))
-                .collect();
-            writeln!(out, "{:<9}{shares}", r.scenes.replace('-', " "))?;
+        let at_boundary = || rows.iter().filter(|r| r.history == HistoryAlignment::AtBoundary);
+        for (kind, of) in
+            [("turning", (|r: &FitRow| &r.turning) as fn(&FitRow) -> &KindRow), ("turn onset", |r| &r.turn_onset)]
+        {
+            for r in at_boundary() {
+                let k = of(r);
+                let shares: String = (0..YAW_RATE_MISS_BUCKETS.len())
+                    .map(|i| format!(" {:>9}", figure(k.yaw_rate_miss_shares.map(|shares| shares[i]), 3)))
+                    .collect();
+                writeln!(
+                    out,
+                    "{kind:<16} {:<9} {:>8} {:>7} {:>9} {:>10}{shares}",
+                    r.scenes.replace('-', " "),
+                    k.samples,
+                    figure(k.nll, 3),
+                    figure(k.in_top_n, 3),
+                    figure(k.yaw_rate_miss_bins, 2)
+                )?;
+            }
         }
         writeln!(
             out,

@@ -19,7 +19,7 @@ use crate::models::prior::RealismPrior;
 use crate::models::prior_dataset::TokenizedScene;
 use crate::models::prior_features::{MapTokens, QueryFeatures, StateHistory, build_query};
 use crate::motion::Token;
-use crate::motion::tokens::TokenGrid;
+use crate::motion::tokens::{TOKEN_PERIOD_STEPS, TokenGrid};
 use crate::policies::prior_sampling::top_tokens;
 use crate::scenario::{AgentKind, AgentState, Scenario};
 
@@ -66,30 +66,10 @@ pub struct PriorFit {
     pub accel_range_sum_mps2: f64,
     /// Sum of the top n's yaw-rate ranges, rad/s.
     pub yaw_rate_range_sum_radps: f64,
-    /// Samples whose recorded token turns (see [`TURNING_YAW_RATE_RADPS`]).
-    pub turning_samples: usize,
-    /// Sum of their negative log-likelihoods, nats.
-    pub turning_nll_sum: f64,
-    /// Those whose recorded token is among the prior's top n.
-    pub turning_in_top_n: usize,
-    /// Sum over the turning samples of how far the top n's yaw rates fall
-    /// short of the recorded one, in yaw-rate bins (see
-    /// [`yaw_rate_miss_bins`]).
-    pub turning_yaw_rate_miss_bins_sum: f64,
-    /// The turning samples counted by how far the top n miss them, in the
-    /// buckets of [`YAW_RATE_MISS_BUCKETS`].
-    pub turning_yaw_rate_misses: [usize; YAW_RATE_MISS_BUCKETS.len()],
-}
-
-/// Buckets of [`yaw_rate_miss_bins`], as (label, fewest bins): none (a
-/// token of the top n steers as the recorded one), one or two (the grid's
-/// resolution: a turn slightly too gentle or too sharp), three to five,
-/// and six or more (0.29 rad/s: the turn is not on offer at all).
-pub const YAW_RATE_MISS_BUCKETS: [(&str, usize); 4] = [("0", 0), ("1-2", 1), ("3-5", 3), ("6+", 6)];
-
-/// The bucket of [`YAW_RATE_MISS_BUCKETS`] that a miss of `bins` falls in.
-pub fn yaw_rate_miss_bucket(bins: usize) -> usize {
-    YAW_RATE_MISS_BUCKETS.iter().rposition(|&(_, fewest)| bins >= fewest).unwrap_or(0)
+    /// The samples whose recorded token turns (see [`TURNING_YAW_RATE_RADPS`]).
+    pub turning: TokenKindFit,
+    /// The samples whose recorded token begins a turn (see [`begins_turn`]).
+    pub turn_onset: TokenKindFit,
 }
 
 impl std::ops::Add for PriorFit {
@@ -104,13 +84,8 @@ impl std::ops::Add for PriorFit {
             in_top_n: self.in_top_n + other.in_top_n,
             accel_range_sum_mps2: self.accel_range_sum_mps2 + other.accel_range_sum_mps2,
             yaw_rate_range_sum_radps: self.yaw_rate_range_sum_radps + other.yaw_rate_range_sum_radps,
-            turning_samples: self.turning_samples + other.turning_samples,
-            turning_nll_sum: self.turning_nll_sum + other.turning_nll_sum,
-            turning_in_top_n: self.turning_in_top_n + other.turning_in_top_n,
-            turning_yaw_rate_miss_bins_sum: self.turning_yaw_rate_miss_bins_sum + other.turning_yaw_rate_miss_bins_sum,
-            turning_yaw_rate_misses: std::array::from_fn(|i| {
-                self.turning_yaw_rate_misses[i] + other.turning_yaw_rate_misses[i]
-            }),
+            turning: self.turning + other.turning,
+            turn_onset: self.turn_onset + other.turn_onset,
         }
     }
 }
@@ -145,31 +120,91 @@ impl PriorFit {
     pub fn yaw_rate_range_radps(&self) -> Option<f64> {
         self.mean(self.yaw_rate_range_sum_radps)
     }
+}
 
-    /// Mean negative log-likelihood of the recorded turning tokens, nats.
-    pub fn turning_nll(&self) -> Option<f64> {
-        per_sample(self.turning_nll_sum, self.turning_samples)
+/// Sums over the samples of one kind of recorded token (the turning ones,
+/// the turn onsets): how likely the prior finds them and how far its
+/// top n miss them laterally.
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
+pub struct TokenKindFit {
+    /// Samples of this kind.
+    pub samples: usize,
+    /// Sum of their negative log-likelihoods, nats.
+    pub nll_sum: f64,
+    /// Those whose recorded token is among the prior's top n.
+    pub in_top_n: usize,
+    /// Sum of how far the top n's yaw rates fall short of the recorded
+    /// one, in yaw-rate bins (see [`yaw_rate_miss_bins`]).
+    pub yaw_rate_miss_bins_sum: f64,
+    /// The samples counted by how far the top n miss them, in the buckets
+    /// of [`YAW_RATE_MISS_BUCKETS`].
+    pub yaw_rate_misses: [usize; YAW_RATE_MISS_BUCKETS.len()],
+}
+
+impl std::ops::Add for TokenKindFit {
+    type Output = TokenKindFit;
+
+    /// Both sums together.
+    fn add(self, other: TokenKindFit) -> TokenKindFit {
+        TokenKindFit {
+            samples: self.samples + other.samples,
+            nll_sum: self.nll_sum + other.nll_sum,
+            in_top_n: self.in_top_n + other.in_top_n,
+            yaw_rate_miss_bins_sum: self.yaw_rate_miss_bins_sum + other.yaw_rate_miss_bins_sum,
+            yaw_rate_misses: std::array::from_fn(|i| self.yaw_rate_misses[i] + other.yaw_rate_misses[i]),
+        }
+    }
+}
+
+impl TokenKindFit {
+    /// One sample: its negative log-likelihood, whether its token is in the
+    /// top n, and by how many yaw-rate bins the top n miss it.
+    pub fn one(nll: f64, in_top_n: bool, yaw_rate_miss_bins: usize) -> Self {
+        let mut yaw_rate_misses = [0; YAW_RATE_MISS_BUCKETS.len()];
+        yaw_rate_misses[yaw_rate_miss_bucket(yaw_rate_miss_bins)] = 1;
+        Self {
+            samples: 1,
+            nll_sum: nll,
+            in_top_n: usize::from(in_top_n),
+            yaw_rate_miss_bins_sum: yaw_rate_miss_bins as f64,
+            yaw_rate_misses,
+        }
     }
 
-    /// Share of the recorded turning tokens among the top n.
-    pub fn turning_in_top_n_share(&self) -> Option<f64> {
-        per_sample(self.turning_in_top_n as f64, self.turning_samples)
+    /// Mean negative log-likelihood, nats.
+    pub fn nll(&self) -> Option<f64> {
+        per_sample(self.nll_sum, self.samples)
     }
 
-    /// Mean over the recorded turning tokens of [`yaw_rate_miss_bins`]:
-    /// whether the top n miss a recorded turn by a bin or two (the grid's
-    /// resolution) or by many (the prior does not predict the turn).
-    pub fn turning_yaw_rate_miss_bins(&self) -> Option<f64> {
-        per_sample(self.turning_yaw_rate_miss_bins_sum, self.turning_samples)
+    /// Share among the top n.
+    pub fn in_top_n_share(&self) -> Option<f64> {
+        per_sample(self.in_top_n as f64, self.samples)
     }
 
-    /// Shares of the recorded turning tokens in each bucket of
-    /// [`YAW_RATE_MISS_BUCKETS`]: many small misses (a prior that turns too
-    /// gently) or few large ones (turns it does not predict) give the same
-    /// mean.
-    pub fn turning_yaw_rate_miss_shares(&self) -> Option<[f64; YAW_RATE_MISS_BUCKETS.len()]> {
-        (self.turning_samples > 0).then(|| self.turning_yaw_rate_misses.map(|n| n as f64 / self.turning_samples as f64))
+    /// Mean of [`yaw_rate_miss_bins`]: whether the top n miss these tokens
+    /// by a bin or two (the grid's resolution) or by many (the prior does
+    /// not predict them).
+    pub fn yaw_rate_miss_bins(&self) -> Option<f64> {
+        per_sample(self.yaw_rate_miss_bins_sum, self.samples)
     }
+
+    /// Shares in each bucket of [`YAW_RATE_MISS_BUCKETS`]: many small
+    /// misses (a prior that turns too gently) or few large ones (turns it
+    /// does not predict) give the same mean.
+    pub fn yaw_rate_miss_shares(&self) -> Option<[f64; YAW_RATE_MISS_BUCKETS.len()]> {
+        (self.samples > 0).then(|| self.yaw_rate_misses.map(|n| n as f64 / self.samples as f64))
+    }
+}
+
+/// Buckets of [`yaw_rate_miss_bins`], as (label, fewest bins): none (a
+/// token of the top n steers as the recorded one), one or two (the grid's
+/// resolution: a turn slightly too gentle or too sharp), three to five,
+/// and six or more (0.29 rad/s: the turn is not on offer at all).
+pub const YAW_RATE_MISS_BUCKETS: [(&str, usize); 4] = [("0", 0), ("1-2", 1), ("3-5", 3), ("6+", 6)];
+
+/// The bucket of [`YAW_RATE_MISS_BUCKETS`] that a miss of `bins` falls in.
+pub fn yaw_rate_miss_bucket(bins: usize) -> usize {
+    YAW_RATE_MISS_BUCKETS.iter().rposition(|&(_, fewest)| bins >= fewest).unwrap_or(0)
 }
 
 /// How many yaw-rate bins separate `recorded` from the nearest yaw-rate bin
@@ -189,6 +224,14 @@ fn per_sample(sum: f64, samples: usize) -> Option<f64> {
 /// [`TURNING_YAW_RATE_RADPS`] either way.
 pub fn is_turning(token: Token) -> bool {
     TokenGrid::yaw_rate_centre(token.yaw_rate_bin()).abs() >= TURNING_YAW_RATE_RADPS
+}
+
+/// Whether `token` begins a turn: it turns (see [`is_turning`]) and
+/// `before`, the token applied in the period before it, does not. The
+/// history the prior reads then shows no turn yet: what it predicts there
+/// is whether a turn starts, not how one goes on.
+pub fn begins_turn(before: Token, token: Token) -> bool {
+    is_turning(token) && !is_turning(before)
 }
 
 /// The negative log-likelihood (nats) of `token` under the softmax of
@@ -235,38 +278,37 @@ pub fn prior_fit(
                 HistoryAlignment::AtBoundary => &scene,
                 HistoryAlignment::OneStepLate => &late,
             };
-            let samples: Vec<(QueryFeatures, Token)> = boundaries
+            let samples: Vec<(QueryFeatures, Token, Option<Token>)> = boundaries
                 .iter()
                 .filter_map(|&(step, agent)| {
                     let query = build_query(history, &scene.bodies, &map, &scenario.map, agent, step)?;
-                    Some((query, scene.labels[&(agent, step)]))
+                    let before = step.checked_sub(TOKEN_PERIOD_STEPS).and_then(|s| scene.labels.get(&(agent, s)));
+                    Some((query, scene.labels[&(agent, step)], before.copied()))
                 })
                 .collect();
-            let queries: Vec<&QueryFeatures> = samples.iter().map(|(q, _)| q).collect();
+            let queries: Vec<&QueryFeatures> = samples.iter().map(|(q, _, _)| q).collect();
             let logits = prior.logits(&queries, &embedding)?;
-            Ok(samples.iter().zip(&logits).fold(PriorFit::default(), |fit, ((_, recorded), logits)| {
+            Ok(samples.iter().zip(&logits).fold(PriorFit::default(), |fit, ((_, recorded, before), logits)| {
                 let top = top_tokens(logits, top_n);
                 let (accel_range_mps2, yaw_rate_range_radps) = TokenGrid::ranges(&top);
                 let nll = token_nll(logits, *recorded);
-                let in_top_n = usize::from(top.contains(recorded));
-                let turning = is_turning(*recorded);
-                let miss_bins = yaw_rate_miss_bins(&top, *recorded);
-                let mut turning_yaw_rate_misses = [0; YAW_RATE_MISS_BUCKETS.len()];
-                if turning {
-                    turning_yaw_rate_misses[yaw_rate_miss_bucket(miss_bins)] = 1;
-                }
+                let in_top_n = top.contains(recorded);
+                let kind_fit = |is_kind: bool| {
+                    if is_kind {
+                        TokenKindFit::one(nll, in_top_n, yaw_rate_miss_bins(&top, *recorded))
+                    } else {
+                        TokenKindFit::default()
+                    }
+                };
                 fit + PriorFit {
                     samples: 1,
                     nll_sum: nll,
                     top1: usize::from(top.first() == Some(recorded)),
-                    in_top_n,
+                    in_top_n: usize::from(in_top_n),
                     accel_range_sum_mps2: accel_range_mps2,
                     yaw_rate_range_sum_radps: yaw_rate_range_radps,
-                    turning_samples: usize::from(turning),
-                    turning_nll_sum: if turning { nll } else { 0.0 },
-                    turning_in_top_n: if turning { in_top_n } else { 0 },
-                    turning_yaw_rate_miss_bins_sum: if turning { miss_bins as f64 } else { 0.0 },
-                    turning_yaw_rate_misses,
+                    turning: kind_fit(is_turning(*recorded)),
+                    turn_onset: kind_fit(before.is_some_and(|b| begins_turn(b, *recorded))),
                 }
             }))
         })
@@ -299,21 +341,16 @@ mod tests {
             in_top_n: 2,
             accel_range_sum_mps2: 4.0,
             yaw_rate_range_sum_radps: 0.2,
-            turning_samples: 1,
-            turning_nll_sum: 2.5,
-            turning_in_top_n: 0,
-            turning_yaw_rate_miss_bins_sum: 6.0,
-            turning_yaw_rate_misses: [0, 0, 0, 1],
+            turning: TokenKindFit::one(2.5, false, 6),
+            turn_onset: TokenKindFit::default(),
         };
         let both = a + PriorFit {
             samples: 2,
             nll_sum: 1.0,
             top1: 0,
             in_top_n: 1,
-            turning_samples: 1,
-            turning_nll_sum: 1.5,
-            turning_in_top_n: 1,
-            turning_yaw_rate_misses: [1, 0, 0, 0],
+            turning: TokenKindFit::one(1.5, true, 0),
+            turn_onset: TokenKindFit::one(4.0, false, 2),
             ..PriorFit::default()
         };
         assert_eq!(both.samples, 4);
@@ -322,13 +359,29 @@ mod tests {
         assert_eq!(both.in_top_n_share(), Some(0.75));
         assert_eq!(both.accel_range_mps2(), Some(1.0));
         assert_eq!(PriorFit::default().nll(), None);
-        assert_eq!(both.turning_nll(), Some(2.0));
-        assert_eq!(both.turning_in_top_n_share(), Some(0.5));
-        assert_eq!(PriorFit::default().turning_nll(), None);
-        assert_eq!(both.turning_yaw_rate_miss_bins(), Some(3.0));
-        assert_eq!(PriorFit::default().turning_yaw_rate_miss_bins(), None);
-        assert_eq!(both.turning_yaw_rate_miss_shares(), Some([0.5, 0.0, 0.0, 0.5]));
-        assert_eq!(PriorFit::default().turning_yaw_rate_miss_shares(), None);
+        assert_eq!(both.turning.nll(), Some(2.0));
+        assert_eq!(both.turning.in_top_n_share(), Some(0.5));
+        assert_eq!(both.turning.yaw_rate_miss_bins(), Some(3.0));
+        assert_eq!(both.turning.yaw_rate_miss_shares(), Some([0.5, 0.0, 0.0, 0.5]));
+        assert_eq!(both.turn_onset.samples, 1);
+        assert_eq!(both.turn_onset.yaw_rate_miss_shares(), Some([0.0, 1.0, 0.0, 0.0]));
+        let none = TokenKindFit::default();
+        assert_eq!((none.nll(), none.in_top_n_share(), none.yaw_rate_miss_bins()), (None, None, None));
+        assert_eq!(none.yaw_rate_miss_shares(), None);
+    }
+
+    #[test]
+    fn a_turn_begins_where_a_turning_token_follows_one_that_does_not_turn() {
+        use crate::motion::tokens::BINS_PER_AXIS;
+        let t = |yaw| Token::from_bins(31, yaw).unwrap();
+        let centre = BINS_PER_AXIS / 2;
+        let first_turning = (centre..BINS_PER_AXIS).find(|&y| is_turning(t(y))).unwrap();
+        assert!(begins_turn(t(centre), t(first_turning)), "straight on, then a left turn");
+        assert!(begins_turn(t(first_turning - 1), t(BINS_PER_AXIS - 1)), "from just under the threshold");
+        assert!(begins_turn(t(centre), t(2 * centre - first_turning)), "a right turn");
+        assert!(!begins_turn(t(first_turning), t(first_turning + 2)), "a turn going on");
+        assert!(!begins_turn(t(centre), t(first_turning - 1)), "a bend under the threshold");
+        assert!(!begins_turn(t(first_turning), t(centre)), "a turn ending");
     }
 
     #[test]

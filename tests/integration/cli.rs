@@ -254,17 +254,18 @@ fn prior_fit_scores_both_history_alignments_names_unreadable_files_and_refuses_a
     assert_eq!(json_rows[0]["history"], "at-boundary");
     assert_eq!(json_rows[0]["samples"].as_u64().unwrap() as usize, samples(&rows[0]));
     assert_eq!(report["per_scene"][0]["at_boundary"]["samples"].as_u64().unwrap() as usize, samples(&rows[0]));
-    // The recorded turning tokens are a part of the samples, scored apart.
-    let turning = json_rows[0]["turning_samples"].as_u64().unwrap();
-    assert!(turning <= json_rows[0]["samples"].as_u64().unwrap(), "{}", json_rows[0]);
-    assert!(text.contains("recorded token turning"), "{text}");
-    // Every recorded turn falls in one bucket of how far the top n miss it.
-    if turning > 0 {
-        let shares = json_rows[0]["turning_yaw_rate_miss_shares"].as_array().unwrap();
+    assert!(text.contains("recorded tokens that turn") && text.contains("6+ bins"), "{text}");
+    // Every recorded turn and turn onset falls in one bucket of how far the
+    // top n miss it, and the table says how many there are.
+    for (kind, label) in [("turning", "turning "), ("turn_onset", "turn onset ")] {
+        let samples = json_rows[0][kind]["samples"].as_u64().unwrap();
+        assert!(samples > 0 && samples <= json_rows[0]["samples"].as_u64().unwrap(), "{}", json_rows[0]);
+        let shares = json_rows[0][kind]["yaw_rate_miss_shares"].as_array().unwrap();
         let total: f64 = shares.iter().map(|s| s.as_f64().unwrap()).sum();
         assert!(shares.len() == 4 && (total - 1.0).abs() < 1e-9, "{}", json_rows[0]);
+        let row = text.lines().find(|l| l.starts_with(label) && l.contains(" all ")).unwrap();
+        assert!(row.split_whitespace().any(|w| w == samples.to_string()), "{row}");
     }
-    assert!(text.contains("6+ bins"), "{text}");
     // A file that does not load is named, the others are scored, and the
     // run fails.
     let dir = crate::scratch::Scratch::new("prior-fit");

@@ -37,11 +37,17 @@ def recorded_turns_in_top_n(text: str, path: Path) -> float:
     """The share of recorded turns whose token is in the top 20 (`safer prior-fit`, all scenes)."""
     lines = text.splitlines()
     for i, line in enumerate(lines):
+        row = lines[i + 1].split() if i + 1 < len(lines) else []
+        # The table of recorded token kinds: "kind scenes samples NLL in top n ..." then "turning all ...".
+        if line.split()[:7] == ["kind", "scenes", "samples", "NLL", "in", "top", "n"]:
+            if len(row) >= 5 and row[:2] == ["turning", "all"]:
+                return float(row[4])
+        # Outputs written before turn onsets were scored: "scenes samples NLL in top n" then "all ...".
         if line.split() == ["scenes", "samples", "NLL", "in", "top", "n"]:
-            row = lines[i + 1].split() if i + 1 < len(lines) else []
             if len(row) == 4 and row[0] == "all":
                 return float(row[3])
-    raise CandidateError(f"{path}: no turn table (a line 'scenes samples NLL in top n' then 'all ...')")
+    raise CandidateError(f"{path}: no turn table (a line 'kind scenes samples NLL in top n ...' then "
+                         "'turning all ...')")
 
 
 def realism_overall(text: str, path: Path) -> dict[str, float]:

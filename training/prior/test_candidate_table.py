@@ -23,6 +23,14 @@ all            443   6.898     0.122
 held out        44   7.060     0.068
 """
 
+PRIOR_FIT_WITH_KINDS = """history         scenes     samples     NLL   top-1  in top n  accel m/s²  yaw rad/s
+at boundary     all           6227   5.529   0.030     0.357        2.62      0.078
+recorded tokens that turn (...) and that begin a turn (...)
+kind             scenes     samples     NLL  in top n  miss mean    0 bins  1-2 bins  3-5 bins   6+ bins
+turning          all            443   7.014     0.120       2.80     0.395     0.262     0.165     0.178
+turn onset       all            102   6.500     0.150       2.10     0.400     0.300     0.150     0.150
+"""
+
 REALISM = """WOSAC 2025 realism, policy prior, 8 rollouts per scene, seed 0
 format       scenes  kinematic  interactive  map-based     meta   minADE  collision  off-road
 womd-json        67     0.5507       0.7931     0.8767   0.7739     1.53      0.070     0.455
@@ -60,6 +68,11 @@ class ReadersTest(unittest.TestCase):
         self.assertEqual(recorded_turns_in_top_n(PRIOR_FIT, Path("x")), 0.122)
         with self.assertRaises(CandidateError):
             recorded_turns_in_top_n(PRIOR_FIT.split("recorded turns")[0], Path("x"))
+
+    def test_the_table_of_token_kinds_gives_the_turning_row_not_the_turn_onsets(self):
+        self.assertEqual(recorded_turns_in_top_n(PRIOR_FIT_WITH_KINDS, Path("x")), 0.120)
+        with self.assertRaises(CandidateError):
+            recorded_turns_in_top_n(PRIOR_FIT_WITH_KINDS.split("turning ")[0], Path("x"))
 
     def test_realism_reads_the_overall_row_by_heading(self):
         self.assertEqual(realism_overall(REALISM, Path("x")), {"meta": 0.7739, "map-based": 0.8767, "collision": 0.070})
