@@ -86,6 +86,14 @@ impl KindRow {
 }
 
 impl FitRow {
+    /// Kinds of recorded token scored apart.
+    const KINDS: usize = 2;
+
+    /// The kinds of recorded token scored apart, with their table labels.
+    fn kinds(&self) -> [(&'static str, &KindRow); Self::KINDS] {
+        [("turning", &self.turning), ("turn onset", &self.turn_onset)]
+    }
+
     fn new(history: HistoryAlignment, scenes: &'static str, fit: &PriorFit) -> Self {
         Self {
             history,
@@ -224,17 +232,15 @@ pub(super) fn run(args: &PriorFitArgs) -> Result<ExitCode, CliError> {
             "kind", "scenes", "samples", "NLL", "in top n", "miss mean"
         )?;
         let at_boundary = || rows.iter().filter(|r| r.history == HistoryAlignment::AtBoundary);
-        for (kind, of) in
-            [("turning", (|r: &FitRow| &r.turning) as fn(&FitRow) -> &KindRow), ("turn onset", |r| &r.turn_onset)]
-        {
+        for kind in 0..FitRow::KINDS {
             for r in at_boundary() {
-                let k = of(r);
+                let (label, k) = r.kinds()[kind];
                 let shares: String = (0..YAW_RATE_MISS_BUCKETS.len())
                     .map(|i| format!(" {:>9}", figure(k.yaw_rate_miss_shares.map(|shares| shares[i]), 3)))
                     .collect();
                 writeln!(
                     out,
-                    "{kind:<16} {:<9} {:>8} {:>7} {:>9} {:>10}{shares}",
+                    "{label:<16} {:<9} {:>8} {:>7} {:>9} {:>10}{shares}",
                     r.scenes.replace('-', " "),
                     k.samples,
                     figure(k.nll, 3),
