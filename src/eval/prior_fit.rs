@@ -6,7 +6,9 @@
 //! the top n (the trust region), with the top n's acceleration and
 //! yaw-rate range; the same again over the samples whose recorded token
 //! turns (yaw rate of at least [`TURNING_YAW_RATE_RADPS`] either way), the
-//! tight urban turns a prior that only keeps its lane misses.
+//! tight urban turns a prior that only keeps its lane misses, and over the
+//! turn onsets ([`begins_turn`]), with how many yaw-rate bins the top n
+//! miss them by ([`TokenKindFit`]).
 //!
 //! The history the prior reads can be aligned two ways
 //! ([`HistoryAlignment`]): ending at the boundary, as in closed loop, or one
