@@ -295,13 +295,8 @@ pub fn prior_fit(
                 let (accel_range_mps2, yaw_rate_range_radps) = TokenGrid::ranges(&top);
                 let nll = token_nll(logits, *recorded);
                 let in_top_n = top.contains(recorded);
-                let kind_fit = |is_kind: bool| {
-                    if is_kind {
-                        TokenKindFit::one(nll, in_top_n, yaw_rate_miss_bins(&top, *recorded))
-                    } else {
-                        TokenKindFit::default()
-                    }
-                };
+                let this_sample = TokenKindFit::one(nll, in_top_n, yaw_rate_miss_bins(&top, *recorded));
+                let kind_fit = |is_kind: bool| if is_kind { this_sample } else { TokenKindFit::default() };
                 fit + PriorFit {
                     samples: 1,
                     nll_sum: nll,
