@@ -35,6 +35,7 @@ use std::sync::{Arc, Mutex, OnceLock};
 use libtest_mimic::{Arguments, Conclusion, Failed, Trial};
 
 use crate::harness::artefacts::Artefacts;
+use crate::harness::mutation::{MutantRun, MutationReport};
 use crate::harness::{self, RunResults, Suite, SuiteLoadFailure, SuiteRun, VariantOutcome, VariantRun};
 use crate::planners::Planner;
 use crate::planners::registry::{self, PlannerFactory};
@@ -201,12 +202,15 @@ fn results_of_this_process(suites: &[(PathBuf, Arc<Suite>)], load_failures: Vec<
         if variants.is_empty() {
             continue;
         }
+        // The mutation run, where this process's mutation-score test made it.
+        let mutation = mutations().lock().unwrap_or_else(|p| p.into_inner()).get(&suite.name()).cloned();
         // Metrics are shown only where this process ran every variant of
         // the suite (a filtered run has no verdict on the rest).
         let (metrics, checks) = if all_ran {
             harness::metrics::suite_verdict(
                 &suite.spec.value.acceptance.suite,
                 variants.iter().map(|v| (v.name.clone(), v.outcome.as_ref().map(|o| &o.tally).map_err(Clone::clone))),
+                mutation.as_deref(),
             )
         } else {
             (None, Vec::new())
@@ -218,6 +222,7 @@ fn results_of_this_process(suites: &[(PathBuf, Arc<Suite>)], load_failures: Vec<
             variants,
             metrics,
             checks,
+            mutation: mutation.map(|m| m.as_ref().clone()),
         });
     }
     results
@@ -347,16 +352,50 @@ fn metric_trial(suite: &Suite, metric: &'static str) -> Result<(), Failed> {
     let mut outcomes = Vec::new();
     for s in 0..suite.scenarios.len() {
         for k in 0..suite.spec.value.variants {
-            outcomes.push((suite.variant_name(&suite.scenarios[s], k), outcome(suite, s, k)));
+            outcomes.push((s, k, suite.variant_name(&suite.scenarios[s], k), outcome(suite, s, k)));
         }
     }
+    let mutation = (metric == harness::mutation::MUTATION_SCORE).then(|| mutation_report(suite, &outcomes));
     let variants = outcomes
         .iter()
-        .map(|(name, o)| (name.clone(), o.as_ref().as_ref().map(|o| &o.tally).map_err(|e| e.to_string())));
-    let (_, checks) = harness::metrics::suite_verdict(&suite.spec.value.acceptance.suite, variants);
+        .map(|(_, _, name, o)| (name.clone(), o.as_ref().as_ref().map(|o| &o.tally).map_err(|e| e.to_string())));
+    let (_, checks) = harness::metrics::suite_verdict(&suite.spec.value.acceptance.suite, variants, mutation.as_deref());
     let check = checks
         .into_iter()
         .find(|c| c.name == metric)
         .ok_or_else(|| Failed::from(format!("metric {metric} not configured")))?;
-    check.result.map_err(Failed::from)
+    check.result.map_err(|why| match &mutation {
+        // A failing mutation score says which mutant survived and what
+        // scene would catch it.
+        Some(m) => Failed::from(format!("{why}\n  {}\n    {}", m.headline(), m.table().join("\n    "))),
+        None => Failed::from(why),
+    })
+}
+
+/// Mutation runs made in this process, by suite name (for the review page).
+fn mutations() -> &'static Mutex<HashMap<String, Arc<MutationReport>>> {
+    static MUTATIONS: OnceLock<Mutex<HashMap<String, Arc<MutationReport>>>> = OnceLock::new();
+    MUTATIONS.get_or_init(Default::default)
+}
+
+/// The suite's mutants run on every variant (in parallel, each on its
+/// variant's own stage 1) and the report they make.
+fn mutation_report(suite: &Suite, outcomes: &[(usize, u32, String, Shared)]) -> Arc<MutationReport> {
+    use rayon::prelude::*;
+    let operators = harness::mutation::operators_for(&suite.spec.value.acceptance.suite, None);
+    let runs: Vec<Vec<MutantRun>> = outcomes
+        .par_iter()
+        .map(|(s, k, _, o)| match o.as_ref() {
+            Ok(o) => harness::mutation::run_mutants(suite, &suite.scenarios[*s], *k, o, &operators),
+            Err(_) => Vec::new(),
+        })
+        .collect();
+    let report = Arc::new(MutationReport::of(
+        &operators,
+        outcomes.iter().zip(&runs).map(|((_, _, name, o), runs)| {
+            (name.as_str(), o.as_ref().as_ref().map_err(String::as_str), runs.as_slice())
+        }),
+    ));
+    mutations().lock().unwrap_or_else(|p| p.into_inner()).insert(suite.name(), report.clone());
+    report
 }

@@ -381,6 +381,7 @@ fn bench_variant(scenes: &[Scenario], repeat: usize) -> Result<Option<VariantBen
         variant: None,
         escape: None,
         ego_limits: Some(safer::sim::VehicleLimits::default()),
+        fault: None,
     };
     // Warm-up: encodes the map once, as an evaluation does for all its variants.
     pipeline::run(setup)?;

@@ -164,6 +164,9 @@ enum Command {
         /// Worker threads for the variants, 1 to 256 (default: one per core). Each may run a planner process: far more than the cores only thrashes.
         #[arg(long, value_name = "N", value_parser = RangedU64ValueParser::<usize>::new().range(1..=MAX_JOBS as u64))]
         jobs: Option<usize>,
+        /// Mutation testing: also run each suite's variants with these faults planted in its planner (comma-separated; alone, or `all`: every operator), and report which mutants the suite kills. Operators: no-brake, weak-brake, late, blind-cbv, blind-side, no-evade, speeding. Replaces a suite's own `mutation_operators`.
+        #[arg(long, value_name = "OPS", num_args = 0..=1, default_missing_value = "all", value_parser = fault_operators)]
+        mutants: Option<FaultOperators>,
     },
     /// WOSAC 2025 realism metrics of a traffic policy: roll out every agent of each scene N times and score the rollouts against the log.
     #[command(after_help = realism::WINDOW_RULE_HELP)]
@@ -545,6 +548,7 @@ pub fn main() -> ExitCode {
             shrink_budget,
             filter,
             jobs,
+            mutants,
         } => {
             if json.as_deref().is_some_and(safer::record::is_stdout)
                 && junit.as_deref().is_some_and(safer::record::is_stdout)
@@ -559,7 +563,8 @@ pub fn main() -> ExitCode {
                     commonroad: export_commonroad.as_deref().map(|dir| (dir, export_commonroad_all)),
                 };
                 let budget = if no_shrink { 0 } else { shrink_budget };
-                set_jobs(jobs).and_then(|()| run::run(&suites, outputs, filter.as_deref(), budget))
+                let mutants = mutants.as_ref().map(|m| m.0.as_slice());
+                set_jobs(jobs).and_then(|()| run::run(&suites, outputs, filter.as_deref(), budget, mutants))
             }
         }
         Command::Realism { scenes, rollouts, json, policy, seed, max_scenes, top_k, temperature } => {
@@ -790,6 +795,15 @@ fn set_jobs(jobs: Option<usize>) -> Result<(), CliError> {
 
 /// Parses a count that must be at least 1 (clap names the flag and the
 /// range when it is not).
+/// A list of fault operators, as `--mutants` takes it.
+#[derive(Debug, Clone)]
+pub(crate) struct FaultOperators(pub(crate) Vec<safer::planners::FaultOperator>);
+
+/// `no-brake,late` or `all`.
+fn fault_operators(text: &str) -> Result<FaultOperators, String> {
+    safer::planners::FaultOperator::parse_list(text).map(FaultOperators)
+}
+
 fn at_least_one() -> impl TypedValueParser<Value = usize> {
     RangedU64ValueParser::<usize>::new().range(1..)
 }

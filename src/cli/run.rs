@@ -30,7 +30,9 @@ use serde::Serialize;
 
 use super::CliError;
 use safer::harness::report::{RunResults, SuiteLoadFailure, SuiteRun, VariantRun};
+use safer::harness::mutation::{MutantRun, MutationReport};
 use safer::harness::{self, HarnessError, Suite, SuiteMetrics, VariantOutcome, VariantSummary};
+use safer::planners::FaultOperator;
 
 /// One variant to run.
 struct Job {
@@ -47,6 +49,8 @@ struct Job {
 /// What a job produced.
 struct Done {
     outcome: Result<VariantOutcome, HarnessError>,
+    /// The mutants' runs on the variant (none unless mutants were asked for).
+    mutants: Vec<MutantRun>,
     /// Artefacts of a shown failing variant, or why they could not be written.
     artefacts: Option<Result<harness::artefacts::Artefacts, String>>,
 }
@@ -78,6 +82,9 @@ struct SuiteReport {
     /// `None` when no metric was selected or a variant the metrics need could not run.
     metrics: Option<SuiteMetrics>,
     checks: Vec<CheckReport>,
+    /// The mutation run, when mutants were planted.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    mutation: Option<MutationReport>,
 }
 
 /// A variant in the report: its summary, or why it could not run.
@@ -191,6 +198,7 @@ pub(super) fn run(
     outputs: RunOutputs<'_>,
     filter: Option<&str>,
     shrink_budget: usize,
+    mutants: Option<&[FaultOperator]>,
 ) -> Result<ExitCode, CliError> {
     let RunOutputs { json, junit, html, artifacts, commonroad } = outputs;
     // Refused before anything runs: a report that cannot be written should not cost a run.
@@ -259,13 +267,24 @@ pub(super) fn run(
         return Err(CliError::Usage(format!("--filter `{f}` matches no variant and no suite metric")));
     }
 
+    // The mutants each suite plants: the flag's, else its own when it asks
+    // for a mutation score.
+    let operators: Vec<Vec<FaultOperator>> = suites
+        .iter()
+        .map(|(_, s)| harness::mutation::operators_for(&s.spec.value.acceptance.suite, mutants))
+        .collect();
     let progress = Progress::new(jobs.len());
     let exports: std::sync::Mutex<Vec<(String, Result<PathBuf, String>)>> = std::sync::Mutex::new(Vec::new());
     let done: Vec<Done> = jobs
         .par_iter()
         .map(|j| {
             let suite = &suites[j.suite].1;
-            let outcome = harness::run_variant(suite, &suite.scenarios[j.scenario], j.index);
+            let scenario = &suite.scenarios[j.scenario];
+            let outcome = harness::run_variant(suite, scenario, j.index);
+            let mutants = match &outcome {
+                Ok(o) => harness::mutation::run_mutants(suite, scenario, j.index, o, &operators[j.suite]),
+                Err(_) => Vec::new(),
+            };
             let artefacts = match &outcome {
                 Ok(o) if j.shown && !o.failures.is_empty() => {
                     Some(harness::artefacts::write(artifacts, o).map_err(|e| e.to_string()))
@@ -280,7 +299,7 @@ pub(super) fn run(
                 exports.lock().unwrap_or_else(|p| p.into_inner()).push((o.name.clone(), written));
             }
             progress.tick();
-            Done { outcome, artefacts }
+            Done { outcome, mutants, artefacts }
         })
         .collect();
     progress.finish();
@@ -292,9 +311,11 @@ pub(super) fn run(
         per_suite[j.suite].push((j, d));
     }
     let mut results = RunResults { load_failures, suites: Vec::new() };
-    for ((file, suite), (mut mine, metrics)) in suites.iter().zip(per_suite.into_iter().zip(&metrics_selected)) {
+    for (((file, suite), (mut mine, metrics)), ops) in
+        suites.iter().zip(per_suite.into_iter().zip(&metrics_selected)).zip(&operators)
+    {
         mine.sort_by_cached_key(|(j, _)| (suite.scenarios[j.scenario].name.clone(), j.index));
-        results.suites.push(suite_run(file, suite, mine, metrics));
+        results.suites.push(suite_run(file, suite, mine, metrics, ops));
     }
     let load_failed = !results.load_failures.is_empty();
     let report = Report {
@@ -360,7 +381,27 @@ pub(super) fn run(
 }
 
 /// The results of one suite: its shown variants and its selected metrics.
-fn suite_run(file: &Path, suite: &Suite, jobs: Vec<(Job, Done)>, metrics: &[&'static str]) -> SuiteRun {
+fn suite_run(
+    file: &Path,
+    suite: &Suite,
+    jobs: Vec<(Job, Done)>,
+    metrics: &[&'static str],
+    operators: &[FaultOperator],
+) -> SuiteRun {
+    let names: Vec<String> =
+        jobs.iter().map(|(job, _)| suite.variant_name(&suite.scenarios[job.scenario], job.index)).collect();
+    let mutation = (!operators.is_empty()).then(|| {
+        let errors: Vec<String> = jobs
+            .iter()
+            .map(|(_, done)| done.outcome.as_ref().err().map(ToString::to_string).unwrap_or_default())
+            .collect();
+        MutationReport::of(
+            operators,
+            jobs.iter().zip(&names).zip(&errors).map(|(((_, done), name), error)| {
+                (name.as_str(), done.outcome.as_ref().map_err(|_| error.as_str()), done.mutants.as_slice())
+            }),
+        )
+    });
     let (suite_metrics, checks) = if metrics.is_empty() {
         (None, Vec::new())
     } else {
@@ -370,6 +411,7 @@ fn suite_run(file: &Path, suite: &Suite, jobs: Vec<(Job, Done)>, metrics: &[&'st
                 let name = suite.variant_name(&suite.scenarios[job.scenario], job.index);
                 (name, done.outcome.as_ref().map(|o| &o.tally).map_err(|e| e.to_string()))
             }),
+            mutation.as_ref(),
         );
         (m, checks.into_iter().filter(|c| metrics.contains(&c.name)).collect())
     };
@@ -389,6 +431,7 @@ fn suite_run(file: &Path, suite: &Suite, jobs: Vec<(Job, Done)>, metrics: &[&'st
         variants,
         metrics: suite_metrics,
         checks,
+        mutation,
     }
 }
 
@@ -440,6 +483,7 @@ fn suite_report(run: &SuiteRun) -> SuiteReport {
         variants,
         metrics: run.metrics.clone(),
         checks,
+        mutation: run.mutation.clone(),
     }
 }
 
@@ -543,6 +587,12 @@ fn print_report(out: &mut dyn Write, report: &Report) -> std::io::Result<()> {
                 format!("FAIL {}", c.message.as_deref().unwrap_or_default())
             };
             writeln!(out, "  {:<metric_width$}  {:>7}  {verdict}", format!("{}::{}", s.name, c.name), opt(c.value, 3))?;
+        }
+        if let Some(m) = &s.mutation {
+            writeln!(out, "  {}", m.headline())?;
+            for line in m.table() {
+                writeln!(out, "    {line}")?;
+            }
         }
     }
     if !failing.is_empty() {

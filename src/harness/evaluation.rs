@@ -405,6 +405,7 @@ fn run_one(
         variant: Some(&variant),
         escape: request.escape,
         ego_limits: Some(crate::sim::VehicleLimits::default()),
+        fault: None,
     })?;
     let background_contacts = cbv_background_collisions(scenario, &stages.stage1);
     let tally = VariantTally::with_background(scenario, &stages, &background_contacts);

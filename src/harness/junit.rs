@@ -131,6 +131,21 @@ fn suite(out: &mut String, run: &SuiteRun) -> Counts {
             let _ = writeln!(out, "      <property name=\"conflict.{kind}.failures\" value=\"{}\"/>", c.failures);
         }
     }
+    // Mutation testing: the score, and per operator whether the suite
+    // killed it and with how many variants.
+    if let Some(m) = &run.mutation {
+        let score = m.score.map_or_else(|| "-".to_string(), |x| format!("{x:.3}"));
+        let _ = writeln!(out, "      <property name=\"mutation_score\" value=\"{}\"/>", attr(&score));
+        for r in &m.operators {
+            let verdict = if r.killed { format!("killed by {} variants", r.kills.len()) } else { "survived".into() };
+            let _ = writeln!(
+                out,
+                "      <property name=\"mutant.{}\" value=\"{}\"/>",
+                r.operator.name(),
+                attr(&verdict)
+            );
+        }
+    }
     out.push_str("    </properties>\n");
     out.push_str(&cases);
     out.push_str("  </testsuite>\n");

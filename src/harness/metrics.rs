@@ -513,6 +513,7 @@ pub fn metric_names(acceptance: &SuiteAcceptance) -> Vec<&'static str> {
         ("conflict_reach", acceptance.conflict_reach_min.is_some()),
         ("no_escape_collision_rate", acceptance.no_escape_collision_rate_max.is_some()),
         ("conflict_coverage", acceptance.conflict_coverage_min.is_some()),
+        (super::mutation::MUTATION_SCORE, acceptance.mutation_score_min.is_some()),
     ]
     .into_iter()
     .filter_map(|(n, on)| on.then_some(n))
@@ -523,11 +524,13 @@ pub fn metric_names(acceptance: &SuiteAcceptance) -> Vec<&'static str> {
 /// could not run, there are no metrics and every configured metric fails
 /// naming the first such variant (an error is never a pass, and a rate over
 /// the variants that happened to run would be silently wrong); otherwise
-/// the aggregate and its checks. The one rule behind the metric tests of
+/// the aggregate and its checks, the mutation score's (from `mutation`,
+/// the suite's mutation run) last. The one rule behind the metric tests of
 /// the cargo-test runner, `safer run` and the review page.
 pub fn suite_verdict<'a>(
     acceptance: &SuiteAcceptance,
     variants: impl IntoIterator<Item = (String, Result<&'a VariantTally, String>)>,
+    mutation: Option<&super::mutation::MutationReport>,
 ) -> (Option<SuiteMetrics>, Vec<MetricCheck>) {
     let mut tallies = Vec::new();
     for (name, tally) in variants {
@@ -544,7 +547,8 @@ pub fn suite_verdict<'a>(
         }
     }
     let metrics = SuiteMetrics::aggregate(tallies);
-    let checks = metrics.checks(acceptance);
+    let mut checks = metrics.checks(acceptance);
+    checks.extend(super::mutation::MutationReport::check(mutation, acceptance));
     (Some(metrics), checks)
 }
 
@@ -591,7 +595,7 @@ mod tests {
             ("s::b::seed-0".to_string(), Err(broken)),
             ("s::c::seed-0".to_string(), Err("timed out".to_string())),
         ];
-        let (metrics, checks) = suite_verdict(&acceptance(Some(0.0), Some(0.0)), variants);
+        let (metrics, checks) = suite_verdict(&acceptance(Some(0.0), Some(0.0)), variants, None);
         // No rate over the variants that happened to run.
         assert_eq!(metrics, None);
         assert_eq!(checks.iter().map(|c| c.name).collect::<Vec<_>>(), ["collision_rate", "solution_rate"]);
@@ -601,7 +605,7 @@ mod tests {
         }
         // Every variant ran: the aggregate and its checks.
         let (metrics, checks) =
-            suite_verdict(&acceptance(Some(1.0), None), vec![("s::a::seed-0".to_string(), Ok(&ok))]);
+            suite_verdict(&acceptance(Some(1.0), None), vec![("s::a::seed-0".to_string(), Ok(&ok))], None);
         assert_eq!(metrics.and_then(|m| m.solution_rate), Some(1.0));
         assert!(checks.iter().all(|c| c.result.is_ok()), "{checks:?}");
     }

@@ -20,6 +20,7 @@ pub mod evaluation;
 pub mod junit;
 pub mod methods;
 pub mod metrics;
+pub mod mutation;
 pub mod pipeline;
 pub mod report;
 pub mod review_page;

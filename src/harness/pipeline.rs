@@ -23,7 +23,9 @@ use super::methods::{self, MapEncodings, MethodSettings, ModelSet};
 use crate::eval::escape::{EscapeBudget, EscapeSearch, PlannedPath, search_escape};
 use crate::eval::{ConflictReach, min_time_to_collision};
 use crate::planners::external::{ExternalPlanner, ExternalPlannerConfig, RolloutContext};
-use crate::planners::{BuiltinPlanner, IdmPlanner, Observation, Planner, PlannerError, PlannerOutput};
+use crate::planners::{
+    BuiltinPlanner, FaultOperator, IdmPlanner, MutantPlanner, Observation, Planner, PlannerError, PlannerOutput,
+};
 use crate::policies::LogReplay;
 use crate::policies::prior_sampling::TrafficTimings;
 use crate::scenario::{Scenario, Track, TrackIndex};
@@ -60,6 +62,9 @@ pub struct VariantSetup<'a> {
     /// The limits the planner under test's ego is held to in stage 2
     /// (`None`, or a planner replaying the log: unchecked).
     pub ego_limits: Option<VehicleLimits>,
+    /// A fault planted in the planner under test for stage 2 (a mutant of
+    /// mutation testing); `None`: the planner as it is.
+    pub fault: Option<FaultOperator>,
 }
 
 /// Where a variant's time went, s.
@@ -385,7 +390,11 @@ pub fn play_stage2(setup: &VariantSetup<'_>, stage1: &Rollout) -> Result<PlayedS
         variant: setup.variant.map(String::from),
         seed: Some(setup.seed),
     };
-    let mut planner = make_planner(setup.planner, context)?;
+    let mut planner = make_planner(setup.planner, context.clone())?;
+    if let Some(operator) = setup.fault {
+        let bounds = setup.ego_limits.unwrap_or_default().control_bounds();
+        planner = Box::new(MutantPlanner::new(planner, operator, bounds, &context));
+    }
     let mut timed = Timed { inner: planner.as_mut(), times_ms: Vec::new() };
     let stage2 = stage2.run(&mut timed);
     let planner_latency = PlannerLatency::of(&timed.times_ms, timed.startup());

@@ -54,6 +54,9 @@ pub struct SuiteRun {
     pub metrics: Option<SuiteMetrics>,
     /// The selected suite-metric checks, in the spec's fixed order.
     pub checks: Vec<MetricCheck>,
+    /// The suite's mutation run, when mutants were planted
+    /// ([`super::mutation`]).
+    pub mutation: Option<super::mutation::MutationReport>,
 }
 
 impl SuiteRun {
@@ -161,6 +164,7 @@ pub(crate) mod tests_support {
             variants: vec![VariantRun { name, outcome: Ok(outcome), artefacts: None }],
             metrics: Some(metrics),
             checks: vec![MetricCheck { name: "collision_rate", value: Some(1.0), result: Ok(()) }],
+            mutation: None,
         }
     }
 }

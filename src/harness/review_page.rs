@@ -279,6 +279,9 @@ fn suite_html(h: &mut String, si: usize, s: &SuiteRun, dir: &Path, pictures: &mu
         }
         h.push_str("</tbody>\n</table>\n");
     }
+    if let Some(m) = &s.mutation {
+        mutation_html(h, m);
+    }
     for (vi, v) in s.variants.iter().enumerate() {
         if let Ok(o) = &v.outcome
             && !o.failures.is_empty()
@@ -287,6 +290,36 @@ fn suite_html(h: &mut String, si: usize, s: &SuiteRun, dir: &Path, pictures: &mu
         }
     }
     h.push_str("</section>\n");
+}
+
+/// The suite's mutation run: the score, then per operator killed (by how
+/// many variants, the first and how) or survived (with the hint).
+fn mutation_html(h: &mut String, m: &super::mutation::MutationReport) {
+    let _ = writeln!(h, "<p class=\"metrics-line\">{}</p>", esc(&m.headline()));
+    h.push_str("<table class=\"checks mutation\">\n<thead><tr><th>mutant</th><th>fault</th><th>verdict</th></tr></thead>\n<tbody>\n");
+    for r in &m.operators {
+        let verdict = match r.kills.first() {
+            Some(k) => format!(
+                "<span class=\"badge pass\">KILLED</span> by {} of {} variants; first {}: {}: {}",
+                r.kills.len(),
+                m.variants_passed,
+                esc(&k.variant),
+                esc(&k.criterion),
+                esc(&k.what)
+            ),
+            None => format!(
+                "<span class=\"badge fail\">SURVIVED</span> {}",
+                esc(r.operator.blind_spot_hint())
+            ),
+        };
+        let _ = writeln!(
+            h,
+            "<tr><td>{}</td><td>{}</td><td>{verdict}</td></tr>",
+            esc(r.operator.name()),
+            esc(r.description)
+        );
+    }
+    h.push_str("</tbody>\n</table>\n");
 }
 
 fn variant_row(h: &mut String, si: usize, vi: usize, v: &VariantRun) {

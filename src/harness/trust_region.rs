@@ -75,6 +75,7 @@ pub fn profile_variant(
         variant: None,
         escape: None,
         ego_limits: None,
+        fault: None,
     };
     let stage1 = pipeline::run_stage1(&setup)?;
     let (Some(cbv), ego) = (stage1.cbv, stage1.ego) else { return Ok(Vec::new()) };

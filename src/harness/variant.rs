@@ -241,33 +241,62 @@ pub fn variant_seed(base: u64, scenario: &str, index: u32) -> u64 {
     fnv1a(format!("{base}/{scenario}/{index}").as_bytes())
 }
 
+/// What a variant of a suite is made from: the imported scene, its seed,
+/// its simulation settings and its name (a [`VariantSetup`] borrows them).
+pub(crate) struct VariantInputs {
+    pub(crate) base: Arc<Scenario>,
+    pub(crate) seed: u64,
+    pub(crate) sim: SimConfig,
+    pub(crate) models: Arc<ModelSet>,
+    pub(crate) name: String,
+}
+
+impl VariantInputs {
+    /// The inputs of variant `index` of `scenario` in `suite`.
+    pub(crate) fn of(suite: &Suite, scenario: &SuiteScenario, index: u32) -> Result<Self, HarnessError> {
+        let spec = &suite.spec.value;
+        Ok(Self {
+            base: scenario.load()?,
+            seed: variant_seed(spec.seed, &scenario.name, index),
+            sim: SimConfig { background: spec.adversary.background, ..SimConfig::default() },
+            models: ModelSet::shipped(),
+            name: suite.variant_name(scenario, index),
+        })
+    }
+
+    /// The variant's setup under `suite`'s adversary, planner and criteria.
+    pub(crate) fn setup<'a>(&'a self, suite: &'a Suite) -> VariantSetup<'a> {
+        let spec = &suite.spec.value;
+        VariantSetup {
+            scenario: &self.base,
+            settings: MethodSettings {
+                method: spec.adversary.method,
+                trust_region: spec.adversary.trust_region,
+                background: BackgroundDriver::Configured,
+                sampling: TokenSampling::default(),
+                approach: spec.adversary.approach_phase,
+            },
+            seed: self.seed,
+            sim: &self.sim,
+            stage2_cbv: spec.adversary.stage2_cbv,
+            planner: &suite.planner,
+            models: &self.models,
+            maps: &MAP_ENCODINGS,
+            variant: Some(&self.name),
+            escape: Some(EscapeBudget::default()),
+            ego_limits: Some(spec.acceptance.variant.vehicle_limits),
+            fault: None,
+        }
+    }
+}
+
 /// Runs variant `index` of `scenario` in `suite`.
 pub fn run_variant(suite: &Suite, scenario: &SuiteScenario, index: u32) -> Result<VariantOutcome, HarnessError> {
     let spec = &suite.spec.value;
-    let base = scenario.load()?;
-    let seed = variant_seed(spec.seed, &scenario.name, index);
-    let sim = SimConfig { background: spec.adversary.background, ..SimConfig::default() };
-    let models = ModelSet::shipped();
-    let name = suite.variant_name(scenario, index);
-    let setup = VariantSetup {
-        scenario: &base,
-        settings: MethodSettings {
-            method: spec.adversary.method,
-            trust_region: spec.adversary.trust_region,
-            background: BackgroundDriver::Configured,
-            sampling: TokenSampling::default(),
-            approach: spec.adversary.approach_phase,
-        },
-        seed,
-        sim: &sim,
-        stage2_cbv: spec.adversary.stage2_cbv,
-        planner: &suite.planner,
-        models: &models,
-        maps: &MAP_ENCODINGS,
-        variant: Some(&name),
-        escape: Some(EscapeBudget::default()),
-        ego_limits: Some(spec.acceptance.variant.vehicle_limits),
-    };
+    let inputs = VariantInputs::of(suite, scenario, index)?;
+    let (base, seed) = (&inputs.base, inputs.seed);
+    let name = inputs.name.clone();
+    let setup = inputs.setup(suite);
     let stages = pipeline::run(setup)?;
     let escape = stages.escape.as_ref().map(CollisionEscape::of);
     let failures = acceptance::check(&spec.acceptance.variant, &stages.stage2, &base.map, stages.min_ttc_s, escape);
@@ -286,8 +315,8 @@ pub fn run_variant(suite: &Suite, scenario: &SuiteScenario, index: u32) -> Resul
     Ok(VariantOutcome {
         name,
         seed,
-        tally: VariantTally::of(&base, &stages),
-        scenario: base,
+        tally: VariantTally::of(base, &stages),
+        scenario: base.clone(),
         verdict: stages.verdict,
         min_ttc_s: stages.min_ttc_s,
         reach: stages.reach,

@@ -6,14 +6,16 @@
 pub mod builtin;
 pub mod evasive;
 pub mod external;
+pub mod mutant;
 pub mod registry;
 
 pub use builtin::{BuiltinPlanner, ConstantVelocityPlanner, IdmPlanner, LogReplayPlanner};
 pub use evasive::{EvasiveParams, EvasivePlanner};
 pub use external::{ExternalPlanner, ExternalPlannerConfig};
+pub use mutant::{ControlBounds, FaultOperator, MutantPlanner};
 
 use crate::map::{MapElementId, RoadMap, SignalState};
-use crate::motion::Action;
+use crate::motion::{Action, KinematicState, kinematic_step};
 use crate::scenario::{AgentId, AgentKind, AgentState};
 
 /// Another road user as the ego perceives it.
@@ -73,6 +75,68 @@ pub enum PlannerOutput {
     /// A trajectory; the simulator tracks it perfectly, taking the state
     /// interpolated one step ahead.
     Trajectory(Vec<TrajectoryPoint>),
+}
+
+impl PlannerOutput {
+    /// The ego's state `dt_s` after `now` under this output: a control
+    /// through the kinematic model, a trajectory tracked perfectly (the
+    /// state interpolated at `dt_s`). The error says why the output cannot
+    /// be applied (a non-finite number, an empty trajectory, times not
+    /// increasing, a trajectory ending before `dt_s`).
+    pub fn next_state(&self, now: &AgentState, dt_s: f64) -> Result<AgentState, String> {
+        match self {
+            PlannerOutput::Control(a) => {
+                if !(a.accel_mps2.is_finite() && a.yaw_rate_radps.is_finite()) {
+                    return Err(format!("non-finite control {a:?}"));
+                }
+                Ok(kinematic_step(&KinematicState::from_agent_state(now), *a, dt_s).to_agent_state())
+            }
+            PlannerOutput::Trajectory(points) => trajectory_state_at(now, points, dt_s),
+        }
+    }
+}
+
+/// The state a perfectly tracked trajectory reaches `t` after `now` (t = 0).
+fn trajectory_state_at(now: &AgentState, points: &[TrajectoryPoint], t: f64) -> Result<AgentState, String> {
+    let first = points.first().ok_or("empty trajectory")?;
+    for p in points {
+        let s = &p.state;
+        let finite = p.time_s.is_finite()
+            && s.position.x.is_finite()
+            && s.position.y.is_finite()
+            && s.heading_rad.is_finite()
+            && s.velocity_mps.x.is_finite()
+            && s.velocity_mps.y.is_finite();
+        if !finite {
+            return Err(format!("non-finite trajectory point {p:?}"));
+        }
+    }
+    if points.windows(2).any(|w| w[1].time_s <= w[0].time_s) || first.time_s <= 0.0 {
+        return Err("trajectory times must be positive and increasing".into());
+    }
+    let mut prev = (0.0, *now);
+    for p in points {
+        // A point at exactly the next step is taken as is: interpolating
+        // with w = 1 would give a + (b - a), off by an ulp from b.
+        if (p.time_s - t).abs() <= 1e-9 {
+            return Ok(p.state);
+        }
+        if p.time_s >= t - 1e-9 {
+            let w = ((t - prev.0) / (p.time_s - prev.0)).clamp(0.0, 1.0);
+            let lerp = |a: f64, b: f64| a + (b - a) * w;
+            let dh = crate::geometry::wrap_angle(p.state.heading_rad - prev.1.heading_rad);
+            return Ok(AgentState {
+                position: prev.1.position + (p.state.position - prev.1.position) * w,
+                heading_rad: crate::geometry::wrap_angle(prev.1.heading_rad + dh * w),
+                velocity_mps: crate::geometry::Vector2::new(
+                    lerp(prev.1.velocity_mps.x, p.state.velocity_mps.x),
+                    lerp(prev.1.velocity_mps.y, p.state.velocity_mps.y),
+                ),
+            });
+        }
+        prev = (p.time_s, p.state);
+    }
+    Err(format!("trajectory ends at {} s, before the next step ({t} s)", prev.0))
 }
 
 /// Why a planner failed to answer.

@@ -17,9 +17,8 @@ pub use events::{CollisionEvent, EgoCollisionKind, EgoContact, LaneOccupancy, Of
 pub use rollout::{Rollout, RolloutSummary, Termination};
 pub use vehicle_limits::{LimitViolation, VehicleLimits};
 
-use crate::geometry::Vector2;
 use crate::motion::{KinematicState, kinematic_step, tokens::SIM_DT_S};
-use crate::planners::{Observation, PerceivedAgent, Planner, PlannerOutput};
+use crate::planners::{Observation, PerceivedAgent, Planner};
 use crate::policies::{AgentAction, AgentPolicy, BackgroundPolicy, WorldView};
 use crate::scenario::{AgentBody, AgentState, Scenario, TrackIndex};
 
@@ -199,7 +198,7 @@ impl<'a> Simulation<'a> {
             let observation = self.observe(step, start, &bodies, &states);
             let ego_next = planner.plan(&observation).map_err(|e| e.to_string()).and_then(|out| {
                 let ego_now = states[self.ego.0].expect("ego present while running");
-                apply_planner_output(&ego_now, &out)
+                out.next_state(&ego_now, SIM_DT_S)
             });
             let mut next = advance(&states, &actions);
             let ego_next = ego_next.and_then(|s| match crate::scenario::bounds::implausibility(&s) {
@@ -332,62 +331,6 @@ pub fn advance(states: &[Option<AgentState>], actions: &[AgentAction]) -> Vec<Op
             (AgentAction::Control(_), None) | (AgentAction::Absent, _) => None,
         })
         .collect()
-}
-
-/// The ego's state one step after `now` under the planner's output.
-fn apply_planner_output(now: &AgentState, out: &PlannerOutput) -> Result<AgentState, String> {
-    match out {
-        PlannerOutput::Control(a) => {
-            if !(a.accel_mps2.is_finite() && a.yaw_rate_radps.is_finite()) {
-                return Err(format!("non-finite control {a:?}"));
-            }
-            Ok(kinematic_step(&KinematicState::from_agent_state(now), *a, SIM_DT_S).to_agent_state())
-        }
-        PlannerOutput::Trajectory(points) => {
-            let first = points.first().ok_or("empty trajectory")?;
-            for p in points {
-                let s = &p.state;
-                let finite = p.time_s.is_finite()
-                    && s.position.x.is_finite()
-                    && s.position.y.is_finite()
-                    && s.heading_rad.is_finite()
-                    && s.velocity_mps.x.is_finite()
-                    && s.velocity_mps.y.is_finite();
-                if !finite {
-                    return Err(format!("non-finite trajectory point {p:?}"));
-                }
-            }
-            if points.windows(2).any(|w| w[1].time_s <= w[0].time_s) || first.time_s <= 0.0 {
-                return Err("trajectory times must be positive and increasing".into());
-            }
-            // Perfect tracking: the state at t = dt, linearly interpolated
-            // from `now` (t = 0) through the planned points.
-            let t = SIM_DT_S;
-            let mut prev = (0.0, *now);
-            for p in points {
-                // A point at exactly the next step is taken as is: interpolating
-                // with w = 1 would give a + (b - a), off by an ulp from b.
-                if (p.time_s - t).abs() <= 1e-9 {
-                    return Ok(p.state);
-                }
-                if p.time_s >= t - 1e-9 {
-                    let w = ((t - prev.0) / (p.time_s - prev.0)).clamp(0.0, 1.0);
-                    let lerp = |a: f64, b: f64| a + (b - a) * w;
-                    let dh = crate::geometry::wrap_angle(p.state.heading_rad - prev.1.heading_rad);
-                    return Ok(AgentState {
-                        position: prev.1.position + (p.state.position - prev.1.position) * w,
-                        heading_rad: crate::geometry::wrap_angle(prev.1.heading_rad + dh * w),
-                        velocity_mps: Vector2::new(
-                            lerp(prev.1.velocity_mps.x, p.state.velocity_mps.x),
-                            lerp(prev.1.velocity_mps.y, p.state.velocity_mps.y),
-                        ),
-                    });
-                }
-                prev = (p.time_s, p.state);
-            }
-            Err(format!("trajectory ends at {} s, before the next step ({t} s)", prev.0))
-        }
-    }
 }
 
 #[cfg(test)]

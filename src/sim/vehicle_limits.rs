@@ -111,6 +111,19 @@ impl VehicleLimits {
         ]
     }
 
+    /// The bounds a planted fault keeps its changed controls in
+    /// ([`crate::planners::mutant`]): these limits, so that a mutant is a
+    /// bad driver, never an impossible one.
+    pub fn control_bounds(&self) -> crate::planners::ControlBounds {
+        crate::planners::ControlBounds {
+            max_speed_mps: self.max_speed_mps,
+            max_accel_mps2: self.max_accel_mps2,
+            max_decel_mps2: self.max_decel_mps2,
+            max_yaw_rate_radps: self.max_yaw_rate_radps,
+            max_curvature_per_m: self.max_curvature_per_m,
+        }
+    }
+
     /// The first limit the step from `now` to `next` (`dt_s` apart)
     /// breaks, or `None`.
     pub fn check(&self, now: &AgentState, next: &AgentState, dt_s: f64) -> Option<LimitViolation> {

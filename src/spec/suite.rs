@@ -363,6 +363,20 @@ pub struct SuiteAcceptance {
     /// head-on, sideswipe, other. The suite fails when a kind is short.
     #[serde(default)]
     pub conflict_coverage_min: Option<std::collections::BTreeMap<crate::eval::ConflictKind, usize>>,
+    /// Mutation testing: the share of fault operators (mutants of the
+    /// planner under test) that the suite kills must be at least this. A
+    /// mutant is killed when some variant the planner passes is failed by
+    /// the mutant, on any criterion. In [0, 1]. Runs the mutants of
+    /// `mutation_operators` (default: every operator) on the suite's
+    /// variants; one test, `suite::mutation_score`.
+    #[serde(default)]
+    #[schemars(range(min = 0, max = 1))]
+    pub mutation_score_min: Option<f64>,
+    /// The fault operators `mutation_score_min` is measured over (default:
+    /// all of them): no-brake, weak-brake, late, blind-cbv, blind-side,
+    /// no-evade, speeding.
+    #[serde(default)]
+    pub mutation_operators: Option<Vec<crate::planners::FaultOperator>>,
 }
 
 /// Where a scenario of the suite comes from, resolved.
@@ -518,9 +532,22 @@ impl Loaded<SuiteSpec> {
             ("solution_rate_min", u.solution_rate_min),
             ("conflict_reach_min", u.conflict_reach_min),
             ("no_escape_collision_rate_max", u.no_escape_collision_rate_max),
+            ("mutation_score_min", u.mutation_score_min),
         ] {
             if let Some(x) = value {
                 self.check_number(&format!("acceptance.suite.{name}"), x, NumberRange::closed(0.0, 1.0), "")?;
+            }
+        }
+        if let Some(ops) = &u.mutation_operators {
+            let path = "acceptance.suite.mutation_operators";
+            if ops.is_empty() {
+                return Err(self.invalid_at(path, "names no fault operator: name at least one, or remove the key"));
+            }
+            if u.mutation_score_min.is_none() {
+                return Err(self.invalid_at(
+                    path,
+                    "is used only with `mutation_score_min`: set a minimum score, or remove the key",
+                ));
             }
         }
         if let Some(required) = &u.conflict_coverage_min {

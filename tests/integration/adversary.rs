@@ -246,6 +246,7 @@ fn seeds_give_distinct_safer_variants() {
                     variant: None,
                     escape: None,
                     ego_limits: None,
+                    fault: None,
                 })
                 .unwrap();
                 let track: Vec<_> = stages.stage1.states.iter().filter_map(|row| row[cbv.0]).collect();

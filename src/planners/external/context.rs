@@ -105,7 +105,7 @@ impl RolloutContext {
     }
 
     /// The ego's recorded positions from the start on (the route's guide at forks).
-    pub(super) fn recorded_path(&self) -> Vec<Point2> {
+    pub(crate) fn recorded_path(&self) -> Vec<Point2> {
         self.scenario
             .tracks
             .get(self.ego.0)

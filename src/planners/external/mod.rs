@@ -76,7 +76,7 @@ mod encoding;
 mod interrupt;
 mod lane_walk;
 mod process;
-mod route;
+pub(crate) mod route;
 mod wire;
 
 use std::collections::BTreeMap;

@@ -36,7 +36,7 @@ const MAX_LANES: usize = 256;
 
 /// A planned route and its revision.
 #[derive(Debug, Clone, Default)]
-pub(super) struct StableRoute {
+pub(crate) struct StableRoute {
     /// The lanes it runs along, in order.
     pub(super) lanes: Vec<MapElementId>,
     /// Its points, every [`super::MAP_SPACING_M`] or less.
@@ -58,7 +58,7 @@ impl StableRoute {
     /// plans it anew from the ego. `recorded` are the ego's recorded
     /// positions (for the choice at forks). Returns the ego's arc length
     /// along the route (0 when there is none).
-    pub(super) fn update(&mut self, map: &RoadMap, ego: &AgentState, recorded: &[Point2]) -> f64 {
+    pub(crate) fn update(&mut self, map: &RoadMap, ego: &AgentState, recorded: &[Point2]) -> f64 {
         if self.planned
             && let Some(s) = self.keeps(ego)
         {
@@ -71,6 +71,11 @@ impl StableRoute {
         let at = self.line.project(&ego.position);
         self.leave_m = ROUTE_LEAVE_M + at.map_or(0.0, |p| p.distance_m);
         at.map_or(0.0, |p| p.arc_length_m)
+    }
+
+    /// The route's path (no points before the first plan, or off the map).
+    pub(crate) fn line(&self) -> &Polyline {
+        &self.line
     }
 
     /// The ego's arc length when the current route still serves it.

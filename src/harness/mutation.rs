@@ -1,0 +1,366 @@
+//! Mutation testing of a suite: would it notice a broken planner? Each
+//! [`FaultOperator`] plants one fault between the planner under test and the
+//! simulator ([`crate::planners::mutant`]); the mutant drives stage 2 of
+//! every variant again, on the variant's own stage 1 (the CBV's attack is
+//! made once and shared), and is checked against the same criteria.
+//!
+//! A mutant is **killed** when some variant that the unmutated planner
+//! passes is failed by the mutant, on any criterion. The **mutation score**
+//! is killed mutants over all mutants. A surviving mutant is a blind spot
+//! of the suite, reported with a hint of the scene that would catch it.
+//! The one rule behind `safer run --mutants`, the `mutation_score` test of
+//! the cargo-test runner and the review page.
+
+use serde::Serialize;
+
+use super::acceptance::{self, AcceptanceFailure};
+use super::pipeline::{self, Stage2Verdict, VariantSetup};
+use super::variant::{CollisionEscape, VariantInputs};
+use super::{HarnessError, MetricCheck, Suite, SuiteScenario, VariantOutcome};
+use crate::eval::min_time_to_collision;
+use crate::planners::FaultOperator;
+use crate::sim::Rollout;
+use crate::spec::suite::{SuiteAcceptance, VariantAcceptance};
+
+/// A mutant's result on one variant.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct MutantRun {
+    /// The fault planted.
+    pub operator: FaultOperator,
+    /// The criteria the mutant failed (empty: it passed), or why it could
+    /// not run.
+    pub failures: Result<Vec<AcceptanceFailure>, String>,
+}
+
+impl MutantRun {
+    /// Whether the mutant failed a criterion.
+    pub fn failed(&self) -> bool {
+        self.failures.as_ref().is_ok_and(|f| !f.is_empty())
+    }
+}
+
+/// Stage 2 of `setup` played with `operator` planted, after `stage1`, and
+/// judged by `criteria` as the unmutated planner is (the closed-loop
+/// witness too, for a collision).
+pub fn judge_mutant(
+    setup: &VariantSetup<'_>,
+    stage1: &Rollout,
+    criteria: &VariantAcceptance,
+    operator: FaultOperator,
+) -> Result<Vec<AcceptanceFailure>, HarnessError> {
+    let setup = VariantSetup { fault: Some(operator), ..*setup };
+    let played = pipeline::play_stage2(&setup, stage1)?;
+    let escape = match (setup.escape, Stage2Verdict::of(&played.stage2)) {
+        (Some(budget), Stage2Verdict::Collided { .. }) => {
+            pipeline::search_stage2_escape(&setup, stage1, &played.stage2, budget)?
+        }
+        _ => None,
+    };
+    let min_ttc = min_time_to_collision(&played.stage2);
+    let map = &setup.scenario.map;
+    Ok(acceptance::check(criteria, &played.stage2, map, min_ttc, escape.as_ref().map(CollisionEscape::of)))
+}
+
+/// The mutants of `operators` on variant `index` of `scenario`, whose
+/// unmutated outcome is `base` (its stage 1 is reused, not made again).
+/// A variant the planner does not pass cannot kill a mutant, so its
+/// mutants are not run.
+pub fn run_mutants(
+    suite: &Suite,
+    scenario: &SuiteScenario,
+    index: u32,
+    base: &VariantOutcome,
+    operators: &[FaultOperator],
+) -> Vec<MutantRun> {
+    if !base.failures.is_empty() {
+        return Vec::new();
+    }
+    let inputs = match VariantInputs::of(suite, scenario, index) {
+        Ok(i) => i,
+        Err(e) => {
+            let why = e.to_string();
+            return operators.iter().map(|&operator| MutantRun { operator, failures: Err(why.clone()) }).collect();
+        }
+    };
+    let setup = inputs.setup(suite);
+    let criteria = &suite.spec.value.acceptance.variant;
+    operators
+        .iter()
+        .map(|&operator| MutantRun {
+            operator,
+            failures: judge_mutant(&setup, &base.stage1, criteria, operator).map_err(|e| e.to_string()),
+        })
+        .collect()
+}
+
+/// The operators a suite's mutation run plants: `requested` when given
+/// (`safer run --mutants`), else the suite's `mutation_operators` when it
+/// asks for a mutation score, else none.
+pub fn operators_for(acceptance: &SuiteAcceptance, requested: Option<&[FaultOperator]>) -> Vec<FaultOperator> {
+    match requested {
+        Some(ops) => ops.to_vec(),
+        None if acceptance.mutation_score_min.is_some() => {
+            acceptance.mutation_operators.clone().unwrap_or_else(|| FaultOperator::ALL.to_vec())
+        }
+        None => Vec::new(),
+    }
+}
+
+/// A variant that killed a mutant, and how.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Kill {
+    /// `suite::scenario::seed-k`.
+    pub variant: String,
+    /// The first criterion the mutant failed there.
+    pub criterion: String,
+    /// What happened, in words.
+    pub what: String,
+}
+
+/// One operator's result over a suite.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct OperatorResult {
+    /// The fault.
+    pub operator: FaultOperator,
+    /// What it does, in one sentence.
+    pub description: &'static str,
+    /// Whether some variant killed it.
+    pub killed: bool,
+    /// The variants that killed it (the planner passes them, the mutant
+    /// fails them), in report order.
+    pub kills: Vec<Kill>,
+    /// Variants where the mutant could not run, with why.
+    pub errors: Vec<(String, String)>,
+    /// For a survivor: the kind of scene that would catch it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub hint: Option<&'static str>,
+}
+
+/// A suite's mutation run.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct MutationReport {
+    /// Variants the suite has.
+    pub variants: usize,
+    /// Of which the unmutated planner passes (only these can kill).
+    pub variants_passed: usize,
+    /// Variants that could not run unmutated (the report is then
+    /// incomplete, and the score check fails).
+    pub variants_errored: usize,
+    /// Per operator, in the order they were asked for.
+    pub operators: Vec<OperatorResult>,
+    /// Killed mutants.
+    pub killed: usize,
+    /// Killed mutants over all mutants; `None` with no mutant.
+    pub score: Option<f64>,
+}
+
+impl MutationReport {
+    /// The report of `operators` over a suite's variants, each given as
+    /// its name, its unmutated outcome (or why it could not run) and its
+    /// mutants' runs.
+    pub fn of<'a>(
+        operators: &[FaultOperator],
+        variants: impl IntoIterator<Item = (&'a str, Result<&'a VariantOutcome, &'a str>, &'a [MutantRun])>,
+    ) -> MutationReport {
+        let mut results: Vec<OperatorResult> = operators
+            .iter()
+            .map(|&operator| OperatorResult {
+                operator,
+                description: operator.describe(),
+                killed: false,
+                kills: Vec::new(),
+                errors: Vec::new(),
+                hint: None,
+            })
+            .collect();
+        let (mut n, mut passed, mut errored) = (0, 0, 0);
+        for (name, base, mutants) in variants {
+            n += 1;
+            match base {
+                Ok(o) if o.failures.is_empty() => passed += 1,
+                Ok(_) => continue,
+                Err(_) => {
+                    errored += 1;
+                    continue;
+                }
+            }
+            for run in mutants {
+                let Some(result) = results.iter_mut().find(|r| r.operator == run.operator) else { continue };
+                match &run.failures {
+                    Ok(failures) => {
+                        if let Some(first) = failures.first() {
+                            result.kills.push(Kill {
+                                variant: name.to_string(),
+                                criterion: first.criterion.clone(),
+                                what: first.what.clone(),
+                            });
+                        }
+                    }
+                    Err(e) => result.errors.push((name.to_string(), e.clone())),
+                }
+            }
+        }
+        for r in &mut results {
+            r.killed = !r.kills.is_empty();
+            r.hint = (!r.killed).then(|| r.operator.blind_spot_hint());
+        }
+        let killed = results.iter().filter(|r| r.killed).count();
+        MutationReport {
+            variants: n,
+            variants_passed: passed,
+            variants_errored: errored,
+            score: (!results.is_empty()).then(|| killed as f64 / results.len() as f64),
+            killed,
+            operators: results,
+        }
+    }
+
+    /// The surviving operators.
+    pub fn survivors(&self) -> impl Iterator<Item = &OperatorResult> {
+        self.operators.iter().filter(|r| !r.killed)
+    }
+
+    /// "mutation score 0.714 (5 of 7 mutants killed, over 9 variants the planner passes of 12)".
+    pub fn headline(&self) -> String {
+        let score = self.score.map_or_else(|| "-".to_string(), |s| format!("{s:.3}"));
+        format!(
+            "mutation score {score} ({} of {} mutants killed, over the {} of {} variants the planner passes)",
+            self.killed,
+            self.operators.len(),
+            self.variants_passed,
+            self.variants
+        )
+    }
+
+    /// One line per operator: killed (by how many variants, the first of
+    /// them and how) or survived (with the hint).
+    pub fn table(&self) -> Vec<String> {
+        let width = self.operators.iter().map(|r| r.operator.name().len()).max().unwrap_or(0);
+        self.operators
+            .iter()
+            .map(|r| {
+                let errors = if r.errors.is_empty() {
+                    String::new()
+                } else {
+                    format!(" ({} could not run: {})", r.errors.len(), r.errors[0].1)
+                };
+                match r.kills.first() {
+                    Some(k) => format!(
+                        "{:<width$}  killed by {} of {} variants; first {}: {}: {}{errors}",
+                        r.operator.name(),
+                        r.kills.len(),
+                        self.variants_passed,
+                        k.variant,
+                        k.criterion,
+                        k.what
+                    ),
+                    None => format!("{:<width$}  SURVIVED: {}{errors}", r.operator.name(), r.operator.blind_spot_hint()),
+                }
+            })
+            .collect()
+    }
+
+    /// The `mutation_score` check of `acceptance` (`None` when the suite
+    /// sets no `mutation_score_min`): fails below the bound, and fails as
+    /// unmeasured when a variant could not run, when the planner passes no
+    /// variant (no mutant can be killed there) or when no mutant ran.
+    pub fn check(report: Option<&MutationReport>, acceptance: &SuiteAcceptance) -> Option<MetricCheck> {
+        let min = acceptance.mutation_score_min?;
+        let unmeasured = |why: String| Some(MetricCheck { name: MUTATION_SCORE, value: None, result: Err(why) });
+        let Some(report) = report else {
+            return unmeasured("mutation_score could not be measured: the mutants were not run".into());
+        };
+        if report.variants_errored > 0 {
+            return unmeasured(format!(
+                "mutation_score could not be measured: {} of {} variants could not run",
+                report.variants_errored, report.variants
+            ));
+        }
+        if report.variants_passed == 0 {
+            return unmeasured(format!(
+                "mutation_score could not be measured: the planner passes none of the {} variants, so no mutant can be killed",
+                report.variants
+            ));
+        }
+        let Some(score) = report.score else {
+            return unmeasured("mutation_score could not be measured: no fault operator was named".into());
+        };
+        let result = if score < min || min.is_nan() {
+            let names: Vec<&str> = report.survivors().map(|r| r.operator.name()).collect();
+            Err(format!(
+                "mutation_score = {score:.3} < {min}: {} of {} mutants survived ({})",
+                names.len(),
+                report.operators.len(),
+                names.join(", ")
+            ))
+        } else {
+            Ok(())
+        };
+        Some(MetricCheck { name: MUTATION_SCORE, value: Some(score), result })
+    }
+}
+
+/// The name of the mutation-score check (`suite::mutation_score`).
+pub const MUTATION_SCORE: &str = "mutation_score";
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn failure(criterion: &str) -> AcceptanceFailure {
+        AcceptanceFailure { criterion: criterion.into(), what: "it happened".into() }
+    }
+
+    fn acceptance(min: f64) -> SuiteAcceptance {
+        SuiteAcceptance { mutation_score_min: Some(min), ..SuiteAcceptance::default() }
+    }
+
+    #[test]
+    fn a_check_without_a_bound_is_not_made() {
+        assert!(MutationReport::check(None, &SuiteAcceptance::default()).is_none());
+        let c = MutationReport::check(None, &acceptance(0.5)).unwrap();
+        assert!(c.result.unwrap_err().contains("not run"));
+    }
+
+    #[test]
+    fn thresholds_are_inclusive_and_survivors_are_named() {
+        let report = MutationReport {
+            variants: 2,
+            variants_passed: 2,
+            variants_errored: 0,
+            operators: FaultOperator::ALL[..2]
+                .iter()
+                .map(|&operator| OperatorResult {
+                    operator,
+                    description: operator.describe(),
+                    killed: operator == FaultOperator::NoBrake,
+                    kills: Vec::new(),
+                    errors: Vec::new(),
+                    hint: None,
+                })
+                .collect(),
+            killed: 1,
+            score: Some(0.5),
+        };
+        assert!(MutationReport::check(Some(&report), &acceptance(0.5)).unwrap().result.is_ok());
+        let err = MutationReport::check(Some(&report), &acceptance(0.6)).unwrap().result.unwrap_err();
+        assert!(err.contains("0.500 < 0.6") && err.contains("weak-brake") && !err.contains("no-brake"), "{err}");
+        assert!(MutationReport::check(Some(&report), &acceptance(f64::NAN)).unwrap().result.is_err());
+    }
+
+    #[test]
+    fn a_report_with_no_passing_variant_is_unmeasured() {
+        let report = MutationReport::of(&[FaultOperator::NoBrake], std::iter::empty());
+        assert_eq!((report.variants, report.killed, report.score), (0, 0, Some(0.0)));
+        let err = MutationReport::check(Some(&report), &acceptance(0.0)).unwrap().result.unwrap_err();
+        assert!(err.contains("passes none"), "{err}");
+    }
+
+    #[test]
+    fn mutant_runs_count_as_failed_only_with_a_failed_criterion() {
+        let ran = |failures| MutantRun { operator: FaultOperator::Late, failures };
+        assert!(ran(Ok(vec![failure("no_collision")])).failed());
+        assert!(!ran(Ok(vec![])).failed());
+        assert!(!ran(Err("could not start".into())).failed());
+    }
+}

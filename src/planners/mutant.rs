@@ -1,0 +1,389 @@
+//! Planted faults for mutation testing: a planner wrapped so that it drives
+//! like a broken copy of itself. Each [`FaultOperator`] acts only at the
+//! boundary between the planner and the simulator (what the planner sees,
+//! what its answer does), so it works alike on built-ins, in-process Rust
+//! planners and external processes of any protocol version, and the
+//! planner's own code is never touched.
+//!
+//! A mutant is a bad driver, not an impossible one: every answer an
+//! operator changes is a control kept inside the suite's vehicle limits
+//! ([`ControlBounds`]). An answer the operator leaves as it is goes to the
+//! simulator unchanged (a trajectory stays a trajectory), so a mutant
+//! differs from its planner only where its fault acts.
+
+use std::collections::VecDeque;
+
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
+
+use super::external::RolloutContext;
+use super::external::route::StableRoute;
+use super::{Observation, PerceivedAgent, Planner, PlannerError, PlannerOutput, PlannerStartup};
+use crate::geometry::{Point2, wrap_angle};
+use crate::map::{MapElementId, SignalState};
+use crate::motion::{Action, KinematicState};
+use crate::scenario::{AgentId, AgentState};
+
+/// Braking that `weak-brake` allows at most, m/s² (positive).
+pub const WEAK_BRAKE_MPS2: f64 = 2.0;
+/// How late `late` shows the planner the world, s.
+pub const LATE_S: f64 = 0.5;
+/// Half the cone ahead that `blind-side` still sees, rad (30°).
+pub const BLIND_SIDE_HALF_CONE_RAD: f64 = std::f64::consts::PI / 6.0;
+/// How far above the planner's own speed target `speeding` drives (1.2: 20 %).
+pub const SPEEDING_FACTOR: f64 = 1.2;
+/// `no-evade`'s pure-pursuit look-ahead per m/s of speed, s.
+const NO_EVADE_LOOKAHEAD_S: f64 = 1.0;
+/// `no-evade`'s shortest look-ahead, m.
+const NO_EVADE_MIN_LOOKAHEAD_M: f64 = 6.0;
+
+/// A fault planted between a planner and the simulator.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Deserialize, Serialize, JsonSchema)]
+#[serde(rename_all = "kebab-case")]
+#[non_exhaustive]
+pub enum FaultOperator {
+    /// Acceleration clipped at 0: the ego never brakes.
+    NoBrake,
+    /// Braking capped at 2 m/s².
+    WeakBrake,
+    /// The planner sees the other road users and the signals 0.5 s late;
+    /// its own pose is current.
+    Late,
+    /// The CBV is removed from every observation.
+    BlindCbv,
+    /// Road users outside a ±30° cone ahead of the ego are removed from
+    /// every observation.
+    BlindSide,
+    /// The planner's yaw rate is replaced by plain lane keeping on its route.
+    NoEvade,
+    /// The planner's speed reads 20 % low, so it drives 20 % above the
+    /// speed it aims for.
+    Speeding,
+}
+
+impl FaultOperator {
+    /// Every operator, in the order reports list them.
+    pub const ALL: &'static [Self] = &[
+        Self::NoBrake,
+        Self::WeakBrake,
+        Self::Late,
+        Self::BlindCbv,
+        Self::BlindSide,
+        Self::NoEvade,
+        Self::Speeding,
+    ];
+
+    /// Its name in specs, flags and reports (`no-brake`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::NoBrake => "no-brake",
+            Self::WeakBrake => "weak-brake",
+            Self::Late => "late",
+            Self::BlindCbv => "blind-cbv",
+            Self::BlindSide => "blind-side",
+            Self::NoEvade => "no-evade",
+            Self::Speeding => "speeding",
+        }
+    }
+
+    /// What the fault does, in one sentence.
+    pub fn describe(self) -> &'static str {
+        match self {
+            Self::NoBrake => "the planner's acceleration is clipped at 0, so the ego never brakes",
+            Self::WeakBrake => "the planner's braking is capped at 2 m/s²",
+            Self::Late => {
+                "the planner sees the other road users and the signals 0.5 s late (its own pose is current), so it reacts 0.5 s late"
+            }
+            Self::BlindCbv => "the CBV is removed from every observation the planner gets",
+            Self::BlindSide => "road users outside a ±30° cone ahead of the ego are removed from every observation",
+            Self::NoEvade => "the planner's yaw rate is replaced by plain lane keeping on its route, so it cannot swerve",
+            Self::Speeding => {
+                "the planner's speed reads 20 % low, so it drives 20 % above the speed it aims for (its speed changes scaled to match)"
+            }
+        }
+    }
+
+    /// What kind of scene would catch the fault, for a suite it survives.
+    pub fn blind_spot_hint(self) -> &'static str {
+        match self {
+            Self::NoBrake => {
+                "add a scene where the ego must brake: a leader braking hard ahead, or a cut-in close in front, with nothing to steer into"
+            }
+            Self::WeakBrake => {
+                "add a scene that needs hard braking (4 m/s² or more): a sudden stop ahead, or a cut-in with a short gap"
+            }
+            Self::Late => {
+                "add a scene where a road user acts suddenly and close: a cut-in or a hard brake inside 2 s of the ego, where half a second of reaction matters"
+            }
+            Self::BlindCbv => {
+                "add a scene where the CBV itself is the hazard the ego must answer (a cut-in, a merge, a braking leader), not the background"
+            }
+            Self::BlindSide => {
+                "add a scene where the threat comes from the side: a merge, a crossing at a junction, a car entering from an adjacent lane"
+            }
+            Self::NoEvade => "add a scene where braking alone is not enough and the ego must steer around an obstacle",
+            Self::Speeding => {
+                "add a scene with a tight speed budget: a curve, a queue ahead or a crossing where 20 % more speed turns a near miss into a collision"
+            }
+        }
+    }
+
+    /// Parses a comma-separated list of names (`no-brake,late`); `all`
+    /// stands for every operator.
+    pub fn parse_list(text: &str) -> Result<Vec<Self>, String> {
+        let mut out: Vec<Self> = Vec::new();
+        for part in text.split(',').map(str::trim).filter(|p| !p.is_empty()) {
+            if part == "all" {
+                out.extend(Self::ALL);
+                continue;
+            }
+            let op = Self::ALL.iter().copied().find(|o| o.name() == part).ok_or_else(|| {
+                let names: Vec<&str> = Self::ALL.iter().map(|o| o.name()).collect();
+                format!("unknown fault operator `{part}` (known: {}, or all)", names.join(", "))
+            })?;
+            out.push(op);
+        }
+        if out.is_empty() {
+            return Err("no fault operator named".into());
+        }
+        out.sort();
+        out.dedup();
+        Ok(out)
+    }
+}
+
+impl std::fmt::Display for FaultOperator {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// The limits a mutant's changed controls are kept within (the suite's
+/// vehicle limits, so that a mutant fails for driving badly, never for
+/// driving impossibly).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ControlBounds {
+    /// Highest speed, m/s.
+    pub max_speed_mps: f64,
+    /// Highest acceleration, m/s².
+    pub max_accel_mps2: f64,
+    /// Highest deceleration, m/s² (positive).
+    pub max_decel_mps2: f64,
+    /// Highest yaw rate, rad/s.
+    pub max_yaw_rate_radps: f64,
+    /// Highest curvature, 1/m.
+    pub max_curvature_per_m: f64,
+}
+
+impl ControlBounds {
+    /// `action` from speed `speed_mps` (along the heading) held inside the
+    /// bounds: acceleration first (so the speed stays in range), then the
+    /// yaw rate (so the curvature at the new speed does).
+    pub fn clamp(&self, speed_mps: f64, action: Action, dt_s: f64) -> Action {
+        // A hair inside every bound: the simulator's check measures from
+        // positions and headings, whose rounding must not tip it over.
+        const INSIDE: f64 = 1.0 - 1e-9;
+        let top = (self.max_speed_mps * INSIDE - speed_mps) / dt_s;
+        let accel = action
+            .accel_mps2
+            .clamp(-self.max_decel_mps2 * INSIDE, self.max_accel_mps2 * INSIDE)
+            .min(top.max(-self.max_decel_mps2 * INSIDE));
+        let next_speed = (speed_mps + accel * dt_s).max(0.0);
+        let yaw_max = (self.max_yaw_rate_radps * INSIDE).min(self.max_curvature_per_m * INSIDE * next_speed);
+        let yaw_rate = action.yaw_rate_radps.clamp(-yaw_max, yaw_max);
+        Action { accel_mps2: accel, yaw_rate_radps: yaw_rate }
+    }
+}
+
+/// What the planner saw at one step, kept for `late`.
+type Seen = (Vec<PerceivedAgent>, Vec<(MapElementId, SignalState)>);
+
+/// A planner with a fault planted at its boundary.
+pub struct MutantPlanner {
+    inner: Box<dyn Planner>,
+    operator: FaultOperator,
+    bounds: ControlBounds,
+    name: String,
+    /// The CBV's id (`blind-cbv`).
+    cbv: Option<AgentId>,
+    /// The recorded ego's path from the start (`no-evade`'s route at forks).
+    recorded: Vec<Point2>,
+    /// `no-evade`'s route: the one external planners are sent.
+    route: StableRoute,
+    /// What the world looked like over the last 0.5 s, oldest first (`late`).
+    history: VecDeque<Seen>,
+}
+
+impl MutantPlanner {
+    /// `inner` with `operator` planted, for the rollout of `context`, its
+    /// changed controls held inside `bounds`.
+    pub fn new(
+        inner: Box<dyn Planner>,
+        operator: FaultOperator,
+        bounds: ControlBounds,
+        context: &RolloutContext,
+    ) -> Self {
+        let scenario = &context.scenario;
+        Self {
+            name: format!("{} [{operator}]", inner.name()),
+            cbv: scenario.cbv.and_then(|c| scenario.tracks.get(c.0)).map(|t| t.id.clone()),
+            recorded: context.recorded_path(),
+            route: StableRoute::default(),
+            history: VecDeque::new(),
+            inner,
+            operator,
+            bounds,
+        }
+    }
+
+    /// The fault.
+    pub fn operator(&self) -> FaultOperator {
+        self.operator
+    }
+
+    /// The observation the planner is shown instead of `observation`.
+    fn seen<'a>(&mut self, observation: &Observation<'a>) -> Observation<'a> {
+        let mut seen = observation.clone();
+        match self.operator {
+            FaultOperator::Late => {
+                let delay = (LATE_S / observation.dt_s).round().max(1.0) as usize;
+                self.history.push_back((observation.agents.clone(), observation.signals.clone()));
+                while self.history.len() > delay + 1 {
+                    self.history.pop_front();
+                }
+                // Before 0.5 s has passed, the first observation stands in
+                // for the older ones it lacks.
+                if let Some((agents, signals)) = self.history.front() {
+                    seen.agents.clone_from(agents);
+                    seen.signals.clone_from(signals);
+                }
+            }
+            FaultOperator::BlindCbv => seen.agents.retain(|a| Some(&a.id) != self.cbv.as_ref()),
+            FaultOperator::BlindSide => {
+                let ego = observation.ego;
+                seen.agents.retain(|a| {
+                    let d = a.state.position - ego.position;
+                    d.norm() < 1e-9 || wrap_angle(d.y.atan2(d.x) - ego.heading_rad).abs() <= BLIND_SIDE_HALF_CONE_RAD
+                });
+            }
+            FaultOperator::Speeding => seen.ego.velocity_mps /= SPEEDING_FACTOR,
+            FaultOperator::NoBrake | FaultOperator::WeakBrake | FaultOperator::NoEvade => {}
+        }
+        seen
+    }
+
+    /// The control `out` stands for, from the state the planner saw: its
+    /// acceleration along the heading and its yaw rate over one step.
+    fn implied_action(seen: &AgentState, out: &PlannerOutput, dt_s: f64) -> Option<Action> {
+        let next = out.next_state(seen, dt_s).ok()?;
+        let v0 = KinematicState::from_agent_state(seen).speed_mps;
+        let v1 = KinematicState::from_agent_state(&next).speed_mps;
+        Some(Action {
+            accel_mps2: (v1 - v0) / dt_s,
+            yaw_rate_radps: wrap_angle(next.heading_rad - seen.heading_rad) / dt_s,
+        })
+    }
+
+    /// The answer the simulator gets: `out` itself where the fault leaves
+    /// it, else the faulty control inside the bounds.
+    fn mutate(&mut self, observation: &Observation<'_>, seen: &AgentState, out: PlannerOutput) -> PlannerOutput {
+        let dt = observation.dt_s;
+        // An answer that cannot be applied goes through as it is: the
+        // simulator reports it as the planner's own failure.
+        let Some(asked) = Self::implied_action(seen, &out, dt) else { return out };
+        let speed = KinematicState::from_agent_state(&observation.ego).speed_mps;
+        let faulty = match self.operator {
+            FaultOperator::NoBrake if asked.accel_mps2 < 0.0 => Action { accel_mps2: 0.0, ..asked },
+            FaultOperator::WeakBrake if asked.accel_mps2 < -WEAK_BRAKE_MPS2 => {
+                Action { accel_mps2: -WEAK_BRAKE_MPS2, ..asked }
+            }
+            FaultOperator::Speeding => {
+                let aimed = KinematicState::from_agent_state(seen).speed_mps + asked.accel_mps2 * dt;
+                Action { accel_mps2: (aimed * SPEEDING_FACTOR - speed) / dt, ..asked }
+            }
+            FaultOperator::NoEvade => match self.lane_keeping_yaw_rate(observation) {
+                Some(yaw_rate_radps) => Action { yaw_rate_radps, ..asked },
+                None => return out,
+            },
+            _ => return out,
+        };
+        PlannerOutput::Control(self.bounds.clamp(speed, faulty, dt))
+    }
+
+    /// Pure pursuit along the route external planners are sent; `None`
+    /// off the lanes (no route).
+    fn lane_keeping_yaw_rate(&mut self, observation: &Observation<'_>) -> Option<f64> {
+        let ego = observation.ego;
+        let s = self.route.update(observation.map, &ego, &self.recorded);
+        let line = self.route.line();
+        if line.len() < 2 {
+            return None;
+        }
+        let speed = KinematicState::from_agent_state(&ego).speed_mps;
+        let lookahead = (NO_EVADE_LOOKAHEAD_S * speed).max(NO_EVADE_MIN_LOOKAHEAD_M);
+        let (target, _) = line.sample(s + lookahead)?;
+        let to_target = target - ego.position;
+        let alpha = wrap_angle(to_target.y.atan2(to_target.x) - ego.heading_rad);
+        let curvature = 2.0 * alpha.sin() / to_target.norm().max(1e-3);
+        Some(curvature * speed)
+    }
+}
+
+impl Planner for MutantPlanner {
+    fn name(&self) -> &str {
+        &self.name
+    }
+
+    fn plan(&mut self, observation: &Observation<'_>) -> Result<PlannerOutput, PlannerError> {
+        let seen = self.seen(observation);
+        let out = self.inner.plan(&seen)?;
+        Ok(self.mutate(observation, &seen.ego, out))
+    }
+
+    fn end_rollout(&mut self) -> Option<String> {
+        self.inner.end_rollout()
+    }
+
+    fn startup(&self) -> Option<PlannerStartup> {
+        self.inner.startup()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_parse_back_and_all_expands() {
+        for op in FaultOperator::ALL {
+            assert_eq!(FaultOperator::parse_list(op.name()).unwrap(), vec![*op]);
+            let json = serde_json::to_string(op).unwrap();
+            assert_eq!(json, format!("\"{}\"", op.name()));
+        }
+        assert_eq!(FaultOperator::parse_list("all").unwrap(), FaultOperator::ALL);
+        assert_eq!(
+            FaultOperator::parse_list("late, no-brake,late").unwrap(),
+            vec![FaultOperator::NoBrake, FaultOperator::Late]
+        );
+        let err = FaultOperator::parse_list("no-brakes").unwrap_err();
+        assert!(err.contains("`no-brakes`") && err.contains("weak-brake"), "{err}");
+        assert!(FaultOperator::parse_list(" , ").is_err());
+    }
+
+    #[test]
+    fn clamping_keeps_speed_and_curvature_inside() {
+        let b = ControlBounds {
+            max_speed_mps: 30.0,
+            max_accel_mps2: 8.0,
+            max_decel_mps2: 12.0,
+            max_yaw_rate_radps: 1.5,
+            max_curvature_per_m: 0.2,
+        };
+        let a = b.clamp(29.5, Action { accel_mps2: 20.0, yaw_rate_radps: 3.0 }, 0.1);
+        assert!(29.5 + a.accel_mps2 * 0.1 <= 30.0, "{a:?}");
+        assert!(a.yaw_rate_radps <= 1.5 && a.yaw_rate_radps / 30.0 <= 0.2, "{a:?}");
+        let a = b.clamp(2.0, Action { accel_mps2: -50.0, yaw_rate_radps: -3.0 }, 0.1);
+        assert!(a.accel_mps2 >= -12.0, "{a:?}");
+        assert!(a.yaw_rate_radps.abs() <= 0.2 * 0.8 + 1e-12, "{a:?}");
+    }
+}
