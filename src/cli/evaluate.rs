@@ -103,6 +103,9 @@ pub(super) struct EvaluationSettings {
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     only_scenes: Vec<String>,
     witness: WitnessSettings,
+    /// The fault operators planted (`--mutants`; none: no mutation run).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    mutants: Vec<safer::planners::FaultOperator>,
 }
 
 impl EvaluationSettings {
@@ -120,6 +123,7 @@ impl EvaluationSettings {
             max_scenes: selection.max_scenes,
             only_scenes: selection.ids.to_vec(),
             witness,
+            mutants: request.mutants.clone(),
         }
     }
 }
@@ -348,6 +352,78 @@ fn print_table(
     Ok(())
 }
 
+/// The mutation table, when mutants were planted: per method row, the
+/// variants the planner passes, the mutant-variants killed (with the
+/// ratio to log replay's and the prior's where those rows ran), the
+/// mutants killed, and per operator its kills and the share of scenes
+/// where it was killed; the held-out scenes' kills after `|`.
+fn print_kills(
+    out: &mut dyn Write,
+    rows: &[MethodRow],
+    held_out: &HeldOutSplit,
+    settings: &EvaluationSettings,
+) -> std::io::Result<()> {
+    if settings.mutants.is_empty() {
+        return Ok(());
+    }
+    let modes = settings.stage2_cbv.len();
+    let kills_of = |rows: &[MethodRow], method: AdversaryMethod, mode: Stage2Cbv| {
+        rows.iter().find(|r| r.method == method && r.stage2_cbv == mode).and_then(|r| r.kills.as_ref()).map(|k| k.kills)
+    };
+    let ratio = |k: usize, of: Option<usize>| match of {
+        Some(0) if k > 0 => "inf".to_string(),
+        Some(0) => "-".to_string(),
+        Some(base) => format!("{:.2}", k as f64 / base as f64),
+        None => "-".to_string(),
+    };
+    writeln!(
+        out,
+        "\nmutants killed (the planner passes the variant, the mutant fails it: at-fault collision, off road, no answer or beyond the vehicle limits)"
+    )?;
+    let ops: Vec<String> = settings.mutants.iter().map(|o| o.name().to_string()).collect();
+    let width = rows.iter().map(|r| label(r.method, r.stage2_cbv, modes).len()).max().unwrap_or(6).max(6);
+    write!(out, "{:<width$}  {:>6}  {:>13}  {:>6}  {:>6}  {:>7}", "method", "passed", "kills", "×log", "×prior", "mutants")?;
+    for op in &ops {
+        write!(out, "  {op:>12}")?;
+    }
+    writeln!(out)?;
+    for r in rows {
+        let Some(k) = &r.kills else { continue };
+        let held = held_out
+            .held_out
+            .iter()
+            .find(|h| h.method == r.method && h.stage2_cbv == r.stage2_cbv)
+            .and_then(|h| h.kills.as_ref());
+        let kills = match held {
+            Some(h) => format!("{}/{} | {}", k.kills, k.mutant_variants, h.kills),
+            None => format!("{}/{}", k.kills, k.mutant_variants),
+        };
+        write!(
+            out,
+            "{:<width$}  {:>6}  {:>13}  {:>6}  {:>6}  {:>7}",
+            label(r.method, r.stage2_cbv, modes),
+            k.variants_passed,
+            kills,
+            ratio(k.kills, kills_of(rows, AdversaryMethod::Log, r.stage2_cbv)),
+            ratio(k.kills, kills_of(rows, AdversaryMethod::Prior, r.stage2_cbv)),
+            format!("{}/{}", k.mutants_killed, k.operators.len()),
+        )?;
+        for op in &settings.mutants {
+            let cell = k
+                .operators
+                .iter()
+                .find(|o| o.operator == *op)
+                .map_or_else(|| "-".to_string(), |o| format!("{} ({}/{})", o.kills, o.scenes_killed, o.scenes));
+            write!(out, "  {cell:>12}")?;
+        }
+        writeln!(out)?;
+    }
+    writeln!(
+        out,
+        "kills: mutant-variants killed / passed variants × mutants (right of | : on the held-out scenes); ×log, ×prior: kills over log replay's and the prior's on the same scenes and seeds; per mutant: kills (scenes where it was killed / scenes with a passed variant)."
+    )
+}
+
 /// How many scenes [`print_scenes_that_broke_the_rules`] names per list.
 const SCENES_NAMED: usize = 3;
 
@@ -560,7 +636,10 @@ fn report(
     let rows = evaluation::table(records, &settings.methods);
     let held_out = evaluation::held_out_split(records, &settings.methods);
     let report = Report { settings, partition, scenes, rows: &rows, held_out: &held_out, variants: records };
-    super::write_report_and_table(json, &report, |table| print_table(table, &rows, &held_out, scenes, settings))?;
+    super::write_report_and_table(json, &report, |table| {
+        print_table(table, &rows, &held_out, scenes, settings)?;
+        print_kills(table, &rows, &held_out, settings)
+    })?;
     let failed = rows.iter().any(|r| r.errors == r.variants && r.variants > 0);
     Ok(if failed { ExitCode::from(1) } else { ExitCode::SUCCESS })
 }

@@ -306,6 +306,9 @@ enum Command {
         /// Which variants `--artifacts` writes: the failing ones, or all (solved ones too, to see what the CBV did where nothing failed).
         #[arg(long, value_parser = choice(ArtefactVariants::ALL), default_value = "failing", requires = "artifacts")]
         artifacts_of: ArtefactVariants,
+        /// Mutation testing: plant these faults in the planner (comma-separated; alone, or `all`: every operator) and count, per method, the variants the planner passes and each mutant fails (no at-fault collision, no leaving the road, an answer inside the vehicle limits at every step). The measure an adversary is judged by.
+        #[arg(long, value_name = "OPS", num_args = 0..=1, default_missing_value = "all", value_parser = fault_operators)]
+        mutants: Option<FaultOperators>,
     },
     /// What the realism prior's trust region offers the adversary: per method, the probability mass of the tokens of its region (the top n, or the n likeliest distinct behaviours for `safer-distinct`), their acceleration and yaw-rate range, distinct behaviours and plausible share, at the CBV's token boundaries of stage 1.
     TrustRegion {
@@ -605,6 +608,7 @@ pub fn main() -> ExitCode {
             partition,
             artifacts,
             artifacts_of,
+            mutants,
         } => {
             let mut stage2_cbv = stage2_cbv;
             stage2_cbv.sort();
@@ -623,6 +627,7 @@ pub fn main() -> ExitCode {
                 horizon_s,
                 artefacts: artifacts,
                 artefacts_of: artifacts_of,
+                mutants: mutants.map(|m| m.0).unwrap_or_default(),
             };
             let witness = evaluate::WitnessSettings { road: witness_road, widest: witness_widest };
             set_jobs(jobs).and_then(|()| {
@@ -663,6 +668,7 @@ pub fn main() -> ExitCode {
                 horizon_s,
                 artefacts: None,
                 artefacts_of: ArtefactVariants::Failing,
+                mutants: Vec::new(),
             };
             set_jobs(jobs).and_then(|()| trust_region::run(&scenes, &request, max_scenes, json.as_deref()))
         }

@@ -23,6 +23,8 @@ use std::time::Instant;
 use rayon::prelude::*;
 
 use super::HarnessError;
+use super::acceptance;
+use super::mutation::{MethodKills, VariantMutation, evaluation_criteria, judge_mutant};
 use super::artefacts;
 use super::methods::{BackgroundDriver, MapEncodings, MethodSettings, ModelSet};
 use super::metrics::{CbvBackgroundContact, SuiteMetrics, VariantTally, cbv_background_collisions};
@@ -31,6 +33,7 @@ pub use super::pipeline::{Stage2Cbv, VariantProfile};
 use super::variant::variant_seed;
 use super::variant::{CollisionEscape, VariantOutcome};
 use crate::eval::escape::EscapeBudget;
+use crate::planners::FaultOperator;
 use crate::policies::BackgroundPolicy;
 use crate::policies::adversary::ApproachPhase;
 use crate::policies::prior_sampling::TokenSampling;
@@ -71,6 +74,10 @@ pub struct EvaluationRequest {
     pub artefacts: Option<PathBuf>,
     /// Which variants get artefacts where `artefacts` names a folder.
     pub artefacts_of: ArtefactVariants,
+    /// Mutation testing: faults planted in the planner, each judged on
+    /// every variant the planner passes
+    /// ([`super::mutation::evaluation_criteria`]); empty: none.
+    pub mutants: Vec<FaultOperator>,
 }
 
 /// Which variants of an evaluation get their recording and picture.
@@ -200,6 +207,9 @@ pub struct VariantRecord {
     /// What the variant contributes to CR, SR, VJ and AJ (in the report,
     /// so that partitions' reports merge into the same table).
     pub tally: VariantTally,
+    /// The mutants' results, when the evaluation planted them.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mutation: Option<VariantMutation>,
 }
 
 impl VariantRecord {
@@ -232,6 +242,7 @@ impl VariantRecord {
             error: Some(error),
             artefacts: Vec::new(),
             tally: VariantTally::default(),
+            mutation: None,
         }
     }
 }
@@ -316,6 +327,8 @@ pub struct MethodRow {
     pub conflicts: Vec<super::metrics::KindCoverage>,
     /// Mean time per variant by part, s.
     pub profile: VariantProfile,
+    /// The mutants the variants killed, when the evaluation planted them.
+    pub kills: Option<MethodKills>,
 }
 
 /// How many of one scene's variants (of one method) something happened
@@ -387,7 +400,7 @@ fn run_one(
     let clock = Instant::now();
     let (sim, seed) = stage1_setup(scenario, method, seed_index, request);
     let variant = format!("{}::{}::seed-{seed_index}", scenario.id, crate::spec::spec_name(&method));
-    let stages = pipeline::run(VariantSetup {
+    let setup = VariantSetup {
         scenario,
         settings: MethodSettings {
             method,
@@ -406,7 +419,14 @@ fn run_one(
         escape: request.escape,
         ego_limits: Some(crate::sim::VehicleLimits::default()),
         fault: None,
-    })?;
+    };
+    let stages = pipeline::run(setup)?;
+    let mutation = (!request.mutants.is_empty()).then(|| {
+        let criteria = evaluation_criteria();
+        let escape = stages.escape.as_ref().map(CollisionEscape::of);
+        let base = acceptance::check(&criteria, &stages.stage2, &scenario.map, stages.min_ttc_s, escape);
+        VariantMutation::run(&base, &request.mutants, |op| judge_mutant(&setup, &stages.stage1, &criteria, op))
+    });
     let background_contacts = cbv_background_collisions(scenario, &stages.stage1);
     let tally = VariantTally::with_background(scenario, &stages, &background_contacts);
     let mut profile = stages.profile;
@@ -449,6 +469,7 @@ fn run_one(
         error: None,
         artefacts: Vec::new(),
         tally: tally.clone(),
+        mutation,
     };
     let wanted = match request.artefacts_of {
         ArtefactVariants::Failing => !tally.solved,
@@ -746,6 +767,7 @@ fn table_of(
                 aj: metrics.acceleration_jsd,
                 time_per_variant_s: ok.iter().map(|r| r.time_s).sum::<f64>() / n,
                 conflicts: metrics.coverage,
+                kills: MethodKills::of(ok.iter().filter_map(|r| Some((r.scenario.as_str(), r.mutation.as_ref()?)))),
             }
         })
         .collect()

@@ -303,6 +303,144 @@ impl MutationReport {
 /// The name of the mutation-score check (`suite::mutation_score`).
 pub const MUTATION_SCORE: &str = "mutation_score";
 
+/// The criteria `safer evaluate --mutants` judges the planner and its
+/// mutants by: no collision the ego caused (nuPlan's at-fault rule: the
+/// recorded background cannot avoid the ego), no leaving the road, and, as
+/// always, an answer at every step inside the vehicle limits.
+pub fn evaluation_criteria() -> VariantAcceptance {
+    VariantAcceptance {
+        no_collision: false,
+        no_at_fault_collision: true,
+        no_off_road: true,
+        ..VariantAcceptance::default()
+    }
+}
+
+/// One evaluation variant's mutation run.
+#[derive(Debug, Clone, PartialEq, Serialize, serde::Deserialize)]
+pub struct VariantMutation {
+    /// The unmutated planner's first failed criterion (`None`: it passed,
+    /// and the mutants were run).
+    pub base_failure: Option<String>,
+    /// Each mutant's result (none when the planner failed the variant).
+    pub mutants: Vec<MutantRecord>,
+}
+
+impl VariantMutation {
+    /// The variant's mutation run: `base` is the planner's own failures
+    /// under the criteria; `judge` plays and judges one mutant.
+    pub fn run(
+        base: &[AcceptanceFailure],
+        operators: &[FaultOperator],
+        mut judge: impl FnMut(FaultOperator) -> Result<Vec<AcceptanceFailure>, HarnessError>,
+    ) -> VariantMutation {
+        if let Some(first) = base.first() {
+            return VariantMutation { base_failure: Some(format!("{}: {}", first.criterion, first.what)), mutants: vec![] };
+        }
+        let mutants = operators
+            .iter()
+            .map(|&operator| match judge(operator) {
+                Ok(failures) => MutantRecord {
+                    operator,
+                    killed: !failures.is_empty(),
+                    failure: failures.first().map(|f| format!("{}: {}", f.criterion, f.what)),
+                    error: None,
+                },
+                Err(e) => MutantRecord { operator, killed: false, failure: None, error: Some(e.to_string()) },
+            })
+            .collect();
+        VariantMutation { base_failure: None, mutants }
+    }
+}
+
+/// A mutant on one evaluation variant.
+#[derive(Debug, Clone, PartialEq, Serialize, serde::Deserialize)]
+pub struct MutantRecord {
+    /// The fault.
+    pub operator: FaultOperator,
+    /// The planner passed the variant and the mutant failed it.
+    pub killed: bool,
+    /// The mutant's first failed criterion.
+    pub failure: Option<String>,
+    /// Why the mutant could not run.
+    pub error: Option<String>,
+}
+
+/// How many mutants a method's variants kill: the measure an adversary is
+/// judged by.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct MethodKills {
+    /// Variants the unmutated planner passes (only these can kill).
+    pub variants_passed: usize,
+    /// Mutant-variants: passed variants × operators.
+    pub mutant_variants: usize,
+    /// Mutant-variants killed (the planner passes, the mutant fails).
+    pub kills: usize,
+    /// Operators killed on at least one variant.
+    pub mutants_killed: usize,
+    /// Per operator.
+    pub operators: Vec<OperatorKills>,
+}
+
+/// One operator's kills over a method's variants.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct OperatorKills {
+    /// The fault.
+    pub operator: FaultOperator,
+    /// Variants that killed it.
+    pub kills: usize,
+    /// Scenes with at least one variant that killed it.
+    pub scenes_killed: usize,
+    /// Scenes with a variant the planner passes.
+    pub scenes: usize,
+}
+
+impl MethodKills {
+    /// The kills of the variants given as (scene id, mutation run); `None`
+    /// when no variant carries a mutation run.
+    pub fn of<'a>(variants: impl IntoIterator<Item = (&'a str, &'a VariantMutation)>) -> Option<MethodKills> {
+        use std::collections::{BTreeMap, BTreeSet};
+        let mut any = false;
+        let mut passed = 0;
+        let mut scenes: BTreeSet<&str> = BTreeSet::new();
+        let mut per_op: BTreeMap<FaultOperator, (usize, BTreeSet<&str>)> = BTreeMap::new();
+        for (scene, m) in variants {
+            any = true;
+            if m.base_failure.is_some() {
+                continue;
+            }
+            passed += 1;
+            scenes.insert(scene);
+            for r in &m.mutants {
+                let (kills, where_) = per_op.entry(r.operator).or_default();
+                if r.killed {
+                    *kills += 1;
+                    where_.insert(scene);
+                }
+            }
+        }
+        if !any {
+            return None;
+        }
+        let operators: Vec<OperatorKills> = per_op
+            .into_iter()
+            .map(|(operator, (kills, where_))| OperatorKills {
+                operator,
+                kills,
+                scenes_killed: where_.len(),
+                scenes: scenes.len(),
+            })
+            .collect();
+        Some(MethodKills {
+            variants_passed: passed,
+            mutant_variants: passed * operators.len(),
+            kills: operators.iter().map(|o| o.kills).sum(),
+            mutants_killed: operators.iter().filter(|o| o.kills > 0).count(),
+            operators,
+        })
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

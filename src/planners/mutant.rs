@@ -98,7 +98,7 @@ impl FaultOperator {
             Self::BlindSide => "road users outside a ±30° cone ahead of the ego are removed from every observation",
             Self::NoEvade => "the planner's yaw rate is replaced by plain lane keeping on its route, so it cannot swerve",
             Self::Speeding => {
-                "the planner's speed reads 20 % low, so it drives 20 % above the speed it aims for (its speed changes scaled to match)"
+                "the planner's speed reads 20 % low, so it drives its path 20 % above the speed it aims for"
             }
         }
     }
@@ -298,8 +298,13 @@ impl MutantPlanner {
                 Action { accel_mps2: -WEAK_BRAKE_MPS2, ..asked }
             }
             FaultOperator::Speeding => {
-                let aimed = KinematicState::from_agent_state(seen).speed_mps + asked.accel_mps2 * dt;
-                Action { accel_mps2: (aimed * SPEEDING_FACTOR - speed) / dt, ..asked }
+                // The path stays the planner's: the yaw rate grows with the
+                // speed, so the curvature is what it asked for.
+                let aimed = (KinematicState::from_agent_state(seen).speed_mps + asked.accel_mps2 * dt).max(0.0);
+                let accel_mps2 = (aimed * SPEEDING_FACTOR - speed) / dt;
+                let driven = (speed + accel_mps2 * dt).max(0.0);
+                let yaw_rate_radps = if aimed > 1e-6 { asked.yaw_rate_radps * driven / aimed } else { asked.yaw_rate_radps };
+                Action { accel_mps2, yaw_rate_radps }
             }
             FaultOperator::NoEvade => match self.lane_keeping_yaw_rate(observation) {
                 Some(yaw_rate_radps) => Action { yaw_rate_radps, ..asked },
