@@ -15,7 +15,10 @@
 //! shows red (a red circle or a red arrow for its lane; flashing red means
 //! stop, then go, and is not counted) at the step it passes, while the
 //! ego is in that lane. The centre, not the front bumper, so that stopping
-//! a little over the line is not running the light.
+//! a little over the line is not running the light. **Speeding**: the ego
+//! drives more than [`SPEEDING_TOLERANCE`] above the speed limit of the lane
+//! it is in (the nearest lane running its way within 3 m), for longer
+//! than [`SPEEDING_MIN_S`] (a moment's overshoot is not speeding).
 
 use crate::geometry::Vector2;
 use crate::map::{MapElementId, RoadMap, SignalState};
@@ -99,6 +102,83 @@ pub fn wrong_way(rollout: &Rollout, map: &RoadMap) -> Option<WrongWay> {
         match (against_at(row), current.as_mut()) {
             (Some(_), Some(run)) => run.1 += 1,
             (Some(lane), None) => current = Some((k, 1, lane)),
+            (None, _) => flush(current.take(), &mut best),
+        }
+    }
+    flush(current, &mut best);
+    best
+}
+
+/// How far above a lane's limit the ego may drive: 10 %, about what
+/// enforcement tolerates.
+pub const SPEEDING_TOLERANCE: f64 = 0.10;
+
+/// How long the ego must be over the tolerance to be speeding, s.
+pub const SPEEDING_MIN_S: f64 = 1.0;
+
+/// The ego's longest stretch above a lane's limit.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Speeding {
+    /// When it began, s after the rollout's start.
+    pub start_s: f64,
+    /// How long it lasted, s.
+    pub duration_s: f64,
+    /// The highest speed in it, m/s.
+    pub max_speed_mps: f64,
+    /// The limit of the lane the ego was in when it began, m/s.
+    pub limit_mps: f64,
+    /// That lane.
+    pub lane: MapElementId,
+}
+
+/// Whether any lane of `map` has a speed limit (otherwise speeding cannot
+/// be measured).
+pub fn has_speed_limits(map: &RoadMap) -> bool {
+    map.lanes.iter().any(|l| l.speed_limit_mps.is_some_and(|v| v.is_finite() && v > 0.0))
+}
+
+/// The ego's longest stretch of driving more than [`SPEEDING_TOLERANCE`]
+/// above its lane's limit, when it lasted longer than [`SPEEDING_MIN_S`];
+/// `None` otherwise. Steps off every lane, or in a lane without a limit,
+/// end a stretch.
+pub fn speeding(rollout: &Rollout, map: &RoadMap) -> Option<Speeding> {
+    let ego = rollout.ego.0;
+    let over_at = |row: &Vec<Option<crate::scenario::AgentState>>| -> Option<(MapElementId, f64, f64)> {
+        let s = row.get(ego)?.as_ref()?;
+        let m = map.nearest_lane(&s.position, Some(s.heading_rad), OWN_LANE_CLEARANCE_M)?;
+        let lane = &map.lanes[m.lane_index];
+        let heading = Vector2::new(s.heading_rad.cos(), s.heading_rad.sin());
+        if m.projection.tangent.dot(&heading) < crate::map::ALIGNED_LANE_MAX_ANGLE_RAD.cos() {
+            return None;
+        }
+        let limit = lane.speed_limit_mps.filter(|v| v.is_finite() && *v > 0.0)?;
+        (s.speed_mps() > limit * (1.0 + SPEEDING_TOLERANCE)).then_some((lane.id, limit, s.speed_mps()))
+    };
+    let mut best: Option<Speeding> = None;
+    let mut current: Option<Speeding> = None;
+    let flush = |current: Option<Speeding>, best: &mut Option<Speeding>| {
+        if let Some(c) = current
+            && c.duration_s > SPEEDING_MIN_S + 1e-9
+            && best.as_ref().is_none_or(|b| c.duration_s > b.duration_s + 1e-9)
+        {
+            *best = Some(c);
+        }
+    };
+    for (k, row) in rollout.states.iter().enumerate() {
+        match (over_at(row), current.as_mut()) {
+            (Some((_, _, v)), Some(run)) => {
+                run.duration_s += rollout.dt_s;
+                run.max_speed_mps = run.max_speed_mps.max(v);
+            }
+            (Some((lane, limit, v)), None) => {
+                current = Some(Speeding {
+                    start_s: k as f64 * rollout.dt_s,
+                    duration_s: rollout.dt_s,
+                    max_speed_mps: v,
+                    limit_mps: limit,
+                    lane,
+                })
+            }
             (None, _) => flush(current.take(), &mut best),
         }
     }

@@ -118,6 +118,22 @@ pub fn check(
             format!("ego passed the stop line of lane {} on {:?} at t = {:.1} s", r.lane.0, r.state, r.time_s),
         ));
     }
+    if criteria.no_speeding {
+        if !traffic_rules::has_speed_limits(map) {
+            out.push(fail(
+                "no_speeding",
+                "cannot be measured: the scene's map gives no lane a speed limit".to_string(),
+            ));
+        } else if let Some(v) = traffic_rules::speeding(rollout, map) {
+            out.push(fail(
+                "no_speeding",
+                format!(
+                    "ego drove above the limit of lane {} ({:.1} m/s) for {:.1} s from t = {:.1} s, at up to {:.1} m/s",
+                    v.lane.0, v.limit_mps, v.duration_s, v.start_s, v.max_speed_mps
+                ),
+            ));
+        }
+    }
     // A NaN gap (an agent at a non-finite position) fails.
     if let (Some(min), Some(gap)) = (criteria.min_gap_m, summary.min_distance_to_ego_m)
         && (gap.is_nan() || gap < min)

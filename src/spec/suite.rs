@@ -283,6 +283,11 @@ pub struct VariantAcceptance {
     /// counts). Passes trivially on a map without signals.
     #[serde(default)]
     pub no_red_light: bool,
+    /// The ego must not drive more than 10 % above the speed limit of the
+    /// lane it is in for longer than 1 s. Fails as unmeasurable on a map
+    /// whose lanes give no speed limit.
+    #[serde(default)]
+    pub no_speeding: bool,
     /// Minimum box distance to any agent, m, in [0, 100].
     #[serde(default)]
     #[schemars(range(min = 0, max = 100))]
@@ -314,6 +319,7 @@ impl Default for VariantAcceptance {
             no_off_road: false,
             no_wrong_way: false,
             no_red_light: false,
+            no_speeding: false,
             min_gap_m: None,
             min_ttc_s: None,
             planner_must_answer: true,
