@@ -392,8 +392,8 @@ pub fn play_stage2(setup: &VariantSetup<'_>, stage1: &Rollout) -> Result<PlayedS
     };
     let mut planner = make_planner(setup.planner, context.clone())?;
     if let Some(operator) = setup.fault {
-        let bounds = setup.ego_limits.unwrap_or_default().control_bounds();
-        planner = Box::new(MutantPlanner::new(planner, operator, bounds, &context));
+        let limits = setup.ego_limits.unwrap_or_default();
+        planner = Box::new(MutantPlanner::new(planner, operator, limits, &context));
     }
     let mut timed = Timed { inner: planner.as_mut(), times_ms: Vec::new() };
     let stage2 = stage2.run(&mut timed);

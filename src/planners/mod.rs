@@ -12,7 +12,7 @@ pub mod registry;
 pub use builtin::{BuiltinPlanner, ConstantVelocityPlanner, IdmPlanner, LogReplayPlanner};
 pub use evasive::{EvasiveParams, EvasivePlanner};
 pub use external::{ExternalPlanner, ExternalPlannerConfig};
-pub use mutant::{ControlBounds, FaultOperator, MutantPlanner};
+pub use mutant::{FaultOperator, MutantPlanner};
 
 use crate::map::{MapElementId, RoadMap, SignalState};
 use crate::motion::{Action, KinematicState, kinematic_step};
@@ -55,6 +55,26 @@ pub struct Observation<'a> {
     pub map: &'a RoadMap,
     /// Signal states now, per controlled lane.
     pub signals: Vec<(MapElementId, SignalState)>,
+}
+
+impl<'a> Observation<'a> {
+    /// The observation of step 0 on `map` with the ego at `ego`: 0.1 s
+    /// steps, a 4.5 m × 2 m ego, nobody else and no signals. Set the other
+    /// fields as a test needs (they are public), e.g. to unit-test a
+    /// planner's adapter outside the harness.
+    pub fn new(map: &'a RoadMap, ego: AgentState) -> Self {
+        Observation {
+            step: 0,
+            time_s: 0.0,
+            dt_s: 0.1,
+            ego,
+            ego_length_m: 4.5,
+            ego_width_m: 2.0,
+            agents: Vec::new(),
+            map,
+            signals: Vec::new(),
+        }
+    }
 }
 
 /// A planned state, `time_s` after the observation.

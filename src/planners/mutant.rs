@@ -7,7 +7,7 @@
 //!
 //! A mutant is a bad driver, not an impossible one: every answer an
 //! operator changes is a control kept inside the suite's vehicle limits
-//! ([`ControlBounds`]). An answer the operator leaves as it is goes to the
+//! ([`clamp_to_limits`]). An answer the operator leaves as it is goes to the
 //! simulator unchanged (a trajectory stays a trajectory), so a mutant
 //! differs from its planner only where its fault acts.
 
@@ -21,7 +21,7 @@ use super::external::route::StableRoute;
 use super::{Observation, PerceivedAgent, Planner, PlannerError, PlannerOutput, PlannerStartup};
 use crate::geometry::{Point2, wrap_angle};
 use crate::map::{MapElementId, SignalState};
-use crate::motion::{Action, KinematicState};
+use crate::motion::{Action, KinematicState, VehicleLimits, kinematic_step};
 use crate::scenario::{AgentId, AgentState};
 
 /// Braking that `weak-brake` allows at most, m/s² (positive).
@@ -158,41 +158,44 @@ impl std::fmt::Display for FaultOperator {
     }
 }
 
-/// The limits a mutant's changed controls are kept within (the suite's
-/// vehicle limits, so that a mutant fails for driving badly, never for
-/// driving impossibly).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct ControlBounds {
-    /// Highest speed, m/s.
-    pub max_speed_mps: f64,
-    /// Highest acceleration, m/s².
-    pub max_accel_mps2: f64,
-    /// Highest deceleration, m/s² (positive).
-    pub max_decel_mps2: f64,
-    /// Highest yaw rate, rad/s.
-    pub max_yaw_rate_radps: f64,
-    /// Highest curvature, 1/m.
-    pub max_curvature_per_m: f64,
-}
-
-impl ControlBounds {
-    /// `action` from speed `speed_mps` (along the heading) held inside the
-    /// bounds: acceleration first (so the speed stays in range), then the
-    /// yaw rate (so the curvature at the new speed does).
-    pub fn clamp(&self, speed_mps: f64, action: Action, dt_s: f64) -> Action {
-        // A hair inside every bound: the simulator's check measures from
-        // positions and headings, whose rounding must not tip it over.
-        const INSIDE: f64 = 1.0 - 1e-9;
-        let top = (self.max_speed_mps * INSIDE - speed_mps) / dt_s;
-        let accel = action
-            .accel_mps2
-            .clamp(-self.max_decel_mps2 * INSIDE, self.max_accel_mps2 * INSIDE)
-            .min(top.max(-self.max_decel_mps2 * INSIDE));
-        let next_speed = (speed_mps + accel * dt_s).max(0.0);
-        let yaw_max = (self.max_yaw_rate_radps * INSIDE).min(self.max_curvature_per_m * INSIDE * next_speed);
-        let yaw_rate = action.yaw_rate_radps.clamp(-yaw_max, yaw_max);
-        Action { accel_mps2: accel, yaw_rate_radps: yaw_rate }
+/// `action` from `now` held inside `limits`: the acceleration and the yaw
+/// rate clamped to their bounds (the speed kept in range, the curvature
+/// at the new speed too), then the yaw rate shrunk until the step passes
+/// every check the simulator makes (the heading change must agree with the
+/// velocities it reports).
+pub fn clamp_to_limits(limits: &VehicleLimits, now: &AgentState, action: Action, dt_s: f64) -> Action {
+    // A hair inside every bound: the simulator measures from positions and
+    // headings, whose rounding must not tip a step over.
+    const INSIDE: f64 = 1.0 - 1e-9;
+    let speed = KinematicState::from_agent_state(now).speed_mps;
+    let top = (limits.max_speed_mps * INSIDE - speed) / dt_s;
+    let accel = action
+        .accel_mps2
+        .clamp(-limits.max_decel_mps2 * INSIDE, limits.max_accel_mps2 * INSIDE)
+        .min(top.max(-limits.max_decel_mps2 * INSIDE));
+    let next_speed = (speed + accel * dt_s).max(0.0);
+    let yaw_max = (limits.max_yaw_rate_radps * INSIDE).min(limits.max_curvature_per_m * INSIDE * next_speed);
+    let clamped = Action { accel_mps2: accel, yaw_rate_radps: action.yaw_rate_radps.clamp(-yaw_max, yaw_max) };
+    let with_yaw_share = |share: f64| Action { yaw_rate_radps: clamped.yaw_rate_radps * share, ..clamped };
+    let inside = |a: Action| {
+        let next = kinematic_step(&KinematicState::from_agent_state(now), a, dt_s).to_agent_state();
+        limits.check(now, &next, dt_s).is_none()
+    };
+    if inside(clamped) || !inside(with_yaw_share(0.0)) {
+        // Inside already; or outside whatever the yaw rate, from a state the
+        // planner itself brought about.
+        return clamped;
     }
+    let (mut ok, mut bad) = (0.0, 1.0);
+    for _ in 0..40 {
+        let mid = 0.5 * (ok + bad);
+        if inside(with_yaw_share(mid)) {
+            ok = mid;
+        } else {
+            bad = mid;
+        }
+    }
+    with_yaw_share(ok)
 }
 
 /// What the planner saw at one step, kept for `late`.
@@ -202,7 +205,7 @@ type Seen = (Vec<PerceivedAgent>, Vec<(MapElementId, SignalState)>);
 pub struct MutantPlanner {
     inner: Box<dyn Planner>,
     operator: FaultOperator,
-    bounds: ControlBounds,
+    limits: VehicleLimits,
     name: String,
     /// The CBV's id (`blind-cbv`).
     cbv: Option<AgentId>,
@@ -220,7 +223,7 @@ impl MutantPlanner {
     pub fn new(
         inner: Box<dyn Planner>,
         operator: FaultOperator,
-        bounds: ControlBounds,
+        limits: VehicleLimits,
         context: &RolloutContext,
     ) -> Self {
         let scenario = &context.scenario;
@@ -232,7 +235,7 @@ impl MutantPlanner {
             history: VecDeque::new(),
             inner,
             operator,
-            bounds,
+            limits,
         }
     }
 
@@ -312,7 +315,7 @@ impl MutantPlanner {
             },
             _ => return out,
         };
-        PlannerOutput::Control(self.bounds.clamp(speed, faulty, dt))
+        PlannerOutput::Control(clamp_to_limits(&self.limits, &observation.ego, faulty, dt))
     }
 
     /// Pure pursuit along the route external planners are sent; `None`
@@ -376,19 +379,19 @@ mod tests {
     }
 
     #[test]
-    fn clamping_keeps_speed_and_curvature_inside() {
-        let b = ControlBounds {
-            max_speed_mps: 30.0,
-            max_accel_mps2: 8.0,
-            max_decel_mps2: 12.0,
-            max_yaw_rate_radps: 1.5,
-            max_curvature_per_m: 0.2,
+    fn clamping_keeps_every_step_inside_the_limits() {
+        let limits = VehicleLimits { max_speed_mps: 30.0, max_curvature_per_m: 0.2, ..VehicleLimits::default() };
+        let at = |v: f64| AgentState {
+            position: Point2::new(0.0, 0.0),
+            heading_rad: 0.3,
+            velocity_mps: crate::geometry::Vector2::new(0.3f64.cos(), 0.3f64.sin()) * v,
         };
-        let a = b.clamp(29.5, Action { accel_mps2: 20.0, yaw_rate_radps: 3.0 }, 0.1);
-        assert!(29.5 + a.accel_mps2 * 0.1 <= 30.0, "{a:?}");
-        assert!(a.yaw_rate_radps <= 1.5 && a.yaw_rate_radps / 30.0 <= 0.2, "{a:?}");
-        let a = b.clamp(2.0, Action { accel_mps2: -50.0, yaw_rate_radps: -3.0 }, 0.1);
-        assert!(a.accel_mps2 >= -12.0, "{a:?}");
-        assert!(a.yaw_rate_radps.abs() <= 0.2 * 0.8 + 1e-12, "{a:?}");
+        for (v, a, w) in [(29.5, 20.0, 3.0), (2.0, -50.0, -3.0), (29.9, 0.0, 1.5), (0.0, 8.0, 1.5), (12.0, -12.0, 1.4)] {
+            let now = at(v);
+            let c = clamp_to_limits(&limits, &now, Action { accel_mps2: a, yaw_rate_radps: w }, 0.1);
+            let next = kinematic_step(&KinematicState::from_agent_state(&now), c, 0.1).to_agent_state();
+            assert_eq!(limits.check(&now, &next, 0.1), None, "{v} m/s, {a} m/s², {w} rad/s -> {c:?}");
+            assert!(c.accel_mps2.signum() == a.signum() || c.accel_mps2 == 0.0, "{c:?}");
+        }
     }
 }

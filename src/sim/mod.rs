@@ -11,11 +11,10 @@ mod events;
 mod rollout;
 pub mod synthetic;
 pub mod traffic;
-pub mod vehicle_limits;
 
 pub use events::{CollisionEvent, EgoCollisionKind, EgoContact, LaneOccupancy, OffRoadEvent};
 pub use rollout::{Rollout, RolloutSummary, Termination};
-pub use vehicle_limits::{LimitViolation, VehicleLimits};
+pub use crate::motion::vehicle_limits::{LimitViolation, VehicleLimits};
 
 use crate::motion::{KinematicState, kinematic_step, tokens::SIM_DT_S};
 use crate::planners::{Observation, PerceivedAgent, Planner};
@@ -336,9 +335,9 @@ pub fn advance(states: &[Option<AgentState>], actions: &[AgentAction]) -> Vec<Op
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geometry::{Point2, Polyline};
+    use crate::geometry::{Point2, Polyline, Vector2};
     use crate::map::{Lane, MapElementId, RoadEdge, RoadEdgeKind, RoadMap};
-    use crate::planners::BuiltinPlanner;
+    use crate::planners::{BuiltinPlanner, PlannerOutput};
     use crate::scenario::{AgentId, AgentKind, ScenarioSource, Track};
 
     /// A 300 m straight road; the ego at x=0 doing 12 m/s, a car stopped at

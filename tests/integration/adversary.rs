@@ -36,6 +36,7 @@ fn request(methods: Vec<AdversaryMethod>, seeds: u32) -> EvaluationRequest {
         horizon_s: 8.0,
         artefacts: None,
         artefacts_of: safer::harness::evaluation::ArtefactVariants::Failing,
+        mutants: Vec::new(),
     }
 }
 

@@ -20,6 +20,7 @@ mod import_argoverse2;
 mod import_commonroad;
 mod import_womd_json;
 mod import_womd_proto;
+mod mutation;
 mod prior_model;
 mod protocol;
 mod realism;

@@ -6,9 +6,10 @@
 //! of the ego is checked against [`VehicleLimits`]: speed, acceleration and
 //! deceleration (from the reported speeds), yaw rate and curvature (from
 //! the headings and the distance driven), reversing speed, and the position
-//! against the reported velocities. A violation ends the rollout
-//! ([`super::Termination::VehicleLimitExceeded`]) naming the step, the
-//! limit and the value; such a variant is never solved.
+//! against the reported velocities. In the simulator a violation ends the
+//! rollout (`Termination::VehicleLimitExceeded`) naming the step, the limit
+//! and the value; such a variant is never solved. Planted faults keep their
+//! changed controls inside the same limits.
 //!
 //! The defaults are generous bounds on a road car, not comfort limits: a
 //! planner inside them can still be a bad driver, but not an impossible
@@ -109,19 +110,6 @@ impl VehicleLimits {
             ("max_reverse_speed_mps", self.max_reverse_speed_mps, "m/s"),
             ("max_position_error_m", self.max_position_error_m, "m"),
         ]
-    }
-
-    /// The bounds a planted fault keeps its changed controls in
-    /// ([`crate::planners::mutant`]): these limits, so that a mutant is a
-    /// bad driver, never an impossible one.
-    pub fn control_bounds(&self) -> crate::planners::ControlBounds {
-        crate::planners::ControlBounds {
-            max_speed_mps: self.max_speed_mps,
-            max_accel_mps2: self.max_accel_mps2,
-            max_decel_mps2: self.max_decel_mps2,
-            max_yaw_rate_radps: self.max_yaw_rate_radps,
-            max_curvature_per_m: self.max_curvature_per_m,
-        }
     }
 
     /// The first limit the step from `now` to `next` (`dt_s` apart)
