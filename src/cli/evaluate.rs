@@ -382,7 +382,7 @@ fn print_kills(
     )?;
     let ops: Vec<String> = settings.mutants.iter().map(|o| o.name().to_string()).collect();
     let width = rows.iter().map(|r| label(r.method, r.stage2_cbv, modes).len()).max().unwrap_or(6).max(6);
-    write!(out, "{:<width$}  {:>6}  {:>13}  {:>6}  {:>6}  {:>7}", "method", "passed", "kills", "×log", "×prior", "mutants")?;
+    write!(out, "{:<width$}  {:>6}  {:>18}  {:>6}  {:>6}  {:>7}", "method", "passed", "kills | held out", "×log", "×prior", "mutants")?;
     for op in &ops {
         write!(out, "  {op:>12}")?;
     }
@@ -395,12 +395,12 @@ fn print_kills(
             .find(|h| h.method == r.method && h.stage2_cbv == r.stage2_cbv)
             .and_then(|h| h.kills.as_ref());
         let kills = match held {
-            Some(h) => format!("{}/{} | {}", k.kills, k.mutant_variants, h.kills),
+            Some(h) => format!("{}/{} | {}/{}", k.kills, k.mutant_variants, h.kills, h.mutant_variants),
             None => format!("{}/{}", k.kills, k.mutant_variants),
         };
         write!(
             out,
-            "{:<width$}  {:>6}  {:>13}  {:>6}  {:>6}  {:>7}",
+            "{:<width$}  {:>6}  {:>18}  {:>6}  {:>6}  {:>7}",
             label(r.method, r.stage2_cbv, modes),
             k.variants_passed,
             kills,

@@ -74,3 +74,55 @@ fn a_crate_without_suites_fails_instead_of_passing_zero_tests() {
     let conclusion = Runner::new(&*root).run_with(&one_thread());
     assert_eq!((conclusion.num_passed, conclusion.num_failed), (0, 1));
 }
+
+/// A crate root whose suite asks for a mutation score over the braking
+/// faults and the late one, against the built-in evasive planner.
+fn crate_with_mutation_score(name: &str, min: f64) -> crate::scratch::Scratch {
+    let root = crate::scratch::Scratch::new(&format!("runner-{name}"));
+    std::fs::create_dir_all(root.join("specs/suites")).unwrap();
+    let scenario = Path::new(env!("CARGO_MANIFEST_DIR")).join("specs/scenarios/highway-overtake.yaml");
+    let suite = format!(
+        "name: mutating\nscenarios:\n  - {}\nplanner: {{ builtin: evasive }}\nvariants: 1\n\
+         acceptance:\n  variant: {{ no_collision: true, min_gap_m: 0.5 }}\n  \
+         suite: {{ mutation_score_min: {min}, mutation_operators: [no-brake, late, blind-side] }}\n",
+        scenario.display()
+    );
+    std::fs::write(root.join("specs/suites/mine.yaml"), suite).unwrap();
+    std::fs::create_dir_all(root.join("snapshots")).unwrap();
+    root
+}
+
+#[test]
+fn a_suite_asking_for_a_mutation_score_gets_one_test_that_passes_or_fails_by_it() {
+    // no-brake and late are killed on the overtake scene, blind-side
+    // survives: 2/3. The two runs share the process, and so the variant.
+    for (min, passes) in [(0.6, true), (0.7, false)] {
+        let root = crate_with_mutation_score(&format!("mutation-{min}"), min);
+        let runner = Runner::new(&*root);
+        let names: Vec<String> = runner.trials().iter().map(|t| t.name().to_string()).collect();
+        // Its own suite name: the runner shares variant outcomes in the
+        // process by test name, and other tests here run suites named `mine`.
+        assert_eq!(names, ["mutating::highway-overtake::seed-0", "mutating::mutation_score"]);
+        let log = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("runner-mutation-{min}-{}.log", std::process::id()));
+        let args = Arguments {
+            filter: Some("mutating::mutation_score".into()),
+            exact: true,
+            logfile: Some(log.display().to_string()),
+            ..one_thread()
+        };
+        let conclusion = runner.run_with(&args);
+        assert_eq!((conclusion.num_passed, conclusion.num_failed), (u64::from(passes), u64::from(!passes)), "{min}");
+        if !passes {
+            // The failing score leaves the review page, with the survivor named.
+            let page = std::fs::read_to_string(root.join("target/safer-artifacts/review/index.html")).unwrap();
+            assert!(page.contains("blind-side") && page.contains("SURVIVED"), "{page}");
+        }
+    }
+}
+
+#[test]
+fn a_suite_without_a_mutation_score_has_no_mutation_test() {
+    let root = crate_root("no-mutation", "runner-test-cv-2");
+    let runner = Runner::new(&*root).planner("runner-test-cv-2", |_, _| ConstantVelocityPlanner);
+    assert!(runner.trials().iter().all(|t| !t.name().contains("mutation")));
+}
