@@ -66,7 +66,7 @@ fn run_suite(suite: &str, extra: &[&str]) -> (Option<i32>, String, serde_json::V
 
 #[test]
 fn a_suite_that_kills_every_operator_scores_one_in_every_report() {
-    let (code, table, report, junit, page) = run_suite("tests/fixtures/mutation/kills-every-operator.yaml", &[]);
+    let (code, table, report, junit, page) = run_suite("specs/suites/faults.yaml", &[]);
     assert_eq!(code, Some(0), "{table}");
     let m = &report["suites"][0]["mutation"];
     assert_eq!(m["score"], 1.0, "{m:#}");
@@ -74,7 +74,7 @@ fn a_suite_that_kills_every_operator_scores_one_in_every_report() {
     for op in m["operators"].as_array().unwrap() {
         assert_eq!(op["killed"], true, "{op:#}");
         let kill = &op["kills"][0];
-        assert!(kill["variant"].as_str().unwrap().starts_with("kills-every-operator::"), "{kill:#}");
+        assert!(kill["variant"].as_str().unwrap().starts_with("faults::"), "{kill:#}");
         assert!(!kill["criterion"].as_str().unwrap().is_empty());
         assert!(op.get("hint").is_none(), "a killed mutant has no blind-spot hint: {op:#}");
     }
@@ -82,7 +82,7 @@ fn a_suite_that_kills_every_operator_scores_one_in_every_report() {
     assert_eq!(check.unwrap()["passed"], true);
     // The table, JUnit and the page say the same.
     assert!(table.contains("mutation score 1.000 (7 of 7 mutants killed"), "{table}");
-    assert!(table.contains("kills-every-operator::mutation_score") && !table.contains("SURVIVED"), "{table}");
+    assert!(table.contains("faults::mutation_score") && !table.contains("SURVIVED"), "{table}");
     assert!(junit.contains(r#"<property name="mutation_score" value="1.000"/>"#), "{junit}");
     for op in FaultOperator::ALL {
         assert!(junit.contains(&format!(r#"<property name="mutant.{}" value="killed by "#, op.name())), "{junit}");
@@ -140,7 +140,7 @@ fn an_unknown_operator_is_a_usage_error_naming_the_known_ones() {
 fn mutation_scores_are_the_same_at_one_and_two_jobs() {
     let run = |jobs: &str| {
         let (_, _, report, _, _) =
-            run_suite("tests/fixtures/mutation/kills-every-operator.yaml", &["--jobs", jobs, "--no-shrink"]);
+            run_suite("specs/suites/faults.yaml", &["--jobs", jobs, "--no-shrink"]);
         report["suites"][0]["mutation"].clone()
     };
     assert_eq!(run("1"), run("2"));
@@ -185,7 +185,7 @@ fn mutant_failures(planner: &str) -> Vec<(String, Vec<String>)> {
     let suite = format!(
         "name: alike\nscenarios:\n  - {}\n  - {}\nplanner: {planner}\nvariants: 1\n\
          acceptance:\n  variant: {{ no_collision: true, min_gap_m: 0.25 }}\n",
-        repo().join("tests/fixtures/mutation/scenes/stopped-cbv.yaml").display(),
+        repo().join("specs/scenarios/faults/stopped-cbv.yaml").display(),
         repo().join("specs/scenarios/highway-overtake.yaml").display()
     );
     let path = dir.join("alike.yaml");

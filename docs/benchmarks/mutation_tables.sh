@@ -1,0 +1,80 @@
+#!/usr/bin/env bash
+# The mutation table of every shipped suite (docs/benchmarks.md, "Mutation
+# testing"): each suite with its own planner and criteria, under each
+# adversary method, with every fault operator planted. Suites are copied
+# into a scratch folder with `method:` replaced (and their relative paths
+# made absolute), so nothing under specs/ is touched.
+#
+#   docs/benchmarks/mutation_tables.sh [SAFER-BINARY]
+#
+# Prints one Markdown row per (suite, method): the variants the planner
+# passes, the score, the killed mutants (with the variants that killed
+# each) and the survivors; then the cost of a mutation run against the
+# suite's own run, side by side.
+set -euo pipefail
+repo="$(cd "$(dirname "$0")/../.." && pwd)"
+safer="${1:-$repo/target/release/safer}"
+scratch="$(mktemp -d)"
+trap 'rm -rf "$scratch"' EXIT
+
+# One suite under one method: the JSON report of `safer run --mutants`.
+run_suite() { # suite-file method out.json
+    local src="$1" method="$2" out="$3" copy="$scratch/$(basename "$1" .yaml)-$2.yaml"
+    sed -e "s#\.\./\.\./#$repo/#g; s#\.\./scenarios/#$repo/specs/scenarios/#g" \
+        -e "s#^\(  method:\).*#\1 $method#" "$src" >"$copy"
+    grep -q "^adversary:" "$copy" || printf 'adversary:\n  method: %s\n' "$method" >>"$copy"
+    # The log replays one variant whatever the seed: one per scene.
+    [[ "$method" == log ]] && sed -i "s#^variants: .*#variants: 1#" "$copy"
+    (cd "$repo" && "$safer" run "$copy" --mutants --no-shrink --json "$out" >/dev/null 2>&1) || true
+}
+
+echo "| suite | planner | method | passed | score | killed (variants) | survived |"
+echo "| --- | --- | --- | --- | --- | --- | --- |"
+for suite in "$repo"/specs/suites/*.yaml; do
+    name="$(basename "$suite" .yaml)"
+    if grep -q "method: safer" "$suite"; then methods="log prior safer safer-distinct safer-lookahead no-lfr"; else methods="log"; fi
+    for method in $methods; do
+        out="$scratch/$name-$method.json"
+        run_suite "$suite" "$method" "$out"
+        python3 - "$out" "$name" "$method" <<'EOF'
+import json, sys
+path, name, method = sys.argv[1:]
+try:
+    report = json.load(open(path))
+except (OSError, ValueError) as e:
+    print(f"| {name} | ? | {method} | could not run: {e} | | | |")
+    sys.exit()
+s = report["suites"][0]
+m = s.get("mutation")
+if m is None:
+    print(f"| {name} | {s['planner']} | {method} | no mutation report | | | |")
+    sys.exit()
+killed = ", ".join(f"{o['operator']} ({len(o['kills'])})" for o in m["operators"] if o["killed"]) or "none"
+survived = ", ".join(o["operator"] for o in m["operators"] if not o["killed"]) or "none"
+score = "–" if m["score"] is None else f"{m['score']:.3f}"
+print(f"| {name} | {s['planner']} | {method} | {m['variants_passed']}/{m['variants']} | {score} | {killed} | {survived} |")
+EOF
+    done
+done
+
+# The cost of a mutation run, side by side with the suite's own run.
+echo
+echo "| suite | own run, s | with 7 mutants, s | ratio | bound (1 + 7) |"
+echo "| --- | --- | --- | --- | --- |"
+for name in adversarial-ngsim external-lane-follower authored-evasive; do
+    # Best of three of each, alternating, so a slower moment hits both.
+    python3 - "$safer" "$repo" "$name" <<'EOF'
+import subprocess, sys, time
+safer, repo, name = sys.argv[1:]
+def once(*extra):
+    t = time.perf_counter()
+    subprocess.run([safer, "run", f"specs/suites/{name}.yaml", "--no-shrink", *extra], cwd=repo,
+                   stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    return time.perf_counter() - t
+own, mut = [], []
+for _ in range(3):
+    own.append(once())
+    mut.append(once("--mutants"))
+print(f"| {name} | {min(own):.2f} | {min(mut):.2f} | {min(mut) / min(own):.2f} | 8 |")
+EOF
+done
