@@ -359,7 +359,8 @@ fn metric_trial(suite: &Suite, metric: &'static str) -> Result<(), Failed> {
     let variants = outcomes
         .iter()
         .map(|(_, _, name, o)| (name.clone(), o.as_ref().as_ref().map(|o| &o.tally).map_err(|e| e.to_string())));
-    let (_, checks) = harness::metrics::suite_verdict(&suite.spec.value.acceptance.suite, variants, mutation.as_deref());
+    let (_, checks) =
+        harness::metrics::suite_verdict(&suite.spec.value.acceptance.suite, variants, mutation.as_deref());
     let check = checks
         .into_iter()
         .find(|c| c.name == metric)

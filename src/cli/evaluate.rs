@@ -382,7 +382,11 @@ fn print_kills(
     )?;
     let ops: Vec<String> = settings.mutants.iter().map(|o| o.name().to_string()).collect();
     let width = rows.iter().map(|r| label(r.method, r.stage2_cbv, modes).len()).max().unwrap_or(6).max(6);
-    write!(out, "{:<width$}  {:>6}  {:>18}  {:>6}  {:>6}  {:>7}", "method", "passed", "kills | held out", "×log", "×prior", "mutants")?;
+    write!(
+        out,
+        "{:<width$}  {:>6}  {:>18}  {:>6}  {:>6}  {:>7}",
+        "method", "passed", "kills | held out", "×log", "×prior", "mutants"
+    )?;
     for op in &ops {
         write!(out, "  {op:>12}")?;
     }

@@ -29,8 +29,8 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use super::CliError;
-use safer::harness::report::{RunResults, SuiteLoadFailure, SuiteRun, VariantRun};
 use safer::harness::mutation::{MutantRun, MutationReport};
+use safer::harness::report::{RunResults, SuiteLoadFailure, SuiteRun, VariantRun};
 use safer::harness::{self, HarnessError, Suite, SuiteMetrics, VariantOutcome, VariantSummary};
 use safer::planners::FaultOperator;
 
@@ -269,10 +269,8 @@ pub(super) fn run(
 
     // The mutants each suite plants: the flag's, else its own when it asks
     // for a mutation score.
-    let operators: Vec<Vec<FaultOperator>> = suites
-        .iter()
-        .map(|(_, s)| harness::mutation::operators_for(&s.spec.value.acceptance.suite, mutants))
-        .collect();
+    let operators: Vec<Vec<FaultOperator>> =
+        suites.iter().map(|(_, s)| harness::mutation::operators_for(&s.spec.value.acceptance.suite, mutants)).collect();
     let progress = Progress::new(jobs.len());
     let exports: std::sync::Mutex<Vec<(String, Result<PathBuf, String>)>> = std::sync::Mutex::new(Vec::new());
     let done: Vec<Done> = jobs

@@ -263,6 +263,34 @@ mod tests {
         StraightRoad { lanes: 1, oncoming_lanes: 1, lane_width_m: 3.5, length_m: 200.0, speed_limit_mps: None }.build()
     }
 
+    /// A one-lane road along +x with a 20 m/s limit.
+    fn limited_road() -> RoadMap {
+        StraightRoad { lanes: 1, oncoming_lanes: 0, lane_width_m: 3.5, length_m: 400.0, speed_limit_mps: Some(20.0) }
+            .build()
+    }
+
+    #[test]
+    fn speeding_is_more_than_ten_percent_over_the_limit_for_more_than_a_second() {
+        let map = limited_road();
+        let y = lane_centre_y(&map, 0);
+        assert!(has_speed_limits(&map) && !has_speed_limits(&two_way_road()));
+        // At the tolerance, or over it for exactly 1 s: not speeding.
+        assert_eq!(speeding(&rollout(drive(10.0, y, 0.0, 22.0, 60)), &map), None);
+        let mut brief = drive(10.0, y, 0.0, 19.0, 30);
+        brief.extend(drive(80.0, y, 0.0, 25.0, 10));
+        brief.extend(drive(110.0, y, 0.0, 19.0, 20));
+        assert_eq!(speeding(&rollout(brief), &map), None);
+        // 39 m/s in a 20 m/s zone for 2 s.
+        let mut fast = drive(10.0, y, 0.0, 19.0, 10);
+        fast.extend(drive(30.0, y, 0.0, 39.0, 20));
+        let v = speeding(&rollout(fast), &map).expect("speeding");
+        assert_eq!((v.limit_mps, v.max_speed_mps, v.lane), (20.0, 39.0, MapElementId(0)));
+        assert!((v.start_s - 1.0).abs() < 1e-9 && (v.duration_s - 2.0).abs() < 1e-9, "{v:?}");
+        // Off every lane, or against the lane's direction, no limit applies.
+        assert_eq!(speeding(&rollout(drive(10.0, y + 30.0, 0.0, 39.0, 40)), &map), None);
+        assert_eq!(speeding(&rollout(drive(300.0, y, std::f64::consts::PI, 39.0, 40)), &map), None);
+    }
+
     fn lane_centre_y(map: &RoadMap, id: i64) -> f64 {
         map.lane(MapElementId(id)).unwrap().centreline.points()[0].y
     }

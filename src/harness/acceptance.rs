@@ -204,6 +204,19 @@ mod tests {
     }
 
     #[test]
+    fn no_speeding_on_a_map_without_speed_limits_fails_as_unmeasurable() {
+        let scenario = crossing_scenario();
+        let rollout = crossing_rollout(&scenario);
+        let speeding = VariantAcceptance { no_collision: false, no_speeding: true, ..VariantAcceptance::default() };
+        let mut unlimited = scenario.map.clone();
+        unlimited.lanes.iter_mut().for_each(|l| l.speed_limit_mps = None);
+        let failures = check(&speeding, &rollout, &unlimited, None, None);
+        assert_eq!(failures.len(), 1, "{failures:?}");
+        assert_eq!(failures[0].criterion, "no_speeding");
+        assert!(failures[0].what.starts_with("cannot be measured"), "{failures:?}");
+    }
+
+    #[test]
     fn the_at_fault_rule_follows_the_same_verdict() {
         let at_fault = criteria(false, true);
         let rollout = crossing_rollout(&crossing_scenario());

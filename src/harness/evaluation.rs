@@ -24,10 +24,10 @@ use rayon::prelude::*;
 
 use super::HarnessError;
 use super::acceptance;
-use super::mutation::{MethodKills, VariantMutation, evaluation_criteria, judge_mutant};
 use super::artefacts;
 use super::methods::{BackgroundDriver, MapEncodings, MethodSettings, ModelSet};
 use super::metrics::{CbvBackgroundContact, SuiteMetrics, VariantTally, cbv_background_collisions};
+use super::mutation::{MethodKills, VariantMutation, evaluation_criteria, judge_mutant};
 use super::pipeline::{self, PlannerLatency, Stage2Verdict, VariantSetup};
 pub use super::pipeline::{Stage2Cbv, VariantProfile};
 use super::variant::variant_seed;

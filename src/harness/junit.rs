@@ -138,12 +138,8 @@ fn suite(out: &mut String, run: &SuiteRun) -> Counts {
         let _ = writeln!(out, "      <property name=\"mutation_score\" value=\"{}\"/>", attr(&score));
         for r in &m.operators {
             let verdict = if r.killed { format!("killed by {} variants", r.kills.len()) } else { "survived".into() };
-            let _ = writeln!(
-                out,
-                "      <property name=\"mutant.{}\" value=\"{}\"/>",
-                r.operator.name(),
-                attr(&verdict)
-            );
+            let _ =
+                writeln!(out, "      <property name=\"mutant.{}\" value=\"{}\"/>", r.operator.name(), attr(&verdict));
         }
     }
     out.push_str("    </properties>\n");

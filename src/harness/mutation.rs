@@ -254,7 +254,9 @@ impl MutationReport {
                         k.criterion,
                         k.what
                     ),
-                    None => format!("{:<width$}  SURVIVED: {}{errors}", r.operator.name(), r.operator.blind_spot_hint()),
+                    None => {
+                        format!("{:<width$}  SURVIVED: {}{errors}", r.operator.name(), r.operator.blind_spot_hint())
+                    }
                 }
             })
             .collect()
@@ -335,7 +337,10 @@ impl VariantMutation {
         mut judge: impl FnMut(FaultOperator) -> Result<Vec<AcceptanceFailure>, HarnessError>,
     ) -> VariantMutation {
         if let Some(first) = base.first() {
-            return VariantMutation { base_failure: Some(format!("{}: {}", first.criterion, first.what)), mutants: vec![] };
+            return VariantMutation {
+                base_failure: Some(format!("{}: {}", first.criterion, first.what)),
+                mutants: vec![],
+            };
         }
         let mutants = operators
             .iter()

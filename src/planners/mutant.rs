@@ -63,15 +63,8 @@ pub enum FaultOperator {
 
 impl FaultOperator {
     /// Every operator, in the order reports list them.
-    pub const ALL: &'static [Self] = &[
-        Self::NoBrake,
-        Self::WeakBrake,
-        Self::Late,
-        Self::BlindCbv,
-        Self::BlindSide,
-        Self::NoEvade,
-        Self::Speeding,
-    ];
+    pub const ALL: &'static [Self] =
+        &[Self::NoBrake, Self::WeakBrake, Self::Late, Self::BlindCbv, Self::BlindSide, Self::NoEvade, Self::Speeding];
 
     /// Its name in specs, flags and reports (`no-brake`).
     pub fn name(self) -> &'static str {
@@ -96,7 +89,9 @@ impl FaultOperator {
             }
             Self::BlindCbv => "the CBV is removed from every observation the planner gets",
             Self::BlindSide => "road users outside a ±30° cone ahead of the ego are removed from every observation",
-            Self::NoEvade => "the planner's yaw rate is replaced by plain lane keeping on its route, so it cannot swerve",
+            Self::NoEvade => {
+                "the planner's yaw rate is replaced by plain lane keeping on its route, so it cannot swerve"
+            }
             Self::Speeding => {
                 "the planner's speed reads 20 % low, so it drives its path 20 % above the speed it aims for"
             }
@@ -275,9 +270,13 @@ impl MutantPlanner {
         seen
     }
 
-    /// The control `out` stands for, from the state the planner saw: its
-    /// acceleration along the heading and its yaw rate over one step.
+    /// The control `out` stands for, from the state the planner saw: a
+    /// control itself; for a trajectory, its acceleration along the heading
+    /// and its yaw rate over one step.
     fn implied_action(seen: &AgentState, out: &PlannerOutput, dt_s: f64) -> Option<Action> {
+        if let PlannerOutput::Control(a) = out {
+            return (a.accel_mps2.is_finite() && a.yaw_rate_radps.is_finite()).then_some(*a);
+        }
         let next = out.next_state(seen, dt_s).ok()?;
         let v0 = KinematicState::from_agent_state(seen).speed_mps;
         let v1 = KinematicState::from_agent_state(&next).speed_mps;
@@ -306,7 +305,8 @@ impl MutantPlanner {
                 let aimed = (KinematicState::from_agent_state(seen).speed_mps + asked.accel_mps2 * dt).max(0.0);
                 let accel_mps2 = (aimed * SPEEDING_FACTOR - speed) / dt;
                 let driven = (speed + accel_mps2 * dt).max(0.0);
-                let yaw_rate_radps = if aimed > 1e-6 { asked.yaw_rate_radps * driven / aimed } else { asked.yaw_rate_radps };
+                let yaw_rate_radps =
+                    if aimed > 1e-6 { asked.yaw_rate_radps * driven / aimed } else { asked.yaw_rate_radps };
                 Action { accel_mps2, yaw_rate_radps }
             }
             FaultOperator::NoEvade => match self.lane_keeping_yaw_rate(observation) {
@@ -378,6 +378,152 @@ mod tests {
         assert!(FaultOperator::parse_list(" , ").is_err());
     }
 
+    use crate::geometry::Vector2;
+    use crate::map::{Lane, RoadMap};
+    use crate::scenario::{AgentKind, Scenario, ScenarioSource, Track, TrackIndex};
+    use std::sync::{Arc, Mutex};
+
+    /// What a planner was shown at each step: the ego, the others' ids and
+    /// their x positions.
+    type Shown = Arc<Mutex<Vec<(AgentState, Vec<AgentId>, Vec<f64>)>>>;
+
+    /// Answers `answer`, and keeps what it was shown.
+    struct Recording {
+        answer: PlannerOutput,
+        seen: Shown,
+    }
+
+    impl Planner for Recording {
+        fn name(&self) -> &str {
+            "recording"
+        }
+        fn plan(&mut self, obs: &Observation<'_>) -> Result<PlannerOutput, PlannerError> {
+            let ids = obs.agents.iter().map(|a| a.id.clone()).collect();
+            let xs = obs.agents.iter().map(|a| a.state.position.x).collect();
+            self.seen.lock().unwrap().push((obs.ego, ids, xs));
+            Ok(self.answer.clone())
+        }
+    }
+
+    fn state(x: f64, y: f64, v: f64) -> AgentState {
+        AgentState { position: Point2::new(x, y), heading_rad: 0.0, velocity_mps: Vector2::new(v, 0.0) }
+    }
+
+    /// A straight lane along +x; the ego at 0, the CBV 20 m ahead, a car
+    /// 3 m to the side and 2 m ahead (56° off the heading).
+    fn scene() -> Arc<Scenario> {
+        let lane = Lane::new(
+            MapElementId(1),
+            crate::geometry::Polyline::new(vec![Point2::new(-50.0, 0.0), Point2::new(500.0, 0.0)]),
+        );
+        let map = RoadMap::new(vec![lane], vec![], vec![], vec![], vec![], vec![], vec![]);
+        let track = |id: &str, x: f64, y: f64| Track {
+            id: AgentId(id.into()),
+            kind: AgentKind::Vehicle,
+            length_m: 4.5,
+            width_m: 2.0,
+            states: (0..40).map(|k| Some(state(x + k as f64, y, 10.0))).collect(),
+        };
+        let tracks = vec![track("ego", 0.0, 0.0), track("cbv", 20.0, 0.0), track("side", 2.0, 3.0)];
+        Arc::new(
+            Scenario::new("mutant", ScenarioSource::authored("test"), 0.1, map, tracks)
+                .with_roles(TrackIndex(0), Some(TrackIndex(1))),
+        )
+    }
+
+    /// `operator` planted in a planner answering `answer`, driven over
+    /// `steps` observations of [`scene`]: the answers and what it saw.
+    fn drive(operator: FaultOperator, answer: PlannerOutput, steps: usize) -> (Vec<PlannerOutput>, Shown) {
+        let scenario = scene();
+        let context = RolloutContext {
+            scenario: scenario.clone(),
+            ego: TrackIndex(0),
+            start_step: 0,
+            end_step: 39,
+            variant: None,
+            seed: None,
+        };
+        let seen: Shown = Arc::default();
+        let inner = Box::new(Recording { answer, seen: seen.clone() });
+        let mut mutant = MutantPlanner::new(inner, operator, VehicleLimits::default(), &context);
+        assert_eq!(mutant.name(), format!("recording [{operator}]"));
+        let answers = (0..steps)
+            .map(|k| {
+                let mut obs = Observation::new(&scenario.map, scenario.tracks[0].states[k].unwrap());
+                obs.step = k;
+                obs.agents = scenario.tracks[1..]
+                    .iter()
+                    .map(|t| PerceivedAgent {
+                        id: t.id.clone(),
+                        kind: t.kind,
+                        length_m: t.length_m,
+                        width_m: t.width_m,
+                        state: t.states[k].unwrap(),
+                    })
+                    .collect();
+                mutant.plan(&obs).unwrap()
+            })
+            .collect();
+        (answers, seen)
+    }
+
+    fn control(a: f64, w: f64) -> PlannerOutput {
+        PlannerOutput::Control(Action { accel_mps2: a, yaw_rate_radps: w })
+    }
+
+    #[test]
+    fn braking_faults_clip_the_braking_and_leave_the_rest() {
+        let (out, _) = drive(FaultOperator::NoBrake, control(-6.0, 0.1), 1);
+        assert_eq!(out[0], control(0.0, 0.1));
+        let (out, _) = drive(FaultOperator::NoBrake, control(2.0, 0.1), 1);
+        assert_eq!(out[0], control(2.0, 0.1), "an answer the fault leaves alone is passed through");
+        let (out, _) = drive(FaultOperator::WeakBrake, control(-6.0, 0.0), 1);
+        assert_eq!(out[0], control(-WEAK_BRAKE_MPS2, 0.0));
+        let (out, _) = drive(FaultOperator::WeakBrake, control(-1.0, 0.0), 1);
+        assert_eq!(out[0], control(-1.0, 0.0));
+    }
+
+    #[test]
+    fn late_shows_the_world_half_a_second_old_with_the_ego_current() {
+        let (_, seen) = drive(FaultOperator::Late, control(0.0, 0.0), 12);
+        let seen = seen.lock().unwrap();
+        for (k, (ego, _, xs)) in seen.iter().enumerate() {
+            assert_eq!(ego.position.x, k as f64, "the ego's own pose is current");
+            // The CBV moves 1 m a step: 5 steps late, the first observation
+            // standing in before then.
+            assert_eq!(xs[0], 20.0 + k.saturating_sub(5) as f64, "step {k}");
+        }
+    }
+
+    #[test]
+    fn blind_faults_remove_the_cbv_or_what_is_beside() {
+        let (_, seen) = drive(FaultOperator::BlindCbv, control(0.0, 0.0), 1);
+        assert_eq!(seen.lock().unwrap()[0].1, vec![AgentId("side".into())]);
+        let (_, seen) = drive(FaultOperator::BlindSide, control(0.0, 0.0), 1);
+        assert_eq!(seen.lock().unwrap()[0].1, vec![AgentId("cbv".into())]);
+        let (_, seen) = drive(FaultOperator::NoEvade, control(0.0, 0.0), 1);
+        assert_eq!(seen.lock().unwrap()[0].1.len(), 2, "faults on the answer leave the observation alone");
+    }
+
+    #[test]
+    fn speeding_reads_the_speed_low_and_scales_what_the_planner_asks() {
+        let (out, seen) = drive(FaultOperator::Speeding, control(1.0, 0.2), 1);
+        assert!((seen.lock().unwrap()[0].0.speed_mps() - 10.0 / SPEEDING_FACTOR).abs() < 1e-12);
+        // It asked for 10/1.2 + 0.1 m/s: it gets 1.2 times that, on the same path.
+        let PlannerOutput::Control(a) = out[0] else { panic!("{:?}", out[0]) };
+        let asked = 10.0 / SPEEDING_FACTOR + 0.1;
+        assert!((10.0 + a.accel_mps2 * 0.1 - asked * SPEEDING_FACTOR).abs() < 1e-9, "{a:?}");
+        assert!((a.yaw_rate_radps / (10.0 + a.accel_mps2 * 0.1) - 0.2 / asked).abs() < 1e-9, "{a:?}");
+    }
+
+    #[test]
+    fn no_evade_steers_back_to_the_route_whatever_the_planner_asks() {
+        let (out, _) = drive(FaultOperator::NoEvade, control(-1.0, 1.0), 1);
+        let PlannerOutput::Control(a) = out[0] else { panic!("{:?}", out[0]) };
+        assert_eq!(a.accel_mps2, -1.0);
+        assert!(a.yaw_rate_radps.abs() < 1e-9, "on the lane's centreline, heading along it: {a:?}");
+    }
+
     #[test]
     fn clamping_keeps_every_step_inside_the_limits() {
         let limits = VehicleLimits { max_speed_mps: 30.0, max_curvature_per_m: 0.2, ..VehicleLimits::default() };
@@ -386,7 +532,8 @@ mod tests {
             heading_rad: 0.3,
             velocity_mps: crate::geometry::Vector2::new(0.3f64.cos(), 0.3f64.sin()) * v,
         };
-        for (v, a, w) in [(29.5, 20.0, 3.0), (2.0, -50.0, -3.0), (29.9, 0.0, 1.5), (0.0, 8.0, 1.5), (12.0, -12.0, 1.4)] {
+        for (v, a, w) in [(29.5, 20.0, 3.0), (2.0, -50.0, -3.0), (29.9, 0.0, 1.5), (0.0, 8.0, 1.5), (12.0, -12.0, 1.4)]
+        {
             let now = at(v);
             let c = clamp_to_limits(&limits, &now, Action { accel_mps2: a, yaw_rate_radps: w }, 0.1);
             let next = kinematic_step(&KinematicState::from_agent_state(&now), c, 0.1).to_agent_state();

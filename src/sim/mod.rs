@@ -12,9 +12,9 @@ mod rollout;
 pub mod synthetic;
 pub mod traffic;
 
+pub use crate::motion::vehicle_limits::{LimitViolation, VehicleLimits};
 pub use events::{CollisionEvent, EgoCollisionKind, EgoContact, LaneOccupancy, OffRoadEvent};
 pub use rollout::{Rollout, RolloutSummary, Termination};
-pub use crate::motion::vehicle_limits::{LimitViolation, VehicleLimits};
 
 use crate::motion::{KinematicState, kinematic_step, tokens::SIM_DT_S};
 use crate::planners::{Observation, PerceivedAgent, Planner};

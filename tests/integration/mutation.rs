@@ -16,8 +16,7 @@ use safer::map::{Lane, MapElementId, RoadMap};
 use safer::motion::Action;
 use safer::planners::external::RolloutContext;
 use safer::planners::{
-    FaultOperator, MutantPlanner, Observation, PerceivedAgent, Planner, PlannerError, PlannerOutput,
-    TrajectoryPoint,
+    FaultOperator, MutantPlanner, Observation, PerceivedAgent, Planner, PlannerError, PlannerOutput, TrajectoryPoint,
 };
 use safer::scenario::{AgentId, AgentKind, AgentState, Scenario, ScenarioSource, Track, TrackIndex};
 use safer::sim::VehicleLimits;
@@ -139,8 +138,7 @@ fn an_unknown_operator_is_a_usage_error_naming_the_known_ones() {
 #[test]
 fn mutation_scores_are_the_same_at_one_and_two_jobs() {
     let run = |jobs: &str| {
-        let (_, _, report, _, _) =
-            run_suite("specs/suites/faults.yaml", &["--jobs", jobs, "--no-shrink"]);
+        let (_, _, report, _, _) = run_suite("specs/suites/faults.yaml", &["--jobs", jobs, "--no-shrink"]);
         report["suites"][0]["mutation"].clone()
     };
     assert_eq!(run("1"), run("2"));
@@ -227,10 +225,10 @@ fn an_external_protocol_1_0_planner_and_an_in_process_planner_are_mutated_alike(
 /// CBV ahead and a car beside.
 fn scene() -> Arc<Scenario> {
     let lane = |id: i64, y: f64| {
-        let mut l = Lane::new(MapElementId(id), safer::geometry::Polyline::new(vec![
-            Point2::new(-100.0, y),
-            Point2::new(900.0, y),
-        ]));
+        let mut l = Lane::new(
+            MapElementId(id),
+            safer::geometry::Polyline::new(vec![Point2::new(-100.0, y), Point2::new(900.0, y)]),
+        );
         l.speed_limit_mps = Some(25.0);
         l
     };
@@ -351,8 +349,10 @@ fn every_operators_changed_controls_stay_inside_the_vehicle_limits() {
     }
     // The faults that act on the answer did change it.
     for (i, op) in FaultOperator::ALL.iter().enumerate() {
-        let acts_on_answer =
-            matches!(op, FaultOperator::NoBrake | FaultOperator::WeakBrake | FaultOperator::NoEvade | FaultOperator::Speeding);
+        let acts_on_answer = matches!(
+            op,
+            FaultOperator::NoBrake | FaultOperator::WeakBrake | FaultOperator::NoEvade | FaultOperator::Speeding
+        );
         assert_eq!(changed[i] > 0, acts_on_answer, "{op}: {} answers changed", changed[i]);
     }
 }

@@ -103,7 +103,8 @@ fn a_suite_asking_for_a_mutation_score_gets_one_test_that_passes_or_fails_by_it(
         // Its own suite name: the runner shares variant outcomes in the
         // process by test name, and other tests here run suites named `mine`.
         assert_eq!(names, ["mutating::highway-overtake::seed-0", "mutating::mutation_score"]);
-        let log = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("runner-mutation-{min}-{}.log", std::process::id()));
+        let log =
+            Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("runner-mutation-{min}-{}.log", std::process::id()));
         let args = Arguments {
             filter: Some("mutating::mutation_score".into()),
             exact: true,
