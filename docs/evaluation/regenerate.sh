@@ -23,6 +23,10 @@
 #   n100              evaluate-womd-interactive-n100.txt (7 min on 2 cores)
 #   approach-none     approach-none/*.txt: the paper's protocol, one variant a
 #                     scene (the adversary engages at the first token)
+#   mutants           mutants-{womd-interactive,womd-json,ngsim}-evasive.txt and
+#                     mutants-{womd-interactive,ngsim}-lane-follower.txt: the
+#                     faults of the planner each method's variants catch
+#                     (every fault operator, stage-2 CBV closed loop)
 #
 # About 25 minutes for all on a quiet 2-core machine, an hour while a training run shared
 # them; each table ends with its own wall time). The recorded sets are
@@ -31,7 +35,7 @@
 set -euo pipefail
 self=$(realpath "$0")
 cd "$(dirname "$self")"
-all=(evaluate plain inattentive held-out-chance trust-region realism prior-fit n-sweep reactive n100 approach-none)
+all=(evaluate plain inattentive held-out-chance trust-region realism prior-fit n-sweep reactive n100 approach-none mutants)
 jobs=("$@")
 [[ ${#jobs[@]} -gt 0 ]] || jobs=("${all[@]}")
 # The usage is the comment block at the top of this file.
@@ -126,6 +130,17 @@ for job in "${jobs[@]}"; do
         done
         run approach-none/trust-region-womd-interactive.txt trust-region --scenes data:womd-interactive "${once[@]}" \
             --methods safer,safer-inattentive ;;
+    mutants)
+        mutating=(--stage2-cbv closed-loop --mutants)
+        for s in "${sets[@]}"; do
+            run "mutants-${s#*:}-evasive.txt" evaluate --scenes "data:${s%%:*}" --seeds 3 "${mutating[@]}" \
+                --methods log,prior,safer,safer-distinct,safer-lookahead,no-lfr
+        done
+        # The Python lane follower runs as a process per variant and mutant.
+        for s in womd-interactive:womd-interactive commonroad-ngsim:ngsim; do
+            run "mutants-${s#*:}-lane-follower.txt" evaluate --scenes "data:${s%%:*}" --seeds 2 "${mutating[@]}" \
+                --methods log,prior,safer,safer-distinct --planner ../../planners/lane-follower.yaml
+        done ;;
     esac
 done
 rm -r "$(dirname "$safer")"
