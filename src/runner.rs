@@ -210,7 +210,7 @@ fn results_of_this_process(suites: &[(PathBuf, Arc<Suite>)], load_failures: Vec<
             harness::metrics::suite_verdict(
                 &suite.spec.value.acceptance.suite,
                 variants.iter().map(|v| (v.name.clone(), v.outcome.as_ref().map(|o| &o.tally).map_err(Clone::clone))),
-                mutation.as_deref(),
+                MutationReport::check(mutation.as_deref(), &suite.spec.value.acceptance.suite),
             )
         } else {
             (None, Vec::new())
@@ -355,12 +355,13 @@ fn metric_trial(suite: &Suite, metric: &'static str) -> Result<(), Failed> {
             outcomes.push((s, k, suite.variant_name(&suite.scenarios[s], k), outcome(suite, s, k)));
         }
     }
-    let mutation = (metric == harness::mutation::MUTATION_SCORE).then(|| mutation_report(suite, &outcomes));
+    let mutation = (metric == harness::metrics::MUTATION_SCORE).then(|| mutation_report(suite, &outcomes));
     let variants = outcomes
         .iter()
         .map(|(_, _, name, o)| (name.clone(), o.as_ref().as_ref().map(|o| &o.tally).map_err(|e| e.to_string())));
-    let (_, checks) =
-        harness::metrics::suite_verdict(&suite.spec.value.acceptance.suite, variants, mutation.as_deref());
+    let acceptance = &suite.spec.value.acceptance.suite;
+    let mutation_score = MutationReport::check(mutation.as_deref(), acceptance);
+    let (_, checks) = harness::metrics::suite_verdict(acceptance, variants, mutation_score);
     let check = checks
         .into_iter()
         .find(|c| c.name == metric)

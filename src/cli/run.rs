@@ -409,7 +409,7 @@ fn suite_run(
                 let name = suite.variant_name(&suite.scenarios[job.scenario], job.index);
                 (name, done.outcome.as_ref().map(|o| &o.tally).map_err(|e| e.to_string()))
             }),
-            mutation.as_ref(),
+            MutationReport::check(mutation.as_ref(), &suite.spec.value.acceptance.suite),
         );
         (m, checks.into_iter().filter(|c| metrics.contains(&c.name)).collect())
     };

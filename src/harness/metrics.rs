@@ -503,6 +503,10 @@ impl SuiteMetrics {
     }
 }
 
+/// The name of the mutation-score check (`suite::mutation_score`), made by
+/// the suite's mutation run ([`super::mutation`]).
+pub const MUTATION_SCORE: &str = "mutation_score";
+
 /// Names of the metric tests a suite has (known without running anything).
 pub fn metric_names(acceptance: &SuiteAcceptance) -> Vec<&'static str> {
     [
@@ -513,7 +517,7 @@ pub fn metric_names(acceptance: &SuiteAcceptance) -> Vec<&'static str> {
         ("conflict_reach", acceptance.conflict_reach_min.is_some()),
         ("no_escape_collision_rate", acceptance.no_escape_collision_rate_max.is_some()),
         ("conflict_coverage", acceptance.conflict_coverage_min.is_some()),
-        (super::mutation::MUTATION_SCORE, acceptance.mutation_score_min.is_some()),
+        (MUTATION_SCORE, acceptance.mutation_score_min.is_some()),
     ]
     .into_iter()
     .filter_map(|(n, on)| on.then_some(n))
@@ -524,13 +528,14 @@ pub fn metric_names(acceptance: &SuiteAcceptance) -> Vec<&'static str> {
 /// could not run, there are no metrics and every configured metric fails
 /// naming the first such variant (an error is never a pass, and a rate over
 /// the variants that happened to run would be silently wrong); otherwise
-/// the aggregate and its checks, the mutation score's (from `mutation`,
-/// the suite's mutation run) last. The one rule behind the metric tests of
+/// the aggregate and its checks, the mutation score's last (`mutation_score`:
+/// the check the suite's mutation run made, [`super::mutation::MutationReport::check`]).
+/// The one rule behind the metric tests of
 /// the cargo-test runner, `safer run` and the review page.
 pub fn suite_verdict<'a>(
     acceptance: &SuiteAcceptance,
     variants: impl IntoIterator<Item = (String, Result<&'a VariantTally, String>)>,
-    mutation: Option<&super::mutation::MutationReport>,
+    mutation_score: Option<MetricCheck>,
 ) -> (Option<SuiteMetrics>, Vec<MetricCheck>) {
     let mut tallies = Vec::new();
     for (name, tally) in variants {
@@ -548,7 +553,13 @@ pub fn suite_verdict<'a>(
     }
     let metrics = SuiteMetrics::aggregate(tallies);
     let mut checks = metrics.checks(acceptance);
-    checks.extend(super::mutation::MutationReport::check(mutation, acceptance));
+    if acceptance.mutation_score_min.is_some() {
+        checks.push(mutation_score.unwrap_or(MetricCheck {
+            name: MUTATION_SCORE,
+            value: None,
+            result: Err("mutation_score could not be measured: the mutants were not run".into()),
+        }));
+    }
     (Some(metrics), checks)
 }
 

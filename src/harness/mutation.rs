@@ -14,6 +14,7 @@
 use serde::Serialize;
 
 use super::acceptance::{self, AcceptanceFailure};
+use super::metrics::MUTATION_SCORE;
 use super::pipeline::{self, Stage2Verdict, VariantSetup};
 use super::variant::{CollisionEscape, VariantInputs};
 use super::{HarnessError, MetricCheck, Suite, SuiteScenario, VariantOutcome};
@@ -301,9 +302,6 @@ impl MutationReport {
         Some(MetricCheck { name: MUTATION_SCORE, value: Some(score), result })
     }
 }
-
-/// The name of the mutation-score check (`suite::mutation_score`).
-pub const MUTATION_SCORE: &str = "mutation_score";
 
 /// The criteria `safer evaluate --mutants` judges the planner and its
 /// mutants by: no collision the ego caused (nuPlan's at-fault rule: the
