@@ -799,8 +799,6 @@ fn set_jobs(jobs: Option<usize>) -> Result<(), CliError> {
         .map_err(|e| CliError::Usage(format!("--jobs {n}: could not set up the worker threads: {e}")))
 }
 
-/// Parses a count that must be at least 1 (clap names the flag and the
-/// range when it is not).
 /// A list of fault operators, as `--mutants` takes it.
 #[derive(Debug, Clone)]
 pub(crate) struct FaultOperators(pub(crate) Vec<safer::planners::FaultOperator>);
@@ -810,6 +808,8 @@ fn fault_operators(text: &str) -> Result<FaultOperators, String> {
     safer::planners::FaultOperator::parse_list(text).map(FaultOperators)
 }
 
+/// Parses a count that must be at least 1 (clap names the flag and the
+/// range when it is not).
 fn at_least_one() -> impl TypedValueParser<Value = usize> {
     RangedU64ValueParser::<usize>::new().range(1..)
 }
