@@ -88,24 +88,35 @@ pub fn wrong_way(rollout: &Rollout, map: &RoadMap) -> Option<WrongWay> {
             })
         })
     };
-    let mut best: Option<WrongWay> = None;
-    let mut current: Option<(usize, usize, MapElementId)> = None; // (first step, steps, lane)
-    let flush = |current: Option<(usize, usize, MapElementId)>, best: &mut Option<WrongWay>| {
-        if let Some((first, steps, lane)) = current
-            && best.as_ref().is_none_or(|b| steps as f64 * rollout.dt_s > b.duration_s + 1e-9)
+    let (first, found) = longest_stretch(rollout.states.iter().map(against_at))?;
+    Some(WrongWay {
+        start_s: first as f64 * rollout.dt_s,
+        duration_s: found.len() as f64 * rollout.dt_s,
+        lane: found[0],
+    })
+}
+
+/// The longest run of consecutive `Some` in `steps`: its first step and
+/// its values, in order; ties go to the earliest. `None` when every step
+/// is `None`.
+fn longest_stretch<T>(steps: impl Iterator<Item = Option<T>>) -> Option<(usize, Vec<T>)> {
+    let mut best: Option<(usize, Vec<T>)> = None;
+    let mut current: Option<(usize, Vec<T>)> = None;
+    let keep_longer = |run: Option<(usize, Vec<T>)>, best: &mut Option<(usize, Vec<T>)>| {
+        if let Some(run) = run
+            && best.as_ref().is_none_or(|b| run.1.len() > b.1.len())
         {
-            *best =
-                Some(WrongWay { start_s: first as f64 * rollout.dt_s, duration_s: steps as f64 * rollout.dt_s, lane });
+            *best = Some(run);
         }
     };
-    for (k, row) in rollout.states.iter().enumerate() {
-        match (against_at(row), current.as_mut()) {
-            (Some(_), Some(run)) => run.1 += 1,
-            (Some(lane), None) => current = Some((k, 1, lane)),
-            (None, _) => flush(current.take(), &mut best),
+    for (k, step) in steps.enumerate() {
+        match (step, current.as_mut()) {
+            (Some(v), Some(run)) => run.1.push(v),
+            (Some(v), None) => current = Some((k, vec![v])),
+            (None, _) => keep_longer(current.take(), &mut best),
         }
     }
-    flush(current, &mut best);
+    keep_longer(current, &mut best);
     best
 }
 
@@ -154,36 +165,15 @@ pub fn speeding(rollout: &Rollout, map: &RoadMap) -> Option<Speeding> {
         let limit = lane.speed_limit_mps.filter(|v| v.is_finite() && *v > 0.0)?;
         (s.speed_mps() > limit * (1.0 + SPEEDING_TOLERANCE)).then_some((lane.id, limit, s.speed_mps()))
     };
-    let mut best: Option<Speeding> = None;
-    let mut current: Option<Speeding> = None;
-    let flush = |current: Option<Speeding>, best: &mut Option<Speeding>| {
-        if let Some(c) = current
-            && c.duration_s > SPEEDING_MIN_S + 1e-9
-            && best.as_ref().is_none_or(|b| c.duration_s > b.duration_s + 1e-9)
-        {
-            *best = Some(c);
-        }
-    };
-    for (k, row) in rollout.states.iter().enumerate() {
-        match (over_at(row), current.as_mut()) {
-            (Some((_, _, v)), Some(run)) => {
-                run.duration_s += rollout.dt_s;
-                run.max_speed_mps = run.max_speed_mps.max(v);
-            }
-            (Some((lane, limit, v)), None) => {
-                current = Some(Speeding {
-                    start_s: k as f64 * rollout.dt_s,
-                    duration_s: rollout.dt_s,
-                    max_speed_mps: v,
-                    limit_mps: limit,
-                    lane,
-                })
-            }
-            (None, _) => flush(current.take(), &mut best),
-        }
-    }
-    flush(current, &mut best);
-    best
+    let (first, over) = longest_stretch(rollout.states.iter().map(over_at))?;
+    let duration_s = over.len() as f64 * rollout.dt_s;
+    (duration_s > SPEEDING_MIN_S + 1e-9).then(|| Speeding {
+        start_s: first as f64 * rollout.dt_s,
+        duration_s,
+        max_speed_mps: over.iter().map(|&(_, _, v)| v).fold(f64::NEG_INFINITY, f64::max),
+        limit_mps: over[0].1,
+        lane: over[0].0,
+    })
 }
 
 /// The first time the ego's centre passed a stop point on red, if it did.
