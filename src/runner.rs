@@ -210,7 +210,7 @@ fn results_of_this_process(suites: &[(PathBuf, Arc<Suite>)], load_failures: Vec<
             harness::metrics::suite_verdict(
                 &suite.spec.value.acceptance.suite,
                 variants.iter().map(|v| (v.name.clone(), v.outcome.as_ref().map(|o| &o.tally).map_err(Clone::clone))),
-                MutationReport::check(mutation.as_deref(), &suite.spec.value.acceptance.suite),
+                mutation.as_ref().and_then(|m| m.check(&suite.spec.value.acceptance.suite)),
             )
         } else {
             (None, Vec::new())
@@ -360,7 +360,7 @@ fn metric_trial(suite: &Suite, metric: &'static str) -> Result<(), Failed> {
         .iter()
         .map(|(_, _, name, o)| (name.clone(), o.as_ref().as_ref().map(|o| &o.tally).map_err(|e| e.to_string())));
     let acceptance = &suite.spec.value.acceptance.suite;
-    let mutation_score = MutationReport::check(mutation.as_deref(), acceptance);
+    let mutation_score = mutation.as_ref().and_then(|m| m.check(acceptance));
     let (_, checks) = harness::metrics::suite_verdict(acceptance, variants, mutation_score);
     let check = checks
         .into_iter()
@@ -394,9 +394,10 @@ fn mutation_report(suite: &Suite, outcomes: &[(usize, u32, String, Shared)]) -> 
         .collect();
     let report = Arc::new(MutationReport::of(
         &operators,
-        outcomes.iter().zip(&runs).map(|((_, _, name, o), runs)| {
-            (name.as_str(), o.as_ref().as_ref().map_err(String::as_str), runs.as_slice())
-        }),
+        outcomes
+            .iter()
+            .zip(&runs)
+            .map(|((_, _, name, o), runs)| (name.as_str(), o.as_ref().as_ref().ok(), runs.as_slice())),
     ));
     mutations().lock().unwrap_or_else(|p| p.into_inner()).insert(suite.name(), report.clone());
     report

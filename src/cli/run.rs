@@ -389,15 +389,11 @@ fn suite_run(
     let names: Vec<String> =
         jobs.iter().map(|(job, _)| suite.variant_name(&suite.scenarios[job.scenario], job.index)).collect();
     let mutation = (!operators.is_empty()).then(|| {
-        let errors: Vec<String> = jobs
-            .iter()
-            .map(|(_, done)| done.outcome.as_ref().err().map(ToString::to_string).unwrap_or_default())
-            .collect();
         MutationReport::of(
             operators,
-            jobs.iter().zip(&names).zip(&errors).map(|(((_, done), name), error)| {
-                (name.as_str(), done.outcome.as_ref().map_err(|_| error.as_str()), done.mutants.as_slice())
-            }),
+            jobs.iter()
+                .zip(&names)
+                .map(|((_, done), name)| (name.as_str(), done.outcome.as_ref().ok(), done.mutants.as_slice())),
         )
     });
     let (suite_metrics, checks) = if metrics.is_empty() {
@@ -409,7 +405,7 @@ fn suite_run(
                 let name = suite.variant_name(&suite.scenarios[job.scenario], job.index);
                 (name, done.outcome.as_ref().map(|o| &o.tally).map_err(|e| e.to_string()))
             }),
-            MutationReport::check(mutation.as_ref(), &suite.spec.value.acceptance.suite),
+            mutation.as_ref().and_then(|m| m.check(&suite.spec.value.acceptance.suite)),
         );
         (m, checks.into_iter().filter(|c| metrics.contains(&c.name)).collect())
     };

@@ -157,11 +157,11 @@ pub struct MutationReport {
 
 impl MutationReport {
     /// The report of `operators` over a suite's variants, each given as
-    /// its name, its unmutated outcome (or why it could not run) and its
+    /// its name, its unmutated outcome (`None`: it could not run) and its
     /// mutants' runs.
     pub fn of<'a>(
         operators: &[FaultOperator],
-        variants: impl IntoIterator<Item = (&'a str, Result<&'a VariantOutcome, &'a str>, &'a [MutantRun])>,
+        variants: impl IntoIterator<Item = (&'a str, Option<&'a VariantOutcome>, &'a [MutantRun])>,
     ) -> MutationReport {
         let mut results: Vec<OperatorResult> = operators
             .iter()
@@ -178,9 +178,9 @@ impl MutationReport {
         for (name, base, mutants) in variants {
             n += 1;
             match base {
-                Ok(o) if o.failures.is_empty() => passed += 1,
-                Ok(_) => continue,
-                Err(_) => {
+                Some(o) if o.failures.is_empty() => passed += 1,
+                Some(_) => continue,
+                None => {
                     errored += 1;
                     continue;
                 }
@@ -263,16 +263,15 @@ impl MutationReport {
             .collect()
     }
 
-    /// The `mutation_score` check of `acceptance` (`None` when the suite
-    /// sets no `mutation_score_min`): fails below the bound, and fails as
-    /// unmeasured when a variant could not run, when the planner passes no
-    /// variant (no mutant can be killed there) or when no mutant ran.
-    pub fn check(report: Option<&MutationReport>, acceptance: &SuiteAcceptance) -> Option<MetricCheck> {
+    /// The `mutation_score` check of `acceptance` on this run (`None` when
+    /// the suite sets no `mutation_score_min`): fails below the bound, and
+    /// fails as unmeasured when a variant could not run, when the planner
+    /// passes no variant (no mutant can be killed there) or when no mutant
+    /// ran. Without a run at all, [`super::metrics::suite_verdict`] fails it.
+    pub fn check(&self, acceptance: &SuiteAcceptance) -> Option<MetricCheck> {
         let min = acceptance.mutation_score_min?;
         let unmeasured = |why: String| Some(MetricCheck { name: MUTATION_SCORE, value: None, result: Err(why) });
-        let Some(report) = report else {
-            return unmeasured("mutation_score could not be measured: the mutants were not run".into());
-        };
+        let report = self;
         if report.variants_errored > 0 {
             return unmeasured(format!(
                 "mutation_score could not be measured: {} of {} variants could not run",
@@ -457,10 +456,14 @@ mod tests {
     }
 
     #[test]
-    fn a_check_without_a_bound_is_not_made() {
-        assert!(MutationReport::check(None, &SuiteAcceptance::default()).is_none());
-        let c = MutationReport::check(None, &acceptance(0.5)).unwrap();
-        assert!(c.result.unwrap_err().contains("not run"));
+    fn a_check_without_a_bound_is_not_made_and_one_without_a_run_fails() {
+        let report = MutationReport::of(&[FaultOperator::NoBrake], std::iter::empty());
+        assert!(report.check(&SuiteAcceptance::default()).is_none());
+        let ok = super::super::VariantTally::default();
+        let (_, checks) =
+            super::super::metrics::suite_verdict(&acceptance(0.5), [("s::a::seed-0".to_string(), Ok(&ok))], None);
+        let c = checks.iter().find(|c| c.name == MUTATION_SCORE).unwrap();
+        assert!(c.result.as_ref().unwrap_err().contains("not run"), "{c:?}");
     }
 
     #[test]
@@ -483,17 +486,17 @@ mod tests {
             killed: 1,
             score: Some(0.5),
         };
-        assert!(MutationReport::check(Some(&report), &acceptance(0.5)).unwrap().result.is_ok());
-        let err = MutationReport::check(Some(&report), &acceptance(0.6)).unwrap().result.unwrap_err();
+        assert!(report.check(&acceptance(0.5)).unwrap().result.is_ok());
+        let err = report.check(&acceptance(0.6)).unwrap().result.unwrap_err();
         assert!(err.contains("0.500 < 0.6") && err.contains("weak-brake") && !err.contains("no-brake"), "{err}");
-        assert!(MutationReport::check(Some(&report), &acceptance(f64::NAN)).unwrap().result.is_err());
+        assert!(report.check(&acceptance(f64::NAN)).unwrap().result.is_err());
     }
 
     #[test]
     fn a_report_with_no_passing_variant_is_unmeasured() {
         let report = MutationReport::of(&[FaultOperator::NoBrake], std::iter::empty());
         assert_eq!((report.variants, report.killed, report.score), (0, 0, Some(0.0)));
-        let err = MutationReport::check(Some(&report), &acceptance(0.0)).unwrap().result.unwrap_err();
+        let err = report.check(&acceptance(0.0)).unwrap().result.unwrap_err();
         assert!(err.contains("passes none"), "{err}");
     }
 
