@@ -22,6 +22,7 @@ use super::{Observation, PerceivedAgent, Planner, PlannerError, PlannerOutput, P
 use crate::geometry::{Point2, wrap_angle};
 use crate::map::{MapElementId, SignalState};
 use crate::motion::{Action, KinematicState, VehicleLimits, kinematic_step};
+use crate::policies::lane_follower::pursuit_curvature;
 use crate::scenario::{AgentId, AgentState};
 
 /// Braking that `weak-brake` allows at most, m/s² (positive).
@@ -329,11 +330,7 @@ impl MutantPlanner {
         }
         let speed = KinematicState::from_agent_state(&ego).speed_mps;
         let lookahead = (NO_EVADE_LOOKAHEAD_S * speed).max(NO_EVADE_MIN_LOOKAHEAD_M);
-        let (target, _) = line.sample(s + lookahead)?;
-        let to_target = target - ego.position;
-        let alpha = wrap_angle(to_target.y.atan2(to_target.x) - ego.heading_rad);
-        let curvature = 2.0 * alpha.sin() / to_target.norm().max(1e-3);
-        Some(curvature * speed)
+        Some(pursuit_curvature(line, s + lookahead, &ego)? * speed)
     }
 }
 

@@ -248,11 +248,17 @@ pub fn route_along_lanes<'m>(
 pub fn pursuit_yaw_rate(route: &Route, here_s: f64, state: &AgentState, params: &IdmParams) -> Option<f64> {
     let speed = state.speed_mps();
     let lookahead = (params.lookahead_time_s * speed).max(params.min_lookahead_m);
-    let (target, _) = route.path.sample(here_s + lookahead)?;
+    let curvature = pursuit_curvature(&route.path, here_s + lookahead, state)?;
+    Some((curvature * speed.max(0.5)).clamp(-MAX_YAW_RATE_RADPS, MAX_YAW_RATE_RADPS))
+}
+
+/// The pure-pursuit curvature, 1/m, that takes `state` through the point
+/// at arc length `target_s` of `path` (`None` off the path's ends).
+pub fn pursuit_curvature(path: &Polyline, target_s: f64, state: &AgentState) -> Option<f64> {
+    let (target, _) = path.sample(target_s)?;
     let to_target = target - state.position;
     let alpha = wrap_angle(to_target.y.atan2(to_target.x) - state.heading_rad);
-    let curvature = 2.0 * alpha.sin() / to_target.norm().max(1e-3);
-    Some((curvature * speed.max(0.5)).clamp(-MAX_YAW_RATE_RADPS, MAX_YAW_RATE_RADPS))
+    Some(2.0 * alpha.sin() / to_target.norm().max(1e-3))
 }
 
 /// What IDM brakes for on the route: (gap, m; its speed along the route,
