@@ -155,7 +155,7 @@ struct ClosedLoopWitnessBench {
 /// Runs the command.
 pub(super) fn run(scenes: &Path, repeat: usize, json: Option<&Path>) -> Result<ExitCode, CliError> {
     if let Some(path) = json {
-        safer::record::output::check_output(path)?;
+        super::check_json_report(path)?;
     }
     let mut out = super::table_writer(json);
     let profile = if cfg!(debug_assertions) { "debug" } else { "release" };

@@ -70,7 +70,7 @@ struct BaselineReport {
 /// figure of both beside their ratio.
 pub(super) fn run(bench: BaselineBench<'_>, json: Option<&Path>) -> Result<ExitCode, CliError> {
     if let Some(path) = json {
-        safer::record::output::check_output(path)?;
+        super::check_json_report(path)?;
     }
     let fail = |problem: String| CliError::Baseline { binary: bench.baseline.to_path_buf(), problem };
     if !bench.baseline.is_file() {

@@ -153,7 +153,7 @@ pub(super) fn run(
     json: Option<&Path>,
 ) -> Result<ExitCode, CliError> {
     if let Some(path) = json {
-        safer::record::output::check_output(path)?;
+        super::check_json_report(path)?;
     }
     let mut out = super::table_writer(json);
     let profile = if cfg!(debug_assertions) { "debug" } else { "release" };

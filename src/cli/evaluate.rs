@@ -581,6 +581,9 @@ pub(super) fn run(
         inputs.extend(request.planner.argument_files());
         safer::record::check_outputs_apart(&outputs, &inputs)?;
     }
+    if let Some(path) = json {
+        super::check_json_report(path)?;
+    }
     let scenes: Vec<Arc<Scenario>> = selection
         .load(scenes_dir)?
         .into_iter()
@@ -654,8 +657,8 @@ fn report(
 /// of one N-way split.
 pub(super) fn merge(parts: &[std::path::PathBuf], json: Option<&Path>) -> Result<ExitCode, CliError> {
     if let Some(path) = json {
-        safer::record::output::check_output(path)?;
         safer::record::check_outputs_apart(&[safer::record::NamedOutput { flag: "--json", path }], parts)?;
+        super::check_json_report(path)?;
     }
     let mut read: Vec<(&Path, PartReport)> = Vec::new();
     for path in parts {

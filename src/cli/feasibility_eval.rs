@@ -88,7 +88,10 @@ pub fn run(
     json: Option<&Path>,
     labels: Option<&Path>,
 ) -> Result<ExitCode, CliError> {
-    for path in json.into_iter().chain(labels) {
+    if let Some(path) = json {
+        super::check_json_report(path)?;
+    }
+    if let Some(path) = labels {
         safer::record::output::check_output(path)?;
     }
     // The table goes to stderr when the JSON report takes stdout.

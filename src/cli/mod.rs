@@ -225,6 +225,9 @@ enum Command {
         /// Write to this file instead of stdout (`-`: stdout).
         #[arg(long, value_name = "FILE")]
         out: Option<PathBuf>,
+        /// Replace an existing file at --out.
+        #[arg(long)]
+        force: bool,
     },
     /// Latency of the learned models in tract (map encoding, CBV query, full-scene step), against onnxruntime/PyTorch.
     BenchModels {
@@ -578,7 +581,7 @@ pub fn main() -> ExitCode {
         Command::PriorFit { scenes, top_n, min_speed_mps, prior, max_scenes, json } => {
             prior_fit::run(&prior_fit::PriorFitArgs { scenes, top_n, min_speed_mps, variant: prior, max_scenes, json })
         }
-        Command::Schema { kind, out } => schema::run(kind, out.as_deref()),
+        Command::Schema { kind, out, force } => schema::run(kind, out.as_deref(), force),
         Command::Render { file, step, out, force } => render::run(&file, step, out.as_deref(), force),
         Command::BenchModels { scenes, models, repeat, python, profile, json } => bench_models::run(
             &scenes,
@@ -764,6 +767,15 @@ fn error_report(e: &(dyn std::error::Error + 'static)) -> String {
 /// A command-line path: `data:REL` is `REL` in the shared recorded-data
 /// folder, by the rule of [`safer::spec::paths`] for the project this
 /// binary was built from; anything else is taken as written.
+/// Checks, before a command runs, that `--json PATH` can take its report:
+/// a file, `-` or a device ([`safer::record::output::check_output`]), and
+/// not an existing file of another kind than JSON.
+fn check_json_report(path: &Path) -> Result<(), CliError> {
+    safer::record::output::check_output(path)?;
+    safer::record::check_replaceable("--json", path, safer::record::OutputKind::Json, false)?;
+    Ok(())
+}
+
 fn data_path(written: &str) -> Result<PathBuf, String> {
     if written.starts_with("data:") {
         Ok(safer::spec::paths::resolve(Path::new(env!("CARGO_MANIFEST_DIR")), written))

@@ -262,7 +262,7 @@ fn score_one(
 
 pub(super) fn run(args: &RealismArgs) -> Result<ExitCode, CliError> {
     if let Some(out) = &args.json {
-        safer::record::output::check_output(out)?;
+        super::check_json_report(out)?;
     }
     let prior = args.policy.load()?;
     if args.rollouts == 0 {

@@ -4,8 +4,8 @@
 //!
 //! One scenario goes to `--out` (default `<stem>.svg` in the current
 //! folder; `-` is standard output); a file holding several (a TFRecord)
-//! needs `--out DIR` and gets one `<id>.svg` each. Existing pictures
-//! (regular files, also behind a symlink) are never overwritten without
+//! needs `--out DIR` and gets one `<id>.svg` each. The drawn file is
+//! never replaced; other existing files (also behind a symlink) only with
 //! `--force`; a FIFO or device is written in place ([`record::output`]).
 //! Every check runs before the first write, so a refused call leaves
 //! nothing half done.
@@ -33,12 +33,11 @@ pub(super) fn run(file: &Path, step: Option<usize>, out: Option<&Path>, force: b
             }
         }
     }
-    // `metadata` follows symlinks: a link to an existing picture counts.
-    let is_picture = |p: &Path| !record::is_stdout(p) && std::fs::metadata(p).is_ok_and(|m| m.is_file());
-    if !force && let Some(existing) = targets.iter().find(|(p, _)| is_picture(p)) {
-        return Err(CliError::Usage(format!("{} already exists; pass --force to overwrite it", existing.0.display())));
-    }
+    // The drawn file is never replaced, even with --force; an existing
+    // picture (a link to one counts) only with it.
     for (path, _) in &targets {
+        record::check_outputs_apart(&[record::NamedOutput { flag: "--out", path }], &[file.to_path_buf()])?;
+        record::check_new_or_forced("--out", path, force)?;
         record::output::check_output(path)?;
     }
     let opts = SvgOptions { step, ..SvgOptions::default() };

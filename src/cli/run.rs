@@ -33,6 +33,7 @@ use safer::harness::mutation::{MutantRun, MutationReport};
 use safer::harness::report::{RunResults, SuiteLoadFailure, SuiteRun, VariantRun};
 use safer::harness::{self, HarnessError, Suite, SuiteMetrics, VariantOutcome, VariantSummary};
 use safer::planners::FaultOperator;
+use safer::record::OutputKind;
 
 /// One variant to run.
 struct Job {
@@ -193,6 +194,22 @@ fn export_commonroad(dir: &Path, outcome: &harness::VariantOutcome) -> Result<Pa
     Ok(path)
 }
 
+/// Checks, before the run, every file `--export-commonroad DIR` may write
+/// for the variants `names`: none may be a file the run reads, and an
+/// existing one must be an export safer made, so a recorded CommonRoad
+/// scene kept in `DIR` is never replaced.
+fn check_exports(dir: &Path, names: impl Iterator<Item = String>, inputs: &[PathBuf]) -> Result<(), CliError> {
+    for name in names {
+        let path = dir.join(harness::artefacts::relative_path(dir, &name)?).with_extension("xml");
+        let out = [safer::record::NamedOutput { flag: "--export-commonroad", path: &path }];
+        if path.parent().is_some_and(Path::is_dir) {
+            safer::record::check_outputs_apart(&out, inputs)?;
+        }
+        safer::record::check_replaceable("--export-commonroad", &path, OutputKind::CommonRoadExport, false)?;
+    }
+    Ok(())
+}
+
 pub(super) fn run(
     files: &[PathBuf],
     outputs: RunOutputs<'_>,
@@ -239,6 +256,10 @@ pub(super) fn run(
     let outputs: Vec<safer::record::NamedOutput<'_>> =
         named.iter().filter_map(|(flag, p)| p.map(|path| safer::record::NamedOutput { flag, path })).collect();
     safer::record::check_outputs_apart(&outputs, &inputs)?;
+    for out in &outputs {
+        let kind = if out.flag == "--junit" { OutputKind::JunitXml } else { OutputKind::Json };
+        safer::record::check_replaceable(out.flag, out.path, kind, false)?;
+    }
 
     let selects = |name: &str| filter.is_none_or(|f| name.contains(f));
     let mut jobs = Vec::new();
@@ -265,6 +286,14 @@ pub(super) fn run(
     {
         // A mistyped filter would otherwise "pass" with nothing run.
         return Err(CliError::Usage(format!("--filter `{f}` matches no variant and no suite metric")));
+    }
+
+    if let Some((dir, _)) = commonroad {
+        let names = jobs.iter().filter(|j| j.shown).map(|j| {
+            let suite = &suites[j.suite].1;
+            suite.variant_name(&suite.scenarios[j.scenario], j.index)
+        });
+        check_exports(dir, names, &inputs)?;
     }
 
     // The mutants each suite plants: the flag's, else its own when it asks

@@ -1,4 +1,4 @@
-//! `safer schema KIND [--out FILE]`: the JSON Schema of a spec kind, for
+//! `safer schema KIND [--out FILE] [--force]`: the JSON Schema of a spec kind, for
 //! editors. The committed copies under `schemas/` are what spec files point
 //! at (`# yaml-language-server: $schema=../../schemas/suite.schema.json`);
 //! a test keeps them equal to this output.
@@ -16,7 +16,12 @@ fn schema_text(kind: SpecKind) -> Result<String, CliError> {
     Ok(serde_json::to_string_pretty(&json_schema(kind))? + "\n")
 }
 
-pub(super) fn run(kind: SpecKind, out: Option<&Path>) -> Result<ExitCode, CliError> {
+pub(super) fn run(kind: SpecKind, out: Option<&Path>, force: bool) -> Result<ExitCode, CliError> {
+    if let Some(path) = out {
+        // A schema lands beside specs: never over one without asking.
+        safer::record::check_new_or_forced("--out", path, force)?;
+        safer::record::output::check_output(path)?;
+    }
     let text = schema_text(kind)?;
     match out {
         // Atomic for a file, so an editor watching it never reads half a

@@ -78,9 +78,9 @@ pub(super) fn run(
     json: Option<&Path>,
 ) -> Result<ExitCode, CliError> {
     if let Some(path) = json {
-        safer::record::output::check_output(path)?;
         let inputs = super::scene_paths(scenes_dir)?;
         safer::record::check_outputs_apart(&[safer::record::NamedOutput { flag: "--json", path }], &inputs)?;
+        super::check_json_report(path)?;
     }
     let scenes = load_scenes(scenes_dir, max_scenes)?;
     if scenes.is_empty() {

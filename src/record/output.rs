@@ -150,6 +150,93 @@ pub fn check_outputs_apart(outputs: &[NamedOutput<'_>], inputs: &[PathBuf]) -> R
     Ok(())
 }
 
+/// What an output flag writes. An existing file is replaced only when it
+/// already holds this kind, so a report cannot silently replace a spec, a
+/// scene or anything else the user keeps beside it ([`check_replaceable`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum OutputKind {
+    /// A JSON document (reports, schemas).
+    Json,
+    /// A JUnit XML report.
+    JunitXml,
+    /// An SVG picture.
+    Svg,
+    /// A CommonRoad scenario that safer exported (`author="safer"`).
+    CommonRoadExport,
+}
+
+impl OutputKind {
+    /// In words, for messages.
+    pub fn describe(self) -> &'static str {
+        match self {
+            Self::Json => "a JSON document",
+            Self::JunitXml => "a JUnit report",
+            Self::Svg => "an SVG picture",
+            Self::CommonRoadExport => "a CommonRoad scenario exported by safer",
+        }
+    }
+
+    /// Whether `head` (a file's first bytes) is this kind.
+    fn holds(self, head: &[u8]) -> bool {
+        let text = String::from_utf8_lossy(head);
+        let text = text.trim_start_matches('\u{feff}').trim_start();
+        match self {
+            Self::Json => text.starts_with('{') || text.starts_with('['),
+            Self::JunitXml => text.starts_with("<?xml") && text.contains("<testsuites"),
+            Self::Svg => (text.starts_with("<?xml") || text.starts_with("<svg")) && text.contains("<svg"),
+            Self::CommonRoadExport => text.contains("<commonRoad") && text.contains("author=\"safer\""),
+        }
+    }
+}
+
+/// How many leading bytes [`check_replaceable`] reads to recognise a file.
+const SNIFF_BYTES: u64 = 4096;
+
+/// Checks that writing `kind` to `path` replaces nothing the user keeps:
+/// `-`, a device, a FIFO, a missing or empty file, or a file that already
+/// holds `kind` may be written; any other existing file is refused unless
+/// `force` (a command's `--force`) is set. A file the command reads is
+/// refused by [`check_outputs_apart`] whatever `force` says.
+pub fn check_replaceable(flag: &str, path: &Path, kind: OutputKind, force: bool) -> Result<(), RecordError> {
+    use std::io::Read;
+    if is_stdout(path) || force {
+        return Ok(());
+    }
+    let target = follow_links(path)?;
+    match std::fs::metadata(&target) {
+        Ok(m) if m.is_file() && m.len() > 0 => {}
+        _ => return Ok(()),
+    }
+    let mut head = Vec::new();
+    std::fs::File::open(&target)
+        .and_then(|f| f.take(SNIFF_BYTES).read_to_end(&mut head))
+        .map_err(|source| RecordError::Io { path: path.to_path_buf(), source })?;
+    if kind.holds(&head) {
+        return Ok(());
+    }
+    Err(RecordError::InvalidPath {
+        path: path.to_path_buf(),
+        reason: format!(
+            "{flag}: the file exists and is not {} safer would replace; choose another path, remove it \
+             first, or pass --force where the command has it",
+            kind.describe()
+        ),
+    })
+}
+
+/// Checks that `path` names no existing regular file (through links),
+/// unless `force`: for outputs a user keeps (a picture, a schema), which
+/// are never replaced without asking. `-` and devices always pass.
+pub fn check_new_or_forced(flag: &str, path: &Path, force: bool) -> Result<(), RecordError> {
+    if force || is_stdout(path) || !std::fs::metadata(path).is_ok_and(|m| m.is_file()) {
+        return Ok(());
+    }
+    Err(RecordError::InvalidPath {
+        path: path.to_path_buf(),
+        reason: format!("{flag}: the file already exists; pass --force to replace it"),
+    })
+}
+
 /// What makes two paths the same file: the device and inode of an
 /// existing file (after links), else the absolute path of a file not yet
 /// there (its folder resolved).

@@ -121,3 +121,81 @@ fn a_suite_name_too_long_for_an_artefact_folder_is_refused_at_load() {
     assert!(text(&out).contains("the name is 70000 bytes long"), "{}", text(&out));
     assert!(!text(&out).contains("panicked"), "{}", text(&out));
 }
+
+/// A suite named `fs` over a copy of a recorded NGSIM scene at
+/// `X/fs/seed-0/seed-0.xml`: exactly where `--export-commonroad X` would
+/// write the export of its variant `fs::seed-0::seed-0`.
+fn export_workspace(tag: &str) -> crate::scratch::Scratch {
+    let dir = crate::scratch::Scratch::new(&format!("bad-outputs-{tag}"));
+    let repo = Path::new(env!("CARGO_MANIFEST_DIR"));
+    std::fs::create_dir_all(dir.join("X/fs/seed-0")).unwrap();
+    std::fs::copy(repo.join("scenes/ngsim/USA_US101-4_3_T-1.xml"), dir.join("X/fs/seed-0/seed-0.xml")).unwrap();
+    std::fs::write(
+        dir.join("fs.yaml"),
+        "name: fs\nscenarios:\n  - recorded: X/fs/seed-0/seed-0.xml\nplanner: { builtin: idm }\nvariants: 1\n",
+    )
+    .unwrap();
+    dir
+}
+
+#[test]
+fn an_export_onto_a_scene_the_run_reads_is_refused_and_the_scene_kept() {
+    let dir = export_workspace("export-input");
+    refused(
+        &dir,
+        &["run", "fs.yaml", "--export-commonroad", "X", "--export-commonroad-all"],
+        "--export-commonroad would overwrite",
+        &["X/fs/seed-0/seed-0.xml"],
+    );
+}
+
+#[test]
+fn an_export_replaces_only_its_own_earlier_export() {
+    let dir = export_workspace("export-foreign");
+    // A CommonRoad scene safer did not write, at the export's path, is kept.
+    std::fs::create_dir_all(dir.join("out/fs/seed-0")).unwrap();
+    std::fs::copy(dir.join("X/fs/seed-0/seed-0.xml"), dir.join("out/fs/seed-0/seed-0.xml")).unwrap();
+    refused(
+        &dir,
+        &["run", "fs.yaml", "--export-commonroad", "out", "--export-commonroad-all"],
+        "is not a CommonRoad scenario exported by safer",
+        &["out/fs/seed-0/seed-0.xml"],
+    );
+    // Safer's own export is rewritten on the next run.
+    std::fs::remove_file(dir.join("out/fs/seed-0/seed-0.xml")).unwrap();
+    for _ in 0..2 {
+        let out = safer_in(&dir, &[], &["run", "fs.yaml", "--export-commonroad", "out", "--export-commonroad-all"], DEADLINE);
+        assert!(out.status.code().is_some_and(|c| c < 2), "{}", text(&out));
+        assert!(std::fs::read_to_string(dir.join("out/fs/seed-0/seed-0.xml")).unwrap().contains("author=\"safer\""));
+    }
+}
+
+#[test]
+fn a_report_onto_a_file_of_another_kind_is_refused() {
+    let dir = workspace("kind");
+    std::fs::write(dir.join("notes.yaml"), "keep: me\n").unwrap();
+    refused(&dir, &["run", "suite.yaml", "--json", "notes.yaml"], "is not a JSON document", &["notes.yaml"]);
+    refused(&dir, &["run", "suite.yaml", "--junit", "notes.yaml"], "is not a JUnit report", &["notes.yaml"]);
+    // A report of the same kind is replaced, as reruns need.
+    std::fs::write(dir.join("old.json"), "{\"passed\": false}\n").unwrap();
+    let out = safer_in(&dir, &[], &["run", "suite.yaml", "--json", "old.json"], DEADLINE);
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out));
+    assert!(std::fs::read_to_string(dir.join("old.json")).unwrap().contains("\"suites\""));
+}
+
+#[test]
+fn a_picture_onto_the_scenario_it_draws_is_refused_even_with_force() {
+    let dir = workspace("render");
+    refused(&dir, &["render", "overtake.yaml", "--out", "overtake.yaml", "--force"], "which this run reads", &[
+        "overtake.yaml",
+    ]);
+}
+
+#[test]
+fn a_schema_onto_an_existing_file_needs_force() {
+    let dir = workspace("schema");
+    refused(&dir, &["schema", "suite", "--out", "suite.yaml"], "pass --force to replace it", &["suite.yaml"]);
+    let out = safer_in(&dir, &[], &["schema", "suite", "--out", "suite.yaml", "--force"], DEADLINE);
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out));
+    assert!(std::fs::read_to_string(dir.join("suite.yaml")).unwrap().contains("\"$schema\""));
+}
