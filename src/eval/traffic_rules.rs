@@ -58,6 +58,18 @@ pub struct RedLightRun {
     pub state: SignalState,
 }
 
+/// Shortest centreline that gives a lane a direction, m: a lane cut to a
+/// point, or to a few centimetres, says nothing about which way traffic
+/// flows.
+pub const MIN_DIRECTED_LANE_M: f64 = 1.0;
+
+/// Whether `map` has a lane that tells the traffic's direction (at least
+/// [`MIN_DIRECTED_LANE_M`] long); without one, driving the wrong way
+/// cannot be measured.
+pub fn has_directed_lanes(map: &RoadMap) -> bool {
+    map.lanes.iter().any(|l| l.centreline.len() >= 2 && l.centreline.length_m() >= MIN_DIRECTED_LANE_M)
+}
+
 /// The ego's longest stretch of driving against a lane's traffic, or
 /// `None` when it never did. Ties go to the earliest.
 pub fn wrong_way(rollout: &Rollout, map: &RoadMap) -> Option<WrongWay> {

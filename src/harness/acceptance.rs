@@ -95,10 +95,13 @@ pub fn check(
         }
     }
     if criteria.no_wrong_way {
-        if map.lanes.is_empty() {
+        if !traffic_rules::has_directed_lanes(map) {
             out.push(fail(
                 "no_wrong_way",
-                "cannot be measured: the scene's map has no lanes to tell the traffic's direction".to_string(),
+                format!(
+                    "cannot be measured: the scene's map has no lane (of at least {} m) to tell the traffic's direction",
+                    traffic_rules::MIN_DIRECTED_LANE_M
+                ),
             ));
         } else if let Some(w) = traffic_rules::wrong_way(rollout, map) {
             out.push(fail(

@@ -282,6 +282,21 @@ impl SuiteScenario {
             }
         }
         .ok_or_else(|| self.entry.reference(format!("no scenario in {}", key.0.display())))?;
+        // A recorded agent overlapping the recorded ego (an annotation
+        // error, or a copy of the ego under another id) would make every
+        // collision look unavoidable and so excuse it: refused, as
+        // `evaluate` skips such scenes.
+        if let (ScenarioSource::Recorded(p), Some((other, step))) =
+            (&self.source, crate::scenario::roles::recorded_ego_contact(&scenario))
+        {
+            return Err(self.entry.reference(format!(
+                "recorded log {}: the recorded ego overlaps agent {} at t = {:.1} s, so no planner could avoid it \
+                 (an annotation error or a copy of the ego); remove that agent or choose another scene",
+                p.display(),
+                scenario.track(other).id.0,
+                step.saturating_sub(scenario.current_step) as f64 * scenario.dt_s
+            )));
+        }
         let scenario = Arc::new(scenario);
         cache.lock().expect("scenario cache").insert(key, scenario.clone());
         Ok(scenario)

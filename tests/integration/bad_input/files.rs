@@ -27,7 +27,7 @@ const RUN_DEADLINE: Duration = Duration::from_secs(180);
 fn json_onto_a_symlink_fills_its_target_and_keeps_the_link() {
     let dir = temp_dir("symlink");
     std::fs::create_dir(dir.join("reports")).unwrap();
-    std::fs::write(dir.join("reports/latest.json"), b"previous report").unwrap();
+    std::fs::write(dir.join("reports/latest.json"), b"{\"previous\": \"report\"}").unwrap();
     std::os::unix::fs::symlink("reports/latest.json", dir.join("report.json")).unwrap();
     let suite = fixture("one-overtake.suite.yaml");
     let out = safer_in(&dir, &[], &["run", suite.to_str().unwrap(), "--json", "report.json"], RUN_DEADLINE);
@@ -293,4 +293,41 @@ fn a_recorded_heading_of_1e300_rad_is_refused_at_import() {
         "<exact>1e300</exact>",
         "heading 1e300 rad is not a plausible angle",
     );
+}
+
+/// A WOMD JSON scene with the ego named by `metadata.sdc_track_index`, and
+/// the same scene with a copy of the ego appended under another id.
+fn scene_with_ego_twin(dir: &Path) {
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/fixtures/bad-input/hangs/folder-with-one-bad-scene/a-good-scene.json");
+    let mut v: serde_json::Value = serde_json::from_slice(&std::fs::read(scene).unwrap()).unwrap();
+    v["metadata"] = serde_json::json!({ "sdc_track_index": 0 });
+    std::fs::write(dir.join("plain.json"), serde_json::to_vec(&v).unwrap()).unwrap();
+    let twin = v["objects"][0].clone();
+    v["objects"].as_array_mut().unwrap().push(twin);
+    std::fs::write(dir.join("twin.json"), serde_json::to_vec(&v).unwrap()).unwrap();
+    for name in ["plain", "twin"] {
+        std::fs::write(
+            dir.join(format!("{name}.yaml")),
+            format!(
+                "name: {name}\nscenarios:\n  - recorded: {name}.json\nplanner: {{ builtin: idm }}\nvariants: 1\n\
+                 acceptance:\n  variant:\n    no_collision: true\n"
+            ),
+        )
+        .unwrap();
+    }
+}
+
+#[test]
+fn a_recorded_twin_of_the_ego_is_refused_and_never_excuses_a_collision() {
+    let dir = temp_dir("ego-twin");
+    scene_with_ego_twin(&dir);
+    let plain = safer_in(&dir, &[], &["run", "plain.yaml"], RUN_DEADLINE);
+    assert!(plain.status.code().is_some_and(|c| c < 2), "{}", text(&plain));
+    let twin = safer_in(&dir, &[], &["run", "twin.yaml"], RUN_DEADLINE);
+    let said = text(&twin);
+    assert_eq!(twin.status.code(), Some(1), "{said}");
+    assert!(said.contains("the recorded ego overlaps agent"), "{said}");
+    assert!(!said.contains("generator's fault"), "{said}");
+    assert!(!said.contains("panicked"), "{said}");
 }
