@@ -35,19 +35,30 @@ pub(super) fn load_scenes(path: &Path, max_scenes: Option<usize>) -> Result<Vec<
     let mut scenes = Vec::new();
     // Records, seeds and the held-out split go by scenario id: one id in
     // two files would merge two scenes' rows silently.
-    let mut files_of: std::collections::HashMap<String, &Path> = std::collections::HashMap::new();
+    let mut files_of: std::collections::HashMap<String, (&Path, usize)> = std::collections::HashMap::new();
     for (p, r) in paths.iter().zip(loaded) {
         match r {
             Ok(s) => {
-                for scene in &s {
-                    if let Some(first) = files_of.insert(scene.id.clone(), p).filter(|first| first != p) {
-                        return Err(CliError::Usage(format!(
-                            "scenario id `{}` is in both {} and {}; an evaluation tells scenes apart by id, so \
-                             keep one of the files",
-                            scene.id,
-                            first.display(),
-                            p.display()
-                        )));
+                for (record, scene) in s.iter().enumerate() {
+                    match files_of.insert(scene.id.clone(), (p, record)) {
+                        None => {}
+                        Some((first, first_record)) if first == p => {
+                            return Err(CliError::Usage(format!(
+                                "scenario id `{}` is in {} twice (records {first_record} and {record}); an \
+                                 evaluation tells scenes apart by id, so it would count the scene twice",
+                                scene.id,
+                                p.display()
+                            )));
+                        }
+                        Some((first, _)) => {
+                            return Err(CliError::Usage(format!(
+                                "scenario id `{}` is in both {} and {}; an evaluation tells scenes apart by id, \
+                                 so keep one of the files",
+                                scene.id,
+                                first.display(),
+                                p.display()
+                            )));
+                        }
                     }
                 }
                 scenes.extend(s.into_iter().filter(|s| s.ego.is_some() && s.cbv.is_some()).map(Arc::new))

@@ -284,6 +284,21 @@ fn a_suite_over_a_tfrecord_shard_runs_every_scene_it_holds() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// A TFRecord holding one Scenario twice: `run` refuses it, and
+/// `evaluate` counted the scene twice; it now refuses it naming the records.
+#[test]
+fn an_evaluation_over_a_tfrecord_holding_one_scene_twice_is_refused_naming_the_records() {
+    let dir = temp_dir("twice");
+    let one = crate::shared_data::data_dir().join("womd-tfrecord/womd_scenario_input.tfrecord");
+    let record = std::fs::read(&one).unwrap_or_else(|e| panic!("{}: {e}", one.display()));
+    std::fs::create_dir(dir.join("scenes")).unwrap();
+    std::fs::write(dir.join("scenes/twice.tfrecord"), [record.clone(), record].concat()).unwrap();
+    let out = safer_in(&dir, &[], &["evaluate", "--scenes", "scenes", "--seeds", "1", "--methods", "log"], RUN_DEADLINE);
+    let t = text(&out);
+    assert_eq!(out.status.code(), Some(2), "{t}");
+    assert!(t.contains("scenario id `ee519cf571686d19` is in scenes/twice.tfrecord twice (records 0 and 1)"), "{t}");
+}
+
 #[test]
 fn a_recorded_heading_of_1e300_rad_is_refused_at_import() {
     // It wrapped into an arbitrary angle and was accepted.
