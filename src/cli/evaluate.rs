@@ -524,6 +524,7 @@ struct Report<'a> {
     /// Which part of a partitioned evaluation this is (`None`: all of it).
     partition: Option<Partition>,
     scenes: usize,
+    scene_list: &'a SceneList,
     rows: &'a [MethodRow],
     /// The same rows over the held-out scenes and over the rest.
     held_out: &'a HeldOutSplit,
@@ -536,8 +537,18 @@ struct Report<'a> {
 struct PartReport {
     settings: EvaluationSettings,
     partition: Option<Partition>,
-    scenes: usize,
+    scene_list: SceneList,
     variants: Vec<VariantRecord>,
+}
+
+/// The scenes a report covers, and which evaluation they belong to.
+#[derive(serde::Serialize, serde::Deserialize)]
+struct SceneList {
+    /// [`evaluation::scene_list_digest`] of the whole evaluation's sorted
+    /// scene ids, before any partition: equal in every part of one split.
+    digest: String,
+    /// This report's scenario ids, sorted.
+    ids: Vec<String>,
 }
 
 /// Which of a folder's scenes an evaluation runs.
@@ -614,6 +625,7 @@ pub(super) fn run(
     if scenes.is_empty() {
         return Err(CliError::Usage(format!("{}: no scene with both an ego and a CBV", scenes_dir.display())));
     }
+    let digest = evaluation::scene_list_digest(&scenes.iter().map(|s| s.id.as_str()).collect::<Vec<_>>());
     let scenes = match partition {
         Some(part) => {
             let all = scenes.len();
@@ -639,7 +651,8 @@ pub(super) fn run(
         eprintln!("error: {} {:?} seed {}: {}", r.scenario, r.method, r.seed, r.error.as_deref().unwrap_or(""));
     }
     let settings = EvaluationSettings::of(request, &selection, witness);
-    report(&settings, partition, scenes.len(), &records, json)
+    let scene_list = SceneList { digest, ids: scenes.iter().map(|s| s.id.clone()).collect() };
+    report(&settings, partition, &scene_list, &records, json)
 }
 
 /// Prints the tables of `records` and writes the JSON report; exit code 1
@@ -647,13 +660,15 @@ pub(super) fn run(
 fn report(
     settings: &EvaluationSettings,
     partition: Option<Partition>,
-    scenes: usize,
+    scene_list: &SceneList,
     records: &[VariantRecord],
     json: Option<&Path>,
 ) -> Result<ExitCode, CliError> {
     let rows = evaluation::table(records, &settings.methods);
     let held_out = evaluation::held_out_split(records, &settings.methods);
-    let report = Report { settings, partition, scenes, rows: &rows, held_out: &held_out, variants: records };
+    let scenes = scene_list.ids.len();
+    let report =
+        Report { settings, partition, scenes, scene_list, rows: &rows, held_out: &held_out, variants: records };
     super::write_report_and_table(json, &report, |table| {
         print_table(table, &rows, &held_out, scenes, settings)?;
         print_kills(table, &rows, &held_out, settings)
@@ -699,13 +714,19 @@ pub(super) fn merge(parts: &[std::path::PathBuf], json: Option<&Path>) -> Result
     };
     let mut seen: Vec<Option<&Path>> = vec![None; count];
     for (path, part) in &read {
-        if part.settings != first.settings {
+        if let Some(difference) = settings_difference(&first.settings, &part.settings) {
             return Err(CliError::Usage(format!(
-                "{} and {} are parts of different evaluations: their settings differ ({:?} against {:?})",
+                "{} and {} are parts of different evaluations: their settings differ ({difference})",
                 first_path.display(),
-                path.display(),
-                first.settings,
-                part.settings
+                path.display()
+            )));
+        }
+        if part.scene_list.digest != first.scene_list.digest {
+            return Err(CliError::Usage(format!(
+                "{} and {} are parts of different evaluations: they split different scene lists (another \
+                 folder, --max-scenes or --scene)",
+                first_path.display(),
+                path.display()
             )));
         }
         let p = part.partition.filter(|p| p.count == count).ok_or_else(|| {
@@ -723,17 +744,84 @@ pub(super) fn merge(parts: &[std::path::PathBuf], json: Option<&Path>) -> Result
                 p.index
             )));
         }
+        check_part_variants(path, part)?;
     }
     let missing: Vec<String> =
         seen.iter().enumerate().filter(|(_, s)| s.is_none()).map(|(i, _)| format!("{}/{count}", i + 1)).collect();
     if !missing.is_empty() {
         return Err(CliError::Usage(format!("partitions {} are missing", missing.join(", "))));
     }
+    let mut part_of: std::collections::HashMap<&str, &Path> = std::collections::HashMap::new();
+    for (path, part) in &read {
+        for id in &part.scene_list.ids {
+            if let Some(other) = part_of.insert(id, path) {
+                return Err(CliError::Usage(format!(
+                    "scenario `{id}` is in both {} and {}; the parts of one evaluation share no scene",
+                    other.display(),
+                    path.display()
+                )));
+            }
+        }
+    }
+    let mut ids: Vec<String> = part_of.into_keys().map(String::from).collect();
+    ids.sort();
+    let digest = evaluation::scene_list_digest(&ids);
+    if digest != first.scene_list.digest {
+        return Err(CliError::Usage(format!(
+            "the parts cover {} scenes, which are not the scene list they were split from",
+            ids.len()
+        )));
+    }
     let settings = first.settings.clone();
-    let scenes = read.iter().map(|(_, p)| p.scenes).sum();
-    let mut records: Vec<VariantRecord> = read.into_iter().flat_map(|(_, p)| p.variants).collect();
+    let records: Vec<VariantRecord> = read.into_iter().flat_map(|(_, p)| p.variants).collect();
+    let mut records = records;
     evaluation::sort_records(&mut records);
-    report(&settings, None, scenes, &records, json)
+    report(&settings, None, &SceneList { digest, ids }, &records, json)
+}
+
+/// The first setting in which `a` and `b` differ, as `field: A against B`.
+fn settings_difference(a: &EvaluationSettings, b: &EvaluationSettings) -> Option<String> {
+    let (serde_json::Value::Object(a), serde_json::Value::Object(b)) =
+        (serde_json::to_value(a).ok()?, serde_json::to_value(b).ok()?)
+    else {
+        return None;
+    };
+    let mut fields: Vec<&String> = a.keys().chain(b.keys()).collect();
+    fields.sort();
+    fields.dedup();
+    let shown = |v: Option<&serde_json::Value>| v.map_or("absent".to_string(), |v| v.to_string());
+    fields.into_iter().find(|f| a.get(*f) != b.get(*f)).map(|f| format!("{f}: {} against {}", shown(a.get(f)), shown(b.get(f))))
+}
+
+/// Checks that a part holds exactly one variant per scene, method,
+/// stage-2 CBV mode and seed of its settings, and none of another scene.
+fn check_part_variants(path: &Path, part: &PartReport) -> Result<(), CliError> {
+    let s = &part.settings;
+    let expected = part.scene_list.ids.len() * s.methods.len() * s.stage2_cbv.len() * s.seeds as usize;
+    if let Some(stray) = part.variants.iter().find(|v| part.scene_list.ids.binary_search(&v.scenario).is_err()) {
+        return Err(CliError::Usage(format!(
+            "{}: variant of scenario `{}`, which is not among the part's scenes",
+            path.display(),
+            stray.scenario
+        )));
+    }
+    let mut keys: Vec<_> = part.variants.iter().map(|v| (&v.scenario, v.method, v.stage2_cbv, v.seed)).collect();
+    keys.sort();
+    keys.dedup();
+    if part.variants.len() != expected || keys.len() != expected {
+        return Err(CliError::Usage(format!(
+            "{}: holds {} variants ({} distinct), where {} scenes × {} methods × {} stage-2 CBV modes × {} seeds \
+             make {expected}",
+            path.display(),
+            part.variants.len(),
+            keys.len(),
+            part.scene_list.ids.len(),
+            s.methods.len(),
+            s.stage2_cbv.len(),
+            s.seeds
+        )));
+    }
+    Ok(())
 }
 
 #[cfg(test)]

@@ -97,6 +97,14 @@ impl ArtefactVariants {
     pub const ALL: &'static [Self] = &[Self::Failing, Self::All];
 }
 
+/// A digest of an evaluation's whole sorted scene list (before any
+/// partition), so the reports of its parts can prove they split the same
+/// scenes: the same on every machine.
+pub fn scene_list_digest<S: AsRef<str>>(sorted_ids: &[S]) -> String {
+    let joined: Vec<&str> = sorted_ids.iter().map(AsRef::as_ref).collect();
+    format!("{:016x}", super::stable_hash::fnv1a(joined.join("\n").as_bytes()))
+}
+
 /// One of `count` parts of an evaluation, for running it on several
 /// machines: scene `i` of the sorted scene list belongs to part
 /// `i mod count + 1`, so the parts are disjoint, cover every scene, and

@@ -111,7 +111,47 @@ fn an_evaluation_run_in_three_parts_and_merged_is_the_one_run() {
     ));
     let mixed = safer(&["evaluate-merge", paper.to_str().unwrap(), order[0], order[2]]);
     let text = String::from_utf8_lossy(&mixed.stderr);
-    assert!(!mixed.status.success() && text.contains("approach: None"), "{text}");
+    assert!(!mixed.status.success() && text.contains("approach: \"none\" against"), "{text}");
+    assert!(!text.contains("EvaluationSettings"), "no debug dump: {text}");
+    // A part of the same split of another folder.
+    let elsewhere = out.join("elsewhere");
+    std::fs::create_dir(&elsewhere).unwrap();
+    for f in ["USA_US101-15_1_T-1.xml", "USA_US101-21_2_T-1.xml"] {
+        std::fs::copy(scenes.join(f), elsewhere.join(f)).unwrap();
+    }
+    let foreign = out.join("foreign.json");
+    let mut foreign_run = common.to_vec();
+    foreign_run[2] = elsewhere.to_str().unwrap();
+    ok(safer(&[&foreign_run[..], &["--partition", "1/3", "--json", foreign.to_str().unwrap()]].concat()));
+    let mixed = safer(&["evaluate-merge", foreign.to_str().unwrap(), order[0], order[2]]);
+    let text = String::from_utf8_lossy(&mixed.stderr);
+    assert!(!mixed.status.success() && text.contains("split different scene lists"), "{text}");
+    // Parts edited: a scene counted in two parts, a variants list emptied.
+    let edited = |k: usize, tag: &str, edit: &dyn Fn(&mut Value)| {
+        let mut v: Value = serde_json::from_str(&std::fs::read_to_string(&parts[k]).unwrap()).unwrap();
+        edit(&mut v);
+        let path = out.join(format!("{tag}.json"));
+        std::fs::write(&path, serde_json::to_vec(&v).unwrap()).unwrap();
+        path
+    };
+    let part_1: Value = serde_json::from_str(&std::fs::read_to_string(&parts[0]).unwrap()).unwrap();
+    let doubled = edited(1, "doubled", &|v| {
+        v["scene_list"]["ids"].as_array_mut().unwrap().insert(0, part_1["scene_list"]["ids"][0].clone());
+        v["variants"].as_array_mut().unwrap().extend(part_1["variants"].as_array().unwrap().iter().cloned());
+    });
+    let merged = safer(&["evaluate-merge", parts[0].to_str().unwrap(), doubled.to_str().unwrap(), order[0]]);
+    let text = String::from_utf8_lossy(&merged.stderr);
+    assert!(!merged.status.success() && text.contains("scenario `USA_US101-15_1_T-1` is in both"), "{text}");
+    let short = edited(1, "short", &|v| {
+        v["scene_list"]["ids"].as_array_mut().unwrap().insert(0, part_1["scene_list"]["ids"][0].clone());
+    });
+    let merged = safer(&["evaluate-merge", parts[0].to_str().unwrap(), short.to_str().unwrap(), order[0]]);
+    let text = String::from_utf8_lossy(&merged.stderr);
+    assert!(!merged.status.success() && text.contains("holds 4 variants (4 distinct), where 2 scenes"), "{text}");
+    let emptied = edited(1, "emptied", &|v| v["variants"] = Value::Array(Vec::new()));
+    let merged = safer(&["evaluate-merge", parts[0].to_str().unwrap(), emptied.to_str().unwrap(), order[0]]);
+    let text = String::from_utf8_lossy(&merged.stderr);
+    assert!(!merged.status.success() && text.contains("holds 0 variants (0 distinct), where 1 scenes"), "{text}");
     let unpartitioned = safer(&["evaluate-merge", whole.to_str().unwrap()]);
     let text = String::from_utf8_lossy(&unpartitioned.stderr);
     assert!(!unpartitioned.status.success() && text.contains("not a partition's report"), "{text}");
