@@ -30,6 +30,14 @@ gentle braking control, then misbehaves:
   wrong-step     answers with a control naming the next observation's step
   blind          after `ready`, writes 100 controls without reading a thing
                  (a planner that never looks at its input), then sleeps
+  crab           answers with a trajectory 1 m ahead and 0.35 m sideways a
+                 step, heading held: each step passes the position check,
+                 the drift adds up
+  swerve         answers with a control of yaw rate 1.4 rad/s (14 m/s² of
+                 lateral acceleration at 10 m/s)
+  huge-yaw       answers with a control of yaw rate 1e308 rad/s
+  long-error     sends {"type": "error"} with a 15 MiB message
+  endless-line   writes one line without end (until its stdout closes)
   extra-reply    answers one observation twice (both replies name its step
                  in 1.2), then answers each later one once: every later
                  reply the harness reads is one step late
@@ -119,6 +127,23 @@ def main():
             ego = message["ego"]
             send({"type": "trajectory", "points": [{"t": 0.1, "x": ego["x"] + 70.0, "y": ego["y"],
                                                     "heading_rad": ego["heading_rad"], "speed_mps": ego["speed_mps"]}]})
+        elif mode == "crab":
+            ego = message["ego"]
+            send({"type": "trajectory", "points": [{"t": 0.1, "x": ego["x"] + 1.0, "y": ego["y"] + 0.35,
+                                                    "heading_rad": ego["heading_rad"], "speed_mps": 10.0}]})
+        elif mode == "swerve":
+            send({"type": "control", "accel_mps2": 0.0, "yaw_rate_radps": 1.4})
+        elif mode == "huge-yaw":
+            send({"type": "control", "accel_mps2": 0.0, "yaw_rate_radps": 1e308})
+        elif mode == "long-error":
+            send({"type": "error", "message": "lost " + "x" * (15 * 1024 * 1024)})
+        elif mode == "endless-line":
+            chunk = "x" * (1024 * 1024)
+            try:
+                while True:
+                    sys.stdout.write(chunk)
+            except (BrokenPipeError, OSError):
+                return 0
         elif mode == "instant-stop":
             send({"type": "control", "accel_mps2": -1e6, "yaw_rate_radps": 0.0})
         elif mode == "reverse-reporting-standstill":

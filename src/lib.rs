@@ -94,6 +94,8 @@ pub mod models;
 #[doc(hidden)]
 pub mod motion;
 #[doc(hidden)]
+pub mod number;
+#[doc(hidden)]
 pub mod planners;
 #[doc(hidden)]
 pub mod policies;

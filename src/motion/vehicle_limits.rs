@@ -45,6 +45,16 @@ pub struct VehicleLimits {
     /// velocities (the mean of the two steps') put it, m per step
     /// (default 0.5: a 5 m/s disagreement).
     pub max_position_error_m: f64,
+    /// Highest lateral acceleration, m/s² (speed × yaw rate; default 9,
+    /// about what a road car's tyres hold on dry asphalt).
+    pub max_lateral_accel_mps2: f64,
+    /// Most sideways drift a rollout may add up beyond what a car's
+    /// sideslip allows, m (default 0.5). A car moves along its heading,
+    /// give or take the sideslip of its centre in a turn; a crab of
+    /// 0.35 m a step with a constant heading passes the per-step position
+    /// check every step, so the excess is summed over the rollout
+    /// ([`LimitMonitor`]).
+    pub max_lateral_slip_m: f64,
 }
 
 impl Default for VehicleLimits {
@@ -57,6 +67,8 @@ impl Default for VehicleLimits {
             max_curvature_per_m: 1.0,
             max_reverse_speed_mps: 3.0,
             max_position_error_m: 0.5,
+            max_lateral_accel_mps2: 9.0,
+            max_lateral_slip_m: 0.5,
         }
     }
 }
@@ -88,11 +100,11 @@ impl std::fmt::Display for LimitViolation {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(
             f,
-            "{} {:.3} {unit} exceeds the vehicle limit {} = {} {unit}",
+            "{} {} {unit} exceeds the vehicle limit {} = {} {unit}",
             self.quantity,
-            self.value,
+            crate::number::rounded(self.value, 3),
             self.limit,
-            self.bound,
+            crate::number::shown(self.bound),
             unit = self.unit
         )
     }
@@ -100,7 +112,7 @@ impl std::fmt::Display for LimitViolation {
 
 impl VehicleLimits {
     /// Names and values of the limits, for validation.
-    pub fn entries(&self) -> [(&'static str, f64, &'static str); 7] {
+    pub fn entries(&self) -> [(&'static str, f64, &'static str); 9] {
         [
             ("max_speed_mps", self.max_speed_mps, "m/s"),
             ("max_accel_mps2", self.max_accel_mps2, "m/s²"),
@@ -109,7 +121,23 @@ impl VehicleLimits {
             ("max_curvature_per_m", self.max_curvature_per_m, "1/m"),
             ("max_reverse_speed_mps", self.max_reverse_speed_mps, "m/s"),
             ("max_position_error_m", self.max_position_error_m, "m"),
+            ("max_lateral_accel_mps2", self.max_lateral_accel_mps2, "m/s²"),
+            ("max_lateral_slip_m", self.max_lateral_slip_m, "m"),
         ]
+    }
+
+    /// The yaw rate a control asks for, against the limit: reported as
+    /// sent, where the heading change it causes wraps (1e308 rad/s would
+    /// read as some 24 rad/s).
+    pub fn check_control(&self, action: &crate::motion::Action) -> Option<LimitViolation> {
+        let sent = action.yaw_rate_radps.abs();
+        (sent.is_nan() || sent > self.max_yaw_rate_radps + SLACK).then_some(LimitViolation {
+            limit: "max_yaw_rate_radps",
+            quantity: "yaw rate sent",
+            value: sent,
+            bound: self.max_yaw_rate_radps,
+            unit: "rad/s",
+        })
     }
 
     /// The first limit the step from `now` to `next` (`dt_s` apart)
@@ -134,6 +162,10 @@ impl VehicleLimits {
                 broke("max_curvature_per_m", "curvature", curvature, self.max_curvature_per_m, "1/m")
             })
             .or_else(|| {
+                let lateral_accel = 0.5 * (v0 + v1) * turn / dt_s;
+                broke("max_lateral_accel_mps2", "lateral acceleration", lateral_accel, self.max_lateral_accel_mps2, "m/s²")
+            })
+            .or_else(|| {
                 broke("max_reverse_speed_mps", "reversing speed", -along / dt_s, self.max_reverse_speed_mps, "m/s")
             })
             .or_else(|| {
@@ -147,6 +179,67 @@ impl VehicleLimits {
                 )
             })
     }
+}
+
+/// How far behind the centre a car's rear axle is, m (half a 3 m
+/// wheelbase): in a turn of curvature κ the centre slips sideways at an
+/// angle of about this × κ.
+const CENTRE_TO_REAR_AXLE_M: f64 = 1.5;
+
+/// Sideslip beyond the geometric one a tyre's slip angle allows in
+/// ordinary driving, rad (about 3°).
+const TYRE_SLIP_RAD: f64 = 0.05;
+
+/// Sideways movement per step put down to rounding and interpolation, m.
+const LATERAL_ROUNDING_M: f64 = 0.01;
+
+/// [`VehicleLimits::check`] over a whole rollout, adding what no single
+/// step shows: the sideways drift beyond a car's sideslip, summed
+/// ([`VehicleLimits::max_lateral_slip_m`]).
+#[derive(Debug, Clone)]
+pub struct LimitMonitor {
+    limits: VehicleLimits,
+    slip_m: f64,
+}
+
+impl LimitMonitor {
+    /// A monitor of a rollout that has not moved yet.
+    pub fn new(limits: VehicleLimits) -> Self {
+        Self { limits, slip_m: 0.0 }
+    }
+
+    /// The first limit the step from `now` to `next` breaks, the summed
+    /// sideways drift included, or `None`.
+    pub fn step(&mut self, now: &AgentState, next: &AgentState, dt_s: f64) -> Option<LimitViolation> {
+        if let Some(v) = self.limits.check(now, next, dt_s) {
+            return Some(v);
+        }
+        self.slip_m += lateral_slip_m(now, next);
+        let bound = self.limits.max_lateral_slip_m;
+        (self.slip_m.is_nan() || self.slip_m > bound + SLACK).then_some(LimitViolation {
+            limit: "max_lateral_slip_m",
+            quantity: "sideways drift beyond the car's sideslip, summed",
+            value: self.slip_m,
+            bound,
+            unit: "m",
+        })
+    }
+}
+
+/// The step's sideways movement beyond what the sideslip of a car's
+/// centre allows, m: movement across the mean heading, less the along
+/// distance times the sideslip of a turn of the step's curvature.
+fn lateral_slip_m(now: &AgentState, next: &AgentState) -> f64 {
+    let driven = next.position - now.position;
+    let turn = wrap_angle(next.heading_rad - now.heading_rad);
+    let mean_heading = now.heading_rad + 0.5 * turn;
+    let (sin, cos) = mean_heading.sin_cos();
+    let along = driven.x * cos + driven.y * sin;
+    let lateral = -driven.x * sin + driven.y * cos;
+    let distance = driven.norm();
+    let curvature = if distance > 0.0 { turn.abs() / distance } else { 0.0 };
+    let allowed = along.abs() * (CENTRE_TO_REAR_AXLE_M * curvature + TYRE_SLIP_RAD) + LATERAL_ROUNDING_M;
+    (lateral.abs() - allowed).max(0.0)
 }
 
 /// An angle in (−π, π].
@@ -189,10 +282,18 @@ mod tests {
                     )
                     .to_agent_state();
                     let v = VehicleLimits::default().check(&now, &next, 0.1);
-                    // Curvature is the one limit a grid token may break: a
-                    // full-rate turn below 1.5 m/s is tighter than a 1 m radius.
+                    // Curvature and lateral acceleration are the limits a
+                    // grid token may break: a full-rate turn below 1.5 m/s
+                    // is tighter than a 1 m radius, and above 6 m/s it pulls
+                    // more than 9 m/s² (the CBV's tokens are not held to the
+                    // ego's limits).
                     let (v_next, tight) = (next.speed_mps(), yaw.abs() / next.speed_mps().max(1e-9) > 1.0);
-                    let expected = (speed.min(v_next) >= 1.0 && tight).then_some("max_curvature_per_m");
+                    let lateral = 0.5 * (speed + v_next) * yaw.abs() > 9.0;
+                    let expected = if speed.min(v_next) >= 1.0 && tight {
+                        Some("max_curvature_per_m")
+                    } else {
+                        lateral.then_some("max_lateral_accel_mps2")
+                    };
                     assert_eq!(v.map(|v| v.limit), expected, "{speed} {accel} {yaw}");
                 }
             }
@@ -216,6 +317,66 @@ mod tests {
         assert_eq!(broken(at(0.0, 0.0, 0.0, 10.0), at(1.0, 0.0, 1.57, 10.0)), Some("max_yaw_rate_radps"));
         // Too fast.
         assert_eq!(broken(at(0.0, 0.0, 0.0, 75.0), at(7.5, 0.0, 0.0, 75.0)), Some("max_speed_mps"));
+    }
+
+    #[test]
+    fn a_sideways_crab_adds_up_to_a_violation_that_no_single_step_shows() {
+        // 0.35 m sideways a step at 10 m/s, heading held, velocities
+        // reporting the crab: every step passes `check` on its own.
+        let crab = |k: f64| AgentState {
+            position: Point2::new(k, 0.35 * k),
+            heading_rad: 0.0,
+            velocity_mps: Vector2::new(10.0, 3.5),
+        };
+        let mut monitor = LimitMonitor::new(VehicleLimits::default());
+        let mut broke_at = None;
+        for k in 0..10 {
+            assert_eq!(VehicleLimits::default().check(&crab(k as f64), &crab(k as f64 + 1.0), 0.1), None);
+            if let Some(v) = monitor.step(&crab(k as f64), &crab(k as f64 + 1.0), 0.1) {
+                assert_eq!(v.limit, "max_lateral_slip_m");
+                broke_at = Some(k);
+                break;
+            }
+        }
+        assert_eq!(broke_at, Some(1), "0.29 m of excess a step passes 0.5 m at the second step");
+        // A unicycle turning at the full token rate never slips.
+        let mut monitor = LimitMonitor::new(VehicleLimits::default());
+        let mut now = at(0.0, 0.0, 0.3, 5.0);
+        for _ in 0..100 {
+            let next = kinematic_step(
+                &KinematicState::from_agent_state(&now),
+                Action { accel_mps2: 0.0, yaw_rate_radps: 1.5 },
+                0.1,
+            )
+            .to_agent_state();
+            assert_eq!(monitor.step(&now, &next, 0.1), None);
+            now = next;
+        }
+    }
+
+    #[test]
+    fn a_swerve_of_4_g_breaks_the_lateral_acceleration_limit() {
+        // 1.4 rad/s at 30 m/s: 42 m/s², inside the yaw-rate limit.
+        let now = at(0.0, 0.0, 0.0, 30.0);
+        let next = kinematic_step(
+            &KinematicState::from_agent_state(&now),
+            Action { accel_mps2: 0.0, yaw_rate_radps: 1.4 },
+            0.1,
+        )
+        .to_agent_state();
+        let v = VehicleLimits::default().check(&now, &next, 0.1).unwrap();
+        assert_eq!(v.limit, "max_lateral_accel_mps2");
+        assert!((v.value - 42.0).abs() < 1e-6, "{v}");
+    }
+
+    #[test]
+    fn a_yaw_rate_sent_is_reported_as_sent() {
+        let v = VehicleLimits::default()
+            .check_control(&Action { accel_mps2: 0.0, yaw_rate_radps: -1e308 })
+            .unwrap();
+        assert_eq!(v.value, 1e308);
+        assert!(v.to_string().starts_with("yaw rate sent 1e308 rad/s exceeds"), "{v}");
+        assert_eq!(VehicleLimits::default().check_control(&Action { accel_mps2: -50.0, yaw_rate_radps: 1.5 }), None);
     }
 
     #[test]

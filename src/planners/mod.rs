@@ -107,7 +107,10 @@ impl PlannerOutput {
         match self {
             PlannerOutput::Control(a) => {
                 if !(a.accel_mps2.is_finite() && a.yaw_rate_radps.is_finite()) {
-                    return Err(format!("non-finite control {a:?}"));
+                    return Err(format!(
+                        "non-finite control: acceleration {} m/s², yaw rate {} rad/s",
+                        a.accel_mps2, a.yaw_rate_radps
+                    ));
                 }
                 Ok(kinematic_step(&KinematicState::from_agent_state(now), *a, dt_s).to_agent_state())
             }
@@ -128,7 +131,10 @@ fn trajectory_state_at(now: &AgentState, points: &[TrajectoryPoint], t: f64) -> 
             && s.velocity_mps.x.is_finite()
             && s.velocity_mps.y.is_finite();
         if !finite {
-            return Err(format!("non-finite trajectory point {p:?}"));
+            return Err(format!(
+                "non-finite trajectory point at t = {} s: x {} m, y {} m, heading {} rad, velocity ({}, {}) m/s",
+                p.time_s, s.position.x, s.position.y, s.heading_rad, s.velocity_mps.x, s.velocity_mps.y
+            ));
         }
     }
     if points.windows(2).any(|w| w[1].time_s <= w[0].time_s) || first.time_s <= 0.0 {

@@ -62,12 +62,22 @@ pub fn implausibility_within(state: &AgentState, max_abs_position_m: f64) -> Opt
             return Some(format!("{name} = {value} is not finite"));
         }
         if value.abs() > bound {
-            return Some(format!("{name} = {value:e} {unit} is outside the simulation bounds (±{bound:e} {unit})"));
+            return Some(format!(
+                "{name} = {} {unit} is outside the simulation bounds (±{} {unit})",
+                crate::number::shown(value),
+                crate::number::shown(bound)
+            ));
         }
     }
     let speed = state.speed_mps();
     (speed > MAX_SPEED_MPS)
-        .then(|| format!("speed = {speed:e} m/s is outside the simulation bounds (≤ {MAX_SPEED_MPS:e} m/s)"))
+        .then(|| {
+            format!(
+                "speed = {} m/s is outside the simulation bounds (≤ {} m/s)",
+                crate::number::shown(speed),
+                crate::number::shown(MAX_SPEED_MPS)
+            )
+        })
 }
 
 #[cfg(test)]

@@ -358,15 +358,21 @@ impl Scenario {
                 return fail(format!("track {} ({}) has {} steps, expected {n}", i, t.id, t.states.len()));
             }
             if !(t.length_m.is_finite() && t.length_m > 0.0 && t.width_m.is_finite() && t.width_m > 0.0) {
-                return fail(format!("track {} ({}) has size {} x {} m", i, t.id, t.length_m, t.width_m));
+                return fail(format!(
+                    "track {} ({}) has size {} x {} m",
+                    i,
+                    t.id,
+                    crate::number::shown(t.length_m),
+                    crate::number::shown(t.width_m)
+                ));
             }
             if t.length_m.max(t.width_m) > bounds::MAX_BODY_M {
                 return fail(format!(
-                    "track {} ({}) has size {:e} x {:e} m, beyond the {} m an agent's box may have",
+                    "track {} ({}) has size {} x {} m, beyond the {} m an agent's box may have",
                     i,
                     t.id,
-                    t.length_m,
-                    t.width_m,
+                    crate::number::shown(t.length_m),
+                    crate::number::shown(t.width_m),
                     bounds::MAX_BODY_M
                 ));
             }

@@ -12,7 +12,7 @@ mod rollout;
 pub mod synthetic;
 pub mod traffic;
 
-pub use crate::motion::vehicle_limits::{LimitViolation, VehicleLimits};
+pub use crate::motion::vehicle_limits::{LimitMonitor, LimitViolation, VehicleLimits};
 pub use events::{CollisionEvent, EgoCollisionKind, EgoContact, LaneOccupancy, OffRoadEvent};
 pub use rollout::{Rollout, RolloutSummary, Termination};
 
@@ -183,6 +183,7 @@ impl<'a> Simulation<'a> {
         let mut record = vec![states.clone()];
         let mut termination = Termination::Completed;
 
+        let mut limits = self.config.ego_limits.map(|l| (l, LimitMonitor::new(l)));
         for step in start..end {
             let world = WorldView { map: &scenario.map, step, bodies: &bodies, states: &states };
             let actions: Vec<AgentAction> = self
@@ -195,8 +196,12 @@ impl<'a> Simulation<'a> {
                 })
                 .collect();
             let observation = self.observe(step, start, &bodies, &states);
+            let mut sent_control = None;
             let ego_next = planner.plan(&observation).map_err(|e| e.to_string()).and_then(|out| {
                 let ego_now = states[self.ego.0].expect("ego present while running");
+                if let crate::planners::PlannerOutput::Control(action) = &out {
+                    sent_control = Some(*action);
+                }
                 out.next_state(&ego_now, SIM_DT_S)
             });
             let mut next = advance(&states, &actions);
@@ -207,7 +212,12 @@ impl<'a> Simulation<'a> {
             match ego_next {
                 Ok(s) => {
                     let ego_now = states[self.ego.0].expect("ego present while running");
-                    if let Some(violation) = self.config.ego_limits.and_then(|l| l.check(&ego_now, &s, SIM_DT_S)) {
+                    let violation = limits.as_mut().and_then(|(l, monitor)| {
+                        sent_control
+                            .and_then(|a| l.check_control(&a))
+                            .or_else(|| monitor.step(&ego_now, &s, SIM_DT_S))
+                    });
+                    if let Some(violation) = violation {
                         termination = Termination::VehicleLimitExceeded { step, reason: violation.to_string() };
                         break;
                     }
@@ -263,7 +273,13 @@ impl<'a> Simulation<'a> {
                 sides
                     .into_iter()
                     .find(|(_, v)| !(*v > 0.0 && *v <= MAX_BODY_M))
-                    .map(|(name, v)| format!("{name} = {v:e} m is outside the simulation bounds (0, {MAX_BODY_M:e} m]"))
+                    .map(|(name, v)| {
+                        format!(
+                            "{name} = {} m is outside the simulation bounds (0, {} m]",
+                            crate::number::shown(v),
+                            crate::number::shown(MAX_BODY_M)
+                        )
+                    })
             })?;
             Some((track.id.clone(), why))
         })

@@ -356,7 +356,10 @@ fn read_parquet(bytes: &[u8], path: &Path) -> Result<Table, ImportError> {
         let coordinate = |column: &'static str| -> Result<f64, ImportError> {
             let v = cell.number(column)?;
             if v.abs() > MAX_COORDINATE_M {
-                return Err(cell.error(column, format!("{v} is more than {MAX_COORDINATE_M} m from the origin")));
+                return Err(cell.error(
+                    column,
+                    format!("{} is more than {} m from the origin", crate::number::shown(v), crate::number::shown(MAX_COORDINATE_M)),
+                ));
             }
             Ok(v)
         };
@@ -582,7 +585,12 @@ fn read_map(bytes: &[u8], path: &Path, name_map: bool) -> Result<RoadMap, Import
         if let Some((i, p)) = pts.iter().enumerate().find(|(_, p)| p.x.abs().max(p.y.abs()) > MAX_COORDINATE_M) {
             return Err(err(
                 Location::Element(format!("{at}[{i}]")),
-                format!("({}, {}) is more than {MAX_COORDINATE_M} m from the origin", p.x, p.y),
+                format!(
+                    "({}, {}) is more than {} m from the origin",
+                    crate::number::shown(p.x),
+                    crate::number::shown(p.y),
+                    crate::number::shown(MAX_COORDINATE_M)
+                ),
             ));
         }
     }

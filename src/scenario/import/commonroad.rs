@@ -42,6 +42,12 @@ const MAX_STATE_SLOTS: usize = 20_000_000;
 /// extents make the map's spatial grid allocate without bound.
 const MAX_COORDINATE_M: f64 = 1e7;
 
+/// The time steps a recording may have, s: CommonRoad's own scenes use
+/// 0.04 to 0.1 s; beyond these a number is a typo, not a recording.
+const MIN_TIME_STEP_S: f64 = 0.001;
+/// See [`MIN_TIME_STEP_S`].
+const MAX_TIME_STEP_S: f64 = 10.0;
+
 /// Traffic-sign ids whose additional value is a speed limit in m/s (the
 /// CommonRoad 2020a convention): US `R2-1` and the German/Zamunda `274`.
 const MAX_SPEED_SIGN_IDS: [&str; 2] = ["R2-1", "274"];
@@ -72,8 +78,14 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<Scenario, ImportError> {
     let mut notes = Vec::new();
 
     let dt_s = cx.attr_f64(root, "timeStepSize")?;
-    if dt_s <= 0.0 {
-        return Err(cx.err(root, format!("timeStepSize {dt_s} is not positive")));
+    if !(MIN_TIME_STEP_S..=MAX_TIME_STEP_S).contains(&dt_s) {
+        return Err(cx.err(
+            root,
+            format!(
+                "timeStepSize {} s is not a recording's time step (from {MIN_TIME_STEP_S} to {MAX_TIME_STEP_S} s)",
+                crate::number::shown(dt_s)
+            ),
+        ));
     }
     let id = match root.attribute("benchmarkID") {
         Some(b) if !b.trim().is_empty() => b.trim().to_string(),
@@ -190,7 +202,15 @@ impl Cx<'_, '_> {
     fn point(&self, node: Node<'_, '_>) -> Result<Point2, ImportError> {
         let p = Point2::new(self.child_f64(node, "x")?, self.child_f64(node, "y")?);
         if p.x.abs().max(p.y.abs()) > MAX_COORDINATE_M {
-            return Err(self.err(node, format!("({}, {}) is more than {MAX_COORDINATE_M} m from the origin", p.x, p.y)));
+            return Err(self.err(
+                node,
+                format!(
+                    "({}, {}) is more than {} m from the origin",
+                    crate::number::shown(p.x),
+                    crate::number::shown(p.y),
+                    crate::number::shown(MAX_COORDINATE_M)
+                ),
+            ));
         }
         Ok(p)
     }

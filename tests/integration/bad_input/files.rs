@@ -165,6 +165,23 @@ fn edited_ngsim_scene_is_refused(name: &str, from: &str, to: &str, message: &str
     let out = safer_within(&["inspect", file.to_str().unwrap()], Duration::from_secs(30));
     assert_eq!(out.status.code(), Some(2), "{}", text(&out));
     assert!(text(&out).contains(message), "{}", text(&out));
+    assert!(text(&out).lines().all(|l| l.len() < 400), "a line too long: {}", text(&out));
+}
+
+/// 1e300 in a CommonRoad file was printed as a 301-digit number, and a
+/// time step of 1e300 s was accepted; both now read `1e300`, in one short
+/// line.
+#[test]
+fn numbers_of_1e300_in_a_recorded_scene_are_refused_in_a_short_line() {
+    let cases = [
+        ("x.xml", "<x>-40.54872163</x>", "<x>1e300</x>", "(1e300, 40.24680481) is more than 1e7 m from the origin"),
+        ("v.xml", "<exact>16.322</exact>", "<exact>1e300</exact>", "m/s is outside the simulation bounds (±1000 m/s)"),
+        ("w.xml", "<width>2.1031</width>", "<width>1e300</width>", "has size 4.7244 x 1e300 m"),
+        ("dt.xml", "timeStepSize=\"0.1\"", "timeStepSize=\"1e300\"", "timeStepSize 1e300 s is not a recording's time step"),
+    ];
+    for (name, from, to, message) in cases {
+        edited_ngsim_scene_is_refused(name, from, to, message);
+    }
 }
 
 #[test]

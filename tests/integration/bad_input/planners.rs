@@ -267,6 +267,30 @@ fn a_planner_reversing_while_reporting_a_standstill_is_stopped_naming_the_revers
 }
 
 #[test]
+fn a_planner_crabbing_sideways_is_stopped_when_the_drift_adds_up() {
+    // 0.35 m sideways a step passes the 0.5 m position check every step.
+    let (step, reason) = limit_exceeded(&run_with_limits(misbehaving("crab", 0)));
+    assert_eq!(step, 1, "{reason}");
+    assert!(reason.contains("exceeds the vehicle limit max_lateral_slip_m = 0.5 m"), "{reason}");
+}
+
+#[test]
+fn a_swerve_beyond_a_cars_grip_is_stopped_naming_the_lateral_acceleration() {
+    // 1.4 rad/s is inside the yaw-rate limit; at 10 m/s it pulls 14 m/s².
+    let (step, reason) = limit_exceeded(&run_with_limits(misbehaving("swerve", 0)));
+    assert_eq!(step, 0);
+    assert!(reason.starts_with("lateral acceleration 14.000 m/s² exceeds the vehicle limit max_lateral_accel_mps2 = 9"), "{reason}");
+}
+
+#[test]
+fn a_yaw_rate_of_1e308_is_reported_as_sent() {
+    // It was reported as the wrapped heading change, "yaw rate 24.053 rad/s".
+    let (step, reason) = limit_exceeded(&run_with_limits(misbehaving("huge-yaw", 0)));
+    assert_eq!(step, 0);
+    assert!(reason.starts_with("yaw rate sent 1e308 rad/s exceeds the vehicle limit max_yaw_rate_radps = 1.5"), "{reason}");
+}
+
+#[test]
 fn without_limits_the_same_replies_run_on_which_is_what_the_check_exists_for() {
     // The unchecked simulator accepts a teleport: the check, not the
     // simulator, is what stops it.
