@@ -4,12 +4,12 @@
 //! as a 301-digit line.
 
 /// `value` for a message: the shortest text that reads back as `value`
-/// (`4.7244`, `0.1`) when its magnitude is between 1e-4 and 1e6 (or it is
+/// (`4.7244`, `0.1`) when its magnitude is between 1e-4 and 1e7 (or it is
 /// zero), else scientific notation (`1e300`, `7.35e299`, `3e-9`); `NaN`
 /// and `inf` as Rust writes them.
 pub fn shown(value: f64) -> String {
     let magnitude = value.abs();
-    if !value.is_finite() || value == 0.0 || (1e-4..1e6).contains(&magnitude) {
+    if !value.is_finite() || value == 0.0 || (1e-4..1e7).contains(&magnitude) {
         format!("{value}")
     } else {
         format!("{value:e}")
@@ -20,7 +20,7 @@ pub fn shown(value: f64) -> String {
 /// measured quantity: `12.346`).
 pub fn rounded(value: f64, decimals: usize) -> String {
     let magnitude = value.abs();
-    if value.is_finite() && (magnitude == 0.0 || (1e-4..1e6).contains(&magnitude)) {
+    if value.is_finite() && (magnitude == 0.0 || (1e-4..1e7).contains(&magnitude)) {
         format!("{value:.decimals$}")
     } else {
         shown(value)

@@ -11,6 +11,7 @@ pub mod divergence;
 pub mod escape;
 pub mod feasibility_accuracy;
 pub mod prior_fit;
+pub mod progress;
 pub mod realism;
 pub mod traffic_rules;
 pub mod ttc;

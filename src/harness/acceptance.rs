@@ -3,7 +3,8 @@
 
 use super::variant::CollisionEscape;
 use crate::eval::traffic_rules;
-use crate::map::RoadMap;
+use crate::eval::progress;
+use crate::scenario::Scenario;
 use crate::sim::{Rollout, Termination};
 use crate::spec::suite::VariantAcceptance;
 
@@ -21,13 +22,16 @@ pub struct AcceptanceFailure {
 /// no escape within its budget is the generator's fault, not the
 /// planner's, and fails neither collision criterion (it still does not
 /// count as solved); a collision no witness was searched for fails.
+/// `base` is the scene the variant was made from: its map, and its logged
+/// ego for `min_progress`.
 pub fn check(
     criteria: &VariantAcceptance,
     rollout: &Rollout,
-    map: &RoadMap,
+    base: &Scenario,
     min_ttc_s: Option<f64>,
     escape: Option<CollisionEscape>,
 ) -> Vec<AcceptanceFailure> {
+    let map = &base.map;
     let mut out = Vec::new();
     let summary = rollout.summary();
     let fail = |criterion: &str, what: String| AcceptanceFailure { criterion: criterion.to_string(), what };
@@ -137,6 +141,31 @@ pub fn check(
             ));
         }
     }
+    if let Some(share) = criteria.min_progress {
+        let logged = base.ego.map_or(&[][..], |ego| &base.track(ego).states[..]);
+        match progress::progress(rollout, logged) {
+            None => out.push(fail(
+                "min_progress",
+                format!(
+                    "cannot be measured: the logged ego drives under {} m over these steps, so there is no route \
+                     to measure progress along",
+                    progress::MIN_LOGGED_ROUTE_M
+                ),
+            )),
+            Some(p) if p.blocked_by.is_none() && !(p.share() >= share) => out.push(fail(
+                "min_progress",
+                format!(
+                    "ego drove {:.1} m, {:.0} % of the logged ego's {:.1} m (at least {:.0} % asked), and nothing \
+                     in its path stopped it",
+                    p.driven_m,
+                    100.0 * p.share(),
+                    p.logged_m,
+                    100.0 * share
+                ),
+            )),
+            Some(_) => {}
+        }
+    }
     // A NaN gap (an agent at a non-finite position) fails.
     if let (Some(min), Some(gap)) = (criteria.min_gap_m, summary.min_distance_to_ego_m)
         && (gap.is_nan() || gap < min)
@@ -155,6 +184,7 @@ pub fn check(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::map::RoadMap;
     use crate::record::test_support::{crossing_rollout, crossing_scenario};
 
     fn criteria(no_collision: bool, no_at_fault_collision: bool) -> VariantAcceptance {
@@ -165,7 +195,7 @@ mod tests {
         let scenario = crossing_scenario();
         let rollout = crossing_rollout(&scenario);
         assert!(rollout.ego_collision().is_some(), "the fixture's ego must collide");
-        check(criteria, &rollout, &scenario.map, None, escape).into_iter().map(|f| f.criterion).collect()
+        check(criteria, &rollout, &scenario, None, escape).into_iter().map(|f| f.criterion).collect()
     }
 
     #[test]
@@ -186,7 +216,7 @@ mod tests {
             reason: "deceleration 98.000 m/s² exceeds the vehicle limit max_decel_mps2 = 12 m/s²".into(),
         };
         let lax = criteria(false, false);
-        let failures = check(&lax, &rollout, &crossing_scenario().map, None, None);
+        let failures = check(&lax, &rollout, &crossing_scenario(), None, None);
         assert_eq!(failures.len(), 1, "{failures:?}");
         assert_eq!(failures[0].criterion, "vehicle_limits");
         assert!(failures[0].what.contains("at t = 1.2 s: deceleration 98.000"), "{}", failures[0].what);
@@ -198,12 +228,12 @@ mod tests {
         let scenario = crossing_scenario();
         let rollout = crossing_rollout(&scenario);
         let off_road = VariantAcceptance { no_collision: false, no_off_road: true, ..VariantAcceptance::default() };
-        let empty = RoadMap::new(vec![], vec![], vec![], vec![], vec![], vec![], vec![]);
+        let empty = Scenario { map: RoadMap::new(vec![], vec![], vec![], vec![], vec![], vec![], vec![]), ..scenario.clone() };
         let failures = check(&off_road, &rollout, &empty, None, None);
         assert_eq!(failures.len(), 1, "{failures:?}");
         assert!(failures[0].what.starts_with("cannot be measured"), "{failures:?}");
         assert!(!scenario.map.road_edges.is_empty());
-        assert!(check(&off_road, &rollout, &scenario.map, None, None).iter().all(|f| f.criterion != "no_off_road"));
+        assert!(check(&off_road, &rollout, &scenario, None, None).iter().all(|f| f.criterion != "no_off_road"));
     }
 
     #[test]
@@ -211,8 +241,8 @@ mod tests {
         let scenario = crossing_scenario();
         let rollout = crossing_rollout(&scenario);
         let speeding = VariantAcceptance { no_collision: false, no_speeding: true, ..VariantAcceptance::default() };
-        let mut unlimited = scenario.map.clone();
-        unlimited.lanes.iter_mut().for_each(|l| l.speed_limit_mps = None);
+        let mut unlimited = scenario.clone();
+        unlimited.map.lanes.iter_mut().for_each(|l| l.speed_limit_mps = None);
         let failures = check(&speeding, &rollout, &unlimited, None, None);
         assert_eq!(failures.len(), 1, "{failures:?}");
         assert_eq!(failures[0].criterion, "no_speeding");

@@ -432,7 +432,7 @@ fn run_one(
     let mutation = (!request.mutants.is_empty()).then(|| {
         let criteria = evaluation_criteria();
         let escape = stages.escape.as_ref().map(CollisionEscape::of);
-        let base = acceptance::check(&criteria, &stages.stage2, &scenario.map, stages.min_ttc_s, escape);
+        let base = acceptance::check(&criteria, &stages.stage2, scenario, stages.min_ttc_s, escape);
         VariantMutation::run(&base, &request.mutants, |op| judge_mutant(&setup, &stages.stage1, &criteria, op))
     });
     let background_contacts = cbv_background_collisions(scenario, &stages.stage1);

@@ -58,8 +58,8 @@ pub fn judge_mutant(
         _ => None,
     };
     let min_ttc = min_time_to_collision(&played.stage2);
-    let map = &setup.scenario.map;
-    Ok(acceptance::check(criteria, &played.stage2, map, min_ttc, escape.as_ref().map(CollisionEscape::of)))
+    let escape = escape.as_ref().map(CollisionEscape::of);
+    Ok(acceptance::check(criteria, &played.stage2, setup.scenario, min_ttc, escape))
 }
 
 /// The mutants of `operators` on variant `index` of `scenario`, whose

@@ -282,19 +282,21 @@ impl SuiteScenario {
             }
         }
         .ok_or_else(|| self.entry.reference(format!("no scenario in {}", key.0.display())))?;
-        // A recorded agent overlapping the recorded ego (an annotation
-        // error, or a copy of the ego under another id) would make every
-        // collision look unavoidable and so excuse it: refused, as
-        // `evaluate` skips such scenes.
+        // A recorded agent overlapping the recorded ego where the rollout
+        // starts (a copy of the ego under another id, an annotation error)
+        // is a collision no planner can avoid, so the witness would excuse
+        // it and every real collision with it: refused. A later overlap
+        // is an annotation error the witness judges like any collision.
         if let (ScenarioSource::Recorded(p), Some((other, step))) =
             (&self.source, crate::scenario::roles::recorded_ego_contact(&scenario))
+            && step == scenario.current_step
         {
             return Err(self.entry.reference(format!(
-                "recorded log {}: the recorded ego overlaps agent {} at t = {:.1} s, so no planner could avoid it \
-                 (an annotation error or a copy of the ego); remove that agent or choose another scene",
+                "recorded log {}: the recorded ego overlaps agent {} where the rollout starts, so no planner could \
+                 avoid touching it (a copy of the ego, or an annotation error); remove that agent or choose another \
+                 scene",
                 p.display(),
                 scenario.track(other).id.0,
-                step.saturating_sub(scenario.current_step) as f64 * scenario.dt_s
             )));
         }
         let scenario = Arc::new(scenario);

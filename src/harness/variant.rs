@@ -299,7 +299,7 @@ pub fn run_variant(suite: &Suite, scenario: &SuiteScenario, index: u32) -> Resul
     let setup = inputs.setup(suite);
     let stages = pipeline::run(setup)?;
     let escape = stages.escape.as_ref().map(CollisionEscape::of);
-    let failures = acceptance::check(&spec.acceptance.variant, &stages.stage2, &base.map, stages.min_ttc_s, escape);
+    let failures = acceptance::check(&spec.acceptance.variant, &stages.stage2, base, stages.min_ttc_s, escape);
     let shrunk = if failures.is_empty() || suite.shrink_budget == 0 {
         None
     } else {

@@ -73,6 +73,23 @@ impl Default for VehicleLimits {
     }
 }
 
+/// The lateral acceleration the built-in planners keep within, m/s²: a
+/// margin under the default [`VehicleLimits::max_lateral_accel_mps2`], so
+/// that the reference planners drive as a car can.
+pub const BUILTIN_MAX_LATERAL_ACCEL_MPS2: f64 = 8.5;
+
+/// `yaw_rate_radps` cut so that a step from `speed_mps` to `next_speed_mps`
+/// pulls at most `max_lateral_accel_mps2` (measured as
+/// [`VehicleLimits::check`] does: the mean speed times the yaw rate).
+pub fn within_grip(yaw_rate_radps: f64, speed_mps: f64, next_speed_mps: f64, max_lateral_accel_mps2: f64) -> f64 {
+    let mean_speed = 0.5 * (speed_mps + next_speed_mps).abs();
+    if mean_speed * yaw_rate_radps.abs() <= max_lateral_accel_mps2 {
+        return yaw_rate_radps;
+    }
+    let top = max_lateral_accel_mps2 / mean_speed;
+    yaw_rate_radps.clamp(-top, top)
+}
+
 /// Floating-point slack on every limit (a planner exactly at a limit,
 /// through the kinematic model's rounding, is inside it).
 const SLACK: f64 = 1e-6;

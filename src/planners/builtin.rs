@@ -2,7 +2,7 @@
 //! constant velocity, and the IDM lane follower as a reactive ego.
 
 use super::{Observation, Planner, PlannerError, PlannerOutput, TrajectoryPoint};
-use crate::motion::Action;
+use crate::motion::{Action, within_grip};
 use crate::policies::{IdmLaneFollower, IdmParams, WorldView};
 use crate::scenario::{AgentBody, AgentKind, Scenario, Track, TrackIndex};
 
@@ -110,6 +110,10 @@ impl Planner for IdmPlanner {
         let states: Vec<_> = std::iter::once(Some(obs.ego)).chain(obs.agents.iter().map(|a| Some(a.state))).collect();
         let world = WorldView { map: obs.map, step: obs.step, bodies: &bodies, states: &states };
         let action = self.follower.control(&world, TrackIndex(0)).unwrap_or_default();
-        Ok(PlannerOutput::Control(action))
+        let speed = obs.ego.speed_mps();
+        let next_speed = (speed + action.accel_mps2 * crate::motion::tokens::SIM_DT_S).max(0.0);
+        let yaw_rate_radps =
+            within_grip(action.yaw_rate_radps, speed, next_speed, crate::motion::BUILTIN_MAX_LATERAL_ACCEL_MPS2);
+        Ok(PlannerOutput::Control(Action { yaw_rate_radps, ..action }))
     }
 }

@@ -28,7 +28,7 @@ use super::{Observation, Planner, PlannerError, PlannerOutput};
 use crate::geometry::{BoxSet, OrientedBox, Point2, Pose2, Vector2, wrap_angle};
 use crate::motion::kinematics::{HeldHeadingStepper, stepped_speed_mps};
 use crate::motion::tokens::{MAX_ACCEL_MPS2, MAX_YAW_RATE_RADPS, SIM_DT_S};
-use crate::motion::{Action, KinematicState, kinematic_step_with_sin_cos};
+use crate::motion::{Action, BUILTIN_MAX_LATERAL_ACCEL_MPS2, KinematicState, kinematic_step_with_sin_cos, within_grip};
 use crate::policies::{Route, build_route_choosing};
 use crate::scenario::{AgentKind, AgentState};
 
@@ -655,7 +655,8 @@ impl EvasivePlanner {
                     let alpha = wrap_angle(to.y.atan2(to.x) - s.heading_rad);
                     let curvature_per_m =
                         (2.0 * alpha.sin() / to.norm().max(1e-3)).clamp(-MAX_CURVATURE_PER_M, MAX_CURVATURE_PER_M);
-                    (curvature_per_m * moving_mps).clamp(-MAX_YAW_RATE_RADPS, MAX_YAW_RATE_RADPS)
+                    let yaw_rate = (curvature_per_m * moving_mps).clamp(-MAX_YAW_RATE_RADPS, MAX_YAW_RATE_RADPS);
+                    within_grip(yaw_rate, s.speed_mps, moving_mps, BUILTIN_MAX_LATERAL_ACCEL_MPS2)
                 }
                 None => 0.0,
             };

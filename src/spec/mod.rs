@@ -196,7 +196,7 @@ impl<T> Loaded<T> {
 
 /// A number as a person wrote it: `1e300`, not three hundred digits.
 pub fn number_text(v: f64) -> String {
-    if v.is_finite() && v != 0.0 && !(1e-4..1e7).contains(&v.abs()) { format!("{v:e}") } else { format!("{v}") }
+    crate::number::shown(v)
 }
 
 /// A closed or half-open range a spec number must lie in.

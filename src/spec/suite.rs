@@ -288,6 +288,14 @@ pub struct VariantAcceptance {
     /// whose lanes give no speed limit.
     #[serde(default)]
     pub no_speeding: bool,
+    /// The ego must drive at least this share, in (0, 1], of the distance
+    /// the logged ego drove over the same steps, unless it ends stopped
+    /// behind an agent within 10 m in its path. Catches a planner that
+    /// stops dead in a free lane. Fails as unmeasurable where the logged
+    /// ego drives under 5 m (no route to measure along).
+    #[serde(default)]
+    #[schemars(range(min = 0, max = 1))]
+    pub min_progress: Option<f64>,
     /// Minimum box distance to any agent, m, in [0, 100].
     #[serde(default)]
     #[schemars(range(min = 0, max = 100))]
@@ -320,6 +328,7 @@ impl Default for VariantAcceptance {
             no_wrong_way: false,
             no_red_light: false,
             no_speeding: false,
+            min_progress: None,
             min_gap_m: None,
             min_ttc_s: None,
             planner_must_answer: true,
@@ -517,6 +526,9 @@ impl Loaded<SuiteSpec> {
         let v = &s.acceptance.variant;
         if let Some(x) = v.min_gap_m {
             self.check_number("acceptance.variant.min_gap_m", x, NumberRange::closed(0.0, 100.0), "m")?;
+        }
+        if let Some(x) = v.min_progress {
+            self.check_number("acceptance.variant.min_progress", x, NumberRange::above(0.0, 1.0), "(a share)")?;
         }
         if let Some(x) = v.min_ttc_s {
             self.check_number("acceptance.variant.min_ttc_s", x, NumberRange::closed(0.0, 60.0), "s")?;

@@ -58,7 +58,8 @@ fn wrong_way_on_cut_lanes(cut: impl Fn(&Polyline) -> Polyline) -> Vec<String> {
         m.traffic_signals.clone(),
     );
     let criteria = safer::spec::suite::VariantAcceptance { no_wrong_way: true, ..Default::default() };
-    acceptance::check(&criteria, &outcome.stage2, &map, None, None).into_iter().map(|f| f.what).collect()
+    let base = safer::scenario::Scenario { map, ..(*outcome.scenario).clone() };
+    acceptance::check(&criteria, &outcome.stage2, &base, None, None).into_iter().map(|f| f.what).collect()
 }
 
 #[test]
@@ -70,4 +71,51 @@ fn lanes_cut_to_a_point_or_to_zero_length_leave_no_wrong_way_unmeasurable() {
     assert_eq!(one_point, [unmeasurable]);
     let zero_length = wrong_way_on_cut_lanes(|c| Polyline::new(vec![c.points()[0]; 2]));
     assert_eq!(zero_length, [unmeasurable]);
+}
+
+/// The failed criteria of each scenario's single variant, by scenario.
+fn failures_by_scenario(suite: &str) -> Vec<(String, Vec<(String, String)>)> {
+    let suite = Suite::load(&fixture(suite)).unwrap_or_else(|e| panic!("{e}"));
+    suite
+        .scenarios
+        .iter()
+        .map(|s| {
+            let outcome = run_variant(&suite, s, 0).unwrap_or_else(|e| panic!("{e}"));
+            (s.name.clone(), outcome.failures.into_iter().map(|f| (f.criterion, f.what)).collect())
+        })
+        .collect()
+}
+
+#[test]
+fn a_planner_that_stays_put_in_a_free_lane_fails_min_progress() {
+    let [(free, stays), (parked, unmeasurable)] = &failures_by_scenario("progress-constant-velocity.suite.yaml")[..]
+    else {
+        panic!("two scenarios")
+    };
+    assert_eq!(free, "free-lane");
+    assert_eq!(stays.len(), 1, "{stays:?}");
+    assert_eq!(stays[0].0, "min_progress");
+    assert!(stays[0].1.starts_with("ego drove 0.0 m, 0 % of the logged ego's"), "{stays:?}");
+    assert!(stays[0].1.ends_with("(at least 50 % asked), and nothing in its path stopped it"), "{stays:?}");
+    // Where the logged ego stands still there is no route to measure along.
+    assert_eq!(parked, "parked-ego");
+    assert_eq!(unmeasurable.len(), 1, "{unmeasurable:?}");
+    assert!(unmeasurable[0].1.starts_with("cannot be measured: the logged ego drives under 5 m"), "{unmeasurable:?}");
+    // A planner that drives off passes in the free lane.
+    let idm = failures_by_scenario("progress-idm.suite.yaml");
+    assert_eq!(idm[0], ("free-lane".to_string(), vec![]), "{idm:?}");
+}
+
+#[test]
+fn thirty_nine_m_per_s_in_a_25_m_per_s_zone_fails_no_speeding() {
+    let [(limited, speeding), (unlimited, unmeasurable)] = &failures_by_scenario("speeding.suite.yaml")[..] else {
+        panic!("two scenarios")
+    };
+    assert_eq!(limited, "speeding");
+    assert_eq!(speeding.len(), 1, "{speeding:?}");
+    assert_eq!(speeding[0].0, "no_speeding");
+    assert!(speeding[0].1.contains("(25.0 m/s)") && speeding[0].1.ends_with("at up to 39.0 m/s"), "{speeding:?}");
+    assert_eq!(unlimited, "speeding-unlimited");
+    assert_eq!(unmeasurable.len(), 1, "{unmeasurable:?}");
+    assert!(unmeasurable[0].1.starts_with("cannot be measured: the scene's map gives no lane a speed limit"), "{unmeasurable:?}");
 }
