@@ -119,8 +119,9 @@ impl SpecError {
             | Self::Invalid { text, location, message, .. }
             | Self::Reference { text, location, message, .. } => (text, location, message),
         };
-        let offset = location.map(|l| line_column_to_offset(text, l)).unwrap_or(0);
-        let source = miette::NamedSource::new(self.path().display().to_string(), text.clone());
+        let (text, location) = shown_excerpt(text, *location);
+        let offset = location.map(|l| line_column_to_offset(&text, l)).unwrap_or(0);
+        let source = miette::NamedSource::new(self.path().display().to_string(), text);
         miette::miette!(labels = vec![miette::LabeledSpan::at_offset(offset, "here")], "{message}")
             .with_source_code(source)
     }
@@ -245,7 +246,7 @@ pub fn parse_yaml<T: DeserializeOwned>(text: &str, path: &Path) -> Result<Loaded
                 message =
                     format!("key `{key}` appears twice in the same mapping (first at line {}); keep one", first.line);
             }
-            Err(SpecError::Parse { path: path.to_path_buf(), location, message, text: text.to_string() })
+            Err(SpecError::Parse { path: path.to_path_buf(), location, message: cut_message(message), text: text.to_string() })
         }
     }
 }
@@ -272,6 +273,29 @@ fn plain_words(message: &str) -> String {
     if message.starts_with("multiple YAML documents detected") {
         return "a spec file holds one YAML document, but a second one starts here (`---`); move it to its own file"
             .to_string();
+    }
+    if let Some(breach) = message.strip_prefix("budget breached: ") {
+        // `Nodes { nodes: 250001 }`: the kind and the count it stopped at.
+        let kind = breach.split([' ', '{']).next().unwrap_or(breach);
+        let count: String = breach.chars().filter(char::is_ascii_digit).collect();
+        let what = match kind {
+            "Events" => "parser events",
+            "Aliases" => "aliases (`*name`)",
+            "Anchors" => "anchors (`&name`)",
+            "Depth" => "levels of nesting",
+            "Documents" => "documents",
+            "Nodes" => "values",
+            "ScalarBytes" => "bytes of text in values",
+            "CommentBytes" => "bytes of comments",
+            "InputBytes" => "bytes of input",
+            "MergeKeys" => "merge keys (`<<`)",
+            "AliasAnchorRatio" | "RecordedAnchorEvents" | "RecordedAnchorBytes" => "alias expansion",
+            _ => "YAML elements",
+        };
+        return format!(
+            "the spec goes past the parser's limit on {what} (it stopped at {count}); a spec this large is a \
+             generated file or a YAML bomb, not a hand-written spec"
+        );
     }
     if message.starts_with("unexpected end of input") {
         return "the file is empty or ends early: a spec is one YAML mapping (`key: value` lines)".to_string();
@@ -309,8 +333,77 @@ pub fn load_yaml<T: DeserializeOwned>(path: &Path) -> Result<Loaded<T>, SpecErro
 /// A spec file's text; a file that is not UTF-8 is refused at its first
 /// bad byte.
 pub fn read_text(path: &Path) -> Result<String, SpecError> {
-    let bytes = std::fs::read(path).map_err(|source| SpecError::Io { path: path.to_path_buf(), source })?;
+    use std::io::Read;
+    let io = |source| SpecError::Io { path: path.to_path_buf(), source };
+    let mut bytes = Vec::new();
+    // Read at most one byte past the limit: a huge file (or an endless
+    // device) is refused without being read whole.
+    std::fs::File::open(path).and_then(|f| f.take(MAX_SPEC_BYTES + 1).read_to_end(&mut bytes)).map_err(io)?;
+    if bytes.len() as u64 > MAX_SPEC_BYTES {
+        return Err(SpecError::Parse {
+            path: path.to_path_buf(),
+            location: None,
+            message: format!(
+                "the file is larger than {} MiB, the most a spec may be (specs are written by hand; recorded \
+                 scenes go in `recorded:` entries)",
+                MAX_SPEC_BYTES >> 20
+            ),
+            text: String::new(),
+        });
+    }
     String::from_utf8(bytes).map_err(|e| not_utf8(path, e))
+}
+
+/// The largest spec file read, bytes (1 MiB: the shipped specs are under
+/// 16 KiB). A bigger file is refused before it is parsed, so neither the
+/// parser's time and memory nor an echoed line can grow with it.
+pub const MAX_SPEC_BYTES: u64 = 1 << 20;
+
+/// The most characters of one line an error shows; a longer line is cut
+/// to a window around the place the error points at.
+const MAX_SHOWN_LINE_CHARS: usize = 240;
+
+/// The most characters of an error's message (a parser message can quote
+/// a whole value).
+const MAX_MESSAGE_CHARS: usize = 400;
+
+/// `message` cut to [`MAX_MESSAGE_CHARS`].
+fn cut_message(message: String) -> String {
+    match message.char_indices().nth(MAX_MESSAGE_CHARS) {
+        Some((at, _)) => format!("{}… ({} characters in all)", &message[..at], message.chars().count()),
+        None => message,
+    }
+}
+
+/// `text` with every line longer than [`MAX_SHOWN_LINE_CHARS`] cut to a
+/// window (around `location`'s column on its line, from the start on
+/// others), and the location moved to match: the lines keep their
+/// numbers, so the snippet still says where.
+fn shown_excerpt(text: &str, location: Option<SpecLocation>) -> (String, Option<SpecLocation>) {
+    if text.lines().all(|l| l.len() <= MAX_SHOWN_LINE_CHARS) {
+        return (text.to_string(), location);
+    }
+    let mut out = String::new();
+    let mut moved = location;
+    for (i, line) in text.split_inclusive('\n').enumerate() {
+        let (body, end) = line.strip_suffix('\n').map_or((line, ""), |b| (b, "\n"));
+        let chars = body.chars().count();
+        if chars <= MAX_SHOWN_LINE_CHARS {
+            out.push_str(line);
+            continue;
+        }
+        let here = location.filter(|l| l.line as usize == i + 1);
+        let column = here.map_or(0, |l| l.column.saturating_sub(1) as usize).min(chars);
+        let start = column.saturating_sub(MAX_SHOWN_LINE_CHARS / 2);
+        let window: String = body.chars().skip(start).take(MAX_SHOWN_LINE_CHARS).collect();
+        let lead = if start > 0 { "…" } else { "" };
+        let tail = if start + MAX_SHOWN_LINE_CHARS < chars { "…" } else { "" };
+        out.push_str(&format!("{lead}{window}{tail}{end}"));
+        if let Some(l) = here {
+            moved = Some(SpecLocation { line: l.line, column: (column - start + lead.chars().count() + 1) as u64 });
+        }
+    }
+    (out, moved)
 }
 
 /// A spec that is not UTF-8: where the first bad byte is (line, column in

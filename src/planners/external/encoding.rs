@@ -300,7 +300,16 @@ pub(super) fn parse_reply(line: &[u8]) -> Result<PlannerMessage, String> {
             quote(line)
         ));
     }
-    serde_json::from_str::<PlannerMessage>(&text).map_err(|e| {
+    let parsed = serde_json::from_str::<PlannerMessage>(&text).map(|m| match m {
+        // A planner's own words travel into every report: cut as a quote is.
+        PlannerMessage::Error { step, message: Some(message) } if message.chars().count() > ERROR_MESSAGE_CHARS => {
+            let chars = message.chars().count();
+            let cut = truncate_chars(&message, ERROR_MESSAGE_CHARS);
+            PlannerMessage::Error { step, message: Some(format!("{cut} ({chars} characters in all)")) }
+        }
+        m => m,
+    });
+    parsed.map_err(|e| {
         let reason = e.to_string();
         if reason.contains("number out of range") {
             format!("non-finite number (out of the f64 range) in {}: {reason}", quote(line))
@@ -342,6 +351,10 @@ fn non_finite_token(text: &str) -> Option<&'static str> {
     }
     None
 }
+
+/// The most characters of a planner's `error` message kept: enough for a
+/// traceback's last lines, not a report per variant the size of a log.
+const ERROR_MESSAGE_CHARS: usize = 2000;
 
 /// The first [`QUOTE_CHARS`] characters of a line, in backticks.
 pub(super) fn quote(line: &[u8]) -> String {

@@ -401,13 +401,16 @@ fn read_stdout(stdout: impl Read, events: SyncSender<StdoutEvent>) {
     let mut reader = BufReader::new(stdout);
     loop {
         let mut line = Vec::new();
-        let event = match read_line_limited(&mut reader, &mut line, MAX_REPLY_BYTES) {
+        // A line past the limit ends the read at once: waiting for its end
+        // would wait on a planner that may never write one.
+        let event = match read_line_limited(&mut reader, &mut line, MAX_REPLY_BYTES, LongLine::Stop) {
             Ok(LineRead::Eof) => return,
             Ok(LineRead::Complete) => StdoutEvent::Line(line),
             Ok(LineRead::Truncated) => StdoutEvent::TooLong(line),
             Err(e) => StdoutEvent::Failed(e.to_string()),
         };
-        let stop = matches!(event, StdoutEvent::Failed(_));
+        // After a line too long the stream's framing is lost: stop reading.
+        let stop = matches!(event, StdoutEvent::Failed(_) | StdoutEvent::TooLong(_));
         if events.send(event).is_err() || stop {
             return;
         }
@@ -420,7 +423,7 @@ fn read_stderr(stderr: impl Read, tail: Arc<Mutex<VecDeque<String>>>, log: Arc<M
     let mut reader = BufReader::new(stderr);
     loop {
         let mut line = Vec::new();
-        match read_line_limited(&mut reader, &mut line, MAX_STDERR_LINE_BYTES) {
+        match read_line_limited(&mut reader, &mut line, MAX_STDERR_LINE_BYTES, LongLine::Skip) {
             Ok(LineRead::Eof) | Err(_) => break,
             Ok(LineRead::Complete | LineRead::Truncated) => {
                 {
@@ -454,9 +457,23 @@ enum LineRead {
     Truncated,
 }
 
+/// What [`read_line_limited`] does with a line longer than its limit.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum LongLine {
+    /// Skip the rest, up to its newline (stderr: logging goes on).
+    Skip,
+    /// Return at once, the rest unread.
+    Stop,
+}
+
 /// Reads one line into `buf` (without `\n` or `\r\n`), keeping at most
 /// `limit` bytes of it.
-fn read_line_limited(reader: &mut impl BufRead, buf: &mut Vec<u8>, limit: usize) -> std::io::Result<LineRead> {
+fn read_line_limited(
+    reader: &mut impl BufRead,
+    buf: &mut Vec<u8>,
+    limit: usize,
+    long_line: LongLine,
+) -> std::io::Result<LineRead> {
     let mut truncated = false;
     let mut any = false;
     loop {
@@ -475,7 +492,12 @@ fn read_line_limited(reader: &mut impl BufRead, buf: &mut Vec<u8>, limit: usize)
         };
         let room = limit.saturating_sub(buf.len());
         truncated |= chunk.len() > room;
-        buf.extend_from_slice(&chunk[..chunk.len().min(room)]);
+        let kept = chunk.len().min(room);
+        buf.extend_from_slice(&chunk[..kept]);
+        if truncated && long_line == LongLine::Stop {
+            reader.consume(kept);
+            return Ok(LineRead::Truncated);
+        }
         reader.consume(used);
         if end {
             break;
@@ -531,13 +553,19 @@ mod tests {
 
         let mut reader = BufReader::with_capacity(7, "abcdefghij\r\nxy".as_bytes());
         let mut buf = Vec::new();
-        assert!(matches!(read_line_limited(&mut reader, &mut buf, 4).unwrap(), LineRead::Truncated));
+        assert!(matches!(read_line_limited(&mut reader, &mut buf, 4, LongLine::Skip).unwrap(), LineRead::Truncated));
         assert_eq!(buf, b"abcd");
         buf.clear();
-        assert!(matches!(read_line_limited(&mut reader, &mut buf, 4).unwrap(), LineRead::Complete));
+        assert!(matches!(read_line_limited(&mut reader, &mut buf, 4, LongLine::Skip).unwrap(), LineRead::Complete));
         assert_eq!(buf, b"xy");
         buf.clear();
-        assert!(matches!(read_line_limited(&mut reader, &mut buf, 4).unwrap(), LineRead::Eof));
+        assert!(matches!(read_line_limited(&mut reader, &mut buf, 4, LongLine::Skip).unwrap(), LineRead::Eof));
+        // Stopping at the limit reads no further than it: an endless line
+        // is reported as soon as it passes the limit.
+        let mut endless = BufReader::with_capacity(7, std::io::repeat(b'x'));
+        buf.clear();
+        assert!(matches!(read_line_limited(&mut endless, &mut buf, 4, LongLine::Stop).unwrap(), LineRead::Truncated));
+        assert_eq!(buf, b"xxxx");
     }
 
     /// Live (not zombie) processes in process group `pgid`, from `/proc`.
