@@ -790,7 +790,10 @@ fn settings_difference(a: &EvaluationSettings, b: &EvaluationSettings) -> Option
     fields.sort();
     fields.dedup();
     let shown = |v: Option<&serde_json::Value>| v.map_or("absent".to_string(), |v| v.to_string());
-    fields.into_iter().find(|f| a.get(*f) != b.get(*f)).map(|f| format!("{f}: {} against {}", shown(a.get(f)), shown(b.get(f))))
+    fields
+        .into_iter()
+        .find(|f| a.get(*f) != b.get(*f))
+        .map(|f| format!("{f}: {} against {}", shown(a.get(f)), shown(b.get(f))))
 }
 
 /// Checks that a part holds exactly one variant per scene, method,

@@ -778,7 +778,7 @@ fn check_json_report(path: &Path) -> Result<(), CliError> {
 
 fn data_path(written: &str) -> Result<PathBuf, String> {
     if written.starts_with("data:") {
-        Ok(safer::spec::paths::resolve(Path::new(env!("CARGO_MANIFEST_DIR")), written))
+        safer::spec::paths::resolve_checked(Path::new(env!("CARGO_MANIFEST_DIR")), written)
     } else {
         Ok(PathBuf::from(written))
     }

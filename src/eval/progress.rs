@@ -89,9 +89,7 @@ fn blocked_by(rollout: &Rollout) -> Option<AgentId> {
             (-0.5 * body.length_m..=BLOCKED_AHEAD_M).contains(&along)
                 && across <= 0.5 * (body.width_m + other_body.width_m) + PATH_MARGIN_M
         })
-        .min_by(|(_, a), (_, b)| {
-            (a.position - ego.position).norm().total_cmp(&(b.position - ego.position).norm())
-        })
+        .min_by(|(_, a), (_, b)| (a.position - ego.position).norm().total_cmp(&(b.position - ego.position).norm()))
         .map(|(i, _)| rollout.agent_ids[i].clone())
 }
 
@@ -123,18 +121,15 @@ mod tests {
     }
 
     fn at(x: f64, speed: f64) -> Option<AgentState> {
-        Some(AgentState {
-            position: Point2::new(x, 1.75),
-            heading_rad: 0.0,
-            velocity_mps: Vector2::new(speed, 0.0),
-        })
+        Some(AgentState { position: Point2::new(x, 1.75), heading_rad: 0.0, velocity_mps: Vector2::new(speed, 0.0) })
     }
 
     /// A 3 s scene whose logged ego drives 10 m/s from x = 10 (the
     /// rollout starts at step 0), with a car parked at `parked_x` if given.
     fn scene(parked_x: Option<f64>) -> Scenario {
-        let map = StraightRoad { lanes: 1, oncoming_lanes: 0, lane_width_m: 3.5, length_m: 300.0, speed_limit_mps: None }
-            .build();
+        let map =
+            StraightRoad { lanes: 1, oncoming_lanes: 0, lane_width_m: 3.5, length_m: 300.0, speed_limit_mps: None }
+                .build();
         let mut tracks = vec![track("ego", (0..31).map(|k| at(10.0 + k as f64, 10.0)).collect())];
         if let Some(x) = parked_x {
             tracks.push(track("parked", vec![at(x, 0.0); 31]));

@@ -2,8 +2,8 @@
 //! satisfy, each failure a sentence saying what happened, when and with whom.
 
 use super::variant::CollisionEscape;
-use crate::eval::traffic_rules;
 use crate::eval::progress;
+use crate::eval::traffic_rules;
 use crate::scenario::Scenario;
 use crate::sim::{Rollout, Termination};
 use crate::spec::suite::VariantAcceptance;
@@ -228,7 +228,8 @@ mod tests {
         let scenario = crossing_scenario();
         let rollout = crossing_rollout(&scenario);
         let off_road = VariantAcceptance { no_collision: false, no_off_road: true, ..VariantAcceptance::default() };
-        let empty = Scenario { map: RoadMap::new(vec![], vec![], vec![], vec![], vec![], vec![], vec![]), ..scenario.clone() };
+        let empty =
+            Scenario { map: RoadMap::new(vec![], vec![], vec![], vec![], vec![], vec![], vec![]), ..scenario.clone() };
         let failures = check(&off_road, &rollout, &empty, None, None);
         assert_eq!(failures.len(), 1, "{failures:?}");
         assert!(failures[0].what.starts_with("cannot be measured"), "{failures:?}");

@@ -130,8 +130,7 @@ pub fn shrink(variant: &FailingVariant<'_>, budget: usize) -> Result<Option<Shru
         }
         let played = pipeline::play_stage2(&setup, &stage1)?;
         let stage2 = played.stage2;
-        let failures =
-            acceptance::check(variant.criteria, &stage2, scenario, min_time_to_collision(&stage2), None);
+        let failures = acceptance::check(variant.criteria, &stage2, scenario, min_time_to_collision(&stage2), None);
         let same = failures.first().is_some_and(|f| f.criterion == first_failure.criterion)
             && collided_with(&stage2) == collided_with(variant.stage2);
         let plausible = cbv_off_road_s(scenario, &stage2) <= baseline_off_road

@@ -99,9 +99,13 @@ impl Suite {
                 PlannerAdapter::InProcess { name: rust.value.clone() }
             }
             PlannerRef::File(f) => {
-                let p = crate::spec::paths::resolve(spec.dir(), &f.value);
+                let p = crate::spec::paths::resolve_checked(spec.dir(), &f.value)
+                    .map_err(|e| spec.invalid_at("planner", e))?;
                 if !p.is_file() {
-                    return Err(spec.reference_at("planner", format!("planner spec {} does not exist", p.display())));
+                    let hint = crate::spec::paths::missing_hint(&f.value);
+                    return Err(
+                        spec.reference_at("planner", format!("planner spec {} does not exist{hint}", p.display()))
+                    );
                 }
                 load_yaml::<PlannerSpec>(&p)?.validate()?
             }

@@ -12,6 +12,4 @@ pub mod vehicle_limits;
 pub use inversion::{TokenizedTrack, tokenize_track, tokenize_track_drifting};
 pub use kinematics::{KinematicState, step as kinematic_step, step_with_sin_cos as kinematic_step_with_sin_cos};
 pub use tokens::{Action, TOKEN_PERIOD_S, TOKEN_PERIOD_STEPS, Token, TokenGrid};
-pub use vehicle_limits::{
-    BUILTIN_MAX_LATERAL_ACCEL_MPS2, LimitMonitor, LimitViolation, VehicleLimits, within_grip,
-};
+pub use vehicle_limits::{BUILTIN_MAX_LATERAL_ACCEL_MPS2, LimitMonitor, LimitViolation, VehicleLimits, within_grip};

@@ -180,7 +180,13 @@ impl VehicleLimits {
             })
             .or_else(|| {
                 let lateral_accel = 0.5 * (v0 + v1) * turn / dt_s;
-                broke("max_lateral_accel_mps2", "lateral acceleration", lateral_accel, self.max_lateral_accel_mps2, "m/s²")
+                broke(
+                    "max_lateral_accel_mps2",
+                    "lateral acceleration",
+                    lateral_accel,
+                    self.max_lateral_accel_mps2,
+                    "m/s²",
+                )
             })
             .or_else(|| {
                 broke("max_reverse_speed_mps", "reversing speed", -along / dt_s, self.max_reverse_speed_mps, "m/s")
@@ -388,9 +394,7 @@ mod tests {
 
     #[test]
     fn a_yaw_rate_sent_is_reported_as_sent() {
-        let v = VehicleLimits::default()
-            .check_control(&Action { accel_mps2: 0.0, yaw_rate_radps: -1e308 })
-            .unwrap();
+        let v = VehicleLimits::default().check_control(&Action { accel_mps2: 0.0, yaw_rate_radps: -1e308 }).unwrap();
         assert_eq!(v.value, 1e308);
         assert!(v.to_string().starts_with("yaw rate sent 1e308 rad/s exceeds"), "{v}");
         assert_eq!(VehicleLimits::default().check_control(&Action { accel_mps2: -50.0, yaw_rate_radps: 1.5 }), None);

@@ -47,7 +47,10 @@ use crate::sim::Rollout;
 
 pub use atomic::{write_atomically, write_atomically_with};
 pub use mcap::encode_rollout_mcap;
-pub use output::{NamedOutput, OutputKind, check_new_or_forced, check_outputs_apart, check_replaceable, create_parent_folder, is_stdout, write_output, write_output_with};
+pub use output::{
+    NamedOutput, OutputKind, check_new_or_forced, check_outputs_apart, check_replaceable, create_parent_folder,
+    is_stdout, write_output, write_output_with,
+};
 pub use svg::SvgOptions;
 
 /// Why an artefact could not be written.

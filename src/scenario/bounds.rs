@@ -70,14 +70,13 @@ pub fn implausibility_within(state: &AgentState, max_abs_position_m: f64) -> Opt
         }
     }
     let speed = state.speed_mps();
-    (speed > MAX_SPEED_MPS)
-        .then(|| {
-            format!(
-                "speed = {} m/s is outside the simulation bounds (≤ {} m/s)",
-                crate::number::shown(speed),
-                crate::number::shown(MAX_SPEED_MPS)
-            )
-        })
+    (speed > MAX_SPEED_MPS).then(|| {
+        format!(
+            "speed = {} m/s is outside the simulation bounds (≤ {} m/s)",
+            crate::number::shown(speed),
+            crate::number::shown(MAX_SPEED_MPS)
+        )
+    })
 }
 
 #[cfg(test)]

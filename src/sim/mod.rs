@@ -213,9 +213,7 @@ impl<'a> Simulation<'a> {
                 Ok(s) => {
                     let ego_now = states[self.ego.0].expect("ego present while running");
                     let violation = limits.as_mut().and_then(|(l, monitor)| {
-                        sent_control
-                            .and_then(|a| l.check_control(&a))
-                            .or_else(|| monitor.step(&ego_now, &s, SIM_DT_S))
+                        sent_control.and_then(|a| l.check_control(&a)).or_else(|| monitor.step(&ego_now, &s, SIM_DT_S))
                     });
                     if let Some(violation) = violation {
                         termination = Termination::VehicleLimitExceeded { step, reason: violation.to_string() };
@@ -270,16 +268,13 @@ impl<'a> Simulation<'a> {
             let track = &self.scenario.tracks[i];
             let why = crate::scenario::bounds::implausibility(s.as_ref()?).or_else(|| {
                 let sides = [("length", track.length_m), ("width", track.width_m)];
-                sides
-                    .into_iter()
-                    .find(|(_, v)| !(*v > 0.0 && *v <= MAX_BODY_M))
-                    .map(|(name, v)| {
-                        format!(
-                            "{name} = {} m is outside the simulation bounds (0, {} m]",
-                            crate::number::shown(v),
-                            crate::number::shown(MAX_BODY_M)
-                        )
-                    })
+                sides.into_iter().find(|(_, v)| !(*v > 0.0 && *v <= MAX_BODY_M)).map(|(name, v)| {
+                    format!(
+                        "{name} = {} m is outside the simulation bounds (0, {} m]",
+                        crate::number::shown(v),
+                        crate::number::shown(MAX_BODY_M)
+                    )
+                })
             })?;
             Some((track.id.clone(), why))
         })

@@ -119,10 +119,19 @@ impl SpecError {
             | Self::Invalid { text, location, message, .. }
             | Self::Reference { text, location, message, .. } => (text, location, message),
         };
-        let (text, location) = shown_excerpt(text, *location);
-        let offset = location.map(|l| line_column_to_offset(&text, l)).unwrap_or(0);
-        let source = miette::NamedSource::new(self.path().display().to_string(), text);
-        miette::miette!(labels = vec![miette::LabeledSpan::at_offset(offset, "here")], "{message}")
+        if text.is_empty() {
+            return miette::miette!("{}: {message}", self.path().display());
+        }
+        let (shown, moved) = shown_excerpt(text, *location);
+        let offset = moved.map(|l| line_column_to_offset(&shown, l)).unwrap_or(0);
+        // Where a long line was cut, the snippet's columns are not the
+        // file's: the label gives the file's.
+        let label = match location {
+            Some(l) if moved != *location => format!("here (line {}, column {} of the file)", l.line, l.column),
+            _ => "here".to_string(),
+        };
+        let source = miette::NamedSource::new(self.path().display().to_string(), shown);
+        miette::miette!(labels = vec![miette::LabeledSpan::at_offset(offset, label)], "{message}")
             .with_source_code(source)
     }
 }
@@ -246,7 +255,12 @@ pub fn parse_yaml<T: DeserializeOwned>(text: &str, path: &Path) -> Result<Loaded
                 message =
                     format!("key `{key}` appears twice in the same mapping (first at line {}); keep one", first.line);
             }
-            Err(SpecError::Parse { path: path.to_path_buf(), location, message: cut_message(message), text: text.to_string() })
+            Err(SpecError::Parse {
+                path: path.to_path_buf(),
+                location,
+                message: cut_message(message),
+                text: text.to_string(),
+            })
         }
     }
 }
@@ -296,6 +310,9 @@ fn plain_words(message: &str) -> String {
             "the spec goes past the parser's limit on {what} (it stopped at {count}); a spec this large is a \
              generated file or a YAML bomb, not a hand-written spec"
         );
+    }
+    if message == "recursion limit exceeded" {
+        return "lists or mappings nest deeper than the parser allows; a spec nests a few levels".to_string();
     }
     if message.starts_with("unexpected end of input") {
         return "the file is empty or ends early: a spec is one YAML mapping (`key: value` lines)".to_string();
@@ -455,6 +472,25 @@ impl SpecKind {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn parser_budgets_are_named_in_words_not_as_debug_text() {
+        let m = plain_words("budget breached: Nodes { nodes: 250001 }");
+        assert_eq!(
+            m,
+            "the spec goes past the parser's limit on values (it stopped at 250001); a spec this large is a \
+             generated file or a YAML bomb, not a hand-written spec"
+        );
+        let m = plain_words("budget breached: Events { events: 1000001 }");
+        assert!(m.contains("limit on parser events (it stopped at 1000001)") && !m.contains('{'), "{m}");
+    }
+
+    #[test]
+    fn a_message_quoting_a_huge_value_is_cut() {
+        let cut = cut_message(format!("invalid type: string \"{}\"", "x".repeat(20_000)));
+        assert!(cut.chars().count() < 460 && cut.ends_with("(20023 characters in all)"), "{cut}");
+        assert_eq!(cut_message("short".into()), "short");
+    }
 
     fn parse_error(text: &str) -> SpecError {
         parse_yaml::<serde_json::Value>(text, Path::new("s.yaml")).unwrap_err()

@@ -39,6 +39,48 @@ pub fn resolve(spec_dir: &Path, written: &str) -> PathBuf {
     }
 }
 
+/// [`resolve`], refusing a `data:` or `safer:` path that would leave its
+/// folder (`safer:../../etc/passwd`): the prefixes name files inside
+/// their roots only. The error says why, in a spec author's words.
+pub fn resolve_checked(spec_dir: &Path, written: &str) -> Result<PathBuf, String> {
+    let (prefix, rel) = match (written.strip_prefix("data:"), written.strip_prefix("safer:")) {
+        (Some(rel), _) => ("data:", rel),
+        (_, Some(rel)) => ("safer:", rel),
+        _ => return Ok(resolve(spec_dir, written)),
+    };
+    let mut depth = 0usize;
+    for part in Path::new(rel.trim_start_matches('/')).components() {
+        match part {
+            std::path::Component::ParentDir if depth == 0 => {
+                return Err(format!(
+                    "`{written}` leaves the folder `{prefix}` names ({}); a `{prefix}` path stays inside it",
+                    root_words(prefix)
+                ));
+            }
+            std::path::Component::ParentDir => depth -= 1,
+            std::path::Component::Normal(_) => depth += 1,
+            _ => {}
+        }
+    }
+    Ok(resolve(spec_dir, written))
+}
+
+/// What a missing file at `written` needs, for the "does not exist"
+/// message: where `data:` and `safer:` paths point.
+pub fn missing_hint(written: &str) -> &'static str {
+    if written.starts_with("data:") {
+        " (recorded data: set SAFER_DATA_DIR to the folder that holds it)"
+    } else if written.starts_with("safer:") {
+        " (`safer:` names a file safer ships: under scenes/, planners/ or specs/)"
+    } else {
+        ""
+    }
+}
+
+fn root_words(prefix: &str) -> &'static str {
+    if prefix == "data:" { "the recorded-data folder, SAFER_DATA_DIR" } else { "the files safer ships" }
+}
+
 /// Entries a `glob:` walk visits at most before it gives up: a pattern
 /// over a huge or endless tree (`/proc/**`) fails instead of hanging.
 pub const MAX_GLOB_ENTRIES: usize = 200_000;
@@ -133,6 +175,23 @@ mod tests {
         assert!(scene.is_file(), "{}", scene.display());
         assert_eq!(resolve(anywhere, "safer:/planners/idm.yaml"), shipped_dir().join("planners/idm.yaml"));
         assert_eq!(resolve(anywhere, "scenes/x.xml"), anywhere.join("scenes/x.xml"));
+    }
+
+    #[test]
+    fn prefixed_paths_stay_inside_their_roots() {
+        let here = Path::new("/tmp");
+        for escaping in ["safer:../../../../etc/passwd", "data:../..", "safer:scenes/../../x", "data:/../etc"] {
+            let e = resolve_checked(here, escaping).unwrap_err();
+            assert!(e.contains("stays inside it"), "{escaping}: {e}");
+        }
+        assert_eq!(
+            resolve_checked(here, "safer:scenes/../planners/idm.yaml").unwrap(),
+            shipped_dir().join("scenes/../planners/idm.yaml")
+        );
+        assert_eq!(resolve_checked(here, "../x.yaml").unwrap(), here.join("../x.yaml"));
+        assert!(missing_hint("safer:/etc/passwd").contains("safer ships"));
+        assert!(missing_hint("data:x").contains("SAFER_DATA_DIR"));
+        assert_eq!(missing_hint("x.yaml"), "");
     }
 
     #[test]

@@ -198,14 +198,12 @@ impl Loaded<ScenarioSpec> {
         let authored = s.map.is_some() || !s.agents.is_empty() || s.ego.is_some() || s.duration_s.is_some();
         match (&s.recorded, authored) {
             (Some(r), false) => {
-                let path = paths::resolve(self.dir(), &r.path.value);
+                let path = paths::resolve_checked(self.dir(), &r.path.value)
+                    .map_err(|e| self.invalid_at("recorded.path", e))?;
                 if !path.exists() {
                     return Err(self.reference_at(
                         "recorded.path",
-                        format!(
-                            "{} does not exist (recorded data: set SAFER_DATA_DIR or put it at ../shared/data)",
-                            path.display()
-                        ),
+                        format!("{} does not exist{}", path.display(), paths::missing_hint(&r.path.value)),
                     ));
                 }
                 Ok(())
@@ -262,7 +260,7 @@ impl Loaded<ScenarioSpec> {
     }
 
     fn build_recorded(&self, r: &RecordedSpec) -> Result<Vec<Scenario>, SpecError> {
-        let path = paths::resolve(self.dir(), &r.path.value);
+        let path = paths::resolve_checked(self.dir(), &r.path.value).map_err(|e| self.invalid(loc(&r.path), e))?;
         let mut scenarios = import::load(&path).map_err(|e| self.reference(loc(&r.path), e.to_string()))?;
         if let Some(id) = &r.scenario_id {
             scenarios.retain(|s| &s.id == id);

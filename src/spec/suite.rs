@@ -421,16 +421,20 @@ impl Loaded<SuiteSpec> {
         for (i, entry) in self.value.scenarios.iter().enumerate() {
             match entry {
                 ScenarioEntry::File(f) => {
-                    let p = paths::resolve(self.dir(), &f.value);
+                    let at = format!("scenarios[{i}]");
+                    let p = paths::resolve_checked(self.dir(), &f.value).map_err(|e| self.invalid_at(&at, e))?;
                     if !p.is_file() {
-                        let at = format!("scenarios[{i}]");
-                        return Err(self.reference_at(&at, format!("scenario spec {} does not exist", p.display())));
+                        let hint = paths::missing_hint(&f.value);
+                        return Err(
+                            self.reference_at(&at, format!("scenario spec {} does not exist{hint}", p.display()))
+                        );
                     }
                     out.push((i, ScenarioSource::Spec(p)));
                 }
                 ScenarioEntry::Glob { glob } => {
                     let at = format!("scenarios[{i}].glob");
-                    let pattern = paths::resolve(self.dir(), &glob.value);
+                    let pattern =
+                        paths::resolve_checked(self.dir(), &glob.value).map_err(|e| self.invalid_at(&at, e))?;
                     let files = paths::glob_files(&pattern).map_err(|e| self.invalid_at(&at, e))?;
                     if files.is_empty() {
                         return Err(self.reference_at(&at, format!("glob {} matches no file", pattern.display())));
@@ -439,7 +443,7 @@ impl Loaded<SuiteSpec> {
                 }
                 ScenarioEntry::Recorded { recorded, limit } => {
                     let at = format!("scenarios[{i}].recorded");
-                    let p = paths::resolve(self.dir(), &recorded.value);
+                    let p = paths::resolve_checked(self.dir(), &recorded.value).map_err(|e| self.invalid_at(&at, e))?;
                     let files = if p.is_dir() && crate::scenario::import::argoverse2::find_scenario_files(&p).is_err() {
                         crate::scenario::import::discover(&p).map_err(|e| self.reference_at(&at, e.to_string()))?
                     } else if p.exists() {
@@ -447,10 +451,7 @@ impl Loaded<SuiteSpec> {
                     } else {
                         return Err(self.reference_at(
                             &at,
-                            format!(
-                                "{} does not exist (recorded data: set SAFER_DATA_DIR or put it at ../shared/data)",
-                                p.display()
-                            ),
+                            format!("{} does not exist{}", p.display(), paths::missing_hint(&recorded.value)),
                         ));
                     };
                     if files.is_empty() {
@@ -615,7 +616,8 @@ pub(crate) fn check_test_name<T>(spec: &Loaded<T>, path: &str, name: &str) -> Re
         return Err(spec.invalid_at(
             path,
             format!(
-                "the name is {} bytes long; names are folders of the artefacts' paths and may have at most                  {MAX_NAME_BYTES}",
+                "the name is {} bytes long; names are folders of the artefacts' paths and may have at most \
+                 {MAX_NAME_BYTES}",
                 name.len()
             ),
         ));

@@ -15,6 +15,15 @@ use crate::scenario::{Scenario, TrackIndex};
 /// (`{{` and `}}` stand for literal braces).
 pub const PLACEHOLDERS: [&str; 5] = ["scenario", "variant", "seed", "format", "source"];
 
+/// `id` with every character but ASCII letters, digits, `-`, `_` and `.`
+/// replaced by `_`, and an all-dots id (`.`, `..`) by as many `_`: a
+/// scene's id as a file name or an argument, never a path or shell syntax.
+pub fn file_safe(id: &str) -> String {
+    let safe: String =
+        id.chars().map(|c| if c.is_ascii_alphanumeric() || matches!(c, '-' | '_' | '.') { c } else { '_' }).collect();
+    if safe.chars().all(|c| c == '.') { "_".repeat(safe.len().max(1)) } else { safe }
+}
+
 /// The scene and variant a planner drives.
 #[derive(Debug, Clone)]
 pub struct RolloutContext {
@@ -43,9 +52,13 @@ impl RolloutContext {
     /// The values of the placeholders (and of the `SAFER_*` variables).
     fn values(&self) -> [(&'static str, String); 5] {
         let s = &self.scenario;
+        // Ids come from the recorded files: made safe to use as file names
+        // and arguments (no `/`, no `..`, no shell syntax) before they
+        // reach a command line or an environment variable.
+        let variant = self.variant.as_deref().unwrap_or(&s.id);
         [
-            ("scenario", s.id.clone()),
-            ("variant", self.variant.clone().unwrap_or_else(|| s.id.clone())),
+            ("scenario", file_safe(&s.id)),
+            ("variant", variant.split("::").map(file_safe).collect::<Vec<_>>().join("::")),
             ("seed", self.planner_seed().map(|v| v.to_string()).unwrap_or_default()),
             ("format", s.source.format.name().to_owned()),
             ("source", self.source_file()),
@@ -158,6 +171,15 @@ pub fn check_placeholders(text: &str) -> Result<(), String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn ids_from_recorded_files_are_made_safe_for_file_names_and_arguments() {
+        assert_eq!(file_safe("x$(touch PWNED)"), "x__touch_PWNED_");
+        assert_eq!(file_safe("../../etc"), ".._.._etc");
+        assert_eq!(file_safe(".."), "__");
+        assert_eq!(file_safe(""), "_");
+        assert_eq!(file_safe("USA_US101-4_3_T-1"), "USA_US101-4_3_T-1");
+    }
 
     #[test]
     fn placeholders_are_replaced_and_unknown_ones_refused() {

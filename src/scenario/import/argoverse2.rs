@@ -358,7 +358,11 @@ fn read_parquet(bytes: &[u8], path: &Path) -> Result<Table, ImportError> {
             if v.abs() > MAX_COORDINATE_M {
                 return Err(cell.error(
                     column,
-                    format!("{} is more than {} m from the origin", crate::number::shown(v), crate::number::shown(MAX_COORDINATE_M)),
+                    format!(
+                        "{} is more than {} m from the origin",
+                        crate::number::shown(v),
+                        crate::number::shown(MAX_COORDINATE_M)
+                    ),
                 ));
             }
             Ok(v)

@@ -185,6 +185,9 @@ impl HeadingUnit {
 
 /// Parses one JSON scene.
 pub fn parse(bytes: &[u8], path: &Path) -> Result<Scenario, ImportError> {
+    // A byte-order mark (as Windows editors write) is accepted, as YAML
+    // and XML accept it; JSON parsers refuse it at line 1, column 1.
+    let bytes = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
     let scene: SceneJson = serde_json::from_slice(bytes).map_err(|e| syntax_error(&e, path))?;
     Converter { path }.scenario(scene)
 }

@@ -174,10 +174,15 @@ fn edited_ngsim_scene_is_refused(name: &str, from: &str, to: &str, message: &str
 #[test]
 fn numbers_of_1e300_in_a_recorded_scene_are_refused_in_a_short_line() {
     let cases = [
-        ("x.xml", "<x>-40.54872163</x>", "<x>1e300</x>", "(1e300, 40.24680481) is more than 10000000 m from the origin"),
+        ("x.xml", "<x>-40.54872163</x>", "<x>1e300</x>", "(1e300, 40.24680481) is more than 1e7 m from the origin"),
         ("v.xml", "<exact>16.322</exact>", "<exact>1e300</exact>", "m/s is outside the simulation bounds (±1000 m/s)"),
         ("w.xml", "<width>2.1031</width>", "<width>1e300</width>", "has size 4.7244 x 1e300 m"),
-        ("dt.xml", "timeStepSize=\"0.1\"", "timeStepSize=\"1e300\"", "timeStepSize 1e300 s is not a recording's time step"),
+        (
+            "dt.xml",
+            "timeStepSize=\"0.1\"",
+            "timeStepSize=\"1e300\"",
+            "timeStepSize 1e300 s is not a recording's time step",
+        ),
     ];
     for (name, from, to, message) in cases {
         edited_ngsim_scene_is_refused(name, from, to, message);
@@ -310,7 +315,8 @@ fn an_evaluation_over_a_tfrecord_holding_one_scene_twice_is_refused_naming_the_r
     let record = std::fs::read(&one).unwrap_or_else(|e| panic!("{}: {e}", one.display()));
     std::fs::create_dir(dir.join("scenes")).unwrap();
     std::fs::write(dir.join("scenes/twice.tfrecord"), [record.clone(), record].concat()).unwrap();
-    let out = safer_in(&dir, &[], &["evaluate", "--scenes", "scenes", "--seeds", "1", "--methods", "log"], RUN_DEADLINE);
+    let out =
+        safer_in(&dir, &[], &["evaluate", "--scenes", "scenes", "--seeds", "1", "--methods", "log"], RUN_DEADLINE);
     let t = text(&out);
     assert_eq!(out.status.code(), Some(2), "{t}");
     assert!(t.contains("scenario id `ee519cf571686d19` is in scenes/twice.tfrecord twice (records 0 and 1)"), "{t}");

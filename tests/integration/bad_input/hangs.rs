@@ -180,3 +180,57 @@ fn a_fifo_given_as_a_scene_is_refused_without_blocking() {
     let out = safer_within(&["simulate", dir.to_str().unwrap()], Duration::from_secs(30));
     assert!(!text(&out).contains("rollouts: 1"), "{}", text(&out));
 }
+
+/// A spec in `dir` named `name` holding `text`; `safer run` on it within
+/// 10 s: the exit code and everything it printed.
+fn run_spec(name: &str, spec: &str) -> (Option<i32>, String) {
+    let dir = crate::scratch::Scratch::new(&format!("bad-spec-size-{name}"));
+    let path = dir.join(name);
+    std::fs::write(&path, spec).unwrap();
+    let out = safer_within(&["run", path.to_str().unwrap()], Duration::from_secs(10));
+    (out.status.code(), text(&out))
+}
+
+#[test]
+fn a_spec_of_20_mb_on_one_line_is_refused_at_once_in_a_short_message() {
+    // It took 22 s and echoed all 20 MB to stderr.
+    let (code, said) = run_spec("huge-line.suite.yaml", &format!("name: {}\n", "a".repeat(20 << 20)));
+    assert_eq!(code, Some(2), "{said}");
+    assert!(said.contains("the file is larger than 1 MiB, the most a spec may be"), "{said}");
+    assert!(said.len() < 1_000, "{} bytes printed", said.len());
+}
+
+#[test]
+fn a_spec_of_comments_only_is_refused_by_its_size() {
+    // 200 MB of comments took 6.4 GB of memory; the size bound refuses it unread.
+    let (code, said) = run_spec("comments.suite.yaml", &"# a comment line\n".repeat(200_000));
+    assert_eq!(code, Some(2), "{said}");
+    assert!(said.contains("larger than 1 MiB"), "{said}");
+}
+
+#[test]
+fn a_long_line_under_the_size_bound_is_cut_in_the_message() {
+    let (code, said) = run_spec("long-line.suite.yaml", &format!("name: x\nscenarios: [{}]\n", "b".repeat(900 << 10)));
+    assert_eq!(code, Some(2), "{said}");
+    assert!(said.contains("missing field `planner`"), "{said}");
+    assert!(said.lines().all(|l| l.chars().count() < 400), "{said}");
+    let (code, said) =
+        run_spec("deep.suite.yaml", &format!("name: x\nscenarios: {}{}\n", "[".repeat(5000), "]".repeat(5000)));
+    assert_eq!(code, Some(2), "{said}");
+    assert!(said.contains("lists or mappings nest deeper than the parser allows"), "{said}");
+    assert!(said.contains("here (line 2, column "), "the label gives the file's column: {said}");
+    assert!(said.lines().all(|l| l.chars().count() < 400), "{said}");
+}
+
+#[test]
+fn a_womd_json_scene_with_a_byte_order_mark_is_read() {
+    // It failed with "expected value at line 1, column 1".
+    let dir = crate::scratch::Scratch::new("bad-bom");
+    let scene = fixture("folder-with-one-bad-scene/a-good-scene.json");
+    let mut bytes = b"\xEF\xBB\xBF".to_vec();
+    bytes.extend(std::fs::read(scene).unwrap());
+    let file = dir.join("bom.json");
+    std::fs::write(&file, bytes).unwrap();
+    let out = safer_within(&["inspect", file.to_str().unwrap()], Duration::from_secs(30));
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out));
+}

@@ -164,7 +164,8 @@ fn an_export_replaces_only_its_own_earlier_export() {
     // Safer's own export is rewritten on the next run.
     std::fs::remove_file(dir.join("out/fs/seed-0/seed-0.xml")).unwrap();
     for _ in 0..2 {
-        let out = safer_in(&dir, &[], &["run", "fs.yaml", "--export-commonroad", "out", "--export-commonroad-all"], DEADLINE);
+        let out =
+            safer_in(&dir, &[], &["run", "fs.yaml", "--export-commonroad", "out", "--export-commonroad-all"], DEADLINE);
         assert!(out.status.code().is_some_and(|c| c < 2), "{}", text(&out));
         assert!(std::fs::read_to_string(dir.join("out/fs/seed-0/seed-0.xml")).unwrap().contains("author=\"safer\""));
     }
@@ -186,9 +187,12 @@ fn a_report_onto_a_file_of_another_kind_is_refused() {
 #[test]
 fn a_picture_onto_the_scenario_it_draws_is_refused_even_with_force() {
     let dir = workspace("render");
-    refused(&dir, &["render", "overtake.yaml", "--out", "overtake.yaml", "--force"], "which this run reads", &[
-        "overtake.yaml",
-    ]);
+    refused(
+        &dir,
+        &["render", "overtake.yaml", "--out", "overtake.yaml", "--force"],
+        "which this run reads",
+        &["overtake.yaml"],
+    );
 }
 
 #[test]

@@ -114,6 +114,31 @@ fn assert_group_gone(pgid: u32) {
     assert_eq!(live_group_members(pgid), Vec::<u32>::new(), "processes of planner group {pgid} survived");
 }
 
+#[test]
+fn a_15_mib_error_message_is_cut_before_it_reaches_any_report() {
+    // It went whole into the JUnit report, the review page and the MCAP.
+    let (rollout, pgid, _) = run_variant(misbehaving("long-error", 1));
+    let (step, reason) = failure(&rollout);
+    assert_eq!(step, 1);
+    assert!(reason.len() < 3_000, "{} bytes", reason.len());
+    assert!(reason.contains("lost xxxx") && reason.contains("(15728645 characters in all)"), "{}", &reason[..200]);
+    assert_group_gone(pgid);
+}
+
+#[test]
+fn an_endless_reply_line_fails_as_soon_as_it_passes_the_line_limit() {
+    // It was reported only when the step timeout ran out, as "did not answer".
+    let mut config = misbehaving("endless-line", 0);
+    config.step_timeout_ms = 60_000;
+    let started = Instant::now();
+    let (rollout, pgid, _) = run_variant(config);
+    let (step, reason) = failure(&rollout);
+    assert_eq!(step, 0);
+    assert!(reason.contains("a line longer than 16777216 bytes"), "{reason}");
+    assert!(started.elapsed() < Duration::from_secs(20), "took {:?}", started.elapsed());
+    assert_group_gone(pgid);
+}
+
 #[cfg(target_os = "linux")]
 #[test]
 fn a_wrapper_without_exec_leaves_no_process_after_a_hang() {
@@ -279,7 +304,10 @@ fn a_swerve_beyond_a_cars_grip_is_stopped_naming_the_lateral_acceleration() {
     // 1.4 rad/s is inside the yaw-rate limit; at 10 m/s it pulls 14 m/s².
     let (step, reason) = limit_exceeded(&run_with_limits(misbehaving("swerve", 0)));
     assert_eq!(step, 0);
-    assert!(reason.starts_with("lateral acceleration 14.000 m/s² exceeds the vehicle limit max_lateral_accel_mps2 = 9"), "{reason}");
+    assert!(
+        reason.starts_with("lateral acceleration 14.000 m/s² exceeds the vehicle limit max_lateral_accel_mps2 = 9"),
+        "{reason}"
+    );
 }
 
 #[test]
@@ -287,7 +315,10 @@ fn a_yaw_rate_of_1e308_is_reported_as_sent() {
     // It was reported as the wrapped heading change, "yaw rate 24.053 rad/s".
     let (step, reason) = limit_exceeded(&run_with_limits(misbehaving("huge-yaw", 0)));
     assert_eq!(step, 0);
-    assert!(reason.starts_with("yaw rate sent 1e308 rad/s exceeds the vehicle limit max_yaw_rate_radps = 1.5"), "{reason}");
+    assert!(
+        reason.starts_with("yaw rate sent 1e308 rad/s exceeds the vehicle limit max_yaw_rate_radps = 1.5"),
+        "{reason}"
+    );
 }
 
 #[test]

@@ -66,7 +66,8 @@ fn wrong_way_on_cut_lanes(cut: impl Fn(&Polyline) -> Polyline) -> Vec<String> {
 fn lanes_cut_to_a_point_or_to_zero_length_leave_no_wrong_way_unmeasurable() {
     let intact = wrong_way_on_cut_lanes(Polyline::clone);
     assert_eq!(intact, ["ego drove against the traffic of lane 100 for 3.1 s from t = 0.0 s"]);
-    let unmeasurable = "cannot be measured: the scene's map has no lane (of at least 1 m) to tell the traffic's direction";
+    let unmeasurable =
+        "cannot be measured: the scene's map has no lane (of at least 1 m) to tell the traffic's direction";
     let one_point = wrong_way_on_cut_lanes(|c| Polyline::new(c.points()[..1].to_vec()));
     assert_eq!(one_point, [unmeasurable]);
     let zero_length = wrong_way_on_cut_lanes(|c| Polyline::new(vec![c.points()[0]; 2]));
@@ -117,5 +118,8 @@ fn thirty_nine_m_per_s_in_a_25_m_per_s_zone_fails_no_speeding() {
     assert!(speeding[0].1.contains("(25.0 m/s)") && speeding[0].1.ends_with("at up to 39.0 m/s"), "{speeding:?}");
     assert_eq!(unlimited, "speeding-unlimited");
     assert_eq!(unmeasurable.len(), 1, "{unmeasurable:?}");
-    assert!(unmeasurable[0].1.starts_with("cannot be measured: the scene's map gives no lane a speed limit"), "{unmeasurable:?}");
+    assert!(
+        unmeasurable[0].1.starts_with("cannot be measured: the scene's map gives no lane a speed limit"),
+        "{unmeasurable:?}"
+    );
 }
