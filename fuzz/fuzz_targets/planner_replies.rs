@@ -22,7 +22,7 @@ use safer::map::templates::StraightRoad;
 use safer::planners::external::decode_reply;
 use safer::planners::{Observation, Planner, PlannerError, PlannerOutput};
 use safer::scenario::{AgentId, AgentKind, AgentState, Scenario, ScenarioSource, Track, TrackIndex};
-use safer::sim::{SimConfig, Simulation, Termination, VehicleLimits};
+use safer::sim::{LimitMonitor, SimConfig, Simulation, Termination, VehicleLimits};
 
 /// The simulator's step, s (what `hello` announces).
 const DT_S: f64 = 0.1;
@@ -163,14 +163,23 @@ fuzz_target!(|data: &[u8]| {
     let rollout = sim.run(&mut Replay(output));
     let _ = rollout.summary();
     assert!(!rollout.states.is_empty(), "a rollout records at least its start");
-    // Every step the rollout kept is within the limits.
+    // Every step the rollout kept is within the limits, the sideways
+    // drift summed over the steps included.
     let ego = rollout.ego.0;
+    let mut monitor = LimitMonitor::new(limits);
     for (k, pair) in rollout.states.windows(2).enumerate() {
         if let (Some(now), Some(next)) = (&pair[0][ego], &pair[1][ego]) {
-            assert!(limits.check(now, next, DT_S).is_none(), "step {k} kept beyond the limits: {now:?} -> {next:?}");
+            assert!(monitor.step(now, next, DT_S).is_none(), "step {k} kept beyond the limits: {now:?} -> {next:?}");
         }
     }
-    if let Termination::VehicleLimitExceeded { reason, .. } = &rollout.termination {
-        assert!(reason.contains("max_") || reason.contains("limit"), "{reason}");
+    match &rollout.termination {
+        Termination::VehicleLimitExceeded { reason, .. } => {
+            assert!(reason.contains("max_") || reason.contains("limit"), "{reason}");
+            assert!(!reason.contains(" { ") && reason.len() < 400, "a reason in words: {reason}");
+        }
+        Termination::PlannerFailed { reason, .. } | Termination::InvalidAgentState { reason, .. } => {
+            assert!(!reason.contains(" { ") && !reason.contains("Some("), "a reason in words: {reason}");
+        }
+        _ => {}
     }
 });
