@@ -152,7 +152,8 @@ pub fn check(
                     progress::MIN_LOGGED_ROUTE_M
                 ),
             )),
-            Some(p) if p.blocked_by.is_none() && !(p.share() >= share) => out.push(fail(
+            // A NaN share (no distance logged) cannot pass.
+            Some(p) if p.blocked_by.is_none() && (p.share().is_nan() || p.share() < share) => out.push(fail(
                 "min_progress",
                 format!(
                     "ego drove {:.1} m, {:.0} % of the logged ego's {:.1} m (at least {:.0} % asked), and nothing \
