@@ -36,6 +36,7 @@ use libtest_mimic::{Arguments, Conclusion, Failed, Trial};
 
 use crate::harness::artefacts::Artefacts;
 use crate::harness::mutation::{MutantRun, MutationReport};
+use crate::harness::report::SnapshotCheck;
 use crate::harness::{self, RunResults, Suite, SuiteLoadFailure, SuiteRun, VariantOutcome, VariantRun};
 use crate::planners::Planner;
 use crate::planners::registry::{self, PlannerFactory};
@@ -192,8 +193,8 @@ fn results_of_this_process(suites: &[(PathBuf, Arc<Suite>)], load_failures: Vec<
             for k in 0..suite.spec.value.variants {
                 let name = suite.variant_name(scenario, k);
                 match ran(&name) {
-                    Some((outcome, artefacts)) => {
-                        variants.push(VariantRun { name, outcome: outcome.as_ref().clone(), artefacts })
+                    Some(Ran { outcome, artefacts, snapshot }) => {
+                        variants.push(VariantRun { name, outcome: outcome.as_ref().clone(), artefacts, snapshot })
                     }
                     None => all_ran = false,
                 }
@@ -266,26 +267,37 @@ fn suite_trials(path: &Path, context: &Arc<TrialContext>, loaded: &mut Loaded) {
 type Shared = Arc<Result<VariantOutcome, String>>;
 type WrittenArtefacts = Option<Result<Artefacts, String>>;
 
+/// A variant this process ran: its outcome, the artefacts its trial wrote
+/// and how its snapshot compared.
+#[derive(Clone)]
+struct Ran {
+    outcome: Shared,
+    artefacts: WrittenArtefacts,
+    snapshot: SnapshotCheck,
+}
+
 /// Variant outcomes computed in this process, shared by the variant trial
 /// and the suite's metric trials (nextest runs each in its own process, so
-/// metric trials then compute the variants themselves), with the artefacts
-/// the variant trial wrote.
-fn cache() -> &'static Mutex<HashMap<String, (Shared, WrittenArtefacts)>> {
-    static CACHE: OnceLock<Mutex<HashMap<String, (Shared, WrittenArtefacts)>>> = OnceLock::new();
+/// metric trials then compute the variants themselves), with what the
+/// variant trial added: the artefacts it wrote and its snapshot's verdict,
+/// so the review page tells the verdict the test did.
+fn cache() -> &'static Mutex<HashMap<String, Ran>> {
+    static CACHE: OnceLock<Mutex<HashMap<String, Ran>>> = OnceLock::new();
     CACHE.get_or_init(Default::default)
 }
 
 fn outcome(suite: &Suite, scenario: usize, index: u32) -> Shared {
     let name = suite.variant_name(&suite.scenarios[scenario], index);
-    if let Some((o, _)) = cache().lock().unwrap_or_else(|p| p.into_inner()).get(&name) {
-        return o.clone();
+    if let Some(r) = cache().lock().unwrap_or_else(|p| p.into_inner()).get(&name) {
+        return r.outcome.clone();
     }
     let o = Arc::new(harness::run_variant(suite, &suite.scenarios[scenario], index).map_err(|e| e.to_string()));
-    cache().lock().unwrap_or_else(|p| p.into_inner()).entry(name).or_insert((o, None)).0.clone()
+    let entry = Ran { outcome: o, artefacts: None, snapshot: SnapshotCheck::NotCompared };
+    cache().lock().unwrap_or_else(|p| p.into_inner()).entry(name).or_insert(entry).outcome.clone()
 }
 
-/// The outcome and artefacts of a variant this process ran.
-fn ran(name: &str) -> Option<(Shared, WrittenArtefacts)> {
+/// What this process has of a variant it ran.
+fn ran(name: &str) -> Option<Ran> {
     cache().lock().unwrap_or_else(|p| p.into_inner()).get(name).cloned()
 }
 
@@ -320,7 +332,7 @@ fn variant_trial(suite: &Suite, context: &TrialContext, scenario: usize, index: 
             Err(e) => verdict.push_str(&format!("  (could not write artefacts: {e})\n")),
         }
         if let Some(entry) = cache().lock().unwrap_or_else(|p| p.into_inner()).get_mut(&o.name) {
-            entry.1 = Some(written.map_err(|e| e.to_string()));
+            entry.artefacts = Some(written.map_err(|e| e.to_string()));
         }
         // Printed before the snapshot comparison, whose diff insta prints itself.
         eprintln!("{}:\n{verdict}", o.name);
@@ -337,6 +349,14 @@ fn variant_trial(suite: &Suite, context: &TrialContext, scenario: usize, index: 
     let compared = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
         settings.bind(|| insta::assert_yaml_snapshot!(snapshot.as_str(), summary))
     }));
+    let check = match (&compared, existed) {
+        (Ok(()), _) => SnapshotCheck::Matches,
+        (Err(_), true) => SnapshotCheck::Differs(file.clone()),
+        (Err(_), false) => SnapshotCheck::New(file.clone()),
+    };
+    if let Some(entry) = cache().lock().unwrap_or_else(|p| p.into_inner()).get_mut(&o.name) {
+        entry.snapshot = check;
+    }
     let snapshot_note = compared.err().map(|_| {
         let what = if existed { "differs (diff above" } else { "is new (content above" };
         format!("  snapshot {} {what}; `cargo insta review` to accept)\n", file.display())

@@ -445,6 +445,7 @@ fn suite_run(
             name: suite.variant_name(&suite.scenarios[job.scenario], job.index),
             outcome: done.outcome.map_err(|e| e.to_string()),
             artefacts: done.artefacts,
+            snapshot: safer::harness::report::SnapshotCheck::NotCompared,
         })
         .collect();
     SuiteRun {

@@ -23,6 +23,8 @@
 
 use std::fmt::Write as _;
 
+#[cfg(test)]
+use super::report::SnapshotCheck;
 use super::report::{RunResults, SuiteLoadFailure, SuiteRun, VariantRun};
 use super::{MetricCheck, VariantOutcome};
 use crate::record::markup::{escape_attribute as attr, escape_text as text};
@@ -152,14 +154,26 @@ fn suite(out: &mut String, run: &SuiteRun) -> Counts {
 fn variant_verdict(variant: &VariantRun) -> (Verdict, Vec<String>) {
     let outcome = match &variant.outcome {
         Err(e) => return (Verdict::Error(format!("could not run the variant: {e}"), e.clone()), Vec::new()),
-        Ok(o) if o.failures.is_empty() => return (Verdict::Passed, Vec::new()),
+        Ok(o) if o.failures.is_empty() => match variant.snapshot.failure() {
+            None => return (Verdict::Passed, Vec::new()),
+            Some(snapshot) => return (Verdict::Failure(format!("snapshot: {snapshot}"), what_happened(o)), Vec::new()),
+        },
         Ok(o) => o,
     };
-    let message =
-        outcome.failures.iter().map(|f| format!("{}: {}", f.criterion, f.what)).collect::<Vec<_>>().join("; ");
+    let snapshot = variant.snapshot.failure().map(|s| format!("snapshot: {s}"));
+    let message = outcome
+        .failures
+        .iter()
+        .map(|f| format!("{}: {}", f.criterion, f.what))
+        .chain(snapshot.clone())
+        .collect::<Vec<_>>()
+        .join("; ");
     let mut body = String::new();
     for f in &outcome.failures {
         let _ = writeln!(body, "✗ {}: {}", f.criterion, f.what);
+    }
+    if let Some(snapshot) = &snapshot {
+        let _ = writeln!(body, "✗ {snapshot}");
     }
     body.push_str(&what_happened(outcome));
     let mut attachments = Vec::new();
@@ -279,6 +293,7 @@ mod tests {
             name: format!("{}::broken::seed-0", run.name),
             outcome: Err("planner `x` could not be started: no such file".into()),
             artefacts: None,
+            snapshot: SnapshotCheck::NotCompared,
         });
         let results = RunResults {
             load_failures: vec![SuiteLoadFailure {

@@ -23,6 +23,7 @@ use super::methods::{self, MapEncodings, MethodSettings, ModelSet};
 use crate::eval::escape::{EscapeBudget, EscapeSearch, PlannedPath, search_escape};
 use crate::eval::{ConflictReach, min_time_to_collision};
 use crate::planners::external::{ExternalPlanner, ExternalPlannerConfig, RolloutContext};
+use crate::planners::panic_guard::PanicGuard;
 use crate::planners::{
     BuiltinPlanner, FaultOperator, IdmPlanner, MutantPlanner, Observation, Planner, PlannerError, PlannerOutput,
 };
@@ -290,9 +291,23 @@ pub fn make_planner(adapter: &PlannerAdapter, context: RolloutContext) -> Result
     match adapter {
         PlannerAdapter::Builtin { planner: BuiltinPlanner::Idm, idm, .. } => Ok(Box::new(IdmPlanner::new(*idm))),
         PlannerAdapter::Builtin { planner, .. } => Ok(planner.instantiate(scenario, context.ego)),
-        PlannerAdapter::InProcess { name } => crate::planners::registry::lookup(name)
-            .map(|factory| factory(scenario, context.ego))
-            .ok_or_else(|| HarnessError::UnregisteredPlanner(name.clone())),
+        PlannerAdapter::InProcess { name } => {
+            let factory = crate::planners::registry::lookup(name)
+                .ok_or_else(|| HarnessError::UnregisteredPlanner(name.clone()))?;
+            // A team's planner may panic, in its constructor or in `plan`:
+            // its variant fails at the step, as a crashed process's does.
+            let made = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| factory(scenario, context.ego)));
+            match made {
+                Ok(planner) => Ok(Box::new(PanicGuard::new(planner)) as Box<dyn Planner>),
+                Err(payload) => Err(HarnessError::PlannerStart {
+                    planner: name.clone(),
+                    source: crate::planners::PlannerError::Panicked {
+                        planner: name.clone(),
+                        message: crate::planners::panic_guard::panic_message(payload.as_ref()),
+                    },
+                }),
+            }
+        }
         PlannerAdapter::External { name, spec, working_dir } => {
             let mut config = ExternalPlannerConfig::new(name.clone(), spec.command.clone());
             config.args = spec.args.clone();

@@ -82,12 +82,42 @@ pub struct VariantRun {
     /// The recording and picture of a failing variant, or why they could
     /// not be written; `None` for a passing variant (or when none were asked for).
     pub artefacts: Option<Result<Artefacts, String>>,
+    /// How its summary compared with its stored snapshot.
+    pub snapshot: SnapshotCheck,
+}
+
+/// How a variant's summary compared with its stored insta snapshot: the
+/// test runner compares (a difference fails the test, and so the variant
+/// in every report), `safer run` does not.
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub enum SnapshotCheck {
+    /// Not compared (`safer run`, or a variant that could not run).
+    #[default]
+    NotCompared,
+    /// The same as the stored snapshot.
+    Matches,
+    /// Different from the stored snapshot at this path.
+    Differs(std::path::PathBuf),
+    /// No snapshot stored yet at this path.
+    New(std::path::PathBuf),
+}
+
+impl SnapshotCheck {
+    /// Why the comparison fails the variant, or `None` when it does not.
+    pub fn failure(&self) -> Option<String> {
+        match self {
+            Self::NotCompared | Self::Matches => None,
+            Self::Differs(path) => Some(format!("the summary differs from its snapshot {}", path.display())),
+            Self::New(path) => Some(format!("no snapshot accepted yet at {}", path.display())),
+        }
+    }
 }
 
 impl VariantRun {
-    /// It ran and met every criterion.
+    /// It ran, met every criterion, and matched its snapshot where one was
+    /// compared: the test runner's verdict.
     pub fn passed(&self) -> bool {
-        self.outcome.as_ref().is_ok_and(|o| o.failures.is_empty())
+        self.outcome.as_ref().is_ok_and(|o| o.failures.is_empty()) && self.snapshot.failure().is_none()
     }
 
     /// The name without the suite: `scenario::seed-k`.
@@ -161,7 +191,12 @@ pub(crate) mod tests_support {
             file: "specs/suites/unit.yaml".into(),
             name: "unit".into(),
             planner: "constant-velocity".into(),
-            variants: vec![VariantRun { name, outcome: Ok(outcome), artefacts: None }],
+            variants: vec![VariantRun {
+                name,
+                outcome: Ok(outcome),
+                artefacts: None,
+                snapshot: SnapshotCheck::NotCompared,
+            }],
             metrics: Some(metrics),
             checks: vec![MetricCheck { name: "collision_rate", value: Some(1.0), result: Ok(()) }],
             mutation: None,

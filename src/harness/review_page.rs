@@ -332,14 +332,22 @@ fn variant_row(h: &mut String, si: usize, vi: usize, v: &VariantRun) {
         }
         Ok(o) => {
             let s = o.summary();
-            let verdict = if o.failures.is_empty() {
+            let snapshot = v.snapshot.failure().map(|f| esc(&format!("snapshot: {f}")));
+            let verdict = if v.passed() {
                 "<span class=\"badge pass\">PASS</span>".to_string()
+            } else if o.failures.is_empty() {
+                // Only the snapshot failed: nothing more to show below.
+                format!("<span class=\"badge fail\">FAIL</span> {}", snapshot.clone().unwrap_or_default())
             } else {
-                let criteria: Vec<String> =
-                    o.failures.iter().map(|f| esc(&format!("{}: {}", f.criterion, f.what))).collect();
+                let criteria: Vec<String> = o
+                    .failures
+                    .iter()
+                    .map(|f| esc(&format!("{}: {}", f.criterion, f.what)))
+                    .chain(snapshot.clone())
+                    .collect();
                 format!("<a class=\"badge fail\" href=\"#v-{si}-{vi}\">FAIL</a> {}", criteria.join("<br/>"))
             };
-            let class = if o.failures.is_empty() { "pass" } else { "fail" };
+            let class = if v.passed() { "pass" } else { "fail" };
             let _ = writeln!(
                 h,
                 "<tr class=\"{class}\"><td>{}</td><td>{verdict}</td><td>{}</td><td class=\"num\">{}</td><td>{}</td>\

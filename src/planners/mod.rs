@@ -7,6 +7,7 @@ pub mod builtin;
 pub mod evasive;
 pub mod external;
 pub mod mutant;
+pub mod panic_guard;
 pub mod registry;
 
 pub use builtin::{BuiltinPlanner, ConstantVelocityPlanner, IdmPlanner, LogReplayPlanner};
@@ -235,6 +236,14 @@ pub enum PlannerError {
         /// When, e.g. `at step 12` or `during startup`.
         during: String,
         /// Its message.
+        message: String,
+    },
+    /// An in-process planner panicked in `plan` ([`panic_guard`]).
+    #[error("planner `{planner}` panicked: {message}")]
+    Panicked {
+        /// Planner name.
+        planner: String,
+        /// The panic's message (cut to 2 000 characters).
         message: String,
     },
 }

@@ -127,3 +127,62 @@ fn a_suite_without_a_mutation_score_has_no_mutation_test() {
     let runner = Runner::new(&*root).planner("runner-test-cv-2", |_, _| ConstantVelocityPlanner);
     assert!(runner.trials().iter().all(|t| !t.name().contains("mutation")));
 }
+
+/// Panics in `plan` at its sixth call.
+struct PanicsAtStep5(usize);
+
+impl safer::planners::Planner for PanicsAtStep5 {
+    fn name(&self) -> &str {
+        "boom"
+    }
+    fn plan(
+        &mut self,
+        o: &safer::planners::Observation<'_>,
+    ) -> Result<safer::planners::PlannerOutput, safer::planners::PlannerError> {
+        self.0 += 1;
+        assert!(self.0 <= 5, "boom");
+        IdmPlanner::new(Default::default()).plan(o)
+    }
+}
+
+/// A suite file `name.yaml` over the overtake scene naming `planner`.
+fn add_suite(root: &Path, name: &str, planner: &str) {
+    let scenario = Path::new(env!("CARGO_MANIFEST_DIR")).join("specs/scenarios/highway-overtake.yaml");
+    let suite = format!(
+        "name: {name}\nscenarios:\n  - {}\nplanner: {{ rust: {planner} }}\nvariants: 1\n\
+         acceptance:\n  variant: {{ no_collision: true }}\n",
+        scenario.display()
+    );
+    std::fs::write(root.join(format!("specs/suites/{name}.yaml")), suite).unwrap();
+}
+
+#[test]
+fn the_review_page_tells_the_verdicts_the_tests_gave_for_a_snapshot_diff_a_panic_and_a_collision() {
+    let root = crate::scratch::Scratch::new("runner-one-verdict");
+    std::fs::create_dir_all(root.join("specs/suites")).unwrap();
+    std::fs::create_dir_all(root.join("snapshots")).unwrap();
+    add_suite(&root, "diff", "runner-test-idm-diff");
+    add_suite(&root, "boom", "runner-test-boom");
+    add_suite(&root, "crash", "runner-test-cv-crash");
+    // The IDM ego passes the overtake scene; its stored snapshot is stale.
+    std::fs::write(
+        root.join("snapshots/diff__highway-overtake__seed-0.snap"),
+        "---\nsource: stale\n---\nstale: true\n",
+    )
+    .unwrap();
+    let runner = Runner::new(&*root)
+        .planner("runner-test-idm-diff", |_, _| IdmPlanner::new(Default::default()))
+        .planner("runner-test-boom", |_, _| PanicsAtStep5(0))
+        .planner("runner-test-cv-crash", |_, _| ConstantVelocityPlanner);
+    let conclusion = runner.run_with(&one_thread());
+    assert_eq!((conclusion.num_passed, conclusion.num_failed), (0, 3), "every test fails");
+    let page = std::fs::read_to_string(root.join("target/safer-artifacts/review/index.html")).unwrap();
+    assert!(page.contains("FAIL: 3 variants, 3 failed"), "the page agrees with the tests");
+    assert!(page.contains("snapshot: the summary differs from its snapshot"), "the diff is named");
+    assert!(page.contains("planner `boom` panicked: boom"), "the panic is the variant's failure");
+    // The panicking variant has its recording and picture, as a crashed process's has.
+    for file in ["seed-0.mcap", "seed-0.svg"] {
+        let path = root.join("target/safer-artifacts/boom/highway-overtake").join(file);
+        assert!(path.is_file(), "{} missing", path.display());
+    }
+}
