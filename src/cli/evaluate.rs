@@ -648,7 +648,8 @@ pub(super) fn run(
     let records = evaluation::evaluate(&scenes, request, &models, Some(&search), &|| bar.inc(1));
     bar.finish_and_clear();
     for r in records.iter().filter(|r| r.error.is_some()).take(5) {
-        eprintln!("error: {} {:?} seed {}: {}", r.scenario, r.method, r.seed, r.error.as_deref().unwrap_or(""));
+        let method = safer::spec::spec_name(&r.method);
+        eprintln!("error: {} {method} seed {}: {}", r.scenario, r.seed, r.error.as_deref().unwrap_or(""));
     }
     let settings = EvaluationSettings::of(request, &selection, witness);
     let scene_list = SceneList { digest, ids: scenes.iter().map(|s| s.id.clone()).collect() };

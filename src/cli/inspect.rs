@@ -92,7 +92,10 @@ pub(super) fn run(file: &Path, json: bool) -> Result<ExitCode, CliError> {
             m.traffic_signals
         );
         let role = |r: &Option<RoleSummary>| match r {
-            Some(r) => format!("{} ({:?}, by {:?})", r.id, r.kind, r.assigned_by),
+            Some(r) => {
+                let (kind, by) = (safer::spec::spec_name(&r.kind), safer::spec::spec_name(&r.assigned_by));
+                format!("{} ({kind}, by {by})", r.id)
+            }
             None => "none".to_string(),
         };
         println!("ego           {}", role(&s.ego));

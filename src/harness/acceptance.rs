@@ -73,7 +73,12 @@ pub fn check(
         let fault = if c.at_fault { "" } else { ", not at fault" };
         out.push(fail(
             "no_collision",
-            format!("ego collided with agent {}{role} at t = {:.1} s ({:?}{fault})", c.other, c.time_s, c.kind),
+            format!(
+                "ego collided with agent {}{role} at t = {:.1} s ({}{fault})",
+                c.other,
+                c.time_s,
+                c.kind.describe()
+            ),
         ));
     }
     if criteria.no_at_fault_collision
@@ -84,7 +89,12 @@ pub fn check(
         let role = if c.with_cbv { " (the CBV)" } else { "" };
         out.push(fail(
             "no_at_fault_collision",
-            format!("ego caused a collision ({:?}) with agent {}{role} at t = {:.1} s", c.kind, c.other, c.time_s),
+            format!(
+                "ego caused a collision ({}) with agent {}{role} at t = {:.1} s",
+                c.kind.describe(),
+                c.other,
+                c.time_s
+            ),
         ));
     }
     if criteria.no_off_road {
@@ -122,7 +132,7 @@ pub fn check(
     {
         out.push(fail(
             "no_red_light",
-            format!("ego passed the stop line of lane {} on {:?} at t = {:.1} s", r.lane.0, r.state, r.time_s),
+            format!("ego passed the stop line of lane {} on {} at t = {:.1} s", r.lane.0, r.state.describe(), r.time_s),
         ));
     }
     if criteria.no_speeding {

@@ -143,7 +143,7 @@ pub(crate) mod tests_support {
         let failures = if failing {
             vec![AcceptanceFailure {
                 criterion: "no_collision".into(),
-                what: "ego collided with agent cbv-2 at t = 3.9 s (ActiveFront)".into(),
+                what: "ego collided with agent cbv-2 at t = 3.9 s (front contact)".into(),
             }]
         } else {
             Vec::new()

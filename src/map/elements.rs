@@ -223,6 +223,21 @@ impl SignalState {
         }
     }
 
+    /// In words, for messages (`a red arrow`).
+    pub fn describe(self) -> &'static str {
+        match self {
+            Self::Unknown => "an unknown signal",
+            Self::ArrowStop => "a red arrow",
+            Self::ArrowCaution => "a yellow arrow",
+            Self::ArrowGo => "a green arrow",
+            Self::Stop => "red",
+            Self::Caution => "yellow",
+            Self::Go => "green",
+            Self::FlashingStop => "flashing red",
+            Self::FlashingCaution => "flashing yellow",
+        }
+    }
+
     /// Whether a vehicle facing this signal must stop.
     pub fn requires_stop(self) -> bool {
         matches!(self, Self::ArrowStop | Self::Stop | Self::FlashingStop)

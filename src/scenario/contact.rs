@@ -28,6 +28,17 @@ pub enum EgoCollisionKind {
 }
 
 impl EgoCollisionKind {
+    /// In words, for messages (`front contact`).
+    pub fn describe(self) -> &'static str {
+        match self {
+            Self::StoppedEgo => "the ego stopped",
+            Self::StoppedOther => "the ego into a stopped agent",
+            Self::ActiveFront => "front contact",
+            Self::ActiveRear => "hit from behind",
+            Self::ActiveLateral => "side contact",
+        }
+    }
+
     /// Classifies a contact between the ego and another agent.
     pub fn classify(ego: &AgentState, other: &AgentState) -> Self {
         const STOPPED_MPS: f64 = 0.05;

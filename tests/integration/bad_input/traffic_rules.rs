@@ -37,7 +37,7 @@ fn running_a_red_light_fails_no_red_light_and_stopping_for_it_passes() {
     let failed = failures("red-light-constant-velocity.suite.yaml");
     assert_eq!(failed.len(), 1, "{failed:?}");
     assert_eq!(failed[0].0, "no_red_light");
-    assert!(failed[0].1.starts_with("ego passed the stop line of lane 10 on Stop at t = 1."), "{failed:?}");
+    assert!(failed[0].1.starts_with("ego passed the stop line of lane 10 on red at t = 1."), "{failed:?}");
     assert_eq!(failures("red-light-idm.suite.yaml"), []);
 }
 
