@@ -346,9 +346,9 @@ fn variant_trial(suite: &Suite, context: &TrialContext, scenario: usize, index: 
     let snapshot = o.name.replace("::", "__");
     let file = context.snapshots.join(format!("{snapshot}.snap"));
     let existed = file.is_file();
-    let compared = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-        settings.bind(|| insta::assert_yaml_snapshot!(snapshot.as_str(), summary))
-    }));
+    // The snapshot names the suite it belongs to, not this file.
+    settings.set_input_file(&suite.spec.path);
+    let compared = quietly(|| settings.bind(|| insta::assert_yaml_snapshot!(snapshot.as_str(), summary)));
     let check = match (&compared, existed) {
         (Ok(()), _) => SnapshotCheck::Matches,
         (Err(_), true) => SnapshotCheck::Differs(file.clone()),
@@ -358,14 +358,50 @@ fn variant_trial(suite: &Suite, context: &TrialContext, scenario: usize, index: 
         entry.snapshot = check;
     }
     let snapshot_note = compared.err().map(|_| {
-        let what = if existed { "differs (diff above" } else { "is new (content above" };
-        format!("  snapshot {} {what}; `cargo insta review` to accept)\n", file.display())
+        if existed {
+            format!(
+                "  snapshot {} differs (diff above); accept it with `cargo insta review`, or \
+                 `INSTA_UPDATE=always cargo test` without cargo-insta\n",
+                file.display()
+            )
+        } else {
+            format!(
+                "  snapshot {} is new (content above): a new suite's first run records its snapshots; accept \
+                 them with `cargo insta accept`, or `INSTA_UPDATE=always cargo test` without cargo-insta\n",
+                file.display()
+            )
+        }
     });
     match (o.failures.is_empty(), snapshot_note) {
         (true, None) => Ok(()),
         (true, Some(note)) => Err(Failed::from(note)),
         (false, note) => Err(Failed::from(verdict + &note.unwrap_or_default())),
     }
+}
+
+thread_local! {
+    /// Set while a snapshot is compared on this thread: insta reports a
+    /// mismatch by panicking, and the trial already says what it means.
+    static QUIET_PANICS: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+}
+
+/// Runs `compare`, catching its panic without the panic hook's message and
+/// backtrace (60 lines a mismatch with `RUST_BACKTRACE=1`); panics on other
+/// threads, and outside `compare`, are reported as before.
+fn quietly(compare: impl FnOnce()) -> std::thread::Result<()> {
+    static HOOK: OnceLock<()> = OnceLock::new();
+    HOOK.get_or_init(|| {
+        let previous = std::panic::take_hook();
+        std::panic::set_hook(Box::new(move |info| {
+            if !QUIET_PANICS.with(std::cell::Cell::get) {
+                previous(info);
+            }
+        }));
+    });
+    QUIET_PANICS.with(|q| q.set(true));
+    let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(compare));
+    QUIET_PANICS.with(|q| q.set(false));
+    result
 }
 
 fn metric_trial(suite: &Suite, metric: &'static str) -> Result<(), Failed> {
