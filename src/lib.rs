@@ -19,7 +19,7 @@
 //! ```
 //! use safer::prelude::*;
 //!
-//! /// Holds its lane's heading and brakes for anyone within 20 m ahead.
+//! /// Drives straight on (no turning) and brakes for anyone within 20 m ahead.
 //! struct Cautious;
 //!
 //! impl Planner for Cautious {
@@ -43,9 +43,22 @@
 //! # let _ = Cautious.name();
 //! ```
 //!
-//! Then register it in the crate's scenario test target (`tests/scenarios.rs`,
-//! with `harness = false` in `Cargo.toml`) and name it in a suite with
-//! `planner: { rust: cautious }`:
+//! Add safer as a dev-dependency with a test target of your own, and
+//! optimise safer in debug builds (it does much numeric work):
+//!
+//! ```toml
+//! [dev-dependencies]
+//! safer = "0.1"
+//!
+//! [[test]]
+//! name = "scenarios"
+//! harness = false
+//!
+//! [profile.dev.package."*"]
+//! opt-level = 3
+//! ```
+//!
+//! Register the planner in that target (`tests/scenarios.rs`):
 //!
 //! ```no_run
 //! # use safer::prelude::*;
@@ -63,8 +76,24 @@
 //! }
 //! ```
 //!
+//! and name it in a suite, `specs/suites/mine.yaml`:
+//!
+//! ```yaml
+//! name: mine
+//! scenarios:
+//!   - safer:specs/scenarios/highway-overtake.yaml
+//! planner: { rust: cautious }
+//! variants: 3
+//! acceptance:
+//!   variant: { no_collision: true, min_gap_m: 0.5 }
+//! ```
+//!
 //! `cargo test` now runs every variant of every suite; `cargo test --
 //! FILTER`, `--list` and cargo-nextest's partitions work as for any test.
+//! The first run of a new suite records each variant's outcome as an insta
+//! snapshot in `snapshots/` and fails until you accept them
+//! (`cargo insta accept`, or `INSTA_UPDATE=always cargo test` without
+//! cargo-insta); after that a changed outcome fails until reviewed.
 //! Planners in other languages speak the JSON-lines planner protocol
 //! instead (`docs/planner-protocol.md`; a Python kit is in `python/`).
 //!

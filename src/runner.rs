@@ -3,10 +3,19 @@
 //! lines,
 //!
 //! ```no_run
-//! // tests/scenarios.rs of a planner crate
+//! # use safer::prelude::*;
+//! # #[derive(Default)]
+//! # struct MyAdapter;
+//! # impl Planner for MyAdapter {
+//! #     fn name(&self) -> &str { "my-planner" }
+//! #     fn plan(&mut self, _: &Observation<'_>) -> Result<PlannerOutput, PlannerError> {
+//! #         Ok(PlannerOutput::Control(Action::default()))
+//! #     }
+//! # }
+//! // tests/scenarios.rs of a planner crate; MyAdapter implements `Planner`
 //! fn main() {
 //!     safer::runner::Runner::new(env!("CARGO_MANIFEST_DIR"))
-//!         .planner("my-planner", |_scenario, _ego| safer::planners::ConstantVelocityPlanner)
+//!         .planner("my-planner", |_scenario, _ego| MyAdapter::default())
 //!         .run()
 //! }
 //! ```
@@ -148,9 +157,18 @@ impl Runner {
 
     /// Runs the trials selected by `args`. When a variant or metric
     /// failed, it also writes the review page of what ran
-    /// ([`harness::review_page`]) to `ARTEFACTS/review/index.html` and says
+    /// (one HTML page with every variant's verdict, picture and animation)
+    /// to `ARTEFACTS/review/index.html` and says
     /// where; not under nextest, whose processes each run one test.
     pub fn run_with(&self, args: &Arguments) -> Conclusion {
+        if cfg!(debug_assertions) && !args.list {
+            // A planner crate's plain `cargo test` builds its dependencies
+            // unoptimised, and safer's numeric work is then many times slower.
+            eprintln!(
+                "note: safer runs unoptimised in this build; add `[profile.dev.package.\"*\"] opt-level = 3` to \
+                 your Cargo.toml (or test with `--release`) for suites many times faster"
+            );
+        }
         let loaded = self.load();
         let (suites, load_failures) = (loaded.suites, loaded.load_failures);
         let conclusion = libtest_mimic::run(args, loaded.trials);
