@@ -286,6 +286,23 @@ mod tests {
     }
 
     #[test]
+    fn a_variant_whose_snapshot_differs_fails_as_its_test_did() {
+        let mut run = passing_run();
+        run.variants[0].snapshot = SnapshotCheck::Differs("snapshots/unit__crossing__seed-0.snap".into());
+        assert!(!run.variants[0].passed() && !run.passed());
+        let (verdict, _) = variant_verdict(&run.variants[0]);
+        match verdict {
+            Verdict::Failure(message, _) => assert_eq!(
+                message,
+                "snapshot: the summary differs from its snapshot snapshots/unit__crossing__seed-0.snap"
+            ),
+            _ => panic!("a snapshot difference is a failure"),
+        }
+        run.variants[0].snapshot = SnapshotCheck::Matches;
+        assert!(matches!(variant_verdict(&run.variants[0]).0, Verdict::Passed));
+    }
+
+    #[test]
     fn a_failing_variant_an_error_and_a_load_failure_are_counted_and_described() {
         let mut run = passing_run();
         run.variants.push(failing_variant(&run.name));

@@ -179,6 +179,7 @@ pub(crate) mod tests_support {
                 unshrunk: None,
             })),
             name,
+            snapshot: SnapshotCheck::NotCompared,
         }
     }
 
