@@ -890,6 +890,9 @@ fn table_writer(json: Option<&Path>) -> Box<dyn std::io::Write> {
 
 /// Scenario files under `path` (or `path` itself when it is a file).
 fn scene_paths(path: &std::path::Path) -> Result<Vec<PathBuf>, CliError> {
+    if let Err(e) = std::fs::metadata(path) {
+        return Err(CliError::Usage(format!("{}: no such file or folder ({e})", path.display())));
+    }
     let is_av2_folder = safer::scenario::import::argoverse2::find_scenario_files(path).is_ok();
     if path.is_dir() && !is_av2_folder {
         let found = safer::scenario::import::discover(path)?;
