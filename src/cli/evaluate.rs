@@ -636,7 +636,7 @@ pub(super) fn run(
         None => scenes,
     };
     let models = ModelSet::shipped();
-    let total = (scenes.len() * request.methods.len() * request.seeds as usize) as u64;
+    let total = (scenes.len() * request.methods.len() * request.stage2_cbv.len() * request.seeds as usize) as u64;
     let bar = ProgressBar::new(total).with_style(
         ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} variants ({per_sec}, eta {eta})")
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
@@ -645,7 +645,14 @@ pub(super) fn run(
     let search = move |scenario: &Scenario, stage1: &safer::sim::Rollout| -> bool {
         search_rollout_witness(scenario, stage1, witness.road, budget).is_found()
     };
-    let records = evaluation::evaluate(&scenes, request, &models, Some(&search), &|| bar.inc(1));
+    let plain = super::progress::PlainProgress::off_terminal("evaluate", "variants", total as usize);
+    let tick = || {
+        bar.inc(1);
+        if let Some(p) = &plain {
+            p.tick();
+        }
+    };
+    let records = evaluation::evaluate(&scenes, request, &models, Some(&search), &tick);
     bar.finish_and_clear();
     for r in records.iter().filter(|r| r.error.is_some()).take(5) {
         let method = safer::spec::spec_name(&r.method);

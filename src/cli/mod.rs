@@ -25,6 +25,7 @@ mod feasibility_eval;
 mod inspect;
 mod prior_dataset;
 mod prior_fit;
+mod progress;
 mod realism;
 mod render;
 mod run;

@@ -137,12 +137,15 @@ struct Progress {
     total: usize,
     done: Mutex<usize>,
     on: bool,
+    /// Off a terminal: plain lines instead.
+    plain: Option<super::progress::PlainProgress>,
 }
 
 impl Progress {
     fn new(total: usize) -> Self {
         let on = std::io::stderr().is_terminal() && total > 0;
-        let p = Self { total, done: Mutex::new(0), on };
+        let plain = super::progress::PlainProgress::off_terminal("run", "variants", total);
+        let p = Self { total, done: Mutex::new(0), on, plain };
         p.show(0);
         p
     }
@@ -158,6 +161,9 @@ impl Progress {
     fn tick(&self) {
         // The lock keeps the printed count in order across rayon threads;
         // a poisoned lock only means another thread panicked mid-print.
+        if let Some(plain) = &self.plain {
+            plain.tick();
+        }
         let mut done = self.done.lock().unwrap_or_else(|e| e.into_inner());
         *done += 1;
         self.show(*done);

@@ -80,6 +80,8 @@ fn an_evaluation_run_in_three_parts_and_merged_is_the_one_run() {
         let stderr = String::from_utf8_lossy(&out.stderr).to_string();
         ok(out);
         assert!(stderr.contains(&format!("partition {k}/3: 1 of 3 scenes")), "{stderr}");
+        // Off a terminal, progress comes as plain lines.
+        assert!(stderr.contains("evaluate: 4/4 variants done"), "{stderr}");
         parts.push(part);
     }
     let merged = out.join("merged.json");
