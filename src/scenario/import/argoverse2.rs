@@ -186,7 +186,7 @@ fn parse_inner(
     path: &Path,
     map_path: Option<&Path>,
 ) -> Result<Scenario, ImportError> {
-    let table = read_parquet_guarded(scenario_bytes, path)?;
+    let table = read_parquet_within_deadline(scenario_bytes, path)?;
     let map = read_map(map_bytes, map_path.unwrap_or(path), map_path.is_none())?;
 
     let Table { scenario_id, focal_track_id, city, num_steps, tracks } = table;
@@ -240,6 +240,38 @@ struct Table {
     num_steps: usize,
     /// In order of first appearance in the file.
     tracks: Vec<Track>,
+}
+
+/// Longest a parquet file may take to decode. A real scenario file takes
+/// milliseconds; fuzzing found 77 bytes whose footer keeps the `parquet`
+/// crate's metadata decoder busy for seconds, time that grows with such
+/// a file, so the decode runs on its own thread and is given up on here.
+const PARQUET_DEADLINE: std::time::Duration = std::time::Duration::from_secs(20);
+
+/// [`read_parquet_guarded`] within [`PARQUET_DEADLINE`]. A decode that
+/// runs over is left to finish on its thread (nothing can stop it inside
+/// the decoder); its file is reported as malformed at once.
+fn read_parquet_within_deadline(bytes: &[u8], path: &Path) -> Result<Table, ImportError> {
+    let (owned, owned_path) = (bytes.to_vec(), path.to_path_buf());
+    let (tx, rx) = std::sync::mpsc::channel();
+    let spawned = std::thread::Builder::new().name("parquet-decode".into()).spawn(move || {
+        let _ = tx.send(read_parquet_guarded(&owned, &owned_path));
+    });
+    if spawned.is_err() {
+        // No thread to spare: decode here, without a deadline.
+        return read_parquet_guarded(bytes, path);
+    }
+    rx.recv_timeout(PARQUET_DEADLINE).unwrap_or_else(|_| {
+        Err(ImportError::malformed(
+            path,
+            FORMAT,
+            Location::File,
+            format!(
+                "corrupt parquet: decoding its metadata took over {} s (a real scenario file takes milliseconds)",
+                PARQUET_DEADLINE.as_secs()
+            ),
+        ))
+    })
 }
 
 /// [`read_parquet`], with a panic inside the parquet decoder (seen on
@@ -779,6 +811,21 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(err.contains("lane_segments[1].centerline"), "{err}");
+    }
+
+    #[test]
+    fn a_parquet_footer_that_keeps_the_decoder_busy_ends_in_an_error() {
+        // 77 bytes the fuzzer found: the parquet crate's metadata decoder
+        // spends seconds on them (over 30 s under the fuzzer's sanitizer).
+        const SLOW: [u8; 77] = [
+            66, 66, 163, 163, 163, 163, 6, 249, 250, 121, 242, 249, 249, 249, 249, 6, 207, 206, 206, 206, 6, 6, 250,
+            253, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 14, 217, 217, 217, 66, 163, 163, 163, 163, 6, 6, 6, 6, 6, 6, 134, 6,
+            6, 6, 6, 6, 6, 6, 6, 6, 250, 253, 6, 6, 6, 6, 6, 6, 0, 64, 0, 0, 0, 80, 65, 82, 49,
+        ];
+        let started = std::time::Instant::now();
+        let err = read_parquet_within_deadline(&SLOW, Path::new("s.parquet")).err().expect("not a parquet file");
+        assert!(err.to_string().contains("parquet"), "{err}");
+        assert!(started.elapsed() <= PARQUET_DEADLINE + std::time::Duration::from_secs(2));
     }
 
     #[test]
