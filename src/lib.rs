@@ -119,6 +119,8 @@ pub mod harness;
 #[doc(hidden)]
 pub mod map;
 #[doc(hidden)]
+pub mod message_text;
+#[doc(hidden)]
 pub mod models;
 #[doc(hidden)]
 pub mod motion;

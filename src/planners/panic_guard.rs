@@ -31,10 +31,7 @@ pub fn panic_message(payload: &(dyn std::any::Any + Send)) -> String {
         .map(|s| s.to_string())
         .or_else(|| payload.downcast_ref::<String>().cloned())
         .unwrap_or_else(|| "a panic without a message".to_string());
-    match text.char_indices().nth(MESSAGE_CHARS) {
-        Some((cut, _)) => format!("{}… ({} characters in all)", &text[..cut], text.chars().count()),
-        None => text,
-    }
+    crate::message_text::cut_with_length(&text, MESSAGE_CHARS)
 }
 
 impl Planner for PanicGuard {

@@ -386,10 +386,7 @@ const MAX_MESSAGE_CHARS: usize = 400;
 
 /// `message` cut to [`MAX_MESSAGE_CHARS`].
 fn cut_message(message: String) -> String {
-    match message.char_indices().nth(MAX_MESSAGE_CHARS) {
-        Some((at, _)) => format!("{}… ({} characters in all)", &message[..at], message.chars().count()),
-        None => message,
-    }
+    crate::message_text::cut_with_length(&message, MAX_MESSAGE_CHARS)
 }
 
 /// `text` with every line longer than [`MAX_SHOWN_LINE_CHARS`] cut to a

@@ -302,11 +302,10 @@ pub(super) fn parse_reply(line: &[u8]) -> Result<PlannerMessage, String> {
     }
     let parsed = serde_json::from_str::<PlannerMessage>(&text).map(|m| match m {
         // A planner's own words travel into every report: cut as a quote is.
-        PlannerMessage::Error { step, message: Some(message) } if message.chars().count() > ERROR_MESSAGE_CHARS => {
-            let chars = message.chars().count();
-            let cut = truncate_chars(&message, ERROR_MESSAGE_CHARS);
-            PlannerMessage::Error { step, message: Some(format!("{cut} ({chars} characters in all)")) }
-        }
+        PlannerMessage::Error { step, message: Some(message) } => PlannerMessage::Error {
+            step,
+            message: Some(crate::message_text::cut_with_length(&message, ERROR_MESSAGE_CHARS)),
+        },
         m => m,
     });
     parsed.map_err(|e| {
