@@ -291,9 +291,8 @@ impl SuiteScenario {
         // is a collision no planner can avoid, so the witness would excuse
         // it and every real collision with it: refused. A later overlap
         // is an annotation error the witness judges like any collision.
-        if let (ScenarioSource::Recorded(p), Some((other, step))) =
-            (&self.source, crate::scenario::roles::recorded_ego_contact(&scenario))
-            && step == scenario.current_step
+        if let (ScenarioSource::Recorded(p), Some(other)) =
+            (&self.source, crate::scenario::roles::recorded_ego_contact_at(&scenario, scenario.current_step))
         {
             return Err(self.entry.reference(format!(
                 "recorded log {}: the recorded ego overlaps agent {} where the rollout starts, so no planner could \

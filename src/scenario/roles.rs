@@ -65,14 +65,19 @@ pub fn closest_approach(scenario: &Scenario, a: TrackIndex, b: TrackIndex) -> Op
 /// error (the recorded boxes of two agents overlap), and a scene where the
 /// recorded ego cannot drive without contact is no test for a planner.
 pub fn recorded_ego_contact(scenario: &Scenario) -> Option<(TrackIndex, usize)> {
+    (scenario.current_step..scenario.num_steps())
+        .find_map(|step| recorded_ego_contact_at(scenario, step).map(|other| (other, step)))
+}
+
+/// The first agent whose recorded box overlaps the recorded ego's at
+/// `step`, if any.
+pub fn recorded_ego_contact_at(scenario: &Scenario, step: usize) -> Option<TrackIndex> {
     let ego = scenario.ego?;
-    (scenario.current_step..scenario.num_steps()).find_map(|step| {
-        let own = scenario.track(ego).footprint(step)?;
-        (0..scenario.tracks.len())
-            .filter(|&i| i != ego.0)
-            .find(|&i| scenario.tracks[i].footprint(step).is_some_and(|b| b.intersects(&own)))
-            .map(|i| (TrackIndex(i), step))
-    })
+    let own = scenario.track(ego).footprint(step)?;
+    (0..scenario.tracks.len())
+        .filter(|&i| i != ego.0)
+        .find(|&i| scenario.tracks[i].footprint(step).is_some_and(|b| b.intersects(&own)))
+        .map(TrackIndex)
 }
 
 /// Vehicles valid at the current step that move and have enough future.
