@@ -6,21 +6,18 @@ from safer_planner import Control, Planner, run, wrap_angle
 
 
 class TwentyLinePlanner(Planner):
-    name = "twenty-line-planner"
-    min_protocol_minor = 1  # needs the whole map (`prepare`) and the stable route
+    name, min_protocol_minor = "twenty-line-planner", 1  # 1.1 or later: the whole map (`prepare`), the stable route
     cruise_mps = None  # where no speed limit is mapped: the ego's speed at the start
 
     def plan(self, obs):
-        ego, route, s = obs.ego, obs.route, obs.ego_route_s()
+        ego, route, s, lead = obs.ego, obs.route, obs.ego_route_s(), obs.leader()
         if s is None:
             return Control(0.0, 0.0)  # no lane runs our way: coast
         self.cruise_mps = self.cruise_mps or max(ego.speed_mps, 5.0)
-        lane = self.map.nearest_lane(ego.x, ego.y, among=route.lane_ids)
-        v, v0 = ego.speed_mps, (lane and lane[0].speed_limit_mps) or self.cruise_mps
-        accel = 1.5 * (1 - (v / v0) ** 4)  # IDM: free road ...
-        lead = obs.leader()
-        if lead:  # ... and a 1.4 s headway to the car ahead
-            accel -= 1.5 * ((2.5 + max(0.0, 1.4 * v + v * (v - lead.speed_mps) / 3.9)) / max(lead.gap_m, 0.1)) ** 2
+        lane, v = self.map.nearest_lane(ego.x, ego.y, among=route.lane_ids), ego.speed_mps
+        v0 = (lane and lane[0].speed_limit_mps) or self.cruise_mps
+        near = (2.5 + max(0.0, 1.4 * v + v * (v - lead.speed_mps) / 3.9)) / max(lead.gap_m, 0.1) if lead else 0.0
+        accel = 1.5 * (1 - (v / v0) ** 4) - 1.5 * near**2  # IDM: free road, and a 1.4 s headway to the car ahead
         tx, ty = route.point_at(s + max(5.0, 0.9 * v))  # pure pursuit
         alpha = wrap_angle(math.atan2(ty - ego.y, tx - ego.x) - ego.heading_rad)
         yaw = 2 * max(v, 1.0) * math.sin(alpha) / max(math.hypot(tx - ego.x, ty - ego.y), 1e-6)
