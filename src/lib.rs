@@ -17,7 +17,7 @@
 //! the signals) and answers a control or a trajectory.
 //!
 //! ```
-//! use safer::prelude::*;
+//! use safer_scenarios::prelude::*;
 //!
 //! /// Drives straight on (no turning) and brakes for anyone within 20 m ahead.
 //! struct Cautious;
@@ -61,7 +61,7 @@
 //! Register the planner in that target (`tests/scenarios.rs`):
 //!
 //! ```no_run
-//! # use safer::prelude::*;
+//! # use safer_scenarios::prelude::*;
 //! # struct Cautious;
 //! # impl Planner for Cautious {
 //! #     fn name(&self) -> &str { "cautious" }
@@ -149,7 +149,7 @@ pub use planners::{
 pub use runner::Runner;
 pub use scenario::{AgentId, AgentKind, AgentState, Scenario, TrackIndex};
 
-/// What a planner crate needs, in one import: `use safer::prelude::*;`.
+/// What a planner crate needs, in one import: `use safer_scenarios::prelude::*;`.
 pub mod prelude {
     pub use crate::{
         Action, AgentId, AgentKind, AgentState, Lane, MapElementId, Observation, PerceivedAgent, Planner, PlannerError,

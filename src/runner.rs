@@ -3,7 +3,7 @@
 //! lines,
 //!
 //! ```no_run
-//! # use safer::prelude::*;
+//! # use safer_scenarios::prelude::*;
 //! # #[derive(Default)]
 //! # struct MyAdapter;
 //! # impl Planner for MyAdapter {
@@ -14,7 +14,7 @@
 //! # }
 //! // tests/scenarios.rs of a planner crate; MyAdapter implements `Planner`
 //! fn main() {
-//!     safer::runner::Runner::new(env!("CARGO_MANIFEST_DIR"))
+//!     safer_scenarios::runner::Runner::new(env!("CARGO_MANIFEST_DIR"))
 //!         .planner("my-planner", |_scenario, _ego| MyAdapter::default())
 //!         .run()
 //! }
@@ -170,6 +170,13 @@ impl Runner {
             );
         }
         let loaded = self.load();
+        if !loaded.skipped_for_data.is_empty() && !args.list {
+            eprintln!(
+                "note: {} suite(s) over recorded data are ignored: SAFER_DATA_DIR is not set \
+                 (set it to run them; docs/guide/recorded-data.md)",
+                loaded.skipped_for_data.len()
+            );
+        }
         let (suites, load_failures) = (loaded.suites, loaded.load_failures);
         let conclusion = libtest_mimic::run(args, loaded.trials);
         let under_nextest = std::env::var_os("NEXTEST").is_some();
@@ -195,6 +202,8 @@ impl Runner {
 #[derive(Default)]
 struct Loaded {
     trials: Vec<Trial>,
+    /// Suites over recorded data, ignored for want of `SAFER_DATA_DIR`.
+    skipped_for_data: Vec<PathBuf>,
     suites: Vec<(PathBuf, Arc<Suite>)>,
     load_failures: Vec<SuiteLoadFailure>,
 }
@@ -260,9 +269,25 @@ fn suite_trials(path: &Path, context: &Arc<TrialContext>, loaded: &mut Loaded) {
     let out = &mut loaded.trials;
     let suite = match Suite::load(path) {
         Ok(s) => Arc::new(s),
+        Err(e)
+            if crate::spec::paths::is_missing_data_dir(&e.to_string())
+                && !crate::spec::paths::recorded_data_required() =>
+        {
+            // A suite over recorded data, on a machine without it: listed
+            // as ignored, saying how to run it (CI sets `CI`, so there
+            // the load error below fails instead).
+            out.push(
+                Trial::test(format!("{file}::recorded-data"), || {
+                    Err(Failed::from("needs recorded data: set SAFER_DATA_DIR (docs/guide/recorded-data.md)"))
+                })
+                .with_ignored_flag(true),
+            );
+            loaded.skipped_for_data.push(path.to_path_buf());
+            return;
+        }
         Err(e) => {
             // A broken suite is one failing test; the other suites still run.
-            let report = format!("{:?}", e.to_report());
+            let report = e.render(false);
             loaded.load_failures.push(SuiteLoadFailure { file: path.to_path_buf(), message: e.to_string() });
             out.push(Trial::test(format!("{file}::load"), move || Err(Failed::from(report))));
             return;

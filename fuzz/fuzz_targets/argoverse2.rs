@@ -25,5 +25,5 @@ fuzz_target!(|data: &[u8]| {
     prefix[..head.len()].copy_from_slice(head);
     let split = (u32::from_le_bytes(prefix) as usize) % (rest.len() + 1);
     let (scenario, map) = rest.split_at(split);
-    let _ = safer::scenario::import::argoverse2::parse(scenario, map, Path::new("scenario_fuzz.parquet"));
+    let _ = safer_scenarios::scenario::import::argoverse2::parse(scenario, map, Path::new("scenario_fuzz.parquet"));
 });

@@ -9,5 +9,5 @@ use std::path::Path;
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {
-    let _ = safer::scenario::import::commonroad::parse(data, Path::new("fuzz.xml"));
+    let _ = safer_scenarios::scenario::import::commonroad::parse(data, Path::new("fuzz.xml"));
 });

@@ -1,5 +1,5 @@
 //! Fuzz target: one line as an external planner would answer an
-//! observation, through `safer::planners::external::decode_reply` (strict
+//! observation, through `safer_scenarios::planners::external::decode_reply` (strict
 //! JSON parsing, non-finite numbers, message kinds, trajectory checks) and,
 //! when it decodes, through `Simulation::run` with a planner that gives
 //! that output at every step. The line is either the raw input bytes or a
@@ -17,12 +17,12 @@ use std::sync::OnceLock;
 
 use libfuzzer_sys::arbitrary::Unstructured;
 use libfuzzer_sys::fuzz_target;
-use safer::geometry::{Point2, Vector2};
-use safer::map::templates::StraightRoad;
-use safer::planners::external::decode_reply;
-use safer::planners::{Observation, Planner, PlannerError, PlannerOutput};
-use safer::scenario::{AgentId, AgentKind, AgentState, Scenario, ScenarioSource, Track, TrackIndex};
-use safer::sim::{LimitMonitor, SimConfig, Simulation, Termination, VehicleLimits};
+use safer_scenarios::geometry::{Point2, Vector2};
+use safer_scenarios::map::templates::StraightRoad;
+use safer_scenarios::planners::external::decode_reply;
+use safer_scenarios::planners::{Observation, Planner, PlannerError, PlannerOutput};
+use safer_scenarios::scenario::{AgentId, AgentKind, AgentState, Scenario, ScenarioSource, Track, TrackIndex};
+use safer_scenarios::sim::{LimitMonitor, SimConfig, Simulation, Termination, VehicleLimits};
 
 /// The simulator's step, s (what `hello` announces).
 const DT_S: f64 = 0.1;

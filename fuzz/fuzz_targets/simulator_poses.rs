@@ -15,15 +15,15 @@
 
 use libfuzzer_sys::arbitrary::Unstructured;
 use libfuzzer_sys::fuzz_target;
-use safer::geometry::{Point2, Polyline, Vector2};
-use safer::map::{Lane, MapElementId, RoadEdge, RoadEdgeKind, RoadMap};
-use safer::motion::Action;
-use safer::planners::{BuiltinPlanner, IdmPlanner, Observation, Planner, PlannerError, PlannerOutput, TrajectoryPoint};
-use safer::policies::noisy_idm::DriverNoise;
-use safer::policies::{AgentAction, AgentPolicy, BackgroundPolicy, IdmLaneFollower, IdmParams, WorldView};
-use safer::scenario::{AgentBody, AgentId, AgentKind, AgentState, Scenario, ScenarioSource, Track, TrackIndex};
-use safer::sim::authoring::{AuthoredAgent, AuthoredBehaviour, AuthoredScenario, synthesize};
-use safer::sim::{SimConfig, Simulation};
+use safer_scenarios::geometry::{Point2, Polyline, Vector2};
+use safer_scenarios::map::{Lane, MapElementId, RoadEdge, RoadEdgeKind, RoadMap};
+use safer_scenarios::motion::Action;
+use safer_scenarios::planners::{BuiltinPlanner, IdmPlanner, Observation, Planner, PlannerError, PlannerOutput, TrajectoryPoint};
+use safer_scenarios::policies::noisy_idm::DriverNoise;
+use safer_scenarios::policies::{AgentAction, AgentPolicy, BackgroundPolicy, IdmLaneFollower, IdmParams, WorldView};
+use safer_scenarios::scenario::{AgentBody, AgentId, AgentKind, AgentState, Scenario, ScenarioSource, Track, TrackIndex};
+use safer_scenarios::sim::authoring::{AuthoredAgent, AuthoredBehaviour, AuthoredScenario, synthesize};
+use safer_scenarios::sim::{SimConfig, Simulation};
 
 /// Steps of every track (3 s at 0.1 s): long enough for several planner
 /// calls, short enough for thousands of runs a second.

@@ -12,10 +12,10 @@
 use std::path::Path;
 
 use libfuzzer_sys::fuzz_target;
-use safer::spec::planner::PlannerSpec;
-use safer::spec::scenario::ScenarioSpec;
-use safer::spec::suite::SuiteSpec;
-use safer::spec::{SpecError, parse_yaml};
+use safer_scenarios::spec::planner::PlannerSpec;
+use safer_scenarios::spec::scenario::ScenarioSpec;
+use safer_scenarios::spec::suite::SuiteSpec;
+use safer_scenarios::spec::{SpecError, parse_yaml};
 
 /// Renders the miette report, as `safer` does, so offset arithmetic on
 /// error locations is exercised too.

@@ -8,5 +8,5 @@ use std::path::Path;
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {
-    let _ = safer::scenario::import::womd_json::parse(data, Path::new("fuzz.json"));
+    let _ = safer_scenarios::scenario::import::womd_json::parse(data, Path::new("fuzz.json"));
 });

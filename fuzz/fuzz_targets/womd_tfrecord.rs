@@ -9,9 +9,9 @@ use std::path::Path;
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {
-    let _ = safer::scenario::import::womd_proto::parse(data, Path::new("fuzz.tfrecord"));
+    let _ = safer_scenarios::scenario::import::womd_proto::parse(data, Path::new("fuzz.tfrecord"));
     // Also with valid framing, so the fuzzer reaches the protobuf decoder and
     // the model mapping instead of stopping at the CRC checks.
-    let framed = safer::scenario::import::tfrecord::frame_record(data);
-    let _ = safer::scenario::import::womd_proto::parse(&framed, Path::new("fuzz.tfrecord"));
+    let framed = safer_scenarios::scenario::import::tfrecord::frame_record(data);
+    let _ = safer_scenarios::scenario::import::womd_proto::parse(&framed, Path::new("fuzz.tfrecord"));
 });

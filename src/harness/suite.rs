@@ -91,7 +91,7 @@ impl Suite {
                         "planner.rust",
                         format!(
                             "no in-process planner named `{}` ({registered}); a `rust:` planner runs under the test \
-                             target that registers it (`safer::runner::Runner::planner`), not under `safer run`",
+                             target that registers it (`safer_scenarios::runner::Runner::planner`), not under `safer run`",
                             rust.value
                         ),
                     ));

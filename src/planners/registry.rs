@@ -1,6 +1,6 @@
 //! In-process planners registered by name: a planner crate's test target
 //! registers its own [`Planner`] implementation (usually through
-//! `safer::runner::Runner::planner`), and a suite names it with
+//! `safer_scenarios::runner::Runner::planner`), and a suite names it with
 //! `planner: { rust: NAME }`. The registry is process-wide because suites are
 //! loaded and variants run on any worker thread.
 

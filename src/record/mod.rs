@@ -404,8 +404,9 @@ mod tests {
         write_rollout_mcap(&out.join("crossing-witness.mcap"), &s, &r, &[brake]).unwrap();
         write_svg(&out.join("crossing-scenario.svg"), &render_scenario_svg(&s, &SvgOptions::default())).unwrap();
         write_rollout_mcap(&out.join("crossing.mcap"), &s, &r, &[]).unwrap();
-        let womd = Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("../shared/data/womd-tfrecord/motion_data_one_scenario.tfrecord");
+        // The recorded example, where the recorded data is at hand.
+        let Some(data) = crate::spec::paths::data_dir() else { return };
+        let womd = data.join("womd-tfrecord/motion_data_one_scenario.tfrecord");
         let Ok(scenarios) = crate::scenario::import::load(&womd) else { return };
         for s in scenarios.iter().take(1) {
             write_svg(&out.join(format!("{}-scenario.svg", s.id)), &render_scenario_svg(s, &SvgOptions::default()))

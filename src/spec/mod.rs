@@ -8,13 +8,15 @@
 //! naming no agent, a name that cannot be a path part) points at the
 //! offending value through [`locate`] (a dotted path such as
 //! `agents[2].length_m`) or `Spanned` values. Errors carry the file's text
-//! so the CLI can render them with miette.
+//! so the CLI can render them ([`SpecError::render`]).
 //! `safer schema` exports a JSON Schema per spec kind for editors.
 
 pub mod locate;
 pub mod paths;
 pub mod planner;
 pub mod scenario;
+#[cfg(feature = "embedded-files")]
+pub mod shipped_files;
 pub mod suite;
 
 use std::path::{Path, PathBuf};
@@ -111,16 +113,19 @@ impl SpecError {
         }
     }
 
-    /// A miette report with the offending line underlined.
-    pub fn to_report(&self) -> miette::Report {
+    /// The error as a report: the message, the file and place, and the
+    /// offending line with the place underlined (as rustc shows its own),
+    /// in colour when `colour` is set. A report, never a debug dump.
+    pub fn render(&self, colour: bool) -> String {
         let (text, location, message) = match self {
-            Self::Io { .. } => return miette::miette!("{self}"),
+            Self::Io { .. } => return format!("error: {self}"),
             Self::Parse { text, location, message, .. }
             | Self::Invalid { text, location, message, .. }
             | Self::Reference { text, location, message, .. } => (text, location, message),
         };
+        let path = self.path().display().to_string();
         if text.is_empty() {
-            return miette::miette!("{}: {message}", self.path().display());
+            return format!("error: {path}: {message}");
         }
         let (shown, moved) = shown_excerpt(text, *location);
         let offset = moved.map(|l| line_column_to_offset(&shown, l)).unwrap_or(0);
@@ -130,9 +135,17 @@ impl SpecError {
             Some(l) if moved != *location => format!("here (line {}, column {} of the file)", l.line, l.column),
             _ => "here".to_string(),
         };
-        let source = miette::NamedSource::new(self.path().display().to_string(), shown);
-        miette::miette!(labels = vec![miette::LabeledSpan::at_offset(offset, label)], "{message}")
-            .with_source_code(source)
+        // An empty span at a line's end would underline nothing: mark the
+        // character at the place, or the line break after it.
+        let end = shown[offset..].chars().next().map_or(offset, |c| offset + c.len_utf8());
+        let report = [annotate_snippets::Level::ERROR.primary_title(message.as_str()).element(
+            annotate_snippets::Snippet::source(shown.as_str())
+                .path(path.as_str())
+                .annotation(annotate_snippets::AnnotationKind::Primary.span(offset..end).label(label.as_str())),
+        )];
+        let renderer =
+            if colour { annotate_snippets::Renderer::styled() } else { annotate_snippets::Renderer::plain() };
+        renderer.render(&report)
     }
 }
 

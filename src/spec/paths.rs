@@ -1,8 +1,8 @@
 //! How paths in specs resolve: relative to the spec file's folder, except
-//! - `data:REL`, which names a file in the recorded-data folder
-//!   (`$SAFER_DATA_DIR`, else `../shared/data` beside the project root, the
-//!   nearest folder above the spec holding a `Cargo.toml`), so suites over
-//!   recorded logs work from any checkout;
+//! - `data:REL`, which names a file in the recorded-data folder that
+//!   `$SAFER_DATA_DIR` names, so suites over recorded logs work from any
+//!   checkout; unset, a `data:` path is refused with a message saying so
+//!   ([`data_dir`], [`recorded_data_required`]);
 //! - `safer:REL`, which names a file safer itself ships (`scenes/`,
 //!   `planners/`, `specs/`), inside the safer crate a planner crate depends
 //!   on: its checkout for a path dependency, the unpacked package for a
@@ -10,28 +10,64 @@
 
 use std::path::{Path, PathBuf};
 
-/// The shared recorded-data folder for a spec at `spec_dir`.
-pub fn data_dir(spec_dir: &Path) -> PathBuf {
+/// The recorded-data folder: `$SAFER_DATA_DIR`, when set and not empty.
+/// Recorded datasets (NGSIM, WOMD, Argoverse 2) are not part of safer;
+/// where they come from is in `docs/guide/recorded-data.md`.
+pub fn data_dir() -> Option<PathBuf> {
     // Set but empty is unset: "" would resolve `data:` against the
     // current folder.
-    if let Some(d) = std::env::var_os("SAFER_DATA_DIR").filter(|d| !d.is_empty()) {
-        return PathBuf::from(d);
-    }
-    let start = std::fs::canonicalize(spec_dir).unwrap_or_else(|_| spec_dir.to_path_buf());
-    let root = start.ancestors().find(|d| d.join("Cargo.toml").is_file()).map(Path::to_path_buf).unwrap_or(start);
-    root.join("../shared/data")
+    std::env::var_os("SAFER_DATA_DIR").filter(|d| !d.is_empty()).map(PathBuf::from)
 }
 
-/// The folder of the safer crate this library was built from, where the
-/// files it ships lie (`safer:` paths).
+/// Whether a missing recorded-data folder is a failure rather than a
+/// reason to skip: in CI (`CI` set, as CI services set it) or with
+/// `SAFER_REQUIRE_DATA=1`. A suite over recorded data must never pass
+/// unrun where it is meant to run.
+pub fn recorded_data_required() -> bool {
+    let set = |name: &str| std::env::var(name).is_ok_and(|v| !v.is_empty() && v != "0" && v != "false");
+    set("SAFER_REQUIRE_DATA") || set("CI")
+}
+
+/// The message of a `data:` path met while `SAFER_DATA_DIR` is unset;
+/// [`is_missing_data_dir`] recognises it in an error.
+const MISSING_DATA_DIR: &str = "names recorded data, and SAFER_DATA_DIR is not set";
+
+/// Whether an error message comes from a `data:` path met without
+/// `SAFER_DATA_DIR` (the test runner lists such suites as ignored).
+pub fn is_missing_data_dir(message: &str) -> bool {
+    message.contains(MISSING_DATA_DIR)
+}
+
+/// The folder holding the files safer ships (`safer:` paths): the
+/// crate's folder this library was built from (the checkout of a path
+/// dependency, the unpacked package of a registry one) while it still
+/// holds them; else, in a build with the `embedded-files` feature (the
+/// `safer` command line), the copy embedded in the build, unpacked to a
+/// cache folder. `SAFER_SHIPPED_FILES=embedded` uses that copy even where
+/// the build folder is present, as on another machine.
 pub fn shipped_dir() -> &'static Path {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
+    static DIR: std::sync::OnceLock<PathBuf> = std::sync::OnceLock::new();
+    DIR.get_or_init(|| {
+        let built = Path::new(env!("CARGO_MANIFEST_DIR"));
+        let forced = std::env::var("SAFER_SHIPPED_FILES").is_ok_and(|v| v == "embedded");
+        if !forced && built.join("specs").is_dir() {
+            return built.to_path_buf();
+        }
+        #[cfg(feature = "embedded-files")]
+        match super::shipped_files::unpacked() {
+            Ok(dir) => return dir,
+            Err(e) => eprintln!("warning: {e}"),
+        }
+        built.to_path_buf()
+    })
 }
 
-/// Resolves a path written in a spec in `spec_dir`.
+/// Resolves a path written in a spec in `spec_dir`. A `data:` path
+/// without `SAFER_DATA_DIR` resolves under a folder named
+/// `$SAFER_DATA_DIR`, which does not exist; [`resolve_checked`] refuses it.
 pub fn resolve(spec_dir: &Path, written: &str) -> PathBuf {
     if let Some(rel) = written.strip_prefix("data:") {
-        data_dir(spec_dir).join(rel.trim_start_matches('/'))
+        data_dir().unwrap_or_else(|| PathBuf::from("$SAFER_DATA_DIR")).join(rel.trim_start_matches('/'))
     } else if let Some(rel) = written.strip_prefix("safer:") {
         shipped_dir().join(rel.trim_start_matches('/'))
     } else {
@@ -41,7 +77,8 @@ pub fn resolve(spec_dir: &Path, written: &str) -> PathBuf {
 
 /// [`resolve`], refusing a `data:` or `safer:` path that would leave its
 /// folder (`safer:../../etc/passwd`): the prefixes name files inside
-/// their roots only. The error says why, in a spec author's words.
+/// their roots only; and a `data:` path while `SAFER_DATA_DIR` is unset.
+/// The error says why, in a spec author's words.
 pub fn resolve_checked(spec_dir: &Path, written: &str) -> Result<PathBuf, String> {
     let (prefix, rel) = match (written.strip_prefix("data:"), written.strip_prefix("safer:")) {
         (Some(rel), _) => ("data:", rel),
@@ -61,6 +98,12 @@ pub fn resolve_checked(spec_dir: &Path, written: &str) -> Result<PathBuf, String
             std::path::Component::Normal(_) => depth += 1,
             _ => {}
         }
+    }
+    if prefix == "data:" && data_dir().is_none() {
+        return Err(format!(
+            "`{written}` {MISSING_DATA_DIR}: set it to the folder that holds the recorded datasets \
+             (docs/guide/recorded-data.md)"
+        ));
     }
     Ok(resolve(spec_dir, written))
 }

@@ -104,7 +104,7 @@ pub enum PlannerRef {
         builtin: crate::planners::BuiltinPlanner,
     },
     /// An in-process Rust planner registered under this name by the test
-    /// target running the suite (`safer::runner::Runner::planner`).
+    /// target running the suite (`safer_scenarios::runner::Runner::planner`).
     #[schemars(extend("additionalProperties" = false))]
     Rust {
         /// The registered name.

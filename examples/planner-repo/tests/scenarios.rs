@@ -7,7 +7,7 @@
 //! is all the glue between safer's observation and the planner's own types.
 
 use cautious_cruiser::{CautiousCruiser, Command, EgoState, Point, RoadUser, Scene};
-use safer::prelude::*;
+use safer_scenarios::prelude::*;
 
 fn main() {
     Runner::new(env!("CARGO_MANIFEST_DIR")).planner("cautious-cruiser", |_scenario, _ego| Adapter::default()).run()

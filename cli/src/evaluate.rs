@@ -1,0 +1,859 @@
+//! `safer evaluate`: the dual-stage evaluation of adversary methods over a
+//! folder of scenes (rows = methods; columns CR, SR, SR on the stage-1
+//! critical variants, witness rate, VJ, AJ, time per variant; and CR, SR,
+//! witness rate and SR on witnessed collisions over the held-out scenes
+//! beside the rest), with a
+//! progress bar, rayon across variants, and an optional JSON report with
+//! every variant (`--json -`: on standard output, the table then on stderr).
+//! Scenes whose recorded ego touches another agent (annotation overlaps)
+//! are skipped with a warning: every variant of them would count against
+//! the planner whatever it did.
+
+use std::io::Write;
+use std::path::Path;
+use std::process::ExitCode;
+use std::sync::Arc;
+
+use indicatif::{ProgressBar, ProgressStyle};
+use rayon::prelude::*;
+
+use super::{CliError, scene_paths};
+use safer_scenarios::eval::witness::{DEFAULT_WIDEST, RoadKeeping, WitnessBudget, search_rollout_witness};
+use safer_scenarios::harness::evaluation::{
+    self, EvaluationRequest, HeldOutSplit, MethodRow, Partition, Stage2Cbv, VariantRecord,
+};
+use safer_scenarios::harness::methods::BackgroundDriver;
+use safer_scenarios::harness::methods::ModelSet;
+use safer_scenarios::policies::adversary::ApproachPhase;
+use safer_scenarios::scenario::{Scenario, import};
+use safer_scenarios::spec::suite::AdversaryMethod;
+
+/// Loads every scene under `path` that has an ego and a CBV.
+pub(super) fn load_scenes(path: &Path, max_scenes: Option<usize>) -> Result<Vec<Arc<Scenario>>, CliError> {
+    let paths = scene_paths(path)?;
+    let loaded: Vec<Result<Vec<Scenario>, _>> = paths.par_iter().map(|p| import::load(p)).collect();
+    let mut scenes = Vec::new();
+    // Records, seeds and the held-out split go by scenario id: one id in
+    // two files would merge two scenes' rows silently.
+    let mut files_of: std::collections::HashMap<String, (&Path, usize)> = std::collections::HashMap::new();
+    for (p, r) in paths.iter().zip(loaded) {
+        match r {
+            Ok(s) => {
+                for (record, scene) in s.iter().enumerate() {
+                    match files_of.insert(scene.id.clone(), (p, record)) {
+                        None => {}
+                        Some((first, first_record)) if first == p => {
+                            return Err(CliError::Usage(format!(
+                                "scenario id `{}` is in {} twice (records {first_record} and {record}); an \
+                                 evaluation tells scenes apart by id, so it would count the scene twice",
+                                scene.id,
+                                p.display()
+                            )));
+                        }
+                        Some((first, _)) => {
+                            return Err(CliError::Usage(format!(
+                                "scenario id `{}` is in both {} and {}; an evaluation tells scenes apart by id, \
+                                 so keep one of the files",
+                                scene.id,
+                                first.display(),
+                                p.display()
+                            )));
+                        }
+                    }
+                }
+                scenes.extend(s.into_iter().filter(|s| s.ego.is_some() && s.cbv.is_some()).map(Arc::new))
+            }
+            Err(e) => eprintln!("warning: skipping {}: {e}", p.display()),
+        }
+    }
+    scenes.sort_by(|a, b| a.id.cmp(&b.id));
+    if let Some(n) = max_scenes {
+        scenes.truncate(n);
+    }
+    Ok(scenes)
+}
+
+fn fmt(v: Option<f64>) -> String {
+    v.map_or("—".into(), |x| format!("{x:.3}"))
+}
+
+/// A row's name: the method, and its stage-2 CBV mode when the table holds
+/// more than one.
+fn label(method: safer_scenarios::spec::suite::AdversaryMethod, mode: Stage2Cbv, modes: usize) -> String {
+    let method = safer_scenarios::spec::spec_name(&method);
+    if modes > 1 { format!("{method} ({})", safer_scenarios::spec::spec_name(&mode)) } else { method }
+}
+
+/// What the witness search holds an escape to, and how hard it looks.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub(super) struct WitnessSettings {
+    /// How much of the ego must stay on the road.
+    pub road: RoadKeeping,
+    /// The widest beam tried, as a multiple of the narrow one.
+    pub widest: usize,
+}
+
+/// What an evaluation was asked, as its report records it: partitions of
+/// one evaluation have equal settings, and the merge checks that they do.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub(super) struct EvaluationSettings {
+    methods: Vec<AdversaryMethod>,
+    seeds: u32,
+    base_seed: u64,
+    /// The stage-2 planner's name.
+    planner: String,
+    trust_region: usize,
+    /// Reports written before the option existed had the seeded phase.
+    #[serde(default)]
+    approach: ApproachPhase,
+    background: BackgroundDriver,
+    stage2_cbv: Vec<Stage2Cbv>,
+    horizon_s: f64,
+    max_scenes: Option<usize>,
+    /// The scenario ids `--scene` named (none: every scene).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    only_scenes: Vec<String>,
+    witness: WitnessSettings,
+    /// The fault operators planted (`--mutants`; none: no mutation run).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    mutants: Vec<safer_scenarios::planners::FaultOperator>,
+}
+
+impl EvaluationSettings {
+    fn of(request: &EvaluationRequest, selection: &SceneSelection<'_>, witness: WitnessSettings) -> Self {
+        EvaluationSettings {
+            methods: request.methods.clone(),
+            seeds: request.seeds,
+            base_seed: request.base_seed,
+            planner: request.planner.name().to_string(),
+            trust_region: request.trust_region,
+            approach: request.approach,
+            background: request.background,
+            stage2_cbv: request.stage2_cbv.clone(),
+            horizon_s: request.horizon_s,
+            max_scenes: selection.max_scenes,
+            only_scenes: selection.ids.to_vec(),
+            witness,
+            mutants: request.mutants.clone(),
+        }
+    }
+}
+
+/// The human-readable table (on stdout, or stderr when the JSON report
+/// takes stdout).
+fn print_table(
+    out: &mut dyn Write,
+    rows: &[MethodRow],
+    held_out: &HeldOutSplit,
+    scenes: usize,
+    request: &EvaluationSettings,
+) -> std::io::Result<()> {
+    let witness = request.witness;
+    let modes = request.stage2_cbv.len();
+    let name = |r: &MethodRow| label(r.method, r.stage2_cbv, modes);
+    writeln!(
+        out,
+        "{scenes} scenes × {} seeds; stage 2 planner `{}`, stage-2 CBV {}, trust region n = {}, horizon {} s{}{}{}",
+        request.seeds,
+        request.planner,
+        request.stage2_cbv.iter().map(safer_scenarios::spec::spec_name).collect::<Vec<_>>().join(" and "),
+        request.trust_region,
+        request.horizon_s,
+        match request.approach {
+            ApproachPhase::Seeded => "",
+            ApproachPhase::None => "; no approach phase (the adversary engages at the first token)",
+        },
+        match witness.road {
+            RoadKeeping::Centre => "",
+            RoadKeeping::WholeWidth => "; the witness keeps its whole width on the road",
+        },
+        if witness.widest == DEFAULT_WIDEST {
+            String::new()
+        } else {
+            format!("; the witness search widens its beam up to ×{}", witness.widest)
+        }
+    )?;
+    writeln!(
+        out,
+        "{:<28} {:>8} {:>7} {:>7} {:>7} {:>9} {:>9} {:>7} {:>7} {:>11}",
+        "method", "variants", "errors", "CR", "SR", "SR-crit", "witness", "VJ", "AJ", "s/variant"
+    )?;
+    for r in rows {
+        writeln!(
+            out,
+            "{:<28} {:>8} {:>7} {:>7} {:>7} {:>9} {:>9} {:>7} {:>7} {:>11.3}",
+            name(r),
+            r.variants,
+            r.errors,
+            fmt(r.cr),
+            fmt(r.sr),
+            fmt(r.sr_critical),
+            fmt(r.witness_rate),
+            fmt(r.vj),
+            fmt(r.aj),
+            r.time_per_variant_s
+        )?;
+    }
+    writeln!(out, "\nplausibility of the CBV, the seeds' variety and the reference planner:")?;
+    writeln!(
+        out,
+        "{:<28} {:>12} {:>14} {:>15} {:>12} {:>14} {:>9} {:>12}",
+        "method",
+        "CBV-bg coll",
+        "CBV at fault",
+        "of it: ped/cyc",
+        "CBV off-road",
+        "off-road s/var",
+        "distinct",
+        "SR-witnessed"
+    )?;
+    for r in rows {
+        writeln!(
+            out,
+            "{:<28} {:>12} {:>14} {:>15} {:>12} {:>14} {:>9} {:>12}",
+            name(r),
+            fmt(r.cbv_background_collision_rate),
+            fmt(r.cbv_at_fault_background_collision_rate),
+            fmt(r.cbv_at_fault_vulnerable_rate),
+            fmt(r.cbv_off_road_rate),
+            fmt(r.cbv_off_road_s),
+            fmt(r.distinct_rate),
+            fmt(r.sr_witnessed)
+        )?;
+    }
+    print_scenes_that_broke_the_rules(out, rows, &held_out.scenes, &name)?;
+    writeln!(
+        out,
+        "\nheld out (every tenth scene by id: {} of {}) | the other scenes:",
+        held_out.scenes.len(),
+        held_out.of_scenes
+    )?;
+    writeln!(
+        out,
+        "{:<28} {:>7} {:>7} {:>9} {:>12} | {:>7} {:>7} {:>9} {:>12} | {:>13}",
+        "method", "CR", "SR", "witness", "SR-witnessed", "CR", "SR", "witness", "SR-witnessed", "CR by chance"
+    )?;
+    for ((h, r), chance) in held_out.held_out.iter().zip(&held_out.rest).zip(&held_out.cr_by_chance) {
+        let chance = chance.map_or("—".to_string(), |[lo, hi]| format!("{lo:.3}–{hi:.3}"));
+        writeln!(
+            out,
+            "{:<28} {:>7} {:>7} {:>9} {:>12} | {:>7} {:>7} {:>9} {:>12} | {:>13}",
+            name(h),
+            fmt(h.cr),
+            fmt(h.sr),
+            fmt(h.witness_rate),
+            fmt(h.sr_witnessed),
+            fmt(r.cr),
+            fmt(r.sr),
+            fmt(r.witness_rate),
+            fmt(r.sr_witnessed),
+            chance
+        )?;
+    }
+    if !held_out.scenes.is_empty() {
+        writeln!(
+            out,
+            "CR by chance: where the CR of {} scenes drawn at random from all {} falls in 95 % of draws",
+            held_out.scenes.len(),
+            held_out.of_scenes
+        )?;
+    }
+    writeln!(out, "\nconflicts at the planner under test (stage 2):")?;
+    writeln!(
+        out,
+        "{:<28} {:>7} {:>10} {:>9} {:>10} {:>10} {:>9} {:>9} | {:>7} {:>10} {:>9}",
+        "method",
+        "reach",
+        "reach-crit",
+        "SR-avoid",
+        "avoid-fail",
+        "no-escape",
+        "refuted",
+        "failures",
+        "reach",
+        "reach-crit",
+        "SR-avoid"
+    )?;
+    for (r, h) in rows.iter().zip(&held_out.held_out) {
+        writeln!(
+            out,
+            "{:<28} {:>7} {:>10} {:>9} {:>10} {:>10} {:>9} {:>9} | {:>7} {:>10} {:>9}",
+            name(r),
+            fmt(r.conflict_reach),
+            fmt(r.conflict_reach_critical),
+            fmt(r.sr_avoidable),
+            r.avoidable_failures,
+            r.no_escape_collisions,
+            r.precheck_refuted,
+            r.failures,
+            fmt(h.conflict_reach),
+            fmt(h.conflict_reach_critical),
+            fmt(h.sr_avoidable),
+        )?;
+    }
+    if let Some(line) = failures_beyond_log(rows) {
+        writeln!(out, "{line}")?;
+    }
+    writeln!(out, "\nclosest approach of the CBV to the recorded ego (stage 1, shares of the variants):")?;
+    writeln!(out, "{:<28} {:>9} {:>16} {:>16} {:>9}", "method", "contact", "no contact <0.5m", "0.5-1 m", ">=1 m")?;
+    for r in rows {
+        let c = r.stage1_closest;
+        let share = |f: fn(&safer_scenarios::harness::evaluation::ClosestApproach) -> f64| fmt(c.as_ref().map(f));
+        writeln!(
+            out,
+            "{:<28} {:>9} {:>16} {:>16} {:>9}",
+            name(r),
+            share(|c| c.contact),
+            share(|c| c.under_half_m),
+            share(|c| c.under_1_m),
+            share(|c| c.farther)
+        )?;
+    }
+    writeln!(out, "\nkinds of conflict (stage 1, with the recorded ego / stage 2, with the planner's):")?;
+    let kinds = safer_scenarios::eval::ConflictKind::ALL;
+    writeln!(
+        out,
+        "{:<28} {}",
+        "method",
+        kinds.iter().map(|k| format!("{:>22}", k.name())).collect::<Vec<_>>().join("")
+    )?;
+    for r in rows {
+        let cells: Vec<String> = kinds
+            .iter()
+            .map(|&kind| {
+                let c = r.conflicts.iter().find(|c| c.kind == kind);
+                format!("{:>22}", format!("{} / {}", c.map_or(0, |c| c.stage1), c.map_or(0, |c| c.variants)))
+            })
+            .collect();
+        writeln!(out, "{:<28} {}", name(r), cells.join(""))?;
+    }
+    writeln!(out, "\nwhere the time goes (mean s per variant):")?;
+    writeln!(
+        out,
+        "{:<28} {:>9} {:>10} {:>9} {:>12} {:>9} {:>9} {:>9}",
+        "method", "stage 1", "features", "decoder", "feasibility", "stage 2", "witness", "escape"
+    )?;
+    for r in rows {
+        let p = &r.profile;
+        writeln!(
+            out,
+            "{:<28} {:>9.3} {:>10.3} {:>9.3} {:>12.3} {:>9.3} {:>9.3} {:>9.3}",
+            name(r),
+            p.stage1_s,
+            p.stage1_features_s,
+            p.stage1_decoder_s,
+            p.stage1_feasibility_s,
+            p.stage2_s,
+            p.witness_s,
+            p.escape_s
+        )?;
+    }
+    writeln!(
+        out,
+        "VJ/AJ: Jensen–Shannon divergence (bits) of the CBV's stage-1 speed (0–40 m/s, 1 m/s bins) and acceleration (−8–8 m/s², 0.5 m/s² bins, finite differences at 0.1 s) against the logged CBV over the same window."
+    )?;
+    writeln!(
+        out,
+        "reach: share of variants whose CBV came within 1 m (box distance) of the planner's ego in stage 2 (reach-crit: of the stage-1-critical ones; right of | : the held-out scenes). SR-avoid: SR over the avoidable conflicts (reached or collided, less collisions without an escape); avoid-fail: the planner's failures among them. no-escape: stage-2 collisions whose closed-loop witness found no escape within budget (the generator's fault); refuted: of those, the ones whose pre-check found an escape from the CBV as it drove."
+    )?;
+    writeln!(
+        out,
+        "distinct: distinct stage-1 CBV paths (to the centimetre) per variant, over each scene's seeds; 1.000 when no two seeds made the same variant."
+    )?;
+    Ok(())
+}
+
+/// The mutation table, when mutants were planted: per method row, the
+/// variants the planner passes, the mutant-variants killed (with the
+/// ratio to log replay's and the prior's where those rows ran), the
+/// mutants killed, and per operator its kills and the share of scenes
+/// where it was killed; the held-out scenes' kills after `|`.
+fn print_kills(
+    out: &mut dyn Write,
+    rows: &[MethodRow],
+    held_out: &HeldOutSplit,
+    settings: &EvaluationSettings,
+) -> std::io::Result<()> {
+    if settings.mutants.is_empty() {
+        return Ok(());
+    }
+    let modes = settings.stage2_cbv.len();
+    let kills_of = |rows: &[MethodRow], method: AdversaryMethod, mode: Stage2Cbv| {
+        rows.iter().find(|r| r.method == method && r.stage2_cbv == mode).and_then(|r| r.kills.as_ref()).map(|k| k.kills)
+    };
+    let ratio = |k: usize, of: Option<usize>| match of {
+        Some(0) if k > 0 => "inf".to_string(),
+        Some(0) => "-".to_string(),
+        Some(base) => format!("{:.2}", k as f64 / base as f64),
+        None => "-".to_string(),
+    };
+    writeln!(
+        out,
+        "\nmutants killed (the planner passes the variant, the mutant fails it: at-fault collision, off road, no answer or beyond the vehicle limits)"
+    )?;
+    let ops: Vec<String> = settings.mutants.iter().map(|o| o.name().to_string()).collect();
+    let width = rows.iter().map(|r| label(r.method, r.stage2_cbv, modes).len()).max().unwrap_or(6).max(6);
+    write!(
+        out,
+        "{:<width$}  {:>6}  {:>18}  {:>6}  {:>6}  {:>7}",
+        "method", "passed", "kills | held out", "×log", "×prior", "mutants"
+    )?;
+    for op in &ops {
+        write!(out, "  {op:>12}")?;
+    }
+    writeln!(out)?;
+    for r in rows {
+        let Some(k) = &r.kills else { continue };
+        let held = held_out
+            .held_out
+            .iter()
+            .find(|h| h.method == r.method && h.stage2_cbv == r.stage2_cbv)
+            .and_then(|h| h.kills.as_ref());
+        let kills = match held {
+            Some(h) => format!("{}/{} | {}/{}", k.kills, k.mutant_variants, h.kills, h.mutant_variants),
+            None => format!("{}/{}", k.kills, k.mutant_variants),
+        };
+        write!(
+            out,
+            "{:<width$}  {:>6}  {:>18}  {:>6}  {:>6}  {:>7}",
+            label(r.method, r.stage2_cbv, modes),
+            k.variants_passed,
+            kills,
+            ratio(k.kills, kills_of(rows, AdversaryMethod::Log, r.stage2_cbv)),
+            ratio(k.kills, kills_of(rows, AdversaryMethod::Prior, r.stage2_cbv)),
+            format!("{}/{}", k.mutants_killed, k.operators.len()),
+        )?;
+        for op in &settings.mutants {
+            let cell = k
+                .operators
+                .iter()
+                .find(|o| o.operator == *op)
+                .map_or_else(|| "-".to_string(), |o| format!("{} ({}/{})", o.kills, o.scenes_killed, o.scenes));
+            write!(out, "  {cell:>12}")?;
+        }
+        writeln!(out)?;
+    }
+    writeln!(
+        out,
+        "kills: mutant-variants killed / passed variants × mutants (right of | : on the held-out scenes); ×log, ×prior: kills over log replay's and the prior's on the same scenes and seeds; per mutant: kills (scenes where it was killed / scenes with a passed variant)."
+    )
+}
+
+/// How many scenes [`print_scenes_that_broke_the_rules`] names per list.
+const SCENES_NAMED: usize = 3;
+
+/// Where the CBV left the road or was at fault with background traffic,
+/// scene by scene, for the rows where it did: the scenes with the most
+/// such variants (of the scene's seeds), held-out ones starred, and how
+/// many more scenes share the rest. Nothing where no CBV broke a rule.
+fn print_scenes_that_broke_the_rules(
+    out: &mut dyn Write,
+    rows: &[MethodRow],
+    held_out: &[String],
+    name: &dyn Fn(&MethodRow) -> String,
+) -> std::io::Result<()> {
+    let broke: Vec<&MethodRow> =
+        rows.iter().filter(|r| !r.off_road_scenes.is_empty() || !r.at_fault_scenes.is_empty()).collect();
+    if broke.is_empty() {
+        return Ok(());
+    }
+    writeln!(
+        out,
+        "where the CBV left the road / was at fault: the scenes with the most such variants (k/n: k of the scene's n; \
+         * held out; `--scene ID --artifacts DIR --artifacts-of all` draws them)"
+    )?;
+    for r in broke {
+        for (i, (what, scenes)) in [("off road", &r.off_road_scenes), ("at fault", &r.at_fault_scenes)]
+            .into_iter()
+            .filter(|(_, scenes)| !scenes.is_empty())
+            .enumerate()
+        {
+            let method = if i == 0 { name(r) } else { String::new() };
+            writeln!(out, "{method:<28} {what}: {}", named_scenes(scenes, held_out))?;
+        }
+    }
+    Ok(())
+}
+
+/// The first [`SCENES_NAMED`] of `scenes` as `ID k/n` (a star after a
+/// held-out id; `held_out` sorted), then how many variants the others
+/// hold between them.
+fn named_scenes(scenes: &[safer_scenarios::harness::evaluation::SceneCount], held_out: &[String]) -> String {
+    let mut parts: Vec<String> = scenes
+        .iter()
+        .take(SCENES_NAMED)
+        .map(|c| {
+            let star = if held_out.binary_search(&c.scenario).is_ok() { "*" } else { "" };
+            format!("{}{star} {}/{}", c.scenario, c.variants, c.of)
+        })
+        .collect();
+    let more = scenes.len().saturating_sub(SCENES_NAMED);
+    if more > 0 {
+        let variants: usize = scenes[SCENES_NAMED..].iter().map(|c| c.variants).sum();
+        parts.push(format!("{variants} in {more} more scene{}", if more == 1 { "" } else { "s" }));
+    }
+    parts.join(", ")
+}
+
+/// For each method with both stage-2 modes, how many more planner
+/// failures closed loop finds beyond plain log replay's than replay does:
+/// (closed-loop failures − `log` failures) / (replay failures − `log`
+/// failures); `None` without a `log` row and both modes.
+fn failures_beyond_log(rows: &[MethodRow]) -> Option<String> {
+    use safer_scenarios::spec::suite::AdversaryMethod;
+    let log = rows.iter().find(|r| r.method == AdversaryMethod::Log)?.failures as f64;
+    let parts: Vec<String> = rows
+        .iter()
+        .filter(|r| r.method != AdversaryMethod::Log && r.stage2_cbv == Stage2Cbv::ClosedLoop)
+        .filter_map(|closed| {
+            let replay = rows.iter().find(|r| r.method == closed.method && r.stage2_cbv == Stage2Cbv::Replay)?;
+            let (c, p) = (closed.failures as f64 - log, replay.failures as f64 - log);
+            let ratio = if p > 0.0 { format!("{:.2}×", c / p) } else { "—".into() };
+            Some(format!("{}: {c} / {p} = {ratio}", safer_scenarios::spec::spec_name(&closed.method)))
+        })
+        .collect();
+    (!parts.is_empty())
+        .then(|| format!("failures beyond log replay's ({log}), closed loop / replay: {}", parts.join("; ")))
+}
+
+/// The JSON report: the settings, the tables and every variant (with what
+/// it contributes to the tables, so that partitions merge).
+#[derive(serde::Serialize)]
+struct Report<'a> {
+    settings: &'a EvaluationSettings,
+    /// Which part of a partitioned evaluation this is (`None`: all of it).
+    partition: Option<Partition>,
+    scenes: usize,
+    scene_list: &'a SceneList,
+    rows: &'a [MethodRow],
+    /// The same rows over the held-out scenes and over the rest.
+    held_out: &'a HeldOutSplit,
+    variants: &'a [VariantRecord],
+}
+
+/// A report as read back for merging: the settings, the partition and the
+/// variants (the tables are made again from the variants).
+#[derive(serde::Deserialize)]
+struct PartReport {
+    settings: EvaluationSettings,
+    partition: Option<Partition>,
+    scene_list: SceneList,
+    variants: Vec<VariantRecord>,
+}
+
+/// The scenes a report covers, and which evaluation they belong to.
+#[derive(serde::Serialize, serde::Deserialize)]
+struct SceneList {
+    /// [`evaluation::scene_list_digest`] of the whole evaluation's sorted
+    /// scene ids, before any partition: equal in every part of one split.
+    digest: String,
+    /// This report's scenario ids, sorted.
+    ids: Vec<String>,
+}
+
+/// Which of a folder's scenes an evaluation runs.
+pub(super) struct SceneSelection<'a> {
+    /// Only the first N by id.
+    pub max_scenes: Option<usize>,
+    /// Only these scenario ids (none: all).
+    pub ids: &'a [String],
+}
+
+impl SceneSelection<'_> {
+    /// The scenes under `dir` this selection keeps, by id; an id that no
+    /// scene with an ego and a CBV has is an error naming it.
+    fn load(&self, dir: &Path) -> Result<Vec<Arc<Scenario>>, CliError> {
+        let scenes = load_scenes(dir, self.max_scenes)?;
+        if self.ids.is_empty() {
+            return Ok(scenes);
+        }
+        if let Some(missing) = self.ids.iter().find(|id| !scenes.iter().any(|s| &s.id == *id)) {
+            return Err(CliError::Usage(format!(
+                "--scene {missing}: no scene with an ego and a CBV under {} has that id ({} do; the tables \
+                 name them)",
+                dir.display(),
+                scenes.len()
+            )));
+        }
+        Ok(scenes.into_iter().filter(|s| self.ids.contains(&s.id)).collect())
+    }
+}
+
+/// Runs the command.
+pub(super) fn run(
+    scenes_dir: &Path,
+    request: &EvaluationRequest,
+    selection: SceneSelection<'_>,
+    json: Option<&Path>,
+    witness: WitnessSettings,
+    partition: Option<Partition>,
+) -> Result<ExitCode, CliError> {
+    let mut outputs = Vec::new();
+    if let Some(path) = json {
+        safer_scenarios::record::output::check_output(path)?;
+        outputs.push(safer_scenarios::record::NamedOutput { flag: "--json", path });
+    }
+    if let Some(path) = request.artefacts.as_deref() {
+        outputs.push(safer_scenarios::record::NamedOutput { flag: "--artifacts", path });
+    }
+    if !outputs.is_empty() {
+        // The outputs must not replace a scene the evaluation reads, nor
+        // the planner's spec.
+        let mut inputs = scene_paths(scenes_dir)?;
+        inputs.extend(request.planner.argument_files());
+        safer_scenarios::record::check_outputs_apart(&outputs, &inputs)?;
+    }
+    if let Some(path) = json {
+        super::check_json_report(path)?;
+    }
+    let scenes: Vec<Arc<Scenario>> = selection
+        .load(scenes_dir)?
+        .into_iter()
+        .filter(|s| match safer_scenarios::scenario::roles::recorded_ego_contact(s) {
+            Some((other, step)) => {
+                eprintln!(
+                    "warning: skipping {}: the recorded ego touches agent {} at t = {:.1} s (an annotation overlap: no planner can solve it)",
+                    s.id,
+                    s.track(other).id.0,
+                    step.saturating_sub(s.current_step) as f64 * s.dt_s
+                );
+                false
+            }
+            None => true,
+        })
+        .collect();
+    if scenes.is_empty() {
+        return Err(CliError::Usage(format!("{}: no scene with both an ego and a CBV", scenes_dir.display())));
+    }
+    let digest = evaluation::scene_list_digest(&scenes.iter().map(|s| s.id.as_str()).collect::<Vec<_>>());
+    let scenes = match partition {
+        Some(part) => {
+            let all = scenes.len();
+            let mine = part.select(scenes);
+            eprintln!("partition {}/{}: {} of {all} scenes", part.index, part.count, mine.len());
+            mine
+        }
+        None => scenes,
+    };
+    let models = ModelSet::shipped();
+    let total = (scenes.len() * request.methods.len() * request.stage2_cbv.len() * request.seeds as usize) as u64;
+    let bar = ProgressBar::new(total).with_style(
+        ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} variants ({per_sec}, eta {eta})")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    let budget = WitnessBudget::widening_up_to(witness.widest);
+    let search = move |scenario: &Scenario, stage1: &safer_scenarios::sim::Rollout| -> bool {
+        search_rollout_witness(scenario, stage1, witness.road, budget).is_found()
+    };
+    let plain = super::progress::PlainProgress::off_terminal("evaluate", "variants", total as usize);
+    let tick = || {
+        bar.inc(1);
+        if let Some(p) = &plain {
+            p.tick();
+        }
+    };
+    let records = evaluation::evaluate(&scenes, request, &models, Some(&search), &tick);
+    bar.finish_and_clear();
+    for r in records.iter().filter(|r| r.error.is_some()).take(5) {
+        let method = safer_scenarios::spec::spec_name(&r.method);
+        eprintln!("error: {} {method} seed {}: {}", r.scenario, r.seed, r.error.as_deref().unwrap_or(""));
+    }
+    let settings = EvaluationSettings::of(request, &selection, witness);
+    let scene_list = SceneList { digest, ids: scenes.iter().map(|s| s.id.clone()).collect() };
+    report(&settings, partition, &scene_list, &records, json)
+}
+
+/// Prints the tables of `records` and writes the JSON report; exit code 1
+/// when every variant of some row failed to run.
+fn report(
+    settings: &EvaluationSettings,
+    partition: Option<Partition>,
+    scene_list: &SceneList,
+    records: &[VariantRecord],
+    json: Option<&Path>,
+) -> Result<ExitCode, CliError> {
+    let rows = evaluation::table(records, &settings.methods);
+    let held_out = evaluation::held_out_split(records, &settings.methods);
+    let scenes = scene_list.ids.len();
+    let report =
+        Report { settings, partition, scenes, scene_list, rows: &rows, held_out: &held_out, variants: records };
+    super::write_report_and_table(json, &report, |table| {
+        print_table(table, &rows, &held_out, scenes, settings)?;
+        print_kills(table, &rows, &held_out, settings)
+    })?;
+    let failed = rows.iter().any(|r| r.errors == r.variants && r.variants > 0);
+    Ok(if failed { ExitCode::from(1) } else { ExitCode::SUCCESS })
+}
+
+/// `safer evaluate-merge`: the reports of an evaluation's partitions (each
+/// `safer evaluate --partition K/N --json F`) as one run's table and
+/// report. The parts must share their settings and be the N distinct parts
+/// of one N-way split.
+pub(super) fn merge(parts: &[std::path::PathBuf], json: Option<&Path>) -> Result<ExitCode, CliError> {
+    if let Some(path) = json {
+        safer_scenarios::record::check_outputs_apart(
+            &[safer_scenarios::record::NamedOutput { flag: "--json", path }],
+            parts,
+        )?;
+        super::check_json_report(path)?;
+    }
+    let mut read: Vec<(&Path, PartReport)> = Vec::new();
+    for path in parts {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| CliError::Usage(format!("{}: cannot read the report: {e}", path.display())))?;
+        let part: PartReport = serde_json::from_str(&text).map_err(|e| {
+            CliError::Usage(format!(
+                "{}: not a report of `safer evaluate --json` from this version (line {}, column {}: {e})",
+                path.display(),
+                e.line(),
+                e.column()
+            ))
+        })?;
+        read.push((path, part));
+    }
+    let Some((first_path, first)) = read.first() else {
+        return Err(CliError::Usage("name the partitions' reports to merge".into()));
+    };
+    let count = match first.partition {
+        Some(p) => p.count,
+        None => {
+            return Err(CliError::Usage(format!(
+                "{}: not a partition's report (run `safer evaluate --partition K/N --json F`)",
+                first_path.display()
+            )));
+        }
+    };
+    let mut seen: Vec<Option<&Path>> = vec![None; count];
+    for (path, part) in &read {
+        if let Some(difference) = settings_difference(&first.settings, &part.settings) {
+            return Err(CliError::Usage(format!(
+                "{} and {} are parts of different evaluations: their settings differ ({difference})",
+                first_path.display(),
+                path.display()
+            )));
+        }
+        if part.scene_list.digest != first.scene_list.digest {
+            return Err(CliError::Usage(format!(
+                "{} and {} are parts of different evaluations: they split different scene lists (another \
+                 folder, --max-scenes or --scene)",
+                first_path.display(),
+                path.display()
+            )));
+        }
+        let p = part.partition.filter(|p| p.count == count).ok_or_else(|| {
+            CliError::Usage(format!(
+                "{}: not one of {count} partitions, as {} is",
+                path.display(),
+                first_path.display()
+            ))
+        })?;
+        if let Some(other) = seen[p.index - 1].replace(path) {
+            return Err(CliError::Usage(format!(
+                "{} and {} are both partition {}/{count}",
+                other.display(),
+                path.display(),
+                p.index
+            )));
+        }
+        check_part_variants(path, part)?;
+    }
+    let missing: Vec<String> =
+        seen.iter().enumerate().filter(|(_, s)| s.is_none()).map(|(i, _)| format!("{}/{count}", i + 1)).collect();
+    if !missing.is_empty() {
+        return Err(CliError::Usage(format!("partitions {} are missing", missing.join(", "))));
+    }
+    let mut part_of: std::collections::HashMap<&str, &Path> = std::collections::HashMap::new();
+    for (path, part) in &read {
+        for id in &part.scene_list.ids {
+            if let Some(other) = part_of.insert(id, path) {
+                return Err(CliError::Usage(format!(
+                    "scenario `{id}` is in both {} and {}; the parts of one evaluation share no scene",
+                    other.display(),
+                    path.display()
+                )));
+            }
+        }
+    }
+    let mut ids: Vec<String> = part_of.into_keys().map(String::from).collect();
+    ids.sort();
+    let digest = evaluation::scene_list_digest(&ids);
+    if digest != first.scene_list.digest {
+        return Err(CliError::Usage(format!(
+            "the parts cover {} scenes, which are not the scene list they were split from",
+            ids.len()
+        )));
+    }
+    let settings = first.settings.clone();
+    let records: Vec<VariantRecord> = read.into_iter().flat_map(|(_, p)| p.variants).collect();
+    let mut records = records;
+    evaluation::sort_records(&mut records);
+    report(&settings, None, &SceneList { digest, ids }, &records, json)
+}
+
+/// The first setting in which `a` and `b` differ, as `field: A against B`.
+fn settings_difference(a: &EvaluationSettings, b: &EvaluationSettings) -> Option<String> {
+    let (serde_json::Value::Object(a), serde_json::Value::Object(b)) =
+        (serde_json::to_value(a).ok()?, serde_json::to_value(b).ok()?)
+    else {
+        return None;
+    };
+    let mut fields: Vec<&String> = a.keys().chain(b.keys()).collect();
+    fields.sort();
+    fields.dedup();
+    let shown = |v: Option<&serde_json::Value>| v.map_or("absent".to_string(), |v| v.to_string());
+    fields
+        .into_iter()
+        .find(|f| a.get(*f) != b.get(*f))
+        .map(|f| format!("{f}: {} against {}", shown(a.get(f)), shown(b.get(f))))
+}
+
+/// Checks that a part holds exactly one variant per scene, method,
+/// stage-2 CBV mode and seed of its settings, and none of another scene.
+fn check_part_variants(path: &Path, part: &PartReport) -> Result<(), CliError> {
+    let s = &part.settings;
+    let expected = part.scene_list.ids.len() * s.methods.len() * s.stage2_cbv.len() * s.seeds as usize;
+    if let Some(stray) = part.variants.iter().find(|v| part.scene_list.ids.binary_search(&v.scenario).is_err()) {
+        return Err(CliError::Usage(format!(
+            "{}: variant of scenario `{}`, which is not among the part's scenes",
+            path.display(),
+            stray.scenario
+        )));
+    }
+    let mut keys: Vec<_> = part.variants.iter().map(|v| (&v.scenario, v.method, v.stage2_cbv, v.seed)).collect();
+    keys.sort();
+    keys.dedup();
+    if part.variants.len() != expected || keys.len() != expected {
+        return Err(CliError::Usage(format!(
+            "{}: holds {} variants ({} distinct), where {} scenes × {} methods × {} stage-2 CBV modes × {} seeds \
+             make {expected}",
+            path.display(),
+            part.variants.len(),
+            keys.len(),
+            part.scene_list.ids.len(),
+            s.methods.len(),
+            s.stage2_cbv.len(),
+            s.seeds
+        )));
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use safer_scenarios::harness::evaluation::SceneCount;
+
+    fn count(scenario: &str, variants: usize) -> SceneCount {
+        SceneCount { scenario: scenario.into(), variants, of: 10 }
+    }
+
+    #[test]
+    fn the_scene_list_names_the_first_three_stars_the_held_out_and_sums_the_rest() {
+        let held_out = ["b".to_string(), "e".to_string()];
+        let scenes = [count("a", 9), count("b", 7), count("c", 3), count("d", 2), count("e", 1)];
+        assert_eq!(named_scenes(&scenes, &held_out), "a 9/10, b* 7/10, c 3/10, 3 in 2 more scenes");
+        assert_eq!(named_scenes(&scenes[..4], &held_out), "a 9/10, b* 7/10, c 3/10, 2 in 1 more scene");
+        assert_eq!(named_scenes(&scenes[..3], &[]), "a 9/10, b 7/10, c 3/10");
+        assert_eq!(named_scenes(&[], &held_out), "");
+    }
+}

@@ -1,0 +1,664 @@
+//! `safer run SUITE.yaml... [--json OUT] [--artifacts DIR] [--filter SUBSTR]`:
+//! the scenario suites outside `cargo test`, with the same variants, the
+//! same outcomes and the same artefacts (both go through [`safer_scenarios::harness`]).
+//!
+//! Every suite is loaded first; one that does not load is reported with its
+//! YAML snippet and the others still run. Variants of all suites run in
+//! parallel (rayon); the table lists them per suite, sorted by scenario
+//! name and seed number, so the output does not depend on scheduling.
+//! `--filter` selects like a test filter: variants whose name
+//! (`suite::scenario::seed-k`) contains it, and suite metrics whose name
+//! (`suite::metric`) contains it; a selected metric runs all of its suite's
+//! variants, as the metric trial of `cargo test --test suites` does.
+//!
+//! `--json -` (or `--junit -`) writes that report to standard output and
+//! the table to stderr. `--junit FILE` writes a JUnit XML report
+//! ([`harness::junit`]); `--html DIR` a static review page
+//! ([`harness::review_page`]). All reports are written from one
+//! [`RunResults`].
+//!
+//! Exit code: 0 when every selected variant and metric passed, 1 when one
+//! failed (or could not run), 2 on usage errors and suites that do not load.
+
+use std::io::{IsTerminal, Write};
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::sync::Mutex;
+
+use rayon::prelude::*;
+use serde::Serialize;
+
+use super::CliError;
+use safer_scenarios::harness::mutation::{MutantRun, MutationReport};
+use safer_scenarios::harness::report::{RunResults, SuiteLoadFailure, SuiteRun, VariantRun};
+use safer_scenarios::harness::{self, HarnessError, Suite, SuiteMetrics, VariantOutcome, VariantSummary};
+use safer_scenarios::planners::FaultOperator;
+use safer_scenarios::record::OutputKind;
+
+/// One variant to run.
+struct Job {
+    /// Index into the loaded suites.
+    suite: usize,
+    /// Index into the suite's scenarios.
+    scenario: usize,
+    /// Variant index (seed number).
+    index: u32,
+    /// Whether the filter selected it (otherwise it only feeds a selected metric).
+    shown: bool,
+}
+
+/// What a job produced.
+struct Done {
+    outcome: Result<VariantOutcome, HarnessError>,
+    /// The mutants' runs on the variant (none unless mutants were asked for).
+    mutants: Vec<MutantRun>,
+    /// Artefacts of a shown failing variant, or why they could not be written.
+    artefacts: Option<Result<harness::artefacts::Artefacts, String>>,
+}
+
+/// The JSON report.
+#[derive(Debug, Serialize)]
+struct Report {
+    /// Every selected variant and metric passed and every suite loaded.
+    passed: bool,
+    /// Suites that could not be loaded.
+    load_errors: Vec<LoadErrorReport>,
+    /// Per suite, in command-line order.
+    suites: Vec<SuiteReport>,
+}
+
+#[derive(Debug, Serialize)]
+struct LoadErrorReport {
+    file: String,
+    message: String,
+}
+
+#[derive(Debug, Serialize)]
+struct SuiteReport {
+    file: String,
+    name: String,
+    planner: String,
+    passed: bool,
+    variants: Vec<VariantEntry>,
+    /// `None` when no metric was selected or a variant the metrics need could not run.
+    metrics: Option<SuiteMetrics>,
+    checks: Vec<CheckReport>,
+    /// The mutation run, when mutants were planted.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    mutation: Option<MutationReport>,
+}
+
+/// A variant in the report: its summary, or why it could not run.
+#[derive(Debug, Serialize)]
+#[serde(untagged)]
+enum VariantEntry {
+    Ran {
+        // Boxed: the summary dwarfs the error arm.
+        #[serde(flatten)]
+        summary: Box<VariantSummary>,
+        #[serde(skip_serializing_if = "Option::is_none")]
+        artefacts: Option<ArtefactReport>,
+        #[serde(skip_serializing_if = "Option::is_none")]
+        artefacts_error: Option<String>,
+        /// Wall-clock time per planner answer (not in the snapshot summary).
+        #[serde(skip_serializing_if = "Option::is_none")]
+        planner_latency: Option<harness::pipeline::PlannerLatency>,
+    },
+    Error {
+        variant: String,
+        passed: bool,
+        error: String,
+    },
+}
+
+#[derive(Debug, Serialize)]
+struct ArtefactReport {
+    mcap: String,
+    svg: String,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    stderr: Option<String>,
+    /// What the witness search said about the ego's collision.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    witness: Option<harness::variant::CollisionEscape>,
+}
+
+#[derive(Debug, Serialize)]
+struct CheckReport {
+    name: String,
+    value: Option<f64>,
+    passed: bool,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    message: Option<String>,
+}
+
+/// "k/n done" on one overwritten stderr line, only for a person watching:
+/// redirected stderr (CI logs, tests) stays free of carriage-return noise.
+struct Progress {
+    total: usize,
+    done: Mutex<usize>,
+    on: bool,
+    /// Off a terminal: plain lines instead.
+    plain: Option<super::progress::PlainProgress>,
+}
+
+impl Progress {
+    fn new(total: usize) -> Self {
+        let on = std::io::stderr().is_terminal() && total > 0;
+        let plain = super::progress::PlainProgress::off_terminal("run", "variants", total);
+        let p = Self { total, done: Mutex::new(0), on, plain };
+        p.show(0);
+        p
+    }
+
+    fn show(&self, done: usize) {
+        if self.on {
+            let mut err = std::io::stderr().lock();
+            let _ = write!(err, "\r{done}/{} variants done", self.total);
+            let _ = err.flush();
+        }
+    }
+
+    fn tick(&self) {
+        // The lock keeps the printed count in order across rayon threads;
+        // a poisoned lock only means another thread panicked mid-print.
+        if let Some(plain) = &self.plain {
+            plain.tick();
+        }
+        let mut done = self.done.lock().unwrap_or_else(|e| e.into_inner());
+        *done += 1;
+        self.show(*done);
+    }
+
+    fn finish(&self) {
+        if self.on {
+            eprint!("\r{:width$}\r", "", width = 40);
+        }
+    }
+}
+
+/// Where `safer run` writes its reports besides the table.
+pub(super) struct RunOutputs<'a> {
+    /// The JSON report.
+    pub json: Option<&'a Path>,
+    /// The JUnit XML report.
+    pub junit: Option<&'a Path>,
+    /// The folder of the review page.
+    pub html: Option<&'a Path>,
+    /// The folder of failing variants' recordings and pictures.
+    pub artifacts: &'a Path,
+    /// Where to write variants as CommonRoad scenarios, and whether every
+    /// variant (else the failing ones).
+    pub commonroad: Option<(&'a Path, bool)>,
+}
+
+/// Writes `outcome`'s stage 2 as a CommonRoad scenario under `dir`, at the
+/// variant's artefact path with `.xml`.
+fn export_commonroad(dir: &Path, outcome: &harness::VariantOutcome) -> Result<PathBuf, String> {
+    let path = harness::artefacts::base_path(dir, &outcome.name).map_err(|e| e.to_string())?.with_extension("xml");
+    safer_scenarios::record::commonroad::write_commonroad(&path, &outcome.scenario, &outcome.stage2, &outcome.name)
+        .map_err(|e| e.to_string())?;
+    Ok(path)
+}
+
+/// Checks, before the run, every file `--export-commonroad DIR` may write
+/// for the variants `names`: none may be a file the run reads, and an
+/// existing one must be an export safer made, so a recorded CommonRoad
+/// scene kept in `DIR` is never replaced.
+fn check_exports(dir: &Path, names: impl Iterator<Item = String>, inputs: &[PathBuf]) -> Result<(), CliError> {
+    for name in names {
+        let path = dir.join(harness::artefacts::relative_path(dir, &name)?).with_extension("xml");
+        let out = [safer_scenarios::record::NamedOutput { flag: "--export-commonroad", path: &path }];
+        if path.parent().is_some_and(Path::is_dir) {
+            safer_scenarios::record::check_outputs_apart(&out, inputs)?;
+        }
+        safer_scenarios::record::check_replaceable("--export-commonroad", &path, OutputKind::CommonRoadExport, false)?;
+    }
+    Ok(())
+}
+
+pub(super) fn run(
+    files: &[PathBuf],
+    outputs: RunOutputs<'_>,
+    filter: Option<&str>,
+    shrink_budget: usize,
+    mutants: Option<&[FaultOperator]>,
+) -> Result<ExitCode, CliError> {
+    let RunOutputs { json, junit, html, artifacts, commonroad } = outputs;
+    // Refused before anything runs: a report that cannot be written should not cost a run.
+    for out in [json, junit].into_iter().flatten() {
+        safer_scenarios::record::output::check_output(out)?;
+    }
+    if let Some(dir) = html {
+        harness::review_page::check_folder(dir)?;
+    }
+    let mut load_failures = Vec::new();
+    let mut suites: Vec<(PathBuf, Suite)> = Vec::new();
+    for file in files {
+        match Suite::load(file) {
+            Ok(s) => suites.push((file.clone(), Suite { shrink_budget, ..s })),
+            Err(e) => {
+                eprintln!("{}", e.render(std::io::IsTerminal::is_terminal(&std::io::stderr())));
+                load_failures.push(SuiteLoadFailure { file: file.clone(), message: e.to_string() });
+            }
+        }
+    }
+
+    // Two suites of one name would share test names and artefact paths,
+    // and one recording would silently replace the other.
+    for (i, (file, suite)) in suites.iter().enumerate() {
+        if let Some((first, _)) = suites[..i].iter().find(|(_, s)| s.name() == suite.name()) {
+            return Err(CliError::Usage(format!(
+                "{} and {} are both named `{}`; suites run together need different names (their tests and \
+                 artefacts are named after them)",
+                first.display(),
+                file.display(),
+                suite.name()
+            )));
+        }
+    }
+    // No report may replace a file the run reads, or another report.
+    let inputs: Vec<PathBuf> = files.iter().cloned().chain(suites.iter().flat_map(|(_, s)| s.input_files())).collect();
+    let named = [("--json", json), ("--junit", junit)];
+    let outputs: Vec<safer_scenarios::record::NamedOutput<'_>> = named
+        .iter()
+        .filter_map(|(flag, p)| p.map(|path| safer_scenarios::record::NamedOutput { flag, path }))
+        .collect();
+    safer_scenarios::record::check_outputs_apart(&outputs, &inputs)?;
+    for out in &outputs {
+        let kind = if out.flag == "--junit" { OutputKind::JunitXml } else { OutputKind::Json };
+        safer_scenarios::record::check_replaceable(out.flag, out.path, kind, false)?;
+    }
+
+    let selects = |name: &str| filter.is_none_or(|f| name.contains(f));
+    let mut jobs = Vec::new();
+    let mut metrics_selected: Vec<Vec<&'static str>> = Vec::new();
+    for (si, (_, suite)) in suites.iter().enumerate() {
+        let metrics: Vec<&'static str> = harness::metrics::metric_names(&suite.spec.value.acceptance.suite)
+            .into_iter()
+            .filter(|m| selects(&format!("{}::{m}", suite.name())))
+            .collect();
+        for (ci, scenario) in suite.scenarios.iter().enumerate() {
+            for k in 0..suite.spec.value.variants {
+                let shown = selects(&suite.variant_name(scenario, k));
+                if shown || !metrics.is_empty() {
+                    jobs.push(Job { suite: si, scenario: ci, index: k, shown });
+                }
+            }
+        }
+        metrics_selected.push(metrics);
+    }
+    if let Some(f) = filter
+        && !suites.is_empty()
+        && !jobs.iter().any(|j| j.shown)
+        && metrics_selected.iter().all(Vec::is_empty)
+    {
+        // A mistyped filter would otherwise "pass" with nothing run.
+        return Err(CliError::Usage(format!("--filter `{f}` matches no variant and no suite metric")));
+    }
+
+    if let Some((dir, _)) = commonroad {
+        let names = jobs.iter().filter(|j| j.shown).map(|j| {
+            let suite = &suites[j.suite].1;
+            suite.variant_name(&suite.scenarios[j.scenario], j.index)
+        });
+        check_exports(dir, names, &inputs)?;
+    }
+
+    // The mutants each suite plants: the flag's, else its own when it asks
+    // for a mutation score.
+    let operators: Vec<Vec<FaultOperator>> =
+        suites.iter().map(|(_, s)| harness::mutation::operators_for(&s.spec.value.acceptance.suite, mutants)).collect();
+    let progress = Progress::new(jobs.len());
+    let exports: std::sync::Mutex<Vec<(String, Result<PathBuf, String>)>> = std::sync::Mutex::new(Vec::new());
+    let done: Vec<Done> = jobs
+        .par_iter()
+        .map(|j| {
+            let suite = &suites[j.suite].1;
+            let scenario = &suite.scenarios[j.scenario];
+            let outcome = harness::run_variant(suite, scenario, j.index);
+            let mutants = match &outcome {
+                Ok(o) => harness::mutation::run_mutants(suite, scenario, j.index, o, &operators[j.suite]),
+                Err(_) => Vec::new(),
+            };
+            let artefacts = match &outcome {
+                Ok(o) if j.shown && !o.failures.is_empty() => {
+                    Some(harness::artefacts::write(artifacts, o).map_err(|e| e.to_string()))
+                }
+                _ => None,
+            };
+            if let (Ok(o), Some((dir, all))) = (&outcome, commonroad)
+                && j.shown
+                && (all || !o.failures.is_empty())
+            {
+                let written = export_commonroad(dir, o);
+                exports.lock().unwrap_or_else(|p| p.into_inner()).push((o.name.clone(), written));
+            }
+            progress.tick();
+            Done { outcome, mutants, artefacts }
+        })
+        .collect();
+    progress.finish();
+
+    // Each suite's jobs, sorted by scenario name and seed number so the
+    // reports do not depend on scheduling.
+    let mut per_suite: Vec<Vec<(Job, Done)>> = suites.iter().map(|_| Vec::new()).collect();
+    for (j, d) in jobs.into_iter().zip(done) {
+        per_suite[j.suite].push((j, d));
+    }
+    let mut results = RunResults { load_failures, suites: Vec::new() };
+    for (((file, suite), (mut mine, metrics)), ops) in
+        suites.iter().zip(per_suite.into_iter().zip(&metrics_selected)).zip(&operators)
+    {
+        mine.sort_by_cached_key(|(j, _)| (suite.scenarios[j.scenario].name.clone(), j.index));
+        results.suites.push(suite_run(file, suite, mine, metrics, ops));
+    }
+    let load_failed = !results.load_failures.is_empty();
+    let report = Report {
+        passed: results.passed(),
+        load_errors: results
+            .load_failures
+            .iter()
+            .map(|f| LoadErrorReport { file: f.file.display().to_string(), message: f.message.clone() })
+            .collect(),
+        suites: results.suites.iter().map(suite_report).collect(),
+    };
+
+    // The table goes to stderr when a report takes standard output.
+    // File reports before anything goes to standard output: a reader that
+    // closes it early (`| head`) must not cost the run its reports.
+    let to_file = |p: &&Path| !safer_scenarios::record::is_stdout(p);
+    let to_stdout = |p: &&Path| safer_scenarios::record::is_stdout(p);
+    let write_json = |out: &Path| -> Result<(), CliError> {
+        let text = serde_json::to_string_pretty(&report)? + "\n";
+        Ok(safer_scenarios::record::write_output(out, text.as_bytes())?)
+    };
+    let write_junit =
+        |out: &Path| safer_scenarios::record::write_output(out, harness::junit::junit_xml(&results).as_bytes());
+    if let Some(out) = json.filter(to_file) {
+        write_json(out)?;
+    }
+    if let Some(out) = junit.filter(to_file) {
+        write_junit(out)?;
+    }
+    let mut table =
+        super::table_writer([json, junit].into_iter().flatten().find(|p| safer_scenarios::record::is_stdout(p)));
+    match print_report(&mut table, &report).and_then(|()| table.flush()) {
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => {}
+        other => other?,
+    }
+    if let Some(out) = json.filter(to_stdout) {
+        write_json(out)?;
+    }
+    if let Some(out) = junit.filter(to_stdout) {
+        write_junit(out)?;
+    }
+    if let Some(dir) = html {
+        let page = harness::review_page::write_review_page(dir, &results)?;
+        eprintln!("review page: {}", page.display());
+    }
+    let mut exports = exports.into_inner().unwrap_or_else(|p| p.into_inner());
+    exports.sort_by(|a, b| a.0.cmp(&b.0));
+    let export_failed = exports.iter().any(|(_, r)| r.is_err());
+    if let Some((dir, _)) = commonroad {
+        for (variant, written) in &exports {
+            if let Err(e) = written {
+                eprintln!("error: {variant} could not be exported as a CommonRoad scenario: {e}");
+            }
+        }
+        let ok = exports.iter().filter(|(_, r)| r.is_ok()).count();
+        eprintln!("CommonRoad scenarios: {ok} written under {}", dir.display());
+    }
+    Ok(if load_failed {
+        ExitCode::from(2)
+    } else if report.passed && !export_failed {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::from(1)
+    })
+}
+
+/// The results of one suite: its shown variants and its selected metrics.
+fn suite_run(
+    file: &Path,
+    suite: &Suite,
+    jobs: Vec<(Job, Done)>,
+    metrics: &[&'static str],
+    operators: &[FaultOperator],
+) -> SuiteRun {
+    let names: Vec<String> =
+        jobs.iter().map(|(job, _)| suite.variant_name(&suite.scenarios[job.scenario], job.index)).collect();
+    let mutation = (!operators.is_empty()).then(|| {
+        MutationReport::of(
+            operators,
+            jobs.iter()
+                .zip(&names)
+                .map(|((_, done), name)| (name.as_str(), done.outcome.as_ref().ok(), done.mutants.as_slice())),
+        )
+    });
+    let (suite_metrics, checks) = if metrics.is_empty() {
+        (None, Vec::new())
+    } else {
+        let (m, checks) = harness::metrics::suite_verdict(
+            &suite.spec.value.acceptance.suite,
+            jobs.iter().map(|(job, done)| {
+                let name = suite.variant_name(&suite.scenarios[job.scenario], job.index);
+                (name, done.outcome.as_ref().map(|o| &o.tally).map_err(|e| e.to_string()))
+            }),
+            mutation.as_ref().and_then(|m| m.check(&suite.spec.value.acceptance.suite)),
+        );
+        (m, checks.into_iter().filter(|c| metrics.contains(&c.name)).collect())
+    };
+    let variants = jobs
+        .into_iter()
+        .filter(|(j, _)| j.shown)
+        .map(|(job, done)| VariantRun {
+            name: suite.variant_name(&suite.scenarios[job.scenario], job.index),
+            outcome: done.outcome.map_err(|e| e.to_string()),
+            artefacts: done.artefacts,
+            snapshot: safer_scenarios::harness::report::SnapshotCheck::NotCompared,
+        })
+        .collect();
+    SuiteRun {
+        file: file.to_path_buf(),
+        name: suite.name(),
+        planner: suite.planner.name().to_string(),
+        variants,
+        metrics: suite_metrics,
+        checks,
+        mutation,
+    }
+}
+
+/// The JSON report of one suite.
+fn suite_report(run: &SuiteRun) -> SuiteReport {
+    let variants = run
+        .variants
+        .iter()
+        .map(|v| match &v.outcome {
+            Ok(o) => {
+                let (artefacts, artefacts_error) = match &v.artefacts {
+                    Some(Ok(a)) => (
+                        Some(ArtefactReport {
+                            mcap: a.mcap.display().to_string(),
+                            svg: a.svg.display().to_string(),
+                            stderr: a.stderr.as_ref().map(|p| p.display().to_string()),
+                            witness: a.witness.as_ref().map(harness::artefacts::WitnessArtefact::verdict),
+                        }),
+                        None,
+                    ),
+                    Some(Err(e)) => (None, Some(e.clone())),
+                    None => (None, None),
+                };
+                VariantEntry::Ran {
+                    summary: Box::new(o.summary()),
+                    artefacts,
+                    artefacts_error,
+                    planner_latency: o.planner_latency,
+                }
+            }
+            Err(e) => VariantEntry::Error { variant: v.name.clone(), passed: false, error: e.clone() },
+        })
+        .collect();
+    let checks = run
+        .checks
+        .iter()
+        .map(|c| CheckReport {
+            name: c.name.to_string(),
+            value: c.value,
+            passed: c.result.is_ok(),
+            message: c.result.clone().err(),
+        })
+        .collect();
+    SuiteReport {
+        file: run.file.display().to_string(),
+        name: run.name.clone(),
+        planner: run.planner.clone(),
+        passed: run.passed(),
+        variants,
+        metrics: run.metrics.clone(),
+        checks,
+        mutation: run.mutation.clone(),
+    }
+}
+
+/// `1 variant`, `2 variants`.
+fn count(n: usize, what: &str) -> String {
+    format!("{n} {what}{}", if n == 1 { "" } else { "s" })
+}
+
+fn opt(v: Option<f64>, decimals: usize) -> String {
+    v.map_or_else(|| "-".to_string(), |x| format!("{x:.decimals$}"))
+}
+
+/// The human-readable table (on stdout, or stderr when the JSON report
+/// takes stdout).
+fn print_report(out: &mut dyn Write, report: &Report) -> std::io::Result<()> {
+    let mut failing = Vec::new();
+    let (mut variants, mut variants_failed, mut checks, mut checks_failed) = (0, 0, 0, 0);
+    for (i, s) in report.suites.iter().enumerate() {
+        if i > 0 {
+            writeln!(out)?;
+        }
+        writeln!(out, "suite {} ({}), planner {}", s.name, s.file, s.planner)?;
+        let width = s
+            .variants
+            .iter()
+            .map(|v| match v {
+                VariantEntry::Ran { summary, .. } => summary.variant.len(),
+                VariantEntry::Error { variant, .. } => variant.len(),
+            })
+            .max()
+            .unwrap_or(0)
+            .max("variant".len());
+        if !s.variants.is_empty() {
+            writeln!(
+                out,
+                "  {:<width$}  {:>10}  {:>9}  {:>9}  {:>5}  {:>9}  stage 2",
+                "variant", "S1 CBV hit", "gap CBV m", "min gap m", "reach", "min TTC s"
+            )?;
+        }
+        for v in &s.variants {
+            variants += 1;
+            match v {
+                VariantEntry::Ran { summary, artefacts, artefacts_error, .. } => {
+                    let result = match summary.failures.first() {
+                        // The criteria may allow a collision (not at fault);
+                        // say so, as it does not count as solved.
+                        None => match (&summary.stage2_collision, summary.stage2_escape) {
+                            (Some(collision), Some(escape)) if !escape.avoidable() => {
+                                format!(
+                                    "pass (ego collision: {collision}; no escape within budget: the generator's fault; not solved)"
+                                )
+                            }
+                            (Some(collision), _) => format!("pass (ego collision: {collision}; not solved)"),
+                            (None, _) => "pass".to_string(),
+                        },
+                        Some(first) => {
+                            variants_failed += 1;
+                            let more = summary.failures.len() - 1;
+                            let more = if more > 0 { format!(" (+{more} more)") } else { String::new() };
+                            failing.push((summary.variant.clone(), artefacts, artefacts_error));
+                            format!("FAIL {first}{more}")
+                        }
+                    };
+                    writeln!(
+                        out,
+                        "  {:<width$}  {:>10}  {:>9}  {:>9}  {:>5}  {:>9}  {result}",
+                        summary.variant,
+                        if summary.stage1_cbv_hit_ego { "yes" } else { "no" },
+                        opt(summary.stage2_min_gap_to_cbv_m, 2),
+                        opt(summary.stage2_min_gap_m, 2),
+                        if summary.conflict_reached { "yes" } else { "no" },
+                        opt(summary.stage2_min_ttc_s, 1),
+                    )?;
+                    if let Some(shrunk) = &summary.shrunk {
+                        writeln!(out, "  {:<width$}  shrunk: {}", "", shrunk.describe())?;
+                    }
+                }
+                VariantEntry::Error { variant, error, .. } => {
+                    variants_failed += 1;
+                    writeln!(
+                        out,
+                        "  {variant:<width$}  {:>10}  {:>9}  {:>9}  {:>5}  {:>9}  ERROR could not run: {error}",
+                        "-", "-", "-", "-", "-"
+                    )?;
+                }
+            }
+        }
+        if let Some(m) = &s.metrics {
+            writeln!(out, "  {}", m.headline("  "))?;
+            for line in m.coverage_table() {
+                writeln!(out, "  {line}")?;
+            }
+        }
+        let metric_width = s.checks.iter().map(|c| s.name.len() + 2 + c.name.len()).max().unwrap_or(0);
+        for c in &s.checks {
+            checks += 1;
+            let verdict = if c.passed {
+                "PASS".to_string()
+            } else {
+                checks_failed += 1;
+                format!("FAIL {}", c.message.as_deref().unwrap_or_default())
+            };
+            writeln!(out, "  {:<metric_width$}  {:>7}  {verdict}", format!("{}::{}", s.name, c.name), opt(c.value, 3))?;
+        }
+        if let Some(m) = &s.mutation {
+            writeln!(out, "  {}", m.headline())?;
+            for line in m.table() {
+                writeln!(out, "    {line}")?;
+            }
+        }
+    }
+    if !failing.is_empty() {
+        writeln!(out, "\nartefacts of failing variants:")?;
+        for (name, artefacts, error) in failing {
+            writeln!(out, "  {name}")?;
+            match (artefacts, error) {
+                (Some(a), _) => {
+                    writeln!(out, "    recording: {}\n    picture:   {}", a.mcap, a.svg)?;
+                    if let Some(stderr) = &a.stderr {
+                        writeln!(out, "    stderr:    {stderr}")?;
+                    }
+                    if let Some(witness) = a.witness {
+                        writeln!(out, "    witness:   {}", witness.describe())?;
+                    }
+                }
+                (None, Some(e)) => writeln!(out, "    (could not write artefacts: {e})")?,
+                (None, None) => {}
+            }
+        }
+    }
+    let load = if report.load_errors.is_empty() {
+        String::new()
+    } else {
+        format!("; {} could not be loaded", count(report.load_errors.len(), "suite file"))
+    };
+    writeln!(
+        out,
+        "\n{}: {}, {variants_failed} failed; {}, {checks_failed} failed{load}",
+        if report.passed { "PASS" } else { "FAIL" },
+        count(variants, "variant"),
+        count(checks, "metric check"),
+    )?;
+    Ok(())
+}

@@ -1,0 +1,133 @@
+//! `safer trust-region`: what the realism prior's trust region offers the
+//! adversary over a folder of scenes (see `harness::trust_region`): per
+//! method (each runs its own prior: `no-mda` the plain-attention one, and
+//! `$SAFER_MODELS` swaps in another set), the mean probability mass of the
+//! top n tokens, their acceleration and yaw-rate range and bins, the share
+//! of boundaries with no steering choice at all, the distinct behaviours
+//! and the plausible share; the held-out tenth of the scenes beside the
+//! rest; optionally every boundary as JSON.
+
+use std::io::Write;
+use std::path::Path;
+use std::process::ExitCode;
+
+use super::evaluate::load_scenes;
+use super::{CliError, figure};
+use safer_scenarios::harness::evaluation::{EvaluationRequest, held_out_scenes};
+use safer_scenarios::harness::methods::ModelSet;
+use safer_scenarios::harness::trust_region::{BoundaryProfile, TrustRegionSummary, profile_scenes, summarise};
+use safer_scenarios::policies::adversary::ApproachPhase;
+
+fn print(out: &mut dyn Write, title: &str, rows: &[TrustRegionSummary]) -> std::io::Result<()> {
+    writeln!(out, "{title}")?;
+    writeln!(
+        out,
+        "{:<18} {:>10} {:>6} {:>10} {:>7} {:>11} {:>6} {:>9} {:>10} {:>9} {:>9} {:>6} {:>8}",
+        "method",
+        "boundaries",
+        "mass",
+        "accel m/s²",
+        "a-bins",
+        "yaw rad/s",
+        "y-bins",
+        "no-steer",
+        "behaviours",
+        "plausible",
+        "none-pl.",
+        "rank",
+        "outside"
+    )?;
+    for r in rows {
+        writeln!(
+            out,
+            "{:<18} {:>10} {:>6} {:>10} {:>7} {:>11} {:>6} {:>9} {:>10} {:>9} {:>9} {:>6} {:>8}",
+            safer_scenarios::spec::spec_name(&r.method),
+            r.boundaries,
+            figure(r.probability_mass, 3),
+            figure(r.accel_range_mps2, 2),
+            figure(r.accel_bins, 1),
+            figure(r.yaw_rate_range_radps, 3),
+            figure(r.yaw_rate_bins, 1),
+            figure(r.no_steering_share, 3),
+            figure(r.behaviours, 1),
+            figure(r.plausible_share, 3),
+            figure(r.none_plausible_share, 3),
+            figure(r.driven_rank, 1),
+            figure(r.outside_share, 3)
+        )?;
+    }
+    Ok(())
+}
+
+#[derive(serde::Serialize)]
+struct Report<'a> {
+    scenes: usize,
+    trust_region: usize,
+    approach: ApproachPhase,
+    summary: &'a [TrustRegionSummary],
+    held_out: &'a [TrustRegionSummary],
+    rest: &'a [TrustRegionSummary],
+    boundaries: &'a [BoundaryProfile],
+}
+
+/// Runs the command.
+pub(super) fn run(
+    scenes_dir: &Path,
+    request: &EvaluationRequest,
+    max_scenes: Option<usize>,
+    json: Option<&Path>,
+) -> Result<ExitCode, CliError> {
+    if let Some(path) = json {
+        let inputs = super::scene_paths(scenes_dir)?;
+        safer_scenarios::record::check_outputs_apart(
+            &[safer_scenarios::record::NamedOutput { flag: "--json", path }],
+            &inputs,
+        )?;
+        super::check_json_report(path)?;
+    }
+    let scenes = load_scenes(scenes_dir, max_scenes)?;
+    if scenes.is_empty() {
+        return Err(CliError::Usage(format!("{}: no scene with both an ego and a CBV", scenes_dir.display())));
+    }
+    let (profiles, errors) = profile_scenes(&scenes, request, &ModelSet::shipped());
+    for (variant, error) in errors.iter().take(5) {
+        eprintln!("error: {variant}: {error}");
+    }
+    let held = held_out_scenes(scenes.iter().map(|s| s.id.as_str()));
+    let (held_out, rest): (Vec<BoundaryProfile>, Vec<BoundaryProfile>) =
+        profiles.iter().cloned().partition(|b| held.contains(b.scenario.as_str()));
+    let summary = summarise(&profiles, &request.methods);
+    let held_out = summarise(&held_out, &request.methods);
+    let rest = summarise(&rest, &request.methods);
+    let report = Report {
+        scenes: scenes.len(),
+        trust_region: request.trust_region,
+        approach: request.approach,
+        summary: &summary,
+        held_out: &held_out,
+        rest: &rest,
+        boundaries: &profiles,
+    };
+    super::write_report_and_table(json, &report, |out| {
+        writeln!(
+            out,
+            "{} scenes × {} seeds; trust region n = {}; the CBV's token boundaries {}, stage 1",
+            scenes.len(),
+            request.seeds,
+            request.trust_region,
+            match request.approach {
+                ApproachPhase::Seeded => "after the approach phase",
+                ApproachPhase::None => "from the first (no approach phase)",
+            }
+        )?;
+        print(out, "all scenes:", &summary)?;
+        print(out, &format!("held out (every tenth scene by id: {} of {}):", held.len(), scenes.len()), &held_out)?;
+        print(out, "the other scenes:", &rest)?;
+        writeln!(
+            out,
+            "mass: the prior's probability of the top-n tokens together; accel/yaw: the range of the tokens' bin centres (longitudinal and lateral choice) and the distinct bins; no-steer: share of boundaries with one yaw-rate bin; behaviours: groups of the tokens' end positions after 2 s held, more than 1 m apart; plausible: share of the tokens the plausibility rule allows; none-pl.: share of boundaries where it allows none; rank: mean rank in the region of the token the adversary drove (0: the likeliest); outside: share of boundaries where it drove one from outside the region (the plausibility fallback)."
+        )?;
+        Ok(())
+    })?;
+    Ok(if errors.is_empty() { ExitCode::SUCCESS } else { ExitCode::from(1) })
+}

@@ -1,0 +1,298 @@
+//! `safer evaluate --partition K/N` and `safer evaluate-merge`: the parts
+//! of an evaluation, run apart and merged, give the table and report one
+//! run gives; and `--artifacts` leaves a failing variant's recording,
+//! picture and collision record behind.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+use serde_json::Value;
+
+fn safer(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_safer")).args(args).output().expect("run safer")
+}
+
+fn ok(out: Output) -> String {
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    String::from_utf8(out.stdout).expect("UTF-8 table")
+}
+
+/// The table without what the clock decides: the `s/variant` column of
+/// the first table and the time-profile table.
+fn without_times(table: &str) -> String {
+    let mut kept = Vec::new();
+    let mut in_first_table = false;
+    let mut in_profile = false;
+    for line in table.lines() {
+        if line.starts_with("method") && line.ends_with("s/variant") {
+            in_first_table = true;
+        } else if line.is_empty() {
+            in_first_table = false;
+        }
+        if line.starts_with("where the time goes") {
+            in_profile = true;
+        } else if line.starts_with("VJ/AJ:") {
+            in_profile = false;
+        }
+        if in_profile {
+            continue;
+        }
+        let line = if in_first_table { line.rsplit_once(' ').map_or(line, |(head, _)| head) } else { line };
+        kept.push(line.to_string());
+    }
+    kept.join("\n")
+}
+
+/// A report without what the clock decides (times, profiles, latencies)
+/// and without where artefacts went.
+fn report_without_times(path: &Path) -> Value {
+    let mut v: Value = serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
+    fn strip(v: &mut Value) {
+        match v {
+            Value::Object(map) => {
+                for key in ["time_s", "time_per_variant_s", "profile", "planner_latency", "artefacts", "partition"] {
+                    map.remove(key);
+                }
+                map.values_mut().for_each(strip);
+            }
+            Value::Array(items) => items.iter_mut().for_each(strip),
+            _ => {}
+        }
+    }
+    strip(&mut v);
+    v
+}
+
+#[test]
+fn an_evaluation_run_in_three_parts_and_merged_is_the_one_run() {
+    let out = tempfile_dir("partitions");
+    let scenes = Path::new(repo_root!()).join("scenes/ngsim");
+    let common =
+        ["evaluate", "--scenes", scenes.to_str().unwrap(), "--methods", "safer,log", "--seeds", "2", "--jobs", "2"];
+    let run = |extra: &[&str]| safer(&[&common[..], extra].concat());
+    let whole = out.join("whole.json");
+    let whole_table = ok(run(&["--json", whole.to_str().unwrap()]));
+    let mut parts = Vec::new();
+    for k in 1..=3 {
+        let part = out.join(format!("part-{k}.json"));
+        let partition = format!("{k}/3");
+        let out = run(&["--partition", &partition, "--json", part.to_str().unwrap()]);
+        let stderr = String::from_utf8_lossy(&out.stderr).to_string();
+        ok(out);
+        assert!(stderr.contains(&format!("partition {k}/3: 1 of 3 scenes")), "{stderr}");
+        // Off a terminal, progress comes as plain lines.
+        assert!(stderr.contains("evaluate: 4/4 variants done"), "{stderr}");
+        parts.push(part);
+    }
+    let merged = out.join("merged.json");
+    // In another order than the parts' numbers: the merge sorts.
+    let order = [&parts[2], &parts[0], &parts[1]].map(|p| p.to_str().unwrap());
+    let merged_table = ok(safer(&[&["evaluate-merge"][..], &order, &["--json", merged.to_str().unwrap()]].concat()));
+    assert_eq!(without_times(&merged_table), without_times(&whole_table));
+    assert!(merged_table.starts_with("3 scenes × 2 seeds"), "{merged_table}");
+    assert_eq!(report_without_times(&merged), report_without_times(&whole));
+    let report = report_without_times(&whole);
+    assert_eq!(report["variants"].as_array().unwrap().len(), 12);
+    assert!(report["variants"][0]["tally"].is_object(), "the tallies travel with the report");
+
+    // Parts missing, given twice, or of another evaluation are refused.
+    let two = safer(&["evaluate-merge", order[0], order[1]]);
+    let text = String::from_utf8_lossy(&two.stderr);
+    assert!(!two.status.success() && text.contains("partitions 2/3 are missing"), "{text}");
+    let twice = safer(&["evaluate-merge", order[0], order[0], order[1], order[2]]);
+    let text = String::from_utf8_lossy(&twice.stderr);
+    assert!(!twice.status.success() && text.contains("are both partition 3/3"), "{text}");
+    let other = out.join("other.json");
+    ok(safer(&[&common[..], &["--seed", "7", "--partition", "1/3", "--json", other.to_str().unwrap()]].concat()));
+    let mixed = safer(&["evaluate-merge", other.to_str().unwrap(), order[0], order[2]]);
+    let text = String::from_utf8_lossy(&mixed.stderr);
+    assert!(!mixed.status.success() && text.contains("parts of different evaluations"), "{text}");
+    let paper = out.join("paper.json");
+    ok(safer(
+        &[&common[..], &["--approach-phase", "none", "--partition", "1/3", "--json", paper.to_str().unwrap()]].concat(),
+    ));
+    let mixed = safer(&["evaluate-merge", paper.to_str().unwrap(), order[0], order[2]]);
+    let text = String::from_utf8_lossy(&mixed.stderr);
+    assert!(!mixed.status.success() && text.contains("approach: \"none\" against"), "{text}");
+    assert!(!text.contains("EvaluationSettings"), "no debug dump: {text}");
+    // A part of the same split of another folder.
+    let elsewhere = out.join("elsewhere");
+    std::fs::create_dir(&elsewhere).unwrap();
+    for f in ["USA_US101-15_1_T-1.xml", "USA_US101-21_2_T-1.xml"] {
+        std::fs::copy(scenes.join(f), elsewhere.join(f)).unwrap();
+    }
+    let foreign = out.join("foreign.json");
+    let mut foreign_run = common.to_vec();
+    foreign_run[2] = elsewhere.to_str().unwrap();
+    ok(safer(&[&foreign_run[..], &["--partition", "1/3", "--json", foreign.to_str().unwrap()]].concat()));
+    let mixed = safer(&["evaluate-merge", foreign.to_str().unwrap(), order[0], order[2]]);
+    let text = String::from_utf8_lossy(&mixed.stderr);
+    assert!(!mixed.status.success() && text.contains("split different scene lists"), "{text}");
+    // Parts edited: a scene counted in two parts, a variants list emptied.
+    let edited = |k: usize, tag: &str, edit: &dyn Fn(&mut Value)| {
+        let mut v: Value = serde_json::from_str(&std::fs::read_to_string(&parts[k]).unwrap()).unwrap();
+        edit(&mut v);
+        let path = out.join(format!("{tag}.json"));
+        std::fs::write(&path, serde_json::to_vec(&v).unwrap()).unwrap();
+        path
+    };
+    let part_1: Value = serde_json::from_str(&std::fs::read_to_string(&parts[0]).unwrap()).unwrap();
+    let doubled = edited(1, "doubled", &|v| {
+        v["scene_list"]["ids"].as_array_mut().unwrap().insert(0, part_1["scene_list"]["ids"][0].clone());
+        v["variants"].as_array_mut().unwrap().extend(part_1["variants"].as_array().unwrap().iter().cloned());
+    });
+    let merged = safer(&["evaluate-merge", parts[0].to_str().unwrap(), doubled.to_str().unwrap(), order[0]]);
+    let text = String::from_utf8_lossy(&merged.stderr);
+    assert!(!merged.status.success() && text.contains("scenario `USA_US101-15_1_T-1` is in both"), "{text}");
+    let short = edited(1, "short", &|v| {
+        v["scene_list"]["ids"].as_array_mut().unwrap().insert(0, part_1["scene_list"]["ids"][0].clone());
+    });
+    let merged = safer(&["evaluate-merge", parts[0].to_str().unwrap(), short.to_str().unwrap(), order[0]]);
+    let text = String::from_utf8_lossy(&merged.stderr);
+    assert!(!merged.status.success() && text.contains("holds 4 variants (4 distinct), where 2 scenes"), "{text}");
+    let emptied = edited(1, "emptied", &|v| v["variants"] = Value::Array(Vec::new()));
+    let merged = safer(&["evaluate-merge", parts[0].to_str().unwrap(), emptied.to_str().unwrap(), order[0]]);
+    let text = String::from_utf8_lossy(&merged.stderr);
+    assert!(!merged.status.success() && text.contains("holds 0 variants (0 distinct), where 1 scenes"), "{text}");
+    let unpartitioned = safer(&["evaluate-merge", whole.to_str().unwrap()]);
+    let text = String::from_utf8_lossy(&unpartitioned.stderr);
+    assert!(!unpartitioned.status.success() && text.contains("not a partition's report"), "{text}");
+    let bad = safer(&[&common[..], &["--partition", "4/3"]].concat());
+    let text = String::from_utf8_lossy(&bad.stderr);
+    assert!(!bad.status.success() && text.contains("from 1 to the number of parts"), "{text}");
+}
+
+#[test]
+fn an_evaluation_of_named_scenes_makes_the_variants_the_whole_evaluation_makes_of_them() {
+    let out = tempfile_dir("named-scenes");
+    let scenes = Path::new(repo_root!()).join("scenes/ngsim");
+    let common =
+        ["evaluate", "--scenes", scenes.to_str().unwrap(), "--methods", "safer,prior", "--seeds", "2", "--jobs", "2"];
+    let run = |extra: &[&str]| safer(&[&common[..], extra].concat());
+    let whole = out.join("whole.json");
+    ok(run(&["--json", whole.to_str().unwrap()]));
+    let whole = report_without_times(&whole);
+    let ids: std::collections::BTreeSet<&str> =
+        whole["variants"].as_array().unwrap().iter().map(|v| v["scenario"].as_str().unwrap()).collect();
+    assert_eq!(ids.len(), 3, "{ids:?}");
+    // The last scene by id: its place in the list changes, its variants must not.
+    let last = *ids.iter().next_back().unwrap();
+    let named = out.join("named.json");
+    let table = ok(run(&["--scene", last, "--json", named.to_str().unwrap()]));
+    assert!(table.starts_with("1 scenes × 2 seeds"), "{table}");
+    let named = report_without_times(&named);
+    let of_last = |report: &Value| -> Vec<Value> {
+        report["variants"].as_array().unwrap().iter().filter(|v| v["scenario"] == last).cloned().collect()
+    };
+    assert_eq!(of_last(&named).len(), 4);
+    assert_eq!(of_last(&named), of_last(&whole));
+    assert_eq!(named["variants"].as_array().unwrap().len(), 4, "only the named scene runs");
+    assert_eq!(named["settings"]["only_scenes"], serde_json::json!([last]));
+
+    // An id no scene has is an error naming it; the first N and named ids do not mix.
+    let missing = run(&["--scene", &format!("{last},no-such-scene")]);
+    let text = String::from_utf8_lossy(&missing.stderr);
+    assert!(!missing.status.success() && text.contains("--scene no-such-scene: no scene"), "{text}");
+    let both = run(&["--scene", last, "--max-scenes", "1"]);
+    let text = String::from_utf8_lossy(&both.stderr);
+    assert!(!both.status.success() && text.contains("cannot be used with"), "{text}");
+}
+
+#[test]
+fn evaluate_writes_a_failing_variants_artefacts_and_whom_it_hit() {
+    let out = tempfile_dir("artefacts");
+    let scenes = Path::new(repo_root!()).join("scenes/ngsim");
+    let json = out.join("report.json");
+    let artefacts = out.join("artefacts");
+    // Log replay in stage 2: every stage-1 collision replays into a failure.
+    ok(safer(&[
+        "evaluate",
+        "--scenes",
+        scenes.to_str().unwrap(),
+        "--methods",
+        "safer",
+        "--seeds",
+        "4",
+        "--planner",
+        "log-replay",
+        "--jobs",
+        "2",
+        "--json",
+        json.to_str().unwrap(),
+        "--artifacts",
+        artefacts.to_str().unwrap(),
+    ]));
+    let report: Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let variants = report["variants"].as_array().unwrap();
+    let failing: Vec<&Value> = variants.iter().filter(|v| v["stage2"]["verdict"] != "solved").collect();
+    assert!(!failing.is_empty(), "log replay fails no SaFeR variant of the shipped scenes");
+    for v in &failing {
+        let files: Vec<&str> = v["artefacts"].as_array().unwrap().iter().map(|f| f.as_str().unwrap()).collect();
+        assert!(files.iter().any(|f| f.ends_with(".mcap")) && files.iter().any(|f| f.ends_with(".svg")), "{v}");
+        for f in &files {
+            assert!(std::fs::metadata(f).unwrap().len() > 0, "{f} is empty");
+            let expected = format!("artefacts/safer/{}/seed-{}.", v["scenario"].as_str().unwrap(), v["seed"]);
+            assert!(f.contains(&expected), "{f} is not under {expected}");
+        }
+        if v["stage2_collision"] == true {
+            let contact = &v["stage2_contact"];
+            assert!(contact["other"].is_string() && contact["at_fault"].is_boolean(), "{v}");
+        }
+    }
+    for v in variants.iter().filter(|v| v["stage2"]["verdict"] == "solved") {
+        assert!(v.get("artefacts").is_none(), "a solved variant has no artefacts: {v}");
+    }
+}
+
+#[test]
+fn evaluate_writes_every_variants_artefacts_when_asked_and_refuses_the_choice_alone() {
+    let out = tempfile_dir("artefacts-all");
+    let scenes = Path::new(repo_root!()).join("scenes/ngsim");
+    let json = out.join("report.json");
+    let artefacts = out.join("artefacts");
+    let args = |extra: &[&'static str]| -> Vec<String> {
+        let mut a: Vec<String> = [
+            "evaluate",
+            "--scenes",
+            scenes.to_str().unwrap(),
+            "--methods",
+            "log",
+            "--seeds",
+            "1",
+            "--jobs",
+            "2",
+            "--json",
+            json.to_str().unwrap(),
+        ]
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+        a.extend(extra.iter().map(|s| s.to_string()));
+        a
+    };
+    let run = |a: Vec<String>| safer(&a.iter().map(String::as_str).collect::<Vec<_>>());
+    // The recorded CBV against the evasive planner: solved variants, which
+    // the default writes nothing for.
+    let dir = artefacts.to_str().unwrap().to_string();
+    let mut with_all = args(&["--artifacts-of", "all", "--artifacts"]);
+    with_all.push(dir);
+    ok(run(with_all));
+    let report: Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let variants = report["variants"].as_array().unwrap();
+    assert!(variants.iter().any(|v| v["stage2"]["verdict"] == "solved"), "no solved variant to check");
+    for v in variants {
+        let files: Vec<&str> = v["artefacts"].as_array().unwrap().iter().map(|f| f.as_str().unwrap()).collect();
+        assert!(files.iter().any(|f| f.ends_with(".svg")) && files.iter().any(|f| f.ends_with(".mcap")), "{v}");
+    }
+    let alone = run(args(&["--artifacts-of", "all"]));
+    let text = String::from_utf8_lossy(&alone.stderr);
+    assert!(!alone.status.success() && text.contains("--artifacts"), "{text}");
+}
+
+/// A fresh folder for one test's files under the target folder.
+fn tempfile_dir(name: &str) -> std::path::PathBuf {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("evaluate-{name}"));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}

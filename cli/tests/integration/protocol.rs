@@ -1,0 +1,267 @@
+//! Planner protocol 1.1 on recorded scenes: the protocol-1.1 lane follower
+//! (`planners/lane-follower.yaml`) drives a recorded NGSIM scene through
+//! the suite pipeline and solves it where constant velocity collides; the
+//! version-1 example planner still drives it; the planner's stderr lands
+//! beside the artefacts; and driving past the end of NGSIM's map ends the
+//! rollout as "left the mapped area", not as an off-road event.
+
+use std::path::{Path, PathBuf};
+
+use safer_scenarios::harness::{Suite, artefacts, pipeline::Stage2Verdict, variant::run_variant};
+use safer_scenarios::planners::BuiltinPlanner;
+use safer_scenarios::scenario::import;
+use safer_scenarios::sim::{SimConfig, Simulation, Termination};
+
+use crate::shared_data::data_dir;
+
+/// A recorded US 101 scene where a constant-velocity ego rear-ends its
+/// leader and the recorded ego later drives past the end of the map.
+const SCENE: &str = "commonroad-ngsim/USA_US101-21_1_T-1.xml";
+
+fn repo() -> &'static Path {
+    Path::new(repo_root!())
+}
+
+/// A one-scene, one-variant suite with `planner` (a YAML value), written
+/// to a fresh folder.
+fn suite(tag: &str, planner: &str) -> (Suite, crate::scratch::Scratch) {
+    let dir = crate::scratch::Scratch::new(&format!("protocol-{tag}"));
+    let scene = data_dir().join(SCENE);
+    assert!(scene.is_file(), "{} is missing", scene.display());
+    let text = format!(
+        "name: protocol-{tag}\nscenarios:\n  - recorded: {}\nplanner: {planner}\nadversary: {{ method: log, background: log-replay }}\nvariants: 1\nacceptance:\n  variant: {{ no_collision: true }}\n",
+        scene.display()
+    );
+    let path = dir.join("suite.yaml");
+    std::fs::write(&path, text).unwrap();
+    (Suite::load(&path).unwrap_or_else(|e| panic!("{e}")), dir)
+}
+
+#[test]
+#[cfg_attr(not(recorded_data), ignore = "needs recorded data: set SAFER_DATA_DIR (docs/guide/recorded-data.md)")]
+fn the_lane_follower_solves_a_recorded_scene_that_constant_velocity_does_not() {
+    let planner = repo().join("planners/lane-follower.yaml");
+    let (lf, dir) = suite("lane-follower", &planner.display().to_string());
+    let outcome = run_variant(&lf, &lf.scenarios[0], 0).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(outcome.verdict, Stage2Verdict::Solved, "{:?}", outcome.stage2.summary());
+    assert!(outcome.failures.is_empty(), "{:?}", outcome.failures);
+    let latency = outcome.planner_latency.expect("timed");
+    assert_eq!(latency.steps, outcome.stage2.steps());
+    assert!(latency.p50_ms > 0.0 && latency.p50_ms <= latency.p95_ms && latency.p95_ms <= latency.max_ms);
+    // Its start is reported apart: to `ready`, and its answer to `prepare`.
+    let startup = latency.startup.expect("an external planner's start-up");
+    assert!(startup.launch_ms > 0.0 && startup.prepare_ms.is_some_and(|ms| ms > 0.0), "{startup:?}");
+    // Its stderr is kept beside the recording and the picture, not only on a crash.
+    let written = artefacts::write(&dir, &outcome).unwrap();
+    let stderr = written.stderr.expect("an external planner's stderr file");
+    assert_eq!(stderr.parent(), written.mcap.parent());
+    let log = std::fs::read_to_string(&stderr).unwrap();
+    assert!(log.contains("lane_follower: hello: scenario USA_US101-21_1_T-1 variant protocol-lane-follower::USA_US101-21_1_T-1::seed-0"), "{log}");
+    assert!(log.contains("lane_follower: prepared:"), "{log}");
+
+    let (cv, cv_dir) = suite("constant-velocity", "{ builtin: constant-velocity }");
+    let outcome = run_variant(&cv, &cv.scenarios[0], 0).unwrap_or_else(|e| panic!("{e}"));
+    assert!(matches!(outcome.verdict, Stage2Verdict::Collided { .. }), "{:?}", outcome.verdict);
+    assert!(outcome.planner_stderr.is_none(), "a built-in has no stderr");
+    assert!(outcome.planner_latency.is_some_and(|l| l.startup.is_none()), "a built-in starts nothing");
+    std::fs::remove_dir_all(dir).unwrap();
+    std::fs::remove_dir_all(cv_dir).unwrap();
+}
+
+#[test]
+#[cfg_attr(not(recorded_data), ignore = "needs recorded data: set SAFER_DATA_DIR (docs/guide/recorded-data.md)")]
+fn the_version_1_example_planner_still_drives_recorded_scenes() {
+    let planner = repo().join("planners/example-python.yaml");
+    let (s, dir) = suite("example", &planner.display().to_string());
+    let outcome = run_variant(&s, &s.scenarios[0], 0).unwrap_or_else(|e| panic!("{e}"));
+    assert!(!matches!(outcome.verdict, Stage2Verdict::Aborted { .. }), "{:?}", outcome.verdict);
+    assert!(outcome.stage2.steps() > 30, "{:?}", outcome.stage2.summary());
+    let log = outcome.planner_stderr.expect("stderr");
+    assert!(log.contains("example_planner: hello: ego"), "{log}");
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+#[test]
+#[cfg_attr(not(recorded_data), ignore = "needs recorded data: set SAFER_DATA_DIR (docs/guide/recorded-data.md)")]
+fn driving_past_the_end_of_an_ngsim_map_is_leaving_the_mapped_area_not_the_road() {
+    // The recording's map ends about 60 m ahead; an IDM ego keeps driving.
+    let scene = data_dir().join("commonroad-ngsim/USA_US101-16_1_T-1.xml");
+    let s = import::load(&scene).unwrap_or_else(|e| panic!("{e}")).remove(0);
+    let mut planner = BuiltinPlanner::Idm.instantiate(&s, s.ego.unwrap());
+    let r = Simulation::new(&s, SimConfig::default()).unwrap().run(planner.as_mut());
+    let Termination::LeftMappedArea { step } = r.termination else { panic!("{:?}", r.termination) };
+    assert!(step > r.start_step, "{step}");
+    assert!(r.off_road.is_empty(), "{:?}", r.off_road);
+    assert!(r.ego_collision().is_none());
+    assert_eq!(Stage2Verdict::of(&r), Stage2Verdict::Solved);
+    // The ego's nose is past the last lanes' ends, off the drivable area.
+    let ego = r.states.last().unwrap()[r.ego.0].unwrap();
+    let half = s.track(r.ego).length_m / 2.0;
+    let nose =
+        ego.position + safer_scenarios::geometry::Vector2::new(ego.heading_rad.cos(), ego.heading_rad.sin()) * half;
+    assert!(s.map.is_off_road(&nose) && s.map.is_past_mapped_end(&nose), "{nose:?}");
+}
+
+/// Runs the `safer` binary from the repository root.
+fn safer(args: &[&str]) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_safer")).args(args).current_dir(repo()).output().expect("run safer")
+}
+
+#[test]
+#[cfg_attr(not(recorded_data), ignore = "needs recorded data: set SAFER_DATA_DIR (docs/guide/recorded-data.md)")]
+fn evaluate_takes_a_planner_spec_and_jobs_and_reports_latency() {
+    let scene = data_dir().join(SCENE);
+    let scene = scene.to_str().unwrap();
+    let common = ["evaluate", "--scenes", scene, "--methods", "log", "--seeds", "1", "--json", "-"];
+    let out = safer(&[&common[..], &["--planner", "planners/lane-follower.yaml", "--jobs", "1"]].concat());
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let variant = &report["variants"][0];
+    assert_eq!(variant["stage2"]["verdict"], "solved", "{variant}");
+    let latency = &variant["planner_latency"];
+    assert!(latency["steps"].as_u64().unwrap() > 10, "{latency}");
+    for key in ["p50_ms", "p95_ms", "max_ms"] {
+        assert!(latency[key].as_f64().unwrap() > 0.0, "{latency}");
+    }
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("stage 2 planner `lane-follower`"), "{err}");
+    // The recorded CBV never touches the recorded ego: its closest approach
+    // is one of the gap bands, and the four shares add up to one.
+    assert!(err.contains("closest approach of the CBV to the recorded ego"), "{err}");
+    let closest = &report["rows"][0]["stage1_closest"];
+    assert_eq!(closest["contact"], 0.0, "{closest}");
+    let bands = ["contact", "under_half_m", "under_1_m", "farther"].map(|k| closest[k].as_f64().unwrap());
+    assert!((bands.iter().sum::<f64>() - 1.0).abs() < 1e-9, "{closest}");
+    // Not a built-in, not a file; no thread at all.
+    let out = safer(&[&common[..], &["--planner", "no-such-planner"]].concat());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("neither a built-in planner"));
+    // Refused, naming the option.
+    let refused = |option: &str, value: &str| {
+        let out = safer(&[&common[..], &[option, value]].concat());
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success() && err.contains(option), "{option} {value}: {err}");
+    };
+    refused("--jobs", "0");
+    // The witness's road rule: named in the table's heading when not the default, refused when unknown.
+    let out = safer(&[&common[..], &["--witness-road", "whole-width"]].concat());
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("the witness keeps its whole width on the road"));
+    refused("--witness-road", "kerb");
+    // The witness search's widest beam: named when not the default, 1 to 4096.
+    let out = safer(&[&common[..], &["--witness-widest", "512"]].concat());
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("the witness search widens its beam up to ×512"));
+    let out = safer(&common);
+    assert!(!String::from_utf8_lossy(&out.stderr).contains("widens its beam"));
+    refused("--witness-widest", "0");
+    refused("--witness-widest", "4097");
+}
+
+#[test]
+#[cfg_attr(not(recorded_data), ignore = "needs recorded data: set SAFER_DATA_DIR (docs/guide/recorded-data.md)")]
+fn run_reports_latency_per_variant() {
+    let planner = repo().join("planners/lane-follower.yaml");
+    let (_, dir) = suite("run-latency", &planner.display().to_string());
+    let suite_file = dir.join("suite.yaml");
+    let out = safer(&["run", suite_file.to_str().unwrap(), "--jobs", "1", "--json", "-"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let variant = &report["suites"][0]["variants"][0];
+    assert!(variant["planner_latency"]["p95_ms"].as_f64().unwrap() > 0.0, "{variant}");
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+#[test]
+#[cfg_attr(not(recorded_data), ignore = "needs recorded data: set SAFER_DATA_DIR (docs/guide/recorded-data.md)")]
+fn a_dead_end_inside_a_womd_map_is_still_off_road() {
+    // Lane 142 of this WOMD scene ends without a successor about 110 m
+    // from the ego's start, well inside the map: the kerbs go on around its
+    // end, so driving on past it is off-road, not the map's edge (the
+    // evasive ego used to leave the road there at 6.8 s).
+    let path = data_dir().join("womd-json/tfrecord-00000-of-00150_2d84b1ab55ab81d3.json");
+    let scene = import::load(&path).unwrap_or_else(|e| panic!("{e}")).remove(0);
+    let lane = scene.map.lanes.iter().find(|l| l.id.0 == 142).expect("lane 142 in the scene");
+    assert!(lane.successors.is_empty(), "lane 142 is a dead end");
+    let points = lane.centreline.points();
+    let end = points[points.len() - 1];
+    let beyond = end + (end - points[points.len() - 2]).normalize() * 3.0;
+    assert!(scene.map.is_off_road(&beyond), "3 m past the dead end is off the road");
+    assert!(!scene.map.is_past_mapped_end(&beyond), "a dead end inside the map is not the map's edge");
+}
+
+#[test]
+#[cfg_attr(not(recorded_data), ignore = "needs recorded data: set SAFER_DATA_DIR (docs/guide/recorded-data.md)")]
+fn commonroad_stop_lines_are_kept_on_their_lanes() {
+    let path = data_dir().join("commonroad-ngsim/USA_Lanker-1_1_T-1.xml");
+    let xml = std::fs::read_to_string(&path).unwrap();
+    let in_file = xml.matches("<stopLine").count();
+    assert!(in_file > 0, "the fixture scene has no stop line");
+    let s = import::load(&path).unwrap_or_else(|e| panic!("{e}")).remove(0);
+    let with_stop_line: Vec<_> = s.map.lanes.iter().filter(|l| l.stop_line.is_some()).collect();
+    assert_eq!(with_stop_line.len(), in_file);
+    // Each near its lane's end, in the re-centred frame.
+    for l in with_stop_line {
+        let end = *l.centreline.points().last().unwrap();
+        let d = (l.stop_line.unwrap() - end).norm();
+        assert!(d < 10.0, "lane {}: stop line {d} m from its end", l.id.0);
+    }
+}
+
+/// The stable route on arterial scenes, Peachtree and Lankershim (recorded
+/// egos that start off their lane's centreline, lanes that begin just
+/// behind them), driven by the probe planner, which holds its heading and
+/// speed: the ego stays near the lane it started beside, so the route it
+/// was given is not planned anew at every step, and it reaches 20 m
+/// behind the ego where the map has lanes there.
+#[test]
+#[cfg_attr(not(recorded_data), ignore = "needs recorded data: set SAFER_DATA_DIR (docs/guide/recorded-data.md)")]
+fn the_stable_route_is_not_planned_anew_while_the_ego_stays_beside_it() {
+    let probe = repo().join("tests/fixtures/planners/probe_planner.py");
+    let scenes = crate::shared_data::files("commonroad-ngsim", "xml");
+    let arterial = |p: &&PathBuf| {
+        p.file_name().is_some_and(|n| ["USA_Peach", "USA_Lanker-1_"].iter().any(|s| n.to_string_lossy().starts_with(s)))
+    };
+    let arterials: Vec<&PathBuf> = scenes.iter().filter(arterial).collect();
+    assert_eq!(arterials.len(), 18, "Peachtree and Lankershim-1 scenes");
+    let mut report = Vec::new();
+    for scene in arterials {
+        let dir = crate::scratch::Scratch::new("route");
+        let spec = format!("name: probe\nexternal: {{ command: python3, args: ['{}'] }}\n", probe.display());
+        std::fs::write(dir.join("probe.yaml"), spec).unwrap();
+        let text = format!(
+            "name: route\nscenarios:\n  - recorded: {}\nplanner: probe.yaml\nadversary: {{ method: log, background: log-replay }}\nvariants: 1\nacceptance:\n  variant: {{ no_collision: true }}\n",
+            scene.display(),
+        );
+        std::fs::write(dir.join("suite.yaml"), text).unwrap();
+        let suite = Suite::load(&dir.join("suite.yaml")).unwrap_or_else(|e| panic!("{e}"));
+        let Ok(outcome) = run_variant(&suite, &suite.scenarios[0], 0) else {
+            // Scenes without an ego or a CBV are not runnable suites.
+            continue;
+        };
+        let log = outcome.planner_stderr.unwrap_or_default();
+        let observations: Vec<serde_json::Value> = log
+            .lines()
+            .filter_map(|l| l.strip_prefix("probe: "))
+            .filter_map(|l| serde_json::from_str::<serde_json::Value>(l).ok())
+            .filter(|r| r["type"] == "observation")
+            .collect();
+        assert!(!observations.is_empty(), "{}: no observations in the probe's log:\n{log}", scene.display());
+        let revisions = observations.iter().filter_map(|o| o["route_revision"].as_u64()).max().unwrap_or(0);
+        let first_s = observations[0]["route_s_m"].as_f64().unwrap_or(0.0);
+        report.push((
+            scene.file_name().unwrap().to_string_lossy().into_owned(),
+            observations.len(),
+            revisions,
+            first_s,
+        ));
+        std::fs::remove_dir_all(dir).unwrap();
+    }
+    println!("(scene, steps, last route revision, ego's arc length on the first route) {report:?}");
+    assert!(report.len() >= 10, "{report:?}");
+    for (scene, steps, revisions, _) in &report {
+        assert!(*revisions <= 2, "{scene}: route revision {revisions} after {steps} steps");
+    }
+    // 20 m back unless the mapped lanes end sooner (18.9 m on Lankershim).
+    let short: Vec<_> = report.iter().filter(|r| r.3 < 15.0 || r.3 > 20.0 + 1e-6).collect();
+    assert!(short.is_empty(), "the first route does not reach 15–20 m behind the ego: {short:?}");
+}
