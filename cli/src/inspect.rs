@@ -63,11 +63,11 @@ fn summarise(s: &Scenario) -> ScenarioSummary {
     }
 }
 
-pub(super) fn run(file: &Path, json: bool) -> Result<ExitCode, CliError> {
+pub(super) fn run(file: &Path, json: Option<&Path>) -> Result<ExitCode, CliError> {
     let scenarios = import::load(file)?;
     let summaries: Vec<ScenarioSummary> = scenarios.iter().map(summarise).collect();
-    if json {
-        println!("{}", serde_json::to_string_pretty(&summaries)?);
+    if let Some(path) = json {
+        super::write_json_report(path, &summaries)?;
         return Ok(ExitCode::SUCCESS);
     }
     for s in &summaries {

@@ -78,65 +78,13 @@ pub struct Cli {
 #[allow(clippy::large_enum_variant)]
 #[derive(Debug, Subcommand)]
 enum Command {
-    /// Summarise a scenario file: format, id, agents by type, steps, map, ego and CBV.
-    Inspect {
-        /// A WOMD .tfrecord or .json, CommonRoad .xml, or Argoverse 2 .parquet / folder (`data:REL`: in $SAFER_DATA_DIR; `safer:REL`: a file safer ships).
-        #[arg(value_parser = data_path)]
-        file: PathBuf,
-        /// Print JSON instead of text.
-        #[arg(long)]
-        json: bool,
-    },
-    /// Run closed-loop rollouts: the ego driven by a planner, the others by a background policy.
-    Simulate {
-        /// A scenario file, or a folder searched recursively for scenario files (`data:REL`: in $SAFER_DATA_DIR; `safer:REL`: a file safer ships).
-        #[arg(value_parser = data_path)]
-        path: PathBuf,
-        /// Planner driving the ego: a built-in (log-replay, constant-velocity,
-        /// idm, evasive) or a planner spec file, as `run` and `evaluate` take.
-        #[arg(long, default_value = "idm", value_parser = planner_arg, value_name = "BUILTIN|SPEC.yaml")]
-        planner: PlannerAdapter,
-        /// Policy driving the other agents.
-        #[arg(long, value_parser = choice(BackgroundPolicy::ALL), default_value = "log-replay")]
-        background: BackgroundPolicy,
-        /// Print JSON instead of a table.
-        #[arg(long)]
-        json: bool,
-    },
-    /// Measure the log → token → log round trip (ADE/FDE) over recorded scenes.
-    TokenRoundtrip {
-        /// Folder of scenario files (searched recursively); `data:REL` is in $SAFER_DATA_DIR.
-        #[arg(long, value_parser = data_path)]
-        scenes: PathBuf,
-        /// Print JSON instead of a table.
-        #[arg(long)]
-        json: bool,
-    },
-    /// Benchmarks: import time per scene per format, simulator steps per second, one SaFeR variant and its witness search; each beside its reference.
-    Bench {
-        /// Folder of scenario files (searched recursively); `data:` is $SAFER_DATA_DIR.
-        #[arg(long, default_value = "data:", value_parser = data_path)]
-        scenes: PathBuf,
-        /// Repetitions of each measurement (the median is reported), at least 1.
-        #[arg(long, default_value_t = 3, value_parser = at_least_one())]
-        repeat: usize,
-        /// Also write the figures as JSON (`-`: standard output, the table then goes to stderr).
-        #[arg(long, value_name = "OUT")]
-        json: Option<PathBuf>,
-        /// Another build's `safer` binary to compare with: both builds' bench run in turn, round by round, and each timed figure is printed for both with their ratio.
-        #[arg(long, value_name = "SAFER-BINARY")]
-        baseline: Option<PathBuf>,
-        /// Rounds of `--baseline`, each running both builds' bench once, at least 1.
-        #[arg(long, default_value_t = 5, value_parser = at_least_one(), requires = "baseline")]
-        rounds: usize,
-    },
-    /// Run scenario suites (the same variants and metrics as `cargo test --test suites`).
+    /// Run scenario suites: the same variants, metrics and verdicts as a planner crate's `cargo test`.
     Run {
         /// Suite spec files (`specs/suites/*.yaml`).
         #[arg(required = true)]
         suites: Vec<PathBuf>,
         /// Also write a JSON report to this file (`-`: standard output, the table then goes to stderr).
-        #[arg(long, value_name = "OUT")]
+        #[arg(long, value_name = "OUT", num_args = 0..=1, default_missing_value = "-")]
         json: Option<PathBuf>,
         /// Also write a JUnit XML report to this file (`-`: standard output, the table then goes to stderr): one testcase per variant and per suite metric.
         #[arg(long, value_name = "FILE")]
@@ -163,93 +111,11 @@ enum Command {
         #[arg(long, value_name = "SUBSTR")]
         filter: Option<String>,
         /// Worker threads for the variants, 1 to 256 (default: one per core). Each may run a planner process: far more than the cores only thrashes.
-        #[arg(long, value_name = "N", value_parser = RangedU64ValueParser::<usize>::new().range(1..=MAX_JOBS as u64))]
+        #[arg(short, long, value_name = "N", value_parser = RangedU64ValueParser::<usize>::new().range(1..=MAX_JOBS as u64))]
         jobs: Option<usize>,
         /// Mutation testing: also run each suite's variants with these faults planted in its planner (comma-separated; alone, or `all`: every operator), and report which mutants the suite kills. Operators: no-brake, weak-brake, late, blind-cbv, blind-side, no-evade, speeding. Replaces a suite's own `mutation_operators`.
         #[arg(long, value_name = "OPS", num_args = 0..=1, default_missing_value = "all", value_parser = fault_operators)]
         mutants: Option<FaultOperators>,
-    },
-    /// WOSAC 2025 realism metrics of a traffic policy: roll out every agent of each scene N times and score the rollouts against the log.
-    #[command(after_help = realism::WINDOW_RULE_HELP)]
-    Realism {
-        /// Folder of scenario files (searched recursively), or one file; `data:REL` is in $SAFER_DATA_DIR.
-        #[arg(long, value_parser = data_path)]
-        scenes: PathBuf,
-        /// Rollouts per scene (WOSAC: 32), at least 1.
-        #[arg(long, default_value_t = 32, value_parser = at_least_one())]
-        rollouts: usize,
-        /// Also write a JSON report (per scene and aggregates) to this file (`-`: standard output).
-        #[arg(long, value_name = "OUT")]
-        json: Option<PathBuf>,
-        /// Policy driving every agent present at the window's start (default: the shipped realism prior).
-        #[arg(long, value_enum, default_value_t = realism::RealismPolicy::Prior)]
-        policy: realism::RealismPolicy,
-        /// Base seed (per-rollout seeds derive from it, the scenario id and the rollout index).
-        #[arg(long, default_value_t = 0)]
-        seed: u64,
-        /// Score at most this many scenes (at least 1).
-        #[arg(long, value_name = "N", value_parser = at_least_one())]
-        max_scenes: Option<usize>,
-        /// The prior policies draw each token among this many most likely ones (default 10), from 1 to the vocabulary size.
-        #[arg(long, value_name = "K", value_parser = RangedU64ValueParser::<usize>::new().range(1..=VOCABULARY_SIZE as u64))]
-        top_k: Option<usize>,
-        /// Softmax temperature of the prior policies' draw (default 1: the model's distribution; lower is greedier), positive and finite.
-        #[arg(long, value_parser = positive_finite)]
-        temperature: Option<f64>,
-    },
-    /// How well the realism prior predicts recorded driving: NLL, top-1 and how often the recorded token is in the top n, at every token boundary of every moving vehicle, with the history ending at the boundary (as in closed loop) and one step late (a probe of whether the prior reads the start of the token it predicts).
-    PriorFit {
-        /// Folder of scenario files (searched recursively), or one file; `data:REL` is in $SAFER_DATA_DIR.
-        #[arg(long, value_parser = data_path)]
-        scenes: PathBuf,
-        /// Trust-region size n (top-n tokens of the prior), from 1 to the vocabulary size.
-        #[arg(long, default_value_t = 20, value_parser = RangedU64ValueParser::<usize>::new().range(1..=VOCABULARY_SIZE as u64))]
-        top_n: usize,
-        /// Vehicles slower than this at a boundary are not scored, m/s (non-negative, finite; standing cars' tokens are trivial).
-        #[arg(long, default_value_t = 1.0, value_parser = non_negative_finite, allow_negative_numbers = true)]
-        min_speed_mps: f64,
-        /// Which prior: the differential-attention one (default) or the plain-attention one; `$SAFER_MODELS` swaps in another model set.
-        #[arg(long, value_parser = choice(safer_scenarios::models::prior::PriorVariant::ALL), default_value = "differential")]
-        prior: safer_scenarios::models::prior::PriorVariant,
-        /// Score at most this many scenes (by id), at least 1.
-        #[arg(long, value_name = "N", value_parser = at_least_one())]
-        max_scenes: Option<usize>,
-        /// Also write the fits (all, held-out and other scenes, and each scene's sums) as JSON (`-`: standard output).
-        #[arg(long, value_name = "OUT")]
-        json: Option<PathBuf>,
-    },
-    /// Print the JSON Schema of a spec kind (for editors: yaml-language-server `$schema`).
-    Schema {
-        /// Which spec.
-        #[arg(value_parser = choice(SpecKind::ALL))]
-        kind: SpecKind,
-        /// Write to this file instead of stdout (`-`: stdout).
-        #[arg(long, value_name = "FILE")]
-        out: Option<PathBuf>,
-        /// Replace an existing file at --out.
-        #[arg(long)]
-        force: bool,
-    },
-    /// Latency of the learned models in tract (map encoding, CBV query, full-scene step), against onnxruntime/PyTorch.
-    BenchModels {
-        /// Scenes to pick the busiest from; `data:REL` is in $SAFER_DATA_DIR.
-        #[arg(long, default_value = "data:womd-tfrecord", value_parser = data_path)]
-        scenes: PathBuf,
-        /// Folder of the models and their cards (default: $SAFER_MODELS, else the models embedded in safer).
-        #[arg(long)]
-        models: Option<PathBuf>,
-        /// Repetitions (the median is reported), at least 1.
-        #[arg(long, default_value_t = 200, value_parser = at_least_one())]
-        repeat: usize,
-        /// Python of the training environment, which times the reference (onnxruntime, PyTorch); without it the report says there is none.
-        #[arg(long, default_value = "training/.venv/bin/python")]
-        python: PathBuf,
-        /// Also print where the decoder's time goes: the N costliest nodes of tract's plan and the time per operator, at batch 1 and the scene batch.
-        #[arg(long, value_name = "N")]
-        profile: Option<usize>,
-        /// Also write the figures as JSON (`-`: standard output, the table then goes to stderr).
-        #[arg(long, value_name = "OUT")]
-        json: Option<PathBuf>,
     },
     /// Dual-stage evaluation of adversary methods: CR, SR, SR on critical variants, witness rate, VJ, AJ.
     Evaluate {
@@ -274,10 +140,10 @@ enum Command {
         /// Who drives the background agents.
         #[arg(long, value_parser = choice(BackgroundDriver::ALL), default_value = "configured")]
         background: BackgroundDriver,
-        /// The approach phase of the SaFeR methods: `seeded`, the prior drives the CBV for 1-4 tokens drawn from the variant's seed before the adversary engages, so that seeds differ; `none`, the adversary engages at the first token (the paper's protocol: with the background on log replay every seed of a scene gives the same variant).
+        /// The approach phase of the SaFeR methods: `seeded`, the prior drives the CBV for 1-4 tokens drawn from the variant's seed before the adversary engages, so that seeds differ; `none`, the adversary engages at the first token, as the paper describes its resampling (with the background on log replay every seed of a scene then gives the same variant).
         #[arg(long, value_parser = choice(ApproachPhase::ALL), default_value = "seeded")]
         approach_phase: ApproachPhase,
-        /// The CBV in stage 2: replaying its stage-1 trajectory (the paper's protocol), or driven by the method again against the planner's ego (closed-loop); `replay,closed-loop` reports both side by side.
+        /// The CBV in stage 2: replaying its stage-1 trajectory, or driven by the method again against the planner's ego (closed-loop); `replay,closed-loop` reports both side by side. The default here is `replay`, so that every method's stage 2 meets the same recorded CBV path and the methods compare on equal terms (the paper does not say whether its CBV reacts in stage 2); suites default to `closed-loop` (`adversary.stage2_cbv`), because a planner test should meet a CBV that answers the planner.
         #[arg(long, value_parser = choice(Stage2Cbv::ALL), value_delimiter = ',', default_values = ["replay"])]
         stage2_cbv: Vec<Stage2Cbv>,
         /// Horizon of both stages from the scene's current step, s (positive, finite).
@@ -290,10 +156,10 @@ enum Command {
         #[arg(long, value_name = "ID,...", value_delimiter = ',', conflicts_with = "max_scenes")]
         scene: Vec<String>,
         /// Also write every variant and the table as JSON (`-`: standard output).
-        #[arg(long, value_name = "OUT")]
+        #[arg(long, value_name = "OUT", num_args = 0..=1, default_missing_value = "-")]
         json: Option<PathBuf>,
         /// Worker threads for the variants, 1 to 256 (default: one per core). Each may run a planner process: far more than the cores only thrashes.
-        #[arg(long, value_name = "N", value_parser = RangedU64ValueParser::<usize>::new().range(1..=MAX_JOBS as u64))]
+        #[arg(short, long, value_name = "N", value_parser = RangedU64ValueParser::<usize>::new().range(1..=MAX_JOBS as u64))]
         jobs: Option<usize>,
         /// How much of the witness's ego must stay on the road: its centre (the CBV's rule), or its whole width (no escape over the edge line).
         #[arg(long, value_parser = choice(RoadKeeping::ALL), default_value = "centre")]
@@ -313,6 +179,98 @@ enum Command {
         /// Mutation testing: plant these faults in the planner (comma-separated; alone, or `all`: every operator) and count, per method, the variants the planner passes and each mutant fails (no at-fault collision, no leaving the road, an answer inside the vehicle limits at every step). The measure an adversary is judged by.
         #[arg(long, value_name = "OPS", num_args = 0..=1, default_missing_value = "all", value_parser = fault_operators)]
         mutants: Option<FaultOperators>,
+    },
+    /// Merge the JSON reports of `safer evaluate --partition K/N` runs into the table and report one run would give.
+    EvaluateMerge {
+        /// The partitions' reports, one per part, in any order.
+        #[arg(required = true, value_name = "PART.json")]
+        parts: Vec<PathBuf>,
+        /// Also write the merged report as JSON (`-`: standard output).
+        #[arg(long, value_name = "OUT", num_args = 0..=1, default_missing_value = "-")]
+        json: Option<PathBuf>,
+    },
+    /// Draw a scenario (a recorded file or a scenario spec YAML) as an SVG picture.
+    Render {
+        /// A recorded scenario (.tfrecord, .json, .xml, .parquet / AV2 folder; `data:REL`: in $SAFER_DATA_DIR) or a scenario spec (.yaml).
+        #[arg(value_parser = data_path)]
+        file: PathBuf,
+        /// Step whose footprints are drawn (default: the scenario's current step).
+        #[arg(long, value_name = "N")]
+        step: Option<usize>,
+        /// Output file (default: `<stem>.svg` in the current folder; `-`: standard output); a folder when FILE holds several scenarios.
+        #[arg(long, value_name = "OUT")]
+        out: Option<PathBuf>,
+        /// Overwrite existing pictures.
+        #[arg(long)]
+        force: bool,
+    },
+    /// Summarise a scenario file: format, id, agents by type, steps, map, ego and CBV.
+    Inspect {
+        /// A WOMD .tfrecord or .json, CommonRoad .xml, or Argoverse 2 .parquet / folder (`data:REL`: in $SAFER_DATA_DIR; `safer:REL`: a file safer ships).
+        #[arg(value_parser = data_path)]
+        file: PathBuf,
+        /// Print JSON instead of text.
+        #[arg(long, value_name = "OUT", num_args = 0..=1, default_missing_value = "-")]
+        json: Option<PathBuf>,
+    },
+    /// Run closed-loop rollouts: the ego driven by a planner, the others by a background policy.
+    Simulate {
+        /// A scenario file, or a folder searched recursively for scenario files (`data:REL`: in $SAFER_DATA_DIR; `safer:REL`: a file safer ships).
+        #[arg(value_parser = data_path, required_unless_present = "scenes", conflicts_with = "scenes")]
+        path: Option<PathBuf>,
+        /// The same as the positional path, named as the other commands name it.
+        #[arg(long, value_parser = data_path)]
+        scenes: Option<PathBuf>,
+        /// Planner driving the ego: a built-in (log-replay, constant-velocity,
+        /// idm, evasive) or a planner spec file, as `run` and `evaluate` take.
+        #[arg(long, default_value = "idm", value_parser = planner_arg, value_name = "BUILTIN|SPEC.yaml")]
+        planner: PlannerAdapter,
+        /// Policy driving the other agents.
+        #[arg(long, value_parser = choice(BackgroundPolicy::ALL), default_value = "log-replay")]
+        background: BackgroundPolicy,
+        /// Print JSON instead of a table.
+        #[arg(long, value_name = "OUT", num_args = 0..=1, default_missing_value = "-")]
+        json: Option<PathBuf>,
+    },
+    /// Print the JSON Schema of a spec kind (for editors: yaml-language-server `$schema`).
+    Schema {
+        /// Which spec.
+        #[arg(value_parser = choice(SpecKind::ALL))]
+        kind: SpecKind,
+        /// Write to this file instead of stdout (`-`: stdout).
+        #[arg(long, value_name = "FILE")]
+        out: Option<PathBuf>,
+        /// Replace an existing file at --out.
+        #[arg(long)]
+        force: bool,
+    },
+    /// WOSAC 2025 realism metrics of a traffic policy: roll out every agent of each scene N times and score the rollouts against the log.
+    #[command(after_help = realism::WINDOW_RULE_HELP)]
+    Realism {
+        /// Folder of scenario files (searched recursively), or one file; `data:REL` is in $SAFER_DATA_DIR.
+        #[arg(long, value_parser = data_path)]
+        scenes: PathBuf,
+        /// Rollouts per scene (WOSAC: 32), at least 1.
+        #[arg(long, default_value_t = 32, value_parser = at_least_one())]
+        rollouts: usize,
+        /// Also write a JSON report (per scene and aggregates) to this file (`-`: standard output).
+        #[arg(long, value_name = "OUT", num_args = 0..=1, default_missing_value = "-")]
+        json: Option<PathBuf>,
+        /// Policy driving every agent present at the window's start (default: the shipped realism prior).
+        #[arg(long, value_enum, default_value_t = realism::RealismPolicy::Prior)]
+        policy: realism::RealismPolicy,
+        /// Base seed (per-rollout seeds derive from it, the scenario id and the rollout index).
+        #[arg(long, default_value_t = 0)]
+        seed: u64,
+        /// Score at most this many scenes (at least 1).
+        #[arg(long, value_name = "N", value_parser = at_least_one())]
+        max_scenes: Option<usize>,
+        /// The prior policies draw each token among this many most likely ones (default 10), from 1 to the vocabulary size.
+        #[arg(long, value_name = "K", value_parser = RangedU64ValueParser::<usize>::new().range(1..=VOCABULARY_SIZE as u64))]
+        top_k: Option<usize>,
+        /// Softmax temperature of the prior policies' draw (default 1: the model's distribution; lower is greedier), positive and finite.
+        #[arg(long, value_parser = positive_finite)]
+        temperature: Option<f64>,
     },
     /// What the realism prior's trust region offers the adversary: per method, the probability mass of the tokens of its region (the top n, or the n likeliest distinct behaviours for `safer-distinct`), their acceleration and yaw-rate range, distinct behaviours and plausible share, at the CBV's token boundaries of stage 1.
     TrustRegion {
@@ -341,73 +299,40 @@ enum Command {
         #[arg(long, value_name = "N", value_parser = at_least_one())]
         max_scenes: Option<usize>,
         /// Also write the summaries and every boundary's profile as JSON (`-`: standard output).
-        #[arg(long, value_name = "OUT")]
+        #[arg(long, value_name = "OUT", num_args = 0..=1, default_missing_value = "-")]
         json: Option<PathBuf>,
         /// Worker threads, 1 to 256 (default: one per core).
-        #[arg(long, value_name = "N", value_parser = RangedU64ValueParser::<usize>::new().range(1..=MAX_JOBS as u64))]
+        #[arg(short, long, value_name = "N", value_parser = RangedU64ValueParser::<usize>::new().range(1..=MAX_JOBS as u64))]
         jobs: Option<usize>,
     },
-    /// Merge the JSON reports of `safer evaluate --partition K/N` runs into the table and report one run would give.
-    EvaluateMerge {
-        /// The partitions' reports, one per part, in any order.
-        #[arg(required = true, value_name = "PART.json")]
-        parts: Vec<PathBuf>,
-        /// Also write the merged report as JSON (`-`: standard output).
-        #[arg(long, value_name = "OUT")]
+    /// Benchmarks: import time per scene per format, simulator steps per second, one SaFeR variant and its witness search; each beside its reference.
+    Bench {
+        /// Folder of scenario files (searched recursively); `data:` is $SAFER_DATA_DIR.
+        #[arg(long, default_value = "data:", value_parser = data_path)]
+        scenes: PathBuf,
+        /// Repetitions of each measurement (the median is reported), at least 1.
+        #[arg(long, default_value_t = 3, value_parser = at_least_one())]
+        repeat: usize,
+        /// Also write the figures as JSON (`-`: standard output, the table then goes to stderr).
+        #[arg(long, value_name = "OUT", num_args = 0..=1, default_missing_value = "-")]
+        json: Option<PathBuf>,
+        /// Another build's `safer` binary to compare with: both builds' bench run in turn, round by round, and each timed figure is printed for both with their ratio.
+        #[arg(long, value_name = "SAFER-BINARY")]
+        baseline: Option<PathBuf>,
+        /// Rounds of `--baseline`, each running both builds' bench once, at least 1.
+        #[arg(long, default_value_t = 5, value_parser = at_least_one(), requires = "baseline")]
+        rounds: usize,
+    },
+    /// Measure the log → token → log round trip (ADE/FDE) over recorded scenes.
+    TokenRoundtrip {
+        /// Folder of scenario files (searched recursively); `data:REL` is in $SAFER_DATA_DIR.
+        #[arg(long, value_parser = data_path)]
+        scenes: PathBuf,
+        /// Print JSON instead of a table.
+        #[arg(long, value_name = "OUT", num_args = 0..=1, default_missing_value = "-")]
         json: Option<PathBuf>,
     },
-    /// Write the feasibility value's training transitions (NGSIM + synthetic, several ego and CBV policies).
-    FeasibilityDataset {
-        /// Recorded scenes whose licence allows training the shipped models (NGSIM); `data:REL` is in $SAFER_DATA_DIR.
-        #[arg(long, default_value = "data:commonroad-ngsim", value_parser = data_path)]
-        recorded: PathBuf,
-        /// Output folder.
-        #[arg(long, default_value = "training/data/feasibility")]
-        out: PathBuf,
-        /// Synthetic scenes.
-        #[arg(long, default_value_t = 300)]
-        synthetic_scenes: usize,
-        /// Base seed.
-        #[arg(long, default_value_t = 0)]
-        seed: u64,
-        /// Replace an existing dataset.
-        #[arg(long)]
-        force: bool,
-    },
-    /// Accuracy of the shipped V_h against the witness search on held-out states, V_h latency, and the LFR picture.
-    FeasibilityEval {
-        /// Recorded scenes of the collection (NGSIM); `data:REL` is in $SAFER_DATA_DIR.
-        #[arg(long, default_value = "data:commonroad-ngsim", value_parser = data_path)]
-        recorded: PathBuf,
-        /// Synthetic scenes of the collection (same as for `feasibility-dataset`).
-        #[arg(long, default_value_t = 300)]
-        synthetic_scenes: usize,
-        /// Base seed of the collection.
-        #[arg(long, default_value_t = 0)]
-        seed: u64,
-        /// Most held-out states to label, at least 1.
-        #[arg(long, default_value_t = 3000, value_parser = at_least_one())]
-        states: usize,
-        /// Where to draw V_h over relative CBV positions (the README's
-        /// picture is `docs/feasibility-lfr.svg`); none unless asked.
-        #[arg(long)]
-        svg: Option<PathBuf>,
-        /// Write the figures as JSON (`-`: standard output, the table then on stderr).
-        #[arg(long, value_name = "OUT")]
-        json: Option<PathBuf>,
-        /// Which scenes' states to label: the held-out ones (never trained
-        /// on; the reported figures) or the training ones (to calibrate a
-        /// decision threshold on without touching the held-out set).
-        #[arg(long, value_parser = choice(safer_scenarios::datasets::held_out::Split::ALL), default_value = "held-out")]
-        split: safer_scenarios::datasets::held_out::Split,
-        /// Write every labelled state (its V_h features, witness label and
-        /// V_h) as a safetensors file, for `training/feasibility/train.py
-        /// --calibration` (label the training split for that, never the
-        /// held-out one).
-        #[arg(long, value_name = "OUT")]
-        labels: Option<PathBuf>,
-    },
-    /// Write the realism prior's training shards (NGSIM scenes + calibrated synthetic traffic).
+    /// [model tools] Write the realism prior's training shards (NGSIM scenes + calibrated synthetic traffic).
     PriorDataset {
         /// Recorded scenes whose licence allows training the shipped models (NGSIM); `data:REL` is in $SAFER_DATA_DIR.
         #[arg(long, default_value = "data:commonroad-ngsim", value_parser = data_path)]
@@ -469,20 +394,99 @@ enum Command {
         #[arg(long)]
         force: bool,
     },
-    /// Draw a scenario (a recorded file or a scenario spec YAML) as an SVG picture.
-    Render {
-        /// A recorded scenario (.tfrecord, .json, .xml, .parquet / AV2 folder; `data:REL`: in $SAFER_DATA_DIR) or a scenario spec (.yaml).
-        #[arg(value_parser = data_path)]
-        file: PathBuf,
-        /// Step whose footprints are drawn (default: the scenario's current step).
-        #[arg(long, value_name = "N")]
-        step: Option<usize>,
-        /// Output file (default: `<stem>.svg` in the current folder; `-`: standard output); a folder when FILE holds several scenarios.
-        #[arg(long, value_name = "OUT")]
-        out: Option<PathBuf>,
-        /// Overwrite existing pictures.
+    /// [model tools] How well the realism prior predicts recorded driving: NLL, top-1 and how often the recorded token is in the top n, at every token boundary of every moving vehicle, with the history ending at the boundary (as in closed loop) and one step late (a probe of whether the prior reads the start of the token it predicts).
+    PriorFit {
+        /// Folder of scenario files (searched recursively), or one file; `data:REL` is in $SAFER_DATA_DIR.
+        #[arg(long, value_parser = data_path)]
+        scenes: PathBuf,
+        /// Trust-region size n (top-n tokens of the prior), from 1 to the vocabulary size
+        /// (`--trust-region`, as `evaluate` and `trust-region` name it; `--top-n` is accepted too).
+        #[arg(long = "trust-region", alias = "top-n", value_name = "N", default_value_t = 20, value_parser = RangedU64ValueParser::<usize>::new().range(1..=VOCABULARY_SIZE as u64))]
+        top_n: usize,
+        /// Vehicles slower than this at a boundary are not scored, m/s (non-negative, finite; standing cars' tokens are trivial).
+        #[arg(long, default_value_t = 1.0, value_parser = non_negative_finite, allow_negative_numbers = true)]
+        min_speed_mps: f64,
+        /// Which prior: the differential-attention one (default) or the plain-attention one; `$SAFER_MODELS` swaps in another model set.
+        #[arg(long, value_parser = choice(safer_scenarios::models::prior::PriorVariant::ALL), default_value = "differential")]
+        prior: safer_scenarios::models::prior::PriorVariant,
+        /// Score at most this many scenes (by id), at least 1.
+        #[arg(long, value_name = "N", value_parser = at_least_one())]
+        max_scenes: Option<usize>,
+        /// Also write the fits (all, held-out and other scenes, and each scene's sums) as JSON (`-`: standard output).
+        #[arg(long, value_name = "OUT", num_args = 0..=1, default_missing_value = "-")]
+        json: Option<PathBuf>,
+    },
+    /// [model tools] Write the feasibility value's training transitions (NGSIM + synthetic, several ego and CBV policies).
+    FeasibilityDataset {
+        /// Recorded scenes whose licence allows training the shipped models (NGSIM); `data:REL` is in $SAFER_DATA_DIR.
+        #[arg(long, default_value = "data:commonroad-ngsim", value_parser = data_path)]
+        recorded: PathBuf,
+        /// Output folder.
+        #[arg(long, default_value = "training/data/feasibility")]
+        out: PathBuf,
+        /// Synthetic scenes.
+        #[arg(long, default_value_t = 300)]
+        synthetic_scenes: usize,
+        /// Base seed.
+        #[arg(long, default_value_t = 0)]
+        seed: u64,
+        /// Replace an existing dataset.
         #[arg(long)]
         force: bool,
+    },
+    /// [model tools] Accuracy of the shipped V_h against the witness search on held-out states, V_h latency, and the LFR picture.
+    FeasibilityEval {
+        /// Recorded scenes of the collection (NGSIM); `data:REL` is in $SAFER_DATA_DIR.
+        #[arg(long, default_value = "data:commonroad-ngsim", value_parser = data_path)]
+        recorded: PathBuf,
+        /// Synthetic scenes of the collection (same as for `feasibility-dataset`).
+        #[arg(long, default_value_t = 300)]
+        synthetic_scenes: usize,
+        /// Base seed of the collection.
+        #[arg(long, default_value_t = 0)]
+        seed: u64,
+        /// Most held-out states to label, at least 1.
+        #[arg(long, default_value_t = 3000, value_parser = at_least_one())]
+        states: usize,
+        /// Where to draw V_h over relative CBV positions (the README's
+        /// picture is `docs/feasibility-lfr.svg`); none unless asked.
+        #[arg(long)]
+        svg: Option<PathBuf>,
+        /// Write the figures as JSON (`-`: standard output, the table then on stderr).
+        #[arg(long, value_name = "OUT", num_args = 0..=1, default_missing_value = "-")]
+        json: Option<PathBuf>,
+        /// Which scenes' states to label: the held-out ones (never trained
+        /// on; the reported figures) or the training ones (to calibrate a
+        /// decision threshold on without touching the held-out set).
+        #[arg(long, value_parser = choice(safer_scenarios::datasets::held_out::Split::ALL), default_value = "held-out")]
+        split: safer_scenarios::datasets::held_out::Split,
+        /// Write every labelled state (its V_h features, witness label and
+        /// V_h) as a safetensors file, for `training/feasibility/train.py
+        /// --calibration` (label the training split for that, never the
+        /// held-out one).
+        #[arg(long, value_name = "OUT")]
+        labels: Option<PathBuf>,
+    },
+    /// [model tools] Latency of the learned models in tract (map encoding, CBV query, full-scene step), against onnxruntime/PyTorch.
+    BenchModels {
+        /// Scenes to pick the busiest from; `data:REL` is in $SAFER_DATA_DIR.
+        #[arg(long, default_value = "data:womd-tfrecord", value_parser = data_path)]
+        scenes: PathBuf,
+        /// Folder of the models and their cards (default: $SAFER_MODELS, else the models embedded in safer).
+        #[arg(long)]
+        models: Option<PathBuf>,
+        /// Repetitions (the median is reported), at least 1.
+        #[arg(long, default_value_t = 200, value_parser = at_least_one())]
+        repeat: usize,
+        /// Python of the training environment, which times the reference (onnxruntime, PyTorch); without it the report says there is none.
+        #[arg(long, default_value = "training/.venv/bin/python")]
+        python: PathBuf,
+        /// Also print where the decoder's time goes: the N costliest nodes of tract's plan and the time per operator, at batch 1 and the scene batch.
+        #[arg(long, value_name = "N")]
+        profile: Option<usize>,
+        /// Also write the figures as JSON (`-`: standard output, the table then goes to stderr).
+        #[arg(long, value_name = "OUT", num_args = 0..=1, default_missing_value = "-")]
+        json: Option<PathBuf>,
     },
 }
 
@@ -533,9 +537,12 @@ pub enum CliError {
 pub fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
-        Command::Inspect { file, json } => inspect::run(&file, json),
-        Command::Simulate { path, planner, background, json } => simulate::run(&path, &planner, background, json),
-        Command::TokenRoundtrip { scenes, json } => token_roundtrip::run(&scenes, json),
+        Command::Inspect { file, json } => inspect::run(&file, json.as_deref()),
+        Command::Simulate { path, scenes, planner, background, json } => {
+            let path = path.or(scenes).expect("clap requires the path or --scenes");
+            simulate::run(&path, &planner, background, json.as_deref())
+        }
+        Command::TokenRoundtrip { scenes, json } => token_roundtrip::run(&scenes, json.as_deref()),
         Command::Bench { scenes, repeat, json, baseline: None, rounds: _ } => {
             bench::run(&scenes, repeat, json.as_deref())
         }
@@ -777,12 +784,31 @@ fn check_json_report(path: &Path) -> Result<(), CliError> {
     Ok(())
 }
 
+/// Writes `report` as pretty JSON to `path` (`-`: standard output), after
+/// the same checks as every `--json` report.
+fn write_json_report(path: &Path, report: &impl serde::Serialize) -> Result<(), CliError> {
+    check_json_report(path)?;
+    safer_scenarios::record::write_output(path, (serde_json::to_string_pretty(report)? + "\n").as_bytes())?;
+    Ok(())
+}
+
+/// Parses a scene path: `data:REL` and `safer:REL` resolved as in specs,
+/// anything else as written; a path that does not exist is refused here,
+/// naming it, before any command runs.
 fn data_path(written: &str) -> Result<PathBuf, String> {
-    if written.starts_with("data:") || written.starts_with("safer:") {
-        safer_scenarios::spec::paths::resolve_checked(safer_scenarios::spec::paths::shipped_dir(), written)
+    let path = if written.starts_with("data:") || written.starts_with("safer:") {
+        safer_scenarios::spec::paths::resolve_checked(safer_scenarios::spec::paths::shipped_dir(), written)?
     } else {
-        Ok(PathBuf::from(written))
+        PathBuf::from(written)
+    };
+    if !path.exists() {
+        return Err(format!(
+            "no such file or folder: {}{}",
+            path.display(),
+            safer_scenarios::spec::paths::missing_hint(written)
+        ));
     }
+    Ok(path)
 }
 
 /// Parses `--planner`: a built-in's name, else a planner spec file.

@@ -44,7 +44,7 @@ pub(super) fn run(
     path: &Path,
     planner: &PlannerAdapter,
     background: BackgroundPolicy,
-    json: bool,
+    json: Option<&Path>,
 ) -> Result<ExitCode, CliError> {
     let paths = scene_paths(path)?;
     // Files in parallel; results come back in path order, so output is
@@ -73,8 +73,8 @@ pub(super) fn run(
             }
         }
     }
-    if json {
-        println!("{}", serde_json::to_string_pretty(&summaries)?);
+    if let Some(path) = json {
+        super::write_json_report(path, &summaries)?;
     } else if !(summaries.is_empty() && failures > 0) {
         print_table(&summaries);
     }

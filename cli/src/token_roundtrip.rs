@@ -25,7 +25,7 @@ struct Row {
     max_m: f64,
 }
 
-pub(super) fn run(scenes: &Path, json: bool) -> Result<ExitCode, CliError> {
+pub(super) fn run(scenes: &Path, json: Option<&Path>) -> Result<ExitCode, CliError> {
     let paths = scene_paths(scenes)?;
     let started = std::time::Instant::now();
     type FileTally = Vec<(SourceFormat, AgentKind, RoundTripError)>;
@@ -70,8 +70,8 @@ pub(super) fn run(scenes: &Path, json: bool) -> Result<ExitCode, CliError> {
             max_m: e.max_displacement_m,
         })
         .collect();
-    if json {
-        println!("{}", serde_json::to_string_pretty(&rows)?);
+    if let Some(path) = json {
+        super::write_json_report(path, &rows)?;
     } else {
         println!(
             "{:<12} {:<11} {:>6} {:>7} {:>9} {:>8} {:>8} {:>8}",

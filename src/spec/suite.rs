@@ -192,8 +192,11 @@ pub struct AdversarySpec {
     /// The CBV while the planner under test drives (stage 2):
     /// `closed-loop` (the default) drives it by the method again, against
     /// the planner's actual ego, so the conflict meets the planner;
-    /// `replay` replays its stage-1 path, made against the recorded ego
-    /// (the paper's protocol, which benchmarks the generator).
+    /// `replay` replays its stage-1 path, made against the recorded ego,
+    /// which compares generators on equal terms and is why `safer
+    /// evaluate` defaults to it (the paper does not say whether its CBV
+    /// reacts in stage 2); a suite tests a planner, so its default is
+    /// `closed-loop`.
     #[serde(default = "closed_loop")]
     pub stage2_cbv: Stage2Cbv,
     /// The approach phase of the SaFeR methods: `seeded` (the default), the
@@ -229,8 +232,8 @@ impl Default for AdversarySpec {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Deserialize, JsonSchema, serde::Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Stage2Cbv {
-    /// Replays its stage-1 trajectory, made against the recorded ego (the
-    /// paper's protocol: it measures the generator).
+    /// Replays its stage-1 trajectory, made against the recorded ego (it
+    /// measures the generator: `safer evaluate`'s default).
     Replay,
     /// Is driven by the method again, closed loop: the same trust region,
     /// plausibility rule and seed, with the feasibility value taken on the

@@ -6,7 +6,8 @@ use std::process::Command;
 use crate::shared_data::data_dir;
 
 fn safer(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_safer")).args(args).output().expect("run safer")
+    // From the repository's root, as a user runs it.
+    Command::new(env!("CARGO_BIN_EXE_safer")).args(args).current_dir(repo_root!()).output().expect("run safer")
 }
 
 #[test]
@@ -76,7 +77,7 @@ fn a_corrupt_file_is_an_error_naming_it_not_a_panic() {
         let out = safer(&["inspect", missing.to_str().unwrap()]);
         let err = String::from_utf8_lossy(&out.stderr);
         assert_eq!(out.status.code(), Some(2), "{err}");
-        assert!(err.contains("No such file or directory") && !err.contains("not a scenario file"), "{err}");
+        assert!(err.contains("no such file or folder") && !err.contains("not a scenario file"), "{err}");
     }
     std::fs::remove_dir_all(&dir).ok();
 }

@@ -375,5 +375,5 @@ fn an_evaluation_of_a_missing_folder_says_it_is_missing() {
     // It said "no scene with both an ego and a CBV".
     let out = safer_within(&["evaluate", "--scenes", "/no/such/scenes", "--seeds", "1"], Duration::from_secs(30));
     assert_eq!(out.status.code(), Some(2), "{}", text(&out));
-    assert!(text(&out).contains("/no/such/scenes: no such file or folder"), "{}", text(&out));
+    assert!(text(&out).contains("no such file or folder: /no/such/scenes"), "{}", text(&out));
 }
