@@ -183,7 +183,7 @@ impl Runner {
         if conclusion.has_failed() && !args.list && !under_nextest {
             let results = results_of_this_process(&suites, load_failures);
             let dir = self.artefacts.join("review");
-            match harness::review_page::write_review_page(&dir, &results) {
+            match harness::report::review_page::write_review_page(&dir, &results) {
                 Ok(page) => eprintln!("review page: {}", page.display()),
                 Err(e) => eprintln!("(could not write the review page: {e})"),
             }

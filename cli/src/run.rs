@@ -13,8 +13,8 @@
 //!
 //! `--json -` (or `--junit -`) writes that report to standard output and
 //! the table to stderr. `--junit FILE` writes a JUnit XML report
-//! ([`harness::junit`]); `--html DIR` a static review page
-//! ([`harness::review_page`]). All reports are written from one
+//! ([`harness::report::junit`]); `--html DIR` a static review page
+//! ([`harness::report::review_page`]). All reports are written from one
 //! [`RunResults`].
 //!
 //! Exit code: 0 when every selected variant and metric passed, 1 when one
@@ -229,7 +229,7 @@ pub(super) fn run(
         safer_scenarios::record::output::check_output(out)?;
     }
     if let Some(dir) = html {
-        harness::review_page::check_folder(dir)?;
+        harness::report::review_page::check_folder(dir)?;
     }
     let mut load_failures = Vec::new();
     let mut suites: Vec<(PathBuf, Suite)> = Vec::new();
@@ -373,7 +373,7 @@ pub(super) fn run(
         Ok(safer_scenarios::record::write_output(out, text.as_bytes())?)
     };
     let write_junit =
-        |out: &Path| safer_scenarios::record::write_output(out, harness::junit::junit_xml(&results).as_bytes());
+        |out: &Path| safer_scenarios::record::write_output(out, harness::report::junit::junit_xml(&results).as_bytes());
     if let Some(out) = json.filter(to_file) {
         write_json(out)?;
     }
@@ -393,7 +393,7 @@ pub(super) fn run(
         write_junit(out)?;
     }
     if let Some(dir) = html {
-        let page = harness::review_page::write_review_page(dir, &results)?;
+        let page = harness::report::review_page::write_review_page(dir, &results)?;
         eprintln!("review page: {}", page.display());
     }
     let mut exports = exports.into_inner().unwrap_or_else(|p| p.into_inner());

@@ -244,6 +244,53 @@ impl Planner for PlannedPath {
     }
 }
 
+/// The closed-loop witness's verdict on a stage-2 collision, as reports
+/// and snapshots carry it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum CollisionEscape {
+    /// An escape, played closed loop with the CBV reacting, touched
+    /// nobody: the collision was avoidable, a planner failure.
+    Avoidable,
+    /// The fixed-traffic search found no escape from the last rollout's
+    /// traffic: counted as the generator's fault, not the planner's.
+    NoEscapeFound,
+    /// Every verification rollout was spent on an escape the reacting CBV
+    /// still hit: counted as the generator's fault, not the planner's.
+    NoEscapeVerified,
+}
+
+impl CollisionEscape {
+    /// The verdict of a search.
+    pub fn of(search: &EscapeSearch) -> Self {
+        match search.verdict {
+            EscapeVerdict::Verified { .. } => Self::Avoidable,
+            EscapeVerdict::NoneWithinBudget(NoEscapeReason::SearchFoundNone) => Self::NoEscapeFound,
+            EscapeVerdict::NoneWithinBudget(NoEscapeReason::VerificationsSpent) => Self::NoEscapeVerified,
+        }
+    }
+
+    /// Whether the collision counts against the planner.
+    pub fn avoidable(self) -> bool {
+        self == Self::Avoidable
+    }
+
+    /// One line for a person reading the report.
+    pub fn describe(self) -> &'static str {
+        match self {
+            Self::Avoidable => {
+                "avoidable: an escape played closed loop, the CBV reacting, touches nobody (drawn in the recording and picture)"
+            }
+            Self::NoEscapeFound => {
+                "no escape found within budget: the generator's fault, not the planner's (not a proof that none exists)"
+            }
+            Self::NoEscapeVerified => {
+                "no escape survived the reacting CBV within budget: the generator's fault, not the planner's (not a proof that none exists)"
+            }
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -1,7 +1,7 @@
 //! Per-variant acceptance: what the planner under test's rollout must
 //! satisfy, each failure a sentence saying what happened, when and with whom.
 
-use super::variant::CollisionEscape;
+use crate::eval::escape::CollisionEscape;
 use crate::eval::progress;
 use crate::eval::traffic_rules;
 use crate::scenario::Scenario;

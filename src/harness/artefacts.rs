@@ -16,8 +16,8 @@
 
 use std::path::{Component, Path, PathBuf};
 
-use super::variant::CollisionEscape;
 use super::{Stage2Verdict, VariantOutcome};
+use crate::eval::escape::CollisionEscape;
 use crate::eval::escape::EscapeVerdict;
 use crate::record::{self, NamedTrajectory, RecordError, SvgOptions, TimedPose, TrajectoryRole};
 

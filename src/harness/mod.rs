@@ -17,13 +17,11 @@
 pub mod acceptance;
 pub mod artefacts;
 pub mod evaluation;
-pub mod junit;
 pub mod methods;
 pub mod metrics;
 pub mod mutation;
 pub mod pipeline;
 pub mod report;
-pub mod review_page;
 pub mod shrink;
 mod stable_hash;
 pub mod suite;

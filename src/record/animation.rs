@@ -3,7 +3,7 @@
 //! margin), the map lines inside it, every agent that enters it (id, role,
 //! box size) and, per simulation step, each agent's pose (`[x, y,
 //! heading]`, `null` when absent), plus the collisions. The review page
-//! ([`crate::harness::review_page`]) embeds it as JSON and its script
+//! ([`crate::harness::report::review_page`]) embeds it as JSON and its script
 //! draws the agents as oriented boxes over the road.
 //!
 //! Positions are metres in the scenario frame with y up, rounded to the

@@ -25,9 +25,9 @@
 use std::fmt::Write as _;
 use std::path::{Component, Path, PathBuf};
 
-use super::artefacts::WitnessArtefact;
-use super::report::{RunResults, SuiteRun, VariantRun};
-use super::{Stage2Verdict, VariantOutcome};
+use super::{RunResults, SuiteRun, VariantRun};
+use crate::harness::artefacts::WitnessArtefact;
+use crate::harness::{Stage2Verdict, VariantOutcome};
 use crate::record::animation::RolloutAnimation;
 use crate::record::markup::escape_attribute as esc;
 use crate::record::{self, RecordError, SvgOptions};
@@ -294,7 +294,7 @@ fn suite_html(h: &mut String, si: usize, s: &SuiteRun, dir: &Path, pictures: &mu
 
 /// The suite's mutation run: the score, then per operator killed (by how
 /// many variants, the first and how) or survived (with the hint).
-fn mutation_html(h: &mut String, m: &super::mutation::MutationReport) {
+fn mutation_html(h: &mut String, m: &crate::harness::mutation::MutationReport) {
     let _ = writeln!(h, "<p class=\"metrics-line\">{}</p>", esc(&m.headline()));
     h.push_str("<table class=\"checks mutation\">\n<thead><tr><th>mutant</th><th>fault</th><th>verdict</th></tr></thead>\n<tbody>\n");
     for r in &m.operators {
@@ -445,7 +445,7 @@ fn failing_variant_html(
         }
         None => h.push_str("recording: none was written"),
     }
-    let picture = super::artefacts::relative_path(Path::new("pictures"), &v.name)
+    let picture = crate::harness::artefacts::relative_path(Path::new("pictures"), &v.name)
         .map(|rel| Path::new("pictures").join(rel).with_extension("svg"));
     let img = match picture {
         Ok(rel) => {
@@ -492,163 +492,14 @@ fn failing_variant_html(
     );
 }
 
-/// The page's style sheet (colours as in the SVG pictures).
-const STYLE: &str = "\
-body{font-family:DejaVu Sans,Helvetica,Arial,sans-serif;margin:0;color:#1b1b1b;background:#fafafa}\
-header{background:#fff;border-bottom:1px solid #ddd;padding:10px 24px}\
-h1{font-size:22px;margin:4px 0}\
-main{padding:0 24px 24px}\
-nav a{margin-right:12px;text-decoration:none;font-weight:bold}\
-nav a.pass{color:#1a7a36}nav a.fail{color:#c0392b}\
-.summary{font-weight:bold;margin:4px 0}.summary.pass{color:#1a7a36}.summary.fail{color:#c0392b}\
-section.suite{background:#fff;border:1px solid #ddd;border-radius:6px;margin:18px 0;padding:4px 16px 12px}\
-h2{font-size:18px}h3{font-size:15px;margin:14px 0 6px}\
-.meta{color:#555;font-size:13px}\
-table{border-collapse:collapse;font-size:13px;margin:8px 0}\
-th,td{border:1px solid #ddd;padding:3px 8px;text-align:left;vertical-align:top}\
-th{background:#f3f3f3}td.num{text-align:right;font-variant-numeric:tabular-nums}\
-tr.fail td:first-child,tr.error td:first-child{border-left:4px solid #c0392b}\
-.badge{display:inline-block;padding:0 6px;border-radius:3px;color:#fff;font-weight:bold;font-size:12px;text-decoration:none}\
-.badge.pass{background:#1a7a36}.badge.fail{background:#c0392b}\
-.metrics-line{font-size:13px;color:#333}\
-article.failing{border-top:1px solid #eee;margin-top:12px}\
-.failures{margin:4px 0;padding-left:18px;font-size:14px}.what,.links{font-size:13px;color:#333}\
-.views{display:flex;flex-wrap:wrap;gap:16px;align-items:flex-start}\
-figure{margin:0;flex:1 1 560px;max-width:720px}figcaption{font-size:12px;color:#555}h3 .scene{font-size:12px;font-weight:normal;color:#555}\
-img.picture{width:100%;height:auto;border:1px solid #ddd}\
-svg.scene{width:100%;height:auto;max-height:560px;border:1px solid #ddd;background:#fff;display:block}\
-.controls{display:flex;align-items:center;gap:10px;margin:6px 0}\
-.controls input.step{flex:1}.controls label{font-size:13px;white-space:nowrap}.controls output{font-size:13px;min-width:190px;font-variant-numeric:tabular-nums}\
-.ground{fill:#ffffff}\
-.map{fill:none;vector-effect:non-scaling-stroke}\
-.map.drivable{fill:#eef1f5;stroke:none}\
-.map.lane{stroke:#a9bdd3;stroke-width:1;stroke-dasharray:6 4}\
-.map.line{stroke:#9a9a9a;stroke-width:1.1}\
-.map.edge{stroke:#3b3b3b;stroke-width:1.8}\
-.path{fill:none;stroke-width:2;stroke-opacity:0.5;vector-effect:non-scaling-stroke}\
-.path.ego{stroke:#1f6fd1}.path.cbv{stroke:#ef8a00}\
-.agent .box{fill:#c3c8ce;stroke:#59616b;stroke-width:1;vector-effect:non-scaling-stroke}\
-.agent.pedestrian .box{fill:#cdb9e8;stroke:#5f4596}.agent.cyclist .box{fill:#a8dcc8;stroke:#23795c}\
-.agent.ego .box{fill:#1f6fd1;stroke:#0b3a78;stroke-width:1.6}\
-.agent.cbv .box{fill:#ef8a00;stroke:#8a4f00;stroke-width:1.6}\
-.agent.collided .box{stroke:#d62728;stroke-width:3}\
-.agent .head{stroke:#ffffff;stroke-width:1.5;vector-effect:non-scaling-stroke}\
-.agent text{font-size:1.7px;font-weight:bold;paint-order:stroke;stroke:#fff;stroke-width:0.35px}\
-.agent.ego text{fill:#0b3a78}.agent.cbv text{fill:#8a4f00}\
-.key{display:inline-block;width:12px;height:10px;margin:0 4px 0 10px;border:1px solid #555;vertical-align:middle}\
-.key.ego{background:#1f6fd1}.key.cbv{background:#ef8a00}.key.other{background:#c3c8ce}\
-.key.collided{background:#fff;border:2px solid #d62728}\
-#js-errors{color:#c0392b;background:#fff0f0;padding:8px;margin:0 24px}\
-.load-failure pre{background:#fff0f0;padding:8px;overflow-x:auto;font-size:12px}";
+/// The page's style sheet (colours as in the SVG pictures), an asset file.
+const STYLE: &str = include_str!("review_page/style.css");
 
 /// Shows script errors on the page (a test looks for them).
-const ERROR_SCRIPT: &str = "window.addEventListener('error',function(e){var p=document.getElementById('js-errors');\
-p.hidden=false;p.textContent+=(e.message||'error')+' ('+(e.lineno||0)+':'+(e.colno||0)+')\\n';});";
+const ERROR_SCRIPT: &str = include_str!("review_page/errors.js");
 
 /// Builds each failing variant's animated view from its JSON data.
-const PLAYER_SCRIPT: &str = r#"
-(function () {
-  'use strict';
-  var NS = 'http://www.w3.org/2000/svg';
-  function make(parent, name, attrs) {
-    var e = document.createElementNS(NS, name);
-    for (var k in attrs) { e.setAttribute(k, attrs[k]); }
-    parent.appendChild(e);
-    return e;
-  }
-  // Scenario y is up; SVG y is down.
-  function pts(list) {
-    return list.map(function (p) { return p[0] + ',' + (-p[1]); }).join(' ');
-  }
-  function corners(s, a) {
-    var c = Math.cos(s[2]), n = Math.sin(s[2]), l = a.length_m / 2, w = a.width_m / 2;
-    return [[l, w], [l, -w], [-l, -w], [-l, w]].map(function (d) {
-      return [s[0] + c * d[0] - n * d[1], s[1] + n * d[0] + c * d[1]];
-    });
-  }
-  function setup(player) {
-    var data = JSON.parse(player.querySelector('script.rollout').textContent);
-    var svg = player.querySelector('svg.scene');
-    var v = data.view, w = v[2] - v[0], h = v[3] - v[1], last = data.frames.length - 1;
-    var follow = player.querySelector('input.follow');
-    // The whole view, or a 16:9 window of at most 80 m around the ego (and the CBV when near).
-    function frameView(f) {
-      var fw = Math.min(w, 80), fh = Math.min(h, fw * 9 / 16), e = f[0];
-      var c = data.agents.length > 1 && data.agents[1].role === 'cbv' ? f[1] : null;
-      if (!follow.checked || !e || (fw >= w && fh >= h)) { return [v[0], -v[3], w, h]; }
-      var x = e[0], y = e[1];
-      if (c && Math.abs(c[0] - x) < fw * 0.6 && Math.abs(c[1] - y) < fh * 0.6) { x = (x + c[0]) / 2; y = (y + c[1]) / 2; }
-      x = Math.max(v[0] + fw / 2, Math.min(v[2] - fw / 2, x));
-      y = Math.max(v[1] + fh / 2, Math.min(v[3] - fh / 2, y));
-      return [x - fw / 2, -(y + fh / 2), fw, fh];
-    }
-    svg.setAttribute('viewBox', [v[0], -v[3], w, h].join(' '));
-    make(svg, 'rect', { x: v[0], y: -v[3], width: w, height: h, 'class': 'ground' });
-    data.map.forEach(function (line) {
-      make(svg, line.kind === 'drivable' ? 'polygon' : 'polyline', { points: pts(line.points), 'class': 'map ' + line.kind });
-    });
-    data.agents.forEach(function (a, i) {
-      if (a.role === 'ego' || a.role === 'cbv') {
-        var path = data.frames.map(function (f) { return f[i]; }).filter(Boolean);
-        make(svg, 'polyline', { points: pts(path), 'class': 'path ' + a.role });
-      }
-    });
-    // Others first, ego and CBV last: drawn on top.
-    var order = data.agents.map(function (a, i) { return i; }).filter(function (i) {
-      return data.agents[i].role !== 'ego' && data.agents[i].role !== 'cbv';
-    }).concat(data.agents.map(function (a, i) { return i; }).filter(function (i) {
-      return data.agents[i].role === 'ego' || data.agents[i].role === 'cbv';
-    }));
-    var boxes = [];
-    order.forEach(function (i) {
-      var a = data.agents[i];
-      var g = make(svg, 'g', { 'class': 'agent ' + a.role });
-      make(g, 'title', {}).textContent = a.id + ' (' + a.role + ')';
-      var box = { g: g, poly: make(g, 'polygon', { 'class': 'box' }), head: make(g, 'line', { 'class': 'head' }) };
-      if (a.role === 'ego' || a.role === 'cbv') { box.label = make(g, 'text', {}); box.label.textContent = a.role === 'ego' ? 'ego' : 'CBV'; }
-      boxes[i] = box;
-    });
-    var slider = player.querySelector('input.step'), out = player.querySelector('output.time');
-    var button = player.querySelector('button.play'), timer = null;
-    slider.max = last;
-    function show(k) {
-      var f = data.frames[k];
-      boxes.forEach(function (b, i) {
-        var s = f[i];
-        if (!s) { b.g.setAttribute('visibility', 'hidden'); return; }
-        b.g.removeAttribute('visibility');
-        var c = corners(s, data.agents[i]);
-        b.poly.setAttribute('points', pts(c));
-        b.head.setAttribute('x1', s[0]); b.head.setAttribute('y1', -s[1]);
-        b.head.setAttribute('x2', (c[0][0] + c[1][0]) / 2); b.head.setAttribute('y2', -(c[0][1] + c[1][1]) / 2);
-        if (b.label) { b.label.setAttribute('x', s[0] - 1.2); b.label.setAttribute('y', -s[1] - data.agents[i].width_m / 2 - 0.5); }
-        var hit = data.collisions.some(function (x) { return x.frame <= k && x.agents.indexOf(i) >= 0; });
-        b.g.classList.toggle('collided', hit);
-      });
-      svg.setAttribute('viewBox', frameView(f).join(' '));
-      slider.value = k;
-      out.textContent = 't = ' + (k * data.dt_s).toFixed(1) + ' s (step ' + k + ' of ' + last + ')';
-    }
-    function stop() {
-      if (timer !== null) { clearInterval(timer); timer = null; }
-      button.textContent = '\u25b6 play';
-    }
-    slider.addEventListener('input', function () { stop(); show(+slider.value); });
-    follow.addEventListener('change', function () { show(+slider.value); });
-    button.addEventListener('click', function () {
-      if (timer !== null) { stop(); return; }
-      var k = +slider.value >= last ? 0 : +slider.value;
-      button.textContent = '\u275a\u275a pause';
-      // Real time: one frame per simulation step.
-      timer = setInterval(function () { show(k); k += 1; if (k > last) { stop(); } }, data.dt_s * 1000);
-    });
-    show(Math.min(data.initial_frame, last));
-    player.setAttribute('data-ready', 'true');
-    player.setAttribute('data-frames', String(data.frames.length));
-  }
-  Array.prototype.forEach.call(document.querySelectorAll('.player'), setup);
-})();
-"#;
+const PLAYER_SCRIPT: &str = include_str!("review_page/player.js");
 
 #[cfg(test)]
 mod tests {

@@ -1,6 +1,6 @@
 //! The results of running suites, as one value every report is written
-//! from: `safer run`'s table and JSON, the JUnit XML of [`super::junit`]
-//! and the review page of [`super::review_page`]. The cargo-test runner can
+//! from: `safer run`'s table and JSON, the JUnit XML of [`junit`]
+//! and the review page of [`review_page`]. The cargo-test runner can
 //! build the same value from the outcomes its trials computed.
 //!
 //! A suite that did not load is a [`SuiteLoadFailure`]; a suite that did is
@@ -10,8 +10,11 @@
 
 use std::path::PathBuf;
 
-use super::artefacts::Artefacts;
-use super::{MetricCheck, SuiteMetrics, VariantOutcome};
+pub mod junit;
+pub mod review_page;
+
+use crate::harness::artefacts::Artefacts;
+use crate::harness::{MetricCheck, SuiteMetrics, VariantOutcome};
 
 /// Everything a run of suites produced.
 #[derive(Debug, Clone, Default)]
@@ -55,8 +58,8 @@ pub struct SuiteRun {
     /// The selected suite-metric checks, in the spec's fixed order.
     pub checks: Vec<MetricCheck>,
     /// The suite's mutation run, when mutants were planted
-    /// ([`super::mutation`]).
-    pub mutation: Option<super::mutation::MutationReport>,
+    /// ([`crate::harness::mutation`]).
+    pub mutation: Option<crate::harness::mutation::MutationReport>,
 }
 
 impl SuiteRun {

@@ -24,9 +24,9 @@
 use std::fmt::Write as _;
 
 #[cfg(test)]
-use super::report::SnapshotCheck;
-use super::report::{RunResults, SuiteLoadFailure, SuiteRun, VariantRun};
-use super::{MetricCheck, VariantOutcome};
+use super::SnapshotCheck;
+use super::{RunResults, SuiteLoadFailure, SuiteRun, VariantRun};
+use crate::harness::{MetricCheck, VariantOutcome};
 use crate::record::markup::{escape_attribute as attr, escape_text as text};
 
 /// The JUnit XML document of `results`.
