@@ -9,6 +9,7 @@
 //! Every figure is printed beside its reference, as a ratio, and the whole
 //! report is written as JSON with `--json OUT`.
 
+use super::*;
 use std::collections::BTreeMap;
 use std::io::Write;
 use std::path::Path;
@@ -471,4 +472,40 @@ fn bench_variant(scenes: &[Scenario], repeat: usize) -> Result<Option<VariantBen
         closed_loop_ratio_to_replay: closed_loop_variant_ms / replay_ms,
         closed_loop_witness,
     }))
+}
+
+/// The arguments of `safer bench`.
+#[derive(Debug, clap::Args)]
+pub(crate) struct BenchArgs {
+    /// Folder of scenario files (searched recursively); `data:` is $SAFER_DATA_DIR.
+    #[arg(long, default_value = "data:", value_parser = data_path)]
+    pub(crate) scenes: PathBuf,
+    /// Repetitions of each measurement (the median is reported), at least 1.
+    #[arg(long, default_value_t = 3, value_parser = at_least_one())]
+    pub(crate) repeat: usize,
+    /// Also write the figures as JSON (`-`: standard output, the table then goes to stderr).
+    #[arg(long, value_name = "OUT", num_args = 0..=1, default_missing_value = "-")]
+    pub(crate) json: Option<PathBuf>,
+    /// Another build's `safer` binary to compare with: both builds' bench run in turn, round by round, and each timed figure is printed for both with their ratio.
+    #[arg(long, value_name = "SAFER-BINARY")]
+    pub(crate) baseline: Option<PathBuf>,
+    /// Rounds of `--baseline`, each running both builds' bench once, at least 1.
+    #[arg(long, default_value_t = 5, value_parser = at_least_one(), requires = "baseline")]
+    pub(crate) rounds: usize,
+}
+
+/// Runs `safer bench`.
+pub(crate) fn command(args: BenchArgs) -> Result<ExitCode, CliError> {
+    match args.baseline {
+        None => run(&args.scenes, args.repeat, args.json.as_deref()),
+        Some(baseline) => super::bench_baseline::run(
+            super::bench_baseline::BaselineBench {
+                scenes: &args.scenes,
+                repeat: args.repeat,
+                rounds: args.rounds,
+                baseline: &baseline,
+            },
+            args.json.as_deref(),
+        ),
+    }
 }

@@ -8,6 +8,7 @@
 //! and the ratios printed side by side; when it is not installed the
 //! report says so (in the table and in `--json OUT`) instead of failing.
 
+use super::*;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::{Command, ExitCode};
@@ -348,4 +349,40 @@ pub(super) fn run(
         }
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// The arguments of `safer bench-models`.
+#[derive(Debug, clap::Args)]
+pub(crate) struct BenchModelsArgs {
+    /// Scenes to pick the busiest from; `data:REL` is in $SAFER_DATA_DIR.
+    #[arg(long, default_value = "data:womd-tfrecord", value_parser = data_path)]
+    pub(crate) scenes: PathBuf,
+    /// Folder of the models and their cards (default: $SAFER_MODELS, else the models embedded in safer).
+    #[arg(long)]
+    pub(crate) models: Option<PathBuf>,
+    /// Repetitions (the median is reported), at least 1.
+    #[arg(long, default_value_t = 200, value_parser = at_least_one())]
+    pub(crate) repeat: usize,
+    /// Python of the training environment, which times the reference (onnxruntime, PyTorch); without it the report says there is none.
+    #[arg(long, default_value = "training/.venv/bin/python")]
+    pub(crate) python: PathBuf,
+    /// Also print where the decoder's time goes: the N costliest nodes of tract's plan and the time per operator, at batch 1 and the scene batch.
+    #[arg(long, value_name = "N")]
+    pub(crate) profile: Option<usize>,
+    /// Also write the figures as JSON (`-`: standard output, the table then goes to stderr).
+    #[arg(long, value_name = "OUT", num_args = 0..=1, default_missing_value = "-")]
+    pub(crate) json: Option<PathBuf>,
+}
+
+/// Runs `safer bench-models`.
+pub(crate) fn command(args: BenchModelsArgs) -> Result<ExitCode, CliError> {
+    let BenchModelsArgs { scenes, models, repeat, python, profile, json } = args;
+    run(
+        &scenes,
+        &safer_scenarios::models::ModelSource::folder_or_shipped(models),
+        repeat,
+        &python,
+        profile,
+        json.as_deref(),
+    )
 }

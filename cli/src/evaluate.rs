@@ -9,6 +9,7 @@
 //! are skipped with a warning: every variant of them would count against
 //! the planner whatever it did.
 
+use super::*;
 use std::io::Write;
 use std::path::Path;
 use std::process::ExitCode;
@@ -836,6 +837,137 @@ fn check_part_variants(path: &Path, part: &PartReport) -> Result<(), CliError> {
         )));
     }
     Ok(())
+}
+
+/// The arguments of `safer evaluate`.
+#[derive(Debug, clap::Args)]
+pub(crate) struct EvaluateArgs {
+    /// Folder of recorded scenes (searched recursively); scenes need an ego and a CBV; `data:REL` is in $SAFER_DATA_DIR.
+    #[arg(long, value_parser = data_path)]
+    pub(crate) scenes: PathBuf,
+    /// Methods to compare, one table row each.
+    #[arg(long, value_parser = choice(AdversaryMethod::ALL), value_delimiter = ',', default_values = ["safer", "safer-distinct", "safer-lookahead", "safer-inattentive", "no-lfr", "no-trust-region", "no-mda", "prior", "log"])]
+    pub(crate) methods: Vec<AdversaryMethod>,
+    /// Seeds per scene and method, at least 1.
+    #[arg(long, default_value_t = 10, value_parser = clap::value_parser!(u32).range(1..))]
+    pub(crate) seeds: u32,
+    /// Base seed.
+    #[arg(long, default_value_t = 0)]
+    pub(crate) seed: u64,
+    /// Reactive planner driving the ego in stage 2: a built-in (log-replay, constant-velocity, idm, evasive) or a planner spec file (`planners/NAME.yaml`).
+    #[arg(long, default_value = "evasive", value_parser = planner_arg, value_name = "BUILTIN|SPEC.yaml")]
+    pub(crate) planner: PlannerAdapter,
+    /// Trust-region size n (top-n tokens of the prior), from 1 to the vocabulary size.
+    #[arg(long, default_value_t = 20, value_parser = RangedU64ValueParser::<usize>::new().range(1..=VOCABULARY_SIZE as u64))]
+    pub(crate) trust_region: usize,
+    /// Who drives the background agents.
+    #[arg(long, value_parser = choice(BackgroundDriver::ALL), default_value = "configured")]
+    pub(crate) background: BackgroundDriver,
+    /// The approach phase of the SaFeR methods: `seeded`, the prior drives the CBV for 1-4 tokens drawn from the variant's seed before the adversary engages, so that seeds differ; `none`, the adversary engages at the first token, as the paper describes its resampling (with the background on log replay every seed of a scene then gives the same variant).
+    #[arg(long, value_parser = choice(ApproachPhase::ALL), default_value = "seeded")]
+    pub(crate) approach_phase: ApproachPhase,
+    /// The CBV in stage 2: replaying its stage-1 trajectory, or driven by the method again against the planner's ego (closed-loop); `replay,closed-loop` reports both side by side. The default here is `replay`, so that every method's stage 2 meets the same recorded CBV path and the methods compare on equal terms (the paper does not say whether its CBV reacts in stage 2); suites default to `closed-loop` (`adversary.stage2_cbv`), because a planner test should meet a CBV that answers the planner.
+    #[arg(long, value_parser = choice(Stage2Cbv::ALL), value_delimiter = ',', default_values = ["replay"])]
+    pub(crate) stage2_cbv: Vec<Stage2Cbv>,
+    /// Horizon of both stages from the scene's current step, s (positive, finite).
+    #[arg(long, default_value_t = 8.0, value_parser = positive_finite, allow_negative_numbers = true)]
+    pub(crate) horizon_s: f64,
+    /// Evaluate only the first N scenes (by id), at least 1.
+    #[arg(long, value_name = "N", value_parser = at_least_one())]
+    pub(crate) max_scenes: Option<usize>,
+    /// Evaluate only the scenes with these scenario ids (comma-separated, as the tables name them). Each variant is the one the whole set's evaluation makes: its seed comes from its scene's id, not the scene's place in the list. The held-out split is then drawn among these scenes.
+    #[arg(long, value_name = "ID,...", value_delimiter = ',', conflicts_with = "max_scenes")]
+    pub(crate) scene: Vec<String>,
+    /// Also write every variant and the table as JSON (`-`: standard output).
+    #[arg(long, value_name = "OUT", num_args = 0..=1, default_missing_value = "-")]
+    pub(crate) json: Option<PathBuf>,
+    /// Worker threads for the variants, 1 to 256 (default: one per core). Each may run a planner process: far more than the cores only thrashes.
+    #[arg(short, long, value_name = "N", value_parser = RangedU64ValueParser::<usize>::new().range(1..=MAX_JOBS as u64))]
+    pub(crate) jobs: Option<usize>,
+    /// How much of the witness's ego must stay on the road: its centre (the CBV's rule), or its whole width (no escape over the edge line).
+    #[arg(long, value_parser = choice(RoadKeeping::ALL), default_value = "centre")]
+    pub(crate) witness_road: RoadKeeping,
+    /// The widest beam the witness search tries when narrower ones find nothing, as a multiple of the narrow one (48 candidates); 1 to 4096. Wider finds escapes narrower ones miss, at seconds to minutes a search where none exists.
+    #[arg(long, value_name = "N", default_value_t = safer_scenarios::eval::witness::DEFAULT_WIDEST, value_parser = RangedU64ValueParser::<usize>::new().range(1..=safer_scenarios::eval::witness::MOST_WIDEST as u64))]
+    pub(crate) witness_widest: usize,
+    /// Run only part K of N (1 ≤ K ≤ N): scene i of the sorted scene list belongs to part i mod N + 1. Merge the parts' `--json` reports with `safer evaluate-merge`.
+    #[arg(long, value_name = "K/N", value_parser = clap::value_parser!(Partition))]
+    pub(crate) partition: Option<Partition>,
+    /// Write each failing variant's MCAP recording, SVG picture and planner stderr under DIR/METHOD/SCENARIO/seed-K.* (as `safer run` does).
+    #[arg(long, value_name = "DIR")]
+    pub(crate) artifacts: Option<PathBuf>,
+    /// Which variants `--artifacts` writes: the failing ones, or all (solved ones too, to see what the CBV did where nothing failed).
+    #[arg(long, value_parser = choice(ArtefactVariants::ALL), default_value = "failing", requires = "artifacts")]
+    pub(crate) artifacts_of: ArtefactVariants,
+    /// Mutation testing: plant these faults in the planner (comma-separated; alone, or `all`: every operator) and count, per method, the variants the planner passes and each mutant fails (no at-fault collision, no leaving the road, an answer inside the vehicle limits at every step). The measure an adversary is judged by.
+    #[arg(long, value_name = "OPS", num_args = 0..=1, default_missing_value = "all", value_parser = fault_operators)]
+    pub(crate) mutants: Option<FaultOperators>,
+}
+
+/// Runs `safer evaluate`.
+pub(crate) fn command(args: EvaluateArgs) -> Result<ExitCode, CliError> {
+    let EvaluateArgs {
+        scenes,
+        methods,
+        seeds,
+        seed,
+        planner,
+        trust_region,
+        background,
+        approach_phase,
+        stage2_cbv,
+        horizon_s,
+        max_scenes,
+        scene,
+        json,
+        jobs,
+        witness_road,
+        witness_widest,
+        partition,
+        artifacts,
+        artifacts_of,
+        mutants,
+    } = args;
+    let mut stage2_cbv = stage2_cbv;
+    stage2_cbv.sort();
+    stage2_cbv.dedup();
+    let escape = safer_scenarios::eval::escape::EscapeBudget { keeping: witness_road, ..Default::default() };
+    let request = EvaluationRequest {
+        methods,
+        seeds,
+        base_seed: seed,
+        planner,
+        trust_region,
+        approach: approach_phase,
+        background,
+        stage2_cbv,
+        escape: Some(escape),
+        horizon_s,
+        artefacts: artifacts,
+        artefacts_of: artifacts_of,
+        mutants: mutants.map(|m| m.0).unwrap_or_default(),
+    };
+    let witness = WitnessSettings { road: witness_road, widest: witness_widest };
+    set_jobs(jobs).and_then(|()| {
+        run(&scenes, &request, SceneSelection { max_scenes, ids: &scene }, json.as_deref(), witness, partition)
+    })
+}
+
+/// The arguments of `safer evaluate-merge`.
+#[derive(Debug, clap::Args)]
+pub(crate) struct EvaluateMergeArgs {
+    /// The partitions' reports, one per part, in any order.
+    #[arg(required = true, value_name = "PART.json")]
+    pub(crate) parts: Vec<PathBuf>,
+    /// Also write the merged report as JSON (`-`: standard output).
+    #[arg(long, value_name = "OUT", num_args = 0..=1, default_missing_value = "-")]
+    pub(crate) json: Option<PathBuf>,
+}
+
+/// Runs `safer evaluate-merge`.
+pub(crate) fn merge_command(args: EvaluateMergeArgs) -> Result<ExitCode, CliError> {
+    let EvaluateMergeArgs { parts, json } = args;
+    merge(&parts, json.as_deref())
 }
 
 #[cfg(test)]

@@ -2,6 +2,7 @@
 //! done) V_h is trained on ([`safer_scenarios::datasets::feasibility_transitions`])
 //! and prints their coverage (violations, near states, per CBV policy).
 
+use super::*;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -70,4 +71,30 @@ pub fn run(request: &FeasibilityDatasetRequest) -> Result<ExitCode, CliError> {
     collection.write(all, &out_file)?;
     println!("wrote {}", out_file.display());
     Ok(ExitCode::SUCCESS)
+}
+
+/// The arguments of `safer feasibility-dataset`.
+#[derive(Debug, clap::Args)]
+pub(crate) struct FeasibilityDatasetArgs {
+    /// Recorded scenes whose licence allows training the shipped models (NGSIM); `data:REL` is in $SAFER_DATA_DIR.
+    #[arg(long, default_value = "data:commonroad-ngsim", value_parser = data_path)]
+    pub(crate) recorded: PathBuf,
+    /// Output folder.
+    #[arg(long, default_value = "training/data/feasibility")]
+    pub(crate) out: PathBuf,
+    /// Synthetic scenes.
+    #[arg(long, default_value_t = 300)]
+    pub(crate) synthetic_scenes: usize,
+    /// Base seed.
+    #[arg(long, default_value_t = 0)]
+    pub(crate) seed: u64,
+    /// Replace an existing dataset.
+    #[arg(long)]
+    pub(crate) force: bool,
+}
+
+/// Runs `safer feasibility-dataset`.
+pub(crate) fn command(args: FeasibilityDatasetArgs) -> Result<ExitCode, CliError> {
+    let FeasibilityDatasetArgs { recorded, out, synthetic_scenes, seed, force } = args;
+    run(&FeasibilityDatasetRequest { recorded, out, synthetic_scenes, seed, force })
 }

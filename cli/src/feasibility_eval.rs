@@ -9,6 +9,7 @@
 //! on request it draws V_h over relative CBV positions (the paper's LFR
 //! figure) as an SVG (`--svg`) and writes the figures as JSON (`--json`).
 
+use super::*;
 use std::io::Write;
 use std::path::Path;
 use std::process::ExitCode;
@@ -251,5 +252,59 @@ fn print_panel(out: &mut dyn Write, p: &LfrPanel) -> std::io::Result<()> {
         g.x_range_m.1,
         g.y_range_m.0,
         g.y_range_m.1
+    )
+}
+
+/// The arguments of `safer feasibility-eval`.
+#[derive(Debug, clap::Args)]
+pub(crate) struct FeasibilityEvalArgs {
+    /// Recorded scenes of the collection (NGSIM); `data:REL` is in $SAFER_DATA_DIR.
+    #[arg(long, default_value = "data:commonroad-ngsim", value_parser = data_path)]
+    pub(crate) recorded: PathBuf,
+    /// Synthetic scenes of the collection (same as for `feasibility-dataset`).
+    #[arg(long, default_value_t = 300)]
+    pub(crate) synthetic_scenes: usize,
+    /// Base seed of the collection.
+    #[arg(long, default_value_t = 0)]
+    pub(crate) seed: u64,
+    /// Most held-out states to label, at least 1.
+    #[arg(long, default_value_t = 3000, value_parser = at_least_one())]
+    pub(crate) states: usize,
+    /// Where to draw V_h over relative CBV positions (the README's
+    /// picture is `docs/feasibility-lfr.svg`); none unless asked.
+    #[arg(long)]
+    pub(crate) svg: Option<PathBuf>,
+    /// Write the figures as JSON (`-`: standard output, the table then on stderr).
+    #[arg(long, value_name = "OUT", num_args = 0..=1, default_missing_value = "-")]
+    pub(crate) json: Option<PathBuf>,
+    /// Which scenes' states to label: the held-out ones (never trained
+    /// on; the reported figures) or the training ones (to calibrate a
+    /// decision threshold on without touching the held-out set).
+    #[arg(long, value_parser = choice(safer_scenarios::datasets::held_out::Split::ALL), default_value = "held-out")]
+    pub(crate) split: safer_scenarios::datasets::held_out::Split,
+    /// Write every labelled state (its V_h features, witness label and
+    /// V_h) as a safetensors file, for `training/feasibility/train.py
+    /// --calibration` (label the training split for that, never the
+    /// held-out one).
+    #[arg(long, value_name = "OUT")]
+    pub(crate) labels: Option<PathBuf>,
+}
+
+/// Runs `safer feasibility-eval`.
+pub(crate) fn command(args: FeasibilityEvalArgs) -> Result<ExitCode, CliError> {
+    let FeasibilityEvalArgs { recorded, synthetic_scenes, seed, states, svg, json, split, labels } = args;
+    run(
+        &super::feasibility_dataset::FeasibilityDatasetRequest {
+            recorded,
+            out: PathBuf::new(),
+            synthetic_scenes,
+            seed,
+            force: false,
+        },
+        states,
+        split,
+        svg.as_deref(),
+        json.as_deref(),
+        labels.as_deref(),
     )
 }

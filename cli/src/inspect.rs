@@ -1,5 +1,6 @@
 //! `safer inspect FILE`: what is in a scenario file.
 
+use super::*;
 use std::collections::BTreeMap;
 use std::path::Path;
 use std::process::ExitCode;
@@ -108,4 +109,21 @@ pub(super) fn run(file: &Path, json: Option<&Path>) -> Result<ExitCode, CliError
         println!();
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// The arguments of `safer inspect`.
+#[derive(Debug, clap::Args)]
+pub(crate) struct InspectArgs {
+    /// A WOMD .tfrecord or .json, CommonRoad .xml, or Argoverse 2 .parquet / folder (`data:REL`: in $SAFER_DATA_DIR; `safer:REL`: a file safer ships).
+    #[arg(value_parser = data_path)]
+    pub(crate) file: PathBuf,
+    /// Print JSON instead of text.
+    #[arg(long, value_name = "OUT", num_args = 0..=1, default_missing_value = "-")]
+    pub(crate) json: Option<PathBuf>,
+}
+
+/// Runs `safer inspect`.
+pub(crate) fn command(args: InspectArgs) -> Result<ExitCode, CliError> {
+    let InspectArgs { file, json } = args;
+    run(&file, json.as_deref())
 }

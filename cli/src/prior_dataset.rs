@@ -4,6 +4,7 @@
 //! and prints the calibration (recorded vs synthetic speeds and
 //! accelerations, with their Jensen–Shannon divergence) so it can be judged.
 
+use super::*;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -243,4 +244,106 @@ fn print_calibration(calibration: &Calibration) {
         show(calibration.yaw_rate_jsd)
     );
     println!("  (steering ≥0.1: share of token periods with a yaw rate of at least 0.1 rad/s either way)");
+}
+
+/// The arguments of `safer prior-dataset`.
+#[derive(Debug, clap::Args)]
+pub(crate) struct PriorDatasetArgs {
+    /// Recorded scenes whose licence allows training the shipped models (NGSIM); `data:REL` is in $SAFER_DATA_DIR.
+    #[arg(long, default_value = "data:commonroad-ngsim", value_parser = data_path)]
+    pub(crate) recorded: PathBuf,
+    /// Output folder for the shards.
+    #[arg(long, default_value = "training/data/prior")]
+    pub(crate) out: PathBuf,
+    /// Synthetic scenes on procedural templates (straight roads, merges, crossings).
+    #[arg(long, default_value_t = 1200)]
+    pub(crate) template_scenes: usize,
+    /// Synthetic scenes on the recorded maps.
+    #[arg(long, default_value_t = 400)]
+    pub(crate) recorded_map_scenes: usize,
+    /// Base seed of the synthetic traffic.
+    #[arg(long, default_value_t = 0)]
+    pub(crate) seed: u64,
+    /// Samples per shard, at least 1.
+    #[arg(long, default_value_t = 50_000, value_parser = at_least_one())]
+    pub(crate) shard_size: usize,
+    /// Synthetic drivers keep their lane and go straight at junctions
+    /// (the first shipped prior's data) instead of turning, changing
+    /// lanes and accepting gaps.
+    #[arg(long)]
+    pub(crate) no_driver_choices: bool,
+    /// Share of the template crossings built as T-junctions (one arm
+    /// left out, so traffic arriving opposite it must turn); 0 draws
+    /// the shipped priors' data.
+    #[arg(long, default_value_t = 0.0)]
+    pub(crate) t_junction_share: f64,
+    /// Share of the template crossings with two lanes per direction
+    /// whose kerb lanes turn right only (dedicated right-turn lanes, so
+    /// traffic in them must turn); 0 draws the shipped priors' data.
+    #[arg(long, default_value_t = 0.0)]
+    pub(crate) right_turn_lane_share: f64,
+    /// Share of synthetic scenes with pedestrians walking across the
+    /// road (on crosswalks, and mid-block on streets of at most 17 m/s),
+    /// whom the drivers yield to; 0 draws the shipped priors' data.
+    #[arg(long, default_value_t = 0.0)]
+    pub(crate) pedestrian_share: f64,
+    /// Chance that a training scene's token reconstruction applies a
+    /// perturbed token in a period (0 turns the drift off); held-out
+    /// scenes never drift.
+    #[arg(long, default_value_t = 0.3)]
+    pub(crate) token_drift: f64,
+    /// Largest token perturbation, in bins per axis.
+    #[arg(long, default_value_t = 3)]
+    pub(crate) token_drift_bins: usize,
+    /// Largest perturbation of the yaw rate, in bins, where it should
+    /// differ from `--token-drift-bins` (which then bounds the
+    /// acceleration alone); 0 keeps the drift longitudinal.
+    #[arg(long, value_name = "BINS")]
+    pub(crate) token_drift_yaw_rate_bins: Option<usize>,
+    /// Accept recorded scenes under any licence (Waymo, Argoverse) for
+    /// a model that is measured and never shipped: the shards say so and
+    /// `training/prior/export.py` refuses to write it into `models/`.
+    #[arg(long)]
+    pub(crate) evaluation_only: bool,
+    /// Replace shards already in the output folder.
+    #[arg(long)]
+    pub(crate) force: bool,
+}
+
+/// Runs `safer prior-dataset`.
+pub(crate) fn command(args: PriorDatasetArgs) -> Result<ExitCode, CliError> {
+    let PriorDatasetArgs {
+        recorded,
+        out,
+        template_scenes,
+        recorded_map_scenes,
+        seed,
+        shard_size,
+        no_driver_choices,
+        t_junction_share,
+        right_turn_lane_share,
+        pedestrian_share,
+        token_drift,
+        token_drift_bins,
+        token_drift_yaw_rate_bins,
+        evaluation_only,
+        force,
+    } = args;
+    run(&DatasetRequest {
+        recorded,
+        out,
+        template_scenes,
+        recorded_map_scenes,
+        seed,
+        shard_size,
+        driver_choices: !no_driver_choices,
+        t_junction_share,
+        right_turn_lane_share,
+        pedestrian_share,
+        token_drift,
+        token_drift_bins,
+        token_drift_yaw_rate_bins,
+        evaluation_only,
+        force,
+    })
 }

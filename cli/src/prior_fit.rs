@@ -7,6 +7,7 @@
 //! Scenes run in parallel; each scene's sums are added in scenario-id
 //! order, so the output does not depend on the thread count.
 
+use super::*;
 use std::io::Write;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -24,7 +25,7 @@ use safer_scenarios::scenario::{Scenario, import};
 
 /// What `safer prior-fit` was asked.
 #[derive(Debug, Clone)]
-pub struct PriorFitArgs {
+pub struct PriorFitRequest {
     /// Folder of scenes, or one file.
     pub scenes: PathBuf,
     /// Trust-region size n.
@@ -145,7 +146,7 @@ fn row(out: &mut dyn Write, history: &str, scenes: &str, r: &FitRow) -> std::io:
 }
 
 /// Runs the command.
-pub(super) fn run(args: &PriorFitArgs) -> Result<ExitCode, CliError> {
+pub(super) fn run(args: &PriorFitRequest) -> Result<ExitCode, CliError> {
     let prior = RealismPrior::load(&ModelSource::shipped(), args.variant)?;
     // A file that does not load is reported and the others are scored; the
     // run then ends with status 1.
@@ -263,4 +264,34 @@ pub(super) fn run(args: &PriorFitArgs) -> Result<ExitCode, CliError> {
         return Ok(ExitCode::from(1));
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// The arguments of `safer prior-fit`.
+#[derive(Debug, clap::Args)]
+pub(crate) struct PriorFitArgs {
+    /// Folder of scenario files (searched recursively), or one file; `data:REL` is in $SAFER_DATA_DIR.
+    #[arg(long, value_parser = data_path)]
+    pub(crate) scenes: PathBuf,
+    /// Trust-region size n (top-n tokens of the prior), from 1 to the vocabulary size
+    /// (`--trust-region`, as `evaluate` and `trust-region` name it; `--top-n` is accepted too).
+    #[arg(long = "trust-region", alias = "top-n", value_name = "N", default_value_t = 20, value_parser = RangedU64ValueParser::<usize>::new().range(1..=VOCABULARY_SIZE as u64))]
+    pub(crate) top_n: usize,
+    /// Vehicles slower than this at a boundary are not scored, m/s (non-negative, finite; standing cars' tokens are trivial).
+    #[arg(long, default_value_t = 1.0, value_parser = non_negative_finite, allow_negative_numbers = true)]
+    pub(crate) min_speed_mps: f64,
+    /// Which prior: the differential-attention one (default) or the plain-attention one; `$SAFER_MODELS` swaps in another model set.
+    #[arg(long, value_parser = choice(safer_scenarios::models::prior::PriorVariant::ALL), default_value = "differential")]
+    pub(crate) prior: safer_scenarios::models::prior::PriorVariant,
+    /// Score at most this many scenes (by id), at least 1.
+    #[arg(long, value_name = "N", value_parser = at_least_one())]
+    pub(crate) max_scenes: Option<usize>,
+    /// Also write the fits (all, held-out and other scenes, and each scene's sums) as JSON (`-`: standard output).
+    #[arg(long, value_name = "OUT", num_args = 0..=1, default_missing_value = "-")]
+    pub(crate) json: Option<PathBuf>,
+}
+
+/// Runs `safer prior-fit`.
+pub(crate) fn command(args: PriorFitArgs) -> Result<ExitCode, CliError> {
+    let PriorFitArgs { scenes, top_n, min_speed_mps, prior, max_scenes, json } = args;
+    run(&PriorFitRequest { scenes, top_n, min_speed_mps, variant: prior, max_scenes, json })
 }

@@ -8,6 +8,7 @@
 //! the policy and the seed, and results are sorted by scenario id, so the
 //! output does not depend on the thread count.
 
+use super::*;
 use std::collections::BTreeMap;
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -81,7 +82,7 @@ impl RealismPolicy {
 
 /// Arguments of `safer realism`.
 #[derive(Debug, Clone)]
-pub struct RealismArgs {
+pub struct RealismRequest {
     /// Folder (searched recursively) or file of scenes.
     pub scenes: PathBuf,
     /// Rollouts per scene.
@@ -186,7 +187,7 @@ impl SceneTimes {
 /// Rolls out and scores one scene.
 fn score_one(
     scenario: &Scenario,
-    args: &RealismArgs,
+    args: &RealismRequest,
     config: &RealismConfig,
     prior: Option<&Arc<RealismPrior>>,
 ) -> Result<Option<(ScenarioRealism, SceneTimes)>, String> {
@@ -260,7 +261,7 @@ fn score_one(
     Ok(Some((scored, times)))
 }
 
-pub(super) fn run(args: &RealismArgs) -> Result<ExitCode, CliError> {
+pub(super) fn run(args: &RealismRequest) -> Result<ExitCode, CliError> {
     if let Some(out) = &args.json {
         super::check_json_report(out)?;
     }
@@ -367,7 +368,7 @@ fn write_json(path: &Path, report: &Report<'_>) -> Result<(), CliError> {
 }
 
 /// The prior's sampling for the table's title where it is not the default.
-fn sampling_note(args: &RealismArgs) -> String {
+fn sampling_note(args: &RealismRequest) -> String {
     if args.policy.prior_variant().is_none() || args.sampling == TokenSampling::default() {
         return String::new();
     }
@@ -378,7 +379,7 @@ fn sampling_note(args: &RealismArgs) -> String {
 /// takes stdout); scenes that failed go to stderr.
 fn print_table(
     out: &mut dyn Write,
-    args: &RealismArgs,
+    args: &RealismRequest,
     summary: &RealismSummary,
     skipped: &[Skipped],
     mean: SceneTimes,
@@ -441,4 +442,40 @@ fn print_table(
         mean.scoring_s,
     )?;
     Ok(())
+}
+
+/// The arguments of `safer realism`.
+#[derive(Debug, clap::Args)]
+pub(crate) struct RealismArgs {
+    /// Folder of scenario files (searched recursively), or one file; `data:REL` is in $SAFER_DATA_DIR.
+    #[arg(long, value_parser = data_path)]
+    pub(crate) scenes: PathBuf,
+    /// Rollouts per scene (WOSAC: 32), at least 1.
+    #[arg(long, default_value_t = 32, value_parser = at_least_one())]
+    pub(crate) rollouts: usize,
+    /// Also write a JSON report (per scene and aggregates) to this file (`-`: standard output).
+    #[arg(long, value_name = "OUT", num_args = 0..=1, default_missing_value = "-")]
+    pub(crate) json: Option<PathBuf>,
+    /// Policy driving every agent present at the window's start (default: the shipped realism prior).
+    #[arg(long, value_enum, default_value_t = realism::RealismPolicy::Prior)]
+    pub(crate) policy: realism::RealismPolicy,
+    /// Base seed (per-rollout seeds derive from it, the scenario id and the rollout index).
+    #[arg(long, default_value_t = 0)]
+    pub(crate) seed: u64,
+    /// Score at most this many scenes (at least 1).
+    #[arg(long, value_name = "N", value_parser = at_least_one())]
+    pub(crate) max_scenes: Option<usize>,
+    /// The prior policies draw each token among this many most likely ones (default 10), from 1 to the vocabulary size.
+    #[arg(long, value_name = "K", value_parser = RangedU64ValueParser::<usize>::new().range(1..=VOCABULARY_SIZE as u64))]
+    pub(crate) top_k: Option<usize>,
+    /// Softmax temperature of the prior policies' draw (default 1: the model's distribution; lower is greedier), positive and finite.
+    #[arg(long, value_parser = positive_finite)]
+    pub(crate) temperature: Option<f64>,
+}
+
+/// Runs `safer realism`.
+pub(crate) fn command(args: RealismArgs) -> Result<ExitCode, CliError> {
+    let RealismArgs { scenes, rollouts, json, policy, seed, max_scenes, top_k, temperature } = args;
+    sampling_for(policy, top_k, temperature)
+        .and_then(|sampling| run(&RealismRequest { scenes, rollouts, json, policy, seed, max_scenes, sampling }))
 }

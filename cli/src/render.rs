@@ -10,6 +10,7 @@
 //! Every check runs before the first write, so a refused call leaves
 //! nothing half done.
 
+use super::*;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
@@ -131,4 +132,27 @@ fn targets<'a>(
             Ok(out)
         }
     }
+}
+
+/// The arguments of `safer render`.
+#[derive(Debug, clap::Args)]
+pub(crate) struct RenderArgs {
+    /// A recorded scenario (.tfrecord, .json, .xml, .parquet / AV2 folder; `data:REL`: in $SAFER_DATA_DIR) or a scenario spec (.yaml).
+    #[arg(value_parser = data_path)]
+    pub(crate) file: PathBuf,
+    /// Step whose footprints are drawn (default: the scenario's current step).
+    #[arg(long, value_name = "N")]
+    pub(crate) step: Option<usize>,
+    /// Output file (default: `<stem>.svg` in the current folder; `-`: standard output); a folder when FILE holds several scenarios.
+    #[arg(long, value_name = "OUT")]
+    pub(crate) out: Option<PathBuf>,
+    /// Overwrite existing pictures.
+    #[arg(long)]
+    pub(crate) force: bool,
+}
+
+/// Runs `safer render`.
+pub(crate) fn command(args: RenderArgs) -> Result<ExitCode, CliError> {
+    let RenderArgs { file, step, out, force } = args;
+    run(&file, step, out.as_deref(), force)
 }

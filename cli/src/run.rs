@@ -20,6 +20,7 @@
 //! Exit code: 0 when every selected variant and metric passed, 1 when one
 //! failed (or could not run), 2 on usage errors and suites that do not load.
 
+use super::*;
 use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -661,4 +662,79 @@ fn print_report(out: &mut dyn Write, report: &Report) -> std::io::Result<()> {
         count(checks, "metric check"),
     )?;
     Ok(())
+}
+
+/// The arguments of `safer run`.
+#[derive(Debug, clap::Args)]
+pub(crate) struct RunArgs {
+    /// Suite spec files (`specs/suites/*.yaml`).
+    #[arg(required = true)]
+    pub(crate) suites: Vec<PathBuf>,
+    /// Also write a JSON report to this file (`-`: standard output, the table then goes to stderr).
+    #[arg(long, value_name = "OUT", num_args = 0..=1, default_missing_value = "-")]
+    pub(crate) json: Option<PathBuf>,
+    /// Also write a JUnit XML report to this file (`-`: standard output, the table then goes to stderr): one testcase per variant and per suite metric.
+    #[arg(long, value_name = "FILE")]
+    pub(crate) junit: Option<PathBuf>,
+    /// Also write a static review page (index.html and the pictures of failing variants) into this folder; it must be missing, empty, or hold an earlier review page.
+    #[arg(long, value_name = "DIR")]
+    pub(crate) html: Option<PathBuf>,
+    /// Folder for the recordings and pictures of failing variants.
+    #[arg(long, value_name = "DIR", default_value = "target/safer-artifacts")]
+    pub(crate) artifacts: PathBuf,
+    /// Write each failing variant as a CommonRoad 2020a scenario (the lanelet network, every other agent as a dynamic obstacle on its stage-2 trajectory, the ego as the planning problem) under DIR/SUITE/SCENARIO/seed-K.xml.
+    #[arg(long, value_name = "DIR")]
+    pub(crate) export_commonroad: Option<PathBuf>,
+    /// With --export-commonroad: every variant, not only the failing ones.
+    #[arg(long, requires = "export_commonroad")]
+    pub(crate) export_commonroad_all: bool,
+    /// Do not shrink failing variants (by default each is shrunk to the smallest deviation from the logged CBV that fails the same way, shown first in its artefacts).
+    #[arg(long)]
+    pub(crate) no_shrink: bool,
+    /// Candidate rollouts a failing variant's shrink may play, at least 1.
+    #[arg(long, value_name = "N", default_value_t = safer_scenarios::harness::shrink::DEFAULT_SHRINK_BUDGET, value_parser = at_least_one())]
+    pub(crate) shrink_budget: usize,
+    /// Only variants and metrics whose test name contains this.
+    #[arg(long, value_name = "SUBSTR")]
+    pub(crate) filter: Option<String>,
+    /// Worker threads for the variants, 1 to 256 (default: one per core). Each may run a planner process: far more than the cores only thrashes.
+    #[arg(short, long, value_name = "N", value_parser = RangedU64ValueParser::<usize>::new().range(1..=MAX_JOBS as u64))]
+    pub(crate) jobs: Option<usize>,
+    /// Mutation testing: also run each suite's variants with these faults planted in its planner (comma-separated; alone, or `all`: every operator), and report which mutants the suite kills. Operators: no-brake, weak-brake, late, blind-cbv, blind-side, no-evade, speeding. Replaces a suite's own `mutation_operators`.
+    #[arg(long, value_name = "OPS", num_args = 0..=1, default_missing_value = "all", value_parser = fault_operators)]
+    pub(crate) mutants: Option<FaultOperators>,
+}
+
+/// Runs `safer run`.
+pub(crate) fn command(args: RunArgs) -> Result<ExitCode, CliError> {
+    let RunArgs {
+        suites,
+        json,
+        junit,
+        html,
+        artifacts,
+        export_commonroad,
+        export_commonroad_all,
+        no_shrink,
+        shrink_budget,
+        filter,
+        jobs,
+        mutants,
+    } = args;
+    if json.as_deref().is_some_and(safer_scenarios::record::is_stdout)
+        && junit.as_deref().is_some_and(safer_scenarios::record::is_stdout)
+    {
+        Err(CliError::Usage("--json - and --junit - cannot both take standard output".into()))
+    } else {
+        let outputs = RunOutputs {
+            json: json.as_deref(),
+            junit: junit.as_deref(),
+            html: html.as_deref(),
+            artifacts: &artifacts,
+            commonroad: export_commonroad.as_deref().map(|dir| (dir, export_commonroad_all)),
+        };
+        let budget = if no_shrink { 0 } else { shrink_budget };
+        let mutants = mutants.as_ref().map(|m| m.0.as_slice());
+        set_jobs(jobs).and_then(|()| run(&suites, outputs, filter.as_deref(), budget, mutants))
+    }
 }

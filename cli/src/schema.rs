@@ -3,6 +3,7 @@
 //! at (`# yaml-language-server: $schema=../../schemas/suite.schema.json`);
 //! a test keeps them equal to this output.
 
+use super::*;
 use std::path::Path;
 use std::process::ExitCode;
 
@@ -30,4 +31,24 @@ pub(super) fn run(kind: SpecKind, out: Option<&Path>, force: bool) -> Result<Exi
         None => print!("{text}"),
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// The arguments of `safer schema`.
+#[derive(Debug, clap::Args)]
+pub(crate) struct SchemaArgs {
+    /// Which spec.
+    #[arg(value_parser = choice(SpecKind::ALL))]
+    pub(crate) kind: SpecKind,
+    /// Write to this file instead of stdout (`-`: stdout).
+    #[arg(long, value_name = "FILE")]
+    pub(crate) out: Option<PathBuf>,
+    /// Replace an existing file at --out.
+    #[arg(long)]
+    pub(crate) force: bool,
+}
+
+/// Runs `safer schema`.
+pub(crate) fn command(args: SchemaArgs) -> Result<ExitCode, CliError> {
+    let SchemaArgs { kind, out, force } = args;
+    run(kind, out.as_deref(), force)
 }

@@ -1,5 +1,6 @@
 //! `safer simulate PATH`: one closed-loop rollout per scenario, summarised.
 
+use super::*;
 use std::path::Path;
 use std::process::ExitCode;
 
@@ -108,4 +109,32 @@ fn print_table(rows: &[RolloutSummary]) {
     let collided = rows.iter().filter(|r| r.ego_collision.is_some()).count();
     let off = rows.iter().filter(|r| r.ego_off_road_s.is_some()).count();
     println!("\n{n} rollouts: {collided} with an ego collision, {off} with the ego off-road");
+}
+
+/// The arguments of `safer simulate`.
+#[derive(Debug, clap::Args)]
+pub(crate) struct SimulateArgs {
+    /// A scenario file, or a folder searched recursively for scenario files (`data:REL`: in $SAFER_DATA_DIR; `safer:REL`: a file safer ships).
+    #[arg(value_parser = data_path, required_unless_present = "scenes", conflicts_with = "scenes")]
+    pub(crate) path: Option<PathBuf>,
+    /// The same as the positional path, named as the other commands name it.
+    #[arg(long, value_parser = data_path)]
+    pub(crate) scenes: Option<PathBuf>,
+    /// Planner driving the ego: a built-in (log-replay, constant-velocity,
+    /// idm, evasive) or a planner spec file, as `run` and `evaluate` take.
+    #[arg(long, default_value = "idm", value_parser = planner_arg, value_name = "BUILTIN|SPEC.yaml")]
+    pub(crate) planner: PlannerAdapter,
+    /// Policy driving the other agents.
+    #[arg(long, value_parser = choice(BackgroundPolicy::ALL), default_value = "log-replay")]
+    pub(crate) background: BackgroundPolicy,
+    /// Print JSON instead of a table.
+    #[arg(long, value_name = "OUT", num_args = 0..=1, default_missing_value = "-")]
+    pub(crate) json: Option<PathBuf>,
+}
+
+/// Runs `safer simulate`.
+pub(crate) fn command(args: SimulateArgs) -> Result<ExitCode, CliError> {
+    let SimulateArgs { path, scenes, planner, background, json } = args;
+    let path = path.or(scenes).expect("clap requires the path or --scenes");
+    run(&path, &planner, background, json.as_deref())
 }

@@ -1,6 +1,7 @@
 //! `safer token-roundtrip --scenes DIR`: the reconstruction error of the
 //! log → token → log round trip, per source format and agent kind.
 
+use super::*;
 use std::collections::BTreeMap;
 use std::path::Path;
 use std::process::ExitCode;
@@ -100,4 +101,21 @@ pub(super) fn run(scenes: &Path, json: Option<&Path>) -> Result<ExitCode, CliErr
         );
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// The arguments of `safer token-roundtrip`.
+#[derive(Debug, clap::Args)]
+pub(crate) struct TokenRoundtripArgs {
+    /// Folder of scenario files (searched recursively); `data:REL` is in $SAFER_DATA_DIR.
+    #[arg(long, value_parser = data_path)]
+    pub(crate) scenes: PathBuf,
+    /// Print JSON instead of a table.
+    #[arg(long, value_name = "OUT", num_args = 0..=1, default_missing_value = "-")]
+    pub(crate) json: Option<PathBuf>,
+}
+
+/// Runs `safer token-roundtrip`.
+pub(crate) fn command(args: TokenRoundtripArgs) -> Result<ExitCode, CliError> {
+    let TokenRoundtripArgs { scenes, json } = args;
+    run(&scenes, json.as_deref())
 }

@@ -7,6 +7,7 @@
 //! and the plausible share; the held-out tenth of the scenes beside the
 //! rest; optionally every boundary as JSON.
 
+use super::*;
 use std::io::Write;
 use std::path::Path;
 use std::process::ExitCode;
@@ -130,4 +131,72 @@ pub(super) fn run(
         Ok(())
     })?;
     Ok(if errors.is_empty() { ExitCode::SUCCESS } else { ExitCode::from(1) })
+}
+
+/// The arguments of `safer trust-region`.
+#[derive(Debug, clap::Args)]
+pub(crate) struct TrustRegionArgs {
+    /// Folder of recorded scenes (searched recursively); scenes need an ego and a CBV; `data:REL` is in $SAFER_DATA_DIR.
+    #[arg(long, value_parser = data_path)]
+    pub(crate) scenes: PathBuf,
+    /// Methods whose stage 1 is profiled, one row each (`no-mda` runs the plain-attention prior; `$SAFER_MODELS` swaps in another model set).
+    #[arg(long, value_parser = choice(AdversaryMethod::ALL), value_delimiter = ',', default_values = ["safer", "safer-distinct", "no-mda"])]
+    pub(crate) methods: Vec<AdversaryMethod>,
+    /// Seeds per scene and method, at least 1.
+    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..))]
+    pub(crate) seeds: u32,
+    /// Base seed.
+    #[arg(long, default_value_t = 0)]
+    pub(crate) seed: u64,
+    /// Trust-region size n (top-n tokens of the prior), from 1 to the vocabulary size.
+    #[arg(long, default_value_t = 20, value_parser = RangedU64ValueParser::<usize>::new().range(1..=VOCABULARY_SIZE as u64))]
+    pub(crate) trust_region: usize,
+    /// The approach phase of the SaFeR methods, as in `safer evaluate`: `seeded` (1-4 tokens of the prior, drawn from the seed, before the adversary engages) or `none` (the adversary from the first token).
+    #[arg(long, value_parser = choice(ApproachPhase::ALL), default_value = "seeded")]
+    pub(crate) approach_phase: ApproachPhase,
+    /// Horizon of stage 1 from the scene's current step, s (positive, finite).
+    #[arg(long, default_value_t = 8.0, value_parser = positive_finite, allow_negative_numbers = true)]
+    pub(crate) horizon_s: f64,
+    /// Profile only the first N scenes (by id), at least 1.
+    #[arg(long, value_name = "N", value_parser = at_least_one())]
+    pub(crate) max_scenes: Option<usize>,
+    /// Also write the summaries and every boundary's profile as JSON (`-`: standard output).
+    #[arg(long, value_name = "OUT", num_args = 0..=1, default_missing_value = "-")]
+    pub(crate) json: Option<PathBuf>,
+    /// Worker threads, 1 to 256 (default: one per core).
+    #[arg(short, long, value_name = "N", value_parser = RangedU64ValueParser::<usize>::new().range(1..=MAX_JOBS as u64))]
+    pub(crate) jobs: Option<usize>,
+}
+
+/// Runs `safer trust-region`.
+pub(crate) fn command(args: TrustRegionArgs) -> Result<ExitCode, CliError> {
+    let TrustRegionArgs {
+        scenes,
+        methods,
+        seeds,
+        seed,
+        trust_region,
+        approach_phase,
+        horizon_s,
+        max_scenes,
+        json,
+        jobs,
+    } = args;
+    let request = EvaluationRequest {
+        methods,
+        seeds,
+        base_seed: seed,
+        // Stage 2 is not run.
+        planner: PlannerAdapter::builtin(BuiltinPlanner::LogReplay),
+        trust_region,
+        approach: approach_phase,
+        background: BackgroundDriver::Configured,
+        stage2_cbv: vec![Stage2Cbv::Replay],
+        escape: None,
+        horizon_s,
+        artefacts: None,
+        artefacts_of: ArtefactVariants::Failing,
+        mutants: Vec::new(),
+    };
+    set_jobs(jobs).and_then(|()| run(&scenes, &request, max_scenes, json.as_deref()))
 }

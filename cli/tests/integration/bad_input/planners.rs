@@ -121,7 +121,11 @@ fn a_15_mib_error_message_is_cut_before_it_reaches_any_report() {
     let (step, reason) = failure(&rollout);
     assert_eq!(step, 1);
     assert!(reason.len() < 3_000, "{} bytes", reason.len());
-    assert!(reason.contains("lost xxxx") && reason.contains("(15728645 characters in all)"), "{}", &reason[..200]);
+    assert!(
+        reason.contains("lost xxxx") && reason.contains("(15728645 characters in all)"),
+        "{}",
+        reason.chars().take(200).collect::<String>()
+    );
     assert_group_gone(pgid);
 }
 
