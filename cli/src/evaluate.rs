@@ -174,6 +174,20 @@ fn print_table(
             format!("; the witness search widens its beam up to ×{}", witness.widest)
         }
     )?;
+    print_outcomes(out, rows, &name)?;
+    print_plausibility(out, rows, &name)?;
+    print_scenes_that_broke_the_rules(out, rows, &held_out.scenes, &name)?;
+    print_held_out(out, &name, held_out)?;
+    print_conflicts_met(out, rows, &name, held_out)?;
+    print_closest_approach(out, rows, &name)?;
+    print_conflict_kinds(out, rows, &name)?;
+    print_time(out, rows, &name)?;
+    print_legend(out)?;
+    Ok(())
+}
+
+/// Each method's CR, SR, witness rate and realism (VJ, AJ).
+fn print_outcomes(out: &mut dyn Write, rows: &[MethodRow], name: &dyn Fn(&MethodRow) -> String) -> std::io::Result<()> {
     writeln!(
         out,
         "{:<28} {:>8} {:>7} {:>7} {:>7} {:>9} {:>9} {:>7} {:>7} {:>11}",
@@ -195,6 +209,15 @@ fn print_table(
             r.time_per_variant_s
         )?;
     }
+    Ok(())
+}
+
+/// The CBV's plausibility, the seeds' variety and the reference planner.
+fn print_plausibility(
+    out: &mut dyn Write,
+    rows: &[MethodRow],
+    name: &dyn Fn(&MethodRow) -> String,
+) -> std::io::Result<()> {
     writeln!(out, "\nplausibility of the CBV, the seeds' variety and the reference planner:")?;
     writeln!(
         out,
@@ -222,7 +245,15 @@ fn print_table(
             fmt(r.sr_witnessed)
         )?;
     }
-    print_scenes_that_broke_the_rules(out, rows, &held_out.scenes, &name)?;
+    Ok(())
+}
+
+/// The held-out scenes beside the rest, with the CR a random draw gives.
+fn print_held_out(
+    out: &mut dyn Write,
+    name: &dyn Fn(&MethodRow) -> String,
+    held_out: &HeldOutSplit,
+) -> std::io::Result<()> {
     writeln!(
         out,
         "\nheld out (every tenth scene by id: {} of {}) | the other scenes:",
@@ -259,6 +290,16 @@ fn print_table(
             held_out.of_scenes
         )?;
     }
+    Ok(())
+}
+
+/// The conflicts the planner under test met in stage 2.
+fn print_conflicts_met(
+    out: &mut dyn Write,
+    rows: &[MethodRow],
+    name: &dyn Fn(&MethodRow) -> String,
+    held_out: &HeldOutSplit,
+) -> std::io::Result<()> {
     writeln!(out, "\nconflicts at the planner under test (stage 2):")?;
     writeln!(
         out,
@@ -295,6 +336,15 @@ fn print_table(
     if let Some(line) = failures_beyond_log(rows) {
         writeln!(out, "{line}")?;
     }
+    Ok(())
+}
+
+/// How close the CBV came to the recorded ego in stage 1.
+fn print_closest_approach(
+    out: &mut dyn Write,
+    rows: &[MethodRow],
+    name: &dyn Fn(&MethodRow) -> String,
+) -> std::io::Result<()> {
     writeln!(out, "\nclosest approach of the CBV to the recorded ego (stage 1, shares of the variants):")?;
     writeln!(out, "{:<28} {:>9} {:>16} {:>16} {:>9}", "method", "contact", "no contact <0.5m", "0.5-1 m", ">=1 m")?;
     for r in rows {
@@ -310,6 +360,15 @@ fn print_table(
             share(|c| c.farther)
         )?;
     }
+    Ok(())
+}
+
+/// The kinds of conflict, per stage.
+fn print_conflict_kinds(
+    out: &mut dyn Write,
+    rows: &[MethodRow],
+    name: &dyn Fn(&MethodRow) -> String,
+) -> std::io::Result<()> {
     writeln!(out, "\nkinds of conflict (stage 1, with the recorded ego / stage 2, with the planner's):")?;
     let kinds = safer_scenarios::eval::ConflictKind::ALL;
     writeln!(
@@ -328,6 +387,11 @@ fn print_table(
             .collect();
         writeln!(out, "{:<28} {}", name(r), cells.join(""))?;
     }
+    Ok(())
+}
+
+/// Where the time goes, per variant.
+fn print_time(out: &mut dyn Write, rows: &[MethodRow], name: &dyn Fn(&MethodRow) -> String) -> std::io::Result<()> {
     writeln!(out, "\nwhere the time goes (mean s per variant):")?;
     writeln!(
         out,
@@ -349,6 +413,11 @@ fn print_table(
             p.escape_s
         )?;
     }
+    Ok(())
+}
+
+/// What the columns mean.
+fn print_legend(out: &mut dyn Write) -> std::io::Result<()> {
     writeln!(
         out,
         "VJ/AJ: Jensen–Shannon divergence (bits) of the CBV's stage-1 speed (0–40 m/s, 1 m/s bins) and acceleration (−8–8 m/s², 0.5 m/s² bins, finite differences at 0.1 s) against the logged CBV over the same window."
