@@ -193,13 +193,13 @@ pub use map::{
 };
 pub use motion::Action;
 pub use planners::{
-    EGO_LANE_SEARCH_M, Goal, Horizon, LEADER_MARGIN_M, LEADER_RANGE_M, Leader, Observation, OtherError,
-    PerceivedAgent, Planner, PlannerError, PlannerOutput, PlannerStartup, Route, TrajectoryPoint,
+    EGO_LANE_SEARCH_M, Goal, Horizon, LEADER_MARGIN_M, LEADER_RANGE_M, Leader, Observation, OtherError, PerceivedAgent,
+    Planner, PlannerError, PlannerOutput, PlannerStartup, Route, TrajectoryPoint,
 };
 pub use runner::Runner;
 pub use scenario::{
-    AgentBody, AgentId, AgentKind, AgentState, DataLicence, InvariantViolation, RoleOrigin, Scenario,
-    ScenarioSource, SourceFormat, Track, TrackIndex,
+    AgentBody, AgentId, AgentKind, AgentState, DataLicence, InvariantViolation, RoleOrigin, Scenario, ScenarioSource,
+    SourceFormat, Track, TrackIndex,
 };
 
 /// What a planner crate needs, in one import: `use safer_scenarios::prelude::*;`.

@@ -519,7 +519,13 @@ mod adapter_tests {
     }
 
     fn car(id: &str, x: f64, y: f64, speed: f64) -> PerceivedAgent {
-        PerceivedAgent { id: AgentId(id.into()), kind: AgentKind::Vehicle, length_m: 4.5, width_m: 2.0, state: state(x, y, speed) }
+        PerceivedAgent {
+            id: AgentId(id.into()),
+            kind: AgentKind::Vehicle,
+            length_m: 4.5,
+            width_m: 2.0,
+            state: state(x, y, speed),
+        }
     }
 
     #[test]

@@ -457,8 +457,11 @@ mod tests {
     /// of the route, the leader, the horizon and the goal.
     #[derive(Default)]
     struct RouteWatcher {
-        seen: Vec<(Option<f64>, u32, Option<f64>, Option<crate::planners::Horizon>, Option<crate::planners::Goal>)>,
+        seen: Vec<Seen>,
     }
+
+    /// The ego's place on the route, its revision, the leader's gap, the horizon and the goal.
+    type Seen = (Option<f64>, u32, Option<f64>, Option<crate::planners::Horizon>, Option<crate::planners::Goal>);
 
     impl Planner for RouteWatcher {
         fn name(&self) -> &str {

@@ -84,6 +84,8 @@ use std::time::Instant;
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
+use super::route::Route as StableRoute;
+pub use super::route::{ROUTE_AHEAD_MIN_M, ROUTE_AHEAD_PLANNED_M, ROUTE_BEHIND_M, ROUTE_LEAVE_M};
 use super::{Observation, Planner, PlannerError, PlannerOutput};
 use crate::map::RoadMap;
 use crate::motion::tokens::SIM_DT_S;
@@ -93,8 +95,6 @@ pub use encoding::{MAP_RADIUS_M, MAP_SPACING_M, ROUTE_LENGTH_M, decode_reply};
 use encoding::{ReplyError, check_reply_step, full_map, observation_message, observation_message_v11, reply_output};
 use process::Process;
 pub(crate) use process::format_stderr_tail;
-use super::route::Route as StableRoute;
-pub use super::route::{ROUTE_AHEAD_MIN_M, ROUTE_AHEAD_PLANNED_M, ROUTE_BEHIND_M, ROUTE_LEAVE_M};
 use wire::{EgoSize, HarnessMessage, PlannerMessage};
 pub use wire::{PROTOCOL_MINOR, PROTOCOL_VERSION, protocol_schema};
 
