@@ -33,6 +33,12 @@
 //! crate's `target/safer-artifacts/`, `$CARGO_TARGET_DIR/safer-artifacts/`
 //! or `$SAFER_ARTIFACTS_DIR`). In-process planners are registered by name
 //! ([`Runner::planner`]) and named in a suite with `planner: { rust: NAME }`.
+//!
+//! [`Runner::run`] is all most test targets need; [`Runner::trials`] and
+//! [`Runner::run_with`] hand out and take [libtest-mimic] 0.8's types,
+//! re-exported here ([`Arguments`], [`Conclusion`], [`Trial`], [`Failed`]).
+//!
+//! [libtest-mimic]: https://docs.rs/libtest-mimic/0.8
 
 // The example shows the whole test target a planner crate writes, `main` included.
 #![allow(clippy::needless_doctest_main)]
@@ -41,7 +47,11 @@ use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex, OnceLock};
 
-use libtest_mimic::{Arguments, Conclusion, Failed, Trial};
+/// libtest-mimic 0.8's types, part of this API: the arguments
+/// [`Runner::run_with`] takes and the conclusion it returns, the trials
+/// [`Runner::trials`] makes (run them with your own `libtest_mimic::run`
+/// alongside other trials) and a failing trial's message.
+pub use libtest_mimic::{Arguments, Conclusion, Failed, Trial};
 
 use crate::harness::artefacts::Artefacts;
 use crate::harness::mutation::{MutantRun, MutationReport};

@@ -177,8 +177,8 @@ fn road(u: &mut Unstructured) -> RoadMap {
     let [centre, right, left] = lines;
     let lane = Lane::new(MapElementId(1), Polyline::new(centre));
     let edges = vec![
-        RoadEdge { id: MapElementId(2), polyline: Polyline::new(right), kind: RoadEdgeKind::Boundary },
-        RoadEdge { id: MapElementId(3), polyline: Polyline::new(left), kind: RoadEdgeKind::Boundary },
+        RoadEdge::new(MapElementId(2), Polyline::new(right), RoadEdgeKind::Boundary),
+        RoadEdge::new(MapElementId(3), Polyline::new(left), RoadEdgeKind::Boundary),
     ];
     RoadMap::new(vec![lane], edges, vec![], vec![], vec![], vec![], vec![])
 }

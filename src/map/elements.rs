@@ -10,6 +10,7 @@ pub struct MapElementId(pub i64);
 
 /// What kind of lane a centreline belongs to.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[non_exhaustive]
 pub enum LaneKind {
     /// Source does not say.
     #[default]
@@ -26,6 +27,7 @@ pub enum LaneKind {
 
 /// A lane: its centreline in driving direction and its connectivity.
 #[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
 pub struct Lane {
     /// Map-unique id.
     pub id: MapElementId,
@@ -77,6 +79,7 @@ impl Lane {
 
 /// Kind of a road edge.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[non_exhaustive]
 pub enum RoadEdgeKind {
     /// Source does not say.
     #[default]
@@ -89,6 +92,7 @@ pub enum RoadEdgeKind {
 
 /// A road edge, oriented with the road on its port side.
 #[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
 pub struct RoadEdge {
     /// Map-unique id.
     pub id: MapElementId,
@@ -98,8 +102,16 @@ pub struct RoadEdge {
     pub kind: RoadEdgeKind,
 }
 
+impl RoadEdge {
+    /// A road edge (the road to the left of `polyline`).
+    pub fn new(id: MapElementId, polyline: Polyline, kind: RoadEdgeKind) -> Self {
+        RoadEdge { id, polyline, kind }
+    }
+}
+
 /// Painted line type of a road line.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[non_exhaustive]
 pub enum RoadLineKind {
     /// Source does not say.
     #[default]
@@ -141,6 +153,7 @@ impl RoadLineKind {
 
 /// A painted road line (lane divider).
 #[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
 pub struct RoadLine {
     /// Map-unique id.
     pub id: MapElementId,
@@ -150,8 +163,16 @@ pub struct RoadLine {
     pub kind: RoadLineKind,
 }
 
+impl RoadLine {
+    /// A painted line.
+    pub fn new(id: MapElementId, polyline: Polyline, kind: RoadLineKind) -> Self {
+        RoadLine { id, polyline, kind }
+    }
+}
+
 /// Kind of an area element of the map.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+#[non_exhaustive]
 pub enum AreaKind {
     /// Pedestrian crosswalk.
     Crosswalk,
@@ -163,6 +184,7 @@ pub enum AreaKind {
 
 /// A polygonal map element (crosswalk, speed bump, driveway).
 #[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
 pub struct MapArea {
     /// Map-unique id.
     pub id: MapElementId,
@@ -172,8 +194,16 @@ pub struct MapArea {
     pub polygon: Polygon,
 }
 
+impl MapArea {
+    /// An area element.
+    pub fn new(id: MapElementId, kind: AreaKind, polygon: Polygon) -> Self {
+        MapArea { id, kind, polygon }
+    }
+}
+
 /// A stop sign and the lanes it controls.
 #[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
 pub struct StopSign {
     /// Map-unique id.
     pub id: MapElementId,
@@ -183,8 +213,16 @@ pub struct StopSign {
     pub lanes: Vec<MapElementId>,
 }
 
+impl StopSign {
+    /// A stop sign at `position` controlling `lanes`.
+    pub fn new(id: MapElementId, position: Point2, lanes: Vec<MapElementId>) -> Self {
+        StopSign { id, position, lanes }
+    }
+}
+
 /// State of a traffic signal for one lane at one step.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[non_exhaustive]
 pub enum SignalState {
     /// Unknown or not observed.
     #[default]
@@ -250,6 +288,7 @@ impl SignalState {
 /// and the template intersection place signals on the lane that leads into
 /// the junction, and the lane follower and evasive planner stop there.
 #[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
 pub struct TrafficSignal {
     /// Controlled lane (the one ending at the stop line).
     pub lane: MapElementId,
@@ -257,4 +296,11 @@ pub struct TrafficSignal {
     pub stop_point: Option<Point2>,
     /// State per scenario step (same length as the tracks).
     pub states: Vec<SignalState>,
+}
+
+impl TrafficSignal {
+    /// The signal of `lane`, with its state at every scenario step.
+    pub fn new(lane: MapElementId, stop_point: Option<Point2>, states: Vec<SignalState>) -> Self {
+        TrafficSignal { lane, stop_point, states }
+    }
 }

@@ -744,8 +744,7 @@ mod tests {
                 ego_length_m: 4.5,
                 ego_width_m: 2.0,
                 agents: vec![car],
-                map: &map,
-                signals: vec![],
+                ..Observation::new(&map, ego)
             };
             output = Some(planner.plan(&obs).unwrap());
         }
@@ -801,8 +800,8 @@ mod tests {
             ego_length_m: 4.5,
             ego_width_m: 2.0,
             agents,
-            map,
             signals: vec![],
+            ..Observation::new(map, ego.to_agent_state())
         }
     }
 
@@ -1080,8 +1079,7 @@ mod tests {
             ego_length_m: 4.5,
             ego_width_m: 2.0,
             agents,
-            map,
-            signals: vec![],
+            ..Observation::new(map, ego)
         }
     }
 

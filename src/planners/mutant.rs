@@ -17,7 +17,7 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use super::external::RolloutContext;
-use super::external::route::StableRoute;
+use super::route::Route as StableRoute;
 use super::{Observation, PerceivedAgent, Planner, PlannerError, PlannerOutput, PlannerStartup};
 use crate::geometry::{Point2, wrap_angle};
 use crate::map::{MapElementId, SignalState};

@@ -36,6 +36,7 @@ pub struct TrackIndex(pub usize);
 /// What kind of road user a track is.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
+#[non_exhaustive]
 pub enum AgentKind {
     /// Car, truck, bus, motorcycle.
     Vehicle,

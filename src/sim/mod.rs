@@ -17,7 +17,7 @@ pub use events::{CollisionEvent, EgoCollisionKind, EgoContact, LaneOccupancy, Of
 pub use rollout::{Rollout, RolloutSummary, Termination};
 
 use crate::motion::{KinematicState, kinematic_step, tokens::SIM_DT_S};
-use crate::planners::{Observation, PerceivedAgent, Planner};
+use crate::planners::{Goal, Horizon, Observation, PerceivedAgent, Planner, Route};
 use crate::policies::{AgentAction, AgentPolicy, BackgroundPolicy, WorldView};
 use crate::scenario::{AgentBody, AgentState, Scenario, TrackIndex};
 
@@ -184,6 +184,13 @@ impl<'a> Simulation<'a> {
         let mut termination = Termination::Completed;
 
         let mut limits = self.config.ego_limits.map(|l| (l, LimitMonitor::new(l)));
+        // The ego's route, as external planners are sent it (the recording guides it at forks).
+        let mut route = RouteState {
+            route: std::sync::Arc::new(Route::default()),
+            recorded: crate::planners::route::recorded_path(scenario, self.ego, start),
+            horizon: Horizon::new(start, end, SIM_DT_S),
+            goal: Goal::recorded(scenario, self.ego),
+        };
         for step in start..end {
             let world = WorldView { map: &scenario.map, step, bodies: &bodies, states: &states };
             let actions: Vec<AgentAction> = self
@@ -195,7 +202,7 @@ impl<'a> Simulation<'a> {
                     None => AgentAction::Absent,
                 })
                 .collect();
-            let observation = self.observe(step, start, &bodies, &states);
+            let observation = self.observe(step, start, &bodies, &states, &mut route);
             let mut sent_control = None;
             let ego_next = planner.plan(&observation).map_err(|e| e.to_string()).and_then(|out| {
                 let ego_now = states[self.ego.0].expect("ego present while running");
@@ -286,6 +293,7 @@ impl<'a> Simulation<'a> {
         start: usize,
         bodies: &[AgentBody],
         states: &[Option<AgentState>],
+        route: &mut RouteState,
     ) -> Observation<'m>
     where
         'a: 'm,
@@ -314,7 +322,14 @@ impl<'a> Simulation<'a> {
             .filter_map(|s| s.states.get(step).map(|st| (s.lane, *st)))
             .collect();
         let ego_body = bodies[self.ego.0];
+        // The previous step's observation is gone: no copy of the route is made.
+        let s = std::sync::Arc::make_mut(&mut route.route).update(&self.scenario.map, &ego, &route.recorded);
+        let route_s_m = (!route.route.is_empty()).then_some(s);
         Observation {
+            route: route.route.clone(),
+            route_s_m,
+            horizon: Some(route.horizon),
+            goal: route.goal,
             step,
             time_s: (step - start) as f64 * SIM_DT_S,
             dt_s: SIM_DT_S,
@@ -326,6 +341,15 @@ impl<'a> Simulation<'a> {
             signals,
         }
     }
+}
+
+/// What a rollout's observations tell of the ego's route and task.
+struct RouteState {
+    route: std::sync::Arc<Route>,
+    /// The ego's recorded positions from the start (the route's guide at forks).
+    recorded: Vec<crate::geometry::Point2>,
+    horizon: Horizon,
+    goal: Option<Goal>,
 }
 
 /// Every agent's state one step later under its action.
@@ -428,6 +452,52 @@ mod tests {
         Scenario::new("road-that-ends", ScenarioSource::authored("test"), 0.1, map, vec![ego])
             .with_roles(TrackIndex(0), None)
     }
+
+    /// Drives on at constant speed and notes what each observation says
+    /// of the route, the leader, the horizon and the goal.
+    #[derive(Default)]
+    struct RouteWatcher {
+        seen: Vec<Seen>,
+    }
+
+    /// The ego's place on the route, its revision, the leader's gap, the horizon and the goal.
+    type Seen = (Option<f64>, u32, Option<f64>, Option<crate::planners::Horizon>, Option<crate::planners::Goal>);
+
+    impl Planner for RouteWatcher {
+        fn name(&self) -> &str {
+            "route-watcher"
+        }
+        fn plan(&mut self, obs: &Observation<'_>) -> Result<PlannerOutput, crate::planners::PlannerError> {
+            let gap = obs.leader().map(|l| l.gap_m);
+            self.seen.push((obs.route_s_m, obs.route.revision(), gap, obs.horizon, obs.goal));
+            Ok(PlannerOutput::Control(crate::motion::Action::default()))
+        }
+    }
+
+    #[test]
+    fn observations_carry_the_route_with_the_ego_advancing_on_it_the_leader_horizon_and_goal() {
+        let s = stopped_car_ahead();
+        let mut watcher = RouteWatcher::default();
+        let config = SimConfig { end_step: Some(20), ..SimConfig::default() };
+        Simulation::new(&s, config).unwrap().run(&mut watcher);
+        assert_eq!(watcher.seen.len(), 20);
+        for (k, (s_m, revision, gap, horizon, goal)) in watcher.seen.iter().enumerate() {
+            // 12 m/s: 1.2 m a step along the route planned at the start.
+            let expected = ROUTE_BEHIND + 1.2 * k as f64;
+            assert!((s_m.unwrap() - expected).abs() < 1e-6, "step {k}: {s_m:?}, not {expected}");
+            assert_eq!(*revision, 0, "step {k}");
+            // The stopped car 60 m ahead of the start; 4.5 m cars.
+            let expected_gap = 60.0 - 1.2 * k as f64 - 4.5;
+            assert!((gap.unwrap() - expected_gap).abs() < 1e-6, "step {k}: {gap:?}");
+            let horizon = horizon.unwrap();
+            assert_eq!((horizon.start_step, horizon.end_step, horizon.steps()), (0, 20, 20));
+            let goal = goal.unwrap();
+            assert_eq!(goal.step, 120);
+            assert!((goal.state.position.x - 144.0).abs() < 1e-9);
+        }
+    }
+
+    const ROUTE_BEHIND: f64 = crate::planners::route::ROUTE_BEHIND_M;
 
     fn run_constant_velocity(s: &Scenario) -> Rollout {
         let mut p = BuiltinPlanner::ConstantVelocity.instantiate(s, TrackIndex(0));

@@ -292,8 +292,15 @@ fn womd_proto_lane_successors_joined_by_geometry_match_the_recorded_ones() {
         for s in load(&path).unwrap() {
             let m = &s.map;
             let with = LaneGraph::build(m);
-            let bare: Vec<Lane> =
-                m.lanes.iter().map(|l| Lane { successors: vec![], predecessors: vec![], ..l.clone() }).collect();
+            let bare: Vec<Lane> = m
+                .lanes
+                .iter()
+                .map(|l| {
+                    let mut l = l.clone();
+                    (l.successors, l.predecessors) = (vec![], vec![]);
+                    l
+                })
+                .collect();
             let bare = RoadMap::new(
                 bare,
                 m.road_edges.clone(),

@@ -112,18 +112,14 @@ impl RolloutContext {
 
     /// The ego's last valid recorded state, as `hello`'s goal.
     pub(super) fn wire_goal(&self) -> Option<WireGoal> {
-        let track = self.scenario.tracks.get(self.ego.0)?;
-        let (step, state) = track.states.iter().enumerate().rev().find_map(|(k, s)| s.map(|s| (k, s)))?;
-        Some(WireGoal { x: state.position.x, y: state.position.y, heading_rad: state.heading_rad, step })
+        let goal = crate::planners::Goal::recorded(&self.scenario, self.ego)?;
+        let state = goal.state;
+        Some(WireGoal { x: state.position.x, y: state.position.y, heading_rad: state.heading_rad, step: goal.step })
     }
 
     /// The ego's recorded positions from the start on (the route's guide at forks).
     pub(crate) fn recorded_path(&self) -> Vec<Point2> {
-        self.scenario
-            .tracks
-            .get(self.ego.0)
-            .map(|t| t.states.iter().skip(self.start_step).flatten().map(|s| s.position).collect())
-            .unwrap_or_default()
+        crate::planners::route::recorded_path(&self.scenario, self.ego, self.start_step)
     }
 }
 

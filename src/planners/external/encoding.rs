@@ -6,8 +6,6 @@
 //! numbers named, trajectories checked). Offending lines are quoted in the
 //! errors, truncated to 200 characters.
 
-use super::lane_walk::{samples, walk_lanes};
-use super::route::StableRoute;
 use super::wire::{
     HarnessMessage, PlannerMessage, WireAgent, WireEgo, WireFullLane, WireFullMap, WireLane, WireMap, WirePoint,
     WireSignal, WireSignalStop, WireStopSign,
@@ -15,6 +13,8 @@ use super::wire::{
 use crate::geometry::{Point2, Polyline, Vector2};
 use crate::map::{Lane, RoadMap};
 use crate::motion::Action;
+use crate::planners::lane_walk::{samples, walk_lanes};
+use crate::planners::route::Route as StableRoute;
 use crate::planners::{Observation, PlannerOutput, TrajectoryPoint};
 use crate::scenario::AgentState;
 
@@ -22,7 +22,7 @@ use crate::scenario::AgentState;
 /// within this distance of the ego's centre, m.
 pub const MAP_RADIUS_M: f64 = 60.0;
 
-pub use super::lane_walk::MAP_SPACING_M;
+pub use crate::planners::lane_walk::MAP_SPACING_M;
 
 /// Length of the `route` hint ahead of the ego, m.
 pub const ROUTE_LENGTH_M: f64 = 100.0;

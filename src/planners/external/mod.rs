@@ -74,9 +74,7 @@
 mod context;
 mod encoding;
 mod interrupt;
-mod lane_walk;
 mod process;
-pub(crate) mod route;
 mod wire;
 
 use std::collections::BTreeMap;
@@ -86,6 +84,8 @@ use std::time::Instant;
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
+use super::route::Route as StableRoute;
+pub use super::route::{ROUTE_AHEAD_MIN_M, ROUTE_AHEAD_PLANNED_M, ROUTE_BEHIND_M, ROUTE_LEAVE_M};
 use super::{Observation, Planner, PlannerError, PlannerOutput};
 use crate::map::RoadMap;
 use crate::motion::tokens::SIM_DT_S;
@@ -95,8 +95,6 @@ pub use encoding::{MAP_RADIUS_M, MAP_SPACING_M, ROUTE_LENGTH_M, decode_reply};
 use encoding::{ReplyError, check_reply_step, full_map, observation_message, observation_message_v11, reply_output};
 use process::Process;
 pub(crate) use process::format_stderr_tail;
-use route::StableRoute;
-pub use route::{ROUTE_AHEAD_MIN_M, ROUTE_AHEAD_PLANNED_M, ROUTE_BEHIND_M, ROUTE_LEAVE_M};
 use wire::{EgoSize, HarnessMessage, PlannerMessage};
 pub use wire::{PROTOCOL_MINOR, PROTOCOL_VERSION, protocol_schema};
 
@@ -593,8 +591,8 @@ mod tests {
                 width_m: 2.0,
                 state: state(1),
             }],
-            map: &s.map,
             signals: vec![(MapElementId(0), SignalState::Go)],
+            ..Observation::new(&s.map, state(0))
         }
     }
 

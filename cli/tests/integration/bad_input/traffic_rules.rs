@@ -47,8 +47,15 @@ fn wrong_way_on_cut_lanes(cut: impl Fn(&Polyline) -> Polyline) -> Vec<String> {
     let suite = Suite::load(&fixture("wrong-way.suite.yaml")).unwrap_or_else(|e| panic!("{e}"));
     let outcome = run_variant(&suite, &suite.scenarios[0], 0).unwrap_or_else(|e| panic!("{e}"));
     let m = &outcome.scenario.map;
-    let lanes =
-        m.lanes.iter().map(|l| safer_scenarios::map::Lane { centreline: cut(&l.centreline), ..l.clone() }).collect();
+    let lanes = m
+        .lanes
+        .iter()
+        .map(|l| {
+            let mut l = l.clone();
+            l.centreline = cut(&l.centreline);
+            l
+        })
+        .collect();
     let map = RoadMap::new(
         lanes,
         m.road_edges.clone(),

@@ -1,5 +1,6 @@
-//! The stable route of protocol 1.1: a path of lane centrelines planned once
-//! from where the ego is and sent unchanged at every step until the ego
+//! The stable route (protocol 1.1's, and [`crate::planners::Observation::route`]):
+//! a path of lane centrelines planned once
+//! from where the ego is and kept unchanged at every step until the ego
 //! leaves it (then planned anew from there) or it runs short (then planned
 //! anew, so that at least [`ROUTE_AHEAD_MIN_M`] lie ahead where the map has
 //! them). A planner can cache it by its revision and never sees it jitter
@@ -9,11 +10,12 @@
 //! to (the harness knows where the recorded ego went; that is the scene's
 //! intended route), else the first successor.
 
-use crate::geometry::{Point2, Polyline, Vector2};
+use crate::geometry::{Point2, Polyline, PolylineProjection, Vector2};
 use crate::map::{MapElementId, RoadMap};
 use crate::scenario::AgentState;
 
 use super::lane_walk::{WalkDirection, walk_lanes};
+use crate::scenario::{Scenario, TrackIndex};
 
 /// Route length planned behind the ego's projection, m (so a planner can
 /// project the ego onto it even after braking back a little).
@@ -34,16 +36,25 @@ const LANE_SEARCH_M: f64 = 10.0;
 /// Lanes followed at most (guards against zero-length successor cycles).
 const MAX_LANES: usize = 256;
 
-/// A planned route and its revision.
+/// The route the ego is on: a path along lane centrelines from
+/// [`ROUTE_BEHIND_M`] behind the ego to [`ROUTE_AHEAD_PLANNED_M`] ahead,
+/// planned once from the ego's lane and kept while the ego follows it (a
+/// new plan, with the next [`revision`](Self::revision), when the ego
+/// leaves it or less than [`ROUTE_AHEAD_MIN_M`] lie ahead). At a fork it
+/// takes the successor the ego's recording keeps to, else the first. It is
+/// the route external planners are sent (protocol 1.1 `route`), so a Rust
+/// planner and a Python one see the same path.
+///
+/// Empty (no points) where the ego is on no lane running its way.
 #[derive(Debug, Clone, Default)]
-pub(crate) struct StableRoute {
+pub struct Route {
     /// The lanes it runs along, in order.
-    pub(super) lanes: Vec<MapElementId>,
-    /// Its points, every [`super::MAP_SPACING_M`] or less.
-    pub(super) points: Vec<[f64; 2]>,
+    pub(crate) lanes: Vec<MapElementId>,
+    /// Its points, every [`super::lane_walk::MAP_SPACING_M`] or less.
+    pub(crate) points: Vec<[f64; 2]>,
     line: Polyline,
     /// 0 for the first plan, +1 for every new one.
-    pub(super) revision: u32,
+    pub(crate) revision: u32,
     planned: bool,
     /// Whether the map ended before [`ROUTE_AHEAD_PLANNED_M`] (no point in
     /// planning anew when it runs short).
@@ -53,7 +64,66 @@ pub(crate) struct StableRoute {
     leave_m: f64,
 }
 
-impl StableRoute {
+impl Route {
+    /// The route from `ego`'s place on `map` (its lane: the nearest within
+    /// 10 m running its way), with no recording to follow at forks
+    /// (the first successor is taken), and the ego's arc length along it
+    /// (`None` when the route is empty).
+    pub fn plan_from(map: &RoadMap, ego: &AgentState) -> (Route, Option<f64>) {
+        let mut route = Route::default();
+        let s = route.update(map, ego, &[]);
+        let s = (!route.is_empty()).then_some(s);
+        (route, s)
+    }
+
+    /// The route's path along lane centrelines (no points when empty),
+    /// points every 2 m or less.
+    pub fn path(&self) -> &Polyline {
+        &self.line
+    }
+
+    /// The lanes it runs along, in order.
+    pub fn lanes(&self) -> &[MapElementId] {
+        &self.lanes
+    }
+
+    /// 0 for the first plan of a rollout, +1 for every new plan: a planner
+    /// may cache what it derives from the route until this changes.
+    pub fn revision(&self) -> u32 {
+        self.revision
+    }
+
+    /// Whether there is no route (the ego is on no lane running its way).
+    pub fn is_empty(&self) -> bool {
+        self.points.len() < 2
+    }
+
+    /// Its length, m (0 when empty).
+    pub fn length_m(&self) -> f64 {
+        self.line.length_m()
+    }
+
+    /// Projects `p` onto the route (`None` when empty).
+    pub fn project(&self, p: &Point2) -> Option<PolylineProjection> {
+        self.line.project(p)
+    }
+
+    /// Projects `p` onto the part of the route between arc lengths
+    /// `from_m` and `to_m` (the ego's surroundings, where the route passes
+    /// a point twice).
+    pub fn project_between(&self, p: &Point2, from_m: f64, to_m: f64) -> Option<PolylineProjection> {
+        if self.is_empty() {
+            return None;
+        }
+        self.line.project_segments(p, self.line.segments_between(from_m, to_m))
+    }
+
+    /// The point and unit direction of the route at arc length `s_m`
+    /// (clamped to its ends; `None` when empty).
+    pub fn at(&self, s_m: f64) -> Option<(Point2, Vector2)> {
+        self.line.sample(s_m.clamp(0.0, self.line.length_m()))
+    }
+
     /// Keeps the route while the ego is on it with enough ahead; otherwise
     /// plans it anew from the ego. `recorded` are the ego's recorded
     /// positions (for the choice at forks). Returns the ego's arc length
@@ -95,7 +165,7 @@ impl StableRoute {
 /// Plans a route from the ego's lane (the nearest within 10 m running its
 /// way), [`ROUTE_BEHIND_M`] behind it (into the lanes before it where its
 /// lane starts closer behind) to [`ROUTE_AHEAD_PLANNED_M`] ahead.
-fn plan(map: &RoadMap, ego: &AgentState, recorded: &[Point2]) -> StableRoute {
+fn plan(map: &RoadMap, ego: &AgentState, recorded: &[Point2]) -> Route {
     let at_fork = |lane: &'_ crate::map::Lane, direction| {
         let choices = match direction {
             WalkDirection::Ahead => &lane.successors,
@@ -105,15 +175,25 @@ fn plan(map: &RoadMap, ego: &AgentState, recorded: &[Point2]) -> StableRoute {
     };
     let Some(walk) = walk_lanes(map, ego, LANE_SEARCH_M, ROUTE_BEHIND_M, ROUTE_AHEAD_PLANNED_M, MAX_LANES, at_fork)
     else {
-        return StableRoute::default();
+        return Route::default();
     };
-    StableRoute {
+    Route {
         line: Polyline::new(walk.points.iter().map(|p| Point2::new(p[0], p[1])).collect()),
         lanes: walk.lanes,
         points: walk.points,
         ends_with_map: !walk.reached_length,
-        ..StableRoute::default()
+        ..Route::default()
     }
+}
+
+/// The ego's recorded positions from `start_step` on: the route's guide
+/// at forks (the scene's intended route).
+pub(crate) fn recorded_path(scenario: &Scenario, ego: TrackIndex, start_step: usize) -> Vec<Point2> {
+    scenario
+        .tracks
+        .get(ego.0)
+        .map(|t| t.states.iter().skip(start_step).flatten().map(|s| s.position).collect())
+        .unwrap_or_default()
 }
 
 /// The lane of `choices` (successors or predecessors) the recording keeps
@@ -158,7 +238,7 @@ mod tests {
     #[test]
     fn the_route_does_not_move_while_the_ego_follows_it_and_is_replanned_when_it_leaves() {
         let map = fork();
-        let mut route = StableRoute::default();
+        let mut route = Route::default();
         let s = route.update(&map, &ego(30.0, 0.0), &[]);
         assert_eq!((route.revision, s), (0, ROUTE_BEHIND_M));
         assert_eq!(route.points[0], [10.0, 0.0]);
@@ -183,7 +263,7 @@ mod tests {
     #[test]
     fn at_a_lane_start_the_route_reaches_back_into_the_lane_before() {
         let map = fork();
-        let mut route = StableRoute::default();
+        let mut route = Route::default();
         // 5 m into lane 3, heading along it (south-east).
         let heading = (-1.0f64).atan2(1.0);
         let start = Point2::new(100.0, 0.0) + Vector2::new(heading.cos(), heading.sin()) * 5.0;
@@ -199,7 +279,7 @@ mod tests {
     #[test]
     fn an_ego_planned_off_its_lane_keeps_its_route_until_it_moves_further_away() {
         let map = fork();
-        let mut route = StableRoute::default();
+        let mut route = Route::default();
         // 3.7 m beside the only lane running its way (a lane the map lacks).
         for step in 0..30 {
             route.update(&map, &ego(10.0 + step as f64, 3.7), &[]);
@@ -213,7 +293,7 @@ mod tests {
     #[test]
     fn at_a_fork_the_route_follows_the_recording() {
         let map = fork();
-        let mut route = StableRoute::default();
+        let mut route = Route::default();
         // A recording every metre: it keeps to both successors for their
         // first metres, and to lane 3 beyond.
         let recorded: Vec<Point2> = (0..=170)

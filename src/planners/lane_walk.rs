@@ -14,26 +14,26 @@ pub const MAP_SPACING_M: f64 = 2.0;
 
 /// Points at equal arc-length steps of at most [`MAP_SPACING_M`] over
 /// `[s0, s0 + length]`, both ends included.
-pub(super) fn samples(line: &Polyline, s0: f64, length_m: f64) -> impl Iterator<Item = Point2> + '_ {
+pub(crate) fn samples(line: &Polyline, s0: f64, length_m: f64) -> impl Iterator<Item = Point2> + '_ {
     let n = (length_m / MAP_SPACING_M).ceil().max(1.0) as usize;
     (0..=n).filter_map(move |k| line.sample(s0 + length_m * k as f64 / n as f64).map(|(p, _)| p))
 }
 
 /// A path along lane centrelines: the lanes, in order, and their points.
 #[derive(Debug, Default)]
-pub(super) struct LaneWalk {
+pub(crate) struct LaneWalk {
     /// The lanes walked, in order.
-    pub(super) lanes: Vec<MapElementId>,
+    pub(crate) lanes: Vec<MapElementId>,
     /// Points every [`MAP_SPACING_M`] or less, joints kept once.
-    pub(super) points: Vec<[f64; 2]>,
+    pub(crate) points: Vec<[f64; 2]>,
     /// Whether the walk reached the length asked for (else the lanes ran out).
-    pub(super) reached_length: bool,
+    pub(crate) reached_length: bool,
 }
 
 /// Which way a [`walk_lanes`] step goes from a lane: to one of its
 /// successors (ahead) or one of its predecessors (behind the ego).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(super) enum WalkDirection {
+pub(crate) enum WalkDirection {
     /// Past the lane's end, among its successors.
     Ahead,
     /// Back before the lane's start, among its predecessors.
@@ -47,7 +47,7 @@ pub(super) enum WalkDirection {
 /// than `behind_m` back), over at most `max_lanes` lanes each way. Both
 /// routes of the protocol (the 1.0 hint and the 1.1 stable route) are such
 /// walks.
-pub(super) fn walk_lanes<'m>(
+pub(crate) fn walk_lanes<'m>(
     map: &'m RoadMap,
     ego: &AgentState,
     search_m: f64,
