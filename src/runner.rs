@@ -107,13 +107,20 @@ impl Runner {
         self
     }
 
-    /// The artefacts folder (recordings and pictures of failing variants),
-    /// relative to the root unless absolute; `$SAFER_ARTIFACTS_DIR` still wins.
-    pub fn artefacts(mut self, dir: impl AsRef<Path>) -> Self {
+    /// The artifacts folder (recordings and pictures of failing variants),
+    /// relative to the root unless absolute; `$SAFER_ARTIFACTS_DIR` still
+    /// wins. Named as `safer run --artifacts` and `SAFER_ARTIFACTS_DIR` are.
+    pub fn artifacts(mut self, dir: impl AsRef<Path>) -> Self {
         if std::env::var_os("SAFER_ARTIFACTS_DIR").is_none() {
             self.artefacts = self.root.join(dir);
         }
         self
+    }
+
+    /// The former name of [`Runner::artifacts`].
+    #[deprecated(since = "0.1.0", note = "named `artifacts`, as the flag and `SAFER_ARTIFACTS_DIR` are")]
+    pub fn artefacts(self, dir: impl AsRef<Path>) -> Self {
+        self.artifacts(dir)
     }
 
     /// Registers an in-process planner under `name`, for suites that say

@@ -15,7 +15,6 @@ use std::path::Path;
 use std::process::ExitCode;
 use std::sync::Arc;
 
-use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
 
 use super::{CliError, scene_paths};
@@ -707,23 +706,13 @@ pub(super) fn run(
     };
     let models = ModelSet::shipped();
     let total = (scenes.len() * request.methods.len() * request.stage2_cbv.len() * request.seeds as usize) as u64;
-    let bar = ProgressBar::new(total).with_style(
-        ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} variants ({per_sec}, eta {eta})")
-            .unwrap_or_else(|_| ProgressStyle::default_bar()),
-    );
     let budget = WitnessBudget::widening_up_to(witness.widest);
     let search = move |scenario: &Scenario, stage1: &safer_scenarios::sim::Rollout| -> bool {
         search_rollout_witness(scenario, stage1, witness.road, budget).is_found()
     };
-    let plain = super::progress::PlainProgress::off_terminal("evaluate", "variants", total as usize);
-    let tick = || {
-        bar.inc(1);
-        if let Some(p) = &plain {
-            p.tick();
-        }
-    };
-    let records = evaluation::evaluate(&scenes, request, &models, Some(&search), &tick);
-    bar.finish_and_clear();
+    let progress = super::progress::Progress::new("evaluate", "variants", total as usize);
+    let records = evaluation::evaluate(&scenes, request, &models, Some(&search), &|| progress.tick());
+    drop(progress);
     for r in records.iter().filter(|r| r.error.is_some()).take(5) {
         let method = safer_scenarios::spec::spec_name(&r.method);
         eprintln!("error: {} {method} seed {}: {}", r.scenario, r.seed, r.error.as_deref().unwrap_or(""));

@@ -167,10 +167,16 @@ pub(super) fn run(args: &PriorFitRequest) -> Result<ExitCode, CliError> {
     }
     let held_out = held_out_scenes(scenes.iter().map(|s| s.id.as_str()));
     let alignments = [HistoryAlignment::AtBoundary, HistoryAlignment::OneStepLate];
+    let progress = super::progress::Progress::new("prior-fit", "scenes", scenes.len());
     let per_scene: Vec<Vec<PriorFit>> = scenes
         .par_iter()
-        .map(|scenario| prior_fit(&prior, scenario, &alignments, args.top_n, args.min_speed_mps))
+        .map(|scenario| {
+            let fit = prior_fit(&prior, scenario, &alignments, args.top_n, args.min_speed_mps);
+            progress.tick();
+            fit
+        })
         .collect::<Result<_, _>>()?;
+    drop(progress);
     let total = |keep: &SceneFilter, a: usize| {
         scenes.iter().zip(&per_scene).filter(|(s, _)| keep(s)).fold(PriorFit::default(), |acc, (_, f)| acc + f[a])
     };

@@ -49,3 +49,37 @@ impl PlainProgress {
         }
     }
 }
+
+/// Progress of a command over `total` items: a bar redrawn in place on a
+/// terminal, [`PlainProgress`] lines off one. Safe to tick from rayon's
+/// threads.
+pub(super) struct Progress {
+    bar: indicatif::ProgressBar,
+    plain: Option<PlainProgress>,
+}
+
+impl Progress {
+    /// Progress of `command` over `total` items of `what` (`scenes`).
+    pub(super) fn new(command: &'static str, what: &'static str, total: usize) -> Self {
+        let template = format!("{command}: {{elapsed_precise}} [{{bar:40}}] {{pos}}/{{len}} {what} (eta {{eta}})");
+        let bar = indicatif::ProgressBar::new(total as u64).with_style(
+            indicatif::ProgressStyle::with_template(&template)
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        Self { bar, plain: PlainProgress::off_terminal(command, what, total) }
+    }
+
+    /// One item done.
+    pub(super) fn tick(&self) {
+        self.bar.inc(1);
+        if let Some(p) = &self.plain {
+            p.tick();
+        }
+    }
+}
+
+impl Drop for Progress {
+    fn drop(&mut self) {
+        self.bar.finish_and_clear();
+    }
+}

@@ -290,8 +290,16 @@ pub(super) fn run(args: &RealismRequest) -> Result<ExitCode, CliError> {
     if let Some(n) = args.max_scenes {
         scenes.truncate(n);
     }
-    let scored: Vec<Result<Option<(ScenarioRealism, SceneTimes)>, String>> =
-        scenes.par_iter().map(|(_, s)| score_one(s, args, &config, prior.as_ref())).collect();
+    let progress = super::progress::Progress::new("realism", "scenes", scenes.len());
+    let scored: Vec<Result<Option<(ScenarioRealism, SceneTimes)>, String>> = scenes
+        .par_iter()
+        .map(|(_, s)| {
+            let scored = score_one(s, args, &config, prior.as_ref());
+            progress.tick();
+            scored
+        })
+        .collect();
+    drop(progress);
     let wall_s = started.elapsed().as_secs_f64();
     let mut results = Vec::new();
     let mut busy = SceneTimes::default();

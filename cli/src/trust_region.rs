@@ -90,7 +90,10 @@ pub(super) fn run(
     if scenes.is_empty() {
         return Err(CliError::Usage(format!("{}: no scene with both an ego and a CBV", scenes_dir.display())));
     }
-    let (profiles, errors) = profile_scenes(&scenes, request, &ModelSet::shipped());
+    let total = scenes.len() * request.methods.len() * request.seeds as usize;
+    let progress = super::progress::Progress::new("trust-region", "variants", total);
+    let (profiles, errors) = profile_scenes(&scenes, request, &ModelSet::shipped(), &|| progress.tick());
+    drop(progress);
     for (variant, error) in errors.iter().take(5) {
         eprintln!("error: {variant}: {error}");
     }

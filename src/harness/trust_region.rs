@@ -124,11 +124,13 @@ pub fn profile_variant(
 
 /// [`profile_variant`] over every (scene, method, seed) of `request`, in
 /// parallel; the profiles in (method, scene, seed, step) order, and the
-/// variants that could not run with why.
+/// variants that could not run with why. `tick` is called once a variant
+/// is done (for progress).
 pub fn profile_scenes(
     scenes: &[Arc<Scenario>],
     request: &EvaluationRequest,
     models: &ModelSet,
+    tick: &(dyn Fn() + Sync),
 ) -> (Vec<BoundaryProfile>, Vec<(String, String)>) {
     let maps = MapEncodings::default();
     let jobs: Vec<(usize, AdversaryMethod, u32)> = scenes
@@ -139,9 +141,11 @@ pub fn profile_scenes(
     let results: Vec<Result<Vec<BoundaryProfile>, (String, String)>> = jobs
         .par_iter()
         .map(|&(i, method, seed)| {
-            profile_variant(&scenes[i], method, seed, request, models, &maps).map_err(|e| {
+            let profiled = profile_variant(&scenes[i], method, seed, request, models, &maps).map_err(|e| {
                 (format!("{}::{}::seed-{seed}", scenes[i].id, crate::spec::spec_name(&method)), e.to_string())
-            })
+            });
+            tick();
+            profiled
         })
         .collect();
     let mut profiles = Vec::new();
