@@ -1,5 +1,6 @@
 """Replay against closed-loop rows of `safer evaluate --json` reports, as
-the Markdown table of docs/benchmarks.md.
+the Markdown table of the closed-loop comparison (docs/benchmarks.md,
+docs/research/2026-11-realism-prior-and-adversary.md).
 
     python3 docs/benchmarks/closed_loop_table.py SET:PLANNER:REPORT.json ...
 

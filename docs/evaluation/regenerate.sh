@@ -30,9 +30,10 @@
 #
 # About 25 minutes for all on a quiet 2-core machine, an hour while a training run shared
 # them; each table ends with its own wall time). The recorded sets are
-# read through `data:` ($SAFER_DATA_DIR or ../shared/data); the s/variant
+# read through `data:` ($SAFER_DATA_DIR); the s/variant
 # and wall-time figures are those of the machine it runs on.
 set -euo pipefail
+: "${SAFER_DATA_DIR:?set SAFER_DATA_DIR to the folder of the recorded datasets}"
 self=$(realpath "$0")
 cd "$(dirname "$self")"
 all=(evaluate plain inattentive held-out-chance trust-region realism prior-fit n-sweep reactive n100 approach-none mutants)

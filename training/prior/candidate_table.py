@@ -1,6 +1,6 @@
 """Tables of realism-prior candidates from `evaluate_candidate.sh` outputs.
 
-One row per candidate folder: the figures docs/benchmarks.md compares
+One row per candidate folder: the figures docs/research/2026-11-realism-prior-and-adversary.md compares
 priors by, and, for two or more folders (seeds of one recipe), each
 column's mean and range. One run of a recipe says little: three seeds of
 one recipe gave `safer` CR 0.281-0.322 on WOMD interactive, a prior CBV

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Scores an exported realism-prior candidate the way docs/benchmarks.md
+# Scores an exported realism-prior candidate the way docs/research/2026-11-realism-prior-and-adversary.md
 # compares priors, on the three shared recorded sets (WOMD interactive,
 # WOMD JSON, NGSIM), and writes every printed table into OUT:
 #
@@ -17,9 +17,9 @@
 #   MODELS  a models folder holding the candidate (export.py --out)
 #   OUT     a new folder for the outputs (--force: replace its files)
 # 2.5 minutes on a quiet 2-core machine, 7 beside a training run; the
-# recorded sets are read through `data:`
-# ($SAFER_DATA_DIR or ../shared/data).
+# recorded sets are read through `data:` ($SAFER_DATA_DIR).
 set -euo pipefail
+: "${SAFER_DATA_DIR:?set SAFER_DATA_DIR to the folder of the recorded datasets}"
 if [[ $# -lt 2 || $# -gt 3 || ( $# -eq 3 && $3 != --force ) ]]; then
     # The usage is the comment block at the top of this file.
     awk 'NR > 1 && !/^#/ { exit } NR > 1 { sub(/^# ?/, ""); print }' "$0" >&2

@@ -11,7 +11,7 @@ and an FFN, all pre-LayerNorm residual; Linear(D -> 3969) logits.
 `attention="differential"` is multi-head differential attention (Ye et al.
 2024), `"plain"` the same-size ablation (parameter counts within 0.05 %).
 
-Written for ONNX opset 17 and tract (see STACK-NOTES): physical inputs are
+Written for ONNX opset 17 and what tract runs of it: physical inputs are
 scaled inside the graph by fixed constants; masks use `masked_fill` with a
 finite scalar (no -inf, no `torch.where` with full tensors); the softmax over
 the short key axes is exp(x - max) * mask / sum.clamp_min, so padding and

@@ -41,7 +41,7 @@ const MAX_COORDINATE_M: f64 = 1e7;
 
 /// Default footprints, length × width in metres, by AV2 `object_type`.
 /// AV2 publishes no extents. Vehicles use 4.5 × 2.0: the median WOMD
-/// vehicle box in `shared/data/womd-json` is 4.6 × 2.06 (3300 boxes), and
+/// vehicle box in the recorded WOMD JSON set (`data:womd-json`) is 4.6 × 2.06 (3300 boxes), and
 /// the av2-api draws vehicles as 4.0 × 2.0, short for US traffic.
 pub const VEHICLE_SIZE_M: (f64, f64) = (4.5, 2.0);
 /// A 40-foot US transit bus (12.2 × 2.6 m), rounded.

@@ -2,8 +2,9 @@
 //! framing ([`super::tfrecord`]) into [`Scenario`]s.
 //!
 //! This module owns the hand-written prost message structs for the part of
-//! Waymo's proto2 schema a scenario needs ([`proto`]; field numbers from
-//! `data/FORMATS.md`, no build script or protoc) and the mapping from them
+//! Waymo's proto2 schema a scenario needs ([`proto`]; field numbers from Waymo's
+//! `scenario.proto` and `map.proto` in the waymo-open-dataset repository,
+//! no build script or protoc) and the mapping from them
 //! into the crate model: tracks with valid masks, ego and objects of
 //! interest, the lane graph, road edges and lines, areas, stop signs and
 //! per-lane traffic-signal states. Coordinates stay in Waymo's world frame;
