@@ -232,70 +232,11 @@ pub(super) fn run(
     if let Some(dir) = html {
         harness::report::review_page::check_folder(dir)?;
     }
-    let mut load_failures = Vec::new();
-    let mut suites: Vec<(PathBuf, Suite)> = Vec::new();
-    for file in files {
-        match Suite::load(file) {
-            Ok(s) => suites.push((file.clone(), Suite { shrink_budget, ..s })),
-            Err(e) => {
-                eprintln!("{}", e.render(std::io::IsTerminal::is_terminal(&std::io::stderr())));
-                load_failures.push(SuiteLoadFailure { file: file.clone(), message: e.to_string() });
-            }
-        }
-    }
+    let (suites, load_failures) = load_suites(files, shrink_budget)?;
 
-    // Two suites of one name would share test names and artefact paths,
-    // and one recording would silently replace the other.
-    for (i, (file, suite)) in suites.iter().enumerate() {
-        if let Some((first, _)) = suites[..i].iter().find(|(_, s)| s.name() == suite.name()) {
-            return Err(CliError::Usage(format!(
-                "{} and {} are both named `{}`; suites run together need different names (their tests and \
-                 artefacts are named after them)",
-                first.display(),
-                file.display(),
-                suite.name()
-            )));
-        }
-    }
-    // No report may replace a file the run reads, or another report.
-    let inputs: Vec<PathBuf> = files.iter().cloned().chain(suites.iter().flat_map(|(_, s)| s.input_files())).collect();
-    let named = [("--json", json), ("--junit", junit)];
-    let outputs: Vec<safer_scenarios::record::NamedOutput<'_>> = named
-        .iter()
-        .filter_map(|(flag, p)| p.map(|path| safer_scenarios::record::NamedOutput { flag, path }))
-        .collect();
-    safer_scenarios::record::check_outputs_apart(&outputs, &inputs)?;
-    for out in &outputs {
-        let kind = if out.flag == "--junit" { OutputKind::JunitXml } else { OutputKind::Json };
-        safer_scenarios::record::check_replaceable(out.flag, out.path, kind, false)?;
-    }
+    let inputs = check_reports(files, &suites, json, junit)?;
 
-    let selects = |name: &str| filter.is_none_or(|f| name.contains(f));
-    let mut jobs = Vec::new();
-    let mut metrics_selected: Vec<Vec<&'static str>> = Vec::new();
-    for (si, (_, suite)) in suites.iter().enumerate() {
-        let metrics: Vec<&'static str> = harness::metrics::metric_names(&suite.spec.value.acceptance.suite)
-            .into_iter()
-            .filter(|m| selects(&format!("{}::{m}", suite.name())))
-            .collect();
-        for (ci, scenario) in suite.scenarios.iter().enumerate() {
-            for k in 0..suite.spec.value.variants {
-                let shown = selects(&suite.variant_name(scenario, k));
-                if shown || !metrics.is_empty() {
-                    jobs.push(Job { suite: si, scenario: ci, index: k, shown });
-                }
-            }
-        }
-        metrics_selected.push(metrics);
-    }
-    if let Some(f) = filter
-        && !suites.is_empty()
-        && !jobs.iter().any(|j| j.shown)
-        && metrics_selected.iter().all(Vec::is_empty)
-    {
-        // A mistyped filter would otherwise "pass" with nothing run.
-        return Err(CliError::Usage(format!("--filter `{f}` matches no variant and no suite metric")));
-    }
+    let (jobs, metrics_selected) = select_jobs(&suites, filter)?;
 
     if let Some((dir, _)) = commonroad {
         let names = jobs.iter().filter(|j| j.shown).map(|j| {
@@ -416,6 +357,102 @@ pub(super) fn run(
     } else {
         ExitCode::from(1)
     })
+}
+
+/// A suite file and the suite it holds.
+type LoadedSuite = (PathBuf, Suite);
+
+/// Loads the suites (a broken one is reported and left out) and refuses
+/// two suites of one name.
+fn load_suites(
+    files: &[PathBuf],
+    shrink_budget: usize,
+) -> Result<(Vec<LoadedSuite>, Vec<SuiteLoadFailure>), CliError> {
+    let mut load_failures = Vec::new();
+    let mut suites: Vec<LoadedSuite> = Vec::new();
+    for file in files {
+        match Suite::load(file) {
+            Ok(s) => suites.push((file.clone(), Suite { shrink_budget, ..s })),
+            Err(e) => {
+                eprintln!("{}", e.render(std::io::IsTerminal::is_terminal(&std::io::stderr())));
+                load_failures.push(SuiteLoadFailure { file: file.clone(), message: e.to_string() });
+            }
+        }
+    }
+
+    // Two suites of one name would share test names and artefact paths,
+    // and one recording would silently replace the other.
+    for (i, (file, suite)) in suites.iter().enumerate() {
+        if let Some((first, _)) = suites[..i].iter().find(|(_, s)| s.name() == suite.name()) {
+            return Err(CliError::Usage(format!(
+                "{} and {} are both named `{}`; suites run together need different names (their tests and \
+                 artefacts are named after them)",
+                first.display(),
+                file.display(),
+                suite.name()
+            )));
+        }
+    }
+    Ok((suites, load_failures))
+}
+
+/// Checks, before the run, that `--json` and `--junit` can take their
+/// reports without replacing a file the run reads or another report; the
+/// files the run reads.
+fn check_reports(
+    files: &[PathBuf],
+    suites: &[LoadedSuite],
+    json: Option<&Path>,
+    junit: Option<&Path>,
+) -> Result<Vec<PathBuf>, CliError> {
+    // No report may replace a file the run reads, or another report.
+    let inputs: Vec<PathBuf> = files.iter().cloned().chain(suites.iter().flat_map(|(_, s)| s.input_files())).collect();
+    let named = [("--json", json), ("--junit", junit)];
+    let outputs: Vec<safer_scenarios::record::NamedOutput<'_>> = named
+        .iter()
+        .filter_map(|(flag, p)| p.map(|path| safer_scenarios::record::NamedOutput { flag, path }))
+        .collect();
+    safer_scenarios::record::check_outputs_apart(&outputs, &inputs)?;
+    for out in &outputs {
+        let kind = if out.flag == "--junit" { OutputKind::JunitXml } else { OutputKind::Json };
+        safer_scenarios::record::check_replaceable(out.flag, out.path, kind, false)?;
+    }
+    Ok(inputs)
+}
+
+/// The variants to run (those the filter selects, and every variant of a
+/// suite whose metric it selects) and each suite's selected metrics.
+fn select_jobs(
+    suites: &[LoadedSuite],
+    filter: Option<&str>,
+) -> Result<(Vec<Job>, Vec<Vec<&'static str>>), CliError> {
+    let selects = |name: &str| filter.is_none_or(|f| name.contains(f));
+    let mut jobs = Vec::new();
+    let mut metrics_selected: Vec<Vec<&'static str>> = Vec::new();
+    for (si, (_, suite)) in suites.iter().enumerate() {
+        let metrics: Vec<&'static str> = harness::metrics::metric_names(&suite.spec.value.acceptance.suite)
+            .into_iter()
+            .filter(|m| selects(&format!("{}::{m}", suite.name())))
+            .collect();
+        for (ci, scenario) in suite.scenarios.iter().enumerate() {
+            for k in 0..suite.spec.value.variants {
+                let shown = selects(&suite.variant_name(scenario, k));
+                if shown || !metrics.is_empty() {
+                    jobs.push(Job { suite: si, scenario: ci, index: k, shown });
+                }
+            }
+        }
+        metrics_selected.push(metrics);
+    }
+    if let Some(f) = filter
+        && !suites.is_empty()
+        && !jobs.iter().any(|j| j.shown)
+        && metrics_selected.iter().all(Vec::is_empty)
+    {
+        // A mistyped filter would otherwise "pass" with nothing run.
+        return Err(CliError::Usage(format!("--filter `{f}` matches no variant and no suite metric")));
+    }
+    Ok((jobs, metrics_selected))
 }
 
 /// The results of one suite: its shown variants and its selected metrics.
