@@ -364,10 +364,7 @@ type LoadedSuite = (PathBuf, Suite);
 
 /// Loads the suites (a broken one is reported and left out) and refuses
 /// two suites of one name.
-fn load_suites(
-    files: &[PathBuf],
-    shrink_budget: usize,
-) -> Result<(Vec<LoadedSuite>, Vec<SuiteLoadFailure>), CliError> {
+fn load_suites(files: &[PathBuf], shrink_budget: usize) -> Result<(Vec<LoadedSuite>, Vec<SuiteLoadFailure>), CliError> {
     let mut load_failures = Vec::new();
     let mut suites: Vec<LoadedSuite> = Vec::new();
     for file in files {
@@ -422,10 +419,7 @@ fn check_reports(
 
 /// The variants to run (those the filter selects, and every variant of a
 /// suite whose metric it selects) and each suite's selected metrics.
-fn select_jobs(
-    suites: &[LoadedSuite],
-    filter: Option<&str>,
-) -> Result<(Vec<Job>, Vec<Vec<&'static str>>), CliError> {
+fn select_jobs(suites: &[LoadedSuite], filter: Option<&str>) -> Result<(Vec<Job>, Vec<Vec<&'static str>>), CliError> {
     let selects = |name: &str| filter.is_none_or(|f| name.contains(f));
     let mut jobs = Vec::new();
     let mut metrics_selected: Vec<Vec<&'static str>> = Vec::new();
