@@ -12,7 +12,7 @@
 //! reduce variants to [`metrics::VariantTally`] for CR, SR, VJ and AJ.
 //!
 //! The results of a run ([`report::RunResults`]) are written as a JUnit
-//! XML report ([`junit`]) and a static review page ([`review_page`]).
+//! XML report ([`report::junit`]) and a static review page ([`report::review_page`]).
 
 pub mod acceptance;
 pub mod artefacts;
