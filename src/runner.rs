@@ -58,7 +58,7 @@ use crate::harness::mutation::{MutantRun, MutationReport};
 use crate::harness::report::SnapshotCheck;
 use crate::harness::{self, RunResults, Suite, SuiteLoadFailure, SuiteRun, VariantOutcome, VariantRun};
 use crate::planners::Planner;
-use crate::planners::registry::{self, PlannerFactory};
+use crate::planners::registry::{PlannerFactory, PlannerRegistry};
 use crate::scenario::{Scenario, TrackIndex};
 
 /// Where a planner crate keeps its suites, snapshots and artefacts, and
@@ -69,6 +69,8 @@ pub struct Runner {
     suite_dirs: Vec<PathBuf>,
     snapshots: PathBuf,
     artefacts: PathBuf,
+    /// The in-process planners suites may name (`planner: { rust: NAME }`).
+    planners: PlannerRegistry,
     /// Registration errors, reported as failing tests (a builder cannot
     /// fail without making every caller handle it).
     registration_errors: Vec<String>,
@@ -89,6 +91,7 @@ impl Runner {
             suite_dirs: Vec::new(),
             snapshots: root.join("snapshots"),
             artefacts,
+            planners: PlannerRegistry::default(),
             registration_errors: Vec::new(),
             root,
         }
@@ -132,7 +135,7 @@ impl Runner {
         F: Fn(&Scenario, TrackIndex) -> P + Send + Sync + 'static,
     {
         let factory: PlannerFactory = Arc::new(move |s: &Scenario, ego: TrackIndex| Box::new(make(s, ego)) as _);
-        if let Err(e) = registry::register(name, factory) {
+        if let Err(e) = self.planners.register(name, factory) {
             self.registration_errors.push(e.to_string());
         }
         self
@@ -166,7 +169,7 @@ impl Runner {
                 }));
             }
             for path in files {
-                suite_trials(&path, &context, &mut loaded);
+                suite_trials(&path, &self.planners, &context, &mut loaded);
             }
         }
         loaded
@@ -281,10 +284,10 @@ struct TrialContext {
 }
 
 /// The trials of one suite file.
-fn suite_trials(path: &Path, context: &Arc<TrialContext>, loaded: &mut Loaded) {
+fn suite_trials(path: &Path, planners: &PlannerRegistry, context: &Arc<TrialContext>, loaded: &mut Loaded) {
     let file = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
     let out = &mut loaded.trials;
-    let suite = match Suite::load(path) {
+    let suite = match Suite::load_with(path, planners) {
         Ok(s) => Arc::new(s),
         Err(e)
             if crate::spec::paths::is_missing_data_dir(&e.to_string())

@@ -65,9 +65,6 @@ pub enum HarnessError {
     /// A scenario has no CBV to drive.
     #[error("scenario {0} has no CBV (name one with `cbv:` in the scenario spec)")]
     NoCbv(String),
-    /// A suite names an in-process planner that this process did not register.
-    #[error("no in-process planner named `{0}` is registered in this process")]
-    UnregisteredPlanner(String),
     /// A failing variant's recording or picture could not be written.
     #[error("the variant's artefacts could not be written: {0}")]
     Artefacts(#[source] crate::record::RecordError),

@@ -291,9 +291,8 @@ pub fn make_planner(adapter: &PlannerAdapter, context: RolloutContext) -> Result
     match adapter {
         PlannerAdapter::Builtin { planner: BuiltinPlanner::Idm, idm, .. } => Ok(Box::new(IdmPlanner::new(*idm))),
         PlannerAdapter::Builtin { planner, .. } => Ok(planner.instantiate(scenario, context.ego)),
-        PlannerAdapter::InProcess { name } => {
-            let factory = crate::planners::registry::lookup(name)
-                .ok_or_else(|| HarnessError::UnregisteredPlanner(name.clone()))?;
+        PlannerAdapter::InProcess { name, factory } => {
+            let factory = &factory.0;
             // A team's planner may panic, in its constructor or in `plan`:
             // its variant fails at the step, as a crashed process's does.
             let made = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| factory(scenario, context.ego)));

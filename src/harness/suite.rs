@@ -2,6 +2,7 @@
 //! cheaply (no scenario is imported until a variant runs), so listing tests
 //! is fast and deterministic.
 
+use crate::planners::registry::PlannerRegistry;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex, OnceLock};
@@ -72,6 +73,12 @@ impl Suite {
     /// that does not import is reported at its `scenarios:` entry when its
     /// variant runs ([`SuiteScenario::load`]).
     pub fn load(path: &Path) -> Result<Suite, SpecError> {
+        Self::load_with(path, &PlannerRegistry::default())
+    }
+
+    /// [`Suite::load`], resolving `planner: { rust: NAME }` among the
+    /// in-process planners of `registry` (a runner's).
+    pub fn load_with(path: &Path, registry: &PlannerRegistry) -> Result<Suite, SpecError> {
         let spec = crate::spec::suite::load(path)?;
         let planner = match &spec.value.planner {
             PlannerRef::Builtin { builtin } => PlannerAdapter::Builtin {
@@ -80,10 +87,10 @@ impl Suite {
                 idm: Default::default(),
             },
             PlannerRef::Rust { rust } => {
-                if crate::planners::registry::lookup(&rust.value).is_none() {
-                    let registered = crate::planners::registry::registered_names();
+                let Some(factory) = registry.lookup(&rust.value) else {
+                    let registered = registry.names();
                     let registered = if registered.is_empty() {
-                        "none is registered in this process".to_string()
+                        "the runner registers none".to_string()
                     } else {
                         format!("registered: {}", registered.join(", "))
                     };
@@ -95,8 +102,11 @@ impl Suite {
                             rust.value
                         ),
                     ));
+                };
+                PlannerAdapter::InProcess {
+                    name: rust.value.clone(),
+                    factory: crate::spec::planner::InProcessFactory(factory),
                 }
-                PlannerAdapter::InProcess { name: rust.value.clone() }
             }
             PlannerRef::File(f) => {
                 let p = crate::spec::paths::resolve_checked(spec.dir(), &f.value)

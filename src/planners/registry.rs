@@ -1,11 +1,11 @@
 //! In-process planners registered by name: a planner crate's test target
-//! registers its own [`Planner`] implementation (usually through
+//! registers its own [`Planner`] implementation (through
 //! `safer_scenarios::runner::Runner::planner`), and a suite names it with
-//! `planner: { rust: NAME }`. The registry is process-wide because suites are
-//! loaded and variants run on any worker thread.
+//! `planner: { rust: NAME }`. The runner holds the registry; a suite
+//! resolves the name when it is loaded.
 
 use std::collections::BTreeMap;
-use std::sync::{Arc, OnceLock, RwLock};
+use std::sync::Arc;
 
 use super::Planner;
 use crate::scenario::{Scenario, TrackIndex};
@@ -25,33 +25,50 @@ pub enum RegistryError {
     Duplicate(String),
 }
 
-fn registry() -> &'static RwLock<BTreeMap<String, PlannerFactory>> {
-    static REGISTRY: OnceLock<RwLock<BTreeMap<String, PlannerFactory>>> = OnceLock::new();
-    REGISTRY.get_or_init(Default::default)
+/// In-process planners by name. A [`crate::runner::Runner`] holds one and
+/// hands it to the suites it loads, which resolve `planner: { rust: NAME }`
+/// to its factory at load time: no process-wide state, so two runners in
+/// one process (or a test and its harness) never see each other's planners.
+#[derive(Clone, Default)]
+pub struct PlannerRegistry {
+    planners: BTreeMap<String, PlannerFactory>,
 }
 
-/// Registers `factory` under `name`.
-pub fn register(name: &str, factory: PlannerFactory) -> Result<(), RegistryError> {
-    let plain = !name.is_empty() && name.chars().all(|c| c.is_ascii_alphanumeric() || matches!(c, '-' | '_' | '.'));
-    if !plain {
-        return Err(RegistryError::InvalidName(name.into()));
+impl std::fmt::Debug for PlannerRegistry {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("PlannerRegistry").field("names", &self.names()).finish()
     }
-    let mut planners = registry().write().unwrap_or_else(|p| p.into_inner());
-    if planners.contains_key(name) {
-        return Err(RegistryError::Duplicate(name.into()));
+}
+
+impl PlannerRegistry {
+    /// Registers `factory` under `name`.
+    pub fn register(&mut self, name: &str, factory: PlannerFactory) -> Result<(), RegistryError> {
+        let plain = !name.is_empty() && name.chars().all(|c| c.is_ascii_alphanumeric() || matches!(c, '-' | '_' | '.'));
+        if !plain {
+            return Err(RegistryError::InvalidName(name.into()));
+        }
+        if self.planners.contains_key(name) {
+            return Err(RegistryError::Duplicate(name.into()));
+        }
+        self.planners.insert(name.into(), factory);
+        Ok(())
     }
-    planners.insert(name.into(), factory);
-    Ok(())
-}
 
-/// The factory registered under `name`.
-pub fn lookup(name: &str) -> Option<PlannerFactory> {
-    registry().read().unwrap_or_else(|p| p.into_inner()).get(name).cloned()
-}
+    /// [`PlannerRegistry::register`], for building one in an expression.
+    pub fn with(mut self, name: &str, factory: PlannerFactory) -> Result<Self, RegistryError> {
+        self.register(name, factory)?;
+        Ok(self)
+    }
 
-/// The registered names, sorted.
-pub fn registered_names() -> Vec<String> {
-    registry().read().unwrap_or_else(|p| p.into_inner()).keys().cloned().collect()
+    /// The factory registered under `name`.
+    pub fn lookup(&self, name: &str) -> Option<PlannerFactory> {
+        self.planners.get(name).cloned()
+    }
+
+    /// The registered names, sorted.
+    pub fn names(&self) -> Vec<String> {
+        self.planners.keys().cloned().collect()
+    }
 }
 
 #[cfg(test)]
@@ -65,20 +82,26 @@ mod tests {
 
     #[test]
     fn a_registered_planner_is_found_and_a_second_one_under_its_name_is_refused() {
-        register("registry-test-cv", factory()).unwrap();
-        assert!(lookup("registry-test-cv").is_some());
-        assert!(registered_names().contains(&"registry-test-cv".to_string()));
+        let mut registry = PlannerRegistry::default();
+        registry.register("registry-test-cv", factory()).unwrap();
+        assert!(registry.lookup("registry-test-cv").is_some());
+        assert_eq!(registry.names(), ["registry-test-cv"]);
         assert_eq!(
-            register("registry-test-cv", factory()).unwrap_err(),
+            registry.register("registry-test-cv", factory()).unwrap_err(),
             RegistryError::Duplicate("registry-test-cv".into())
         );
-        assert!(lookup("registry-test-unknown").is_none());
+        assert!(registry.lookup("registry-test-unknown").is_none());
+        // Another registry knows nothing of this one's planners.
+        assert!(PlannerRegistry::default().lookup("registry-test-cv").is_none());
     }
 
     #[test]
     fn names_that_cannot_be_test_names_are_refused() {
         for bad in ["", "my planner", "a::b", "x/y"] {
-            assert_eq!(register(bad, factory()).unwrap_err(), RegistryError::InvalidName(bad.into()));
+            assert_eq!(
+                PlannerRegistry::default().register(bad, factory()).unwrap_err(),
+                RegistryError::InvalidName(bad.into())
+            );
         }
     }
 }

@@ -94,6 +94,16 @@ pub struct OnnxSpec {
     pub model: String,
 }
 
+/// The factory of an in-process planner, as a suite resolved it.
+#[derive(Clone)]
+pub struct InProcessFactory(pub crate::planners::registry::PlannerFactory);
+
+impl std::fmt::Debug for InProcessFactory {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("InProcessFactory")
+    }
+}
+
 /// A validated planner adapter.
 #[derive(Debug, Clone)]
 pub enum PlannerAdapter {
@@ -107,10 +117,12 @@ pub enum PlannerAdapter {
         idm: IdmParams,
     },
     /// An in-process planner registered under `name`
-    /// ([`crate::planners::registry`]).
+    /// ([`crate::planners::registry`]), resolved when the suite was loaded.
     InProcess {
         /// The registered name, also used in reports.
         name: String,
+        /// Makes the planner, once per variant.
+        factory: InProcessFactory,
     },
     /// External process, started in `working_dir` with `spec.env` added
     /// to its environment.
@@ -139,7 +151,7 @@ impl PlannerAdapter {
     /// Name for reports and test names.
     pub fn name(&self) -> &str {
         match self {
-            Self::Builtin { name, .. } | Self::InProcess { name } | Self::External { name, .. } => name,
+            Self::Builtin { name, .. } | Self::InProcess { name, .. } | Self::External { name, .. } => name,
         }
     }
 

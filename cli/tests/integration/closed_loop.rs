@@ -49,18 +49,17 @@ impl Planner for BrakesToAStop {
     }
 }
 
-fn register() {
-    static ONCE: std::sync::Once = std::sync::Once::new();
-    ONCE.call_once(|| {
-        registry::register("closed-loop-test-swerves-left", Arc::new(|_, _| Box::new(SwervesLeft))).unwrap();
-        registry::register("closed-loop-test-brakes", Arc::new(|_, _| Box::new(BrakesToAStop))).unwrap();
-    });
+/// The in-process planners the fixtures' suites name.
+fn planners() -> registry::PlannerRegistry {
+    registry::PlannerRegistry::default()
+        .with("closed-loop-test-swerves-left", Arc::new(|_, _| Box::new(SwervesLeft)))
+        .and_then(|r| r.with("closed-loop-test-brakes", Arc::new(|_, _| Box::new(BrakesToAStop))))
+        .unwrap()
 }
 
 /// Every variant of the suite in `file`.
 fn outcomes(file: &str) -> Vec<VariantOutcome> {
-    register();
-    let suite = Suite::load(&fixture(file)).unwrap_or_else(|e| panic!("{e}"));
+    let suite = Suite::load_with(&fixture(file), &planners()).unwrap_or_else(|e| panic!("{e}"));
     let variants = suite.spec.value.variants;
     suite
         .scenarios
@@ -121,8 +120,8 @@ fn a_closed_loop_cbv_follows_an_ego_that_swerves_where_a_replayed_one_misses_it(
 
 #[test]
 fn without_an_approach_phase_the_adversary_drives_from_the_first_token_whatever_the_seed() {
-    register();
-    let mut suite = Suite::load(&fixture("swerving-ego.no-approach.yaml")).unwrap_or_else(|e| panic!("{e}"));
+    let mut suite =
+        Suite::load_with(&fixture("swerving-ego.no-approach.yaml"), &planners()).unwrap_or_else(|e| panic!("{e}"));
     let scene = suite.scenarios[0].clone();
     let first = run_variant(&suite, &scene, 0).unwrap_or_else(|e| panic!("{e}"));
     suite.spec.value.seed = 12_345;

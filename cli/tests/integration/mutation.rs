@@ -188,7 +188,14 @@ fn mutant_failures(planner: &str) -> Vec<(String, Vec<String>)> {
     );
     let path = dir.join("alike.yaml");
     std::fs::write(&path, suite).unwrap();
-    let suite = Suite::load(&path).unwrap();
+    // The in-process twin of the external cone-brake planner.
+    let registry = safer_scenarios::planners::registry::PlannerRegistry::default()
+        .with(
+            "cone-brake-twin",
+            Arc::new(|_: &Scenario, _| Box::new(ConeBrake { start_speed_mps: None }) as Box<dyn Planner>),
+        )
+        .unwrap();
+    let suite = Suite::load_with(&path, &registry).unwrap();
     let mut out = Vec::new();
     for scenario in &suite.scenarios {
         let base = safer_scenarios::harness::run_variant(&suite, scenario, 0).unwrap();
@@ -206,10 +213,6 @@ fn mutant_failures(planner: &str) -> Vec<(String, Vec<String>)> {
 
 #[test]
 fn an_external_protocol_1_0_planner_and_an_in_process_planner_are_mutated_alike() {
-    let _ = safer_scenarios::planners::registry::register(
-        "cone-brake-twin",
-        Arc::new(|_: &Scenario, _| Box::new(ConeBrake { start_speed_mps: None }) as Box<dyn Planner>),
-    );
     let spec = repo().join("tests/fixtures/planners/cone-brake.yaml");
     let external = mutant_failures(&spec.display().to_string());
     let in_process = mutant_failures("{ rust: cone-brake-twin }");
