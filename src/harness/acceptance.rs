@@ -4,8 +4,9 @@
 use crate::eval::escape::CollisionEscape;
 use crate::eval::progress;
 use crate::eval::traffic_rules;
+use crate::map::RoadMap;
 use crate::scenario::Scenario;
-use crate::sim::{Rollout, Termination};
+use crate::sim::{Rollout, RolloutSummary, Termination};
 use crate::spec::suite::VariantAcceptance;
 
 /// One failed criterion.
@@ -34,21 +35,40 @@ pub fn check(
     let map = &base.map;
     let mut out = Vec::new();
     let summary = rollout.summary();
-    let fail = |criterion: &str, what: String| AcceptanceFailure { criterion: criterion.to_string(), what };
     // A rollout that could not run to its end never passes, whatever the
     // criteria say: a planner that stops answering has not solved anything.
+    out.extend(termination_failure(rollout));
+    let against_the_planner = escape.is_none_or(CollisionEscape::avoidable);
+    if against_the_planner {
+        collision_failures(criteria, &summary, &mut out);
+    }
+    traffic_rule_failures(criteria, rollout, &summary, map, &mut out);
+    if let Some(share) = criteria.min_progress {
+        out.extend(progress_failure(share, rollout, base));
+    }
+    margin_failures(criteria, &summary, min_ttc_s, &mut out);
+    out
+}
+
+/// A criterion's failure.
+fn fail(criterion: &str, what: String) -> AcceptanceFailure {
+    AcceptanceFailure { criterion: criterion.to_string(), what }
+}
+
+/// Why a rollout that did not run to its end fails, if it did not.
+fn termination_failure(rollout: &Rollout) -> Option<AcceptanceFailure> {
     match &rollout.termination {
         Termination::Completed | Termination::EgoCollision { .. } | Termination::LeftMappedArea { .. } => {}
         Termination::PlannerFailed { step, reason } => {
             let t = step.saturating_sub(rollout.start_step) as f64 * rollout.dt_s;
-            out.push(fail(
+            return Some(fail(
                 "planner_must_answer",
                 format!("planner `{}` failed at t = {t:.1} s: {reason}", rollout.planner),
             ));
         }
         Termination::VehicleLimitExceeded { step, reason } => {
             let t = step.saturating_sub(rollout.start_step) as f64 * rollout.dt_s;
-            out.push(fail(
+            return Some(fail(
                 "vehicle_limits",
                 format!(
                     "planner `{}` drove the ego beyond its vehicle limits at t = {t:.1} s: {reason}",
@@ -58,15 +78,18 @@ pub fn check(
         }
         Termination::InvalidAgentState { step, agent, reason } => {
             let t = step.saturating_sub(rollout.start_step) as f64 * rollout.dt_s;
-            out.push(fail(
+            return Some(fail(
                 "rollout_completed",
                 format!("the rollout was aborted at t = {t:.1} s: agent {agent} has an invalid state: {reason}"),
             ));
         }
     }
-    let against_the_planner = escape.is_none_or(CollisionEscape::avoidable);
+    None
+}
+
+/// The collision criteria, for a collision that counts against the planner.
+fn collision_failures(criteria: &VariantAcceptance, summary: &RolloutSummary, out: &mut Vec<AcceptanceFailure>) {
     if criteria.no_collision
-        && against_the_planner
         && let Some(c) = &summary.ego_collision
     {
         let role = if c.with_cbv { " (the CBV)" } else { "" };
@@ -83,7 +106,6 @@ pub fn check(
     }
     if criteria.no_at_fault_collision
         && !criteria.no_collision
-        && against_the_planner
         && let Some(c) = summary.ego_collision.as_ref().filter(|c| c.at_fault)
     {
         let role = if c.with_cbv { " (the CBV)" } else { "" };
@@ -97,6 +119,17 @@ pub fn check(
             ),
         ));
     }
+}
+
+/// The driving rules: off road, wrong way, red lights, speeding; each
+/// unmeasurable on a map without what it needs, which fails.
+fn traffic_rule_failures(
+    criteria: &VariantAcceptance,
+    rollout: &Rollout,
+    summary: &RolloutSummary,
+    map: &RoadMap,
+    out: &mut Vec<AcceptanceFailure>,
+) {
     if criteria.no_off_road {
         if map.road_edges.is_empty() {
             // Without road edges nothing is off the road: not a pass.
@@ -151,32 +184,44 @@ pub fn check(
             ));
         }
     }
-    if let Some(share) = criteria.min_progress {
-        let logged = base.ego.map_or(&[][..], |ego| &base.track(ego).states[..]);
-        match progress::progress(rollout, logged) {
-            None => out.push(fail(
-                "min_progress",
-                format!(
-                    "cannot be measured: the logged ego drives under {} m over these steps, so there is no route \
+}
+
+/// `min_progress: share`: the ego covers that share of the logged ego's
+/// distance unless something in its path stopped it.
+fn progress_failure(share: f64, rollout: &Rollout, base: &Scenario) -> Option<AcceptanceFailure> {
+    let logged = base.ego.map_or(&[][..], |ego| &base.track(ego).states[..]);
+    match progress::progress(rollout, logged) {
+        None => Some(fail(
+            "min_progress",
+            format!(
+                "cannot be measured: the logged ego drives under {} m over these steps, so there is no route \
                      to measure progress along",
-                    progress::MIN_LOGGED_ROUTE_M
-                ),
-            )),
-            // A NaN share (no distance logged) cannot pass.
-            Some(p) if p.blocked_by.is_none() && (p.share().is_nan() || p.share() < share) => out.push(fail(
-                "min_progress",
-                format!(
-                    "ego drove {:.1} m, {:.0} % of the logged ego's {:.1} m (at least {:.0} % asked), and nothing \
+                progress::MIN_LOGGED_ROUTE_M
+            ),
+        )),
+        // A NaN share (no distance logged) cannot pass.
+        Some(p) if p.blocked_by.is_none() && (p.share().is_nan() || p.share() < share) => Some(fail(
+            "min_progress",
+            format!(
+                "ego drove {:.1} m, {:.0} % of the logged ego's {:.1} m (at least {:.0} % asked), and nothing \
                      in its path stopped it",
-                    p.driven_m,
-                    100.0 * p.share(),
-                    p.logged_m,
-                    100.0 * share
-                ),
-            )),
-            Some(_) => {}
-        }
+                p.driven_m,
+                100.0 * p.share(),
+                p.logged_m,
+                100.0 * share
+            ),
+        )),
+        Some(_) => None,
     }
+}
+
+/// The margins: the smallest gap to any agent and the time to collision.
+fn margin_failures(
+    criteria: &VariantAcceptance,
+    summary: &RolloutSummary,
+    min_ttc_s: Option<f64>,
+    out: &mut Vec<AcceptanceFailure>,
+) {
     // A NaN gap (an agent at a non-finite position) fails.
     if let (Some(min), Some(gap)) = (criteria.min_gap_m, summary.min_distance_to_ego_m)
         && (gap.is_nan() || gap < min)
@@ -189,7 +234,6 @@ pub fn check(
     {
         out.push(fail("min_ttc_s", format!("time to collision fell to {ttc:.1} s < {min} s")));
     }
-    out
 }
 
 #[cfg(test)]
