@@ -164,7 +164,14 @@ fn build(events: &[(Event<'_>, SpecLocation)], pos: &mut usize) -> Option<Node> 
 }
 
 /// Whether the next event closes the collection (consuming it if so).
+/// Comments and anchors before it are passed over: a comment after a
+/// mapping's last entry (`acceptance:` followed by an indented note) would
+/// otherwise be read as the start of another entry, and the close as its
+/// value.
 fn at_end(events: &[(Event<'_>, SpecLocation)], pos: &mut usize, end: impl Fn(&Event<'_>) -> bool) -> bool {
+    while events.get(*pos).is_some_and(|(e, _)| matches!(e, Event::Comment(..) | Event::Anchor(..))) {
+        *pos += 1;
+    }
     match events.get(*pos) {
         Some((e, _)) if end(e) => {
             *pos += 1;
@@ -249,5 +256,13 @@ mod tests {
             parse_path("a.b[2][3].c"),
             vec![Step::Key("a"), Step::Key("b"), Step::Index(2), Step::Index(3), Step::Key("c")]
         );
+    }
+
+    #[test]
+    fn a_comment_after_a_mappings_last_entry_does_not_lose_the_places() {
+        let text =
+            "scenarios:\n  - recorded: data:x\nacceptance:\n  variant: { no_off_road: true }\n  # a note\n  # more\n";
+        assert_eq!(locate(text, "scenarios[0].recorded"), Some(SpecLocation { line: 2, column: 15 }));
+        assert_eq!(locate(text, "acceptance.variant.no_off_road"), Some(SpecLocation { line: 4, column: 27 }));
     }
 }
