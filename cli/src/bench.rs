@@ -163,113 +163,8 @@ pub(super) fn run(scenes: &Path, repeat: usize, json: Option<&Path>) -> Result<E
     let cpus = std::thread::available_parallelism().map_or(1, |n| n.get());
     writeln!(out, "safer bench: {profile} build, {cpus} CPUs, median of {repeat} runs, single-threaded\n")?;
 
-    // Import: per format, the mean and max of per-scene medians.
-    let paths = scene_paths(scenes)?;
-    let mut per_format: BTreeMap<SourceFormat, (Vec<Duration>, Vec<Duration>, usize)> = BTreeMap::new();
-    let mut sim_candidates = Vec::new();
-    let mut womd = Vec::new();
-    for p in &paths {
-        let format = import::detect_format(p)?;
-        let (read_t, _) = time(repeat, || {
-            let files = match format {
-                SourceFormat::Argoverse2 => {
-                    import::argoverse2::find_scenario_files(p).map(|f| vec![f.scenario, f.map]).unwrap_or_default()
-                }
-                _ => vec![p.clone()],
-            };
-            files.iter().map(|f| std::fs::read(f).map(|b| b.len()).unwrap_or(0)).sum::<usize>()
-        });
-        let (import_t, scenarios) = time(repeat, || import::load(p));
-        let scenarios = scenarios?;
-        let e = per_format.entry(format).or_default();
-        e.0.push(import_t / scenarios.len().max(1) as u32);
-        e.1.push(read_t / scenarios.len().max(1) as u32);
-        e.2 += scenarios.len();
-        if matches!(format, SourceFormat::WomdProto | SourceFormat::WomdJson) {
-            womd.extend(scenarios.iter().cloned());
-        }
-        if format == SourceFormat::WomdProto {
-            sim_candidates.extend(scenarios);
-        }
-    }
-    let mut import_rows = Vec::new();
-    writeln!(
-        out,
-        "{:<12} {:>7} {:>14} {:>13} {:>15}",
-        "format", "scenes", "import ms/scene", "max ms/scene", "× file read"
-    )?;
-    for (format, (imports, reads, n)) in &per_format {
-        let mean = |v: &Vec<Duration>| v.iter().sum::<Duration>().as_secs_f64() * 1e3 / v.len() as f64;
-        let max = imports.iter().max().copied().map_or(0.0, ms);
-        let row = ImportRow {
-            format: *format,
-            scenes: *n,
-            import_ms_per_scene: mean(imports),
-            max_ms_per_scene: max,
-            file_read_ms_per_scene: mean(reads),
-            ratio_to_file_read: mean(imports) / mean(reads).max(1e-9),
-        };
-        let name = serde_json::to_value(format)?;
-        writeln!(
-            out,
-            "{:<12} {:>7} {:>14.1} {:>13.1} {:>15.0}",
-            name.as_str().unwrap_or_default(),
-            row.scenes,
-            row.import_ms_per_scene,
-            row.max_ms_per_scene,
-            row.ratio_to_file_read
-        )?;
-        import_rows.push(row);
-    }
-
-    // Simulator: 9 s WOMD scenes, every agent and the ego on log replay.
-    writeln!(
-        out,
-        "\n{:<40} {:>7} {:>7} {:>10} {:>14} {:>16}",
-        "simulator (all log replay)", "agents", "steps", "steps/s", "agent-steps/s", "× bare replay"
-    )?;
-    let mut simulator_rows = Vec::new();
-    for s in &sim_candidates {
-        let Some(ego) = s.ego else { continue };
-        let (sim_t, steps) = time(repeat, || {
-            let mut planner = BuiltinPlanner::LogReplay.instantiate(s, ego);
-            Simulation::new(s, SimConfig::default()).map(|sim| sim.run(planner.as_mut()).steps())
-        });
-        let steps = steps?;
-        // Reference: copy each step's recorded states, nothing else.
-        let (bare_t, _) = time(repeat, || {
-            let mut acc = 0usize;
-            for k in s.current_step..s.num_steps() {
-                let row: Vec<_> = s.tracks.iter().map(|t| t.state(k).copied()).collect();
-                acc += row.iter().flatten().count();
-            }
-            acc
-        });
-        let sps = steps as f64 / sim_t.as_secs_f64();
-        let row = SimulatorRow {
-            scene: s.id.clone(),
-            agents: s.tracks.len(),
-            steps,
-            steps_per_s: sps,
-            agent_steps_per_s: sps * s.tracks.len() as f64,
-            bare_replay_ms: ms(bare_t),
-            ratio_to_bare_replay: sim_t.as_secs_f64() / bare_t.as_secs_f64().max(1e-9),
-        };
-        writeln!(
-            out,
-            "{:<40} {:>7} {:>7} {:>10.0} {:>14.0} {:>16.1}",
-            row.scene.chars().take(40).collect::<String>(),
-            row.agents,
-            row.steps,
-            row.steps_per_s,
-            row.agent_steps_per_s,
-            row.ratio_to_bare_replay
-        )?;
-        simulator_rows.push(row);
-    }
-    if simulator_rows.is_empty() {
-        writeln!(out, "(no WOMD protobuf scene with an ego among the scenes: the simulator is not timed)")?;
-    }
+    let (import_rows, sim_candidates, womd) = bench_imports(&mut out, scenes, repeat)?;
+    let simulator_rows = bench_simulator(&mut out, &sim_candidates, repeat)?;
 
     let variant = bench_variant(&womd, repeat)?;
     match &variant {
@@ -341,6 +236,132 @@ pub(super) fn run(scenes: &Path, repeat: usize, json: Option<&Path>) -> Result<E
         }
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// The import rows, and the WOMD scenes the other benchmarks use: the
+/// protobuf ones (the simulator), the protobuf and JSON ones (the variant).
+type ImportedWomd = (Vec<ImportRow>, Vec<Scenario>, Vec<Scenario>);
+
+/// Import: per format, the mean and max of per-scene medians, each beside
+/// the time to read the files; with the WOMD scenes the other benchmarks use.
+fn bench_imports(out: &mut dyn Write, scenes: &Path, repeat: usize) -> Result<ImportedWomd, CliError> {
+    let paths = scene_paths(scenes)?;
+    let mut per_format: BTreeMap<SourceFormat, (Vec<Duration>, Vec<Duration>, usize)> = BTreeMap::new();
+    let mut sim_candidates = Vec::new();
+    let mut womd = Vec::new();
+    for p in &paths {
+        let format = import::detect_format(p)?;
+        let (read_t, _) = time(repeat, || {
+            let files = match format {
+                SourceFormat::Argoverse2 => {
+                    import::argoverse2::find_scenario_files(p).map(|f| vec![f.scenario, f.map]).unwrap_or_default()
+                }
+                _ => vec![p.clone()],
+            };
+            files.iter().map(|f| std::fs::read(f).map(|b| b.len()).unwrap_or(0)).sum::<usize>()
+        });
+        let (import_t, scenarios) = time(repeat, || import::load(p));
+        let scenarios = scenarios?;
+        let e = per_format.entry(format).or_default();
+        e.0.push(import_t / scenarios.len().max(1) as u32);
+        e.1.push(read_t / scenarios.len().max(1) as u32);
+        e.2 += scenarios.len();
+        if matches!(format, SourceFormat::WomdProto | SourceFormat::WomdJson) {
+            womd.extend(scenarios.iter().cloned());
+        }
+        if format == SourceFormat::WomdProto {
+            sim_candidates.extend(scenarios);
+        }
+    }
+    let mut import_rows = Vec::new();
+    writeln!(
+        out,
+        "{:<12} {:>7} {:>14} {:>13} {:>15}",
+        "format", "scenes", "import ms/scene", "max ms/scene", "× file read"
+    )?;
+    for (format, (imports, reads, n)) in &per_format {
+        let mean = |v: &Vec<Duration>| v.iter().sum::<Duration>().as_secs_f64() * 1e3 / v.len() as f64;
+        let max = imports.iter().max().copied().map_or(0.0, ms);
+        let row = ImportRow {
+            format: *format,
+            scenes: *n,
+            import_ms_per_scene: mean(imports),
+            max_ms_per_scene: max,
+            file_read_ms_per_scene: mean(reads),
+            ratio_to_file_read: mean(imports) / mean(reads).max(1e-9),
+        };
+        let name = serde_json::to_value(format)?;
+        writeln!(
+            out,
+            "{:<12} {:>7} {:>14.1} {:>13.1} {:>15.0}",
+            name.as_str().unwrap_or_default(),
+            row.scenes,
+            row.import_ms_per_scene,
+            row.max_ms_per_scene,
+            row.ratio_to_file_read
+        )?;
+        import_rows.push(row);
+    }
+
+    Ok((import_rows, sim_candidates, womd))
+}
+
+/// The simulator on 9 s WOMD scenes, every agent and the ego on log
+/// replay, beside copying the recorded states.
+fn bench_simulator(
+    out: &mut dyn Write,
+    sim_candidates: &[Scenario],
+    repeat: usize,
+) -> Result<Vec<SimulatorRow>, CliError> {
+    writeln!(
+        out,
+        "\n{:<40} {:>7} {:>7} {:>10} {:>14} {:>16}",
+        "simulator (all log replay)", "agents", "steps", "steps/s", "agent-steps/s", "× bare replay"
+    )?;
+    let mut simulator_rows = Vec::new();
+    for s in sim_candidates {
+        let Some(ego) = s.ego else { continue };
+        let (sim_t, steps) = time(repeat, || {
+            let mut planner = BuiltinPlanner::LogReplay.instantiate(s, ego);
+            Simulation::new(s, SimConfig::default()).map(|sim| sim.run(planner.as_mut()).steps())
+        });
+        let steps = steps?;
+        // Reference: copy each step's recorded states, nothing else.
+        let (bare_t, _) = time(repeat, || {
+            let mut acc = 0usize;
+            for k in s.current_step..s.num_steps() {
+                let row: Vec<_> = s.tracks.iter().map(|t| t.state(k).copied()).collect();
+                acc += row.iter().flatten().count();
+            }
+            acc
+        });
+        let sps = steps as f64 / sim_t.as_secs_f64();
+        let row = SimulatorRow {
+            scene: s.id.clone(),
+            agents: s.tracks.len(),
+            steps,
+            steps_per_s: sps,
+            agent_steps_per_s: sps * s.tracks.len() as f64,
+            bare_replay_ms: ms(bare_t),
+            ratio_to_bare_replay: sim_t.as_secs_f64() / bare_t.as_secs_f64().max(1e-9),
+        };
+        writeln!(
+            out,
+            "{:<40} {:>7} {:>7} {:>10.0} {:>14.0} {:>16.1}",
+            row.scene.chars().take(40).collect::<String>(),
+            row.agents,
+            row.steps,
+            row.steps_per_s,
+            row.agent_steps_per_s,
+            row.ratio_to_bare_replay
+        )?;
+        simulator_rows.push(row);
+    }
+    if simulator_rows.is_empty() {
+        writeln!(out, "(no WOMD protobuf scene with an ego among the scenes: the simulator is not timed)")?;
+    }
+
+    Ok(simulator_rows)
 }
 
 /// Times one SaFeR variant (seed 0, as `safer evaluate` seeds it) and its
