@@ -7,10 +7,10 @@
 //! an older build's files. Unpacking writes a sibling folder and renames
 //! it into place, so concurrent runs never see half a copy.
 
-use std::hash::{Hash, Hasher};
 use std::path::{Path, PathBuf};
 
 use include_dir::{Dir, DirEntry, include_dir};
+use sha2::{Digest, Sha256};
 
 /// The folders `safer:` paths may name, as they are in the crate.
 static SHIPPED: [(&str, Dir<'static>); 5] = [
@@ -61,29 +61,19 @@ fn cache_root() -> PathBuf {
 
 /// This build's folder under `root`, named by version and content hash.
 fn cache_dir(root: &Path, files: &[(PathBuf, &[u8])]) -> PathBuf {
-    // A stable content hash (FNV-1a over paths and bytes): the same build
-    // finds its copy again, a different one gets its own.
-    let mut hash = Fnv1a(0xcbf2_9ce4_8422_2325);
+    // A content hash (SHA-256, as model files are checked, over each
+    // path and its bytes, lengths first): the same build finds its copy
+    // again, a different one gets its own.
+    let mut hash = Sha256::new();
     for (path, bytes) in files {
-        path.hash(&mut hash);
-        bytes.hash(&mut hash);
+        let name = path.to_string_lossy();
+        hash.update((name.len() as u64).to_le_bytes());
+        hash.update(name.as_bytes());
+        hash.update((bytes.len() as u64).to_le_bytes());
+        hash.update(bytes);
     }
-    root.join(format!("shipped-{}-{:016x}", env!("CARGO_PKG_VERSION"), hash.0))
-}
-
-/// FNV-1a, 64 bit: stable across runs and Rust versions, unlike
-/// `DefaultHasher`.
-struct Fnv1a(u64);
-
-impl Hasher for Fnv1a {
-    fn finish(&self) -> u64 {
-        self.0
-    }
-    fn write(&mut self, bytes: &[u8]) {
-        for b in bytes {
-            self.0 = (self.0 ^ u64::from(*b)).wrapping_mul(0x0100_0000_01b3);
-        }
-    }
+    let digest: String = hash.finalize().iter().take(8).map(|b| format!("{b:02x}")).collect();
+    root.join(format!("shipped-{}-{digest}", env!("CARGO_PKG_VERSION")))
 }
 
 /// The folder holding the embedded files, unpacking them into the cache
