@@ -11,7 +11,7 @@ use std::time::{Duration, Instant};
 const EVERY: Duration = Duration::from_secs(30);
 
 /// Plain progress lines for `total` items of `what` (`variants`).
-pub(super) struct PlainProgress {
+struct PlainProgress {
     command: &'static str,
     what: &'static str,
     total: usize,
@@ -22,7 +22,7 @@ pub(super) struct PlainProgress {
 
 impl PlainProgress {
     /// `Some` when standard error is not a terminal and there is work.
-    pub(super) fn off_terminal(command: &'static str, what: &'static str, total: usize) -> Option<Self> {
+    fn off_terminal(command: &'static str, what: &'static str, total: usize) -> Option<Self> {
         (!std::io::stderr().is_terminal() && total > 0).then(|| {
             let now = Instant::now();
             Self { command, what, total, start: now, state: Mutex::new((0, now)) }
@@ -30,7 +30,7 @@ impl PlainProgress {
     }
 
     /// One item done; prints a line when [`EVERY`] has passed or all are done.
-    pub(super) fn tick(&self) {
+    fn tick(&self) {
         let mut state = self.state.lock().unwrap_or_else(|e| e.into_inner());
         state.0 += 1;
         let now = Instant::now();

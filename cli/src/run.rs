@@ -21,10 +21,9 @@
 //! failed (or could not run), 2 on usage errors and suites that do not load.
 
 use super::*;
-use std::io::{IsTerminal, Write};
+use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-use std::sync::Mutex;
 
 use rayon::prelude::*;
 use serde::Serialize;
@@ -132,51 +131,6 @@ struct CheckReport {
     message: Option<String>,
 }
 
-/// "k/n done" on one overwritten stderr line, only for a person watching:
-/// redirected stderr (CI logs, tests) stays free of carriage-return noise.
-struct Progress {
-    total: usize,
-    done: Mutex<usize>,
-    on: bool,
-    /// Off a terminal: plain lines instead.
-    plain: Option<super::progress::PlainProgress>,
-}
-
-impl Progress {
-    fn new(total: usize) -> Self {
-        let on = std::io::stderr().is_terminal() && total > 0;
-        let plain = super::progress::PlainProgress::off_terminal("run", "variants", total);
-        let p = Self { total, done: Mutex::new(0), on, plain };
-        p.show(0);
-        p
-    }
-
-    fn show(&self, done: usize) {
-        if self.on {
-            let mut err = std::io::stderr().lock();
-            let _ = write!(err, "\r{done}/{} variants done", self.total);
-            let _ = err.flush();
-        }
-    }
-
-    fn tick(&self) {
-        // The lock keeps the printed count in order across rayon threads;
-        // a poisoned lock only means another thread panicked mid-print.
-        if let Some(plain) = &self.plain {
-            plain.tick();
-        }
-        let mut done = self.done.lock().unwrap_or_else(|e| e.into_inner());
-        *done += 1;
-        self.show(*done);
-    }
-
-    fn finish(&self) {
-        if self.on {
-            eprint!("\r{:width$}\r", "", width = 40);
-        }
-    }
-}
-
 /// Where `safer run` writes its reports besides the table.
 pub(super) struct RunOutputs<'a> {
     /// The JSON report.
@@ -250,7 +204,7 @@ pub(super) fn run(
     // for a mutation score.
     let operators: Vec<Vec<FaultOperator>> =
         suites.iter().map(|(_, s)| harness::mutation::operators_for(&s.spec.value.acceptance.suite, mutants)).collect();
-    let progress = Progress::new(jobs.len());
+    let progress = super::progress::Progress::new("run", "variants", jobs.len());
     let exports: std::sync::Mutex<Vec<(String, Result<PathBuf, String>)>> = std::sync::Mutex::new(Vec::new());
     let done: Vec<Done> = jobs
         .par_iter()
@@ -279,7 +233,7 @@ pub(super) fn run(
             Done { outcome, mutants, artefacts }
         })
         .collect();
-    progress.finish();
+    drop(progress);
 
     // Each suite's jobs, sorted by scenario name and seed number so the
     // reports do not depend on scheduling.
