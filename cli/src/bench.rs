@@ -230,7 +230,7 @@ pub(super) fn run(scenes: &Path, repeat: usize, json: Option<&Path>) -> Result<E
     out.flush()?;
     if let Some(path) = json {
         let report = BenchReport { profile, cpus, repeat, import: import_rows, simulator: simulator_rows, variant };
-        safer_scenarios::record::write_output(path, (serde_json::to_string_pretty(&report)? + "\n").as_bytes())?;
+        super::write_json_report(path, &report)?;
         if !safer_scenarios::record::is_stdout(path) {
             eprintln!("wrote {}", path.display());
         }

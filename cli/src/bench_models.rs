@@ -343,7 +343,7 @@ pub(super) fn run(
             reference,
             decoder_profiles: profiles,
         };
-        safer_scenarios::record::write_output(path, (serde_json::to_string_pretty(&report)? + "\n").as_bytes())?;
+        super::write_json_report(path, &report)?;
         if !safer_scenarios::record::is_stdout(path) {
             eprintln!("wrote {}", path.display());
         }

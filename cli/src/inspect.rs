@@ -65,6 +65,9 @@ fn summarise(s: &Scenario) -> ScenarioSummary {
 }
 
 pub(super) fn run(file: &Path, json: Option<&Path>) -> Result<ExitCode, CliError> {
+    if let Some(path) = json {
+        super::check_json_report(path)?;
+    }
     let scenarios = import::load(file)?;
     let summaries: Vec<ScenarioSummary> = scenarios.iter().map(summarise).collect();
     if let Some(path) = json {

@@ -371,8 +371,7 @@ pub(super) fn run(args: &RealismRequest) -> Result<ExitCode, CliError> {
 /// the folder of a file path first.
 fn write_json(path: &Path, report: &Report<'_>) -> Result<(), CliError> {
     safer_scenarios::record::create_parent_folder(path)?;
-    safer_scenarios::record::write_output(path, (serde_json::to_string_pretty(report)? + "\n").as_bytes())?;
-    Ok(())
+    super::write_json_report(path, report)
 }
 
 /// The prior's sampling for the table's title where it is not the default.

@@ -47,6 +47,9 @@ pub(super) fn run(
     background: BackgroundPolicy,
     json: Option<&Path>,
 ) -> Result<ExitCode, CliError> {
+    if let Some(path) = json {
+        super::check_json_report(path)?;
+    }
     let paths = scene_paths(path)?;
     // Files in parallel; results come back in path order, so output is
     // deterministic. An import error names its file already; a simulation

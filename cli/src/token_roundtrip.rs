@@ -27,6 +27,9 @@ struct Row {
 }
 
 pub(super) fn run(scenes: &Path, json: Option<&Path>) -> Result<ExitCode, CliError> {
+    if let Some(path) = json {
+        super::check_json_report(path)?;
+    }
     let paths = scene_paths(scenes)?;
     let started = std::time::Instant::now();
     type FileTally = Vec<(SourceFormat, AgentKind, RoundTripError)>;
