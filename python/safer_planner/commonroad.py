@@ -22,8 +22,8 @@ are left out):
 - lanelet types: ``road_type`` (``urban`` by default), with ``intersection``
   added for lanes inside an intersection;
 - a traffic light at each signal stop point, on its lane, with a stop line
-  across the lane there; the light's state is the observation's where
-  ``signals`` are given (a one-state cycle), else unknown (no cycle);
+  across the lane there; its cycle is one state, the observation's where
+  ``signals`` name the lane, else inactive (unknown);
 - a stop line across each lane at its ``stop_line`` point, and a stop sign
   (German sign 206, CommonRoad's default country) on each lane a stop sign
   controls.
@@ -190,9 +190,9 @@ def lanelet_network(
         if stop.lane not in ids or stop.lane in light_of:
             continue
         light_id = new_id()
-        cycle = None
-        if stop.lane in states:
-            cycle = TrafficLightCycle([TrafficLightCycleElement(traffic_light_state(states[stop.lane]), 1)])
+        # A one-state cycle: CommonRoad files need a cycle on every light.
+        state = traffic_light_state(states.get(stop.lane, "unknown"))
+        cycle = TrafficLightCycle([TrafficLightCycleElement(state, 1)])
         lights.append(TrafficLight(light_id, np.array(stop.stop_point), traffic_light_cycle=cycle))
         light_of[stop.lane] = (light_id, stop.stop_point)
 
