@@ -26,7 +26,7 @@ are left out):
   ``signals`` name the lane, else inactive (unknown);
 - a stop line across each lane at its ``stop_line`` point, and a stop sign
   (German sign 206, CommonRoad's default country) on each lane a stop sign
-  controls.
+  controls (a stop sign that names no lane on the map is left out).
 
 Ids of the traffic lights and signs follow the largest lane id.
 """
@@ -44,15 +44,26 @@ INSTALL_HINT = 'pip install "safer-planner[commonroad]" (from the SaFeR reposito
 """The command that installs what this module needs."""
 
 try:
+    # commonroad-io ships no type information.
     import numpy as np
-    from commonroad.scenario.lanelet import Lanelet, LaneletNetwork, LaneletType, LineMarking, StopLine
-    from commonroad.scenario.traffic_light import (
+    from commonroad.scenario.lanelet import (  # type: ignore[import-untyped]
+        Lanelet,
+        LaneletNetwork,
+        LaneletType,
+        LineMarking,
+        StopLine,
+    )
+    from commonroad.scenario.traffic_light import (  # type: ignore[import-untyped]
         TrafficLight,
         TrafficLightCycle,
         TrafficLightCycleElement,
         TrafficLightState,
     )
-    from commonroad.scenario.traffic_sign import TrafficSign, TrafficSignElement, TrafficSignIDGermany
+    from commonroad.scenario.traffic_sign import (  # type: ignore[import-untyped]
+        TrafficSign,
+        TrafficSignElement,
+        TrafficSignIDGermany,
+    )
 except ImportError as e:  # the extra is not installed
     raise ImportError(
         f"safer_planner.commonroad needs commonroad-io 2024.x, which is not installed ({e}): {INSTALL_HINT}"
@@ -108,21 +119,38 @@ def _bounds(lane: Lane, default_width_m: float) -> Tuple[List[Point], List[Point
     return _offset_line(lane.centreline, half), _offset_line(lane.centreline, -half)
 
 
-def _runs_along(a: Sequence[Point], b: Sequence[Point], tolerance_m: float) -> bool:
-    """Whether polyline ``a`` runs along polyline ``b`` the other way round:
-    its midpoint and ``b``'s within ``tolerance_m`` of the other line, the
+class _Border:
+    """A lane border as a path, with its midpoint and bounding box (for a
+    quick rejection before the exact test)."""
+
+    __slots__ = ("path", "mid", "box")
+
+    def __init__(self, points: Sequence[Point]) -> None:
+        self.path = Path(points)
+        self.mid = self.path.point_at(0.5 * self.path.length)
+        xs, ys = [p[0] for p in points], [p[1] for p in points]
+        self.box = (min(xs), min(ys), max(xs), max(ys))
+
+    def near(self, point: Point, tolerance_m: float) -> bool:
+        x0, y0, x1, y1 = self.box
+        return x0 - tolerance_m <= point[0] <= x1 + tolerance_m and y0 - tolerance_m <= point[1] <= y1 + tolerance_m
+
+
+def _runs_along(a: _Border, b: _Border, tolerance_m: float) -> bool:
+    """Whether border ``a`` runs along border ``b`` the other way round:
+    each one's midpoint within ``tolerance_m`` of the other line, the
     directions there opposite."""
-    pa, pb = Path(a), Path(b)
-    for this, other in ((pa, pb), (pb, pa)):
-        if this.length <= 0.0 or other.length <= 0.0:
+    if not (b.near(a.mid, tolerance_m) and a.near(b.mid, tolerance_m)):
+        return False
+    for this, other in ((a, b), (b, a)):
+        if this.path.length <= 0.0 or other.path.length <= 0.0:
             return False
-        s_mid = 0.5 * this.length
-        x, y = this.point_at(s_mid)
-        p = other.project(x, y)
-        if p is None or abs(p.lateral) > tolerance_m or p.s < -tolerance_m or p.s > other.length + tolerance_m:
+        p = other.path.project(this.mid[0], this.mid[1])
+        if p is None or abs(p.lateral) > tolerance_m or p.s < -tolerance_m or p.s > other.path.length + tolerance_m:
             return False
-        turn = this.heading_at(min(s_mid, max(0.0, this.length - 1.0))) - other.heading_at(
-            min(max(p.s, 0.0), max(0.0, other.length - 1.0))
+        s_mid = 0.5 * this.path.length
+        turn = this.path.heading_at(min(s_mid, max(0.0, this.path.length - 1.0))) - other.path.heading_at(
+            min(max(p.s, 0.0), max(0.0, other.path.length - 1.0))
         )
         if math.cos(turn) > -0.5:
             return False
@@ -175,6 +203,7 @@ def lanelet_network(
             raise ConversionError(f"lane {lane.id}: CommonRoad lanelet ids are non-negative integers")
     ids = {lane.id for lane in lanes}
     bounds = {lane.id: _bounds(lane, default_width_m) for lane in lanes}
+    borders = {lane_id: (_Border(left), _Border(right)) for lane_id, (left, right) in bounds.items()}
     next_id = max(ids, default=-1) + 1
 
     def new_id() -> int:
@@ -225,10 +254,9 @@ def lanelet_network(
             if same is not None:
                 adjacent[side] = (same, True)
                 continue
-            mine = left if side == "left" else right
+            k = 0 if side == "left" else 1
             for other in lanes:
-                theirs = bounds[other.id][0 if side == "left" else 1]
-                if other.id != lane.id and _runs_along(mine, theirs, adjacency_tolerance_m):
+                if other.id != lane.id and _runs_along(borders[lane.id][k], borders[other.id][k], adjacency_tolerance_m):
                     adjacent[side] = (other.id, False)
                     break
         stop_line = None
