@@ -9,10 +9,14 @@ replanning schedule, the obstacles within the same 120 m. Then it compares
 the two outcomes: the first collision (agent and time) and the smallest
 clearance, each side measured the same way (box against box).
 
-    reproduce.py EXPORT.xml LOG.json [--json OUT] [--png OUT]
+    reproduce.py EXPORT.xml LOG.json [--report SAFER.json] [--json OUT] [--png OUT]
+
+With --report (``safer run --json``), safer's side is safer's own verdict
+on the variant (its collision and smallest gap) instead of the same
+measurement on the ego safer moved.
 
 --png draws the export with CommonRoad's own renderer (MPRenderer) at the
-collision (else the closest approach), with both egos' paths and boxes.
+collision (else at its last step), with both egos' paths and boxes.
 
 Exits 1 when the outcomes differ: another agent hit or the collision more
 than 0.5 s apart, or, without a collision, the smallest clearances more
@@ -103,6 +107,7 @@ def drive(log, problem, obstacles, off, steps):
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("export"), ap.add_argument("log"), ap.add_argument("--json"), ap.add_argument("--png")
+    ap.add_argument("--report")
     a = ap.parse_args()
     log = json.load(open(a.log))
     scenario, problem = load(a.export)
@@ -112,6 +117,8 @@ def main():
     cr_ego, size = drive(log, problem, obstacles, off, len(safer_ego))
     ids = match_ids(log["first"], obstacles)
     safer, cr = outcome(safer_ego, size, obstacles, ids), outcome(cr_ego, size, obstacles, ids)
+    if a.report:
+        safer = reported(a.report, log["hello"]["scenario"]["variant"])
     drift = max(math.hypot(cr_ego[k][0] - safer_ego[k][0], cr_ego[k][1] - safer_ego[k][1]) for k in safer_ego)
     same = (safer[0] is None) == (cr[0] is None) and (
         abs(safer[1] - cr[1]) <= 0.2 if safer[0] is None
@@ -136,23 +143,36 @@ def picture(scenario, problem, off, egos, size, result, out):
     from commonroad.visualization.mp_renderer import MPRenderer
 
     k = round(result[0][1] / DT) if result[0] else max(egos["CommonRoad"])
-    fig = plt.figure(figsize=(16, 5))
+    fig = plt.figure(figsize=(10, 7))
     rnd = MPRenderer(ax=fig.gca())
     rnd.draw_params.time_begin = k
     scenario.draw(rnd)
     problem.draw(rnd)
     rnd.render()
-    for (name, states), colour in zip(egos.items(), ("tab:red", "tab:blue")):
+    for (name, states), colour, lw, ls in zip(egos.items(), ("tab:red", "tab:blue"), (3, 1.5), ("-", "--")):
         xs, ys = zip(*[(p[0] + off[0], p[1] + off[1]) for _, p in sorted(states.items())])
-        rnd.ax.plot(xs, ys, color=colour, lw=1, zorder=50, label=f"ego driven by the reactive planner in {name}")
+        rnd.ax.plot(xs, ys, color=colour, lw=lw, ls=ls, zorder=50, label=f"ego in {name}")
         x, y, h = states[min(k, max(states))]
         rnd.ax.add_patch(plt.Polygon(box(x + off[0], y + off[1], h, *size).exterior.coords, fill=False,
-                                     ec=colour, lw=2, zorder=51))
+                                     ec=colour, lw=lw, ls=ls, zorder=51))
     x, y, _ = egos["CommonRoad"][min(k, max(egos["CommonRoad"]))]
-    rnd.ax.set_xlim(x + off[0] - 60, x + off[0] + 60), rnd.ax.set_ylim(y + off[1] - 20, y + off[1] + 20)
-    rnd.ax.legend(loc="upper left")
+    rnd.ax.set_aspect("equal", adjustable="datalim")
+    rnd.ax.set_xlim(x + off[0] - 40, x + off[0] + 40), rnd.ax.set_ylim(y + off[1] - 25, y + off[1] + 25)
+    rnd.ax.legend(loc="lower left")
     rnd.ax.set_title(f"{scenario.scenario_id} at t = {k * DT:.1f} s ({'collision with ' + str(result[0][0]) if result[0] else 'no collision'})")
     fig.savefig(out, dpi=120, bbox_inches="tight")
+
+
+def reported(report, variant):
+    """safer's verdict on ``variant`` in a ``safer run --json`` report: its
+    first collision ``(agent, time_s)`` (or ``None``) and smallest gap."""
+    for suite in json.load(open(report))["suites"]:
+        for v in suite["variants"]:
+            if v["variant"] == variant:
+                hit = v["stage2_collision"]
+                agent, _, t = hit.rpartition(" at ") if hit else (None, None, None)
+                return ((agent, float(t.removesuffix(" s"))) if hit else None), v["stage2_min_gap_m"]
+    raise SystemExit(f"{report} has no variant {variant}")
 
 
 def match_ids(first, obstacles):
