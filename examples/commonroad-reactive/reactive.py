@@ -14,7 +14,7 @@ from commonroad_rp.reactive_planner import ReactivePlanner
 from commonroad_rp.state import ReactivePlannerState
 from commonroad_rp.utility.config import ReactivePlannerConfiguration
 from commonroad_rp.utility.utils_coordinate_system import create_coordinate_system
-from safer_planner import Path, centre_from_rear_axle, rear_axle_from_centre
+from safer_planner import Path, PlannerError, centre_from_rear_axle, rear_axle_from_centre
 
 DT = 0.1
 HORIZON_STEPS = 30  # a 3 s plan: long enough to brake from highway speed, short enough to plan fast
@@ -33,6 +33,10 @@ def predict(agents, step, steps=HORIZON_STEPS):
             tvo.append_obstacle(pycrcc.RectOBB(length / 2, width / 2, h, x + d * math.cos(h), y + d * math.sin(h)))
         checker.add_collision_object(tvo)
     return checker
+
+
+class NoPlan(PlannerError):
+    """No plan found and none left to follow (behind safer: the planner gives up)."""
 
 
 class Driver:
@@ -76,22 +80,11 @@ class Driver:
                                coordinate_system=self.coords)
             self.planner.set_desired_velocity(self.desired, current_speed=x0.velocity)
             result = self.planner.plan()
-        except (ValueError, AssertionError, Exception) as e:  # noqa: BLE001 - off the reference path's domain
-            if not isinstance(e, (ValueError, AssertionError)) and "curvilinear" not in str(e).lower():
-                raise
+        except ValueError:  # the ego outside the reference path's projection domain: no plan
+            pass
         self.plans, self.failed = self.plans + 1, self.failed + (result is None)
         if result is not None:
             self.last, i = (k, result[0], result[1], result[2]), 0
-        elif not ahead:  # nothing to follow: brake straight ahead
-            return [(x + math.cos(h) * d, y + math.sin(h) * d, h, w) for w, d in _braking(v)]
+        elif not ahead:  # nothing to follow: give up, as the planner's own run_planner.py does
+            raise NoPlan(f"no feasible trajectory at step {k} and no earlier plan left to follow")
         return [self.centre(s) for s in self.last[1].state_list[i + 1 :]]
-
-
-def _braking(v, decel=6.0):
-    """``(speed, distance)`` at each step of braking from ``v`` to a stop."""
-    out, d = [], 0.0
-    for _ in range(HORIZON_STEPS):
-        w = max(0.0, v - decel * DT)
-        d, v = d + (v + w) / 2 * DT, w
-        out.append((v, d))
-    return out

@@ -32,7 +32,7 @@ from commonroad.common.file_reader import CommonRoadFileReader  # noqa: E402
 from shapely.geometry import Polygon  # noqa: E402
 
 sys.path.insert(0, __import__("os").path.dirname(__import__("os").path.abspath(__file__)))
-from reactive import DT, Driver  # noqa: E402
+from reactive import DT, Driver, NoPlan  # noqa: E402
 
 PERCEPTION_M = 120.0  # safer sends the planner the road users within this range of the ego
 
@@ -100,7 +100,10 @@ def drive(log, problem, obstacles, off, steps):
             driver.set_route(routes[k]["points"])
         near = [(*s[k], length, width) for _, length, width, s in obstacles
                 if k in s and math.hypot(s[k][0] - ego[0], s[k][1] - ego[1]) <= PERCEPTION_M]
-        ego = driver.step(k, ego, near)[0]
+        try:
+            ego = driver.step(k, ego, near)[0]
+        except NoPlan:  # the planner gives up: the rollout ends here, in safer too
+            break
     return states, size
 
 
