@@ -60,9 +60,10 @@ class Driver:
         """``(x, y, heading, speed)`` of the box centre of planner state ``s`` (rear axle)."""
         return (*centre_from_rear_axle(*s.position, s.orientation, self.rear), s.orientation, s.velocity)
 
-    def step(self, k, ego, agents):
+    def step(self, k, ego, agents, checker=None):
         """The ego's states from step ``k + 1`` on, given its state ``ego``
-        ``(x, y, heading, speed)`` and the agents' (see :func:`predict`) at step ``k``."""
+        ``(x, y, heading, speed)`` and the agents' (see :func:`predict`) at
+        step ``k``, or a collision ``checker`` to plan against instead."""
         last, i = self.last, k - self.last[0] if self.last else 0
         ahead = last is not None and i + 1 < len(last[1].state_list)
         if ahead and k % REPLAN_EVERY:
@@ -76,7 +77,7 @@ class Driver:
                 orientation=h, velocity=v, acceleration=0.0, yaw_rate=0.0, steering_angle=0.0), None
         x0.time_step, result = k, None
         try:
-            self.planner.reset(initial_state_cart=x0, initial_state_curv=x0_cl, collision_checker=predict(agents, k),
+            self.planner.reset(initial_state_cart=x0, initial_state_curv=x0_cl, collision_checker=checker or predict(agents, k),
                                coordinate_system=self.coords)
             self.planner.set_desired_velocity(self.desired, current_speed=x0.velocity)
             result = self.planner.plan()

@@ -71,6 +71,17 @@ def obstacle_states(scenario, off):
     return out
 
 
+def checker(scenario):
+    """A collision checker holding the scenario's dynamic obstacles on their own trajectories."""
+    from commonroad_dc.collision.collision_detection.pycrcc_collision_dispatch import create_collision_object
+    from commonroad_dc.pycrcc import CollisionChecker
+
+    cc = CollisionChecker()
+    for o in scenario.dynamic_obstacles:
+        cc.add_collision_object(create_collision_object(o))
+    return cc
+
+
 def outcome(ego_states, size, obstacles, ids=None):
     """First collision ``(agent, time_s)`` (or ``None``) and the smallest
     clearance of the ego's boxes ``{step: (x, y, heading)}`` to the obstacles'."""
@@ -86,9 +97,11 @@ def outcome(ego_states, size, obstacles, ids=None):
     return first, clearance
 
 
-def drive(log, problem, obstacles, off, steps):
+def drive(log, problem, obstacles, off, steps, oracle=None):
     """The ego's states ``{step: (x, y, heading)}`` with the reactive planner
-    in the loop, from the planning problem's initial state."""
+    in the loop, from the planning problem's initial state; with ``oracle``
+    (the scenario) it plans against the obstacles' exported trajectories,
+    as run_planner.py does, instead of what safer showed it."""
     first = log["first"]["ego"]
     size = (first["length_m"], first["width_m"])
     init = problem.initial_state
@@ -101,7 +114,7 @@ def drive(log, problem, obstacles, off, steps):
         near = [(*s[k], length, width) for _, length, width, s in obstacles
                 if k in s and math.hypot(s[k][0] - ego[0], s[k][1] - ego[1]) <= PERCEPTION_M]
         try:
-            ego = driver.step(k, ego, near)[0]
+            ego = driver.step(k, ego, near, oracle and checker(oracle))[0]
         except NoPlan:  # the planner gives up: the rollout ends here, in safer too
             break
     return states, size
@@ -111,6 +124,9 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("export"), ap.add_argument("log"), ap.add_argument("--json"), ap.add_argument("--png")
     ap.add_argument("--report")
+    ap.add_argument("--oracle", action="store_true",
+                    help="plan against the exported trajectories (the future), as run_planner.py does; "
+                         "reported beside, not compared")
     a = ap.parse_args()
     log = json.load(open(a.log))
     scenario, problem = load(a.export)
@@ -122,13 +138,17 @@ def main():
     safer, cr = outcome(safer_ego, size, obstacles, ids), outcome(cr_ego, size, obstacles, ids)
     if a.report:
         safer = reported(a.report, log["hello"]["scenario"]["variant"])
-    drift = max(math.hypot(cr_ego[k][0] - safer_ego[k][0], cr_ego[k][1] - safer_ego[k][1]) for k in safer_ego)
+    drift = max(math.dist(cr_ego[k][:2], safer_ego[k][:2]) for k in safer_ego if k in cr_ego)
     same = (safer[0] is None) == (cr[0] is None) and (
         abs(safer[1] - cr[1]) <= 0.2 if safer[0] is None
         else safer[0][0] == cr[0][0] and abs(safer[0][1] - cr[0][1]) <= 0.5)
     report = {"export": a.export, "steps": len(safer_ego), "max_ego_distance_m": round(drift, 3), "same": same,
               "safer": {"collision": safer[0], "min_clearance_m": round(safer[1], 3)},
               "commonroad": {"collision": cr[0], "min_clearance_m": round(cr[1], 3)}}
+    if a.oracle:
+        future, _ = drive(log, problem, obstacles, off, len(safer_ego), oracle=scenario)
+        hit, gap = outcome(future, size, obstacles, ids)
+        report["commonroad_knowing_the_future"] = {"collision": hit, "min_clearance_m": round(gap, 3)}
     print(json.dumps(report))
     if a.json:
         json.dump(report, open(a.json, "w"), indent=1)
