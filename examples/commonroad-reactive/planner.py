@@ -24,7 +24,8 @@ class ReactivePlanner(Planner):
             raise PlannerError(f"the reactive planner steps {DT} s; the harness steps {hello.dt_s} s")
         out, variant = os.environ.get("SAFER_REACTIVE_LOG"), hello.scenario and hello.scenario.variant
         if out and variant:
-            self.log_out = {"path": os.path.join(out, *variant.split("::")) + ".json", "hello": hello.raw, "routes": [], "ego": {}}
+            path = os.path.join(out, *variant.split("::")) + ".json"
+            self.log_out = {"path": path, "hello": hello.raw, "routes": [], "ego": {}}
 
     def plan(self, obs):
         ego, k = obs.ego, obs.step - (self.hello.horizon.start_step if self.hello.horizon else 0)
@@ -43,7 +44,8 @@ class ReactivePlanner(Planner):
         states = self.driver.step(k, (ego.x, ego.y, ego.heading_rad, ego.speed_mps), agents)
         if self.log_out is not None:
             self.log_out["ego"].update({k: (ego.x, ego.y, ego.heading_rad), k + 1: states[0][:3]})
-        return Trajectory([TrajectoryPoint(DT * (i + 1), x, y, h, max(v, 0.0)) for i, (x, y, h, v) in enumerate(states)])
+        return Trajectory([TrajectoryPoint(DT * (i + 1), x, y, h, max(v, 0.0))
+                           for i, (x, y, h, v) in enumerate(states)])
 
     def on_bye(self):
         if self.log_out is not None:

@@ -54,7 +54,8 @@ class Driver:
 
     def set_route(self, points):
         """A new route: the reference path from now on."""
-        self.coords, self.last = create_coordinate_system(np.array(Path(points).extended(EXTEND_M, EXTEND_M).points)), None
+        reference = np.array(Path(points).extended(EXTEND_M, EXTEND_M).points)
+        self.coords, self.last = create_coordinate_system(reference), None
 
     def centre(self, s):
         """``(x, y, heading, speed)`` of the box centre of planner state ``s`` (rear axle)."""
@@ -69,16 +70,17 @@ class Driver:
         if ahead and k % REPLAN_EVERY:
             return [self.centre(s) for s in last[1].state_list[i + 1 :]]
         x, y, h, v = ego
-        if ahead and math.hypot(*(np.subtract(self.centre(last[1].state_list[i])[:2], (x, y)))) < 0.05:
-            x0, x0_cl = last[1].state_list[i], (last[2][i], last[3][i])  # on the plan: keep its acceleration and steering
+        if ahead and math.dist(self.centre(last[1].state_list[i])[:2], (x, y)) < 0.05:
+            # On the plan: start from the planned state, keeping its acceleration and steering.
+            x0, x0_cl = last[1].state_list[i], (last[2][i], last[3][i])
         else:
             x0, x0_cl = ReactivePlannerState(
                 time_step=k, position=np.array(rear_axle_from_centre(x, y, h, self.rear)),
                 orientation=h, velocity=v, acceleration=0.0, yaw_rate=0.0, steering_angle=0.0), None
         x0.time_step, result = k, None
         try:
-            self.planner.reset(initial_state_cart=x0, initial_state_curv=x0_cl, collision_checker=checker or predict(agents, k),
-                               coordinate_system=self.coords)
+            self.planner.reset(initial_state_cart=x0, initial_state_curv=x0_cl, coordinate_system=self.coords,
+                               collision_checker=checker or predict(agents, k))
             self.planner.set_desired_velocity(self.desired, current_speed=x0.velocity)
             result = self.planner.plan()
         except ValueError:  # the ego outside the reference path's projection domain: no plan

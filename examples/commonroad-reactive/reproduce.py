@@ -26,13 +26,15 @@ import json
 import math
 import sys
 import warnings
+from pathlib import Path
 
 warnings.filterwarnings("ignore")
 from commonroad.common.file_reader import CommonRoadFileReader  # noqa: E402
 from shapely.geometry import Polygon  # noqa: E402
 
-sys.path.insert(0, __import__("os").path.dirname(__import__("os").path.abspath(__file__)))
-from reactive import DT, Driver, NoPlan  # noqa: E402
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import commonroad_dc.pycrcc as pycrcc  # noqa: E402
+from reactive import DT, HORIZON_STEPS, Driver, NoPlan  # noqa: E402
 
 PERCEPTION_M = 120.0  # safer sends the planner the road users within this range of the ego
 
@@ -54,32 +56,47 @@ def frame_offset(problem, first):
     raise SystemExit(f"the exported ego starts at {tuple(p)}, safer's at ({ego['x']}, {ego['y']}): not the same frame")
 
 
+def ego_size(export, log):
+    """The ego's ``(length, width)``: from the export's sidecar
+    (``NAME.commonroad.json``; CommonRoad 2020a has no place for it), else as safer sent it."""
+    sidecar = Path(export).with_suffix(".commonroad.json")
+    ego = json.loads(sidecar.read_text())["ego"] if sidecar.exists() else log["first"]["ego"]
+    return ego["length_m"], ego["width_m"]
+
+
 def load(export):
     """The export's scenario and its one planning problem."""
     scenario, problems = CommonRoadFileReader(str(export)).open()
     return scenario, next(iter(problems.planning_problem_dict.values()))
 
 
-def obstacle_states(scenario, off):
-    """For each dynamic obstacle: its id, size and ``{step: (x, y, heading, speed)}`` in safer's frame."""
-    out = []
+def obstacle_states(scenario, problem, off):
+    """For each dynamic obstacle: its id, size and ``{k: (x, y, heading,
+    speed)}`` in safer's frame, ``k`` counting from the planning problem's
+    time step (the rollout's first)."""
+    out, base = [], problem.initial_state.time_step
     for o in scenario.dynamic_obstacles:
         states = [o.initial_state] + (list(o.prediction.trajectory.state_list) if o.prediction else [])
-        by_step = {s.time_step: (s.position[0] - off[0], s.position[1] - off[1], s.orientation, s.velocity)
+        by_step = {s.time_step - base: (s.position[0] - off[0], s.position[1] - off[1], s.orientation, s.velocity)
                    for s in states}
         out.append((o.obstacle_id, o.obstacle_shape.length, o.obstacle_shape.width, by_step))
     return out
 
 
-def checker(scenario):
-    """A collision checker holding the scenario's dynamic obstacles on their own trajectories."""
-    from commonroad_dc.collision.collision_detection.pycrcc_collision_dispatch import create_collision_object
-    from commonroad_dc.pycrcc import CollisionChecker
-
-    cc = CollisionChecker()
-    for o in scenario.dynamic_obstacles:
-        cc.add_collision_object(create_collision_object(o))
-    return cc
+def known_future(obstacles, k):
+    """A collision checker holding the obstacles on their exported
+    trajectories from step ``k`` (what run_planner.py gives the planner)."""
+    checker = pycrcc.CollisionChecker()
+    for _, length, width, by_step in obstacles:
+        tvo = pycrcc.TimeVariantCollisionObject(k)
+        for i in range(k, k + HORIZON_STEPS + 1):
+            if i not in by_step:
+                break
+            x, y, h, _ = by_step[i]
+            tvo.append_obstacle(pycrcc.RectOBB(length / 2, width / 2, h, x, y))
+        if k in by_step:
+            checker.add_collision_object(tvo)
+    return checker
 
 
 def outcome(ego_states, size, obstacles, ids=None):
@@ -97,13 +114,11 @@ def outcome(ego_states, size, obstacles, ids=None):
     return first, clearance
 
 
-def drive(log, problem, obstacles, off, steps, oracle=None):
+def drive(log, problem, obstacles, off, steps, size, oracle=False):
     """The ego's states ``{step: (x, y, heading)}`` with the reactive planner
     in the loop, from the planning problem's initial state; with ``oracle``
-    (the scenario) it plans against the obstacles' exported trajectories,
+    it plans against the obstacles' exported trajectories,
     as run_planner.py does, instead of what safer showed it."""
-    first = log["first"]["ego"]
-    size = (first["length_m"], first["width_m"])
     init = problem.initial_state
     ego = (init.position[0] - off[0], init.position[1] - off[1], init.orientation, init.velocity)
     driver, routes, states = Driver(*size, max(init.velocity, 1.0)), {r["step"]: r for r in log["routes"]}, {}
@@ -114,10 +129,10 @@ def drive(log, problem, obstacles, off, steps, oracle=None):
         near = [(*s[k], length, width) for _, length, width, s in obstacles
                 if k in s and math.hypot(s[k][0] - ego[0], s[k][1] - ego[1]) <= PERCEPTION_M]
         try:
-            ego = driver.step(k, ego, near, oracle and checker(oracle))[0]
+            ego = driver.step(k, ego, near, oracle and known_future(obstacles, k))[0]
         except NoPlan:  # the planner gives up: the rollout ends here, in safer too
             break
-    return states, size
+    return states
 
 
 def main():
@@ -131,9 +146,10 @@ def main():
     log = json.load(open(a.log))
     scenario, problem = load(a.export)
     off = frame_offset(problem, log["first"])
-    obstacles = obstacle_states(scenario, off)
+    obstacles = obstacle_states(scenario, problem, off)
     safer_ego = {int(k): tuple(v) for k, v in log["ego"].items()}
-    cr_ego, size = drive(log, problem, obstacles, off, len(safer_ego))
+    size = ego_size(a.export, log)
+    cr_ego = drive(log, problem, obstacles, off, len(safer_ego), size)
     ids = match_ids(log["first"], obstacles)
     safer, cr = outcome(safer_ego, size, obstacles, ids), outcome(cr_ego, size, obstacles, ids)
     if a.report:
@@ -146,7 +162,7 @@ def main():
               "safer": {"collision": safer[0], "min_clearance_m": round(safer[1], 3)},
               "commonroad": {"collision": cr[0], "min_clearance_m": round(cr[1], 3)}}
     if a.oracle:
-        future, _ = drive(log, problem, obstacles, off, len(safer_ego), oracle=scenario)
+        future = drive(log, problem, obstacles, off, len(safer_ego), size, oracle=True)
         hit, gap = outcome(future, size, obstacles, ids)
         report["commonroad_knowing_the_future"] = {"collision": hit, "min_clearance_m": round(gap, 3)}
     print(json.dumps(report))
@@ -182,7 +198,8 @@ def picture(scenario, problem, off, egos, size, result, out):
     rnd.ax.set_aspect("equal", adjustable="datalim")
     rnd.ax.set_xlim(x + off[0] - 40, x + off[0] + 40), rnd.ax.set_ylim(y + off[1] - 25, y + off[1] + 25)
     rnd.ax.legend(loc="lower left")
-    rnd.ax.set_title(f"{scenario.scenario_id} at t = {k * DT:.1f} s ({'collision with ' + str(result[0][0]) if result[0] else 'no collision'})")
+    what = f"collision with {result[0][0]}" if result[0] else "no collision"
+    rnd.ax.set_title(f"{scenario.scenario_id} at t = {k * DT:.1f} s ({what})")
     fig.savefig(out, dpi=120, bbox_inches="tight")
 
 
