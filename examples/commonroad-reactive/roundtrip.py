@@ -10,7 +10,10 @@ problem to the farthest of its goal lanelets) finds a reference path along the l
 lanelet sequences, and how far safer's route strays from CommonRoad's
 reference path over the stretch both cover ahead of the ego.
 
-    roundtrip.py EXPORTS LOGS [--max-route-distance 1.0]
+    roundtrip.py EXPORTS [LOGS] [--max-route-distance 1.0]
+
+An export without a log (another planner's, or no LOGS) gets the route
+check alone, against the route lanes its sidecar lists.
 
 Prints one line per export; exits 1 naming the first mismatch."""
 import argparse
@@ -28,6 +31,33 @@ from shapely.geometry import LineString, Point  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from reproduce import PERCEPTION_M, ego_size, frame_offset, load, obstacle_states  # noqa: E402
+
+
+def commonroad_route(scenario, problem):
+    """commonroad-route-planner's reference path from the planning problem
+    to the farthest goal lanelet: the goal is every lanelet of the route,
+    the ego's own included, so the shortest route would stop on the first."""
+    sequences = RoutePlanner(scenario.lanelet_network, problem).plan_routes()
+    longest = [max(sequences, key=lambda r: len(r.lanelet_ids))]
+    return ReferencePathPlanner(scenario.lanelet_network, problem, longest).plan_shortest_reference_path()
+
+
+def along(safer_lanes, cr_lanes):
+    """Whether CommonRoad's lanelets are safer's route from the ego's
+    lanelet on (safer's starts behind the ego, and may run past the goal)."""
+    ahead = safer_lanes[safer_lanes.index(cr_lanes[0]):] if cr_lanes[0] in safer_lanes else []
+    return ahead[: len(cr_lanes)] == cr_lanes
+
+
+def check_route(export):
+    """An export without a planner log: CommonRoad's route against safer's
+    route lanes as the sidecar lists them (``goal_lanelets``)."""
+    scenario, problem = load(export)
+    lanes = json.loads(export.with_suffix(".commonroad.json").read_text())["goal_lanelets"]
+    cr_lanes = list(commonroad_route(scenario, problem).lanelet_ids)
+    line = f"route lanes safer {lanes} commonroad {cr_lanes} (no planner log: the route only)"
+    assert along(lanes, cr_lanes), f"the lanelet sequences differ: {line}"
+    return line
 
 
 def check(export, log, max_route_m):
@@ -51,12 +81,7 @@ def check(export, log, max_route_m):
         seen.add(match[0])
     assert near <= seen, f"exported obstacles {sorted(near - seen)} within {PERCEPTION_M} m were not observed"
     route = log["routes"][0]
-    # The goal is every lanelet of the route, the ego's own included: the
-    # route planner's shortest route stops on the first; the longest runs
-    # the whole route.
-    sequences = RoutePlanner(scenario.lanelet_network, problem).plan_routes()
-    longest = [max(sequences, key=lambda r: len(r.lanelet_ids))]
-    reference = ReferencePathPlanner(scenario.lanelet_network, problem, longest).plan_shortest_reference_path()
+    reference = commonroad_route(scenario, problem)
     cr_lanes = list(reference.lanelet_ids)
     cr_path = LineString(reference.reference_path - np.asarray(off))
     safer_path = LineString(route["points"])
@@ -65,9 +90,7 @@ def check(export, log, max_route_m):
     end = min(safer_path.length, start + cr_path.length - cr_path.project(Point(ego["x"], ego["y"])))
     ahead = [safer_path.interpolate(s) for s in np.arange(start, end, 1.0)]
     distance = max((cr_path.distance(p) for p in ahead), default=math.inf)
-    # safer's route starts behind the ego, and may run past the goal (what the horizon reaches).
-    ahead_lanes = route["lanes"][route["lanes"].index(cr_lanes[0]):] if cr_lanes[0] in route["lanes"] else []
-    same_lanes = ahead_lanes[: len(cr_lanes)] == cr_lanes
+    same_lanes = along(route["lanes"], cr_lanes)
     line = (f"{len(first['agents'])} agents matched, {len(near)} exported within {PERCEPTION_M:.0f} m; "
             f"route lanes safer {route['lanes']} commonroad {cr_lanes}; "
             f"safer's route within {distance:.2f} m of commonroad's over {end - start:.0f} m")
@@ -78,25 +101,26 @@ def check(export, log, max_route_m):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("exports", type=Path), ap.add_argument("logs", type=Path)
+    ap.add_argument("exports", type=Path), ap.add_argument("logs", type=Path, nargs="?")
     ap.add_argument("--max-route-distance", type=float, default=1.0)
     a = ap.parse_args()
-    done = 0
+    done = logged = 0
     for export in sorted(a.exports.rglob("*.xml")):
         rel = export.relative_to(a.exports)
         if rel.name.endswith(".unshrunk.xml"):
             continue
-        log = a.logs / rel.with_suffix(".json")
-        if not log.exists():
-            print(f"FAIL {rel}: no planner log at {log}", file=sys.stderr)
-            return 1
+        log = a.logs / rel.with_suffix(".json") if a.logs else None
         try:
-            print(f"{rel}: {check(export, json.loads(log.read_text()), a.max_route_distance)}")
-        except (AssertionError, ValueError, SystemExit) as e:
+            if log and log.exists():
+                print(f"{rel}: {check(export, json.loads(log.read_text()), a.max_route_distance)}")
+                logged += 1
+            else:
+                print(f"{rel}: {check_route(export)}")
+        except (AssertionError, ValueError, KeyError, SystemExit) as e:
             print(f"FAIL {rel}: {e}", file=sys.stderr)
             return 1
         done += 1
-    print(f"OK: {done} export(s) show the planner what it saw in safer")
+    print(f"OK: {done} export(s): CommonRoad's route is safer's; {logged} show the planner all it saw in safer")
     return 0 if done else 1
 
 
