@@ -184,7 +184,7 @@ def picture(scenario, problem, off, egos, size, result, out):
     k = round(result[0][1] / DT) if result[0] else max(egos["CommonRoad"])
     fig = plt.figure(figsize=(10, 7))
     rnd = MPRenderer(ax=fig.gca())
-    rnd.draw_params.time_begin = k
+    rnd.draw_params.time_begin = problem.initial_state.time_step + k  # the export's time steps
     scenario.draw(rnd)
     problem.draw(rnd)
     rnd.render()
