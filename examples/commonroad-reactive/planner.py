@@ -16,12 +16,14 @@ from safer_planner import Planner, PlannerError, Trajectory, TrajectoryPoint, ru
 
 
 class ReactivePlanner(Planner):
-    name, min_protocol_minor = "commonroad-reactive", 1  # the stable route and its lanes (1.1+)
+    name, protocol_minor, min_protocol_minor = "commonroad-reactive", 3, 1  # needs the stable route (1.1+)
     driver, revision_seen, log_out = None, None, None
 
     def on_hello(self, hello):
         if abs(hello.dt_s - DT) > 1e-9:
             raise PlannerError(f"the reactive planner steps {DT} s; the harness steps {hello.dt_s} s")
+        if hello.step_timeout_s is not None and hello.step_timeout_s < 5.0:  # 1.3: the harness says its timeouts
+            self.log(f"a plan can take seconds; the step timeout is {hello.step_timeout_s} s (see the spec)")
         out, variant = os.environ.get("SAFER_REACTIVE_LOG"), hello.scenario and hello.scenario.variant
         if out and variant:
             path = os.path.join(out, *variant.split("::")) + ".json"
@@ -45,7 +47,8 @@ class ReactivePlanner(Planner):
         if self.log_out is not None:
             self.log_out["ego"].update({k: (ego.x, ego.y, ego.heading_rad), k + 1: states[0][:3]})
         return Trajectory([TrajectoryPoint(DT * (i + 1), x, y, h, max(v, 0.0))
-                           for i, (x, y, h, v) in enumerate(states)])
+                           for i, (x, y, h, v) in enumerate(states)],  # 1.3: kept in the recording
+                          debug={"plan_step": self.driver.last[0], "plans": self.driver.plans})
 
     def on_bye(self):
         if self.log_out is not None:
