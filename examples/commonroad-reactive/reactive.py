@@ -6,6 +6,7 @@ route it is given, extended at both ends), its replanning schedule and what
 it does between plans (follow the last plan) are all here, so both sides
 drive the same ego when they are given the same world."""
 import math
+import warnings
 
 import commonroad_dc.pycrcc as pycrcc
 import numpy as np
@@ -15,6 +16,9 @@ from commonroad_rp.state import ReactivePlannerState
 from commonroad_rp.utility.config import ReactivePlannerConfiguration
 from commonroad_rp.utility.utils_coordinate_system import create_coordinate_system
 from safer_planner import Path, PlannerError, centre_from_rear_axle, rear_axle_from_centre
+
+# commonroad-clcs divides by a straight reference path's zero curvature and copes.
+warnings.filterwarnings("ignore", category=RuntimeWarning, module="commonroad_clcs")
 
 DT = 0.1
 HORIZON_STEPS = 30  # a 3 s plan: long enough to brake from highway speed, short enough to plan fast
