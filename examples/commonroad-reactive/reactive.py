@@ -8,6 +8,7 @@ drive the same ego when they are given the same world."""
 import math
 import warnings
 
+import commonroad_clcs.pycrccosy as crccosy
 import commonroad_dc.pycrcc as pycrcc
 import numpy as np
 from commonroad.scenario.scenario import Scenario
@@ -24,6 +25,11 @@ DT = 0.1
 HORIZON_STEPS = 30  # a 3 s plan: long enough to brake from highway speed, short enough to plan fast
 REPLAN_EVERY = 5  # plan at every 5th step (0.5 s) and follow the last plan in between
 EXTEND_M = 50.0  # the reference path runs this far past both ends of the route (no projection-domain errors)
+
+PROJECTION_ERRORS = (ValueError, crccosy.CartesianProjectionDomainError,
+                     crccosy.CurvilinearProjectionDomainLateralError,
+                     crccosy.CurvilinearProjectionDomainLongitudinalError)
+"""What commonroad-clcs raises for a point its reference path cannot project."""
 
 
 def predict(agents, step, steps=HORIZON_STEPS):
@@ -59,7 +65,7 @@ class Driver:
     def set_route(self, points):
         """A new route: the reference path from now on."""
         reference = np.array(Path(points).extended(EXTEND_M, EXTEND_M).points)
-        self.coords, self.last = create_coordinate_system(reference), None
+        self.coords = create_coordinate_system(reference)  # the last plan stays, to follow if no new one is found
 
     def centre(self, s):
         """``(x, y, heading, speed)`` of the box centre of planner state ``s`` (rear axle)."""
@@ -71,12 +77,14 @@ class Driver:
         step ``k``, or a collision ``checker`` to plan against instead."""
         last, i = self.last, k - self.last[0] if self.last else 0
         ahead = last is not None and i + 1 < len(last[1].state_list)
-        if ahead and k % REPLAN_EVERY:
+        same_path = ahead and last[4] is self.coords
+        if same_path and k % REPLAN_EVERY:
             return [self.centre(s) for s in last[1].state_list[i + 1 :]]
         x, y, h, v = ego
         if ahead and math.dist(self.centre(last[1].state_list[i])[:2], (x, y)) < 0.05:
-            # On the plan: start from the planned state, keeping its acceleration and steering.
-            x0, x0_cl = last[1].state_list[i], (last[2][i], last[3][i])
+            # On the plan: start from the planned state, keeping its acceleration and steering (and its
+            # Frenet state, on the same reference path).
+            x0, x0_cl = last[1].state_list[i], ((last[2][i], last[3][i]) if same_path else None)
         else:
             x0, x0_cl = ReactivePlannerState(
                 time_step=k, position=np.array(rear_axle_from_centre(x, y, h, self.rear)),
@@ -85,13 +93,14 @@ class Driver:
         try:
             self.planner.reset(initial_state_cart=x0, initial_state_curv=x0_cl, coordinate_system=self.coords,
                                collision_checker=checker or predict(agents, k))
-            self.planner.set_desired_velocity(self.desired, current_speed=x0.velocity)
+            # A current speed of exactly 0 makes the planner read its planning problem, which it has none of.
+            self.planner.set_desired_velocity(self.desired, current_speed=x0.velocity or None)
             result = self.planner.plan()
-        except ValueError:  # the ego outside the reference path's projection domain: no plan
+        except PROJECTION_ERRORS:  # the ego or a sample outside the reference path's projection domain: no plan
             pass
         self.plans, self.failed = self.plans + 1, self.failed + (result is None)
         if result is not None:
-            self.last, i = (k, result[0], result[1], result[2]), 0
+            self.last, i = (k, result[0], result[1], result[2], self.coords), 0
         elif not ahead:  # nothing to follow: give up, as the planner's own run_planner.py does
             raise NoPlan(f"no feasible trajectory at step {k} and no earlier plan left to follow")
         return [self.centre(s) for s in self.last[1].state_list[i + 1 :]]
