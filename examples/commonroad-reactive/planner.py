@@ -3,9 +3,9 @@
 route the harness sends (extended at both ends as the reference path), the
 other road users drive on at constant velocity in its collision checker, and
 it plans every 0.5 s, following its last plan in between (reactive.py).
-With SAFER_REACTIVE_LOG=DIR it writes each variant's routes and first
-observation to DIR/<suite>/<scenario>/<seed-K>.json for reproduce.py and
-roundtrip.py."""
+With SAFER_REACTIVE_LOG=DIR it writes what it was given in each variant
+(its routes, its first observation, the ego's states) to
+DIR/<suite>/<scenario>/<seed-K>.json for reproduce.py and roundtrip.py."""
 import json
 import os
 import sys
