@@ -9,14 +9,18 @@ from safer_planner import CENTRE_TO_REAR_AXLE_M, WHEELBASE_M, centre_from_rear_a
 
 class RearAxleTest(unittest.TestCase):
     def test_defaults_are_the_simulators(self):
-        # The simulator's vehicle limits put a car's rear axle this far behind its centre.
-        source = os.path.join(REPO, "src", "motion", "vehicle_limits.rs")
-        if not os.path.isfile(source):
+        # The simulator's kinematics give the wheelbase, and its vehicle limits put a car's rear axle
+        # half of it behind the centre.
+        src = os.path.join(REPO, "src", "motion")
+        if not os.path.isdir(src):
             self.skipTest("not run from a SaFeR checkout")
-        with open(source, encoding="utf-8") as f:
-            m = re.search(r"const CENTRE_TO_REAR_AXLE_M: f64 = ([0-9.]+);", f.read())
-        self.assertIsNotNone(m, "vehicle_limits.rs no longer defines CENTRE_TO_REAR_AXLE_M")
-        self.assertEqual(CENTRE_TO_REAR_AXLE_M, float(m.group(1)))
+        with open(os.path.join(src, "kinematics.rs"), encoding="utf-8") as f:
+            wheelbase = re.search(r"pub const WHEELBASE_M: f64 = ([0-9.]+);", f.read())
+        with open(os.path.join(src, "vehicle_limits.rs"), encoding="utf-8") as f:
+            rear = re.search(r"const CENTRE_TO_REAR_AXLE_M: f64 = 0\.5 \* super::kinematics::WHEELBASE_M;", f.read())
+        self.assertIsNotNone(wheelbase, "kinematics.rs no longer defines WHEELBASE_M")
+        self.assertIsNotNone(rear, "vehicle_limits.rs no longer puts the rear axle half a wheelbase behind the centre")
+        self.assertEqual(WHEELBASE_M, float(wheelbase.group(1)))
         self.assertEqual(WHEELBASE_M, 2.0 * CENTRE_TO_REAR_AXLE_M)
 
     def test_rear_axle_lies_behind_the_centre_along_the_heading(self):
