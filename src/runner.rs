@@ -240,15 +240,13 @@ fn results_of_this_process(suites: &[(PathBuf, Arc<Suite>)], load_failures: Vec<
             for k in 0..suite.spec.value.variants {
                 let name = suite.variant_name(scenario, k);
                 match ran(&name) {
-                    Some(Ran { outcome, artefacts, snapshot }) => {
-                        variants.push(VariantRun {
-                            name,
-                            outcome: outcome.as_ref().clone(),
-                            artefacts,
-                            snapshot,
-                            wall_s: None,
-                        })
-                    }
+                    Some(Ran { outcome, artefacts, snapshot }) => variants.push(VariantRun {
+                        name,
+                        outcome: outcome.as_ref().clone(),
+                        artefacts,
+                        snapshot,
+                        wall_s: None,
+                    }),
                     None => all_ran = false,
                 }
             }

@@ -591,7 +591,7 @@ fn failures_beside_log(rows: &[(AdversaryMethod, Stage2Cbv, usize)]) -> Option<S
     }
     let Some(&(_, _, log)) = rows.iter().find(|r| r.0 == AdversaryMethod::Log) else {
         return Some(
-            "failures beyond log replay's: not measured (no `log` row to compare with: add `log` to --methods)"
+            "planner failures beside log replay's: not measured (no `log` row to compare with: add `log` to --methods)"
                 .to_string(),
         );
     };
@@ -625,7 +625,9 @@ fn beside_log(difference: i64) -> String {
 /// replay's (`replay`), in words.
 fn compare_beyond(closed: i64, replay: i64) -> String {
     match (closed > 0, replay > 0) {
-        (true, true) => format!("closed loop finds {:.2}× as many beyond log replay's as replay", closed as f64 / replay as f64),
+        (true, true) => {
+            format!("closed loop finds {:.2}× as many beyond log replay's as replay", closed as f64 / replay as f64)
+        }
         (true, false) => "only closed loop finds failures beyond log replay's".to_string(),
         (false, true) => "only replay finds failures beyond log replay's".to_string(),
         (false, false) => "neither finds failures beyond log replay's".to_string(),
@@ -678,7 +680,12 @@ fn print_stage2_contacts(
             writeln!(out, "{:<28} {} seed {}: {}", "", v.scenario, v.seed, describe_contact(c))?;
         }
         if of_row.len() > CONTACTS_NAMED {
-            writeln!(out, "{:<28} and {} more (the JSON report's `stage2_contact` names each)", "", of_row.len() - CONTACTS_NAMED)?;
+            writeln!(
+                out,
+                "{:<28} and {} more (the JSON report's `stage2_contact` names each)",
+                "",
+                of_row.len() - CONTACTS_NAMED
+            )?;
         }
     }
     Ok(())
@@ -836,10 +843,7 @@ pub(super) fn run(
 /// What each variant of `request` runs, for the progress a slow one leaves
 /// long between counts.
 fn variant_work(request: &EvaluationRequest) -> String {
-    let mut parts = vec![
-        "stage 1".to_string(),
-        format!("stage 2 with `{}`", request.planner.name()),
-    ];
+    let mut parts = vec!["stage 1".to_string(), format!("stage 2 with `{}`", request.planner.name())];
     if request.escape.is_some() {
         parts.push("the escape search on a collision".into());
     }
@@ -1209,16 +1213,27 @@ mod tests {
              replay 4 (2 fewer than log replay); neither finds failures beyond log replay's"
         );
         let mixed = beside(Some(3), 5, 1).unwrap();
-        assert!(mixed.contains("closed loop 5 (2 more than log replay), replay 1 (2 fewer than log replay); only closed loop finds"), "{mixed}");
+        assert!(
+            mixed.contains(
+                "closed loop 5 (2 more than log replay), replay 1 (2 fewer than log replay); only closed loop finds"
+            ),
+            "{mixed}"
+        );
         let mixed = beside(Some(3), 0, 4).unwrap();
         assert!(mixed.ends_with("only replay finds failures beyond log replay's"), "{mixed}");
         // No log row: said, not left out.
         assert_eq!(
             beside(None, 3, 2).unwrap(),
-            "failures beyond log replay's: not measured (no `log` row to compare with: add `log` to --methods)"
+            "planner failures beside log replay's: not measured (no `log` row to compare with: add `log` to --methods)"
         );
         // One mode only: nothing to compare.
-        assert_eq!(failures_beside_log(&[(AdversaryMethod::Safer, Stage2Cbv::Replay, 4), (AdversaryMethod::Log, Stage2Cbv::Replay, 2)]), None);
+        assert_eq!(
+            failures_beside_log(&[
+                (AdversaryMethod::Safer, Stage2Cbv::Replay, 4),
+                (AdversaryMethod::Log, Stage2Cbv::Replay, 2)
+            ]),
+            None
+        );
         assert!(!beside(Some(6), 1, 4).unwrap().contains('-'), "no negative numbers");
     }
 }

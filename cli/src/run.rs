@@ -364,7 +364,10 @@ fn shrink_time_limit(text: &str) -> Result<f64, String> {
 
 /// Loads the suites (a broken one is reported and left out) and refuses
 /// two suites of one name.
-fn load_suites(files: &[PathBuf], shrink: ShrinkOverride) -> Result<(Vec<LoadedSuite>, Vec<SuiteLoadFailure>), CliError> {
+fn load_suites(
+    files: &[PathBuf],
+    shrink: ShrinkOverride,
+) -> Result<(Vec<LoadedSuite>, Vec<SuiteLoadFailure>), CliError> {
     let mut load_failures = Vec::new();
     let mut suites: Vec<LoadedSuite> = Vec::new();
     for file in files {
@@ -538,7 +541,9 @@ fn suite_report(run: &SuiteRun) -> SuiteReport {
                     wall_s: v.wall_s,
                 }
             }
-            Err(e) => VariantEntry::Error { variant: v.name.clone(), passed: false, error: e.clone(), wall_s: v.wall_s },
+            Err(e) => {
+                VariantEntry::Error { variant: v.name.clone(), passed: false, error: e.clone(), wall_s: v.wall_s }
+            }
         })
         .collect();
     let checks = run

@@ -260,12 +260,18 @@ pub fn shrink(variant: &FailingVariant<'_>, budget: ShrinkBudget) -> Result<Shru
 
     // Kept scripts, each smaller than the one before.
     let mut kept: Vec<(Vec<Choice>, Rollout, Vec<AcceptanceFailure>)> = Vec::new();
-    let (stage2, failures, alike) = play(&original)
-        .map_err(|e| NotShrunk::CandidateFailed { candidate: 1, error: e.to_string() })?;
+    let (stage2, failures, alike) =
+        play(&original).map_err(|e| NotShrunk::CandidateFailed { candidate: 1, error: e.to_string() })?;
     if !alike {
         let replayed = failures.first().map_or_else(
             || "it passes".to_string(),
-            |f| if f.criterion == first_failure.criterion { format!("{}: {}", f.criterion, f.what) } else { format!("it fails {} first", f.criterion) },
+            |f| {
+                if f.criterion == first_failure.criterion {
+                    format!("{}: {}", f.criterion, f.what)
+                } else {
+                    format!("it fails {} first", f.criterion)
+                }
+            },
         );
         return Err(NotShrunk::NotReproduced(replayed));
     }

@@ -324,7 +324,7 @@ fn the_table_names_whom_the_ego_hit_as_the_json_report_does_and_progress_says_wh
     // Progress names the stages before the variants and what each runs.
     assert!(stderr.contains("evaluate: loading the scenes under"), "{stderr}");
     assert!(stderr.contains("evaluate: each variant runs stage 1, stage 2 with `constant-velocity`"), "{stderr}");
-    assert!(stderr.contains("evaluate: 12 variants to run"), "{stderr}");
+    assert!(stderr.contains("evaluate: 24 variants to run"), "{stderr}");
     let report: Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
     let variants = report["variants"].as_array().unwrap();
     let section = table.split("whom the planner's ego hit in stage 2").nth(1).expect("the contacts table");
