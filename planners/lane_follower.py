@@ -13,8 +13,8 @@ It uses nothing but what the protocol sends:
 Driving: pure pursuit on the route for steering; for speed an intelligent
 driver model (IDM) towards a desired speed (the speed limit of the lane
 the ego is on, else the speed it had at the first observation, lowered
-ahead of curves) with a time headway to the nearest agent ahead in its
-corridor along the route (the leader gap). Without a route (off the map)
+ahead of curves by the kit's `curve_speed_limit`) with a time headway to
+the nearest agent ahead in its corridor along the route (the leader gap). Without a route (off the map)
 it keeps its heading and speed.
 
 Protocol: docs/planner-protocol.md; the kit: docs/python-kit.md. It runs
@@ -36,7 +36,7 @@ if os.path.isfile(os.path.join(_KIT, "safer_planner", "__init__.py")):
     sys.path.insert(0, os.path.normpath(_KIT))
 
 try:
-    from safer_planner import Control, Observation, Path, Planner, RoadMap, run, wrap_angle
+    from safer_planner import Control, Observation, Path, Planner, RoadMap, curve_speed_limit, run, wrap_angle
 except ImportError as e:  # a copy of this script away from the repository
     sys.exit(f"lane_follower: cannot import the planner kit ({e}): `pip install ./python` from the "
              "SaFeR repository, or put its python/ folder on PYTHONPATH")
@@ -112,14 +112,18 @@ class LaneFollower(Planner):
     def curve_speed(self, path: Path, s_ego, allowed):
         """At most `allowed`, and slow enough to brake comfortably for every
         curve (4 m curvature windows) in the next CURVE_PREVIEW_M."""
-        d = 0.0
-        while d <= CURVE_PREVIEW_M:
-            kappa = abs(path.curvature_at(s_ego + d, window_m=4.0))
-            if kappa > 1e-3:
-                v_curve = min(math.sqrt(MAX_LATERAL_ACCEL_MPS2 / kappa), MAX_YAW_RATE_RADPS / kappa)
-                allowed = min(allowed, math.sqrt(v_curve * v_curve + 2.0 * COMFORT_DECEL_MPS2 * d))
-            d += 2.0
-        return max(allowed, 1.0)
+        return curve_speed_limit(
+            path,
+            s_ego,
+            allowed,
+            max_lateral_accel_mps2=MAX_LATERAL_ACCEL_MPS2,
+            max_yaw_rate_radps=MAX_YAW_RATE_RADPS,
+            comfort_decel_mps2=COMFORT_DECEL_MPS2,
+            preview_m=CURVE_PREVIEW_M,
+            step_m=2.0,
+            window_m=4.0,
+            min_speed_mps=1.0,
+        )
 
     def idm(self, obs: Observation, desired):
         """IDM: towards `desired`, keeping a time headway to the leader."""

@@ -161,27 +161,60 @@ pub(super) struct RunOutputs<'a> {
     pub commonroad: Option<(&'a Path, bool)>,
 }
 
+/// The files `--export-commonroad DIR` writes for a variant whose
+/// artefact base path under `DIR` is `base`: the variant as safer shows it
+/// (`NAME.xml`, shrunk where it was) and the variant as generated beside it
+/// (`NAME.unshrunk.xml`, only for a shrunk one), each with its sidecar.
+fn export_paths(base: &Path) -> [PathBuf; 4] {
+    let shown = base.with_extension("xml");
+    let unshrunk = base.with_extension("unshrunk.xml");
+    let [a, b] = [&shown, &unshrunk].map(|p| safer_scenarios::record::commonroad::sidecar_path(p));
+    [shown, unshrunk, a, b]
+}
+
 /// Writes `outcome`'s stage 2 as a CommonRoad scenario under `dir`, at the
-/// variant's artefact path with `.xml`.
-fn export_commonroad(dir: &Path, outcome: &harness::VariantOutcome) -> Result<PathBuf, String> {
-    let path = harness::artefacts::base_path(dir, &outcome.name).map_err(|e| e.to_string())?.with_extension("xml");
-    safer_scenarios::record::commonroad::write_commonroad(&path, &outcome.scenario, &outcome.stage2, &outcome.name)
-        .map_err(|e| e.to_string())?;
-    Ok(path)
+/// variant's artefact path with `.xml`: the shrunk variant where there is
+/// one (as the artefacts show it first), the unshrunk one beside it. Returns
+/// the shown file and the export's notes.
+fn export_commonroad(dir: &Path, outcome: &harness::VariantOutcome) -> Result<(PathBuf, Vec<String>), String> {
+    use safer_scenarios::record::commonroad::write_commonroad;
+    let base = harness::artefacts::base_path(dir, &outcome.name).map_err(|e| e.to_string())?;
+    let [shown, unshrunk, ..] = export_paths(&base);
+    let notes = match &outcome.shrunk {
+        Some(shrunk) => {
+            let notes = write_commonroad(&shown, &outcome.scenario, &shrunk.stage2, &outcome.name, true)
+                .map_err(|e| e.to_string())?;
+            write_commonroad(&unshrunk, &outcome.scenario, &outcome.stage2, &outcome.name, false)
+                .map_err(|e| e.to_string())?;
+            notes
+        }
+        None => write_commonroad(&shown, &outcome.scenario, &outcome.stage2, &outcome.name, false)
+            .map_err(|e| e.to_string())?,
+    };
+    Ok((shown, notes))
 }
 
 /// Checks, before the run, every file `--export-commonroad DIR` may write
-/// for the variants `names`: none may be a file the run reads, and an
-/// existing one must be an export safer made, so a recorded CommonRoad
-/// scene kept in `DIR` is never replaced.
+/// for the variants `names` (the scenarios, unshrunk ones and sidecars):
+/// none may be a file the run reads, and an existing one must be an export
+/// safer made, so a recorded CommonRoad scene kept in `DIR` is never
+/// replaced.
 fn check_exports(dir: &Path, names: impl Iterator<Item = String>, inputs: &[PathBuf]) -> Result<(), CliError> {
     for name in names {
-        let path = dir.join(harness::artefacts::relative_path(dir, &name)?).with_extension("xml");
-        let out = [safer_scenarios::record::NamedOutput { flag: "--export-commonroad", path: &path }];
-        if path.parent().is_some_and(Path::is_dir) {
-            safer_scenarios::record::check_outputs_apart(&out, inputs)?;
+        let base = dir.join(harness::artefacts::relative_path(dir, &name)?);
+        let [shown, unshrunk, shown_sidecar, unshrunk_sidecar] = export_paths(&base);
+        for (path, kind) in [
+            (shown, OutputKind::CommonRoadExport),
+            (unshrunk, OutputKind::CommonRoadExport),
+            (shown_sidecar, OutputKind::CommonRoadSidecar),
+            (unshrunk_sidecar, OutputKind::CommonRoadSidecar),
+        ] {
+            let out = [safer_scenarios::record::NamedOutput { flag: "--export-commonroad", path: &path }];
+            if path.parent().is_some_and(Path::is_dir) {
+                safer_scenarios::record::check_outputs_apart(&out, inputs)?;
+            }
+            safer_scenarios::record::check_replaceable("--export-commonroad", &path, kind, false)?;
         }
-        safer_scenarios::record::check_replaceable("--export-commonroad", &path, OutputKind::CommonRoadExport, false)?;
     }
     Ok(())
 }
@@ -221,7 +254,8 @@ pub(super) fn run(
         suites.iter().map(|(_, s)| harness::mutation::operators_for(&s.spec.value.acceptance.suite, mutants)).collect();
     let progress = super::progress::Progress::new("run", "variants", jobs.len());
     let started = std::time::Instant::now();
-    let exports: std::sync::Mutex<Vec<(String, Result<PathBuf, String>)>> = std::sync::Mutex::new(Vec::new());
+    type Written = Result<(PathBuf, Vec<String>), String>;
+    let exports: std::sync::Mutex<Vec<(String, Written)>> = std::sync::Mutex::new(Vec::new());
     let done: Vec<Done> = jobs
         .par_iter()
         .map(|j| {
@@ -315,8 +349,9 @@ pub(super) fn run(
     let export_failed = exports.iter().any(|(_, r)| r.is_err());
     if let Some((dir, _)) = commonroad {
         for (variant, written) in &exports {
-            if let Err(e) = written {
-                eprintln!("error: {variant} could not be exported as a CommonRoad scenario: {e}");
+            match written {
+                Err(e) => eprintln!("error: {variant} could not be exported as a CommonRoad scenario: {e}"),
+                Ok((_, notes)) => notes.iter().for_each(|n| eprintln!("note: {variant}: CommonRoad export: {n}")),
             }
         }
         let ok = exports.iter().filter(|(_, r)| r.is_ok()).count();

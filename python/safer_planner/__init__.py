@@ -14,10 +14,13 @@ planner only says what to do at each step::
 
     run(Coast)
 
-Standard library only; Python 3.9 or later.
+Standard library only; Python 3.9 or later. The optional
+``safer_planner.commonroad`` (``pip install "./python[commonroad]"``)
+converts the map to a CommonRoad lanelet network.
 """
 
-from .geometry import Path, Point, Projection, polyline_length, resample, resample_spacing, wrap_angle
+from .ahead import AMBER_STATES, RED_STATES, SignalStopAhead, curve_speed_limit, next_signal_stop
+from .geometry import Path, Point, Projection, box_corners, polyline_length, resample, resample_spacing, wrap_angle
 from .messages import (
     PROTOCOL,
     PROTOCOL_MINOR,
@@ -37,14 +40,20 @@ from .messages import (
     TrajectoryPoint,
 )
 from .planner import DEBUG_ENV, Planner, PlannerError, run, serve
+from .prediction import PredictedState, horizon_times, predict_agent, predict_constant_velocity
 from .roadmap import Lane, RoadMap, Route, SignalStop, StopSign
+from .vehicle import CENTRE_TO_REAR_AXLE_M, WHEELBASE_M, centre_from_rear_axle, rear_axle_from_centre
 
 __version__ = "0.1.0"
 
 __all__ = [
+    "AMBER_STATES",
+    "CENTRE_TO_REAR_AXLE_M",
     "DEBUG_ENV",
     "PROTOCOL",
     "PROTOCOL_MINOR",
+    "RED_STATES",
+    "WHEELBASE_M",
     "Agent",
     "Control",
     "EgoSize",
@@ -59,6 +68,7 @@ __all__ = [
     "Planner",
     "PlannerError",
     "Point",
+    "PredictedState",
     "Projection",
     "Reply",
     "RoadMap",
@@ -66,11 +76,20 @@ __all__ = [
     "ScenarioInfo",
     "Signal",
     "SignalStop",
+    "SignalStopAhead",
     "StopSign",
     "Trajectory",
     "TrajectoryPoint",
     "__version__",
+    "box_corners",
+    "centre_from_rear_axle",
+    "curve_speed_limit",
+    "horizon_times",
+    "next_signal_stop",
     "polyline_length",
+    "predict_agent",
+    "predict_constant_velocity",
+    "rear_axle_from_centre",
     "resample",
     "resample_spacing",
     "run",

@@ -1,5 +1,6 @@
 """Plane geometry on polylines: arc length, points and headings at an arc
-length, projection of a point onto a path, equal-spacing resampling.
+length, projection of a point onto a path, equal-spacing resampling, paths
+extended beyond their ends, and the corners of a road user's box.
 
 Everything is in the scenario's local frame (metres, radians counter-clockwise
 from +x), as the protocol sends it.
@@ -70,7 +71,9 @@ class Path:
 
     ``point_at`` and ``project`` extend the last segment beyond the end (a
     target a little past the route's end is still ahead of the ego);
-    ``point_at`` clamps before the start. Needs at least two points.
+    ``point_at`` clamps before the start unless asked to extrapolate, and
+    :meth:`extended` gives a path with both ends continued. Needs at least
+    two points.
     """
 
     __slots__ = ("points", "s")
@@ -108,11 +111,16 @@ class Path:
                 hi = mid - 1
         return max(0, lo)
 
-    def point_at(self, s: float) -> Point:
-        """The point at arc length ``s``: the first point for ``s <= 0``, on
-        the last segment's extension beyond the end."""
+    def point_at(self, s: float, extrapolate: bool = False) -> Point:
+        """The point at arc length ``s``: on the last segment's extension
+        beyond the end; before the start the first point, or with
+        ``extrapolate`` the point on the first segment's extension backwards
+        (``s`` metres before the start for a negative ``s``)."""
         if s <= 0.0:
-            return self.points[0]
+            if not extrapolate or s == 0.0:
+                return self.points[0]
+            (ax, ay), (ux, uy) = self.points[0], self._end_direction(first=True)
+            return ax + ux * s, ay + uy * s
         if s >= self.s[-1]:
             (ax, ay), (bx, by) = self.points[-2], self.points[-1]
             seg = math.hypot(bx - ax, by - ay) or 1.0
@@ -124,11 +132,45 @@ class Path:
         t = 0.0 if seg < 1e-9 else (s - self.s[i]) / seg
         return ax + (bx - ax) * t, ay + (by - ay) * t
 
-    def heading_at(self, s: float) -> float:
+    def _end_direction(self, first: bool) -> Point:
+        """Unit direction of the first (or last) segment of non-zero length;
+        ``(0, 0)`` when every segment has zero length."""
+        pairs = list(zip(self.points, self.points[1:]))
+        for (ax, ay), (bx, by) in pairs if first else reversed(pairs):
+            seg = math.hypot(bx - ax, by - ay)
+            if seg >= 1e-9:
+                return (bx - ax) / seg, (by - ay) / seg
+        return 0.0, 0.0
+
+    def extended(self, before_m: float = 0.0, after_m: float = 0.0) -> "Path":
+        """This path with ``before_m`` metres added before its start (the
+        first segment's direction continued backwards) and ``after_m``
+        metres after its end (the last segment's continued): for a planner
+        that needs its reference path to reach behind the ego, or past the
+        route's end. Arc length ``s`` here is ``s + before_m`` on the
+        extended path. Zero-length end segments are skipped for the
+        direction; a path of zero length cannot be extended."""
+        if not (math.isfinite(before_m) and math.isfinite(after_m)) or before_m < 0.0 or after_m < 0.0:
+            raise ValueError(f"a path extends by finite, non-negative lengths, got before {before_m}, after {after_m}")
+        first, last = self._end_direction(first=True), self._end_direction(first=False)
+        if first == (0.0, 0.0) and (before_m > 0.0 or after_m > 0.0):
+            raise ValueError("a path of zero length has no direction to extend in")
+        points = list(self.points)
+        if before_m > 0.0:
+            (x, y), (ux, uy) = points[0], first
+            points.insert(0, (x - ux * before_m, y - uy * before_m))
+        if after_m > 0.0:
+            (x, y), (ux, uy) = points[-1], last
+            points.append((x + ux * after_m, y + uy * after_m))
+        return Path(points)
+
+    def heading_at(self, s: float, extrapolate: bool = False) -> float:
         """Direction of travel at arc length ``s``, rad: the chord from the
-        point at ``s`` to the point 1 m further."""
-        x0, y0 = self.point_at(s)
-        x1, y1 = self.point_at(s + 1.0)
+        point at ``s`` to the point 1 m further (``extrapolate``: as in
+        :meth:`point_at`, so that before the start it is the first
+        segment's direction)."""
+        x0, y0 = self.point_at(s, extrapolate)
+        x1, y1 = self.point_at(s + 1.0, extrapolate)
         return math.atan2(y1 - y0, x1 - x0)
 
     def project(
@@ -172,3 +214,15 @@ class Path:
         """Signed curvature at ``s``, 1/m (left turn > 0): the heading change
         over the next ``window_m`` metres divided by ``window_m``."""
         return wrap_angle(self.heading_at(s + window_m) - self.heading_at(s)) / window_m
+
+
+def box_corners(x: float, y: float, heading_rad: float, length_m: float, width_m: float) -> List[Point]:
+    """The four corners of a box centred at ``(x, y)`` and turned to
+    ``heading_rad``, counter-clockwise from the front right: front right,
+    front left, rear left, rear right."""
+    c, s = math.cos(heading_rad), math.sin(heading_rad)
+    hl, hw = 0.5 * length_m, 0.5 * width_m
+    return [
+        (x + c * along - s * across, y + s * along + c * across)
+        for along, across in ((hl, -hw), (hl, hw), (-hl, hw), (-hl, -hw))
+    ]

@@ -1,5 +1,5 @@
 """Typed protocol messages (docs/planner-protocol.md, version 1, revisions
-1.0 to 1.2).
+1.0 to 1.3).
 
 Harness messages are parsed with ``from_json`` (unknown fields are ignored,
 as the protocol asks; each keeps the decoded line in ``raw`` for fields a
@@ -9,6 +9,7 @@ later revision adds). Replies are built as :class:`Control` or
 
 from __future__ import annotations
 
+import json
 import math
 from dataclasses import dataclass, field
 from typing import Any, Dict, List, Mapping, Optional, Union
@@ -19,7 +20,12 @@ from .roadmap import RoadMap, Route, _opt_float, _point
 PROTOCOL = 1
 """The protocol version this kit speaks."""
 PROTOCOL_MINOR = 2
-"""The highest minor revision this kit speaks (1.2: step-tagged replies)."""
+"""The minor revision this kit's planners ask for (1.2: step-tagged replies).
+The fields 1.3 adds (timeouts, the ego's acceleration, yaw rate and steering
+angle, replies' ``debug``) need no asking: they are read and written here
+whenever the harness sends or takes them."""
+MAX_DEBUG_BYTES = 64 * 1024
+"""The most bytes of compact JSON a reply's ``debug`` may take (1.3)."""
 
 
 @dataclass
@@ -105,6 +111,12 @@ class Hello:
     """World coordinates of the local frame's origin: world = local + this."""
     horizon: Optional[Horizon] = None
     goal: Optional[Goal] = None
+    step_timeout_s: Optional[float] = None
+    """1.3: time allowed to answer one observation, s (``None`` from an older harness)."""
+    first_step_timeout_s: Optional[float] = None
+    """1.3: time allowed to answer the first observation, s."""
+    startup_timeout_s: Optional[float] = None
+    """1.3: time allowed from the process's start to ``ready`` and on to ``prepared``, s."""
     raw: Dict[str, Any] = field(default_factory=dict, repr=False, compare=False)
 
     @classmethod
@@ -122,6 +134,9 @@ class Hello:
             origin_world=opt("origin_world", _point),
             horizon=opt("horizon", Horizon.from_json),
             goal=opt("goal", Goal.from_json),
+            step_timeout_s=_opt_float(d.get("step_timeout_s")),
+            first_step_timeout_s=_opt_float(d.get("first_step_timeout_s")),
+            startup_timeout_s=_opt_float(d.get("startup_timeout_s")),
             raw=dict(d),
         )
 
@@ -138,6 +153,15 @@ class EgoState:
     vy: float
     length_m: float
     width_m: float
+    accel_mps2: Optional[float] = None
+    """1.3: the change of its speed along the heading over the last step, per
+    second, m/s² (negative: slowing); ``None`` from an older harness."""
+    yaw_rate_radps: Optional[float] = None
+    """1.3: the change of its heading over the last step, per second, rad/s
+    (positive turns left)."""
+    steering_angle_rad: Optional[float] = None
+    """1.3: front-wheel angle of a kinematic bicycle with a 3.0 m wheelbase
+    driving the last step's path, rad (positive steers left; 0 below 0.1 m/s)."""
 
     @classmethod
     def from_json(cls, d: Mapping[str, Any]) -> "EgoState":
@@ -150,6 +174,9 @@ class EgoState:
             float(d["vy"]),
             float(d["length_m"]),
             float(d["width_m"]),
+            accel_mps2=_opt_float(d.get("accel_mps2")),
+            yaw_rate_radps=_opt_float(d.get("yaw_rate_radps")),
+            steering_angle_rad=_opt_float(d.get("steering_angle_rad")),
         )
 
 
@@ -311,6 +338,22 @@ class Leader:
     """Its centre's offset from the route, m (left > 0)."""
 
 
+def _debug_json(debug: Any, what: str) -> Any:
+    """``debug`` checked: JSON the harness takes (finite numbers, at most
+    :data:`MAX_DEBUG_BYTES` as compact JSON)."""
+    try:
+        text = json.dumps(debug, allow_nan=False, separators=(",", ":"), ensure_ascii=False)
+    except (TypeError, ValueError) as e:
+        raise ValueError(f"{what}.debug is not JSON the protocol takes: {e}") from None
+    size = len(text.encode("utf-8"))
+    if size > MAX_DEBUG_BYTES:
+        raise ValueError(
+            f"{what}.debug is {size} bytes of JSON; the harness keeps at most {MAX_DEBUG_BYTES} per step "
+            "(log larger diagnostics to stderr)"
+        )
+    return debug
+
+
 def _finite(value: float, what: str) -> float:
     v = float(value)
     if not math.isfinite(v):
@@ -326,6 +369,9 @@ class Control:
     """Longitudinal acceleration, m/s² (negative brakes)."""
     yaw_rate_radps: float = 0.0
     """Yaw rate, rad/s (positive turns left)."""
+    debug: Any = None
+    """1.3: any JSON to keep with this step in the rollout's recording (at
+    most 64 KiB); ``None`` sends none."""
 
     def to_json(self, step: Optional[int] = None) -> Dict[str, Any]:
         """The reply as a JSON object (``step``: the observation answered)."""
@@ -336,6 +382,8 @@ class Control:
         }
         if step is not None:
             out["step"] = step
+        if self.debug is not None:
+            out["debug"] = _debug_json(self.debug, "control")
         return out
 
 
@@ -365,6 +413,9 @@ class Trajectory:
     Times must be positive and increasing, the last at least ``dt_s``."""
 
     points: List[TrajectoryPoint]
+    debug: Any = None
+    """1.3: any JSON to keep with this step in the rollout's recording (at
+    most 64 KiB); ``None`` sends none."""
 
     def to_json(self, step: Optional[int] = None) -> Dict[str, Any]:
         if not self.points:
@@ -377,6 +428,8 @@ class Trajectory:
         out: Dict[str, Any] = {"type": "trajectory", "points": [p.to_json() for p in self.points]}
         if step is not None:
             out["step"] = step
+        if self.debug is not None:
+            out["debug"] = _debug_json(self.debug, "trajectory")
         return out
 
 

@@ -204,13 +204,13 @@ class Route:
         """Arc length, m (0 for an empty route)."""
         return 0.0 if self.path is None else self.path.length
 
-    def point_at(self, s: float) -> Point:
+    def point_at(self, s: float, extrapolate: bool = False) -> Point:
         """The point at arc length ``s`` (see :meth:`Path.point_at`)."""
-        return self._need().point_at(s)
+        return self._need().point_at(s, extrapolate)
 
-    def heading_at(self, s: float) -> float:
-        """Direction of travel at arc length ``s``, rad."""
-        return self._need().heading_at(s)
+    def heading_at(self, s: float, extrapolate: bool = False) -> float:
+        """Direction of travel at arc length ``s``, rad (see :meth:`Path.heading_at`)."""
+        return self._need().heading_at(s, extrapolate)
 
     def project(
         self, x: float, y: float, s_from: Optional[float] = None, s_to: Optional[float] = None

@@ -2,7 +2,17 @@ import math
 import unittest
 
 from _kit import straight_lane
-from safer_planner import Lane, Path, RoadMap, Route, polyline_length, resample, resample_spacing, wrap_angle
+from safer_planner import (
+    Lane,
+    Path,
+    RoadMap,
+    Route,
+    box_corners,
+    polyline_length,
+    resample,
+    resample_spacing,
+    wrap_angle,
+)
 
 
 class PathTest(unittest.TestCase):
@@ -20,6 +30,38 @@ class PathTest(unittest.TestCase):
         self.assertEqual(self.path.point_at(5.0), (5.0, 0.0))
         self.assertEqual(self.path.point_at(15.0), (10.0, 5.0))
         self.assertEqual(self.path.point_at(25.0), (10.0, 15.0))
+
+    def test_point_at_extrapolates_before_the_start_when_asked(self):
+        self.assertEqual(self.path.point_at(-5.0, extrapolate=True), (-5.0, 0.0))
+        self.assertEqual(self.path.point_at(5.0, extrapolate=True), (5.0, 0.0))
+        self.assertEqual(self.path.point_at(25.0, extrapolate=True), (10.0, 15.0))
+        # A zero-length first segment does not stop the extension.
+        p = Path([(0, 0), (0, 0), (0, 10)])
+        self.assertEqual(p.point_at(-2.0, extrapolate=True), (0.0, -2.0))
+        self.assertAlmostEqual(self.path.heading_at(-5.0, extrapolate=True), 0.0)
+        up = Path([(0, 0), (0, 10)])
+        self.assertAlmostEqual(up.heading_at(-5.0, extrapolate=True), math.pi / 2)
+        self.assertEqual(Route([[0, 0], [0, 10]]).point_at(-3.0, extrapolate=True), (0.0, -3.0))
+
+    def test_extended_continues_the_end_segments(self):
+        p = self.path.extended(before_m=5.0, after_m=3.0)
+        self.assertEqual(p.points[0], (-5.0, 0.0))
+        self.assertEqual(p.points[-1], (10.0, 13.0))
+        self.assertEqual(p.length, 28.0)
+        # Arc length s on the original is s + before_m on the extended path.
+        self.assertEqual(p.point_at(12.0 + 5.0), self.path.point_at(12.0))
+        self.assertAlmostEqual(p.project(-2.0, 1.0).s, 3.0)
+        self.assertEqual(self.path.extended().points, self.path.points)
+        self.assertEqual(self.path.points[0], (0.0, 0.0))  # the original is unchanged
+        diagonal = Path([(0, 0), (3, 4), (3, 4)]).extended(before_m=5.0, after_m=10.0)
+        self.assertEqual(diagonal.points[0], (-3.0, -4.0))
+        self.assertEqual(diagonal.points[-1], (9.0, 12.0))
+        with self.assertRaises(ValueError):
+            self.path.extended(before_m=-1.0)
+        with self.assertRaises(ValueError):
+            self.path.extended(after_m=float("nan"))
+        with self.assertRaises(ValueError):
+            Path([(1, 1), (1, 1)]).extended(1.0, 1.0)
 
     def test_heading_at(self):
         self.assertAlmostEqual(self.path.heading_at(2.0), 0.0)
@@ -48,6 +90,15 @@ class PathTest(unittest.TestCase):
         with self.assertRaises(ValueError):
             Path([(0, 0)])
         self.assertIsNone(Path([(1, 1), (1, 1)]).project(0.0, 0.0))
+
+    def test_box_corners(self):
+        corners = box_corners(10.0, 5.0, 0.0, 4.0, 2.0)
+        self.assertEqual(corners, [(12.0, 4.0), (12.0, 6.0), (8.0, 6.0), (8.0, 4.0)])
+        turned = box_corners(0.0, 0.0, math.pi / 2, 4.0, 2.0)
+        expected = [(1.0, 2.0), (-1.0, 2.0), (-1.0, -2.0), (1.0, -2.0)]  # front right is +x when facing +y
+        for (x, y), (ex, ey) in zip(turned, expected):
+            self.assertAlmostEqual(x, ex)
+            self.assertAlmostEqual(y, ey)
 
     def test_wrap_angle(self):
         self.assertAlmostEqual(wrap_angle(3 * math.pi / 2), -math.pi / 2)

@@ -33,6 +33,11 @@ class HelloTest(unittest.TestCase):
         self.assertEqual(h.goal.step, 55)
         self.assertTrue(h.raw["some_later_field"])  # unknown fields kept aside, not an error
 
+    def test_a_1_3_hello_carries_the_timeouts(self):
+        h = Hello.from_json(hello(minor=3, step_timeout_s=1.0, first_step_timeout_s=5.0, startup_timeout_s=30.0))
+        self.assertEqual((h.step_timeout_s, h.first_step_timeout_s, h.startup_timeout_s), (1.0, 5.0, 30.0))
+        self.assertIsNone(Hello.from_json(hello(minor=2)).step_timeout_s)
+
     def test_a_1_0_hello(self):
         h = Hello.from_json({"type": "hello", "protocol": 1, "dt_s": 0.1, "ego": {"length_m": 4.5, "width_m": 2}})
         self.assertEqual(h.protocol_minor, 0)
@@ -56,6 +61,15 @@ class ObservationTest(unittest.TestCase):
         self.assertEqual(o.route_s_m, 10.0)
         self.assertEqual(o.ego_route_s(), 10.0)
         self.assertIsNone(o.map)
+
+    def test_a_1_3_ego_state_carries_acceleration_yaw_rate_and_steering(self):
+        raw = observation(3)
+        raw["ego"].update(accel_mps2=-2.5, yaw_rate_radps=0.1, steering_angle_rad=0.0298)
+        ego = Observation.from_json(raw).ego
+        self.assertEqual((ego.accel_mps2, ego.yaw_rate_radps, ego.steering_angle_rad), (-2.5, 0.1, 0.0298))
+        older = Observation.from_json(observation(3)).ego
+        self.assertIsNone(older.accel_mps2)
+        self.assertIsNone(older.steering_angle_rad)
 
     def test_a_1_0_observation_with_the_map_near_the_ego(self):
         raw = observation(0, x=4.0, map={"lanes": [{"id": 0, "centreline": [[0, 0], [2, 0]], "speed_limit_mps": 13.9}],
@@ -122,6 +136,19 @@ class ReplyTest(unittest.TestCase):
             Trajectory([TrajectoryPoint(0.2, 0, 0, 0, 1), TrajectoryPoint(0.1, 0, 0, 0, 1)]).to_json(0)
         with self.assertRaises(ValueError):
             Trajectory([]).to_json(0)
+
+    def test_debug_rides_along_checked(self):
+        out = Control(-1.0, debug={"cost": 3.5, "why": "leader braking"}).to_json(step=2)
+        self.assertEqual(out["debug"], {"cost": 3.5, "why": "leader braking"})
+        self.assertNotIn("debug", Control(-1.0).to_json(step=2))
+        t = Trajectory([TrajectoryPoint(0.1, 1.0, 0.0, 0.0, 10.0)], debug=[1, 2, 3]).to_json(step=0)
+        self.assertEqual(t["debug"], [1, 2, 3])
+        with self.assertRaisesRegex(ValueError, "trajectory.debug is 70010 bytes"):
+            Trajectory([TrajectoryPoint(0.1, 1.0, 0.0, 0.0, 10.0)], debug="x" * 70008).to_json(0)
+        with self.assertRaisesRegex(ValueError, "control.debug is not JSON"):
+            Control(0.0, debug={"cost": float("nan")}).to_json(0)
+        with self.assertRaisesRegex(ValueError, "control.debug is not JSON"):
+            Control(0.0, debug=object()).to_json(0)
 
     def test_route_points_are_tuples(self):
         self.assertEqual(Route([[1, 2], [3, 4]]).points, [(1.0, 2.0), (3.0, 4.0)])

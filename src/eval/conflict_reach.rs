@@ -62,6 +62,7 @@ mod tests {
             min_distance_to_ego: None,
             termination: Termination::Completed,
             planner: "test".into(),
+            planner_debug: Vec::new(),
         }
     }
 

@@ -392,6 +392,7 @@ mod tests {
             min_distance_to_ego: None,
             termination: Termination::Completed,
             planner: "test".into(),
+            planner_debug: Vec::new(),
         };
         let sampled = sample_states(&rollout, TrackIndex(0), TrackIndex(1));
         // Step 10 lacks the CBV; step 40 has 5 steps of future, under half the horizon.

@@ -185,6 +185,10 @@ impl Planner for Timed<'_> {
         self.inner.end_rollout()
     }
 
+    fn take_debug(&mut self) -> Option<serde_json::Value> {
+        self.inner.take_debug()
+    }
+
     fn startup(&self) -> Option<crate::planners::PlannerStartup> {
         self.inner.startup()
     }

@@ -14,6 +14,27 @@ use crate::scenario::AgentState;
 
 use super::Action;
 
+/// The wheelbase of the car the unicycle stands for, m: the model itself
+/// has none, but a steering angle (a planner's view of the ego) and the
+/// sideslip a turn allows (the vehicle limits) are worked out for a
+/// kinematic bicycle with this wheelbase.
+pub const WHEELBASE_M: f64 = 3.0;
+
+/// Below this speed along the heading, m/s, a path has no curvature to
+/// speak of and [`steering_angle_rad`] is 0.
+pub const STEERING_MIN_SPEED_MPS: f64 = 0.1;
+
+/// The front-wheel steering angle, rad (positive steers left), of a
+/// kinematic bicycle with a [`WHEELBASE_M`] wheelbase driving the path a
+/// unicycle drives at this yaw rate and speed: atan(wheelbase ×
+/// yaw rate / speed), in (-π/2, π/2); 0 below [`STEERING_MIN_SPEED_MPS`].
+pub fn steering_angle_rad(yaw_rate_radps: f64, speed_mps: f64) -> f64 {
+    if speed_mps.abs() < STEERING_MIN_SPEED_MPS || !yaw_rate_radps.is_finite() {
+        return 0.0;
+    }
+    (WHEELBASE_M * yaw_rate_radps / speed_mps).atan()
+}
+
 /// The state the kinematic model evolves: pose and scalar speed.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct KinematicState {
@@ -138,6 +159,16 @@ pub fn max_travel_m(speed_mps: f64, max_accel_mps2: f64, dt_s: f64, steps: usize
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn steering_is_the_bicycle_angle_for_the_unicycle_path_left_positive() {
+        // 0.1 rad/s at 10 m/s: a 100 m radius, atan(3 / 100).
+        assert!((steering_angle_rad(0.1, 10.0) - 0.03f64.atan()).abs() < 1e-15);
+        assert!(steering_angle_rad(-0.1, 10.0) < 0.0);
+        assert_eq!(steering_angle_rad(0.5, 0.05), 0.0, "no path to speak of at a crawl");
+        assert_eq!(steering_angle_rad(f64::NAN, 5.0), 0.0);
+        assert!(steering_angle_rad(1.5, 0.1) < std::f64::consts::FRAC_PI_2);
+    }
 
     #[test]
     fn a_held_heading_stepper_steps_as_the_plain_step_to_the_bit() {

@@ -204,10 +204,10 @@ impl VehicleLimits {
     }
 }
 
-/// How far behind the centre a car's rear axle is, m (half a 3 m
-/// wheelbase): in a turn of curvature κ the centre slips sideways at an
-/// angle of about this × κ.
-const CENTRE_TO_REAR_AXLE_M: f64 = 1.5;
+/// How far behind the centre a car's rear axle is, m (half the
+/// [`WHEELBASE_M`](super::kinematics::WHEELBASE_M)): in a turn of
+/// curvature κ the centre slips sideways at an angle of about this × κ.
+const CENTRE_TO_REAR_AXLE_M: f64 = 0.5 * super::kinematics::WHEELBASE_M;
 
 /// Sideslip beyond the geometric one a tyre's slip angle allows in
 /// ordinary driving, rad (about 3°).

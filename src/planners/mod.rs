@@ -60,6 +60,15 @@ pub struct Observation<'a> {
     pub dt_s: f64,
     /// The ego's state.
     pub ego: AgentState,
+    /// The ego's longitudinal acceleration over the last step, m/s²: the
+    /// change of its speed along the heading (as the kinematic model holds
+    /// it, never negative) from the previous step, over the step; 0 where
+    /// no earlier state is known ([`EgoMotion::between`]).
+    pub ego_accel_mps2: f64,
+    /// The ego's yaw rate over the last step, rad/s (positive turns left):
+    /// the heading's wrapped change from the previous step, over the step;
+    /// 0 where no earlier state is known.
+    pub ego_yaw_rate_radps: f64,
     /// The ego's length, m.
     pub ego_length_m: f64,
     /// The ego's width, m.
@@ -117,6 +126,38 @@ impl Horizon {
     /// Time left after `step`, s (0 at or past the end).
     pub fn remaining_s(&self, step: usize) -> f64 {
         self.end_step.saturating_sub(step) as f64 * self.dt_s
+    }
+}
+
+/// How the ego moved over the last step, from two consecutive states (the
+/// simulator keeps poses and velocities, not controls): what
+/// [`Observation::ego_accel_mps2`] and [`Observation::ego_yaw_rate_radps`]
+/// hold.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[non_exhaustive]
+pub struct EgoMotion {
+    /// Change of the speed along the heading (never negative, as
+    /// [`KinematicState::from_agent_state`] holds it), over the step, m/s².
+    pub accel_mps2: f64,
+    /// Wrapped change of the heading, over the step, rad/s.
+    pub yaw_rate_radps: f64,
+}
+
+impl EgoMotion {
+    /// The motion from `previous` to `now`, `dt_s` apart; zero without a
+    /// previous state. Under a control through the kinematic model this
+    /// gives back the control applied (the acceleration unless the speed
+    /// stopped at 0).
+    pub fn between(previous: Option<&AgentState>, now: &AgentState, dt_s: f64) -> Self {
+        let Some(previous) = previous else { return Self::default() };
+        if dt_s.is_nan() || dt_s <= 0.0 {
+            return Self::default();
+        }
+        let speed = |s: &AgentState| KinematicState::from_agent_state(s).speed_mps;
+        EgoMotion {
+            accel_mps2: (speed(now) - speed(previous)) / dt_s,
+            yaw_rate_radps: crate::geometry::wrap_angle(now.heading_rad - previous.heading_rad) / dt_s,
+        }
     }
 }
 
@@ -180,6 +221,8 @@ impl<'a> Observation<'a> {
             time_s: 0.0,
             dt_s: 0.1,
             ego,
+            ego_accel_mps2: 0.0,
+            ego_yaw_rate_radps: 0.0,
             ego_length_m: 4.5,
             ego_width_m: 2.0,
             agents: Vec::new(),
@@ -489,6 +532,14 @@ pub trait Planner: Send {
     /// How long this rollout's start took, for planners that start
     /// something (an external process); `None` for the others.
     fn startup(&self) -> Option<PlannerStartup> {
+        None
+    }
+    /// The planner's own data about its last [`Planner::plan`] call, taken
+    /// (the next call gives `None` until it plans again): an external
+    /// planner's `debug` object. The simulator keeps it with the step in
+    /// the rollout ([`crate::sim::Rollout::planner_debug`]); `None` for
+    /// planners without any.
+    fn take_debug(&mut self) -> Option<serde_json::Value> {
         None
     }
 }

@@ -349,6 +349,10 @@ impl Planner for MutantPlanner {
         self.inner.end_rollout()
     }
 
+    fn take_debug(&mut self) -> Option<serde_json::Value> {
+        self.inner.take_debug()
+    }
+
     fn startup(&self) -> Option<PlannerStartup> {
         self.inner.startup()
     }

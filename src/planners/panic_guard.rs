@@ -61,6 +61,13 @@ impl Planner for PanicGuard {
         catch_unwind(AssertUnwindSafe(|| self.inner.end_rollout())).unwrap_or(None)
     }
 
+    fn take_debug(&mut self) -> Option<serde_json::Value> {
+        if self.panicked.is_some() {
+            return None;
+        }
+        catch_unwind(AssertUnwindSafe(|| self.inner.take_debug())).unwrap_or(None)
+    }
+
     fn startup(&self) -> Option<PlannerStartup> {
         self.inner.startup()
     }

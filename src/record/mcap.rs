@@ -13,6 +13,7 @@
 //! | [`TOPIC_COLLISIONS`] | `foxglove.SceneUpdate` | at each collision: a marker at the contact point |
 //! | [`TOPIC_TF`] | `foxglove.FrameTransform` | every step: `map` → `ego`, so the view can follow the ego |
 //! | [`TOPIC_EVENTS`] | `foxglove.Log` | t = 0 (what ran), collisions, off-road, planner failure |
+//! | [`TOPIC_PLANNER_DEBUG`] | `safer.PlannerDebug` (JSON) | at each step the planner gave a `debug` object: `{"step": k, "debug": ...}`; only in recordings of such planners |
 //!
 //! Log time = publish time = step time in nanoseconds from 0, never the
 //! wall clock; messages are written in time order (ties in topic order),
@@ -52,6 +53,10 @@ pub const TOPIC_COLLISIONS: &str = "/scene/collisions";
 pub const TOPIC_TF: &str = "/tf";
 /// Human-readable events.
 pub const TOPIC_EVENTS: &str = "/events";
+/// The planner's own per-step data (an external planner's `debug`), JSON.
+pub const TOPIC_PLANNER_DEBUG: &str = "/planner/debug";
+/// The JSON Schema of a [`TOPIC_PLANNER_DEBUG`] message.
+const PLANNER_DEBUG_SCHEMA: &str = r#"{"type":"object","properties":{"step":{"type":"integer","description":"scenario step of the observation answered"},"debug":{"description":"the planner's JSON, as it sent it"}},"required":["step","debug"]}"#;
 /// The fixed frame everything is drawn in.
 pub const FRAME_MAP: &str = "map";
 /// The frame that follows the ego.
@@ -108,11 +113,20 @@ enum Topic {
     Collisions,
     Tf,
     Events,
+    PlannerDebug,
 }
 
 impl Topic {
-    const ALL: [Topic; 7] =
-        [Topic::Map, Topic::Paths, Topic::Witness, Topic::Agents, Topic::Collisions, Topic::Tf, Topic::Events];
+    const ALL: [Topic; 8] = [
+        Topic::Map,
+        Topic::Paths,
+        Topic::Witness,
+        Topic::Agents,
+        Topic::Collisions,
+        Topic::Tf,
+        Topic::Events,
+        Topic::PlannerDebug,
+    ];
 
     fn name(self) -> &'static str {
         match self {
@@ -123,6 +137,15 @@ impl Topic {
             Self::Collisions => TOPIC_COLLISIONS,
             Self::Tf => TOPIC_TF,
             Self::Events => TOPIC_EVENTS,
+            Self::PlannerDebug => TOPIC_PLANNER_DEBUG,
+        }
+    }
+
+    /// How its messages are encoded.
+    fn message_encoding(self) -> &'static str {
+        match self {
+            Self::PlannerDebug => "json",
+            _ => "protobuf",
         }
     }
 
@@ -130,6 +153,11 @@ impl Topic {
         match self {
             Self::Tf => FrameTransform::get_schema(),
             Self::Events => Log::get_schema(),
+            Self::PlannerDebug => Some(foxglove::Schema::new(
+                "safer.PlannerDebug",
+                "jsonschema",
+                PLANNER_DEBUG_SCHEMA.as_bytes().to_vec(),
+            )),
             _ => SceneUpdate::get_schema(),
         }
     }
@@ -173,6 +201,14 @@ pub fn encode_rollout_mcap(
     for (time_ns, log) in rec.events() {
         push(time_ns, Topic::Events, log.encode_to_vec());
     }
+    for d in &rollout.planner_debug {
+        let time_ns = rec.time_ns(d.step.saturating_sub(rollout.start_step));
+        let message = serde_json::to_vec(d).map_err(|e| RecordError::InconsistentRollout {
+            scenario: rollout.scenario_id.clone(),
+            what: format!("the planner's debug data at step {} is not JSON: {e}", d.step),
+        })?;
+        push(time_ns, Topic::PlannerDebug, message);
+    }
     // Stable: equal times keep topic order, then the order pushed.
     pending.sort_by_key(|p| (p.time_ns, p.topic));
 
@@ -183,11 +219,16 @@ pub fn encode_rollout_mcap(
     let mut writer = options.create(Cursor::new(Vec::new()))?;
     let mut channels = BTreeMap::new();
     for topic in Topic::ALL {
+        // Only planners that send debug data get its channel: other
+        // recordings stay as they were.
+        if topic == Topic::PlannerDebug && rollout.planner_debug.is_empty() {
+            continue;
+        }
         let schema_id = match topic.schema() {
             Some(s) => writer.add_schema(&s.name, &s.encoding, &s.data)?,
             None => 0,
         };
-        let id = writer.add_channel(schema_id, topic.name(), "protobuf", &BTreeMap::new())?;
+        let id = writer.add_channel(schema_id, topic.name(), topic.message_encoding(), &BTreeMap::new())?;
         channels.insert(topic, id);
     }
     writer

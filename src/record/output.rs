@@ -163,6 +163,9 @@ pub enum OutputKind {
     Svg,
     /// A CommonRoad scenario that safer exported (`author="safer"`).
     CommonRoadExport,
+    /// The JSON sidecar of a CommonRoad export
+    /// ([`super::commonroad::ExportSidecar`]).
+    CommonRoadSidecar,
 }
 
 impl OutputKind {
@@ -173,6 +176,7 @@ impl OutputKind {
             Self::JunitXml => "a JUnit report",
             Self::Svg => "an SVG picture",
             Self::CommonRoadExport => "a CommonRoad scenario exported by safer",
+            Self::CommonRoadSidecar => "the sidecar of a CommonRoad export by safer",
         }
     }
 
@@ -185,6 +189,10 @@ impl OutputKind {
             Self::JunitXml => text.starts_with("<?xml") && text.contains("<testsuites"),
             Self::Svg => (text.starts_with("<?xml") || text.starts_with("<svg")) && text.contains("<svg"),
             Self::CommonRoadExport => text.contains("<commonRoad") && text.contains("author=\"safer\""),
+            Self::CommonRoadSidecar => {
+                text.starts_with('{')
+                    && text.contains(&format!("\"format\": \"{}\"", super::commonroad::SIDECAR_FORMAT))
+            }
         }
     }
 }

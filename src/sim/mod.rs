@@ -14,10 +14,10 @@ pub mod traffic;
 
 pub use crate::motion::vehicle_limits::{LimitMonitor, LimitViolation, VehicleLimits};
 pub use events::{CollisionEvent, EgoCollisionKind, EgoContact, LaneOccupancy, OffRoadEvent};
-pub use rollout::{Rollout, RolloutSummary, Termination};
+pub use rollout::{PlannerDebug, Rollout, RolloutSummary, Termination};
 
 use crate::motion::{KinematicState, kinematic_step, tokens::SIM_DT_S};
-use crate::planners::{Goal, Horizon, Observation, PerceivedAgent, Planner, Route};
+use crate::planners::{EgoMotion, Goal, Horizon, Observation, PerceivedAgent, Planner, Route};
 use crate::policies::{AgentAction, AgentPolicy, BackgroundPolicy, WorldView};
 use crate::scenario::{AgentBody, AgentState, Scenario, TrackIndex};
 
@@ -177,6 +177,7 @@ impl<'a> Simulation<'a> {
                 min_distance_to_ego: None,
                 termination: Termination::InvalidAgentState { step: start, agent, reason },
                 planner: planner.name().to_string(),
+                planner_debug: Vec::new(),
             };
         }
         let mut detector = events::EventDetector::new(scenario, self.ego, &bodies, &states, start);
@@ -191,6 +192,10 @@ impl<'a> Simulation<'a> {
             horizon: Horizon::new(start, end, SIM_DT_S),
             goal: Goal::recorded(scenario, self.ego),
         };
+        // The ego's state a step earlier, for its acceleration and yaw rate:
+        // the recording's before the start, the simulated one after.
+        let mut previous_ego = start.checked_sub(1).and_then(|k| scenario.track(self.ego).state(k).copied());
+        let mut planner_debug = Vec::new();
         for step in start..end {
             let world = WorldView { map: &scenario.map, step, bodies: &bodies, states: &states };
             let actions: Vec<AgentAction> = self
@@ -202,9 +207,13 @@ impl<'a> Simulation<'a> {
                     None => AgentAction::Absent,
                 })
                 .collect();
-            let observation = self.observe(step, start, &bodies, &states, &mut route);
+            let observation = self.observe(step, start, &bodies, &states, previous_ego.as_ref(), &mut route);
             let mut sent_control = None;
-            let ego_next = planner.plan(&observation).map_err(|e| e.to_string()).and_then(|out| {
+            let planned = planner.plan(&observation);
+            if let Some(debug) = planner.take_debug() {
+                planner_debug.push(PlannerDebug { step, debug });
+            }
+            let ego_next = planned.map_err(|e| e.to_string()).and_then(|out| {
                 let ego_now = states[self.ego.0].expect("ego present while running");
                 if let crate::planners::PlannerOutput::Control(action) = &out {
                     sent_control = Some(*action);
@@ -237,6 +246,7 @@ impl<'a> Simulation<'a> {
                 termination = Termination::InvalidAgentState { step: step + 1, agent, reason };
                 break;
             }
+            previous_ego = states[self.ego.0];
             states = next;
             record.push(states.clone());
             let collided = detector.observe(step + 1, &states);
@@ -264,6 +274,7 @@ impl<'a> Simulation<'a> {
             min_distance_to_ego: min_distance,
             termination,
             planner: planner.name().to_string(),
+            planner_debug,
         }
     }
 
@@ -293,6 +304,7 @@ impl<'a> Simulation<'a> {
         start: usize,
         bodies: &[AgentBody],
         states: &[Option<AgentState>],
+        previous_ego: Option<&AgentState>,
         route: &mut RouteState,
     ) -> Observation<'m>
     where
@@ -325,6 +337,7 @@ impl<'a> Simulation<'a> {
         // The previous step's observation is gone: no copy of the route is made.
         let s = std::sync::Arc::make_mut(&mut route.route).update(&self.scenario.map, &ego, &route.recorded);
         let route_s_m = (!route.route.is_empty()).then_some(s);
+        let motion = EgoMotion::between(previous_ego, &ego, SIM_DT_S);
         Observation {
             route: route.route.clone(),
             route_s_m,
@@ -334,6 +347,8 @@ impl<'a> Simulation<'a> {
             time_s: (step - start) as f64 * SIM_DT_S,
             dt_s: SIM_DT_S,
             ego,
+            ego_accel_mps2: motion.accel_mps2,
+            ego_yaw_rate_radps: motion.yaw_rate_radps,
             ego_length_m: ego_body.length_m,
             ego_width_m: ego_body.width_m,
             agents,
@@ -498,6 +513,45 @@ mod tests {
     }
 
     const ROUTE_BEHIND: f64 = crate::planners::route::ROUTE_BEHIND_M;
+
+    /// Records the ego's acceleration and yaw rate it is shown; turns left
+    /// while braking.
+    #[derive(Default)]
+    struct MotionWatcher {
+        seen: Vec<(f64, f64)>,
+    }
+
+    impl Planner for MotionWatcher {
+        fn name(&self) -> &str {
+            "motion-watcher"
+        }
+        fn plan(&mut self, obs: &Observation<'_>) -> Result<PlannerOutput, crate::planners::PlannerError> {
+            self.seen.push((obs.ego_accel_mps2, obs.ego_yaw_rate_radps));
+            Ok(PlannerOutput::Control(crate::motion::Action { accel_mps2: -2.0, yaw_rate_radps: 0.1 }))
+        }
+    }
+
+    #[test]
+    fn the_ego_motion_is_the_recordings_at_the_start_then_the_controls_applied() {
+        let mut s = stopped_car_ahead();
+        // Recorded: 11 m/s heading -0.01 rad at step 4, 12 m/s heading 0 at step 5.
+        let before = s.tracks[0].states[4].as_mut().unwrap();
+        before.heading_rad = -0.01;
+        before.velocity_mps = Vector2::new(11.0 * 0.01f64.cos(), -11.0 * 0.01f64.sin());
+        let mut watcher = MotionWatcher::default();
+        let config = SimConfig { start_step: Some(5), end_step: Some(15), ..SimConfig::default() };
+        Simulation::new(&s, config).unwrap().run(&mut watcher);
+        assert_eq!(watcher.seen.len(), 10);
+        let (accel, yaw_rate) = watcher.seen[0];
+        assert!((accel - 10.0).abs() < 1e-9 && (yaw_rate - 0.1).abs() < 1e-9, "{:?}", watcher.seen[0]);
+        for (k, &(accel, yaw_rate)) in watcher.seen.iter().enumerate().skip(1) {
+            assert!((accel + 2.0).abs() < 1e-9 && (yaw_rate - 0.1).abs() < 1e-9, "step {k}: {accel}, {yaw_rate}");
+        }
+        // From step 0 there is no state before: nothing is made up.
+        let mut watcher = MotionWatcher::default();
+        Simulation::new(&s, SimConfig { end_step: Some(3), ..SimConfig::default() }).unwrap().run(&mut watcher);
+        assert_eq!(watcher.seen[0], (0.0, 0.0));
+    }
 
     fn run_constant_velocity(s: &Scenario) -> Rollout {
         let mut p = BuiltinPlanner::ConstantVelocity.instantiate(s, TrackIndex(0));

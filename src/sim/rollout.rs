@@ -87,6 +87,19 @@ pub struct Rollout {
     pub termination: Termination,
     /// Planner name.
     pub planner: String,
+    /// What the planner gave to keep with its steps (an external planner's
+    /// `debug` objects), in step order; empty for most planners.
+    pub planner_debug: Vec<PlannerDebug>,
+}
+
+/// A planner's own data for one step (an external planner's `debug`
+/// object), kept with the rollout for the recording.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct PlannerDebug {
+    /// The scenario step of the observation it answered.
+    pub step: usize,
+    /// The planner's JSON, as it sent it.
+    pub debug: serde_json::Value,
 }
 
 /// The ego's first collision, for reports.

@@ -7,12 +7,13 @@
 //! errors, truncated to 200 characters.
 
 use super::wire::{
-    HarnessMessage, PlannerMessage, WireAgent, WireEgo, WireFullLane, WireFullMap, WireLane, WireMap, WirePoint,
-    WireSignal, WireSignalStop, WireStopSign,
+    HarnessMessage, MAX_DEBUG_BYTES, PlannerMessage, WireAgent, WireEgo, WireFullLane, WireFullMap, WireLane, WireMap,
+    WirePoint, WireSignal, WireSignalStop, WireStopSign,
 };
 use crate::geometry::{Point2, Polyline, Vector2};
 use crate::map::{Lane, RoadMap};
 use crate::motion::Action;
+use crate::motion::kinematics::steering_angle_rad;
 use crate::planners::lane_walk::{samples, walk_lanes};
 use crate::planners::route::Route as StableRoute;
 use crate::planners::{Observation, PlannerOutput, TrajectoryPoint};
@@ -147,6 +148,12 @@ fn observation_with(
             speed_mps: ego.speed_mps(),
             vx: ego.velocity_mps.x,
             vy: ego.velocity_mps.y,
+            accel_mps2: obs.ego_accel_mps2,
+            yaw_rate_radps: obs.ego_yaw_rate_radps,
+            steering_angle_rad: steering_angle_rad(
+                obs.ego_yaw_rate_radps,
+                crate::motion::KinematicState::from_agent_state(ego).speed_mps,
+            ),
             length_m: obs.ego_length_m,
             width_m: obs.ego_width_m,
         },
@@ -217,7 +224,25 @@ pub enum ReplyError {
 /// length a trajectory must reach. Total on arbitrary bytes: it never
 /// panics, and every number in an `Ok` output is finite.
 pub fn decode_reply(line: &[u8], dt_s: f64) -> Result<PlannerOutput, ReplyError> {
-    reply_output(parse_reply(line).map_err(ReplyError::Protocol)?, dt_s)
+    let reply = parse_reply(line).map_err(ReplyError::Protocol)?;
+    check_debug(&reply)?;
+    reply_output(reply, dt_s)
+}
+
+/// A reply's `debug` object, compact JSON, once it is checked to be within
+/// [`MAX_DEBUG_BYTES`]: a planner's diagnostics are kept with every step,
+/// so one that dumps its whole state each step must hear so at once.
+pub(super) fn check_debug(reply: &PlannerMessage) -> Result<(), ReplyError> {
+    let Some(debug) = reply.debug() else { return Ok(()) };
+    let bytes = serde_json::to_vec(debug).map_or(usize::MAX, |v| v.len());
+    if bytes > MAX_DEBUG_BYTES {
+        return Err(ReplyError::Protocol(format!(
+            "its `{}` carries a `debug` object of {bytes} bytes (as compact JSON); at most {MAX_DEBUG_BYTES} \
+             bytes are kept per step (write larger diagnostics to stderr or a file of its own)",
+            reply.kind()
+        )));
+    }
+    Ok(())
 }
 
 /// Whether `reply` may answer the observation of `step`: a step it names
@@ -447,7 +472,7 @@ mod tests {
     #[test]
     fn replies_are_parsed_strictly() {
         let ok = parse_reply(br#"{"type":"control","accel_mps2":-2,"yaw_rate_radps":0.5,"debug":"x"}"#).unwrap();
-        assert!(matches!(ok, PlannerMessage::Control { accel_mps2: -2.0, yaw_rate_radps: 0.5, step: None }));
+        assert!(matches!(ok, PlannerMessage::Control { accel_mps2: -2.0, yaw_rate_radps: 0.5, step: None, .. }));
         // NaN inside a string is just text.
         let ok = parse_reply(br#"{"type":"error","message":"got NaN and -Infinity"}"#).unwrap();
         assert!(matches!(ok, PlannerMessage::Error { message: Some(m), .. } if m == "got NaN and -Infinity"));

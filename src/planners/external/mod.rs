@@ -1,5 +1,5 @@
 //! External planners: a child process that drives the ego by speaking the
-//! JSON-lines planner protocol (version 1, revisions 1.0, 1.1 and 1.2, specified
+//! JSON-lines planner protocol (version 1, revisions 1.0 to 1.3, specified
 //! in `docs/planner-protocol.md`, schema in `docs/planner-protocol.schema.json`).
 //!
 //! One JSON object per line in each direction: the harness writes `hello`,
@@ -11,7 +11,10 @@
 //! per-step map; one that does not is spoken to in 1.0. With
 //! `protocol_minor: 2` every reply names the step it answers, and a reply
 //! for another step fails the rollout (a step it names is checked in every
-//! revision). A [`RolloutContext`]
+//! revision). 1.3 adds fields every planner gets (the timeouts in `hello`,
+//! the ego's acceleration, yaw rate and steering angle in observations) and
+//! the `debug` object a reply may carry, kept with the step in the
+//! rollout ([`crate::sim::Rollout::planner_debug`]). A [`RolloutContext`]
 //! (the scene and variant, given by the pipeline) fills `hello`'s 1.1 fields,
 //! the `args`/`env` placeholders and the `SAFER_*` variables. Its stderr is
 //! free-form logging; the harness keeps the last lines to explain failures
@@ -92,11 +95,13 @@ use crate::motion::tokens::SIM_DT_S;
 use crate::scenario::AgentState;
 pub use context::{PLACEHOLDERS, RolloutContext, check_placeholders, expand};
 pub use encoding::{MAP_RADIUS_M, MAP_SPACING_M, ROUTE_LENGTH_M, decode_reply};
-use encoding::{ReplyError, check_reply_step, full_map, observation_message, observation_message_v11, reply_output};
+use encoding::{
+    ReplyError, check_debug, check_reply_step, full_map, observation_message, observation_message_v11, reply_output,
+};
 use process::Process;
 pub(crate) use process::format_stderr_tail;
 use wire::{EgoSize, HarnessMessage, PlannerMessage};
-pub use wire::{PROTOCOL_MINOR, PROTOCOL_VERSION, protocol_schema};
+pub use wire::{MAX_DEBUG_BYTES, PROTOCOL_MINOR, PROTOCOL_VERSION, protocol_schema};
 
 fn default_step_timeout_ms() -> u64 {
     1000
@@ -183,6 +188,9 @@ enum Revision {
     V1_1,
     /// 1.2: as 1.1, and every reply names the step it answers.
     V1_2,
+    /// 1.3: as 1.2; the fields 1.3 adds are sent to every planner, so a
+    /// planner asking for it learns only that the harness knows them.
+    V1_3,
 }
 
 impl Revision {
@@ -192,7 +200,8 @@ impl Revision {
         match protocol_minor {
             0 => Self::V1_0,
             1 => Self::V1_1,
-            _ => Self::V1_2,
+            2 => Self::V1_2,
+            _ => Self::V1_3,
         }
     }
 }
@@ -224,6 +233,8 @@ pub struct ExternalPlanner {
     stderr_log: String,
     /// How long this rollout's process took to start and to prepare.
     startup: Option<super::PlannerStartup>,
+    /// The `debug` object of the last reply, until the simulator takes it.
+    debug: Option<serde_json::Value>,
 }
 
 impl std::fmt::Debug for ExternalPlanner {
@@ -254,6 +265,7 @@ impl ExternalPlanner {
             calls: 0,
             stderr_log: String::new(),
             startup: None,
+            debug: None,
         }
     }
 
@@ -308,12 +320,13 @@ impl ExternalPlanner {
     }
 
     /// The protocol revision agreed with the running process, as `1.0`,
-    /// `1.1` or `1.2` (`None` before the handshake).
+    /// `1.1`, `1.2` or `1.3` (`None` before the handshake).
     pub fn protocol(&self) -> Option<&'static str> {
         self.process.as_ref().map(|_| match self.revision {
             Revision::V1_0 => "1.0",
             Revision::V1_1 => "1.1",
             Revision::V1_2 => "1.2",
+            Revision::V1_3 => "1.3",
         })
     }
 
@@ -355,6 +368,10 @@ impl ExternalPlanner {
                 protocol_minor: PROTOCOL_MINOR,
                 dt_s,
                 ego: EgoSize { length_m: ego_length_m, width_m: ego_width_m },
+                step_timeout_s: self.config.step_timeout_ms as f64 / 1e3,
+                first_step_timeout_s: self.config.first_step_timeout_ms.unwrap_or(self.config.step_timeout_ms) as f64
+                    / 1e3,
+                startup_timeout_s: self.config.startup_timeout_ms as f64 / 1e3,
                 scenario: c.map(|c| c.wire_scenario()),
                 origin_world: c.map(|c| [c.scenario.origin_world.x, c.scenario.origin_world.y]),
                 horizon: c.map(|c| c.wire_horizon(dt_s)),
@@ -475,6 +492,7 @@ impl ExternalPlanner {
         self.answered = 0;
         self.stderr_log.clear();
         self.startup = None;
+        self.debug = None;
     }
 
     /// One observation → reply round trip, validated into a planner output.
@@ -487,7 +505,7 @@ impl ExternalPlanner {
         };
         let message = match self.revision {
             Revision::V1_0 => observation_message(obs),
-            Revision::V1_1 | Revision::V1_2 => {
+            Revision::V1_1 | Revision::V1_2 | Revision::V1_3 => {
                 let s = self.route.update(obs.map, &obs.ego, &self.recorded_path);
                 observation_message_v11(obs, &self.route, s)
             }
@@ -500,7 +518,9 @@ impl ExternalPlanner {
         let reply = process.exchange(&name, &message, &during, timeout_ms)?;
         self.answered += 1;
         let tagged = self.revision >= Revision::V1_2;
-        check_reply_step(&reply, obs.step, tagged).and_then(|()| reply_output(reply, obs.dt_s)).map_err(|e| match e {
+        let checked = check_reply_step(&reply, obs.step, tagged).and_then(|()| check_debug(&reply));
+        self.debug = checked.is_ok().then(|| reply.debug().cloned()).flatten();
+        checked.and_then(|()| reply_output(reply, obs.dt_s)).map_err(|e| match e {
             ReplyError::Protocol(message) => PlannerError::Protocol { planner: name, during, message },
             ReplyError::Reported(message) => PlannerError::Reported { planner: name, during, message },
         })
@@ -523,6 +543,7 @@ impl Planner for ExternalPlanner {
             self.reset();
         }
         self.calls += 1;
+        self.debug = None;
         if let Some(e) = &self.failure {
             return Err(e.clone());
         }
@@ -533,6 +554,10 @@ impl Planner for ExternalPlanner {
         // 1.1: once per process (a no-op in 1.0 and once prepared).
         self.prepare(obs.map, &obs.ego, started)?;
         self.step(obs).map_err(|e| self.fail(e))
+    }
+
+    fn take_debug(&mut self) -> Option<serde_json::Value> {
+        self.debug.take()
     }
 
     fn end_rollout(&mut self) -> Option<String> {
@@ -868,7 +893,11 @@ mod tests {
         let reports = reports(&mut planner);
         let hello = &reports[0]["message"];
         assert_eq!(hello["protocol"], 1);
-        assert_eq!(hello["protocol_minor"], 2);
+        assert_eq!(hello["protocol_minor"], 3);
+        // 1.3: the time budget as the harness enforces it, in seconds.
+        assert_eq!(hello["step_timeout_s"], 1.0);
+        assert_eq!(hello["first_step_timeout_s"], 1.0);
+        assert_eq!(hello["startup_timeout_s"], 10.0);
         assert_eq!(hello["scenario"]["id"], "external-stopped-car-ahead");
         assert_eq!(hello["scenario"]["format"], "authored");
         assert_eq!(hello["scenario"]["variant"], "probe-suite::external-stopped-car-ahead::seed-3");
@@ -969,7 +998,99 @@ mod tests {
         assert_eq!(env["SAFER_VARIANT"], "probe-suite::external-stopped-car-ahead::seed-3");
         assert_eq!(env["SAFER_SEED"], "overridden", "the spec's env wins over the harness's");
         assert_eq!(env["SAFER_FORMAT"], "authored");
-        assert_eq!(env["SAFER_PROTOCOL"], "1.2");
+        assert_eq!(env["SAFER_PROTOCOL"], "1.3");
+    }
+
+    #[test]
+    fn hello_gives_the_configured_timeouts_and_1_3_is_negotiated() {
+        let s = stopped_car_ahead();
+        let mut config = probe(&["--minor", "3"]);
+        config.step_timeout_ms = 250;
+        config.first_step_timeout_ms = Some(4500);
+        config.startup_timeout_ms = 30_000;
+        let mut planner = ExternalPlanner::with_context(config, context(&s));
+        assert_eq!(run(&s, &mut planner).termination, Termination::Completed);
+        assert_eq!(planner.protocol(), Some("1.3"));
+        let hello = &reports(&mut planner)[0]["message"];
+        assert_eq!(
+            (&hello["step_timeout_s"], &hello["first_step_timeout_s"], &hello["startup_timeout_s"]),
+            (&serde_json::json!(0.25), &serde_json::json!(4.5), &serde_json::json!(30.0))
+        );
+        // A later revision than the harness's is spoken to as the harness's;
+        // 1.2 stays 1.2.
+        for (minor, spoken) in [("9", "1.3"), ("2", "1.2")] {
+            let mut planner = ExternalPlanner::with_context(probe(&["--minor", minor]), context(&s));
+            assert_eq!(run(&s, &mut planner).termination, Termination::Completed);
+            assert_eq!(planner.protocol(), Some(spoken), "ready with protocol_minor {minor}");
+        }
+    }
+
+    #[test]
+    fn the_ego_state_carries_the_applied_acceleration_yaw_rate_and_steering() {
+        let s = stopped_car_ahead();
+        let config = probe(&["--minor", "3", "--accel", "-1.5", "--yaw-rate", "0.05"]);
+        let mut planner = ExternalPlanner::with_context(config, context(&s));
+        let sim = SimConfig { end_step: Some(30), ..SimConfig::default() };
+        let r = Simulation::new(&s, sim).unwrap().run(&mut planner);
+        assert_eq!(r.termination, Termination::Completed);
+        let egos: Vec<serde_json::Value> = reports(&mut planner)
+            .into_iter()
+            .filter(|r| r["type"] == "observation")
+            .map(|r| r["ego"].clone())
+            .collect();
+        assert_eq!(egos.len(), 30);
+        // The rollout starts at step 0: nothing before it.
+        assert_eq!((&egos[0]["accel_mps2"], &egos[0]["yaw_rate_radps"]), (&0.0.into(), &0.0.into()));
+        assert_eq!(egos[0]["steering_angle_rad"], 0.0);
+        for (k, ego) in egos.iter().enumerate().skip(1) {
+            let number = |key: &str| ego[key].as_f64().unwrap_or_else(|| panic!("step {k}: no {key} in {ego}"));
+            assert!((number("accel_mps2") + 1.5).abs() < 1e-9, "step {k}: {ego}");
+            assert!((number("yaw_rate_radps") - 0.05).abs() < 1e-9, "step {k}: {ego}");
+            // Left turn, positive; the bicycle's angle for that curvature.
+            let expected = (3.0 * 0.05 / number("speed_mps")).atan();
+            assert!((number("steering_angle_rad") - expected).abs() < 1e-9, "step {k}: {ego}");
+            assert!(number("steering_angle_rad") > 0.0);
+        }
+    }
+
+    #[test]
+    fn debug_objects_are_kept_with_their_steps_and_too_big_ones_fail() {
+        let s = stopped_car_ahead();
+        let mut planner = ExternalPlanner::with_context(probe(&["--minor", "3", "--debug-bytes", "100"]), context(&s));
+        let r = run(&s, &mut planner);
+        assert_eq!(r.termination, Termination::Completed);
+        assert_eq!(r.planner_debug.len(), 120);
+        for (k, d) in r.planner_debug.iter().enumerate() {
+            assert_eq!(d.step, k);
+            assert_eq!(d.debug["step"], k);
+            assert_eq!(d.debug["pad"].as_str().map(str::len), Some(100));
+        }
+        // Kept where a failure is looked at: the recording.
+        let bytes = crate::record::encode_rollout_mcap(&s, &r, &[]).unwrap();
+        let debug: Vec<(u64, serde_json::Value)> = ::mcap::MessageStream::new(&bytes)
+            .unwrap()
+            .map(|m| m.unwrap())
+            .filter(|m| m.channel.topic == crate::record::mcap::TOPIC_PLANNER_DEBUG)
+            .map(|m| {
+                assert_eq!(m.channel.message_encoding, "json");
+                (m.log_time, serde_json::from_slice(&m.data).unwrap())
+            })
+            .collect();
+        assert_eq!(debug.len(), 120);
+        // At the time of the step it answered.
+        assert_eq!(debug[7].0, 700_000_000);
+        assert_eq!(debug[7].1["step"], 7);
+        assert_eq!(debug[7].1["debug"]["step"], 7);
+
+        let too_big = MAX_DEBUG_BYTES.to_string();
+        let r = run(&s, &mut ExternalPlanner::with_context(probe(&["--debug-bytes", &too_big]), context(&s)));
+        let (step, reason) = failed(&r);
+        assert_eq!(step, 0);
+        assert!(
+            reason.contains("its `control` carries a `debug` object of 65555 bytes (as compact JSON); at most 65536"),
+            "{reason}"
+        );
+        assert!(r.planner_debug.is_empty());
     }
 
     #[test]

@@ -1,4 +1,4 @@
-//! The wire format of planner protocol version 1 (minor revisions 0, 1 and 2):
+//! The wire format of planner protocol version 1 (minor revisions 0 to 3):
 //! every message the harness writes (`hello`, `prepare`, `observation`,
 //! `bye`) and every message a planner may answer (`ready`, `prepared`,
 //! `control`, `trajectory`, `error`), as serde types, and
@@ -21,7 +21,12 @@ pub const PROTOCOL_VERSION: u32 = 1;
 /// (`protocol_minor` in `hello`); a planner opts in with `protocol_minor`
 /// in `ready`, and one that leaves it out gets revision 0 (version 1 as
 /// first published).
-pub const PROTOCOL_MINOR: u32 = 2;
+pub const PROTOCOL_MINOR: u32 = 3;
+
+/// The most bytes of JSON a reply's `debug` object may take (serialised
+/// compactly): enough for a planner's per-step diagnostics, not a log. A
+/// larger one is a protocol error.
+pub const MAX_DEBUG_BYTES: usize = 64 * 1024;
 
 /// A message from the harness to the planner (one line on its stdin).
 #[derive(Debug, Clone, Serialize, JsonSchema)]
@@ -31,16 +36,27 @@ pub(super) enum HarnessMessage {
     Hello {
         /// Protocol version the harness speaks (1).
         protocol: u32,
-        /// Highest minor revision the harness speaks (2). Answer `ready` with
-        /// `protocol_minor: 2` to get the 1.1 messages (`prepare`, the stable
-        /// route) and have every reply checked against the step it names
-        /// (1.2); `protocol_minor: 1` for 1.1; leave it out to be spoken to
-        /// in 1.0.
+        /// Highest minor revision the harness speaks (3). Answer `ready` with
+        /// `protocol_minor: 3` (or 2: the same messages) to get the 1.1
+        /// messages (`prepare`, the stable route) and have every reply
+        /// checked against the step it names (1.2); `protocol_minor: 1` for
+        /// 1.1; leave it out to be spoken to in 1.0.
         protocol_minor: u32,
         /// Simulation step: time between two observations, s.
         dt_s: f64,
         /// The ego's box.
         ego: EgoSize,
+        /// Since 1.3 (sent to every planner): the time allowed to answer one
+        /// observation, s, from the observation being written to the reply
+        /// line arriving (the spec's `step_timeout_ms`).
+        step_timeout_s: f64,
+        /// Since 1.3: the time allowed to answer the first observation, s
+        /// (`first_step_timeout_ms`, else the step timeout).
+        first_step_timeout_s: f64,
+        /// Since 1.3: the time allowed from the process's start to its
+        /// `ready` and, from 1.1 on, on to its `prepared`, s (one allowance
+        /// for both; `startup_timeout_ms`).
+        startup_timeout_s: f64,
         /// Since 1.1 (sent to every planner; 1.0 planners ignore it): which
         /// scene and variant runs. Absent when the harness has no scenario
         /// context (a planner driven outside the pipeline).
@@ -258,6 +274,27 @@ pub(super) struct WireEgo {
     pub(super) vx: f64,
     /// Velocity y, m/s.
     pub(super) vy: f64,
+    /// Since 1.3: the ego's longitudinal acceleration over the last step,
+    /// m/s² (negative: slowing): the change of its speed along the heading
+    /// (never negative, as the kinematic model holds it) from the previous
+    /// step to this one, divided by the step. Under a `control` it is the
+    /// `accel_mps2` applied, unless the speed stopped at 0. 0 at the first
+    /// step when the ego has no earlier state.
+    pub(super) accel_mps2: f64,
+    /// Since 1.3: the ego's yaw rate over the last step, rad/s
+    /// (counter-clockwise positive: positive turns left): the heading's
+    /// change from the previous step (wrapped to (-π, π]) divided by the
+    /// step. Under a `control` it is the `yaw_rate_radps` applied. 0 at the
+    /// first step when the ego has no earlier state.
+    pub(super) yaw_rate_radps: f64,
+    /// Since 1.3: the front-wheel steering angle of a kinematic bicycle
+    /// with a 3.0 m wheelbase driving the path of the last step, rad
+    /// (positive steers left): atan(3.0 m × yaw_rate_radps / speed along
+    /// the heading), in (-π/2, π/2). The simulator moves the ego as a
+    /// unicycle and has no steering of its own; this is the angle that
+    /// curvature stands for (recover the curvature as tan(angle) / 3.0 m).
+    /// 0 below 0.1 m/s, where the path has no curvature to speak of.
+    pub(super) steering_angle_rad: f64,
     /// Length, m.
     pub(super) length_m: f64,
     /// Width, m.
@@ -422,6 +459,12 @@ pub(super) enum PlannerMessage {
         accel_mps2: f64,
         /// Yaw rate, rad/s (positive turns left).
         yaw_rate_radps: f64,
+        /// Since 1.3: any JSON the planner wants kept with this step (its
+        /// cost terms, the candidate it chose, why it braked), at most 64 KiB
+        /// as compact JSON. The harness stores it with the step in the
+        /// rollout's recording (`/planner/debug`) and ignores it otherwise.
+        #[serde(default)]
+        debug: Option<serde_json::Value>,
     },
     /// Answer to an observation: planned states; the ego follows it exactly,
     /// taking the state interpolated at t = dt_s.
@@ -432,6 +475,10 @@ pub(super) enum PlannerMessage {
         step: Option<usize>,
         /// Planned states, times positive and increasing, the last at t ≥ dt_s.
         points: Vec<WirePoint>,
+        /// Since 1.3: any JSON the planner wants kept with this step, at most
+        /// 64 KiB as compact JSON; as `control`'s `debug`.
+        #[serde(default)]
+        debug: Option<serde_json::Value>,
     },
     /// The planner gives up: the rollout fails with this message.
     Error {
@@ -451,6 +498,14 @@ impl PlannerMessage {
         match self {
             Self::Control { step, .. } | Self::Trajectory { step, .. } | Self::Error { step, .. } => *step,
             Self::Ready { .. } | Self::Prepared {} => None,
+        }
+    }
+
+    /// The `debug` object a `control` or `trajectory` carries (1.3), if any.
+    pub(super) fn debug(&self) -> Option<&serde_json::Value> {
+        match self {
+            Self::Control { debug, .. } | Self::Trajectory { debug, .. } => debug.as_ref(),
+            Self::Ready { .. } | Self::Prepared {} | Self::Error { .. } => None,
         }
     }
 

@@ -161,13 +161,27 @@ fn an_export_replaces_only_its_own_earlier_export() {
         "is not a CommonRoad scenario exported by safer",
         &["out/fs/seed-0/seed-0.xml"],
     );
-    // Safer's own export is rewritten on the next run.
+    // Nor is a JSON file of the user's at the sidecar's path.
     std::fs::remove_file(dir.join("out/fs/seed-0/seed-0.xml")).unwrap();
+    std::fs::write(dir.join("out/fs/seed-0/seed-0.commonroad.json"), "{\"mine\": 1}\n").unwrap();
+    refused(
+        &dir,
+        &["run", "fs.yaml", "--export-commonroad", "out", "--export-commonroad-all"],
+        "is not the sidecar of a CommonRoad export by safer",
+        &["out/fs/seed-0/seed-0.commonroad.json"],
+    );
+    // Safer's own export is rewritten on the next run.
+    std::fs::remove_file(dir.join("out/fs/seed-0/seed-0.commonroad.json")).unwrap();
     for _ in 0..2 {
         let out =
             safer_in(&dir, &[], &["run", "fs.yaml", "--export-commonroad", "out", "--export-commonroad-all"], DEADLINE);
         assert!(out.status.code().is_some_and(|c| c < 2), "{}", text(&out));
         assert!(std::fs::read_to_string(dir.join("out/fs/seed-0/seed-0.xml")).unwrap().contains("author=\"safer\""));
+        assert!(
+            std::fs::read_to_string(dir.join("out/fs/seed-0/seed-0.commonroad.json"))
+                .unwrap()
+                .contains("\"format\": \"safer-commonroad-export\"")
+        );
     }
 }
 
