@@ -240,9 +240,13 @@ fn results_of_this_process(suites: &[(PathBuf, Arc<Suite>)], load_failures: Vec<
             for k in 0..suite.spec.value.variants {
                 let name = suite.variant_name(scenario, k);
                 match ran(&name) {
-                    Some(Ran { outcome, artefacts, snapshot }) => {
-                        variants.push(VariantRun { name, outcome: outcome.as_ref().clone(), artefacts, snapshot })
-                    }
+                    Some(Ran { outcome, artefacts, snapshot }) => variants.push(VariantRun {
+                        name,
+                        outcome: outcome.as_ref().clone(),
+                        artefacts,
+                        snapshot,
+                        wall_s: None,
+                    }),
                     None => all_ran = false,
                 }
             }
@@ -271,6 +275,7 @@ fn results_of_this_process(suites: &[(PathBuf, Arc<Suite>)], load_failures: Vec<
             metrics,
             checks,
             mutation: mutation.map(|m| m.as_ref().clone()),
+            wall_s: None,
         });
     }
     results
@@ -380,6 +385,9 @@ fn variant_trial(suite: &Suite, context: &TrialContext, scenario: usize, index: 
                 "  shrunk: {} (the recording and picture show the shrunk variant; `.unshrunk` ones the variant as made)\n",
                 shrunk.describe()
             ));
+        }
+        if let Some(why) = &o.not_shrunk {
+            verdict.push_str(&format!("  not shrunk: {why}\n"));
         }
         let written = harness::artefacts::write(&context.artefacts, o);
         match &written {

@@ -144,6 +144,7 @@ impl EvaluationSettings {
 fn print_table(
     out: &mut dyn Write,
     rows: &[MethodRow],
+    records: &[VariantRecord],
     held_out: &HeldOutSplit,
     scenes: usize,
     request: &EvaluationSettings,
@@ -178,6 +179,7 @@ fn print_table(
     print_scenes_that_broke_the_rules(out, rows, &held_out.scenes, &name)?;
     print_held_out(out, &name, held_out)?;
     print_conflicts_met(out, rows, &name, held_out)?;
+    print_stage2_contacts(out, rows, records, &name)?;
     print_closest_approach(out, rows, &name)?;
     print_conflict_kinds(out, rows, &name)?;
     print_time(out, rows, &name)?;
@@ -564,25 +566,139 @@ fn named_scenes(scenes: &[safer_scenarios::harness::evaluation::SceneCount], hel
     parts.join(", ")
 }
 
-/// For each method with both stage-2 modes, how many more planner
-/// failures closed loop finds beyond plain log replay's than replay does:
-/// (closed-loop failures − `log` failures) / (replay failures − `log`
-/// failures); `None` without a `log` row and both modes.
+/// For each method with both stage-2 modes, its planner failures beside
+/// plain log replay's, in words: how many more or fewer each mode finds
+/// than log replay, and how the modes' extra failures compare (closed
+/// loop's as a multiple of replay's, where both found some). `None` when no
+/// method has both modes; a line saying so without a `log` row.
 fn failures_beyond_log(rows: &[MethodRow]) -> Option<String> {
-    use safer_scenarios::spec::suite::AdversaryMethod;
-    let log = rows.iter().find(|r| r.method == AdversaryMethod::Log)?.failures as f64;
-    let parts: Vec<String> = rows
+    failures_beside_log(&rows.iter().map(|r| (r.method, r.stage2_cbv, r.failures)).collect::<Vec<_>>())
+}
+
+/// [`failures_beyond_log`] of rows given as (method, stage-2 CBV mode,
+/// planner failures).
+fn failures_beside_log(rows: &[(AdversaryMethod, Stage2Cbv, usize)]) -> Option<String> {
+    let pairs: Vec<(AdversaryMethod, usize, usize)> = rows
         .iter()
-        .filter(|r| r.method != AdversaryMethod::Log && r.stage2_cbv == Stage2Cbv::ClosedLoop)
+        .filter(|r| r.0 != AdversaryMethod::Log && r.1 == Stage2Cbv::ClosedLoop)
         .filter_map(|closed| {
-            let replay = rows.iter().find(|r| r.method == closed.method && r.stage2_cbv == Stage2Cbv::Replay)?;
-            let (c, p) = (closed.failures as f64 - log, replay.failures as f64 - log);
-            let ratio = if p > 0.0 { format!("{:.2}×", c / p) } else { "—".into() };
-            Some(format!("{}: {c} / {p} = {ratio}", safer_scenarios::spec::spec_name(&closed.method)))
+            let replay = rows.iter().find(|r| r.0 == closed.0 && r.1 == Stage2Cbv::Replay)?;
+            Some((closed.0, closed.2, replay.2))
         })
         .collect();
-    (!parts.is_empty())
-        .then(|| format!("failures beyond log replay's ({log}), closed loop / replay: {}", parts.join("; ")))
+    if pairs.is_empty() {
+        return None;
+    }
+    let Some(&(_, _, log)) = rows.iter().find(|r| r.0 == AdversaryMethod::Log) else {
+        return Some(
+            "planner failures beside log replay's: not measured (no `log` row to compare with: add `log` to --methods)"
+                .to_string(),
+        );
+    };
+    let baseline = log as i64;
+    let parts: Vec<String> = pairs
+        .iter()
+        .map(|&(method, closed, replay)| {
+            let (c, p) = (closed as i64 - baseline, replay as i64 - baseline);
+            format!(
+                "{}: closed loop {closed} ({}), replay {replay} ({}); {}",
+                safer_scenarios::spec::spec_name(&method),
+                beside_log(c),
+                beside_log(p),
+                compare_beyond(c, p)
+            )
+        })
+        .collect();
+    Some(format!("planner failures beside log replay's {}: {}", count_of(log, "failure"), parts.join("; ")))
+}
+
+/// `5 more than log replay`, `as many as log replay`, `2 fewer than log replay`.
+fn beside_log(difference: i64) -> String {
+    match difference {
+        0 => "as many as log replay".to_string(),
+        d if d > 0 => format!("{d} more than log replay"),
+        d => format!("{} fewer than log replay", -d),
+    }
+}
+
+/// How closed loop's failures beyond log replay's (`closed`) compare with
+/// replay's (`replay`), in words.
+fn compare_beyond(closed: i64, replay: i64) -> String {
+    match (closed > 0, replay > 0) {
+        (true, true) => {
+            format!("closed loop finds {:.2}× as many beyond log replay's as replay", closed as f64 / replay as f64)
+        }
+        (true, false) => "only closed loop finds failures beyond log replay's".to_string(),
+        (false, true) => "only replay finds failures beyond log replay's".to_string(),
+        (false, false) => "neither finds failures beyond log replay's".to_string(),
+    }
+}
+
+/// `1 failure`, `6 failures`.
+fn count_of(n: usize, what: &str) -> String {
+    format!("{n} {what}{}", if n == 1 { "" } else { "s" })
+}
+
+/// How many of the variants an agent is shown for, per row, in
+/// [`print_stage2_contacts`].
+const CONTACTS_NAMED: usize = 3;
+
+/// Whom the planner's ego hit in stage 2, per row: the CBV or another
+/// agent, and whether the ego was at fault; then the first few such
+/// variants by scene and seed, naming the agent (the JSON report's
+/// `stage2_contact` of each variant).
+fn print_stage2_contacts(
+    out: &mut dyn Write,
+    rows: &[MethodRow],
+    records: &[VariantRecord],
+    name: &dyn Fn(&MethodRow) -> String,
+) -> std::io::Result<()> {
+    writeln!(out, "\nwhom the planner's ego hit in stage 2 (at fault: the ego's fault):")?;
+    writeln!(
+        out,
+        "{:<28} {:>8} {:>8} {:>20} {:>20}",
+        "method", "variants", "collided", "with the CBV", "with other agents"
+    )?;
+    for r in rows {
+        let of_row: Vec<(&VariantRecord, &safer_scenarios::harness::evaluation::Stage2Contact)> = records
+            .iter()
+            .filter(|v| v.method == r.method && v.stage2_cbv == r.stage2_cbv)
+            .filter_map(|v| v.stage2_contact.as_ref().map(|c| (v, c)))
+            .collect();
+        let with_cbv = of_row.iter().filter(|(_, c)| c.with_cbv).count();
+        let at_fault = |cbv: bool| of_row.iter().filter(|(_, c)| c.with_cbv == cbv && c.at_fault).count();
+        writeln!(
+            out,
+            "{:<28} {:>8} {:>8} {:>20} {:>20}",
+            name(r),
+            r.variants,
+            of_row.len(),
+            format!("{with_cbv} ({} at fault)", at_fault(true)),
+            format!("{} ({} at fault)", of_row.len() - with_cbv, at_fault(false)),
+        )?;
+        for (v, c) in of_row.iter().take(CONTACTS_NAMED) {
+            writeln!(out, "{:<28} {} seed {}: {}", "", v.scenario, v.seed, describe_contact(c))?;
+        }
+        if of_row.len() > CONTACTS_NAMED {
+            writeln!(
+                out,
+                "{:<28} and {} more (the JSON report's `stage2_contact` names each)",
+                "",
+                of_row.len() - CONTACTS_NAMED
+            )?;
+        }
+    }
+    Ok(())
+}
+
+/// `agent 123 (the CBV), the ego at fault`.
+fn describe_contact(c: &safer_scenarios::harness::evaluation::Stage2Contact) -> String {
+    format!(
+        "agent {}{}, {}",
+        c.other,
+        if c.with_cbv { " (the CBV)" } else { "" },
+        if c.at_fault { "the ego at fault" } else { "not the ego's fault" }
+    )
 }
 
 /// The JSON report: the settings, the tables and every variant (with what
@@ -675,6 +791,7 @@ pub(super) fn run(
     if let Some(path) = json {
         super::check_json_report(path)?;
     }
+    super::progress::stage("evaluate", &format!("loading the scenes under {}", scenes_dir.display()));
     let scenes: Vec<Arc<Scenario>> = selection
         .load(scenes_dir)?
         .into_iter()
@@ -710,6 +827,7 @@ pub(super) fn run(
     let search = move |scenario: &Scenario, stage1: &safer_scenarios::sim::Rollout| -> bool {
         search_rollout_witness(scenario, stage1, witness.road, budget).is_found()
     };
+    super::progress::stage("evaluate", &variant_work(request));
     let progress = super::progress::Progress::new("evaluate", "variants", total as usize);
     let records = evaluation::evaluate(&scenes, request, &models, Some(&search), &|| progress.tick());
     drop(progress);
@@ -720,6 +838,23 @@ pub(super) fn run(
     let settings = EvaluationSettings::of(request, &selection, witness);
     let scene_list = SceneList { digest, ids: scenes.iter().map(|s| s.id.clone()).collect() };
     report(&settings, partition, &scene_list, &records, json)
+}
+
+/// What each variant of `request` runs, for the progress a slow one leaves
+/// long between counts.
+fn variant_work(request: &EvaluationRequest) -> String {
+    let mut parts = vec!["stage 1".to_string(), format!("stage 2 with `{}`", request.planner.name())];
+    if request.escape.is_some() {
+        parts.push("the escape search on a collision".into());
+    }
+    parts.push("the witness search on a stage-1 collision".into());
+    if !request.mutants.is_empty() {
+        parts.push(format!("{} mutants' stage 2", request.mutants.len()));
+    }
+    if request.artefacts.is_some() {
+        parts.push("the artefacts".into());
+    }
+    format!("each variant runs {}", parts.join(", "))
 }
 
 /// Prints the tables of `records` and writes the JSON report; exit code 1
@@ -737,7 +872,7 @@ fn report(
     let report =
         Report { settings, partition, scenes, scene_list, rows: &rows, held_out: &held_out, variants: records };
     super::write_report_and_table(json, &report, |table| {
-        print_table(table, &rows, &held_out, scenes, settings)?;
+        print_table(table, &rows, records, &held_out, scenes, settings)?;
         print_kills(table, &rows, &held_out, settings)
     })?;
     let failed = rows.iter().any(|r| r.errors == r.variants && r.variants > 0);
@@ -1045,5 +1180,60 @@ mod tests {
         assert_eq!(named_scenes(&scenes[..4], &held_out), "a 9/10, b* 7/10, c 3/10, 2 in 1 more scene");
         assert_eq!(named_scenes(&scenes[..3], &[]), "a 9/10, b 7/10, c 3/10");
         assert_eq!(named_scenes(&[], &held_out), "");
+    }
+
+    /// The line for `safer` against a `log` row, both modes.
+    fn beside(log: Option<usize>, closed: usize, replay: usize) -> Option<String> {
+        let mut rows = vec![
+            (AdversaryMethod::Safer, Stage2Cbv::ClosedLoop, closed),
+            (AdversaryMethod::Safer, Stage2Cbv::Replay, replay),
+        ];
+        rows.extend(log.map(|l| (AdversaryMethod::Log, Stage2Cbv::Replay, l)));
+        failures_beside_log(&rows)
+    }
+
+    #[test]
+    fn failures_beside_log_replay_are_said_in_words_whatever_their_sign() {
+        // More than log replay in both modes: a ratio.
+        assert_eq!(
+            beside(Some(2), 8, 5).unwrap(),
+            "planner failures beside log replay's 2 failures: safer: closed loop 8 (6 more than log replay), \
+             replay 5 (3 more than log replay); closed loop finds 2.00× as many beyond log replay's as replay"
+        );
+        // As many as log replay: no ratio of nothing.
+        assert_eq!(
+            beside(Some(1), 1, 1).unwrap(),
+            "planner failures beside log replay's 1 failure: safer: closed loop 1 (as many as log replay), \
+             replay 1 (as many as log replay); neither finds failures beyond log replay's"
+        );
+        // Fewer than log replay (the line that once read `-5 / -2 = —`).
+        assert_eq!(
+            beside(Some(6), 1, 4).unwrap(),
+            "planner failures beside log replay's 6 failures: safer: closed loop 1 (5 fewer than log replay), \
+             replay 4 (2 fewer than log replay); neither finds failures beyond log replay's"
+        );
+        let mixed = beside(Some(3), 5, 1).unwrap();
+        assert!(
+            mixed.contains(
+                "closed loop 5 (2 more than log replay), replay 1 (2 fewer than log replay); only closed loop finds"
+            ),
+            "{mixed}"
+        );
+        let mixed = beside(Some(3), 0, 4).unwrap();
+        assert!(mixed.ends_with("only replay finds failures beyond log replay's"), "{mixed}");
+        // No log row: said, not left out.
+        assert_eq!(
+            beside(None, 3, 2).unwrap(),
+            "planner failures beside log replay's: not measured (no `log` row to compare with: add `log` to --methods)"
+        );
+        // One mode only: nothing to compare.
+        assert_eq!(
+            failures_beside_log(&[
+                (AdversaryMethod::Safer, Stage2Cbv::Replay, 4),
+                (AdversaryMethod::Log, Stage2Cbv::Replay, 2)
+            ]),
+            None
+        );
+        assert!(!beside(Some(6), 1, 4).unwrap().contains('-'), "no negative numbers");
     }
 }

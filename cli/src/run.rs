@@ -54,6 +54,8 @@ struct Done {
     mutants: Vec<MutantRun>,
     /// Artefacts of a shown failing variant, or why they could not be written.
     artefacts: Option<Result<harness::artefacts::Artefacts, String>>,
+    /// When it started and ended, s from the start of the run.
+    span: (f64, f64),
 }
 
 /// The JSON report.
@@ -65,6 +67,8 @@ struct Report {
     load_errors: Vec<LoadErrorReport>,
     /// Per suite, in command-line order.
     suites: Vec<SuiteReport>,
+    /// Wall time of the run, s, from its first variant to the reports.
+    wall_s: f64,
 }
 
 #[derive(Debug, Serialize)]
@@ -86,6 +90,12 @@ struct SuiteReport {
     /// The mutation run, when mutants were planted.
     #[serde(skip_serializing_if = "Option::is_none")]
     mutation: Option<MutationReport>,
+    /// Wall time, s: from its first variant's start to its last one's end
+    /// (suites run side by side, so theirs overlap).
+    wall_s: Option<f64>,
+    /// Its variants' wall times summed, s (with `wall_s`, how much the
+    /// suite gained from running its variants side by side).
+    variants_wall_s: f64,
 }
 
 /// A variant in the report: its summary, or why it could not run.
@@ -103,11 +113,16 @@ enum VariantEntry {
         /// Wall-clock time per planner answer (not in the snapshot summary).
         #[serde(skip_serializing_if = "Option::is_none")]
         planner_latency: Option<harness::pipeline::PlannerLatency>,
+        /// Wall time of the variant (its stages, shrink and mutants), s.
+        #[serde(skip_serializing_if = "Option::is_none")]
+        wall_s: Option<f64>,
     },
     Error {
         variant: String,
         passed: bool,
         error: String,
+        #[serde(skip_serializing_if = "Option::is_none")]
+        wall_s: Option<f64>,
     },
 }
 
@@ -208,7 +223,7 @@ pub(super) fn run(
     files: &[PathBuf],
     outputs: RunOutputs<'_>,
     filter: Option<&str>,
-    shrink_budget: usize,
+    shrink: ShrinkOverride,
     mutants: Option<&[FaultOperator]>,
 ) -> Result<ExitCode, CliError> {
     let RunOutputs { json, junit, html, artifacts, commonroad } = outputs;
@@ -219,7 +234,7 @@ pub(super) fn run(
     if let Some(dir) = html {
         harness::report::review_page::check_folder(dir)?;
     }
-    let (suites, load_failures) = load_suites(files, shrink_budget)?;
+    let (suites, load_failures) = load_suites(files, shrink)?;
 
     let inputs = check_reports(files, &suites, json, junit)?;
 
@@ -238,11 +253,13 @@ pub(super) fn run(
     let operators: Vec<Vec<FaultOperator>> =
         suites.iter().map(|(_, s)| harness::mutation::operators_for(&s.spec.value.acceptance.suite, mutants)).collect();
     let progress = super::progress::Progress::new("run", "variants", jobs.len());
+    let started = std::time::Instant::now();
     type Written = Result<(PathBuf, Vec<String>), String>;
     let exports: std::sync::Mutex<Vec<(String, Written)>> = std::sync::Mutex::new(Vec::new());
     let done: Vec<Done> = jobs
         .par_iter()
         .map(|j| {
+            let begin = started.elapsed().as_secs_f64();
             let suite = &suites[j.suite].1;
             let scenario = &suite.scenarios[j.scenario];
             let outcome = harness::run_variant(suite, scenario, j.index);
@@ -264,7 +281,7 @@ pub(super) fn run(
                 exports.lock().unwrap_or_else(|p| p.into_inner()).push((o.name.clone(), written));
             }
             progress.tick();
-            Done { outcome, mutants, artefacts }
+            Done { outcome, mutants, artefacts, span: (begin, started.elapsed().as_secs_f64()) }
         })
         .collect();
     drop(progress);
@@ -291,6 +308,7 @@ pub(super) fn run(
             .map(|f| LoadErrorReport { file: f.file.display().to_string(), message: f.message.clone() })
             .collect(),
         suites: results.suites.iter().map(suite_report).collect(),
+        wall_s: started.elapsed().as_secs_f64(),
     };
 
     // The table goes to stderr when a report takes standard output.
@@ -351,14 +369,48 @@ pub(super) fn run(
 /// A suite file and the suite it holds.
 type LoadedSuite = (PathBuf, Suite);
 
+/// The shrink bounds the command line sets, over each suite's own.
+#[derive(Debug, Clone, Copy, Default)]
+pub(super) struct ShrinkOverride {
+    /// Candidate rollouts (`Some(0)`: `--no-shrink`).
+    pub rollouts: Option<usize>,
+    /// Wall time of one variant's search.
+    pub time_limit: Option<std::time::Duration>,
+}
+
+impl ShrinkOverride {
+    /// `suite`'s bounds with the command line's in their place.
+    fn over(self, suite: harness::shrink::ShrinkBudget) -> harness::shrink::ShrinkBudget {
+        harness::shrink::ShrinkBudget {
+            rollouts: self.rollouts.unwrap_or(suite.rollouts),
+            time_limit: self.time_limit.or(suite.time_limit),
+        }
+    }
+}
+
+/// `--shrink-time-limit`: seconds above 0, at most a day.
+fn shrink_time_limit(text: &str) -> Result<f64, String> {
+    let max = safer_scenarios::spec::suite::MAX_SHRINK_TIME_LIMIT_S;
+    match text.parse::<f64>() {
+        Ok(s) if s > 0.0 && s <= max => Ok(s),
+        _ => Err(format!("expected seconds above 0 and at most {max}, got `{text}`")),
+    }
+}
+
 /// Loads the suites (a broken one is reported and left out) and refuses
 /// two suites of one name.
-fn load_suites(files: &[PathBuf], shrink_budget: usize) -> Result<(Vec<LoadedSuite>, Vec<SuiteLoadFailure>), CliError> {
+fn load_suites(
+    files: &[PathBuf],
+    shrink: ShrinkOverride,
+) -> Result<(Vec<LoadedSuite>, Vec<SuiteLoadFailure>), CliError> {
     let mut load_failures = Vec::new();
     let mut suites: Vec<LoadedSuite> = Vec::new();
     for file in files {
         match Suite::load(file) {
-            Ok(s) => suites.push((file.clone(), Suite { shrink_budget, ..s })),
+            Ok(mut s) => {
+                s.shrink = shrink.over(s.shrink);
+                suites.push((file.clone(), s));
+            }
             Err(e) => {
                 eprintln!("{}", e.render(std::io::IsTerminal::is_terminal(&std::io::stderr())));
                 load_failures.push(SuiteLoadFailure { file: file.clone(), message: e.to_string() });
@@ -448,6 +500,10 @@ fn suite_run(
 ) -> SuiteRun {
     let names: Vec<String> =
         jobs.iter().map(|(job, _)| suite.variant_name(&suite.scenarios[job.scenario], job.index)).collect();
+    // Every job counts, shown or only feeding a selected metric.
+    let first = jobs.iter().map(|(_, d)| d.span.0).min_by(f64::total_cmp);
+    let last = jobs.iter().map(|(_, d)| d.span.1).max_by(f64::total_cmp);
+    let wall_s = first.zip(last).map(|(a, b)| b - a);
     let mutation = (!operators.is_empty()).then(|| {
         MutationReport::of(
             operators,
@@ -477,6 +533,7 @@ fn suite_run(
             outcome: done.outcome.map_err(|e| e.to_string()),
             artefacts: done.artefacts,
             snapshot: safer_scenarios::harness::report::SnapshotCheck::NotCompared,
+            wall_s: Some(done.span.1 - done.span.0),
         })
         .collect();
     SuiteRun {
@@ -487,6 +544,7 @@ fn suite_run(
         metrics: suite_metrics,
         checks,
         mutation,
+        wall_s,
     }
 }
 
@@ -515,9 +573,12 @@ fn suite_report(run: &SuiteRun) -> SuiteReport {
                     artefacts,
                     artefacts_error,
                     planner_latency: o.planner_latency,
+                    wall_s: v.wall_s,
                 }
             }
-            Err(e) => VariantEntry::Error { variant: v.name.clone(), passed: false, error: e.clone() },
+            Err(e) => {
+                VariantEntry::Error { variant: v.name.clone(), passed: false, error: e.clone(), wall_s: v.wall_s }
+            }
         })
         .collect();
     let checks = run
@@ -539,6 +600,18 @@ fn suite_report(run: &SuiteRun) -> SuiteReport {
         metrics: run.metrics.clone(),
         checks,
         mutation: run.mutation.clone(),
+        wall_s: run.wall_s,
+        variants_wall_s: run.variants.iter().filter_map(|v| v.wall_s).sum(),
+    }
+}
+
+/// `4.2 s`, `3 min 07 s`.
+fn duration(s: f64) -> String {
+    if s < 60.0 {
+        format!("{s:.1} s")
+    } else {
+        let whole = s.round() as u64;
+        format!("{} min {:02} s", whole / 60, whole % 60)
     }
 }
 
@@ -615,6 +688,9 @@ fn print_report(out: &mut dyn Write, report: &Report) -> std::io::Result<()> {
                     if let Some(shrunk) = &summary.shrunk {
                         writeln!(out, "  {:<width$}  shrunk: {}", "", shrunk.describe())?;
                     }
+                    if let Some(why) = &summary.not_shrunk {
+                        writeln!(out, "  {:<width$}  not shrunk: {why}", "")?;
+                    }
                 }
                 VariantEntry::Error { variant, error, .. } => {
                     variants_failed += 1;
@@ -649,6 +725,15 @@ fn print_report(out: &mut dyn Write, report: &Report) -> std::io::Result<()> {
                 writeln!(out, "    {line}")?;
             }
         }
+        if let Some(wall) = s.wall_s {
+            writeln!(
+                out,
+                "  time: {} wall, {} summed over its variants{}",
+                duration(wall),
+                duration(s.variants_wall_s),
+                if report.suites.len() > 1 { " (suites run side by side)" } else { "" }
+            )?;
+        }
     }
     if !failing.is_empty() {
         writeln!(out, "\nartefacts of failing variants:")?;
@@ -676,10 +761,11 @@ fn print_report(out: &mut dyn Write, report: &Report) -> std::io::Result<()> {
     };
     writeln!(
         out,
-        "\n{}: {}, {variants_failed} failed; {}, {checks_failed} failed{load}",
+        "\n{}: {}, {variants_failed} failed; {}, {checks_failed} failed{load}; {}",
         if report.passed { "PASS" } else { "FAIL" },
         count(variants, "variant"),
         count(checks, "metric check"),
+        duration(report.wall_s),
     )?;
     Ok(())
 }
@@ -711,9 +797,12 @@ pub(crate) struct RunArgs {
     /// Do not shrink failing variants (by default each is shrunk to the smallest deviation from the logged CBV that fails the same way, shown first in its artefacts).
     #[arg(long)]
     pub(crate) no_shrink: bool,
-    /// Candidate rollouts a failing variant's shrink may play, at least 1.
-    #[arg(long, value_name = "N", default_value_t = safer_scenarios::harness::shrink::DEFAULT_SHRINK_BUDGET, value_parser = at_least_one())]
-    pub(crate) shrink_budget: usize,
+    /// Candidate rollouts a failing variant's shrink may play, at least 1 (default: the suite's `shrink.budget`, else 16).
+    #[arg(long, value_name = "N", value_parser = at_least_one())]
+    pub(crate) shrink_budget: Option<usize>,
+    /// Wall time a failing variant's shrink may take, s (default: the suite's `shrink.time_limit_s`, else none). The shrunk result then depends on the machine; the report says when the search stopped at the limit. The verdict never depends on it.
+    #[arg(long, value_name = "SECONDS", value_parser = shrink_time_limit)]
+    pub(crate) shrink_time_limit: Option<f64>,
     /// Only variants and metrics whose test name contains this.
     #[arg(long, value_name = "SUBSTR")]
     pub(crate) filter: Option<String>,
@@ -737,6 +826,7 @@ pub(crate) fn command(args: RunArgs) -> Result<ExitCode, CliError> {
         export_commonroad_all,
         no_shrink,
         shrink_budget,
+        shrink_time_limit,
         filter,
         jobs,
         mutants,
@@ -753,7 +843,10 @@ pub(crate) fn command(args: RunArgs) -> Result<ExitCode, CliError> {
             artifacts: &artifacts,
             commonroad: export_commonroad.as_deref().map(|dir| (dir, export_commonroad_all)),
         };
-        let budget = if no_shrink { 0 } else { shrink_budget };
+        let budget = ShrinkOverride {
+            rollouts: if no_shrink { Some(0) } else { shrink_budget },
+            time_limit: shrink_time_limit.map(std::time::Duration::from_secs_f64),
+        };
         let mutants = mutants.as_ref().map(|m| m.0.as_slice());
         set_jobs(jobs).and_then(|()| run(&suites, outputs, filter.as_deref(), budget, mutants))
     }

@@ -499,6 +499,7 @@ fn run_one(
             planner_latency: stages.planner_latency,
             planner_stderr: stages.planner_stderr,
             shrunk: None,
+            not_shrunk: None,
         };
         let written = artefacts::write(dir, &outcome).map_err(HarnessError::Artefacts)?;
         record.artefacts = [Some(written.mcap), Some(written.svg), written.stderr].into_iter().flatten().collect();

@@ -56,9 +56,9 @@ pub struct Suite {
     pub planner: PlannerAdapter,
     /// Scenarios in spec order.
     pub scenarios: Vec<SuiteScenario>,
-    /// Candidate rollouts a failing variant's shrink may play (0: failing
-    /// variants are not shrunk).
-    pub shrink_budget: usize,
+    /// How far a failing variant's shrink may search (the spec's
+    /// `shrink:`, which `safer run`'s flags override).
+    pub shrink: super::shrink::ShrinkBudget,
 }
 
 /// Names may only use characters that filters and nextest handle plainly.
@@ -196,7 +196,8 @@ impl Suite {
             let entry = SuiteEntry { suite: spec.path.clone(), location: spec.at(&at), text: text.clone() };
             push_unique(&spec, &at, &mut scenarios, SuiteScenario { name, source, record: None, entry })?;
         }
-        Ok(Suite { spec, planner, scenarios, shrink_budget: super::shrink::DEFAULT_SHRINK_BUDGET })
+        let shrink = super::shrink::ShrinkBudget::of(&spec.value.shrink);
+        Ok(Suite { spec, planner, scenarios, shrink })
     }
 
     /// The files a run of the suite reads: the suite, its planner spec and

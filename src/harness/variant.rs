@@ -8,7 +8,7 @@ use super::acceptance::{self, AcceptanceFailure};
 use super::methods::{BackgroundDriver, MapEncodings, MethodSettings, ModelSet};
 use super::metrics::VariantTally;
 use super::pipeline::{self, PlannerLatency, Stage2Verdict, VariantSetup};
-use super::shrink::{FailingVariant, shrink};
+use super::shrink::{FailingVariant, ShrinkStop, shrink};
 use super::stable_hash::fnv1a;
 use super::{HarnessError, Suite, SuiteScenario};
 use crate::eval::ConflictReach;
@@ -51,6 +51,8 @@ pub struct VariantOutcome {
     /// The failing variant shrunk (see [`super::shrink`]): the smallest
     /// deviation from the log that fails the planner the same way.
     pub shrunk: Option<super::shrink::Shrunk>,
+    /// Why a failing variant was not shrunk, when shrinking was on.
+    pub not_shrunk: Option<super::shrink::NotShrunk>,
 }
 
 impl VariantOutcome {
@@ -99,8 +101,10 @@ impl VariantOutcome {
                 max_distance_from_log_m: [round(s.before.max_distance_m), round(s.after.max_distance_m)],
                 tokens_changed: s.tokens_changed,
                 candidates: s.candidates,
+                stopped: s.stopped,
                 failure: s.failures.first().map(|f| format!("{}: {}", f.criterion, f.what)).unwrap_or_default(),
             }),
+            not_shrunk: self.not_shrunk.as_ref().map(ToString::to_string),
         }
     }
 }
@@ -118,6 +122,9 @@ pub struct ShrunkSummary {
     pub tokens_changed: usize,
     /// Candidate rollouts played.
     pub candidates: usize,
+    /// Why the search ended (`time_limit`: another machine may shrink
+    /// further).
+    pub stopped: ShrinkStop,
     /// The shrunk variant's first failure (the same criterion as the
     /// variant's).
     pub failure: String,
@@ -125,17 +132,32 @@ pub struct ShrunkSummary {
 
 impl ShrunkSummary {
     /// "9 → 3 adversarial tokens, 4.12 → 1.20 m from the logged CBV path
-    /// (12 candidate rollouts)".
+    /// (12 candidate rollouts, the whole budget)", saying when the search
+    /// stopped at its time limit.
     pub fn describe(&self) -> String {
+        let stopped = match self.stopped {
+            ShrinkStop::Searched => String::new(),
+            ShrinkStop::RolloutBudget => ", the whole budget".to_string(),
+            ShrinkStop::TimeLimit => format!(
+                "; stopped at its time limit after {}: another machine may shrink further",
+                plural(self.candidates, "candidate")
+            ),
+            ShrinkStop::CandidateFailed => "; stopped where a candidate could not be played".to_string(),
+        };
         format!(
-            "{} → {} adversarial tokens, {:.2} → {:.2} m from the logged CBV path ({} candidate rollouts)",
+            "{} → {} adversarial tokens, {:.2} → {:.2} m from the logged CBV path ({}{stopped})",
             self.adversarial_tokens[0],
             self.adversarial_tokens[1],
             self.max_distance_from_log_m[0],
             self.max_distance_from_log_m[1],
-            self.candidates
+            plural(self.candidates, "candidate rollout"),
         )
     }
+}
+
+/// `1 candidate`, `2 candidates`.
+fn plural(n: usize, what: &str) -> String {
+    format!("{n} {what}{}", if n == 1 { "" } else { "s" })
 }
 
 /// What snapshots record of a variant: stable fields, rounded.
@@ -183,6 +205,9 @@ pub struct VariantSummary {
     /// A failing variant shrunk: the smallest deviation from the log that
     /// fails the same way (`None`: passed, not shrunk, or nothing kept).
     pub shrunk: Option<ShrunkSummary>,
+    /// Why a failing variant was not shrunk, when shrinking was on.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub not_shrunk: Option<String>,
 }
 
 pub use crate::eval::escape::CollisionEscape;
@@ -255,8 +280,10 @@ pub fn run_variant(suite: &Suite, scenario: &SuiteScenario, index: u32) -> Resul
     let stages = pipeline::run(setup)?;
     let escape = stages.escape.as_ref().map(CollisionEscape::of);
     let failures = acceptance::check(&spec.acceptance.variant, &stages.stage2, base, stages.min_ttc_s, escape);
-    let shrunk = if failures.is_empty() || suite.shrink_budget == 0 {
-        None
+    // The verdict is the variant's failures alone: the shrink only
+    // explains them, and what it cannot shrink it says why.
+    let (shrunk, not_shrunk) = if failures.is_empty() || !suite.shrink.enabled() {
+        (None, None)
     } else {
         let failing = FailingVariant {
             setup,
@@ -264,8 +291,12 @@ pub fn run_variant(suite: &Suite, scenario: &SuiteScenario, index: u32) -> Resul
             stage2: &stages.stage2,
             failures: &failures,
             criteria: &spec.acceptance.variant,
+            escape,
         };
-        shrink(&failing, suite.shrink_budget)?
+        match shrink(&failing, suite.shrink) {
+            Ok(s) => (Some(s), None),
+            Err(why) => (None, Some(why)),
+        }
     };
     Ok(VariantOutcome {
         name,
@@ -282,5 +313,6 @@ pub fn run_variant(suite: &Suite, scenario: &SuiteScenario, index: u32) -> Resul
         planner_latency: stages.planner_latency,
         planner_stderr: stages.planner_stderr,
         shrunk,
+        not_shrunk,
     })
 }

@@ -52,11 +52,51 @@ pub struct SuiteSpec {
     /// Pass/fail criteria.
     #[serde(default)]
     pub acceptance: Acceptance,
+    /// How far a failing variant's shrink may search.
+    #[serde(default)]
+    pub shrink: ShrinkSpec,
 }
 
 fn one() -> u32 {
     1
 }
+
+/// How far a failing variant's shrink searches (`shrink: { budget: 16,
+/// time_limit_s: 600 }`): at most `budget` candidate rollouts and, when set,
+/// `time_limit_s` of wall time. `safer run --shrink-budget` and
+/// `--shrink-time-limit` override them. Shrinking never changes a variant's
+/// verdict; a time limit makes the shrunk result depend on the machine, and
+/// the report says when the search stopped at it.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct ShrinkSpec {
+    /// Candidate rollouts, 0..=10000 (0: failing variants are not shrunk).
+    #[serde(default = "default_shrink_budget")]
+    #[schemars(range(min = 0, max = 10000))]
+    pub budget: usize,
+    /// Wall time of one variant's search, s, above 0 and at most 86400
+    /// (none: bounded by `budget` alone). Each candidate plays stage 2
+    /// again with the planner under test, so a slow external planner makes
+    /// each one cost its whole rollout.
+    #[serde(default)]
+    pub time_limit_s: Option<f64>,
+}
+
+fn default_shrink_budget() -> usize {
+    crate::harness::shrink::DEFAULT_SHRINK_BUDGET
+}
+
+impl Default for ShrinkSpec {
+    fn default() -> Self {
+        Self { budget: default_shrink_budget(), time_limit_s: None }
+    }
+}
+
+/// The most candidate rollouts `shrink.budget` may allow.
+pub const MAX_SHRINK_BUDGET: usize = 10_000;
+
+/// The longest `shrink.time_limit_s`, s (a day).
+pub const MAX_SHRINK_TIME_LIMIT_S: f64 = 86_400.0;
 
 /// One entry of `scenarios:`: a scenario spec path, `glob: PATTERN`, or
 /// `recorded: PATH` with an optional `limit: N`.
@@ -262,13 +302,19 @@ pub struct Acceptance {
 #[derive(Debug, Clone, Deserialize, JsonSchema, serde::Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct VariantAcceptance {
-    /// The ego must not collide.
+    /// The ego must not collide, whoever is at fault. Against replayed
+    /// recorded traffic, which cannot react, prefer `no_collision: false`
+    /// with `no_at_fault_collision: true`.
     #[serde(default = "yes")]
     pub no_collision: bool,
     /// The ego must not cause a collision: contacts where it was hit from
     /// behind or while stopped, and side contacts while it kept within one
-    /// lane, are allowed (nuPlan's at-fault rule). Use this against
-    /// non-reactive logged traffic, which cannot avoid the ego.
+    /// lane, are allowed (nuPlan's at-fault rule). Use this, with
+    /// `no_collision: false`, wherever the background replays recorded
+    /// traffic (`background: log-replay`, the default): a recorded car
+    /// cannot react, so `no_collision` would fail the planner for being hit
+    /// from behind. Refused beside `no_collision: true`, which already fails
+    /// every collision.
     #[serde(default)]
     pub no_at_fault_collision: bool,
     /// The ego must stay on the road.
@@ -527,7 +573,26 @@ impl Loaded<SuiteSpec> {
                 format!("adversary.trust_region must be 1..=3969, got {}", s.adversary.trust_region),
             ));
         }
+        if s.shrink.budget > MAX_SHRINK_BUDGET {
+            return Err(self.invalid_at(
+                "shrink.budget",
+                format!("shrink.budget must be 0..={MAX_SHRINK_BUDGET} candidate rollouts, got {}", s.shrink.budget),
+            ));
+        }
+        if let Some(x) = s.shrink.time_limit_s {
+            self.check_number("shrink.time_limit_s", x, NumberRange::above(0.0, MAX_SHRINK_TIME_LIMIT_S), "s")?;
+        }
         let v = &s.acceptance.variant;
+        if v.no_at_fault_collision && v.no_collision {
+            // Otherwise every collision fails, whoever's fault: the suite
+            // would read as at-fault only and test something else.
+            return Err(self.invalid_at(
+                "acceptance.variant.no_at_fault_collision",
+                "`no_at_fault_collision: true` has no effect while `no_collision` is true (its default): every \
+                 collision fails, the ego's fault or not. Against replayed traffic, which cannot react to the ego, \
+                 set `no_collision: false` beside it",
+            ));
+        }
         if let Some(x) = v.min_gap_m {
             self.check_number("acceptance.variant.min_gap_m", x, NumberRange::closed(0.0, 100.0), "m")?;
         }

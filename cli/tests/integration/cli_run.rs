@@ -49,6 +49,15 @@ fn run_authored_suite_passes_and_writes_the_json_report() {
     assert_eq!(suite["metrics"]["solution_rate"], 1.0);
     let check = suite["checks"].as_array().unwrap().iter().find(|c| c["name"] == "solution_rate").expect("check");
     assert_eq!(check["passed"], true);
+    // Wall times: the run's, the suite's and each variant's, and the
+    // suite's in the table.
+    let positive = |x: &serde_json::Value| x.as_f64().is_some_and(|t| t > 0.0);
+    assert!(positive(&v["wall_s"]) && positive(&suite["wall_s"]), "{v:#}");
+    assert!(variants.iter().all(|x| positive(&x["wall_s"])), "{suite:#}");
+    assert!(suite["wall_s"].as_f64() <= v["wall_s"].as_f64(), "{v:#}");
+    assert!(stdout.contains("  time: ") && stdout.contains(" summed over its variants"), "{stdout}");
+    // Off a terminal, progress says at once what is to run.
+    assert!(text(&out.stderr).contains("run: 3 variants to run"), "{}", text(&out.stderr));
     std::fs::remove_dir_all(&dir).ok();
 }
 
@@ -353,6 +362,18 @@ fn run_junit_reports_a_failing_and_a_passing_suite() {
         assert!(p.is_file(), "{} missing", p.display());
         assert!(body.contains(&p.display().to_string()), "{body}");
     }
+    // Each suite's and each variant's wall time; none on a metric.
+    for suite in doc.descendants().filter(|n| n.has_tag_name("testsuite")) {
+        let time: f64 = suite.attribute("time").expect("a testsuite time").parse().unwrap();
+        assert!(time > 0.0, "{xml}");
+        for case in suite.children().filter(|n| n.has_tag_name("testcase")) {
+            let metric = case.attribute("name") == Some("solution_rate");
+            assert_eq!(case.attribute("time").is_some(), !metric, "{xml}");
+            assert!(case.attribute("time").is_none_or(|t| t.parse::<f64>().unwrap() >= 0.0), "{xml}");
+        }
+    }
+    // A failing variant is shrunk or says why not (`method: log` drives no tokens).
+    assert!(body.contains("shrunk: "), "{body}");
     let metric = fails.iter().find(|c| c.name == "solution_rate").expect("metric testcase");
     assert!(metric.failure.as_deref().is_some_and(|m| m.starts_with("solution_rate = 0.667 < 1")), "{metric:?}");
     assert!(fails.iter().filter(|c| c.failure.is_none()).count() == 2, "{xml}");

@@ -296,3 +296,69 @@ fn tempfile_dir(name: &str) -> std::path::PathBuf {
     std::fs::create_dir_all(&dir).unwrap();
     dir
 }
+
+#[test]
+fn the_table_names_whom_the_ego_hit_as_the_json_report_does_and_progress_says_what_runs() {
+    let out = tempfile_dir("contacts");
+    let scenes = Path::new(repo_root!()).join("scenes/ngsim");
+    let json = out.join("report.json");
+    let run = safer(&[
+        "evaluate",
+        "--scenes",
+        scenes.to_str().unwrap(),
+        "--methods",
+        "safer,log",
+        "--stage2-cbv",
+        "replay,closed-loop",
+        "--seeds",
+        "2",
+        "--planner",
+        "constant-velocity",
+        "--jobs",
+        "2",
+        "--json",
+        json.to_str().unwrap(),
+    ]);
+    let stderr = String::from_utf8_lossy(&run.stderr).to_string();
+    let table = ok(run);
+    // Progress names the stages before the variants and what each runs.
+    assert!(stderr.contains("evaluate: loading the scenes under"), "{stderr}");
+    assert!(stderr.contains("evaluate: each variant runs stage 1, stage 2 with `constant-velocity`"), "{stderr}");
+    assert!(stderr.contains("evaluate: 24 variants to run"), "{stderr}");
+    let report: Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let variants = report["variants"].as_array().unwrap();
+    let section = table.split("whom the planner's ego hit in stage 2").nth(1).expect("the contacts table");
+    let mut named = 0;
+    for row in report["rows"].as_array().unwrap() {
+        let (method, mode) = (row["method"].as_str().unwrap(), row["stage2_cbv"].as_str().unwrap());
+        let contacts: Vec<&Value> = variants
+            .iter()
+            .filter(|v| v["method"] == method && v["stage2_cbv"] == mode)
+            .filter_map(|v| v["stage2_contact"].as_object().map(|_| v))
+            .collect();
+        let with_cbv = contacts.iter().filter(|v| v["stage2_contact"]["with_cbv"] == true).count();
+        let line = section
+            .lines()
+            .find(|l| l.starts_with(&format!("{method} ({mode})")))
+            .unwrap_or_else(|| panic!("no row {method} ({mode}) in {section}"));
+        let cells: Vec<&str> = line.split_whitespace().collect();
+        // method (mode) variants collided N (K at fault) M (J at fault)
+        assert_eq!(cells[3], contacts.len().to_string(), "{line}");
+        assert_eq!(cells[4], with_cbv.to_string(), "{line}");
+        for v in contacts.iter().take(3) {
+            let c = &v["stage2_contact"];
+            let who = format!(
+                "{} seed {}: agent {}",
+                v["scenario"].as_str().unwrap(),
+                v["seed"],
+                c["other"].as_str().unwrap()
+            );
+            assert!(section.contains(&who), "{who} not in {section}");
+            named += 1;
+        }
+    }
+    assert!(named > 0, "constant velocity hits someone on these scenes: {table}");
+    // The failures beside log replay's, in words.
+    assert!(table.contains("planner failures beside log replay's "), "{table}");
+    assert!(!table.contains(" = —"), "{table}");
+}

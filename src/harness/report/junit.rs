@@ -18,8 +18,8 @@
 //! only subtle part. Text and attributes escape `& < > " '`; attributes
 //! also keep line breaks and tabs as character references; characters
 //! XML 1.0 cannot hold (control characters such as ANSI colour codes) are
-//! written as `\u{..}`. No timestamps, host names or durations: the same
-//! results give the same bytes.
+//! written as `\u{..}`. Each suite and variant carries its wall time
+//! (`time`, s) where the run measured it; no timestamps or host names.
 
 use std::fmt::Write as _;
 
@@ -77,7 +77,7 @@ fn load_failure_suite(out: &mut String, failure: &SuiteLoadFailure) {
         attr(&stem)
     );
     let message = format!("suite file {} could not be loaded", failure.file.display());
-    testcase(out, &stem, "load", &Verdict::Error(message, failure.message.clone()), &[]);
+    testcase(out, &stem, "load", &Verdict::Error(message, failure.message.clone()), &[], None);
     out.push_str("  </testsuite>\n");
 }
 
@@ -95,22 +95,23 @@ fn suite(out: &mut String, run: &SuiteRun) -> Counts {
     for variant in &run.variants {
         let (verdict, attachments) = variant_verdict(variant);
         count(&verdict);
-        testcase(&mut cases, &run.name, variant.name_in_suite(), &verdict, &attachments);
+        testcase(&mut cases, &run.name, variant.name_in_suite(), &verdict, &attachments, variant.wall_s);
     }
     for check in &run.checks {
         let verdict = metric_verdict(run, check);
         count(&verdict);
-        testcase(&mut cases, &run.name, check.name, &verdict, &[]);
+        testcase(&mut cases, &run.name, check.name, &verdict, &[], None);
     }
     let _ = write!(
         out,
-        "  <testsuite name=\"{}\" file=\"{}\" tests=\"{}\" failures=\"{}\" errors=\"{}\" skipped=\"0\">\n    \
+        "  <testsuite name=\"{}\" file=\"{}\" tests=\"{}\" failures=\"{}\" errors=\"{}\" skipped=\"0\"{}>\n    \
          <properties>\n      <property name=\"planner\" value=\"{}\"/>\n",
         attr(&run.name),
         attr(&run.file.display().to_string()),
         counts.tests,
         counts.failures,
         counts.errors,
+        time(run.wall_s),
         attr(&run.planner),
     );
     // Whether the conflicts reached the planner, as CI dashboards read them.
@@ -176,6 +177,13 @@ fn variant_verdict(variant: &VariantRun) -> (Verdict, Vec<String>) {
         let _ = writeln!(body, "✗ {snapshot}");
     }
     body.push_str(&what_happened(outcome));
+    let summary = outcome.summary();
+    if let Some(shrunk) = &summary.shrunk {
+        let _ = writeln!(body, "shrunk: {} ({})", shrunk.describe(), shrunk.failure);
+    }
+    if let Some(why) = &summary.not_shrunk {
+        let _ = writeln!(body, "not shrunk: {why}");
+    }
     let mut attachments = Vec::new();
     match &variant.artefacts {
         Some(Ok(a)) => {
@@ -250,8 +258,20 @@ fn metric_verdict(run: &SuiteRun, check: &MetricCheck) -> Verdict {
     }
 }
 
-fn testcase(out: &mut String, classname: &str, name: &str, verdict: &Verdict, attachments: &[String]) {
-    let _ = write!(out, "    <testcase classname=\"{}\" name=\"{}\"", attr(classname), attr(name));
+/// ` time="1.234"`: a wall time in s, or nothing where none was measured.
+fn time(wall_s: Option<f64>) -> String {
+    wall_s.map_or_else(String::new, |t| format!(" time=\"{t:.3}\""))
+}
+
+fn testcase(
+    out: &mut String,
+    classname: &str,
+    name: &str,
+    verdict: &Verdict,
+    attachments: &[String],
+    wall_s: Option<f64>,
+) {
+    let _ = write!(out, "    <testcase classname=\"{}\" name=\"{}\"{}", attr(classname), attr(name), time(wall_s));
     let (tag, message, body) = match verdict {
         Verdict::Passed => {
             out.push_str("/>\n");
@@ -311,6 +331,7 @@ mod tests {
             outcome: Err("planner `x` could not be started: no such file".into()),
             artefacts: None,
             snapshot: SnapshotCheck::NotCompared,
+            wall_s: None,
         });
         let results = RunResults {
             load_failures: vec![SuiteLoadFailure {
@@ -337,6 +358,12 @@ mod tests {
         let body = failure.text().unwrap();
         assert!(body.contains("recording: out/unit/crossing/seed-1.mcap"), "{body}");
         assert!(body.contains("stage 2 (planner"), "{body}");
+        // Wall times where the run measured them, none where it did not.
+        let suite = doc.descendants().find(|n| n.has_tag_name("testsuite") && n.attribute("name") == Some("unit"));
+        assert_eq!(suite.unwrap().attribute("time"), Some("1.500"), "{xml}");
+        assert_eq!(case.attribute("time"), Some("2.500"), "{xml}");
+        let broken = cases.iter().find(|c| c.attribute("name") == Some("broken::seed-0")).unwrap();
+        assert_eq!(broken.attribute("time"), None, "{xml}");
         let load = cases.iter().find(|c| c.attribute("name") == Some("load")).unwrap();
         assert_eq!(load.attribute("classname"), Some("typo"));
         assert!(load.children().any(|n| n.has_tag_name("error") && n.text() == Some("line 5: <oops>")));

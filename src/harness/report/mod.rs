@@ -60,6 +60,10 @@ pub struct SuiteRun {
     /// The suite's mutation run, when mutants were planted
     /// ([`crate::harness::mutation`]).
     pub mutation: Option<crate::harness::mutation::MutationReport>,
+    /// Wall time of the suite, s: from its first variant's start to its
+    /// last one's end (suites run side by side, so theirs overlap); `None`
+    /// where the run did not measure it.
+    pub wall_s: Option<f64>,
 }
 
 impl SuiteRun {
@@ -87,6 +91,9 @@ pub struct VariantRun {
     pub artefacts: Option<Result<Artefacts, String>>,
     /// How its summary compared with its stored snapshot.
     pub snapshot: SnapshotCheck,
+    /// Wall time of the variant (its stages, shrink and mutants), s;
+    /// `None` where the run did not measure it.
+    pub wall_s: Option<f64>,
 }
 
 /// How a variant's summary compared with its stored insta snapshot: the
@@ -166,6 +173,7 @@ pub(crate) mod tests_support {
             planner_latency: None,
             planner_stderr: None,
             shrunk: None,
+            not_shrunk: None,
         }
     }
 
@@ -183,6 +191,7 @@ pub(crate) mod tests_support {
             })),
             name,
             snapshot: SnapshotCheck::NotCompared,
+            wall_s: Some(2.5),
         }
     }
 
@@ -200,10 +209,12 @@ pub(crate) mod tests_support {
                 outcome: Ok(outcome),
                 artefacts: None,
                 snapshot: SnapshotCheck::NotCompared,
+                wall_s: Some(1.25),
             }],
             metrics: Some(metrics),
             checks: vec![MetricCheck { name: "collision_rate", value: Some(1.0), result: Ok(()) }],
             mutation: None,
+            wall_s: Some(1.5),
         }
     }
 }

@@ -398,6 +398,9 @@ fn failing_variant_html(
             esc(&shrunk.failure)
         );
     }
+    if let Some(why) = &s.not_shrunk {
+        let _ = write!(h, "<li>not shrunk: {}</li>", esc(why));
+    }
     let _ = writeln!(
         h,
         "</ul>\n<p class=\"what\">stage 1 (ego replays its log, the adversary drives CBV {}): CBV hit the ego: {}, \

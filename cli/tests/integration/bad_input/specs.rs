@@ -52,6 +52,13 @@ const CASES: &[(&str, u64, u64, &str)] = &[
     ("variants-zero.suite.yaml", 6, 11, "variants must be 1..=1000, got 0"),
     ("missing-scenario-file.suite.yaml", 4, 5, "no-such-scenario.yaml does not exist"),
     ("planner-must-answer-false.suite.yaml", 7, 35, "`planner_must_answer: false` is not allowed"),
+    (
+        "at-fault-beside-no-collision.suite.yaml",
+        7,
+        37,
+        "`no_at_fault_collision: true` has no effect while `no_collision` is true",
+    ),
+    ("shrink-budget-huge.suite.yaml", 6, 19, "shrink.budget must be 0..=10000 candidate rollouts, got 100000"),
     ("duplicate-key.suite.yaml", 7, 1, "key `variants` appears twice in the same mapping (first at line 6)"),
     ("two-documents.suite.yaml", 7, 1, "a spec file holds one YAML document"),
     ("length-negative.scenario.yaml", 8, 61, "`length_m` must be a number in (0, 30] m, got -4"),
