@@ -1038,7 +1038,9 @@ mod tests {
         let obstacle = root.children().find(|n| n.attribute("id") == Some("3")).unwrap();
         let initial = obstacle.children().find(|n| n.has_tag_name("initialState")).unwrap();
         let text = |tag: &str| -> f64 {
-            initial.descendants().find(|n| n.has_tag_name(tag)).unwrap().text().unwrap().trim().parse().unwrap()
+            let node = initial.descendants().find(|n| n.has_tag_name(tag)).unwrap();
+            let value = node.descendants().find(|n| n.has_tag_name("exact")).unwrap_or(node);
+            value.text().unwrap().trim().parse().unwrap()
         };
         assert_eq!(text("time") as usize, first);
         let (x, y) = (text("x"), text("y"));
@@ -1120,7 +1122,9 @@ mod tests {
         let (mut scene, mut rollout) = variant();
         // Authored-style ids: an obstacle named like a lanelet, one not a number.
         let lane = scene.map.lanes[0].id.0.to_string();
-        let others: Vec<usize> = (0..rollout.agent_ids.len()).filter(|&a| a != rollout.ego.0).take(2).collect();
+        let present = |a: usize| rollout.states.iter().any(|row| row[a].is_some());
+        let others: Vec<usize> =
+            (0..rollout.agent_ids.len()).filter(|&a| a != rollout.ego.0 && present(a)).take(2).collect();
         rollout.agent_ids[others[0]].0 = lane.clone();
         rollout.agent_ids[others[1]].0 = "lead car".into();
         scene.source.format = SourceFormat::Authored;
