@@ -20,7 +20,8 @@
 //! - From other sources (WOMD, Argoverse 2, authored scenes), the map is
 //!   converted: one lanelet per lane, bounds from the lane's own
 //!   boundaries where the source has them (else the centreline offset by
-//!   the default half-width), same-direction neighbours, traffic signals
+//!   the default half-width), same-direction neighbours and opposite-direction
+//!   left neighbours (lanes whose left bounds run together), traffic signals
 //!   as traffic lights whose cycle plays the recorded states, stop signs
 //!   as signs. Numeric ids are kept where they are positive and unique
 //!   across lanelets, signs, lights, obstacles and the planning problem;
@@ -427,11 +428,13 @@ pub fn write_commonroad(
 const CONVERTED_LIMITS: [&str; 4] = [
     "lanelet bounds are the lane's own boundaries where the source has them (projected at the centreline's \
      vertices), else the centreline offset by the default half-width",
-    "only same-direction neighbours are marked adjacent (the scene's map keeps no opposite-direction adjacency), \
-     so CommonRoad's road boundary may close between lanes of opposite directions",
+    "opposite-direction left neighbours are found from the bounds (the scene's map keeps only same-direction \
+     neighbours): where two lanes' left bounds run more than 0.5 m apart, CommonRoad's road boundary may close \
+     between them",
     "traffic lights: one per signal-controlled lane, at its stop point, whose cycle plays the recorded states from \
      time step 0 to the scene's end (then repeats)",
-    "road edges, painted lines, crosswalks, speed limits and intersections are not exported",
+    "road edges, painted lines, crosswalks, speed limits, intersections, and stop signs that control no lane \
+     are not exported",
 ];
 
 /// CommonRoad's id rule: positive, unique across the document.
@@ -625,10 +628,11 @@ fn write_converted_map(
 ) {
     let origin = scenario.origin_world;
     let map = &scenario.map;
-    for lane in lanes {
-        let (left, right) = bounds(lane);
+    let all_bounds: Vec<(Vec<Point2>, Vec<Point2>)> = lanes.iter().map(|l| bounds(l)).collect();
+    let opposite = opposite_left_neighbours(lanes, &all_bounds, lane_ids);
+    for ((lane, (left, right)), opposite) in lanes.iter().zip(&all_bounds).zip(opposite) {
         let _ = writeln!(x, "  <lanelet id=\"{}\">", lane_ids[&lane.id]);
-        for (tag, points) in [("leftBound", &left), ("rightBound", &right)] {
+        for (tag, points) in [("leftBound", left), ("rightBound", right)] {
             let _ = writeln!(x, "    <{tag}>");
             for p in points {
                 x.push_str(&point(&(p + origin), "      "));
@@ -643,6 +647,10 @@ fn write_converted_map(
         for (tag, refs) in [("adjacentLeft", &lane.left_neighbours), ("adjacentRight", &lane.right_neighbours)] {
             if let Some(id) = refs.iter().find_map(|id| lane_ids.get(id)) {
                 let _ = writeln!(x, "    <{tag} ref=\"{id}\" drivingDir=\"same\"/>");
+            } else if tag == "adjacentLeft"
+                && let Some(id) = opposite
+            {
+                let _ = writeln!(x, "    <{tag} ref=\"{id}\" drivingDir=\"opposite\"/>");
             }
         }
         if let Some(stop) = lane.stop_line {
@@ -671,7 +679,9 @@ fn write_converted_map(
         }
         x.push_str("  </lanelet>\n");
     }
-    for (sign, id) in map.stop_signs.iter().zip(sign_ids) {
+    // CommonRoad refuses a sign or light no lanelet refers to.
+    let controls = |lanes: &[MapElementId]| lanes.iter().any(|id| lane_ids.contains_key(id));
+    for (sign, id) in map.stop_signs.iter().zip(sign_ids).filter(|(s, _)| controls(&s.lanes)) {
         let _ = writeln!(
             x,
             "  <trafficSign id=\"{id}\">\n    <trafficSignElement>\n      <trafficSignID>{STOP_SIGN_ID}</trafficSignID>\n    \
@@ -679,9 +689,66 @@ fn write_converted_map(
             point(&(sign.position + origin), "      ")
         );
     }
-    for (signal, id) in map.traffic_signals.iter().zip(light_ids) {
+    for (signal, id) in map.traffic_signals.iter().zip(light_ids).filter(|(s, _)| controls(&[s.lane])) {
         x.push_str(&traffic_light(signal, *id, origin));
     }
+}
+
+/// How close two left bounds run for their lanes to be opposite-direction
+/// neighbours, m: one painted line, drawn once per lane.
+const OPPOSITE_BOUND_M: f64 = 0.5;
+
+/// Each lane's opposite-direction left neighbour, found from the bounds
+/// (the scene's map keeps only same-direction neighbours): the lane of the
+/// other direction whose left bound runs along this lane's left bound, within
+/// [`OPPOSITE_BOUND_M`], for at least half its points. `None` where there
+/// is none, or where the lane has a same-direction left neighbour.
+fn opposite_left_neighbours(
+    lanes: &[&Lane],
+    bounds: &[(Vec<Point2>, Vec<Point2>)],
+    lane_ids: &BTreeMap<MapElementId, i64>,
+) -> Vec<Option<i64>> {
+    let boxes: Vec<(Point2, Point2)> = bounds
+        .iter()
+        .map(|(left, _)| {
+            left.iter().fold((left[0], left[0]), |(lo, hi), p| {
+                (Point2::new(lo.x.min(p.x), lo.y.min(p.y)), Point2::new(hi.x.max(p.x), hi.y.max(p.y)))
+            })
+        })
+        .collect();
+    let lines: Vec<crate::geometry::Polyline> =
+        bounds.iter().map(|(left, _)| crate::geometry::Polyline::new(left.clone())).collect();
+    let apart = |a: &(Point2, Point2), b: &(Point2, Point2)| {
+        a.0.x > b.1.x + OPPOSITE_BOUND_M
+            || b.0.x > a.1.x + OPPOSITE_BOUND_M
+            || a.0.y > b.1.y + OPPOSITE_BOUND_M
+            || b.0.y > a.1.y + OPPOSITE_BOUND_M
+    };
+    (0..lanes.len())
+        .map(|i| {
+            if lanes[i].left_neighbours.iter().any(|id| lane_ids.contains_key(id)) {
+                return None;
+            }
+            let left = &bounds[i].0;
+            let matches = |j: usize| {
+                left.windows(2)
+                    .filter(|w| {
+                        let along = w[1] - w[0];
+                        let mid = w[0] + along * 0.5;
+                        lines[j]
+                            .project(&mid)
+                            .is_some_and(|q| q.distance_m <= OPPOSITE_BOUND_M && q.tangent.dot(&along) < 0.0)
+                    })
+                    .count()
+            };
+            (0..lanes.len())
+                .filter(|&j| j != i && !apart(&boxes[i], &boxes[j]))
+                .map(|j| (j, matches(j)))
+                .filter(|&(_, n)| n > 0 && 2 * n >= left.len() - 1)
+                .max_by_key(|&(j, n)| (n, std::cmp::Reverse(j)))
+                .and_then(|(j, _)| lane_ids.get(&lanes[j].id).copied())
+        })
+        .collect()
 }
 
 /// A signal's recorded states as a CommonRoad light: one cycle element per
@@ -1038,7 +1105,9 @@ mod tests {
         let obstacle = root.children().find(|n| n.attribute("id") == Some("3")).unwrap();
         let initial = obstacle.children().find(|n| n.has_tag_name("initialState")).unwrap();
         let text = |tag: &str| -> f64 {
-            initial.descendants().find(|n| n.has_tag_name(tag)).unwrap().text().unwrap().trim().parse().unwrap()
+            let node = initial.descendants().find(|n| n.has_tag_name(tag)).unwrap();
+            let value = node.descendants().find(|n| n.has_tag_name("exact")).unwrap_or(node);
+            value.text().unwrap().trim().parse().unwrap()
         };
         assert_eq!(text("time") as usize, first);
         let (x, y) = (text("x"), text("y"));
@@ -1079,6 +1148,21 @@ mod tests {
             })
             .collect();
         assert!((ys[0] - 7003.5).abs() < 1e-6 && (ys[1] - 7000.0).abs() < 1e-6, "{ys:?}");
+        // The westbound lane beside it is found again as its opposite-direction neighbour.
+        let adjacent = |id: &str| {
+            let lanelet = root.children().find(|n| n.attribute("id") == Some(id)).unwrap();
+            let a = lanelet.children().find(|n| n.has_tag_name("adjacentLeft")).unwrap();
+            (a.attribute("ref").unwrap().to_string(), a.attribute("drivingDir").unwrap().to_string())
+        };
+        assert_eq!(adjacent("11"), ("12".into(), "opposite".into()));
+        assert_eq!(adjacent("12"), ("11".into(), "opposite".into()));
+        assert!(
+            root.children()
+                .find(|n| n.attribute("id") == Some("13"))
+                .unwrap()
+                .children()
+                .all(|n| !n.has_tag_name("adjacentLeft"))
+        );
     }
 
     #[test]
@@ -1120,11 +1204,20 @@ mod tests {
         let (mut scene, mut rollout) = variant();
         // Authored-style ids: an obstacle named like a lanelet, one not a number.
         let lane = scene.map.lanes[0].id.0.to_string();
-        let others: Vec<usize> = (0..rollout.agent_ids.len()).filter(|&a| a != rollout.ego.0).take(2).collect();
+        let present = |a: usize| rollout.states.iter().any(|row| row[a].is_some());
+        let others: Vec<usize> =
+            (0..rollout.agent_ids.len()).filter(|&a| a != rollout.ego.0 && present(a)).take(2).collect();
         rollout.agent_ids[others[0]].0 = lane.clone();
         rollout.agent_ids[others[1]].0 = "lead car".into();
         scene.source.format = SourceFormat::Authored;
+        // A stop sign on the first lane is written and referenced; one that
+        // controls no lane is left out (CommonRoad refuses it).
+        let p = scene.map.lanes[0].centreline.points()[0];
+        scene.map.stop_signs.push(crate::map::StopSign::new(MapElementId(77_777), p, vec![scene.map.lanes[0].id]));
+        scene.map.stop_signs.push(crate::map::StopSign::new(MapElementId(88_888), p, vec![]));
         let export = commonroad_export(&scene, &rollout, "v", false).unwrap();
+        assert!(export.xml.contains("<trafficSign id=\"77777\">") && !export.xml.contains("88888"));
+        assert!(export.xml.contains("<trafficSignRef ref=\"77777\"/>"));
         let renumbered: Vec<(&str, &str)> =
             export.sidecar.renumbered.iter().map(|r| (r.element, r.source_id.as_str())).collect();
         assert_eq!(renumbered, vec![("obstacle", lane.as_str()), ("obstacle", "lead car")]);
