@@ -110,13 +110,17 @@ impl RoadMap {
         !edge_within && self.signed_distance_to_road_edge(p).is_some_and(|d| d > margin_m)
     }
 
-    /// Whether `p` lies past the end of the mapped road: ahead of the end
-    /// of a lane within 10 m that has no successor, *and* past the end of
-    /// the nearest road edge (its closest point is the edge's first or last
-    /// point): where the recording's map was cut off (NGSIM's study area,
-    /// WOMD's crop), not a dead end inside the map, whose kerbs go on
-    /// around it. A vehicle there has left the mapped area rather than the
-    /// road.
+    /// Whether `p` lies past the end of the mapped road, where the
+    /// recording's map was cut off (NGSIM's study area, WOMD's crop) rather
+    /// than at a dead end inside the map, whose kerbs go on around it: ahead
+    /// of the end of a lane within 10 m that has no successor, and either
+    /// past the end of the nearest road edge (its closest point is the
+    /// edge's first or last point), or within the lane's own corridor (its
+    /// half width at the end, plus 0.5 m) with no road edge between the
+    /// lane's end and `p`. The corridor rule makes the answer the same
+    /// whichever lane an ego leaves the map in: beside a road edge that goes
+    /// on (a ramp, the other carriageway) the nearest edge does not end
+    /// there. A vehicle there has left the mapped area rather than the road.
     pub fn is_past_mapped_end(&self, p: &Point2) -> bool {
         self.is_past_mapped_end_given(p, self.nearest_road_edge(p).as_ref())
     }
@@ -128,6 +132,10 @@ impl RoadMap {
         // Far past the cut the lane's end is as far away as the edge's:
         // search that far (up to a limit), not only the 10 m beside `p`.
         const FARTHEST_PAST_END_M: f64 = 100.0;
+        /// Half width of a lane without boundaries, m.
+        const HALF_LANE_M: f64 = 1.85;
+        /// Beyond its lane's half width a vehicle's corner may stick out, m.
+        const CORRIDOR_MARGIN_M: f64 = 0.5;
         let (edge_ends_here, past_edge_end_m) = match nearest {
             None => (true, 0.0),
             Some(&(edge, proj)) => {
@@ -136,19 +144,51 @@ impl RoadMap {
             }
         };
         let search_m = SEARCH_M + past_edge_end_m.min(FARTHEST_PAST_END_M);
-        edge_ends_here
-            && self.lane_segments.candidates(p, search_m).into_keys().any(|lane_index| {
-                let lane = &self.lanes[lane_index];
-                let points = lane.centreline.points();
-                if !lane.successors.is_empty() || points.len() < 2 {
+        self.lane_segments.candidates(p, search_m).into_keys().any(|lane_index| {
+            let lane = &self.lanes[lane_index];
+            let points = lane.centreline.points();
+            if !lane.successors.is_empty() || points.len() < 2 {
+                return false;
+            }
+            let (a, b) = (points[points.len() - 2], points[points.len() - 1]);
+            let along = (b - a).normalize();
+            let from_end = p - b;
+            let ahead = from_end.dot(&along);
+            let sideways = (from_end.x * along.y - from_end.y * along.x).abs();
+            if ahead.is_nan() || ahead <= 0.0 {
+                return false;
+            }
+            // Ahead of the end, within a lane's reach sideways of its line.
+            if edge_ends_here && sideways <= SEARCH_M {
+                return true;
+            }
+            let half_width_m = match (&lane.left_boundary, &lane.right_boundary) {
+                (Some(l), Some(r)) => match (l.points().last(), r.points().last()) {
+                    (Some(l), Some(r)) => 0.5 * (l - r).norm(),
+                    _ => HALF_LANE_M,
+                },
+                _ => HALF_LANE_M,
+            };
+            sideways <= half_width_m + CORRIDOR_MARGIN_M && !self.road_edge_crosses(&b, p)
+        })
+    }
+
+    /// Whether a road edge crosses the segment from `a` to `b`.
+    fn road_edge_crosses(&self, a: &Point2, b: &Point2) -> bool {
+        let cross = |o: &Point2, p: &Point2, q: &Point2| (p.x - o.x) * (q.y - o.y) - (p.y - o.y) * (q.x - o.x);
+        let (lo_x, hi_x) = (a.x.min(b.x), a.x.max(b.x));
+        let (lo_y, hi_y) = (a.y.min(b.y), a.y.max(b.y));
+        self.road_edges.iter().any(|edge| {
+            edge.polyline.points().windows(2).any(|s| {
+                let (c, d) = (&s[0], &s[1]);
+                if c.x.max(d.x) < lo_x || c.x.min(d.x) > hi_x || c.y.max(d.y) < lo_y || c.y.min(d.y) > hi_y {
                     return false;
                 }
-                let (a, b) = (points[points.len() - 2], points[points.len() - 1]);
-                let along = (b - a).normalize();
-                let from_end = p - b;
-                // Ahead of the end, within a lane's reach sideways of its line.
-                from_end.dot(&along) > 0.0 && (from_end.x * along.y - from_end.y * along.x).abs() <= SEARCH_M
+                let (d1, d2) = (cross(c, d, a), cross(c, d, b));
+                let (d3, d4) = (cross(a, b, c), cross(a, b, d));
+                d1 * d2 <= 0.0 && d3 * d4 <= 0.0 && !(d1 == 0.0 && d2 == 0.0)
             })
+        })
     }
 
     /// Whether `p` is off the road inside the mapped area: off the road

@@ -151,6 +151,13 @@ impl<'a> EventDetector<'a> {
             .reduce(|a, b| if b.0 > a.0 { b } else { a })
     }
 
+    /// Whether the ego's centre is off the road past the mapped end of it.
+    fn ego_centre_past_mapped_end(&self, states: &[Option<AgentState>]) -> bool {
+        let Some(s) = states[self.ego.0] else { return false };
+        let map = &self.scenario.map;
+        map.signed_distance_to_road_edge(&s.position).is_some_and(|d| d > 0.0) && map.is_past_mapped_end(&s.position)
+    }
+
     /// The step at which the ego left the mapped area, if it did.
     pub(super) fn left_mapped_area(&self) -> Option<usize> {
         self.left_mapped_area
@@ -221,6 +228,11 @@ impl<'a> EventDetector<'a> {
                 } else {
                     self.off_road.push(OffRoadEvent { step, distance_m: d });
                 }
+            } else if off && self.left_mapped_area.is_none() && self.ego_centre_past_mapped_end(states) {
+                // Off the road already (a corner over a kerb near the cut) and
+                // now through the cut itself: whatever came first, a rollout
+                // does not go on past the map, in any mode.
+                self.left_mapped_area = Some(step);
             }
             self.ego_was_off_road = off;
         }

@@ -569,6 +569,82 @@ mod tests {
     }
 
     /// [`road_that_ends`] with the ego moved `dy` sideways (towards +y).
+    /// A lane (y in 0..4) that ends where the map does, at x = 300, its
+    /// upper kerb stopping 10 m short; beside it, 0.3 m away, a ramp
+    /// (y in 4.3..8) whose kerb goes on to x = 400. The ego drives along the
+    /// lane's upper half at 12 m/s, straight off its end: the road edge
+    /// nearest to its corner past the end is the ramp's, which does not end
+    /// there.
+    fn lane_that_ends_beside_a_ramp() -> Scenario {
+        let straight = |y0: f64, x0: f64, x1: f64| Polyline::new(vec![Point2::new(x0, y0), Point2::new(x1, y0)]);
+        let lane = Lane {
+            left_boundary: Some(straight(4.0, -50.0, 300.0)),
+            right_boundary: Some(straight(0.0, -50.0, 300.0)),
+            ..Lane::new(MapElementId(1), straight(2.0, -50.0, 300.0))
+        };
+        let ramp = Lane {
+            left_boundary: Some(straight(8.0, -50.0, 400.0)),
+            right_boundary: Some(straight(4.3, -50.0, 400.0)),
+            ..Lane::new(MapElementId(2), straight(6.15, -50.0, 400.0))
+        };
+        let edges = vec![
+            RoadEdge { id: MapElementId(3), polyline: straight(0.0, -50.0, 300.0), kind: RoadEdgeKind::Boundary },
+            RoadEdge { id: MapElementId(4), polyline: straight(4.0, 290.0, -50.0), kind: RoadEdgeKind::Boundary },
+            RoadEdge { id: MapElementId(5), polyline: straight(4.3, -50.0, 400.0), kind: RoadEdgeKind::Boundary },
+            RoadEdge { id: MapElementId(6), polyline: straight(8.0, 400.0, -50.0), kind: RoadEdgeKind::Boundary },
+        ];
+        let rect = |x0: f64, x1: f64, y0: f64, y1: f64| {
+            crate::geometry::Polygon::new(vec![
+                Point2::new(x0, y0),
+                Point2::new(x1, y0),
+                Point2::new(x1, y1),
+                Point2::new(x0, y1),
+            ])
+        };
+        let areas = vec![rect(-50.0, 300.0, 0.0, 4.0), rect(-50.0, 400.0, 4.3, 8.0)];
+        let map = RoadMap::new(vec![lane, ramp], edges, vec![], vec![], areas, vec![], vec![]);
+        let ego = Track {
+            id: AgentId("ego".into()),
+            kind: AgentKind::Vehicle,
+            length_m: 4.5,
+            width_m: 2.0,
+            states: (0..101)
+                .map(|k| {
+                    Some(AgentState {
+                        position: Point2::new(250.0 + 1.2 * k as f64, 2.9),
+                        heading_rad: 0.0,
+                        velocity_mps: Vector2::new(12.0, 0.0),
+                    })
+                })
+                .collect(),
+        };
+        Scenario::new("lane-that-ends-beside-a-ramp", ScenarioSource::authored("test"), 0.1, map, vec![ego])
+            .with_roles(TrackIndex(0), None)
+    }
+
+    #[test]
+    fn driving_off_the_end_of_a_lane_beside_a_ramp_leaves_the_map_in_every_mode() {
+        let s = lane_that_ends_beside_a_ramp();
+        // The ego's front corner past the end: the nearest edge is the ramp's.
+        let corner = Point2::new(301.0, 3.9);
+        assert!(s.map.is_past_mapped_end(&corner), "past the lane's end, in its corridor");
+        // A kerb still counts: beside the lane, before its end, or across the ramp's kerb.
+        assert!(!s.map.is_past_mapped_end(&Point2::new(250.0, -0.5)));
+        assert!(!s.map.is_past_mapped_end(&Point2::new(301.0, 4.6)), "on the ramp, not past the map");
+        // Log replay, a closed-loop planner, and the rollouts stage 1 and
+        // stage 2 play (the same simulator): all end where the ego leaves.
+        let mut ends = Vec::new();
+        for planner in [BuiltinPlanner::LogReplay, BuiltinPlanner::ConstantVelocity, BuiltinPlanner::Idm] {
+            let mut p = planner.instantiate(&s, TrackIndex(0));
+            let r = Simulation::new(&s, SimConfig::default()).unwrap().run(p.as_mut());
+            assert!(r.off_road.is_empty(), "{planner:?}: {:?}", r.off_road);
+            assert!(matches!(r.termination, Termination::LeftMappedArea { .. }), "{planner:?}: {:?}", r.termination);
+            ends.push(r.termination);
+        }
+        assert_eq!(ends[0], ends[1], "log replay and constant velocity drive the same path");
+        assert_eq!(ends[0], Termination::LeftMappedArea { step: 40 });
+    }
+
     fn shifted(mut s: Scenario, dy: f64) -> Scenario {
         for state in s.tracks[0].states.iter_mut().flatten() {
             state.position.y += dy;

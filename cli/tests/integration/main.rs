@@ -32,6 +32,7 @@ mod import_womd_proto;
 mod mutation;
 mod prior_model;
 mod protocol;
+mod protocol_road_edges;
 mod realism;
 mod runner;
 mod simulate_recorded;

@@ -6,6 +6,7 @@
 //! numbers named, trajectories checked). Offending lines are quoted in the
 //! errors, truncated to 200 characters.
 
+pub(super) use super::road_edges::road_edges;
 use super::wire::{
     HarnessMessage, MAX_DEBUG_BYTES, PlannerMessage, WireAgent, WireEgo, WireFullLane, WireFullMap, WireLane, WireMap,
     WirePoint, WireSignal, WireSignalStop, WireStopSign,
@@ -82,7 +83,7 @@ pub(super) fn full_map(map: &RoadMap) -> WireFullMap {
                 }
             })
             .collect(),
-        road_edges: map.road_edges.iter().map(|e| resampled(&e.polyline)).collect(),
+        road_edges: super::protocol_road_edges(map),
         stop_signs: map
             .stop_signs
             .iter()
@@ -107,8 +108,9 @@ fn mean_distance(a: &Polyline, b: &Polyline) -> Option<f64> {
     (!d.is_empty()).then(|| (d.iter().sum::<f64>() / d.len() as f64 * 100.0).round() / 100.0)
 }
 
-/// The `observation` message of protocol 1.0 for one step.
-pub(super) fn observation_message(obs: &Observation<'_>) -> HarnessMessage {
+/// The `observation` message of protocol 1.0 for one step; `road_edges`
+/// are the map's edges as the protocol sends them ([`road_edges`]).
+pub(super) fn observation_message(obs: &Observation<'_>, road_edges: &[Polyline]) -> HarnessMessage {
     let centre = obs.ego.position;
     let map = WireMap {
         lanes: obs
@@ -123,7 +125,7 @@ pub(super) fn observation_message(obs: &Observation<'_>) -> HarnessMessage {
                 })
             })
             .collect(),
-        road_edges: obs.map.road_edges.iter().filter_map(|e| clip(&e.polyline, &centre, MAP_RADIUS_M)).collect(),
+        road_edges: road_edges.iter().filter_map(|e| clip(e, &centre, MAP_RADIUS_M)).collect(),
     };
     observation_with(obs, Some(map), route_ahead(obs.map, &obs.ego), None, None, None)
 }
@@ -403,7 +405,8 @@ mod tests {
         let s = stopped_car_ahead();
         let mut obs = observation_at(&s, 0);
         obs.ego.position = Point2::new(100.0, 1.75);
-        let v = serde_json::to_value(observation_message(&obs)).unwrap();
+        let edges = road_edges(obs.map);
+        let v = serde_json::to_value(observation_message(&obs, &edges)).unwrap();
         assert_eq!(v["type"], "observation");
         assert_eq!(v["step"], 0);
         assert_eq!(v["ego"]["x"], 100.0);
@@ -431,7 +434,7 @@ mod tests {
         assert_eq!(route[50], serde_json::json!([200.0, 1.75]));
         // Far from every lane: no map, no route.
         obs.ego.position = Point2::new(1000.0, 500.0);
-        let v = serde_json::to_value(observation_message(&obs)).unwrap();
+        let v = serde_json::to_value(observation_message(&obs, &edges)).unwrap();
         assert_eq!(v["map"], serde_json::json!({"lanes": [], "road_edges": []}));
         assert_eq!(v["route"], serde_json::json!([]));
     }

@@ -78,6 +78,7 @@ mod context;
 mod encoding;
 mod interrupt;
 mod process;
+mod road_edges;
 mod wire;
 
 use std::collections::BTreeMap;
@@ -97,11 +98,22 @@ pub use context::{PLACEHOLDERS, RolloutContext, check_placeholders, expand};
 pub use encoding::{MAP_RADIUS_M, MAP_SPACING_M, ROUTE_LENGTH_M, decode_reply};
 use encoding::{
     ReplyError, check_debug, check_reply_step, full_map, observation_message, observation_message_v11, reply_output,
+    road_edges,
 };
 use process::Process;
 pub(crate) use process::format_stderr_tail;
 use wire::{EgoSize, HarnessMessage, PlannerMessage};
 pub use wire::{MAX_DEBUG_BYTES, PROTOCOL_MINOR, PROTOCOL_VERSION, protocol_schema};
+
+/// The road edges the protocol sends for `map` (`prepare`'s
+/// `map.road_edges`, and what 1.0 observations clip), as `[x, y]`
+/// polylines with the road on their left: the map's edges resampled every
+/// [`MAP_SPACING_M`] or less, less the stretches that are no outer
+/// boundary of the drivable area (bounds with a lane right beyond them, an
+/// intersection lane's bounds with the junction's lanes beyond them).
+pub fn protocol_road_edges(map: &RoadMap) -> Vec<Vec<[f64; 2]>> {
+    road_edges(map).iter().map(|e| e.points().iter().map(|p| [p.x, p.y]).collect()).collect()
+}
 
 fn default_step_timeout_ms() -> u64 {
     1000
@@ -235,6 +247,9 @@ pub struct ExternalPlanner {
     startup: Option<super::PlannerStartup>,
     /// The `debug` object of the last reply, until the simulator takes it.
     debug: Option<serde_json::Value>,
+    /// The road edges 1.0 observations clip, as the protocol sends them,
+    /// worked out once per map (keyed by its address within a rollout).
+    road_edges: Option<(usize, Vec<crate::geometry::Polyline>)>,
 }
 
 impl std::fmt::Debug for ExternalPlanner {
@@ -266,6 +281,7 @@ impl ExternalPlanner {
             stderr_log: String::new(),
             startup: None,
             debug: None,
+            road_edges: None,
         }
     }
 
@@ -493,6 +509,7 @@ impl ExternalPlanner {
         self.stderr_log.clear();
         self.startup = None;
         self.debug = None;
+        self.road_edges = None;
     }
 
     /// One observation → reply round trip, validated into a planner output.
@@ -504,7 +521,14 @@ impl ExternalPlanner {
             _ => self.config.step_timeout_ms,
         };
         let message = match self.revision {
-            Revision::V1_0 => observation_message(obs),
+            Revision::V1_0 => {
+                let key = std::ptr::from_ref(obs.map) as usize;
+                if self.road_edges.as_ref().is_none_or(|(k, _)| *k != key) {
+                    self.road_edges = Some((key, road_edges(obs.map)));
+                }
+                let edges = self.road_edges.as_ref().map_or(&[][..], |(_, e)| e.as_slice());
+                observation_message(obs, edges)
+            }
             Revision::V1_1 | Revision::V1_2 | Revision::V1_3 => {
                 let s = self.route.update(obs.map, &obs.ego, &self.recorded_path);
                 observation_message_v11(obs, &self.route, s)
