@@ -14,7 +14,8 @@ from safer_planner.commonroad import centre_of, collision_checker, rear_axle_sta
 DT, HORIZON_STEPS = 0.1, 30  # a 3 s plan: long enough to brake from highway speed, short enough to plan fast
 REPLAN_EVERY, EXTEND_M = 5, 50.0  # plan every 0.5 s; the reference path runs 50 m past the route's ends
 PROJECTION_ERRORS = (ValueError, crccosy.CartesianProjectionDomainError,  # a point the path cannot project
-                     crccosy.CurvilinearProjectionDomainLateralError, crccosy.CurvilinearProjectionDomainLongitudinalError)
+                     crccosy.CurvilinearProjectionDomainLateralError,
+                     crccosy.CurvilinearProjectionDomainLongitudinalError)
 
 
 class Driver:
@@ -28,7 +29,7 @@ class Driver:
         config.scenario = Scenario(DT)  # used only for forbidden lanelets and a default checker reset() replaces
         self.planner, self.rear = CommonRoadReactivePlanner(config), config.vehicle.wb_rear_axle
         self.desired, self.coords = desired_speed_mps, None
-        self.schedule = ReplanSchedule(REPLAN_EVERY, position=lambda s: centre_of(s, self.rear)[:2])
+        self.schedule = ReplanSchedule(REPLAN_EVERY, position=lambda s, rear=self.rear: centre_of(s, rear)[:2])
 
     def set_route(self, points):
         """A new route: the reference path from now on (the last plan stays, to follow if none is found)."""
@@ -53,7 +54,8 @@ class Driver:
             result = self.planner.plan()
         except PROJECTION_ERRORS:  # the ego or a sample outside the reference path's projection domain: no plan
             pass
-        return [centre_of(s, self.rear) for s in schedule.planned(k, result and result[0].state_list, result and result[1:3])]
+        states = schedule.planned(k, result and result[0].state_list, result and result[1:3])  # and its Frenet states
+        return [centre_of(s, self.rear) for s in states]
 
 
 class ReactivePlanner(Planner):
@@ -69,9 +71,9 @@ class ReactivePlanner(Planner):
     def plan(self, obs):
         ego, k = obs.ego, obs.step - (self.hello.horizon.start_step if self.hello.horizon else 0)
         self.driver.desired = self.driver.desired or max(ego.speed_mps, 1.0)  # the ego's speed at the start
-        states = self.driver.step(k, (ego.x, ego.y, ego.heading_rad, ego.speed_mps), obs.agents)
-        return Trajectory([TrajectoryPoint(DT * (i + 1), x, y, h, max(v, 0.0)) for i, (x, y, h, v) in enumerate(states)],
-                          debug={"plan_step": self.driver.schedule.plan_step, "plans": self.driver.schedule.plans})
+        s, plan = self.driver.schedule, self.driver.step(k, (ego.x, ego.y, ego.heading_rad, ego.speed_mps), obs.agents)
+        points = [TrajectoryPoint(DT * (i + 1), x, y, h, max(v, 0.0)) for i, (x, y, h, v) in enumerate(plan)]
+        return Trajectory(points, debug={"plan_step": s.plan_step, "plans": s.plans})  # 1.3: in the recording
 
 
 if __name__ == "__main__":

@@ -45,10 +45,9 @@ For planners that plan with CommonRoad's states and collision checker:
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from typing import Any, Dict, Iterable, List, Optional, Sequence, Set, Tuple
-
-import dataclasses
 
 from .geometry import Path, Point
 from .messages import Agent, EgoState, Signal

@@ -180,7 +180,10 @@ class _Session:
             self.planner.on_bye()
         finally:
             if self.seen is not None:
-                self.seen.write()
+                try:
+                    self.seen.write()
+                except OSError as e:  # the rollout is over: a log that cannot be written is no reason to fail it
+                    self.note(f"cannot write the seen log {self.seen.path}: {e}")
 
     def on_hello(self, message: Dict[str, Any]) -> bool:
         p = self.planner
