@@ -20,7 +20,6 @@ PROJECTION_ERRORS = (ValueError, crccosy.CartesianProjectionDomainError,  # a po
 
 class Driver:
     """The reactive planner on the kit's replanning schedule."""
-
     def __init__(self, length_m, width_m, desired_speed_mps=None):
         config = ReactivePlannerConfiguration()
         config.planning.time_steps_computation, config.planning.planning_horizon = HORIZON_STEPS, HORIZON_STEPS * DT
@@ -59,6 +58,7 @@ class Driver:
 
 
 class ReactivePlanner(Planner):
+    """The safer planner: a ``Driver`` for the ego, given each new route."""
     name, protocol_minor, min_protocol_minor, route_required = "commonroad-reactive", 3, 1, True  # the stable route
     dt_s, plan_time_s = DT, 5.0  # a plan takes seconds at worst: the spec's step timeouts allow for it
 
