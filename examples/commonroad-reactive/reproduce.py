@@ -4,7 +4,7 @@
 run_planner.py does: a closed loop from the planning problem's initial
 state over the exported dynamic obstacles, the planner placing the ego on
 its plan's next state at every step. It is given what planner.py was given
-in safer (SAFER_REACTIVE_LOG): the same route from the same step, the same
+in safer (the kit's SAFER_PLANNER_SEEN_LOG): the same route from the same step, the same
 replanning schedule, the obstacles within the same 120 m. Then it compares
 the two outcomes: the first collision (agent and time) and the smallest
 clearance, each side measured the same way (box against box).
@@ -34,7 +34,8 @@ from shapely.geometry import Polygon  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import commonroad_dc.pycrcc as pycrcc  # noqa: E402
-from reactive import DT, HORIZON_STEPS, Driver, NoPlan  # noqa: E402
+from planner import DT, HORIZON_STEPS, Driver  # noqa: E402
+from safer_planner import Agent, NoPlanLeft  # noqa: E402
 
 PERCEPTION_M = 120.0  # safer sends the planner the road users within this range of the ego
 
@@ -114,6 +115,11 @@ def outcome(ego_states, size, obstacles, ids=None):
     return first, clearance
 
 
+def agent(oid, x, y, heading, speed, length, width):
+    """An exported obstacle's state as the kit's ``Agent`` (driving along its heading)."""
+    return Agent(str(oid), "vehicle", x, y, heading, speed * math.cos(heading), speed * math.sin(heading), length, width)
+
+
 def drive(log, problem, obstacles, off, steps, size, oracle=False):
     """The ego's states ``{step: (x, y, heading)}`` with the reactive planner
     in the loop, from the planning problem's initial state; with ``oracle``
@@ -126,11 +132,11 @@ def drive(log, problem, obstacles, off, steps, size, oracle=False):
         states[k] = ego[:3]
         if k in routes:
             driver.set_route(routes[k]["points"])
-        near = [(*s[k], length, width) for _, length, width, s in obstacles
+        near = [agent(oid, *s[k], length, width) for oid, length, width, s in obstacles
                 if k in s and math.hypot(s[k][0] - ego[0], s[k][1] - ego[1]) <= PERCEPTION_M]
         try:
             ego = driver.step(k, ego, near, oracle and known_future(obstacles, k))[0]
-        except NoPlan:  # the planner gives up: the rollout ends here, in safer too
+        except NoPlanLeft:  # the planner gives up: the rollout ends here, in safer too
             break
     return states
 

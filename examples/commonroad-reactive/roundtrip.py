@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Checks that a planner driven from safer's CommonRoad exports sees what
 the planner saw in safer: for each export under EXPORTS with the log
-planner.py wrote for it under LOGS (SAFER_REACTIVE_LOG, the same relative
+planner.py wrote for it under LOGS (SAFER_PLANNER_SEEN_LOG, the same relative
 path), the planning problem's initial state is the ego's first observed
 state (and the sidecar's ego size its size), the dynamic obstacles at time 0 are the observed road users (same
 place, heading and size; the same ones within the 120 m safer sends), and

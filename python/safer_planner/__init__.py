@@ -16,7 +16,8 @@ planner only says what to do at each step::
 
 Standard library only; Python 3.9 or later. The optional
 ``safer_planner.commonroad`` (``pip install "./python[commonroad]"``)
-converts the map to a CommonRoad lanelet network.
+converts the map to a CommonRoad lanelet network, the ego to CommonRoad
+states and the agents' predictions to a CommonRoad collision checker.
 """
 
 from .ahead import AMBER_STATES, RED_STATES, SignalStopAhead, curve_speed_limit, next_signal_stop
@@ -42,6 +43,8 @@ from .messages import (
 from .planner import DEBUG_ENV, Planner, PlannerError, run, serve
 from .prediction import PredictedState, horizon_times, predict_agent, predict_constant_velocity
 from .roadmap import Lane, RoadMap, Route, SignalStop, StopSign
+from .schedule import NoPlanLeft, ReplanSchedule
+from .seen import SEEN_LOG_ENV, SeenLog
 from .vehicle import CENTRE_TO_REAR_AXLE_M, WHEELBASE_M, centre_from_rear_axle, rear_axle_from_centre
 
 __version__ = "0.1.0"
@@ -53,6 +56,7 @@ __all__ = [
     "PROTOCOL",
     "PROTOCOL_MINOR",
     "RED_STATES",
+    "SEEN_LOG_ENV",
     "WHEELBASE_M",
     "Agent",
     "Control",
@@ -63,6 +67,7 @@ __all__ = [
     "Horizon",
     "Lane",
     "Leader",
+    "NoPlanLeft",
     "Observation",
     "Path",
     "Planner",
@@ -70,10 +75,12 @@ __all__ = [
     "Point",
     "PredictedState",
     "Projection",
+    "ReplanSchedule",
     "Reply",
     "RoadMap",
     "Route",
     "ScenarioInfo",
+    "SeenLog",
     "Signal",
     "SignalStop",
     "SignalStopAhead",

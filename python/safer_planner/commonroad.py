@@ -29,16 +29,31 @@ are left out):
   controls (a stop sign that names no lane on the map is left out).
 
 Ids of the traffic lights and signs follow the largest lane id.
+
+For planners that plan with CommonRoad's states and collision checker:
+
+- :func:`rear_axle_state` and :func:`ego_initial_state`: the ego (box
+  centre) as a CommonRoad state of its rear axle, the state the CommonRoad
+  planners plan from (``InitialState`` or a planner's own state class,
+  e.g. the reactive planner's ``ReactivePlannerState``), and
+  :func:`centre_of` back: a rear-axle state's box centre, heading, speed;
+- :func:`collision_checker`: the observation's agents predicted at
+  constant velocity (:func:`~safer_planner.predict_constant_velocity`) as a
+  ``pycrcc.CollisionChecker`` of time-variant boxes, which needs
+  commonroad-drivability-checker besides.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
-from typing import Dict, Iterable, List, Optional, Sequence, Set, Tuple
+from typing import Any, Dict, Iterable, List, Optional, Sequence, Set, Tuple
 
 from .geometry import Path, Point
-from .messages import Signal
+from .messages import Agent, EgoState, Signal
+from .prediction import horizon_times, predict_constant_velocity
 from .roadmap import Lane, RoadMap
+from .vehicle import CENTRE_TO_REAR_AXLE_M, centre_from_rear_axle, rear_axle_from_centre
 
 INSTALL_HINT = 'pip install "safer-planner[commonroad]" (from the SaFeR repository: pip install "./python[commonroad]")'
 """The command that installs what this module needs."""
@@ -53,6 +68,7 @@ try:
         LineMarking,
         StopLine,
     )
+    from commonroad.scenario.state import InitialState  # type: ignore[import-untyped]
     from commonroad.scenario.traffic_light import (  # type: ignore[import-untyped]
         TrafficLight,
         TrafficLightCycle,
@@ -294,4 +310,114 @@ def lanelet_network(
     return network
 
 
-__all__ = ["INSTALL_HINT", "ConversionError", "lanelet_network", "traffic_light_state"]
+def rear_axle_state(
+    x: float,
+    y: float,
+    heading_rad: float,
+    speed_mps: float,
+    *,
+    time_step: int,
+    offset_m: float = CENTRE_TO_REAR_AXLE_M,
+    accel_mps2: float = 0.0,
+    yaw_rate_radps: float = 0.0,
+    steering_angle_rad: float = 0.0,
+    state_type: Any = None,
+) -> Any:
+    """A CommonRoad state of the rear axle of the box centred at ``(x, y)``
+    (:func:`~safer_planner.rear_axle_from_centre`, ``offset_m`` behind the
+    centre) at ``time_step``: position, orientation, velocity, acceleration,
+    yaw rate and steering angle, each where ``state_type`` (a CommonRoad
+    state dataclass; default ``InitialState``, which has no steering angle)
+    has the field."""
+    cls = state_type or InitialState
+    names = {f.name for f in dataclasses.fields(cls)}
+    values = {
+        "time_step": time_step,
+        "position": np.array(rear_axle_from_centre(x, y, heading_rad, offset_m)),
+        "orientation": heading_rad,
+        "velocity": speed_mps,
+        "acceleration": accel_mps2,
+        "yaw_rate": yaw_rate_radps,
+        "steering_angle": steering_angle_rad,
+    }
+    return cls(**{k: v for k, v in values.items() if k in names})
+
+
+def ego_initial_state(
+    ego: EgoState,
+    time_step: int,
+    *,
+    offset_m: float = CENTRE_TO_REAR_AXLE_M,
+    motion: bool = True,
+    state_type: Any = None,
+) -> Any:
+    """:func:`rear_axle_state` of the observed ego: with ``motion``, its
+    protocol 1.3 acceleration, yaw rate and steering angle (0 where the
+    harness sends none); without, all three 0 (the planning problem of a
+    CommonRoad export states none)."""
+    def part(value: Optional[float]) -> float:
+        return float(value) if motion and value is not None else 0.0
+
+    return rear_axle_state(
+        ego.x,
+        ego.y,
+        ego.heading_rad,
+        ego.speed_mps,
+        time_step=time_step,
+        offset_m=offset_m,
+        accel_mps2=part(ego.accel_mps2),
+        yaw_rate_radps=part(ego.yaw_rate_radps),
+        steering_angle_rad=part(ego.steering_angle_rad),
+        state_type=state_type,
+    )
+
+
+def centre_of(state: Any, offset_m: float = CENTRE_TO_REAR_AXLE_M) -> Tuple[float, float, float, float]:
+    """``(x, y, heading_rad, speed_mps)`` of the box centre of a CommonRoad
+    rear-axle ``state`` (its position, orientation and velocity): the
+    inverse of :func:`rear_axle_state`."""
+    x, y = centre_from_rear_axle(float(state.position[0]), float(state.position[1]), state.orientation, offset_m)
+    return x, y, float(state.orientation), float(state.velocity)
+
+
+def collision_checker(
+    agents: Iterable[Agent], time_step: int, horizon_steps: int, dt_s: float, *, along_heading: bool = False
+) -> Any:
+    """A ``pycrcc.CollisionChecker`` (commonroad-drivability-checker) with
+    each of ``agents`` as a time-variant box from ``time_step`` (now) to
+    ``horizon_steps`` steps of ``dt_s`` later, predicted at constant
+    velocity (:func:`~safer_planner.predict_constant_velocity`): along its
+    velocity ``(vx, vy)``, or with ``along_heading`` at its speed along its
+    heading (as CommonRoad's obstacles drive)."""
+    try:
+        import commonroad_dc.pycrcc as pycrcc  # type: ignore[import-untyped]
+    except ImportError as e:
+        raise ImportError(f"collision_checker needs commonroad-drivability-checker, which is not installed ({e})") from e
+    if not isinstance(time_step, int) or not isinstance(horizon_steps, int) or horizon_steps < 0:
+        raise ValueError(f"time_step and horizon_steps must be whole numbers of steps, got {time_step}, {horizon_steps}")
+    agents = list(agents)
+    if along_heading:
+        agents = [
+            dataclasses.replace(a, vx=a.speed_mps * math.cos(a.heading_rad), vy=a.speed_mps * math.sin(a.heading_rad))
+            for a in agents
+        ]
+    times = horizon_times(horizon_steps * dt_s, dt_s, include_now=True)[: horizon_steps + 1]
+    checker = pycrcc.CollisionChecker()
+    for states in predict_constant_velocity(agents, times).values():
+        tvo = pycrcc.TimeVariantCollisionObject(time_step)
+        for s in states:
+            tvo.append_obstacle(pycrcc.RectOBB(s.length_m / 2, s.width_m / 2, s.heading_rad, s.x, s.y))
+        checker.add_collision_object(tvo)
+    return checker
+
+
+__all__ = [
+    "INSTALL_HINT",
+    "ConversionError",
+    "centre_of",
+    "collision_checker",
+    "ego_initial_state",
+    "lanelet_network",
+    "rear_axle_state",
+    "traffic_light_state",
+]

@@ -20,6 +20,7 @@ from typing import IO, Any, Dict, List, Optional, Tuple, Type, Union
 
 from .messages import PROTOCOL, PROTOCOL_MINOR, Control, Hello, Observation, Trajectory
 from .roadmap import RoadMap, Route
+from .seen import SEEN_LOG_ENV, SeenLog
 
 DEBUG_ENV = "SAFER_PLANNER_DEBUG"
 """Set to ``1`` to log every message, the time each plan took and where the
@@ -33,7 +34,7 @@ class PlannerError(Exception):
 
 class Planner:
     """Base class of a planner. Override :meth:`plan` (required) and any of
-    :meth:`on_hello`, :meth:`on_prepare`, :meth:`on_bye`.
+    :meth:`on_hello`, :meth:`on_prepare`, :meth:`on_route`, :meth:`on_bye`.
 
     Class attributes to set:
 
@@ -45,6 +46,16 @@ class Planner:
     - ``min_protocol_minor``: the lowest revision the planner can work with;
       against an older harness the kit answers ``error`` and exits 1.
     - ``log_name``: the prefix of :meth:`log` lines (default: ``name``).
+    - ``dt_s``: the step the planner is built for, s; against a harness
+      stepping another (``hello.dt_s``) the kit answers ``error``. ``None``
+      (default): any step.
+    - ``plan_time_s``: how long a plan can take, s; the kit logs a warning
+      when the harness's step timeout (1.3 ``hello``) is shorter.
+    - ``route_required``: ``True`` for a planner that cannot plan without
+      the route: the kit answers ``error`` to an observation without one.
+    - ``seen_log``: a folder to log what the planner saw in each variant
+      under (:mod:`safer_planner.seen`; default: the
+      ``SAFER_PLANNER_SEEN_LOG`` environment variable, unset: no log).
 
     Set by the kit: ``self.hello`` (:class:`Hello`), ``self.map`` (the whole
     :class:`RoadMap` from ``prepare``, 1.1+; ``None`` before and in 1.0) and
@@ -55,6 +66,10 @@ class Planner:
     protocol_minor: int = PROTOCOL_MINOR
     min_protocol_minor: int = 0
     log_name: Optional[str] = None
+    dt_s: Optional[float] = None
+    plan_time_s: Optional[float] = None
+    route_required: bool = False
+    seen_log: Optional[str] = None
 
     hello: Optional[Hello] = None
     map: Optional[RoadMap] = None
@@ -67,6 +82,11 @@ class Planner:
     def on_prepare(self, road_map: RoadMap) -> None:
         """1.1+: called once with the whole map before ``prepared`` is sent
         (within what is left of the startup timeout); also in ``self.map``."""
+
+    def on_route(self, route: Route) -> None:
+        """Called before :meth:`plan` with each new route: a non-empty route
+        of a revision not given before (1.1+), or every non-empty route in
+        1.0 (a hint near the ego, new at each step)."""
 
     def plan(self, obs: Observation) -> Union[Control, Trajectory]:
         """The reply to one observation (within the step timeout, 1 s by
@@ -95,6 +115,8 @@ class _Session:
         self.route_key: Optional[Tuple[Any, ...]] = None
         self.route: Optional[Route] = None
         self.failed = False
+        self.seen: Optional[SeenLog] = None
+        self.route_given: Optional[Route] = None
 
     def note(self, *args: Any) -> None:
         print("safer_planner:", *args, file=self.err, flush=True)
@@ -124,7 +146,7 @@ class _Session:
             line = self.stdin.readline()
             if not line:
                 # End of stdin without bye: the harness is gone.
-                self.planner.on_bye()
+                self.bye()
                 return 1 if self.failed else 0
             line_no += 1
             if not line.strip():
@@ -147,10 +169,21 @@ class _Session:
             elif kind == "observation":
                 self.on_observation(message)
             elif kind == "bye":
-                self.planner.on_bye()
+                self.bye()
                 return 1 if self.failed else 0
             else:
                 self.note(f"ignoring a message of unknown type {kind!r}")
+
+    def bye(self) -> None:
+        """The rollout is over: the planner's ``on_bye``, then the seen log."""
+        try:
+            self.planner.on_bye()
+        finally:
+            if self.seen is not None:
+                try:
+                    self.seen.write()
+                except OSError as e:  # the rollout is over: a log that cannot be written is no reason to fail it
+                    self.note(f"cannot write the seen log {self.seen.path}: {e}")
 
     def on_hello(self, message: Dict[str, Any]) -> bool:
         p = self.planner
@@ -168,8 +201,17 @@ class _Session:
                 f"{p.name} needs protocol 1.{p.min_protocol_minor} or later; the harness speaks 1.{hello.protocol_minor}"
             )
             return False
+        if p.dt_s is not None and abs(hello.dt_s - p.dt_s) > 1e-9:
+            self.give_up(f"{p.name} steps {p.dt_s} s; the harness steps {hello.dt_s} s")
+            return False
+        if p.plan_time_s is not None and hello.step_timeout_s is not None and hello.step_timeout_s < p.plan_time_s:
+            p.log(
+                f"a plan can take {p.plan_time_s} s; the harness's step timeout is {hello.step_timeout_s} s"
+                " (the planner spec's step_timeout_ms)"
+            )
         p.hello = hello
         p.revision = revision
+        self.seen = SeenLog.open(p.seen_log or os.environ.get(SEEN_LOG_ENV), hello)
         try:
             p.on_hello(hello)
         except Exception as e:
@@ -207,6 +249,7 @@ class _Session:
         return self.route
 
     def on_observation(self, message: Dict[str, Any]) -> None:
+        p = self.planner
         step = message.get("step")
         t0 = time.perf_counter()
         try:
@@ -215,7 +258,13 @@ class _Session:
             self.give_up(f"cannot read observation ({type(e).__name__}: {e})", step=step)
             return
         try:
-            reply = self.planner.plan(obs)
+            route = obs.route
+            if p.route_required and not route:
+                raise PlannerError(f"no route at step {obs.step}: {p.name} needs the route to plan")
+            if route and (route.revision is None or self.route_given is None or route.revision != self.route_given.revision):
+                self.route_given = route
+                p.on_route(route)
+            reply = p.plan(obs)
             if isinstance(reply, (Control, Trajectory)):
                 out = reply.to_json(obs.step)
             else:
@@ -227,6 +276,8 @@ class _Session:
             self.give_up(f"{type(e).__name__}: {e}", step=obs.step, exc=e)
             return
         self.send(out)
+        if self.seen is not None:
+            self.seen.observed(obs, reply)
         if self.debug:
             self.note(f"> {out['type']} step {obs.step} in {1000.0 * (time.perf_counter() - t0):.1f} ms")
 

@@ -198,5 +198,65 @@ class LaneletNetworkTest(unittest.TestCase):
         self.assertEqual(net.traffic_lights[0].get_state_at_time_step(0), self.TrafficLightState.RED)
 
 
+@unittest.skipUnless(HAVE_COMMONROAD, "commonroad-io is not installed (pip install \"./python[commonroad]\")")
+class StatesAndCheckerTest(unittest.TestCase):
+    def test_rear_axle_state_and_back(self):
+        import math
+
+        from commonroad.scenario.state import InitialState, KSState
+        from safer_planner.commonroad import centre_of, rear_axle_state
+
+        s = rear_axle_state(10.0, 5.0, math.pi / 2, 8.0, time_step=3, offset_m=1.5, accel_mps2=0.5,
+                            yaw_rate_radps=0.1, steering_angle_rad=0.2)
+        self.assertIsInstance(s, InitialState)
+        self.assertAlmostEqual(s.position[0], 10.0)
+        self.assertAlmostEqual(s.position[1], 3.5)
+        self.assertEqual((s.time_step, s.velocity, s.acceleration, s.yaw_rate), (3, 8.0, 0.5, 0.1))
+        ks = rear_axle_state(0.0, 0.0, 0.0, 1.0, time_step=0, steering_angle_rad=0.2, state_type=KSState)
+        self.assertEqual(ks.steering_angle, 0.2)
+        back = centre_of(s, 1.5)
+        for got, want in zip(back, (10.0, 5.0, math.pi / 2, 8.0)):
+            self.assertAlmostEqual(got, want)
+
+    def test_ego_initial_state_with_and_without_motion(self):
+        from safer_planner import EgoState
+        from safer_planner.commonroad import ego_initial_state
+
+        ego = EgoState(1.0, 2.0, 0.0, 5.0, 5.0, 0.0, 4.5, 2.0, accel_mps2=-1.0, yaw_rate_radps=0.2)
+        moving = ego_initial_state(ego, 7)
+        self.assertEqual((moving.acceleration, moving.yaw_rate, moving.time_step), (-1.0, 0.2, 7))
+        self.assertAlmostEqual(moving.position[0], 1.0 - 1.5)
+        still = ego_initial_state(ego, 7, motion=False)
+        self.assertEqual((still.acceleration, still.yaw_rate), (0.0, 0.0))
+
+    def test_collision_checker_predicts_at_constant_velocity(self):
+        import math
+
+        import commonroad_dc.pycrcc as pycrcc
+        from safer_planner import Agent
+        from safer_planner.commonroad import collision_checker
+
+        car = Agent("a", "vehicle", 0.0, 0.0, 0.0, 10.0, 0.0, 4.0, 2.0)
+        checker = collision_checker([car], 5, 10, 0.1)
+
+        def hits(step, x, y):
+            """Whether a 1 m square at ``(x, y)`` at ``step`` meets the checker's boxes."""
+            tvo = pycrcc.TimeVariantCollisionObject(step)
+            tvo.append_obstacle(pycrcc.RectOBB(0.5, 0.5, 0.0, x, y))
+            return checker.collide(tvo)
+
+        # One second later (step 15) the car is 10 m ahead, no longer at its start.
+        self.assertTrue(hits(15, 10.0, 0.0))
+        self.assertFalse(hits(15, 0.0, 0.0))
+        self.assertTrue(hits(5, 0.0, 0.0))
+        # Along its heading instead of its velocity: heading +y, moving +x.
+        sideways = Agent("b", "vehicle", 0.0, 0.0, math.pi / 2, 10.0, 0.0, 4.0, 2.0)
+        checker = collision_checker([sideways], 0, 10, 0.1, along_heading=True)
+        self.assertTrue(hits(10, 0.0, 10.0))
+        self.assertFalse(hits(10, 10.0, 0.0))
+        with self.assertRaises(ValueError):
+            collision_checker([car], 0, -1, 0.1)
+
+
 if __name__ == "__main__":
     unittest.main()
