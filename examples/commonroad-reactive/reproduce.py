@@ -200,9 +200,15 @@ def picture(scenario, problem, off, egos, size, result, out):
         x, y, h = states[min(k, max(states))]
         rnd.ax.add_patch(plt.Polygon(box(x + off[0], y + off[1], h, *size).exterior.coords, fill=False,
                                      ec=colour, lw=lw, ls=ls, zorder=51))
+    hit = result[0] and str(result[0][0]).isdigit() and scenario.obstacle_by_id(int(result[0][0]))
+    if hit and hit.state_at_time(problem.initial_state.time_step + k) is not None:  # the agent hit, outlined
+        s = hit.state_at_time(problem.initial_state.time_step + k)
+        rnd.ax.add_patch(plt.Polygon(box(*s.position, s.orientation, hit.obstacle_shape.length,
+                                         hit.obstacle_shape.width).exterior.coords, fill=False, ec="tab:orange",
+                                     lw=2.5, zorder=52, label=f"agent {hit.obstacle_id}, hit"))
     x, y, _ = egos["CommonRoad"][min(k, max(egos["CommonRoad"]))]
     rnd.ax.set_aspect("equal", adjustable="datalim")
-    rnd.ax.set_xlim(x + off[0] - 40, x + off[0] + 40), rnd.ax.set_ylim(y + off[1] - 25, y + off[1] + 25)
+    rnd.ax.set_xlim(x + off[0] - 20, x + off[0] + 20), rnd.ax.set_ylim(y + off[1] - 12, y + off[1] + 12)
     rnd.ax.legend(loc="lower left")
     what = f"collision with {result[0][0]}" if result[0] else "no collision"
     rnd.ax.set_title(f"{scenario.scenario_id} at t = {k * DT:.1f} s ({what})")
