@@ -7,11 +7,16 @@ source:
 - read: the lanelet network, the dynamic obstacles with their trajectories,
   and the ego's planning problem with its initial state and goal; the
   sidecar JSON with the ego's size.
+- schema: the file validates against commonroad-io's CommonRoad 2020a XML
+  schema, once the obstacles the sidecar lists as entering late (which the
+  schema cannot express) are set aside.
 - lanelets: the source's lanelet ids, and each lanelet's bounds, exactly.
-- lights: as many traffic lights as the source.
-- obstacles: every obstacle but the ego and the CBV (the adversary) at the
-  rollout's first time step is where the source has it at that time step,
-  in the same frame, under the same id.
+- lights: the source's traffic lights, each showing at every time step t
+  of the export the colour the source's shows at t + source_first_time_step.
+- obstacles: every obstacle but the ego, the CBV (the adversary) and the
+  agents the sidecar lists as left out (seen at a single step) at the
+  export's time step 0 is where the source has it at the rollout's first
+  time step, in the same frame, under the same id.
 - boundary: CommonRoad's road boundary (create_road_boundary_obstacle)
   does not overlap the ego's initial box where the source's does not.
 
@@ -28,7 +33,24 @@ from commonroad.common.file_reader import CommonRoadFileReader
 # source's up to the origin shift's rounding.
 TOLERANCE_M = 1e-6
 
-CHECKS = ["read", "lanelets", "lights", "obstacles", "boundary"]
+CHECKS = ["read", "schema", "lanelets", "lights", "obstacles", "boundary"]
+ALL_FILES = {"read", "schema"}
+
+
+def check_schema(path: Path, sidecar) -> None:
+    import commonroad
+    from lxml import etree
+
+    xsd = Path(commonroad.__file__).parent / "scenario_definition" / "xml_definition_files" / "XML_commonRoad_XSD.xsd"
+    schema = etree.XMLSchema(etree.parse(str(xsd)))
+    doc = etree.parse(str(path))
+    late = {str(i) for i in sidecar["late_obstacles"]}
+    for o in doc.getroot().findall("dynamicObstacle"):
+        if o.get("id") in late:
+            o.getparent().remove(o)
+    if not schema.validate(doc):
+        errors = [f"line {e.line}: {e.message}" for e in list(schema.error_log)[:3]]
+        raise AssertionError(f"{len(schema.error_log)} schema error(s), first: {'; '.join(errors)}")
 
 
 def read(path: Path):
@@ -68,17 +90,26 @@ def check_lanelets(export, source) -> None:
             assert getattr(o, rel) == getattr(l, rel), f"lanelet {i}: {rel} differs"
 
 
-def check_lights(export, source) -> None:
-    ours, theirs = len(export.lanelet_network.traffic_lights), len(source.lanelet_network.traffic_lights)
-    assert ours == theirs, f"{ours} traffic lights, the source has {theirs}"
+def check_lights(export, source, sidecar) -> None:
+    ours = {t.traffic_light_id: t for t in export.lanelet_network.traffic_lights}
+    theirs = {t.traffic_light_id: t for t in source.lanelet_network.traffic_lights}
+    assert sorted(ours) == sorted(theirs), f"traffic lights {sorted(ours)}, the source has {sorted(theirs)}"
+    shift = sidecar["source_first_time_step"]
+    for i, light in theirs.items():
+        if light.traffic_light_cycle is None:
+            continue
+        for t in range(sidecar["last_time_step"] + 1):
+            a, b = ours[i].get_state_at_time_step(t), light.get_state_at_time_step(t + shift)
+            assert a == b, f"traffic light {i} at time step {t}: {a}, the source's at {t + shift}: {b}"
 
 
 def check_obstacles(export, source, sidecar) -> None:
-    t = sidecar["first_time_step"]
-    skip = {int(sidecar["ego"]["source_id"])}
+    t = sidecar["source_first_time_step"]
+    # The ego is the planning problem; an agent seen at a single step is left out.
+    skip = {int(sidecar["ego"]["source_id"])} | {int(i) for i in sidecar["left_out"]}
     if sidecar["cbv"] is not None:
         skip.add(int(sidecar["cbv"]["source_id"]))
-    ours = {o.obstacle_id: o.state_at_time(t) for o in export.dynamic_obstacles}
+    ours = {o.obstacle_id: o.state_at_time(0) for o in export.dynamic_obstacles}
     theirs = {o.obstacle_id: o.state_at_time(t) for o in source.dynamic_obstacles + source.static_obstacles}
     ours = {i: s for i, s in ours.items() if s is not None and i not in skip}
     theirs = {i: s for i, s in theirs.items() if s is not None and i not in skip}
@@ -107,12 +138,17 @@ def check(path: Path, passed: dict) -> list:
     except Exception as e:  # noqa: BLE001 - any failure names its file
         return [f"read: {type(e).__name__}: {e}"]
     passed["read"] += 1
+    try:
+        check_schema(path, sidecar)
+        passed["schema"] += 1
+    except Exception as e:  # noqa: BLE001
+        failures.append(f"schema: {type(e).__name__}: {e}")
     if sidecar["source_format"] != "common-road" or sidecar["map"] != "copied":
         return failures
     source, _ = CommonRoadFileReader(sidecar["source_path"]).open()
     for name, run in [
         ("lanelets", lambda: check_lanelets(export, source)),
-        ("lights", lambda: check_lights(export, source)),
+        ("lights", lambda: check_lights(export, source, sidecar)),
         ("obstacles", lambda: check_obstacles(export, source, sidecar)),
     ]:
         try:
@@ -153,7 +189,7 @@ def main() -> int:
         else:
             print(f"{f.relative_to(root)}: ok")
     print(f"{len(files)} exported scenario(s), {from_commonroad} copied from a CommonRoad source; passed: "
-          + ", ".join(f"{c} {n}/{len(files) if c == 'read' else from_commonroad}" for c, n in passed.items()))
+          + ", ".join(f"{c} {n}/{len(files) if c in ALL_FILES else from_commonroad}" for c, n in passed.items()))
     if failed:
         print(f"FAIL: {len(failed)} file(s) failed, first {failed[0]}", file=sys.stderr)
         return 1

@@ -4,7 +4,8 @@ the planner saw in safer: for each export under EXPORTS with the log
 planner.py wrote for it under LOGS (SAFER_PLANNER_SEEN_LOG, the same relative
 path), the planning problem's initial state is the ego's first observed
 state (and the sidecar's ego size its size), the dynamic obstacles at time 0 are the observed road users (same
-place, heading and size; the same ones within the 120 m safer sends), and
+place, heading and size; the same ones within the 120 m safer sends; but for those the sidecar lists as left
+out, seen at a single step), and
 CommonRoad's route planner (commonroad-route-planner, from the planning
 problem to the farthest of its goal lanelets) finds a reference path along the lanes of safer's route: the
 lanelet sequences, and how far safer's route strays from CommonRoad's
@@ -73,7 +74,9 @@ def check(export, log, max_route_m):
     at0 = {oid: (s[0], l, w) for oid, l, w, s in obstacle_states(scenario, problem, off) if 0 in s}
     near = {oid for oid, (s, _, _) in at0.items() if math.hypot(s[0] - ego["x"], s[1] - ego["y"]) <= PERCEPTION_M}
     seen = set()
-    for a in first["agents"]:
+    # An agent seen at a single step is left out of the export (the sidecar says which).
+    left_out = set(json.loads(export.with_suffix(".commonroad.json").read_text())["left_out"])
+    for a in (a for a in first["agents"] if a["id"] not in left_out):
         match = [oid for oid, (s, l, w) in at0.items() if math.hypot(s[0] - a["x"], s[1] - a["y"]) < 0.05
                  and abs(math.remainder(s[2] - a["heading_rad"], math.tau)) < 1e-3
                  and abs(l - a["length_m"]) < 0.01 and abs(w - a["width_m"]) < 0.01]

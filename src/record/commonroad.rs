@@ -5,10 +5,12 @@
 //! the ego as the planning problem, and the road as the source has it.
 //!
 //! This module owns the export's content. Everything is in the source's
-//! own frame (safer's shifted local frame plus [`Scenario::origin_world`])
-//! and at the source's time steps (the rollout's first step is the
-//! planning problem's initial time step), so an export overlays its source
-//! file exactly.
+//! own frame (safer's shifted local frame plus [`Scenario::origin_world`]),
+//! so an export overlays its source file exactly. Time step 0 is the
+//! rollout's first step, as the 2020a schema wants every initial state
+//! (the sidecar says which of the source's time steps that is); copied
+//! traffic lights have their cycles re-based to it, so they show the
+//! colours the source shows at the same moment.
 //!
 //! - From a CommonRoad source, the road is copied from the source file,
 //!   read again at export time: location, tags, lanelets (bounds,
@@ -35,7 +37,11 @@
 //! place for the ego's size, so it is in the header comment and in a JSON
 //! sidecar beside the file ([`sidecar_path`]), with the frame, the ids and
 //! the limits of the conversion. An agent that leaves and comes back is
-//! exported up to its first absence (CommonRoad trajectories have no gaps).
+//! exported up to its first absence (CommonRoad trajectories have no gaps);
+//! one seen at a single step is left out (a dynamic obstacle needs a
+//! trajectory). An agent that enters after the first step starts at a time
+//! step above 0, which the 2020a schema does not allow (commonroad-io reads
+//! it): the sidecar lists these obstacles.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::fmt::Write as _;
@@ -112,9 +118,10 @@ pub struct ExportSidecar {
     pub origin_world_m: [f64; 2],
     /// Step length, s.
     pub dt_s: f64,
-    /// The rollout's first time step (the planning problem's initial time).
-    pub first_time_step: usize,
-    /// The rollout's last time step (the goal's time).
+    /// The source's time step at the export's time step 0 (the rollout's
+    /// first step): the export's time step `t` is the source's `t` plus this.
+    pub source_first_time_step: usize,
+    /// The export's last time step (the rollout's last step, the goal's time).
     pub last_time_step: usize,
     /// The ego.
     pub ego: SidecarEgo,
@@ -124,6 +131,12 @@ pub struct ExportSidecar {
     pub goal_lanelets: Vec<i64>,
     /// Elements whose source id could not be kept, with the id they got.
     pub renumbered: Vec<Renumbered>,
+    /// Obstacles that enter after the first step: their initial time step
+    /// is above 0, which the 2020a schema does not allow.
+    pub late_obstacles: Vec<i64>,
+    /// Source ids of the agents seen at a single step, left out (a 2020a
+    /// dynamic obstacle needs a trajectory).
+    pub left_out: Vec<String>,
     /// What the export does not carry over from the scene.
     pub limits: Vec<String>,
 }
@@ -193,7 +206,13 @@ pub fn commonroad_export(
     let origin = scenario.origin_world;
     let first_t = rollout.start_step;
     let last = rollout.states.len().saturating_sub(1);
-    let last_t = first_t + last;
+    // What the simulator knows of the ego's motion at the start, as its
+    // planner is told: from the recording's step before, else none.
+    let ego_motion = crate::planners::EgoMotion::between(
+        first_t.checked_sub(1).and_then(|k| scenario.tracks.get(ego)?.state(k)),
+        &ego_start,
+        rollout.dt_s,
+    );
 
     let mut ids = Ids::default();
     let mut limits = vec![
@@ -208,7 +227,7 @@ pub fn commonroad_export(
     // The map: the source's own elements where the source is a CommonRoad
     // file that still matches the scene, else converted from the scene.
     let copied = match scenario.source.format {
-        SourceFormat::CommonRoad => match copy_source(scenario) {
+        SourceFormat::CommonRoad => match copy_source(scenario, first_t) {
             Ok(source) => Some(source),
             Err(why) => {
                 let why = format!("map converted, not copied: {why}");
@@ -232,7 +251,7 @@ pub fn commonroad_export(
             scenario.map.stop_signs.iter().map(|s| ids.claim(Some(s.id.0))).collect(),
         ),
     };
-    let exported: Vec<(usize, Vec<(usize, AgentState)>)> = (0..agents)
+    let runs: Vec<(usize, Vec<(usize, AgentState)>)> = (0..agents)
         .filter(|&a| a != ego)
         .filter_map(|a| {
             let first = (0..rollout.states.len()).find(|&k| state(k, a).is_some())?;
@@ -241,6 +260,13 @@ pub fn commonroad_export(
             Some((a, run))
         })
         .collect();
+    let (exported, single): (Vec<_>, Vec<_>) = runs.into_iter().partition(|(_, run)| run.len() >= 2);
+    if !single.is_empty() {
+        limits.push(format!(
+            "{} agent(s) seen at a single step are left out (a 2020a dynamic obstacle needs a trajectory)",
+            single.len()
+        ));
+    }
     let source_id = |a: usize| rollout.agent_ids[a].0.clone();
     let obstacle_claims: Vec<Option<i64>> =
         exported.iter().map(|(a, _)| ids.claim(source_id(*a).trim().parse().ok())).collect();
@@ -269,7 +295,7 @@ pub fn commonroad_export(
                 .map(|(s, c)| c.unwrap_or_else(|| ids.fresh("trafficSign", s.id.0.to_string())))
                 .collect();
             let light_ids: Vec<i64> = scenario.map.traffic_signals.iter().map(|_| ids.fresh_unnamed()).collect();
-            write_converted_map(&mut map_xml, scenario, &lanes, &lane_ids, &sign_ids, &light_ids);
+            write_converted_map(&mut map_xml, scenario, first_t, &lanes, &lane_ids, &sign_ids, &light_ids);
             limits.extend(CONVERTED_LIMITS.iter().map(|l| l.to_string()));
             lane_ids
         }
@@ -304,8 +330,8 @@ pub fn commonroad_export(
         map: if copied.is_some() { "copied" } else { "converted" },
         origin_world_m: [origin.x, origin.y],
         dt_s: rollout.dt_s,
-        first_time_step: first_t,
-        last_time_step: last_t,
+        source_first_time_step: first_t,
+        last_time_step: last,
         ego: SidecarEgo {
             source_id: source_id(ego),
             planning_problem_id: problem_id,
@@ -315,6 +341,13 @@ pub fn commonroad_export(
         cbv,
         goal_lanelets,
         renumbered: std::mem::take(&mut ids.renumbered),
+        left_out: single.iter().map(|(a, _)| source_id(*a)).collect(),
+        late_obstacles: exported
+            .iter()
+            .zip(&obstacle_ids)
+            .filter(|((_, run), _)| run[0].0 > 0)
+            .map(|(_, id)| *id)
+            .collect(),
         limits,
     };
 
@@ -336,7 +369,7 @@ pub fn commonroad_export(
         }
         None => x.push_str(
             "  <location>\n    <geoNameId>-999</geoNameId>\n    <gpsLatitude>999</gpsLatitude>\n    \
-             <gpsLongitude>999</gpsLongitude>\n  </location>\n  <scenarioTags>\n    <Critical/>\n  </scenarioTags>\n",
+             <gpsLongitude>999</gpsLongitude>\n  </location>\n  <scenarioTags>\n    <critical/>\n  </scenarioTags>\n",
         ),
     }
     x.push_str(&map_xml);
@@ -358,11 +391,11 @@ pub fn commonroad_export(
             num(body.width_m)
         );
         let (k0, s0) = run[0];
-        x.push_str(&obstacle_state("initialState", first_t + k0, &s0, origin, "    "));
+        x.push_str(&obstacle_state("initialState", k0, &s0, origin, "    "));
         if run.len() > 1 {
             x.push_str("    <trajectory>\n");
             for (k, s) in &run[1..] {
-                x.push_str(&obstacle_state("state", first_t + k, s, origin, "      "));
+                x.push_str(&obstacle_state("state", *k, s, origin, "      "));
             }
             x.push_str("    </trajectory>\n");
         }
@@ -375,12 +408,15 @@ pub fn commonroad_export(
     let _ = writeln!(
         x,
         "    <initialState>\n{}      <orientation>\n        <exact>{}</exact>\n      </orientation>\n      \
-         <time>\n        <exact>{first_t}</exact>\n      </time>\n      <velocity>\n        <exact>{}</exact>\n      </velocity>\n      \
-         <yawRate>\n        <exact>0</exact>\n      </yawRate>\n      <slipAngle>\n        <exact>0</exact>\n      </slipAngle>\n    \
+         <time>\n        <exact>0</exact>\n      </time>\n      <velocity>\n        <exact>{}</exact>\n      </velocity>\n      \
+         <acceleration>\n        <exact>{}</exact>\n      </acceleration>\n      \
+         <yawRate>\n        <exact>{}</exact>\n      </yawRate>\n      <slipAngle>\n        <exact>0</exact>\n      </slipAngle>\n    \
          </initialState>",
         position(&(ego_start.position + origin), "      "),
         num(ego_start.heading_rad),
-        num(ego_start.speed_mps())
+        num(ego_start.speed_mps()),
+        num(ego_motion.accel_mps2),
+        num(ego_motion.yaw_rate_radps)
     );
     x.push_str("    <goalState>\n");
     if !sidecar.goal_lanelets.is_empty() {
@@ -392,7 +428,7 @@ pub fn commonroad_export(
     }
     let _ = writeln!(
         x,
-        "      <time>\n        <intervalStart>{last_t}</intervalStart>\n        <intervalEnd>{last_t}</intervalEnd>\n      \
+        "      <time>\n        <intervalStart>{last}</intervalStart>\n        <intervalEnd>{last}</intervalEnd>\n      \
          </time>\n    </goalState>\n  </planningProblem>"
     );
     x.push_str("</commonRoad>\n");
@@ -432,7 +468,7 @@ const CONVERTED_LIMITS: [&str; 4] = [
      neighbours): where two lanes' left bounds run more than 0.5 m apart, CommonRoad's road boundary may close \
      between them",
     "traffic lights: one per signal-controlled lane, at its stop point, whose cycle plays the recorded states from \
-     time step 0 to the scene's end (then repeats)",
+     the rollout's first step to the scene's end (then repeats)",
     "road edges, painted lines, crosswalks, speed limits, intersections, and stop signs that control no lane \
      are not exported",
 ];
@@ -486,8 +522,10 @@ struct SourceMap {
 
 /// Reads the scene's CommonRoad source again and copies its road, after
 /// checking that the file still holds the scene (the same lanelets and
-/// tracks, shifted by the scene's origin). `Err` says why not.
-fn copy_source(scenario: &Scenario) -> Result<SourceMap, String> {
+/// tracks, shifted by the scene's origin). `Err` says why not. Traffic
+/// lights are re-based so that the export's time step 0 is the source's
+/// `first_time_step` ([`rebase_light_cycle`]).
+fn copy_source(scenario: &Scenario, first_time_step: usize) -> Result<SourceMap, String> {
     let path = &scenario.source.path;
     let shown = path.display();
     let bytes = std::fs::read(path).map_err(|e| format!("the source file {shown} cannot be read ({e})"))?;
@@ -542,7 +580,7 @@ fn copy_source(scenario: &Scenario) -> Result<SourceMap, String> {
         .to_string();
     let find = |name: &str| root.children().find(|n| n.has_tag_name(name)).map(verbatim);
     let location = find("location").ok_or_else(|| "the source file has no <location>".to_string())?;
-    let tags = find("scenarioTags").unwrap_or_else(|| "<scenarioTags>\n    <Critical/>\n  </scenarioTags>".into());
+    let tags = find("scenarioTags").unwrap_or_else(|| "<scenarioTags>\n    <critical/>\n  </scenarioTags>".into());
     let mut elements = Vec::new();
     let mut ids = BTreeSet::new();
     let mut lanelets = BTreeSet::new();
@@ -560,7 +598,11 @@ fn copy_source(scenario: &Scenario) -> Result<SourceMap, String> {
                         }
                     }
                 }
-                elements.push(verbatim(node));
+                elements.push(if name == "trafficLight" {
+                    rebase_light_cycle(node, text, first_time_step)?
+                } else {
+                    verbatim(node)
+                });
             }
             "dynamicObstacle" | "staticObstacle" => {
                 let kind = node.children().find(|n| n.has_tag_name("type")).and_then(|n| n.text());
@@ -572,6 +614,48 @@ fn copy_source(scenario: &Scenario) -> Result<SourceMap, String> {
         }
     }
     Ok(SourceMap { country, location, tags, elements, ids, lanelets, obstacle_types })
+}
+
+/// A copied `<trafficLight>` (`light`, in the source `text`) with its
+/// cycle's `<timeOffset>` moved so the export's time step 0 shows what the
+/// source's `first_time_step` shows. CommonRoad plays a cycle of total
+/// length L from its offset on and repeats it, so only the offset modulo L
+/// matters; 0 is written as no offset (the schema wants a positive one).
+fn rebase_light_cycle(light: roxmltree::Node<'_, '_>, text: &str, first_time_step: usize) -> Result<String, String> {
+    let range = light.range();
+    let id = light.attribute("id").unwrap_or("?");
+    let Some(cycle) = light.children().find(|n| n.has_tag_name("cycle")) else {
+        return Ok(text[range].to_string());
+    };
+    let number = |n: roxmltree::Node<'_, '_>, what: &str| -> Result<u64, String> {
+        let raw = n.text().unwrap_or("").trim();
+        raw.parse().map_err(|_| format!("traffic light {id}: {what} {raw:?} is not a whole number of steps"))
+    };
+    let mut length = 0u64;
+    for element in cycle.children().filter(|n| n.has_tag_name("cycleElement")) {
+        if let Some(d) = element.children().find(|n| n.has_tag_name("duration")) {
+            length = length.saturating_add(number(d, "a duration")?);
+        }
+    }
+    if length == 0 {
+        return Ok(text[range].to_string());
+    }
+    let offset_node = cycle.children().find(|n| n.has_tag_name("timeOffset"));
+    let offset = offset_node.map(|n| number(n, "the time offset")).transpose()?.unwrap_or(0);
+    let shift = first_time_step as u64 % length;
+    let rebased = (offset % length + length - shift) % length;
+    let element = if rebased == 0 { String::new() } else { format!("<timeOffset>{rebased}</timeOffset>") };
+    // Replace the old offset element, or put the new one at the cycle's end.
+    let (cut, keep) = match offset_node {
+        Some(n) => (n.range(), String::new()),
+        None => {
+            let end = cycle.range().end;
+            let close = text[..end].rfind("</").unwrap_or(end);
+            (close..close, "\n      ".to_string())
+        }
+    };
+    let inserted = if element.is_empty() { String::new() } else { format!("{element}{keep}") };
+    Ok(format!("{}{}{}", &text[range.start..cut.start], inserted, &text[cut.end..range.end]))
 }
 
 /// The lanes of the ego's route (the route the harness sends a planner,
@@ -621,6 +705,7 @@ fn goal_lanes(scenario: &Scenario, rollout: &Rollout, ego_start: &AgentState) ->
 fn write_converted_map(
     x: &mut String,
     scenario: &Scenario,
+    first_time_step: usize,
     lanes: &[&Lane],
     lane_ids: &BTreeMap<MapElementId, i64>,
     sign_ids: &[i64],
@@ -690,7 +775,7 @@ fn write_converted_map(
         );
     }
     for (signal, id) in map.traffic_signals.iter().zip(light_ids).filter(|(s, _)| controls(&[s.lane])) {
-        x.push_str(&traffic_light(signal, *id, origin));
+        x.push_str(&traffic_light(signal, *id, origin, first_time_step));
     }
 }
 
@@ -752,11 +837,13 @@ fn opposite_left_neighbours(
 }
 
 /// A signal's recorded states as a CommonRoad light: one cycle element per
-/// run of one colour, from time step 0 (the cycle repeats after the
-/// scene's end, which no rollout reaches).
-fn traffic_light(signal: &TrafficSignal, id: i64, origin: Vector2) -> String {
+/// run of one colour, from the rollout's first step (the export's time
+/// step 0; the cycle repeats after the scene's end, which no rollout
+/// reaches).
+fn traffic_light(signal: &TrafficSignal, id: i64, origin: Vector2, first_time_step: usize) -> String {
+    let states = signal.states.get(first_time_step..).unwrap_or_default();
     let mut runs: Vec<(&str, usize)> = Vec::new();
-    for state in &signal.states {
+    for state in states {
         let colour = light_colour(*state);
         match runs.last_mut() {
             Some((c, n)) if *c == colour => *n += 1,
@@ -777,7 +864,7 @@ fn traffic_light(signal: &TrafficSignal, id: i64, origin: Vector2) -> String {
     if let Some(p) = signal.stop_point {
         let _ = write!(x, "    <position>\n{}    </position>\n", point(&(p + origin), "      "));
     }
-    let active = signal.states.iter().any(|s| *s != SignalState::Unknown);
+    let active = states.iter().any(|s| *s != SignalState::Unknown);
     let _ = writeln!(x, "    <direction>all</direction>\n    <active>{active}</active>\n  </trafficLight>");
     x
 }
@@ -808,13 +895,13 @@ fn header_comment(s: &ExportSidecar) -> String {
     );
     let _ = writeln!(
         c,
-        "Frame: the source's (safer's local frame plus ({}, {}) m). Time steps: the source's; the rollout runs \
-         from time step {} to {} ({} s steps).",
+        "Frame: the source's (safer's local frame plus ({}, {}) m). Time: the rollout runs from time step 0 to \
+         {} ({} s steps); time step 0 is the source's time step {}.",
         num(s.origin_world_m[0]),
         num(s.origin_world_m[1]),
-        s.first_time_step,
         s.last_time_step,
-        num(s.dt_s)
+        num(s.dt_s),
+        s.source_first_time_step
     );
     let _ = writeln!(
         c,
@@ -844,6 +931,14 @@ fn header_comment(s: &ExportSidecar) -> String {
     }
     for r in &s.renumbered {
         let _ = writeln!(c, "Renumbered: {} {:?} is {}.", r.element, r.source_id, r.id);
+    }
+    if !s.late_obstacles.is_empty() {
+        let late: Vec<String> = s.late_obstacles.iter().map(i64::to_string).collect();
+        let _ = writeln!(
+            c,
+            "Enter after time step 0 (not allowed by the 2020a schema, read by commonroad-io): obstacles [{}].",
+            late.join(", ")
+        );
     }
     // A comment cannot hold "--".
     let mut text = c.replace("--", "- -");
@@ -1061,6 +1156,31 @@ mod tests {
         (scene, rollout, path)
     }
 
+    /// A `<trafficLight>`'s colour at `time_step`, as CommonRoad plays a
+    /// cycle: from its offset on, repeated.
+    fn light_colour_at(light: roxmltree::Node<'_, '_>, time_step: u64) -> String {
+        let cycle = light.children().find(|n| n.has_tag_name("cycle")).unwrap();
+        let value = |n: roxmltree::Node<'_, '_>, tag: &str| -> String {
+            n.children().find(|c| c.has_tag_name(tag)).unwrap().text().unwrap().trim().to_string()
+        };
+        let elements: Vec<(u64, String)> = cycle
+            .children()
+            .filter(|n| n.has_tag_name("cycleElement"))
+            .map(|e| (value(e, "duration").parse().unwrap(), value(e, "color")))
+            .collect();
+        let offset: u64 =
+            cycle.children().find(|n| n.has_tag_name("timeOffset")).map_or(0, |n| n.text().unwrap().parse().unwrap());
+        let length: u64 = elements.iter().map(|(d, _)| d).sum();
+        let mut phase = (time_step + length - offset % length) % length;
+        for (duration, colour) in elements {
+            if phase < duration {
+                return colour;
+            }
+            phase -= duration;
+        }
+        unreachable!()
+    }
+
     fn doc_ids(root: roxmltree::Node<'_, '_>, tag: &str) -> Vec<i64> {
         root.children().filter(|n| n.has_tag_name(tag)).map(|n| n.attribute("id").unwrap().parse().unwrap()).collect()
     }
@@ -1078,8 +1198,8 @@ mod tests {
         let doc = roxmltree::Document::parse(&export.xml).unwrap();
         let root = doc.root_element();
         assert_eq!(root.attribute("benchmarkID"), Some("USA_Safer-1_1_T-1"), "US sign ids keep their country");
-        // Lanelets, the sign and the light: the source's elements, ids and all.
-        for tag in ["lanelet", "trafficSign", "trafficLight"] {
+        // Lanelets and the sign: the source's elements, ids and all.
+        for tag in ["lanelet", "trafficSign"] {
             let theirs: Vec<String> = source
                 .root_element()
                 .children()
@@ -1091,6 +1211,16 @@ mod tests {
             assert_eq!(ours, theirs, "{tag}");
         }
         assert_eq!(doc_ids(root, "trafficLight"), vec![41]);
+        // The light: the source's, its cycle re-based so that the export's
+        // time step t shows what the source shows at t + first.
+        let first = rollout.start_step as u64;
+        let is_light = |n: &roxmltree::Node<'_, '_>| n.has_tag_name("trafficLight");
+        let theirs = source.root_element().children().find(is_light).unwrap();
+        let ours = root.children().find(is_light).unwrap();
+        assert!(first > 0 && !first.is_multiple_of(70), "the re-basing is exercised: first time step {first}");
+        for t in 0..140 {
+            assert_eq!(light_colour_at(ours, t), light_colour_at(theirs, t + first), "time step {t}");
+        }
         assert!(export.xml.contains("<adjacentLeft ref=\"12\" drivingDir=\"opposite\"/>"));
         // Obstacles keep their ids and the source's type; the ego is the
         // planning problem, under its own id.
@@ -1099,9 +1229,8 @@ mod tests {
         assert!(export.xml.contains("<type>truck</type>"));
         assert_eq!(export.sidecar.cbv, Some(SidecarObstacle { source_id: "2".into(), obstacle_id: 2 }));
         assert!(export.sidecar.renumbered.is_empty());
-        // Frame and time: the source's. Car 3 at the rollout's first step
-        // is where the source has it at that time step.
-        let first = rollout.start_step;
+        // Frame: the source's; time step 0 is the rollout's first step. Car 3
+        // at time step 0 is where the source has it at that step.
         let obstacle = root.children().find(|n| n.attribute("id") == Some("3")).unwrap();
         let initial = obstacle.children().find(|n| n.has_tag_name("initialState")).unwrap();
         let text = |tag: &str| -> f64 {
@@ -1109,7 +1238,7 @@ mod tests {
             let value = node.descendants().find(|n| n.has_tag_name("exact")).unwrap_or(node);
             value.text().unwrap().trim().parse().unwrap()
         };
-        assert_eq!(text("time") as usize, first);
+        assert_eq!(text("time"), 0.0);
         let (x, y) = (text("x"), text("y"));
         assert!((x - (5090.0 - 0.9 * first as f64)).abs() < 1e-6 && (y - 7005.25).abs() < 1e-9, "({x}, {y})");
         assert_eq!(export.sidecar.origin_world_m, [scene.origin_world.x, scene.origin_world.y]);
@@ -1170,8 +1299,8 @@ mod tests {
         let (scene, rollout) = variant();
         let export = commonroad_export(&scene, &rollout, "suite::USA_US101-4_3_T-1::seed-0", false).unwrap();
         let s = &export.sidecar;
-        let last = rollout.start_step + rollout.states.len() - 1;
-        assert_eq!((s.first_time_step, s.last_time_step), (rollout.start_step, last));
+        let last = rollout.states.len() - 1;
+        assert_eq!((s.source_first_time_step, s.last_time_step), (rollout.start_step, last));
         let body = &rollout.bodies[rollout.ego.0];
         assert_eq!((s.ego.length_m, s.ego.width_m), (body.length_m, body.width_m));
         assert!(export.xml.contains(&format!("length {} m, width {} m", num(body.length_m), num(body.width_m))));
@@ -1230,6 +1359,56 @@ mod tests {
     }
 
     #[test]
+    fn the_start_carries_the_egos_motion_and_late_or_fleeting_agents_are_said() {
+        let (mut scene, mut rollout) = variant();
+        let ego = rollout.ego.0;
+        // The recording's step before the start: slower and turned right.
+        let before = scene.tracks[ego].states[rollout.start_step - 1].as_mut().unwrap();
+        before.velocity_mps *= 0.9;
+        before.heading_rad -= 0.02;
+        // One agent enters late, another is there for one step only.
+        let present = |r: &Rollout, a: usize| r.states.iter().filter(|row| row[a].is_some()).count();
+        let others: Vec<usize> =
+            (0..rollout.agent_ids.len()).filter(|&a| a != ego && present(&rollout, a) > 5).collect();
+        let (late, fleeting) = (others[0], others[1]);
+        rollout.states[0][late] = None;
+        for row in rollout.states.iter_mut().skip(1) {
+            row[fleeting] = None;
+        }
+        let export = commonroad_export(&scene, &rollout, "v", false).unwrap();
+        let doc = roxmltree::Document::parse(&export.xml).unwrap();
+        let root = doc.root_element();
+        let late_id: i64 = rollout.agent_ids[late].0.parse().unwrap();
+        let fleeting_id = rollout.agent_ids[fleeting].0.clone();
+        assert_eq!(export.sidecar.late_obstacles, vec![late_id]);
+        assert!(!doc_ids(root, "dynamicObstacle").contains(&fleeting_id.parse().unwrap()), "{fleeting_id} left out");
+        assert!(export.sidecar.limits.iter().any(|l| l.starts_with("1 agent(s) seen at a single step")));
+        assert_eq!(export.sidecar.left_out, vec![fleeting_id.clone()]);
+        // Every other obstacle starts at time step 0, as the planning problem does.
+        let start_time = |n: roxmltree::Node<'_, '_>| -> String {
+            let initial = n.children().find(|c| c.has_tag_name("initialState")).unwrap();
+            let time = initial.children().find(|c| c.has_tag_name("time")).unwrap();
+            time.descendants().find(|c| c.has_tag_name("exact")).unwrap().text().unwrap().trim().to_string()
+        };
+        for n in root.children().filter(|n| n.has_tag_name("dynamicObstacle") || n.has_tag_name("planningProblem")) {
+            let id: i64 = n.attribute("id").unwrap().parse().unwrap();
+            assert_eq!(start_time(n) == "0", id != late_id, "obstacle {id} starts at {}", start_time(n));
+        }
+        // The ego's acceleration and yaw rate at the start: what its planner is told.
+        let previous = scene.tracks[ego].state(rollout.start_step - 1).copied();
+        let start = rollout.states[0][ego].unwrap();
+        let motion = crate::planners::EgoMotion::between(previous.as_ref(), &start, rollout.dt_s);
+        assert!(motion.accel_mps2 > 0.0 && motion.yaw_rate_radps > 0.0, "{motion:?}");
+        let problem = root.children().find(|n| n.has_tag_name("planningProblem")).unwrap();
+        let exact = |tag: &str| -> f64 {
+            let node = problem.descendants().find(|n| n.has_tag_name(tag)).unwrap();
+            node.descendants().find(|n| n.has_tag_name("exact")).unwrap().text().unwrap().trim().parse().unwrap()
+        };
+        assert_eq!(exact("acceleration"), motion.accel_mps2);
+        assert_eq!(exact("yawRate"), motion.yaw_rate_radps);
+    }
+
+    #[test]
     fn safers_importer_reads_an_export_back_to_the_same_scene() {
         let (scene, rollout) = variant();
         let export = commonroad_export(&scene, &rollout, "suite::USA_US101-4_3_T-1::seed-0", false).unwrap();
@@ -1251,7 +1430,7 @@ mod tests {
             let first = rollout.states.iter().position(|row| row[agent].is_some()).unwrap();
             for (k, row) in rollout.states.iter().enumerate().skip(first) {
                 let Some(sent) = row[agent] else { break };
-                let t = rollout.start_step + k;
+                let t = k;
                 let got = track.state(t).unwrap_or_else(|| panic!("{} missing at time step {t}", track.id.0));
                 assert!((got.position - (sent.position + origin)).norm() < 0.01, "{} at step {k}", track.id.0);
                 assert!((got.heading_rad - sent.heading_rad).abs() < 1e-6);

@@ -110,7 +110,8 @@ fn a_recorded_ngsim_variant_is_exported_in_the_sources_terms() {
     assert!(std::fs::read_to_string(&unshrunk).unwrap().contains("author=\"safer\""));
 
     // Both read as CommonRoad; the source's lanelets and obstacles come
-    // back unchanged, in its frame and at its time steps.
+    // back unchanged, in its frame; the export's time step t is the
+    // source's t + source_first_time_step.
     let export = import::commonroad::parse(&std::fs::read(shown).unwrap(), shown).unwrap();
     let recorded = import::commonroad::parse(&std::fs::read(&source).unwrap(), &source).unwrap();
     let ids = |s: &safer_scenarios::scenario::Scenario| s.map.lanes.iter().map(|l| l.id).collect::<Vec<_>>();
@@ -119,12 +120,12 @@ fn a_recorded_ngsim_variant_is_exported_in_the_sources_terms() {
         assert_eq!(a.left_boundary, b.left_boundary, "lanelet {:?}", a.id);
         assert_eq!(a.right_boundary, b.right_boundary, "lanelet {:?}", a.id);
     }
-    let first = sidecar["first_time_step"].as_u64().unwrap() as usize;
+    let first = sidecar["source_first_time_step"].as_u64().unwrap() as usize;
     let cbv = sidecar["cbv"]["source_id"].as_str().unwrap_or("");
     let mut compared = 0;
     for track in export.tracks.iter().filter(|t| t.id.0 != cbv) {
         let theirs = recorded.tracks.iter().find(|t| t.id == track.id).expect("a source obstacle id");
-        if let (Some(a), Some(b)) = (track.state(first), theirs.state(first)) {
+        if let (Some(a), Some(b)) = (track.state(0), theirs.state(first)) {
             assert!((a.position - b.position).norm() < 1e-6, "obstacle {} at time step {first}", track.id);
             compared += 1;
         }
