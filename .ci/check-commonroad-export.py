@@ -23,6 +23,7 @@ source:
 Prints one line per file and how many files pass each check; exits
 non-zero when any file fails any check, naming it.
 """
+import functools
 import json
 import sys
 from pathlib import Path
@@ -37,12 +38,20 @@ CHECKS = ["read", "schema", "lanelets", "lights", "obstacles", "boundary"]
 ALL_FILES = {"read", "schema"}
 
 
-def check_schema(path: Path, sidecar) -> None:
+@functools.lru_cache(maxsize=1)
+def commonroad_schema():
+    """commonroad-io's CommonRoad 2020a XSD, compiled once for every file."""
     import commonroad
     from lxml import etree
 
     xsd = Path(commonroad.__file__).parent / "scenario_definition" / "xml_definition_files" / "XML_commonRoad_XSD.xsd"
-    schema = etree.XMLSchema(etree.parse(str(xsd)))
+    return etree.XMLSchema(etree.parse(str(xsd)))
+
+
+def check_schema(path: Path, sidecar) -> None:
+    from lxml import etree
+
+    schema = commonroad_schema()
     doc = etree.parse(str(path))
     late = {str(i) for i in sidecar["late_obstacles"]}
     for o in doc.getroot().findall("dynamicObstacle"):
