@@ -3,9 +3,36 @@
 //! it, or off the road inside the mapped area.
 
 use super::RoadMap;
-use crate::geometry::{Point2, PolylineProjection};
+use crate::geometry::{Point2, Polygon, PolylineProjection};
+
+/// How close to a drivable area a point outside every one of them still
+/// counts as on it, m. Lanelets that share a boundary in the source are
+/// stored as separate polygons whose shared edges need not meet exactly (the
+/// NGSIM maps have millimetre seams between neighbouring lanelets), and a
+/// car's corner in such a seam is on the road, not as far off it as the
+/// nearest road edge is.
+pub const DRIVABLE_SEAM_M: f64 = 0.05;
+
+/// Whether `p` lies within [`DRIVABLE_SEAM_M`] of `area`'s boundary.
+fn within_seam_of(area: &Polygon, p: &Point2) -> bool {
+    let Some((lo, hi)) = area.bounds() else { return false };
+    if p.x < lo.x - DRIVABLE_SEAM_M || p.y < lo.y - DRIVABLE_SEAM_M || p.x > hi.x + DRIVABLE_SEAM_M || p.y > hi.y + DRIVABLE_SEAM_M {
+        return false;
+    }
+    let n = area.vertices.len();
+    (0..n).any(|i| {
+        let ends = [area.vertices[i], area.vertices[(i + 1) % n]];
+        crate::geometry::polyline::segment_distance_squared(&ends, p).0 <= DRIVABLE_SEAM_M * DRIVABLE_SEAM_M
+    })
+}
 
 impl RoadMap {
+    /// Whether `p` is on a drivable area: inside one, or in a seam between
+    /// two (within [`DRIVABLE_SEAM_M`] of one).
+    fn on_drivable_area(&self, p: &Point2) -> bool {
+        self.drivable_areas.iter().any(|a| a.contains(p)) || self.drivable_areas.iter().any(|a| within_seam_of(a, p))
+    }
+
     /// The road edge nearest to `p` (its index) and `p`'s projection on it.
     /// `None` without edges, and for a non-finite point (the simulator
     /// refuses such states, and the ring search would never reach its bound).
@@ -77,7 +104,8 @@ impl RoadMap {
 
     /// Signed distance from `p` to the nearest road edge, metres: negative on
     /// the road, positive off it. Where drivable areas exist, membership in
-    /// any of them decides the sign. `None` when the map has no road edges
+    /// any of them (or a seam between them, see [`DRIVABLE_SEAM_M`]) decides
+    /// the sign. `None` when the map has no road edges
     /// (or `p` is not finite).
     pub fn signed_distance_to_road_edge(&self, p: &Point2) -> Option<f64> {
         self.signed_distance_given(p, self.nearest_road_edge(p).as_ref())
@@ -90,8 +118,7 @@ impl RoadMap {
         if self.drivable_areas.is_empty() {
             Some(nearest.signed_distance_m)
         } else {
-            let on_road = self.drivable_areas.iter().any(|a| a.contains(p));
-            Some(if on_road { -nearest.distance_m } else { nearest.distance_m })
+            Some(if self.on_drivable_area(p) { -nearest.distance_m } else { nearest.distance_m })
         }
     }
 
@@ -212,7 +239,7 @@ impl RoadMap {
     /// `p` at hand.
     fn is_off_road_given(&self, p: &Point2, nearest: Option<&(usize, PolylineProjection)>) -> bool {
         if self.road_edges.is_empty() && !self.drivable_areas.is_empty() {
-            return !self.drivable_areas.iter().any(|a| a.contains(p));
+            return !self.on_drivable_area(p);
         }
         self.signed_distance_given(p, nearest).is_some_and(|d| d > 0.0)
     }
@@ -237,6 +264,26 @@ mod tests {
             speed_limit_mps: None,
         }
         .build()
+    }
+
+    #[test]
+    fn a_seam_between_two_lanelet_polygons_is_on_the_road() {
+        // The straight road's two lanes as separate drivable polygons with a
+        // 1 cm seam between them at y = 1.75 (as NGSIM's lanelets are stored).
+        let road = straight_road();
+        let square = |y0: f64, y1: f64| {
+            Polygon::new(vec![Point2::new(0.0, y0), Point2::new(100.0, y0), Point2::new(100.0, y1), Point2::new(0.0, y1)])
+        };
+        let areas = vec![square(-2.0, 1.745), square(1.755, 5.5)];
+        let map = RoadMap::new(road.lanes.clone(), road.road_edges.clone(), vec![], vec![], areas, vec![], vec![]);
+        let seam = Point2::new(50.0, 1.75);
+        assert!(!map.drivable_areas.iter().any(|a| a.contains(&seam)));
+        assert!(!map.is_off_road(&seam));
+        assert!(map.signed_distance_to_road_edge(&seam).is_some_and(|d| d < -3.0), "{:?}", map.signed_distance_to_road_edge(&seam));
+        // Past the edge, farther than a seam from either area, is off the road.
+        let out = Point2::new(50.0, -2.0 - 2.0 * DRIVABLE_SEAM_M);
+        assert!(map.is_off_road(&out));
+        assert!(map.signed_distance_to_road_edge(&out).is_some_and(|d| d > 0.0));
     }
 
     #[test]
