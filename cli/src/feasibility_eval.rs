@@ -276,7 +276,7 @@ fn from_stage1(
         })
         .flat_map(|&i| (0..seeds).map(move |k| (i, k)))
         .collect();
-    let per_variant: Vec<Option<Vec<Sample>>> = jobs
+    let per_variant: Vec<Result<Vec<Sample>, String>> = jobs
         .par_iter()
         .map(|&(i, k)| {
             let scene = &collection.scenes[i];
@@ -301,15 +301,20 @@ fn from_stage1(
                 ego_limits: None,
                 fault: None,
             };
-            match run_stage1(&setup) {
-                Ok(r) => Some(samples_of(&r, scene)),
-                Err(e) => {
-                    eprintln!("warning: {} seed {k}: stage 1 failed: {e}", scene.scene.id);
-                    None
-                }
-            }
+            run_stage1(&setup).map(|r| samples_of(&r, scene)).map_err(|e| e.to_string())
         })
         .collect();
+    // One warning per scene, however many of its variants failed.
+    let mut failed: BTreeMap<usize, (usize, &str)> = BTreeMap::new();
+    for (&(i, _), r) in jobs.iter().zip(&per_variant) {
+        if let Err(e) = r {
+            failed.entry(i).or_insert((0, e)).0 += 1;
+        }
+    }
+    for (i, (n, e)) in failed {
+        eprintln!("warning: {}: stage 1 failed in {n} of {seeds} variants: {e}", collection.scenes[i].scene.id);
+    }
+    let per_variant: Vec<Option<Vec<Sample>>> = per_variant.into_iter().map(Result::ok).collect();
     collect_rollouts(per_variant)
 }
 
