@@ -177,7 +177,7 @@ struct Report {
     rollouts: usize,
     /// Rollouts that could not be run (set up or driven).
     failed_rollouts: usize,
-    /// Kept for readers of earlier reports: the rollouts.
+    /// The rollouts, under the name earlier reports gave them.
     episodes: usize,
     states: usize,
     unscored: usize,
@@ -364,8 +364,11 @@ pub(crate) fn run(request: &EvalRequest<'_>) -> Result<ExitCode, CliError> {
     let value = FeasibilityValue::load(&safer_scenarios::models::ModelSource::shipped())?;
     let models = ModelSet::shipped();
     let c = &request.collection;
-    // Measuring needs no training licence: any recorded set can be labelled.
-    let recorded = load_scenes_for(&scene_paths(&c.recorded)?, TrainingPurpose::EvaluationOnly)?;
+    // Measuring needs no training licence, so any recorded set can be
+    // measured; labels written for calibration feed a shipped model, so
+    // their scenes must allow training it.
+    let purpose = if labels.is_some() { TrainingPurpose::Shipped } else { TrainingPurpose::EvaluationOnly };
+    let recorded = load_scenes_for(&scene_paths(&c.recorded)?, purpose)?;
     let collection = Collection::new(recorded, c.synthetic_scenes, c.seed, models.prior.is_ok());
     let scenes: Vec<usize> = (0..collection.scenes.len())
         .filter(|&i| split.admits(collection.scenes[i].split))
@@ -651,7 +654,8 @@ pub(crate) struct FeasibilityEvalArgs {
     /// Write every labelled state (its V_h features, witness label and
     /// V_h) as a safetensors file, for `training/feasibility/train.py
     /// --calibration` (label the training split for that, never the
-    /// held-out one).
+    /// held-out one); the scenes' licence must allow training the shipped
+    /// models.
     #[arg(long, value_name = "OUT")]
     pub(crate) labels: Option<PathBuf>,
 }

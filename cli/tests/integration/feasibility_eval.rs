@@ -96,3 +96,30 @@ fn stage1_states_of_an_adversary_are_labelled_against_its_cbv_future() {
     assert_eq!(again["at_zero"], v["at_zero"]);
     assert_eq!(again["by_distance"], v["by_distance"]);
 }
+
+#[test]
+#[cfg_attr(not(recorded_data), ignore = "needs recorded data: set SAFER_DATA_DIR (docs/guide/recorded-data.md)")]
+fn any_set_is_measured_but_only_a_trainable_one_is_written_as_calibration_labels() {
+    let dir = crate::scratch::Scratch::new("feasibility-womd-labels");
+    let womd = crate::shared_data::data_dir().join("womd-interactive");
+    let run = |extra: &[&str]| {
+        Command::new(env!("CARGO_BIN_EXE_safer"))
+            .env("SAFER_MODELS", concat!(repo_root!(), "/models"))
+            .args(["feasibility-eval", "--scenes", womd.to_str().unwrap(), "--synthetic-scenes", "0"])
+            .args(["--split", "all", "--max-scenes", "2", "--states", "30", "--json", "-"])
+            .args(extra)
+            .output()
+            .expect("run safer")
+    };
+    let measured = run(&[]);
+    assert!(measured.status.success(), "{}", String::from_utf8_lossy(&measured.stderr));
+    let v: Value = serde_json::from_slice(&measured.stdout).unwrap();
+    assert_eq!(v["scenes"], 2);
+    rows_add_up(&v, "by_distance");
+    let labels = dir.join("labels.safetensors");
+    let refused = run(&["--labels", labels.to_str().unwrap()]);
+    assert!(!refused.status.success());
+    let err = String::from_utf8_lossy(&refused.stderr);
+    assert!(err.contains("does not allow training the shipped models"), "{err}");
+    assert!(!labels.exists());
+}
