@@ -35,6 +35,8 @@ const VARIANT_TARGET_MS: f64 = 50.0;
 const WITNESS_TARGET_MS: f64 = 10.0;
 /// Most a closed-loop variant may cost, as a multiple of the replay variant.
 const CLOSED_LOOP_RATIO_TARGET: f64 = 2.0;
+/// Most a `safer-in-path` variant may cost, as a multiple of a `safer` variant.
+const IN_PATH_RATIO_TARGET: f64 = 2.0;
 /// Target for the closed-loop witness of one collision, ms.
 const CLOSED_LOOP_WITNESS_TARGET_MS: f64 = 2000.0;
 /// Horizon of the benchmarked variant, s (`safer evaluate`'s default).
@@ -132,6 +134,10 @@ struct VariantBench {
     closed_loop_variant_ms: f64,
     /// `closed loop / replay variant` (target at most 2).
     closed_loop_ratio_to_replay: f64,
+    /// The same variant with `safer-in-path` driving the CBV, ms.
+    in_path_variant_ms: f64,
+    /// `safer-in-path / safer variant`, alternated in the same run (target at most 2).
+    in_path_ratio_to_safer: f64,
     /// The closed-loop witness of a stage-1 collision (the CBV reacting to
     /// the escapes tried), ms; `None` when no seed of 0..20 collides.
     closed_loop_witness: Option<ClosedLoopWitnessBench>,
@@ -208,6 +214,15 @@ pub(super) fn run(scenes: &Path, repeat: usize, json: Option<&Path>) -> Result<E
                 "{:<52} {:>10.2}",
                 "    closed loop / replay variant (same run)", v.closed_loop_ratio_to_replay
             )?;
+            writeln!(
+                out,
+                "{:<52} {:>10.1} {:>10} {:>10.2}",
+                "  variant made by safer-in-path",
+                v.in_path_variant_ms,
+                format!("{IN_PATH_RATIO_TARGET}× safer"),
+                v.in_path_ratio_to_safer / IN_PATH_RATIO_TARGET
+            )?;
+            writeln!(out, "{:<52} {:>10.2}", "    safer-in-path / safer variant (same run)", v.in_path_ratio_to_safer)?;
             match &v.closed_loop_witness {
                 Some(w) => writeln!(
                     out,
@@ -445,6 +460,17 @@ fn bench_variant(scenes: &[Scenario], repeat: usize) -> Result<Option<VariantBen
     }
     let (replay_ms, closed_loop_variant_ms) = (ms(median(replay_times)), ms(median(closed_times)));
 
+    // The same variant made by `safer-in-path`, alternating with `safer`.
+    let in_path =
+        VariantSetup { settings: MethodSettings { method: AdversaryMethod::SaferInPath, ..setup.settings }, ..setup };
+    pipeline::run(in_path)?;
+    let (mut safer_times, mut in_path_times) = (Vec::new(), Vec::new());
+    for _ in 0..repeat {
+        safer_times.push(time(1, || pipeline::run(setup)).0);
+        in_path_times.push(time(1, || pipeline::run(in_path)).0);
+    }
+    let (safer_ms, in_path_variant_ms) = (ms(median(safer_times)), ms(median(in_path_times)));
+
     // The closed-loop witness of a collision: the ego on log replay against
     // a closed-loop CBV is stage 1 itself, so a critical seed's stage 1 is
     // a stage-2 collision to witness.
@@ -491,6 +517,8 @@ fn bench_variant(scenes: &[Scenario], repeat: usize) -> Result<Option<VariantBen
         witness_found: found,
         closed_loop_variant_ms,
         closed_loop_ratio_to_replay: closed_loop_variant_ms / replay_ms,
+        in_path_variant_ms,
+        in_path_ratio_to_safer: in_path_variant_ms / safer_ms,
         closed_loop_witness,
     }))
 }

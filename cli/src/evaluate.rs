@@ -187,17 +187,17 @@ fn print_table(
     Ok(())
 }
 
-/// Each method's CR, SR, witness rate and realism (VJ, AJ).
+/// Each method's CR, SR, witness rate and realism (VJ, AJ, YJ).
 fn print_outcomes(out: &mut dyn Write, rows: &[MethodRow], name: &dyn Fn(&MethodRow) -> String) -> std::io::Result<()> {
     writeln!(
         out,
-        "{:<28} {:>8} {:>7} {:>7} {:>7} {:>9} {:>9} {:>7} {:>7} {:>11}",
-        "method", "variants", "errors", "CR", "SR", "SR-crit", "witness", "VJ", "AJ", "s/variant"
+        "{:<28} {:>8} {:>7} {:>7} {:>7} {:>9} {:>9} {:>7} {:>7} {:>7} {:>11}",
+        "method", "variants", "errors", "CR", "SR", "SR-crit", "witness", "VJ", "AJ", "YJ", "s/variant"
     )?;
     for r in rows {
         writeln!(
             out,
-            "{:<28} {:>8} {:>7} {:>7} {:>7} {:>9} {:>9} {:>7} {:>7} {:>11.3}",
+            "{:<28} {:>8} {:>7} {:>7} {:>7} {:>9} {:>9} {:>7} {:>7} {:>7} {:>11.3}",
             name(r),
             r.variants,
             r.errors,
@@ -207,6 +207,7 @@ fn print_outcomes(out: &mut dyn Write, rows: &[MethodRow], name: &dyn Fn(&Method
             fmt(r.witness_rate),
             fmt(r.vj),
             fmt(r.aj),
+            fmt(r.yj),
             r.time_per_variant_s
         )?;
     }
@@ -421,7 +422,7 @@ fn print_time(out: &mut dyn Write, rows: &[MethodRow], name: &dyn Fn(&MethodRow)
 fn print_legend(out: &mut dyn Write) -> std::io::Result<()> {
     writeln!(
         out,
-        "VJ/AJ: Jensen–Shannon divergence (bits) of the CBV's stage-1 speed (0–40 m/s, 1 m/s bins) and acceleration (−8–8 m/s², 0.5 m/s² bins, finite differences at 0.1 s) against the logged CBV over the same window."
+        "VJ/AJ/YJ: Jensen–Shannon divergence (bits) of the CBV's stage-1 speed (0–40 m/s, 1 m/s bins), acceleration (−8–8 m/s², 0.5 m/s² bins, finite differences at 0.1 s) and yaw rate (−1–1 rad/s, 0.05 rad/s bins, heading change over 0.5 s) against the logged CBV over the same window."
     )?;
     writeln!(
         out,
@@ -1039,7 +1040,7 @@ pub(crate) struct EvaluateArgs {
     #[arg(long, value_parser = data_path)]
     pub(crate) scenes: PathBuf,
     /// Methods to compare, one table row each.
-    #[arg(long, value_parser = choice(AdversaryMethod::ALL), value_delimiter = ',', default_values = ["safer", "safer-distinct", "safer-lookahead", "safer-inattentive", "no-lfr", "no-trust-region", "no-mda", "prior", "log"])]
+    #[arg(long, value_parser = choice(AdversaryMethod::ALL), value_delimiter = ',', default_values = ["safer", "safer-in-path", "safer-distinct", "safer-lookahead", "safer-inattentive", "no-lfr", "no-trust-region", "no-mda", "prior", "log"])]
     pub(crate) methods: Vec<AdversaryMethod>,
     /// Seeds per scene and method, at least 1.
     #[arg(long, default_value_t = 10, value_parser = clap::value_parser!(u32).range(1..))]

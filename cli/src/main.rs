@@ -77,7 +77,7 @@ pub struct Cli {
 enum Command {
     /// Run scenario suites: the same variants, metrics and verdicts as a planner crate's `cargo test`.
     Run(run::RunArgs),
-    /// Dual-stage evaluation of adversary methods: CR, SR, SR on critical variants, witness rate, VJ, AJ.
+    /// Dual-stage evaluation of adversary methods: CR, SR, SR on critical variants, witness rate, VJ, AJ, YJ.
     Evaluate(evaluate::EvaluateArgs),
     /// Merge the JSON reports of `safer evaluate --partition K/N` runs into the table and report one run would give.
     EvaluateMerge(evaluate::EvaluateMergeArgs),
@@ -92,7 +92,7 @@ enum Command {
     /// WOSAC 2025 realism metrics of a traffic policy: roll out every agent of each scene N times and score the rollouts against the log.
     #[command(after_help = realism::WINDOW_RULE_HELP)]
     Realism(realism::RealismArgs),
-    /// What the realism prior's trust region offers the adversary: per method, the probability mass of the tokens of its region (the top n, or the n likeliest distinct behaviours for `safer-distinct`), their acceleration and yaw-rate range, distinct behaviours and plausible share, at the CBV's token boundaries of stage 1.
+    /// What the realism prior's trust region offers the adversary: per method, the probability mass of the tokens of its region (the top n, or the n likeliest distinct behaviours for `safer-distinct` and `safer-in-path`), their acceleration and yaw-rate range, distinct behaviours and plausible share, at the CBV's token boundaries of stage 1.
     TrustRegion(trust_region::TrustRegionArgs),
     /// Benchmarks: import time per scene per format, simulator steps per second, one SaFeR variant and its witness search; each beside its reference.
     Bench(bench::BenchArgs),

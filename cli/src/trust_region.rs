@@ -143,7 +143,7 @@ pub(crate) struct TrustRegionArgs {
     #[arg(long, value_parser = data_path)]
     pub(crate) scenes: PathBuf,
     /// Methods whose stage 1 is profiled, one row each (`no-mda` runs the plain-attention prior; `$SAFER_MODELS` swaps in another model set).
-    #[arg(long, value_parser = choice(AdversaryMethod::ALL), value_delimiter = ',', default_values = ["safer", "safer-distinct", "no-mda"])]
+    #[arg(long, value_parser = choice(AdversaryMethod::ALL), value_delimiter = ',', default_values = ["safer", "safer-distinct", "safer-in-path", "no-mda"])]
     pub(crate) methods: Vec<AdversaryMethod>,
     /// Seeds per scene and method, at least 1.
     #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..))]

@@ -62,7 +62,7 @@ run() {
 }
 
 sets=(womd-interactive:womd-interactive womd-json:womd-json commonroad-ngsim:ngsim)
-every=safer,safer-distinct,safer-lookahead,safer-inattentive,no-lfr,no-trust-region,no-mda,prior,log
+every=safer,safer-in-path,safer-distinct,safer-lookahead,safer-inattentive,no-lfr,no-trust-region,no-mda,prior,log
 all_but_plain=${every/no-mda,/}
 for job in "${jobs[@]}"; do
     case $job in
@@ -103,7 +103,7 @@ for job in "${jobs[@]}"; do
     n-sweep)
         for n in 10 50; do
             run "evaluate-womd-interactive-n$n.txt" evaluate --scenes data:womd-interactive --seeds 10 \
-                --methods safer,safer-distinct,safer-lookahead --trust-region "$n"
+                --methods safer,safer-in-path,safer-distinct,safer-lookahead --trust-region "$n"
         done ;;
     reactive)
         for s in womd-interactive:womd-interactive commonroad-ngsim:ngsim; do
@@ -112,7 +112,7 @@ for job in "${jobs[@]}"; do
         done ;;
     n100)
         run evaluate-womd-interactive-n100.txt evaluate --scenes data:womd-interactive --seeds 10 \
-            --methods safer,safer-distinct,safer-lookahead --trust-region 100 ;;
+            --methods safer,safer-in-path,safer-distinct,safer-lookahead --trust-region 100 ;;
     approach-none)
         once=(--approach-phase none --seeds 1)
         for s in womd-interactive womd-json commonroad-ngsim; do
@@ -135,12 +135,12 @@ for job in "${jobs[@]}"; do
         mutating=(--stage2-cbv closed-loop --mutants)
         for s in "${sets[@]}"; do
             run "mutants-${s#*:}-evasive.txt" evaluate --scenes "data:${s%%:*}" --seeds 3 "${mutating[@]}" \
-                --methods log,prior,safer,safer-distinct,safer-lookahead,no-lfr
+                --methods log,prior,safer,safer-in-path,safer-distinct,safer-lookahead,no-lfr
         done
         # The Python lane follower runs as a process per variant and mutant.
         for s in womd-interactive:womd-interactive commonroad-ngsim:ngsim; do
             run "mutants-${s#*:}-lane-follower.txt" evaluate --scenes "data:${s%%:*}" --seeds 2 "${mutating[@]}" \
-                --methods log,prior,safer,safer-distinct --planner ../../planners/lane-follower.yaml
+                --methods log,prior,safer,safer-in-path,safer-distinct --planner ../../planners/lane-follower.yaml
         done ;;
     esac
 done

@@ -26,6 +26,11 @@ impl Histogram {
         Self::new(-8.0, 8.0, 32)
     }
 
+    /// Yaw-rate bins for YJ: −1 to 1 rad/s in 0.05 rad/s bins.
+    pub fn yaw_rate() -> Self {
+        Self::new(-1.0, 1.0, 40)
+    }
+
     /// Adds a value (non-finite values are ignored).
     pub fn add(&mut self, v: f64) {
         if !v.is_finite() {

@@ -327,6 +327,8 @@ pub struct MethodRow {
     pub vj: Option<f64>,
     /// Jensen–Shannon divergence of CBV acceleration vs the log.
     pub aj: Option<f64>,
+    /// Jensen–Shannon divergence of CBV yaw rate vs the log.
+    pub yj: Option<f64>,
     /// Mean wall time per variant, s.
     pub time_per_variant_s: f64,
     /// The kinds of conflict the variants made: per kind, with the
@@ -686,7 +688,12 @@ impl ClosestApproach {
             let contact = variants.iter().filter(|r| r.tally.critical).count() as f64 / n as f64;
             let under_half_m = count(&|g| g < half);
             let under_1_m = count(&|g| (half..one).contains(&g));
-            Self { contact, under_half_m, under_1_m, farther: 1.0 - contact - under_half_m - under_1_m }
+            // Counted, not the rest of 1: a difference of shares can round to −0.000.
+            let farther =
+                variants.iter().filter(|r| !r.tally.critical && r.stage1_min_gap_m.is_none_or(|g| g >= one)).count()
+                    as f64
+                    / n as f64;
+            Self { contact, under_half_m, under_1_m, farther }
         })
     }
 }
@@ -774,6 +781,7 @@ fn table_of(
                 failures: ok.iter().filter(|r| !r.tally.solved).count(),
                 vj: metrics.velocity_jsd,
                 aj: metrics.acceleration_jsd,
+                yj: metrics.yaw_rate_jsd,
                 time_per_variant_s: ok.iter().map(|r| r.time_s).sum::<f64>() / n,
                 conflicts: metrics.coverage,
                 kills: MethodKills::of(ok.iter().filter_map(|r| Some((r.scenario.as_str(), r.mutation.as_ref()?)))),

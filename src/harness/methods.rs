@@ -12,7 +12,9 @@ use super::HarnessError;
 use crate::models::prior::{PriorVariant, RealismPrior};
 use crate::models::{ModelError, ModelSource};
 use crate::policies::LogReplay;
-use crate::policies::adversary::{Adversary, ApproachPhase, FeasibilityOracle, LOOKAHEAD_TOKENS, Search, TrustRegion};
+use crate::policies::adversary::{
+    Adversary, ApproachPhase, FeasibilityOracle, LOOKAHEAD_TOKENS, Objective, Search, TrustRegion,
+};
 use crate::policies::prior_sampling::{PriorAgent, PriorTraffic, ScenarioMapEncoding, TokenSampling, TrafficTimings};
 use crate::scenario::{Scenario, TrackIndex};
 use crate::sim::Simulation;
@@ -136,7 +138,7 @@ pub struct MethodSettings {
 pub fn trust_region_of(method: AdversaryMethod, n: usize) -> TrustRegion {
     match method {
         AdversaryMethod::NoTrustRegion => TrustRegion::WholeVocabulary,
-        AdversaryMethod::SaferDistinct => TrustRegion::DistinctBehaviours(n),
+        AdversaryMethod::SaferDistinct | AdversaryMethod::SaferInPath => TrustRegion::DistinctBehaviours(n),
         _ => TrustRegion::TopN(n),
     }
 }
@@ -205,6 +207,10 @@ pub fn install(
         | AdversaryMethod::SaferInattentive => sim.set_policy(cbv, adversary(search, Some(feasibility()?))),
         AdversaryMethod::SaferLookahead => {
             let search = Search { lookahead_tokens: LOOKAHEAD_TOKENS, ..search };
+            sim.set_policy(cbv, adversary(search, Some(feasibility()?)))
+        }
+        AdversaryMethod::SaferInPath => {
+            let search = Search { objective: Objective::InPath, ..search };
             sim.set_policy(cbv, adversary(search, Some(feasibility()?)))
         }
         AdversaryMethod::NoLfr => sim.set_policy(cbv, adversary(search, None)),

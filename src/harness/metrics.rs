@@ -1,9 +1,9 @@
 //! Suite-level metrics over variants, and their checks: CR (stage 1: share
 //! of variants where the CBV hits the replayed ego), SR (stage 2: share the
 //! planner under test solves — see [`Stage2Verdict`]), SR over the
-//! stage-1-critical variants, and VJ / AJ (Jensen–Shannon divergence of the
-//! CBV's stage-1 speed and acceleration against its logged values over the
-//! same steps; bins in [`crate::eval::divergence`]). Two plausibility
+//! stage-1-critical variants, and VJ / AJ / YJ (Jensen–Shannon divergence of
+//! the CBV's stage-1 speed, acceleration and yaw rate against its logged
+//! values over the same steps; bins in [`crate::eval::divergence`]). Two plausibility
 //! rates say whether the CBV stayed a road user in stage 1: the share of
 //! variants where it collided with a background agent, and the share where
 //! it left the road (centre off the road while it started on it), with the
@@ -25,27 +25,53 @@
 
 use super::pipeline::DualStage;
 use crate::eval::{ConflictKind, Histogram, jensen_shannon, rollout_conflict};
-use crate::scenario::{AgentKind, Scenario, TrackIndex};
+use crate::geometry::wrap_angle;
+use crate::scenario::{AgentKind, AgentState, Scenario, TrackIndex};
 use crate::sim::EgoContact;
 use crate::sim::Rollout;
 use crate::spec::suite::SuiteAcceptance;
 
-/// Speeds and accelerations of one agent over a stretch of steps.
+/// Speeds, accelerations and yaw rates of one agent over a stretch of steps.
 #[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct KinematicSamples {
     /// Speed at every step the agent is present, m/s.
     pub speeds_mps: Vec<f64>,
     /// Finite-difference acceleration between consecutive present steps, m/s².
     pub accels_mps2: Vec<f64>,
+    /// Heading change over [`YAW_RATE_WINDOW_S`] between present steps
+    /// that far apart, per second, rad/s.
+    #[serde(default)]
+    pub yaw_rates_radps: Vec<f64>,
 }
 
+/// The window yaw rates are measured over, s: recorded headings jitter
+/// from step to step (a few mrad at 0.1 s is a few hundredths of a rad/s),
+/// and over 0.5 s, the token period, that noise is a tenth of what it is
+/// between neighbouring steps.
+pub const YAW_RATE_WINDOW_S: f64 = 0.5;
+
 impl KinematicSamples {
+    /// Samples of a sequence of per-step states (`None` where absent) at `dt_s`.
+    pub fn of_states(states: impl IntoIterator<Item = Option<AgentState>>, dt_s: f64) -> Self {
+        let states: Vec<Option<AgentState>> = states.into_iter().collect();
+        let window = ((YAW_RATE_WINDOW_S / dt_s).round() as usize).max(1);
+        let yaw_rates_radps = states
+            .iter()
+            .zip(states.iter().skip(window))
+            .filter_map(|(a, b)| Some(wrap_angle(b.as_ref()?.heading_rad - a.as_ref()?.heading_rad)))
+            .map(|dh| dh / (window as f64 * dt_s))
+            .collect();
+        let speeds = states.iter().map(|s| s.map(|s| s.speed_mps()));
+        KinematicSamples { yaw_rates_radps, ..Self::of_speeds(speeds, dt_s) }
+    }
+
     /// Samples of a sequence of per-step speeds (`None` where absent) at `dt_s`.
     pub fn of_speeds(speeds: impl IntoIterator<Item = Option<f64>>, dt_s: f64) -> Self {
         let v: Vec<Option<f64>> = speeds.into_iter().collect();
         KinematicSamples {
             speeds_mps: v.iter().flatten().copied().collect(),
             accels_mps2: v.windows(2).filter_map(|w| Some((w[1]? - w[0]?) / dt_s)).collect(),
+            yaw_rates_radps: Vec::new(),
         }
     }
 }
@@ -64,13 +90,11 @@ impl CbvKinematics {
     /// The CBV's samples of a stage-1 rollout (`None` without a CBV).
     pub fn of_stage1(scenario: &Scenario, stage1: &Rollout) -> Option<Self> {
         let cbv = stage1.cbv?;
-        let generated = KinematicSamples::of_speeds(
-            stage1.states.iter().map(|row| row.get(cbv.0).copied().flatten().map(|s| s.speed_mps())),
-            stage1.dt_s,
-        );
+        let generated =
+            KinematicSamples::of_states(stage1.states.iter().map(|row| row.get(cbv.0).copied().flatten()), stage1.dt_s);
         let track = scenario.track(cbv);
         let steps = stage1.start_step..stage1.start_step + stage1.states.len();
-        let logged = KinematicSamples::of_speeds(steps.map(|k| track.state(k).map(|s| s.speed_mps())), scenario.dt_s);
+        let logged = KinematicSamples::of_states(steps.map(|k| track.state(k).copied()), scenario.dt_s);
         Some(CbvKinematics { generated, logged })
     }
 }
@@ -253,6 +277,8 @@ pub struct SuiteMetrics {
     pub velocity_jsd: Option<f64>,
     /// AJ: JSD of CBV acceleration, generated vs logged.
     pub acceleration_jsd: Option<f64>,
+    /// YJ: JSD of CBV yaw rate (over [`YAW_RATE_WINDOW_S`]), generated vs logged.
+    pub yaw_rate_jsd: Option<f64>,
     /// Share of variants whose CBV collided with a background agent in stage 1.
     pub cbv_background_collision_rate: Option<f64>,
     /// Share of variants where the CBV was at fault in such a collision.
@@ -396,6 +422,7 @@ impl SuiteMetrics {
         let (mut reached, mut reached_critical, mut avoidable, mut avoidable_solved, mut no_escape) = (0, 0, 0, 0, 0);
         let (mut gv, mut ga, mut lv, mut la) =
             (Histogram::speed(), Histogram::acceleration(), Histogram::speed(), Histogram::acceleration());
+        let (mut gy, mut ly) = (Histogram::yaw_rate(), Histogram::yaw_rate());
         for &t in &tallies {
             n += 1;
             critical += usize::from(t.critical);
@@ -416,6 +443,8 @@ impl SuiteMetrics {
                 cbv.generated.accels_mps2.iter().for_each(|a| ga.add(*a));
                 cbv.logged.speeds_mps.iter().for_each(|v| lv.add(*v));
                 cbv.logged.accels_mps2.iter().for_each(|a| la.add(*a));
+                cbv.generated.yaw_rates_radps.iter().for_each(|y| gy.add(*y));
+                cbv.logged.yaw_rates_radps.iter().for_each(|y| ly.add(*y));
             }
         }
         SuiteMetrics {
@@ -425,6 +454,7 @@ impl SuiteMetrics {
             solution_rate_critical: share(solved_critical, critical),
             velocity_jsd: jensen_shannon(&gv, &lv),
             acceleration_jsd: jensen_shannon(&ga, &la),
+            yaw_rate_jsd: jensen_shannon(&gy, &ly),
             cbv_background_collision_rate: share(hit_background, n),
             cbv_at_fault_background_collision_rate: share(at_fault, n),
             cbv_at_fault_vulnerable_rate: share(at_fault_vulnerable, n),
@@ -755,5 +785,23 @@ mod tests {
         assert_eq!(s.speeds_mps, vec![1.0, 2.0, 4.0, 4.5]);
         // No acceleration across the gap.
         assert_eq!(s.accels_mps2, vec![2.0, 1.0]);
+    }
+
+    #[test]
+    fn yaw_rates_are_heading_changes_over_half_a_second_across_the_wrap() {
+        use crate::geometry::{Point2, Vector2};
+        let at = |heading_rad: f64| {
+            Some(AgentState { position: Point2::origin(), heading_rad, velocity_mps: Vector2::new(5.0, 0.0) })
+        };
+        // 0.1 s steps turning at 0.2 rad/s through ±π, one step missing.
+        let pi = std::f64::consts::PI;
+        let mut states: Vec<Option<AgentState>> =
+            (0..8).map(|k| at(crate::geometry::wrap_angle(pi - 0.06 + 0.02 * k as f64))).collect();
+        states[6] = None;
+        let s = KinematicSamples::of_states(states, 0.1);
+        // Windows 0→5, 2→7 (1→6 has a missing end).
+        assert_eq!(s.yaw_rates_radps.len(), 2, "{:?}", s.yaw_rates_radps);
+        assert!(s.yaw_rates_radps.iter().all(|y| (y - 0.2).abs() < 1e-9), "{:?}", s.yaw_rates_radps);
+        assert_eq!(s.speeds_mps.len(), 7);
     }
 }

@@ -185,6 +185,13 @@ pub enum AdversaryMethod {
     /// inattentive driver): a prior that sees the ego ranks the tokens that
     /// yield to it first, the conflicts the adversary looks for last.
     SaferInattentive,
+    /// Beyond the paper: SaFeR over the prior's n likeliest distinct
+    /// behaviours (as `safer-distinct`) whose loss is how close a token
+    /// puts the CBV to the ego's path ahead of it (within 1.5 s, a car
+    /// ahead of the ego scoring better than one beside or behind it)
+    /// rather than to the ego: the CBV cuts in, merges, turns across or
+    /// brakes ahead, where the paper's loss mostly closes in from behind.
+    SaferInPath,
 }
 
 impl AdversaryMethod {
@@ -211,6 +218,7 @@ impl AdversaryMethod {
         Self::SaferLookahead,
         Self::SaferDistinct,
         Self::SaferInattentive,
+        Self::SaferInPath,
     ];
 }
 

@@ -7,6 +7,7 @@
 use super::background_forecast::BackgroundForecast;
 use super::behaviours::distinct_behaviours;
 use super::feasibility::feasibility_values;
+use super::in_path::in_path_loss;
 use super::lookahead::{FirstTokens, Lookahead};
 use super::plausibility::{ContactRule, PlausibilityCheck};
 use super::rollout::token_rollouts;
@@ -63,6 +64,19 @@ impl TrustRegion {
 /// How many of the likeliest tokens the distinct-behaviour region scans first.
 const DISTINCT_SCAN_HEAD: usize = 400;
 
+/// What a feasible candidate's loss measures.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Objective {
+    /// The paper's: the box distance to the ego's constant-velocity
+    /// prediction at the end of the token.
+    #[default]
+    Contact,
+    /// Beyond the paper: how close the CBV comes to the ego's path ahead of
+    /// it (see [`in_path`](super::in_path) and
+    /// [`IN_PATH_MAX_LEAD_S`](super::IN_PATH_MAX_LEAD_S)).
+    InPath,
+}
+
 /// What the adversary searches at each token boundary.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Search {
@@ -72,12 +86,14 @@ pub struct Search {
     /// paper's one-step arg min (`safer`), more is the receding-horizon
     /// `safer-lookahead` (see [`LOOKAHEAD_TOKENS`](super::LOOKAHEAD_TOKENS)).
     pub lookahead_tokens: usize,
+    /// What a feasible candidate's loss measures.
+    pub objective: Objective,
 }
 
 impl Search {
     /// The paper's one-step search over `trust_region`.
     pub fn one_step(trust_region: TrustRegion) -> Self {
-        Self { trust_region, lookahead_tokens: 1 }
+        Self { trust_region, lookahead_tokens: 1, objective: Objective::Contact }
     }
 }
 
@@ -120,9 +136,13 @@ pub fn safer_choice(
         None => None,
         Some(oracle) => Some(feasibility_values(oracle, &predicted, ego_next, ego_body, cbv_body, feasibility_s)?),
     };
+    let objective: Vec<f64> = match search.objective {
+        Objective::Contact => distances.clone(),
+        Objective::InPath => predicted.iter().map(|s| in_path_loss(&ego_next, ego_body, s, cbv_body)).collect(),
+    };
     let mut losses: Vec<f64> = match &values {
-        None => distances.clone(),
-        Some(values) => distances
+        None => objective,
+        Some(values) => objective
             .iter()
             .zip(values)
             .map(|(d, v)| if *v <= 0.0 { *d } else { *v as f64 + INFEASIBLE_PENALTY })
@@ -182,7 +202,7 @@ pub fn safer_choice(
 mod tests {
     use super::*;
     use crate::map::RoadMap;
-    use crate::motion::tokens::MAX_ACCEL_MPS2;
+    use crate::motion::tokens::{MAX_ACCEL_MPS2, TokenGrid};
     use crate::policies::adversary::test_support::{LIKED, StubOracle, car, choice_in, token};
     use crate::scenario::{AgentBody, AgentKind};
 
@@ -237,6 +257,33 @@ mod tests {
         assert_eq!(choice(&LIKED, TrustRegion::TopN(5), Some(&slow_is_worse)), token(5.0));
         let fast_is_worse = StubOracle(|p| p.cbv.speed_mps() as f32);
         assert_eq!(choice(&LIKED, TrustRegion::TopN(5), Some(&fast_is_worse)), token(-5.0));
+    }
+
+    #[test]
+    fn the_in_path_objective_cuts_in_ahead_where_the_contact_objective_brakes_alongside() {
+        use crate::motion::Action;
+        // The CBV in the lane to the ego's left, 8 m ahead, both at 10 m/s.
+        // The prior likes keeping on, braking hard, and steering right
+        // into the ego's lane.
+        let map = RoadMap::default();
+        let bodies = [AgentBody { kind: AgentKind::Vehicle, length_m: 4.5, width_m: 2.0 }; 2];
+        let states = [car(0.0, 0.0, 10.0), car(8.0, 3.5, 10.0)];
+        let world = WorldView { map: &map, step: 0, bodies: &bodies, states: &states };
+        let steer_in = TokenGrid::quantize(Action { accel_mps2: 0.0, yaw_rate_radps: -0.3 });
+        let mut logits = vec![-30.0f32; crate::motion::tokens::VOCABULARY_SIZE];
+        for (t, logit) in [(token(0.0), 3.0), (token(-5.0), 2.0), (steer_in, 1.0)] {
+            logits[t.0 as usize] = logit;
+        }
+        let chosen = |objective| {
+            let search = Search { objective, ..Search::one_step(TrustRegion::TopN(3)) };
+            let forecast = BackgroundForecast::default();
+            let pair = (TrackIndex(1), TrackIndex(0));
+            safer_choice(&world, pair, &logits, search, &forecast, None, &mut 0.0).unwrap().unwrap()
+        };
+        // The paper's loss: falling back beside the ego is closest.
+        assert_eq!(chosen(Objective::Contact), token(-5.0));
+        // The in-path loss: into the ego's path ahead of it.
+        assert_eq!(chosen(Objective::InPath), steer_in);
     }
 
     #[test]

@@ -48,6 +48,9 @@
 //! The ablations are the same policy with a part switched off;
 //! `safer-lookahead` (beyond the paper) is the same policy scoring tokens
 //! over a receding horizon (see [`Search::lookahead_tokens`]);
+//! `safer-in-path` (beyond the paper) the same policy over the prior's
+//! distinct behaviours, scoring how close a token puts the CBV to the
+//! ego's path ahead of it rather than to the ego (see [`Objective`]);
 //! `safer-inattentive` (beyond the paper) the same policy fed by a prior
 //! that does not see the ego (see
 //! [`PriorTraffic::hide_from`](crate::policies::prior_sampling::PriorTraffic::hide_from)).
@@ -55,7 +58,7 @@
 //! One file per concept: the [`Adversary`] policy (`policy`), the
 //! approach phase (`approach`), SaFeR's choice ([`safer_choice`],
 //! `choice`) and the lookahead of `safer-lookahead` (`lookahead`), V_h of
-//! candidate states (`feasibility`), the CBV's states under a token
+//! candidate states (`feasibility`), the in-path objective (`in_path`), the CBV's states under a token
 //! (`rollout`), the [`BackgroundForecast`], and the plausibility check
 //! (`plausibility`, with its broad phase in `broad_phase`); and the
 //! [`TrustRegionProfile`] that diagnoses what a prior's region offers
@@ -67,6 +70,7 @@ mod behaviours;
 mod broad_phase;
 mod choice;
 mod feasibility;
+mod in_path;
 mod lookahead;
 mod plausibility;
 mod policy;
@@ -79,7 +83,8 @@ pub use crate::models::feasibility_oracle::{EgoCbvState, FeasibilityOracle};
 pub use approach::{APPROACH_TOKENS, ApproachPhase};
 pub use background_forecast::BackgroundForecast;
 pub use behaviours::{BEHAVIOUR_HOLD_S, BEHAVIOUR_SEPARATION_M, distinct_behaviours};
-pub use choice::{INFEASIBLE_PENALTY, Search, TrustRegion, safer_choice};
+pub use choice::{INFEASIBLE_PENALTY, Objective, Search, TrustRegion, safer_choice};
+pub use in_path::{IN_PATH_LEAD_COST_M_PER_S, IN_PATH_MAX_LEAD_S, NOT_AHEAD_PENALTY_M};
 pub use lookahead::{LOOKAHEAD_DELAY_PENALTY_M, LOOKAHEAD_TOKENS};
 pub use policy::Adversary;
 pub use trust_region_profile::{TrustRegionProfile, profile_trust_region, rank_of_driven_token};
