@@ -24,6 +24,7 @@ mod closed_loop;
 mod commonroad_export;
 mod conflict_coverage;
 mod evaluate_partitions;
+mod feasibility_eval;
 mod feasibility_model;
 mod import_argoverse2;
 mod import_commonroad;
