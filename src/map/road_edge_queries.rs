@@ -16,7 +16,11 @@ pub const DRIVABLE_SEAM_M: f64 = 0.05;
 /// Whether `p` lies within [`DRIVABLE_SEAM_M`] of `area`'s boundary.
 fn within_seam_of(area: &Polygon, p: &Point2) -> bool {
     let Some((lo, hi)) = area.bounds() else { return false };
-    if p.x < lo.x - DRIVABLE_SEAM_M || p.y < lo.y - DRIVABLE_SEAM_M || p.x > hi.x + DRIVABLE_SEAM_M || p.y > hi.y + DRIVABLE_SEAM_M {
+    if p.x < lo.x - DRIVABLE_SEAM_M
+        || p.y < lo.y - DRIVABLE_SEAM_M
+        || p.x > hi.x + DRIVABLE_SEAM_M
+        || p.y > hi.y + DRIVABLE_SEAM_M
+    {
         return false;
     }
     let n = area.vertices.len();
@@ -272,14 +276,23 @@ mod tests {
         // 1 cm seam between them at y = 1.75 (as NGSIM's lanelets are stored).
         let road = straight_road();
         let square = |y0: f64, y1: f64| {
-            Polygon::new(vec![Point2::new(0.0, y0), Point2::new(100.0, y0), Point2::new(100.0, y1), Point2::new(0.0, y1)])
+            Polygon::new(vec![
+                Point2::new(0.0, y0),
+                Point2::new(100.0, y0),
+                Point2::new(100.0, y1),
+                Point2::new(0.0, y1),
+            ])
         };
         let areas = vec![square(-2.0, 1.745), square(1.755, 5.5)];
         let map = RoadMap::new(road.lanes.clone(), road.road_edges.clone(), vec![], vec![], areas, vec![], vec![]);
         let seam = Point2::new(50.0, 1.75);
         assert!(!map.drivable_areas.iter().any(|a| a.contains(&seam)));
         assert!(!map.is_off_road(&seam));
-        assert!(map.signed_distance_to_road_edge(&seam).is_some_and(|d| d < -3.0), "{:?}", map.signed_distance_to_road_edge(&seam));
+        assert!(
+            map.signed_distance_to_road_edge(&seam).is_some_and(|d| d < -3.0),
+            "{:?}",
+            map.signed_distance_to_road_edge(&seam)
+        );
         // Past the edge, farther than a seam from either area, is off the road.
         let out = Point2::new(50.0, -2.0 - 2.0 * DRIVABLE_SEAM_M);
         assert!(map.is_off_road(&out));
