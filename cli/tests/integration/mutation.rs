@@ -98,7 +98,7 @@ fn surviving_mutants_are_named_with_a_hint_and_fail_the_score_everywhere() {
     // The suite's own operators, not all of them.
     assert_eq!(m["operators"].as_array().unwrap().len(), 5, "{m:#}");
     assert!(by_name("speeding").is_none());
-    for killed in ["no-brake", "late"] {
+    for killed in ["weak-brake", "late"] {
         assert_eq!(by_name(killed).unwrap()["killed"], true, "{killed}: {m:#}");
     }
     for survived in ["blind-cbv", "blind-side", "no-evade"] {
@@ -121,7 +121,7 @@ fn surviving_mutants_are_named_with_a_hint_and_fail_the_score_everywhere() {
 #[test]
 fn the_flag_replaces_the_suites_operators_and_a_lower_bound_passes() {
     let (code, table, report, _, _) =
-        run_suite("tests/fixtures/mutation/survivors.yaml", &["--mutants", "no-brake,late"]);
+        run_suite("tests/fixtures/mutation/survivors.yaml", &["--mutants", "weak-brake,late"]);
     assert_eq!(code, Some(0), "2 of 2 killed passes mutation_score_min 0.5: {table}");
     assert_eq!(report["suites"][0]["mutation"]["score"], 1.0);
     assert!(table.contains("mutation score 1.000 (2 of 2 mutants killed"), "{table}");

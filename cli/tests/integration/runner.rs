@@ -84,7 +84,7 @@ fn crate_with_mutation_score(name: &str, min: f64) -> crate::scratch::Scratch {
     let suite = format!(
         "name: mutating\nscenarios:\n  - {}\nplanner: {{ builtin: evasive }}\nvariants: 1\n\
          acceptance:\n  variant: {{ no_collision: true, min_gap_m: 0.5 }}\n  \
-         suite: {{ mutation_score_min: {min}, mutation_operators: [no-brake, late, blind-side] }}\n",
+         suite: {{ mutation_score_min: {min}, mutation_operators: [weak-brake, late, blind-side] }}\n",
         scenario.display()
     );
     std::fs::write(root.join("specs/suites/mine.yaml"), suite).unwrap();
@@ -94,7 +94,7 @@ fn crate_with_mutation_score(name: &str, min: f64) -> crate::scratch::Scratch {
 
 #[test]
 fn a_suite_asking_for_a_mutation_score_gets_one_test_that_passes_or_fails_by_it() {
-    // no-brake and late are killed on the overtake scene, blind-side
+    // weak-brake and late are killed on the overtake scene, blind-side
     // survives: 2/3. The two runs share the process, and so the variant.
     for (min, passes) in [(0.6, true), (0.7, false)] {
         let root = crate_with_mutation_score(&format!("mutation-{min}"), min);
