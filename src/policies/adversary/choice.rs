@@ -71,9 +71,13 @@ pub enum Objective {
     /// prediction at the end of the token.
     #[default]
     Contact,
-    /// Beyond the paper: how close the CBV comes to the ego's path ahead of
-    /// it (see [`in_path`](super::in_path) and
-    /// [`IN_PATH_MAX_LEAD_S`](super::IN_PATH_MAX_LEAD_S)).
+    /// Beyond the paper (`safer-in-path`): how close the CBV comes to the
+    /// ego's path ahead of it. The least, over lead times up to
+    /// [`IN_PATH_MAX_LEAD_S`](super::IN_PATH_MAX_LEAD_S), of the box distance
+    /// to the ego's constant-velocity footprint that far ahead plus
+    /// [`IN_PATH_LEAD_COST_M_PER_S`](super::IN_PATH_LEAD_COST_M_PER_S) per
+    /// second of lead, plus [`NOT_AHEAD_PENALTY_M`](super::NOT_AHEAD_PENALTY_M)
+    /// when the CBV's centre is not ahead of the ego's front bumper.
     InPath,
 }
 
