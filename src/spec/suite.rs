@@ -189,8 +189,8 @@ pub enum AdversaryMethod {
     /// behaviours (as `safer-distinct`) whose loss is how close a token
     /// puts the CBV to the ego's path ahead of it (within 1.5 s, a car
     /// ahead of the ego scoring better than one beside or behind it)
-    /// rather than to the ego: the CBV cuts in, merges, turns across or
-    /// brakes ahead, where the paper's loss mostly closes in from behind.
+    /// rather than to the ego: the CBV gets in front of the ego and brakes
+    /// there, the conflicts a planner must answer by braking or steering.
     SaferInPath,
 }
 

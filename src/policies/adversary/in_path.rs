@@ -4,9 +4,9 @@
 //!
 //! The paper's loss, the box distance to where the ego will be one token
 //! later, is met as well by a CBV closing from behind or from the side as
-//! by one in front: on the shared sets most of its collisions are
-//! rear-ends by the CBV, which a planner escapes by speeding up, and which
-//! a planner that never brakes passes. The conflicts that test a planner
+//! by one in front, and a planner escapes the first two by speeding up or
+//! keeping its lane: a planner that never brakes passes them. The
+//! conflicts that test a planner
 //! put the CBV in its path: a cut-in, a merge, a turn across, a car ahead
 //! braking. So the in-path loss is the least, over lead times of 0 to
 //! [`IN_PATH_MAX_LEAD_S`], of the box distance to the ego's
