@@ -36,12 +36,11 @@ use safer_scenarios::eval::feasibility_accuracy::{
     WITNESS_HORIZON_STEPS, best_threshold_at_recall, label_state, lfr_panels, sample_states, tables_by,
 };
 use safer_scenarios::harness::evaluation::{EvaluationRequest, stage1_setup};
-use safer_scenarios::harness::methods::{MapEncodings, MethodSettings, ModelSet};
+use safer_scenarios::harness::methods::{MapEncodings, ModelSet};
 use safer_scenarios::harness::pipeline::{VariantSetup, run_stage1};
 use safer_scenarios::models::feasibility::{FEASIBILITY_FEATURES, FeasibilityValue, feasibility_features};
 use safer_scenarios::models::feasibility_oracle::EgoCbvState;
 use safer_scenarios::models::shard::{ShardColumn, write_shard};
-use safer_scenarios::policies::prior_sampling::TokenSampling;
 use safer_scenarios::record::svg::render_lfr_svg;
 use safer_scenarios::sim::Rollout;
 use safer_scenarios::spec::suite::Stage2Cbv;
@@ -283,13 +282,7 @@ fn from_stage1(
             let (sim, variant_seed) = stage1_setup(&scene.scene, method, k, &request);
             let setup = VariantSetup {
                 scenario: &scene.scene,
-                settings: MethodSettings {
-                    method,
-                    trust_region: request.trust_region,
-                    background: request.background,
-                    sampling: TokenSampling::default(),
-                    approach: request.approach,
-                },
+                settings: request.method_settings(method),
                 seed: variant_seed,
                 sim: &sim,
                 stage2_cbv: Stage2Cbv::Replay,

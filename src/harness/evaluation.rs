@@ -377,6 +377,19 @@ fn scenes_where(variants: &[&VariantRecord], happened: impl Fn(&VariantRecord) -
 /// found within budget.
 pub type WitnessSearch = dyn Fn(&Scenario, &Rollout) -> bool + Sync;
 
+impl EvaluationRequest {
+    /// How `method` drives the CBV in this evaluation's variants.
+    pub fn method_settings(&self, method: AdversaryMethod) -> MethodSettings {
+        MethodSettings {
+            method,
+            trust_region: self.trust_region,
+            background: self.background,
+            sampling: TokenSampling::default(),
+            approach: self.approach,
+        }
+    }
+}
+
 /// The simulation settings and the variant seed of `method`'s variant
 /// `seed_index` of `scenario` in an evaluation: both stages from the
 /// scene's current step over the request's horizon.
@@ -412,13 +425,7 @@ fn run_one(
     let variant = format!("{}::{}::seed-{seed_index}", scenario.id, crate::spec::spec_name(&method));
     let setup = VariantSetup {
         scenario,
-        settings: MethodSettings {
-            method,
-            trust_region: request.trust_region,
-            background: request.background,
-            sampling: TokenSampling::default(),
-            approach: request.approach,
-        },
+        settings: request.method_settings(method),
         seed,
         sim: &sim,
         stage2_cbv,
