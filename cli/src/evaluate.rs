@@ -24,6 +24,7 @@ use safer_scenarios::harness::evaluation::{
 };
 use safer_scenarios::harness::methods::BackgroundDriver;
 use safer_scenarios::harness::methods::ModelSet;
+use safer_scenarios::harness::mutation::MethodKills;
 use safer_scenarios::policies::adversary::ApproachPhase;
 use safer_scenarios::scenario::{Scenario, import};
 use safer_scenarios::spec::suite::AdversaryMethod;
@@ -450,8 +451,8 @@ fn print_kills(
         return Ok(());
     }
     let modes = settings.stage2_cbv.len();
-    let kills_of = |rows: &[MethodRow], method: AdversaryMethod, mode: Stage2Cbv| {
-        rows.iter().find(|r| r.method == method && r.stage2_cbv == mode).and_then(|r| r.kills.as_ref()).map(|k| k.kills)
+    let kills_of = |method: AdversaryMethod, mode: Stage2Cbv, count: fn(&MethodKills) -> usize| {
+        rows.iter().find(|r| r.method == method && r.stage2_cbv == mode).and_then(|r| r.kills.as_ref()).map(count)
     };
     let ratio = |k: usize, of: Option<usize>| match of {
         Some(0) if k > 0 => "inf".to_string(),
@@ -467,8 +468,8 @@ fn print_kills(
     let width = rows.iter().map(|r| label(r.method, r.stage2_cbv, modes).len()).max().unwrap_or(6).max(6);
     write!(
         out,
-        "{:<width$}  {:>6}  {:>18}  {:>6}  {:>6}  {:>7}",
-        "method", "passed", "kills | held out", "×log", "×prior", "mutants"
+        "{:<width$}  {:>6}  {:>18}  {:>6}  {:>6}  {:>11}  {:>6}  {:>6}  {:>7}",
+        "method", "passed", "kills | held out", "×log", "×prior", "scene kills", "×log", "×prior", "mutants"
     )?;
     for op in &ops {
         write!(out, "  {op:>12}")?;
@@ -487,12 +488,15 @@ fn print_kills(
         };
         write!(
             out,
-            "{:<width$}  {:>6}  {:>18}  {:>6}  {:>6}  {:>7}",
+            "{:<width$}  {:>6}  {:>18}  {:>6}  {:>6}  {:>11}  {:>6}  {:>6}  {:>7}",
             label(r.method, r.stage2_cbv, modes),
             k.variants_passed,
             kills,
-            ratio(k.kills, kills_of(rows, AdversaryMethod::Log, r.stage2_cbv)),
-            ratio(k.kills, kills_of(rows, AdversaryMethod::Prior, r.stage2_cbv)),
+            ratio(k.kills, kills_of(AdversaryMethod::Log, r.stage2_cbv, |k| k.kills)),
+            ratio(k.kills, kills_of(AdversaryMethod::Prior, r.stage2_cbv, |k| k.kills)),
+            k.scene_kills,
+            ratio(k.scene_kills, kills_of(AdversaryMethod::Log, r.stage2_cbv, |k| k.scene_kills)),
+            ratio(k.scene_kills, kills_of(AdversaryMethod::Prior, r.stage2_cbv, |k| k.scene_kills)),
             format!("{}/{}", k.mutants_killed, k.operators.len()),
         )?;
         for op in &settings.mutants {
@@ -507,8 +511,21 @@ fn print_kills(
     }
     writeln!(
         out,
-        "kills: mutant-variants killed / passed variants × mutants (right of | : on the held-out scenes); ×log, ×prior: kills over log replay's and the prior's on the same scenes and seeds; per mutant: kills (scenes where it was killed / scenes with a passed variant)."
+        "kills: mutant-variants killed / passed variants × mutants, over distinct variants (right of | : on the held-out scenes); a seed that repeats another seed's variant of its scene (the same stage-1 CBV path and the same results, as all of log replay's do) counts once{}; scene kills: (scene, mutant) pairs where some variant killed the mutant; ×log, ×prior: over log replay's and the prior's on the same scenes and seeds; per mutant: kills (scenes where it was killed / scenes with a passed variant).",
+        repeats_note(rows, modes)
     )
+}
+
+/// The repeated variants each row left out, for the kills table's note
+/// (empty when none did).
+fn repeats_note(rows: &[MethodRow], modes: usize) -> String {
+    let left_out: Vec<String> = rows
+        .iter()
+        .filter_map(|r| Some((label(r.method, r.stage2_cbv, modes), r.kills.as_ref()?.repeated_variants)))
+        .filter(|(_, n)| *n > 0)
+        .map(|(m, n)| format!("{m} {n}"))
+        .collect();
+    if left_out.is_empty() { String::new() } else { format!(" (repeats left out: {})", left_out.join(", ")) }
 }
 
 /// How many scenes [`print_scenes_that_broke_the_rules`] names per list.

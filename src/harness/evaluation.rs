@@ -27,7 +27,7 @@ use super::acceptance;
 use super::artefacts;
 use super::methods::{BackgroundDriver, MapEncodings, MethodSettings, ModelSet};
 use super::metrics::{CbvBackgroundContact, SuiteMetrics, VariantTally, cbv_background_collisions};
-use super::mutation::{MethodKills, VariantMutation, evaluation_criteria, judge_mutant};
+use super::mutation::{KillsInput, MethodKills, VariantMutation, evaluation_criteria, judge_mutant};
 use super::pipeline::{self, PlannerLatency, Stage2Verdict, VariantSetup};
 pub use super::pipeline::{Stage2Cbv, VariantProfile};
 use super::variant::variant_seed;
@@ -791,7 +791,13 @@ fn table_of(
                 yj: metrics.yaw_rate_jsd,
                 time_per_variant_s: ok.iter().map(|r| r.time_s).sum::<f64>() / n,
                 conflicts: metrics.coverage,
-                kills: MethodKills::of(ok.iter().filter_map(|r| Some((r.scenario.as_str(), r.mutation.as_ref()?)))),
+                kills: MethodKills::of(ok.iter().filter_map(|r| {
+                    Some(KillsInput {
+                        scene: &r.scenario,
+                        cbv_path_digest: r.tally.cbv_path_digest,
+                        mutation: r.mutation.as_ref()?,
+                    })
+                })),
             }
         })
         .collect()

@@ -371,14 +371,27 @@ pub struct MutantRecord {
 
 /// How many mutants a method's variants kill: the measure an adversary is
 /// judged by.
+///
+/// Kills are counted over *distinct* variants. A seed that repeats another
+/// seed's variant of its scene (the same stage-1 CBV path, to the
+/// centimetre, and the same mutation results) is one test run twice, not
+/// two tests: log replay's seeds all repeat one variant, and counting each
+/// would credit it once per seed with the same catch. The repeats are
+/// reported in [`MethodKills::repeated_variants`].
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct MethodKills {
-    /// Variants the unmutated planner passes (only these can kill).
+    /// Distinct variants the unmutated planner passes (only these can kill).
     pub variants_passed: usize,
-    /// Mutant-variants: passed variants × operators.
+    /// Mutant-variants: distinct passed variants × operators.
     pub mutant_variants: usize,
-    /// Mutant-variants killed (the planner passes, the mutant fails).
+    /// Mutant-variants killed (the planner passes, the mutant fails), each
+    /// distinct variant once.
     pub kills: usize,
+    /// (scene, fault) pairs caught: for each operator, the scenes where
+    /// some variant killed it, summed over the operators.
+    pub scene_kills: usize,
+    /// Variants left out as repeats of a distinct one.
+    pub repeated_variants: usize,
     /// Operators killed on at least one variant.
     pub mutants_killed: usize,
     /// Per operator.
@@ -390,7 +403,7 @@ pub struct MethodKills {
 pub struct OperatorKills {
     /// The fault.
     pub operator: FaultOperator,
-    /// Variants that killed it.
+    /// Distinct variants that killed it.
     pub kills: usize,
     /// Scenes with at least one variant that killed it.
     pub scenes_killed: usize,
@@ -398,27 +411,52 @@ pub struct OperatorKills {
     pub scenes: usize,
 }
 
+/// One variant's mutation run as [`MethodKills::of`] counts it.
+#[derive(Debug, Clone, Copy)]
+pub struct KillsInput<'a> {
+    /// Its scene's id.
+    pub scene: &'a str,
+    /// The digest of its CBV's stage-1 path (`None`: no CBV path; never a
+    /// repeat).
+    pub cbv_path_digest: Option<u64>,
+    /// The run.
+    pub mutation: &'a VariantMutation,
+}
+
 impl MethodKills {
-    /// The kills of the variants given as (scene id, mutation run); `None`
-    /// when no variant carries a mutation run.
-    pub fn of<'a>(variants: impl IntoIterator<Item = (&'a str, &'a VariantMutation)>) -> Option<MethodKills> {
+    /// The kills of `variants`, repeats counted once; `None` when no
+    /// variant carries a mutation run.
+    pub fn of<'a>(variants: impl IntoIterator<Item = KillsInput<'a>>) -> Option<MethodKills> {
         use std::collections::{BTreeMap, BTreeSet};
         let mut any = false;
         let mut passed = 0;
+        let mut repeated = 0;
+        let mut seen: Vec<KillsInput<'a>> = Vec::new();
         let mut scenes: BTreeSet<&str> = BTreeSet::new();
         let mut per_op: BTreeMap<FaultOperator, (usize, BTreeSet<&str>)> = BTreeMap::new();
-        for (scene, m) in variants {
+        for v in variants {
             any = true;
-            if m.base_failure.is_some() {
+            let repeats = |s: &KillsInput<'_>| {
+                s.scene == v.scene
+                    && v.cbv_path_digest.is_some()
+                    && s.cbv_path_digest == v.cbv_path_digest
+                    && s.mutation == v.mutation
+            };
+            if seen.iter().any(repeats) {
+                repeated += 1;
+                continue;
+            }
+            seen.push(v);
+            if v.mutation.base_failure.is_some() {
                 continue;
             }
             passed += 1;
-            scenes.insert(scene);
-            for r in &m.mutants {
+            scenes.insert(v.scene);
+            for r in &v.mutation.mutants {
                 let (kills, where_) = per_op.entry(r.operator).or_default();
                 if r.killed {
                     *kills += 1;
-                    where_.insert(scene);
+                    where_.insert(v.scene);
                 }
             }
         }
@@ -438,6 +476,8 @@ impl MethodKills {
             variants_passed: passed,
             mutant_variants: passed * operators.len(),
             kills: operators.iter().map(|o| o.kills).sum(),
+            scene_kills: operators.iter().map(|o| o.scenes_killed).sum(),
+            repeated_variants: repeated,
             mutants_killed: operators.iter().filter(|o| o.kills > 0).count(),
             operators,
         })
@@ -499,6 +539,56 @@ mod tests {
         assert_eq!((report.variants, report.killed, report.score), (0, 0, Some(0.0)));
         let err = report.check(&acceptance(0.0)).unwrap().result.unwrap_err();
         assert!(err.contains("passes none"), "{err}");
+    }
+
+    fn run(killed: &[bool]) -> VariantMutation {
+        VariantMutation {
+            base_failure: None,
+            mutants: killed
+                .iter()
+                .zip(FaultOperator::ALL)
+                .map(|(&killed, &operator)| MutantRecord {
+                    operator,
+                    killed,
+                    failure: killed.then(|| "no_off_road: ego left the road at t = 2.0 s".into()),
+                    error: None,
+                })
+                .collect(),
+        }
+    }
+
+    #[test]
+    fn a_seed_that_repeats_a_variant_counts_once_and_scene_kills_count_scene_fault_pairs() {
+        let (first, other) = (run(&[true, false]), run(&[true, true]));
+        let failed = VariantMutation { base_failure: Some("no_off_road: x".into()), mutants: vec![] };
+        let input = |scene, digest, mutation| KillsInput { scene, cbv_path_digest: digest, mutation };
+        let kills = MethodKills::of([
+            // Log replay's three seeds of one scene: one variant.
+            input("a", Some(1), &first),
+            input("a", Some(1), &first),
+            input("a", Some(1), &first),
+            // The same path with other results is not a repeat; nor is
+            // the same result on another path, or in another scene.
+            input("a", Some(1), &other),
+            input("a", Some(2), &first),
+            input("b", Some(1), &first),
+            // Without a path digest nothing is a repeat.
+            input("c", None, &first),
+            input("c", None, &first),
+            // A repeated failure of the planner is left out, too.
+            input("d", Some(3), &failed),
+            input("d", Some(3), &failed),
+        ])
+        .unwrap();
+        assert_eq!(kills.repeated_variants, 3);
+        assert_eq!(kills.variants_passed, 6);
+        assert_eq!(kills.mutant_variants, 12);
+        // no-brake by all six, weak-brake by the one with other results.
+        assert_eq!(kills.kills, 7);
+        assert_eq!((kills.operators[0].kills, kills.operators[0].scenes_killed, kills.operators[0].scenes), (6, 3, 3));
+        assert_eq!((kills.operators[1].kills, kills.operators[1].scenes_killed), (1, 1));
+        assert_eq!(kills.scene_kills, 4);
+        assert_eq!(MethodKills::of(std::iter::empty()), None);
     }
 
     #[test]
