@@ -468,8 +468,8 @@ fn print_kills(
     let width = rows.iter().map(|r| label(r.method, r.stage2_cbv, modes).len()).max().unwrap_or(6).max(6);
     write!(
         out,
-        "{:<width$}  {:>6}  {:>18}  {:>6}  {:>6}  {:>11}  {:>6}  {:>6}  {:>7}",
-        "method", "passed", "kills | held out", "×log", "×prior", "scene kills", "×log", "×prior", "mutants"
+        "{:<width$}  {:>6}  {:>18}  {:>6}  {:>6}  {:>11}  {:>6}  {:>6}  {:>6}  {:>7}",
+        "method", "passed", "kills | held out", "×log", "×prior", "scene kills", "×log", "×prior", "by CBV", "mutants"
     )?;
     for op in &ops {
         write!(out, "  {op:>12}")?;
@@ -488,7 +488,7 @@ fn print_kills(
         };
         write!(
             out,
-            "{:<width$}  {:>6}  {:>18}  {:>6}  {:>6}  {:>11}  {:>6}  {:>6}  {:>7}",
+            "{:<width$}  {:>6}  {:>18}  {:>6}  {:>6}  {:>11}  {:>6}  {:>6}  {:>6}  {:>7}",
             label(r.method, r.stage2_cbv, modes),
             k.variants_passed,
             kills,
@@ -497,6 +497,7 @@ fn print_kills(
             k.scene_kills,
             ratio(k.scene_kills, kills_of(AdversaryMethod::Log, r.stage2_cbv, |k| k.scene_kills)),
             ratio(k.scene_kills, kills_of(AdversaryMethod::Prior, r.stage2_cbv, |k| k.scene_kills)),
+            k.cbv_kills,
             format!("{}/{}", k.mutants_killed, k.operators.len()),
         )?;
         for op in &settings.mutants {
@@ -511,7 +512,7 @@ fn print_kills(
     }
     writeln!(
         out,
-        "kills: mutant-variants killed / passed variants × mutants, over distinct variants (right of | : on the held-out scenes); a seed that repeats another seed's variant of its scene (the same stage-1 CBV path and the same results, as all of log replay's do) counts once{}; scene kills: (scene, mutant) pairs where some variant killed the mutant; ×log, ×prior: over log replay's and the prior's on the same scenes and seeds; per mutant: kills (scenes where it was killed / scenes with a passed variant).",
+        "kills: mutant-variants killed / passed variants × mutants, over distinct variants (right of | : on the held-out scenes); a seed that repeats another seed's variant of its scene (the same stage-1 CBV path and the same results, as all of log replay's do) counts once{}; scene kills: (scene, mutant) pairs where some variant killed the mutant; by CBV: kills whose mutant collided with the CBV (the rest it failed against the recorded traffic, the road or the vehicle limits); ×log, ×prior: over log replay's and the prior's on the same scenes and seeds; per mutant: kills (scenes where it was killed / scenes with a passed variant).",
         repeats_note(rows, modes)
     )
 }

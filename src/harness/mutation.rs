@@ -41,6 +41,15 @@ impl MutantRun {
     }
 }
 
+/// A mutant's stage 2 judged.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MutantJudgement {
+    /// The criteria it failed (empty: it passed).
+    pub failures: Vec<AcceptanceFailure>,
+    /// Its ego collided with the CBV.
+    pub hit_cbv: bool,
+}
+
 /// Stage 2 of `setup` played with `operator` planted, after `stage1`, and
 /// judged by `criteria` as the unmutated planner is (the closed-loop
 /// witness too, for a collision).
@@ -49,7 +58,7 @@ pub fn judge_mutant(
     stage1: &Rollout,
     criteria: &VariantAcceptance,
     operator: FaultOperator,
-) -> Result<Vec<AcceptanceFailure>, HarnessError> {
+) -> Result<MutantJudgement, HarnessError> {
     let setup = VariantSetup { fault: Some(operator), ..*setup };
     let played = pipeline::play_stage2(&setup, stage1)?;
     let escape = match (setup.escape, Stage2Verdict::of(&played.stage2)) {
@@ -60,7 +69,10 @@ pub fn judge_mutant(
     };
     let min_ttc = min_time_to_collision(&played.stage2);
     let escape = escape.as_ref().map(CollisionEscape::of);
-    Ok(acceptance::check(criteria, &played.stage2, setup.scenario, min_ttc, escape))
+    Ok(MutantJudgement {
+        failures: acceptance::check(criteria, &played.stage2, setup.scenario, min_ttc, escape),
+        hit_cbv: played.stage2.summary().ego_collision.is_some_and(|c| c.with_cbv),
+    })
 }
 
 /// The mutants of `operators` on variant `index` of `scenario`, whose
@@ -90,7 +102,9 @@ pub fn run_mutants(
         .iter()
         .map(|&operator| MutantRun {
             operator,
-            failures: judge_mutant(&setup, &base.stage1, criteria, operator).map_err(|e| e.to_string()),
+            failures: judge_mutant(&setup, &base.stage1, criteria, operator)
+                .map(|j| j.failures)
+                .map_err(|e| e.to_string()),
         })
         .collect()
 }
@@ -332,7 +346,7 @@ impl VariantMutation {
     pub fn run(
         base: &[AcceptanceFailure],
         operators: &[FaultOperator],
-        mut judge: impl FnMut(FaultOperator) -> Result<Vec<AcceptanceFailure>, HarnessError>,
+        mut judge: impl FnMut(FaultOperator) -> Result<MutantJudgement, HarnessError>,
     ) -> VariantMutation {
         if let Some(first) = base.first() {
             return VariantMutation {
@@ -343,13 +357,16 @@ impl VariantMutation {
         let mutants = operators
             .iter()
             .map(|&operator| match judge(operator) {
-                Ok(failures) => MutantRecord {
+                Ok(judged) => MutantRecord {
                     operator,
-                    killed: !failures.is_empty(),
-                    failure: failures.first().map(|f| format!("{}: {}", f.criterion, f.what)),
+                    killed: !judged.failures.is_empty(),
+                    failure: judged.failures.first().map(|f| format!("{}: {}", f.criterion, f.what)),
+                    hit_cbv: judged.hit_cbv,
                     error: None,
                 },
-                Err(e) => MutantRecord { operator, killed: false, failure: None, error: Some(e.to_string()) },
+                Err(e) => {
+                    MutantRecord { operator, killed: false, failure: None, hit_cbv: false, error: Some(e.to_string()) }
+                }
             })
             .collect();
         VariantMutation { base_failure: None, mutants }
@@ -365,6 +382,10 @@ pub struct MutantRecord {
     pub killed: bool,
     /// The mutant's first failed criterion.
     pub failure: Option<String>,
+    /// The mutant's ego collided with the CBV (`false` in reports written
+    /// before this was recorded).
+    #[serde(default)]
+    pub hit_cbv: bool,
     /// Why the mutant could not run.
     pub error: Option<String>,
 }
@@ -390,6 +411,9 @@ pub struct MethodKills {
     /// (scene, fault) pairs caught: for each operator, the scenes where
     /// some variant killed it, summed over the operators.
     pub scene_kills: usize,
+    /// Kills whose mutant collided with the CBV: the faults the CBV
+    /// itself caught, not the recorded traffic or the road.
+    pub cbv_kills: usize,
     /// Variants left out as repeats of a distinct one.
     pub repeated_variants: usize,
     /// Operators killed on at least one variant.
@@ -431,6 +455,7 @@ impl MethodKills {
         let mut any = false;
         let mut passed = 0;
         let mut repeated = 0;
+        let mut cbv_kills = 0;
         let mut seen: Vec<KillsInput<'a>> = Vec::new();
         let mut scenes: BTreeSet<&str> = BTreeSet::new();
         let mut per_op: BTreeMap<FaultOperator, (usize, BTreeSet<&str>)> = BTreeMap::new();
@@ -456,6 +481,7 @@ impl MethodKills {
                 let (kills, where_) = per_op.entry(r.operator).or_default();
                 if r.killed {
                     *kills += 1;
+                    cbv_kills += usize::from(r.hit_cbv);
                     where_.insert(v.scene);
                 }
             }
@@ -477,6 +503,7 @@ impl MethodKills {
             mutant_variants: passed * operators.len(),
             kills: operators.iter().map(|o| o.kills).sum(),
             scene_kills: operators.iter().map(|o| o.scenes_killed).sum(),
+            cbv_kills,
             repeated_variants: repeated,
             mutants_killed: operators.iter().filter(|o| o.kills > 0).count(),
             operators,
@@ -551,6 +578,7 @@ mod tests {
                     operator,
                     killed,
                     failure: killed.then(|| "no_off_road: ego left the road at t = 2.0 s".into()),
+                    hit_cbv: false,
                     error: None,
                 })
                 .collect(),
@@ -559,7 +587,8 @@ mod tests {
 
     #[test]
     fn a_seed_that_repeats_a_variant_counts_once_and_scene_kills_count_scene_fault_pairs() {
-        let (first, other) = (run(&[true, false]), run(&[true, true]));
+        let (first, mut other) = (run(&[true, false]), run(&[true, true]));
+        other.mutants[1].hit_cbv = true;
         let failed = VariantMutation { base_failure: Some("no_off_road: x".into()), mutants: vec![] };
         let input = |scene, digest, mutation| KillsInput { scene, cbv_path_digest: digest, mutation };
         let kills = MethodKills::of([
@@ -588,6 +617,7 @@ mod tests {
         assert_eq!((kills.operators[0].kills, kills.operators[0].scenes_killed, kills.operators[0].scenes), (6, 3, 3));
         assert_eq!((kills.operators[1].kills, kills.operators[1].scenes_killed), (1, 1));
         assert_eq!(kills.scene_kills, 4);
+        assert_eq!(kills.cbv_kills, 1);
         assert_eq!(MethodKills::of(std::iter::empty()), None);
     }
 
