@@ -456,22 +456,20 @@ impl MethodKills {
         let mut passed = 0;
         let mut repeated = 0;
         let mut cbv_kills = 0;
-        let mut seen: Vec<KillsInput<'a>> = Vec::new();
+        // The runs already counted, by (scene, CBV path).
+        let mut seen: BTreeMap<(&str, u64), Vec<&VariantMutation>> = BTreeMap::new();
         let mut scenes: BTreeSet<&str> = BTreeSet::new();
         let mut per_op: BTreeMap<FaultOperator, (usize, BTreeSet<&str>)> = BTreeMap::new();
         for v in variants {
             any = true;
-            let repeats = |s: &KillsInput<'_>| {
-                s.scene == v.scene
-                    && v.cbv_path_digest.is_some()
-                    && s.cbv_path_digest == v.cbv_path_digest
-                    && s.mutation == v.mutation
-            };
-            if seen.iter().any(repeats) {
-                repeated += 1;
-                continue;
+            if let Some(digest) = v.cbv_path_digest {
+                let runs = seen.entry((v.scene, digest)).or_default();
+                if runs.contains(&v.mutation) {
+                    repeated += 1;
+                    continue;
+                }
+                runs.push(v.mutation);
             }
-            seen.push(v);
             if v.mutation.base_failure.is_some() {
                 continue;
             }
