@@ -37,6 +37,9 @@ const WITNESS_TARGET_MS: f64 = 10.0;
 const CLOSED_LOOP_RATIO_TARGET: f64 = 2.0;
 /// Most a `safer-in-path` variant may cost, as a multiple of a `safer` variant.
 const IN_PATH_RATIO_TARGET: f64 = 2.0;
+/// The trust region of the wider `safer-in-path` the bench times: the one
+/// `specs/suites/adversarial-ngsim.yaml` ships with (a test holds them equal).
+const WIDE_IN_PATH_TRUST_REGION: usize = 60;
 /// Target for the closed-loop witness of one collision, ms.
 const CLOSED_LOOP_WITNESS_TARGET_MS: f64 = 2000.0;
 /// Horizon of the benchmarked variant, s (`safer evaluate`'s default).
@@ -138,6 +141,12 @@ struct VariantBench {
     in_path_variant_ms: f64,
     /// `safer-in-path / safer variant`, alternated in the same run (target at most 2).
     in_path_ratio_to_safer: f64,
+    /// The trust region of the wide `safer-in-path` run: the shipped NGSIM suite's.
+    in_path_wide_trust_region: usize,
+    /// The same variant with `safer-in-path` over that wider region, ms.
+    in_path_wide_variant_ms: f64,
+    /// `safer-in-path (wide region) / safer variant`, alternated in the same run (target at most 2).
+    in_path_wide_ratio_to_safer: f64,
     /// The closed-loop witness of a stage-1 collision (the CBV reacting to
     /// the escapes tried), ms; `None` when no seed of 0..20 collides.
     closed_loop_witness: Option<ClosedLoopWitnessBench>,
@@ -223,6 +232,20 @@ pub(super) fn run(scenes: &Path, repeat: usize, json: Option<&Path>) -> Result<E
                 v.in_path_ratio_to_safer / IN_PATH_RATIO_TARGET
             )?;
             writeln!(out, "{:<52} {:>10.2}", "    safer-in-path / safer variant (same run)", v.in_path_ratio_to_safer)?;
+            writeln!(
+                out,
+                "{:<52} {:>10.1} {:>10} {:>10.2}",
+                format!("  variant made by safer-in-path, n = {}", v.in_path_wide_trust_region),
+                v.in_path_wide_variant_ms,
+                format!("{IN_PATH_RATIO_TARGET}× safer"),
+                v.in_path_wide_ratio_to_safer / IN_PATH_RATIO_TARGET
+            )?;
+            writeln!(
+                out,
+                "{:<52} {:>10.2}",
+                format!("    safer-in-path, n = {} / safer variant (same run)", v.in_path_wide_trust_region),
+                v.in_path_wide_ratio_to_safer
+            )?;
             match &v.closed_loop_witness {
                 Some(w) => writeln!(
                     out,
@@ -463,13 +486,20 @@ fn bench_variant(scenes: &[Scenario], repeat: usize) -> Result<Option<VariantBen
     // The same variant made by `safer-in-path`, alternating with `safer`.
     let in_path =
         VariantSetup { settings: MethodSettings { method: AdversaryMethod::SaferInPath, ..setup.settings }, ..setup };
+    let in_path_wide = VariantSetup {
+        settings: MethodSettings { trust_region: WIDE_IN_PATH_TRUST_REGION, ..in_path.settings },
+        ..in_path
+    };
     pipeline::run(in_path)?;
-    let (mut safer_times, mut in_path_times) = (Vec::new(), Vec::new());
+    pipeline::run(in_path_wide)?;
+    let (mut safer_times, mut in_path_times, mut wide_times) = (Vec::new(), Vec::new(), Vec::new());
     for _ in 0..repeat {
         safer_times.push(time(1, || pipeline::run(setup)).0);
         in_path_times.push(time(1, || pipeline::run(in_path)).0);
+        wide_times.push(time(1, || pipeline::run(in_path_wide)).0);
     }
     let (safer_ms, in_path_variant_ms) = (ms(median(safer_times)), ms(median(in_path_times)));
+    let in_path_wide_variant_ms = ms(median(wide_times));
 
     // The closed-loop witness of a collision: the ego on log replay against
     // a closed-loop CBV is stage 1 itself, so a critical seed's stage 1 is
@@ -519,6 +549,9 @@ fn bench_variant(scenes: &[Scenario], repeat: usize) -> Result<Option<VariantBen
         closed_loop_ratio_to_replay: closed_loop_variant_ms / replay_ms,
         in_path_variant_ms,
         in_path_ratio_to_safer: in_path_variant_ms / safer_ms,
+        in_path_wide_trust_region: WIDE_IN_PATH_TRUST_REGION,
+        in_path_wide_variant_ms,
+        in_path_wide_ratio_to_safer: in_path_wide_variant_ms / safer_ms,
         closed_loop_witness,
     }))
 }
@@ -556,5 +589,18 @@ pub(crate) fn command(args: BenchArgs) -> Result<ExitCode, CliError> {
             },
             args.json.as_deref(),
         ),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_wide_in_path_region_is_the_one_the_ngsim_suite_ships_with() {
+        let suite = concat!(env!("CARGO_MANIFEST_DIR"), "/../specs/suites/adversarial-ngsim.yaml");
+        let loaded = safer_scenarios::spec::suite::load(std::path::Path::new(suite)).unwrap();
+        assert_eq!(loaded.value.adversary.method, AdversaryMethod::SaferInPath);
+        assert_eq!(loaded.value.adversary.trust_region, WIDE_IN_PATH_TRUST_REGION);
     }
 }
