@@ -138,6 +138,7 @@ impl ShardWriter {
         ];
         let mut next_token = Vec::with_capacity(n);
         let mut scene = Vec::with_capacity(n);
+        let mut lane_change = Vec::with_capacity(n);
         for (s, sample) in &self.samples {
             let q = &sample.query;
             for (name, col, _) in &mut cols {
@@ -155,11 +156,16 @@ impl ShardWriter {
             }
             next_token.push(i64::from(sample.next_token.0));
             scene.push(*s as i64);
+            lane_change.push(i64::from(sample.lane_change));
         }
         let columns: Vec<ShardColumn> = cols
             .into_iter()
             .map(|(name, v, shape)| ShardColumn::f32(name, shape, &v))
-            .chain([ShardColumn::i64("next_token", vec![n], &next_token), ShardColumn::i64("scene", vec![n], &scene)])
+            .chain([
+                ShardColumn::i64("next_token", vec![n], &next_token),
+                ShardColumn::i64("scene", vec![n], &scene),
+                ShardColumn::i64("lane_change", vec![n], &lane_change),
+            ])
             .collect();
         let scenes = serde_json::to_string(&self.scenes)
             .map_err(|source| DatasetError::Metadata { path: path.to_path_buf(), source })?;
@@ -594,6 +600,15 @@ mod tests {
         assert!(tokens.iter().all(|&t| (0..VOCABULARY_SIZE as i64).contains(&t)));
         let scene_col = shard.tensor("scene").unwrap();
         assert!(scene_col.data().chunks_exact(8).all(|b| i64::from_le_bytes(b.try_into().unwrap()) == 0));
+        let lane_change: Vec<i64> = shard
+            .tensor("lane_change")
+            .unwrap()
+            .data()
+            .chunks_exact(8)
+            .map(|b| i64::from_le_bytes(b.try_into().unwrap()))
+            .collect();
+        let flagged: Vec<i64> = samples.iter().map(|s| i64::from(s.lane_change)).collect();
+        assert_eq!(lane_change, flagged, "one flag a sample, in the samples' order");
         std::fs::remove_dir_all(&dir).unwrap();
     }
 

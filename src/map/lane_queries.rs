@@ -258,6 +258,33 @@ impl RoadMap {
         let follows = |x: MapElementId, y: MapElementId| self.lane(x).is_some_and(|l| l.successors.contains(&y));
         a == b || follows(a, b) || follows(b, a)
     }
+
+    /// Whether a vehicle that was at `from` (position, heading) and is now
+    /// at `to` has changed lanes: both lie in lanes going their way, none of
+    /// `to`'s lanes is one of `from`'s or continues it, and one of them is a
+    /// left or right neighbour of one of `from`'s lanes, of a successor of
+    /// one, or a successor of such a neighbour (a change over a few seconds
+    /// may cross a joint between lane pieces on either side).
+    pub fn changed_lane(&self, from: (&Point2, f64), to: (&Point2, f64)) -> bool {
+        let (before, after) = (self.lanes_containing(from.0, from.1), self.lanes_containing(to.0, to.1));
+        if before.is_empty() || after.is_empty() {
+            return false;
+        }
+        if after.iter().any(|&a| before.iter().any(|&b| self.lanes_connected(a, b))) {
+            return false;
+        }
+        let lanes = |ids: &[MapElementId]| -> Vec<&Lane> { ids.iter().filter_map(|&id| self.lane(id)).collect() };
+        let successors = |ids: &[MapElementId]| -> Vec<MapElementId> {
+            lanes(ids).iter().flat_map(|l| l.successors.iter().copied()).collect()
+        };
+        let neighbours = |ids: &[MapElementId]| -> Vec<MapElementId> {
+            lanes(ids).iter().flat_map(|l| l.left_neighbours.iter().chain(&l.right_neighbours).copied()).collect()
+        };
+        let with_next: Vec<MapElementId> = before.iter().copied().chain(successors(&before)).collect();
+        let beside = neighbours(&with_next);
+        let reached: Vec<MapElementId> = beside.iter().copied().chain(successors(&beside)).collect();
+        after.iter().any(|a| reached.contains(a))
+    }
 }
 
 #[cfg(test)]
@@ -270,6 +297,19 @@ mod tests {
         let line = pl(pts);
         let n = line.length_m().floor() as usize;
         (0..=n).filter_map(|i| line.sample(i as f64).map(|(p, _)| p)).collect()
+    }
+
+    #[test]
+    fn moving_into_the_neighbour_lane_is_a_lane_change_and_keeping_the_lane_is_not() {
+        use crate::map::templates::{MapTemplate, StraightRoad};
+        // Two lanes along +x, 3.5 m wide: lane centres at y = 1.75 and 5.25.
+        let road: StraightRoad = serde_json::from_value(serde_json::json!({"lanes": 2, "length_m": 400})).unwrap();
+        let map = MapTemplate::Straight(road).build();
+        let at = |x: f64, y: f64| Point2::new(x, y);
+        assert!(map.changed_lane((&at(50.0, 1.75), 0.0), (&at(110.0, 5.25), 0.0)));
+        assert!(map.changed_lane((&at(50.0, 5.25), 0.0), (&at(110.0, 1.75), 0.0)));
+        assert!(!map.changed_lane((&at(50.0, 1.75), 0.0), (&at(110.0, 1.75), 0.0)), "kept its lane");
+        assert!(!map.changed_lane((&at(50.0, 1.75), 0.0), (&at(110.0, 30.0), 0.0)), "off the road is no lane");
     }
 
     #[test]

@@ -134,6 +134,27 @@ pub struct PriorSample {
     pub map_tokens: Vec<f32>,
     /// The token applied next.
     pub next_token: Token,
+    /// Whether the recorded agent is in another lane [`LANE_CHANGE_LOOKAHEAD_S`]
+    /// later (a lane change under way or about to start: training may weight
+    /// these samples; the prior never reads it).
+    pub lane_change: bool,
+}
+
+/// How far ahead a sample looks for the lane change it is part of, s: a
+/// lane change takes 3–6 s, so the samples of its first half and those
+/// just before it look across it.
+pub const LANE_CHANGE_LOOKAHEAD_S: f64 = 3.0;
+
+/// Whether the recorded `agent` of `scenario` is in another lane
+/// [`LANE_CHANGE_LOOKAHEAD_S`] after `step` than at `step` (false where the
+/// track ends sooner or the map has no lane there).
+fn changes_lane(scenario: &Scenario, agent: usize, step: usize) -> bool {
+    let later = step + (LANE_CHANGE_LOOKAHEAD_S / scenario.dt_s).round() as usize;
+    let track = &scenario.tracks[agent];
+    match (track.state(step), track.state(later)) {
+        (Some(a), Some(b)) => scenario.map.changed_lane((&a.position, a.heading_rad), (&b.position, b.heading_rad)),
+        _ => false,
+    }
 }
 
 /// Every sample of a scene: each agent at each token boundary where it has
@@ -154,7 +175,8 @@ pub fn scene_samples(scenario: &Scenario, drift: Option<TokenDrift>) -> Vec<Prio
                         .copy_from_slice(&map.tokens[i as usize].features);
                 }
             }
-            Some(PriorSample { query, map_tokens, next_token: scene.labels[&(agent, step)] })
+            let lane_change = changes_lane(scenario, agent, step);
+            Some(PriorSample { query, map_tokens, next_token: scene.labels[&(agent, step)], lane_change })
         })
         .collect()
 }
@@ -223,6 +245,47 @@ mod tests {
         let drawn: Vec<Token> = (0..200).map(|_| both.perturb(&mut rng, token)).collect();
         assert!(
             drawn.iter().any(|t| t.yaw_rate_bin() != 40) && drawn.iter().all(|t| t.yaw_rate_bin().abs_diff(40) <= 3)
+        );
+    }
+
+    #[test]
+    fn samples_before_a_recorded_lane_change_are_flagged_and_lane_keeping_ones_are_not() {
+        use crate::map::templates::{MapTemplate, StraightRoad};
+        let road: StraightRoad = serde_json::from_value(serde_json::json!({"lanes": 2, "length_m": 400})).unwrap();
+        // 12 s at 10 m/s: in the right lane (y = 1.75) until 4 s, over to
+        // the left one (y = 5.25) by 8 s, then on in it.
+        let y = |t: f64| 1.75 + 3.5 * (0.5 - 0.5 * (std::f64::consts::PI * ((t - 4.0) / 4.0).clamp(0.0, 1.0)).cos());
+        let states = (0..=120)
+            .map(|k| {
+                let t = k as f64 * 0.1;
+                let heading = (y(t + 0.05) - y(t - 0.05)).atan2(1.0);
+                Some(AgentState {
+                    position: Point2::new(10.0 + 10.0 * t, y(t)),
+                    heading_rad: heading,
+                    velocity_mps: crate::geometry::Vector2::new(heading.cos(), heading.sin()) * 10.0,
+                })
+            })
+            .collect();
+        let track = Track { id: AgentId("car".into()), kind: AgentKind::Vehicle, length_m: 4.5, width_m: 1.9, states };
+        let scene = Scenario::new(
+            "lane-change",
+            ScenarioSource::authored("test"),
+            0.1,
+            MapTemplate::Straight(road).build(),
+            vec![track],
+        );
+        let flagged: Vec<(usize, bool)> = TokenizedScene::new(&scene)
+            .labelled_boundaries()
+            .into_iter()
+            .map(|(step, agent)| (step, changes_lane(&scene, agent, step)))
+            .collect();
+        let at = |step: usize| flagged.iter().find(|(s, _)| *s == step).map(|(_, f)| *f);
+        assert_eq!(at(5), Some(false), "3.5 s on it is still in its lane");
+        assert_eq!(at(40), Some(true), "3 s into the change it is in the other lane 3 s later");
+        assert_eq!(at(90), Some(false), "after the change it keeps the new lane");
+        assert_eq!(
+            scene_samples(&scene, None).iter().filter(|s| s.lane_change).count(),
+            flagged.iter().filter(|f| f.1).count()
         );
     }
 

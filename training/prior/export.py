@@ -38,7 +38,7 @@ DEC_INPUTS = ["history", "agent_self", "neighbours", "neighbour_pose", "neighbou
 # train.py flags that change the model, with their defaults: the card's command names those that differ.
 RECIPE_DEFAULTS = {"d": 64, "heads": 8, "layers": 3, "seed": 0, "ngsim_weight": 3.0, "map_feature_dropout": 0.0,
                    "turning_weight": 1.0, "vulnerable_ahead_weight": 1.0, "map_token_features": 7,
-                   "turn_only_lane_weight": 1.0}
+                   "turn_only_lane_weight": 1.0, "lane_change_weight": 1.0}
 MEANING = {
     "history": "6 history points (t-2.5 s .. t) in the agent's frame: x_m, y_m, cos dh, sin dh, speed_mps, accel_mps2, yaw_rate_radps, valid",
     "agent_self": "length_m, width_m, kind one-hot (vehicle, pedestrian, cyclist, other)",

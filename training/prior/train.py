@@ -47,6 +47,7 @@ def load_shards(folder, held_out_only=False, map_token_features=7):
     of each map token (contract 1) or all 10 (contract 2: the lane's turn
     ahead), which needs shards of contract 2."""
     parts = {k: [] for k in KEYS + ["next_token"]}
+    lane_change = []  # optional: shards written before the column have none
     split, source = [], []
     purposes, recipes = set(), set()
     files = sorted(glob.glob(os.path.join(folder, "shard-*.safetensors")))
@@ -71,11 +72,15 @@ def load_shards(folder, held_out_only=False, map_token_features=7):
             for k in parts:
                 t = st.get_tensor(k)[keep]
                 parts[k].append(t[..., :map_token_features] if k == "map_tokens" else t)
+            if "lane_change" in st.keys():
+                lane_change.append(st.get_tensor("lane_change")[keep])
             split.append(held[keep])
             source.append(np.array([scenes[i]["source"] != "synthetic" for i in sc])[keep])
     if len(purposes) > 1 or len(recipes) > 1:
         sys.exit(f"{folder}: shards of different datasets (purposes {sorted(purposes)}, recipes {sorted(recipes)})")
     data = {k: torch.from_numpy(np.concatenate(v)) for k, v in parts.items()}
+    if len(lane_change) == len(files):
+        data["lane_change"] = torch.from_numpy(np.concatenate(lane_change))
     return data, np.concatenate(split), np.concatenate(source), files
 
 
@@ -280,6 +285,9 @@ def main():
     ap.add_argument("--turn-only-lane-weight", type=float, default=1.0,
                     help="draw the training samples whose own lane turns one way only (every way ahead turns right, "
                          "or every way left, by 0.5 rad or more) this many times as often; needs --map-token-features 10")
+    ap.add_argument("--lane-change-weight", type=float, default=1.0,
+                    help="draw the samples whose agent is in another lane 3 s later (a lane change under way "
+                         "or about to start: the shards' lane_change column) W times as often")
     ap.add_argument("--map-token-features", type=int, choices=[7, 10], default=7,
                     help="values per map token the map encoder reads: 7 (feature contract 1, the shipped prior's) or "
                          "10 (contract 2: also the lane's turn ahead along the lane graph)")
@@ -311,6 +319,13 @@ def main():
         weights = weights * np.where(turn_only, a.turn_only_lane_weight, 1.0)
         print(f"on a turn-only lane: {turn_only.mean():.4f} of the training samples, drawn "
               f"{a.turn_only_lane_weight}x as often", flush=True)
+    if a.lane_change_weight != 1.0:
+        if "lane_change" not in data:
+            sys.exit(f"{a.data}: the shards have no lane_change column (write them again with `safer prior-dataset`)")
+        changing = data["lane_change"][train_idx].cpu().numpy() > 0
+        weights = weights * np.where(changing, a.lane_change_weight, 1.0)
+        print(f"in a lane change: {changing.mean():.4f} of the training samples, drawn "
+              f"{a.lane_change_weight}x as often", flush=True)
     if a.vulnerable_ahead_weight != 1.0:
         ahead = has_vulnerable_ahead(*(data[k][train_idx].cpu().numpy()
                                        for k in ("neighbours", "neighbour_pose", "neighbour_mask")))
@@ -403,6 +418,7 @@ def main():
         "history_dropout": a.history_dropout,
         "turn_only_lane_weight": a.turn_only_lane_weight,
         "turning_weight": a.turning_weight,
+        "lane_change_weight": a.lane_change_weight,
         "vulnerable_ahead_weight": a.vulnerable_ahead_weight,
     }
     json.dump(summary, open(os.path.join(a.out, "summary.json"), "w"), indent=2)
