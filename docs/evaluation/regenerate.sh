@@ -23,6 +23,9 @@
 #   n100              evaluate-womd-interactive-n100.txt (7 min on 2 cores)
 #   approach-none     approach-none/*.txt: the paper's protocol, one variant a
 #                     scene (the adversary engages at the first token)
+#   wide-region       mutants-{womd-interactive,ngsim}-evasive-n{60,100}.txt and
+#                     mutants-ngsim-lane-follower-n{60,100}.txt: log replay, the prior
+#                     and safer-in-path over wider trust regions (the NGSIM suite's 60)
 #   mutants           mutants-{womd-interactive,womd-json,ngsim}-evasive.txt and
 #                     mutants-{womd-interactive,ngsim}-lane-follower.txt: the
 #                     faults of the planner each method's variants catch
@@ -36,7 +39,7 @@ set -euo pipefail
 : "${SAFER_DATA_DIR:?set SAFER_DATA_DIR to the folder of the recorded datasets}"
 self=$(realpath "$0")
 cd "$(dirname "$self")"
-all=(evaluate plain inattentive held-out-chance trust-region realism prior-fit n-sweep reactive n100 approach-none mutants)
+all=(evaluate plain inattentive held-out-chance trust-region realism prior-fit n-sweep reactive n100 approach-none mutants wide-region)
 jobs=("$@")
 [[ ${#jobs[@]} -gt 0 ]] || jobs=("${all[@]}")
 # The usage is the comment block at the top of this file.
@@ -145,6 +148,16 @@ for job in "${jobs[@]}"; do
         for s in womd-interactive:womd-interactive commonroad-ngsim:ngsim; do
             run "mutants-${s#*:}-lane-follower.txt" evaluate --scenes "data:${s%%:*}" --seeds 2 "${mutating[@]}" \
                 --methods log,prior,safer,safer-in-path,safer-distinct --planner ../../planners/lane-follower.yaml
+        done ;;
+    wide-region)
+        mutating=(--stage2-cbv closed-loop --mutants --methods log,prior,safer-in-path)
+        for n in 60 100; do
+            for s in womd-interactive:womd-interactive commonroad-ngsim:ngsim; do
+                run "mutants-${s#*:}-evasive-n$n.txt" evaluate --scenes "data:${s%%:*}" --seeds 3 "${mutating[@]}" \
+                    --trust-region "$n"
+            done
+            run "mutants-ngsim-lane-follower-n$n.txt" evaluate --scenes data:commonroad-ngsim --seeds 2 "${mutating[@]}" \
+                --trust-region "$n" --planner ../../planners/lane-follower.yaml
         done ;;
     esac
 done

@@ -281,7 +281,7 @@ mod tests {
             .collect();
         let at = |step: usize| flagged.iter().find(|(s, _)| *s == step).map(|(_, f)| *f);
         assert_eq!(at(5), Some(false), "3.5 s on it is still in its lane");
-        assert_eq!(at(40), Some(true), "3 s into the change it is in the other lane 3 s later");
+        assert_eq!(at(40), Some(true), "where the change starts it is in the other lane 3 s later");
         assert_eq!(at(90), Some(false), "after the change it keeps the new lane");
         assert_eq!(
             scene_samples(&scene, None).iter().filter(|s| s.lane_change).count(),
