@@ -23,9 +23,11 @@
 #   n100              evaluate-womd-interactive-n100.txt (7 min on 2 cores)
 #   approach-none     approach-none/*.txt: the paper's protocol, one variant a
 #                     scene (the adversary engages at the first token)
-#   wide-region       mutants-{womd-interactive,ngsim}-evasive-n{60,100}.txt and
-#                     mutants-ngsim-lane-follower-n{60,100}.txt: log replay, the prior
-#                     and safer-in-path over wider trust regions (the NGSIM suite's 60)
+#   wide-region       mutants-{womd-interactive,ngsim}-evasive-n{60,100}.txt,
+#                     mutants-ngsim-lane-follower-n{60,100}.txt and
+#                     mutants-womd-interactive-lane-follower-n60.txt: log replay, the
+#                     prior and safer-in-path over wider trust regions (the NGSIM
+#                     suite's 60; about 40 minutes)
 #   mutants           mutants-{womd-interactive,womd-json,ngsim}-evasive.txt and
 #                     mutants-{womd-interactive,ngsim}-lane-follower.txt: the
 #                     faults of the planner each method's variants catch
@@ -158,7 +160,9 @@ for job in "${jobs[@]}"; do
             done
             run "mutants-ngsim-lane-follower-n$n.txt" evaluate --scenes data:commonroad-ngsim --seeds 2 "${mutating[@]}" \
                 --trust-region "$n" --planner ../../planners/lane-follower.yaml
-        done ;;
+        done
+        run mutants-womd-interactive-lane-follower-n60.txt evaluate --scenes data:womd-interactive --seeds 2 \
+            "${mutating[@]}" --trust-region 60 --planner ../../planners/lane-follower.yaml ;;
     esac
 done
 rm -r "$(dirname "$safer")"
