@@ -589,26 +589,16 @@ mod tests {
             let finite = t.data().chunks_exact(4).all(|b| f32::from_le_bytes(b.try_into().unwrap()).is_finite());
             assert!(finite, "{name} holds a non-finite value");
         }
-        let tokens: Vec<i64> = shard
-            .tensor("next_token")
-            .unwrap()
-            .data()
-            .chunks_exact(8)
-            .map(|b| i64::from_le_bytes(b.try_into().unwrap()))
-            .collect();
+        let i64s = |name: &str| -> Vec<i64> {
+            let t = shard.tensor(name).unwrap();
+            t.data().chunks_exact(8).map(|b| i64::from_le_bytes(b.try_into().unwrap())).collect()
+        };
+        let tokens = i64s("next_token");
         assert_eq!(tokens.len(), n);
         assert!(tokens.iter().all(|&t| (0..VOCABULARY_SIZE as i64).contains(&t)));
-        let scene_col = shard.tensor("scene").unwrap();
-        assert!(scene_col.data().chunks_exact(8).all(|b| i64::from_le_bytes(b.try_into().unwrap()) == 0));
-        let lane_change: Vec<i64> = shard
-            .tensor("lane_change")
-            .unwrap()
-            .data()
-            .chunks_exact(8)
-            .map(|b| i64::from_le_bytes(b.try_into().unwrap()))
-            .collect();
+        assert!(i64s("scene").iter().all(|&s| s == 0));
         let flagged: Vec<i64> = samples.iter().map(|s| i64::from(s.lane_change)).collect();
-        assert_eq!(lane_change, flagged, "one flag a sample, in the samples' order");
+        assert_eq!(i64s("lane_change"), flagged, "one flag a sample, in the samples' order");
         std::fs::remove_dir_all(&dir).unwrap();
     }
 
