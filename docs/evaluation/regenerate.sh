@@ -63,7 +63,7 @@ run() {
     start=$(date +%s)
     # Progress lines (a count of variants done every 30 s) are the run's, not the table's.
     "$safer" "$@" >"$out.raw" 2>&1
-    grep -Ev '^[a-z-]+: ([0-9]+/[0-9]+ variants done|[0-9]+ variants to run|loading the scenes|each variant runs)' \
+    grep -Ev '^[a-z-]+: ([0-9]+/[0-9]+ (variants|scenes) done|[0-9]+ (variants|scenes) to run|loading the scenes|each variant runs)' \
         "$out.raw" >"$out.tmp" || true
     rm "$out.raw"
     echo "(wall time $(($(date +%s) - start)) s)" >>"$out.tmp"
