@@ -27,7 +27,7 @@
 #                     mutants-ngsim-lane-follower-n{60,100}.txt and
 #                     mutants-womd-interactive-lane-follower-n60.txt: log replay, the
 #                     prior and safer-in-path over wider trust regions (the NGSIM
-#                     suite's 60; about 40 minutes)
+#                     suite's 60); evaluate-ngsim-in-path-n{60,100}.txt (about 45 minutes)
 #   mutants           mutants-{womd-interactive,womd-json,ngsim}-evasive.txt and
 #                     mutants-{womd-interactive,ngsim}-lane-follower.txt: the
 #                     faults of the planner each method's variants catch
@@ -162,7 +162,12 @@ for job in "${jobs[@]}"; do
                 --trust-region "$n" --planner ../../planners/lane-follower.yaml
         done
         run mutants-womd-interactive-lane-follower-n60.txt evaluate --scenes data:womd-interactive --seeds 2 \
-            "${mutating[@]}" --trust-region 60 --planner ../../planners/lane-follower.yaml ;;
+            "${mutating[@]}" --trust-region 60 --planner ../../planners/lane-follower.yaml
+        # The paper's protocol (stage-2 CBV replayed, 10 seeds) over the wider regions on NGSIM.
+        for n in 60 100; do
+            run "evaluate-ngsim-in-path-n$n.txt" evaluate --scenes data:commonroad-ngsim --seeds 10 \
+                --methods safer-in-path,prior --trust-region "$n"
+        done ;;
     esac
 done
 rm -r "$(dirname "$safer")"
