@@ -159,19 +159,11 @@ pub fn classify_conflict(
     let lanes = |s: &AgentState| map.lanes_containing(&s.position, s.heading_rad);
     let (ego_now, ego_then, cbv_now, cbv_then) = (lanes(&e), lanes(&e0), lanes(&c), lanes(&c0));
     let ego_lanes: Vec<MapElementId> = ego_now.iter().chain(&ego_then).copied().collect();
-    let connected =
-        |a: &[MapElementId], b: &[MapElementId]| a.iter().any(|&x| b.iter().any(|&y| map.lanes_connected(x, y)));
-    let beside = |a: &[MapElementId], b: &[MapElementId]| {
-        a.iter()
-            .filter_map(|&x| map.lane(x))
-            .any(|l| l.left_neighbours.iter().chain(&l.right_neighbours).any(|n| b.contains(n)))
-    };
-    let successors = |ids: &[MapElementId]| -> Vec<MapElementId> {
-        ids.iter().filter_map(|&x| map.lane(x)).flat_map(|l| l.successors.iter().copied()).collect()
-    };
-    let from_elsewhere = !cbv_then.is_empty() && !ego_then.is_empty() && !connected(&cbv_then, &ego_lanes);
+    let beside = |a: &[MapElementId], b: &[MapElementId]| map.neighbours_of(a).iter().any(|n| b.contains(n));
+    let from_elsewhere =
+        !cbv_then.is_empty() && !ego_then.is_empty() && !map.any_lanes_connected(&cbv_then, &ego_lanes);
     if from_elsewhere {
-        let (cbv_next, ego_next) = (successors(&cbv_then), successors(&ego_then));
+        let (cbv_next, ego_next) = (map.successors_of(&cbv_then), map.successors_of(&ego_then));
         let runs_into_ego = cbv_next.iter().any(|n| ego_lanes.contains(n) || ego_next.contains(n));
         if runs_into_ego {
             return Some(ConflictKind::Merge);
@@ -181,7 +173,7 @@ pub fn classify_conflict(
     let side_then = e0.pose().to_body(&c0.position).y.abs();
     let side_now = e.pose().to_body(&c.position).y.abs();
     let moved_in = if !cbv_then.is_empty() && !ego_then.is_empty() {
-        from_elsewhere && beside(&cbv_then, &ego_then) && connected(&cbv_now, &ego_lanes)
+        from_elsewhere && beside(&cbv_then, &ego_then) && map.any_lanes_connected(&cbv_now, &ego_lanes)
     } else {
         side_then > LANE_OFFSET_M && side_now < LANE_OFFSET_M / 2.0
     };

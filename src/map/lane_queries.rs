@@ -259,6 +259,27 @@ impl RoadMap {
         a == b || follows(a, b) || follows(b, a)
     }
 
+    /// Whether some lane of `a` is connected to some lane of `b`
+    /// ([`RoadMap::lanes_connected`]).
+    pub fn any_lanes_connected(&self, a: &[MapElementId], b: &[MapElementId]) -> bool {
+        a.iter().any(|&x| b.iter().any(|&y| self.lanes_connected(x, y)))
+    }
+
+    /// The successors of `lanes`, in their order (unknown ids give none).
+    pub fn successors_of(&self, lanes: &[MapElementId]) -> Vec<MapElementId> {
+        lanes.iter().filter_map(|&id| self.lane(id)).flat_map(|l| l.successors.iter().copied()).collect()
+    }
+
+    /// The left and right neighbours of `lanes`, in their order (unknown ids
+    /// give none).
+    pub fn neighbours_of(&self, lanes: &[MapElementId]) -> Vec<MapElementId> {
+        lanes
+            .iter()
+            .filter_map(|&id| self.lane(id))
+            .flat_map(|l| l.left_neighbours.iter().chain(&l.right_neighbours).copied())
+            .collect()
+    }
+
     /// Whether a vehicle that was at `from` (position, heading) and is now
     /// at `to` has changed lanes: both lie in lanes going their way, none of
     /// `to`'s lanes is one of `from`'s or continues it, and one of them is a
@@ -267,22 +288,12 @@ impl RoadMap {
     /// may cross a joint between lane pieces on either side).
     pub fn changed_lane(&self, from: (&Point2, f64), to: (&Point2, f64)) -> bool {
         let (before, after) = (self.lanes_containing(from.0, from.1), self.lanes_containing(to.0, to.1));
-        if before.is_empty() || after.is_empty() {
+        if before.is_empty() || after.is_empty() || self.any_lanes_connected(&after, &before) {
             return false;
         }
-        if after.iter().any(|&a| before.iter().any(|&b| self.lanes_connected(a, b))) {
-            return false;
-        }
-        let lanes = |ids: &[MapElementId]| -> Vec<&Lane> { ids.iter().filter_map(|&id| self.lane(id)).collect() };
-        let successors = |ids: &[MapElementId]| -> Vec<MapElementId> {
-            lanes(ids).iter().flat_map(|l| l.successors.iter().copied()).collect()
-        };
-        let neighbours = |ids: &[MapElementId]| -> Vec<MapElementId> {
-            lanes(ids).iter().flat_map(|l| l.left_neighbours.iter().chain(&l.right_neighbours).copied()).collect()
-        };
-        let with_next: Vec<MapElementId> = before.iter().copied().chain(successors(&before)).collect();
-        let beside = neighbours(&with_next);
-        let reached: Vec<MapElementId> = beside.iter().copied().chain(successors(&beside)).collect();
+        let with_next: Vec<MapElementId> = before.iter().copied().chain(self.successors_of(&before)).collect();
+        let beside = self.neighbours_of(&with_next);
+        let reached: Vec<MapElementId> = beside.iter().copied().chain(self.successors_of(&beside)).collect();
         after.iter().any(|a| reached.contains(a))
     }
 }
