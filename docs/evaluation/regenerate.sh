@@ -28,6 +28,11 @@
 #                     mutants-womd-interactive-lane-follower-n60.txt: log replay, the
 #                     prior and safer-in-path over wider trust regions (the NGSIM
 #                     suite's 60); evaluate-ngsim-in-path-n{60,100}.txt (about 45 minutes)
+#   cut-in            cut-in/: safer-cut-in beside safer-in-path, log replay and the
+#                     prior: mutants-{ngsim,womd-interactive}-evasive-n60.txt,
+#                     mutants-womd-interactive-evasive.txt (n = 20),
+#                     mutants-ngsim-lane-follower-n60.txt, and the paper's
+#                     protocol on NGSIM, evaluate-ngsim-n60.txt (about 30 minutes)
 #   mutants           mutants-{womd-interactive,womd-json,ngsim}-evasive.txt and
 #                     mutants-{womd-interactive,ngsim}-lane-follower.txt: the
 #                     faults of the planner each method's variants catch
@@ -41,7 +46,7 @@ set -euo pipefail
 : "${SAFER_DATA_DIR:?set SAFER_DATA_DIR to the folder of the recorded datasets}"
 self=$(realpath "$0")
 cd "$(dirname "$self")"
-all=(evaluate plain inattentive held-out-chance trust-region realism prior-fit n-sweep reactive n100 approach-none mutants wide-region)
+all=(evaluate plain inattentive held-out-chance trust-region realism prior-fit n-sweep reactive n100 approach-none mutants wide-region cut-in)
 jobs=("$@")
 [[ ${#jobs[@]} -gt 0 ]] || jobs=("${all[@]}")
 # The usage is the comment block at the top of this file.
@@ -71,7 +76,7 @@ run() {
 }
 
 sets=(womd-interactive:womd-interactive womd-json:womd-json commonroad-ngsim:ngsim)
-every=safer,safer-in-path,safer-distinct,safer-lookahead,safer-inattentive,no-lfr,no-trust-region,no-mda,prior,log
+every=safer,safer-in-path,safer-cut-in,safer-distinct,safer-lookahead,safer-inattentive,no-lfr,no-trust-region,no-mda,prior,log
 all_but_plain=${every/no-mda,/}
 for job in "${jobs[@]}"; do
     case $job in
@@ -168,6 +173,18 @@ for job in "${jobs[@]}"; do
             run "evaluate-ngsim-in-path-n$n.txt" evaluate --scenes data:commonroad-ngsim --seeds 10 \
                 --methods safer-in-path,prior --trust-region "$n"
         done ;;
+    cut-in)
+        mkdir -p cut-in
+        mutating=(--stage2-cbv closed-loop --mutants --methods log,prior,safer-in-path,safer-cut-in)
+        for s in commonroad-ngsim:ngsim womd-interactive:womd-interactive; do
+            run "cut-in/mutants-${s#*:}-evasive-n60.txt" evaluate --scenes "data:${s%%:*}" --seeds 3 "${mutating[@]}" \
+                --trust-region 60
+        done
+        run cut-in/mutants-womd-interactive-evasive.txt evaluate --scenes data:womd-interactive --seeds 3 "${mutating[@]}"
+        run cut-in/evaluate-ngsim-n60.txt evaluate --scenes data:commonroad-ngsim --seeds 10 \
+            --methods prior,safer-in-path,safer-cut-in --trust-region 60
+        run cut-in/mutants-ngsim-lane-follower-n60.txt evaluate --scenes data:commonroad-ngsim --seeds 2 \
+            "${mutating[@]}" --trust-region 60 --planner ../../planners/lane-follower.yaml ;;
     esac
 done
 rm -r "$(dirname "$safer")"

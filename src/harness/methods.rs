@@ -138,7 +138,9 @@ pub struct MethodSettings {
 pub fn trust_region_of(method: AdversaryMethod, n: usize) -> TrustRegion {
     match method {
         AdversaryMethod::NoTrustRegion => TrustRegion::WholeVocabulary,
-        AdversaryMethod::SaferDistinct | AdversaryMethod::SaferInPath => TrustRegion::DistinctBehaviours(n),
+        AdversaryMethod::SaferDistinct | AdversaryMethod::SaferInPath | AdversaryMethod::SaferCutIn => {
+            TrustRegion::DistinctBehaviours(n)
+        }
         _ => TrustRegion::TopN(n),
     }
 }
@@ -211,6 +213,10 @@ pub fn install(
         }
         AdversaryMethod::SaferInPath => {
             let search = Search { objective: Objective::InPath, ..search };
+            sim.set_policy(cbv, adversary(search, Some(feasibility()?)))
+        }
+        AdversaryMethod::SaferCutIn => {
+            let search = Search { objective: Objective::CutIn, ..search };
             sim.set_policy(cbv, adversary(search, Some(feasibility()?)))
         }
         AdversaryMethod::NoLfr => sim.set_policy(cbv, adversary(search, None)),

@@ -192,6 +192,14 @@ pub enum AdversaryMethod {
     /// rather than to the ego: the CBV gets in front of the ego and brakes
     /// there, the conflicts a planner must answer by braking or steering.
     SaferInPath,
+    /// Beyond the paper: `safer-in-path` with a loss that finishes the cut-in
+    /// it starts. Ahead of the ego a token also pays half a metre per metre
+    /// of the CBV's centre off the ego's heading line, so the CBV comes all
+    /// the way into the ego's lane instead of stopping with a corner over
+    /// the line; beside the ego it pays 2 m per metre short of the ego's
+    /// front bumper (up to the 5 m penalty), so it draws ahead rather than
+    /// hugging the ego's side.
+    SaferCutIn,
 }
 
 impl AdversaryMethod {
@@ -219,6 +227,7 @@ impl AdversaryMethod {
         Self::SaferDistinct,
         Self::SaferInattentive,
         Self::SaferInPath,
+        Self::SaferCutIn,
     ];
 }
 

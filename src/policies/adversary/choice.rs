@@ -7,7 +7,7 @@
 use super::background_forecast::BackgroundForecast;
 use super::behaviours::distinct_behaviours;
 use super::feasibility::feasibility_values;
-use super::in_path::in_path_loss;
+use super::in_path::{cut_in_loss, in_path_loss};
 use super::lookahead::{FirstTokens, Lookahead};
 use super::plausibility::{ContactRule, PlausibilityCheck};
 use super::rollout::token_rollouts;
@@ -79,6 +79,14 @@ pub enum Objective {
     /// second of lead, plus [`NOT_AHEAD_PENALTY_M`](super::NOT_AHEAD_PENALTY_M)
     /// when the CBV's centre is not ahead of the ego's front bumper.
     InPath,
+    /// Beyond the paper (`safer-cut-in`): the in-path loss made to finish a
+    /// cut-in. Ahead of the ego it adds
+    /// [`CUT_IN_LATERAL_COST`](super::CUT_IN_LATERAL_COST) per metre of the
+    /// CBV's centre off the ego's heading line; short of the ego's front
+    /// bumper it pays [`CUT_IN_NOT_AHEAD_COST`](super::CUT_IN_NOT_AHEAD_COST)
+    /// per metre, up to the flat penalty, so a CBV beside the ego draws
+    /// ahead rather than hugging its side.
+    CutIn,
 }
 
 /// What the adversary searches at each token boundary.
@@ -143,6 +151,7 @@ pub fn safer_choice(
     let objective: Vec<f64> = match search.objective {
         Objective::Contact => distances.clone(),
         Objective::InPath => predicted.iter().map(|s| in_path_loss(&ego_next, ego_body, s, cbv_body)).collect(),
+        Objective::CutIn => predicted.iter().map(|s| cut_in_loss(&ego_next, ego_body, s, cbv_body)).collect(),
     };
     let mut losses: Vec<f64> = match &values {
         None => objective,

@@ -51,6 +51,8 @@
 //! `safer-in-path` (beyond the paper) the same policy over the prior's
 //! distinct behaviours, scoring how close a token puts the CBV to the
 //! ego's path ahead of it rather than to the ego (see [`Objective`]);
+//! `safer-cut-in` (beyond the paper) the same as `safer-in-path` with a
+//! loss that draws the CBV ahead of the ego and all the way into its path;
 //! `safer-inattentive` (beyond the paper) the same policy fed by a prior
 //! that does not see the ego (see
 //! [`PriorTraffic::hide_from`](crate::policies::prior_sampling::PriorTraffic::hide_from)).
@@ -58,7 +60,7 @@
 //! One file per concept: the [`Adversary`] policy (`policy`), the
 //! approach phase (`approach`), SaFeR's choice ([`safer_choice`],
 //! `choice`) and the lookahead of `safer-lookahead` (`lookahead`), V_h of
-//! candidate states (`feasibility`), the in-path objective (`in_path`), the CBV's states under a token
+//! candidate states (`feasibility`), the in-path and cut-in objectives (`in_path`), the CBV's states under a token
 //! (`rollout`), the [`BackgroundForecast`], and the plausibility check
 //! (`plausibility`, with its broad phase in `broad_phase`); and the
 //! [`TrustRegionProfile`] that diagnoses what a prior's region offers
@@ -84,7 +86,9 @@ pub use approach::{APPROACH_TOKENS, ApproachPhase};
 pub use background_forecast::BackgroundForecast;
 pub use behaviours::{BEHAVIOUR_HOLD_S, BEHAVIOUR_SEPARATION_M, distinct_behaviours};
 pub use choice::{INFEASIBLE_PENALTY, Objective, Search, TrustRegion, safer_choice};
-pub use in_path::{IN_PATH_LEAD_COST_M_PER_S, IN_PATH_MAX_LEAD_S, NOT_AHEAD_PENALTY_M};
+pub use in_path::{
+    CUT_IN_LATERAL_COST, CUT_IN_NOT_AHEAD_COST, IN_PATH_LEAD_COST_M_PER_S, IN_PATH_MAX_LEAD_S, NOT_AHEAD_PENALTY_M,
+};
 pub use lookahead::{LOOKAHEAD_DELAY_PENALTY_M, LOOKAHEAD_TOKENS};
 pub use policy::Adversary;
 pub use trust_region_profile::{TrustRegionProfile, profile_trust_region, rank_of_driven_token};
