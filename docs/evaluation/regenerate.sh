@@ -30,9 +30,10 @@
 #                     suite's 60); evaluate-ngsim-in-path-n{60,100}.txt (about 45 minutes)
 #   cut-in            cut-in/: safer-cut-in beside safer-in-path, log replay and the
 #                     prior: mutants-{ngsim,womd-interactive}-evasive-n60.txt,
-#                     mutants-womd-interactive-evasive.txt (n = 20),
+#                     mutants-womd-interactive-evasive.txt (n = 20), the two
+#                     evasive tables again with --seed 1000 (*-seed1000.txt),
 #                     mutants-ngsim-lane-follower-n60.txt, and the paper's
-#                     protocol on NGSIM, evaluate-ngsim-n60.txt (about 30 minutes)
+#                     protocol on NGSIM, evaluate-ngsim-n60.txt (about 35 minutes)
 #   mutants           mutants-{womd-interactive,womd-json,ngsim}-evasive.txt and
 #                     mutants-{womd-interactive,ngsim}-lane-follower.txt: the
 #                     faults of the planner each method's variants catch
@@ -181,6 +182,11 @@ for job in "${jobs[@]}"; do
                 --trust-region 60
         done
         run cut-in/mutants-womd-interactive-evasive.txt evaluate --scenes data:womd-interactive --seeds 3 "${mutating[@]}"
+        # Another draw of seeds: how much of a difference between two methods the seeds alone make.
+        run cut-in/mutants-ngsim-evasive-n60-seed1000.txt evaluate --scenes data:commonroad-ngsim --seeds 3 --seed 1000 \
+            "${mutating[@]}" --trust-region 60
+        run cut-in/mutants-womd-interactive-evasive-seed1000.txt evaluate --scenes data:womd-interactive --seeds 3 \
+            --seed 1000 "${mutating[@]}"
         run cut-in/evaluate-ngsim-n60.txt evaluate --scenes data:commonroad-ngsim --seeds 10 \
             --methods prior,safer-in-path,safer-cut-in --trust-region 60
         run cut-in/mutants-ngsim-lane-follower-n60.txt evaluate --scenes data:commonroad-ngsim --seeds 2 \
