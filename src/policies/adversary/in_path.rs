@@ -22,10 +22,10 @@
 //!
 //! The cut-in loss of `safer-cut-in` (beyond the paper) finishes what the
 //! in-path loss starts. The box distance stops falling once a corner of
-//! the CBV reaches the ego's path, so the in-path loss leaves a CBV from
-//! the next lane with its corner over the lane line and its body beside
-//! the ego's lane: a cut-in threatened, not made, which a planner answers
-//! by keeping its lane. The cut-in loss adds, for a CBV ahead of the ego,
+//! the CBV reaches the ego's path, so the in-path loss can leave a CBV
+//! from the next lane with its corner over the lane line and its body
+//! beside the ego's lane: a cut-in threatened, not made, which a planner
+//! answers by keeping its lane. The cut-in loss adds, for a CBV ahead of the ego,
 //! [`CUT_IN_LATERAL_COST`] per metre its centre lies to the side of the
 //! ego's heading line, so it keeps coming over until it is in the ego's
 //! path; and it grades the not-ahead penalty by how far the CBV's centre
