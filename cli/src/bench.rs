@@ -35,9 +35,9 @@ const VARIANT_TARGET_MS: f64 = 50.0;
 const WITNESS_TARGET_MS: f64 = 10.0;
 /// Most a closed-loop variant may cost, as a multiple of the replay variant.
 const CLOSED_LOOP_RATIO_TARGET: f64 = 2.0;
-/// Most a `safer-in-path` variant may cost, as a multiple of a `safer` variant.
+/// Most a `safer-in-path` or `safer-cut-in` variant may cost, as a multiple of a `safer` variant.
 const IN_PATH_RATIO_TARGET: f64 = 2.0;
-/// The trust region of the wider `safer-in-path` the bench times: the one
+/// The trust region of the wider `safer-in-path` and `safer-cut-in` the bench times: the one
 /// `specs/suites/adversarial-ngsim.yaml` ships with (a test holds them equal).
 const WIDE_IN_PATH_TRUST_REGION: usize = 60;
 /// Target for the closed-loop witness of one collision, ms.
@@ -147,6 +147,10 @@ struct VariantBench {
     in_path_wide_variant_ms: f64,
     /// `safer-in-path (wide region) / safer variant`, alternated in the same run (target at most 2).
     in_path_wide_ratio_to_safer: f64,
+    /// The same variant with `safer-cut-in` over the same wider region, ms.
+    cut_in_wide_variant_ms: f64,
+    /// `safer-cut-in (wide region) / safer variant`, alternated in the same run (target at most 2).
+    cut_in_wide_ratio_to_safer: f64,
     /// The closed-loop witness of a stage-1 collision (the CBV reacting to
     /// the escapes tried), ms; `None` when no seed of 0..20 collides.
     closed_loop_witness: Option<ClosedLoopWitnessBench>,
@@ -245,6 +249,20 @@ pub(super) fn run(scenes: &Path, repeat: usize, json: Option<&Path>) -> Result<E
                 "{:<52} {:>10.2}",
                 format!("    safer-in-path, n = {} / safer variant (same run)", v.in_path_wide_trust_region),
                 v.in_path_wide_ratio_to_safer
+            )?;
+            writeln!(
+                out,
+                "{:<52} {:>10.1} {:>10} {:>10.2}",
+                format!("  variant made by safer-cut-in, n = {}", v.in_path_wide_trust_region),
+                v.cut_in_wide_variant_ms,
+                format!("{IN_PATH_RATIO_TARGET}× safer"),
+                v.cut_in_wide_ratio_to_safer / IN_PATH_RATIO_TARGET
+            )?;
+            writeln!(
+                out,
+                "{:<52} {:>10.2}",
+                format!("    safer-cut-in, n = {} / safer variant (same run)", v.in_path_wide_trust_region),
+                v.cut_in_wide_ratio_to_safer
             )?;
             match &v.closed_loop_witness {
                 Some(w) => writeln!(
@@ -490,16 +508,24 @@ fn bench_variant(scenes: &[Scenario], repeat: usize) -> Result<Option<VariantBen
         settings: MethodSettings { trust_region: WIDE_IN_PATH_TRUST_REGION, ..in_path.settings },
         ..in_path
     };
+    // `safer-cut-in` over the same wider region.
+    let cut_in_wide = VariantSetup {
+        settings: MethodSettings { method: AdversaryMethod::SaferCutIn, ..in_path_wide.settings },
+        ..in_path_wide
+    };
     pipeline::run(in_path)?;
     pipeline::run(in_path_wide)?;
-    let (mut safer_times, mut in_path_times, mut wide_times) = (Vec::new(), Vec::new(), Vec::new());
+    pipeline::run(cut_in_wide)?;
+    let (mut safer_times, mut in_path_times, mut wide_times, mut cut_in_times) =
+        (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     for _ in 0..repeat {
         safer_times.push(time(1, || pipeline::run(setup)).0);
         in_path_times.push(time(1, || pipeline::run(in_path)).0);
         wide_times.push(time(1, || pipeline::run(in_path_wide)).0);
+        cut_in_times.push(time(1, || pipeline::run(cut_in_wide)).0);
     }
     let (safer_ms, in_path_variant_ms) = (ms(median(safer_times)), ms(median(in_path_times)));
-    let in_path_wide_variant_ms = ms(median(wide_times));
+    let (in_path_wide_variant_ms, cut_in_wide_variant_ms) = (ms(median(wide_times)), ms(median(cut_in_times)));
 
     // The closed-loop witness of a collision: the ego on log replay against
     // a closed-loop CBV is stage 1 itself, so a critical seed's stage 1 is
@@ -552,6 +578,8 @@ fn bench_variant(scenes: &[Scenario], repeat: usize) -> Result<Option<VariantBen
         in_path_wide_trust_region: WIDE_IN_PATH_TRUST_REGION,
         in_path_wide_variant_ms,
         in_path_wide_ratio_to_safer: in_path_wide_variant_ms / safer_ms,
+        cut_in_wide_variant_ms,
+        cut_in_wide_ratio_to_safer: cut_in_wide_variant_ms / safer_ms,
         closed_loop_witness,
     }))
 }
