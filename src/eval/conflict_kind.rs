@@ -22,8 +22,16 @@
 //!    to less than half of it); `rear-end` when one is behind the other
 //!    (the other's centre within 45° of its heading or its tail);
 //!    `sideswipe` otherwise (side by side).
+//!
+//! Lane relations come from the map where it records them. A map that
+//! records no successors at all (GPUDrive's WOMD JSON keeps none) has them
+//! joined by geometry ([`LaneGraph`]: a lane that starts where another
+//! ends, going its way); a map that records no neighbours at all has the
+//! cut-in judged by lateral offset, as without lanes. Without this, every
+//! cut-in and merge on such a map reads as a sideswipe or rear-end.
 
 use crate::geometry::wrap_angle;
+use crate::map::lane_graph::LaneGraph;
 use crate::map::{MapElementId, RoadMap};
 use crate::scenario::{AgentBody, AgentKind, AgentState};
 use crate::sim::Rollout;
@@ -156,14 +164,14 @@ pub fn classify_conflict(
             ConflictKind::Crossing
         });
     }
+    let relations = LaneRelations::of(map);
     let lanes = |s: &AgentState| map.lanes_containing(&s.position, s.heading_rad);
     let (ego_now, ego_then, cbv_now, cbv_then) = (lanes(&e), lanes(&e0), lanes(&c), lanes(&c0));
     let ego_lanes: Vec<MapElementId> = ego_now.iter().chain(&ego_then).copied().collect();
-    let beside = |a: &[MapElementId], b: &[MapElementId]| map.neighbours_of(a).iter().any(|n| b.contains(n));
     let from_elsewhere =
-        !cbv_then.is_empty() && !ego_then.is_empty() && !map.any_lanes_connected(&cbv_then, &ego_lanes);
+        !cbv_then.is_empty() && !ego_then.is_empty() && !relations.any_connected(&cbv_then, &ego_lanes);
     if from_elsewhere {
-        let (cbv_next, ego_next) = (map.successors_of(&cbv_then), map.successors_of(&ego_then));
+        let (cbv_next, ego_next) = (relations.successors_of(&cbv_then), relations.successors_of(&ego_then));
         let runs_into_ego = cbv_next.iter().any(|n| ego_lanes.contains(n) || ego_next.contains(n));
         if runs_into_ego {
             return Some(ConflictKind::Merge);
@@ -172,10 +180,14 @@ pub fn classify_conflict(
     let ahead = e.pose().to_body(&c.position).x > 0.0;
     let side_then = e0.pose().to_body(&c0.position).y.abs();
     let side_now = e.pose().to_body(&c.position).y.abs();
-    let moved_in = if !cbv_then.is_empty() && !ego_then.is_empty() {
-        from_elsewhere && beside(&cbv_then, &ego_then) && map.any_lanes_connected(&cbv_now, &ego_lanes)
+    let moved_sideways_in = side_then > LANE_OFFSET_M && side_now < LANE_OFFSET_M / 2.0;
+    let moved_in = if cbv_then.is_empty() || ego_then.is_empty() {
+        moved_sideways_in
+    } else if relations.neighbours_recorded {
+        let beside = map.neighbours_of(&cbv_then).iter().any(|n| ego_then.contains(n));
+        from_elsewhere && beside && relations.any_connected(&cbv_now, &ego_lanes)
     } else {
-        side_then > LANE_OFFSET_M && side_now < LANE_OFFSET_M / 2.0
+        from_elsewhere && moved_sideways_in
     };
     if moved_in && ahead {
         return Some(ConflictKind::CutIn);
@@ -190,6 +202,46 @@ pub fn classify_conflict(
     } else {
         ConflictKind::Sideswipe
     })
+}
+
+/// How the classifier relates lanes on one map: the recorded successors
+/// and neighbours, or (where the map records none) geometry.
+struct LaneRelations<'a> {
+    map: &'a RoadMap,
+    /// Successors joined by geometry, when the map records none at all.
+    joined: Option<LaneGraph>,
+    /// Whether the map records any lane's neighbours.
+    neighbours_recorded: bool,
+}
+
+impl<'a> LaneRelations<'a> {
+    fn of(map: &'a RoadMap) -> Self {
+        let successors_recorded = map.lanes.iter().any(|l| !l.successors.is_empty());
+        let neighbours_recorded =
+            map.lanes.iter().any(|l| !l.left_neighbours.is_empty() || !l.right_neighbours.is_empty());
+        Self { map, joined: (!successors_recorded).then(|| LaneGraph::build(map)), neighbours_recorded }
+    }
+
+    /// The successors of `lanes`.
+    fn successors_of(&self, lanes: &[MapElementId]) -> Vec<MapElementId> {
+        match &self.joined {
+            None => self.map.successors_of(lanes),
+            Some(graph) => lanes
+                .iter()
+                .filter_map(|&id| self.map.lane_index(id))
+                .flat_map(|i| graph.successors(i).iter().map(|&j| self.map.lanes[j].id))
+                .collect(),
+        }
+    }
+
+    /// Whether some lane of `a` is one of `b` or continues it, or the other way round.
+    fn any_connected(&self, a: &[MapElementId], b: &[MapElementId]) -> bool {
+        if self.joined.is_none() {
+            return self.map.any_lanes_connected(a, b);
+        }
+        let (a_next, b_next) = (self.successors_of(a), self.successors_of(b));
+        a.iter().any(|x| b.contains(x) || b_next.contains(x)) || b.iter().any(|y| a_next.contains(y))
+    }
 }
 
 #[cfg(test)]
@@ -267,6 +319,34 @@ mod tests {
         // The ramp runs at y = -1.75 from x = 130 to 200 and leads into lane 10, lane 0's successor.
         let ego = straight(135.0, 1.75, 0.0, 11.0);
         assert_eq!(kind(&map, &ego, &straight(140.0, -1.75, 7.0, 10.0)), Some(ConflictKind::Merge));
+    }
+
+    /// `map` as a source without lane connectivity keeps it (GPUDrive's
+    /// WOMD JSON): no successors, predecessors or neighbours.
+    fn without_connectivity(mut map: RoadMap) -> RoadMap {
+        for lane in &mut map.lanes {
+            lane.successors.clear();
+            lane.predecessors.clear();
+            lane.left_neighbours.clear();
+            lane.right_neighbours.clear();
+        }
+        map
+    }
+
+    #[test]
+    fn without_recorded_connectivity_cut_ins_and_merges_are_read_from_the_geometry() {
+        let bare = without_connectivity(two_lanes());
+        let ego = straight(0.0, 1.75, 0.0, 10.0);
+        assert_eq!(kind(&bare, &ego, &straight(12.0, 5.25, -8.0, 7.0)), Some(ConflictKind::CutIn));
+        assert_eq!(kind(&bare, &ego, &straight(0.5, 5.25, -8.0, 10.0)), Some(ConflictKind::Sideswipe));
+        assert_eq!(kind(&bare, &straight(50.0, 1.75, 0.0, 10.0), &straight(20.0, 1.75, 0.0, 20.0)), Some(ConflictKind::RearEnd));
+        let merge: Merge = serde_json::from_value(serde_json::json!({
+            "lanes": 2, "length_m": 400, "merge_end_m": 200, "acceleration_lane_m": 70
+        }))
+        .unwrap();
+        let bare = without_connectivity(MapTemplate::Merge(merge).build());
+        let ego = straight(135.0, 1.75, 0.0, 11.0);
+        assert_eq!(kind(&bare, &ego, &straight(140.0, -1.75, 7.0, 10.0)), Some(ConflictKind::Merge));
     }
 
     #[test]
