@@ -14,9 +14,12 @@
 //!    before (≥ 135° apart) and one of them has since turned left by 30°
 //!    or more; `crossing` for every other Δ ≥ 45°;
 //! 5. below 45° (the same direction): `merge` when the CBV came from a
-//!    lane other than the ego's that runs into the ego's lane (a successor
-//!    of the CBV's lane is the ego's lane, or both lanes lead into one: an
-//!    on-ramp, a lane drop); `cut-in` when the CBV moved sideways into the ego's
+//!    lane other than the ego's that runs into the ego's lane (the lanes
+//!    ahead of the CBV's, as far as either drove since "before" plus
+//!    [`MERGE_MARGIN_M`], reach the ego's lane, or both lanes lead into
+//!    one: an on-ramp, a lane drop, two ways through a junction), unless
+//!    the CBV's way runs through a lane the ego drove earlier (it follows
+//!    the ego); `cut-in` when the CBV moved sideways into the ego's
 //!    path ahead of it (in the map: from a lane neighbouring the ego's into
 //!    the ego's; without lanes: from more than [`LANE_OFFSET_M`] to the side
 //!    to less than half of it); `rear-end` when one is behind the other
@@ -31,6 +34,8 @@
 //! cut-in and merge on such a map reads as a sideswipe or rear-end.
 
 use crate::geometry::wrap_angle;
+use std::collections::{BTreeMap, BTreeSet};
+
 use crate::map::lane_graph::LaneGraph;
 use crate::map::{MapElementId, RoadMap};
 use crate::scenario::{AgentBody, AgentKind, AgentState};
@@ -45,6 +50,18 @@ pub const LOOKBACK_S: f64 = 3.0;
 
 /// Lateral offset of a neighbouring lane's car, where the map has no lanes, m.
 pub const LANE_OFFSET_M: f64 = 2.5;
+
+/// How much farther than either party drove over the look-back the lanes
+/// ahead are followed to find where the CBV's lane and the ego's meet, m.
+pub const MERGE_MARGIN_M: f64 = 10.0;
+
+/// Every this many steps the ego's lanes before the closest approach are
+/// read, to tell a CBV following the ego's way from one merging into it.
+const EGO_PATH_EVERY: usize = 5;
+
+/// Most lane pieces followed ahead of a lane (a loop or a chain of very
+/// short pieces stops there).
+const MAX_LANES_AHEAD: usize = 12;
 
 /// The kinds of conflict.
 #[derive(
@@ -171,9 +188,27 @@ pub fn classify_conflict(
     let from_elsewhere =
         !cbv_then.is_empty() && !ego_then.is_empty() && !relations.any_connected(&cbv_then, &ego_lanes);
     if from_elsewhere {
-        let (cbv_next, ego_next) = (relations.successors_of(&cbv_then), relations.successors_of(&ego_then));
-        let runs_into_ego = cbv_next.iter().any(|n| ego_lanes.contains(n) || ego_next.contains(n));
-        if runs_into_ego {
+        // Where the two lanes meet may lie a few lane pieces on (short
+        // pieces through a junction): look as far as either drove.
+        let within_m = (c.position - c0.position).norm().max((e.position - e0.position).norm()) + MERGE_MARGIN_M;
+        let (cbv_ahead, ego_ahead) =
+            (relations.lanes_ahead(&cbv_then, within_m), relations.lanes_ahead(&ego_then, within_m));
+        // The lanes the ego drove before: a CBV whose way ahead runs
+        // through one of them (not the lane the ego is in) follows it.
+        let ego_before: Vec<MapElementId> = (0..closest)
+            .step_by(EGO_PATH_EVERY)
+            .filter_map(|k| ego.states.get(k).copied().flatten())
+            .flat_map(|s| lanes(&s))
+            .collect();
+        let on_the_egos_way = |l: &LaneAhead| ego_before.contains(&l.id) && !ego_lanes.contains(&l.id);
+        let one_behind_the_other = cbv_ahead.iter().any(on_the_egos_way)
+            || ego_ahead.iter().map(|l| &l.id).chain(&ego_before).any(|l| cbv_then.contains(l));
+        // Where the CBV's lane only goes on into the ego's in pieces, the
+        // CBV is behind in the ego's lane, however far back.
+        let lanes_meet = cbv_ahead
+            .iter()
+            .any(|l| l.through_junction && (ego_lanes.contains(&l.id) || ego_ahead.iter().any(|a| a.id == l.id)));
+        if lanes_meet && !one_behind_the_other {
             return Some(ConflictKind::Merge);
         }
     }
@@ -212,6 +247,18 @@ struct LaneRelations<'a> {
     joined: Option<LaneGraph>,
     /// Whether the map records any lane's neighbours.
     neighbours_recorded: bool,
+    /// The lanes two or more lanes lead into (a merge point, a junction's exit).
+    junctions: BTreeSet<MapElementId>,
+}
+
+/// A lane ahead of a vehicle's ([`LaneRelations::lanes_ahead`]).
+#[derive(Debug, Clone, Copy)]
+struct LaneAhead {
+    id: MapElementId,
+    /// Whether the way to it enters a lane that another lane also leads
+    /// into (this one included): a lane only continuing the vehicle's own
+    /// in pieces has none.
+    through_junction: bool,
 }
 
 impl<'a> LaneRelations<'a> {
@@ -219,7 +266,21 @@ impl<'a> LaneRelations<'a> {
         let successors_recorded = map.lanes.iter().any(|l| !l.successors.is_empty());
         let neighbours_recorded =
             map.lanes.iter().any(|l| !l.left_neighbours.is_empty() || !l.right_neighbours.is_empty());
-        Self { map, joined: (!successors_recorded).then(|| LaneGraph::build(map)), neighbours_recorded }
+        let mut relations = Self {
+            map,
+            joined: (!successors_recorded).then(|| LaneGraph::build(map)),
+            neighbours_recorded,
+            junctions: BTreeSet::new(),
+        };
+        let mut predecessors: BTreeMap<MapElementId, BTreeSet<MapElementId>> = BTreeMap::new();
+        for lane in &map.lanes {
+            for next in relations.successors_of(&[lane.id]) {
+                predecessors.entry(next).or_default().insert(lane.id);
+            }
+            predecessors.entry(lane.id).or_default().extend(lane.predecessors.iter().copied());
+        }
+        relations.junctions = predecessors.into_iter().filter(|(_, p)| p.len() >= 2).map(|(id, _)| id).collect();
+        relations
     }
 
     /// The successors of `lanes`.
@@ -232,6 +293,37 @@ impl<'a> LaneRelations<'a> {
                 .flat_map(|i| graph.successors(i).iter().map(|&j| self.map.lanes[j].id))
                 .collect(),
         }
+    }
+
+    /// The lanes ahead of `lanes` (not `lanes` themselves): their
+    /// successors, and the successors of those that start within
+    /// `within_m` of the start of one of `lanes`, at most
+    /// [`MAX_LANES_AHEAD`] pieces on.
+    fn lanes_ahead(&self, lanes: &[MapElementId], within_m: f64) -> Vec<LaneAhead> {
+        let length_m = |id: MapElementId| self.map.lane(id).map_or(f64::INFINITY, |l| l.centreline.length_m());
+        let mut ahead: Vec<LaneAhead> = Vec::new();
+        // (lane, distance from the start of `lanes` to its start, through a junction)
+        let mut frontier: Vec<(MapElementId, f64, bool)> = lanes.iter().map(|&id| (id, 0.0, false)).collect();
+        for _ in 0..MAX_LANES_AHEAD {
+            let mut next = Vec::new();
+            for (id, start_m, through) in frontier {
+                let end_m = start_m + length_m(id);
+                for succ in self.successors_of(&[id]) {
+                    if !ahead.iter().any(|a| a.id == succ) && !lanes.contains(&succ) {
+                        let through_junction = through || self.junctions.contains(&succ);
+                        ahead.push(LaneAhead { id: succ, through_junction });
+                        if end_m < within_m {
+                            next.push((succ, end_m, through_junction));
+                        }
+                    }
+                }
+            }
+            if next.is_empty() {
+                break;
+            }
+            frontier = next;
+        }
+        ahead
     }
 
     /// Whether some lane of `a` is one of `b` or continues it, or the other way round.
@@ -247,7 +339,8 @@ impl<'a> LaneRelations<'a> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geometry::{Point2, Vector2};
+    use crate::geometry::{Point2, Polyline, Vector2};
+    use crate::map::Lane;
     use crate::map::templates::{MapTemplate, Merge, StraightRoad};
     use crate::motion::{Action, KinematicState, kinematic_step};
 
@@ -339,7 +432,10 @@ mod tests {
         let ego = straight(0.0, 1.75, 0.0, 10.0);
         assert_eq!(kind(&bare, &ego, &straight(12.0, 5.25, -8.0, 7.0)), Some(ConflictKind::CutIn));
         assert_eq!(kind(&bare, &ego, &straight(0.5, 5.25, -8.0, 10.0)), Some(ConflictKind::Sideswipe));
-        assert_eq!(kind(&bare, &straight(50.0, 1.75, 0.0, 10.0), &straight(20.0, 1.75, 0.0, 20.0)), Some(ConflictKind::RearEnd));
+        assert_eq!(
+            kind(&bare, &straight(50.0, 1.75, 0.0, 10.0), &straight(20.0, 1.75, 0.0, 20.0)),
+            Some(ConflictKind::RearEnd)
+        );
         let merge: Merge = serde_json::from_value(serde_json::json!({
             "lanes": 2, "length_m": 400, "merge_end_m": 200, "acceleration_lane_m": 70
         }))
@@ -347,6 +443,51 @@ mod tests {
         let bare = without_connectivity(MapTemplate::Merge(merge).build());
         let ego = straight(135.0, 1.75, 0.0, 11.0);
         assert_eq!(kind(&bare, &ego, &straight(140.0, -1.75, 7.0, 10.0)), Some(ConflictKind::Merge));
+    }
+
+    const EGO_X0: f64 = 8.0;
+    const CBV_AIM_X: f64 = 30.0;
+    const CBV_SPEED: f64 = 8.0;
+
+    #[test]
+    fn lanes_that_meet_a_few_short_pieces_on_make_a_merge_and_one_lane_in_pieces_a_rear_end() {
+        // No recorded connectivity, short pieces as through a junction:
+        // 0 → 1 → 2 → 3 along y = 0, and 4 → 5 from the south-west into 3's start.
+        let lane = |id: i64, points: &[(f64, f64)]| {
+            Lane::new(MapElementId(id), Polyline::new(points.iter().map(|&(x, y)| Point2::new(x, y)).collect()))
+        };
+        let map = RoadMap::new(
+            vec![
+                lane(0, &[(-60.0, 0.0), (0.0, 0.0)]),
+                lane(1, &[(0.0, 0.0), (20.0, 0.0)]),
+                lane(2, &[(20.0, 0.0), (30.0, 0.0)]),
+                lane(3, &[(30.0, 0.0), (100.0, 0.0)]),
+                lane(4, &[(0.0, -8.0), (20.0, -2.7)]),
+                lane(5, &[(20.0, -2.7), (30.0, 0.0)]),
+            ],
+            vec![],
+            vec![],
+            vec![],
+            vec![],
+            vec![],
+            vec![],
+        );
+        // The ego drives 1 → 2 → 3 at 5 m/s.
+        let ego = straight(EGO_X0, 0.0, 0.0, 5.0);
+        // From lane 4 up to the ego's tail in lane 3: their lanes meet two pieces on.
+        let heading_deg = (8.0f64).atan2(CBV_AIM_X).to_degrees();
+        assert_eq!(kind(&map, &ego, &straight(0.0, -8.0, heading_deg, CBV_SPEED)), Some(ConflictKind::Merge));
+        // From lane 0 behind the ego, faster: the same way, a rear-end,
+        // though lane 1 is two pieces behind lane 3 when they meet.
+        assert_eq!(kind(&map, &ego, &straight(-50.0, 0.0, 0.0, 12.0)), Some(ConflictKind::RearEnd));
+        // An ego waiting in lane 2, which only lane 1 leads into, and a CBV
+        // from lane 0: however far back, it is in the ego's lane.
+        let waiting =
+            vec![
+                Some(AgentState { position: Point2::new(26.0, 0.0), heading_rad: 0.0, velocity_mps: Vector2::zeros() });
+                80
+            ];
+        assert_eq!(kind(&map, &waiting, &straight(-50.0, 0.0, 0.0, 20.0)), Some(ConflictKind::RearEnd));
     }
 
     #[test]
