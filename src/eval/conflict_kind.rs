@@ -34,9 +34,7 @@
 //! cut-in and merge on such a map reads as a sideswipe or rear-end.
 
 use crate::geometry::wrap_angle;
-use std::collections::{BTreeMap, BTreeSet};
-
-use crate::map::lane_graph::LaneGraph;
+use crate::map::lane_relations::{LaneAhead, LaneRelations};
 use crate::map::{MapElementId, RoadMap};
 use crate::scenario::{AgentBody, AgentKind, AgentState};
 use crate::sim::Rollout;
@@ -58,10 +56,6 @@ pub const MERGE_MARGIN_M: f64 = 10.0;
 /// Every this many steps the ego's lanes before the closest approach are
 /// read, to tell a CBV following the ego's way from one merging into it.
 const EGO_PATH_EVERY: usize = 5;
-
-/// Most lane pieces followed ahead of a lane (a loop or a chain of very
-/// short pieces stops there).
-const MAX_LANES_AHEAD: usize = 12;
 
 /// The kinds of conflict.
 #[derive(
@@ -218,7 +212,7 @@ pub fn classify_conflict(
     let moved_sideways_in = side_then > LANE_OFFSET_M && side_now < LANE_OFFSET_M / 2.0;
     let moved_in = if cbv_then.is_empty() || ego_then.is_empty() {
         moved_sideways_in
-    } else if relations.neighbours_recorded {
+    } else if relations.neighbours_recorded() {
         let beside = map.neighbours_of(&cbv_then).iter().any(|n| ego_then.contains(n));
         from_elsewhere && beside && relations.any_connected(&cbv_now, &ego_lanes)
     } else {
@@ -237,103 +231,6 @@ pub fn classify_conflict(
     } else {
         ConflictKind::Sideswipe
     })
-}
-
-/// How the classifier relates lanes on one map: the recorded successors
-/// and neighbours, or (where the map records none) geometry.
-struct LaneRelations<'a> {
-    map: &'a RoadMap,
-    /// Successors joined by geometry, when the map records none at all.
-    joined: Option<LaneGraph>,
-    /// Whether the map records any lane's neighbours.
-    neighbours_recorded: bool,
-    /// The lanes two or more lanes lead into (a merge point, a junction's exit).
-    junctions: BTreeSet<MapElementId>,
-}
-
-/// A lane ahead of a vehicle's ([`LaneRelations::lanes_ahead`]).
-#[derive(Debug, Clone, Copy)]
-struct LaneAhead {
-    id: MapElementId,
-    /// Whether the way to it enters a lane that another lane also leads
-    /// into (this one included): a lane only continuing the vehicle's own
-    /// in pieces has none.
-    through_junction: bool,
-}
-
-impl<'a> LaneRelations<'a> {
-    fn of(map: &'a RoadMap) -> Self {
-        let successors_recorded = map.lanes.iter().any(|l| !l.successors.is_empty());
-        let neighbours_recorded =
-            map.lanes.iter().any(|l| !l.left_neighbours.is_empty() || !l.right_neighbours.is_empty());
-        let mut relations = Self {
-            map,
-            joined: (!successors_recorded).then(|| LaneGraph::build(map)),
-            neighbours_recorded,
-            junctions: BTreeSet::new(),
-        };
-        let mut predecessors: BTreeMap<MapElementId, BTreeSet<MapElementId>> = BTreeMap::new();
-        for lane in &map.lanes {
-            for next in relations.successors_of(&[lane.id]) {
-                predecessors.entry(next).or_default().insert(lane.id);
-            }
-            predecessors.entry(lane.id).or_default().extend(lane.predecessors.iter().copied());
-        }
-        relations.junctions = predecessors.into_iter().filter(|(_, p)| p.len() >= 2).map(|(id, _)| id).collect();
-        relations
-    }
-
-    /// The successors of `lanes`.
-    fn successors_of(&self, lanes: &[MapElementId]) -> Vec<MapElementId> {
-        match &self.joined {
-            None => self.map.successors_of(lanes),
-            Some(graph) => lanes
-                .iter()
-                .filter_map(|&id| self.map.lane_index(id))
-                .flat_map(|i| graph.successors(i).iter().map(|&j| self.map.lanes[j].id))
-                .collect(),
-        }
-    }
-
-    /// The lanes ahead of `lanes` (not `lanes` themselves): their
-    /// successors, and the successors of those that start within
-    /// `within_m` of the start of one of `lanes`, at most
-    /// [`MAX_LANES_AHEAD`] pieces on.
-    fn lanes_ahead(&self, lanes: &[MapElementId], within_m: f64) -> Vec<LaneAhead> {
-        let length_m = |id: MapElementId| self.map.lane(id).map_or(f64::INFINITY, |l| l.centreline.length_m());
-        let mut ahead: Vec<LaneAhead> = Vec::new();
-        // (lane, distance from the start of `lanes` to its start, through a junction)
-        let mut frontier: Vec<(MapElementId, f64, bool)> = lanes.iter().map(|&id| (id, 0.0, false)).collect();
-        for _ in 0..MAX_LANES_AHEAD {
-            let mut next = Vec::new();
-            for (id, start_m, through) in frontier {
-                let end_m = start_m + length_m(id);
-                for succ in self.successors_of(&[id]) {
-                    if !ahead.iter().any(|a| a.id == succ) && !lanes.contains(&succ) {
-                        let through_junction = through || self.junctions.contains(&succ);
-                        ahead.push(LaneAhead { id: succ, through_junction });
-                        if end_m < within_m {
-                            next.push((succ, end_m, through_junction));
-                        }
-                    }
-                }
-            }
-            if next.is_empty() {
-                break;
-            }
-            frontier = next;
-        }
-        ahead
-    }
-
-    /// Whether some lane of `a` is one of `b` or continues it, or the other way round.
-    fn any_connected(&self, a: &[MapElementId], b: &[MapElementId]) -> bool {
-        if self.joined.is_none() {
-            return self.map.any_lanes_connected(a, b);
-        }
-        let (a_next, b_next) = (self.successors_of(a), self.successors_of(b));
-        a.iter().any(|x| b.contains(x) || b_next.contains(x)) || b.iter().any(|y| a_next.contains(y))
-    }
 }
 
 #[cfg(test)]

@@ -18,6 +18,7 @@
 mod elements;
 pub mod lane_graph;
 mod lane_queries;
+pub mod lane_relations;
 mod road_edge_queries;
 pub use road_edge_queries::DRIVABLE_SEAM_M;
 mod spatial_index;
