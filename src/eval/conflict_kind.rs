@@ -16,10 +16,10 @@
 //! 5. below 45° (the same direction): `merge` when the CBV came from a
 //!    lane other than the ego's that runs into the ego's lane (the lanes
 //!    ahead of the CBV's, as far as either drove since "before" plus
-//!    [`MERGE_MARGIN_M`], reach the ego's lane, or both lanes lead into
-//!    one: an on-ramp, a lane drop, two ways through a junction), unless
-//!    the CBV's way runs through a lane the ego drove earlier (it follows
-//!    the ego); `cut-in` when the CBV moved sideways into the ego's
+//!    [`MERGE_MARGIN_M`], pass a lane two lanes lead into and reach the
+//!    ego's lane "before" or a lane ahead of it: an on-ramp, a lane drop,
+//!    two ways through a junction), unless the CBV's way runs through a
+//!    lane the ego drove earlier (it follows the ego); `cut-in` when the CBV moved sideways into the ego's
 //!    path ahead of it (in the map: from a lane neighbouring the ego's into
 //!    the ego's; without lanes: from more than [`LANE_OFFSET_M`] to the side
 //!    to less than half of it); `rear-end` when one is behind the other
@@ -199,9 +199,11 @@ pub fn classify_conflict(
             || ego_ahead.iter().map(|l| &l.id).chain(&ego_before).any(|l| cbv_then.contains(l));
         // Where the CBV's lane only goes on into the ego's in pieces, the
         // CBV is behind in the ego's lane, however far back.
+        // The ego's own way (its lanes before and those ahead of them), not
+        // a lane it moved into: an ego changing into the CBV's lane is no merge.
         let lanes_meet = cbv_ahead
             .iter()
-            .any(|l| l.through_junction && (ego_lanes.contains(&l.id) || ego_ahead.iter().any(|a| a.id == l.id)));
+            .any(|l| l.through_junction && (ego_then.contains(&l.id) || ego_ahead.iter().any(|a| a.id == l.id)));
         if lanes_meet && !one_behind_the_other {
             return Some(ConflictKind::Merge);
         }
@@ -385,6 +387,46 @@ mod tests {
                 80
             ];
         assert_eq!(kind(&map, &waiting, &straight(-50.0, 0.0, 0.0, 20.0)), Some(ConflictKind::RearEnd));
+    }
+
+    #[test]
+    fn an_ego_changing_into_the_cbvs_lane_past_a_junction_is_no_merge() {
+        let lane = |id: i64, points: &[(f64, f64)]| {
+            Lane::new(MapElementId(id), Polyline::new(points.iter().map(|&(x, y)| Point2::new(x, y)).collect()))
+        };
+        // No recorded connectivity: lane 1 → 2 → 3 at y = 0, lane 11 → 12 → 13
+        // at y = 3.5, and a ramp 20 joining lane 12 where it starts.
+        let map = RoadMap::new(
+            vec![
+                lane(1, &[(0.0, 0.0), (20.0, 0.0)]),
+                lane(2, &[(20.0, 0.0), (40.0, 0.0)]),
+                lane(3, &[(40.0, 0.0), (200.0, 0.0)]),
+                lane(11, &[(0.0, 3.5), (20.0, 3.5)]),
+                lane(12, &[(20.0, 3.5), (40.0, 3.5)]),
+                lane(13, &[(40.0, 3.5), (200.0, 3.5)]),
+                lane(20, &[(0.0, 8.0), (20.0, 3.5)]),
+            ],
+            vec![],
+            vec![],
+            vec![],
+            vec![],
+            vec![],
+            vec![],
+        );
+        // The CBV keeps lane 11 → 12 → 13 at 12 m/s; the ego, ahead and
+        // slower, steers from lane 2 into lane 13 (2 s, ±30°/s) past the junction.
+        let cbv = straight(-10.0, 3.5, 0.0, 12.0);
+        let ego = drive(25.0, 0.0, 0.0, 6.0, |t| {
+            if (2.0..3.0).contains(&t) {
+                30.0
+            } else if (3.0..4.0).contains(&t) {
+                -30.0
+            } else {
+                0.0
+            }
+        });
+        let got = kind(&map, &ego, &cbv);
+        assert!(got.is_some() && got != Some(ConflictKind::Merge), "{got:?}");
     }
 
     #[test]
