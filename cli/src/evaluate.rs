@@ -26,6 +26,7 @@ use safer_scenarios::harness::methods::BackgroundDriver;
 use safer_scenarios::harness::methods::ModelSet;
 use safer_scenarios::harness::mutation::MethodKills;
 use safer_scenarios::policies::adversary::ApproachPhase;
+use safer_scenarios::scenario::roles::RolePairing;
 use safer_scenarios::scenario::{Scenario, import};
 use safer_scenarios::spec::suite::AdversaryMethod;
 
@@ -94,6 +95,10 @@ pub(super) struct WitnessSettings {
     pub widest: usize,
 }
 
+fn is_as_loaded(roles: &RolePairing) -> bool {
+    *roles == RolePairing::AsLoaded
+}
+
 /// What an evaluation was asked, as its report records it: partitions of
 /// one evaluation have equal settings, and the merge checks that they do.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -114,6 +119,10 @@ pub(super) struct EvaluationSettings {
     /// The scenario ids `--scene` named (none: every scene).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     only_scenes: Vec<String>,
+    /// The ego–CBV pairs (`--roles`); reports written before the option
+    /// existed had the scenes' own.
+    #[serde(default, skip_serializing_if = "is_as_loaded")]
+    roles: RolePairing,
     witness: WitnessSettings,
     /// The fault operators planted (`--mutants`; none: no mutation run).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
@@ -134,6 +143,7 @@ impl EvaluationSettings {
             horizon_s: request.horizon_s,
             max_scenes: selection.max_scenes,
             only_scenes: selection.ids.to_vec(),
+            roles: selection.roles,
             witness,
             mutants: request.mutants.clone(),
         }
@@ -155,7 +165,7 @@ fn print_table(
     let name = |r: &MethodRow| label(r.method, r.stage2_cbv, modes);
     writeln!(
         out,
-        "{scenes} scenes × {} seeds; stage 2 planner `{}`, stage-2 CBV {}, trust region n = {}, horizon {} s{}{}{}",
+        "{scenes} scenes × {} seeds; stage 2 planner `{}`, stage-2 CBV {}, trust region n = {}, horizon {} s{}{}{}{}",
         request.seeds,
         request.planner,
         request.stage2_cbv.iter().map(safer_scenarios::spec::spec_name).collect::<Vec<_>>().join(" and "),
@@ -173,6 +183,10 @@ fn print_table(
             String::new()
         } else {
             format!("; the witness search widens its beam up to ×{}", witness.widest)
+        },
+        match request.roles {
+            RolePairing::AsLoaded => "",
+            RolePairing::Merging => "; ego and CBV in merging lanes (--roles merging)",
         }
     )?;
     print_outcomes(out, rows, &name)?;
@@ -761,13 +775,35 @@ pub(super) struct SceneSelection<'a> {
     pub max_scenes: Option<usize>,
     /// Only these scenario ids (none: all).
     pub ids: &'a [String],
+    /// The ego–CBV pair each scene is tested with.
+    pub roles: RolePairing,
 }
 
 impl SceneSelection<'_> {
+    /// `scenes` with the roles this selection asks for; with `merging`,
+    /// the scenes that have a merging pair.
+    fn paired(&self, scenes: Vec<Arc<Scenario>>) -> Vec<Arc<Scenario>> {
+        match self.roles {
+            RolePairing::AsLoaded => scenes,
+            RolePairing::Merging => {
+                let all = scenes.len();
+                let merging: Vec<Arc<Scenario>> = scenes
+                    .into_iter()
+                    .filter_map(|s| {
+                        let mut s = Arc::unwrap_or_clone(s);
+                        safer_scenarios::scenario::roles::assign_merging(&mut s).then(|| Arc::new(s))
+                    })
+                    .collect();
+                eprintln!("evaluate: --roles merging: {} of {all} scenes have a merging pair", merging.len());
+                merging
+            }
+        }
+    }
+
     /// The scenes under `dir` this selection keeps, by id; an id that no
     /// scene with an ego and a CBV has is an error naming it.
     fn load(&self, dir: &Path) -> Result<Vec<Arc<Scenario>>, CliError> {
-        let scenes = load_scenes(dir, self.max_scenes)?;
+        let scenes = self.paired(load_scenes(dir, self.max_scenes)?);
         if self.ids.is_empty() {
             return Ok(scenes);
         }
@@ -828,7 +864,11 @@ pub(super) fn run(
         })
         .collect();
     if scenes.is_empty() {
-        return Err(CliError::Usage(format!("{}: no scene with both an ego and a CBV", scenes_dir.display())));
+        let what = match selection.roles {
+            RolePairing::AsLoaded => "no scene with both an ego and a CBV",
+            RolePairing::Merging => "no scene with a pair of vehicles in merging lanes (--roles merging)",
+        };
+        return Err(CliError::Usage(format!("{}: {what}", scenes_dir.display())));
     }
     let digest = evaluation::scene_list_digest(&scenes.iter().map(|s| s.id.as_str()).collect::<Vec<_>>());
     let scenes = match partition {
@@ -1084,6 +1124,9 @@ pub(crate) struct EvaluateArgs {
     /// Horizon of both stages from the scene's current step, s (positive, finite).
     #[arg(long, default_value_t = 8.0, value_parser = positive_finite, allow_negative_numbers = true)]
     pub(crate) horizon_s: f64,
+    /// Which ego–CBV pair each scene is tested with: `as-loaded`, the source's roles, else the labelled pair, else the pair of moving vehicles with the closest approach; `merging`, a CBV in a lane that merges with the ego's ahead of both (an on-ramp, a lane drop, two ways through a junction), the closest such; a mined ego is mined again with it. Scenes without a merging pair are left out.
+    #[arg(long, value_parser = choice(RolePairing::ALL), default_value = "as-loaded")]
+    pub(crate) roles: RolePairing,
     /// Evaluate only the first N scenes (by id), at least 1.
     #[arg(long, value_name = "N", value_parser = at_least_one())]
     pub(crate) max_scenes: Option<usize>,
@@ -1129,6 +1172,7 @@ pub(crate) fn command(args: EvaluateArgs) -> Result<ExitCode, CliError> {
         approach_phase,
         stage2_cbv,
         horizon_s,
+        roles,
         max_scenes,
         scene,
         json,
@@ -1161,7 +1205,7 @@ pub(crate) fn command(args: EvaluateArgs) -> Result<ExitCode, CliError> {
     };
     let witness = WitnessSettings { road: witness_road, widest: witness_widest };
     set_jobs(jobs).and_then(|()| {
-        run(&scenes, &request, SceneSelection { max_scenes, ids: &scene }, json.as_deref(), witness, partition)
+        run(&scenes, &request, SceneSelection { max_scenes, ids: &scene, roles }, json.as_deref(), witness, partition)
     })
 }
 

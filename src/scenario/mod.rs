@@ -210,6 +210,9 @@ pub enum RoleOrigin {
     /// The source's labelled interacting pair (WOMD `objects_of_interest`)
     /// when it leaves out the SDC (see [`roles::assign`]).
     LabelledPair,
+    /// A vehicle in a lane merging with the ego's, chosen on request
+    /// (`safer evaluate --roles merging`, see [`roles::assign_merging`]).
+    MergeMining,
     /// Not assigned.
     Unassigned,
 }

@@ -21,7 +21,9 @@
 //! crashed in the log makes no avoidable test either. Without this rule the
 //! closest pair is almost always such an overlap (12 of 84 NGSIM scenes).
 
-use super::{AgentKind, RoleOrigin, Scenario, TrackIndex};
+use super::{AgentKind, AgentState, RoleOrigin, Scenario, TrackIndex};
+use crate::geometry::wrap_angle;
+use crate::map::lane_relations::LaneRelations;
 
 /// A vehicle must reach this speed at some future step to count as moving;
 /// parked cars make "closest" pairs that no adversary can use.
@@ -145,6 +147,134 @@ pub fn mine_pair(scenario: &Scenario) -> Option<(TrackIndex, TrackIndex)> {
     Some(if future(b) > future(a) { (b, a) } else { (a, b) })
 }
 
+/// Which ego–CBV pair a scene is tested with.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum RolePairing {
+    /// As the scene was loaded: the source's roles, else the labelled pair,
+    /// else the closest approach ([`assign`]).
+    #[default]
+    AsLoaded,
+    /// A CBV in a lane merging with the ego's ([`assign_merging`]); scenes
+    /// without one are left out.
+    Merging,
+}
+
+impl RolePairing {
+    /// Every variant, in declaration order (for choosers such as the command line).
+    pub const ALL: &'static [Self] = &[Self::AsLoaded, Self::Merging];
+}
+
+/// How far ahead of both vehicles their lanes are followed to find where
+/// they merge, m (about 8 s at 15 m/s).
+pub const MERGE_LOOKAHEAD_M: f64 = 120.0;
+
+/// Most heading difference of a merging pair at the current step, rad
+/// (the conflict classifier's bound between the same direction and a
+/// crossing).
+pub const MERGE_MAX_HEADING_RAD: f64 = std::f64::consts::FRAC_PI_4;
+
+/// Whether `a` and `b` are in lanes that merge ahead of both at the
+/// current step: heading the same way (within [`MERGE_MAX_HEADING_RAD`]),
+/// not one lane (nor one continuing the other), neither's
+/// lane ahead of the other, and their lanes ahead meet in a lane that two
+/// lanes lead into (an on-ramp's end, a lane drop, two ways through a
+/// junction) within [`MERGE_LOOKAHEAD_M`]; the map's lane relations
+/// ([`LaneRelations`]).
+pub fn in_merging_lanes(scenario: &Scenario, relations: &LaneRelations<'_>, a: TrackIndex, b: TrackIndex) -> bool {
+    let now = scenario.current_step;
+    let (Some(sa), Some(sb)) = (scenario.track(a).state(now), scenario.track(b).state(now)) else { return false };
+    // Two ways into one exit from opposite or crossing approaches make a
+    // turn conflict, not a merge.
+    if wrap_angle(sa.heading_rad - sb.heading_rad).abs() >= MERGE_MAX_HEADING_RAD {
+        return false;
+    }
+    let lanes = |s: &AgentState| scenario.map.lanes_containing(&s.position, s.heading_rad);
+    let (la, lb) = (lanes(sa), lanes(sb));
+    if la.is_empty() || lb.is_empty() || relations.any_connected(&la, &lb) {
+        return false;
+    }
+    let (ahead_a, ahead_b) =
+        (relations.lanes_ahead(&la, MERGE_LOOKAHEAD_M), relations.lanes_ahead(&lb, MERGE_LOOKAHEAD_M));
+    if ahead_a.iter().any(|l| lb.contains(&l.id)) || ahead_b.iter().any(|l| la.contains(&l.id)) {
+        return false;
+    }
+    ahead_b.iter().any(|l| l.through_junction && ahead_a.iter().any(|m| m.id == l.id && m.through_junction))
+}
+
+/// The CBV for `ego` among the vehicles in lanes merging with the ego's
+/// ([`in_merging_lanes`]): of those, the moving one with the closest
+/// approach (the same ranking and overlap rule as [`mine_cbv`]).
+pub fn mine_merging_cbv(scenario: &Scenario, ego: TrackIndex) -> Option<TrackIndex> {
+    let relations = LaneRelations::of(&scenario.map);
+    let mut best: Option<(PairKey, TrackIndex)> = None;
+    for c in candidates(scenario) {
+        if c == ego || !in_merging_lanes(scenario, &relations, ego, c) {
+            continue;
+        }
+        if let Some(approach) = closest_approach(scenario, ego, c).filter(|a| a.distance_m > 0.0) {
+            let k = key(&approach, ego, c);
+            if best.as_ref().is_none_or(|(bk, _)| better(&k, bk)) {
+                best = Some((k, c));
+            }
+        }
+    }
+    best.map(|(_, c)| c)
+}
+
+/// The (ego, CBV) pair in merging lanes ([`in_merging_lanes`]) with the
+/// closest approach among moving vehicles; the ego is the one with more
+/// valid future steps, as in [`mine_pair`].
+pub fn mine_merging_pair(scenario: &Scenario) -> Option<(TrackIndex, TrackIndex)> {
+    let relations = LaneRelations::of(&scenario.map);
+    let cands = candidates(scenario);
+    let mut best: Option<(PairKey, (TrackIndex, TrackIndex))> = None;
+    for (i, &a) in cands.iter().enumerate() {
+        for &b in &cands[i + 1..] {
+            if !in_merging_lanes(scenario, &relations, a, b) {
+                continue;
+            }
+            if let Some(approach) = closest_approach(scenario, a, b).filter(|a| a.distance_m > 0.0) {
+                let k = key(&approach, a, b);
+                if best.as_ref().is_none_or(|(bk, _)| better(&k, bk)) {
+                    best = Some((k, (a, b)));
+                }
+            }
+        }
+    }
+    let (_, (a, b)) = best?;
+    let future = |t: TrackIndex| scenario.track(t).states[scenario.current_step..].iter().flatten().count();
+    Some(if future(b) > future(a) { (b, a) } else { (a, b) })
+}
+
+/// Makes the scenario's CBV a vehicle merging with the ego, for testing a
+/// planner against merges: an ego the source named (or its labelled pair's)
+/// keeps its place and gets the merging CBV [`mine_merging_cbv`] finds; a
+/// mined ego is mined again with its CBV as a merging pair
+/// ([`mine_merging_pair`]). Returns whether the scene has one; when it has
+/// none the scenario is left as it was.
+pub fn assign_merging(scenario: &mut Scenario) -> bool {
+    let named_ego =
+        scenario.ego.filter(|_| matches!(scenario.ego_origin, RoleOrigin::Source | RoleOrigin::LabelledPair));
+    let (ego, cbv) = match named_ego {
+        Some(ego) => match mine_merging_cbv(scenario, ego) {
+            Some(cbv) => (ego, cbv),
+            None => return false,
+        },
+        None => match mine_merging_pair(scenario) {
+            Some(pair) => pair,
+            None => return false,
+        },
+    };
+    if scenario.ego != Some(ego) {
+        scenario.ego = Some(ego);
+        scenario.ego_origin = RoleOrigin::MergeMining;
+    }
+    scenario.cbv = Some(cbv);
+    scenario.cbv_origin = RoleOrigin::MergeMining;
+    true
+}
+
 /// The labelled pair as (ego, CBV): two objects of interest, both moving
 /// vehicles with enough future, neither of them the ego already named.
 fn labelled_pair(scenario: &Scenario) -> Option<(TrackIndex, TrackIndex)> {
@@ -236,6 +366,47 @@ mod tests {
 
     fn scenario(tracks: Vec<Track>) -> Scenario {
         Scenario::new("t", ScenarioSource::authored("t"), 0.1, RoadMap::default(), tracks)
+    }
+
+    #[test]
+    fn a_merging_pair_is_the_ramp_car_and_the_main_lanes_not_the_closer_follower() {
+        use crate::map::templates::{MapTemplate, Merge};
+        let merge: Merge = serde_json::from_value(serde_json::json!({
+            "lanes": 2, "length_m": 400, "merge_end_m": 200, "acceleration_lane_m": 70
+        }))
+        .unwrap();
+        // The acceleration lane runs at y = -1.75 from x = 130 to 200 and
+        // leads into lane 0's successor; lane 1 is beside lane 0.
+        let tracks = vec![
+            track("main", 100.0, 1.75, 10.0, 0.0),
+            track("follower", 80.0, 1.75, 10.0, 0.0),
+            track("ramp", 135.0, -1.75, 10.0, 0.0),
+            track("beside", 100.0, 5.25, 10.0, 0.0),
+        ];
+        let mut s = Scenario::new("t", ScenarioSource::authored("t"), 0.1, MapTemplate::Merge(merge).build(), tracks);
+        assign(&mut s);
+        let named = |t: Option<TrackIndex>| t.map(|t| s.track(t).id.0.clone());
+        // Closest approach picks the follower or the car beside.
+        assert_ne!(named(s.cbv).as_deref(), Some("ramp"));
+        let pair = mine_merging_pair(&s).map(|(a, b)| [s.track(a).id.0.clone(), s.track(b).id.0.clone()]);
+        assert!(pair.as_ref().is_some_and(|p| p.contains(&"main".into()) && p.contains(&"ramp".into())), "{pair:?}");
+        let mut merging = s.clone();
+        assert!(assign_merging(&mut merging));
+        assert_eq!(merging.cbv_origin, RoleOrigin::MergeMining);
+        // With the ego named by the source, it keeps its place.
+        let mut named_ego = s.clone();
+        named_ego.ego = Some(TrackIndex(0));
+        named_ego.ego_origin = RoleOrigin::Source;
+        assert!(assign_merging(&mut named_ego));
+        assert_eq!((named_ego.ego, named_ego.cbv), (Some(TrackIndex(0)), Some(TrackIndex(2))));
+        // The car beside, in a lane that only goes on, merges with nobody.
+        assert_eq!(mine_merging_cbv(&s, TrackIndex(3)), None);
+        // A map without lanes has no merges: the scenario is left as it was.
+        let mut open = scenario(s.tracks.clone());
+        assign(&mut open);
+        let before = (open.ego, open.cbv);
+        assert!(!assign_merging(&mut open));
+        assert_eq!((open.ego, open.cbv), before);
     }
 
     #[test]

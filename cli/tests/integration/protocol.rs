@@ -109,6 +109,54 @@ fn safer(args: &[&str]) -> std::process::Output {
 
 #[test]
 #[cfg_attr(not(recorded_data), ignore = "needs recorded data: set SAFER_DATA_DIR (docs/guide/recorded-data.md)")]
+fn evaluate_with_merging_roles_tests_a_merging_pair_and_leaves_out_scenes_without_one() {
+    // A WOMD JSON junction where two lanes lead into one, and the NGSIM
+    // freeway scene above, whose lanes only run side by side.
+    let merging = data_dir().join("womd-json/tfrecord-00094-of-00150_48b0814dee9301a0.json");
+    let freeway = data_dir().join(SCENE);
+    let dir = crate::scratch::Scratch::new("evaluate-merging-roles");
+    for scene in [&merging, &freeway] {
+        std::fs::copy(scene, dir.join(scene.file_name().unwrap())).unwrap();
+    }
+    let run = |roles: &str| {
+        safer(&[
+            "evaluate",
+            "--scenes",
+            dir.to_str().unwrap(),
+            "--methods",
+            "log",
+            "--seeds",
+            "1",
+            "--roles",
+            roles,
+            "--json",
+            "-",
+        ])
+    };
+    let out = run("merging");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(err.contains("--roles merging: 1 of 2 scenes have a merging pair"), "{err}");
+    assert!(err.contains("ego and CBV in merging lanes"), "{err}");
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(report["settings"]["roles"], "merging");
+    assert_eq!(report["scene_list"]["ids"], serde_json::json!(["48b0814dee9301a0"]));
+    // The recorded pair merges: log replay's conflict is classified so.
+    assert_eq!(report["variants"][0]["tally"]["stage1_conflict"], "merge", "{}", report["variants"][0]);
+    // The default leaves the scenes' own pairs, and the report says nothing of roles.
+    let out = run("as-loaded");
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(report["scene_list"]["ids"].as_array().map(Vec::len), Some(2));
+    assert!(report["settings"].get("roles").is_none(), "{}", report["settings"]);
+    // Only the freeway: nothing to test, said so.
+    std::fs::remove_file(dir.join(merging.file_name().unwrap())).unwrap();
+    let out = run("merging");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.contains("no scene with a pair of vehicles in merging lanes"), "{err}");
+}
+
+#[test]
+#[cfg_attr(not(recorded_data), ignore = "needs recorded data: set SAFER_DATA_DIR (docs/guide/recorded-data.md)")]
 fn evaluate_takes_a_planner_spec_and_jobs_and_reports_latency() {
     let scene = data_dir().join(SCENE);
     let scene = scene.to_str().unwrap();

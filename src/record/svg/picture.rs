@@ -102,6 +102,7 @@ impl<'a> Picture<'a> {
             RoleOrigin::Source => "named by the source",
             RoleOrigin::ConflictMining => "by conflict mining",
             RoleOrigin::LabelledPair => "the labelled interacting pair",
+            RoleOrigin::MergeMining => "in a lane merging with the other's",
             RoleOrigin::Unassigned => "unassigned",
         };
         let line2 = format!(
