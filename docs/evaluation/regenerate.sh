@@ -34,6 +34,9 @@
 #                     evasive tables again with --seed 1000 (*-seed1000.txt),
 #                     mutants-ngsim-lane-follower-n60.txt, and the paper's
 #                     protocol on NGSIM, evaluate-ngsim-n60.txt (about 35 minutes)
+#   merging           merging/evaluate-{womd-interactive,womd-json,ngsim}.txt: every scene
+#                     with a pair of vehicles in merging lanes (--roles merging), log
+#                     replay, the prior, safer, safer-in-path and safer-cut-in (about 3 minutes)
 #   mutants           mutants-{womd-interactive,womd-json,ngsim}-evasive.txt and
 #                     mutants-{womd-interactive,ngsim}-lane-follower.txt: the
 #                     faults of the planner each method's variants catch
@@ -47,7 +50,7 @@ set -euo pipefail
 : "${SAFER_DATA_DIR:?set SAFER_DATA_DIR to the folder of the recorded datasets}"
 self=$(realpath "$0")
 cd "$(dirname "$self")"
-all=(evaluate plain inattentive held-out-chance trust-region realism prior-fit n-sweep reactive n100 approach-none mutants wide-region cut-in)
+all=(evaluate plain inattentive held-out-chance trust-region realism prior-fit n-sweep reactive n100 approach-none merging mutants wide-region cut-in)
 jobs=("$@")
 [[ ${#jobs[@]} -gt 0 ]] || jobs=("${all[@]}")
 # The usage is the comment block at the top of this file.
@@ -146,6 +149,12 @@ for job in "${jobs[@]}"; do
         done
         run approach-none/trust-region-womd-interactive.txt trust-region --scenes data:womd-interactive "${once[@]}" \
             --methods safer,safer-inattentive ;;
+    merging)
+        mkdir -p merging
+        for s in "${sets[@]}"; do
+            run "merging/evaluate-${s#*:}.txt" evaluate --scenes "data:${s%%:*}" --seeds 10 --roles merging \
+                --methods log,prior,safer,safer-in-path,safer-cut-in
+        done ;;
     mutants)
         mutating=(--stage2-cbv closed-loop --mutants)
         for s in "${sets[@]}"; do

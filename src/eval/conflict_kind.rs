@@ -28,7 +28,7 @@
 //!
 //! Lane relations come from the map where it records them. A map that
 //! records no successors at all (GPUDrive's WOMD JSON keeps none) has them
-//! joined by geometry ([`LaneGraph`]: a lane that starts where another
+//! joined by geometry ([`LaneGraph`](crate::map::lane_graph::LaneGraph): a lane that starts where another
 //! ends, going its way); a map that records no neighbours at all has the
 //! cut-in judged by lateral offset, as without lanes. Without this, every
 //! cut-in and merge on such a map reads as a sideswipe or rear-end.
