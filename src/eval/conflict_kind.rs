@@ -269,6 +269,11 @@ mod tests {
         drive(x, y, heading_deg, speed_mps, |_| 0.0)
     }
 
+    /// A lane `id` along `points`, without recorded connectivity.
+    fn lane(id: i64, points: &[(f64, f64)]) -> Lane {
+        Lane::new(MapElementId(id), Polyline::new(points.iter().map(|&(x, y)| Point2::new(x, y)).collect()))
+    }
+
     fn kind(map: &RoadMap, ego: &[Option<AgentState>], cbv: &[Option<AgentState>]) -> Option<ConflictKind> {
         classify_conflict(map, ConflictParty { body: CAR, states: ego }, ConflictParty { body: CAR, states: cbv }, DT_S)
     }
@@ -352,25 +357,14 @@ mod tests {
     fn lanes_that_meet_a_few_short_pieces_on_make_a_merge_and_one_lane_in_pieces_a_rear_end() {
         // No recorded connectivity, short pieces as through a junction:
         // 0 → 1 → 2 → 3 along y = 0, and 4 → 5 from the south-west into 3's start.
-        let lane = |id: i64, points: &[(f64, f64)]| {
-            Lane::new(MapElementId(id), Polyline::new(points.iter().map(|&(x, y)| Point2::new(x, y)).collect()))
-        };
-        let map = RoadMap::new(
-            vec![
-                lane(0, &[(-60.0, 0.0), (0.0, 0.0)]),
-                lane(1, &[(0.0, 0.0), (20.0, 0.0)]),
-                lane(2, &[(20.0, 0.0), (30.0, 0.0)]),
-                lane(3, &[(30.0, 0.0), (100.0, 0.0)]),
-                lane(4, &[(0.0, -8.0), (20.0, -2.7)]),
-                lane(5, &[(20.0, -2.7), (30.0, 0.0)]),
-            ],
-            vec![],
-            vec![],
-            vec![],
-            vec![],
-            vec![],
-            vec![],
-        );
+        let map = RoadMap::from_lanes(vec![
+            lane(0, &[(-60.0, 0.0), (0.0, 0.0)]),
+            lane(1, &[(0.0, 0.0), (20.0, 0.0)]),
+            lane(2, &[(20.0, 0.0), (30.0, 0.0)]),
+            lane(3, &[(30.0, 0.0), (100.0, 0.0)]),
+            lane(4, &[(0.0, -8.0), (20.0, -2.7)]),
+            lane(5, &[(20.0, -2.7), (30.0, 0.0)]),
+        ]);
         // The ego drives 1 → 2 → 3 at 5 m/s.
         let ego = straight(EGO_X0, 0.0, 0.0, 5.0);
         // From lane 4 up to the ego's tail in lane 3: their lanes meet two pieces on.
@@ -391,28 +385,17 @@ mod tests {
 
     #[test]
     fn an_ego_changing_into_the_cbvs_lane_past_a_junction_is_no_merge() {
-        let lane = |id: i64, points: &[(f64, f64)]| {
-            Lane::new(MapElementId(id), Polyline::new(points.iter().map(|&(x, y)| Point2::new(x, y)).collect()))
-        };
         // No recorded connectivity: lane 1 → 2 → 3 at y = 0, lane 11 → 12 → 13
         // at y = 3.5, and a ramp 20 joining lane 12 where it starts.
-        let map = RoadMap::new(
-            vec![
-                lane(1, &[(0.0, 0.0), (20.0, 0.0)]),
-                lane(2, &[(20.0, 0.0), (40.0, 0.0)]),
-                lane(3, &[(40.0, 0.0), (200.0, 0.0)]),
-                lane(11, &[(0.0, 3.5), (20.0, 3.5)]),
-                lane(12, &[(20.0, 3.5), (40.0, 3.5)]),
-                lane(13, &[(40.0, 3.5), (200.0, 3.5)]),
-                lane(20, &[(0.0, 8.0), (20.0, 3.5)]),
-            ],
-            vec![],
-            vec![],
-            vec![],
-            vec![],
-            vec![],
-            vec![],
-        );
+        let map = RoadMap::from_lanes(vec![
+            lane(1, &[(0.0, 0.0), (20.0, 0.0)]),
+            lane(2, &[(20.0, 0.0), (40.0, 0.0)]),
+            lane(3, &[(40.0, 0.0), (200.0, 0.0)]),
+            lane(11, &[(0.0, 3.5), (20.0, 3.5)]),
+            lane(12, &[(20.0, 3.5), (40.0, 3.5)]),
+            lane(13, &[(40.0, 3.5), (200.0, 3.5)]),
+            lane(20, &[(0.0, 8.0), (20.0, 3.5)]),
+        ]);
         // The CBV keeps lane 11 → 12 → 13 at 12 m/s; the ego, ahead and
         // slower, steers from lane 2 into lane 13 (2 s, ±30°/s) past the junction.
         let cbv = straight(-10.0, 3.5, 0.0, 12.0);

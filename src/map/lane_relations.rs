@@ -130,20 +130,12 @@ mod tests {
 
     /// 1 → 2 → 3 along y = 0 and 4 into 3's start; no recorded connectivity.
     fn junction() -> RoadMap {
-        RoadMap::new(
-            vec![
-                lane(1, &[(0.0, 0.0), (50.0, 0.0)]),
-                lane(2, &[(50.0, 0.0), (60.0, 0.0)]),
-                lane(3, &[(60.0, 0.0), (100.0, 0.0)]),
-                lane(4, &[(40.0, -5.0), (60.0, 0.0)]),
-            ],
-            vec![],
-            vec![],
-            vec![],
-            vec![],
-            vec![],
-            vec![],
-        )
+        RoadMap::from_lanes(vec![
+            lane(1, &[(0.0, 0.0), (50.0, 0.0)]),
+            lane(2, &[(50.0, 0.0), (60.0, 0.0)]),
+            lane(3, &[(60.0, 0.0), (100.0, 0.0)]),
+            lane(4, &[(40.0, -5.0), (60.0, 0.0)]),
+        ])
     }
 
     #[test]

@@ -84,6 +84,12 @@ pub struct MapCounts {
     pub traffic_signals: usize,
 }
 impl RoadMap {
+    /// A map of lanes alone (no road edges, lines, areas or signals), as a
+    /// lane-graph source or a test scene needs.
+    pub fn from_lanes(lanes: Vec<Lane>) -> Self {
+        Self::new(lanes, Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new())
+    }
+
     /// Builds a map and its spatial indices. Lanes are sorted by id so
     /// iteration order never depends on the source file's order.
     #[allow(clippy::too_many_arguments)]

@@ -111,9 +111,15 @@ fn better(x: &PairKey, y: &PairKey) -> bool {
 
 /// The CBV for a given ego: the moving vehicle with the closest approach.
 pub fn mine_cbv(scenario: &Scenario, ego: TrackIndex) -> Option<TrackIndex> {
+    closest_to(scenario, ego, |_| true)
+}
+
+/// Of the moving vehicles other than `ego` that `admit` lets through, the
+/// one with the closest approach to it (recorded overlaps skipped).
+fn closest_to(scenario: &Scenario, ego: TrackIndex, admit: impl Fn(TrackIndex) -> bool) -> Option<TrackIndex> {
     let mut best: Option<(PairKey, TrackIndex)> = None;
     for c in candidates(scenario) {
-        if c == ego {
+        if c == ego || !admit(c) {
             continue;
         }
         if let Some(approach) = closest_approach(scenario, ego, c).filter(|a| a.distance_m > 0.0) {
@@ -130,10 +136,23 @@ pub fn mine_cbv(scenario: &Scenario, ego: TrackIndex) -> Option<TrackIndex> {
 /// Of the two, the ego is the one with more valid future steps (more to
 /// test), ties to the lower index.
 pub fn mine_pair(scenario: &Scenario) -> Option<(TrackIndex, TrackIndex)> {
+    closest_pair(scenario, |_, _| true)
+}
+
+/// Of the pairs of moving vehicles that `admit` lets through, the one with
+/// the closest approach (recorded overlaps skipped), as (ego, CBV): the ego
+/// is the one with more valid future steps, ties to the lower index.
+fn closest_pair(
+    scenario: &Scenario,
+    admit: impl Fn(TrackIndex, TrackIndex) -> bool,
+) -> Option<(TrackIndex, TrackIndex)> {
     let cands = candidates(scenario);
     let mut best: Option<(PairKey, (TrackIndex, TrackIndex))> = None;
     for (i, &a) in cands.iter().enumerate() {
         for &b in &cands[i + 1..] {
+            if !admit(a, b) {
+                continue;
+            }
             if let Some(approach) = closest_approach(scenario, a, b).filter(|a| a.distance_m > 0.0) {
                 let k = key(&approach, a, b);
                 if best.as_ref().is_none_or(|(bk, _)| better(&k, bk)) {
@@ -207,19 +226,7 @@ pub fn in_merging_lanes(scenario: &Scenario, relations: &LaneRelations<'_>, a: T
 /// approach (the same ranking and overlap rule as [`mine_cbv`]).
 pub fn mine_merging_cbv(scenario: &Scenario, ego: TrackIndex) -> Option<TrackIndex> {
     let relations = LaneRelations::of(&scenario.map);
-    let mut best: Option<(PairKey, TrackIndex)> = None;
-    for c in candidates(scenario) {
-        if c == ego || !in_merging_lanes(scenario, &relations, ego, c) {
-            continue;
-        }
-        if let Some(approach) = closest_approach(scenario, ego, c).filter(|a| a.distance_m > 0.0) {
-            let k = key(&approach, ego, c);
-            if best.as_ref().is_none_or(|(bk, _)| better(&k, bk)) {
-                best = Some((k, c));
-            }
-        }
-    }
-    best.map(|(_, c)| c)
+    closest_to(scenario, ego, |c| in_merging_lanes(scenario, &relations, ego, c))
 }
 
 /// The (ego, CBV) pair in merging lanes ([`in_merging_lanes`]) with the
@@ -227,24 +234,7 @@ pub fn mine_merging_cbv(scenario: &Scenario, ego: TrackIndex) -> Option<TrackInd
 /// valid future steps, as in [`mine_pair`].
 pub fn mine_merging_pair(scenario: &Scenario) -> Option<(TrackIndex, TrackIndex)> {
     let relations = LaneRelations::of(&scenario.map);
-    let cands = candidates(scenario);
-    let mut best: Option<(PairKey, (TrackIndex, TrackIndex))> = None;
-    for (i, &a) in cands.iter().enumerate() {
-        for &b in &cands[i + 1..] {
-            if !in_merging_lanes(scenario, &relations, a, b) {
-                continue;
-            }
-            if let Some(approach) = closest_approach(scenario, a, b).filter(|a| a.distance_m > 0.0) {
-                let k = key(&approach, a, b);
-                if best.as_ref().is_none_or(|(bk, _)| better(&k, bk)) {
-                    best = Some((k, (a, b)));
-                }
-            }
-        }
-    }
-    let (_, (a, b)) = best?;
-    let future = |t: TrackIndex| scenario.track(t).states[scenario.current_step..].iter().flatten().count();
-    Some(if future(b) > future(a) { (b, a) } else { (a, b) })
+    closest_pair(scenario, |a, b| in_merging_lanes(scenario, &relations, a, b))
 }
 
 /// Makes the scenario's CBV a vehicle merging with the ego, for testing a
