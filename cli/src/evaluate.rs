@@ -808,9 +808,12 @@ impl SceneSelection<'_> {
             return Ok(scenes);
         }
         if let Some(missing) = self.ids.iter().find(|id| !scenes.iter().any(|s| &s.id == *id)) {
+            let which = match self.roles {
+                RolePairing::AsLoaded => "an ego and a CBV",
+                RolePairing::Merging => "a merging pair (--roles merging)",
+            };
             return Err(CliError::Usage(format!(
-                "--scene {missing}: no scene with an ego and a CBV under {} has that id ({} do; the tables \
-                 name them)",
+                "--scene {missing}: no scene with {which} under {} has that id ({} do; the tables name them)",
                 dir.display(),
                 scenes.len()
             )));

@@ -148,6 +148,22 @@ fn evaluate_with_merging_roles_tests_a_merging_pair_and_leaves_out_scenes_withou
     let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(report["scene_list"]["ids"].as_array().map(Vec::len), Some(2));
     assert!(report["settings"].get("roles").is_none(), "{}", report["settings"]);
+    // A scene named that has no merging pair: said so, naming the option.
+    let out = safer(&[
+        "evaluate",
+        "--scenes",
+        dir.to_str().unwrap(),
+        "--methods",
+        "log",
+        "--seeds",
+        "1",
+        "--roles",
+        "merging",
+        "--scene",
+        "USA_US101-21_1_T-1",
+    ]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.contains("no scene with a merging pair (--roles merging)"), "{err}");
     // Only the freeway: nothing to test, said so.
     std::fs::remove_file(dir.join(merging.file_name().unwrap())).unwrap();
     let out = run("merging");
