@@ -197,10 +197,11 @@ pub fn classify_conflict(
         let on_the_egos_way = |l: &LaneAhead| ego_before.contains(&l.id) && !ego_lanes.contains(&l.id);
         let one_behind_the_other = cbv_ahead.iter().any(on_the_egos_way)
             || ego_ahead.iter().map(|l| &l.id).chain(&ego_before).any(|l| cbv_then.contains(l));
-        // Where the CBV's lane only goes on into the ego's in pieces, the
-        // CBV is behind in the ego's lane, however far back.
-        // The ego's own way (its lanes before and those ahead of them), not
-        // a lane it moved into: an ego changing into the CBV's lane is no merge.
+        // The CBV's way must pass a lane two lanes lead into (a lane that
+        // only goes on into the ego's in pieces leaves the CBV behind in the
+        // ego's lane, however far back), and meet the ego's own way (its
+        // lane before and those ahead of it), not a lane the ego moved
+        // into: an ego changing into the CBV's lane is no merge.
         let lanes_meet = cbv_ahead
             .iter()
             .any(|l| l.through_junction && (ego_then.contains(&l.id) || ego_ahead.iter().any(|a| a.id == l.id)));

@@ -283,8 +283,7 @@ mod tests {
         let scenario = crossing_scenario();
         let rollout = crossing_rollout(&scenario);
         let off_road = VariantAcceptance { no_collision: false, no_off_road: true, ..VariantAcceptance::default() };
-        let empty =
-            Scenario { map: RoadMap::new(vec![], vec![], vec![], vec![], vec![], vec![], vec![]), ..scenario.clone() };
+        let empty = Scenario { map: RoadMap::from_lanes(vec![]), ..scenario.clone() };
         let failures = check(&off_road, &rollout, &empty, None, None);
         assert_eq!(failures.len(), 1, "{failures:?}");
         assert!(failures[0].what.starts_with("cannot be measured"), "{failures:?}");

@@ -515,7 +515,7 @@ mod tests {
     /// Two cars 40 m apart on a straight lane, both at 10 m/s, 61 steps.
     fn two_cars() -> Scenario {
         let lane = Lane::new(MapElementId(1), Polyline::new(vec![Point2::new(-50.0, 0.0), Point2::new(500.0, 0.0)]));
-        let map = RoadMap::new(vec![lane], vec![], vec![], vec![], vec![], vec![], vec![]);
+        let map = RoadMap::from_lanes(vec![lane]);
         let track = |id: &str, x0: f64| crate::scenario::Track {
             id: AgentId(id.into()),
             kind: AgentKind::Vehicle,

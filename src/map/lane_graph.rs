@@ -192,7 +192,7 @@ mod tests {
     }
 
     fn map(lanes: Vec<Lane>) -> RoadMap {
-        RoadMap::new(lanes, vec![], vec![], vec![], vec![], vec![], vec![])
+        RoadMap::from_lanes(lanes)
     }
 
     /// A quarter circle of radius `r` from (x0, 0) heading east, turning

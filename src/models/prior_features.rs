@@ -495,7 +495,7 @@ mod tests {
             })
             .collect();
         let lane = Lane::new(MapElementId(1), Polyline::new(vec![Point2::new(0.0, -50.0), Point2::new(0.0, 100.0)]));
-        (Frames(frames), RoadMap::new(vec![lane], vec![], vec![], vec![], vec![], vec![], vec![]))
+        (Frames(frames), RoadMap::from_lanes(vec![lane]))
     }
 
     #[test]

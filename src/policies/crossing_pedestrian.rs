@@ -86,7 +86,7 @@ mod tests {
     use crate::scenario::{AgentBody, AgentState};
 
     fn accel_with_car_at(car_x_m: f64) -> f64 {
-        let map = RoadMap::new(vec![], vec![], vec![], vec![], vec![], vec![], vec![]);
+        let map = RoadMap::from_lanes(vec![]);
         let bodies = [
             AgentBody { kind: AgentKind::Pedestrian, length_m: 0.6, width_m: 0.6 },
             AgentBody { kind: AgentKind::Vehicle, length_m: 4.5, width_m: 1.9 },

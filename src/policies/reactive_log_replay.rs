@@ -197,7 +197,7 @@ mod tests {
         for step in 0..steps {
             let other = blocker.map(|p| AgentState { position: p, heading_rad: 0.0, velocity_mps: Vector2::zeros() });
             let states = [Some(me), other];
-            let map = crate::map::RoadMap::new(vec![], vec![], vec![], vec![], vec![], vec![], vec![]);
+            let map = crate::map::RoadMap::from_lanes(vec![]);
             let world = WorldView { map: &map, step, bodies: &bodies, states: &states };
             match policy.act(&world, TrackIndex(0)) {
                 AgentAction::Teleport(s) => me = s,

@@ -181,7 +181,7 @@ mod tests {
         assert_eq!(occupancy(&map, 100.0, 3.5, 0.0), LaneOccupancy::SeveralLanes, "on the lane line");
         assert_eq!(occupancy(&map, 100.0, 1.75, std::f64::consts::PI), LaneOccupancy::OutsideLanes, "wrong way");
         assert_eq!(occupancy(&map, 100.0, 0.5, 0.0), LaneOccupancy::OutsideLanes, "over the kerb");
-        let bare = RoadMap::new(vec![], vec![], vec![], vec![], vec![], vec![], vec![]);
+        let bare = RoadMap::from_lanes(vec![]);
         assert_eq!(occupancy(&bare, 100.0, 1.75, 0.0), LaneOccupancy::Unmapped);
     }
 
@@ -192,12 +192,12 @@ mod tests {
         first.successors.push(MapElementId(2));
         let mut second = Lane::new(MapElementId(2), line(50.0, 100.0));
         second.predecessors.push(MapElementId(1));
-        let map = RoadMap::new(vec![first, second], vec![], vec![], vec![], vec![], vec![], vec![]);
+        let map = RoadMap::from_lanes(vec![first, second]);
         assert_eq!(occupancy(&map, 50.0, 0.0, 0.0), LaneOccupancy::OneLane);
         // Without the link the two are separate lanes end to end.
         let first = Lane::new(MapElementId(1), line(0.0, 50.0));
         let second = Lane::new(MapElementId(2), line(50.0, 100.0));
-        let unlinked = RoadMap::new(vec![first, second], vec![], vec![], vec![], vec![], vec![], vec![]);
+        let unlinked = RoadMap::from_lanes(vec![first, second]);
         assert_eq!(occupancy(&unlinked, 50.0, 0.0, 0.0), LaneOccupancy::SeveralLanes);
         // Boundary-less lanes are 2 × 1.85 m wide.
         assert_eq!(occupancy(&map, 25.0, 0.8, 0.0), LaneOccupancy::OneLane);
