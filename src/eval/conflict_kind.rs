@@ -18,8 +18,11 @@
 //!    ahead of the CBV's, as far as either drove since "before" plus
 //!    [`MERGE_MARGIN_M`], pass a lane two lanes lead into and reach the
 //!    ego's lane "before" or a lane ahead of it: an on-ramp, a lane drop,
-//!    two ways through a junction), unless the CBV's way runs through a
-//!    lane the ego drove earlier (it follows the ego); `cut-in` when the CBV moved sideways into the ego's
+//!    two ways through a junction) and the CBV took that way (on the map
+//!    a lane may branch): between [`PATH_AFTER_S`] and [`MERGED_WITHIN_S`]
+//!    after the closest approach it drove on the ego's track, unless the CBV's way
+//!    runs through a lane the ego drove earlier (it follows the ego);
+//!    `cut-in` when the CBV moved sideways into the ego's
 //!    path ahead of it (in the map: from a lane neighbouring the ego's into
 //!    the ego's; without lanes: from more than [`LANE_OFFSET_M`] to the side
 //!    to less than half of it); `rear-end` when one is behind the other
@@ -56,6 +59,17 @@ pub const MERGE_MARGIN_M: f64 = 10.0;
 /// Every this many steps the ego's lanes before the closest approach are
 /// read, to tell a CBV following the ego's way from one merging into it.
 const EGO_PATH_EVERY: usize = 5;
+
+/// A merge is read from the way the CBV took from this long after the
+/// closest approach, s; a rollout that ends sooner leaves it to the map.
+pub const PATH_AFTER_S: f64 = 1.0;
+
+/// … up to this long after it, s: by then a CBV that merged drives on the
+/// ego's track.
+pub const MERGED_WITHIN_S: f64 = 3.0;
+
+/// On the ego's track, the CBV heads within this of the ego's heading, °.
+pub const ON_TRACK_MAX_HEADING_DEG: f64 = 30.0;
 
 /// The kinds of conflict.
 #[derive(
@@ -205,7 +219,10 @@ pub fn classify_conflict(
         let lanes_meet = cbv_ahead
             .iter()
             .any(|l| l.through_junction && (ego_then.contains(&l.id) || ego_ahead.iter().any(|a| a.id == l.id)));
-        if lanes_meet && !one_behind_the_other {
+        if lanes_meet
+            && !one_behind_the_other
+            && cbv_took_the_egos_track(ego, cbv, closest.saturating_sub(lookback), closest, dt_s)
+        {
             return Some(ConflictKind::Merge);
         }
     }
@@ -234,6 +251,46 @@ pub fn classify_conflict(
     } else {
         ConflictKind::Sideswipe
     })
+}
+
+/// Whether the CBV, between [`PATH_AFTER_S`] and [`MERGED_WITHIN_S`]
+/// after the closest approach, drove on the ego's track (its path from
+/// "before" to the end of the rollout): within half a lane of it and
+/// within [`ON_TRACK_MAX_HEADING_DEG`] of the ego's heading there. Where
+/// the map lets the CBV's lane run into the ego's, the merge happened
+/// only if the CBV took that way: a truck going straight through a
+/// junction beside an ego turning left shares the left-turn exit with it
+/// on the map, not on the road. A rollout that ends sooner leaves the way
+/// each would have taken unknown, and the map's answer stands.
+fn cbv_took_the_egos_track(
+    ego: ConflictParty<'_>,
+    cbv: ConflictParty<'_>,
+    then: usize,
+    closest: usize,
+    dt_s: f64,
+) -> bool {
+    let steps = |s: f64| (s / dt_s).round() as usize;
+    let (from, to) = (closest + steps(PATH_AFTER_S), closest + steps(MERGED_WITHIN_S));
+    let last = |p: &ConflictParty<'_>| p.states.iter().rposition(Option::is_some);
+    if last(&ego).is_none_or(|k| k < from) || last(&cbv).is_none_or(|k| k < from) {
+        return true;
+    }
+    let track: Vec<AgentState> = ego.states.iter().skip(then).flatten().copied().collect();
+    let on_track = |c: &AgentState| {
+        track.windows(2).any(|w| {
+            let (a, b) = (w[0].position, w[1].position);
+            let ab = b - a;
+            let t = if ab.norm_squared() > 0.0 {
+                ((c.position - a).dot(&ab) / ab.norm_squared()).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            let off_m = (c.position - (a + ab * t)).norm();
+            off_m < LANE_OFFSET_M / 2.0
+                && wrap_angle(c.heading_rad - w[0].heading_rad).abs().to_degrees() < ON_TRACK_MAX_HEADING_DEG
+        })
+    };
+    cbv.states.iter().take(to + 1).skip(from).flatten().any(on_track)
 }
 
 #[cfg(test)]
@@ -382,6 +439,31 @@ mod tests {
                 80
             ];
         assert_eq!(kind(&map, &waiting, &straight(-50.0, 0.0, 0.0, 20.0)), Some(ConflictKind::RearEnd));
+    }
+
+    #[test]
+    fn a_cbv_whose_lane_could_run_into_the_egos_but_turns_away_makes_no_merge() {
+        // No recorded connectivity: the ego's lane 1 → 3 along y = 0; the
+        // CBV's lane 40 → 4 forks where it nears the ego's: 5 runs into 3, 6 away.
+        let map = RoadMap::from_lanes(vec![
+            lane(1, &[(-60.0, 0.0), (30.0, 0.0)]),
+            lane(3, &[(30.0, 0.0), (150.0, 0.0)]),
+            lane(40, &[(-10.0, -10.65), (0.0, -8.0)]),
+            lane(4, &[(0.0, -8.0), (20.0, -2.7)]),
+            lane(5, &[(20.0, -2.7), (30.0, 0.0)]),
+            lane(6, &[(20.0, -2.7), (150.0, -11.3)]),
+        ]);
+        let ego = straight(-6.0, 0.0, 0.0, 5.0);
+        let (into_deg, away_deg) = (10.6f64.atan2(40.0).to_degrees(), (-8.6f64).atan2(130.0).to_degrees());
+        // Up lanes 40 and 4 at 8 m/s, reaching the fork at 5.2 s, then turning for 1 s
+        // into lane 5 (it drives on in the ego's lane 3) or lane 6.
+        let cbv = |to_deg: f64| {
+            drive(-20.0, -13.3, into_deg, 8.0, move |t| if (4.7..5.7).contains(&t) { to_deg - into_deg } else { 0.0 })
+        };
+        let into_5 = 2.7f64.atan2(10.0).to_degrees();
+        assert_eq!(kind(&map, &ego, &cbv(into_5)), Some(ConflictKind::Merge));
+        let away = kind(&map, &ego, &cbv(away_deg));
+        assert!(away.is_some() && away != Some(ConflictKind::Merge), "{away:?}");
     }
 
     #[test]
