@@ -20,14 +20,16 @@
 //!    ego's lane "before" or a lane ahead of it: an on-ramp, a lane drop,
 //!    two ways through a junction) and the CBV took that way (on the map
 //!    a lane may branch): between [`PATH_AFTER_S`] and [`MERGED_WITHIN_S`]
-//!    after the closest approach it drove on the ego's track, unless the CBV's way
-//!    runs through a lane the ego drove earlier (it follows the ego);
-//!    `cut-in` when the CBV moved sideways into the ego's
-//!    path ahead of it (in the map: from a lane neighbouring the ego's into
-//!    the ego's; without lanes: from more than [`LANE_OFFSET_M`] to the side
-//!    to less than half of it); `rear-end` when one is behind the other
-//!    (the other's centre within 45° of its heading or its tail);
-//!    `sideswipe` otherwise (side by side).
+//!    after the closest approach it drove on the ego's track; unless the
+//!    CBV's way runs through a lane the ego drove earlier (it follows the
+//!    ego). `cut-in` when the CBV moved sideways into the ego's path ahead
+//!    of it (in the map: from a lane neighbouring the ego's into the
+//!    ego's; without lanes: from more than [`LANE_OFFSET_M`] to the side
+//!    to less than half of it). Neither is the CBV's when the ego moved
+//!    sideways more than half of [`LANE_OFFSET_M`] farther than the CBV
+//!    since "before": the ego changed lanes. `rear-end` when one is behind
+//!    the other (the other's centre within 45° of its heading or its
+//!    tail); `sideswipe` otherwise (side by side).
 //!
 //! Lane relations come from the map where it records them. A map that
 //! records no successors at all (GPUDrive's WOMD JSON keeps none) has them
@@ -193,6 +195,11 @@ pub fn classify_conflict(
     let lanes = |s: &AgentState| map.lanes_containing(&s.position, s.heading_rad);
     let (ego_now, ego_then, cbv_now, cbv_then) = (lanes(&e), lanes(&e0), lanes(&c), lanes(&c0));
     let ego_lanes: Vec<MapElementId> = ego_now.iter().chain(&ego_then).copied().collect();
+    // An ego that steers across into the CBV's lane looks, by lanes and
+    // offsets between the two alone, like the CBV merging or cutting in:
+    // the one that moved sideways is the one that changed lanes.
+    let sideways_m = |from: &AgentState, to: &AgentState| from.pose().to_body(&to.position).y.abs();
+    let ego_moved_over = sideways_m(&e0, &e) > sideways_m(&c0, &c) + LANE_OFFSET_M / 2.0;
     let from_elsewhere =
         !cbv_then.is_empty() && !ego_then.is_empty() && !relations.any_connected(&cbv_then, &ego_lanes);
     if from_elsewhere {
@@ -221,6 +228,7 @@ pub fn classify_conflict(
             .any(|l| l.through_junction && (ego_then.contains(&l.id) || ego_ahead.iter().any(|a| a.id == l.id)));
         if lanes_meet
             && !one_behind_the_other
+            && !ego_moved_over
             && cbv_took_the_egos_track(ego, cbv, closest.saturating_sub(lookback), closest, dt_s)
         {
             return Some(ConflictKind::Merge);
@@ -238,7 +246,7 @@ pub fn classify_conflict(
     } else {
         from_elsewhere && moved_sideways_in
     };
-    if moved_in && ahead {
+    if moved_in && ahead && !ego_moved_over {
         return Some(ConflictKind::CutIn);
     }
     let bearing = |from: &AgentState, to: &AgentState| {
@@ -464,6 +472,35 @@ mod tests {
         assert_eq!(kind(&map, &ego, &cbv(into_5)), Some(ConflictKind::Merge));
         let away = kind(&map, &ego, &cbv(away_deg));
         assert!(away.is_some() && away != Some(ConflictKind::Merge), "{away:?}");
+    }
+
+    #[test]
+    fn an_ego_whose_lane_runs_into_the_cbvs_and_moves_over_is_no_cbv_merge() {
+        // No recorded connectivity: the ego's lane 1 → 2 bends into lane 3,
+        // which the CBV's lane 10 → 11 also leads into (the ego's lane drops).
+        let map = RoadMap::from_lanes(vec![
+            lane(1, &[(-40.0, 0.0), (0.0, 0.0)]),
+            lane(2, &[(0.0, 0.0), (20.0, 3.5)]),
+            lane(10, &[(-40.0, 3.5), (-10.0, 3.5)]),
+            lane(12, &[(-10.0, 3.5), (5.0, 3.5)]),
+            lane(11, &[(5.0, 3.5), (20.0, 3.5)]),
+            lane(3, &[(20.0, 3.5), (300.0, 3.5)]),
+        ]);
+        // Both at 12 m/s; the ego moves over from 2 s to 4 s and ends 0.6 m
+        // behind the CBV, which keeps its lane.
+        let ego = drive(-24.0, 0.0, 0.0, 12.0, |t| {
+            if (2.0..2.5).contains(&t) {
+                20.0
+            } else if (3.5..4.0).contains(&t) {
+                -20.0
+            } else {
+                0.0
+            }
+        });
+        let ego_at_4s = ego[40].unwrap().position;
+        let cbv = straight(ego_at_4s.x + CAR.length_m + 0.6 - 48.0, 3.5, 0.0, 12.0);
+        let got = kind(&map, &ego, &cbv);
+        assert!(got.is_some() && got != Some(ConflictKind::Merge), "{got:?}");
     }
 
     #[test]
