@@ -331,6 +331,20 @@ mod tests {
             .collect()
     }
 
+    /// A lane change's yaw rate (°/s at time t, s): `rate_degps` over
+    /// `turn`, as much the other way over `back`.
+    fn turn_and_back(turn: std::ops::Range<f64>, back: std::ops::Range<f64>, rate_degps: f64) -> impl Fn(f64) -> f64 {
+        move |t| {
+            if turn.contains(&t) {
+                rate_degps
+            } else if back.contains(&t) {
+                -rate_degps
+            } else {
+                0.0
+            }
+        }
+    }
+
     fn straight(x: f64, y: f64, heading_deg: f64, speed_mps: f64) -> Vec<Option<AgentState>> {
         drive(x, y, heading_deg, speed_mps, |_| 0.0)
     }
@@ -488,15 +502,7 @@ mod tests {
         ]);
         // Both at 12 m/s; the ego moves over from 2 s to 4 s and ends 0.6 m
         // behind the CBV, which keeps its lane.
-        let ego = drive(-24.0, 0.0, 0.0, 12.0, |t| {
-            if (2.0..2.5).contains(&t) {
-                20.0
-            } else if (3.5..4.0).contains(&t) {
-                -20.0
-            } else {
-                0.0
-            }
-        });
+        let ego = drive(-24.0, 0.0, 0.0, 12.0, turn_and_back(2.0..2.5, 3.5..4.0, 20.0));
         let ego_at_4s = ego[40].unwrap().position;
         let cbv = straight(ego_at_4s.x + CAR.length_m + 0.6 - 48.0, 3.5, 0.0, 12.0);
         // By lanes alone the CBV's lane runs into the ego's way, and by
@@ -520,15 +526,7 @@ mod tests {
         // The CBV keeps lane 11 → 12 → 13 at 12 m/s; the ego, ahead and
         // slower, steers from lane 2 into lane 13 (2 s, ±30°/s) past the junction.
         let cbv = straight(-10.0, 3.5, 0.0, 12.0);
-        let ego = drive(25.0, 0.0, 0.0, 6.0, |t| {
-            if (2.0..3.0).contains(&t) {
-                30.0
-            } else if (3.0..4.0).contains(&t) {
-                -30.0
-            } else {
-                0.0
-            }
-        });
+        let ego = drive(25.0, 0.0, 0.0, 6.0, turn_and_back(2.0..3.0, 3.0..4.0, 30.0));
         let got = kind(&map, &ego, &cbv);
         assert!(got.is_some() && got != Some(ConflictKind::Merge), "{got:?}");
     }
