@@ -38,6 +38,7 @@
 //! cut-in judged by lateral offset, as without lanes. Without this, every
 //! cut-in and merge on such a map reads as a sideswipe or rear-end.
 
+use crate::geometry::polyline::segment_distance_squared;
 use crate::geometry::wrap_angle;
 use crate::map::lane_relations::{LaneAhead, LaneRelations};
 use crate::map::{MapElementId, RoadMap};
@@ -286,14 +287,13 @@ fn cbv_took_the_egos_track(
     let track: Vec<AgentState> = ego.states.iter().skip(then).flatten().copied().collect();
     let on_track = |c: &AgentState| {
         track.windows(2).any(|w| {
-            let (a, b) = (w[0].position, w[1].position);
-            let ab = b - a;
-            let t = if ab.norm_squared() > 0.0 {
-                ((c.position - a).dot(&ab) / ab.norm_squared()).clamp(0.0, 1.0)
+            let ends = [w[0].position, w[1].position];
+            // A standing ego's step is a point, which the segment helper has no direction for.
+            let off_m = if ends[0] == ends[1] {
+                (c.position - ends[0]).norm()
             } else {
-                0.0
+                segment_distance_squared(&ends, &c.position).0.sqrt()
             };
-            let off_m = (c.position - (a + ab * t)).norm();
             off_m < LANE_OFFSET_M / 2.0
                 && wrap_angle(c.heading_rad - w[0].heading_rad).abs().to_degrees() < ON_TRACK_MAX_HEADING_DEG
         })
