@@ -32,8 +32,9 @@
 #                     prior: mutants-{ngsim,womd-interactive}-evasive-n60.txt,
 #                     mutants-womd-interactive-evasive.txt (n = 20), the two
 #                     evasive tables again with --seed 1000 (*-seed1000.txt),
-#                     mutants-ngsim-lane-follower-n60.txt, and the paper's
-#                     protocol on NGSIM, evaluate-ngsim-n60.txt (about 35 minutes)
+#                     mutants-ngsim-lane-follower-n60.txt,
+#                     mutants-womd-interactive-lane-follower.txt (n = 20), and the paper's
+#                     protocol on NGSIM, evaluate-ngsim-n60.txt (about 50 minutes)
 #   merging           merging/evaluate-{womd-interactive,womd-json,ngsim}.txt: every scene
 #                     with a pair of vehicles in merging lanes (--roles merging), log
 #                     replay, the prior, safer, safer-in-path and safer-cut-in (about 3 minutes)
@@ -199,7 +200,9 @@ for job in "${jobs[@]}"; do
         run cut-in/evaluate-ngsim-n60.txt evaluate --scenes data:commonroad-ngsim --seeds 10 \
             --methods prior,safer-in-path,safer-cut-in --trust-region 60
         run cut-in/mutants-ngsim-lane-follower-n60.txt evaluate --scenes data:commonroad-ngsim --seeds 2 \
-            "${mutating[@]}" --trust-region 60 --planner ../../planners/lane-follower.yaml ;;
+            "${mutating[@]}" --trust-region 60 --planner ../../planners/lane-follower.yaml
+        run cut-in/mutants-womd-interactive-lane-follower.txt evaluate --scenes data:womd-interactive --seeds 2 \
+            "${mutating[@]}" --planner ../../planners/lane-follower.yaml ;;
     esac
 done
 rm -r "$(dirname "$safer")"
