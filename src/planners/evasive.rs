@@ -124,10 +124,14 @@ const TURNING_PREDICTION_MAX_OFF_ROAD_M: f64 = 2.0;
 const TURNING_PREDICTION_LANE_CHECK_EVERY: usize = 2;
 /// Every this many steps a turning prediction is checked for leaving the road.
 const TURNING_PREDICTION_OFF_ROAD_CHECK_EVERY: usize = 5;
-/// Every this many steps (0.5 s) a candidate's position is checked for
+/// Every this many steps (0.5 s) a candidate's corners are checked for
 /// off-road: at every 10, a swerve could cross a kerb between two checks
 /// (plain logs: 38 of 196 rollouts off the road, 31 at every 5).
 const OFF_ROAD_CHECK_EVERY: usize = 5;
+/// Over this many first steps (1 s) the corners are checked at every step:
+/// a kerb's corner that a path clips between two checks lies, at some
+/// later plan, within its first second, and the plan is made every step.
+const OFF_ROAD_CHECK_EACH_STEP_FIRST: usize = 10;
 
 const COLLISION_COST: f64 = 1.0e4;
 /// Per step with another agent inside the headway zone ahead of the ego.
@@ -334,6 +338,16 @@ fn road_bounded_turn(
 /// Whether a box of bounding radius `radius_m` centred at `position` is
 /// within `reach_m` of the ego's position: the one test both the per-step
 /// sets and the standing set filter their boxes by.
+/// Whether a corner of the ego's body (without the safety margin) in state
+/// `s` is off the road inside the mapped area: the verdict judges the
+/// body's corners, so a centre on the road with a wheel over the kerb is
+/// already off it.
+fn body_leaves_the_road(obs: &Observation<'_>, s: &KinematicState) -> bool {
+    let body =
+        OrientedBox::new(Pose2 { position: s.position, heading_rad: s.heading_rad }, obs.ego_length_m, obs.ego_width_m);
+    body.corners().iter().any(|c| obs.map.is_off_road_within_map(c))
+}
+
 fn within_reach(position: crate::geometry::Point2, ego: &AgentState, reach_m: f64, radius_m: f64) -> bool {
     (position - ego.position).norm_squared() <= (reach_m + radius_m).powi(2)
 }
@@ -690,7 +704,8 @@ impl EvasivePlanner {
                 cost += RED_LIGHT_COST;
                 break;
             }
-            if k % OFF_ROAD_CHECK_EVERY == OFF_ROAD_CHECK_EVERY - 1 && obs.map.is_off_road_within_map(&s.position) {
+            let checked = k < OFF_ROAD_CHECK_EACH_STEP_FIRST || k % OFF_ROAD_CHECK_EVERY == OFF_ROAD_CHECK_EVERY - 1;
+            if checked && body_leaves_the_road(obs, &s) {
                 cost += OFF_ROAD_COST;
             }
             cost += speed_cost(s.speed_mps, v_des);
@@ -906,6 +921,61 @@ mod tests {
         }
         // The scene makes the planner change its mind, or it shows little.
         assert!(choices.len() >= 5, "{choices:?}");
+    }
+
+    #[test]
+    fn a_swerve_keeps_the_whole_body_on_the_road_not_only_its_centre() {
+        // Two lanes (y = 0 and 3.5) with the right kerb 1.9 m from the ego's
+        // lane centre: a swerve of half a lane to the right keeps the
+        // centre on the road (0.15 m inside) and puts the right-hand corners
+        // 0.85 m over the kerb. A car stands astride the lane line ahead and
+        // another drives beside the ego on the left: passing on the right
+        // is the way past, and a planner that checks its centre alone
+        // takes it.
+        use crate::map::{RoadEdge, RoadEdgeKind};
+        let lane =
+            |id, y: f64| Lane::new(MapElementId(id), Polyline::new(vec![Point2::new(-50.0, y), Point2::new(400.0, y)]));
+        let edge = |id, y: f64, from: f64, to: f64| RoadEdge {
+            id: MapElementId(id),
+            polyline: Polyline::new(vec![Point2::new(from, y), Point2::new(to, y)]),
+            kind: RoadEdgeKind::Boundary,
+        };
+        let map = RoadMap::new(
+            vec![lane(1, 0.0), lane(2, 3.5)],
+            vec![edge(3, -1.9, -50.0, 400.0), edge(4, 5.4, 400.0, -50.0)],
+            vec![],
+            vec![],
+            vec![],
+            vec![],
+            vec![],
+        );
+        let car = |id: &str, x: f64, y: f64, speed_mps: f64| PerceivedAgent {
+            id: AgentId(id.into()),
+            kind: AgentKind::Vehicle,
+            length_m: 4.5,
+            width_m: 2.0,
+            state: AgentState {
+                position: Point2::new(x, y),
+                heading_rad: 0.0,
+                velocity_mps: Vector2::new(speed_mps, 0.0),
+            },
+        };
+        let mut planner = EvasivePlanner::new(EvasiveParams::default());
+        let mut ego = at_the_origin(10.0);
+        let mut farthest_over_m = f64::NEG_INFINITY;
+        for k in 0..60 {
+            let t = k as f64 * SIM_DT_S;
+            let cars = vec![car("standing", 30.0, 1.0, 0.0), car("beside", 1.0 + 10.0 * t, 3.5, 10.0)];
+            let body = OrientedBox::new(Pose2 { position: ego.position, heading_rad: ego.heading_rad }, 4.5, 2.0);
+            assert!(!cars.iter().any(|c| body.intersects(&OrientedBox::new(c.state.pose(), 4.5, 2.0))), "hit at {t} s");
+            for c in body.corners() {
+                farthest_over_m = farthest_over_m.max(map.signed_distance_to_road_edge(&c).expect("edges"));
+            }
+            let obs = observation_at(k, &ego, cars, &map);
+            let PlannerOutput::Control(action) = planner.plan(&obs).unwrap() else { panic!("not a control") };
+            ego = kinematic_step(&ego, action, SIM_DT_S);
+        }
+        assert!(farthest_over_m <= 0.0, "a corner went {farthest_over_m:.2} m over the kerb");
     }
 
     #[test]
