@@ -139,8 +139,9 @@ const HEADWAY_COST: f64 = 200.0;
 /// The headway zone reaches this many seconds of travel ahead (at least 3 m).
 const HEADWAY_S: f64 = 1.0;
 const RED_LIGHT_COST: f64 = 5.0e3;
-/// Per check of a candidate off the road inside the mapped area (driving on
-/// past the map's cut is not leaving the road: the ego need not stop there).
+/// Per 0.5 s (a check every [`OFF_ROAD_CHECK_EVERY`] steps) of a candidate
+/// off the road inside the mapped area (driving on past the map's cut is
+/// not leaving the road: the ego need not stop there).
 const OFF_ROAD_COST: f64 = 2.0e3;
 /// A candidate is dropped once its cost is sure to exceed the best one's by
 /// this much: far above the rounding of the sums, far below any term.
@@ -704,9 +705,17 @@ impl EvasivePlanner {
                 cost += RED_LIGHT_COST;
                 break;
             }
-            let checked = k < OFF_ROAD_CHECK_EACH_STEP_FIRST || k % OFF_ROAD_CHECK_EVERY == OFF_ROAD_CHECK_EVERY - 1;
-            if checked && body_leaves_the_road(obs, &s) {
-                cost += OFF_ROAD_COST;
+            // Each check is charged for the steps it stands for: leaving the
+            // road costs as much a second however finely it is looked for.
+            let steps_checked = if k < OFF_ROAD_CHECK_EACH_STEP_FIRST {
+                1
+            } else if k % OFF_ROAD_CHECK_EVERY == OFF_ROAD_CHECK_EVERY - 1 {
+                OFF_ROAD_CHECK_EVERY.min(k + 1 - OFF_ROAD_CHECK_EACH_STEP_FIRST)
+            } else {
+                0
+            };
+            if steps_checked > 0 && body_leaves_the_road(obs, &s) {
+                cost += OFF_ROAD_COST * steps_checked as f64 / OFF_ROAD_CHECK_EVERY as f64;
             }
             cost += speed_cost(s.speed_mps, v_des);
         }
