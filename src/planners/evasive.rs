@@ -829,6 +829,40 @@ mod tests {
         }
     }
 
+    /// A car (4.5 m by 2 m) at (`x`, `y`) heading `heading_rad` at `speed_mps`.
+    fn car(id: &str, x: f64, y: f64, heading_rad: f64, speed_mps: f64) -> PerceivedAgent {
+        PerceivedAgent {
+            id: AgentId(id.into()),
+            kind: AgentKind::Vehicle,
+            length_m: 4.5,
+            width_m: 2.0,
+            state: AgentState {
+                position: Point2::new(x, y),
+                heading_rad,
+                velocity_mps: Vector2::new(heading_rad.cos(), heading_rad.sin()) * speed_mps,
+            },
+        }
+    }
+
+    /// A straight road along +x from -50 to 400 m: lanes at `lanes_y_m`
+    /// (ids from 1, in order) and a kerb on each side (the next ids).
+    fn kerbed_road(lanes_y_m: &[f64], right_kerb_y_m: f64, left_kerb_y_m: f64) -> RoadMap {
+        use crate::map::{RoadEdge, RoadEdgeKind};
+        let line = |y: f64, from: f64, to: f64| Polyline::new(vec![Point2::new(from, y), Point2::new(to, y)]);
+        let lanes: Vec<Lane> = lanes_y_m
+            .iter()
+            .enumerate()
+            .map(|(i, &y)| Lane::new(MapElementId(i as i64 + 1), line(y, -50.0, 400.0)))
+            .collect();
+        let kerb = |k: i64, polyline| RoadEdge {
+            id: MapElementId(lanes_y_m.len() as i64 + k),
+            polyline,
+            kind: RoadEdgeKind::Boundary,
+        };
+        let kerbs = vec![kerb(1, line(right_kerb_y_m, -50.0, 400.0)), kerb(2, line(left_kerb_y_m, 400.0, -50.0))];
+        RoadMap::new(lanes, kerbs, vec![], vec![], vec![], vec![], vec![])
+    }
+
     /// Closed loop for 8 s: the ego (4.5 m by 2 m) from the origin at
     /// `speed_mps` along a lane on +x, the others `traffic(t)` at time t.
     /// Whether the ego touches one of them.
@@ -863,34 +897,7 @@ mod tests {
         // and braking: the pruned search (last choice first, candidates
         // dropped on their cost bound) and the plain one must give the same
         // control at every step, to the bit.
-        use crate::map::{RoadEdge, RoadEdgeKind};
-        let lane =
-            |id, y: f64| Lane::new(MapElementId(id), Polyline::new(vec![Point2::new(-50.0, y), Point2::new(400.0, y)]));
-        let edge = |id, y: f64, from: f64, to: f64| RoadEdge {
-            id: MapElementId(id),
-            polyline: Polyline::new(vec![Point2::new(from, y), Point2::new(to, y)]),
-            kind: RoadEdgeKind::Boundary,
-        };
-        let map = RoadMap::new(
-            vec![lane(1, 0.0), lane(2, 3.5), lane(3, -3.5)],
-            vec![edge(4, -5.5, -50.0, 400.0), edge(5, 5.5, 400.0, -50.0)],
-            vec![],
-            vec![],
-            vec![],
-            vec![],
-            vec![],
-        );
-        let car = |id: &str, x: f64, y: f64, heading_rad: f64, speed_mps: f64| PerceivedAgent {
-            id: AgentId(id.into()),
-            kind: AgentKind::Vehicle,
-            length_m: 4.5,
-            width_m: 2.0,
-            state: AgentState {
-                position: Point2::new(x, y),
-                heading_rad,
-                velocity_mps: Vector2::new(heading_rad.cos(), heading_rad.sin()) * speed_mps,
-            },
-        };
+        let map = kerbed_road(&[0.0, 3.5, -3.5], -5.5, 5.5);
         let traffic = |t: f64| {
             vec![
                 // Braking ahead in the ego's lane.
@@ -941,40 +948,13 @@ mod tests {
         // another drives beside the ego on the left: passing on the right
         // is the way past, and a planner that checks its centre alone
         // takes it.
-        use crate::map::{RoadEdge, RoadEdgeKind};
-        let lane =
-            |id, y: f64| Lane::new(MapElementId(id), Polyline::new(vec![Point2::new(-50.0, y), Point2::new(400.0, y)]));
-        let edge = |id, y: f64, from: f64, to: f64| RoadEdge {
-            id: MapElementId(id),
-            polyline: Polyline::new(vec![Point2::new(from, y), Point2::new(to, y)]),
-            kind: RoadEdgeKind::Boundary,
-        };
-        let map = RoadMap::new(
-            vec![lane(1, 0.0), lane(2, 3.5)],
-            vec![edge(3, -1.9, -50.0, 400.0), edge(4, 5.4, 400.0, -50.0)],
-            vec![],
-            vec![],
-            vec![],
-            vec![],
-            vec![],
-        );
-        let car = |id: &str, x: f64, y: f64, speed_mps: f64| PerceivedAgent {
-            id: AgentId(id.into()),
-            kind: AgentKind::Vehicle,
-            length_m: 4.5,
-            width_m: 2.0,
-            state: AgentState {
-                position: Point2::new(x, y),
-                heading_rad: 0.0,
-                velocity_mps: Vector2::new(speed_mps, 0.0),
-            },
-        };
+        let map = kerbed_road(&[0.0, 3.5], -1.9, 5.4);
         let mut planner = EvasivePlanner::new(EvasiveParams::default());
         let mut ego = at_the_origin(10.0);
         let mut farthest_over_m = f64::NEG_INFINITY;
         for k in 0..60 {
             let t = k as f64 * SIM_DT_S;
-            let cars = vec![car("standing", 30.0, 1.0, 0.0), car("beside", 1.0 + 10.0 * t, 3.5, 10.0)];
+            let cars = vec![car("standing", 30.0, 1.0, 0.0, 0.0), car("beside", 1.0 + 10.0 * t, 3.5, 0.0, 10.0)];
             let body = OrientedBox::new(Pose2 { position: ego.position, heading_rad: ego.heading_rad }, 4.5, 2.0);
             assert!(!cars.iter().any(|c| body.intersects(&OrientedBox::new(c.state.pose(), 4.5, 2.0))), "hit at {t} s");
             for c in body.corners() {
