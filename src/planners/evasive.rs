@@ -336,9 +336,6 @@ fn road_bounded_turn(
     states
 }
 
-/// Whether a box of bounding radius `radius_m` centred at `position` is
-/// within `reach_m` of the ego's position: the one test both the per-step
-/// sets and the standing set filter their boxes by.
 /// Whether a corner of the ego's body (without the safety margin) in state
 /// `s` is off the road inside the mapped area: the verdict judges the
 /// body's corners, so a centre on the road with a wheel over the kerb is
@@ -349,6 +346,9 @@ fn body_leaves_the_road(obs: &Observation<'_>, s: &KinematicState) -> bool {
     body.corners().iter().any(|c| obs.map.is_off_road_within_map(c))
 }
 
+/// Whether a box of bounding radius `radius_m` centred at `position` is
+/// within `reach_m` of the ego's position: the one test both the per-step
+/// sets and the standing set filter their boxes by.
 fn within_reach(position: crate::geometry::Point2, ego: &AgentState, reach_m: f64, radius_m: f64) -> bool {
     (position - ego.position).norm_squared() <= (reach_m + radius_m).powi(2)
 }
