@@ -30,6 +30,10 @@ fn within_seam_of(area: &Polygon, p: &Point2) -> bool {
     })
 }
 
+/// Slack on a bound of the nearest road edge's distance, m: far above the
+/// rounding of the distances it adds, far below anything that matters.
+const BOUND_SLACK_M: f64 = 0.01;
+
 impl RoadMap {
     /// Whether `p` is on a drivable area: inside one, or in a seam between
     /// two (within [`DRIVABLE_SEAM_M`] of one).
@@ -49,24 +53,26 @@ impl RoadMap {
         // quadruplings even from 1e300 m away.
         let mut radius = 8.0;
         loop {
-            let best = self.nearest_road_edge_within(p, radius);
-            match best {
-                Some((_, b)) if b.distance_m <= radius => break best,
-                _ if radius >= self.edge_segments.max_distance_from(p) => break best,
-                _ => radius *= 4.0,
+            // The last ring sees every edge: the nearest is whatever it finds
+            // (at absurd coordinates, even a distance that overflowed).
+            let last = radius >= self.edge_segments.max_distance_from(p);
+            let best = self.nearest_road_edge_within(p, if last { f64::INFINITY } else { radius });
+            if best.is_some() || last {
+                break best;
             }
+            radius *= 4.0;
         }
     }
 
-    /// The nearest of the road edges with a segment in the index cells
-    /// within `radius_m` of `p`: by distance, ties to the lower edge index,
-    /// and on that edge the projection onto its nearest candidate segment,
-    /// ties to the lower segment index. That is one order over all the
-    /// (edge, segment) pairs, so the pairs are taken as the index yields
-    /// them, unsorted, some twice, nearest cells first and cells wholly
-    /// beyond the best so far skipped; only a NaN distance (from absurd map
-    /// coordinates, where that order is not total) falls back to visiting
-    /// them all sorted, edge by edge.
+    /// The nearest road edge to `p` if one lies within `radius_m` of it
+    /// (`None` otherwise): by distance, ties to the lower edge index, and
+    /// on that edge the projection onto its nearest segment, ties to the
+    /// lower segment index. That is one order over all the (edge, segment)
+    /// pairs, so the pairs are taken as the index yields them, unsorted,
+    /// some twice, nearest cells first and cells wholly beyond the best so
+    /// far (at first, beyond `radius_m`) skipped; only a NaN distance (from
+    /// absurd map coordinates, where that order is not total) falls back to
+    /// visiting them all sorted, edge by edge.
     fn nearest_road_edge_within(&self, p: &Point2, radius_m: f64) -> Option<(usize, PolylineProjection)> {
         // (distance, edge, distance², segment)
         let mut best: Option<(f64, usize, f64, usize)> = None;
@@ -84,10 +90,12 @@ impl RoadMap {
                     best = Some(key);
                 }
             }
-            best.map_or(f64::INFINITY, |b| b.0)
+            // Nothing beyond the radius is wanted: it bounds the search
+            // until a nearer edge does.
+            best.map_or(radius_m, |b| b.0)
         });
         if !nan {
-            return best.and_then(|(_, edge, _, seg)| {
+            return best.filter(|b| b.0 <= radius_m).and_then(|(_, edge, _, seg)| {
                 self.road_edges[edge].polyline.project_segments(p, [seg]).map(|proj| (edge, proj))
             });
         }
@@ -103,7 +111,7 @@ impl RoadMap {
                 best = Some((edge, proj));
             }
         }
-        best
+        best.filter(|(_, b)| b.distance_m <= radius_m)
     }
 
     /// Signed distance from `p` to the nearest road edge, metres: negative on
@@ -231,6 +239,37 @@ impl RoadMap {
         // The nearest edge is looked up once for both tests.
         let nearest = self.nearest_road_edge(p);
         self.is_off_road_given(p, nearest.as_ref()) && !self.is_past_mapped_end_given(p, nearest.as_ref())
+    }
+
+    /// Whether any of `points` is off the road inside the mapped area
+    /// ([`Self::is_off_road_within_map`] of each, the same answers): the
+    /// corners of one body, say. A point's nearest road edge is no farther
+    /// than the one before's plus the distance between them, so only the
+    /// first point needs the growing-ring search; each of the others is one
+    /// search of that radius, which sees every edge at least as near.
+    pub fn any_off_road_within_map(&self, points: &[Point2]) -> bool {
+        let mut before: Option<(Point2, f64)> = None;
+        points.iter().any(|p| {
+            let nearest = self.nearest_road_edge_from(p, before);
+            before = nearest.as_ref().map(|(_, proj)| (*p, proj.distance_m));
+            self.is_off_road_given(p, nearest.as_ref()) && !self.is_past_mapped_end_given(p, nearest.as_ref())
+        })
+    }
+
+    /// [`Self::nearest_road_edge`] of `p` (the same answer), given a point
+    /// `before` and its nearest edge's distance, when one is known: the
+    /// search then goes straight to the radius that bounds `p`'s.
+    fn nearest_road_edge_from(&self, p: &Point2, before: Option<(Point2, f64)>) -> Option<(usize, PolylineProjection)> {
+        // Beyond this one search would visit its cells unordered, slower
+        // than the rings.
+        const MAX_BOUNDED_SEARCH_M: f64 = 32.0;
+        let bound_m = before.map(|(q, distance_m)| distance_m + (p - q).norm() + BOUND_SLACK_M);
+        match bound_m {
+            Some(r) if r <= MAX_BOUNDED_SEARCH_M && p.x.is_finite() && p.y.is_finite() => {
+                self.nearest_road_edge_within(p, r).or_else(|| self.nearest_road_edge(p))
+            }
+            _ => self.nearest_road_edge(p),
+        }
     }
 
     /// Whether `p` is off the road. Unknown (no edges, no drivable areas) is
@@ -436,13 +475,68 @@ mod tests {
             for j in 0..=40 {
                 let p = Point2::new(i as f64 * 1.25 - 5.0, j as f64 * 1.25 - 5.0);
                 for r in [0.5, 8.0, 32.0, f64::INFINITY] {
-                    let (fast, plain) = (map.nearest_road_edge_within(&p, r), sorted(&p, r));
+                    let plain = sorted(&p, r).filter(|(_, b)| b.distance_m <= r);
+                    let fast = map.nearest_road_edge_within(&p, r);
                     assert_eq!(format!("{fast:?}"), format!("{plain:?}"), "{p:?} r {r}");
                     checked += usize::from(plain.is_some());
                 }
             }
         }
         assert!(checked > 5000, "{checked}");
+    }
+
+    #[test]
+    fn a_search_bounded_by_a_neighbours_edge_finds_what_the_ring_search_finds() {
+        // On the crossing (drivable areas decide the side) and on a lattice
+        // of edges (distances tie), bodies at random poses from the middle to
+        // far outside: each corner's nearest edge, and the body's verdict,
+        // are the corner-by-corner ones.
+        let lattice = RoadMap::new(
+            vec![],
+            (0..12)
+                .map(|k| {
+                    let (x0, y0) = ((k % 4) as f64 * 10.0, (k / 4) as f64 * 10.0);
+                    RoadEdge {
+                        id: MapElementId(k),
+                        polyline: pl(&[(x0, y0), (x0 + 10.0, y0), (x0 + 10.0, y0 + 10.0), (x0, y0 + 10.0)]),
+                        kind: RoadEdgeKind::Boundary,
+                    }
+                })
+                .collect(),
+            vec![],
+            vec![],
+            vec![],
+            vec![],
+            vec![],
+        );
+        let mut state = 7u64;
+        let mut next = move || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for map in [crossing(), lattice] {
+            let (mut off, mut on) = (0, 0);
+            for _ in 0..4000 {
+                let reach_m = if next() < 0.8 { 45.0 } else { 150.0 };
+                let centre = Point2::new((next() * 2.0 - 1.0) * reach_m, (next() * 2.0 - 1.0) * reach_m);
+                let body = crate::geometry::OrientedBox::new(
+                    crate::geometry::Pose2 { position: centre, heading_rad: next() * 7.0 },
+                    1.0 + next() * 12.0,
+                    1.0 + next() * 2.0,
+                );
+                let corners = body.corners();
+                let mut before = None;
+                for c in &corners {
+                    let (chained, ring) = (map.nearest_road_edge_from(c, before), map.nearest_road_edge(c));
+                    assert_eq!(format!("{chained:?}"), format!("{ring:?}"), "{c:?} after {before:?}");
+                    before = ring.map(|(_, proj)| (*c, proj.distance_m));
+                }
+                let each = corners.iter().any(|c| map.is_off_road_within_map(c));
+                assert_eq!(map.any_off_road_within_map(&corners), each, "{body:?}");
+                (off, on) = if each { (off + 1, on) } else { (off, on + 1) };
+            }
+            assert!(off > 100 && on > 100, "{off} off, {on} on");
+        }
     }
 
     #[test]

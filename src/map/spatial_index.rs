@@ -21,9 +21,11 @@ const CELL_M: f64 = 10.0;
 const MAX_PIECES: f64 = (1u32 << 20) as f64;
 
 /// Most cells [`SegmentIndex::for_each_candidate_nearest_first`] orders
-/// (a ring of up to 10 m radius spans at most 3 × 3); wider queries visit
-/// their cells unordered and unpruned.
-const MAX_ORDERED_CELLS: usize = 16;
+/// (a ring of up to 32 m radius spans at most 8 × 8, the second ring of
+/// the road-edge search, which a point more than 8 m from every kerb of a
+/// wide road or junction needs); wider queries visit their cells
+/// unordered and unpruned.
+const MAX_ORDERED_CELLS: usize = 64;
 
 /// Slack of the cell and run pruning, m: far above the rounding of the
 /// distances it compares, far below anything that matters.
@@ -246,13 +248,14 @@ impl SegmentIndex {
     }
 
     /// As [`Self::for_each_candidate`], for searches of the segment nearest
-    /// to `p`: `visit` returns the distance of its best segment so far
-    /// (infinite while it has none), and the cells within reach are visited
-    /// nearest first, skipping every cell and every run of segments in a
-    /// cell that lie wholly farther than that (with a centimetre to spare),
-    /// so such a search finds what it would find visiting them all. Each
-    /// segment comes with its two ends; segments may still be visited more
-    /// than once.
+    /// to `p` within `radius_m`: `visit` returns the distance of its best
+    /// segment so far (`radius_m` or more while it has none), and the cells
+    /// within reach are visited nearest first, skipping every cell and every
+    /// run of segments in a cell that lie wholly farther than that or than
+    /// `radius_m` (with a centimetre to spare), so such a search finds what
+    /// it would find visiting them all, if that lies within `radius_m`.
+    /// Each segment comes with its two ends; segments may still be visited
+    /// more than once.
     pub fn for_each_candidate_nearest_first(
         &self,
         p: &Point2,
@@ -290,9 +293,9 @@ impl SegmentIndex {
         }
         let near = &mut near[..n];
         near.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
-        let mut best_m = f64::INFINITY;
+        let mut best_m = r;
         for (pair, ends) in &self.oversized {
-            best_m = visit(*pair, ends);
+            best_m = visit(*pair, ends).min(r);
         }
         for (distance_m, cell) in near.iter() {
             if *distance_m > best_m + PRUNE_SLACK_M {
@@ -303,7 +306,7 @@ impl SegmentIndex {
                     continue;
                 }
                 for (&pair, ends) in pairs.iter().zip(ends) {
-                    best_m = visit(pair, ends);
+                    best_m = visit(pair, ends).min(r);
                 }
             }
         }
@@ -426,8 +429,8 @@ mod tests {
     #[test]
     fn nearest_first_visits_finds_the_same_nearest_segment_with_fewer_visits() {
         // Short random segments over 200 m × 200 m; for points all over it,
-        // the nearest segment among the candidates (by distance, then pair)
-        // is the same with cells pruned as with all cells visited.
+        // the nearest segment within the radius (by distance, then pair) is
+        // the same with cells pruned as with all cells visited.
         let mut state = 11u64;
         let mut next = move || {
             state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
@@ -446,10 +449,10 @@ mod tests {
         let (mut all_visits, mut pruned_visits) = (0, 0);
         for k in 0..2000 {
             let p = Point2::new(next() * 220.0 - 10.0, next() * 220.0 - 10.0);
-            for r in [3.0, 8.0, 30.0] {
+            for r in [3.0, 8.0, 30.0, 50.0] {
                 let mut all: Option<(f64, (u32, u32))> = None;
                 index.for_each_candidate(&p, r, |pair| {
-                    all_visits += usize::from(r < 10.0);
+                    all_visits += usize::from(r < 40.0);
                     let key = (distance(&p, pair), pair);
                     if all.is_none_or(|b| key < b) {
                         all = Some(key);
@@ -457,17 +460,18 @@ mod tests {
                 });
                 let mut pruned: Option<(f64, (u32, u32))> = None;
                 index.for_each_candidate_nearest_first(&p, r, |pair, _| {
-                    pruned_visits += usize::from(r < 10.0);
+                    pruned_visits += usize::from(r < 40.0);
                     let key = (distance(&p, pair), pair);
                     if pruned.is_none_or(|b| key < b) {
                         pruned = Some(key);
                     }
                     pruned.map_or(f64::INFINITY, |b| b.0)
                 });
-                assert_eq!(pruned, all, "point {k} {p:?} radius {r}");
+                let within = |best: Option<(f64, (u32, u32))>| best.filter(|b| b.0 <= r);
+                assert_eq!(within(pruned), within(all), "point {k} {p:?} radius {r}");
             }
         }
-        // Rings of up to 10 m are ordered and pruned; wider ones are not.
+        // Rings of up to 32 m are ordered and pruned.
         assert!(pruned_visits * 4 < all_visits * 3, "{pruned_visits} of {all_visits}");
     }
 

@@ -343,7 +343,7 @@ fn road_bounded_turn(
 fn body_leaves_the_road(obs: &Observation<'_>, s: &KinematicState) -> bool {
     let body =
         OrientedBox::new(Pose2 { position: s.position, heading_rad: s.heading_rad }, obs.ego_length_m, obs.ego_width_m);
-    body.corners().iter().any(|c| obs.map.is_off_road_within_map(c))
+    obs.map.any_off_road_within_map(&body.corners())
 }
 
 /// Whether a box of bounding radius `radius_m` centred at `position` is
