@@ -59,6 +59,9 @@ pub struct RoadMap {
     lane_index_by_id: BTreeMap<MapElementId, usize>,
     lane_segments: SegmentIndex,
     edge_segments: SegmentIndex,
+    /// The bounds of each drivable area the map was built with (`None` for
+    /// one without vertices).
+    drivable_area_bounds: Vec<Option<(Point2, Point2)>>,
 }
 
 /// Element counts of a map, for summaries.
@@ -106,6 +109,7 @@ impl RoadMap {
         let lane_index_by_id = lanes.iter().enumerate().map(|(i, l)| (l.id, i)).collect();
         let lane_segments = SegmentIndex::build(lanes.iter().map(|l| &l.centreline));
         let edge_segments = SegmentIndex::build(road_edges.iter().map(|e| &e.polyline));
+        let drivable_area_bounds = drivable_areas.iter().map(Polygon::bounds).collect();
         Self {
             lanes,
             road_edges,
@@ -117,6 +121,7 @@ impl RoadMap {
             lane_index_by_id,
             lane_segments,
             edge_segments,
+            drivable_area_bounds,
         }
     }
 

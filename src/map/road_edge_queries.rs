@@ -13,16 +13,18 @@ use crate::geometry::{Point2, Polygon, PolylineProjection};
 /// nearest road edge is.
 pub const DRIVABLE_SEAM_M: f64 = 0.05;
 
+/// Whether `p` lies within [`DRIVABLE_SEAM_M`] of the box `lo`–`hi` (an
+/// area's bounds): elsewhere it is neither inside that area nor in a seam
+/// of it.
+fn near_bounds((lo, hi): &(Point2, Point2), p: &Point2) -> bool {
+    p.x >= lo.x - DRIVABLE_SEAM_M
+        && p.y >= lo.y - DRIVABLE_SEAM_M
+        && p.x <= hi.x + DRIVABLE_SEAM_M
+        && p.y <= hi.y + DRIVABLE_SEAM_M
+}
+
 /// Whether `p` lies within [`DRIVABLE_SEAM_M`] of `area`'s boundary.
 fn within_seam_of(area: &Polygon, p: &Point2) -> bool {
-    let Some((lo, hi)) = area.bounds() else { return false };
-    if p.x < lo.x - DRIVABLE_SEAM_M
-        || p.y < lo.y - DRIVABLE_SEAM_M
-        || p.x > hi.x + DRIVABLE_SEAM_M
-        || p.y > hi.y + DRIVABLE_SEAM_M
-    {
-        return false;
-    }
     let n = area.vertices.len();
     (0..n).any(|i| {
         let ends = [area.vertices[i], area.vertices[(i + 1) % n]];
@@ -38,7 +40,16 @@ impl RoadMap {
     /// Whether `p` is on a drivable area: inside one, or in a seam between
     /// two (within [`DRIVABLE_SEAM_M`] of one).
     fn on_drivable_area(&self, p: &Point2) -> bool {
-        self.drivable_areas.iter().any(|a| a.contains(p)) || self.drivable_areas.iter().any(|a| within_seam_of(a, p))
+        // Only the areas whose bounds come near `p` can hold it: most of a
+        // map's lanelets are skipped without a look at their vertices.
+        let near = || {
+            self.drivable_areas.iter().enumerate().filter_map(|(i, area)| {
+                // (An area added after the map was built has no bounds kept.)
+                let bounds = self.drivable_area_bounds.get(i).copied().unwrap_or_else(|| area.bounds());
+                bounds.is_some_and(|b| near_bounds(&b, p)).then_some(area)
+            })
+        };
+        near().any(|a| a.contains(p)) || near().any(|a| within_seam_of(a, p))
     }
 
     /// The road edge nearest to `p` (its index) and `p`'s projection on it.
@@ -537,6 +548,48 @@ mod tests {
             }
             assert!(off > 100 && on > 100, "{off} off, {on} on");
         }
+    }
+
+    #[test]
+    fn skipping_the_drivable_areas_whose_bounds_are_far_changes_no_answer() {
+        // Points on, just inside and just outside every area's boundary
+        // (the seams), and scattered over the crossing and beyond it.
+        let map = crossing();
+        assert!(map.drivable_areas.len() > 4);
+        let every_area = |p: &Point2| {
+            map.drivable_areas.iter().any(|a| a.contains(p))
+                || map
+                    .drivable_areas
+                    .iter()
+                    .flat_map(|a| a.boundary_ccw().points().windows(2).map(|w| [w[0], w[1]]).collect::<Vec<_>>())
+                    .any(|ends| {
+                        crate::geometry::polyline::segment_distance_squared(&ends, p).0
+                            <= DRIVABLE_SEAM_M * DRIVABLE_SEAM_M
+                    })
+        };
+        let mut points: Vec<Point2> = Vec::new();
+        for area in &map.drivable_areas {
+            for v in &area.vertices {
+                for (dx, dy) in [
+                    (0.0, 0.0),
+                    (0.04, 0.0),
+                    (-0.04, 0.0),
+                    (-0.06, 0.0),
+                    (0.0, 0.049),
+                    (0.0, -0.049),
+                    (0.0, -0.051),
+                    (0.3, -0.3),
+                ] {
+                    points.push(v + crate::geometry::Vector2::new(dx, dy));
+                }
+            }
+        }
+        points.extend((0..=120).flat_map(|i| (0..=120).map(move |j| Point2::new(i as f64 - 60.0, j as f64 - 60.0))));
+        let on = points.iter().filter(|p| map.on_drivable_area(p)).count();
+        for p in &points {
+            assert_eq!(map.on_drivable_area(p), every_area(p), "{p:?}");
+        }
+        assert!(on > 500 && on < points.len() - 500, "{on} of {}", points.len());
     }
 
     #[test]
