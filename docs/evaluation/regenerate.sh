@@ -43,8 +43,8 @@
 #                     faults of the planner each method's variants catch
 #                     (every fault operator, stage-2 CBV closed loop)
 #
-# About 25 minutes for all on a quiet 2-core machine, an hour while a training run shared
-# them; each table ends with its own wall time). The recorded sets are
+# Each table ends with its own wall time; the last runs' add up to about 4.5 hours on a
+# 2-core machine, much of it shared with other runs. The recorded sets are
 # read through `data:` ($SAFER_DATA_DIR); the s/variant
 # and wall-time figures are those of the machine it runs on.
 set -euo pipefail
