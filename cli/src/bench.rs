@@ -35,7 +35,8 @@ const VARIANT_TARGET_MS: f64 = 50.0;
 const WITNESS_TARGET_MS: f64 = 10.0;
 /// Most a closed-loop variant may cost, as a multiple of the replay variant.
 const CLOSED_LOOP_RATIO_TARGET: f64 = 2.0;
-/// Most a `safer-in-path` or `safer-cut-in` variant may cost, as a multiple of a `safer` variant.
+/// Most a `safer-in-path`, `safer-cut-in` or `safer-in-path-lookahead` variant may cost, as a
+/// multiple of a `safer` variant.
 const IN_PATH_RATIO_TARGET: f64 = 2.0;
 /// The trust region of the wider `safer-in-path` and `safer-cut-in` the bench times: the one
 /// `specs/suites/adversarial-ngsim.yaml` ships with (a test holds them equal).
@@ -151,6 +152,10 @@ struct VariantBench {
     cut_in_wide_variant_ms: f64,
     /// `safer-cut-in (wide region) / safer variant`, alternated in the same run (target at most 2).
     cut_in_wide_ratio_to_safer: f64,
+    /// The same variant with `safer-in-path-lookahead` (n = 20) driving the CBV, ms.
+    in_path_lookahead_variant_ms: f64,
+    /// `safer-in-path-lookahead / safer variant`, alternated in the same run (target at most 2).
+    in_path_lookahead_ratio_to_safer: f64,
     /// The closed-loop witness of a stage-1 collision (the CBV reacting to
     /// the escapes tried), ms; `None` when no seed of 0..20 collides.
     closed_loop_witness: Option<ClosedLoopWitnessBench>,
@@ -240,6 +245,12 @@ pub(super) fn run(scenes: &Path, repeat: usize, json: Option<&Path>) -> Result<E
                 &wide("safer-cut-in"),
                 v.cut_in_wide_variant_ms,
                 v.cut_in_wide_ratio_to_safer,
+            )?;
+            write_beside_safer(
+                &mut out,
+                "safer-in-path-lookahead",
+                v.in_path_lookahead_variant_ms,
+                v.in_path_lookahead_ratio_to_safer,
             )?;
             match &v.closed_loop_witness {
                 Some(w) => writeln!(
@@ -507,15 +518,23 @@ fn bench_variant(scenes: &[Scenario], repeat: usize) -> Result<Option<VariantBen
     };
     pipeline::run(in_path)?;
     pipeline::run(in_path_wide)?;
+    // `safer-in-path-lookahead` over the paper's region.
+    let lookahead = VariantSetup {
+        settings: MethodSettings { method: AdversaryMethod::SaferInPathLookahead, ..in_path.settings },
+        ..in_path
+    };
     pipeline::run(cut_in_wide)?;
-    let (mut safer_times, mut in_path_times, mut wide_times, mut cut_in_times) =
-        (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    pipeline::run(lookahead)?;
+    let (mut safer_times, mut in_path_times, mut wide_times, mut cut_in_times, mut lookahead_times) =
+        (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
     for _ in 0..repeat {
         safer_times.push(time(1, || pipeline::run(setup)).0);
         in_path_times.push(time(1, || pipeline::run(in_path)).0);
         wide_times.push(time(1, || pipeline::run(in_path_wide)).0);
         cut_in_times.push(time(1, || pipeline::run(cut_in_wide)).0);
+        lookahead_times.push(time(1, || pipeline::run(lookahead)).0);
     }
+    let in_path_lookahead_variant_ms = ms(median(lookahead_times));
     let (safer_ms, in_path_variant_ms) = (ms(median(safer_times)), ms(median(in_path_times)));
     let (in_path_wide_variant_ms, cut_in_wide_variant_ms) = (ms(median(wide_times)), ms(median(cut_in_times)));
 
@@ -572,6 +591,8 @@ fn bench_variant(scenes: &[Scenario], repeat: usize) -> Result<Option<VariantBen
         in_path_wide_ratio_to_safer: in_path_wide_variant_ms / safer_ms,
         cut_in_wide_variant_ms,
         cut_in_wide_ratio_to_safer: cut_in_wide_variant_ms / safer_ms,
+        in_path_lookahead_variant_ms,
+        in_path_lookahead_ratio_to_safer: in_path_lookahead_variant_ms / safer_ms,
         closed_loop_witness,
     }))
 }

@@ -1101,7 +1101,7 @@ pub(crate) struct EvaluateArgs {
     #[arg(long, value_parser = data_path)]
     pub(crate) scenes: PathBuf,
     /// Methods to compare, one table row each.
-    #[arg(long, value_parser = choice(AdversaryMethod::ALL), value_delimiter = ',', default_values = ["safer", "safer-in-path", "safer-cut-in", "safer-distinct", "safer-lookahead", "safer-inattentive", "no-lfr", "no-trust-region", "no-mda", "prior", "log"])]
+    #[arg(long, value_parser = choice(AdversaryMethod::ALL), value_delimiter = ',', default_values = ["safer", "safer-in-path", "safer-cut-in", "safer-in-path-lookahead", "safer-distinct", "safer-lookahead", "safer-inattentive", "no-lfr", "no-trust-region", "no-mda", "prior", "log"])]
     pub(crate) methods: Vec<AdversaryMethod>,
     /// Seeds per scene and method, at least 1.
     #[arg(long, default_value_t = 10, value_parser = clap::value_parser!(u32).range(1..))]

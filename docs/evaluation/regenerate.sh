@@ -38,6 +38,12 @@
 #   merging           merging/evaluate-{womd-interactive,womd-json,ngsim}.txt: every scene
 #                     with a pair of vehicles in merging lanes (--roles merging), log
 #                     replay, the prior, safer, safer-in-path and safer-cut-in (about 3 minutes)
+#   in-path-lookahead in-path-lookahead/: safer-in-path-lookahead beside safer-in-path,
+#                     log replay and the prior (n = 20): the paper's protocol,
+#                     evaluate-{womd-interactive,womd-json,ngsim}.txt, and
+#                     mutants-{womd-interactive,ngsim}-evasive.txt, the first again
+#                     with --seed 1000 (mutants-womd-interactive-evasive-seed1000.txt)
+#                     (about 35 minutes)
 #   mutants           mutants-{womd-interactive,womd-json,ngsim}-evasive.txt and
 #                     mutants-{womd-interactive,ngsim}-lane-follower.txt: the
 #                     faults of the planner each method's variants catch
@@ -51,7 +57,8 @@ set -euo pipefail
 : "${SAFER_DATA_DIR:?set SAFER_DATA_DIR to the folder of the recorded datasets}"
 self=$(realpath "$0")
 cd "$(dirname "$self")"
-all=(evaluate plain inattentive held-out-chance trust-region realism prior-fit n-sweep reactive n100 approach-none merging mutants wide-region cut-in)
+all=(evaluate plain inattentive held-out-chance trust-region realism prior-fit n-sweep reactive n100 approach-none merging mutants wide-region cut-in
+    in-path-lookahead)
 jobs=("$@")
 [[ ${#jobs[@]} -gt 0 ]] || jobs=("${all[@]}")
 # The usage is the comment block at the top of this file.
@@ -203,6 +210,18 @@ for job in "${jobs[@]}"; do
             "${mutating[@]}" --trust-region 60 --planner ../../planners/lane-follower.yaml
         run cut-in/mutants-womd-interactive-lane-follower.txt evaluate --scenes data:womd-interactive --seeds 2 \
             "${mutating[@]}" --planner ../../planners/lane-follower.yaml ;;
+    in-path-lookahead)
+        mkdir -p in-path-lookahead
+        for s in "${sets[@]}"; do
+            run "in-path-lookahead/evaluate-${s#*:}.txt" evaluate --scenes "data:${s%%:*}" --seeds 10 \
+                --methods prior,safer-in-path,safer-in-path-lookahead
+        done
+        mutating=(--stage2-cbv closed-loop --mutants --methods log,prior,safer-in-path,safer-in-path-lookahead)
+        for s in womd-interactive:womd-interactive commonroad-ngsim:ngsim; do
+            run "in-path-lookahead/mutants-${s#*:}-evasive.txt" evaluate --scenes "data:${s%%:*}" --seeds 3 "${mutating[@]}"
+        done
+        run in-path-lookahead/mutants-womd-interactive-evasive-seed1000.txt evaluate --scenes data:womd-interactive \
+            --seeds 3 --seed 1000 "${mutating[@]}" ;;
     esac
 done
 rm -r "$(dirname "$safer")"

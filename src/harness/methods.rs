@@ -138,9 +138,10 @@ pub struct MethodSettings {
 pub fn trust_region_of(method: AdversaryMethod, n: usize) -> TrustRegion {
     match method {
         AdversaryMethod::NoTrustRegion => TrustRegion::WholeVocabulary,
-        AdversaryMethod::SaferDistinct | AdversaryMethod::SaferInPath | AdversaryMethod::SaferCutIn => {
-            TrustRegion::DistinctBehaviours(n)
-        }
+        AdversaryMethod::SaferDistinct
+        | AdversaryMethod::SaferInPath
+        | AdversaryMethod::SaferCutIn
+        | AdversaryMethod::SaferInPathLookahead => TrustRegion::DistinctBehaviours(n),
         _ => TrustRegion::TopN(n),
     }
 }
@@ -217,6 +218,10 @@ pub fn install(
         }
         AdversaryMethod::SaferCutIn => {
             let search = Search { objective: Objective::CutIn, ..search };
+            sim.set_policy(cbv, adversary(search, Some(feasibility()?)))
+        }
+        AdversaryMethod::SaferInPathLookahead => {
+            let search = Search { objective: Objective::InPath, lookahead_tokens: LOOKAHEAD_TOKENS, ..search };
             sim.set_policy(cbv, adversary(search, Some(feasibility()?)))
         }
         AdversaryMethod::NoLfr => sim.set_policy(cbv, adversary(search, None)),

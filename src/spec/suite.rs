@@ -200,6 +200,13 @@ pub enum AdversaryMethod {
     /// front bumper (up to the 5 m penalty), so it draws ahead rather than
     /// hugging the ego's side.
     SaferCutIn,
+    /// Beyond the paper: `safer-in-path` scoring each behaviour by the best
+    /// its continuations reach over 1.5 s (the receding horizon of
+    /// `safer-lookahead`, inside the same region, constraint and
+    /// plausibility rule): the CBV picks the behaviour that leads into the
+    /// ego's path, not only the one that is nearest it after 0.5 s. A
+    /// contact beside or behind the ego scores as not ahead of it.
+    SaferInPathLookahead,
 }
 
 impl AdversaryMethod {
@@ -228,6 +235,7 @@ impl AdversaryMethod {
         Self::SaferInattentive,
         Self::SaferInPath,
         Self::SaferCutIn,
+        Self::SaferInPathLookahead,
     ];
 }
 

@@ -17,7 +17,7 @@ use crate::motion::KinematicState;
 use crate::motion::tokens::{TOKEN_PERIOD_S, TOKEN_PERIOD_STEPS, Token};
 use crate::policies::WorldView;
 use crate::policies::prior_sampling::{ranked_tokens, top_tokens};
-use crate::scenario::{AgentState, TrackIndex};
+use crate::scenario::{AgentBody, AgentState, TrackIndex};
 
 /// Penalty added to V_h for candidates outside the feasible region (the paper's Δ).
 pub const INFEASIBLE_PENALTY: f64 = 50.0;
@@ -89,6 +89,26 @@ pub enum Objective {
     CutIn,
 }
 
+impl Objective {
+    /// The loss of a CBV at `cbv` (body `cbv_body`) against the ego's
+    /// constant-velocity prediction `ego_next` (body `ego_body`), whose
+    /// box distance from it is `distance_m`, m.
+    pub(super) fn loss(
+        self,
+        ego_next: &AgentState,
+        ego_body: AgentBody,
+        cbv: &AgentState,
+        cbv_body: AgentBody,
+        distance_m: f64,
+    ) -> f64 {
+        match self {
+            Objective::Contact => distance_m,
+            Objective::InPath => in_path_loss(ego_next, ego_body, cbv, cbv_body),
+            Objective::CutIn => cut_in_loss(ego_next, ego_body, cbv, cbv_body),
+        }
+    }
+}
+
 /// What the adversary searches at each token boundary.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Search {
@@ -148,13 +168,13 @@ pub fn safer_choice(
         None => None,
         Some(oracle) => Some(feasibility_values(oracle, &predicted, ego_next, ego_body, cbv_body, feasibility_s)?),
     };
-    let objective: Vec<f64> = match search.objective {
-        Objective::Contact => distances.clone(),
-        Objective::InPath => predicted.iter().map(|s| in_path_loss(&ego_next, ego_body, s, cbv_body)).collect(),
-        Objective::CutIn => predicted.iter().map(|s| cut_in_loss(&ego_next, ego_body, s, cbv_body)).collect(),
-    };
+    let objective: Vec<f64> = predicted
+        .iter()
+        .zip(&distances)
+        .map(|(s, &d)| search.objective.loss(&ego_next, ego_body, s, cbv_body, d))
+        .collect();
     let mut losses: Vec<f64> = match &values {
-        None => objective,
+        None => objective.clone(),
         Some(values) => objective
             .iter()
             .zip(values)
@@ -170,8 +190,14 @@ pub fn safer_choice(
             candidates,
             tokens: search.lookahead_tokens,
             on_road_now: !world.map.is_off_road_within_map(&cbv_now.position),
+            objective: search.objective,
         };
-        let first = FirstTokens { states: &predicted, distances_m: &distances, values: values.as_deref() };
+        let first = FirstTokens {
+            states: &predicted,
+            distances_m: &distances,
+            scores_m: &objective,
+            values: values.as_deref(),
+        };
         lookahead.lower_losses(cbv_now, first, &mut losses, feasibility, feasibility_s)?;
     }
     // The strict arg min: by loss (a NaN distance, never expected as

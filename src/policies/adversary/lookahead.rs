@@ -1,8 +1,10 @@
-//! The receding-horizon search of `safer-lookahead` ([`Lookahead`]): a
-//! first token scored by the best its continuations reach over
-//! [`LOOKAHEAD_TOKENS`] token periods, inside the same constraints as the
+//! The receding-horizon search of `safer-lookahead` and
+//! `safer-in-path-lookahead` ([`Lookahead`]): a first token scored by the
+//! best its continuations reach over [`LOOKAHEAD_TOKENS`] token periods
+//! under the search's objective, inside the same constraints as the
 //! one-step choice.
 
+use super::choice::Objective;
 use super::feasibility::feasibility_values;
 use crate::models::ModelError;
 use crate::models::feasibility_oracle::FeasibilityOracle;
@@ -18,7 +20,8 @@ pub const LOOKAHEAD_TOKENS: usize = 3;
 /// after the first, m: of two equally close approaches the sooner wins.
 pub const LOOKAHEAD_DELAY_PENALTY_M: f64 = 0.5;
 
-/// The receding-horizon search of `safer-lookahead` (beyond the paper).
+/// The receding-horizon search of `safer-lookahead` and
+/// `safer-in-path-lookahead` (beyond the paper).
 ///
 /// One-step greed steers the CBV at where the ego will be in 0.5 s and
 /// stops it at the edge of the feasible set, where it hovers beside the
@@ -35,11 +38,14 @@ pub const LOOKAHEAD_DELAY_PENALTY_M: f64 = 0.5;
 ///   have escaped one token earlier, and it is that escape the witness
 ///   later looks for).
 ///
-/// A continuation scores its distance to the ego plus
-/// [`LOOKAHEAD_DELAY_PENALTY_M`] per token after the first (sooner is
-/// better; a contact scores 0 plus that delay), and a first token takes
-/// the least score of its continuations when below its one-step loss. The
-/// search is a beam as wide as the trust region ranked by distance, a pure
+/// A continuation scores its objective (the paper's: its distance to the
+/// ego) plus [`LOOKAHEAD_DELAY_PENALTY_M`] per token after the first
+/// (sooner is better). A contact scores what the objective makes of it: 0
+/// for the paper's, and for the in-path ones 0 ahead of the ego and the
+/// not-ahead penalty beside or behind it, so that running into the ego's
+/// side does not outrank getting into its path. A first token takes the
+/// least score of its continuations when below its one-step loss. The
+/// search is a beam as wide as the trust region ranked by score, a pure
 /// function of the world like the one-step choice.
 pub(super) struct Lookahead<'a> {
     pub(super) world: &'a WorldView<'a>,
@@ -52,6 +58,8 @@ pub(super) struct Lookahead<'a> {
     pub(super) tokens: usize,
     /// Whether the CBV is on the road now (then a continuation must stay on it).
     pub(super) on_road_now: bool,
+    /// What a continuation's score measures (the one-step loss's objective).
+    pub(super) objective: Objective,
 }
 
 /// The one-step search's results for each candidate of the trust region.
@@ -60,16 +68,20 @@ pub(super) struct FirstTokens<'a> {
     pub(super) states: &'a [AgentState],
     /// Its box distance to the ego's prediction there, m.
     pub(super) distances_m: &'a [f64],
+    /// Its objective there (the box distance for the paper's), m.
+    pub(super) scores_m: &'a [f64],
     /// V_h there (`None`: no feasibility constraint).
     pub(super) values: Option<&'a [f32]>,
 }
 
 /// One continuation of the beam: which first token it extends, where the
-/// CBV is at its end, and its distance to the ego there.
+/// CBV is at its end, its box distance to the ego there (a contact ends
+/// it) and its objective there (the beam keeps the best).
 struct Continuation {
     root: usize,
     state: KinematicState,
     distance_m: f64,
+    score_m: f64,
 }
 
 impl Lookahead<'_> {
@@ -91,7 +103,7 @@ impl Lookahead<'_> {
             if now[0] <= 0.0 {
                 for (i, loss) in losses.iter_mut().enumerate() {
                     if values[i] > 0.0 && first.distances_m[i] <= 0.0 {
-                        *loss = 0.0;
+                        *loss = first.scores_m[i].max(0.0);
                     }
                 }
             }
@@ -102,6 +114,7 @@ impl Lookahead<'_> {
                 root: i,
                 state: KinematicState::from_agent_state(&first.states[i]),
                 distance_m: first.distances_m[i],
+                score_m: first.scores_m[i],
             })
             .collect();
         Self::keep_best(&mut beam, self.candidates.len());
@@ -119,7 +132,8 @@ impl Lookahead<'_> {
                         continue;
                     }
                     let distance_m = ego_box.distance(&self.cbv_body.footprint(&at));
-                    children.push(Continuation { root: parent.root, state: end, distance_m });
+                    let score_m = self.objective.loss(&ego, self.ego_body, &at, self.cbv_body, distance_m);
+                    children.push(Continuation { root: parent.root, state: end, distance_m, score_m });
                 }
             }
             if let Some(oracle) = feasibility {
@@ -130,8 +144,11 @@ impl Lookahead<'_> {
                 children.retain(|c| values.next().is_some_and(|v| v <= 0.0) || c.distance_m <= 0.0);
             }
             let delay_m = LOOKAHEAD_DELAY_PENALTY_M * (depth - 1) as f64;
+            // A contact scores what the objective makes of it: 0 for the
+            // paper's, the not-ahead penalty for the in-path ones' CBV
+            // running into the ego from behind or the side.
             for c in &children {
-                losses[c.root] = losses[c.root].min(c.distance_m.max(0.0) + delay_m);
+                losses[c.root] = losses[c.root].min(c.score_m.max(0.0) + delay_m);
             }
             // A contact ends its continuation.
             children.retain(|c| c.distance_m > 0.0);
@@ -141,10 +158,10 @@ impl Lookahead<'_> {
         Ok(())
     }
 
-    /// Keeps the `width` continuations closest to the ego (ties: the
+    /// Keeps the `width` continuations of the best score (ties: the
     /// likelier first token, then the order they were made in).
     fn keep_best(beam: &mut Vec<Continuation>, width: usize) {
-        beam.sort_by(|a, b| a.distance_m.total_cmp(&b.distance_m).then(a.root.cmp(&b.root)));
+        beam.sort_by(|a, b| a.score_m.total_cmp(&b.score_m).then(a.root.cmp(&b.root)));
         beam.truncate(width);
     }
 }
@@ -190,6 +207,42 @@ mod tests {
         let near_is_infeasible = StubOracle(|p| 3.0 - gap_m(p) as f32);
         assert_eq!(choice_in(&CLOSING, &LIKED, lookahead, Some(&near_is_infeasible)), token(-5.0));
         assert_eq!(choice_in(&CLOSING, &LIKED, one_step, Some(&near_is_infeasible)), token(-5.0));
+    }
+
+    #[test]
+    fn with_the_in_path_objective_a_contact_beside_the_ego_scores_as_not_ahead() {
+        use crate::motion::Action;
+        use crate::policies::adversary::Objective;
+        // The CBV in the next lane, its centre 1 m behind the ego's, both at
+        // 10 m/s. Steering right it touches the ego's side within a second,
+        // beside it; at +5 m/s² it draws ahead of the ego's front bumper
+        // within 1.5 s, 1.5 m to the side of its path.
+        let states = [car(0.0, 0.0, 10.0), car(-1.0, 3.5, 10.0)];
+        let steer_in = TokenGrid::quantize(Action { accel_mps2: 0.0, yaw_rate_radps: -0.3 });
+        let liked = [(0.0, 3.0), (5.0, 1.0)];
+        let map = crate::map::RoadMap::default();
+        let bodies =
+            [crate::scenario::AgentBody { kind: crate::scenario::AgentKind::Vehicle, length_m: 4.5, width_m: 2.0 }; 2];
+        let world = WorldView { map: &map, step: 0, bodies: &bodies, states: &states };
+        let mut logits = vec![-30.0f32; crate::motion::tokens::VOCABULARY_SIZE];
+        for (accel_mps2, logit) in liked {
+            logits[token(accel_mps2).0 as usize] = logit;
+        }
+        logits[steer_in.0 as usize] = 2.0;
+        let chosen = |objective| {
+            let search =
+                Search { objective, lookahead_tokens: LOOKAHEAD_TOKENS, ..Search::one_step(TrustRegion::TopN(3)) };
+            let pair = (crate::scenario::TrackIndex(1), crate::scenario::TrackIndex(0));
+            let forecast = crate::policies::adversary::BackgroundForecast::default();
+            crate::policies::adversary::safer_choice(&world, pair, &logits, search, &forecast, None, &mut 0.0)
+                .unwrap()
+                .unwrap()
+        };
+        // The paper's loss takes the contact with the ego's side.
+        assert_eq!(chosen(Objective::Contact), steer_in);
+        // The in-path loss counts that contact as not ahead of the ego (the
+        // penalty, not 0): the CBV draws ahead towards the ego's path instead.
+        assert_eq!(chosen(Objective::InPath), token(5.0));
     }
 
     #[test]

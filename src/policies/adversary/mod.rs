@@ -53,6 +53,8 @@
 //! ego's path ahead of it rather than to the ego (see [`Objective`]);
 //! `safer-cut-in` (beyond the paper) the same as `safer-in-path` with a
 //! loss that draws the CBV ahead of the ego and all the way into its path;
+//! `safer-in-path-lookahead` (beyond the paper) `safer-in-path` scored
+//! over the receding horizon of `safer-lookahead`;
 //! `safer-inattentive` (beyond the paper) the same policy fed by a prior
 //! that does not see the ego (see
 //! [`PriorTraffic::hide_from`](crate::policies::prior_sampling::PriorTraffic::hide_from)).
