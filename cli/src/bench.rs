@@ -298,7 +298,7 @@ fn write_beside_safer(out: &mut dyn Write, method: &str, variant_ms: f64, ratio_
         format!("{IN_PATH_RATIO_TARGET}× safer"),
         ratio_to_safer / IN_PATH_RATIO_TARGET
     )?;
-    writeln!(out, "{:<52} {:>10.2}", format!("    {method} / safer variant (same run)"), ratio_to_safer)
+    writeln!(out, "{:<52} {:>10.2}", format!("    {method} / safer (same run)"), ratio_to_safer)
 }
 
 /// Import: per format, the mean and max of per-scene medians, each beside
