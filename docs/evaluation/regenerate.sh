@@ -42,8 +42,9 @@
 #                     log replay and the prior (n = 20): the paper's protocol,
 #                     evaluate-{womd-interactive,womd-json,ngsim}.txt, and
 #                     mutants-{womd-interactive,ngsim}-evasive.txt, the first again
-#                     with --seed 1000 (mutants-womd-interactive-evasive-seed1000.txt)
-#                     (about 35 minutes)
+#                     with --seed 1000, 2000 and 3000 (mutants-womd-interactive-evasive-seedN.txt),
+#                     and the lane follower's on WOMD interactive
+#                     (mutants-womd-interactive-lane-follower.txt) (about an hour)
 #   mutants           mutants-{womd-interactive,womd-json,ngsim}-evasive.txt and
 #                     mutants-{womd-interactive,ngsim}-lane-follower.txt: the
 #                     faults of the planner each method's variants catch
@@ -220,8 +221,12 @@ for job in "${jobs[@]}"; do
         for s in womd-interactive:womd-interactive commonroad-ngsim:ngsim; do
             run "in-path-lookahead/mutants-${s#*:}-evasive.txt" evaluate --scenes "data:${s%%:*}" --seeds 3 "${mutating[@]}"
         done
-        run in-path-lookahead/mutants-womd-interactive-evasive-seed1000.txt evaluate --scenes data:womd-interactive \
-            --seeds 3 --seed 1000 "${mutating[@]}" ;;
+        for seed in 1000 2000 3000; do
+            run "in-path-lookahead/mutants-womd-interactive-evasive-seed$seed.txt" evaluate --scenes data:womd-interactive \
+                --seeds 3 --seed "$seed" "${mutating[@]}"
+        done
+        run in-path-lookahead/mutants-womd-interactive-lane-follower.txt evaluate --scenes data:womd-interactive \
+            --seeds 2 "${mutating[@]}" --planner ../../planners/lane-follower.yaml ;;
     esac
 done
 rm -r "$(dirname "$safer")"
