@@ -242,7 +242,7 @@ mod tests {
     use super::*;
     use crate::map::RoadMap;
     use crate::motion::tokens::{MAX_ACCEL_MPS2, TokenGrid};
-    use crate::policies::adversary::test_support::{LIKED, StubOracle, car, choice_in, token};
+    use crate::policies::adversary::test_support::{LIKED, StubOracle, car, choice_among, choice_in, token};
     use crate::scenario::{AgentBody, AgentKind};
 
     /// The choice with the CBV 30 m behind the ego, both at 10 m/s along
@@ -304,20 +304,12 @@ mod tests {
         // The CBV in the lane to the ego's left, 8 m ahead, both at 10 m/s.
         // The prior likes keeping on, braking hard, and steering right
         // into the ego's lane.
-        let map = RoadMap::default();
-        let bodies = [AgentBody { kind: AgentKind::Vehicle, length_m: 4.5, width_m: 2.0 }; 2];
         let states = [car(0.0, 0.0, 10.0), car(8.0, 3.5, 10.0)];
-        let world = WorldView { map: &map, step: 0, bodies: &bodies, states: &states };
         let steer_in = TokenGrid::quantize(Action { accel_mps2: 0.0, yaw_rate_radps: -0.3 });
-        let mut logits = vec![-30.0f32; crate::motion::tokens::VOCABULARY_SIZE];
-        for (t, logit) in [(token(0.0), 3.0), (token(-5.0), 2.0), (steer_in, 1.0)] {
-            logits[t.0 as usize] = logit;
-        }
+        let liked = [(token(0.0), 3.0), (token(-5.0), 2.0), (steer_in, 1.0)];
         let chosen = |objective| {
             let search = Search { objective, ..Search::one_step(TrustRegion::TopN(3)) };
-            let forecast = BackgroundForecast::default();
-            let pair = (TrackIndex(1), TrackIndex(0));
-            safer_choice(&world, pair, &logits, search, &forecast, None, &mut 0.0).unwrap().unwrap()
+            choice_among(&states, &liked, search, None)
         };
         // The paper's loss: falling back beside the ego is closest.
         assert_eq!(chosen(Objective::Contact), token(-5.0));

@@ -169,7 +169,7 @@ impl Lookahead<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::policies::adversary::test_support::{LIKED, StubOracle, car, choice_in, token};
+    use crate::policies::adversary::test_support::{LIKED, StubOracle, car, choice_among, choice_in, token};
     use crate::policies::adversary::{EgoCbvState, Search, TrustRegion};
 
     /// The box gap between the ego and the CBV of a feasibility query, m.
@@ -219,24 +219,11 @@ mod tests {
         // within 1.5 s, 1.5 m to the side of its path.
         let states = [car(0.0, 0.0, 10.0), car(-1.0, 3.5, 10.0)];
         let steer_in = TokenGrid::quantize(Action { accel_mps2: 0.0, yaw_rate_radps: -0.3 });
-        let liked = [(0.0, 3.0), (5.0, 1.0)];
-        let map = crate::map::RoadMap::default();
-        let bodies =
-            [crate::scenario::AgentBody { kind: crate::scenario::AgentKind::Vehicle, length_m: 4.5, width_m: 2.0 }; 2];
-        let world = WorldView { map: &map, step: 0, bodies: &bodies, states: &states };
-        let mut logits = vec![-30.0f32; crate::motion::tokens::VOCABULARY_SIZE];
-        for (accel_mps2, logit) in liked {
-            logits[token(accel_mps2).0 as usize] = logit;
-        }
-        logits[steer_in.0 as usize] = 2.0;
+        let liked = [(token(0.0), 3.0), (steer_in, 2.0), (token(5.0), 1.0)];
         let chosen = |objective| {
             let search =
                 Search { objective, lookahead_tokens: LOOKAHEAD_TOKENS, ..Search::one_step(TrustRegion::TopN(3)) };
-            let pair = (crate::scenario::TrackIndex(1), crate::scenario::TrackIndex(0));
-            let forecast = crate::policies::adversary::BackgroundForecast::default();
-            crate::policies::adversary::safer_choice(&world, pair, &logits, search, &forecast, None, &mut 0.0)
-                .unwrap()
-                .unwrap()
+            choice_among(&states, &liked, search, None)
         };
         // The paper's loss takes the contact with the ego's side.
         assert_eq!(chosen(Objective::Contact), steer_in);

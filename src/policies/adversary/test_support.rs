@@ -32,10 +32,23 @@ pub(super) fn dead_end_road() -> RoadMap {
 }
 
 /// The choice with the ego (index 0), the CBV (index 1) and any other
-/// cars (background at constant velocity) in `states` on an open plane.
+/// cars (background at constant velocity) in `states` on an open plane,
+/// the prior liking the straight-on accelerations `liked` (m/s², logit)
+/// and nothing else.
 pub(super) fn choice_in(
     states: &[Option<AgentState>],
     liked: &[(f64, f32)],
+    search: Search,
+    oracle: Option<&dyn FeasibilityOracle>,
+) -> Token {
+    let liked: Vec<(Token, f32)> = liked.iter().map(|&(accel_mps2, logit)| (token(accel_mps2), logit)).collect();
+    choice_among(states, &liked, search, oracle)
+}
+
+/// [`choice_in`] with the prior liking the tokens `liked` (token, logit).
+pub(super) fn choice_among(
+    states: &[Option<AgentState>],
+    liked: &[(Token, f32)],
     search: Search,
     oracle: Option<&dyn FeasibilityOracle>,
 ) -> Token {
@@ -43,8 +56,8 @@ pub(super) fn choice_in(
     let bodies = vec![AgentBody { kind: AgentKind::Vehicle, length_m: 4.5, width_m: 2.0 }; states.len()];
     let world = WorldView { map: &map, step: 0, bodies: &bodies, states };
     let mut logits = vec![-30.0f32; crate::motion::tokens::VOCABULARY_SIZE];
-    for &(accel_mps2, logit) in liked {
-        logits[token(accel_mps2).0 as usize] = logit;
+    for &(t, logit) in liked {
+        logits[t.0 as usize] = logit;
     }
     let mut feasibility_s = 0.0;
     safer_choice(
