@@ -1127,7 +1127,7 @@ pub(crate) struct EvaluateArgs {
     /// Horizon of both stages from the scene's current step, s (positive, finite).
     #[arg(long, default_value_t = 8.0, value_parser = positive_finite, allow_negative_numbers = true)]
     pub(crate) horizon_s: f64,
-    /// Which ego–CBV pair each scene is tested with: `as-loaded`, the source's roles, else the labelled pair, else the pair of moving vehicles with the closest approach; `merging`, a CBV in a lane that merges with the ego's ahead of both (an on-ramp, a lane drop, two ways through a junction), the closest such; a mined ego is mined again with it. Scenes without a merging pair are left out.
+    /// Which ego–CBV pair each scene is tested with: `as-loaded`, the source's roles, else the labelled pair, else the pair of moving vehicles with the closest approach; `merging`, a CBV in a lane that merges with the ego's ahead of both (an on-ramp, a lane drop, two ways through a junction), of those reaching the merge point (at their speeds) between 1 s and the recording's end, the one arriving nearest in time to the ego; a mined ego is mined again with it. Scenes without a merging pair are left out.
     #[arg(long, value_parser = choice(RolePairing::ALL), default_value = "as-loaded")]
     pub(crate) roles: RolePairing,
     /// Evaluate only the first N scenes (by id), at least 1.

@@ -34,6 +34,9 @@ pub struct LaneAhead {
     /// into (this one included): a lane only continuing the vehicle's own
     /// in pieces has none.
     pub through_junction: bool,
+    /// How far its start is from the start of the vehicle's lane the way
+    /// to it began in, along that way, m.
+    pub start_m: f64,
 }
 
 impl<'a> LaneRelations<'a> {
@@ -93,7 +96,7 @@ impl<'a> LaneRelations<'a> {
                 for succ in self.successors_of(&[id]) {
                     if !ahead.iter().any(|a| a.id == succ) && !lanes.contains(&succ) {
                         let through_junction = through || self.junctions.contains(&succ);
-                        ahead.push(LaneAhead { id: succ, through_junction });
+                        ahead.push(LaneAhead { id: succ, through_junction, start_m: end_m });
                         if end_m < within_m {
                             next.push((succ, end_m, through_junction));
                         }
@@ -148,6 +151,10 @@ mod tests {
         assert_eq!(ids(relations.lanes_ahead(&[MapElementId(1)], 40.0)), [(2, false)]);
         assert_eq!(ids(relations.lanes_ahead(&[MapElementId(1)], 70.0)), [(2, false), (3, true)]);
         assert_eq!(ids(relations.lanes_ahead(&[MapElementId(4)], 10.0)), [(3, true)]);
+        // Where each starts, along the way from the start of the first lane.
+        let starts = |ahead: Vec<LaneAhead>| ahead.iter().map(|a| a.start_m).collect::<Vec<_>>();
+        assert_eq!(starts(relations.lanes_ahead(&[MapElementId(1)], 70.0)), [50.0, 60.0]);
+        assert!((relations.lanes_ahead(&[MapElementId(4)], 10.0)[0].start_m - 17.0_f64.sqrt() * 5.0).abs() < 1e-9);
         assert!(relations.any_connected(&[MapElementId(2)], &[MapElementId(3)]));
         assert!(!relations.any_connected(&[MapElementId(1)], &[MapElementId(3)]));
     }
