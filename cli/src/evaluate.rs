@@ -482,8 +482,19 @@ fn print_kills(
     let width = rows.iter().map(|r| label(r.method, r.stage2_cbv, modes).len()).max().unwrap_or(6).max(6);
     write!(
         out,
-        "{:<width$}  {:>6}  {:>18}  {:>6}  {:>6}  {:>11}  {:>6}  {:>6}  {:>6}  {:>7}",
-        "method", "passed", "kills | held out", "×log", "×prior", "scene kills", "×log", "×prior", "by CBV", "mutants"
+        "{:<width$}  {:>6}  {:>18}  {:>6}  {:>6}  {:>11}  {:>6}  {:>6}  {:>6}  {:>10}  {:>6}  {:>7}",
+        "method",
+        "passed",
+        "kills | held out",
+        "×log",
+        "×prior",
+        "scene kills",
+        "×log",
+        "×prior",
+        "by CBV",
+        "beyond log",
+        "×prior",
+        "mutants"
     )?;
     for op in &ops {
         write!(out, "  {op:>12}")?;
@@ -502,7 +513,7 @@ fn print_kills(
         };
         write!(
             out,
-            "{:<width$}  {:>6}  {:>18}  {:>6}  {:>6}  {:>11}  {:>6}  {:>6}  {:>6}  {:>7}",
+            "{:<width$}  {:>6}  {:>18}  {:>6}  {:>6}  {:>11}  {:>6}  {:>6}  {:>6}  {:>10}  {:>6}  {:>7}",
             label(r.method, r.stage2_cbv, modes),
             k.variants_passed,
             kills,
@@ -512,6 +523,11 @@ fn print_kills(
             ratio(k.scene_kills, kills_of(AdversaryMethod::Log, r.stage2_cbv, |k| k.scene_kills)),
             ratio(k.scene_kills, kills_of(AdversaryMethod::Prior, r.stage2_cbv, |k| k.scene_kills)),
             k.cbv_kills,
+            k.beyond_replay.map_or_else(|| "-".to_string(), |b| b.to_string()),
+            match (k.beyond_replay, kills_of(AdversaryMethod::Prior, r.stage2_cbv, |k| k.beyond_replay.unwrap_or(0))) {
+                (Some(b), prior) => ratio(b, prior),
+                (None, _) => "-".to_string(),
+            },
             format!("{}/{}", k.mutants_killed, k.operators.len()),
         )?;
         for op in &settings.mutants {
@@ -526,7 +542,7 @@ fn print_kills(
     }
     writeln!(
         out,
-        "kills: mutant-variants killed / passed variants × mutants, over distinct variants (right of | : on the held-out scenes); a seed that repeats another seed's variant of its scene (the same stage-1 CBV path and the same results, as all of log replay's do) counts once{}; scene kills: (scene, mutant) pairs where some variant killed the mutant; by CBV: kills whose mutant collided with the CBV (the rest it failed against the recorded traffic, the road or the vehicle limits); ×log, ×prior: over log replay's and the prior's on the same scenes and seeds; per mutant: kills (scenes where it was killed / scenes with a passed variant).",
+        "kills: mutant-variants killed / passed variants × mutants, over distinct variants (right of | : on the held-out scenes); a seed that repeats another seed's variant of its scene (the same stage-1 CBV path and the same results, as all of log replay's do) counts once{}; scene kills: (scene, mutant) pairs where some variant killed the mutant; by CBV: kills whose mutant collided with the CBV (the rest it failed against the recorded traffic, the road or the vehicle limits); beyond log: kills of a mutant in a scene where no variant of log replay kills it (the faults replaying the recording misses; with log replay in the run); ×log, ×prior: over log replay's and the prior's on the same scenes and seeds; per mutant: kills (scenes where it was killed / scenes with a passed variant).",
         repeats_note(rows, modes)
     )
 }

@@ -47,6 +47,11 @@
 #                     with --seed 1000, 2000 and 3000 (mutants-womd-interactive-evasive-seedN.txt),
 #                     and the lane follower's on WOMD interactive
 #                     (mutants-womd-interactive-lane-follower.txt) (about an hour)
+#   ten-seeds         ten-seeds/: the evasive planner's mutation tables over 10 seeds a
+#                     scene, as the paper's protocol draws them: WOMD interactive (n = 20;
+#                     log replay, the prior, safer, safer-in-path, safer-in-path-lookahead)
+#                     and NGSIM (n = 60; log replay, the prior, safer, safer-in-path)
+#                     (about 45 minutes)
 #   mutants           mutants-{womd-interactive,womd-json,ngsim}-evasive.txt and
 #                     mutants-{womd-interactive,ngsim}-lane-follower.txt: the
 #                     faults of the planner each method's variants catch
@@ -61,7 +66,7 @@ set -euo pipefail
 self=$(realpath "$0")
 cd "$(dirname "$self")"
 all=(evaluate plain inattentive held-out-chance trust-region realism prior-fit n-sweep reactive n100 approach-none merging mutants wide-region cut-in
-    in-path-lookahead)
+    in-path-lookahead ten-seeds)
 jobs=("$@")
 [[ ${#jobs[@]} -gt 0 ]] || jobs=("${all[@]}")
 # The usage is the comment block at the top of this file.
@@ -179,6 +184,13 @@ for job in "${jobs[@]}"; do
             run "mutants-${s#*:}-lane-follower.txt" evaluate --scenes "data:${s%%:*}" --seeds 2 "${mutating[@]}" \
                 --methods log,prior,safer,safer-in-path,safer-distinct --planner ../../planners/lane-follower.yaml
         done ;;
+    ten-seeds)
+        mkdir -p ten-seeds
+        mutating=(--seeds 10 --stage2-cbv closed-loop --mutants)
+        run ten-seeds/mutants-womd-interactive-evasive.txt evaluate --scenes data:womd-interactive "${mutating[@]}" \
+            --methods log,prior,safer,safer-in-path,safer-in-path-lookahead
+        run ten-seeds/mutants-ngsim-evasive-n60.txt evaluate --scenes data:commonroad-ngsim "${mutating[@]}" \
+            --methods log,prior,safer,safer-in-path --trust-region 60 ;;
     wide-region)
         mutating=(--stage2-cbv closed-loop --mutants --methods log,prior,safer-in-path)
         for n in 60 100; do

@@ -27,7 +27,7 @@ use super::acceptance;
 use super::artefacts;
 use super::methods::{BackgroundDriver, MapEncodings, MethodSettings, ModelSet};
 use super::metrics::{CbvBackgroundContact, SuiteMetrics, VariantTally, cbv_background_collisions};
-use super::mutation::{KillsInput, MethodKills, VariantMutation, evaluation_criteria, judge_mutant};
+use super::mutation::{KillsInput, MethodKills, ReplayCatches, VariantMutation, evaluation_criteria, judge_mutant};
 use super::pipeline::{self, PlannerLatency, Stage2Verdict, VariantSetup};
 pub use super::pipeline::{Stage2Cbv, VariantProfile};
 use super::variant::variant_seed;
@@ -714,6 +714,17 @@ fn distinct_rate(variants: &[&VariantRecord]) -> Option<f64> {
     (!variants.is_empty()).then(|| distinct.len() as f64 / variants.len() as f64)
 }
 
+/// The mutation runs of `variants`, as the kills count them.
+fn kills_inputs<'a>(variants: &[&'a VariantRecord]) -> impl Iterator<Item = KillsInput<'a>> {
+    variants.iter().filter_map(|r| {
+        Some(KillsInput {
+            scene: &r.scenario,
+            cbv_path_digest: r.tally.cbv_path_digest,
+            mutation: r.mutation.as_ref()?,
+        })
+    })
+}
+
 /// One row per method, in the requested order, and within a method one
 /// per stage-2 CBV mode the records hold (replay first), side by side. CR,
 /// SR, SR-crit, VJ, AJ, reach and SR over avoidable conflicts are the
@@ -735,6 +746,17 @@ fn table_of(
     if modes.is_empty() {
         modes.push(Stage2Cbv::Replay);
     }
+    // What log replay catches, per stage-2 mode, where it ran with mutants.
+    let replay_catches: Vec<(Stage2Cbv, ReplayCatches)> = modes
+        .iter()
+        .filter_map(|&mode| {
+            let replay: Vec<&VariantRecord> = records
+                .iter()
+                .filter(|r| r.method == AdversaryMethod::Log && r.stage2_cbv == mode && r.error.is_none() && keep(r))
+                .collect();
+            replay.iter().any(|r| r.mutation.is_some()).then(|| (mode, MethodKills::catches(kills_inputs(&replay))))
+        })
+        .collect();
     methods
         .iter()
         .flat_map(|&method| modes.iter().map(move |&mode| (method, mode)))
@@ -791,13 +813,10 @@ fn table_of(
                 yj: metrics.yaw_rate_jsd,
                 time_per_variant_s: ok.iter().map(|r| r.time_s).sum::<f64>() / n,
                 conflicts: metrics.coverage,
-                kills: MethodKills::of(ok.iter().filter_map(|r| {
-                    Some(KillsInput {
-                        scene: &r.scenario,
-                        cbv_path_digest: r.tally.cbv_path_digest,
-                        mutation: r.mutation.as_ref()?,
-                    })
-                })),
+                kills: MethodKills::of(
+                    kills_inputs(&ok),
+                    replay_catches.iter().find(|(m, _)| *m == mode).map(|(_, c)| c),
+                ),
             }
         })
         .collect()

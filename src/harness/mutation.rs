@@ -414,6 +414,10 @@ pub struct MethodKills {
     /// Kills whose mutant collided with the CBV: the faults the CBV
     /// itself caught, not the recorded traffic or the road.
     pub cbv_kills: usize,
+    /// Kills of a fault in a scene where log replay's variant does not
+    /// kill it: the faults that replaying the recording misses (`None`
+    /// when log replay was not run beside this method).
+    pub beyond_replay: Option<usize>,
     /// Variants left out as repeats of a distinct one.
     pub repeated_variants: usize,
     /// Operators killed on at least one variant.
@@ -447,15 +451,34 @@ pub struct KillsInput<'a> {
     pub mutation: &'a VariantMutation,
 }
 
+/// The (scene, fault) pairs log replay's variants kill, for
+/// [`MethodKills::beyond_replay`].
+pub type ReplayCatches = std::collections::BTreeSet<(String, FaultOperator)>;
+
 impl MethodKills {
+    /// The (scene, fault) pairs that some variant of `variants` kills.
+    pub fn catches<'a>(variants: impl IntoIterator<Item = KillsInput<'a>>) -> ReplayCatches {
+        variants
+            .into_iter()
+            .filter(|v| v.mutation.base_failure.is_none())
+            .flat_map(|v| v.mutation.mutants.iter().filter(|r| r.killed).map(|r| (v.scene.to_string(), r.operator)))
+            .collect()
+    }
+
     /// The kills of `variants`, repeats counted once; `None` when no
-    /// variant carries a mutation run.
-    pub fn of<'a>(variants: impl IntoIterator<Item = KillsInput<'a>>) -> Option<MethodKills> {
+    /// variant carries a mutation run. With `replay`, the (scene, fault)
+    /// pairs log replay kills ([`MethodKills::catches`] of its variants),
+    /// the kills beyond them are counted too.
+    pub fn of<'a>(
+        variants: impl IntoIterator<Item = KillsInput<'a>>,
+        replay: Option<&ReplayCatches>,
+    ) -> Option<MethodKills> {
         use std::collections::{BTreeMap, BTreeSet};
         let mut any = false;
         let mut passed = 0;
         let mut repeated = 0;
         let mut cbv_kills = 0;
+        let mut beyond_replay = 0;
         // The runs already counted, by (scene, CBV path).
         let mut seen: BTreeMap<(&str, u64), Vec<&VariantMutation>> = BTreeMap::new();
         let mut scenes: BTreeSet<&str> = BTreeSet::new();
@@ -480,6 +503,8 @@ impl MethodKills {
                 if r.killed {
                     *kills += 1;
                     cbv_kills += usize::from(r.hit_cbv);
+                    beyond_replay +=
+                        usize::from(replay.is_some_and(|c| !c.contains(&(v.scene.to_string(), r.operator))));
                     where_.insert(v.scene);
                 }
             }
@@ -502,6 +527,7 @@ impl MethodKills {
             kills: operators.iter().map(|o| o.kills).sum(),
             scene_kills: operators.iter().map(|o| o.scenes_killed).sum(),
             cbv_kills,
+            beyond_replay: replay.map(|_| beyond_replay),
             repeated_variants: repeated,
             mutants_killed: operators.iter().filter(|o| o.kills > 0).count(),
             operators,
@@ -589,7 +615,7 @@ mod tests {
         other.mutants[1].hit_cbv = true;
         let failed = VariantMutation { base_failure: Some("no_off_road: x".into()), mutants: vec![] };
         let input = |scene, digest, mutation| KillsInput { scene, cbv_path_digest: digest, mutation };
-        let kills = MethodKills::of([
+        let variants = [
             // Log replay's three seeds of one scene: one variant.
             input("a", Some(1), &first),
             input("a", Some(1), &first),
@@ -605,8 +631,8 @@ mod tests {
             // A repeated failure of the planner is left out, too.
             input("d", Some(3), &failed),
             input("d", Some(3), &failed),
-        ])
-        .unwrap();
+        ];
+        let kills = MethodKills::of(variants, None).unwrap();
         assert_eq!(kills.repeated_variants, 3);
         assert_eq!(kills.variants_passed, 6);
         assert_eq!(kills.mutant_variants, 12);
@@ -616,7 +642,39 @@ mod tests {
         assert_eq!((kills.operators[1].kills, kills.operators[1].scenes_killed), (1, 1));
         assert_eq!(kills.scene_kills, 4);
         assert_eq!(kills.cbv_kills, 1);
-        assert_eq!(MethodKills::of(std::iter::empty()), None);
+        assert_eq!(kills.beyond_replay, None);
+        assert_eq!(MethodKills::of(std::iter::empty(), None), None);
+    }
+
+    #[test]
+    fn kills_beyond_replay_are_faults_in_scenes_where_log_replay_does_not_catch_them() {
+        let input = |scene, digest, mutation| KillsInput { scene, cbv_path_digest: digest, mutation };
+        // Log replay kills no-brake in scene a, nothing in b; its planner
+        // fails scene c, where what the mutants did is no catch.
+        let (no_brake, both, neither) = (run(&[true, false]), run(&[true, true]), run(&[false, false]));
+        let failed = VariantMutation { base_failure: Some("no_collision: x".into()), ..run(&[true, true]) };
+        let replay = MethodKills::catches([
+            input("a", Some(1), &no_brake),
+            input("b", Some(1), &neither),
+            input("c", Some(1), &failed),
+        ]);
+        assert_eq!(replay, ReplayCatches::from([("a".to_string(), FaultOperator::ALL[0])]));
+        let kills = MethodKills::of(
+            [
+                // Two variants of a catching both: weak-brake is new, twice.
+                input("a", Some(2), &both),
+                input("a", Some(3), &both),
+                // In b and c both are new.
+                input("b", Some(2), &both),
+                input("c", Some(2), &no_brake),
+            ],
+            Some(&replay),
+        )
+        .unwrap();
+        assert_eq!((kills.kills, kills.beyond_replay), (7, Some(5)));
+        // Log replay's own kills are none beyond itself.
+        let own = MethodKills::of([input("a", Some(1), &no_brake)], Some(&replay)).unwrap();
+        assert_eq!(own.beyond_replay, Some(0));
     }
 
     #[test]

@@ -153,6 +153,52 @@ fn evaluate_with_merging_roles_tests_a_merging_pair_and_leaves_out_scenes_withou
 
 #[test]
 #[cfg_attr(not(recorded_data), ignore = "needs recorded data: set SAFER_DATA_DIR (docs/guide/recorded-data.md)")]
+fn evaluate_with_mutants_counts_the_kills_beyond_log_replay_alike_in_the_table_and_the_report() {
+    // A WOMD interactive scene where log replay's variant kills the mutant
+    // that does not evade, and the prior's first two seeds also kill the
+    // one that never brakes.
+    let scene = data_dir().join("womd-interactive/tfrecord-00086-of-00150_194.json");
+    let run = |methods: &str| {
+        let args = ["evaluate", "--scenes", scene.to_str().unwrap(), "--seeds", "2", "--methods", methods];
+        let out = safer(&[&args[..], &["--stage2-cbv", "closed-loop", "--mutants", "--json", "-"]].concat());
+        let err = String::from_utf8_lossy(&out.stderr).into_owned();
+        assert!(out.status.success(), "{err}");
+        (serde_json::from_slice::<serde_json::Value>(&out.stdout).unwrap(), err)
+    };
+    let (report, table) = run("log,prior");
+    let kills = |method: &str| {
+        let row = report["rows"].as_array().unwrap().iter().find(|r| r["method"] == method).unwrap();
+        row["kills"].clone()
+    };
+    let (log, prior) = (kills("log"), kills("prior"));
+    // Log replay catches nothing beyond itself; the prior's kills beyond it
+    // are the no-brake ones.
+    assert_eq!(log["beyond_replay"], 0, "{log}");
+    let beyond = prior["beyond_replay"].as_u64().unwrap();
+    assert!(beyond > 0 && beyond < prior["kills"].as_u64().unwrap(), "{prior}");
+    let no_brake = prior["operators"].as_array().unwrap().iter().find(|o| o["operator"] == "no-brake").unwrap();
+    assert_eq!(beyond, no_brake["kills"].as_u64().unwrap(), "{prior}");
+    // The table prints the same counts.
+    assert!(table.contains("beyond log"), "{table}");
+    assert_eq!(beyond_log_cell(&table, "prior"), beyond.to_string(), "{table}");
+    assert_eq!(beyond_log_cell(&table, "log"), "0", "{table}");
+    // Without log replay in the run there is nothing to count beyond.
+    let (report, table) = run("prior");
+    assert!(report["rows"][0]["kills"]["beyond_replay"].is_null(), "{}", report["rows"][0]);
+    assert_eq!(beyond_log_cell(&table, "prior"), "-", "{table}");
+}
+
+/// The "beyond log" cell of `method`'s row of the mutation table (its last
+/// row): counted from the end, past the seven mutants' "kills (scenes)"
+/// cells, the mutants killed and the ×prior.
+fn beyond_log_cell(table: &str, method: &str) -> String {
+    let line = table.lines().rfind(|l| l.starts_with(&format!("{method} "))).unwrap();
+    let cells: Vec<&str> = line.split_whitespace().collect();
+    cells[cells.len() - 17].to_string()
+}
+
+#[test]
+#[cfg_attr(not(recorded_data), ignore = "needs recorded data: set SAFER_DATA_DIR (docs/guide/recorded-data.md)")]
 fn evaluate_takes_a_planner_spec_and_jobs_and_reports_latency() {
     let scene = data_dir().join(SCENE);
     let scene = scene.to_str().unwrap();
