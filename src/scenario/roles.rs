@@ -20,6 +20,12 @@
 //! these are annotation errors (NGSIM has many), and a pair that really
 //! crashed in the log makes no avoidable test either. Without this rule the
 //! closest pair is almost always such an overlap (12 of 84 NGSIM scenes).
+//!
+//! On request ([`RolePairing::Merging`]) a scene is tested with a merging
+//! pair instead: of the vehicles in lanes that merge ahead of both, the
+//! one that reaches the merge point nearest in time to the ego, so that
+//! the CBV can meet the ego there (the closest recorded approach picks
+//! cars that start beside each other, or are gone before the other comes).
 
 use super::{AgentKind, AgentState, RoleOrigin, Scenario, TrackIndex};
 use crate::geometry::wrap_angle;
@@ -207,9 +213,9 @@ pub const MERGE_ARRIVAL_MIN_S: f64 = 1.0;
 /// least [`MOVING_SPEED_MPS`]), s from the current step.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MergeArrivals {
-    /// The first of the pair's.
+    /// When the first vehicle asked about (`a`) arrives.
     pub first_s: f64,
-    /// The second's.
+    /// When the second (`b`) arrives.
     pub second_s: f64,
 }
 
