@@ -221,8 +221,10 @@ for job in "${jobs[@]}"; do
             "${mutating[@]}" --trust-region 60
         run cut-in/mutants-womd-interactive-evasive-seed1000.txt evaluate --scenes data:womd-interactive --seeds 3 \
             --seed 1000 "${mutating[@]}"
-        run cut-in/evaluate-ngsim-n60.txt evaluate --scenes data:commonroad-ngsim --seeds 10 \
-            --methods prior,safer-in-path,safer-cut-in --trust-region 60
+        for n in 60 100; do
+            run "cut-in/evaluate-ngsim-n$n.txt" evaluate --scenes data:commonroad-ngsim --seeds 10 \
+                --methods prior,safer-in-path,safer-cut-in --trust-region "$n"
+        done
         run cut-in/mutants-ngsim-lane-follower-n60.txt evaluate --scenes data:commonroad-ngsim --seeds 2 \
             "${mutating[@]}" --trust-region 60 --planner ../../planners/lane-follower.yaml
         run cut-in/mutants-womd-interactive-lane-follower.txt evaluate --scenes data:womd-interactive --seeds 2 \
