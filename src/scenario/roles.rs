@@ -210,7 +210,7 @@ pub const MERGE_ARRIVAL_MIN_S: f64 = 1.0;
 
 /// When each of a pair in merging lanes ([`merge_arrivals`]) reaches the
 /// start of the lane their lanes merge into, at its current speed (at
-/// least [`MOVING_SPEED_MPS`]), s from the current step.
+/// least 1 m/s, the speed that counts as moving), s from the current step.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MergeArrivals {
     /// When the first vehicle asked about (`a`) arrives.
