@@ -50,8 +50,9 @@
 #   ten-seeds         ten-seeds/: the evasive planner's mutation tables over 10 seeds a
 #                     scene, as the paper's protocol draws them: WOMD interactive (n = 20;
 #                     log replay, the prior, safer, safer-in-path, safer-in-path-lookahead)
-#                     and NGSIM (n = 60; log replay, the prior, safer, safer-in-path)
-#                     (about 45 minutes)
+#                     and NGSIM (n = 60; log replay, the prior, safer, safer-in-path), and
+#                     the Python lane follower's on WOMD interactive (log replay, the
+#                     prior, safer-in-path) (about 1 hour 20 minutes)
 #   mutants           mutants-{womd-interactive,womd-json,ngsim}-evasive.txt and
 #                     mutants-{womd-interactive,ngsim}-lane-follower.txt: the
 #                     faults of the planner each method's variants catch
@@ -190,7 +191,10 @@ for job in "${jobs[@]}"; do
         run ten-seeds/mutants-womd-interactive-evasive.txt evaluate --scenes data:womd-interactive "${mutating[@]}" \
             --methods log,prior,safer,safer-in-path,safer-in-path-lookahead
         run ten-seeds/mutants-ngsim-evasive-n60.txt evaluate --scenes data:commonroad-ngsim "${mutating[@]}" \
-            --methods log,prior,safer,safer-in-path --trust-region 60 ;;
+            --methods log,prior,safer,safer-in-path --trust-region 60
+        # The Python lane follower runs as a process per variant and mutant.
+        run ten-seeds/mutants-womd-interactive-lane-follower.txt evaluate --scenes data:womd-interactive \
+            "${mutating[@]}" --methods log,prior,safer-in-path --planner ../../planners/lane-follower.yaml ;;
     wide-region)
         mutating=(--stage2-cbv closed-loop --mutants --methods log,prior,safer-in-path)
         for n in 60 100; do
