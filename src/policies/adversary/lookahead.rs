@@ -147,10 +147,7 @@ impl Lookahead<'_> {
             // The next beam's candidates: non-contacts by score, ties to the
             // likelier first token, then the order they were made in.
             let mut order: Vec<usize> = (0..children.len()).filter(|&i| children[i].distance_m > 0.0).collect();
-            order.sort_by(|&x, &y| {
-                let (cx, cy) = (&children[x], &children[y]);
-                cx.score_m.total_cmp(&cy.score_m).then(cx.root.cmp(&cy.root)).then(x.cmp(&y))
-            });
+            order.sort_by(|&x, &y| Self::rank(&children[x], &children[y]).then(x.cmp(&y)));
             let width = if depth < self.tokens { self.candidates.len() } else { 0 };
             let mut kept = vec![None; children.len()];
             let first_batch: Vec<usize> = lowering.iter().chain(order.iter().take(width)).copied().collect();
@@ -221,8 +218,14 @@ impl Lookahead<'_> {
     /// Keeps the `width` continuations of the best score (ties: the
     /// likelier first token, then the order they were made in).
     fn keep_best(beam: &mut Vec<Continuation>, width: usize) {
-        beam.sort_by(|a, b| a.score_m.total_cmp(&b.score_m).then(a.root.cmp(&b.root)));
+        beam.sort_by(Self::rank);
         beam.truncate(width);
+    }
+
+    /// The beam's order: the better score first, ties to the likelier
+    /// first token (a stable sort then keeps the order they were made in).
+    fn rank(a: &Continuation, b: &Continuation) -> std::cmp::Ordering {
+        a.score_m.total_cmp(&b.score_m).then(a.root.cmp(&b.root))
     }
 }
 
