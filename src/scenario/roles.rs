@@ -125,8 +125,8 @@ pub fn mine_cbv(scenario: &Scenario, ego: TrackIndex) -> Option<TrackIndex> {
 }
 
 /// Of the moving vehicles other than `ego` that `score` ranks, the best
-/// ranked (lowest score, then step, then index). Recorded overlaps with
-/// the ego are skipped whatever the score.
+/// ranked (lowest score, then step, then index). Every score leaves out
+/// recorded overlaps ([`approach_score`]).
 fn best_to(
     scenario: &Scenario,
     ego: TrackIndex,
@@ -139,7 +139,7 @@ fn best_to(
         }
         let Some((value, step)) = score(c) else { continue };
         let k = (value, step, ego, c);
-        if best.as_ref().is_none_or(|(bk, _)| better(&k, bk)) && approach_score(scenario, ego, c).is_some() {
+        if best.as_ref().is_none_or(|(bk, _)| better(&k, bk)) {
             best = Some((k, c));
         }
     }
@@ -154,8 +154,8 @@ pub fn mine_pair(scenario: &Scenario) -> Option<(TrackIndex, TrackIndex)> {
 }
 
 /// Of the pairs of moving vehicles that `score` ranks, the best ranked
-/// (recorded overlaps skipped), as (ego, CBV): the ego is the one with
-/// more valid future steps, ties to the lower index.
+/// (as in [`best_to`]), as (ego, CBV): the ego is the one with more valid
+/// future steps, ties to the lower index.
 fn best_pair(
     scenario: &Scenario,
     score: impl Fn(TrackIndex, TrackIndex) -> Option<(f64, usize)>,
@@ -166,7 +166,7 @@ fn best_pair(
         for &b in &cands[i + 1..] {
             let Some((value, step)) = score(a, b) else { continue };
             let k = (value, step, a, b);
-            if best.as_ref().is_none_or(|(bk, _)| better(&k, bk)) && approach_score(scenario, a, b).is_some() {
+            if best.as_ref().is_none_or(|(bk, _)| better(&k, bk)) {
                 best = Some((k, (a, b)));
             }
         }
@@ -302,21 +302,17 @@ fn lanes_ahead_of(
     ahead
 }
 
-/// Whether `a` and `b` are in lanes that merge ahead of both
-/// ([`merge_arrivals`]).
-pub fn in_merging_lanes(scenario: &Scenario, relations: &LaneRelations<'_>, a: TrackIndex, b: TrackIndex) -> bool {
-    merge_arrivals(scenario, relations, a, b).is_some()
-}
-
 /// The ranking of a merging pair: the gap between their arrivals at the
 /// merge point, if both arrive there between [`MERGE_ARRIVAL_MIN_S`] and
-/// the end of the recording; `None` for a pair not in merging lanes or
-/// arriving outside that window.
+/// the end of the recording; `None` for a pair not in merging lanes,
+/// arriving outside that window, or whose recorded boxes overlap (as in
+/// [`approach_score`]).
 fn merge_gap_s(scenario: &Scenario, relations: &LaneRelations<'_>, a: TrackIndex, b: TrackIndex) -> Option<f64> {
     let arrivals = merge_arrivals(scenario, relations, a, b)?;
     let future_s = scenario.num_steps().saturating_sub(scenario.current_step + 1) as f64 * scenario.dt_s;
     let within = |t: f64| (MERGE_ARRIVAL_MIN_S..=future_s).contains(&t);
-    (within(arrivals.first_s) && within(arrivals.second_s)).then(|| arrivals.gap_s())
+    let meets = within(arrivals.first_s) && within(arrivals.second_s);
+    (meets && approach_score(scenario, a, b).is_some()).then(|| arrivals.gap_s())
 }
 
 /// The CBV for `ego` among the vehicles in lanes merging with the ego's
