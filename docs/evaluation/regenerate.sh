@@ -27,7 +27,9 @@
 #                     mutants-ngsim-lane-follower-n{60,100}.txt and
 #                     mutants-womd-interactive-lane-follower-n60.txt: log replay, the
 #                     prior and safer-in-path over wider trust regions (the NGSIM
-#                     suite's 60); evaluate-ngsim-in-path-n{60,100}.txt (about 45 minutes)
+#                     suite's 60), mutants-ngsim-lane-follower-n60-reactive.txt (the
+#                     recorded cars brake for the ego); evaluate-ngsim-in-path-n{60,100}.txt
+#                     (about 55 minutes)
 #   cut-in            cut-in/: safer-cut-in beside safer-in-path, log replay and the
 #                     prior: mutants-{ngsim,womd-interactive}-evasive-n60.txt,
 #                     mutants-womd-interactive-evasive.txt (n = 20), the two
@@ -52,7 +54,9 @@
 #                     log replay, the prior, safer, safer-in-path, safer-in-path-lookahead)
 #                     and NGSIM (n = 60; log replay, the prior, safer, safer-in-path), and
 #                     the Python lane follower's on WOMD interactive (log replay, the
-#                     prior, safer-in-path) (about 1 hour 20 minutes)
+#                     prior, safer-in-path) and on NGSIM (n = 60; log replay, the prior,
+#                     and safer-in-path, then safer-cut-in: the two shipped suites that
+#                     run external planners take the one that kills more) (about 3 hours)
 #   mutants           mutants-{womd-interactive,womd-json,ngsim}-evasive.txt and
 #                     mutants-{womd-interactive,ngsim}-lane-follower.txt: the
 #                     faults of the planner each method's variants catch
@@ -194,7 +198,11 @@ for job in "${jobs[@]}"; do
             --methods log,prior,safer,safer-in-path --trust-region 60
         # The Python lane follower runs as a process per variant and mutant.
         run ten-seeds/mutants-womd-interactive-lane-follower.txt evaluate --scenes data:womd-interactive \
-            "${mutating[@]}" --methods log,prior,safer-in-path --planner ../../planners/lane-follower.yaml ;;
+            "${mutating[@]}" --methods log,prior,safer-in-path --planner ../../planners/lane-follower.yaml
+        run ten-seeds/mutants-ngsim-lane-follower-n60.txt evaluate --scenes data:commonroad-ngsim "${mutating[@]}" \
+            --methods log,prior,safer-in-path --trust-region 60 --planner ../../planners/lane-follower.yaml
+        run ten-seeds/mutants-ngsim-lane-follower-n60-cut-in.txt evaluate --scenes data:commonroad-ngsim \
+            "${mutating[@]}" --methods log,prior,safer-cut-in --trust-region 60 --planner ../../planners/lane-follower.yaml ;;
     wide-region)
         mutating=(--stage2-cbv closed-loop --mutants --methods log,prior,safer-in-path)
         for n in 60 100; do
@@ -207,6 +215,9 @@ for job in "${jobs[@]}"; do
         done
         run mutants-womd-interactive-lane-follower-n60.txt evaluate --scenes data:womd-interactive --seeds 2 \
             "${mutating[@]}" --trust-region 60 --planner ../../planners/lane-follower.yaml
+        # The background the two suites that run external planners use: the recorded cars brake for the ego.
+        run mutants-ngsim-lane-follower-n60-reactive.txt evaluate --scenes data:commonroad-ngsim --seeds 2 \
+            "${mutating[@]}" --trust-region 60 --background reactive-log-replay --planner ../../planners/lane-follower.yaml
         # The paper's protocol (stage-2 CBV replayed, 10 seeds) over the wider regions on NGSIM.
         for n in 60 100; do
             run "evaluate-ngsim-in-path-n$n.txt" evaluate --scenes data:commonroad-ngsim --seeds 10 \
