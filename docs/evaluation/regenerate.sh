@@ -56,7 +56,9 @@
 #                     the Python lane follower's on WOMD interactive (log replay, the
 #                     prior, safer-in-path) and on NGSIM (n = 60; log replay, the prior,
 #                     and safer-in-path, then safer-cut-in: the two shipped suites that
-#                     run external planners take the one that kills more) (about 3 hours)
+#                     run external planners take the one that kills more), and on WOMD
+#                     interactive as those suites run (n = 60, reactive-log-replay)
+#                     (about 3 hours 10 minutes on 2 cores)
 #   mutants           mutants-{womd-interactive,womd-json,ngsim}-evasive.txt and
 #                     mutants-{womd-interactive,ngsim}-lane-follower.txt: the
 #                     faults of the planner each method's variants catch
@@ -202,7 +204,11 @@ for job in "${jobs[@]}"; do
         run ten-seeds/mutants-ngsim-lane-follower-n60.txt evaluate --scenes data:commonroad-ngsim "${mutating[@]}" \
             --methods log,prior,safer-in-path --trust-region 60 --planner ../../planners/lane-follower.yaml
         run ten-seeds/mutants-ngsim-lane-follower-n60-cut-in.txt evaluate --scenes data:commonroad-ngsim \
-            "${mutating[@]}" --methods log,prior,safer-cut-in --trust-region 60 --planner ../../planners/lane-follower.yaml ;;
+            "${mutating[@]}" --methods log,prior,safer-cut-in --trust-region 60 --planner ../../planners/lane-follower.yaml
+        # As the suites that run external planners are set: 60 behaviours, the recorded cars braking for the ego.
+        run ten-seeds/mutants-womd-interactive-lane-follower-n60-reactive.txt evaluate --scenes data:womd-interactive \
+            "${mutating[@]}" --methods log,prior,safer-in-path --trust-region 60 --background reactive-log-replay \
+            --planner ../../planners/lane-follower.yaml ;;
     wide-region)
         mutating=(--stage2-cbv closed-loop --mutants --methods log,prior,safer-in-path)
         for n in 60 100; do
