@@ -6,7 +6,9 @@
 //! Recorded formats differ in what they keep: WOMD protobuf and CommonRoad
 //! carry lane connectivity, GPUDrive's WOMD JSON keeps none. The geometric
 //! join lets a consumer (the realism prior's map tokens) read the same
-//! "this lane turns right ahead" from every source.
+//! "this lane turns right ahead" from every source, and a route (the
+//! planners' and the background's lane following) run on through a
+//! junction the source did not connect.
 
 use std::collections::HashMap;
 
@@ -39,6 +41,7 @@ pub enum SuccessorSource {
 pub struct LaneGraph {
     successors: Vec<Vec<usize>>,
     source: Vec<Option<SuccessorSource>>,
+    predecessors: Vec<Vec<usize>>,
 }
 
 /// How the ways ahead along the lane graph turn from one point of a lane.
@@ -74,7 +77,26 @@ impl LaneGraph {
             successors.push(next);
             source.push(from);
         }
-        Self { successors, source }
+        // A lane's recorded predecessors where it has any, else the lanes
+        // whose successors (recorded or joined) it is.
+        let mut predecessors: Vec<Vec<usize>> =
+            map.lanes.iter().map(|l| l.predecessors.iter().filter_map(|id| map.lane_index(*id)).collect()).collect();
+        let recorded: Vec<bool> = predecessors.iter().map(|p| !p.is_empty()).collect();
+        for (i, next) in successors.iter().enumerate() {
+            for &j in next {
+                if !recorded[j] && !predecessors[j].contains(&i) {
+                    predecessors[j].push(i);
+                }
+            }
+        }
+        Self { successors, source, predecessors }
+    }
+
+    /// Predecessors of lane `lane` (indices into [`RoadMap::lanes`]): the
+    /// recorded ones where the source names any, else the lanes whose
+    /// [`successors`](Self::successors) it is, ascending.
+    pub fn predecessors(&self, lane: usize) -> &[usize] {
+        self.predecessors.get(lane).map_or(&[], Vec::as_slice)
     }
 
     /// Successors of lane `lane` (indices into [`RoadMap::lanes`]), sorted
@@ -222,6 +244,10 @@ mod tests {
         assert_eq!(g.successor_source(0), Some(SuccessorSource::Geometric));
         assert_eq!(g.successors(1), &[] as &[usize]);
         assert_eq!(g.successor_source(1), None);
+        assert_eq!(g.predecessors(1), &[0], "the join read backwards");
+        assert_eq!(g.predecessors(2), &[0]);
+        assert_eq!(g.predecessors(0), &[] as &[usize]);
+        assert_eq!(g.predecessors(4), &[] as &[usize]);
     }
 
     #[test]
@@ -233,6 +259,20 @@ mod tests {
         let g = LaneGraph::build(&map(vec![approach, straight, right]));
         assert_eq!(g.successors(0), &[2], "only the recorded right turn");
         assert_eq!(g.successor_source(0), Some(SuccessorSource::Recorded));
+        assert_eq!(g.predecessors(2), &[0]);
+        assert_eq!(g.predecessors(1), &[] as &[usize], "not joined from a lane with recorded successors");
+    }
+
+    #[test]
+    fn recorded_predecessors_are_kept() {
+        let approach = lane(1, &[(0.0, 0.0), (30.0, 0.0)]);
+        let side = lane(2, &[(30.0, -30.0), (30.0, -1.0)]);
+        let mut straight = lane(3, &[(30.0, 0.0), (60.0, 0.0)]);
+        straight.predecessors.push(MapElementId(2));
+        let m = map(vec![approach, side, straight]);
+        let g = LaneGraph::build(&m);
+        assert_eq!(g.successors(0), &[2], "joined by geometry");
+        assert_eq!(g.predecessors(2), &[1], "the recorded predecessor, not the join");
     }
 
     #[test]

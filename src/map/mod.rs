@@ -62,6 +62,8 @@ pub struct RoadMap {
     /// The bounds of each drivable area the map was built with (`None` for
     /// one without vertices).
     drivable_area_bounds: Vec<Option<(Point2, Point2)>>,
+    /// The lane graph, built on first use ([`RoadMap::lane_graph`]).
+    lane_graph: std::sync::OnceLock<lane_graph::LaneGraph>,
 }
 
 /// Element counts of a map, for summaries.
@@ -122,7 +124,31 @@ impl RoadMap {
             lane_segments,
             edge_segments,
             drivable_area_bounds,
+            lane_graph: std::sync::OnceLock::new(),
         }
+    }
+
+    /// The lane graph to follow lanes on: each lane's recorded successors
+    /// and predecessors, or where the source names none (GPUDrive's WOMD
+    /// JSON names none at all) the lanes joined by geometry
+    /// ([`lane_graph::LaneGraph::build`]). Built on first use, from the
+    /// lanes as they are then.
+    pub fn lane_graph(&self) -> &lane_graph::LaneGraph {
+        self.lane_graph.get_or_init(|| lane_graph::LaneGraph::build(self))
+    }
+
+    /// The lanes that follow `lane` on the [`lane_graph`](Self::lane_graph),
+    /// in the graph's order (none for a lane not on this map).
+    pub fn lanes_after(&self, lane: MapElementId) -> Vec<&Lane> {
+        let Some(i) = self.lane_index(lane) else { return Vec::new() };
+        self.lane_graph().successors(i).iter().map(|&j| &self.lanes[j]).collect()
+    }
+
+    /// The lanes that lead into `lane` on the
+    /// [`lane_graph`](Self::lane_graph), in the graph's order.
+    pub fn lanes_before(&self, lane: MapElementId) -> Vec<&Lane> {
+        let Some(i) = self.lane_index(lane) else { return Vec::new() };
+        self.lane_graph().predecessors(i).iter().map(|&j| &self.lanes[j]).collect()
     }
 
     /// Rebuilds the map with every point moved by `-offset` (re-centring).

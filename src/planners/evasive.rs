@@ -1184,20 +1184,25 @@ mod tests {
             Lane::new(MapElementId(2), line(vec![Point2::new(50.0, 0.0), Point2::new(300.0, 0.0)])),
             Lane::new(MapElementId(3), line(turn.clone())),
         ];
-        lanes[0].successors = vec![MapElementId(2), MapElementId(3)];
-        let map = RoadMap::new(lanes, vec![], vec![], vec![], vec![], vec![], vec![]);
-        let ego =
-            AgentState { position: Point2::new(0.0, 0.0), heading_rad: 0.0, velocity_mps: Vector2::new(10.0, 0.0) };
-        let obs = first_observation(ego, vec![], &map);
-        let route_lanes = |mut planner: EvasivePlanner| {
-            planner.plan(&obs).unwrap();
-            planner.route.unwrap().lanes.iter().map(|(id, _, _)| id.0).collect::<Vec<_>>()
-        };
-        assert_eq!(route_lanes(EvasivePlanner::new(EvasiveParams::default())), vec![1, 2]);
         // The recorded ego went right: points every metre along lane 1, then the turn.
         let mut mission: Vec<Point2> = (-10..=50).map(|x| Point2::new(x as f64, 0.0)).collect();
         let turning = Polyline::new(turn);
         mission.extend((0..40).filter_map(|d| turning.sample(d as f64).map(|(p, _)| p)));
-        assert_eq!(route_lanes(EvasivePlanner::new(EvasiveParams::default()).with_mission(mission)), vec![1, 3]);
+        let ego =
+            AgentState { position: Point2::new(0.0, 0.0), heading_rad: 0.0, velocity_mps: Vector2::new(10.0, 0.0) };
+        let route_lanes = |map: &RoadMap, mut planner: EvasivePlanner| {
+            planner.plan(&first_observation(ego, vec![], map)).unwrap();
+            planner.route.unwrap().lanes.iter().map(|(id, _, _)| id.0).collect::<Vec<_>>()
+        };
+        // A source without lane connectivity (GPUDrive's WOMD JSON): the
+        // lanes starting where lane 1 ends follow it all the same.
+        let unconnected = RoadMap::new(lanes.clone(), vec![], vec![], vec![], vec![], vec![], vec![]);
+        lanes[0].successors = vec![MapElementId(2), MapElementId(3)];
+        let connected = RoadMap::new(lanes, vec![], vec![], vec![], vec![], vec![], vec![]);
+        for map in [&connected, &unconnected] {
+            assert_eq!(route_lanes(map, EvasivePlanner::new(EvasiveParams::default())), vec![1, 2]);
+            let planner = EvasivePlanner::new(EvasiveParams::default()).with_mission(mission.clone());
+            assert_eq!(route_lanes(map, planner), vec![1, 3]);
+        }
     }
 }

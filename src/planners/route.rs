@@ -8,7 +8,9 @@
 //!
 //! At a fork the route takes the successor that the ego's *recording* keeps
 //! to (the harness knows where the recorded ego went; that is the scene's
-//! intended route), else the first successor.
+//! intended route), else the first successor. Successors are the map's
+//! [lane graph](crate::map::RoadMap::lane_graph)'s: where the source
+//! records none, the lanes that start where a lane ends.
 
 use crate::geometry::{Point2, Polyline, PolylineProjection, Vector2};
 use crate::map::{MapElementId, RoadMap};
@@ -168,10 +170,10 @@ impl Route {
 fn plan(map: &RoadMap, ego: &AgentState, recorded: &[Point2]) -> Route {
     let at_fork = |lane: &'_ crate::map::Lane, direction| {
         let choices = match direction {
-            WalkDirection::Ahead => &lane.successors,
-            WalkDirection::Behind => &lane.predecessors,
+            WalkDirection::Ahead => map.lanes_after(lane.id),
+            WalkDirection::Behind => map.lanes_before(lane.id),
         };
-        choose_lane(map, choices, recorded)
+        choose_lane(&choices, recorded)
     };
     let Some(walk) = walk_lanes(map, ego, LANE_SEARCH_M, ROUTE_BEHIND_M, ROUTE_AHEAD_PLANNED_M, MAX_LANES, at_fork)
     else {
@@ -199,9 +201,8 @@ pub(crate) fn recorded_path(scenario: &Scenario, ego: TrackIndex, start_step: us
 /// The lane of `choices` (successors or predecessors) the recording keeps
 /// to the farthest ([`crate::map::lane_followed`]); the first where the
 /// recording does not decide.
-fn choose_lane<'m>(map: &'m RoadMap, choices: &[MapElementId], recorded: &[Point2]) -> Option<&'m crate::map::Lane> {
-    let lanes: Vec<&crate::map::Lane> = choices.iter().filter_map(|id| map.lane(*id)).collect();
-    let taken = crate::map::lane_followed(&lanes, recorded).unwrap_or(0);
+fn choose_lane<'m>(lanes: &[&'m crate::map::Lane], recorded: &[Point2]) -> Option<&'m crate::map::Lane> {
+    let taken = crate::map::lane_followed(lanes, recorded).unwrap_or(0);
     lanes.get(taken).copied()
 }
 
@@ -302,5 +303,31 @@ mod tests {
             .collect();
         route.update(&map, &ego(30.0, 0.0), &recorded);
         assert_eq!(route.lanes, vec![MapElementId(1), MapElementId(3)]);
+    }
+
+    #[test]
+    fn without_recorded_connectivity_the_route_runs_on_through_the_lanes_that_start_where_one_ends() {
+        // The fork as GPUDrive's WOMD JSON keeps it: no successors or predecessors.
+        let mut lanes = fork().lanes;
+        for l in &mut lanes {
+            l.successors.clear();
+            l.predecessors.clear();
+        }
+        let map = RoadMap::from_lanes(lanes);
+        let recorded: Vec<Point2> = (0..=170)
+            .map(|i| i as f64)
+            .map(|d| if d <= 100.0 { Point2::new(d, 0.0) } else { Point2::new(d, 100.0 - d) })
+            .collect();
+        let mut route = Route::default();
+        route.update(&map, &ego(30.0, 0.0), &recorded);
+        assert_eq!(route.lanes, vec![MapElementId(1), MapElementId(3)]);
+        assert!(route.line.length_m() - 20.0 >= ROUTE_AHEAD_MIN_M, "{}", route.line.length_m());
+        // Starting 5 m into lane 3, the route reaches back into lane 1.
+        let heading = (-1.0f64).atan2(1.0);
+        let start = Point2::new(100.0, 0.0) + Vector2::new(heading.cos(), heading.sin()) * 5.0;
+        let on_the_turn = AgentState { position: start, heading_rad: heading, velocity_mps: Vector2::zeros() };
+        let mut route = Route::default();
+        route.update(&map, &on_the_turn, &[start]);
+        assert_eq!(route.lanes[..2], [MapElementId(1), MapElementId(3)], "{:?}", route.lanes);
     }
 }

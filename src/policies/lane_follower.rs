@@ -226,10 +226,11 @@ pub fn route_along_lanes<'m>(
         // Successors from the straightest: the least deviation of the
         // direction 10 m in from this lane's end direction; ties to the lower id.
         let Some((_, end_dir)) = lane.centreline.sample(lane.centreline.length_m()) else { break };
-        let mut next: Vec<(&'m Lane, f64)> = lane
-            .successors
-            .iter()
-            .filter_map(|id| map.lane(*id))
+        // The map's lane graph: recorded successors, else the lanes that
+        // start where this one ends (a source without connectivity).
+        let mut next: Vec<(&'m Lane, f64)> = map
+            .lanes_after(lane.id)
+            .into_iter()
             .filter_map(|l| l.centreline.sample(10.0).map(|(_, d)| (l, -d.dot(&end_dir))))
             .collect();
         if next.is_empty() {

@@ -62,7 +62,13 @@ pub(super) fn full_map(map: &RoadMap) -> WireFullMap {
         lanes: map
             .lanes
             .iter()
-            .map(|l| {
+            .enumerate()
+            .map(|(i, l)| {
+                // The lane graph's links: recorded, else joined by geometry
+                // (a source without connectivity), as safer's own routes
+                // follow them.
+                let linked = |lanes: &[usize]| lanes.iter().map(|&j| map.lanes[j].id.0).collect::<Vec<_>>();
+                let graph = map.lane_graph();
                 let width_m = match (&l.left_boundary, &l.right_boundary) {
                     (Some(left), Some(right)) => mean_distance(left, right),
                     _ => None,
@@ -74,8 +80,8 @@ pub(super) fn full_map(map: &RoadMap) -> WireFullMap {
                     right_boundary: l.right_boundary.as_ref().map(resampled),
                     width_m,
                     speed_limit_mps: l.speed_limit_mps,
-                    predecessors: ids(&l.predecessors),
-                    successors: ids(&l.successors),
+                    predecessors: linked(graph.predecessors(i)),
+                    successors: linked(graph.successors(i)),
                     left_neighbours: ids(&l.left_neighbours),
                     right_neighbours: ids(&l.right_neighbours),
                     in_intersection: l.in_intersection,
@@ -198,9 +204,9 @@ fn clip(line: &Polyline, centre: &Point2, radius_m: f64) -> Option<Vec<[f64; 2]>
 }
 
 /// The route hint: the ego's lane centreline ahead, following first
-/// successors, up to [`ROUTE_LENGTH_M`].
+/// successors on the map's lane graph, up to [`ROUTE_LENGTH_M`].
 fn route_ahead(map: &RoadMap, ego: &AgentState) -> Vec<[f64; 2]> {
-    let first_successor = |lane: &Lane, _| lane.successors.first().and_then(|id| map.lane(*id));
+    let first_successor = |lane: &Lane, _| map.lanes_after(lane.id).first().copied();
     walk_lanes(map, ego, ROUTE_LANE_SEARCH_M, 0.0, ROUTE_LENGTH_M, ROUTE_MAX_LANES, first_successor)
         .map(|walk| walk.points)
         .unwrap_or_default()
@@ -449,8 +455,10 @@ mod tests {
         let map = RoadMap::new(
             vec![
                 lane(1, &[(0.0, 0.0), (50.0, 0.0)], vec![MapElementId(2), MapElementId(3)]),
-                lane(2, &[(50.0, 0.0), (50.0, 200.0)], vec![]),
-                lane(3, &[(50.0, 0.0), (50.0, -200.0)], vec![]),
+                // Each turning off at 45° first (a join by geometry takes
+                // lanes that turn by less than 90° where they meet).
+                lane(2, &[(50.0, 0.0), (60.0, 10.0), (60.0, 200.0)], vec![]),
+                lane(3, &[(50.0, 0.0), (60.0, -10.0), (60.0, -200.0)], vec![]),
             ],
             vec![],
             vec![],
@@ -466,10 +474,26 @@ mod tests {
         };
         let route = route_ahead(&map, &ego(40.0, 0.0));
         assert_eq!(route.first(), Some(&[40.0, 0.0]));
-        assert_eq!(route.last(), Some(&[50.0, 90.0]));
+        // 100 m: 10 m of lane 1, then lane 2's diagonal and on north.
+        let last = route.last().unwrap();
+        assert!((last[0] - 60.0).abs() < 1e-9 && (last[1] - (100.0 - 200f64.sqrt())).abs() < 1e-6, "{last:?}");
         assert!(route.windows(2).all(|w| (w[1][0] - w[0][0]).hypot(w[1][1] - w[0][1]) <= MAP_SPACING_M + 1e-9));
         // Facing against the only lane: no route.
         assert!(route_ahead(&map, &ego(20.0, std::f64::consts::PI)).is_empty());
+        // The same lanes from a source without connectivity: joined where
+        // one starts as another ends, in the route and in `prepare`'s map.
+        let unconnected = RoadMap::from_lanes(
+            map.lanes.iter().cloned().map(|l| Lane { successors: vec![], predecessors: vec![], ..l }).collect(),
+        );
+        assert_eq!(route_ahead(&unconnected, &ego(40.0, 0.0)), route);
+        let links = serde_json::to_value(full_map(&unconnected)).unwrap()["lanes"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|l| (l["id"].as_i64().unwrap(), l["predecessors"].clone(), l["successors"].clone()))
+            .collect::<Vec<_>>();
+        use serde_json::json;
+        assert_eq!(links, vec![(1, json!([]), json!([2, 3])), (2, json!([1]), json!([])), (3, json!([1]), json!([]))]);
     }
 
     #[test]
