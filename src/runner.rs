@@ -521,10 +521,9 @@ fn mutation_report(suite: &Suite, outcomes: &[(usize, u32, String, Shared)]) -> 
         .collect();
     let report = Arc::new(MutationReport::of(
         &operators,
-        outcomes
-            .iter()
-            .zip(&runs)
-            .map(|((_, _, name, o), runs)| (name.as_str(), o.as_ref().as_ref().ok(), runs.as_slice())),
+        outcomes.iter().zip(&runs).map(|((_, _, name, o), runs)| {
+            (name.as_str(), o.as_ref().as_ref().ok().map(|o| o.failures.as_slice()), runs.as_slice())
+        }),
     ));
     mutations().lock().unwrap_or_else(|p| p.into_inner()).insert(suite.name(), report.clone());
     report

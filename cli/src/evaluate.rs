@@ -544,6 +544,57 @@ fn print_kills(
         out,
         "kills: mutant-variants killed / passed variants × mutants, over distinct variants (right of | : on the held-out scenes); a seed that repeats another seed's variant of its scene (the same stage-1 CBV path and the same results, as all of log replay's do) counts once{}; scene kills: (scene, mutant) pairs where some variant killed the mutant; by CBV: kills whose mutant collided with the CBV (the rest it failed against the recorded traffic, the road or the vehicle limits); beyond log: kills of a mutant in a scene where no variant of log replay kills it (the faults replaying the recording misses; with log replay in the run); ×log, ×prior: over log replay's and the prior's on the same scenes and seeds; per mutant: kills (scenes where it was killed / scenes with a passed variant).",
         repeats_note(rows, modes)
+    )?;
+    write_mutant_effects(out, rows, modes, &settings.mutants, width)
+}
+
+/// The mutants' effect table: per method and mutant, the distinct passed
+/// variants where the mutant's ego drove otherwise than the planner's. A
+/// mutant at 0 never had its fault come into play, so nothing could kill
+/// it there: a survivor the scenes leave untested, not one they test and
+/// miss. Left out for reports that did not record it.
+fn write_mutant_effects(
+    out: &mut dyn Write,
+    rows: &[MethodRow],
+    modes: usize,
+    mutants: &[safer_scenarios::planners::FaultOperator],
+    width: usize,
+) -> std::io::Result<()> {
+    let recorded = |k: &MethodKills| k.operators.iter().any(|o| o.variants_driven_differently.is_some());
+    if !rows.iter().filter_map(|r| r.kills.as_ref()).any(recorded) {
+        return Ok(());
+    }
+    writeln!(
+        out,
+        "\nmutants' effect (distinct passed variants where the mutant drove otherwise than the planner / passed variants)"
+    )?;
+    write!(out, "{:<width$}", "method")?;
+    for op in mutants {
+        write!(out, "  {:>12}", op.name())?;
+    }
+    writeln!(out)?;
+    let mut never: Vec<String> = Vec::new();
+    for r in rows {
+        let Some(k) = &r.kills else { continue };
+        let method = label(r.method, r.stage2_cbv, modes);
+        write!(out, "{method:<width$}")?;
+        for op in mutants {
+            let o = k.operators.iter().find(|o| o.operator == *op);
+            let cell = match o.and_then(|o| o.variants_driven_differently) {
+                Some(d) => format!("{d}/{}", k.variants_passed),
+                None => "-".to_string(),
+            };
+            if o.and_then(|o| o.variants_driven_differently) == Some(0) && k.variants_passed > 0 {
+                never.push(format!("{method}: {}", op.name()));
+            }
+            write!(out, "  {cell:>12}")?;
+        }
+        writeln!(out)?;
+    }
+    let never = if never.is_empty() { "none".to_string() } else { never.join(", ") };
+    writeln!(
+        out,
+        "drove otherwise: the mutant's ego was more than 1 cm from the planner's at some step (or its rollout ended at another step). Never (the fault never came into play, so no variant could kill it): {never}."
     )
 }
 

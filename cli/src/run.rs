@@ -507,9 +507,9 @@ fn suite_run(
     let mutation = (!operators.is_empty()).then(|| {
         MutationReport::of(
             operators,
-            jobs.iter()
-                .zip(&names)
-                .map(|((_, done), name)| (name.as_str(), done.outcome.as_ref().ok(), done.mutants.as_slice())),
+            jobs.iter().zip(&names).map(|((_, done), name)| {
+                (name.as_str(), done.outcome.as_ref().ok().map(|o| o.failures.as_slice()), done.mutants.as_slice())
+            }),
         )
     });
     let (suite_metrics, checks) = if metrics.is_empty() {

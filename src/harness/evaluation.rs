@@ -442,7 +442,9 @@ fn run_one(
         let criteria = evaluation_criteria();
         let escape = stages.escape.as_ref().map(CollisionEscape::of);
         let base = acceptance::check(&criteria, &stages.stage2, scenario, stages.min_ttc_s, escape);
-        VariantMutation::run(&base, &request.mutants, |op| judge_mutant(&setup, &stages.stage1, &criteria, op))
+        VariantMutation::run(&base, &request.mutants, |op| {
+            judge_mutant(&setup, &stages.stage1, &stages.stage2, &criteria, op)
+        })
     });
     let background_contacts = cbv_background_collisions(scenario, &stages.stage1);
     let tally = VariantTally::with_background(scenario, &stages, &background_contacts);

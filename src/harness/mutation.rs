@@ -24,6 +24,34 @@ use crate::planners::FaultOperator;
 use crate::sim::Rollout;
 use crate::spec::suite::{SuiteAcceptance, VariantAcceptance};
 
+/// How far a mutant's ego may be from the planner's ego at the same step,
+/// m, and still count as driving as the planner drove: a centimetre, far
+/// below anything a fault does once it comes into play, far above
+/// rounding (a fault that never changes the planner's answer leaves the
+/// path exactly as it was, the simulation being deterministic).
+pub const SAME_DRIVING_M: f64 = 0.01;
+
+/// Whether the ego of `mutant` (stage 2 with a fault planted) drove
+/// otherwise than the ego of `planner` (the same stage 2 unmutated): it
+/// was farther than [`SAME_DRIVING_M`] from it at some step, or present at
+/// a step where the other was not (a rollout that ended sooner or later).
+pub fn drove_differently(planner: &Rollout, mutant: &Rollout) -> bool {
+    let ego = planner.ego.0;
+    if planner.states.len() != mutant.states.len() {
+        return true;
+    }
+    planner.states.iter().zip(&mutant.states).any(|(a, b)| {
+        match (a.get(ego).copied().flatten(), b.get(ego).copied().flatten()) {
+            // A NaN distance is no sameness.
+            (Some(a), Some(b)) => {
+                (a.position - b.position).norm().partial_cmp(&SAME_DRIVING_M).is_none_or(|o| o.is_gt())
+            }
+            (None, None) => false,
+            _ => true,
+        }
+    })
+}
+
 /// A mutant's result on one variant.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct MutantRun {
@@ -32,6 +60,9 @@ pub struct MutantRun {
     /// The criteria the mutant failed (empty: it passed), or why it could
     /// not run.
     pub failures: Result<Vec<AcceptanceFailure>, String>,
+    /// Whether its ego drove otherwise than the planner's
+    /// ([`drove_differently`]); `false` when it could not run.
+    pub drove_differently: bool,
 }
 
 impl MutantRun {
@@ -48,14 +79,18 @@ pub struct MutantJudgement {
     pub failures: Vec<AcceptanceFailure>,
     /// Its ego collided with the CBV.
     pub hit_cbv: bool,
+    /// Its ego drove otherwise than the planner's ([`drove_differently`]).
+    pub drove_differently: bool,
 }
 
 /// Stage 2 of `setup` played with `operator` planted, after `stage1`, and
 /// judged by `criteria` as the unmutated planner is (the closed-loop
-/// witness too, for a collision).
+/// witness too, for a collision); `planner_stage2` is the unmutated
+/// planner's stage 2, which the mutant's driving is compared with.
 pub fn judge_mutant(
     setup: &VariantSetup<'_>,
     stage1: &Rollout,
+    planner_stage2: &Rollout,
     criteria: &VariantAcceptance,
     operator: FaultOperator,
 ) -> Result<MutantJudgement, HarnessError> {
@@ -72,6 +107,7 @@ pub fn judge_mutant(
     Ok(MutantJudgement {
         failures: acceptance::check(criteria, &played.stage2, setup.scenario, min_ttc, escape),
         hit_cbv: played.stage2.summary().ego_collision.is_some_and(|c| c.with_cbv),
+        drove_differently: drove_differently(planner_stage2, &played.stage2),
     })
 }
 
@@ -93,18 +129,19 @@ pub fn run_mutants(
         Ok(i) => i,
         Err(e) => {
             let why = e.to_string();
-            return operators.iter().map(|&operator| MutantRun { operator, failures: Err(why.clone()) }).collect();
+            return operators
+                .iter()
+                .map(|&operator| MutantRun { operator, failures: Err(why.clone()), drove_differently: false })
+                .collect();
         }
     };
     let setup = inputs.setup(suite);
     let criteria = &suite.spec.value.acceptance.variant;
     operators
         .iter()
-        .map(|&operator| MutantRun {
-            operator,
-            failures: judge_mutant(&setup, &base.stage1, criteria, operator)
-                .map(|j| j.failures)
-                .map_err(|e| e.to_string()),
+        .map(|&operator| match judge_mutant(&setup, &base.stage1, &base.stage2, criteria, operator) {
+            Ok(j) => MutantRun { operator, failures: Ok(j.failures), drove_differently: j.drove_differently },
+            Err(e) => MutantRun { operator, failures: Err(e.to_string()), drove_differently: false },
         })
         .collect()
 }
@@ -147,9 +184,35 @@ pub struct OperatorResult {
     pub kills: Vec<Kill>,
     /// Variants where the mutant could not run, with why.
     pub errors: Vec<(String, String)>,
+    /// Of the variants the planner passes and the mutant ran, those where
+    /// its ego drove otherwise than the planner's ([`drove_differently`]).
+    /// A survivor with none never had its fault come into play: no
+    /// variant asked for what the fault breaks.
+    pub variants_driven_differently: usize,
+    /// Variants the planner passes where the mutant ran.
+    pub variants_run: usize,
     /// For a survivor: the kind of scene that would catch it.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub hint: Option<&'static str>,
+}
+
+impl OperatorResult {
+    /// A survivor's verdict after "SURVIVED": whether its fault ever
+    /// changed the driving (and in how many variants), then the hint.
+    pub fn survivor_note(&self) -> String {
+        let hint = self.operator.blind_spot_hint();
+        let passed = |n: usize| if n == 1 { "the one variant".to_string() } else { format!("all {n} variants") };
+        match (self.variants_run, self.variants_driven_differently) {
+            (0, _) => hint.to_string(),
+            (n, 0) => format!(
+                "it drove exactly as the planner in {} the planner passes: the fault never came into play; {hint}",
+                passed(n)
+            ),
+            (n, k) => {
+                format!("it drove otherwise than the planner in {k} of {n} variants, and passed them all; {hint}")
+            }
+        }
+    }
 }
 
 /// A suite's mutation run.
@@ -172,11 +235,11 @@ pub struct MutationReport {
 
 impl MutationReport {
     /// The report of `operators` over a suite's variants, each given as
-    /// its name, its unmutated outcome (`None`: it could not run) and its
-    /// mutants' runs.
+    /// its name, the criteria the unmutated planner failed there (`None`:
+    /// it could not run; empty: it passed) and its mutants' runs.
     pub fn of<'a>(
         operators: &[FaultOperator],
-        variants: impl IntoIterator<Item = (&'a str, Option<&'a VariantOutcome>, &'a [MutantRun])>,
+        variants: impl IntoIterator<Item = (&'a str, Option<&'a [AcceptanceFailure]>, &'a [MutantRun])>,
     ) -> MutationReport {
         let mut results: Vec<OperatorResult> = operators
             .iter()
@@ -186,6 +249,8 @@ impl MutationReport {
                 killed: false,
                 kills: Vec::new(),
                 errors: Vec::new(),
+                variants_driven_differently: 0,
+                variants_run: 0,
                 hint: None,
             })
             .collect();
@@ -193,7 +258,7 @@ impl MutationReport {
         for (name, base, mutants) in variants {
             n += 1;
             match base {
-                Some(o) if o.failures.is_empty() => passed += 1,
+                Some([]) => passed += 1,
                 Some(_) => continue,
                 None => {
                     errored += 1;
@@ -204,6 +269,8 @@ impl MutationReport {
                 let Some(result) = results.iter_mut().find(|r| r.operator == run.operator) else { continue };
                 match &run.failures {
                     Ok(failures) => {
+                        result.variants_run += 1;
+                        result.variants_driven_differently += usize::from(run.drove_differently);
                         if let Some(first) = failures.first() {
                             result.kills.push(Kill {
                                 variant: name.to_string(),
@@ -270,9 +337,7 @@ impl MutationReport {
                         k.criterion,
                         k.what
                     ),
-                    None => {
-                        format!("{:<width$}  SURVIVED: {}{errors}", r.operator.name(), r.operator.blind_spot_hint())
-                    }
+                    None => format!("{:<width$}  SURVIVED: {}{errors}", r.operator.name(), r.survivor_note()),
                 }
             })
             .collect()
@@ -362,11 +427,17 @@ impl VariantMutation {
                     killed: !judged.failures.is_empty(),
                     failure: judged.failures.first().map(|f| format!("{}: {}", f.criterion, f.what)),
                     hit_cbv: judged.hit_cbv,
+                    drove_differently: Some(judged.drove_differently),
                     error: None,
                 },
-                Err(e) => {
-                    MutantRecord { operator, killed: false, failure: None, hit_cbv: false, error: Some(e.to_string()) }
-                }
+                Err(e) => MutantRecord {
+                    operator,
+                    killed: false,
+                    failure: None,
+                    hit_cbv: false,
+                    drove_differently: None,
+                    error: Some(e.to_string()),
+                },
             })
             .collect();
         VariantMutation { base_failure: None, mutants }
@@ -386,6 +457,11 @@ pub struct MutantRecord {
     /// before this was recorded).
     #[serde(default)]
     pub hit_cbv: bool,
+    /// Whether the mutant's ego drove otherwise than the planner's
+    /// ([`drove_differently`]); `None` when it could not run, and in
+    /// reports written before this was recorded.
+    #[serde(default)]
+    pub drove_differently: Option<bool>,
     /// Why the mutant could not run.
     pub error: Option<String>,
 }
@@ -437,6 +513,11 @@ pub struct OperatorKills {
     pub scenes_killed: usize,
     /// Scenes with a variant the planner passes.
     pub scenes: usize,
+    /// Distinct passed variants where its ego drove otherwise than the
+    /// planner's ([`drove_differently`]); `None` when no run recorded it
+    /// (reports written before it was). Zero: its fault never came into
+    /// play, so it could not be killed there.
+    pub variants_driven_differently: Option<usize>,
 }
 
 /// One variant's mutation run as [`MethodKills::of`] counts it.
@@ -483,6 +564,7 @@ impl MethodKills {
         let mut seen: BTreeMap<(&str, u64), Vec<&VariantMutation>> = BTreeMap::new();
         let mut scenes: BTreeSet<&str> = BTreeSet::new();
         let mut per_op: BTreeMap<FaultOperator, (usize, BTreeSet<&str>)> = BTreeMap::new();
+        let mut differently: BTreeMap<FaultOperator, Option<usize>> = BTreeMap::new();
         for v in variants {
             any = true;
             if let Some(digest) = v.cbv_path_digest {
@@ -499,6 +581,9 @@ impl MethodKills {
             passed += 1;
             scenes.insert(v.scene);
             for r in &v.mutation.mutants {
+                if let Some(d) = r.drove_differently {
+                    *differently.entry(r.operator).or_default().get_or_insert(0) += usize::from(d);
+                }
                 let (kills, where_) = per_op.entry(r.operator).or_default();
                 if r.killed {
                     *kills += 1;
@@ -519,6 +604,7 @@ impl MethodKills {
                 kills,
                 scenes_killed: where_.len(),
                 scenes: scenes.len(),
+                variants_driven_differently: differently.get(&operator).copied().flatten(),
             })
             .collect();
         Some(MethodKills {
@@ -572,6 +658,8 @@ mod tests {
                     killed: operator == FaultOperator::NoBrake,
                     kills: Vec::new(),
                     errors: Vec::new(),
+                    variants_driven_differently: 2,
+                    variants_run: 2,
                     hint: None,
                 })
                 .collect(),
@@ -603,10 +691,84 @@ mod tests {
                     killed,
                     failure: killed.then(|| "no_off_road: ego left the road at t = 2.0 s".into()),
                     hit_cbv: false,
+                    drove_differently: Some(killed),
                     error: None,
                 })
                 .collect(),
         }
+    }
+
+    /// A rollout whose ego (agent 0) drives along x through `xs`, one
+    /// step each, beside agent 1 standing at the origin.
+    fn ego_along(xs: &[f64]) -> Rollout {
+        use crate::geometry::{Point2, Vector2};
+        let state = |x: f64| crate::scenario::AgentState {
+            position: Point2::new(x, 0.0),
+            heading_rad: 0.0,
+            velocity_mps: Vector2::new(10.0, 0.0),
+        };
+        Rollout {
+            scenario_id: "s".into(),
+            dt_s: 0.1,
+            start_step: 10,
+            ego: crate::scenario::TrackIndex(0),
+            cbv: None,
+            agent_ids: vec![],
+            bodies: vec![],
+            states: xs.iter().map(|&x| vec![Some(state(x)), Some(state(0.0))]).collect(),
+            collisions: vec![],
+            off_road: vec![],
+            min_distance_to_ego: None,
+            termination: crate::sim::Termination::Completed,
+            planner: "p".into(),
+            planner_debug: vec![],
+        }
+    }
+
+    #[test]
+    fn a_mutant_drove_differently_when_its_ego_strayed_a_centimetre_or_its_rollout_ended_elsewhere() {
+        let planner = ego_along(&[0.0, 1.0, 2.0]);
+        assert!(!drove_differently(&planner, &ego_along(&[0.0, 1.0, 2.0])));
+        assert!(!drove_differently(&planner, &ego_along(&[0.0, 1.0, 2.0 + 0.009])), "within a centimetre");
+        assert!(drove_differently(&planner, &ego_along(&[0.0, 1.0 + 0.011, 2.0])));
+        assert!(drove_differently(&planner, &ego_along(&[0.0, 1.0])), "ended a step sooner");
+        assert!(drove_differently(&planner, &ego_along(&[0.0, f64::NAN, 2.0])), "a NaN is no sameness");
+        let mut vanished = ego_along(&[0.0, 1.0, 2.0]);
+        vanished.states[2][0] = None;
+        assert!(drove_differently(&planner, &vanished));
+    }
+
+    #[test]
+    fn a_survivor_says_whether_its_fault_ever_changed_the_driving() {
+        let ran = |operator, drove_differently| MutantRun { operator, failures: Ok(vec![]), drove_differently };
+        let killed =
+            |operator| MutantRun { operator, failures: Ok(vec![failure("no_collision")]), drove_differently: true };
+        let passed: &[AcceptanceFailure] = &[];
+        let runs_a =
+            [ran(FaultOperator::NoBrake, false), ran(FaultOperator::NoEvade, true), killed(FaultOperator::Late)];
+        let runs_b =
+            [ran(FaultOperator::NoBrake, false), ran(FaultOperator::NoEvade, false), ran(FaultOperator::Late, true)];
+        let ops = [FaultOperator::NoBrake, FaultOperator::NoEvade, FaultOperator::Late];
+        let report = MutationReport::of(
+            &ops,
+            [("s::a::seed-0", Some(passed), &runs_a[..]), ("s::b::seed-0", Some(passed), &runs_b[..])],
+        );
+        let by = |op| report.operators.iter().find(|r| r.operator == op).unwrap();
+        assert_eq!(
+            (by(FaultOperator::NoBrake).variants_run, by(FaultOperator::NoBrake).variants_driven_differently),
+            (2, 0)
+        );
+        assert_eq!(by(FaultOperator::NoEvade).variants_driven_differently, 1);
+        assert_eq!(by(FaultOperator::Late).variants_driven_differently, 2);
+        let table = report.table().join("\n");
+        assert!(table.contains("no-brake  SURVIVED: it drove exactly as the planner in all 2 variants the planner passes: the fault never came into play; "), "{table}");
+        assert!(
+            table.contains(
+                "no-evade  SURVIVED: it drove otherwise than the planner in 1 of 2 variants, and passed them all; "
+            ),
+            "{table}"
+        );
+        assert!(table.contains("late      killed by 1 of 2 variants"), "{table}");
     }
 
     #[test]
@@ -643,6 +805,15 @@ mod tests {
         assert_eq!(kills.scene_kills, 4);
         assert_eq!(kills.cbv_kills, 1);
         assert_eq!(kills.beyond_replay, None);
+        // Drove otherwise where killed (as `run` makes them): no-brake in
+        // all six distinct passed variants, weak-brake in the one.
+        let differently: Vec<Option<usize>> = kills.operators.iter().map(|o| o.variants_driven_differently).collect();
+        assert_eq!(differently, vec![Some(6), Some(1)]);
+        // Reports written before it was recorded say nothing of it.
+        let mut old = run(&[true]);
+        old.mutants[0].drove_differently = None;
+        let unrecorded = MethodKills::of([input("a", Some(1), &old)], None).unwrap();
+        assert_eq!(unrecorded.operators[0].variants_driven_differently, None);
         assert_eq!(MethodKills::of(std::iter::empty(), None), None);
     }
 
@@ -679,7 +850,7 @@ mod tests {
 
     #[test]
     fn mutant_runs_count_as_failed_only_with_a_failed_criterion() {
-        let ran = |failures| MutantRun { operator: FaultOperator::Late, failures };
+        let ran = |failures| MutantRun { operator: FaultOperator::Late, failures, drove_differently: true };
         assert!(ran(Ok(vec![failure("no_collision")])).failed());
         assert!(!ran(Ok(vec![])).failed());
         assert!(!ran(Err("could not start".into())).failed());

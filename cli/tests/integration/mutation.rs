@@ -101,13 +101,31 @@ fn surviving_mutants_are_named_with_a_hint_and_fail_the_score_everywhere() {
     for killed in ["weak-brake", "late"] {
         assert_eq!(by_name(killed).unwrap()["killed"], true, "{killed}: {m:#}");
     }
-    for survived in ["blind-cbv", "blind-side", "no-evade"] {
+    // Blind to the CBV or the side, the evasive planner drives exactly as
+    // it does here (its fault never comes into play); without steering it
+    // brakes behind the leader instead of overtaking, and passes.
+    for (survived, drove_differently) in [("blind-cbv", 0), ("blind-side", 0), ("no-evade", 1)] {
         let op = by_name(survived).unwrap();
         assert_eq!(op["killed"], false, "{survived}: {m:#}");
+        assert_eq!(
+            (op["variants_run"].as_u64(), op["variants_driven_differently"].as_u64()),
+            (Some(1), Some(drove_differently))
+        );
         let hint = op["hint"].as_str().unwrap();
         assert!(hint.starts_with("add a scene"), "{hint}");
-        assert!(table.contains(&format!("{survived:<10}  SURVIVED: {hint}")), "{table}");
+        let note = if drove_differently == 0 {
+            format!(
+                "it drove exactly as the planner in the one variant the planner passes: the fault never came into play; {hint}"
+            )
+        } else {
+            format!("it drove otherwise than the planner in 1 of 1 variants, and passed them all; {hint}")
+        };
+        assert!(table.contains(&format!("{survived:<10}  SURVIVED: {note}")), "{table}");
+        assert!(page.contains(&note), "{page}");
         assert!(junit.contains(&format!(r#"<property name="mutant.{survived}" value="survived"/>"#)), "{junit}");
+    }
+    for killed in ["weak-brake", "late"] {
+        assert_eq!(by_name(killed).unwrap()["variants_driven_differently"], 1, "{killed}: {m:#}");
     }
     assert_eq!(m["score"], 0.4);
     let check = report["suites"][0]["checks"].as_array().unwrap().iter().find(|c| c["name"] == "mutation_score");
@@ -200,7 +218,7 @@ fn mutant_failures(planner: &str) -> Vec<(String, Vec<String>)> {
     for scenario in &suite.scenarios {
         let base = safer_scenarios::harness::run_variant(&suite, scenario, 0).unwrap();
         assert!(base.failures.is_empty(), "{planner} fails {}: {:?}", scenario.name, base.failures);
-        for MutantRun { operator, failures } in run_mutants(&suite, scenario, 0, &base, FaultOperator::ALL) {
+        for MutantRun { operator, failures, .. } in run_mutants(&suite, scenario, 0, &base, FaultOperator::ALL) {
             let failures = failures.unwrap_or_else(|e| panic!("{operator} on {}: {e}", scenario.name));
             out.push((
                 format!("{}/{operator}", scenario.name),

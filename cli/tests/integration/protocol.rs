@@ -155,9 +155,9 @@ fn evaluate_with_merging_roles_tests_a_merging_pair_and_leaves_out_scenes_withou
 #[cfg_attr(not(recorded_data), ignore = "needs recorded data: set SAFER_DATA_DIR (docs/guide/recorded-data.md)")]
 fn evaluate_with_mutants_counts_the_kills_beyond_log_replay_alike_in_the_table_and_the_report() {
     // A WOMD interactive scene where log replay's variant kills the mutant
-    // that does not evade, and the prior's first two seeds also kill the
-    // one that never brakes.
-    let scene = data_dir().join("womd-interactive/tfrecord-00086-of-00150_194.json");
+    // blind to the CBV, and the prior's first seed also kills the two that
+    // cannot brake (at all, or hard).
+    let scene = data_dir().join("womd-interactive/tfrecord-00100-of-00150_153.json");
     let run = |methods: &str| {
         let args = ["evaluate", "--scenes", scene.to_str().unwrap(), "--seeds", "2", "--methods", methods];
         let out = safer(&[&args[..], &["--stage2-cbv", "closed-loop", "--mutants", "--json", "-"]].concat());
@@ -172,16 +172,25 @@ fn evaluate_with_mutants_counts_the_kills_beyond_log_replay_alike_in_the_table_a
     };
     let (log, prior) = (kills("log"), kills("prior"));
     // Log replay catches nothing beyond itself; the prior's kills beyond it
-    // are the no-brake ones.
+    // are those of the two mutants that cannot brake.
     assert_eq!(log["beyond_replay"], 0, "{log}");
     let beyond = prior["beyond_replay"].as_u64().unwrap();
     assert!(beyond > 0 && beyond < prior["kills"].as_u64().unwrap(), "{prior}");
-    let no_brake = prior["operators"].as_array().unwrap().iter().find(|o| o["operator"] == "no-brake").unwrap();
-    assert_eq!(beyond, no_brake["kills"].as_u64().unwrap(), "{prior}");
+    let operator = |name: &str| prior["operators"].as_array().unwrap().iter().find(|o| o["operator"] == name).unwrap();
+    let braking_kills = ["no-brake", "weak-brake"].map(|name| operator(name)["kills"].as_u64().unwrap());
+    assert_eq!(beyond, braking_kills.iter().sum::<u64>(), "{prior}");
     // The table prints the same counts.
     assert!(table.contains("beyond log"), "{table}");
     assert_eq!(beyond_log_cell(&table, "prior"), beyond.to_string(), "{table}");
     assert_eq!(beyond_log_cell(&table, "log"), "0", "{table}");
+    // The mutants' effect: a killed mutant drove otherwise where it was
+    // killed, and the table's cell is the report's count.
+    let differently = operator("no-brake")["variants_driven_differently"].as_u64().unwrap();
+    assert!(differently >= braking_kills[0], "{prior}");
+    let effects = table.split("mutants' effect").nth(1).expect("the mutants' effect table");
+    let row = effects.lines().find(|l| l.starts_with("prior ")).unwrap();
+    let passed = prior["variants_passed"].as_u64().unwrap();
+    assert_eq!(row.split_whitespace().nth(1), Some(format!("{differently}/{passed}").as_str()), "{effects}");
     // Without log replay in the run there is nothing to count beyond.
     let (report, table) = run("prior");
     assert!(report["rows"][0]["kills"]["beyond_replay"].is_null(), "{}", report["rows"][0]);
@@ -192,7 +201,8 @@ fn evaluate_with_mutants_counts_the_kills_beyond_log_replay_alike_in_the_table_a
 /// row): counted from the end, past the seven mutants' "kills (scenes)"
 /// cells, the mutants killed and the ×prior.
 fn beyond_log_cell(table: &str, method: &str) -> String {
-    let line = table.lines().rfind(|l| l.starts_with(&format!("{method} "))).unwrap();
+    let kills_table = table.split("mutants' effect").next().unwrap();
+    let line = kills_table.lines().rfind(|l| l.starts_with(&format!("{method} "))).unwrap();
     let cells: Vec<&str> = line.split_whitespace().collect();
     cells[cells.len() - 17].to_string()
 }

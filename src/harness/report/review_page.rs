@@ -307,7 +307,7 @@ fn mutation_html(h: &mut String, m: &crate::harness::mutation::MutationReport) {
                 esc(&k.criterion),
                 esc(&k.what)
             ),
-            None => format!("<span class=\"badge fail\">SURVIVED</span> {}", esc(r.operator.blind_spot_hint())),
+            None => format!("<span class=\"badge fail\">SURVIVED</span> {}", esc(&r.survivor_note())),
         };
         let _ = writeln!(
             h,
