@@ -579,12 +579,10 @@ fn write_mutant_effects(
         let method = label(r.method, r.stage2_cbv, modes);
         write!(out, "{method:<width$}")?;
         for op in mutants {
-            let o = k.operators.iter().find(|o| o.operator == *op);
-            let cell = match o.and_then(|o| o.variants_driven_differently) {
-                Some(d) => format!("{d}/{}", k.variants_passed),
-                None => "-".to_string(),
-            };
-            if o.and_then(|o| o.variants_driven_differently) == Some(0) && k.variants_passed > 0 {
+            let differently =
+                k.operators.iter().find(|o| o.operator == *op).and_then(|o| o.variants_driven_differently);
+            let cell = differently.map_or_else(|| "-".to_string(), |d| format!("{d}/{}", k.variants_passed));
+            if differently == Some(0) && k.variants_passed > 0 {
                 never.push(format!("{method}: {}", op.name()));
             }
             write!(out, "  {cell:>12}")?;

@@ -19,7 +19,7 @@ pub const MAX_LANES_AHEAD: usize = 12;
 pub struct LaneRelations<'a> {
     map: &'a RoadMap,
     /// Successors joined by geometry, when the map records none at all.
-    joined: Option<LaneGraph>,
+    joined: Option<&'a LaneGraph>,
     neighbours_recorded: bool,
     /// The lanes two or more lanes lead into (a merge point, a junction's exit).
     junctions: BTreeSet<MapElementId>,
@@ -47,7 +47,7 @@ impl<'a> LaneRelations<'a> {
             map.lanes.iter().any(|l| !l.left_neighbours.is_empty() || !l.right_neighbours.is_empty());
         let mut relations = Self {
             map,
-            joined: (!successors_recorded).then(|| LaneGraph::build(map)),
+            joined: (!successors_recorded).then(|| map.lane_graph()),
             neighbours_recorded,
             junctions: BTreeSet::new(),
         };

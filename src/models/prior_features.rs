@@ -12,7 +12,6 @@
 use std::collections::HashMap;
 
 use crate::geometry::{Point2, Vector2, clearly_farther_squared, wrap_angle};
-use crate::map::lane_graph::LaneGraph;
 use crate::map::{AreaKind, MapElementId, RoadMap, SignalState};
 use crate::motion::tokens::{TOKEN_PERIOD_S, TOKEN_PERIOD_STEPS};
 use crate::scenario::{AgentBody, AgentKind, AgentState};
@@ -107,7 +106,7 @@ fn cell(p: &Point2) -> (i32, i32) {
 impl MapTokens {
     /// Cuts every polyline of `map` into tokens.
     pub fn build(map: &RoadMap) -> Self {
-        let graph = LaneGraph::build(map);
+        let graph = map.lane_graph();
         let mut tokens = Vec::new();
         let mut add = |points: &[Point2], kind: usize, in_intersection: bool, speed_limit: f64, lane: Option<usize>| {
             let mut arc_m = 0.0;

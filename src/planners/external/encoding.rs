@@ -58,17 +58,16 @@ fn resampled(line: &Polyline) -> Vec<[f64; 2]> {
 /// The whole map, for `prepare`.
 pub(super) fn full_map(map: &RoadMap) -> WireFullMap {
     let ids = |v: &[crate::map::MapElementId]| v.iter().map(|i| i.0).collect::<Vec<_>>();
+    // The lane graph's links: recorded, else joined by geometry (a source
+    // without connectivity), as safer's own routes follow them.
+    let graph = map.lane_graph();
+    let linked = |lanes: &[usize]| lanes.iter().map(|&j| map.lanes[j].id.0).collect::<Vec<_>>();
     WireFullMap {
         lanes: map
             .lanes
             .iter()
             .enumerate()
             .map(|(i, l)| {
-                // The lane graph's links: recorded, else joined by geometry
-                // (a source without connectivity), as safer's own routes
-                // follow them.
-                let linked = |lanes: &[usize]| lanes.iter().map(|&j| map.lanes[j].id.0).collect::<Vec<_>>();
-                let graph = map.lane_graph();
                 let width_m = match (&l.left_boundary, &l.right_boundary) {
                     (Some(left), Some(right)) => mean_distance(left, right),
                     _ => None,
