@@ -163,7 +163,9 @@ impl RoadMap {
     /// Whether `p` lies past the end of the mapped road, where the
     /// recording's map was cut off (NGSIM's study area, WOMD's crop) rather
     /// than at a dead end inside the map, whose kerbs go on around it: ahead
-    /// of the end of a lane within 10 m that has no successor, and either
+    /// of the end of a lane within 10 m that has no successor on the
+    /// [lane graph](Self::lane_graph) (neither recorded nor a lane starting
+    /// at its end: WOMD maps record no successors), and either
     /// past the end of the nearest road edge (its closest point is the
     /// edge's first or last point), or within the lane's own corridor (its
     /// half width at the end, plus 0.5 m) with no road edge between the
@@ -197,7 +199,7 @@ impl RoadMap {
         self.lane_segments.candidates(p, search_m).into_keys().any(|lane_index| {
             let lane = &self.lanes[lane_index];
             let points = lane.centreline.points();
-            if !lane.successors.is_empty() || points.len() < 2 {
+            if !self.lane_graph().successors(lane_index).is_empty() || points.len() < 2 {
                 return false;
             }
             let (a, b) = (points[points.len() - 2], points[points.len() - 1]);
@@ -423,6 +425,14 @@ mod tests {
         assert!(!cut.is_past_mapped_end(&Point2::new(125.0, 15.0)), "ahead, but beside the lane's line");
         assert!(!cut.is_past_mapped_end(&Point2::new(50.0, 3.0)), "beside the lane: off-road");
         assert!(!cut.is_past_mapped_end(&Point2::new(-1.0, 0.0)), "before its start");
+        // A lane that starts at its end, with no link recorded (WOMD maps
+        // record none): a junction inside the map, not its end.
+        let turn = Lane::new(MapElementId(4), pl(&[(100.0, 0.0), (105.0, 2.0), (110.0, 10.0)]));
+        let junction =
+            RoadMap::new(vec![lane.clone(), turn], cut.road_edges.clone(), vec![], vec![], vec![], vec![], vec![]);
+        assert!(junction.lanes[0].successors.is_empty());
+        assert!(!junction.is_past_mapped_end(&Point2::new(101.0, 1.0)));
+        assert!(!junction.is_past_mapped_end(&Point2::new(104.0, -1.0)));
         // The same lane ending at a kerb that closes the road (a dead end
         // inside the map): past the lane's end, but the edge goes on.
         let dead_end = RoadMap::new(

@@ -1,0 +1,245 @@
+//! The headline tables of `docs/benchmarks.md` and the README quote the
+//! committed outputs of `docs/evaluation/regenerate.sh`: when an output is
+//! regenerated and a table is not rewritten from it (or the other way
+//! round), these tests name the row and the figure that differ.
+
+use std::collections::BTreeMap;
+
+/// A file of the repository, as text.
+fn repo_file(path: &str) -> String {
+    let full = format!("{}/{path}", repo_root!());
+    std::fs::read_to_string(&full).unwrap_or_else(|e| panic!("reading {full}: {e}"))
+}
+
+/// An output's rows of one table: method → its cells after the method's
+/// name, split on whitespace (the first table of the output whose header
+/// line starts with `method` and holds `header_word`; its rows end at the
+/// first line that is not a row).
+fn output_table(output: &str, header_word: &str) -> BTreeMap<String, Vec<String>> {
+    let mut lines = output.lines().skip_while(|l| !(l.starts_with("method") && l.contains(header_word)));
+    let header = lines.next().unwrap_or_else(|| panic!("no table with {header_word:?} in the output"));
+    let columns = header.split_whitespace().count();
+    let mut rows = BTreeMap::new();
+    for line in lines {
+        let cells: Vec<String> = line.split_whitespace().map(str::to_owned).collect();
+        // A row: the method's name, then at least as many cells as the
+        // header names columns (the mutation table's `| held out` adds one).
+        if cells.len() < columns || !cells[0].chars().all(|c| c.is_ascii_lowercase() || c == '-') {
+            break;
+        }
+        rows.insert(cells[0].clone(), cells[1..].to_vec());
+    }
+    assert!(!rows.is_empty(), "the {header_word:?} table has no rows");
+    rows
+}
+
+/// The evaluation table's figures of a method: CR, SR, SR-crit, witness,
+/// VJ, AJ, YJ (an output's `—` as the docs' `–`).
+fn evaluation_figures(rows: &BTreeMap<String, Vec<String>>, method: &str) -> Vec<String> {
+    let cells = rows.get(method).unwrap_or_else(|| panic!("no row for {method} in the output"));
+    // variants, errors, then the figures.
+    cells[2..9].iter().map(|c| c.replace('—', "–")).collect()
+}
+
+/// The markdown table rows between the first line containing `from` and
+/// the next line containing `to`, as cells (trimmed, between the pipes).
+fn markdown_rows(doc: &str, from: &str, to: &str) -> Vec<Vec<String>> {
+    let section: Vec<&str> =
+        doc.lines().skip_while(|l| !l.contains(from)).skip(1).take_while(|l| !l.contains(to)).collect();
+    assert!(!section.is_empty(), "no section from {from:?} to {to:?}");
+    section
+        .iter()
+        .filter(|l| l.starts_with('|') && !l.starts_with("| ---"))
+        .map(|l| l.trim().trim_matches('|').split('|').map(|c| c.trim().to_owned()).collect())
+        .collect()
+}
+
+/// The method a cell names: its first `backticked` word.
+fn method_of(cell: &str) -> Option<&str> {
+    let start = cell.find('`')? + 1;
+    let end = start + cell[start..].find('`')?;
+    Some(&cell[start..end])
+}
+
+/// `a / b / c` as its parts.
+fn parts(cell: &str) -> Vec<String> {
+    cell.split('/').map(|p| p.trim().to_owned()).collect()
+}
+
+#[test]
+fn the_main_evaluation_table_quotes_the_womd_interactive_outputs() {
+    let doc = repo_file("docs/benchmarks.md");
+    let mut output = output_table(&repo_file("docs/evaluation/evaluate-womd-interactive.txt"), "variants");
+    output.extend(output_table(&repo_file("docs/evaluation/evaluate-womd-interactive-no-mda.txt"), "variants"));
+    let rows = markdown_rows(&doc, "## Dual-stage evaluation", "**Trust region**");
+    let mut checked = 0;
+    for row in rows.iter().filter(|r| r[0].starts_with('`')) {
+        let method = method_of(&row[0]).unwrap();
+        // CR, SR, SR-crit, witness, then VJ / AJ / YJ in one cell.
+        let mut quoted = row[1..5].to_vec();
+        quoted.extend(parts(&row[5]));
+        assert_eq!(quoted, evaluation_figures(&output, method), "{method}'s row of the main table");
+        checked += 1;
+    }
+    assert_eq!(checked, 11, "every method of the main table");
+}
+
+#[test]
+fn the_womd_json_and_ngsim_tables_quote_their_outputs() {
+    let doc = repo_file("docs/benchmarks.md");
+    // Each set's main output, with the plain-attention prior's beside it.
+    let output = |set: &str| {
+        let mut rows = output_table(&repo_file(&format!("docs/evaluation/evaluate-{set}.txt")), "variants");
+        rows.extend(output_table(&repo_file(&format!("docs/evaluation/evaluate-{set}-no-mda.txt")), "variants"));
+        rows
+    };
+    let outputs = [("WOMD JSON", output("womd-json")), ("NGSIM", output("ngsim"))];
+    let mut checked = 0;
+    let mut set = "";
+    for row in markdown_rows(&doc, "**WOMD JSON and NGSIM**", "CR(`safer`) ≥ 2 × CR(`prior`)") {
+        if !row[0].is_empty() {
+            set = if row[0].starts_with("WOMD JSON") {
+                "WOMD JSON"
+            } else if row[0].starts_with("NGSIM") {
+                "NGSIM"
+            } else {
+                ""
+            };
+        }
+        let Some(method) = method_of(&row[1]) else { continue };
+        let (_, output) = outputs.iter().find(|(s, _)| *s == set).unwrap_or_else(|| panic!("no set for {row:?}"));
+        let mut quoted = row[2..6].to_vec();
+        quoted.extend(parts(&row[6]));
+        assert_eq!(quoted, evaluation_figures(output, method), "{set}, {method}");
+        checked += 1;
+    }
+    assert_eq!(checked, 22, "both sets' rows");
+}
+
+/// Checks one mutation table of the benchmarks (the section from `from` to
+/// `to`) against its outputs: CR, SR, passed, kills (with the held-out
+/// scenes'), ×log and ×prior of every row, found by the table's header.
+/// `outputs`: each set's label as its first cell reads, and the outputs
+/// (under `docs/evaluation/`) whose rows it quotes, the first holding the
+/// method answering. Returns the rows checked.
+fn check_mutation_table(from: &str, to: &str, outputs: &[(&str, &[&str])]) -> usize {
+    let doc = repo_file("docs/benchmarks.md");
+    let rows = markdown_rows(&doc, from, to);
+    let header = &rows[0];
+    let column =
+        |name: &str| header.iter().position(|c| c == name).unwrap_or_else(|| panic!("no {name} in {header:?}"));
+    let columns = ["CR", "SR", "passed", "kills (held out)", "×log", "×prior"].map(column);
+    let mut checked = 0;
+    let mut set: Option<(&str, Vec<_>)> = None;
+    for row in &rows[1..] {
+        if !row[0].is_empty() {
+            let (label, files) = outputs
+                .iter()
+                .find(|(label, _)| row[0] == *label)
+                .unwrap_or_else(|| panic!("no output named for the set {:?}", row[0]));
+            let tables = files
+                .iter()
+                .map(|file| {
+                    let text = repo_file(&format!("docs/evaluation/{file}"));
+                    (output_table(&text, "variants"), output_table(&text, "passed"))
+                })
+                .collect();
+            set = Some((label, tables));
+        }
+        let Some(method) = method_of(&row[1]) else { continue };
+        let (label, tables) = set.as_ref().unwrap_or_else(|| panic!("no set for {row:?}"));
+        let (main, kills) = tables
+            .iter()
+            .find(|(main, kills)| main.contains_key(method) && kills.contains_key(method))
+            .unwrap_or_else(|| panic!("{label}: no output has {method}"));
+        let figures = evaluation_figures(main, method);
+        let kill_cells = &kills[method];
+        // passed, kills/of, `|`, held out, ×log, ×prior. The ten-seed table
+        // quotes the kills without what they are out of.
+        let quoted: Vec<&String> = columns.iter().map(|&c| &row[c]).collect();
+        let kills_of = if quoted[3].contains('/') && quoted[3].find('/') < quoted[3].find('(') {
+            kill_cells[1].clone()
+        } else {
+            kill_cells[1].split('/').next().unwrap().to_owned()
+        };
+        let kills_quoted = format!("{kills_of} ({})", kill_cells[3]);
+        let expected = [&figures[0], &figures[1], &kill_cells[0], &kills_quoted, &kill_cells[4], &kill_cells[5]]
+            .map(String::as_str);
+        let quoted: Vec<String> = quoted.iter().map(|c| c.replace("**", "")).collect();
+        assert_eq!(quoted, expected, "{label}, {method}: CR, SR, passed, kills, ×log, ×prior");
+        checked += 1;
+    }
+    checked
+}
+
+#[test]
+fn the_three_seed_mutation_tables_quote_their_outputs() {
+    let evasive = check_mutation_table(
+        "**The evasive planner** (scenes × seeds)",
+        "**The Python lane follower**",
+        &[
+            ("WOMD interactive (54 × 3)", &["mutants-womd-interactive-evasive.txt"]),
+            ("WOMD JSON (65 × 3)", &["mutants-womd-json-evasive.txt"]),
+            ("NGSIM (69 × 3)", &["mutants-ngsim-evasive.txt"]),
+        ],
+    );
+    assert_eq!(evasive, 21, "the evasive planner's rows");
+    let lane_follower = check_mutation_table(
+        "**The Python lane follower**",
+        "The goal is 2× log replay's kills",
+        &[
+            ("WOMD interactive (54 × 2)", &["mutants-womd-interactive-lane-follower.txt"]),
+            ("NGSIM (69 × 2)", &["mutants-ngsim-lane-follower.txt"]),
+        ],
+    );
+    assert_eq!(lane_follower, 10, "the lane follower's rows");
+}
+
+#[test]
+fn the_ten_seed_mutation_table_quotes_its_outputs() {
+    let rows = check_mutation_table(
+        "### Over ten seeds",
+        "On WOMD interactive `safer-in-path` kills",
+        &[
+            ("WOMD interactive (54 × 10)", &["ten-seeds/mutants-womd-interactive-evasive.txt"]),
+            ("NGSIM, n = 60 (69 × 10)", &["ten-seeds/mutants-ngsim-evasive-n60.txt"]),
+            (
+                "WOMD interactive, the Python lane follower (54 × 10)",
+                &["ten-seeds/mutants-womd-interactive-lane-follower.txt"],
+            ),
+            (
+                "WOMD interactive, n = 60, the lane follower, the recorded cars braking for the ego (54 × 10)",
+                &["ten-seeds/mutants-womd-interactive-lane-follower-n60-reactive.txt"],
+            ),
+            (
+                "NGSIM, n = 60, the Python lane follower (69 × 10)",
+                &[
+                    "ten-seeds/mutants-ngsim-lane-follower-n60.txt",
+                    "ten-seeds/mutants-ngsim-lane-follower-n60-cut-in.txt",
+                ],
+            ),
+        ],
+    );
+    assert_eq!(rows, 19, "every row of the ten-seed table");
+}
+
+#[test]
+fn the_readme_results_table_quotes_the_womd_interactive_outputs() {
+    let readme = repo_file("README.md");
+    let main = output_table(&repo_file("docs/evaluation/evaluate-womd-interactive.txt"), "variants");
+    let lookahead =
+        output_table(&repo_file("docs/evaluation/in-path-lookahead/evaluate-womd-interactive.txt"), "variants");
+    let mut checked = 0;
+    for row in markdown_rows(&readme, "## Results", "CR: share of variants") {
+        let Some(method) = method_of(&row[0]) else { continue };
+        let output = if method == "safer-in-path-lookahead" { &lookahead } else { &main };
+        let figures = evaluation_figures(output, method);
+        // CR, SR, SR-crit, then VJ / AJ.
+        let mut quoted = row[1..4].to_vec();
+        quoted.extend(parts(&row[4]));
+        let expected = [&figures[..3], &figures[4..6]].concat();
+        assert_eq!(quoted, expected, "the README's {method} row");
+        checked += 1;
+    }
+    assert!(checked >= 10, "{checked} rows");
+}
