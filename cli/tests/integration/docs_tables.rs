@@ -243,3 +243,38 @@ fn the_readme_results_table_quotes_the_womd_interactive_outputs() {
     }
     assert!(checked >= 10, "{checked} rows");
 }
+
+#[test]
+fn the_trust_region_sweep_quotes_its_outputs() {
+    let doc = repo_file("docs/benchmarks.md");
+    let rows =
+        markdown_rows(&doc, "**Trust region** (`safer evaluate --scenes data:womd-interactive", "`safer` gains most");
+    let methods = ["safer", "safer-in-path", "safer-distinct", "safer-lookahead"];
+    let mut checked = 0;
+    for row in rows.iter().filter(|r| r[0].chars().all(|c| c.is_ascii_digit())) {
+        // n = 20 is the main table's run.
+        let file = match row[0].as_str() {
+            "20" => "evaluate-womd-interactive.txt".to_owned(),
+            n => format!("evaluate-womd-interactive-n{n}.txt"),
+        };
+        let output = output_table(&repo_file(&format!("docs/evaluation/{file}")), "variants");
+        for (i, method) in methods.iter().enumerate() {
+            let figures = evaluation_figures(&output, method);
+            assert_eq!(parts(&row[1 + i]), figures[..3], "n = {}, {method}: CR / SR / SR-crit", row[0]);
+        }
+        // VJ / AJ / YJ of safer, then of safer-in-path.
+        let realism: Vec<String> = row[5].split(',').flat_map(|c| parts(c)).collect();
+        let expected: Vec<String> =
+            ["safer", "safer-in-path"].iter().flat_map(|m| evaluation_figures(&output, m)[4..7].to_vec()).collect();
+        assert_eq!(realism, expected, "n = {}: VJ / AJ / YJ", row[0]);
+        // Seconds a variant, to two places.
+        let seconds: Vec<String> = row[6].split(',').map(|c| c.trim().to_owned()).collect();
+        let expected: Vec<String> = ["safer", "safer-in-path", "safer-lookahead"]
+            .iter()
+            .map(|m| format!("{:.2}", output[*m][9].parse::<f64>().expect("s/variant")))
+            .collect();
+        assert_eq!(seconds, expected, "n = {}: s/variant", row[0]);
+        checked += 1;
+    }
+    assert_eq!(checked, 4, "n = 10, 20, 50, 100");
+}
