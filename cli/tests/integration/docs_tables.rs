@@ -278,3 +278,33 @@ fn the_trust_region_sweep_quotes_its_outputs() {
     }
     assert_eq!(checked, 4, "n = 10, 20, 50, 100");
 }
+
+#[test]
+fn the_kill_ratio_summary_quotes_the_three_seed_outputs() {
+    let doc = repo_file("docs/benchmarks.md");
+    let rows = markdown_rows(&doc, "The goal is 2× log replay's kills", "Many of every method's kills");
+    let outputs = [
+        ("evasive, WOMD interactive", "mutants-womd-interactive-evasive.txt"),
+        ("evasive, WOMD JSON", "mutants-womd-json-evasive.txt"),
+        ("evasive, NGSIM", "mutants-ngsim-evasive.txt"),
+        ("lane follower, WOMD interactive", "mutants-womd-interactive-lane-follower.txt"),
+        ("lane follower, NGSIM", "mutants-ngsim-lane-follower.txt"),
+    ];
+    let mut checked = 0;
+    for row in rows.iter().skip(1) {
+        let row: Vec<String> = row.iter().map(|c| c.replace("**", "")).collect();
+        let (_, file) = outputs.iter().find(|(label, _)| row[0] == *label).unwrap_or_else(|| panic!("{row:?}"));
+        let kills = output_table(&repo_file(&format!("docs/evaluation/{file}")), "passed");
+        // passed, kills/of, `|`, held out, ×log, ×prior, scene kills, ×log, ×prior, by CBV.
+        let cells = |method: &str| kills.get(method).unwrap_or_else(|| panic!("{file}: no {method}")).clone();
+        let in_path = cells("safer-in-path");
+        assert_eq!(parts(&row[1]), in_path[4..6], "{}: safer-in-path's kills ×log / ×prior", row[0]);
+        assert_eq!(parts(&row[2]), in_path[7..9], "{}: its scene kills ×log / ×prior", row[0]);
+        let by_cbv: Vec<String> = row[3].split(',').map(|c| c.trim().to_owned()).collect();
+        let expected: Vec<String> = ["safer-in-path", "log", "prior"].iter().map(|m| cells(m)[9].clone()).collect();
+        assert_eq!(by_cbv, expected, "{}: kills by the CBV", row[0]);
+        assert_eq!(parts(&row[4]), cells("safer")[4..6], "{}: safer's kills ×log / ×prior", row[0]);
+        checked += 1;
+    }
+    assert_eq!(checked, 5, "every table's row");
+}
