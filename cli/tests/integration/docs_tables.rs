@@ -308,3 +308,38 @@ fn the_kill_ratio_summary_quotes_the_three_seed_outputs() {
     }
     assert_eq!(checked, 5, "every table's row");
 }
+
+#[test]
+fn the_reactive_background_table_quotes_its_outputs() {
+    let doc = repo_file("docs/benchmarks.md");
+    let rows = markdown_rows(&doc, "**Reactive background**", "With the reactive background");
+    let outputs = |set: &str| {
+        let mut replay = output_table(&repo_file(&format!("docs/evaluation/evaluate-{set}.txt")), "variants");
+        replay.extend(output_table(&repo_file(&format!("docs/evaluation/evaluate-{set}-no-mda.txt")), "variants"));
+        let reactive = output_table(&repo_file(&format!("docs/evaluation/evaluate-{set}-reactive.txt")), "variants");
+        (replay, reactive)
+    };
+    let sets = [("WOMD interactive", outputs("womd-interactive")), ("NGSIM", outputs("ngsim"))];
+    let mut set = None;
+    let mut checked = 0;
+    for row in &rows {
+        if let Some((_, tables)) = sets.iter().find(|(label, _)| row[0] == *label) {
+            set = Some(tables);
+        }
+        let Some(method) = method_of(&row[1]) else { continue };
+        let (replay, reactive) = set.unwrap_or_else(|| panic!("no set for {row:?}"));
+        let (before, after) = (evaluation_figures(replay, method), evaluation_figures(reactive, method));
+        // CR, SR, SR-crit, witness as `replay → reactive` (log replay's CR
+        // and the columns it has no figure for read `–`).
+        for (column, cell) in row[2..6].iter().enumerate() {
+            let expected = match (before[column].as_str(), after[column].as_str()) {
+                ("–", "–") => "–".to_owned(),
+                _ if method == "log" && column == 0 => "–".to_owned(),
+                (b, a) => format!("{b} → {a}"),
+            };
+            assert_eq!(*cell, expected, "{}, {method}: column {}", row[0], column + 2);
+        }
+        checked += 1;
+    }
+    assert_eq!(checked, 20, "both sets' ten methods");
+}
