@@ -343,3 +343,80 @@ fn the_reactive_background_table_quotes_its_outputs() {
     }
     assert_eq!(checked, 20, "both sets' ten methods");
 }
+
+/// Checks a table whose rows name their run in the first cell (and the
+/// trust region in the second): CR, SR, witness, kills (held out), ×log
+/// and ×prior of the method (the third cell's, or `method` for every row)
+/// against the output `outputs` names for (first cell, n). Returns the
+/// rows checked.
+fn check_run_table(from: &str, to: &str, method: Option<&str>, outputs: &[(&str, &str, &str)]) -> usize {
+    let doc = repo_file("docs/benchmarks.md");
+    let rows = markdown_rows(&doc, from, to);
+    let header = &rows[0];
+    let column =
+        |name: &str| header.iter().position(|c| c == name).unwrap_or_else(|| panic!("no {name} in {header:?}"));
+    let columns = ["CR", "SR", "witness", "kills (held out)", "×log", "×prior"].map(column);
+    let mut checked = 0;
+    for row in &rows[1..] {
+        let (_, _, file) = outputs
+            .iter()
+            .find(|(label, n, _)| row[0] == *label && row[1] == *n)
+            .unwrap_or_else(|| panic!("no output named for {:?}, n = {}", row[0], row[1]));
+        let method = method.or_else(|| method_of(&row[2])).unwrap_or_else(|| panic!("no method in {row:?}"));
+        let text = repo_file(&format!("docs/evaluation/{file}"));
+        let figures = evaluation_figures(&output_table(&text, "variants"), method);
+        let kills = output_table(&text, "passed");
+        let kill_cells = kills.get(method).unwrap_or_else(|| panic!("{file}: no {method}"));
+        let killed = kill_cells[1].split('/').next().unwrap();
+        let expected = [
+            figures[0].clone(),
+            figures[1].clone(),
+            figures[3].clone(),
+            format!("{killed} ({})", kill_cells[3]),
+            kill_cells[4].clone(),
+            kill_cells[5].clone(),
+        ];
+        let quoted: Vec<String> = columns.iter().map(|&c| row[c].replace("**", "")).collect();
+        assert_eq!(quoted, expected, "{}, n = {}, {method}: CR, SR, witness, kills, ×log, ×prior", row[0], row[1]);
+        checked += 1;
+    }
+    checked
+}
+
+#[test]
+fn the_wide_region_and_cut_in_tables_quote_their_outputs() {
+    let wide = check_run_table(
+        "### Trust region on the freeway",
+        "- **On NGSIM n = 60 meets the kill goal",
+        Some("safer-in-path"),
+        &[
+            ("evasive, NGSIM", "20", "mutants-ngsim-evasive.txt"),
+            ("evasive, NGSIM", "60", "mutants-ngsim-evasive-n60.txt"),
+            ("evasive, NGSIM", "100", "mutants-ngsim-evasive-n100.txt"),
+            ("lane follower, NGSIM", "20", "mutants-ngsim-lane-follower.txt"),
+            ("lane follower, NGSIM", "60", "mutants-ngsim-lane-follower-n60.txt"),
+            ("lane follower, NGSIM", "100", "mutants-ngsim-lane-follower-n100.txt"),
+            ("evasive, WOMD interactive", "20", "mutants-womd-interactive-evasive.txt"),
+            ("evasive, WOMD interactive", "60", "mutants-womd-interactive-evasive-n60.txt"),
+            ("evasive, WOMD interactive", "100", "mutants-womd-interactive-evasive-n100.txt"),
+            ("lane follower, WOMD interactive", "20", "mutants-womd-interactive-lane-follower.txt"),
+            ("lane follower, WOMD interactive", "60", "mutants-womd-interactive-lane-follower-n60.txt"),
+        ],
+    );
+    assert_eq!(wide, 11, "the wide-region table's rows");
+    let cut_in = check_run_table(
+        "### Cut-ins that are made: `safer-cut-in`",
+        "- **Cut-ins.**",
+        None,
+        &[
+            ("evasive, NGSIM", "60", "cut-in/mutants-ngsim-evasive-n60.txt"),
+            ("evasive, NGSIM, `--seed 1000`", "60", "cut-in/mutants-ngsim-evasive-n60-seed1000.txt"),
+            ("lane follower, NGSIM", "60", "cut-in/mutants-ngsim-lane-follower-n60.txt"),
+            ("evasive, WOMD interactive", "20", "cut-in/mutants-womd-interactive-evasive.txt"),
+            ("evasive, WOMD interactive, `--seed 1000`", "20", "cut-in/mutants-womd-interactive-evasive-seed1000.txt"),
+            ("evasive, WOMD interactive", "60", "cut-in/mutants-womd-interactive-evasive-n60.txt"),
+            ("lane follower, WOMD interactive", "20", "cut-in/mutants-womd-interactive-lane-follower.txt"),
+        ],
+    );
+    assert_eq!(cut_in, 14, "the cut-in table's rows");
+}
