@@ -420,3 +420,54 @@ fn the_wide_region_and_cut_in_tables_quote_their_outputs() {
     );
     assert_eq!(cut_in, 14, "the cut-in table's rows");
 }
+
+#[test]
+fn the_lookahead_mutation_tables_quote_their_outputs() {
+    let doc = repo_file("docs/benchmarks.md");
+    let files = [
+        ("WOMD interactive", "in-path-lookahead/mutants-womd-interactive-evasive.txt"),
+        ("WOMD interactive, `--seed 1000`", "in-path-lookahead/mutants-womd-interactive-evasive-seed1000.txt"),
+        ("NGSIM", "in-path-lookahead/mutants-ngsim-evasive.txt"),
+        ("lane follower, WOMD interactive (2 seeds)", "in-path-lookahead/mutants-womd-interactive-lane-follower.txt"),
+    ];
+    let kills_of = |file: &str| output_table(&repo_file(&format!("docs/evaluation/{file}")), "passed");
+    let mut checked = 0;
+    for row in
+        markdown_rows(&doc, "Mutation testing (the evasive planner, the CBV closed loop, 3 seeds:", "More collisions")
+            .iter()
+            .skip(1)
+    {
+        let (_, file) = files.iter().find(|(label, _)| row[0] == *label).unwrap_or_else(|| panic!("{row:?}"));
+        let method = method_of(&row[1]).unwrap();
+        let text = repo_file(&format!("docs/evaluation/{file}"));
+        let figures = evaluation_figures(&output_table(&text, "variants"), method);
+        let kills = &kills_of(file)[method];
+        let killed = kills[1].split('/').next().unwrap();
+        // CR, SR, kills (held out), ×log, ×prior, scene kills, by CBV.
+        let expected =
+            [&figures[0], &figures[1], &format!("{killed} ({})", kills[3]), &kills[4], &kills[5], &kills[6], &kills[9]];
+        let quoted: Vec<String> = row[2..9].iter().map(|c| c.replace("**", "")).collect();
+        assert_eq!(quoted, expected.map(String::as_str), "{}, {method}", row[0]);
+        checked += 1;
+    }
+    assert_eq!(checked, 8, "the lookahead's mutation rows");
+    // The draws of seeds: each method's kills and ×prior, and the prior's kills.
+    let mut draws = 0;
+    for row in markdown_rows(&doc, "| draw | `safer-in-path` kills (×prior)", "The horizon's variants kill").iter() {
+        let file = match row[0].as_str() {
+            "0" => "in-path-lookahead/mutants-womd-interactive-evasive.txt".to_owned(),
+            "mean" | "---" => continue,
+            seed => format!("in-path-lookahead/mutants-womd-interactive-evasive-seed{seed}.txt"),
+        };
+        let kills = kills_of(&file);
+        let cell = |method: &str| {
+            let cells = &kills[method];
+            format!("{} ({})", cells[1].split('/').next().unwrap(), cells[5])
+        };
+        assert_eq!(row[1], cell("safer-in-path"), "draw {}", row[0]);
+        assert_eq!(row[2], cell("safer-in-path-lookahead"), "draw {}", row[0]);
+        assert_eq!(row[3], kills["prior"][1].split('/').next().unwrap(), "draw {}: the prior", row[0]);
+        draws += 1;
+    }
+    assert_eq!(draws, 4, "four draws of seeds");
+}
