@@ -263,7 +263,7 @@ fn the_trust_region_sweep_quotes_its_outputs() {
             assert_eq!(parts(&row[1 + i]), figures[..3], "n = {}, {method}: CR / SR / SR-crit", row[0]);
         }
         // VJ / AJ / YJ of safer, then of safer-in-path.
-        let realism: Vec<String> = row[5].split(',').flat_map(|c| parts(c)).collect();
+        let realism: Vec<String> = row[5].split(',').flat_map(parts).collect();
         let expected: Vec<String> =
             ["safer", "safer-in-path"].iter().flat_map(|m| evaluation_figures(&output, m)[4..7].to_vec()).collect();
         assert_eq!(realism, expected, "n = {}: VJ / AJ / YJ", row[0]);
