@@ -33,6 +33,19 @@ fn output_table(output: &str, header_word: &str) -> BTreeMap<String, Vec<String>
     rows
 }
 
+/// A set's main evaluation rows (`evaluate-{set}.txt`) with the
+/// plain-attention prior's (`evaluate-{set}-no-mda.txt`) beside them.
+fn main_evaluation_rows(set: &str) -> BTreeMap<String, Vec<String>> {
+    let mut rows = output_table(&repo_file(&format!("docs/evaluation/evaluate-{set}.txt")), "variants");
+    rows.extend(output_table(&repo_file(&format!("docs/evaluation/evaluate-{set}-no-mda.txt")), "variants"));
+    rows
+}
+
+/// The mutant-variants killed, from a kills cell `killed/of`.
+fn killed(kills_of: &str) -> &str {
+    kills_of.split('/').next().unwrap_or(kills_of)
+}
+
 /// The evaluation table's figures of a method: CR, SR, SR-crit, witness,
 /// VJ, AJ, YJ (an output's `—` as the docs' `–`).
 fn evaluation_figures(rows: &BTreeMap<String, Vec<String>>, method: &str) -> Vec<String> {
@@ -69,8 +82,7 @@ fn parts(cell: &str) -> Vec<String> {
 #[test]
 fn the_main_evaluation_table_quotes_the_womd_interactive_outputs() {
     let doc = repo_file("docs/benchmarks.md");
-    let mut output = output_table(&repo_file("docs/evaluation/evaluate-womd-interactive.txt"), "variants");
-    output.extend(output_table(&repo_file("docs/evaluation/evaluate-womd-interactive-no-mda.txt"), "variants"));
+    let output = main_evaluation_rows("womd-interactive");
     let rows = markdown_rows(&doc, "## Dual-stage evaluation", "**Trust region**");
     let mut checked = 0;
     for row in rows.iter().filter(|r| r[0].starts_with('`')) {
@@ -87,13 +99,7 @@ fn the_main_evaluation_table_quotes_the_womd_interactive_outputs() {
 #[test]
 fn the_womd_json_and_ngsim_tables_quote_their_outputs() {
     let doc = repo_file("docs/benchmarks.md");
-    // Each set's main output, with the plain-attention prior's beside it.
-    let output = |set: &str| {
-        let mut rows = output_table(&repo_file(&format!("docs/evaluation/evaluate-{set}.txt")), "variants");
-        rows.extend(output_table(&repo_file(&format!("docs/evaluation/evaluate-{set}-no-mda.txt")), "variants"));
-        rows
-    };
-    let outputs = [("WOMD JSON", output("womd-json")), ("NGSIM", output("ngsim"))];
+    let outputs = [("WOMD JSON", main_evaluation_rows("womd-json")), ("NGSIM", main_evaluation_rows("ngsim"))];
     let mut checked = 0;
     let mut set = "";
     for row in markdown_rows(&doc, "**WOMD JSON and NGSIM**", "CR(`safer`) ≥ 2 × CR(`prior`)") {
@@ -160,7 +166,7 @@ fn check_mutation_table(from: &str, to: &str, outputs: &[(&str, &[&str])]) -> us
         let kills_of = if quoted[3].contains('/') && quoted[3].find('/') < quoted[3].find('(') {
             kill_cells[1].clone()
         } else {
-            kill_cells[1].split('/').next().unwrap().to_owned()
+            killed(&kill_cells[1]).to_owned()
         };
         let kills_quoted = format!("{kills_of} ({})", kill_cells[3]);
         let expected = [&figures[0], &figures[1], &kill_cells[0], &kills_quoted, &kill_cells[4], &kill_cells[5]]
@@ -314,8 +320,7 @@ fn the_reactive_background_table_quotes_its_outputs() {
     let doc = repo_file("docs/benchmarks.md");
     let rows = markdown_rows(&doc, "**Reactive background**", "With the reactive background");
     let outputs = |set: &str| {
-        let mut replay = output_table(&repo_file(&format!("docs/evaluation/evaluate-{set}.txt")), "variants");
-        replay.extend(output_table(&repo_file(&format!("docs/evaluation/evaluate-{set}-no-mda.txt")), "variants"));
+        let replay = main_evaluation_rows(set);
         let reactive = output_table(&repo_file(&format!("docs/evaluation/evaluate-{set}-reactive.txt")), "variants");
         (replay, reactive)
     };
@@ -367,12 +372,11 @@ fn check_run_table(from: &str, to: &str, method: Option<&str>, outputs: &[(&str,
         let figures = evaluation_figures(&output_table(&text, "variants"), method);
         let kills = output_table(&text, "passed");
         let kill_cells = kills.get(method).unwrap_or_else(|| panic!("{file}: no {method}"));
-        let killed = kill_cells[1].split('/').next().unwrap();
         let expected = [
             figures[0].clone(),
             figures[1].clone(),
             figures[3].clone(),
-            format!("{killed} ({})", kill_cells[3]),
+            format!("{} ({})", killed(&kill_cells[1]), kill_cells[3]),
             kill_cells[4].clone(),
             kill_cells[5].clone(),
         ];
@@ -442,10 +446,16 @@ fn the_lookahead_mutation_tables_quote_their_outputs() {
         let text = repo_file(&format!("docs/evaluation/{file}"));
         let figures = evaluation_figures(&output_table(&text, "variants"), method);
         let kills = &kills_of(file)[method];
-        let killed = kills[1].split('/').next().unwrap();
         // CR, SR, kills (held out), ×log, ×prior, scene kills, by CBV.
-        let expected =
-            [&figures[0], &figures[1], &format!("{killed} ({})", kills[3]), &kills[4], &kills[5], &kills[6], &kills[9]];
+        let expected = [
+            &figures[0],
+            &figures[1],
+            &format!("{} ({})", killed(&kills[1]), kills[3]),
+            &kills[4],
+            &kills[5],
+            &kills[6],
+            &kills[9],
+        ];
         let quoted: Vec<String> = row[2..9].iter().map(|c| c.replace("**", "")).collect();
         assert_eq!(quoted, expected.map(String::as_str), "{}, {method}", row[0]);
         checked += 1;
@@ -462,11 +472,11 @@ fn the_lookahead_mutation_tables_quote_their_outputs() {
         let kills = kills_of(&file);
         let cell = |method: &str| {
             let cells = &kills[method];
-            format!("{} ({})", cells[1].split('/').next().unwrap(), cells[5])
+            format!("{} ({})", killed(&cells[1]), cells[5])
         };
         assert_eq!(row[1], cell("safer-in-path"), "draw {}", row[0]);
         assert_eq!(row[2], cell("safer-in-path-lookahead"), "draw {}", row[0]);
-        assert_eq!(row[3], kills["prior"][1].split('/').next().unwrap(), "draw {}: the prior", row[0]);
+        assert_eq!(row[3], killed(&kills["prior"][1]), "draw {}: the prior", row[0]);
         draws += 1;
     }
     assert_eq!(draws, 4, "four draws of seeds");
