@@ -49,6 +49,15 @@
 #                     with --seed 1000, 2000 and 3000 (mutants-womd-interactive-evasive-seedN.txt),
 #                     and the lane follower's on WOMD interactive
 #                     (mutants-womd-interactive-lane-follower.txt) (about an hour)
+#   in-path-lookahead-n30
+#                     in-path-lookahead/n30/: the same tables as in-path-lookahead over a
+#                     trust region of 30 (--trust-region 30), where the lookahead's CR
+#                     passes 0.7 on WOMD interactive, and the lane follower's on NGSIM
+#                     too (mutants-ngsim-lane-follower.txt) (about 80 minutes)
+#   in-path-lookahead-sweep
+#                     in-path-lookahead/sweep-n{40,60,100}.txt: safer-in-path-lookahead
+#                     alone on WOMD interactive (10 seeds) over 40, 60 and 100 behaviours,
+#                     beside n = 20 and 30 above (about 12 minutes)
 #   ten-seeds         ten-seeds/: the evasive planner's mutation tables over 10 seeds a
 #                     scene, as the paper's protocol draws them: WOMD interactive (n = 20;
 #                     log replay, the prior, safer, safer-in-path, safer-in-path-lookahead)
@@ -73,7 +82,7 @@ set -euo pipefail
 self=$(realpath "$0")
 cd "$(dirname "$self")"
 all=(evaluate plain inattentive held-out-chance trust-region realism prior-fit n-sweep reactive n100 approach-none merging mutants wide-region cut-in
-    in-path-lookahead ten-seeds)
+    in-path-lookahead in-path-lookahead-n30 in-path-lookahead-sweep ten-seeds)
 jobs=("$@")
 [[ ${#jobs[@]} -gt 0 ]] || jobs=("${all[@]}")
 # The usage is the comment block at the top of this file.
@@ -266,6 +275,28 @@ for job in "${jobs[@]}"; do
         done
         run in-path-lookahead/mutants-womd-interactive-lane-follower.txt evaluate --scenes data:womd-interactive \
             --seeds 2 "${mutating[@]}" --planner ../../planners/lane-follower.yaml ;;
+    in-path-lookahead-n30)
+        mkdir -p in-path-lookahead/n30
+        mutating=(--stage2-cbv closed-loop --mutants --methods log,prior,safer-in-path,safer-in-path-lookahead
+            --trust-region 30)
+        for seed in 0 1000 2000 3000; do
+            run "in-path-lookahead/n30/mutants-womd-interactive-evasive-seed$seed.txt" evaluate --scenes data:womd-interactive \
+                --seeds 3 --seed "$seed" "${mutating[@]}"
+        done
+        for s in "${sets[@]}"; do
+            run "in-path-lookahead/n30/evaluate-${s#*:}.txt" evaluate --scenes "data:${s%%:*}" --seeds 10 \
+                --methods prior,safer-in-path,safer-in-path-lookahead --trust-region 30
+        done
+        run in-path-lookahead/n30/mutants-womd-interactive-lane-follower.txt evaluate --scenes data:womd-interactive \
+            --seeds 2 "${mutating[@]}" --planner ../../planners/lane-follower.yaml
+        run in-path-lookahead/n30/mutants-ngsim-evasive.txt evaluate --scenes data:commonroad-ngsim --seeds 3 "${mutating[@]}"
+        run in-path-lookahead/n30/mutants-ngsim-lane-follower.txt evaluate --scenes data:commonroad-ngsim \
+            --seeds 2 "${mutating[@]}" --planner ../../planners/lane-follower.yaml ;;
+    in-path-lookahead-sweep)
+        for n in 40 60 100; do
+            run "in-path-lookahead/sweep-n$n.txt" evaluate --scenes data:womd-interactive --seeds 10 \
+                --methods safer-in-path-lookahead --trust-region "$n"
+        done ;;
     esac
 done
 rm -r "$(dirname "$safer")"

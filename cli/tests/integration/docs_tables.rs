@@ -481,3 +481,99 @@ fn the_lookahead_mutation_tables_quote_their_outputs() {
     }
     assert_eq!(draws, 4, "four draws of seeds");
 }
+
+/// A method's held-out CR in an evaluation output: the first figure of
+/// its row in the table after the line starting `held out`.
+fn held_out_cr(output: &str, method: &str) -> String {
+    let from = output.find("\nheld out").unwrap_or_else(|| panic!("no held-out table in the output"));
+    output[from..]
+        .lines()
+        .map(|l| l.split_whitespace().collect::<Vec<_>>())
+        .find(|cells| cells.first() == Some(&method))
+        .and_then(|cells| cells.get(1).map(|c| (*c).to_owned()))
+        .unwrap_or_else(|| panic!("no held-out row for {method}"))
+}
+
+#[test]
+fn the_lookahead_tables_over_thirty_behaviours_quote_their_outputs() {
+    let doc = repo_file("docs/benchmarks.md");
+    let evaluate = |file: &str| {
+        let text = repo_file(&format!("docs/evaluation/{file}"));
+        (output_table(&text, "variants"), text)
+    };
+    // The sweep of the region: CR, SR, SR-crit, witness, VJ / AJ.
+    let mut sweep = 0;
+    for row in markdown_rows(&doc, "| n | CR | SR | SR-crit | witness | VJ / AJ |", "No region meets both goals") {
+        let file = match row[0].as_str() {
+            "---" => continue,
+            "20" => "in-path-lookahead/evaluate-womd-interactive.txt".to_owned(),
+            "30" => "in-path-lookahead/n30/evaluate-womd-interactive.txt".to_owned(),
+            n => format!("in-path-lookahead/sweep-n{n}.txt"),
+        };
+        let figures = evaluation_figures(&evaluate(&file).0, "safer-in-path-lookahead");
+        let mut quoted = row[1..5].to_vec();
+        quoted.extend(parts(&row[5]));
+        assert_eq!(quoted, [&figures[..4], &figures[4..6]].concat(), "n = {}", row[0]);
+        sweep += 1;
+    }
+    assert_eq!(sweep, 5, "the sweep's regions");
+    // The paper's protocol: CR, CR held out, SR, SR-crit, witness, VJ / AJ.
+    let mut protocol = 0;
+    for row in markdown_rows(&doc, "--trust-region 30`):", "Mutation testing over 30 behaviours") {
+        let set = match row[0].as_str() {
+            "WOMD interactive" => "womd-interactive",
+            "WOMD JSON" => "womd-json",
+            "NGSIM" => "ngsim",
+            _ => continue,
+        };
+        let method = method_of(&row[1]).unwrap();
+        let (rows, text) = evaluate(&format!("in-path-lookahead/n30/evaluate-{set}.txt"));
+        let figures = evaluation_figures(&rows, method);
+        let mut quoted = vec![row[2].clone(), row[4].clone(), row[5].clone(), row[6].clone()];
+        quoted.extend(parts(&row[7]));
+        assert_eq!(quoted, [&figures[..4], &figures[4..6]].concat(), "{set}, {method}");
+        assert_eq!(row[3], held_out_cr(&text, method), "{set}, {method}: CR held out");
+        protocol += 1;
+    }
+    assert_eq!(protocol, 6, "the protocol's rows");
+    let mutation = check_mutation_table(
+        "Mutation testing over 30 behaviours",
+        "On WOMD interactive over the same four draws",
+        &[
+            ("WOMD interactive", &["in-path-lookahead/n30/mutants-womd-interactive-evasive-seed0.txt"]),
+            ("NGSIM", &["in-path-lookahead/n30/mutants-ngsim-evasive.txt"]),
+            (
+                "lane follower, WOMD interactive (2 seeds)",
+                &["in-path-lookahead/n30/mutants-womd-interactive-lane-follower.txt"],
+            ),
+            ("lane follower, NGSIM (2 seeds)", &["in-path-lookahead/n30/mutants-ngsim-lane-follower.txt"]),
+        ],
+    );
+    assert_eq!(mutation, 8, "the mutation rows over 30 behaviours");
+    // The draws: kills (×prior) over 20 and over 30, and the prior's kills.
+    let kills_of = |file: &str| output_table(&repo_file(&format!("docs/evaluation/{file}")), "passed");
+    let mut draws = 0;
+    for row in markdown_rows(&doc, "| draw | `safer-in-path`, n = 20 |", "Over four draws").iter() {
+        let over_20 = match row[0].as_str() {
+            "0" => "in-path-lookahead/mutants-womd-interactive-evasive.txt".to_owned(),
+            "mean" | "---" => continue,
+            seed => format!("in-path-lookahead/mutants-womd-interactive-evasive-seed{seed}.txt"),
+        };
+        let (over_20, over_30) = (
+            kills_of(&over_20),
+            kills_of(&format!("in-path-lookahead/n30/mutants-womd-interactive-evasive-seed{}.txt", row[0])),
+        );
+        let cell = |kills: &BTreeMap<String, Vec<String>>, method: &str| {
+            let cells = &kills[method];
+            format!("{} ({})", killed(&cells[1]), cells[5])
+        };
+        assert_eq!(row[1], cell(&over_20, "safer-in-path"), "draw {}", row[0]);
+        assert_eq!(row[2], cell(&over_30, "safer-in-path"), "draw {}", row[0]);
+        assert_eq!(row[3], cell(&over_30, "safer-in-path-lookahead"), "draw {}", row[0]);
+        // The prior's variants do not depend on the region.
+        assert_eq!(over_20["prior"][1], over_30["prior"][1], "draw {}: the prior", row[0]);
+        assert_eq!(row[4], killed(&over_30["prior"][1]), "draw {}: the prior", row[0]);
+        draws += 1;
+    }
+    assert_eq!(draws, 4, "four draws of seeds");
+}
