@@ -494,14 +494,16 @@ fn held_out_cr(output: &str, method: &str) -> String {
         .unwrap_or_else(|| panic!("no held-out row for {method}"))
 }
 
+/// An evaluation output's main table, and its text.
+fn evaluation_output(file: &str) -> (BTreeMap<String, Vec<String>>, String) {
+    let text = repo_file(&format!("docs/evaluation/{file}"));
+    (output_table(&text, "variants"), text)
+}
+
 #[test]
-fn the_lookahead_tables_over_thirty_behaviours_quote_their_outputs() {
+fn the_lookahead_region_sweep_quotes_its_outputs() {
     let doc = repo_file("docs/benchmarks.md");
-    let evaluate = |file: &str| {
-        let text = repo_file(&format!("docs/evaluation/{file}"));
-        (output_table(&text, "variants"), text)
-    };
-    // The sweep of the region: CR, SR, SR-crit, witness, VJ / AJ.
+    // CR, SR, SR-crit, witness, VJ / AJ of each region.
     let mut sweep = 0;
     for row in markdown_rows(&doc, "| n | CR | SR | SR-crit | witness | VJ / AJ |", "No region meets both goals") {
         let file = match row[0].as_str() {
@@ -510,14 +512,19 @@ fn the_lookahead_tables_over_thirty_behaviours_quote_their_outputs() {
             "30" => "in-path-lookahead/n30/evaluate-womd-interactive.txt".to_owned(),
             n => format!("in-path-lookahead/sweep-n{n}.txt"),
         };
-        let figures = evaluation_figures(&evaluate(&file).0, "safer-in-path-lookahead");
+        let figures = evaluation_figures(&evaluation_output(&file).0, "safer-in-path-lookahead");
         let mut quoted = row[1..5].to_vec();
         quoted.extend(parts(&row[5]));
         assert_eq!(quoted, [&figures[..4], &figures[4..6]].concat(), "n = {}", row[0]);
         sweep += 1;
     }
     assert_eq!(sweep, 5, "the sweep's regions");
-    // The paper's protocol: CR, CR held out, SR, SR-crit, witness, VJ / AJ.
+}
+
+#[test]
+fn the_lookahead_protocol_table_over_thirty_behaviours_quotes_its_outputs() {
+    let doc = repo_file("docs/benchmarks.md");
+    // CR, CR held out, SR, SR-crit, witness, VJ / AJ.
     let mut protocol = 0;
     for row in markdown_rows(&doc, "--trust-region 30`):", "Mutation testing over 30 behaviours") {
         let set = match row[0].as_str() {
@@ -527,7 +534,7 @@ fn the_lookahead_tables_over_thirty_behaviours_quote_their_outputs() {
             _ => continue,
         };
         let method = method_of(&row[1]).unwrap();
-        let (rows, text) = evaluate(&format!("in-path-lookahead/n30/evaluate-{set}.txt"));
+        let (rows, text) = evaluation_output(&format!("in-path-lookahead/n30/evaluate-{set}.txt"));
         let figures = evaluation_figures(&rows, method);
         let mut quoted = vec![row[2].clone(), row[4].clone(), row[5].clone(), row[6].clone()];
         quoted.extend(parts(&row[7]));
@@ -536,6 +543,10 @@ fn the_lookahead_tables_over_thirty_behaviours_quote_their_outputs() {
         protocol += 1;
     }
     assert_eq!(protocol, 6, "the protocol's rows");
+}
+
+#[test]
+fn the_lookahead_mutation_tables_over_thirty_behaviours_quote_their_outputs() {
     let mutation = check_mutation_table(
         "Mutation testing over 30 behaviours",
         "On WOMD interactive over the same four draws",
@@ -550,7 +561,8 @@ fn the_lookahead_tables_over_thirty_behaviours_quote_their_outputs() {
         ],
     );
     assert_eq!(mutation, 8, "the mutation rows over 30 behaviours");
-    // The draws: kills (×prior) over 20 and over 30, and the prior's kills.
+    // The draws of seeds: kills (×prior) over 20 and over 30, and the prior's kills.
+    let doc = repo_file("docs/benchmarks.md");
     let kills_of = |file: &str| output_table(&repo_file(&format!("docs/evaluation/{file}")), "passed");
     let mut draws = 0;
     for row in markdown_rows(&doc, "| draw | `safer-in-path`, n = 20 |", "Over four draws").iter() {
