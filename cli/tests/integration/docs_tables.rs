@@ -425,6 +425,23 @@ fn the_wide_region_and_cut_in_tables_quote_their_outputs() {
     assert_eq!(cut_in, 14, "the cut-in table's rows");
 }
 
+/// The WOMD interactive mutation table over 20 behaviours of the draw of
+/// seeds a draws table's first cell names (`None` for its other rows).
+fn draw_over_20(draw: &str) -> Option<String> {
+    match draw {
+        "0" => Some("in-path-lookahead/mutants-womd-interactive-evasive.txt".to_owned()),
+        "mean" | "---" => None,
+        seed => Some(format!("in-path-lookahead/mutants-womd-interactive-evasive-seed{seed}.txt")),
+    }
+}
+
+/// A method's kills and their ratio to the prior's, `kills (×prior)`, from
+/// a mutation output's kills table.
+fn kills_and_ratio(kills: &BTreeMap<String, Vec<String>>, method: &str) -> String {
+    let cells = &kills[method];
+    format!("{} ({})", killed(&cells[1]), cells[5])
+}
+
 #[test]
 fn the_lookahead_mutation_tables_quote_their_outputs() {
     let doc = repo_file("docs/benchmarks.md");
@@ -464,18 +481,10 @@ fn the_lookahead_mutation_tables_quote_their_outputs() {
     // The draws of seeds: each method's kills and ×prior, and the prior's kills.
     let mut draws = 0;
     for row in markdown_rows(&doc, "| draw | `safer-in-path` kills (×prior)", "The horizon's variants kill").iter() {
-        let file = match row[0].as_str() {
-            "0" => "in-path-lookahead/mutants-womd-interactive-evasive.txt".to_owned(),
-            "mean" | "---" => continue,
-            seed => format!("in-path-lookahead/mutants-womd-interactive-evasive-seed{seed}.txt"),
-        };
+        let Some(file) = draw_over_20(&row[0]) else { continue };
         let kills = kills_of(&file);
-        let cell = |method: &str| {
-            let cells = &kills[method];
-            format!("{} ({})", killed(&cells[1]), cells[5])
-        };
-        assert_eq!(row[1], cell("safer-in-path"), "draw {}", row[0]);
-        assert_eq!(row[2], cell("safer-in-path-lookahead"), "draw {}", row[0]);
+        assert_eq!(row[1], kills_and_ratio(&kills, "safer-in-path"), "draw {}", row[0]);
+        assert_eq!(row[2], kills_and_ratio(&kills, "safer-in-path-lookahead"), "draw {}", row[0]);
         assert_eq!(row[3], killed(&kills["prior"][1]), "draw {}: the prior", row[0]);
         draws += 1;
     }
@@ -566,22 +575,14 @@ fn the_lookahead_mutation_tables_over_thirty_behaviours_quote_their_outputs() {
     let kills_of = |file: &str| output_table(&repo_file(&format!("docs/evaluation/{file}")), "passed");
     let mut draws = 0;
     for row in markdown_rows(&doc, "| draw | `safer-in-path`, n = 20 |", "Over four draws").iter() {
-        let over_20 = match row[0].as_str() {
-            "0" => "in-path-lookahead/mutants-womd-interactive-evasive.txt".to_owned(),
-            "mean" | "---" => continue,
-            seed => format!("in-path-lookahead/mutants-womd-interactive-evasive-seed{seed}.txt"),
-        };
+        let Some(over_20) = draw_over_20(&row[0]) else { continue };
         let (over_20, over_30) = (
             kills_of(&over_20),
             kills_of(&format!("in-path-lookahead/n30/mutants-womd-interactive-evasive-seed{}.txt", row[0])),
         );
-        let cell = |kills: &BTreeMap<String, Vec<String>>, method: &str| {
-            let cells = &kills[method];
-            format!("{} ({})", killed(&cells[1]), cells[5])
-        };
-        assert_eq!(row[1], cell(&over_20, "safer-in-path"), "draw {}", row[0]);
-        assert_eq!(row[2], cell(&over_30, "safer-in-path"), "draw {}", row[0]);
-        assert_eq!(row[3], cell(&over_30, "safer-in-path-lookahead"), "draw {}", row[0]);
+        assert_eq!(row[1], kills_and_ratio(&over_20, "safer-in-path"), "draw {}", row[0]);
+        assert_eq!(row[2], kills_and_ratio(&over_30, "safer-in-path"), "draw {}", row[0]);
+        assert_eq!(row[3], kills_and_ratio(&over_30, "safer-in-path-lookahead"), "draw {}", row[0]);
         // The prior's variants do not depend on the region.
         assert_eq!(over_20["prior"][1], over_30["prior"][1], "draw {}: the prior", row[0]);
         assert_eq!(row[4], killed(&over_30["prior"][1]), "draw {}: the prior", row[0]);
