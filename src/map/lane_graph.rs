@@ -42,6 +42,8 @@ pub struct LaneGraph {
     successors: Vec<Vec<usize>>,
     source: Vec<Option<SuccessorSource>>,
     predecessors: Vec<Vec<usize>>,
+    /// The lanes without successors, ascending.
+    dead_ends: Vec<usize>,
 }
 
 /// How the ways ahead along the lane graph turn from one point of a lane.
@@ -89,7 +91,20 @@ impl LaneGraph {
                 }
             }
         }
-        Self { successors, source, predecessors }
+        let dead_ends = (0..successors.len()).filter(|&i| successors[i].is_empty()).collect();
+        Self { successors, source, predecessors, dead_ends }
+    }
+
+    /// How many lanes the graph was built over (the map's lanes then).
+    pub fn lane_count(&self) -> usize {
+        self.successors.len()
+    }
+
+    /// The lanes without [`successors`](Self::successors) (indices into
+    /// [`RoadMap::lanes`], ascending): where the road ends, or the map's
+    /// record of it does.
+    pub fn dead_ends(&self) -> &[usize] {
+        &self.dead_ends
     }
 
     /// Predecessors of lane `lane` (indices into [`RoadMap::lanes`]): the

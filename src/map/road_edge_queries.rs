@@ -196,33 +196,61 @@ impl RoadMap {
             }
         };
         let search_m = SEARCH_M + past_edge_end_m.min(FARTHEST_PAST_END_M);
-        self.lane_segments.candidates(p, search_m).into_keys().any(|lane_index| {
-            let lane = &self.lanes[lane_index];
-            let points = lane.centreline.points();
-            if !self.lane_graph().successors(lane_index).is_empty() || points.len() < 2 {
-                return false;
-            }
-            let (a, b) = (points[points.len() - 2], points[points.len() - 1]);
-            let along = (b - a).normalize();
-            let from_end = p - b;
-            let ahead = from_end.dot(&along);
-            let sideways = (from_end.x * along.y - from_end.y * along.x).abs();
-            if ahead.is_nan() || ahead <= 0.0 {
-                return false;
-            }
-            // Ahead of the end, within a lane's reach sideways of its line.
-            if edge_ends_here && sideways <= SEARCH_M {
-                return true;
-            }
-            let half_width_m = match (&lane.left_boundary, &lane.right_boundary) {
-                (Some(l), Some(r)) => match (l.points().last(), r.points().last()) {
-                    (Some(l), Some(r)) => 0.5 * (l - r).norm(),
+        // Only a lane without successors can end the map, and `p` must lie
+        // ahead of its end and beside its line: those few lanes are found
+        // first, from the graph's list of dead ends, and the lane index is
+        // asked only whether it offers one of them within the search
+        // radius (the answer is the same as asking it for all its lanes
+        // there and testing each, without collecting them: the test is
+        // the costly part of an off-road check, which the adversary's
+        // search makes for every candidate state off the road).
+        let graph = self.lane_graph();
+        let unlisted = graph.lane_count()..self.lanes.len();
+        // (lane, where it ends, whether `p` is past the map there without
+        // the road-edge crossing test)
+        let ends: Vec<(usize, Point2, bool)> = graph
+            .dead_ends()
+            .iter()
+            .copied()
+            .chain(unlisted)
+            .filter_map(|lane_index| {
+                let lane = self.lanes.get(lane_index)?;
+                let points = lane.centreline.points();
+                if points.len() < 2 {
+                    return None;
+                }
+                let (a, b) = (points[points.len() - 2], points[points.len() - 1]);
+                let along = (b - a).normalize();
+                let from_end = p - b;
+                let ahead = from_end.dot(&along);
+                let sideways = (from_end.x * along.y - from_end.y * along.x).abs();
+                if ahead.is_nan() || ahead <= 0.0 {
+                    return None;
+                }
+                // Ahead of the end, within a lane's reach sideways of its line.
+                if edge_ends_here && sideways <= SEARCH_M {
+                    return Some((lane_index, b, true));
+                }
+                let half_width_m = match (&lane.left_boundary, &lane.right_boundary) {
+                    (Some(l), Some(r)) => match (l.points().last(), r.points().last()) {
+                        (Some(l), Some(r)) => 0.5 * (l - r).norm(),
+                        _ => HALF_LANE_M,
+                    },
                     _ => HALF_LANE_M,
-                },
-                _ => HALF_LANE_M,
-            };
-            sideways <= half_width_m + CORRIDOR_MARGIN_M && !self.road_edge_crosses(&b, p)
-        })
+                };
+                (sideways <= half_width_m + CORRIDOR_MARGIN_M).then_some((lane_index, b, false))
+            })
+            .collect();
+        if ends.is_empty() {
+            return false;
+        }
+        let mut offered = vec![false; ends.len()];
+        self.lane_segments.for_each_candidate(p, search_m, |(lane_index, _)| {
+            if let Some(k) = ends.iter().position(|e| e.0 == lane_index as usize) {
+                offered[k] = true;
+            }
+        });
+        ends.iter().zip(offered).any(|(&(_, end, past), offered)| offered && (past || !self.road_edge_crosses(&end, p)))
     }
 
     /// Whether a road edge crosses the segment from `a` to `b`.
@@ -459,6 +487,89 @@ mod tests {
         assert!(cut.is_off_road_within_map(&Point2::new(50.0, 3.0)));
         assert!(dead_end.is_off_road_within_map(&Point2::new(104.0, 1.0)));
         assert!(!cut.is_off_road_within_map(&Point2::new(50.0, 1.0)), "on the road");
+    }
+
+    /// [`RoadMap::is_past_mapped_end`] as it reads: every lane the lane
+    /// index offers within the search radius, tested in turn.
+    fn past_mapped_end_lane_by_lane(map: &RoadMap, p: &Point2) -> bool {
+        let (edge_ends_here, past_edge_end_m) = match map.nearest_road_edge(p) {
+            None => (true, 0.0),
+            Some((edge, proj)) => {
+                let length = map.road_edges[edge].polyline.length_m();
+                (proj.arc_length_m <= 1e-6 || proj.arc_length_m >= length - 1e-6, proj.distance_m)
+            }
+        };
+        let search_m = 10.0 + past_edge_end_m.min(100.0);
+        map.lane_segments.candidates(p, search_m).into_keys().any(|lane_index| {
+            let lane = &map.lanes[lane_index];
+            let points = lane.centreline.points();
+            if !map.lane_graph().successors(lane_index).is_empty() || points.len() < 2 {
+                return false;
+            }
+            let (a, b) = (points[points.len() - 2], points[points.len() - 1]);
+            let along = (b - a).normalize();
+            let from_end = p - b;
+            let ahead = from_end.dot(&along);
+            let sideways = (from_end.x * along.y - from_end.y * along.x).abs();
+            if ahead.is_nan() || ahead <= 0.0 {
+                return false;
+            }
+            if edge_ends_here && sideways <= 10.0 {
+                return true;
+            }
+            let half_width_m = match (&lane.left_boundary, &lane.right_boundary) {
+                (Some(l), Some(r)) => match (l.points().last(), r.points().last()) {
+                    (Some(l), Some(r)) => 0.5 * (l - r).norm(),
+                    _ => 1.85,
+                },
+                _ => 1.85,
+            };
+            sideways <= half_width_m + 0.5 && !map.road_edge_crosses(&b, p)
+        })
+    }
+
+    #[test]
+    fn asking_the_lane_index_only_for_dead_ends_answers_as_testing_every_lane() {
+        // The merge (its acceleration lane ends inside the map, its lanes
+        // at the map's ends), the crossing (every arm cut off), a lane cut
+        // with its edges, and the merge with a lane added after its graph
+        // was built (a dead end the graph does not list).
+        use crate::map::templates::Merge;
+        let merge = Merge {
+            lanes: 2,
+            lane_width_m: 3.5,
+            length_m: 200.0,
+            merge_end_m: 120.0,
+            acceleration_lane_m: 60.0,
+            speed_limit_mps: None,
+        }
+        .build();
+        let edge =
+            |id, pts: &[(f64, f64)]| RoadEdge { id: MapElementId(id), polyline: pl(pts), kind: RoadEdgeKind::Boundary };
+        let cut = RoadMap::new(
+            vec![Lane::new(MapElementId(1), pl(&[(0.0, 0.0), (100.0, 0.0)]))],
+            vec![edge(2, &[(0.0, -2.0), (100.0, -2.0)]), edge(3, &[(100.0, 2.0), (0.0, 2.0)])],
+            vec![],
+            vec![],
+            vec![],
+            vec![],
+            vec![],
+        );
+        let mut grown = merge.clone();
+        let _ = grown.lane_graph();
+        grown.lanes.push(Lane::new(MapElementId(999), pl(&[(-40.0, -20.0), (0.0, -20.0)])));
+        let (mut past, mut not) = (0, 0);
+        for map in [&merge, &crossing(), &cut, &grown] {
+            for i in 0..120 {
+                for j in 0..60 {
+                    let p = Point2::new(-70.0 + i as f64 * 2.9, -55.0 + j as f64 * 1.9);
+                    let expected = past_mapped_end_lane_by_lane(map, &p);
+                    assert_eq!(map.is_past_mapped_end(&p), expected, "{p:?}");
+                    if expected { past += 1 } else { not += 1 }
+                }
+            }
+        }
+        assert!(past > 200 && not > 200, "{past} {not}");
     }
 
     #[test]
