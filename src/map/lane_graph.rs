@@ -12,7 +12,7 @@
 
 use std::collections::HashMap;
 
-use crate::geometry::wrap_angle;
+use crate::geometry::{Point2, Vector2, wrap_angle};
 
 use super::{Lane, RoadMap};
 
@@ -42,8 +42,30 @@ pub struct LaneGraph {
     successors: Vec<Vec<usize>>,
     source: Vec<Option<SuccessorSource>>,
     predecessors: Vec<Vec<usize>>,
-    /// The lanes without successors, ascending.
-    dead_ends: Vec<usize>,
+    /// The lanes without successors (of two points or more), ascending.
+    dead_ends: Vec<DeadEnd>,
+}
+
+/// Where a lane without successors ends: its last point and the direction
+/// of its last segment.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DeadEnd {
+    /// The lane (an index into [`RoadMap::lanes`]).
+    pub lane: usize,
+    /// Its centreline's last point.
+    pub end: Point2,
+    /// The unit direction of its last segment.
+    pub along: Vector2,
+}
+
+impl DeadEnd {
+    /// Where `lane` (its index `lane_index`) ends; `None` under two points.
+    pub fn of(lane_index: usize, lane: &Lane) -> Option<Self> {
+        match lane.centreline.points() {
+            [.., a, b] => Some(Self { lane: lane_index, end: *b, along: (b - a).normalize() }),
+            _ => None,
+        }
+    }
 }
 
 /// How the ways ahead along the lane graph turn from one point of a lane.
@@ -91,7 +113,10 @@ impl LaneGraph {
                 }
             }
         }
-        let dead_ends = (0..successors.len()).filter(|&i| successors[i].is_empty()).collect();
+        let dead_ends = (0..successors.len())
+            .filter(|&i| successors[i].is_empty())
+            .filter_map(|i| DeadEnd::of(i, &map.lanes[i]))
+            .collect();
         Self { successors, source, predecessors, dead_ends }
     }
 
@@ -100,10 +125,10 @@ impl LaneGraph {
         self.successors.len()
     }
 
-    /// The lanes without [`successors`](Self::successors) (indices into
-    /// [`RoadMap::lanes`], ascending): where the road ends, or the map's
-    /// record of it does.
-    pub fn dead_ends(&self) -> &[usize] {
+    /// Where the lanes without [`successors`](Self::successors) end (those
+    /// of two points or more, ascending by lane): where the road ends, or
+    /// the map's record of it does.
+    pub fn dead_ends(&self) -> &[DeadEnd] {
         &self.dead_ends
     }
 

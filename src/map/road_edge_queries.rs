@@ -3,6 +3,7 @@
 //! it, or off the road inside the mapped area.
 
 use super::RoadMap;
+use super::lane_graph::DeadEnd;
 use crate::geometry::{Point2, Polygon, PolylineProjection};
 
 /// How close to a drivable area a point outside every one of them still
@@ -205,7 +206,7 @@ impl RoadMap {
         // the costly part of an off-road check, which the adversary's
         // search makes for every candidate state off the road).
         let graph = self.lane_graph();
-        let unlisted = graph.lane_count()..self.lanes.len();
+        let unlisted = (graph.lane_count()..self.lanes.len()).filter_map(|i| DeadEnd::of(i, &self.lanes[i]));
         // (lane, where it ends, whether `p` is past the map there without
         // the road-edge crossing test)
         let ends: Vec<(usize, Point2, bool)> = graph
@@ -213,24 +214,18 @@ impl RoadMap {
             .iter()
             .copied()
             .chain(unlisted)
-            .filter_map(|lane_index| {
-                let lane = self.lanes.get(lane_index)?;
-                let points = lane.centreline.points();
-                if points.len() < 2 {
-                    return None;
-                }
-                let (a, b) = (points[points.len() - 2], points[points.len() - 1]);
-                let along = (b - a).normalize();
+            .filter_map(|DeadEnd { lane: lane_index, end: b, along }| {
                 let from_end = p - b;
                 let ahead = from_end.dot(&along);
-                let sideways = (from_end.x * along.y - from_end.y * along.x).abs();
                 if ahead.is_nan() || ahead <= 0.0 {
                     return None;
                 }
+                let sideways = (from_end.x * along.y - from_end.y * along.x).abs();
                 // Ahead of the end, within a lane's reach sideways of its line.
                 if edge_ends_here && sideways <= SEARCH_M {
                     return Some((lane_index, b, true));
                 }
+                let lane = self.lanes.get(lane_index)?;
                 let half_width_m = match (&lane.left_boundary, &lane.right_boundary) {
                     (Some(l), Some(r)) => match (l.points().last(), r.points().last()) {
                         (Some(l), Some(r)) => 0.5 * (l - r).norm(),
