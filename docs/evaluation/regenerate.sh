@@ -55,9 +55,9 @@
 #                     passes 0.7 on WOMD interactive, and the lane follower's on NGSIM
 #                     too (mutants-ngsim-lane-follower.txt) (about 80 minutes)
 #   in-path-lookahead-sweep
-#                     in-path-lookahead/sweep-n{40,60,100}.txt: safer-in-path-lookahead
-#                     alone on WOMD interactive (10 seeds) over 40, 60 and 100 behaviours,
-#                     beside n = 20 and 30 above (about 12 minutes)
+#                     in-path-lookahead/sweep-n{25,27,28,40,60,100}.txt: safer-in-path-lookahead
+#                     alone on WOMD interactive (10 seeds) over 25, 27, 28, 40, 60 and 100 behaviours,
+#                     beside n = 20 and 30 above (about 8 minutes)
 #   ten-seeds         ten-seeds/: the evasive planner's mutation tables over 10 seeds a
 #                     scene, as the paper's protocol draws them: WOMD interactive (n = 20;
 #                     log replay, the prior, safer, safer-in-path, safer-in-path-lookahead)
@@ -293,7 +293,7 @@ for job in "${jobs[@]}"; do
         run in-path-lookahead/n30/mutants-ngsim-lane-follower.txt evaluate --scenes data:commonroad-ngsim \
             --seeds 2 "${mutating[@]}" --planner ../../planners/lane-follower.yaml ;;
     in-path-lookahead-sweep)
-        for n in 40 60 100; do
+        for n in 25 27 28 40 60 100; do
             run "in-path-lookahead/sweep-n$n.txt" evaluate --scenes data:womd-interactive --seeds 10 \
                 --methods safer-in-path-lookahead --trust-region "$n"
         done ;;

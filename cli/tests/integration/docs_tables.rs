@@ -512,22 +512,26 @@ fn evaluation_output(file: &str) -> (BTreeMap<String, Vec<String>>, String) {
 #[test]
 fn the_lookahead_region_sweep_quotes_its_outputs() {
     let doc = repo_file("docs/benchmarks.md");
-    // CR, SR, SR-crit, witness, VJ / AJ of each region.
-    let mut sweep = 0;
-    for row in markdown_rows(&doc, "| n | CR | SR | SR-crit | witness | VJ / AJ |", "No region meets both goals") {
+    // CR, CR held out, SR, SR-crit, witness, VJ / AJ of each region.
+    let mut sweep = Vec::new();
+    let header = "| n | CR | CR held out | SR | SR-crit | witness | VJ / AJ |";
+    for row in markdown_rows(&doc, header, "The smallest region") {
         let file = match row[0].as_str() {
             "---" => continue,
             "20" => "in-path-lookahead/evaluate-womd-interactive.txt".to_owned(),
             "30" => "in-path-lookahead/n30/evaluate-womd-interactive.txt".to_owned(),
             n => format!("in-path-lookahead/sweep-n{n}.txt"),
         };
-        let figures = evaluation_figures(&evaluation_output(&file).0, "safer-in-path-lookahead");
-        let mut quoted = row[1..5].to_vec();
-        quoted.extend(parts(&row[5]));
+        let (rows, text) = evaluation_output(&file);
+        let figures = evaluation_figures(&rows, "safer-in-path-lookahead");
+        let mut quoted = vec![row[1].clone()];
+        quoted.extend_from_slice(&row[3..6]);
+        quoted.extend(parts(&row[6]));
         assert_eq!(quoted, [&figures[..4], &figures[4..6]].concat(), "n = {}", row[0]);
-        sweep += 1;
+        assert_eq!(row[2], held_out_cr(&text, "safer-in-path-lookahead"), "n = {}: CR held out", row[0]);
+        sweep.push(row[0].clone());
     }
-    assert_eq!(sweep, 5, "the sweep's regions");
+    assert_eq!(sweep, ["20", "25", "27", "28", "30", "40", "60", "100"], "the sweep's regions");
 }
 
 #[test]
