@@ -54,6 +54,11 @@
 #                     trust region of 30 (--trust-region 30), where the lookahead's CR
 #                     passes 0.7 on WOMD interactive, and the lane follower's on NGSIM
 #                     too (mutants-ngsim-lane-follower.txt) (about 80 minutes)
+#   in-path-lookahead-n28
+#                     in-path-lookahead/n28/: the evasive planner's mutation tables (four
+#                     draws of seeds on WOMD interactive, NGSIM) with the lookahead over
+#                     28 behaviours, the smallest region of the sweep below whose CR
+#                     passes 0.7 on WOMD interactive (about 25 minutes)
 #   in-path-lookahead-sweep
 #                     in-path-lookahead/sweep-n{25,27,28,40,60,100}.txt: safer-in-path-lookahead
 #                     alone on WOMD interactive (10 seeds) over 25, 27, 28, 40, 60 and 100 behaviours,
@@ -82,7 +87,7 @@ set -euo pipefail
 self=$(realpath "$0")
 cd "$(dirname "$self")"
 all=(evaluate plain inattentive held-out-chance trust-region realism prior-fit n-sweep reactive n100 approach-none merging mutants wide-region cut-in
-    in-path-lookahead in-path-lookahead-n30 in-path-lookahead-sweep ten-seeds)
+    in-path-lookahead in-path-lookahead-n30 in-path-lookahead-n28 in-path-lookahead-sweep ten-seeds)
 jobs=("$@")
 [[ ${#jobs[@]} -gt 0 ]] || jobs=("${all[@]}")
 # The usage is the comment block at the top of this file.
@@ -292,6 +297,14 @@ for job in "${jobs[@]}"; do
         run in-path-lookahead/n30/mutants-ngsim-evasive.txt evaluate --scenes data:commonroad-ngsim --seeds 3 "${mutating[@]}"
         run in-path-lookahead/n30/mutants-ngsim-lane-follower.txt evaluate --scenes data:commonroad-ngsim \
             --seeds 2 "${mutating[@]}" --planner ../../planners/lane-follower.yaml ;;
+    in-path-lookahead-n28)
+        mkdir -p in-path-lookahead/n28
+        mutating=(--stage2-cbv closed-loop --mutants --methods log,prior,safer-in-path-lookahead --trust-region 28)
+        for seed in 0 1000 2000 3000; do
+            run "in-path-lookahead/n28/mutants-womd-interactive-evasive-seed$seed.txt" evaluate --scenes data:womd-interactive \
+                --seeds 3 --seed "$seed" "${mutating[@]}"
+        done
+        run in-path-lookahead/n28/mutants-ngsim-evasive.txt evaluate --scenes data:commonroad-ngsim --seeds 3 "${mutating[@]}" ;;
     in-path-lookahead-sweep)
         for n in 25 27 28 40 60 100; do
             run "in-path-lookahead/sweep-n$n.txt" evaluate --scenes data:womd-interactive --seeds 10 \
