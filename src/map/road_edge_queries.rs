@@ -330,6 +330,20 @@ mod tests {
     use crate::map::tests::{pl, straight_road};
     use crate::map::{Lane, MapElementId, RoadEdge, RoadEdgeKind};
 
+    /// Two lanes with an acceleration lane ending inside the map, from
+    /// the merge template (with its drivable areas).
+    fn merge() -> RoadMap {
+        crate::map::templates::Merge {
+            lanes: 2,
+            lane_width_m: 3.5,
+            length_m: 200.0,
+            merge_end_m: 120.0,
+            acceleration_lane_m: 60.0,
+            speed_limit_mps: None,
+        }
+        .build()
+    }
+
     /// A four-arm crossing of one lane each way, from the template (with
     /// its drivable areas).
     fn crossing() -> RoadMap {
@@ -401,16 +415,7 @@ mod tests {
         // The combined query shares one nearest-edge lookup; its answer is
         // the two queries' everywhere, on maps with and without drivable
         // areas (the template's and the same edges alone).
-        use crate::map::templates::Merge;
-        let merge = Merge {
-            lanes: 2,
-            lane_width_m: 3.5,
-            length_m: 200.0,
-            merge_end_m: 120.0,
-            acceleration_lane_m: 60.0,
-            speed_limit_mps: None,
-        }
-        .build();
+        let merge = merge();
         let crossing = crossing();
         let edges_only =
             RoadMap::new(merge.lanes.clone(), merge.road_edges.clone(), vec![], vec![], vec![], vec![], vec![]);
@@ -529,16 +534,7 @@ mod tests {
         // at the map's ends), the crossing (every arm cut off), a lane cut
         // with its edges, and the merge with a lane added after its graph
         // was built (a dead end the graph does not list).
-        use crate::map::templates::Merge;
-        let merge = Merge {
-            lanes: 2,
-            lane_width_m: 3.5,
-            length_m: 200.0,
-            merge_end_m: 120.0,
-            acceleration_lane_m: 60.0,
-            speed_limit_mps: None,
-        }
-        .build();
+        let merge = merge();
         let edge =
             |id, pts: &[(f64, f64)]| RoadEdge { id: MapElementId(id), polyline: pl(pts), kind: RoadEdgeKind::Boundary };
         let cut = RoadMap::new(
