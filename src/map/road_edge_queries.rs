@@ -330,6 +330,22 @@ mod tests {
     use crate::map::tests::{pl, straight_road};
     use crate::map::{Lane, MapElementId, RoadEdge, RoadEdgeKind};
 
+    /// A lane from x = 0 to 100 between edges at y = ±2 that stop with it
+    /// (where a recording's map is cut off).
+    fn cut_lane() -> RoadMap {
+        let edge =
+            |id, pts: &[(f64, f64)]| RoadEdge { id: MapElementId(id), polyline: pl(pts), kind: RoadEdgeKind::Boundary };
+        RoadMap::new(
+            vec![Lane::new(MapElementId(1), pl(&[(0.0, 0.0), (100.0, 0.0)]))],
+            vec![edge(2, &[(0.0, -2.0), (100.0, -2.0)]), edge(3, &[(100.0, 2.0), (0.0, 2.0)])],
+            vec![],
+            vec![],
+            vec![],
+            vec![],
+            vec![],
+        )
+    }
+
     /// Two lanes with an acceleration lane ending inside the map, from
     /// the merge template (with its drivable areas).
     fn merge() -> RoadMap {
@@ -438,16 +454,8 @@ mod tests {
         // A lane from x = 0 to 100 between edges at y = ±2 that stop with it.
         let edge =
             |id, pts: &[(f64, f64)]| RoadEdge { id: MapElementId(id), polyline: pl(pts), kind: RoadEdgeKind::Boundary };
-        let lane = Lane::new(MapElementId(1), pl(&[(0.0, 0.0), (100.0, 0.0)]));
-        let cut = RoadMap::new(
-            vec![lane.clone()],
-            vec![edge(2, &[(0.0, -2.0), (100.0, -2.0)]), edge(3, &[(100.0, 2.0), (0.0, 2.0)])],
-            vec![],
-            vec![],
-            vec![],
-            vec![],
-            vec![],
-        );
+        let cut = cut_lane();
+        let lane = cut.lanes[0].clone();
         assert!(cut.is_past_mapped_end(&Point2::new(101.0, 1.0)));
         assert!(cut.is_past_mapped_end(&Point2::new(125.0, 3.0)), "far past the cut, still ahead of the lane");
         assert!(!cut.is_past_mapped_end(&Point2::new(125.0, 15.0)), "ahead, but beside the lane's line");
@@ -535,17 +543,7 @@ mod tests {
         // with its edges, and the merge with a lane added after its graph
         // was built (a dead end the graph does not list).
         let merge = merge();
-        let edge =
-            |id, pts: &[(f64, f64)]| RoadEdge { id: MapElementId(id), polyline: pl(pts), kind: RoadEdgeKind::Boundary };
-        let cut = RoadMap::new(
-            vec![Lane::new(MapElementId(1), pl(&[(0.0, 0.0), (100.0, 0.0)]))],
-            vec![edge(2, &[(0.0, -2.0), (100.0, -2.0)]), edge(3, &[(100.0, 2.0), (0.0, 2.0)])],
-            vec![],
-            vec![],
-            vec![],
-            vec![],
-            vec![],
-        );
+        let cut = cut_lane();
         let mut grown = merge.clone();
         let _ = grown.lane_graph();
         grown.lanes.push(Lane::new(MapElementId(999), pl(&[(-40.0, -20.0), (0.0, -20.0)])));
