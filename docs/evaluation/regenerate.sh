@@ -55,10 +55,10 @@
 #                     passes 0.7 on WOMD interactive, and the lane follower's on NGSIM
 #                     too (mutants-ngsim-lane-follower.txt) (about 80 minutes)
 #   in-path-lookahead-n28
-#                     in-path-lookahead/n28/: the evasive planner's mutation tables (four
-#                     draws of seeds on WOMD interactive, NGSIM) with the lookahead over
-#                     28 behaviours, the smallest region of the sweep below whose CR
-#                     passes 0.7 on WOMD interactive (about 25 minutes)
+#                     in-path-lookahead/n28/: the evasive planner's mutation tables on
+#                     WOMD interactive (four draws of seeds) with the lookahead over 28
+#                     behaviours, the smallest region of the sweep below whose CR passes
+#                     0.7 there (about 45 minutes)
 #   in-path-lookahead-sweep
 #                     in-path-lookahead/sweep-n{25,27,28,40,60,100}.txt: safer-in-path-lookahead
 #                     alone on WOMD interactive (10 seeds) over 25, 27, 28, 40, 60 and 100 behaviours,
@@ -303,8 +303,7 @@ for job in "${jobs[@]}"; do
         for seed in 0 1000 2000 3000; do
             run "in-path-lookahead/n28/mutants-womd-interactive-evasive-seed$seed.txt" evaluate --scenes data:womd-interactive \
                 --seeds 3 --seed "$seed" "${mutating[@]}"
-        done
-        run in-path-lookahead/n28/mutants-ngsim-evasive.txt evaluate --scenes data:commonroad-ngsim --seeds 3 "${mutating[@]}" ;;
+        done ;;
     in-path-lookahead-sweep)
         for n in 25 27 28 40 60 100; do
             run "in-path-lookahead/sweep-n$n.txt" evaluate --scenes data:womd-interactive --seeds 10 \

@@ -535,6 +535,42 @@ fn the_lookahead_region_sweep_quotes_its_outputs() {
 }
 
 #[test]
+fn the_lookahead_mutation_table_over_twenty_eight_behaviours_quotes_its_outputs() {
+    let doc = repo_file("docs/benchmarks.md");
+    let kills_of = |file: &str| output_table(&repo_file(&format!("docs/evaluation/{file}")), "passed");
+    let mut rows = Vec::new();
+    for row in markdown_rows(&doc, "| draw | `safer-in-path-lookahead`, n = 28 |", "Over 28 behaviours the") {
+        let seed = &row[0];
+        if !seed.chars().all(|c| c.is_ascii_digit()) {
+            continue;
+        }
+        let (over_28, over_30) = (
+            kills_of(&format!("in-path-lookahead/n28/mutants-womd-interactive-evasive-seed{seed}.txt")),
+            kills_of(&format!("in-path-lookahead/n30/mutants-womd-interactive-evasive-seed{seed}.txt")),
+        );
+        let label = format!("draw {seed}");
+        assert_eq!(row[1], kills_and_ratio(&over_28, "safer-in-path-lookahead"), "{label}");
+        assert_eq!(row[2], held_out_kills(&over_28, "safer-in-path-lookahead"), "{label}: held out");
+        assert_eq!(row[3], kills_and_ratio(&over_30, "safer-in-path-lookahead"), "{label}");
+        assert_eq!(row[4], kills_and_ratio(&over_30, "safer-in-path"), "{label}");
+        // The prior's and log replay's variants do not depend on the region.
+        for method in ["prior", "log"] {
+            assert_eq!(over_28[method][1], over_30[method][1], "{label}: {method}");
+        }
+        assert_eq!(row[5], killed(&over_28["prior"][1]), "{label}: the prior");
+        assert_eq!(row[6], killed(&over_28["log"][1]), "{label}: log replay");
+        rows.push(label);
+    }
+    assert_eq!(rows, ["draw 0", "draw 1000", "draw 2000", "draw 3000"], "the draws over 28 behaviours");
+}
+
+/// A method's kills on the held-out scenes, `k/n`, from a mutation
+/// output's kills table.
+fn held_out_kills(kills: &BTreeMap<String, Vec<String>>, method: &str) -> String {
+    kills[method][3].clone()
+}
+
+#[test]
 fn the_lookahead_protocol_table_over_thirty_behaviours_quotes_its_outputs() {
     let doc = repo_file("docs/benchmarks.md");
     // CR, CR held out, SR, SR-crit, witness, VJ / AJ.
