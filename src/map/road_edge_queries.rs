@@ -33,6 +33,29 @@ fn within_seam_of(area: &Polygon, p: &Point2) -> bool {
     })
 }
 
+/// How far beside a lane's end, m, a point ahead of it may lie and still
+/// be past the map's cut there (and the least radius the lane index is
+/// searched for that lane).
+const PAST_END_SEARCH_M: f64 = 10.0;
+/// Far past the cut the lane's end is as far away as the edge's: the
+/// search reaches that far beyond [`PAST_END_SEARCH_M`], up to this, m.
+const FARTHEST_PAST_END_M: f64 = 100.0;
+/// Half width of a lane without boundaries, m.
+const HALF_LANE_M: f64 = 1.85;
+/// Beyond its lane's half width a vehicle's corner may stick out, m.
+const CORRIDOR_MARGIN_M: f64 = 0.5;
+
+/// A lane without successors that a point lies ahead of the end of.
+struct EndBehind {
+    /// The lane (an index into [`RoadMap::lanes`]).
+    lane: usize,
+    /// Where it ends.
+    at: Point2,
+    /// Whether the point is past the map there whatever road edges lie
+    /// between (the nearest edge ends there too).
+    past: bool,
+}
+
 /// Slack on a bound of the nearest road edge's distance, m: far above the
 /// rounding of the distances it adds, far below anything that matters.
 const BOUND_SLACK_M: f64 = 0.01;
@@ -181,14 +204,6 @@ impl RoadMap {
     /// [`Self::is_past_mapped_end`] with [`Self::nearest_road_edge`]'s answer
     /// for `p` at hand.
     fn is_past_mapped_end_given(&self, p: &Point2, nearest: Option<&(usize, PolylineProjection)>) -> bool {
-        const SEARCH_M: f64 = 10.0;
-        // Far past the cut the lane's end is as far away as the edge's:
-        // search that far (up to a limit), not only the 10 m beside `p`.
-        const FARTHEST_PAST_END_M: f64 = 100.0;
-        /// Half width of a lane without boundaries, m.
-        const HALF_LANE_M: f64 = 1.85;
-        /// Beyond its lane's half width a vehicle's corner may stick out, m.
-        const CORRIDOR_MARGIN_M: f64 = 0.5;
         let (edge_ends_here, past_edge_end_m) = match nearest {
             None => (true, 0.0),
             Some(&(edge, proj)) => {
@@ -196,56 +211,63 @@ impl RoadMap {
                 (proj.arc_length_m <= 1e-6 || proj.arc_length_m >= length - 1e-6, proj.distance_m)
             }
         };
-        let search_m = SEARCH_M + past_edge_end_m.min(FARTHEST_PAST_END_M);
+        let search_m = PAST_END_SEARCH_M + past_edge_end_m.min(FARTHEST_PAST_END_M);
         // Only a lane without successors can end the map, and `p` must lie
         // ahead of its end and beside its line: those few lanes are found
-        // first, from the graph's list of dead ends, and the lane index is
-        // asked only whether it offers one of them within the search
-        // radius (the answer is the same as asking it for all its lanes
-        // there and testing each, without collecting them: the test is
-        // the costly part of an off-road check, which the adversary's
-        // search makes for every candidate state off the road).
+        // first, and the lane index is asked only whether it offers one of
+        // them within the search radius (the answer is the same as asking
+        // it for all its lanes there and testing each, without collecting
+        // them: that was the costly part of an off-road check, which the
+        // adversary's search makes for every candidate state off the road).
+        let ends = self.dead_ends_behind(p, edge_ends_here);
+        if ends.is_empty() {
+            return false;
+        }
+        let mut offered = vec![false; ends.len()];
+        self.lane_segments.for_each_candidate(p, search_m, |(lane_index, _)| {
+            if let Some(k) = ends.iter().position(|e| e.lane == lane_index as usize) {
+                offered[k] = true;
+            }
+        });
+        ends.iter().zip(offered).any(|(end, offered)| offered && (end.past || !self.road_edge_crosses(&end.at, p)))
+    }
+
+    /// The lanes without successors that `p` lies ahead of the end of and
+    /// beside the line of: within [`PAST_END_SEARCH_M`] of it where the
+    /// nearest road edge ends here (`edge_ends_here`; then `p` is past the
+    /// map if the lane is near it), else within the lane's corridor (then
+    /// only if no road edge lies between).
+    fn dead_ends_behind(&self, p: &Point2, edge_ends_here: bool) -> Vec<EndBehind> {
         let graph = self.lane_graph();
+        // Lanes added since the graph was built have no successors on it.
         let unlisted = (graph.lane_count()..self.lanes.len()).filter_map(|i| DeadEnd::of(i, &self.lanes[i]));
-        // (lane, where it ends, whether `p` is past the map there without
-        // the road-edge crossing test)
-        let ends: Vec<(usize, Point2, bool)> = graph
+        graph
             .dead_ends()
             .iter()
             .copied()
             .chain(unlisted)
-            .filter_map(|DeadEnd { lane: lane_index, end: b, along }| {
-                let from_end = p - b;
+            .filter_map(|DeadEnd { lane, end, along }| {
+                let from_end = p - end;
                 let ahead = from_end.dot(&along);
                 if ahead.is_nan() || ahead <= 0.0 {
                     return None;
                 }
                 let sideways = (from_end.x * along.y - from_end.y * along.x).abs();
                 // Ahead of the end, within a lane's reach sideways of its line.
-                if edge_ends_here && sideways <= SEARCH_M {
-                    return Some((lane_index, b, true));
+                if edge_ends_here && sideways <= PAST_END_SEARCH_M {
+                    return Some(EndBehind { lane, at: end, past: true });
                 }
-                let lane = self.lanes.get(lane_index)?;
-                let half_width_m = match (&lane.left_boundary, &lane.right_boundary) {
-                    (Some(l), Some(r)) => match (l.points().last(), r.points().last()) {
-                        (Some(l), Some(r)) => 0.5 * (l - r).norm(),
+                let l = self.lanes.get(lane)?;
+                let half_width_m = match (&l.left_boundary, &l.right_boundary) {
+                    (Some(left), Some(right)) => match (left.points().last(), right.points().last()) {
+                        (Some(left), Some(right)) => 0.5 * (left - right).norm(),
                         _ => HALF_LANE_M,
                     },
                     _ => HALF_LANE_M,
                 };
-                (sideways <= half_width_m + CORRIDOR_MARGIN_M).then_some((lane_index, b, false))
+                (sideways <= half_width_m + CORRIDOR_MARGIN_M).then_some(EndBehind { lane, at: end, past: false })
             })
-            .collect();
-        if ends.is_empty() {
-            return false;
-        }
-        let mut offered = vec![false; ends.len()];
-        self.lane_segments.for_each_candidate(p, search_m, |(lane_index, _)| {
-            if let Some(k) = ends.iter().position(|e| e.0 == lane_index as usize) {
-                offered[k] = true;
-            }
-        });
-        ends.iter().zip(offered).any(|(&(_, end, past), offered)| offered && (past || !self.road_edge_crosses(&end, p)))
+            .collect()
     }
 
     /// Whether a road edge crosses the segment from `a` to `b`.
