@@ -4,6 +4,7 @@
 
 use super::RoadMap;
 use super::lane_graph::DeadEnd;
+use super::lane_queries::DEFAULT_LANE_HALF_WIDTH_M;
 use crate::geometry::{Point2, Polygon, PolylineProjection};
 
 /// How close to a drivable area a point outside every one of them still
@@ -40,8 +41,6 @@ const PAST_END_SEARCH_M: f64 = 10.0;
 /// Far past the cut the lane's end is as far away as the edge's: the
 /// search reaches that far beyond [`PAST_END_SEARCH_M`], up to this, m.
 const FARTHEST_PAST_END_M: f64 = 100.0;
-/// Half width of a lane without boundaries, m.
-const HALF_LANE_M: f64 = 1.85;
 /// Beyond its lane's half width a vehicle's corner may stick out, m.
 const CORRIDOR_MARGIN_M: f64 = 0.5;
 
@@ -261,9 +260,9 @@ impl RoadMap {
                 let half_width_m = match (&l.left_boundary, &l.right_boundary) {
                     (Some(left), Some(right)) => match (left.points().last(), right.points().last()) {
                         (Some(left), Some(right)) => 0.5 * (left - right).norm(),
-                        _ => HALF_LANE_M,
+                        _ => DEFAULT_LANE_HALF_WIDTH_M,
                     },
-                    _ => HALF_LANE_M,
+                    _ => DEFAULT_LANE_HALF_WIDTH_M,
                 };
                 (sideways <= half_width_m + CORRIDOR_MARGIN_M).then_some(EndBehind { lane, at: end, past: false })
             })
