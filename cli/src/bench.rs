@@ -470,6 +470,7 @@ fn bench_variant(scenes: &[Scenario], repeat: usize) -> Result<Option<VariantBen
             background: BackgroundDriver::Configured,
             sampling: TokenSampling::default(),
             approach: safer_scenarios::policies::adversary::ApproachPhase::default(),
+            feasibility: safer_scenarios::policies::adversary::FeasibilityScope::Pair,
         },
         seed: safer_scenarios::harness::variant::variant_seed(0, &format!("{}/{method:?}", scenario.id), 0),
         sim: &sim,

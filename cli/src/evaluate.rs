@@ -25,7 +25,7 @@ use safer_scenarios::harness::evaluation::{
 use safer_scenarios::harness::methods::BackgroundDriver;
 use safer_scenarios::harness::methods::ModelSet;
 use safer_scenarios::harness::mutation::MethodKills;
-use safer_scenarios::policies::adversary::ApproachPhase;
+use safer_scenarios::policies::adversary::{ApproachPhase, FeasibilityScope};
 use safer_scenarios::scenario::roles::RolePairing;
 use safer_scenarios::scenario::{Scenario, import};
 use safer_scenarios::spec::suite::AdversaryMethod;
@@ -99,6 +99,10 @@ fn is_as_loaded(roles: &RolePairing) -> bool {
     *roles == RolePairing::AsLoaded
 }
 
+fn is_pair(scope: &FeasibilityScope) -> bool {
+    *scope == FeasibilityScope::Pair
+}
+
 /// What an evaluation was asked, as its report records it: partitions of
 /// one evaluation have equal settings, and the merge checks that they do.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -112,6 +116,9 @@ pub(super) struct EvaluationSettings {
     /// Reports written before the option existed had the seeded phase.
     #[serde(default)]
     approach: ApproachPhase,
+    /// Reports written before the option existed had the pair's.
+    #[serde(default, skip_serializing_if = "is_pair")]
+    feasibility: FeasibilityScope,
     background: BackgroundDriver,
     stage2_cbv: Vec<Stage2Cbv>,
     horizon_s: f64,
@@ -138,6 +145,7 @@ impl EvaluationSettings {
             planner: request.planner.name().to_string(),
             trust_region: request.trust_region,
             approach: request.approach,
+            feasibility: request.feasibility,
             background: request.background,
             stage2_cbv: request.stage2_cbv.clone(),
             horizon_s: request.horizon_s,
@@ -165,7 +173,7 @@ fn print_table(
     let name = |r: &MethodRow| label(r.method, r.stage2_cbv, modes);
     writeln!(
         out,
-        "{scenes} scenes × {} seeds; stage 2 planner `{}`, stage-2 CBV {}, trust region n = {}, horizon {} s{}{}{}{}",
+        "{scenes} scenes × {} seeds; stage 2 planner `{}`, stage-2 CBV {}, trust region n = {}, horizon {} s{}{}{}{}{}",
         request.seeds,
         request.planner,
         request.stage2_cbv.iter().map(safer_scenarios::spec::spec_name).collect::<Vec<_>>().join(" and "),
@@ -174,6 +182,11 @@ fn print_table(
         match request.approach {
             ApproachPhase::Seeded => "",
             ApproachPhase::None => "; no approach phase (the adversary engages at the first token)",
+        },
+        match request.feasibility {
+            FeasibilityScope::Pair => "",
+            FeasibilityScope::PairInTraffic =>
+                "; feasibility pair-in-traffic (V_h and the ego's room among the traffic)",
         },
         match witness.road {
             RoadKeeping::Centre => "",
@@ -1186,6 +1199,9 @@ pub(crate) struct EvaluateArgs {
     /// The approach phase of the SaFeR methods: `seeded`, the prior drives the CBV for 1-4 tokens drawn from the variant's seed before the adversary engages, so that seeds differ; `none`, the adversary engages at the first token, as the paper describes its resampling (with the background on log replay every seed of a scene then gives the same variant).
     #[arg(long, value_parser = choice(ApproachPhase::ALL), default_value = "seeded")]
     pub(crate) approach_phase: ApproachPhase,
+    /// What the feasibility constraint of the methods with V_h takes into account: `pair`, V_h of the ego–CBV pair alone (the paper's); `pair-in-traffic` (beyond the paper), near the ego a state V_h calls escapable counts only where one of a few held manoeuvres keeps the ego clear of the CBV, of the traffic around it and on the road for 2 s.
+    #[arg(long, value_parser = choice(FeasibilityScope::ALL), default_value = "pair")]
+    pub(crate) feasibility: FeasibilityScope,
     /// The CBV in stage 2: replaying its stage-1 trajectory, or driven by the method again against the planner's ego (closed-loop); `replay,closed-loop` reports both side by side. The default here is `replay`, so that every method's stage 2 meets the same recorded CBV path and the methods compare on equal terms (the paper does not say whether its CBV reacts in stage 2); suites default to `closed-loop` (`adversary.stage2_cbv`), because a planner test should meet a CBV that answers the planner.
     #[arg(long, value_parser = choice(Stage2Cbv::ALL), value_delimiter = ',', default_values = ["replay"])]
     pub(crate) stage2_cbv: Vec<Stage2Cbv>,
@@ -1238,6 +1254,7 @@ pub(crate) fn command(args: EvaluateArgs) -> Result<ExitCode, CliError> {
         trust_region,
         background,
         approach_phase,
+        feasibility,
         stage2_cbv,
         horizon_s,
         roles,
@@ -1263,6 +1280,7 @@ pub(crate) fn command(args: EvaluateArgs) -> Result<ExitCode, CliError> {
         planner,
         trust_region,
         approach: approach_phase,
+        feasibility,
         background,
         stage2_cbv,
         escape: Some(escape),

@@ -255,6 +255,7 @@ fn from_stage1(
         planner: safer_scenarios::spec::planner::PlannerAdapter::builtin(BuiltinPlanner::LogReplay),
         trust_region: STAGE1_TRUST_REGION,
         approach: Default::default(),
+        feasibility: Default::default(),
         background: Default::default(),
         stage2_cbv: vec![Stage2Cbv::Replay],
         escape: None,

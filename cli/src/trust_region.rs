@@ -193,6 +193,8 @@ pub(crate) fn command(args: TrustRegionArgs) -> Result<ExitCode, CliError> {
         planner: PlannerAdapter::builtin(BuiltinPlanner::LogReplay),
         trust_region,
         approach: approach_phase,
+        // The region is the same whatever the constraint takes into account.
+        feasibility: Default::default(),
         background: BackgroundDriver::Configured,
         stage2_cbv: vec![Stage2Cbv::Replay],
         escape: None,

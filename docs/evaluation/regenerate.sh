@@ -63,6 +63,15 @@
 #                     in-path-lookahead/sweep-n{25,27,28,40,60,100}.txt: safer-in-path-lookahead
 #                     alone on WOMD interactive (10 seeds) over 25, 27, 28, 40, 60 and 100 behaviours,
 #                     beside n = 20 and 30 above (about 8 minutes)
+#   pair-in-traffic   pair-in-traffic/: the in-path methods with `--feasibility pair-in-traffic`
+#                     (V_h and the ego's room among the traffic) over 30 behaviours beside
+#                     in-path-lookahead/n30/: the paper's protocol, evaluate-{womd-interactive,
+#                     womd-json,ngsim}.txt (the prior, safer-in-path, safer-in-path-lookahead),
+#                     the lookahead over 28 on WOMD interactive
+#                     (evaluate-womd-interactive-lookahead-n28.txt), and the evasive planner's
+#                     mutation tables on NGSIM (mutants-ngsim-evasive.txt) and on WOMD
+#                     interactive over 28 (mutants-womd-interactive-evasive-n28.txt)
+#                     (about 35 minutes)
 #   ten-seeds         ten-seeds/: the evasive planner's mutation tables over 10 seeds a
 #                     scene, as the paper's protocol draws them: WOMD interactive (n = 20;
 #                     log replay, the prior, safer, safer-in-path, safer-in-path-lookahead)
@@ -87,7 +96,7 @@ set -euo pipefail
 self=$(realpath "$0")
 cd "$(dirname "$self")"
 all=(evaluate plain inattentive held-out-chance trust-region realism prior-fit n-sweep reactive n100 approach-none merging mutants wide-region cut-in
-    in-path-lookahead in-path-lookahead-n30 in-path-lookahead-n28 in-path-lookahead-sweep ten-seeds)
+    in-path-lookahead in-path-lookahead-n30 in-path-lookahead-n28 in-path-lookahead-sweep pair-in-traffic ten-seeds)
 jobs=("$@")
 [[ ${#jobs[@]} -gt 0 ]] || jobs=("${all[@]}")
 # The usage is the comment block at the top of this file.
@@ -309,6 +318,21 @@ for job in "${jobs[@]}"; do
             run "in-path-lookahead/sweep-n$n.txt" evaluate --scenes data:womd-interactive --seeds 10 \
                 --methods safer-in-path-lookahead --trust-region "$n"
         done ;;
+    pair-in-traffic)
+        mkdir -p pair-in-traffic
+        traffic=(--feasibility pair-in-traffic)
+        for s in "${sets[@]}"; do
+            run "pair-in-traffic/evaluate-${s#*:}.txt" evaluate --scenes "data:${s%%:*}" --seeds 10 \
+                --methods prior,safer-in-path,safer-in-path-lookahead --trust-region 30 "${traffic[@]}"
+        done
+        run pair-in-traffic/evaluate-womd-interactive-lookahead-n28.txt evaluate --scenes data:womd-interactive \
+            --seeds 10 --methods safer-in-path-lookahead --trust-region 28 "${traffic[@]}"
+        run pair-in-traffic/mutants-ngsim-evasive.txt evaluate --scenes data:commonroad-ngsim --seeds 3 \
+            --stage2-cbv closed-loop --mutants --methods log,prior,safer-in-path,safer-in-path-lookahead \
+            --trust-region 30 "${traffic[@]}"
+        run pair-in-traffic/mutants-womd-interactive-evasive-n28.txt evaluate --scenes data:womd-interactive \
+            --seeds 3 --stage2-cbv closed-loop --mutants --methods log,prior,safer-in-path-lookahead \
+            --trust-region 28 "${traffic[@]}" ;;
     esac
 done
 rm -r "$(dirname "$safer")"

@@ -413,6 +413,7 @@ pub fn run_episode(
                 background: BackgroundDriver::Configured,
                 sampling: TokenSampling::default(),
                 approach: crate::policies::adversary::ApproachPhase::default(),
+                feasibility: crate::policies::adversary::FeasibilityScope::Pair,
             };
             crate::harness::methods::install(&mut sim, s, cbv, start, settings, models, maps, seed).ok()?;
             let mut planner = episode.ego_planner.instantiate(s, ego);

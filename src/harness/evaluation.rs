@@ -35,7 +35,7 @@ use super::variant::{CollisionEscape, VariantOutcome};
 use crate::eval::escape::EscapeBudget;
 use crate::planners::FaultOperator;
 use crate::policies::BackgroundPolicy;
-use crate::policies::adversary::ApproachPhase;
+use crate::policies::adversary::{ApproachPhase, FeasibilityScope};
 use crate::policies::prior_sampling::TokenSampling;
 use crate::scenario::Scenario;
 use crate::sim::{Rollout, SimConfig};
@@ -58,6 +58,9 @@ pub struct EvaluationRequest {
     /// Whether the prior drives the CBV for a while before the adversary
     /// engages (seeded, the default) or not at all (the paper's protocol).
     pub approach: ApproachPhase,
+    /// What the feasibility constraint of the methods with V_h takes into
+    /// account (the pair alone: the paper's).
+    pub feasibility: FeasibilityScope,
     /// Who drives the background agents.
     pub background: BackgroundDriver,
     /// Stage-2 CBV modes, each a row per method (replay: the paper's
@@ -386,6 +389,7 @@ impl EvaluationRequest {
             background: self.background,
             sampling: TokenSampling::default(),
             approach: self.approach,
+            feasibility: self.feasibility,
         }
     }
 }

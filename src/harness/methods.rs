@@ -13,7 +13,7 @@ use crate::models::prior::{PriorVariant, RealismPrior};
 use crate::models::{ModelError, ModelSource};
 use crate::policies::LogReplay;
 use crate::policies::adversary::{
-    Adversary, ApproachPhase, FeasibilityOracle, LOOKAHEAD_TOKENS, Objective, Search, TrustRegion,
+    Adversary, ApproachPhase, FeasibilityOracle, FeasibilityScope, LOOKAHEAD_TOKENS, Objective, Search, TrustRegion,
 };
 use crate::policies::prior_sampling::{PriorAgent, PriorTraffic, ScenarioMapEncoding, TokenSampling, TrafficTimings};
 use crate::scenario::{Scenario, TrackIndex};
@@ -132,6 +132,8 @@ pub struct MethodSettings {
     /// Whether the prior drives the CBV for a while before the adversary
     /// engages (the SaFeR methods).
     pub approach: ApproachPhase,
+    /// What the feasibility constraint takes into account (the methods with V_h).
+    pub feasibility: FeasibilityScope,
 }
 
 /// The trust region `method` searches, for a region of `n`.
@@ -196,7 +198,10 @@ pub fn install(
     }
     let feasibility =
         || models.feasibility.clone().map_err(|source| HarnessError::Model { method: settings.method, source });
-    let search = Search::one_step(trust_region_of(settings.method, settings.trust_region));
+    let search = Search {
+        feasibility: settings.feasibility,
+        ..Search::one_step(trust_region_of(settings.method, settings.trust_region))
+    };
     let adversary = |search, feasibility| {
         Box::new(Adversary::new(traffic.clone(), ego, search, feasibility).with_approach(settings.approach))
     };

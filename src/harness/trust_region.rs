@@ -65,6 +65,7 @@ pub fn profile_variant(
             background: request.background,
             sampling: TokenSampling::default(),
             approach: request.approach,
+            feasibility: request.feasibility,
         },
         seed,
         sim: &sim,

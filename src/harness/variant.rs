@@ -255,6 +255,7 @@ impl VariantInputs {
                 background: BackgroundDriver::Configured,
                 sampling: TokenSampling::default(),
                 approach: spec.adversary.approach_phase,
+                feasibility: spec.adversary.feasibility,
             },
             seed: self.seed,
             sim: &self.sim,

@@ -23,7 +23,7 @@ use serde_saphyr::Spanned;
 
 use super::{Loaded, SpecError, SpecLocation, paths};
 use crate::policies::BackgroundPolicy;
-use crate::policies::adversary::ApproachPhase;
+use crate::policies::adversary::{ApproachPhase, FeasibilityScope};
 
 /// A suite.
 #[derive(Debug, Clone, Deserialize, JsonSchema)]
@@ -222,6 +222,12 @@ impl AdversaryMethod {
         !matches!(self, Self::Log | Self::Prior)
     }
 
+    /// Whether the method constrains the CBV by the feasibility value V_h
+    /// (every SaFeR method but the `no-lfr` ablation).
+    pub fn uses_feasibility(self) -> bool {
+        self.is_adversary() && self != Self::NoLfr
+    }
+
     /// Every variant, in declaration order (for choosers such as the command line).
     pub const ALL: &'static [Self] = &[
         Self::Log,
@@ -271,6 +277,13 @@ pub struct AdversarySpec {
     /// every seed gives the same variant.
     #[serde(default)]
     pub approach_phase: ApproachPhase,
+    /// What the feasibility constraint of the methods with V_h takes into
+    /// account: `pair` (the default, the paper's), V_h of the ego–CBV pair
+    /// alone; `pair-in-traffic` (beyond the paper), near the ego a state V_h
+    /// calls escapable counts only where the traffic around the ego leaves
+    /// it room to escape.
+    #[serde(default)]
+    pub feasibility: FeasibilityScope,
 }
 
 fn twenty() -> usize {
@@ -289,6 +302,7 @@ impl Default for AdversarySpec {
             background: BackgroundPolicy::LogReplay,
             stage2_cbv: Stage2Cbv::ClosedLoop,
             approach_phase: ApproachPhase::Seeded,
+            feasibility: FeasibilityScope::Pair,
         }
     }
 }
@@ -591,6 +605,16 @@ impl Loaded<SuiteSpec> {
                     ),
                 ));
             }
+        }
+        if s.adversary.feasibility != FeasibilityScope::Pair && !s.adversary.method.uses_feasibility() {
+            return Err(self.invalid_at(
+                "adversary.feasibility",
+                format!(
+                    "`feasibility` applies to the methods with the feasibility value (safer, safer-in-path, …); \
+                     `{}` has none: remove the key",
+                    crate::spec::spec_name(&s.adversary.method)
+                ),
+            ));
         }
         if s.adversary.trust_region == 0 || s.adversary.trust_region > crate::motion::tokens::VOCABULARY_SIZE {
             return Err(self.invalid_at(
@@ -930,6 +954,22 @@ acceptance:
         let spec = parse_yaml::<SuiteSpec>(&text, Path::new("s.yaml")).unwrap();
         spec.validate().unwrap();
         assert_eq!(spec.value.adversary.approach_phase, ApproachPhase::None);
+    }
+
+    #[test]
+    fn feasibility_in_traffic_is_for_the_methods_with_v_h() {
+        for method in ["prior", "no-lfr"] {
+            let e = error("method: prior }", &format!("method: {method}, feasibility: pair-in-traffic }}"));
+            assert!(e.contains("`feasibility` applies to the methods with the feasibility value"), "{method}: {e}");
+        }
+        let e = error("method: prior }", "method: safer, feasibility: traffic }");
+        assert!(e.contains("traffic") && e.contains("pair-in-traffic"), "a misspelt scope is refused: {e}");
+        let text = SUITE.replace("method: prior }", "method: safer-in-path, feasibility: pair-in-traffic }");
+        let spec = parse_yaml::<SuiteSpec>(&text, Path::new("s.yaml")).unwrap();
+        spec.validate().unwrap();
+        assert_eq!(spec.value.adversary.feasibility, FeasibilityScope::PairInTraffic);
+        let spec = parse_yaml::<SuiteSpec>(SUITE, Path::new("s.yaml")).unwrap();
+        assert_eq!(spec.value.adversary.feasibility, FeasibilityScope::Pair);
     }
 
     #[test]

@@ -630,3 +630,62 @@ fn the_lookahead_mutation_tables_over_thirty_behaviours_quote_their_outputs() {
     }
     assert_eq!(draws, 4, "four draws of seeds");
 }
+
+#[test]
+fn the_in_traffic_protocol_table_quotes_its_outputs() {
+    let doc = repo_file("docs/benchmarks.md");
+    // CR, CR held out, SR, SR-crit, witness, VJ / AJ; each method with V_h
+    // alone (the runs over 30 and the sweep's over 28) and in traffic.
+    let mut checked = Vec::new();
+    let header = "| set | method | feasibility | CR | CR held out | SR | SR-crit | witness | VJ / AJ |";
+    for row in markdown_rows(&doc, header, "On NGSIM the lookahead over 30 behaviours in traffic") {
+        let Some(method) = method_of(&row[1]) else { continue };
+        let file = match (row[0].as_str(), row[2].as_str()) {
+            ("WOMD interactive, n = 28", "pair") => "in-path-lookahead/sweep-n28.txt".to_owned(),
+            ("WOMD interactive, n = 28", "in traffic") => {
+                "pair-in-traffic/evaluate-womd-interactive-lookahead-n28.txt".to_owned()
+            }
+            (set, scope) => {
+                let set = match set {
+                    "WOMD interactive" => "womd-interactive",
+                    "WOMD JSON" => "womd-json",
+                    "NGSIM" => "ngsim",
+                    other => panic!("no set {other:?}"),
+                };
+                match scope {
+                    "pair" => format!("in-path-lookahead/n30/evaluate-{set}.txt"),
+                    "in traffic" => format!("pair-in-traffic/evaluate-{set}.txt"),
+                    other => panic!("no feasibility scope {other:?}"),
+                }
+            }
+        };
+        let (rows, text) = evaluation_output(&file);
+        if row[2] == "in traffic" {
+            assert!(text.contains("feasibility pair-in-traffic"), "{file} is not a run in traffic");
+        }
+        let figures = evaluation_figures(&rows, method);
+        let mut quoted: Vec<String> = [3, 5, 6, 7].iter().map(|&c| row[c].replace("**", "")).collect();
+        quoted.extend(parts(&row[8]));
+        let label = format!("{}, {method}, {}", row[0], row[2]);
+        assert_eq!(quoted, [&figures[..4], &figures[4..6]].concat(), "{label}");
+        assert_eq!(row[4], held_out_cr(&text, method), "{label}: CR held out");
+        checked.push(label);
+    }
+    assert_eq!(checked.len(), 14, "the rows in traffic and with V_h alone: {checked:?}");
+}
+
+#[test]
+fn the_in_traffic_mutation_table_quotes_its_outputs() {
+    let checked = check_run_table(
+        "Mutation testing in traffic",
+        "So it is an option for freeway suites",
+        None,
+        &[
+            ("NGSIM, pair", "30", "in-path-lookahead/n30/mutants-ngsim-evasive.txt"),
+            ("NGSIM, in traffic", "30", "pair-in-traffic/mutants-ngsim-evasive.txt"),
+            ("WOMD interactive, pair", "28", "in-path-lookahead/n28/mutants-womd-interactive-evasive-seed0.txt"),
+            ("WOMD interactive, in traffic", "28", "pair-in-traffic/mutants-womd-interactive-evasive-n28.txt"),
+        ],
+    );
+    assert_eq!(checked, 6, "the mutation rows in traffic and with V_h alone");
+}

@@ -161,6 +161,7 @@ fn the_prior_drives_recorded_traffic_closed_loop() {
             background: BackgroundDriver::Prior,
             sampling: TokenSampling::default(),
             approach: safer_scenarios::policies::adversary::ApproachPhase::default(),
+            feasibility: safer_scenarios::policies::adversary::FeasibilityScope::Pair,
         };
         let cbv = scenario.cbv.unwrap();
         let installed =

@@ -6,6 +6,7 @@
 
 use super::background_forecast::BackgroundForecast;
 use super::behaviours::distinct_behaviours;
+use super::escape_room::{EscapeRoom, FeasibilityScope, veto_without_room};
 use super::feasibility::feasibility_values;
 use super::in_path::{cut_in_loss, in_path_loss};
 use super::lookahead::{FirstTokens, Lookahead};
@@ -120,12 +121,14 @@ pub struct Search {
     pub lookahead_tokens: usize,
     /// What a feasible candidate's loss measures.
     pub objective: Objective,
+    /// What the feasibility constraint takes into account.
+    pub feasibility: FeasibilityScope,
 }
 
 impl Search {
     /// The paper's one-step search over `trust_region`.
     pub fn one_step(trust_region: TrustRegion) -> Self {
-        Self { trust_region, lookahead_tokens: 1, objective: Objective::Contact }
+        Self { trust_region, lookahead_tokens: 1, objective: Objective::Contact, feasibility: FeasibilityScope::Pair }
     }
 }
 
@@ -143,7 +146,10 @@ fn ego_prediction(ego: &AgentState) -> AgentState {
 /// and then the lower id; the fallbacks of the module's plausibility rule
 /// when none is plausible (the background predicted by `forecast`). With
 /// a lookahead the loss of a feasible candidate is the best score of its
-/// continuations (see [`Search::lookahead_tokens`]). Time spent in
+/// continuations (see [`Search::lookahead_tokens`]); in the
+/// `pair-in-traffic` scope a state V_h calls escapable near the ego is
+/// infeasible where the traffic leaves the ego no room to escape (see
+/// [`FeasibilityScope`]). Time spent in
 /// `feasibility` is added to `feasibility_s`. `None` only for empty `logits`.
 pub fn safer_choice(
     world: &WorldView<'_>,
@@ -164,9 +170,19 @@ pub fn safer_choice(
     let rollouts = token_rollouts(cbv_now, candidates);
     let predicted: Vec<AgentState> = rollouts.iter().map(|r| r[TOKEN_PERIOD_STEPS - 1]).collect();
     let distances: Vec<f64> = predicted.iter().map(|s| ego_box.distance(&cbv_body.footprint(s))).collect();
+    // The room the traffic leaves the ego, asked of as far ahead as the
+    // search looks (`pair-in-traffic` only).
+    let room = (feasibility.is_some() && search.feasibility == FeasibilityScope::PairInTraffic)
+        .then(|| EscapeRoom::new(world, (cbv, ego), forecast, search.lookahead_tokens * TOKEN_PERIOD_STEPS));
     let values = match feasibility {
         None => None,
-        Some(oracle) => Some(feasibility_values(oracle, &predicted, ego_next, ego_body, cbv_body, feasibility_s)?),
+        Some(oracle) => {
+            let mut values = feasibility_values(oracle, &predicted, ego_next, ego_body, cbv_body, feasibility_s)?;
+            if let Some(room) = &room {
+                veto_without_room(room, &mut values, &predicted, &ego_next, TOKEN_PERIOD_STEPS);
+            }
+            Some(values)
+        }
     };
     let objective: Vec<f64> = predicted
         .iter()
@@ -191,6 +207,7 @@ pub fn safer_choice(
             tokens: search.lookahead_tokens,
             on_road_now: !world.map.is_off_road_within_map(&cbv_now.position),
             objective: search.objective,
+            room: room.as_ref(),
         };
         let first = FirstTokens {
             states: &predicted,

@@ -5,6 +5,7 @@
 //! one-step choice.
 
 use super::choice::Objective;
+use super::escape_room::{EscapeRoom, veto_without_room};
 use super::feasibility::feasibility_values;
 use crate::models::ModelError;
 use crate::models::feasibility_oracle::FeasibilityOracle;
@@ -60,6 +61,8 @@ pub(super) struct Lookahead<'a> {
     pub(super) on_road_now: bool,
     /// What a continuation's score measures (the one-step loss's objective).
     pub(super) objective: Objective,
+    /// The room the traffic leaves the ego (`pair-in-traffic` only).
+    pub(super) room: Option<&'a EscapeRoom<'a>>,
 }
 
 /// The one-step search's results for each candidate of the trust region.
@@ -99,8 +102,11 @@ impl Lookahead<'_> {
         let feasible = |i: usize| first.values.is_none_or(|v| v[i] <= 0.0);
         // A contact in the first token, straight from a feasible state now.
         if let (Some(oracle), Some(values)) = (feasibility, first.values) {
-            let now =
+            let mut now =
                 feasibility_values(oracle, &[*cbv_now], self.ego_now, self.ego_body, self.cbv_body, feasibility_s)?;
+            if let Some(room) = self.room {
+                veto_without_room(room, &mut now, &[*cbv_now], &self.ego_now, 0);
+            }
             if now[0] <= 0.0 {
                 for (i, loss) in losses.iter_mut().enumerate() {
                     if values[i] > 0.0 && first.distances_m[i] <= 0.0 {
@@ -121,6 +127,7 @@ impl Lookahead<'_> {
         Self::keep_best(&mut beam, self.candidates.len());
         for depth in 2..=self.tokens {
             let ahead_s = TOKEN_PERIOD_S * depth as f64;
+            let ahead_steps = TOKEN_PERIOD_STEPS * depth;
             let ego =
                 AgentState { position: self.ego_now.position + self.ego_now.velocity_mps * ahead_s, ..self.ego_now };
             let ego_box = self.ego_body.footprint(&ego);
@@ -151,7 +158,7 @@ impl Lookahead<'_> {
             let width = if depth < self.tokens { self.candidates.len() } else { 0 };
             let mut kept = vec![None; children.len()];
             let first_batch: Vec<usize> = lowering.iter().chain(order.iter().take(width)).copied().collect();
-            self.judge(&children, &first_batch, &mut kept, ego, feasibility, feasibility_s)?;
+            self.judge(&children, &first_batch, &mut kept, (ego, ahead_steps), feasibility, feasibility_s)?;
             // A contact scores what the objective makes of it: 0 for the
             // paper's, the not-ahead penalty for the in-path ones' CBV
             // running into the ego from behind or the side.
@@ -167,7 +174,7 @@ impl Lookahead<'_> {
             while next_beam.len() < width && asked < order.len() {
                 let batch: Vec<usize> = order[asked..].iter().take(width - next_beam.len()).copied().collect();
                 asked += batch.len();
-                self.judge(&children, &batch, &mut kept, ego, feasibility, feasibility_s)?;
+                self.judge(&children, &batch, &mut kept, (ego, ahead_steps), feasibility, feasibility_s)?;
                 next_beam.extend(batch.into_iter().filter(|&i| kept[i] == Some(true)));
             }
             beam = next_beam.into_iter().map(|i| children[i].clone()).collect();
@@ -178,13 +185,15 @@ impl Lookahead<'_> {
     /// Judges each of `which` not judged yet into `kept`: `false` when it
     /// leaves the road (where the CBV is on it now), else `true` for a
     /// contact (which may end infeasibly: its parent was feasible, so the
-    /// ego could have escaped it) or with V_h ≤ 0 there.
+    /// ego could have escaped it) or with V_h ≤ 0 there against the ego at
+    /// `ego`, `ahead_steps` steps ahead (and, in the `pair-in-traffic`
+    /// scope, room for it to escape).
     fn judge(
         &self,
         children: &[Continuation],
         which: &[usize],
         kept: &mut [Option<bool>],
-        ego: AgentState,
+        (ego, ahead_steps): (AgentState, usize),
         feasibility: Option<&dyn FeasibilityOracle>,
         feasibility_s: &mut f64,
     ) -> Result<(), ModelError> {
@@ -207,7 +216,10 @@ impl Lookahead<'_> {
             && !ask.is_empty()
         {
             let states: Vec<AgentState> = ask.iter().map(|&i| children[i].state.to_agent_state()).collect();
-            let values = feasibility_values(oracle, &states, ego, self.ego_body, self.cbv_body, feasibility_s)?;
+            let mut values = feasibility_values(oracle, &states, ego, self.ego_body, self.cbv_body, feasibility_s)?;
+            if let Some(room) = self.room {
+                veto_without_room(room, &mut values, &states, &ego, ahead_steps);
+            }
             for (&i, v) in ask.iter().zip(values) {
                 kept[i] = Some(v <= 0.0);
             }
@@ -270,6 +282,27 @@ mod tests {
         let near_is_infeasible = StubOracle(|p| 3.0 - gap_m(p) as f32);
         assert_eq!(choice_in(&CLOSING, &LIKED, lookahead, Some(&near_is_infeasible)), token(-5.0));
         assert_eq!(choice_in(&CLOSING, &LIKED, one_step, Some(&near_is_infeasible)), token(-5.0));
+    }
+
+    #[test]
+    fn in_traffic_the_lookahead_takes_no_contact_the_boxed_in_ego_could_not_escape() {
+        use crate::policies::adversary::FeasibilityScope;
+        let close_is_infeasible = StubOracle(|p| if gap_m(p) < 0.3 { 1.0 } else { -1.0 });
+        let pair = Search { lookahead_tokens: LOOKAHEAD_TOKENS, ..Search::one_step(TrustRegion::TopN(5)) };
+        let in_traffic = Search { feasibility: FeasibilityScope::PairInTraffic, ..pair };
+        // The ego at 10 m/s, the CBV's box 1 m behind it at 11 m/s.
+        let (ego, cbv) = (car(0.0, 0.0, 10.0), car(-5.5, 0.0, 11.0));
+        // On an open road V_h's escape is there: both take the contact.
+        for search in [pair, in_traffic] {
+            assert_eq!(choice_in(&[ego, cbv], &LIKED, search, Some(&close_is_infeasible)), token(5.0));
+        }
+        // Boxed in by cars at its speed 3 m ahead (too near to speed away
+        // from the CBV in) and in the lanes either side, the ego has no
+        // escape: in traffic every state near it is infeasible, and the
+        // likeliest token wins (the paper's fallback).
+        let boxed = [ego, cbv, car(8.5, 0.0, 10.0), car(0.0, 3.5, 10.0), car(0.0, -3.5, 10.0)];
+        assert_eq!(choice_in(&boxed, &LIKED, pair, Some(&close_is_infeasible)), token(5.0));
+        assert_eq!(choice_in(&boxed, &LIKED, in_traffic, Some(&close_is_infeasible)), token(-5.0));
     }
 
     #[test]

@@ -58,11 +58,14 @@
 //! `safer-inattentive` (beyond the paper) the same policy fed by a prior
 //! that does not see the ego (see
 //! [`PriorTraffic::hide_from`](crate::policies::prior_sampling::PriorTraffic::hide_from)).
+//! Any method with V_h may also ask, near the ego, whether the traffic
+//! around the ego leaves it room to escape (beyond the paper; see
+//! [`FeasibilityScope`]).
 //!
 //! One file per concept: the [`Adversary`] policy (`policy`), the
 //! approach phase (`approach`), SaFeR's choice ([`safer_choice`],
 //! `choice`) and the lookahead of `safer-lookahead` (`lookahead`), V_h of
-//! candidate states (`feasibility`), the in-path and cut-in objectives (`in_path`), the CBV's states under a token
+//! candidate states (`feasibility`) and the ego's room to escape among the traffic (`escape_room`), the in-path and cut-in objectives (`in_path`), the CBV's states under a token
 //! (`rollout`), the [`BackgroundForecast`], and the plausibility check
 //! (`plausibility`, with its broad phase in `broad_phase`); and the
 //! [`TrustRegionProfile`] that diagnoses what a prior's region offers
@@ -73,6 +76,7 @@ mod background_forecast;
 mod behaviours;
 mod broad_phase;
 mod choice;
+mod escape_room;
 mod feasibility;
 mod in_path;
 mod lookahead;
@@ -88,6 +92,10 @@ pub use approach::{APPROACH_TOKENS, ApproachPhase};
 pub use background_forecast::BackgroundForecast;
 pub use behaviours::{BEHAVIOUR_HOLD_S, BEHAVIOUR_SEPARATION_M, distinct_behaviours};
 pub use choice::{INFEASIBLE_PENALTY, Objective, Search, TrustRegion, safer_choice};
+pub use escape_room::{
+    ESCAPE_ACCELS_MPS2, ESCAPE_CHECK_GAP_M, ESCAPE_HORIZON_S, ESCAPE_PURSUIT_MPS2, ESCAPE_YAW_RATES_RADPS,
+    FeasibilityScope, NO_ROOM_VALUE,
+};
 pub use in_path::{
     CUT_IN_LATERAL_COST, CUT_IN_NOT_AHEAD_COST, IN_PATH_LEAD_COST_M_PER_S, IN_PATH_MAX_LEAD_S, NOT_AHEAD_PENALTY_M,
 };
