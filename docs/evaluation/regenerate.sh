@@ -70,8 +70,10 @@
 #                     the lookahead over 28 on WOMD interactive
 #                     (evaluate-womd-interactive-lookahead-n28.txt), and the evasive planner's
 #                     mutation tables on NGSIM (mutants-ngsim-evasive.txt) and on WOMD
-#                     interactive over 28 (mutants-womd-interactive-evasive-n28.txt)
-#                     (about 35 minutes)
+#                     interactive over 28 (mutants-womd-interactive-evasive-n28.txt); and the
+#                     shipped NGSIM suite's safer-in-path over 60 behaviours, the paper's protocol
+#                     and the mutation table (evaluate-ngsim-in-path-n60.txt,
+#                     mutants-ngsim-evasive-n60.txt) (about 35 minutes)
 #   ten-seeds         ten-seeds/: the evasive planner's mutation tables over 10 seeds a
 #                     scene, as the paper's protocol draws them: WOMD interactive (n = 20;
 #                     log replay, the prior, safer, safer-in-path, safer-in-path-lookahead)
@@ -332,7 +334,12 @@ for job in "${jobs[@]}"; do
             --trust-region 30 "${traffic[@]}"
         run pair-in-traffic/mutants-womd-interactive-evasive-n28.txt evaluate --scenes data:womd-interactive \
             --seeds 3 --stage2-cbv closed-loop --mutants --methods log,prior,safer-in-path-lookahead \
-            --trust-region 28 "${traffic[@]}" ;;
+            --trust-region 28 "${traffic[@]}"
+        # The shipped NGSIM suite's method and region.
+        run pair-in-traffic/evaluate-ngsim-in-path-n60.txt evaluate --scenes data:commonroad-ngsim --seeds 10 \
+            --methods safer-in-path,prior --trust-region 60 "${traffic[@]}"
+        run pair-in-traffic/mutants-ngsim-evasive-n60.txt evaluate --scenes data:commonroad-ngsim --seeds 3 \
+            --stage2-cbv closed-loop --mutants --methods log,prior,safer-in-path --trust-region 60 "${traffic[@]}" ;;
     esac
 done
 rm -r "$(dirname "$safer")"

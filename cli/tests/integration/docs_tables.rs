@@ -642,6 +642,8 @@ fn the_in_traffic_protocol_table_quotes_its_outputs() {
         let Some(method) = method_of(&row[1]) else { continue };
         let file = match (row[0].as_str(), row[2].as_str()) {
             ("WOMD interactive, n = 28", "pair") => "in-path-lookahead/sweep-n28.txt".to_owned(),
+            ("NGSIM, n = 60", "pair") => "evaluate-ngsim-in-path-n60.txt".to_owned(),
+            ("NGSIM, n = 60", "in traffic") => "pair-in-traffic/evaluate-ngsim-in-path-n60.txt".to_owned(),
             ("WOMD interactive, n = 28", "in traffic") => {
                 "pair-in-traffic/evaluate-womd-interactive-lookahead-n28.txt".to_owned()
             }
@@ -671,21 +673,23 @@ fn the_in_traffic_protocol_table_quotes_its_outputs() {
         assert_eq!(row[4], held_out_cr(&text, method), "{label}: CR held out");
         checked.push(label);
     }
-    assert_eq!(checked.len(), 14, "the rows in traffic and with V_h alone: {checked:?}");
+    assert_eq!(checked.len(), 16, "the rows in traffic and with V_h alone: {checked:?}");
 }
 
 #[test]
 fn the_in_traffic_mutation_table_quotes_its_outputs() {
     let checked = check_run_table(
         "Mutation testing in traffic",
-        "So it is an option for freeway suites",
+        "The shipped NGSIM suite's method catches fewer faults in traffic",
         None,
         &[
             ("NGSIM, pair", "30", "in-path-lookahead/n30/mutants-ngsim-evasive.txt"),
             ("NGSIM, in traffic", "30", "pair-in-traffic/mutants-ngsim-evasive.txt"),
+            ("NGSIM, pair", "60", "mutants-ngsim-evasive-n60.txt"),
+            ("NGSIM, in traffic", "60", "pair-in-traffic/mutants-ngsim-evasive-n60.txt"),
             ("WOMD interactive, pair", "28", "in-path-lookahead/n28/mutants-womd-interactive-evasive-seed0.txt"),
             ("WOMD interactive, in traffic", "28", "pair-in-traffic/mutants-womd-interactive-evasive-n28.txt"),
         ],
     );
-    assert_eq!(checked, 6, "the mutation rows in traffic and with V_h alone");
+    assert_eq!(checked, 8, "the mutation rows in traffic and with V_h alone");
 }
