@@ -159,10 +159,8 @@ impl<'a> EscapeRoom<'a> {
 
     /// Whether `ego_box` touches an agent of the traffic at `step` steps ahead.
     fn hits_traffic(&self, ego_box: &OrientedBox, step: usize) -> bool {
-        self.traffic.iter().filter_map(|boxes| boxes.get(step).copied().flatten()).any(|b| {
-            let reach_m = ego_box.half_diagonal_m() + b.half_diagonal_m();
-            (ego_box.pose.position - b.pose.position).norm() <= reach_m && ego_box.intersects(&b)
-        })
+        // `intersects` rejects far-apart boxes cheaply before its exact test.
+        self.traffic.iter().filter_map(|boxes| boxes.get(step).copied().flatten()).any(|b| ego_box.intersects(&b))
     }
 }
 
@@ -182,13 +180,15 @@ impl Escapes {
     pub(super) fn clear_of(&self, cbv: &AgentState) -> bool {
         let towards = self.ego_at - cbv.position;
         let pursuit_mps2 = if towards.norm() > 0.0 { towards / towards.norm() * ESCAPE_PURSUIT_MPS2 } else { towards };
-        self.paths.iter().any(|path| {
-            path.iter().enumerate().all(|(k, ego_box)| {
-                let t_s = (k + 1) as f64 * SIM_DT_S;
+        // The CBV's boxes over the horizon, the same for every escape.
+        let cbv_boxes: Vec<OrientedBox> = (1..=ESCAPE_STEPS)
+            .map(|k| {
+                let t_s = k as f64 * SIM_DT_S;
                 let position = cbv.position + cbv.velocity_mps * t_s + pursuit_mps2 * (0.5 * t_s * t_s);
-                !ego_box.intersects(&self.cbv_body.footprint(&AgentState { position, ..*cbv }))
+                self.cbv_body.footprint(&AgentState { position, ..*cbv })
             })
-        })
+            .collect();
+        self.paths.iter().any(|path| path.iter().zip(&cbv_boxes).all(|(ego_box, cbv_box)| !ego_box.intersects(cbv_box)))
     }
 }
 
