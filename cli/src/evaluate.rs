@@ -187,6 +187,7 @@ fn print_table(
             FeasibilityScope::Pair => "",
             FeasibilityScope::PairInTraffic =>
                 "; feasibility pair-in-traffic (V_h and the ego's room among the traffic)",
+            FeasibilityScope::Witnessed => "; feasibility witnessed (V_h and the witness's escape before a contact)",
         },
         match witness.road {
             RoadKeeping::Centre => "",
@@ -1199,7 +1200,7 @@ pub(crate) struct EvaluateArgs {
     /// The approach phase of the SaFeR methods: `seeded`, the prior drives the CBV for 1-4 tokens drawn from the variant's seed before the adversary engages, so that seeds differ; `none`, the adversary engages at the first token, as the paper describes its resampling (with the background on log replay every seed of a scene then gives the same variant).
     #[arg(long, value_parser = choice(ApproachPhase::ALL), default_value = "seeded")]
     pub(crate) approach_phase: ApproachPhase,
-    /// What the feasibility constraint of the methods with V_h takes into account: `pair`, V_h of the ego–CBV pair alone (the paper's); `pair-in-traffic` (beyond the paper), near the ego a state V_h calls escapable counts only where one of a few held manoeuvres keeps the ego clear of the CBV, of the traffic around it and on the road for 2 s.
+    /// What the feasibility constraint of the methods with V_h takes into account: `pair`, V_h of the ego–CBV pair alone (the paper's); `pair-in-traffic` (beyond the paper), near the ego a state V_h calls escapable counts only where one of a few held manoeuvres keeps the ego clear of the CBV, of the traffic around it and on the road for 2 s; `witnessed` (beyond the paper), a candidate ending within 1.5 m of the ego is taken only where the feasibility witness finds the ego an escape from the CBV along it.
     #[arg(long, value_parser = choice(FeasibilityScope::ALL), default_value = "pair")]
     pub(crate) feasibility: FeasibilityScope,
     /// The CBV in stage 2: replaying its stage-1 trajectory, or driven by the method again against the planner's ego (closed-loop); `replay,closed-loop` reports both side by side. The default here is `replay`, so that every method's stage 2 meets the same recorded CBV path and the methods compare on equal terms (the paper does not say whether its CBV reacts in stage 2); suites default to `closed-loop` (`adversary.stage2_cbv`), because a planner test should meet a CBV that answers the planner.

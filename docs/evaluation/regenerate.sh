@@ -74,6 +74,13 @@
 #                     shipped NGSIM suite's safer-in-path over 60 behaviours, the paper's protocol
 #                     and the mutation table (evaluate-ngsim-in-path-n60.txt,
 #                     mutants-ngsim-evasive-n60.txt) (about 35 minutes)
+#   witnessed         witnessed/: the in-path methods with `--feasibility witnessed` (V_h and
+#                     the feasibility witness before a contact) over 30 behaviours beside
+#                     in-path-lookahead/n30/ and pair-in-traffic/: the paper's protocol,
+#                     evaluate-{womd-interactive,womd-json,ngsim}.txt (the prior,
+#                     safer-in-path, safer-in-path-lookahead), and the evasive planner's
+#                     mutation tables of the lookahead on NGSIM and WOMD interactive
+#                     (mutants-{ngsim,womd-interactive}-evasive.txt) (about 30 minutes)
 #   ten-seeds         ten-seeds/: the evasive planner's mutation tables over 10 seeds a
 #                     scene, as the paper's protocol draws them: WOMD interactive (n = 20;
 #                     log replay, the prior, safer, safer-in-path, safer-in-path-lookahead)
@@ -98,7 +105,7 @@ set -euo pipefail
 self=$(realpath "$0")
 cd "$(dirname "$self")"
 all=(evaluate plain inattentive held-out-chance trust-region realism prior-fit n-sweep reactive n100 approach-none merging mutants wide-region cut-in
-    in-path-lookahead in-path-lookahead-n30 in-path-lookahead-n28 in-path-lookahead-sweep pair-in-traffic ten-seeds)
+    in-path-lookahead in-path-lookahead-n30 in-path-lookahead-n28 in-path-lookahead-sweep pair-in-traffic witnessed ten-seeds)
 jobs=("$@")
 [[ ${#jobs[@]} -gt 0 ]] || jobs=("${all[@]}")
 # The usage is the comment block at the top of this file.
@@ -340,6 +347,18 @@ for job in "${jobs[@]}"; do
             --methods safer-in-path,prior --trust-region 60 "${traffic[@]}"
         run pair-in-traffic/mutants-ngsim-evasive-n60.txt evaluate --scenes data:commonroad-ngsim --seeds 3 \
             --stage2-cbv closed-loop --mutants --methods log,prior,safer-in-path --trust-region 60 "${traffic[@]}" ;;
+    witnessed)
+        mkdir -p witnessed
+        witnessed=(--feasibility witnessed)
+        for s in "${sets[@]}"; do
+            run "witnessed/evaluate-${s#*:}.txt" evaluate --scenes "data:${s%%:*}" --seeds 10 \
+                --methods prior,safer-in-path,safer-in-path-lookahead --trust-region 30 "${witnessed[@]}"
+        done
+        for s in commonroad-ngsim:ngsim womd-interactive:womd-interactive; do
+            run "witnessed/mutants-${s#*:}-evasive.txt" evaluate --scenes "data:${s%%:*}" --seeds 3 \
+                --stage2-cbv closed-loop --mutants --methods log,prior,safer-in-path-lookahead --trust-region 30 \
+                "${witnessed[@]}"
+        done ;;
     esac
 done
 rm -r "$(dirname "$safer")"

@@ -9,14 +9,17 @@ use std::collections::HashMap;
 use std::sync::{Arc, Mutex, OnceLock};
 
 use super::HarnessError;
+use crate::eval::witness::{FIRST_WIDENING, FixedTraffic, RoadKeeping, RoadRule, WitnessBudget, search_witness};
+use crate::map::RoadMap;
 use crate::models::prior::{PriorVariant, RealismPrior};
 use crate::models::{ModelError, ModelSource};
 use crate::policies::LogReplay;
 use crate::policies::adversary::{
-    Adversary, ApproachPhase, FeasibilityOracle, FeasibilityScope, LOOKAHEAD_TOKENS, Objective, Search, TrustRegion,
+    Adversary, ApproachPhase, EscapeWitness, FeasibilityOracle, FeasibilityScope, LOOKAHEAD_TOKENS, Objective, Search,
+    TrustRegion,
 };
 use crate::policies::prior_sampling::{PriorAgent, PriorTraffic, ScenarioMapEncoding, TokenSampling, TrafficTimings};
-use crate::scenario::{Scenario, TrackIndex};
+use crate::scenario::{AgentBody, AgentState, Scenario, TrackIndex};
 use crate::sim::Simulation;
 use crate::spec::suite::AdversaryMethod;
 
@@ -136,6 +139,26 @@ pub struct MethodSettings {
     pub feasibility: FeasibilityScope,
 }
 
+/// The feasibility witness the `witnessed` scope asks before the CBV makes
+/// a contact: the fixed-traffic search `safer evaluate` checks stage-1
+/// collisions with, its ego's centre kept on the road, its beam widened
+/// once (×[`FIRST_WIDENING`]) where the narrow one finds nothing. Where
+/// it finds nothing the wider searches of `safer evaluate` might still
+/// find an escape: the adversary then turns away a contact that had one,
+/// never the other way round.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct ContactEscapeSearch;
+
+impl EscapeWitness for ContactEscapeSearch {
+    fn ego_escapes(&self, map: &RoadMap, states: &[Vec<Option<AgentState>>], bodies: &[AgentBody], ego: usize) -> bool {
+        // An ego absent at the start has nothing to escape.
+        let Some(start) = states.first().and_then(|row| row.get(ego).copied().flatten()) else { return true };
+        let traffic = FixedTraffic { states, bodies, ego, road: Some(RoadRule { map, keeping: RoadKeeping::Centre }) };
+        let budget = WitnessBudget::widening_up_to(FIRST_WIDENING);
+        search_witness(&start, bodies[ego], &traffic, states.len().saturating_sub(1), budget).is_found()
+    }
+}
+
 /// The trust region `method` searches, for a region of `n`.
 pub fn trust_region_of(method: AdversaryMethod, n: usize) -> TrustRegion {
     match method {
@@ -203,7 +226,11 @@ pub fn install(
         ..Search::one_step(trust_region_of(settings.method, settings.trust_region))
     };
     let adversary = |search, feasibility| {
-        Box::new(Adversary::new(traffic.clone(), ego, search, feasibility).with_approach(settings.approach))
+        let adversary = Adversary::new(traffic.clone(), ego, search, feasibility).with_approach(settings.approach);
+        Box::new(match settings.feasibility {
+            FeasibilityScope::Witnessed => adversary.with_escape_witness(Arc::new(ContactEscapeSearch)),
+            FeasibilityScope::Pair | FeasibilityScope::PairInTraffic => adversary,
+        })
     };
     match settings.method {
         AdversaryMethod::Log => sim.set_policy(cbv, Box::new(LogReplay::new(scenario.track(cbv).clone()))),
@@ -232,4 +259,40 @@ pub fn install(
         AdversaryMethod::NoLfr => sim.set_policy(cbv, adversary(search, None)),
     }
     Ok(InstalledMethod { traffic: Some(traffic) })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scenario::AgentKind;
+
+    /// A stopped ego at the origin facing +x, a CBV 1 m behind its box at
+    /// 3 m/s, and `others` standing, over 2 s: the witness's rows.
+    fn rows(others: &[(f64, f64)]) -> (Vec<Vec<Option<AgentState>>>, Vec<AgentBody>) {
+        let at = |x: f64, y: f64, v: f64| {
+            Some(AgentState {
+                position: crate::geometry::Point2::new(x, y),
+                heading_rad: 0.0,
+                velocity_mps: crate::geometry::Vector2::new(v, 0.0),
+            })
+        };
+        let rows = (0..=20)
+            .map(|k| {
+                let mut row = vec![if k == 0 { at(0.0, 0.0, 0.0) } else { None }, at(-5.5 + 0.3 * k as f64, 0.0, 3.0)];
+                row.extend(others.iter().map(|&(x, y)| at(x, y, 0.0)));
+                row
+            })
+            .collect();
+        (rows, vec![AgentBody { kind: AgentKind::Vehicle, length_m: 4.5, width_m: 2.0 }; 2 + others.len()])
+    }
+
+    #[test]
+    fn the_contact_search_finds_the_open_road_escape_and_none_for_a_boxed_in_ego() {
+        let map = RoadMap::default();
+        let (open, bodies) = rows(&[]);
+        assert!(ContactEscapeSearch.ego_escapes(&map, &open, &bodies, 0));
+        // A car 1 m ahead of its box and cars in the lanes either side.
+        let (boxed, bodies) = rows(&[(5.5, 0.0), (0.0, 3.5), (0.0, -3.5)]);
+        assert!(!ContactEscapeSearch.ego_escapes(&map, &boxed, &bodies, 0));
+    }
 }

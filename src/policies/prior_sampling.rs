@@ -267,6 +267,12 @@ impl PriorTraffic {
         }
     }
 
+    /// Every agent's state at each step observed so far, from the rollout's
+    /// first step (the last row is the latest step observed).
+    pub fn frames(&self) -> &[Vec<Option<AgentState>>] {
+        &self.frames
+    }
+
     /// The logits of `agent` at `step` (computing every member's at once).
     pub fn logits_at(&mut self, agent: usize, step: usize) -> Option<&TokenLogits> {
         if !self.logits.contains_key(&(agent, step)) {

@@ -281,7 +281,9 @@ pub struct AdversarySpec {
     /// account: `pair` (the default, the paper's), V_h of the ego–CBV pair
     /// alone; `pair-in-traffic` (beyond the paper), near the ego a state V_h
     /// calls escapable counts only where the traffic around the ego leaves
-    /// it room to escape.
+    /// it room to escape; `witnessed` (beyond the paper), a candidate near
+    /// the ego is taken only where the feasibility witness finds the ego an
+    /// escape from it.
     #[serde(default)]
     pub feasibility: FeasibilityScope,
 }
@@ -959,8 +961,10 @@ acceptance:
     #[test]
     fn feasibility_in_traffic_is_for_the_methods_with_v_h() {
         for method in ["prior", "no-lfr"] {
-            let e = error("method: prior }", &format!("method: {method}, feasibility: pair-in-traffic }}"));
-            assert!(e.contains("`feasibility` applies to the methods with the feasibility value"), "{method}: {e}");
+            for scope in ["pair-in-traffic", "witnessed"] {
+                let e = error("method: prior }", &format!("method: {method}, feasibility: {scope} }}"));
+                assert!(e.contains("`feasibility` applies to the methods with the feasibility value"), "{method}: {e}");
+            }
         }
         let e = error("method: prior }", "method: safer, feasibility: traffic }");
         assert!(e.contains("traffic") && e.contains("pair-in-traffic"), "a misspelt scope is refused: {e}");
@@ -968,6 +972,10 @@ acceptance:
         let spec = parse_yaml::<SuiteSpec>(&text, Path::new("s.yaml")).unwrap();
         spec.validate().unwrap();
         assert_eq!(spec.value.adversary.feasibility, FeasibilityScope::PairInTraffic);
+        let text = SUITE.replace("method: prior }", "method: safer-in-path-lookahead, feasibility: witnessed }");
+        let spec = parse_yaml::<SuiteSpec>(&text, Path::new("s.yaml")).unwrap();
+        spec.validate().unwrap();
+        assert_eq!(spec.value.adversary.feasibility, FeasibilityScope::Witnessed);
         let spec = parse_yaml::<SuiteSpec>(SUITE, Path::new("s.yaml")).unwrap();
         assert_eq!(spec.value.adversary.feasibility, FeasibilityScope::Pair);
     }

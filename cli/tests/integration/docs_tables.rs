@@ -693,3 +693,57 @@ fn the_in_traffic_mutation_table_quotes_its_outputs() {
     );
     assert_eq!(checked, 8, "the mutation rows in traffic and with V_h alone");
 }
+
+/// The mean stage-1 time of `method` over the prior's in an evaluation
+/// output's `where the time goes` table, to one decimal.
+fn stage1_over_prior(output: &str, method: &str) -> String {
+    let from = output.find("\nwhere the time goes").unwrap_or_else(|| panic!("no time table in the output"));
+    let stage1 = |name: &str| -> f64 {
+        output[from..]
+            .lines()
+            .map(|l| l.split_whitespace().collect::<Vec<_>>())
+            .find(|cells| cells.first() == Some(&name))
+            .and_then(|cells| cells.get(1)?.parse().ok())
+            .unwrap_or_else(|| panic!("no stage-1 time for {name}"))
+    };
+    format!("{:.1}", stage1(method) / stage1("prior"))
+}
+
+#[test]
+fn the_witnessed_protocol_table_quotes_its_outputs() {
+    let doc = repo_file("docs/benchmarks.md");
+    // CR, CR held out, SR, SR-crit, witness, VJ / AJ and the stage-1 time
+    // over the prior's in the same run; each method under the three scopes.
+    let mut checked = Vec::new();
+    let header =
+        "| set | method | feasibility scope | CR | CR held out | SR | SR-crit | witness | VJ / AJ | stage 1 ×prior |";
+    for row in markdown_rows(&doc, header, "Asking the witness keeps the conflicts") {
+        let Some(method) = method_of(&row[1]) else { continue };
+        let set = match row[0].as_str() {
+            "WOMD interactive" => "womd-interactive",
+            "WOMD JSON" => "womd-json",
+            "NGSIM" => "ngsim",
+            other => panic!("no set {other:?}"),
+        };
+        let (folder, run) = match row[2].as_str() {
+            "pair" => ("in-path-lookahead/n30", None),
+            "in traffic" => ("pair-in-traffic", Some("feasibility pair-in-traffic")),
+            "witnessed" => ("witnessed", Some("feasibility witnessed")),
+            other => panic!("no feasibility scope {other:?}"),
+        };
+        let file = format!("{folder}/evaluate-{set}.txt");
+        let (rows, text) = evaluation_output(&file);
+        if let Some(run) = run {
+            assert!(text.contains(run), "{file} is not a run with {run}");
+        }
+        let figures = evaluation_figures(&rows, method);
+        let mut quoted: Vec<String> = [3, 5, 6, 7].iter().map(|&c| row[c].replace("**", "")).collect();
+        quoted.extend(parts(&row[8]));
+        let label = format!("{}, {method}, {}", row[0], row[2]);
+        assert_eq!(quoted, [&figures[..4], &figures[4..6]].concat(), "{label}");
+        assert_eq!(row[4], held_out_cr(&text, method), "{label}: CR held out");
+        assert_eq!(row[9], stage1_over_prior(&text, method), "{label}: stage 1 over the prior's");
+        checked.push(label);
+    }
+    assert_eq!(checked.len(), 18, "three scopes, two methods, three sets: {checked:?}");
+}

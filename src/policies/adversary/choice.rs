@@ -6,16 +6,17 @@
 
 use super::background_forecast::BackgroundForecast;
 use super::behaviours::distinct_behaviours;
-use super::escape_room::{EscapeRoom, FeasibilityScope, veto_without_room};
+use super::contact_witness::{ContactWitness, EscapeWitness, closes_in};
+use super::escape_room::{EscapeRoom, FeasibilityScope, NO_ROOM_VALUE, veto_without_room};
 use super::feasibility::feasibility_values;
 use super::in_path::{cut_in_loss, in_path_loss};
-use super::lookahead::{FirstTokens, Lookahead};
+use super::lookahead::{FirstTokens, Lookahead, Lowering};
 use super::plausibility::{ContactRule, PlausibilityCheck};
 use super::rollout::token_rollouts;
 use crate::models::ModelError;
 use crate::models::feasibility_oracle::FeasibilityOracle;
 use crate::motion::KinematicState;
-use crate::motion::tokens::{TOKEN_PERIOD_S, TOKEN_PERIOD_STEPS, Token};
+use crate::motion::tokens::{TOKEN_PERIOD_S, TOKEN_PERIOD_STEPS, Token, TokenGrid};
 use crate::policies::WorldView;
 use crate::policies::prior_sampling::{ranked_tokens, top_tokens};
 use crate::scenario::{AgentBody, AgentState, TrackIndex};
@@ -132,6 +133,29 @@ impl Search {
     }
 }
 
+/// What the feasibility constraint asks at a token boundary.
+#[derive(Clone, Copy, Default)]
+pub struct Feasibility<'a> {
+    /// V_h (`None`: the `no-lfr` ablation, distance only).
+    pub oracle: Option<&'a dyn FeasibilityOracle>,
+    /// The feasibility witness, asked before a candidate near the ego is
+    /// taken (the `witnessed` scope; ignored in the others and without V_h).
+    pub witness: Option<&'a dyn EscapeWitness>,
+    /// Every agent at each step of the rollout so far, the last row now
+    /// (what the witness searches from; empty: the world now).
+    pub history: &'a [Vec<Option<AgentState>>],
+}
+
+impl std::fmt::Debug for Feasibility<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Feasibility")
+            .field("oracle", &self.oracle.is_some())
+            .field("witness", &self.witness.is_some())
+            .field("history_steps", &self.history.len())
+            .finish()
+    }
+}
+
 /// Where the ego will be after one token period if it keeps its velocity
 /// (the adversary does not know the ego's plan).
 fn ego_prediction(ego: &AgentState) -> AgentState {
@@ -149,17 +173,20 @@ fn ego_prediction(ego: &AgentState) -> AgentState {
 /// continuations (see [`Search::lookahead_tokens`]); in the
 /// `pair-in-traffic` scope a state V_h calls escapable near the ego is
 /// infeasible where the traffic leaves the ego no room to escape (see
-/// [`FeasibilityScope`]). Time spent in
-/// `feasibility` is added to `feasibility_s`. `None` only for empty `logits`.
+/// [`FeasibilityScope`]); in the `witnessed` scope a feasible candidate
+/// ending near the ego is taken only where the feasibility witness finds
+/// the ego an escape from it. Time spent in V_h is added to
+/// `feasibility_s`. `None` only for empty `logits`.
 pub fn safer_choice(
     world: &WorldView<'_>,
     (cbv, ego): (TrackIndex, TrackIndex),
     logits: &[f32],
     search: Search,
     forecast: &BackgroundForecast<'_>,
-    feasibility: Option<&dyn FeasibilityOracle>,
+    constraint: Feasibility<'_>,
     feasibility_s: &mut f64,
 ) -> Result<Option<Token>, ModelError> {
+    let feasibility = constraint.oracle;
     let (Some(cbv_now), Some(ego_now)) = (world.state(cbv), world.state(ego)) else {
         return Ok(top_tokens(logits, 1).first().copied());
     };
@@ -197,6 +224,7 @@ pub fn safer_choice(
             .map(|(d, v)| if *v <= 0.0 { *d } else { *v as f64 + INFEASIBLE_PENALTY })
             .collect(),
     };
+    let mut lowered: Vec<Option<Lowering>> = vec![None; candidates.len()];
     if search.lookahead_tokens > 1 {
         let lookahead = Lookahead {
             world,
@@ -215,35 +243,81 @@ pub fn safer_choice(
             scores_m: &objective,
             values: values.as_deref(),
         };
-        lookahead.lower_losses(cbv_now, first, &mut losses, feasibility, feasibility_s)?;
+        lowered = lookahead.lower_losses(cbv_now, first, &mut losses, feasibility, feasibility_s)?;
     }
+    let witness = match (constraint.witness, search.feasibility, feasibility) {
+        (Some(witness), FeasibilityScope::Witnessed, Some(_)) => Some(ContactWitness::new(
+            witness,
+            world,
+            (cbv, ego),
+            forecast,
+            constraint.history,
+            search.lookahead_tokens * TOKEN_PERIOD_STEPS,
+        )),
+        _ => None,
+    };
     // The strict arg min: by loss (a NaN distance, never expected as
     // states are bounds-checked, ranks last), then the likelier token,
     // then the lower id; the first plausible candidate in that order,
     // or the first of all when none is. Plausibility is the costly
     // check, so it is asked only until a plausible one is found.
-    let loss = |i: usize| if losses[i].is_nan() { f64::INFINITY } else { losses[i] };
-    let mut order: Vec<usize> = (0..candidates.len()).collect();
-    order.sort_by(|&i, &j| {
-        loss(i)
-            .total_cmp(&loss(j))
-            .then(logits[candidates[j].0 as usize].total_cmp(&logits[candidates[i].0 as usize]))
-            .then(candidates[i].0.cmp(&candidates[j].0))
-    });
+    let order = |losses: &[f64]| {
+        let loss = |i: usize| if losses[i].is_nan() { f64::INFINITY } else { losses[i] };
+        let mut order: Vec<usize> = (0..candidates.len()).collect();
+        order.sort_by(|&i, &j| {
+            loss(i)
+                .total_cmp(&loss(j))
+                .then(logits[candidates[j].0 as usize].total_cmp(&logits[candidates[i].0 as usize]))
+                .then(candidates[i].0.cmp(&candidates[j].0))
+        });
+        order
+    };
     let check = PlausibilityCheck::new(world, cbv, ego, forecast);
-    // The strict rule first; when nothing at all is plausible, whatever the
-    // CBV does a replayed agent runs into it, and the same two steps are
-    // taken counting only its own faults.
-    for rule in [ContactRule::Any, ContactRule::AtFaultOnly] {
-        if let Some(&i) = order.iter().find(|&&i| !check.implausible(&rollouts[i], rule)) {
-            return Ok(Some(candidates[i]));
+    // A feasible candidate whose CBV, held on from its end, closes in on the
+    // ego's prediction: the ones the witness is asked of (its path too).
+    let near = |i: usize, losses: &[f64]| {
+        if losses[i] >= INFEASIBLE_PENALTY {
+            return None;
         }
-        // The likeliest plausible token outside the region: for a top-n
-        // region, the rest of the vocabulary; for a distinct-behaviour
-        // region, the near-duplicates it skipped as well.
-        if let Some(t) = check.likeliest_plausible_outside(logits, candidates, rule) {
-            return Ok(Some(t));
+        let path = cbv_path(&rollouts[i], lowered[i].as_ref());
+        let end = *path.last()?;
+        let ahead_s = path.len() as f64 * crate::motion::tokens::SIM_DT_S;
+        let ego_end = AgentState { position: ego_now.position + ego_now.velocity_mps * ahead_s, ..*ego_now };
+        closes_in(&ego_end, ego_body, &end, cbv_body).then_some((path, ego_end.position))
+    };
+    let mut implausible: Vec<Option<bool>> = vec![None; candidates.len()];
+    // The strict rule first, each candidate about to be taken near the
+    // ego asked of the witness (`witnessed` only): one it finds no escape
+    // from counts as infeasible, and the order is taken again.
+    loop {
+        let Some(i) = order(&losses)
+            .into_iter()
+            .find(|&i| !*implausible[i].get_or_insert_with(|| check.implausible(&rollouts[i], ContactRule::Any)))
+        else {
+            break;
+        };
+        match witness.as_ref().and_then(|w| Some((w, near(i, &losses)?))) {
+            Some((witness, (path, ego_end))) if !witness.escapable(&path, &ego_end) => {
+                losses[i] = NO_ROOM_VALUE as f64 + INFEASIBLE_PENALTY;
+            }
+            _ => return Ok(Some(candidates[i])),
         }
+    }
+    let order = order(&losses);
+    // The likeliest plausible token outside the region: for a top-n
+    // region, the rest of the vocabulary; for a distinct-behaviour
+    // region, the near-duplicates it skipped as well.
+    if let Some(t) = check.likeliest_plausible_outside(logits, candidates, ContactRule::Any) {
+        return Ok(Some(t));
+    }
+    // When nothing at all is plausible, whatever the CBV does a replayed
+    // agent runs into it, and the same two steps are taken counting only
+    // its own faults.
+    if let Some(&i) = order.iter().find(|&&i| !check.implausible(&rollouts[i], ContactRule::AtFaultOnly)) {
+        return Ok(Some(candidates[i]));
+    }
+    if let Some(t) = check.likeliest_plausible_outside(logits, candidates, ContactRule::AtFaultOnly) {
+        return Ok(Some(t));
     }
     // With no plausible token at all, the trust region's token that
     // breaks the rule latest (the first such in arg-min order). Only here
@@ -252,6 +326,18 @@ pub fn safer_choice(
     let violations =
         order.iter().rev().filter_map(|&i| check.first_violation(&rollouts[i], ContactRule::Any).map(|k| (i, k)));
     Ok(violations.max_by_key(|(_, k)| *k).map(|(i, _)| candidates[i]))
+}
+
+/// The CBV's states along a first token's `rollout` and then the
+/// continuation that `lowering` names, if any.
+fn cbv_path(rollout: &[AgentState], lowering: Option<&Lowering>) -> Vec<AgentState> {
+    let mut path = rollout.to_vec();
+    for &t in lowering.map_or(&[][..], |l| &l.path[..]) {
+        let Some(last) = path.last() else { break };
+        let from = KinematicState::from_agent_state(last);
+        path.extend(TokenGrid::rollout(&from, t).iter().map(KinematicState::to_agent_state));
+    }
+    path
 }
 
 #[cfg(test)]

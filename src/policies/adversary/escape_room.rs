@@ -40,11 +40,16 @@ pub enum FeasibilityScope {
     /// keep clear of the traffic, the road's edge and a CBV closing in, for
     /// 2 s).
     PairInTraffic,
+    /// Beyond the paper: V_h, and a candidate that ends within 1.5 m of the
+    /// ego is taken only where the feasibility witness (the search `safer
+    /// evaluate` checks stage-1 collisions with) finds the ego an escape
+    /// from the CBV along it, among the traffic and on the road.
+    Witnessed,
 }
 
 impl FeasibilityScope {
     /// Every variant, in declaration order (for choosers such as the command line).
-    pub const ALL: &'static [Self] = &[Self::Pair, Self::PairInTraffic];
+    pub const ALL: &'static [Self] = &[Self::Pair, Self::PairInTraffic, Self::Witnessed];
 }
 
 /// How long an escape must keep the ego clear, s.

@@ -83,14 +83,26 @@ pub(super) struct FirstTokens<'a> {
 #[derive(Clone)]
 struct Continuation {
     root: usize,
+    /// Its tokens after the first token.
+    path: Vec<Token>,
     state: KinematicState,
     distance_m: f64,
     score_m: f64,
 }
 
+/// The continuation that gave a first token its loss.
+#[derive(Debug, Clone, PartialEq)]
+pub(super) struct Lowering {
+    /// Its tokens after the first token (none: a contact in the first token).
+    pub(super) path: Vec<Token>,
+    /// Its box distance to the ego's prediction at its end, m.
+    pub(super) distance_m: f64,
+}
+
 impl Lookahead<'_> {
     /// Lowers each candidate's one-step loss in `losses` to the best score
-    /// of its continuations (see [`Lookahead`]).
+    /// of its continuations (see [`Lookahead`]); returns, for each, the
+    /// continuation that lowered it (`None`: its one-step loss stands).
     pub(super) fn lower_losses(
         &self,
         cbv_now: &AgentState,
@@ -98,7 +110,8 @@ impl Lookahead<'_> {
         losses: &mut [f64],
         feasibility: Option<&dyn FeasibilityOracle>,
         feasibility_s: &mut f64,
-    ) -> Result<(), ModelError> {
+    ) -> Result<Vec<Option<Lowering>>, ModelError> {
+        let mut lowered: Vec<Option<Lowering>> = vec![None; losses.len()];
         let feasible = |i: usize| first.values.is_none_or(|v| v[i] <= 0.0);
         // A contact in the first token, straight from a feasible state now.
         if let (Some(oracle), Some(values)) = (feasibility, first.values) {
@@ -111,6 +124,7 @@ impl Lookahead<'_> {
                 for (i, loss) in losses.iter_mut().enumerate() {
                     if values[i] > 0.0 && first.distances_m[i] <= 0.0 {
                         *loss = first.scores_m[i].max(0.0);
+                        lowered[i] = Some(Lowering { path: Vec::new(), distance_m: first.distances_m[i] });
                     }
                 }
             }
@@ -119,6 +133,7 @@ impl Lookahead<'_> {
             .filter(|&i| feasible(i) && first.distances_m[i] > 0.0)
             .map(|i| Continuation {
                 root: i,
+                path: Vec::new(),
                 state: KinematicState::from_agent_state(&first.states[i]),
                 distance_m: first.distances_m[i],
                 score_m: first.scores_m[i],
@@ -139,7 +154,10 @@ impl Lookahead<'_> {
                     let at = end.to_agent_state();
                     let distance_m = ego_box.distance(&self.cbv_body.footprint(&at));
                     let score_m = self.objective.loss(&ego, self.ego_body, &at, self.cbv_body, distance_m);
-                    children.push(Continuation { root: parent.root, state: end, distance_m, score_m });
+                    let mut path = Vec::with_capacity(parent.path.len() + 1);
+                    path.extend_from_slice(&parent.path);
+                    path.push(t);
+                    children.push(Continuation { root: parent.root, path, state: end, distance_m, score_m });
                 }
             }
             // Whether a continuation stays on the road and is feasible (or
@@ -163,9 +181,11 @@ impl Lookahead<'_> {
             // paper's, the not-ahead penalty for the in-path ones' CBV
             // running into the ego from behind or the side.
             for &i in &lowering {
-                if kept[i] == Some(true) {
-                    let c = &children[i];
-                    losses[c.root] = losses[c.root].min(c.score_m.max(0.0) + delay_m);
+                let c = &children[i];
+                let score_m = c.score_m.max(0.0) + delay_m;
+                if kept[i] == Some(true) && score_m < losses[c.root] {
+                    losses[c.root] = score_m;
+                    lowered[c.root] = Some(Lowering { path: c.path.clone(), distance_m: c.distance_m });
                 }
             }
             // A contact ends its continuation; the beam keeps the best of the rest.
@@ -179,7 +199,7 @@ impl Lookahead<'_> {
             }
             beam = next_beam.into_iter().map(|i| children[i].clone()).collect();
         }
-        Ok(())
+        Ok(lowered)
     }
 
     /// Judges each of `which` not judged yet into `kept`: `false` when it
@@ -303,6 +323,44 @@ mod tests {
         let boxed = [ego, cbv, car(8.5, 0.0, 10.0), car(0.0, 3.5, 10.0), car(0.0, -3.5, 10.0)];
         assert_eq!(choice_in(&boxed, &LIKED, pair, Some(&close_is_infeasible)), token(5.0));
         assert_eq!(choice_in(&boxed, &LIKED, in_traffic, Some(&close_is_infeasible)), token(-5.0));
+    }
+
+    #[test]
+    fn witnessed_the_lookahead_takes_no_contact_the_witness_finds_no_escape_from() {
+        use crate::map::RoadMap;
+        use crate::policies::adversary::test_support::choice_under;
+        use crate::policies::adversary::{EscapeWitness, Feasibility, FeasibilityScope};
+        use crate::scenario::AgentBody;
+        /// A witness with one answer, counting the questions.
+        struct Answer(bool, std::sync::atomic::AtomicUsize);
+        impl EscapeWitness for Answer {
+            fn ego_escapes(&self, _: &RoadMap, _: &[Vec<Option<AgentState>>], _: &[AgentBody], _: usize) -> bool {
+                self.1.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                self.0
+            }
+        }
+        let close_is_infeasible = StubOracle(|p| if gap_m(p) < 0.3 { 1.0 } else { -1.0 });
+        let liked: Vec<(Token, f32)> = LIKED.iter().map(|&(a, logit)| (token(a), logit)).collect();
+        let pair = Search { lookahead_tokens: LOOKAHEAD_TOKENS, ..Search::one_step(TrustRegion::TopN(5)) };
+        let witnessed = Search { feasibility: FeasibilityScope::Witnessed, ..pair };
+        let chosen = |search, witness: &Answer| {
+            let constraint = Feasibility { oracle: Some(&close_is_infeasible), witness: Some(witness), history: &[] };
+            choice_under(&CLOSING, &liked, search, constraint)
+        };
+        // The witness finds an escape: the contact V_h alone takes, after one question.
+        let escapes = Answer(true, Default::default());
+        assert_eq!(chosen(witnessed, &escapes), token(5.0));
+        assert_eq!(escapes.1.into_inner(), 1);
+        // It finds none: every candidate closes in on the ego, each asked in
+        // turn until the boundary's searches are spent; all count as
+        // infeasible alike and the likeliest wins (the paper's fallback).
+        let none = Answer(false, Default::default());
+        assert_eq!(chosen(witnessed, &none), token(-5.0));
+        assert_eq!(none.1.into_inner(), crate::policies::adversary::WITNESS_CHECKS_PER_TOKEN);
+        // The witness is asked in the `witnessed` scope only.
+        let unasked = Answer(false, Default::default());
+        assert_eq!(chosen(pair, &unasked), token(5.0));
+        assert_eq!(unasked.1.into_inner(), 0);
     }
 
     #[test]

@@ -59,13 +59,13 @@
 //! that does not see the ego (see
 //! [`PriorTraffic::hide_from`](crate::policies::prior_sampling::PriorTraffic::hide_from)).
 //! Any method with V_h may also ask, near the ego, whether the traffic
-//! around the ego leaves it room to escape (beyond the paper; see
-//! [`FeasibilityScope`]).
+//! around the ego leaves it room to escape, or whether the feasibility
+//! witness finds it an escape (beyond the paper; see [`FeasibilityScope`]).
 //!
 //! One file per concept: the [`Adversary`] policy (`policy`), the
 //! approach phase (`approach`), SaFeR's choice ([`safer_choice`],
 //! `choice`) and the lookahead of `safer-lookahead` (`lookahead`), V_h of
-//! candidate states (`feasibility`) and the ego's room to escape among the traffic (`escape_room`), the in-path and cut-in objectives (`in_path`), the CBV's states under a token
+//! candidate states (`feasibility`), the ego's room to escape among the traffic (`escape_room`) and the witness asked before a contact (`contact_witness`), the in-path and cut-in objectives (`in_path`), the CBV's states under a token
 //! (`rollout`), the [`BackgroundForecast`], and the plausibility check
 //! (`plausibility`, with its broad phase in `broad_phase`); and the
 //! [`TrustRegionProfile`] that diagnoses what a prior's region offers
@@ -76,6 +76,7 @@ mod background_forecast;
 mod behaviours;
 mod broad_phase;
 mod choice;
+mod contact_witness;
 mod escape_room;
 mod feasibility;
 mod in_path;
@@ -91,7 +92,8 @@ pub use crate::models::feasibility_oracle::{EgoCbvState, FeasibilityOracle};
 pub use approach::{APPROACH_TOKENS, ApproachPhase};
 pub use background_forecast::BackgroundForecast;
 pub use behaviours::{BEHAVIOUR_HOLD_S, BEHAVIOUR_SEPARATION_M, distinct_behaviours};
-pub use choice::{INFEASIBLE_PENALTY, Objective, Search, TrustRegion, safer_choice};
+pub use choice::{Feasibility, INFEASIBLE_PENALTY, Objective, Search, TrustRegion, safer_choice};
+pub use contact_witness::{EscapeWitness, WITNESS_CHECK_GAP_M, WITNESS_CHECKS_PER_TOKEN};
 pub use escape_room::{
     ESCAPE_ACCELS_MPS2, ESCAPE_CHECK_GAP_M, ESCAPE_HORIZON_S, ESCAPE_PURSUIT_MPS2, ESCAPE_YAW_RATES_RADPS,
     FeasibilityScope, NO_ROOM_VALUE,

@@ -9,7 +9,9 @@ use rand_chacha::ChaCha8Rng;
 
 use super::approach::{ApproachPhase, approach_draw};
 use super::background_forecast::BackgroundForecast;
-use super::choice::{Search, safer_choice};
+use super::choice::{Feasibility, Search, safer_choice};
+use super::contact_witness::EscapeWitness;
+use super::escape_room::FeasibilityScope;
 use crate::models::ModelError;
 use crate::models::feasibility_oracle::FeasibilityOracle;
 use crate::motion::tokens::{TOKEN_PERIOD_STEPS, Token, TokenGrid};
@@ -23,6 +25,7 @@ pub struct Adversary {
     ego: TrackIndex,
     search: Search,
     feasibility: Option<Arc<dyn FeasibilityOracle>>,
+    witness: Option<Arc<dyn EscapeWitness>>,
     approach: ApproachPhase,
     current: Option<Token>,
     error: Option<Arc<ModelError>>,
@@ -34,6 +37,7 @@ impl std::fmt::Debug for Adversary {
             .field("ego", &self.ego)
             .field("search", &self.search)
             .field("feasibility", &self.feasibility.is_some())
+            .field("witness", &self.witness.is_some())
             .field("approach", &self.approach)
             .finish()
     }
@@ -48,7 +52,23 @@ impl Adversary {
         search: Search,
         feasibility: Option<Arc<dyn FeasibilityOracle>>,
     ) -> Self {
-        Self { shared, ego, search, feasibility, approach: ApproachPhase::default(), current: None, error: None }
+        Self {
+            shared,
+            ego,
+            search,
+            feasibility,
+            witness: None,
+            approach: ApproachPhase::default(),
+            current: None,
+            error: None,
+        }
+    }
+
+    /// The same adversary asking `witness` before it takes a candidate near
+    /// the ego, when its search's feasibility scope is
+    /// [`FeasibilityScope::Witnessed`].
+    pub fn with_escape_witness(self, witness: Arc<dyn EscapeWitness>) -> Self {
+        Self { witness: Some(witness), ..self }
     }
 
     /// The same adversary with `approach` as its approach phase (the
@@ -68,18 +88,16 @@ impl Adversary {
         let mut shared = self.shared.lock().unwrap_or_else(|p| p.into_inner());
         let Some(logits) = shared.logits_at(cbv.0, world.step).cloned() else { return Ok(None) };
         let (scenario, prior_driven) = (shared.scenario().clone(), shared.members().to_vec());
+        // The rollout so far, only where the witness will search it.
+        let witnessed = self.search.feasibility == FeasibilityScope::Witnessed && self.witness.is_some();
+        let history = if witnessed { shared.frames().to_vec() } else { Vec::new() };
         drop(shared);
         let forecast = BackgroundForecast { recording: Some(&scenario), not_replayed: &prior_driven };
         let mut feasibility_s = 0.0;
-        let chosen = safer_choice(
-            world,
-            (cbv, self.ego),
-            &logits,
-            self.search,
-            &forecast,
-            self.feasibility.as_deref(),
-            &mut feasibility_s,
-        );
+        let constraint =
+            Feasibility { oracle: self.feasibility.as_deref(), witness: self.witness.as_deref(), history: &history };
+        let chosen =
+            safer_choice(world, (cbv, self.ego), &logits, self.search, &forecast, constraint, &mut feasibility_s);
         self.shared.lock().unwrap_or_else(|p| p.into_inner()).add_feasibility_time(feasibility_s);
         chosen
     }

@@ -1,7 +1,7 @@
 //! What the adversary's unit tests share: cars, tokens, a dead-end road,
 //! a stub feasibility oracle and the choice on an open plane.
 
-use super::{BackgroundForecast, EgoCbvState, FeasibilityOracle, Search, safer_choice};
+use super::{BackgroundForecast, EgoCbvState, Feasibility, FeasibilityOracle, Search, safer_choice};
 use crate::geometry::{Point2, Vector2};
 use crate::map::RoadMap;
 use crate::models::ModelError;
@@ -52,6 +52,16 @@ pub(super) fn choice_among(
     search: Search,
     oracle: Option<&dyn FeasibilityOracle>,
 ) -> Token {
+    choice_under(states, liked, search, Feasibility { oracle, ..Feasibility::default() })
+}
+
+/// [`choice_among`] under the whole feasibility constraint `constraint`.
+pub(super) fn choice_under(
+    states: &[Option<AgentState>],
+    liked: &[(Token, f32)],
+    search: Search,
+    constraint: Feasibility<'_>,
+) -> Token {
     let map = RoadMap::default();
     let bodies = vec![AgentBody { kind: AgentKind::Vehicle, length_m: 4.5, width_m: 2.0 }; states.len()];
     let world = WorldView { map: &map, step: 0, bodies: &bodies, states };
@@ -66,7 +76,7 @@ pub(super) fn choice_among(
         &logits,
         search,
         &BackgroundForecast::default(),
-        oracle,
+        constraint,
         &mut feasibility_s,
     )
     .unwrap()
