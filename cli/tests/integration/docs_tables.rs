@@ -631,6 +631,24 @@ fn the_lookahead_mutation_tables_over_thirty_behaviours_quote_their_outputs() {
     assert_eq!(draws, 4, "four draws of seeds");
 }
 
+/// Checks a row of a feasibility-scope table (set, method, scope, CR, CR
+/// held out, SR, SR-crit, witness, VJ / AJ) against `method`'s figures in
+/// the output `file`, which must say `run` when given; its label and the
+/// output's text.
+fn check_scope_row(row: &[String], method: &str, file: &str, run: Option<&str>) -> (String, String) {
+    let (rows, text) = evaluation_output(file);
+    if let Some(run) = run {
+        assert!(text.contains(run), "{file} is not a run with {run}");
+    }
+    let figures = evaluation_figures(&rows, method);
+    let mut quoted: Vec<String> = [3, 5, 6, 7].iter().map(|&c| row[c].replace("**", "")).collect();
+    quoted.extend(parts(&row[8]));
+    let label = format!("{}, {method}, {}", row[0], row[2]);
+    assert_eq!(quoted, [&figures[..4], &figures[4..6]].concat(), "{label}");
+    assert_eq!(row[4], held_out_cr(&text, method), "{label}: CR held out");
+    (label, text)
+}
+
 #[test]
 fn the_in_traffic_protocol_table_quotes_its_outputs() {
     let doc = repo_file("docs/benchmarks.md");
@@ -661,17 +679,8 @@ fn the_in_traffic_protocol_table_quotes_its_outputs() {
                 }
             }
         };
-        let (rows, text) = evaluation_output(&file);
-        if row[2] == "in traffic" {
-            assert!(text.contains("feasibility pair-in-traffic"), "{file} is not a run in traffic");
-        }
-        let figures = evaluation_figures(&rows, method);
-        let mut quoted: Vec<String> = [3, 5, 6, 7].iter().map(|&c| row[c].replace("**", "")).collect();
-        quoted.extend(parts(&row[8]));
-        let label = format!("{}, {method}, {}", row[0], row[2]);
-        assert_eq!(quoted, [&figures[..4], &figures[4..6]].concat(), "{label}");
-        assert_eq!(row[4], held_out_cr(&text, method), "{label}: CR held out");
-        checked.push(label);
+        let run = (row[2] == "in traffic").then_some("feasibility pair-in-traffic");
+        checked.push(check_scope_row(&row, method, &file, run).0);
     }
     assert_eq!(checked.len(), 16, "the rows in traffic and with V_h alone: {checked:?}");
 }
@@ -732,16 +741,7 @@ fn the_witnessed_protocol_table_quotes_its_outputs() {
             other => panic!("no feasibility scope {other:?}"),
         };
         let file = format!("{folder}/evaluate-{set}.txt");
-        let (rows, text) = evaluation_output(&file);
-        if let Some(run) = run {
-            assert!(text.contains(run), "{file} is not a run with {run}");
-        }
-        let figures = evaluation_figures(&rows, method);
-        let mut quoted: Vec<String> = [3, 5, 6, 7].iter().map(|&c| row[c].replace("**", "")).collect();
-        quoted.extend(parts(&row[8]));
-        let label = format!("{}, {method}, {}", row[0], row[2]);
-        assert_eq!(quoted, [&figures[..4], &figures[4..6]].concat(), "{label}");
-        assert_eq!(row[4], held_out_cr(&text, method), "{label}: CR held out");
+        let (label, text) = check_scope_row(&row, method, &file, run);
         assert_eq!(row[9], stage1_over_prior(&text, method), "{label}: stage 1 over the prior's");
         checked.push(label);
     }

@@ -289,9 +289,8 @@ pub fn safer_choice(
     // The strict rule first, each candidate about to be taken near the
     // ego asked of the witness (`witnessed` only): one it finds no escape
     // from counts as infeasible, and the order is taken again.
-    let mut plausible = |i: usize| {
-        !*implausible[i].get_or_insert_with(|| check.implausible(&rollouts[i], ContactRule::Any))
-    };
+    let mut plausible =
+        |i: usize| !*implausible[i].get_or_insert_with(|| check.implausible(&rollouts[i], ContactRule::Any));
     while let Some(i) = order(&losses).into_iter().find(|&i| plausible(i)) {
         match witness.as_ref().and_then(|w| Some((w, near(i, &losses)?))) {
             Some((witness, (path, ego_end))) if !witness.escapable(&path, &ego_end) => {
