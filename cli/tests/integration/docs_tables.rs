@@ -747,3 +747,20 @@ fn the_witnessed_protocol_table_quotes_its_outputs() {
     }
     assert_eq!(checked.len(), 18, "three scopes, two methods, three sets: {checked:?}");
 }
+
+#[test]
+fn the_witnessed_mutation_table_quotes_its_outputs() {
+    let checked = check_run_table(
+        "Mutation testing with the witness asked",
+        "The witness changes only the variants whose contacts had no escape",
+        None,
+        &[
+            ("NGSIM, pair", "30", "in-path-lookahead/n30/mutants-ngsim-evasive.txt"),
+            ("NGSIM, in traffic", "30", "pair-in-traffic/mutants-ngsim-evasive.txt"),
+            ("NGSIM, witnessed", "30", "witnessed/mutants-ngsim-evasive.txt"),
+            ("WOMD interactive, pair", "30", "in-path-lookahead/n30/mutants-womd-interactive-evasive-seed0.txt"),
+            ("WOMD interactive, witnessed", "30", "witnessed/mutants-womd-interactive-evasive.txt"),
+        ],
+    );
+    assert_eq!(checked, 5, "the lookahead's mutation rows under the three scopes");
+}
