@@ -79,9 +79,9 @@
 #                     in-path-lookahead/n30/ and pair-in-traffic/: the paper's protocol,
 #                     evaluate-{womd-interactive,womd-json,ngsim}.txt (the prior,
 #                     safer-in-path, safer-in-path-lookahead), the lookahead over 28 on
-#                     WOMD interactive (evaluate-womd-interactive-lookahead-n28.txt), and the
+#                     WOMD interactive and NGSIM (evaluate-*-lookahead-n28.txt), and the
 #                     evasive planner's mutation tables of the lookahead on NGSIM and WOMD
-#                     interactive (mutants-{ngsim,womd-interactive}-evasive.txt) (about 55 minutes)
+#                     interactive (mutants-{ngsim,womd-interactive}-evasive.txt) (about 65 minutes)
 #   ten-seeds         ten-seeds/: the evasive planner's mutation tables over 10 seeds a
 #                     scene, as the paper's protocol draws them: WOMD interactive (n = 20;
 #                     log replay, the prior, safer, safer-in-path, safer-in-path-lookahead)
@@ -355,8 +355,10 @@ for job in "${jobs[@]}"; do
             run "witnessed/evaluate-${s#*:}.txt" evaluate --scenes "data:${s%%:*}" --seeds 10 \
                 --methods prior,safer-in-path,safer-in-path-lookahead --trust-region 30 "${witnessed[@]}"
         done
-        run witnessed/evaluate-womd-interactive-lookahead-n28.txt evaluate --scenes data:womd-interactive \
-            --seeds 10 --methods safer-in-path-lookahead --trust-region 28 "${witnessed[@]}"
+        for s in womd-interactive:womd-interactive commonroad-ngsim:ngsim; do
+            run "witnessed/evaluate-${s#*:}-lookahead-n28.txt" evaluate --scenes "data:${s%%:*}" --seeds 10 \
+                --methods prior,safer-in-path-lookahead --trust-region 28 "${witnessed[@]}"
+        done
         for s in commonroad-ngsim:ngsim womd-interactive:womd-interactive; do
             run "witnessed/mutants-${s#*:}-evasive.txt" evaluate --scenes "data:${s%%:*}" --seeds 3 \
                 --stage2-cbv closed-loop --mutants --methods log,prior,safer-in-path-lookahead --trust-region 30 \
