@@ -174,8 +174,8 @@ fn ego_prediction(ego: &AgentState) -> AgentState {
 /// `pair-in-traffic` scope a state V_h calls escapable near the ego is
 /// infeasible where the traffic leaves the ego no room to escape (see
 /// [`FeasibilityScope`]); in the `witnessed` scope a feasible candidate
-/// ending near the ego is taken only where the feasibility witness finds
-/// the ego an escape from it. Time spent in V_h is added to
+/// that leads the CBV near the ego is taken only where the feasibility
+/// witness finds the ego an escape from it. Time spent in V_h is added to
 /// `feasibility_s`. `None` only for empty `logits`.
 pub fn safer_choice(
     world: &WorldView<'_>,

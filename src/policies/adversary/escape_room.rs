@@ -40,8 +40,9 @@ pub enum FeasibilityScope {
     /// keep clear of the traffic, the road's edge and a CBV closing in, for
     /// 2 s).
     PairInTraffic,
-    /// Beyond the paper: V_h, and a candidate that ends within 1.5 m of the
-    /// ego is taken only where the feasibility witness (the search `safer
+    /// Beyond the paper: V_h, and a candidate that leads the CBV within
+    /// 1.5 m of the ego (both held on at constant velocity for 2 s) is
+    /// taken only where the feasibility witness (the search `safer
     /// evaluate` checks stage-1 collisions with) finds the ego an escape
     /// from the CBV along it, among the traffic and on the road.
     Witnessed,
