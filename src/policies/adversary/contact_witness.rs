@@ -13,7 +13,7 @@
 //! [`WITNESS_HOLD_S`]. The search runs on the rollout so far, continued by
 //! the background as the adversary forecasts it and by the CBV along the
 //! candidate and then, for [`WITNESS_HOLD_S`], closing in on where the ego
-//! would be at the candidate's end at [`ESCAPE_PURSUIT_MPS2`] (the
+//! would be at the candidate's end at [`ESCAPE_PURSUIT_MPS2`](super::ESCAPE_PURSUIT_MPS2) (the
 //! adversary keeps coming after a contact: a CBV creeping into a queued
 //! ego's bumper is escaped by the ego inching forward, and then it pushes
 //! on, which is what `safer evaluate`'s witness sees over the whole
@@ -30,7 +30,7 @@
 use std::cell::Cell;
 
 use super::background_forecast::BackgroundForecast;
-use super::escape_room::ESCAPE_PURSUIT_MPS2;
+use super::escape_room::closing_in;
 use crate::geometry::Point2;
 use crate::map::RoadMap;
 use crate::motion::tokens::SIM_DT_S;
@@ -116,7 +116,7 @@ impl<'a> ContactWitness<'a> {
     /// Whether the ego could escape a CBV that drives `cbv_path` (its
     /// states over the steps after now, at most the boundary's path
     /// length) and then, for [`WITNESS_HOLD_S`], accelerates from its
-    /// velocity at [`ESCAPE_PURSUIT_MPS2`] towards `ego_end` (where the
+    /// velocity at [`ESCAPE_PURSUIT_MPS2`](super::ESCAPE_PURSUIT_MPS2) towards `ego_end` (where the
     /// ego's prediction is at the path's end): `false` once the
     /// boundary's searches are spent.
     pub(super) fn escapable(&self, cbv_path: &[AgentState], ego_end: &Point2) -> bool {
@@ -128,18 +128,7 @@ impl<'a> ContactWitness<'a> {
         let now = [self.world.states.to_vec()];
         let history = if self.history.is_empty() { &now[..] } else { self.history };
         let mut states = history.to_vec();
-        let held = cbv_path.last().into_iter().flat_map(|end| {
-            let towards = ego_end - end.position;
-            let pursuit_mps2 =
-                if towards.norm() > 0.0 { towards / towards.norm() * ESCAPE_PURSUIT_MPS2 } else { towards };
-            (1..=HOLD_STEPS).map(move |k| {
-                let t_s = k as f64 * SIM_DT_S;
-                AgentState {
-                    position: end.position + end.velocity_mps * t_s + pursuit_mps2 * (0.5 * t_s * t_s),
-                    ..*end
-                }
-            })
-        });
+        let held = cbv_path.last().map(|end| closing_in(end, ego_end, HOLD_STEPS)).unwrap_or_default();
         for (row, s) in self.ahead.iter().zip(cbv_path.iter().copied().chain(held)) {
             let mut row = row.clone();
             row[self.cbv.0] = Some(s);
@@ -152,6 +141,7 @@ impl<'a> ContactWitness<'a> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::policies::adversary::ESCAPE_PURSUIT_MPS2;
     use crate::policies::adversary::test_support::car;
     use crate::scenario::AgentKind;
     use std::sync::Mutex;

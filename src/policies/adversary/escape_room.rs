@@ -184,18 +184,27 @@ impl Escapes {
     /// in: from its velocity it accelerates at [`ESCAPE_PURSUIT_MPS2`]
     /// towards where the ego starts.
     pub(super) fn clear_of(&self, cbv: &AgentState) -> bool {
-        let towards = self.ego_at - cbv.position;
-        let pursuit_mps2 = if towards.norm() > 0.0 { towards / towards.norm() * ESCAPE_PURSUIT_MPS2 } else { towards };
         // The CBV's boxes over the horizon, the same for every escape.
-        let cbv_boxes: Vec<OrientedBox> = (1..=ESCAPE_STEPS)
-            .map(|k| {
-                let t_s = k as f64 * SIM_DT_S;
-                let position = cbv.position + cbv.velocity_mps * t_s + pursuit_mps2 * (0.5 * t_s * t_s);
-                self.cbv_body.footprint(&AgentState { position, ..*cbv })
-            })
-            .collect();
+        let cbv_boxes: Vec<OrientedBox> =
+            closing_in(cbv, &self.ego_at, ESCAPE_STEPS).iter().map(|s| self.cbv_body.footprint(s)).collect();
         self.paths.iter().any(|path| path.iter().zip(&cbv_boxes).all(|(ego_box, cbv_box)| !ego_box.intersects(cbv_box)))
     }
+}
+
+/// A CBV at `cbv` closing in on `towards` over the `steps` simulator steps
+/// after it: from its velocity it accelerates at [`ESCAPE_PURSUIT_MPS2`]
+/// towards that point, keeping its heading (the pursuit both the room
+/// check and the `witnessed` scope assume).
+pub(super) fn closing_in(cbv: &AgentState, towards: &crate::geometry::Point2, steps: usize) -> Vec<AgentState> {
+    let to = towards - cbv.position;
+    let pursuit_mps2 = if to.norm() > 0.0 { to / to.norm() * ESCAPE_PURSUIT_MPS2 } else { to };
+    (1..=steps)
+        .map(|k| {
+            let t_s = k as f64 * SIM_DT_S;
+            let position = cbv.position + cbv.velocity_mps * t_s + pursuit_mps2 * (0.5 * t_s * t_s);
+            AgentState { position, ..*cbv }
+        })
+        .collect()
 }
 
 /// Gives [`NO_ROOM_VALUE`] to each state of `predicted` that `values`
