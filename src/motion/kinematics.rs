@@ -143,6 +143,22 @@ pub fn stepped_speed_mps(speed_mps: f64, accel_mps2: f64, dt_s: f64) -> f64 {
     (speed_mps + accel_mps2 * dt_s).max(0.0)
 }
 
+/// Tightest turning radius of an ego that escapes or is searched for an
+/// escape, m: a passenger car's (about 5 m kerb to kerb for a small car,
+/// more for most). Its yaw rate at a step is at most the speed over it, so
+/// that a standing car cannot turn in place.
+pub const MIN_TURN_RADIUS_M: f64 = 5.0;
+
+/// `yaw_rate_radps` bounded by what a car at `speed_mps` can turn (see
+/// [`MIN_TURN_RADIUS_M`]); the unbounded rate, bit for bit, where it is
+/// within reach.
+#[inline]
+pub fn turn_bounded_yaw_rate(yaw_rate_radps: f64, speed_mps: f64) -> f64 {
+    let most = speed_mps / MIN_TURN_RADIUS_M;
+    // Not `clamp`: a NaN speed leaves the rate as it is instead of panicking.
+    yaw_rate_radps.max(-most).min(most)
+}
+
 /// An upper bound on how far [`step`] can carry a state of speed
 /// `speed_mps` in `steps` steps of `dt_s` with accelerations of at most
 /// `max_accel_mps2` and any yaw rates, metres: the speed grows by at most

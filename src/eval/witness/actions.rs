@@ -1,24 +1,9 @@
 //! The choices the search tries each token period (accelerations from
-//! full braking to full acceleration, and a set of yaw rates) and the
-//! car's turning limit: a yaw rate bounded by the speed over
-//! [`MIN_TURN_RADIUS_M`], so that a standing car cannot turn in place.
+//! full braking to full acceleration, and a set of yaw rates); the car's
+//! turning limit is [`turn_bounded_yaw_rate`](crate::motion::kinematics::turn_bounded_yaw_rate).
 
 use crate::motion::kinematics::stepped_speed_mps;
 use crate::motion::tokens::{MAX_ACCEL_MPS2, SIM_DT_S, TOKEN_PERIOD_STEPS};
-
-/// Tightest turning radius of the witness's ego, m: a passenger car's
-/// (about 5 m kerb to kerb for a small car, more for most). Its yaw rate at
-/// a step is at most the step's speed over it.
-pub const MIN_TURN_RADIUS_M: f64 = 5.0;
-
-/// `yaw_rate_radps` bounded by what a car at `speed_mps` can turn (see
-/// [`MIN_TURN_RADIUS_M`]); the unbounded rate, bit for bit, where it is
-/// within reach.
-pub(super) fn turn_bounded_yaw_rate(yaw_rate_radps: f64, speed_mps: f64) -> f64 {
-    let most = speed_mps / MIN_TURN_RADIUS_M;
-    // Not `clamp`: a NaN speed leaves the rate as it is instead of panicking.
-    yaw_rate_radps.max(-most).min(most)
-}
 
 /// The speeds over one period of `steps` steps from `speed_mps` at
 /// `accel_mps2`, as [`step_to_heading`](crate::motion::kinematics::step_to_heading) computes them (`speeds[k]` after

@@ -5,7 +5,7 @@
 //! ([`Witness`]) is bit for bit that of the plain search without the
 //! pruning and the memos.
 
-use super::actions::{ACCELS_MPS2, ACTIONS, YAW_RATES_RADPS, period_speeds, turn_bounded_yaw_rate};
+use super::actions::{ACCELS_MPS2, ACTIONS, YAW_RATES_RADPS, period_speeds};
 use super::beam::{BandFloors, BeamFloor, ROOM_CAP_M, beam_order, select_beam, speed_band};
 use super::budget::WitnessBudget;
 use super::candidates::{Candidate, Siblings, repeats_a_sibling, trajectory_to};
@@ -15,7 +15,7 @@ use super::road_cells::RoadCells;
 use super::traffic::FixedTraffic;
 use crate::geometry::{OrientedBox, Pose2};
 use crate::motion::KinematicState;
-use crate::motion::kinematics::{max_travel_m, step_to_heading, turned_heading_rad};
+use crate::motion::kinematics::{max_travel_m, step_to_heading, turn_bounded_yaw_rate, turned_heading_rad};
 use crate::motion::tokens::{MAX_YAW_RATE_RADPS, SIM_DT_S, TOKEN_PERIOD_STEPS};
 use crate::scenario::{AgentBody, AgentState};
 

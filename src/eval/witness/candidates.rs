@@ -89,12 +89,13 @@ pub(super) fn trajectory_to(beams: &[Vec<Candidate>], at: usize, start: &Kinemat
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::eval::witness::actions::{ACCELS_MPS2, YAW_RATES_RADPS, turn_bounded_yaw_rate};
+    use crate::eval::witness::actions::{ACCELS_MPS2, YAW_RATES_RADPS};
     use crate::eval::witness::test_support::{
         assert_touches_none_of, assert_turns_like_a_car, at, car, random_traffic,
     };
     use crate::eval::witness::{FixedTraffic, Witness, WitnessBudget, search_witness};
     use crate::motion::kinematics::stepped_speed_mps;
+    use crate::motion::kinematics::turn_bounded_yaw_rate;
     use crate::motion::tokens::SIM_DT_S;
     use crate::motion::{Action, kinematic_step};
 

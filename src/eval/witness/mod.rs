@@ -60,7 +60,7 @@ mod road_cells;
 mod test_support;
 mod traffic;
 
-pub use actions::MIN_TURN_RADIUS_M;
+pub use crate::motion::kinematics::MIN_TURN_RADIUS_M;
 pub use beam::{ROOM_CAP_M, SPEED_BAND_MPS};
 pub use beam_search::Witness;
 pub use budget::{DEFAULT_WIDEST, FIRST_WIDENING, MOST_WIDEST, WitnessBudget};

@@ -21,6 +21,7 @@
 
 use super::background_forecast::BackgroundForecast;
 use crate::geometry::OrientedBox;
+use crate::motion::kinematics::turn_bounded_yaw_rate;
 use crate::motion::tokens::{MAX_ACCEL_MPS2, SIM_DT_S, TOKEN_PERIOD_STEPS};
 use crate::motion::{Action, KinematicState, kinematic_step};
 use crate::policies::WorldView;
@@ -70,16 +71,13 @@ pub const ESCAPE_ACCELS_MPS2: [f64; 5] =
     [-MAX_ACCEL_MPS2, -MAX_ACCEL_MPS2 / 2.0, 0.0, MAX_ACCEL_MPS2 / 2.0, MAX_ACCEL_MPS2];
 
 /// The yaw rates an escape swerves at over its first token period, rad/s,
-/// bounded by a 5 m turning radius (a swerve of 0.6 rad/s for 0.5 s moves
+/// bounded by [`MIN_TURN_RADIUS_M`](crate::motion::kinematics::MIN_TURN_RADIUS_M) (a swerve of 0.6 rad/s for 0.5 s moves
 /// a car at 10 m/s about a lane aside within the horizon).
 pub const ESCAPE_YAW_RATES_RADPS: [f64; 5] = [-0.6, -0.3, 0.0, 0.3, 0.6];
 
 /// The value a state V_h calls escapable is given when the ego has no room
 /// to escape it: infeasible, and level with every other such state.
 pub const NO_ROOM_VALUE: f32 = 1.0;
-
-/// Tightest turning radius of an escaping ego, m.
-const TURN_RADIUS_M: f64 = 5.0;
 
 /// How far from the ego an agent may be and still be in its way within the
 /// horizon, m (two cars at 40 m/s closing head-on for the lookahead's and
@@ -141,8 +139,8 @@ impl<'a> EscapeRoom<'a> {
                 let mut path = Vec::with_capacity(ESCAPE_STEPS);
                 let mut clear = true;
                 for k in 1..=ESCAPE_STEPS {
-                    let most = s.speed_mps / TURN_RADIUS_M;
-                    let turn = if k <= TOKEN_PERIOD_STEPS { yaw_rate_radps.max(-most).min(most) } else { 0.0 };
+                    let turn =
+                        if k <= TOKEN_PERIOD_STEPS { turn_bounded_yaw_rate(yaw_rate_radps, s.speed_mps) } else { 0.0 };
                     s = kinematic_step(&s, Action { accel_mps2, yaw_rate_radps: turn }, SIM_DT_S);
                     let at = s.to_agent_state();
                     let ego_box = self.ego_body.footprint(&at);
