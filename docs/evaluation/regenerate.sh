@@ -82,6 +82,12 @@
 #                     WOMD interactive and NGSIM (evaluate-*-lookahead-n28.txt), and the
 #                     evasive planner's mutation tables of the lookahead on NGSIM and WOMD
 #                     interactive (mutants-{ngsim,womd-interactive}-evasive.txt) (about 65 minutes)
+#   wide-witnessed    wide-witnessed/: safer-in-path and safer-cut-in on NGSIM over 100 and
+#                     150 behaviours with `--feasibility witnessed`: the paper's protocol,
+#                     evaluate-ngsim-n{100,150}.txt (the prior beside them), the same over 150
+#                     with V_h alone (evaluate-ngsim-n150-pair.txt; over 100 it is
+#                     cut-in/evaluate-ngsim-n100.txt), and the evasive planner's mutation
+#                     table over 150 (mutants-ngsim-evasive-n150.txt) (about 30 minutes)
 #   ten-seeds         ten-seeds/: the evasive planner's mutation tables over 10 seeds a
 #                     scene, as the paper's protocol draws them: WOMD interactive (n = 20;
 #                     log replay, the prior, safer, safer-in-path, safer-in-path-lookahead)
@@ -106,7 +112,7 @@ set -euo pipefail
 self=$(realpath "$0")
 cd "$(dirname "$self")"
 all=(evaluate plain inattentive held-out-chance trust-region realism prior-fit n-sweep reactive n100 approach-none merging mutants wide-region cut-in
-    in-path-lookahead in-path-lookahead-n30 in-path-lookahead-n28 in-path-lookahead-sweep pair-in-traffic witnessed ten-seeds)
+    in-path-lookahead in-path-lookahead-n30 in-path-lookahead-n28 in-path-lookahead-sweep pair-in-traffic witnessed wide-witnessed ten-seeds)
 jobs=("$@")
 [[ ${#jobs[@]} -gt 0 ]] || jobs=("${all[@]}")
 # The usage is the comment block at the top of this file.
@@ -364,6 +370,17 @@ for job in "${jobs[@]}"; do
                 --stage2-cbv closed-loop --mutants --methods log,prior,safer-in-path-lookahead --trust-region 30 \
                 "${witnessed[@]}"
         done ;;
+    wide-witnessed)
+        mkdir -p wide-witnessed
+        for n in 100 150; do
+            run "wide-witnessed/evaluate-ngsim-n$n.txt" evaluate --scenes data:commonroad-ngsim --seeds 10 \
+                --methods prior,safer-in-path,safer-cut-in --trust-region "$n" --feasibility witnessed
+        done
+        run wide-witnessed/evaluate-ngsim-n150-pair.txt evaluate --scenes data:commonroad-ngsim --seeds 10 \
+            --methods prior,safer-in-path,safer-cut-in --trust-region 150
+        run wide-witnessed/mutants-ngsim-evasive-n150.txt evaluate --scenes data:commonroad-ngsim --seeds 3 \
+            --stage2-cbv closed-loop --mutants --methods log,prior,safer-in-path,safer-cut-in --trust-region 150 \
+            --feasibility witnessed ;;
     esac
 done
 rm -r "$(dirname "$safer")"

@@ -777,3 +777,75 @@ fn the_witnessed_mutation_table_quotes_its_outputs() {
     );
     assert_eq!(checked, 5, "the lookahead's mutation rows under the three scopes");
 }
+
+/// The stage-1 cut-ins of `method` out of all its stage-1 conflicts, from
+/// an output's `kinds of conflict` table, as `cut-ins / conflicts`.
+fn stage1_cut_ins(output: &str, method: &str) -> String {
+    let from = output.find("\nkinds of conflict").unwrap_or_else(|| panic!("no kinds table in the output"));
+    let mut lines = output[from..].lines().skip(2);
+    let cells: Vec<&str> = lines
+        .find(|l| l.split_whitespace().next() == Some(method))
+        .unwrap_or_else(|| panic!("no kinds row for {method}"))
+        .split_whitespace()
+        .collect();
+    // Each kind is `stage1 / stage2`; cut-in is the second kind.
+    let stage1: Vec<u32> = cells[1..].chunks(3).map(|k| k[0].parse().expect("a count")).collect();
+    format!("{} / {}", stage1[1], stage1.iter().sum::<u32>())
+}
+
+#[test]
+fn the_wide_witnessed_tables_quote_their_outputs() {
+    let doc = repo_file("docs/benchmarks.md");
+    let header = "| set | method | feasibility scope | CR | CR held out | SR | SR-crit | witness | VJ / AJ | stage-1 cut-ins | stage 1 ×prior |";
+    let mut checked = Vec::new();
+    for row in markdown_rows(&doc, header, "over 150 behaviours meets NGSIM's goals") {
+        let Some(method) = method_of(&row[1]) else { continue };
+        let (file, run) = match (row[0].as_str(), row[2].as_str()) {
+            ("NGSIM, n = 100", "pair") => ("cut-in/evaluate-ngsim-n100.txt", None),
+            ("NGSIM, n = 100", "witnessed") => {
+                ("wide-witnessed/evaluate-ngsim-n100.txt", Some("feasibility witnessed"))
+            }
+            ("NGSIM, n = 150", "pair") => ("wide-witnessed/evaluate-ngsim-n150-pair.txt", None),
+            ("NGSIM, n = 150", "witnessed") => {
+                ("wide-witnessed/evaluate-ngsim-n150.txt", Some("feasibility witnessed"))
+            }
+            (set, scope) => panic!("no output for {set:?} in scope {scope:?}"),
+        };
+        let (label, text) = check_scope_row(&row, method, file, run);
+        let n = row[0].trim_start_matches("NGSIM, n = ");
+        assert!(text.contains(&format!("trust region n = {n},")), "{file} is not a run over {n} behaviours");
+        if run.is_none() {
+            assert!(!text.contains("; feasibility"), "{file} is not a run with V_h alone");
+        }
+        let cut_ins = row[9].replace("**", "");
+        let counted = stage1_cut_ins(&text, method);
+        let (c, total): (f64, f64) = {
+            let p = parts(&counted);
+            (p[0].parse().unwrap(), p[1].parse().unwrap())
+        };
+        assert_eq!(cut_ins, format!("{counted} ({:.1} %)", 100.0 * c / total), "{label}: stage-1 cut-ins");
+        assert_eq!(row[10], stage1_over_prior(&text, method), "{label}: stage 1 over the prior's");
+        checked.push(label);
+    }
+    assert_eq!(checked.len(), 8, "two methods, two scopes, over 100 and 150: {checked:?}");
+
+    let outputs = [
+        ("NGSIM, pair", "60", "cut-in/mutants-ngsim-evasive-n60.txt"),
+        ("NGSIM, pair", "100", "mutants-ngsim-evasive-n100.txt"),
+        ("NGSIM, witnessed", "150", "wide-witnessed/mutants-ngsim-evasive-n150.txt"),
+    ];
+    let (from, to) = ("Mutation testing of the wider regions", "The wider region does not catch more faults");
+    assert_eq!(check_run_table(from, to, None, &outputs), 5, "the wider regions' mutation rows");
+    let rows = markdown_rows(&doc, from, to);
+    let column = |name: &str| rows[0].iter().position(|c| c == name).unwrap_or_else(|| panic!("no {name}"));
+    let (cut_in_column, no_escape_column) = (column("stage-1 cut-ins"), column("no-escape"));
+    for row in &rows[1..] {
+        let (_, _, file) = outputs.iter().find(|(label, n, _)| row[0] == *label && row[1] == *n).unwrap();
+        let method = method_of(&row[2]).unwrap();
+        let text = repo_file(&format!("docs/evaluation/{file}"));
+        assert_eq!(row[cut_in_column], stage1_cut_ins(&text, method), "{}, {method}: stage-1 cut-ins", row[0]);
+        // reach, reach-crit, SR-avoid, avoid-fail, no-escape.
+        let conflicts = output_table(&text, "reach-crit");
+        assert_eq!(row[no_escape_column], conflicts[method][4], "{}, {method}: no-escape", row[0]);
+    }
+}
