@@ -87,7 +87,9 @@
 #                     evaluate-ngsim-n{100,150}.txt (the prior beside them), the same over 150
 #                     with V_h alone (evaluate-ngsim-n150-pair.txt; over 100 it is
 #                     cut-in/evaluate-ngsim-n100.txt), and the evasive planner's mutation
-#                     table over 150 (mutants-ngsim-evasive-n150.txt) (about 30 minutes)
+#                     tables over 150 (mutants-ngsim-evasive-n150.txt) and, for safer-in-path,
+#                     over the NGSIM suite's 60 (mutants-ngsim-evasive-n60{,-seed1000}.txt,
+#                     the second with --seed 1000) (about 50 minutes)
 #   ten-seeds         ten-seeds/: the evasive planner's mutation tables over 10 seeds a
 #                     scene, as the paper's protocol draws them: WOMD interactive (n = 20;
 #                     log replay, the prior, safer, safer-in-path, safer-in-path-lookahead)
@@ -380,6 +382,13 @@ for job in "${jobs[@]}"; do
             --methods prior,safer-in-path,safer-cut-in --trust-region 150
         run wide-witnessed/mutants-ngsim-evasive-n150.txt evaluate --scenes data:commonroad-ngsim --seeds 3 \
             --stage2-cbv closed-loop --mutants --methods log,prior,safer-in-path,safer-cut-in --trust-region 150 \
+            --feasibility witnessed
+        # The shipped NGSIM suite's method and region, with the witness asked; two draws of seeds.
+        run wide-witnessed/mutants-ngsim-evasive-n60.txt evaluate --scenes data:commonroad-ngsim --seeds 3 \
+            --stage2-cbv closed-loop --mutants --methods log,prior,safer-in-path --trust-region 60 \
+            --feasibility witnessed
+        run wide-witnessed/mutants-ngsim-evasive-n60-seed1000.txt evaluate --scenes data:commonroad-ngsim --seeds 3 \
+            --seed 1000 --stage2-cbv closed-loop --mutants --methods log,prior,safer-in-path --trust-region 60 \
             --feasibility witnessed ;;
     esac
 done

@@ -831,11 +831,14 @@ fn the_wide_witnessed_tables_quote_their_outputs() {
 
     let outputs = [
         ("NGSIM, pair", "60", "cut-in/mutants-ngsim-evasive-n60.txt"),
+        ("NGSIM, witnessed", "60", "wide-witnessed/mutants-ngsim-evasive-n60.txt"),
+        ("NGSIM, pair, `--seed 1000`", "60", "cut-in/mutants-ngsim-evasive-n60-seed1000.txt"),
+        ("NGSIM, witnessed, `--seed 1000`", "60", "wide-witnessed/mutants-ngsim-evasive-n60-seed1000.txt"),
         ("NGSIM, pair", "100", "mutants-ngsim-evasive-n100.txt"),
         ("NGSIM, witnessed", "150", "wide-witnessed/mutants-ngsim-evasive-n150.txt"),
     ];
     let (from, to) = ("Mutation testing of the wider regions", "The wider region does not catch more faults");
-    assert_eq!(check_run_table(from, to, None, &outputs), 5, "the wider regions' mutation rows");
+    assert_eq!(check_run_table(from, to, None, &outputs), 8, "the wider regions' and the suite region's mutation rows");
     let rows = markdown_rows(&doc, from, to);
     let column = |name: &str| rows[0].iter().position(|c| c == name).unwrap_or_else(|| panic!("no {name}"));
     let (cut_in_column, no_escape_column) = (column("stage-1 cut-ins"), column("no-escape"));
@@ -843,6 +846,9 @@ fn the_wide_witnessed_tables_quote_their_outputs() {
         let (_, _, file) = outputs.iter().find(|(label, n, _)| row[0] == *label && row[1] == *n).unwrap();
         let method = method_of(&row[2]).unwrap();
         let text = repo_file(&format!("docs/evaluation/{file}"));
+        let witnessed = row[0].contains("witnessed");
+        assert_eq!(text.contains("; feasibility witnessed"), witnessed, "{file}: the scope {}", row[0]);
+        assert_eq!(file.contains("seed1000"), row[0].contains("`--seed 1000`"), "{file}: the draw of seeds");
         assert_eq!(row[cut_in_column], stage1_cut_ins(&text, method), "{}, {method}: stage-1 cut-ins", row[0]);
         // reach, reach-crit, SR-avoid, avoid-fail, no-escape.
         let conflicts = output_table(&text, "reach-crit");
