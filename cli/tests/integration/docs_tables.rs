@@ -778,9 +778,9 @@ fn the_witnessed_mutation_table_quotes_its_outputs() {
     assert_eq!(checked, 5, "the lookahead's mutation rows under the three scopes");
 }
 
-/// The stage-1 cut-ins of `method` out of all its stage-1 conflicts, from
-/// an output's `kinds of conflict` table, as `cut-ins / conflicts`.
-fn stage1_cut_ins(output: &str, method: &str) -> String {
+/// The stage-1 cut-ins of `method` and all its stage-1 conflicts, from an
+/// output's `kinds of conflict` table.
+fn stage1_cut_ins(output: &str, method: &str) -> (u32, u32) {
     let from = output.find("\nkinds of conflict").unwrap_or_else(|| panic!("no kinds table in the output"));
     let mut lines = output[from..].lines().skip(2);
     let cells: Vec<&str> = lines
@@ -790,7 +790,7 @@ fn stage1_cut_ins(output: &str, method: &str) -> String {
         .collect();
     // Each kind is `stage1 / stage2`; cut-in is the second kind.
     let stage1: Vec<u32> = cells[1..].chunks(3).map(|k| k[0].parse().expect("a count")).collect();
-    format!("{} / {}", stage1[1], stage1.iter().sum::<u32>())
+    (stage1[1], stage1.iter().sum())
 }
 
 #[test]
@@ -818,12 +818,9 @@ fn the_wide_witnessed_tables_quote_their_outputs() {
             assert!(!text.contains("; feasibility"), "{file} is not a run with V_h alone");
         }
         let cut_ins = row[9].replace("**", "");
-        let counted = stage1_cut_ins(&text, method);
-        let (c, total): (f64, f64) = {
-            let p = parts(&counted);
-            (p[0].parse().unwrap(), p[1].parse().unwrap())
-        };
-        assert_eq!(cut_ins, format!("{counted} ({:.1} %)", 100.0 * c / total), "{label}: stage-1 cut-ins");
+        let (c, total) = stage1_cut_ins(&text, method);
+        let share = 100.0 * f64::from(c) / f64::from(total);
+        assert_eq!(cut_ins, format!("{c} / {total} ({share:.1} %)"), "{label}: stage-1 cut-ins");
         assert_eq!(row[10], stage1_over_prior(&text, method), "{label}: stage 1 over the prior's");
         checked.push(label);
     }
@@ -849,7 +846,8 @@ fn the_wide_witnessed_tables_quote_their_outputs() {
         let witnessed = row[0].contains("witnessed");
         assert_eq!(text.contains("; feasibility witnessed"), witnessed, "{file}: the scope {}", row[0]);
         assert_eq!(file.contains("seed1000"), row[0].contains("`--seed 1000`"), "{file}: the draw of seeds");
-        assert_eq!(row[cut_in_column], stage1_cut_ins(&text, method), "{}, {method}: stage-1 cut-ins", row[0]);
+        let (c, total) = stage1_cut_ins(&text, method);
+        assert_eq!(row[cut_in_column], format!("{c} / {total}"), "{}, {method}: stage-1 cut-ins", row[0]);
         // reach, reach-crit, SR-avoid, avoid-fail, no-escape.
         let conflicts = output_table(&text, "reach-crit");
         assert_eq!(row[no_escape_column], conflicts[method][4], "{}, {method}: no-escape", row[0]);
