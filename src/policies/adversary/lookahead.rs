@@ -4,9 +4,9 @@
 //! under the search's objective, inside the same constraints as the
 //! one-step choice.
 
-use super::choice::Objective;
 use super::escape_room::{EscapeRoom, veto_without_room};
 use super::feasibility::feasibility_values;
+use super::objective::Objective;
 use crate::models::ModelError;
 use crate::models::feasibility_oracle::FeasibilityOracle;
 use crate::motion::KinematicState;

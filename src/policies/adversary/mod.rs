@@ -65,7 +65,7 @@
 //! One file per concept: the [`Adversary`] policy (`policy`), the
 //! approach phase (`approach`), SaFeR's choice ([`safer_choice`],
 //! `choice`) and the lookahead of `safer-lookahead` (`lookahead`), V_h of
-//! candidate states (`feasibility`), the ego's room to escape among the traffic (`escape_room`) and the witness asked before a contact (`contact_witness`), the in-path and cut-in objectives (`in_path`), the CBV's states under a token
+//! candidate states (`feasibility`), the ego's room to escape among the traffic (`escape_room`) and the witness asked before a contact (`contact_witness`), what a candidate's loss measures (`objective`) with the in-path and cut-in losses (`in_path`), the CBV's states under a token
 //! (`rollout`), the [`BackgroundForecast`], and the plausibility check
 //! (`plausibility`, with its broad phase in `broad_phase`); and the
 //! [`TrustRegionProfile`] that diagnoses what a prior's region offers
@@ -81,6 +81,7 @@ mod escape_room;
 mod feasibility;
 mod in_path;
 mod lookahead;
+mod objective;
 mod plausibility;
 mod policy;
 mod rollout;
@@ -92,7 +93,7 @@ pub use crate::models::feasibility_oracle::{EgoCbvState, FeasibilityOracle};
 pub use approach::{APPROACH_TOKENS, ApproachPhase};
 pub use background_forecast::BackgroundForecast;
 pub use behaviours::{BEHAVIOUR_HOLD_S, BEHAVIOUR_SEPARATION_M, distinct_behaviours};
-pub use choice::{Feasibility, INFEASIBLE_PENALTY, Objective, Search, TrustRegion, safer_choice};
+pub use choice::{Feasibility, INFEASIBLE_PENALTY, Search, TrustRegion, safer_choice};
 pub use contact_witness::{EscapeWitness, WITNESS_CHECK_GAP_M, WITNESS_CHECKS_PER_TOKEN};
 pub use escape_room::{
     ESCAPE_ACCELS_MPS2, ESCAPE_CHECK_GAP_M, ESCAPE_HORIZON_S, ESCAPE_PURSUIT_MPS2, ESCAPE_YAW_RATES_RADPS,
@@ -102,5 +103,6 @@ pub use in_path::{
     CUT_IN_LATERAL_COST, CUT_IN_NOT_AHEAD_COST, IN_PATH_LEAD_COST_M_PER_S, IN_PATH_MAX_LEAD_S, NOT_AHEAD_PENALTY_M,
 };
 pub use lookahead::{LOOKAHEAD_DELAY_PENALTY_M, LOOKAHEAD_TOKENS};
+pub use objective::Objective;
 pub use policy::Adversary;
 pub use trust_region_profile::{TrustRegionProfile, profile_trust_region, rank_of_driven_token};

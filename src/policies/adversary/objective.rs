@@ -1,0 +1,52 @@
+//! What a feasible candidate's loss measures ([`Objective`]): the paper's
+//! box distance to the ego's prediction, or the in-path and cut-in losses
+//! (`in_path`) that draw the CBV into the ego's path. The one-step choice
+//! and the lookahead score candidates through it alike.
+
+use super::in_path::{cut_in_loss, in_path_loss};
+use crate::scenario::{AgentBody, AgentState};
+
+/// What a feasible candidate's loss measures.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Objective {
+    /// The paper's: the box distance to the ego's constant-velocity
+    /// prediction at the end of the token.
+    #[default]
+    Contact,
+    /// Beyond the paper (`safer-in-path`): how close the CBV comes to the
+    /// ego's path ahead of it. The least, over lead times up to
+    /// [`IN_PATH_MAX_LEAD_S`](super::IN_PATH_MAX_LEAD_S), of the box distance
+    /// to the ego's constant-velocity footprint that far ahead plus
+    /// [`IN_PATH_LEAD_COST_M_PER_S`](super::IN_PATH_LEAD_COST_M_PER_S) per
+    /// second of lead, plus [`NOT_AHEAD_PENALTY_M`](super::NOT_AHEAD_PENALTY_M)
+    /// when the CBV's centre is not ahead of the ego's front bumper.
+    InPath,
+    /// Beyond the paper (`safer-cut-in`): the in-path loss made to finish a
+    /// cut-in. Ahead of the ego it adds
+    /// [`CUT_IN_LATERAL_COST`](super::CUT_IN_LATERAL_COST) per metre of the
+    /// CBV's centre off the ego's heading line; short of the ego's front
+    /// bumper it pays [`CUT_IN_NOT_AHEAD_COST`](super::CUT_IN_NOT_AHEAD_COST)
+    /// per metre, up to the flat penalty, so a CBV beside the ego draws
+    /// ahead rather than hugging its side.
+    CutIn,
+}
+
+impl Objective {
+    /// The loss of a CBV at `cbv` (body `cbv_body`) against the ego's
+    /// constant-velocity prediction `ego_next` (body `ego_body`), whose
+    /// box distance from it is `distance_m`, m.
+    pub(super) fn loss(
+        self,
+        ego_next: &AgentState,
+        ego_body: AgentBody,
+        cbv: &AgentState,
+        cbv_body: AgentBody,
+        distance_m: f64,
+    ) -> f64 {
+        match self {
+            Objective::Contact => distance_m,
+            Objective::InPath => in_path_loss(ego_next, ego_body, cbv, cbv_body),
+            Objective::CutIn => cut_in_loss(ego_next, ego_body, cbv, cbv_body),
+        }
+    }
+}
