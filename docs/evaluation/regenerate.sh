@@ -100,6 +100,12 @@
 #                     run external planners take the one that kills more), and on WOMD
 #                     interactive as those suites run (n = 60, reactive-log-replay)
 #                     (about 3 hours 10 minutes on 2 cores)
+#   reaction-delay    reaction-delay/: the stage-2 CBV seeing the planner's ego a reaction
+#                     time late (--stage2-cbv closed-loop-delayed) beside closed-loop, for log
+#                     replay, the prior and safer-in-path: the evasive planner's mutation
+#                     tables on WOMD interactive (n = 20) and NGSIM (n = 60), as the shipped
+#                     suites are set, over two draws of seeds (the second with --seed 1000)
+#                     (about 75 minutes)
 #   mutants           mutants-{womd-interactive,womd-json,ngsim}-evasive.txt and
 #                     mutants-{womd-interactive,ngsim}-lane-follower.txt: the
 #                     faults of the planner each method's variants catch
@@ -114,7 +120,7 @@ set -euo pipefail
 self=$(realpath "$0")
 cd "$(dirname "$self")"
 all=(evaluate plain inattentive held-out-chance trust-region realism prior-fit n-sweep reactive n100 approach-none merging mutants wide-region cut-in
-    in-path-lookahead in-path-lookahead-n30 in-path-lookahead-n28 in-path-lookahead-sweep pair-in-traffic witnessed wide-witnessed ten-seeds)
+    in-path-lookahead in-path-lookahead-n30 in-path-lookahead-n28 in-path-lookahead-sweep pair-in-traffic witnessed wide-witnessed ten-seeds reaction-delay)
 jobs=("$@")
 [[ ${#jobs[@]} -gt 0 ]] || jobs=("${all[@]}")
 # The usage is the comment block at the top of this file.
@@ -390,6 +396,18 @@ for job in "${jobs[@]}"; do
         run wide-witnessed/mutants-ngsim-evasive-n60-seed1000.txt evaluate --scenes data:commonroad-ngsim --seeds 3 \
             --seed 1000 --stage2-cbv closed-loop --mutants --methods log,prior,safer-in-path --trust-region 60 \
             --feasibility witnessed ;;
+    reaction-delay)
+        mkdir -p reaction-delay
+        for draw in 0 1000; do
+            suffix=${draw/#0/}
+            suffix=${suffix:+-seed$suffix}
+            run "reaction-delay/mutants-womd-interactive-evasive$suffix.txt" evaluate --scenes data:womd-interactive \
+                --seeds 3 --seed "$draw" --stage2-cbv closed-loop,closed-loop-delayed --mutants \
+                --methods log,prior,safer-in-path
+            run "reaction-delay/mutants-ngsim-evasive-n60$suffix.txt" evaluate --scenes data:commonroad-ngsim \
+                --seeds 3 --seed "$draw" --stage2-cbv closed-loop,closed-loop-delayed --mutants \
+                --methods log,prior,safer-in-path --trust-region 60
+        done ;;
     esac
 done
 rm -r "$(dirname "$safer")"

@@ -530,6 +530,7 @@ fn row_name(method: AdversaryMethod, stage2_cbv: Stage2Cbv) -> String {
     match stage2_cbv {
         Stage2Cbv::Replay => method,
         Stage2Cbv::ClosedLoop => format!("{method}-closed-loop"),
+        Stage2Cbv::ClosedLoopDelayed => format!("{method}-closed-loop-delayed"),
     }
 }
 

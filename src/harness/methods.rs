@@ -15,8 +15,8 @@ use crate::models::prior::{PriorVariant, RealismPrior};
 use crate::models::{ModelError, ModelSource};
 use crate::policies::LogReplay;
 use crate::policies::adversary::{
-    Adversary, ApproachPhase, EscapeWitness, FeasibilityOracle, FeasibilityScope, LOOKAHEAD_TOKENS, Objective, Search,
-    TrustRegion,
+    Adversary, ApproachPhase, EgoSight, EscapeWitness, FeasibilityOracle, FeasibilityScope, LOOKAHEAD_TOKENS,
+    Objective, Search, TrustRegion,
 };
 use crate::policies::prior_sampling::{PriorAgent, PriorTraffic, ScenarioMapEncoding, TokenSampling, TrafficTimings};
 use crate::scenario::{AgentBody, AgentState, Scenario, TrackIndex};
@@ -192,6 +192,22 @@ pub fn install(
     maps: &MapEncodings,
     seed: u64,
 ) -> Result<InstalledMethod, HarnessError> {
+    install_seeing_ego(sim, scenario, cbv, start, settings, (models, maps), seed, EgoSight::Current)
+}
+
+/// [`install`], the adversary seeing the ego as `sight` says (the SaFeR
+/// methods; the others do not aim at the ego).
+#[allow(clippy::too_many_arguments)]
+pub fn install_seeing_ego(
+    sim: &mut Simulation<'_>,
+    scenario: &Arc<Scenario>,
+    cbv: TrackIndex,
+    start: usize,
+    settings: MethodSettings,
+    (models, maps): (&ModelSet, &MapEncodings),
+    seed: u64,
+    sight: EgoSight,
+) -> Result<InstalledMethod, HarnessError> {
     let ego = scenario.ego.ok_or_else(|| crate::sim::SimError::NoEgo(scenario.id.clone()))?;
     let needs_prior = settings.method != AdversaryMethod::Log || settings.background == BackgroundDriver::Prior;
     if !needs_prior {
@@ -226,7 +242,9 @@ pub fn install(
         ..Search::one_step(trust_region_of(settings.method, settings.trust_region))
     };
     let adversary = |search, feasibility| {
-        let adversary = Adversary::new(traffic.clone(), ego, search, feasibility).with_approach(settings.approach);
+        let adversary = Adversary::new(traffic.clone(), ego, search, feasibility)
+            .with_approach(settings.approach)
+            .with_ego_sight(sight);
         Box::new(match settings.feasibility {
             FeasibilityScope::Witnessed => adversary.with_escape_witness(Arc::new(ContactEscapeSearch)),
             FeasibilityScope::Pair | FeasibilityScope::PairInTraffic => adversary,

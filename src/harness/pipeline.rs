@@ -28,6 +28,7 @@ use crate::planners::{
     BuiltinPlanner, FaultOperator, IdmPlanner, MutantPlanner, Observation, Planner, PlannerError, PlannerOutput,
 };
 use crate::policies::LogReplay;
+use crate::policies::adversary::EgoSight;
 use crate::policies::prior_sampling::TrafficTimings;
 use crate::scenario::{Scenario, Track, TrackIndex};
 use crate::sim::{Rollout, SimConfig, Simulation, Termination, VehicleLimits};
@@ -436,7 +437,7 @@ fn stage1(setup: &VariantSetup<'_>) -> Result<(Rollout, TrafficTimings), Harness
     let scenario = setup.scenario;
     let ego = scenario.ego.ok_or_else(|| crate::sim::SimError::NoEgo(scenario.id.clone()))?;
     let mut stage1 = Simulation::new(scenario, setup.sim.clone())?;
-    let installed = install_method(setup, &mut stage1)?;
+    let installed = install_method(setup, &mut stage1, EgoSight::Current)?;
     let mut replay_ego = BuiltinPlanner::LogReplay.instantiate(scenario, ego);
     let stage1 = stage1.run(replay_ego.as_mut());
     model_error(setup, Some(&installed))?;
@@ -448,11 +449,13 @@ fn stage1(setup: &VariantSetup<'_>) -> Result<(Rollout, TrafficTimings), Harness
 fn install_method(
     setup: &VariantSetup<'_>,
     sim: &mut Simulation<'_>,
+    sight: EgoSight,
 ) -> Result<methods::InstalledMethod, HarnessError> {
     let scenario = setup.scenario;
     let cbv = scenario.cbv.ok_or_else(|| HarnessError::NoCbv(scenario.id.clone()))?;
     let start = setup.sim.start_step.unwrap_or(scenario.current_step);
-    methods::install(sim, scenario, cbv, start, setup.settings, setup.models, setup.maps, setup.seed)
+    let models = (setup.models, setup.maps);
+    methods::install_seeing_ego(sim, scenario, cbv, start, setup.settings, models, setup.seed, sight)
 }
 
 /// The first model error an installed method met during its rollout.
@@ -480,7 +483,8 @@ fn stage2_simulation<'s>(
             stage2.set_policy(cbv, Box::new(LogReplay::new(track_from_rollout(scenario, stage1, cbv))));
             None
         }
-        Stage2Cbv::ClosedLoop => Some(install_method(setup, &mut stage2)?),
+        Stage2Cbv::ClosedLoop => Some(install_method(setup, &mut stage2, EgoSight::Current)?),
+        Stage2Cbv::ClosedLoopDelayed => Some(install_method(setup, &mut stage2, EgoSight::ReactionTimeLate)?),
     };
     Ok((stage2, installed))
 }

@@ -267,7 +267,9 @@ pub struct AdversarySpec {
     /// which compares generators on equal terms and is why `safer
     /// evaluate` defaults to it (the paper does not say whether its CBV
     /// reacts in stage 2); a suite tests a planner, so its default is
-    /// `closed-loop`.
+    /// `closed-loop`. `closed-loop-delayed` is `closed-loop` with the CBV
+    /// seeing the ego a driver's reaction time (1 s) late, so it does not
+    /// follow an escape as it begins.
     #[serde(default = "closed_loop")]
     pub stage2_cbv: Stage2Cbv,
     /// The approach phase of the SaFeR methods: `seeded` (the default), the
@@ -320,11 +322,17 @@ pub enum Stage2Cbv {
     /// plausibility rule and seed, with the feasibility value taken on the
     /// planner's actual ego at every token (it tests the planner).
     ClosedLoop,
+    /// Is driven by the method closed loop, as `closed-loop`, but sees the
+    /// planner's ego a human driver's reaction time (1 s) late, carried on
+    /// at the velocity it had: it answers an ego that brakes or swerves
+    /// a second later, rather than following its escape as it begins
+    /// (beyond the paper).
+    ClosedLoopDelayed,
 }
 
 impl Stage2Cbv {
     /// Every variant, in declaration order (for choosers such as the command line).
-    pub const ALL: &'static [Self] = &[Self::Replay, Self::ClosedLoop];
+    pub const ALL: &'static [Self] = &[Self::Replay, Self::ClosedLoop, Self::ClosedLoopDelayed];
 }
 
 /// Pass/fail criteria.

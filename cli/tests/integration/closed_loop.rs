@@ -152,3 +152,58 @@ fn a_stage_2_collision_with_the_reacting_cbv_carries_its_closed_loop_witness() {
         assert!(artefact.path().is_some_and(|p| !p.poses.is_empty()));
     }
 }
+
+/// Every variant of the suite in `file`, its planner replaced by `planner`.
+fn outcomes_with(file: &str, planner: safer_scenarios::spec::planner::PlannerAdapter) -> Vec<VariantOutcome> {
+    let mut suite = Suite::load_with(&fixture(file), &planners()).unwrap_or_else(|e| panic!("{e}"));
+    suite.planner = planner;
+    let variants = suite.spec.value.variants;
+    let scenes = suite.scenarios.clone();
+    scenes
+        .iter()
+        .flat_map(|s| (0..variants).map(move |i| (s, i)))
+        .map(|(s, i)| run_variant(&suite, s, i).unwrap_or_else(|e| panic!("{e}")))
+        .collect()
+}
+
+/// The CBV's stage-2 states from `from_step` on.
+fn stage2_cbv_path(o: &VariantOutcome, from_step: usize) -> Vec<Option<safer_scenarios::scenario::AgentState>> {
+    let cbv = o.scenario.cbv.expect("the scene names a CBV").0;
+    o.stage2.states.iter().skip(from_step).map(|row| row[cbv]).collect()
+}
+
+#[test]
+fn a_delayed_cbv_sees_an_ego_that_holds_its_velocity_as_it_is_and_a_swerving_one_a_second_late() {
+    use safer_scenarios::planners::BuiltinPlanner;
+    use safer_scenarios::spec::planner::PlannerAdapter;
+    // An ego that never changes its velocity is where the CBV, seeing it a
+    // second late and carrying it on, expects it: the same CBV as closed loop.
+    let holds = || PlannerAdapter::Builtin {
+        name: "constant-velocity".into(),
+        planner: BuiltinPlanner::ConstantVelocity,
+        idm: Default::default(),
+    };
+    let closed = outcomes_with("swerving-ego.closed-loop.yaml", holds());
+    let delayed = outcomes_with("swerving-ego.closed-loop-delayed.yaml", holds());
+    for (c, d) in closed.iter().zip(&delayed) {
+        assert_eq!(c.stage2.states, d.stage2.states, "{}: an ego holding its velocity was seen otherwise", d.name);
+    }
+
+    // The ego that swerves from t = 0.5 s: both suites make the same stage
+    // 1, and the same stage-2 CBV until a boundary sees the ego otherwise
+    // than a second before; after that the delayed CBV takes other
+    // tokens in some variant.
+    let closed = outcomes("swerving-ego.closed-loop.yaml");
+    let delayed = outcomes("swerving-ego.closed-loop-delayed.yaml");
+    assert_eq!(closed.len(), delayed.len());
+    let mut differ = 0;
+    for (c, d) in closed.iter().zip(&delayed) {
+        assert_eq!(c.stage1.states, d.stage1.states, "{}: stage 1 must not depend on stage 2's mode", d.name);
+        // Boundaries at 0 and 0.5 s see the ego as it started: the same
+        // tokens through t = 1 s (step 10 after the start).
+        let first_second = |o: &VariantOutcome| stage2_cbv_path(o, 0).into_iter().take(11).collect::<Vec<_>>();
+        assert_eq!(first_second(c), first_second(d), "{}", d.name);
+        differ += usize::from(stage2_cbv_path(c, 11) != stage2_cbv_path(d, 11));
+    }
+    assert!(differ >= 1, "the delayed CBV drove as the closed-loop one in every variant");
+}

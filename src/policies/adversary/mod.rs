@@ -67,7 +67,8 @@
 //! `choice`) and the lookahead of `safer-lookahead` (`lookahead`), V_h of
 //! candidate states (`feasibility`), the ego's room to escape among the traffic (`escape_room`) and the witness asked before a contact (`contact_witness`), what a candidate's loss measures (`objective`) with the in-path and cut-in losses (`in_path`), the CBV's states under a token
 //! (`rollout`), the [`BackgroundForecast`], and the plausibility check
-//! (`plausibility`, with its broad phase in `broad_phase`); and the
+//! (`plausibility`, with its broad phase in `broad_phase`), how late it sees
+//! the ego (`reaction`); and the
 //! [`TrustRegionProfile`] that diagnoses what a prior's region offers
 //! (`trust_region_profile`).
 
@@ -84,6 +85,7 @@ mod lookahead;
 mod objective;
 mod plausibility;
 mod policy;
+mod reaction;
 mod rollout;
 #[cfg(test)]
 mod test_support;
@@ -105,4 +107,5 @@ pub use in_path::{
 pub use lookahead::{LOOKAHEAD_DELAY_PENALTY_M, LOOKAHEAD_TOKENS};
 pub use objective::Objective;
 pub use policy::Adversary;
+pub use reaction::{EgoSight, REACTION_TIME_S};
 pub use trust_region_profile::{TrustRegionProfile, profile_trust_region, rank_of_driven_token};

@@ -12,12 +12,13 @@ use super::background_forecast::BackgroundForecast;
 use super::choice::{Feasibility, Search, safer_choice};
 use super::contact_witness::EscapeWitness;
 use super::escape_room::FeasibilityScope;
+use super::reaction::EgoSight;
 use crate::models::ModelError;
 use crate::models::feasibility_oracle::FeasibilityOracle;
 use crate::motion::tokens::{TOKEN_PERIOD_STEPS, Token, TokenGrid};
 use crate::policies::prior_sampling::{PriorTraffic, draw_seed};
 use crate::policies::{AgentAction, AgentPolicy, WorldView};
-use crate::scenario::TrackIndex;
+use crate::scenario::{AgentState, TrackIndex};
 
 /// The adversary of one rollout's CBV.
 pub struct Adversary {
@@ -27,6 +28,7 @@ pub struct Adversary {
     feasibility: Option<Arc<dyn FeasibilityOracle>>,
     witness: Option<Arc<dyn EscapeWitness>>,
     approach: ApproachPhase,
+    sight: EgoSight,
     current: Option<Token>,
     error: Option<Arc<ModelError>>,
 }
@@ -39,6 +41,7 @@ impl std::fmt::Debug for Adversary {
             .field("feasibility", &self.feasibility.is_some())
             .field("witness", &self.witness.is_some())
             .field("approach", &self.approach)
+            .field("sight", &self.sight)
             .finish()
     }
 }
@@ -59,6 +62,7 @@ impl Adversary {
             feasibility,
             witness: None,
             approach: ApproachPhase::default(),
+            sight: EgoSight::default(),
             current: None,
             error: None,
         }
@@ -77,6 +81,12 @@ impl Adversary {
         Self { approach, ..self }
     }
 
+    /// The same adversary seeing the ego as `sight` says (the default is
+    /// [`EgoSight::Current`]).
+    pub fn with_ego_sight(self, sight: EgoSight) -> Self {
+        Self { sight, ..self }
+    }
+
     /// The first error met (inference), if any.
     pub fn error(&self) -> Option<&Arc<ModelError>> {
         self.error.as_ref()
@@ -91,7 +101,19 @@ impl Adversary {
         // The rollout so far, only where the witness will search it.
         let witnessed = self.search.feasibility == FeasibilityScope::Witnessed && self.witness.is_some();
         let history = if witnessed { shared.frames().to_vec() } else { Vec::new() };
+        let ego_seen = (self.sight != EgoSight::Current).then(|| self.sight.ego_seen(shared.frames(), self.ego));
         drop(shared);
+        // The whole choice is made on the ego as the adversary sees it.
+        let seen_states;
+        let seen_world;
+        let world = match ego_seen.flatten() {
+            Some(seen) => {
+                seen_states = with_state(world.states, self.ego, seen);
+                seen_world = WorldView { states: &seen_states, ..*world };
+                &seen_world
+            }
+            None => world,
+        };
         let forecast = BackgroundForecast { recording: Some(&scenario), not_replayed: &prior_driven };
         let mut feasibility_s = 0.0;
         let constraint =
@@ -114,6 +136,15 @@ impl Adversary {
         let mut rng = ChaCha8Rng::seed_from_u64(draw_seed(seed, cbv.0, world.step));
         Some(approach_draw(world, (cbv, self.ego), &logits, sampling, &forecast, &mut rng))
     }
+}
+
+/// `states` with `agent`'s slot holding `state`.
+fn with_state(states: &[Option<AgentState>], agent: TrackIndex, state: AgentState) -> Vec<Option<AgentState>> {
+    let mut out = states.to_vec();
+    if let Some(slot) = out.get_mut(agent.0) {
+        *slot = Some(state);
+    }
+    out
 }
 
 impl AgentPolicy for Adversary {
