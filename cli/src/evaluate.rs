@@ -79,6 +79,12 @@ fn fmt(v: Option<f64>) -> String {
     v.map_or("—".into(), |x| format!("{x:.3}"))
 }
 
+/// The width of the tables' method column: the longest row name, and at
+/// least 28 characters (a column as wide as the longest method's name).
+fn method_column(rows: &[MethodRow], name: &dyn Fn(&MethodRow) -> String) -> usize {
+    rows.iter().map(|r| name(r).chars().count()).max().unwrap_or(0).max(28)
+}
+
 /// A row's name: the method, and its stage-2 CBV mode when the table holds
 /// more than one.
 fn label(method: safer_scenarios::spec::suite::AdversaryMethod, mode: Stage2Cbv, modes: usize) -> String {
@@ -218,15 +224,16 @@ fn print_table(
 
 /// Each method's CR, SR, witness rate and realism (VJ, AJ, YJ).
 fn print_outcomes(out: &mut dyn Write, rows: &[MethodRow], name: &dyn Fn(&MethodRow) -> String) -> std::io::Result<()> {
+    let w = method_column(rows, name);
     writeln!(
         out,
-        "{:<28} {:>8} {:>7} {:>7} {:>7} {:>9} {:>9} {:>7} {:>7} {:>7} {:>11}",
+        "{:<w$} {:>8} {:>7} {:>7} {:>7} {:>9} {:>9} {:>7} {:>7} {:>7} {:>11}",
         "method", "variants", "errors", "CR", "SR", "SR-crit", "witness", "VJ", "AJ", "YJ", "s/variant"
     )?;
     for r in rows {
         writeln!(
             out,
-            "{:<28} {:>8} {:>7} {:>7} {:>7} {:>9} {:>9} {:>7} {:>7} {:>7} {:>11.3}",
+            "{:<w$} {:>8} {:>7} {:>7} {:>7} {:>9} {:>9} {:>7} {:>7} {:>7} {:>11.3}",
             name(r),
             r.variants,
             r.errors,
@@ -249,10 +256,11 @@ fn print_plausibility(
     rows: &[MethodRow],
     name: &dyn Fn(&MethodRow) -> String,
 ) -> std::io::Result<()> {
+    let w = method_column(rows, name);
     writeln!(out, "\nplausibility of the CBV, the seeds' variety and the reference planner:")?;
     writeln!(
         out,
-        "{:<28} {:>12} {:>14} {:>15} {:>12} {:>14} {:>9} {:>12}",
+        "{:<w$} {:>12} {:>14} {:>15} {:>12} {:>14} {:>9} {:>12}",
         "method",
         "CBV-bg coll",
         "CBV at fault",
@@ -265,7 +273,7 @@ fn print_plausibility(
     for r in rows {
         writeln!(
             out,
-            "{:<28} {:>12} {:>14} {:>15} {:>12} {:>14} {:>9} {:>12}",
+            "{:<w$} {:>12} {:>14} {:>15} {:>12} {:>14} {:>9} {:>12}",
             name(r),
             fmt(r.cbv_background_collision_rate),
             fmt(r.cbv_at_fault_background_collision_rate),
@@ -285,6 +293,7 @@ fn print_held_out(
     name: &dyn Fn(&MethodRow) -> String,
     held_out: &HeldOutSplit,
 ) -> std::io::Result<()> {
+    let w = method_column(&held_out.held_out, name);
     writeln!(
         out,
         "\nheld out (every tenth scene by id: {} of {}) | the other scenes:",
@@ -293,14 +302,14 @@ fn print_held_out(
     )?;
     writeln!(
         out,
-        "{:<28} {:>7} {:>7} {:>9} {:>12} | {:>7} {:>7} {:>9} {:>12} | {:>13}",
+        "{:<w$} {:>7} {:>7} {:>9} {:>12} | {:>7} {:>7} {:>9} {:>12} | {:>13}",
         "method", "CR", "SR", "witness", "SR-witnessed", "CR", "SR", "witness", "SR-witnessed", "CR by chance"
     )?;
     for ((h, r), chance) in held_out.held_out.iter().zip(&held_out.rest).zip(&held_out.cr_by_chance) {
         let chance = chance.map_or("—".to_string(), |[lo, hi]| format!("{lo:.3}–{hi:.3}"));
         writeln!(
             out,
-            "{:<28} {:>7} {:>7} {:>9} {:>12} | {:>7} {:>7} {:>9} {:>12} | {:>13}",
+            "{:<w$} {:>7} {:>7} {:>9} {:>12} | {:>7} {:>7} {:>9} {:>12} | {:>13}",
             name(h),
             fmt(h.cr),
             fmt(h.sr),
@@ -331,10 +340,11 @@ fn print_conflicts_met(
     name: &dyn Fn(&MethodRow) -> String,
     held_out: &HeldOutSplit,
 ) -> std::io::Result<()> {
+    let w = method_column(rows, name);
     writeln!(out, "\nconflicts at the planner under test (stage 2):")?;
     writeln!(
         out,
-        "{:<28} {:>7} {:>10} {:>9} {:>10} {:>10} {:>9} {:>9} | {:>7} {:>10} {:>9}",
+        "{:<w$} {:>7} {:>10} {:>9} {:>10} {:>10} {:>9} {:>9} | {:>7} {:>10} {:>9}",
         "method",
         "reach",
         "reach-crit",
@@ -350,7 +360,7 @@ fn print_conflicts_met(
     for (r, h) in rows.iter().zip(&held_out.held_out) {
         writeln!(
             out,
-            "{:<28} {:>7} {:>10} {:>9} {:>10} {:>10} {:>9} {:>9} | {:>7} {:>10} {:>9}",
+            "{:<w$} {:>7} {:>10} {:>9} {:>10} {:>10} {:>9} {:>9} | {:>7} {:>10} {:>9}",
             name(r),
             fmt(r.conflict_reach),
             fmt(r.conflict_reach_critical),
@@ -376,14 +386,15 @@ fn print_closest_approach(
     rows: &[MethodRow],
     name: &dyn Fn(&MethodRow) -> String,
 ) -> std::io::Result<()> {
+    let w = method_column(rows, name);
     writeln!(out, "\nclosest approach of the CBV to the recorded ego (stage 1, shares of the variants):")?;
-    writeln!(out, "{:<28} {:>9} {:>16} {:>16} {:>9}", "method", "contact", "no contact <0.5m", "0.5-1 m", ">=1 m")?;
+    writeln!(out, "{:<w$} {:>9} {:>16} {:>16} {:>9}", "method", "contact", "no contact <0.5m", "0.5-1 m", ">=1 m")?;
     for r in rows {
         let c = r.stage1_closest;
         let share = |f: fn(&safer_scenarios::harness::evaluation::ClosestApproach) -> f64| fmt(c.as_ref().map(f));
         writeln!(
             out,
-            "{:<28} {:>9} {:>16} {:>16} {:>9}",
+            "{:<w$} {:>9} {:>16} {:>16} {:>9}",
             name(r),
             share(|c| c.contact),
             share(|c| c.under_half_m),
@@ -400,11 +411,12 @@ fn print_conflict_kinds(
     rows: &[MethodRow],
     name: &dyn Fn(&MethodRow) -> String,
 ) -> std::io::Result<()> {
+    let w = method_column(rows, name);
     writeln!(out, "\nkinds of conflict (stage 1, with the recorded ego / stage 2, with the planner's):")?;
     let kinds = safer_scenarios::eval::ConflictKind::ALL;
     writeln!(
         out,
-        "{:<28} {}",
+        "{:<w$} {}",
         "method",
         kinds.iter().map(|k| format!("{:>22}", k.name())).collect::<Vec<_>>().join("")
     )?;
@@ -416,24 +428,25 @@ fn print_conflict_kinds(
                 format!("{:>22}", format!("{} / {}", c.map_or(0, |c| c.stage1), c.map_or(0, |c| c.variants)))
             })
             .collect();
-        writeln!(out, "{:<28} {}", name(r), cells.join(""))?;
+        writeln!(out, "{:<w$} {}", name(r), cells.join(""))?;
     }
     Ok(())
 }
 
 /// Where the time goes, per variant.
 fn print_time(out: &mut dyn Write, rows: &[MethodRow], name: &dyn Fn(&MethodRow) -> String) -> std::io::Result<()> {
+    let w = method_column(rows, name);
     writeln!(out, "\nwhere the time goes (mean s per variant):")?;
     writeln!(
         out,
-        "{:<28} {:>9} {:>10} {:>9} {:>12} {:>9} {:>9} {:>9}",
+        "{:<w$} {:>9} {:>10} {:>9} {:>12} {:>9} {:>9} {:>9}",
         "method", "stage 1", "features", "decoder", "feasibility", "stage 2", "witness", "escape"
     )?;
     for r in rows {
         let p = &r.profile;
         writeln!(
             out,
-            "{:<28} {:>9.3} {:>10.3} {:>9.3} {:>12.3} {:>9.3} {:>9.3} {:>9.3}",
+            "{:<w$} {:>9.3} {:>10.3} {:>9.3} {:>12.3} {:>9.3} {:>9.3} {:>9.3}",
             name(r),
             p.stage1_s,
             p.stage1_features_s,
@@ -635,6 +648,7 @@ fn print_scenes_that_broke_the_rules(
     held_out: &[String],
     name: &dyn Fn(&MethodRow) -> String,
 ) -> std::io::Result<()> {
+    let w = method_column(rows, name);
     let broke: Vec<&MethodRow> =
         rows.iter().filter(|r| !r.off_road_scenes.is_empty() || !r.at_fault_scenes.is_empty()).collect();
     if broke.is_empty() {
@@ -652,7 +666,7 @@ fn print_scenes_that_broke_the_rules(
             .enumerate()
         {
             let method = if i == 0 { name(r) } else { String::new() };
-            writeln!(out, "{method:<28} {what}: {}", named_scenes(scenes, held_out))?;
+            writeln!(out, "{method:<w$} {what}: {}", named_scenes(scenes, held_out))?;
         }
     }
     Ok(())
@@ -765,10 +779,11 @@ fn print_stage2_contacts(
     records: &[VariantRecord],
     name: &dyn Fn(&MethodRow) -> String,
 ) -> std::io::Result<()> {
+    let w = method_column(rows, name);
     writeln!(out, "\nwhom the planner's ego hit in stage 2 (at fault: the ego's fault):")?;
     writeln!(
         out,
-        "{:<28} {:>8} {:>8} {:>20} {:>20}",
+        "{:<w$} {:>8} {:>8} {:>20} {:>20}",
         "method", "variants", "collided", "with the CBV", "with other agents"
     )?;
     for r in rows {
@@ -781,7 +796,7 @@ fn print_stage2_contacts(
         let at_fault = |cbv: bool| of_row.iter().filter(|(_, c)| c.with_cbv == cbv && c.at_fault).count();
         writeln!(
             out,
-            "{:<28} {:>8} {:>8} {:>20} {:>20}",
+            "{:<w$} {:>8} {:>8} {:>20} {:>20}",
             name(r),
             r.variants,
             of_row.len(),
@@ -789,12 +804,12 @@ fn print_stage2_contacts(
             format!("{} ({} at fault)", of_row.len() - with_cbv, at_fault(false)),
         )?;
         for (v, c) in of_row.iter().take(CONTACTS_NAMED) {
-            writeln!(out, "{:<28} {} seed {}: {}", "", v.scenario, v.seed, describe_contact(c))?;
+            writeln!(out, "{:<w$} {} seed {}: {}", "", v.scenario, v.seed, describe_contact(c))?;
         }
         if of_row.len() > CONTACTS_NAMED {
             writeln!(
                 out,
-                "{:<28} and {} more (the JSON report's `stage2_contact` names each)",
+                "{:<w$} and {} more (the JSON report's `stage2_contact` names each)",
                 "",
                 of_row.len() - CONTACTS_NAMED
             )?;
