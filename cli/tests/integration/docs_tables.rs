@@ -853,3 +853,67 @@ fn the_wide_witnessed_tables_quote_their_outputs() {
         assert_eq!(row[no_escape_column], conflicts[method][4], "{}, {method}: no-escape", row[0]);
     }
 }
+
+/// The cells after `label` (`safer-in-path (closed-loop)`: a method and its
+/// stage-2 mode, as an output of several modes names its rows) in the
+/// output's first table whose header line starts with `method` and holds
+/// `header_word`.
+fn labelled_row(output: &str, header_word: &str, label: &str) -> Vec<String> {
+    let mut lines = output.lines().skip_while(|l| !(l.starts_with("method") && l.contains(header_word)));
+    lines.next().unwrap_or_else(|| panic!("no table with {header_word:?} in the output"));
+    let line = lines
+        .take_while(|l| !l.trim().is_empty())
+        .find(|l| l.strip_prefix(label).is_some_and(|rest| rest.starts_with(' ')))
+        .unwrap_or_else(|| panic!("no row {label:?} in the {header_word:?} table"));
+    line[label.len()..].split_whitespace().map(str::to_owned).collect()
+}
+
+#[test]
+fn the_reaction_time_table_quotes_its_outputs() {
+    let doc = repo_file("docs/benchmarks.md");
+    let rows = markdown_rows(&doc, "| set | draw | stage-2 CBV |", "The delayed CBV");
+    let files = [
+        ("WOMD interactive", "seed 0", "reaction-delay/mutants-womd-interactive-evasive.txt"),
+        ("WOMD interactive", "seed 1000", "reaction-delay/mutants-womd-interactive-evasive-seed1000.txt"),
+        ("NGSIM", "seed 0", "reaction-delay/mutants-ngsim-evasive-n60.txt"),
+        ("NGSIM", "seed 1000", "reaction-delay/mutants-ngsim-evasive-n60-seed1000.txt"),
+    ];
+    let (mut set, mut draw) = (String::new(), String::new());
+    let mut checked = 0;
+    for row in &rows {
+        // A blank set or draw cell continues the row above's.
+        if !row[0].is_empty() {
+            set = row[0].clone();
+        }
+        if !row[1].is_empty() {
+            draw = row[1].clone();
+        }
+        let (_, _, file) = files
+            .iter()
+            .find(|(s, d, _)| set.starts_with(s) && draw == *d)
+            .unwrap_or_else(|| panic!("no output for the row {row:?}"));
+        let output = repo_file(&format!("docs/evaluation/{file}"));
+        let mode = method_of(&row[2]).unwrap_or_else(|| panic!("no stage-2 mode in {row:?}"));
+        let label = format!("safer-in-path ({mode})");
+        let evaluation = labelled_row(&output, "variants", &label);
+        let kills = labelled_row(&output, "passed", &label);
+        let conflicts = labelled_row(&output, "reach-crit", &label);
+        // SR; passed; kills (held out); ×log; ×prior; scene kills;
+        // reach-crit; avoid-fail; no-escape.
+        let expected = [
+            evaluation[3].clone(),
+            kills[0].clone(),
+            format!("{} ({})", killed(&kills[1]), kills[3]),
+            kills[4].clone(),
+            kills[5].clone(),
+            kills[6].clone(),
+            conflicts[1].clone(),
+            conflicts[3].clone(),
+            conflicts[4].clone(),
+        ];
+        let cells: Vec<String> = row[3..].iter().map(|c| c.replace("**", "")).collect();
+        assert_eq!(cells, expected, "{set}, {draw}, {mode}: the table against {file}");
+        checked += 1;
+    }
+    assert_eq!(checked, 8, "two stage-2 modes for each set and draw");
+}
