@@ -105,7 +105,7 @@
 #                     replay, the prior and safer-in-path: the evasive planner's mutation
 #                     tables on WOMD interactive (n = 20) and NGSIM (n = 60), as the shipped
 #                     suites are set, over two draws of seeds (the second with --seed 1000)
-#                     (about 75 minutes)
+#                     (about 45 minutes)
 #   mutants           mutants-{womd-interactive,womd-json,ngsim}-evasive.txt and
 #                     mutants-{womd-interactive,ngsim}-lane-follower.txt: the
 #                     faults of the planner each method's variants catch
