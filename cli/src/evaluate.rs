@@ -82,7 +82,12 @@ fn fmt(v: Option<f64>) -> String {
 /// The width of the tables' method column: the longest row name, and at
 /// least 28 characters (a column as wide as the longest method's name).
 fn method_column(rows: &[MethodRow], name: &dyn Fn(&MethodRow) -> String) -> usize {
-    rows.iter().map(|r| name(r).chars().count()).max().unwrap_or(0).max(28)
+    name_column(rows, name, 28)
+}
+
+/// The width of a column of row names: the longest, and at least `min`.
+fn name_column(rows: &[MethodRow], name: &dyn Fn(&MethodRow) -> String, min: usize) -> usize {
+    rows.iter().map(|r| name(r).chars().count()).max().unwrap_or(0).max(min)
 }
 
 /// A row's name: the method, and its stage-2 CBV mode when the table holds
@@ -506,7 +511,7 @@ fn print_kills(
         "\nmutants killed (the planner passes the variant, the mutant fails it: at-fault collision, off road, no answer or beyond the vehicle limits)"
     )?;
     let ops: Vec<String> = settings.mutants.iter().map(|o| o.name().to_string()).collect();
-    let width = rows.iter().map(|r| label(r.method, r.stage2_cbv, modes).len()).max().unwrap_or(6).max(6);
+    let width = name_column(rows, &|r| label(r.method, r.stage2_cbv, modes), 6);
     write!(
         out,
         "{:<width$}  {:>6}  {:>18}  {:>6}  {:>6}  {:>11}  {:>6}  {:>6}  {:>6}  {:>10}  {:>6}  {:>7}",
