@@ -106,6 +106,13 @@
 #                     tables on WOMD interactive (n = 20) and NGSIM (n = 60), as the shipped
 #                     suites are set, over two draws of seeds (the second with --seed 1000)
 #                     (about 45 minutes)
+#   reactive-background
+#                     reactive-background/: the recorded cars braking for road users in their
+#                     way (--background reactive-log-replay) with the stage-2 CBV closed loop,
+#                     for log replay, the prior and safer-in-path: the evasive planner's
+#                     mutation tables on WOMD interactive (n = 20) and NGSIM (n = 60) over two
+#                     draws of seeds, to set beside the closed-loop rows of reaction-delay/
+#                     (the same runs with the recording replayed) (about 25 minutes)
 #   mutants           mutants-{womd-interactive,womd-json,ngsim}-evasive.txt and
 #                     mutants-{womd-interactive,ngsim}-lane-follower.txt: the
 #                     faults of the planner each method's variants catch
@@ -120,7 +127,7 @@ set -euo pipefail
 self=$(realpath "$0")
 cd "$(dirname "$self")"
 all=(evaluate plain inattentive held-out-chance trust-region realism prior-fit n-sweep reactive n100 approach-none merging mutants wide-region cut-in
-    in-path-lookahead in-path-lookahead-n30 in-path-lookahead-n28 in-path-lookahead-sweep pair-in-traffic witnessed wide-witnessed ten-seeds reaction-delay)
+    in-path-lookahead in-path-lookahead-n30 in-path-lookahead-n28 in-path-lookahead-sweep pair-in-traffic witnessed wide-witnessed ten-seeds reaction-delay reactive-background)
 jobs=("$@")
 [[ ${#jobs[@]} -gt 0 ]] || jobs=("${all[@]}")
 # The usage is the comment block at the top of this file.
@@ -406,6 +413,18 @@ for job in "${jobs[@]}"; do
                 --methods log,prior,safer-in-path
             run "reaction-delay/mutants-ngsim-evasive-n60$suffix.txt" evaluate --scenes data:commonroad-ngsim \
                 --seeds 3 --seed "$draw" --stage2-cbv closed-loop,closed-loop-delayed --mutants \
+                --methods log,prior,safer-in-path --trust-region 60
+        done ;;
+    reactive-background)
+        mkdir -p reactive-background
+        for draw in 0 1000; do
+            suffix=${draw/#0/}
+            suffix=${suffix:+-seed$suffix}
+            run "reactive-background/mutants-womd-interactive-evasive$suffix.txt" evaluate --scenes data:womd-interactive \
+                --seeds 3 --seed "$draw" --stage2-cbv closed-loop --background reactive-log-replay --mutants \
+                --methods log,prior,safer-in-path
+            run "reactive-background/mutants-ngsim-evasive-n60$suffix.txt" evaluate --scenes data:commonroad-ngsim \
+                --seeds 3 --seed "$draw" --stage2-cbv closed-loop --background reactive-log-replay --mutants \
                 --methods log,prior,safer-in-path --trust-region 60
         done ;;
     esac
