@@ -868,52 +868,101 @@ fn labelled_row(output: &str, header_word: &str, label: &str) -> Vec<String> {
     line[label.len()..].split_whitespace().map(str::to_owned).collect()
 }
 
+/// A side-by-side table's rows, each with the set and the draw of seeds
+/// it belongs to (a blank set or draw cell continues the row above's).
+fn rows_by_set_and_draw(rows: &[Vec<String>]) -> Vec<(String, String, &[String])> {
+    let (mut set, mut draw) = (String::new(), String::new());
+    rows.iter()
+        .map(|row| {
+            if !row[0].is_empty() {
+                set = row[0].clone();
+            }
+            if !row[1].is_empty() {
+                draw = row[1].clone();
+            }
+            (set.clone(), draw.clone(), &row[..])
+        })
+        .collect()
+}
+
+/// The mutation run's figures a side-by-side table quotes of the row
+/// `label` of an evaluation output: SR; passed; kills (held out); ×log;
+/// ×prior; scene kills; reach-crit; avoid-fail; no-escape.
+fn mutation_run_figures(output: &str, label: &str) -> Vec<String> {
+    let evaluation = labelled_row(output, "variants", label);
+    let kills = labelled_row(output, "passed", label);
+    let conflicts = labelled_row(output, "reach-crit", label);
+    vec![
+        evaluation[3].clone(),
+        kills[0].clone(),
+        format!("{} ({})", killed(&kills[1]), kills[3]),
+        kills[4].clone(),
+        kills[5].clone(),
+        kills[6].clone(),
+        conflicts[1].clone(),
+        conflicts[3].clone(),
+        conflicts[4].clone(),
+    ]
+}
+
+/// The side-by-side mutation runs' outputs under `docs/evaluation/DIR/`:
+/// (set, draw, file name).
+const SIDE_BY_SIDE_OUTPUTS: [(&str, &str, &str); 4] = [
+    ("WOMD interactive", "seed 0", "mutants-womd-interactive-evasive.txt"),
+    ("WOMD interactive", "seed 1000", "mutants-womd-interactive-evasive-seed1000.txt"),
+    ("NGSIM", "seed 0", "mutants-ngsim-evasive-n60.txt"),
+    ("NGSIM", "seed 1000", "mutants-ngsim-evasive-n60-seed1000.txt"),
+];
+
+/// The output file of a side-by-side table's row of `set` and `draw`.
+fn side_by_side_output(set: &str, draw: &str) -> &'static str {
+    SIDE_BY_SIDE_OUTPUTS
+        .iter()
+        .find(|(s, d, _)| set.starts_with(s) && draw == *d)
+        .map(|(_, _, file)| *file)
+        .unwrap_or_else(|| panic!("no output for {set}, {draw}"))
+}
+
 #[test]
 fn the_reaction_time_table_quotes_its_outputs() {
     let doc = repo_file("docs/benchmarks.md");
     let rows = markdown_rows(&doc, "| set | draw | stage-2 CBV |", "The delayed CBV");
-    let files = [
-        ("WOMD interactive", "seed 0", "reaction-delay/mutants-womd-interactive-evasive.txt"),
-        ("WOMD interactive", "seed 1000", "reaction-delay/mutants-womd-interactive-evasive-seed1000.txt"),
-        ("NGSIM", "seed 0", "reaction-delay/mutants-ngsim-evasive-n60.txt"),
-        ("NGSIM", "seed 1000", "reaction-delay/mutants-ngsim-evasive-n60-seed1000.txt"),
-    ];
-    let (mut set, mut draw) = (String::new(), String::new());
     let mut checked = 0;
-    for row in &rows {
-        // A blank set or draw cell continues the row above's.
-        if !row[0].is_empty() {
-            set = row[0].clone();
-        }
-        if !row[1].is_empty() {
-            draw = row[1].clone();
-        }
-        let (_, _, file) = files
-            .iter()
-            .find(|(s, d, _)| set.starts_with(s) && draw == *d)
-            .unwrap_or_else(|| panic!("no output for the row {row:?}"));
+    for (set, draw, row) in rows_by_set_and_draw(&rows) {
+        let file = format!("reaction-delay/{}", side_by_side_output(&set, &draw));
         let output = repo_file(&format!("docs/evaluation/{file}"));
         let mode = method_of(&row[2]).unwrap_or_else(|| panic!("no stage-2 mode in {row:?}"));
-        let label = format!("safer-in-path ({mode})");
-        let evaluation = labelled_row(&output, "variants", &label);
-        let kills = labelled_row(&output, "passed", &label);
-        let conflicts = labelled_row(&output, "reach-crit", &label);
-        // SR; passed; kills (held out); ×log; ×prior; scene kills;
-        // reach-crit; avoid-fail; no-escape.
-        let expected = [
-            evaluation[3].clone(),
-            kills[0].clone(),
-            format!("{} ({})", killed(&kills[1]), kills[3]),
-            kills[4].clone(),
-            kills[5].clone(),
-            kills[6].clone(),
-            conflicts[1].clone(),
-            conflicts[3].clone(),
-            conflicts[4].clone(),
-        ];
+        let expected = mutation_run_figures(&output, &format!("safer-in-path ({mode})"));
         let cells: Vec<String> = row[3..].iter().map(|c| c.replace("**", "")).collect();
         assert_eq!(cells, expected, "{set}, {draw}, {mode}: the table against {file}");
         checked += 1;
     }
     assert_eq!(checked, 8, "two stage-2 modes for each set and draw");
+}
+
+#[test]
+fn the_recorded_traffic_braking_table_quotes_its_outputs() {
+    let doc = repo_file("docs/benchmarks.md");
+    let rows = markdown_rows(&doc, "| set | draw | recorded cars |", "On NGSIM, where");
+    let mut checked = 0;
+    for (set, draw, row) in rows_by_set_and_draw(&rows) {
+        let background = method_of(&row[2]).unwrap_or_else(|| panic!("no background in {row:?}"));
+        // The replayed rows are the closed-loop runs beside the delayed CBV;
+        // the reactive runs have the one stage-2 mode, unnamed in the row.
+        let (dir, label) = match background {
+            "log-replay" => ("reaction-delay", "safer-in-path (closed-loop)"),
+            "reactive-log-replay" => ("reactive-background", "safer-in-path"),
+            other => panic!("no outputs with the background {other}"),
+        };
+        let file = format!("{dir}/{}", side_by_side_output(&set, &draw));
+        let output = repo_file(&format!("docs/evaluation/{file}"));
+        // CR, the mutation run's figures, then collisions with the CBV / with others.
+        let mut expected = vec![labelled_row(&output, "variants", label)[2].clone()];
+        expected.extend(mutation_run_figures(&output, label));
+        let collided = labelled_row(&output, "collided", label);
+        expected.push(format!("{} / {}", collided[2], collided[6]));
+        assert_eq!(row[3..], expected[..], "{set}, {draw}, {background}: the table against {file}");
+        checked += 1;
+    }
+    assert_eq!(checked, 8, "two backgrounds for each set and draw");
 }
