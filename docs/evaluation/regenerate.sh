@@ -112,7 +112,8 @@
 #                     for log replay, the prior and safer-in-path: the evasive planner's
 #                     mutation tables on WOMD interactive (n = 20) and NGSIM (n = 60) over two
 #                     draws of seeds, to set beside the closed-loop rows of reaction-delay/
-#                     (the same runs with the recording replayed) (about 25 minutes)
+#                     (the same runs with the recording replayed), and ten seeds on NGSIM
+#                     beside ten-seeds/ (about 40 minutes)
 #   mutants           mutants-{womd-interactive,womd-json,ngsim}-evasive.txt and
 #                     mutants-{womd-interactive,ngsim}-lane-follower.txt: the
 #                     faults of the planner each method's variants catch
@@ -154,6 +155,23 @@ run() {
     rm "$out.raw"
     echo "(wall time $(($(date +%s) - start)) s)" >>"$out.tmp"
     mv "$out.tmp" "$out"
+}
+
+# mutants_two_draws DIR ARGS...: the evasive planner's mutation tables of log replay, the prior
+# and safer-in-path as the shipped suites are set (n = 20 on WOMD interactive, 60 on NGSIM), with
+# ARGS, over two draws of seeds (the second with --seed 1000), into DIR.
+mutants_two_draws() {
+    local dir=$1 draw suffix
+    shift
+    mkdir -p "$dir"
+    for draw in 0 1000; do
+        suffix=${draw/#0/}
+        suffix=${suffix:+-seed$suffix}
+        run "$dir/mutants-womd-interactive-evasive$suffix.txt" evaluate --scenes data:womd-interactive \
+            --seeds 3 --seed "$draw" --mutants --methods log,prior,safer-in-path "$@"
+        run "$dir/mutants-ngsim-evasive-n60$suffix.txt" evaluate --scenes data:commonroad-ngsim \
+            --seeds 3 --seed "$draw" --mutants --methods log,prior,safer-in-path --trust-region 60 "$@"
+    done
 }
 
 sets=(womd-interactive:womd-interactive womd-json:womd-json commonroad-ngsim:ngsim)
@@ -403,30 +421,13 @@ for job in "${jobs[@]}"; do
         run wide-witnessed/mutants-ngsim-evasive-n60-seed1000.txt evaluate --scenes data:commonroad-ngsim --seeds 3 \
             --seed 1000 --stage2-cbv closed-loop --mutants --methods log,prior,safer-in-path --trust-region 60 \
             --feasibility witnessed ;;
-    reaction-delay)
-        mkdir -p reaction-delay
-        for draw in 0 1000; do
-            suffix=${draw/#0/}
-            suffix=${suffix:+-seed$suffix}
-            run "reaction-delay/mutants-womd-interactive-evasive$suffix.txt" evaluate --scenes data:womd-interactive \
-                --seeds 3 --seed "$draw" --stage2-cbv closed-loop,closed-loop-delayed --mutants \
-                --methods log,prior,safer-in-path
-            run "reaction-delay/mutants-ngsim-evasive-n60$suffix.txt" evaluate --scenes data:commonroad-ngsim \
-                --seeds 3 --seed "$draw" --stage2-cbv closed-loop,closed-loop-delayed --mutants \
-                --methods log,prior,safer-in-path --trust-region 60
-        done ;;
+    reaction-delay) mutants_two_draws reaction-delay --stage2-cbv closed-loop,closed-loop-delayed ;;
     reactive-background)
-        mkdir -p reactive-background
-        for draw in 0 1000; do
-            suffix=${draw/#0/}
-            suffix=${suffix:+-seed$suffix}
-            run "reactive-background/mutants-womd-interactive-evasive$suffix.txt" evaluate --scenes data:womd-interactive \
-                --seeds 3 --seed "$draw" --stage2-cbv closed-loop --background reactive-log-replay --mutants \
-                --methods log,prior,safer-in-path
-            run "reactive-background/mutants-ngsim-evasive-n60$suffix.txt" evaluate --scenes data:commonroad-ngsim \
-                --seeds 3 --seed "$draw" --stage2-cbv closed-loop --background reactive-log-replay --mutants \
-                --methods log,prior,safer-in-path --trust-region 60
-        done ;;
+        mutants_two_draws reactive-background --stage2-cbv closed-loop --background reactive-log-replay
+        # Ten seeds on NGSIM, beside ten-seeds/mutants-ngsim-evasive-n60.txt (the recording replayed).
+        run reactive-background/mutants-ngsim-evasive-n60-ten-seeds.txt evaluate --scenes data:commonroad-ngsim \
+            --seeds 10 --stage2-cbv closed-loop --background reactive-log-replay --mutants \
+            --methods log,prior,safer-in-path --trust-region 60 ;;
     esac
 done
 rm -r "$(dirname "$safer")"

@@ -210,6 +210,10 @@ fn the_ten_seed_mutation_table_quotes_its_outputs() {
             ("WOMD interactive (54 × 10)", &["ten-seeds/mutants-womd-interactive-evasive.txt"]),
             ("NGSIM, n = 60 (69 × 10)", &["ten-seeds/mutants-ngsim-evasive-n60.txt"]),
             (
+                "NGSIM, n = 60, the recorded cars braking for the ego (69 × 10)",
+                &["reactive-background/mutants-ngsim-evasive-n60-ten-seeds.txt"],
+            ),
+            (
                 "WOMD interactive, the Python lane follower (54 × 10)",
                 &["ten-seeds/mutants-womd-interactive-lane-follower.txt"],
             ),
@@ -226,7 +230,7 @@ fn the_ten_seed_mutation_table_quotes_its_outputs() {
             ),
         ],
     );
-    assert_eq!(rows, 19, "every row of the ten-seed table");
+    assert_eq!(rows, 22, "every row of the ten-seed table");
 }
 
 #[test]
