@@ -132,6 +132,10 @@ pub struct VariantTally {
     /// Stage 2: for an ego collision, whether the closed-loop witness
     /// verified an escape (`None`: no collision, or not searched).
     pub escape: Option<bool>,
+    /// Stage 2: the ego's first collision was with an agent other than the
+    /// CBV (older reports lack it: read as `false`).
+    #[serde(default)]
+    pub collided_with_other: bool,
     /// Stage 1: the kind of conflict the CBV made with the recorded ego
     /// (`None`: it never came within 1 m).
     #[serde(default)]
@@ -175,6 +179,10 @@ impl VariantTally {
             cbv_path_digest: cbv_path_digest(&stages.stage1),
             reached: stages.reach.reached,
             collided: stages.stage2.ego_collision().is_some(),
+            collided_with_other: stages
+                .stage2
+                .ego_collision_other()
+                .is_some_and(|other| Some(other) != stages.stage2.cbv),
             escape: stages.escape.as_ref().map(crate::eval::escape::EscapeSearch::avoidable),
             stage1_conflict: rollout_conflict(&scenario.map, &stages.stage1),
             conflict: rollout_conflict(&scenario.map, &stages.stage2),
@@ -305,6 +313,10 @@ pub struct SuiteMetrics {
     /// Stage 2: ego collisions with no escape within the witness's budget
     /// (the generator's fault).
     pub no_escape_collisions: usize,
+    /// Of those, the ones with an agent other than the CBV: with recorded
+    /// traffic on log replay, mostly a car behind that cannot brake for an
+    /// ego braking for the CBV.
+    pub no_escape_collisions_with_others: usize,
     /// Their share of the variants.
     pub no_escape_collision_rate: Option<f64>,
     /// Per kind of conflict met by any variant, in [`ConflictKind::ALL`]'s
@@ -379,9 +391,18 @@ impl SuiteMetrics {
             format!("AJ {}", value(self.acceleration_jsd)),
             format!("reach {}", value(self.conflict_reach)),
             format!("SR(avoidable) {}", value(self.solution_rate_avoidable)),
-            format!("no-escape collisions {}", self.no_escape_collisions),
+            format!("no-escape collisions {}", self.no_escape_collisions_named()),
         ]
         .join(separator)
+    }
+
+    /// The no-escape collisions, with how many were with other agents than
+    /// the CBV where any were.
+    fn no_escape_collisions_named(&self) -> String {
+        match self.no_escape_collisions_with_others {
+            0 => self.no_escape_collisions.to_string(),
+            others => format!("{} ({others} with other agents than the CBV)", self.no_escape_collisions),
+        }
     }
 
     /// The conflict coverage as a small table, one line per kind met (none
@@ -420,6 +441,7 @@ impl SuiteMetrics {
         let (mut hit_background, mut at_fault, mut off_road, mut off_road_s) = (0, 0, 0, 0.0);
         let mut at_fault_vulnerable = 0;
         let (mut reached, mut reached_critical, mut avoidable, mut avoidable_solved, mut no_escape) = (0, 0, 0, 0, 0);
+        let mut no_escape_with_others = 0;
         let (mut gv, mut ga, mut lv, mut la) =
             (Histogram::speed(), Histogram::acceleration(), Histogram::speed(), Histogram::acceleration());
         let (mut gy, mut ly) = (Histogram::yaw_rate(), Histogram::yaw_rate());
@@ -438,6 +460,7 @@ impl SuiteMetrics {
             avoidable += usize::from(t.avoidable_conflict());
             avoidable_solved += usize::from(t.avoidable_conflict() && t.solved);
             no_escape += usize::from(t.escape == Some(false));
+            no_escape_with_others += usize::from(t.escape == Some(false) && t.collided_with_other);
             if let Some(cbv) = &t.cbv {
                 cbv.generated.speeds_mps.iter().for_each(|v| gv.add(*v));
                 cbv.generated.accels_mps2.iter().for_each(|a| ga.add(*a));
@@ -466,6 +489,7 @@ impl SuiteMetrics {
             avoidable_failures: avoidable - avoidable_solved,
             solution_rate_avoidable: share(avoidable_solved, avoidable),
             no_escape_collisions: no_escape,
+            no_escape_collisions_with_others: no_escape_with_others,
             no_escape_collision_rate: share(no_escape, n),
             coverage: coverage(tallies.iter().copied()),
         }
@@ -509,6 +533,15 @@ impl SuiteMetrics {
                 (Some(_), _, _) => Ok(()),
                 (None, _, _) => unmeasured(name, why(name)),
             };
+            let result = result.map_err(|e| match (name, self.no_escape_collisions_with_others) {
+                ("no_escape_collision_rate", others) if others > 0 => format!(
+                    "{e}: {others} of the {} were with other agents than the CBV (recorded traffic on log replay \
+                     cannot brake for an ego that brakes for the CBV; `adversary.background: reactive-log-replay` \
+                     lets it)",
+                    self.no_escape_collisions
+                ),
+                _ => e,
+            });
             out.push(MetricCheck { name, value, result });
         }
         if let Some(required) = &acceptance.conflict_coverage_min {
@@ -721,6 +754,37 @@ mod tests {
         let none = SuiteMetrics::aggregate(&[t(false, true, false, None)]);
         let err = none.checks(&acceptance)[0].result.clone().unwrap_err();
         assert!(err.contains("no variant was critical in stage 1"), "{err}");
+    }
+
+    #[test]
+    fn no_escape_collisions_with_other_agents_are_counted_and_named_in_the_failing_check() {
+        let no_escape = |collided_with_other| VariantTally {
+            critical: true,
+            collided: true,
+            collided_with_other,
+            escape: Some(false),
+            ..VariantTally::default()
+        };
+        // A recorded car into the ego twice, the CBV once; an escapable
+        // collision with another agent does not count.
+        let escapable_with_other =
+            VariantTally { collided: true, collided_with_other: true, escape: Some(true), ..VariantTally::default() };
+        let tallies = [no_escape(true), no_escape(false), no_escape(true), escapable_with_other];
+        let m = SuiteMetrics::aggregate(&tallies);
+        assert_eq!((m.no_escape_collisions, m.no_escape_collisions_with_others), (3, 2));
+        assert!(m.headline(" · ").ends_with("no-escape collisions 3 (2 with other agents than the CBV)"));
+        let acceptance = SuiteAcceptance { no_escape_collision_rate_max: Some(0.05), ..SuiteAcceptance::default() };
+        let err = m.checks(&acceptance)[0].result.clone().unwrap_err();
+        assert!(
+            err.starts_with("no_escape_collision_rate = 0.750 > 0.05 over 4 variants: 2 of the 3 were with"),
+            "{err}"
+        );
+        assert!(err.contains("`adversary.background: reactive-log-replay`"), "{err}");
+        // With the CBV alone, the message is the bare bound.
+        let with_cbv = SuiteMetrics::aggregate(&[no_escape(false)]);
+        let err = with_cbv.checks(&acceptance)[0].result.clone().unwrap_err();
+        assert_eq!(err, "no_escape_collision_rate = 1.000 > 0.05 over 1 variants");
+        assert!(with_cbv.headline(" · ").ends_with("no-escape collisions 1"));
     }
 
     #[test]
