@@ -216,7 +216,7 @@ pub fn cbv_background_collisions(scenario: &Scenario, stage1: &Rollout) -> Vec<C
         .iter()
         .filter(|c| !c.involves_ego && (c.a == cbv || c.b == cbv))
         .map(|c| {
-            let other = if c.a == cbv { c.b } else { c.a };
+            let other = c.other_than(cbv);
             let at_fault = match (state(c.step, cbv), state(c.step, other)) {
                 (Some(me), Some(them)) => EgoContact::ego_at_fault(&scenario.map, &me, &body.footprint(&me), &them),
                 _ => true,
@@ -508,17 +508,30 @@ impl SuiteMetrics {
             _ => "no variant qualified",
         };
         let mut out = Vec::new();
-        // (metric, value, lower bound, upper bound)
-        type Bounds = (&'static str, Option<f64>, Option<f64>, Option<f64>);
+        // (metric, value, lower bound, upper bound, what a failure adds)
+        type Bounds = (&'static str, Option<f64>, Option<f64>, Option<f64>, Option<String>);
+        let no_escape_cause = (self.no_escape_collisions_with_others > 0).then(|| {
+            format!(
+                "{} of the {} were with other agents than the CBV (recorded traffic on log replay cannot brake for \
+                 an ego that brakes for the CBV; `adversary.background: reactive-log-replay` lets it)",
+                self.no_escape_collisions_with_others, self.no_escape_collisions
+            )
+        });
         let bounds: [Bounds; 6] = [
-            ("collision_rate", self.collision_rate, acceptance.collision_rate_min, None),
-            ("solution_rate", self.solution_rate, acceptance.solution_rate_min, None),
-            ("velocity_jsd", self.velocity_jsd, None, acceptance.velocity_jsd_max),
-            ("acceleration_jsd", self.acceleration_jsd, None, acceptance.acceleration_jsd_max),
-            ("conflict_reach", self.conflict_reach_critical, acceptance.conflict_reach_min, None),
-            ("no_escape_collision_rate", self.no_escape_collision_rate, None, acceptance.no_escape_collision_rate_max),
+            ("collision_rate", self.collision_rate, acceptance.collision_rate_min, None, None),
+            ("solution_rate", self.solution_rate, acceptance.solution_rate_min, None, None),
+            ("velocity_jsd", self.velocity_jsd, None, acceptance.velocity_jsd_max, None),
+            ("acceleration_jsd", self.acceleration_jsd, None, acceptance.acceleration_jsd_max, None),
+            ("conflict_reach", self.conflict_reach_critical, acceptance.conflict_reach_min, None, None),
+            (
+                "no_escape_collision_rate",
+                self.no_escape_collision_rate,
+                None,
+                acceptance.no_escape_collision_rate_max,
+                no_escape_cause,
+            ),
         ];
-        for (name, value, min, max) in bounds {
+        for (name, value, min, max, cause) in bounds {
             if min.is_none() && max.is_none() {
                 continue;
             }
@@ -533,14 +546,9 @@ impl SuiteMetrics {
                 (Some(_), _, _) => Ok(()),
                 (None, _, _) => unmeasured(name, why(name)),
             };
-            let result = result.map_err(|e| match (name, self.no_escape_collisions_with_others) {
-                ("no_escape_collision_rate", others) if others > 0 => format!(
-                    "{e}: {others} of the {} were with other agents than the CBV (recorded traffic on log replay \
-                     cannot brake for an ego that brakes for the CBV; `adversary.background: reactive-log-replay` \
-                     lets it)",
-                    self.no_escape_collisions
-                ),
-                _ => e,
+            let result = result.map_err(|e| match &cause {
+                Some(cause) => format!("{e}: {cause}"),
+                None => e,
             });
             out.push(MetricCheck { name, value, result });
         }

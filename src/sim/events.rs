@@ -31,6 +31,13 @@ pub struct CollisionEvent {
     pub ego_contact: Option<EgoContact>,
 }
 
+impl CollisionEvent {
+    /// The other agent of the pair, seen from `agent` (one of the two).
+    pub fn other_than(&self, agent: TrackIndex) -> TrackIndex {
+        if self.a == agent { self.b } else { self.a }
+    }
+}
+
 /// How much farther off the road than at its start an ego that starts off
 /// it must go to count as leaving it, m: recorded starts are noisy, but a
 /// start 0.1 m over the edge must not excuse driving 16 m off.

@@ -174,14 +174,15 @@ impl Rollout {
 
     /// The agent the ego first collided with, if any.
     pub fn ego_collision_other(&self) -> Option<TrackIndex> {
-        self.ego_collision().map(|c| if c.a == self.ego { c.b } else { c.a })
+        self.ego_collision().map(|c| c.other_than(self.ego))
     }
 
     /// The summary.
     pub fn summary(&self) -> RolloutSummary {
         // Rounded to the millisecond so reports do not show float noise.
         let time = |step: usize| ((step - self.start_step) as f64 * self.dt_s * 1e3).round() / 1e3;
-        let ego_collision = self.ego_collision().zip(self.ego_collision_other()).map(|(c, other)| {
+        let ego_collision = self.ego_collision().map(|c| {
+            let other = c.other_than(self.ego);
             // Detected ego collisions always carry a judgement; a hand-built
             // event without one counts as an at-fault front contact.
             let contact = c
