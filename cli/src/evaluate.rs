@@ -219,6 +219,7 @@ fn print_table(
     print_scenes_that_broke_the_rules(out, rows, &held_out.scenes, &name)?;
     print_held_out(out, &name, held_out)?;
     print_conflicts_met(out, rows, &name, held_out)?;
+    print_stage2_approach(out, rows, &name)?;
     print_stage2_contacts(out, rows, records, &name)?;
     print_closest_approach(out, rows, &name)?;
     print_conflict_kinds(out, rows, &name)?;
@@ -385,6 +386,43 @@ fn print_conflicts_met(
     Ok(())
 }
 
+/// Where the stage-1-critical conflicts met the planner's ego in stage 2.
+fn print_stage2_approach(
+    out: &mut dyn Write,
+    rows: &[MethodRow],
+    name: &dyn Fn(&MethodRow) -> String,
+) -> std::io::Result<()> {
+    if rows.iter().all(|r| r.stage2_closest_critical.is_none()) {
+        return Ok(());
+    }
+    let w = method_column(rows, name);
+    writeln!(
+        out,
+        "\nthe critical variants at the planner (stage 2: the CBV's closest approach to the planner's ego, variants):"
+    )?;
+    writeln!(
+        out,
+        "{:<w$} {:>8} {:>8} {:>8} {:>13} {:>8} {:>8} {:>8}",
+        "method", "critical", "contact", "<1 m", "other first", "1-2 m", "2-5 m", ">=5 m"
+    )?;
+    for r in rows {
+        let Some(c) = r.stage2_closest_critical else { continue };
+        writeln!(
+            out,
+            "{:<w$} {:>8} {:>8} {:>8} {:>13} {:>8} {:>8} {:>8}",
+            name(r),
+            c.critical,
+            c.contact,
+            c.under_1_m,
+            c.other_collision_first,
+            c.under_2_m,
+            c.under_5_m,
+            c.farther
+        )?;
+    }
+    Ok(())
+}
+
 /// How close the CBV came to the recorded ego in stage 1.
 fn print_closest_approach(
     out: &mut dyn Write,
@@ -474,6 +512,10 @@ fn print_legend(out: &mut dyn Write) -> std::io::Result<()> {
     writeln!(
         out,
         "reach: share of variants whose CBV came within 1 m (box distance) of the planner's ego in stage 2 (reach-crit: of the stage-1-critical ones; right of | : the held-out scenes). SR-avoid: SR over the avoidable conflicts (reached or collided, less collisions without an escape); avoid-fail: the planner's failures among them. no-escape: stage-2 collisions whose closed-loop witness found no escape within budget (the generator's fault); refuted: of those, the ones whose pre-check found an escape from the CBV as it drove."
+    )?;
+    writeln!(
+        out,
+        "the critical variants at the planner: the stage-1-critical variants by the CBV's closest approach to the planner's ego in stage 2, each in one column: contact (a collision with the CBV) and <1 m make reach-crit; other first: the planner's ego hit another agent first, which ended the rollout; then the closest gap of the rest (>=5 m: or never beside it on the road)."
     )?;
     writeln!(
         out,

@@ -301,6 +301,9 @@ pub struct MethodRow {
     /// How close the CBV came to the recorded ego in stage 1; `None` when
     /// no variant ran.
     pub stage1_closest: Option<ClosestApproach>,
+    /// How close the CBV came to the planner's ego in stage 2, over the
+    /// stage-1-critical variants; `None` when none was critical.
+    pub stage2_closest_critical: Option<Stage2Approach>,
     /// Distinct variants per variant: how many different CBV paths the
     /// seeds of each scene made (stage 1, to the centimetre), summed over
     /// the scenes, over the variants that ran. 1 when every seed gives its
@@ -712,6 +715,73 @@ impl ClosestApproach {
     }
 }
 
+/// Where the conflicts that hit the recorded ego in stage 1 met the
+/// planner's ego in stage 2: counts of the stage-1-critical variants by
+/// the CBV's closest approach (box distance), each in one band. The first
+/// two add up to conflict reach on the critical variants; the rest tell
+/// a conflict the planner passed near (it answered with a margin) from
+/// one that never came near it, and from a rollout another collision
+/// ended first.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+pub struct Stage2Approach {
+    /// The stage-1-critical variants that ran.
+    pub critical: usize,
+    /// The planner's ego collided with the CBV.
+    pub contact: usize,
+    /// The CBV came within 1 m without a collision with it (reached).
+    pub under_1_m: usize,
+    /// Not reached: the planner's ego hit another agent first, which
+    /// ended the rollout.
+    pub other_collision_first: usize,
+    /// Not reached: the closest gap from 1 m to under 2 m.
+    pub under_2_m: usize,
+    /// ... from 2 m to under 5 m.
+    pub under_5_m: usize,
+    /// ... 5 m or more, or no gap measured (the CBV never on the road
+    /// beside the planner's ego).
+    pub farther: usize,
+}
+
+/// Upper bounds of the [`Stage2Approach`] bands beyond reach, m.
+const STAGE2_APPROACH_BANDS_M: [f64; 2] = [2.0, 5.0];
+
+impl Stage2Approach {
+    /// The counts over the critical ones of `variants` (that ran); `None`
+    /// when none was critical.
+    fn of(variants: &[&VariantRecord]) -> Option<Self> {
+        let [two, five] = STAGE2_APPROACH_BANDS_M;
+        let mut counts = Stage2Approach {
+            critical: 0,
+            contact: 0,
+            under_1_m: 0,
+            other_collision_first: 0,
+            under_2_m: 0,
+            under_5_m: 0,
+            farther: 0,
+        };
+        for r in variants.iter().filter(|r| r.tally.critical) {
+            counts.critical += 1;
+            let band = if r.tally.reached {
+                if r.stage2_contact.as_ref().is_some_and(|c| c.with_cbv) {
+                    &mut counts.contact
+                } else {
+                    &mut counts.under_1_m
+                }
+            } else if r.tally.collided_with_other {
+                &mut counts.other_collision_first
+            } else {
+                match r.stage2_min_gap_to_cbv_m {
+                    Some(g) if g < two => &mut counts.under_2_m,
+                    Some(g) if g < five => &mut counts.under_5_m,
+                    _ => &mut counts.farther,
+                }
+            };
+            *band += 1;
+        }
+        (counts.critical > 0).then_some(counts)
+    }
+}
+
 /// The share of `variants` (of one method) that differ from every other
 /// seed's variant of their scene: distinct CBV paths per scene, summed,
 /// over the variants; `None` for none.
@@ -801,6 +871,7 @@ fn table_of(
                 off_road_scenes: scenes_where(&ok, |r| r.tally.cbv_left_road()),
                 at_fault_scenes: scenes_where(&ok, |r| r.tally.cbv_at_fault_with_background),
                 stage1_closest: ClosestApproach::of(&ok),
+                stage2_closest_critical: Stage2Approach::of(&ok),
                 distinct_rate: distinct_rate(&ok),
                 conflict_reach: metrics.conflict_reach,
                 conflict_reach_critical: metrics.conflict_reach_critical,
@@ -862,6 +933,64 @@ mod tests {
         assert_eq!((c.contact, c.under_half_m, c.under_1_m), (1.0 / 6.0, 1.0 / 6.0, 2.0 / 6.0));
         assert!((c.farther - 2.0 / 6.0).abs() < 1e-12);
         assert_eq!(table(&[], &[AdversaryMethod::Safer])[0].stage1_closest, None);
+    }
+
+    #[test]
+    fn the_stage2_approach_counts_each_critical_variant_in_one_band_and_its_first_two_are_reach() {
+        // (critical, reached, contact with the CBV, collided with another
+        // agent, stage-2 gap to the CBV): a contact; a near approach; a
+        // rollout another collision ended; gaps of 1.0, 1.99, 2.0 and 5.0 m
+        // (each bound belongs to the band above it) and none measured; and
+        // a variant that was not critical, which no band counts.
+        let cases = [
+            (true, true, true, false, Some(0.0)),
+            (true, true, false, false, Some(0.4)),
+            (true, false, false, true, Some(0.8)),
+            (true, false, false, false, Some(1.0)),
+            (true, false, false, false, Some(1.99)),
+            (true, false, false, false, Some(2.0)),
+            (true, false, false, false, Some(5.0)),
+            (true, false, false, false, None),
+            (false, true, true, false, Some(0.0)),
+        ];
+        let records: Vec<VariantRecord> = cases
+            .iter()
+            .enumerate()
+            .map(|(i, &(critical, reached, contact, other, gap))| {
+                let base = record("a", i as u32, i as u64);
+                VariantRecord {
+                    stage2_min_gap_to_cbv_m: gap,
+                    stage2_contact: (contact || other).then(|| Stage2Contact {
+                        other: "7".into(),
+                        with_cbv: contact,
+                        at_fault: false,
+                    }),
+                    tally: VariantTally { critical, reached, collided_with_other: other, ..base.tally.clone() },
+                    ..base
+                }
+            })
+            .collect();
+        let row = &table(&records, &[AdversaryMethod::Safer])[0];
+        let c = row.stage2_closest_critical.unwrap();
+        assert_eq!(
+            c,
+            Stage2Approach {
+                critical: 8,
+                contact: 1,
+                under_1_m: 1,
+                other_collision_first: 1,
+                under_2_m: 2,
+                under_5_m: 1,
+                farther: 2
+            }
+        );
+        assert_eq!(
+            Some((c.contact + c.under_1_m) as f64 / c.critical as f64),
+            row.conflict_reach_critical,
+            "the first two bands are reach on the critical variants"
+        );
+        let none_critical = [record("a", 0, 0)];
+        assert_eq!(table(&none_critical, &[AdversaryMethod::Safer])[0].stage2_closest_critical, None);
     }
 
     #[test]

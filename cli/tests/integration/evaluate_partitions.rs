@@ -361,4 +361,28 @@ fn the_table_names_whom_the_ego_hit_as_the_json_report_does_and_progress_says_wh
     // The failures beside log replay's, in words.
     assert!(table.contains("planner failures beside log replay's "), "{table}");
     assert!(!table.contains(" = —"), "{table}");
+    // Where the critical conflicts met the planner: the table's counts are
+    // the JSON report's, each critical variant in one band, and the first
+    // two bands make reach-crit.
+    let approach = table.split("the critical variants at the planner (stage 2").nth(1).expect("the approach table");
+    let mut rows_with_critical = 0;
+    for row in report["rows"].as_array().unwrap() {
+        let c = &row["stage2_closest_critical"];
+        if c.is_null() {
+            continue;
+        }
+        rows_with_critical += 1;
+        let (method, mode) = (row["method"].as_str().unwrap(), row["stage2_cbv"].as_str().unwrap());
+        let bands = ["critical", "contact", "under_1_m", "other_collision_first", "under_2_m", "under_5_m", "farther"]
+            .map(|k| c[k].as_u64().unwrap());
+        let line = approach.lines().find(|l| l.starts_with(&format!("{method} ({mode})"))).expect("its row");
+        let cells: Vec<u64> = line.split_whitespace().skip(2).take(7).map(|c| c.parse().unwrap()).collect();
+        assert_eq!(cells, bands, "{line}");
+        assert_eq!(bands[1..].iter().sum::<u64>(), bands[0], "{c}");
+        let reach = (bands[1] + bands[2]) as f64 / bands[0] as f64;
+        assert!((reach - row["conflict_reach_critical"].as_f64().unwrap()).abs() < 1e-9, "{row}");
+        let critical = variants.iter().filter(|v| v["method"] == method && v["stage2_cbv"] == mode);
+        assert_eq!(critical.filter(|v| v["tally"]["critical"] == true).count() as u64, bands[0], "{c}");
+    }
+    assert!(rows_with_critical > 0, "safer makes critical variants on these scenes: {table}");
 }
