@@ -98,8 +98,8 @@
 #                     prior, safer-in-path) and on NGSIM (n = 60; log replay, the prior,
 #                     and safer-in-path, then safer-cut-in: the two shipped suites that
 #                     run external planners take the one that kills more), and on WOMD
-#                     interactive as those suites run (n = 60, reactive-log-replay)
-#                     (about 3 hours 10 minutes on 2 cores)
+#                     interactive and NGSIM as those suites run (n = 60, reactive-log-replay)
+#                     (about 3 hours 50 minutes on 2 cores)
 #   reaction-delay    reaction-delay/: the stage-2 CBV seeing the planner's ego a reaction
 #                     time late (--stage2-cbv closed-loop-delayed) beside closed-loop, for log
 #                     replay, the prior and safer-in-path: the evasive planner's mutation
@@ -279,6 +279,9 @@ for job in "${jobs[@]}"; do
             "${mutating[@]}" --methods log,prior,safer-cut-in --trust-region 60 --planner ../../planners/lane-follower.yaml
         # As the suites that run external planners are set: 60 behaviours, the recorded cars braking for the ego.
         run ten-seeds/mutants-womd-interactive-lane-follower-n60-reactive.txt evaluate --scenes data:womd-interactive \
+            "${mutating[@]}" --methods log,prior,safer-in-path --trust-region 60 --background reactive-log-replay \
+            --planner ../../planners/lane-follower.yaml
+        run ten-seeds/mutants-ngsim-lane-follower-n60-reactive.txt evaluate --scenes data:commonroad-ngsim \
             "${mutating[@]}" --methods log,prior,safer-in-path --trust-region 60 --background reactive-log-replay \
             --planner ../../planners/lane-follower.yaml ;;
     wide-region)

@@ -970,3 +970,23 @@ fn the_recorded_traffic_braking_table_quotes_its_outputs() {
     }
     assert_eq!(checked, 8, "two backgrounds for each set and draw");
 }
+
+#[test]
+fn the_critical_variants_at_the_planner_table_quotes_its_outputs() {
+    let doc = repo_file("docs/benchmarks.md");
+    let rows = markdown_rows(&doc, "| set | draw | critical |", "On WOMD interactive many of the critical");
+    let mut checked = 0;
+    for (set, draw, row) in rows_by_set_and_draw(&rows) {
+        let file = match draw.as_str() {
+            "ten seeds" if set.starts_with("NGSIM") => "mutants-ngsim-evasive-n60-ten-seeds.txt",
+            _ => side_by_side_output(&set, &draw),
+        };
+        let output = repo_file(&format!("docs/evaluation/reactive-background/{file}"));
+        // The bands, then reach-crit from the conflicts table.
+        let mut expected = labelled_row(&output, "critical", "safer-in-path");
+        expected.push(labelled_row(&output, "reach-crit", "safer-in-path")[1].clone());
+        assert_eq!(row[2..], expected[..], "{set}, {draw}: the table against reactive-background/{file}");
+        checked += 1;
+    }
+    assert_eq!(checked, 5, "two draws on each set and ten seeds on NGSIM");
+}
