@@ -228,9 +228,13 @@ fn the_ten_seed_mutation_table_quotes_its_outputs() {
                     "ten-seeds/mutants-ngsim-lane-follower-n60-cut-in.txt",
                 ],
             ),
+            (
+                "NGSIM, n = 60, the lane follower, the recorded cars braking for the ego (69 × 10)",
+                &["ten-seeds/mutants-ngsim-lane-follower-n60-reactive.txt"],
+            ),
         ],
     );
-    assert_eq!(rows, 22, "every row of the ten-seed table");
+    assert_eq!(rows, 25, "every row of the ten-seed table");
 }
 
 #[test]
