@@ -722,7 +722,7 @@ impl ClosestApproach {
 /// a conflict the planner passed near (it answered with a margin) from
 /// one that never came near it, and from a rollout another collision
 /// ended first.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
 pub struct Stage2Approach {
     /// The stage-1-critical variants that ran.
     pub critical: usize,
@@ -750,15 +750,7 @@ impl Stage2Approach {
     /// when none was critical.
     fn of(variants: &[&VariantRecord]) -> Option<Self> {
         let [two, five] = STAGE2_APPROACH_BANDS_M;
-        let mut counts = Stage2Approach {
-            critical: 0,
-            contact: 0,
-            under_1_m: 0,
-            other_collision_first: 0,
-            under_2_m: 0,
-            under_5_m: 0,
-            farther: 0,
-        };
+        let mut counts = Stage2Approach::default();
         for r in variants.iter().filter(|r| r.tally.critical) {
             counts.critical += 1;
             let band = if r.tally.reached {
