@@ -212,6 +212,7 @@ fn print_table(
         match request.roles {
             RolePairing::AsLoaded => "",
             RolePairing::Merging => "; ego and CBV in merging lanes (--roles merging)",
+            RolePairing::Leader => "; the CBV is the ego's leader (--roles leader)",
         }
     )?;
     print_outcomes(out, rows, &name)?;
@@ -926,17 +927,21 @@ impl SceneSelection<'_> {
     fn paired(&self, scenes: Vec<Arc<Scenario>>) -> Vec<Arc<Scenario>> {
         match self.roles {
             RolePairing::AsLoaded => scenes,
-            RolePairing::Merging => {
+            pairing => {
                 let all = scenes.len();
-                let merging: Vec<Arc<Scenario>> = scenes
+                let paired: Vec<Arc<Scenario>> = scenes
                     .into_iter()
                     .filter_map(|s| {
                         let mut s = Arc::unwrap_or_clone(s);
-                        safer_scenarios::scenario::roles::assign_merging(&mut s).then(|| Arc::new(s))
+                        pairing.assign(&mut s).then(|| Arc::new(s))
                     })
                     .collect();
-                eprintln!("evaluate: --roles merging: {} of {all} scenes have a merging pair", merging.len());
-                merging
+                let what = match pairing {
+                    RolePairing::Leader => "a leader",
+                    _ => "a merging pair",
+                };
+                eprintln!("evaluate: --roles {}: {} of {all} scenes have {what}", safer_scenarios::spec::spec_name(&pairing), paired.len());
+                paired
             }
         }
     }
@@ -952,6 +957,7 @@ impl SceneSelection<'_> {
             let which = match self.roles {
                 RolePairing::AsLoaded => "an ego and a CBV",
                 RolePairing::Merging => "a merging pair (--roles merging)",
+                RolePairing::Leader => "a leader for the ego (--roles leader)",
             };
             return Err(CliError::Usage(format!(
                 "--scene {missing}: no scene with {which} under {} has that id ({} do; the tables name them)",
@@ -1011,6 +1017,7 @@ pub(super) fn run(
         let what = match selection.roles {
             RolePairing::AsLoaded => "no scene with both an ego and a CBV",
             RolePairing::Merging => "no scene with a pair of vehicles in merging lanes (--roles merging)",
+            RolePairing::Leader => "no scene where the ego has a leader (--roles leader)",
         };
         return Err(CliError::Usage(format!("{}: {what}", scenes_dir.display())));
     }
@@ -1271,7 +1278,7 @@ pub(crate) struct EvaluateArgs {
     /// Horizon of both stages from the scene's current step, s (positive, finite).
     #[arg(long, default_value_t = 8.0, value_parser = positive_finite, allow_negative_numbers = true)]
     pub(crate) horizon_s: f64,
-    /// Which ego–CBV pair each scene is tested with: `as-loaded`, the source's roles, else the labelled pair, else the pair of moving vehicles with the closest approach; `merging`, a CBV in a lane that merges with the ego's ahead of both (an on-ramp, a lane drop, two ways through a junction), of those reaching the merge point (at their speeds) between 1 s and the recording's end, the one arriving nearest in time to the ego; a mined ego is mined again with it. Scenes without a merging pair are left out.
+    /// Which ego–CBV pair each scene is tested with: `as-loaded`, the source's roles, else the labelled pair, else the pair of moving vehicles with the closest approach; `merging`, a CBV in a lane that merges with the ego's ahead of both (an on-ramp, a lane drop, two ways through a junction), of those reaching the merge point (at their speeds) between 1 s and the recording's end, the one arriving nearest in time to the ego; a mined ego is mined again with it; `leader`, the ego's leader: the nearest moving vehicle now ahead of it along its recorded path (within its width plus 0.4 m, heading its way, at most 60 m ahead of its front): the car it follows, or comes up behind in the lane it moves into; the ego as loaded. Scenes without such a pair are left out.
     #[arg(long, value_parser = choice(RolePairing::ALL), default_value = "as-loaded")]
     pub(crate) roles: RolePairing,
     /// Evaluate only the first N scenes (by id), at least 1.

@@ -213,6 +213,9 @@ pub enum RoleOrigin {
     /// A vehicle in a lane merging with the ego's, chosen on request
     /// (`safer evaluate --roles merging`, see [`roles::assign_merging`]).
     MergeMining,
+    /// The vehicle ahead of the ego in its path, chosen on request
+    /// (`safer evaluate --roles leader`, see [`roles::assign_leader`]).
+    LeaderMining,
     /// Not assigned.
     Unassigned,
 }

@@ -26,9 +26,17 @@
 //! one that reaches the merge point nearest in time to the ego, so that
 //! the CBV can meet the ego there (the closest recorded approach picks
 //! cars that start beside each other, or are gone before the other comes).
+//!
+//! Or with the ego's leader ([`RolePairing::Leader`]): the nearest moving
+//! vehicle ahead of the ego along its recorded path, the car it follows
+//! (or comes up behind in the lane it moves into). The
+//! closest recorded approach seldom picks it (a leader keeps its headway),
+//! and a CBV beside or behind the ego can only close on it from the side
+//! or the rear, which no braking fault of a planner answers to; a leader
+//! that brakes is the conflict that tests the ego's braking.
 
 use super::{AgentKind, AgentState, RoleOrigin, Scenario, TrackIndex};
-use crate::geometry::wrap_angle;
+use crate::geometry::{Point2, Polyline, Vector2, wrap_angle};
 use crate::map::MapElementId;
 use crate::map::lane_relations::{LaneAhead, LaneRelations};
 
@@ -187,11 +195,94 @@ pub enum RolePairing {
     /// A CBV in a lane merging with the ego's ([`assign_merging`]); scenes
     /// without one are left out.
     Merging,
+    /// The CBV is the ego's leader ([`assign_leader`]); scenes without one
+    /// are left out.
+    Leader,
 }
 
 impl RolePairing {
     /// Every variant, in declaration order (for choosers such as the command line).
-    pub const ALL: &'static [Self] = &[Self::AsLoaded, Self::Merging];
+    pub const ALL: &'static [Self] = &[Self::AsLoaded, Self::Merging, Self::Leader];
+
+    /// Gives `scenario` the pair this pairing asks for; `false` (the
+    /// scenario left as it was) when it has none.
+    pub fn assign(self, scenario: &mut Scenario) -> bool {
+        match self {
+            Self::AsLoaded => scenario.ego.is_some() && scenario.cbv.is_some(),
+            Self::Merging => assign_merging(scenario),
+            Self::Leader => assign_leader(scenario),
+        }
+    }
+}
+
+/// How far ahead of the ego's front a leader may be, m (1.4 s of headway
+/// at 43 m/s, beyond any freeway's).
+pub const LEADER_MAX_GAP_M: f64 = 60.0;
+
+/// How far a leader's box may reach out of the ego's corridor (the ego's
+/// width along its path) and still be in its path, m: the margin of the
+/// planners' own leader rule.
+pub const LEADER_CORRIDOR_MARGIN_M: f64 = 0.4;
+
+/// Most heading difference between a leader and the ego's path, rad (the
+/// conflict classifier's bound for the same direction, 45°).
+pub const LEADER_MAX_HEADING_RAD: f64 = std::f64::consts::FRAC_PI_4;
+
+/// The ego's leader now: of the moving vehicles ([`candidates`]) whose box
+/// at the current step lies in the ego's corridor along its recorded path
+/// ahead (its recorded positions from now on, straight on along its last
+/// heading for [`LEADER_MAX_GAP_M`] beyond them), heading its way, the one
+/// with the least gap to the ego's front, within [`LEADER_MAX_GAP_M`];
+/// a recorded overlap with the ego rules a vehicle out ([`approach_score`]).
+pub fn mine_leader_cbv(scenario: &Scenario, ego: TrackIndex) -> Option<TrackIndex> {
+    let now = scenario.current_step;
+    let ego_track = scenario.track(ego);
+    let start = ego_track.state(now)?;
+    let mut points: Vec<Point2> = Vec::new();
+    for s in ego_track.states[now..].iter().flatten() {
+        if points.last().is_none_or(|p: &Point2| (s.position - p).norm() > 0.1) {
+            points.push(s.position);
+        }
+    }
+    let last = ego_track.states[now..].iter().flatten().last()?;
+    let beyond = Vector2::new(last.heading_rad.cos(), last.heading_rad.sin()) * (LEADER_MAX_GAP_M + 10.0);
+    points.push(last.position + beyond);
+    if points.len() < 2 {
+        return None;
+    }
+    let path = Polyline::new(points);
+    let ego_s = path.project(&start.position)?.arc_length_m;
+    let gap_to = |c: TrackIndex| -> Option<(f64, usize)> {
+        let track = scenario.track(c);
+        let state = track.state(now)?;
+        let p = path.project(&state.position)?;
+        let heading = wrap_angle(state.heading_rad - p.tangent.y.atan2(p.tangent.x));
+        if heading.abs() > LEADER_MAX_HEADING_RAD {
+            return None;
+        }
+        let (sin, cos) = (heading.sin().abs(), heading.cos().abs());
+        let half_across = 0.5 * (sin * track.length_m + cos * track.width_m);
+        if p.distance_m > 0.5 * ego_track.width_m + half_across + LEADER_CORRIDOR_MARGIN_M {
+            return None;
+        }
+        let half_along = 0.5 * (cos * track.length_m + sin * track.width_m);
+        let gap_m = p.arc_length_m - ego_s - 0.5 * ego_track.length_m - half_along;
+        let ahead = p.arc_length_m > ego_s && (0.0..=LEADER_MAX_GAP_M).contains(&gap_m);
+        (ahead && approach_score(scenario, ego, c).is_some()).then_some((gap_m, 0))
+    };
+    best_to(scenario, ego, gap_to)
+}
+
+/// Makes the scenario's CBV the ego's leader ([`mine_leader_cbv`]), for
+/// testing a planner's braking: the ego keeps its place (as the source
+/// named it, or as conflict mining chose it). Returns whether the scene
+/// has one; when it has none the scenario is left as it was.
+pub fn assign_leader(scenario: &mut Scenario) -> bool {
+    let Some(ego) = scenario.ego else { return false };
+    let Some(cbv) = mine_leader_cbv(scenario, ego) else { return false };
+    scenario.cbv = Some(cbv);
+    scenario.cbv_origin = RoleOrigin::LeaderMining;
+    true
 }
 
 /// How far ahead of both vehicles their lanes are followed to find where
@@ -606,5 +697,77 @@ mod tests {
         let mut apart = scenario(vec![track("0", 0.0, 0.0, 5.0, 0.0), track("1", 30.0, 3.0, -5.0, 0.0)]);
         apart.ego = Some(TrackIndex(0));
         assert_eq!(recorded_ego_contact(&apart), None);
+    }
+
+    #[test]
+    fn the_leader_is_the_nearest_car_ahead_in_the_egos_path_not_a_nearer_one_beside_or_behind() {
+        let mut s = scenario(vec![
+            track("ego", 0.0, 0.0, 10.0, 0.0),
+            // Beside, 3.5 m over: the closest approach, but not in the path.
+            track("beside", 3.0, 3.5, 10.0, 0.0),
+            // Behind in the ego's lane.
+            track("behind", -9.0, 0.0, 10.0, 0.0),
+            // Ahead in the lane, 15.5 m from the ego's front: the leader.
+            track("leader", 20.0, 0.3, 10.0, 0.0),
+            // Farther ahead in the lane.
+            track("second", 45.0, 0.0, 10.0, 0.0),
+            // Ahead and coming the other way.
+            track("oncoming", 12.0, 0.0, -10.0, 0.0),
+        ]);
+        s.ego = Some(TrackIndex(0));
+        s.ego_origin = RoleOrigin::Source;
+        assign(&mut s);
+        assert_eq!(s.cbv, Some(TrackIndex(1)), "the closest approach is the car beside");
+        assert!(RolePairing::Leader.assign(&mut s));
+        assert_eq!((s.ego, s.cbv), (Some(TrackIndex(0)), Some(TrackIndex(3))));
+        assert_eq!(s.cbv_origin, RoleOrigin::LeaderMining);
+        assert_eq!(s.ego_origin, RoleOrigin::Source);
+    }
+
+    #[test]
+    fn the_leader_is_found_along_the_recorded_path_and_none_is_left_as_it_was() {
+        // The ego turns onto y (a quarter circle of 20 m radius over 3.1 s,
+        // then straight): the car in its path after the turn is its leader,
+        // the one straight on from where it starts is not.
+        let steps = 60;
+        let radius_m = 20.0;
+        let speed_mps = 10.0;
+        let states = (0..steps)
+            .map(|k| {
+                let t = k as f64 * 0.1;
+                let turn_s = std::f64::consts::FRAC_PI_2 * radius_m / speed_mps;
+                let (position, heading_rad) = if t <= turn_s {
+                    let a = t * speed_mps / radius_m;
+                    (Point2::new(radius_m * a.sin(), radius_m * (1.0 - a.cos())), a)
+                } else {
+                    (Point2::new(radius_m, radius_m + (t - turn_s) * speed_mps), std::f64::consts::FRAC_PI_2)
+                };
+                Some(AgentState {
+                    position,
+                    heading_rad,
+                    velocity_mps: Vector2::new(heading_rad.cos(), heading_rad.sin()) * speed_mps,
+                })
+            })
+            .collect();
+        let ego = Track { id: AgentId("ego".into()), kind: AgentKind::Vehicle, length_m: 4.5, width_m: 2.0, states };
+        let mut s = scenario(vec![
+            ego,
+            track("straight-on", 25.0, 0.0, 10.0, 0.0),
+            track("after-the-turn", radius_m, radius_m + 10.0, 0.0, 10.0),
+        ]);
+        s.ego = Some(TrackIndex(0));
+        assert_eq!(mine_leader_cbv(&s, TrackIndex(0)), Some(TrackIndex(2)));
+        // Without it, nothing is ahead in the path: the scene is left out
+        // and left as it was.
+        s.tracks.truncate(2);
+        s.cbv = Some(TrackIndex(1));
+        s.cbv_origin = RoleOrigin::ConflictMining;
+        assert!(!assign_leader(&mut s));
+        assert_eq!((s.cbv, s.cbv_origin), (Some(TrackIndex(1)), RoleOrigin::ConflictMining));
+        // Nor is a leader beyond the gap bound one.
+        let far = track("far", 0.0, 0.0, 10.0, 0.0);
+        let mut s = scenario(vec![far, track("ahead", LEADER_MAX_GAP_M + 10.0, 0.0, 10.0, 0.0)]);
+        s.ego = Some(TrackIndex(0));
+        assert_eq!(mine_leader_cbv(&s, TrackIndex(0)), None);
     }
 }

@@ -153,6 +153,61 @@ fn evaluate_with_merging_roles_tests_a_merging_pair_and_leaves_out_scenes_withou
 
 #[test]
 #[cfg_attr(not(recorded_data), ignore = "needs recorded data: set SAFER_DATA_DIR (docs/guide/recorded-data.md)")]
+fn evaluate_with_leader_roles_makes_the_car_ahead_of_the_ego_the_cbv_and_leaves_out_scenes_without_one() {
+    use safer_scenarios::scenario::roles::RolePairing;
+    // A freeway scene whose ego follows a car in its lane, and one whose
+    // ego has no moving car ahead of it in its path.
+    let with_leader = data_dir().join("commonroad-ngsim/USA_US101-9_3_T-1.xml");
+    let without = data_dir().join("commonroad-ngsim/USA_US101-16_1_T-1.xml");
+    // The leader is ahead of the ego's front, in its lane and heading its
+    // way; the closest recorded approach is another car.
+    let mut s = import::load(&with_leader).unwrap_or_else(|e| panic!("{e}")).remove(0);
+    let closest = s.cbv;
+    assert!(RolePairing::Leader.assign(&mut s));
+    assert_ne!(s.cbv, closest);
+    let now = s.current_step;
+    let (ego, leader) = (s.track(s.ego.unwrap()), s.track(s.cbv.unwrap()));
+    let (e, l) = (ego.state(now).unwrap(), leader.state(now).unwrap());
+    let forward = safer_scenarios::geometry::Vector2::new(e.heading_rad.cos(), e.heading_rad.sin());
+    let d = l.position - e.position;
+    let (along_m, across_m) = (d.dot(&forward), (d.x * forward.y - d.y * forward.x).abs());
+    assert!(along_m > 0.5 * (ego.length_m + leader.length_m), "{along_m} m ahead");
+    assert!(across_m < 0.5 * (ego.width_m + leader.width_m), "{across_m} m to the side");
+    assert!(safer_scenarios::geometry::wrap_angle(l.heading_rad - e.heading_rad).abs() < 0.3);
+    let mut none = import::load(&without).unwrap_or_else(|e| panic!("{e}")).remove(0);
+    let before = (none.ego, none.cbv);
+    assert!(!RolePairing::Leader.assign(&mut none));
+    assert_eq!((none.ego, none.cbv), before, "a scene without a leader is left as it was");
+
+    let dir = crate::scratch::Scratch::new("evaluate-leader-roles");
+    for scene in [&with_leader, &without] {
+        std::fs::copy(scene, dir.join(scene.file_name().unwrap())).unwrap();
+    }
+    let run = |extra: &[&str]| {
+        let common = ["evaluate", "--scenes", dir.to_str().unwrap(), "--methods", "log", "--seeds", "1"];
+        safer(&[&common[..], extra].concat())
+    };
+    let out = run(&["--roles", "leader", "--json", "-"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(err.contains("--roles leader: 1 of 2 scenes have a leader"), "{err}");
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(report["settings"]["roles"], "leader");
+    assert_eq!(report["scene_list"]["ids"], serde_json::json!(["USA_US101-9_3_T-1"]));
+    // Replayed, the leader stays ahead of the recorded ego: no contact.
+    let gap_m = report["variants"][0]["stage1_min_gap_m"].as_f64().unwrap();
+    assert!(gap_m > 0.0, "{}", report["variants"][0]);
+    // The table names the pairing.
+    let out = run(&["--roles", "leader"]);
+    assert!(String::from_utf8_lossy(&out.stdout).contains("the CBV is the ego's leader (--roles leader)"));
+    // A scene named that has no leader: said so, naming the option.
+    let out = run(&["--roles", "leader", "--scene", "USA_US101-16_1_T-1"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.contains("no scene with a leader for the ego (--roles leader)"), "{err}");
+}
+
+#[test]
+#[cfg_attr(not(recorded_data), ignore = "needs recorded data: set SAFER_DATA_DIR (docs/guide/recorded-data.md)")]
 fn evaluate_with_mutants_counts_the_kills_beyond_log_replay_alike_in_the_table_and_the_report() {
     // A WOMD interactive scene where log replay's variant kills the mutant
     // blind to the CBV, and the prior's first seed also kills the two that

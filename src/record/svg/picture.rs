@@ -103,6 +103,7 @@ impl<'a> Picture<'a> {
             RoleOrigin::ConflictMining => "by conflict mining",
             RoleOrigin::LabelledPair => "the labelled interacting pair",
             RoleOrigin::MergeMining => "in a lane merging with the other's",
+            RoleOrigin::LeaderMining => "the ego's leader",
             RoleOrigin::Unassigned => "unassigned",
         };
         let line2 = format!(
