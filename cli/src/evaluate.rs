@@ -940,7 +940,11 @@ impl SceneSelection<'_> {
                     RolePairing::Leader => "a leader",
                     _ => "a merging pair",
                 };
-                eprintln!("evaluate: --roles {}: {} of {all} scenes have {what}", safer_scenarios::spec::spec_name(&pairing), paired.len());
+                eprintln!(
+                    "evaluate: --roles {}: {} of {all} scenes have {what}",
+                    safer_scenarios::spec::spec_name(&pairing),
+                    paired.len()
+                );
                 paired
             }
         }

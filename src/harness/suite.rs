@@ -1,6 +1,7 @@
 //! Loading a suite: the spec, its planner adapter and its scenario list,
-//! cheaply (no scenario is imported until a variant runs), so listing tests
-//! is fast and deterministic.
+//! cheaply (no scenario is imported until a variant runs, but those of a
+//! recorded entry with `roles:`, which only importing tells to have the
+//! pair), so listing tests is fast and deterministic.
 
 use crate::planners::registry::PlannerRegistry;
 use std::collections::HashMap;
@@ -8,6 +9,7 @@ use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex, OnceLock};
 
 use crate::scenario::Scenario;
+use crate::scenario::roles::RolePairing;
 use crate::spec::planner::{PlannerAdapter, PlannerSpec};
 use crate::spec::scenario::ScenarioSpec;
 use crate::spec::suite::{PlannerRef, ScenarioSource, SuiteSpec};
@@ -23,6 +25,8 @@ pub struct SuiteScenario {
     /// Which scene of a recorded file holding several (a WOMD TFRecord
     /// shard), by record index; `None`: the file's only scene.
     pub record: Option<usize>,
+    /// The ego–CBV pair it is tested with (a recorded entry's `roles:`).
+    pub roles: RolePairing,
     /// The `scenarios:` entry it was listed by, where errors found when it
     /// is imported (a recorded log that does not import) are reported.
     pub entry: SuiteEntry,
@@ -71,7 +75,8 @@ impl Suite {
     /// spec (name, numbers, template parameters, a named CBV), every error
     /// located at its value. Recorded logs are only found, not imported: one
     /// that does not import is reported at its `scenarios:` entry when its
-    /// variant runs ([`SuiteScenario::load`]).
+    /// variant runs ([`SuiteScenario::load`]). Those of an entry with
+    /// `roles:` are imported, to leave out the scenes without the pair.
     pub fn load(path: &Path) -> Result<Suite, SpecError> {
         Self::load_with(path, &PlannerRegistry::default())
     }
@@ -125,6 +130,12 @@ impl Suite {
         let mut per_entry: HashMap<usize, usize> = HashMap::new();
         for (i, source) in spec.scenario_sources()? {
             let at = format!("scenarios[{i}]");
+            let (limit, roles) = match &spec.value.scenarios[i] {
+                crate::spec::suite::ScenarioEntry::Recorded { limit, roles, .. } => {
+                    (limit.unwrap_or(usize::MAX), *roles)
+                }
+                _ => (usize::MAX, RolePairing::AsLoaded),
+            };
             // A TFRecord shard holds many scenes: one suite scenario each,
             // named `STEM-SCENARIO_ID`, `limit` counting scenes.
             if let ScenarioSource::Recorded(p) = &source
@@ -132,26 +143,30 @@ impl Suite {
                     .map_err(|e| spec.reference_at(&at, format!("recorded log {} does not import: {e}", p.display())))?
                 && ids.len() > 1
             {
-                let limit = match &spec.value.scenarios[i] {
-                    crate::spec::suite::ScenarioEntry::Recorded { limit, .. } => limit.unwrap_or(usize::MAX),
-                    _ => usize::MAX,
-                };
                 let stem = p.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
                 for (record, id) in ids.iter().enumerate() {
-                    let taken = per_entry.entry(i).or_default();
-                    if *taken >= limit {
+                    if per_entry.get(&i).is_some_and(|&taken| taken >= limit) {
                         break;
                     }
-                    *taken += 1;
-                    let name = sanitize(&format!("{stem}-{id}"));
+                    if !has_pair(&spec, &at, p, Some(record), roles)? {
+                        continue;
+                    }
+                    *per_entry.entry(i).or_default() += 1;
+                    let name = sanitize(&paired_name(&format!("{stem}-{id}"), roles));
                     let entry = SuiteEntry { suite: spec.path.clone(), location: spec.at(&at), text: text.clone() };
                     push_unique(
                         &spec,
                         &at,
                         &mut scenarios,
-                        SuiteScenario { name, source: source.clone(), record: Some(record), entry },
+                        SuiteScenario { name, source: source.clone(), record: Some(record), roles, entry },
                     )?;
                 }
+                continue;
+            }
+            if let ScenarioSource::Recorded(p) = &source
+                && roles != RolePairing::AsLoaded
+                && (per_entry.get(&i).is_some_and(|&taken| taken >= limit) || !has_pair(&spec, &at, p, None, roles)?)
+            {
                 continue;
             }
             *per_entry.entry(i).or_default() += 1;
@@ -165,7 +180,8 @@ impl Suite {
                         // load, not when the first variant runs; the scene
                         // built is the one the variants run.
                         if let Some(built) = scenario.build()?.into_iter().next() {
-                            scene_cache().lock().expect("scenario cache").insert((p.clone(), None), Arc::new(built));
+                            let key = (p.clone(), None, RolePairing::AsLoaded);
+                            scene_cache().lock().expect("scenario cache").insert(key, Arc::new(built));
                         }
                     }
                     // Both stages drive the CBV; an authored scene gets none unless it names one.
@@ -178,9 +194,10 @@ impl Suite {
                     }
                     scenario.value.name
                 }
-                ScenarioSource::Recorded(p) => {
-                    p.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| p.display().to_string())
-                }
+                ScenarioSource::Recorded(p) => paired_name(
+                    &p.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| p.display().to_string()),
+                    roles,
+                ),
             };
             let name = sanitize(&name);
             if name.is_empty() || name == "." || name == ".." {
@@ -194,7 +211,24 @@ impl Suite {
                 ));
             }
             let entry = SuiteEntry { suite: spec.path.clone(), location: spec.at(&at), text: text.clone() };
-            push_unique(&spec, &at, &mut scenarios, SuiteScenario { name, source, record: None, entry })?;
+            push_unique(&spec, &at, &mut scenarios, SuiteScenario { name, source, record: None, roles, entry })?;
+        }
+        // An entry with a pairing that no scene of it has tests nothing.
+        for (i, entry) in spec.value.scenarios.iter().enumerate() {
+            if let crate::spec::suite::ScenarioEntry::Recorded { recorded, roles, .. } = entry
+                && *roles != RolePairing::AsLoaded
+                && !per_entry.contains_key(&i)
+            {
+                return Err(spec.reference_at(
+                    &format!("scenarios[{i}].roles"),
+                    format!(
+                        "no scene of {} has {} (roles: {}), so this entry would test nothing",
+                        recorded.value,
+                        pair_description(*roles),
+                        crate::spec::spec_name(roles)
+                    ),
+                ));
+            }
         }
         let shrink = super::shrink::ShrinkBudget::of(&spec.value.shrink);
         Ok(Suite { spec, planner, scenarios, shrink })
@@ -261,14 +295,71 @@ fn push_unique(
     Ok(())
 }
 
+/// A scene's test name tested with `roles`: its own, or `NAME-PAIRING`.
+fn paired_name(name: &str, roles: RolePairing) -> String {
+    match roles {
+        RolePairing::AsLoaded => name.to_string(),
+        other => format!("{name}-{}", crate::spec::spec_name(&other)),
+    }
+}
+
+/// What a scene needs for `roles`, in words.
+fn pair_description(roles: RolePairing) -> &'static str {
+    match roles {
+        RolePairing::AsLoaded => "an ego and a CBV",
+        RolePairing::Merging => "a pair of vehicles in merging lanes",
+        RolePairing::Leader => "a leader for the ego",
+    }
+}
+
+/// Whether the recorded scene (`record` of a file of several) has the pair
+/// `roles` asks for; it is imported, and kept for its variants.
+fn has_pair(
+    spec: &Loaded<SuiteSpec>,
+    at: &str,
+    path: &Path,
+    record: Option<usize>,
+    roles: RolePairing,
+) -> Result<bool, SpecError> {
+    let imported = import_paired(path, record, roles)
+        .map_err(|e| spec.reference_at(at, format!("recorded log {} does not import: {e}", path.display())))?;
+    Ok(imported.is_some())
+}
+
+/// The recorded scene (`record` of a file of several, else the file's
+/// first) with the pair `roles` asks for, imported once per process;
+/// `None` when it has no such pair (or the file holds no scene).
+fn import_paired(
+    path: &Path,
+    record: Option<usize>,
+    roles: RolePairing,
+) -> Result<Option<Arc<Scenario>>, crate::scenario::import::ImportError> {
+    let key = (path.to_path_buf(), record, roles);
+    if let Some(s) = scene_cache().lock().expect("scenario cache").get(&key) {
+        return Ok(Some(s.clone()));
+    }
+    let scenario = match record {
+        Some(record) => Some(crate::scenario::import::load_one(path, record)?),
+        None => crate::scenario::import::load(path)?.into_iter().next(),
+    };
+    let Some(mut scenario) = scenario else { return Ok(None) };
+    if !roles.assign(&mut scenario) && roles != RolePairing::AsLoaded {
+        return Ok(None);
+    }
+    let scenario = Arc::new(scenario);
+    scene_cache().lock().expect("scenario cache").insert(key, scenario.clone());
+    Ok(Some(scenario))
+}
+
 fn source_path(source: &ScenarioSource) -> &Path {
     match source {
         ScenarioSource::Spec(p) | ScenarioSource::Recorded(p) => p,
     }
 }
 
-/// A loaded scene's cache key: its file and, for a file of several, its record.
-type SceneKey = (PathBuf, Option<usize>);
+/// A loaded scene's cache key: its file, for a file of several its record,
+/// and the pair it is tested with.
+type SceneKey = (PathBuf, Option<usize>, RolePairing);
 
 /// The scenes built or imported in this process, shared by every variant.
 fn scene_cache() -> &'static Mutex<HashMap<SceneKey, Arc<Scenario>>> {
@@ -279,29 +370,36 @@ fn scene_cache() -> &'static Mutex<HashMap<SceneKey, Arc<Scenario>>> {
 impl SuiteScenario {
     /// The base scenario, built once per process and shared.
     pub fn load(&self) -> Result<Arc<Scenario>, SpecError> {
-        let key = (source_path(&self.source).to_path_buf(), self.record);
-        let cache = scene_cache();
-        if let Some(s) = cache.lock().expect("scenario cache").get(&key) {
-            return Ok(s.clone());
-        }
-        let not_imported = |p: &Path, e: crate::scenario::import::ImportError| {
-            self.entry.reference(format!("recorded log {} does not import: {e}", p.display()))
+        let scenario = match &self.source {
+            ScenarioSource::Spec(p) => {
+                let key = (p.clone(), None, RolePairing::AsLoaded);
+                if let Some(s) = scene_cache().lock().expect("scenario cache").get(&key) {
+                    return Ok(s.clone());
+                }
+                let built = load_yaml::<ScenarioSpec>(p)?.build()?.into_iter().next();
+                let built =
+                    Arc::new(built.ok_or_else(|| self.entry.reference(format!("no scenario in {}", p.display())))?);
+                scene_cache().lock().expect("scenario cache").insert(key, built.clone());
+                return Ok(built);
+            }
+            ScenarioSource::Recorded(p) => import_paired(p, self.record, self.roles)
+                .map_err(|e| self.entry.reference(format!("recorded log {} does not import: {e}", p.display())))?
+                .ok_or_else(|| match self.roles {
+                    RolePairing::AsLoaded => self.entry.reference(format!("no scenario in {}", p.display())),
+                    roles => self.entry.reference(format!(
+                        "{} no longer has {} (roles: {})",
+                        p.display(),
+                        pair_description(roles),
+                        crate::spec::spec_name(&roles)
+                    )),
+                })?,
         };
-        let scenario = match (&self.source, self.record) {
-            (ScenarioSource::Spec(p), _) => load_yaml::<ScenarioSpec>(p)?.build()?.into_iter().next(),
-            (ScenarioSource::Recorded(p), Some(record)) => {
-                Some(crate::scenario::import::load_one(p, record).map_err(|e| not_imported(p, e))?)
-            }
-            (ScenarioSource::Recorded(p), None) => {
-                crate::scenario::import::load(p).map_err(|e| not_imported(p, e))?.into_iter().next()
-            }
-        }
-        .ok_or_else(|| self.entry.reference(format!("no scenario in {}", key.0.display())))?;
         // A recorded agent overlapping the recorded ego where the rollout
         // starts (a copy of the ego under another id, an annotation error)
         // is a collision no planner can avoid, so the witness would excuse
-        // it and every real collision with it: refused. A later overlap
-        // is an annotation error the witness judges like any collision.
+        // it and every real collision with it: refused (on every call: the
+        // scene is cached as imported). A later overlap is an annotation
+        // error the witness judges like any collision.
         if let (ScenarioSource::Recorded(p), Some(other)) =
             (&self.source, crate::scenario::roles::recorded_ego_contact_at(&scenario, scenario.current_step))
         {
@@ -313,8 +411,6 @@ impl SuiteScenario {
                 scenario.track(other).id.0,
             )));
         }
-        let scenario = Arc::new(scenario);
-        cache.lock().expect("scenario cache").insert(key, scenario.clone());
         Ok(scenario)
     }
 }

@@ -185,7 +185,9 @@ fn best_pair(
 }
 
 /// Which ego–CBV pair a scene is tested with.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
+#[derive(
+    Debug, Clone, Copy, Default, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize, schemars::JsonSchema,
+)]
 #[serde(rename_all = "kebab-case")]
 pub enum RolePairing {
     /// As the scene was loaded: the source's roles, else the labelled pair,

@@ -337,7 +337,7 @@ fn plain_words(message: &str) -> String {
     }
     if message.starts_with("data did not match any variant of untagged enum ScenarioEntry") {
         return "a `scenarios:` entry is a scenario spec path, `glob: PATTERN`, or `recorded: PATH` with an optional \
-                `limit: N` (a whole number of scenes, at least 1)"
+                `limit: N` (a whole number of scenes, at least 1) and `roles: PAIRING` (as-loaded, merging or leader)"
             .to_string();
     }
     if message == "expected mapping start" {

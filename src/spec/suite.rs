@@ -99,7 +99,7 @@ pub const MAX_SHRINK_BUDGET: usize = 10_000;
 pub const MAX_SHRINK_TIME_LIMIT_S: f64 = 86_400.0;
 
 /// One entry of `scenarios:`: a scenario spec path, `glob: PATTERN`, or
-/// `recorded: PATH` with an optional `limit: N`.
+/// `recorded: PATH` with an optional `limit: N` and `roles: PAIRING`.
 // Untagged: serde refuses a mistyped key (`deny_unknown_fields`) but says
 // only "did not match any variant", so `check_shapes` refuses those first,
 // at the key, listing the forms.
@@ -126,6 +126,16 @@ pub enum ScenarioEntry {
         #[serde(default)]
         #[schemars(range(min = 1))]
         limit: Option<usize>,
+        /// Which ego–CBV pair each scene is tested with: `as-loaded` (the
+        /// default: the source's roles, else the labelled pair, else the
+        /// closest approach), `merging` (a CBV in a lane merging with the
+        /// ego's) or `leader` (the ego's leader: the nearest moving car
+        /// ahead along its recorded path). With another pairing than
+        /// `as-loaded` the scenes are imported when the suite loads, those
+        /// without such a pair are left out (`limit` counts those kept), and
+        /// each is named `NAME-PAIRING`.
+        #[serde(default)]
+        roles: crate::scenario::roles::RolePairing,
     },
 }
 
@@ -539,7 +549,7 @@ impl Loaded<SuiteSpec> {
                     }
                     out.extend(files.into_iter().map(|f| (i, ScenarioSource::Spec(f))));
                 }
-                ScenarioEntry::Recorded { recorded, limit } => {
+                ScenarioEntry::Recorded { recorded, limit, roles } => {
                     let at = format!("scenarios[{i}].recorded");
                     let p = paths::resolve_checked(self.dir(), &recorded.value).map_err(|e| self.invalid_at(&at, e))?;
                     let files = if p.is_dir() && crate::scenario::import::argoverse2::find_scenario_files(&p).is_err() {
@@ -555,7 +565,13 @@ impl Loaded<SuiteSpec> {
                     if files.is_empty() {
                         return Err(self.reference_at(&at, format!("no scenario files under {}", p.display())));
                     }
-                    let n = limit.unwrap_or(usize::MAX);
+                    // With a pairing, `limit` counts the scenes that have the
+                    // pair, which only importing them tells.
+                    let n = if *roles == crate::scenario::roles::RolePairing::AsLoaded {
+                        limit.unwrap_or(usize::MAX)
+                    } else {
+                        usize::MAX
+                    };
                     out.extend(files.into_iter().take(n).map(|f| (i, ScenarioSource::Recorded(f))));
                 }
             }
@@ -777,8 +793,7 @@ pub fn check_shapes(text: &str, path: &std::path::Path) -> Result<(), SpecError>
         text: text.to_string(),
     };
     if let Some(Node::Sequence { items, .. }) = root.child(Step::Key("scenarios")) {
-        const FORMS: &str =
-            "an entry is a scenario spec path, `glob: PATTERN`, or `recorded: PATH` with an optional `limit: N`";
+        const FORMS: &str = "an entry is a scenario spec path, `glob: PATTERN`, or `recorded: PATH` with an optional `limit: N` and `roles: PAIRING`";
         for (i, item) in items.iter().enumerate() {
             let keys = item.keys();
             match item {
@@ -791,7 +806,7 @@ pub fn check_shapes(text: &str, path: &std::path::Path) -> Result<(), SpecError>
                 }
                 Node::Mapping { .. } => {}
             }
-            if let Some((key, at)) = keys.iter().find(|(k, _)| !["glob", "recorded", "limit"].contains(k)) {
+            if let Some((key, at)) = keys.iter().find(|(k, _)| !["glob", "recorded", "limit", "roles"].contains(k)) {
                 return Err(invalid(*at, format!("unknown key `{key}` in scenarios[{i}]: {FORMS}")));
             }
             let key_at = |k: &str| keys.iter().find(|(key, _)| *key == k).map(|(_, at)| *at);
@@ -810,6 +825,9 @@ pub fn check_shapes(text: &str, path: &std::path::Path) -> Result<(), SpecError>
                 }
                 _ => {}
             }
+            if let (Some(_), Some(at)) = (key_at("glob"), key_at("roles")) {
+                return Err(invalid(at, format!("`roles` applies to `recorded:` entries only: {FORMS}")));
+            }
             if let Some((_, value)) = item.entry("limit")
                 && let Some(text) = value.text()
                 && text.trim().parse::<u64>().is_err()
@@ -818,6 +836,17 @@ pub fn check_shapes(text: &str, path: &std::path::Path) -> Result<(), SpecError>
                     value.at(),
                     format!("`limit` must be a whole number of scenes, at least 1, got {}", text.trim()),
                 ));
+            }
+            if let Some((_, value)) = item.entry("roles") {
+                let names: Vec<String> =
+                    crate::scenario::roles::RolePairing::ALL.iter().map(super::spec_name).collect();
+                let text = value.text().map(str::trim).unwrap_or_default();
+                if !names.iter().any(|n| n == text) {
+                    return Err(invalid(
+                        value.at(),
+                        format!("unknown `roles` `{text}`; a scene is tested with {}", names.join(", ")),
+                    ));
+                }
             }
         }
     }
@@ -917,6 +946,15 @@ acceptance:
         );
         let e = error("- recorded: data:x", "- { glob: '*.yaml', limit: 2 }");
         assert!(e.starts_with("s.yaml:3:23: `limit` applies to `recorded:` entries only"), "{e}");
+        let e = error("- recorded: data:x", "- { glob: '*.yaml', roles: leader }");
+        assert!(e.starts_with("s.yaml:3:23: `roles` applies to `recorded:` entries only"), "{e}");
+        let e = error("- recorded: data:x", "- { recorded: data:x, roles: leaders }");
+        assert_eq!(e, "s.yaml:3:32: unknown `roles` `leaders`; a scene is tested with as-loaded, merging, leader");
+        let text = SUITE.replace("- recorded: data:x", "- { recorded: data:x, roles: leader }");
+        check_shapes(&text, Path::new("s.yaml")).unwrap();
+        let spec = parse_yaml::<SuiteSpec>(&text, Path::new("s.yaml")).unwrap();
+        let ScenarioEntry::Recorded { roles, .. } = &spec.value.scenarios[0] else { panic!("a recorded entry") };
+        assert_eq!(*roles, crate::scenario::roles::RolePairing::Leader);
     }
 
     #[test]

@@ -208,6 +208,51 @@ fn evaluate_with_leader_roles_makes_the_car_ahead_of_the_ego_the_cbv_and_leaves_
 
 #[test]
 #[cfg_attr(not(recorded_data), ignore = "needs recorded data: set SAFER_DATA_DIR (docs/guide/recorded-data.md)")]
+fn a_suite_entry_with_leader_roles_tests_each_scene_with_its_leader_and_leaves_out_those_without() {
+    use safer_scenarios::scenario::{RoleOrigin, roles::RolePairing};
+    let dir = crate::scratch::Scratch::new("suite-leader-roles");
+    let (with_leader, without) = ("USA_US101-9_3_T-1.xml", "USA_US101-16_1_T-1.xml");
+    for (folder, file) in [("both", with_leader), ("both", without), ("none", without)] {
+        std::fs::create_dir_all(dir.join(folder)).unwrap();
+        std::fs::copy(data_dir().join("commonroad-ngsim").join(file), dir.join(folder).join(file)).unwrap();
+    }
+    let write = |entries: &str| {
+        let text = format!(
+            "name: leaders\nscenarios:\n{entries}planner: {{ builtin: evasive }}\nadversary: {{ method: log }}\nvariants: 1\n"
+        );
+        let path = dir.join("suite.yaml");
+        std::fs::write(&path, text).unwrap();
+        Suite::load(&path)
+    };
+    // The folder as loaded, then again with each scene's leader as the CBV:
+    // the scene without a leader is left out of the second.
+    let suite = write("  - recorded: both\n  - { recorded: both, roles: leader }\n").unwrap_or_else(|e| panic!("{e}"));
+    let names: Vec<&str> = suite.scenarios.iter().map(|s| s.name.as_str()).collect();
+    assert_eq!(names, ["USA_US101-16_1_T-1", "USA_US101-9_3_T-1", "USA_US101-9_3_T-1-leader"]);
+    let (own, led) = (suite.scenarios[1].load().unwrap(), suite.scenarios[2].load().unwrap());
+    assert_eq!(suite.scenarios[2].roles, RolePairing::Leader);
+    assert_eq!(own.ego, led.ego);
+    assert_ne!(own.cbv, led.cbv);
+    assert_eq!(led.cbv_origin, RoleOrigin::LeaderMining);
+    let mut expected = (*own).clone();
+    assert!(RolePairing::Leader.assign(&mut expected));
+    assert_eq!(led.cbv, expected.cbv, "the pair `safer evaluate --roles leader` tests");
+    // Its variant runs, with the leader as the CBV.
+    let outcome = run_variant(&suite, &suite.scenarios[2], 0).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(outcome.stage2.cbv, led.cbv);
+    // `limit` counts the scenes kept.
+    let suite = write("  - { recorded: both, roles: leader, limit: 1 }\n").unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(suite.scenarios.len(), 1);
+    // An entry none of whose scenes has a leader is an error at its `roles`.
+    let e = write("  - recorded: both\n  - { recorded: none, roles: leader }\n").err().expect("refused").to_string();
+    assert!(
+        e.contains("suite.yaml:4:") && e.contains("no scene of none has a leader for the ego (roles: leader)"),
+        "{e}"
+    );
+}
+
+#[test]
+#[cfg_attr(not(recorded_data), ignore = "needs recorded data: set SAFER_DATA_DIR (docs/guide/recorded-data.md)")]
 fn evaluate_with_mutants_counts_the_kills_beyond_log_replay_alike_in_the_table_and_the_report() {
     // A WOMD interactive scene where log replay's variant kills the mutant
     // blind to the CBV, and the prior's first seed also kills the two that
