@@ -114,6 +114,15 @@
 #                     draws of seeds, to set beside the closed-loop rows of reaction-delay/
 #                     (the same runs with the recording replayed), and ten seeds on NGSIM
 #                     beside ten-seeds/ (about 40 minutes)
+#   leader            leader/: the ego's leader as the CBV (--roles leader): the paper's
+#                     protocol on NGSIM over 20 and 60 behaviours (evaluate-ngsim{,-n60}.txt),
+#                     the evasive planner's mutation tables with the recorded cars braking
+#                     (mutants-womd-interactive-evasive.txt, mutants-ngsim-evasive-n60.txt,
+#                     beside reactive-background/'s first draw, the same runs with the
+#                     scenes' own pairs), and the lane follower's over 60 behaviours on
+#                     both sets, with the leader and, beside it, with the scenes' own pairs
+#                     (mutants-{womd-interactive,ngsim}-lane-follower-n60{,-as-loaded}.txt)
+#                     (about 50 minutes)
 #   mutants           mutants-{womd-interactive,womd-json,ngsim}-evasive.txt and
 #                     mutants-{womd-interactive,ngsim}-lane-follower.txt: the
 #                     faults of the planner each method's variants catch
@@ -128,7 +137,7 @@ set -euo pipefail
 self=$(realpath "$0")
 cd "$(dirname "$self")"
 all=(evaluate plain inattentive held-out-chance trust-region realism prior-fit n-sweep reactive n100 approach-none merging mutants wide-region cut-in
-    in-path-lookahead in-path-lookahead-n30 in-path-lookahead-n28 in-path-lookahead-sweep pair-in-traffic witnessed wide-witnessed ten-seeds reaction-delay reactive-background)
+    in-path-lookahead in-path-lookahead-n30 in-path-lookahead-n28 in-path-lookahead-sweep pair-in-traffic witnessed wide-witnessed ten-seeds reaction-delay reactive-background leader)
 jobs=("$@")
 [[ ${#jobs[@]} -gt 0 ]] || jobs=("${all[@]}")
 # The usage is the comment block at the top of this file.
@@ -251,6 +260,26 @@ for job in "${jobs[@]}"; do
         for s in "${sets[@]:0:2}"; do
             run "merging/evaluate-${s#*:}.txt" evaluate --scenes "data:${s%%:*}" --seeds 10 --roles merging \
                 --methods log,prior,safer,safer-in-path,safer-cut-in,safer-in-path-lookahead
+        done ;;
+    leader)
+        mkdir -p leader
+        run leader/evaluate-ngsim.txt evaluate --scenes data:commonroad-ngsim --seeds 10 --roles leader \
+            --methods prior,safer,safer-in-path
+        run leader/evaluate-ngsim-n60.txt evaluate --scenes data:commonroad-ngsim --seeds 10 --roles leader \
+            --methods prior,safer-in-path --trust-region 60
+        # As reactive-background/ runs the scenes' own pairs (its first draw of seeds).
+        mutating=(--seeds 3 --stage2-cbv closed-loop --background reactive-log-replay --mutants --methods log,prior,safer-in-path)
+        run leader/mutants-womd-interactive-evasive.txt evaluate --scenes data:womd-interactive "${mutating[@]}" \
+            --roles leader
+        run leader/mutants-ngsim-evasive-n60.txt evaluate --scenes data:commonroad-ngsim "${mutating[@]}" \
+            --trust-region 60 --roles leader
+        # The Python lane follower runs as a process per variant and mutant.
+        for s in womd-interactive:womd-interactive commonroad-ngsim:ngsim; do
+            for roles in leader as-loaded; do
+                suffix=${roles/#leader/}
+                run "leader/mutants-${s#*:}-lane-follower-n60${suffix:+-$suffix}.txt" evaluate --scenes "data:${s%%:*}" \
+                    "${mutating[@]}" --trust-region 60 --roles "$roles" --planner ../../planners/lane-follower.yaml
+            done
         done ;;
     mutants)
         mutating=(--stage2-cbv closed-loop --mutants)
