@@ -994,3 +994,37 @@ fn the_critical_variants_at_the_planner_table_quotes_its_outputs() {
     }
     assert_eq!(checked, 5, "two draws on each set and ten seeds on NGSIM");
 }
+
+#[test]
+fn the_leader_tables_quote_their_outputs() {
+    let doc = repo_file("docs/benchmarks.md");
+    // The paper's protocol with the ego's leader as the CBV.
+    let rows = markdown_rows(&doc, "| CBV | method | n | CR | SR | SR-crit |", "On the NGSIM scenes with a leader");
+    for row in &rows {
+        let method = method_of(&row[1]).unwrap_or_else(|| panic!("no method in {row:?}"));
+        let file = match row[2].as_str() {
+            "20" => "leader/evaluate-ngsim.txt",
+            "60" => "leader/evaluate-ngsim-n60.txt",
+            n => panic!("no output for n = {n}"),
+        };
+        let (table, text) = evaluation_output(file);
+        let figures = evaluation_figures(&table, method);
+        let quoted = [&row[3..7], &parts(&row[7])[..], &[row[8].clone()][..]].concat();
+        let expected = [&figures[..4], &figures[4..6], &[held_out_cr(&text, method)][..]].concat();
+        assert_eq!(quoted, expected, "{method} at n = {}: the table against {file}", row[2]);
+    }
+    assert_eq!(rows.len(), 4, "the prior, safer and safer-in-path at 20, safer-in-path at 60");
+    // The faults each pairing catches: every row names its output.
+    let rows = markdown_rows(&doc, "| planner, set | CBV | output |", "With its leader as the CBV");
+    for row in &rows {
+        let file = method_of(&row[2]).unwrap_or_else(|| panic!("no output in {row:?}"));
+        let output = repo_file(&format!("docs/evaluation/{file}"));
+        let label = "safer-in-path";
+        let mut expected = vec![labelled_row(&output, "variants", label)[2].clone()];
+        expected.extend(mutation_run_figures(&output, label));
+        assert_eq!(row[3..], expected[..], "{}, {}: the table against {file}", row[0], row[1]);
+        let leader = output.contains("the CBV is the ego's leader (--roles leader)");
+        assert_eq!(leader, row[1] == "leader", "{file}: its pairing");
+    }
+    assert_eq!(rows.len(), 8, "two pairings for each planner and set");
+}

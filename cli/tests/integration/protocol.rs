@@ -244,7 +244,10 @@ fn a_suite_entry_with_leader_roles_tests_each_scene_with_its_leader_and_leaves_o
     let suite = write("  - { recorded: both, roles: leader, limit: 1 }\n").unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(suite.scenarios.len(), 1);
     // An entry none of whose scenes has a leader is an error at its `roles`.
-    let e = write("  - recorded: both\n  - { recorded: none, roles: leader }\n").err().expect("refused").to_string();
+    let Err(e) = write("  - recorded: both\n  - { recorded: none, roles: leader }\n") else {
+        panic!("must be refused")
+    };
+    let e = e.to_string();
     assert!(
         e.contains("suite.yaml:4:") && e.contains("no scene of none has a leader for the ego (roles: leader)"),
         "{e}"
