@@ -230,12 +230,14 @@ pub const LEADER_CORRIDOR_MARGIN_M: f64 = 0.4;
 /// conflict classifier's bound for the same direction, 45°).
 pub const LEADER_MAX_HEADING_RAD: f64 = std::f64::consts::FRAC_PI_4;
 
-/// The ego's leader now: of the moving vehicles ([`candidates`]) whose box
-/// at the current step lies in the ego's corridor along its recorded path
-/// ahead (its recorded positions from now on, straight on along its last
-/// heading for [`LEADER_MAX_GAP_M`] beyond them), heading its way, the one
-/// with the least gap to the ego's front, within [`LEADER_MAX_GAP_M`];
-/// a recorded overlap with the ego rules a vehicle out ([`approach_score`]).
+/// The ego's leader now: of the moving vehicles with enough future to
+/// drive (as conflict mining takes them) whose box at the current step
+/// lies in the ego's corridor along its recorded path ahead (its recorded
+/// positions from now on, then straight on along its last heading for
+/// 10 m more than [`LEADER_MAX_GAP_M`]), heading its way, the one with the
+/// least gap to the ego's front, within [`LEADER_MAX_GAP_M`]. A recorded
+/// overlap with the ego rules a vehicle out (an annotation error, as in
+/// mining).
 pub fn mine_leader_cbv(scenario: &Scenario, ego: TrackIndex) -> Option<TrackIndex> {
     let now = scenario.current_step;
     let ego_track = scenario.track(ego);
