@@ -121,8 +121,9 @@
 #                     beside reactive-background/'s first draw, the same runs with the
 #                     scenes' own pairs), and the lane follower's over 60 behaviours on
 #                     both sets, with the leader and, beside it, with the scenes' own pairs
-#                     (mutants-{womd-interactive,ngsim}-lane-follower-n60{,-as-loaded}.txt)
-#                     (about 50 minutes)
+#                     (mutants-{womd-interactive,ngsim}-lane-follower-n60{,-as-loaded}.txt),
+#                     and the lane follower's on NGSIM over ten seeds with the leader
+#                     (mutants-ngsim-lane-follower-n60-ten-seeds.txt) (about 90 minutes)
 #   mutants           mutants-{womd-interactive,womd-json,ngsim}-evasive.txt and
 #                     mutants-{womd-interactive,ngsim}-lane-follower.txt: the
 #                     faults of the planner each method's variants catch
@@ -280,7 +281,10 @@ for job in "${jobs[@]}"; do
                 run "leader/mutants-${s#*:}-lane-follower-n60${suffix:+-$suffix}.txt" evaluate --scenes "data:${s%%:*}" \
                     "${mutating[@]}" --trust-region 60 --roles "$roles" --planner ../../planners/lane-follower.yaml
             done
-        done ;;
+        done
+        # Beside ten-seeds/mutants-ngsim-lane-follower-n60-reactive.txt (the scenes' own pairs).
+        run leader/mutants-ngsim-lane-follower-n60-ten-seeds.txt evaluate --scenes data:commonroad-ngsim --seeds 10 \
+            "${mutating[@]:2}" --trust-region 60 --roles leader --planner ../../planners/lane-follower.yaml ;;
     mutants)
         mutating=(--stage2-cbv closed-loop --mutants)
         for s in "${sets[@]}"; do
