@@ -925,29 +925,22 @@ impl SceneSelection<'_> {
     /// `scenes` with the roles this selection asks for; with `merging`,
     /// the scenes that have a merging pair.
     fn paired(&self, scenes: Vec<Arc<Scenario>>) -> Vec<Arc<Scenario>> {
-        match self.roles {
-            RolePairing::AsLoaded => scenes,
-            pairing => {
-                let all = scenes.len();
-                let paired: Vec<Arc<Scenario>> = scenes
-                    .into_iter()
-                    .filter_map(|s| {
-                        let mut s = Arc::unwrap_or_clone(s);
-                        pairing.assign(&mut s).then(|| Arc::new(s))
-                    })
-                    .collect();
-                let what = match pairing {
-                    RolePairing::Leader => "a leader",
-                    _ => "a merging pair",
-                };
-                eprintln!(
-                    "evaluate: --roles {}: {} of {all} scenes have {what}",
-                    safer_scenarios::spec::spec_name(&pairing),
-                    paired.len()
-                );
-                paired
-            }
-        }
+        let what = match self.roles {
+            RolePairing::AsLoaded => return scenes,
+            RolePairing::Merging => "a merging pair",
+            RolePairing::Leader => "a leader",
+        };
+        let all = scenes.len();
+        let paired: Vec<Arc<Scenario>> = scenes
+            .into_iter()
+            .filter_map(|s| {
+                let mut s = Arc::unwrap_or_clone(s);
+                self.roles.assign(&mut s).then(|| Arc::new(s))
+            })
+            .collect();
+        let flag = safer_scenarios::spec::spec_name(&self.roles);
+        eprintln!("evaluate: --roles {flag}: {} of {all} scenes have {what}", paired.len());
+        paired
     }
 
     /// The scenes under `dir` this selection keeps, by id; an id that no

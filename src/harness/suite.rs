@@ -343,7 +343,7 @@ fn import_paired(
         None => crate::scenario::import::load(path)?.into_iter().next(),
     };
     let Some(mut scenario) = scenario else { return Ok(None) };
-    if !roles.assign(&mut scenario) && roles != RolePairing::AsLoaded {
+    if roles != RolePairing::AsLoaded && !roles.assign(&mut scenario) {
         return Ok(None);
     }
     let scenario = Arc::new(scenario);

@@ -241,21 +241,20 @@ pub const LEADER_MAX_HEADING_RAD: f64 = std::f64::consts::FRAC_PI_4;
 pub fn mine_leader_cbv(scenario: &Scenario, ego: TrackIndex) -> Option<TrackIndex> {
     let now = scenario.current_step;
     let ego_track = scenario.track(ego);
-    let start = ego_track.state(now)?;
+    ego_track.state(now)?;
+    // The path starts where the ego is now (arc length 0).
     let mut points: Vec<Point2> = Vec::new();
+    let mut last = None;
     for s in ego_track.states[now..].iter().flatten() {
         if points.last().is_none_or(|p: &Point2| (s.position - p).norm() > 0.1) {
             points.push(s.position);
         }
+        last = Some(s);
     }
-    let last = ego_track.states[now..].iter().flatten().last()?;
+    let last = last?;
     let beyond = Vector2::new(last.heading_rad.cos(), last.heading_rad.sin()) * (LEADER_MAX_GAP_M + 10.0);
     points.push(last.position + beyond);
-    if points.len() < 2 {
-        return None;
-    }
     let path = Polyline::new(points);
-    let ego_s = path.project(&start.position)?.arc_length_m;
     let gap_to = |c: TrackIndex| -> Option<(f64, usize)> {
         let track = scenario.track(c);
         let state = track.state(now)?;
@@ -270,8 +269,8 @@ pub fn mine_leader_cbv(scenario: &Scenario, ego: TrackIndex) -> Option<TrackInde
             return None;
         }
         let half_along = 0.5 * (cos * track.length_m + sin * track.width_m);
-        let gap_m = p.arc_length_m - ego_s - 0.5 * ego_track.length_m - half_along;
-        let ahead = p.arc_length_m > ego_s && (0.0..=LEADER_MAX_GAP_M).contains(&gap_m);
+        let gap_m = p.arc_length_m - 0.5 * ego_track.length_m - half_along;
+        let ahead = p.arc_length_m > 0.0 && (0.0..=LEADER_MAX_GAP_M).contains(&gap_m);
         (ahead && approach_score(scenario, ego, c).is_some()).then_some((gap_m, 0))
     };
     best_to(scenario, ego, gap_to)

@@ -107,6 +107,21 @@ fn safer(args: &[&str]) -> std::process::Output {
     std::process::Command::new(env!("CARGO_BIN_EXE_safer")).args(args).current_dir(repo()).output().expect("run safer")
 }
 
+/// A fresh folder named for `tag` holding copies of `scenes`.
+fn scenes_in_scratch(tag: &str, scenes: &[&Path]) -> crate::scratch::Scratch {
+    let dir = crate::scratch::Scratch::new(tag);
+    for scene in scenes {
+        std::fs::copy(scene, dir.join(scene.file_name().unwrap())).unwrap();
+    }
+    dir
+}
+
+/// `safer evaluate` of log replay, one seed, over the scenes in `dir`, with `extra` flags.
+fn evaluate_log_replay_once(dir: &Path, extra: &[&str]) -> std::process::Output {
+    let common = ["evaluate", "--scenes", dir.to_str().unwrap(), "--methods", "log", "--seeds", "1"];
+    safer(&[&common[..], extra].concat())
+}
+
 #[test]
 #[cfg_attr(not(recorded_data), ignore = "needs recorded data: set SAFER_DATA_DIR (docs/guide/recorded-data.md)")]
 fn evaluate_with_merging_roles_tests_a_merging_pair_and_leaves_out_scenes_without_one() {
@@ -114,14 +129,8 @@ fn evaluate_with_merging_roles_tests_a_merging_pair_and_leaves_out_scenes_withou
     // freeway scene above, whose lanes only run side by side.
     let merging = data_dir().join("womd-json/tfrecord-00094-of-00150_48b0814dee9301a0.json");
     let freeway = data_dir().join(SCENE);
-    let dir = crate::scratch::Scratch::new("evaluate-merging-roles");
-    for scene in [&merging, &freeway] {
-        std::fs::copy(scene, dir.join(scene.file_name().unwrap())).unwrap();
-    }
-    let run = |extra: &[&str]| {
-        let common = ["evaluate", "--scenes", dir.to_str().unwrap(), "--methods", "log", "--seeds", "1"];
-        safer(&[&common[..], extra].concat())
-    };
+    let dir = scenes_in_scratch("evaluate-merging-roles", &[&merging, &freeway]);
+    let run = |extra: &[&str]| evaluate_log_replay_once(&dir, extra);
     let out = run(&["--roles", "merging", "--json", "-"]);
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{err}");
@@ -179,14 +188,8 @@ fn evaluate_with_leader_roles_makes_the_car_ahead_of_the_ego_the_cbv_and_leaves_
     assert!(!RolePairing::Leader.assign(&mut none));
     assert_eq!((none.ego, none.cbv), before, "a scene without a leader is left as it was");
 
-    let dir = crate::scratch::Scratch::new("evaluate-leader-roles");
-    for scene in [&with_leader, &without] {
-        std::fs::copy(scene, dir.join(scene.file_name().unwrap())).unwrap();
-    }
-    let run = |extra: &[&str]| {
-        let common = ["evaluate", "--scenes", dir.to_str().unwrap(), "--methods", "log", "--seeds", "1"];
-        safer(&[&common[..], extra].concat())
-    };
+    let dir = scenes_in_scratch("evaluate-leader-roles", &[&with_leader, &without]);
+    let run = |extra: &[&str]| evaluate_log_replay_once(&dir, extra);
     let out = run(&["--roles", "leader", "--json", "-"]);
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{err}");
