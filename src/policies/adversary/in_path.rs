@@ -13,7 +13,15 @@
 //! constant-velocity footprint that far ahead plus
 //! [`IN_PATH_LEAD_COST_M_PER_S`] per second of lead: a CBV reaching the
 //! ego's path 1 s ahead of it scores about 1 m, and it lowers its score by
-//! letting the ego close in (braking ahead of it). A CBV whose centre is
+//! letting the ego close in (braking ahead of it).
+//!
+//! Where the footprint meets the CBV, the lead is the exact time of first
+//! contact, not the first lead step in contact. With the lead in steps
+//! alone the loss is a staircase: every candidate that the footprint
+//! meets within the same step scores that step's lead, and the tie goes
+//! to the prior's likeliest token, holding speed. A leader with the ego
+//! closing from behind then cruised until the ego was within a step of
+//! it, and a planner that drives too fast met no braking at all. A CBV whose centre is
 //! not ahead of the ego's front bumper pays [`NOT_AHEAD_PENALTY_M`], so
 //! that beside the ego it prefers getting ahead and in over swiping its
 //! side; from behind, with every candidate paying it, the order is the
@@ -35,7 +43,6 @@
 //! the ego's side, the one move that lowers the box distance).
 
 use crate::geometry::Vector2;
-use crate::motion::tokens::TOKEN_PERIOD_S;
 use crate::scenario::{AgentBody, AgentState};
 
 /// The farthest lead time the in-path loss looks at, s.
@@ -44,6 +51,14 @@ pub const IN_PATH_MAX_LEAD_S: f64 = 1.5;
 /// What a second of lead adds to the in-path loss, m: of two equally close
 /// approaches to the ego's path, the one it reaches sooner wins.
 pub const IN_PATH_LEAD_COST_M_PER_S: f64 = 1.0;
+
+/// The lead step of the in-path loss, s (the simulation step): fine
+/// enough that a CBV crossing the ego's path is not stepped over.
+pub const IN_PATH_LEAD_STEP_S: f64 = 0.1;
+
+/// Halvings of a lead step that place the first contact (0.1 s / 2¹⁰:
+/// about 0.1 ms, a centimetre at freeway speed).
+const CONTACT_BISECTIONS: usize = 10;
 
 /// What a CBV whose centre is not ahead of the ego's front bumper adds to
 /// the in-path loss, m.
@@ -72,14 +87,25 @@ struct PathApproach {
 impl PathApproach {
     fn of(ego_next: &AgentState, ego_body: AgentBody, cbv: &AgentState, cbv_body: AgentBody) -> Self {
         let cbv_box = cbv_body.footprint(cbv);
-        let leads = (IN_PATH_MAX_LEAD_S / TOKEN_PERIOD_S).round() as usize;
-        let closest_m = (0..=leads)
-            .map(|k| {
-                let lead_s = k as f64 * TOKEN_PERIOD_S;
-                let ego_then = AgentState { position: ego_next.position + ego_next.velocity_mps * lead_s, ..*ego_next };
-                ego_body.footprint(&ego_then).distance(&cbv_box) + IN_PATH_LEAD_COST_M_PER_S * lead_s
-            })
-            .fold(f64::INFINITY, f64::min);
+        let gap_m = |lead_s: f64| {
+            let ego_then = AgentState { position: ego_next.position + ego_next.velocity_mps * lead_s, ..*ego_next };
+            ego_body.footprint(&ego_then).distance(&cbv_box)
+        };
+        let leads = (IN_PATH_MAX_LEAD_S / IN_PATH_LEAD_STEP_S).round() as usize;
+        let mut closest_m = f64::INFINITY;
+        for k in 0..=leads {
+            let lead_s = k as f64 * IN_PATH_LEAD_STEP_S;
+            let gap = gap_m(lead_s);
+            if gap > 0.0 {
+                closest_m = closest_m.min(gap + IN_PATH_LEAD_COST_M_PER_S * lead_s);
+                continue;
+            }
+            // In contact: later leads only add lead cost. The first
+            // contact lies within the step just taken.
+            let contact_s = if k == 0 { 0.0 } else { first_contact_s(&gap_m, lead_s - IN_PATH_LEAD_STEP_S, lead_s) };
+            closest_m = closest_m.min(IN_PATH_LEAD_COST_M_PER_S * contact_s);
+            break;
+        }
         let (sin, cos) = ego_next.heading_rad.sin_cos();
         let offset = cbv.position - ego_next.position;
         let ahead_m = offset.dot(&Vector2::new(cos, sin));
@@ -90,6 +116,19 @@ impl PathApproach {
     fn ahead(&self) -> bool {
         self.short_of_front_m < 0.0
     }
+}
+
+/// The first lead in contact between `clear_s` (boxes apart) and
+/// `touching_s` (boxes in contact), by bisection. The ego's footprint moves
+/// along a line and the CBV's box stands still, so the leads in contact
+/// form one interval and the boundary is unique.
+fn first_contact_s(gap_m: &impl Fn(f64) -> f64, clear_s: f64, touching_s: f64) -> f64 {
+    let (mut clear_s, mut touching_s) = (clear_s, touching_s);
+    for _ in 0..CONTACT_BISECTIONS {
+        let mid_s = 0.5 * (clear_s + touching_s);
+        if gap_m(mid_s) > 0.0 { clear_s = mid_s } else { touching_s = mid_s }
+    }
+    touching_s
 }
 
 /// The in-path loss of the CBV at `cbv` (body `cbv_body`) for the ego at
@@ -125,11 +164,10 @@ mod tests {
 
     #[test]
     fn the_ego_path_ahead_scores_better_than_its_side_or_its_rear() {
-        // In the ego's lane 10 m ahead at its speed (5.5 m between the
-        // bumpers): the ego's footprint 0.5 s on is 0.5 m short of it, 1 s
-        // on it overlaps; either way 1 m.
+        // In the ego's lane 10 m ahead (5.5 m between the bumpers): the
+        // ego's footprint meets it 0.55 s on.
         let ahead = loss(car(10.0, 0.0, 10.0));
-        assert!((ahead - 1.0).abs() < 1e-9, "{ahead}");
+        assert!((ahead - 0.55).abs() < 1e-3, "{ahead}");
         // Beside it, 0.5 m off its side: close, but not ahead.
         let beside = loss(car(0.0, 2.5, 10.0));
         assert!((beside - (0.5 + NOT_AHEAD_PENALTY_M)).abs() < 1e-9, "{beside}");
@@ -137,18 +175,47 @@ mod tests {
         let behind = loss(car(-4.5, 0.0, 10.0));
         assert!((behind - NOT_AHEAD_PENALTY_M).abs() < 1e-9, "{behind}");
         assert!(ahead < beside && ahead < behind);
-        // Closer ahead is better: 5 m ahead meets the ego half a second on.
+        // Closer ahead is better: 5 m ahead meets the ego 0.05 s on.
         let closer = loss(car(5.0, 0.0, 10.0));
-        assert!((closer - 0.5).abs() < 1e-9, "{closer}");
+        assert!((closer - 0.05).abs() < 1e-3, "{closer}");
     }
 
     #[test]
     fn a_cbv_in_the_next_lane_ahead_scores_better_moving_in() {
-        // 1.5 m beside the ego's path, which reaches it 1 s on.
+        // 1.5 m beside the ego's path, which comes level with it 0.75 s on:
+        // at the 0.7 s step it is 0.5 m short and 1.5 m aside.
         let staying = loss(car(12.0, 3.5, 10.0));
-        assert!((staying - 2.5).abs() < 1e-9, "{staying}");
+        assert!((staying - (0.5f64.hypot(1.5) + 0.7)).abs() < 1e-6, "{staying}");
+        // Its side on the ego's path: met 0.75 s on.
         let moving_in = loss(car(12.0, 2.0, 10.0));
-        assert!((moving_in - 1.0).abs() < 1e-9, "{moving_in}");
+        assert!((moving_in - 0.75).abs() < 1e-3, "{moving_in}");
+    }
+
+    #[test]
+    fn closing_on_a_leader_braking_scores_better_than_holding_speed() {
+        // The ego at 15 m/s meets a leader 24 m ahead 1.3 s on; one that
+        // braked 0.6 m shorter, 1.26 s on. Both first touch between the
+        // same two token-period leads (1 s and 1.5 s), where a loss taken
+        // at those leads alone scored both 1.5 and the tie went to the
+        // prior's favourite, holding speed.
+        let ego = car(0.0, 0.0, 15.0).unwrap();
+        let at = |x: f64| in_path_loss(&ego, CAR, &car(x, 0.0, 14.0).unwrap(), CAR);
+        let (holding, braking) = (at(24.0), at(23.4));
+        assert!((holding - 1.3).abs() < 1e-3, "{holding}");
+        assert!((braking - 1.26).abs() < 1e-3, "{braking}");
+        assert!(braking < holding);
+    }
+
+    #[test]
+    fn a_cbv_crossing_the_path_between_lead_steps_is_met() {
+        // A CBV across the ego's path 20 m ahead, 2 m deep along it: the
+        // ego's footprint at 20 m/s is in contact with it from 0.84 s to
+        // 1.16 s, and the loss is the first contact.
+        let ego = car(0.0, 0.0, 20.0).unwrap();
+        let across = AgentState { heading_rad: std::f64::consts::FRAC_PI_2, ..car(20.0, 0.0, 10.0).unwrap() };
+        let crossing = AgentBody { kind: AgentKind::Vehicle, length_m: 4.5, width_m: 2.0 };
+        let loss = in_path_loss(&ego, CAR, &across, crossing);
+        assert!((loss - 0.8375).abs() < 1e-3, "{loss}");
     }
 
     fn cut_in(cbv: Option<AgentState>) -> f64 {
@@ -158,16 +225,17 @@ mod tests {
     #[test]
     fn ahead_of_the_ego_the_cut_in_loss_draws_the_cbv_all_the_way_into_its_path() {
         // 8 m ahead: with its side 0.5 m into the ego's path the box meets
-        // the ego's footprint half a second on, and coming farther over
-        // changes nothing for the in-path loss.
+        // the ego's footprint 0.35 s on, and coming farther over changes
+        // nothing for the in-path loss.
         let (corner_in, centred) = (car(8.0, 1.5, 10.0), car(8.0, 0.0, 10.0));
-        assert!((loss(corner_in) - 0.5).abs() < 1e-6 && (loss(centred) - 0.5).abs() < 1e-6);
+        assert!((loss(corner_in) - 0.35).abs() < 1e-3 && (loss(centred) - 0.35).abs() < 1e-3);
         // The cut-in loss adds half the centre's offset from the ego's heading line.
-        assert!((cut_in(corner_in) - 1.25).abs() < 1e-6, "{}", cut_in(corner_in));
-        assert!((cut_in(centred) - 0.5).abs() < 1e-6, "{}", cut_in(centred));
-        // Still in the next lane, its side 0.5 m off the ego's path: the most.
+        assert!((cut_in(corner_in) - 1.1).abs() < 1e-3, "{}", cut_in(corner_in));
+        assert!((cut_in(centred) - 0.35).abs() < 1e-3, "{}", cut_in(centred));
+        // Still in the next lane, its side 0.5 m off the ego's path: the
+        // most (level with the ego's footprint 0.4 s on, 0.5 m aside).
         let next_lane = cut_in(car(8.0, 2.5, 10.0));
-        assert!((next_lane - 2.25).abs() < 1e-6, "{next_lane}");
+        assert!((next_lane - 2.15).abs() < 1e-6, "{next_lane}");
     }
 
     #[test]
