@@ -124,6 +124,12 @@
 #                     (mutants-{womd-interactive,ngsim}-lane-follower-n60{,-as-loaded}.txt),
 #                     and the lane follower's on NGSIM over ten seeds with the leader
 #                     (mutants-ngsim-lane-follower-n60-ten-seeds.txt) (about 90 minutes)
+#   first-contact     first-contact/: the runs of reactive-background/ and leader/ (but the
+#                     lane follower's ten seeds) made again with the in-path loss taking the
+#                     exact time of first contact, into first-contact/reactive-background/ and
+#                     first-contact/leader/; the outputs under reactive-background/ and
+#                     leader/ themselves were made with the loss in lead steps of 0.5 s,
+#                     which those jobs no longer reproduce (about 90 minutes)
 #   mutants           mutants-{womd-interactive,womd-json,ngsim}-evasive.txt and
 #                     mutants-{womd-interactive,ngsim}-lane-follower.txt: the
 #                     faults of the planner each method's variants catch
@@ -138,7 +144,7 @@ set -euo pipefail
 self=$(realpath "$0")
 cd "$(dirname "$self")"
 all=(evaluate plain inattentive held-out-chance trust-region realism prior-fit n-sweep reactive n100 approach-none merging mutants wide-region cut-in
-    in-path-lookahead in-path-lookahead-n30 in-path-lookahead-n28 in-path-lookahead-sweep pair-in-traffic witnessed wide-witnessed ten-seeds reaction-delay reactive-background leader)
+    in-path-lookahead in-path-lookahead-n30 in-path-lookahead-n28 in-path-lookahead-sweep pair-in-traffic witnessed wide-witnessed ten-seeds reaction-delay reactive-background leader first-contact)
 jobs=("$@")
 [[ ${#jobs[@]} -gt 0 ]] || jobs=("${all[@]}")
 # The usage is the comment block at the top of this file.
@@ -261,6 +267,30 @@ for job in "${jobs[@]}"; do
         for s in "${sets[@]:0:2}"; do
             run "merging/evaluate-${s#*:}.txt" evaluate --scenes "data:${s%%:*}" --seeds 10 --roles merging \
                 --methods log,prior,safer,safer-in-path,safer-cut-in,safer-in-path-lookahead
+        done ;;
+    first-contact)
+        # The runs of reactive-background and leader, with the in-path loss at the first contact.
+        mkdir -p first-contact/reactive-background first-contact/leader
+        mutants_two_draws first-contact/reactive-background --stage2-cbv closed-loop --background reactive-log-replay
+        run first-contact/reactive-background/mutants-ngsim-evasive-n60-ten-seeds.txt evaluate \
+            --scenes data:commonroad-ngsim --seeds 10 --stage2-cbv closed-loop --background reactive-log-replay \
+            --mutants --methods log,prior,safer-in-path --trust-region 60
+        run first-contact/leader/evaluate-ngsim.txt evaluate --scenes data:commonroad-ngsim --seeds 10 --roles leader \
+            --methods prior,safer,safer-in-path
+        run first-contact/leader/evaluate-ngsim-n60.txt evaluate --scenes data:commonroad-ngsim --seeds 10 \
+            --roles leader --methods prior,safer-in-path --trust-region 60
+        mutating=(--seeds 3 --stage2-cbv closed-loop --background reactive-log-replay --mutants --methods log,prior,safer-in-path)
+        run first-contact/leader/mutants-womd-interactive-evasive.txt evaluate --scenes data:womd-interactive \
+            "${mutating[@]}" --roles leader
+        run first-contact/leader/mutants-ngsim-evasive-n60.txt evaluate --scenes data:commonroad-ngsim \
+            "${mutating[@]}" --trust-region 60 --roles leader
+        for s in womd-interactive:womd-interactive commonroad-ngsim:ngsim; do
+            for roles in leader as-loaded; do
+                suffix=${roles/#leader/}
+                run "first-contact/leader/mutants-${s#*:}-lane-follower-n60${suffix:+-$suffix}.txt" evaluate \
+                    --scenes "data:${s%%:*}" "${mutating[@]}" --trust-region 60 --roles "$roles" \
+                    --planner ../../planners/lane-follower.yaml
+            done
         done ;;
     leader)
         mkdir -p leader
