@@ -124,8 +124,9 @@
 #                     (mutants-{womd-interactive,ngsim}-lane-follower-n60{,-as-loaded}.txt),
 #                     and the lane follower's on NGSIM over ten seeds with the leader
 #                     (mutants-ngsim-lane-follower-n60-ten-seeds.txt) (about 90 minutes)
-#   first-contact     first-contact/: the runs of reactive-background/ and leader/ (but the
-#                     lane follower's ten seeds) made again with the in-path loss taking the
+#   first-contact     first-contact/: the paper's protocol for safer-in-path on WOMD
+#                     interactive (n = 20) and NGSIM (n = 60), and the runs of
+#                     reactive-background/ and leader/ (but the lane follower's ten seeds) made again with the in-path loss taking the
 #                     exact time of first contact, into first-contact/reactive-background/ and
 #                     first-contact/leader/; the outputs under reactive-background/ and
 #                     leader/ themselves were made with the loss in lead steps of 0.5 s,
@@ -271,6 +272,12 @@ for job in "${jobs[@]}"; do
     first-contact)
         # The runs of reactive-background and leader, with the in-path loss at the first contact.
         mkdir -p first-contact/reactive-background first-contact/leader
+        # The paper's protocol with the scenes' own pairs, beside the safer-in-path rows of
+        # evaluate-womd-interactive.txt and evaluate-ngsim-in-path-n60.txt.
+        run first-contact/evaluate-womd-interactive-in-path.txt evaluate --scenes data:womd-interactive --seeds 10 \
+            --methods safer-in-path,prior
+        run first-contact/evaluate-ngsim-in-path-n60.txt evaluate --scenes data:commonroad-ngsim --seeds 10 \
+            --methods safer-in-path,prior --trust-region 60
         mutants_two_draws first-contact/reactive-background --stage2-cbv closed-loop --background reactive-log-replay
         run first-contact/reactive-background/mutants-ngsim-evasive-n60-ten-seeds.txt evaluate \
             --scenes data:commonroad-ngsim --seeds 10 --stage2-cbv closed-loop --background reactive-log-replay \

@@ -1028,3 +1028,41 @@ fn the_leader_tables_quote_their_outputs() {
     }
     assert_eq!(rows.len(), 8, "two pairings for each planner and set");
 }
+
+#[test]
+fn the_first_contact_tables_quote_their_outputs() {
+    let doc = repo_file("docs/benchmarks.md");
+    // The paper's protocol on the NGSIM scenes with a leader, both losses.
+    let rows = markdown_rows(&doc, "| in-path loss | n | output | CR | SR | SR-crit |", "The faults caught");
+    for row in &rows {
+        let file = method_of(&row[2]).unwrap_or_else(|| panic!("no output in {row:?}"));
+        let (table, text) = evaluation_output(file);
+        let figures = evaluation_figures(&table, "safer-in-path");
+        let expected = [&figures[..6], &[held_out_cr(&text, "safer-in-path")][..]].concat();
+        assert_eq!(row[3..], expected[..], "{}, n = {}: the table against {file}", row[0], row[1]);
+    }
+    assert_eq!(rows.len(), 4, "both losses at n = 20 and 60");
+    // The faults caught: each run with the lead steps and at the first contact.
+    let rows = markdown_rows(&doc, "| planner, set | CBV | in-path loss | output |", "At the first contact");
+    let mut before = None;
+    for row in &rows {
+        let file = method_of(&row[3]).unwrap_or_else(|| panic!("no output in {row:?}"));
+        let output = repo_file(&format!("docs/evaluation/{file}"));
+        let label = "safer-in-path";
+        let evaluation = labelled_row(&output, "variants", label);
+        let run = mutation_run_figures(&output, label);
+        let expected = [&[evaluation[2].clone(), run[0].clone(), evaluation[6].clone(), evaluation[7].clone()][..], &run[1..]]
+            .concat();
+        assert_eq!(row[4..], expected[..], "{}, {}, {}: the table against {file}", row[0], row[1], row[2]);
+        // Each first-contact row remakes the run above it, under first-contact/.
+        match row[2].as_str() {
+            "lead steps" => before = Some(file.to_owned()),
+            "first contact" => {
+                let before = before.take().unwrap_or_else(|| panic!("{file}: no lead-steps row above it"));
+                assert_eq!(file, format!("first-contact/{before}"), "{file}: the run it remakes");
+            }
+            other => panic!("no in-path loss {other:?}"),
+        }
+    }
+    assert!(rows.len() >= 16, "both losses for every remade run: {} rows", rows.len());
+}
