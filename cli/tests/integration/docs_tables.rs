@@ -1051,8 +1051,9 @@ fn the_first_contact_tables_quote_their_outputs() {
         let label = "safer-in-path";
         let evaluation = labelled_row(&output, "variants", label);
         let run = mutation_run_figures(&output, label);
-        let expected = [&[evaluation[2].clone(), run[0].clone(), evaluation[6].clone(), evaluation[7].clone()][..], &run[1..]]
-            .concat();
+        let expected =
+            [&[evaluation[2].clone(), run[0].clone(), evaluation[6].clone(), evaluation[7].clone()][..], &run[1..]]
+                .concat();
         assert_eq!(row[4..], expected[..], "{}, {}, {}: the table against {file}", row[0], row[1], row[2]);
         // Each first-contact row remakes the run above it, under first-contact/.
         match row[2].as_str() {
