@@ -1032,16 +1032,17 @@ fn the_leader_tables_quote_their_outputs() {
 #[test]
 fn the_first_contact_tables_quote_their_outputs() {
     let doc = repo_file("docs/benchmarks.md");
-    // The paper's protocol on the NGSIM scenes with a leader, both losses.
-    let rows = markdown_rows(&doc, "| in-path loss | n | output | CR | SR | SR-crit |", "The faults caught");
+    // The paper's protocol, both losses.
+    let rows = markdown_rows(&doc, "| scenes | in-path loss | n | output | CR | SR | SR-crit |", "The faults caught");
     for row in &rows {
-        let file = method_of(&row[2]).unwrap_or_else(|| panic!("no output in {row:?}"));
+        let file = method_of(&row[3]).unwrap_or_else(|| panic!("no output in {row:?}"));
         let (table, text) = evaluation_output(file);
         let figures = evaluation_figures(&table, "safer-in-path");
         let expected = [&figures[..6], &[held_out_cr(&text, "safer-in-path")][..]].concat();
-        assert_eq!(row[3..], expected[..], "{}, n = {}: the table against {file}", row[0], row[1]);
+        assert_eq!(row[4..], expected[..], "{}, n = {}: the table against {file}", row[1], row[2]);
+        assert_eq!(file.starts_with("first-contact/"), row[1] == "first contact", "{file}: its loss");
     }
-    assert_eq!(rows.len(), 4, "both losses at n = 20 and 60");
+    assert_eq!(rows.len(), 8, "both losses, the leader at n = 20 and 60 and the own pairs on two sets");
     // The faults caught: each run with the lead steps and at the first contact.
     let rows = markdown_rows(&doc, "| planner, set | CBV | in-path loss | output |", "At the first contact");
     let mut before = None;
