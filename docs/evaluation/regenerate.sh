@@ -131,6 +131,12 @@
 #                     first-contact/leader/; the outputs under reactive-background/ and
 #                     leader/ themselves were made with the loss in lead steps of 0.5 s,
 #                     which those jobs no longer reproduce (about 90 minutes)
+#   both-pairings     both-pairings/: the evasive planner's mutation tables as the shipped
+#                     NGSIM suite tests a scene, with the scenes' own pairs and with the
+#                     ego's leader as the CBV, on WOMD interactive (n = 20) and NGSIM
+#                     (n = 60), two draws of seeds each, and scene-kills-*.txt: per fault,
+#                     the scenes where either pairing caught it (scene_kills_union.py over
+#                     the runs' --json reports, kept in a scratch folder) (about 15 minutes)
 #   mutants           mutants-{womd-interactive,womd-json,ngsim}-evasive.txt and
 #                     mutants-{womd-interactive,ngsim}-lane-follower.txt: the
 #                     faults of the planner each method's variants catch
@@ -145,7 +151,7 @@ set -euo pipefail
 self=$(realpath "$0")
 cd "$(dirname "$self")"
 all=(evaluate plain inattentive held-out-chance trust-region realism prior-fit n-sweep reactive n100 approach-none merging mutants wide-region cut-in
-    in-path-lookahead in-path-lookahead-n30 in-path-lookahead-n28 in-path-lookahead-sweep pair-in-traffic witnessed wide-witnessed ten-seeds reaction-delay reactive-background leader first-contact)
+    in-path-lookahead in-path-lookahead-n30 in-path-lookahead-n28 in-path-lookahead-sweep pair-in-traffic witnessed wide-witnessed ten-seeds reaction-delay reactive-background leader first-contact both-pairings)
 jobs=("$@")
 [[ ${#jobs[@]} -gt 0 ]] || jobs=("${all[@]}")
 # The usage is the comment block at the top of this file.
@@ -501,6 +507,27 @@ for job in "${jobs[@]}"; do
         run reactive-background/mutants-ngsim-evasive-n60-ten-seeds.txt evaluate --scenes data:commonroad-ngsim \
             --seeds 10 --stage2-cbv closed-loop --background reactive-log-replay --mutants \
             --methods log,prior,safer-in-path --trust-region 60 ;;
+    both-pairings)
+        mkdir -p both-pairings
+        reports=$(mktemp -d)
+        mutating=(--seeds 3 --stage2-cbv closed-loop --background reactive-log-replay --mutants --methods log,prior,safer-in-path)
+        for s in womd-interactive:womd-interactive:20 commonroad-ngsim:ngsim:60; do
+            set=${s#*:} && set=${set%%:*}
+            for draw in 0 1000; do
+                suffix=${draw/#0/}
+                suffix=${suffix:+-seed$suffix}
+                for roles in as-loaded leader; do
+                    name="mutants-$set-evasive-$roles$suffix"
+                    run "both-pairings/$name.txt" evaluate --scenes "data:${s%%:*}" "${mutating[@]}" \
+                        --trust-region "${s##*:}" --seed "$draw" --roles "$roles" --json "$reports/$name.json"
+                    # The line saying where the report went names a scratch folder.
+                    sed -i '/^wrote .*\.json$/d' "both-pairings/$name.txt"
+                done
+                python3 scene_kills_union.py "$reports/mutants-$set-evasive-as-loaded$suffix.json" \
+                    "$reports/mutants-$set-evasive-leader$suffix.json" >"both-pairings/scene-kills-$set$suffix.txt"
+            done
+        done
+        rm -r "$reports" ;;
     esac
 done
 rm -r "$(dirname "$safer")"

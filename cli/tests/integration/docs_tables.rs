@@ -1068,3 +1068,75 @@ fn the_first_contact_tables_quote_their_outputs() {
     }
     assert!(rows.len() >= 16, "both losses for every remade run: {} rows", rows.len());
 }
+
+/// The set and the draw's suffix of the both-pairings outputs of a
+/// table's `set` and `draw` cells (`mutants-SET-evasive-ROLES{SUFFIX}.txt`,
+/// `scene-kills-SET{SUFFIX}.txt`).
+fn both_pairings_names(set: &str, draw: &str) -> (&'static str, &'static str) {
+    let set = match set {
+        "WOMD interactive" => "womd-interactive",
+        "NGSIM" => "ngsim",
+        other => panic!("no both-pairings runs of {other:?}"),
+    };
+    let suffix = match draw {
+        "seed 0" => "",
+        "seed 1000" => "-seed1000",
+        other => panic!("no both-pairings draw {other:?}"),
+    };
+    (set, suffix)
+}
+
+/// The fewest scenes any fault was caught in, of a row of a
+/// `scene_kills_union.py` table: (caught, scenes with a passed variant).
+fn fewest_scene_kills(table: &str, method: &str, pairing: &str) -> (u32, u32) {
+    let prefix = format!("| `{method}` | {pairing} |");
+    let line = table.lines().find(|l| l.starts_with(&prefix)).unwrap_or_else(|| panic!("no row {prefix:?}"));
+    let cells = line.trim_matches('|').split('|').map(str::trim).skip(2);
+    let counts = cells.filter_map(|c| {
+        let (caught, rest) = c.split_once('/')?;
+        Some((caught.parse().ok()?, rest.split_whitespace().next()?.parse().ok()?))
+    });
+    counts.min().unwrap_or_else(|| panic!("no counts in {line:?}"))
+}
+
+#[test]
+fn the_both_pairings_tables_quote_their_outputs() {
+    let doc = repo_file("docs/benchmarks.md");
+    let kills = |file: &str, label: &str| -> u32 {
+        let output = repo_file(&format!("docs/evaluation/both-pairings/{file}"));
+        killed(&labelled_row(&output, "passed", label)[1]).parse().unwrap()
+    };
+    let rows = markdown_rows(&doc, "| set | draw | kills, own pairs |", "The fault caught in the fewest");
+    for (set, draw, row) in rows_by_set_and_draw(&rows) {
+        let (set_name, suffix) = both_pairings_names(&set, &draw);
+        let own = format!("mutants-{set_name}-evasive-as-loaded{suffix}.txt");
+        let leader = format!("mutants-{set_name}-evasive-leader{suffix}.txt");
+        let both = |label: &str| kills(&own, label) + kills(&leader, label);
+        let (method, log, prior) = (both("safer-in-path"), both("log"), both("prior"));
+        let expected = [
+            kills(&own, "safer-in-path").to_string(),
+            kills(&leader, "safer-in-path").to_string(),
+            method.to_string(),
+            log.to_string(),
+            prior.to_string(),
+            format!("{:.2}", f64::from(method) / f64::from(log)),
+            format!("{:.2}", f64::from(method) / f64::from(prior)),
+        ];
+        assert_eq!(row[2..], expected[..], "{set}, {draw}: the table against {own} and {leader}");
+    }
+    assert_eq!(rows.len(), 4, "two sets, two draws");
+    let rows = markdown_rows(&doc, "| set | draw | own pairs alone | either pairing |", "Every fault in at least");
+    for (set, draw, row) in rows_by_set_and_draw(&rows) {
+        let (set_name, suffix) = both_pairings_names(&set, &draw);
+        let file = format!("scene-kills-{set_name}{suffix}.txt");
+        let table = repo_file(&format!("docs/evaluation/both-pairings/{file}"));
+        let own = format!("mutants-{set_name}-evasive-as-loaded{suffix}");
+        for (cell, pairing) in [(&row[2], own.as_str()), (&row[3], "either")] {
+            let (caught, of) = fewest_scene_kills(&table, "safer-in-path", pairing);
+            let percent = (100.0 * f64::from(caught) / f64::from(of)).round();
+            let quoted = format!("{caught}/{of} ({percent} %)");
+            assert!(cell.ends_with(&quoted), "{set}, {draw}, {pairing}: {cell:?} against {quoted:?} in {file}");
+        }
+    }
+    assert_eq!(rows.len(), 4, "two sets, two draws");
+}
