@@ -137,6 +137,11 @@
 #                     (n = 60), two draws of seeds each, and scene-kills-*.txt: per fault,
 #                     the scenes where either pairing caught it (scene_kills_union.py over
 #                     the runs' --json reports, kept in a scratch folder) (about 15 minutes)
+#   first-contact-lookahead
+#                     first-contact/in-path-lookahead/: safer-in-path-lookahead with the
+#                     in-path loss at the first contact on WOMD interactive, the paper's
+#                     protocol over 20 and 28 behaviours and the evasive planner's mutation
+#                     tables over 28, two draws of seeds (about 15 minutes)
 #   mutants           mutants-{womd-interactive,womd-json,ngsim}-evasive.txt and
 #                     mutants-{womd-interactive,ngsim}-lane-follower.txt: the
 #                     faults of the planner each method's variants catch
@@ -151,7 +156,7 @@ set -euo pipefail
 self=$(realpath "$0")
 cd "$(dirname "$self")"
 all=(evaluate plain inattentive held-out-chance trust-region realism prior-fit n-sweep reactive n100 approach-none merging mutants wide-region cut-in
-    in-path-lookahead in-path-lookahead-n30 in-path-lookahead-n28 in-path-lookahead-sweep pair-in-traffic witnessed wide-witnessed ten-seeds reaction-delay reactive-background leader first-contact both-pairings)
+    in-path-lookahead in-path-lookahead-n30 in-path-lookahead-n28 in-path-lookahead-sweep pair-in-traffic witnessed wide-witnessed ten-seeds reaction-delay reactive-background leader first-contact both-pairings first-contact-lookahead)
 jobs=("$@")
 [[ ${#jobs[@]} -gt 0 ]] || jobs=("${all[@]}")
 # The usage is the comment block at the top of this file.
@@ -507,6 +512,19 @@ for job in "${jobs[@]}"; do
         run reactive-background/mutants-ngsim-evasive-n60-ten-seeds.txt evaluate --scenes data:commonroad-ngsim \
             --seeds 10 --stage2-cbv closed-loop --background reactive-log-replay --mutants \
             --methods log,prior,safer-in-path --trust-region 60 ;;
+    first-contact-lookahead)
+        mkdir -p first-contact/in-path-lookahead
+        for n in 20 28; do
+            run "first-contact/in-path-lookahead/evaluate-womd-interactive-n$n.txt" evaluate \
+                --scenes data:womd-interactive --seeds 10 --trust-region "$n" \
+                --methods safer-in-path,safer-in-path-lookahead,prior
+        done
+        for draw in 0 1000; do
+            suffix=${draw/#0/}
+            run "first-contact/in-path-lookahead/mutants-womd-interactive-evasive-n28${suffix:+-seed$suffix}.txt" \
+                evaluate --scenes data:womd-interactive --seeds 3 --seed "$draw" --stage2-cbv closed-loop \
+                --background reactive-log-replay --mutants --methods log,prior,safer-in-path-lookahead --trust-region 28
+        done ;;
     both-pairings)
         mkdir -p both-pairings
         reports=$(mktemp -d)
