@@ -1140,3 +1140,49 @@ fn the_both_pairings_tables_quote_their_outputs() {
     }
     assert_eq!(rows.len(), 4, "two sets, two draws");
 }
+
+#[test]
+fn the_lookahead_first_contact_tables_quote_their_outputs() {
+    let doc = repo_file("docs/benchmarks.md");
+    let method = "safer-in-path-lookahead";
+    let rows = markdown_rows(&doc, "| n | in-path loss | CR | CR held out |", "Over 28 behaviours it meets");
+    let remade: Vec<_> = rows.iter().filter(|r| r[1] == "first contact").collect();
+    for row in &remade {
+        let file = format!("first-contact/in-path-lookahead/evaluate-womd-interactive-n{}.txt", row[0]);
+        let (table, text) = evaluation_output(&file);
+        let figures = evaluation_figures(&table, method);
+        let expected = [
+            figures[0].clone(),
+            held_out_cr(&text, method),
+            figures[1].clone(),
+            figures[2].clone(),
+            figures[3].clone(),
+            format!("{} / {}", figures[4], figures[5]),
+        ];
+        assert_eq!(row[2..], expected[..], "n = {}: the table against {file}", row[0]);
+    }
+    assert_eq!(remade.len(), 2, "n = 20 and 28 at the first contact");
+    let rows =
+        markdown_rows(&doc, "| draw | method | n | passed | kills (held out) |", "With the lead steps the lookahead");
+    let mut draw = String::new();
+    for row in &rows {
+        // A blank draw cell continues the row above's.
+        if !row[0].is_empty() {
+            draw = row[0].clone();
+        }
+        let suffix = if draw == "seed 1000" { "-seed1000" } else { "" };
+        let label = method_of(&row[1]).unwrap_or_else(|| panic!("no method in {row:?}"));
+        let file = match label {
+            "safer-in-path-lookahead" => {
+                format!("first-contact/in-path-lookahead/mutants-womd-interactive-evasive-n28{suffix}.txt")
+            }
+            "safer-in-path" => {
+                format!("first-contact/reactive-background/mutants-womd-interactive-evasive{suffix}.txt")
+            }
+            other => panic!("no output for {other}"),
+        };
+        let run = mutation_run_figures(&repo_file(&format!("docs/evaluation/{file}")), label);
+        assert_eq!(row[3..8], run[1..6], "{draw}, {label}: the table against {file}");
+    }
+    assert_eq!(rows.len(), 4, "two methods, two draws");
+}
