@@ -17,11 +17,18 @@ safer="${1:-$repo/target/release/safer}"
 scratch="$(mktemp -d)"
 trap 'rm -rf "$scratch"' EXIT
 
+# A scratch copy of a suite with its relative paths made absolute, and
+# these further sed expressions applied.
+scratch_copy() { # suite-file out.yaml [sed-option...]
+    local src="$1" out="$2"
+    shift 2
+    sed -e "s#\.\./\.\./#$repo/#g; s#\.\./scenarios/#$repo/specs/scenarios/#g" "$@" "$src" >"$out"
+}
+
 # One suite under one method: the JSON report of `safer run --mutants`.
 run_suite() { # suite-file method out.json
     local src="$1" method="$2" out="$3" copy="$scratch/$(basename "$1" .yaml)-$2.yaml"
-    sed -e "s#\.\./\.\./#$repo/#g; s#\.\./scenarios/#$repo/specs/scenarios/#g" \
-        -e "s#^\(  method:\).*#\1 $method#" "$src" >"$copy"
+    scratch_copy "$src" "$copy" -e "s#^\(  method:\).*#\1 $method#"
     grep -q "^adversary:" "$copy" || printf 'adversary:\n  method: %s\n' "$method" >>"$copy"
     # The log replays one variant whatever the seed: one per scene.
     [[ "$method" == log ]] && sed -i "s#^variants: .*#variants: 1#" "$copy"
@@ -66,8 +73,7 @@ echo "| suite | own run, s | with 7 mutants, s | ratio | bound (1 + 7) |"
 echo "| --- | --- | --- | --- | --- |"
 for name in adversarial-ngsim external-lane-follower authored-evasive; do
     copy="$scratch/cost-$name.yaml"
-    sed -e "s#\.\./\.\./#$repo/#g; s#\.\./scenarios/#$repo/specs/scenarios/#g" \
-        -e '/^ *mutation_score_min:/d; /^ *mutation_operators:/d' "$repo/specs/suites/$name.yaml" >"$copy"
+    scratch_copy "$repo/specs/suites/$name.yaml" "$copy" -e '/^ *mutation_score_min:/d; /^ *mutation_operators:/d'
     # Best of three of each, alternating, so a slower moment hits both.
     python3 - "$safer" "$repo" "$copy" "$name" <<'EOF'
 import subprocess, sys, time

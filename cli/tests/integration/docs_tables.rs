@@ -1069,6 +1069,16 @@ fn the_first_contact_tables_quote_their_outputs() {
     assert!(rows.len() >= 16, "both losses for every remade run: {} rows", rows.len());
 }
 
+/// The suffix of an output's name for a table's `draw` cell (`seed 0`:
+/// none, `seed 1000`: `-seed1000`).
+fn draw_suffix(draw: &str) -> &'static str {
+    match draw {
+        "seed 0" => "",
+        "seed 1000" => "-seed1000",
+        other => panic!("no outputs of the draw {other:?}"),
+    }
+}
+
 /// The set and the draw's suffix of the both-pairings outputs of a
 /// table's `set` and `draw` cells (`mutants-SET-evasive-ROLES{SUFFIX}.txt`,
 /// `scene-kills-SET{SUFFIX}.txt`).
@@ -1078,12 +1088,7 @@ fn both_pairings_names(set: &str, draw: &str) -> (&'static str, &'static str) {
         "NGSIM" => "ngsim",
         other => panic!("no both-pairings runs of {other:?}"),
     };
-    let suffix = match draw {
-        "seed 0" => "",
-        "seed 1000" => "-seed1000",
-        other => panic!("no both-pairings draw {other:?}"),
-    };
-    (set, suffix)
+    (set, draw_suffix(draw))
 }
 
 /// The fewest scenes any fault was caught in, of a row of a
@@ -1170,14 +1175,14 @@ fn the_lookahead_first_contact_tables_quote_their_outputs() {
         if !row[0].is_empty() {
             draw = row[0].clone();
         }
-        let suffix = if draw == "seed 1000" { "-seed1000" } else { "" };
         let label = method_of(&row[1]).unwrap_or_else(|| panic!("no method in {row:?}"));
         let file = match label {
-            "safer-in-path-lookahead" => {
-                format!("first-contact/in-path-lookahead/mutants-womd-interactive-evasive-n28{suffix}.txt")
-            }
+            "safer-in-path-lookahead" => format!(
+                "first-contact/in-path-lookahead/mutants-womd-interactive-evasive-n28{}.txt",
+                draw_suffix(&draw)
+            ),
             "safer-in-path" => {
-                format!("first-contact/reactive-background/mutants-womd-interactive-evasive{suffix}.txt")
+                format!("first-contact/reactive-background/{}", side_by_side_output("WOMD interactive", &draw))
             }
             other => panic!("no output for {other}"),
         };
