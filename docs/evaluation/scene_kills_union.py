@@ -10,7 +10,11 @@ over the same scenes and seeds, with a different `--roles`. A scene counts
 for a method where some variant of it, in any report, was passed by the
 planner; a fault is caught in the scene where some such variant was failed
 by the mutant. Prints, per method, each report's count and the union's:
-scenes where the fault was caught / scenes with a passed variant.
+scenes where the fault was caught / scenes with a passed variant; then the
+union's again on the held-out scenes and on the rest. The held-out scenes
+are every tenth by sorted id (the 10th, 20th, ...) of the scenes in any
+report, the rule of `safer evaluate`'s held-out rows (each run applies it to
+its own scenes, so a run whose pairing leaves scenes out holds out others).
 Standard library only.
 """
 import json
@@ -21,9 +25,11 @@ OPERATORS = ["no-brake", "weak-brake", "late", "blind-cbv", "blind-side", "no-ev
 
 
 def scene_kills(path):
-    """(scenes with a passed variant, scenes where each fault was caught), per method."""
+    """(every scene, scenes with a passed variant per method, scenes where
+    each fault was caught per method)."""
     with open(path) as f:
         report = json.load(f)
+    scenes = {variant["scenario"] for variant in report["variants"]}
     passed = defaultdict(set)
     caught = defaultdict(lambda: defaultdict(set))
     for variant in report["variants"]:
@@ -35,7 +41,12 @@ def scene_kills(path):
         for mutant in mutation["mutants"]:
             if mutant["killed"]:
                 caught[method][mutant["operator"]].add(scene)
-    return passed, caught
+    return scenes, passed, caught
+
+
+def held_out_scenes(scenes):
+    """Every tenth scene by sorted id, as `safer evaluate` holds them out."""
+    return set(sorted(scenes)[9::10])
 
 
 def row(label, passed, caught):
@@ -48,7 +59,13 @@ def row(label, passed, caught):
 def main(paths):
     if not paths:
         sys.exit(__doc__)
-    reports = [(path, *scene_kills(path)) for path in paths]
+    reports = []
+    scenes = set()
+    for path in paths:
+        in_report, passed, caught = scene_kills(path)
+        scenes |= in_report
+        reports.append((path, passed, caught))
+    held = held_out_scenes(scenes)
     methods = list(dict.fromkeys(m for _, passed, _ in reports for m in passed))
     print("| method | pairing | " + " | ".join(OPERATORS) + " | fewest |")
     print("| --- | --- | " + " | ".join("---" for _ in OPERATORS) + " | --- |")
@@ -59,6 +76,9 @@ def main(paths):
         union_passed = set().union(*(passed[method] for _, passed, _ in reports))
         union_caught = {op: set().union(*(caught[method][op] for _, _, caught in reports)) for op in OPERATORS}
         print(row(f"`{method}` | either", union_passed, union_caught))
+        for label, part in ((f"either, held out ({len(held)} scenes)", held), ("either, the rest", scenes - held)):
+            part_caught = {op: union_caught[op] & part for op in OPERATORS}
+            print(row(f"`{method}` | {label}", union_passed & part, part_caught))
 
 
 if __name__ == "__main__":
