@@ -39,7 +39,7 @@ echo "| suite | planner | method | passed | score | killed (variants) | survived
 echo "| --- | --- | --- | --- | --- | --- | --- |"
 for suite in "$repo"/specs/suites/*.yaml; do
     name="$(basename "$suite" .yaml)"
-    if grep -q "method: safer" "$suite"; then methods="log prior safer safer-in-path safer-cut-in safer-distinct safer-lookahead no-lfr"; else methods="log"; fi
+    if grep -q "method: safer" "$suite"; then methods="log prior safer safer-in-path safer-cut-in safer-in-path-lookahead safer-distinct safer-lookahead no-lfr"; else methods="log"; fi
     for method in $methods; do
         out="$scratch/$name-$method.json"
         run_suite "$suite" "$method" "$out"

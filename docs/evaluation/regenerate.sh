@@ -139,9 +139,12 @@
 #                     the runs' --json reports, kept in a scratch folder) (about 15 minutes)
 #   first-contact-lookahead
 #                     first-contact/in-path-lookahead/: safer-in-path-lookahead with the
-#                     in-path loss at the first contact on WOMD interactive, the paper's
-#                     protocol over 20 and 28 behaviours and the evasive planner's mutation
-#                     tables over 28, two draws of seeds (about 15 minutes)
+#                     in-path loss at the first contact, the paper's protocol and the
+#                     evasive planner's mutation tables over two draws of seeds: on WOMD
+#                     interactive over 20 and 28 behaviours (mutation over 28), on NGSIM
+#                     over 30 and 60 (mutation over 60, the shipped suites' region) and
+#                     over 60 with the witness asked; the lane follower's mutation tables
+#                     over 60 on both sets (about 80 minutes)
 #   mutants           mutants-{womd-interactive,womd-json,ngsim}-evasive.txt and
 #                     mutants-{womd-interactive,ngsim}-lane-follower.txt: the
 #                     faults of the planner each method's variants catch
@@ -524,6 +527,27 @@ for job in "${jobs[@]}"; do
             run "first-contact/in-path-lookahead/mutants-womd-interactive-evasive-n28${suffix:+-seed$suffix}.txt" \
                 evaluate --scenes data:womd-interactive --seeds 3 --seed "$draw" --stage2-cbv closed-loop \
                 --background reactive-log-replay --mutants --methods log,prior,safer-in-path-lookahead --trust-region 28
+        done
+        for n in 30 60; do
+            run "first-contact/in-path-lookahead/evaluate-ngsim-n$n.txt" evaluate --scenes data:commonroad-ngsim \
+                --seeds 10 --trust-region "$n" --methods safer-in-path,safer-in-path-lookahead,prior
+        done
+        run first-contact/in-path-lookahead/evaluate-ngsim-n60-witnessed.txt evaluate --scenes data:commonroad-ngsim \
+            --seeds 10 --trust-region 60 --methods prior,safer-in-path-lookahead --feasibility witnessed
+        for draw in 0 1000; do
+            suffix=${draw/#0/}
+            run "first-contact/in-path-lookahead/mutants-ngsim-evasive-n60${suffix:+-seed$suffix}.txt" evaluate \
+                --scenes data:commonroad-ngsim --seeds 3 --seed "$draw" --stage2-cbv closed-loop \
+                --background reactive-log-replay --mutants --methods log,prior,safer-in-path-lookahead --trust-region 60
+        done
+        run first-contact/in-path-lookahead/mutants-ngsim-evasive-n60-witnessed.txt evaluate \
+            --scenes data:commonroad-ngsim --seeds 3 --stage2-cbv closed-loop --background reactive-log-replay \
+            --mutants --methods log,prior,safer-in-path-lookahead --trust-region 60 --feasibility witnessed
+        for s in commonroad-ngsim:ngsim womd-interactive:womd-interactive; do
+            run "first-contact/in-path-lookahead/mutants-${s#*:}-lane-follower-n60.txt" evaluate \
+                --scenes "data:${s%%:*}" --seeds 3 --stage2-cbv closed-loop --background reactive-log-replay \
+                --mutants --methods log,prior,safer-in-path-lookahead --trust-region 60 --roles as-loaded \
+                --planner ../../planners/lane-follower.yaml
         done ;;
     both-pairings)
         mkdir -p both-pairings

@@ -1195,3 +1195,85 @@ fn the_lookahead_first_contact_tables_quote_their_outputs() {
     }
     assert_eq!(rows.len(), 4, "two methods, two draws");
 }
+
+/// The fault the `label` row of a mutation output's kills table was
+/// caught in the fewest scenes: (scenes where it was caught, scenes with a
+/// passed variant), from its per-mutant `kills (caught/of)` cells.
+fn fewest_fault_scenes(output: &str, label: &str) -> (u32, u32) {
+    let kills = labelled_row(output, "passed", label);
+    let counts = kills.iter().filter_map(|cell| {
+        let (caught, of) = cell.strip_prefix('(')?.strip_suffix(')')?.split_once('/')?;
+        Some((caught.parse().ok()?, of.parse().ok()?))
+    });
+    counts.min().unwrap_or_else(|| panic!("no per-mutant counts in the {label} row"))
+}
+
+#[test]
+fn the_lookahead_first_contact_ngsim_tables_quote_their_outputs() {
+    let doc = repo_file("docs/benchmarks.md");
+    let header =
+        "| n | method | feasibility scope | CR | CR held out | SR | SR-crit | witness | VJ / AJ | stage-1 cut-ins |";
+    let mut checked = Vec::new();
+    for row in markdown_rows(&doc, header, "The evasive planner's and the lane follower's faults on NGSIM") {
+        let method = method_of(&row[1]).unwrap_or_else(|| panic!("no method in {row:?}"));
+        let (file, run) = match row[2].as_str() {
+            "pair" => (format!("first-contact/in-path-lookahead/evaluate-ngsim-n{}.txt", row[0]), None),
+            "witnessed" => (
+                format!("first-contact/in-path-lookahead/evaluate-ngsim-n{}-witnessed.txt", row[0]),
+                Some("feasibility witnessed"),
+            ),
+            other => panic!("no feasibility scope {other:?}"),
+        };
+        let (label, text) = check_scope_row(&row, method, &file, run);
+        assert!(text.contains(&format!("trust region n = {},", row[0])), "{file} is not a run over {}", row[0]);
+        let (c, total) = stage1_cut_ins(&text, method);
+        let share = 100.0 * f64::from(c) / f64::from(total);
+        assert_eq!(row[9], format!("{c} / {total} ({share:.1} %)"), "{label}: stage-1 cut-ins");
+        assert_eq!(row[10], stage1_over_prior(&text, method), "{label}: stage 1 over the prior's");
+        checked.push(label);
+    }
+    assert_eq!(checked.len(), 5, "both methods over 30 and 60, the lookahead witnessed: {checked:?}");
+
+    let header = "| draw | planner | method | feasibility scope | passed | kills (held out) |";
+    let rows = markdown_rows(&doc, header, "Over 60 behaviours with the witness asked it meets");
+    let mut checked = Vec::new();
+    for (planner, draw, row) in rows_by_set_and_draw(&rows).into_iter().map(|(d, p, r)| (p, d, r)) {
+        let method = method_of(&row[2]).unwrap_or_else(|| panic!("no method in {row:?}"));
+        let suffix = draw_suffix(&draw);
+        let file = match (planner.as_str(), method, row[3].as_str()) {
+            ("evasive", "safer-in-path-lookahead", "pair") => {
+                format!("first-contact/in-path-lookahead/mutants-ngsim-evasive-n60{suffix}.txt")
+            }
+            ("evasive", "safer-in-path-lookahead", "witnessed") => {
+                format!("first-contact/in-path-lookahead/mutants-ngsim-evasive-n60-witnessed{suffix}.txt")
+            }
+            ("evasive", "safer-in-path", "pair") => {
+                format!("first-contact/reactive-background/{}", side_by_side_output("NGSIM", &draw))
+            }
+            ("lane follower", "safer-in-path-lookahead", "pair") => {
+                format!("first-contact/in-path-lookahead/mutants-ngsim-lane-follower-n60{suffix}.txt")
+            }
+            ("lane follower", "safer-in-path", "pair") => {
+                format!("first-contact/leader/mutants-ngsim-lane-follower-n60-as-loaded{suffix}.txt")
+            }
+            ("lane follower on WOMD interactive", "safer-in-path-lookahead", "pair") => {
+                format!("first-contact/in-path-lookahead/mutants-womd-interactive-lane-follower-n60{suffix}.txt")
+            }
+            ("lane follower on WOMD interactive", "safer-in-path", "pair") => {
+                format!("first-contact/leader/mutants-womd-interactive-lane-follower-n60-as-loaded{suffix}.txt")
+            }
+            other => panic!("no output for {other:?}"),
+        };
+        let output = repo_file(&format!("docs/evaluation/{file}"));
+        assert_eq!(output.contains("; feasibility witnessed"), row[3] == "witnessed", "{file}: the scope");
+        assert!(output.contains("trust region n = 60,"), "{file} is not a run over 60");
+        let run = mutation_run_figures(&output, method);
+        let label = format!("{draw}, {planner}, {method}, {}", row[3]);
+        assert_eq!(row[4..9], run[1..6], "{label}: the table against {file}");
+        let (caught, of) = fewest_fault_scenes(&output, method);
+        let percent = (100.0 * f64::from(caught) / f64::from(of)).round();
+        assert!(row[9].ends_with(&format!("{caught}/{of} ({percent} %)")), "{label}: {:?} in {file}", row[9]);
+        checked.push(label);
+    }
+    assert_eq!(checked.len(), 9, "NGSIM's seven rows and the lane follower's two on WOMD interactive: {checked:?}");
+}
