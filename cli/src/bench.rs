@@ -42,8 +42,9 @@ const IN_PATH_RATIO_TARGET: f64 = 2.0;
 /// `specs/suites/adversarial-ngsim.yaml` ships with (a test holds them equal).
 const WIDE_IN_PATH_TRUST_REGION: usize = 60;
 /// The wider trust region the bench times `safer-in-path-lookahead` over too: the
-/// one where its CR on WOMD interactive passes 0.7 (`docs/benchmarks.md`).
-const WIDE_LOOKAHEAD_TRUST_REGION: usize = 30;
+/// shipped suites' region, where on NGSIM it meets the set's goals with the witness
+/// asked (`docs/benchmarks.md`, "The horizon at the first contact").
+const WIDE_LOOKAHEAD_TRUST_REGION: usize = 60;
 /// Target for the closed-loop witness of one collision, ms.
 const CLOSED_LOOP_WITNESS_TARGET_MS: f64 = 2000.0;
 /// Horizon of the benchmarked variant, s (`safer evaluate`'s default).

@@ -71,14 +71,14 @@ fn bench_writes_every_figure_beside_its_reference_as_json() {
         assert!(variant[key].as_f64().is_some_and(|ms| ms > 0.0), "{key}: {variant}");
     }
     assert_eq!(variant["in_path_wide_trust_region"], 60);
-    assert_eq!(variant["in_path_lookahead_wide_trust_region"], 30);
+    assert_eq!(variant["in_path_lookahead_wide_trust_region"], 60);
     // The table still went to stdout; a WOMD JSON scene alone times no
     // simulator row, and the table says so rather than print an empty one.
     let table = String::from_utf8_lossy(&run.stdout);
     assert!(table.contains("SaFeR variant"), "{table}");
     assert!(table.contains("variant made by safer-cut-in, n = 60"), "{table}");
     assert!(table.contains("variant made by safer-in-path-lookahead"), "{table}");
-    assert!(table.contains("variant made by safer-in-path-lookahead, n = 30"), "{table}");
+    assert!(table.contains("variant made by safer-in-path-lookahead, n = 60"), "{table}");
     assert_eq!(v["simulator"].as_array().map(Vec::len), Some(0), "{v}");
     assert!(table.contains("the simulator is not timed"), "{table}");
 }
