@@ -188,6 +188,10 @@ run() {
     mv "$out.tmp" "$out"
 }
 
+# seed_suffix DRAW: what an output's name ends with for a draw of seeds (--seed DRAW): nothing
+# for the first draw (0), -seedDRAW for the others.
+seed_suffix() { [[ $1 == 0 ]] || echo "-seed$1"; }
+
 # mutants_two_draws DIR ARGS...: the evasive planner's mutation tables of log replay, the prior
 # and safer-in-path as the shipped suites are set (n = 20 on WOMD interactive, 60 on NGSIM), with
 # ARGS, over two draws of seeds (the second with --seed 1000), into DIR.
@@ -196,8 +200,7 @@ mutants_two_draws() {
     shift
     mkdir -p "$dir"
     for draw in 0 1000; do
-        suffix=${draw/#0/}
-        suffix=${suffix:+-seed$suffix}
+        suffix=$(seed_suffix "$draw")
         run "$dir/mutants-womd-interactive-evasive$suffix.txt" evaluate --scenes data:womd-interactive \
             --seeds 3 --seed "$draw" --mutants --methods log,prior,safer-in-path "$@"
         run "$dir/mutants-ngsim-evasive-n60$suffix.txt" evaluate --scenes data:commonroad-ngsim \
@@ -523,8 +526,7 @@ for job in "${jobs[@]}"; do
                 --methods safer-in-path,safer-in-path-lookahead,prior
         done
         for draw in 0 1000; do
-            suffix=${draw/#0/}
-            run "first-contact/in-path-lookahead/mutants-womd-interactive-evasive-n28${suffix:+-seed$suffix}.txt" \
+            run "first-contact/in-path-lookahead/mutants-womd-interactive-evasive-n28$(seed_suffix "$draw").txt" \
                 evaluate --scenes data:womd-interactive --seeds 3 --seed "$draw" --stage2-cbv closed-loop \
                 --background reactive-log-replay --mutants --methods log,prior,safer-in-path-lookahead --trust-region 28
         done
@@ -535,8 +537,7 @@ for job in "${jobs[@]}"; do
         run first-contact/in-path-lookahead/evaluate-ngsim-n60-witnessed.txt evaluate --scenes data:commonroad-ngsim \
             --seeds 10 --trust-region 60 --methods prior,safer-in-path-lookahead --feasibility witnessed
         for draw in 0 1000; do
-            suffix=${draw/#0/}
-            run "first-contact/in-path-lookahead/mutants-ngsim-evasive-n60${suffix:+-seed$suffix}.txt" evaluate \
+            run "first-contact/in-path-lookahead/mutants-ngsim-evasive-n60$(seed_suffix "$draw").txt" evaluate \
                 --scenes data:commonroad-ngsim --seeds 3 --seed "$draw" --stage2-cbv closed-loop \
                 --background reactive-log-replay --mutants --methods log,prior,safer-in-path-lookahead --trust-region 60
         done
@@ -556,8 +557,7 @@ for job in "${jobs[@]}"; do
         for s in womd-interactive:womd-interactive:20 commonroad-ngsim:ngsim:60; do
             set=${s#*:} && set=${set%%:*}
             for draw in 0 1000; do
-                suffix=${draw/#0/}
-                suffix=${suffix:+-seed$suffix}
+                suffix=$(seed_suffix "$draw")
                 for roles in as-loaded leader; do
                     name="mutants-$set-evasive-$roles$suffix"
                     run "both-pairings/$name.txt" evaluate --scenes "data:${s%%:*}" "${mutating[@]}" \

@@ -75,8 +75,8 @@ def main(paths):
             print(row(f"`{method}` | {label}", passed[method], caught[method]))
         union_passed = set().union(*(passed[method] for _, passed, _ in reports))
         union_caught = {op: set().union(*(caught[method][op] for _, _, caught in reports)) for op in OPERATORS}
-        print(row(f"`{method}` | either", union_passed, union_caught))
-        for label, part in ((f"either, held out ({len(held)} scenes)", held), ("either, the rest", scenes - held)):
+        parts = (("either", scenes), (f"either, held out ({len(held)} scenes)", held), ("either, the rest", scenes - held))
+        for label, part in parts:
             part_caught = {op: union_caught[op] & part for op in OPERATORS}
             print(row(f"`{method}` | {label}", union_passed & part, part_caught))
 

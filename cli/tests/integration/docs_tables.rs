@@ -1091,6 +1091,13 @@ fn both_pairings_names(set: &str, draw: &str) -> (&'static str, &'static str) {
     (set, draw_suffix(draw))
 }
 
+/// How the docs quote a fault caught in `caught` of `of` scenes:
+/// `caught/of (P %)`, P rounded to a whole percent.
+fn scenes_caught(caught: u32, of: u32) -> String {
+    let percent = (100.0 * f64::from(caught) / f64::from(of)).round();
+    format!("{caught}/{of} ({percent} %)")
+}
+
 /// The fewest scenes any fault was caught in, of a row of a
 /// `scene_kills_union.py` table: (caught, scenes with a passed variant).
 fn fewest_scene_kills(table: &str, method: &str, pairing: &str) -> (u32, u32) {
@@ -1142,8 +1149,7 @@ fn the_both_pairings_tables_quote_their_outputs() {
         let own = format!("mutants-{set_name}-evasive-as-loaded{suffix}");
         for (cell, pairing) in [(&row[2], own.as_str()), (&row[3], "either"), (&row[4], "either, held out")] {
             let (caught, of) = fewest_scene_kills(&table, "safer-in-path", pairing);
-            let percent = (100.0 * f64::from(caught) / f64::from(of)).round();
-            let quoted = format!("{caught}/{of} ({percent} %)");
+            let quoted = scenes_caught(caught, of);
             assert!(cell.ends_with(&quoted), "{set}, {draw}, {pairing}: {cell:?} against {quoted:?} in {file}");
         }
     }
@@ -1237,7 +1243,8 @@ fn the_lookahead_first_contact_ngsim_tables_quote_their_outputs() {
     let header = "| draw | planner | method | feasibility scope | passed | kills (held out) |";
     let rows = markdown_rows(&doc, header, "Over 60 behaviours with the witness asked it meets");
     let mut checked = Vec::new();
-    for (planner, draw, row) in rows_by_set_and_draw(&rows).into_iter().map(|(d, p, r)| (p, d, r)) {
+    // The draw is the table's first column, the planner its second.
+    for (draw, planner, row) in rows_by_set_and_draw(&rows) {
         let method = method_of(&row[2]).unwrap_or_else(|| panic!("no method in {row:?}"));
         let suffix = draw_suffix(&draw);
         let file = match (planner.as_str(), method, row[3].as_str()) {
@@ -1271,8 +1278,7 @@ fn the_lookahead_first_contact_ngsim_tables_quote_their_outputs() {
         let label = format!("{draw}, {planner}, {method}, {}", row[3]);
         assert_eq!(row[4..9], run[1..6], "{label}: the table against {file}");
         let (caught, of) = fewest_fault_scenes(&output, method);
-        let percent = (100.0 * f64::from(caught) / f64::from(of)).round();
-        assert!(row[9].ends_with(&format!("{caught}/{of} ({percent} %)")), "{label}: {:?} in {file}", row[9]);
+        assert!(row[9].ends_with(&scenes_caught(caught, of)), "{label}: {:?} in {file}", row[9]);
         checked.push(label);
     }
     assert_eq!(checked.len(), 9, "NGSIM's seven rows and the lane follower's two on WOMD interactive: {checked:?}");
