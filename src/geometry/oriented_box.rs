@@ -124,6 +124,40 @@ impl OrientedBox {
         distance_cuboid_cuboid(&self.relative_pose_with_sin_cos(other, sin_cos), &self.cuboid(), &other.cuboid()) as f64
     }
 
+    /// A lower bound of [`Self::distance`], m, from the separating axes
+    /// alone, with both boxes' headings' `sin_cos()` at hand: the widest
+    /// gap between the boxes' shadows on the four edge normals, less a
+    /// margin for the `f32` rounding of the exact query. It is the exact
+    /// distance whenever the nearest features are an edge and what faces
+    /// it, and never above it; at most 0 (no bound) where the shadows
+    /// overlap on every axis. NaN stays NaN, so that a caller comparing
+    /// it skips nothing.
+    ///
+    /// Its use is pruning: a caller that needs the least of many
+    /// distances asks the exact query only where this bound could still
+    /// beat the least so far, and gets the same least, bit for bit.
+    pub(crate) fn distance_lower_bound_with_sin_cos(
+        &self,
+        other: &OrientedBox,
+        (s1, c1): (f64, f64),
+        (s2, c2): (f64, f64),
+    ) -> f64 {
+        let d = other.pose.position - self.pose.position;
+        let (a1, b1) = (0.5 * self.length_m, 0.5 * self.width_m);
+        let (a2, b2) = (0.5 * other.length_m, 0.5 * other.width_m);
+        // |cos| and |sin| of the heading difference.
+        let (cos_d, sin_d) = ((c1 * c2 + s1 * s2).abs(), (s1 * c2 - c1 * s2).abs());
+        let shadow_gap = |(ax, ay): (f64, f64), reach: f64| (d.x * ax + d.y * ay).abs() - reach;
+        let gap = shadow_gap((c1, s1), a1 + a2 * cos_d + b2 * sin_d)
+            .max(shadow_gap((-s1, c1), b1 + a2 * sin_d + b2 * cos_d))
+            .max(shadow_gap((c2, s2), a2 + a1 * cos_d + b1 * sin_d))
+            .max(shadow_gap((-s2, c2), b2 + a1 * sin_d + b1 * cos_d));
+        // The exact query works in `f32` in this box's frame: a relative
+        // error of about 1e-7 of the offset and the sizes. A millimetre and
+        // 1e-5 of them is far above it and far below any gap that matters.
+        gap - (1e-3 + 1e-5 * (d.norm() + a1 + b1 + a2 + b2))
+    }
+
     /// The four corners, counter-clockwise starting front-left.
     pub fn corners(&self) -> [Point2; 4] {
         let (hl, hw) = (self.length_m * 0.5, self.width_m * 0.5);
@@ -192,6 +226,33 @@ mod tests {
         assert!(a.intersects(&b) && b.intersects(&a));
         assert_eq!(a.distance(&b), 0.0);
         assert!(!a.intersects(&car(0.0, 2.5, 0.0)));
+    }
+
+    #[test]
+    fn the_separating_axis_bound_never_exceeds_the_distance_and_is_tight_face_to_face() {
+        let bound = |a: &OrientedBox, b: &OrientedBox| {
+            a.distance_lower_bound_with_sin_cos(b, a.pose.heading_rad.sin_cos(), b.pose.heading_rad.sin_cos())
+        };
+        let truck = |x: f64, y: f64, h: f64| OrientedBox::new(Pose2::new(x, y, h), 12.0, 2.5);
+        let (mut tight, mut pairs) = (0, 0);
+        for i in -30..=30 {
+            for j in -20..=20 {
+                for (h1, h2) in [(0.0, 0.0), (0.3, -0.1), (1.2, 2.9), (-2.0, 0.7), (0.05, 0.05)] {
+                    let (a, b) = (car(1e4, -2e3, h1), truck(1e4 + i as f64 * 0.61, -2e3 + j as f64 * 0.47, h2));
+                    let (lb, d) = (bound(&a, &b), a.distance(&b));
+                    assert!(lb <= d, "{a:?} {b:?}: bound {lb} > distance {d}");
+                    pairs += 1;
+                    tight += usize::from(d - lb < 0.01);
+                }
+            }
+        }
+        // Most pairs of the grid are an edge facing a side: tight there.
+        assert!(tight * 2 > pairs, "{tight} of {pairs}");
+        // Nose to tail 5.5 m apart: the bound is the gap, less its margin.
+        let (a, b) = (car(0.0, 0.0, 0.0), car(10.0, 0.0, 0.0));
+        assert!((bound(&a, &b) - 5.5).abs() < 2e-3, "{}", bound(&a, &b));
+        let nan = car(f64::NAN, 0.0, 0.0);
+        assert!(bound(&a, &nan).is_nan());
     }
 
     #[test]

@@ -85,37 +85,124 @@ struct PathApproach {
 }
 
 impl PathApproach {
-    fn of(ego_next: &AgentState, ego_body: AgentBody, cbv: &AgentState, cbv_body: AgentBody) -> Self {
-        let cbv_box = cbv_body.footprint(cbv);
-        let gap_m = |lead_s: f64| {
-            let ego_then = AgentState { position: ego_next.position + ego_next.velocity_mps * lead_s, ..*ego_next };
-            ego_body.footprint(&ego_then).distance(&cbv_box)
-        };
-        let leads = (IN_PATH_MAX_LEAD_S / IN_PATH_LEAD_STEP_S).round() as usize;
-        let mut closest_m = f64::INFINITY;
-        for k in 0..=leads {
-            let lead_s = k as f64 * IN_PATH_LEAD_STEP_S;
-            let gap = gap_m(lead_s);
-            if gap > 0.0 {
-                closest_m = closest_m.min(gap + IN_PATH_LEAD_COST_M_PER_S * lead_s);
-                continue;
-            }
-            // In contact: later leads only add lead cost. The first
-            // contact lies within the step just taken.
-            let contact_s = if k == 0 { 0.0 } else { first_contact_s(&gap_m, lead_s - IN_PATH_LEAD_STEP_S, lead_s) };
-            closest_m = closest_m.min(IN_PATH_LEAD_COST_M_PER_S * contact_s);
-            break;
-        }
-        let (sin, cos) = ego_next.heading_rad.sin_cos();
+    /// Where the CBV at `cbv` stands against the ego's path ahead of
+    /// `ego_next`. `settled` says of an approach (this one with another
+    /// `closest_m`) whether it comes to the same for the caller as every
+    /// approach farther off (it must be monotone in `closest_m`: once true,
+    /// true for every larger value). Then `closest_m` is exact wherever
+    /// `settled` is false of the exact approach, and otherwise settled and
+    /// no less than the exact. `|_| false` asks for it exactly.
+    fn of(
+        ego_next: &AgentState,
+        ego_body: AgentBody,
+        cbv: &AgentState,
+        cbv_body: AgentBody,
+        settled: impl Fn(&PathApproach) -> bool,
+    ) -> Self {
+        let ego_sin_cos = ego_next.heading_rad.sin_cos();
+        let (sin, cos) = ego_sin_cos;
         let offset = cbv.position - ego_next.position;
         let ahead_m = offset.dot(&Vector2::new(cos, sin));
         let lateral_m = offset.dot(&Vector2::new(-sin, cos)).abs();
-        Self { closest_m, short_of_front_m: 0.5 * ego_body.length_m - ahead_m, lateral_m }
+        let placed = Self { closest_m: f64::INFINITY, short_of_front_m: 0.5 * ego_body.length_m - ahead_m, lateral_m };
+        let cbv_box = cbv_body.footprint(cbv);
+        let cbv_sin_cos = cbv.heading_rad.sin_cos();
+        let ego_then = |lead_s: f64| {
+            ego_body
+                .footprint(&AgentState { position: ego_next.position + ego_next.velocity_mps * lead_s, ..*ego_next })
+        };
+        let gap_m = |lead_s: f64| ego_then(lead_s).distance_with_sin_cos(&cbv_box, ego_sin_cos);
+        let lower_bound_m =
+            |lead_s: f64| ego_then(lead_s).distance_lower_bound_with_sin_cos(&cbv_box, ego_sin_cos, cbv_sin_cos);
+        let closest_m = closest_approach_m(lower_bound_m, &gap_m, |closest_m| settled(&Self { closest_m, ..placed }));
+        Self { closest_m, ..placed }
     }
 
     fn ahead(&self) -> bool {
         self.short_of_front_m < 0.0
     }
+
+    /// The in-path loss (see the module).
+    fn in_path_loss(&self) -> f64 {
+        if self.ahead() { self.closest_m } else { self.closest_m + NOT_AHEAD_PENALTY_M }
+    }
+
+    /// The cut-in loss (see the module).
+    fn cut_in_loss(&self) -> f64 {
+        if self.ahead() {
+            self.closest_m + CUT_IN_LATERAL_COST * self.lateral_m
+        } else {
+            self.closest_m + (CUT_IN_NOT_AHEAD_COST * self.short_of_front_m).min(NOT_AHEAD_PENALTY_M)
+        }
+    }
+}
+
+/// The least, over the lead steps, of the gap plus the lead cost, up to
+/// the first contact (see the module): `gap_m(lead_s)` the box distance
+/// that far ahead, `lower_bound_m(lead_s)` a lower bound of it (NaN:
+/// none), `settled` as in [`PathApproach::of`].
+///
+/// The same value, bit for bit, as taking every lead step's exact gap in
+/// turn: a minimum does not depend on the order it is taken in, and a lead
+/// step is skipped only where its bound shows it cannot lower the least
+/// so far (rounding is monotone, so neither can the exact sum) or can only
+/// give a settled value. Most candidates lie well off the ego's path,
+/// where the bound is the gap (an edge facing a side) and one or two exact
+/// queries of the sixteen decide.
+fn closest_approach_m(
+    lower_bound_m: impl Fn(f64) -> f64,
+    gap_m: &impl Fn(f64) -> f64,
+    settled: impl Fn(f64) -> bool,
+) -> f64 {
+    const LEADS: usize = (IN_PATH_MAX_LEAD_S / IN_PATH_LEAD_STEP_S + 0.5) as usize;
+    let lead_s = |k: usize| k as f64 * IN_PATH_LEAD_STEP_S;
+    let bounds: [f64; LEADS + 1] = std::array::from_fn(|k| lower_bound_m(lead_s(k)));
+    let mut gaps = [None; LEADS + 1];
+    // The first lead step in contact: only a step whose bound allows
+    // contact (or is NaN) can be.
+    let mut first_contact = None;
+    for k in 0..=LEADS {
+        if bounds[k] > 0.0 {
+            continue;
+        }
+        let gap = gap_m(lead_s(k));
+        gaps[k] = Some(gap);
+        if !(gap > 0.0) {
+            first_contact = Some(k);
+            break;
+        }
+    }
+    // In contact, later leads only add lead cost; the first contact lies
+    // within the step before.
+    let mut closest_m = match first_contact {
+        None => f64::INFINITY,
+        Some(0) => 0.0,
+        Some(k) => IN_PATH_LEAD_COST_M_PER_S * first_contact_s(gap_m, lead_s(k) - IN_PATH_LEAD_STEP_S, lead_s(k)),
+    };
+    let clear = first_contact.unwrap_or(LEADS + 1);
+    let with_cost = |k: usize, gap: f64| gap + IN_PATH_LEAD_COST_M_PER_S * lead_s(k);
+    for k in 0..clear {
+        if let Some(gap) = gaps[k] {
+            closest_m = closest_m.min(with_cost(k, gap));
+        }
+    }
+    // The rest, the most promising bound first.
+    let promising = (0..clear)
+        .filter(|&k| gaps[k].is_none())
+        .min_by(|&x, &y| with_cost(x, bounds[x]).total_cmp(&with_cost(y, bounds[y])));
+    for k in promising.into_iter().chain(0..clear) {
+        if gaps[k].is_some() {
+            continue;
+        }
+        let bound = with_cost(k, bounds[k]);
+        if bound >= closest_m || (!bound.is_nan() && settled(bound)) {
+            continue;
+        }
+        let gap = gap_m(lead_s(k));
+        gaps[k] = Some(gap);
+        closest_m = closest_m.min(with_cost(k, gap));
+    }
+    closest_m
 }
 
 /// The first lead in contact between `clear_s` (boxes apart) and
@@ -133,21 +220,31 @@ fn first_contact_s(gap_m: &impl Fn(f64) -> f64, clear_s: f64, touching_s: f64) -
 
 /// The in-path loss of the CBV at `cbv` (body `cbv_body`) for the ego at
 /// `ego_next` (its constant-velocity prediction at the end of the token,
-/// body `ego_body`); see the module.
-pub(super) fn in_path_loss(ego_next: &AgentState, ego_body: AgentBody, cbv: &AgentState, cbv_body: AgentBody) -> f64 {
-    let approach = PathApproach::of(ego_next, ego_body, cbv, cbv_body);
-    if approach.ahead() { approach.closest_m } else { approach.closest_m + NOT_AHEAD_PENALTY_M }
+/// body `ego_body`); see the module. It is exact where `settled` (a
+/// monotone test of a loss: once true, true for every larger one) is false
+/// of it, else settled and no less than it: for a caller to whom every
+/// loss past some point is alike, and which need not pay for the exact one
+/// there (`|_| false`: always exact).
+pub(super) fn in_path_loss_unless(
+    ego_next: &AgentState,
+    ego_body: AgentBody,
+    cbv: &AgentState,
+    cbv_body: AgentBody,
+    settled: impl Fn(f64) -> bool,
+) -> f64 {
+    PathApproach::of(ego_next, ego_body, cbv, cbv_body, |a| settled(a.in_path_loss())).in_path_loss()
 }
 
 /// The cut-in loss of `safer-cut-in`, for the same arguments as
-/// [`in_path_loss`]; see the module.
-pub(super) fn cut_in_loss(ego_next: &AgentState, ego_body: AgentBody, cbv: &AgentState, cbv_body: AgentBody) -> f64 {
-    let approach = PathApproach::of(ego_next, ego_body, cbv, cbv_body);
-    if approach.ahead() {
-        approach.closest_m + CUT_IN_LATERAL_COST * approach.lateral_m
-    } else {
-        approach.closest_m + (CUT_IN_NOT_AHEAD_COST * approach.short_of_front_m).min(NOT_AHEAD_PENALTY_M)
-    }
+/// [`in_path_loss_unless`]; see the module.
+pub(super) fn cut_in_loss_unless(
+    ego_next: &AgentState,
+    ego_body: AgentBody,
+    cbv: &AgentState,
+    cbv_body: AgentBody,
+    settled: impl Fn(f64) -> bool,
+) -> f64 {
+    PathApproach::of(ego_next, ego_body, cbv, cbv_body, |a| settled(a.cut_in_loss())).cut_in_loss()
 }
 
 #[cfg(test)]
@@ -155,6 +252,14 @@ mod tests {
     use super::*;
     use crate::policies::adversary::test_support::car;
     use crate::scenario::AgentKind;
+
+    fn in_path_loss(ego_next: &AgentState, ego_body: AgentBody, cbv: &AgentState, cbv_body: AgentBody) -> f64 {
+        in_path_loss_unless(ego_next, ego_body, cbv, cbv_body, |_| false)
+    }
+
+    fn cut_in_loss(ego_next: &AgentState, ego_body: AgentBody, cbv: &AgentState, cbv_body: AgentBody) -> f64 {
+        cut_in_loss_unless(ego_next, ego_body, cbv, cbv_body, |_| false)
+    }
 
     const CAR: AgentBody = AgentBody { kind: AgentKind::Vehicle, length_m: 4.5, width_m: 2.0 };
 

@@ -78,16 +78,47 @@ pub(super) struct FirstTokens<'a> {
 }
 
 /// One continuation of the beam: which first token it extends, where the
-/// CBV is at its end, its box distance to the ego there (a contact ends
-/// it) and its objective there (the beam keeps the best).
-#[derive(Clone)]
+/// CBV is at its end and its objective there (the beam keeps the best).
 struct Continuation {
     root: usize,
     /// Its tokens after the first token.
     path: Vec<Token>,
     state: KinematicState,
-    distance_m: f64,
     score_m: f64,
+}
+
+/// A continuation of the beam one token on: a [`Continuation`] that names
+/// its parent rather than copying its path, since of the beam's width
+/// squared children only the beam's width and the few that lower a loss
+/// ever need one. Its box distance to the ego (a contact ends it) is kept
+/// for the judging.
+struct Child {
+    root: usize,
+    /// Its parent's place in the beam.
+    parent: usize,
+    token: Token,
+    state: KinematicState,
+    /// `state` as an agent state.
+    at: AgentState,
+    distance_m: f64,
+    /// Its objective; at the last depth exact only where it lowers its
+    /// first token's loss.
+    score_m: f64,
+}
+
+impl Child {
+    /// Its tokens after the first token.
+    fn path(&self, beam: &[Continuation]) -> Vec<Token> {
+        let parent = &beam[self.parent].path;
+        let mut path = Vec::with_capacity(parent.len() + 1);
+        path.extend_from_slice(parent);
+        path.push(self.token);
+        path
+    }
+
+    fn continuation(&self, beam: &[Continuation]) -> Continuation {
+        Continuation { root: self.root, path: self.path(beam), state: self.state, score_m: self.score_m }
+    }
 }
 
 /// The continuation that gave a first token its loss.
@@ -135,7 +166,6 @@ impl Lookahead<'_> {
                 root: i,
                 path: Vec::new(),
                 state: KinematicState::from_agent_state(&first.states[i]),
-                distance_m: first.distances_m[i],
                 score_m: first.scores_m[i],
             })
             .collect();
@@ -147,17 +177,21 @@ impl Lookahead<'_> {
                 AgentState { position: self.ego_now.position + self.ego_now.velocity_mps * ahead_s, ..self.ego_now };
             let ego_box = self.ego_body.footprint(&ego);
             let delay_m = LOOKAHEAD_DELAY_PENALTY_M * (depth - 1) as f64;
-            let mut children: Vec<Continuation> = Vec::with_capacity(beam.len() * self.candidates.len());
-            for parent in &beam {
-                for &t in self.candidates {
-                    let end = TokenGrid::rollout(&parent.state, t)[TOKEN_PERIOD_STEPS - 1];
-                    let at = end.to_agent_state();
-                    let distance_m = ego_box.distance(&self.cbv_body.footprint(&at));
-                    let score_m = self.objective.loss(&ego, self.ego_body, &at, self.cbv_body, distance_m);
-                    let mut path = Vec::with_capacity(parent.path.len() + 1);
-                    path.extend_from_slice(&parent.path);
-                    path.push(t);
-                    children.push(Continuation { root: parent.root, path, state: end, distance_m, score_m });
+            let ego_sin_cos = ego.heading_rad.sin_cos();
+            // At the last depth no beam is kept: a continuation only
+            // matters if it lowers its first token's loss, so its score
+            // need not be exact where it cannot.
+            let last = depth == self.tokens;
+            let mut children: Vec<Child> = Vec::with_capacity(beam.len() * self.candidates.len());
+            for (parent, p) in beam.iter().enumerate() {
+                let settled = |score_m: f64| last && !(score_m.max(0.0) + delay_m < losses[p.root]);
+                for &token in self.candidates {
+                    let (end, end_sin_cos) = TokenGrid::rollout_with_sin_cos(&p.state, token)[TOKEN_PERIOD_STEPS - 1];
+                    let at = end.to_agent_state_with_sin_cos(end_sin_cos);
+                    let distance_m = ego_box.distance_with_sin_cos(&self.cbv_body.footprint(&at), ego_sin_cos);
+                    let score_m =
+                        self.objective.loss_unless(&ego, self.ego_body, &at, self.cbv_body, distance_m, settled);
+                    children.push(Child { root: p.root, parent, token, state: end, at, distance_m, score_m });
                 }
             }
             // Whether a continuation stays on the road and is feasible (or
@@ -171,9 +205,13 @@ impl Lookahead<'_> {
                 .collect();
             // The next beam's candidates: non-contacts by score, ties to the
             // likelier first token, then the order they were made in.
-            let mut order: Vec<usize> = (0..children.len()).filter(|&i| children[i].distance_m > 0.0).collect();
-            order.sort_by(|&x, &y| Self::rank(&children[x], &children[y]).then(x.cmp(&y)));
-            let width = if depth < self.tokens { self.candidates.len() } else { 0 };
+            let width = if last { 0 } else { self.candidates.len() };
+            let mut order: Vec<usize> =
+                (0..children.len()).filter(|&i| width > 0 && children[i].distance_m > 0.0).collect();
+            order.sort_by(|&x, &y| {
+                let (a, b) = (&children[x], &children[y]);
+                Self::rank((a.score_m, a.root), (b.score_m, b.root)).then(x.cmp(&y))
+            });
             let mut kept = vec![None; children.len()];
             let first_batch: Vec<usize> = lowering.iter().chain(order.iter().take(width)).copied().collect();
             self.judge(&children, &first_batch, &mut kept, (ego, ahead_steps), feasibility, feasibility_s)?;
@@ -185,7 +223,7 @@ impl Lookahead<'_> {
                 let score_m = c.score_m.max(0.0) + delay_m;
                 if kept[i] == Some(true) && score_m < losses[c.root] {
                     losses[c.root] = score_m;
-                    lowered[c.root] = Some(Lowering { path: c.path.clone(), distance_m: c.distance_m });
+                    lowered[c.root] = Some(Lowering { path: c.path(&beam), distance_m: c.distance_m });
                 }
             }
             // A contact ends its continuation; the beam keeps the best of the rest.
@@ -197,7 +235,7 @@ impl Lookahead<'_> {
                 self.judge(&children, &batch, &mut kept, (ego, ahead_steps), feasibility, feasibility_s)?;
                 next_beam.extend(batch.into_iter().filter(|&i| kept[i] == Some(true)));
             }
-            beam = next_beam.into_iter().map(|i| children[i].clone()).collect();
+            beam = next_beam.into_iter().map(|i| children[i].continuation(&beam)).collect();
         }
         Ok(lowered)
     }
@@ -210,7 +248,7 @@ impl Lookahead<'_> {
     /// scope, room for it to escape).
     fn judge(
         &self,
-        children: &[Continuation],
+        children: &[Child],
         which: &[usize],
         kept: &mut [Option<bool>],
         (ego, ahead_steps): (AgentState, usize),
@@ -222,7 +260,7 @@ impl Lookahead<'_> {
             if kept[i].is_some() {
                 continue;
             }
-            let at = children[i].state.to_agent_state();
+            let at = children[i].at;
             if self.on_road_now && self.world.map.is_off_road_within_map(&at.position) {
                 kept[i] = Some(false);
             } else if children[i].distance_m <= 0.0 || feasibility.is_none() {
@@ -235,7 +273,7 @@ impl Lookahead<'_> {
         if let Some(oracle) = feasibility
             && !ask.is_empty()
         {
-            let states: Vec<AgentState> = ask.iter().map(|&i| children[i].state.to_agent_state()).collect();
+            let states: Vec<AgentState> = ask.iter().map(|&i| children[i].at).collect();
             let mut values = feasibility_values(oracle, &states, ego, self.ego_body, self.cbv_body, feasibility_s)?;
             if let Some(room) = self.room {
                 veto_without_room(room, &mut values, &states, &ego, ahead_steps);
@@ -250,14 +288,14 @@ impl Lookahead<'_> {
     /// Keeps the `width` continuations of the best score (ties: the
     /// likelier first token, then the order they were made in).
     fn keep_best(beam: &mut Vec<Continuation>, width: usize) {
-        beam.sort_by(Self::rank);
+        beam.sort_by(|a, b| Self::rank((a.score_m, a.root), (b.score_m, b.root)));
         beam.truncate(width);
     }
 
     /// The beam's order: the better score first, ties to the likelier
     /// first token (a stable sort then keeps the order they were made in).
-    fn rank(a: &Continuation, b: &Continuation) -> std::cmp::Ordering {
-        a.score_m.total_cmp(&b.score_m).then(a.root.cmp(&b.root))
+    fn rank((score_a, root_a): (f64, usize), (score_b, root_b): (f64, usize)) -> std::cmp::Ordering {
+        score_a.total_cmp(&score_b).then(root_a.cmp(&root_b))
     }
 }
 

@@ -3,7 +3,7 @@
 //! (`in_path`) that draw the CBV into the ego's path. The one-step choice
 //! and the lookahead score candidates through it alike.
 
-use super::in_path::{cut_in_loss, in_path_loss};
+use super::in_path::{cut_in_loss_unless, in_path_loss_unless};
 use crate::scenario::{AgentBody, AgentState};
 
 /// What a feasible candidate's loss measures.
@@ -43,10 +43,28 @@ impl Objective {
         cbv_body: AgentBody,
         distance_m: f64,
     ) -> f64 {
+        self.loss_unless(ego_next, ego_body, cbv, cbv_body, distance_m, |_| false)
+    }
+
+    /// [`Self::loss`], exact where `settled` (a monotone test of a loss:
+    /// once true, true for every larger one) is false of it, else settled
+    /// and no less than it: for a caller to whom every loss past some
+    /// point is alike (the lookahead's last token, which only asks whether
+    /// a continuation lowers its first token's loss), and which need not
+    /// pay for the exact one there.
+    pub(super) fn loss_unless(
+        self,
+        ego_next: &AgentState,
+        ego_body: AgentBody,
+        cbv: &AgentState,
+        cbv_body: AgentBody,
+        distance_m: f64,
+        settled: impl Fn(f64) -> bool,
+    ) -> f64 {
         match self {
             Objective::Contact => distance_m,
-            Objective::InPath => in_path_loss(ego_next, ego_body, cbv, cbv_body),
-            Objective::CutIn => cut_in_loss(ego_next, ego_body, cbv, cbv_body),
+            Objective::InPath => in_path_loss_unless(ego_next, ego_body, cbv, cbv_body, settled),
+            Objective::CutIn => cut_in_loss_unless(ego_next, ego_body, cbv, cbv_body, settled),
         }
     }
 }
