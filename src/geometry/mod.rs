@@ -15,6 +15,7 @@ pub mod pose;
 
 pub use box_set::BoxSet;
 pub use oriented_box::OrientedBox;
+pub(crate) use oriented_box::SweptSeparation;
 pub use polygon::Polygon;
 pub use polyline::{Polyline, PolylineProjection};
 pub use pose::{Pose2, wrap_angle};

@@ -124,40 +124,6 @@ impl OrientedBox {
         distance_cuboid_cuboid(&self.relative_pose_with_sin_cos(other, sin_cos), &self.cuboid(), &other.cuboid()) as f64
     }
 
-    /// A lower bound of [`Self::distance`], m, from the separating axes
-    /// alone, with both boxes' headings' `sin_cos()` at hand: the widest
-    /// gap between the boxes' shadows on the four edge normals, less a
-    /// margin for the `f32` rounding of the exact query. It is the exact
-    /// distance whenever the nearest features are an edge and what faces
-    /// it, and never above it; at most 0 (no bound) where the shadows
-    /// overlap on every axis. NaN stays NaN, so that a caller comparing
-    /// it skips nothing.
-    ///
-    /// Its use is pruning: a caller that needs the least of many
-    /// distances asks the exact query only where this bound could still
-    /// beat the least so far, and gets the same least, bit for bit.
-    pub(crate) fn distance_lower_bound_with_sin_cos(
-        &self,
-        other: &OrientedBox,
-        (s1, c1): (f64, f64),
-        (s2, c2): (f64, f64),
-    ) -> f64 {
-        let d = other.pose.position - self.pose.position;
-        let (a1, b1) = (0.5 * self.length_m, 0.5 * self.width_m);
-        let (a2, b2) = (0.5 * other.length_m, 0.5 * other.width_m);
-        // |cos| and |sin| of the heading difference.
-        let (cos_d, sin_d) = ((c1 * c2 + s1 * s2).abs(), (s1 * c2 - c1 * s2).abs());
-        let shadow_gap = |(ax, ay): (f64, f64), reach: f64| (d.x * ax + d.y * ay).abs() - reach;
-        let gap = shadow_gap((c1, s1), a1 + a2 * cos_d + b2 * sin_d)
-            .max(shadow_gap((-s1, c1), b1 + a2 * sin_d + b2 * cos_d))
-            .max(shadow_gap((c2, s2), a2 + a1 * cos_d + b1 * sin_d))
-            .max(shadow_gap((-s2, c2), b2 + a1 * sin_d + b1 * cos_d));
-        // The exact query works in `f32` in this box's frame: a relative
-        // error of about 1e-7 of the offset and the sizes. A millimetre and
-        // 1e-5 of them is far above it and far below any gap that matters.
-        gap - (1e-3 + 1e-5 * (d.norm() + a1 + b1 + a2 + b2))
-    }
-
     /// The four corners, counter-clockwise starting front-left.
     pub fn corners(&self) -> [Point2; 4] {
         let (hl, hw) = (self.length_m * 0.5, self.width_m * 0.5);
@@ -167,6 +133,67 @@ impl OrientedBox {
             self.pose.from_body(&Vector2::new(-hl, -hw)),
             self.pose.from_body(&Vector2::new(hl, -hw)),
         ]
+    }
+}
+
+/// Lower bounds of [`OrientedBox::distance`] between a box moving at a
+/// constant velocity (without turning) and a box standing still, at any
+/// lead time up to a limit, from the separating axes alone: the widest
+/// gap between the boxes' shadows on the four edge normals, less a margin
+/// for the `f32` rounding of the exact query. A bound is the exact
+/// distance whenever the nearest features are an edge and what faces it,
+/// and never above it; at most 0 (no bound) where the shadows overlap on
+/// every axis; NaN where an input is, so that a caller comparing it skips
+/// nothing.
+///
+/// Its use is pruning: a caller that needs the least of many distances
+/// along the motion asks the exact query only where a bound could still
+/// beat the least so far, and gets the same least, bit for bit. A shadow
+/// moves linearly with the lead, so each bound costs a few operations.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct SweptSeparation {
+    /// Per edge normal: the offset's shadow at lead 0, its rate of change
+    /// (m/s), and the two boxes' half-widths on it together.
+    axes: [(f64, f64, f64); 4],
+    margin_m: f64,
+}
+
+impl SweptSeparation {
+    /// `moving` (its heading's `sin_cos()` at hand) moving at
+    /// `velocity_mps` for up to `max_lead_s`, against `still` (likewise).
+    pub(crate) fn new(
+        moving: &OrientedBox,
+        (s1, c1): (f64, f64),
+        velocity_mps: Vector2,
+        still: &OrientedBox,
+        (s2, c2): (f64, f64),
+        max_lead_s: f64,
+    ) -> Self {
+        let d = still.pose.position - moving.pose.position;
+        let (a1, b1) = (0.5 * moving.length_m, 0.5 * moving.width_m);
+        let (a2, b2) = (0.5 * still.length_m, 0.5 * still.width_m);
+        // |cos| and |sin| of the heading difference.
+        let (cos_d, sin_d) = ((c1 * c2 + s1 * s2).abs(), (s1 * c2 - c1 * s2).abs());
+        let axis = |(x, y): (f64, f64), reach: f64| (d.x * x + d.y * y, velocity_mps.x * x + velocity_mps.y * y, reach);
+        let axes = [
+            axis((c1, s1), a1 + a2 * cos_d + b2 * sin_d),
+            axis((-s1, c1), b1 + a2 * sin_d + b2 * cos_d),
+            axis((c2, s2), a2 + a1 * cos_d + b1 * sin_d),
+            axis((-s2, c2), b2 + a1 * sin_d + b1 * cos_d),
+        ];
+        // The exact query works in `f32` in the moving box's frame: a
+        // relative error of about 1e-7 of the offset and the sizes. A
+        // millimetre and 1e-5 of them is far above it and far below any
+        // gap that matters.
+        let farthest_m = d.norm() + velocity_mps.norm() * max_lead_s.abs();
+        Self { axes, margin_m: 1e-3 + 1e-5 * (farthest_m + a1 + b1 + a2 + b2) }
+    }
+
+    /// A lower bound of the distance `lead_s` seconds on (within the limit).
+    pub(crate) fn lower_bound_m(&self, lead_s: f64) -> f64 {
+        let gap = |&(shadow, rate, reach): &(f64, f64, f64)| (shadow - rate * lead_s).abs() - reach;
+        let [x, y, z, w] = &self.axes;
+        gap(x).max(gap(y)).max(gap(z)).max(gap(w)) - self.margin_m
     }
 }
 
@@ -230,9 +257,10 @@ mod tests {
 
     #[test]
     fn the_separating_axis_bound_never_exceeds_the_distance_and_is_tight_face_to_face() {
-        let bound = |a: &OrientedBox, b: &OrientedBox| {
-            a.distance_lower_bound_with_sin_cos(b, a.pose.heading_rad.sin_cos(), b.pose.heading_rad.sin_cos())
-        };
+        let sin_cos = |b: &OrientedBox| b.pose.heading_rad.sin_cos();
+        let swept =
+            |a: &OrientedBox, v: Vector2, b: &OrientedBox| SweptSeparation::new(a, sin_cos(a), v, b, sin_cos(b), 1.5);
+        let bound = |a: &OrientedBox, b: &OrientedBox| swept(a, Vector2::zeros(), b).lower_bound_m(0.0);
         let truck = |x: f64, y: f64, h: f64| OrientedBox::new(Pose2::new(x, y, h), 12.0, 2.5);
         let (mut tight, mut pairs) = (0, 0);
         for i in -30..=30 {
@@ -248,6 +276,17 @@ mod tests {
         }
         // Most pairs of the grid are an edge facing a side: tight there.
         assert!(tight * 2 > pairs, "{tight} of {pairs}");
+        // Moving: the bound at a lead is the bound of the box moved there.
+        let v = Vector2::new(14.0, -3.0);
+        for lead_s in [0.0, 0.3, 0.7, 1.5] {
+            for (h, y) in [(0.0, 3.0), (0.4, -4.0), (2.0, 0.0)] {
+                let (a, b) = (car(0.0, 0.0, h), truck(12.0, y, -h));
+                let moved = OrientedBox { pose: Pose2 { position: a.pose.position + v * lead_s, ..a.pose }, ..a };
+                let lb = swept(&a, v, &b).lower_bound_m(lead_s);
+                assert!(lb <= moved.distance(&b), "{lead_s} {h} {y}");
+                assert!((lb - bound(&moved, &b)).abs() < 1e-3, "{lead_s} {h} {y}");
+            }
+        }
         // Nose to tail 5.5 m apart: the bound is the gap, less its margin.
         let (a, b) = (car(0.0, 0.0, 0.0), car(10.0, 0.0, 0.0));
         assert!((bound(&a, &b) - 5.5).abs() < 2e-3, "{}", bound(&a, &b));

@@ -42,7 +42,7 @@
 //! gains by drawing ahead of it (where a flat penalty leaves it hugging
 //! the ego's side, the one move that lowers the box distance).
 
-use crate::geometry::Vector2;
+use crate::geometry::{SweptSeparation, Vector2};
 use crate::scenario::{AgentBody, AgentState};
 
 /// The farthest lead time the in-path loss looks at, s.
@@ -106,14 +106,20 @@ impl PathApproach {
         let lateral_m = offset.dot(&Vector2::new(-sin, cos)).abs();
         let placed = Self { closest_m: f64::INFINITY, short_of_front_m: 0.5 * ego_body.length_m - ahead_m, lateral_m };
         let cbv_box = cbv_body.footprint(cbv);
-        let cbv_sin_cos = cbv.heading_rad.sin_cos();
         let ego_then = |lead_s: f64| {
             ego_body
                 .footprint(&AgentState { position: ego_next.position + ego_next.velocity_mps * lead_s, ..*ego_next })
         };
         let gap_m = |lead_s: f64| ego_then(lead_s).distance_with_sin_cos(&cbv_box, ego_sin_cos);
-        let lower_bound_m =
-            |lead_s: f64| ego_then(lead_s).distance_lower_bound_with_sin_cos(&cbv_box, ego_sin_cos, cbv_sin_cos);
+        let swept = SweptSeparation::new(
+            &ego_body.footprint(ego_next),
+            ego_sin_cos,
+            ego_next.velocity_mps,
+            &cbv_box,
+            cbv.heading_rad.sin_cos(),
+            IN_PATH_MAX_LEAD_S,
+        );
+        let lower_bound_m = |lead_s: f64| swept.lower_bound_m(lead_s);
         let closest_m = closest_approach_m(lower_bound_m, &gap_m, |closest_m| settled(&Self { closest_m, ..placed }));
         Self { closest_m, ..placed }
     }
