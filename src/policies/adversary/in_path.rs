@@ -42,7 +42,7 @@
 //! gains by drawing ahead of it (where a flat penalty leaves it hugging
 //! the ego's side, the one move that lowers the box distance).
 
-use crate::geometry::{SweptSeparation, Vector2};
+use crate::geometry::{OrientedBox, SweptSeparation, Vector2};
 use crate::scenario::{AgentBody, AgentState};
 
 /// The farthest lead time the in-path loss looks at, s.
@@ -55,6 +55,9 @@ pub const IN_PATH_LEAD_COST_M_PER_S: f64 = 1.0;
 /// The lead step of the in-path loss, s (the simulation step): fine
 /// enough that a CBV crossing the ego's path is not stepped over.
 pub const IN_PATH_LEAD_STEP_S: f64 = 0.1;
+
+/// How many lead steps the in-path loss looks ahead.
+const LEAD_STEPS: usize = (IN_PATH_MAX_LEAD_S / IN_PATH_LEAD_STEP_S + 0.5) as usize;
 
 /// Halvings of a lead step that place the first contact (0.1 s / 2¹⁰:
 /// about 0.1 ms, a centimetre at freeway speed).
@@ -100,28 +103,54 @@ impl PathApproach {
         settled: impl Fn(&PathApproach) -> bool,
     ) -> Self {
         let ego_sin_cos = ego_next.heading_rad.sin_cos();
-        let (sin, cos) = ego_sin_cos;
-        let offset = cbv.position - ego_next.position;
-        let ahead_m = offset.dot(&Vector2::new(cos, sin));
-        let lateral_m = offset.dot(&Vector2::new(-sin, cos)).abs();
-        let placed = Self { closest_m: f64::INFINITY, short_of_front_m: 0.5 * ego_body.length_m - ahead_m, lateral_m };
+        let placed = Self::placed(ego_next, ego_body, cbv, ego_sin_cos);
         let cbv_box = cbv_body.footprint(cbv);
         let ego_then = |lead_s: f64| {
             ego_body
                 .footprint(&AgentState { position: ego_next.position + ego_next.velocity_mps * lead_s, ..*ego_next })
         };
         let gap_m = |lead_s: f64| ego_then(lead_s).distance_with_sin_cos(&cbv_box, ego_sin_cos);
-        let swept = SweptSeparation::new(
-            &ego_body.footprint(ego_next),
-            ego_sin_cos,
-            ego_next.velocity_mps,
-            &cbv_box,
-            cbv.heading_rad.sin_cos(),
-            IN_PATH_MAX_LEAD_S,
-        );
+        let swept = Self::swept(ego_next, ego_body, cbv, &cbv_box, ego_sin_cos);
         let lower_bound_m = |lead_s: f64| swept.lower_bound_m(lead_s);
         let closest_m = closest_approach_m(lower_bound_m, &gap_m, |closest_m| settled(&Self { closest_m, ..placed }));
         Self { closest_m, ..placed }
+    }
+
+    /// [`Self::of`] with a lower bound of `closest_m` in its place, from
+    /// the separating axes alone (no exact box distance).
+    fn lower_bound(ego_next: &AgentState, ego_body: AgentBody, cbv: &AgentState, cbv_body: AgentBody) -> Self {
+        let ego_sin_cos = ego_next.heading_rad.sin_cos();
+        let placed = Self::placed(ego_next, ego_body, cbv, ego_sin_cos);
+        let swept = Self::swept(ego_next, ego_body, cbv, &cbv_body.footprint(cbv), ego_sin_cos);
+        Self { closest_m: closest_lower_bound_m(|lead_s| swept.lower_bound_m(lead_s)), ..placed }
+    }
+
+    /// Where the CBV's centre is against the ego's front bumper and
+    /// heading line (`closest_m` still to be worked out: infinite).
+    fn placed(ego_next: &AgentState, ego_body: AgentBody, cbv: &AgentState, (sin, cos): (f64, f64)) -> Self {
+        let offset = cbv.position - ego_next.position;
+        let ahead_m = offset.dot(&Vector2::new(cos, sin));
+        let lateral_m = offset.dot(&Vector2::new(-sin, cos)).abs();
+        Self { closest_m: f64::INFINITY, short_of_front_m: 0.5 * ego_body.length_m - ahead_m, lateral_m }
+    }
+
+    /// The separating-axis bounds of the ego's footprint moving along its
+    /// path against the CBV's box.
+    fn swept(
+        ego_next: &AgentState,
+        ego_body: AgentBody,
+        cbv: &AgentState,
+        cbv_box: &OrientedBox,
+        ego_sin_cos: (f64, f64),
+    ) -> SweptSeparation {
+        SweptSeparation::new(
+            &ego_body.footprint(ego_next),
+            ego_sin_cos,
+            ego_next.velocity_mps,
+            cbv_box,
+            cbv.heading_rad.sin_cos(),
+            IN_PATH_MAX_LEAD_S,
+        )
     }
 
     fn ahead(&self) -> bool {
@@ -160,14 +189,13 @@ fn closest_approach_m(
     gap_m: &impl Fn(f64) -> f64,
     settled: impl Fn(f64) -> bool,
 ) -> f64 {
-    const LEADS: usize = (IN_PATH_MAX_LEAD_S / IN_PATH_LEAD_STEP_S + 0.5) as usize;
     let lead_s = |k: usize| k as f64 * IN_PATH_LEAD_STEP_S;
-    let bounds: [f64; LEADS + 1] = std::array::from_fn(|k| lower_bound_m(lead_s(k)));
-    let mut gaps = [None; LEADS + 1];
+    let bounds: [f64; LEAD_STEPS + 1] = std::array::from_fn(|k| lower_bound_m(lead_s(k)));
+    let mut gaps = [None; LEAD_STEPS + 1];
     // The first lead step in contact: only a step whose bound allows
     // contact (or is NaN) can be.
     let mut first_contact = None;
-    for k in 0..=LEADS {
+    for k in 0..=LEAD_STEPS {
         if bounds[k] > 0.0 {
             continue;
         }
@@ -185,7 +213,7 @@ fn closest_approach_m(
         Some(0) => 0.0,
         Some(k) => IN_PATH_LEAD_COST_M_PER_S * first_contact_s(gap_m, lead_s(k) - IN_PATH_LEAD_STEP_S, lead_s(k)),
     };
-    let clear = first_contact.unwrap_or(LEADS + 1);
+    let clear = first_contact.unwrap_or(LEAD_STEPS + 1);
     let with_cost = |k: usize, gap: f64| gap + IN_PATH_LEAD_COST_M_PER_S * lead_s(k);
     for k in 0..clear {
         if let Some(gap) = gaps[k] {
@@ -209,6 +237,28 @@ fn closest_approach_m(
         closest_m = closest_m.min(with_cost(k, gap));
     }
     closest_m
+}
+
+/// A lower bound of [`closest_approach_m`] from the lower bounds of the
+/// gaps alone (`lower_bound_m` as there): no lead step's gap plus lead
+/// cost is below its bound's, and a first contact, possible only at a step
+/// whose bound allows it, lies after the step before the first such.
+/// NaN bounds give minus infinity (no bound).
+fn closest_lower_bound_m(lower_bound_m: impl Fn(f64) -> f64) -> f64 {
+    let lead_s = |k: usize| k as f64 * IN_PATH_LEAD_STEP_S;
+    let mut least_m = f64::INFINITY;
+    for k in 0..=LEAD_STEPS {
+        let bound = lower_bound_m(lead_s(k));
+        if bound.is_nan() {
+            return f64::NEG_INFINITY;
+        }
+        if bound <= 0.0 {
+            let contact_m = if k == 0 { 0.0 } else { IN_PATH_LEAD_COST_M_PER_S * (lead_s(k) - IN_PATH_LEAD_STEP_S) };
+            return least_m.min(contact_m);
+        }
+        least_m = least_m.min(bound + IN_PATH_LEAD_COST_M_PER_S * lead_s(k));
+    }
+    least_m
 }
 
 /// The first lead in contact between `clear_s` (boxes apart) and
@@ -251,6 +301,29 @@ pub(super) fn cut_in_loss_unless(
     settled: impl Fn(f64) -> bool,
 ) -> f64 {
     PathApproach::of(ego_next, ego_body, cbv, cbv_body, |a| settled(a.cut_in_loss())).cut_in_loss()
+}
+
+/// A lower bound of [`in_path_loss_unless`]'s exact loss, from the
+/// separating axes alone: for a caller ranking many candidates, which
+/// works out the exact loss only of those whose bound could still win.
+pub(super) fn in_path_loss_lower_bound(
+    ego_next: &AgentState,
+    ego_body: AgentBody,
+    cbv: &AgentState,
+    cbv_body: AgentBody,
+) -> f64 {
+    PathApproach::lower_bound(ego_next, ego_body, cbv, cbv_body).in_path_loss()
+}
+
+/// A lower bound of [`cut_in_loss_unless`]'s exact loss, as
+/// [`in_path_loss_lower_bound`].
+pub(super) fn cut_in_loss_lower_bound(
+    ego_next: &AgentState,
+    ego_body: AgentBody,
+    cbv: &AgentState,
+    cbv_body: AgentBody,
+) -> f64 {
+    PathApproach::lower_bound(ego_next, ego_body, cbv, cbv_body).cut_in_loss()
 }
 
 #[cfg(test)]

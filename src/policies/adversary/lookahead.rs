@@ -4,13 +4,14 @@
 //! under the search's objective, inside the same constraints as the
 //! one-step choice.
 
+use super::continuations::{Child, Continuations};
 use super::escape_room::{EscapeRoom, veto_without_room};
 use super::feasibility::feasibility_values;
 use super::objective::Objective;
 use crate::models::ModelError;
 use crate::models::feasibility_oracle::FeasibilityOracle;
 use crate::motion::KinematicState;
-use crate::motion::tokens::{TOKEN_PERIOD_S, TOKEN_PERIOD_STEPS, Token, TokenGrid};
+use crate::motion::tokens::{TOKEN_PERIOD_S, TOKEN_PERIOD_STEPS, Token};
 use crate::policies::WorldView;
 use crate::scenario::AgentState;
 
@@ -87,25 +88,6 @@ struct Continuation {
     score_m: f64,
 }
 
-/// A continuation of the beam one token on: a [`Continuation`] that names
-/// its parent rather than copying its path, since of the beam's width
-/// squared children only the beam's width and the few that lower a loss
-/// ever need one. Its box distance to the ego (a contact ends it) is kept
-/// for the judging.
-struct Child {
-    root: usize,
-    /// Its parent's place in the beam.
-    parent: usize,
-    token: Token,
-    state: KinematicState,
-    /// `state` as an agent state.
-    at: AgentState,
-    distance_m: f64,
-    /// Its objective; at the last depth exact only where it lowers its
-    /// first token's loss.
-    score_m: f64,
-}
-
 impl Child {
     /// Its tokens after the first token.
     fn path(&self, beam: &[Continuation]) -> Vec<Token> {
@@ -114,10 +96,6 @@ impl Child {
         path.extend_from_slice(parent);
         path.push(self.token);
         path
-    }
-
-    fn continuation(&self, beam: &[Continuation]) -> Continuation {
-        Continuation { root: self.root, path: self.path(beam), state: self.state, score_m: self.score_m }
     }
 }
 
@@ -175,43 +153,34 @@ impl Lookahead<'_> {
             let ahead_steps = TOKEN_PERIOD_STEPS * depth;
             let ego =
                 AgentState { position: self.ego_now.position + self.ego_now.velocity_mps * ahead_s, ..self.ego_now };
-            let ego_box = self.ego_body.footprint(&ego);
             let delay_m = LOOKAHEAD_DELAY_PENALTY_M * (depth - 1) as f64;
-            let ego_sin_cos = ego.heading_rad.sin_cos();
-            // At the last depth no beam is kept: a continuation only
-            // matters if it lowers its first token's loss, so its score
-            // need not be exact where it cannot.
-            let last = depth == self.tokens;
-            let mut children: Vec<Child> = Vec::with_capacity(beam.len() * self.candidates.len());
-            for (parent, p) in beam.iter().enumerate() {
-                let settled = |score_m: f64| last && !(score_m.max(0.0) + delay_m < losses[p.root]);
-                for &token in self.candidates {
-                    let (end, end_sin_cos) = TokenGrid::rollout_with_sin_cos(&p.state, token)[TOKEN_PERIOD_STEPS - 1];
-                    let at = end.to_agent_state_with_sin_cos(end_sin_cos);
-                    let distance_m = ego_box.distance_with_sin_cos(&self.cbv_body.footprint(&at), ego_sin_cos);
-                    let score_m =
-                        self.objective.loss_unless(&ego, self.ego_body, &at, self.cbv_body, distance_m, settled);
-                    children.push(Child { root: p.root, parent, token, state: end, at, distance_m, score_m });
-                }
-            }
+            let mut children = Continuations::new(
+                beam.iter().map(|c| (c.root, c.state)),
+                self.candidates,
+                ego,
+                (self.ego_body, self.cbv_body),
+                self.objective,
+            );
+            // The ones that would lower their first token's loss: exact
+            // scores only where a bound leaves it open.
+            let lowers = |score_m: f64, root: usize| score_m.max(0.0) + delay_m < losses[root];
+            let lowering: Vec<usize> = (0..children.len())
+                .filter(|&i| {
+                    let root = children.child(i).root;
+                    lowers(children.score_unless(i, |s| !lowers(s, root)), root)
+                })
+                .collect();
             // Whether a continuation stays on the road and is feasible (or
             // a contact) is asked only of those whose answer can change the
             // outcome: the ones that would lower their first token's loss,
-            // and the best-scored until the next beam is full. The rest are
-            // never kept, whatever the answer: the same search, with a tenth
-            // of the V_h queries.
-            let lowering: Vec<usize> = (0..children.len())
-                .filter(|&i| children[i].score_m.max(0.0) + delay_m < losses[children[i].root])
-                .collect();
-            // The next beam's candidates: non-contacts by score, ties to the
-            // likelier first token, then the order they were made in.
-            let width = if last { 0 } else { self.candidates.len() };
-            let mut order: Vec<usize> =
-                (0..children.len()).filter(|&i| width > 0 && children[i].distance_m > 0.0).collect();
-            order.sort_by(|&x, &y| {
-                let (a, b) = (&children[x], &children[y]);
-                Self::rank((a.score_m, a.root), (b.score_m, b.root)).then(x.cmp(&y))
-            });
+            // and the best-scored until the next beam is full (none at the
+            // last depth). The rest are never kept, whatever the answer: the
+            // same search, with a tenth of the V_h queries. The next beam's
+            // candidates come in score order (non-contacts only, ties to the
+            // likelier first token, then the order they were made in).
+            let width = if depth < self.tokens { self.candidates.len() } else { 0 };
+            let mut order: Vec<usize> = Vec::with_capacity(width);
+            children.extend_order(&mut order, width);
             let mut kept = vec![None; children.len()];
             let first_batch: Vec<usize> = lowering.iter().chain(order.iter().take(width)).copied().collect();
             self.judge(&children, &first_batch, &mut kept, (ego, ahead_steps), feasibility, feasibility_s)?;
@@ -219,23 +188,33 @@ impl Lookahead<'_> {
             // paper's, the not-ahead penalty for the in-path ones' CBV
             // running into the ego from behind or the side.
             for &i in &lowering {
-                let c = &children[i];
-                let score_m = c.score_m.max(0.0) + delay_m;
+                let c = children.child(i);
+                let score_m = children.score_m(i).max(0.0) + delay_m;
                 if kept[i] == Some(true) && score_m < losses[c.root] {
                     losses[c.root] = score_m;
-                    lowered[c.root] = Some(Lowering { path: c.path(&beam), distance_m: c.distance_m });
+                    lowered[c.root] = Some(Lowering { path: c.path(&beam), distance_m: children.distance_m(i) });
                 }
             }
             // A contact ends its continuation; the beam keeps the best of the rest.
             let mut next_beam: Vec<usize> = Vec::with_capacity(width);
             let mut asked = 0;
-            while next_beam.len() < width && asked < order.len() {
+            loop {
+                children.extend_order(&mut order, asked + width - next_beam.len());
+                if next_beam.len() >= width || asked >= order.len() {
+                    break;
+                }
                 let batch: Vec<usize> = order[asked..].iter().take(width - next_beam.len()).copied().collect();
                 asked += batch.len();
                 self.judge(&children, &batch, &mut kept, (ego, ahead_steps), feasibility, feasibility_s)?;
                 next_beam.extend(batch.into_iter().filter(|&i| kept[i] == Some(true)));
             }
-            beam = next_beam.into_iter().map(|i| children[i].continuation(&beam)).collect();
+            beam = next_beam
+                .into_iter()
+                .map(|i| {
+                    let c = children.child(i);
+                    Continuation { root: c.root, path: c.path(&beam), state: c.state, score_m: children.score_m(i) }
+                })
+                .collect();
         }
         Ok(lowered)
     }
@@ -248,7 +227,7 @@ impl Lookahead<'_> {
     /// scope, room for it to escape).
     fn judge(
         &self,
-        children: &[Child],
+        children: &Continuations,
         which: &[usize],
         kept: &mut [Option<bool>],
         (ego, ahead_steps): (AgentState, usize),
@@ -260,10 +239,10 @@ impl Lookahead<'_> {
             if kept[i].is_some() {
                 continue;
             }
-            let at = children[i].at;
+            let at = children.child(i).at;
             if self.on_road_now && self.world.map.is_off_road_within_map(&at.position) {
                 kept[i] = Some(false);
-            } else if children[i].distance_m <= 0.0 || feasibility.is_none() {
+            } else if feasibility.is_none() || children.distance_m(i) <= 0.0 {
                 kept[i] = Some(true);
             } else {
                 kept[i] = Some(false);
@@ -273,7 +252,7 @@ impl Lookahead<'_> {
         if let Some(oracle) = feasibility
             && !ask.is_empty()
         {
-            let states: Vec<AgentState> = ask.iter().map(|&i| children[i].at).collect();
+            let states: Vec<AgentState> = ask.iter().map(|&i| children.child(i).at).collect();
             let mut values = feasibility_values(oracle, &states, ego, self.ego_body, self.cbv_body, feasibility_s)?;
             if let Some(room) = self.room {
                 veto_without_room(room, &mut values, &states, &ego, ahead_steps);

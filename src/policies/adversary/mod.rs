@@ -78,6 +78,7 @@ mod behaviours;
 mod broad_phase;
 mod choice;
 mod contact_witness;
+mod continuations;
 mod escape_room;
 mod feasibility;
 mod in_path;

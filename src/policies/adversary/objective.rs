@@ -3,7 +3,7 @@
 //! (`in_path`) that draw the CBV into the ego's path. The one-step choice
 //! and the lookahead score candidates through it alike.
 
-use super::in_path::{cut_in_loss_unless, in_path_loss_unless};
+use super::in_path::{cut_in_loss_lower_bound, cut_in_loss_unless, in_path_loss_lower_bound, in_path_loss_unless};
 use crate::scenario::{AgentBody, AgentState};
 
 /// What a feasible candidate's loss measures.
@@ -65,6 +65,25 @@ impl Objective {
             Objective::Contact => distance_m,
             Objective::InPath => in_path_loss_unless(ego_next, ego_body, cbv, cbv_body, settled),
             Objective::CutIn => cut_in_loss_unless(ego_next, ego_body, cbv, cbv_body, settled),
+        }
+    }
+
+    /// A lower bound of [`Self::loss`] from the separating axes alone (no
+    /// exact box distance), `distance_lower_bound_m` one of the box
+    /// distance: for a caller ranking many candidates, which works out the
+    /// exact loss only of those whose bound could still win.
+    pub(super) fn loss_lower_bound(
+        self,
+        ego_next: &AgentState,
+        ego_body: AgentBody,
+        cbv: &AgentState,
+        cbv_body: AgentBody,
+        distance_lower_bound_m: f64,
+    ) -> f64 {
+        match self {
+            Objective::Contact => distance_lower_bound_m,
+            Objective::InPath => in_path_loss_lower_bound(ego_next, ego_body, cbv, cbv_body),
+            Objective::CutIn => cut_in_loss_lower_bound(ego_next, ego_body, cbv, cbv_body),
         }
     }
 }

@@ -1,0 +1,237 @@
+//! The lookahead's continuations one token on ([`Continuations`]): where
+//! each leaves the CBV, and its box distance to the ego and its objective
+//! there, worked out exactly only when the search needs them.
+//!
+//! A beam as wide as the trust region makes its width squared children a
+//! depth (3 600 over 60 behaviours), and the search keeps the beam's
+//! width of them and the few that lower a first token's loss. Every child
+//! gets cheap lower bounds from the separating axes; the exact box
+//! distances (the costly part) are asked only where a bound could still
+//! put a child among those, and [`Continuations::next_in_order`] hands
+//! out the children in exactly the order a full sort by exact score would:
+//! the same search, bit for bit, at a fraction of the cost.
+
+use std::cell::Cell;
+use std::cmp::{Ordering, Reverse};
+use std::collections::BinaryHeap;
+
+use super::objective::Objective;
+use crate::geometry::{OrientedBox, SweptSeparation, Vector2};
+use crate::motion::KinematicState;
+use crate::motion::tokens::{TOKEN_PERIOD_STEPS, Token, TokenGrid};
+use crate::scenario::{AgentBody, AgentState};
+
+/// One continuation one token on: which first token it extends, from
+/// which member of the beam, with which token, where the CBV is at its
+/// end; lower bounds of its box distance to the ego's prediction there
+/// and of its objective, and the exact ones once asked for.
+pub(super) struct Child {
+    /// The first token it extends (its index in the trust region).
+    pub(super) root: usize,
+    /// Its parent's place in the beam.
+    pub(super) parent: usize,
+    /// The token it adds.
+    pub(super) token: Token,
+    /// Where the CBV is at its end.
+    pub(super) state: KinematicState,
+    /// `state` as an agent state.
+    pub(super) at: AgentState,
+    distance_lower_bound_m: f64,
+    score_lower_bound_m: f64,
+    distance_m: Cell<Option<f64>>,
+    score_m: Cell<Option<f64>>,
+}
+
+/// The children of a beam at one depth, against the ego's
+/// constant-velocity prediction at that depth.
+pub(super) struct Continuations {
+    children: Vec<Child>,
+    ego: AgentState,
+    ego_box: OrientedBox,
+    ego_sin_cos: (f64, f64),
+    ego_body: AgentBody,
+    cbv_body: AgentBody,
+    objective: Objective,
+    /// The children not yet handed out by [`Self::next_in_order`], keyed
+    /// by exact score or by lower bound (built on first use).
+    ranking: Option<BinaryHeap<Reverse<Ranked>>>,
+}
+
+/// A child's place in the ranking: by score (exact, or a lower bound still
+/// to be made exact), then the likelier first token, then the order the
+/// children were made in.
+#[derive(Debug, Clone, Copy)]
+struct Ranked {
+    score_m: f64,
+    root: usize,
+    index: usize,
+    exact: bool,
+}
+
+impl Ord for Ranked {
+    fn cmp(&self, other: &Self) -> Ordering {
+        self.score_m.total_cmp(&other.score_m).then(self.root.cmp(&other.root)).then(self.index.cmp(&other.index))
+    }
+}
+
+impl PartialOrd for Ranked {
+    fn partial_cmp(&self, other: &Self) -> Option<Ordering> {
+        Some(self.cmp(other))
+    }
+}
+
+impl PartialEq for Ranked {
+    fn eq(&self, other: &Self) -> bool {
+        self.cmp(other) == Ordering::Equal
+    }
+}
+
+impl Eq for Ranked {}
+
+impl Continuations {
+    /// Every continuation of each `(root, state)` of the beam by each of
+    /// `tokens`, beam member first, against the ego at `ego` (its
+    /// constant-velocity prediction at the children's end).
+    pub(super) fn new(
+        beam: impl Iterator<Item = (usize, KinematicState)>,
+        tokens: &[Token],
+        ego: AgentState,
+        (ego_body, cbv_body): (AgentBody, AgentBody),
+        objective: Objective,
+    ) -> Self {
+        let ego_box = ego_body.footprint(&ego);
+        let ego_sin_cos = ego.heading_rad.sin_cos();
+        let mut children = Vec::new();
+        for (parent, (root, from)) in beam.enumerate() {
+            for &token in tokens {
+                let (state, sin_cos) = TokenGrid::rollout_with_sin_cos(&from, token)[TOKEN_PERIOD_STEPS - 1];
+                let at = state.to_agent_state_with_sin_cos(sin_cos);
+                let cbv_box = cbv_body.footprint(&at);
+                let distance_lower_bound_m =
+                    SweptSeparation::new(&ego_box, ego_sin_cos, Vector2::zeros(), &cbv_box, sin_cos, 0.0)
+                        .lower_bound_m(0.0);
+                let score_lower_bound_m =
+                    objective.loss_lower_bound(&ego, ego_body, &at, cbv_body, distance_lower_bound_m);
+                children.push(Child {
+                    root,
+                    parent,
+                    token,
+                    state,
+                    at,
+                    distance_lower_bound_m,
+                    score_lower_bound_m,
+                    distance_m: Cell::new(None),
+                    score_m: Cell::new(None),
+                });
+            }
+        }
+        Self { children, ego, ego_box, ego_sin_cos, ego_body, cbv_body, objective, ranking: None }
+    }
+
+    /// How many children there are.
+    pub(super) fn len(&self) -> usize {
+        self.children.len()
+    }
+
+    /// Child `i`.
+    pub(super) fn child(&self, i: usize) -> &Child {
+        &self.children[i]
+    }
+
+    /// Child `i`'s box distance to the ego's prediction, m.
+    pub(super) fn distance_m(&self, i: usize) -> f64 {
+        let c = &self.children[i];
+        if let Some(distance_m) = c.distance_m.get() {
+            return distance_m;
+        }
+        let distance_m = self.ego_box.distance_with_sin_cos(&self.cbv_body.footprint(&c.at), self.ego_sin_cos);
+        c.distance_m.set(Some(distance_m));
+        distance_m
+    }
+
+    /// Whether child `i` is clear of the ego (box distance above 0; a
+    /// contact ends a continuation).
+    fn clear(&self, i: usize) -> bool {
+        self.children[i].distance_lower_bound_m > 0.0 || self.distance_m(i) > 0.0
+    }
+
+    /// Child `i`'s objective, m.
+    pub(super) fn score_m(&self, i: usize) -> f64 {
+        let c = &self.children[i];
+        match c.score_m.get() {
+            Some(score) => score,
+            None => {
+                let score = self.score_unless(i, |_| false);
+                c.score_m.set(Some(score));
+                score
+            }
+        }
+    }
+
+    /// Child `i`'s objective where `settled` (monotone, as in
+    /// [`Objective::loss_unless`]) is false of it; else some settled value.
+    pub(super) fn score_unless(&self, i: usize, settled: impl Fn(f64) -> bool) -> f64 {
+        let c = &self.children[i];
+        if let Some(score) = c.score_m.get() {
+            return score;
+        }
+        if !c.score_lower_bound_m.is_nan() && settled(c.score_lower_bound_m) {
+            return c.score_lower_bound_m;
+        }
+        let distance_m = match self.objective {
+            Objective::Contact => self.distance_m(i),
+            // The in-path objectives do not read it.
+            Objective::InPath | Objective::CutIn => f64::NAN,
+        };
+        let score = self.objective.loss_unless(&self.ego, self.ego_body, &c.at, self.cbv_body, distance_m, &settled);
+        if !settled(score) {
+            c.score_m.set(Some(score));
+        }
+        score
+    }
+
+    /// The next clear child in the order of a sort of all the clear ones by
+    /// score (ties to the likelier first token, then the order they were
+    /// made in), or `None` when all have been handed out.
+    pub(super) fn next_in_order(&mut self) -> Option<usize> {
+        let mut ranking = self.ranking.take().unwrap_or_else(|| self.ranked());
+        let next = loop {
+            let Some(Reverse(top)) = ranking.pop() else { break None };
+            if !top.exact {
+                // A bound at the top: make it exact, and it takes its place.
+                ranking.push(Reverse(Ranked { score_m: self.score_m(top.index), exact: true, ..top }));
+            } else if self.clear(top.index) {
+                break Some(top.index);
+            }
+        };
+        self.ranking = Some(ranking);
+        next
+    }
+
+    /// Hands out children by [`Self::next_in_order`] onto `order` until it
+    /// holds `n` or all have been.
+    pub(super) fn extend_order(&mut self, order: &mut Vec<usize>, n: usize) {
+        while order.len() < n {
+            let Some(i) = self.next_in_order() else { break };
+            order.push(i);
+        }
+    }
+
+    /// The ranking before any child is handed out: exact scores where
+    /// known, else the lower bounds (a NaN bound, or a zero that the exact
+    /// score could undercut as -0, as minus infinity: made exact first).
+    fn ranked(&self) -> BinaryHeap<Reverse<Ranked>> {
+        let entry = |(index, c): (usize, &Child)| {
+            let ranked = match c.score_m.get() {
+                Some(score_m) => Ranked { score_m, root: c.root, index, exact: true },
+                None => {
+                    let bound = c.score_lower_bound_m;
+                    let score_m = if bound.is_nan() || bound == 0.0 { f64::NEG_INFINITY } else { bound };
+                    Ranked { score_m, root: c.root, index, exact: false }
+                }
+            };
+            Reverse(ranked)
+        };
+        self.children.iter().enumerate().map(entry).collect()
+    }
+}
