@@ -235,3 +235,94 @@ impl Continuations {
         self.children.iter().enumerate().map(entry).collect()
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::motion::Action;
+    use crate::policies::adversary::test_support::car;
+    use crate::scenario::AgentKind;
+
+    const CAR: AgentBody = AgentBody { kind: AgentKind::Vehicle, length_m: 4.5, width_m: 2.0 };
+
+    /// A beam around an ego at 12 m/s: behind it, beside it, ahead in its
+    /// lane and in the next, crossing; each continued by 25 tokens of
+    /// accelerations and yaw rates.
+    fn continuations(objective: Objective) -> Continuations {
+        let ego = car(0.0, 0.0, 12.0).unwrap();
+        let beam: Vec<(usize, KinematicState)> =
+            [(-9.0, 0.0, 0.0), (-2.0, 3.4, 0.1), (14.0, 0.2, 0.0), (9.0, -3.6, 0.2), (20.0, 8.0, -1.4)]
+                .iter()
+                .enumerate()
+                .map(|(root, &(x, y, h))| {
+                    let at = AgentState { heading_rad: h, ..car(x, y, 10.0).unwrap() };
+                    (root, KinematicState { heading_rad: h, ..KinematicState::from_agent_state(&at) })
+                })
+                .collect();
+        let tokens: Vec<Token> = [-5.0, -2.0, 0.0, 2.0, 5.0]
+            .iter()
+            .flat_map(|&a| {
+                [-0.4, -0.1, 0.0, 0.1, 0.4].map(|w| TokenGrid::quantize(Action { accel_mps2: a, yaw_rate_radps: w }))
+            })
+            .collect();
+        Continuations::new(beam.into_iter(), &tokens, ego, (CAR, CAR), objective)
+    }
+
+    fn exact_distances(c: &Continuations) -> usize {
+        c.children.iter().filter(|c| c.distance_m.get().is_some()).count()
+    }
+
+    #[test]
+    fn children_come_in_the_order_of_a_full_sort_by_exact_score_with_fewer_exact_distances() {
+        for objective in [Objective::Contact, Objective::InPath, Objective::CutIn] {
+            let mut lazy = continuations(objective);
+            let full = continuations(objective);
+            // The full sort: every clear child by exact score, ties to the
+            // likelier first token, then the order they were made in.
+            let exact = |i: usize| {
+                let c = full.child(i);
+                let d = full.distance_m(i);
+                (objective.loss(&full.ego, CAR, &c.at, CAR, d), d)
+            };
+            let mut sorted: Vec<usize> = (0..full.len()).filter(|&i| exact(i).1 > 0.0).collect();
+            sorted.sort_by(|&x, &y| {
+                exact(x).0.total_cmp(&exact(y).0).then(full.child(x).root.cmp(&full.child(y).root)).then(x.cmp(&y))
+            });
+            assert!(sorted.len() > 100 && sorted.len() < full.len(), "{objective:?}: some contacts, most clear");
+            // The first ten cost far fewer exact distances than there are children.
+            let mut order = Vec::new();
+            lazy.extend_order(&mut order, 10);
+            assert_eq!(order, sorted[..10], "{objective:?}");
+            assert!(
+                exact_distances(&lazy) * 4 < lazy.len(),
+                "{objective:?}: {} of {}",
+                exact_distances(&lazy),
+                lazy.len()
+            );
+            // And all of them, the whole sort.
+            lazy.extend_order(&mut order, usize::MAX);
+            assert_eq!(order, sorted, "{objective:?}");
+            for &i in &order {
+                assert_eq!(lazy.score_m(i).to_bits(), exact(i).0.to_bits(), "{objective:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn a_score_asked_unless_settled_is_exact_below_the_line_and_settled_above_it() {
+        for objective in [Objective::Contact, Objective::InPath, Objective::CutIn] {
+            let lazy = continuations(objective);
+            let full = continuations(objective);
+            let line_m = 3.0;
+            for i in 0..lazy.len() {
+                let exact = full.score_m(i);
+                let score = lazy.score_unless(i, |s| s >= line_m);
+                if exact < line_m {
+                    assert_eq!(score.to_bits(), exact.to_bits(), "{objective:?} {i}");
+                } else {
+                    assert!(score >= line_m, "{objective:?} {i}: {score} for {exact}");
+                }
+            }
+        }
+    }
+}

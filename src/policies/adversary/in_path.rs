@@ -437,4 +437,27 @@ mod tests {
         // Far behind, the penalty is the in-path loss's.
         assert!((cut_in(car(-4.5, 0.0, 10.0)) - loss(car(-4.5, 0.0, 10.0))).abs() < 1e-6);
     }
+
+    #[test]
+    fn the_separating_axis_bound_of_either_loss_never_exceeds_it() {
+        let ego = car(0.0, 0.0, 15.0).unwrap();
+        let (mut tight, mut cases) = (0, 0);
+        for i in -20..=40 {
+            for j in -12..=12 {
+                for h in [0.0, 0.15, -0.6, 1.57, 3.0] {
+                    let cbv = AgentState { heading_rad: h, ..car(i as f64 * 0.9, j as f64 * 0.55, 9.0).unwrap() };
+                    let (path, path_bound) =
+                        (in_path_loss(&ego, CAR, &cbv, CAR), in_path_loss_lower_bound(&ego, CAR, &cbv, CAR));
+                    let (cut, cut_bound) =
+                        (cut_in_loss(&ego, CAR, &cbv, CAR), cut_in_loss_lower_bound(&ego, CAR, &cbv, CAR));
+                    assert!(path_bound <= path && cut_bound <= cut, "{cbv:?}: {path_bound} {path} {cut_bound} {cut}");
+                    cases += 1;
+                    tight += usize::from(path - path_bound < 0.01);
+                }
+            }
+        }
+        // Off the ego's path side-on it is the loss (within the bound's
+        // margin): nearly half the grid.
+        assert!(tight * 3 > cases, "{tight} of {cases}");
+    }
 }

@@ -389,7 +389,7 @@ mod tests {
         // beside it; at +5 m/s² it draws ahead of the ego's front bumper
         // within 1.5 s, 1.5 m to the side of its path.
         let states = [car(0.0, 0.0, 10.0), car(-1.0, 3.5, 10.0)];
-        let steer_in = TokenGrid::quantize(Action { accel_mps2: 0.0, yaw_rate_radps: -0.3 });
+        let steer_in = crate::motion::tokens::TokenGrid::quantize(Action { accel_mps2: 0.0, yaw_rate_radps: -0.3 });
         let liked = [(token(0.0), 3.0), (steer_in, 2.0), (token(5.0), 1.0)];
         let chosen = |objective| {
             let search =
