@@ -3,7 +3,7 @@
 //! centres include 0; token id = `i_a · 63 + i_ψ` (3969 tokens). A token is
 //! held for one token period of 0.5 s (5 simulator steps of 0.1 s).
 
-use super::kinematics::{KinematicState, step_with_sin_cos};
+use super::kinematics::{HeldHeadingStepper, KinematicState, step_to_heading, turned_heading_rad};
 
 /// Bins per axis.
 pub const BINS_PER_AXIS: usize = 63;
@@ -94,6 +94,34 @@ impl TokenGrid {
         .expect("nearest_bin stays inside the grid")
     }
 
+    /// The last states of [`Self::rollout_with_sin_cos`] from `state` under
+    /// each of `tokens`, in order: the same states to the bit, with the
+    /// headings (and their sines and cosines) of each yaw-rate bin worked
+    /// out once. A heading sequence depends on the yaw rate alone, and a
+    /// trust region's many accelerations share few yaw rates.
+    pub fn rollout_ends(state: &KinematicState, tokens: &[Token]) -> Vec<(KinematicState, (f64, f64))> {
+        type Headings = [(f64, (f64, f64)); TOKEN_PERIOD_STEPS];
+        let mut headings: [Option<Headings>; BINS_PER_AXIS] = [None; BINS_PER_AXIS];
+        tokens
+            .iter()
+            .map(|&token| {
+                let action = Self::action(token);
+                let turned = headings[token.yaw_rate_bin()].get_or_insert_with(|| {
+                    let mut heading_rad = state.heading_rad;
+                    std::array::from_fn(|_| {
+                        heading_rad = turned_heading_rad(heading_rad, action.yaw_rate_radps, SIM_DT_S);
+                        (heading_rad, heading_rad.sin_cos())
+                    })
+                });
+                let mut s = *state;
+                for &(heading_rad, sin_cos) in turned.iter() {
+                    s = step_to_heading(&s, action.accel_mps2, heading_rad, sin_cos, SIM_DT_S);
+                }
+                (s, turned[TOKEN_PERIOD_STEPS - 1].1)
+            })
+            .collect()
+    }
+
     /// Every token, in id order.
     pub fn all() -> impl Iterator<Item = Token> {
         (0..VOCABULARY_SIZE as u16).map(Token)
@@ -136,7 +164,7 @@ impl TokenGrid {
     }
 
     /// [`Self::rollout`], each state with its heading's `sin_cos()` (as
-    /// [`step_with_sin_cos`] works it out): for callers that need them
+    /// [`step_with_sin_cos`](super::kinematics::step_with_sin_cos) works it out): for callers that need them
     /// again, to turn the states into agent states or boxes.
     pub fn rollout_with_sin_cos(
         state: &KinematicState,
@@ -144,8 +172,11 @@ impl TokenGrid {
     ) -> [(KinematicState, (f64, f64)); TOKEN_PERIOD_STEPS] {
         let action = Self::action(token);
         let mut s = *state;
+        // A token without yaw rate holds its heading: its sine and cosine
+        // are worked out once.
+        let mut stepper = HeldHeadingStepper::default();
         std::array::from_fn(|_| {
-            let (next, sin_cos) = step_with_sin_cos(&s, action, SIM_DT_S);
+            let (next, sin_cos) = stepper.step(&s, action, SIM_DT_S);
             s = next;
             (s, sin_cos)
         })
@@ -184,5 +215,22 @@ mod tests {
         assert_eq!((t.accel_bin(), t.yaw_rate_bin()), (62, 0));
         // The zero action is the centre token.
         assert_eq!(TokenGrid::quantize(Action::default()), Token(31 * 63 + 31));
+    }
+
+    #[test]
+    fn rollout_ends_are_the_rollouts_last_states_to_the_bit() {
+        let tokens: Vec<Token> = TokenGrid::all().step_by(7).collect();
+        for (x, heading_rad, speed_mps) in [(0.0, 0.0, 12.0), (-40.0, 3.1, 0.4), (7.0, -1.2, 30.0)] {
+            let state = KinematicState { position: crate::geometry::Point2::new(x, 2.0), heading_rad, speed_mps };
+            let ends = TokenGrid::rollout_ends(&state, &tokens);
+            for (&t, (end, sin_cos)) in tokens.iter().zip(&ends) {
+                let (last, last_sin_cos) = TokenGrid::rollout_with_sin_cos(&state, t)[TOKEN_PERIOD_STEPS - 1];
+                assert_eq!(end.position.x.to_bits(), last.position.x.to_bits(), "{t:?}");
+                assert_eq!(end.position.y.to_bits(), last.position.y.to_bits(), "{t:?}");
+                assert_eq!(end.heading_rad.to_bits(), last.heading_rad.to_bits(), "{t:?}");
+                assert_eq!(end.speed_mps.to_bits(), last.speed_mps.to_bits(), "{t:?}");
+                assert_eq!(*sin_cos, last_sin_cos, "{t:?}");
+            }
+        }
     }
 }

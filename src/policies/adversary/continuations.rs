@@ -15,10 +15,11 @@ use std::cell::Cell;
 use std::cmp::{Ordering, Reverse};
 use std::collections::BinaryHeap;
 
+use super::in_path::path_sweep;
 use super::objective::Objective;
-use crate::geometry::{OrientedBox, SweptSeparation, Vector2};
+use crate::geometry::OrientedBox;
 use crate::motion::KinematicState;
-use crate::motion::tokens::{TOKEN_PERIOD_STEPS, Token, TokenGrid};
+use crate::motion::tokens::{Token, TokenGrid};
 use crate::scenario::{AgentBody, AgentState};
 
 /// One continuation one token on: which first token it extends, from
@@ -103,15 +104,12 @@ impl Continuations {
         let ego_sin_cos = ego.heading_rad.sin_cos();
         let mut children = Vec::new();
         for (parent, (root, from)) in beam.enumerate() {
-            for &token in tokens {
-                let (state, sin_cos) = TokenGrid::rollout_with_sin_cos(&from, token)[TOKEN_PERIOD_STEPS - 1];
+            for (&token, (state, sin_cos)) in tokens.iter().zip(TokenGrid::rollout_ends(&from, tokens)) {
                 let at = state.to_agent_state_with_sin_cos(sin_cos);
-                let cbv_box = cbv_body.footprint(&at);
-                let distance_lower_bound_m =
-                    SweptSeparation::new(&ego_box, ego_sin_cos, Vector2::zeros(), &cbv_box, sin_cos, 0.0)
-                        .lower_bound_m(0.0);
-                let score_lower_bound_m =
-                    objective.loss_lower_bound(&ego, ego_body, &at, cbv_body, distance_lower_bound_m);
+                // One sweep bounds both: at lead 0 it is the distance's.
+                let sweep = path_sweep((&ego, ego_sin_cos), ego_body, (&at, sin_cos), cbv_body);
+                let distance_lower_bound_m = sweep.lower_bound_m(0.0);
+                let score_lower_bound_m = objective.loss_lower_bound((&ego, ego_sin_cos), ego_body, &at, &sweep);
                 children.push(Child {
                     root,
                     parent,

@@ -42,7 +42,7 @@
 //! gains by drawing ahead of it (where a flat penalty leaves it hugging
 //! the ego's side, the one move that lowers the box distance).
 
-use crate::geometry::{OrientedBox, SweptSeparation, Vector2};
+use crate::geometry::{SweptSeparation, Vector2};
 use crate::scenario::{AgentBody, AgentState};
 
 /// The farthest lead time the in-path loss looks at, s.
@@ -110,19 +110,23 @@ impl PathApproach {
                 .footprint(&AgentState { position: ego_next.position + ego_next.velocity_mps * lead_s, ..*ego_next })
         };
         let gap_m = |lead_s: f64| ego_then(lead_s).distance_with_sin_cos(&cbv_box, ego_sin_cos);
-        let swept = Self::swept(ego_next, ego_body, cbv, &cbv_box, ego_sin_cos);
-        let lower_bound_m = |lead_s: f64| swept.lower_bound_m(lead_s);
+        let sweep = path_sweep((ego_next, ego_sin_cos), ego_body, (cbv, cbv.heading_rad.sin_cos()), cbv_body);
+        let lower_bound_m = |lead_s: f64| sweep.lower_bound_m(lead_s);
         let closest_m = closest_approach_m(lower_bound_m, &gap_m, |closest_m| settled(&Self { closest_m, ..placed }));
         Self { closest_m, ..placed }
     }
 
     /// [`Self::of`] with a lower bound of `closest_m` in its place, from
-    /// the separating axes alone (no exact box distance).
-    fn lower_bound(ego_next: &AgentState, ego_body: AgentBody, cbv: &AgentState, cbv_body: AgentBody) -> Self {
-        let ego_sin_cos = ego_next.heading_rad.sin_cos();
+    /// the separating axes of `sweep` (see [`path_sweep`]) alone.
+    fn lower_bound(
+        ego_next: &AgentState,
+        ego_body: AgentBody,
+        ego_sin_cos: (f64, f64),
+        cbv: &AgentState,
+        sweep: &SweptSeparation,
+    ) -> Self {
         let placed = Self::placed(ego_next, ego_body, cbv, ego_sin_cos);
-        let swept = Self::swept(ego_next, ego_body, cbv, &cbv_body.footprint(cbv), ego_sin_cos);
-        Self { closest_m: closest_lower_bound_m(|lead_s| swept.lower_bound_m(lead_s)), ..placed }
+        Self { closest_m: closest_lower_bound_m(|lead_s| sweep.lower_bound_m(lead_s)), ..placed }
     }
 
     /// Where the CBV's centre is against the ego's front bumper and
@@ -132,25 +136,6 @@ impl PathApproach {
         let ahead_m = offset.dot(&Vector2::new(cos, sin));
         let lateral_m = offset.dot(&Vector2::new(-sin, cos)).abs();
         Self { closest_m: f64::INFINITY, short_of_front_m: 0.5 * ego_body.length_m - ahead_m, lateral_m }
-    }
-
-    /// The separating-axis bounds of the ego's footprint moving along its
-    /// path against the CBV's box.
-    fn swept(
-        ego_next: &AgentState,
-        ego_body: AgentBody,
-        cbv: &AgentState,
-        cbv_box: &OrientedBox,
-        ego_sin_cos: (f64, f64),
-    ) -> SweptSeparation {
-        SweptSeparation::new(
-            &ego_body.footprint(ego_next),
-            ego_sin_cos,
-            ego_next.velocity_mps,
-            cbv_box,
-            cbv.heading_rad.sin_cos(),
-            IN_PATH_MAX_LEAD_S,
-        )
     }
 
     fn ahead(&self) -> bool {
@@ -303,27 +288,49 @@ pub(super) fn cut_in_loss_unless(
     PathApproach::of(ego_next, ego_body, cbv, cbv_body, |a| settled(a.cut_in_loss())).cut_in_loss()
 }
 
-/// A lower bound of [`in_path_loss_unless`]'s exact loss, from the
-/// separating axes alone: for a caller ranking many candidates, which
-/// works out the exact loss only of those whose bound could still win.
+/// The separating-axis bounds of the ego's footprint moving along its
+/// constant-velocity path from `ego_next` over the in-path losses' lead
+/// times against the CBV's box at `cbv` (each with its heading's
+/// `sin_cos()` at hand). The losses' lower bounds come from it, and at
+/// lead 0 it bounds the box distance between the two.
+pub(super) fn path_sweep(
+    (ego_next, ego_sin_cos): (&AgentState, (f64, f64)),
+    ego_body: AgentBody,
+    (cbv, cbv_sin_cos): (&AgentState, (f64, f64)),
+    cbv_body: AgentBody,
+) -> SweptSeparation {
+    SweptSeparation::new(
+        &ego_body.footprint(ego_next),
+        ego_sin_cos,
+        ego_next.velocity_mps,
+        &cbv_body.footprint(cbv),
+        cbv_sin_cos,
+        IN_PATH_MAX_LEAD_S,
+    )
+}
+
+/// A lower bound of [`in_path_loss_unless`]'s exact loss from the
+/// separating axes of `sweep` (the [`path_sweep`] of the same ego and CBV)
+/// alone: for a caller ranking many candidates, which works out the exact
+/// loss only of those whose bound could still win.
 pub(super) fn in_path_loss_lower_bound(
-    ego_next: &AgentState,
+    (ego_next, ego_sin_cos): (&AgentState, (f64, f64)),
     ego_body: AgentBody,
     cbv: &AgentState,
-    cbv_body: AgentBody,
+    sweep: &SweptSeparation,
 ) -> f64 {
-    PathApproach::lower_bound(ego_next, ego_body, cbv, cbv_body).in_path_loss()
+    PathApproach::lower_bound(ego_next, ego_body, ego_sin_cos, cbv, sweep).in_path_loss()
 }
 
 /// A lower bound of [`cut_in_loss_unless`]'s exact loss, as
 /// [`in_path_loss_lower_bound`].
 pub(super) fn cut_in_loss_lower_bound(
-    ego_next: &AgentState,
+    (ego_next, ego_sin_cos): (&AgentState, (f64, f64)),
     ego_body: AgentBody,
     cbv: &AgentState,
-    cbv_body: AgentBody,
+    sweep: &SweptSeparation,
 ) -> f64 {
-    PathApproach::lower_bound(ego_next, ego_body, cbv, cbv_body).cut_in_loss()
+    PathApproach::lower_bound(ego_next, ego_body, ego_sin_cos, cbv, sweep).cut_in_loss()
 }
 
 #[cfg(test)]
@@ -446,10 +453,12 @@ mod tests {
             for j in -12..=12 {
                 for h in [0.0, 0.15, -0.6, 1.57, 3.0] {
                     let cbv = AgentState { heading_rad: h, ..car(i as f64 * 0.9, j as f64 * 0.55, 9.0).unwrap() };
-                    let (path, path_bound) =
-                        (in_path_loss(&ego, CAR, &cbv, CAR), in_path_loss_lower_bound(&ego, CAR, &cbv, CAR));
+                    let path = in_path_loss(&ego, CAR, &cbv, CAR);
+                    let sweep = path_sweep((&ego, ego.heading_rad.sin_cos()), CAR, (&cbv, h.sin_cos()), CAR);
+                    let ego_sin_cos = (&ego, ego.heading_rad.sin_cos());
+                    let path_bound = in_path_loss_lower_bound(ego_sin_cos, CAR, &cbv, &sweep);
                     let (cut, cut_bound) =
-                        (cut_in_loss(&ego, CAR, &cbv, CAR), cut_in_loss_lower_bound(&ego, CAR, &cbv, CAR));
+                        (cut_in_loss(&ego, CAR, &cbv, CAR), cut_in_loss_lower_bound(ego_sin_cos, CAR, &cbv, &sweep));
                     assert!(path_bound <= path && cut_bound <= cut, "{cbv:?}: {path_bound} {path} {cut_bound} {cut}");
                     cases += 1;
                     tight += usize::from(path - path_bound < 0.01);

@@ -4,6 +4,7 @@
 //! and the lookahead score candidates through it alike.
 
 use super::in_path::{cut_in_loss_lower_bound, cut_in_loss_unless, in_path_loss_lower_bound, in_path_loss_unless};
+use crate::geometry::SweptSeparation;
 use crate::scenario::{AgentBody, AgentState};
 
 /// What a feasible candidate's loss measures.
@@ -68,22 +69,22 @@ impl Objective {
         }
     }
 
-    /// A lower bound of [`Self::loss`] from the separating axes alone (no
-    /// exact box distance), `distance_lower_bound_m` one of the box
-    /// distance: for a caller ranking many candidates, which works out the
-    /// exact loss only of those whose bound could still win.
+    /// A lower bound of [`Self::loss`] from the separating axes of
+    /// `sweep`, the [`path_sweep`](super::in_path::path_sweep) of the same ego and CBV, alone (no exact
+    /// box distance; `ego_sin_cos` its heading's `sin_cos()`): for a caller
+    /// ranking many candidates, which works out the exact loss only of
+    /// those whose bound could still win.
     pub(super) fn loss_lower_bound(
         self,
-        ego_next: &AgentState,
+        ego_next: (&AgentState, (f64, f64)),
         ego_body: AgentBody,
         cbv: &AgentState,
-        cbv_body: AgentBody,
-        distance_lower_bound_m: f64,
+        sweep: &SweptSeparation,
     ) -> f64 {
         match self {
-            Objective::Contact => distance_lower_bound_m,
-            Objective::InPath => in_path_loss_lower_bound(ego_next, ego_body, cbv, cbv_body),
-            Objective::CutIn => cut_in_loss_lower_bound(ego_next, ego_body, cbv, cbv_body),
+            Objective::Contact => sweep.lower_bound_m(0.0),
+            Objective::InPath => in_path_loss_lower_bound(ego_next, ego_body, cbv, sweep),
+            Objective::CutIn => cut_in_loss_lower_bound(ego_next, ego_body, cbv, sweep),
         }
     }
 }
