@@ -184,8 +184,10 @@ impl SweptSeparation {
         // The exact query works in `f32` in the moving box's frame: a
         // relative error of about 1e-7 of the offset and the sizes. A
         // millimetre and 1e-5 of them is far above it and far below any
-        // gap that matters.
-        let farthest_m = d.norm() + velocity_mps.norm() * max_lead_s.abs();
+        // gap that matters. (The farthest offset by its 1-norm, no less
+        // than its length: no square roots.)
+        let l1 = |v: Vector2| v.x.abs() + v.y.abs();
+        let farthest_m = l1(d) + l1(velocity_mps) * max_lead_s.abs();
         Self { axes, margin_m: 1e-3 + 1e-5 * (farthest_m + a1 + b1 + a2 + b2) }
     }
 

@@ -102,7 +102,7 @@ impl Continuations {
     ) -> Self {
         let ego_box = ego_body.footprint(&ego);
         let ego_sin_cos = ego.heading_rad.sin_cos();
-        let mut children = Vec::new();
+        let mut children = Vec::with_capacity(beam.size_hint().0 * tokens.len());
         for (parent, (root, from)) in beam.enumerate() {
             for (&token, (state, sin_cos)) in tokens.iter().zip(TokenGrid::rollout_ends(&from, tokens)) {
                 let at = state.to_agent_state_with_sin_cos(sin_cos);

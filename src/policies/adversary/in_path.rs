@@ -225,13 +225,19 @@ fn closest_approach_m(
 }
 
 /// A lower bound of [`closest_approach_m`] from the lower bounds of the
-/// gaps alone (`lower_bound_m` as there): no lead step's gap plus lead
-/// cost is below its bound's, and a first contact, possible only at a step
-/// whose bound allows it, lies after the step before the first such.
-/// NaN bounds give minus infinity (no bound).
+/// gaps alone (`lower_bound_m` as there, convex in the lead as a
+/// separating-axis bound of a box moving in a line is): no lead step's gap
+/// plus lead cost is below its bound's, and a first contact, possible only
+/// at a step whose bound allows it, lies after the step before the first
+/// such. Once the bound stops falling it rises from there on (convexity),
+/// so the later steps can neither touch nor lower the least: the scan
+/// stops, and a micrometre off the least covers the rounding that
+/// convexity holds to. NaN bounds give minus infinity (no bound).
 fn closest_lower_bound_m(lower_bound_m: impl Fn(f64) -> f64) -> f64 {
+    const ROUNDING_M: f64 = 1e-6;
     let lead_s = |k: usize| k as f64 * IN_PATH_LEAD_STEP_S;
     let mut least_m = f64::INFINITY;
+    let mut previous = f64::INFINITY;
     for k in 0..=LEAD_STEPS {
         let bound = lower_bound_m(lead_s(k));
         if bound.is_nan() {
@@ -239,11 +245,15 @@ fn closest_lower_bound_m(lower_bound_m: impl Fn(f64) -> f64) -> f64 {
         }
         if bound <= 0.0 {
             let contact_m = if k == 0 { 0.0 } else { IN_PATH_LEAD_COST_M_PER_S * (lead_s(k) - IN_PATH_LEAD_STEP_S) };
-            return least_m.min(contact_m);
+            return least_m.min(contact_m) - ROUNDING_M;
         }
         least_m = least_m.min(bound + IN_PATH_LEAD_COST_M_PER_S * lead_s(k));
+        if bound >= previous {
+            break;
+        }
+        previous = bound;
     }
-    least_m
+    least_m - ROUNDING_M
 }
 
 /// The first lead in contact between `clear_s` (boxes apart) and
