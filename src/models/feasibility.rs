@@ -160,4 +160,38 @@ mod tests {
         assert_eq!(constraint_cost(0.3), VIOLATION_COST);
         assert_eq!(constraint_cost(0.0), VIOLATION_COST);
     }
+
+    /// The lookahead asks V_h of whichever continuations its search needs,
+    /// in batches of any make-up, and relies on this: a state's value is
+    /// the same bits alone, in any place of a batch and beside any others.
+    #[test]
+    fn a_state_is_valued_the_same_whatever_its_batch() {
+        let v = FeasibilityValue::load(&ModelSource::shipped()).unwrap();
+        let pairs: Vec<EgoCbvState> = (0..45)
+            .map(|k| {
+                let k = k as f64;
+                let ego = AgentState {
+                    position: Point2::new(0.0, 0.0),
+                    heading_rad: 0.1 * k,
+                    velocity_mps: Vector2::new(8.0 + 0.3 * k, 0.2 * k),
+                };
+                let cbv = AgentState {
+                    position: Point2::new(3.0 + 0.7 * k, -4.0 + 0.4 * k),
+                    heading_rad: -0.05 * k,
+                    velocity_mps: Vector2::new(12.0 - 0.2 * k, 0.0),
+                };
+                EgoCbvState { ego, cbv, ego_body: car(), cbv_body: car() }
+            })
+            .collect();
+        let alone: Vec<u32> = pairs.iter().map(|p| v.evaluate(std::slice::from_ref(p)).unwrap()[0].to_bits()).collect();
+        let together: Vec<u32> = v.evaluate(&pairs).unwrap().iter().map(|x| x.to_bits()).collect();
+        assert_eq!(together, alone);
+        let mut shifted = pairs.clone();
+        shifted.rotate_left(7);
+        let shifted: Vec<u32> = v.evaluate(&shifted).unwrap().iter().map(|x| x.to_bits()).collect();
+        for (i, bits) in shifted.iter().enumerate() {
+            assert_eq!(*bits, alone[(i + 7) % pairs.len()], "row {i}");
+        }
+        assert_ne!(alone[0], alone[1]);
+    }
 }

@@ -108,6 +108,56 @@ pub(super) struct Lowering {
     pub(super) distance_m: f64,
 }
 
+/// How many of a first token's lowering continuations [`best_kept`] asks
+/// about a round: most first tokens keep their best, and a round asks all
+/// the first tokens' together (one V_h batch).
+const LOWERING_ASKED_PER_ROUND: usize = 2;
+
+/// Of the `lowering` continuations, each first token's best kept one (by
+/// its loss, its score plus `delay_m`; ties to the order they were made
+/// in), as `(first token, continuation)`. `judge` answers for a batch
+/// whether each is kept; each first token's are asked best first, a few a
+/// round, until one is kept or none is left. The same as judging them all
+/// and keeping, in the order they were made, each that lowers its first
+/// token's loss further, with far fewer questions where many would lower it.
+fn best_kept(
+    children: &Continuations,
+    lowering: &[usize],
+    delay_m: f64,
+    mut judge: impl FnMut(&[usize]) -> Result<Vec<bool>, ModelError>,
+) -> Result<Vec<(usize, usize)>, ModelError> {
+    let mut by_root: std::collections::BTreeMap<usize, Vec<(f64, usize)>> = Default::default();
+    for &i in lowering {
+        let loss_m = children.score_m(i).max(0.0) + delay_m;
+        by_root.entry(children.child(i).root).or_default().push((loss_m, i));
+    }
+    let mut pending: Vec<(usize, std::vec::IntoIter<(f64, usize)>)> = by_root
+        .into_iter()
+        .map(|(root, mut ranked)| {
+            ranked.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+            (root, ranked.into_iter())
+        })
+        .collect();
+    let mut best = Vec::new();
+    while !pending.is_empty() {
+        let round: Vec<(usize, Vec<usize>)> = pending
+            .iter_mut()
+            .map(|(root, ranked)| (*root, ranked.by_ref().take(LOWERING_ASKED_PER_ROUND).map(|(_, i)| i).collect()))
+            .collect();
+        let asked: Vec<usize> = round.iter().flat_map(|(_, asked)| asked.iter().copied()).collect();
+        let answers: std::collections::HashMap<usize, bool> = asked.iter().copied().zip(judge(&asked)?).collect();
+        let mut settled = std::collections::HashSet::new();
+        for (root, asked) in &round {
+            if let Some(&i) = asked.iter().find(|i| answers[i]) {
+                best.push((*root, i));
+                settled.insert(*root);
+            }
+        }
+        pending.retain(|(root, ranked)| !settled.contains(root) && ranked.len() > 0);
+    }
+    Ok(best)
+}
+
 impl Lookahead<'_> {
     /// Lowers each candidate's one-step loss in `losses` to the best score
     /// of its continuations (see [`Lookahead`]); returns, for each, the
@@ -172,29 +222,31 @@ impl Lookahead<'_> {
                 .collect();
             // Whether a continuation stays on the road and is feasible (or
             // a contact) is asked only of those whose answer can change the
-            // outcome: the ones that would lower their first token's loss,
-            // and the best-scored until the next beam is full (none at the
+            // outcome. Of the ones that would lower their first token's
+            // loss, only the best kept counts: each first token's are asked
+            // best first (ties to the order they were made in, as a pass in
+            // that order keeping strict improvements would settle them), a
+            // few a round, until one is kept. A contact scores what the
+            // objective makes of it: 0 for the paper's, the not-ahead
+            // penalty for the in-path ones' CBV running into the ego from
+            // behind or the side.
+            let mut kept = vec![None; children.len()];
+            let best = best_kept(&children, &lowering, delay_m, |batch: &[usize]| {
+                self.judge(&children, batch, &mut kept, (ego, ahead_steps), feasibility, feasibility_s)?;
+                Ok(batch.iter().map(|&i| kept[i] == Some(true)).collect())
+            })?;
+            for (root, i) in best {
+                let c = children.child(i);
+                losses[root] = children.score_m(i).max(0.0) + delay_m;
+                lowered[root] = Some(Lowering { path: c.path(&beam), distance_m: children.distance_m(i) });
+            }
+            // Then the best-scored until the next beam is full (none at the
             // last depth). The rest are never kept, whatever the answer: the
-            // same search, with a tenth of the V_h queries. The next beam's
-            // candidates come in score order (non-contacts only, ties to the
-            // likelier first token, then the order they were made in).
+            // same search, with a fraction of the V_h queries. The next
+            // beam's candidates come in score order (non-contacts only, ties
+            // to the likelier first token, then the order they were made in).
             let width = if depth < self.tokens { self.candidates.len() } else { 0 };
             let mut order: Vec<usize> = Vec::with_capacity(width);
-            children.extend_order(&mut order, width);
-            let mut kept = vec![None; children.len()];
-            let first_batch: Vec<usize> = lowering.iter().chain(order.iter().take(width)).copied().collect();
-            self.judge(&children, &first_batch, &mut kept, (ego, ahead_steps), feasibility, feasibility_s)?;
-            // A contact scores what the objective makes of it: 0 for the
-            // paper's, the not-ahead penalty for the in-path ones' CBV
-            // running into the ego from behind or the side.
-            for &i in &lowering {
-                let c = children.child(i);
-                let score_m = children.score_m(i).max(0.0) + delay_m;
-                if kept[i] == Some(true) && score_m < losses[c.root] {
-                    losses[c.root] = score_m;
-                    lowered[c.root] = Some(Lowering { path: c.path(&beam), distance_m: children.distance_m(i) });
-                }
-            }
             // A contact ends its continuation; the beam keeps the best of the rest.
             let mut next_beam: Vec<usize> = Vec::with_capacity(width);
             let mut asked = 0;
