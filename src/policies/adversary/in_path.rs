@@ -186,7 +186,8 @@ fn closest_approach_m(
         }
         let gap = gap_m(lead_s(k));
         gaps[k] = Some(gap);
-        if !(gap > 0.0) {
+        // Not apart (NaN included) counts as contact, as in the lead scan.
+        if gap.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
             first_contact = Some(k);
             break;
         }
@@ -200,8 +201,8 @@ fn closest_approach_m(
     };
     let clear = first_contact.unwrap_or(LEAD_STEPS + 1);
     let with_cost = |k: usize, gap: f64| gap + IN_PATH_LEAD_COST_M_PER_S * lead_s(k);
-    for k in 0..clear {
-        if let Some(gap) = gaps[k] {
+    for (k, gap) in gaps.iter().enumerate().take(clear) {
+        if let Some(gap) = *gap {
             closest_m = closest_m.min(with_cost(k, gap));
         }
     }
