@@ -270,33 +270,54 @@ fn first_contact_s(gap_m: &impl Fn(f64) -> f64, clear_s: f64, touching_s: f64) -
     touching_s
 }
 
-/// The in-path loss of the CBV at `cbv` (body `cbv_body`) for the ego at
-/// `ego_next` (its constant-velocity prediction at the end of the token,
-/// body `ego_body`); see the module. It is exact where `settled` (a
-/// monotone test of a loss: once true, true for every larger one) is false
-/// of it, else settled and no less than it: for a caller to whom every
-/// loss past some point is alike, and which need not pay for the exact one
-/// there (`|_| false`: always exact).
-pub(super) fn in_path_loss_unless(
-    ego_next: &AgentState,
-    ego_body: AgentBody,
-    cbv: &AgentState,
-    cbv_body: AgentBody,
-    settled: impl Fn(f64) -> bool,
-) -> f64 {
-    PathApproach::of(ego_next, ego_body, cbv, cbv_body, |a| settled(a.in_path_loss())).in_path_loss()
+/// Which of the two losses of the module a caller scores by.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum PathLoss {
+    /// The in-path loss of `safer-in-path`.
+    InPath,
+    /// The cut-in loss of `safer-cut-in`.
+    CutIn,
 }
 
-/// The cut-in loss of `safer-cut-in`, for the same arguments as
-/// [`in_path_loss_unless`]; see the module.
-pub(super) fn cut_in_loss_unless(
-    ego_next: &AgentState,
-    ego_body: AgentBody,
-    cbv: &AgentState,
-    cbv_body: AgentBody,
-    settled: impl Fn(f64) -> bool,
-) -> f64 {
-    PathApproach::of(ego_next, ego_body, cbv, cbv_body, |a| settled(a.cut_in_loss())).cut_in_loss()
+impl PathLoss {
+    fn of(self, approach: &PathApproach) -> f64 {
+        match self {
+            PathLoss::InPath => approach.in_path_loss(),
+            PathLoss::CutIn => approach.cut_in_loss(),
+        }
+    }
+
+    /// The loss of the CBV at `cbv` (body `cbv_body`) for the ego at
+    /// `ego_next` (its constant-velocity prediction at the end of the
+    /// token, body `ego_body`); see the module. It is exact where `settled`
+    /// (a monotone test of a loss: once true, true for every larger one)
+    /// is false of it, else settled and no less than it: for a caller to
+    /// whom every loss past some point is alike, and which need not pay
+    /// for the exact one there (`|_| false`: always exact).
+    pub(super) fn loss_unless(
+        self,
+        ego_next: &AgentState,
+        ego_body: AgentBody,
+        cbv: &AgentState,
+        cbv_body: AgentBody,
+        settled: impl Fn(f64) -> bool,
+    ) -> f64 {
+        self.of(&PathApproach::of(ego_next, ego_body, cbv, cbv_body, |a| settled(self.of(a))))
+    }
+
+    /// A lower bound of [`Self::loss_unless`]'s exact loss from the
+    /// separating axes of `sweep` (the [`path_sweep`] of the same ego and
+    /// CBV) alone: for a caller ranking many candidates, which works out
+    /// the exact loss only of those whose bound could still win.
+    pub(super) fn lower_bound(
+        self,
+        (ego_next, ego_sin_cos): (&AgentState, (f64, f64)),
+        ego_body: AgentBody,
+        cbv: &AgentState,
+        sweep: &SweptSeparation,
+    ) -> f64 {
+        self.of(&PathApproach::lower_bound(ego_next, ego_body, ego_sin_cos, cbv, sweep))
+    }
 }
 
 /// The separating-axis bounds of the ego's footprint moving along its
@@ -320,30 +341,6 @@ pub(super) fn path_sweep(
     )
 }
 
-/// A lower bound of [`in_path_loss_unless`]'s exact loss from the
-/// separating axes of `sweep` (the [`path_sweep`] of the same ego and CBV)
-/// alone: for a caller ranking many candidates, which works out the exact
-/// loss only of those whose bound could still win.
-pub(super) fn in_path_loss_lower_bound(
-    (ego_next, ego_sin_cos): (&AgentState, (f64, f64)),
-    ego_body: AgentBody,
-    cbv: &AgentState,
-    sweep: &SweptSeparation,
-) -> f64 {
-    PathApproach::lower_bound(ego_next, ego_body, ego_sin_cos, cbv, sweep).in_path_loss()
-}
-
-/// A lower bound of [`cut_in_loss_unless`]'s exact loss, as
-/// [`in_path_loss_lower_bound`].
-pub(super) fn cut_in_loss_lower_bound(
-    (ego_next, ego_sin_cos): (&AgentState, (f64, f64)),
-    ego_body: AgentBody,
-    cbv: &AgentState,
-    sweep: &SweptSeparation,
-) -> f64 {
-    PathApproach::lower_bound(ego_next, ego_body, ego_sin_cos, cbv, sweep).cut_in_loss()
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -351,11 +348,11 @@ mod tests {
     use crate::scenario::AgentKind;
 
     fn in_path_loss(ego_next: &AgentState, ego_body: AgentBody, cbv: &AgentState, cbv_body: AgentBody) -> f64 {
-        in_path_loss_unless(ego_next, ego_body, cbv, cbv_body, |_| false)
+        PathLoss::InPath.loss_unless(ego_next, ego_body, cbv, cbv_body, |_| false)
     }
 
     fn cut_in_loss(ego_next: &AgentState, ego_body: AgentBody, cbv: &AgentState, cbv_body: AgentBody) -> f64 {
-        cut_in_loss_unless(ego_next, ego_body, cbv, cbv_body, |_| false)
+        PathLoss::CutIn.loss_unless(ego_next, ego_body, cbv, cbv_body, |_| false)
     }
 
     const CAR: AgentBody = AgentBody { kind: AgentKind::Vehicle, length_m: 4.5, width_m: 2.0 };
@@ -467,9 +464,11 @@ mod tests {
                     let path = in_path_loss(&ego, CAR, &cbv, CAR);
                     let sweep = path_sweep((&ego, ego.heading_rad.sin_cos()), CAR, (&cbv, h.sin_cos()), CAR);
                     let ego_sin_cos = (&ego, ego.heading_rad.sin_cos());
-                    let path_bound = in_path_loss_lower_bound(ego_sin_cos, CAR, &cbv, &sweep);
-                    let (cut, cut_bound) =
-                        (cut_in_loss(&ego, CAR, &cbv, CAR), cut_in_loss_lower_bound(ego_sin_cos, CAR, &cbv, &sweep));
+                    let path_bound = PathLoss::InPath.lower_bound(ego_sin_cos, CAR, &cbv, &sweep);
+                    let (cut, cut_bound) = (
+                        cut_in_loss(&ego, CAR, &cbv, CAR),
+                        PathLoss::CutIn.lower_bound(ego_sin_cos, CAR, &cbv, &sweep),
+                    );
                     assert!(path_bound <= path && cut_bound <= cut, "{cbv:?}: {path_bound} {path} {cut_bound} {cut}");
                     cases += 1;
                     tight += usize::from(path - path_bound < 0.01);

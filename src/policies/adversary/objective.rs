@@ -3,7 +3,7 @@
 //! (`in_path`) that draw the CBV into the ego's path. The one-step choice
 //! and the lookahead score candidates through it alike.
 
-use super::in_path::{cut_in_loss_lower_bound, cut_in_loss_unless, in_path_loss_lower_bound, in_path_loss_unless};
+use super::in_path::PathLoss;
 use crate::geometry::SweptSeparation;
 use crate::scenario::{AgentBody, AgentState};
 
@@ -62,10 +62,9 @@ impl Objective {
         distance_m: f64,
         settled: impl Fn(f64) -> bool,
     ) -> f64 {
-        match self {
-            Objective::Contact => distance_m,
-            Objective::InPath => in_path_loss_unless(ego_next, ego_body, cbv, cbv_body, settled),
-            Objective::CutIn => cut_in_loss_unless(ego_next, ego_body, cbv, cbv_body, settled),
+        match self.path_loss() {
+            None => distance_m,
+            Some(loss) => loss.loss_unless(ego_next, ego_body, cbv, cbv_body, settled),
         }
     }
 
@@ -81,10 +80,18 @@ impl Objective {
         cbv: &AgentState,
         sweep: &SweptSeparation,
     ) -> f64 {
+        match self.path_loss() {
+            None => sweep.lower_bound_m(0.0),
+            Some(loss) => loss.lower_bound(ego_next, ego_body, cbv, sweep),
+        }
+    }
+
+    /// The in-path module's loss this objective is (`None`: the paper's).
+    fn path_loss(self) -> Option<PathLoss> {
         match self {
-            Objective::Contact => sweep.lower_bound_m(0.0),
-            Objective::InPath => in_path_loss_lower_bound(ego_next, ego_body, cbv, sweep),
-            Objective::CutIn => cut_in_loss_lower_bound(ego_next, ego_body, cbv, sweep),
+            Objective::Contact => None,
+            Objective::InPath => Some(PathLoss::InPath),
+            Objective::CutIn => Some(PathLoss::CutIn),
         }
     }
 }
