@@ -145,15 +145,19 @@ fn best_kept(
             .map(|(root, ranked)| (*root, ranked.by_ref().take(LOWERING_ASKED_PER_ROUND).map(|(_, i)| i).collect()))
             .collect();
         let asked: Vec<usize> = round.iter().flat_map(|(_, asked)| asked.iter().copied()).collect();
-        let answers: std::collections::HashMap<usize, bool> = asked.iter().copied().zip(judge(&asked)?).collect();
-        let mut settled = std::collections::HashSet::new();
+        // The answers come back in the order asked: each first token's in turn.
+        let mut answers = judge(&asked)?.into_iter();
+        let mut settled = Vec::with_capacity(round.len());
         for (root, asked) in &round {
-            if let Some(&i) = asked.iter().find(|i| answers[i]) {
+            let kept: Vec<bool> = answers.by_ref().take(asked.len()).collect();
+            let first_kept = asked.iter().zip(&kept).find(|&(_, &k)| k).map(|(&i, _)| i);
+            if let Some(i) = first_kept {
                 best.push((*root, i));
-                settled.insert(*root);
             }
+            settled.push(first_kept.is_some());
         }
-        pending.retain(|(root, ranked)| !settled.contains(root) && ranked.len() > 0);
+        let mut settled = settled.into_iter();
+        pending.retain(|(_, ranked)| !settled.next().unwrap_or(true) && ranked.len() > 0);
     }
     Ok(best)
 }
