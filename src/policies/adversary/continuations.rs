@@ -166,8 +166,9 @@ impl Continuations {
         }
     }
 
-    /// Child `i`'s objective where `settled` (monotone, as in
-    /// [`Objective::loss_unless`]) is false of it; else some settled value.
+    /// Child `i`'s objective, `settled` and the answer as in
+    /// [`Objective::loss_unless`] (here a settled answer may be the lower
+    /// bound, below the exact objective).
     pub(super) fn score_unless(&self, i: usize, settled: impl Fn(f64) -> bool) -> f64 {
         let c = &self.children[i];
         if let Some(score) = c.score_m.get() {

@@ -289,11 +289,10 @@ impl PathLoss {
 
     /// The loss of the CBV at `cbv` (body `cbv_body`) for the ego at
     /// `ego_next` (its constant-velocity prediction at the end of the
-    /// token, body `ego_body`); see the module. It is exact where `settled`
-    /// (a monotone test of a loss: once true, true for every larger one)
-    /// is false of it, else settled and no less than it: for a caller to
-    /// whom every loss past some point is alike, and which need not pay
-    /// for the exact one there (`|_| false`: always exact).
+    /// token, body `ego_body`); see the module. `settled` and the answer
+    /// as in [`Objective::loss_unless`](super::objective::Objective::loss_unless)
+    /// (here a settled answer is no less than the exact loss; `|_| false`:
+    /// always exact).
     pub(super) fn loss_unless(
         self,
         ego_next: &AgentState,

@@ -88,15 +88,14 @@ struct Continuation {
     score_m: f64,
 }
 
-impl Child {
-    /// Its tokens after the first token.
-    fn path(&self, beam: &[Continuation]) -> Vec<Token> {
-        let parent = &beam[self.parent].path;
-        let mut path = Vec::with_capacity(parent.len() + 1);
-        path.extend_from_slice(parent);
-        path.push(self.token);
-        path
-    }
+/// The tokens after the first token of `child`: its parent's in the
+/// beam, then its own.
+fn path_of(child: &Child, beam: &[Continuation]) -> Vec<Token> {
+    let parent = &beam[child.parent].path;
+    let mut path = Vec::with_capacity(parent.len() + 1);
+    path.extend_from_slice(parent);
+    path.push(child.token);
+    path
 }
 
 /// The continuation that gave a first token its loss.
@@ -242,7 +241,7 @@ impl Lookahead<'_> {
             for (root, i) in best {
                 let c = children.child(i);
                 losses[root] = children.score_m(i).max(0.0) + delay_m;
-                lowered[root] = Some(Lowering { path: c.path(&beam), distance_m: children.distance_m(i) });
+                lowered[root] = Some(Lowering { path: path_of(c, &beam), distance_m: children.distance_m(i) });
             }
             // Then the best-scored until the next beam is full (none at the
             // last depth). The rest are never kept, whatever the answer: the
@@ -268,7 +267,7 @@ impl Lookahead<'_> {
                 .into_iter()
                 .map(|i| {
                     let c = children.child(i);
-                    Continuation { root: c.root, path: c.path(&beam), state: c.state, score_m: children.score_m(i) }
+                    Continuation { root: c.root, path: path_of(c, &beam), state: c.state, score_m: children.score_m(i) }
                 })
                 .collect();
         }

@@ -47,12 +47,14 @@ impl Objective {
         self.loss_unless(ego_next, ego_body, cbv, cbv_body, distance_m, |_| false)
     }
 
-    /// [`Self::loss`], exact where `settled` (a monotone test of a loss:
-    /// once true, true for every larger one) is false of it, else settled
-    /// and no less than it: for a caller to whom every loss past some
-    /// point is alike (the lookahead's last token, which only asks whether
-    /// a continuation lowers its first token's loss), and which need not
-    /// pay for the exact one there.
+    /// [`Self::loss`] where `settled` (a monotone test of a loss: once
+    /// true, true for every larger one) is false of the exact loss; else
+    /// some value `settled` is true of, above or below the exact one, that
+    /// a caller may only test with `settled`. So `settled` is true of the
+    /// answer exactly when it is true of the exact loss. For a caller to
+    /// whom every loss past some point is alike (the lookahead's last
+    /// token, which only asks whether a continuation lowers its first
+    /// token's loss), and which need not pay for the exact one there.
     pub(super) fn loss_unless(
         self,
         ego_next: &AgentState,
