@@ -20,7 +20,7 @@ use rayon::prelude::*;
 use super::{CliError, scene_paths};
 use safer_scenarios::eval::witness::{DEFAULT_WIDEST, RoadKeeping, WitnessBudget, search_rollout_witness};
 use safer_scenarios::harness::evaluation::{
-    self, EvaluationRequest, HeldOutSplit, MethodRow, Partition, Stage2Cbv, VariantRecord,
+    self, BlindTwinHits, EvaluationRequest, HeldOutSplit, MethodRow, Partition, Stage2Approach, Stage2Cbv, VariantRecord,
 };
 use safer_scenarios::harness::methods::BackgroundDriver;
 use safer_scenarios::harness::methods::ModelSet;
@@ -421,6 +421,42 @@ fn print_stage2_approach(
             c.farther
         )?;
     }
+    print_blind_twin(out, rows, name)
+}
+
+/// Whether the critical conflicts the CBV did not bring within 1 m of the
+/// planner's ego would have hit its CBV-blind twin (where `blind-cbv` was
+/// planted): a conflict the planner answered with a margin, against one
+/// that never came its way.
+fn print_blind_twin(out: &mut dyn Write, rows: &[MethodRow], name: &dyn Fn(&MethodRow) -> String) -> std::io::Result<()> {
+    let ran = |c: &Stage2Approach| {
+        c.blind_twin_under_2_m.ran + c.blind_twin_under_5_m.ran + c.blind_twin_farther.ran
+    };
+    if !rows.iter().any(|r| r.stage2_closest_critical.as_ref().is_some_and(|c| ran(c) > 0)) {
+        return Ok(());
+    }
+    let w = method_column(rows, name);
+    writeln!(
+        out,
+        "\nthe critical variants not reached, by band: how many of those the planner passed hit its CBV-blind twin (blind-cbv hit the CBV / ran):"
+    )?;
+    writeln!(out, "{:<w$} {:>8} {:>8} {:>8} {:>8}", "method", "1-2 m", "2-5 m", ">=5 m", "met")?;
+    for r in rows {
+        let Some(c) = r.stage2_closest_critical else { continue };
+        let cell = |t: BlindTwinHits| format!("{}/{}", t.hit, t.ran);
+        let hit = c.blind_twin_under_2_m.hit + c.blind_twin_under_5_m.hit + c.blind_twin_farther.hit;
+        // Met: reached (contact or under 1 m), or a threat to a blind twin.
+        let met = (c.contact + c.under_1_m + hit) as f64 / c.critical as f64;
+        writeln!(
+            out,
+            "{:<w$} {:>8} {:>8} {:>8} {:>8}",
+            name(r),
+            cell(c.blind_twin_under_2_m),
+            cell(c.blind_twin_under_5_m),
+            cell(c.blind_twin_farther),
+            fmt(Some(met))
+        )?;
+    }
     Ok(())
 }
 
@@ -516,7 +552,7 @@ fn print_legend(out: &mut dyn Write) -> std::io::Result<()> {
     )?;
     writeln!(
         out,
-        "the critical variants at the planner: the stage-1-critical variants by the CBV's closest approach to the planner's ego in stage 2, each in one column: contact (a collision with the CBV) and <1 m make reach-crit; other first: the planner's ego hit another agent first, which ended the rollout; then the closest gap of the rest (>=5 m: or never beside it on the road)."
+        "the critical variants at the planner: the stage-1-critical variants by the CBV's closest approach to the planner's ego in stage 2, each in one column: contact (a collision with the CBV) and <1 m make reach-crit; other first: the planner's ego hit another agent first, which ended the rollout; then the closest gap of the rest (>=5 m: or never beside it on the road). With blind-cbv planted, the critical variants not reached that the planner passed, per band: those where its CBV-blind twin (blind-cbv) hit the CBV / those it ran on; met: reach-crit plus those hits (a conflict that would have hit a planner blind to it, which the planner answered with a margin)."
     )?;
     writeln!(
         out,

@@ -740,6 +740,39 @@ pub struct Stage2Approach {
     /// ... 5 m or more, or no gap measured (the CBV never on the road
     /// beside the planner's ego).
     pub farther: usize,
+    /// The planner's CBV-blind twin (the `blind-cbv` mutant, where the
+    /// evaluation planted it) on the variants of [`Self::under_2_m`]: a
+    /// conflict that hits a planner blind to the CBV is one the planner
+    /// had to answer, met even where it kept more than 1 m.
+    pub blind_twin_under_2_m: BlindTwinHits,
+    /// ... on those of [`Self::under_5_m`].
+    pub blind_twin_under_5_m: BlindTwinHits,
+    /// ... on those of [`Self::farther`].
+    pub blind_twin_farther: BlindTwinHits,
+}
+
+/// Of some variants the planner passed, on how many its CBV-blind twin
+/// (the `blind-cbv` mutant) ran, and on how many of those its ego
+/// collided with the CBV.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
+pub struct BlindTwinHits {
+    /// Variants the twin ran on.
+    pub ran: usize,
+    /// Of those, the ones where it hit the CBV.
+    pub hit: usize,
+}
+
+impl BlindTwinHits {
+    /// Counts `record`'s `blind-cbv` mutant, if it ran.
+    fn add(&mut self, record: &VariantRecord) {
+        let twin = record.mutation.as_ref().and_then(|m| {
+            m.mutants.iter().find(|t| t.operator == FaultOperator::BlindCbv && t.error.is_none())
+        });
+        if let Some(twin) = twin {
+            self.ran += 1;
+            self.hit += usize::from(twin.hit_cbv);
+        }
+    }
 }
 
 /// Upper bounds of the [`Stage2Approach`] bands beyond reach, m.
@@ -762,11 +795,13 @@ impl Stage2Approach {
             } else if r.tally.collided_with_other {
                 &mut counts.other_collision_first
             } else {
-                match r.stage2_min_gap_to_cbv_m {
-                    Some(g) if g < two => &mut counts.under_2_m,
-                    Some(g) if g < five => &mut counts.under_5_m,
-                    _ => &mut counts.farther,
-                }
+                let (band, twin) = match r.stage2_min_gap_to_cbv_m {
+                    Some(g) if g < two => (&mut counts.under_2_m, &mut counts.blind_twin_under_2_m),
+                    Some(g) if g < five => (&mut counts.under_5_m, &mut counts.blind_twin_under_5_m),
+                    _ => (&mut counts.farther, &mut counts.blind_twin_farther),
+                };
+                twin.add(r);
+                band
             };
             *band += 1;
         }
@@ -895,6 +930,7 @@ fn table_of(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::harness::mutation::MutantRecord;
 
     /// A variant of `scenario` that ran and whose CBV path has `digest`.
     fn record(scenario: &str, seed: u32, digest: u64) -> VariantRecord {
@@ -945,12 +981,51 @@ mod tests {
             (true, false, false, false, None),
             (false, true, true, false, Some(0.0)),
         ];
+        // The CBV-blind twin: hit the CBV at 1.0 m, missed it at 1.99 m,
+        // could not run at 2.0 m, not planted at 5.0 m, hit it where no gap
+        // was measured; a hit on a variant reached counts in no band.
+        let twin = |hit_cbv: bool, error: bool| {
+            Some(VariantMutation {
+                base_failure: None,
+                mutants: vec![
+                    MutantRecord {
+                        operator: FaultOperator::NoBrake,
+                        killed: true,
+                        failure: None,
+                        hit_cbv: true,
+                        drove_differently: Some(true),
+                        error: None,
+                    },
+                    MutantRecord {
+                        operator: FaultOperator::BlindCbv,
+                        killed: hit_cbv,
+                        failure: None,
+                        hit_cbv,
+                        drove_differently: Some(true),
+                        error: error.then(|| "gone".to_owned()),
+                    },
+                ],
+            })
+        };
+        let twins = [
+            None,
+            twin(true, false),
+            None,
+            twin(true, false),
+            twin(false, false),
+            twin(true, true),
+            None,
+            twin(true, false),
+            None,
+        ];
         let records: Vec<VariantRecord> = cases
             .iter()
+            .zip(twins)
             .enumerate()
-            .map(|(i, &(critical, reached, contact, other, gap))| {
+            .map(|(i, (&(critical, reached, contact, other, gap), mutation))| {
                 let base = record("a", i as u32, i as u64);
                 VariantRecord {
+                    mutation,
                     stage2_min_gap_to_cbv_m: gap,
                     stage2_contact: (contact || other).then(|| Stage2Contact {
                         other: "7".into(),
@@ -973,7 +1048,10 @@ mod tests {
                 other_collision_first: 1,
                 under_2_m: 2,
                 under_5_m: 1,
-                farther: 2
+                farther: 2,
+                blind_twin_under_2_m: BlindTwinHits { ran: 2, hit: 1 },
+                blind_twin_under_5_m: BlindTwinHits { ran: 0, hit: 0 },
+                blind_twin_farther: BlindTwinHits { ran: 1, hit: 1 },
             }
         );
         assert_eq!(

@@ -386,3 +386,75 @@ fn the_table_names_whom_the_ego_hit_as_the_json_report_does_and_progress_says_wh
     }
     assert!(rows_with_critical > 0, "safer makes critical variants on these scenes: {table}");
 }
+
+#[test]
+fn the_blind_twin_table_counts_the_cbv_blind_mutant_on_the_critical_variants_not_reached_as_the_report_does() {
+    // The shipped freeway scenes with the ego's leader as the CBV: the
+    // evasive planner keeps some of the critical conflicts beyond 1 m, and
+    // a planner blind to the CBV is hit by some of those and not by others.
+    let out = tempfile_dir("blind-twin");
+    let scenes = Path::new(repo_root!()).join("scenes/ngsim");
+    let json = out.join("report.json");
+    let run = safer(&[
+        "evaluate",
+        "--scenes",
+        scenes.to_str().unwrap(),
+        "--roles",
+        "leader",
+        "--methods",
+        "safer-in-path",
+        "--trust-region",
+        "60",
+        "--stage2-cbv",
+        "closed-loop",
+        "--background",
+        "reactive-log-replay",
+        "--seeds",
+        "3",
+        "--mutants",
+        "blind-cbv",
+        "--json",
+        json.to_str().unwrap(),
+    ]);
+    let table = ok(run);
+    let report: Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    // Counted from the variants: each critical variant the CBV did not
+    // reach, by its stage-2 gap band, and whether the CBV-blind twin ran
+    // and hit the CBV there.
+    let mut counted = [(0u64, 0u64); 3];
+    for v in report["variants"].as_array().unwrap() {
+        let tally = &v["tally"];
+        if tally["critical"] != true || tally["reached"] == true || tally["collided_with_other"] == true {
+            continue;
+        }
+        let band = match v["stage2_min_gap_to_cbv_m"].as_f64() {
+            Some(g) if g < 2.0 => 0,
+            Some(g) if g < 5.0 => 1,
+            _ => 2,
+        };
+        let twin = v["mutation"]["mutants"]
+            .as_array()
+            .into_iter()
+            .flatten()
+            .find(|m| m["operator"] == "blind-cbv" && m["error"].is_null());
+        if let Some(twin) = twin {
+            counted[band].0 += 1;
+            counted[band].1 += u64::from(twin["hit_cbv"] == true);
+        }
+    }
+    let (ran, hit) = counted.iter().fold((0, 0), |(r, h), &(ran, hit)| (r + ran, h + hit));
+    assert!(hit > 0 && hit < ran, "the twin is hit in some of these and not in others: {counted:?}");
+    let c = &report["rows"][0]["stage2_closest_critical"];
+    for (key, (ran, hit)) in ["blind_twin_under_2_m", "blind_twin_under_5_m", "blind_twin_farther"].iter().zip(counted) {
+        assert_eq!((c[key]["ran"].as_u64(), c[key]["hit"].as_u64()), (Some(ran), Some(hit)), "{key}: {c}");
+    }
+    // The table prints the same cells, and `met` adds the twin's hits to reach.
+    let section = table.split("the critical variants not reached, by band").nth(1).expect("the blind twin table");
+    let line = section.lines().find(|l| l.starts_with("safer-in-path ")).expect("its row");
+    let cells: Vec<&str> = line.split_whitespace().skip(1).collect();
+    let expected: Vec<String> = counted.iter().map(|(ran, hit)| format!("{hit}/{ran}")).collect();
+    assert_eq!(cells[..3], expected[..], "{line}");
+    let met = (c["contact"].as_u64().unwrap() + c["under_1_m"].as_u64().unwrap() + hit) as f64
+        / c["critical"].as_u64().unwrap() as f64;
+    assert_eq!(cells[3], format!("{met:.3}"), "{line}");
+}
