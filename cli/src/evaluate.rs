@@ -20,7 +20,8 @@ use rayon::prelude::*;
 use super::{CliError, scene_paths};
 use safer_scenarios::eval::witness::{DEFAULT_WIDEST, RoadKeeping, WitnessBudget, search_rollout_witness};
 use safer_scenarios::harness::evaluation::{
-    self, BlindTwinHits, EvaluationRequest, HeldOutSplit, MethodRow, Partition, Stage2Approach, Stage2Cbv, VariantRecord,
+    self, BlindTwinHits, EvaluationRequest, HeldOutSplit, MethodRow, Partition, Stage2Approach, Stage2Cbv,
+    VariantRecord,
 };
 use safer_scenarios::harness::methods::BackgroundDriver;
 use safer_scenarios::harness::methods::ModelSet;
@@ -428,10 +429,12 @@ fn print_stage2_approach(
 /// planner's ego would have hit its CBV-blind twin (where `blind-cbv` was
 /// planted): a conflict the planner answered with a margin, against one
 /// that never came its way.
-fn print_blind_twin(out: &mut dyn Write, rows: &[MethodRow], name: &dyn Fn(&MethodRow) -> String) -> std::io::Result<()> {
-    let ran = |c: &Stage2Approach| {
-        c.blind_twin_under_2_m.ran + c.blind_twin_under_5_m.ran + c.blind_twin_farther.ran
-    };
+fn print_blind_twin(
+    out: &mut dyn Write,
+    rows: &[MethodRow],
+    name: &dyn Fn(&MethodRow) -> String,
+) -> std::io::Result<()> {
+    let ran = |c: &Stage2Approach| c.blind_twin_under_2_m.ran + c.blind_twin_under_5_m.ran + c.blind_twin_farther.ran;
     if !rows.iter().any(|r| r.stage2_closest_critical.as_ref().is_some_and(|c| ran(c) > 0)) {
         return Ok(());
     }

@@ -145,6 +145,11 @@
 #                     over 30 and 60 (mutation over 60, the shipped suites' region) and
 #                     over 60 with the witness asked; the lane follower's mutation tables
 #                     over 60 on both sets (about 80 minutes)
+#   blind-twin        blind-twin/: safer-in-path over ten seeds, the evasive planner, the CBV
+#                     closed loop and the recorded cars braking, with the CBV-blind mutant
+#                     alone planted: whether the critical conflicts kept beyond 1 m of the
+#                     planner would have hit it (WOMD interactive over 20 behaviours, NGSIM
+#                     over 60, the shipped suite's region) (about 30 minutes)
 #   mutants           mutants-{womd-interactive,womd-json,ngsim}-evasive.txt and
 #                     mutants-{womd-interactive,ngsim}-lane-follower.txt: the
 #                     faults of the planner each method's variants catch
@@ -159,7 +164,7 @@ set -euo pipefail
 self=$(realpath "$0")
 cd "$(dirname "$self")"
 all=(evaluate plain inattentive held-out-chance trust-region realism prior-fit n-sweep reactive n100 approach-none merging mutants wide-region cut-in
-    in-path-lookahead in-path-lookahead-n30 in-path-lookahead-n28 in-path-lookahead-sweep pair-in-traffic witnessed wide-witnessed ten-seeds reaction-delay reactive-background leader first-contact both-pairings first-contact-lookahead)
+    in-path-lookahead in-path-lookahead-n30 in-path-lookahead-n28 in-path-lookahead-sweep pair-in-traffic witnessed wide-witnessed ten-seeds reaction-delay reactive-background leader first-contact both-pairings first-contact-lookahead blind-twin)
 jobs=("$@")
 [[ ${#jobs[@]} -gt 0 ]] || jobs=("${all[@]}")
 # The usage is the comment block at the top of this file.
@@ -518,6 +523,13 @@ for job in "${jobs[@]}"; do
         run reactive-background/mutants-ngsim-evasive-n60-ten-seeds.txt evaluate --scenes data:commonroad-ngsim \
             --seeds 10 --stage2-cbv closed-loop --background reactive-log-replay --mutants \
             --methods log,prior,safer-in-path --trust-region 60 ;;
+    blind-twin)
+        mkdir -p blind-twin
+        run blind-twin/womd-interactive-evasive.txt evaluate --scenes data:womd-interactive --seeds 10 \
+            --stage2-cbv closed-loop --background reactive-log-replay --mutants blind-cbv --methods safer-in-path
+        run blind-twin/ngsim-evasive-n60.txt evaluate --scenes data:commonroad-ngsim --seeds 10 \
+            --stage2-cbv closed-loop --background reactive-log-replay --mutants blind-cbv --methods safer-in-path \
+            --trust-region 60 ;;
     first-contact-lookahead)
         mkdir -p first-contact/in-path-lookahead
         for n in 20 28; do

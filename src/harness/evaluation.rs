@@ -765,9 +765,10 @@ pub struct BlindTwinHits {
 impl BlindTwinHits {
     /// Counts `record`'s `blind-cbv` mutant, if it ran.
     fn add(&mut self, record: &VariantRecord) {
-        let twin = record.mutation.as_ref().and_then(|m| {
-            m.mutants.iter().find(|t| t.operator == FaultOperator::BlindCbv && t.error.is_none())
-        });
+        let twin = record
+            .mutation
+            .as_ref()
+            .and_then(|m| m.mutants.iter().find(|t| t.operator == FaultOperator::BlindCbv && t.error.is_none()));
         if let Some(twin) = twin {
             self.ran += 1;
             self.hit += usize::from(twin.hit_cbv);

@@ -1283,3 +1283,26 @@ fn the_lookahead_first_contact_ngsim_tables_quote_their_outputs() {
     }
     assert_eq!(checked.len(), 9, "NGSIM's seven rows and the lane follower's two on WOMD interactive: {checked:?}");
 }
+
+#[test]
+fn the_blind_twin_table_quotes_its_outputs() {
+    let doc = repo_file("docs/benchmarks.md");
+    let rows =
+        markdown_rows(&doc, "| set | draw | critical | contact | under 1 m | 1–2 m", "On WOMD interactive the near");
+    let mut checked = 0;
+    for (set, draw, row) in rows_by_set_and_draw(&rows) {
+        let file = side_by_side_output(&set, &draw);
+        let output = repo_file(&format!("docs/evaluation/first-contact/reactive-background/{file}"));
+        // Critical, contact and under 1 m from the bands; the CBV-blind
+        // twin's three cells; reach-crit; met.
+        let bands = labelled_row(&output, "critical", "safer-in-path");
+        let twin = labelled_row(&output, " met", "safer-in-path");
+        let mut expected = bands[..3].to_vec();
+        expected.extend(twin[..3].iter().cloned());
+        expected.push(labelled_row(&output, "reach-crit", "safer-in-path")[1].clone());
+        expected.push(twin[3].clone());
+        assert_eq!(row[2..], expected[..], "{set}, {draw}: the table against first-contact/reactive-background/{file}");
+        checked += 1;
+    }
+    assert_eq!(checked, 4, "two draws on each set");
+}

@@ -445,7 +445,8 @@ fn the_blind_twin_table_counts_the_cbv_blind_mutant_on_the_critical_variants_not
     let (ran, hit) = counted.iter().fold((0, 0), |(r, h), &(ran, hit)| (r + ran, h + hit));
     assert!(hit > 0 && hit < ran, "the twin is hit in some of these and not in others: {counted:?}");
     let c = &report["rows"][0]["stage2_closest_critical"];
-    for (key, (ran, hit)) in ["blind_twin_under_2_m", "blind_twin_under_5_m", "blind_twin_farther"].iter().zip(counted) {
+    for (key, (ran, hit)) in ["blind_twin_under_2_m", "blind_twin_under_5_m", "blind_twin_farther"].iter().zip(counted)
+    {
         assert_eq!((c[key]["ran"].as_u64(), c[key]["hit"].as_u64()), (Some(ran), Some(hit)), "{key}: {c}");
     }
     // The table prints the same cells, and `met` adds the twin's hits to reach.
