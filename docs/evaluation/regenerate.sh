@@ -149,7 +149,8 @@
 #                     closed loop and the recorded cars braking, with the CBV-blind mutant
 #                     alone planted: whether the critical conflicts kept beyond 1 m of the
 #                     planner would have hit it (WOMD interactive over 20 behaviours, NGSIM
-#                     over 60, the shipped suite's region) (about 30 minutes)
+#                     over 60, the shipped suite's region), and the lookahead over 28 on WOMD
+#                     interactive (about 10 minutes)
 #   mutants           mutants-{womd-interactive,womd-json,ngsim}-evasive.txt and
 #                     mutants-{womd-interactive,ngsim}-lane-follower.txt: the
 #                     faults of the planner each method's variants catch
@@ -527,6 +528,9 @@ for job in "${jobs[@]}"; do
         mkdir -p blind-twin
         run blind-twin/womd-interactive-evasive.txt evaluate --scenes data:womd-interactive --seeds 10 \
             --stage2-cbv closed-loop --background reactive-log-replay --mutants blind-cbv --methods safer-in-path
+        run blind-twin/womd-interactive-evasive-lookahead-n28.txt evaluate --scenes data:womd-interactive \
+            --seeds 10 --stage2-cbv closed-loop --background reactive-log-replay --mutants blind-cbv \
+            --methods safer-in-path-lookahead --trust-region 28
         run blind-twin/ngsim-evasive-n60.txt evaluate --scenes data:commonroad-ngsim --seeds 10 \
             --stage2-cbv closed-loop --background reactive-log-replay --mutants blind-cbv --methods safer-in-path \
             --trust-region 60 ;;

@@ -1306,3 +1306,34 @@ fn the_blind_twin_table_quotes_its_outputs() {
     }
     assert_eq!(checked, 4, "two draws on each set");
 }
+
+#[test]
+fn the_ten_seed_blind_twin_table_quotes_its_outputs() {
+    let doc = repo_file("docs/benchmarks.md");
+    let rows =
+        markdown_rows(&doc, "| set | method | n | CR | SR | critical | reach-crit | 1–2 m", "on WOMD interactive: met");
+    let mut checked = 0;
+    for row in &rows {
+        let method = method_of(&row[1]).expect("a method");
+        let file = match (row[0].as_str(), method) {
+            ("WOMD interactive", "safer-in-path") => "womd-interactive-evasive.txt",
+            ("WOMD interactive", "safer-in-path-lookahead") => "womd-interactive-evasive-lookahead-n28.txt",
+            ("NGSIM", "safer-in-path") => "ngsim-evasive-n60.txt",
+            other => panic!("no output for {other:?}"),
+        };
+        let output = repo_file(&format!("docs/evaluation/blind-twin/{file}"));
+        let region = output.lines().find_map(|l| l.split("trust region n = ").nth(1)).expect("the run's region");
+        let evaluation = labelled_row(&output, "variants", method);
+        let conflicts = labelled_row(&output, "reach-crit", method);
+        let twin = labelled_row(&output, " met", method);
+        let mut expected =
+            vec![region.split(',').next().unwrap().to_owned(), evaluation[2].clone(), evaluation[3].clone()];
+        expected.push(labelled_row(&output, "critical", method)[0].clone());
+        expected.push(conflicts[1].clone());
+        expected.extend(twin.iter().cloned());
+        expected.push(conflicts[4].clone());
+        assert_eq!(row[2..], expected[..], "{row:?} against blind-twin/{file}");
+        checked += 1;
+    }
+    assert_eq!(checked, 3, "two methods on WOMD interactive, one on NGSIM");
+}
