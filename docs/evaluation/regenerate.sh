@@ -150,7 +150,7 @@
 #                     alone planted: whether the critical conflicts kept beyond 1 m of the
 #                     planner would have hit it (WOMD interactive over 20 behaviours, NGSIM
 #                     over 60, the shipped suite's region), and the lookahead over 28 on WOMD
-#                     interactive (about 10 minutes)
+#                     interactive, with V_h alone and with the witness asked (about 15 minutes)
 #   mutants           mutants-{womd-interactive,womd-json,ngsim}-evasive.txt and
 #                     mutants-{womd-interactive,ngsim}-lane-follower.txt: the
 #                     faults of the planner each method's variants catch
@@ -531,6 +531,9 @@ for job in "${jobs[@]}"; do
         run blind-twin/womd-interactive-evasive-lookahead-n28.txt evaluate --scenes data:womd-interactive \
             --seeds 10 --stage2-cbv closed-loop --background reactive-log-replay --mutants blind-cbv \
             --methods safer-in-path-lookahead --trust-region 28
+        run blind-twin/womd-interactive-evasive-lookahead-n28-witnessed.txt evaluate --scenes data:womd-interactive \
+            --seeds 10 --stage2-cbv closed-loop --background reactive-log-replay --mutants blind-cbv \
+            --methods safer-in-path-lookahead --trust-region 28 --feasibility witnessed
         run blind-twin/ngsim-evasive-n60.txt evaluate --scenes data:commonroad-ngsim --seeds 10 \
             --stage2-cbv closed-loop --background reactive-log-replay --mutants blind-cbv --methods safer-in-path \
             --trust-region 60 ;;
