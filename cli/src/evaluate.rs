@@ -20,8 +20,7 @@ use rayon::prelude::*;
 use super::{CliError, scene_paths};
 use safer_scenarios::eval::witness::{DEFAULT_WIDEST, RoadKeeping, WitnessBudget, search_rollout_witness};
 use safer_scenarios::harness::evaluation::{
-    self, BlindTwinHits, EvaluationRequest, HeldOutSplit, MethodRow, Partition, Stage2Approach, Stage2Cbv,
-    VariantRecord,
+    self, BlindTwinHits, EvaluationRequest, HeldOutSplit, MethodRow, Partition, Stage2Cbv, VariantRecord,
 };
 use safer_scenarios::harness::methods::BackgroundDriver;
 use safer_scenarios::harness::methods::ModelSet;
@@ -434,8 +433,7 @@ fn print_blind_twin(
     rows: &[MethodRow],
     name: &dyn Fn(&MethodRow) -> String,
 ) -> std::io::Result<()> {
-    let ran = |c: &Stage2Approach| c.blind_twin_under_2_m.ran + c.blind_twin_under_5_m.ran + c.blind_twin_farther.ran;
-    if !rows.iter().any(|r| r.stage2_closest_critical.as_ref().is_some_and(|c| ran(c) > 0)) {
+    if !rows.iter().any(|r| r.stage2_closest_critical.as_ref().is_some_and(|c| c.blind_twin().ran > 0)) {
         return Ok(());
     }
     let w = method_column(rows, name);
@@ -447,9 +445,6 @@ fn print_blind_twin(
     for r in rows {
         let Some(c) = r.stage2_closest_critical else { continue };
         let cell = |t: BlindTwinHits| format!("{}/{}", t.hit, t.ran);
-        let hit = c.blind_twin_under_2_m.hit + c.blind_twin_under_5_m.hit + c.blind_twin_farther.hit;
-        // Met: reached (contact or under 1 m), or a threat to a blind twin.
-        let met = (c.contact + c.under_1_m + hit) as f64 / c.critical as f64;
         writeln!(
             out,
             "{:<w$} {:>8} {:>8} {:>8} {:>8}",
@@ -457,7 +452,7 @@ fn print_blind_twin(
             cell(c.blind_twin_under_2_m),
             cell(c.blind_twin_under_5_m),
             cell(c.blind_twin_farther),
-            fmt(Some(met))
+            fmt(c.met())
         )?;
     }
     Ok(())

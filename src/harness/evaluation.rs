@@ -780,6 +780,24 @@ impl BlindTwinHits {
 const STAGE2_APPROACH_BANDS_M: [f64; 2] = [2.0, 5.0];
 
 impl Stage2Approach {
+    /// The critical variants the CBV did not reach on which the planner's
+    /// CBV-blind twin ran, and of those the ones where it hit the CBV.
+    pub fn blind_twin(&self) -> BlindTwinHits {
+        let bands = [self.blind_twin_under_2_m, self.blind_twin_under_5_m, self.blind_twin_farther];
+        bands
+            .iter()
+            .fold(BlindTwinHits::default(), |sum, t| BlindTwinHits { ran: sum.ran + t.ran, hit: sum.hit + t.hit })
+    }
+
+    /// The share of the critical variants whose conflict met the planner:
+    /// reached (a contact or under 1 m: reach-crit) or a threat its
+    /// CBV-blind twin ran into. Without `blind-cbv` planted it is
+    /// reach-crit. `None` for no critical variant.
+    pub fn met(&self) -> Option<f64> {
+        let met = self.contact + self.under_1_m + self.blind_twin().hit;
+        (self.critical > 0).then(|| met as f64 / self.critical as f64)
+    }
+
     /// The counts over the critical ones of `variants` (that ran); `None`
     /// when none was critical.
     fn of(variants: &[&VariantRecord]) -> Option<Self> {
@@ -1060,6 +1078,11 @@ mod tests {
             row.conflict_reach_critical,
             "the first two bands are reach on the critical variants"
         );
+        assert_eq!(c.blind_twin(), BlindTwinHits { ran: 3, hit: 2 });
+        assert_eq!(c.met(), Some(4.0 / 8.0), "reached 2, and the twin hit 2 more");
+        let without_twin = Stage2Approach { critical: 4, contact: 1, under_1_m: 1, under_2_m: 2, ..Default::default() };
+        assert_eq!(without_twin.met(), Some(0.5), "reach-crit where no twin ran");
+        assert_eq!(Stage2Approach::default().met(), None, "no critical variant");
         let none_critical = [record("a", 0, 0)];
         assert_eq!(table(&none_critical, &[AdversaryMethod::Safer])[0].stage2_closest_critical, None);
     }
