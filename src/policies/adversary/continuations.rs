@@ -153,17 +153,10 @@ impl Continuations {
         self.children[i].distance_lower_bound_m > 0.0 || self.distance_m(i) > 0.0
     }
 
-    /// Child `i`'s objective, m.
+    /// Child `i`'s objective, m (worked out once: [`Self::score_unless`]
+    /// keeps every exact score).
     pub(super) fn score_m(&self, i: usize) -> f64 {
-        let c = &self.children[i];
-        match c.score_m.get() {
-            Some(score) => score,
-            None => {
-                let score = self.score_unless(i, |_| false);
-                c.score_m.set(Some(score));
-                score
-            }
-        }
+        self.score_unless(i, |_| false)
     }
 
     /// Child `i`'s objective, `settled` and the answer as in
