@@ -25,7 +25,7 @@ use safer_scenarios::harness::evaluation::{
 use safer_scenarios::harness::methods::BackgroundDriver;
 use safer_scenarios::harness::methods::ModelSet;
 use safer_scenarios::harness::mutation::MethodKills;
-use safer_scenarios::policies::adversary::{ApproachPhase, FeasibilityScope};
+use safer_scenarios::policies::adversary::{ApproachPhase, EgoContactRule, FeasibilityScope};
 use safer_scenarios::scenario::roles::RolePairing;
 use safer_scenarios::scenario::{Scenario, import};
 use safer_scenarios::spec::suite::AdversaryMethod;
@@ -114,6 +114,10 @@ fn is_pair(scope: &FeasibilityScope) -> bool {
     *scope == FeasibilityScope::Pair
 }
 
+fn is_any_contact(rule: &EgoContactRule) -> bool {
+    *rule == EgoContactRule::Any
+}
+
 /// What an evaluation was asked, as its report records it: partitions of
 /// one evaluation have equal settings, and the merge checks that they do.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -130,6 +134,9 @@ pub(super) struct EvaluationSettings {
     /// Reports written before the option existed had the pair's.
     #[serde(default, skip_serializing_if = "is_pair")]
     feasibility: FeasibilityScope,
+    /// Reports written before the option existed had any contact.
+    #[serde(default, skip_serializing_if = "is_any_contact")]
+    ego_contact: EgoContactRule,
     background: BackgroundDriver,
     stage2_cbv: Vec<Stage2Cbv>,
     horizon_s: f64,
@@ -157,6 +164,7 @@ impl EvaluationSettings {
             trust_region: request.trust_region,
             approach: request.approach,
             feasibility: request.feasibility,
+            ego_contact: request.ego_contact,
             background: request.background,
             stage2_cbv: request.stage2_cbv.clone(),
             horizon_s: request.horizon_s,
@@ -184,7 +192,7 @@ fn print_table(
     let name = |r: &MethodRow| label(r.method, r.stage2_cbv, modes);
     writeln!(
         out,
-        "{scenes} scenes × {} seeds; stage 2 planner `{}`, stage-2 CBV {}, trust region n = {}, horizon {} s{}{}{}{}{}",
+        "{scenes} scenes × {} seeds; stage 2 planner `{}`, stage-2 CBV {}, trust region n = {}, horizon {} s{}{}{}{}{}{}",
         request.seeds,
         request.planner,
         request.stage2_cbv.iter().map(safer_scenarios::spec::spec_name).collect::<Vec<_>>().join(" and "),
@@ -199,6 +207,10 @@ fn print_table(
             FeasibilityScope::PairInTraffic =>
                 "; feasibility pair-in-traffic (V_h and the ego's room among the traffic)",
             FeasibilityScope::Witnessed => "; feasibility witnessed (V_h and the witness's escape before a contact)",
+        },
+        match request.ego_contact {
+            EgoContactRule::Any => "",
+            EgoContactRule::NotFromBehind => "; no contact from behind the ego",
         },
         match witness.road {
             RoadKeeping::Centre => "",
@@ -1303,6 +1315,9 @@ pub(crate) struct EvaluateArgs {
     /// What the feasibility constraint of the methods with V_h takes into account: `pair`, V_h of the ego–CBV pair alone (the paper's); `pair-in-traffic` (beyond the paper), near the ego a state V_h calls escapable counts only where one of a few held manoeuvres keeps the ego clear of the CBV, of the traffic around it and on the road for 2 s; `witnessed` (beyond the paper), a candidate that leads the CBV within 1.5 m of the ego (both held on at constant velocity for 2 s) is taken only where the feasibility witness finds the ego an escape from the CBV along it.
     #[arg(long, value_parser = choice(FeasibilityScope::ALL), default_value = "pair")]
     pub(crate) feasibility: FeasibilityScope,
+    /// Which contacts with the ego the SaFeR methods' CBV may make: `any` (the paper's); `not-from-behind` (beyond the paper), none from behind the ego or with it standing still (the collisions nuPlan's rule never blames the ego for, which no planner can escape a chasing CBV from): a candidate after which the CBV, braking as hard as it can, would still run into the ego held on at its velocity from behind is infeasible.
+    #[arg(long, value_parser = choice(EgoContactRule::ALL), default_value = "any")]
+    pub(crate) ego_contact: EgoContactRule,
     /// The CBV in stage 2: replaying its stage-1 trajectory, or driven by the method again against the planner's ego (closed-loop), or so with the CBV seeing the planner's ego a driver's reaction time (1 s) late, carried on at the velocity it had, so that it does not follow an escape as it begins (closed-loop-delayed, beyond the paper); `replay,closed-loop` reports both side by side. The default here is `replay`, so that every method's stage 2 meets the same recorded CBV path and the methods compare on equal terms (the paper does not say whether its CBV reacts in stage 2); suites default to `closed-loop` (`adversary.stage2_cbv`), because a planner test should meet a CBV that answers the planner.
     #[arg(long, value_parser = choice(Stage2Cbv::ALL), value_delimiter = ',', default_values = ["replay"])]
     pub(crate) stage2_cbv: Vec<Stage2Cbv>,
@@ -1356,6 +1371,7 @@ pub(crate) fn command(args: EvaluateArgs) -> Result<ExitCode, CliError> {
         background,
         approach_phase,
         feasibility,
+        ego_contact,
         stage2_cbv,
         horizon_s,
         roles,
@@ -1382,6 +1398,7 @@ pub(crate) fn command(args: EvaluateArgs) -> Result<ExitCode, CliError> {
         trust_region,
         approach: approach_phase,
         feasibility,
+        ego_contact,
         background,
         stage2_cbv,
         escape: Some(escape),

@@ -256,6 +256,7 @@ fn from_stage1(
         trust_region: STAGE1_TRUST_REGION,
         approach: Default::default(),
         feasibility: Default::default(),
+        ego_contact: Default::default(),
         background: Default::default(),
         stage2_cbv: vec![Stage2Cbv::Replay],
         escape: None,

@@ -414,6 +414,7 @@ pub fn run_episode(
                 sampling: TokenSampling::default(),
                 approach: crate::policies::adversary::ApproachPhase::default(),
                 feasibility: crate::policies::adversary::FeasibilityScope::Pair,
+                ego_contact: crate::policies::adversary::EgoContactRule::Any,
             };
             crate::harness::methods::install(&mut sim, s, cbv, start, settings, models, maps, seed).ok()?;
             let mut planner = episode.ego_planner.instantiate(s, ego);

@@ -35,7 +35,7 @@ use super::variant::{CollisionEscape, VariantOutcome};
 use crate::eval::escape::EscapeBudget;
 use crate::planners::FaultOperator;
 use crate::policies::BackgroundPolicy;
-use crate::policies::adversary::{ApproachPhase, FeasibilityScope};
+use crate::policies::adversary::{ApproachPhase, EgoContactRule, FeasibilityScope};
 use crate::policies::prior_sampling::TokenSampling;
 use crate::scenario::Scenario;
 use crate::sim::{Rollout, SimConfig};
@@ -61,6 +61,9 @@ pub struct EvaluationRequest {
     /// What the feasibility constraint of the methods with V_h takes into
     /// account (the pair alone: the paper's).
     pub feasibility: FeasibilityScope,
+    /// Which contacts with the ego the SaFeR methods' CBV may make (any:
+    /// the paper's).
+    pub ego_contact: EgoContactRule,
     /// Who drives the background agents.
     pub background: BackgroundDriver,
     /// Stage-2 CBV modes, each a row per method (replay: the paper's
@@ -393,6 +396,7 @@ impl EvaluationRequest {
             sampling: TokenSampling::default(),
             approach: self.approach,
             feasibility: self.feasibility,
+            ego_contact: self.ego_contact,
         }
     }
 }

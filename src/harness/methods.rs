@@ -15,8 +15,8 @@ use crate::models::prior::{PriorVariant, RealismPrior};
 use crate::models::{ModelError, ModelSource};
 use crate::policies::LogReplay;
 use crate::policies::adversary::{
-    Adversary, ApproachPhase, EgoSight, EscapeWitness, FeasibilityOracle, FeasibilityScope, LOOKAHEAD_TOKENS,
-    Objective, Search, TrustRegion,
+    Adversary, ApproachPhase, EgoContactRule, EgoSight, EscapeWitness, FeasibilityOracle, FeasibilityScope,
+    LOOKAHEAD_TOKENS, Objective, Search, TrustRegion,
 };
 use crate::policies::prior_sampling::{PriorAgent, PriorTraffic, ScenarioMapEncoding, TokenSampling, TrafficTimings};
 use crate::scenario::{AgentBody, AgentState, Scenario, TrackIndex};
@@ -137,6 +137,8 @@ pub struct MethodSettings {
     pub approach: ApproachPhase,
     /// What the feasibility constraint takes into account (the methods with V_h).
     pub feasibility: FeasibilityScope,
+    /// Which contacts with the ego the SaFeR methods' CBV may make.
+    pub ego_contact: EgoContactRule,
 }
 
 /// The feasibility witness the `witnessed` scope asks before the CBV makes
@@ -239,6 +241,7 @@ pub fn install_seeing_ego(
         || models.feasibility.clone().map_err(|source| HarnessError::Model { method: settings.method, source });
     let search = Search {
         feasibility: settings.feasibility,
+        ego_contact: settings.ego_contact,
         ..Search::one_step(trust_region_of(settings.method, settings.trust_region))
     };
     let adversary = |search, feasibility| {

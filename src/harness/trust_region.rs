@@ -66,6 +66,7 @@ pub fn profile_variant(
             sampling: TokenSampling::default(),
             approach: request.approach,
             feasibility: request.feasibility,
+            ego_contact: Default::default(),
         },
         seed,
         sim: &sim,

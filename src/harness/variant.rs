@@ -256,6 +256,7 @@ impl VariantInputs {
                 sampling: TokenSampling::default(),
                 approach: spec.adversary.approach_phase,
                 feasibility: spec.adversary.feasibility,
+                ego_contact: spec.adversary.ego_contact,
             },
             seed: self.seed,
             sim: &self.sim,

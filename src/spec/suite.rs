@@ -23,7 +23,7 @@ use serde_saphyr::Spanned;
 
 use super::{Loaded, SpecError, SpecLocation, paths};
 use crate::policies::BackgroundPolicy;
-use crate::policies::adversary::{ApproachPhase, FeasibilityScope};
+use crate::policies::adversary::{ApproachPhase, EgoContactRule, FeasibilityScope};
 
 /// A suite.
 #[derive(Debug, Clone, Deserialize, JsonSchema)]
@@ -298,6 +298,13 @@ pub struct AdversarySpec {
     /// escape from it.
     #[serde(default)]
     pub feasibility: FeasibilityScope,
+    /// Which contacts with the planner's ego the SaFeR methods' CBV may
+    /// make: `any` (the default, the paper's), or `not-from-behind`
+    /// (beyond the paper): none from behind the ego or with it standing
+    /// still, the collisions nuPlan's rule never blames the ego for and
+    /// no planner can escape a chasing CBV from.
+    #[serde(default)]
+    pub ego_contact: EgoContactRule,
 }
 
 fn twenty() -> usize {
@@ -317,6 +324,7 @@ impl Default for AdversarySpec {
             stage2_cbv: Stage2Cbv::ClosedLoop,
             approach_phase: ApproachPhase::Seeded,
             feasibility: FeasibilityScope::Pair,
+            ego_contact: EgoContactRule::Any,
         }
     }
 }
@@ -638,6 +646,16 @@ impl Loaded<SuiteSpec> {
                 format!(
                     "`feasibility` applies to the methods with the feasibility value (safer, safer-in-path, …); \
                      `{}` has none: remove the key",
+                    crate::spec::spec_name(&s.adversary.method)
+                ),
+            ));
+        }
+        if s.adversary.ego_contact != EgoContactRule::Any && !s.adversary.method.is_adversary() {
+            return Err(self.invalid_at(
+                "adversary.ego_contact",
+                format!(
+                    "`ego_contact` applies to the SaFeR methods (safer, safer-in-path, …), which aim at the ego; \
+                     `{}` does not: remove the key",
                     crate::spec::spec_name(&s.adversary.method)
                 ),
             ));
@@ -1024,6 +1042,20 @@ acceptance:
         assert_eq!(spec.value.adversary.feasibility, FeasibilityScope::Witnessed);
         let spec = parse_yaml::<SuiteSpec>(SUITE, Path::new("s.yaml")).unwrap();
         assert_eq!(spec.value.adversary.feasibility, FeasibilityScope::Pair);
+    }
+
+    #[test]
+    fn ego_contact_not_from_behind_is_for_the_methods_that_aim_at_the_ego() {
+        let e = error("method: prior }", "method: prior, ego_contact: not-from-behind }");
+        assert!(e.contains("`ego_contact` applies to the SaFeR methods"), "{e}");
+        let e = error("method: prior }", "method: safer, ego_contact: behind }");
+        assert!(e.contains("behind") && e.contains("not-from-behind"), "a misspelt rule is refused: {e}");
+        let text = SUITE.replace("method: prior }", "method: safer-in-path-lookahead, ego_contact: not-from-behind }");
+        let spec = parse_yaml::<SuiteSpec>(&text, Path::new("s.yaml")).unwrap();
+        spec.validate().unwrap();
+        assert_eq!(spec.value.adversary.ego_contact, EgoContactRule::NotFromBehind);
+        let spec = parse_yaml::<SuiteSpec>(SUITE, Path::new("s.yaml")).unwrap();
+        assert_eq!(spec.value.adversary.ego_contact, EgoContactRule::Any);
     }
 
     #[test]

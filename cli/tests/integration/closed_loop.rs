@@ -207,3 +207,28 @@ fn a_delayed_cbv_sees_an_ego_that_holds_its_velocity_as_it_is_and_a_swerving_one
     }
     assert!(differ >= 1, "the delayed CBV drove as the closed-loop one in every variant");
 }
+
+#[test]
+fn a_cbv_kept_from_contacts_from_behind_never_runs_into_the_ego_from_behind_where_one_allowed_any_does() {
+    use safer_scenarios::scenario::contact::EgoCollisionKind;
+    // Each variant's stage-1 collision with the CBV, if any: whether the
+    // CBV hit the ego from behind (or standing), as the ego's collision
+    // events classify it.
+    let from_behind = |file: &str| -> Vec<Option<bool>> {
+        outcomes(file)
+            .iter()
+            .map(|o| {
+                let hit = o.stage1.summary().ego_collision.filter(|c| c.with_cbv)?;
+                Some(matches!(hit.kind, EgoCollisionKind::ActiveRear | EgoCollisionKind::StoppedEgo))
+            })
+            .collect()
+    };
+    // On a one-lane road the CBV closing from behind can only run into
+    // the ego's tail: the paper's rule lets it.
+    let any = from_behind("closing-behind.any.yaml");
+    assert!(any.iter().filter(|h| **h == Some(true)).count() >= 4, "the CBV allowed any contact: {any:?}");
+    // Kept from it, it follows the ego and makes no collision at all.
+    let kept = from_behind("closing-behind.not-from-behind.yaml");
+    assert_eq!(kept.len(), any.len());
+    assert!(kept.iter().all(Option::is_none), "the CBV kept from contacts from behind: {kept:?}");
+}

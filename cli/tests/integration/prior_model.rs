@@ -162,6 +162,7 @@ fn the_prior_drives_recorded_traffic_closed_loop() {
             sampling: TokenSampling::default(),
             approach: safer_scenarios::policies::adversary::ApproachPhase::default(),
             feasibility: safer_scenarios::policies::adversary::FeasibilityScope::Pair,
+            ego_contact: safer_scenarios::policies::adversary::EgoContactRule::Any,
         };
         let cbv = scenario.cbv.unwrap();
         let installed =

@@ -7,6 +7,7 @@
 use super::background_forecast::BackgroundForecast;
 use super::behaviours::distinct_behaviours;
 use super::contact_witness::{ContactWitness, EscapeWitness, closes_in};
+use super::ego_contact::{EgoContactRule, rear_ends};
 use super::escape_room::{EscapeRoom, FeasibilityScope, NO_ROOM_VALUE, veto_without_room};
 use super::feasibility::feasibility_values;
 use super::lookahead::{FirstTokens, Lookahead, Lowering};
@@ -79,12 +80,20 @@ pub struct Search {
     pub objective: Objective,
     /// What the feasibility constraint takes into account.
     pub feasibility: FeasibilityScope,
+    /// Which contacts with the ego it may make.
+    pub ego_contact: EgoContactRule,
 }
 
 impl Search {
     /// The paper's one-step search over `trust_region`.
     pub fn one_step(trust_region: TrustRegion) -> Self {
-        Self { trust_region, lookahead_tokens: 1, objective: Objective::Contact, feasibility: FeasibilityScope::Pair }
+        Self {
+            trust_region,
+            lookahead_tokens: 1,
+            objective: Objective::Contact,
+            feasibility: FeasibilityScope::Pair,
+            ego_contact: EgoContactRule::Any,
+        }
     }
 }
 
@@ -130,7 +139,10 @@ fn ego_prediction(ego: &AgentState) -> AgentState {
 /// infeasible where the traffic leaves the ego no room to escape (see
 /// [`FeasibilityScope`]); in the `witnessed` scope a feasible candidate
 /// that leads the CBV near the ego is taken only where the feasibility
-/// witness finds the ego an escape from it. Time spent in V_h is added to
+/// witness finds the ego an escape from it; under
+/// [`EgoContactRule::NotFromBehind`] a candidate after which the CBV,
+/// braking as hard as it can, would still run into the ego from behind is
+/// infeasible. Time spent in V_h is added to
 /// `feasibility_s`. `None` only for empty `logits`.
 pub fn safer_choice(
     world: &WorldView<'_>,
@@ -179,6 +191,17 @@ pub fn safer_choice(
             .map(|(d, v)| if *v <= 0.0 { *d } else { *v as f64 + INFEASIBLE_PENALTY })
             .collect(),
     };
+    // A candidate that rear-ends the ego, where the rule rules that out,
+    // is infeasible (and no continuation lowers it).
+    let rear_ends: Vec<bool> = match search.ego_contact {
+        EgoContactRule::Any => vec![false; candidates.len()],
+        EgoContactRule::NotFromBehind => rollouts.iter().map(|r| rear_ends(r, ego_now, (ego_body, cbv_body))).collect(),
+    };
+    for (loss, &rear) in losses.iter_mut().zip(&rear_ends) {
+        if rear {
+            *loss = loss.max(INFEASIBLE_PENALTY) + INFEASIBLE_PENALTY;
+        }
+    }
     let mut lowered: Vec<Option<Lowering>> = vec![None; candidates.len()];
     if search.lookahead_tokens > 1 {
         let lookahead = Lookahead {
@@ -191,12 +214,14 @@ pub fn safer_choice(
             on_road_now: !world.map.is_off_road_within_map(&cbv_now.position),
             objective: search.objective,
             room: room.as_ref(),
+            ego_contact: search.ego_contact,
         };
         let first = FirstTokens {
             states: &predicted,
             distances_m: &distances,
             scores_m: &objective,
             values: values.as_deref(),
+            rear_ends: &rear_ends,
         };
         lowered = lookahead.lower_losses(cbv_now, first, &mut losses, feasibility, feasibility_s)?;
     }

@@ -5,6 +5,7 @@
 //! one-step choice.
 
 use super::continuations::{Child, Continuations};
+use super::ego_contact::EgoContactRule;
 use super::escape_room::{EscapeRoom, veto_without_room};
 use super::feasibility::feasibility_values;
 use super::objective::Objective;
@@ -38,7 +39,8 @@ pub const LOOKAHEAD_DELAY_PENALTY_M: f64 = 0.5;
 ///   the road; only a *contact* with the ego may end it infeasibly, and
 ///   only straight from a feasible state (V_h ≤ 0: the ego could still
 ///   have escaped one token earlier, and it is that escape the witness
-///   later looks for).
+///   later looks for), and not from behind the ego where the search's
+///   [`EgoContactRule`] rules that out.
 ///
 /// A continuation scores its objective (the paper's: its distance to the
 /// ego) plus [`LOOKAHEAD_DELAY_PENALTY_M`] per token after the first
@@ -64,6 +66,8 @@ pub(super) struct Lookahead<'a> {
     pub(super) objective: Objective,
     /// The room the traffic leaves the ego (`pair-in-traffic` only).
     pub(super) room: Option<&'a EscapeRoom<'a>>,
+    /// Whether a contact from behind the ego is a conflict (see [`EgoContactRule`]).
+    pub(super) ego_contact: EgoContactRule,
 }
 
 /// The one-step search's results for each candidate of the trust region.
@@ -76,6 +80,9 @@ pub(super) struct FirstTokens<'a> {
     pub(super) scores_m: &'a [f64],
     /// V_h there (`None`: no feasibility constraint).
     pub(super) values: Option<&'a [f32]>,
+    /// Whether it runs into the ego from behind where the search's
+    /// [`EgoContactRule`] rules that out (then it is never lowered).
+    pub(super) rear_ends: &'a [bool],
 }
 
 /// One continuation of the beam: which first token it extends, where the
@@ -184,7 +191,7 @@ impl Lookahead<'_> {
             }
             if now[0] <= 0.0 {
                 for (i, loss) in losses.iter_mut().enumerate() {
-                    if values[i] > 0.0 && first.distances_m[i] <= 0.0 {
+                    if values[i] > 0.0 && first.distances_m[i] <= 0.0 && !first.rear_ends[i] {
                         *loss = first.scores_m[i].max(0.0);
                         lowered[i] = Some(Lowering { path: Vec::new(), distance_m: first.distances_m[i] });
                     }
@@ -192,7 +199,7 @@ impl Lookahead<'_> {
             }
         }
         let mut beam: Vec<Continuation> = (0..first.states.len())
-            .filter(|&i| feasible(i) && first.distances_m[i] > 0.0)
+            .filter(|&i| feasible(i) && first.distances_m[i] > 0.0 && !first.rear_ends[i])
             .map(|i| Continuation {
                 root: i,
                 path: Vec::new(),
@@ -295,7 +302,14 @@ impl Lookahead<'_> {
                 continue;
             }
             let at = children.child(i).at;
-            if self.on_road_now && self.world.map.is_off_road_within_map(&at.position) {
+            let leaves_road = || self.on_road_now && self.world.map.is_off_road_within_map(&at.position);
+            // A contact from behind, where the rule rules it out, is no conflict.
+            let rear_ends = || {
+                self.ego_contact == EgoContactRule::NotFromBehind
+                    && children.distance_m(i) <= 0.0
+                    && super::ego_contact::from_behind(&ego, &at)
+            };
+            if leaves_road() || rear_ends() {
                 kept[i] = Some(false);
             } else if feasibility.is_none() || children.distance_m(i) <= 0.0 {
                 kept[i] = Some(true);

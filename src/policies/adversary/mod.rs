@@ -58,6 +58,8 @@
 //! `safer-inattentive` (beyond the paper) the same policy fed by a prior
 //! that does not see the ego (see
 //! [`PriorTraffic::hide_from`](crate::policies::prior_sampling::PriorTraffic::hide_from)).
+//! Any SaFeR method may be kept from contacts from behind the ego (beyond
+//! the paper; see [`EgoContactRule`]).
 //! Any method with V_h may also ask, near the ego, whether the traffic
 //! around the ego leaves it room to escape, or whether the feasibility
 //! witness finds it an escape (beyond the paper; see [`FeasibilityScope`]).
@@ -65,7 +67,7 @@
 //! One file per concept: the [`Adversary`] policy (`policy`), the
 //! approach phase (`approach`), SaFeR's choice ([`safer_choice`],
 //! `choice`) and the lookahead of `safer-lookahead` (`lookahead`), V_h of
-//! candidate states (`feasibility`), the ego's room to escape among the traffic (`escape_room`) and the witness asked before a contact (`contact_witness`), what a candidate's loss measures (`objective`) with the in-path and cut-in losses (`in_path`), the CBV's states under a token
+//! candidate states (`feasibility`), the ego's room to escape among the traffic (`escape_room`), which contacts with the ego it may make (`ego_contact`) and the witness asked before a contact (`contact_witness`), what a candidate's loss measures (`objective`) with the in-path and cut-in losses (`in_path`), the CBV's states under a token
 //! (`rollout`), the [`BackgroundForecast`], and the plausibility check
 //! (`plausibility`, with its broad phase in `broad_phase`), how late it sees
 //! the ego (`reaction`); and the
@@ -79,6 +81,7 @@ mod broad_phase;
 mod choice;
 mod contact_witness;
 mod continuations;
+mod ego_contact;
 mod escape_room;
 mod feasibility;
 mod in_path;
@@ -98,6 +101,7 @@ pub use background_forecast::BackgroundForecast;
 pub use behaviours::{BEHAVIOUR_HOLD_S, BEHAVIOUR_SEPARATION_M, distinct_behaviours};
 pub use choice::{Feasibility, INFEASIBLE_PENALTY, Search, TrustRegion, safer_choice};
 pub use contact_witness::{EscapeWitness, WITNESS_CHECK_GAP_M, WITNESS_CHECKS_PER_TOKEN};
+pub use ego_contact::EgoContactRule;
 pub use escape_room::{
     ESCAPE_ACCELS_MPS2, ESCAPE_CHECK_GAP_M, ESCAPE_HORIZON_S, ESCAPE_PURSUIT_MPS2, ESCAPE_YAW_RATES_RADPS,
     FeasibilityScope, NO_ROOM_VALUE,
