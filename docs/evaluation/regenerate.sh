@@ -151,6 +151,14 @@
 #                     planner would have hit it (WOMD interactive over 20 behaviours, NGSIM
 #                     over 60, the shipped suite's region), and the lookahead over 28 on WOMD
 #                     interactive, with V_h alone and with the witness asked (about 15 minutes)
+#   ego-contact       ego-contact/: the in-path methods with `--ego-contact not-from-behind` (no
+#                     contact from behind the ego): the evasive planner's mutation tables, the
+#                     CBV closed loop and the recorded cars braking, of the lookahead over 28 on
+#                     WOMD interactive (mutants-womd-interactive-evasive-n28.txt) and of
+#                     safer-in-path and the lookahead over 60 on NGSIM
+#                     (mutants-ngsim-evasive-n60.txt), beside first-contact/; and the paper's
+#                     protocol on WOMD interactive over 28 (evaluate-womd-interactive-n28.txt)
+#                     (about 50 minutes)
 #   mutants           mutants-{womd-interactive,womd-json,ngsim}-evasive.txt and
 #                     mutants-{womd-interactive,ngsim}-lane-follower.txt: the
 #                     faults of the planner each method's variants catch
@@ -165,7 +173,7 @@ set -euo pipefail
 self=$(realpath "$0")
 cd "$(dirname "$self")"
 all=(evaluate plain inattentive held-out-chance trust-region realism prior-fit n-sweep reactive n100 approach-none merging mutants wide-region cut-in
-    in-path-lookahead in-path-lookahead-n30 in-path-lookahead-n28 in-path-lookahead-sweep pair-in-traffic witnessed wide-witnessed ten-seeds reaction-delay reactive-background leader first-contact both-pairings first-contact-lookahead blind-twin)
+    in-path-lookahead in-path-lookahead-n30 in-path-lookahead-n28 in-path-lookahead-sweep pair-in-traffic witnessed wide-witnessed ten-seeds reaction-delay reactive-background leader first-contact both-pairings first-contact-lookahead blind-twin ego-contact)
 jobs=("$@")
 [[ ${#jobs[@]} -gt 0 ]] || jobs=("${all[@]}")
 # The usage is the comment block at the top of this file.
@@ -537,6 +545,15 @@ for job in "${jobs[@]}"; do
         run blind-twin/ngsim-evasive-n60.txt evaluate --scenes data:commonroad-ngsim --seeds 10 \
             --stage2-cbv closed-loop --background reactive-log-replay --mutants blind-cbv --methods safer-in-path \
             --trust-region 60 ;;
+    ego-contact)
+        mkdir -p ego-contact
+        behind=(--seeds 3 --stage2-cbv closed-loop --background reactive-log-replay --mutants --ego-contact not-from-behind)
+        run ego-contact/mutants-womd-interactive-evasive-n28.txt evaluate --scenes data:womd-interactive \
+            "${behind[@]}" --methods log,prior,safer-in-path-lookahead --trust-region 28
+        run ego-contact/mutants-ngsim-evasive-n60.txt evaluate --scenes data:commonroad-ngsim \
+            "${behind[@]}" --methods log,prior,safer-in-path,safer-in-path-lookahead --trust-region 60
+        run ego-contact/evaluate-womd-interactive-n28.txt evaluate --scenes data:womd-interactive --seeds 10 \
+            --trust-region 28 --methods safer-in-path-lookahead,safer-in-path --ego-contact not-from-behind ;;
     first-contact-lookahead)
         mkdir -p first-contact/in-path-lookahead
         for n in 20 28; do

@@ -1337,3 +1337,77 @@ fn the_ten_seed_blind_twin_table_quotes_its_outputs() {
     }
     assert_eq!(checked, 3, "two methods on WOMD interactive, one on NGSIM");
 }
+
+/// Whether an output's header line says its run kept the CBV from
+/// contacts from behind the ego, as the table's `ego contact` cell must.
+fn check_ego_contact(output: &str, cell: &str, file: &str) {
+    let header = output.lines().find(|l| l.contains(" scenes × ")).unwrap_or_else(|| panic!("{file}: no header line"));
+    let kept = header.contains("; no contact from behind the ego");
+    assert_eq!(kept, cell == "`not-from-behind`", "{file}: the run's header against the table's {cell}");
+}
+
+#[test]
+fn the_ego_contact_tables_quote_their_outputs() {
+    let doc = repo_file("docs/benchmarks.md");
+    let paper = markdown_rows(
+        &doc,
+        "| method | ego contact | output | CR | SR | SR-crit | witness | VJ | AJ |",
+        "The evasive planner's mutation tables (3 seeds, the stage-2 CBV closed",
+    );
+    for row in &paper {
+        let method = method_of(&row[0]).expect("a method");
+        let file = row[2].trim_matches('`');
+        let output = repo_file(&format!("docs/evaluation/{file}"));
+        check_ego_contact(&output, &row[1], file);
+        // CR, SR, SR-crit, witness, VJ, AJ.
+        assert_eq!(row[3..], labelled_row(&output, "variants", method)[2..8], "{row:?} against {file}");
+    }
+    assert_eq!(paper.len(), 4, "two methods, each with either rule");
+
+    let mutation = markdown_rows(
+        &doc,
+        "| set | method | n | ego contact | output | CR | SR | SR-crit | no-escape |",
+        "(`met` needs the blind-twin table",
+    );
+    for row in &mutation {
+        let method = method_of(&row[1]).expect("a method");
+        let file = row[4].trim_matches('`');
+        let output = repo_file(&format!("docs/evaluation/{file}"));
+        check_ego_contact(&output, &row[3], file);
+        let region = output.lines().find_map(|l| l.split("trust region n = ").nth(1)).expect("the run's region");
+        let evaluation = labelled_row(&output, "variants", method);
+        let conflicts = labelled_row(&output, "reach-crit", method);
+        let kills = labelled_row(&output, "passed", method);
+        // Has the run the blind-twin table (`met`)?
+        let met = if output.lines().any(|l| l.starts_with("method") && l.contains(" met")) {
+            labelled_row(&output, " met", method)[3].clone()
+        } else {
+            "—".to_owned()
+        };
+        // The fault operators killed in at least a fifth of the scenes:
+        // each operator's `(scenes killed/scenes with a passed variant)`.
+        let per_fault: Vec<(usize, usize)> = kills[13..]
+            .iter()
+            .filter_map(|c| c.strip_prefix('(')?.strip_suffix(')')?.split_once('/'))
+            .map(|(k, n)| (k.parse().unwrap(), n.parse().unwrap()))
+            .collect();
+        let in_a_fifth = per_fault.iter().filter(|(k, n)| 5 * k >= *n).count();
+        let expected = vec![
+            region.split(|c: char| !c.is_ascii_digit()).next().unwrap().to_owned(),
+            row[3].clone(),
+            row[4].clone(),
+            evaluation[2].clone(),
+            evaluation[3].clone(),
+            evaluation[4].clone(),
+            conflicts[4].clone(),
+            conflicts[1].clone(),
+            met,
+            format!("{} ({})", killed(&kills[1]), killed(&kills[3])),
+            kills[6].clone(),
+            kills[4].clone(),
+            format!("{in_a_fifth}/{}", per_fault.len()),
+        ];
+        assert_eq!(row[2..], expected[..], "{row:?} against {file}");
+    }
+    assert_eq!(mutation.len(), 7, "three rows on WOMD interactive, four on NGSIM");
+}

@@ -5,9 +5,7 @@
 //! still, makes a collision no planner answers for: nuPlan's rule does not
 //! blame an ego hit from behind, a driver cannot see or outrun a car that
 //! chases it, and in stage 2 a CBV closing from behind follows whatever
-//! escape the ego tries. Measured on WOMD interactive, over a third of
-//! the in-path methods' stage-1 collisions were the CBV rear-ending the
-//! recorded ego. Under [`EgoContactRule::NotFromBehind`] a candidate
+//! escape the ego tries. Under [`EgoContactRule::NotFromBehind`] a candidate
 //! token after which the CBV, braking as hard as it can, would still run
 //! into the ego (held on at its velocity) from behind counts as
 //! infeasible (taken only when nothing feasible is left), and a lookahead
