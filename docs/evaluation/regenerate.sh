@@ -154,11 +154,12 @@
 #   ego-contact       ego-contact/: the in-path methods with `--ego-contact not-from-behind` (no
 #                     contact from behind the ego): the evasive planner's mutation tables, the
 #                     CBV closed loop and the recorded cars braking, of the lookahead over 28 on
-#                     WOMD interactive (mutants-womd-interactive-evasive-n28.txt) and of
+#                     WOMD interactive, over two draws of seeds
+#                     (mutants-womd-interactive-evasive-n28{,-seed1000}.txt), and of
 #                     safer-in-path and the lookahead over 60 on NGSIM
 #                     (mutants-ngsim-evasive-n60.txt), beside first-contact/; and the paper's
 #                     protocol on WOMD interactive over 28 (evaluate-womd-interactive-n28.txt)
-#                     (about 50 minutes)
+#                     (about 60 minutes)
 #   mutants           mutants-{womd-interactive,womd-json,ngsim}-evasive.txt and
 #                     mutants-{womd-interactive,ngsim}-lane-follower.txt: the
 #                     faults of the planner each method's variants catch
@@ -548,8 +549,11 @@ for job in "${jobs[@]}"; do
     ego-contact)
         mkdir -p ego-contact
         behind=(--seeds 3 --stage2-cbv closed-loop --background reactive-log-replay --mutants --ego-contact not-from-behind)
-        run ego-contact/mutants-womd-interactive-evasive-n28.txt evaluate --scenes data:womd-interactive \
-            "${behind[@]}" --methods log,prior,safer-in-path-lookahead --trust-region 28
+        for draw in 0 1000; do
+            run "ego-contact/mutants-womd-interactive-evasive-n28$(seed_suffix "$draw").txt" evaluate \
+                --scenes data:womd-interactive "${behind[@]}" --seed "$draw" \
+                --methods log,prior,safer-in-path-lookahead --trust-region 28
+        done
         run ego-contact/mutants-ngsim-evasive-n60.txt evaluate --scenes data:commonroad-ngsim \
             "${behind[@]}" --methods log,prior,safer-in-path,safer-in-path-lookahead --trust-region 60
         run ego-contact/evaluate-womd-interactive-n28.txt evaluate --scenes data:womd-interactive --seeds 10 \

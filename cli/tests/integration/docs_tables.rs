@@ -1409,5 +1409,5 @@ fn the_ego_contact_tables_quote_their_outputs() {
         ];
         assert_eq!(row[2..], expected[..], "{row:?} against {file}");
     }
-    assert_eq!(mutation.len(), 7, "three rows on WOMD interactive, four on NGSIM");
+    assert_eq!(mutation.len(), 10, "three rows on WOMD interactive in each of two draws, four on NGSIM");
 }
