@@ -14,8 +14,8 @@
 //! it, turn across it or come in from the side: the conflicts a planner
 //! must answer.
 
-use super::rollout::continued_after;
-use crate::motion::tokens::{MAX_ACCEL_MPS2, SIM_DT_S};
+use super::rollout::braking_after;
+use crate::motion::tokens::SIM_DT_S;
 use crate::scenario::contact::EgoCollisionKind;
 use crate::scenario::{AgentBody, AgentState};
 
@@ -38,10 +38,6 @@ impl EgoContactRule {
     pub const ALL: &'static [Self] = &[Self::Any, Self::NotFromBehind];
 }
 
-/// How long the CBV brakes after a candidate token in the rule's check,
-/// steps (2 s: from 10 m/s faster than the ego it has stopped closing).
-const BRAKING_CHECK_STEPS: usize = 20;
-
 /// Whether the CBV at `cbv`, touching the ego at `ego`, touches it from
 /// behind or while it stands (as the ego's collision events classify it).
 pub(super) fn from_behind(ego: &AgentState, cbv: &AgentState) -> bool {
@@ -49,14 +45,15 @@ pub(super) fn from_behind(ego: &AgentState, cbv: &AgentState) -> bool {
 }
 
 /// Whether the CBV along `rollout` (a token's states, one per step from
-/// the step after now), then braking as hard as it can, runs into the ego
+/// the step after now), then braking as hard as it can for
+/// [`BRAKING_CHECK_STEPS`](super::rollout::BRAKING_CHECK_STEPS) steps, runs into the ego
 /// from behind, the ego held on from `ego_now` at its velocity.
 pub(super) fn rear_ends(
     rollout: &[AgentState],
     ego_now: &AgentState,
     (ego_body, cbv_body): (AgentBody, AgentBody),
 ) -> bool {
-    let braking = continued_after(rollout, -MAX_ACCEL_MPS2, BRAKING_CHECK_STEPS);
+    let braking = braking_after(rollout);
     // Judged at the first contact only: held on through the CBV, the ego
     // would later have it behind, whoever ran into whom.
     let first_contact = rollout.iter().copied().chain(braking).enumerate().find_map(|(k, cbv)| {

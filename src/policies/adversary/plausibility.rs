@@ -8,7 +8,7 @@
 
 use super::background_forecast::BackgroundForecast;
 use super::broad_phase::Bounds;
-use super::rollout::{continued_after, token_rollout};
+use super::rollout::{BRAKING_CHECK_STEPS, braking_after, continued_after, token_rollout};
 use crate::geometry::OrientedBox;
 use crate::motion::KinematicState;
 use crate::motion::tokens::{MAX_ACCEL_MPS2, SIM_DT_S, TOKEN_PERIOD_STEPS, Token};
@@ -21,11 +21,6 @@ use crate::scenario::{AgentState, TrackIndex};
 /// within the plausibility check's horizon (3.5 s at a closing speed of
 /// up to about 34 m/s) and are not checked, m.
 const BACKGROUND_CHECK_RANGE_M: f64 = 120.0;
-
-/// After a candidate token the plausibility check brakes the CBV this many
-/// simulator steps (2 s) to see whether it could still stop short of the
-/// background traffic.
-const BRAKING_CHECK_STEPS: usize = 20;
 
 /// The road check of the braking path goes on past
 /// [`BRAKING_CHECK_STEPS`] until the CBV stands, for at most this many
@@ -51,14 +46,6 @@ const HOLDING_CHECK_STEPS: usize = 10;
 /// fault for are not counted here: running into someone at constant speed
 /// seconds ahead is what the braking check is for.
 const CLOSING_CHECK_STEPS: usize = 20;
-
-/// The CBV's states over [`BRAKING_CHECK_STEPS`] steps after `rollout`
-/// (a token's states), braking as hard as it can while holding the
-/// curvature it ends the token with: a driver braking in a bend keeps
-/// steering along it.
-fn braking_after(rollout: &[AgentState]) -> impl Iterator<Item = AgentState> + use<> {
-    continued_after(rollout, -MAX_ACCEL_MPS2, BRAKING_CHECK_STEPS)
-}
 
 /// The CBV's path while it holds the token: `rollout` (the token's states),
 /// then [`HOLDING_CHECK_STEPS`] steps holding the token's acceleration and

@@ -1,10 +1,10 @@
 //! The CBV's states under a token: one token period from a state, and
-//! continued after it at an acceleration, holding the curvature the
-//! token ends with.
+//! continued after it at an acceleration (braking as hard as it can, for
+//! the braking checks), holding the curvature the token ends with.
 
 use crate::geometry::wrap_angle;
 use crate::motion::kinematics::{HeldHeadingStepper, stepped_speed_mps};
-use crate::motion::tokens::{MAX_YAW_RATE_RADPS, SIM_DT_S, Token, TokenGrid};
+use crate::motion::tokens::{MAX_ACCEL_MPS2, MAX_YAW_RATE_RADPS, SIM_DT_S, Token, TokenGrid};
 use crate::motion::{Action, KinematicState};
 use crate::scenario::AgentState;
 
@@ -20,6 +20,19 @@ pub(super) fn token_rollout(from: &KinematicState, token: Token) -> Vec<AgentSta
         .iter()
         .map(|(s, sin_cos)| s.to_agent_state_with_sin_cos(*sin_cos))
         .collect()
+}
+
+/// After a candidate token the braking checks (the plausibility check's,
+/// and the ego-contact rule's) brake the CBV this many simulator steps
+/// (2 s) to see whether it could still stop short of what is ahead.
+pub(super) const BRAKING_CHECK_STEPS: usize = 20;
+
+/// The CBV's states over [`BRAKING_CHECK_STEPS`] steps after `rollout`
+/// (a token's states), braking as hard as it can while holding the
+/// curvature it ends the token with: a driver braking in a bend keeps
+/// steering along it.
+pub(super) fn braking_after(rollout: &[AgentState]) -> impl Iterator<Item = AgentState> + use<> {
+    continued_after(rollout, -MAX_ACCEL_MPS2, BRAKING_CHECK_STEPS)
 }
 
 /// `steps` states after `rollout` at `accel_mps2`, holding the curvature
