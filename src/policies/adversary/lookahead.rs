@@ -282,8 +282,9 @@ impl Lookahead<'_> {
     }
 
     /// Judges each of `which` not judged yet into `kept`: `false` when it
-    /// leaves the road (where the CBV is on it now), else `true` for a
-    /// contact (which may end infeasibly: its parent was feasible, so the
+    /// leaves the road (where the CBV is on it now) or is a contact from
+    /// behind the ego that the search's [`EgoContactRule`] rules out, else
+    /// `true` for a contact (which may end infeasibly: its parent was feasible, so the
     /// ego could have escaped it) or with V_h ≤ 0 there against the ego at
     /// `ego`, `ahead_steps` steps ahead (and, in the `pair-in-traffic`
     /// scope, room for it to escape).
