@@ -167,6 +167,12 @@ struct VariantBench {
     /// `safer-in-path-lookahead (wide region) / safer variant`, alternated in the same run
     /// (target at most 2).
     in_path_lookahead_wide_ratio_to_safer: f64,
+    /// The same wide `safer-in-path-lookahead` variant with the CBV kept from contacts from
+    /// behind the ego (`--ego-contact not-from-behind`), ms.
+    in_path_lookahead_wide_not_from_behind_variant_ms: f64,
+    /// `safer-in-path-lookahead (wide region, not-from-behind) / safer variant`, alternated in
+    /// the same run (target at most 2).
+    in_path_lookahead_wide_not_from_behind_ratio_to_safer: f64,
     /// The closed-loop witness of a stage-1 collision (the CBV reacting to
     /// the escapes tried), ms; `None` when no seed of 0..20 collides.
     closed_loop_witness: Option<ClosedLoopWitnessBench>,
@@ -268,6 +274,12 @@ pub(super) fn run(scenes: &Path, repeat: usize, json: Option<&Path>) -> Result<E
                 &format!("safer-in-path-lookahead, n = {}", v.in_path_lookahead_wide_trust_region),
                 v.in_path_lookahead_wide_variant_ms,
                 v.in_path_lookahead_wide_ratio_to_safer,
+            )?;
+            write_beside_safer(
+                &mut out,
+                &format!("safer-in-path-lookahead, n = {}, not-from-behind", v.in_path_lookahead_wide_trust_region),
+                v.in_path_lookahead_wide_not_from_behind_variant_ms,
+                v.in_path_lookahead_wide_not_from_behind_ratio_to_safer,
             )?;
             match &v.closed_loop_witness {
                 Some(w) => writeln!(
@@ -547,12 +559,22 @@ fn bench_variant(scenes: &[Scenario], repeat: usize) -> Result<Option<VariantBen
         settings: MethodSettings { trust_region: WIDE_LOOKAHEAD_TRUST_REGION, ..lookahead.settings },
         ..lookahead
     };
+    // ... and with the CBV kept from contacts from behind the ego.
+    let lookahead_wide_not_from_behind = VariantSetup {
+        settings: MethodSettings {
+            ego_contact: safer_scenarios::policies::adversary::EgoContactRule::NotFromBehind,
+            ..lookahead_wide.settings
+        },
+        ..lookahead_wide
+    };
     pipeline::run(cut_in_wide)?;
     pipeline::run(lookahead)?;
     pipeline::run(lookahead_wide)?;
+    pipeline::run(lookahead_wide_not_from_behind)?;
     let (mut safer_times, mut in_path_times, mut wide_times, mut cut_in_times) =
         (Vec::new(), Vec::new(), Vec::new(), Vec::new());
-    let (mut lookahead_times, mut lookahead_wide_times) = (Vec::new(), Vec::new());
+    let (mut lookahead_times, mut lookahead_wide_times, mut not_from_behind_times) =
+        (Vec::new(), Vec::new(), Vec::new());
     for _ in 0..repeat {
         safer_times.push(time(1, || pipeline::run(setup)).0);
         in_path_times.push(time(1, || pipeline::run(in_path)).0);
@@ -560,7 +582,9 @@ fn bench_variant(scenes: &[Scenario], repeat: usize) -> Result<Option<VariantBen
         cut_in_times.push(time(1, || pipeline::run(cut_in_wide)).0);
         lookahead_times.push(time(1, || pipeline::run(lookahead)).0);
         lookahead_wide_times.push(time(1, || pipeline::run(lookahead_wide)).0);
+        not_from_behind_times.push(time(1, || pipeline::run(lookahead_wide_not_from_behind)).0);
     }
+    let in_path_lookahead_wide_not_from_behind_variant_ms = ms(median(not_from_behind_times));
     let in_path_lookahead_variant_ms = ms(median(lookahead_times));
     let in_path_lookahead_wide_variant_ms = ms(median(lookahead_wide_times));
     let (safer_ms, in_path_variant_ms) = (ms(median(safer_times)), ms(median(in_path_times)));
@@ -624,6 +648,9 @@ fn bench_variant(scenes: &[Scenario], repeat: usize) -> Result<Option<VariantBen
         in_path_lookahead_wide_trust_region: WIDE_LOOKAHEAD_TRUST_REGION,
         in_path_lookahead_wide_variant_ms,
         in_path_lookahead_wide_ratio_to_safer: in_path_lookahead_wide_variant_ms / safer_ms,
+        in_path_lookahead_wide_not_from_behind_variant_ms,
+        in_path_lookahead_wide_not_from_behind_ratio_to_safer: in_path_lookahead_wide_not_from_behind_variant_ms
+            / safer_ms,
         closed_loop_witness,
     }))
 }

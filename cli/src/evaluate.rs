@@ -235,6 +235,7 @@ fn print_table(
     print_stage2_approach(out, rows, &name)?;
     print_stage2_contacts(out, rows, records, &name)?;
     print_closest_approach(out, rows, &name)?;
+    print_stage1_contacts(out, rows, records, &name)?;
     print_conflict_kinds(out, rows, &name)?;
     print_time(out, rows, &name)?;
     print_legend(out)?;
@@ -495,6 +496,48 @@ fn print_closest_approach(
     Ok(())
 }
 
+/// How the CBV touched the recorded ego in stage 1, per row: the critical
+/// variants by nuPlan's category of their first contact, seen from the ego.
+/// A CBV that runs into the ego from behind, or into a standing ego, makes
+/// a collision no planner is at fault for (what `--ego-contact
+/// not-from-behind` rules out).
+fn print_stage1_contacts(
+    out: &mut dyn Write,
+    rows: &[MethodRow],
+    records: &[VariantRecord],
+    name: &dyn Fn(&MethodRow) -> String,
+) -> std::io::Result<()> {
+    use safer_scenarios::sim::EgoCollisionKind as Kind;
+    const KINDS: [(Kind, &str); 5] = [
+        (Kind::ActiveFront, "ego's front"),
+        (Kind::ActiveLateral, "side"),
+        (Kind::ActiveRear, "from behind"),
+        (Kind::StoppedEgo, "ego standing"),
+        (Kind::StoppedOther, "CBV standing"),
+    ];
+    let w = method_column(rows, name);
+    writeln!(
+        out,
+        "
+how the CBV touched the recorded ego (stage 1, the first contact, critical variants):"
+    )?;
+    write!(out, "{:<w$} {:>8}", "method", "critical")?;
+    for (_, heading) in KINDS {
+        write!(out, " {heading:>12}")?;
+    }
+    writeln!(out)?;
+    for r in rows {
+        let of_row: Vec<&VariantRecord> =
+            records.iter().filter(|v| v.method == r.method && v.stage2_cbv == r.stage2_cbv).collect();
+        write!(out, "{:<w$} {:>8}", name(r), of_row.iter().filter(|v| v.stage1_collision).count())?;
+        for (kind, _) in KINDS {
+            write!(out, " {:>12}", of_row.iter().filter(|v| v.stage1_contact == Some(kind)).count())?;
+        }
+        writeln!(out)?;
+    }
+    Ok(())
+}
+
 /// The kinds of conflict, per stage.
 fn print_conflict_kinds(
     out: &mut dyn Write,
@@ -563,6 +606,10 @@ fn print_legend(out: &mut dyn Write) -> std::io::Result<()> {
     writeln!(
         out,
         "the critical variants at the planner: the stage-1-critical variants by the CBV's closest approach to the planner's ego in stage 2, each in one column: contact (a collision with the CBV) and <1 m make reach-crit; other first: the planner's ego hit another agent first, which ended the rollout; then the closest gap of the rest (>=5 m: or never beside it on the road). With blind-cbv planted, the critical variants not reached that the planner passed, per band: those where its CBV-blind twin (blind-cbv) hit the CBV / those it ran on; met: reach-crit plus those hits (a conflict that would have hit a planner blind to it, which the planner answered with a margin)."
+    )?;
+    writeln!(
+        out,
+        "how the CBV touched the recorded ego: the critical variants by their first contact, seen from the ego (nuPlan's categories): the ego's front (within 45° of its heading), its side, from behind (within 45° of its tail), the ego standing, the CBV standing; from behind and the ego standing are never the ego's fault (`--ego-contact not-from-behind` rules them out)."
     )?;
     writeln!(
         out,

@@ -25,10 +25,12 @@ scratch_copy() { # suite-file out.yaml [sed-option...]
     sed -e "s#\.\./\.\./#$repo/#g; s#\.\./scenarios/#$repo/specs/scenarios/#g" "$@" "$src" >"$out"
 }
 
-# One suite under one method: the JSON report of `safer run --mutants`.
+# One suite under one method: the JSON report of `safer run --mutants`. A
+# method written METHOD:RULE runs METHOD with `ego_contact: RULE`.
 run_suite() { # suite-file method out.json
-    local src="$1" method="$2" out="$3" copy="$scratch/$(basename "$1" .yaml)-$2.yaml"
-    scratch_copy "$src" "$copy" -e "s#^\(  method:\).*#\1 $method#"
+    local src="$1" method="${2%%:*}" out="$3" copy="$scratch/$(basename "$1" .yaml)-$2.yaml" contact=""
+    [[ "$2" == *:* ]] && contact="\\n  ego_contact: ${2#*:}"
+    scratch_copy "$src" "$copy" -e "s#^\(  method:\).*#\1 $method$contact#"
     grep -q "^adversary:" "$copy" || printf 'adversary:\n  method: %s\n' "$method" >>"$copy"
     # The log replays one variant whatever the seed: one per scene.
     [[ "$method" == log ]] && sed -i "s#^variants: .*#variants: 1#" "$copy"
@@ -39,7 +41,7 @@ echo "| suite | planner | method | passed | score | killed (variants) | survived
 echo "| --- | --- | --- | --- | --- | --- | --- |"
 for suite in "$repo"/specs/suites/*.yaml; do
     name="$(basename "$suite" .yaml)"
-    if grep -q "method: safer" "$suite"; then methods="log prior safer safer-in-path safer-cut-in safer-in-path-lookahead safer-distinct safer-lookahead no-lfr"; else methods="log"; fi
+    if grep -q "method: safer" "$suite"; then methods="log prior safer safer-in-path safer-in-path:not-from-behind safer-cut-in safer-in-path-lookahead safer-in-path-lookahead:not-from-behind safer-distinct safer-lookahead no-lfr"; else methods="log"; fi
     for method in $methods; do
         out="$scratch/$name-$method.json"
         run_suite "$suite" "$method" "$out"
@@ -49,17 +51,18 @@ path, name, method = sys.argv[1:]
 try:
     report = json.load(open(path))
 except (OSError, ValueError) as e:
-    print(f"| {name} | ? | {method} | could not run: {e} | | | |")
+    print(f"| {name} | ? | `{method}` | could not run: {e} | | | |")
     sys.exit()
 s = report["suites"][0]
 m = s.get("mutation")
 if m is None:
-    print(f"| {name} | {s['planner']} | {method} | no mutation report | | | |")
+    print(f"| {name} | {s['planner']} | `{method}` | no mutation report | | | |")
     sys.exit()
 killed = ", ".join(f"{o['operator']} ({len(o['kills'])})" for o in m["operators"] if o["killed"]) or "none"
 survived = ", ".join(o["operator"] for o in m["operators"] if not o["killed"]) or "none"
 score = "–" if m["score"] is None else f"{m['score']:.3f}"
-print(f"| {name} | {s['planner']} | {method} | {m['variants_passed']}/{m['variants']} | {score} | {killed} | {survived} |")
+method = method.replace(":", "`, `")
+print(f"| {name} | {s['planner']} | `{method}` | {m['variants_passed']}/{m['variants']} | {score} | {killed} | {survived} |")
 EOF
     done
 done

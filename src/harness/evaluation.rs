@@ -38,7 +38,7 @@ use crate::policies::BackgroundPolicy;
 use crate::policies::adversary::{ApproachPhase, EgoContactRule, FeasibilityScope};
 use crate::policies::prior_sampling::TokenSampling;
 use crate::scenario::Scenario;
-use crate::sim::{Rollout, SimConfig};
+use crate::sim::{EgoCollisionKind, Rollout, SimConfig};
 use crate::spec::planner::PlannerAdapter;
 use crate::spec::suite::AdversaryMethod;
 
@@ -173,6 +173,12 @@ pub struct VariantRecord {
     pub seed: u32,
     /// Stage 1: the CBV hit the ego.
     pub stage1_collision: bool,
+    /// Stage 1: how the CBV and the recorded ego touched at their first
+    /// contact, in nuPlan's categories seen from the ego (a front contact,
+    /// the ego hit from behind, ...); `None` without one. Reports written
+    /// before it was recorded read back as `None`.
+    #[serde(default)]
+    pub stage1_contact: Option<EgoCollisionKind>,
     /// Stage 2: the ego collided with anything.
     pub stage2_collision: bool,
     /// Stage 2's verdict: solved, collided, or aborted (planner failure);
@@ -235,6 +241,7 @@ impl VariantRecord {
             stage2_cbv,
             seed,
             stage1_collision: false,
+            stage1_contact: None,
             stage2_collision: false,
             stage2: None,
             stage2_contact: None,
@@ -478,6 +485,7 @@ fn run_one(
         stage2_cbv,
         seed: seed_index,
         stage1_collision: tally.critical,
+        stage1_contact: stages.stage1.summary().ego_collision.filter(|c| c.with_cbv).map(|c| c.kind),
         stage2_collision: stages.stage2.ego_collision().is_some(),
         stage2: Some(stages.verdict.clone()),
         stage2_contact,

@@ -12,7 +12,7 @@ use crate::map::RoadMap;
 /// Rear-end hits on the ego and hits on a stopped ego are not its fault;
 /// front contacts and hitting a stopped agent are; a lateral contact is
 /// when the ego was not within one lane (see [`EgoContact::at_fault`]).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum EgoCollisionKind {
     /// The ego was (nearly) stopped.

@@ -67,6 +67,7 @@ fn bench_writes_every_figure_beside_its_reference_as_json() {
         "cut_in_wide_variant_ms",
         "in_path_lookahead_variant_ms",
         "in_path_lookahead_wide_variant_ms",
+        "in_path_lookahead_wide_not_from_behind_variant_ms",
     ] {
         assert!(variant[key].as_f64().is_some_and(|ms| ms > 0.0), "{key}: {variant}");
     }
@@ -79,6 +80,7 @@ fn bench_writes_every_figure_beside_its_reference_as_json() {
     assert!(table.contains("variant made by safer-cut-in, n = 60"), "{table}");
     assert!(table.contains("variant made by safer-in-path-lookahead"), "{table}");
     assert!(table.contains("variant made by safer-in-path-lookahead, n = 60"), "{table}");
+    assert!(table.contains("variant made by safer-in-path-lookahead, n = 60, not-from-behind"), "{table}");
     assert_eq!(v["simulator"].as_array().map(Vec::len), Some(0), "{v}");
     assert!(table.contains("the simulator is not timed"), "{table}");
 }

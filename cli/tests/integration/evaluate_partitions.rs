@@ -459,3 +459,60 @@ fn the_blind_twin_table_counts_the_cbv_blind_mutant_on_the_critical_variants_not
         / c["critical"].as_u64().unwrap() as f64;
     assert_eq!(cells[3], format!("{met:.3}"), "{line}");
 }
+
+#[test]
+fn the_table_says_how_the_cbv_touched_the_recorded_ego_as_the_json_report_does() {
+    let out = tempfile_dir("stage1-contacts");
+    let scenes = Path::new(repo_root!()).join("scenes/ngsim");
+    // The table's row of each first-contact category, and the report's
+    // critical variants by the same category, for one ego-contact rule.
+    let counts = |rule: &str| -> (Vec<usize>, Vec<usize>) {
+        let json = out.join(format!("{rule}.json"));
+        let table = ok(safer(&[
+            "evaluate",
+            "--scenes",
+            scenes.to_str().unwrap(),
+            "--methods",
+            "safer-in-path-lookahead",
+            "--trust-region",
+            "60",
+            "--seeds",
+            "4",
+            "--ego-contact",
+            rule,
+            "--jobs",
+            "2",
+            "--json",
+            json.to_str().unwrap(),
+        ]));
+        let section = table.split("how the CBV touched the recorded ego (stage 1").nth(1).expect("the contacts table");
+        let line = section.lines().find(|l| l.starts_with("safer-in-path-lookahead")).expect("its row");
+        let cells: Vec<usize> = line.split_whitespace().skip(1).map(|c| c.parse().unwrap()).collect();
+        let report: Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+        let variants = report["variants"].as_array().unwrap();
+        let of = |kind: &str| variants.iter().filter(|v| v["stage1_contact"] == kind).count();
+        let critical = variants.iter().filter(|v| v["stage1_collision"] == true).count();
+        let reported = vec![
+            critical,
+            of("active-front"),
+            of("active-lateral"),
+            of("active-rear"),
+            of("stopped-ego"),
+            of("stopped-other"),
+        ];
+        (cells, reported)
+    };
+    let (any, any_reported) = counts("any");
+    assert_eq!(any, any_reported, "the table and the JSON report disagree");
+    // Every critical variant in one category, and a contact only in a
+    // critical variant.
+    assert_eq!(any[0], any[1..].iter().sum::<usize>(), "{any:?}");
+    assert!(any[0] > 0, "the lookahead makes conflicts on the shipped scenes: {any:?}");
+    // On these scenes the paper's rule lets the lookahead's CBV run into
+    // the ego from behind; kept from it, it never does.
+    assert!(any[3] > 0, "no contact from behind with any contact allowed: {any:?}");
+    let (kept, kept_reported) = counts("not-from-behind");
+    assert_eq!(kept, kept_reported, "the table and the JSON report disagree");
+    assert_eq!(kept[0], kept[1..].iter().sum::<usize>(), "{kept:?}");
+    assert_eq!((kept[3], kept[4]), (0, 0), "{kept:?}");
+}
