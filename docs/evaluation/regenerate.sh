@@ -156,10 +156,13 @@
 #                     CBV closed loop and the recorded cars braking, of the lookahead over 28 on
 #                     WOMD interactive, over two draws of seeds
 #                     (mutants-womd-interactive-evasive-n28{,-seed1000}.txt), and of
-#                     safer-in-path and the lookahead over 60 on NGSIM
-#                     (mutants-ngsim-evasive-n60.txt), beside first-contact/; and the paper's
-#                     protocol on WOMD interactive over 28 (evaluate-womd-interactive-n28.txt)
-#                     (about 60 minutes)
+#                     safer-in-path and the lookahead over 60 on NGSIM, over two draws
+#                     (mutants-ngsim-evasive-n60{,-seed1000}.txt), beside first-contact/; the
+#                     lane follower's, the lookahead over 60 with the scenes' own pairs
+#                     (mutants-{ngsim,womd-interactive}-lane-follower-n60.txt); and the paper's
+#                     protocol on WOMD interactive over 28, with the rule and with any contact
+#                     (evaluate-womd-interactive-n28{,-any}.txt), and the lookahead's n-sweep
+#                     with the rule (sweep-n{20,40,60,100}.txt) (about two and a half hours)
 #   mutants           mutants-{womd-interactive,womd-json,ngsim}-evasive.txt and
 #                     mutants-{womd-interactive,ngsim}-lane-follower.txt: the
 #                     faults of the planner each method's variants catch
@@ -554,10 +557,28 @@ for job in "${jobs[@]}"; do
                 --scenes data:womd-interactive "${behind[@]}" --seed "$draw" \
                 --methods log,prior,safer-in-path-lookahead --trust-region 28
         done
-        run ego-contact/mutants-ngsim-evasive-n60.txt evaluate --scenes data:commonroad-ngsim \
-            "${behind[@]}" --methods log,prior,safer-in-path,safer-in-path-lookahead --trust-region 60
+        for draw in 0 1000; do
+            run "ego-contact/mutants-ngsim-evasive-n60$(seed_suffix "$draw").txt" evaluate \
+                --scenes data:commonroad-ngsim "${behind[@]}" --seed "$draw" \
+                --methods log,prior,safer-in-path,safer-in-path-lookahead --trust-region 60
+        done
+        # Beside first-contact/in-path-lookahead/mutants-*-lane-follower-n60.txt (any contact).
+        for s in commonroad-ngsim:ngsim womd-interactive:womd-interactive; do
+            run "ego-contact/mutants-${s#*:}-lane-follower-n60.txt" evaluate --scenes "data:${s%%:*}" \
+                "${behind[@]}" --methods log,prior,safer-in-path-lookahead --trust-region 60 \
+                --roles as-loaded --planner ../../planners/lane-follower.yaml
+        done
         run ego-contact/evaluate-womd-interactive-n28.txt evaluate --scenes data:womd-interactive --seeds 10 \
-            --trust-region 28 --methods safer-in-path-lookahead,safer-in-path --ego-contact not-from-behind ;;
+            --trust-region 28 --methods safer-in-path-lookahead,safer-in-path --ego-contact not-from-behind
+        # The same with any contact: how the CBV touched the ego, beside the rule's.
+        run ego-contact/evaluate-womd-interactive-n28-any.txt evaluate --scenes data:womd-interactive --seeds 10 \
+            --trust-region 28 --methods safer-in-path-lookahead,safer-in-path
+        # The lookahead's n-sweep with the rule, beside in-path-lookahead/sweep-n*.txt (n = 28:
+        # evaluate-womd-interactive-n28.txt).
+        for n in 20 40 60 100; do
+            run "ego-contact/sweep-n$n.txt" evaluate --scenes data:womd-interactive --seeds 10 \
+                --trust-region "$n" --methods safer-in-path-lookahead --ego-contact not-from-behind
+        done ;;
     first-contact-lookahead)
         mkdir -p first-contact/in-path-lookahead
         for n in 20 28; do
