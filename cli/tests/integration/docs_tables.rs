@@ -1352,7 +1352,7 @@ fn the_ego_contact_tables_quote_their_outputs() {
     let paper = markdown_rows(
         &doc,
         "| method | ego contact | output | CR | SR | SR-crit | witness | VJ | AJ |",
-        "The evasive planner's mutation tables (3 seeds, the stage-2 CBV closed",
+        "How the CBV touched the recorded ego in the same runs",
     );
     for row in &paper {
         let method = method_of(&row[0]).expect("a method");
@@ -1364,50 +1364,101 @@ fn the_ego_contact_tables_quote_their_outputs() {
     }
     assert_eq!(paper.len(), 4, "two methods, each with either rule");
 
-    let mutation = markdown_rows(
+    // The first contacts' kinds, from the same runs.
+    let contacts = markdown_rows(
+        &doc,
+        "| method | ego contact | critical | ego's front | side | from behind |",
+        "The rule halves the contacts from behind",
+    );
+    for row in &contacts {
+        let method = method_of(&row[0]).expect("a method");
+        let file = if row[1] == "`any`" {
+            "ego-contact/evaluate-womd-interactive-n28-any.txt"
+        } else {
+            "ego-contact/evaluate-womd-interactive-n28.txt"
+        };
+        let output = repo_file(&format!("docs/evaluation/{file}"));
+        check_ego_contact(&output, &row[1], file);
+        assert_eq!(row[2..], labelled_row(&output, "ego's front", method)[..], "{row:?} against {file}");
+    }
+    assert_eq!(contacts.len(), 4, "two methods, each with either rule");
+
+    let evasive = markdown_rows(
         &doc,
         "| set | method | n | ego contact | output | CR | SR | SR-crit | no-escape |",
         "(`met` needs the blind-twin table",
     );
-    for row in &mutation {
-        let method = method_of(&row[1]).expect("a method");
-        let file = row[4].trim_matches('`');
-        let output = repo_file(&format!("docs/evaluation/{file}"));
-        check_ego_contact(&output, &row[3], file);
-        let region = output.lines().find_map(|l| l.split("trust region n = ").nth(1)).expect("the run's region");
-        let evaluation = labelled_row(&output, "variants", method);
-        let conflicts = labelled_row(&output, "reach-crit", method);
-        let kills = labelled_row(&output, "passed", method);
-        // Has the run the blind-twin table (`met`)?
-        let met = if output.lines().any(|l| l.starts_with("method") && l.contains(" met")) {
-            labelled_row(&output, " met", method)[3].clone()
-        } else {
-            "—".to_owned()
+    evasive.iter().for_each(check_ego_contact_mutation_row);
+    assert_eq!(evasive.len(), 10, "three rows on WOMD interactive and three on NGSIM, in each of two draws");
+    let lane_follower = markdown_rows(
+        &doc,
+        "The lane follower's (the same settings",
+        "(`met` needs the blind-twin table, which the `any` runs",
+    );
+    // The header, then the rows.
+    lane_follower[1..].iter().for_each(check_ego_contact_mutation_row);
+    assert_eq!(lane_follower.len(), 7, "three rows on each set, under the header");
+
+    // The n-sweep with the rule: each row its run's (n = 28 the paper-protocol run's).
+    let sweep =
+        markdown_rows(&doc, "| n | CR | SR | SR-crit | witness | VJ | AJ | held-out CR / SR |", "No region meets CR");
+    for row in &sweep {
+        let file = match row[0].as_str() {
+            "28" => "ego-contact/evaluate-womd-interactive-n28.txt".to_owned(),
+            n => format!("ego-contact/sweep-n{n}.txt"),
         };
-        // The fault operators killed in at least a fifth of the scenes:
-        // each operator's `(scenes killed/scenes with a passed variant)`.
-        let per_fault: Vec<(usize, usize)> = kills[13..]
-            .iter()
-            .filter_map(|c| c.strip_prefix('(')?.strip_suffix(')')?.split_once('/'))
-            .map(|(k, n)| (k.parse().unwrap(), n.parse().unwrap()))
-            .collect();
-        let in_a_fifth = per_fault.iter().filter(|(k, n)| 5 * k >= *n).count();
-        let expected = vec![
-            region.split(|c: char| !c.is_ascii_digit()).next().unwrap().to_owned(),
-            row[3].clone(),
-            row[4].clone(),
-            evaluation[2].clone(),
-            evaluation[3].clone(),
-            evaluation[4].clone(),
-            conflicts[4].clone(),
-            conflicts[1].clone(),
-            met,
-            format!("{} ({})", killed(&kills[1]), killed(&kills[3])),
-            kills[6].clone(),
-            kills[4].clone(),
-            format!("{in_a_fifth}/{}", per_fault.len()),
-        ];
-        assert_eq!(row[2..], expected[..], "{row:?} against {file}");
+        let output = repo_file(&format!("docs/evaluation/{file}"));
+        check_ego_contact(&output, "`not-from-behind`", &file);
+        assert!(output.contains(&format!("trust region n = {},", row[0])), "{file}: not over {} behaviours", row[0]);
+        let method = "safer-in-path-lookahead";
+        assert_eq!(row[1..7], labelled_row(&output, "variants", method)[2..8], "{row:?} against {file}");
+        let held_out = labelled_row(&output, "SR-witnessed |", method);
+        assert_eq!(row[7], format!("{} / {}", held_out[0], held_out[1]), "{row:?} against {file}");
     }
-    assert_eq!(mutation.len(), 10, "three rows on WOMD interactive in each of two draws, four on NGSIM");
+    assert_eq!(sweep.len(), 5, "n = 20, 28, 40, 60 and 100");
+}
+
+/// A row of the ego-contact mutation tables against its output: the
+/// region, the rule, CR, SR, SR-crit, no-escape, reach-crit, met, kills
+/// (held out), scene kills, ×log and the faults killed in a fifth of the
+/// scenes.
+fn check_ego_contact_mutation_row(row: &Vec<String>) {
+    let method = method_of(&row[1]).expect("a method");
+    let file = row[4].trim_matches('`');
+    let output = repo_file(&format!("docs/evaluation/{file}"));
+    check_ego_contact(&output, &row[3], file);
+    let region = output.lines().find_map(|l| l.split("trust region n = ").nth(1)).expect("the run's region");
+    let evaluation = labelled_row(&output, "variants", method);
+    let conflicts = labelled_row(&output, "reach-crit", method);
+    let kills = labelled_row(&output, "passed", method);
+    // Has the run the blind-twin table (`met`)?
+    let met = if output.lines().any(|l| l.starts_with("method") && l.contains(" met")) {
+        labelled_row(&output, " met", method)[3].clone()
+    } else {
+        "—".to_owned()
+    };
+    // The fault operators killed in at least a fifth of the scenes:
+    // each operator's `(scenes killed/scenes with a passed variant)`.
+    let per_fault: Vec<(usize, usize)> = kills[13..]
+        .iter()
+        .filter_map(|c| c.strip_prefix('(')?.strip_suffix(')')?.split_once('/'))
+        .map(|(k, n)| (k.parse().unwrap(), n.parse().unwrap()))
+        .collect();
+    let in_a_fifth = per_fault.iter().filter(|(k, n)| 5 * k >= *n).count();
+    let expected = vec![
+        region.split(|c: char| !c.is_ascii_digit()).next().unwrap().to_owned(),
+        row[3].clone(),
+        row[4].clone(),
+        evaluation[2].clone(),
+        evaluation[3].clone(),
+        evaluation[4].clone(),
+        conflicts[4].clone(),
+        conflicts[1].clone(),
+        met,
+        format!("{} ({})", killed(&kills[1]), killed(&kills[3])),
+        kills[6].clone(),
+        kills[4].clone(),
+        format!("{in_a_fifth}/{}", per_fault.len()),
+    ];
+    assert_eq!(row[2..], expected[..], "{row:?} against {file}");
 }
