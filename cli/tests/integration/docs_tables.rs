@@ -1389,7 +1389,7 @@ fn the_ego_contact_tables_quote_their_outputs() {
         "(`met` needs the blind-twin table",
     );
     evasive.iter().for_each(check_ego_contact_mutation_row);
-    assert_eq!(evasive.len(), 10, "three rows on WOMD interactive and three on NGSIM, in each of two draws");
+    assert_eq!(evasive.len(), 14, "three rows on WOMD interactive and four on NGSIM, in each of two draws");
     let lane_follower = markdown_rows(
         &doc,
         "The lane follower's (the same settings",
