@@ -496,6 +496,12 @@ fn print_closest_approach(
     Ok(())
 }
 
+/// The variants of a row: its method, with its stage-2 CBV.
+fn records_of<'a>(records: &'a [VariantRecord], row: &MethodRow) -> impl Iterator<Item = &'a VariantRecord> {
+    let (method, stage2_cbv) = (row.method, row.stage2_cbv);
+    records.iter().filter(move |v| v.method == method && v.stage2_cbv == stage2_cbv)
+}
+
 /// How the CBV touched the recorded ego in stage 1, per row: the critical
 /// variants by nuPlan's category of their first contact, seen from the ego.
 /// A CBV that runs into the ego from behind, or into a standing ego, makes
@@ -516,19 +522,14 @@ fn print_stage1_contacts(
         (Kind::StoppedOther, "CBV standing"),
     ];
     let w = method_column(rows, name);
-    writeln!(
-        out,
-        "
-how the CBV touched the recorded ego (stage 1, the first contact, critical variants):"
-    )?;
+    writeln!(out, "\nhow the CBV touched the recorded ego (stage 1, the first contact, critical variants):")?;
     write!(out, "{:<w$} {:>8}", "method", "critical")?;
     for (_, heading) in KINDS {
         write!(out, " {heading:>12}")?;
     }
     writeln!(out)?;
     for r in rows {
-        let of_row: Vec<&VariantRecord> =
-            records.iter().filter(|v| v.method == r.method && v.stage2_cbv == r.stage2_cbv).collect();
+        let of_row: Vec<&VariantRecord> = records_of(records, r).collect();
         write!(out, "{:<w$} {:>8}", name(r), of_row.iter().filter(|v| v.stage1_collision).count())?;
         for (kind, _) in KINDS {
             write!(out, " {:>12}", of_row.iter().filter(|v| v.stage1_contact == Some(kind)).count())?;
@@ -928,11 +929,8 @@ fn print_stage2_contacts(
         "method", "variants", "collided", "with the CBV", "with other agents"
     )?;
     for r in rows {
-        let of_row: Vec<(&VariantRecord, &safer_scenarios::harness::evaluation::Stage2Contact)> = records
-            .iter()
-            .filter(|v| v.method == r.method && v.stage2_cbv == r.stage2_cbv)
-            .filter_map(|v| v.stage2_contact.as_ref().map(|c| (v, c)))
-            .collect();
+        let of_row: Vec<(&VariantRecord, &safer_scenarios::harness::evaluation::Stage2Contact)> =
+            records_of(records, r).filter_map(|v| v.stage2_contact.as_ref().map(|c| (v, c))).collect();
         let with_cbv = of_row.iter().filter(|(_, c)| c.with_cbv).count();
         let at_fault = |cbv: bool| of_row.iter().filter(|(_, c)| c.with_cbv == cbv && c.at_fault).count();
         writeln!(

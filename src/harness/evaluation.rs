@@ -473,7 +473,7 @@ fn run_one(
         _ => None,
     };
     profile.witness_s = witness_clock.elapsed().as_secs_f64();
-    let stage2_summary = stages.stage2.summary();
+    let (stage1_summary, stage2_summary) = (stages.stage1.summary(), stages.stage2.summary());
     let stage2_contact = stage2_summary.ego_collision.as_ref().map(|c| Stage2Contact {
         other: c.other.0.clone(),
         with_cbv: c.with_cbv,
@@ -485,12 +485,12 @@ fn run_one(
         stage2_cbv,
         seed: seed_index,
         stage1_collision: tally.critical,
-        stage1_contact: stages.stage1.summary().ego_collision.filter(|c| c.with_cbv).map(|c| c.kind),
+        stage1_contact: stage1_summary.ego_collision.as_ref().filter(|c| c.with_cbv).map(|c| c.kind),
         stage2_collision: stages.stage2.ego_collision().is_some(),
         stage2: Some(stages.verdict.clone()),
         stage2_contact,
         witness,
-        stage1_min_gap_m: stages.stage1.summary().min_distance_to_ego_m,
+        stage1_min_gap_m: stage1_summary.min_distance_to_ego_m,
         stage2_min_gap_m: stage2_summary.min_distance_to_ego_m,
         stage2_min_gap_to_cbv_m: stages.reach.min_gap_to_cbv_m,
         conflict_reached: stages.reach.reached,
