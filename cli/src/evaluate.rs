@@ -506,7 +506,7 @@ fn records_of<'a>(records: &'a [VariantRecord], row: &MethodRow) -> impl Iterato
 /// variants by nuPlan's category of their first contact, seen from the ego.
 /// A CBV that runs into the ego from behind, or into a standing ego, makes
 /// a collision no planner is at fault for (what `--ego-contact
-/// not-from-behind` rules out).
+/// not-from-behind` holds the CBV back from).
 fn print_stage1_contacts(
     out: &mut dyn Write,
     rows: &[MethodRow],
@@ -610,7 +610,7 @@ fn print_legend(out: &mut dyn Write) -> std::io::Result<()> {
     )?;
     writeln!(
         out,
-        "how the CBV touched the recorded ego: the critical variants by their first contact, seen from the ego (nuPlan's categories): the ego's front (within 45° of its heading), its side, from behind (within 45° of its tail), the ego standing, the CBV standing; from behind and the ego standing are never the ego's fault (`--ego-contact not-from-behind` rules them out)."
+        "how the CBV touched the recorded ego: the critical variants by their first contact, seen from the ego (nuPlan's categories): the ego's front (within 45° of its heading), its side, from behind (within 45° of its tail), the ego standing, the CBV standing; from behind and the ego standing are never the ego's fault (`--ego-contact not-from-behind` holds the CBV back from them)."
     )?;
     writeln!(
         out,
