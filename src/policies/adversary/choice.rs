@@ -269,9 +269,12 @@ pub fn safer_choice(
     // The strict rule first, each candidate about to be taken near the
     // ego asked of the witness (`witnessed` only): one it finds no escape
     // from counts as infeasible, and the order is taken again.
+    // Under the ego-contact rule a candidate that rear-ends the ego is
+    // taken only once no token, in the region or out of it, is plausible
+    // and keeps off the ego's tail.
     let mut plausible =
         |i: usize| !*implausible[i].get_or_insert_with(|| check.implausible(&rollouts[i], ContactRule::Any));
-    while let Some(i) = order(&losses).into_iter().find(|&i| plausible(i)) {
+    while let Some(i) = order(&losses).into_iter().find(|&i| !rear_ends[i] && plausible(i)) {
         match witness.as_ref().and_then(|w| Some((w, near(i, &losses)?))) {
             Some((witness, (path, ego_end))) if !witness.escapable(&path, &ego_end) => {
                 losses[i] = NO_ROOM_VALUE as f64 + INFEASIBLE_PENALTY;
@@ -280,6 +283,18 @@ pub fn safer_choice(
         }
     }
     let order = order(&losses);
+    // Every plausible candidate rear-ends the ego: the likeliest plausible
+    // token outside the region that does not (most often a harder brake
+    // than the region holds; the trust region's top n seldom hold one).
+    if search.ego_contact == EgoContactRule::NotFromBehind {
+        let keeps_off = |r: &[AgentState]| !self::rear_ends(r, ego_now, (ego_body, cbv_body));
+        if let Some(t) = check.likeliest_plausible_outside_where(logits, candidates, ContactRule::Any, keeps_off) {
+            return Ok(Some(t));
+        }
+        if let Some(&i) = order.iter().find(|&&i| plausible(i)) {
+            return Ok(Some(candidates[i]));
+        }
+    }
     // The likeliest plausible token outside the region: for a top-n
     // region, the rest of the vocabulary; for a distinct-behaviour
     // region, the near-duplicates it skipped as well.

@@ -351,6 +351,19 @@ impl<'w> PlausibilityCheck<'w> {
         region: &[Token],
         rule: ContactRule,
     ) -> Option<Token> {
+        self.likeliest_plausible_outside_where(logits, region, rule, |_| true)
+    }
+
+    /// [`likeliest_plausible_outside`](Self::likeliest_plausible_outside)
+    /// among the tokens whose rollout (the CBV's states over the token)
+    /// `keep` accepts.
+    pub(super) fn likeliest_plausible_outside_where(
+        &self,
+        logits: &[f32],
+        region: &[Token],
+        rule: ContactRule,
+        keep: impl Fn(&[AgentState]) -> bool,
+    ) -> Option<Token> {
         let now = self.cbv_now.as_ref()?;
         let from = KinematicState::from_agent_state(now);
         let mut in_region = vec![false; logits.len()];
@@ -359,10 +372,10 @@ impl<'w> PlausibilityCheck<'w> {
                 *slot = true;
             }
         }
-        ranked_tokens(logits)
-            .into_iter()
-            .filter(|t| !in_region[t.0 as usize])
-            .find(|t| !self.implausible(&token_rollout(&from, *t), rule))
+        ranked_tokens(logits).into_iter().filter(|t| !in_region[t.0 as usize]).find(|t| {
+            let rollout = token_rollout(&from, *t);
+            keep(&rollout) && !self.implausible(&rollout, rule)
+        })
     }
 }
 
