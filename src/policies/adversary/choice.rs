@@ -142,7 +142,9 @@ fn ego_prediction(ego: &AgentState) -> AgentState {
 /// witness finds the ego an escape from it; under
 /// [`EgoContactRule::NotFromBehind`] a candidate after which the CBV,
 /// braking as hard as it can, would still run into the ego from behind is
-/// infeasible. Time spent in V_h is added to
+/// infeasible, and where every plausible candidate is such a one the
+/// choice is the likeliest plausible token outside the region that is not.
+/// Time spent in V_h is added to
 /// `feasibility_s`. `None` only for empty `logits`.
 pub fn safer_choice(
     world: &WorldView<'_>,
@@ -418,6 +420,27 @@ mod tests {
         let level = [(-2.0, 2.0), (2.0, 2.0), (0.0, 1.0)];
         let lower = token(-2.0).min(token(2.0));
         assert_eq!(choice(&level, TrustRegion::TopN(3), Some(&all_equal)), lower);
+    }
+
+    #[test]
+    fn under_the_ego_contact_rule_a_region_that_only_rear_ends_gives_way_to_the_likeliest_token_that_keeps_off() {
+        // The CBV 13 m behind the ego (an 8.5 m gap), 8 m/s faster. Braking
+        // as hard as it can after the token, it still runs into the ego's
+        // tail after holding its speed or speeding up (the region of the
+        // three likeliest), and after braking at 1 m/s²; after braking at
+        // 5 m/s² it stops short.
+        let states = [car(0.0, 0.0, 10.0), car(-13.0, 0.0, 18.0)];
+        let liked = [(0.0, 3.0), (2.0, 2.0), (5.0, 1.0), (-1.0, 0.8), (-5.0, 0.5)];
+        let chosen = |ego_contact| {
+            let search = Search { ego_contact, ..Search::one_step(TrustRegion::TopN(3)) };
+            choice_in(&states, &liked, search, None)
+        };
+        // The paper's rule: the region's closest approach.
+        assert_eq!(chosen(EgoContactRule::Any), token(5.0));
+        // No contact from behind: not a region token (each rear-ends), nor
+        // the likeliest outside it (-1 m/s² rear-ends too), but the
+        // likeliest that keeps off the ego's tail.
+        assert_eq!(chosen(EgoContactRule::NotFromBehind), token(-5.0));
     }
 
     #[test]

@@ -8,8 +8,12 @@
 //! escape the ego tries. Under [`EgoContactRule::NotFromBehind`] a candidate
 //! token after which the CBV, braking as hard as it can, would still run
 //! into the ego (held on at its velocity) from behind counts as
-//! infeasible (taken only when nothing feasible is left), and a lookahead
-//! continuation that ends in such a contact is not a conflict. The CBV
+//! infeasible, and a lookahead continuation that ends in such a contact is
+//! not a conflict. Where every plausible token of the trust region would
+//! rear-end the ego, the CBV leaves the region for the likeliest plausible
+//! token that does not (most often a harder brake than the region holds);
+//! only where no plausible token keeps off does it take one that rear-ends
+//! the ego. The CBV
 //! may still follow the ego closely, cut in ahead of it, brake ahead of
 //! it, turn across it or come in from the side: the conflicts a planner
 //! must answer.
