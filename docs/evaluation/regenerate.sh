@@ -162,7 +162,7 @@
 #                     (mutants-{ngsim,womd-interactive}-lane-follower-n60.txt); and the paper's
 #                     protocol on WOMD interactive over 28, with the rule and with any contact
 #                     (evaluate-womd-interactive-n28{,-any}.txt), and the lookahead's n-sweep
-#                     with the rule (sweep-n{20,40,60,100}.txt) (about two and a half hours)
+#                     with the rule (sweep-n{20,40,60,100}.txt) (about 80 minutes)
 #   mutants           mutants-{womd-interactive,womd-json,ngsim}-evasive.txt and
 #                     mutants-{womd-interactive,ngsim}-lane-follower.txt: the
 #                     faults of the planner each method's variants catch

@@ -1368,7 +1368,7 @@ fn the_ego_contact_tables_quote_their_outputs() {
     let contacts = markdown_rows(
         &doc,
         "| method | ego contact | critical | ego's front | side | from behind |",
-        "The rule halves the contacts from behind",
+        "The rule cuts the contacts from behind",
     );
     for row in &contacts {
         let method = method_of(&row[0]).expect("a method");
