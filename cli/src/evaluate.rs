@@ -280,26 +280,30 @@ fn print_plausibility(
     writeln!(out, "\nplausibility of the CBV, the seeds' variety and the reference planner:")?;
     writeln!(
         out,
-        "{:<w$} {:>12} {:>14} {:>15} {:>12} {:>14} {:>9} {:>12}",
+        "{:<w$} {:>12} {:>14} {:>15} {:>12} {:>14} {:>10} {:>13} {:>9} {:>12}",
         "method",
         "CBV-bg coll",
         "CBV at fault",
         "of it: ped/cyc",
         "CBV off-road",
         "off-road s/var",
+        "wrong way",
+        "wrong way s2",
         "distinct",
         "SR-witnessed"
     )?;
     for r in rows {
         writeln!(
             out,
-            "{:<w$} {:>12} {:>14} {:>15} {:>12} {:>14} {:>9} {:>12}",
+            "{:<w$} {:>12} {:>14} {:>15} {:>12} {:>14} {:>10} {:>13} {:>9} {:>12}",
             name(r),
             fmt(r.cbv_background_collision_rate),
             fmt(r.cbv_at_fault_background_collision_rate),
             fmt(r.cbv_at_fault_vulnerable_rate),
             fmt(r.cbv_off_road_rate),
             fmt(r.cbv_off_road_s),
+            fmt(r.cbv_wrong_way_rate),
+            fmt(r.cbv_wrong_way_rate_stage2),
             fmt(r.distinct_rate),
             fmt(r.sr_witnessed)
         )?;
@@ -616,6 +620,10 @@ fn print_legend(out: &mut dyn Write) -> std::io::Result<()> {
         out,
         "distinct: distinct stage-1 CBV paths (to the centimetre) per variant, over each scene's seeds; 1.000 when no two seeds made the same variant."
     )?;
+    writeln!(
+        out,
+        "wrong way: share of variants whose CBV drove against a lane's traffic in stage 1 (s2: in stage 2), by the rule of the ego's `wrong_way` check (CARLA's WrongLaneTest: in a lane running more than 120° from its heading, outside intersections, no lane its way within 3 m); the `log` row is the recorded CBV."
+    )?;
     Ok(())
 }
 
@@ -791,22 +799,22 @@ fn print_scenes_that_broke_the_rules(
     name: &dyn Fn(&MethodRow) -> String,
 ) -> std::io::Result<()> {
     let w = method_column(rows, name);
-    let broke: Vec<&MethodRow> =
-        rows.iter().filter(|r| !r.off_road_scenes.is_empty() || !r.at_fault_scenes.is_empty()).collect();
+    let broke: Vec<&MethodRow> = rows
+        .iter()
+        .filter(|r| !r.off_road_scenes.is_empty() || !r.at_fault_scenes.is_empty() || !r.wrong_way_scenes.is_empty())
+        .collect();
     if broke.is_empty() {
         return Ok(());
     }
     writeln!(
         out,
-        "where the CBV left the road / was at fault: the scenes with the most such variants (k/n: k of the scene's n; \
+        "where the CBV left the road / was at fault / drove the wrong way (in either stage): the scenes with the most such variants (k/n: k of the scene's n; \
          * held out; `--scene ID --artifacts DIR --artifacts-of all` draws them)"
     )?;
     for r in broke {
-        for (i, (what, scenes)) in [("off road", &r.off_road_scenes), ("at fault", &r.at_fault_scenes)]
-            .into_iter()
-            .filter(|(_, scenes)| !scenes.is_empty())
-            .enumerate()
-        {
+        let kinds =
+            [("off road", &r.off_road_scenes), ("at fault", &r.at_fault_scenes), ("wrong way", &r.wrong_way_scenes)];
+        for (i, (what, scenes)) in kinds.into_iter().filter(|(_, scenes)| !scenes.is_empty()).enumerate() {
             let method = if i == 0 { name(r) } else { String::new() };
             writeln!(out, "{method:<w$} {what}: {}", named_scenes(scenes, held_out))?;
         }

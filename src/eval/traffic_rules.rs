@@ -4,7 +4,8 @@
 //! passing a stop line while its signal shows red.
 //!
 //! Both read the rollout's ego states and the map. **Wrong way**: the
-//! ego's centre lies in a lane (its area, as [`RoadMap::lanes_containing`]
+//! ego's centre (or any agent's: [`wrong_way_of`] judges the CBV by the
+//! same rule) lies in a lane (its area, as [`RoadMap::lanes_containing`]
 //! measures it) whose direction is more than [`WRONG_WAY_MIN_ANGLE_RAD`]
 //! from the ego's heading, in no lane running the ego's way and more than
 //! 3 m from the centreline of any such lane (a wide lane, or a swerve past a
@@ -22,6 +23,7 @@
 
 use crate::geometry::Vector2;
 use crate::map::{MapElementId, RoadMap, SignalState};
+use crate::scenario::{AgentState, TrackIndex};
 use crate::sim::Rollout;
 
 /// The smallest angle between the ego's heading and a lane's direction
@@ -73,38 +75,48 @@ pub fn has_directed_lanes(map: &RoadMap) -> bool {
 /// The ego's longest stretch of driving against a lane's traffic, or
 /// `None` when it never did. Ties go to the earliest.
 pub fn wrong_way(rollout: &Rollout, map: &RoadMap) -> Option<WrongWay> {
-    let ego = rollout.ego.0;
-    let against_at = |row: &Vec<Option<crate::scenario::AgentState>>| -> Option<MapElementId> {
-        let s = row.get(ego)?.as_ref()?;
-        if s.speed_mps() < MOVING_MIN_MPS || !map.lanes_containing(&s.position, s.heading_rad).is_empty() {
-            return None;
-        }
-        let heading = Vector2::new(s.heading_rad.cos(), s.heading_rad.sin());
-        // A lane running the ego's way close by (a wide lane, a lane whose
-        // width the map does not give, a shift to pass a parked car): the
-        // ego is beside its own lane, not in the oncoming one.
-        let own_way_nearby = map
-            .nearest_lane(&s.position, Some(s.heading_rad), OWN_LANE_CLEARANCE_M)
-            .is_some_and(|m| m.projection.tangent.dot(&heading) >= crate::map::ALIGNED_LANE_MAX_ANGLE_RAD.cos());
-        if own_way_nearby {
-            return None;
-        }
-        let reversed = s.heading_rad + std::f64::consts::PI;
-        map.lanes_containing(&s.position, reversed).into_iter().find(|id| {
-            map.lane(*id).is_some_and(|lane| {
-                !lane.in_intersection
-                    && lane
-                        .centreline
-                        .project(&s.position)
-                        .is_some_and(|p| p.tangent.dot(&heading) <= WRONG_WAY_MIN_ANGLE_RAD.cos())
-            })
-        })
-    };
+    wrong_way_of(rollout, map, rollout.ego)
+}
+
+/// [`wrong_way`] for any agent of the rollout (the CBV, to judge how
+/// plausibly an adversary drives): its longest stretch against a lane's
+/// traffic, by the same rule as the ego's.
+pub fn wrong_way_of(rollout: &Rollout, map: &RoadMap, agent: TrackIndex) -> Option<WrongWay> {
+    let against_at = |row: &Vec<Option<AgentState>>| against_traffic(map, row.get(agent.0)?.as_ref()?);
     let (first, found) = longest_stretch(rollout.states.iter().map(against_at))?;
     Some(WrongWay {
         start_s: first as f64 * rollout.dt_s,
         duration_s: found.len() as f64 * rollout.dt_s,
         lane: found[0],
+    })
+}
+
+/// The lane whose traffic a road user in `state` drives against (the
+/// module's rule), or `None` when it drives with the traffic, stands, or
+/// is where no lane tells the way.
+pub fn against_traffic(map: &RoadMap, s: &AgentState) -> Option<MapElementId> {
+    if s.speed_mps() < MOVING_MIN_MPS || !map.lanes_containing(&s.position, s.heading_rad).is_empty() {
+        return None;
+    }
+    let heading = Vector2::new(s.heading_rad.cos(), s.heading_rad.sin());
+    // A lane running the agent's way close by (a wide lane, a lane whose
+    // width the map does not give, a shift to pass a parked car): it is
+    // beside its own lane, not in the oncoming one.
+    let own_way_nearby = map
+        .nearest_lane(&s.position, Some(s.heading_rad), OWN_LANE_CLEARANCE_M)
+        .is_some_and(|m| m.projection.tangent.dot(&heading) >= crate::map::ALIGNED_LANE_MAX_ANGLE_RAD.cos());
+    if own_way_nearby {
+        return None;
+    }
+    let reversed = s.heading_rad + std::f64::consts::PI;
+    map.lanes_containing(&s.position, reversed).into_iter().find(|id| {
+        map.lane(*id).is_some_and(|lane| {
+            !lane.in_intersection
+                && lane
+                    .centreline
+                    .project(&s.position)
+                    .is_some_and(|p| p.tangent.dot(&heading) <= WRONG_WAY_MIN_ANGLE_RAD.cos())
+        })
     })
 }
 
@@ -323,6 +335,30 @@ mod tests {
         states.extend(drive(28.0, oncoming, 0.0, 10.0, 7));
         let w = wrong_way(&rollout(states), &map).unwrap();
         assert!((w.start_s - 0.8).abs() < 1e-9 && (w.duration_s - 0.7).abs() < 1e-9, "{w:?}");
+    }
+
+    #[test]
+    fn any_agent_of_the_rollout_is_judged_by_the_egos_rule() {
+        let map = two_way_road();
+        let (own, oncoming) = (lane_centre_y(&map, 0), lane_centre_y(&map, 100));
+        // The ego keeps its lane; the second car (a CBV) turns into the
+        // oncoming lane and drives along it against its traffic for 1.5 s.
+        let ego = drive(20.0, own, 0.0, 10.0, 20);
+        let mut cbv = drive(60.0, own, 0.0, 0.0, 5);
+        cbv.extend(drive(60.0, oncoming, 0.0, 8.0, 15));
+        let mut r = rollout(ego);
+        r.agent_ids.push(AgentId("cbv".into()));
+        r.bodies.push(r.bodies[0]);
+        for (row, c) in r.states.iter_mut().zip(cbv) {
+            row.push(Some(c));
+        }
+        assert_eq!(wrong_way(&r, &map), None, "the ego kept its lane");
+        let w = wrong_way_of(&r, &map, TrackIndex(1)).expect("the CBV drove against the traffic");
+        assert_eq!((w.start_s, w.lane), (0.5, MapElementId(100)));
+        assert!((w.duration_s - 1.5).abs() < 1e-9, "{w:?}");
+        // Standing in its own lane it broke no rule (the first 0.5 s alone).
+        let still = drive(60.0, own, 0.0, 0.0, 5);
+        assert!(still.iter().all(|s| against_traffic(&map, s).is_none()));
     }
 
     /// The template crossing: east–west green for the first 12 s, so the

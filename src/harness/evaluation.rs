@@ -301,6 +301,13 @@ pub struct MethodRow {
     pub cbv_off_road_rate: Option<f64>,
     /// Mean time the CBV spent off the road per variant, s.
     pub cbv_off_road_s: Option<f64>,
+    /// Share of variants whose CBV drove against a lane's traffic in
+    /// stage 1 (older reports lack it: read as unknown).
+    #[serde(default)]
+    pub cbv_wrong_way_rate: Option<f64>,
+    /// The same in stage 2, against the planner's ego.
+    #[serde(default)]
+    pub cbv_wrong_way_rate_stage2: Option<f64>,
     /// The scenes where the CBV left the road in stage 1: how many of
     /// each one's variants did, most first (a rate that one scene makes
     /// reads differently from one spread over many).
@@ -308,6 +315,10 @@ pub struct MethodRow {
     /// The same for the CBV at fault in a collision with background
     /// traffic.
     pub at_fault_scenes: Vec<SceneCount>,
+    /// The same for the CBV driving against a lane's traffic, in either
+    /// stage (older reports lack it: read as none).
+    #[serde(default)]
+    pub wrong_way_scenes: Vec<SceneCount>,
     /// How close the CBV came to the recorded ego in stage 1; `None` when
     /// no variant ran.
     pub stage1_closest: Option<ClosestApproach>,
@@ -926,8 +937,13 @@ fn table_of(
                 cbv_at_fault_vulnerable_rate: metrics.cbv_at_fault_vulnerable_rate,
                 cbv_off_road_rate: metrics.cbv_off_road_rate,
                 cbv_off_road_s: metrics.cbv_off_road_s,
+                cbv_wrong_way_rate: metrics.cbv_wrong_way_rate,
+                cbv_wrong_way_rate_stage2: metrics.cbv_wrong_way_rate_stage2,
                 off_road_scenes: scenes_where(&ok, |r| r.tally.cbv_left_road()),
                 at_fault_scenes: scenes_where(&ok, |r| r.tally.cbv_at_fault_with_background),
+                wrong_way_scenes: scenes_where(&ok, |r| {
+                    r.tally.cbv_drove_wrong_way() || r.tally.cbv_wrong_way_stage2_s > 0.0
+                }),
                 stage1_closest: ClosestApproach::of(&ok),
                 stage2_closest_critical: Stage2Approach::of(&ok),
                 distinct_rate: distinct_rate(&ok),

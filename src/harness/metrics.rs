@@ -24,6 +24,7 @@
 //! [`Stage2Verdict`]: super::pipeline::Stage2Verdict
 
 use super::pipeline::DualStage;
+use crate::eval::traffic_rules::wrong_way_of;
 use crate::eval::{ConflictKind, Histogram, jensen_shannon, rollout_conflict};
 use crate::geometry::wrap_angle;
 use crate::scenario::{AgentKind, AgentState, Scenario, TrackIndex};
@@ -122,6 +123,14 @@ pub struct VariantTally {
     /// Time the CBV's centre spent off the road in stage 1, having started
     /// on it, s (0 when it started off the road: a car park is not a fault).
     pub cbv_off_road_s: f64,
+    /// The CBV's longest stretch against a lane's traffic in stage 1, s
+    /// (the ego's wrong-way rule, [`wrong_way_of`]; 0 when it never drove
+    /// against it; older reports lack it: read as 0).
+    #[serde(default)]
+    pub cbv_wrong_way_s: f64,
+    /// The same in stage 2, against the planner's ego.
+    #[serde(default)]
+    pub cbv_wrong_way_stage2_s: f64,
     /// A digest of the CBV's stage-1 path (`cbv_path_digest`): two
     /// seeds with equal digests made the same variant.
     pub cbv_path_digest: Option<u64>,
@@ -152,6 +161,12 @@ impl VariantTally {
         (self.reached || self.collided) && self.escape != Some(false)
     }
 
+    /// Whether the CBV drove against a lane's traffic in stage 1 (what
+    /// the wrong-way rate counts).
+    pub fn cbv_drove_wrong_way(&self) -> bool {
+        self.cbv_wrong_way_s > 0.0
+    }
+
     /// Whether the CBV left the road in stage 1 (what the off-road rate
     /// counts).
     pub fn cbv_left_road(&self) -> bool {
@@ -176,6 +191,8 @@ impl VariantTally {
             cbv_at_fault_with_background: background.iter().any(|c| c.at_fault),
             cbv_at_fault_with_vulnerable: background.iter().any(|c| c.at_fault && c.other_kind != AgentKind::Vehicle),
             cbv_off_road_s: cbv_off_road_s(scenario, &stages.stage1),
+            cbv_wrong_way_s: cbv_wrong_way_s(scenario, &stages.stage1),
+            cbv_wrong_way_stage2_s: cbv_wrong_way_s(scenario, &stages.stage2),
             cbv_path_digest: cbv_path_digest(&stages.stage1),
             reached: stages.reach.reached,
             collided: stages.stage2.ego_collision().is_some(),
@@ -270,6 +287,12 @@ pub(crate) fn cbv_off_road_s(scenario: &Scenario, stage1: &Rollout) -> f64 {
     }
 }
 
+/// The CBV's longest stretch against a lane's traffic in `rollout`, s (0
+/// without a CBV or when it never drove against one).
+fn cbv_wrong_way_s(scenario: &Scenario, rollout: &Rollout) -> f64 {
+    rollout.cbv.and_then(|cbv| wrong_way_of(rollout, &scenario.map, cbv)).map_or(0.0, |w| w.duration_s)
+}
+
 /// The metrics of a set of variants.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct SuiteMetrics {
@@ -297,6 +320,11 @@ pub struct SuiteMetrics {
     pub cbv_off_road_rate: Option<f64>,
     /// Mean time the CBV spent off the road per variant, s.
     pub cbv_off_road_s: Option<f64>,
+    /// Share of variants whose CBV drove against a lane's traffic in
+    /// stage 1 (the ego's wrong-way rule).
+    pub cbv_wrong_way_rate: Option<f64>,
+    /// The same in stage 2, against the planner's ego.
+    pub cbv_wrong_way_rate_stage2: Option<f64>,
     /// Stage 2: share of variants whose CBV came within 1 m of the
     /// planner's ego.
     pub conflict_reach: Option<f64>,
@@ -440,6 +468,7 @@ impl SuiteMetrics {
         let (mut n, mut critical, mut solved, mut solved_critical) = (0, 0, 0, 0);
         let (mut hit_background, mut at_fault, mut off_road, mut off_road_s) = (0, 0, 0, 0.0);
         let mut at_fault_vulnerable = 0;
+        let (mut wrong_way, mut wrong_way_stage2) = (0, 0);
         let (mut reached, mut reached_critical, mut avoidable, mut avoidable_solved, mut no_escape) = (0, 0, 0, 0, 0);
         let mut no_escape_with_others = 0;
         let (mut gv, mut ga, mut lv, mut la) =
@@ -455,6 +484,8 @@ impl SuiteMetrics {
             at_fault_vulnerable += usize::from(t.cbv_at_fault_with_vulnerable);
             off_road += usize::from(t.cbv_left_road());
             off_road_s += t.cbv_off_road_s;
+            wrong_way += usize::from(t.cbv_drove_wrong_way());
+            wrong_way_stage2 += usize::from(t.cbv_wrong_way_stage2_s > 0.0);
             reached += usize::from(t.reached);
             reached_critical += usize::from(t.reached && t.critical);
             avoidable += usize::from(t.avoidable_conflict());
@@ -483,6 +514,8 @@ impl SuiteMetrics {
             cbv_at_fault_vulnerable_rate: share(at_fault_vulnerable, n),
             cbv_off_road_rate: share(off_road, n),
             cbv_off_road_s: (n > 0).then(|| off_road_s / n as f64),
+            cbv_wrong_way_rate: share(wrong_way, n),
+            cbv_wrong_way_rate_stage2: share(wrong_way_stage2, n),
             conflict_reach: share(reached, n),
             conflict_reach_critical: share(reached_critical, critical),
             avoidable_conflicts: avoidable,
