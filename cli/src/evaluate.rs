@@ -25,7 +25,7 @@ use safer_scenarios::harness::evaluation::{
 use safer_scenarios::harness::methods::BackgroundDriver;
 use safer_scenarios::harness::methods::ModelSet;
 use safer_scenarios::harness::mutation::MethodKills;
-use safer_scenarios::policies::adversary::{ApproachPhase, EgoContactRule, FeasibilityScope};
+use safer_scenarios::policies::adversary::{ApproachPhase, EgoContactRule, FeasibilityScope, WrongWayRule};
 use safer_scenarios::scenario::roles::RolePairing;
 use safer_scenarios::scenario::{Scenario, import};
 use safer_scenarios::spec::suite::AdversaryMethod;
@@ -114,6 +114,10 @@ fn is_pair(scope: &FeasibilityScope) -> bool {
     *scope == FeasibilityScope::Pair
 }
 
+fn is_allowed(rule: &WrongWayRule) -> bool {
+    *rule == WrongWayRule::Allowed
+}
+
 fn is_any_contact(rule: &EgoContactRule) -> bool {
     *rule == EgoContactRule::Any
 }
@@ -137,6 +141,9 @@ pub(super) struct EvaluationSettings {
     /// Reports written before the option existed had any contact.
     #[serde(default, skip_serializing_if = "is_any_contact")]
     ego_contact: EgoContactRule,
+    /// Reports written before the option existed allowed driving the wrong way.
+    #[serde(default, skip_serializing_if = "is_allowed")]
+    wrong_way: WrongWayRule,
     background: BackgroundDriver,
     stage2_cbv: Vec<Stage2Cbv>,
     horizon_s: f64,
@@ -165,6 +172,7 @@ impl EvaluationSettings {
             approach: request.approach,
             feasibility: request.feasibility,
             ego_contact: request.ego_contact,
+            wrong_way: request.wrong_way,
             background: request.background,
             stage2_cbv: request.stage2_cbv.clone(),
             horizon_s: request.horizon_s,
@@ -192,7 +200,7 @@ fn print_table(
     let name = |r: &MethodRow| label(r.method, r.stage2_cbv, modes);
     writeln!(
         out,
-        "{scenes} scenes × {} seeds; stage 2 planner `{}`, stage-2 CBV {}, trust region n = {}, horizon {} s{}{}{}{}{}{}",
+        "{scenes} scenes × {} seeds; stage 2 planner `{}`, stage-2 CBV {}, trust region n = {}, horizon {} s{}{}{}{}{}{}{}",
         request.seeds,
         request.planner,
         request.stage2_cbv.iter().map(safer_scenarios::spec::spec_name).collect::<Vec<_>>().join(" and "),
@@ -211,6 +219,10 @@ fn print_table(
         match request.ego_contact {
             EgoContactRule::Any => "",
             EgoContactRule::NotFromBehind => "; no contact from behind the ego",
+        },
+        match request.wrong_way {
+            WrongWayRule::Allowed => "",
+            WrongWayRule::Forbidden => "; no driving against the traffic",
         },
         match witness.road {
             RoadKeeping::Centre => "",
@@ -1371,6 +1383,9 @@ pub(crate) struct EvaluateArgs {
     /// Which contacts with the ego the SaFeR methods' CBV may make: `any` (the paper's); `not-from-behind` (beyond the paper), none from behind the ego or with it standing still (the collisions nuPlan's rule never blames the ego for, which no planner can escape a chasing CBV from): a candidate after which the CBV, braking as hard as it can, would still run into the ego held on at its velocity from behind is infeasible.
     #[arg(long, value_parser = choice(EgoContactRule::ALL), default_value = "any")]
     pub(crate) ego_contact: EgoContactRule,
+    /// Whether the SaFeR methods' CBV may drive against a lane's traffic: `allowed` (as the paper's method allows it); `forbidden` (beyond the paper), a token that turns the CBV into a lane against its traffic outside intersections (the ego's wrong-way rule, CARLA's WrongLaneTest) is implausible, as leaving the road is.
+    #[arg(long, value_parser = choice(WrongWayRule::ALL), default_value = "allowed")]
+    pub(crate) wrong_way: WrongWayRule,
     /// The CBV in stage 2: replaying its stage-1 trajectory, or driven by the method again against the planner's ego (closed-loop), or so with the CBV seeing the planner's ego a driver's reaction time (1 s) late, carried on at the velocity it had, so that it does not follow an escape as it begins (closed-loop-delayed, beyond the paper); `replay,closed-loop` reports both side by side. The default here is `replay`, so that every method's stage 2 meets the same recorded CBV path and the methods compare on equal terms (the paper does not say whether its CBV reacts in stage 2); suites default to `closed-loop` (`adversary.stage2_cbv`), because a planner test should meet a CBV that answers the planner.
     #[arg(long, value_parser = choice(Stage2Cbv::ALL), value_delimiter = ',', default_values = ["replay"])]
     pub(crate) stage2_cbv: Vec<Stage2Cbv>,
@@ -1425,6 +1440,7 @@ pub(crate) fn command(args: EvaluateArgs) -> Result<ExitCode, CliError> {
         approach_phase,
         feasibility,
         ego_contact,
+        wrong_way,
         stage2_cbv,
         horizon_s,
         roles,
@@ -1452,6 +1468,7 @@ pub(crate) fn command(args: EvaluateArgs) -> Result<ExitCode, CliError> {
         approach: approach_phase,
         feasibility,
         ego_contact,
+        wrong_way,
         background,
         stage2_cbv,
         escape: Some(escape),

@@ -257,6 +257,7 @@ fn from_stage1(
         approach: Default::default(),
         feasibility: Default::default(),
         ego_contact: Default::default(),
+        wrong_way: Default::default(),
         background: Default::default(),
         stage2_cbv: vec![Stage2Cbv::Replay],
         escape: None,

@@ -196,6 +196,7 @@ pub(crate) fn command(args: TrustRegionArgs) -> Result<ExitCode, CliError> {
         // The region is the same whatever the constraint takes into account.
         feasibility: Default::default(),
         ego_contact: Default::default(),
+        wrong_way: Default::default(),
         background: BackgroundDriver::Configured,
         stage2_cbv: vec![Stage2Cbv::Replay],
         escape: None,

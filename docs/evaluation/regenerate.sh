@@ -163,6 +163,16 @@
 #                     protocol on WOMD interactive over 28, with the rule and with any contact
 #                     (evaluate-womd-interactive-n28{,-any}.txt), and the lookahead's n-sweep
 #                     with the rule (sweep-n{20,40,60,100}.txt) (about 80 minutes)
+#   wrong-way         wrong-way/: the CBV kept from driving against a lane's traffic
+#                     (`--wrong-way forbidden`) and not (`allowed`), side by side: the paper's
+#                     protocol on WOMD interactive, the in-path methods over 28 with no contact
+#                     from behind (evaluate-womd-interactive-n28-{forbidden,allowed}.txt) and
+#                     `safer` over 20 (evaluate-womd-interactive-safer-*.txt); NGSIM over 60,
+#                     the CBV closed loop and the recorded cars braking
+#                     (evaluate-ngsim-n60-*.txt); and the evasive planner's mutation tables
+#                     with the rule and no contact from behind, beside ego-contact/'s
+#                     (mutants-{womd-interactive-evasive-n28,ngsim-evasive-n60}.txt)
+#                     (about 25 minutes)
 #   mutants           mutants-{womd-interactive,womd-json,ngsim}-evasive.txt and
 #                     mutants-{womd-interactive,ngsim}-lane-follower.txt: the
 #                     faults of the planner each method's variants catch
@@ -177,7 +187,7 @@ set -euo pipefail
 self=$(realpath "$0")
 cd "$(dirname "$self")"
 all=(evaluate plain inattentive held-out-chance trust-region realism prior-fit n-sweep reactive n100 approach-none merging mutants wide-region cut-in
-    in-path-lookahead in-path-lookahead-n30 in-path-lookahead-n28 in-path-lookahead-sweep pair-in-traffic witnessed wide-witnessed ten-seeds reaction-delay reactive-background leader first-contact both-pairings first-contact-lookahead blind-twin ego-contact)
+    in-path-lookahead in-path-lookahead-n30 in-path-lookahead-n28 in-path-lookahead-sweep pair-in-traffic witnessed wide-witnessed ten-seeds reaction-delay reactive-background leader first-contact both-pairings first-contact-lookahead blind-twin ego-contact wrong-way)
 jobs=("$@")
 [[ ${#jobs[@]} -gt 0 ]] || jobs=("${all[@]}")
 # The usage is the comment block at the top of this file.
@@ -579,6 +589,31 @@ for job in "${jobs[@]}"; do
             run "ego-contact/sweep-n$n.txt" evaluate --scenes data:womd-interactive --seeds 10 \
                 --trust-region "$n" --methods safer-in-path-lookahead --ego-contact not-from-behind
         done ;;
+    wrong-way)
+        mkdir -p wrong-way
+        # The paper's protocol over 28 with no contact from behind, the CBV kept from driving
+        # against the traffic and not (the latter: ego-contact/evaluate-womd-interactive-n28.txt
+        # again, with the wrong-way columns).
+        for rule in forbidden allowed; do
+            run "wrong-way/evaluate-womd-interactive-n28-$rule.txt" evaluate --scenes data:womd-interactive \
+                --seeds 10 --trust-region 28 --methods safer-in-path-lookahead,safer-in-path \
+                --ego-contact not-from-behind --wrong-way "$rule"
+            # The paper's method as the main table runs it (over 20).
+            run "wrong-way/evaluate-womd-interactive-safer-$rule.txt" evaluate --scenes data:womd-interactive \
+                --seeds 10 --methods log,safer --wrong-way "$rule"
+            # NGSIM with the CBV closed loop and the recorded cars braking, over 60.
+            run "wrong-way/evaluate-ngsim-n60-$rule.txt" evaluate --scenes data:commonroad-ngsim --seeds 3 \
+                --stage2-cbv closed-loop --background reactive-log-replay --trust-region 60 \
+                --methods log,safer,safer-in-path,safer-in-path-lookahead --ego-contact not-from-behind \
+                --wrong-way "$rule"
+        done
+        # The evasive planner's mutation tables with the rule, beside ego-contact/'s.
+        behind=(--seeds 3 --stage2-cbv closed-loop --background reactive-log-replay --mutants --ego-contact not-from-behind
+            --wrong-way forbidden)
+        run wrong-way/mutants-womd-interactive-evasive-n28.txt evaluate --scenes data:womd-interactive \
+            "${behind[@]}" --methods log,prior,safer-in-path-lookahead --trust-region 28
+        run wrong-way/mutants-ngsim-evasive-n60.txt evaluate --scenes data:commonroad-ngsim "${behind[@]}" \
+            --methods log,prior,safer-in-path,safer-in-path-lookahead --trust-region 60 ;;
     first-contact-lookahead)
         mkdir -p first-contact/in-path-lookahead
         for n in 20 28; do

@@ -415,6 +415,7 @@ pub fn run_episode(
                 approach: crate::policies::adversary::ApproachPhase::default(),
                 feasibility: crate::policies::adversary::FeasibilityScope::Pair,
                 ego_contact: crate::policies::adversary::EgoContactRule::Any,
+                wrong_way: Default::default(),
             };
             crate::harness::methods::install(&mut sim, s, cbv, start, settings, models, maps, seed).ok()?;
             let mut planner = episode.ego_planner.instantiate(s, ego);

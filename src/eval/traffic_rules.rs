@@ -26,14 +26,8 @@ use crate::map::{MapElementId, RoadMap, SignalState};
 use crate::scenario::{AgentState, TrackIndex};
 use crate::sim::Rollout;
 
-/// The smallest angle between the ego's heading and a lane's direction
-/// that counts as driving against it (CARLA's `WrongLaneTest` uses 120°).
-pub const WRONG_WAY_MIN_ANGLE_RAD: f64 = 2.0 * std::f64::consts::FRAC_PI_3;
-
-/// A lane running the ego's way this close to its centre, m, means the ego
-/// is beside its own lane (about a lane width: the centrelines of two
-/// lanes side by side are one lane width apart).
-const OWN_LANE_CLEARANCE_M: f64 = 3.0;
+use crate::map::OWN_LANE_CLEARANCE_M;
+pub use crate::map::WRONG_WAY_MIN_ANGLE_RAD;
 
 /// Below this speed the ego is not driving anywhere, m/s.
 const MOVING_MIN_MPS: f64 = 0.5;
@@ -91,33 +85,14 @@ pub fn wrong_way_of(rollout: &Rollout, map: &RoadMap, agent: TrackIndex) -> Opti
     })
 }
 
-/// The lane whose traffic a road user in `state` drives against (the
-/// module's rule), or `None` when it drives with the traffic, stands, or
-/// is where no lane tells the way.
+/// The lane whose traffic a road user in `s` drives against (the
+/// module's rule, [`RoadMap::oncoming_lane_at`]), or `None` when it drives
+/// with the traffic, stands, or is where no lane tells the way.
 pub fn against_traffic(map: &RoadMap, s: &AgentState) -> Option<MapElementId> {
-    if s.speed_mps() < MOVING_MIN_MPS || !map.lanes_containing(&s.position, s.heading_rad).is_empty() {
+    if s.speed_mps() < MOVING_MIN_MPS {
         return None;
     }
-    let heading = Vector2::new(s.heading_rad.cos(), s.heading_rad.sin());
-    // A lane running the agent's way close by (a wide lane, a lane whose
-    // width the map does not give, a shift to pass a parked car): it is
-    // beside its own lane, not in the oncoming one.
-    let own_way_nearby = map
-        .nearest_lane(&s.position, Some(s.heading_rad), OWN_LANE_CLEARANCE_M)
-        .is_some_and(|m| m.projection.tangent.dot(&heading) >= crate::map::ALIGNED_LANE_MAX_ANGLE_RAD.cos());
-    if own_way_nearby {
-        return None;
-    }
-    let reversed = s.heading_rad + std::f64::consts::PI;
-    map.lanes_containing(&s.position, reversed).into_iter().find(|id| {
-        map.lane(*id).is_some_and(|lane| {
-            !lane.in_intersection
-                && lane
-                    .centreline
-                    .project(&s.position)
-                    .is_some_and(|p| p.tangent.dot(&heading) <= WRONG_WAY_MIN_ANGLE_RAD.cos())
-        })
-    })
+    map.oncoming_lane_at(&s.position, s.heading_rad)
 }
 
 /// The longest run of consecutive `Some` in `steps`: its first step and

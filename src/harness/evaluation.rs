@@ -35,7 +35,7 @@ use super::variant::{CollisionEscape, VariantOutcome};
 use crate::eval::escape::EscapeBudget;
 use crate::planners::FaultOperator;
 use crate::policies::BackgroundPolicy;
-use crate::policies::adversary::{ApproachPhase, EgoContactRule, FeasibilityScope};
+use crate::policies::adversary::{ApproachPhase, EgoContactRule, FeasibilityScope, WrongWayRule};
 use crate::policies::prior_sampling::TokenSampling;
 use crate::scenario::Scenario;
 use crate::sim::{EgoCollisionKind, Rollout, SimConfig};
@@ -64,6 +64,9 @@ pub struct EvaluationRequest {
     /// Which contacts with the ego the SaFeR methods' CBV may make (any:
     /// the paper's).
     pub ego_contact: EgoContactRule,
+    /// Whether the SaFeR methods' CBV may drive against a lane's traffic
+    /// (allowed: the paper's).
+    pub wrong_way: WrongWayRule,
     /// Who drives the background agents.
     pub background: BackgroundDriver,
     /// Stage-2 CBV modes, each a row per method (replay: the paper's
@@ -415,6 +418,7 @@ impl EvaluationRequest {
             approach: self.approach,
             feasibility: self.feasibility,
             ego_contact: self.ego_contact,
+            wrong_way: self.wrong_way,
         }
     }
 }

@@ -16,7 +16,7 @@ use crate::models::{ModelError, ModelSource};
 use crate::policies::LogReplay;
 use crate::policies::adversary::{
     Adversary, ApproachPhase, EgoContactRule, EgoSight, EscapeWitness, FeasibilityOracle, FeasibilityScope,
-    LOOKAHEAD_TOKENS, Objective, Search, TrustRegion,
+    LOOKAHEAD_TOKENS, Objective, Search, TrustRegion, WrongWayRule,
 };
 use crate::policies::prior_sampling::{PriorAgent, PriorTraffic, ScenarioMapEncoding, TokenSampling, TrafficTimings};
 use crate::scenario::{AgentBody, AgentState, Scenario, TrackIndex};
@@ -139,6 +139,8 @@ pub struct MethodSettings {
     pub feasibility: FeasibilityScope,
     /// Which contacts with the ego the SaFeR methods' CBV may make.
     pub ego_contact: EgoContactRule,
+    /// Whether the SaFeR methods' CBV may drive against a lane's traffic.
+    pub wrong_way: WrongWayRule,
 }
 
 /// The feasibility witness the `witnessed` scope asks before the CBV makes
@@ -242,6 +244,7 @@ pub fn install_seeing_ego(
     let search = Search {
         feasibility: settings.feasibility,
         ego_contact: settings.ego_contact,
+        wrong_way: settings.wrong_way,
         ..Search::one_step(trust_region_of(settings.method, settings.trust_region))
     };
     let adversary = |search, feasibility| {

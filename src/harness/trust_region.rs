@@ -67,6 +67,7 @@ pub fn profile_variant(
             approach: request.approach,
             feasibility: request.feasibility,
             ego_contact: Default::default(),
+            wrong_way: Default::default(),
         },
         seed,
         sim: &sim,

@@ -257,6 +257,7 @@ impl VariantInputs {
                 approach: spec.adversary.approach_phase,
                 feasibility: spec.adversary.feasibility,
                 ego_contact: spec.adversary.ego_contact,
+                wrong_way: spec.adversary.wrong_way,
             },
             seed: self.seed,
             sim: &self.sim,

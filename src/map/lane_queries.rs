@@ -1,6 +1,7 @@
 //! Lane queries on a [`RoadMap`]: the nearest lane to a point, preferring
 //! lanes going the agent's way ([`LaneMatch`]), the lanes whose area holds
-//! a point, whether two lanes connect, and which of a junction's lanes a
+//! a point, the lane a road user drives against (wrong way), whether two
+//! lanes connect, and which of a junction's lanes a
 //! recorded path takes ([`lane_followed`]).
 
 use super::{Lane, MapElementId, RoadMap};
@@ -19,6 +20,15 @@ pub const MAX_LANE_HALF_WIDTH_M: f64 = 2.5;
 /// which the lane still counts as going the agent's way (lane changes and
 /// the start of a turn stay well inside it; a crossing lane does not).
 pub const ALIGNED_LANE_MAX_ANGLE_RAD: f64 = std::f64::consts::FRAC_PI_4;
+
+/// The smallest angle between a road user's heading and a lane's direction
+/// that counts as driving against it (CARLA's `WrongLaneTest` uses 120°).
+pub const WRONG_WAY_MIN_ANGLE_RAD: f64 = 2.0 * std::f64::consts::FRAC_PI_3;
+
+/// A lane running a road user's way this close to it, m, means it is
+/// beside its own lane, not in the oncoming one (about a lane width: the
+/// centrelines of two lanes side by side are one lane width apart).
+pub const OWN_LANE_CLEARANCE_M: f64 = 3.0;
 
 /// How far from a lane's centreline a path point still keeps to the lane,
 /// m (a default lane's half-width).
@@ -251,6 +261,36 @@ impl RoadMap {
         });
         out.sort_unstable();
         out
+    }
+
+    /// The lane whose traffic a road user at `p`, heading `heading_rad`,
+    /// drives against, or `None` (CARLA ScenarioRunner's `WrongLaneTest`
+    /// rule): `p` lies in a lane running more than
+    /// [`WRONG_WAY_MIN_ANGLE_RAD`] from the heading, outside intersections
+    /// (where lanes cross at every angle), in no lane running its way and
+    /// more than [`OWN_LANE_CLEARANCE_M`] from the centreline of any such
+    /// lane (a wide lane, or a swerve past a parked car, is not wrong way).
+    /// Whether the road user moves is the caller's to judge.
+    pub fn oncoming_lane_at(&self, p: &Point2, heading_rad: f64) -> Option<MapElementId> {
+        if !self.lanes_containing(p, heading_rad).is_empty() {
+            return None;
+        }
+        let heading = crate::geometry::Vector2::new(heading_rad.cos(), heading_rad.sin());
+        let own_way_nearby = self
+            .nearest_lane(p, Some(heading_rad), OWN_LANE_CLEARANCE_M)
+            .is_some_and(|m| m.projection.tangent.dot(&heading) >= ALIGNED_LANE_MAX_ANGLE_RAD.cos());
+        if own_way_nearby {
+            return None;
+        }
+        self.lanes_containing(p, heading_rad + std::f64::consts::PI).into_iter().find(|id| {
+            self.lane(*id).is_some_and(|lane| {
+                !lane.in_intersection
+                    && lane
+                        .centreline
+                        .project(p)
+                        .is_some_and(|proj| proj.tangent.dot(&heading) <= WRONG_WAY_MIN_ANGLE_RAD.cos())
+            })
+        })
     }
 
     /// Whether lanes `a` and `b` are one lane or one continues the other.

@@ -23,7 +23,7 @@ use serde_saphyr::Spanned;
 
 use super::{Loaded, SpecError, SpecLocation, paths};
 use crate::policies::BackgroundPolicy;
-use crate::policies::adversary::{ApproachPhase, EgoContactRule, FeasibilityScope};
+use crate::policies::adversary::{ApproachPhase, EgoContactRule, FeasibilityScope, WrongWayRule};
 
 /// A suite.
 #[derive(Debug, Clone, Deserialize, JsonSchema)]
@@ -305,6 +305,13 @@ pub struct AdversarySpec {
     /// no planner can escape a chasing CBV from.
     #[serde(default)]
     pub ego_contact: EgoContactRule,
+    /// Whether the SaFeR methods' CBV may drive against a lane's traffic:
+    /// `allowed` (the default, as the paper's method allows it), or
+    /// `forbidden` (beyond the paper): a token that turns the CBV into a
+    /// lane against its traffic, outside intersections, is implausible,
+    /// as leaving the road is.
+    #[serde(default)]
+    pub wrong_way: WrongWayRule,
 }
 
 fn twenty() -> usize {
@@ -325,6 +332,7 @@ impl Default for AdversarySpec {
             approach_phase: ApproachPhase::Seeded,
             feasibility: FeasibilityScope::Pair,
             ego_contact: EgoContactRule::Any,
+            wrong_way: WrongWayRule::Allowed,
         }
     }
 }
@@ -656,6 +664,16 @@ impl Loaded<SuiteSpec> {
                 format!(
                     "`ego_contact` applies to the SaFeR methods (safer, safer-in-path, …), which aim at the ego; \
                      `{}` does not: remove the key",
+                    crate::spec::spec_name(&s.adversary.method)
+                ),
+            ));
+        }
+        if s.adversary.wrong_way != WrongWayRule::Allowed && !s.adversary.method.is_adversary() {
+            return Err(self.invalid_at(
+                "adversary.wrong_way",
+                format!(
+                    "`wrong_way` applies to the SaFeR methods (safer, safer-in-path, …), which the plausibility \
+                     rule holds; `{}` does not: remove the key",
                     crate::spec::spec_name(&s.adversary.method)
                 ),
             ));
@@ -1042,6 +1060,20 @@ acceptance:
         assert_eq!(spec.value.adversary.feasibility, FeasibilityScope::Witnessed);
         let spec = parse_yaml::<SuiteSpec>(SUITE, Path::new("s.yaml")).unwrap();
         assert_eq!(spec.value.adversary.feasibility, FeasibilityScope::Pair);
+    }
+
+    #[test]
+    fn the_wrong_way_rule_is_for_the_safer_methods_and_allows_it_by_default() {
+        let e = error("method: prior }", "method: prior, wrong_way: forbidden }");
+        assert!(e.contains("`wrong_way` applies to the SaFeR methods"), "{e}");
+        let e = error("method: prior }", "method: safer, wrong_way: never }");
+        assert!(e.contains("never") && e.contains("forbidden"), "a misspelt rule is refused: {e}");
+        let text = SUITE.replace("method: prior }", "method: safer-in-path, wrong_way: forbidden }");
+        let spec = parse_yaml::<SuiteSpec>(&text, Path::new("s.yaml")).unwrap();
+        spec.validate().unwrap();
+        assert_eq!(spec.value.adversary.wrong_way, WrongWayRule::Forbidden);
+        let spec = parse_yaml::<SuiteSpec>(SUITE, Path::new("s.yaml")).unwrap();
+        assert_eq!(spec.value.adversary.wrong_way, WrongWayRule::Allowed);
     }
 
     #[test]

@@ -9,6 +9,7 @@ use rand_chacha::ChaCha8Rng;
 use super::background_forecast::BackgroundForecast;
 use super::plausibility::{ContactRule, PlausibilityCheck};
 use super::rollout::token_rollouts;
+use super::wrong_way::WrongWayRule;
 use crate::motion::tokens::Token;
 use crate::policies::WorldView;
 use crate::policies::prior_sampling::{TokenSampling, draw_seed, sample_token, top_tokens};
@@ -56,8 +57,9 @@ impl ApproachPhase {
 
 /// The approach phase's token for the CBV of the pair (CBV, ego): a draw
 /// from the prior (`sampling`, with `rng`) among the plausible tokens of
-/// its top k; when none is, the fallbacks of the module's plausibility
-/// rule; a draw among the top k as they are when nothing is plausible at
+/// its top k (the plausibility rule with `wrong_way`'s rule on driving
+/// against the traffic); when none is, the fallbacks of the module's
+/// plausibility rule; a draw among the top k as they are when nothing is plausible at
 /// all (or the CBV is absent).
 pub(super) fn approach_draw(
     world: &WorldView<'_>,
@@ -65,11 +67,12 @@ pub(super) fn approach_draw(
     logits: &[f32],
     sampling: TokenSampling,
     forecast: &BackgroundForecast<'_>,
+    wrong_way: WrongWayRule,
     rng: &mut impl Rng,
 ) -> Token {
     let top = &top_tokens(logits, sampling.top_k.clamp(1, logits.len()))[..];
     let Some(cbv_now) = world.state(cbv) else { return sample_token(logits, sampling, rng) };
-    let check = PlausibilityCheck::new(world, cbv, ego, forecast);
+    let check = PlausibilityCheck::new(world, cbv, ego, forecast).with_wrong_way(wrong_way);
     let rollouts = token_rollouts(cbv_now, top);
     // As in the adversary's choice: the plausible tokens of the top k,
     // else the likeliest plausible one of the vocabulary; under the strict
@@ -127,6 +130,7 @@ mod tests {
                 &logits,
                 sampling,
                 &BackgroundForecast::default(),
+                WrongWayRule::Allowed,
                 &mut rng,
             );
             assert_eq!(drawn, token(-MAX_ACCEL_MPS2), "seed {seed}");

@@ -14,6 +14,7 @@ use super::lookahead::{FirstTokens, Lookahead, Lowering};
 use super::objective::Objective;
 use super::plausibility::{ContactRule, PlausibilityCheck};
 use super::rollout::token_rollouts;
+use super::wrong_way::WrongWayRule;
 use crate::models::ModelError;
 use crate::models::feasibility_oracle::FeasibilityOracle;
 use crate::motion::KinematicState;
@@ -82,6 +83,8 @@ pub struct Search {
     pub feasibility: FeasibilityScope,
     /// Which contacts with the ego it may make.
     pub ego_contact: EgoContactRule,
+    /// Whether the CBV may drive against a lane's traffic.
+    pub wrong_way: WrongWayRule,
 }
 
 impl Search {
@@ -93,6 +96,7 @@ impl Search {
             objective: Objective::Contact,
             feasibility: FeasibilityScope::Pair,
             ego_contact: EgoContactRule::Any,
+            wrong_way: WrongWayRule::Allowed,
         }
     }
 }
@@ -254,7 +258,7 @@ pub fn safer_choice(
         });
         order
     };
-    let check = PlausibilityCheck::new(world, cbv, ego, forecast);
+    let check = PlausibilityCheck::new(world, cbv, ego, forecast).with_wrong_way(search.wrong_way);
     // A feasible candidate whose CBV, held on from its end, closes in on the
     // ego's prediction: the ones the witness is asked of (its path too).
     let near = |i: usize, losses: &[f64]| {

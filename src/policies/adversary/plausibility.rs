@@ -3,12 +3,14 @@
 //! documentation): it stays on the road with room to stop on it, it
 //! touches no background agent while it holds the token, it does not slow
 //! in front of replayed traffic closing on it, and it runs into no one
-//! while it brakes after the token; with the fallback rule counting only
-//! the CBV's own faults ([`ContactRule`]).
+//! while it brakes after the token (and, under [`WrongWayRule::Forbidden`],
+//! it does not turn against a lane's traffic); with the fallback rule
+//! counting only the CBV's own faults ([`ContactRule`]).
 
 use super::background_forecast::BackgroundForecast;
 use super::broad_phase::Bounds;
 use super::rollout::{BRAKING_CHECK_STEPS, braking_after, continued_after, token_rollout};
+use super::wrong_way::{WrongWayRule, drives_wrong_way, first_wrong_way};
 use crate::geometry::OrientedBox;
 use crate::motion::KinematicState;
 use crate::motion::tokens::{MAX_ACCEL_MPS2, SIM_DT_S, TOKEN_PERIOD_STEPS, Token};
@@ -113,6 +115,10 @@ pub(super) struct PlausibilityCheck<'w> {
     /// The lanes holding the CBV's centre now, driven its way (empty off
     /// the lanes or on a map without them): what it cuts in from.
     lanes_now: Vec<crate::map::MapElementId>,
+    /// Whether a token that turns the CBV against a lane's traffic breaks
+    /// the rule ([`WrongWayRule::Forbidden`], and the CBV not against it
+    /// already).
+    holds_traffic_direction: bool,
 }
 
 impl<'w> PlausibilityCheck<'w> {
@@ -136,6 +142,7 @@ impl<'w> PlausibilityCheck<'w> {
                 edge_distance_now: None,
                 on_road_now: false,
                 lanes_now: Vec::new(),
+                holds_traffic_direction: false,
             };
         };
         let horizon = TOKEN_PERIOD_STEPS + BRAKING_CHECK_STEPS.max(HOLDING_CHECK_STEPS + CLOSING_CHECK_STEPS);
@@ -164,7 +171,16 @@ impl<'w> PlausibilityCheck<'w> {
             edge_distance_now: world.map.signed_distance_to_road_edge(&now.position),
             on_road_now: !world.map.is_off_road_within_map(&now.position),
             lanes_now: world.map.lanes_containing(&now.position, now.heading_rad),
+            holds_traffic_direction: false,
         }
+    }
+
+    /// The check with `rule` on driving against a lane's traffic (the
+    /// default allows it).
+    pub(super) fn with_wrong_way(self, rule: WrongWayRule) -> Self {
+        let holds =
+            rule == WrongWayRule::Forbidden && self.cbv_now.is_some_and(|now| !drives_wrong_way(self.world.map, &now));
+        Self { holds_traffic_direction: holds, ..self }
     }
 
     /// Whether the CBV, hit by `theirs` at `at`, cut in: it was hit from
@@ -208,6 +224,9 @@ impl<'w> PlausibilityCheck<'w> {
         let map = self.world.map;
         let braking: Vec<AgentState> = rollout.iter().copied().chain(braking_after(rollout)).collect();
         let contact = |wanted| self.contact_violation(rollout, &braking, wanted, rule);
+        // Into a lane against its traffic (under the wrong-way rule): a
+        // check of the token's own states, as cheap as a road check.
+        let wrong_way = || if self.holds_traffic_direction { first_wrong_way(map, rollout) } else { None };
         if !self.on_road_now {
             // Off the road already: head back to it, not farther away.
             let farther_off = || match (self.edge_distance_now, map.signed_distance_to_road_edge(&end.position)) {
@@ -215,17 +234,21 @@ impl<'w> PlausibilityCheck<'w> {
                 _ => None,
             };
             return match wanted {
-                Violation::First => farther_off().into_iter().chain(contact(wanted)).min(),
-                // Whether at all (the answer is the same in either order):
+                Violation::First => farther_off().into_iter().chain(wrong_way()).chain(contact(wanted)).min(),
+                // Whether at all (the answer is the same in any order):
                 // the contacts first, as below.
-                Violation::Any => contact(wanted).or_else(farther_off),
+                Violation::Any => contact(wanted).or_else(farther_off).or_else(wrong_way),
             };
         }
         let off_road = |s: &AgentState| map.is_off_road_within_map(&s.position);
         match wanted {
-            Violation::First => {
-                Self::moving_path(&braking).iter().position(off_road).into_iter().chain(contact(wanted)).min()
-            }
+            Violation::First => Self::moving_path(&braking)
+                .iter()
+                .position(off_road)
+                .into_iter()
+                .chain(wrong_way())
+                .chain(contact(wanted))
+                .min(),
             // Whether at all, in the order that finds a violation soonest
             // (the answer is the same in any order). The contacts first:
             // box tests behind a bounds test, which reject most of the
@@ -234,11 +257,13 @@ impl<'w> PlausibilityCheck<'w> {
             // is made. Then the road: the farthest state first (a path
             // that leaves the road ends off it), then the rest of the path
             // from the far end.
-            Violation::Any => contact(wanted).or_else(|| {
-                let path = Self::moving_path(&braking);
-                let (last, rest) = path.split_last()?;
-                if off_road(last) { Some(path.len() - 1) } else { rest.iter().rposition(off_road) }
-            }),
+            Violation::Any => contact(wanted)
+                .or_else(|| {
+                    let path = Self::moving_path(&braking);
+                    let (last, rest) = path.split_last()?;
+                    if off_road(last) { Some(path.len() - 1) } else { rest.iter().rposition(off_road) }
+                })
+                .or_else(wrong_way),
         }
     }
 
@@ -586,6 +611,38 @@ mod tests {
             implausible_tokens(&world, TrackIndex(1), &[token(MAX_ACCEL_MPS2), token(-MAX_ACCEL_MPS2)]),
             vec![true, false]
         );
+    }
+
+    #[test]
+    fn under_the_wrong_way_rule_a_token_that_turns_the_cbv_against_the_traffic_is_implausible() {
+        use crate::map::templates::StraightRoad;
+        let map =
+            StraightRoad { lanes: 1, oncoming_lanes: 1, lane_width_m: 3.5, length_m: 200.0, speed_limit_mps: None }
+                .build();
+        let own = map.lane(crate::map::MapElementId(0)).unwrap().centreline.points()[0].y;
+        let bodies = [AgentBody { kind: AgentKind::Vehicle, length_m: 4.5, width_m: 2.0 }; 2];
+        // Turning round in its own lane, 110° from the lane's direction at
+        // 3 m/s (a lane 120° from its heading is driven against).
+        let turning = |heading_rad: f64| {
+            let v = Vector2::new(heading_rad.cos(), heading_rad.sin()) * 3.0;
+            Some(AgentState { position: Point2::new(100.0, own), heading_rad, velocity_mps: v })
+        };
+        let yawing = |yaw_rate_radps| TokenGrid::quantize(Action { accel_mps2: 0.0, yaw_rate_radps });
+        let (further, back) = (yawing(0.6), yawing(-0.6));
+        let judged = |heading_deg: f64, rule| {
+            let states = [car(20.0, own, 0.0), turning(heading_deg.to_radians())];
+            let world = WorldView { map: &map, step: 0, bodies: &bodies, states: &states };
+            let check = PlausibilityCheck::new(&world, TrackIndex(1), TrackIndex(0), &BackgroundForecast::default())
+                .with_wrong_way(rule);
+            let rollouts = token_rollouts(states[1].as_ref().unwrap(), &[further, back]);
+            rollouts.iter().map(|r| check.implausible(r, ContactRule::Any)).collect::<Vec<_>>()
+        };
+        // Turning on past 120° breaks the rule; turning back does not.
+        assert_eq!(judged(110.0, WrongWayRule::Forbidden), [true, false]);
+        // Without the rule (the default) neither does.
+        assert_eq!(judged(110.0, WrongWayRule::Allowed), [false, false]);
+        // A CBV against the traffic already is not held to it: any way back.
+        assert_eq!(judged(170.0, WrongWayRule::Forbidden), [false, false]);
     }
 
     #[test]

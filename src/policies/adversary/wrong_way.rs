@@ -1,0 +1,78 @@
+//! Whether the CBV may drive against the traffic of a lane
+//! ([`WrongWayRule`]): the paper sets no such rule, and the in-path
+//! methods, drawn towards the ego's path wherever it leads, take the CBV
+//! into oncoming lanes and turn it round on a carriageway far more often
+//! than recorded drivers do (`safer evaluate`'s "wrong way" columns, which
+//! judge the CBV by the ego's wrong-way rule). Under
+//! [`WrongWayRule::Forbidden`] a token that takes a CBV driving with the
+//! traffic into a lane against it, by that same rule
+//! ([`RoadMap::oncoming_lane_at`](crate::map::RoadMap::oncoming_lane_at)),
+//! is implausible, like one that leaves the road. A CBV already against
+//! the traffic (a recording that starts so) is not held to it: any way
+//! back is allowed.
+
+use crate::map::RoadMap;
+use crate::scenario::AgentState;
+
+/// Below this speed a CBV is not driving anywhere, m/s (the ego's
+/// wrong-way check's threshold).
+const MOVING_MIN_MPS: f64 = 0.5;
+
+/// Whether the adversary's CBV may drive against a lane's traffic.
+#[derive(
+    Debug, Clone, Copy, Default, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize, schemars::JsonSchema,
+)]
+#[serde(rename_all = "kebab-case")]
+pub enum WrongWayRule {
+    /// Allowed, as the paper's method allows it (the plausibility rule
+    /// keeps the CBV on the road and off other traffic only).
+    #[default]
+    Allowed,
+    /// Beyond the paper: a token that turns the CBV against a lane's
+    /// traffic is implausible.
+    Forbidden,
+}
+
+impl WrongWayRule {
+    /// Every variant, in declaration order (for choosers such as the command line).
+    pub const ALL: &'static [Self] = &[Self::Allowed, Self::Forbidden];
+}
+
+/// Whether a CBV in `state` drives against a lane's traffic.
+pub(super) fn drives_wrong_way(map: &RoadMap, state: &AgentState) -> bool {
+    state.speed_mps() >= MOVING_MIN_MPS && map.oncoming_lane_at(&state.position, state.heading_rad).is_some()
+}
+
+/// The first state of `rollout` (a token's states) at which the CBV
+/// drives against a lane's traffic.
+pub(super) fn first_wrong_way(map: &RoadMap, rollout: &[AgentState]) -> Option<usize> {
+    rollout.iter().position(|s| drives_wrong_way(map, s))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::{Point2, Vector2};
+    use crate::map::templates::StraightRoad;
+
+    fn car(x: f64, y: f64, heading_rad: f64, speed: f64) -> AgentState {
+        let v = Vector2::new(heading_rad.cos(), heading_rad.sin()) * speed;
+        AgentState { position: Point2::new(x, y), heading_rad, velocity_mps: v }
+    }
+
+    #[test]
+    fn a_moving_cbv_in_the_oncoming_lane_drives_the_wrong_way_and_one_in_its_own_does_not() {
+        let map =
+            StraightRoad { lanes: 1, oncoming_lanes: 1, lane_width_m: 3.5, length_m: 200.0, speed_limit_mps: None }
+                .build();
+        let y = |id| map.lane(crate::map::MapElementId(id)).unwrap().centreline.points()[0].y;
+        let (own, oncoming) = (y(0), y(100));
+        assert!(!drives_wrong_way(&map, &car(50.0, own, 0.0, 10.0)));
+        assert!(drives_wrong_way(&map, &car(50.0, oncoming, 0.0, 10.0)));
+        assert!(!drives_wrong_way(&map, &car(50.0, oncoming, 0.0, 0.0)), "standing");
+        assert!(!drives_wrong_way(&map, &car(50.0, oncoming, std::f64::consts::PI, 10.0)), "with that lane's traffic");
+        let path = [car(50.0, own, 0.0, 10.0), car(51.0, own, 0.0, 10.0), car(52.0, oncoming, 0.0, 10.0)];
+        assert_eq!(first_wrong_way(&map, &path), Some(2));
+        assert_eq!(first_wrong_way(&map, &path[..2]), None);
+    }
+}
