@@ -169,10 +169,11 @@
 #                     from behind (evaluate-womd-interactive-n28-{forbidden,allowed}.txt) and
 #                     `safer` over 20 (evaluate-womd-interactive-safer-*.txt); NGSIM over 60,
 #                     the CBV closed loop and the recorded cars braking
-#                     (evaluate-ngsim-n60-*.txt); and the evasive planner's mutation tables
-#                     with the rule and no contact from behind, beside ego-contact/'s
-#                     (mutants-{womd-interactive-evasive-n28,ngsim-evasive-n60}.txt)
-#                     (about 25 minutes)
+#                     (evaluate-ngsim-n60-*.txt), and WOMD interactive so without the rule
+#                     (evaluate-womd-interactive-n28-closed-loop-allowed.txt); and the evasive
+#                     planner's mutation tables with the rule and no contact from behind,
+#                     beside ego-contact/'s (mutants-{womd-interactive-evasive-n28,
+#                     ngsim-evasive-n60}.txt) (about 25 minutes)
 #   mutants           mutants-{womd-interactive,womd-json,ngsim}-evasive.txt and
 #                     mutants-{womd-interactive,ngsim}-lane-follower.txt: the
 #                     faults of the planner each method's variants catch
@@ -607,6 +608,12 @@ for job in "${jobs[@]}"; do
                 --methods log,safer,safer-in-path,safer-in-path-lookahead --ego-contact not-from-behind \
                 --wrong-way "$rule"
         done
+        # WOMD interactive as the mutation table below runs it, without the rule and the mutants:
+        # how often the CBV drives the wrong way there (the NGSIM run above is that of the NGSIM
+        # mutation table).
+        run wrong-way/evaluate-womd-interactive-n28-closed-loop-allowed.txt evaluate \
+            --scenes data:womd-interactive --seeds 3 --stage2-cbv closed-loop --background reactive-log-replay \
+            --ego-contact not-from-behind --methods log,prior,safer-in-path-lookahead --trust-region 28
         # The evasive planner's mutation tables with the rule, beside ego-contact/'s.
         behind=(--seeds 3 --stage2-cbv closed-loop --background reactive-log-replay --mutants --ego-contact not-from-behind
             --wrong-way forbidden)

@@ -1423,10 +1423,16 @@ fn the_ego_contact_tables_quote_their_outputs() {
 /// (held out), scene kills, ×log and the faults killed in a fifth of the
 /// scenes.
 fn check_ego_contact_mutation_row(row: &Vec<String>) {
+    check_mutation_row(row, check_ego_contact);
+}
+
+/// [`check_ego_contact_mutation_row`] with `check_rule` judging the rule
+/// cell (`row[3]`) against the output.
+fn check_mutation_row(row: &[String], check_rule: fn(&str, &str, &str)) {
     let method = method_of(&row[1]).expect("a method");
     let file = row[4].trim_matches('`');
     let output = repo_file(&format!("docs/evaluation/{file}"));
-    check_ego_contact(&output, &row[3], file);
+    check_rule(&output, &row[3], file);
     let region = output.lines().find_map(|l| l.split("trust region n = ").nth(1)).expect("the run's region");
     let evaluation = labelled_row(&output, "variants", method);
     let conflicts = labelled_row(&output, "reach-crit", method);
@@ -1461,4 +1467,46 @@ fn check_ego_contact_mutation_row(row: &Vec<String>) {
         format!("{in_a_fifth}/{}", per_fault.len()),
     ];
     assert_eq!(row[2..], expected[..], "{row:?} against {file}");
+}
+
+/// Whether an output's header line says its run kept the CBV from driving
+/// against the traffic, as the table's `wrong way rule` cell must.
+fn check_wrong_way(output: &str, cell: &str, file: &str) {
+    let header = output.lines().find(|l| l.contains(" scenes × ")).unwrap_or_else(|| panic!("{file}: no header line"));
+    let kept = header.contains("; no driving against the traffic");
+    assert_eq!(kept, cell == "`forbidden`", "{file}: the run's header against the table's {cell}");
+}
+
+#[test]
+fn the_wrong_way_tables_quote_their_outputs() {
+    let doc = repo_file("docs/benchmarks.md");
+    let shares = markdown_rows(
+        &doc,
+        "| set | method | wrong way rule | output | CR | SR | SR-crit | wrong way | wrong way s2 |",
+        "The evasive planner's mutation tables with the rule",
+    );
+    for row in &shares {
+        let method = method_of(&row[1]).expect("a method");
+        let file = row[3].trim_matches('`');
+        let output = repo_file(&format!("docs/evaluation/{file}"));
+        check_wrong_way(&output, &row[2], file);
+        // CR, SR, SR-crit; then the two wrong-way shares of the plausibility table.
+        assert_eq!(row[4..7], labelled_row(&output, "variants", method)[2..5], "{row:?} against {file}");
+        assert_eq!(row[7..9], labelled_row(&output, "wrong way", method)[5..7], "{row:?} against {file}");
+    }
+    assert_eq!(shares.len(), 14, "the recorded CBV and three methods with either rule, on two sets");
+
+    let mutation = markdown_rows(
+        &doc,
+        "| set | method | n | wrong way rule | output | CR | SR | SR-crit | no-escape |",
+        "What they say",
+    );
+    // The rows with the rule and without, each checked against its output.
+    for row in &mutation {
+        check_mutation_row(row, |output, cell, file| {
+            check_wrong_way(output, cell, file);
+            assert!(output.contains("; no contact from behind the ego"), "{file}: without the ego-contact rule");
+        });
+    }
+    assert_eq!(mutation.len(), 4, "the lookahead with either rule, on two sets");
 }

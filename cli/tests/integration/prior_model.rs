@@ -163,6 +163,7 @@ fn the_prior_drives_recorded_traffic_closed_loop() {
             approach: safer_scenarios::policies::adversary::ApproachPhase::default(),
             feasibility: safer_scenarios::policies::adversary::FeasibilityScope::Pair,
             ego_contact: safer_scenarios::policies::adversary::EgoContactRule::Any,
+            wrong_way: safer_scenarios::policies::adversary::WrongWayRule::Allowed,
         };
         let cbv = scenario.cbv.unwrap();
         let installed =
