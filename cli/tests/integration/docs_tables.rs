@@ -1388,7 +1388,7 @@ fn the_ego_contact_tables_quote_their_outputs() {
         "| set | method | n | ego contact | output | CR | SR | SR-crit | no-escape |",
         "(`met` needs the blind-twin table",
     );
-    evasive.iter().for_each(check_ego_contact_mutation_row);
+    evasive.iter().for_each(|row| check_ego_contact_mutation_row(row));
     assert_eq!(evasive.len(), 14, "three rows on WOMD interactive and four on NGSIM, in each of two draws");
     let lane_follower = markdown_rows(
         &doc,
@@ -1396,7 +1396,7 @@ fn the_ego_contact_tables_quote_their_outputs() {
         "(`met` needs the blind-twin table, which the `any` runs",
     );
     // The header, then the rows.
-    lane_follower[1..].iter().for_each(check_ego_contact_mutation_row);
+    lane_follower[1..].iter().for_each(|row| check_ego_contact_mutation_row(row));
     assert_eq!(lane_follower.len(), 7, "three rows on each set, under the header");
 
     // The n-sweep with the rule: each row its run's (n = 28 the paper-protocol run's).
@@ -1422,7 +1422,7 @@ fn the_ego_contact_tables_quote_their_outputs() {
 /// region, the rule, CR, SR, SR-crit, no-escape, reach-crit, met, kills
 /// (held out), scene kills, ×log and the faults killed in a fifth of the
 /// scenes.
-fn check_ego_contact_mutation_row(row: &Vec<String>) {
+fn check_ego_contact_mutation_row(row: &[String]) {
     check_mutation_row(row, check_ego_contact);
 }
 
