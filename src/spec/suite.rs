@@ -1062,18 +1062,23 @@ acceptance:
         assert_eq!(spec.value.adversary.feasibility, FeasibilityScope::Pair);
     }
 
+    /// The adversary of the test suite with `method: prior }` replaced by
+    /// `adversary` (validated), and of the suite as it is.
+    fn adversary_with(adversary: &str) -> (AdversarySpec, AdversarySpec) {
+        let text = SUITE.replace("method: prior }", adversary);
+        let spec = parse_yaml::<SuiteSpec>(&text, Path::new("s.yaml")).unwrap();
+        spec.validate().unwrap();
+        (spec.value.adversary, parse_yaml::<SuiteSpec>(SUITE, Path::new("s.yaml")).unwrap().value.adversary)
+    }
+
     #[test]
     fn the_wrong_way_rule_is_for_the_safer_methods_and_allows_it_by_default() {
         let e = error("method: prior }", "method: prior, wrong_way: forbidden }");
         assert!(e.contains("`wrong_way` applies to the SaFeR methods"), "{e}");
         let e = error("method: prior }", "method: safer, wrong_way: never }");
         assert!(e.contains("never") && e.contains("forbidden"), "a misspelt rule is refused: {e}");
-        let text = SUITE.replace("method: prior }", "method: safer-in-path, wrong_way: forbidden }");
-        let spec = parse_yaml::<SuiteSpec>(&text, Path::new("s.yaml")).unwrap();
-        spec.validate().unwrap();
-        assert_eq!(spec.value.adversary.wrong_way, WrongWayRule::Forbidden);
-        let spec = parse_yaml::<SuiteSpec>(SUITE, Path::new("s.yaml")).unwrap();
-        assert_eq!(spec.value.adversary.wrong_way, WrongWayRule::Allowed);
+        let (set, default) = adversary_with("method: safer-in-path, wrong_way: forbidden }");
+        assert_eq!((set.wrong_way, default.wrong_way), (WrongWayRule::Forbidden, WrongWayRule::Allowed));
     }
 
     #[test]
@@ -1082,12 +1087,8 @@ acceptance:
         assert!(e.contains("`ego_contact` applies to the SaFeR methods"), "{e}");
         let e = error("method: prior }", "method: safer, ego_contact: behind }");
         assert!(e.contains("behind") && e.contains("not-from-behind"), "a misspelt rule is refused: {e}");
-        let text = SUITE.replace("method: prior }", "method: safer-in-path-lookahead, ego_contact: not-from-behind }");
-        let spec = parse_yaml::<SuiteSpec>(&text, Path::new("s.yaml")).unwrap();
-        spec.validate().unwrap();
-        assert_eq!(spec.value.adversary.ego_contact, EgoContactRule::NotFromBehind);
-        let spec = parse_yaml::<SuiteSpec>(SUITE, Path::new("s.yaml")).unwrap();
-        assert_eq!(spec.value.adversary.ego_contact, EgoContactRule::Any);
+        let (set, default) = adversary_with("method: safer-in-path-lookahead, ego_contact: not-from-behind }");
+        assert_eq!((set.ego_contact, default.ego_contact), (EgoContactRule::NotFromBehind, EgoContactRule::Any));
     }
 
     #[test]
