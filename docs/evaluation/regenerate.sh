@@ -172,8 +172,9 @@
 #                     (evaluate-ngsim-n60-*.txt), and WOMD interactive so without the rule
 #                     (evaluate-womd-interactive-n28-closed-loop-allowed.txt); and the evasive
 #                     planner's mutation tables with the rule and no contact from behind,
-#                     beside ego-contact/'s (mutants-{womd-interactive-evasive-n28,
-#                     ngsim-evasive-n60}.txt) (about 25 minutes)
+#                     beside ego-contact/'s, over two draws of seeds
+#                     (mutants-{womd-interactive-evasive-n28,ngsim-evasive-n60}{,-seed1000}.txt)
+#                     (about 40 minutes)
 #   mutants           mutants-{womd-interactive,womd-json,ngsim}-evasive.txt and
 #                     mutants-{womd-interactive,ngsim}-lane-follower.txt: the
 #                     faults of the planner each method's variants catch
@@ -617,10 +618,14 @@ for job in "${jobs[@]}"; do
         # The evasive planner's mutation tables with the rule, beside ego-contact/'s.
         behind=(--seeds 3 --stage2-cbv closed-loop --background reactive-log-replay --mutants --ego-contact not-from-behind
             --wrong-way forbidden)
-        run wrong-way/mutants-womd-interactive-evasive-n28.txt evaluate --scenes data:womd-interactive \
-            "${behind[@]}" --methods log,prior,safer-in-path-lookahead --trust-region 28
-        run wrong-way/mutants-ngsim-evasive-n60.txt evaluate --scenes data:commonroad-ngsim "${behind[@]}" \
-            --methods log,prior,safer-in-path,safer-in-path-lookahead --trust-region 60 ;;
+        for draw in 0 1000; do
+            run "wrong-way/mutants-womd-interactive-evasive-n28$(seed_suffix "$draw").txt" evaluate \
+                --scenes data:womd-interactive "${behind[@]}" --seed "$draw" \
+                --methods log,prior,safer-in-path-lookahead --trust-region 28
+            run "wrong-way/mutants-ngsim-evasive-n60$(seed_suffix "$draw").txt" evaluate \
+                --scenes data:commonroad-ngsim "${behind[@]}" --seed "$draw" \
+                --methods log,prior,safer-in-path,safer-in-path-lookahead --trust-region 60
+        done ;;
     first-contact-lookahead)
         mkdir -p first-contact/in-path-lookahead
         for n in 20 28; do

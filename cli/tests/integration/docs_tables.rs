@@ -1511,5 +1511,5 @@ fn the_wrong_way_tables_quote_their_outputs() {
             check_header_rule(output, file, "; no contact from behind the ego", true);
         });
     }
-    assert_eq!(mutation.len(), 4, "the lookahead with either rule, on two sets");
+    assert_eq!(mutation.len(), 8, "the lookahead with either rule, on two sets, in each of two draws");
 }
