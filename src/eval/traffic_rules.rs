@@ -29,9 +29,6 @@ use crate::sim::Rollout;
 use crate::map::OWN_LANE_CLEARANCE_M;
 pub use crate::map::WRONG_WAY_MIN_ANGLE_RAD;
 
-/// Below this speed the ego is not driving anywhere, m/s.
-const MOVING_MIN_MPS: f64 = 0.5;
-
 /// The ego's longest stretch against the traffic of a lane.
 #[derive(Debug, Clone, PartialEq)]
 pub struct WrongWay {
@@ -89,10 +86,7 @@ pub fn wrong_way_of(rollout: &Rollout, map: &RoadMap, agent: TrackIndex) -> Opti
 /// module's rule, [`RoadMap::oncoming_lane_at`]), or `None` when it drives
 /// with the traffic, stands, or is where no lane tells the way.
 pub fn against_traffic(map: &RoadMap, s: &AgentState) -> Option<MapElementId> {
-    if s.speed_mps() < MOVING_MIN_MPS {
-        return None;
-    }
-    map.oncoming_lane_at(&s.position, s.heading_rad)
+    map.oncoming_lane_at(&s.position, s.heading_rad, s.speed_mps())
 }
 
 /// The longest run of consecutive `Some` in `steps`: its first step and

@@ -946,7 +946,7 @@ fn table_of(
                 off_road_scenes: scenes_where(&ok, |r| r.tally.cbv_left_road()),
                 at_fault_scenes: scenes_where(&ok, |r| r.tally.cbv_at_fault_with_background),
                 wrong_way_scenes: scenes_where(&ok, |r| {
-                    r.tally.cbv_drove_wrong_way() || r.tally.cbv_wrong_way_stage2_s > 0.0
+                    r.tally.cbv_drove_wrong_way() || r.tally.cbv_drove_wrong_way_in_stage2()
                 }),
                 stage1_closest: ClosestApproach::of(&ok),
                 stage2_closest_critical: Stage2Approach::of(&ok),

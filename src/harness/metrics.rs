@@ -167,6 +167,11 @@ impl VariantTally {
         self.cbv_wrong_way_s > 0.0
     }
 
+    /// The same in stage 2 (what the stage-2 wrong-way rate counts).
+    pub fn cbv_drove_wrong_way_in_stage2(&self) -> bool {
+        self.cbv_wrong_way_stage2_s > 0.0
+    }
+
     /// Whether the CBV left the road in stage 1 (what the off-road rate
     /// counts).
     pub fn cbv_left_road(&self) -> bool {
@@ -485,7 +490,7 @@ impl SuiteMetrics {
             off_road += usize::from(t.cbv_left_road());
             off_road_s += t.cbv_off_road_s;
             wrong_way += usize::from(t.cbv_drove_wrong_way());
-            wrong_way_stage2 += usize::from(t.cbv_wrong_way_stage2_s > 0.0);
+            wrong_way_stage2 += usize::from(t.cbv_drove_wrong_way_in_stage2());
             reached += usize::from(t.reached);
             reached_critical += usize::from(t.reached && t.critical);
             avoidable += usize::from(t.avoidable_conflict());

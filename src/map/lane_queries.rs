@@ -25,6 +25,10 @@ pub const ALIGNED_LANE_MAX_ANGLE_RAD: f64 = std::f64::consts::FRAC_PI_4;
 /// that counts as driving against it (CARLA's `WrongLaneTest` uses 120°).
 pub const WRONG_WAY_MIN_ANGLE_RAD: f64 = 2.0 * std::f64::consts::FRAC_PI_3;
 
+/// Below this speed a road user is not driving anywhere, m/s, and drives
+/// against no lane's traffic.
+pub const WRONG_WAY_MIN_SPEED_MPS: f64 = 0.5;
+
 /// A lane running a road user's way this close to it, m, means it is
 /// beside its own lane, not in the oncoming one (about a lane width: the
 /// centrelines of two lanes side by side are one lane width apart).
@@ -269,10 +273,10 @@ impl RoadMap {
     /// [`WRONG_WAY_MIN_ANGLE_RAD`] from the heading, outside intersections
     /// (where lanes cross at every angle), in no lane running its way and
     /// more than [`OWN_LANE_CLEARANCE_M`] from the centreline of any such
-    /// lane (a wide lane, or a swerve past a parked car, is not wrong way).
-    /// Whether the road user moves is the caller's to judge.
-    pub fn oncoming_lane_at(&self, p: &Point2, heading_rad: f64) -> Option<MapElementId> {
-        if !self.lanes_containing(p, heading_rad).is_empty() {
+    /// lane (a wide lane, or a swerve past a parked car, is not wrong way),
+    /// while it moves at `speed_mps` of at least [`WRONG_WAY_MIN_SPEED_MPS`].
+    pub fn oncoming_lane_at(&self, p: &Point2, heading_rad: f64, speed_mps: f64) -> Option<MapElementId> {
+        if speed_mps < WRONG_WAY_MIN_SPEED_MPS || !self.lanes_containing(p, heading_rad).is_empty() {
             return None;
         }
         let heading = crate::geometry::Vector2::new(heading_rad.cos(), heading_rad.sin());

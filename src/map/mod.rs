@@ -30,8 +30,8 @@ pub use elements::{
 };
 pub use lane_queries::{
     ALIGNED_LANE_MAX_ANGLE_RAD, DEFAULT_LANE_HALF_WIDTH_M, LANE_FOLLOW_LATERAL_M, LANE_FOLLOW_MARGIN_M, LaneMatch,
-    MAX_LANE_HALF_WIDTH_M, MIN_LANE_HALF_WIDTH_M, OWN_LANE_CLEARANCE_M, WRONG_WAY_MIN_ANGLE_RAD, lane_followed,
-    length_followed_m,
+    MAX_LANE_HALF_WIDTH_M, MIN_LANE_HALF_WIDTH_M, OWN_LANE_CLEARANCE_M, WRONG_WAY_MIN_ANGLE_RAD,
+    WRONG_WAY_MIN_SPEED_MPS, lane_followed, length_followed_m,
 };
 pub use spatial_index::SegmentIndex;
 

@@ -658,22 +658,19 @@ impl Loaded<SuiteSpec> {
                 ),
             ));
         }
-        if s.adversary.ego_contact != EgoContactRule::Any && !s.adversary.method.is_adversary() {
+        // The keys only the SaFeR methods read, each set away from its default, and why.
+        let safer_only = [
+            ("ego_contact", s.adversary.ego_contact != EgoContactRule::Any, "which aim at the ego"),
+            ("wrong_way", s.adversary.wrong_way != WrongWayRule::Allowed, "which the plausibility rule holds"),
+        ];
+        if !s.adversary.method.is_adversary()
+            && let Some((key, _, why)) = safer_only.iter().find(|(_, set, _)| *set)
+        {
             return Err(self.invalid_at(
-                "adversary.ego_contact",
+                &format!("adversary.{key}"),
                 format!(
-                    "`ego_contact` applies to the SaFeR methods (safer, safer-in-path, …), which aim at the ego; \
-                     `{}` does not: remove the key",
-                    crate::spec::spec_name(&s.adversary.method)
-                ),
-            ));
-        }
-        if s.adversary.wrong_way != WrongWayRule::Allowed && !s.adversary.method.is_adversary() {
-            return Err(self.invalid_at(
-                "adversary.wrong_way",
-                format!(
-                    "`wrong_way` applies to the SaFeR methods (safer, safer-in-path, …), which the plausibility \
-                     rule holds; `{}` does not: remove the key",
+                    "`{key}` applies to the SaFeR methods (safer, safer-in-path, …), {why}; `{}` does not: remove \
+                     the key",
                     crate::spec::spec_name(&s.adversary.method)
                 ),
             ));

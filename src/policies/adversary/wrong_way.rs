@@ -14,10 +14,6 @@
 use crate::map::RoadMap;
 use crate::scenario::AgentState;
 
-/// Below this speed a CBV is not driving anywhere, m/s (the ego's
-/// wrong-way check's threshold).
-const MOVING_MIN_MPS: f64 = 0.5;
-
 /// Whether the adversary's CBV may drive against a lane's traffic.
 #[derive(
     Debug, Clone, Copy, Default, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize, schemars::JsonSchema,
@@ -40,7 +36,7 @@ impl WrongWayRule {
 
 /// Whether a CBV in `state` drives against a lane's traffic.
 pub(super) fn drives_wrong_way(map: &RoadMap, state: &AgentState) -> bool {
-    state.speed_mps() >= MOVING_MIN_MPS && map.oncoming_lane_at(&state.position, state.heading_rad).is_some()
+    map.oncoming_lane_at(&state.position, state.heading_rad, state.speed_mps()).is_some()
 }
 
 /// The first state of `rollout` (a token's states) at which the CBV
