@@ -308,8 +308,9 @@ pub struct AdversarySpec {
     /// Whether the SaFeR methods' CBV may drive against a lane's traffic:
     /// `allowed` (the default, as the paper's method allows it), or
     /// `forbidden` (beyond the paper): a token that turns the CBV into a
-    /// lane against its traffic, outside intersections, is implausible,
-    /// as leaving the road is.
+    /// lane against its traffic, outside intersections, or after which
+    /// braking would not keep it out of one, is implausible, as leaving
+    /// the road is.
     #[serde(default)]
     pub wrong_way: WrongWayRule,
 }

@@ -4,7 +4,8 @@
 //! touches no background agent while it holds the token, it does not slow
 //! in front of replayed traffic closing on it, and it runs into no one
 //! while it brakes after the token (and, under [`WrongWayRule::Forbidden`],
-//! it does not turn against a lane's traffic); with the fallback rule
+//! it does not turn against a lane's traffic, then or while it brakes);
+//! with the fallback rule
 //! counting only the CBV's own faults ([`ContactRule`]).
 
 use super::background_forecast::BackgroundForecast;
@@ -224,9 +225,22 @@ impl<'w> PlausibilityCheck<'w> {
         let map = self.world.map;
         let braking: Vec<AgentState> = rollout.iter().copied().chain(braking_after(rollout)).collect();
         let contact = |wanted| self.contact_violation(rollout, &braking, wanted, rule);
-        // Into a lane against its traffic (under the wrong-way rule): a
-        // check of the token's own states, as cheap as a road check.
-        let wrong_way = || if self.holds_traffic_direction { first_wrong_way(map, rollout) } else { None };
+        // The path to a standstill, rolled out once for the road and
+        // wrong-way checks, and only if one of them is come to.
+        let moving = std::cell::OnceCell::new();
+        let moving_path = || moving.get_or_init(|| Self::moving_path(&braking)).as_slice();
+        // Into a lane against its traffic (under the wrong-way rule),
+        // judged along the road check's path: a token that leaves the CBV
+        // heading across into the oncoming lanes faster than braking can
+        // stop it there is as good as in them (judged on the token's own
+        // half second, the in-path methods drove it straight on at speed
+        // where its road bent, until no token could keep it out).
+        let wrong_way = || {
+            if !self.holds_traffic_direction {
+                return None;
+            }
+            first_wrong_way(map, moving_path())
+        };
         if !self.on_road_now {
             // Off the road already: head back to it, not farther away.
             let farther_off = || match (self.edge_distance_now, map.signed_distance_to_road_edge(&end.position)) {
@@ -242,13 +256,9 @@ impl<'w> PlausibilityCheck<'w> {
         }
         let off_road = |s: &AgentState| map.is_off_road_within_map(&s.position);
         match wanted {
-            Violation::First => Self::moving_path(&braking)
-                .iter()
-                .position(off_road)
-                .into_iter()
-                .chain(wrong_way())
-                .chain(contact(wanted))
-                .min(),
+            Violation::First => {
+                moving_path().iter().position(off_road).into_iter().chain(wrong_way()).chain(contact(wanted)).min()
+            }
             // Whether at all, in the order that finds a violation soonest
             // (the answer is the same in any order). The contacts first:
             // box tests behind a bounds test, which reject most of the
@@ -259,7 +269,7 @@ impl<'w> PlausibilityCheck<'w> {
             // from the far end.
             Violation::Any => contact(wanted)
                 .or_else(|| {
-                    let path = Self::moving_path(&braking);
+                    let path = moving_path();
                     let (last, rest) = path.split_last()?;
                     if off_road(last) { Some(path.len() - 1) } else { rest.iter().rposition(off_road) }
                 })
@@ -643,6 +653,41 @@ mod tests {
         assert_eq!(judged(110.0, WrongWayRule::Allowed), [false, false]);
         // A CBV against the traffic already is not held to it: any way back.
         assert_eq!(judged(170.0, WrongWayRule::Forbidden), [false, false]);
+    }
+
+    #[test]
+    fn under_the_wrong_way_rule_a_token_that_leaves_the_cbv_no_room_to_stay_out_of_the_oncoming_lane_is_implausible() {
+        use crate::map::templates::StraightRoad;
+        let map =
+            StraightRoad { lanes: 2, oncoming_lanes: 2, lane_width_m: 3.5, length_m: 300.0, speed_limit_mps: None }
+                .build();
+        let own = map.lane(crate::map::MapElementId(1)).unwrap().centreline.points()[0].y;
+        let oncoming = map.lane(crate::map::MapElementId(100)).unwrap().centreline.points()[0].y;
+        let bodies = [AgentBody { kind: AgentKind::Vehicle, length_m: 4.5, width_m: 2.0 }; 2];
+        // At 20 m/s in the left of its two lanes, heading 8° towards the
+        // two oncoming ones.
+        let towards = 8f64.to_radians() * (oncoming - own).signum();
+        let v = Vector2::new(towards.cos(), towards.sin()) * 20.0;
+        let states = [
+            car(20.0, own, 0.0),
+            Some(AgentState { position: Point2::new(100.0, own), heading_rad: towards, velocity_mps: v }),
+        ];
+        let world = WorldView { map: &map, step: 0, bodies: &bodies, states: &states };
+        let yawing = |yaw_rate_radps| TokenGrid::quantize(Action { accel_mps2: 0.0, yaw_rate_radps });
+        // Holding on, and steering half way back to the lane's direction
+        // (and on, braking in that curve, into the lane on its right).
+        let (on, back) = (yawing(0.0), yawing(-towards / (2.0 * crate::motion::TOKEN_PERIOD_S)));
+        let rollouts = token_rollouts(states[1].as_ref().unwrap(), &[on, back]);
+        // Holding on keeps the CBV with the traffic for the token's own
+        // half second: it is the braking after it that crosses over.
+        assert!(rollouts[0].iter().all(|s| !drives_wrong_way(&map, s)));
+        let judged = |rule| {
+            let check = PlausibilityCheck::new(&world, TrackIndex(1), TrackIndex(0), &BackgroundForecast::default())
+                .with_wrong_way(rule);
+            rollouts.iter().map(|r| check.implausible(r, ContactRule::Any)).collect::<Vec<_>>()
+        };
+        assert_eq!(judged(WrongWayRule::Forbidden), [true, false]);
+        assert_eq!(judged(WrongWayRule::Allowed), [false, false]);
     }
 
     #[test]

@@ -7,9 +7,13 @@
 //! [`WrongWayRule::Forbidden`] a token that takes a CBV driving with the
 //! traffic into a lane against it, by that same rule
 //! ([`RoadMap::oncoming_lane_at`](crate::map::RoadMap::oncoming_lane_at)),
-//! is implausible, like one that leaves the road. A CBV already against
-//! the traffic (a recording that starts so) is not held to it: any way
-//! back is allowed.
+//! is implausible, like one that leaves the road, and so is one after
+//! which the CBV would, braking as the road check has it brake (holding
+//! its curvature, on to a standstill): a CBV held only to each token's
+//! own half second was driven straight on at speed where its road bent,
+//! until no token could keep it out of the oncoming lane. A CBV already
+//! against the traffic (a recording that starts so) is not held to it:
+//! any way back is allowed.
 
 use crate::map::RoadMap;
 use crate::scenario::AgentState;
@@ -25,7 +29,8 @@ pub enum WrongWayRule {
     #[default]
     Allowed,
     /// Beyond the paper: a token that turns the CBV against a lane's
-    /// traffic is implausible.
+    /// traffic, or leaves it unable to brake short of such a lane, is
+    /// implausible.
     Forbidden,
 }
 
