@@ -453,6 +453,22 @@ mod tests {
         .with_roles(TrackIndex(0), Some(TrackIndex(1)))
     }
 
+    /// A straight road of 3.5 m lanes, `lanes` one way and
+    /// `oncoming_lanes` the other, with the y of lane `own`'s centreline
+    /// (lanes 0.. run one way, 100.. the other).
+    fn two_way_road(lanes: usize, oncoming_lanes: usize, own: i64) -> (crate::map::RoadMap, f64) {
+        let map = crate::map::templates::StraightRoad {
+            lanes,
+            oncoming_lanes,
+            lane_width_m: 3.5,
+            length_m: 300.0,
+            speed_limit_mps: None,
+        }
+        .build();
+        let y = map.lane(crate::map::MapElementId(own)).unwrap().centreline.points()[0].y;
+        (map, y)
+    }
+
     fn implausible_tokens(world: &WorldView<'_>, cbv: TrackIndex, tokens: &[Token]) -> Vec<bool> {
         let check = PlausibilityCheck::new(world, cbv, TrackIndex(0), &BackgroundForecast::default());
         token_rollouts(world.states[cbv.0].as_ref().unwrap(), tokens)
@@ -625,11 +641,7 @@ mod tests {
 
     #[test]
     fn under_the_wrong_way_rule_a_token_that_turns_the_cbv_against_the_traffic_is_implausible() {
-        use crate::map::templates::StraightRoad;
-        let map =
-            StraightRoad { lanes: 1, oncoming_lanes: 1, lane_width_m: 3.5, length_m: 200.0, speed_limit_mps: None }
-                .build();
-        let own = map.lane(crate::map::MapElementId(0)).unwrap().centreline.points()[0].y;
+        let (map, own) = two_way_road(1, 1, 0);
         let bodies = [AgentBody { kind: AgentKind::Vehicle, length_m: 4.5, width_m: 2.0 }; 2];
         // Turning round in its own lane, 110° from the lane's direction at
         // 3 m/s (a lane 120° from its heading is driven against).
@@ -657,12 +669,8 @@ mod tests {
 
     #[test]
     fn under_the_wrong_way_rule_a_token_that_leaves_the_cbv_no_room_to_stay_out_of_the_oncoming_lane_is_implausible() {
-        use crate::map::templates::StraightRoad;
-        let map =
-            StraightRoad { lanes: 2, oncoming_lanes: 2, lane_width_m: 3.5, length_m: 300.0, speed_limit_mps: None }
-                .build();
-        let own = map.lane(crate::map::MapElementId(1)).unwrap().centreline.points()[0].y;
-        let oncoming = map.lane(crate::map::MapElementId(100)).unwrap().centreline.points()[0].y;
+        let (map, own) = two_way_road(2, 2, 1);
+        let oncoming = two_way_road(2, 2, 100).1;
         let bodies = [AgentBody { kind: AgentKind::Vehicle, length_m: 4.5, width_m: 2.0 }; 2];
         // At 20 m/s in the left of its two lanes, heading 8° towards the
         // two oncoming ones.
