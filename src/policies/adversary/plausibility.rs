@@ -5,8 +5,8 @@
 //! in front of replayed traffic closing on it, and it runs into no one
 //! while it brakes after the token (and, under [`WrongWayRule::Forbidden`],
 //! it does not turn against a lane's traffic, then or while it brakes);
-//! with the fallback rule
-//! counting only the CBV's own faults ([`ContactRule`]).
+//! with the fallback rule counting only the CBV's own faults
+//! ([`ContactRule`]).
 
 use super::background_forecast::BackgroundForecast;
 use super::broad_phase::Bounds;
@@ -231,10 +231,8 @@ impl<'w> PlausibilityCheck<'w> {
         let moving_path = || moving.get_or_init(|| Self::moving_path(&braking)).as_slice();
         // Into a lane against its traffic (under the wrong-way rule),
         // judged along the road check's path: a token that leaves the CBV
-        // heading across into the oncoming lanes faster than braking can
-        // stop it there is as good as in them (judged on the token's own
-        // half second, the in-path methods drove it straight on at speed
-        // where its road bent, until no token could keep it out).
+        // heading into the oncoming lanes faster than braking can stop it
+        // is as good as in them (see the `wrong_way` module).
         let wrong_way = || {
             if !self.holds_traffic_direction {
                 return None;
@@ -453,20 +451,22 @@ mod tests {
         .with_roles(TrackIndex(0), Some(TrackIndex(1)))
     }
 
-    /// A straight road of 3.5 m lanes, `lanes` one way and
-    /// `oncoming_lanes` the other, with the y of lane `own`'s centreline
-    /// (lanes 0.. run one way, 100.. the other).
-    fn two_way_road(lanes: usize, oncoming_lanes: usize, own: i64) -> (crate::map::RoadMap, f64) {
-        let map = crate::map::templates::StraightRoad {
+    /// A straight road of 3.5 m lanes, `lanes` one way (ids 0..) and
+    /// `oncoming_lanes` the other (ids 100..).
+    fn two_way_road(lanes: usize, oncoming_lanes: usize) -> crate::map::RoadMap {
+        crate::map::templates::StraightRoad {
             lanes,
             oncoming_lanes,
             lane_width_m: 3.5,
             length_m: 300.0,
             speed_limit_mps: None,
         }
-        .build();
-        let y = map.lane(crate::map::MapElementId(own)).unwrap().centreline.points()[0].y;
-        (map, y)
+        .build()
+    }
+
+    /// The y of lane `id`'s centreline on a straight road.
+    fn lane_y(map: &crate::map::RoadMap, id: i64) -> f64 {
+        map.lane(crate::map::MapElementId(id)).unwrap().centreline.points()[0].y
     }
 
     fn implausible_tokens(world: &WorldView<'_>, cbv: TrackIndex, tokens: &[Token]) -> Vec<bool> {
@@ -641,7 +641,8 @@ mod tests {
 
     #[test]
     fn under_the_wrong_way_rule_a_token_that_turns_the_cbv_against_the_traffic_is_implausible() {
-        let (map, own) = two_way_road(1, 1, 0);
+        let map = two_way_road(1, 1);
+        let own = lane_y(&map, 0);
         let bodies = [AgentBody { kind: AgentKind::Vehicle, length_m: 4.5, width_m: 2.0 }; 2];
         // Turning round in its own lane, 110° from the lane's direction at
         // 3 m/s (a lane 120° from its heading is driven against).
@@ -669,8 +670,8 @@ mod tests {
 
     #[test]
     fn under_the_wrong_way_rule_a_token_that_leaves_the_cbv_no_room_to_stay_out_of_the_oncoming_lane_is_implausible() {
-        let (map, own) = two_way_road(2, 2, 1);
-        let oncoming = two_way_road(2, 2, 100).1;
+        let map = two_way_road(2, 2);
+        let (own, oncoming) = (lane_y(&map, 1), lane_y(&map, 100));
         let bodies = [AgentBody { kind: AgentKind::Vehicle, length_m: 4.5, width_m: 2.0 }; 2];
         // At 20 m/s in the left of its two lanes, heading 8° towards the
         // two oncoming ones.

@@ -8,10 +8,11 @@
 //! traffic into a lane against it, by that same rule
 //! ([`RoadMap::oncoming_lane_at`](crate::map::RoadMap::oncoming_lane_at)),
 //! is implausible, like one that leaves the road, and so is one after
-//! which the CBV would, braking as the road check has it brake (holding
-//! its curvature, on to a standstill): a CBV held only to each token's
-//! own half second was driven straight on at speed where its road bent,
-//! until no token could keep it out of the oncoming lane. A CBV already
+//! which braking as the road check brakes (holding the token's
+//! curvature, on to a standstill) would still take the CBV into such a
+//! lane: a rule held to each token's own half second lets the CBV be
+//! driven straight on at speed where its road bends, until no token can
+//! keep it out of the oncoming lane. A CBV already
 //! against the traffic (a recording that starts so) is not held to it:
 //! any way back is allowed.
 
@@ -44,10 +45,10 @@ pub(super) fn drives_wrong_way(map: &RoadMap, state: &AgentState) -> bool {
     map.oncoming_lane_at(&state.position, state.heading_rad, state.speed_mps()).is_some()
 }
 
-/// The first state of `rollout` (a token's states) at which the CBV
-/// drives against a lane's traffic.
-pub(super) fn first_wrong_way(map: &RoadMap, rollout: &[AgentState]) -> Option<usize> {
-    rollout.iter().position(|s| drives_wrong_way(map, s))
+/// The first state of `path` (a token's states and the braking after
+/// them) at which the CBV drives against a lane's traffic.
+pub(super) fn first_wrong_way(map: &RoadMap, path: &[AgentState]) -> Option<usize> {
+    path.iter().position(|s| drives_wrong_way(map, s))
 }
 
 #[cfg(test)]
