@@ -292,7 +292,7 @@ fn print_plausibility(
     writeln!(out, "\nplausibility of the CBV, the seeds' variety and the reference planner:")?;
     writeln!(
         out,
-        "{:<w$} {:>12} {:>14} {:>15} {:>12} {:>14} {:>10} {:>13} {:>9} {:>12}",
+        "{:<w$} {:>12} {:>14} {:>15} {:>12} {:>14} {:>10} {:>13} {:>9} {:>12} {:>13} {:>10}",
         "method",
         "CBV-bg coll",
         "CBV at fault",
@@ -302,12 +302,14 @@ fn print_plausibility(
         "wrong way",
         "wrong way s2",
         "distinct",
-        "SR-witnessed"
+        "SR-witnessed",
+        "across lanes",
+        "across s2"
     )?;
     for r in rows {
         writeln!(
             out,
-            "{:<w$} {:>12} {:>14} {:>15} {:>12} {:>14} {:>10} {:>13} {:>9} {:>12}",
+            "{:<w$} {:>12} {:>14} {:>15} {:>12} {:>14} {:>10} {:>13} {:>9} {:>12} {:>13} {:>10}",
             name(r),
             fmt(r.cbv_background_collision_rate),
             fmt(r.cbv_at_fault_background_collision_rate),
@@ -317,7 +319,9 @@ fn print_plausibility(
             fmt(r.cbv_wrong_way_rate),
             fmt(r.cbv_wrong_way_rate_stage2),
             fmt(r.distinct_rate),
-            fmt(r.sr_witnessed)
+            fmt(r.sr_witnessed),
+            fmt(r.cbv_across_lanes_rate),
+            fmt(r.cbv_across_lanes_rate_stage2)
         )?;
     }
     Ok(())
@@ -636,6 +640,10 @@ fn print_legend(out: &mut dyn Write) -> std::io::Result<()> {
         out,
         "wrong way: share of variants whose CBV drove against a lane's traffic in stage 1 (s2: in stage 2), by the rule of the ego's `wrong_way` check (CARLA's WrongLaneTest: in a lane running more than 120° from its heading, outside intersections, no lane its way within 3 m); the `log` row is the recorded CBV."
     )?;
+    writeln!(
+        out,
+        "across lanes: share of variants whose CBV drove across the lanes for 1 s or more in stage 1 (s2: in stage 2): at 3 m/s or more, more than 30° from every lane its centre was in, outside intersections (a brisk lane change turns 5–10°); the `log` row is the recorded CBV."
+    )?;
     Ok(())
 }
 
@@ -813,19 +821,28 @@ fn print_scenes_that_broke_the_rules(
     let w = method_column(rows, name);
     let broke: Vec<&MethodRow> = rows
         .iter()
-        .filter(|r| !r.off_road_scenes.is_empty() || !r.at_fault_scenes.is_empty() || !r.wrong_way_scenes.is_empty())
+        .filter(|r| {
+            !r.off_road_scenes.is_empty()
+                || !r.at_fault_scenes.is_empty()
+                || !r.wrong_way_scenes.is_empty()
+                || !r.across_lanes_scenes.is_empty()
+        })
         .collect();
     if broke.is_empty() {
         return Ok(());
     }
     writeln!(
         out,
-        "where the CBV left the road / was at fault / drove the wrong way (in either stage): the scenes with the most such variants (k/n: k of the scene's n; \
+        "where the CBV left the road / was at fault / drove the wrong way or across the lanes (in either stage): the scenes with the most such variants (k/n: k of the scene's n; \
          * held out; `--scene ID --artifacts DIR --artifacts-of all` draws them)"
     )?;
     for r in broke {
-        let kinds =
-            [("off road", &r.off_road_scenes), ("at fault", &r.at_fault_scenes), ("wrong way", &r.wrong_way_scenes)];
+        let kinds = [
+            ("off road", &r.off_road_scenes),
+            ("at fault", &r.at_fault_scenes),
+            ("wrong way", &r.wrong_way_scenes),
+            ("across lanes", &r.across_lanes_scenes),
+        ];
         for (i, (what, scenes)) in kinds.into_iter().filter(|(_, scenes)| !scenes.is_empty()).enumerate() {
             let method = if i == 0 { name(r) } else { String::new() };
             writeln!(out, "{method:<w$} {what}: {}", named_scenes(scenes, held_out))?;

@@ -12,6 +12,10 @@
 //! parked car, is not wrong way), outside intersections (where lanes cross
 //! at every angle), while the ego moves. On the shared recorded scenes the
 //! logged egos are flagged in 2 of 196 (`recorded_egos_mostly_keep_the_traffic_rules`).
+//! **Across the lanes** ([`across_lanes_of`], a measure of how plausibly
+//! an agent drives rather than a rule a planner is failed by): more than
+//! 30° from every lane its centre lies in, outside intersections, at
+//! 3 m/s or more.
 //! **Red light**: the ego's centre passes the stop point of a signal that
 //! shows red (a red circle or a red arrow for its lane; flashing red means
 //! stop, then go, and is not counted) at the step it passes, while the
@@ -27,7 +31,7 @@ use crate::scenario::{AgentState, TrackIndex};
 use crate::sim::Rollout;
 
 use crate::map::OWN_LANE_CLEARANCE_M;
-pub use crate::map::WRONG_WAY_MIN_ANGLE_RAD;
+pub use crate::map::{ACROSS_LANES_MIN_ANGLE_RAD, WRONG_WAY_MIN_ANGLE_RAD};
 
 /// The ego's longest stretch against the traffic of a lane.
 #[derive(Debug, Clone, PartialEq)]
@@ -79,6 +83,41 @@ pub fn wrong_way_of(rollout: &Rollout, map: &RoadMap, agent: TrackIndex) -> Opti
         start_s: first as f64 * rollout.dt_s,
         duration_s: found.len() as f64 * rollout.dt_s,
         lane: found[0],
+    })
+}
+
+/// A road user's longest stretch of driving across the lanes.
+#[derive(Debug, Clone, PartialEq)]
+pub struct AcrossLanes {
+    /// When it began, s after the rollout's start.
+    pub start_s: f64,
+    /// How long it lasted, s (one step counts as `dt_s`).
+    pub duration_s: f64,
+    /// The largest angle to the lanes over the stretch, rad.
+    pub max_angle_rad: f64,
+}
+
+/// How long a road user must drive across the lanes for it to count, s:
+/// longer than a recorded heading's noise lasts, shorter than any lane
+/// change made at 30° or more (at 3 m/s one crosses a lane in about 2 s).
+pub const ACROSS_LANES_MIN_S: f64 = 1.0;
+
+/// An agent's longest stretch of driving across the lanes it is in (at
+/// more than [`ACROSS_LANES_MIN_ANGLE_RAD`] to every one of them, outside
+/// intersections: [`RoadMap::angle_across_lanes_at`]), or `None` when it
+/// never did. Ties go to the earliest. Humans change lanes at a few
+/// degrees; a CBV cutting across a freeway at 40° is not driving as they
+/// do, though its speed and acceleration may be.
+pub fn across_lanes_of(rollout: &Rollout, map: &RoadMap, agent: TrackIndex) -> Option<AcrossLanes> {
+    let angle_at = |row: &Vec<Option<AgentState>>| {
+        let s = row.get(agent.0)?.as_ref()?;
+        map.angle_across_lanes_at(&s.position, s.heading_rad, s.speed_mps())
+    };
+    let (first, found) = longest_stretch(rollout.states.iter().map(angle_at))?;
+    Some(AcrossLanes {
+        start_s: first as f64 * rollout.dt_s,
+        duration_s: found.len() as f64 * rollout.dt_s,
+        max_angle_rad: found.iter().copied().fold(0.0, f64::max),
     })
 }
 
@@ -328,6 +367,39 @@ mod tests {
         // Standing in its own lane it broke no rule (the first 0.5 s alone).
         let still = drive(60.0, own, 0.0, 0.0, 5);
         assert!(still.iter().all(|s| against_traffic(&map, s).is_none()));
+    }
+
+    #[test]
+    fn cutting_across_the_lanes_at_forty_degrees_counts_and_a_lane_change_or_a_turn_at_a_junction_does_not() {
+        let map =
+            StraightRoad { lanes: 3, oncoming_lanes: 0, lane_width_m: 3.5, length_m: 200.0, speed_limit_mps: None }
+                .build();
+        let (right, left) = (lane_centre_y(&map, 0), lane_centre_y(&map, 2));
+        let towards_left = (left - right).signum();
+        // 8 m/s at 40° from the right lane towards the left one: about 2 s
+        // inside the three lanes, then off the road (no lane: not judged).
+        let across = drive(20.0, right, towards_left * 40f64.to_radians(), 8.0, 40);
+        let a = across_lanes_of(&rollout(across), &map, TrackIndex(0)).expect("it cut across the lanes");
+        assert_eq!(a.start_s, 0.0);
+        assert!(a.duration_s >= 1.5 && a.duration_s <= 2.5, "{a:?}");
+        assert!((a.max_angle_rad - 40f64.to_radians()).abs() < 1e-6, "{a:?}");
+        // A brisk lane change (8°) at 20 m/s, and the same 40° at walking pace.
+        let lane_change = drive(20.0, right, towards_left * 8f64.to_radians(), 20.0, 40);
+        assert_eq!(across_lanes_of(&rollout(lane_change), &map, TrackIndex(0)), None);
+        let slow = drive(20.0, right, towards_left * 40f64.to_radians(), 2.0, 40);
+        assert_eq!(across_lanes_of(&rollout(slow), &map, TrackIndex(0)), None);
+        // Against the traffic is wrong way, not across the lanes.
+        let against = drive(150.0, right, std::f64::consts::PI, 10.0, 40);
+        assert_eq!(across_lanes_of(&rollout(against), &map, TrackIndex(0)), None);
+        assert!(wrong_way(&rollout(drive(150.0, right, std::f64::consts::PI, 10.0, 40)), &map).is_some());
+        // In a junction's box, where lanes cross at every angle: 45° off a
+        // lane through it is not judged.
+        let junction = crossing();
+        let through = junction.lanes.iter().find(|l| l.in_intersection).expect("a junction lane");
+        let (p, t) = through.centreline.sample(0.5 * through.centreline.length_m()).unwrap();
+        let heading = t.y.atan2(t.x) + std::f64::consts::FRAC_PI_4;
+        assert!(junction.lanes_containing(&p, t.y.atan2(t.x)).contains(&through.id));
+        assert_eq!(junction.angle_across_lanes_at(&p, heading, 8.0), None);
     }
 
     /// The template crossing: east–west green for the first 12 s, so the

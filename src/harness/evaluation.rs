@@ -311,6 +311,13 @@ pub struct MethodRow {
     /// The same in stage 2, against the planner's ego.
     #[serde(default)]
     pub cbv_wrong_way_rate_stage2: Option<f64>,
+    /// Share of variants whose CBV drove across the lanes for a second or
+    /// more in stage 1 (older reports lack it: read as unknown).
+    #[serde(default)]
+    pub cbv_across_lanes_rate: Option<f64>,
+    /// The same in stage 2, against the planner's ego.
+    #[serde(default)]
+    pub cbv_across_lanes_rate_stage2: Option<f64>,
     /// The scenes where the CBV left the road in stage 1: how many of
     /// each one's variants did, most first (a rate that one scene makes
     /// reads differently from one spread over many).
@@ -322,6 +329,10 @@ pub struct MethodRow {
     /// stage (older reports lack it: read as none).
     #[serde(default)]
     pub wrong_way_scenes: Vec<SceneCount>,
+    /// The same for the CBV driving across the lanes for a second or more
+    /// in either stage (older reports lack it: read as none).
+    #[serde(default)]
+    pub across_lanes_scenes: Vec<SceneCount>,
     /// How close the CBV came to the recorded ego in stage 1; `None` when
     /// no variant ran.
     pub stage1_closest: Option<ClosestApproach>,
@@ -943,10 +954,15 @@ fn table_of(
                 cbv_off_road_s: metrics.cbv_off_road_s,
                 cbv_wrong_way_rate: metrics.cbv_wrong_way_rate,
                 cbv_wrong_way_rate_stage2: metrics.cbv_wrong_way_rate_stage2,
+                cbv_across_lanes_rate: metrics.cbv_across_lanes_rate,
+                cbv_across_lanes_rate_stage2: metrics.cbv_across_lanes_rate_stage2,
                 off_road_scenes: scenes_where(&ok, |r| r.tally.cbv_left_road()),
                 at_fault_scenes: scenes_where(&ok, |r| r.tally.cbv_at_fault_with_background),
                 wrong_way_scenes: scenes_where(&ok, |r| {
                     r.tally.cbv_drove_wrong_way() || r.tally.cbv_drove_wrong_way_in_stage2()
+                }),
+                across_lanes_scenes: scenes_where(&ok, |r| {
+                    r.tally.cbv_drove_across_lanes() || r.tally.cbv_drove_across_lanes_in_stage2()
                 }),
                 stage1_closest: ClosestApproach::of(&ok),
                 stage2_closest_critical: Stage2Approach::of(&ok),

@@ -24,7 +24,7 @@
 //! [`Stage2Verdict`]: super::pipeline::Stage2Verdict
 
 use super::pipeline::DualStage;
-use crate::eval::traffic_rules::wrong_way_of;
+use crate::eval::traffic_rules::{ACROSS_LANES_MIN_S, across_lanes_of, wrong_way_of};
 use crate::eval::{ConflictKind, Histogram, jensen_shannon, rollout_conflict};
 use crate::geometry::wrap_angle;
 use crate::scenario::{AgentKind, AgentState, Scenario, TrackIndex};
@@ -131,6 +131,14 @@ pub struct VariantTally {
     /// The same in stage 2, against the planner's ego.
     #[serde(default)]
     pub cbv_wrong_way_stage2_s: f64,
+    /// The CBV's longest stretch driving across the lanes in stage 1, s
+    /// ([`across_lanes_of`]; 0 when it never did; older reports lack it:
+    /// read as 0).
+    #[serde(default)]
+    pub cbv_across_lanes_s: f64,
+    /// The same in stage 2, against the planner's ego.
+    #[serde(default)]
+    pub cbv_across_lanes_stage2_s: f64,
     /// A digest of the CBV's stage-1 path (`cbv_path_digest`): two
     /// seeds with equal digests made the same variant.
     pub cbv_path_digest: Option<u64>,
@@ -172,6 +180,18 @@ impl VariantTally {
         self.cbv_wrong_way_stage2_s > 0.0
     }
 
+    /// Whether the CBV drove across the lanes for at least
+    /// [`ACROSS_LANES_MIN_S`] in stage 1 (what the across-lanes rate
+    /// counts).
+    pub fn cbv_drove_across_lanes(&self) -> bool {
+        self.cbv_across_lanes_s >= ACROSS_LANES_MIN_S - 1e-9
+    }
+
+    /// The same in stage 2 (what the stage-2 across-lanes rate counts).
+    pub fn cbv_drove_across_lanes_in_stage2(&self) -> bool {
+        self.cbv_across_lanes_stage2_s >= ACROSS_LANES_MIN_S - 1e-9
+    }
+
     /// Whether the CBV left the road in stage 1 (what the off-road rate
     /// counts).
     pub fn cbv_left_road(&self) -> bool {
@@ -198,6 +218,8 @@ impl VariantTally {
             cbv_off_road_s: cbv_off_road_s(scenario, &stages.stage1),
             cbv_wrong_way_s: cbv_wrong_way_s(scenario, &stages.stage1),
             cbv_wrong_way_stage2_s: cbv_wrong_way_s(scenario, &stages.stage2),
+            cbv_across_lanes_s: cbv_across_lanes_s(scenario, &stages.stage1),
+            cbv_across_lanes_stage2_s: cbv_across_lanes_s(scenario, &stages.stage2),
             cbv_path_digest: cbv_path_digest(&stages.stage1),
             reached: stages.reach.reached,
             collided: stages.stage2.ego_collision().is_some(),
@@ -298,6 +320,12 @@ fn cbv_wrong_way_s(scenario: &Scenario, rollout: &Rollout) -> f64 {
     rollout.cbv.and_then(|cbv| wrong_way_of(rollout, &scenario.map, cbv)).map_or(0.0, |w| w.duration_s)
 }
 
+/// The CBV's longest stretch across the lanes in `rollout`, s (0 without
+/// a CBV or when it never drove across them).
+fn cbv_across_lanes_s(scenario: &Scenario, rollout: &Rollout) -> f64 {
+    rollout.cbv.and_then(|cbv| across_lanes_of(rollout, &scenario.map, cbv)).map_or(0.0, |a| a.duration_s)
+}
+
 /// The metrics of a set of variants.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct SuiteMetrics {
@@ -330,6 +358,12 @@ pub struct SuiteMetrics {
     pub cbv_wrong_way_rate: Option<f64>,
     /// The same in stage 2, against the planner's ego.
     pub cbv_wrong_way_rate_stage2: Option<f64>,
+    /// Share of variants whose CBV drove across the lanes (more than 30°
+    /// from every lane it was in, outside intersections) for at least
+    /// [`ACROSS_LANES_MIN_S`] in stage 1.
+    pub cbv_across_lanes_rate: Option<f64>,
+    /// The same in stage 2, against the planner's ego.
+    pub cbv_across_lanes_rate_stage2: Option<f64>,
     /// Stage 2: share of variants whose CBV came within 1 m of the
     /// planner's ego.
     pub conflict_reach: Option<f64>,
@@ -474,6 +508,7 @@ impl SuiteMetrics {
         let (mut hit_background, mut at_fault, mut off_road, mut off_road_s) = (0, 0, 0, 0.0);
         let mut at_fault_vulnerable = 0;
         let (mut wrong_way, mut wrong_way_stage2) = (0, 0);
+        let (mut across_lanes, mut across_lanes_stage2) = (0, 0);
         let (mut reached, mut reached_critical, mut avoidable, mut avoidable_solved, mut no_escape) = (0, 0, 0, 0, 0);
         let mut no_escape_with_others = 0;
         let (mut gv, mut ga, mut lv, mut la) =
@@ -491,6 +526,8 @@ impl SuiteMetrics {
             off_road_s += t.cbv_off_road_s;
             wrong_way += usize::from(t.cbv_drove_wrong_way());
             wrong_way_stage2 += usize::from(t.cbv_drove_wrong_way_in_stage2());
+            across_lanes += usize::from(t.cbv_drove_across_lanes());
+            across_lanes_stage2 += usize::from(t.cbv_drove_across_lanes_in_stage2());
             reached += usize::from(t.reached);
             reached_critical += usize::from(t.reached && t.critical);
             avoidable += usize::from(t.avoidable_conflict());
@@ -521,6 +558,8 @@ impl SuiteMetrics {
             cbv_off_road_s: (n > 0).then(|| off_road_s / n as f64),
             cbv_wrong_way_rate: share(wrong_way, n),
             cbv_wrong_way_rate_stage2: share(wrong_way_stage2, n),
+            cbv_across_lanes_rate: share(across_lanes, n),
+            cbv_across_lanes_rate_stage2: share(across_lanes_stage2, n),
             conflict_reach: share(reached, n),
             conflict_reach_critical: share(reached_critical, critical),
             avoidable_conflicts: avoidable,
@@ -831,6 +870,21 @@ mod tests {
         let err = with_cbv.checks(&acceptance)[0].result.clone().unwrap_err();
         assert_eq!(err, "no_escape_collision_rate = 1.000 > 0.05 over 1 variants");
         assert!(with_cbv.headline(" · ").ends_with("no-escape collisions 1"));
+    }
+
+    #[test]
+    fn the_across_lanes_rates_count_a_second_or_more_and_each_stage_apart() {
+        let across = |stage1_s: f64, stage2_s: f64| VariantTally {
+            cbv_across_lanes_s: stage1_s,
+            cbv_across_lanes_stage2_s: stage2_s,
+            ..VariantTally::default()
+        };
+        // 1 s counts (a sum of 0.1 s steps may fall a hair short of it);
+        // 0.9 s, a heading's noise or the start of a turn, does not.
+        let tallies = [across(1.0, 0.0), across(0.1 * 10.0 - 1e-12, 1.5), across(0.9, 0.9), across(0.0, 0.0)];
+        let m = SuiteMetrics::aggregate(&tallies);
+        assert_eq!((m.cbv_across_lanes_rate, m.cbv_across_lanes_rate_stage2), (Some(0.5), Some(0.25)));
+        assert!(!across(0.9, 0.0).cbv_drove_across_lanes() && across(0.0, 2.0).cbv_drove_across_lanes_in_stage2());
     }
 
     #[test]

@@ -1,6 +1,7 @@
 //! Lane queries on a [`RoadMap`]: the nearest lane to a point, preferring
 //! lanes going the agent's way ([`LaneMatch`]), the lanes whose area holds
-//! a point, the lane a road user drives against (wrong way), whether two
+//! a point, the lane a road user drives against (wrong way), the angle at
+//! which it drives across the lanes, whether two
 //! lanes connect, and which of a junction's lanes a
 //! recorded path takes ([`lane_followed`]).
 
@@ -28,6 +29,17 @@ pub const WRONG_WAY_MIN_ANGLE_RAD: f64 = 2.0 * std::f64::consts::FRAC_PI_3;
 /// Below this speed a road user is not driving anywhere, m/s, and drives
 /// against no lane's traffic.
 pub const WRONG_WAY_MIN_SPEED_MPS: f64 = 0.5;
+
+/// The smallest angle between a road user's heading and every lane it is
+/// in that counts as driving across the lanes, rad (30°: a brisk lane
+/// change at speed turns about 5–10° from the lanes; 30° at 3 m/s or more
+/// is a car cutting across them, or turning where no lane turns).
+pub const ACROSS_LANES_MIN_ANGLE_RAD: f64 = std::f64::consts::FRAC_PI_6;
+
+/// Below this speed a road user's angle to the lanes is not judged, m/s:
+/// manoeuvring at walking pace (parking, turning out of a driveway) points
+/// a car every way.
+pub const ACROSS_LANES_MIN_SPEED_MPS: f64 = 3.0;
 
 /// A lane running a road user's way this close to it, m, means it is
 /// beside its own lane, not in the oncoming one (about a lane width: the
@@ -295,6 +307,35 @@ impl RoadMap {
                         .is_some_and(|proj| proj.tangent.dot(&heading) <= WRONG_WAY_MIN_ANGLE_RAD.cos())
             })
         })
+    }
+
+    /// The angle at which a road user at `p`, heading `heading_rad` and
+    /// moving at `speed_mps`, drives across the lanes it is in, rad, or
+    /// `None`: its centre lies in at least one lane (either way), in none
+    /// inside an intersection (where lanes cross at every angle), and the
+    /// smallest angle between its heading and the direction of any lane it
+    /// is in is more than [`ACROSS_LANES_MIN_ANGLE_RAD`] and less than
+    /// [`WRONG_WAY_MIN_ANGLE_RAD`] (beyond that it drives against the
+    /// traffic: [`RoadMap::oncoming_lane_at`]), while it moves at
+    /// [`ACROSS_LANES_MIN_SPEED_MPS`] or more.
+    pub fn angle_across_lanes_at(&self, p: &Point2, heading_rad: f64, speed_mps: f64) -> Option<f64> {
+        if speed_mps < ACROSS_LANES_MIN_SPEED_MPS {
+            return None;
+        }
+        let heading = crate::geometry::Vector2::new(heading_rad.cos(), heading_rad.sin());
+        let mut lanes = self.lanes_containing(p, heading_rad);
+        lanes.extend(self.lanes_containing(p, heading_rad + std::f64::consts::PI));
+        let mut smallest: Option<f64> = None;
+        for id in lanes {
+            let Some(lane) = self.lane(id) else { continue };
+            if lane.in_intersection {
+                return None;
+            }
+            let Some(at) = lane.centreline.project(p) else { continue };
+            let angle = at.tangent.dot(&heading).clamp(-1.0, 1.0).acos();
+            smallest = Some(smallest.map_or(angle, |a| a.min(angle)));
+        }
+        smallest.filter(|a| *a > ACROSS_LANES_MIN_ANGLE_RAD && *a < WRONG_WAY_MIN_ANGLE_RAD)
     }
 
     /// Whether lanes `a` and `b` are one lane or one continues the other.

@@ -1485,7 +1485,7 @@ fn the_wrong_way_tables_quote_their_outputs() {
     let doc = repo_file("docs/benchmarks.md");
     let shares = markdown_rows(
         &doc,
-        "| set | method | wrong way rule | output | CR | SR | SR-crit | wrong way | wrong way s2 |",
+        "| set | method | wrong way rule | output | CR | SR | SR-crit | wrong way | wrong way s2 | across lanes | across s2 |",
         "The evasive planner's mutation tables with the rule",
     );
     for row in &shares {
@@ -1493,9 +1493,12 @@ fn the_wrong_way_tables_quote_their_outputs() {
         let file = row[3].trim_matches('`');
         let output = repo_file(&format!("docs/evaluation/{file}"));
         check_wrong_way(&output, &row[2], file);
-        // CR, SR, SR-crit; then the two wrong-way shares of the plausibility table.
+        // CR, SR, SR-crit; then the two wrong-way and the two across-lanes
+        // shares of the plausibility table.
         assert_eq!(row[4..7], labelled_row(&output, "variants", method)[2..5], "{row:?} against {file}");
-        assert_eq!(row[7..9], labelled_row(&output, "wrong way", method)[5..7], "{row:?} against {file}");
+        let plausibility = labelled_row(&output, "wrong way", method);
+        assert_eq!(row[7..9], plausibility[5..7], "{row:?} against {file}");
+        assert_eq!(row[9..11], plausibility[9..11], "{row:?} against {file}");
     }
     assert_eq!(shares.len(), 14, "the recorded CBV and three methods with either rule, on two sets");
 
