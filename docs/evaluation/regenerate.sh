@@ -175,6 +175,14 @@
 #                     beside ego-contact/'s, over two draws of seeds
 #                     (mutants-{womd-interactive-evasive-n28,ngsim-evasive-n60}{,-seed1000}.txt)
 #                     (about 40 minutes)
+#   lane-follower-pairings
+#                     lane-follower-pairings/: the lane follower's mutation tables with no
+#                     contact from behind (the lookahead over 60, the CBV closed loop, the
+#                     recorded cars braking), with the scenes' own pairs
+#                     (mutants-{ngsim,womd-interactive}-lane-follower-n60-as-loaded.txt, as
+#                     ego-contact/'s) and with the ego's leader as the CBV (-leader.txt), and the
+#                     faults caught per scene with either pairing, as the shipped suite tests a
+#                     scene (scene-kills-{ngsim,womd-interactive}.txt) (about 60 minutes)
 #   mutants           mutants-{womd-interactive,womd-json,ngsim}-evasive.txt and
 #                     mutants-{womd-interactive,ngsim}-lane-follower.txt: the
 #                     faults of the planner each method's variants catch
@@ -189,7 +197,8 @@ set -euo pipefail
 self=$(realpath "$0")
 cd "$(dirname "$self")"
 all=(evaluate plain inattentive held-out-chance trust-region realism prior-fit n-sweep reactive n100 approach-none merging mutants wide-region cut-in
-    in-path-lookahead in-path-lookahead-n30 in-path-lookahead-n28 in-path-lookahead-sweep pair-in-traffic witnessed wide-witnessed ten-seeds reaction-delay reactive-background leader first-contact both-pairings first-contact-lookahead blind-twin ego-contact wrong-way)
+    in-path-lookahead in-path-lookahead-n30 in-path-lookahead-n28 in-path-lookahead-sweep pair-in-traffic witnessed wide-witnessed ten-seeds reaction-delay reactive-background leader first-contact both-pairings first-contact-lookahead blind-twin ego-contact wrong-way
+    lane-follower-pairings)
 jobs=("$@")
 [[ ${#jobs[@]} -gt 0 ]] || jobs=("${all[@]}")
 # The usage is the comment block at the top of this file.
@@ -676,6 +685,24 @@ for job in "${jobs[@]}"; do
                 python3 scene_kills_union.py "$reports/mutants-$set-evasive-as-loaded$suffix.json" \
                     "$reports/mutants-$set-evasive-leader$suffix.json" >"both-pairings/scene-kills-$set$suffix.txt"
             done
+        done
+        rm -r "$reports" ;;
+    lane-follower-pairings)
+        mkdir -p lane-follower-pairings
+        reports=$(mktemp -d)
+        lf=(--seeds 3 --stage2-cbv closed-loop --background reactive-log-replay --mutants --ego-contact not-from-behind
+            --methods log,prior,safer-in-path-lookahead --trust-region 60 --planner ../../planners/lane-follower.yaml)
+        for s in commonroad-ngsim:ngsim womd-interactive:womd-interactive; do
+            set=${s#*:}
+            for roles in as-loaded leader; do
+                name="mutants-$set-lane-follower-n60-$roles"
+                run "lane-follower-pairings/$name.txt" evaluate --scenes "data:${s%%:*}" "${lf[@]}" --roles "$roles" \
+                    --json "$reports/$name.json"
+                # The line saying where the report went names a scratch folder.
+                sed -i '/^wrote .*\.json$/d' "lane-follower-pairings/$name.txt"
+            done
+            python3 scene_kills_union.py "$reports/mutants-$set-lane-follower-n60-as-loaded.json" \
+                "$reports/mutants-$set-lane-follower-n60-leader.json" >"lane-follower-pairings/scene-kills-$set.txt"
         done
         rm -r "$reports" ;;
     esac

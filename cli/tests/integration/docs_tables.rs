@@ -1157,6 +1157,39 @@ fn the_both_pairings_tables_quote_their_outputs() {
 }
 
 #[test]
+fn the_lane_follower_pairings_table_quotes_its_outputs() {
+    let doc = repo_file("docs/benchmarks.md");
+    let rows = markdown_rows(
+        &doc,
+        "| set | pairing | no-brake | weak-brake | late | blind-cbv | blind-side | no-evade | speeding |",
+        "The leader adds no scene",
+    );
+    let mut set = String::new();
+    for row in &rows {
+        if !row[0].is_empty() {
+            set = row[0].clone();
+        }
+        let (set_name, _) = both_pairings_names(&set, "seed 0");
+        let file = format!("scene-kills-{set_name}.txt");
+        let table = repo_file(&format!("docs/evaluation/lane-follower-pairings/{file}"));
+        let pairing = match row[1].as_str() {
+            "own pairs" => format!("mutants-{set_name}-lane-follower-n60-as-loaded"),
+            "leader" => format!("mutants-{set_name}-lane-follower-n60-leader"),
+            other => other.to_owned(),
+        };
+        // The pairing cell of the held-out row goes on with the number of scenes.
+        let prefix = format!("| `safer-in-path-lookahead` | {pairing}");
+        let line = table
+            .lines()
+            .find(|l| l.strip_prefix(&prefix).is_some_and(|rest| rest.starts_with(" |") || rest.starts_with(" (")))
+            .unwrap_or_else(|| panic!("no row {prefix:?} in {file}"));
+        let cells: Vec<&str> = line.trim_matches('|').split('|').map(str::trim).skip(2).take(7).collect();
+        assert_eq!(row[2..], cells[..], "{set}, {}: the table against {file}", row[1]);
+    }
+    assert_eq!(rows.len(), 8, "two sets, four pairings each");
+}
+
+#[test]
 fn the_lookahead_first_contact_tables_quote_their_outputs() {
     let doc = repo_file("docs/benchmarks.md");
     let method = "safer-in-path-lookahead";
