@@ -1098,15 +1098,20 @@ fn scenes_caught(caught: u32, of: u32) -> String {
     format!("{caught}/{of} ({percent} %)")
 }
 
+/// The row of `method` and `pairing` of a `scene_kills_union.py` table.
+fn scene_kills_row<'t>(table: &'t str, method: &str, pairing: &str) -> &'t str {
+    let prefix = format!("| `{method}` | {pairing}");
+    // The pairing cell may go on with the number of scenes: `either, held out (6 scenes)`.
+    table
+        .lines()
+        .find(|l| l.strip_prefix(&prefix).is_some_and(|rest| rest.starts_with(" |") || rest.starts_with(" (")))
+        .unwrap_or_else(|| panic!("no row {prefix:?}"))
+}
+
 /// The fewest scenes any fault was caught in, of a row of a
 /// `scene_kills_union.py` table: (caught, scenes with a passed variant).
 fn fewest_scene_kills(table: &str, method: &str, pairing: &str) -> (u32, u32) {
-    let prefix = format!("| `{method}` | {pairing}");
-    // The pairing cell may go on with the number of scenes: `either, held out (6 scenes)`.
-    let line = table
-        .lines()
-        .find(|l| l.strip_prefix(&prefix).is_some_and(|rest| rest.starts_with(" |") || rest.starts_with(" (")))
-        .unwrap_or_else(|| panic!("no row {prefix:?}"));
+    let line = scene_kills_row(table, method, pairing);
     let cells = line.trim_matches('|').split('|').map(str::trim).skip(2);
     let counts = cells.filter_map(|c| {
         let (caught, rest) = c.split_once('/')?;
@@ -1177,12 +1182,7 @@ fn the_lane_follower_pairings_table_quotes_its_outputs() {
             "leader" => format!("mutants-{set_name}-lane-follower-n60-leader"),
             other => other.to_owned(),
         };
-        // The pairing cell of the held-out row goes on with the number of scenes.
-        let prefix = format!("| `safer-in-path-lookahead` | {pairing}");
-        let line = table
-            .lines()
-            .find(|l| l.strip_prefix(&prefix).is_some_and(|rest| rest.starts_with(" |") || rest.starts_with(" (")))
-            .unwrap_or_else(|| panic!("no row {prefix:?} in {file}"));
+        let line = scene_kills_row(&table, "safer-in-path-lookahead", &pairing);
         let cells: Vec<&str> = line.trim_matches('|').split('|').map(str::trim).skip(2).take(7).collect();
         assert_eq!(row[2..], cells[..], "{set}, {}: the table against {file}", row[1]);
     }
