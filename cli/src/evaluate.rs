@@ -24,7 +24,7 @@ use safer_scenarios::harness::evaluation::{
 };
 use safer_scenarios::harness::methods::BackgroundDriver;
 use safer_scenarios::harness::methods::ModelSet;
-use safer_scenarios::harness::mutation::MethodKills;
+use safer_scenarios::harness::mutation::{MethodKills, OFF_PATH_M};
 use safer_scenarios::policies::adversary::{ApproachPhase, EgoContactRule, FeasibilityScope, WrongWayRule};
 use safer_scenarios::scenario::roles::RolePairing;
 use safer_scenarios::scenario::{Scenario, import};
@@ -790,6 +790,59 @@ fn write_mutant_effects(
     writeln!(
         out,
         "drove otherwise: the mutant's ego was more than 1 cm from the planner's at some step (or its rollout ended at another step). Never (the fault never came into play, so no variant could kill it): {never}."
+    )?;
+    write_mutant_paths(out, rows, modes, mutants, width)
+}
+
+/// The mutants' paths table: per method and mutant, the distinct passed
+/// variants where the mutant's path left the planner's by more than
+/// [`OFF_PATH_M`], and the farthest it did. A fault that changes only the
+/// steering and never left the path never came into play, however its
+/// lane keeping differs. Left out for reports that did not record it.
+fn write_mutant_paths(
+    out: &mut dyn Write,
+    rows: &[MethodRow],
+    modes: usize,
+    mutants: &[safer_scenarios::planners::FaultOperator],
+    width: usize,
+) -> std::io::Result<()> {
+    let recorded = |k: &MethodKills| k.operators.iter().any(|o| o.variants_off_path.is_some());
+    if !rows.iter().filter_map(|r| r.kills.as_ref()).any(recorded) {
+        return Ok(());
+    }
+    writeln!(
+        out,
+        "\nmutants' paths (distinct passed variants where the mutant's path left the planner's by more than {OFF_PATH_M} m / passed variants, and the farthest it did, m)"
+    )?;
+    write!(out, "{:<width$}", "method")?;
+    for op in mutants {
+        write!(out, "  {:>16}", op.name())?;
+    }
+    writeln!(out)?;
+    let mut kept: Vec<String> = Vec::new();
+    for r in rows {
+        let Some(k) = &r.kills else { continue };
+        let method = label(r.method, r.stage2_cbv, modes);
+        write!(out, "{method:<width$}")?;
+        for op in mutants {
+            let o = k.operators.iter().find(|o| o.operator == *op);
+            let cell = match o.and_then(|o| Some((o.variants_off_path?, o.largest_path_departure_m?))) {
+                Some((off, farthest)) => {
+                    if op.changes_only_the_steering() && off == 0 && k.variants_passed > 0 {
+                        kept.push(format!("{method}: {} (at most {farthest:.2} m)", op.name()));
+                    }
+                    format!("{off}/{} {farthest:.2}", k.variants_passed)
+                }
+                None => "-".to_string(),
+            };
+            write!(out, "  {cell:>16}")?;
+        }
+        writeln!(out)?;
+    }
+    let kept = if kept.is_empty() { "none".to_string() } else { kept.join(", ") };
+    writeln!(
+        out,
+        "left the path: the mutant's ego was more than {OFF_PATH_M} m from every point of the path the planner's ego drove (joined step to step) at some step; a mutant that drove the same way faster or slower never leaves it. A fault that changes only the steering (no-evade) never came into play where it kept to the path, however its lane keeping differs; kept to the path in every variant: {kept}."
     )
 }
 

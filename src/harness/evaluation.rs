@@ -1061,6 +1061,7 @@ mod tests {
                         failure: None,
                         hit_cbv: true,
                         drove_differently: Some(true),
+                        path_departure_m: Some(0.0),
                         error: None,
                     },
                     MutantRecord {
@@ -1069,6 +1070,7 @@ mod tests {
                         failure: None,
                         hit_cbv,
                         drove_differently: Some(true),
+                        path_departure_m: Some(0.0),
                         error: error.then(|| "gone".to_owned()),
                     },
                 ],

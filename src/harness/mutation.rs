@@ -20,6 +20,7 @@ use super::variant::VariantInputs;
 use super::{HarnessError, MetricCheck, Suite, SuiteScenario, VariantOutcome};
 use crate::eval::escape::CollisionEscape;
 use crate::eval::min_time_to_collision;
+use crate::geometry::Point2;
 use crate::planners::FaultOperator;
 use crate::sim::Rollout;
 use crate::spec::suite::{SuiteAcceptance, VariantAcceptance};
@@ -52,6 +53,62 @@ pub fn drove_differently(planner: &Rollout, mutant: &Rollout) -> bool {
     })
 }
 
+/// How far a mutant's path may be from the planner's, m, and still be the
+/// planner's way driven with other controls: its lane keeping retuned
+/// (`no-evade`, the harness's lane keeping in place of the planner's,
+/// moved the lane follower's ego 0.12 m on the shipped NGSIM scenes and
+/// the evasive planner's 0.42 m on the authored ones), not a swerve (the
+/// evasive planner's least aims half a lane, 1.75 m, aside).
+pub const OFF_PATH_M: f64 = 0.5;
+
+/// How far apart the ways of the egos of `planner` and `mutant` were, m:
+/// the largest distance from either ego at any step to the path the other
+/// drove (its positions joined step to step, carried on straight past
+/// both ends), sideways, whenever each was there. A mutant that drove the
+/// same way faster or slower, or on past where the planner stopped, is
+/// 0 m off it; one that kept its lane where the planner swerved is as far
+/// off as the swerve. `None` when either ego has no state, or a position
+/// is not finite.
+pub fn path_departure_m(planner: &Rollout, mutant: &Rollout) -> Option<f64> {
+    let ego_positions = |r: &Rollout| -> Vec<Point2> {
+        r.states.iter().filter_map(|step| step.get(r.ego.0).copied().flatten()).map(|s| s.position).collect()
+    };
+    let (planned, driven) = (ego_positions(planner), ego_positions(mutant));
+    if planned.is_empty()
+        || driven.is_empty()
+        || planned.iter().chain(&driven).any(|p| !(p.x.is_finite() && p.y.is_finite()))
+    {
+        return None;
+    }
+    Some(farthest_from_path_m(&driven, &planned).max(farthest_from_path_m(&planned, &driven)))
+}
+
+/// The largest distance, m, from any of `points` to the path through
+/// `path` (joined point to point, carried on straight past both ends; a
+/// path that never moved is its one point). Both are non-empty and finite.
+fn farthest_from_path_m(points: &[Point2], path: &[Point2]) -> f64 {
+    // A step where the ego stood adds no segment: one of no length has no
+    // direction to project on.
+    let segments: Vec<[Point2; 2]> = path.windows(2).filter(|w| w[0] != w[1]).map(|w| [w[0], w[1]]).collect();
+    let distance_m = |p: &Point2| {
+        let Some(last) = segments.len().checked_sub(1) else { return (p - path[0]).norm() };
+        segments
+            .iter()
+            .enumerate()
+            .map(|(i, [a, b])| {
+                let ab = b - a;
+                // The first and the last segment run on past their ends.
+                let (from, to) =
+                    (if i == 0 { f64::NEG_INFINITY } else { 0.0 }, if i == last { f64::INFINITY } else { 1.0 });
+                let t = ((p - a).dot(&ab) / ab.norm_squared()).clamp(from, to);
+                (a + ab * t - p).norm_squared()
+            })
+            .fold(f64::INFINITY, f64::min)
+            .sqrt()
+    };
+    points.iter().map(distance_m).fold(0.0, f64::max)
+}
+
 /// A mutant's result on one variant.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct MutantRun {
@@ -63,6 +120,9 @@ pub struct MutantRun {
     /// Whether its ego drove otherwise than the planner's
     /// ([`drove_differently`]); `false` when it could not run.
     pub drove_differently: bool,
+    /// How far its path left the planner's ([`path_departure_m`]);
+    /// `None` when it could not run.
+    pub path_departure_m: Option<f64>,
 }
 
 impl MutantRun {
@@ -81,6 +141,8 @@ pub struct MutantJudgement {
     pub hit_cbv: bool,
     /// Its ego drove otherwise than the planner's ([`drove_differently`]).
     pub drove_differently: bool,
+    /// How far its path left the planner's ([`path_departure_m`]).
+    pub path_departure_m: Option<f64>,
 }
 
 /// Stage 2 of `setup` played with `operator` planted, after `stage1`, and
@@ -108,6 +170,7 @@ pub fn judge_mutant(
         failures: acceptance::check(criteria, &played.stage2, setup.scenario, min_ttc, escape),
         hit_cbv: played.stage2.summary().ego_collision.is_some_and(|c| c.with_cbv),
         drove_differently: drove_differently(planner_stage2, &played.stage2),
+        path_departure_m: path_departure_m(planner_stage2, &played.stage2),
     })
 }
 
@@ -131,7 +194,12 @@ pub fn run_mutants(
             let why = e.to_string();
             return operators
                 .iter()
-                .map(|&operator| MutantRun { operator, failures: Err(why.clone()), drove_differently: false })
+                .map(|&operator| MutantRun {
+                    operator,
+                    failures: Err(why.clone()),
+                    drove_differently: false,
+                    path_departure_m: None,
+                })
                 .collect();
         }
     };
@@ -140,8 +208,15 @@ pub fn run_mutants(
     operators
         .iter()
         .map(|&operator| match judge_mutant(&setup, &base.stage1, &base.stage2, criteria, operator) {
-            Ok(j) => MutantRun { operator, failures: Ok(j.failures), drove_differently: j.drove_differently },
-            Err(e) => MutantRun { operator, failures: Err(e.to_string()), drove_differently: false },
+            Ok(j) => MutantRun {
+                operator,
+                failures: Ok(j.failures),
+                drove_differently: j.drove_differently,
+                path_departure_m: j.path_departure_m,
+            },
+            Err(e) => {
+                MutantRun { operator, failures: Err(e.to_string()), drove_differently: false, path_departure_m: None }
+            }
         })
         .collect()
 }
@@ -191,6 +266,9 @@ pub struct OperatorResult {
     pub variants_driven_differently: usize,
     /// Variants the planner passes where the mutant ran.
     pub variants_run: usize,
+    /// The farthest its path left the planner's over those variants
+    /// ([`path_departure_m`]); `None` when none measured it.
+    pub largest_path_departure_m: Option<f64>,
     /// For a survivor: the kind of scene that would catch it.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub hint: Option<&'static str>,
@@ -198,17 +276,25 @@ pub struct OperatorResult {
 
 impl OperatorResult {
     /// A survivor's verdict after "SURVIVED": whether its fault ever
-    /// changed the driving (and in how many variants), then the hint.
+    /// changed the driving (and in how many variants), then the hint. A
+    /// fault that changes only the steering has not come into play where
+    /// its path kept within [`OFF_PATH_M`] of the planner's: the planner
+    /// never steered off its way there.
     pub fn survivor_note(&self) -> String {
         let hint = self.operator.blind_spot_hint();
         let passed = |n: usize| if n == 1 { "the one variant".to_string() } else { format!("all {n} variants") };
-        match (self.variants_run, self.variants_driven_differently) {
-            (0, _) => hint.to_string(),
-            (n, 0) => format!(
+        let kept_to_the_path = self.largest_path_departure_m.filter(|d| *d <= OFF_PATH_M);
+        match (self.variants_run, self.variants_driven_differently, kept_to_the_path) {
+            (0, _, _) => hint.to_string(),
+            (n, 0, _) => format!(
                 "it drove exactly as the planner in {} the planner passes: the fault never came into play; {hint}",
                 passed(n)
             ),
-            (n, k) => {
+            (n, _, Some(d)) if self.operator.changes_only_the_steering() => format!(
+                "its path kept within {d:.2} m of the planner's in {} the planner passes: the planner never steered off its way, so the fault, which changes only the steering, never came into play (no scene can catch it if the planner never steers around anything); {hint}",
+                passed(n)
+            ),
+            (n, k, _) => {
                 format!("it drove otherwise than the planner in {k} of {n} variants, and passed them all; {hint}")
             }
         }
@@ -251,6 +337,7 @@ impl MutationReport {
                 errors: Vec::new(),
                 variants_driven_differently: 0,
                 variants_run: 0,
+                largest_path_departure_m: None,
                 hint: None,
             })
             .collect();
@@ -271,6 +358,10 @@ impl MutationReport {
                     Ok(failures) => {
                         result.variants_run += 1;
                         result.variants_driven_differently += usize::from(run.drove_differently);
+                        if let Some(d) = run.path_departure_m {
+                            result.largest_path_departure_m =
+                                Some(result.largest_path_departure_m.map_or(d, |l| l.max(d)));
+                        }
                         if let Some(first) = failures.first() {
                             result.kills.push(Kill {
                                 variant: name.to_string(),
@@ -428,6 +519,7 @@ impl VariantMutation {
                     failure: judged.failures.first().map(|f| format!("{}: {}", f.criterion, f.what)),
                     hit_cbv: judged.hit_cbv,
                     drove_differently: Some(judged.drove_differently),
+                    path_departure_m: judged.path_departure_m,
                     error: None,
                 },
                 Err(e) => MutantRecord {
@@ -436,6 +528,7 @@ impl VariantMutation {
                     failure: None,
                     hit_cbv: false,
                     drove_differently: None,
+                    path_departure_m: None,
                     error: Some(e.to_string()),
                 },
             })
@@ -462,6 +555,11 @@ pub struct MutantRecord {
     /// reports written before this was recorded.
     #[serde(default)]
     pub drove_differently: Option<bool>,
+    /// How far the mutant's path left the planner's
+    /// ([`path_departure_m`]), m; `None` when it could not run, and in
+    /// reports written before this was recorded.
+    #[serde(default)]
+    pub path_departure_m: Option<f64>,
     /// Why the mutant could not run.
     pub error: Option<String>,
 }
@@ -518,6 +616,13 @@ pub struct OperatorKills {
     /// (reports written before it was). Zero: its fault never came into
     /// play, so it could not be killed there.
     pub variants_driven_differently: Option<usize>,
+    /// Distinct passed variants where its path left the planner's by more
+    /// than [`OFF_PATH_M`] ([`path_departure_m`]); `None` when no run
+    /// recorded it (reports written before it was).
+    pub variants_off_path: Option<usize>,
+    /// The farthest its path left the planner's over those variants, m;
+    /// `None` when no run recorded it.
+    pub largest_path_departure_m: Option<f64>,
 }
 
 /// One variant's mutation run as [`MethodKills::of`] counts it.
@@ -565,6 +670,8 @@ impl MethodKills {
         let mut scenes: BTreeSet<&str> = BTreeSet::new();
         let mut per_op: BTreeMap<FaultOperator, (usize, BTreeSet<&str>)> = BTreeMap::new();
         let mut differently: BTreeMap<FaultOperator, Option<usize>> = BTreeMap::new();
+        // Per operator: variants off the planner's path, and the farthest.
+        let mut departures: BTreeMap<FaultOperator, (usize, f64)> = BTreeMap::new();
         for v in variants {
             any = true;
             if let Some(digest) = v.cbv_path_digest {
@@ -583,6 +690,11 @@ impl MethodKills {
             for r in &v.mutation.mutants {
                 if let Some(d) = r.drove_differently {
                     *differently.entry(r.operator).or_default().get_or_insert(0) += usize::from(d);
+                }
+                if let Some(d) = r.path_departure_m {
+                    let (off, farthest) = departures.entry(r.operator).or_insert((0, 0.0));
+                    *off += usize::from(d > OFF_PATH_M);
+                    *farthest = farthest.max(d);
                 }
                 let (kills, where_) = per_op.entry(r.operator).or_default();
                 if r.killed {
@@ -605,6 +717,8 @@ impl MethodKills {
                 scenes_killed: where_.len(),
                 scenes: scenes.len(),
                 variants_driven_differently: differently.get(&operator).copied().flatten(),
+                variants_off_path: departures.get(&operator).map(|(off, _)| *off),
+                largest_path_departure_m: departures.get(&operator).map(|(_, farthest)| *farthest),
             })
             .collect();
         Some(MethodKills {
@@ -660,6 +774,7 @@ mod tests {
                     errors: Vec::new(),
                     variants_driven_differently: 2,
                     variants_run: 2,
+                    largest_path_departure_m: Some(1.0),
                     hint: None,
                 })
                 .collect(),
@@ -692,6 +807,7 @@ mod tests {
                     failure: killed.then(|| "no_off_road: ego left the road at t = 2.0 s".into()),
                     hit_cbv: false,
                     drove_differently: Some(killed),
+                    path_departure_m: Some(if killed { 2.0 } else { 0.0 }),
                     error: None,
                 })
                 .collect(),
@@ -738,11 +854,97 @@ mod tests {
         assert!(drove_differently(&planner, &vanished));
     }
 
+    /// A rollout whose ego (agent 0) drives through `points`, one a step.
+    fn ego_through(points: &[(f64, f64)]) -> Rollout {
+        let mut r = ego_along(&vec![0.0; points.len()]);
+        for (step, &(x, y)) in r.states.iter_mut().zip(points) {
+            step[0].as_mut().unwrap().position = crate::geometry::Point2::new(x, y);
+        }
+        r
+    }
+
+    #[test]
+    fn a_mutant_departs_from_the_planners_path_by_its_farthest_distance_from_it_not_by_its_timing() {
+        let planner = ego_along(&[0.0, 10.0, 20.0, 30.0]);
+        // Faster along the same path, and on past its end: nothing.
+        assert_eq!(path_departure_m(&planner, &ego_along(&[0.0, 12.0, 24.0, 36.0])), Some(0.0));
+        // Slower and shorter, on the path throughout: nothing.
+        assert_eq!(path_departure_m(&planner, &ego_along(&[0.0, 5.0])), Some(0.0));
+        // A swerve of 1.75 m half way: 1.75, beyond OFF_PATH_M.
+        let swerve = ego_through(&[(0.0, 0.0), (10.0, 1.0), (20.0, 1.75), (30.0, 0.0)]);
+        let d = path_departure_m(&planner, &swerve).unwrap();
+        assert!((d - 1.75).abs() < 1e-9 && d > OFF_PATH_M, "{d}");
+        // Between two of the planner's points the path is the segment.
+        let beside = ego_through(&[(5.0, 0.2), (25.0, 0.2)]);
+        assert!(path_departure_m(&planner, &beside).is_some_and(|d| (d - 0.2).abs() < 1e-9));
+        // Past the end and 0.4 m to the side of the path carried on.
+        let beyond = ego_through(&[(0.0, 0.0), (45.0, 0.4)]);
+        assert!(path_departure_m(&planner, &beyond).is_some_and(|d| (d - 0.4).abs() < 1e-9));
+        // Keeping the lane where the planner swerved: as far as the swerve,
+        // though each of the mutant's positions lies on the planner's path.
+        let kept_lane = ego_along(&[0.0, 5.0, 10.0]);
+        assert!(path_departure_m(&swerve, &kept_lane).is_some_and(|d| (d - 1.75).abs() < 1e-9));
+        // A planner that stood still: the distance from where it stood.
+        let stood = ego_along(&[3.0, 3.0]);
+        assert!(path_departure_m(&stood, &ego_along(&[3.0, 7.0])).is_some_and(|d| (d - 4.0).abs() < 1e-9));
+        // Nothing to compare, or a position that is not finite: unknown.
+        let mut gone = ego_along(&[0.0]);
+        gone.states[0][0] = None;
+        assert_eq!(path_departure_m(&planner, &gone), None);
+        assert_eq!(path_departure_m(&gone, &planner), None);
+        assert_eq!(path_departure_m(&planner, &ego_along(&[0.0, f64::NAN])), None);
+    }
+
+    #[test]
+    fn a_steering_fault_that_kept_to_the_planners_path_never_came_into_play() {
+        let passed: &[AcceptanceFailure] = &[];
+        let ran = |operator, path_departure_m| MutantRun {
+            operator,
+            failures: Ok(vec![]),
+            drove_differently: true,
+            path_departure_m: Some(path_departure_m),
+        };
+        let note = |operator, departures: [f64; 2]| {
+            let runs = [[ran(operator, departures[0])], [ran(operator, departures[1])]];
+            let report = MutationReport::of(
+                &[operator],
+                [("s::a::seed-0", Some(passed), &runs[0][..]), ("s::b::seed-0", Some(passed), &runs[1][..])],
+            );
+            assert_eq!(report.operators[0].largest_path_departure_m, Some(departures[0].max(departures[1])));
+            report.operators[0].survivor_note()
+        };
+        // no-evade's lane keeping a few centimetres off the planner's: the
+        // planner never steered off its way.
+        let kept = note(FaultOperator::NoEvade, [0.12, 0.5]);
+        assert!(
+            kept.starts_with("its path kept within 0.50 m of the planner's in all 2 variants the planner passes: the planner never steered off its way, so the fault, which changes only the steering, never came into play"),
+            "{kept}"
+        );
+        // Once it left the path by more, the fault was in play and missed.
+        let missed = note(FaultOperator::NoEvade, [0.12, 0.51]);
+        assert!(
+            missed.starts_with("it drove otherwise than the planner in 2 of 2 variants, and passed them all; "),
+            "{missed}"
+        );
+        // A fault that changes the speed keeps to the path and is in play.
+        let speeding = note(FaultOperator::Speeding, [0.0, 0.1]);
+        assert!(speeding.starts_with("it drove otherwise than the planner in 2 of 2 variants"), "{speeding}");
+    }
+
     #[test]
     fn a_survivor_says_whether_its_fault_ever_changed_the_driving() {
-        let ran = |operator, drove_differently| MutantRun { operator, failures: Ok(vec![]), drove_differently };
-        let killed =
-            |operator| MutantRun { operator, failures: Ok(vec![failure("no_collision")]), drove_differently: true };
+        let ran = |operator, drove_differently| MutantRun {
+            operator,
+            failures: Ok(vec![]),
+            drove_differently,
+            path_departure_m: Some(if drove_differently { 1.0 } else { 0.0 }),
+        };
+        let killed = |operator| MutantRun {
+            operator,
+            failures: Ok(vec![failure("no_collision")]),
+            drove_differently: true,
+            path_departure_m: Some(1.0),
+        };
         let passed: &[AcceptanceFailure] = &[];
         let runs_a =
             [ran(FaultOperator::NoBrake, false), ran(FaultOperator::NoEvade, true), killed(FaultOperator::Late)];
@@ -809,11 +1011,21 @@ mod tests {
         // all six distinct passed variants, weak-brake in the one.
         let differently: Vec<Option<usize>> = kills.operators.iter().map(|o| o.variants_driven_differently).collect();
         assert_eq!(differently, vec![Some(6), Some(1)]);
+        // Off the planner's path (2 m where killed, on it elsewhere, as
+        // `run` makes them) in the same distinct variants, 2 m at most.
+        let off_path: Vec<(Option<usize>, Option<f64>)> =
+            kills.operators.iter().map(|o| (o.variants_off_path, o.largest_path_departure_m)).collect();
+        assert_eq!(off_path, vec![(Some(6), Some(2.0)), (Some(1), Some(2.0))]);
         // Reports written before it was recorded say nothing of it.
         let mut old = run(&[true]);
         old.mutants[0].drove_differently = None;
+        old.mutants[0].path_departure_m = None;
         let unrecorded = MethodKills::of([input("a", Some(1), &old)], None).unwrap();
         assert_eq!(unrecorded.operators[0].variants_driven_differently, None);
+        assert_eq!(
+            (unrecorded.operators[0].variants_off_path, unrecorded.operators[0].largest_path_departure_m),
+            (None, None)
+        );
         assert_eq!(MethodKills::of(std::iter::empty(), None), None);
     }
 
@@ -850,7 +1062,12 @@ mod tests {
 
     #[test]
     fn mutant_runs_count_as_failed_only_with_a_failed_criterion() {
-        let ran = |failures| MutantRun { operator: FaultOperator::Late, failures, drove_differently: true };
+        let ran = |failures| MutantRun {
+            operator: FaultOperator::Late,
+            failures,
+            drove_differently: true,
+            path_departure_m: Some(1.0),
+        };
         assert!(ran(Ok(vec![failure("no_collision")])).failed());
         assert!(!ran(Ok(vec![])).failed());
         assert!(!ran(Err("could not start".into())).failed());

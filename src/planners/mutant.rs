@@ -99,6 +99,13 @@ impl FaultOperator {
         }
     }
 
+    /// Whether the fault changes the planner's steering and nothing else
+    /// (`no-evade`): where the mutant kept to the planner's path, it has
+    /// not come into play, however its lane keeping differs.
+    pub fn changes_only_the_steering(self) -> bool {
+        matches!(self, Self::NoEvade)
+    }
+
     /// What kind of scene would catch the fault, for a suite it survives.
     pub fn blind_spot_hint(self) -> &'static str {
         match self {

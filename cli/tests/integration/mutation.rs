@@ -11,7 +11,7 @@ use std::sync::Arc;
 
 use safer_scenarios::geometry::{Point2, Vector2};
 use safer_scenarios::harness::Suite;
-use safer_scenarios::harness::mutation::{MutantRun, run_mutants};
+use safer_scenarios::harness::mutation::{MutantRun, OFF_PATH_M, run_mutants};
 use safer_scenarios::map::{Lane, MapElementId, RoadMap};
 use safer_scenarios::motion::Action;
 use safer_scenarios::planners::external::RolloutContext;
@@ -102,8 +102,10 @@ fn surviving_mutants_are_named_with_a_hint_and_fail_the_score_everywhere() {
         assert_eq!(by_name(killed).unwrap()["killed"], true, "{killed}: {m:#}");
     }
     // Blind to the CBV or the side, the evasive planner drives exactly as
-    // it does here (its fault never comes into play); without steering it
-    // brakes behind the leader instead of overtaking, and passes.
+    // it does here (its fault never comes into play). Without its own
+    // steering it drives otherwise, on the harness's lane keeping, but
+    // within half a metre of its path: the planner never swerves here, so
+    // that fault never comes into play either.
     for (survived, drove_differently) in [("blind-cbv", 0), ("blind-side", 0), ("no-evade", 1)] {
         let op = by_name(survived).unwrap();
         assert_eq!(op["killed"], false, "{survived}: {m:#}");
@@ -113,19 +115,27 @@ fn surviving_mutants_are_named_with_a_hint_and_fail_the_score_everywhere() {
         );
         let hint = op["hint"].as_str().unwrap();
         assert!(hint.starts_with("add a scene"), "{hint}");
+        let departure_m = op["largest_path_departure_m"].as_f64().unwrap();
         let note = if drove_differently == 0 {
+            assert_eq!(departure_m, 0.0, "{op:#}");
             format!(
                 "it drove exactly as the planner in the one variant the planner passes: the fault never came into play; {hint}"
             )
         } else {
-            format!("it drove otherwise than the planner in 1 of 1 variants, and passed them all; {hint}")
+            assert!(departure_m > 0.0 && departure_m <= OFF_PATH_M, "{op:#}");
+            format!(
+                "its path kept within {departure_m:.2} m of the planner's in the one variant the planner passes: the planner never steered off its way, so the fault, which changes only the steering, never came into play (no scene can catch it if the planner never steers around anything); {hint}"
+            )
         };
         assert!(table.contains(&format!("{survived:<10}  SURVIVED: {note}")), "{table}");
-        assert!(page.contains(&note), "{page}");
+        assert!(page.contains(&note.replace('\'', "&apos;")), "{page}");
         assert!(junit.contains(&format!(r#"<property name="mutant.{survived}" value="survived"/>"#)), "{junit}");
     }
+    // The killed ones braked otherwise, metres off the planner's way.
     for killed in ["weak-brake", "late"] {
-        assert_eq!(by_name(killed).unwrap()["variants_driven_differently"], 1, "{killed}: {m:#}");
+        let op = by_name(killed).unwrap();
+        assert_eq!(op["variants_driven_differently"], 1, "{killed}: {m:#}");
+        assert!(op["largest_path_departure_m"].as_f64().unwrap() > OFF_PATH_M, "{killed}: {m:#}");
     }
     assert_eq!(m["score"], 0.4);
     let check = report["suites"][0]["checks"].as_array().unwrap().iter().find(|c| c["name"] == "mutation_score");
@@ -134,6 +144,32 @@ fn surviving_mutants_are_named_with_a_hint_and_fail_the_score_everywhere() {
     assert!(table.contains("survivors::mutation_score") && table.contains("FAIL mutation_score"), "{table}");
     assert!(junit.contains(r#"name="mutation_score""#) && junit.contains("0.400 &lt; 0.5"), "{junit}");
     assert!(page.contains("SURVIVED") && page.contains("FAIL"), "{page}");
+}
+
+/// The lane follower steers by pure pursuit on its route and never
+/// swerves. `no-evade` swaps that for the harness's lane keeping, which
+/// drives otherwise by centimetres but keeps to the planner's path: every
+/// report says the fault never came into play, not that the scenes
+/// tested it and missed.
+#[test]
+fn a_steering_fault_on_a_planner_that_never_swerves_is_reported_as_never_in_play() {
+    let (code, table, report, junit, page) =
+        run_suite("specs/suites/external-lane-follower.yaml", &["--mutants", "no-evade"]);
+    assert_eq!(code, Some(1), "a survivor fails the suite's score of 1: {table}");
+    let op = &report["suites"][0]["mutation"]["operators"][0];
+    assert_eq!((op["operator"].as_str(), op["killed"].as_bool()), (Some("no-evade"), Some(false)), "{op:#}");
+    let run = op["variants_run"].as_u64().unwrap();
+    let departure_m = op["largest_path_departure_m"].as_f64().unwrap();
+    assert!(departure_m <= OFF_PATH_M, "{op:#}");
+    // It did drive otherwise, by more than a centimetre: only the path
+    // tells this from a fault the scenes test and miss.
+    assert!(op["variants_driven_differently"].as_u64().unwrap() > 0, "{op:#}");
+    let note = format!(
+        "its path kept within {departure_m:.2} m of the planner's in all {run} variants the planner passes: the planner never steered off its way, so the fault, which changes only the steering, never came into play"
+    );
+    assert!(table.contains(&format!("no-evade  SURVIVED: {note}")), "{table}");
+    assert!(page.contains(&note.replace('\'', "&apos;")), "{page}");
+    assert!(junit.contains(r#"<property name="mutant.no-evade" value="survived"/>"#), "{junit}");
 }
 
 #[test]

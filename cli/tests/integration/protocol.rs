@@ -297,6 +297,16 @@ fn evaluate_with_mutants_counts_the_kills_beyond_log_replay_alike_in_the_table_a
     let row = effects.lines().find(|l| l.starts_with("prior ")).unwrap();
     let passed = prior["variants_passed"].as_u64().unwrap();
     assert_eq!(row.split_whitespace().nth(1), Some(format!("{differently}/{passed}").as_str()), "{effects}");
+    // The mutants' paths: a mutant that cannot brake drove the planner's
+    // way at another speed, and the table's cell is the report's count and
+    // farthest departure.
+    let off_path = operator("no-brake")["variants_off_path"].as_u64().unwrap();
+    let farthest_m = operator("no-brake")["largest_path_departure_m"].as_f64().unwrap();
+    assert!(off_path <= differently, "{prior}");
+    let paths = effects.split("mutants' paths").nth(1).expect("the mutants' paths table");
+    let row: Vec<&str> = paths.lines().find(|l| l.starts_with("prior ")).unwrap().split_whitespace().collect();
+    let (off_cell, farthest_cell) = (format!("{off_path}/{passed}"), format!("{farthest_m:.2}"));
+    assert_eq!(row[1..3], [off_cell.as_str(), farthest_cell.as_str()], "{paths}");
     // Without log replay in the run there is nothing to count beyond.
     let (report, table) = run("prior");
     assert!(report["rows"][0]["kills"]["beyond_replay"].is_null(), "{}", report["rows"][0]);
