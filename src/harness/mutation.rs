@@ -896,6 +896,15 @@ mod tests {
     }
 
     #[test]
+    fn a_mutant_record_from_a_report_written_before_paths_were_measured_reads_as_unmeasured() {
+        let old = r#"{"operator": "no-evade", "killed": false, "failure": null, "hit_cbv": false, "drove_differently": true, "error": null}"#;
+        let record: MutantRecord = serde_json::from_str(old).unwrap();
+        assert_eq!((record.drove_differently, record.path_departure_m), (Some(true), None));
+        let now = serde_json::to_value(MutantRecord { path_departure_m: Some(0.25), ..record }).unwrap();
+        assert_eq!(now["path_departure_m"], 0.25);
+    }
+
+    #[test]
     fn a_steering_fault_that_kept_to_the_planners_path_never_came_into_play() {
         let passed: &[AcceptanceFailure] = &[];
         let ran = |operator, path_departure_m| MutantRun {
