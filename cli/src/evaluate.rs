@@ -797,7 +797,7 @@ fn write_mutant_effects(
 /// The mutants' paths table: per method and mutant, the distinct passed
 /// variants where the mutant's path left the planner's by more than
 /// [`OFF_PATH_M`], and the farthest it did. A fault that changes only the
-/// steering and never left the path never came into play, however its
+/// steering and never left the path took away no swerve, however its
 /// lane keeping differs. Left out for reports that did not record it.
 fn write_mutant_paths(
     out: &mut dyn Write,
@@ -842,7 +842,7 @@ fn write_mutant_paths(
     let kept = if kept.is_empty() { "none".to_string() } else { kept.join(", ") };
     writeln!(
         out,
-        "left the path: the mutant's ego was more than {OFF_PATH_M} m from every point of the path the planner's ego drove (joined step to step) at some step; a mutant that drove the same way faster or slower never leaves it. A fault that changes only the steering (no-evade) never came into play where it kept to the path, however its lane keeping differs; kept to the path in every variant: {kept}."
+        "left the path: the two egos were more than {OFF_PATH_M} m apart sideways at some step (either one farther than that from the path the other drove, joined step to step and carried on straight past both ends); a mutant that drove the same way faster or slower does not leave it. A fault that changes only the steering (no-evade) took away no swerve where it kept to the path, however its lane keeping differs, and its kills there are the lane keeping's; kept to the path in every variant: {kept}."
     )
 }
 
