@@ -537,6 +537,22 @@ impl VariantMutation {
     }
 }
 
+impl VariantMutation {
+    /// Whether `other` has the same results: the same failure of the
+    /// planner and, mutant by mutant, the same verdict, failure, CBV hit,
+    /// driving otherwise and error. How far a mutant's path was from the
+    /// planner's is a measurement, not a result: a closed-loop CBV may
+    /// drive a repeated variant's stage 2 a little otherwise.
+    pub fn same_results(&self, other: &VariantMutation) -> bool {
+        let result = |m: &MutantRecord| {
+            (m.operator, m.killed, m.failure.clone(), m.hit_cbv, m.drove_differently, m.error.clone())
+        };
+        self.base_failure == other.base_failure
+            && self.mutants.len() == other.mutants.len()
+            && self.mutants.iter().zip(&other.mutants).all(|(a, b)| result(a) == result(b))
+    }
+}
+
 /// A mutant on one evaluation variant.
 #[derive(Debug, Clone, PartialEq, Serialize, serde::Deserialize)]
 pub struct MutantRecord {
@@ -676,7 +692,7 @@ impl MethodKills {
             any = true;
             if let Some(digest) = v.cbv_path_digest {
                 let runs = seen.entry((v.scene, digest)).or_default();
-                if runs.contains(&v.mutation) {
+                if runs.iter().any(|r| r.same_results(v.mutation)) {
                     repeated += 1;
                     continue;
                 }
@@ -986,6 +1002,8 @@ mod tests {
     fn a_seed_that_repeats_a_variant_counts_once_and_scene_kills_count_scene_fault_pairs() {
         let (first, mut other) = (run(&[true, false]), run(&[true, true]));
         other.mutants[1].hit_cbv = true;
+        let mut measured_otherwise = first.clone();
+        measured_otherwise.mutants[0].path_departure_m = Some(0.3);
         let failed = VariantMutation { base_failure: Some("no_off_road: x".into()), mutants: vec![] };
         let input = |scene, digest, mutation| KillsInput { scene, cbv_path_digest: digest, mutation };
         let variants = [
@@ -993,6 +1011,8 @@ mod tests {
             input("a", Some(1), &first),
             input("a", Some(1), &first),
             input("a", Some(1), &first),
+            // A mutant's path measured otherwise is the same result.
+            input("a", Some(1), &measured_otherwise),
             // The same path with other results is not a repeat; nor is
             // the same result on another path, or in another scene.
             input("a", Some(1), &other),
@@ -1006,7 +1026,7 @@ mod tests {
             input("d", Some(3), &failed),
         ];
         let kills = MethodKills::of(variants, None).unwrap();
-        assert_eq!(kills.repeated_variants, 3);
+        assert_eq!(kills.repeated_variants, 4);
         assert_eq!(kills.variants_passed, 6);
         assert_eq!(kills.mutant_variants, 12);
         // no-brake by all six, weak-brake by the one with other results.

@@ -1549,3 +1549,52 @@ fn the_wrong_way_tables_quote_their_outputs() {
     }
     assert_eq!(mutation.len(), 8, "the lookahead with either rule, on two sets, in each of two draws");
 }
+
+#[test]
+fn the_no_evade_paths_table_quotes_its_outputs() {
+    let doc = repo_file("docs/benchmarks.md");
+    let rows = markdown_rows(
+        &doc,
+        "| planner | set | pairing | `no-evade` off the path | farthest (m) | `no-evade` kills (scenes) |",
+        "So the lane follower's",
+    );
+    let (mut planner, mut set) = (String::new(), String::new());
+    for row in &rows {
+        // A blank planner or set cell continues the row above's.
+        if !row[0].is_empty() {
+            planner = row[0].clone();
+        }
+        if !row[1].is_empty() {
+            set = row[1].clone();
+        }
+        let (set_name, _) = both_pairings_names(&set, "seed 0");
+        let file = match (planner.as_str(), row[2].as_str()) {
+            ("lane follower", "own pairs") => {
+                format!("lane-follower-pairings/mutants-{set_name}-lane-follower-n60-as-loaded.txt")
+            }
+            ("lane follower", "leader") => {
+                format!("lane-follower-pairings/mutants-{set_name}-lane-follower-n60-leader.txt")
+            }
+            ("evasive", "own pairs") => {
+                let n = if set_name == "ngsim" { 60 } else { 28 };
+                format!("ego-contact/mutants-{set_name}-evasive-n{n}.txt")
+            }
+            other => panic!("no output for {other:?}"),
+        };
+        let output = repo_file(&format!("docs/evaluation/{file}"));
+        let method = "safer-in-path-lookahead";
+        // The mutants' paths table: (off the path, farthest) per mutant; no-evade is the sixth.
+        let paths_table = output.split("mutants' paths").nth(1).unwrap_or_else(|| panic!("no paths table in {file}"));
+        let paths = labelled_row(paths_table, "no-brake", method);
+        // The kills table ends with each mutant's `kills (scenes)`; no-evade is the last but one.
+        let kills = labelled_row(&output, "passed", method);
+        let no_evade_kills = format!("{} {}", kills[kills.len() - 4], kills[kills.len() - 3]);
+        assert_eq!(
+            row[3..],
+            [paths[10].clone(), paths[11].clone(), no_evade_kills],
+            "{planner}, {set}, {}: against {file}",
+            row[2]
+        );
+    }
+    assert_eq!(rows.len(), 6, "the lane follower with both pairings on two sets, the evasive planner on two");
+}
