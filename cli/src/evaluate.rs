@@ -25,6 +25,7 @@ use safer_scenarios::harness::evaluation::{
 use safer_scenarios::harness::methods::BackgroundDriver;
 use safer_scenarios::harness::methods::ModelSet;
 use safer_scenarios::harness::mutation::{MethodKills, OFF_PATH_M};
+use safer_scenarios::planners::FaultOperator;
 use safer_scenarios::policies::adversary::{ApproachPhase, EgoContactRule, FeasibilityScope, WrongWayRule};
 use safer_scenarios::scenario::roles::RolePairing;
 use safer_scenarios::scenario::{Scenario, import};
@@ -754,7 +755,7 @@ fn write_mutant_effects(
     out: &mut dyn Write,
     rows: &[MethodRow],
     modes: usize,
-    mutants: &[safer_scenarios::planners::FaultOperator],
+    mutants: &[FaultOperator],
     width: usize,
 ) -> std::io::Result<()> {
     let recorded = |k: &MethodKills| k.operators.iter().any(|o| o.variants_driven_differently.is_some());
@@ -765,28 +766,11 @@ fn write_mutant_effects(
         out,
         "\nmutants' effect (distinct passed variants where the mutant drove otherwise than the planner / passed variants)"
     )?;
-    write!(out, "{:<width$}", "method")?;
-    for op in mutants {
-        write!(out, "  {:>12}", op.name())?;
-    }
-    writeln!(out)?;
-    let mut never: Vec<String> = Vec::new();
-    for r in rows {
-        let Some(k) = &r.kills else { continue };
-        let method = label(r.method, r.stage2_cbv, modes);
-        write!(out, "{method:<width$}")?;
-        for op in mutants {
-            let differently =
-                k.operators.iter().find(|o| o.operator == *op).and_then(|o| o.variants_driven_differently);
-            let cell = differently.map_or_else(|| "-".to_string(), |d| format!("{d}/{}", k.variants_passed));
-            if differently == Some(0) && k.variants_passed > 0 {
-                never.push(format!("{method}: {}", op.name()));
-            }
-            write!(out, "  {cell:>12}")?;
-        }
-        writeln!(out)?;
-    }
-    let never = if never.is_empty() { "none".to_string() } else { never.join(", ") };
+    let never = write_per_mutant_table(out, rows, modes, mutants, width, 12, |k, op| {
+        let differently = k.operators.iter().find(|o| o.operator == op)?.variants_driven_differently?;
+        let never = (differently == 0 && k.variants_passed > 0).then(String::new);
+        Some((format!("{differently}/{}", k.variants_passed), never))
+    })?;
     writeln!(
         out,
         "drove otherwise: the mutant's ego was more than 1 cm from the planner's at some step (or its rollout ended at another step). Never (the fault never came into play, so no variant could kill it): {never}."
@@ -803,7 +787,7 @@ fn write_mutant_paths(
     out: &mut dyn Write,
     rows: &[MethodRow],
     modes: usize,
-    mutants: &[safer_scenarios::planners::FaultOperator],
+    mutants: &[FaultOperator],
     width: usize,
 ) -> std::io::Result<()> {
     let recorded = |k: &MethodKills| k.operators.iter().any(|o| o.variants_off_path.is_some());
@@ -814,36 +798,54 @@ fn write_mutant_paths(
         out,
         "\nmutants' paths (distinct passed variants where the mutant's path left the planner's by more than {OFF_PATH_M} m / passed variants, and the farthest it did, m)"
     )?;
-    write!(out, "{:<width$}", "method")?;
-    for op in mutants {
-        write!(out, "  {:>16}", op.name())?;
-    }
-    writeln!(out)?;
-    let mut kept: Vec<String> = Vec::new();
-    for r in rows {
-        let Some(k) = &r.kills else { continue };
-        let method = label(r.method, r.stage2_cbv, modes);
-        write!(out, "{method:<width$}")?;
-        for op in mutants {
-            let o = k.operators.iter().find(|o| o.operator == *op);
-            let cell = match o.and_then(|o| Some((o.variants_off_path?, o.largest_path_departure_m?))) {
-                Some((off, farthest)) => {
-                    if op.changes_only_the_steering() && off == 0 && k.variants_passed > 0 {
-                        kept.push(format!("{method}: {} (at most {farthest:.2} m)", op.name()));
-                    }
-                    format!("{off}/{} {farthest:.2}", k.variants_passed)
-                }
-                None => "-".to_string(),
-            };
-            write!(out, "  {cell:>16}")?;
-        }
-        writeln!(out)?;
-    }
-    let kept = if kept.is_empty() { "none".to_string() } else { kept.join(", ") };
+    let kept = write_per_mutant_table(out, rows, modes, mutants, width, 16, |k, op| {
+        let o = k.operators.iter().find(|o| o.operator == op)?;
+        let (off, farthest) = (o.variants_off_path?, o.largest_path_departure_m?);
+        let kept = (op.changes_only_the_steering() && off == 0 && k.variants_passed > 0)
+            .then(|| format!(" (at most {farthest:.2} m)"));
+        Some((format!("{off}/{} {farthest:.2}", k.variants_passed), kept))
+    })?;
     writeln!(
         out,
         "left the path: the two egos were more than {OFF_PATH_M} m apart sideways at some step (either one farther than that from the path the other drove, joined step to step and carried on straight past both ends); a mutant that drove the same way faster or slower does not leave it. A fault that changes only the steering (no-evade) took away no swerve where it kept to the path, however its lane keeping differs, and its kills there are the lane keeping's; kept to the path in every variant: {kept}."
     )
+}
+
+/// The body of a per-mutant table of the methods' mutation runs, under
+/// its title: a header of the mutants, then a row for each method with a
+/// run, each cell `cell(kills, mutant)` right-aligned in `cell_width`
+/// (`-` where it gives none). Returns, for the note under the table, the
+/// cells `cell` flags, each as `METHOD: MUTANT` and the flag's text, or
+/// `none`.
+fn write_per_mutant_table(
+    out: &mut dyn Write,
+    rows: &[MethodRow],
+    modes: usize,
+    mutants: &[FaultOperator],
+    width: usize,
+    cell_width: usize,
+    cell: impl Fn(&MethodKills, FaultOperator) -> Option<(String, Option<String>)>,
+) -> std::io::Result<String> {
+    write!(out, "{:<width$}", "method")?;
+    for op in mutants {
+        write!(out, "  {:>cell_width$}", op.name())?;
+    }
+    writeln!(out)?;
+    let mut flagged: Vec<String> = Vec::new();
+    for r in rows {
+        let Some(k) = &r.kills else { continue };
+        let method = label(r.method, r.stage2_cbv, modes);
+        write!(out, "{method:<width$}")?;
+        for &op in mutants {
+            let (text, flag) = cell(k, op).unwrap_or_else(|| ("-".to_string(), None));
+            if let Some(flag) = flag {
+                flagged.push(format!("{method}: {}{flag}", op.name()));
+            }
+            write!(out, "  {text:>cell_width$}")?;
+        }
+        writeln!(out)?;
+    }
+    Ok(if flagged.is_empty() { "none".to_string() } else { flagged.join(", ") })
 }
 
 /// The repeated variants each row left out, for the kills table's note
