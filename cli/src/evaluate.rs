@@ -24,7 +24,7 @@ use safer_scenarios::harness::evaluation::{
 };
 use safer_scenarios::harness::methods::BackgroundDriver;
 use safer_scenarios::harness::methods::ModelSet;
-use safer_scenarios::harness::mutation::{MethodKills, OFF_PATH_M};
+use safer_scenarios::harness::mutation::{MethodKills, OFF_PATH_M, OperatorKills};
 use safer_scenarios::planners::FaultOperator;
 use safer_scenarios::policies::adversary::{ApproachPhase, EgoContactRule, FeasibilityScope, WrongWayRule};
 use safer_scenarios::scenario::roles::RolePairing;
@@ -746,11 +746,15 @@ fn print_kills(
     write_mutant_effects(out, rows, modes, &settings.mutants, width)
 }
 
-/// The mutants' effect table: per method and mutant, the distinct passed
-/// variants where the mutant's ego drove otherwise than the planner's. A
-/// mutant at 0 never had its fault come into play, so nothing could kill
-/// it there: a survivor the scenes leave untested, not one they test and
-/// miss. Left out for reports that did not record it.
+/// The mutants' effect tables, each left out for reports that did not
+/// record it. First, per method and mutant, the distinct passed variants
+/// where the mutant's ego drove otherwise than the planner's: a mutant at
+/// 0 never had its fault come into play, so nothing could kill it there,
+/// a survivor the scenes leave untested, not one they test and miss.
+/// Then the mutants' paths: the distinct passed variants where the
+/// mutant's path left the planner's by more than [`OFF_PATH_M`], and the
+/// farthest it did. A fault that changes only the steering and never left
+/// the path took away no swerve, however its lane keeping differs.
 fn write_mutant_effects(
     out: &mut dyn Write,
     rows: &[MethodRow],
@@ -758,57 +762,45 @@ fn write_mutant_effects(
     mutants: &[FaultOperator],
     width: usize,
 ) -> std::io::Result<()> {
-    let recorded = |k: &MethodKills| k.operators.iter().any(|o| o.variants_driven_differently.is_some());
-    if !rows.iter().filter_map(|r| r.kills.as_ref()).any(recorded) {
-        return Ok(());
+    if any_recorded(rows, |o| o.variants_driven_differently.is_some()) {
+        writeln!(
+            out,
+            "\nmutants' effect (distinct passed variants where the mutant drove otherwise than the planner / passed variants)"
+        )?;
+        let never = write_per_mutant_table(out, rows, modes, mutants, width, 12, |k, op| {
+            let differently = k.operators.iter().find(|o| o.operator == op)?.variants_driven_differently?;
+            let never = (differently == 0 && k.variants_passed > 0).then(String::new);
+            Some((format!("{differently}/{}", k.variants_passed), never))
+        })?;
+        writeln!(
+            out,
+            "drove otherwise: the mutant's ego was more than 1 cm from the planner's at some step (or its rollout ended at another step). Never (the fault never came into play, so no variant could kill it): {never}."
+        )?;
     }
-    writeln!(
-        out,
-        "\nmutants' effect (distinct passed variants where the mutant drove otherwise than the planner / passed variants)"
-    )?;
-    let never = write_per_mutant_table(out, rows, modes, mutants, width, 12, |k, op| {
-        let differently = k.operators.iter().find(|o| o.operator == op)?.variants_driven_differently?;
-        let never = (differently == 0 && k.variants_passed > 0).then(String::new);
-        Some((format!("{differently}/{}", k.variants_passed), never))
-    })?;
-    writeln!(
-        out,
-        "drove otherwise: the mutant's ego was more than 1 cm from the planner's at some step (or its rollout ended at another step). Never (the fault never came into play, so no variant could kill it): {never}."
-    )?;
-    write_mutant_paths(out, rows, modes, mutants, width)
+    if any_recorded(rows, |o| o.variants_off_path.is_some()) {
+        writeln!(
+            out,
+            "\nmutants' paths (distinct passed variants where the mutant's path left the planner's by more than {OFF_PATH_M} m / passed variants, and the farthest it did, m)"
+        )?;
+        let kept = write_per_mutant_table(out, rows, modes, mutants, width, 16, |k, op| {
+            let o = k.operators.iter().find(|o| o.operator == op)?;
+            let (off, farthest) = (o.variants_off_path?, o.largest_path_departure_m?);
+            let kept = (op.changes_only_the_steering() && off == 0 && k.variants_passed > 0)
+                .then(|| format!(" (at most {farthest:.2} m)"));
+            Some((format!("{off}/{} {farthest:.2}", k.variants_passed), kept))
+        })?;
+        writeln!(
+            out,
+            "left the path: the two egos were more than {OFF_PATH_M} m apart sideways at some step (either one farther than that from the path the other drove, joined step to step and carried on straight past both ends); a mutant that drove the same way faster or slower does not leave it. A fault that changes only the steering (no-evade) took away no swerve where it kept to the path, however its lane keeping differs, and its kills there are the lane keeping's; kept to the path in every variant: {kept}."
+        )?;
+    }
+    Ok(())
 }
 
-/// The mutants' paths table: per method and mutant, the distinct passed
-/// variants where the mutant's path left the planner's by more than
-/// [`OFF_PATH_M`], and the farthest it did. A fault that changes only the
-/// steering and never left the path took away no swerve, however its
-/// lane keeping differs. Left out for reports that did not record it.
-fn write_mutant_paths(
-    out: &mut dyn Write,
-    rows: &[MethodRow],
-    modes: usize,
-    mutants: &[FaultOperator],
-    width: usize,
-) -> std::io::Result<()> {
-    let recorded = |k: &MethodKills| k.operators.iter().any(|o| o.variants_off_path.is_some());
-    if !rows.iter().filter_map(|r| r.kills.as_ref()).any(recorded) {
-        return Ok(());
-    }
-    writeln!(
-        out,
-        "\nmutants' paths (distinct passed variants where the mutant's path left the planner's by more than {OFF_PATH_M} m / passed variants, and the farthest it did, m)"
-    )?;
-    let kept = write_per_mutant_table(out, rows, modes, mutants, width, 16, |k, op| {
-        let o = k.operators.iter().find(|o| o.operator == op)?;
-        let (off, farthest) = (o.variants_off_path?, o.largest_path_departure_m?);
-        let kept = (op.changes_only_the_steering() && off == 0 && k.variants_passed > 0)
-            .then(|| format!(" (at most {farthest:.2} m)"));
-        Some((format!("{off}/{} {farthest:.2}", k.variants_passed), kept))
-    })?;
-    writeln!(
-        out,
-        "left the path: the two egos were more than {OFF_PATH_M} m apart sideways at some step (either one farther than that from the path the other drove, joined step to step and carried on straight past both ends); a mutant that drove the same way faster or slower does not leave it. A fault that changes only the steering (no-evade) took away no swerve where it kept to the path, however its lane keeping differs, and its kills there are the lane keeping's; kept to the path in every variant: {kept}."
-    )
+/// Whether some method's mutation run recorded what `recorded` asks of a
+/// mutant (reports written before a measure was made lack it).
+fn any_recorded(rows: &[MethodRow], recorded: impl Fn(&OperatorKills) -> bool) -> bool {
+    rows.iter().filter_map(|r| r.kills.as_ref()).any(|k| k.operators.iter().any(&recorded))
 }
 
 /// The body of a per-mutant table of the methods' mutation runs, under
