@@ -544,9 +544,9 @@ impl VariantMutation {
     /// planner's is a measurement, not a result: a closed-loop CBV may
     /// drive a repeated variant's stage 2 a little otherwise.
     pub fn same_results(&self, other: &VariantMutation) -> bool {
-        let result = |m: &MutantRecord| {
-            (m.operator, m.killed, m.failure.clone(), m.hit_cbv, m.drove_differently, m.error.clone())
-        };
+        fn result(m: &MutantRecord) -> (FaultOperator, bool, &Option<String>, bool, Option<bool>, &Option<String>) {
+            (m.operator, m.killed, &m.failure, m.hit_cbv, m.drove_differently, &m.error)
+        }
         self.base_failure == other.base_failure
             && self.mutants.len() == other.mutants.len()
             && self.mutants.iter().zip(&other.mutants).all(|(a, b)| result(a) == result(b))

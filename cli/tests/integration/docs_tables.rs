@@ -1558,15 +1558,8 @@ fn the_no_evade_paths_table_quotes_its_outputs() {
         "| planner | set | pairing | `no-evade` off the path | farthest (m) | `no-evade` kills (scenes) |",
         "So the lane follower's",
     );
-    let (mut planner, mut set) = (String::new(), String::new());
-    for row in &rows {
-        // A blank planner or set cell continues the row above's.
-        if !row[0].is_empty() {
-            planner = row[0].clone();
-        }
-        if !row[1].is_empty() {
-            set = row[1].clone();
-        }
+    // A blank planner or set cell continues the row above's.
+    for (planner, set, row) in rows_by_set_and_draw(&rows) {
         let (set_name, _) = both_pairings_names(&set, "seed 0");
         let file = match (planner.as_str(), row[2].as_str()) {
             ("lane follower", "own pairs") => {
