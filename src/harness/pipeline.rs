@@ -25,7 +25,8 @@ use crate::eval::{ConflictReach, min_time_to_collision};
 use crate::planners::external::{ExternalPlanner, ExternalPlannerConfig, RolloutContext};
 use crate::planners::panic_guard::PanicGuard;
 use crate::planners::{
-    BuiltinPlanner, FaultOperator, IdmPlanner, MutantPlanner, Observation, Planner, PlannerError, PlannerOutput,
+    BuiltinPlanner, EvasivePlanner, FaultOperator, IdmPlanner, MutantPlanner, Observation, Planner, PlannerError,
+    PlannerOutput,
 };
 use crate::policies::LogReplay;
 use crate::policies::adversary::EgoSight;
@@ -295,6 +296,9 @@ pub fn make_planner(adapter: &PlannerAdapter, context: RolloutContext) -> Result
     let scenario = &context.scenario;
     match adapter {
         PlannerAdapter::Builtin { planner: BuiltinPlanner::Idm, idm, .. } => Ok(Box::new(IdmPlanner::new(*idm))),
+        PlannerAdapter::Builtin { planner: BuiltinPlanner::Evasive, evasive, .. } => {
+            Ok(Box::new(EvasivePlanner::for_recorded_ego(evasive.clone(), scenario, context.ego)))
+        }
         PlannerAdapter::Builtin { planner, .. } => Ok(planner.instantiate(scenario, context.ego)),
         PlannerAdapter::InProcess { name, factory } => {
             let factory = &factory.0;

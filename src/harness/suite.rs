@@ -90,6 +90,7 @@ impl Suite {
                 name: crate::spec::spec_name(&builtin),
                 planner: *builtin,
                 idm: Default::default(),
+                evasive: Default::default(),
             },
             PlannerRef::Rust { rust } => {
                 let Some(factory) = registry.lookup(&rust.value) else {

@@ -33,11 +33,7 @@ impl BuiltinPlanner {
             Self::LogReplay => Box::new(LogReplayPlanner::new(scenario.track(ego).clone())),
             Self::ConstantVelocity => Box::new(ConstantVelocityPlanner),
             Self::Idm => Box::new(IdmPlanner::new(IdmParams::default())),
-            Self::Evasive => {
-                // Its mission: the way the recorded ego went.
-                let mission = scenario.track(ego).states.iter().flatten().map(|s| s.position).collect();
-                Box::new(super::EvasivePlanner::new(Default::default()).with_mission(mission))
-            }
+            Self::Evasive => Box::new(super::EvasivePlanner::for_recorded_ego(Default::default(), scenario, ego)),
         }
     }
 }

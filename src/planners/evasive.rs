@@ -30,6 +30,7 @@ use crate::motion::kinematics::{HeldHeadingStepper, stepped_speed_mps};
 use crate::motion::tokens::{MAX_ACCEL_MPS2, MAX_YAW_RATE_RADPS, SIM_DT_S};
 use crate::motion::{Action, BUILTIN_MAX_LATERAL_ACCEL_MPS2, KinematicState, kinematic_step_with_sin_cos, within_grip};
 use crate::policies::{Route, build_route_choosing};
+use crate::scenario::contact::EgoCollisionKind;
 use crate::scenario::{AgentKind, AgentState};
 
 /// Parameters of the evasive planner.
@@ -50,6 +51,63 @@ pub struct EvasiveParams {
     /// Also predict each agent at the turn rate and acceleration it showed
     /// since the previous step (as well as at constant velocity).
     pub turning_predictions: bool,
+    /// Which predicted contacts the planner avoids at any price.
+    pub avoided_contacts: AvoidedContacts,
+}
+
+impl EvasiveParams {
+    /// The first parameter outside its plausible range, with why (for a
+    /// planner spec's error): the horizon in (0, 60] s, the margin in
+    /// [0, 5] m, a desired speed in (0, 70] m/s, at least one acceleration
+    /// (each within the kinematic limit) and one lateral offset (each
+    /// within 20 m).
+    pub fn implausible_field(&self) -> Option<(&'static str, String)> {
+        let within =
+            |v: f64, min: f64, max: f64, min_ok: bool| v.is_finite() && (v > min || (min_ok && v == min)) && v <= max;
+        if !within(self.horizon_s, 0.0, 60.0, false) {
+            return Some(("horizon_s", format!("must be a number in (0, 60] s, got {}", self.horizon_s)));
+        }
+        if !within(self.safety_margin_m, 0.0, 5.0, true) {
+            return Some(("safety_margin_m", format!("must be a number in [0, 5] m, got {}", self.safety_margin_m)));
+        }
+        if let Some(v) = self.desired_speed_mps
+            && !within(v, 0.0, 70.0, false)
+        {
+            return Some(("desired_speed_mps", format!("must be a number in (0, 70] m/s, got {v}")));
+        }
+        let lists: [(&'static str, &[f64], f64); 2] = [
+            ("accelerations_mps2", &self.accelerations_mps2, MAX_ACCEL_MPS2),
+            ("lateral_offsets_m", &self.lateral_offsets_m, 20.0),
+        ];
+        lists.into_iter().find_map(|(name, values, bound)| {
+            if values.is_empty() {
+                return Some((name, "must list at least one value".to_string()));
+            }
+            let bad = values.iter().find(|v| !within(v.abs(), 0.0, bound, true))?;
+            Some((name, format!("must hold numbers in [-{bound}, {bound}], got {bad}")))
+        })
+    }
+}
+
+/// Which predicted contacts the evasive planner avoids at any price.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum AvoidedContacts {
+    /// Every contact: being hit from behind costs as much as hitting
+    /// another road user (a planner judged by `no_collision`).
+    #[default]
+    All,
+    /// The contacts the ego could be at fault for, as the
+    /// `no_at_fault_collision` criterion judges them (nuPlan's rule). One
+    /// from behind or with the ego standing, which that rule never blames
+    /// it for, costs at most half a second off the road: worth a swerve
+    /// into a free lane or a harder brake, not leaving the road or a
+    /// contact it would be to blame for. A side contact still counts as the
+    /// ego's (a predicted sideswipe by a car cutting in ends as a front
+    /// contact as often as not). A planner judged by `no_at_fault_collision`
+    /// that flees a car chasing it from behind trades a contact it is not
+    /// blamed for against ones it is.
+    AtFault,
 }
 
 impl Default for EvasiveParams {
@@ -68,6 +126,7 @@ impl Default for EvasiveParams {
             desired_speed_mps: None,
             safety_margin_m: 0.3,
             turning_predictions: true,
+            avoided_contacts: AvoidedContacts::All,
         }
     }
 }
@@ -139,6 +198,14 @@ const HEADWAY_COST: f64 = 200.0;
 /// The headway zone reaches this many seconds of travel ahead (at least 3 m).
 const HEADWAY_S: f64 = 1.0;
 const RED_LIGHT_COST: f64 = 5.0e3;
+/// For the first predicted contact of a rollout the ego would not be at
+/// fault for, under [`AvoidedContacts::AtFault`], scaled as
+/// [`COLLISION_COST`] (earlier is worse, up to twice this): at most half a
+/// second off the road.
+const BLAMELESS_CONTACT_COST: f64 = 1.0e3;
+/// The least a rollout that stops early (at a contact or a red light) adds
+/// instead of the speed terms still to come.
+const LEAST_STOPPING_COST: f64 = BLAMELESS_CONTACT_COST;
 /// Per 0.5 s (a check every [`OFF_ROAD_CHECK_EVERY`] steps) of a candidate
 /// off the road inside the mapped area (driving on past the map's cut is
 /// not leaving the road: the ego need not stop there).
@@ -257,6 +324,17 @@ impl EvasivePlanner {
         self
     }
 
+    /// A planner with these parameters for the ego `ego` of `scenario`,
+    /// whose mission is the way the recorded ego went.
+    pub fn for_recorded_ego(
+        params: EvasiveParams,
+        scenario: &crate::scenario::Scenario,
+        ego: crate::scenario::TrackIndex,
+    ) -> Self {
+        let mission = scenario.track(ego).states.iter().flatten().map(|s| s.position).collect();
+        Self::new(params).with_mission(mission)
+    }
+
     /// The turn rate (rad/s) and acceleration (m/s²) `agent` showed over
     /// the window (since the oldest plan kept that saw it), when either is
     /// worth extrapolating.
@@ -368,8 +446,8 @@ fn speed_cost(speed_mps: f64, v_des: f64) -> f64 {
 /// from each step to the horizon, for a candidate of acceleration `accel`
 /// starting at `start_speed_mps`: its speeds follow from these alone, as
 /// [`EvasivePlanner::evaluate`] steps them. Each is capped at
-/// [`RED_LIGHT_COST`], the least that a rollout stopping early (at a
-/// collision or a red light) adds instead of the rest, so that each stays
+/// [`LEAST_STOPPING_COST`], the least that a rollout stopping early (at a
+/// contact or a red light) adds instead of the rest, so that each stays
 /// a lower bound on what is still to come. `steps + 1` values, the last 0.
 fn speed_costs_to_come(start_speed_mps: f64, accel: f64, v_des: f64, steps: usize) -> Vec<f64> {
     let mut speed_mps = start_speed_mps;
@@ -383,7 +461,7 @@ fn speed_costs_to_come(start_speed_mps: f64, accel: f64, v_des: f64, steps: usiz
     let mut to_come = 0.0;
     for t in terms.iter_mut().rev() {
         to_come += *t;
-        *t = to_come.min(RED_LIGHT_COST);
+        *t = to_come.min(LEAST_STOPPING_COST);
     }
     terms
 }
@@ -518,6 +596,8 @@ impl Planner for EvasivePlanner {
         let ctx = PlanContext {
             obs,
             route,
+            near: &near,
+            turning: &turning,
             predictions: &predictions,
             standing: &standing,
             red_stop_s,
@@ -590,7 +670,13 @@ impl Planner for EvasivePlanner {
 struct PlanContext<'a> {
     obs: &'a Observation<'a>,
     route: &'a Route,
-    /// `predictions[k]`: the moving agents after k + 1 steps.
+    /// The agents predicted: each with its heading's `sin_cos()` and its
+    /// bounding circle's radius, m.
+    near: &'a [(&'a crate::planners::PerceivedAgent, (f64, f64), f64)],
+    /// The turning predictions, each of the agent `near[i]`.
+    turning: &'a [(usize, TurningPrediction)],
+    /// `predictions[k]`: the moving agents after k + 1 steps (boxes of
+    /// `near`, at constant velocity and along `turning`).
     predictions: &'a [BoxSet],
     /// The standing agents, at every step.
     standing: &'a BoxSet,
@@ -610,6 +696,69 @@ struct PlanContext<'a> {
     /// For each configured acceleration, the speed terms of the cost
     /// still to come before each step (see [`speed_costs_to_come`]).
     speed_costs_to_come: Vec<Vec<f64>>,
+}
+
+/// A rollout's contact with the predictions at one step.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum PredictedContact {
+    /// Only with agents it already passed through blamelessly.
+    None,
+    /// Only contacts the ego would not be at fault for.
+    Blameless,
+    /// Some contact the ego would be at fault for.
+    AtFault,
+}
+
+impl PlanContext<'_> {
+    /// The contact of the ego in state `s` (heading `sin_cos`, checked box
+    /// `ego_box`) after `k + 1` steps with the predicted agents other than
+    /// those of `passed` (indices into `near`). Blameless where each touch
+    /// is from behind the ego or with it standing (the contacts nuPlan's
+    /// rule never blames it for; the agents are then added to `passed`, so
+    /// that a car running on through the ego is not blamed on it later); a
+    /// side contact counts as the ego's, the cautious reading, since a
+    /// predicted sideswipe by a car cutting in ends as a front contact as
+    /// often as not. Only asked once a rollout touches the predictions, so
+    /// it looks at every agent again instead of keeping their states beside
+    /// the boxes.
+    fn judge_contact(
+        &self,
+        k: usize,
+        s: &KinematicState,
+        sin_cos: (f64, f64),
+        ego_box: &OrientedBox,
+        passed: &mut Vec<usize>,
+    ) -> PredictedContact {
+        let t = (k + 1) as f64 * SIM_DT_S;
+        let ego = s.to_agent_state_with_sin_cos(sin_cos);
+        // A standing agent's constant-velocity state is its state now.
+        let at_constant_velocity = self.near.iter().enumerate().map(|(i, &(a, _, _))| {
+            (i, AgentState { position: a.state.position + a.state.velocity_mps * t, ..a.state })
+        });
+        let turning = self.turning.iter().filter_map(|(i, states)| {
+            states.get(k).map(|(at, sin_cos)| (*i, at.to_agent_state_with_sin_cos(*sin_cos)))
+        });
+        let mut touched = Vec::new();
+        for (i, other) in at_constant_velocity.chain(turning) {
+            let agent = self.near[i].0;
+            if passed.contains(&i) || !OrientedBox::new(other.pose(), agent.length_m, agent.width_m).intersects(ego_box)
+            {
+                continue;
+            }
+            if !matches!(
+                EgoCollisionKind::classify(&ego, &other),
+                EgoCollisionKind::ActiveRear | EgoCollisionKind::StoppedEgo
+            ) {
+                return PredictedContact::AtFault;
+            }
+            touched.push(i);
+        }
+        if touched.is_empty() {
+            return PredictedContact::None;
+        }
+        passed.extend(touched);
+        PredictedContact::Blameless
+    }
 }
 
 impl EvasivePlanner {
@@ -649,6 +798,10 @@ impl EvasivePlanner {
         let mut travelled_s = start_s;
         // Each step's projection starts from the last one's segment.
         let mut segment = ctx.start_segment;
+        // The agents passed through blamelessly (see `judge_contact`), and
+        // whether that contact was charged.
+        let mut passed = Vec::new();
+        let mut charged_blameless = false;
         for (k, others) in ctx.predictions.iter().enumerate().take(steps) {
             if cost + least_to_come + speed_costs_to_come[k] > abandon_above {
                 return None;
@@ -684,9 +837,26 @@ impl EvasivePlanner {
                 others.any_intersects_with_sin_cos(b, sin_cos) || ctx.standing.any_intersects_with_sin_cos(b, sin_cos)
             };
             if touches(&ego_box) {
-                // Earlier collisions are worse; this dominates every other term.
-                cost += COLLISION_COST * (2.0 - k as f64 / steps as f64);
-                break;
+                let contact = match self.params.avoided_contacts {
+                    AvoidedContacts::All => PredictedContact::AtFault,
+                    AvoidedContacts::AtFault => ctx.judge_contact(k, &s, sin_cos, &ego_box, &mut passed),
+                };
+                // Earlier contacts are worse; one the ego is to blame for
+                // dominates every other term and ends the rollout. The
+                // first blameless one is charged, and the rollout goes on
+                // through it: a contact the ego is to blame for may follow.
+                let earlier = 2.0 - k as f64 / steps as f64;
+                match contact {
+                    PredictedContact::AtFault => {
+                        cost += COLLISION_COST * earlier;
+                        break;
+                    }
+                    PredictedContact::Blameless if !charged_blameless => {
+                        cost += BLAMELESS_CONTACT_COST * earlier;
+                        charged_blameless = true;
+                    }
+                    PredictedContact::Blameless | PredictedContact::None => {}
+                }
             }
             // Soft: keep about a second of headway to whatever is ahead.
             let headway_m = (HEADWAY_S * s.speed_mps).max(3.0);
@@ -989,6 +1159,94 @@ mod tests {
         };
         assert!(!hit(EvasiveParams::default().accelerations_mps2));
         assert!(hit(vec![-MAX_ACCEL_MPS2, -3.0, -1.5, 0.0, 1.0, 2.0, 3.0]));
+    }
+
+    /// Closed loop for 6 s on a one-lane road with kerbs 2.5 m either side
+    /// of the lane's centre: the ego from the origin at 8 m/s, wanting 8,
+    /// and a car 30 m behind in its lane closing at 20 m/s, faster than
+    /// the ego can run from it. Whether the car hits the ego, and how far
+    /// past a kerb any corner of the ego went, m.
+    fn chased_on_a_one_lane_road(avoided_contacts: AvoidedContacts) -> (bool, f64) {
+        let map = kerbed_road(&[0.0], -2.5, 2.5);
+        let params = EvasiveParams { avoided_contacts, desired_speed_mps: Some(8.0), ..EvasiveParams::default() };
+        let mut planner = EvasivePlanner::new(params);
+        let mut ego = at_the_origin(8.0);
+        let mut farthest_over_m = f64::NEG_INFINITY;
+        for k in 0..60 {
+            let chaser = car("chaser", -30.0 + 20.0 * k as f64 * SIM_DT_S, 0.0, 0.0, 20.0);
+            let body = OrientedBox::new(Pose2 { position: ego.position, heading_rad: ego.heading_rad }, 4.5, 2.0);
+            if body.intersects(&OrientedBox::new(chaser.state.pose(), 4.5, 2.0)) {
+                return (true, farthest_over_m);
+            }
+            for c in body.corners() {
+                farthest_over_m = farthest_over_m.max(map.signed_distance_to_road_edge(&c).expect("edges"));
+            }
+            let obs = observation_at(k, &ego, vec![chaser], &map);
+            let PlannerOutput::Control(action) = planner.plan(&obs).unwrap() else { panic!("not a control") };
+            ego = kinematic_step(&ego, action, SIM_DT_S);
+        }
+        (false, farthest_over_m)
+    }
+
+    #[test]
+    fn a_planner_avoiding_only_at_fault_contacts_keeps_the_road_when_chased_from_behind() {
+        // Avoiding every contact, the only way out is over the kerb.
+        let (hit, over_m) = chased_on_a_one_lane_road(AvoidedContacts::All);
+        assert!(!hit && over_m > 0.5, "avoiding every contact: hit {hit}, {over_m:.2} m over the kerb");
+        // Being hit from behind is not the ego's fault: not worth leaving the road for.
+        let (hit, over_m) = chased_on_a_one_lane_road(AvoidedContacts::AtFault);
+        assert!(hit && over_m <= 0.0, "avoiding at-fault contacts: hit {hit}, {over_m:.2} m over the kerb");
+    }
+
+    #[test]
+    fn a_planner_avoiding_only_at_fault_contacts_still_escapes_what_it_would_hit() {
+        let at_fault = EvasiveParams { avoided_contacts: AvoidedContacts::AtFault, ..EvasiveParams::default() };
+        assert!(!ego_hits_an_oncoming_wall(at_fault.clone()));
+        // On a one-lane road with kerbs, a leader 20 m ahead brakes to a
+        // stop at 5 m/s² and a blind follower 8 m behind drives on at
+        // 10 m/s: the ego brakes short of the leader and takes the contact
+        // from behind, which is not its fault, rather than run into the
+        // leader or over a kerb.
+        let map = kerbed_road(&[0.0], -2.5, 2.5);
+        let mut planner = EvasivePlanner::new(EvasiveParams { desired_speed_mps: Some(10.0), ..at_fault });
+        let mut ego = at_the_origin(10.0);
+        for k in 0..60 {
+            let t = k as f64 * SIM_DT_S;
+            let braking_s = t.min(2.0);
+            let lead =
+                car("lead", 20.0 + 10.0 * braking_s - 2.5 * braking_s * braking_s, 0.0, 0.0, 10.0 - 5.0 * braking_s);
+            let follower = car("follower", -8.0 + 10.0 * t, 0.0, 0.0, 10.0);
+            let body = OrientedBox::new(Pose2 { position: ego.position, heading_rad: ego.heading_rad }, 4.5, 2.0);
+            assert!(
+                !body.intersects(&OrientedBox::new(lead.state.pose(), 4.5, 2.0)),
+                "ran into the leader at {t:.1} s"
+            );
+            assert!(body.corners().iter().all(|c| map.signed_distance_to_road_edge(c).expect("edges") <= 0.0));
+            if body.intersects(&OrientedBox::new(follower.state.pose(), 4.5, 2.0)) {
+                return;
+            }
+            let obs = observation_at(k, &ego, vec![lead, follower], &map);
+            let PlannerOutput::Control(action) = planner.plan(&obs).unwrap() else { panic!("not a control") };
+            ego = kinematic_step(&ego, action, SIM_DT_S);
+        }
+        panic!("the follower never reached the ego: the scene tests nothing");
+    }
+
+    #[test]
+    fn a_planner_spec_gives_the_evasive_planner_its_parameters_and_refuses_implausible_ones() {
+        let params: EvasiveParams = serde_saphyr::from_str("avoided_contacts: at-fault").unwrap();
+        assert_eq!(params, EvasiveParams { avoided_contacts: AvoidedContacts::AtFault, ..EvasiveParams::default() });
+        assert_eq!(EvasiveParams::default().implausible_field(), None);
+        let bad = |p: EvasiveParams| p.implausible_field().map(|(field, _)| field);
+        assert_eq!(bad(EvasiveParams { horizon_s: 0.0, ..EvasiveParams::default() }), Some("horizon_s"));
+        assert_eq!(
+            bad(EvasiveParams { lateral_offsets_m: vec![], ..EvasiveParams::default() }),
+            Some("lateral_offsets_m")
+        );
+        assert_eq!(
+            bad(EvasiveParams { accelerations_mps2: vec![f64::NAN], ..EvasiveParams::default() }),
+            Some("accelerations_mps2")
+        );
     }
 
     #[test]

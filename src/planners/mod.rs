@@ -13,7 +13,7 @@ pub mod registry;
 pub mod route;
 
 pub use builtin::{BuiltinPlanner, ConstantVelocityPlanner, IdmPlanner, LogReplayPlanner};
-pub use evasive::{EvasiveParams, EvasivePlanner};
+pub use evasive::{AvoidedContacts, EvasiveParams, EvasivePlanner};
 pub use external::{ExternalPlanner, ExternalPlannerConfig};
 pub use mutant::{FaultOperator, MutantPlanner};
 pub use route::Route;

@@ -17,7 +17,7 @@
 use schemars::JsonSchema;
 use serde::Deserialize;
 
-use crate::planners::BuiltinPlanner;
+use crate::planners::{BuiltinPlanner, EvasiveParams};
 use crate::policies::IdmParams;
 
 /// A planner adapter spec. Exactly one of `builtin`, `external` and `onnx`.
@@ -33,6 +33,11 @@ pub struct PlannerSpec {
     #[serde(default)]
     #[schemars(with = "Option<serde_json::Value>")]
     pub idm: Option<IdmParams>,
+    /// Parameters of the built-in evasive planner (any left out keep their
+    /// defaults), for example `evasive: { avoided_contacts: at-fault }`.
+    #[serde(default)]
+    #[schemars(with = "Option<serde_json::Value>")]
+    pub evasive: Option<EvasiveParams>,
     /// An external process speaking the JSON-lines planner protocol (docs/planner-protocol.md).
     #[serde(default)]
     pub external: Option<ExternalSpec>,
@@ -115,6 +120,8 @@ pub enum PlannerAdapter {
         planner: BuiltinPlanner,
         /// IDM parameters.
         idm: IdmParams,
+        /// Evasive planner parameters.
+        evasive: EvasiveParams,
     },
     /// An in-process planner registered under `name`
     /// ([`crate::planners::registry`]), resolved when the suite was loaded.
@@ -140,7 +147,12 @@ pub enum PlannerAdapter {
 impl PlannerAdapter {
     /// A built-in planner with default parameters, named as in specs (`idm`, `evasive`, ...).
     pub fn builtin(planner: BuiltinPlanner) -> Self {
-        Self::Builtin { name: super::spec_name(&planner), planner, idm: IdmParams::default() }
+        Self::Builtin {
+            name: super::spec_name(&planner),
+            planner,
+            idm: IdmParams::default(),
+            evasive: EvasiveParams::default(),
+        }
     }
 
     /// A planner spec file (`planners/NAME.yaml`), loaded and validated.
@@ -189,8 +201,21 @@ impl super::Loaded<PlannerSpec> {
         {
             return Err(self.invalid_at(&format!("idm.{field}"), format!("`idm.{field}` {why}")));
         }
+        if s.evasive.is_some() && s.builtin != Some(BuiltinPlanner::Evasive) {
+            return Err(self.invalid_at("evasive", "`evasive:` parameters apply only to `builtin: evasive`"));
+        }
+        if let Some(evasive) = &s.evasive
+            && let Some((field, why)) = evasive.implausible_field()
+        {
+            return Err(self.invalid_at(&format!("evasive.{field}"), format!("`evasive.{field}` {why}")));
+        }
         if let Some(b) = s.builtin {
-            return Ok(PlannerAdapter::Builtin { name: s.name.clone(), planner: b, idm: s.idm.unwrap_or_default() });
+            return Ok(PlannerAdapter::Builtin {
+                name: s.name.clone(),
+                planner: b,
+                idm: s.idm.unwrap_or_default(),
+                evasive: s.evasive.clone().unwrap_or_default(),
+            });
         }
         if let Some(e) = &s.external {
             let timeouts = [
@@ -294,6 +319,23 @@ external:
         assert_eq!(working_dir, Path::new("."));
         let e = validate(&format!("{EXTERNAL}  env: {{ \"A=B\": x }}\n"), Path::new("p.yaml")).unwrap_err();
         assert!(e.to_string().contains("environment variable name `A=B` is not valid"), "{e}");
+    }
+
+    #[test]
+    fn the_evasive_planners_parameters_reach_it_and_implausible_ones_are_refused_at_their_value() {
+        let text = "name: e\nbuiltin: evasive\nevasive:\n  avoided_contacts: at-fault\n";
+        let PlannerAdapter::Builtin { evasive, .. } = validate(text, Path::new("e.yaml")).unwrap() else { panic!() };
+        assert_eq!(evasive.avoided_contacts, crate::planners::AvoidedContacts::AtFault);
+        assert_eq!(evasive.horizon_s, EvasiveParams::default().horizon_s, "the rest keep their defaults");
+        let e = validate(&text.replace("avoided_contacts: at-fault", "horizon_s: -1"), Path::new("e.yaml"));
+        assert_eq!(
+            e.unwrap_err().to_string(),
+            "e.yaml:4:14: `evasive.horizon_s` must be a number in (0, 60] s, got -1"
+        );
+        let e = validate(&text.replace("at-fault", "some"), Path::new("e.yaml")).unwrap_err().to_string();
+        assert!(e.starts_with("e.yaml:4:"), "{e}");
+        let e = validate(&text.replace("builtin: evasive", "builtin: idm"), Path::new("e.yaml")).unwrap_err();
+        assert!(e.to_string().starts_with("e.yaml:4:3: `evasive:` parameters apply only to `builtin: evasive`"), "{e}");
     }
 
     #[test]

@@ -444,6 +444,16 @@ fn yes() -> bool {
     true
 }
 
+impl VariantAcceptance {
+    /// Whether a collision of the ego, at fault or not, fails a variant
+    /// under these criteria, unless the witness finds no escape from it.
+    /// One that fails none needs no witness: it cannot be blamed on the
+    /// planner, nor counted against the generator.
+    pub fn counts_collision(&self, at_fault: bool) -> bool {
+        self.no_collision || (self.no_at_fault_collision && at_fault)
+    }
+}
+
 impl Default for VariantAcceptance {
     fn default() -> Self {
         Self {
@@ -1077,6 +1087,29 @@ acceptance:
         assert!(e.contains("never") && e.contains("forbidden"), "a misspelt rule is refused: {e}");
         let (set, default) = adversary_with("method: safer-in-path, wrong_way: forbidden }");
         assert_eq!((set.wrong_way, default.wrong_way), (WrongWayRule::Forbidden, WrongWayRule::Allowed));
+    }
+
+    #[test]
+    fn a_collision_counts_against_the_planner_as_the_collision_criteria_say() {
+        let criteria = |no_collision, no_at_fault_collision| VariantAcceptance {
+            no_collision,
+            no_at_fault_collision,
+            ..VariantAcceptance::default()
+        };
+        // (criteria, at fault) -> counted
+        for ((any, at_fault_only), at_fault, counted) in [
+            ((true, false), false, true),
+            ((true, false), true, true),
+            ((false, true), false, false),
+            ((false, true), true, true),
+            ((false, false), true, false),
+        ] {
+            assert_eq!(
+                criteria(any, at_fault_only).counts_collision(at_fault),
+                counted,
+                "{any} {at_fault_only} {at_fault}"
+            );
+        }
     }
 
     #[test]

@@ -243,6 +243,7 @@ fn seeds_give_distinct_safer_variants() {
         name: "constant-velocity".into(),
         planner: BuiltinPlanner::ConstantVelocity,
         idm: Default::default(),
+        evasive: Default::default(),
     };
     for scenario in &scenes() {
         let cbv = scenario.cbv.unwrap();

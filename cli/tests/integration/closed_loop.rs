@@ -182,6 +182,7 @@ fn a_delayed_cbv_sees_an_ego_that_holds_its_velocity_as_it_is_and_a_swerving_one
         name: "constant-velocity".into(),
         planner: BuiltinPlanner::ConstantVelocity,
         idm: Default::default(),
+        evasive: Default::default(),
     };
     let closed = outcomes_with("swerving-ego.closed-loop.yaml", holds());
     let delayed = outcomes_with("swerving-ego.closed-loop-delayed.yaml", holds());
