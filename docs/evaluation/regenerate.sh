@@ -183,6 +183,13 @@
 #                     ego-contact/'s) and with the ego's leader as the CBV (-leader.txt), and the
 #                     faults caught per scene with either pairing, as the shipped suite tests a
 #                     scene (scene-kills-{ngsim,womd-interactive}.txt) (about 60 minutes)
+#   at-fault-planner  at-fault-planner/: the evasive planner avoiding only the contacts it
+#                     would be at fault for (planners/evasive-at-fault.yaml) beside the shipped
+#                     one: the mutation tables of ego-contact/'s first draw with it
+#                     (mutants-{ngsim-n60,womd-interactive-n28}.txt), and the shipped NGSIM
+#                     suite run with each planner, with the suite's safer-in-path and with
+#                     the lookahead (suite-ngsim-{in-path,lookahead}-{evasive,at-fault}.txt)
+#                     (about 12 minutes)
 #   mutants           mutants-{womd-interactive,womd-json,ngsim}-evasive.txt and
 #                     mutants-{womd-interactive,ngsim}-lane-follower.txt: the
 #                     faults of the planner each method's variants catch
@@ -198,7 +205,7 @@ self=$(realpath "$0")
 cd "$(dirname "$self")"
 all=(evaluate plain inattentive held-out-chance trust-region realism prior-fit n-sweep reactive n100 approach-none merging mutants wide-region cut-in
     in-path-lookahead in-path-lookahead-n30 in-path-lookahead-n28 in-path-lookahead-sweep pair-in-traffic witnessed wide-witnessed ten-seeds reaction-delay reactive-background leader first-contact both-pairings first-contact-lookahead blind-twin ego-contact wrong-way
-    lane-follower-pairings)
+    lane-follower-pairings at-fault-planner)
 jobs=("$@")
 [[ ${#jobs[@]} -gt 0 ]] || jobs=("${all[@]}")
 # The usage is the comment block at the top of this file.
@@ -705,6 +712,30 @@ for job in "${jobs[@]}"; do
                 "$reports/mutants-$set-lane-follower-n60-leader.json" >"lane-follower-pairings/scene-kills-$set.txt"
         done
         rm -r "$reports" ;;
+    at-fault-planner)
+        mkdir -p at-fault-planner
+        behind=(--seeds 3 --stage2-cbv closed-loop --background reactive-log-replay --mutants --ego-contact not-from-behind
+            --planner ../../planners/evasive-at-fault.yaml)
+        run at-fault-planner/mutants-ngsim-n60.txt evaluate --scenes data:commonroad-ngsim "${behind[@]}" \
+            --methods log,prior,safer-in-path,safer-in-path-lookahead --trust-region 60
+        run at-fault-planner/mutants-womd-interactive-n28.txt evaluate --scenes data:womd-interactive "${behind[@]}" \
+            --methods log,prior,safer-in-path-lookahead --trust-region 28
+        # The shipped suite as it is, and with the lookahead (no contact from behind), each
+        # with either planner: scratch copies beside it, so that its relative paths hold.
+        suite=../../specs/suites/adversarial-ngsim.yaml
+        for method in in-path lookahead; do
+            for planner in evasive at-fault; do
+                copy=../../specs/suites/.adversarial-ngsim-$method-$planner.yaml
+                sed -e "s#^planner: ../../planners/evasive.yaml#planner: ../../planners/$planner.yaml#" \
+                    -e "s#^planner: ../../planners/at-fault.yaml#planner: ../../planners/evasive-at-fault.yaml#" "$suite" >"$copy"
+                [[ $method == in-path ]] ||
+                    sed -i 's#^  method: safer-in-path$#  method: safer-in-path-lookahead\n  ego_contact: not-from-behind#' "$copy"
+                # A failing suite is a result here, not an error.
+                run "at-fault-planner/suite-ngsim-$method-$planner.txt" run "$copy" --no-shrink --mutants all \
+                    --artifacts "$(mktemp -d)" || true
+                rm "$copy"
+            done
+        done ;;
     esac
 done
 rm -r "$(dirname "$safer")"

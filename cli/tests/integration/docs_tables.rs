@@ -1591,3 +1591,36 @@ fn the_no_evade_paths_table_quotes_its_outputs() {
     }
     assert_eq!(rows.len(), 6, "the lane follower with both pairings on two sets, the evasive planner on two");
 }
+
+#[test]
+fn the_at_fault_planner_table_quotes_its_outputs() {
+    let doc = repo_file("docs/benchmarks.md");
+    let rows = markdown_rows(
+        &doc,
+        "| set | planner | method | SR | passed | kills | held out | ×log | ×prior | scene kills |",
+        "- The planner that avoids only what it is blamed for",
+    );
+    // A blank set or planner cell continues the row above's.
+    for (set, planner, row) in rows_by_set_and_draw(&rows) {
+        let (set_name, n) = match set.as_str() {
+            "NGSIM (n = 60)" => ("ngsim", 60),
+            "WOMD interactive (n = 28)" => ("womd-interactive", 28),
+            other => panic!("no output for the set {other:?}"),
+        };
+        let file = match planner.as_str() {
+            "evasive" => format!("ego-contact/mutants-{set_name}-evasive-n{n}.txt"),
+            "evasive-at-fault" => format!("at-fault-planner/mutants-{set_name}-n{n}.txt"),
+            other => panic!("no output for the planner {other:?}"),
+        };
+        let output = repo_file(&format!("docs/evaluation/{file}"));
+        let method = method_of(&row[2]).unwrap_or_else(|| panic!("no method in {:?}", row[2]));
+        // The evaluation table: variants, errors, CR, SR, ...
+        let sr = labelled_row(&output, "SR-crit", method)[3].clone();
+        // The kills table: passed, kills, |, held out, ×log, ×prior, scene kills, ...
+        let kills = labelled_row(&output, "passed", method);
+        let quoted = [sr, kills[0].clone(), kills[1].clone(), kills[3].clone(), kills[4].clone(), kills[5].clone()];
+        assert_eq!(row[3..9], quoted, "{set}, {planner}, {method}: against {file}");
+        assert_eq!(row[9], kills[6], "{set}, {planner}, {method}: scene kills against {file}");
+    }
+    assert_eq!(rows.len(), 6, "two methods with each planner on NGSIM, the lookahead with each on WOMD interactive");
+}
