@@ -224,6 +224,7 @@ fn print_table(
         match request.wrong_way {
             WrongWayRule::Allowed => "",
             WrongWayRule::Forbidden => "; no driving against the traffic",
+            WrongWayRule::AlongTheLanes => "; no driving against the traffic or across the lanes",
         },
         match witness.road {
             RoadKeeping::Centre => "",

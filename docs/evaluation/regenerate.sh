@@ -190,6 +190,13 @@
 #                     suite run with each planner, with the suite's safer-in-path and with
 #                     the lookahead (suite-ngsim-{in-path,lookahead}-{evasive,at-fault}.txt)
 #                     (about 12 minutes)
+#   along-the-lanes   along-the-lanes/: the lookahead with the CBV kept along the lanes
+#                     (`--wrong-way along-the-lanes`: neither against the traffic nor across
+#                     the lanes), no contact from behind, with the evasive planner and with
+#                     planners/evasive-at-fault.yaml: the mutation tables of ego-contact/'s
+#                     first draw (mutants-{ngsim-n60,womd-interactive-n28}-{evasive,at-fault}.txt),
+#                     and the shipped NGSIM suite with the lookahead so set
+#                     (suite-ngsim-{evasive,at-fault}.txt) (about 20 minutes)
 #   mutants           mutants-{womd-interactive,womd-json,ngsim}-evasive.txt and
 #                     mutants-{womd-interactive,ngsim}-lane-follower.txt: the
 #                     faults of the planner each method's variants catch
@@ -205,7 +212,7 @@ self=$(realpath "$0")
 cd "$(dirname "$self")"
 all=(evaluate plain inattentive held-out-chance trust-region realism prior-fit n-sweep reactive n100 approach-none merging mutants wide-region cut-in
     in-path-lookahead in-path-lookahead-n30 in-path-lookahead-n28 in-path-lookahead-sweep pair-in-traffic witnessed wide-witnessed ten-seeds reaction-delay reactive-background leader first-contact both-pairings first-contact-lookahead blind-twin ego-contact wrong-way
-    lane-follower-pairings at-fault-planner)
+    lane-follower-pairings at-fault-planner along-the-lanes)
 jobs=("$@")
 [[ ${#jobs[@]} -gt 0 ]] || jobs=("${all[@]}")
 # The usage is the comment block at the top of this file.
@@ -735,6 +742,26 @@ for job in "${jobs[@]}"; do
                     --artifacts "$(mktemp -d)" || true
                 rm "$copy"
             done
+        done ;;
+    along-the-lanes)
+        mkdir -p along-the-lanes
+        along=(--seeds 3 --stage2-cbv closed-loop --background reactive-log-replay --mutants --ego-contact not-from-behind
+            --wrong-way along-the-lanes --methods log,prior,safer-in-path-lookahead)
+        for planner in evasive at-fault; do
+            spec=../../planners/evasive.yaml
+            [[ $planner == evasive ]] || spec=../../planners/evasive-at-fault.yaml
+            run "along-the-lanes/mutants-ngsim-n60-$planner.txt" evaluate --scenes data:commonroad-ngsim "${along[@]}" \
+                --trust-region 60 --planner "$spec"
+            run "along-the-lanes/mutants-womd-interactive-n28-$planner.txt" evaluate --scenes data:womd-interactive \
+                "${along[@]}" --trust-region 28 --planner "$spec"
+            copy=../../specs/suites/.adversarial-ngsim-along-the-lanes-$planner.yaml
+            sed -e "s#^planner: ../../planners/evasive.yaml#planner: $spec#" \
+                -e 's#^  method: safer-in-path$#  method: safer-in-path-lookahead\n  ego_contact: not-from-behind\n  wrong_way: along-the-lanes#' \
+                ../../specs/suites/adversarial-ngsim.yaml >"$copy"
+            # A failing suite is a result here, not an error.
+            run "along-the-lanes/suite-ngsim-$planner.txt" run "$copy" --no-shrink --mutants all \
+                --artifacts "$(mktemp -d)" || true
+            rm "$copy"
         done ;;
     esac
 done

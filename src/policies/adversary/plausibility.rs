@@ -11,7 +11,7 @@
 use super::background_forecast::BackgroundForecast;
 use super::broad_phase::Bounds;
 use super::rollout::{BRAKING_CHECK_STEPS, braking_after, continued_after, token_rollout};
-use super::wrong_way::{WrongWayRule, drives_wrong_way, first_wrong_way};
+use super::wrong_way::{WrongWayRule, drives_across_lanes, drives_wrong_way, first_wrong_way};
 use crate::geometry::OrientedBox;
 use crate::motion::KinematicState;
 use crate::motion::tokens::{MAX_ACCEL_MPS2, SIM_DT_S, TOKEN_PERIOD_STEPS, Token};
@@ -120,6 +120,10 @@ pub(super) struct PlausibilityCheck<'w> {
     /// the rule ([`WrongWayRule::Forbidden`], and the CBV not against it
     /// already).
     holds_traffic_direction: bool,
+    /// Whether a token that takes the CBV across the lanes breaks the
+    /// rule ([`WrongWayRule::AlongTheLanes`], and the CBV not across them
+    /// already).
+    holds_along_the_lanes: bool,
 }
 
 impl<'w> PlausibilityCheck<'w> {
@@ -144,6 +148,7 @@ impl<'w> PlausibilityCheck<'w> {
                 on_road_now: false,
                 lanes_now: Vec::new(),
                 holds_traffic_direction: false,
+                holds_along_the_lanes: false,
             };
         };
         let horizon = TOKEN_PERIOD_STEPS + BRAKING_CHECK_STEPS.max(HOLDING_CHECK_STEPS + CLOSING_CHECK_STEPS);
@@ -173,15 +178,17 @@ impl<'w> PlausibilityCheck<'w> {
             on_road_now: !world.map.is_off_road_within_map(&now.position),
             lanes_now: world.map.lanes_containing(&now.position, now.heading_rad),
             holds_traffic_direction: false,
+            holds_along_the_lanes: false,
         }
     }
 
     /// The check with `rule` on driving against a lane's traffic (the
     /// default allows it).
     pub(super) fn with_wrong_way(self, rule: WrongWayRule) -> Self {
-        let holds =
-            rule == WrongWayRule::Forbidden && self.cbv_now.is_some_and(|now| !drives_wrong_way(self.world.map, &now));
-        Self { holds_traffic_direction: holds, ..self }
+        let map = self.world.map;
+        let holds = rule.forbids_wrong_way() && self.cbv_now.is_some_and(|now| !drives_wrong_way(map, &now));
+        let along = rule.forbids_across_lanes() && self.cbv_now.is_some_and(|now| !drives_across_lanes(map, &now));
+        Self { holds_traffic_direction: holds, holds_along_the_lanes: along, ..self }
     }
 
     /// Whether the CBV, hit by `theirs` at `at`, cut in: it was hit from
@@ -234,10 +241,15 @@ impl<'w> PlausibilityCheck<'w> {
         // heading into the oncoming lanes faster than braking can stop it
         // is as good as in them (see the `wrong_way` module).
         let wrong_way = || {
-            if !self.holds_traffic_direction {
-                return None;
+            let against = self.holds_traffic_direction.then(|| first_wrong_way(map, moving_path())).flatten();
+            // Across the lanes on the token's own states (see the `wrong_way` module).
+            let across = || {
+                self.holds_along_the_lanes.then(|| rollout.iter().position(|s| drives_across_lanes(map, s))).flatten()
+            };
+            match wanted {
+                Violation::First => against.into_iter().chain(across()).min(),
+                Violation::Any => against.or_else(across),
             }
-            first_wrong_way(map, moving_path())
         };
         if !self.on_road_now {
             // Off the road already: head back to it, not farther away.
@@ -666,6 +678,42 @@ mod tests {
         assert_eq!(judged(110.0, WrongWayRule::Allowed), [false, false]);
         // A CBV against the traffic already is not held to it: any way back.
         assert_eq!(judged(170.0, WrongWayRule::Forbidden), [false, false]);
+    }
+
+    #[test]
+    fn along_the_lanes_a_token_that_turns_the_cbv_across_them_is_implausible_and_a_lane_change_is_not() {
+        // Five lanes: room to turn across two of them to the right, away
+        // from the oncoming lane, without leaving the road.
+        let map = two_way_road(5, 1);
+        let middle = lane_y(&map, 2);
+        let bodies = [AgentBody { kind: AgentKind::Vehicle, length_m: 4.5, width_m: 2.0 }; 2];
+        // At 8 m/s in the middle of five lanes, heading `heading_deg` to
+        // the right of the lanes' direction.
+        let at = |heading_deg: f64| {
+            let heading_rad = -heading_deg.to_radians();
+            let v = Vector2::new(heading_rad.cos(), heading_rad.sin()) * 8.0;
+            Some(AgentState { position: Point2::new(100.0, middle), heading_rad, velocity_mps: v })
+        };
+        let yawing = |yaw_rate_radps| TokenGrid::quantize(Action { accel_mps2: 0.0, yaw_rate_radps });
+        let (further, back) = (yawing(-0.5), yawing(0.5));
+        let judged = |heading_deg: f64, rule| {
+            let states = [car(20.0, middle, 0.0), at(heading_deg)];
+            let world = WorldView { map: &map, step: 0, bodies: &bodies, states: &states };
+            let check = PlausibilityCheck::new(&world, TrackIndex(1), TrackIndex(0), &BackgroundForecast::default())
+                .with_wrong_way(rule);
+            let rollouts = token_rollouts(states[1].as_ref().unwrap(), &[further, back]);
+            rollouts.iter().map(|r| check.implausible(r, ContactRule::Any)).collect::<Vec<_>>()
+        };
+        // 20° off the lanes: turning on at 0.5 rad/s passes 30° within the
+        // token's half second (14°) ...
+        assert_eq!(judged(20.0, WrongWayRule::AlongTheLanes), [true, false]);
+        // ... which the wrong-way rule alone, and the default, allow.
+        assert_eq!(judged(20.0, WrongWayRule::Forbidden), [false, false]);
+        assert_eq!(judged(20.0, WrongWayRule::Allowed), [false, false]);
+        // A lane change's few degrees, turning on, stay under 30°.
+        assert_eq!(judged(5.0, WrongWayRule::AlongTheLanes), [false, false]);
+        // A CBV across the lanes already is not held to it: any way back.
+        assert_eq!(judged(40.0, WrongWayRule::AlongTheLanes), [false, false]);
     }
 
     #[test]

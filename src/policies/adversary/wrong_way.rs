@@ -15,6 +15,17 @@
 //! keep it out of the oncoming lane. A CBV already
 //! against the traffic (a recording that starts so) is not held to it:
 //! any way back is allowed.
+//!
+//! Under [`WrongWayRule::AlongTheLanes`] the CBV is also held to drive
+//! along the lanes, not across them: a token whose own states take a CBV
+//! moving at 3 m/s or more more than 30° from every lane its centre is
+//! in, outside intersections
+//! ([`RoadMap::angle_across_lanes_at`](crate::map::RoadMap::angle_across_lanes_at),
+//! what `safer evaluate`'s "across lanes" columns count), is implausible.
+//! A lane change turns 5–10°; a closed-loop CBV chasing the ego's path
+//! cut across a freeway's lanes at about 40°. Judged on the token's own
+//! states, not on its path braked to a standstill: a CBV in a lane change
+//! braking along its curvature would turn on past 30°.
 
 use crate::map::RoadMap;
 use crate::scenario::AgentState;
@@ -33,11 +44,30 @@ pub enum WrongWayRule {
     /// traffic, or leaves it unable to brake short of such a lane, is
     /// implausible.
     Forbidden,
+    /// As [`Self::Forbidden`], and a token that takes the CBV across the
+    /// lanes (more than 30° from every lane it is in, outside
+    /// intersections) is implausible too.
+    AlongTheLanes,
 }
 
 impl WrongWayRule {
     /// Every variant, in declaration order (for choosers such as the command line).
-    pub const ALL: &'static [Self] = &[Self::Allowed, Self::Forbidden];
+    pub const ALL: &'static [Self] = &[Self::Allowed, Self::Forbidden, Self::AlongTheLanes];
+
+    /// Whether the CBV is kept out of lanes against their traffic.
+    pub fn forbids_wrong_way(self) -> bool {
+        self != Self::Allowed
+    }
+
+    /// Whether the CBV is kept from driving across the lanes.
+    pub fn forbids_across_lanes(self) -> bool {
+        self == Self::AlongTheLanes
+    }
+}
+
+/// Whether a CBV in `state` drives across the lanes it is in.
+pub(super) fn drives_across_lanes(map: &RoadMap, state: &AgentState) -> bool {
+    map.angle_across_lanes_at(&state.position, state.heading_rad, state.speed_mps()).is_some()
 }
 
 /// Whether a CBV in `state` drives against a lane's traffic.
