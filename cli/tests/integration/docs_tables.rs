@@ -1624,3 +1624,54 @@ fn the_at_fault_planner_table_quotes_its_outputs() {
     }
     assert_eq!(rows.len(), 6, "two methods with each planner on NGSIM, the lookahead with each on WOMD interactive");
 }
+
+#[test]
+fn the_along_the_lanes_table_quotes_its_outputs() {
+    let doc = repo_file("docs/benchmarks.md");
+    let rows = markdown_rows(
+        &doc,
+        "| set | planner | CBV | CR | SR-crit | reach-crit | wrong way s2 | across s2 | passed | kills | held out |",
+        "- **Realism.**",
+    );
+    let method = "safer-in-path-lookahead";
+    // A blank set or planner cell continues the row above's.
+    for (set, planner, row) in rows_by_set_and_draw(&rows) {
+        let (set_name, n) = match set.as_str() {
+            "NGSIM (n = 60)" => ("ngsim", 60),
+            "WOMD interactive (n = 28)" => ("womd-interactive", 28),
+            other => panic!("no output for the set {other:?}"),
+        };
+        let file = match (planner.as_str(), row[2].as_str()) {
+            ("evasive", "any way") => format!("ego-contact/mutants-{set_name}-evasive-n{n}.txt"),
+            ("evasive-at-fault", "any way") => format!("at-fault-planner/mutants-{set_name}-n{n}.txt"),
+            ("evasive", "along the lanes") => format!("along-the-lanes/mutants-{set_name}-n{n}-evasive.txt"),
+            ("evasive-at-fault", "along the lanes") => format!("along-the-lanes/mutants-{set_name}-n{n}-at-fault.txt"),
+            other => panic!("no output for {other:?}"),
+        };
+        let output = repo_file(&format!("docs/evaluation/{file}"));
+        // The evaluation table (variants, errors, CR, SR, SR-crit, ...), the
+        // reach table (reach, reach-crit, ...), the plausibility table
+        // (wrong way s2 the 7th value, across s2 the 11th) and the kills
+        // table (passed, kills, |, held out, ×log, ×prior, scene kills, ...).
+        let evaluation = labelled_row(&output, "SR-crit", method);
+        let reach = labelled_row(&output, "reach-crit", method);
+        let plausibility = labelled_row(&output, "across s2", method);
+        let kills = labelled_row(&output, "passed", method);
+        let quoted = [
+            &evaluation[2],
+            &evaluation[4],
+            &reach[1],
+            &plausibility[6],
+            &plausibility[10],
+            &kills[0],
+            &kills[1],
+            &kills[3],
+            &kills[4],
+            &kills[5],
+            &kills[6],
+        ];
+        let cells: Vec<&String> = row[3..].iter().collect();
+        assert_eq!(cells, quoted, "{set}, {planner}, {}: against {file}", row[2]);
+    }
+    assert_eq!(rows.len(), 8, "each planner with the CBV either way on two sets");
+}
