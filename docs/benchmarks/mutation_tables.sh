@@ -5,7 +5,11 @@
 # into a scratch folder with `method:` replaced (and their relative paths
 # made absolute), so nothing under specs/ is touched.
 #
-#   docs/benchmarks/mutation_tables.sh [SAFER-BINARY]
+#   docs/benchmarks/mutation_tables.sh [SAFER-BINARY [SUITE...]]
+#
+# SUITE: a suite's name under specs/suites (default: every suite; the
+# cost table then times adversarial-ngsim, external-lane-follower and
+# authored-evasive, else the suites named).
 #
 # Prints one Markdown row per (suite, method): the variants the planner
 # passes, the score, the killed mutants (with the variants that killed
@@ -26,11 +30,17 @@ scratch_copy() { # suite-file out.yaml [sed-option...]
 }
 
 # One suite under one method: the JSON report of `safer run --mutants`. A
-# method written METHOD:RULE runs METHOD with `ego_contact: RULE`.
+# method written METHOD:RULE runs METHOD with `ego_contact: RULE`, and
+# METHOD:RULE:WAY with `wrong_way: WAY` too; the suite's own `ego_contact`
+# and `wrong_way` are dropped (the methods without a CBV rule refuse them).
 run_suite() { # suite-file method out.json
-    local src="$1" method="${2%%:*}" out="$3" copy="$scratch/$(basename "$1" .yaml)-$2.yaml" contact=""
-    [[ "$2" == *:* ]] && contact="\\n  ego_contact: ${2#*:}"
-    scratch_copy "$src" "$copy" -e "s#^\(  method:\).*#\1 $method$contact#"
+    local src="$1" method="${2%%:*}" out="$3" copy="$scratch/$(basename "$1" .yaml)-$2.yaml" rules="" rest
+    if [[ "$2" == *:* ]]; then
+        rest="${2#*:}"
+        rules="\\n  ego_contact: ${rest%%:*}"
+        [[ "$rest" == *:* ]] && rules="$rules\\n  wrong_way: ${rest#*:}"
+    fi
+    scratch_copy "$src" "$copy" -e '/^  ego_contact:/d; /^  wrong_way:/d' -e "s#^\(  method:\).*#\1 $method$rules#"
     grep -q "^adversary:" "$copy" || printf 'adversary:\n  method: %s\n' "$method" >>"$copy"
     # The log replays one variant whatever the seed: one per scene.
     [[ "$method" == log ]] && sed -i "s#^variants: .*#variants: 1#" "$copy"
@@ -39,9 +49,14 @@ run_suite() { # suite-file method out.json
 
 echo "| suite | planner | method | passed | score | killed (variants) | survived |"
 echo "| --- | --- | --- | --- | --- | --- | --- |"
+shift || true
+suites=("$@")
 for suite in "$repo"/specs/suites/*.yaml; do
     name="$(basename "$suite" .yaml)"
+    [[ ${#suites[@]} -eq 0 || " ${suites[*]} " == *" $name "* ]] || continue
     if grep -q "method: safer" "$suite"; then methods="log prior safer safer-in-path safer-in-path:not-from-behind safer-cut-in safer-in-path-lookahead safer-in-path-lookahead:not-from-behind safer-distinct safer-lookahead no-lfr"; else methods="log"; fi
+    # A suite holding its CBV along the lanes: that rule's row too.
+    grep -q "wrong_way: along-the-lanes" "$suite" && methods="$methods safer-in-path-lookahead:not-from-behind:along-the-lanes"
     for method in $methods; do
         out="$scratch/$name-$method.json"
         run_suite "$suite" "$method" "$out"
@@ -74,7 +89,9 @@ done
 echo
 echo "| suite | own run, s | with 7 mutants, s | ratio | bound (1 + 7) |"
 echo "| --- | --- | --- | --- | --- |"
-for name in adversarial-ngsim external-lane-follower authored-evasive; do
+timed=(adversarial-ngsim external-lane-follower authored-evasive)
+[[ ${#suites[@]} -eq 0 ]] || timed=("${suites[@]}")
+for name in "${timed[@]}"; do
     copy="$scratch/cost-$name.yaml"
     scratch_copy "$repo/specs/suites/$name.yaml" "$copy" -e '/^ *mutation_score_min:/d; /^ *mutation_operators:/d'
     # Best of three of each, alternating, so a slower moment hits both.
