@@ -201,11 +201,8 @@ const RED_LIGHT_COST: f64 = 5.0e3;
 /// For the first predicted contact of a rollout the ego would not be at
 /// fault for, under [`AvoidedContacts::AtFault`], scaled as
 /// [`COLLISION_COST`] (earlier is worse, up to twice this): at most half a
-/// second off the road.
+/// second off the road. The rollout goes on through it.
 const BLAMELESS_CONTACT_COST: f64 = 1.0e3;
-/// The least a rollout that stops early (at a contact or a red light) adds
-/// instead of the speed terms still to come.
-const LEAST_STOPPING_COST: f64 = BLAMELESS_CONTACT_COST;
 /// Per 0.5 s (a check every [`OFF_ROAD_CHECK_EVERY`] steps) of a candidate
 /// off the road inside the mapped area (driving on past the map's cut is
 /// not leaving the road: the ego need not stop there).
@@ -446,8 +443,8 @@ fn speed_cost(speed_mps: f64, v_des: f64) -> f64 {
 /// from each step to the horizon, for a candidate of acceleration `accel`
 /// starting at `start_speed_mps`: its speeds follow from these alone, as
 /// [`EvasivePlanner::evaluate`] steps them. Each is capped at
-/// [`LEAST_STOPPING_COST`], the least that a rollout stopping early (at a
-/// contact or a red light) adds instead of the rest, so that each stays
+/// [`RED_LIGHT_COST`], the least that a rollout stopping early (at a
+/// collision or a red light) adds instead of the rest, so that each stays
 /// a lower bound on what is still to come. `steps + 1` values, the last 0.
 fn speed_costs_to_come(start_speed_mps: f64, accel: f64, v_des: f64, steps: usize) -> Vec<f64> {
     let mut speed_mps = start_speed_mps;
@@ -461,7 +458,7 @@ fn speed_costs_to_come(start_speed_mps: f64, accel: f64, v_des: f64, steps: usiz
     let mut to_come = 0.0;
     for t in terms.iter_mut().rev() {
         to_come += *t;
-        *t = to_come.min(LEAST_STOPPING_COST);
+        *t = to_come.min(RED_LIGHT_COST);
     }
     terms
 }
@@ -1083,9 +1080,14 @@ mod tests {
         };
         // Starting slower, at and faster than it wants to go, so the speed
         // terms of the bound weigh differently.
+        // Either way of weighing a contact from behind (the car closing on
+        // the right is one).
         let mut choices = std::collections::BTreeSet::new();
-        for (start_mps, desired_mps) in [(3.0, 15.0), (10.0, 10.0), (18.0, 8.0), (6.0, 25.0)] {
-            let params = EvasiveParams { desired_speed_mps: Some(desired_mps), ..EvasiveParams::default() };
+        let starts = [(3.0, 15.0), (10.0, 10.0), (18.0, 8.0), (6.0, 25.0)];
+        let runs = [AvoidedContacts::All, AvoidedContacts::AtFault].into_iter().flat_map(|a| starts.map(|s| (a, s)));
+        for (avoided_contacts, (start_mps, desired_mps)) in runs {
+            let params =
+                EvasiveParams { desired_speed_mps: Some(desired_mps), avoided_contacts, ..EvasiveParams::default() };
             let mut pruned = EvasivePlanner::new(params.clone());
             let mut plain = EvasivePlanner { exhaustive: true, ..EvasivePlanner::new(params) };
             let mut ego = at_the_origin(start_mps);
@@ -1099,7 +1101,7 @@ mod tests {
                 assert_eq!(
                     (a.accel_mps2.to_bits(), a.yaw_rate_radps.to_bits()),
                     (b.accel_mps2.to_bits(), b.yaw_rate_radps.to_bits()),
-                    "from {start_mps} m/s wanting {desired_mps}, step {k}: {a:?} against {b:?}"
+                    "{avoided_contacts:?}, from {start_mps} m/s wanting {desired_mps}, step {k}: {a:?} against {b:?}"
                 );
                 choices.insert(pruned.last_choice);
                 ego = kinematic_step(&ego, a, SIM_DT_S);
