@@ -158,9 +158,9 @@ pub fn judge_mutant(
 ) -> Result<MutantJudgement, HarnessError> {
     let setup = VariantSetup { fault: Some(operator), ..*setup };
     let played = pipeline::play_stage2(&setup, stage1)?;
-    let counted = played.stage2.summary().ego_collision.is_some_and(|c| criteria.counts_collision(c.at_fault));
+    let witnessed = played.stage2.summary().ego_collision.is_some_and(|c| criteria.witnesses_collision(c.at_fault));
     let escape = match (setup.escape, Stage2Verdict::of(&played.stage2)) {
-        (Some(budget), Stage2Verdict::Collided { .. }) if counted => {
+        (Some(budget), Stage2Verdict::Collided { .. }) if witnessed => {
             pipeline::search_stage2_escape(&setup, stage1, &played.stage2, budget)?
         }
         _ => None,

@@ -281,11 +281,11 @@ pub fn run_variant(suite: &Suite, scenario: &SuiteScenario, index: u32) -> Resul
     let name = inputs.name.clone();
     let setup = inputs.setup(suite);
     let mut stages = pipeline::run(setup)?;
-    // A collision the criteria do not count (one the ego was not at fault
-    // for, under `no_at_fault_collision`) is nobody's failure: its witness
-    // would count it against the generator where no escape was found.
+    // A collision the ego was not at fault for, under
+    // `no_at_fault_collision`, is nobody's failure: its witness would count
+    // it against the generator where no escape was found.
     let criteria = &spec.acceptance.variant;
-    if stages.stage2.summary().ego_collision.is_some_and(|c| !criteria.counts_collision(c.at_fault)) {
+    if stages.stage2.summary().ego_collision.is_some_and(|c| !criteria.witnesses_collision(c.at_fault)) {
         stages.escape = None;
     }
     let escape = stages.escape.as_ref().map(CollisionEscape::of);

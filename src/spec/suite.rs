@@ -445,12 +445,15 @@ fn yes() -> bool {
 }
 
 impl VariantAcceptance {
-    /// Whether a collision of the ego, at fault or not, fails a variant
-    /// under these criteria, unless the witness finds no escape from it.
-    /// One that fails none needs no witness: it cannot be blamed on the
-    /// planner, nor counted against the generator.
-    pub fn counts_collision(&self, at_fault: bool) -> bool {
-        self.no_collision || (self.no_at_fault_collision && at_fault)
+    /// Whether the closed-loop witness is asked about a collision of the
+    /// ego (at fault or not): always, except for one the ego was not at
+    /// fault for under `no_at_fault_collision`. That one fails no
+    /// criterion, whatever the witness finds, and a planner that lets it
+    /// happen (being hit from behind) is not escaping it, so the witness
+    /// would count an escape the planner never tried for as the
+    /// generator's fault.
+    pub fn witnesses_collision(&self, at_fault: bool) -> bool {
+        !self.no_at_fault_collision || self.no_collision || at_fault
     }
 }
 
@@ -1090,23 +1093,25 @@ acceptance:
     }
 
     #[test]
-    fn a_collision_counts_against_the_planner_as_the_collision_criteria_say() {
+    fn a_collision_is_witnessed_unless_at_fault_collisions_alone_count_and_the_ego_was_not() {
         let criteria = |no_collision, no_at_fault_collision| VariantAcceptance {
             no_collision,
             no_at_fault_collision,
             ..VariantAcceptance::default()
         };
-        // (criteria, at fault) -> counted
-        for ((any, at_fault_only), at_fault, counted) in [
+        // (criteria, at fault) -> witnessed
+        for ((any, at_fault_only), at_fault, witnessed) in [
             ((true, false), false, true),
             ((true, false), true, true),
             ((false, true), false, false),
             ((false, true), true, true),
-            ((false, false), true, false),
+            // No collision criterion: the witness still tells the generator's faults.
+            ((false, false), false, true),
+            ((false, false), true, true),
         ] {
             assert_eq!(
-                criteria(any, at_fault_only).counts_collision(at_fault),
-                counted,
+                criteria(any, at_fault_only).witnesses_collision(at_fault),
+                witnessed,
                 "{any} {at_fault_only} {at_fault}"
             );
         }
