@@ -50,6 +50,13 @@ pub fn check(
     out
 }
 
+/// Whether the closed-loop witness is asked about `stage2`'s ego collision
+/// under `criteria` ([`VariantAcceptance::witnesses_collision`]; a rollout
+/// without one has nothing to ask about).
+pub fn asks_witness(criteria: &VariantAcceptance, stage2: &Rollout) -> bool {
+    stage2.summary().ego_collision.is_none_or(|c| criteria.witnesses_collision(c.at_fault))
+}
+
 /// A criterion's failure.
 fn fail(criterion: &str, what: String) -> AcceptanceFailure {
     AcceptanceFailure { criterion: criterion.to_string(), what }

@@ -15,7 +15,7 @@ use serde::Serialize;
 
 use super::acceptance::{self, AcceptanceFailure};
 use super::metrics::MUTATION_SCORE;
-use super::pipeline::{self, Stage2Verdict, VariantSetup};
+use super::pipeline::{self, VariantSetup};
 use super::variant::VariantInputs;
 use super::{HarnessError, MetricCheck, Suite, SuiteScenario, VariantOutcome};
 use crate::eval::escape::CollisionEscape;
@@ -158,13 +158,8 @@ pub fn judge_mutant(
 ) -> Result<MutantJudgement, HarnessError> {
     let setup = VariantSetup { fault: Some(operator), ..*setup };
     let played = pipeline::play_stage2(&setup, stage1)?;
-    let witnessed = played.stage2.summary().ego_collision.is_some_and(|c| criteria.witnesses_collision(c.at_fault));
-    let escape = match (setup.escape, Stage2Verdict::of(&played.stage2)) {
-        (Some(budget), Stage2Verdict::Collided { .. }) if witnessed => {
-            pipeline::search_stage2_escape(&setup, stage1, &played.stage2, budget)?
-        }
-        _ => None,
-    };
+    let escape =
+        pipeline::stage2_witness(&setup, stage1, &played.stage2, |stage2| acceptance::asks_witness(criteria, stage2))?;
     let min_ttc = min_time_to_collision(&played.stage2);
     let escape = escape.as_ref().map(CollisionEscape::of);
     Ok(MutantJudgement {

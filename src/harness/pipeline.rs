@@ -342,6 +342,17 @@ pub fn track_from_rollout(scenario: &Scenario, rollout: &Rollout, agent: TrackIn
 
 /// Runs both stages of one variant.
 pub fn run(setup: VariantSetup<'_>) -> Result<DualStage, HarnessError> {
+    run_witnessing(setup, |_| true)
+}
+
+/// [`run`], the witness searched only for a stage-2 collision `witnessed`
+/// asks it of (given the stage-2 rollout): a suite's criteria leave out a
+/// collision that fails none of them and is no generator's fault
+/// ([`acceptance::asks_witness`](super::acceptance::asks_witness)).
+pub fn run_witnessing(
+    setup: VariantSetup<'_>,
+    witnessed: impl FnOnce(&Rollout) -> bool,
+) -> Result<DualStage, HarnessError> {
     let scenario = setup.scenario;
     let clock = Instant::now();
     scenario.ego.ok_or_else(|| crate::sim::SimError::NoEgo(scenario.id.clone()))?;
@@ -365,10 +376,7 @@ pub fn run(setup: VariantSetup<'_>) -> Result<DualStage, HarnessError> {
 
     let verdict = Stage2Verdict::of(&stage2);
     let escape_clock = Instant::now();
-    let escape = match (setup.escape, &verdict) {
-        (Some(budget), Stage2Verdict::Collided { .. }) => search_stage2_escape(&setup, &stage1, &stage2, budget)?,
-        _ => None,
-    };
+    let escape = stage2_witness(&setup, &stage1, &stage2, witnessed)?;
     profile.escape_s = escape_clock.elapsed().as_secs_f64();
 
     Ok(DualStage {
@@ -491,6 +499,23 @@ fn stage2_simulation<'s>(
         Stage2Cbv::ClosedLoopDelayed => Some(install_method(setup, &mut stage2, EgoSight::ReactionTimeLate)?),
     };
     Ok((stage2, installed))
+}
+
+/// The closed-loop witness of `stage2`'s ego collision
+/// ([`search_stage2_escape`]), where the setup has a witness budget, the
+/// ego collided and `witnessed` asks it of the rollout; `None` otherwise.
+pub fn stage2_witness(
+    setup: &VariantSetup<'_>,
+    stage1: &Rollout,
+    stage2: &Rollout,
+    witnessed: impl FnOnce(&Rollout) -> bool,
+) -> Result<Option<EscapeSearch>, HarnessError> {
+    match (setup.escape, Stage2Verdict::of(stage2)) {
+        (Some(budget), Stage2Verdict::Collided { .. }) if witnessed(stage2) => {
+            search_stage2_escape(setup, stage1, stage2, budget)
+        }
+        _ => Ok(None),
+    }
 }
 
 /// The closed-loop witness of `stage2`'s ego collision: each candidate

@@ -280,14 +280,11 @@ pub fn run_variant(suite: &Suite, scenario: &SuiteScenario, index: u32) -> Resul
     let (base, seed) = (&inputs.base, inputs.seed);
     let name = inputs.name.clone();
     let setup = inputs.setup(suite);
-    let mut stages = pipeline::run(setup)?;
     // A collision the ego was not at fault for, under
     // `no_at_fault_collision`, is nobody's failure: its witness would count
     // it against the generator where no escape was found.
     let criteria = &spec.acceptance.variant;
-    if stages.stage2.summary().ego_collision.is_some_and(|c| !criteria.witnesses_collision(c.at_fault)) {
-        stages.escape = None;
-    }
+    let stages = pipeline::run_witnessing(setup, |stage2| acceptance::asks_witness(criteria, stage2))?;
     let escape = stages.escape.as_ref().map(CollisionEscape::of);
     let failures = acceptance::check(criteria, &stages.stage2, base, stages.min_ttc_s, escape);
     // The verdict is the variant's failures alone: the shrink only
