@@ -795,10 +795,9 @@ impl EvasivePlanner {
         let mut travelled_s = start_s;
         // Each step's projection starts from the last one's segment.
         let mut segment = ctx.start_segment;
-        // The agents passed through blamelessly (see `judge_contact`), and
-        // whether that contact was charged.
+        // The agents passed through blamelessly (see `judge_contact`): the
+        // first such contact is charged, while none is passed yet.
         let mut passed = Vec::new();
-        let mut charged_blameless = false;
         for (k, others) in ctx.predictions.iter().enumerate().take(steps) {
             if cost + least_to_come + speed_costs_to_come[k] > abandon_above {
                 return None;
@@ -834,6 +833,7 @@ impl EvasivePlanner {
                 others.any_intersects_with_sin_cos(b, sin_cos) || ctx.standing.any_intersects_with_sin_cos(b, sin_cos)
             };
             if touches(&ego_box) {
+                let first_blameless = passed.is_empty();
                 let contact = match self.params.avoided_contacts {
                     AvoidedContacts::All => PredictedContact::AtFault,
                     AvoidedContacts::AtFault => ctx.judge_contact(k, &s, sin_cos, &ego_box, &mut passed),
@@ -848,10 +848,7 @@ impl EvasivePlanner {
                         cost += COLLISION_COST * earlier;
                         break;
                     }
-                    PredictedContact::Blameless if !charged_blameless => {
-                        cost += BLAMELESS_CONTACT_COST * earlier;
-                        charged_blameless = true;
-                    }
+                    PredictedContact::Blameless if first_blameless => cost += BLAMELESS_CONTACT_COST * earlier,
                     PredictedContact::Blameless | PredictedContact::None => {}
                 }
             }
