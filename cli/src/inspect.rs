@@ -84,8 +84,9 @@ pub(super) fn run(file: &Path, json: Option<&Path>) -> Result<ExitCode, CliError
         println!("steps         {} × {:.4} s = {:.1} s, now = step {}", s.steps, s.dt_s, s.duration_s, s.current_step);
         let m = &s.map;
         println!(
-            "map           {} lanes, {} road edges, {} road lines, {} crosswalks, {} speed bumps, {} driveways, {} drivable areas, {} stop signs, {} signal-controlled lanes",
+            "map           {} lanes ({} in junctions), {} road edges, {} road lines, {} crosswalks, {} speed bumps, {} driveways, {} drivable areas, {} stop signs, {} signal-controlled lanes",
             m.lanes,
+            m.junction_lanes,
             m.road_edges,
             m.road_lines,
             m.crosswalks,

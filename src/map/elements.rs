@@ -49,8 +49,13 @@ pub struct Lane {
     pub left_boundary: Option<Polyline>,
     /// Right boundary, where the source has one.
     pub right_boundary: Option<Polyline>,
-    /// Whether this lane lies inside an intersection.
+    /// Whether the source flags this lane as inside an intersection.
     pub in_intersection: bool,
+    /// Whether this lane's centreline crosses another lane's at a
+    /// junction's angle, on a map whose source flags no intersections
+    /// (WOMD): set by
+    /// [`RoadMap::mark_crossing_lanes_as_junctions`](super::RoadMap::mark_crossing_lanes_as_junctions).
+    pub crosses_lanes: bool,
     /// Midpoint of the lane's stop line, where the source has one
     /// (CommonRoad `stopLine`, also on lanes without a signal).
     pub stop_line: Option<Point2>,
@@ -72,8 +77,18 @@ impl Lane {
             left_boundary: None,
             right_boundary: None,
             in_intersection: false,
+            crosses_lanes: false,
             stop_line: None,
         }
+    }
+
+    /// Whether this lane lies inside a junction, where lanes cross at every
+    /// angle: the source flags it ([`Self::in_intersection`]), or on a map
+    /// that flags none it crosses another lane ([`Self::crosses_lanes`]).
+    /// The traffic rules read this; the realism prior's map input reads the
+    /// source's flag alone, as it was trained and measured.
+    pub fn in_junction(&self) -> bool {
+        self.in_intersection || self.crosses_lanes
     }
 }
 

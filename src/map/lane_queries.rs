@@ -300,7 +300,7 @@ impl RoadMap {
         }
         self.lanes_containing(p, heading_rad + std::f64::consts::PI).into_iter().find(|id| {
             self.lane(*id).is_some_and(|lane| {
-                !lane.in_intersection
+                !lane.in_junction()
                     && lane
                         .centreline
                         .project(p)
@@ -328,7 +328,7 @@ impl RoadMap {
         let mut smallest: Option<f64> = None;
         for id in lanes {
             let Some(lane) = self.lane(id) else { continue };
-            if lane.in_intersection {
+            if lane.in_junction() {
                 return None;
             }
             let Some(at) = lane.centreline.project(p) else { continue };

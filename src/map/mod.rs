@@ -16,6 +16,8 @@
 //! bookkeeping) is here.
 
 mod elements;
+mod junctions;
+pub use junctions::JUNCTION_CROSSING_MIN_ANGLE_RAD;
 pub mod lane_graph;
 mod lane_queries;
 pub mod lane_relations;
@@ -72,6 +74,9 @@ pub struct RoadMap {
 pub struct MapCounts {
     /// Lanes.
     pub lanes: usize,
+    /// Lanes inside a junction ([`Lane::in_junction`]): flagged by the
+    /// source, or crossing another lane on a map that flags none.
+    pub junction_lanes: usize,
     /// Road edges.
     pub road_edges: usize,
     /// Road lines.
@@ -187,6 +192,7 @@ impl RoadMap {
         let area = |k| self.areas.iter().filter(|a| a.kind == k).count();
         MapCounts {
             lanes: self.lanes.len(),
+            junction_lanes: self.lanes.iter().filter(|l| l.in_junction()).count(),
             road_edges: self.road_edges.len(),
             road_lines: self.road_lines.len(),
             crosswalks: area(AreaKind::Crosswalk),

@@ -211,3 +211,59 @@ fn womd_json_slip_lane_tokens_read_a_right_turn_ahead_and_no_way_straight_on() {
     });
     assert!(straight_beside, "no lane beside it goes straight on");
 }
+
+/// WOMD flags no lane as inside an intersection, so the lanes that cross
+/// other lanes are taken to be (`RoadMap::mark_crossing_lanes_as_junctions`).
+/// The recorded ego and CBV of the interactive set are human drivers: the
+/// across-the-lanes measure (a second or more at over 30° to every lane an
+/// agent is in, junctions left alone) must judge none of them across the
+/// lanes. With every crossing lane read as an ordinary one it judges some
+/// turning through a junction.
+#[test]
+#[cfg_attr(not(recorded_data), ignore = "needs recorded data: set SAFER_DATA_DIR (docs/guide/recorded-data.md)")]
+fn womd_junction_lanes_are_where_lanes_cross_and_no_recorded_pair_drives_across_the_lanes() {
+    use safer_scenarios::eval::traffic_rules::ACROSS_LANES_MIN_S;
+    use safer_scenarios::map::RoadMap;
+    let (mut lanes, mut junction_lanes, mut judged) = (0, 0, 0);
+    let (mut across, mut across_unmarked) = (Vec::new(), Vec::new());
+    for path in files("womd-interactive", "json") {
+        for s in load(&path).unwrap_or_else(|e| panic!("{e}")) {
+            let counts = s.map.counts();
+            (lanes, junction_lanes) = (lanes + counts.lanes, junction_lanes + counts.junction_lanes);
+            let mut unmarked = s.map.clone();
+            unmarked.lanes.iter_mut().for_each(|l| l.crosses_lanes = false);
+            let min_steps = (ACROSS_LANES_MIN_S / s.dt_s).round() as usize;
+            for (role, agent) in [("ego", s.ego), ("CBV", s.cbv)] {
+                let Some(agent) = agent else { continue };
+                judged += 1;
+                let states = &s.tracks[agent.0].states[s.current_step..];
+                // The longest run of steps across the lanes, in steps.
+                let longest = |map: &RoadMap| {
+                    let (mut run, mut longest) = (0, 0);
+                    for state in states {
+                        let across = state.as_ref().is_some_and(|st| {
+                            map.angle_across_lanes_at(&st.position, st.heading_rad, st.speed_mps()).is_some()
+                        });
+                        run = if across { run + 1 } else { 0 };
+                        longest = longest.max(run);
+                    }
+                    longest
+                };
+                if longest(&s.map) >= min_steps {
+                    across.push(format!("{} {role}", s.id));
+                }
+                if longest(&unmarked) >= min_steps {
+                    across_unmarked.push(format!("{} {role}", s.id));
+                }
+            }
+        }
+    }
+    assert!(judged > 0, "no recorded ego or CBV judged");
+    assert!(!across_unmarked.is_empty(), "without the junction lanes no recorded driver is across the lanes");
+    assert!(
+        across.is_empty(),
+        "recorded drivers across the lanes: {across:?} (without the junction lanes: {across_unmarked:?})"
+    );
+    // Urban scenes: a junction's connectors are a good share of their lanes.
+    assert!(junction_lanes * 10 > lanes, "{junction_lanes} of {lanes} lanes in junctions");
+}

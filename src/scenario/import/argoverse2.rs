@@ -386,6 +386,7 @@ fn read_map(bytes: &[u8], path: &Path, name_map: bool) -> Result<RoadMap, Import
             left_boundary: boundary(&l.left_lane_boundary),
             right_boundary: boundary(&l.right_lane_boundary),
             in_intersection: l.is_intersection,
+            crosses_lanes: false,
             stop_line: None,
         });
     }

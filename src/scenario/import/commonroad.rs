@@ -589,6 +589,7 @@ fn read_map(
             left_boundary: Some(left),
             right_boundary: Some(right),
             in_intersection,
+            crosses_lanes: false,
             stop_line,
         });
     }

@@ -474,6 +474,7 @@ impl Converter<'_> {
                     left_boundary: None,
                     right_boundary: None,
                     in_intersection: false,
+                    crosses_lanes: false,
                     stop_line: None,
                 }),
                 "road_edge" => road_edges.push(RoadEdge {
@@ -509,7 +510,10 @@ impl Converter<'_> {
             notes.push(format!("{count} roads of unknown type {kind:?} ignored"));
         }
         let traffic_signals = self.traffic_signals(&scene.tl_states, num_steps, notes)?;
-        Ok(RoadMap::new(lanes, road_edges, road_lines, areas, Vec::new(), stop_signs, traffic_signals))
+        let mut map = RoadMap::new(lanes, road_edges, road_lines, areas, Vec::new(), stop_signs, traffic_signals);
+        // WOMD flags no junction lanes: take them from where lanes cross.
+        map.mark_crossing_lanes_as_junctions();
+        Ok(map)
     }
 
     /// Per-lane signal states over all steps; steps a lane is not listed in

@@ -664,6 +664,7 @@ impl Converter<'_> {
                         // WOMD has no intersection flag; `interpolating` lanes are
                         // often intersection connectors but not only those.
                         in_intersection: false,
+                        crosses_lanes: false,
                         stop_line: None,
                     });
                 }
@@ -704,7 +705,10 @@ impl Converter<'_> {
             }
         }
         let traffic_signals = self.traffic_signals(dynamic, num_steps)?;
-        Ok(RoadMap::new(lanes, road_edges, road_lines, areas, Vec::new(), stop_signs, traffic_signals))
+        let mut map = RoadMap::new(lanes, road_edges, road_lines, areas, Vec::new(), stop_signs, traffic_signals);
+        // WOMD flags no junction lanes: take them from where lanes cross.
+        map.mark_crossing_lanes_as_junctions();
+        Ok(map)
     }
 
     /// Per-lane signal states over the steps, from one `DynamicMapState` per
