@@ -23,6 +23,9 @@ fn inspect_json_reports_format_roles_and_map() {
     assert_eq!(s["steps"], 91);
     assert_eq!(s["current_step"], 10);
     assert_eq!(s["map"]["lanes"], 199);
+    // WOMD flags no intersection lanes: these are the lanes that cross
+    // another at a junction's angle.
+    assert_eq!(s["map"]["junction_lanes"], 37);
     assert_eq!(s["ego"]["assigned_by"], "source");
     assert!(s["cbv"]["id"].is_string());
 }
