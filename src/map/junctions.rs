@@ -32,7 +32,6 @@ impl RoadMap {
     pub fn mark_crossing_lanes_as_junctions(&mut self) -> usize {
         let min_sin = JUNCTION_CROSSING_MIN_ANGLE_RAD.sin();
         let mut crossing = vec![false; self.lanes.len()];
-        let mut pairs = Vec::new();
         for (i, lane) in self.lanes.iter().enumerate() {
             let points = lane.centreline.points();
             let length_m = lane.centreline.length_m();
@@ -46,35 +45,34 @@ impl RoadMap {
                     continue;
                 }
                 let mid = Point2::from((a.coords + b.coords) * 0.5);
-                self.lane_segments.candidate_pairs_into(&mid, seg_m / 2.0 + 1e-3, &mut pairs);
-                for &(j, sj) in &pairs {
+                // Each pair of lanes is tried from the first of them (both are
+                // marked); a segment met twice is only tried twice.
+                self.lane_segments.for_each_candidate(&mid, seg_m / 2.0 + 1e-3, |(j, sj)| {
                     let j = j as usize;
-                    if j == i || (crossing[i] && crossing[j]) {
-                        continue;
+                    if j <= i || (crossing[i] && crossing[j]) {
+                        return;
                     }
                     let other = &self.lanes[j];
-                    let Some((c, d)) =
-                        other.centreline.points().get(sj as usize).zip(other.centreline.points().get(sj as usize + 1))
-                    else {
-                        continue;
+                    let other_points = other.centreline.points();
+                    let Some((c, d)) = other_points.get(sj as usize).zip(other_points.get(sj as usize + 1)) else {
+                        return;
                     };
-                    let Some((u, v)) = proper_crossing([a, b], [*c, *d]) else { continue };
+                    let Some((u, v)) = proper_crossing([a, b], [*c, *d]) else { return };
                     let (ab, cd) = (b - a, d - c);
                     let sin = (ab.x * cd.y - ab.y * cd.x).abs() / (seg_m * cd.norm());
                     if sin < min_sin {
-                        continue;
+                        return;
                     }
                     let at_m = seg_start_m + u * seg_m;
-                    let other_at_m =
-                        other.centreline.points()[..=sj as usize].windows(2).map(|w| (w[1] - w[0]).norm()).sum::<f64>()
-                            + v * cd.norm();
+                    let other_at_m = other_points[..=sj as usize].windows(2).map(|w| (w[1] - w[0]).norm()).sum::<f64>()
+                        + v * cd.norm();
                     let near_end = |s: f64, total: f64| s < LANE_END_CLEARANCE_M || total - s < LANE_END_CLEARANCE_M;
                     if near_end(at_m, length_m) || near_end(other_at_m, other.centreline.length_m()) {
-                        continue;
+                        return;
                     }
                     crossing[i] = true;
                     crossing[j] = true;
-                }
+                });
             }
         }
         let mut marked = 0;
