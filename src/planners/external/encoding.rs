@@ -83,7 +83,7 @@ pub(super) fn full_map(map: &RoadMap) -> WireFullMap {
                     successors: linked(graph.successors(i)),
                     left_neighbours: ids(&l.left_neighbours),
                     right_neighbours: ids(&l.right_neighbours),
-                    in_intersection: l.in_intersection,
+                    in_intersection: l.in_junction(),
                     stop_line: l.stop_line.map(|p| [p.x, p.y]),
                 }
             })
@@ -493,6 +493,22 @@ mod tests {
             .collect::<Vec<_>>();
         use serde_json::json;
         assert_eq!(links, vec![(1, json!([]), json!([2, 3])), (2, json!([1]), json!([])), (3, json!([1]), json!([]))]);
+    }
+
+    #[test]
+    fn the_full_map_names_lanes_that_cross_as_intersection_lanes_where_the_map_flags_none() {
+        let lane = |id: i64, pts: &[(f64, f64)]| {
+            Lane::new(MapElementId(id), Polyline::new(pts.iter().map(|&(x, y)| Point2::new(x, y)).collect()))
+        };
+        let mut map = RoadMap::from_lanes(vec![
+            lane(1, &[(-30.0, 0.0), (30.0, 0.0)]),
+            lane(2, &[(0.0, -30.0), (0.0, 30.0)]),
+            lane(3, &[(-30.0, 40.0), (30.0, 40.0)]),
+        ]);
+        let flags = |map: &RoadMap| -> Vec<bool> { full_map(map).lanes.iter().map(|l| l.in_intersection).collect() };
+        assert_eq!(flags(&map), [false, false, false]);
+        map.mark_crossing_lanes_as_junctions();
+        assert_eq!(flags(&map), [true, true, false]);
     }
 
     #[test]
