@@ -1,11 +1,12 @@
 //! Junction lanes of maps whose source flags none. WOMD (its protobuf and
 //! GPUDrive's JSON) marks no lane as inside an intersection, while the
-//! rules that read [`Lane::in_intersection`](super::Lane) (the wrong-way and
-//! across-the-lanes tests, where lanes cross at every angle) and the realism
-//! prior's map input (trained on maps that flag their junction lanes) need
-//! it. Here a lane is taken to be inside a junction where its centreline
-//! crosses another lane's at a junction's angle: a crossing, not a fork or
-//! a merge at a lane's end, and not two lanes side by side.
+//! rules that leave a road user in an intersection alone (the wrong-way
+//! and across-the-lanes tests: lanes cross at every angle there) need to
+//! know where one is. Here a lane is taken to be inside a junction where
+//! its centreline crosses another lane's at a junction's angle: a
+//! crossing, not a fork or a merge at a lane's end, and not two lanes side
+//! by side. The mark is [`Lane::crosses_lanes`](super::Lane), beside the
+//! source's own flag, which the realism prior's map input keeps reading.
 
 use super::RoadMap;
 use crate::geometry::Point2;
@@ -21,10 +22,11 @@ pub const JUNCTION_CROSSING_MIN_ANGLE_RAD: f64 = std::f64::consts::FRAC_PI_6;
 const LANE_END_CLEARANCE_M: f64 = 1.0;
 
 impl RoadMap {
-    /// Marks as inside an intersection every lane whose centreline crosses
-    /// another lane's centreline at [`JUNCTION_CROSSING_MIN_ANGLE_RAD`] or
-    /// more (and at most that much short of head-on), more than a metre
-    /// from both lanes' ends; returns how many lanes it marked. For maps
+    /// Marks as inside a junction ([`Lane::crosses_lanes`](super::Lane))
+    /// every lane whose centreline crosses another lane's centreline at
+    /// [`JUNCTION_CROSSING_MIN_ANGLE_RAD`] or more (and at most that much
+    /// short of head-on), more than a metre from both lanes' ends; returns
+    /// how many lanes it marked. For maps
     /// whose source flags no junction lanes: a source's own flags are kept,
     /// and a lane is never unmarked. Lanes that cross on different levels
     /// (a flyover) cannot be told apart on a flat map and are marked too:
@@ -45,8 +47,9 @@ impl RoadMap {
                     continue;
                 }
                 let mid = Point2::from((a.coords + b.coords) * 0.5);
-                // Each pair of lanes is tried from the first of them (both are
-                // marked); a segment met twice is only tried twice.
+                // Each pair of lanes is tried from the first of them, which
+                // marks both; a segment in two cells is visited twice, to
+                // the same effect.
                 self.lane_segments.for_each_candidate(&mid, seg_m / 2.0 + 1e-3, |(j, sj)| {
                     let j = j as usize;
                     if j <= i || (crossing[i] && crossing[j]) {
