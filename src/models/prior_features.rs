@@ -509,6 +509,21 @@ mod tests {
     }
 
     #[test]
+    fn the_intersection_feature_is_the_sources_flag_not_a_junction_found_from_crossing_lanes() {
+        // The shipped prior was trained and measured with the source's flag
+        // (WOMD's maps flag none); lanes marked for crossing leave it as is.
+        let lane = |id: i64, from: (f64, f64), to: (f64, f64)| {
+            Lane::new(MapElementId(id), Polyline::new(vec![Point2::new(from.0, from.1), Point2::new(to.0, to.1)]))
+        };
+        let mut map = RoadMap::from_lanes(vec![lane(1, (-20.0, 0.0), (20.0, 0.0)), lane(2, (0.0, -20.0), (0.0, 20.0))]);
+        assert_eq!(map.mark_crossing_lanes_as_junctions(), 2);
+        let flagged = |map: &RoadMap| MapTokens::build(map).tokens.iter().filter(|t| t.features[5] != 0.0).count();
+        assert_eq!(flagged(&map), 0);
+        map.lanes[0].in_intersection = true;
+        assert!(flagged(&map) > 0);
+    }
+
+    #[test]
     fn features_are_in_the_query_agents_frame() {
         let (frames, map) = northbound();
         let tokens = MapTokens::build(&map);
