@@ -481,6 +481,30 @@ mod tests {
         map.lane(crate::map::MapElementId(id)).unwrap().centreline.points()[0].y
     }
 
+    /// Whether each of two tokens that only yaw, at `yaw_rates_radps`, is
+    /// implausible under `rule` for a CBV at x = 100 m on lane centre
+    /// `y_m`, heading `heading_rad` at `speed_mps`, the ego standing at
+    /// x = 20 m in the same lane.
+    fn turning_tokens_judged(
+        map: &RoadMap,
+        y_m: f64,
+        heading_rad: f64,
+        speed_mps: f64,
+        yaw_rates_radps: [f64; 2],
+        rule: WrongWayRule,
+    ) -> Vec<bool> {
+        let bodies = [AgentBody { kind: AgentKind::Vehicle, length_m: 4.5, width_m: 2.0 }; 2];
+        let v = Vector2::new(heading_rad.cos(), heading_rad.sin()) * speed_mps;
+        let cbv = AgentState { position: Point2::new(100.0, y_m), heading_rad, velocity_mps: v };
+        let states = [car(20.0, y_m, 0.0), Some(cbv)];
+        let world = WorldView { map, step: 0, bodies: &bodies, states: &states };
+        let check = PlausibilityCheck::new(&world, TrackIndex(1), TrackIndex(0), &BackgroundForecast::default())
+            .with_wrong_way(rule);
+        let tokens =
+            yaw_rates_radps.map(|yaw_rate_radps| TokenGrid::quantize(Action { accel_mps2: 0.0, yaw_rate_radps }));
+        token_rollouts(&cbv, &tokens).iter().map(|r| check.implausible(r, ContactRule::Any)).collect()
+    }
+
     fn implausible_tokens(world: &WorldView<'_>, cbv: TrackIndex, tokens: &[Token]) -> Vec<bool> {
         let check = PlausibilityCheck::new(world, cbv, TrackIndex(0), &BackgroundForecast::default());
         token_rollouts(world.states[cbv.0].as_ref().unwrap(), tokens)
@@ -655,22 +679,11 @@ mod tests {
     fn under_the_wrong_way_rule_a_token_that_turns_the_cbv_against_the_traffic_is_implausible() {
         let map = two_way_road(1, 1);
         let own = lane_y(&map, 0);
-        let bodies = [AgentBody { kind: AgentKind::Vehicle, length_m: 4.5, width_m: 2.0 }; 2];
         // Turning round in its own lane, 110° from the lane's direction at
-        // 3 m/s (a lane 120° from its heading is driven against).
-        let turning = |heading_rad: f64| {
-            let v = Vector2::new(heading_rad.cos(), heading_rad.sin()) * 3.0;
-            Some(AgentState { position: Point2::new(100.0, own), heading_rad, velocity_mps: v })
-        };
-        let yawing = |yaw_rate_radps| TokenGrid::quantize(Action { accel_mps2: 0.0, yaw_rate_radps });
-        let (further, back) = (yawing(0.6), yawing(-0.6));
+        // 3 m/s (a lane 120° from its heading is driven against), further
+        // on or back.
         let judged = |heading_deg: f64, rule| {
-            let states = [car(20.0, own, 0.0), turning(heading_deg.to_radians())];
-            let world = WorldView { map: &map, step: 0, bodies: &bodies, states: &states };
-            let check = PlausibilityCheck::new(&world, TrackIndex(1), TrackIndex(0), &BackgroundForecast::default())
-                .with_wrong_way(rule);
-            let rollouts = token_rollouts(states[1].as_ref().unwrap(), &[further, back]);
-            rollouts.iter().map(|r| check.implausible(r, ContactRule::Any)).collect::<Vec<_>>()
+            turning_tokens_judged(&map, own, f64::to_radians(heading_deg), 3.0, [0.6, -0.6], rule)
         };
         // Turning on past 120° breaks the rule; turning back does not.
         assert_eq!(judged(110.0, WrongWayRule::Forbidden), [true, false]);
@@ -686,23 +699,10 @@ mod tests {
         // from the oncoming lane, without leaving the road.
         let map = two_way_road(5, 1);
         let middle = lane_y(&map, 2);
-        let bodies = [AgentBody { kind: AgentKind::Vehicle, length_m: 4.5, width_m: 2.0 }; 2];
         // At 8 m/s in the middle of five lanes, heading `heading_deg` to
-        // the right of the lanes' direction.
-        let at = |heading_deg: f64| {
-            let heading_rad = -heading_deg.to_radians();
-            let v = Vector2::new(heading_rad.cos(), heading_rad.sin()) * 8.0;
-            Some(AgentState { position: Point2::new(100.0, middle), heading_rad, velocity_mps: v })
-        };
-        let yawing = |yaw_rate_radps| TokenGrid::quantize(Action { accel_mps2: 0.0, yaw_rate_radps });
-        let (further, back) = (yawing(-0.5), yawing(0.5));
+        // the right of the lanes' direction, turning further on or back.
         let judged = |heading_deg: f64, rule| {
-            let states = [car(20.0, middle, 0.0), at(heading_deg)];
-            let world = WorldView { map: &map, step: 0, bodies: &bodies, states: &states };
-            let check = PlausibilityCheck::new(&world, TrackIndex(1), TrackIndex(0), &BackgroundForecast::default())
-                .with_wrong_way(rule);
-            let rollouts = token_rollouts(states[1].as_ref().unwrap(), &[further, back]);
-            rollouts.iter().map(|r| check.implausible(r, ContactRule::Any)).collect::<Vec<_>>()
+            turning_tokens_judged(&map, middle, -f64::to_radians(heading_deg), 8.0, [-0.5, 0.5], rule)
         };
         // 20° off the lanes: turning on at 0.5 rad/s passes 30° within the
         // token's half second (14°) ...
