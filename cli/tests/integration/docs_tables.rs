@@ -1592,6 +1592,27 @@ fn the_no_evade_paths_table_quotes_its_outputs() {
     assert_eq!(rows.len(), 6, "the lane follower with both pairings on two sets, the evasive planner on two");
 }
 
+/// The set and trust region of a row of the lookahead tables with no
+/// contact from behind: `NGSIM (n = 60)` or `WOMD interactive (n = 28)`.
+fn lookahead_set(set: &str) -> (&'static str, u32) {
+    match set {
+        "NGSIM (n = 60)" => ("ngsim", 60),
+        "WOMD interactive (n = 28)" => ("womd-interactive", 28),
+        other => panic!("no output for the set {other:?}"),
+    }
+}
+
+/// The mutation output of `planner` under the lookahead with no contact
+/// from behind, the CBV driving any way: the default planner's in
+/// `ego-contact/`, the at-fault planner's in `at-fault-planner/`.
+fn any_way_output(planner: &str, set_name: &str, n: u32) -> String {
+    match planner {
+        "evasive" => format!("ego-contact/mutants-{set_name}-evasive-n{n}.txt"),
+        "evasive-at-fault" => format!("at-fault-planner/mutants-{set_name}-n{n}.txt"),
+        other => panic!("no output for the planner {other:?}"),
+    }
+}
+
 #[test]
 fn the_at_fault_planner_table_quotes_its_outputs() {
     let doc = repo_file("docs/benchmarks.md");
@@ -1602,16 +1623,8 @@ fn the_at_fault_planner_table_quotes_its_outputs() {
     );
     // A blank set or planner cell continues the row above's.
     for (set, planner, row) in rows_by_set_and_draw(&rows) {
-        let (set_name, n) = match set.as_str() {
-            "NGSIM (n = 60)" => ("ngsim", 60),
-            "WOMD interactive (n = 28)" => ("womd-interactive", 28),
-            other => panic!("no output for the set {other:?}"),
-        };
-        let file = match planner.as_str() {
-            "evasive" => format!("ego-contact/mutants-{set_name}-evasive-n{n}.txt"),
-            "evasive-at-fault" => format!("at-fault-planner/mutants-{set_name}-n{n}.txt"),
-            other => panic!("no output for the planner {other:?}"),
-        };
+        let (set_name, n) = lookahead_set(&set);
+        let file = any_way_output(&planner, set_name, n);
         let output = repo_file(&format!("docs/evaluation/{file}"));
         let method = method_of(&row[2]).unwrap_or_else(|| panic!("no method in {:?}", row[2]));
         // The evaluation table: variants, errors, CR, SR, ...
@@ -1636,14 +1649,9 @@ fn the_along_the_lanes_table_quotes_its_outputs() {
     let method = "safer-in-path-lookahead";
     // A blank set or planner cell continues the row above's.
     for (set, planner, row) in rows_by_set_and_draw(&rows) {
-        let (set_name, n) = match set.as_str() {
-            "NGSIM (n = 60)" => ("ngsim", 60),
-            "WOMD interactive (n = 28)" => ("womd-interactive", 28),
-            other => panic!("no output for the set {other:?}"),
-        };
+        let (set_name, n) = lookahead_set(&set);
         let file = match (planner.as_str(), row[2].as_str()) {
-            ("evasive", "any way") => format!("ego-contact/mutants-{set_name}-evasive-n{n}.txt"),
-            ("evasive-at-fault", "any way") => format!("at-fault-planner/mutants-{set_name}-n{n}.txt"),
+            (planner, "any way") => any_way_output(planner, set_name, n),
             ("evasive", "along the lanes") => format!("along-the-lanes/mutants-{set_name}-n{n}-evasive.txt"),
             ("evasive-at-fault", "along the lanes") => format!("along-the-lanes/mutants-{set_name}-n{n}-at-fault.txt"),
             other => panic!("no output for {other:?}"),
