@@ -20,7 +20,7 @@ use rayon::prelude::*;
 use super::{CliError, scene_paths};
 use safer_scenarios::eval::witness::{DEFAULT_WIDEST, RoadKeeping, WitnessBudget, search_rollout_witness};
 use safer_scenarios::harness::evaluation::{
-    self, BlindTwinHits, EvaluationRequest, HeldOutSplit, MethodRow, Partition, Stage2Cbv, VariantRecord,
+    self, BlindTwinHits, CbvStartRows, EvaluationRequest, HeldOutSplit, MethodRow, Partition, Stage2Cbv, VariantRecord,
 };
 use safer_scenarios::harness::methods::BackgroundDriver;
 use safer_scenarios::harness::methods::ModelSet;
@@ -193,6 +193,7 @@ fn print_table(
     rows: &[MethodRow],
     records: &[VariantRecord],
     held_out: &HeldOutSplit,
+    by_start: &[CbvStartRows],
     scenes: usize,
     request: &EvaluationSettings,
 ) -> std::io::Result<()> {
@@ -250,6 +251,7 @@ fn print_table(
     print_stage2_contacts(out, rows, records, &name)?;
     print_closest_approach(out, rows, &name)?;
     print_stage1_contacts(out, rows, records, &name)?;
+    print_cr_by_cbv_start(out, rows, by_start, &name)?;
     print_conflict_kinds(out, rows, &name)?;
     print_time(out, rows, &name)?;
     print_legend(out)?;
@@ -561,6 +563,39 @@ fn print_stage1_contacts(
     Ok(())
 }
 
+/// The collision rate by where each scene's CBV starts relative to the
+/// recorded ego (columns for the starts some scene has, each with its
+/// scene count): how much of a method's CR the scenes' pairs allow.
+fn print_cr_by_cbv_start(
+    out: &mut dyn Write,
+    rows: &[MethodRow],
+    by_start: &[CbvStartRows],
+    name: &dyn Fn(&MethodRow) -> String,
+) -> std::io::Result<()> {
+    if by_start.is_empty() {
+        return Ok(());
+    }
+    let w = method_column(rows, name);
+    writeln!(
+        out,
+        "
+CR by where the CBV starts (relative to the recorded ego where the variants start; scenes):"
+    )?;
+    write!(out, "{:<w$}", "method")?;
+    for s in by_start {
+        write!(out, " {:>14}", s.start.name())?;
+    }
+    writeln!(out)?;
+    for (i, r) in rows.iter().enumerate() {
+        write!(out, "{:<w$}", name(r))?;
+        for s in by_start {
+            write!(out, " {:>14}", format!("{} ({})", fmt(s.rows.get(i).and_then(|r| r.cr)), s.scenes))?;
+        }
+        writeln!(out)?;
+    }
+    Ok(())
+}
+
 /// The kinds of conflict, per stage.
 fn print_conflict_kinds(
     out: &mut dyn Write,
@@ -633,6 +668,10 @@ fn print_legend(out: &mut dyn Write) -> std::io::Result<()> {
     writeln!(
         out,
         "how the CBV touched the recorded ego: the critical variants by their first contact, seen from the ego (nuPlan's categories): the ego's front (within 45° of its heading), its side, from behind (within 45° of its tail), the ego standing, the CBV standing; from behind and the ego standing are never the ego's fault (`--ego-contact not-from-behind` holds the CBV back from them)."
+    )?;
+    writeln!(
+        out,
+        "CR by where the CBV starts: CR over the scenes whose CBV, at the step the variants start from, goes the recorded ego's way wholly behind its tail (behind), overlapping it along its heading (beside, in any lane) or wholly ahead of its front (ahead), or heads 45° to 135° off its way (crossing) or more (oncoming); a CBV behind the ego meets its front only by overtaking it."
     )?;
     writeln!(
         out,
@@ -1064,6 +1103,8 @@ struct Report<'a> {
     rows: &'a [MethodRow],
     /// The same rows over the held-out scenes and over the rest.
     held_out: &'a HeldOutSplit,
+    /// The same rows over the scenes by where their CBV starts.
+    by_cbv_start: &'a [CbvStartRows],
     variants: &'a [VariantRecord],
 }
 
@@ -1251,11 +1292,20 @@ fn report(
 ) -> Result<ExitCode, CliError> {
     let rows = evaluation::table(records, &settings.methods);
     let held_out = evaluation::held_out_split(records, &settings.methods);
+    let by_cbv_start = evaluation::by_cbv_start(records, &settings.methods);
     let scenes = scene_list.ids.len();
-    let report =
-        Report { settings, partition, scenes, scene_list, rows: &rows, held_out: &held_out, variants: records };
+    let report = Report {
+        settings,
+        partition,
+        scenes,
+        scene_list,
+        rows: &rows,
+        held_out: &held_out,
+        by_cbv_start: &by_cbv_start,
+        variants: records,
+    };
     super::write_report_and_table(json, &report, |table| {
-        print_table(table, &rows, records, &held_out, scenes, settings)?;
+        print_table(table, &rows, records, &held_out, &by_cbv_start, scenes, settings)?;
         print_kills(table, &rows, &held_out, settings)
     })?;
     let failed = rows.iter().any(|r| r.errors == r.variants && r.variants > 0);

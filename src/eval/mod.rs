@@ -3,8 +3,10 @@
 //! (CR, SR, realism metrics and the feasibility witness join here;
 //! [`feasibility_accuracy`] checks V_h against the witness; [`escape`] is
 //! the witness of a stage-2 collision when the CBV reacts to the ego;
-//! [`traffic_rules`] judges wrong-way driving and red-light running.)
+//! [`traffic_rules`] judges wrong-way driving and red-light running;
+//! [`cbv_start`] says where the CBV starts relative to the ego.)
 
+pub mod cbv_start;
 pub mod conflict_kind;
 pub mod conflict_reach;
 pub mod divergence;
@@ -17,6 +19,7 @@ pub mod traffic_rules;
 pub mod ttc;
 pub mod witness;
 
+pub use cbv_start::CbvStart;
 pub use conflict_kind::{ConflictKind, ConflictParty, classify_conflict, rollout_conflict};
 pub use conflict_reach::{CONFLICT_REACH_M, ConflictReach};
 pub use divergence::{Histogram, jensen_shannon};

@@ -32,6 +32,7 @@ use super::pipeline::{self, PlannerLatency, Stage2Verdict, VariantSetup};
 pub use super::pipeline::{Stage2Cbv, VariantProfile};
 use super::variant::variant_seed;
 use super::variant::{CollisionEscape, VariantOutcome};
+use crate::eval::CbvStart;
 use crate::eval::escape::EscapeBudget;
 use crate::planners::FaultOperator;
 use crate::policies::BackgroundPolicy;
@@ -182,6 +183,11 @@ pub struct VariantRecord {
     /// before it was recorded read back as `None`.
     #[serde(default)]
     pub stage1_contact: Option<EgoCollisionKind>,
+    /// Where the scene's CBV starts relative to its ego, at the step the
+    /// variant starts from; `None` where either is missing there. Reports
+    /// written before it was recorded read back as `None`.
+    #[serde(default)]
+    pub cbv_start: Option<CbvStart>,
     /// Stage 2: the ego collided with anything.
     pub stage2_collision: bool,
     /// Stage 2's verdict: solved, collided, or aborted (planner failure);
@@ -245,6 +251,7 @@ impl VariantRecord {
             seed,
             stage1_collision: false,
             stage1_contact: None,
+            cbv_start: None,
             stage2_collision: false,
             stage2: None,
             stage2_contact: None,
@@ -512,6 +519,7 @@ fn run_one(
         seed: seed_index,
         stage1_collision: tally.critical,
         stage1_contact: stage1_summary.ego_collision.as_ref().filter(|c| c.with_cbv).map(|c| c.kind),
+        cbv_start: CbvStart::of_scenario(scenario),
         stage2_collision: stages.stage2.ego_collision().is_some(),
         stage2: Some(stages.verdict.clone()),
         stage2_contact,
@@ -663,6 +671,38 @@ pub fn held_out_split(records: &[VariantRecord], methods: &[AdversaryMethod]) ->
         rest: table_of(records, methods, |r| !held_out(r)),
         cr_by_chance,
     }
+}
+
+/// The table over the scenes whose CBV starts one way relative to the ego
+/// ([`CbvStart`]).
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct CbvStartRows {
+    /// Where the CBV starts.
+    pub start: CbvStart,
+    /// How many scenes' CBVs start so.
+    pub scenes: usize,
+    /// The table over those scenes' variants, one row per method.
+    pub rows: Vec<MethodRow>,
+}
+
+/// The table of `records` split by where each scene's CBV starts, in
+/// [`CbvStart::ALL`]'s order, leaving out the starts no scene has: the
+/// collision rate a method reaches from each start (a CBV behind the ego
+/// going its way has no contact but from behind unless it overtakes).
+pub fn by_cbv_start(records: &[VariantRecord], methods: &[AdversaryMethod]) -> Vec<CbvStartRows> {
+    CbvStart::ALL
+        .into_iter()
+        .filter_map(|start| {
+            let starts_so = |r: &VariantRecord| r.cbv_start == Some(start);
+            let scenes: std::collections::BTreeSet<&str> =
+                records.iter().filter(|r| starts_so(r)).map(|r| r.scenario.as_str()).collect();
+            (!scenes.is_empty()).then(|| CbvStartRows {
+                start,
+                scenes: scenes.len(),
+                rows: table_of(records, methods, starts_so),
+            })
+        })
+        .collect()
 }
 
 /// The 2.5th and 97.5th percentiles of the CR of `k` scenes drawn at
@@ -1006,6 +1046,32 @@ mod tests {
             tally: VariantTally { cbv_path_digest: Some(digest), ..VariantTally::default() },
             ..VariantRecord::failed(scenario, AdversaryMethod::Safer, Stage2Cbv::Replay, seed, String::new())
         }
+    }
+
+    #[test]
+    fn the_table_by_cbv_start_puts_each_scenes_variants_under_its_start_and_leaves_out_starts_no_scene_has() {
+        let variant = |scenario: &str, seed: u32, start: Option<CbvStart>, critical: bool| VariantRecord {
+            cbv_start: start,
+            stage1_collision: critical,
+            tally: VariantTally { critical, ..record(scenario, seed, u64::from(seed)).tally },
+            ..record(scenario, seed, u64::from(seed))
+        };
+        let records = [
+            variant("a", 0, Some(CbvStart::Behind), false),
+            variant("a", 1, Some(CbvStart::Behind), true),
+            variant("b", 0, Some(CbvStart::Behind), false),
+            variant("b", 1, Some(CbvStart::Behind), false),
+            variant("c", 0, Some(CbvStart::Crossing), true),
+            variant("c", 1, Some(CbvStart::Crossing), true),
+            // A scene whose start is unknown (a report from before it was
+            // recorded) counts under none.
+            variant("d", 0, None, true),
+        ];
+        let split = by_cbv_start(&records, &[AdversaryMethod::Safer]);
+        let got: Vec<(CbvStart, usize, Option<f64>)> =
+            split.iter().map(|s| (s.start, s.scenes, s.rows[0].cr)).collect();
+        assert_eq!(got, [(CbvStart::Behind, 2, Some(0.25)), (CbvStart::Crossing, 1, Some(1.0))]);
+        assert_eq!(table(&records, &[AdversaryMethod::Safer])[0].cr, Some(4.0 / 7.0));
     }
 
     #[test]

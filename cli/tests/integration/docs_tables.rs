@@ -1454,6 +1454,31 @@ fn the_ego_contact_tables_quote_their_outputs() {
         assert_eq!(row[7], format!("{} / {}", held_out[0], held_out[1]), "{row:?} against {file}");
     }
     assert_eq!(sweep.len(), 5, "n = 20, 28, 40, 60 and 100");
+
+    // CR by where the CBV starts, from the same runs: each cell its
+    // output's, the scene counts of the header every run's.
+    let header =
+        "| n | ego contact | behind (19 scenes) | beside (1) | ahead (5) | crossing (12) | oncoming (17) | CR |";
+    let by_start = markdown_rows(&doc, header, "The CR the rule gives up");
+    for row in &by_start {
+        let rule = row[1].as_str();
+        let file = match (row[0].as_str(), rule) {
+            ("28", "`any`") => "ego-contact/evaluate-womd-interactive-n28-any.txt".to_owned(),
+            ("28", _) => "ego-contact/evaluate-womd-interactive-n28.txt".to_owned(),
+            (n, _) => format!("ego-contact/sweep-n{n}.txt"),
+        };
+        let output = repo_file(&format!("docs/evaluation/{file}"));
+        check_ego_contact(&output, rule, &file);
+        assert!(output.contains(&format!("trust region n = {},", row[0])), "{file}: not over {} behaviours", row[0]);
+        let method = "safer-in-path-lookahead";
+        // "0.411 (19)": the CR and the scene count of each start.
+        let cells = labelled_row(&output, "oncoming", method);
+        let quoted: Vec<String> =
+            row[2..7].iter().zip(["19", "1", "5", "12", "17"]).map(|(cr, n)| format!("{cr} ({n})")).collect();
+        assert_eq!(quoted, cells.chunks(2).map(|c| c.join(" ")).collect::<Vec<_>>(), "{row:?} against {file}");
+        assert_eq!(row[7], labelled_row(&output, "variants", method)[2], "{row:?}: CR against {file}");
+    }
+    assert_eq!(by_start.len(), 6, "any contact over 28, and the rule's sweep");
 }
 
 /// A row of the ego-contact mutation tables against its output: the
