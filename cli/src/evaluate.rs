@@ -576,20 +576,17 @@ fn print_cr_by_cbv_start(
         return Ok(());
     }
     let w = method_column(rows, name);
-    writeln!(
-        out,
-        "
-CR by where the CBV starts (relative to the recorded ego where the variants start; scenes):"
-    )?;
+    writeln!(out, "\nCR by where the CBV starts (relative to the recorded ego where the variants start; scenes):")?;
     write!(out, "{:<w$}", "method")?;
     for s in by_start {
         write!(out, " {:>14}", s.start.name())?;
     }
     writeln!(out)?;
-    for (i, r) in rows.iter().enumerate() {
+    for r in rows {
         write!(out, "{:<w$}", name(r))?;
         for s in by_start {
-            write!(out, " {:>14}", format!("{} ({})", fmt(s.rows.get(i).and_then(|r| r.cr)), s.scenes))?;
+            let same = s.rows.iter().find(|o| o.method == r.method && o.stage2_cbv == r.stage2_cbv);
+            write!(out, " {:>14}", format!("{} ({})", fmt(same.and_then(|o| o.cr)), s.scenes))?;
         }
         writeln!(out)?;
     }
