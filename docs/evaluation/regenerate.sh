@@ -197,6 +197,10 @@
 #                     first draw (mutants-{ngsim-n60,womd-interactive-n28}-{evasive,at-fault}.txt),
 #                     and the shipped NGSIM suite with the lookahead so set
 #                     (suite-ngsim-{evasive,at-fault}.txt) (about 20 minutes)
+#   along-the-lanes-lane-follower
+#                     along-the-lanes/: the same for the Python lane follower over 60
+#                     behaviours, beside ego-contact/'s
+#                     (mutants-{ngsim,womd-interactive}-lane-follower-n60.txt)
 #   mutants           mutants-{womd-interactive,womd-json,ngsim}-evasive.txt and
 #                     mutants-{womd-interactive,ngsim}-lane-follower.txt: the
 #                     faults of the planner each method's variants catch
@@ -212,7 +216,7 @@ self=$(realpath "$0")
 cd "$(dirname "$self")"
 all=(evaluate plain inattentive held-out-chance trust-region realism prior-fit n-sweep reactive n100 approach-none merging mutants wide-region cut-in
     in-path-lookahead in-path-lookahead-n30 in-path-lookahead-n28 in-path-lookahead-sweep pair-in-traffic witnessed wide-witnessed ten-seeds reaction-delay reactive-background leader first-contact both-pairings first-contact-lookahead blind-twin ego-contact wrong-way
-    lane-follower-pairings at-fault-planner along-the-lanes)
+    lane-follower-pairings at-fault-planner along-the-lanes along-the-lanes-lane-follower)
 jobs=("$@")
 [[ ${#jobs[@]} -gt 0 ]] || jobs=("${all[@]}")
 # The usage is the comment block at the top of this file.
@@ -762,6 +766,15 @@ for job in "${jobs[@]}"; do
             run "along-the-lanes/suite-ngsim-$planner.txt" run "$copy" --no-shrink --mutants all \
                 --artifacts "$(mktemp -d)" || true
             rm "$copy"
+        done ;;
+    along-the-lanes-lane-follower)
+        mkdir -p along-the-lanes
+        # Beside ego-contact/mutants-*-lane-follower-n60.txt (the CBV any way).
+        along=(--seeds 3 --stage2-cbv closed-loop --background reactive-log-replay --mutants --ego-contact not-from-behind
+            --wrong-way along-the-lanes --methods log,prior,safer-in-path-lookahead --trust-region 60
+            --roles as-loaded --planner ../../planners/lane-follower.yaml)
+        for s in commonroad-ngsim:ngsim womd-interactive:womd-interactive; do
+            run "along-the-lanes/mutants-${s#*:}-lane-follower-n60.txt" evaluate --scenes "data:${s%%:*}" "${along[@]}"
         done ;;
     esac
 done

@@ -1707,4 +1707,21 @@ fn the_along_the_lanes_table_quotes_its_outputs() {
         assert_eq!(cells, quoted, "{set}, {planner}, {}: against {file}", row[2]);
     }
     assert_eq!(rows.len(), 8, "each planner with the CBV either way on two sets");
+
+    // The lane follower's rows, each against its output.
+    let lane_follower = markdown_rows(&doc, "The Python lane follower, over 60 behaviours", "- **As many of the");
+    // The header, then the rows.
+    for row in &lane_follower[1..] {
+        check_mutation_row(row, |output, cell, file| {
+            check_header_rule(
+                output,
+                file,
+                "; no driving against the traffic or across the lanes",
+                cell == "`along-the-lanes`",
+            );
+            check_header_rule(output, file, "; no contact from behind the ego", true);
+            check_header_rule(output, file, "stage 2 planner `lane-follower`", true);
+        });
+    }
+    assert_eq!(lane_follower.len(), 5, "the CBV either way on two sets, under the header");
 }
