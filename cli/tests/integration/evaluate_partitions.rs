@@ -516,3 +516,64 @@ fn the_table_says_how_the_cbv_touched_the_recorded_ego_as_the_json_report_does()
     assert_eq!(kept[0], kept[1..].iter().sum::<usize>(), "{kept:?}");
     assert_eq!((kept[3], kept[4]), (0, 0), "{kept:?}");
 }
+
+#[test]
+fn the_table_gives_the_cr_by_where_the_cbv_starts_as_the_json_report_does() {
+    let out = tempfile_dir("cbv-start");
+    let json = out.join("report.json");
+    let scenes = Path::new(repo_root!()).join("scenes/ngsim");
+    let methods = ["safer", "safer-in-path"];
+    let table = ok(safer(&[
+        "evaluate",
+        "--scenes",
+        scenes.to_str().unwrap(),
+        "--methods",
+        &methods.join(","),
+        "--trust-region",
+        "60",
+        "--seeds",
+        "3",
+        "--jobs",
+        "2",
+        "--json",
+        json.to_str().unwrap(),
+    ]));
+    let section = table.split("CR by where the CBV starts (").nth(1).expect("the CR-by-start table");
+    let mut lines = section.lines().skip(1);
+    let starts: Vec<String> = lines.next().expect("its header").split_whitespace().skip(1).map(str::to_owned).collect();
+    assert!(!starts.is_empty(), "no start in the header");
+    let report: Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let variants = report["variants"].as_array().unwrap();
+    for method in methods {
+        let line = lines.clone().find(|l| l.split_whitespace().next() == Some(method)).expect("the method's row");
+        let cells: Vec<&str> = line.split_whitespace().skip(1).collect();
+        // From the variants: per start, the CR of the method's variants
+        // and how many scenes start so.
+        let from_variants: Vec<String> = starts
+            .iter()
+            .map(|start| {
+                let so: Vec<&Value> = variants.iter().filter(|v| v["cbv_start"] == start.as_str()).collect();
+                let mut scenes: Vec<&str> = so.iter().map(|v| v["scenario"].as_str().unwrap()).collect();
+                scenes.sort_unstable();
+                scenes.dedup();
+                let of_method: Vec<&&Value> = so.iter().filter(|v| v["method"] == method).collect();
+                let hits = of_method.iter().filter(|v| v["stage1_collision"] == true).count();
+                format!("{:.3} ({})", hits as f64 / of_method.len() as f64, scenes.len())
+            })
+            .collect();
+        let quoted: Vec<String> = cells.chunks(2).map(|c| c.join(" ")).collect();
+        assert_eq!(quoted, from_variants, "{method}: the table and the report's variants disagree");
+        // And the report's own split, start by start.
+        let split = report["by_cbv_start"].as_array().unwrap();
+        let reported: Vec<String> = split
+            .iter()
+            .map(|s| {
+                let row = s["rows"].as_array().unwrap().iter().find(|r| r["method"] == method).unwrap();
+                format!("{:.3} ({})", row["cr"].as_f64().unwrap(), s["scenes"])
+            })
+            .collect();
+        assert_eq!(quoted, reported, "{method}: the table and the report's split disagree");
+    }
+    // Every variant of the shipped scenes has both roles at the start.
+    assert!(variants.iter().all(|v| v["cbv_start"].is_string()), "a variant without the CBV's start");
+}
