@@ -134,6 +134,12 @@ impl Polyline {
         self.points.is_empty()
     }
 
+    /// Arc length from the start to point `i`, metres (`None` past the
+    /// last point).
+    pub fn arc_length_at_point_m(&self, i: usize) -> Option<f64> {
+        self.cumulative_m.get(i).copied()
+    }
+
     /// Total arc length, metres.
     pub fn length_m(&self) -> f64 {
         self.cumulative_m.last().copied().unwrap_or(0.0)

@@ -37,12 +37,10 @@ impl RoadMap {
         for (i, lane) in self.lanes.iter().enumerate() {
             let points = lane.centreline.points();
             let length_m = lane.centreline.length_m();
-            let mut arc_m = 0.0;
-            for w in points.windows(2) {
+            for (k, w) in points.windows(2).enumerate() {
                 let (a, b) = (w[0], w[1]);
                 let seg_m = (b - a).norm();
-                let seg_start_m = arc_m;
-                arc_m += seg_m;
+                let seg_start_m = lane.centreline.arc_length_at_point_m(k).unwrap_or(0.0);
                 if !(seg_m > 1e-6 && seg_m.is_finite()) {
                     continue;
                 }
@@ -67,8 +65,7 @@ impl RoadMap {
                         return;
                     }
                     let at_m = seg_start_m + u * seg_m;
-                    let other_at_m = other_points[..=sj as usize].windows(2).map(|w| (w[1] - w[0]).norm()).sum::<f64>()
-                        + v * cd.norm();
+                    let other_at_m = other.centreline.arc_length_at_point_m(sj as usize).unwrap_or(0.0) + v * cd.norm();
                     let near_end = |s: f64, total: f64| s < LANE_END_CLEARANCE_M || total - s < LANE_END_CLEARANCE_M;
                     if near_end(at_m, length_m) || near_end(other_at_m, other.centreline.length_m()) {
                         return;
