@@ -1441,13 +1441,7 @@ fn the_ego_contact_tables_quote_their_outputs() {
     let sweep =
         markdown_rows(&doc, "| n | CR | SR | SR-crit | witness | VJ | AJ | held-out CR / SR |", "No region meets CR");
     for row in &sweep {
-        let file = match row[0].as_str() {
-            "28" => "ego-contact/evaluate-womd-interactive-n28.txt".to_owned(),
-            n => format!("ego-contact/sweep-n{n}.txt"),
-        };
-        let output = repo_file(&format!("docs/evaluation/{file}"));
-        check_ego_contact(&output, "`not-from-behind`", &file);
-        assert!(output.contains(&format!("trust region n = {},", row[0])), "{file}: not over {} behaviours", row[0]);
+        let (file, output) = ego_contact_protocol_run(&row[0], "`not-from-behind`");
         let method = "safer-in-path-lookahead";
         assert_eq!(row[1..7], labelled_row(&output, "variants", method)[2..8], "{row:?} against {file}");
         let held_out = labelled_row(&output, "SR-witnessed |", method);
@@ -1461,15 +1455,7 @@ fn the_ego_contact_tables_quote_their_outputs() {
         "| n | ego contact | behind (19 scenes) | beside (1) | ahead (5) | crossing (12) | oncoming (17) | CR |";
     let by_start = markdown_rows(&doc, header, "The CR the rule gives up");
     for row in &by_start {
-        let rule = row[1].as_str();
-        let file = match (row[0].as_str(), rule) {
-            ("28", "`any`") => "ego-contact/evaluate-womd-interactive-n28-any.txt".to_owned(),
-            ("28", _) => "ego-contact/evaluate-womd-interactive-n28.txt".to_owned(),
-            (n, _) => format!("ego-contact/sweep-n{n}.txt"),
-        };
-        let output = repo_file(&format!("docs/evaluation/{file}"));
-        check_ego_contact(&output, rule, &file);
-        assert!(output.contains(&format!("trust region n = {},", row[0])), "{file}: not over {} behaviours", row[0]);
+        let (file, output) = ego_contact_protocol_run(&row[0], &row[1]);
         let method = "safer-in-path-lookahead";
         // "0.411 (19)": the CR and the scene count of each start.
         let cells = labelled_row(&output, "oncoming", method);
@@ -1479,6 +1465,21 @@ fn the_ego_contact_tables_quote_their_outputs() {
         assert_eq!(row[7], labelled_row(&output, "variants", method)[2], "{row:?}: CR against {file}");
     }
     assert_eq!(by_start.len(), 6, "any contact over 28, and the rule's sweep");
+}
+
+/// The paper-protocol run of the lookahead on WOMD interactive over `n`
+/// behaviours with the ego-contact `rule` cell (`any` over 28 only), as
+/// its file and output, checked to be over `n` and under that rule.
+fn ego_contact_protocol_run(n: &str, rule: &str) -> (String, String) {
+    let file = match (n, rule) {
+        ("28", "`any`") => "ego-contact/evaluate-womd-interactive-n28-any.txt".to_owned(),
+        ("28", _) => "ego-contact/evaluate-womd-interactive-n28.txt".to_owned(),
+        (n, _) => format!("ego-contact/sweep-n{n}.txt"),
+    };
+    let output = repo_file(&format!("docs/evaluation/{file}"));
+    check_ego_contact(&output, rule, &file);
+    assert!(output.contains(&format!("trust region n = {n},")), "{file}: not over {n} behaviours");
+    (file, output)
 }
 
 /// A row of the ego-contact mutation tables against its output: the
