@@ -393,6 +393,10 @@ fn variant_trial(suite: &Suite, context: &TrialContext, scenario: usize, index: 
         match &written {
             Ok(a) => {
                 verdict.push_str(&format!("  recording: {}\n  picture:   {}\n", a.mcap.display(), a.svg.display()));
+                verdict.push_str(&format!(
+                    "  stage 1:   {} (the ego replaying its log against the variant's CBV)\n",
+                    a.stage1.1.display()
+                ));
                 if let Some(stderr) = &a.stderr {
                     verdict.push_str(&format!("  planner stderr: {}\n", stderr.display()));
                 }

@@ -130,6 +130,9 @@ enum VariantEntry {
 struct ArtefactReport {
     mcap: String,
     svg: String,
+    /// Stage 1's recording and picture: the ego replaying its log against the variant's CBV.
+    stage1_mcap: String,
+    stage1_svg: String,
     #[serde(skip_serializing_if = "Option::is_none")]
     stderr: Option<String>,
     /// What the witness search said about the ego's collision.
@@ -560,6 +563,8 @@ fn suite_report(run: &SuiteRun) -> SuiteReport {
                         Some(ArtefactReport {
                             mcap: a.mcap.display().to_string(),
                             svg: a.svg.display().to_string(),
+                            stage1_mcap: a.stage1.0.display().to_string(),
+                            stage1_svg: a.stage1.1.display().to_string(),
                             stderr: a.stderr.as_ref().map(|p| p.display().to_string()),
                             witness: a.witness.as_ref().map(harness::artefacts::WitnessArtefact::verdict),
                         }),
@@ -742,6 +747,11 @@ fn print_report(out: &mut dyn Write, report: &Report) -> std::io::Result<()> {
             match (artefacts, error) {
                 (Some(a), _) => {
                     writeln!(out, "    recording: {}\n    picture:   {}", a.mcap, a.svg)?;
+                    writeln!(
+                        out,
+                        "    stage 1:   {} (the ego replaying its log against the variant's CBV)",
+                        a.stage1_svg
+                    )?;
                     if let Some(stderr) = &a.stderr {
                         writeln!(out, "    stderr:    {stderr}")?;
                     }

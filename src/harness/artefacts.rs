@@ -2,7 +2,11 @@
 //! stage-2 rollout (opens in Foxglove's 3D panel), an SVG picture and, for
 //! an external planner, everything it wrote to stderr, all written by
 //! [`crate::record::write_output`] under
-//! `<dir>/<suite>/<scenario>/<variant>.{mcap,svg,stderr.txt}`. Where the
+//! `<dir>/<suite>/<scenario>/<variant>.{mcap,svg,stderr.txt}`; and the
+//! recording and picture of stage 1 (`<variant>.stage1.{mcap,svg}`): the
+//! conflict as the adversary made it, its CBV against the ego replaying
+//! its log, which the planner's own run (where the CBV may react, and the
+//! ego goes its own way) no longer shows. Where the
 //! ego collided, both show the closed-loop feasibility witness beside it
 //! when the search verified one: an ego path that, played again with the
 //! CBV reacting, touches nobody, the evidence that the collision was
@@ -37,6 +41,10 @@ pub struct Artefacts {
     /// the adversary made it (`seed-K.unshrunk.{mcap,svg}`); the main ones
     /// show the shrunk variant.
     pub unshrunk: Option<(PathBuf, PathBuf)>,
+    /// The recording and picture of stage 1 (`seed-K.stage1.{mcap,svg}`):
+    /// the ego replaying its log and the CBV as the adversary drove it
+    /// against it (the variant as made, before any shrinking).
+    pub stage1: (PathBuf, PathBuf),
 }
 
 /// What the closed-loop feasibility witness found for a stage-2 collision.
@@ -142,6 +150,8 @@ pub fn write(dir: &Path, outcome: &VariantOutcome) -> Result<Artefacts, RecordEr
             None
         }
     };
+    let stage1 = (base.with_extension("stage1.mcap"), base.with_extension("stage1.svg"));
+    write_pair(&stage1.0, &stage1.1, &outcome.stage1, &[])?;
     let stderr = match &outcome.planner_stderr {
         Some(log) => {
             let path = base.with_extension("stderr.txt");
@@ -150,7 +160,7 @@ pub fn write(dir: &Path, outcome: &VariantOutcome) -> Result<Artefacts, RecordEr
         }
         None => None,
     };
-    Ok(Artefacts { mcap, svg, stderr, witness, unshrunk })
+    Ok(Artefacts { mcap, svg, stderr, witness, unshrunk, stage1 })
 }
 
 /// The artefacts' path under `dir` (without extension) for the variant

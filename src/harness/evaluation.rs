@@ -566,7 +566,11 @@ fn run_one(
             not_shrunk: None,
         };
         let written = artefacts::write(dir, &outcome).map_err(HarnessError::Artefacts)?;
-        record.artefacts = [Some(written.mcap), Some(written.svg), written.stderr].into_iter().flatten().collect();
+        let (stage1_mcap, stage1_svg) = written.stage1;
+        record.artefacts = [Some(written.mcap), Some(written.svg), Some(stage1_mcap), Some(stage1_svg), written.stderr]
+            .into_iter()
+            .flatten()
+            .collect();
     }
     record.time_s = clock.elapsed().as_secs_f64();
     Ok(record)

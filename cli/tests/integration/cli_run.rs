@@ -116,15 +116,21 @@ fn run_failing_planner_exits_1_and_leaves_artefacts() {
     assert_eq!(out.status.code(), Some(1), "{stdout}\n{}", text(&out.stderr));
     assert!(stdout.contains("cv::highway-overtake::seed-0") && stdout.contains("FAIL"), "{stdout}");
     let base = artefacts.join("cv/highway-overtake/seed-0");
-    for ext in ["mcap", "svg"] {
+    for ext in ["mcap", "svg", "stage1.svg"] {
         let p = base.with_extension(ext);
         assert!(p.is_file(), "{} missing\n{stdout}", p.display());
         assert!(stdout.contains(&p.display().to_string()), "{stdout}");
     }
+    // Stage 1 is the ego replaying its log: its recording and picture say so.
+    assert!(base.with_extension("stage1.mcap").is_file());
+    let stage1_svg = std::fs::read_to_string(base.with_extension("stage1.svg")).unwrap();
+    assert!(stage1_svg.contains("planner log-replay"), "the stage-1 picture is not stage 1's");
     let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
     assert_eq!(v["passed"], false);
     assert_eq!(v["suites"][0]["variants"][0]["passed"], false);
     assert!(v["suites"][0]["variants"][0]["artefacts"]["mcap"].is_string());
+    let stage1_svg = base.with_extension("stage1.svg").display().to_string();
+    assert_eq!(v["suites"][0]["variants"][0]["artefacts"]["stage1_svg"], stage1_svg.as_str());
     // It ran into the leader, which braking avoids: the closed-loop witness
     // verifies the escape by playing it, and both artefacts draw it.
     assert!(v["suites"][0]["variants"][0]["stage2_collision"].is_string(), "{v}");

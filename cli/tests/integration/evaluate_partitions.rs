@@ -229,6 +229,16 @@ fn evaluate_writes_a_failing_variants_artefacts_and_whom_it_hit() {
     for v in &failing {
         let files: Vec<&str> = v["artefacts"].as_array().unwrap().iter().map(|f| f.as_str().unwrap()).collect();
         assert!(files.iter().any(|f| f.ends_with(".mcap")) && files.iter().any(|f| f.ends_with(".svg")), "{v}");
+        // Stage 1 beside the planner's run: the conflict as the adversary
+        // made it, the CBV against the ego replaying its log.
+        let stage1 =
+            files.iter().find(|f| f.ends_with(".stage1.svg")).unwrap_or_else(|| panic!("no stage-1 picture: {v}"));
+        assert!(files.iter().any(|f| f.ends_with(".stage1.mcap")), "no stage-1 recording: {v}");
+        let picture = std::fs::read_to_string(stage1).unwrap();
+        assert!(picture.contains("planner log-replay"), "{stage1} does not show stage 1");
+        if v["stage1_collision"] == true {
+            assert!(picture.contains("collides with the CBV"), "{stage1} does not show the stage-1 collision");
+        }
         for f in &files {
             assert!(std::fs::metadata(f).unwrap().len() > 0, "{f} is empty");
             let expected = format!("artefacts/safer/{}/seed-{}.", v["scenario"].as_str().unwrap(), v["seed"]);

@@ -188,8 +188,14 @@ fn variant_verdict(variant: &VariantRun) -> (Verdict, Vec<String>) {
     match &variant.artefacts {
         Some(Ok(a)) => {
             let (mcap, svg) = (a.mcap.display().to_string(), a.svg.display().to_string());
+            let stage1 = (a.stage1.0.display().to_string(), a.stage1.1.display().to_string());
             let _ = writeln!(body, "recording: {mcap}   (Foxglove, 3D panel)\npicture:   {svg}");
-            attachments = vec![mcap, svg];
+            let _ = writeln!(
+                body,
+                "stage 1:   {} and {}   (the ego replaying its log against the variant's CBV)",
+                stage1.0, stage1.1
+            );
+            attachments = vec![mcap, svg, stage1.0, stage1.1];
             if let Some(stderr) = &a.stderr {
                 let stderr = stderr.display().to_string();
                 let _ = writeln!(body, "planner stderr: {stderr}");
@@ -357,6 +363,8 @@ mod tests {
         assert!(failure.attribute("message").unwrap().starts_with("no_collision: "), "{xml}");
         let body = failure.text().unwrap();
         assert!(body.contains("recording: out/unit/crossing/seed-1.mcap"), "{body}");
+        assert!(body.contains("stage 1:   out/unit/crossing/seed-1.stage1.mcap and"), "{body}");
+        assert!(xml.contains("[[ATTACHMENT|out/unit/crossing/seed-1.stage1.svg]]"), "{xml}");
         assert!(body.contains("stage 2 (planner"), "{body}");
         // Wall times where the run measured them, none where it did not.
         let suite = doc.descendants().find(|n| n.has_tag_name("testsuite") && n.attribute("name") == Some("unit"));

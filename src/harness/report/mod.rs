@@ -188,6 +188,10 @@ pub(crate) mod tests_support {
                 stderr: None,
                 witness: None,
                 unshrunk: None,
+                stage1: (
+                    format!("out/{suite}/crossing/seed-1.stage1.mcap").into(),
+                    format!("out/{suite}/crossing/seed-1.stage1.svg").into(),
+                ),
             })),
             name,
             snapshot: SnapshotCheck::NotCompared,

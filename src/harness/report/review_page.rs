@@ -430,6 +430,13 @@ fn failing_variant_html(
                 esc(&url_path(&rel)),
                 esc(&a.mcap.display().to_string())
             );
+            let rel = relative_to(dir, &a.stage1.1);
+            let _ = write!(
+                h,
+                " · stage 1, the ego replaying its log against the variant's CBV: <a class=\"stage1\" href=\"{}\">{}</a>",
+                esc(&url_path(&rel)),
+                esc(&a.stage1.1.display().to_string())
+            );
             if let Some(stderr) = &a.stderr {
                 let rel = relative_to(dir, stderr);
                 let _ = write!(
@@ -537,6 +544,10 @@ mod tests {
         // The recording link is relative to the page folder.
         let rel = relative_to(Path::new("/tmp/page"), &std::path::absolute("out/unit/crossing/seed-1.mcap").unwrap());
         assert!(html.contains(&format!("href=\"{}\"", url_path(&rel))), "{html}");
+        // So is the link to the stage-1 picture.
+        let stage1 =
+            relative_to(Path::new("/tmp/page"), &std::path::absolute("out/unit/crossing/seed-1.stage1.svg").unwrap());
+        assert!(html.contains(&format!("class=\"stage1\" href=\"{}\"", url_path(&stage1))), "{html}");
         // One player, with every frame of the rollout.
         assert_eq!(html.matches("class=\"player\"").count(), 1);
         let json = html.split("class=\"rollout\">").nth(1).unwrap().split("</script>").next().unwrap();
