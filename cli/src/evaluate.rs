@@ -1245,8 +1245,8 @@ pub(super) fn run(
     let models = ModelSet::shipped();
     let total = (scenes.len() * request.methods.len() * request.stage2_cbv.len() * request.seeds as usize) as u64;
     let budget = WitnessBudget::widening_up_to(witness.widest);
-    let search = move |scenario: &Scenario, stage1: &safer_scenarios::sim::Rollout| -> bool {
-        search_rollout_witness(scenario, stage1, witness.road, budget).is_found()
+    let search = move |scenario: &Scenario, stage1: &safer_scenarios::sim::Rollout| {
+        search_rollout_witness(scenario, stage1, witness.road, budget)
     };
     super::progress::stage("evaluate", &variant_work(request));
     let progress = super::progress::Progress::new("evaluate", "variants", total as usize);

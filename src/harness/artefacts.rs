@@ -24,6 +24,7 @@ use super::{Stage2Verdict, VariantOutcome};
 use crate::eval::escape::CollisionEscape;
 use crate::eval::escape::EscapeVerdict;
 use crate::record::{self, NamedTrajectory, RecordError, SvgOptions, TimedPose, TrajectoryRole};
+use crate::scenario::AgentState;
 
 /// Paths of a variant's artefacts.
 #[derive(Debug, Clone, PartialEq)]
@@ -96,7 +97,7 @@ pub fn feasibility_witness(outcome: &VariantOutcome) -> Option<WitnessArtefact> 
 fn escape_trajectory(
     outcome: &VariantOutcome,
     rollout: &crate::sim::Rollout,
-    states: &[crate::scenario::AgentState],
+    states: &[AgentState],
     name: String,
 ) -> NamedTrajectory {
     let dt_s = rollout.dt_s;
@@ -118,8 +119,18 @@ pub fn base_path(dir: &Path, variant: &str) -> Result<PathBuf, RecordError> {
     Ok(base)
 }
 
-/// Writes the artefacts of `outcome` under `dir`.
-pub fn write(dir: &Path, outcome: &VariantOutcome) -> Result<Artefacts, RecordError> {
+/// Stage 1's feasibility witness drawn beside it: the ego's escape
+/// `states` (one per step from stage 1's start) from the CBV and the
+/// traffic as they drove, `min_clearance_m` from every agent.
+pub fn stage1_escape(outcome: &VariantOutcome, states: &[AgentState], min_clearance_m: f64) -> NamedTrajectory {
+    let name = format!("an escape keeping {min_clearance_m:.2} m from every agent as they drove");
+    escape_trajectory(outcome, &outcome.stage1, states, name)
+}
+
+/// Writes the artefacts of `outcome` under `dir`, stage 1's with
+/// `stage1_extra` drawn beside it (its [`stage1_escape`], where one was
+/// searched for and found).
+pub fn write(dir: &Path, outcome: &VariantOutcome, stage1_extra: &[NamedTrajectory]) -> Result<Artefacts, RecordError> {
     let base = base_path(dir, &outcome.name)?;
     let mcap = base.with_extension("mcap");
     let svg = base.with_extension("svg");
@@ -151,7 +162,7 @@ pub fn write(dir: &Path, outcome: &VariantOutcome) -> Result<Artefacts, RecordEr
         }
     };
     let stage1 = (base.with_extension("stage1.mcap"), base.with_extension("stage1.svg"));
-    write_pair(&stage1.0, &stage1.1, &outcome.stage1, &[])?;
+    write_pair(&stage1.0, &stage1.1, &outcome.stage1, stage1_extra)?;
     let stderr = match &outcome.planner_stderr {
         Some(log) => {
             let path = base.with_extension("stderr.txt");

@@ -34,6 +34,7 @@ use super::variant::variant_seed;
 use super::variant::{CollisionEscape, VariantOutcome};
 use crate::eval::CbvStart;
 use crate::eval::escape::EscapeBudget;
+use crate::eval::witness::Witness;
 use crate::planners::FaultOperator;
 use crate::policies::BackgroundPolicy;
 use crate::policies::adversary::{ApproachPhase, EgoContactRule, FeasibilityScope, WrongWayRule};
@@ -420,10 +421,9 @@ fn scenes_where(variants: &[&VariantRecord], happened: impl Fn(&VariantRecord) -
     scenes
 }
 
-/// Searches a feasibility witness for a finished stage 1: `Some(true)` when
-/// an ego trajectory avoiding everyone exists, `Some(false)` when none was
-/// found within budget.
-pub type WitnessSearch = dyn Fn(&Scenario, &Rollout) -> bool + Sync;
+/// Searches a feasibility witness for a finished stage 1: an ego
+/// trajectory that avoids everyone as they drove, or none within budget.
+pub type WitnessSearch = dyn Fn(&Scenario, &Rollout) -> Witness + Sync;
 
 impl EvaluationRequest {
     /// How `method` drives the CBV in this evaluation's variants.
@@ -501,10 +501,11 @@ fn run_one(
     let tally = VariantTally::with_background(scenario, &stages, &background_contacts);
     let mut profile = stages.profile;
     let witness_clock = Instant::now();
-    let witness = match (tally.critical, witness) {
+    let stage1_witness = match (tally.critical, witness) {
         (true, Some(search)) => Some(search(scenario, &stages.stage1)),
         _ => None,
     };
+    let witness = stage1_witness.as_ref().map(Witness::is_found);
     profile.witness_s = witness_clock.elapsed().as_secs_f64();
     let (stage1_summary, stage2_summary) = (stages.stage1.summary(), stages.stage2.summary());
     let stage2_contact = stage2_summary.ego_collision.as_ref().map(|c| Stage2Contact {
@@ -565,7 +566,13 @@ fn run_one(
             shrunk: None,
             not_shrunk: None,
         };
-        let written = artefacts::write(dir, &outcome).map_err(HarnessError::Artefacts)?;
+        let stage1_escape = match stage1_witness {
+            Some(Witness::Found { trajectory, min_clearance_m, .. }) => {
+                Some(artefacts::stage1_escape(&outcome, &trajectory, min_clearance_m))
+            }
+            _ => None,
+        };
+        let written = artefacts::write(dir, &outcome, stage1_escape.as_slice()).map_err(HarnessError::Artefacts)?;
         let (stage1_mcap, stage1_svg) = written.stage1;
         record.artefacts = [Some(written.mcap), Some(written.svg), Some(stage1_mcap), Some(stage1_svg), written.stderr]
             .into_iter()

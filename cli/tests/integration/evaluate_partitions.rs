@@ -239,6 +239,9 @@ fn evaluate_writes_a_failing_variants_artefacts_and_whom_it_hit() {
         if v["stage1_collision"] == true {
             assert!(picture.contains("collides with the CBV"), "{stage1} does not show the stage-1 collision");
         }
+        // The stage-1 collision's feasibility witness is drawn where one was found.
+        let escape = picture.contains("feasibility witness: an escape keeping") && picture.contains("as they drove");
+        assert_eq!(escape, v["witness"] == true, "{stage1}: witness {}", v["witness"]);
         for f in &files {
             assert!(std::fs::metadata(f).unwrap().len() > 0, "{f} is empty");
             let expected = format!("artefacts/safer/{}/seed-{}.", v["scenario"].as_str().unwrap(), v["seed"]);
