@@ -477,6 +477,14 @@ fn run_html_writes_a_well_formed_review_page_with_the_failing_variants_frames() 
     let mcap = doc.descendants().find(|n| n.attribute("class") == Some("mcap")).and_then(|a| a.attribute("href"));
     let mcap = page.join(mcap.expect("a link to the recording"));
     assert!(mcap.is_file(), "{}", mcap.display());
+    // And the stage-1 picture it links to, beside the recording.
+    let stage1 = doc.descendants().find(|n| n.attribute("class") == Some("stage1")).and_then(|a| a.attribute("href"));
+    let stage1 = page.join(stage1.expect("a link to the stage-1 picture"));
+    assert!(
+        std::fs::read_to_string(&stage1).is_ok_and(|svg| svg.contains("planner log-replay")),
+        "{}",
+        stage1.display()
+    );
     std::fs::remove_dir_all(&dir).ok();
 }
 
