@@ -430,13 +430,6 @@ fn failing_variant_html(
                 esc(&url_path(&rel)),
                 esc(&a.mcap.display().to_string())
             );
-            let rel = relative_to(dir, &a.stage1.1);
-            let _ = write!(
-                h,
-                " · stage 1, the ego replaying its log against the variant's CBV: <a class=\"stage1\" href=\"{}\">{}</a>",
-                esc(&url_path(&rel)),
-                esc(&a.stage1.1.display().to_string())
-            );
             if let Some(stderr) = &a.stderr {
                 let rel = relative_to(dir, stderr);
                 let _ = write!(
@@ -457,7 +450,7 @@ fn failing_variant_html(
     }
     let picture = crate::harness::artefacts::relative_path(Path::new("pictures"), &v.name)
         .map(|rel| Path::new("pictures").join(rel).with_extension("svg"));
-    let img = match picture {
+    let img = match &picture {
         Ok(rel) => {
             // The witness found when the artefacts were written, drawn again here.
             let witness = match &v.artefacts {
@@ -465,19 +458,35 @@ fn failing_variant_html(
                 _ => &[],
             };
             let svg = record::render_rollout_svg_with(&o.scenario, &o.stage2, witness, &SvgOptions::default());
-            pictures.push((dir.join(&rel), svg));
-            let href = esc(&url_path(&rel));
+            pictures.push((dir.join(rel), svg));
+            let href = esc(&url_path(rel));
             let _ = write!(h, " · picture: <a href=\"{href}\">{}</a>", esc(&rel.display().to_string()));
             format!("<img class=\"picture\" src=\"{href}\" alt=\"picture of {}\"/>", esc(&v.name))
         }
         Err(e) => format!("<p>no picture: {}</p>", esc(&e.to_string())),
     };
+    // Stage 1 beside it: the conflict as the adversary made it.
+    let stage1_img = picture.ok().map(|rel| {
+        let rel = rel.with_extension("stage1.svg");
+        let svg = record::render_rollout_svg_with(&o.scenario, &o.stage1, &[], &SvgOptions::default());
+        pictures.push((dir.join(&rel), svg));
+        let href = esc(&url_path(&rel));
+        let _ = write!(h, " · stage 1: <a class=\"stage1\" href=\"{href}\">{}</a>", esc(&rel.display().to_string()));
+        format!("<img class=\"picture\" src=\"{href}\" alt=\"stage 1 of {}\"/>", esc(&v.name))
+    });
     h.push_str("</p>\n<div class=\"views\">\n");
     let _ = writeln!(
         h,
         "<figure>{img}<figcaption>the picture: paths of the whole rollout, boxes at the ego's collision (or the \
          last step)</figcaption></figure>"
     );
+    if let Some(stage1_img) = stage1_img {
+        let _ = writeln!(
+            h,
+            "<figure>{stage1_img}<figcaption>stage 1: the ego replaying its log against the variant's CBV, the \
+             conflict as the adversary made it</figcaption></figure>"
+        );
+    }
 
     let animation = RolloutAnimation::of_rollout(&o.scenario, &o.stage2);
     // `<`, `>` and `&` only occur inside JSON strings, where the escapes
@@ -538,16 +547,16 @@ mod tests {
         .expect("the page is well-formed XML");
         assert!(html.contains("un&lt;i&gt;t") && !html.contains("un<i>t"), "suite name not escaped");
         assert!(html.contains("&lt;/script&gt;&lt;b&gt;") && !html.contains("</script><b>"));
-        assert_eq!(pictures.len(), 1);
+        // Stage 2's picture, and stage 1's beside it.
+        assert_eq!(pictures.len(), 2);
         assert_eq!(pictures[0].0, Path::new("/tmp/page/pictures/unit/crossing/seed-1.svg"));
         assert!(html.contains("src=\"pictures/unit/crossing/seed-1.svg\""));
+        assert_eq!(pictures[1].0, Path::new("/tmp/page/pictures/unit/crossing/seed-1.stage1.svg"));
+        assert!(html.contains("class=\"stage1\" href=\"pictures/unit/crossing/seed-1.stage1.svg\""), "{html}");
+        assert!(pictures[1].1.contains("planner "), "the stage-1 picture names its planner");
         // The recording link is relative to the page folder.
         let rel = relative_to(Path::new("/tmp/page"), &std::path::absolute("out/unit/crossing/seed-1.mcap").unwrap());
         assert!(html.contains(&format!("href=\"{}\"", url_path(&rel))), "{html}");
-        // So is the link to the stage-1 picture.
-        let stage1 =
-            relative_to(Path::new("/tmp/page"), &std::path::absolute("out/unit/crossing/seed-1.stage1.svg").unwrap());
-        assert!(html.contains(&format!("class=\"stage1\" href=\"{}\"", url_path(&stage1))), "{html}");
         // One player, with every frame of the rollout.
         assert_eq!(html.matches("class=\"player\"").count(), 1);
         let json = html.split("class=\"rollout\">").nth(1).unwrap().split("</script>").next().unwrap();
