@@ -394,8 +394,9 @@ fn variant_trial(suite: &Suite, context: &TrialContext, scenario: usize, index: 
             Ok(a) => {
                 verdict.push_str(&format!("  recording: {}\n  picture:   {}\n", a.mcap.display(), a.svg.display()));
                 verdict.push_str(&format!(
-                    "  stage 1:   {} (the ego replaying its log against the variant's CBV)\n",
-                    a.stage1.1.display()
+                    "  stage 1:   {} ({})\n",
+                    a.stage1.1.display(),
+                    harness::artefacts::STAGE1_SHOWS
                 ));
                 if let Some(stderr) = &a.stderr {
                     verdict.push_str(&format!("  planner stderr: {}\n", stderr.display()));

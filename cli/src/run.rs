@@ -747,11 +747,7 @@ fn print_report(out: &mut dyn Write, report: &Report) -> std::io::Result<()> {
             match (artefacts, error) {
                 (Some(a), _) => {
                     writeln!(out, "    recording: {}\n    picture:   {}", a.mcap, a.svg)?;
-                    writeln!(
-                        out,
-                        "    stage 1:   {} (the ego replaying its log against the variant's CBV)",
-                        a.stage1_svg
-                    )?;
+                    writeln!(out, "    stage 1:   {} ({})", a.stage1_svg, harness::artefacts::STAGE1_SHOWS)?;
                     if let Some(stderr) = &a.stderr {
                         writeln!(out, "    stderr:    {stderr}")?;
                     }

@@ -26,6 +26,10 @@ use crate::eval::escape::EscapeVerdict;
 use crate::record::{self, NamedTrajectory, RecordError, SvgOptions, TimedPose, TrajectoryRole};
 use crate::scenario::AgentState;
 
+/// What stage 1's recording and picture show, in the words every report
+/// uses for them.
+pub const STAGE1_SHOWS: &str = "the ego replaying its log against the variant's CBV";
+
 /// Paths of a variant's artefacts.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Artefacts {

@@ -192,8 +192,10 @@ fn variant_verdict(variant: &VariantRun) -> (Verdict, Vec<String>) {
             let _ = writeln!(body, "recording: {mcap}   (Foxglove, 3D panel)\npicture:   {svg}");
             let _ = writeln!(
                 body,
-                "stage 1:   {} and {}   (the ego replaying its log against the variant's CBV)",
-                stage1.0, stage1.1
+                "stage 1:   {} and {}   ({})",
+                stage1.0,
+                stage1.1,
+                crate::harness::artefacts::STAGE1_SHOWS
             );
             attachments = vec![mcap, svg, stage1.0, stage1.1];
             if let Some(stderr) = &a.stderr {

@@ -483,8 +483,9 @@ fn failing_variant_html(
     if let Some(stage1_img) = stage1_img {
         let _ = writeln!(
             h,
-            "<figure>{stage1_img}<figcaption>stage 1: the ego replaying its log against the variant's CBV, the \
-             conflict as the adversary made it</figcaption></figure>"
+            "<figure>{stage1_img}<figcaption>stage 1: {}, the conflict as the adversary made \
+             it</figcaption></figure>",
+            crate::harness::artefacts::STAGE1_SHOWS
         );
     }
 
