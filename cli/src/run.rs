@@ -271,9 +271,10 @@ pub(super) fn run(
                 Err(_) => Vec::new(),
             };
             let artefacts = match &outcome {
-                Ok(o) if j.shown && !o.failures.is_empty() => {
-                    Some(harness::artefacts::write(artifacts, o, &[]).map_err(|e| e.to_string()))
-                }
+                Ok(o) if j.shown && !o.failures.is_empty() => Some(
+                    harness::artefacts::write(artifacts, o, harness::artefacts::search_stage1_escape(o).as_slice())
+                        .map_err(|e| e.to_string()),
+                ),
                 _ => None,
             };
             if let (Ok(o), Some((dir, all))) = (&outcome, commonroad)

@@ -23,6 +23,7 @@ use std::path::{Component, Path, PathBuf};
 use super::{Stage2Verdict, VariantOutcome};
 use crate::eval::escape::CollisionEscape;
 use crate::eval::escape::EscapeVerdict;
+use crate::eval::witness::{DEFAULT_WIDEST, RoadKeeping, Witness, WitnessBudget, search_rollout_witness};
 use crate::record::{self, NamedTrajectory, RecordError, SvgOptions, TimedPose, TrajectoryRole};
 use crate::scenario::AgentState;
 
@@ -129,6 +130,23 @@ pub fn base_path(dir: &Path, variant: &str) -> Result<PathBuf, RecordError> {
 pub fn stage1_escape(outcome: &VariantOutcome, states: &[AgentState], min_clearance_m: f64) -> NamedTrajectory {
     let name = format!("an escape keeping {min_clearance_m:.2} m from every agent as they drove");
     escape_trajectory(outcome, &outcome.stage1, states, name)
+}
+
+/// Searches stage 1's feasibility witness where the CBV hit the ego there,
+/// as `safer evaluate` does by default (the ego's centre kept on the road,
+/// the beam widened up to ×[`DEFAULT_WIDEST`]): its [`stage1_escape`]
+/// when it finds one; `None` without a stage-1 collision or an escape.
+pub fn search_stage1_escape(outcome: &VariantOutcome) -> Option<NamedTrajectory> {
+    if !outcome.stage1_cbv_hit_ego() {
+        return None;
+    }
+    let budget = WitnessBudget::widening_up_to(DEFAULT_WIDEST);
+    match search_rollout_witness(&outcome.scenario, &outcome.stage1, RoadKeeping::Centre, budget) {
+        Witness::Found { trajectory, min_clearance_m, .. } => {
+            Some(stage1_escape(outcome, &trajectory, min_clearance_m))
+        }
+        Witness::NoneWithinBudget { .. } => None,
+    }
 }
 
 /// Writes the artefacts of `outcome` under `dir`, stage 1's with

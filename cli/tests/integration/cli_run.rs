@@ -86,6 +86,55 @@ fn run_reports_a_typo_with_file_line_and_field_and_exits_2() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// `safer run` writes stage 1 beside a failing variant: the ego replaying
+/// its log against the CBV the adversary drove. Where the CBV hit the ego
+/// there, the stage-1 picture draws the feasibility witness's escape when
+/// the search finds one, as `safer evaluate` does: here the planner replays
+/// the log too, so every stage-1 collision repeats as the planner's failure.
+#[test]
+fn run_writes_stage_1_with_its_escape_beside_a_failing_variant() {
+    let dir = temp_dir("stage1");
+    let suite = dir.join("replay.yaml");
+    std::fs::write(
+        &suite,
+        format!(
+            "name: replay\nscenarios:\n  - recorded: {}\nplanner: {{ builtin: log-replay }}\n\
+             adversary: {{ method: safer, stage2_cbv: replay }}\nvariants: 2\n\
+             acceptance:\n  variant: {{ no_collision: true }}\n",
+            repo().join("scenes/ngsim").display()
+        ),
+    )
+    .unwrap();
+    let (artefacts, json) = (dir.join("artefacts"), dir.join("report.json"));
+    let out = safer(&[
+        "run",
+        suite.to_str().unwrap(),
+        "--artifacts",
+        artefacts.to_str().unwrap(),
+        "--json",
+        json.to_str().unwrap(),
+    ]);
+    assert_eq!(out.status.code(), Some(1), "{}\n{}", text(&out.stdout), text(&out.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
+    let failing: Vec<&serde_json::Value> = v["suites"][0]["variants"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|v| v["passed"] == false && v["stage1_cbv_hit_ego"] == true)
+        .collect();
+    assert!(!failing.is_empty(), "no stage-1 collision failed the replaying planner: {v}");
+    let mut escapes = 0;
+    for variant in failing {
+        let stage1 = variant["artefacts"]["stage1_svg"].as_str().expect("a stage-1 picture");
+        let picture = std::fs::read_to_string(stage1).unwrap();
+        assert!(picture.contains("planner log-replay") && picture.contains("collides with the CBV"), "{stage1}");
+        escapes += usize::from(picture.contains("feasibility witness: an escape keeping"));
+        assert!(Path::new(variant["artefacts"]["stage1_mcap"].as_str().unwrap()).is_file());
+    }
+    assert!(escapes > 0, "no stage-1 picture draws an escape");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 #[test]
 fn run_failing_planner_exits_1_and_leaves_artefacts() {
     let dir = temp_dir("failing");
