@@ -86,6 +86,18 @@ fn run_reports_a_typo_with_file_line_and_field_and_exits_2() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// `safer run SUITE --artifacts ARTEFACTS --json JSON`.
+fn run_with_artefacts(suite: &Path, artefacts: &Path, json: &Path) -> Output {
+    safer(&[
+        "run",
+        suite.to_str().unwrap(),
+        "--artifacts",
+        artefacts.to_str().unwrap(),
+        "--json",
+        json.to_str().unwrap(),
+    ])
+}
+
 /// `safer run` writes stage 1 beside a failing variant: the ego replaying
 /// its log against the CBV the adversary drove. Where the CBV hit the ego
 /// there, the stage-1 picture draws the feasibility witness's escape when
@@ -106,14 +118,7 @@ fn run_writes_stage_1_with_its_escape_beside_a_failing_variant() {
     )
     .unwrap();
     let (artefacts, json) = (dir.join("artefacts"), dir.join("report.json"));
-    let out = safer(&[
-        "run",
-        suite.to_str().unwrap(),
-        "--artifacts",
-        artefacts.to_str().unwrap(),
-        "--json",
-        json.to_str().unwrap(),
-    ]);
+    let out = run_with_artefacts(&suite, &artefacts, &json);
     assert_eq!(out.status.code(), Some(1), "{}\n{}", text(&out.stdout), text(&out.stderr));
     let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
     let failing: Vec<&serde_json::Value> = v["suites"][0]["variants"]
@@ -153,14 +158,7 @@ fn run_failing_planner_exits_1_and_leaves_artefacts() {
     .unwrap();
     let artefacts = dir.join("artefacts");
     let json = dir.join("report.json");
-    let out = safer(&[
-        "run",
-        suite.to_str().unwrap(),
-        "--artifacts",
-        artefacts.to_str().unwrap(),
-        "--json",
-        json.to_str().unwrap(),
-    ]);
+    let out = run_with_artefacts(&suite, &artefacts, &json);
     let stdout = text(&out.stdout);
     assert_eq!(out.status.code(), Some(1), "{stdout}\n{}", text(&out.stderr));
     assert!(stdout.contains("cv::highway-overtake::seed-0") && stdout.contains("FAIL"), "{stdout}");
