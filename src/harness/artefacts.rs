@@ -124,12 +124,13 @@ pub fn base_path(dir: &Path, variant: &str) -> Result<PathBuf, RecordError> {
     Ok(base)
 }
 
-/// Stage 1's feasibility witness drawn beside it: the ego's escape
-/// `states` (one per step from stage 1's start) from the CBV and the
-/// traffic as they drove, `min_clearance_m` from every agent.
-pub fn stage1_escape(outcome: &VariantOutcome, states: &[AgentState], min_clearance_m: f64) -> NamedTrajectory {
+/// Stage 1's feasibility witness `witness`, as drawn beside stage 1: the
+/// ego's escape from the CBV and the traffic as they drove, when the
+/// search found one.
+pub fn stage1_escape(outcome: &VariantOutcome, witness: &Witness) -> Option<NamedTrajectory> {
+    let Witness::Found { trajectory, min_clearance_m, .. } = witness else { return None };
     let name = format!("an escape keeping {min_clearance_m:.2} m from every agent as they drove");
-    escape_trajectory(outcome, &outcome.stage1, states, name)
+    Some(escape_trajectory(outcome, &outcome.stage1, trajectory, name))
 }
 
 /// Searches stage 1's feasibility witness where the CBV hit the ego there,
@@ -141,12 +142,7 @@ pub fn search_stage1_escape(outcome: &VariantOutcome) -> Option<NamedTrajectory>
         return None;
     }
     let budget = WitnessBudget::widening_up_to(DEFAULT_WIDEST);
-    match search_rollout_witness(&outcome.scenario, &outcome.stage1, RoadKeeping::Centre, budget) {
-        Witness::Found { trajectory, min_clearance_m, .. } => {
-            Some(stage1_escape(outcome, &trajectory, min_clearance_m))
-        }
-        Witness::NoneWithinBudget { .. } => None,
-    }
+    stage1_escape(outcome, &search_rollout_witness(&outcome.scenario, &outcome.stage1, RoadKeeping::Centre, budget))
 }
 
 /// Writes the artefacts of `outcome` under `dir`, stage 1's with

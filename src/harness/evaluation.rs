@@ -566,12 +566,7 @@ fn run_one(
             shrunk: None,
             not_shrunk: None,
         };
-        let stage1_escape = match stage1_witness {
-            Some(Witness::Found { trajectory, min_clearance_m, .. }) => {
-                Some(artefacts::stage1_escape(&outcome, &trajectory, min_clearance_m))
-            }
-            _ => None,
-        };
+        let stage1_escape = stage1_witness.as_ref().and_then(|w| artefacts::stage1_escape(&outcome, w));
         let written = artefacts::write(dir, &outcome, stage1_escape.as_slice()).map_err(HarnessError::Artefacts)?;
         let (stage1_mcap, stage1_svg) = written.stage1;
         record.artefacts = [Some(written.mcap), Some(written.svg), Some(stage1_mcap), Some(stage1_svg), written.stderr]
