@@ -389,8 +389,7 @@ fn variant_trial(suite: &Suite, context: &TrialContext, scenario: usize, index: 
         if let Some(why) = &o.not_shrunk {
             verdict.push_str(&format!("  not shrunk: {why}\n"));
         }
-        let written =
-            harness::artefacts::write(&context.artefacts, o, harness::artefacts::search_stage1_escape(o).as_slice());
+        let written = harness::artefacts::write(&context.artefacts, o, harness::artefacts::search_stage1_escape(o));
         match &written {
             Ok(a) => {
                 verdict.push_str(&format!("  recording: {}\n  picture:   {}\n", a.mcap.display(), a.svg.display()));

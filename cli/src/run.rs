@@ -272,7 +272,7 @@ pub(super) fn run(
             };
             let artefacts = match &outcome {
                 Ok(o) if j.shown && !o.failures.is_empty() => Some(
-                    harness::artefacts::write(artifacts, o, harness::artefacts::search_stage1_escape(o).as_slice())
+                    harness::artefacts::write(artifacts, o, harness::artefacts::search_stage1_escape(o))
                         .map_err(|e| e.to_string()),
                 ),
                 _ => None,

@@ -51,6 +51,9 @@ pub struct Artefacts {
     /// the ego replaying its log and the CBV as the adversary drove it
     /// against it (the variant as made, before any shrinking).
     pub stage1: (PathBuf, PathBuf),
+    /// Stage 1's feasibility witness drawn in them ([`stage1_escape`]), where
+    /// the CBV hit the ego there and the search found an escape.
+    pub stage1_escape: Option<NamedTrajectory>,
 }
 
 /// What the closed-loop feasibility witness found for a stage-2 collision.
@@ -146,9 +149,13 @@ pub fn search_stage1_escape(outcome: &VariantOutcome) -> Option<NamedTrajectory>
 }
 
 /// Writes the artefacts of `outcome` under `dir`, stage 1's with
-/// `stage1_extra` drawn beside it (its [`stage1_escape`], where one was
+/// `stage1_escape` drawn beside it (its [`stage1_escape`], where one was
 /// searched for and found).
-pub fn write(dir: &Path, outcome: &VariantOutcome, stage1_extra: &[NamedTrajectory]) -> Result<Artefacts, RecordError> {
+pub fn write(
+    dir: &Path,
+    outcome: &VariantOutcome,
+    stage1_escape: Option<NamedTrajectory>,
+) -> Result<Artefacts, RecordError> {
     let base = base_path(dir, &outcome.name)?;
     let mcap = base.with_extension("mcap");
     let svg = base.with_extension("svg");
@@ -180,7 +187,7 @@ pub fn write(dir: &Path, outcome: &VariantOutcome, stage1_extra: &[NamedTrajecto
         }
     };
     let stage1 = (base.with_extension("stage1.mcap"), base.with_extension("stage1.svg"));
-    write_pair(&stage1.0, &stage1.1, &outcome.stage1, stage1_extra)?;
+    write_pair(&stage1.0, &stage1.1, &outcome.stage1, stage1_escape.as_slice())?;
     let stderr = match &outcome.planner_stderr {
         Some(log) => {
             let path = base.with_extension("stderr.txt");
@@ -189,7 +196,7 @@ pub fn write(dir: &Path, outcome: &VariantOutcome, stage1_extra: &[NamedTrajecto
         }
         None => None,
     };
-    Ok(Artefacts { mcap, svg, stderr, witness, unshrunk, stage1 })
+    Ok(Artefacts { mcap, svg, stderr, witness, unshrunk, stage1, stage1_escape })
 }
 
 /// The artefacts' path under `dir` (without extension) for the variant

@@ -567,7 +567,7 @@ fn run_one(
             not_shrunk: None,
         };
         let stage1_escape = stage1_witness.as_ref().and_then(|w| artefacts::stage1_escape(&outcome, w));
-        let written = artefacts::write(dir, &outcome, stage1_escape.as_slice()).map_err(HarnessError::Artefacts)?;
+        let written = artefacts::write(dir, &outcome, stage1_escape).map_err(HarnessError::Artefacts)?;
         let (stage1_mcap, stage1_svg) = written.stage1;
         record.artefacts = [Some(written.mcap), Some(written.svg), Some(stage1_mcap), Some(stage1_svg), written.stderr]
             .into_iter()

@@ -86,16 +86,18 @@ fn run_reports_a_typo_with_file_line_and_field_and_exits_2() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
-/// `safer run SUITE --artifacts ARTEFACTS --json JSON`.
-fn run_with_artefacts(suite: &Path, artefacts: &Path, json: &Path) -> Output {
-    safer(&[
+/// `safer run SUITE --artifacts ARTEFACTS --json JSON`, then `more`.
+fn run_with_artefacts(suite: &Path, artefacts: &Path, json: &Path, more: &[&str]) -> Output {
+    let mut args = vec![
         "run",
         suite.to_str().unwrap(),
         "--artifacts",
         artefacts.to_str().unwrap(),
         "--json",
         json.to_str().unwrap(),
-    ])
+    ];
+    args.extend_from_slice(more);
+    safer(&args)
 }
 
 /// `safer run` writes stage 1 beside a failing variant: the ego replaying
@@ -117,8 +119,8 @@ fn run_writes_stage_1_with_its_escape_beside_a_failing_variant() {
         ),
     )
     .unwrap();
-    let (artefacts, json) = (dir.join("artefacts"), dir.join("report.json"));
-    let out = run_with_artefacts(&suite, &artefacts, &json);
+    let (artefacts, json, page) = (dir.join("artefacts"), dir.join("report.json"), dir.join("review"));
+    let out = run_with_artefacts(&suite, &artefacts, &json, &["--html", page.to_str().unwrap()]);
     assert_eq!(out.status.code(), Some(1), "{}\n{}", text(&out.stdout), text(&out.stderr));
     let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
     let failing: Vec<&serde_json::Value> = v["suites"][0]["variants"]
@@ -133,8 +135,13 @@ fn run_writes_stage_1_with_its_escape_beside_a_failing_variant() {
         let stage1 = variant["artefacts"]["stage1_svg"].as_str().expect("a stage-1 picture");
         let picture = std::fs::read_to_string(stage1).unwrap();
         assert!(picture.contains("planner log-replay") && picture.contains("collides with the CBV"), "{stage1}");
-        escapes += usize::from(picture.contains("feasibility witness: an escape keeping"));
+        let escape = picture.contains("feasibility witness: an escape keeping");
+        escapes += usize::from(escape);
         assert!(Path::new(variant["artefacts"]["stage1_mcap"].as_str().unwrap()).is_file());
+        // The review page's stage-1 picture draws the same escape, or none.
+        let name = variant["variant"].as_str().expect("a variant name").replace("::", "/");
+        let on_page = std::fs::read_to_string(page.join("pictures").join(format!("{name}.stage1.svg"))).unwrap();
+        assert_eq!(on_page.contains("feasibility witness: an escape keeping"), escape, "{name}");
     }
     assert!(escapes > 0, "no stage-1 picture draws an escape");
     std::fs::remove_dir_all(&dir).ok();
@@ -158,7 +165,7 @@ fn run_failing_planner_exits_1_and_leaves_artefacts() {
     .unwrap();
     let artefacts = dir.join("artefacts");
     let json = dir.join("report.json");
-    let out = run_with_artefacts(&suite, &artefacts, &json);
+    let out = run_with_artefacts(&suite, &artefacts, &json, &[]);
     let stdout = text(&out.stdout);
     assert_eq!(out.status.code(), Some(1), "{stdout}\n{}", text(&out.stderr));
     assert!(stdout.contains("cv::highway-overtake::seed-0") && stdout.contains("FAIL"), "{stdout}");

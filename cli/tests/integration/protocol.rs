@@ -52,7 +52,7 @@ fn the_lane_follower_solves_a_recorded_scene_that_constant_velocity_does_not() {
     let startup = latency.startup.expect("an external planner's start-up");
     assert!(startup.launch_ms > 0.0 && startup.prepare_ms.is_some_and(|ms| ms > 0.0), "{startup:?}");
     // Its stderr is kept beside the recording and the picture, not only on a crash.
-    let written = artefacts::write(&dir, &outcome, &[]).unwrap();
+    let written = artefacts::write(&dir, &outcome, None).unwrap();
     let stderr = written.stderr.expect("an external planner's stderr file");
     assert_eq!(stderr.parent(), written.mcap.parent());
     let log = std::fs::read_to_string(&stderr).unwrap();

@@ -192,6 +192,7 @@ pub(crate) mod tests_support {
                     format!("out/{suite}/crossing/seed-1.stage1.mcap").into(),
                     format!("out/{suite}/crossing/seed-1.stage1.svg").into(),
                 ),
+                stage1_escape: None,
             })),
             name,
             snapshot: SnapshotCheck::NotCompared,

@@ -468,7 +468,12 @@ fn failing_variant_html(
     // Stage 1 beside it: the conflict as the adversary made it.
     let stage1_img = picture.ok().map(|rel| {
         let rel = rel.with_extension("stage1.svg");
-        let svg = record::render_rollout_svg_with(&o.scenario, &o.stage1, &[], &SvgOptions::default());
+        // Stage 1's escape found when the artefacts were written, drawn again here.
+        let escape = match &v.artefacts {
+            Some(Ok(a)) => a.stage1_escape.as_slice(),
+            _ => &[],
+        };
+        let svg = record::render_rollout_svg_with(&o.scenario, &o.stage1, escape, &SvgOptions::default());
         pictures.push((dir.join(&rel), svg));
         let href = esc(&url_path(&rel));
         let _ = write!(h, " · stage 1: <a class=\"stage1\" href=\"{href}\">{}</a>", esc(&rel.display().to_string()));
