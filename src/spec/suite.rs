@@ -306,11 +306,14 @@ pub struct AdversarySpec {
     #[serde(default)]
     pub ego_contact: EgoContactRule,
     /// Whether the SaFeR methods' CBV may drive against a lane's traffic:
-    /// `allowed` (the default, as the paper's method allows it), or
+    /// `allowed` (the default, as the paper's method allows it);
     /// `forbidden` (beyond the paper): a token that turns the CBV into a
     /// lane against its traffic, outside intersections, or after which
     /// braking would not keep it out of one, is implausible, as leaving
-    /// the road is.
+    /// the road is, and a CBV against the traffic already must head back
+    /// to a lane of its way; or `along-the-lanes` (beyond the paper): as
+    /// `forbidden`, and a token that takes the CBV across the lanes is
+    /// implausible too.
     #[serde(default)]
     pub wrong_way: WrongWayRule,
 }

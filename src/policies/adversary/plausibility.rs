@@ -4,14 +4,15 @@
 //! touches no background agent while it holds the token, it does not slow
 //! in front of replayed traffic closing on it, and it runs into no one
 //! while it brakes after the token (and, under [`WrongWayRule::Forbidden`],
-//! it does not turn against a lane's traffic, then or while it brakes);
+//! it does not turn against a lane's traffic, then or while it brakes, or,
+//! against it already, heads back to a lane of its way);
 //! with the fallback rule counting only the CBV's own faults
 //! ([`ContactRule`]).
 
 use super::background_forecast::BackgroundForecast;
 use super::broad_phase::Bounds;
 use super::rollout::{BRAKING_CHECK_STEPS, braking_after, continued_after, token_rollout};
-use super::wrong_way::{WrongWayRule, drives_across_lanes, drives_wrong_way, first_wrong_way};
+use super::wrong_way::{TrafficDirectionHold, WrongWayRule, drives_across_lanes, first_wrong_way};
 use crate::geometry::OrientedBox;
 use crate::motion::KinematicState;
 use crate::motion::tokens::{MAX_ACCEL_MPS2, SIM_DT_S, TOKEN_PERIOD_STEPS, Token};
@@ -116,10 +117,10 @@ pub(super) struct PlausibilityCheck<'w> {
     /// The lanes holding the CBV's centre now, driven its way (empty off
     /// the lanes or on a map without them): what it cuts in from.
     lanes_now: Vec<crate::map::MapElementId>,
-    /// Whether a token that turns the CBV against a lane's traffic breaks
-    /// the rule ([`WrongWayRule::Forbidden`], and the CBV not against it
-    /// already).
-    holds_traffic_direction: bool,
+    /// What the wrong-way rule holds the CBV to: kept out of lanes
+    /// against their traffic, or heading back out of one
+    /// ([`WrongWayRule::Forbidden`]).
+    traffic_direction: TrafficDirectionHold,
     /// Whether a token that takes the CBV across the lanes breaks the
     /// rule ([`WrongWayRule::AlongTheLanes`], and the CBV not across them
     /// already).
@@ -147,7 +148,7 @@ impl<'w> PlausibilityCheck<'w> {
                 edge_distance_now: None,
                 on_road_now: false,
                 lanes_now: Vec::new(),
-                holds_traffic_direction: false,
+                traffic_direction: TrafficDirectionHold::NotHeld,
                 holds_along_the_lanes: false,
             };
         };
@@ -177,7 +178,7 @@ impl<'w> PlausibilityCheck<'w> {
             edge_distance_now: world.map.signed_distance_to_road_edge(&now.position),
             on_road_now: !world.map.is_off_road_within_map(&now.position),
             lanes_now: world.map.lanes_containing(&now.position, now.heading_rad),
-            holds_traffic_direction: false,
+            traffic_direction: TrafficDirectionHold::NotHeld,
             holds_along_the_lanes: false,
         }
     }
@@ -186,9 +187,10 @@ impl<'w> PlausibilityCheck<'w> {
     /// default allows it).
     pub(super) fn with_wrong_way(self, rule: WrongWayRule) -> Self {
         let map = self.world.map;
-        let holds = rule.forbids_wrong_way() && self.cbv_now.is_some_and(|now| !drives_wrong_way(map, &now));
-        let along = rule.forbids_across_lanes() && self.cbv_now.is_some_and(|now| !drives_across_lanes(map, &now));
-        Self { holds_traffic_direction: holds, holds_along_the_lanes: along, ..self }
+        let Some(now) = self.cbv_now else { return self };
+        let traffic_direction = TrafficDirectionHold::of(rule, map, &now);
+        let along = rule.forbids_across_lanes() && !drives_across_lanes(map, &now);
+        Self { traffic_direction, holds_along_the_lanes: along, ..self }
     }
 
     /// Whether the CBV, hit by `theirs` at `at`, cut in: it was hit from
@@ -241,7 +243,11 @@ impl<'w> PlausibilityCheck<'w> {
         // heading into the oncoming lanes faster than braking can stop it
         // is as good as in them (see the `wrong_way` module).
         let wrong_way = || {
-            let against = self.holds_traffic_direction.then(|| first_wrong_way(map, moving_path())).flatten();
+            let against = match self.traffic_direction {
+                TrafficDirectionHold::KeepOut => first_wrong_way(map, moving_path()),
+                // Already against the traffic: judged where the token ends.
+                hold => hold.stays_against_the_traffic(map, end).then_some(rollout.len() - 1),
+            };
             // Across the lanes on the token's own states (see the `wrong_way` module).
             let across = || {
                 self.holds_along_the_lanes.then(|| rollout.iter().position(|s| drives_across_lanes(map, s))).flatten()
@@ -433,6 +439,7 @@ mod tests {
     use crate::motion::tokens::TokenGrid;
     use crate::policies::adversary::rollout::token_rollouts;
     use crate::policies::adversary::test_support::{car, dead_end_road, token};
+    use crate::policies::adversary::wrong_way::drives_wrong_way;
     use crate::scenario::{AgentBody, AgentKind};
 
     /// A recording in which every agent of `states` keeps its velocity for 4 s.
@@ -689,8 +696,29 @@ mod tests {
         assert_eq!(judged(110.0, WrongWayRule::Forbidden), [true, false]);
         // Without the rule (the default) neither does.
         assert_eq!(judged(110.0, WrongWayRule::Allowed), [false, false]);
-        // A CBV against the traffic already is not held to it: any way back.
-        assert_eq!(judged(170.0, WrongWayRule::Forbidden), [false, false]);
+        // A CBV against the traffic already must head back. At 170° the
+        // lane of its way is the oncoming one, on its left: turning on (to
+        // 187°) steers it away from that lane, turning back (to 153°)
+        // towards it.
+        assert_eq!(judged(170.0, WrongWayRule::Forbidden), [true, false]);
+        assert_eq!(judged(170.0, WrongWayRule::Allowed), [false, false]);
+    }
+
+    #[test]
+    fn under_the_wrong_way_rule_a_cbv_against_the_traffic_must_head_back_to_a_lane_of_its_way() {
+        let map = two_way_road(1, 1);
+        let (own, oncoming) = (lane_y(&map, 0), lane_y(&map, 100));
+        // Overtaking in the oncoming lane at 10 m/s, heading its own way.
+        let towards_own = (own - oncoming).signum();
+        let judged = |yaw_rates_radps, rule| turning_tokens_judged(&map, oncoming, 0.0, 10.0, yaw_rates_radps, rule);
+        // Steering back towards its own lane is plausible; steering on
+        // away from it is not ...
+        assert_eq!(judged([0.3 * towards_own, -0.3 * towards_own], WrongWayRule::Forbidden), [false, true]);
+        // ... and neither is holding on in the oncoming lane.
+        assert_eq!(judged([0.0, 0.0], WrongWayRule::Forbidden), [true, true]);
+        // Without the rule any of them is.
+        assert_eq!(judged([0.3 * towards_own, 0.0], WrongWayRule::Allowed), [false, false]);
+        assert!(drives_wrong_way(&map, &car(100.0, oncoming, 10.0).unwrap()), "the CBV starts against the traffic");
     }
 
     #[test]

@@ -12,9 +12,13 @@
 //! curvature, on to a standstill) would still take the CBV into such a
 //! lane: a rule held to each token's own half second lets the CBV be
 //! driven straight on at speed where its road bends, until no token can
-//! keep it out of the oncoming lane. A CBV already
-//! against the traffic (a recording that starts so) is not held to it:
-//! any way back is allowed.
+//! keep it out of the oncoming lane. A CBV already against the traffic
+//! (a recording that starts so, or one the fallbacks put there when no
+//! token was plausible) must head back: each token ends with the CBV out
+//! of the oncoming lane or nearer a lane of its way than it is now
+//! ([`TrafficDirectionHold::WayBack`]). Without that, a CBV swerving round
+//! a pedestrian across the centre line stayed in the oncoming lane and
+//! overtook the ego there for 1.9 s.
 //!
 //! Under [`WrongWayRule::AlongTheLanes`] the CBV is also held to drive
 //! along the lanes, not across them: a token whose own states take a CBV
@@ -42,7 +46,8 @@ pub enum WrongWayRule {
     Allowed,
     /// Beyond the paper: a token that turns the CBV against a lane's
     /// traffic, or leaves it unable to brake short of such a lane, is
-    /// implausible.
+    /// implausible; so is one that leaves a CBV already against the
+    /// traffic no nearer a lane of its way.
     Forbidden,
     /// As [`Self::Forbidden`], and a token that takes the CBV across the
     /// lanes (more than 30° from every lane it is in, outside
@@ -63,6 +68,67 @@ impl WrongWayRule {
     pub fn forbids_across_lanes(self) -> bool {
         self == Self::AlongTheLanes
     }
+}
+
+/// How far a CBV against the traffic looks for a lane of its way, m:
+/// farther than a carriageway and its verge, near enough to be the road
+/// it is on.
+const WAY_BACK_SEARCH_RADIUS_M: f64 = 30.0;
+
+/// A token that brings the CBV nearer a lane of its way by less than
+/// this, m, does not head back: float noise, not a manoeuvre.
+const WAY_BACK_MIN_GAIN_M: f64 = 0.01;
+
+/// What the wrong-way rule holds a CBV to at one token boundary.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) enum TrafficDirectionHold {
+    /// Nothing: the rule allows driving against the traffic.
+    NotHeld,
+    /// A CBV with the traffic: no token may take it against a lane's
+    /// traffic, then or while it brakes after the token.
+    KeepOut,
+    /// A CBV against the traffic now: each token must end with it out of
+    /// the oncoming lane or nearer a lane of its way than it is now
+    /// (`distance_m`, infinite where none lies within
+    /// [`WAY_BACK_SEARCH_RADIUS_M`]).
+    WayBack {
+        /// The CBV's distance now to the nearest lane of its way, m.
+        distance_m: f64,
+    },
+}
+
+impl TrafficDirectionHold {
+    /// What `rule` holds a CBV in state `now` to.
+    pub(super) fn of(rule: WrongWayRule, map: &RoadMap, now: &AgentState) -> Self {
+        match (rule.forbids_wrong_way(), drives_wrong_way(map, now)) {
+            (false, _) => Self::NotHeld,
+            (true, false) => Self::KeepOut,
+            (true, true) => Self::WayBack { distance_m: distance_to_a_lane_of_its_way(map, now) },
+        }
+    }
+
+    /// Whether a token ending in `end` breaks a [`Self::WayBack`] hold
+    /// (never the others: they judge the token's path).
+    pub(super) fn stays_against_the_traffic(self, map: &RoadMap, end: &AgentState) -> bool {
+        match self {
+            Self::WayBack { distance_m } => {
+                drives_wrong_way(map, end) && distance_to_a_lane_of_its_way(map, end) > distance_m - WAY_BACK_MIN_GAIN_M
+            }
+            Self::NotHeld | Self::KeepOut => false,
+        }
+    }
+}
+
+/// The distance from a CBV in `state` to the centreline of the nearest
+/// lane running its way (within 45° of its heading), m; infinite where
+/// none lies within [`WAY_BACK_SEARCH_RADIUS_M`].
+fn distance_to_a_lane_of_its_way(map: &RoadMap, state: &AgentState) -> f64 {
+    let heading = crate::geometry::Vector2::new(state.heading_rad.cos(), state.heading_rad.sin());
+    // `nearest_lane` prefers lanes aligned with the heading: a misaligned
+    // answer means no aligned lane lies within the radius.
+    map.nearest_lane(&state.position, Some(state.heading_rad), WAY_BACK_SEARCH_RADIUS_M)
+        .filter(|m| m.projection.tangent.dot(&heading) >= crate::map::ALIGNED_LANE_MAX_ANGLE_RAD.cos())
+        .map_or(f64::INFINITY, |m| m.projection.distance_m)
 }
 
 /// Whether a CBV in `state` drives across the lanes it is in.
