@@ -18,6 +18,7 @@ use std::sync::Arc;
 use rayon::prelude::*;
 
 use super::{CliError, scene_paths};
+use safer_scenarios::eval::sideways_speed::SidewaysSpread;
 use safer_scenarios::eval::witness::{DEFAULT_WIDEST, RoadKeeping, WitnessBudget, search_rollout_witness};
 use safer_scenarios::harness::evaluation::{
     self, BlindTwinHits, CbvStartRows, EvaluationRequest, HeldOutSplit, MethodRow, Partition, Stage2Cbv, VariantRecord,
@@ -245,6 +246,7 @@ fn print_table(
     print_outcomes(out, rows, &name)?;
     print_plausibility(out, rows, &name)?;
     print_scenes_that_broke_the_rules(out, rows, &held_out.scenes, &name)?;
+    print_sideways(out, rows, &name)?;
     print_held_out(out, &name, held_out)?;
     print_conflicts_met(out, rows, &name, held_out)?;
     print_stage2_approach(out, rows, &name)?;
@@ -327,6 +329,36 @@ fn print_plausibility(
             fmt(r.cbv_across_lanes_rate),
             fmt(r.cbv_across_lanes_rate_stage2)
         )?;
+    }
+    Ok(())
+}
+
+/// How briskly each method's CBV moved across its lanes in stage 1,
+/// beside the recorded CBV over the same steps.
+fn print_sideways(out: &mut dyn Write, rows: &[MethodRow], name: &dyn Fn(&MethodRow) -> String) -> std::io::Result<()> {
+    let w = method_column(rows, name);
+    writeln!(
+        out,
+        "\nsideways speed of the CBV across its lanes in stage 1 (each variant's largest held 0.5 s, m/s), beside the recorded CBV's over the same steps:"
+    )?;
+    writeln!(
+        out,
+        "{:<w$} {:>9} {:>7} {:>7} {:>7} | {:>9} {:>7} {:>7} {:>7}",
+        "method", "measured", "p50", "p90", "max", "recorded", "p50", "p90", "max"
+    )?;
+    let cells = |spread: Option<SidewaysSpread>| match spread {
+        Some(s) => [
+            s.measured.to_string(),
+            format!("{:.2}", s.p50_mps),
+            format!("{:.2}", s.p90_mps),
+            format!("{:.2}", s.max_mps),
+        ],
+        None => ["0".into(), "—".into(), "—".into(), "—".into()],
+    };
+    for r in rows {
+        let [n, p50, p90, max] = cells(r.cbv_sideways);
+        let [ln, lp50, lp90, lmax] = cells(r.logged_cbv_sideways);
+        writeln!(out, "{:<w$} {n:>9} {p50:>7} {p90:>7} {max:>7} | {ln:>9} {lp50:>7} {lp90:>7} {lmax:>7}", name(r))?;
     }
     Ok(())
 }
@@ -681,6 +713,10 @@ fn print_legend(out: &mut dyn Write) -> std::io::Result<()> {
     writeln!(
         out,
         "across lanes: share of variants whose CBV drove across the lanes for 1 s or more in stage 1 (s2: in stage 2): at 3 m/s or more, more than 30° from every lane its centre was in, outside intersections (a brisk lane change turns 5–10°); the `log` row is the recorded CBV."
+    )?;
+    writeln!(
+        out,
+        "sideways speed: the CBV's speed times the sine of its smallest angle to a lane of its way that holds its centre, at 3 m/s or more, outside intersections; each variant's largest such speed held for 0.5 s at every step (a recorded heading's one-step noise does not count), over the variants where it was measured that long (p90: nearest rank); recorded: the recorded CBV of the same variants over the same steps."
     )?;
     Ok(())
 }

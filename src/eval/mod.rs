@@ -4,7 +4,8 @@
 //! [`feasibility_accuracy`] checks V_h against the witness; [`escape`] is
 //! the witness of a stage-2 collision when the CBV reacts to the ego;
 //! [`traffic_rules`] judges wrong-way driving and red-light running;
-//! [`cbv_start`] says where the CBV starts relative to the ego.)
+//! [`cbv_start`] says where the CBV starts relative to the ego;
+//! [`sideways_speed`] how briskly a road user moves across its lanes.)
 
 pub mod cbv_start;
 pub mod conflict_kind;
@@ -15,6 +16,7 @@ pub mod feasibility_accuracy;
 pub mod prior_fit;
 pub mod progress;
 pub mod realism;
+pub mod sideways_speed;
 pub mod traffic_rules;
 pub mod ttc;
 pub mod witness;

@@ -34,6 +34,7 @@ use super::variant::variant_seed;
 use super::variant::{CollisionEscape, VariantOutcome};
 use crate::eval::CbvStart;
 use crate::eval::escape::EscapeBudget;
+use crate::eval::sideways_speed::SidewaysSpread;
 use crate::eval::witness::Witness;
 use crate::planners::FaultOperator;
 use crate::policies::BackgroundPolicy;
@@ -326,6 +327,14 @@ pub struct MethodRow {
     /// The same in stage 2, against the planner's ego.
     #[serde(default)]
     pub cbv_across_lanes_rate_stage2: Option<f64>,
+    /// How briskly the CBV moved across its lanes in stage 1
+    /// ([`SuiteMetrics::cbv_sideways`]; older reports lack it: read as
+    /// unknown).
+    #[serde(default)]
+    pub cbv_sideways: Option<SidewaysSpread>,
+    /// The same for the recorded CBV over the same steps.
+    #[serde(default)]
+    pub logged_cbv_sideways: Option<SidewaysSpread>,
     /// The scenes where the CBV left the road in stage 1: how many of
     /// each one's variants did, most first (a rate that one scene makes
     /// reads differently from one spread over many).
@@ -1002,6 +1011,8 @@ fn table_of(
                 cbv_wrong_way_rate_stage2: metrics.cbv_wrong_way_rate_stage2,
                 cbv_across_lanes_rate: metrics.cbv_across_lanes_rate,
                 cbv_across_lanes_rate_stage2: metrics.cbv_across_lanes_rate_stage2,
+                cbv_sideways: metrics.cbv_sideways,
+                logged_cbv_sideways: metrics.logged_cbv_sideways,
                 off_road_scenes: scenes_where(&ok, |r| r.tally.cbv_left_road()),
                 at_fault_scenes: scenes_where(&ok, |r| r.tally.cbv_at_fault_with_background),
                 wrong_way_scenes: scenes_where(&ok, |r| {

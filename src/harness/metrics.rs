@@ -24,9 +24,11 @@
 //! [`Stage2Verdict`]: super::pipeline::Stage2Verdict
 
 use super::pipeline::DualStage;
+use crate::eval::sideways_speed::{SidewaysSpread, held_sideways_speed_mps};
 use crate::eval::traffic_rules::{ACROSS_LANES_MIN_S, across_lanes_of, wrong_way_of};
 use crate::eval::{ConflictKind, Histogram, jensen_shannon, rollout_conflict};
 use crate::geometry::wrap_angle;
+use crate::map::RoadMap;
 use crate::scenario::{AgentKind, AgentState, Scenario, TrackIndex};
 use crate::sim::EgoContact;
 use crate::sim::Rollout;
@@ -43,6 +45,11 @@ pub struct KinematicSamples {
     /// that far apart, per second, rad/s.
     #[serde(default)]
     pub yaw_rates_radps: Vec<f64>,
+    /// The largest sideways speed across its lanes the agent held for
+    /// [`SIDEWAYS_HELD_S`](crate::eval::sideways_speed::SIDEWAYS_HELD_S), m/s (`held_sideways_speed_mps`; `None` when
+    /// never measured that long, or not measured: older reports lack it).
+    #[serde(default)]
+    pub held_sideways_mps: Option<f64>,
 }
 
 /// The window yaw rates are measured over, s: recorded headings jitter
@@ -66,6 +73,12 @@ impl KinematicSamples {
         KinematicSamples { yaw_rates_radps, ..Self::of_speeds(speeds, dt_s) }
     }
 
+    /// These samples with the held sideways speed of the same `states`
+    /// on `map` ([`held_sideways_speed_mps`]).
+    pub fn with_sideways(self, map: &RoadMap, states: &[Option<AgentState>], dt_s: f64) -> Self {
+        Self { held_sideways_mps: held_sideways_speed_mps(map, states.iter().map(Option::as_ref), dt_s), ..self }
+    }
+
     /// Samples of a sequence of per-step speeds (`None` where absent) at `dt_s`.
     pub fn of_speeds(speeds: impl IntoIterator<Item = Option<f64>>, dt_s: f64) -> Self {
         let v: Vec<Option<f64>> = speeds.into_iter().collect();
@@ -73,6 +86,7 @@ impl KinematicSamples {
             speeds_mps: v.iter().flatten().copied().collect(),
             accels_mps2: v.windows(2).filter_map(|w| Some((w[1]? - w[0]?) / dt_s)).collect(),
             yaw_rates_radps: Vec::new(),
+            held_sideways_mps: None,
         }
     }
 }
@@ -91,12 +105,24 @@ impl CbvKinematics {
     /// The CBV's samples of a stage-1 rollout (`None` without a CBV).
     pub fn of_stage1(scenario: &Scenario, stage1: &Rollout) -> Option<Self> {
         let cbv = stage1.cbv?;
-        let generated =
-            KinematicSamples::of_states(stage1.states.iter().map(|row| row.get(cbv.0).copied().flatten()), stage1.dt_s);
+        let map = &scenario.map;
+        let generated: Vec<Option<AgentState>> =
+            stage1.states.iter().map(|row| row.get(cbv.0).copied().flatten()).collect();
         let track = scenario.track(cbv);
         let steps = stage1.start_step..stage1.start_step + stage1.states.len();
-        let logged = KinematicSamples::of_states(steps.map(|k| track.state(k).copied()), scenario.dt_s);
-        Some(CbvKinematics { generated, logged })
+        let logged: Vec<Option<AgentState>> = steps.map(|k| track.state(k).copied()).collect();
+        Some(CbvKinematics {
+            generated: KinematicSamples::of_states(generated.iter().copied(), stage1.dt_s).with_sideways(
+                map,
+                &generated,
+                stage1.dt_s,
+            ),
+            logged: KinematicSamples::of_states(logged.iter().copied(), scenario.dt_s).with_sideways(
+                map,
+                &logged,
+                scenario.dt_s,
+            ),
+        })
     }
 }
 
@@ -364,6 +390,12 @@ pub struct SuiteMetrics {
     pub cbv_across_lanes_rate: Option<f64>,
     /// The same in stage 2, against the planner's ego.
     pub cbv_across_lanes_rate_stage2: Option<f64>,
+    /// How briskly the CBV moved across its lanes in stage 1: the spread
+    /// of each variant's largest sideways speed held for
+    /// [`SIDEWAYS_HELD_S`](crate::eval::sideways_speed::SIDEWAYS_HELD_S) (`None` when none was measured).
+    pub cbv_sideways: Option<SidewaysSpread>,
+    /// The same for the recorded CBV over the same steps: the reference.
+    pub logged_cbv_sideways: Option<SidewaysSpread>,
     /// Stage 2: share of variants whose CBV came within 1 m of the
     /// planner's ego.
     pub conflict_reach: Option<f64>,
@@ -514,6 +546,7 @@ impl SuiteMetrics {
         let (mut gv, mut ga, mut lv, mut la) =
             (Histogram::speed(), Histogram::acceleration(), Histogram::speed(), Histogram::acceleration());
         let (mut gy, mut ly) = (Histogram::yaw_rate(), Histogram::yaw_rate());
+        let (mut generated_sideways, mut logged_sideways) = (Vec::new(), Vec::new());
         for &t in &tallies {
             n += 1;
             critical += usize::from(t.critical);
@@ -541,6 +574,8 @@ impl SuiteMetrics {
                 cbv.logged.accels_mps2.iter().for_each(|a| la.add(*a));
                 cbv.generated.yaw_rates_radps.iter().for_each(|y| gy.add(*y));
                 cbv.logged.yaw_rates_radps.iter().for_each(|y| ly.add(*y));
+                generated_sideways.extend(cbv.generated.held_sideways_mps);
+                logged_sideways.extend(cbv.logged.held_sideways_mps);
             }
         }
         SuiteMetrics {
@@ -560,6 +595,8 @@ impl SuiteMetrics {
             cbv_wrong_way_rate_stage2: share(wrong_way_stage2, n),
             cbv_across_lanes_rate: share(across_lanes, n),
             cbv_across_lanes_rate_stage2: share(across_lanes_stage2, n),
+            cbv_sideways: SidewaysSpread::of(generated_sideways),
+            logged_cbv_sideways: SidewaysSpread::of(logged_sideways),
             conflict_reach: share(reached, n),
             conflict_reach_critical: share(reached_critical, critical),
             avoidable_conflicts: avoidable,

@@ -590,3 +590,59 @@ fn the_table_gives_the_cr_by_where_the_cbv_starts_as_the_json_report_does() {
     // Every variant of the shipped scenes has both roles at the start.
     assert!(variants.iter().all(|v| v["cbv_start"].is_string()), "a variant without the CBV's start");
 }
+
+#[test]
+fn the_table_gives_the_cbvs_sideways_speed_as_the_json_report_does_and_log_replay_matches_the_recording() {
+    let out = tempfile_dir("sideways");
+    let json = out.join("report.json");
+    let scenes = Path::new(repo_root!()).join("scenes/ngsim");
+    let methods = ["log", "safer-in-path"];
+    let table = ok(safer(&[
+        "evaluate",
+        "--scenes",
+        scenes.to_str().unwrap(),
+        "--methods",
+        &methods.join(","),
+        "--trust-region",
+        "60",
+        "--seeds",
+        "2",
+        "--jobs",
+        "2",
+        "--json",
+        json.to_str().unwrap(),
+    ]));
+    let section = table.split("\nsideways speed of the CBV").nth(1).expect("the sideways table");
+    let report: Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let variants = report["variants"].as_array().unwrap();
+    // Nearest-rank p50, p90 and the largest, as the table prints them.
+    let spread = |mut v: Vec<f64>| -> Vec<String> {
+        v.sort_by(f64::total_cmp);
+        let rank = |p: f64| v[((p * v.len() as f64).ceil() as usize).clamp(1, v.len()) - 1];
+        let mut cells = vec![v.len().to_string()];
+        cells.extend([rank(0.5), rank(0.9), v[v.len() - 1]].map(|x| format!("{x:.2}")));
+        cells
+    };
+    for method in methods {
+        let line = section.lines().find(|l| l.split_whitespace().next() == Some(method)).expect("the method's row");
+        let cells: Vec<&str> = line.split_whitespace().skip(1).filter(|c| *c != "|").collect();
+        let held = |which: &str| -> Vec<f64> {
+            variants
+                .iter()
+                .filter(|v| v["method"] == method)
+                .filter_map(|v| v["tally"]["cbv"][which]["held_sideways_mps"].as_f64())
+                .collect()
+        };
+        let (generated, recorded) = (held("generated"), held("logged"));
+        assert!(!generated.is_empty(), "{method}: no variant measured");
+        let mut from_variants = spread(generated.clone());
+        from_variants.extend(spread(recorded.clone()));
+        assert_eq!(cells, from_variants, "{method}: the table and the report's variants disagree");
+        let row = report["rows"].as_array().unwrap().iter().find(|r| r["method"] == method).unwrap();
+        assert_eq!(row["cbv_sideways"]["measured"], generated.len(), "{method}: the report's row");
+        if method == "log" {
+            // Log replay drives the CBV as recorded: the same figures.
+            assert_eq!(generated, recorded, "log replay's CBV moved sideways unlike the recording");
+        }
+    }
+}
