@@ -201,6 +201,10 @@
 #                     along-the-lanes/: the same for the Python lane follower over 60
 #                     behaviours, beside ego-contact/'s
 #                     (mutants-{ngsim,womd-interactive}-lane-follower-n60.txt)
+#   sideways          sideways/: how briskly each method's CBV moves sideways across its
+#                     lanes in stage 1, beside the recorded CBV's, on NGSIM (over 60) and
+#                     WOMD interactive (over 28), no contact from behind, along the lanes
+#                     (evaluate-{ngsim-n60,womd-interactive-n28}.txt) (about 5 minutes)
 #   mutants           mutants-{womd-interactive,womd-json,ngsim}-evasive.txt and
 #                     mutants-{womd-interactive,ngsim}-lane-follower.txt: the
 #                     faults of the planner each method's variants catch
@@ -216,7 +220,7 @@ self=$(realpath "$0")
 cd "$(dirname "$self")"
 all=(evaluate plain inattentive held-out-chance trust-region realism prior-fit n-sweep reactive n100 approach-none merging mutants wide-region cut-in
     in-path-lookahead in-path-lookahead-n30 in-path-lookahead-n28 in-path-lookahead-sweep pair-in-traffic witnessed wide-witnessed ten-seeds reaction-delay reactive-background leader first-contact both-pairings first-contact-lookahead blind-twin ego-contact wrong-way
-    lane-follower-pairings at-fault-planner along-the-lanes along-the-lanes-lane-follower)
+    lane-follower-pairings at-fault-planner along-the-lanes along-the-lanes-lane-follower sideways)
 jobs=("$@")
 [[ ${#jobs[@]} -gt 0 ]] || jobs=("${all[@]}")
 # The usage is the comment block at the top of this file.
@@ -776,6 +780,14 @@ for job in "${jobs[@]}"; do
         for s in commonroad-ngsim:ngsim womd-interactive:womd-interactive; do
             run "along-the-lanes/mutants-${s#*:}-lane-follower-n60.txt" evaluate --scenes "data:${s%%:*}" "${along[@]}"
         done ;;
+    sideways)
+        mkdir -p sideways
+        # The paper's protocol with the rules the shipped lookahead suite sets.
+        sideways=(--seeds 3 --methods log,prior,safer,safer-in-path,safer-in-path-lookahead
+            --ego-contact not-from-behind --wrong-way along-the-lanes)
+        run sideways/evaluate-ngsim-n60.txt evaluate --scenes data:commonroad-ngsim "${sideways[@]}" --trust-region 60
+        run sideways/evaluate-womd-interactive-n28.txt evaluate --scenes data:womd-interactive "${sideways[@]}" \
+            --trust-region 28 ;;
     esac
 done
 rm -r "$(dirname "$safer")"
