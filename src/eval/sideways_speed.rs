@@ -10,13 +10,13 @@
 //! user's speed times the sine of the smallest angle between its heading
 //! and a lane of its way that holds its centre, outside intersections
 //! (where lanes cross at every angle), while it moves at
-//! [`ACROSS_LANES_MIN_SPEED_MPS`] or more (a slow turn out of a parking
+//! [`ACROSS_LANES_MIN_SPEED_MPS`](crate::map::ACROSS_LANES_MIN_SPEED_MPS) or more (a slow turn out of a parking
 //! spot is not a lane change). A road user's figure
 //! ([`held_sideways_speed_mps`]) is the largest sideways speed it holds
 //! for [`SIDEWAYS_HELD_S`] (at every step of the window, in lanes as
 //! above): a single step's heading noise in a recording does not count.
 
-use crate::map::{ACROSS_LANES_MIN_SPEED_MPS, RoadMap};
+use crate::map::RoadMap;
 use crate::scenario::AgentState;
 
 /// How long a sideways speed must be held to count, s: a lane change
@@ -24,27 +24,10 @@ use crate::scenario::AgentState;
 pub const SIDEWAYS_HELD_S: f64 = 0.5;
 
 /// The sideways speed of a road user in state `s` across the lanes of
-/// its way that hold its centre, m/s: its speed times the sine of the
-/// smallest angle between its heading and any of them. `None` below
-/// [`ACROSS_LANES_MIN_SPEED_MPS`], in no lane of its way, or in an
-/// intersection's.
+/// its way that hold its centre, m/s
+/// ([`RoadMap::sideways_speed_at`]).
 pub fn sideways_speed_mps(map: &RoadMap, s: &AgentState) -> Option<f64> {
-    let speed_mps = s.speed_mps();
-    if speed_mps < ACROSS_LANES_MIN_SPEED_MPS {
-        return None;
-    }
-    let heading = crate::geometry::Vector2::new(s.heading_rad.cos(), s.heading_rad.sin());
-    let mut smallest_sine: Option<f64> = None;
-    for id in map.lanes_containing(&s.position, s.heading_rad) {
-        let Some(lane) = map.lane(id) else { continue };
-        if lane.in_junction() {
-            return None;
-        }
-        let Some(at) = lane.centreline.project(&s.position) else { continue };
-        let sine = at.tangent.perp(&heading).abs().min(1.0);
-        smallest_sine = Some(smallest_sine.map_or(sine, |m| m.min(sine)));
-    }
-    smallest_sine.map(|sine| speed_mps * sine)
+    map.sideways_speed_at(&s.position, s.heading_rad, s.speed_mps())
 }
 
 /// The largest sideways speed ([`sideways_speed_mps`]) a road user holds

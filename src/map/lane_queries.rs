@@ -338,6 +338,30 @@ impl RoadMap {
         smallest.filter(|a| *a > ACROSS_LANES_MIN_ANGLE_RAD && *a < WRONG_WAY_MIN_ANGLE_RAD)
     }
 
+    /// The speed at which a road user at `p`, heading `heading_rad` and
+    /// moving at `speed_mps`, moves sideways across the lanes of its way
+    /// that hold its centre, m/s: its speed times the sine of the smallest
+    /// angle between its heading and any of them. `None` below
+    /// [`ACROSS_LANES_MIN_SPEED_MPS`], in no lane of its way, or in an
+    /// intersection's (where lanes cross at every angle).
+    pub fn sideways_speed_at(&self, p: &Point2, heading_rad: f64, speed_mps: f64) -> Option<f64> {
+        if speed_mps < ACROSS_LANES_MIN_SPEED_MPS {
+            return None;
+        }
+        let heading = crate::geometry::Vector2::new(heading_rad.cos(), heading_rad.sin());
+        let mut smallest_sine: Option<f64> = None;
+        for id in self.lanes_containing(p, heading_rad) {
+            let Some(lane) = self.lane(id) else { continue };
+            if lane.in_junction() {
+                return None;
+            }
+            let Some(at) = lane.centreline.project(p) else { continue };
+            let sine = at.tangent.perp(&heading).abs().min(1.0);
+            smallest_sine = Some(smallest_sine.map_or(sine, |m| m.min(sine)));
+        }
+        smallest_sine.map(|sine| speed_mps * sine)
+    }
+
     /// Whether lanes `a` and `b` are one lane or one continues the other.
     pub fn lanes_connected(&self, a: MapElementId, b: MapElementId) -> bool {
         let follows = |x: MapElementId, y: MapElementId| self.lane(x).is_some_and(|l| l.successors.contains(&y));
