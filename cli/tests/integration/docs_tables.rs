@@ -1726,3 +1726,25 @@ fn the_along_the_lanes_table_quotes_its_outputs() {
     }
     assert_eq!(lane_follower.len(), 5, "the CBV either way on two sets, under the header");
 }
+
+#[test]
+fn the_sideways_speed_table_quotes_its_outputs() {
+    let doc = repo_file("docs/benchmarks.md");
+    let rows = markdown_rows(
+        &doc,
+        "| set | method | output | CR | measured | p50 | p90 | max | recorded p50 | recorded p90 | recorded max |",
+        "What it shows",
+    );
+    for row in &rows {
+        let method = method_of(&row[1]).expect("a method");
+        let file = row[2].trim_matches('`');
+        let output = repo_file(&format!("docs/evaluation/{file}"));
+        check_header_rule(&output, file, "; no driving against the traffic or across the lanes", true);
+        assert_eq!(row[3], labelled_row(&output, "variants", method)[2], "CR: {row:?} against {file}");
+        // measured, p50, p90, max | recorded measured, p50, p90, max.
+        let sideways = labelled_row(&output, "measured", method);
+        assert_eq!(row[4..8], sideways[0..4], "{row:?} against {file}");
+        assert_eq!(row[8..11], sideways[6..9], "{row:?} against {file}");
+    }
+    assert_eq!(rows.len(), 10, "five methods on two sets");
+}
