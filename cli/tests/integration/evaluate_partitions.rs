@@ -530,12 +530,12 @@ fn the_table_says_how_the_cbv_touched_the_recorded_ego_as_the_json_report_does()
     assert_eq!((kept[3], kept[4]), (0, 0), "{kept:?}");
 }
 
-#[test]
-fn the_table_gives_the_cr_by_where_the_cbv_starts_as_the_json_report_does() {
-    let out = tempfile_dir("cbv-start");
-    let json = out.join("report.json");
+/// `safer evaluate` of `methods` over 60 behaviours on the shipped NGSIM
+/// scenes with `seeds` seeds: its table and its JSON report (written
+/// under a scratch folder named `name`).
+fn evaluate_shipped_ngsim(name: &str, methods: &[&str], seeds: u32) -> (String, Value) {
+    let json = tempfile_dir(name).join("report.json");
     let scenes = Path::new(repo_root!()).join("scenes/ngsim");
-    let methods = ["safer", "safer-in-path"];
     let table = ok(safer(&[
         "evaluate",
         "--scenes",
@@ -545,17 +545,23 @@ fn the_table_gives_the_cr_by_where_the_cbv_starts_as_the_json_report_does() {
         "--trust-region",
         "60",
         "--seeds",
-        "3",
+        &seeds.to_string(),
         "--jobs",
         "2",
         "--json",
         json.to_str().unwrap(),
     ]));
+    (table, serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap())
+}
+
+#[test]
+fn the_table_gives_the_cr_by_where_the_cbv_starts_as_the_json_report_does() {
+    let methods = ["safer", "safer-in-path"];
+    let (table, report) = evaluate_shipped_ngsim("cbv-start", &methods, 3);
     let section = table.split("CR by where the CBV starts (").nth(1).expect("the CR-by-start table");
     let mut lines = section.lines().skip(1);
     let starts: Vec<String> = lines.next().expect("its header").split_whitespace().skip(1).map(str::to_owned).collect();
     assert!(!starts.is_empty(), "no start in the header");
-    let report: Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
     let variants = report["variants"].as_array().unwrap();
     for method in methods {
         let line = lines.clone().find(|l| l.split_whitespace().next() == Some(method)).expect("the method's row");
@@ -593,27 +599,9 @@ fn the_table_gives_the_cr_by_where_the_cbv_starts_as_the_json_report_does() {
 
 #[test]
 fn the_table_gives_the_cbvs_sideways_speed_as_the_json_report_does_and_log_replay_matches_the_recording() {
-    let out = tempfile_dir("sideways");
-    let json = out.join("report.json");
-    let scenes = Path::new(repo_root!()).join("scenes/ngsim");
     let methods = ["log", "safer-in-path"];
-    let table = ok(safer(&[
-        "evaluate",
-        "--scenes",
-        scenes.to_str().unwrap(),
-        "--methods",
-        &methods.join(","),
-        "--trust-region",
-        "60",
-        "--seeds",
-        "2",
-        "--jobs",
-        "2",
-        "--json",
-        json.to_str().unwrap(),
-    ]));
+    let (table, report) = evaluate_shipped_ngsim("sideways", &methods, 2);
     let section = table.split("\nsideways speed of the CBV").nth(1).expect("the sideways table");
-    let report: Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
     let variants = report["variants"].as_array().unwrap();
     // Nearest-rank p50, p90 and the largest, as the table prints them.
     let spread = |mut v: Vec<f64>| -> Vec<String> {
