@@ -12,7 +12,7 @@
 use super::background_forecast::BackgroundForecast;
 use super::broad_phase::Bounds;
 use super::rollout::{BRAKING_CHECK_STEPS, braking_after, continued_after, token_rollout};
-use super::wrong_way::{TrafficDirectionHold, WrongWayRule, drives_across_lanes, first_wrong_way};
+use super::wrong_way::{AcrossLanesHold, TrafficDirectionHold, WrongWayRule, first_wrong_way};
 use crate::geometry::OrientedBox;
 use crate::motion::KinematicState;
 use crate::motion::tokens::{MAX_ACCEL_MPS2, SIM_DT_S, TOKEN_PERIOD_STEPS, Token};
@@ -121,10 +121,10 @@ pub(super) struct PlausibilityCheck<'w> {
     /// against their traffic, or heading back out of one
     /// ([`WrongWayRule::Forbidden`]).
     traffic_direction: TrafficDirectionHold,
-    /// Whether a token that takes the CBV across the lanes breaks the
-    /// rule ([`WrongWayRule::AlongTheLanes`], and the CBV not across them
-    /// already).
-    holds_along_the_lanes: bool,
+    /// What the rule against driving across the lanes holds the CBV to:
+    /// kept along them, or turning back towards them
+    /// ([`WrongWayRule::AlongTheLanes`]).
+    across_lanes: AcrossLanesHold,
 }
 
 impl<'w> PlausibilityCheck<'w> {
@@ -149,7 +149,7 @@ impl<'w> PlausibilityCheck<'w> {
                 on_road_now: false,
                 lanes_now: Vec::new(),
                 traffic_direction: TrafficDirectionHold::NotHeld,
-                holds_along_the_lanes: false,
+                across_lanes: AcrossLanesHold::NotHeld,
             };
         };
         let horizon = TOKEN_PERIOD_STEPS + BRAKING_CHECK_STEPS.max(HOLDING_CHECK_STEPS + CLOSING_CHECK_STEPS);
@@ -179,7 +179,7 @@ impl<'w> PlausibilityCheck<'w> {
             on_road_now: !world.map.is_off_road_within_map(&now.position),
             lanes_now: world.map.lanes_containing(&now.position, now.heading_rad),
             traffic_direction: TrafficDirectionHold::NotHeld,
-            holds_along_the_lanes: false,
+            across_lanes: AcrossLanesHold::NotHeld,
         }
     }
 
@@ -189,8 +189,8 @@ impl<'w> PlausibilityCheck<'w> {
         let map = self.world.map;
         let Some(now) = self.cbv_now else { return self };
         let traffic_direction = TrafficDirectionHold::of(rule, map, &now);
-        let along = rule.forbids_across_lanes() && !drives_across_lanes(map, &now);
-        Self { traffic_direction, holds_along_the_lanes: along, ..self }
+        let across_lanes = AcrossLanesHold::of(rule, map, &now);
+        Self { traffic_direction, across_lanes, ..self }
     }
 
     /// Whether the CBV, hit by `theirs` at `at`, cut in: it was hit from
@@ -248,10 +248,9 @@ impl<'w> PlausibilityCheck<'w> {
                 // Already against the traffic: judged where the token ends.
                 hold => hold.stays_against_the_traffic(map, end).then_some(rollout.len() - 1),
             };
-            // Across the lanes on the token's own states (see the `wrong_way` module).
-            let across = || {
-                self.holds_along_the_lanes.then(|| rollout.iter().position(|s| drives_across_lanes(map, s))).flatten()
-            };
+            // Across the lanes on the token's own states, or not turning back
+            // towards them (see the `wrong_way` module).
+            let across = || self.across_lanes.first_breach(map, rollout);
             match wanted {
                 Violation::First => against.into_iter().chain(across()).min(),
                 Violation::Any => against.or_else(across),
@@ -740,8 +739,11 @@ mod tests {
         assert_eq!(judged(20.0, WrongWayRule::Allowed), [false, false]);
         // A lane change's few degrees, turning on, stay under 30°.
         assert_eq!(judged(5.0, WrongWayRule::AlongTheLanes), [false, false]);
-        // A CBV across the lanes already is not held to it: any way back.
-        assert_eq!(judged(40.0, WrongWayRule::AlongTheLanes), [false, false]);
+        // A CBV across the lanes already (40°) must turn back towards
+        // them: turning on (to 54°) breaks the rule, turning back (to 26°)
+        // does not.
+        assert_eq!(judged(40.0, WrongWayRule::AlongTheLanes), [true, false]);
+        assert_eq!(judged(40.0, WrongWayRule::Forbidden), [false, false]);
     }
 
     #[test]

@@ -29,7 +29,10 @@
 //! A lane change turns 5–10°; a closed-loop CBV chasing the ego's path
 //! cut across a freeway's lanes at about 40°. Judged on the token's own
 //! states, not on its path braked to a standstill: a CBV in a lane change
-//! braking along its curvature would turn on past 30°.
+//! braking along its curvature would turn on past 30°. A CBV already
+//! across the lanes must turn back towards them: each token ends with it
+//! along them again, or at a smaller angle to them than now
+//! ([`AcrossLanesHold::TurnBack`]).
 
 use crate::map::RoadMap;
 use crate::scenario::AgentState;
@@ -119,6 +122,60 @@ impl TrafficDirectionHold {
     }
 }
 
+/// A token that turns the CBV back towards its lanes by less than this,
+/// rad, does not turn back: float noise, not a manoeuvre.
+const TURN_BACK_MIN_GAIN_RAD: f64 = 1e-3;
+
+/// What the rule against driving across the lanes holds a CBV to at one
+/// token boundary.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) enum AcrossLanesHold {
+    /// Nothing: the rule allows driving across the lanes.
+    NotHeld,
+    /// A CBV along the lanes: no state of a token may take it across them.
+    KeepAlong,
+    /// A CBV across the lanes now: each token must end with it along them
+    /// again, or at a smaller angle to them than `angle_rad`.
+    TurnBack {
+        /// The CBV's angle to the lanes it is in now, rad.
+        angle_rad: f64,
+    },
+}
+
+impl AcrossLanesHold {
+    /// What `rule` holds a CBV in state `now` to.
+    pub(super) fn of(rule: WrongWayRule, map: &RoadMap, now: &AgentState) -> Self {
+        match (rule.forbids_across_lanes(), angle_across_lanes(map, now)) {
+            (false, _) => Self::NotHeld,
+            (true, None) => Self::KeepAlong,
+            (true, Some(angle_rad)) => Self::TurnBack { angle_rad },
+        }
+    }
+
+    /// The first state of `rollout` (a token's states) that breaks the
+    /// hold: for [`Self::KeepAlong`] the first across the lanes, for
+    /// [`Self::TurnBack`] the last one where the token does not end
+    /// turned back.
+    pub(super) fn first_breach(self, map: &RoadMap, rollout: &[AgentState]) -> Option<usize> {
+        match self {
+            Self::NotHeld => None,
+            Self::KeepAlong => rollout.iter().position(|s| drives_across_lanes(map, s)),
+            Self::TurnBack { angle_rad } => {
+                let end = rollout.last()?;
+                angle_across_lanes(map, end)
+                    .is_some_and(|then| then > angle_rad - TURN_BACK_MIN_GAIN_RAD)
+                    .then_some(rollout.len() - 1)
+            }
+        }
+    }
+}
+
+/// The angle at which a CBV in `state` drives across the lanes it is in,
+/// rad (`None`: along them, or not measured).
+fn angle_across_lanes(map: &RoadMap, state: &AgentState) -> Option<f64> {
+    map.angle_across_lanes_at(&state.position, state.heading_rad, state.speed_mps())
+}
+
 /// The distance from a CBV in `state` to the centreline of the nearest
 /// lane running its way (within 45° of its heading), m; infinite where
 /// none lies within [`WAY_BACK_SEARCH_RADIUS_M`].
@@ -133,7 +190,7 @@ fn distance_to_a_lane_of_its_way(map: &RoadMap, state: &AgentState) -> f64 {
 
 /// Whether a CBV in `state` drives across the lanes it is in.
 pub(super) fn drives_across_lanes(map: &RoadMap, state: &AgentState) -> bool {
-    map.angle_across_lanes_at(&state.position, state.heading_rad, state.speed_mps()).is_some()
+    angle_across_lanes(map, state).is_some()
 }
 
 /// Whether a CBV in `state` drives against a lane's traffic.
