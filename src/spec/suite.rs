@@ -312,7 +312,8 @@ pub struct AdversarySpec {
     /// braking would not keep it out of one, is implausible, as leaving
     /// the road is, and a CBV against the traffic already must head back
     /// to a lane of its way; or `along-the-lanes` (beyond the paper): as
-    /// `forbidden`, and a token that takes the CBV across the lanes is
+    /// `forbidden`, and a token that takes the CBV across the lanes, or
+    /// does not turn one already across them back towards them, is
     /// implausible too.
     #[serde(default)]
     pub wrong_way: WrongWayRule,

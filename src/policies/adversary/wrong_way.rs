@@ -54,7 +54,8 @@ pub enum WrongWayRule {
     Forbidden,
     /// As [`Self::Forbidden`], and a token that takes the CBV across the
     /// lanes (more than 30° from every lane it is in, outside
-    /// intersections) is implausible too.
+    /// intersections) is implausible too, as is one that leaves a CBV
+    /// already across them at no smaller an angle to them.
     AlongTheLanes,
 }
 
