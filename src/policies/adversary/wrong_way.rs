@@ -154,9 +154,9 @@ impl AcrossLanesHold {
     }
 
     /// The first state of `rollout` (a token's states) that breaks the
-    /// hold: for [`Self::KeepAlong`] the first across the lanes, for
-    /// [`Self::TurnBack`] the last one where the token does not end
-    /// turned back.
+    /// hold: for [`Self::KeepAlong`] the first across the lanes; for
+    /// [`Self::TurnBack`] the token's last state, where the token does
+    /// not end turned back.
     pub(super) fn first_breach(self, map: &RoadMap, rollout: &[AgentState]) -> Option<usize> {
         match self {
             Self::NotHeld => None,
