@@ -12,7 +12,7 @@
 use super::background_forecast::BackgroundForecast;
 use super::broad_phase::Bounds;
 use super::rollout::{BRAKING_CHECK_STEPS, braking_after, continued_after, token_rollout};
-use super::wrong_way::{AcrossLanesHold, TrafficDirectionHold, WrongWayRule, first_wrong_way};
+use super::wrong_way::{AcrossLanesHold, TrafficDirectionHold, WrongWayRule};
 use crate::geometry::OrientedBox;
 use crate::motion::KinematicState;
 use crate::motion::tokens::{MAX_ACCEL_MPS2, SIM_DT_S, TOKEN_PERIOD_STEPS, Token};
@@ -243,11 +243,7 @@ impl<'w> PlausibilityCheck<'w> {
         // heading into the oncoming lanes faster than braking can stop it
         // is as good as in them (see the `wrong_way` module).
         let wrong_way = || {
-            let against = match self.traffic_direction {
-                TrafficDirectionHold::KeepOut => first_wrong_way(map, moving_path()),
-                // Already against the traffic: judged where the token ends.
-                hold => hold.stays_against_the_traffic(map, end).then_some(rollout.len() - 1),
-            };
+            let against = self.traffic_direction.first_breach(map, rollout, moving_path);
             // Across the lanes on the token's own states, or not turning back
             // towards them (see the `wrong_way` module).
             let across = || self.across_lanes.first_breach(map, rollout);

@@ -111,14 +111,26 @@ impl TrafficDirectionHold {
         }
     }
 
-    /// Whether a token ending in `end` breaks a [`Self::WayBack`] hold
-    /// (never the others: they judge the token's path).
-    pub(super) fn stays_against_the_traffic(self, map: &RoadMap, end: &AgentState) -> bool {
+    /// The first state that breaks the hold: for [`Self::KeepOut`] the
+    /// first of `moving_path` (the token's states `rollout` and the
+    /// braking after them, rolled out only for this hold) against a
+    /// lane's traffic; for [`Self::WayBack`] the token's last state, where
+    /// the token does not end heading back.
+    pub(super) fn first_breach<'p>(
+        self,
+        map: &RoadMap,
+        rollout: &[AgentState],
+        moving_path: impl FnOnce() -> &'p [AgentState],
+    ) -> Option<usize> {
         match self {
+            Self::NotHeld => None,
+            Self::KeepOut => first_wrong_way(map, moving_path()),
             Self::WayBack { distance_m } => {
-                drives_wrong_way(map, end) && distance_to_a_lane_of_its_way(map, end) > distance_m - WAY_BACK_MIN_GAIN_M
+                let end = rollout.last()?;
+                (drives_wrong_way(map, end)
+                    && distance_to_a_lane_of_its_way(map, end) > distance_m - WAY_BACK_MIN_GAIN_M)
+                    .then_some(rollout.len() - 1)
             }
-            Self::NotHeld | Self::KeepOut => false,
         }
     }
 }
@@ -201,7 +213,7 @@ pub(super) fn drives_wrong_way(map: &RoadMap, state: &AgentState) -> bool {
 
 /// The first state of `path` (a token's states and the braking after
 /// them) at which the CBV drives against a lane's traffic.
-pub(super) fn first_wrong_way(map: &RoadMap, path: &[AgentState]) -> Option<usize> {
+fn first_wrong_way(map: &RoadMap, path: &[AgentState]) -> Option<usize> {
     path.iter().position(|s| drives_wrong_way(map, s))
 }
 
