@@ -325,17 +325,8 @@ impl RoadMap {
         let heading = crate::geometry::Vector2::new(heading_rad.cos(), heading_rad.sin());
         let mut lanes = self.lanes_containing(p, heading_rad);
         lanes.extend(self.lanes_containing(p, heading_rad + std::f64::consts::PI));
-        let mut smallest: Option<f64> = None;
-        for id in lanes {
-            let Some(lane) = self.lane(id) else { continue };
-            if lane.in_junction() {
-                return None;
-            }
-            let Some(at) = lane.centreline.project(p) else { continue };
-            let angle = at.tangent.dot(&heading).clamp(-1.0, 1.0).acos();
-            smallest = Some(smallest.map_or(angle, |a| a.min(angle)));
-        }
-        smallest.filter(|a| *a > ACROSS_LANES_MIN_ANGLE_RAD && *a < WRONG_WAY_MIN_ANGLE_RAD)
+        self.least_over_lanes(p, lanes, |tangent| tangent.dot(&heading).clamp(-1.0, 1.0).acos())
+            .filter(|a| *a > ACROSS_LANES_MIN_ANGLE_RAD && *a < WRONG_WAY_MIN_ANGLE_RAD)
     }
 
     /// The speed at which a road user at `p`, heading `heading_rad` and
@@ -349,17 +340,31 @@ impl RoadMap {
             return None;
         }
         let heading = crate::geometry::Vector2::new(heading_rad.cos(), heading_rad.sin());
-        let mut smallest_sine: Option<f64> = None;
-        for id in self.lanes_containing(p, heading_rad) {
+        let lanes = self.lanes_containing(p, heading_rad);
+        self.least_over_lanes(p, lanes, |tangent| tangent.perp(&heading).abs().min(1.0)).map(|sine| speed_mps * sine)
+    }
+
+    /// The least of `measure` (of a lane's unit direction where `p`
+    /// projects onto it) over `lanes`: `None` when none of them projects
+    /// `p`, or when one lies inside an intersection (where lanes cross at
+    /// every angle, and no angle to them says how a road user drives).
+    fn least_over_lanes(
+        &self,
+        p: &Point2,
+        lanes: Vec<MapElementId>,
+        measure: impl Fn(&crate::geometry::Vector2) -> f64,
+    ) -> Option<f64> {
+        let mut least: Option<f64> = None;
+        for id in lanes {
             let Some(lane) = self.lane(id) else { continue };
             if lane.in_junction() {
                 return None;
             }
             let Some(at) = lane.centreline.project(p) else { continue };
-            let sine = at.tangent.perp(&heading).abs().min(1.0);
-            smallest_sine = Some(smallest_sine.map_or(sine, |m| m.min(sine)));
+            let value = measure(&at.tangent);
+            least = Some(least.map_or(value, |l| l.min(value)));
         }
-        smallest_sine.map(|sine| speed_mps * sine)
+        least
     }
 
     /// Whether lanes `a` and `b` are one lane or one continues the other.
