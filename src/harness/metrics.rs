@@ -111,18 +111,10 @@ impl CbvKinematics {
         let track = scenario.track(cbv);
         let steps = stage1.start_step..stage1.start_step + stage1.states.len();
         let logged: Vec<Option<AgentState>> = steps.map(|k| track.state(k).copied()).collect();
-        Some(CbvKinematics {
-            generated: KinematicSamples::of_states(generated.iter().copied(), stage1.dt_s).with_sideways(
-                map,
-                &generated,
-                stage1.dt_s,
-            ),
-            logged: KinematicSamples::of_states(logged.iter().copied(), scenario.dt_s).with_sideways(
-                map,
-                &logged,
-                scenario.dt_s,
-            ),
-        })
+        let samples = |states: &[Option<AgentState>], dt_s: f64| {
+            KinematicSamples::of_states(states.iter().copied(), dt_s).with_sideways(map, states, dt_s)
+        };
+        Some(CbvKinematics { generated: samples(&generated, stage1.dt_s), logged: samples(&logged, scenario.dt_s) })
     }
 }
 
