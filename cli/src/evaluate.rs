@@ -247,6 +247,7 @@ fn print_table(
     print_plausibility(out, rows, &name)?;
     print_scenes_that_broke_the_rules(out, rows, &held_out.scenes, &name)?;
     print_sideways(out, rows, &name)?;
+    print_lane_changes(out, rows, held_out, &name)?;
     print_held_out(out, &name, held_out)?;
     print_conflicts_met(out, rows, &name, held_out)?;
     print_stage2_approach(out, rows, &name)?;
@@ -346,7 +347,18 @@ fn print_sideways(out: &mut dyn Write, rows: &[MethodRow], name: &dyn Fn(&Method
         "{:<w$} {:>9} {:>7} {:>7} {:>7} | {:>9} {:>7} {:>7} {:>7}",
         "method", "measured", "p50", "p90", "max", "recorded", "p50", "p90", "max"
     )?;
-    let cells = |spread: Option<SidewaysSpread>| match spread {
+    for r in rows {
+        let [n, p50, p90, max] = sideways_cells(r.cbv_sideways);
+        let [ln, lp50, lp90, lmax] = sideways_cells(r.logged_cbv_sideways);
+        writeln!(out, "{:<w$} {n:>9} {p50:>7} {p90:>7} {max:>7} | {ln:>9} {lp50:>7} {lp90:>7} {lmax:>7}", name(r))?;
+    }
+    Ok(())
+}
+
+/// A sideways-speed spread's cells: how many, median, 90th percentile,
+/// largest.
+fn sideways_cells(spread: Option<SidewaysSpread>) -> [String; 4] {
+    match spread {
         Some(s) => [
             s.measured.to_string(),
             format!("{:.2}", s.p50_mps),
@@ -354,11 +366,53 @@ fn print_sideways(out: &mut dyn Write, rows: &[MethodRow], name: &dyn Fn(&Method
             format!("{:.2}", s.max_mps),
         ],
         None => ["0".into(), "—".into(), "—".into(), "—".into()],
-    };
+    }
+}
+
+/// How briskly each method's CBV changed lanes in stage 1, beside the
+/// recorded vehicles that changed lanes in the same scenes; over all
+/// scenes and over the held-out ones.
+fn print_lane_changes(
+    out: &mut dyn Write,
+    rows: &[MethodRow],
+    held_out: &HeldOutSplit,
+    name: &dyn Fn(&MethodRow) -> String,
+) -> std::io::Result<()> {
+    let w = method_column(rows, name);
+    writeln!(
+        out,
+        "\nlane changes: sideways speed of the CBVs that changed lanes in stage 1 (m/s, as above), beside every recorded vehicle that changed lanes in the same scenes over the same steps; all scenes | held out:"
+    )?;
+    writeln!(
+        out,
+        "{:<w$} {:>9} {:>7} {:>7} {:>7} | {:>9} {:>7} {:>7} {:>7} | {:>9} {:>7} {:>7} | {:>9} {:>7} {:>7}",
+        "method",
+        "changed",
+        "p50",
+        "p90",
+        "max",
+        "recorded",
+        "p50",
+        "p90",
+        "max",
+        "changed",
+        "p50",
+        "p90",
+        "recorded",
+        "p50",
+        "p90"
+    )?;
     for r in rows {
-        let [n, p50, p90, max] = cells(r.cbv_sideways);
-        let [ln, lp50, lp90, lmax] = cells(r.logged_cbv_sideways);
-        writeln!(out, "{:<w$} {n:>9} {p50:>7} {p90:>7} {max:>7} | {ln:>9} {lp50:>7} {lp90:>7} {lmax:>7}", name(r))?;
+        let held = held_out.held_out.iter().find(|h| h.method == r.method && h.stage2_cbv == r.stage2_cbv);
+        let [n, p50, p90, max] = sideways_cells(r.cbv_lane_change_sideways);
+        let [rn, rp50, rp90, rmax] = sideways_cells(r.recorded_lane_change_sideways);
+        let [hn, hp50, hp90, _] = sideways_cells(held.and_then(|h| h.cbv_lane_change_sideways));
+        let [hrn, hrp50, hrp90, _] = sideways_cells(held.and_then(|h| h.recorded_lane_change_sideways));
+        writeln!(
+            out,
+            "{:<w$} {n:>9} {p50:>7} {p90:>7} {max:>7} | {rn:>9} {rp50:>7} {rp90:>7} {rmax:>7} | {hn:>9} {hp50:>7} {hp90:>7} | {hrn:>9} {hrp50:>7} {hrp90:>7}",
+            name(r)
+        )?;
     }
     Ok(())
 }
@@ -717,6 +771,10 @@ fn print_legend(out: &mut dyn Write) -> std::io::Result<()> {
     writeln!(
         out,
         "sideways speed: the CBV's speed times the sine of its smallest angle to a lane of its way that holds its centre, at 3 m/s or more, outside intersections; each variant's largest such speed held for 0.5 s at every step (a recorded heading's one-step noise does not count), over the variants where it was measured that long (p90: nearest rank); recorded: the recorded CBV of the same variants over the same steps."
+    )?;
+    writeln!(
+        out,
+        "lane changes: the sideways speed over the variants whose CBV changed lanes in stage 1: its lane (the lane of its way holding its centre with the nearest centreline) became another, its centre between the two centrelines and these 2.5 m or more apart (overlapping lanes are no lane change), having been out of the new lane for 1 s before and staying out of the old one for 1 s after; recorded: every recorded vehicle of the row's scenes that changed lanes so over the same steps (both stages' horizon), each scene once: the pace of human lane changes (the recorded CBVs mostly keep their lane)."
     )?;
     Ok(())
 }

@@ -34,7 +34,7 @@ use super::variant::variant_seed;
 use super::variant::{CollisionEscape, VariantOutcome};
 use crate::eval::CbvStart;
 use crate::eval::escape::EscapeBudget;
-use crate::eval::sideways_speed::SidewaysSpread;
+use crate::eval::sideways_speed::{SidewaysSpread, recorded_lane_changes_mps};
 use crate::eval::witness::Witness;
 use crate::planners::FaultOperator;
 use crate::policies::BackgroundPolicy;
@@ -238,6 +238,13 @@ pub struct VariantRecord {
     /// What the variant contributes to CR, SR, VJ and AJ (in the report,
     /// so that partitions' reports merge into the same table).
     pub tally: VariantTally,
+    /// The held sideways speed of every recorded vehicle of the scene
+    /// that changed lanes over both stages' steps, m/s
+    /// ([`recorded_lane_changes_mps`]): the same in each of the scene's
+    /// variants, the reference for the CBV's lane changes. Reports written
+    /// before it was recorded read back as none.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub recorded_lane_changes_mps: Vec<f64>,
     /// The mutants' results, when the evaluation planted them.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub mutation: Option<VariantMutation>,
@@ -275,6 +282,7 @@ impl VariantRecord {
             error: Some(error),
             artefacts: Vec::new(),
             tally: VariantTally::default(),
+            recorded_lane_changes_mps: Vec::new(),
             mutation: None,
         }
     }
@@ -335,6 +343,13 @@ pub struct MethodRow {
     /// The same for the recorded CBV over the same steps.
     #[serde(default)]
     pub logged_cbv_sideways: Option<SidewaysSpread>,
+    /// [`MethodRow::cbv_sideways`] over the variants whose CBV changed
+    /// lanes in stage 1 ([`SuiteMetrics::cbv_lane_change_sideways`]).
+    pub cbv_lane_change_sideways: Option<SidewaysSpread>,
+    /// The reference for it: the held sideways speeds of every recorded
+    /// vehicle that changed lanes in the row's scenes over both stages'
+    /// steps, each scene once ([`VariantRecord::recorded_lane_changes_mps`]).
+    pub recorded_lane_change_sideways: Option<SidewaysSpread>,
     /// The scenes where the CBV left the road in stage 1: how many of
     /// each one's variants did, most first (a rate that one scene makes
     /// reads differently from one spread over many).
@@ -459,16 +474,35 @@ pub fn stage1_setup(
     seed_index: u32,
     request: &EvaluationRequest,
 ) -> (SimConfig, u64) {
-    let start = scenario.current_step;
-    // Saturating: a horizon of 1e19 s is the whole recording, not an
-    // overflow to an empty range.
-    let end = start.saturating_add((request.horizon_s / scenario.dt_s).round() as usize).min(scenario.num_steps() - 1);
+    let (start, end) = stage_steps(scenario, request.horizon_s).into_inner();
     let background = match request.background {
         BackgroundDriver::ReactiveLogReplay => BackgroundPolicy::ReactiveLogReplay,
         BackgroundDriver::Configured | BackgroundDriver::Prior => SimConfig::default().background,
     };
     let sim = SimConfig { start_step: Some(start), end_step: Some(end), background, ..SimConfig::default() };
     (sim, variant_seed(request.base_seed, &format!("{}/{method:?}", scenario.id), seed_index))
+}
+
+/// The steps both stages of an evaluation's variants of `scenario` cover:
+/// from its current step over `horizon_s`, within the recording.
+fn stage_steps(scenario: &Scenario, horizon_s: f64) -> std::ops::RangeInclusive<usize> {
+    let start = scenario.current_step;
+    // Saturating: a horizon of 1e19 s is the whole recording, not an
+    // overflow to an empty range.
+    let end = start.saturating_add((horizon_s / scenario.dt_s).round() as usize).min(scenario.num_steps() - 1);
+    start..=end
+}
+
+/// The spread of the recorded lane changes of `records`' scenes, each
+/// scene once ([`VariantRecord::recorded_lane_changes_mps`]).
+fn recorded_lane_change_sideways(records: &[&VariantRecord]) -> Option<SidewaysSpread> {
+    let mut seen = std::collections::BTreeSet::new();
+    SidewaysSpread::of(
+        records
+            .iter()
+            .filter(|r| seen.insert(r.scenario.as_str()))
+            .flat_map(|r| r.recorded_lane_changes_mps.iter().copied()),
+    )
 }
 
 /// Runs one variant.
@@ -551,6 +585,8 @@ fn run_one(
         error: None,
         artefacts: Vec::new(),
         tally: tally.clone(),
+        // The scene's, filled in by `evaluate` once for all its variants.
+        recorded_lane_changes_mps: Vec::new(),
         mutation,
     };
     let wanted = match request.artefacts_of {
@@ -608,6 +644,10 @@ pub fn evaluate(
     tick: &(dyn Fn() + Sync),
 ) -> Vec<VariantRecord> {
     let maps = MapEncodings::default();
+    let recorded_lane_changes: Vec<Vec<f64>> = scenes
+        .par_iter()
+        .map(|scenario| recorded_lane_changes_mps(scenario, stage_steps(scenario, request.horizon_s)))
+        .collect();
     let jobs: Vec<(usize, AdversaryMethod, Stage2Cbv, u32)> = scenes
         .iter()
         .enumerate()
@@ -622,6 +662,7 @@ pub fn evaluate(
         .map(|&(i, method, mode, seed)| {
             let scenario = &scenes[i];
             let r = run_one(scenario, (method, mode, seed), request, models, &maps, witness)
+                .map(|r| VariantRecord { recorded_lane_changes_mps: recorded_lane_changes[i].clone(), ..r })
                 .unwrap_or_else(|e| VariantRecord::failed(&scenario.id, method, mode, seed, e.to_string()));
             tick();
             r
@@ -1013,6 +1054,8 @@ fn table_of(
                 cbv_across_lanes_rate_stage2: metrics.cbv_across_lanes_rate_stage2,
                 cbv_sideways: metrics.cbv_sideways,
                 logged_cbv_sideways: metrics.logged_cbv_sideways,
+                cbv_lane_change_sideways: metrics.cbv_lane_change_sideways,
+                recorded_lane_change_sideways: recorded_lane_change_sideways(&ok),
                 off_road_scenes: scenes_where(&ok, |r| r.tally.cbv_left_road()),
                 at_fault_scenes: scenes_where(&ok, |r| r.tally.cbv_at_fault_with_background),
                 wrong_way_scenes: scenes_where(&ok, |r| {

@@ -24,7 +24,7 @@
 //! [`Stage2Verdict`]: super::pipeline::Stage2Verdict
 
 use super::pipeline::DualStage;
-use crate::eval::sideways_speed::{SidewaysSpread, held_sideways_speed_mps};
+use crate::eval::sideways_speed::{SidewaysSpread, changed_lanes, held_sideways_speed_mps};
 use crate::eval::traffic_rules::{ACROSS_LANES_MIN_S, across_lanes_of, wrong_way_of};
 use crate::eval::{ConflictKind, Histogram, jensen_shannon, rollout_conflict};
 use crate::geometry::wrap_angle;
@@ -50,6 +50,11 @@ pub struct KinematicSamples {
     /// never measured that long, or not measured: older reports lack it).
     #[serde(default)]
     pub held_sideways_mps: Option<f64>,
+    /// Whether the agent changed lanes over these steps
+    /// ([`changed_lanes`]; `None` when not measured: older reports lack
+    /// it).
+    #[serde(default)]
+    pub changed_lanes: Option<bool>,
 }
 
 /// The window yaw rates are measured over, s: recorded headings jitter
@@ -74,9 +79,14 @@ impl KinematicSamples {
     }
 
     /// These samples with the held sideways speed of the same `states`
-    /// on `map` ([`held_sideways_speed_mps`]).
+    /// on `map` ([`held_sideways_speed_mps`]), and whether they change
+    /// lanes ([`changed_lanes`]).
     pub fn with_sideways(self, map: &RoadMap, states: &[Option<AgentState>], dt_s: f64) -> Self {
-        Self { held_sideways_mps: held_sideways_speed_mps(map, states.iter().map(Option::as_ref), dt_s), ..self }
+        Self {
+            held_sideways_mps: held_sideways_speed_mps(map, states.iter().map(Option::as_ref), dt_s),
+            changed_lanes: Some(changed_lanes(map, states, dt_s)),
+            ..self
+        }
     }
 
     /// Samples of a sequence of per-step speeds (`None` where absent) at `dt_s`.
@@ -87,6 +97,7 @@ impl KinematicSamples {
             accels_mps2: v.windows(2).filter_map(|w| Some((w[1]? - w[0]?) / dt_s)).collect(),
             yaw_rates_radps: Vec::new(),
             held_sideways_mps: None,
+            changed_lanes: None,
         }
     }
 }
@@ -388,6 +399,9 @@ pub struct SuiteMetrics {
     pub cbv_sideways: Option<SidewaysSpread>,
     /// The same for the recorded CBV over the same steps: the reference.
     pub logged_cbv_sideways: Option<SidewaysSpread>,
+    /// [`SuiteMetrics::cbv_sideways`] over the variants whose CBV changed
+    /// lanes in stage 1 ([`changed_lanes`]): the pace of its lane changes.
+    pub cbv_lane_change_sideways: Option<SidewaysSpread>,
     /// Stage 2: share of variants whose CBV came within 1 m of the
     /// planner's ego.
     pub conflict_reach: Option<f64>,
@@ -539,6 +553,7 @@ impl SuiteMetrics {
             (Histogram::speed(), Histogram::acceleration(), Histogram::speed(), Histogram::acceleration());
         let (mut gy, mut ly) = (Histogram::yaw_rate(), Histogram::yaw_rate());
         let (mut generated_sideways, mut logged_sideways) = (Vec::new(), Vec::new());
+        let mut lane_change_sideways = Vec::new();
         for &t in &tallies {
             n += 1;
             critical += usize::from(t.critical);
@@ -568,6 +583,9 @@ impl SuiteMetrics {
                 cbv.logged.yaw_rates_radps.iter().for_each(|y| ly.add(*y));
                 generated_sideways.extend(cbv.generated.held_sideways_mps);
                 logged_sideways.extend(cbv.logged.held_sideways_mps);
+                if cbv.generated.changed_lanes == Some(true) {
+                    lane_change_sideways.extend(cbv.generated.held_sideways_mps);
+                }
             }
         }
         SuiteMetrics {
@@ -589,6 +607,7 @@ impl SuiteMetrics {
             cbv_across_lanes_rate_stage2: share(across_lanes_stage2, n),
             cbv_sideways: SidewaysSpread::of(generated_sideways),
             logged_cbv_sideways: SidewaysSpread::of(logged_sideways),
+            cbv_lane_change_sideways: SidewaysSpread::of(lane_change_sideways),
             conflict_reach: share(reached, n),
             conflict_reach_critical: share(reached_critical, critical),
             avoidable_conflicts: avoidable,

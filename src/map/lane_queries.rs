@@ -107,6 +107,11 @@ type LaneCandidate = (u32, u32, f64, [Point2; 2]);
 /// rounding of the distances it compares, far below anything that matters.
 const LANE_RUN_PRUNE_SLACK_M: f64 = 0.01;
 
+/// How far a point may lie before a lane's start or past its end and still
+/// be on it, m: a corner may sit on a joint between two segments, a little
+/// off both perpendiculars.
+const LANE_END_TOLERANCE_M: f64 = 0.25;
+
 impl RoadMap {
     /// The lane centreline closest to `p` within `radius_m`, preferring
     /// lanes whose direction agrees with `heading_rad` (when given) to within
@@ -240,9 +245,6 @@ impl RoadMap {
     /// [`DEFAULT_LANE_HALF_WIDTH_M`]. A point before a lane's start or past
     /// its end is not on it (its predecessor or successor holds it).
     pub fn lanes_containing(&self, p: &Point2, heading_rad: f64) -> Vec<MapElementId> {
-        // A corner may sit on a joint between two segments, a little off
-        // both perpendiculars: this much overhang still counts.
-        const END_TOLERANCE_M: f64 = 0.25;
         thread_local! {
             // The candidate (lane, segment) pairs, sorted: reused from call
             // to call, as this query runs for every corner of every contact
@@ -266,11 +268,11 @@ impl RoadMap {
                         .as_ref()
                         .and_then(|b| b.project(&proj.point))
                         // A partial boundary that ends before this point says nothing here.
-                        .filter(|b| (proj.point - b.point).dot(&b.tangent).abs() < END_TOLERANCE_M)
+                        .filter(|b| (proj.point - b.point).dot(&b.tangent).abs() < LANE_END_TOLERANCE_M)
                         .map_or(DEFAULT_LANE_HALF_WIDTH_M, |b| {
                             b.distance_m.clamp(MIN_LANE_HALF_WIDTH_M, MAX_LANE_HALF_WIDTH_M)
                         });
-                    let inside = overhang <= END_TOLERANCE_M && proj.distance_m <= half_width;
+                    let inside = overhang <= LANE_END_TOLERANCE_M && proj.distance_m <= half_width;
                     (inside && proj.tangent.dot(&heading) > 0.0).then_some(lane.id)
                 })
                 .collect()
@@ -365,6 +367,17 @@ impl RoadMap {
             least = Some(least.map_or(value, |l| l.min(value)));
         }
         least
+    }
+
+    /// Whether lane `id` runs beside `p`: `p` projects onto its centreline
+    /// between its ends (to within the overhang [`RoadMap::lanes_containing`]
+    /// allows), however far to one side. A road user that is beside a lane
+    /// it was in, and no longer in it, left it sideways; one past its end
+    /// drove on out of it.
+    pub fn lane_runs_beside(&self, id: MapElementId, p: &Point2) -> bool {
+        self.lane(id)
+            .and_then(|lane| lane.centreline.project(p))
+            .is_some_and(|proj| (p - proj.point).dot(&proj.tangent).abs() <= LANE_END_TOLERANCE_M)
     }
 
     /// Whether lanes `a` and `b` are one lane or one continues the other.

@@ -633,4 +633,51 @@ fn the_table_gives_the_cbvs_sideways_speed_as_the_json_report_does_and_log_repla
             assert_eq!(generated, recorded, "log replay's CBV moved sideways unlike the recording");
         }
     }
+
+    // The lane changes: the CBVs that changed lanes, beside every recorded
+    // vehicle that did in the same scenes, each scene once.
+    let section = table.split("\nlane changes: sideways speed").nth(1).expect("the lane-change table");
+    let recorded_by_scene: std::collections::BTreeMap<&str, Vec<f64>> = variants
+        .iter()
+        .map(|v| {
+            let speeds = v["recorded_lane_changes_mps"]
+                .as_array()
+                .map_or(Vec::new(), |a| a.iter().map(|x| x.as_f64().unwrap()).collect());
+            (v["scenario"].as_str().unwrap(), speeds)
+        })
+        .collect();
+    let recorded: Vec<f64> = recorded_by_scene.values().flatten().copied().collect();
+    assert!(!recorded.is_empty(), "no recorded vehicle changed lanes in the shipped NGSIM scenes");
+    for method in methods {
+        let line = section.lines().find(|l| l.split_whitespace().next() == Some(method)).expect("the method's row");
+        let cells: Vec<&str> = line.split_whitespace().skip(1).filter(|c| *c != "|").collect();
+        let changing: Vec<&Value> = variants
+            .iter()
+            .filter(|v| v["method"] == method && v["tally"]["cbv"]["generated"]["changed_lanes"] == true)
+            .collect();
+        let generated: Vec<f64> =
+            changing.iter().filter_map(|v| v["tally"]["cbv"]["generated"]["held_sideways_mps"].as_f64()).collect();
+        let mut from_variants = if generated.is_empty() {
+            vec!["0".into(), "—".into(), "—".into(), "—".into()]
+        } else {
+            spread(generated)
+        };
+        from_variants.extend(spread(recorded.clone()));
+        assert_eq!(cells[..8], from_variants[..], "{method}: the lane-change table and the report's variants disagree");
+        if method == "log" {
+            // The recorded CBV is one of the recorded vehicles: where it
+            // changed lanes, its pace is among its scene's.
+            for v in changing {
+                let held = v["tally"]["cbv"]["generated"]["held_sideways_mps"].as_f64().unwrap();
+                let scene = &recorded_by_scene[v["scenario"].as_str().unwrap()];
+                assert!(scene.contains(&held), "log replay's CBV changed lanes at {held} m/s, not among {scene:?}");
+            }
+        }
+    }
+    assert!(
+        section
+            .lines()
+            .any(|l| l.split_whitespace().next() == Some("safer-in-path") && l.split_whitespace().nth(1) != Some("0")),
+        "no CBV of safer-in-path changed lanes"
+    );
 }
