@@ -202,7 +202,8 @@
 #                     behaviours, beside ego-contact/'s
 #                     (mutants-{ngsim,womd-interactive}-lane-follower-n60.txt)
 #   sideways          sideways/: how briskly each method's CBV moves sideways across its
-#                     lanes in stage 1, beside the recorded CBV's, on NGSIM (over 60) and
+#                     lanes in stage 1, beside the recorded CBV's, and how briskly it
+#                     changes lanes, beside the recorded lane changes, on NGSIM (over 60) and
 #                     WOMD interactive (over 28), no contact from behind, along the lanes
 #                     (evaluate-{ngsim-n60,womd-interactive-n28}.txt) (about 5 minutes)
 #   mutants           mutants-{womd-interactive,womd-json,ngsim}-evasive.txt and

@@ -1733,7 +1733,7 @@ fn the_sideways_speed_table_quotes_its_outputs() {
     let rows = markdown_rows(
         &doc,
         "| set | method | output | CR | measured | p50 | p90 | max | recorded p50 | recorded p90 | recorded max |",
-        "What it shows",
+        "Most recorded CBVs keep their lane",
     );
     for row in &rows {
         let method = method_of(&row[1]).expect("a method");
@@ -1745,6 +1745,27 @@ fn the_sideways_speed_table_quotes_its_outputs() {
         let sideways = labelled_row(&output, "measured", method);
         assert_eq!(row[4..8], sideways[0..4], "{row:?} against {file}");
         assert_eq!(row[8..11], sideways[6..9], "{row:?} against {file}");
+    }
+    assert_eq!(rows.len(), 10, "five methods on two sets");
+}
+
+#[test]
+fn the_lane_change_table_quotes_its_outputs() {
+    let doc = repo_file("docs/benchmarks.md");
+    let rows = markdown_rows(
+        &doc,
+        "| set | method | output | changed | p50 | p90 | max | recorded | recorded p50 | recorded p90 | recorded max | held out changed | p50 | p90 | held out recorded | p50 | p90 |",
+        "What they show",
+    );
+    for row in &rows {
+        let method = method_of(&row[1]).expect("a method");
+        let file = row[2].trim_matches('`');
+        let output = repo_file(&format!("docs/evaluation/{file}"));
+        // changed, p50, p90, max | recorded, p50, p90, max | held out:
+        // changed, p50, p90 | recorded, p50, p90.
+        let cells: Vec<String> =
+            labelled_row(&output, "changed", method).into_iter().filter(|c| c != "|").collect();
+        assert_eq!(row[3..], cells[..], "{row:?} against {file}");
     }
     assert_eq!(rows.len(), 10, "five methods on two sets");
 }
