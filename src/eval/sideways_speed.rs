@@ -232,6 +232,20 @@ mod tests {
         assert_eq!(held_sideways_speed_mps(&map, states[..4].iter().map(Some), 0.1), None);
     }
 
+    /// `map` with `change` made to each of its lanes.
+    fn with_each_lane(map: &RoadMap, change: impl Fn(&mut crate::map::Lane)) -> RoadMap {
+        RoadMap::from_lanes(
+            map.lanes
+                .iter()
+                .cloned()
+                .map(|mut l| {
+                    change(&mut l);
+                    l
+                })
+                .collect(),
+        )
+    }
+
     /// A car at 20 m/s along the lane at `y0` that moves over to `y1` at
     /// `sideways_mps` from 2 s on, over 8 s at 0.1 s steps.
     fn changing_over(y0: f64, y1: f64, sideways_mps: f64) -> Vec<Option<AgentState>> {
@@ -276,30 +290,14 @@ mod tests {
         );
         assert!(!changed_lanes(&map, &back, 0.1));
         // A map that records no lane's neighbours (WOMD JSON) tells the same.
-        let bare = RoadMap::from_lanes(
-            map.lanes
-                .iter()
-                .cloned()
-                .map(|mut l| {
-                    l.left_neighbours.clear();
-                    l.right_neighbours.clear();
-                    l
-                })
-                .collect(),
-        );
+        let bare = with_each_lane(&map, |l| {
+            l.left_neighbours.clear();
+            l.right_neighbours.clear();
+        });
         assert!(changed_lanes(&bare, &change, 0.1));
         assert!(!changed_lanes(&bare, &swerve, 0.1));
         // Inside an intersection lanes part as they turn off: no lane change.
-        let junction = RoadMap::from_lanes(
-            map.lanes
-                .iter()
-                .cloned()
-                .map(|mut l| {
-                    l.in_intersection = true;
-                    l
-                })
-                .collect(),
-        );
+        let junction = with_each_lane(&map, |l| l.in_intersection = true);
         assert!(!changed_lanes(&junction, &change, 0.1));
         // Lanes that overlap (centrelines 1.2 m apart, each wider than
         // that): a move from one centreline to the next is no lane change.

@@ -1763,8 +1763,7 @@ fn the_lane_change_table_quotes_its_outputs() {
         let output = repo_file(&format!("docs/evaluation/{file}"));
         // changed, p50, p90, max | recorded, p50, p90, max | held out:
         // changed, p50, p90 | recorded, p50, p90.
-        let cells: Vec<String> =
-            labelled_row(&output, "changed", method).into_iter().filter(|c| c != "|").collect();
+        let cells: Vec<String> = labelled_row(&output, "changed", method).into_iter().filter(|c| c != "|").collect();
         assert_eq!(row[3..], cells[..], "{row:?} against {file}");
     }
     assert_eq!(rows.len(), 10, "five methods on two sets");
