@@ -23,6 +23,7 @@ use safer_scenarios::eval::witness::{DEFAULT_WIDEST, RoadKeeping, WitnessBudget,
 use safer_scenarios::harness::evaluation::{
     self, BlindTwinHits, CbvStartRows, EvaluationRequest, HeldOutSplit, MethodRow, Partition, Stage2Cbv, VariantRecord,
 };
+use safer_scenarios::harness::kill_ratio::{self, KillRatioRange};
 use safer_scenarios::harness::methods::BackgroundDriver;
 use safer_scenarios::harness::methods::ModelSet;
 use safer_scenarios::harness::mutation::{MethodKills, OFF_PATH_M, OperatorKills};
@@ -779,6 +780,45 @@ fn print_legend(out: &mut dyn Write) -> std::io::Result<()> {
     Ok(())
 }
 
+/// How far each method's kill ratios over log replay's and the prior's
+/// move over resampled scenes, when mutants were planted.
+fn print_kill_ratios(
+    out: &mut dyn Write,
+    ranges: &[KillRatioRange],
+    settings: &EvaluationSettings,
+) -> std::io::Result<()> {
+    if settings.mutants.is_empty() || ranges.is_empty() {
+        return Ok(());
+    }
+    let modes = settings.stage2_cbv.len();
+    let width = ranges.iter().map(|r| label(r.method, r.stage2_cbv, modes).len()).max().unwrap_or(0).max(6);
+    writeln!(
+        out,
+        "\nkills over resampled scenes: the middle 95 % of {} draws of as many scenes, with replacement, of the kills over log replay's and the prior's",
+        kill_ratio::RESAMPLES
+    )?;
+    writeln!(out, "{:<width$}  {:>13}  {:>13}", "method", "×log 95 %", "×prior 95 %")?;
+    let range = |r: Option<[f64; 2]>| match r {
+        Some([low, high]) => format!("{}–{}", ratio_cell(low), ratio_cell(high)),
+        None => "-".to_string(),
+    };
+    for r in ranges {
+        writeln!(
+            out,
+            "{:<width$}  {:>13}  {:>13}",
+            label(r.method, r.stage2_cbv, modes),
+            range(r.over_log),
+            range(r.over_prior)
+        )?;
+    }
+    Ok(())
+}
+
+/// A kill ratio as the tables print it (`inf` where the base killed none).
+fn ratio_cell(x: f64) -> String {
+    if x.is_infinite() { "inf".to_string() } else { format!("{x:.2}") }
+}
+
 /// The mutation table, when mutants were planted: per method row, the
 /// variants the planner passes, the mutant-variants killed (with the
 /// ratio to log replay's and the prior's where those rows ran), the
@@ -1196,6 +1236,9 @@ struct Report<'a> {
     held_out: &'a HeldOutSplit,
     /// The same rows over the scenes by where their CBV starts.
     by_cbv_start: &'a [CbvStartRows],
+    /// How far each row's kill ratios move over resampled scenes (empty
+    /// without mutants).
+    kill_ratios: &'a [KillRatioRange],
     variants: &'a [VariantRecord],
 }
 
@@ -1384,6 +1427,7 @@ fn report(
     let rows = evaluation::table(records, &settings.methods);
     let held_out = evaluation::held_out_split(records, &settings.methods);
     let by_cbv_start = evaluation::by_cbv_start(records, &settings.methods);
+    let kill_ratios = kill_ratio::kill_ratio_ranges(records, &settings.methods);
     let scenes = scene_list.ids.len();
     let report = Report {
         settings,
@@ -1393,11 +1437,13 @@ fn report(
         rows: &rows,
         held_out: &held_out,
         by_cbv_start: &by_cbv_start,
+        kill_ratios: &kill_ratios,
         variants: records,
     };
     super::write_report_and_table(json, &report, |table| {
         print_table(table, &rows, records, &held_out, &by_cbv_start, scenes, settings)?;
-        print_kills(table, &rows, &held_out, settings)
+        print_kills(table, &rows, &held_out, settings)?;
+        print_kill_ratios(table, &kill_ratios, settings)
     })?;
     let failed = rows.iter().any(|r| r.errors == r.variants && r.variants > 0);
     Ok(if failed { ExitCode::from(1) } else { ExitCode::SUCCESS })

@@ -206,6 +206,9 @@
 #                     changes lanes, beside the recorded lane changes, on NGSIM (over 60) and
 #                     WOMD interactive (over 28), no contact from behind, along the lanes
 #                     (evaluate-{ngsim-n60,womd-interactive-n28}.txt) (about 5 minutes)
+#   kill-ratios       kill-ratios/: along-the-lanes/'s evasive-planner mutation tables
+#                     made again with the kill ratios over resampled scenes
+#                     (mutants-{ngsim-n60,womd-interactive-n28}-evasive.txt) (about 15 minutes)
 #   mutants           mutants-{womd-interactive,womd-json,ngsim}-evasive.txt and
 #                     mutants-{womd-interactive,ngsim}-lane-follower.txt: the
 #                     faults of the planner each method's variants catch
@@ -221,7 +224,7 @@ self=$(realpath "$0")
 cd "$(dirname "$self")"
 all=(evaluate plain inattentive held-out-chance trust-region realism prior-fit n-sweep reactive n100 approach-none merging mutants wide-region cut-in
     in-path-lookahead in-path-lookahead-n30 in-path-lookahead-n28 in-path-lookahead-sweep pair-in-traffic witnessed wide-witnessed ten-seeds reaction-delay reactive-background leader first-contact both-pairings first-contact-lookahead blind-twin ego-contact wrong-way
-    lane-follower-pairings at-fault-planner along-the-lanes along-the-lanes-lane-follower sideways)
+    lane-follower-pairings at-fault-planner along-the-lanes along-the-lanes-lane-follower sideways kill-ratios)
 jobs=("$@")
 [[ ${#jobs[@]} -gt 0 ]] || jobs=("${all[@]}")
 # The usage is the comment block at the top of this file.
@@ -788,6 +791,14 @@ for job in "${jobs[@]}"; do
             --ego-contact not-from-behind --wrong-way along-the-lanes)
         run sideways/evaluate-ngsim-n60.txt evaluate --scenes data:commonroad-ngsim "${sideways[@]}" --trust-region 60
         run sideways/evaluate-womd-interactive-n28.txt evaluate --scenes data:womd-interactive "${sideways[@]}" \
+            --trust-region 28 ;;
+    kill-ratios)
+        mkdir -p kill-ratios
+        # along-the-lanes' evasive-planner commands: the shipped lookahead suite's rules.
+        along=(--seeds 3 --stage2-cbv closed-loop --background reactive-log-replay --mutants --ego-contact not-from-behind
+            --wrong-way along-the-lanes --methods log,prior,safer-in-path-lookahead --planner ../../planners/evasive.yaml)
+        run kill-ratios/mutants-ngsim-n60-evasive.txt evaluate --scenes data:commonroad-ngsim "${along[@]}" --trust-region 60
+        run kill-ratios/mutants-womd-interactive-n28-evasive.txt evaluate --scenes data:womd-interactive "${along[@]}" \
             --trust-region 28 ;;
     esac
 done

@@ -252,7 +252,13 @@ pub struct VariantRecord {
 
 impl VariantRecord {
     /// The record of a variant that could not run, and why.
-    fn failed(scenario: &str, method: AdversaryMethod, stage2_cbv: Stage2Cbv, seed: u32, error: String) -> Self {
+    pub(crate) fn failed(
+        scenario: &str,
+        method: AdversaryMethod,
+        stage2_cbv: Stage2Cbv,
+        seed: u32,
+        error: String,
+    ) -> Self {
         VariantRecord {
             scenario: scenario.into(),
             method,
@@ -972,7 +978,7 @@ fn distinct_rate(variants: &[&VariantRecord]) -> Option<f64> {
 }
 
 /// The mutation runs of `variants`, as the kills count them.
-fn kills_inputs<'a>(variants: &[&'a VariantRecord]) -> impl Iterator<Item = KillsInput<'a>> {
+pub(crate) fn kills_inputs<'a>(variants: &[&'a VariantRecord]) -> impl Iterator<Item = KillsInput<'a>> {
     variants.iter().filter_map(|r| {
         Some(KillsInput {
             scene: &r.scenario,

@@ -17,6 +17,7 @@
 pub mod acceptance;
 pub mod artefacts;
 pub mod evaluation;
+pub mod kill_ratio;
 pub mod methods;
 pub mod metrics;
 pub mod mutation;

@@ -681,3 +681,67 @@ fn the_table_gives_the_cbvs_sideways_speed_as_the_json_report_does_and_log_repla
         "no CBV of safer-in-path changed lanes"
     );
 }
+
+#[test]
+#[cfg_attr(not(recorded_data), ignore = "needs recorded data: set SAFER_DATA_DIR (docs/guide/recorded-data.md)")]
+fn the_kill_ratios_over_resampled_scenes_hold_the_mutation_tables_ratios_and_match_the_report() {
+    // A third of the WOMD interactive scenes, where log replay and the
+    // prior kill some faults and safer-in-path more.
+    let scenes = crate::shared_data::data_dir().join("womd-interactive");
+    let json = tempfile_dir("kill-ratios").join("report.json");
+    let table = ok(safer(&[
+        "evaluate",
+        "--scenes",
+        scenes.to_str().unwrap(),
+        "--partition",
+        "1/3",
+        "--methods",
+        "log,prior,safer-in-path",
+        "--seeds",
+        "2",
+        "--stage2-cbv",
+        "closed-loop",
+        "--mutants",
+        "no-brake,blind-cbv,late",
+        "--jobs",
+        "2",
+        "--json",
+        json.to_str().unwrap(),
+    ]));
+    let report: Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let kills = table.split("\nmutants killed").nth(1).expect("the mutation table");
+    let ranges = table.split("\nkills over resampled scenes").nth(1).expect("the resampled kill-ratio table");
+    let cell = |r: &Value| match r.as_array() {
+        Some(pair) => {
+            let f = |v: &Value| v.as_f64().map_or("inf".to_string(), |x| format!("{x:.2}"));
+            format!("{}–{}", f(&pair[0]), f(&pair[1]))
+        }
+        None => "-".to_string(),
+    };
+    let mut finite = 0;
+    for method in ["log", "prior", "safer-in-path"] {
+        let row = |section: &str| -> Vec<String> {
+            let line = section.lines().find(|l| l.split_whitespace().next() == Some(method)).expect("the method's row");
+            line.split_whitespace().skip(1).map(str::to_owned).collect()
+        };
+        let reported = report["kill_ratios"].as_array().unwrap().iter().find(|r| r["method"] == method).unwrap();
+        let (over_log, over_prior) = (cell(&reported["over_log"]), cell(&reported["over_prior"]));
+        assert_eq!(row(ranges), [over_log.clone(), over_prior.clone()], "{method}: the table and the report disagree");
+        // The mutation table's ratio over all the scenes lies in its range.
+        // passed, kills (`k/n | held-out k/n` where scenes are held out), ×log, ×prior, ...
+        let kill_row = row(kills);
+        let at = kill_row.iter().position(|c| c == "|").map_or(2, |bar| bar + 2);
+        for (ratio, range) in [(&kill_row[at], &reported["over_log"]), (&kill_row[at + 1], &reported["over_prior"])] {
+            let (Ok(ratio), Some([low, high])) = (ratio.parse::<f64>(), range.as_array().map(|a| [&a[0], &a[1]]))
+            else {
+                continue;
+            };
+            let (low, high) = (low.as_f64().unwrap(), high.as_f64().unwrap_or(f64::INFINITY));
+            assert!(low <= ratio && ratio <= high, "{method}: {ratio} outside {low}–{high}");
+            finite += usize::from(high.is_finite() && low < high);
+        }
+    }
+    let log = report["kill_ratios"].as_array().unwrap().iter().find(|r| r["method"] == "log").unwrap();
+    assert_eq!(cell(&log["over_log"]), "1.00–1.00", "log replay over itself");
+    assert!(finite > 0, "no finite range to check: {ranges}");
+}
