@@ -206,9 +206,10 @@
 #                     changes lanes, beside the recorded lane changes, on NGSIM (over 60) and
 #                     WOMD interactive (over 28), no contact from behind, along the lanes
 #                     (evaluate-{ngsim-n60,womd-interactive-n28}.txt) (about 5 minutes)
-#   kill-ratios       kill-ratios/: along-the-lanes/'s evasive-planner mutation tables
-#                     made again with the kill ratios over resampled scenes
-#                     (mutants-{ngsim-n60,womd-interactive-n28}-evasive.txt) (about 15 minutes)
+#   kill-ratios       kill-ratios/: along-the-lanes/'s mutation tables of the evasive planner
+#                     and the Python lane follower made again with the kill ratios over
+#                     resampled scenes (mutants-{ngsim-n60,womd-interactive-n28}-evasive.txt,
+#                     mutants-{ngsim,womd-interactive}-lane-follower-n60.txt) (about 45 minutes)
 #   mutants           mutants-{womd-interactive,womd-json,ngsim}-evasive.txt and
 #                     mutants-{womd-interactive,ngsim}-lane-follower.txt: the
 #                     faults of the planner each method's variants catch
@@ -799,7 +800,14 @@ for job in "${jobs[@]}"; do
             --wrong-way along-the-lanes --methods log,prior,safer-in-path-lookahead --planner ../../planners/evasive.yaml)
         run kill-ratios/mutants-ngsim-n60-evasive.txt evaluate --scenes data:commonroad-ngsim "${along[@]}" --trust-region 60
         run kill-ratios/mutants-womd-interactive-n28-evasive.txt evaluate --scenes data:womd-interactive "${along[@]}" \
-            --trust-region 28 ;;
+            --trust-region 28
+        # along-the-lanes-lane-follower's commands.
+        along=(--seeds 3 --stage2-cbv closed-loop --background reactive-log-replay --mutants --ego-contact not-from-behind
+            --wrong-way along-the-lanes --methods log,prior,safer-in-path-lookahead --trust-region 60
+            --roles as-loaded --planner ../../planners/lane-follower.yaml)
+        for s in commonroad-ngsim:ngsim womd-interactive:womd-interactive; do
+            run "kill-ratios/mutants-${s#*:}-lane-follower-n60.txt" evaluate --scenes "data:${s%%:*}" "${along[@]}"
+        done ;;
     esac
 done
 rm -r "$(dirname "$safer")"
