@@ -1768,7 +1768,7 @@ fn the_resampled_kill_ratio_table_quotes_its_outputs() {
         assert_eq!(row[4..7], quoted[..], "{row:?} against {file}");
         assert_eq!(row[7..9], [kills[5].clone(), ranges[1].clone()], "{row:?} against {file}");
     }
-    assert!(rows.len() >= 6, "two methods, two planners on NGSIM, one on WOMD interactive");
+    assert_eq!(rows.len(), 8, "two methods, two planners, two sets");
 }
 
 #[test]
