@@ -254,6 +254,13 @@ run() {
     mv "$out.tmp" "$out"
 }
 
+# The rules the shipped lookahead suite sets, with mutants planted (the along-the-lanes jobs and
+# kill-ratios); the Python lane follower's runs add its own settings.
+along_the_lanes=(--seeds 3 --stage2-cbv closed-loop --background reactive-log-replay --mutants --ego-contact not-from-behind
+    --wrong-way along-the-lanes --methods log,prior,safer-in-path-lookahead)
+along_the_lanes_lane_follower=("${along_the_lanes[@]}" --trust-region 60 --roles as-loaded
+    --planner ../../planners/lane-follower.yaml)
+
 # seed_suffix DRAW: what an output's name ends with for a draw of seeds (--seed DRAW): nothing
 # for the first draw (0), -seedDRAW for the others.
 seed_suffix() { [[ $1 == 0 ]] || echo "-seed$1"; }
@@ -758,8 +765,7 @@ for job in "${jobs[@]}"; do
         done ;;
     along-the-lanes)
         mkdir -p along-the-lanes
-        along=(--seeds 3 --stage2-cbv closed-loop --background reactive-log-replay --mutants --ego-contact not-from-behind
-            --wrong-way along-the-lanes --methods log,prior,safer-in-path-lookahead)
+        along=("${along_the_lanes[@]}")
         for planner in evasive at-fault; do
             spec=../../planners/evasive.yaml
             [[ $planner == evasive ]] || spec=../../planners/evasive-at-fault.yaml
@@ -779,11 +785,9 @@ for job in "${jobs[@]}"; do
     along-the-lanes-lane-follower)
         mkdir -p along-the-lanes
         # Beside ego-contact/mutants-*-lane-follower-n60.txt (the CBV any way).
-        along=(--seeds 3 --stage2-cbv closed-loop --background reactive-log-replay --mutants --ego-contact not-from-behind
-            --wrong-way along-the-lanes --methods log,prior,safer-in-path-lookahead --trust-region 60
-            --roles as-loaded --planner ../../planners/lane-follower.yaml)
         for s in commonroad-ngsim:ngsim womd-interactive:womd-interactive; do
-            run "along-the-lanes/mutants-${s#*:}-lane-follower-n60.txt" evaluate --scenes "data:${s%%:*}" "${along[@]}"
+            run "along-the-lanes/mutants-${s#*:}-lane-follower-n60.txt" evaluate --scenes "data:${s%%:*}" \
+                "${along_the_lanes_lane_follower[@]}"
         done ;;
     sideways)
         mkdir -p sideways
@@ -795,18 +799,14 @@ for job in "${jobs[@]}"; do
             --trust-region 28 ;;
     kill-ratios)
         mkdir -p kill-ratios
-        # along-the-lanes' evasive-planner commands: the shipped lookahead suite's rules.
-        along=(--seeds 3 --stage2-cbv closed-loop --background reactive-log-replay --mutants --ego-contact not-from-behind
-            --wrong-way along-the-lanes --methods log,prior,safer-in-path-lookahead --planner ../../planners/evasive.yaml)
+        # The along-the-lanes jobs' commands of the evasive planner and the lane follower.
+        along=("${along_the_lanes[@]}" --planner ../../planners/evasive.yaml)
         run kill-ratios/mutants-ngsim-n60-evasive.txt evaluate --scenes data:commonroad-ngsim "${along[@]}" --trust-region 60
         run kill-ratios/mutants-womd-interactive-n28-evasive.txt evaluate --scenes data:womd-interactive "${along[@]}" \
             --trust-region 28
-        # along-the-lanes-lane-follower's commands.
-        along=(--seeds 3 --stage2-cbv closed-loop --background reactive-log-replay --mutants --ego-contact not-from-behind
-            --wrong-way along-the-lanes --methods log,prior,safer-in-path-lookahead --trust-region 60
-            --roles as-loaded --planner ../../planners/lane-follower.yaml)
         for s in commonroad-ngsim:ngsim womd-interactive:womd-interactive; do
-            run "kill-ratios/mutants-${s#*:}-lane-follower-n60.txt" evaluate --scenes "data:${s%%:*}" "${along[@]}"
+            run "kill-ratios/mutants-${s#*:}-lane-follower-n60.txt" evaluate --scenes "data:${s%%:*}" \
+                "${along_the_lanes_lane_follower[@]}"
         done ;;
     esac
 done
