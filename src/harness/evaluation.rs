@@ -997,18 +997,25 @@ pub fn table(records: &[VariantRecord], methods: &[AdversaryMethod]) -> Vec<Meth
     table_of(records, methods, |_| true)
 }
 
-/// [`table`] over the records that `keep` keeps.
-fn table_of(
-    records: &[VariantRecord],
-    methods: &[AdversaryMethod],
-    keep: impl Fn(&VariantRecord) -> bool,
-) -> Vec<MethodRow> {
+/// The stage-2 CBV modes `records` hold, replay first; replay alone
+/// where they hold none (a table of no records still has its rows).
+pub(crate) fn stage2_modes(records: &[VariantRecord]) -> Vec<Stage2Cbv> {
     let mut modes: Vec<Stage2Cbv> = records.iter().map(|r| r.stage2_cbv).collect();
     modes.sort();
     modes.dedup();
     if modes.is_empty() {
         modes.push(Stage2Cbv::Replay);
     }
+    modes
+}
+
+/// [`table`] over the records that `keep` keeps.
+fn table_of(
+    records: &[VariantRecord],
+    methods: &[AdversaryMethod],
+    keep: impl Fn(&VariantRecord) -> bool,
+) -> Vec<MethodRow> {
+    let modes = stage2_modes(records);
     // What log replay catches, per stage-2 mode, where it ran with mutants.
     let replay_catches: Vec<(Stage2Cbv, ReplayCatches)> = modes
         .iter()

@@ -17,7 +17,7 @@ use std::collections::BTreeMap;
 
 use rand::{Rng, SeedableRng};
 
-use super::evaluation::{VariantRecord, kills_inputs};
+use super::evaluation::{VariantRecord, kills_inputs, stage2_modes};
 use super::mutation::MethodKills;
 use super::pipeline::Stage2Cbv;
 use crate::spec::suite::AdversaryMethod;
@@ -46,9 +46,7 @@ pub struct KillRatioRange {
 /// The kill-ratio ranges of each method of `methods` (with mutants planted)
 /// in each stage-2 mode `records` hold, in the mutation table's order.
 pub fn kill_ratio_ranges(records: &[VariantRecord], methods: &[AdversaryMethod]) -> Vec<KillRatioRange> {
-    let mut modes: Vec<Stage2Cbv> = records.iter().map(|r| r.stage2_cbv).collect();
-    modes.sort();
-    modes.dedup();
+    let modes = stage2_modes(records);
     methods
         .iter()
         .flat_map(|&method| modes.iter().map(move |&mode| (method, mode)))
