@@ -210,6 +210,10 @@
 #                     and the Python lane follower made again with the kill ratios over
 #                     resampled scenes (mutants-{ngsim-n60,womd-interactive-n28}-evasive.txt,
 #                     mutants-{ngsim,womd-interactive}-lane-follower-n60.txt) (about 45 minutes)
+#   human-lane-changes
+#                     human-lane-changes/: kill-ratios/'s four runs with the CBV's lane changes
+#                     also held to recorded drivers' sideways pace (--wrong-way
+#                     human-lane-changes) (about 45 minutes)
 #   mutants           mutants-{womd-interactive,womd-json,ngsim}-evasive.txt and
 #                     mutants-{womd-interactive,ngsim}-lane-follower.txt: the
 #                     faults of the planner each method's variants catch
@@ -225,7 +229,7 @@ self=$(realpath "$0")
 cd "$(dirname "$self")"
 all=(evaluate plain inattentive held-out-chance trust-region realism prior-fit n-sweep reactive n100 approach-none merging mutants wide-region cut-in
     in-path-lookahead in-path-lookahead-n30 in-path-lookahead-n28 in-path-lookahead-sweep pair-in-traffic witnessed wide-witnessed ten-seeds reaction-delay reactive-background leader first-contact both-pairings first-contact-lookahead blind-twin ego-contact wrong-way
-    lane-follower-pairings at-fault-planner along-the-lanes along-the-lanes-lane-follower sideways kill-ratios)
+    lane-follower-pairings at-fault-planner along-the-lanes along-the-lanes-lane-follower sideways kill-ratios human-lane-changes)
 jobs=("$@")
 [[ ${#jobs[@]} -gt 0 ]] || jobs=("${all[@]}")
 # The usage is the comment block at the top of this file.
@@ -807,6 +811,19 @@ for job in "${jobs[@]}"; do
         for s in commonroad-ngsim:ngsim womd-interactive:womd-interactive; do
             run "kill-ratios/mutants-${s#*:}-lane-follower-n60.txt" evaluate --scenes "data:${s%%:*}" \
                 "${along_the_lanes_lane_follower[@]}"
+        done ;;
+    human-lane-changes)
+        mkdir -p human-lane-changes
+        # kill-ratios' commands with --wrong-way human-lane-changes for along-the-lanes.
+        along=("${along_the_lanes[@]/#along-the-lanes/human-lane-changes}" --planner ../../planners/evasive.yaml)
+        lane_follower=("${along_the_lanes_lane_follower[@]/#along-the-lanes/human-lane-changes}")
+        run human-lane-changes/mutants-ngsim-n60-evasive.txt evaluate --scenes data:commonroad-ngsim "${along[@]}" \
+            --trust-region 60
+        run human-lane-changes/mutants-womd-interactive-n28-evasive.txt evaluate --scenes data:womd-interactive \
+            "${along[@]}" --trust-region 28
+        for s in commonroad-ngsim:ngsim womd-interactive:womd-interactive; do
+            run "human-lane-changes/mutants-${s#*:}-lane-follower-n60.txt" evaluate --scenes "data:${s%%:*}" \
+                "${lane_follower[@]}"
         done ;;
     esac
 done

@@ -311,10 +311,13 @@ pub struct AdversarySpec {
     /// lane against its traffic, outside intersections, or after which
     /// braking would not keep it out of one, is implausible, as leaving
     /// the road is, and a CBV against the traffic already must head back
-    /// to a lane of its way; or `along-the-lanes` (beyond the paper): as
+    /// to a lane of its way; `along-the-lanes` (beyond the paper): as
     /// `forbidden`, and a token that takes the CBV across the lanes, or
     /// does not turn one already across them back towards them, is
-    /// implausible too.
+    /// implausible too; or `human-lane-changes` (beyond the paper): as
+    /// `along-the-lanes`, and a token that moves the CBV sideways across
+    /// its lanes faster than 1.7 m/s (recorded drivers' lane changes), or
+    /// does not slow one moving faster already, is implausible too.
     #[serde(default)]
     pub wrong_way: WrongWayRule,
 }

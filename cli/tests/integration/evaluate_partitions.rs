@@ -745,3 +745,41 @@ fn the_kill_ratios_over_resampled_scenes_hold_the_mutation_tables_ratios_and_mat
     assert_eq!(cell(&log["over_log"]), "1.00–1.00", "log replay over itself");
     assert!(finite > 0, "no finite range to check: {ranges}");
 }
+
+#[test]
+#[cfg_attr(not(recorded_data), ignore = "needs recorded data: set SAFER_DATA_DIR (docs/guide/recorded-data.md)")]
+fn the_human_lane_change_pace_is_the_90th_percentile_of_the_recorded_lane_changes_outside_the_held_out_scenes() {
+    use safer_scenarios::policies::adversary::HUMAN_LANE_CHANGE_MAX_SIDEWAYS_MPS;
+    // The recorded vehicles that changed lanes, as `safer evaluate` reads
+    // them, in the scenes of both sets that are not held out.
+    let mut development: Vec<f64> = Vec::new();
+    for set in ["commonroad-ngsim", "womd-interactive"] {
+        let scenes = crate::shared_data::data_dir().join(set);
+        let json = tempfile_dir(&format!("lane-change-pace-{set}")).join("report.json");
+        let args = ["evaluate", "--scenes", scenes.to_str().unwrap(), "--methods", "log", "--seeds", "1"];
+        ok(safer(&[&args[..], &["--jobs", "2", "--json", json.to_str().unwrap()]].concat()));
+        let report: Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+        let held_out: Vec<&str> =
+            report["held_out"]["scenes"].as_array().unwrap().iter().map(|s| s.as_str().unwrap()).collect();
+        assert!(!held_out.is_empty(), "{set}: no held-out scene");
+        let by_scene: std::collections::BTreeMap<&str, Vec<f64>> = report["variants"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|v| {
+                let speeds = v["recorded_lane_changes_mps"]
+                    .as_array()
+                    .map_or(Vec::new(), |a| a.iter().map(|x| x.as_f64().unwrap()).collect());
+                (v["scenario"].as_str().unwrap(), speeds)
+            })
+            .collect();
+        development.extend(by_scene.iter().filter(|(s, _)| !held_out.contains(s)).flat_map(|(_, v)| v.iter().copied()));
+    }
+    assert!(development.len() >= 100, "only {} recorded lane changes", development.len());
+    development.sort_by(f64::total_cmp);
+    let p90 = development[(0.9 * development.len() as f64).ceil() as usize - 1];
+    assert!(
+        (p90 - HUMAN_LANE_CHANGE_MAX_SIDEWAYS_MPS).abs() < 0.05,
+        "the recorded lane changes' 90th percentile is {p90:.2} m/s, the rule's pace {HUMAN_LANE_CHANGE_MAX_SIDEWAYS_MPS} m/s"
+    );
+}

@@ -86,6 +86,7 @@ mod ego_contact;
 mod escape_room;
 mod feasibility;
 mod in_path;
+mod lane_change_pace;
 mod lookahead;
 mod objective;
 mod plausibility;
@@ -111,6 +112,7 @@ pub use escape_room::{
 pub use in_path::{
     CUT_IN_LATERAL_COST, CUT_IN_NOT_AHEAD_COST, IN_PATH_LEAD_COST_M_PER_S, IN_PATH_MAX_LEAD_S, NOT_AHEAD_PENALTY_M,
 };
+pub use lane_change_pace::HUMAN_LANE_CHANGE_MAX_SIDEWAYS_MPS;
 pub use lookahead::{LOOKAHEAD_DELAY_PENALTY_M, LOOKAHEAD_TOKENS};
 pub use objective::Objective;
 pub use policy::Adversary;

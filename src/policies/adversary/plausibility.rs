@@ -11,6 +11,7 @@
 
 use super::background_forecast::BackgroundForecast;
 use super::broad_phase::Bounds;
+use super::lane_change_pace::LaneChangePaceHold;
 use super::rollout::{BRAKING_CHECK_STEPS, braking_after, continued_after, token_rollout};
 use super::wrong_way::{AcrossLanesHold, TrafficDirectionHold, WrongWayRule};
 use crate::geometry::OrientedBox;
@@ -125,6 +126,10 @@ pub(super) struct PlausibilityCheck<'w> {
     /// kept along them, or turning back towards them
     /// ([`WrongWayRule::AlongTheLanes`]).
     across_lanes: AcrossLanesHold,
+    /// What the lane-change pace rule holds the CBV to: kept to a human
+    /// sideways pace, or slowing to it
+    /// ([`WrongWayRule::HumanLaneChanges`]).
+    lane_change_pace: LaneChangePaceHold,
 }
 
 impl<'w> PlausibilityCheck<'w> {
@@ -150,6 +155,7 @@ impl<'w> PlausibilityCheck<'w> {
                 lanes_now: Vec::new(),
                 traffic_direction: TrafficDirectionHold::NotHeld,
                 across_lanes: AcrossLanesHold::NotHeld,
+                lane_change_pace: LaneChangePaceHold::NotHeld,
             };
         };
         let horizon = TOKEN_PERIOD_STEPS + BRAKING_CHECK_STEPS.max(HOLDING_CHECK_STEPS + CLOSING_CHECK_STEPS);
@@ -180,6 +186,7 @@ impl<'w> PlausibilityCheck<'w> {
             lanes_now: world.map.lanes_containing(&now.position, now.heading_rad),
             traffic_direction: TrafficDirectionHold::NotHeld,
             across_lanes: AcrossLanesHold::NotHeld,
+            lane_change_pace: LaneChangePaceHold::NotHeld,
         }
     }
 
@@ -190,7 +197,8 @@ impl<'w> PlausibilityCheck<'w> {
         let Some(now) = self.cbv_now else { return self };
         let traffic_direction = TrafficDirectionHold::of(rule, map, &now);
         let across_lanes = AcrossLanesHold::of(rule, map, &now);
-        Self { traffic_direction, across_lanes, ..self }
+        let lane_change_pace = LaneChangePaceHold::of(rule, map, &now);
+        Self { traffic_direction, across_lanes, lane_change_pace, ..self }
     }
 
     /// Whether the CBV, hit by `theirs` at `at`, cut in: it was hit from
@@ -247,9 +255,12 @@ impl<'w> PlausibilityCheck<'w> {
             // Across the lanes on the token's own states, or not turning back
             // towards them (see the `wrong_way` module).
             let across = || self.across_lanes.first_breach(map, rollout);
+            // Sideways faster than a recorded lane change, or not slowing
+            // to it (see the `lane_change_pace` module).
+            let brisk = || self.lane_change_pace.first_breach(map, rollout);
             match wanted {
-                Violation::First => against.into_iter().chain(across()).min(),
-                Violation::Any => against.or_else(across),
+                Violation::First => against.into_iter().chain(across()).chain(brisk()).min(),
+                Violation::Any => against.or_else(across).or_else(brisk),
             }
         };
         if !self.on_road_now {
@@ -740,6 +751,25 @@ mod tests {
         // does not.
         assert_eq!(judged(40.0, WrongWayRule::AlongTheLanes), [true, false]);
         assert_eq!(judged(40.0, WrongWayRule::Forbidden), [false, false]);
+    }
+
+    #[test]
+    fn at_a_human_lane_change_pace_a_token_that_moves_the_cbv_sideways_faster_is_implausible() {
+        let map = two_way_road(5, 1);
+        let middle = lane_y(&map, 2);
+        let judged = |heading_deg: f64, rule| {
+            turning_tokens_judged(&map, middle, -f64::to_radians(heading_deg), 8.0, [-0.5, 0.5], rule)
+        };
+        // 10° off the lanes at 8 m/s (1.39 m/s sideways): turning on at
+        // 0.5 rad/s reaches 24° within the token (3.2 m/s sideways), which
+        // along the lanes alone is allowed; turning back is plausible.
+        assert_eq!(judged(10.0, WrongWayRule::HumanLaneChanges), [true, false]);
+        assert_eq!(judged(10.0, WrongWayRule::AlongTheLanes), [false, false]);
+        // Brisker already (20°, 2.7 m/s sideways): turning back slows the
+        // pace and is plausible, turning on is not.
+        assert_eq!(judged(20.0, WrongWayRule::HumanLaneChanges), [true, false]);
+        // Across the lanes (40°) the along-the-lanes hold still applies.
+        assert_eq!(judged(40.0, WrongWayRule::HumanLaneChanges), [true, false]);
     }
 
     #[test]

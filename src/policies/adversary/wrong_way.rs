@@ -33,6 +33,10 @@
 //! across the lanes must turn back towards them: each token ends with it
 //! along them again, or at a smaller angle to them than now
 //! ([`AcrossLanesHold::TurnBack`]).
+//!
+//! Under [`WrongWayRule::HumanLaneChanges`] the CBV's lane changes are
+//! also held to a recorded driver's sideways pace (the `lane_change_pace`
+//! module).
 
 use crate::map::RoadMap;
 use crate::scenario::AgentState;
@@ -57,11 +61,16 @@ pub enum WrongWayRule {
     /// intersections) is implausible too, as is one that leaves a CBV
     /// already across them at no smaller an angle to them.
     AlongTheLanes,
+    /// As [`Self::AlongTheLanes`], and a token that moves the CBV sideways
+    /// across its lanes faster than recorded drivers change lanes (1.7
+    /// m/s, `HUMAN_LANE_CHANGE_MAX_SIDEWAYS_MPS`) is implausible, as is
+    /// one that leaves a CBV moving faster already no slower.
+    HumanLaneChanges,
 }
 
 impl WrongWayRule {
     /// Every variant, in declaration order (for choosers such as the command line).
-    pub const ALL: &'static [Self] = &[Self::Allowed, Self::Forbidden, Self::AlongTheLanes];
+    pub const ALL: &'static [Self] = &[Self::Allowed, Self::Forbidden, Self::AlongTheLanes, Self::HumanLaneChanges];
 
     /// Whether the CBV is kept out of lanes against their traffic.
     pub fn forbids_wrong_way(self) -> bool {
@@ -70,7 +79,13 @@ impl WrongWayRule {
 
     /// Whether the CBV is kept from driving across the lanes.
     pub fn forbids_across_lanes(self) -> bool {
-        self == Self::AlongTheLanes
+        matches!(self, Self::AlongTheLanes | Self::HumanLaneChanges)
+    }
+
+    /// Whether the CBV's sideways pace across its lanes is bounded by
+    /// recorded drivers' lane changes.
+    pub fn paces_lane_changes(self) -> bool {
+        self == Self::HumanLaneChanges
     }
 }
 
