@@ -783,3 +783,41 @@ fn the_human_lane_change_pace_is_the_90th_percentile_of_the_recorded_lane_change
         "the recorded lane changes' 90th percentile is {p90:.2} m/s, the rule's pace {HUMAN_LANE_CHANGE_MAX_SIDEWAYS_MPS} m/s"
     );
 }
+
+#[test]
+#[cfg_attr(not(recorded_data), ignore = "needs recorded data: set SAFER_DATA_DIR (docs/guide/recorded-data.md)")]
+fn at_a_human_lane_change_pace_the_cbv_does_not_run_into_traffic_where_the_pace_leaves_no_token() {
+    // An urban NGSIM arterial whose lanes bend and part: held to the pace
+    // with no way to yield it, the CBV had only the fallbacks left and ran
+    // into the recorded traffic in every seed.
+    let scenes = crate::shared_data::data_dir().join("commonroad-ngsim");
+    let json = tempfile_dir("lane-change-pace-fallback").join("report.json");
+    ok(safer(&[
+        "evaluate",
+        "--scenes",
+        scenes.to_str().unwrap(),
+        "--scene",
+        "USA_Lanker-2_16_T-1",
+        "--methods",
+        "safer-in-path-lookahead",
+        "--trust-region",
+        "60",
+        "--seeds",
+        "3",
+        "--background",
+        "reactive-log-replay",
+        "--ego-contact",
+        "not-from-behind",
+        "--wrong-way",
+        "human-lane-changes",
+        "--json",
+        json.to_str().unwrap(),
+    ]));
+    let report: Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let variants = report["variants"].as_array().unwrap();
+    assert_eq!(variants.len(), 3);
+    for v in variants {
+        assert_eq!(v["cbv_at_fault_with_background"], false, "seed {}: the CBV was at fault", v["seed"]);
+        assert_eq!(v["cbv_off_road_s"].as_f64(), Some(0.0), "seed {}: the CBV left the road", v["seed"]);
+    }
+}

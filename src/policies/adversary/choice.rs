@@ -307,6 +307,26 @@ pub fn safer_choice(
     if let Some(t) = check.likeliest_plausible_outside(logits, candidates, ContactRule::Any) {
         return Ok(Some(t));
     }
+    // Under the lane-change pace rule, when it leaves no token plausible,
+    // one that keeps every other rule comes before the fallbacks below,
+    // which let the CBV run into someone or leave the road: the pace is
+    // the first to yield (seen on NGSIM's urban arterials, where lanes
+    // bend and part, and a CBV near the pace had no token left that kept
+    // to it). The steps below judge without it too.
+    let check = if check.paces_lane_changes() {
+        let relaxed = check.without_lane_change_pace();
+        let keeps_rules = |i: &&usize| !relaxed.implausible(&rollouts[**i], ContactRule::Any);
+        let off_tail = order.iter().filter(|&&i| !rear_ends[i]).find(keeps_rules);
+        if let Some(&i) = off_tail.or_else(|| order.iter().find(keeps_rules)) {
+            return Ok(Some(candidates[i]));
+        }
+        if let Some(t) = relaxed.likeliest_plausible_outside(logits, candidates, ContactRule::Any) {
+            return Ok(Some(t));
+        }
+        relaxed
+    } else {
+        check
+    };
     // When nothing at all is plausible, whatever the CBV does a replayed
     // agent runs into it, and the same two steps are taken counting only
     // its own faults.

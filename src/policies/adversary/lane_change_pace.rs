@@ -7,7 +7,12 @@
 //! Under the rule a token whose own states move the CBV sideways faster
 //! than [`HUMAN_LANE_CHANGE_MAX_SIDEWAYS_MPS`] is implausible; a CBV that
 //! moves faster already (a recording that starts so, or a fallback token)
-//! must slow its sideways pace with each token.
+//! must slow its sideways pace with each token. The rule holds a token
+//! only where the CBV's pace is measured when the token starts: out of an
+//! intersection, or driving off, the CBV enters its lane unbounded, and is
+//! then held to slow down. Where the rule leaves no token plausible, the
+//! choice drops it before any other rule (the fallbacks after it let the
+//! CBV run into traffic or leave the road).
 //!
 //! The sideways speed is the map's
 //! ([`RoadMap::sideways_speed_at`]): the CBV's speed times the sine of its
@@ -33,7 +38,14 @@ const SLOW_DOWN_MIN_GAIN_MPS: f64 = 1e-3;
 /// What the lane-change pace rule holds a CBV to at one token boundary.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(super) enum LaneChangePaceHold {
-    /// Nothing: the rule does not bound the sideways pace.
+    /// Nothing: the rule does not bound the sideways pace, or the CBV's
+    /// pace is not measured now (inside an intersection, off the lanes of
+    /// its way, or under 3 m/s). A turn ends at an angle to the lane it
+    /// turns into, and driving off from a standstill starts at one: neither
+    /// is a lane change, and held to the pace from the token's first state
+    /// every token broke the rule (seen on WOMD interactive: a CBV leaving
+    /// an intersection at 13 m/s, where then only the fallbacks were left
+    /// and it drove off the road).
     NotHeld,
     /// A CBV at a human pace: no state of a token may move it sideways
     /// faster than [`HUMAN_LANE_CHANGE_MAX_SIDEWAYS_MPS`].
@@ -52,9 +64,10 @@ impl LaneChangePaceHold {
         if !rule.paces_lane_changes() {
             return Self::NotHeld;
         }
-        match too_brisk(map, now) {
-            None => Self::KeepPace,
-            Some(sideways_mps) => Self::SlowDown { sideways_mps },
+        match sideways_speed_mps(map, now) {
+            None => Self::NotHeld,
+            Some(sideways_mps) if sideways_mps > HUMAN_LANE_CHANGE_MAX_SIDEWAYS_MPS => Self::SlowDown { sideways_mps },
+            Some(_) => Self::KeepPace,
         }
     }
 
@@ -76,12 +89,17 @@ impl LaneChangePaceHold {
     }
 }
 
-/// The sideways speed of a CBV in `state` across its lanes, m/s, where it
-/// is above [`HUMAN_LANE_CHANGE_MAX_SIDEWAYS_MPS`] (`None`: at a human
-/// pace, or not measured).
-fn too_brisk(map: &RoadMap, state: &AgentState) -> Option<f64> {
+/// The sideways speed of a CBV in `state` across its lanes, m/s (`None`:
+/// not measured).
+fn sideways_speed_mps(map: &RoadMap, state: &AgentState) -> Option<f64> {
     map.sideways_speed_at(&state.position, state.heading_rad, state.speed_mps())
-        .filter(|&v| v > HUMAN_LANE_CHANGE_MAX_SIDEWAYS_MPS)
+}
+
+/// [`sideways_speed_mps`] where it is above
+/// [`HUMAN_LANE_CHANGE_MAX_SIDEWAYS_MPS`] (`None`: at a human pace, or not
+/// measured).
+fn too_brisk(map: &RoadMap, state: &AgentState) -> Option<f64> {
+    sideways_speed_mps(map, state).filter(|&v| v > HUMAN_LANE_CHANGE_MAX_SIDEWAYS_MPS)
 }
 
 #[cfg(test)]
@@ -126,5 +144,9 @@ mod tests {
         assert_eq!(hold.first_breach(&map, &[slower, brisker]), Some(1));
         // Without the rule nothing breaks.
         assert_eq!(LaneChangePaceHold::NotHeld.first_breach(&map, &[brisker]), None);
+        // Nor where the pace is not measured now: under 3 m/s (driving off
+        // at an angle to the lane) the hold starts at the next token.
+        let driving_off = car(y, 30.0, 2.0);
+        assert_eq!(LaneChangePaceHold::of(rule, &map, &driving_off), LaneChangePaceHold::NotHeld);
     }
 }

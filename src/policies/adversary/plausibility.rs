@@ -201,6 +201,17 @@ impl<'w> PlausibilityCheck<'w> {
         Self { traffic_direction, across_lanes, lane_change_pace, ..self }
     }
 
+    /// Whether the lane-change pace rule holds the CBV for this token.
+    pub(super) fn paces_lane_changes(&self) -> bool {
+        self.lane_change_pace != LaneChangePaceHold::NotHeld
+    }
+
+    /// This check without the lane-change pace rule: what the choice
+    /// judges by once that rule leaves no token plausible.
+    pub(super) fn without_lane_change_pace(self) -> Self {
+        Self { lane_change_pace: LaneChangePaceHold::NotHeld, ..self }
+    }
+
     /// Whether the CBV, hit by `theirs` at `at`, cut in: it was hit from
     /// behind (or standing) in a lane that neither holds nor continues
     /// any of its lanes now. nuPlan does not blame a car hit from behind,
