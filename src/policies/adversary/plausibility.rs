@@ -261,17 +261,22 @@ impl<'w> PlausibilityCheck<'w> {
         // judged along the road check's path: a token that leaves the CBV
         // heading into the oncoming lanes faster than braking can stop it
         // is as good as in them (see the `wrong_way` module).
+        // Sideways faster than a recorded lane change, or not slowing to it
+        // (see the `lane_change_pace` module). A check for any violation
+        // asks it first: a few lane queries on the token's own states,
+        // which in a lane change reject most of the tokens the
+        // plausibility fallback ranks before their contacts and their
+        // paths to a standstill are worked out.
+        let brisk = || self.lane_change_pace.first_breach(map, rollout);
         let wrong_way = || {
             let against = self.traffic_direction.first_breach(map, rollout, moving_path);
             // Across the lanes on the token's own states, or not turning back
             // towards them (see the `wrong_way` module).
             let across = || self.across_lanes.first_breach(map, rollout);
-            // Sideways faster than a recorded lane change, or not slowing
-            // to it (see the `lane_change_pace` module).
-            let brisk = || self.lane_change_pace.first_breach(map, rollout);
             match wanted {
                 Violation::First => against.into_iter().chain(across()).chain(brisk()).min(),
-                Violation::Any => against.or_else(across).or_else(brisk),
+                // The pace is asked first (below).
+                Violation::Any => against.or_else(across),
             }
         };
         if !self.on_road_now {
@@ -284,7 +289,7 @@ impl<'w> PlausibilityCheck<'w> {
                 Violation::First => farther_off().into_iter().chain(wrong_way()).chain(contact(wanted)).min(),
                 // Whether at all (the answer is the same in any order):
                 // the contacts first, as below.
-                Violation::Any => contact(wanted).or_else(farther_off).or_else(wrong_way),
+                Violation::Any => brisk().or_else(|| contact(wanted)).or_else(farther_off).or_else(wrong_way),
             };
         }
         let off_road = |s: &AgentState| map.is_off_road_within_map(&s.position);
@@ -300,7 +305,8 @@ impl<'w> PlausibilityCheck<'w> {
             // is made. Then the road: the farthest state first (a path
             // that leaves the road ends off it), then the rest of the path
             // from the far end.
-            Violation::Any => contact(wanted)
+            Violation::Any => brisk()
+                .or_else(|| contact(wanted))
                 .or_else(|| {
                     let path = moving_path();
                     let (last, rest) = path.split_last()?;
