@@ -1790,3 +1790,46 @@ fn the_lane_change_table_quotes_its_outputs() {
     }
     assert_eq!(rows.len(), 10, "five methods on two sets");
 }
+
+#[test]
+fn the_human_lane_change_pace_table_quotes_its_outputs() {
+    let doc = repo_file("docs/benchmarks.md");
+    let rows = markdown_rows(
+        &doc,
+        "| set | planner | rule | output | CR | SR-crit | CBV at fault / off road | lane changes | p50 | p90 | max | recorded p50 / p90 | kills (held out) | ×log | ×log over resampled scenes | ×prior | ×prior over resampled scenes |",
+        "What the rule does",
+    );
+    let method = "safer-in-path-lookahead";
+    for row in &rows {
+        let file = row[3].trim_matches('`');
+        let output = repo_file(&format!("docs/evaluation/{file}"));
+        // variants, errors, CR, SR, SR-crit, ...
+        let main = labelled_row(&output, "SR-crit", method);
+        // CBV-bg coll, CBV at fault, of it: ped/cyc, CBV off-road, ...
+        let plausibility = labelled_row(&output, "CBV at fault", method);
+        // changed, p50, p90, max | recorded, p50, p90, max | ...
+        let lane_changes: Vec<String> =
+            labelled_row(&output, "changed", method).into_iter().filter(|c| c != "|").collect();
+        let kills = labelled_row(&output, "passed", method);
+        let ranges = labelled_row(&output, "95 %", method);
+        let quoted = [
+            main[2].clone(),
+            main[4].clone(),
+            format!("{} / {}", plausibility[1], plausibility[3]),
+            lane_changes[0].clone(),
+            lane_changes[1].clone(),
+            lane_changes[2].clone(),
+            lane_changes[3].clone(),
+            format!("{} / {}", lane_changes[5], lane_changes[6]),
+            format!("{} ({})", killed(&kills[1]), kills[3]),
+            kills[4].clone(),
+            ranges[0].clone(),
+            kills[5].clone(),
+            ranges[1].clone(),
+        ];
+        assert_eq!(row[4..], quoted[..], "{row:?} against {file}");
+        let rule_dir = if row[2] == "`along-the-lanes`" { "kill-ratios/" } else { "human-lane-changes/" };
+        assert!(file.starts_with(rule_dir), "{row:?}: the rule and the output disagree");
+    }
+    assert_eq!(rows.len(), 8, "two rules, two planners, two sets");
+}
