@@ -597,6 +597,22 @@ fn the_table_gives_the_cr_by_where_the_cbv_starts_as_the_json_report_does() {
     assert!(variants.iter().all(|v| v["cbv_start"].is_string()), "a variant without the CBV's start");
 }
 
+/// Each scene's recorded lane changes in a `--json` report (every variant
+/// of a scene carries the same), m/s.
+fn recorded_lane_changes_by_scene(report: &Value) -> std::collections::BTreeMap<&str, Vec<f64>> {
+    report["variants"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| {
+            let speeds = v["recorded_lane_changes_mps"]
+                .as_array()
+                .map_or(Vec::new(), |a| a.iter().map(|x| x.as_f64().unwrap()).collect());
+            (v["scenario"].as_str().unwrap(), speeds)
+        })
+        .collect()
+}
+
 #[test]
 fn the_table_gives_the_cbvs_sideways_speed_as_the_json_report_does_and_log_replay_matches_the_recording() {
     let methods = ["log", "safer-in-path"];
@@ -637,15 +653,7 @@ fn the_table_gives_the_cbvs_sideways_speed_as_the_json_report_does_and_log_repla
     // The lane changes: the CBVs that changed lanes, beside every recorded
     // vehicle that did in the same scenes, each scene once.
     let section = table.split("\nlane changes: sideways speed").nth(1).expect("the lane-change table");
-    let recorded_by_scene: std::collections::BTreeMap<&str, Vec<f64>> = variants
-        .iter()
-        .map(|v| {
-            let speeds = v["recorded_lane_changes_mps"]
-                .as_array()
-                .map_or(Vec::new(), |a| a.iter().map(|x| x.as_f64().unwrap()).collect());
-            (v["scenario"].as_str().unwrap(), speeds)
-        })
-        .collect();
+    let recorded_by_scene = recorded_lane_changes_by_scene(&report);
     let recorded: Vec<f64> = recorded_by_scene.values().flatten().copied().collect();
     assert!(!recorded.is_empty(), "no recorded vehicle changed lanes in the shipped NGSIM scenes");
     for method in methods {
@@ -762,17 +770,7 @@ fn the_human_lane_change_pace_is_the_90th_percentile_of_the_recorded_lane_change
         let held_out: Vec<&str> =
             report["held_out"]["scenes"].as_array().unwrap().iter().map(|s| s.as_str().unwrap()).collect();
         assert!(!held_out.is_empty(), "{set}: no held-out scene");
-        let by_scene: std::collections::BTreeMap<&str, Vec<f64>> = report["variants"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .map(|v| {
-                let speeds = v["recorded_lane_changes_mps"]
-                    .as_array()
-                    .map_or(Vec::new(), |a| a.iter().map(|x| x.as_f64().unwrap()).collect());
-                (v["scenario"].as_str().unwrap(), speeds)
-            })
-            .collect();
+        let by_scene = recorded_lane_changes_by_scene(&report);
         development.extend(by_scene.iter().filter(|(s, _)| !held_out.contains(s)).flat_map(|(_, v)| v.iter().copied()));
     }
     assert!(development.len() >= 100, "only {} recorded lane changes", development.len());

@@ -5,7 +5,9 @@
 //! in front of replayed traffic closing on it, and it runs into no one
 //! while it brakes after the token (and, under [`WrongWayRule::Forbidden`],
 //! it does not turn against a lane's traffic, then or while it brakes, or,
-//! against it already, heads back to a lane of its way);
+//! against it already, heads back to a lane of its way; under
+//! [`WrongWayRule::HumanLaneChanges`], it moves sideways across its lanes
+//! no faster than recorded drivers change lanes);
 //! with the fallback rule counting only the CBV's own faults
 //! ([`ContactRule`]).
 
@@ -257,10 +259,6 @@ impl<'w> PlausibilityCheck<'w> {
         // wrong-way checks, and only if one of them is come to.
         let moving = std::cell::OnceCell::new();
         let moving_path = || moving.get_or_init(|| Self::moving_path(&braking)).as_slice();
-        // Into a lane against its traffic (under the wrong-way rule),
-        // judged along the road check's path: a token that leaves the CBV
-        // heading into the oncoming lanes faster than braking can stop it
-        // is as good as in them (see the `wrong_way` module).
         // Sideways faster than a recorded lane change, or not slowing to it
         // (see the `lane_change_pace` module). A check for any violation
         // asks it first: a few lane queries on the token's own states,
@@ -268,6 +266,10 @@ impl<'w> PlausibilityCheck<'w> {
         // plausibility fallback ranks before their contacts and their
         // paths to a standstill are worked out.
         let brisk = || self.lane_change_pace.first_breach(map, rollout);
+        // Into a lane against its traffic (under the wrong-way rule),
+        // judged along the road check's path: a token that leaves the CBV
+        // heading into the oncoming lanes faster than braking can stop it
+        // is as good as in them (see the `wrong_way` module).
         let wrong_way = || {
             let against = self.traffic_direction.first_breach(map, rollout, moving_path);
             // Across the lanes on the token's own states, or not turning back
