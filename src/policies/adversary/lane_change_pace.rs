@@ -18,8 +18,9 @@
 //! ([`RoadMap::sideways_speed_at`]): the CBV's speed times the sine of its
 //! angle to the lanes of its way holding its centre, at 3 m/s or more,
 //! outside intersections. It is the measure the *lane changes* table holds
-//! for 0.5 s; the rule bounds it at every state, so a CBV under the rule
-//! never holds more.
+//! for 0.5 s; the rule bounds it at every state of the tokens it holds, so
+//! a lane change over it in that table is one the rule did not hold (out
+//! of an intersection) or gave up (where it left no token).
 
 use super::wrong_way::WrongWayRule;
 use crate::map::RoadMap;
