@@ -841,10 +841,8 @@ fn print_kills(
         rows.iter().find(|r| r.method == method && r.stage2_cbv == mode).and_then(|r| r.kills.as_ref()).map(count)
     };
     let ratio = |k: usize, of: Option<usize>| match of {
-        Some(0) if k > 0 => "inf".to_string(),
-        Some(0) => "-".to_string(),
-        Some(base) => format!("{:.2}", k as f64 / base as f64),
-        None => "-".to_string(),
+        Some(base) if k > 0 || base > 0 => ratio_cell(k as f64 / base as f64),
+        _ => "-".to_string(),
     };
     writeln!(
         out,
