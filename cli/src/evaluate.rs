@@ -303,7 +303,7 @@ fn print_plausibility(
     writeln!(out, "\nplausibility of the CBV, the seeds' variety and the reference planner:")?;
     writeln!(
         out,
-        "{:<w$} {:>12} {:>14} {:>15} {:>12} {:>14} {:>10} {:>13} {:>9} {:>12} {:>13} {:>10}",
+        "{:<w$} {:>12} {:>14} {:>15} {:>12} {:>14} {:>10} {:>13} {:>9} {:>12} {:>13} {:>10} {:>11}",
         "method",
         "CBV-bg coll",
         "CBV at fault",
@@ -315,12 +315,13 @@ fn print_plausibility(
         "distinct",
         "SR-witnessed",
         "across lanes",
-        "across s2"
+        "across s2",
+        "beyond grip"
     )?;
     for r in rows {
         writeln!(
             out,
-            "{:<w$} {:>12} {:>14} {:>15} {:>12} {:>14} {:>10} {:>13} {:>9} {:>12} {:>13} {:>10}",
+            "{:<w$} {:>12} {:>14} {:>15} {:>12} {:>14} {:>10} {:>13} {:>9} {:>12} {:>13} {:>10} {:>11}",
             name(r),
             fmt(r.cbv_background_collision_rate),
             fmt(r.cbv_at_fault_background_collision_rate),
@@ -332,7 +333,8 @@ fn print_plausibility(
             fmt(r.distinct_rate),
             fmt(r.sr_witnessed),
             fmt(r.cbv_across_lanes_rate),
-            fmt(r.cbv_across_lanes_rate_stage2)
+            fmt(r.cbv_across_lanes_rate_stage2),
+            fmt(r.cbv_beyond_grip_rate)
         )?;
     }
     Ok(())
@@ -771,6 +773,10 @@ fn print_legend(out: &mut dyn Write) -> std::io::Result<()> {
     writeln!(
         out,
         "across lanes: share of variants whose CBV drove across the lanes for 1 s or more in stage 1 (s2: in stage 2): at 3 m/s or more, more than 30° from every lane its centre was in, outside intersections (a brisk lane change turns 5–10°); the `log` row is the recorded CBV."
+    )?;
+    writeln!(
+        out,
+        "beyond grip: share of variants whose CBV, in stage 1, turned harder than a car's tyres hold: its heading change over 0.5 s per second times its mean speed over them above 9 m/s² (the ego's default `max_lateral_accel_mps2`); the `log` row is the recorded CBV."
     )?;
     writeln!(
         out,

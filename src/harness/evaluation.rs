@@ -341,6 +341,11 @@ pub struct MethodRow {
     /// The same in stage 2, against the planner's ego.
     #[serde(default)]
     pub cbv_across_lanes_rate_stage2: Option<f64>,
+    /// Share of variants whose CBV turned harder than a car's tyres hold
+    /// in stage 1 ([`SuiteMetrics::cbv_beyond_grip_rate`]; older reports
+    /// lack it: read as unknown).
+    #[serde(default)]
+    pub cbv_beyond_grip_rate: Option<f64>,
     /// How briskly the CBV moved across its lanes in stage 1
     /// ([`SuiteMetrics::cbv_sideways`]; older reports lack it: read as
     /// unknown).
@@ -1064,6 +1069,7 @@ fn table_of(
                 cbv_wrong_way_rate: metrics.cbv_wrong_way_rate,
                 cbv_wrong_way_rate_stage2: metrics.cbv_wrong_way_rate_stage2,
                 cbv_across_lanes_rate: metrics.cbv_across_lanes_rate,
+                cbv_beyond_grip_rate: metrics.cbv_beyond_grip_rate,
                 cbv_across_lanes_rate_stage2: metrics.cbv_across_lanes_rate_stage2,
                 cbv_sideways: metrics.cbv_sideways,
                 logged_cbv_sideways: metrics.logged_cbv_sideways,

@@ -29,6 +29,7 @@ use crate::eval::traffic_rules::{ACROSS_LANES_MIN_S, across_lanes_of, wrong_way_
 use crate::eval::{ConflictKind, Histogram, jensen_shannon, rollout_conflict};
 use crate::geometry::wrap_angle;
 use crate::map::RoadMap;
+use crate::motion::vehicle_limits::DEFAULT_MAX_LATERAL_ACCEL_MPS2;
 use crate::scenario::{AgentKind, AgentState, Scenario, TrackIndex};
 use crate::sim::EgoContact;
 use crate::sim::Rollout;
@@ -55,6 +56,12 @@ pub struct KinematicSamples {
     /// it).
     #[serde(default)]
     pub changed_lanes: Option<bool>,
+    /// The largest lateral acceleration over [`YAW_RATE_WINDOW_S`]
+    /// between present steps that far apart: the heading change per
+    /// second times the mean of the two steps' speeds, m/s² (`None` when
+    /// never measured: older reports lack it).
+    #[serde(default)]
+    pub peak_lateral_accel_mps2: Option<f64>,
 }
 
 /// The window yaw rates are measured over, s: recorded headings jitter
@@ -68,14 +75,18 @@ impl KinematicSamples {
     pub fn of_states(states: impl IntoIterator<Item = Option<AgentState>>, dt_s: f64) -> Self {
         let states: Vec<Option<AgentState>> = states.into_iter().collect();
         let window = ((YAW_RATE_WINDOW_S / dt_s).round() as usize).max(1);
-        let yaw_rates_radps = states
+        let windows: Vec<(&AgentState, &AgentState)> = states
             .iter()
             .zip(states.iter().skip(window))
-            .filter_map(|(a, b)| Some(wrap_angle(b.as_ref()?.heading_rad - a.as_ref()?.heading_rad)))
-            .map(|dh| dh / (window as f64 * dt_s))
+            .filter_map(|(a, b)| Some((a.as_ref()?, b.as_ref()?)))
             .collect();
+        let yaw_rate =
+            |(a, b): &(&AgentState, &AgentState)| wrap_angle(b.heading_rad - a.heading_rad) / (window as f64 * dt_s);
+        let yaw_rates_radps = windows.iter().map(yaw_rate).collect();
+        let peak_lateral_accel_mps2 =
+            windows.iter().map(|w| yaw_rate(w).abs() * 0.5 * (w.0.speed_mps() + w.1.speed_mps())).reduce(f64::max);
         let speeds = states.iter().map(|s| s.map(|s| s.speed_mps()));
-        KinematicSamples { yaw_rates_radps, ..Self::of_speeds(speeds, dt_s) }
+        KinematicSamples { yaw_rates_radps, peak_lateral_accel_mps2, ..Self::of_speeds(speeds, dt_s) }
     }
 
     /// These samples with the held sideways speed of the same `states`
@@ -98,6 +109,7 @@ impl KinematicSamples {
             yaw_rates_radps: Vec::new(),
             held_sideways_mps: None,
             changed_lanes: None,
+            peak_lateral_accel_mps2: None,
         }
     }
 }
@@ -393,6 +405,11 @@ pub struct SuiteMetrics {
     pub cbv_across_lanes_rate: Option<f64>,
     /// The same in stage 2, against the planner's ego.
     pub cbv_across_lanes_rate_stage2: Option<f64>,
+    /// Share of variants whose CBV turned harder than a car's tyres hold
+    /// in stage 1: its peak lateral acceleration
+    /// ([`KinematicSamples::peak_lateral_accel_mps2`]) over
+    /// [`DEFAULT_MAX_LATERAL_ACCEL_MPS2`].
+    pub cbv_beyond_grip_rate: Option<f64>,
     /// How briskly the CBV moved across its lanes in stage 1: the spread
     /// of each variant's largest sideways speed held for
     /// [`SIDEWAYS_HELD_S`](crate::eval::sideways_speed::SIDEWAYS_HELD_S) (`None` when none was measured).
@@ -547,6 +564,7 @@ impl SuiteMetrics {
         let mut at_fault_vulnerable = 0;
         let (mut wrong_way, mut wrong_way_stage2) = (0, 0);
         let (mut across_lanes, mut across_lanes_stage2) = (0, 0);
+        let mut beyond_grip = 0;
         let (mut reached, mut reached_critical, mut avoidable, mut avoidable_solved, mut no_escape) = (0, 0, 0, 0, 0);
         let mut no_escape_with_others = 0;
         let (mut gv, mut ga, mut lv, mut la) =
@@ -581,6 +599,9 @@ impl SuiteMetrics {
                 cbv.logged.accels_mps2.iter().for_each(|a| la.add(*a));
                 cbv.generated.yaw_rates_radps.iter().for_each(|y| gy.add(*y));
                 cbv.logged.yaw_rates_radps.iter().for_each(|y| ly.add(*y));
+                beyond_grip += usize::from(
+                    cbv.generated.peak_lateral_accel_mps2.is_some_and(|a| a > DEFAULT_MAX_LATERAL_ACCEL_MPS2),
+                );
                 generated_sideways.extend(cbv.generated.held_sideways_mps);
                 logged_sideways.extend(cbv.logged.held_sideways_mps);
                 if cbv.generated.changed_lanes == Some(true) {
@@ -605,6 +626,7 @@ impl SuiteMetrics {
             cbv_wrong_way_rate_stage2: share(wrong_way_stage2, n),
             cbv_across_lanes_rate: share(across_lanes, n),
             cbv_across_lanes_rate_stage2: share(across_lanes_stage2, n),
+            cbv_beyond_grip_rate: share(beyond_grip, n),
             cbv_sideways: SidewaysSpread::of(generated_sideways),
             logged_cbv_sideways: SidewaysSpread::of(logged_sideways),
             cbv_lane_change_sideways: SidewaysSpread::of(lane_change_sideways),
@@ -1015,5 +1037,33 @@ mod tests {
         assert_eq!(s.yaw_rates_radps.len(), 2, "{:?}", s.yaw_rates_radps);
         assert!(s.yaw_rates_radps.iter().all(|y| (y - 0.2).abs() < 1e-9), "{:?}", s.yaw_rates_radps);
         assert_eq!(s.speeds_mps.len(), 7);
+    }
+
+    #[test]
+    fn the_peak_lateral_acceleration_counts_a_cbv_beyond_grip() {
+        use crate::geometry::{Point2, Vector2};
+        // Ten 0.1 s steps at `speed`, turning at `yaw_rate` from step `from`.
+        let samples = |speed: f64, yaw_rate: f64, from: usize| {
+            let states = (0..10usize).map(|k| {
+                let heading_rad = yaw_rate * 0.1 * k.saturating_sub(from) as f64;
+                let velocity_mps = Vector2::new(heading_rad.cos(), heading_rad.sin()) * speed;
+                Some(AgentState { position: Point2::origin(), heading_rad, velocity_mps })
+            });
+            KinematicSamples::of_states(states, 0.1)
+        };
+        // 10 m/s at 1 rad/s over a whole 0.5 s window: 10 m/s²; over one
+        // 0.1 s step of a window, a fifth of it.
+        let beyond = samples(10.0, 1.0, 0);
+        assert!((beyond.peak_lateral_accel_mps2.unwrap() - 10.0).abs() < 1e-9, "{beyond:?}");
+        let brief = samples(10.0, 1.0, 8);
+        assert!((brief.peak_lateral_accel_mps2.unwrap() - 2.0).abs() < 1e-9, "{brief:?}");
+        let within = samples(10.0, 0.85, 0);
+        assert_eq!(KinematicSamples::of_speeds([Some(1.0)], 0.1).peak_lateral_accel_mps2, None);
+        let tally = |generated: KinematicSamples| VariantTally {
+            cbv: Some(CbvKinematics { generated, ..CbvKinematics::default() }),
+            ..VariantTally::default()
+        };
+        let tallies = [tally(beyond), tally(brief), tally(within), VariantTally::default()];
+        assert_eq!(SuiteMetrics::aggregate(&tallies).cbv_beyond_grip_rate, Some(0.25));
     }
 }

@@ -67,11 +67,16 @@ impl Default for VehicleLimits {
             max_curvature_per_m: 1.0,
             max_reverse_speed_mps: 3.0,
             max_position_error_m: 0.5,
-            max_lateral_accel_mps2: 9.0,
+            max_lateral_accel_mps2: DEFAULT_MAX_LATERAL_ACCEL_MPS2,
             max_lateral_slip_m: 0.5,
         }
     }
 }
+
+/// The default [`VehicleLimits::max_lateral_accel_mps2`], m/s²: about what
+/// a road car's tyres hold on dry asphalt. The adversary's CBV is held to
+/// it as well.
+pub const DEFAULT_MAX_LATERAL_ACCEL_MPS2: f64 = 9.0;
 
 /// The lateral acceleration the built-in planners keep within, m/s²: a
 /// margin under the default [`VehicleLimits::max_lateral_accel_mps2`], so

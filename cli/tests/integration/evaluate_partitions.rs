@@ -819,3 +819,37 @@ fn at_a_human_lane_change_pace_the_cbv_does_not_run_into_traffic_where_the_pace_
         assert_eq!(v["cbv_off_road_s"].as_f64(), Some(0.0), "seed {}: the CBV left the road", v["seed"]);
     }
 }
+
+#[test]
+#[cfg_attr(not(recorded_data), ignore = "needs recorded data: set SAFER_DATA_DIR (docs/guide/recorded-data.md)")]
+fn the_cbv_turns_within_the_tyres_grip() {
+    // A WOMD interactive scene where, before the plausibility rule held the
+    // CBV to 9 m/s² sideways, `safer` turned beyond it in 5 of 10 seeds and
+    // `safer-in-path` in 7 (up to 23 m/s²).
+    let scenes = crate::shared_data::data_dir().join("womd-interactive");
+    let json = tempfile_dir("within-grip").join("report.json");
+    ok(safer(&[
+        "evaluate",
+        "--scenes",
+        scenes.to_str().unwrap(),
+        "--scene",
+        "a914f739b8916d61",
+        "--methods",
+        "safer,safer-in-path",
+        "--seeds",
+        "10",
+        "--json",
+        json.to_str().unwrap(),
+    ]));
+    let report: Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let variants = report["variants"].as_array().unwrap();
+    assert_eq!(variants.len(), 20);
+    for v in variants {
+        let peak = v["tally"]["cbv"]["generated"]["peak_lateral_accel_mps2"].as_f64();
+        let peak = peak.unwrap_or_else(|| panic!("{} seed {}: no peak lateral acceleration", v["method"], v["seed"]));
+        assert!(peak <= 9.0, "{} seed {}: the CBV pulled {peak:.2} m/s² sideways", v["method"], v["seed"]);
+    }
+    for row in report["rows"].as_array().unwrap() {
+        assert_eq!(row["cbv_beyond_grip_rate"].as_f64(), Some(0.0), "{}", row["method"]);
+    }
+}

@@ -25,7 +25,9 @@
 //!   on followers, no stopping in the way of crossing traffic), when a
 //!   replayed agent would run into the CBV in the 2 s after that with the
 //!   CBV keeping its speed (replay cannot yield: no slowing down in front
-//!   of traffic closing fast), or when the
+//!   of traffic closing fast), when it turns the CBV harder than a car's
+//!   tyres hold (more than 9 m/s² sideways, the ego's own default limit;
+//!   beyond the paper, see `grip`), or when the
 //!   CBV, braking as hard as it can after the token (holding its
 //!   curvature, as a driver braking in a bend does), would leave the road
 //!   before it stands, or run into one within 2 s (at fault as the
@@ -68,7 +70,7 @@
 //! One file per concept: the [`Adversary`] policy (`policy`), the
 //! approach phase (`approach`), SaFeR's choice ([`safer_choice`],
 //! `choice`) and the lookahead of `safer-lookahead` (`lookahead`), V_h of
-//! candidate states (`feasibility`), the ego's room to escape among the traffic (`escape_room`), which contacts with the ego it may make (`ego_contact`), whether it may drive against the traffic (`wrong_way`) and the witness asked before a contact (`contact_witness`), what a candidate's loss measures (`objective`) with the in-path and cut-in losses (`in_path`), the CBV's states under a token
+//! candidate states (`feasibility`), the tyres' grip (`grip`), the ego's room to escape among the traffic (`escape_room`), which contacts with the ego it may make (`ego_contact`), whether it may drive against the traffic (`wrong_way`) and the witness asked before a contact (`contact_witness`), what a candidate's loss measures (`objective`) with the in-path and cut-in losses (`in_path`), the CBV's states under a token
 //! (`rollout`), the [`BackgroundForecast`], and the plausibility check
 //! (`plausibility`, with its broad phase in `broad_phase`), how late it sees
 //! the ego (`reaction`); and the
@@ -85,6 +87,7 @@ mod continuations;
 mod ego_contact;
 mod escape_room;
 mod feasibility;
+mod grip;
 mod in_path;
 mod lane_change_pace;
 mod lookahead;

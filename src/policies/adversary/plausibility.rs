@@ -1,6 +1,7 @@
 //! The plausibility check ([`PlausibilityCheck`]): whether a candidate
 //! token keeps the CBV a plausible road user (the rule in the module's
-//! documentation): it stays on the road with room to stop on it, it
+//! documentation): it turns no harder than a car's tyres hold, it stays
+//! on the road with room to stop on it, it
 //! touches no background agent while it holds the token, it does not slow
 //! in front of replayed traffic closing on it, and it runs into no one
 //! while it brakes after the token (and, under [`WrongWayRule::Forbidden`],
@@ -13,6 +14,7 @@
 
 use super::background_forecast::BackgroundForecast;
 use super::broad_phase::Bounds;
+use super::grip::first_beyond_grip;
 use super::lane_change_pace::LaneChangePaceHold;
 use super::rollout::{BRAKING_CHECK_STEPS, braking_after, continued_after, token_rollout};
 use super::wrong_way::{AcrossLanesHold, TrafficDirectionHold, WrongWayRule};
@@ -251,6 +253,19 @@ impl<'w> PlausibilityCheck<'w> {
     /// A step at which `rollout` breaks the rule: the first one, or (for
     /// [`Violation::Any`]) the first one the checks come to.
     fn violation(&self, rollout: &[AgentState], wanted: Violation, rule: ContactRule) -> Option<usize> {
+        // Beyond the tyres' grip (see the `grip` module): no car drives
+        // it, whatever the rules. Asked first: a product a step.
+        let beyond_grip = self.cbv_now.as_ref().and_then(|now| first_beyond_grip(now, rollout));
+        match wanted {
+            Violation::Any if beyond_grip.is_some() => beyond_grip,
+            Violation::Any => self.rule_violation(rollout, wanted, rule),
+            Violation::First => beyond_grip.into_iter().chain(self.rule_violation(rollout, wanted, rule)).min(),
+        }
+    }
+
+    /// [`Self::violation`] of the rules of the road and of the traffic
+    /// (all but the grip).
+    fn rule_violation(&self, rollout: &[AgentState], wanted: Violation, rule: ContactRule) -> Option<usize> {
         let end = rollout.last()?;
         let map = self.world.map;
         let braking: Vec<AgentState> = rollout.iter().copied().chain(braking_after(rollout)).collect();
