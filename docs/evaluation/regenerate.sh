@@ -214,6 +214,13 @@
 #                     human-lane-changes/: kill-ratios/'s four runs with the CBV's lane changes
 #                     also held to recorded drivers' sideways pace (--wrong-way
 #                     human-lane-changes) (about 45 minutes)
+#   grip              grip/: the CBV held within the tyres' grip (the plausibility rule's bound of
+#                     9 m/s² sideways): the paper's protocol on WOMD interactive, log replay,
+#                     the prior, safer and safer-in-path over 20
+#                     (evaluate-womd-interactive.txt) and the lookahead over 28 with no
+#                     contact from behind (evaluate-womd-interactive-lookahead-n28.txt), and
+#                     kill-ratios/'s runs of the evasive planner
+#                     (mutants-{ngsim-n60,womd-interactive-n28}-evasive.txt) (about 25 minutes)
 #   mutants           mutants-{womd-interactive,womd-json,ngsim}-evasive.txt and
 #                     mutants-{womd-interactive,ngsim}-lane-follower.txt: the
 #                     faults of the planner each method's variants catch
@@ -229,7 +236,7 @@ self=$(realpath "$0")
 cd "$(dirname "$self")"
 all=(evaluate plain inattentive held-out-chance trust-region realism prior-fit n-sweep reactive n100 approach-none merging mutants wide-region cut-in
     in-path-lookahead in-path-lookahead-n30 in-path-lookahead-n28 in-path-lookahead-sweep pair-in-traffic witnessed wide-witnessed ten-seeds reaction-delay reactive-background leader first-contact both-pairings first-contact-lookahead blind-twin ego-contact wrong-way
-    lane-follower-pairings at-fault-planner along-the-lanes along-the-lanes-lane-follower sideways kill-ratios human-lane-changes)
+    lane-follower-pairings at-fault-planner along-the-lanes along-the-lanes-lane-follower sideways kill-ratios human-lane-changes grip)
 jobs=("$@")
 [[ ${#jobs[@]} -gt 0 ]] || jobs=("${all[@]}")
 # The usage is the comment block at the top of this file.
@@ -825,6 +832,17 @@ for job in "${jobs[@]}"; do
             run "human-lane-changes/mutants-${s#*:}-lane-follower-n60.txt" evaluate --scenes "data:${s%%:*}" \
                 "${lane_follower[@]}"
         done ;;
+    grip)
+        mkdir -p grip
+        run grip/evaluate-womd-interactive.txt evaluate --scenes data:womd-interactive --seeds 10 \
+            --methods log,prior,safer,safer-in-path
+        run grip/evaluate-womd-interactive-lookahead-n28.txt evaluate --scenes data:womd-interactive --seeds 10 \
+            --trust-region 28 --methods safer-in-path-lookahead --ego-contact not-from-behind
+        # kill-ratios/'s runs of the evasive planner.
+        along=("${along_the_lanes[@]}" --planner ../../planners/evasive.yaml)
+        run grip/mutants-ngsim-n60-evasive.txt evaluate --scenes data:commonroad-ngsim "${along[@]}" --trust-region 60
+        run grip/mutants-womd-interactive-n28-evasive.txt evaluate --scenes data:womd-interactive "${along[@]}" \
+            --trust-region 28 ;;
     esac
 done
 rm -r "$(dirname "$safer")"

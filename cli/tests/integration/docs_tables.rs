@@ -1833,3 +1833,68 @@ fn the_human_lane_change_pace_table_quotes_its_outputs() {
     }
     assert_eq!(rows.len(), 8, "two rules, two planners, two sets");
 }
+
+#[test]
+fn the_grip_tables_quote_their_outputs() {
+    let doc = repo_file("docs/benchmarks.md");
+    let arrow = |without: &str, with: &str| format!("{without} → {with}");
+    // The paper's protocol: the "with" side's every cell, the "without"
+    // side's from the outputs made before the rule (which lack the
+    // beyond-grip column).
+    let rows = markdown_rows(
+        &doc,
+        "| method | n | ego contact | output without | output with | beyond grip (without → with) |",
+        "The shipped lookahead suite's settings",
+    );
+    for row in &rows {
+        let method = method_of(&row[0]).unwrap();
+        let output = |cell: &str| repo_file(&format!("docs/evaluation/{}", cell.trim_matches('`')));
+        let (without, with) = (output(&row[3]), output(&row[4]));
+        let (before, after) = (labelled_row(&without, "SR-crit", method), labelled_row(&with, "SR-crit", method));
+        let grip = labelled_row(&with, "beyond grip", method);
+        let figures = |cells: &[String]| format!("{} / {} / {}", cells[6], cells[7], cells[8]);
+        let beyond_before = row[5].split(" → ").next().unwrap().to_owned();
+        let quoted = [
+            arrow(&beyond_before, grip.last().unwrap()),
+            arrow(&before[2], &after[2]),
+            arrow(&before[3], &after[3]),
+            arrow(&before[4], &after[4]),
+            arrow(&figures(&before), &figures(&after)),
+        ];
+        assert_eq!(row[5..], quoted[..], "{row:?}");
+        assert_eq!(grip.last().unwrap(), "0.000", "{row:?}: a CBV beyond grip with the rule");
+    }
+    assert_eq!(rows.len(), 3);
+    // The shipped lookahead suite's settings: kill-ratios/ without, grip/ with.
+    let rows = markdown_rows(&doc, "| set | n | beyond grip (without → with) | CR | SR-crit |", "The CBV never turns beyond grip");
+    let method = "safer-in-path-lookahead";
+    for row in &rows {
+        let file = match row[0].as_str() {
+            "NGSIM" => "mutants-ngsim-n60-evasive.txt",
+            "WOMD interactive" => "mutants-womd-interactive-n28-evasive.txt",
+            other => panic!("no output for {other}"),
+        };
+        let figures = |dir: &str| {
+            let output = repo_file(&format!("docs/evaluation/{dir}/{file}"));
+            let main = labelled_row(&output, "SR-crit", method);
+            let reach = labelled_row(&output, "reach-crit", method);
+            let kills = labelled_row(&output, "passed", method);
+            let ranges = labelled_row(&output, "95 %", method);
+            [
+                main[2].clone(),
+                main[4].clone(),
+                main[5].clone(),
+                reach[1].clone(),
+                format!("{} ({})", killed(&kills[1]), kills[3]),
+                format!("{} ({})", kills[4], ranges[0]),
+                format!("{} ({})", kills[5], ranges[1]),
+            ]
+        };
+        let (before, after) = (figures("kill-ratios"), figures("grip"));
+        let quoted: Vec<String> = before.iter().zip(&after).map(|(b, a)| arrow(b, a)).collect();
+        assert_eq!(row[3..], quoted[..], "{row:?}");
+        let grip = labelled_row(&repo_file(&format!("docs/evaluation/grip/{file}")), "beyond grip", method);
+        assert_eq!(row[2].split(" → ").nth(1), grip.last().map(String::as_str), "{row:?}");
+    }
+    assert_eq!(rows.len(), 2);
+}
