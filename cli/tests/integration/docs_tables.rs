@@ -1866,7 +1866,11 @@ fn the_grip_tables_quote_their_outputs() {
     }
     assert_eq!(rows.len(), 3);
     // The shipped lookahead suite's settings: kill-ratios/ without, grip/ with.
-    let rows = markdown_rows(&doc, "| set | n | beyond grip (without → with) | CR | SR-crit |", "The CBV never turns beyond grip");
+    let rows = markdown_rows(
+        &doc,
+        "| set | n | beyond grip (without → with) | CR | SR-crit |",
+        "The CBV never turns beyond grip",
+    );
     let method = "safer-in-path-lookahead";
     for row in &rows {
         let file = match row[0].as_str() {
