@@ -4,9 +4,10 @@
 //! much again as a road car's tyres hold on dry asphalt. The prior, which
 //! learned recorded driving, rarely ranks such a token high, but the
 //! adversary's losses pick the trust region's extremes, and without this
-//! bound the in-path CBVs of WOMD interactive turned beyond grip at some
-//! step in about one variant in eight (up to 24 m/s²). A car cannot drive
-//! such a token, so it is implausible for the CBV as leaving the road is.
+//! bound the in-path CBVs of WOMD interactive turned beyond grip in one
+//! variant in 12 (`safer-in-path`) to one in 9 (its lookahead), at more
+//! than 20 m/s² in some. A car cannot drive such a token, so it is
+//! implausible for the CBV as leaving the road is.
 //!
 //! The bound is the default of the ego's own limits
 //! ([`DEFAULT_MAX_LATERAL_ACCEL_MPS2`]), measured as the limits measure
