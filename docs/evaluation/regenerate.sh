@@ -219,8 +219,8 @@
 #                     the prior, safer and safer-in-path over 20
 #                     (evaluate-womd-interactive.txt) and the lookahead over 28 with no
 #                     contact from behind (evaluate-womd-interactive-lookahead-n28.txt), and
-#                     kill-ratios/'s runs of the evasive planner
-#                     (mutants-{ngsim-n60,womd-interactive-n28}-evasive.txt) (about 25 minutes)
+#                     kill-ratios/'s four runs (mutants-{ngsim-n60,womd-interactive-n28}-evasive.txt,
+#                     mutants-{ngsim,womd-interactive}-lane-follower-n60.txt) (about 60 minutes)
 #   mutants           mutants-{womd-interactive,womd-json,ngsim}-evasive.txt and
 #                     mutants-{womd-interactive,ngsim}-lane-follower.txt: the
 #                     faults of the planner each method's variants catch
@@ -838,11 +838,15 @@ for job in "${jobs[@]}"; do
             --methods log,prior,safer,safer-in-path
         run grip/evaluate-womd-interactive-lookahead-n28.txt evaluate --scenes data:womd-interactive --seeds 10 \
             --trust-region 28 --methods safer-in-path-lookahead --ego-contact not-from-behind
-        # kill-ratios/'s runs of the evasive planner.
+        # kill-ratios/'s four runs.
         along=("${along_the_lanes[@]}" --planner ../../planners/evasive.yaml)
         run grip/mutants-ngsim-n60-evasive.txt evaluate --scenes data:commonroad-ngsim "${along[@]}" --trust-region 60
         run grip/mutants-womd-interactive-n28-evasive.txt evaluate --scenes data:womd-interactive "${along[@]}" \
-            --trust-region 28 ;;
+            --trust-region 28
+        for s in commonroad-ngsim:ngsim womd-interactive:womd-interactive; do
+            run "grip/mutants-${s#*:}-lane-follower-n60.txt" evaluate --scenes "data:${s%%:*}" \
+                "${along_the_lanes_lane_follower[@]}"
+        done ;;
     esac
 done
 rm -r "$(dirname "$safer")"

@@ -1868,15 +1868,17 @@ fn the_grip_tables_quote_their_outputs() {
     // The shipped lookahead suite's settings: kill-ratios/ without, grip/ with.
     let rows = markdown_rows(
         &doc,
-        "| set | n | beyond grip (without → with) | CR | SR-crit |",
-        "The CBV never turns beyond grip",
+        "| set | planner | n | beyond grip (without → with) | CR | SR-crit |",
+        "The CBV turns beyond grip only where",
     );
     let method = "safer-in-path-lookahead";
     for row in &rows {
-        let file = match row[0].as_str() {
-            "NGSIM" => "mutants-ngsim-n60-evasive.txt",
-            "WOMD interactive" => "mutants-womd-interactive-n28-evasive.txt",
-            other => panic!("no output for {other}"),
+        let file = match (row[0].as_str(), row[1].as_str()) {
+            ("NGSIM", "evasive") => "mutants-ngsim-n60-evasive.txt",
+            ("WOMD interactive", "evasive") => "mutants-womd-interactive-n28-evasive.txt",
+            ("NGSIM", "lane follower") => "mutants-ngsim-lane-follower-n60.txt",
+            ("WOMD interactive", "lane follower") => "mutants-womd-interactive-lane-follower-n60.txt",
+            other => panic!("no output for {other:?}"),
         };
         let figures = |dir: &str| {
             let output = repo_file(&format!("docs/evaluation/{dir}/{file}"));
@@ -1896,9 +1898,9 @@ fn the_grip_tables_quote_their_outputs() {
         };
         let (before, after) = (figures("kill-ratios"), figures("grip"));
         let quoted: Vec<String> = before.iter().zip(&after).map(|(b, a)| arrow(b, a)).collect();
-        assert_eq!(row[3..], quoted[..], "{row:?}");
+        assert_eq!(row[4..], quoted[..], "{row:?}");
         let grip = labelled_row(&repo_file(&format!("docs/evaluation/grip/{file}")), "beyond grip", method);
-        assert_eq!(row[2].split(" → ").nth(1), grip.last().map(String::as_str), "{row:?}");
+        assert_eq!(row[3].split(" → ").nth(1), grip.last().map(String::as_str), "{row:?}");
     }
-    assert_eq!(rows.len(), 2);
+    assert_eq!(rows.len(), 4, "two sets, two planners");
 }

@@ -5,8 +5,8 @@
 //! learned recorded driving, rarely ranks such a token high, but the
 //! adversary's losses pick the trust region's extremes, and without this
 //! bound the in-path CBVs of WOMD interactive turned beyond grip in one
-//! variant in 12 (`safer-in-path`) to one in 9 (its lookahead), at more
-//! than 20 m/s² in some. A car cannot drive such a token, so it is
+//! variant in 12 (`safer-in-path` over 20 behaviours) to one in 6 (its
+//! lookahead over 60), at more than 20 m/s² in some. A car cannot drive such a token, so it is
 //! implausible for the CBV as leaving the road is.
 //!
 //! The bound is the default of the ego's own limits
