@@ -253,18 +253,24 @@ impl<'w> PlausibilityCheck<'w> {
     /// A step at which `rollout` breaks the rule: the first one, or (for
     /// [`Violation::Any`]) the first one the checks come to.
     fn violation(&self, rollout: &[AgentState], wanted: Violation, rule: ContactRule) -> Option<usize> {
-        // Beyond the tyres' grip (see the `grip` module): no car drives
-        // it, whatever the rules. Asked first: a product a step.
-        let beyond_grip = self.cbv_now.as_ref().and_then(|now| first_beyond_grip(now, rollout));
+        // The token's own states first: beyond the tyres' grip (see the
+        // `grip` module), which no car drives whatever the rules, and
+        // sideways faster than a recorded lane change or not slowing to it
+        // (see the `lane_change_pace` module). A product a step and a few
+        // lane queries, which in a turn or a lane change reject most of the
+        // tokens the plausibility fallback ranks before their contacts and
+        // their paths to a standstill are worked out.
+        let beyond_grip = || self.cbv_now.as_ref().and_then(|now| first_beyond_grip(now, rollout));
+        let brisk = || self.lane_change_pace.first_breach(self.world.map, rollout);
+        let rules = || self.rule_violation(rollout, wanted, rule);
         match wanted {
-            Violation::Any if beyond_grip.is_some() => beyond_grip,
-            Violation::Any => self.rule_violation(rollout, wanted, rule),
-            Violation::First => beyond_grip.into_iter().chain(self.rule_violation(rollout, wanted, rule)).min(),
+            Violation::Any => beyond_grip().or_else(brisk).or_else(rules),
+            Violation::First => beyond_grip().into_iter().chain(brisk()).chain(rules()).min(),
         }
     }
 
     /// [`Self::violation`] of the rules of the road and of the traffic
-    /// (all but the grip).
+    /// (all but those on the token's own grip and sideways pace).
     fn rule_violation(&self, rollout: &[AgentState], wanted: Violation, rule: ContactRule) -> Option<usize> {
         let end = rollout.last()?;
         let map = self.world.map;
@@ -274,13 +280,6 @@ impl<'w> PlausibilityCheck<'w> {
         // wrong-way checks, and only if one of them is come to.
         let moving = std::cell::OnceCell::new();
         let moving_path = || moving.get_or_init(|| Self::moving_path(&braking)).as_slice();
-        // Sideways faster than a recorded lane change, or not slowing to it
-        // (see the `lane_change_pace` module). A check for any violation
-        // asks it first: a few lane queries on the token's own states,
-        // which in a lane change reject most of the tokens the
-        // plausibility fallback ranks before their contacts and their
-        // paths to a standstill are worked out.
-        let brisk = || self.lane_change_pace.first_breach(map, rollout);
         // Into a lane against its traffic (under the wrong-way rule),
         // judged along the road check's path: a token that leaves the CBV
         // heading into the oncoming lanes faster than braking can stop it
@@ -291,8 +290,7 @@ impl<'w> PlausibilityCheck<'w> {
             // towards them (see the `wrong_way` module).
             let across = || self.across_lanes.first_breach(map, rollout);
             match wanted {
-                Violation::First => against.into_iter().chain(across()).chain(brisk()).min(),
-                // The pace is asked first (below).
+                Violation::First => against.into_iter().chain(across()).min(),
                 Violation::Any => against.or_else(across),
             }
         };
@@ -306,7 +304,7 @@ impl<'w> PlausibilityCheck<'w> {
                 Violation::First => farther_off().into_iter().chain(wrong_way()).chain(contact(wanted)).min(),
                 // Whether at all (the answer is the same in any order):
                 // the contacts first, as below.
-                Violation::Any => brisk().or_else(|| contact(wanted)).or_else(farther_off).or_else(wrong_way),
+                Violation::Any => contact(wanted).or_else(farther_off).or_else(wrong_way),
             };
         }
         let off_road = |s: &AgentState| map.is_off_road_within_map(&s.position);
@@ -322,8 +320,7 @@ impl<'w> PlausibilityCheck<'w> {
             // is made. Then the road: the farthest state first (a path
             // that leaves the road ends off it), then the rest of the path
             // from the far end.
-            Violation::Any => brisk()
-                .or_else(|| contact(wanted))
+            Violation::Any => contact(wanted)
                 .or_else(|| {
                     let path = moving_path();
                     let (last, rest) = path.split_last()?;
