@@ -486,6 +486,7 @@ fn bench_variant(scenes: &[Scenario], repeat: usize) -> Result<Option<VariantBen
             feasibility: safer_scenarios::policies::adversary::FeasibilityScope::Pair,
             ego_contact: safer_scenarios::policies::adversary::EgoContactRule::Any,
             wrong_way: Default::default(),
+            turning: Default::default(),
         },
         seed: safer_scenarios::harness::variant::variant_seed(0, &format!("{}/{method:?}", scenario.id), 0),
         sim: &sim,

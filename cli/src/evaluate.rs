@@ -19,6 +19,7 @@ use rayon::prelude::*;
 
 use super::{CliError, scene_paths};
 use safer_scenarios::eval::sideways_speed::SidewaysSpread;
+use safer_scenarios::eval::spread::Spread;
 use safer_scenarios::eval::witness::{DEFAULT_WIDEST, RoadKeeping, WitnessBudget, search_rollout_witness};
 use safer_scenarios::harness::evaluation::{
     self, BlindTwinHits, CbvStartRows, EvaluationRequest, HeldOutSplit, MethodRow, Partition, Stage2Cbv, VariantRecord,
@@ -28,7 +29,9 @@ use safer_scenarios::harness::methods::BackgroundDriver;
 use safer_scenarios::harness::methods::ModelSet;
 use safer_scenarios::harness::mutation::{MethodKills, OFF_PATH_M, OperatorKills};
 use safer_scenarios::planners::FaultOperator;
-use safer_scenarios::policies::adversary::{ApproachPhase, EgoContactRule, FeasibilityScope, WrongWayRule};
+use safer_scenarios::policies::adversary::{
+    ApproachPhase, CbvTurningLimit, EgoContactRule, FeasibilityScope, WrongWayRule,
+};
 use safer_scenarios::scenario::roles::RolePairing;
 use safer_scenarios::scenario::{Scenario, import};
 use safer_scenarios::spec::suite::AdversaryMethod;
@@ -121,6 +124,24 @@ fn is_allowed(rule: &WrongWayRule) -> bool {
     *rule == WrongWayRule::Allowed
 }
 
+fn grip_mps2() -> f64 {
+    CbvTurningLimit::GRIP.max_lateral_accel_mps2()
+}
+
+fn is_grip(mps2: &f64) -> bool {
+    *mps2 == grip_mps2()
+}
+
+/// Parses `--max-lateral-accel`: above 0 and at most the tyres' grip.
+fn turning_limit(written: &str) -> Result<f64, String> {
+    let grip = grip_mps2();
+    let v: f64 =
+        written.trim().parse().map_err(|_| format!("`{written}` is not a number; expected 0 < x <= {grip}"))?;
+    CbvTurningLimit::new(v).map(CbvTurningLimit::max_lateral_accel_mps2).ok_or_else(|| {
+        format!("{v} is outside the accepted range 0 < x <= {grip} m/s² (no car turns harder than its tyres' grip)")
+    })
+}
+
 fn is_any_contact(rule: &EgoContactRule) -> bool {
     *rule == EgoContactRule::Any
 }
@@ -147,6 +168,9 @@ pub(super) struct EvaluationSettings {
     /// Reports written before the option existed allowed driving the wrong way.
     #[serde(default, skip_serializing_if = "is_allowed")]
     wrong_way: WrongWayRule,
+    /// Reports written before the option existed held the CBV to grip.
+    #[serde(default = "grip_mps2", skip_serializing_if = "is_grip")]
+    max_lateral_accel_mps2: f64,
     background: BackgroundDriver,
     stage2_cbv: Vec<Stage2Cbv>,
     horizon_s: f64,
@@ -176,6 +200,7 @@ impl EvaluationSettings {
             feasibility: request.feasibility,
             ego_contact: request.ego_contact,
             wrong_way: request.wrong_way,
+            max_lateral_accel_mps2: request.turning.max_lateral_accel_mps2(),
             background: request.background,
             stage2_cbv: request.stage2_cbv.clone(),
             horizon_s: request.horizon_s,
@@ -204,7 +229,7 @@ fn print_table(
     let name = |r: &MethodRow| label(r.method, r.stage2_cbv, modes);
     writeln!(
         out,
-        "{scenes} scenes × {} seeds; stage 2 planner `{}`, stage-2 CBV {}, trust region n = {}, horizon {} s{}{}{}{}{}{}{}",
+        "{scenes} scenes × {} seeds; stage 2 planner `{}`, stage-2 CBV {}, trust region n = {}, horizon {} s{}{}{}{}{}{}{}{}",
         request.seeds,
         request.planner,
         request.stage2_cbv.iter().map(safer_scenarios::spec::spec_name).collect::<Vec<_>>().join(" and "),
@@ -232,6 +257,11 @@ fn print_table(
                 "; no driving against the traffic or across the lanes, lane changes at a human pace"
             }
         },
+        if is_grip(&request.max_lateral_accel_mps2) {
+            String::new()
+        } else {
+            format!("; the CBV turning at most {} m/s²", request.max_lateral_accel_mps2)
+        },
         match witness.road {
             RoadKeeping::Centre => "",
             RoadKeeping::WholeWidth => "; the witness keeps its whole width on the road",
@@ -250,6 +280,7 @@ fn print_table(
     print_outcomes(out, rows, &name)?;
     print_plausibility(out, rows, &name)?;
     print_scenes_that_broke_the_rules(out, rows, &held_out.scenes, &name)?;
+    print_peak_lateral(out, rows, &name)?;
     print_sideways(out, rows, &name)?;
     print_lane_changes(out, rows, held_out, &name)?;
     print_held_out(out, &name, held_out)?;
@@ -340,6 +371,39 @@ fn print_plausibility(
     Ok(())
 }
 
+/// How hard each method's CBV turned in stage 1, beside the recorded CBV
+/// over the same steps.
+fn print_peak_lateral(
+    out: &mut dyn Write,
+    rows: &[MethodRow],
+    name: &dyn Fn(&MethodRow) -> String,
+) -> std::io::Result<()> {
+    let w = method_column(rows, name);
+    writeln!(
+        out,
+        "\nlateral acceleration of the CBV in stage 1 (each variant's peak over 0.5 s, m/s²), beside the recorded CBV's over the same steps:"
+    )?;
+    writeln!(
+        out,
+        "{:<w$} {:>9} {:>7} {:>7} {:>7} | {:>9} {:>7} {:>7} {:>7}",
+        "method", "measured", "p50", "p90", "max", "recorded", "p50", "p90", "max"
+    )?;
+    for r in rows {
+        let [n, p50, p90, max] = spread_cells(r.cbv_peak_lateral_accel_mps2);
+        let [ln, lp50, lp90, lmax] = spread_cells(r.logged_cbv_peak_lateral_accel_mps2);
+        writeln!(out, "{:<w$} {n:>9} {p50:>7} {p90:>7} {max:>7} | {ln:>9} {lp50:>7} {lp90:>7} {lmax:>7}", name(r))?;
+    }
+    Ok(())
+}
+
+/// A spread's cells: how many, median, 90th percentile, largest.
+fn spread_cells(spread: Option<Spread>) -> [String; 4] {
+    match spread {
+        Some(s) => [s.measured.to_string(), format!("{:.2}", s.p50), format!("{:.2}", s.p90), format!("{:.2}", s.max)],
+        None => ["0".into(), "—".into(), "—".into(), "—".into()],
+    }
+}
+
 /// How briskly each method's CBV moved across its lanes in stage 1,
 /// beside the recorded CBV over the same steps.
 fn print_sideways(out: &mut dyn Write, rows: &[MethodRow], name: &dyn Fn(&MethodRow) -> String) -> std::io::Result<()> {
@@ -364,15 +428,7 @@ fn print_sideways(out: &mut dyn Write, rows: &[MethodRow], name: &dyn Fn(&Method
 /// A sideways-speed spread's cells: how many, median, 90th percentile,
 /// largest.
 fn sideways_cells(spread: Option<SidewaysSpread>) -> [String; 4] {
-    match spread {
-        Some(s) => [
-            s.measured.to_string(),
-            format!("{:.2}", s.p50_mps),
-            format!("{:.2}", s.p90_mps),
-            format!("{:.2}", s.max_mps),
-        ],
-        None => ["0".into(), "—".into(), "—".into(), "—".into()],
-    }
+    spread_cells(spread.map(|s| Spread { measured: s.measured, p50: s.p50_mps, p90: s.p90_mps, max: s.max_mps }))
 }
 
 /// How briskly each method's CBV changed lanes in stage 1, beside the
@@ -777,6 +833,10 @@ fn print_legend(out: &mut dyn Write) -> std::io::Result<()> {
     writeln!(
         out,
         "beyond grip: share of variants whose CBV, in stage 1, turned harder than a car's tyres hold: its heading change over 0.5 s per second times its mean speed over them above 9 m/s² (the ego's default `max_lateral_accel_mps2`); the `log` row is the recorded CBV."
+    )?;
+    writeln!(
+        out,
+        "lateral acceleration: each variant's peak, in stage 1, of the CBV's heading change over 0.5 s per second times its mean speed over them (as beyond grip measures it; p90: nearest rank); recorded: the recorded CBV of the same variants over the same steps."
     )?;
     writeln!(
         out,
@@ -1645,6 +1705,9 @@ pub(crate) struct EvaluateArgs {
     /// Whether the SaFeR methods' CBV may drive against a lane's traffic: `allowed` (as the paper's method allows it); `forbidden` (beyond the paper), a token that turns the CBV into a lane against its traffic outside intersections (the ego's wrong-way rule, CARLA's WrongLaneTest), or after which braking would not keep it out of one, is implausible, as leaving the road is, and a CBV against the traffic already must end each token out of the oncoming lane or nearer a lane of its way; `along-the-lanes` (beyond the paper), as `forbidden`, and a token that takes the CBV across the lanes (at 3 m/s or more, more than 30° from every lane it is in, outside intersections) is implausible too, and a CBV across them already must end each token at a smaller angle to them or along them; `human-lane-changes` (beyond the paper), as `along-the-lanes`, and a token that moves the CBV sideways across its lanes faster than 1.7 m/s (the 90th percentile of recorded drivers' lane changes) is implausible too, and a CBV moving faster already must end each token slower sideways or within it.
     #[arg(long, value_parser = choice(WrongWayRule::ALL), default_value = "allowed")]
     pub(crate) wrong_way: WrongWayRule,
+    /// How hard the SaFeR methods' CBV may turn, m/s² (beyond the paper): a token that pulls it more sideways at some step (its speed times its yaw rate) is implausible, as leaving the road is. Above 0 and at most 9, the default: the tyres' grip, the ego's own default limit. Lower holds the CBV to how people turn: the lateral acceleration table sets the CBV's peaks beside the recorded CBV's.
+    #[arg(long, value_name = "M/S2", default_value_t = CbvTurningLimit::GRIP.max_lateral_accel_mps2(), value_parser = turning_limit)]
+    pub(crate) max_lateral_accel: f64,
     /// The CBV in stage 2: replaying its stage-1 trajectory, or driven by the method again against the planner's ego (closed-loop), or so with the CBV seeing the planner's ego a driver's reaction time (1 s) late, carried on at the velocity it had, so that it does not follow an escape as it begins (closed-loop-delayed, beyond the paper); `replay,closed-loop` reports both side by side. The default here is `replay`, so that every method's stage 2 meets the same recorded CBV path and the methods compare on equal terms (the paper does not say whether its CBV reacts in stage 2); suites default to `closed-loop` (`adversary.stage2_cbv`), because a planner test should meet a CBV that answers the planner.
     #[arg(long, value_parser = choice(Stage2Cbv::ALL), value_delimiter = ',', default_values = ["replay"])]
     pub(crate) stage2_cbv: Vec<Stage2Cbv>,
@@ -1700,6 +1763,7 @@ pub(crate) fn command(args: EvaluateArgs) -> Result<ExitCode, CliError> {
         feasibility,
         ego_contact,
         wrong_way,
+        max_lateral_accel,
         stage2_cbv,
         horizon_s,
         roles,
@@ -1728,6 +1792,7 @@ pub(crate) fn command(args: EvaluateArgs) -> Result<ExitCode, CliError> {
         feasibility,
         ego_contact,
         wrong_way,
+        turning: CbvTurningLimit::new(max_lateral_accel).unwrap_or_default(),
         background,
         stage2_cbv,
         escape: Some(escape),

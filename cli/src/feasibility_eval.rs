@@ -258,6 +258,7 @@ fn from_stage1(
         feasibility: Default::default(),
         ego_contact: Default::default(),
         wrong_way: Default::default(),
+        turning: Default::default(),
         background: Default::default(),
         stage2_cbv: vec![Stage2Cbv::Replay],
         escape: None,

@@ -197,6 +197,7 @@ pub(crate) fn command(args: TrustRegionArgs) -> Result<ExitCode, CliError> {
         feasibility: Default::default(),
         ego_contact: Default::default(),
         wrong_way: Default::default(),
+        turning: Default::default(),
         background: BackgroundDriver::Configured,
         stage2_cbv: vec![Stage2Cbv::Replay],
         escape: None,

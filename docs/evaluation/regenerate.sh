@@ -221,6 +221,10 @@
 #                     contact from behind (evaluate-womd-interactive-lookahead-n28.txt), and
 #                     kill-ratios/'s four runs (mutants-{ngsim-n60,womd-interactive-n28}-evasive.txt,
 #                     mutants-{ngsim,womd-interactive}-lane-follower-n60.txt) (about 60 minutes)
+#   turning           turning/: the CBV held to turning at most 4 m/s² sideways
+#                     (--max-lateral-accel 4, about the 95th percentile of the recorded CBVs'
+#                     peaks): grip/'s paper-protocol runs of safer, safer-in-path and the
+#                     lookahead, and its two evasive mutation runs (about 30 minutes)
 #   mutants           mutants-{womd-interactive,womd-json,ngsim}-evasive.txt and
 #                     mutants-{womd-interactive,ngsim}-lane-follower.txt: the
 #                     faults of the planner each method's variants catch
@@ -236,7 +240,7 @@ self=$(realpath "$0")
 cd "$(dirname "$self")"
 all=(evaluate plain inattentive held-out-chance trust-region realism prior-fit n-sweep reactive n100 approach-none merging mutants wide-region cut-in
     in-path-lookahead in-path-lookahead-n30 in-path-lookahead-n28 in-path-lookahead-sweep pair-in-traffic witnessed wide-witnessed ten-seeds reaction-delay reactive-background leader first-contact both-pairings first-contact-lookahead blind-twin ego-contact wrong-way
-    lane-follower-pairings at-fault-planner along-the-lanes along-the-lanes-lane-follower sideways kill-ratios human-lane-changes grip)
+    lane-follower-pairings at-fault-planner along-the-lanes along-the-lanes-lane-follower sideways kill-ratios human-lane-changes grip turning)
 jobs=("$@")
 [[ ${#jobs[@]} -gt 0 ]] || jobs=("${all[@]}")
 # The usage is the comment block at the top of this file.
@@ -847,6 +851,18 @@ for job in "${jobs[@]}"; do
             run "grip/mutants-${s#*:}-lane-follower-n60.txt" evaluate --scenes "data:${s%%:*}" \
                 "${along_the_lanes_lane_follower[@]}"
         done ;;
+    turning)
+        mkdir -p turning
+        turn=(--max-lateral-accel 4)
+        run turning/evaluate-womd-interactive.txt evaluate --scenes data:womd-interactive --seeds 10 \
+            --methods safer,safer-in-path "${turn[@]}"
+        run turning/evaluate-womd-interactive-lookahead-n28.txt evaluate --scenes data:womd-interactive --seeds 10 \
+            --trust-region 28 --methods safer-in-path-lookahead --ego-contact not-from-behind "${turn[@]}"
+        along=("${along_the_lanes[@]}" --planner ../../planners/evasive.yaml "${turn[@]}")
+        run turning/mutants-womd-interactive-n28-evasive.txt evaluate --scenes data:womd-interactive "${along[@]}" \
+            --trust-region 28
+        run turning/mutants-ngsim-n60-evasive.txt evaluate --scenes data:commonroad-ngsim "${along[@]}" \
+            --trust-region 60 ;;
     esac
 done
 rm -r "$(dirname "$safer")"

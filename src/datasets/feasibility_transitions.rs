@@ -416,6 +416,7 @@ pub fn run_episode(
                 feasibility: crate::policies::adversary::FeasibilityScope::Pair,
                 ego_contact: crate::policies::adversary::EgoContactRule::Any,
                 wrong_way: Default::default(),
+                turning: Default::default(),
             };
             crate::harness::methods::install(&mut sim, s, cbv, start, settings, models, maps, seed).ok()?;
             let mut planner = episode.ego_planner.instantiate(s, ego);

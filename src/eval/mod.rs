@@ -5,7 +5,8 @@
 //! the witness of a stage-2 collision when the CBV reacts to the ego;
 //! [`traffic_rules`] judges wrong-way driving and red-light running;
 //! [`cbv_start`] says where the CBV starts relative to the ego;
-//! [`sideways_speed`] how briskly a road user moves across its lanes.)
+//! [`sideways_speed`] how briskly a road user moves across its lanes;
+//! [`spread`] how a set of per-variant figures spreads.)
 
 pub mod cbv_start;
 pub mod conflict_kind;
@@ -17,6 +18,7 @@ pub mod prior_fit;
 pub mod progress;
 pub mod realism;
 pub mod sideways_speed;
+pub mod spread;
 pub mod traffic_rules;
 pub mod ttc;
 pub mod witness;

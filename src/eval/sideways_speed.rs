@@ -23,6 +23,8 @@
 
 use std::ops::RangeInclusive;
 
+use super::spread::Spread;
+
 use crate::map::{MapElementId, RoadMap};
 use crate::scenario::{AgentKind, AgentState, Scenario};
 
@@ -168,16 +170,7 @@ pub struct SidewaysSpread {
 impl SidewaysSpread {
     /// The spread of `speeds` (NaN left out); `None` for none.
     pub fn of(speeds: impl IntoIterator<Item = f64>) -> Option<Self> {
-        let mut sorted: Vec<f64> = speeds.into_iter().filter(|v| !v.is_nan()).collect();
-        sorted.sort_by(f64::total_cmp);
-        let n = sorted.len();
-        let nearest_rank = |p: f64| sorted[((p * n as f64).ceil() as usize).clamp(1, n) - 1];
-        (n > 0).then(|| Self {
-            measured: n,
-            p50_mps: nearest_rank(0.5),
-            p90_mps: nearest_rank(0.9),
-            max_mps: sorted[n - 1],
-        })
+        Spread::of(speeds).map(|s| Self { measured: s.measured, p50_mps: s.p50, p90_mps: s.p90, max_mps: s.max })
     }
 }
 

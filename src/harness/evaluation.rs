@@ -35,10 +35,11 @@ use super::variant::{CollisionEscape, VariantOutcome};
 use crate::eval::CbvStart;
 use crate::eval::escape::EscapeBudget;
 use crate::eval::sideways_speed::{SidewaysSpread, recorded_lane_changes_mps};
+use crate::eval::spread::Spread;
 use crate::eval::witness::Witness;
 use crate::planners::FaultOperator;
 use crate::policies::BackgroundPolicy;
-use crate::policies::adversary::{ApproachPhase, EgoContactRule, FeasibilityScope, WrongWayRule};
+use crate::policies::adversary::{ApproachPhase, CbvTurningLimit, EgoContactRule, FeasibilityScope, WrongWayRule};
 use crate::policies::prior_sampling::TokenSampling;
 use crate::scenario::Scenario;
 use crate::sim::{EgoCollisionKind, Rollout, SimConfig};
@@ -70,6 +71,9 @@ pub struct EvaluationRequest {
     /// Whether the SaFeR methods' CBV may drive against a lane's traffic
     /// (allowed: the paper's).
     pub wrong_way: WrongWayRule,
+    /// How hard the SaFeR methods' CBV may turn (the tyres' grip unless
+    /// lower).
+    pub turning: CbvTurningLimit,
     /// Who drives the background agents.
     pub background: BackgroundDriver,
     /// Stage-2 CBV modes, each a row per method (replay: the paper's
@@ -346,6 +350,14 @@ pub struct MethodRow {
     /// lack it: read as unknown).
     #[serde(default)]
     pub cbv_beyond_grip_rate: Option<f64>,
+    /// How hard the CBV turned in stage 1
+    /// ([`SuiteMetrics::cbv_peak_lateral_accel_mps2`]; older reports lack
+    /// it: read as unknown).
+    #[serde(default)]
+    pub cbv_peak_lateral_accel_mps2: Option<Spread>,
+    /// The same for the recorded CBV over the same steps.
+    #[serde(default)]
+    pub logged_cbv_peak_lateral_accel_mps2: Option<Spread>,
     /// How briskly the CBV moved across its lanes in stage 1
     /// ([`SuiteMetrics::cbv_sideways`]; older reports lack it: read as
     /// unknown).
@@ -472,6 +484,7 @@ impl EvaluationRequest {
             feasibility: self.feasibility,
             ego_contact: self.ego_contact,
             wrong_way: self.wrong_way,
+            turning: self.turning,
         }
     }
 }
@@ -1071,6 +1084,8 @@ fn table_of(
                 cbv_across_lanes_rate: metrics.cbv_across_lanes_rate,
                 cbv_across_lanes_rate_stage2: metrics.cbv_across_lanes_rate_stage2,
                 cbv_beyond_grip_rate: metrics.cbv_beyond_grip_rate,
+                cbv_peak_lateral_accel_mps2: metrics.cbv_peak_lateral_accel_mps2,
+                logged_cbv_peak_lateral_accel_mps2: metrics.logged_cbv_peak_lateral_accel_mps2,
                 cbv_sideways: metrics.cbv_sideways,
                 logged_cbv_sideways: metrics.logged_cbv_sideways,
                 cbv_lane_change_sideways: metrics.cbv_lane_change_sideways,

@@ -15,8 +15,8 @@ use crate::models::prior::{PriorVariant, RealismPrior};
 use crate::models::{ModelError, ModelSource};
 use crate::policies::LogReplay;
 use crate::policies::adversary::{
-    Adversary, ApproachPhase, EgoContactRule, EgoSight, EscapeWitness, FeasibilityOracle, FeasibilityScope,
-    LOOKAHEAD_TOKENS, Objective, Search, TrustRegion, WrongWayRule,
+    Adversary, ApproachPhase, CbvTurningLimit, EgoContactRule, EgoSight, EscapeWitness, FeasibilityOracle,
+    FeasibilityScope, LOOKAHEAD_TOKENS, Objective, Search, TrustRegion, WrongWayRule,
 };
 use crate::policies::prior_sampling::{PriorAgent, PriorTraffic, ScenarioMapEncoding, TokenSampling, TrafficTimings};
 use crate::scenario::{AgentBody, AgentState, Scenario, TrackIndex};
@@ -141,6 +141,8 @@ pub struct MethodSettings {
     pub ego_contact: EgoContactRule,
     /// Whether the SaFeR methods' CBV may drive against a lane's traffic.
     pub wrong_way: WrongWayRule,
+    /// How hard the SaFeR methods' CBV may turn.
+    pub turning: CbvTurningLimit,
 }
 
 /// The feasibility witness the `witnessed` scope asks before the CBV makes
@@ -245,6 +247,7 @@ pub fn install_seeing_ego(
         feasibility: settings.feasibility,
         ego_contact: settings.ego_contact,
         wrong_way: settings.wrong_way,
+        turning: settings.turning,
         ..Search::one_step(trust_region_of(settings.method, settings.trust_region))
     };
     let adversary = |search, feasibility| {

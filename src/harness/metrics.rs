@@ -25,6 +25,7 @@
 
 use super::pipeline::DualStage;
 use crate::eval::sideways_speed::{SidewaysSpread, changed_lanes, held_sideways_speed_mps};
+use crate::eval::spread::Spread;
 use crate::eval::traffic_rules::{ACROSS_LANES_MIN_S, across_lanes_of, wrong_way_of};
 use crate::eval::{ConflictKind, Histogram, jensen_shannon, rollout_conflict};
 use crate::geometry::wrap_angle;
@@ -410,6 +411,12 @@ pub struct SuiteMetrics {
     /// ([`KinematicSamples::peak_lateral_accel_mps2`]) over
     /// [`DEFAULT_MAX_LATERAL_ACCEL_MPS2`].
     pub cbv_beyond_grip_rate: Option<f64>,
+    /// How hard the CBV turned in stage 1: the spread of each variant's
+    /// peak lateral acceleration
+    /// ([`KinematicSamples::peak_lateral_accel_mps2`]), m/s².
+    pub cbv_peak_lateral_accel_mps2: Option<Spread>,
+    /// The same for the recorded CBV over the same steps: the reference.
+    pub logged_cbv_peak_lateral_accel_mps2: Option<Spread>,
     /// How briskly the CBV moved across its lanes in stage 1: the spread
     /// of each variant's largest sideways speed held for
     /// [`SIDEWAYS_HELD_S`](crate::eval::sideways_speed::SIDEWAYS_HELD_S) (`None` when none was measured).
@@ -565,6 +572,7 @@ impl SuiteMetrics {
         let (mut wrong_way, mut wrong_way_stage2) = (0, 0);
         let (mut across_lanes, mut across_lanes_stage2) = (0, 0);
         let mut beyond_grip = 0;
+        let (mut generated_peak_lateral, mut logged_peak_lateral) = (Vec::new(), Vec::new());
         let (mut reached, mut reached_critical, mut avoidable, mut avoidable_solved, mut no_escape) = (0, 0, 0, 0, 0);
         let mut no_escape_with_others = 0;
         let (mut gv, mut ga, mut lv, mut la) =
@@ -602,6 +610,8 @@ impl SuiteMetrics {
                 beyond_grip += usize::from(
                     cbv.generated.peak_lateral_accel_mps2.is_some_and(|a| a > DEFAULT_MAX_LATERAL_ACCEL_MPS2),
                 );
+                generated_peak_lateral.extend(cbv.generated.peak_lateral_accel_mps2);
+                logged_peak_lateral.extend(cbv.logged.peak_lateral_accel_mps2);
                 generated_sideways.extend(cbv.generated.held_sideways_mps);
                 logged_sideways.extend(cbv.logged.held_sideways_mps);
                 if cbv.generated.changed_lanes == Some(true) {
@@ -627,6 +637,8 @@ impl SuiteMetrics {
             cbv_across_lanes_rate: share(across_lanes, n),
             cbv_across_lanes_rate_stage2: share(across_lanes_stage2, n),
             cbv_beyond_grip_rate: share(beyond_grip, n),
+            cbv_peak_lateral_accel_mps2: Spread::of(generated_peak_lateral),
+            logged_cbv_peak_lateral_accel_mps2: Spread::of(logged_peak_lateral),
             cbv_sideways: SidewaysSpread::of(generated_sideways),
             logged_cbv_sideways: SidewaysSpread::of(logged_sideways),
             cbv_lane_change_sideways: SidewaysSpread::of(lane_change_sideways),
@@ -1064,6 +1076,13 @@ mod tests {
             ..VariantTally::default()
         };
         let tallies = [tally(beyond), tally(brief), tally(within), VariantTally::default()];
-        assert_eq!(SuiteMetrics::aggregate(&tallies).cbv_beyond_grip_rate, Some(0.25));
+        let metrics = SuiteMetrics::aggregate(&tallies);
+        assert_eq!(metrics.cbv_beyond_grip_rate, Some(0.25));
+        // The peaks' spread is over the three CBVs measured (2, 8.5, 10);
+        // the recorded CBV here has none.
+        let peaks = metrics.cbv_peak_lateral_accel_mps2.unwrap();
+        assert_eq!(peaks.measured, 3);
+        assert!((peaks.p50 - 8.5).abs() < 1e-9 && (peaks.max - 10.0).abs() < 1e-9, "{peaks:?}");
+        assert_eq!(metrics.logged_cbv_peak_lateral_accel_mps2, None);
     }
 }

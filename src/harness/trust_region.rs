@@ -68,6 +68,7 @@ pub fn profile_variant(
             feasibility: request.feasibility,
             ego_contact: Default::default(),
             wrong_way: Default::default(),
+            turning: Default::default(),
         },
         seed,
         sim: &sim,

@@ -258,6 +258,7 @@ impl VariantInputs {
                 feasibility: spec.adversary.feasibility,
                 ego_contact: spec.adversary.ego_contact,
                 wrong_way: spec.adversary.wrong_way,
+                turning: spec.adversary.turning_limit(),
             },
             seed: self.seed,
             sim: &self.sim,

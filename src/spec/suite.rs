@@ -23,7 +23,7 @@ use serde_saphyr::Spanned;
 
 use super::{Loaded, SpecError, SpecLocation, paths};
 use crate::policies::BackgroundPolicy;
-use crate::policies::adversary::{ApproachPhase, EgoContactRule, FeasibilityScope, WrongWayRule};
+use crate::policies::adversary::{ApproachPhase, CbvTurningLimit, EgoContactRule, FeasibilityScope, WrongWayRule};
 
 /// A suite.
 #[derive(Debug, Clone, Deserialize, JsonSchema)]
@@ -320,6 +320,23 @@ pub struct AdversarySpec {
     /// does not slow one moving faster already, is implausible too.
     #[serde(default)]
     pub wrong_way: WrongWayRule,
+    /// How hard the SaFeR methods' CBV may turn, m/s² (beyond the paper):
+    /// a token that pulls it more sideways at some step (its speed times
+    /// its yaw rate) is implausible, as leaving the road is. Above 0 and
+    /// at most 9, the default: the tyres' grip, the ego's own default
+    /// limit. Lower holds the CBV to how people turn (`safer evaluate`
+    /// prints the CBV's peaks beside the recorded CBV's).
+    #[serde(default)]
+    #[schemars(range(min = 0.0, max = 9.0))]
+    pub max_lateral_accel_mps2: Option<f64>,
+}
+
+impl AdversarySpec {
+    /// How hard the CBV may turn: [`Self::max_lateral_accel_mps2`], the
+    /// tyres' grip where it is not set (or, before validation, out of range).
+    pub fn turning_limit(&self) -> CbvTurningLimit {
+        self.max_lateral_accel_mps2.and_then(CbvTurningLimit::new).unwrap_or_default()
+    }
 }
 
 fn twenty() -> usize {
@@ -341,6 +358,7 @@ impl Default for AdversarySpec {
             feasibility: FeasibilityScope::Pair,
             ego_contact: EgoContactRule::Any,
             wrong_way: WrongWayRule::Allowed,
+            max_lateral_accel_mps2: None,
         }
     }
 }
@@ -683,6 +701,11 @@ impl Loaded<SuiteSpec> {
         let safer_only = [
             ("ego_contact", s.adversary.ego_contact != EgoContactRule::Any, "which aim at the ego"),
             ("wrong_way", s.adversary.wrong_way != WrongWayRule::Allowed, "which the plausibility rule holds"),
+            (
+                "max_lateral_accel_mps2",
+                s.adversary.max_lateral_accel_mps2.is_some(),
+                "which the plausibility rule holds",
+            ),
         ];
         if !s.adversary.method.is_adversary()
             && let Some((key, _, why)) = safer_only.iter().find(|(_, set, _)| *set)
@@ -701,6 +724,10 @@ impl Loaded<SuiteSpec> {
                 "adversary.trust_region",
                 format!("adversary.trust_region must be 1..=3969, got {}", s.adversary.trust_region),
             ));
+        }
+        if let Some(x) = s.adversary.max_lateral_accel_mps2 {
+            let grip = CbvTurningLimit::GRIP.max_lateral_accel_mps2();
+            self.check_number("adversary.max_lateral_accel_mps2", x, NumberRange::above(0.0, grip), "m/s²")?;
         }
         if s.shrink.budget > MAX_SHRINK_BUDGET {
             return Err(self.invalid_at(
@@ -1097,6 +1124,19 @@ acceptance:
         assert!(e.contains("never") && e.contains("forbidden"), "a misspelt rule is refused: {e}");
         let (set, default) = adversary_with("method: safer-in-path, wrong_way: forbidden }");
         assert_eq!((set.wrong_way, default.wrong_way), (WrongWayRule::Forbidden, WrongWayRule::Allowed));
+    }
+
+    #[test]
+    fn the_turning_limit_is_for_the_safer_methods_within_grip_and_grip_by_default() {
+        let e = error("method: prior }", "method: prior, max_lateral_accel_mps2: 4.0 }");
+        assert!(e.contains("`max_lateral_accel_mps2` applies to the SaFeR methods"), "{e}");
+        for refused in ["0.0", "9.5", "-1"] {
+            let e = error("method: prior }", &format!("method: safer, max_lateral_accel_mps2: {refused} }}"));
+            assert!(e.contains("`max_lateral_accel_mps2` must be a number in (0, 9] m/s²"), "{refused}: {e}");
+        }
+        let (set, default) = adversary_with("method: safer-in-path, max_lateral_accel_mps2: 4.0 }");
+        assert_eq!(set.turning_limit(), CbvTurningLimit::new(4.0).unwrap());
+        assert_eq!(default.turning_limit(), CbvTurningLimit::GRIP);
     }
 
     #[test]

@@ -614,7 +614,7 @@ fn recorded_lane_changes_by_scene(report: &Value) -> std::collections::BTreeMap<
 }
 
 #[test]
-fn the_table_gives_the_cbvs_sideways_speed_as_the_json_report_does_and_log_replay_matches_the_recording() {
+fn the_tables_give_the_cbvs_sideways_speed_and_turning_as_the_json_report_does_and_log_replay_matches_the_recording() {
     let methods = ["log", "safer-in-path"];
     let (table, report) = evaluate_shipped_ngsim("sideways", &methods, 2);
     let section = table.split("\nsideways speed of the CBV").nth(1).expect("the sideways table");
@@ -647,6 +647,31 @@ fn the_table_gives_the_cbvs_sideways_speed_as_the_json_report_does_and_log_repla
         if method == "log" {
             // Log replay drives the CBV as recorded: the same figures.
             assert_eq!(generated, recorded, "log replay's CBV moved sideways unlike the recording");
+        }
+    }
+
+    // The lateral acceleration: each variant's peak, beside the recorded
+    // CBV's over the same steps.
+    let section = table.split("\nlateral acceleration of the CBV").nth(1).expect("the lateral acceleration table");
+    for method in methods {
+        let line = section.lines().find(|l| l.split_whitespace().next() == Some(method)).expect("the method's row");
+        let cells: Vec<&str> = line.split_whitespace().skip(1).filter(|c| *c != "|").collect();
+        let peaks = |which: &str| -> Vec<f64> {
+            variants
+                .iter()
+                .filter(|v| v["method"] == method)
+                .filter_map(|v| v["tally"]["cbv"][which]["peak_lateral_accel_mps2"].as_f64())
+                .collect()
+        };
+        let (generated, recorded) = (peaks("generated"), peaks("logged"));
+        assert!(!generated.is_empty() && !recorded.is_empty(), "{method}: no variant measured");
+        let mut from_variants = spread(generated.clone());
+        from_variants.extend(spread(recorded.clone()));
+        assert_eq!(cells, from_variants, "{method}: the table and the report's variants disagree");
+        let row = report["rows"].as_array().unwrap().iter().find(|r| r["method"] == method).unwrap();
+        assert_eq!(row["cbv_peak_lateral_accel_mps2"]["measured"], generated.len(), "{method}: the report's row");
+        if method == "log" {
+            assert_eq!(generated, recorded, "log replay's CBV turned unlike the recording");
         }
     }
 

@@ -7,9 +7,9 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 use super::background_forecast::BackgroundForecast;
+use super::choice::Search;
 use super::plausibility::{ContactRule, PlausibilityCheck};
 use super::rollout::token_rollouts;
-use super::wrong_way::WrongWayRule;
 use crate::motion::tokens::Token;
 use crate::policies::WorldView;
 use crate::policies::prior_sampling::{TokenSampling, draw_seed, sample_token, top_tokens};
@@ -57,22 +57,25 @@ impl ApproachPhase {
 
 /// The approach phase's token for the CBV of the pair (CBV, ego): a draw
 /// from the prior (`sampling`, with `rng`) among the plausible tokens of
-/// its top k (the plausibility rule with `wrong_way`'s rule on driving
-/// against the traffic); when none is, the fallbacks of the module's
-/// plausibility rule; a draw among the top k as they are when nothing is plausible at
-/// all (or the CBV is absent).
+/// its top k (the plausibility rule with `search`'s rules on driving
+/// against the traffic and on turning); when none is, the fallbacks of the module's
+/// plausibility rule; when nothing is plausible at all, a draw among the
+/// top k's tokens within the tyres' grip (among all of them where the CBV
+/// is absent).
 pub(super) fn approach_draw(
     world: &WorldView<'_>,
     (cbv, ego): (TrackIndex, TrackIndex),
     logits: &[f32],
     sampling: TokenSampling,
     forecast: &BackgroundForecast<'_>,
-    wrong_way: WrongWayRule,
+    search: &Search,
     rng: &mut impl Rng,
 ) -> Token {
     let top = &top_tokens(logits, sampling.top_k.clamp(1, logits.len()))[..];
     let Some(cbv_now) = world.state(cbv) else { return sample_token(logits, sampling, rng) };
-    let check = PlausibilityCheck::new(world, cbv, ego, forecast).with_wrong_way(wrong_way);
+    let check = PlausibilityCheck::new(world, cbv, ego, forecast)
+        .with_wrong_way(search.wrong_way)
+        .with_turning_limit(search.turning);
     let rollouts = token_rollouts(cbv_now, top);
     // As in the adversary's choice: the plausible tokens of the top k,
     // else the likeliest plausible one of the vocabulary; under the strict
@@ -94,7 +97,24 @@ pub(super) fn approach_draw(
             return t;
         }
     }
-    sample_token(logits, sampling, rng)
+    // Nothing plausible: a draw from the top k, kept within the tyres'
+    // grip. A draw beyond it is drawn again among the top k's tokens
+    // within grip, which makes the draw the prior's conditioned on grip
+    // (and leaves every draw within grip as it was).
+    // (`sample_token` draws from the same top k.)
+    let drawn = sample_token(logits, sampling, rng);
+    let within: Vec<Token> = top.iter().zip(&rollouts).filter(|(_, r)| check.within_grip(r)).map(|(t, _)| *t).collect();
+    if within.contains(&drawn) {
+        return drawn;
+    }
+    if within.is_empty() {
+        return check.likeliest_within_grip_outside(logits, top).unwrap_or(drawn);
+    }
+    let mut masked = vec![f32::NEG_INFINITY; logits.len()];
+    for t in &within {
+        masked[t.0 as usize] = logits[t.0 as usize];
+    }
+    sample_token(&masked, TokenSampling { top_k: within.len(), ..sampling }, rng)
 }
 
 #[cfg(test)]
@@ -102,6 +122,7 @@ mod tests {
     use super::*;
     use crate::map::RoadMap;
     use crate::motion::tokens::MAX_ACCEL_MPS2;
+    use crate::policies::adversary::TrustRegion;
     use crate::policies::adversary::test_support::{car, token};
     use crate::scenario::{AgentBody, AgentKind};
     use rand::SeedableRng;
@@ -130,7 +151,40 @@ mod tests {
                 &logits,
                 sampling,
                 &BackgroundForecast::default(),
-                WrongWayRule::Allowed,
+                &Search::one_step(TrustRegion::TopN(1)),
+                &mut rng,
+            );
+            assert_eq!(drawn, token(-MAX_ACCEL_MPS2), "seed {seed}");
+        }
+    }
+
+    #[test]
+    fn with_nothing_plausible_the_approach_draws_within_grip() {
+        // A stopped car 1 m ahead of the CBV at 15 m/s: every token runs
+        // into it. Of the top two, the likelier turns hard (1.5 rad/s, 22
+        // m/s² sideways): a draw from the top two as they are would take it
+        // in about three draws of four; within grip, braking is left.
+        let map = RoadMap::default();
+        let bodies = [AgentBody { kind: AgentKind::Vehicle, length_m: 4.5, width_m: 2.0 }; 3];
+        let states = [car(0.0, 100.0, 10.0), car(0.0, 0.0, 15.0), car(5.5, 0.0, 0.0)];
+        let world = WorldView { map: &map, step: 10, bodies: &bodies, states: &states };
+        let turn = crate::motion::tokens::TokenGrid::quantize(crate::motion::Action {
+            accel_mps2: -MAX_ACCEL_MPS2,
+            yaw_rate_radps: 1.5,
+        });
+        let mut logits = vec![-30.0f32; crate::motion::tokens::VOCABULARY_SIZE];
+        logits[turn.0 as usize] = 5.0;
+        logits[token(-MAX_ACCEL_MPS2).0 as usize] = 4.0;
+        let sampling = TokenSampling { top_k: 2, temperature: 1.0 };
+        for seed in 0..32 {
+            let mut rng = ChaCha8Rng::seed_from_u64(seed);
+            let drawn = approach_draw(
+                &world,
+                (TrackIndex(1), TrackIndex(0)),
+                &logits,
+                sampling,
+                &BackgroundForecast::default(),
+                &Search::one_step(TrustRegion::TopN(1)),
                 &mut rng,
             );
             assert_eq!(drawn, token(-MAX_ACCEL_MPS2), "seed {seed}");

@@ -10,6 +10,7 @@ use super::contact_witness::{ContactWitness, EscapeWitness, closes_in};
 use super::ego_contact::{EgoContactRule, rear_ends};
 use super::escape_room::{EscapeRoom, FeasibilityScope, NO_ROOM_VALUE, veto_without_room};
 use super::feasibility::feasibility_values;
+use super::grip::CbvTurningLimit;
 use super::lookahead::{FirstTokens, Lookahead, Lowering};
 use super::objective::Objective;
 use super::plausibility::{ContactRule, PlausibilityCheck};
@@ -85,6 +86,8 @@ pub struct Search {
     pub ego_contact: EgoContactRule,
     /// Whether the CBV may drive against a lane's traffic.
     pub wrong_way: WrongWayRule,
+    /// How hard the CBV may turn.
+    pub turning: CbvTurningLimit,
 }
 
 impl Search {
@@ -97,6 +100,7 @@ impl Search {
             feasibility: FeasibilityScope::Pair,
             ego_contact: EgoContactRule::Any,
             wrong_way: WrongWayRule::Allowed,
+            turning: CbvTurningLimit::GRIP,
         }
     }
 }
@@ -221,6 +225,7 @@ pub fn safer_choice(
             objective: search.objective,
             room: room.as_ref(),
             ego_contact: search.ego_contact,
+            turning: search.turning,
         };
         let first = FirstTokens {
             states: &predicted,
@@ -258,7 +263,9 @@ pub fn safer_choice(
         });
         order
     };
-    let check = PlausibilityCheck::new(world, cbv, ego, forecast).with_wrong_way(search.wrong_way);
+    let check = PlausibilityCheck::new(world, cbv, ego, forecast)
+        .with_wrong_way(search.wrong_way)
+        .with_turning_limit(search.turning);
     // A feasible candidate whose CBV, held on from its end, closes in on the
     // ego's prediction: the ones the witness is asked of (its path too).
     let near = |i: usize, losses: &[f64]| {
@@ -336,13 +343,22 @@ pub fn safer_choice(
     if let Some(t) = check.likeliest_plausible_outside(logits, candidates, ContactRule::AtFaultOnly) {
         return Ok(Some(t));
     }
-    // With no plausible token at all, the trust region's token that
-    // breaks the rule latest (the first such in arg-min order). Only here
-    // is the first violating step needed: the checks above stop at any.
-    // (`max_by_key` keeps the last of equal keys: scanned from the back.)
-    let violations =
-        order.iter().rev().filter_map(|&i| check.first_violation(&rollouts[i], ContactRule::Any).map(|k| (i, k)));
-    Ok(violations.max_by_key(|(_, k)| *k).map(|(i, _)| candidates[i]))
+    // With no plausible token at all, the trust region's token within the
+    // tyres' grip that breaks the rule latest (the first such in arg-min
+    // order): a car can break a rule, not its grip. Only here is the first
+    // violating step needed: the checks above stop at any. (`max_by_key`
+    // keeps the last of equal keys: scanned from the back.) Where every
+    // token of the region turns beyond grip, the likeliest one outside it
+    // that does not.
+    let violations = order
+        .iter()
+        .rev()
+        .filter(|&&i| check.within_grip(&rollouts[i]))
+        .filter_map(|&i| check.first_violation(&rollouts[i], ContactRule::Any).map(|k| (i, k)));
+    Ok(violations
+        .max_by_key(|(_, k)| *k)
+        .map(|(i, _)| candidates[i])
+        .or_else(|| check.likeliest_within_grip_outside(logits, candidates)))
 }
 
 /// The CBV's states along a first token's `rollout` and then the
@@ -404,6 +420,29 @@ mod tests {
             TrustRegion::TopN(3).tokens(&logits, &now),
             [token(-2.0), token(-2.0 - bin_mps2), token(-2.0 + bin_mps2)]
         );
+    }
+
+    #[test]
+    fn with_nothing_plausible_the_last_resort_keeps_within_grip() {
+        // A stopped car 1 m ahead of the CBV at 15 m/s: every token runs
+        // into it at the first step. The prior likes a hard left turn
+        // (1.5 rad/s, 22 m/s² sideways) most, which ends nearer the ego
+        // off to the left; both break a rule at the same step, and the
+        // arg min would take the turn. It is beyond grip: braking wins.
+        let states = [car(10.0, 30.0, 10.0), car(0.0, 0.0, 15.0), car(5.5, 0.0, 0.0)];
+        let turn = TokenGrid::quantize(crate::motion::Action { accel_mps2: -MAX_ACCEL_MPS2, yaw_rate_radps: 1.5 });
+        let brake = token(-MAX_ACCEL_MPS2);
+        let liked = [(turn, 5.0), (brake, 4.0)];
+        assert_eq!(choice_among(&states, &liked, Search::one_step(TrustRegion::TopN(2)), None), brake);
+        // With only the turn in the region, the likeliest token within
+        // grip outside it (here the first of the unliked, equally likely
+        // rest of the vocabulary, in the ranking's order).
+        let chosen = choice_among(&states, &liked, Search::one_step(TrustRegion::TopN(1)), None);
+        assert_ne!(chosen, turn);
+        let now = KinematicState::from_agent_state(&states[1].unwrap());
+        let rollout: Vec<AgentState> =
+            TokenGrid::rollout(&now, chosen).iter().map(KinematicState::to_agent_state).collect();
+        assert_eq!(super::super::grip::first_beyond(&states[1].unwrap(), &rollout, CbvTurningLimit::GRIP), None);
     }
 
     #[test]

@@ -15,6 +15,7 @@ use std::cell::Cell;
 use std::cmp::{Ordering, Reverse};
 use std::collections::BinaryHeap;
 
+use super::grip::{CbvTurningLimit, first_beyond};
 use super::in_path::path_sweep;
 use super::objective::Objective;
 use crate::geometry::OrientedBox;
@@ -33,6 +34,8 @@ pub(super) struct Child {
     pub(super) parent: usize,
     /// The token it adds.
     pub(super) token: Token,
+    /// Where the CBV is at its start (its parent's end).
+    pub(super) from: KinematicState,
     /// Where the CBV is at its end.
     pub(super) state: KinematicState,
     /// `state` as an agent state.
@@ -41,6 +44,17 @@ pub(super) struct Child {
     score_lower_bound_m: f64,
     distance_m: Cell<Option<f64>>,
     score_m: Cell<Option<f64>>,
+}
+
+impl Child {
+    /// Whether its token turns the CBV harder than `limit` on the way (see
+    /// the `grip` module): the step states are rolled out again, as only
+    /// the few children the search judges are asked.
+    pub(super) fn beyond(&self, limit: CbvTurningLimit) -> bool {
+        let states: Vec<AgentState> =
+            TokenGrid::rollout(&self.from, self.token).iter().map(KinematicState::to_agent_state).collect();
+        first_beyond(&self.from.to_agent_state(), &states, limit).is_some()
+    }
 }
 
 /// The children of a beam at one depth, against the ego's
@@ -114,6 +128,7 @@ impl Continuations {
                     root,
                     parent,
                     token,
+                    from,
                     state,
                     at,
                     distance_lower_bound_m,
@@ -316,5 +331,17 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn a_child_whose_token_turns_beyond_grip_says_so() {
+        // From 10 m/s: 1.5 rad/s pulls 15 m/s² sideways, 0.8 rad/s 8 m/s²;
+        // from 5 m/s, 1.5 rad/s pulls 7.5 m/s².
+        let ego = car(0.0, 0.0, 12.0).unwrap();
+        let beam = [10.0, 5.0].map(|v| KinematicState::from_agent_state(&car(-9.0, 0.0, v).unwrap()));
+        let turns = [1.5, 0.8].map(|w| TokenGrid::quantize(Action { accel_mps2: 0.0, yaw_rate_radps: w }));
+        let c = Continuations::new(beam.into_iter().enumerate(), &turns, ego, (CAR, CAR), Objective::Contact);
+        let beyond: Vec<bool> = (0..c.len()).map(|i| c.child(i).beyond(CbvTurningLimit::GRIP)).collect();
+        assert_eq!(beyond, [true, false, false, false]);
     }
 }

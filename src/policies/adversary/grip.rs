@@ -11,7 +11,9 @@
 //!
 //! The bound is the default of the ego's own limits
 //! ([`DEFAULT_MAX_LATERAL_ACCEL_MPS2`]), measured as the limits measure
-//! it: the mean speed of a step times its yaw rate.
+//! it: the mean speed of a step times its yaw rate. Within grip is not yet
+//! how people turn: a suite may hold the CBV to a lower bound
+//! ([`CbvTurningLimit`]), such as the hardest turns of recorded drivers.
 
 use crate::geometry::wrap_angle;
 use crate::motion::tokens::SIM_DT_S;
@@ -21,15 +23,48 @@ use crate::scenario::AgentState;
 /// Floating-point slack on the bound: a token exactly at it is within it.
 const SLACK_MPS2: f64 = 1e-6;
 
+/// How hard the adversary's CBV may turn: the largest lateral
+/// acceleration a token may pull at any step, m/s². At most the tyres'
+/// grip ([`CbvTurningLimit::GRIP`], the default), which no car passes; a
+/// lower bound holds the CBV to how people turn (beyond the paper).
+#[derive(Debug, Clone, Copy, PartialEq, PartialOrd)]
+pub struct CbvTurningLimit(f64);
+
+// Never NaN: built only from `GRIP` and by `new`, which refuses it.
+impl Eq for CbvTurningLimit {}
+
+impl CbvTurningLimit {
+    /// The tyres' grip: the default of the ego's own limit,
+    /// [`DEFAULT_MAX_LATERAL_ACCEL_MPS2`].
+    pub const GRIP: Self = Self(DEFAULT_MAX_LATERAL_ACCEL_MPS2);
+
+    /// A limit of `max_lateral_accel_mps2`: `None` unless it is above 0
+    /// and at most the grip (a car cannot turn harder, whatever is asked).
+    pub fn new(max_lateral_accel_mps2: f64) -> Option<Self> {
+        (max_lateral_accel_mps2 > 0.0 && max_lateral_accel_mps2 <= DEFAULT_MAX_LATERAL_ACCEL_MPS2)
+            .then_some(Self(max_lateral_accel_mps2))
+    }
+
+    /// The largest lateral acceleration, m/s².
+    pub fn max_lateral_accel_mps2(self) -> f64 {
+        self.0
+    }
+}
+
+impl Default for CbvTurningLimit {
+    fn default() -> Self {
+        Self::GRIP
+    }
+}
+
 /// The first state of `rollout` (a token's states, one a simulator step,
-/// from `now`) reached by a step that pulls more than
-/// [`DEFAULT_MAX_LATERAL_ACCEL_MPS2`] sideways, or `None` where every step
-/// stays within grip.
-pub(super) fn first_beyond_grip(now: &AgentState, rollout: &[AgentState]) -> Option<usize> {
+/// from `now`) reached by a step that pulls more sideways than `limit`
+/// allows, or `None` where every step stays within it.
+pub(super) fn first_beyond(now: &AgentState, rollout: &[AgentState], limit: CbvTurningLimit) -> Option<usize> {
     std::iter::once(now).chain(rollout).zip(rollout).position(|(from, to)| {
         let yaw_rate_radps = wrap_angle(to.heading_rad - from.heading_rad) / SIM_DT_S;
         let mean_speed_mps = 0.5 * (from.speed_mps() + to.speed_mps());
-        mean_speed_mps * yaw_rate_radps.abs() > DEFAULT_MAX_LATERAL_ACCEL_MPS2 + SLACK_MPS2
+        mean_speed_mps * yaw_rate_radps.abs() > limit.0 + SLACK_MPS2
     })
 }
 
@@ -54,16 +89,30 @@ mod tests {
 
     #[test]
     fn a_token_beyond_the_tyres_grip_is_caught_at_its_first_step() {
+        let grip = CbvTurningLimit::GRIP;
         // 1.5 rad/s at 10 m/s pulls 15 m/s²; at 5 m/s, 7.5 m/s².
         let (now, fast) = turning(10.0, 1.5);
         assert_eq!(fast.len(), TOKEN_PERIOD_STEPS);
-        assert_eq!(first_beyond_grip(&now, &fast), Some(0));
+        assert_eq!(first_beyond(&now, &fast, grip), Some(0));
         let (now, slow) = turning(5.0, 1.5);
-        assert_eq!(first_beyond_grip(&now, &slow), None);
+        assert_eq!(first_beyond(&now, &slow, grip), None);
         // 0.8 rad/s at 10 m/s (8 m/s²) is within grip; straight on is too.
         let (now, gentle) = turning(10.0, 0.8);
-        assert_eq!(first_beyond_grip(&now, &gentle), None);
+        assert_eq!(first_beyond(&now, &gentle, grip), None);
         let (now, straight) = turning(30.0, 0.0);
-        assert_eq!(first_beyond_grip(&now, &straight), None);
+        assert_eq!(first_beyond(&now, &straight, grip), None);
+        // A lower limit catches the gentle turn too.
+        assert_eq!(first_beyond(&now, &straight, CbvTurningLimit::new(4.0).unwrap()), None);
+        let (now, gentle) = turning(10.0, 0.8);
+        assert_eq!(first_beyond(&now, &gentle, CbvTurningLimit::new(4.0).unwrap()), Some(0));
+    }
+
+    #[test]
+    fn a_turning_limit_is_above_zero_and_within_grip() {
+        assert_eq!(CbvTurningLimit::new(4.0).map(CbvTurningLimit::max_lateral_accel_mps2), Some(4.0));
+        assert_eq!(CbvTurningLimit::new(DEFAULT_MAX_LATERAL_ACCEL_MPS2), Some(CbvTurningLimit::GRIP));
+        for refused in [0.0, -1.0, 9.5, f64::NAN, f64::INFINITY] {
+            assert_eq!(CbvTurningLimit::new(refused), None, "{refused}");
+        }
     }
 }

@@ -8,6 +8,7 @@ use super::continuations::{Child, Continuations};
 use super::ego_contact::EgoContactRule;
 use super::escape_room::{EscapeRoom, veto_without_room};
 use super::feasibility::feasibility_values;
+use super::grip::CbvTurningLimit;
 use super::objective::Objective;
 use crate::models::ModelError;
 use crate::models::feasibility_oracle::FeasibilityOracle;
@@ -35,8 +36,9 @@ pub const LOOKAHEAD_DELAY_PENALTY_M: f64 = 0.5;
 /// - every continuation token comes from the same trust region (the
 ///   prior's current top n stands in for its later ones, which would need
 ///   the prior run on hypothetical histories);
-/// - a continuation ends at its first state where V_h > 0 or that leaves
-///   the road; only a *contact* with the ego may end it infeasibly, and
+/// - a continuation ends at its first state where V_h > 0, that leaves
+///   the road, or that a token beyond the CBV's turning limit (the tyres'
+///   grip unless lower) reaches; only a *contact* with the ego may end it infeasibly, and
 ///   only straight from a feasible state (V_h ≤ 0: the ego could still
 ///   have escaped one token earlier, and it is that escape the witness
 ///   later looks for), and not from behind the ego where the search's
@@ -68,6 +70,8 @@ pub(super) struct Lookahead<'a> {
     pub(super) room: Option<&'a EscapeRoom<'a>>,
     /// Whether a contact from behind the ego is a conflict (see [`EgoContactRule`]).
     pub(super) ego_contact: EgoContactRule,
+    /// How hard the CBV may turn (a continuation beyond it is no plan).
+    pub(super) turning: CbvTurningLimit,
 }
 
 /// The one-step search's results for each candidate of the trust region.
@@ -282,7 +286,8 @@ impl Lookahead<'_> {
     }
 
     /// Judges each of `which` not judged yet into `kept`: `false` when it
-    /// leaves the road (where the CBV is on it now) or is a contact from
+    /// leaves the road (where the CBV is on it now), turns beyond the
+    /// CBV's turning limit, or is a contact from
     /// behind the ego that the search's [`EgoContactRule`] rules out, else
     /// `true` for a contact (which may end infeasibly: its parent was feasible, so the
     /// ego could have escaped it) or with V_h ≤ 0 there against the ego at
@@ -310,7 +315,9 @@ impl Lookahead<'_> {
                     && children.distance_m(i) <= 0.0
                     && super::ego_contact::from_behind(&ego, &at)
             };
-            if leaves_road() || rear_ends() {
+            // A token beyond the turning limit is one the CBV will not be
+            // allowed to drive: a plan through it is no plan.
+            if leaves_road() || children.child(i).beyond(self.turning) || rear_ends() {
                 kept[i] = Some(false);
             } else if feasibility.is_none() || children.distance_m(i) <= 0.0 {
                 kept[i] = Some(true);

@@ -44,8 +44,10 @@
 //!   for counted (and cut-ins: hit from behind in a lane it moved into,
 //!   which nuPlan's rule does not blame): waiting to be hit is better than
 //!   fleeing into someone else. Only when even that leaves nothing, the
-//!   trust region's token that breaks the rule latest. The same rule
-//!   restricts the prior's draws in the approach phase.
+//!   trust region's token within grip that breaks the rule latest (a car
+//!   can break a rule, not its tyres' limit). The same rule restricts the
+//!   prior's draws in the approach phase, which are held within grip even
+//!   where nothing is plausible.
 //!
 //! The ablations are the same policy with a part switched off;
 //! `safer-lookahead` (beyond the paper) is the same policy scoring tokens
@@ -112,6 +114,7 @@ pub use escape_room::{
     ESCAPE_ACCELS_MPS2, ESCAPE_CHECK_GAP_M, ESCAPE_HORIZON_S, ESCAPE_PURSUIT_MPS2, ESCAPE_YAW_RATES_RADPS,
     FeasibilityScope, NO_ROOM_VALUE,
 };
+pub use grip::CbvTurningLimit;
 pub use in_path::{
     CUT_IN_LATERAL_COST, CUT_IN_NOT_AHEAD_COST, IN_PATH_LEAD_COST_M_PER_S, IN_PATH_MAX_LEAD_S, NOT_AHEAD_PENALTY_M,
 };

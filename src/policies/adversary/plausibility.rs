@@ -14,7 +14,7 @@
 
 use super::background_forecast::BackgroundForecast;
 use super::broad_phase::Bounds;
-use super::grip::first_beyond_grip;
+use super::grip::{CbvTurningLimit, first_beyond};
 use super::lane_change_pace::LaneChangePaceHold;
 use super::rollout::{BRAKING_CHECK_STEPS, braking_after, continued_after, token_rollout};
 use super::wrong_way::{AcrossLanesHold, TrafficDirectionHold, WrongWayRule};
@@ -134,6 +134,8 @@ pub(super) struct PlausibilityCheck<'w> {
     /// sideways pace, or slowing to it
     /// ([`WrongWayRule::HumanLaneChanges`]).
     lane_change_pace: LaneChangePaceHold,
+    /// How hard the CBV may turn (the tyres' grip unless a lower limit is set).
+    turning: CbvTurningLimit,
 }
 
 impl<'w> PlausibilityCheck<'w> {
@@ -160,6 +162,7 @@ impl<'w> PlausibilityCheck<'w> {
                 traffic_direction: TrafficDirectionHold::NotHeld,
                 across_lanes: AcrossLanesHold::NotHeld,
                 lane_change_pace: LaneChangePaceHold::NotHeld,
+                turning: CbvTurningLimit::GRIP,
             };
         };
         let horizon = TOKEN_PERIOD_STEPS + BRAKING_CHECK_STEPS.max(HOLDING_CHECK_STEPS + CLOSING_CHECK_STEPS);
@@ -191,7 +194,14 @@ impl<'w> PlausibilityCheck<'w> {
             traffic_direction: TrafficDirectionHold::NotHeld,
             across_lanes: AcrossLanesHold::NotHeld,
             lane_change_pace: LaneChangePaceHold::NotHeld,
+            turning: CbvTurningLimit::GRIP,
         }
+    }
+
+    /// The check with the CBV held to turning within `limit` (the default:
+    /// the tyres' grip).
+    pub(super) fn with_turning_limit(self, limit: CbvTurningLimit) -> Self {
+        Self { turning: limit, ..self }
     }
 
     /// The check with `rule` on driving against a lane's traffic (the
@@ -260,7 +270,7 @@ impl<'w> PlausibilityCheck<'w> {
         // lane queries, which in a turn or a lane change reject most of the
         // tokens the plausibility fallback ranks before their contacts and
         // their paths to a standstill are worked out.
-        let beyond_grip = || self.cbv_now.as_ref().and_then(|now| first_beyond_grip(now, rollout));
+        let beyond_grip = || self.cbv_now.as_ref().and_then(|now| first_beyond(now, rollout, self.turning));
         let brisk = || self.lane_change_pace.first_breach(self.world.map, rollout);
         let rules = || self.rule_violation(rollout, wanted, rule);
         match wanted {
@@ -452,6 +462,34 @@ impl<'w> PlausibilityCheck<'w> {
         rule: ContactRule,
         keep: impl Fn(&[AgentState]) -> bool,
     ) -> Option<Token> {
+        self.likeliest_outside_where(logits, region, |rollout| keep(rollout) && !self.implausible(rollout, rule))
+    }
+
+    /// Whether `rollout` (a token's states from the CBV's state now) keeps
+    /// the CBV within the tyres' grip, or the lower turning limit set (see
+    /// the `grip` module); `true` without a CBV.
+    pub(super) fn within_grip(&self, rollout: &[AgentState]) -> bool {
+        self.cbv_now.as_ref().is_none_or(|now| first_beyond(now, rollout, self.turning).is_none())
+    }
+
+    /// The likeliest token of the prior's ranking of `logits` that
+    /// `region` does not hold and that keeps the CBV within grip: the last
+    /// resort's, where nothing is plausible, for a car can break a rule
+    /// but not its tyres' limit. Straight on is always within grip, so
+    /// there is one whenever the CBV is present.
+    pub(super) fn likeliest_within_grip_outside(&self, logits: &[f32], region: &[Token]) -> Option<Token> {
+        self.likeliest_outside_where(logits, region, |rollout| self.within_grip(rollout))
+    }
+
+    /// The likeliest token of the prior's ranking of `logits` that
+    /// `region` does not hold and whose rollout (from the CBV's state now)
+    /// `keep` accepts; `None` without a CBV.
+    fn likeliest_outside_where(
+        &self,
+        logits: &[f32],
+        region: &[Token],
+        keep: impl Fn(&[AgentState]) -> bool,
+    ) -> Option<Token> {
         let now = self.cbv_now.as_ref()?;
         let from = KinematicState::from_agent_state(now);
         let mut in_region = vec![false; logits.len()];
@@ -460,10 +498,7 @@ impl<'w> PlausibilityCheck<'w> {
                 *slot = true;
             }
         }
-        ranked_tokens(logits).into_iter().filter(|t| !in_region[t.0 as usize]).find(|t| {
-            let rollout = token_rollout(&from, *t);
-            keep(&rollout) && !self.implausible(&rollout, rule)
-        })
+        ranked_tokens(logits).into_iter().filter(|t| !in_region[t.0 as usize]).find(|t| keep(&token_rollout(&from, *t)))
     }
 }
 

@@ -134,7 +134,7 @@ impl Adversary {
         drop(shared);
         let forecast = BackgroundForecast { recording: Some(&scenario), not_replayed: &prior_driven };
         let mut rng = ChaCha8Rng::seed_from_u64(draw_seed(seed, cbv.0, world.step));
-        Some(approach_draw(world, (cbv, self.ego), &logits, sampling, &forecast, self.search.wrong_way, &mut rng))
+        Some(approach_draw(world, (cbv, self.ego), &logits, sampling, &forecast, &self.search, &mut rng))
     }
 }
 
