@@ -327,7 +327,7 @@ pub struct AdversarySpec {
     /// limit. Lower holds the CBV to how people turn (`safer evaluate`
     /// prints the CBV's peaks beside the recorded CBV's).
     #[serde(default)]
-    #[schemars(range(min = 0.0, max = 9.0))]
+    #[schemars(range(max = 9.0), extend("exclusiveMinimum" = 0.0))]
     pub max_lateral_accel_mps2: Option<f64>,
 }
 

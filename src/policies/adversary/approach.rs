@@ -60,8 +60,8 @@ impl ApproachPhase {
 /// its top k (the plausibility rule with `search`'s rules on driving
 /// against the traffic and on turning); when none is, the fallbacks of the module's
 /// plausibility rule; when nothing is plausible at all, a draw among the
-/// top k's tokens within the tyres' grip (among all of them where the CBV
-/// is absent).
+/// top k's tokens within the tyres' grip, or the lower turning limit set
+/// (among all of them where the CBV is absent).
 pub(super) fn approach_draw(
     world: &WorldView<'_>,
     (cbv, ego): (TrackIndex, TrackIndex),
@@ -97,18 +97,19 @@ pub(super) fn approach_draw(
             return t;
         }
     }
-    // Nothing plausible: a draw from the top k, kept within the tyres'
-    // grip. A draw beyond it is drawn again among the top k's tokens
-    // within grip, which makes the draw the prior's conditioned on grip
-    // (and leaves every draw within grip as it was).
-    // (`sample_token` draws from the same top k.)
+    // Nothing plausible: a draw from the top k (`sample_token` draws from
+    // the same top k), kept within the tyres' grip or the lower turning
+    // limit set. A draw beyond it is drawn again among the top k's tokens
+    // within it, which makes the draw the prior's conditioned on the limit
+    // (and leaves every draw within it as it was).
     let drawn = sample_token(logits, sampling, rng);
-    let within: Vec<Token> = top.iter().zip(&rollouts).filter(|(_, r)| check.within_grip(r)).map(|(t, _)| *t).collect();
+    let within: Vec<Token> =
+        top.iter().zip(&rollouts).filter(|(_, r)| check.within_turning_limit(r)).map(|(t, _)| *t).collect();
     if within.contains(&drawn) {
         return drawn;
     }
     if within.is_empty() {
-        return check.likeliest_within_grip_outside(logits, top).unwrap_or(drawn);
+        return check.likeliest_within_turning_limit_outside(logits, top).unwrap_or(drawn);
     }
     let mut masked = vec![f32::NEG_INFINITY; logits.len()];
     for t in &within {
@@ -159,7 +160,7 @@ mod tests {
     }
 
     #[test]
-    fn with_nothing_plausible_the_approach_draws_within_grip() {
+    fn with_nothing_plausible_the_approach_draws_within_turning_limit() {
         // A stopped car 1 m ahead of the CBV at 15 m/s: every token runs
         // into it. Of the top two, the likelier turns hard (1.5 rad/s, 22
         // m/s² sideways): a draw from the top two as they are would take it

@@ -344,21 +344,21 @@ pub fn safer_choice(
         return Ok(Some(t));
     }
     // With no plausible token at all, the trust region's token within the
-    // tyres' grip that breaks the rule latest (the first such in arg-min
-    // order): a car can break a rule, not its grip. Only here is the first
-    // violating step needed: the checks above stop at any. (`max_by_key`
-    // keeps the last of equal keys: scanned from the back.) Where every
-    // token of the region turns beyond grip, the likeliest one outside it
-    // that does not.
+    // tyres' grip (or the lower turning limit set) that breaks the rule
+    // latest (the first such in arg-min order): a car can break a rule, not
+    // its grip. Only here is the first violating step needed: the checks
+    // above stop at any. (`max_by_key` keeps the last of equal keys:
+    // scanned from the back.) Where every token of the region turns beyond
+    // it, the likeliest one outside the region that does not.
     let violations = order
         .iter()
         .rev()
-        .filter(|&&i| check.within_grip(&rollouts[i]))
+        .filter(|&&i| check.within_turning_limit(&rollouts[i]))
         .filter_map(|&i| check.first_violation(&rollouts[i], ContactRule::Any).map(|k| (i, k)));
     Ok(violations
         .max_by_key(|(_, k)| *k)
         .map(|(i, _)| candidates[i])
-        .or_else(|| check.likeliest_within_grip_outside(logits, candidates)))
+        .or_else(|| check.likeliest_within_turning_limit_outside(logits, candidates)))
 }
 
 /// The CBV's states along a first token's `rollout` and then the
@@ -423,7 +423,7 @@ mod tests {
     }
 
     #[test]
-    fn with_nothing_plausible_the_last_resort_keeps_within_grip() {
+    fn with_nothing_plausible_the_last_resort_keeps_within_turning_limit() {
         // A stopped car 1 m ahead of the CBV at 15 m/s: every token runs
         // into it at the first step. The prior likes a hard left turn
         // (1.5 rad/s, 22 m/s² sideways) most, which ends nearer the ego

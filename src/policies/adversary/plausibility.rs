@@ -468,7 +468,7 @@ impl<'w> PlausibilityCheck<'w> {
     /// Whether `rollout` (a token's states from the CBV's state now) keeps
     /// the CBV within the tyres' grip, or the lower turning limit set (see
     /// the `grip` module); `true` without a CBV.
-    pub(super) fn within_grip(&self, rollout: &[AgentState]) -> bool {
+    pub(super) fn within_turning_limit(&self, rollout: &[AgentState]) -> bool {
         self.cbv_now.as_ref().is_none_or(|now| first_beyond(now, rollout, self.turning).is_none())
     }
 
@@ -477,8 +477,8 @@ impl<'w> PlausibilityCheck<'w> {
     /// resort's, where nothing is plausible, for a car can break a rule
     /// but not its tyres' limit. Straight on is always within grip, so
     /// there is one whenever the CBV is present.
-    pub(super) fn likeliest_within_grip_outside(&self, logits: &[f32], region: &[Token]) -> Option<Token> {
-        self.likeliest_outside_where(logits, region, |rollout| self.within_grip(rollout))
+    pub(super) fn likeliest_within_turning_limit_outside(&self, logits: &[f32], region: &[Token]) -> Option<Token> {
+        self.likeliest_outside_where(logits, region, |rollout| self.within_turning_limit(rollout))
     }
 
     /// The likeliest token of the prior's ranking of `logits` that
