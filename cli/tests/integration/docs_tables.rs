@@ -1904,3 +1904,75 @@ fn the_grip_tables_quote_their_outputs() {
     }
     assert_eq!(rows.len(), 4, "two sets, two planners");
 }
+
+#[test]
+fn the_turning_limit_tables_quote_their_outputs() {
+    let doc = repo_file("docs/benchmarks.md");
+    let arrow = |grip: &str, limit: &str| format!("{grip} → {limit}");
+    // A method's peak lateral accelerations in an output: p50, p90, max.
+    let peaks = |output: &str, method: &str| {
+        let table = output.split("\nlateral acceleration of the CBV").nth(1).expect("the lateral acceleration table");
+        labelled_row(table, "measured", method)[1..4].to_vec()
+    };
+    // The paper's protocol: grip/ against turning/, every cell.
+    let rows = markdown_rows(
+        &doc,
+        "| method | n | ego contact | CR (grip → 4 m/s²) |",
+        "The shipped lookahead suite's settings, the evasive planner",
+    );
+    for row in &rows {
+        let method = method_of(&row[0]).unwrap();
+        let file = if method == "safer-in-path-lookahead" {
+            "evaluate-womd-interactive-lookahead-n28.txt"
+        } else {
+            "evaluate-womd-interactive.txt"
+        };
+        let (grip, limit) =
+            (repo_file(&format!("docs/evaluation/grip/{file}")), repo_file(&format!("docs/evaluation/turning/{file}")));
+        let (before, after) = (labelled_row(&grip, "SR-crit", method), labelled_row(&limit, "SR-crit", method));
+        let figures = |cells: &[String]| format!("{} / {} / {}", cells[6], cells[7], cells[8]);
+        let quoted = [
+            arrow(&before[2], &after[2]),
+            arrow(&before[3], &after[3]),
+            arrow(&before[4], &after[4]),
+            arrow(&figures(&before), &figures(&after)),
+            arrow(&peaks(&grip, method).join(" / "), &peaks(&limit, method).join(" / ")),
+        ];
+        assert_eq!(row[3..], quoted[..], "{row:?}");
+        assert!(peaks(&limit, method).iter().all(|p| p.parse::<f64>().unwrap() <= 4.0), "{row:?}: beyond the limit");
+    }
+    assert_eq!(rows.len(), 3);
+    // The shipped lookahead suite's settings, the evasive planner.
+    let rows = markdown_rows(&doc, "| set | n | CR (grip → 4 m/s²) | SR-crit |", "Held to turning at most 4 m/s²");
+    let method = "safer-in-path-lookahead";
+    for row in &rows {
+        let file = match row[0].as_str() {
+            "NGSIM" => "mutants-ngsim-n60-evasive.txt",
+            "WOMD interactive" => "mutants-womd-interactive-n28-evasive.txt",
+            other => panic!("no output for {other:?}"),
+        };
+        let figures = |dir: &str| {
+            let output = repo_file(&format!("docs/evaluation/{dir}/{file}"));
+            let main = labelled_row(&output, "SR-crit", method);
+            let reach = labelled_row(&output, "reach-crit", method);
+            let kills = labelled_row(&output, "passed", method);
+            let ranges = labelled_row(&output, "95 %", method);
+            let plausibility = labelled_row(&output, "CBV off-road", method);
+            let p = peaks(&output, method);
+            [
+                main[2].clone(),
+                main[4].clone(),
+                reach[1].clone(),
+                format!("{} ({})", killed(&kills[1]), kills[3]),
+                format!("{} ({})", kills[4], ranges[0]),
+                format!("{} ({})", kills[5], ranges[1]),
+                format!("{} / {}", p[0], p[1]),
+                plausibility[3].clone(),
+            ]
+        };
+        let (before, after) = (figures("grip"), figures("turning"));
+        let quoted: Vec<String> = before.iter().zip(&after).map(|(b, a)| arrow(b, a)).collect();
+        assert_eq!(row[2..], quoted[..], "{row:?}");
+    }
+    assert_eq!(rows.len(), 2, "two sets");
+}

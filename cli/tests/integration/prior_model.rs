@@ -164,6 +164,7 @@ fn the_prior_drives_recorded_traffic_closed_loop() {
             feasibility: safer_scenarios::policies::adversary::FeasibilityScope::Pair,
             ego_contact: safer_scenarios::policies::adversary::EgoContactRule::Any,
             wrong_way: safer_scenarios::policies::adversary::WrongWayRule::Allowed,
+            turning: safer_scenarios::policies::adversary::CbvTurningLimit::GRIP,
         };
         let cbv = scenario.cbv.unwrap();
         let installed =
