@@ -224,7 +224,7 @@
 #   turning           turning/: the CBV held to turning at most 4 m/s² sideways
 #                     (--max-lateral-accel 4, about the 95th percentile of the recorded CBVs'
 #                     peaks): grip/'s paper-protocol runs of safer, safer-in-path and the
-#                     lookahead, and its two evasive mutation runs (about 30 minutes)
+#                     lookahead, and its four mutation runs (about 75 minutes)
 #   mutants           mutants-{womd-interactive,womd-json,ngsim}-evasive.txt and
 #                     mutants-{womd-interactive,ngsim}-lane-follower.txt: the
 #                     faults of the planner each method's variants catch
@@ -862,7 +862,11 @@ for job in "${jobs[@]}"; do
         run turning/mutants-womd-interactive-n28-evasive.txt evaluate --scenes data:womd-interactive "${along[@]}" \
             --trust-region 28
         run turning/mutants-ngsim-n60-evasive.txt evaluate --scenes data:commonroad-ngsim "${along[@]}" \
-            --trust-region 60 ;;
+            --trust-region 60
+        for s in commonroad-ngsim:ngsim womd-interactive:womd-interactive; do
+            run "turning/mutants-${s#*:}-lane-follower-n60.txt" evaluate --scenes "data:${s%%:*}" \
+                "${along_the_lanes_lane_follower[@]}" "${turn[@]}"
+        done ;;
     esac
 done
 rm -r "$(dirname "$safer")"
