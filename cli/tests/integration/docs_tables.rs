@@ -1869,7 +1869,7 @@ fn the_grip_tables_quote_their_outputs() {
     let rows = markdown_rows(
         &doc,
         "| set | planner | n | beyond grip (without → with) | CR | SR-crit |",
-        "The CBV turns beyond grip only where",
+        "No CBV turns beyond grip, at little cost",
     );
     let method = "safer-in-path-lookahead";
     for row in &rows {
