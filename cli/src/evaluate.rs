@@ -378,19 +378,42 @@ fn print_peak_lateral(
     rows: &[MethodRow],
     name: &dyn Fn(&MethodRow) -> String,
 ) -> std::io::Result<()> {
+    let title = "lateral acceleration of the CBV in stage 1 (each variant's peak over 0.5 s, m/s²), beside the recorded CBV's over the same steps:";
+    print_beside_recorded(out, rows, name, title, &|r| {
+        [r.cbv_peak_lateral_accel_mps2, r.logged_cbv_peak_lateral_accel_mps2]
+    })
+}
+
+/// How briskly each method's CBV moved across its lanes in stage 1,
+/// beside the recorded CBV over the same steps.
+fn print_sideways(out: &mut dyn Write, rows: &[MethodRow], name: &dyn Fn(&MethodRow) -> String) -> std::io::Result<()> {
+    let title = "sideways speed of the CBV across its lanes in stage 1 (each variant's largest held 0.5 s, m/s), beside the recorded CBV's over the same steps:";
+    print_beside_recorded(out, rows, name, title, &|r| {
+        [r.cbv_sideways, r.logged_cbv_sideways].map(|s| s.map(spread_of))
+    })
+}
+
+/// A table under `title` of each method's spread of a per-variant figure
+/// of its CBV, beside the recorded CBV's (`spreads`: the two, in that
+/// order).
+fn print_beside_recorded(
+    out: &mut dyn Write,
+    rows: &[MethodRow],
+    name: &dyn Fn(&MethodRow) -> String,
+    title: &str,
+    spreads: &dyn Fn(&MethodRow) -> [Option<Spread>; 2],
+) -> std::io::Result<()> {
     let w = method_column(rows, name);
-    writeln!(
-        out,
-        "\nlateral acceleration of the CBV in stage 1 (each variant's peak over 0.5 s, m/s²), beside the recorded CBV's over the same steps:"
-    )?;
+    writeln!(out, "\n{title}")?;
     writeln!(
         out,
         "{:<w$} {:>9} {:>7} {:>7} {:>7} | {:>9} {:>7} {:>7} {:>7}",
         "method", "measured", "p50", "p90", "max", "recorded", "p50", "p90", "max"
     )?;
     for r in rows {
-        let [n, p50, p90, max] = spread_cells(r.cbv_peak_lateral_accel_mps2);
-        let [ln, lp50, lp90, lmax] = spread_cells(r.logged_cbv_peak_lateral_accel_mps2);
+        let [generated, recorded] = spreads(r);
+        let [n, p50, p90, max] = spread_cells(generated);
+        let [ln, lp50, lp90, lmax] = spread_cells(recorded);
         writeln!(out, "{:<w$} {n:>9} {p50:>7} {p90:>7} {max:>7} | {ln:>9} {lp50:>7} {lp90:>7} {lmax:>7}", name(r))?;
     }
     Ok(())
@@ -404,31 +427,15 @@ fn spread_cells(spread: Option<Spread>) -> [String; 4] {
     }
 }
 
-/// How briskly each method's CBV moved across its lanes in stage 1,
-/// beside the recorded CBV over the same steps.
-fn print_sideways(out: &mut dyn Write, rows: &[MethodRow], name: &dyn Fn(&MethodRow) -> String) -> std::io::Result<()> {
-    let w = method_column(rows, name);
-    writeln!(
-        out,
-        "\nsideways speed of the CBV across its lanes in stage 1 (each variant's largest held 0.5 s, m/s), beside the recorded CBV's over the same steps:"
-    )?;
-    writeln!(
-        out,
-        "{:<w$} {:>9} {:>7} {:>7} {:>7} | {:>9} {:>7} {:>7} {:>7}",
-        "method", "measured", "p50", "p90", "max", "recorded", "p50", "p90", "max"
-    )?;
-    for r in rows {
-        let [n, p50, p90, max] = sideways_cells(r.cbv_sideways);
-        let [ln, lp50, lp90, lmax] = sideways_cells(r.logged_cbv_sideways);
-        writeln!(out, "{:<w$} {n:>9} {p50:>7} {p90:>7} {max:>7} | {ln:>9} {lp50:>7} {lp90:>7} {lmax:>7}", name(r))?;
-    }
-    Ok(())
+/// A sideways-speed spread as a spread (in m/s).
+fn spread_of(s: SidewaysSpread) -> Spread {
+    Spread { measured: s.measured, p50: s.p50_mps, p90: s.p90_mps, max: s.max_mps }
 }
 
 /// A sideways-speed spread's cells: how many, median, 90th percentile,
 /// largest.
 fn sideways_cells(spread: Option<SidewaysSpread>) -> [String; 4] {
-    spread_cells(spread.map(|s| Spread { measured: s.measured, p50: s.p50_mps, p90: s.p90_mps, max: s.max_mps }))
+    spread_cells(spread.map(spread_of))
 }
 
 /// How briskly each method's CBV changed lanes in stage 1, beside the

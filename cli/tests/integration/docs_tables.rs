@@ -1942,13 +1942,16 @@ fn the_turning_limit_tables_quote_their_outputs() {
         assert!(peaks(&limit, method).iter().all(|p| p.parse::<f64>().unwrap() <= 4.0), "{row:?}: beyond the limit");
     }
     assert_eq!(rows.len(), 3);
-    // The shipped lookahead suite's settings, the evasive planner.
-    let rows = markdown_rows(&doc, "| set | n | CR (grip → 4 m/s²) | SR-crit |", "Held to turning at most 4 m/s²");
+    // The shipped lookahead suite's settings, both planners.
+    let rows =
+        markdown_rows(&doc, "| set | planner | n | CR (grip → 4 m/s²) | SR-crit |", "Held to turning at most 4 m/s²");
     let method = "safer-in-path-lookahead";
     for row in &rows {
-        let file = match row[0].as_str() {
-            "NGSIM" => "mutants-ngsim-n60-evasive.txt",
-            "WOMD interactive" => "mutants-womd-interactive-n28-evasive.txt",
+        let file = match (row[0].as_str(), row[1].as_str()) {
+            ("NGSIM", "evasive") => "mutants-ngsim-n60-evasive.txt",
+            ("WOMD interactive", "evasive") => "mutants-womd-interactive-n28-evasive.txt",
+            ("NGSIM", "lane follower") => "mutants-ngsim-lane-follower-n60.txt",
+            ("WOMD interactive", "lane follower") => "mutants-womd-interactive-lane-follower-n60.txt",
             other => panic!("no output for {other:?}"),
         };
         let figures = |dir: &str| {
@@ -1972,7 +1975,7 @@ fn the_turning_limit_tables_quote_their_outputs() {
         };
         let (before, after) = (figures("grip"), figures("turning"));
         let quoted: Vec<String> = before.iter().zip(&after).map(|(b, a)| arrow(b, a)).collect();
-        assert_eq!(row[2..], quoted[..], "{row:?}");
+        assert_eq!(row[3..], quoted[..], "{row:?}");
     }
-    assert_eq!(rows.len(), 2, "two sets");
+    assert_eq!(rows.len(), 4, "two sets, two planners");
 }
