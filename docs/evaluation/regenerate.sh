@@ -224,7 +224,7 @@
 #   turning           turning/: the CBV held to turning at most 4 m/s² sideways
 #                     (--max-lateral-accel 4, about the 95th percentile of the recorded CBVs'
 #                     peaks): grip/'s paper-protocol runs of safer, safer-in-path and the
-#                     lookahead, and its four mutation runs (about 75 minutes)
+#                     lookahead, and its four mutation runs (about 70 minutes)
 #   mutants           mutants-{womd-interactive,womd-json,ngsim}-evasive.txt and
 #                     mutants-{womd-interactive,ngsim}-lane-follower.txt: the
 #                     faults of the planner each method's variants catch
