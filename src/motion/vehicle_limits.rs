@@ -95,6 +95,13 @@ pub fn within_grip(yaw_rate_radps: f64, speed_mps: f64, next_speed_mps: f64, max
     yaw_rate_radps.clamp(-top, top)
 }
 
+/// The lateral acceleration of a step from `from` to `to` over `dt_s`,
+/// m/s²: the mean of the two speeds times the heading change per second,
+/// as [`VehicleLimits::check`] measures it.
+pub fn lateral_accel_mps2(from: &AgentState, to: &AgentState, dt_s: f64) -> f64 {
+    0.5 * (from.speed_mps() + to.speed_mps()) * wrap_angle(to.heading_rad - from.heading_rad).abs() / dt_s
+}
+
 /// Floating-point slack on every limit (a planner exactly at a limit,
 /// through the kinematic model's rounding, is inside it).
 const SLACK: f64 = 1e-6;
@@ -184,7 +191,7 @@ impl VehicleLimits {
                 broke("max_curvature_per_m", "curvature", curvature, self.max_curvature_per_m, "1/m")
             })
             .or_else(|| {
-                let lateral_accel = 0.5 * (v0 + v1) * turn / dt_s;
+                let lateral_accel = lateral_accel_mps2(now, next, dt_s);
                 broke(
                     "max_lateral_accel_mps2",
                     "lateral acceleration",

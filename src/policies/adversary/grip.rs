@@ -15,9 +15,8 @@
 //! how people turn: a suite may hold the CBV to a lower bound
 //! ([`CbvTurningLimit`]), such as the hardest turns of recorded drivers.
 
-use crate::geometry::wrap_angle;
 use crate::motion::tokens::SIM_DT_S;
-use crate::motion::vehicle_limits::DEFAULT_MAX_LATERAL_ACCEL_MPS2;
+use crate::motion::vehicle_limits::{DEFAULT_MAX_LATERAL_ACCEL_MPS2, lateral_accel_mps2};
 use crate::scenario::AgentState;
 
 /// Floating-point slack on the bound: a token exactly at it is within it.
@@ -61,11 +60,10 @@ impl Default for CbvTurningLimit {
 /// from `now`) reached by a step that pulls more sideways than `limit`
 /// allows, or `None` where every step stays within it.
 pub(super) fn first_beyond(now: &AgentState, rollout: &[AgentState], limit: CbvTurningLimit) -> Option<usize> {
-    std::iter::once(now).chain(rollout).zip(rollout).position(|(from, to)| {
-        let yaw_rate_radps = wrap_angle(to.heading_rad - from.heading_rad) / SIM_DT_S;
-        let mean_speed_mps = 0.5 * (from.speed_mps() + to.speed_mps());
-        mean_speed_mps * yaw_rate_radps.abs() > limit.0 + SLACK_MPS2
-    })
+    std::iter::once(now)
+        .chain(rollout)
+        .zip(rollout)
+        .position(|(from, to)| lateral_accel_mps2(from, to, SIM_DT_S) > limit.0 + SLACK_MPS2)
 }
 
 #[cfg(test)]

@@ -270,7 +270,7 @@ impl<'w> PlausibilityCheck<'w> {
         // lane queries, which in a turn or a lane change reject most of the
         // tokens the plausibility fallback ranks before their contacts and
         // their paths to a standstill are worked out.
-        let beyond_grip = || self.cbv_now.as_ref().and_then(|now| first_beyond(now, rollout, self.turning));
+        let beyond_grip = || self.first_beyond_turning_limit(rollout);
         let brisk = || self.lane_change_pace.first_breach(self.world.map, rollout);
         let rules = || self.rule_violation(rollout, wanted, rule);
         match wanted {
@@ -469,7 +469,13 @@ impl<'w> PlausibilityCheck<'w> {
     /// the CBV within the tyres' grip, or the lower turning limit set (see
     /// the `grip` module); `true` without a CBV.
     pub(super) fn within_turning_limit(&self, rollout: &[AgentState]) -> bool {
-        self.cbv_now.as_ref().is_none_or(|now| first_beyond(now, rollout, self.turning).is_none())
+        self.first_beyond_turning_limit(rollout).is_none()
+    }
+
+    /// The first state of `rollout` a step turning harder than the limit
+    /// reaches (`None` within it, or without a CBV).
+    fn first_beyond_turning_limit(&self, rollout: &[AgentState]) -> Option<usize> {
+        self.cbv_now.as_ref().and_then(|now| first_beyond(now, rollout, self.turning))
     }
 
     /// The likeliest token of the prior's ranking of `logits` that
