@@ -1834,10 +1834,40 @@ fn the_human_lane_change_pace_table_quotes_its_outputs() {
     assert_eq!(rows.len(), 8, "two rules, two planners, two sets");
 }
 
+/// `before → after`, as the side-by-side tables quote a figure.
+fn arrow(before: &str, after: &str) -> String {
+    format!("{before} → {after}")
+}
+
+/// The output of a run under the shipped lookahead suite's settings for
+/// the set and planner a side-by-side table names (`kill-ratios/`,
+/// `grip/` and `turning/` name theirs alike).
+fn suite_settings_output(set: &str, planner: &str) -> &'static str {
+    match (set, planner) {
+        ("NGSIM", "evasive") => "mutants-ngsim-n60-evasive.txt",
+        ("WOMD interactive", "evasive") => "mutants-womd-interactive-n28-evasive.txt",
+        ("NGSIM", "lane follower") => "mutants-ngsim-lane-follower-n60.txt",
+        ("WOMD interactive", "lane follower") => "mutants-womd-interactive-lane-follower-n60.txt",
+        other => panic!("no output for {other:?}"),
+    }
+}
+
+/// A method's kills in a mutation output as the side-by-side tables quote
+/// them: `kills (held out)`, `×log (its 95 % range)`, `×prior (its range)`.
+fn kill_cells(output: &str, method: &str) -> [String; 3] {
+    // passed, kills | held out, ×log, ×prior, ...
+    let kills = labelled_row(output, "passed", method);
+    let ranges = labelled_row(output, "95 %", method);
+    [
+        format!("{} ({})", killed(&kills[1]), kills[3]),
+        format!("{} ({})", kills[4], ranges[0]),
+        format!("{} ({})", kills[5], ranges[1]),
+    ]
+}
+
 #[test]
 fn the_grip_tables_quote_their_outputs() {
     let doc = repo_file("docs/benchmarks.md");
-    let arrow = |without: &str, with: &str| format!("{without} → {with}");
     // The paper's protocol: the "with" side's every cell, the "without"
     // side's from the outputs made before the rule (which lack the
     // beyond-grip column).
@@ -1873,28 +1903,15 @@ fn the_grip_tables_quote_their_outputs() {
     );
     let method = "safer-in-path-lookahead";
     for row in &rows {
-        let file = match (row[0].as_str(), row[1].as_str()) {
-            ("NGSIM", "evasive") => "mutants-ngsim-n60-evasive.txt",
-            ("WOMD interactive", "evasive") => "mutants-womd-interactive-n28-evasive.txt",
-            ("NGSIM", "lane follower") => "mutants-ngsim-lane-follower-n60.txt",
-            ("WOMD interactive", "lane follower") => "mutants-womd-interactive-lane-follower-n60.txt",
-            other => panic!("no output for {other:?}"),
-        };
+        let file = suite_settings_output(&row[0], &row[1]);
         let figures = |dir: &str| {
             let output = repo_file(&format!("docs/evaluation/{dir}/{file}"));
             let main = labelled_row(&output, "SR-crit", method);
             let reach = labelled_row(&output, "reach-crit", method);
-            let kills = labelled_row(&output, "passed", method);
-            let ranges = labelled_row(&output, "95 %", method);
-            [
-                main[2].clone(),
-                main[4].clone(),
-                main[5].clone(),
-                reach[1].clone(),
-                format!("{} ({})", killed(&kills[1]), kills[3]),
-                format!("{} ({})", kills[4], ranges[0]),
-                format!("{} ({})", kills[5], ranges[1]),
-            ]
+            [main[2].clone(), main[4].clone(), main[5].clone(), reach[1].clone()]
+                .into_iter()
+                .chain(kill_cells(&output, method))
+                .collect::<Vec<_>>()
         };
         let (before, after) = (figures("kill-ratios"), figures("grip"));
         let quoted: Vec<String> = before.iter().zip(&after).map(|(b, a)| arrow(b, a)).collect();
@@ -1908,7 +1925,6 @@ fn the_grip_tables_quote_their_outputs() {
 #[test]
 fn the_turning_limit_tables_quote_their_outputs() {
     let doc = repo_file("docs/benchmarks.md");
-    let arrow = |grip: &str, limit: &str| format!("{grip} → {limit}");
     // A method's peak lateral accelerations in an output: p50, p90, max.
     let peaks = |output: &str, method: &str| {
         let table = output.split("\nlateral acceleration of the CBV").nth(1).expect("the lateral acceleration table");
@@ -1947,31 +1963,18 @@ fn the_turning_limit_tables_quote_their_outputs() {
         markdown_rows(&doc, "| set | planner | n | CR (grip → 4 m/s²) | SR-crit |", "Held to turning at most 4 m/s²");
     let method = "safer-in-path-lookahead";
     for row in &rows {
-        let file = match (row[0].as_str(), row[1].as_str()) {
-            ("NGSIM", "evasive") => "mutants-ngsim-n60-evasive.txt",
-            ("WOMD interactive", "evasive") => "mutants-womd-interactive-n28-evasive.txt",
-            ("NGSIM", "lane follower") => "mutants-ngsim-lane-follower-n60.txt",
-            ("WOMD interactive", "lane follower") => "mutants-womd-interactive-lane-follower-n60.txt",
-            other => panic!("no output for {other:?}"),
-        };
+        let file = suite_settings_output(&row[0], &row[1]);
         let figures = |dir: &str| {
             let output = repo_file(&format!("docs/evaluation/{dir}/{file}"));
             let main = labelled_row(&output, "SR-crit", method);
             let reach = labelled_row(&output, "reach-crit", method);
-            let kills = labelled_row(&output, "passed", method);
-            let ranges = labelled_row(&output, "95 %", method);
             let plausibility = labelled_row(&output, "CBV off-road", method);
             let p = peaks(&output, method);
-            [
-                main[2].clone(),
-                main[4].clone(),
-                reach[1].clone(),
-                format!("{} ({})", killed(&kills[1]), kills[3]),
-                format!("{} ({})", kills[4], ranges[0]),
-                format!("{} ({})", kills[5], ranges[1]),
-                format!("{} / {}", p[0], p[1]),
-                plausibility[3].clone(),
-            ]
+            [main[2].clone(), main[4].clone(), reach[1].clone()]
+                .into_iter()
+                .chain(kill_cells(&output, method))
+                .chain([format!("{} / {}", p[0], p[1]), plausibility[3].clone()])
+                .collect::<Vec<_>>()
         };
         let (before, after) = (figures("grip"), figures("turning"));
         let quoted: Vec<String> = before.iter().zip(&after).map(|(b, a)| arrow(b, a)).collect();

@@ -617,7 +617,6 @@ fn recorded_lane_changes_by_scene(report: &Value) -> std::collections::BTreeMap<
 fn the_tables_give_the_cbvs_sideways_speed_and_turning_as_the_json_report_does_and_log_replay_matches_the_recording() {
     let methods = ["log", "safer-in-path"];
     let (table, report) = evaluate_shipped_ngsim("sideways", &methods, 2);
-    let section = table.split("\nsideways speed of the CBV").nth(1).expect("the sideways table");
     let variants = report["variants"].as_array().unwrap();
     // Nearest-rank p50, p90 and the largest, as the table prints them.
     let spread = |mut v: Vec<f64>| -> Vec<String> {
@@ -627,53 +626,36 @@ fn the_tables_give_the_cbvs_sideways_speed_and_turning_as_the_json_report_does_a
         cells.extend([rank(0.5), rank(0.9), v[v.len() - 1]].map(|x| format!("{x:.2}")));
         cells
     };
-    for method in methods {
-        let line = section.lines().find(|l| l.split_whitespace().next() == Some(method)).expect("the method's row");
-        let cells: Vec<&str> = line.split_whitespace().skip(1).filter(|c| *c != "|").collect();
-        let held = |which: &str| -> Vec<f64> {
-            variants
-                .iter()
-                .filter(|v| v["method"] == method)
-                .filter_map(|v| v["tally"]["cbv"][which]["held_sideways_mps"].as_f64())
-                .collect()
-        };
-        let (generated, recorded) = (held("generated"), held("logged"));
-        assert!(!generated.is_empty(), "{method}: no variant measured");
-        let mut from_variants = spread(generated.clone());
-        from_variants.extend(spread(recorded.clone()));
-        assert_eq!(cells, from_variants, "{method}: the table and the report's variants disagree");
-        let row = report["rows"].as_array().unwrap().iter().find(|r| r["method"] == method).unwrap();
-        assert_eq!(row["cbv_sideways"]["measured"], generated.len(), "{method}: the report's row");
-        if method == "log" {
-            // Log replay drives the CBV as recorded: the same figures.
-            assert_eq!(generated, recorded, "log replay's CBV moved sideways unlike the recording");
+    // The table titled `title` against each variant's `figure` of the CBV
+    // as generated and as logged, and the row's spread `row_field`.
+    let beside_recorded = |title: &str, figure: &str, row_field: &str| {
+        let section = table.split(title).nth(1).unwrap_or_else(|| panic!("the table {title:?}"));
+        for method in methods {
+            let line = section.lines().find(|l| l.split_whitespace().next() == Some(method)).expect("the method's row");
+            let cells: Vec<&str> = line.split_whitespace().skip(1).filter(|c| *c != "|").collect();
+            let figures = |which: &str| -> Vec<f64> {
+                variants
+                    .iter()
+                    .filter(|v| v["method"] == method)
+                    .filter_map(|v| v["tally"]["cbv"][which][figure].as_f64())
+                    .collect()
+            };
+            let (generated, recorded) = (figures("generated"), figures("logged"));
+            assert!(!generated.is_empty() && !recorded.is_empty(), "{method}: no variant measured {figure}");
+            let mut from_variants = spread(generated.clone());
+            from_variants.extend(spread(recorded.clone()));
+            assert_eq!(cells, from_variants, "{method}: the table and the report's variants disagree on {figure}");
+            let row = report["rows"].as_array().unwrap().iter().find(|r| r["method"] == method).unwrap();
+            assert_eq!(row[row_field]["measured"], generated.len(), "{method}: the report's row {row_field}");
+            if method == "log" {
+                // Log replay drives the CBV as recorded: the same figures.
+                assert_eq!(generated, recorded, "log replay's CBV: {figure} unlike the recording");
+            }
         }
-    }
-
-    // The lateral acceleration: each variant's peak, beside the recorded
-    // CBV's over the same steps.
-    let section = table.split("\nlateral acceleration of the CBV").nth(1).expect("the lateral acceleration table");
-    for method in methods {
-        let line = section.lines().find(|l| l.split_whitespace().next() == Some(method)).expect("the method's row");
-        let cells: Vec<&str> = line.split_whitespace().skip(1).filter(|c| *c != "|").collect();
-        let peaks = |which: &str| -> Vec<f64> {
-            variants
-                .iter()
-                .filter(|v| v["method"] == method)
-                .filter_map(|v| v["tally"]["cbv"][which]["peak_lateral_accel_mps2"].as_f64())
-                .collect()
-        };
-        let (generated, recorded) = (peaks("generated"), peaks("logged"));
-        assert!(!generated.is_empty() && !recorded.is_empty(), "{method}: no variant measured");
-        let mut from_variants = spread(generated.clone());
-        from_variants.extend(spread(recorded.clone()));
-        assert_eq!(cells, from_variants, "{method}: the table and the report's variants disagree");
-        let row = report["rows"].as_array().unwrap().iter().find(|r| r["method"] == method).unwrap();
-        assert_eq!(row["cbv_peak_lateral_accel_mps2"]["measured"], generated.len(), "{method}: the report's row");
-        if method == "log" {
-            assert_eq!(generated, recorded, "log replay's CBV turned unlike the recording");
-        }
-    }
+    };
+    // How briskly the CBV moved across its lanes, and how hard it turned.
+    beside_recorded("\nsideways speed of the CBV", "held_sideways_mps", "cbv_sideways");
+    beside_recorded("\nlateral acceleration of the CBV", "peak_lateral_accel_mps2", "cbv_peak_lateral_accel_mps2");
 
     // The lane changes: the CBVs that changed lanes, beside every recorded
     // vehicle that did in the same scenes, each scene once.
