@@ -487,6 +487,7 @@ fn bench_variant(scenes: &[Scenario], repeat: usize) -> Result<Option<VariantBen
             ego_contact: safer_scenarios::policies::adversary::EgoContactRule::Any,
             wrong_way: Default::default(),
             turning: Default::default(),
+            turning_cost: Default::default(),
         },
         seed: safer_scenarios::harness::variant::variant_seed(0, &format!("{}/{method:?}", scenario.id), 0),
         sim: &sim,

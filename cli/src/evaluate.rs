@@ -30,7 +30,8 @@ use safer_scenarios::harness::methods::ModelSet;
 use safer_scenarios::harness::mutation::{MethodKills, OFF_PATH_M, OperatorKills};
 use safer_scenarios::planners::FaultOperator;
 use safer_scenarios::policies::adversary::{
-    ApproachPhase, CbvTurningLimit, EgoContactRule, FeasibilityScope, WrongWayRule,
+    ApproachPhase, CbvTurningCost, CbvTurningLimit, EgoContactRule, FeasibilityScope, MAX_TURNING_COST_M_PER_MPS2,
+    WrongWayRule,
 };
 use safer_scenarios::scenario::roles::RolePairing;
 use safer_scenarios::scenario::{Scenario, import};
@@ -142,6 +143,20 @@ fn turning_limit(written: &str) -> Result<f64, String> {
     })
 }
 
+/// Parses `--turning-cost`: at least 0 and at most the largest cost.
+fn turning_cost(written: &str) -> Result<f64, String> {
+    let max = MAX_TURNING_COST_M_PER_MPS2;
+    let v: f64 =
+        written.trim().parse().map_err(|_| format!("`{written}` is not a number; expected 0 <= x <= {max}"))?;
+    CbvTurningCost::new(v).map(CbvTurningCost::m_per_mps2).ok_or_else(|| {
+        format!("{v} is outside the accepted range 0 <= x <= {max} m per m/s² (beyond {max} a turn already outweighs any loss near the ego)")
+    })
+}
+
+fn is_zero(x: &f64) -> bool {
+    *x == 0.0
+}
+
 fn is_any_contact(rule: &EgoContactRule) -> bool {
     *rule == EgoContactRule::Any
 }
@@ -171,6 +186,9 @@ pub(super) struct EvaluationSettings {
     /// Reports written before the option existed held the CBV to grip.
     #[serde(default = "grip_mps2", skip_serializing_if = "is_grip")]
     max_lateral_accel_mps2: f64,
+    /// Reports written before the option existed had no turning cost.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    turning_cost_m_per_mps2: f64,
     background: BackgroundDriver,
     stage2_cbv: Vec<Stage2Cbv>,
     horizon_s: f64,
@@ -201,6 +219,7 @@ impl EvaluationSettings {
             ego_contact: request.ego_contact,
             wrong_way: request.wrong_way,
             max_lateral_accel_mps2: request.turning.max_lateral_accel_mps2(),
+            turning_cost_m_per_mps2: request.turning_cost.m_per_mps2(),
             background: request.background,
             stage2_cbv: request.stage2_cbv.clone(),
             horizon_s: request.horizon_s,
@@ -229,7 +248,7 @@ fn print_table(
     let name = |r: &MethodRow| label(r.method, r.stage2_cbv, modes);
     writeln!(
         out,
-        "{scenes} scenes × {} seeds; stage 2 planner `{}`, stage-2 CBV {}, trust region n = {}, horizon {} s{}{}{}{}{}{}{}{}",
+        "{scenes} scenes × {} seeds; stage 2 planner `{}`, stage-2 CBV {}, trust region n = {}, horizon {} s{}{}{}{}{}{}{}{}{}",
         request.seeds,
         request.planner,
         request.stage2_cbv.iter().map(safer_scenarios::spec::spec_name).collect::<Vec<_>>().join(" and "),
@@ -261,6 +280,11 @@ fn print_table(
             String::new()
         } else {
             format!("; the CBV turning at most {} m/s²", request.max_lateral_accel_mps2)
+        },
+        if is_zero(&request.turning_cost_m_per_mps2) {
+            String::new()
+        } else {
+            format!("; a turn costing {} m per m/s²", request.turning_cost_m_per_mps2)
         },
         match witness.road {
             RoadKeeping::Centre => "",
@@ -1715,6 +1739,9 @@ pub(crate) struct EvaluateArgs {
     /// How hard the SaFeR methods' CBV may turn, m/s² (beyond the paper): a token that pulls it more sideways at some step (its speed times its yaw rate) is implausible, as leaving the road is. Above 0 and at most 9, the default: the tyres' grip, the ego's own default limit. Lower holds the CBV to how people turn: the lateral acceleration table sets the CBV's peaks beside the recorded CBV's.
     #[arg(long, value_name = "M/S2", default_value_t = CbvTurningLimit::GRIP.max_lateral_accel_mps2(), value_parser = turning_limit)]
     pub(crate) max_lateral_accel: f64,
+    /// What a m/s² of the SaFeR methods' CBV's lateral acceleration adds to a candidate token's loss, m (beyond the paper): the token's peak over its steps, measured as `--max-lateral-accel` measures it, so that a harder turn is taken only where it gets the CBV closer by more than it costs. 0 (the default, the paper's loss) to 5.
+    #[arg(long, value_name = "M", default_value_t = 0.0, value_parser = turning_cost)]
+    pub(crate) turning_cost: f64,
     /// The CBV in stage 2: replaying its stage-1 trajectory, or driven by the method again against the planner's ego (closed-loop), or so with the CBV seeing the planner's ego a driver's reaction time (1 s) late, carried on at the velocity it had, so that it does not follow an escape as it begins (closed-loop-delayed, beyond the paper); `replay,closed-loop` reports both side by side. The default here is `replay`, so that every method's stage 2 meets the same recorded CBV path and the methods compare on equal terms (the paper does not say whether its CBV reacts in stage 2); suites default to `closed-loop` (`adversary.stage2_cbv`), because a planner test should meet a CBV that answers the planner.
     #[arg(long, value_parser = choice(Stage2Cbv::ALL), value_delimiter = ',', default_values = ["replay"])]
     pub(crate) stage2_cbv: Vec<Stage2Cbv>,
@@ -1771,6 +1798,7 @@ pub(crate) fn command(args: EvaluateArgs) -> Result<ExitCode, CliError> {
         ego_contact,
         wrong_way,
         max_lateral_accel,
+        turning_cost,
         stage2_cbv,
         horizon_s,
         roles,
@@ -1800,6 +1828,7 @@ pub(crate) fn command(args: EvaluateArgs) -> Result<ExitCode, CliError> {
         ego_contact,
         wrong_way,
         turning: CbvTurningLimit::new(max_lateral_accel).unwrap_or_default(),
+        turning_cost: CbvTurningCost::new(turning_cost).unwrap_or_default(),
         background,
         stage2_cbv,
         escape: Some(escape),

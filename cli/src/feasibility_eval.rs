@@ -259,6 +259,7 @@ fn from_stage1(
         ego_contact: Default::default(),
         wrong_way: Default::default(),
         turning: Default::default(),
+        turning_cost: Default::default(),
         background: Default::default(),
         stage2_cbv: vec![Stage2Cbv::Replay],
         escape: None,

@@ -198,6 +198,7 @@ pub(crate) fn command(args: TrustRegionArgs) -> Result<ExitCode, CliError> {
         ego_contact: Default::default(),
         wrong_way: Default::default(),
         turning: Default::default(),
+        turning_cost: Default::default(),
         background: BackgroundDriver::Configured,
         stage2_cbv: vec![Stage2Cbv::Replay],
         escape: None,

@@ -225,6 +225,9 @@
 #                     (--max-lateral-accel 4, about the 95th percentile of the recorded CBVs'
 #                     peaks): grip/'s paper-protocol runs of safer, safer-in-path and the
 #                     lookahead, and its four mutation runs (about 70 minutes)
+#   turning-cost      turning-cost/: a turn costing 0.1 m per m/s² of the CBV's lateral
+#                     acceleration in its loss (--turning-cost 0.1): the turning job's six
+#                     runs (about 70 minutes)
 #   mutants           mutants-{womd-interactive,womd-json,ngsim}-evasive.txt and
 #                     mutants-{womd-interactive,ngsim}-lane-follower.txt: the
 #                     faults of the planner each method's variants catch
@@ -240,7 +243,7 @@ self=$(realpath "$0")
 cd "$(dirname "$self")"
 all=(evaluate plain inattentive held-out-chance trust-region realism prior-fit n-sweep reactive n100 approach-none merging mutants wide-region cut-in
     in-path-lookahead in-path-lookahead-n30 in-path-lookahead-n28 in-path-lookahead-sweep pair-in-traffic witnessed wide-witnessed ten-seeds reaction-delay reactive-background leader first-contact both-pairings first-contact-lookahead blind-twin ego-contact wrong-way
-    lane-follower-pairings at-fault-planner along-the-lanes along-the-lanes-lane-follower sideways kill-ratios human-lane-changes grip turning)
+    lane-follower-pairings at-fault-planner along-the-lanes along-the-lanes-lane-follower sideways kill-ratios human-lane-changes grip turning turning-cost)
 jobs=("$@")
 [[ ${#jobs[@]} -gt 0 ]] || jobs=("${all[@]}")
 # The usage is the comment block at the top of this file.
@@ -866,6 +869,22 @@ for job in "${jobs[@]}"; do
         for s in commonroad-ngsim:ngsim womd-interactive:womd-interactive; do
             run "turning/mutants-${s#*:}-lane-follower-n60.txt" evaluate --scenes "data:${s%%:*}" \
                 "${along_the_lanes_lane_follower[@]}" "${turn[@]}"
+        done ;;
+    turning-cost)
+        mkdir -p turning-cost
+        cost=(--turning-cost 0.1)
+        run turning-cost/evaluate-womd-interactive.txt evaluate --scenes data:womd-interactive --seeds 10 \
+            --methods safer,safer-in-path "${cost[@]}"
+        run turning-cost/evaluate-womd-interactive-lookahead-n28.txt evaluate --scenes data:womd-interactive \
+            --seeds 10 --trust-region 28 --methods safer-in-path-lookahead --ego-contact not-from-behind "${cost[@]}"
+        along=("${along_the_lanes[@]}" --planner ../../planners/evasive.yaml "${cost[@]}")
+        run turning-cost/mutants-womd-interactive-n28-evasive.txt evaluate --scenes data:womd-interactive \
+            "${along[@]}" --trust-region 28
+        run turning-cost/mutants-ngsim-n60-evasive.txt evaluate --scenes data:commonroad-ngsim "${along[@]}" \
+            --trust-region 60
+        for s in commonroad-ngsim:ngsim womd-interactive:womd-interactive; do
+            run "turning-cost/mutants-${s#*:}-lane-follower-n60.txt" evaluate --scenes "data:${s%%:*}" \
+                "${along_the_lanes_lane_follower[@]}" "${cost[@]}"
         done ;;
     esac
 done

@@ -417,6 +417,7 @@ pub fn run_episode(
                 ego_contact: crate::policies::adversary::EgoContactRule::Any,
                 wrong_way: Default::default(),
                 turning: Default::default(),
+                turning_cost: Default::default(),
             };
             crate::harness::methods::install(&mut sim, s, cbv, start, settings, models, maps, seed).ok()?;
             let mut planner = episode.ego_planner.instantiate(s, ego);

@@ -39,7 +39,9 @@ use crate::eval::spread::Spread;
 use crate::eval::witness::Witness;
 use crate::planners::FaultOperator;
 use crate::policies::BackgroundPolicy;
-use crate::policies::adversary::{ApproachPhase, CbvTurningLimit, EgoContactRule, FeasibilityScope, WrongWayRule};
+use crate::policies::adversary::{
+    ApproachPhase, CbvTurningCost, CbvTurningLimit, EgoContactRule, FeasibilityScope, WrongWayRule,
+};
 use crate::policies::prior_sampling::TokenSampling;
 use crate::scenario::Scenario;
 use crate::sim::{EgoCollisionKind, Rollout, SimConfig};
@@ -74,6 +76,9 @@ pub struct EvaluationRequest {
     /// How hard the SaFeR methods' CBV may turn (the tyres' grip unless
     /// lower).
     pub turning: CbvTurningLimit,
+    /// What a turn of the SaFeR methods' CBV adds to its loss (none: the
+    /// paper's).
+    pub turning_cost: CbvTurningCost,
     /// Who drives the background agents.
     pub background: BackgroundDriver,
     /// Stage-2 CBV modes, each a row per method (replay: the paper's
@@ -485,6 +490,7 @@ impl EvaluationRequest {
             ego_contact: self.ego_contact,
             wrong_way: self.wrong_way,
             turning: self.turning,
+            turning_cost: self.turning_cost,
         }
     }
 }

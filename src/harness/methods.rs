@@ -15,8 +15,8 @@ use crate::models::prior::{PriorVariant, RealismPrior};
 use crate::models::{ModelError, ModelSource};
 use crate::policies::LogReplay;
 use crate::policies::adversary::{
-    Adversary, ApproachPhase, CbvTurningLimit, EgoContactRule, EgoSight, EscapeWitness, FeasibilityOracle,
-    FeasibilityScope, LOOKAHEAD_TOKENS, Objective, Search, TrustRegion, WrongWayRule,
+    Adversary, ApproachPhase, CbvTurningCost, CbvTurningLimit, EgoContactRule, EgoSight, EscapeWitness,
+    FeasibilityOracle, FeasibilityScope, LOOKAHEAD_TOKENS, Objective, Search, TrustRegion, WrongWayRule,
 };
 use crate::policies::prior_sampling::{PriorAgent, PriorTraffic, ScenarioMapEncoding, TokenSampling, TrafficTimings};
 use crate::scenario::{AgentBody, AgentState, Scenario, TrackIndex};
@@ -143,6 +143,8 @@ pub struct MethodSettings {
     pub wrong_way: WrongWayRule,
     /// How hard the SaFeR methods' CBV may turn.
     pub turning: CbvTurningLimit,
+    /// What a turn of the SaFeR methods' CBV adds to its loss (none: the paper's).
+    pub turning_cost: CbvTurningCost,
 }
 
 /// The feasibility witness the `witnessed` scope asks before the CBV makes
@@ -248,6 +250,7 @@ pub fn install_seeing_ego(
         ego_contact: settings.ego_contact,
         wrong_way: settings.wrong_way,
         turning: settings.turning,
+        turning_cost: settings.turning_cost,
         ..Search::one_step(trust_region_of(settings.method, settings.trust_region))
     };
     let adversary = |search, feasibility| {

@@ -69,6 +69,7 @@ pub fn profile_variant(
             ego_contact: Default::default(),
             wrong_way: Default::default(),
             turning: Default::default(),
+            turning_cost: Default::default(),
         },
         seed,
         sim: &sim,

@@ -259,6 +259,7 @@ impl VariantInputs {
                 ego_contact: spec.adversary.ego_contact,
                 wrong_way: spec.adversary.wrong_way,
                 turning: spec.adversary.turning_limit(),
+                turning_cost: spec.adversary.turning_cost(),
             },
             seed: self.seed,
             sim: &self.sim,

@@ -23,7 +23,10 @@ use serde_saphyr::Spanned;
 
 use super::{Loaded, SpecError, SpecLocation, paths};
 use crate::policies::BackgroundPolicy;
-use crate::policies::adversary::{ApproachPhase, CbvTurningLimit, EgoContactRule, FeasibilityScope, WrongWayRule};
+use crate::policies::adversary::{
+    ApproachPhase, CbvTurningCost, CbvTurningLimit, EgoContactRule, FeasibilityScope, MAX_TURNING_COST_M_PER_MPS2,
+    WrongWayRule,
+};
 
 /// A suite.
 #[derive(Debug, Clone, Deserialize, JsonSchema)]
@@ -329,6 +332,14 @@ pub struct AdversarySpec {
     #[serde(default)]
     #[schemars(range(max = 9.0), extend("exclusiveMinimum" = 0.0))]
     pub max_lateral_accel_mps2: Option<f64>,
+    /// What a m/s² of the SaFeR methods' CBV's lateral acceleration adds
+    /// to a candidate token's loss, m (beyond the paper): the token's peak
+    /// over its steps, measured as `max_lateral_accel_mps2` measures it. A
+    /// harder turn is then taken only where it gets the CBV closer by more
+    /// than it costs. 0 to 5; unset (0) is the paper's loss.
+    #[serde(default)]
+    #[schemars(range(min = 0.0, max = 5.0))]
+    pub turning_cost_m_per_mps2: Option<f64>,
 }
 
 impl AdversarySpec {
@@ -336,6 +347,12 @@ impl AdversarySpec {
     /// tyres' grip where it is not set (or, before validation, out of range).
     pub fn turning_limit(&self) -> CbvTurningLimit {
         self.max_lateral_accel_mps2.and_then(CbvTurningLimit::new).unwrap_or_default()
+    }
+
+    /// What a turn adds to the CBV's loss: [`Self::turning_cost_m_per_mps2`],
+    /// none where it is not set (or, before validation, out of range).
+    pub fn turning_cost(&self) -> CbvTurningCost {
+        self.turning_cost_m_per_mps2.and_then(CbvTurningCost::new).unwrap_or_default()
     }
 }
 
@@ -359,6 +376,7 @@ impl Default for AdversarySpec {
             ego_contact: EgoContactRule::Any,
             wrong_way: WrongWayRule::Allowed,
             max_lateral_accel_mps2: None,
+            turning_cost_m_per_mps2: None,
         }
     }
 }
@@ -706,6 +724,7 @@ impl Loaded<SuiteSpec> {
                 s.adversary.max_lateral_accel_mps2.is_some(),
                 "which the plausibility rule holds",
             ),
+            ("turning_cost_m_per_mps2", s.adversary.turning_cost_m_per_mps2.is_some(), "whose loss it weighs"),
         ];
         if !s.adversary.method.is_adversary()
             && let Some((key, _, why)) = safer_only.iter().find(|(_, set, _)| *set)
@@ -728,6 +747,10 @@ impl Loaded<SuiteSpec> {
         if let Some(x) = s.adversary.max_lateral_accel_mps2 {
             let grip = CbvTurningLimit::GRIP.max_lateral_accel_mps2();
             self.check_number("adversary.max_lateral_accel_mps2", x, NumberRange::above(0.0, grip), "m/s²")?;
+        }
+        if let Some(x) = s.adversary.turning_cost_m_per_mps2 {
+            let range = NumberRange::closed(0.0, MAX_TURNING_COST_M_PER_MPS2);
+            self.check_number("adversary.turning_cost_m_per_mps2", x, range, "m per m/s²")?;
         }
         if s.shrink.budget > MAX_SHRINK_BUDGET {
             return Err(self.invalid_at(
@@ -1137,6 +1160,19 @@ acceptance:
         let (set, default) = adversary_with("method: safer-in-path, max_lateral_accel_mps2: 4.0 }");
         assert_eq!(set.turning_limit(), CbvTurningLimit::new(4.0).unwrap());
         assert_eq!(default.turning_limit(), CbvTurningLimit::GRIP);
+    }
+
+    #[test]
+    fn the_turning_cost_is_for_the_safer_methods_within_its_range_and_none_by_default() {
+        let e = error("method: prior }", "method: prior, turning_cost_m_per_mps2: 0.1 }");
+        assert!(e.contains("`turning_cost_m_per_mps2` applies to the SaFeR methods"), "{e}");
+        for refused in ["-0.1", "5.5", ".nan"] {
+            let e = error("method: prior }", &format!("method: safer, turning_cost_m_per_mps2: {refused} }}"));
+            assert!(e.contains("`turning_cost_m_per_mps2` must be a number in [0, 5] m per m/s²"), "{refused}: {e}");
+        }
+        let (set, default) = adversary_with("method: safer-in-path-lookahead, turning_cost_m_per_mps2: 0.1 }");
+        assert_eq!(set.turning_cost(), CbvTurningCost::new(0.1).unwrap());
+        assert_eq!(default.turning_cost(), CbvTurningCost::NONE);
     }
 
     #[test]

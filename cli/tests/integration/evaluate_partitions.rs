@@ -534,24 +534,63 @@ fn the_table_says_how_the_cbv_touched_the_recorded_ego_as_the_json_report_does()
 /// scenes with `seeds` seeds: its table and its JSON report (written
 /// under a scratch folder named `name`).
 fn evaluate_shipped_ngsim(name: &str, methods: &[&str], seeds: u32) -> (String, Value) {
+    evaluate_shipped_ngsim_with(name, methods, seeds, &[])
+}
+
+/// [`evaluate_shipped_ngsim`] with the options `extra` added.
+fn evaluate_shipped_ngsim_with(name: &str, methods: &[&str], seeds: u32, extra: &[&str]) -> (String, Value) {
     let json = tempfile_dir(name).join("report.json");
     let scenes = Path::new(repo_root!()).join("scenes/ngsim");
-    let table = ok(safer(&[
+    let (methods, seeds) = (methods.join(","), seeds.to_string());
+    let args = [
         "evaluate",
         "--scenes",
         scenes.to_str().unwrap(),
         "--methods",
-        &methods.join(","),
+        &methods,
         "--trust-region",
         "60",
         "--seeds",
-        &seeds.to_string(),
+        &seeds,
         "--jobs",
         "2",
         "--json",
         json.to_str().unwrap(),
-    ]));
+    ];
+    let table = ok(safer(&[&args[..], extra].concat()));
     (table, serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap())
+}
+
+#[test]
+fn a_turning_cost_makes_the_cbv_turn_more_gently_and_the_reports_say_so() {
+    let peaks = |report: &Value| -> Vec<f64> {
+        let variants = report["variants"].as_array().unwrap();
+        let mut peaks: Vec<f64> = variants
+            .iter()
+            .filter_map(|v| v["tally"]["cbv"]["generated"]["peak_lateral_accel_mps2"].as_f64())
+            .collect();
+        assert_eq!(peaks.len(), variants.len(), "every variant's CBV has a peak");
+        peaks.sort_by(f64::total_cmp);
+        peaks
+    };
+    let (plain_table, plain) = evaluate_shipped_ngsim("turning-cost-none", &["safer-in-path"], 3);
+    let (table, costed) = evaluate_shipped_ngsim_with("turning-cost", &["safer-in-path"], 3, &["--turning-cost", "1"]);
+    // The shipped scenes' in-path CBVs peak at 4 m/s² at the median
+    // without the cost; a turn worth more than its metres is not taken.
+    let (plain_peaks, costed_peaks) = (peaks(&plain), peaks(&costed));
+    let median = |p: &[f64]| p[p.len() / 2];
+    assert!(
+        median(&costed_peaks) < median(&plain_peaks) / 2.0,
+        "with the cost {costed_peaks:?}, without {plain_peaks:?}"
+    );
+    assert!(table.lines().next().unwrap().ends_with("; a turn costing 1 m per m/s²"), "{table}");
+    assert!(!plain_table.lines().next().unwrap().contains("a turn costing"), "{plain_table}");
+    assert_eq!(costed["settings"]["turning_cost_m_per_mps2"].as_f64(), Some(1.0));
+    assert!(plain["settings"].get("turning_cost_m_per_mps2").is_none(), "no cost, no key: older reports read alike");
+    let scenes = Path::new(repo_root!()).join("scenes/ngsim");
+    let refused = safer(&["evaluate", "--scenes", scenes.to_str().unwrap(), "--turning-cost", "5.5"]);
+    let text = String::from_utf8_lossy(&refused.stderr);
+    assert!(!refused.status.success() && text.contains("outside the accepted range 0 <= x <= 5"), "{text}");
 }
 
 #[test]

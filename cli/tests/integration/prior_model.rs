@@ -165,6 +165,7 @@ fn the_prior_drives_recorded_traffic_closed_loop() {
             ego_contact: safer_scenarios::policies::adversary::EgoContactRule::Any,
             wrong_way: safer_scenarios::policies::adversary::WrongWayRule::Allowed,
             turning: safer_scenarios::policies::adversary::CbvTurningLimit::GRIP,
+            turning_cost: safer_scenarios::policies::adversary::CbvTurningCost::NONE,
         };
         let cbv = scenario.cbv.unwrap();
         let installed =

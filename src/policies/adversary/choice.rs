@@ -15,6 +15,7 @@ use super::lookahead::{FirstTokens, Lookahead, Lowering};
 use super::objective::Objective;
 use super::plausibility::{ContactRule, PlausibilityCheck};
 use super::rollout::token_rollouts;
+use super::turning_cost::CbvTurningCost;
 use super::wrong_way::WrongWayRule;
 use crate::models::ModelError;
 use crate::models::feasibility_oracle::FeasibilityOracle;
@@ -88,6 +89,8 @@ pub struct Search {
     pub wrong_way: WrongWayRule,
     /// How hard the CBV may turn.
     pub turning: CbvTurningLimit,
+    /// What a feasible candidate's turn adds to its loss.
+    pub turning_cost: CbvTurningCost,
 }
 
 impl Search {
@@ -101,6 +104,7 @@ impl Search {
             ego_contact: EgoContactRule::Any,
             wrong_way: WrongWayRule::Allowed,
             turning: CbvTurningLimit::GRIP,
+            turning_cost: CbvTurningCost::NONE,
         }
     }
 }
@@ -235,6 +239,15 @@ pub fn safer_choice(
             rear_ends: &rear_ends,
         };
         lowered = lookahead.lower_losses(cbv_now, first, &mut losses, feasibility, feasibility_s)?;
+    }
+    // A feasible candidate pays for its turn (a lookahead's, after its
+    // continuations lowered it: the token taken now pays, not the plan).
+    if search.turning_cost.is_set() {
+        for (loss, rollout) in losses.iter_mut().zip(&rollouts) {
+            if *loss < INFEASIBLE_PENALTY {
+                *loss += search.turning_cost.of(cbv_now, rollout);
+            }
+        }
     }
     let witness = match (constraint.witness, search.feasibility, feasibility) {
         (Some(witness), FeasibilityScope::Witnessed, Some(_)) => Some(ContactWitness::new(
@@ -377,6 +390,7 @@ fn cbv_path(rollout: &[AgentState], lowering: Option<&Lowering>) -> Vec<AgentSta
 mod tests {
     use super::*;
     use crate::map::RoadMap;
+    use crate::motion::Action;
     use crate::motion::tokens::{MAX_ACCEL_MPS2, TokenGrid};
     use crate::policies::adversary::test_support::{LIKED, StubOracle, car, choice_among, choice_in, token};
     use crate::scenario::{AgentBody, AgentKind};
@@ -395,6 +409,23 @@ mod tests {
         assert_eq!(choice(&LIKED, TrustRegion::TopN(5), None), token(5.0));
         // The region of the three likeliest leaves out +2 and +5.
         assert_eq!(choice(&LIKED, TrustRegion::TopN(3), None), token(0.0));
+    }
+
+    #[test]
+    fn a_turning_cost_takes_a_harder_turn_only_where_it_gains_more_than_it_costs() {
+        // The CBV beside the ego, 5 m to its left, both at 10 m/s: turning
+        // towards the ego gets it about half a metre closer.
+        let states = [car(0.0, 0.0, 10.0), car(0.0, 5.0, 10.0)];
+        let (straight, towards) = (token(0.0), TokenGrid::quantize(Action { accel_mps2: 0.0, yaw_rate_radps: -0.3 }));
+        let liked = [(straight, 5.0), (towards, 4.0)];
+        let with = |m_per_mps2: f64| {
+            let turning_cost = CbvTurningCost::new(m_per_mps2).unwrap();
+            choice_among(&states, &liked, Search { turning_cost, ..Search::one_step(TrustRegion::TopN(2)) }, None)
+        };
+        assert_eq!(with(0.0), towards);
+        // About 3 m/s² for that gain: a small cost leaves the turn, a larger one does not.
+        assert_eq!(with(0.01), towards);
+        assert_eq!(with(1.0), straight);
     }
 
     #[test]

@@ -64,7 +64,9 @@
 //! [`PriorTraffic::hide_from`](crate::policies::prior_sampling::PriorTraffic::hide_from)).
 //! Any SaFeR method may be kept from contacts from behind the ego (beyond
 //! the paper; see [`EgoContactRule`]), and from driving against a lane's
-//! traffic (beyond the paper; see [`WrongWayRule`]).
+//! traffic (beyond the paper; see [`WrongWayRule`]); and any may weigh
+//! how hard a token turns the CBV in its loss (beyond the paper; see
+//! [`CbvTurningCost`]).
 //! Any method with V_h may also ask, near the ego, whether the traffic
 //! around the ego leaves it room to escape, or whether the feasibility
 //! witness finds it an escape (beyond the paper; see [`FeasibilityScope`]).
@@ -72,7 +74,7 @@
 //! One file per concept: the [`Adversary`] policy (`policy`), the
 //! approach phase (`approach`), SaFeR's choice ([`safer_choice`],
 //! `choice`) and the lookahead of `safer-lookahead` (`lookahead`), V_h of
-//! candidate states (`feasibility`), the tyres' grip (`grip`), the ego's room to escape among the traffic (`escape_room`), which contacts with the ego it may make (`ego_contact`), whether it may drive against the traffic (`wrong_way`) and the witness asked before a contact (`contact_witness`), what a candidate's loss measures (`objective`) with the in-path and cut-in losses (`in_path`), the CBV's states under a token
+//! candidate states (`feasibility`), the tyres' grip (`grip`), the ego's room to escape among the traffic (`escape_room`), which contacts with the ego it may make (`ego_contact`), whether it may drive against the traffic (`wrong_way`) and the witness asked before a contact (`contact_witness`), what a candidate's loss measures (`objective`) with the in-path and cut-in losses (`in_path`) and what a turn adds to it (`turning_cost`), the CBV's states under a token
 //! (`rollout`), the [`BackgroundForecast`], and the plausibility check
 //! (`plausibility`, with its broad phase in `broad_phase`), how late it sees
 //! the ego (`reaction`); and the
@@ -101,6 +103,7 @@ mod rollout;
 #[cfg(test)]
 mod test_support;
 mod trust_region_profile;
+mod turning_cost;
 mod wrong_way;
 
 pub use crate::models::feasibility_oracle::{EgoCbvState, FeasibilityOracle};
@@ -124,4 +127,5 @@ pub use objective::Objective;
 pub use policy::Adversary;
 pub use reaction::{EgoSight, REACTION_TIME_S};
 pub use trust_region_profile::{TrustRegionProfile, profile_trust_region, rank_of_driven_token};
+pub use turning_cost::{CbvTurningCost, MAX_TURNING_COST_M_PER_MPS2};
 pub use wrong_way::WrongWayRule;
