@@ -228,6 +228,14 @@
 #   turning-cost      turning-cost/: a turn costing 0.1 m per m/s² of the CBV's lateral
 #                     acceleration in its loss (--turning-cost 0.1): the turning job's six
 #                     runs (about 70 minutes)
+#   turning-cost-sweep
+#                     turning-cost/sweep/: the lookahead alone at turning costs of 0.05, 0.25,
+#                     0.5 and 1 m per m/s², beside turning-cost/'s 0.1 and grip/'s none: the
+#                     paper's protocol on WOMD interactive over 28
+#                     (evaluate-womd-interactive-lookahead-n28-cC.txt) and the evasive
+#                     planner's mutation tables under the suite's settings on WOMD
+#                     interactive over 28 and NGSIM over 60
+#                     (mutants-{womd-interactive-n28,ngsim-n60}-evasive-cC.txt) (about 15 minutes)
 #   mutants           mutants-{womd-interactive,womd-json,ngsim}-evasive.txt and
 #                     mutants-{womd-interactive,ngsim}-lane-follower.txt: the
 #                     faults of the planner each method's variants catch
@@ -243,7 +251,7 @@ self=$(realpath "$0")
 cd "$(dirname "$self")"
 all=(evaluate plain inattentive held-out-chance trust-region realism prior-fit n-sweep reactive n100 approach-none merging mutants wide-region cut-in
     in-path-lookahead in-path-lookahead-n30 in-path-lookahead-n28 in-path-lookahead-sweep pair-in-traffic witnessed wide-witnessed ten-seeds reaction-delay reactive-background leader first-contact both-pairings first-contact-lookahead blind-twin ego-contact wrong-way
-    lane-follower-pairings at-fault-planner along-the-lanes along-the-lanes-lane-follower sideways kill-ratios human-lane-changes grip turning turning-cost)
+    lane-follower-pairings at-fault-planner along-the-lanes along-the-lanes-lane-follower sideways kill-ratios human-lane-changes grip turning turning-cost turning-cost-sweep)
 jobs=("$@")
 [[ ${#jobs[@]} -gt 0 ]] || jobs=("${all[@]}")
 # The usage is the comment block at the top of this file.
@@ -885,6 +893,20 @@ for job in "${jobs[@]}"; do
         for s in commonroad-ngsim:ngsim womd-interactive:womd-interactive; do
             run "turning-cost/mutants-${s#*:}-lane-follower-n60.txt" evaluate --scenes "data:${s%%:*}" \
                 "${along_the_lanes_lane_follower[@]}" "${cost[@]}"
+        done ;;
+    turning-cost-sweep)
+        mkdir -p turning-cost/sweep
+        for c in 0.05 0.25 0.5 1; do
+            run "turning-cost/sweep/evaluate-womd-interactive-lookahead-n28-c$c.txt" evaluate \
+                --scenes data:womd-interactive --seeds 10 --trust-region 28 --methods safer-in-path-lookahead \
+                --ego-contact not-from-behind --turning-cost "$c"
+            # The suite's settings, the lookahead's rows alone (its kills need no other row).
+            along=("${along_the_lanes[@]/%log,prior,safer-in-path-lookahead/safer-in-path-lookahead}"
+                --planner ../../planners/evasive.yaml --turning-cost "$c")
+            run "turning-cost/sweep/mutants-womd-interactive-n28-evasive-c$c.txt" evaluate \
+                --scenes data:womd-interactive "${along[@]}" --trust-region 28
+            run "turning-cost/sweep/mutants-ngsim-n60-evasive-c$c.txt" evaluate --scenes data:commonroad-ngsim \
+                "${along[@]}" --trust-region 60
         done ;;
     esac
 done

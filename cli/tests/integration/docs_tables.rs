@@ -1924,61 +1924,104 @@ fn the_grip_tables_quote_their_outputs() {
 
 #[test]
 fn the_turning_limit_tables_quote_their_outputs() {
-    let doc = repo_file("docs/benchmarks.md");
-    // A method's peak lateral accelerations in an output: p50, p90, max.
-    let peaks = |output: &str, method: &str| {
-        let table = output.split("\nlateral acceleration of the CBV").nth(1).expect("the lateral acceleration table");
-        labelled_row(table, "measured", method)[1..4].to_vec()
+    let limit = TurningTables {
+        dir: "turning",
+        paper: (
+            "| method | n | ego contact | CR (grip → 4 m/s²) |",
+            "The shipped lookahead suite's settings, the evasive planner",
+        ),
+        suite: ("| set | planner | n | CR (grip → 4 m/s²) | SR-crit |", "Held to turning at most 4 m/s²"),
+        peak_at_most_mps2: Some(4.0),
     };
-    // The paper's protocol: grip/ against turning/, every cell.
-    let rows = markdown_rows(
-        &doc,
-        "| method | n | ego contact | CR (grip → 4 m/s²) |",
-        "The shipped lookahead suite's settings, the evasive planner",
-    );
-    for row in &rows {
-        let method = method_of(&row[0]).unwrap();
-        let file = if method == "safer-in-path-lookahead" {
-            "evaluate-womd-interactive-lookahead-n28.txt"
-        } else {
-            "evaluate-womd-interactive.txt"
+    limit.quote_their_outputs();
+}
+
+#[test]
+fn the_turning_cost_tables_quote_their_outputs() {
+    let cost = TurningTables {
+        dir: "turning-cost",
+        paper: (
+            "| method | n | ego contact | CR (none → 0.1) |",
+            "The shipped lookahead suite's settings, the evasive planner",
+        ),
+        suite: ("| set | planner | n | CR (none → 0.1) | SR-crit |", "With a turn costing 0.1 m per m/s²"),
+        peak_at_most_mps2: None,
+    };
+    cost.quote_their_outputs();
+}
+
+/// A section of `benchmarks.md` that sets the CBV's turning under a rule
+/// (the outputs under `docs/evaluation/{dir}/`) beside the same runs held
+/// within grip alone (`grip/`): the paper's protocol on WOMD interactive
+/// and the shipped lookahead suite's settings, each table from the first
+/// line starting with its header to its end marker.
+struct TurningTables {
+    dir: &'static str,
+    paper: (&'static str, &'static str),
+    suite: (&'static str, &'static str),
+    /// The most the rule lets a peak be, m/s² (a limit; a cost has none).
+    peak_at_most_mps2: Option<f64>,
+}
+
+impl TurningTables {
+    fn quote_their_outputs(&self) {
+        let doc = repo_file("docs/benchmarks.md");
+        // A method's peak lateral accelerations in an output: p50, p90, max.
+        let peaks = |output: &str, method: &str| {
+            let table =
+                output.split("\nlateral acceleration of the CBV").nth(1).expect("the lateral acceleration table");
+            labelled_row(table, "measured", method)[1..4].to_vec()
         };
-        let (grip, limit) =
-            (repo_file(&format!("docs/evaluation/grip/{file}")), repo_file(&format!("docs/evaluation/turning/{file}")));
-        let (before, after) = (labelled_row(&grip, "SR-crit", method), labelled_row(&limit, "SR-crit", method));
-        let figures = |cells: &[String]| format!("{} / {} / {}", cells[6], cells[7], cells[8]);
-        let quoted = [
-            arrow(&before[2], &after[2]),
-            arrow(&before[3], &after[3]),
-            arrow(&before[4], &after[4]),
-            arrow(&figures(&before), &figures(&after)),
-            arrow(&peaks(&grip, method).join(" / "), &peaks(&limit, method).join(" / ")),
-        ];
-        assert_eq!(row[3..], quoted[..], "{row:?}");
-        assert!(peaks(&limit, method).iter().all(|p| p.parse::<f64>().unwrap() <= 4.0), "{row:?}: beyond the limit");
+        // The paper's protocol: grip/ against the rule's, every cell.
+        let rows = markdown_rows(&doc, self.paper.0, self.paper.1);
+        for row in &rows {
+            let method = method_of(&row[0]).unwrap();
+            let file = if method == "safer-in-path-lookahead" {
+                "evaluate-womd-interactive-lookahead-n28.txt"
+            } else {
+                "evaluate-womd-interactive.txt"
+            };
+            let (grip, ruled) = (
+                repo_file(&format!("docs/evaluation/grip/{file}")),
+                repo_file(&format!("docs/evaluation/{}/{file}", self.dir)),
+            );
+            let (before, after) = (labelled_row(&grip, "SR-crit", method), labelled_row(&ruled, "SR-crit", method));
+            let figures = |cells: &[String]| format!("{} / {} / {}", cells[6], cells[7], cells[8]);
+            let quoted = [
+                arrow(&before[2], &after[2]),
+                arrow(&before[3], &after[3]),
+                arrow(&before[4], &after[4]),
+                arrow(&figures(&before), &figures(&after)),
+                arrow(&peaks(&grip, method).join(" / "), &peaks(&ruled, method).join(" / ")),
+            ];
+            assert_eq!(row[3..], quoted[..], "{row:?}");
+            if let Some(limit) = self.peak_at_most_mps2 {
+                let within = peaks(&ruled, method).iter().all(|p| p.parse::<f64>().unwrap() <= limit);
+                assert!(within, "{row:?}: beyond the limit");
+            }
+        }
+        assert_eq!(rows.len(), 3);
+        // The shipped lookahead suite's settings, both planners.
+        let rows = markdown_rows(&doc, self.suite.0, self.suite.1);
+        let method = "safer-in-path-lookahead";
+        for row in &rows {
+            let file = suite_settings_output(&row[0], &row[1]);
+            let figures = |dir: &str| {
+                let output = repo_file(&format!("docs/evaluation/{dir}/{file}"));
+                let main = labelled_row(&output, "SR-crit", method);
+                let reach = labelled_row(&output, "reach-crit", method);
+                let plausibility = labelled_row(&output, "CBV off-road", method);
+                let p = peaks(&output, method);
+                [main[2].clone(), main[4].clone(), reach[1].clone()]
+                    .into_iter()
+                    .chain(kill_cells(&output, method))
+                    .chain([format!("{} / {}", p[0], p[1]), plausibility[3].clone()])
+                    .collect::<Vec<_>>()
+            };
+            let (before, after) = (figures("grip"), figures(self.dir));
+            let quoted: Vec<String> = before.iter().zip(&after).map(|(b, a)| arrow(b, a)).collect();
+            assert_eq!(row[3..], quoted[..], "{row:?}");
+        }
+        assert_eq!(rows.len(), 4, "two sets, two planners");
     }
-    assert_eq!(rows.len(), 3);
-    // The shipped lookahead suite's settings, both planners.
-    let rows =
-        markdown_rows(&doc, "| set | planner | n | CR (grip → 4 m/s²) | SR-crit |", "Held to turning at most 4 m/s²");
-    let method = "safer-in-path-lookahead";
-    for row in &rows {
-        let file = suite_settings_output(&row[0], &row[1]);
-        let figures = |dir: &str| {
-            let output = repo_file(&format!("docs/evaluation/{dir}/{file}"));
-            let main = labelled_row(&output, "SR-crit", method);
-            let reach = labelled_row(&output, "reach-crit", method);
-            let plausibility = labelled_row(&output, "CBV off-road", method);
-            let p = peaks(&output, method);
-            [main[2].clone(), main[4].clone(), reach[1].clone()]
-                .into_iter()
-                .chain(kill_cells(&output, method))
-                .chain([format!("{} / {}", p[0], p[1]), plausibility[3].clone()])
-                .collect::<Vec<_>>()
-        };
-        let (before, after) = (figures("grip"), figures("turning"));
-        let quoted: Vec<String> = before.iter().zip(&after).map(|(b, a)| arrow(b, a)).collect();
-        assert_eq!(row[3..], quoted[..], "{row:?}");
-    }
-    assert_eq!(rows.len(), 4, "two sets, two planners");
 }
