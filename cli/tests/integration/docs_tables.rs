@@ -1950,6 +1950,41 @@ fn the_turning_cost_tables_quote_their_outputs() {
     cost.quote_their_outputs();
 }
 
+#[test]
+fn the_turning_cost_sweep_quotes_its_outputs() {
+    let doc = repo_file("docs/benchmarks.md");
+    let rows = markdown_rows(&doc, "| cost (m per m/s²) | CR |", "It stays opt-in: on NGSIM");
+    let method = "safer-in-path-lookahead";
+    let costs: Vec<&str> = rows.iter().map(|r| r[0].as_str()).collect();
+    assert_eq!(costs, ["none", "0.05", "0.1", "0.25", "0.5", "1"]);
+    for row in &rows {
+        // The paper's protocol, then the suite's settings on WOMD interactive and on NGSIM.
+        let names = [
+            "evaluate-womd-interactive-lookahead-n28",
+            "mutants-womd-interactive-n28-evasive",
+            "mutants-ngsim-n60-evasive",
+        ];
+        let [paper, womd, ngsim] = names.map(|name| {
+            repo_file(&match row[0].as_str() {
+                "none" => format!("docs/evaluation/grip/{name}.txt"),
+                "0.1" => format!("docs/evaluation/turning-cost/{name}.txt"),
+                cost => format!("docs/evaluation/turning-cost/sweep/{name}-c{cost}.txt"),
+            })
+        });
+        let main = labelled_row(&paper, "SR-crit", method);
+        let lateral = paper.split("\nlateral acceleration of the CBV").nth(1).expect("the lateral acceleration table");
+        let peaks = labelled_row(lateral, "measured", method);
+        let mut quoted =
+            vec![main[2].clone(), main[4].clone(), main[8].clone(), format!("{} / {}", peaks[1], peaks[2])];
+        for output in [&womd, &ngsim] {
+            let main = labelled_row(output, "SR-crit", method);
+            let kills = labelled_row(output, "passed", method);
+            quoted.extend([main[2].clone(), main[4].clone(), format!("{} ({})", killed(&kills[1]), kills[3])]);
+        }
+        assert_eq!(row[1..], quoted[..], "{row:?}");
+    }
+}
+
 /// A section of `benchmarks.md` that sets the CBV's turning under a rule
 /// (the outputs under `docs/evaluation/{dir}/`) beside the same runs held
 /// within grip alone (`grip/`): the paper's protocol on WOMD interactive

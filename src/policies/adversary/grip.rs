@@ -60,30 +60,23 @@ impl Default for CbvTurningLimit {
 /// from `now`) reached by a step that pulls more sideways than `limit`
 /// allows, or `None` where every step stays within it.
 pub(super) fn first_beyond(now: &AgentState, rollout: &[AgentState], limit: CbvTurningLimit) -> Option<usize> {
-    std::iter::once(now)
-        .chain(rollout)
-        .zip(rollout)
-        .position(|(from, to)| lateral_accel_mps2(from, to, SIM_DT_S) > limit.0 + SLACK_MPS2)
+    lateral_accels_mps2(now, rollout).position(|a| a > limit.0 + SLACK_MPS2)
+}
+
+/// The lateral acceleration each step of `rollout` (a token's states, one
+/// a simulator step, from `now`) pulls, m/s²: what the turning limit bounds.
+pub(super) fn lateral_accels_mps2<'a>(
+    now: &'a AgentState,
+    rollout: &'a [AgentState],
+) -> impl Iterator<Item = f64> + 'a {
+    std::iter::once(now).chain(rollout).zip(rollout).map(|(from, to)| lateral_accel_mps2(from, to, SIM_DT_S))
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::motion::tokens::{TOKEN_PERIOD_STEPS, TokenGrid};
-    use crate::motion::{Action, KinematicState};
-
-    /// The states of a token of `yaw_rate_radps` at a steady `speed_mps`.
-    fn turning(speed_mps: f64, yaw_rate_radps: f64) -> (AgentState, Vec<AgentState>) {
-        let now = AgentState {
-            position: crate::geometry::Point2::new(0.0, 0.0),
-            heading_rad: 0.0,
-            velocity_mps: crate::geometry::Vector2::new(speed_mps, 0.0),
-        };
-        let token = TokenGrid::quantize(Action { accel_mps2: 0.0, yaw_rate_radps });
-        let from = KinematicState::from_agent_state(&now);
-        let states = TokenGrid::rollout(&from, token).iter().map(KinematicState::to_agent_state).collect();
-        (now, states)
-    }
+    use crate::motion::tokens::TOKEN_PERIOD_STEPS;
+    use crate::policies::adversary::test_support::turning;
 
     #[test]
     fn a_token_beyond_the_tyres_grip_is_caught_at_its_first_step() {

@@ -15,6 +15,15 @@ pub(super) fn car(x: f64, y: f64, speed_mps: f64) -> Option<AgentState> {
     Some(AgentState { position: Point2::new(x, y), heading_rad: 0.0, velocity_mps: Vector2::new(speed_mps, 0.0) })
 }
 
+/// A car at the origin heading along +x at a steady `speed_mps`, and its
+/// states under the token of `yaw_rate_radps` (no acceleration).
+pub(super) fn turning(speed_mps: f64, yaw_rate_radps: f64) -> (AgentState, Vec<AgentState>) {
+    let now = car(0.0, 0.0, speed_mps).expect("a car");
+    let token = TokenGrid::quantize(Action { accel_mps2: 0.0, yaw_rate_radps });
+    let from = crate::motion::KinematicState::from_agent_state(&now);
+    (now, TokenGrid::rollout(&from, token).iter().map(crate::motion::KinematicState::to_agent_state).collect())
+}
+
 /// The token of `accel_mps2` driving straight on.
 pub(super) fn token(accel_mps2: f64) -> Token {
     TokenGrid::quantize(Action { accel_mps2, yaw_rate_radps: 0.0 })

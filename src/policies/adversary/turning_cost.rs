@@ -12,8 +12,7 @@
 //! own turn; a lookahead's later tokens do not, as each is taken, or not,
 //! at its own boundary, where it pays then.
 
-use crate::motion::tokens::SIM_DT_S;
-use crate::motion::vehicle_limits::lateral_accel_mps2;
+use super::grip::lateral_accels_mps2;
 use crate::scenario::AgentState;
 
 /// The largest turning cost a suite or the command line may set, m per
@@ -57,36 +56,16 @@ impl CbvTurningCost {
         if !self.is_set() {
             return 0.0;
         }
-        self.0 * peak_lateral_accel_mps2(now, rollout)
+        self.0 * lateral_accels_mps2(now, rollout).fold(0.0, f64::max)
     }
-}
-
-/// The largest lateral acceleration a step of `rollout` (from `now`) pulls, m/s².
-fn peak_lateral_accel_mps2(now: &AgentState, rollout: &[AgentState]) -> f64 {
-    std::iter::once(now)
-        .chain(rollout)
-        .zip(rollout)
-        .map(|(from, to)| lateral_accel_mps2(from, to, SIM_DT_S))
-        .fold(0.0, f64::max)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::motion::Action;
     use crate::motion::tokens::TokenGrid;
-    use crate::motion::{Action, KinematicState};
-
-    /// The states of a token of `yaw_rate_radps` at a steady `speed_mps`, and where it starts.
-    fn turning(speed_mps: f64, yaw_rate_radps: f64) -> (AgentState, Vec<AgentState>) {
-        let now = AgentState {
-            position: crate::geometry::Point2::new(0.0, 0.0),
-            heading_rad: 0.0,
-            velocity_mps: crate::geometry::Vector2::new(speed_mps, 0.0),
-        };
-        let token = TokenGrid::quantize(Action { accel_mps2: 0.0, yaw_rate_radps });
-        let from = KinematicState::from_agent_state(&now);
-        (now, TokenGrid::rollout(&from, token).iter().map(KinematicState::to_agent_state).collect())
-    }
+    use crate::policies::adversary::test_support::turning;
 
     #[test]
     fn a_turn_costs_its_peak_lateral_acceleration_times_the_cost() {
