@@ -148,9 +148,9 @@ fn turning_cost(written: &str) -> Result<f64, String> {
     let max = MAX_TURNING_COST_M_PER_MPS2;
     let v: f64 =
         written.trim().parse().map_err(|_| format!("`{written}` is not a number; expected 0 <= x <= {max}"))?;
-    CbvTurningCost::new(v).map(CbvTurningCost::m_per_mps2).ok_or_else(|| {
-        format!("{v} is outside the accepted range 0 <= x <= {max} m per m/s² (beyond {max} a turn already outweighs any loss near the ego)")
-    })
+    CbvTurningCost::new(v)
+        .map(CbvTurningCost::m_per_mps2)
+        .ok_or_else(|| format!("{v} is outside the accepted range 0 <= x <= {max} m per m/s²"))
 }
 
 fn is_zero(x: &f64) -> bool {

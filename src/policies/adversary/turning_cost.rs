@@ -16,8 +16,9 @@ use super::grip::lateral_accels_mps2;
 use crate::scenario::AgentState;
 
 /// The largest turning cost a suite or the command line may set, m per
-/// m/s²: at it a token turning at the tyres' grip pays 45 m, more than any
-/// loss near the ego, so larger ones change nothing.
+/// m/s²: well past the costs worth setting (at 1 the in-path CBV already
+/// turns less than recorded drivers), and a bound that refuses a slip such
+/// as 50 for 0.50.
 pub const MAX_TURNING_COST_M_PER_MPS2: f64 = 5.0;
 
 /// What a m/s² of the CBV's lateral acceleration adds to a feasible
