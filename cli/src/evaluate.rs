@@ -135,22 +135,17 @@ fn is_grip(mps2: &f64) -> bool {
 
 /// Parses `--max-lateral-accel`: above 0 and at most the tyres' grip.
 fn turning_limit(written: &str) -> Result<f64, String> {
-    let grip = grip_mps2();
-    let v: f64 =
-        written.trim().parse().map_err(|_| format!("`{written}` is not a number; expected 0 < x <= {grip}"))?;
-    CbvTurningLimit::new(v).map(CbvTurningLimit::max_lateral_accel_mps2).ok_or_else(|| {
-        format!("{v} is outside the accepted range 0 < x <= {grip} m/s² (no car turns harder than its tyres' grip)")
+    let why = " m/s² (no car turns harder than its tyres' grip)";
+    number_in(written, &format!("0 < x <= {}", grip_mps2()), why, |v| {
+        CbvTurningLimit::new(v).map(CbvTurningLimit::max_lateral_accel_mps2)
     })
 }
 
 /// Parses `--turning-cost`: at least 0 and at most the largest cost.
 fn turning_cost(written: &str) -> Result<f64, String> {
-    let max = MAX_TURNING_COST_M_PER_MPS2;
-    let v: f64 =
-        written.trim().parse().map_err(|_| format!("`{written}` is not a number; expected 0 <= x <= {max}"))?;
-    CbvTurningCost::new(v)
-        .map(CbvTurningCost::m_per_mps2)
-        .ok_or_else(|| format!("{v} is outside the accepted range 0 <= x <= {max} m per m/s²"))
+    number_in(written, &format!("0 <= x <= {MAX_TURNING_COST_M_PER_MPS2}"), " m per m/s²", |v| {
+        CbvTurningCost::new(v).map(CbvTurningCost::m_per_mps2)
+    })
 }
 
 fn is_zero(x: &f64) -> bool {

@@ -286,24 +286,22 @@ fn at_least_one() -> impl TypedValueParser<Value = usize> {
     RangedU64ValueParser::<usize>::new().range(1..)
 }
 
+/// Parses a number written for a flag that accepts `range` (as in
+/// `0 < x < inf`): the value `accept` keeps, or a message naming the range
+/// and then `why` (what follows the range in it, such as its unit).
+fn number_in(written: &str, range: &str, why: &str, accept: impl FnOnce(f64) -> Option<f64>) -> Result<f64, String> {
+    let v: f64 = written.trim().parse().map_err(|_| format!("`{written}` is not a number; expected {range}"))?;
+    accept(v).ok_or_else(|| format!("{v} is outside the accepted range {range}{why}"))
+}
+
 /// Parses a positive, finite number (durations, distances).
 fn positive_finite(written: &str) -> Result<f64, String> {
-    let v: f64 = written.trim().parse().map_err(|_| format!("`{written}` is not a number; expected 0 < x < inf"))?;
-    if v.is_finite() && v > 0.0 {
-        Ok(v)
-    } else {
-        Err(format!("{v} is outside the accepted range 0 < x < inf (a positive, finite number)"))
-    }
+    number_in(written, "0 < x < inf", " (a positive, finite number)", |v| (v.is_finite() && v > 0.0).then_some(v))
 }
 
 /// Parses a non-negative, finite number (speeds, thresholds).
 fn non_negative_finite(written: &str) -> Result<f64, String> {
-    let v: f64 = written.trim().parse().map_err(|_| format!("`{written}` is not a number; expected 0 <= x < inf"))?;
-    if v.is_finite() && v >= 0.0 {
-        Ok(v)
-    } else {
-        Err(format!("{v} is outside the accepted range 0 <= x < inf (a non-negative, finite number)"))
-    }
+    number_in(written, "0 <= x < inf", " (a non-negative, finite number)", |v| (v.is_finite() && v >= 0.0).then_some(v))
 }
 
 /// A mean to `decimals` places for a table, `—` where there is none.
