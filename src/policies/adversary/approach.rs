@@ -124,7 +124,7 @@ mod tests {
     use crate::map::RoadMap;
     use crate::motion::tokens::MAX_ACCEL_MPS2;
     use crate::policies::adversary::TrustRegion;
-    use crate::policies::adversary::test_support::{car, token};
+    use crate::policies::adversary::test_support::{car, logits_liking, token};
     use crate::scenario::{AgentBody, AgentKind, AgentState};
     use rand::SeedableRng;
     use rand_chacha::ChaCha8Rng;
@@ -137,10 +137,7 @@ mod tests {
         let map = RoadMap::default();
         let bodies = vec![AgentBody { kind: AgentKind::Vehicle, length_m: 4.5, width_m: 2.0 }; states.len()];
         let world = WorldView { map: &map, step: 10, bodies: &bodies, states };
-        let mut logits = vec![-30.0f32; crate::motion::tokens::VOCABULARY_SIZE];
-        for &(t, logit) in liked {
-            logits[t.0 as usize] = logit;
-        }
+        let logits = logits_liking(liked);
         let sampling = TokenSampling { top_k: 2, temperature: 1.0 };
         (0..32)
             .map(|seed| {

@@ -392,7 +392,9 @@ mod tests {
     use crate::map::RoadMap;
     use crate::motion::Action;
     use crate::motion::tokens::{MAX_ACCEL_MPS2, TokenGrid};
-    use crate::policies::adversary::test_support::{LIKED, StubOracle, car, choice_among, choice_in, token};
+    use crate::policies::adversary::test_support::{
+        LIKED, StubOracle, car, choice_among, choice_in, logits_liking, token,
+    };
     use crate::scenario::{AgentBody, AgentKind};
 
     /// The choice with the CBV 30 m behind the ego, both at 10 m/s along
@@ -438,10 +440,7 @@ mod tests {
         assert_eq!(choice(&liked, TrustRegion::TopN(3), None), token(-2.0 + bin_mps2));
         assert_eq!(choice(&liked, TrustRegion::DistinctBehaviours(3), None), token(2.0));
         let now = car(0.0, 0.0, 10.0).unwrap();
-        let mut logits = vec![-30.0f32; crate::motion::tokens::VOCABULARY_SIZE];
-        for (accel_mps2, logit) in liked {
-            logits[token(accel_mps2).0 as usize] = logit;
-        }
+        let logits = logits_liking(&liked.map(|(accel_mps2, logit)| (token(accel_mps2), logit)));
         // Two behaviours among the liked tokens, likeliest first; the
         // third distinct one comes from the unliked rest of the ranking.
         let region = TrustRegion::DistinctBehaviours(3).tokens(&logits, &now);
@@ -549,10 +548,7 @@ mod tests {
         let states = [car(0.0, 100.0, 0.0), car(0.0, 0.0, 0.0), car(-10.0, 0.0, 12.0), car(7.0, 0.0, 0.0)];
         let world = WorldView { map: &map, step: 0, bodies: &bodies, states: &states };
         let liked = [(MAX_ACCEL_MPS2, 5.0), (0.0, 1.0)];
-        let mut logits = vec![-30.0f32; crate::motion::tokens::VOCABULARY_SIZE];
-        for (accel_mps2, logit) in liked {
-            logits[token(accel_mps2).0 as usize] = logit;
-        }
+        let logits = logits_liking(&liked.map(|(accel_mps2, logit)| (token(accel_mps2), logit)));
         let check = PlausibilityCheck::new(&world, TrackIndex(1), TrackIndex(0), &BackgroundForecast::default());
         let rollouts = token_rollouts(states[1].as_ref().unwrap(), &[token(MAX_ACCEL_MPS2), token(0.0)]);
         for rule in [ContactRule::Any, ContactRule::AtFaultOnly] {

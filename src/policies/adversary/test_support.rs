@@ -74,10 +74,7 @@ pub(super) fn choice_under(
     let map = RoadMap::default();
     let bodies = vec![AgentBody { kind: AgentKind::Vehicle, length_m: 4.5, width_m: 2.0 }; states.len()];
     let world = WorldView { map: &map, step: 0, bodies: &bodies, states };
-    let mut logits = vec![-30.0f32; crate::motion::tokens::VOCABULARY_SIZE];
-    for &(t, logit) in liked {
-        logits[t.0 as usize] = logit;
-    }
+    let logits = logits_liking(liked);
     let mut feasibility_s = 0.0;
     safer_choice(
         &world,
@@ -90,6 +87,16 @@ pub(super) fn choice_under(
     )
     .unwrap()
     .unwrap()
+}
+
+/// The prior's logits when it likes the tokens `liked` (token, logit) and
+/// nothing else.
+pub(super) fn logits_liking(liked: &[(Token, f32)]) -> Vec<f32> {
+    let mut logits = vec![-30.0f32; crate::motion::tokens::VOCABULARY_SIZE];
+    for &(t, logit) in liked {
+        logits[t.0 as usize] = logit;
+    }
+    logits
 }
 
 /// A feasibility value from a rule on the candidate state.
