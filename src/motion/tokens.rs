@@ -65,6 +65,31 @@ fn nearest_bin(value: f64, max: f64) -> usize {
     (((value + max) / bin_width(max)).floor().max(0.0) as usize).min(BINS_PER_AXIS - 1)
 }
 
+/// The headings (each with its `sin_cos()`) of the simulator steps of one
+/// token period.
+type PeriodHeadings = [(f64, (f64, f64)); TOKEN_PERIOD_STEPS];
+
+/// Heading sequences over a token period, by starting heading and
+/// yaw-rate bin, kept for [`TokenGrid::rollout_ends_turning`]: the
+/// sequence depends on nothing else, and sines and cosines are most of a
+/// rollout's cost.
+#[derive(Debug, Default)]
+pub struct TurnedHeadings(std::collections::HashMap<(u64, usize), PeriodHeadings>);
+
+impl TurnedHeadings {
+    /// The headings from `heading_rad` under `yaw_rate_radps` (the centre
+    /// of yaw-rate bin `bin`), worked out at the first asking.
+    fn from(&mut self, heading_rad: f64, bin: usize, yaw_rate_radps: f64) -> PeriodHeadings {
+        *self.0.entry((heading_rad.to_bits(), bin)).or_insert_with(|| {
+            let mut heading_rad = heading_rad;
+            std::array::from_fn(|_| {
+                heading_rad = turned_heading_rad(heading_rad, yaw_rate_radps, SIM_DT_S);
+                (heading_rad, heading_rad.sin_cos())
+            })
+        })
+    }
+}
+
 impl TokenGrid {
     /// Acceleration at the centre of bin `i`, m/s².
     pub fn accel_centre(i: usize) -> f64 {
@@ -100,24 +125,30 @@ impl TokenGrid {
     /// out once. A heading sequence depends on the yaw rate alone, and a
     /// trust region's many accelerations share few yaw rates.
     pub fn rollout_ends(state: &KinematicState, tokens: &[Token]) -> Vec<(KinematicState, (f64, f64))> {
-        type Headings = [(f64, (f64, f64)); TOKEN_PERIOD_STEPS];
-        let mut headings: [Option<Headings>; BINS_PER_AXIS] = [None; BINS_PER_AXIS];
+        Self::rollout_ends_turning(state, tokens, &mut TurnedHeadings::default())
+    }
+
+    /// [`Self::rollout_ends`], the heading sequences taken from `turned`
+    /// where an earlier call worked them out from the same heading: the
+    /// states of a search's beam often share one (the ends of tokens with
+    /// the same yaw rate from one state).
+    pub fn rollout_ends_turning(
+        state: &KinematicState,
+        tokens: &[Token],
+        turned: &mut TurnedHeadings,
+    ) -> Vec<(KinematicState, (f64, f64))> {
+        let mut headings: [Option<PeriodHeadings>; BINS_PER_AXIS] = [None; BINS_PER_AXIS];
         tokens
             .iter()
             .map(|&token| {
                 let action = Self::action(token);
-                let turned = headings[token.yaw_rate_bin()].get_or_insert_with(|| {
-                    let mut heading_rad = state.heading_rad;
-                    std::array::from_fn(|_| {
-                        heading_rad = turned_heading_rad(heading_rad, action.yaw_rate_radps, SIM_DT_S);
-                        (heading_rad, heading_rad.sin_cos())
-                    })
-                });
+                let period = headings[token.yaw_rate_bin()]
+                    .get_or_insert_with(|| turned.from(state.heading_rad, token.yaw_rate_bin(), action.yaw_rate_radps));
                 let mut s = *state;
-                for &(heading_rad, sin_cos) in turned.iter() {
+                for &(heading_rad, sin_cos) in period.iter() {
                     s = step_to_heading(&s, action.accel_mps2, heading_rad, sin_cos, SIM_DT_S);
                 }
-                (s, turned[TOKEN_PERIOD_STEPS - 1].1)
+                (s, period[TOKEN_PERIOD_STEPS - 1].1)
             })
             .collect()
     }
@@ -220,9 +251,13 @@ mod tests {
     #[test]
     fn rollout_ends_are_the_rollouts_last_states_to_the_bit() {
         let tokens: Vec<Token> = TokenGrid::all().step_by(7).collect();
-        for (x, heading_rad, speed_mps) in [(0.0, 0.0, 12.0), (-40.0, 3.1, 0.4), (7.0, -1.2, 30.0)] {
+        // Fresh, and with the heading sequences of the states before (the
+        // last state shares the first one's heading).
+        let mut turned = TurnedHeadings::default();
+        for (x, heading_rad, speed_mps) in [(0.0, 0.0, 12.0), (-40.0, 3.1, 0.4), (7.0, -1.2, 30.0), (5.0, 0.0, 3.0)] {
             let state = KinematicState { position: crate::geometry::Point2::new(x, 2.0), heading_rad, speed_mps };
             let ends = TokenGrid::rollout_ends(&state, &tokens);
+            assert_eq!(ends, TokenGrid::rollout_ends_turning(&state, &tokens, &mut turned));
             for (&t, (end, sin_cos)) in tokens.iter().zip(&ends) {
                 let (last, last_sin_cos) = TokenGrid::rollout_with_sin_cos(&state, t)[TOKEN_PERIOD_STEPS - 1];
                 assert_eq!(end.position.x.to_bits(), last.position.x.to_bits(), "{t:?}");

@@ -8,8 +8,9 @@
 //! the distinct-behaviour trust region keeps one token of each.
 
 use crate::geometry::Point2;
-use crate::motion::tokens::{SIM_DT_S, Token, TokenGrid};
-use crate::motion::{KinematicState, kinematic_step};
+use crate::motion::KinematicState;
+use crate::motion::kinematics::{step_to_heading, turned_heading_rad};
+use crate::motion::tokens::{BINS_PER_AXIS, SIM_DT_S, Token, TokenGrid};
 
 /// How long each token is held to tell behaviours apart, s.
 pub const BEHAVIOUR_HOLD_S: f64 = 2.0;
@@ -17,11 +18,34 @@ pub const BEHAVIOUR_HOLD_S: f64 = 2.0;
 /// End positions closer than this are one behaviour, m.
 pub const BEHAVIOUR_SEPARATION_M: f64 = 1.0;
 
-/// Where the CBV ends after holding `token` for [`BEHAVIOUR_HOLD_S`] from `from`.
-fn behaviour_end(from: &KinematicState, token: Token) -> Point2 {
-    let action = TokenGrid::action(token);
-    let hold_steps = (BEHAVIOUR_HOLD_S / SIM_DT_S).round() as usize;
-    (0..hold_steps).fold(*from, |state, _| kinematic_step(&state, action, SIM_DT_S)).position
+/// The steps [`BEHAVIOUR_HOLD_S`] lasts.
+const HOLD_STEPS: usize = (BEHAVIOUR_HOLD_S / SIM_DT_S + 0.5) as usize;
+
+/// The headings (with their `sin_cos()`) the CBV turns through holding
+/// one yaw rate for [`BEHAVIOUR_HOLD_S`] from `from`: they depend on the
+/// yaw rate alone, so the many accelerations of a ranking that share one
+/// are stepped with them worked out once.
+type HoldHeadings = [(f64, (f64, f64)); HOLD_STEPS];
+
+fn hold_headings(from: &KinematicState, yaw_rate_radps: f64) -> HoldHeadings {
+    let mut heading_rad = from.heading_rad;
+    std::array::from_fn(|_| {
+        heading_rad = turned_heading_rad(heading_rad, yaw_rate_radps, SIM_DT_S);
+        (heading_rad, heading_rad.sin_cos())
+    })
+}
+
+/// Where the CBV ends after holding `token` for [`BEHAVIOUR_HOLD_S`] from
+/// `from`, turning through `headings` (its yaw rate's): the end of
+/// [`kinematic_step`]s to the bit.
+fn behaviour_end(from: &KinematicState, token: Token, headings: &HoldHeadings) -> Point2 {
+    let accel_mps2 = TokenGrid::action(token).accel_mps2;
+    headings
+        .iter()
+        .fold(*from, |state, &(heading_rad, sin_cos)| {
+            step_to_heading(&state, accel_mps2, heading_rad, sin_cos, SIM_DT_S)
+        })
+        .position
 }
 
 /// The first token of each behaviour among `tokens`, in their order, at
@@ -34,10 +58,13 @@ pub fn distinct_behaviours(from: &KinematicState, tokens: impl IntoIterator<Item
         return Vec::new();
     }
     let mut leaders: Vec<(Token, Point2)> = Vec::new();
+    let mut headings: [Option<HoldHeadings>; BINS_PER_AXIS] = [None; BINS_PER_AXIS];
     // The scan stops at the limit without asking `tokens` for another: a
     // lazy tail (the rest of a ranking) is then never computed.
     for token in tokens {
-        let end = behaviour_end(from, token);
+        let turned = headings[token.yaw_rate_bin()]
+            .get_or_insert_with(|| hold_headings(from, TokenGrid::action(token).yaw_rate_radps));
+        let end = behaviour_end(from, token, turned);
         if leaders.iter().all(|(_, l)| (l - end).norm() > BEHAVIOUR_SEPARATION_M) {
             leaders.push((token, end));
             if leaders.len() == limit {
@@ -52,7 +79,7 @@ pub fn distinct_behaviours(from: &KinematicState, tokens: impl IntoIterator<Item
 mod tests {
     use super::*;
     use crate::geometry::Point2;
-    use crate::motion::tokens::BINS_PER_AXIS;
+    use crate::motion::kinematic_step;
 
     fn at_10_mps() -> KinematicState {
         KinematicState { position: Point2::origin(), heading_rad: 0.0, speed_mps: 10.0 }
@@ -73,5 +100,18 @@ mod tests {
         );
         // The limit stops the scan.
         assert_eq!(distinct_behaviours(&at_10_mps(), far, 2), vec![t(mid + 10, mid), t(mid, mid)]);
+    }
+
+    #[test]
+    fn a_behaviours_end_is_the_kinematic_steps_end_to_the_bit() {
+        for (heading_rad, speed_mps) in [(0.0, 10.0), (3.1, 0.4), (-1.2, 30.0)] {
+            let from = KinematicState { position: Point2::new(-40.0, 2.0), heading_rad, speed_mps };
+            for token in TokenGrid::all().step_by(5) {
+                let action = TokenGrid::action(token);
+                let stepped = (0..20).fold(from, |state, _| kinematic_step(&state, action, SIM_DT_S)).position;
+                let end = behaviour_end(&from, token, &hold_headings(&from, action.yaw_rate_radps));
+                assert_eq!((end.x.to_bits(), end.y.to_bits()), (stepped.x.to_bits(), stepped.y.to_bits()), "{token:?}");
+            }
+        }
     }
 }

@@ -20,7 +20,7 @@ use super::in_path::path_sweep;
 use super::objective::Objective;
 use crate::geometry::OrientedBox;
 use crate::motion::KinematicState;
-use crate::motion::tokens::{Token, TokenGrid};
+use crate::motion::tokens::{Token, TokenGrid, TurnedHeadings};
 use crate::scenario::{AgentBody, AgentState};
 
 /// One continuation one token on: which first token it extends, from
@@ -117,8 +117,11 @@ impl Continuations {
         let ego_box = ego_body.footprint(&ego);
         let ego_sin_cos = ego.heading_rad.sin_cos();
         let mut children = Vec::with_capacity(beam.size_hint().0 * tokens.len());
+        let mut turned = TurnedHeadings::default();
         for (parent, (root, from)) in beam.enumerate() {
-            for (&token, (state, sin_cos)) in tokens.iter().zip(TokenGrid::rollout_ends(&from, tokens)) {
+            for (&token, (state, sin_cos)) in
+                tokens.iter().zip(TokenGrid::rollout_ends_turning(&from, tokens, &mut turned))
+            {
                 let at = state.to_agent_state_with_sin_cos(sin_cos);
                 // One sweep bounds both: at lead 0 it is the distance's.
                 let sweep = path_sweep((&ego, ego_sin_cos), ego_body, (&at, sin_cos), cbv_body);

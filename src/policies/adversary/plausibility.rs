@@ -20,7 +20,7 @@ use super::rollout::{BRAKING_CHECK_STEPS, braking_after, continued_after, token_
 use super::wrong_way::{AcrossLanesHold, TrafficDirectionHold, WrongWayRule};
 use crate::geometry::OrientedBox;
 use crate::motion::KinematicState;
-use crate::motion::tokens::{MAX_ACCEL_MPS2, SIM_DT_S, TOKEN_PERIOD_STEPS, Token};
+use crate::motion::tokens::{MAX_ACCEL_MPS2, SIM_DT_S, TOKEN_PERIOD_STEPS, Token, VOCABULARY_SIZE};
 use crate::policies::WorldView;
 use crate::policies::prior_sampling::ranked_tokens;
 use crate::scenario::contact::{EgoCollisionKind, EgoContact};
@@ -61,14 +61,20 @@ const CLOSING_CHECK_STEPS: usize = 20;
 /// curvature, then [`CLOSING_CHECK_STEPS`] more at the speed reached,
 /// still holding the curvature.
 fn held_path(rollout: &[AgentState]) -> Vec<AgentState> {
+    let mut held: Vec<AgentState> = holding(rollout).collect();
+    held.extend(continued_after(&held, 0.0, CLOSING_CHECK_STEPS));
+    held
+}
+
+/// The states of [`held_path`] while the token is held: `rollout`, then
+/// [`HOLDING_CHECK_STEPS`] steps holding its acceleration and curvature.
+fn holding(rollout: &[AgentState]) -> impl Iterator<Item = AgentState> + '_ {
     let accel_mps2 = match rollout {
         [.., before, end] => (end.speed_mps() - before.speed_mps()) / SIM_DT_S,
         _ => 0.0,
     };
-    let mut held: Vec<AgentState> = rollout.to_vec();
-    held.extend(continued_after(rollout, accel_mps2.clamp(-MAX_ACCEL_MPS2, MAX_ACCEL_MPS2), HOLDING_CHECK_STEPS));
-    held.extend(continued_after(&held, 0.0, CLOSING_CHECK_STEPS));
-    held
+    let held = continued_after(rollout, accel_mps2.clamp(-MAX_ACCEL_MPS2, MAX_ACCEL_MPS2), HOLDING_CHECK_STEPS);
+    rollout.iter().copied().chain(held)
 }
 
 /// Which contacts with background traffic break the plausibility rule.
@@ -136,6 +142,34 @@ pub(super) struct PlausibilityCheck<'w> {
     lane_change_pace: LaneChangePaceHold,
     /// How hard the CBV may turn (the tyres' grip unless a lower limit is set).
     turning: CbvTurningLimit,
+    /// What [`Self::implausible`] said of each token the fallbacks scanned
+    /// (held from the CBV's state now), by rule. Where nothing is
+    /// plausible the ego-contact rule's fallback and the plain one after it
+    /// both judge the whole vocabulary under one rule; the second asks
+    /// here. Emptied whenever the check's rules change.
+    scanned: std::cell::RefCell<ScannedVerdicts>,
+}
+
+/// [`PlausibilityCheck::implausible`] of the tokens a check's fallbacks
+/// scanned, by token id: one table a [`ContactRule`], made at its first use.
+#[derive(Debug, Default)]
+struct ScannedVerdicts {
+    any: Vec<Option<bool>>,
+    at_fault_only: Vec<Option<bool>>,
+}
+
+impl ScannedVerdicts {
+    fn slot(&mut self, token: Token, rule: ContactRule) -> &mut Option<bool> {
+        let table = match rule {
+            ContactRule::Any => &mut self.any,
+            ContactRule::AtFaultOnly => &mut self.at_fault_only,
+        };
+        let id = token.0 as usize;
+        if table.len() <= id {
+            table.resize(VOCABULARY_SIZE.max(id + 1), None);
+        }
+        &mut table[id]
+    }
 }
 
 impl<'w> PlausibilityCheck<'w> {
@@ -163,6 +197,7 @@ impl<'w> PlausibilityCheck<'w> {
                 across_lanes: AcrossLanesHold::NotHeld,
                 lane_change_pace: LaneChangePaceHold::NotHeld,
                 turning: CbvTurningLimit::GRIP,
+                scanned: Default::default(),
             };
         };
         let horizon = TOKEN_PERIOD_STEPS + BRAKING_CHECK_STEPS.max(HOLDING_CHECK_STEPS + CLOSING_CHECK_STEPS);
@@ -195,13 +230,14 @@ impl<'w> PlausibilityCheck<'w> {
             across_lanes: AcrossLanesHold::NotHeld,
             lane_change_pace: LaneChangePaceHold::NotHeld,
             turning: CbvTurningLimit::GRIP,
+            scanned: Default::default(),
         }
     }
 
     /// The check with the CBV held to turning within `limit` (the default:
     /// the tyres' grip).
     pub(super) fn with_turning_limit(self, limit: CbvTurningLimit) -> Self {
-        Self { turning: limit, ..self }
+        Self { turning: limit, scanned: Default::default(), ..self }
     }
 
     /// The check with `rule` on driving against a lane's traffic (the
@@ -212,7 +248,7 @@ impl<'w> PlausibilityCheck<'w> {
         let traffic_direction = TrafficDirectionHold::of(rule, map, &now);
         let across_lanes = AcrossLanesHold::of(rule, map, &now);
         let lane_change_pace = LaneChangePaceHold::of(rule, map, &now);
-        Self { traffic_direction, across_lanes, lane_change_pace, ..self }
+        Self { traffic_direction, across_lanes, lane_change_pace, scanned: Default::default(), ..self }
     }
 
     /// Whether the lane-change pace rule holds the CBV for this token.
@@ -223,7 +259,7 @@ impl<'w> PlausibilityCheck<'w> {
     /// This check without the lane-change pace rule: what the choice
     /// judges by once that rule leaves no token plausible.
     pub(super) fn without_lane_change_pace(self) -> Self {
-        Self { lane_change_pace: LaneChangePaceHold::NotHeld, ..self }
+        Self { lane_change_pace: LaneChangePaceHold::NotHeld, scanned: Default::default(), ..self }
     }
 
     /// Whether the CBV, hit by `theirs` at `at`, cut in: it was hit from
@@ -283,6 +319,16 @@ impl<'w> PlausibilityCheck<'w> {
     /// (all but those on the token's own grip and sideways pace).
     fn rule_violation(&self, rollout: &[AgentState], wanted: Violation, rule: ContactRule) -> Option<usize> {
         let end = rollout.last()?;
+        // Whether at all, under the strict rule: a contact while holding
+        // the token breaks it whatever else the token does, and the agent
+        // that blocked the last token is asked first (see
+        // `touches_last_blocker_while_holding`).
+        if wanted == Violation::Any
+            && rule == ContactRule::Any
+            && let Some(k) = self.touches_last_blocker_while_holding(rollout)
+        {
+            return Some(k);
+        }
         let map = self.world.map;
         let braking: Vec<AgentState> = rollout.iter().copied().chain(braking_after(rollout)).collect();
         let contact = |wanted| self.contact_violation(rollout, &braking, wanted, rule);
@@ -338,6 +384,23 @@ impl<'w> PlausibilityCheck<'w> {
                 })
                 .or_else(wrong_way),
         }
+    }
+
+    /// The first step at which the CBV, holding `rollout`'s token (over
+    /// [`holding`]), touches the background agent that blocked the last
+    /// token, if it does. Under [`ContactRule::Any`] such a contact breaks
+    /// the rule whatever else the token does. Where nothing is plausible a
+    /// fallback scan judges the whole vocabulary, and most of its tokens
+    /// run into the same agent within a few steps: they are answered here
+    /// from the states and boxes up to the contact, before the braking and
+    /// held paths are rolled out in full.
+    fn touches_last_blocker_while_holding(&self, rollout: &[AgentState]) -> Option<usize> {
+        let predicted = self.background.get(self.last_blocker.get()?)?;
+        // Every box of one agent (and of the CBV) has the same size.
+        let reach_m = predicted.iter().flatten().next()?.1.reach_to(&self.cbv_body.footprint(rollout.first()?));
+        holding(rollout).zip(predicted).position(|(at, theirs)| {
+            theirs.as_ref().is_some_and(|(_, b)| b.intersects_within(&self.cbv_body.footprint(&at), reach_m))
+        })
     }
 
     /// The road check's path: `braking` (the token's states and the
@@ -462,7 +525,22 @@ impl<'w> PlausibilityCheck<'w> {
         rule: ContactRule,
         keep: impl Fn(&[AgentState]) -> bool,
     ) -> Option<Token> {
-        self.likeliest_outside_where(logits, region, |rollout| keep(rollout) && !self.implausible(rollout, rule))
+        // Judged before `keep`, which cannot change which token is found:
+        // a scan that finds none leaves every token's verdict for the next.
+        self.likeliest_outside_where(logits, region, |token, rollout| {
+            !self.implausible_scanned(token, rollout, rule) && keep(rollout)
+        })
+    }
+
+    /// [`Self::implausible`] of `rollout`, `token` held from the CBV's state
+    /// now, answered from [`Self::scanned`] where an earlier scan judged it.
+    fn implausible_scanned(&self, token: Token, rollout: &[AgentState], rule: ContactRule) -> bool {
+        if let Some(verdict) = *self.scanned.borrow_mut().slot(token, rule) {
+            return verdict;
+        }
+        let verdict = self.implausible(rollout, rule);
+        *self.scanned.borrow_mut().slot(token, rule) = Some(verdict);
+        verdict
     }
 
     /// Whether `rollout` (a token's states from the CBV's state now) keeps
@@ -484,17 +562,17 @@ impl<'w> PlausibilityCheck<'w> {
     /// but not its tyres' limit. Straight on is always within grip, so
     /// there is one whenever the CBV is present.
     pub(super) fn likeliest_within_turning_limit_outside(&self, logits: &[f32], region: &[Token]) -> Option<Token> {
-        self.likeliest_outside_where(logits, region, |rollout| self.within_turning_limit(rollout))
+        self.likeliest_outside_where(logits, region, |_, rollout| self.within_turning_limit(rollout))
     }
 
     /// The likeliest token of the prior's ranking of `logits` that
-    /// `region` does not hold and whose rollout (from the CBV's state now)
-    /// `keep` accepts; `None` without a CBV.
+    /// `region` does not hold and that `keep` accepts with its rollout
+    /// (from the CBV's state now); `None` without a CBV.
     fn likeliest_outside_where(
         &self,
         logits: &[f32],
         region: &[Token],
-        keep: impl Fn(&[AgentState]) -> bool,
+        keep: impl Fn(Token, &[AgentState]) -> bool,
     ) -> Option<Token> {
         let now = self.cbv_now.as_ref()?;
         let from = KinematicState::from_agent_state(now);
@@ -504,7 +582,10 @@ impl<'w> PlausibilityCheck<'w> {
                 *slot = true;
             }
         }
-        ranked_tokens(logits).into_iter().filter(|t| !in_region[t.0 as usize]).find(|t| keep(&token_rollout(&from, *t)))
+        ranked_tokens(logits)
+            .into_iter()
+            .filter(|t| !in_region[t.0 as usize])
+            .find(|&t| keep(t, &token_rollout(&from, t)))
     }
 }
 
@@ -620,9 +701,13 @@ mod tests {
         let rollouts = token_rollouts(states[1].as_ref().unwrap(), &tokens);
         let shared = PlausibilityCheck::new(&world, cbv, ego, &BackgroundForecast::default());
         let mut blockers = std::collections::BTreeSet::new();
-        let mut implausible = 0;
+        let (mut implausible, mut answered_by_the_blocker) = (0, 0);
         for r in &rollouts {
             let fresh = PlausibilityCheck::new(&world, cbv, ego, &BackgroundForecast::default());
+            // A fresh check has no blocker to ask first; the shared one
+            // answers some tokens from the blocker's contact alone.
+            assert_eq!(fresh.touches_last_blocker_while_holding(r), None);
+            answered_by_the_blocker += usize::from(shared.touches_last_blocker_while_holding(r).is_some());
             for rule in [ContactRule::Any, ContactRule::AtFaultOnly] {
                 assert_eq!(shared.implausible(r, rule), fresh.implausible(r, rule));
                 assert_eq!(shared.first_violation(r, rule), fresh.first_violation(r, rule));
@@ -632,6 +717,43 @@ mod tests {
         }
         assert!(blockers.len() >= 3, "{blockers:?}");
         assert!(implausible > 50 && implausible < rollouts.len() - 50, "{implausible} of {}", rollouts.len());
+        assert!(answered_by_the_blocker > 20, "{answered_by_the_blocker} of {implausible}");
+    }
+
+    #[test]
+    fn a_scan_that_finds_nothing_leaves_its_verdicts_to_the_next_scan_of_the_same_rules() {
+        // The crowd of the test above, a prior ranking the vocabulary
+        // in a scrambled order. A first scan whose extra condition keeps
+        // nothing judges every token; the plain scan after it finds what a
+        // fresh check finds, and a check with other rules starts afresh.
+        let map = RoadMap::default();
+        let bodies = [AgentBody { kind: AgentKind::Vehicle, length_m: 4.5, width_m: 2.0 }; 5];
+        let states = [
+            car(0.0, 100.0, 10.0),
+            car(0.0, 0.0, 12.0),
+            car(16.0, 0.0, 4.0),
+            car(6.0, 3.6, 12.0),
+            car(-10.0, -3.6, 18.0),
+        ];
+        let world = WorldView { map: &map, step: 10, bodies: &bodies, states: &states };
+        let (ego, cbv) = (TrackIndex(0), TrackIndex(1));
+        let size = crate::motion::tokens::VOCABULARY_SIZE;
+        let logits: Vec<f32> = (0..size).map(|i| ((i * 7919) % size) as f32).collect();
+        let region = [Token(5), Token(2000)];
+        for rule in [ContactRule::Any, ContactRule::AtFaultOnly] {
+            let shared = PlausibilityCheck::new(&world, cbv, ego, &BackgroundForecast::default());
+            assert_eq!(shared.likeliest_plausible_outside_where(&logits, &region, rule, |_| false), None);
+            let judged = |check: &PlausibilityCheck<'_>| {
+                let mut scanned = check.scanned.borrow_mut();
+                TokenGrid::all().filter(|&t| scanned.slot(t, rule).is_some()).count()
+            };
+            assert_eq!(judged(&shared), size - region.len(), "{rule:?}");
+            let fresh = PlausibilityCheck::new(&world, cbv, ego, &BackgroundForecast::default());
+            let found = fresh.likeliest_plausible_outside(&logits, &region, rule);
+            assert!(found.is_some(), "{rule:?}");
+            assert_eq!(shared.likeliest_plausible_outside(&logits, &region, rule), found, "{rule:?}");
+            assert_eq!(judged(&shared.with_turning_limit(CbvTurningLimit::GRIP)), 0, "{rule:?}");
+        }
     }
 
     #[test]
