@@ -72,9 +72,10 @@ type PeriodHeadings = [(f64, (f64, f64)); TOKEN_PERIOD_STEPS];
 /// Heading sequences over a token period, by starting heading and
 /// yaw-rate bin, kept for [`TokenGrid::rollout_ends_turning`]: the
 /// sequence depends on nothing else, and sines and cosines are most of a
-/// rollout's cost.
+/// rollout's cost. Hashed with foldhash's fixed state: lookups are the
+/// hot path, and nothing outside the program picks the keys.
 #[derive(Debug, Default)]
-pub struct TurnedHeadings(std::collections::HashMap<(u64, usize), PeriodHeadings>);
+pub struct TurnedHeadings(std::collections::HashMap<(u64, usize), PeriodHeadings, foldhash::fast::FixedState>);
 
 impl TurnedHeadings {
     /// The headings from `heading_rad` under `yaw_rate_radps` (the centre
@@ -151,6 +152,24 @@ impl TokenGrid {
                 (s, period[TOKEN_PERIOD_STEPS - 1].1)
             })
             .collect()
+    }
+
+    /// [`Self::rollout_with_sin_cos`], the heading sequence taken from
+    /// `turned` where an earlier call worked it out from the same heading
+    /// and yaw rate (a scan of many tokens from one state): the same states
+    /// to the bit.
+    pub fn rollout_turning(
+        state: &KinematicState,
+        token: Token,
+        turned: &mut TurnedHeadings,
+    ) -> [(KinematicState, (f64, f64)); TOKEN_PERIOD_STEPS] {
+        let action = Self::action(token);
+        let period = turned.from(state.heading_rad, token.yaw_rate_bin(), action.yaw_rate_radps);
+        let mut s = *state;
+        period.map(|(heading_rad, sin_cos)| {
+            s = step_to_heading(&s, action.accel_mps2, heading_rad, sin_cos, SIM_DT_S);
+            (s, sin_cos)
+        })
     }
 
     /// Every token, in id order.
@@ -258,6 +277,12 @@ mod tests {
             let state = KinematicState { position: crate::geometry::Point2::new(x, 2.0), heading_rad, speed_mps };
             let ends = TokenGrid::rollout_ends(&state, &tokens);
             assert_eq!(ends, TokenGrid::rollout_ends_turning(&state, &tokens, &mut turned));
+            for &t in &tokens {
+                assert_eq!(
+                    TokenGrid::rollout_turning(&state, t, &mut turned),
+                    TokenGrid::rollout_with_sin_cos(&state, t)
+                );
+            }
             for (&t, (end, sin_cos)) in tokens.iter().zip(&ends) {
                 let (last, last_sin_cos) = TokenGrid::rollout_with_sin_cos(&state, t)[TOKEN_PERIOD_STEPS - 1];
                 assert_eq!(end.position.x.to_bits(), last.position.x.to_bits(), "{t:?}");

@@ -16,11 +16,11 @@ use super::background_forecast::BackgroundForecast;
 use super::broad_phase::Bounds;
 use super::grip::{CbvTurningLimit, first_beyond};
 use super::lane_change_pace::LaneChangePaceHold;
-use super::rollout::{BRAKING_CHECK_STEPS, braking_after, continued_after, token_rollout};
+use super::rollout::{BRAKING_CHECK_STEPS, braking_after, continued_after, token_rollout_turning};
 use super::wrong_way::{AcrossLanesHold, TrafficDirectionHold, WrongWayRule};
 use crate::geometry::OrientedBox;
 use crate::motion::KinematicState;
-use crate::motion::tokens::{MAX_ACCEL_MPS2, SIM_DT_S, TOKEN_PERIOD_STEPS, Token, VOCABULARY_SIZE};
+use crate::motion::tokens::{MAX_ACCEL_MPS2, SIM_DT_S, TOKEN_PERIOD_STEPS, Token, TurnedHeadings, VOCABULARY_SIZE};
 use crate::policies::WorldView;
 use crate::policies::prior_sampling::ranked_tokens;
 use crate::scenario::contact::{EgoCollisionKind, EgoContact};
@@ -576,6 +576,7 @@ impl<'w> PlausibilityCheck<'w> {
     ) -> Option<Token> {
         let now = self.cbv_now.as_ref()?;
         let from = KinematicState::from_agent_state(now);
+        let mut turned = TurnedHeadings::default();
         let mut in_region = vec![false; logits.len()];
         for t in region {
             if let Some(slot) = in_region.get_mut(t.0 as usize) {
@@ -585,7 +586,7 @@ impl<'w> PlausibilityCheck<'w> {
         ranked_tokens(logits)
             .into_iter()
             .filter(|t| !in_region[t.0 as usize])
-            .find(|&t| keep(t, &token_rollout(&from, t)))
+            .find(|&t| keep(t, &token_rollout_turning(&from, t, &mut turned)))
     }
 }
 

@@ -4,22 +4,36 @@
 
 use crate::geometry::wrap_angle;
 use crate::motion::kinematics::{HeldHeadingStepper, stepped_speed_mps};
-use crate::motion::tokens::{MAX_ACCEL_MPS2, MAX_YAW_RATE_RADPS, SIM_DT_S, Token, TokenGrid};
+use crate::motion::tokens::{MAX_ACCEL_MPS2, MAX_YAW_RATE_RADPS, SIM_DT_S, Token, TokenGrid, TurnedHeadings};
 use crate::motion::{Action, KinematicState};
 use crate::scenario::AgentState;
 
 /// The CBV's states over one token period from `now` under each token.
 pub(super) fn token_rollouts(now: &AgentState, tokens: &[Token]) -> Vec<Vec<AgentState>> {
     let from = KinematicState::from_agent_state(now);
-    tokens.iter().map(|t| token_rollout(&from, *t)).collect()
+    let mut turned = TurnedHeadings::default();
+    tokens.iter().map(|&t| token_rollout_turning(&from, t, &mut turned)).collect()
 }
 
 /// The CBV's states over one token period from `from` under `token`.
+#[cfg(test)]
 pub(super) fn token_rollout(from: &KinematicState, token: Token) -> Vec<AgentState> {
-    TokenGrid::rollout_with_sin_cos(from, token)
-        .iter()
-        .map(|(s, sin_cos)| s.to_agent_state_with_sin_cos(*sin_cos))
-        .collect()
+    as_agent_states(&TokenGrid::rollout_with_sin_cos(from, token))
+}
+
+/// [`token_rollout`], the heading sequence taken from `turned` where an
+/// earlier token of the same yaw rate worked it out from `from`: the same
+/// states, for a scan of many tokens from one state.
+pub(super) fn token_rollout_turning(
+    from: &KinematicState,
+    token: Token,
+    turned: &mut TurnedHeadings,
+) -> Vec<AgentState> {
+    as_agent_states(&TokenGrid::rollout_turning(from, token, turned))
+}
+
+fn as_agent_states(rollout: &[(KinematicState, (f64, f64))]) -> Vec<AgentState> {
+    rollout.iter().map(|(s, sin_cos)| s.to_agent_state_with_sin_cos(*sin_cos)).collect()
 }
 
 /// After a candidate token the braking checks (the plausibility check's,
