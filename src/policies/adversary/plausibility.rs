@@ -680,13 +680,9 @@ mod tests {
             .collect()
     }
 
-    #[test]
-    fn one_check_judges_every_token_as_a_fresh_check_does_whoever_blocked_the_last() {
-        // The CBV at 12 m/s among cars ahead, beside and behind it: one
-        // check asked about the whole vocabulary in turn (it asks the
-        // agent that blocked the last token first) answers what a new
-        // check answers for each token alone, with the blocker changing.
-        let map = RoadMap::default();
+    /// The bodies and states of a crowd: the ego (0) far off, the CBV (1)
+    /// at 12 m/s among cars ahead, beside and behind it.
+    fn crowd() -> ([AgentBody; 6], [Option<AgentState>; 6]) {
         let bodies = [AgentBody { kind: AgentKind::Vehicle, length_m: 4.5, width_m: 2.0 }; 6];
         let states = [
             car(0.0, 100.0, 10.0),
@@ -696,6 +692,17 @@ mod tests {
             car(-10.0, -3.6, 18.0),
             car(22.0, -3.6, 0.0),
         ];
+        (bodies, states)
+    }
+
+    #[test]
+    fn one_check_judges_every_token_as_a_fresh_check_does_whoever_blocked_the_last() {
+        // The CBV in the crowd: one check asked about the whole vocabulary
+        // in turn (it asks the agent that blocked the last token first)
+        // answers what a new check answers for each token alone, with the
+        // blocker changing.
+        let map = RoadMap::default();
+        let (bodies, states) = crowd();
         let world = WorldView { map: &map, step: 10, bodies: &bodies, states: &states };
         let (ego, cbv) = (TrackIndex(0), TrackIndex(1));
         let tokens: Vec<Token> = (0..crate::motion::tokens::VOCABULARY_SIZE as u16).step_by(7).map(Token).collect();
@@ -723,19 +730,12 @@ mod tests {
 
     #[test]
     fn a_scan_that_finds_nothing_leaves_its_verdicts_to_the_next_scan_of_the_same_rules() {
-        // The crowd of the test above, a prior ranking the vocabulary
-        // in a scrambled order. A first scan whose extra condition keeps
+        // The CBV in the crowd, a prior ranking the vocabulary in a
+        // scrambled order. A first scan whose extra condition keeps
         // nothing judges every token; the plain scan after it finds what a
         // fresh check finds, and a check with other rules starts afresh.
         let map = RoadMap::default();
-        let bodies = [AgentBody { kind: AgentKind::Vehicle, length_m: 4.5, width_m: 2.0 }; 5];
-        let states = [
-            car(0.0, 100.0, 10.0),
-            car(0.0, 0.0, 12.0),
-            car(16.0, 0.0, 4.0),
-            car(6.0, 3.6, 12.0),
-            car(-10.0, -3.6, 18.0),
-        ];
+        let (bodies, states) = crowd();
         let world = WorldView { map: &map, step: 10, bodies: &bodies, states: &states };
         let (ego, cbv) = (TrackIndex(0), TrackIndex(1));
         let size = crate::motion::tokens::VOCABULARY_SIZE;
