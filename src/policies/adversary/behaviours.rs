@@ -21,12 +21,13 @@ pub const BEHAVIOUR_SEPARATION_M: f64 = 1.0;
 /// The steps [`BEHAVIOUR_HOLD_S`] lasts.
 const HOLD_STEPS: usize = (BEHAVIOUR_HOLD_S / SIM_DT_S + 0.5) as usize;
 
-/// The headings (with their `sin_cos()`) the CBV turns through holding
-/// one yaw rate for [`BEHAVIOUR_HOLD_S`] from `from`: they depend on the
-/// yaw rate alone, so the many accelerations of a ranking that share one
-/// are stepped with them worked out once.
+/// The headings (each with its `sin_cos()`) of the steps of a hold.
 type HoldHeadings = [(f64, (f64, f64)); HOLD_STEPS];
 
+/// The headings the CBV turns through holding `yaw_rate_radps` for
+/// [`BEHAVIOUR_HOLD_S`] from `from`: they depend on the yaw rate alone, so
+/// the many accelerations of a ranking that share one are stepped with
+/// them worked out once.
 fn hold_headings(from: &KinematicState, yaw_rate_radps: f64) -> HoldHeadings {
     let mut heading_rad = from.heading_rad;
     std::array::from_fn(|_| {
