@@ -45,7 +45,7 @@ const WIDE_IN_PATH_TRUST_REGION: usize = 60;
 /// shipped suites' region, where on NGSIM it meets the set's goals with the witness
 /// asked (`docs/benchmarks.md`, "The horizon at the first contact").
 const WIDE_LOOKAHEAD_TRUST_REGION: usize = 60;
-/// Seeds over which the shipped lookahead suite's variant is timed beside
+/// Seeds over which the shipped suites' variants are timed beside
 /// `safer`'s, each once: one seed's variant can cost far less than the
 /// method's mean (where the CBV meets no state without a plausible token).
 const SEEDS_TIMED: u32 = 10;
@@ -177,10 +177,15 @@ struct VariantBench {
     /// `safer-in-path-lookahead (wide region, not-from-behind) / safer variant`, alternated in
     /// the same run (target at most 2).
     in_path_lookahead_wide_not_from_behind_ratio_to_safer: f64,
-    /// The seeds (0 up to this) the next three figures are taken over.
+    /// The seeds (0 up to this) the next five figures are taken over.
     seeds_timed: u32,
     /// The mean of the `safer` variants of those seeds, each run once, ms.
     safer_seeds_mean_ms: f64,
+    /// The mean of the wide `safer-in-path` variants (the shipped NGSIM suite's) of the
+    /// same seeds, each run once after `safer`'s, ms.
+    in_path_wide_seeds_mean_ms: f64,
+    /// Their ratio (target at most 2).
+    in_path_wide_seeds_ratio_to_safer: f64,
     /// The mean of the wide not-from-behind `safer-in-path-lookahead` variants of the
     /// same seeds, each run once after `safer`'s, ms.
     in_path_lookahead_wide_not_from_behind_seeds_mean_ms: f64,
@@ -299,6 +304,12 @@ pub(super) fn run(scenes: &Path, repeat: usize, json: Option<&Path>) -> Result<E
                 "{:<52} {:>10.1}",
                 format!("  safer variant, mean of seeds 0..{}", v.seeds_timed),
                 v.safer_seeds_mean_ms
+            )?;
+            write_beside_safer(
+                &mut out,
+                &format!("safer-in-path, n = {}, mean of seeds 0..{}", v.in_path_wide_trust_region, v.seeds_timed),
+                v.in_path_wide_seeds_mean_ms,
+                v.in_path_wide_seeds_ratio_to_safer,
             )?;
             write_beside_safer(
                 &mut out,
@@ -621,8 +632,11 @@ fn bench_variant(scenes: &[Scenario], repeat: usize) -> Result<Option<VariantBen
     let (safer_ms, in_path_variant_ms) = (ms(median(safer_times)), ms(median(in_path_times)));
     let (in_path_wide_variant_ms, cut_in_wide_variant_ms) = (ms(median(wide_times)), ms(median(cut_in_times)));
     let seed = |k| safer_scenarios::harness::variant::variant_seed(0, &format!("{}/{method:?}", scenario.id), k);
-    let (safer_seeds_mean_ms, not_from_behind_seeds_mean_ms) =
-        mean_times_over_seeds(setup, lookahead_wide_not_from_behind, (0..SEEDS_TIMED).map(seed))?;
+    let (safer_seeds_mean_ms, others) =
+        mean_times_over_seeds(setup, &[in_path_wide, lookahead_wide_not_from_behind], (0..SEEDS_TIMED).map(seed))?;
+    let [in_path_wide_seeds_mean_ms, not_from_behind_seeds_mean_ms] = others[..] else {
+        unreachable!("one mean for each of the two methods")
+    };
 
     // The closed-loop witness of a collision: the ego on log replay against
     // a closed-loop CBV is stage 1 itself, so a critical seed's stage 1 is
@@ -687,6 +701,8 @@ fn bench_variant(scenes: &[Scenario], repeat: usize) -> Result<Option<VariantBen
             / safer_ms,
         seeds_timed: SEEDS_TIMED,
         safer_seeds_mean_ms,
+        in_path_wide_seeds_mean_ms,
+        in_path_wide_seeds_ratio_to_safer: in_path_wide_seeds_mean_ms / safer_seeds_mean_ms,
         in_path_lookahead_wide_not_from_behind_seeds_mean_ms: not_from_behind_seeds_mean_ms,
         in_path_lookahead_wide_not_from_behind_seeds_ratio_to_safer: not_from_behind_seeds_mean_ms
             / safer_seeds_mean_ms,
@@ -694,26 +710,29 @@ fn bench_variant(scenes: &[Scenario], repeat: usize) -> Result<Option<VariantBen
     }))
 }
 
-/// The mean time, ms, of `reference`'s variant and of `other`'s over
-/// `seeds`, each run once, the two alternating seed by seed so that both
-/// see the same machine.
+/// The mean time, ms, of `reference`'s variant and of each of `others`'
+/// over `seeds`, each run once, taking turns seed by seed so that all see
+/// the same machine.
 fn mean_times_over_seeds(
     reference: VariantSetup<'_>,
-    other: VariantSetup<'_>,
+    others: &[VariantSetup<'_>],
     seeds: impl Iterator<Item = u64>,
-) -> Result<(f64, f64), CliError> {
-    let (mut reference_ms, mut other_ms, mut n) = (0.0, 0.0, 0usize);
+) -> Result<(f64, Vec<f64>), CliError> {
+    let (mut reference_ms, mut others_ms, mut n) = (0.0, vec![0.0; others.len()], 0usize);
+    let timed = |setup: VariantSetup<'_>, seed| -> Result<f64, CliError> {
+        let (t, run) = time(1, || pipeline::run(VariantSetup { seed, ..setup }));
+        run?;
+        Ok(ms(t))
+    };
     for seed in seeds {
-        let (t, run) = time(1, || pipeline::run(VariantSetup { seed, ..reference }));
-        run?;
-        reference_ms += ms(t);
-        let (t, run) = time(1, || pipeline::run(VariantSetup { seed, ..other }));
-        run?;
-        other_ms += ms(t);
+        reference_ms += timed(reference, seed)?;
+        for (total, &other) in others_ms.iter_mut().zip(others) {
+            *total += timed(other, seed)?;
+        }
         n += 1;
     }
     let n = n.max(1) as f64;
-    Ok((reference_ms / n, other_ms / n))
+    Ok((reference_ms / n, others_ms.into_iter().map(|total| total / n).collect()))
 }
 
 /// The arguments of `safer bench`.
