@@ -632,11 +632,8 @@ fn bench_variant(scenes: &[Scenario], repeat: usize) -> Result<Option<VariantBen
     let (safer_ms, in_path_variant_ms) = (ms(median(safer_times)), ms(median(in_path_times)));
     let (in_path_wide_variant_ms, cut_in_wide_variant_ms) = (ms(median(wide_times)), ms(median(cut_in_times)));
     let seed = |k| safer_scenarios::harness::variant::variant_seed(0, &format!("{}/{method:?}", scenario.id), k);
-    let (safer_seeds_mean_ms, others) =
-        mean_times_over_seeds(setup, &[in_path_wide, lookahead_wide_not_from_behind], (0..SEEDS_TIMED).map(seed))?;
-    let [in_path_wide_seeds_mean_ms, not_from_behind_seeds_mean_ms] = others[..] else {
-        unreachable!("one mean for each of the two methods")
-    };
+    let (safer_seeds_mean_ms, [in_path_wide_seeds_mean_ms, not_from_behind_seeds_mean_ms]) =
+        mean_times_over_seeds(setup, [in_path_wide, lookahead_wide_not_from_behind], (0..SEEDS_TIMED).map(seed))?;
 
     // The closed-loop witness of a collision: the ego on log replay against
     // a closed-loop CBV is stage 1 itself, so a critical seed's stage 1 is
@@ -713,12 +710,12 @@ fn bench_variant(scenes: &[Scenario], repeat: usize) -> Result<Option<VariantBen
 /// The mean time, ms, of `reference`'s variant and of each of `others`'
 /// over `seeds`, each run once, taking turns seed by seed so that all see
 /// the same machine.
-fn mean_times_over_seeds(
+fn mean_times_over_seeds<const N: usize>(
     reference: VariantSetup<'_>,
-    others: &[VariantSetup<'_>],
+    others: [VariantSetup<'_>; N],
     seeds: impl Iterator<Item = u64>,
-) -> Result<(f64, Vec<f64>), CliError> {
-    let (mut reference_ms, mut others_ms, mut n) = (0.0, vec![0.0; others.len()], 0usize);
+) -> Result<(f64, [f64; N]), CliError> {
+    let (mut reference_ms, mut others_ms, mut n) = (0.0, [0.0; N], 0usize);
     let timed = |setup: VariantSetup<'_>, seed| -> Result<f64, CliError> {
         let (t, run) = time(1, || pipeline::run(VariantSetup { seed, ..setup }));
         run?;
@@ -726,13 +723,13 @@ fn mean_times_over_seeds(
     };
     for seed in seeds {
         reference_ms += timed(reference, seed)?;
-        for (total, &other) in others_ms.iter_mut().zip(others) {
+        for (total, other) in others_ms.iter_mut().zip(others) {
             *total += timed(other, seed)?;
         }
         n += 1;
     }
     let n = n.max(1) as f64;
-    Ok((reference_ms / n, others_ms.into_iter().map(|total| total / n).collect()))
+    Ok((reference_ms / n, others_ms.map(|total| total / n)))
 }
 
 /// The arguments of `safer bench`.
