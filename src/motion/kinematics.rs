@@ -110,6 +110,22 @@ impl HeldHeadingStepper {
     }
 }
 
+/// The headings (each with its `sin_cos()`) of `STEPS` [`step`]s of `dt_s`
+/// from `heading_rad` under `yaw_rate_radps`: they depend on nothing else,
+/// so rollouts that share a heading and a yaw rate can share them (with
+/// [`step_to_heading`], the same states to the bit).
+pub fn turned_headings<const STEPS: usize>(
+    heading_rad: f64,
+    yaw_rate_radps: f64,
+    dt_s: f64,
+) -> [(f64, (f64, f64)); STEPS] {
+    let mut heading_rad = heading_rad;
+    std::array::from_fn(|_| {
+        heading_rad = turned_heading_rad(heading_rad, yaw_rate_radps, dt_s);
+        (heading_rad, heading_rad.sin_cos())
+    })
+}
+
 /// The heading [`step`] turns `heading_rad` to under `yaw_rate_radps`: it
 /// does not depend on the speed or acceleration.
 #[inline]

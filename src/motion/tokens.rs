@@ -3,7 +3,7 @@
 //! centres include 0; token id = `i_a · 63 + i_ψ` (3969 tokens). A token is
 //! held for one token period of 0.5 s (5 simulator steps of 0.1 s).
 
-use super::kinematics::{HeldHeadingStepper, KinematicState, step_to_heading, turned_heading_rad};
+use super::kinematics::{HeldHeadingStepper, KinematicState, step_to_heading, turned_headings};
 
 /// Bins per axis.
 pub const BINS_PER_AXIS: usize = 63;
@@ -81,13 +81,10 @@ impl TurnedHeadings {
     /// The headings from `heading_rad` under `yaw_rate_radps` (the centre
     /// of yaw-rate bin `bin`), worked out at the first asking.
     fn from(&mut self, heading_rad: f64, bin: usize, yaw_rate_radps: f64) -> PeriodHeadings {
-        *self.0.entry((heading_rad.to_bits(), bin)).or_insert_with(|| {
-            let mut heading_rad = heading_rad;
-            std::array::from_fn(|_| {
-                heading_rad = turned_heading_rad(heading_rad, yaw_rate_radps, SIM_DT_S);
-                (heading_rad, heading_rad.sin_cos())
-            })
-        })
+        *self
+            .0
+            .entry((heading_rad.to_bits(), bin))
+            .or_insert_with(|| turned_headings(heading_rad, yaw_rate_radps, SIM_DT_S))
     }
 }
 

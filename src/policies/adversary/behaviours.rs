@@ -9,7 +9,7 @@
 
 use crate::geometry::Point2;
 use crate::motion::KinematicState;
-use crate::motion::kinematics::{step_to_heading, turned_heading_rad};
+use crate::motion::kinematics::{step_to_heading, turned_headings};
 use crate::motion::tokens::{BINS_PER_AXIS, SIM_DT_S, Token, TokenGrid};
 
 /// How long each token is held to tell behaviours apart, s.
@@ -29,11 +29,7 @@ type HoldHeadings = [(f64, (f64, f64)); HOLD_STEPS];
 /// the many accelerations of a ranking that share one are stepped with
 /// them worked out once.
 fn hold_headings(from: &KinematicState, yaw_rate_radps: f64) -> HoldHeadings {
-    let mut heading_rad = from.heading_rad;
-    std::array::from_fn(|_| {
-        heading_rad = turned_heading_rad(heading_rad, yaw_rate_radps, SIM_DT_S);
-        (heading_rad, heading_rad.sin_cos())
-    })
+    turned_headings(from.heading_rad, yaw_rate_radps, SIM_DT_S)
 }
 
 /// Where the CBV ends after holding `token` for [`BEHAVIOUR_HOLD_S`] from

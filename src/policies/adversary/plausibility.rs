@@ -66,6 +66,19 @@ fn held_path(rollout: &[AgentState]) -> Vec<AgentState> {
     held
 }
 
+/// The first step at which one of `own` (the CBV's boxes, one a step,
+/// made as they are asked for) touches the agent predicted at `predicted`
+/// at the same step. Every box of one agent (and of the CBV) has the same
+/// size, so one reach serves all of an agent's pairs.
+fn first_contact(
+    predicted: &[Option<(AgentState, OrientedBox)>],
+    own: impl IntoIterator<Item = OrientedBox>,
+) -> Option<usize> {
+    let mut own = own.into_iter().peekable();
+    let reach_m = predicted.iter().flatten().next()?.1.reach_to(own.peek()?);
+    predicted.iter().zip(own).position(|(theirs, own)| theirs.is_some_and(|(_, b)| b.intersects_within(&own, reach_m)))
+}
+
 /// The states of [`held_path`] while the token is held: `rollout`, then
 /// [`HOLDING_CHECK_STEPS`] steps holding its acceleration and curvature.
 fn holding(rollout: &[AgentState]) -> impl Iterator<Item = AgentState> + '_ {
@@ -396,11 +409,7 @@ impl<'w> PlausibilityCheck<'w> {
     /// held paths are rolled out in full.
     fn touches_last_blocker_while_holding(&self, rollout: &[AgentState]) -> Option<usize> {
         let predicted = self.background.get(self.last_blocker.get()?)?;
-        // Every box of one agent (and of the CBV) has the same size.
-        let reach_m = predicted.iter().flatten().next()?.1.reach_to(&self.cbv_body.footprint(rollout.first()?));
-        holding(rollout).zip(predicted).position(|(at, theirs)| {
-            theirs.as_ref().is_some_and(|(_, b)| b.intersects_within(&self.cbv_body.footprint(&at), reach_m))
-        })
+        first_contact(predicted, holding(rollout).map(|at| self.cbv_body.footprint(&at)))
     }
 
     /// The road check's path: `braking` (the token's states and the
@@ -440,15 +449,6 @@ impl<'w> PlausibilityCheck<'w> {
             token_boxes.iter().copied().chain(held[rollout.len()..].iter().map(body)).collect();
         let braking_boxes: Vec<OrientedBox> =
             token_boxes.into_iter().chain(braking[rollout.len()..].iter().map(body)).collect();
-        // Every box of one agent (and of the CBV) has the same size, so
-        // one reach serves all of an agent's pairs.
-        let first_contact = |predicted: &[Option<(AgentState, OrientedBox)>], own: &[OrientedBox]| {
-            let reach_m = predicted.iter().flatten().zip(own).next().map(|((_, b), own)| b.reach_to(own))?;
-            predicted
-                .iter()
-                .zip(own)
-                .position(|(theirs, own)| theirs.is_some_and(|(_, b)| b.intersects_within(own, reach_m)))
-        };
         let own_bounds = Bounds::of(held_boxes.iter().chain(&braking_boxes));
         // Whether a token breaks the rule at all does not depend on the
         // order the agents are checked in: the agent that broke it for the
@@ -467,7 +467,7 @@ impl<'w> PlausibilityCheck<'w> {
                 continue;
             }
             let before = first;
-            if let Some(k) = first_contact(predicted, &held_boxes)
+            if let Some(k) = first_contact(predicted, held_boxes.iter().copied())
                 && let Some((theirs, _)) = predicted[k]
             {
                 let at_fault = || EgoContact::ego_at_fault(map, &held[k], &held_boxes[k], &theirs);
@@ -488,7 +488,7 @@ impl<'w> PlausibilityCheck<'w> {
             // Braking after the token: only what the CBV runs into (not
             // asked once the held path has answered).
             if !answered(first)
-                && let Some(k) = first_contact(predicted, &braking_boxes)
+                && let Some(k) = first_contact(predicted, braking_boxes.iter().copied())
                 && let Some((theirs, _)) = predicted[k]
                 && EgoContact::ego_at_fault(map, &braking[k], &braking_boxes[k], &theirs)
             {
