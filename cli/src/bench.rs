@@ -45,6 +45,11 @@ const WIDE_IN_PATH_TRUST_REGION: usize = 60;
 /// shipped suites' region, where on NGSIM it meets the set's goals with the witness
 /// asked (`docs/benchmarks.md`, "The horizon at the first contact").
 const WIDE_LOOKAHEAD_TRUST_REGION: usize = 60;
+/// The trust region of the lookahead on WOMD interactive's tables: the
+/// smallest over which its CR passes 0.7 there with any contact, where its
+/// mutation tables with no contact from behind are made
+/// (`docs/benchmarks.md`, "No contact from behind the ego").
+const INTERACTIVE_LOOKAHEAD_TRUST_REGION: usize = 28;
 /// Seeds over which the shipped suites' variants are timed beside
 /// `safer`'s, each once: one seed's variant can cost far less than the
 /// method's mean (where the CBV meets no state without a plausible token).
@@ -177,7 +182,7 @@ struct VariantBench {
     /// `safer-in-path-lookahead (wide region, not-from-behind) / safer variant`, alternated in
     /// the same run (target at most 2).
     in_path_lookahead_wide_not_from_behind_ratio_to_safer: f64,
-    /// The seeds (0 up to this) the next five figures are taken over.
+    /// The seeds (0 up to this) the next eight figures are taken over.
     seeds_timed: u32,
     /// The mean of the `safer` variants of those seeds, each run once, ms.
     safer_seeds_mean_ms: f64,
@@ -191,6 +196,13 @@ struct VariantBench {
     in_path_lookahead_wide_not_from_behind_seeds_mean_ms: f64,
     /// Their ratio (target at most 2).
     in_path_lookahead_wide_not_from_behind_seeds_ratio_to_safer: f64,
+    /// The trust region of the lookahead on WOMD interactive's tables.
+    in_path_lookahead_interactive_trust_region: usize,
+    /// The mean of the not-from-behind `safer-in-path-lookahead` variants over that
+    /// region of the same seeds, each run once after `safer`'s, ms.
+    in_path_lookahead_interactive_not_from_behind_seeds_mean_ms: f64,
+    /// Their ratio (target at most 2).
+    in_path_lookahead_interactive_not_from_behind_seeds_ratio_to_safer: f64,
     /// The closed-loop witness of a stage-1 collision (the CBV reacting to
     /// the escapes tried), ms; `None` when no seed of 0..20 collides.
     closed_loop_witness: Option<ClosedLoopWitnessBench>,
@@ -319,6 +331,15 @@ pub(super) fn run(scenes: &Path, repeat: usize, json: Option<&Path>) -> Result<E
                 ),
                 v.in_path_lookahead_wide_not_from_behind_seeds_mean_ms,
                 v.in_path_lookahead_wide_not_from_behind_seeds_ratio_to_safer,
+            )?;
+            write_beside_safer(
+                &mut out,
+                &format!(
+                    "safer-in-path-lookahead, n = {}, not-from-behind, mean of seeds 0..{}",
+                    v.in_path_lookahead_interactive_trust_region, v.seeds_timed
+                ),
+                v.in_path_lookahead_interactive_not_from_behind_seeds_mean_ms,
+                v.in_path_lookahead_interactive_not_from_behind_seeds_ratio_to_safer,
             )?;
             match &v.closed_loop_witness {
                 Some(w) => writeln!(
@@ -631,9 +652,23 @@ fn bench_variant(scenes: &[Scenario], repeat: usize) -> Result<Option<VariantBen
     let in_path_lookahead_wide_variant_ms = ms(median(lookahead_wide_times));
     let (safer_ms, in_path_variant_ms) = (ms(median(safer_times)), ms(median(in_path_times)));
     let (in_path_wide_variant_ms, cut_in_wide_variant_ms) = (ms(median(wide_times)), ms(median(cut_in_times)));
+    // The lookahead as WOMD interactive's tables run it.
+    let lookahead_interactive_not_from_behind = VariantSetup {
+        settings: MethodSettings {
+            trust_region: INTERACTIVE_LOOKAHEAD_TRUST_REGION,
+            ..lookahead_wide_not_from_behind.settings
+        },
+        ..lookahead_wide_not_from_behind
+    };
     let seed = |k| safer_scenarios::harness::variant::variant_seed(0, &format!("{}/{method:?}", scenario.id), k);
-    let (safer_seeds_mean_ms, [in_path_wide_seeds_mean_ms, not_from_behind_seeds_mean_ms]) =
-        mean_times_over_seeds(setup, [in_path_wide, lookahead_wide_not_from_behind], (0..SEEDS_TIMED).map(seed))?;
+    let (
+        safer_seeds_mean_ms,
+        [in_path_wide_seeds_mean_ms, not_from_behind_seeds_mean_ms, interactive_not_from_behind_seeds_mean_ms],
+    ) = mean_times_over_seeds(
+        setup,
+        [in_path_wide, lookahead_wide_not_from_behind, lookahead_interactive_not_from_behind],
+        (0..SEEDS_TIMED).map(seed),
+    )?;
 
     // The closed-loop witness of a collision: the ego on log replay against
     // a closed-loop CBV is stage 1 itself, so a critical seed's stage 1 is
@@ -702,6 +737,10 @@ fn bench_variant(scenes: &[Scenario], repeat: usize) -> Result<Option<VariantBen
         in_path_wide_seeds_ratio_to_safer: in_path_wide_seeds_mean_ms / safer_seeds_mean_ms,
         in_path_lookahead_wide_not_from_behind_seeds_mean_ms: not_from_behind_seeds_mean_ms,
         in_path_lookahead_wide_not_from_behind_seeds_ratio_to_safer: not_from_behind_seeds_mean_ms
+            / safer_seeds_mean_ms,
+        in_path_lookahead_interactive_trust_region: INTERACTIVE_LOOKAHEAD_TRUST_REGION,
+        in_path_lookahead_interactive_not_from_behind_seeds_mean_ms: interactive_not_from_behind_seeds_mean_ms,
+        in_path_lookahead_interactive_not_from_behind_seeds_ratio_to_safer: interactive_not_from_behind_seeds_mean_ms
             / safer_seeds_mean_ms,
         closed_loop_witness,
     }))
