@@ -188,6 +188,26 @@ pub fn max_travel_m(speed_mps: f64, max_accel_mps2: f64, dt_s: f64, steps: usize
     dt_s * (k * speed_mps.max(0.0) + max_accel_mps2.max(0.0) * dt_s * k * (k + 1.0) / 2.0)
 }
 
+/// An upper bound on how far [`step`] can carry a state of speed
+/// `speed_mps` in `steps` steps of `dt_s`, with accelerations of at most
+/// `max_accel_mps2` and yaw rates of at most `max_yaw_rate_radps` either
+/// way, from where holding on (no acceleration, no turn) carries it,
+/// metres: step `k` moves the position by the new speed along the new
+/// heading times `dt_s`, and these differ from holding on by at most
+/// `k·dt_s·max_accel_mps2` (braking stops at a standstill) and
+/// `k·dt_s·max_yaw_rate_radps` (a chord is no longer than its arc). Exact
+/// in real arithmetic; callers that compare it with rounded positions add
+/// a little.
+pub fn max_deviation_from_holding_m(
+    speed_mps: f64,
+    (max_accel_mps2, max_yaw_rate_radps): (f64, f64),
+    dt_s: f64,
+    steps: usize,
+) -> f64 {
+    let k = steps as f64;
+    dt_s * dt_s * k * (k + 1.0) / 2.0 * (max_accel_mps2.abs() + speed_mps.max(0.0) * max_yaw_rate_radps.abs())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

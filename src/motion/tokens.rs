@@ -3,7 +3,9 @@
 //! centres include 0; token id = `i_a · 63 + i_ψ` (3969 tokens). A token is
 //! held for one token period of 0.5 s (5 simulator steps of 0.1 s).
 
-use super::kinematics::{HeldHeadingStepper, KinematicState, step_to_heading, turned_headings};
+use super::kinematics::{
+    HeldHeadingStepper, KinematicState, max_deviation_from_holding_m, step_to_heading, turned_headings,
+};
 
 /// Bins per axis.
 pub const BINS_PER_AXIS: usize = 63;
@@ -169,6 +171,27 @@ impl TokenGrid {
         })
     }
 
+    /// A disc holding where every rollout of `tokens` from `state` ends:
+    /// its centre where holding on at `state`'s speed and heading for the
+    /// token period ends, its radius
+    /// [`max_deviation_from_holding_m`] under the tokens' largest
+    /// acceleration and yaw rate (and a micrometre for rounding), m. A
+    /// search bounds all of a state's continuations by it before rolling
+    /// any out.
+    pub fn rollout_end_reach(state: &KinematicState, tokens: &[Token]) -> (crate::geometry::Point2, f64) {
+        const ROUNDING_M: f64 = 1e-6;
+        let largest = tokens.iter().fold((0.0_f64, 0.0_f64), |(a, w), &t| {
+            let action = Self::action(t);
+            (a.max(action.accel_mps2.abs()), w.max(action.yaw_rate_radps.abs()))
+        });
+        let (sin, cos) = state.heading_rad.sin_cos();
+        let held_m = state.speed_mps * SIM_DT_S * TOKEN_PERIOD_STEPS as f64;
+        let centre = state.position + crate::geometry::Vector2::new(cos, sin) * held_m;
+        let radius_m =
+            max_deviation_from_holding_m(state.speed_mps, largest, SIM_DT_S, TOKEN_PERIOD_STEPS) + ROUNDING_M;
+        (centre, radius_m)
+    }
+
     /// Every token, in id order.
     pub fn all() -> impl Iterator<Item = Token> {
         (0..VOCABULARY_SIZE as u16).map(Token)
@@ -262,6 +285,31 @@ mod tests {
         assert_eq!((t.accel_bin(), t.yaw_rate_bin()), (62, 0));
         // The zero action is the centre token.
         assert_eq!(TokenGrid::quantize(Action::default()), Token(31 * 63 + 31));
+    }
+
+    #[test]
+    fn every_rollout_ends_within_its_reach() {
+        // Every token from standing, crawling, town and freeway speeds, and
+        // the few tokens of a narrow region: each end inside the disc, and
+        // the disc not much wider than the ends need (the widest token set
+        // from 30 m/s reaches about 7 m off holding on).
+        let narrow: Vec<Token> = [(-2.0, -0.1), (0.0, 0.0), (1.0, 0.05)]
+            .map(|(accel_mps2, yaw_rate_radps)| TokenGrid::quantize(Action { accel_mps2, yaw_rate_radps }))
+            .to_vec();
+        let all: Vec<Token> = TokenGrid::all().collect();
+        for tokens in [&all, &narrow] {
+            for (heading_rad, speed_mps) in [(0.0, 0.0), (3.1, 0.4), (-1.2, 12.0), (2.0, 30.0)] {
+                let state =
+                    KinematicState { position: crate::geometry::Point2::new(310.0, -42.0), heading_rad, speed_mps };
+                let (centre, radius_m) = TokenGrid::rollout_end_reach(&state, tokens);
+                let farthest_m = tokens
+                    .iter()
+                    .map(|&t| (TokenGrid::rollout(&state, t)[TOKEN_PERIOD_STEPS - 1].position - centre).norm())
+                    .fold(0.0, f64::max);
+                assert!(farthest_m <= radius_m, "{state:?}: {farthest_m} beyond {radius_m}");
+                assert!(radius_m < 2.0 * farthest_m + 0.1, "{state:?}: {radius_m} for {farthest_m}");
+            }
+        }
     }
 
     #[test]

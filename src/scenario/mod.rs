@@ -87,6 +87,12 @@ impl AgentBody {
     pub fn footprint(&self, state: &AgentState) -> OrientedBox {
         OrientedBox::new(state.pose(), self.length_m, self.width_m)
     }
+
+    /// Half the diagonal, m: how far the footprint reaches from its
+    /// centre at any heading (see [`OrientedBox::half_diagonal_m`]).
+    pub fn half_diagonal_m(&self) -> f64 {
+        OrientedBox::new(crate::geometry::Pose2::new(0.0, 0.0, 0.0), self.length_m, self.width_m).half_diagonal_m()
+    }
 }
 
 /// An agent's recorded (or simulated) trajectory.

@@ -104,11 +104,13 @@ impl PartialEq for Ranked {
 impl Eq for Ranked {}
 
 impl Continuations {
-    /// Every continuation of each `(root, state)` of the beam by each of
-    /// `tokens`, beam member first, against the ego at `ego` (its
-    /// constant-velocity prediction at the children's end).
+    /// Every continuation of each `(parent, (root, state))` of the beam
+    /// (`parent` its place in the beam) by each of `tokens`, beam member
+    /// first, against the ego at `ego` (its constant-velocity prediction at
+    /// the children's end). A caller may leave out members whose
+    /// continuations cannot count: the rest keep their order.
     pub(super) fn new(
-        beam: impl Iterator<Item = (usize, KinematicState)>,
+        beam: impl Iterator<Item = (usize, (usize, KinematicState))>,
         tokens: &[Token],
         ego: AgentState,
         (ego_body, cbv_body): (AgentBody, AgentBody),
@@ -118,7 +120,7 @@ impl Continuations {
         let ego_sin_cos = ego.heading_rad.sin_cos();
         let mut children = Vec::with_capacity(beam.size_hint().0 * tokens.len());
         let mut turned = TurnedHeadings::default();
-        for (parent, (root, from)) in beam.enumerate() {
+        for (parent, (root, from)) in beam {
             for (&token, (state, sin_cos)) in
                 tokens.iter().zip(TokenGrid::rollout_ends_turning(&from, tokens, &mut turned))
             {
@@ -275,7 +277,7 @@ mod tests {
                 [-0.4, -0.1, 0.0, 0.1, 0.4].map(|w| TokenGrid::quantize(Action { accel_mps2: a, yaw_rate_radps: w }))
             })
             .collect();
-        Continuations::new(beam.into_iter(), &tokens, ego, (CAR, CAR), objective)
+        Continuations::new(beam.into_iter().enumerate(), &tokens, ego, (CAR, CAR), objective)
     }
 
     fn exact_distances(c: &Continuations) -> usize {
@@ -343,7 +345,8 @@ mod tests {
         let ego = car(0.0, 0.0, 12.0).unwrap();
         let beam = [10.0, 5.0].map(|v| KinematicState::from_agent_state(&car(-9.0, 0.0, v).unwrap()));
         let turns = [1.5, 0.8].map(|w| TokenGrid::quantize(Action { accel_mps2: 0.0, yaw_rate_radps: w }));
-        let c = Continuations::new(beam.into_iter().enumerate(), &turns, ego, (CAR, CAR), Objective::Contact);
+        let c =
+            Continuations::new(beam.into_iter().enumerate().enumerate(), &turns, ego, (CAR, CAR), Objective::Contact);
         let beyond: Vec<bool> = (0..c.len()).map(|i| c.child(i).beyond(CbvTurningLimit::GRIP)).collect();
         assert_eq!(beyond, [true, false, false, false]);
     }

@@ -42,7 +42,7 @@
 //! gains by drawing ahead of it (where a flat penalty leaves it hugging
 //! the ego's side, the one move that lowers the box distance).
 
-use crate::geometry::{SweptSeparation, Vector2};
+use crate::geometry::{Point2, SweptSeparation, Vector2};
 use crate::scenario::{AgentBody, AgentState};
 
 /// The farthest lead time the in-path loss looks at, s.
@@ -280,6 +280,42 @@ pub(super) enum PathLoss {
 }
 
 impl PathLoss {
+    /// A lower bound of the loss of every CBV (body `cbv_body`, any
+    /// heading) whose centre lies within `radius_m` of `centre`, against
+    /// the ego at `ego_next` (body `ego_body`): each lead step's box
+    /// distance is at least the distance from `centre` to the ego's
+    /// footprint then less [`disc_reach_m`]; a
+    /// first contact comes no earlier than the step before the first
+    /// step that bound allows it at; and the not-ahead penalty counts
+    /// only where no such centre is ahead of the ego's front bumper.
+    pub(super) fn lower_bound_within(
+        self,
+        ego_next: &AgentState,
+        ego_body: AgentBody,
+        (centre, radius_m): (Point2, f64),
+        cbv_body: AgentBody,
+    ) -> f64 {
+        let reach_m = disc_reach_m(radius_m, cbv_body);
+        let closest_m = (0..=LEAD_STEPS)
+            .map(|k| {
+                let lead_s = k as f64 * IN_PATH_LEAD_STEP_S;
+                let ego_then = AgentState { position: ego_next.position + ego_next.velocity_mps * lead_s, ..*ego_next };
+                let gap_m = ego_body.footprint(&ego_then).distance_to_point(&centre) - reach_m;
+                if gap_m > 0.0 {
+                    gap_m + IN_PATH_LEAD_COST_M_PER_S * lead_s
+                } else {
+                    IN_PATH_LEAD_COST_M_PER_S * (lead_s - IN_PATH_LEAD_STEP_S).max(0.0)
+                }
+            })
+            .fold(f64::INFINITY, f64::min);
+        let at_centre = AgentState { position: centre, ..*ego_next };
+        let placed = PathApproach::placed(ego_next, ego_body, &at_centre, ego_next.heading_rad.sin_cos());
+        // The nearest any centre in the disc comes to being ahead, and no
+        // lateral cost (the disc may hold the heading line).
+        let least = PathApproach { closest_m, short_of_front_m: placed.short_of_front_m - radius_m, lateral_m: 0.0 };
+        self.of(&least)
+    }
+
     fn of(self, approach: &PathApproach) -> f64 {
         match self {
             PathLoss::InPath => approach.in_path_loss(),
@@ -317,6 +353,15 @@ impl PathLoss {
     ) -> f64 {
         self.of(&PathApproach::lower_bound(ego_next, ego_body, ego_sin_cos, cbv, sweep))
     }
+}
+
+/// How far a box of `body` whose centre lies within `radius_m` of a point
+/// reaches from that point, m, and a centimetre for the box distance's
+/// single-precision arithmetic: the margin of the losses' bounds over a
+/// disc of centres.
+pub(super) fn disc_reach_m(radius_m: f64, body: AgentBody) -> f64 {
+    const BOX_DISTANCE_ROUNDING_M: f64 = 0.01;
+    radius_m + body.half_diagonal_m() + BOX_DISTANCE_ROUNDING_M
 }
 
 /// The separating-axis bounds of the ego's footprint moving along its

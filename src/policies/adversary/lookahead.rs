@@ -13,7 +13,7 @@ use super::objective::Objective;
 use crate::models::ModelError;
 use crate::models::feasibility_oracle::FeasibilityOracle;
 use crate::motion::KinematicState;
-use crate::motion::tokens::{TOKEN_PERIOD_S, TOKEN_PERIOD_STEPS, Token};
+use crate::motion::tokens::{TOKEN_PERIOD_S, TOKEN_PERIOD_STEPS, Token, TokenGrid};
 use crate::policies::WorldView;
 use crate::scenario::AgentState;
 
@@ -218,8 +218,18 @@ impl Lookahead<'_> {
             let ego =
                 AgentState { position: self.ego_now.position + self.ego_now.velocity_mps * ahead_s, ..self.ego_now };
             let delay_m = LOOKAHEAD_DELAY_PENALTY_M * (depth - 1) as f64;
+            let lowers = |score_m: f64, root: usize| score_m.max(0.0) + delay_m < losses[root];
+            // At the last depth a continuation counts only if it lowers its
+            // first token's loss: a member none of whose continuations can,
+            // by where its tokens can take the CBV, is not continued (most
+            // of them; the same search).
+            let last = depth == self.tokens;
+            let can_lower = |c: &Continuation| {
+                let within = TokenGrid::rollout_end_reach(&c.state, self.candidates);
+                lowers(self.objective.loss_lower_bound_within(&ego, self.ego_body, within, self.cbv_body), c.root)
+            };
             let mut children = Continuations::new(
-                beam.iter().map(|c| (c.root, c.state)),
+                beam.iter().enumerate().filter(|(_, c)| !last || can_lower(c)).map(|(p, c)| (p, (c.root, c.state))),
                 self.candidates,
                 ego,
                 (self.ego_body, self.cbv_body),
@@ -227,7 +237,6 @@ impl Lookahead<'_> {
             );
             // The ones that would lower their first token's loss: exact
             // scores only where a bound leaves it open.
-            let lowers = |score_m: f64, root: usize| score_m.max(0.0) + delay_m < losses[root];
             let lowering: Vec<usize> = (0..children.len())
                 .filter(|&i| {
                     let root = children.child(i).root;

@@ -3,8 +3,8 @@
 //! (`in_path`) that draw the CBV into the ego's path. The one-step choice
 //! and the lookahead score candidates through it alike.
 
-use super::in_path::PathLoss;
-use crate::geometry::SweptSeparation;
+use super::in_path::{PathLoss, disc_reach_m};
+use crate::geometry::{Point2, SweptSeparation};
 use crate::scenario::{AgentBody, AgentState};
 
 /// What a feasible candidate's loss measures.
@@ -88,6 +88,27 @@ impl Objective {
         }
     }
 
+    /// A lower bound of [`Self::loss`] for every CBV (body `cbv_body`, any
+    /// heading) whose centre lies within `radius_m` of `centre`, against
+    /// the ego at `ego_next`: for a search that can pass over a state's
+    /// continuations together (see
+    /// [`TokenGrid::rollout_end_reach`](crate::motion::tokens::TokenGrid::rollout_end_reach)).
+    pub(super) fn loss_lower_bound_within(
+        self,
+        ego_next: &AgentState,
+        ego_body: AgentBody,
+        within: (Point2, f64),
+        cbv_body: AgentBody,
+    ) -> f64 {
+        match self.path_loss() {
+            None => {
+                let (centre, radius_m) = within;
+                ego_body.footprint(ego_next).distance_to_point(&centre) - disc_reach_m(radius_m, cbv_body)
+            }
+            Some(loss) => loss.lower_bound_within(ego_next, ego_body, within, cbv_body),
+        }
+    }
+
     /// The in-path module's loss this objective is (`None`: the paper's).
     fn path_loss(self) -> Option<PathLoss> {
         match self {
@@ -95,5 +116,66 @@ impl Objective {
             Objective::InPath => Some(PathLoss::InPath),
             Objective::CutIn => Some(PathLoss::CutIn),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::Vector2;
+    use crate::policies::adversary::test_support::car;
+    use crate::scenario::AgentKind;
+
+    const CAR: AgentBody = AgentBody { kind: AgentKind::Vehicle, length_m: 4.5, width_m: 2.0 };
+
+    #[test]
+    fn no_cbv_within_a_disc_scores_below_the_discs_bound() {
+        // The ego at 12 m/s; discs ahead in its lane and the next, beside,
+        // behind, crossing its path ahead and far off; CBVs on a grid over
+        // each disc, rim included, at eight headings.
+        let ego = car(0.0, 0.0, 12.0).unwrap();
+        let ego_box = CAR.footprint(&ego);
+        let discs = [(12.0, 0.0), (9.0, 3.5), (0.0, 3.6), (-9.0, 0.0), (18.0, 6.0), (40.0, -25.0), (3.0, 0.5)];
+        for objective in [Objective::Contact, Objective::InPath, Objective::CutIn] {
+            let (mut above_zero, mut penalised) = (0, 0);
+            for (x, y) in discs {
+                for radius_m in [0.3, 1.5, 4.0] {
+                    let centre = Point2::new(x, y);
+                    let bound = objective.loss_lower_bound_within(&ego, CAR, (centre, radius_m), CAR);
+                    for (i, j, h) in disc_grid() {
+                        let offset = Vector2::new(i, j) * radius_m;
+                        if offset.norm() > radius_m {
+                            continue;
+                        }
+                        let cbv = AgentState { heading_rad: h, ..car(x + offset.x, y + offset.y, 8.0).unwrap() };
+                        let distance_m = ego_box.distance(&CAR.footprint(&cbv));
+                        let loss = objective.loss(&ego, CAR, &cbv, CAR, distance_m);
+                        assert!(
+                            bound <= loss,
+                            "{objective:?} ({x}, {y}) r {radius_m}: {bound} above {loss} at {cbv:?}"
+                        );
+                    }
+                    above_zero += usize::from(bound > 0.0);
+                    penalised += usize::from(bound >= crate::policies::adversary::NOT_AHEAD_PENALTY_M);
+                }
+            }
+            // The bound tells discs apart: most are clear of the ego, and
+            // the in-path loss's discs wholly behind or beside the ego pay
+            // the penalty.
+            assert!(above_zero >= 12, "{objective:?}: {above_zero}");
+            if objective == Objective::InPath {
+                assert!(penalised >= 4, "{penalised}");
+            }
+        }
+    }
+
+    /// Offsets over the unit square (to be kept within the unit disc) and
+    /// headings.
+    fn disc_grid() -> impl Iterator<Item = (f64, f64, f64)> {
+        (-4..=4).flat_map(|i| {
+            (-4..=4).flat_map(move |j| {
+                (0..8).map(move |k| (i as f64 * 0.25, j as f64 * 0.25, k as f64 * std::f64::consts::FRAC_PI_4 - 3.0))
+            })
+        })
     }
 }
