@@ -535,6 +535,9 @@ fn bench_variant(scenes: &[Scenario], repeat: usize) -> Result<Option<VariantBen
     let end = (start + (VARIANT_HORIZON_S / scenario.dt_s).round() as usize).min(scenario.num_steps() - 1);
     let sim = SimConfig { start_step: Some(start), end_step: Some(end), ..SimConfig::default() };
     let method = AdversaryMethod::Safer;
+    // The seed of the `k`-th variant of the scene, as `safer evaluate`
+    // draws `safer`'s.
+    let seed_of = |k| safer_scenarios::harness::variant::variant_seed(0, &format!("{}/{method:?}", scenario.id), k);
     let setup = VariantSetup {
         scenario: &scenario,
         settings: MethodSettings {
@@ -549,7 +552,7 @@ fn bench_variant(scenes: &[Scenario], repeat: usize) -> Result<Option<VariantBen
             turning: Default::default(),
             turning_cost: Default::default(),
         },
-        seed: safer_scenarios::harness::variant::variant_seed(0, &format!("{}/{method:?}", scenario.id), 0),
+        seed: seed_of(0),
         sim: &sim,
         stage2_cbv: Stage2Cbv::Replay,
         planner: &planner,
@@ -660,14 +663,13 @@ fn bench_variant(scenes: &[Scenario], repeat: usize) -> Result<Option<VariantBen
         },
         ..lookahead_wide_not_from_behind
     };
-    let seed = |k| safer_scenarios::harness::variant::variant_seed(0, &format!("{}/{method:?}", scenario.id), k);
     let (
         safer_seeds_mean_ms,
         [in_path_wide_seeds_mean_ms, not_from_behind_seeds_mean_ms, interactive_not_from_behind_seeds_mean_ms],
     ) = mean_times_over_seeds(
         setup,
         [in_path_wide, lookahead_wide_not_from_behind, lookahead_interactive_not_from_behind],
-        (0..SEEDS_TIMED).map(seed),
+        (0..SEEDS_TIMED).map(seed_of),
     )?;
 
     // The closed-loop witness of a collision: the ego on log replay against
@@ -676,11 +678,7 @@ fn bench_variant(scenes: &[Scenario], repeat: usize) -> Result<Option<VariantBen
     let log_replay = PlannerAdapter::builtin(BuiltinPlanner::LogReplay);
     let mut closed_loop_witness = None;
     for seed in 0..20 {
-        let at_seed = VariantSetup {
-            seed: safer_scenarios::harness::variant::variant_seed(0, &format!("{}/{method:?}", scenario.id), seed),
-            planner: &log_replay,
-            ..closed
-        };
+        let at_seed = VariantSetup { seed: seed_of(seed), planner: &log_replay, ..closed };
         let stages = pipeline::run(at_seed)?;
         if !stages.stage1_cbv_hit_ego() {
             continue;
