@@ -171,19 +171,24 @@ impl TokenGrid {
         })
     }
 
-    /// A disc holding where every rollout of `tokens` from `state` ends:
-    /// its centre where holding on at `state`'s speed and heading for the
-    /// token period ends, its radius
-    /// [`max_deviation_from_holding_m`] under the tokens' largest
-    /// acceleration and yaw rate (and a micrometre for rounding), m. A
-    /// search bounds all of a state's continuations by it before rolling
-    /// any out.
-    pub fn rollout_end_reach(state: &KinematicState, tokens: &[Token]) -> (crate::geometry::Point2, f64) {
-        const ROUNDING_M: f64 = 1e-6;
-        let largest = tokens.iter().fold((0.0_f64, 0.0_f64), |(a, w), &t| {
+    /// The largest acceleration and yaw rate, m/s² and rad/s, either way,
+    /// among `tokens` (0 for none): what [`Self::rollout_end_reach`] needs
+    /// of them.
+    pub fn largest_action(tokens: &[Token]) -> (f64, f64) {
+        tokens.iter().fold((0.0_f64, 0.0_f64), |(a, w), &t| {
             let action = Self::action(t);
             (a.max(action.accel_mps2.abs()), w.max(action.yaw_rate_radps.abs()))
-        });
+        })
+    }
+
+    /// A disc holding where every rollout from `state` of the tokens whose
+    /// [`Self::largest_action`] is `largest` ends: its centre where
+    /// holding on at `state`'s speed and heading for the token period ends,
+    /// its radius [`max_deviation_from_holding_m`] under that acceleration
+    /// and yaw rate (and a micrometre for rounding), m. A search bounds all
+    /// of a state's continuations by it before rolling any out.
+    pub fn rollout_end_reach(state: &KinematicState, largest: (f64, f64)) -> (crate::geometry::Point2, f64) {
+        const ROUNDING_M: f64 = 1e-6;
         let (sin, cos) = state.heading_rad.sin_cos();
         let held_m = state.speed_mps * SIM_DT_S * TOKEN_PERIOD_STEPS as f64;
         let centre = state.position + crate::geometry::Vector2::new(cos, sin) * held_m;
@@ -301,7 +306,7 @@ mod tests {
             for (heading_rad, speed_mps) in [(0.0, 0.0), (3.1, 0.4), (-1.2, 12.0), (2.0, 30.0)] {
                 let state =
                     KinematicState { position: crate::geometry::Point2::new(310.0, -42.0), heading_rad, speed_mps };
-                let (centre, radius_m) = TokenGrid::rollout_end_reach(&state, tokens);
+                let (centre, radius_m) = TokenGrid::rollout_end_reach(&state, TokenGrid::largest_action(tokens));
                 let farthest_m = tokens
                     .iter()
                     .map(|&t| (TokenGrid::rollout(&state, t)[TOKEN_PERIOD_STEPS - 1].position - centre).norm())

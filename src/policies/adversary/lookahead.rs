@@ -212,6 +212,7 @@ impl Lookahead<'_> {
             })
             .collect();
         Self::keep_best(&mut beam, self.candidates.len());
+        let largest_action = TokenGrid::largest_action(self.candidates);
         for depth in 2..=self.tokens {
             let ahead_s = TOKEN_PERIOD_S * depth as f64;
             let ahead_steps = TOKEN_PERIOD_STEPS * depth;
@@ -225,7 +226,7 @@ impl Lookahead<'_> {
             // of them; the same search).
             let last = depth == self.tokens;
             let can_lower = |c: &Continuation| {
-                let within = TokenGrid::rollout_end_reach(&c.state, self.candidates);
+                let within = TokenGrid::rollout_end_reach(&c.state, largest_action);
                 lowers(self.objective.loss_lower_bound_within(&ego, self.ego_body, within, self.cbv_body), c.root)
             };
             let mut children = Continuations::new(
