@@ -236,6 +236,14 @@
 #                     planner's mutation tables under the suite's settings on WOMD
 #                     interactive over 28 and NGSIM over 60
 #                     (mutants-{womd-interactive-n28,ngsim-n60}-evasive-cC.txt) (about 15 minutes)
+#   ten-seeds-lookahead
+#                     ten-seeds/lookahead/: grip/'s mutation runs of the shipped lookahead suite's
+#                     settings over ten seeds a scene: the evasive planner's on WOMD interactive
+#                     over 28 and on NGSIM over 60 (log replay, the prior and the lookahead,
+#                     mutants-{womd-interactive-n28,ngsim-n60}-evasive.txt) and the Python lane
+#                     follower's over 60 (the lookahead alone: each of its runs plays a planner
+#                     process per variant and mutant,
+#                     mutants-{womd-interactive,ngsim}-lane-follower-n60.txt) (about 45 minutes)
 #   mutants           mutants-{womd-interactive,womd-json,ngsim}-evasive.txt and
 #                     mutants-{womd-interactive,ngsim}-lane-follower.txt: the
 #                     faults of the planner each method's variants catch
@@ -251,7 +259,7 @@ self=$(realpath "$0")
 cd "$(dirname "$self")"
 all=(evaluate plain inattentive held-out-chance trust-region realism prior-fit n-sweep reactive n100 approach-none merging mutants wide-region cut-in
     in-path-lookahead in-path-lookahead-n30 in-path-lookahead-n28 in-path-lookahead-sweep pair-in-traffic witnessed wide-witnessed ten-seeds reaction-delay reactive-background leader first-contact both-pairings first-contact-lookahead blind-twin ego-contact wrong-way
-    lane-follower-pairings at-fault-planner along-the-lanes along-the-lanes-lane-follower sideways kill-ratios human-lane-changes grip turning turning-cost turning-cost-sweep)
+    lane-follower-pairings at-fault-planner along-the-lanes along-the-lanes-lane-follower sideways kill-ratios human-lane-changes grip turning turning-cost turning-cost-sweep ten-seeds-lookahead)
 jobs=("$@")
 [[ ${#jobs[@]} -gt 0 ]] || jobs=("${all[@]}")
 # The usage is the comment block at the top of this file.
@@ -907,6 +915,20 @@ for job in "${jobs[@]}"; do
                 --scenes data:womd-interactive "${along[@]}" --trust-region 28
             run "turning-cost/sweep/mutants-ngsim-n60-evasive-c$c.txt" evaluate --scenes data:commonroad-ngsim \
                 "${along[@]}" --trust-region 60
+        done ;;
+    ten-seeds-lookahead)
+        mkdir -p ten-seeds/lookahead
+        # along_the_lanes with --seeds 10 for its --seeds 3 (the only word that is 3).
+        ten=("${along_the_lanes[@]/#3/10}")
+        run ten-seeds/lookahead/mutants-womd-interactive-n28-evasive.txt evaluate --scenes data:womd-interactive \
+            "${ten[@]}" --planner ../../planners/evasive.yaml --trust-region 28
+        run ten-seeds/lookahead/mutants-ngsim-n60-evasive.txt evaluate --scenes data:commonroad-ngsim "${ten[@]}" \
+            --planner ../../planners/evasive.yaml --trust-region 60
+        # The lookahead's rows alone: the lane follower's ratios to log replay and the prior are kill-ratios/'s.
+        ten_lane_follower=("${along_the_lanes_lane_follower[@]/#3/10}")
+        for s in womd-interactive:womd-interactive commonroad-ngsim:ngsim; do
+            run "ten-seeds/lookahead/mutants-${s#*:}-lane-follower-n60.txt" evaluate --scenes "data:${s%%:*}" \
+                "${ten_lane_follower[@]/%log,prior,safer-in-path-lookahead/safer-in-path-lookahead}"
         done ;;
     esac
 done

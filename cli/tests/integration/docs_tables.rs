@@ -2060,3 +2060,77 @@ impl TurningTables {
         assert_eq!(rows.len(), 4, "two sets, two planners");
     }
 }
+
+/// The fault operator killed in the smallest share of the scenes with a
+/// passed variant, in a mutation output's kills row of `label`:
+/// `NAME k/of (P %)` (the first such operator in the output's order).
+fn fewest_scenes_cell(output: &str, label: &str) -> String {
+    let header = output.lines().find(|l| l.starts_with("method") && l.contains("passed")).expect("a mutation table");
+    let names: Vec<&str> = header.split_whitespace().rev().take(7).collect::<Vec<_>>().into_iter().rev().collect();
+    let counts: Vec<(u32, u32)> = labelled_row(output, "passed", label)
+        .iter()
+        .filter_map(|cell| {
+            let (caught, of) = cell.strip_prefix('(')?.strip_suffix(')')?.split_once('/')?;
+            Some((caught.parse().ok()?, of.parse().ok()?))
+        })
+        .collect();
+    assert_eq!(counts.len(), names.len(), "{label}: a scene count per operator");
+    // The smallest share, compared exactly (a/b < c/d as a·d < c·b).
+    let (name, (caught, of)) = names
+        .iter()
+        .zip(counts)
+        .reduce(|best, next| {
+            if u64::from(next.1.0) * u64::from(best.1.1) < u64::from(best.1.0) * u64::from(next.1.1) {
+                next
+            } else {
+                best
+            }
+        })
+        .expect("seven operators");
+    format!("{name} {caught}/{of} ({:.0} %)", 100.0 * f64::from(caught) / f64::from(of))
+}
+
+#[test]
+fn the_ten_seed_lookahead_table_quotes_its_outputs() {
+    let doc = repo_file("docs/benchmarks.md");
+    let rows = markdown_rows(
+        &doc,
+        "| set | planner | n | seeds | CR | SR-crit | reach-crit | met |",
+        "Every fault of the evasive planner is caught",
+    );
+    let method = "safer-in-path-lookahead";
+    let (mut set, mut planner, mut n) = (String::new(), String::new(), String::new());
+    let mut seeds_checked = Vec::new();
+    for row in &rows {
+        for (cell, carried) in [(&row[0], &mut set), (&row[1], &mut planner), (&row[2], &mut n)] {
+            if !cell.is_empty() {
+                carried.clone_from(cell);
+            }
+        }
+        let dir = match row[3].as_str() {
+            "3" => "grip",
+            "10" => "ten-seeds/lookahead",
+            other => panic!("{row:?}: no output for {other} seeds"),
+        };
+        let file = suite_settings_output(&set, &planner);
+        let output = repo_file(&format!("docs/evaluation/{dir}/{file}"));
+        let header = output.lines().find(|l| l.contains(" scenes × ")).expect("the run's header");
+        assert!(header.contains(&format!("× {} seeds", row[3])), "{row:?}: {dir}/{file} is {header}");
+        assert!(header.contains(&format!("trust region n = {n},")), "{row:?}: {dir}/{file} is {header}");
+        let main = labelled_row(&output, "SR-crit", method);
+        let reach = labelled_row(&output, "reach-crit", method);
+        let twin = labelled_row(&output, " met", method);
+        let mut expected = vec![main[2].clone(), main[4].clone(), reach[1].clone(), twin[3].clone()];
+        if row[9] == "–" {
+            // The lookahead's rows alone: kills, no ratios.
+            let kills = labelled_row(&output, "passed", method);
+            expected.extend([format!("{} ({})", killed(&kills[1]), kills[3]), "–".into(), "–".into()]);
+        } else {
+            expected.extend(kill_cells(&output, method));
+        }
+        expected.push(fewest_scenes_cell(&output, method));
+        assert_eq!(row[4..], expected[..], "{row:?} against {dir}/{file}");
+        seeds_checked.push(row[3].clone());
+    }
+    assert_eq!(seeds_checked, ["3", "10"].repeat(4), "two sets, two planners, each over 3 and 10 seeds");
+}
