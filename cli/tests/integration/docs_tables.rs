@@ -1239,12 +1239,23 @@ fn the_lookahead_first_contact_tables_quote_their_outputs() {
 /// caught in the fewest scenes: (scenes where it was caught, scenes with a
 /// passed variant), from its per-mutant `kills (caught/of)` cells.
 fn fewest_fault_scenes(output: &str, label: &str) -> (u32, u32) {
+    fault_scene_counts(output, label)
+        .into_iter()
+        .min()
+        .unwrap_or_else(|| panic!("no per-mutant counts in the {label} row"))
+}
+
+/// Each fault operator's (scenes where it was killed, scenes with a passed
+/// variant) in a mutation output's kills row of `label`, in the output's order.
+fn fault_scene_counts(output: &str, label: &str) -> Vec<(u32, u32)> {
     let kills = labelled_row(output, "passed", label);
-    let counts = kills.iter().filter_map(|cell| {
-        let (caught, of) = cell.strip_prefix('(')?.strip_suffix(')')?.split_once('/')?;
-        Some((caught.parse().ok()?, of.parse().ok()?))
-    });
-    counts.min().unwrap_or_else(|| panic!("no per-mutant counts in the {label} row"))
+    kills
+        .iter()
+        .filter_map(|cell| {
+            let (caught, of) = cell.strip_prefix('(')?.strip_suffix(')')?.split_once('/')?;
+            Some((caught.parse().ok()?, of.parse().ok()?))
+        })
+        .collect()
 }
 
 #[test]
@@ -2066,15 +2077,11 @@ impl TurningTables {
 /// `NAME k/of (P %)` (the first such operator in the output's order).
 fn fewest_scenes_cell(output: &str, label: &str) -> String {
     let header = output.lines().find(|l| l.starts_with("method") && l.contains("passed")).expect("a mutation table");
-    let names: Vec<&str> = header.split_whitespace().rev().take(7).collect::<Vec<_>>().into_iter().rev().collect();
-    let counts: Vec<(u32, u32)> = labelled_row(output, "passed", label)
-        .iter()
-        .filter_map(|cell| {
-            let (caught, of) = cell.strip_prefix('(')?.strip_suffix(')')?.split_once('/')?;
-            Some((caught.parse().ok()?, of.parse().ok()?))
-        })
-        .collect();
-    assert_eq!(counts.len(), names.len(), "{label}: a scene count per operator");
+    let counts = fault_scene_counts(output, label);
+    // The header ends with the operators' names, one a count.
+    let words: Vec<&str> = header.split_whitespace().collect();
+    let names = &words[words.len().saturating_sub(counts.len())..];
+    assert_eq!(names.len(), counts.len(), "{label}: a name per operator");
     // The smallest share, compared exactly (a/b < c/d as a·d < c·b).
     let (name, (caught, of)) = names
         .iter()
@@ -2086,7 +2093,7 @@ fn fewest_scenes_cell(output: &str, label: &str) -> String {
                 best
             }
         })
-        .expect("seven operators");
+        .expect("an operator");
     format!("{name} {caught}/{of} ({:.0} %)", 100.0 * f64::from(caught) / f64::from(of))
 }
 
@@ -2099,13 +2106,12 @@ fn the_ten_seed_lookahead_table_quotes_its_outputs() {
         "Every fault of the evasive planner is caught",
     );
     let method = "safer-in-path-lookahead";
-    let (mut set, mut planner, mut n) = (String::new(), String::new(), String::new());
+    let mut n = String::new();
     let mut seeds_checked = Vec::new();
-    for row in &rows {
-        for (cell, carried) in [(&row[0], &mut set), (&row[1], &mut planner), (&row[2], &mut n)] {
-            if !cell.is_empty() {
-                carried.clone_from(cell);
-            }
+    // A blank set, planner or n cell continues the row above's.
+    for (set, planner, row) in rows_by_set_and_draw(&rows) {
+        if !row[2].is_empty() {
+            n.clone_from(&row[2]);
         }
         let dir = match row[3].as_str() {
             "3" => "grip",
