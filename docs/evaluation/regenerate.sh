@@ -918,14 +918,15 @@ for job in "${jobs[@]}"; do
         done ;;
     ten-seeds-lookahead)
         mkdir -p ten-seeds/lookahead
-        # along_the_lanes with --seeds 10 for its --seeds 3 (the only word that is 3).
-        ten=("${along_the_lanes[@]/#3/10}")
+        # along_the_lanes with --seeds 10 for its first two words (--seeds 3).
+        ten=(--seeds 10 "${along_the_lanes[@]:2}")
         run ten-seeds/lookahead/mutants-womd-interactive-n28-evasive.txt evaluate --scenes data:womd-interactive \
             "${ten[@]}" --planner ../../planners/evasive.yaml --trust-region 28
         run ten-seeds/lookahead/mutants-ngsim-n60-evasive.txt evaluate --scenes data:commonroad-ngsim "${ten[@]}" \
             --planner ../../planners/evasive.yaml --trust-region 60
-        # The lookahead's rows alone: the lane follower's ratios to log replay and the prior are kill-ratios/'s.
-        ten_lane_follower=("${along_the_lanes_lane_follower[@]/#3/10}")
+        # The lookahead's rows alone: the lane follower's ratios to log replay and the prior are grip/'s,
+        # over three seeds.
+        ten_lane_follower=(--seeds 10 "${along_the_lanes_lane_follower[@]:2}")
         for s in womd-interactive:womd-interactive commonroad-ngsim:ngsim; do
             run "ten-seeds/lookahead/mutants-${s#*:}-lane-follower-n60.txt" evaluate --scenes "data:${s%%:*}" \
                 "${ten_lane_follower[@]/%log,prior,safer-in-path-lookahead/safer-in-path-lookahead}"
