@@ -82,6 +82,12 @@ pub fn lane_followed(lanes: &[&Lane], path: &[Point2]) -> Option<usize> {
     (clear && most > 0.0).then_some(best)
 }
 
+/// How close to the nearest lane's centreline another lane running the same
+/// way must pass to lie on top of it, m, for [`RoadMap::lane_along`]: the
+/// lanes of a junction's turns share their first metres, and lanes side by
+/// side are a lane width apart.
+pub const OVERLAPPING_LANE_M: f64 = 0.5;
+
 /// Nearest-lane query result.
 #[derive(Debug, Clone, Copy)]
 pub struct LaneMatch {
@@ -192,6 +198,42 @@ impl RoadMap {
         nearest
             .unwrap_or_else(|| self.nearest_lane_sorted(p, heading_rad, radius_m))
             .map(|(_, _, lane_index, projection)| LaneMatch { lane_index, projection })
+    }
+
+    /// The lane at `p` running along `heading_rad` that `path` (a
+    /// recording of the way the road user went) keeps to: the nearest
+    /// aligned lane within `radius_m` ([`Self::nearest_lane`]), unless other
+    /// aligned lanes pass within [`OVERLAPPING_LANE_M`] of the point where
+    /// `p` meets it (a junction's turns start on top of one another), where
+    /// it is the one of them `path` keeps to the farthest
+    /// ([`lane_followed`]); the nearest where `path` does not decide. A
+    /// route started from the nearest lane alone may take a turn the
+    /// recording never took.
+    pub fn lane_along(&self, p: &Point2, heading_rad: f64, radius_m: f64, path: &[Point2]) -> Option<LaneMatch> {
+        let nearest = self.nearest_lane(p, Some(heading_rad), radius_m)?;
+        let forward = crate::geometry::Vector2::new(heading_rad.cos(), heading_rad.sin());
+        if path.is_empty() || misaligned(Some(forward), &nearest.projection.tangent) {
+            return Some(nearest);
+        }
+        // The lanes on top of the nearest one where `p` meets it (a lane
+        // beside it, a lane width away, is not).
+        let on_nearest = nearest.projection.point;
+        let overlapping: Vec<LaneMatch> = self
+            .lanes
+            .iter()
+            .enumerate()
+            .filter_map(|(lane_index, lane)| {
+                let on_it = lane.centreline.project(&on_nearest)?;
+                let projection = lane.centreline.project(p)?;
+                (on_it.distance_m <= OVERLAPPING_LANE_M && !misaligned(Some(forward), &projection.tangent))
+                    .then_some(LaneMatch { lane_index, projection })
+            })
+            .collect();
+        if overlapping.len() < 2 {
+            return Some(nearest);
+        }
+        let lanes: Vec<&Lane> = overlapping.iter().map(|m| &self.lanes[m.lane_index]).collect();
+        Some(lane_followed(&lanes, path).map_or(nearest, |k| overlapping[k]))
     }
 
     /// [`Self::nearest_lane`] over the candidates sorted by lane and
@@ -556,5 +598,32 @@ mod tests {
         assert_eq!(m.lanes[hit.lane_index].id, MapElementId(2));
         assert!((hit.projection.arc_length_m - 50.0).abs() < 1e-9);
         assert!(m.nearest_lane(&Point2::new(50.0, 40.0), None, 10.0).is_none());
+    }
+
+    #[test]
+    fn where_a_junctions_turns_overlap_the_lane_along_a_path_is_the_one_it_keeps_to() {
+        // Two turns start where lane 1 ends, on top of each other for 10 m;
+        // the nearest lane at (105, 0) is a tie, broken to the lower id.
+        let lanes = vec![
+            Lane::new(MapElementId(1), pl(&[(0.0, 0.0), (100.0, 0.0)])),
+            Lane::new(MapElementId(2), pl(&[(100.0, 0.0), (110.0, 0.0), (200.0, 100.0)])),
+            Lane::new(MapElementId(3), pl(&[(100.0, 0.0), (110.0, 0.0), (200.0, -100.0)])),
+        ];
+        let map = RoadMap::new(lanes, vec![], vec![], vec![], vec![], vec![], vec![]);
+        let at = Point2::new(105.0, 0.0);
+        let id = |m: Option<LaneMatch>| map.lanes[m.expect("a lane").lane_index].id;
+        assert_eq!(id(map.nearest_lane(&at, Some(0.0), 10.0)), MapElementId(2));
+        let right = dense(&[(0.0, 0.0), (110.0, 0.0), (200.0, -100.0)]);
+        let left = dense(&[(0.0, 0.0), (110.0, 0.0), (200.0, 100.0)]);
+        assert_eq!(id(map.lane_along(&at, 0.0, 10.0, &right)), MapElementId(3));
+        assert_eq!(id(map.lane_along(&at, 0.0, 10.0, &left)), MapElementId(2));
+        // No path, or one that ends before the turns part: the nearest.
+        assert_eq!(id(map.lane_along(&at, 0.0, 10.0, &[])), MapElementId(2));
+        assert_eq!(id(map.lane_along(&at, 0.0, 10.0, &dense(&[(0.0, 0.0), (108.0, 0.0)]))), MapElementId(2));
+        // Away from the overlap (lane 1, 5 m back), the path does not move it.
+        assert_eq!(id(map.lane_along(&Point2::new(95.0, 0.0), 0.0, 10.0, &right)), MapElementId(1));
+        // The projection is the chosen lane's.
+        let m = map.lane_along(&at, 0.0, 10.0, &right).unwrap();
+        assert!((m.projection.arc_length_m - 5.0).abs() < 1e-9 && m.projection.distance_m < 1e-9);
     }
 }

@@ -29,7 +29,7 @@ use crate::geometry::{BoxSet, OrientedBox, Point2, Pose2, Vector2, wrap_angle};
 use crate::motion::kinematics::{HeldHeadingStepper, stepped_speed_mps};
 use crate::motion::tokens::{MAX_ACCEL_MPS2, MAX_YAW_RATE_RADPS, SIM_DT_S};
 use crate::motion::{Action, BUILTIN_MAX_LATERAL_ACCEL_MPS2, KinematicState, kinematic_step_with_sin_cos, within_grip};
-use crate::policies::{Route, build_route_choosing};
+use crate::policies::{Route, build_route_along};
 use crate::scenario::contact::EgoCollisionKind;
 use crate::scenario::{AgentKind, AgentState};
 
@@ -485,7 +485,7 @@ impl Planner for EvasivePlanner {
             let mut at_junction = |_: &crate::map::Lane, next: &[&crate::map::Lane]| {
                 crate::map::lane_followed(next, mission).unwrap_or(0)
             };
-            self.route = Some(build_route_choosing(obs.map, &ego, AgentKind::Vehicle, &mut at_junction));
+            self.route = Some(build_route_along(obs.map, &ego, AgentKind::Vehicle, mission, &mut at_junction));
         }
         let route = self.route.as_ref().ok_or_else(|| PlannerError::InvalidOutput("no route".into()))?;
         let v_des = *self.desired_speed_mps.get_or_insert_with(|| {

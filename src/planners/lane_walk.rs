@@ -41,7 +41,8 @@ pub(crate) enum WalkDirection {
 }
 
 /// Walks from the ego's lane (the nearest within `search_m` running its
-/// way; `None` when there is none) from `behind_m` behind the ego's
+/// way, or where a junction's lanes overlap there the one `guide` keeps
+/// to, [`RoadMap::lane_along`]; `None` when there is none) from `behind_m` behind the ego's
 /// projection to `ahead_m` ahead, taking `next(lane, direction)` at each
 /// lane's end (ahead) or start (behind, where the ego's lane begins less
 /// than `behind_m` back), over at most `max_lanes` lanes each way. Both
@@ -49,14 +50,15 @@ pub(crate) enum WalkDirection {
 /// walks.
 pub(crate) fn walk_lanes<'m>(
     map: &'m RoadMap,
-    ego: &AgentState,
+    (ego, guide): (&AgentState, &[Point2]),
     search_m: f64,
     behind_m: f64,
     ahead_m: f64,
     max_lanes: usize,
     mut next: impl FnMut(&'m Lane, WalkDirection) -> Option<&'m Lane>,
 ) -> Option<LaneWalk> {
-    let m = map.nearest_lane(&ego.position, Some(ego.heading_rad), search_m)?;
+    // Where a junction's lanes overlap at the ego, the one `guide` keeps to.
+    let m = map.lane_along(&ego.position, ego.heading_rad, search_m, guide)?;
     // nearest_lane prefers lanes in the ego's direction but falls back to
     // others; a route against the traffic or across it would mislead.
     let forward = Vector2::new(ego.heading_rad.cos(), ego.heading_rad.sin());

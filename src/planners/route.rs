@@ -175,7 +175,8 @@ fn plan(map: &RoadMap, ego: &AgentState, recorded: &[Point2]) -> Route {
         };
         choose_lane(&choices, recorded)
     };
-    let Some(walk) = walk_lanes(map, ego, LANE_SEARCH_M, ROUTE_BEHIND_M, ROUTE_AHEAD_PLANNED_M, MAX_LANES, at_fork)
+    let Some(walk) =
+        walk_lanes(map, (ego, recorded), LANE_SEARCH_M, ROUTE_BEHIND_M, ROUTE_AHEAD_PLANNED_M, MAX_LANES, at_fork)
     else {
         return Route::default();
     };
@@ -289,6 +290,32 @@ mod tests {
         // 2.5 m further out it has left the route.
         route.update(&map, &ego(45.0, 6.3), &[]);
         assert_eq!(route.revision, 1);
+    }
+
+    #[test]
+    fn where_a_junctions_turns_overlap_at_the_ego_the_route_starts_down_the_recorded_one() {
+        // Lane 1 ends where two turns start, their first 10 m on top of each
+        // other: at (105, 0) the nearest lane is a tie (to the lower id).
+        let mut lanes = vec![
+            lane(1, &[(0.0, 0.0), (100.0, 0.0)], &[2, 3]),
+            lane(2, &[(100.0, 0.0), (110.0, 0.0), (200.0, 100.0), (200.0, 1000.0)], &[]),
+            lane(3, &[(100.0, 0.0), (110.0, 0.0), (200.0, -100.0), (200.0, -1000.0)], &[]),
+        ];
+        for l in &mut lanes[1..] {
+            l.predecessors = vec![MapElementId(1)];
+        }
+        let map = RoadMap::new(lanes, vec![], vec![], vec![], vec![], vec![], vec![]);
+        let mut plain = Route::default();
+        plain.update(&map, &ego(105.0, 0.0), &[]);
+        assert_eq!(plain.lanes, vec![MapElementId(1), MapElementId(2)], "the nearest without a recording");
+        // A recording every metre that takes the right turn.
+        let recorded: Vec<Point2> = (0..=200)
+            .map(|i| i as f64)
+            .map(|x| if x <= 110.0 { Point2::new(x, 0.0) } else { Point2::new(x, -(x - 110.0) * 100.0 / 90.0) })
+            .collect();
+        let mut route = Route::default();
+        route.update(&map, &ego(105.0, 0.0), &recorded);
+        assert_eq!(route.lanes, vec![MapElementId(1), MapElementId(3)]);
     }
 
     #[test]

@@ -165,6 +165,20 @@ pub fn build_route_choosing(
     kind: AgentKind,
     choose: &mut SuccessorChoice<'_>,
 ) -> Route {
+    build_route_along(map, state, kind, &[], choose)
+}
+
+/// [`build_route_choosing`] starting on the lane `mission` (the way the
+/// agent is to go, such as its recording) keeps to where a junction's
+/// lanes overlap at the agent ([`RoadMap::lane_along`]): from the nearest
+/// alone the route may start down a turn the mission never takes.
+pub fn build_route_along(
+    map: &RoadMap,
+    state: &AgentState,
+    kind: AgentKind,
+    mission: &[Point2],
+    choose: &mut SuccessorChoice<'_>,
+) -> Route {
     let straight = || {
         let f = Vector2::new(state.heading_rad.cos(), state.heading_rad.sin());
         Route { path: Polyline::new(vec![state.position, state.position + f * ROUTE_HORIZON_M]), lanes: vec![] }
@@ -172,7 +186,7 @@ pub fn build_route_choosing(
     if kind != AgentKind::Vehicle && kind != AgentKind::Cyclist {
         return straight();
     }
-    let Some(m) = map.nearest_lane(&state.position, Some(state.heading_rad), LANE_SEARCH_RADIUS_M) else {
+    let Some(m) = map.lane_along(&state.position, state.heading_rad, LANE_SEARCH_RADIUS_M, mission) else {
         return straight();
     };
     let lane = &map.lanes[m.lane_index];
@@ -368,5 +382,37 @@ impl AgentPolicy for IdmLaneFollower {
 
     fn act(&mut self, world: &WorldView<'_>, agent: TrackIndex) -> AgentAction {
         AgentAction::from_control(world, agent, self.control(world, agent))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::map::{Lane, MapElementId};
+
+    #[test]
+    fn a_route_along_a_mission_starts_down_the_turn_the_mission_takes_where_turns_overlap() {
+        // Lane 1 ends where two turns start, on top of each other for 10 m.
+        let lane = |id: i64, pts: &[(f64, f64)], successors: &[i64]| Lane {
+            successors: successors.iter().map(|&i| MapElementId(i)).collect(),
+            ..Lane::new(MapElementId(id), Polyline::new(pts.iter().map(|&(x, y)| Point2::new(x, y)).collect()))
+        };
+        let lanes = vec![
+            lane(1, &[(0.0, 0.0), (100.0, 0.0)], &[2, 3]),
+            lane(2, &[(100.0, 0.0), (110.0, 0.0), (200.0, 100.0)], &[]),
+            lane(3, &[(100.0, 0.0), (110.0, 0.0), (200.0, -100.0)], &[]),
+        ];
+        let map = RoadMap::new(lanes, vec![], vec![], vec![], vec![], vec![], vec![]);
+        let ego =
+            AgentState { position: Point2::new(105.0, 0.0), heading_rad: 0.0, velocity_mps: Vector2::new(5.0, 0.0) };
+        let mission: Vec<Point2> = (0..=200)
+            .map(|i| i as f64)
+            .map(|x| if x <= 110.0 { Point2::new(x, 0.0) } else { Point2::new(x, -(x - 110.0) * 100.0 / 90.0) })
+            .collect();
+        let first_lane = |route: Route| route.lanes.first().map(|l| l.0);
+        let nearest = build_route_choosing(&map, &ego, AgentKind::Vehicle, &mut |_, _| 0);
+        assert_eq!(first_lane(nearest), Some(MapElementId(2)), "the nearest: a tie, to the lower id");
+        let along = build_route_along(&map, &ego, AgentKind::Vehicle, &mission, &mut |_, _| 0);
+        assert_eq!(first_lane(along), Some(MapElementId(3)));
     }
 }

@@ -16,7 +16,7 @@ pub mod reactive_log_replay;
 pub mod synthetic_driver;
 
 pub use constant_velocity::ConstantVelocity;
-pub use lane_follower::{IdmLaneFollower, IdmParams, Route, build_route, build_route_choosing};
+pub use lane_follower::{IdmLaneFollower, IdmParams, Route, build_route, build_route_along, build_route_choosing};
 pub use log_replay::LogReplay;
 pub use reactive_log_replay::ReactiveLogReplay;
 

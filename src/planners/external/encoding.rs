@@ -206,7 +206,7 @@ fn clip(line: &Polyline, centre: &Point2, radius_m: f64) -> Option<Vec<[f64; 2]>
 /// successors on the map's lane graph, up to [`ROUTE_LENGTH_M`].
 fn route_ahead(map: &RoadMap, ego: &AgentState) -> Vec<[f64; 2]> {
     let first_successor = |lane: &Lane, _| map.lanes_after(lane.id).first().copied();
-    walk_lanes(map, ego, ROUTE_LANE_SEARCH_M, 0.0, ROUTE_LENGTH_M, ROUTE_MAX_LANES, first_successor)
+    walk_lanes(map, (ego, &[]), ROUTE_LANE_SEARCH_M, 0.0, ROUTE_LENGTH_M, ROUTE_MAX_LANES, first_successor)
         .map(|walk| walk.points)
         .unwrap_or_default()
 }
