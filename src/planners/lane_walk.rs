@@ -42,12 +42,12 @@ pub(crate) enum WalkDirection {
 
 /// Walks from the ego's lane (the nearest within `search_m` running its
 /// way, or where a junction's lanes overlap there the one `guide` keeps
-/// to, [`RoadMap::lane_along`]; `None` when there is none) from `behind_m` behind the ego's
-/// projection to `ahead_m` ahead, taking `next(lane, direction)` at each
-/// lane's end (ahead) or start (behind, where the ego's lane begins less
-/// than `behind_m` back), over at most `max_lanes` lanes each way. Both
-/// routes of the protocol (the 1.0 hint and the 1.1 stable route) are such
-/// walks.
+/// to, [`RoadMap::lane_along`]; `None` when there is none) from
+/// `behind_m` behind the ego's projection to `ahead_m` ahead, taking
+/// `next(lane, direction)` at each lane's end (ahead) or start (behind,
+/// where the ego's lane begins less than `behind_m` back), over at most
+/// `max_lanes` lanes each way. Both routes of the protocol (the 1.0 hint
+/// and the 1.1 stable route) are such walks.
 pub(crate) fn walk_lanes<'m>(
     map: &'m RoadMap,
     (ego, guide): (&AgentState, &[Point2]),
