@@ -223,10 +223,12 @@ impl RoadMap {
             .iter()
             .enumerate()
             .filter_map(|(lane_index, lane)| {
-                let on_it = lane.centreline.project(&on_nearest)?;
+                // Most lanes are far off: `p` is projected only on the near ones.
+                if lane.centreline.project(&on_nearest)?.distance_m > OVERLAPPING_LANE_M {
+                    return None;
+                }
                 let projection = lane.centreline.project(p)?;
-                (on_it.distance_m <= OVERLAPPING_LANE_M && !misaligned(Some(forward), &projection.tangent))
-                    .then_some(LaneMatch { lane_index, projection })
+                (!misaligned(Some(forward), &projection.tangent)).then_some(LaneMatch { lane_index, projection })
             })
             .collect();
         if overlapping.len() < 2 {
