@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Keep the lane, drive at the speed limit, brake for the car ahead: a SaFeR planner in 20 lines."""
+"""Keep the lane, drive at the speed limit, brake for the car ahead (or cutting in): a SaFeR planner in 20 lines."""
 import math, os, sys
 sys.path.append(os.path.join(os.path.dirname(os.path.abspath(__file__)), os.pardir))  # the repo's kit, if not installed
 from safer_planner import Control, Planner, run, wrap_angle
@@ -10,7 +10,7 @@ class TwentyLinePlanner(Planner):
     cruise_mps = None  # where no speed limit is mapped: the ego's speed at the start
 
     def plan(self, obs):
-        ego, route, s, lead = obs.ego, obs.route, obs.ego_route_s(), obs.leader()
+        ego, route, s, lead = obs.ego, obs.route, obs.ego_route_s(), obs.leader(anticipate_s=1.0)
         if s is None:
             return Control(0.0, 0.0)  # no lane runs our way: coast
         self.cruise_mps = self.cruise_mps or max(ego.speed_mps, 5.0)

@@ -288,12 +288,14 @@ class Observation:
         p = self.route.project(self.ego.x, self.ego.y)
         return None if p is None else p.s
 
-    def leader(self, margin_m: float = 0.4, range_m: float = 120.0) -> Optional["Leader"]:
+    def leader(self, margin_m: float = 0.4, range_m: float = 120.0, anticipate_s: float = 0.0) -> Optional["Leader"]:
         """The nearest agent ahead of the ego whose box reaches into the
         ego's corridor along the route (the ego's half width, plus the
         agent's half extent across the route as it is turned, plus
-        ``margin_m``), searching ``range_m`` metres of route ahead; ``None``
-        when there is none or the route is empty."""
+        ``margin_m``), or will within ``anticipate_s`` seconds at its
+        sideways speed across the route (a car cutting in counts before it
+        is in), searching ``range_m`` metres of route ahead; ``None`` when
+        there is none or the route is empty."""
         s_ego = self.ego_route_s()
         path = self.route.path
         if s_ego is None or path is None:
@@ -313,13 +315,28 @@ class Observation:
                 continue
             rel = agent.heading_rad - path.heading_at(s)
             half_across = 0.5 * (abs(math.sin(rel)) * agent.length_m + abs(math.cos(rel)) * agent.width_m)
-            if abs(lateral) > ego.width_m / 2.0 + half_across + margin_m:
+            if _closest_lateral(agent, path.heading_at(s), lateral, anticipate_s) > (
+                ego.width_m / 2.0 + half_across + margin_m
+            ):
                 continue
             half_along = 0.5 * (abs(math.cos(rel)) * agent.length_m + abs(math.sin(rel)) * agent.width_m)
             gap = s - s_ego - ego.length_m / 2.0 - half_along
             if best is None or gap < best.gap_m:
                 best = Leader(agent, gap, agent.vx * hx + agent.vy * hy, s, lateral)
         return best
+
+
+def _closest_lateral(agent: Agent, route_heading_rad: float, lateral_m: float, within_s: float) -> float:
+    """The smallest distance of ``agent``'s centre from the route over the
+    next ``within_s`` seconds, at its sideways speed across the route
+    (``lateral_m`` now, left > 0)."""
+    if within_s <= 0.0:
+        return abs(lateral_m)
+    sideways_mps = -agent.vx * math.sin(route_heading_rad) + agent.vy * math.cos(route_heading_rad)
+    later = lateral_m + sideways_mps * within_s
+    if (later > 0.0) != (lateral_m > 0.0):
+        return 0.0  # it crosses the route
+    return min(abs(lateral_m), abs(later))
 
 
 @dataclass

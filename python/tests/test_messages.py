@@ -105,6 +105,24 @@ class ObservationTest(unittest.TestCase):
         self.assertAlmostEqual(lead.lateral_m, 0.8)
         self.assertIsNone(Observation.from_json(observation(0, agents=[agent("x", 200.0)])).leader(range_m=50.0))
 
+    def test_a_car_cutting_in_is_the_leader_when_anticipated(self):
+        def cutting_in(vy):
+            return dict(agent("next-lane", 25.0, y=3.5, vx=8.0), vy=vy)
+
+        def leader(vy, anticipate_s):
+            return Observation.from_json(observation(0, x=10.0, agents=[cutting_in(vy)])).leader(anticipate_s=anticipate_s)
+
+        # 3.5 m across, the corridor 2.4 m wide each side: not in it yet.
+        self.assertIsNone(leader(-1.5, 0.0))
+        # Moving in at 1.5 m/s, it is 2.0 m across in 1 s: a leader now.
+        lead = leader(-1.5, 1.0)
+        self.assertEqual(lead.agent.id, "next-lane")
+        self.assertAlmostEqual(lead.lateral_m, 3.5)
+        self.assertAlmostEqual(lead.speed_mps, 8.0)
+        self.assertIsNone(leader(-1.5, 0.5), "2.75 m across in 0.5 s: still outside")
+        self.assertIsNone(leader(1.5, 1.0), "moving away")
+        self.assertIsNotNone(leader(-4.0, 1.0), "across the route within the time")
+
     def test_a_map_from_prepare(self):
         m = RoadMap.from_json({"lanes": [straight_lane(5, successors=[6], stop_line=[100.0, 0.0])], "road_edges": [],
                                "stop_signs": [{"position": [99.0, -2.0], "lanes": [5]}],
