@@ -292,10 +292,11 @@ class Observation:
         """The nearest agent ahead of the ego whose box reaches into the
         ego's corridor along the route (the ego's half width, plus the
         agent's half extent across the route as it is turned, plus
-        ``margin_m``), or will within ``anticipate_s`` seconds at its
-        sideways speed across the route (a car cutting in counts before it
-        is in), searching ``range_m`` metres of route ahead; ``None`` when
-        there is none or the route is empty."""
+        ``margin_m``), or, going the route's way (within 45° of it), will
+        within ``anticipate_s`` seconds at its sideways speed across the
+        route (a car cutting in counts before it is in), searching
+        ``range_m`` metres of route ahead; ``None`` when there is none or
+        the route is empty."""
         s_ego = self.ego_route_s()
         path = self.route.path
         if s_ego is None or path is None:
@@ -315,7 +316,10 @@ class Observation:
                 continue
             rel = agent.heading_rad - path.heading_at(s)
             half_across = 0.5 * (abs(math.sin(rel)) * agent.length_m + abs(math.cos(rel)) * agent.width_m)
-            if _closest_lateral(agent, path.heading_at(s), lateral, anticipate_s) > (
+            # Only a car going the route's way cuts in; crossing traffic
+            # counts once it is in the corridor.
+            within_s = anticipate_s if math.cos(rel) > CUT_IN_MAX_COS else 0.0
+            if _closest_lateral(agent, path.heading_at(s), lateral, within_s) > (
                 ego.width_m / 2.0 + half_across + margin_m
             ):
                 continue
@@ -324,6 +328,11 @@ class Observation:
             if best is None or gap < best.gap_m:
                 best = Leader(agent, gap, agent.vx * hx + agent.vy * hy, s, lateral)
         return best
+
+
+CUT_IN_MAX_COS = math.cos(math.pi / 4.0)
+"""A car more than 45° off the route's way is crossing it, not cutting in
+(:meth:`Observation.leader`)."""
 
 
 def _closest_lateral(agent: Agent, route_heading_rad: float, lateral_m: float, within_s: float) -> float:

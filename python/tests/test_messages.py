@@ -122,6 +122,11 @@ class ObservationTest(unittest.TestCase):
         self.assertIsNone(leader(-1.5, 0.5), "2.75 m across in 0.5 s: still outside")
         self.assertIsNone(leader(1.5, 1.0), "moving away")
         self.assertIsNotNone(leader(-4.0, 1.0), "across the route within the time")
+        # A car crossing the route (90° to it, its half length across) counts only
+        # once it is in: 3.65 m across.
+        crossing = dict(agent("crossing", 25.0, y=5.0, heading=-math.pi / 2), vx=0.0, vy=-3.0)
+        o = Observation.from_json(observation(0, x=10.0, agents=[crossing]))
+        self.assertIsNone(o.leader(anticipate_s=1.0))
 
     def test_a_map_from_prepare(self):
         m = RoadMap.from_json({"lanes": [straight_lane(5, successors=[6], stop_line=[100.0, 0.0])], "road_edges": [],
