@@ -14,8 +14,8 @@ Driving: pure pursuit on the route for steering; for speed an intelligent
 driver model (IDM) towards a desired speed (the speed limit of the lane
 the ego is on, else the speed it had at the first observation, lowered
 ahead of curves by the kit's `curve_speed_limit`) with a time headway to
-the nearest agent ahead in its corridor along the route, or moving across
-into it within a second (a car cutting in). Without a route (off the map)
+the nearest agent ahead in its corridor along the route, or going its way
+and moving across into it within a second (a car cutting in). Without a route (off the map)
 it keeps its heading and speed.
 
 Protocol: docs/planner-protocol.md; the kit: docs/python-kit.md. It runs

@@ -244,6 +244,13 @@
 #                     follower's over 60 (the lookahead alone: each of its runs plays a planner
 #                     process per variant and mutant,
 #                     mutants-{womd-interactive,ngsim}-lane-follower-n60.txt) (about 45 minutes)
+#   cut-in-anticipation
+#                     cut-in-anticipation/: the Python lane follower's mutation runs of the
+#                     shipped lookahead suite's settings, as grip/ (3 seeds: log replay, the
+#                     prior and the lookahead) and ten-seeds/lookahead/ (ten-seeds/: the
+#                     lookahead alone) make them, with the follower braking for a car
+#                     cutting in a second before it is in
+#                     (mutants-{womd-interactive,ngsim}-lane-follower-n60.txt) (about 45 minutes)
 #   mutants           mutants-{womd-interactive,womd-json,ngsim}-evasive.txt and
 #                     mutants-{womd-interactive,ngsim}-lane-follower.txt: the
 #                     faults of the planner each method's variants catch
@@ -259,7 +266,7 @@ self=$(realpath "$0")
 cd "$(dirname "$self")"
 all=(evaluate plain inattentive held-out-chance trust-region realism prior-fit n-sweep reactive n100 approach-none merging mutants wide-region cut-in
     in-path-lookahead in-path-lookahead-n30 in-path-lookahead-n28 in-path-lookahead-sweep pair-in-traffic witnessed wide-witnessed ten-seeds reaction-delay reactive-background leader first-contact both-pairings first-contact-lookahead blind-twin ego-contact wrong-way
-    lane-follower-pairings at-fault-planner along-the-lanes along-the-lanes-lane-follower sideways kill-ratios human-lane-changes grip turning turning-cost turning-cost-sweep ten-seeds-lookahead)
+    lane-follower-pairings at-fault-planner along-the-lanes along-the-lanes-lane-follower sideways kill-ratios human-lane-changes grip turning turning-cost turning-cost-sweep ten-seeds-lookahead cut-in-anticipation)
 jobs=("$@")
 [[ ${#jobs[@]} -gt 0 ]] || jobs=("${all[@]}")
 # The usage is the comment block at the top of this file.
@@ -930,6 +937,15 @@ for job in "${jobs[@]}"; do
         for s in womd-interactive:womd-interactive commonroad-ngsim:ngsim; do
             run "ten-seeds/lookahead/mutants-${s#*:}-lane-follower-n60.txt" evaluate --scenes "data:${s%%:*}" \
                 "${ten_lane_follower[@]/%log,prior,safer-in-path-lookahead/safer-in-path-lookahead}"
+        done ;;
+    cut-in-anticipation)
+        mkdir -p cut-in-anticipation/ten-seeds
+        ten_lane_follower=(--seeds 10 "${along_the_lanes_lane_follower[@]:2}")
+        for s in commonroad-ngsim:ngsim womd-interactive:womd-interactive; do
+            run "cut-in-anticipation/mutants-${s#*:}-lane-follower-n60.txt" evaluate --scenes "data:${s%%:*}" \
+                "${along_the_lanes_lane_follower[@]}"
+            run "cut-in-anticipation/ten-seeds/mutants-${s#*:}-lane-follower-n60.txt" evaluate \
+                --scenes "data:${s%%:*}" "${ten_lane_follower[@]/%log,prior,safer-in-path-lookahead/safer-in-path-lookahead}"
         done ;;
     esac
 done

@@ -2097,6 +2097,55 @@ fn fewest_scenes_cell(output: &str, label: &str) -> String {
     format!("{name} {caught}/{of} ({:.0} %)", 100.0 * f64::from(caught) / f64::from(of))
 }
 
+/// A mutation run of the shipped lookahead suite's settings as the tables
+/// of those runs quote it: CR, SR-crit, reach-crit, met, kills (held
+/// out), ×log, ×prior, the fault caught in the fewest scenes; `–` for the
+/// ratios of a run of the lookahead alone.
+fn suite_settings_cells(output: &str, method: &str, lookahead_alone: bool) -> Vec<String> {
+    let main = labelled_row(output, "SR-crit", method);
+    let reach = labelled_row(output, "reach-crit", method);
+    let twin = labelled_row(output, " met", method);
+    let mut cells = vec![main[2].clone(), main[4].clone(), reach[1].clone(), twin[3].clone()];
+    if lookahead_alone {
+        let kills = labelled_row(output, "passed", method);
+        cells.extend([format!("{} ({})", killed(&kills[1]), kills[3]), "–".into(), "–".into()]);
+    } else {
+        cells.extend(kill_cells(output, method));
+    }
+    cells.push(fewest_scenes_cell(output, method));
+    cells
+}
+
+#[test]
+fn the_cut_in_anticipation_table_quotes_its_outputs() {
+    let doc = repo_file("docs/benchmarks.md");
+    let rows = markdown_rows(
+        &doc,
+        "| set | seeds | CR | SR-crit | reach-crit | met | kills (held out) |",
+        "The lane follower's faults after the change",
+    );
+    let method = "safer-in-path-lookahead";
+    let mut checked = Vec::new();
+    for (set, seeds, row) in rows_by_set_and_draw(&rows) {
+        let (before_dir, after_dir) = match seeds.as_str() {
+            "3" => ("grip", "cut-in-anticipation"),
+            "10" => ("ten-seeds/lookahead", "cut-in-anticipation/ten-seeds"),
+            other => panic!("{row:?}: no output for {other} seeds"),
+        };
+        let file = suite_settings_output(&set, "lane follower");
+        let cells = |dir: &str| {
+            let output = repo_file(&format!("docs/evaluation/{dir}/{file}"));
+            let header = output.lines().find(|l| l.contains(" scenes × ")).expect("the run's header");
+            assert!(header.contains(&format!("× {seeds} seeds")), "{row:?}: {dir}/{file} is {header}");
+            suite_settings_cells(&output, method, seeds == "10")
+        };
+        let quoted: Vec<String> = cells(before_dir).iter().zip(cells(after_dir)).map(|(b, a)| arrow(b, &a)).collect();
+        assert_eq!(row[2..], quoted[..], "{row:?}");
+        checked.push((set, seeds));
+    }
+    assert_eq!(checked.len(), 4, "two sets, each over 3 and 10 seeds: {checked:?}");
+}
+
 #[test]
 fn the_ten_seed_lookahead_table_quotes_its_outputs() {
     let doc = repo_file("docs/benchmarks.md");
@@ -2123,18 +2172,7 @@ fn the_ten_seed_lookahead_table_quotes_its_outputs() {
         let header = output.lines().find(|l| l.contains(" scenes × ")).expect("the run's header");
         assert!(header.contains(&format!("× {} seeds", row[3])), "{row:?}: {dir}/{file} is {header}");
         assert!(header.contains(&format!("trust region n = {n},")), "{row:?}: {dir}/{file} is {header}");
-        let main = labelled_row(&output, "SR-crit", method);
-        let reach = labelled_row(&output, "reach-crit", method);
-        let twin = labelled_row(&output, " met", method);
-        let mut expected = vec![main[2].clone(), main[4].clone(), reach[1].clone(), twin[3].clone()];
-        if row[9] == "–" {
-            // The lookahead's rows alone: kills, no ratios.
-            let kills = labelled_row(&output, "passed", method);
-            expected.extend([format!("{} ({})", killed(&kills[1]), kills[3]), "–".into(), "–".into()]);
-        } else {
-            expected.extend(kill_cells(&output, method));
-        }
-        expected.push(fewest_scenes_cell(&output, method));
+        let expected = suite_settings_cells(&output, method, row[9] == "–");
         assert_eq!(row[4..], expected[..], "{row:?} against {dir}/{file}");
         seeds_checked.push(row[3].clone());
     }
