@@ -57,7 +57,7 @@ CURVE_PREVIEW_M = 50.0
 
 PATH_MARGIN_M = 0.4  # corridor: half widths plus this
 LEADER_RANGE_M = 120.0  # route stretch searched for a leader
-CUT_IN_ANTICIPATION_S = 1.0  # a car moving across into the corridor is a leader this long before it is in
+CUT_IN_ANTICIPATION_S = 1.0  # a car going our way into the corridor is a leader this long before it is in
 
 
 class LaneFollower(Planner):
@@ -133,7 +133,8 @@ class LaneFollower(Planner):
         free = 1.0 - (v / max(desired, 0.1)) ** 4
         interaction = 0.0
         # The nearest agent ahead whose box reaches into the ego's corridor
-        # along the route (its half extent across the route as it is turned).
+        # along the route (its half extent across the route as it is turned),
+        # or a car cutting in that will within CUT_IN_ANTICIPATION_S.
         lead = obs.leader(margin_m=PATH_MARGIN_M, range_m=LEADER_RANGE_M, anticipate_s=CUT_IN_ANTICIPATION_S)
         if lead is not None:
             gap, v_lead = lead.gap_m, lead.speed_mps
