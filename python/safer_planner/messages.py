@@ -314,12 +314,13 @@ class Observation:
             s, lateral = p
             if s <= s_ego:
                 continue
-            rel = agent.heading_rad - path.heading_at(s)
+            route_heading = path.heading_at(s)
+            rel = agent.heading_rad - route_heading
             half_across = 0.5 * (abs(math.sin(rel)) * agent.length_m + abs(math.cos(rel)) * agent.width_m)
             # Only a car going the route's way cuts in; crossing traffic
             # counts once it is in the corridor.
             within_s = anticipate_s if math.cos(rel) > CUT_IN_MAX_COS else 0.0
-            if _closest_lateral(agent, path.heading_at(s), lateral, within_s) > (
+            if _closest_lateral(agent, route_heading, lateral, within_s) > (
                 ego.width_m / 2.0 + half_across + margin_m
             ):
                 continue
