@@ -251,6 +251,10 @@
 #                     lookahead alone) make them, with the follower braking for a car
 #                     cutting in a second before it is in
 #                     (mutants-{womd-interactive,ngsim}-lane-follower-n60.txt) (about 45 minutes)
+#   standing-berth
+#                     standing-berth/: ten-seeds/lookahead/'s two runs of the evasive planner
+#                     (mutants-{womd-interactive-n28,ngsim-n60}-evasive.txt), with the planner
+#                     keeping a berth beside a car stopped in its lane (about 25 minutes)
 #   mutants           mutants-{womd-interactive,womd-json,ngsim}-evasive.txt and
 #                     mutants-{womd-interactive,ngsim}-lane-follower.txt: the
 #                     faults of the planner each method's variants catch
@@ -266,7 +270,7 @@ self=$(realpath "$0")
 cd "$(dirname "$self")"
 all=(evaluate plain inattentive held-out-chance trust-region realism prior-fit n-sweep reactive n100 approach-none merging mutants wide-region cut-in
     in-path-lookahead in-path-lookahead-n30 in-path-lookahead-n28 in-path-lookahead-sweep pair-in-traffic witnessed wide-witnessed ten-seeds reaction-delay reactive-background leader first-contact both-pairings first-contact-lookahead blind-twin ego-contact wrong-way
-    lane-follower-pairings at-fault-planner along-the-lanes along-the-lanes-lane-follower sideways kill-ratios human-lane-changes grip turning turning-cost turning-cost-sweep ten-seeds-lookahead cut-in-anticipation)
+    lane-follower-pairings at-fault-planner along-the-lanes along-the-lanes-lane-follower sideways kill-ratios human-lane-changes grip turning turning-cost turning-cost-sweep ten-seeds-lookahead cut-in-anticipation standing-berth)
 jobs=("$@")
 [[ ${#jobs[@]} -gt 0 ]] || jobs=("${all[@]}")
 # The usage is the comment block at the top of this file.
@@ -938,6 +942,13 @@ for job in "${jobs[@]}"; do
             run "ten-seeds/lookahead/mutants-${s#*:}-lane-follower-n60.txt" evaluate --scenes "data:${s%%:*}" \
                 "${ten_lane_follower[@]/%log,prior,safer-in-path-lookahead/safer-in-path-lookahead}"
         done ;;
+    standing-berth)
+        mkdir -p standing-berth
+        ten=(--seeds 10 "${along_the_lanes[@]:2}")
+        run standing-berth/mutants-womd-interactive-n28-evasive.txt evaluate --scenes data:womd-interactive \
+            "${ten[@]}" --planner ../../planners/evasive.yaml --trust-region 28
+        run standing-berth/mutants-ngsim-n60-evasive.txt evaluate --scenes data:commonroad-ngsim "${ten[@]}" \
+            --planner ../../planners/evasive.yaml --trust-region 60 ;;
     cut-in-anticipation)
         mkdir -p cut-in-anticipation/ten-seeds
         ten_lane_follower=(--seeds 10 "${along_the_lanes_lane_follower[@]:2}")

@@ -48,6 +48,14 @@ pub struct EvasiveParams {
     pub desired_speed_mps: Option<f64>,
     /// Margin added around the ego's box in the collision check, m.
     pub safety_margin_m: f64,
+    /// Room kept beside a road user stopped in the ego's lane ahead by a
+    /// candidate that swerves (any lateral offset), m, on top of the
+    /// safety margin: a car that stopped in the lane (seen moving, now
+    /// standing: a queue's last car, a car waiting to turn) may move off
+    /// and turn into the gap as the ego squeezes past it on the lane line.
+    /// Road users standing since the planner first saw them (parked) or
+    /// off the ego's lane are passed at the safety margin alone.
+    pub standing_berth_m: f64,
     /// Also predict each agent at the turn rate and acceleration it showed
     /// since the previous step (as well as at constant velocity).
     pub turning_predictions: bool,
@@ -69,6 +77,9 @@ impl EvasiveParams {
         }
         if !within(self.safety_margin_m, 0.0, 5.0, true) {
             return Some(("safety_margin_m", format!("must be a number in [0, 5] m, got {}", self.safety_margin_m)));
+        }
+        if !within(self.standing_berth_m, 0.0, 5.0, true) {
+            return Some(("standing_berth_m", format!("must be a number in [0, 5] m, got {}", self.standing_berth_m)));
         }
         if let Some(v) = self.desired_speed_mps
             && !within(v, 0.0, 70.0, false)
@@ -125,6 +136,7 @@ impl Default for EvasiveParams {
             lateral_offsets_m: vec![-7.0, -5.25, -3.5, -1.75, 0.0, 1.75, 3.5, 5.25, 7.0],
             desired_speed_mps: None,
             safety_margin_m: 0.3,
+            standing_berth_m: 0.5,
             turning_predictions: true,
             avoided_contacts: AvoidedContacts::All,
         }
@@ -207,6 +219,17 @@ const BLAMELESS_CONTACT_COST: f64 = 1.0e3;
 /// off the road inside the mapped area (driving on past the map's cut is
 /// not leaving the road: the ego need not stop there).
 const OFF_ROAD_COST: f64 = 2.0e3;
+/// For a candidate that swerves past a road user stopped in the ego's
+/// lane inside [`EvasiveParams::standing_berth_m`], scaled as [`COLLISION_COST`]
+/// (earlier is worse): more than waiting behind a car stopped ahead for
+/// the whole horizon, far less than a contact.
+const CLOSE_PASS_COST: f64 = 1.0e3;
+/// An agent seen faster than this, m/s, has moved: standing later, it
+/// stopped in traffic (walking pace and recorded jitter are not moving).
+const MOVED_MIN_SPEED_MPS: f64 = 1.0;
+/// A road user stands in the ego's lane where its centre is within this
+/// of the route's centreline, m: inside a lane of 3 m or more.
+const IN_LANE_M: f64 = 1.5;
 /// A candidate is dropped once its cost is sure to exceed the best one's by
 /// this much: far above the rounding of the sums, far below any term.
 const ABANDON_SLACK: f64 = 0.01;
@@ -224,12 +247,22 @@ struct SeenAgents {
     /// Oldest first: each plan's time and every numbered agent's state
     /// then (`None`: not seen by that plan).
     plans: std::collections::VecDeque<(f64, Vec<Option<AgentState>>)>,
+    /// By number: whether the agent was ever seen moving (faster than
+    /// [`MOVED_MIN_SPEED_MPS`]) since the first plan.
+    moved: Vec<bool>,
 }
 
 impl SeenAgents {
     fn clear(&mut self) {
         self.numbers.clear();
         self.plans.clear();
+        self.moved.clear();
+    }
+
+    /// Whether `id` was seen moving by some plan since the first: a car
+    /// that stands now has stopped in traffic, not been parked all along.
+    fn has_moved(&self, id: &crate::scenario::AgentId) -> bool {
+        self.numbers.get(id).is_some_and(|&number| self.moved.get(number).copied().unwrap_or(false))
     }
 
     /// When the oldest plan kept that saw `id` was made, and the state it saw.
@@ -265,6 +298,10 @@ impl SeenAgents {
             if states.len() <= number {
                 states.resize(number + 1, None);
             }
+            if self.moved.len() <= number {
+                self.moved.resize(number + 1, false);
+            }
+            self.moved[number] |= state.speed_mps() > MOVED_MIN_SPEED_MPS;
             states[number] = Some(state);
         }
         self.plans.push_back((time_s, states));
@@ -285,6 +322,9 @@ pub struct EvasivePlanner {
     predictions: Vec<BoxSet>,
     /// The standing agents' boxes (one set for every step), the same way.
     standing: BoxSet,
+    /// Those of them stopped in the ego's lane ahead (seen moving before),
+    /// the same way.
+    stopped_in_lane: BoxSet,
     /// The agents as seen at the last few plans.
     seen: SeenAgents,
     /// The candidate (offset, acceleration) the last plan chose: tried
@@ -306,6 +346,7 @@ impl EvasivePlanner {
             desired_speed_mps: None,
             predictions: Vec::new(),
             standing: BoxSet::default(),
+            stopped_in_lane: BoxSet::default(),
             seen: Default::default(),
             last_choice: None,
             #[cfg(test)]
@@ -580,6 +621,20 @@ impl Planner for EvasivePlanner {
         // The first red stop line ahead on the route, as an arc length.
         let here_projection = route.path.project(&ego.position);
         let here = here_projection.map_or(0.0, |p| p.arc_length_m);
+        let mut stopped_in_lane = std::mem::take(&mut self.stopped_in_lane);
+        stopped_in_lane.refill_with_sin_cos(
+            near.iter()
+                .filter(|&&(a, _, radius_m)| {
+                    stands(a)
+                        && self.seen.has_moved(&a.id)
+                        && within_reach(a.state.position, &ego, horizon_reach_m, radius_m)
+                        && route
+                            .path
+                            .project(&a.state.position)
+                            .is_some_and(|p| p.distance_m <= IN_LANE_M && p.arc_length_m > here)
+                })
+                .map(|&(a, sin_cos, _)| (OrientedBox::new(a.state.pose(), a.length_m, a.width_m), sin_cos)),
+        );
         let red_stop_s = route
             .lanes
             .iter()
@@ -597,6 +652,7 @@ impl Planner for EvasivePlanner {
             turning: &turning,
             predictions: &predictions,
             standing: &standing,
+            stopped_in_lane: &stopped_in_lane,
             red_stop_s,
             start_s: here,
             start_segment: here_projection.map_or(0, |p| p.segment),
@@ -658,6 +714,7 @@ impl Planner for EvasivePlanner {
         self.last_choice = best.as_ref().map(|(_, i)| (i / n_accels, i % n_accels));
         self.predictions = predictions;
         self.standing = standing;
+        self.stopped_in_lane = stopped_in_lane;
         let (best, _) = best.ok_or_else(|| PlannerError::InvalidOutput("no candidates configured".into()))?;
         Ok(PlannerOutput::Control(best.first))
     }
@@ -677,6 +734,8 @@ struct PlanContext<'a> {
     predictions: &'a [BoxSet],
     /// The standing agents, at every step.
     standing: &'a BoxSet,
+    /// Those of them stopped in the ego's lane ahead (seen moving before).
+    stopped_in_lane: &'a BoxSet,
     /// The first red stop line ahead on the route, as an arc length.
     red_stop_s: Option<f64>,
     /// The ego's arc length on the route at the start.
@@ -798,6 +857,9 @@ impl EvasivePlanner {
         // The agents passed through blamelessly (see `judge_contact`): the
         // first such contact is charged, while none is passed yet.
         let mut passed = Vec::new();
+        // Whether the close pass of a road user standing in the lane is charged yet
+        // (once a rollout).
+        let mut passed_close = false;
         for (k, others) in ctx.predictions.iter().enumerate().take(steps) {
             if cost + least_to_come + speed_costs_to_come[k] > abandon_above {
                 return None;
@@ -832,6 +894,16 @@ impl EvasivePlanner {
             let touches = |b: &OrientedBox| {
                 others.any_intersects_with_sin_cos(b, sin_cos) || ctx.standing.any_intersects_with_sin_cos(b, sin_cos)
             };
+            let earlier = 2.0 - k as f64 / steps as f64;
+            let berth_m = self.params.standing_berth_m;
+            if !passed_close && offset != 0.0 && berth_m > 0.0 && !ctx.stopped_in_lane.is_empty() {
+                let pose = Pose2 { position: s.position, heading_rad: s.heading_rad };
+                let berth_box = OrientedBox::new(pose, len, wid + 2.0 * berth_m);
+                if ctx.stopped_in_lane.any_intersects_with_sin_cos(&berth_box, sin_cos) {
+                    passed_close = true;
+                    cost += CLOSE_PASS_COST * earlier;
+                }
+            }
             if touches(&ego_box) {
                 let first_blameless = passed.is_empty();
                 let contact = match self.params.avoided_contacts {
@@ -842,7 +914,6 @@ impl EvasivePlanner {
                 // dominates every other term and ends the rollout. The
                 // first blameless one is charged, and the rollout goes on
                 // through it: a contact the ego is to blame for may follow.
-                let earlier = 2.0 - k as f64 / steps as f64;
                 match contact {
                     PredictedContact::AtFault => {
                         cost += COLLISION_COST * earlier;
@@ -1229,6 +1300,52 @@ mod tests {
             ego = kinematic_step(&ego, action, SIM_DT_S);
         }
         panic!("the follower never reached the ego: the scene tests nothing");
+    }
+
+    /// Closed loop for 8 s on a two-lane road (lanes at y = 0 and 3.5 m,
+    /// kerbs 1.75 m beyond them): the ego from the origin at 3 m/s, wanting
+    /// 12, and a car in its lane, 0.6 m right of the lane's centre (room to
+    /// squeeze past on the lane line), standing 25 m ahead; if
+    /// `stopped_in_traffic`, it drove there at 4 m/s and braked to a stop
+    /// over the first 2 s, else it stood there all along (parked). The
+    /// ego's smallest sideways gap to it while beside it (their lengths
+    /// overlapping), m; `None` if it never came beside it.
+    fn gap_passing_a_standing_car(params: EvasiveParams, stopped_in_traffic: bool) -> Option<f64> {
+        let map = kerbed_road(&[0.0, 3.5], -1.75, 5.25);
+        let mut planner = EvasivePlanner::new(EvasiveParams { desired_speed_mps: Some(12.0), ..params });
+        let mut ego = at_the_origin(3.0);
+        let mut gap_m: Option<f64> = None;
+        for k in 0..80 {
+            let braking_s = if stopped_in_traffic { (2.0 - k as f64 * SIM_DT_S).max(0.0) } else { 0.0 };
+            // At 4 m/s braking at 2 m/s², `braking_s` before it stands.
+            let other = car("other", 25.0 - braking_s * braking_s, -0.6, 0.0, 2.0 * braking_s);
+            if (ego.position.x - other.state.position.x).abs() < 4.5 {
+                let gap = (ego.position.y - other.state.position.y).abs() - 2.0;
+                gap_m = Some(gap_m.map_or(gap, |g| g.min(gap)));
+            }
+            let obs = observation_at(k, &ego, vec![other], &map);
+            let PlannerOutput::Control(action) = planner.plan(&obs).unwrap() else { panic!("not a control") };
+            ego = kinematic_step(&ego, action, SIM_DT_S);
+        }
+        gap_m
+    }
+
+    #[test]
+    fn a_swerve_past_a_car_stopped_in_the_lane_keeps_the_berth_or_does_not_pass() {
+        let without_berth = EvasiveParams { standing_berth_m: 0.0, ..EvasiveParams::default() };
+        let params = EvasiveParams::default();
+        let room_m = params.safety_margin_m + params.standing_berth_m;
+        // Without the berth the ego squeezes past on the lane line, within
+        // a metre of a car that may move off into it.
+        let squeezed = gap_passing_a_standing_car(without_berth, true);
+        assert!(squeezed.is_some_and(|g| g < room_m), "without the berth: {squeezed:?}");
+        // With it, the ego keeps the safety margin and the berth beside it
+        // (a whole lane over), or stays behind.
+        let gap = gap_passing_a_standing_car(params.clone(), true);
+        assert!(gap.is_none_or(|g| g >= room_m), "with the berth: {gap:?}, wanted {room_m} m or no pass");
+        // A car standing there all along (parked) is passed as before.
+        let parked = gap_passing_a_standing_car(params, false);
+        assert!(parked.is_some_and(|g| g < room_m), "past a parked car: {parked:?}");
     }
 
     #[test]
