@@ -2147,6 +2147,32 @@ fn the_cut_in_anticipation_table_quotes_its_outputs() {
 }
 
 #[test]
+fn the_standing_berth_table_quotes_its_outputs() {
+    let doc = repo_file("docs/benchmarks.md");
+    let rows = markdown_rows(
+        &doc,
+        "| set | CR | SR-crit | reach-crit | met | kills (held out) |",
+        "The evasive planner's faults are caught as before",
+    );
+    let method = "safer-in-path-lookahead";
+    let mut sets = Vec::new();
+    for row in &rows {
+        let file = suite_settings_output(&row[0], "evasive");
+        let cells = |dir: &str| {
+            let output = repo_file(&format!("docs/evaluation/{dir}/{file}"));
+            let header = output.lines().find(|l| l.contains(" scenes × ")).expect("the run's header");
+            assert!(header.contains("× 10 seeds"), "{row:?}: {dir}/{file} is {header}");
+            suite_settings_cells(&output, method, false)
+        };
+        let before = cells("ten-seeds/lookahead");
+        let quoted: Vec<String> = before.iter().zip(cells("standing-berth")).map(|(b, a)| arrow(b, &a)).collect();
+        assert_eq!(row[1..], quoted[..], "{row:?}");
+        sets.push(row[0].clone());
+    }
+    assert_eq!(sets, ["WOMD interactive", "NGSIM"], "both sets, over ten seeds");
+}
+
+#[test]
 fn the_ten_seed_lookahead_table_quotes_its_outputs() {
     let doc = repo_file("docs/benchmarks.md");
     let rows = markdown_rows(
