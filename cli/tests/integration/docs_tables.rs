@@ -2116,6 +2116,20 @@ fn suite_settings_cells(output: &str, method: &str, lookahead_alone: bool) -> Ve
     cells
 }
 
+/// The lookahead's cells of a before → after table of the shipped
+/// lookahead suite's settings ([`suite_settings_cells`], each `before →
+/// after`): the output `file` of the folders `dirs` (before, after),
+/// each checked to be a run over `seeds` seeds a scene.
+fn suite_settings_before_after(file: &str, seeds: &str, dirs: (&str, &str), lookahead_alone: bool) -> Vec<String> {
+    let cells = |dir: &str| {
+        let output = repo_file(&format!("docs/evaluation/{dir}/{file}"));
+        let header = output.lines().find(|l| l.contains(" scenes × ")).expect("the run's header");
+        assert!(header.contains(&format!("× {seeds} seeds")), "{dir}/{file} is {header}");
+        suite_settings_cells(&output, "safer-in-path-lookahead", lookahead_alone)
+    };
+    cells(dirs.0).iter().zip(cells(dirs.1)).map(|(b, a)| arrow(b, &a)).collect()
+}
+
 #[test]
 fn the_cut_in_anticipation_table_quotes_its_outputs() {
     let doc = repo_file("docs/benchmarks.md");
@@ -2124,7 +2138,6 @@ fn the_cut_in_anticipation_table_quotes_its_outputs() {
         "| set | seeds | CR | SR-crit | reach-crit | met | kills (held out) |",
         "The lane follower's faults after the change",
     );
-    let method = "safer-in-path-lookahead";
     let mut checked = Vec::new();
     for (set, seeds, row) in rows_by_set_and_draw(&rows) {
         let (before_dir, after_dir) = match seeds.as_str() {
@@ -2133,13 +2146,7 @@ fn the_cut_in_anticipation_table_quotes_its_outputs() {
             other => panic!("{row:?}: no output for {other} seeds"),
         };
         let file = suite_settings_output(&set, "lane follower");
-        let cells = |dir: &str| {
-            let output = repo_file(&format!("docs/evaluation/{dir}/{file}"));
-            let header = output.lines().find(|l| l.contains(" scenes × ")).expect("the run's header");
-            assert!(header.contains(&format!("× {seeds} seeds")), "{row:?}: {dir}/{file} is {header}");
-            suite_settings_cells(&output, method, seeds == "10")
-        };
-        let quoted: Vec<String> = cells(before_dir).iter().zip(cells(after_dir)).map(|(b, a)| arrow(b, &a)).collect();
+        let quoted = suite_settings_before_after(file, &seeds, (before_dir, after_dir), seeds == "10");
         assert_eq!(row[2..], quoted[..], "{row:?}");
         checked.push((set, seeds));
     }
@@ -2154,18 +2161,10 @@ fn the_standing_berth_table_quotes_its_outputs() {
         "| set | CR | SR-crit | reach-crit | met | kills (held out) |",
         "The evasive planner's faults are caught as before",
     );
-    let method = "safer-in-path-lookahead";
     let mut sets = Vec::new();
     for row in &rows {
         let file = suite_settings_output(&row[0], "evasive");
-        let cells = |dir: &str| {
-            let output = repo_file(&format!("docs/evaluation/{dir}/{file}"));
-            let header = output.lines().find(|l| l.contains(" scenes × ")).expect("the run's header");
-            assert!(header.contains("× 10 seeds"), "{row:?}: {dir}/{file} is {header}");
-            suite_settings_cells(&output, method, false)
-        };
-        let before = cells("ten-seeds/lookahead");
-        let quoted: Vec<String> = before.iter().zip(cells("standing-berth")).map(|(b, a)| arrow(b, &a)).collect();
+        let quoted = suite_settings_before_after(file, "10", ("ten-seeds/lookahead", "standing-berth"), false);
         assert_eq!(row[1..], quoted[..], "{row:?}");
         sets.push(row[0].clone());
     }
