@@ -13,9 +13,11 @@
 //! braking is where constant velocity is most wrong), turning no further
 //! than the lanes turn and not off the road; a candidate must clear both.
 //! A candidate that hits a predicted box (with a safety margin), runs a
-//! red light or leaves the road is heavily penalised, and
-//! one that lets another agent into about a second of headway ahead is
-//! penalised softly; among the rest, progress towards the desired speed,
+//! red light or leaves the road is heavily penalised, one that swerves
+//! past a car stopped in the ego's lane without a berth beside it (it may
+//! move off into the gap) more than waiting behind it, and one that lets
+//! another agent into about a second of headway ahead is penalised
+//! softly; among the rest, progress towards the desired speed,
 //! staying centred and gentle accelerations win. The first control of the best candidate is
 //! applied, and the lattice is rebuilt at the next step.
 //!
@@ -857,8 +859,8 @@ impl EvasivePlanner {
         // The agents passed through blamelessly (see `judge_contact`): the
         // first such contact is charged, while none is passed yet.
         let mut passed = Vec::new();
-        // Whether the close pass of a road user standing in the lane is charged yet
-        // (once a rollout).
+        // Whether the close pass of a road user stopped in the ego's lane is
+        // charged yet (once a rollout).
         let mut passed_close = false;
         for (k, others) in ctx.predictions.iter().enumerate().take(steps) {
             if cost + least_to_come + speed_costs_to_come[k] > abandon_above {
