@@ -38,12 +38,14 @@ const CLOSED_LOOP_RATIO_TARGET: f64 = 2.0;
 /// Most a `safer-in-path`, `safer-cut-in` or `safer-in-path-lookahead` variant may cost, as a
 /// multiple of a `safer` variant.
 const IN_PATH_RATIO_TARGET: f64 = 2.0;
-/// The trust region of the wider `safer-in-path` and `safer-cut-in` the bench times: the one
-/// `specs/suites/adversarial-ngsim.yaml` ships with (a test holds them equal).
+/// The trust region of the wider `safer-in-path` and `safer-cut-in` the bench times: the
+/// freeway suites' region, which `specs/suites/adversarial-ngsim.yaml` ran `safer-in-path`
+/// over before it ran the lookahead (a test holds the two regions equal).
 const WIDE_IN_PATH_TRUST_REGION: usize = 60;
 /// The wider trust region the bench times `safer-in-path-lookahead` over too: the
-/// shipped suites' region, where on NGSIM it meets the set's goals with the witness
-/// asked (`docs/benchmarks.md`, "The horizon at the first contact").
+/// shipped NGSIM suites' region and method (a test holds them so), where on NGSIM it
+/// meets the set's goals with the witness asked (`docs/benchmarks.md`, "The horizon at
+/// the first contact").
 const WIDE_LOOKAHEAD_TRUST_REGION: usize = 60;
 /// The trust region of the lookahead on WOMD interactive's tables: the
 /// smallest over which its CR passes 0.7 there with any contact, where its
@@ -155,7 +157,7 @@ struct VariantBench {
     in_path_variant_ms: f64,
     /// `safer-in-path / safer variant`, alternated in the same run (target at most 2).
     in_path_ratio_to_safer: f64,
-    /// The trust region of the wide `safer-in-path` run: the shipped NGSIM suite's.
+    /// The trust region of the wide `safer-in-path` run: the freeway suites' region.
     in_path_wide_trust_region: usize,
     /// The same variant with `safer-in-path` over that wider region, ms.
     in_path_wide_variant_ms: f64,
@@ -186,7 +188,7 @@ struct VariantBench {
     seeds_timed: u32,
     /// The mean of the `safer` variants of those seeds, each run once, ms.
     safer_seeds_mean_ms: f64,
-    /// The mean of the wide `safer-in-path` variants (the shipped NGSIM suite's) of the
+    /// The mean of the wide `safer-in-path` variants (the freeway suites' region) of the
     /// same seeds, each run once after `safer`'s, ms.
     in_path_wide_seeds_mean_ms: f64,
     /// Their ratio (target at most 2).
@@ -810,10 +812,17 @@ mod tests {
     use super::*;
 
     #[test]
-    fn the_wide_in_path_region_is_the_one_the_ngsim_suite_ships_with() {
-        let suite = concat!(env!("CARGO_MANIFEST_DIR"), "/../specs/suites/adversarial-ngsim.yaml");
-        let loaded = safer_scenarios::spec::suite::load(std::path::Path::new(suite)).unwrap();
-        assert_eq!(loaded.value.adversary.method, AdversaryMethod::SaferInPath);
-        assert_eq!(loaded.value.adversary.trust_region, WIDE_IN_PATH_TRUST_REGION);
+    fn the_wide_not_from_behind_lookahead_is_the_method_the_ngsim_suites_ship_with() {
+        for name in ["adversarial-ngsim", "adversarial-ngsim-lookahead"] {
+            let suite = format!("{}/../specs/suites/{name}.yaml", env!("CARGO_MANIFEST_DIR"));
+            let loaded = safer_scenarios::spec::suite::load(std::path::Path::new(&suite)).unwrap();
+            let adversary = &loaded.value.adversary;
+            assert_eq!(adversary.method, AdversaryMethod::SaferInPathLookahead, "{name}");
+            assert_eq!(adversary.trust_region, WIDE_LOOKAHEAD_TRUST_REGION, "{name}");
+            assert_eq!(adversary.ego_contact, safer_scenarios::policies::adversary::EgoContactRule::NotFromBehind);
+        }
+        // The wide `safer-in-path` the bench also times is the region those
+        // suites ran it over before.
+        assert_eq!(WIDE_IN_PATH_TRUST_REGION, WIDE_LOOKAHEAD_TRUST_REGION);
     }
 }
