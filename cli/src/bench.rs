@@ -205,6 +205,12 @@ struct VariantBench {
     in_path_lookahead_interactive_not_from_behind_seeds_mean_ms: f64,
     /// Their ratio (target at most 2).
     in_path_lookahead_interactive_not_from_behind_seeds_ratio_to_safer: f64,
+    /// The mean of the wide not-from-behind `safer-in-path-lookahead` variants with the
+    /// CBV along the lanes too (`--wrong-way along-the-lanes`), as the shipped
+    /// adversarial suites run it, of the same seeds, each run once after `safer`'s, ms.
+    in_path_lookahead_shipped_seeds_mean_ms: f64,
+    /// Their ratio (target at most 2).
+    in_path_lookahead_shipped_seeds_ratio_to_safer: f64,
     /// The closed-loop witness of a stage-1 collision (the CBV reacting to
     /// the escapes tried), ms; `None` when no seed of 0..20 collides.
     closed_loop_witness: Option<ClosedLoopWitnessBench>,
@@ -342,6 +348,15 @@ pub(super) fn run(scenes: &Path, repeat: usize, json: Option<&Path>) -> Result<E
                 ),
                 v.in_path_lookahead_interactive_not_from_behind_seeds_mean_ms,
                 v.in_path_lookahead_interactive_not_from_behind_seeds_ratio_to_safer,
+            )?;
+            write_beside_safer(
+                &mut out,
+                &format!(
+                    "safer-in-path-lookahead, n = {}, not-from-behind, along-the-lanes, mean of seeds 0..{}",
+                    v.in_path_lookahead_wide_trust_region, v.seeds_timed
+                ),
+                v.in_path_lookahead_shipped_seeds_mean_ms,
+                v.in_path_lookahead_shipped_seeds_ratio_to_safer,
             )?;
             match &v.closed_loop_witness {
                 Some(w) => writeln!(
@@ -665,12 +680,25 @@ fn bench_variant(scenes: &[Scenario], repeat: usize) -> Result<Option<VariantBen
         },
         ..lookahead_wide_not_from_behind
     };
+    // ... and as the shipped adversarial suites run it: the CBV along the lanes too.
+    let lookahead_shipped = VariantSetup {
+        settings: MethodSettings {
+            wrong_way: safer_scenarios::policies::adversary::WrongWayRule::AlongTheLanes,
+            ..lookahead_wide_not_from_behind.settings
+        },
+        ..lookahead_wide_not_from_behind
+    };
     let (
         safer_seeds_mean_ms,
-        [in_path_wide_seeds_mean_ms, not_from_behind_seeds_mean_ms, interactive_not_from_behind_seeds_mean_ms],
+        [
+            in_path_wide_seeds_mean_ms,
+            not_from_behind_seeds_mean_ms,
+            interactive_not_from_behind_seeds_mean_ms,
+            shipped_seeds_mean_ms,
+        ],
     ) = mean_times_over_seeds(
         setup,
-        [in_path_wide, lookahead_wide_not_from_behind, lookahead_interactive_not_from_behind],
+        [in_path_wide, lookahead_wide_not_from_behind, lookahead_interactive_not_from_behind, lookahead_shipped],
         (0..SEEDS_TIMED).map(seed_of),
     )?;
 
@@ -742,6 +770,8 @@ fn bench_variant(scenes: &[Scenario], repeat: usize) -> Result<Option<VariantBen
         in_path_lookahead_interactive_not_from_behind_seeds_mean_ms: interactive_not_from_behind_seeds_mean_ms,
         in_path_lookahead_interactive_not_from_behind_seeds_ratio_to_safer: interactive_not_from_behind_seeds_mean_ms
             / safer_seeds_mean_ms,
+        in_path_lookahead_shipped_seeds_mean_ms: shipped_seeds_mean_ms,
+        in_path_lookahead_shipped_seeds_ratio_to_safer: shipped_seeds_mean_ms / safer_seeds_mean_ms,
         closed_loop_witness,
     }))
 }

@@ -72,15 +72,19 @@ fn bench_writes_every_figure_beside_its_reference_as_json() {
         "in_path_wide_seeds_mean_ms",
         "in_path_lookahead_wide_not_from_behind_seeds_mean_ms",
         "in_path_lookahead_interactive_not_from_behind_seeds_mean_ms",
+        "in_path_lookahead_shipped_seeds_mean_ms",
     ] {
         assert!(variant[key].as_f64().is_some_and(|ms| ms > 0.0), "{key}: {variant}");
     }
     // The shipped suites' methods over ten seeds too, and the lookahead as
     // WOMD interactive's tables run it, each ratio that of the two means.
     assert_eq!(variant["seeds_timed"], 10);
-    for method in
-        ["in_path_wide", "in_path_lookahead_wide_not_from_behind", "in_path_lookahead_interactive_not_from_behind"]
-    {
+    for method in [
+        "in_path_wide",
+        "in_path_lookahead_wide_not_from_behind",
+        "in_path_lookahead_interactive_not_from_behind",
+        "in_path_lookahead_shipped",
+    ] {
         let seeds_ratio = ms(&format!("{method}_seeds_mean_ms")) / ms("safer_seeds_mean_ms");
         let reported = variant[format!("{method}_seeds_ratio_to_safer")].as_f64().unwrap();
         assert!((reported - seeds_ratio).abs() < 1e-9, "{method}: {variant}");
@@ -99,6 +103,7 @@ fn bench_writes_every_figure_beside_its_reference_as_json() {
     assert!(table.contains("safer-in-path, n = 60, mean of seeds 0..10 / safer (same run)"), "{table}");
     assert!(table.contains("n = 60, not-from-behind, mean of seeds 0..10 / safer (same run)"), "{table}");
     assert!(table.contains("n = 28, not-from-behind, mean of seeds 0..10 / safer (same run)"), "{table}");
+    assert!(table.contains("n = 60, not-from-behind, along-the-lanes, mean of seeds 0..10 / safer"), "{table}");
     assert_eq!(v["simulator"].as_array().map(Vec::len), Some(0), "{v}");
     assert!(table.contains("the simulator is not timed"), "{table}");
 }
