@@ -343,6 +343,17 @@ impl<'w> PlausibilityCheck<'w> {
             return Some(k);
         }
         let map = self.world.map;
+        // Across the lanes on the token's own states, or not turning back
+        // towards them (see the `wrong_way` module). Whether at all, it is
+        // asked first: a few lane queries on the token's own states, which
+        // under the rule reject many of the tokens a scan ranks before
+        // their braking paths and contacts are worked out.
+        let across = || self.across_lanes.first_breach(map, rollout);
+        if wanted == Violation::Any
+            && let Some(k) = across()
+        {
+            return Some(k);
+        }
         let braking: Vec<AgentState> = rollout.iter().copied().chain(braking_after(rollout)).collect();
         let contact = |wanted| self.contact_violation(rollout, &braking, wanted, rule);
         // The path to a standstill, rolled out once for the road and
@@ -355,12 +366,10 @@ impl<'w> PlausibilityCheck<'w> {
         // is as good as in them (see the `wrong_way` module).
         let wrong_way = || {
             let against = self.traffic_direction.first_breach(map, rollout, moving_path);
-            // Across the lanes on the token's own states, or not turning back
-            // towards them (see the `wrong_way` module).
-            let across = || self.across_lanes.first_breach(map, rollout);
             match wanted {
                 Violation::First => against.into_iter().chain(across()).min(),
-                Violation::Any => against.or_else(across),
+                // Across the lanes was asked first.
+                Violation::Any => against,
             }
         };
         if !self.on_road_now {
