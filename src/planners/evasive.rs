@@ -859,9 +859,11 @@ impl EvasivePlanner {
         // The agents passed through blamelessly (see `judge_contact`): the
         // first such contact is charged, while none is passed yet.
         let mut passed = Vec::new();
-        // Whether the close pass of a road user stopped in the ego's lane is
-        // charged yet (once a rollout).
-        let mut passed_close = false;
+        // Whether a close pass of a road user stopped in the ego's lane is
+        // still to be looked for: only a swerve keeps the berth, and it is
+        // charged once a rollout.
+        let berth_m = self.params.standing_berth_m;
+        let mut berth_unbroken = offset != 0.0 && berth_m > 0.0 && !ctx.stopped_in_lane.is_empty();
         for (k, others) in ctx.predictions.iter().enumerate().take(steps) {
             if cost + least_to_come + speed_costs_to_come[k] > abandon_above {
                 return None;
@@ -897,12 +899,11 @@ impl EvasivePlanner {
                 others.any_intersects_with_sin_cos(b, sin_cos) || ctx.standing.any_intersects_with_sin_cos(b, sin_cos)
             };
             let earlier = 2.0 - k as f64 / steps as f64;
-            let berth_m = self.params.standing_berth_m;
-            if !passed_close && offset != 0.0 && berth_m > 0.0 && !ctx.stopped_in_lane.is_empty() {
+            if berth_unbroken {
                 let pose = Pose2 { position: s.position, heading_rad: s.heading_rad };
                 let berth_box = OrientedBox::new(pose, len, wid + 2.0 * berth_m);
                 if ctx.stopped_in_lane.any_intersects_with_sin_cos(&berth_box, sin_cos) {
-                    passed_close = true;
+                    berth_unbroken = false;
                     cost += CLOSE_PASS_COST * earlier;
                 }
             }
