@@ -1366,6 +1366,14 @@ mod tests {
             bad(EvasiveParams { accelerations_mps2: vec![f64::NAN], ..EvasiveParams::default() }),
             Some("accelerations_mps2")
         );
+        for berth_m in [-0.5, f64::NAN, 6.0] {
+            assert_eq!(
+                bad(EvasiveParams { standing_berth_m: berth_m, ..EvasiveParams::default() }),
+                Some("standing_berth_m")
+            );
+        }
+        let berth: EvasiveParams = serde_saphyr::from_str("standing_berth_m: 0").unwrap();
+        assert_eq!(berth, EvasiveParams { standing_berth_m: 0.0, ..EvasiveParams::default() });
     }
 
     #[test]
