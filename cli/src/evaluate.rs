@@ -353,7 +353,7 @@ fn print_plausibility(
     writeln!(out, "\nplausibility of the CBV, the seeds' variety and the reference planner:")?;
     writeln!(
         out,
-        "{:<w$} {:>12} {:>14} {:>15} {:>12} {:>14} {:>10} {:>13} {:>9} {:>12} {:>13} {:>10} {:>11}",
+        "{:<w$} {:>12} {:>14} {:>15} {:>12} {:>14} {:>10} {:>13} {:>9} {:>12} {:>13} {:>10} {:>11} {:>12}",
         "method",
         "CBV-bg coll",
         "CBV at fault",
@@ -366,12 +366,13 @@ fn print_plausibility(
         "SR-witnessed",
         "across lanes",
         "across s2",
-        "beyond grip"
+        "beyond grip",
+        "tighter turn"
     )?;
     for r in rows {
         writeln!(
             out,
-            "{:<w$} {:>12} {:>14} {:>15} {:>12} {:>14} {:>10} {:>13} {:>9} {:>12} {:>13} {:>10} {:>11}",
+            "{:<w$} {:>12} {:>14} {:>15} {:>12} {:>14} {:>10} {:>13} {:>9} {:>12} {:>13} {:>10} {:>11} {:>12}",
             name(r),
             fmt(r.cbv_background_collision_rate),
             fmt(r.cbv_at_fault_background_collision_rate),
@@ -384,7 +385,8 @@ fn print_plausibility(
             fmt(r.sr_witnessed),
             fmt(r.cbv_across_lanes_rate),
             fmt(r.cbv_across_lanes_rate_stage2),
-            fmt(r.cbv_beyond_grip_rate)
+            fmt(r.cbv_beyond_grip_rate),
+            fmt(r.cbv_tighter_than_a_car_rate)
         )?;
     }
     Ok(())
@@ -859,6 +861,10 @@ fn print_legend(out: &mut dyn Write) -> std::io::Result<()> {
     writeln!(
         out,
         "beyond grip: share of variants whose CBV, in stage 1, turned harder than a car's tyres hold: its heading change over 0.5 s per second times its mean speed over them above 9 m/s² (the ego's default `max_lateral_accel_mps2`); the `log` row is the recorded CBV."
+    )?;
+    writeln!(
+        out,
+        "tighter turn: share of variants whose CBV, in stage 1, turned tighter than a car steers: its heading change over 0.5 s per metre driven above 0.25 1/m (a 4 m radius), over 0.5 s in which it drove 0.5 m or more (over less the recorded headings' jitter reads as a turn); the `log` row is the recorded CBV, whose headings jump now and then (a tracking glitch)."
     )?;
     writeln!(
         out,

@@ -355,6 +355,11 @@ pub struct MethodRow {
     /// lack it: read as unknown).
     #[serde(default)]
     pub cbv_beyond_grip_rate: Option<f64>,
+    /// Share of variants whose CBV turned tighter than a car steers in
+    /// stage 1 ([`SuiteMetrics::cbv_tighter_than_a_car_rate`]; older
+    /// reports lack it: read as unknown).
+    #[serde(default)]
+    pub cbv_tighter_than_a_car_rate: Option<f64>,
     /// How hard the CBV turned in stage 1
     /// ([`SuiteMetrics::cbv_peak_lateral_accel_mps2`]; older reports lack
     /// it: read as unknown).
@@ -1090,6 +1095,7 @@ fn table_of(
                 cbv_across_lanes_rate: metrics.cbv_across_lanes_rate,
                 cbv_across_lanes_rate_stage2: metrics.cbv_across_lanes_rate_stage2,
                 cbv_beyond_grip_rate: metrics.cbv_beyond_grip_rate,
+                cbv_tighter_than_a_car_rate: metrics.cbv_tighter_than_a_car_rate,
                 cbv_peak_lateral_accel_mps2: metrics.cbv_peak_lateral_accel_mps2,
                 logged_cbv_peak_lateral_accel_mps2: metrics.logged_cbv_peak_lateral_accel_mps2,
                 cbv_sideways: metrics.cbv_sideways,

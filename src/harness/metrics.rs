@@ -30,7 +30,7 @@ use crate::eval::traffic_rules::{ACROSS_LANES_MIN_S, across_lanes_of, wrong_way_
 use crate::eval::{ConflictKind, Histogram, jensen_shannon, rollout_conflict};
 use crate::geometry::wrap_angle;
 use crate::map::RoadMap;
-use crate::motion::vehicle_limits::DEFAULT_MAX_LATERAL_ACCEL_MPS2;
+use crate::motion::vehicle_limits::{CAR_MAX_CURVATURE_PER_M, DEFAULT_MAX_LATERAL_ACCEL_MPS2};
 use crate::scenario::{AgentKind, AgentState, Scenario, TrackIndex};
 use crate::sim::EgoContact;
 use crate::sim::Rollout;
@@ -63,6 +63,12 @@ pub struct KinematicSamples {
     /// never measured: older reports lack it).
     #[serde(default)]
     pub peak_lateral_accel_mps2: Option<f64>,
+    /// The tightest turn over [`YAW_RATE_WINDOW_S`] between present steps
+    /// that far apart, over which the agent drove at least
+    /// [`CURVATURE_MIN_PATH_M`]: the heading change per metre driven, 1/m
+    /// (`None` when never measured: older reports lack it).
+    #[serde(default)]
+    pub peak_curvature_per_m: Option<f64>,
 }
 
 /// The window yaw rates are measured over, s: recorded headings jitter
@@ -70,6 +76,12 @@ pub struct KinematicSamples {
 /// and over 0.5 s, the token period, that noise is a tenth of what it is
 /// between neighbouring steps.
 pub const YAW_RATE_WINDOW_S: f64 = 0.5;
+
+/// The shortest path over [`YAW_RATE_WINDOW_S`] whose curvature
+/// [`KinematicSamples::peak_curvature_per_m`] measures, m (1 m/s): over
+/// less, a recorded heading's jitter and glitches read as turns of metres
+/// a radian.
+pub const CURVATURE_MIN_PATH_M: f64 = 0.5;
 
 impl KinematicSamples {
     /// Samples of a sequence of per-step states (`None` where absent) at `dt_s`.
@@ -87,7 +99,13 @@ impl KinematicSamples {
         let peak_lateral_accel_mps2 =
             windows.iter().map(|w| yaw_rate(w).abs() * 0.5 * (w.0.speed_mps() + w.1.speed_mps())).reduce(f64::max);
         let speeds = states.iter().map(|s| s.map(|s| s.speed_mps()));
-        KinematicSamples { yaw_rates_radps, peak_lateral_accel_mps2, ..Self::of_speeds(speeds, dt_s) }
+        let peak_curvature_per_m = peak_curvature_per_m(&states, window);
+        KinematicSamples {
+            yaw_rates_radps,
+            peak_lateral_accel_mps2,
+            peak_curvature_per_m,
+            ..Self::of_speeds(speeds, dt_s)
+        }
     }
 
     /// These samples with the held sideways speed of the same `states`
@@ -111,8 +129,24 @@ impl KinematicSamples {
             held_sideways_mps: None,
             changed_lanes: None,
             peak_lateral_accel_mps2: None,
+            peak_curvature_per_m: None,
         }
     }
+}
+
+/// The largest heading change per metre driven over `window` steps of
+/// `states` all present, where the path (the steps' straight lines added
+/// up) is at least [`CURVATURE_MIN_PATH_M`].
+fn peak_curvature_per_m(states: &[Option<AgentState>], window: usize) -> Option<f64> {
+    states
+        .windows(window + 1)
+        .filter_map(|w| {
+            let w: Vec<&AgentState> = w.iter().map(Option::as_ref).collect::<Option<_>>()?;
+            let path_m: f64 = w.windows(2).map(|p| (p[1].position - p[0].position).norm()).sum();
+            let turned_rad = wrap_angle(w[window].heading_rad - w[0].heading_rad).abs();
+            (path_m >= CURVATURE_MIN_PATH_M).then(|| turned_rad / path_m)
+        })
+        .reduce(f64::max)
 }
 
 /// The CBV's kinematics in a variant: as generated in stage 1, and as
@@ -411,6 +445,11 @@ pub struct SuiteMetrics {
     /// ([`KinematicSamples::peak_lateral_accel_mps2`]) over
     /// [`DEFAULT_MAX_LATERAL_ACCEL_MPS2`].
     pub cbv_beyond_grip_rate: Option<f64>,
+    /// Share of variants whose CBV turned tighter than a car steers in
+    /// stage 1: its peak curvature
+    /// ([`KinematicSamples::peak_curvature_per_m`]) over
+    /// [`CAR_MAX_CURVATURE_PER_M`].
+    pub cbv_tighter_than_a_car_rate: Option<f64>,
     /// How hard the CBV turned in stage 1: the spread of each variant's
     /// peak lateral acceleration
     /// ([`KinematicSamples::peak_lateral_accel_mps2`]), m/s².
@@ -571,7 +610,7 @@ impl SuiteMetrics {
         let mut at_fault_vulnerable = 0;
         let (mut wrong_way, mut wrong_way_stage2) = (0, 0);
         let (mut across_lanes, mut across_lanes_stage2) = (0, 0);
-        let mut beyond_grip = 0;
+        let (mut beyond_grip, mut tighter_than_a_car) = (0, 0);
         let (mut generated_peak_lateral, mut logged_peak_lateral) = (Vec::new(), Vec::new());
         let (mut reached, mut reached_critical, mut avoidable, mut avoidable_solved, mut no_escape) = (0, 0, 0, 0, 0);
         let mut no_escape_with_others = 0;
@@ -610,6 +649,8 @@ impl SuiteMetrics {
                 beyond_grip += usize::from(
                     cbv.generated.peak_lateral_accel_mps2.is_some_and(|a| a > DEFAULT_MAX_LATERAL_ACCEL_MPS2),
                 );
+                tighter_than_a_car +=
+                    usize::from(cbv.generated.peak_curvature_per_m.is_some_and(|k| k > CAR_MAX_CURVATURE_PER_M));
                 generated_peak_lateral.extend(cbv.generated.peak_lateral_accel_mps2);
                 logged_peak_lateral.extend(cbv.logged.peak_lateral_accel_mps2);
                 generated_sideways.extend(cbv.generated.held_sideways_mps);
@@ -637,6 +678,7 @@ impl SuiteMetrics {
             cbv_across_lanes_rate: share(across_lanes, n),
             cbv_across_lanes_rate_stage2: share(across_lanes_stage2, n),
             cbv_beyond_grip_rate: share(beyond_grip, n),
+            cbv_tighter_than_a_car_rate: share(tighter_than_a_car, n),
             cbv_peak_lateral_accel_mps2: Spread::of(generated_peak_lateral),
             logged_cbv_peak_lateral_accel_mps2: Spread::of(logged_peak_lateral),
             cbv_sideways: SidewaysSpread::of(generated_sideways),
@@ -1084,5 +1126,36 @@ mod tests {
         assert_eq!(peaks.measured, 3);
         assert!((peaks.p50 - 8.5).abs() < 1e-9 && (peaks.max - 10.0).abs() < 1e-9, "{peaks:?}");
         assert_eq!(metrics.logged_cbv_peak_lateral_accel_mps2, None);
+    }
+
+    #[test]
+    fn the_peak_curvature_counts_a_cbv_turning_tighter_than_a_car() {
+        use crate::geometry::Point2;
+        // Ten 0.1 s steps of a unicycle at `speed`, turning at `yaw_rate`.
+        let samples = |speed: f64, yaw_rate: f64| {
+            let mut state =
+                crate::motion::KinematicState { position: Point2::origin(), heading_rad: 0.0, speed_mps: speed };
+            let action = crate::motion::Action { accel_mps2: 0.0, yaw_rate_radps: yaw_rate };
+            let states = (0..10).map(|_| {
+                let now = state.to_agent_state();
+                state = crate::motion::kinematic_step(&state, action, 0.1);
+                Some(now)
+            });
+            KinematicSamples::of_states(states, 0.1)
+        };
+        // 2 m/s at 0.3 rad/s turns on 6.7 m; at 0.8 rad/s on 2.5 m.
+        let car = samples(2.0, 0.3);
+        assert!((car.peak_curvature_per_m.unwrap() - 0.15).abs() < 1e-9, "{car:?}");
+        let spin = samples(2.0, 0.8);
+        assert!((spin.peak_curvature_per_m.unwrap() - 0.4).abs() < 1e-9, "{spin:?}");
+        // Under 1 m/s the path is too short to tell a turn from a
+        // recorded heading's jitter: not measured.
+        assert_eq!(samples(0.5, 0.8).peak_curvature_per_m, None);
+        let tally = |generated: KinematicSamples| VariantTally {
+            cbv: Some(CbvKinematics { generated, ..CbvKinematics::default() }),
+            ..VariantTally::default()
+        };
+        let tallies = [tally(car), tally(spin), tally(samples(0.5, 0.8)), VariantTally::default()];
+        assert_eq!(SuiteMetrics::aggregate(&tallies).cbv_tighter_than_a_car_rate, Some(0.25));
     }
 }

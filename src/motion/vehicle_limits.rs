@@ -78,6 +78,16 @@ impl Default for VehicleLimits {
 /// it as well.
 pub const DEFAULT_MAX_LATERAL_ACCEL_MPS2: f64 = 9.0;
 
+/// The tightest turn a car drives, 1/m (a 4 m radius at its centre): the
+/// recorded vehicles of WOMD interactive turn at most about 0.22 over
+/// 0.5 s in which they move 0.5 m or more (beyond that the recorded
+/// headings jump, a tracking glitch, not a turn). The unicycle of the
+/// motion tokens has no such bound: at walking pace a yaw-rate token
+/// swings a standing car round on the spot. The adversary's CBV is held to
+/// it; the ego's own check ([`VehicleLimits::max_curvature_per_m`]) stays
+/// looser, for the built-in planners' path following.
+pub const CAR_MAX_CURVATURE_PER_M: f64 = 0.25;
+
 /// The lateral acceleration the built-in planners keep within, m/s²: a
 /// margin under the default [`VehicleLimits::max_lateral_accel_mps2`], so
 /// that the reference planners drive as a car can.
