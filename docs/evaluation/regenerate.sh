@@ -255,6 +255,14 @@
 #                     standing-berth/: ten-seeds/lookahead/'s two runs of the evasive planner
 #                     (mutants-{womd-interactive-n28,ngsim-n60}-evasive.txt), with the planner
 #                     keeping a berth beside a car stopped in its lane (about 25 minutes)
+#   turning-circle
+#                     turning-circle/: the CBV held to a car's turning circle: the paper's
+#                     protocol on WOMD interactive (evaluate-womd-interactive.txt: log replay,
+#                     the prior, safer and safer-in-path; the lookahead over 28,
+#                     evaluate-womd-interactive-lookahead-n28.txt) and on NGSIM
+#                     (evaluate-ngsim.txt), and standing-berth/'s two runs of the evasive
+#                     planner (about 35 minutes). turning-circle/without/ holds the same
+#                     runs made by the build before the bound (commit 90feb7d)
 #   mutants           mutants-{womd-interactive,womd-json,ngsim}-evasive.txt and
 #                     mutants-{womd-interactive,ngsim}-lane-follower.txt: the
 #                     faults of the planner each method's variants catch
@@ -270,7 +278,7 @@ self=$(realpath "$0")
 cd "$(dirname "$self")"
 all=(evaluate plain inattentive held-out-chance trust-region realism prior-fit n-sweep reactive n100 approach-none merging mutants wide-region cut-in
     in-path-lookahead in-path-lookahead-n30 in-path-lookahead-n28 in-path-lookahead-sweep pair-in-traffic witnessed wide-witnessed ten-seeds reaction-delay reactive-background leader first-contact both-pairings first-contact-lookahead blind-twin ego-contact wrong-way
-    lane-follower-pairings at-fault-planner along-the-lanes along-the-lanes-lane-follower sideways kill-ratios human-lane-changes grip turning turning-cost turning-cost-sweep ten-seeds-lookahead cut-in-anticipation standing-berth)
+    lane-follower-pairings at-fault-planner along-the-lanes along-the-lanes-lane-follower sideways kill-ratios human-lane-changes grip turning turning-cost turning-cost-sweep ten-seeds-lookahead cut-in-anticipation standing-berth turning-circle)
 jobs=("$@")
 [[ ${#jobs[@]} -gt 0 ]] || jobs=("${all[@]}")
 # The usage is the comment block at the top of this file.
@@ -948,6 +956,19 @@ for job in "${jobs[@]}"; do
         run standing-berth/mutants-womd-interactive-n28-evasive.txt evaluate --scenes data:womd-interactive \
             "${ten[@]}" --planner ../../planners/evasive.yaml --trust-region 28
         run standing-berth/mutants-ngsim-n60-evasive.txt evaluate --scenes data:commonroad-ngsim "${ten[@]}" \
+            --planner ../../planners/evasive.yaml --trust-region 60 ;;
+    turning-circle)
+        mkdir -p turning-circle
+        run turning-circle/evaluate-womd-interactive.txt evaluate --scenes data:womd-interactive --seeds 10 \
+            --methods log,prior,safer,safer-in-path
+        run turning-circle/evaluate-womd-interactive-lookahead-n28.txt evaluate --scenes data:womd-interactive \
+            --seeds 10 --trust-region 28 --methods safer-in-path-lookahead --ego-contact not-from-behind
+        run turning-circle/evaluate-ngsim.txt evaluate --scenes data:commonroad-ngsim --seeds 10 \
+            --methods log,safer,safer-in-path
+        ten=(--seeds 10 "${along_the_lanes[@]:2}")
+        run turning-circle/mutants-womd-interactive-n28-evasive.txt evaluate --scenes data:womd-interactive \
+            "${ten[@]}" --planner ../../planners/evasive.yaml --trust-region 28
+        run turning-circle/mutants-ngsim-n60-evasive.txt evaluate --scenes data:commonroad-ngsim "${ten[@]}" \
             --planner ../../planners/evasive.yaml --trust-region 60 ;;
     cut-in-anticipation)
         mkdir -p cut-in-anticipation/ten-seeds

@@ -2203,3 +2203,62 @@ fn the_ten_seed_lookahead_table_quotes_its_outputs() {
     }
     assert_eq!(seeds_checked, ["3", "10"].repeat(4), "two sets, two planners, each over 3 and 10 seeds");
 }
+
+#[test]
+fn the_turning_circle_tables_quote_their_outputs() {
+    let doc = repo_file("docs/benchmarks.md");
+    // The paper's protocol: turning-circle/without/ (the build before the
+    // bound) against turning-circle/, the same commands.
+    let rows = markdown_rows(
+        &doc,
+        "| set | method | n | ego contact | tighter turn (without → with) |",
+        "The shipped lookahead suite's settings over ten seeds",
+    );
+    let mut checked = Vec::new();
+    let mut set = String::new();
+    for row in &rows {
+        if !row[0].is_empty() {
+            set.clone_from(&row[0]);
+        }
+        let method = method_of(&row[1]).unwrap();
+        let file = match (set.as_str(), method) {
+            ("WOMD interactive", "safer-in-path-lookahead") => "evaluate-womd-interactive-lookahead-n28.txt",
+            ("WOMD interactive", _) => "evaluate-womd-interactive.txt",
+            ("NGSIM", _) => "evaluate-ngsim.txt",
+            other => panic!("{other:?}: no output"),
+        };
+        let cells = |dir: &str| {
+            let output = repo_file(&format!("docs/evaluation/{dir}/{file}"));
+            let main = labelled_row(&output, "SR-crit", method);
+            let plausibility = labelled_row(&output, "tighter turn", method);
+            [
+                plausibility[12].clone(),
+                main[2].clone(),
+                main[3].clone(),
+                main[4].clone(),
+                main[5].clone(),
+                format!("{} / {} / {}", main[6], main[7], main[8]),
+                plausibility[3].clone(),
+            ]
+        };
+        let (before, after) = (cells("turning-circle/without"), cells("turning-circle"));
+        let quoted: Vec<String> = before.iter().zip(&after).map(|(b, a)| arrow(b, a)).collect();
+        assert_eq!(row[4..], quoted[..], "{row:?}");
+        assert_eq!(after[0], "0.000", "{row:?}: a CBV tighter than a car with the bound");
+        checked.push((set.clone(), method.to_owned()));
+    }
+    assert_eq!(checked.len(), 7, "four methods on WOMD interactive, three on NGSIM: {checked:?}");
+    // The shipped lookahead suite's settings over ten seeds, the evasive
+    // planner: standing-berth/ (the build before the bound) against
+    // turning-circle/.
+    let rows =
+        markdown_rows(&doc, "| set, ten seeds | CR | SR-crit | reach-crit | met | kills (held out) |", "Kills fall by");
+    let mut sets = Vec::new();
+    for row in &rows {
+        let file = suite_settings_output(&row[0], "evasive");
+        let quoted = suite_settings_before_after(file, "10", ("standing-berth", "turning-circle"), false);
+        assert_eq!(row[1..], quoted[..], "{row:?}");
+        sets.push(row[0].clone());
+    }
+    assert_eq!(sets, ["WOMD interactive", "NGSIM"], "both sets, over ten seeds");
+}
