@@ -26,9 +26,9 @@
 //!   replayed agent would run into the CBV in the 2 s after that with the
 //!   CBV keeping its speed (replay cannot yield: no slowing down in front
 //!   of traffic closing fast), when it turns the CBV harder than a car's
-//!   tyres hold (more than 9 m/s² sideways, the ego's own default limit;
-//!   beyond the paper, see `grip`), or when the
-//!   CBV, braking as hard as it can after the token (holding its
+//!   tyres hold (more than 9 m/s² sideways, the ego's own default limit)
+//!   or tighter than a car steers (beyond the paper, see `grip`), or when
+//!   the CBV, braking as hard as it can after the token (holding its
 //!   curvature, as a driver braking in a bend does), would leave the road
 //!   before it stands, or run into one within 2 s (at fault as the
 //!   metrics judge it: a follower running into a braking CBV is not the

@@ -312,8 +312,9 @@ impl<'w> PlausibilityCheck<'w> {
     /// A step at which `rollout` breaks the rule: the first one, or (for
     /// [`Violation::Any`]) the first one the checks come to.
     fn violation(&self, rollout: &[AgentState], wanted: Violation, rule: ContactRule) -> Option<usize> {
-        // The token's own states first: beyond the tyres' grip (see the
-        // `grip` module), which no car drives whatever the rules, and
+        // The token's own states first: beyond the tyres' grip or tighter
+        // than a car steers (see the `grip` module), which no car drives
+        // whatever the rules, and
         // sideways faster than a recorded lane change or not slowing to it
         // (see the `lane_change_pace` module). A product a step and a few
         // lane queries, which in a turn or a lane change reject most of the
@@ -553,8 +554,9 @@ impl<'w> PlausibilityCheck<'w> {
     }
 
     /// Whether `rollout` (a token's states from the CBV's state now) keeps
-    /// the CBV within the tyres' grip, or the lower turning limit set (see
-    /// the `grip` module); `true` without a CBV.
+    /// the CBV within the tyres' grip, or the lower turning limit set, and
+    /// within a car's turning circle (see the `grip` module); `true`
+    /// without a CBV.
     pub(super) fn within_turning_limit(&self, rollout: &[AgentState]) -> bool {
         self.first_beyond_turning_limit(rollout).is_none()
     }
@@ -566,10 +568,11 @@ impl<'w> PlausibilityCheck<'w> {
     }
 
     /// The likeliest token of the prior's ranking of `logits` that
-    /// `region` does not hold and that keeps the CBV within grip: the last
-    /// resort's, where nothing is plausible, for a car can break a rule
-    /// but not its tyres' limit. Straight on is always within grip, so
-    /// there is one whenever the CBV is present.
+    /// `region` does not hold and that keeps the CBV within grip and its
+    /// turning circle: the last resort's, where nothing is plausible, for a
+    /// car can break a rule but not its tyres' or its steering's limit.
+    /// Straight on is always within both, so there is one whenever the CBV
+    /// is present.
     pub(super) fn likeliest_within_turning_limit_outside(&self, logits: &[f32], region: &[Token]) -> Option<Token> {
         self.likeliest_outside_where(logits, region, |_, rollout| self.within_turning_limit(rollout))
     }
