@@ -864,7 +864,7 @@ fn print_legend(out: &mut dyn Write) -> std::io::Result<()> {
     )?;
     writeln!(
         out,
-        "tighter turn: share of variants whose CBV, in stage 1, turned tighter than a car steers: its heading change over 0.5 s per metre driven above 0.25 1/m (a 4 m radius), over 0.5 s in which it drove 0.5 m or more (over less the recorded headings' jitter reads as a turn); the `log` row is the recorded CBV, whose headings jump now and then (a tracking glitch)."
+        "tighter turn: share of variants whose CBV, in stage 1, turned tighter than a car steers: its heading turned over 0.5 s by more than 0.25 rad a metre it drove then (a 4 m radius) and 0.05 rad (the recorded headings' jitter) besides, a turn on the spot included; the `log` row is the recorded CBV, whose headings jump now and then (a tracking glitch)."
     )?;
     writeln!(
         out,

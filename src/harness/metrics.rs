@@ -63,12 +63,13 @@ pub struct KinematicSamples {
     /// never measured: older reports lack it).
     #[serde(default)]
     pub peak_lateral_accel_mps2: Option<f64>,
-    /// The tightest turn over [`YAW_RATE_WINDOW_S`] between present steps
-    /// that far apart, over which the agent drove at least
-    /// [`CURVATURE_MIN_PATH_M`]: the heading change per metre driven, 1/m
+    /// The most the heading turned over [`YAW_RATE_WINDOW_S`], with every
+    /// step between present, beyond what a car turns over the path it
+    /// drove then ([`CAR_MAX_CURVATURE_PER_M`] a metre), rad: above 0 the
+    /// agent turned tighter than a car steers, on the spot included
     /// (`None` when never measured: older reports lack it).
     #[serde(default)]
-    pub peak_curvature_per_m: Option<f64>,
+    pub peak_turn_beyond_a_car_rad: Option<f64>,
 }
 
 /// The window yaw rates are measured over, s: recorded headings jitter
@@ -77,11 +78,13 @@ pub struct KinematicSamples {
 /// between neighbouring steps.
 pub const YAW_RATE_WINDOW_S: f64 = 0.5;
 
-/// The shortest path over [`YAW_RATE_WINDOW_S`] whose curvature
-/// [`KinematicSamples::peak_curvature_per_m`] measures, m (1 m/s): over
-/// less, a recorded heading's jitter and glitches read as turns of metres
-/// a radian.
-pub const CURVATURE_MIN_PATH_M: f64 = 0.5;
+/// How far beyond a car's turn the heading must turn over
+/// [`YAW_RATE_WINDOW_S`] for [`SuiteMetrics::cbv_tighter_than_a_car_rate`]
+/// to count it, rad (3°): the recorded headings' jitter. Over 0.5 s in
+/// which they move less than 0.5 m, the recorded vehicles of WOMD
+/// interactive turn beyond a car's turn by more than this in 1 of 4 000
+/// windows.
+pub const TURN_BEYOND_A_CAR_SLACK_RAD: f64 = 0.05;
 
 impl KinematicSamples {
     /// Samples of a sequence of per-step states (`None` where absent) at `dt_s`.
@@ -99,11 +102,11 @@ impl KinematicSamples {
         let peak_lateral_accel_mps2 =
             windows.iter().map(|w| yaw_rate(w).abs() * 0.5 * (w.0.speed_mps() + w.1.speed_mps())).reduce(f64::max);
         let speeds = states.iter().map(|s| s.map(|s| s.speed_mps()));
-        let peak_curvature_per_m = peak_curvature_per_m(&states, window);
+        let peak_turn_beyond_a_car_rad = peak_turn_beyond_a_car_rad(&states, window);
         KinematicSamples {
             yaw_rates_radps,
             peak_lateral_accel_mps2,
-            peak_curvature_per_m,
+            peak_turn_beyond_a_car_rad,
             ..Self::of_speeds(speeds, dt_s)
         }
     }
@@ -129,22 +132,22 @@ impl KinematicSamples {
             held_sideways_mps: None,
             changed_lanes: None,
             peak_lateral_accel_mps2: None,
-            peak_curvature_per_m: None,
+            peak_turn_beyond_a_car_rad: None,
         }
     }
 }
 
-/// The largest heading change per metre driven over `window` steps of
-/// `states` all present, where the path (the steps' straight lines added
-/// up) is at least [`CURVATURE_MIN_PATH_M`].
-fn peak_curvature_per_m(states: &[Option<AgentState>], window: usize) -> Option<f64> {
+/// The largest heading change over `window` steps of `states` all
+/// present beyond [`CAR_MAX_CURVATURE_PER_M`] times the path driven (the
+/// steps' straight lines added up), rad.
+fn peak_turn_beyond_a_car_rad(states: &[Option<AgentState>], window: usize) -> Option<f64> {
     states
         .windows(window + 1)
         .filter_map(|w| {
             let w: Vec<&AgentState> = w.iter().map(Option::as_ref).collect::<Option<_>>()?;
             let path_m: f64 = w.windows(2).map(|p| (p[1].position - p[0].position).norm()).sum();
             let turned_rad = wrap_angle(w[window].heading_rad - w[0].heading_rad).abs();
-            (path_m >= CURVATURE_MIN_PATH_M).then(|| turned_rad / path_m)
+            Some(turned_rad - CAR_MAX_CURVATURE_PER_M * path_m)
         })
         .reduce(f64::max)
 }
@@ -446,9 +449,9 @@ pub struct SuiteMetrics {
     /// [`DEFAULT_MAX_LATERAL_ACCEL_MPS2`].
     pub cbv_beyond_grip_rate: Option<f64>,
     /// Share of variants whose CBV turned tighter than a car steers in
-    /// stage 1: its peak curvature
-    /// ([`KinematicSamples::peak_curvature_per_m`]) over
-    /// [`CAR_MAX_CURVATURE_PER_M`].
+    /// stage 1: its heading turned beyond a car's turn
+    /// ([`KinematicSamples::peak_turn_beyond_a_car_rad`]) by more than
+    /// [`TURN_BEYOND_A_CAR_SLACK_RAD`].
     pub cbv_tighter_than_a_car_rate: Option<f64>,
     /// How hard the CBV turned in stage 1: the spread of each variant's
     /// peak lateral acceleration
@@ -649,8 +652,9 @@ impl SuiteMetrics {
                 beyond_grip += usize::from(
                     cbv.generated.peak_lateral_accel_mps2.is_some_and(|a| a > DEFAULT_MAX_LATERAL_ACCEL_MPS2),
                 );
-                tighter_than_a_car +=
-                    usize::from(cbv.generated.peak_curvature_per_m.is_some_and(|k| k > CAR_MAX_CURVATURE_PER_M));
+                tighter_than_a_car += usize::from(
+                    cbv.generated.peak_turn_beyond_a_car_rad.is_some_and(|r| r > TURN_BEYOND_A_CAR_SLACK_RAD),
+                );
                 generated_peak_lateral.extend(cbv.generated.peak_lateral_accel_mps2);
                 logged_peak_lateral.extend(cbv.logged.peak_lateral_accel_mps2);
                 generated_sideways.extend(cbv.generated.held_sideways_mps);
@@ -1129,7 +1133,7 @@ mod tests {
     }
 
     #[test]
-    fn the_peak_curvature_counts_a_cbv_turning_tighter_than_a_car() {
+    fn the_turn_beyond_a_car_counts_a_cbv_turning_tighter_than_a_car_or_on_the_spot() {
         use crate::geometry::Point2;
         // Ten 0.1 s steps of a unicycle at `speed`, turning at `yaw_rate`.
         let samples = |speed: f64, yaw_rate: f64| {
@@ -1143,19 +1147,25 @@ mod tests {
             });
             KinematicSamples::of_states(states, 0.1)
         };
-        // 2 m/s at 0.3 rad/s turns on 6.7 m; at 0.8 rad/s on 2.5 m.
+        // Over 0.5 s: 2 m/s at 0.3 rad/s turns 0.15 rad over 1 m, 0.1 less
+        // than a car may; at 0.8 rad/s 0.4 rad, 0.15 more; standing, any
+        // turn is beyond a car's, and straight on is within it.
+        let beyond = |s: &KinematicSamples| s.peak_turn_beyond_a_car_rad.unwrap();
         let car = samples(2.0, 0.3);
-        assert!((car.peak_curvature_per_m.unwrap() - 0.15).abs() < 1e-9, "{car:?}");
-        let spin = samples(2.0, 0.8);
-        assert!((spin.peak_curvature_per_m.unwrap() - 0.4).abs() < 1e-9, "{spin:?}");
-        // Under 1 m/s the path is too short to tell a turn from a
-        // recorded heading's jitter: not measured.
-        assert_eq!(samples(0.5, 0.8).peak_curvature_per_m, None);
+        assert!((beyond(&car) + 0.1).abs() < 1e-9, "{car:?}");
+        let tight = samples(2.0, 0.8);
+        assert!((beyond(&tight) - 0.15).abs() < 1e-9, "{tight:?}");
+        let on_the_spot = samples(0.0, 0.2);
+        assert!((beyond(&on_the_spot) - 0.1).abs() < 1e-9, "{on_the_spot:?}");
+        let jitter = samples(0.0, 0.05);
+        assert_eq!(KinematicSamples::of_speeds([Some(1.0)], 0.1).peak_turn_beyond_a_car_rad, None);
         let tally = |generated: KinematicSamples| VariantTally {
             cbv: Some(CbvKinematics { generated, ..CbvKinematics::default() }),
             ..VariantTally::default()
         };
-        let tallies = [tally(car), tally(spin), tally(samples(0.5, 0.8)), VariantTally::default()];
-        assert_eq!(SuiteMetrics::aggregate(&tallies).cbv_tighter_than_a_car_rate, Some(0.25));
+        // The tight turn and the one on the spot count; the car's turn and
+        // 0.025 rad on the spot (within the recorded headings' jitter) do not.
+        let tallies = [tally(car), tally(tight), tally(on_the_spot), tally(jitter), VariantTally::default()];
+        assert_eq!(SuiteMetrics::aggregate(&tallies).cbv_tighter_than_a_car_rate, Some(0.4));
     }
 }
