@@ -261,8 +261,9 @@
 #                     the prior, safer and safer-in-path; the lookahead over 28,
 #                     evaluate-womd-interactive-lookahead-n28.txt) and on NGSIM
 #                     (evaluate-ngsim.txt), and standing-berth/'s two runs of the evasive
-#                     planner (about 35 minutes). turning-circle/without/ holds the same
-#                     runs made by the build before the bound (commit 90feb7d)
+#                     planner (about 35 minutes). turning-circle/without/ holds the paper's
+#                     protocol's runs made without the bound (this checkout with
+#                     src/policies/adversary/{grip,continuations}.rs as of commit 90feb7d)
 #   mutants           mutants-{womd-interactive,womd-json,ngsim}-evasive.txt and
 #                     mutants-{womd-interactive,ngsim}-lane-follower.txt: the
 #                     faults of the planner each method's variants catch
