@@ -1148,8 +1148,8 @@ mod tests {
             KinematicSamples::of_states(states, 0.1)
         };
         // Over 0.5 s: 2 m/s at 0.3 rad/s turns 0.15 rad over 1 m, 0.1 less
-        // than a car may; at 0.8 rad/s 0.4 rad, 0.15 more; standing, any
-        // turn is beyond a car's, and straight on is within it.
+        // than a car may; at 0.8 rad/s 0.4 rad, 0.15 more; standing, all
+        // of a turn is beyond a car's.
         let beyond = |s: &KinematicSamples| s.peak_turn_beyond_a_car_rad.unwrap();
         let car = samples(2.0, 0.3);
         assert!((beyond(&car) + 0.1).abs() < 1e-9, "{car:?}");
