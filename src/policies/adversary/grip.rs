@@ -24,7 +24,7 @@
 use crate::geometry::wrap_angle;
 use crate::motion::tokens::SIM_DT_S;
 use crate::motion::vehicle_limits::{CAR_MAX_CURVATURE_PER_M, DEFAULT_MAX_LATERAL_ACCEL_MPS2, lateral_accel_mps2};
-use crate::scenario::AgentState;
+use crate::scenario::{AgentKind, AgentState};
 
 /// Floating-point slack on the grip bound: a token exactly at it is within it.
 const SLACK_MPS2: f64 = 1e-6;
@@ -34,9 +34,15 @@ const SLACK_RAD: f64 = 1e-9;
 /// How hard the adversary's CBV may turn: the largest lateral
 /// acceleration a token may pull at any step, m/s². At most the tyres'
 /// grip ([`CbvTurningLimit::GRIP`], the default), which no car passes; a
-/// lower bound holds the CBV to how people turn (beyond the paper).
+/// lower bound holds the CBV to how people turn (beyond the paper). A
+/// vehicle CBV is also held to a car's turning circle
+/// ([`CAR_MAX_CURVATURE_PER_M`]); a cyclist or a person on foot (a pair
+/// as loaded may name one) is not.
 #[derive(Debug, Clone, Copy, PartialEq, PartialOrd)]
-pub struct CbvTurningLimit(f64);
+pub struct CbvTurningLimit {
+    max_lateral_accel_mps2: f64,
+    car_turning_circle: bool,
+}
 
 // Never NaN: built only from `GRIP` and by `new`, which refuses it.
 impl Eq for CbvTurningLimit {}
@@ -44,18 +50,24 @@ impl Eq for CbvTurningLimit {}
 impl CbvTurningLimit {
     /// The tyres' grip: the default of the ego's own limit,
     /// [`DEFAULT_MAX_LATERAL_ACCEL_MPS2`].
-    pub const GRIP: Self = Self(DEFAULT_MAX_LATERAL_ACCEL_MPS2);
+    pub const GRIP: Self = Self { max_lateral_accel_mps2: DEFAULT_MAX_LATERAL_ACCEL_MPS2, car_turning_circle: true };
 
     /// A limit of `max_lateral_accel_mps2`: `None` unless it is above 0
     /// and at most the grip (a car cannot turn harder, whatever is asked).
     pub fn new(max_lateral_accel_mps2: f64) -> Option<Self> {
         (max_lateral_accel_mps2 > 0.0 && max_lateral_accel_mps2 <= DEFAULT_MAX_LATERAL_ACCEL_MPS2)
-            .then_some(Self(max_lateral_accel_mps2))
+            .then_some(Self { max_lateral_accel_mps2, ..Self::GRIP })
     }
 
     /// The largest lateral acceleration, m/s².
     pub fn max_lateral_accel_mps2(self) -> f64 {
-        self.0
+        self.max_lateral_accel_mps2
+    }
+
+    /// The limit for a CBV of `kind`: a car's turning circle holds for a
+    /// vehicle alone.
+    pub(super) fn for_kind(self, kind: AgentKind) -> Self {
+        Self { car_turning_circle: kind == AgentKind::Vehicle, ..self }
     }
 }
 
@@ -72,7 +84,8 @@ impl Default for CbvTurningLimit {
 pub(super) fn first_beyond(now: &AgentState, rollout: &[AgentState], limit: CbvTurningLimit) -> Option<usize> {
     let steps = std::iter::once(now).chain(rollout).zip(rollout);
     steps.zip(lateral_accels_mps2(now, rollout)).position(|((from, to), lateral_accel_mps2)| {
-        lateral_accel_mps2 > limit.0 + SLACK_MPS2 || turns_tighter_than_a_car(from, to)
+        lateral_accel_mps2 > limit.max_lateral_accel_mps2 + SLACK_MPS2
+            || (limit.car_turning_circle && turns_tighter_than_a_car(from, to))
     })
 }
 
@@ -137,6 +150,11 @@ mod tests {
         assert_eq!(first_beyond(&now, &on_the_spot, grip), Some(0));
         let (now, standing) = turning(0.0, 0.0);
         assert_eq!(first_beyond(&now, &standing, grip), None);
+        // A person on foot or a cyclist as the CBV turns where it stands.
+        for kind in [AgentKind::Pedestrian, AgentKind::Cyclist] {
+            assert_eq!(first_beyond(&now, &on_the_spot, grip.for_kind(kind)), None, "{kind:?}");
+        }
+        assert_eq!(first_beyond(&now, &on_the_spot, grip.for_kind(AgentKind::Vehicle)), Some(0));
     }
 
     #[test]

@@ -327,7 +327,7 @@ impl Lookahead<'_> {
             };
             // A token beyond the turning limit is one the CBV will not be
             // allowed to drive: a plan through it is no plan.
-            if leaves_road() || children.child(i).beyond(self.turning) || rear_ends() {
+            if leaves_road() || children.child(i).beyond(self.turning.for_kind(self.cbv_body.kind)) || rear_ends() {
                 kept[i] = Some(false);
             } else if feasibility.is_none() || children.distance_m(i) <= 0.0 {
                 kept[i] = Some(true);

@@ -209,7 +209,7 @@ impl<'w> PlausibilityCheck<'w> {
                 traffic_direction: TrafficDirectionHold::NotHeld,
                 across_lanes: AcrossLanesHold::NotHeld,
                 lane_change_pace: LaneChangePaceHold::NotHeld,
-                turning: CbvTurningLimit::GRIP,
+                turning: CbvTurningLimit::GRIP.for_kind(cbv_body.kind),
                 scanned: Default::default(),
             };
         };
@@ -242,7 +242,7 @@ impl<'w> PlausibilityCheck<'w> {
             traffic_direction: TrafficDirectionHold::NotHeld,
             across_lanes: AcrossLanesHold::NotHeld,
             lane_change_pace: LaneChangePaceHold::NotHeld,
-            turning: CbvTurningLimit::GRIP,
+            turning: CbvTurningLimit::GRIP.for_kind(cbv_body.kind),
             scanned: Default::default(),
         }
     }
@@ -250,7 +250,7 @@ impl<'w> PlausibilityCheck<'w> {
     /// The check with the CBV held to turning within `limit` (the default:
     /// the tyres' grip).
     pub(super) fn with_turning_limit(self, limit: CbvTurningLimit) -> Self {
-        Self { turning: limit, scanned: Default::default(), ..self }
+        Self { turning: limit.for_kind(self.cbv_body.kind), scanned: Default::default(), ..self }
     }
 
     /// The check with `rule` on driving against a lane's traffic (the
