@@ -2215,12 +2215,9 @@ fn the_turning_circle_tables_quote_their_outputs() {
         "The shipped lookahead suite's settings over ten seeds",
     );
     let mut checked = Vec::new();
-    let mut set = String::new();
-    for row in &rows {
-        if !row[0].is_empty() {
-            set.clone_from(&row[0]);
-        }
-        let method = method_of(&row[1]).unwrap();
+    // A blank set cell continues the row above's; the method is never blank.
+    for (set, method, row) in rows_by_set_and_draw(&rows) {
+        let method = method_of(&method).unwrap();
         let file = match (set.as_str(), method) {
             ("WOMD interactive", "safer-in-path-lookahead") => "evaluate-womd-interactive-lookahead-n28.txt",
             ("WOMD interactive", _) => "evaluate-womd-interactive.txt",
@@ -2247,7 +2244,7 @@ fn the_turning_circle_tables_quote_their_outputs() {
         if method != "log" {
             assert_eq!(after[0], "0.000", "{row:?}: a CBV tighter than a car with the bound");
         }
-        checked.push((set.clone(), method.to_owned()));
+        checked.push((set, method.to_owned()));
     }
     assert_eq!(checked.len(), 7, "four rows on WOMD interactive, three on NGSIM: {checked:?}");
     // The shipped lookahead suite's settings over ten seeds, the evasive

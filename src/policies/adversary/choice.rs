@@ -229,7 +229,7 @@ pub fn safer_choice(
             objective: search.objective,
             room: room.as_ref(),
             ego_contact: search.ego_contact,
-            turning: search.turning,
+            turning: search.turning.for_kind(cbv_body.kind),
         };
         let first = FirstTokens {
             states: &predicted,

@@ -82,9 +82,8 @@ impl Default for CbvTurningLimit {
 /// allows or turns tighter than a car steers, or `None` where every step
 /// stays within both.
 pub(super) fn first_beyond(now: &AgentState, rollout: &[AgentState], limit: CbvTurningLimit) -> Option<usize> {
-    let steps = std::iter::once(now).chain(rollout).zip(rollout);
-    steps.zip(lateral_accels_mps2(now, rollout)).position(|((from, to), lateral_accel_mps2)| {
-        lateral_accel_mps2 > limit.max_lateral_accel_mps2 + SLACK_MPS2
+    std::iter::once(now).chain(rollout).zip(rollout).position(|(from, to)| {
+        lateral_accel_mps2(from, to, SIM_DT_S) > limit.max_lateral_accel_mps2 + SLACK_MPS2
             || (limit.car_turning_circle && turns_tighter_than_a_car(from, to))
     })
 }

@@ -70,7 +70,7 @@ pub(super) struct Lookahead<'a> {
     pub(super) room: Option<&'a EscapeRoom<'a>>,
     /// Whether a contact from behind the ego is a conflict (see [`EgoContactRule`]).
     pub(super) ego_contact: EgoContactRule,
-    /// How hard the CBV may turn (a continuation beyond it is no plan).
+    /// How hard the CBV may turn, for its kind (a continuation beyond it is no plan).
     pub(super) turning: CbvTurningLimit,
 }
 
@@ -327,7 +327,7 @@ impl Lookahead<'_> {
             };
             // A token beyond the turning limit is one the CBV will not be
             // allowed to drive: a plan through it is no plan.
-            if leaves_road() || children.child(i).beyond(self.turning.for_kind(self.cbv_body.kind)) || rear_ends() {
+            if leaves_road() || children.child(i).beyond(self.turning) || rear_ends() {
                 kept[i] = Some(false);
             } else if feasibility.is_none() || children.distance_m(i) <= 0.0 {
                 kept[i] = Some(true);
