@@ -28,8 +28,8 @@ gentle braking control, then misbehaves:
   untagged       answers every observation with a control naming no step
                  (what 1.0 and 1.1 planners send)
   wrong-step     answers with a control naming the next observation's step
-  blind          after `ready`, writes 100 controls without reading a thing
-                 (a planner that never looks at its input), then sleeps
+  blind          after `ready`, writes 100 controls at once without reading a
+                 thing (a planner that never looks at its input), then sleeps
   crab           answers with a trajectory 1 m ahead and 0.35 m sideways a
                  step, heading held: each step passes the position check,
                  the drift adds up
@@ -90,8 +90,13 @@ def main():
                 while True:
                     time.sleep(3600)
             if mode == "blind":
-                for _ in range(100):
-                    send({"type": "control", "accel_mps2": 0.0, "yaw_rate_radps": 0.0})
+                # One write: the lines are all waiting before the harness
+                # asks its second question, however fast it asks (written a
+                # line at a time they could trickle in as fast as it asks,
+                # each then read as the answer to a question).
+                control = json.dumps({"type": "control", "accel_mps2": 0.0, "yaw_rate_radps": 0.0})
+                sys.stdout.write((control + "\n") * 100)
+                sys.stdout.flush()
                 while True:
                     time.sleep(3600)
             continue
