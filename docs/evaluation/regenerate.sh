@@ -260,10 +260,12 @@
 #                     protocol on WOMD interactive (evaluate-womd-interactive.txt: log replay,
 #                     the prior, safer and safer-in-path; the lookahead over 28,
 #                     evaluate-womd-interactive-lookahead-n28.txt) and on NGSIM
-#                     (evaluate-ngsim.txt), and standing-berth/'s two runs of the evasive
-#                     planner (about 35 minutes). turning-circle/without/ holds the paper's
+#                     (evaluate-ngsim.txt), standing-berth/'s two runs of the evasive
+#                     planner, and cut-in-anticipation/'s four of the lane follower
+#                     (about 75 minutes). turning-circle/without/ holds the paper's
 #                     protocol's runs made without the bound (this checkout with
-#                     src/policies/adversary/{grip,continuations}.rs as of commit 90feb7d)
+#                     src/policies/adversary/{grip,continuations}.rs as of commit 90feb7d;
+#                     grip.rs is turning_limit.rs now)
 #   mutants           mutants-{womd-interactive,womd-json,ngsim}-evasive.txt and
 #                     mutants-{womd-interactive,ngsim}-lane-follower.txt: the
 #                     faults of the planner each method's variants catch
@@ -970,7 +972,17 @@ for job in "${jobs[@]}"; do
         run turning-circle/mutants-womd-interactive-n28-evasive.txt evaluate --scenes data:womd-interactive \
             "${ten[@]}" --planner ../../planners/evasive.yaml --trust-region 28
         run turning-circle/mutants-ngsim-n60-evasive.txt evaluate --scenes data:commonroad-ngsim "${ten[@]}" \
-            --planner ../../planners/evasive.yaml --trust-region 60 ;;
+            --planner ../../planners/evasive.yaml --trust-region 60
+        # The lane follower under the same settings: three seeds with log replay and the prior
+        # beside the lookahead, and ten seeds of the lookahead alone.
+        mkdir -p turning-circle/ten-seeds
+        ten_lane_follower=(--seeds 10 "${along_the_lanes_lane_follower[@]:2}")
+        for s in commonroad-ngsim:ngsim womd-interactive:womd-interactive; do
+            run "turning-circle/mutants-${s#*:}-lane-follower-n60.txt" evaluate --scenes "data:${s%%:*}" \
+                "${along_the_lanes_lane_follower[@]}"
+            run "turning-circle/ten-seeds/mutants-${s#*:}-lane-follower-n60.txt" evaluate \
+                --scenes "data:${s%%:*}" "${ten_lane_follower[@]/%log,prior,safer-in-path-lookahead/safer-in-path-lookahead}"
+        done ;;
     cut-in-anticipation)
         mkdir -p cut-in-anticipation/ten-seeds
         ten_lane_follower=(--seeds 10 "${along_the_lanes_lane_follower[@]:2}")

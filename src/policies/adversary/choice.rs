@@ -10,12 +10,12 @@ use super::contact_witness::{ContactWitness, EscapeWitness, closes_in};
 use super::ego_contact::{EgoContactRule, rear_ends};
 use super::escape_room::{EscapeRoom, FeasibilityScope, NO_ROOM_VALUE, veto_without_room};
 use super::feasibility::feasibility_values;
-use super::grip::CbvTurningLimit;
 use super::lookahead::{FirstTokens, Lookahead, Lowering};
 use super::objective::Objective;
 use super::plausibility::{ContactRule, PlausibilityCheck};
 use super::rollout::token_rollouts;
 use super::turning_cost::CbvTurningCost;
+use super::turning_limit::CbvTurningLimit;
 use super::wrong_way::WrongWayRule;
 use crate::models::ModelError;
 use crate::models::feasibility_oracle::FeasibilityOracle;
@@ -472,7 +472,10 @@ mod tests {
         let now = KinematicState::from_agent_state(&states[1].unwrap());
         let rollout: Vec<AgentState> =
             TokenGrid::rollout(&now, chosen).iter().map(KinematicState::to_agent_state).collect();
-        assert_eq!(super::super::grip::first_beyond(&states[1].unwrap(), &rollout, CbvTurningLimit::GRIP), None);
+        assert_eq!(
+            super::super::turning_limit::first_beyond(&states[1].unwrap(), &rollout, CbvTurningLimit::GRIP),
+            None
+        );
     }
 
     #[test]

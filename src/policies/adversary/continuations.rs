@@ -15,9 +15,9 @@ use std::cell::Cell;
 use std::cmp::{Ordering, Reverse};
 use std::collections::BinaryHeap;
 
-use super::grip::{CbvTurningLimit, first_beyond};
 use super::in_path::path_sweep;
 use super::objective::Objective;
+use super::turning_limit::{CbvTurningLimit, first_beyond};
 use crate::geometry::OrientedBox;
 use crate::motion::KinematicState;
 use crate::motion::tokens::{Token, TokenGrid, TurnedHeadings};

@@ -27,7 +27,7 @@
 //!   CBV keeping its speed (replay cannot yield: no slowing down in front
 //!   of traffic closing fast), when it turns the CBV harder than a car's
 //!   tyres hold (more than 9 m/s² sideways, the ego's own default limit)
-//!   or tighter than a car steers (beyond the paper, see `grip`), or when
+//!   or tighter than a car steers (beyond the paper, see `turning_limit`), or when
 //!   the CBV, braking as hard as it can after the token (holding its
 //!   curvature, as a driver braking in a bend does), would leave the road
 //!   before it stands, or run into one within 2 s (at fault as the
@@ -74,7 +74,7 @@
 //! One file per concept: the [`Adversary`] policy (`policy`), the
 //! approach phase (`approach`), SaFeR's choice ([`safer_choice`],
 //! `choice`) and the lookahead of `safer-lookahead` (`lookahead`), V_h of
-//! candidate states (`feasibility`), the tyres' grip (`grip`), the ego's room to escape among the traffic (`escape_room`), which contacts with the ego it may make (`ego_contact`), whether it may drive against the traffic (`wrong_way`) and the witness asked before a contact (`contact_witness`), what a candidate's loss measures (`objective`) with the in-path and cut-in losses (`in_path`) and what a turn adds to it (`turning_cost`), the CBV's states under a token
+//! candidate states (`feasibility`), the tyres' grip and a car's turning circle (`turning_limit`), the ego's room to escape among the traffic (`escape_room`), which contacts with the ego it may make (`ego_contact`), whether it may drive against the traffic (`wrong_way`) and the witness asked before a contact (`contact_witness`), what a candidate's loss measures (`objective`) with the in-path and cut-in losses (`in_path`) and what a turn adds to it (`turning_cost`), the CBV's states under a token
 //! (`rollout`), the [`BackgroundForecast`], and the plausibility check
 //! (`plausibility`, with its broad phase in `broad_phase`), how late it sees
 //! the ego (`reaction`); and the
@@ -91,7 +91,6 @@ mod continuations;
 mod ego_contact;
 mod escape_room;
 mod feasibility;
-mod grip;
 mod in_path;
 mod lane_change_pace;
 mod lookahead;
@@ -104,6 +103,7 @@ mod rollout;
 mod test_support;
 mod trust_region_profile;
 mod turning_cost;
+mod turning_limit;
 mod wrong_way;
 
 pub use crate::models::feasibility_oracle::{EgoCbvState, FeasibilityOracle};
@@ -117,7 +117,6 @@ pub use escape_room::{
     ESCAPE_ACCELS_MPS2, ESCAPE_CHECK_GAP_M, ESCAPE_HORIZON_S, ESCAPE_PURSUIT_MPS2, ESCAPE_YAW_RATES_RADPS,
     FeasibilityScope, NO_ROOM_VALUE,
 };
-pub use grip::CbvTurningLimit;
 pub use in_path::{
     CUT_IN_LATERAL_COST, CUT_IN_NOT_AHEAD_COST, IN_PATH_LEAD_COST_M_PER_S, IN_PATH_MAX_LEAD_S, NOT_AHEAD_PENALTY_M,
 };
@@ -128,4 +127,5 @@ pub use policy::Adversary;
 pub use reaction::{EgoSight, REACTION_TIME_S};
 pub use trust_region_profile::{TrustRegionProfile, profile_trust_region, rank_of_driven_token};
 pub use turning_cost::{CbvTurningCost, MAX_TURNING_COST_M_PER_MPS2};
+pub use turning_limit::CbvTurningLimit;
 pub use wrong_way::WrongWayRule;

@@ -14,9 +14,9 @@
 
 use super::background_forecast::BackgroundForecast;
 use super::broad_phase::Bounds;
-use super::grip::{CbvTurningLimit, first_beyond};
 use super::lane_change_pace::LaneChangePaceHold;
 use super::rollout::{BRAKING_CHECK_STEPS, braking_after, continued_after, token_rollout_turning};
+use super::turning_limit::{CbvTurningLimit, first_beyond};
 use super::wrong_way::{AcrossLanesHold, TrafficDirectionHold, WrongWayRule};
 use crate::geometry::OrientedBox;
 use crate::motion::KinematicState;

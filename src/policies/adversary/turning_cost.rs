@@ -12,7 +12,7 @@
 //! own turn; a lookahead's later tokens do not, as each is taken, or not,
 //! at its own boundary, where it pays then.
 
-use super::grip::lateral_accels_mps2;
+use super::turning_limit::lateral_accels_mps2;
 use crate::scenario::AgentState;
 
 /// The largest turning cost a suite or the command line may set, m per
