@@ -317,6 +317,22 @@ along_the_lanes=(--seeds 3 --stage2-cbv closed-loop --background reactive-log-re
 along_the_lanes_lane_follower=("${along_the_lanes[@]}" --trust-region 60 --roles as-loaded
     --planner ../../planners/lane-follower.yaml)
 
+# lane_follower_runs DIR: the Python lane follower under the shipped lookahead suite's settings over
+# 60 behaviours on NGSIM and WOMD interactive: three seeds with log replay and the prior beside the
+# lookahead (DIR/mutants-SET-lane-follower-n60.txt), and ten seeds of the lookahead alone
+# (DIR/ten-seeds/mutants-SET-lane-follower-n60.txt).
+lane_follower_runs() {
+    local dir=$1 s
+    local ten_lane_follower=(--seeds 10 "${along_the_lanes_lane_follower[@]:2}")
+    mkdir -p "$dir/ten-seeds"
+    for s in commonroad-ngsim:ngsim womd-interactive:womd-interactive; do
+        run "$dir/mutants-${s#*:}-lane-follower-n60.txt" evaluate --scenes "data:${s%%:*}" \
+            "${along_the_lanes_lane_follower[@]}"
+        run "$dir/ten-seeds/mutants-${s#*:}-lane-follower-n60.txt" evaluate \
+            --scenes "data:${s%%:*}" "${ten_lane_follower[@]/%log,prior,safer-in-path-lookahead/safer-in-path-lookahead}"
+    done
+}
+
 # seed_suffix DRAW: what an output's name ends with for a draw of seeds (--seed DRAW): nothing
 # for the first draw (0), -seedDRAW for the others.
 seed_suffix() { [[ $1 == 0 ]] || echo "-seed$1"; }
@@ -973,25 +989,10 @@ for job in "${jobs[@]}"; do
             "${ten[@]}" --planner ../../planners/evasive.yaml --trust-region 28
         run turning-circle/mutants-ngsim-n60-evasive.txt evaluate --scenes data:commonroad-ngsim "${ten[@]}" \
             --planner ../../planners/evasive.yaml --trust-region 60
-        # The lane follower under the same settings: three seeds with log replay and the prior
-        # beside the lookahead, and ten seeds of the lookahead alone.
-        mkdir -p turning-circle/ten-seeds
-        ten_lane_follower=(--seeds 10 "${along_the_lanes_lane_follower[@]:2}")
-        for s in commonroad-ngsim:ngsim womd-interactive:womd-interactive; do
-            run "turning-circle/mutants-${s#*:}-lane-follower-n60.txt" evaluate --scenes "data:${s%%:*}" \
-                "${along_the_lanes_lane_follower[@]}"
-            run "turning-circle/ten-seeds/mutants-${s#*:}-lane-follower-n60.txt" evaluate \
-                --scenes "data:${s%%:*}" "${ten_lane_follower[@]/%log,prior,safer-in-path-lookahead/safer-in-path-lookahead}"
-        done ;;
+        # The lane follower under the same settings.
+        lane_follower_runs turning-circle ;;
     cut-in-anticipation)
-        mkdir -p cut-in-anticipation/ten-seeds
-        ten_lane_follower=(--seeds 10 "${along_the_lanes_lane_follower[@]:2}")
-        for s in commonroad-ngsim:ngsim womd-interactive:womd-interactive; do
-            run "cut-in-anticipation/mutants-${s#*:}-lane-follower-n60.txt" evaluate --scenes "data:${s%%:*}" \
-                "${along_the_lanes_lane_follower[@]}"
-            run "cut-in-anticipation/ten-seeds/mutants-${s#*:}-lane-follower-n60.txt" evaluate \
-                --scenes "data:${s%%:*}" "${ten_lane_follower[@]/%log,prior,safer-in-path-lookahead/safer-in-path-lookahead}"
-        done ;;
+        lane_follower_runs cut-in-anticipation ;;
     esac
 done
 rm -r "$(dirname "$safer")"
