@@ -266,6 +266,11 @@
 #                     protocol's runs made without the bound (this checkout with
 #                     src/policies/adversary/{grip,continuations}.rs as of commit 90feb7d;
 #                     grip.rs is turning_limit.rs now)
+#   readme-results    readme-results/: the README's results table, the paper's protocol on
+#                     WOMD interactive with this build: every method of the table over 20
+#                     (evaluate-womd-interactive.txt) and the suites' method over 28 with no
+#                     contact from behind (evaluate-womd-interactive-default.txt; about 12
+#                     minutes)
 #   mutants           mutants-{womd-interactive,womd-json,ngsim}-evasive.txt and
 #                     mutants-{womd-interactive,ngsim}-lane-follower.txt: the
 #                     faults of the planner each method's variants catch
@@ -281,7 +286,7 @@ self=$(realpath "$0")
 cd "$(dirname "$self")"
 all=(evaluate plain inattentive held-out-chance trust-region realism prior-fit n-sweep reactive n100 approach-none merging mutants wide-region cut-in
     in-path-lookahead in-path-lookahead-n30 in-path-lookahead-n28 in-path-lookahead-sweep pair-in-traffic witnessed wide-witnessed ten-seeds reaction-delay reactive-background leader first-contact both-pairings first-contact-lookahead blind-twin ego-contact wrong-way
-    lane-follower-pairings at-fault-planner along-the-lanes along-the-lanes-lane-follower sideways kill-ratios human-lane-changes grip turning turning-cost turning-cost-sweep ten-seeds-lookahead cut-in-anticipation standing-berth turning-circle)
+    lane-follower-pairings at-fault-planner along-the-lanes along-the-lanes-lane-follower sideways kill-ratios human-lane-changes grip turning turning-cost turning-cost-sweep ten-seeds-lookahead cut-in-anticipation standing-berth turning-circle readme-results)
 jobs=("$@")
 [[ ${#jobs[@]} -gt 0 ]] || jobs=("${all[@]}")
 # The usage is the comment block at the top of this file.
@@ -993,6 +998,12 @@ for job in "${jobs[@]}"; do
         lane_follower_runs turning-circle ;;
     cut-in-anticipation)
         lane_follower_runs cut-in-anticipation ;;
+    readme-results)
+        mkdir -p readme-results
+        run readme-results/evaluate-womd-interactive.txt evaluate --scenes data:womd-interactive --seeds 10 \
+            --methods safer,safer-in-path,safer-cut-in,safer-in-path-lookahead,safer-distinct,safer-lookahead,safer-inattentive,no-lfr,no-trust-region,prior,log
+        run readme-results/evaluate-womd-interactive-default.txt evaluate --scenes data:womd-interactive \
+            --seeds 10 --trust-region 28 --methods safer-in-path-lookahead --ego-contact not-from-behind ;;
     esac
 done
 rm -r "$(dirname "$safer")"
