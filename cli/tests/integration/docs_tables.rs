@@ -2282,4 +2282,23 @@ fn the_turning_circle_tables_quote_their_outputs() {
         sets.push(row[0].clone());
     }
     assert_eq!(sets, ["WOMD interactive", "NGSIM"], "both sets, over ten seeds");
+    // The lane follower under the same settings: cut-in-anticipation/ (the
+    // build before the bound) against turning-circle/.
+    let rows = markdown_rows(
+        &doc,
+        "| set, lane follower | seeds | CR | SR-crit | reach-crit | met | kills (held out) |",
+        "The lane follower's faults with the bound",
+    );
+    let mut checked = Vec::new();
+    for (set, seeds, row) in rows_by_set_and_draw(&rows) {
+        let dirs = match seeds.as_str() {
+            "3" => ("cut-in-anticipation", "turning-circle"),
+            "10" => ("cut-in-anticipation/ten-seeds", "turning-circle/ten-seeds"),
+            other => panic!("{row:?}: no output for {other} seeds"),
+        };
+        let file = suite_settings_output(&set, "lane follower");
+        assert_eq!(row[2..], suite_settings_before_after(file, &seeds, dirs, seeds == "10")[..], "{row:?}");
+        checked.push((set, seeds));
+    }
+    assert_eq!(checked.len(), 4, "two sets, each over 3 and 10 seeds: {checked:?}");
 }
