@@ -237,23 +237,6 @@ fn the_ten_seed_mutation_table_quotes_its_outputs() {
     assert_eq!(rows, 25, "every row of the ten-seed table");
 }
 
-/// The figures of `method`'s row in the plausibility table of a
-/// `safer evaluate` output (whose header names its columns in several
-/// words each): the CBV hitting the background, at fault, of it a person
-/// on foot or a cyclist, the CBV off road, ...
-fn plausibility_figures(output: &str, method: &str) -> Vec<String> {
-    let row = output
-        .lines()
-        .skip_while(|l| !(l.starts_with("method") && l.contains("CBV-bg coll")))
-        .skip(1)
-        .take_while(|l| {
-            l.split_whitespace().next().is_some_and(|w| w.chars().all(|c| c.is_ascii_lowercase() || c == '-'))
-        })
-        .find(|l| l.split_whitespace().next() == Some(method))
-        .unwrap_or_else(|| panic!("no plausibility row for {method} in the output"));
-    row.split_whitespace().skip(1).map(str::to_owned).collect()
-}
-
 #[test]
 fn the_readme_results_table_quotes_the_womd_interactive_outputs() {
     let readme = repo_file("README.md");
@@ -268,7 +251,7 @@ fn the_readme_results_table_quotes_the_womd_interactive_outputs() {
         // is its own run.
         let output = &outputs[usize::from(row[0].contains("no contact from behind"))];
         let figures = evaluation_figures(&output_table(output, "variants"), method);
-        let plausibility = plausibility_figures(output, method);
+        let plausibility = labelled_row(output, "CBV-bg coll", method);
         // CR, SR, SR-crit, witness, then VJ / AJ, then at fault / off road.
         let mut quoted = row[1..5].to_vec();
         quoted.extend(parts(&row[5]));
@@ -2160,16 +2143,25 @@ fn the_cut_in_anticipation_table_quotes_its_outputs() {
         "| set | seeds | CR | SR-crit | reach-crit | met | kills (held out) |",
         "The lane follower's faults after the change",
     );
+    check_lane_follower_before_after(&rows, ("grip", "cut-in-anticipation"), "ten-seeds/lookahead");
+}
+
+/// A side-by-side table of the lane follower's mutation runs under the
+/// lookahead suite's settings, rows `set | seeds | ...` over three and ten
+/// seeds on both sets: each row's cells against the runs in `dirs` (before,
+/// after) for three seeds, and `ten_before` and `AFTER/ten-seeds` for ten
+/// (the lookahead alone).
+fn check_lane_follower_before_after(rows: &[Vec<String>], dirs: (&str, &str), ten_before: &str) {
+    let ten_after = format!("{}/ten-seeds", dirs.1);
     let mut checked = Vec::new();
-    for (set, seeds, row) in rows_by_set_and_draw(&rows) {
-        let (before_dir, after_dir) = match seeds.as_str() {
-            "3" => ("grip", "cut-in-anticipation"),
-            "10" => ("ten-seeds/lookahead", "cut-in-anticipation/ten-seeds"),
+    for (set, seeds, row) in rows_by_set_and_draw(rows) {
+        let run_dirs = match seeds.as_str() {
+            "3" => dirs,
+            "10" => (ten_before, ten_after.as_str()),
             other => panic!("{row:?}: no output for {other} seeds"),
         };
         let file = suite_settings_output(&set, "lane follower");
-        let quoted = suite_settings_before_after(file, &seeds, (before_dir, after_dir), seeds == "10");
-        assert_eq!(row[2..], quoted[..], "{row:?}");
+        assert_eq!(row[2..], suite_settings_before_after(file, &seeds, run_dirs, seeds == "10")[..], "{row:?}");
         checked.push((set, seeds));
     }
     assert_eq!(checked.len(), 4, "two sets, each over 3 and 10 seeds: {checked:?}");
@@ -2289,16 +2281,5 @@ fn the_turning_circle_tables_quote_their_outputs() {
         "| set, lane follower | seeds | CR | SR-crit | reach-crit | met | kills (held out) |",
         "The lane follower's faults with the bound",
     );
-    let mut checked = Vec::new();
-    for (set, seeds, row) in rows_by_set_and_draw(&rows) {
-        let dirs = match seeds.as_str() {
-            "3" => ("cut-in-anticipation", "turning-circle"),
-            "10" => ("cut-in-anticipation/ten-seeds", "turning-circle/ten-seeds"),
-            other => panic!("{row:?}: no output for {other} seeds"),
-        };
-        let file = suite_settings_output(&set, "lane follower");
-        assert_eq!(row[2..], suite_settings_before_after(file, &seeds, dirs, seeds == "10")[..], "{row:?}");
-        checked.push((set, seeds));
-    }
-    assert_eq!(checked.len(), 4, "two sets, each over 3 and 10 seeds: {checked:?}");
+    check_lane_follower_before_after(&rows, ("cut-in-anticipation", "turning-circle"), "cut-in-anticipation/ten-seeds");
 }
