@@ -240,17 +240,18 @@ fn the_ten_seed_mutation_table_quotes_its_outputs() {
 #[test]
 fn the_readme_results_table_quotes_the_womd_interactive_outputs() {
     let readme = repo_file("README.md");
-    let outputs = [
-        repo_file("docs/evaluation/readme-results/evaluate-womd-interactive.txt"),
-        repo_file("docs/evaluation/readme-results/evaluate-womd-interactive-default.txt"),
-    ];
+    // Each output with its main table.
+    let outputs = ["evaluate-womd-interactive.txt", "evaluate-womd-interactive-default.txt"].map(|file| {
+        let output = repo_file(&format!("docs/evaluation/readme-results/{file}"));
+        (output_table(&output, "variants"), output)
+    });
     let mut checked = 0;
     for row in markdown_rows(&readme, "## Results", "CR: share of variants") {
         let Some(method) = method_of(&row[0]) else { continue };
         // The suites' method (over 28 behaviours, no contact from behind)
         // is its own run.
-        let output = &outputs[usize::from(row[0].contains("no contact from behind"))];
-        let figures = evaluation_figures(&output_table(output, "variants"), method);
+        let (table, output) = &outputs[usize::from(row[0].contains("no contact from behind"))];
+        let figures = evaluation_figures(table, method);
         let plausibility = labelled_row(output, "CBV-bg coll", method);
         // CR, SR, SR-crit, witness, then VJ / AJ, then at fault / off road.
         let mut quoted = row[1..5].to_vec();
