@@ -828,7 +828,7 @@ fn print_time(out: &mut dyn Write, rows: &[MethodRow], name: &dyn Fn(&MethodRow)
 fn print_legend(out: &mut dyn Write) -> std::io::Result<()> {
     writeln!(
         out,
-        "VJ/AJ/YJ: Jensen–Shannon divergence (bits) of the CBV's stage-1 speed (0–40 m/s, 1 m/s bins), acceleration (−8–8 m/s², 0.5 m/s² bins, finite differences at 0.1 s) and yaw rate (−1–1 rad/s, 0.05 rad/s bins, heading change over 0.5 s) against the logged CBV over the same window."
+        "VJ/AJ/YJ: Jensen–Shannon divergence (bits) of the CBV's stage-1 speed (0–40 m/s, 1 m/s bins), acceleration (0.5 m/s² bins centred on 0, over ±8.25 m/s², finite differences at 0.1 s) and yaw rate (0.05 rad/s bins centred on 0, over ±1.025 rad/s, heading change over 0.5 s) against the logged CBV over the same window."
     )?;
     writeln!(
         out,
