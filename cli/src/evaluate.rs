@@ -353,7 +353,7 @@ fn print_plausibility(
     writeln!(out, "\nplausibility of the CBV, the seeds' variety and the reference planner:")?;
     writeln!(
         out,
-        "{:<w$} {:>12} {:>14} {:>15} {:>12} {:>14} {:>10} {:>13} {:>9} {:>12} {:>13} {:>10} {:>11} {:>12}",
+        "{:<w$} {:>12} {:>14} {:>15} {:>12} {:>14} {:>10} {:>13} {:>9} {:>12} {:>13} {:>10} {:>11} {:>12} {:>10}",
         "method",
         "CBV-bg coll",
         "CBV at fault",
@@ -367,12 +367,13 @@ fn print_plausibility(
         "across lanes",
         "across s2",
         "beyond grip",
-        "tighter turn"
+        "tighter turn",
+        "tailgating"
     )?;
     for r in rows {
         writeln!(
             out,
-            "{:<w$} {:>12} {:>14} {:>15} {:>12} {:>14} {:>10} {:>13} {:>9} {:>12} {:>13} {:>10} {:>11} {:>12}",
+            "{:<w$} {:>12} {:>14} {:>15} {:>12} {:>14} {:>10} {:>13} {:>9} {:>12} {:>13} {:>10} {:>11} {:>12} {:>10}",
             name(r),
             fmt(r.cbv_background_collision_rate),
             fmt(r.cbv_at_fault_background_collision_rate),
@@ -386,7 +387,8 @@ fn print_plausibility(
             fmt(r.cbv_across_lanes_rate),
             fmt(r.cbv_across_lanes_rate_stage2),
             fmt(r.cbv_beyond_grip_rate),
-            fmt(r.cbv_tighter_than_a_car_rate)
+            fmt(r.cbv_tighter_than_a_car_rate),
+            fmt(r.cbv_tailgating_rate)
         )?;
     }
     Ok(())
@@ -865,6 +867,10 @@ fn print_legend(out: &mut dyn Write) -> std::io::Result<()> {
     writeln!(
         out,
         "tighter turn: share of variants whose CBV, in stage 1, turned tighter than a car steers: its heading turned over 0.5 s by more than 0.25 rad a metre it drove then (a 4 m radius) and 0.05 rad (the recorded headings' jitter) besides, a turn on the spot included; the `log` row is the recorded CBV, whose headings jump now and then (a tracking glitch)."
+    )?;
+    writeln!(
+        out,
+        "tailgating: share of variants whose CBV, in stage 1, drove on the ego's bumper for 1 s or more: at 5 m/s or more, going the ego's way (within 45°), behind its tail and within the two cars' half widths of its heading line, the gap between them under 0.5 s of the CBV's speed (drivers keep one to two seconds); the `log` row is the recorded CBV behind the recorded ego."
     )?;
     writeln!(
         out,

@@ -6,6 +6,7 @@
 //! [`traffic_rules`] judges wrong-way driving and red-light running;
 //! [`cbv_start`] says where the CBV starts relative to the ego;
 //! [`sideways_speed`] how briskly a road user moves across its lanes;
+//! [`tailgating`] how long one drove on another's bumper;
 //! [`spread`] how a set of per-variant figures spreads.)
 
 pub mod cbv_start;
@@ -19,6 +20,7 @@ pub mod progress;
 pub mod realism;
 pub mod sideways_speed;
 pub mod spread;
+pub mod tailgating;
 pub mod traffic_rules;
 pub mod ttc;
 pub mod witness;

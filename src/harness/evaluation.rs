@@ -360,6 +360,11 @@ pub struct MethodRow {
     /// reports lack it: read as unknown).
     #[serde(default)]
     pub cbv_tighter_than_a_car_rate: Option<f64>,
+    /// Share of variants whose CBV drove on the ego's bumper in stage 1
+    /// ([`SuiteMetrics::cbv_tailgating_rate`]; older reports lack it: read
+    /// as unknown).
+    #[serde(default)]
+    pub cbv_tailgating_rate: Option<f64>,
     /// How hard the CBV turned in stage 1
     /// ([`SuiteMetrics::cbv_peak_lateral_accel_mps2`]; older reports lack
     /// it: read as unknown).
@@ -1096,6 +1101,7 @@ fn table_of(
                 cbv_across_lanes_rate_stage2: metrics.cbv_across_lanes_rate_stage2,
                 cbv_beyond_grip_rate: metrics.cbv_beyond_grip_rate,
                 cbv_tighter_than_a_car_rate: metrics.cbv_tighter_than_a_car_rate,
+                cbv_tailgating_rate: metrics.cbv_tailgating_rate,
                 cbv_peak_lateral_accel_mps2: metrics.cbv_peak_lateral_accel_mps2,
                 logged_cbv_peak_lateral_accel_mps2: metrics.logged_cbv_peak_lateral_accel_mps2,
                 cbv_sideways: metrics.cbv_sideways,

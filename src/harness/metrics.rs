@@ -26,6 +26,7 @@
 use super::pipeline::DualStage;
 use crate::eval::sideways_speed::{SidewaysSpread, changed_lanes, held_sideways_speed_mps};
 use crate::eval::spread::Spread;
+use crate::eval::tailgating::{TAILGATE_HELD_S, longest_tailgating_s};
 use crate::eval::traffic_rules::{ACROSS_LANES_MIN_S, across_lanes_of, wrong_way_of};
 use crate::eval::{ConflictKind, Histogram, jensen_shannon, rollout_conflict};
 use crate::geometry::wrap_angle;
@@ -70,6 +71,12 @@ pub struct KinematicSamples {
     /// (`None` when never measured: older reports lack it).
     #[serde(default)]
     pub peak_turn_beyond_a_car_rad: Option<f64>,
+    /// The longest the agent drove on the ego's bumper
+    /// ([`longest_tailgating_s`]: behind it within a time gap of
+    /// [`TAILGATE_TIME_GAP_S`](crate::eval::tailgating::TAILGATE_TIME_GAP_S)), s (`None`
+    /// when not measured: older reports lack it, and the ego itself).
+    #[serde(default)]
+    pub tailgating_ego_s: Option<f64>,
 }
 
 /// The window yaw rates are measured over, s: recorded headings jitter
@@ -133,6 +140,7 @@ impl KinematicSamples {
             changed_lanes: None,
             peak_lateral_accel_mps2: None,
             peak_turn_beyond_a_car_rad: None,
+            tailgating_ego_s: None,
         }
     }
 }
@@ -167,15 +175,26 @@ impl CbvKinematics {
     pub fn of_stage1(scenario: &Scenario, stage1: &Rollout) -> Option<Self> {
         let cbv = stage1.cbv?;
         let map = &scenario.map;
-        let generated: Vec<Option<AgentState>> =
-            stage1.states.iter().map(|row| row.get(cbv.0).copied().flatten()).collect();
-        let track = scenario.track(cbv);
+        let ego = stage1.ego;
         let steps = stage1.start_step..stage1.start_step + stage1.states.len();
-        let logged: Vec<Option<AgentState>> = steps.map(|k| track.state(k).copied()).collect();
-        let samples = |states: &[Option<AgentState>], dt_s: f64| {
-            KinematicSamples::of_states(states.iter().copied(), dt_s).with_sideways(map, states, dt_s)
+        // The recording over the same steps, and stage 1's own rows.
+        let recorded = |t: TrackIndex| -> Vec<Option<AgentState>> {
+            steps.clone().map(|k| scenario.track(t).state(k).copied()).collect()
         };
-        Some(CbvKinematics { generated: samples(&generated, stage1.dt_s), logged: samples(&logged, scenario.dt_s) })
+        let driven = |t: TrackIndex| -> Vec<Option<AgentState>> {
+            stage1.states.iter().map(|row| row.get(t.0).copied().flatten()).collect()
+        };
+        let (generated, logged) = (driven(cbv), recorded(cbv));
+        let (replayed_ego, recorded_ego) = (driven(ego), recorded(ego));
+        let (cbv_body, ego_body) = (scenario.track(cbv).body(), scenario.track(ego).body());
+        let samples = |states: &[Option<AgentState>], ego: &[Option<AgentState>], dt_s: f64| KinematicSamples {
+            tailgating_ego_s: longest_tailgating_s((states, cbv_body), (ego, ego_body), dt_s),
+            ..KinematicSamples::of_states(states.iter().copied(), dt_s).with_sideways(map, states, dt_s)
+        };
+        Some(CbvKinematics {
+            generated: samples(&generated, &replayed_ego, stage1.dt_s),
+            logged: samples(&logged, &recorded_ego, scenario.dt_s),
+        })
     }
 }
 
@@ -453,6 +472,9 @@ pub struct SuiteMetrics {
     /// ([`KinematicSamples::peak_turn_beyond_a_car_rad`]) by more than
     /// [`TURN_BEYOND_A_CAR_SLACK_RAD`].
     pub cbv_tighter_than_a_car_rate: Option<f64>,
+    /// Share of variants whose CBV drove on the ego's bumper in stage 1
+    /// for [`TAILGATE_HELD_S`] or more ([`KinematicSamples::tailgating_ego_s`]).
+    pub cbv_tailgating_rate: Option<f64>,
     /// How hard the CBV turned in stage 1: the spread of each variant's
     /// peak lateral acceleration
     /// ([`KinematicSamples::peak_lateral_accel_mps2`]), m/s².
@@ -613,7 +635,7 @@ impl SuiteMetrics {
         let mut at_fault_vulnerable = 0;
         let (mut wrong_way, mut wrong_way_stage2) = (0, 0);
         let (mut across_lanes, mut across_lanes_stage2) = (0, 0);
-        let (mut beyond_grip, mut tighter_than_a_car) = (0, 0);
+        let (mut beyond_grip, mut tighter_than_a_car, mut tailgating) = (0, 0, 0);
         let (mut generated_peak_lateral, mut logged_peak_lateral) = (Vec::new(), Vec::new());
         let (mut reached, mut reached_critical, mut avoidable, mut avoidable_solved, mut no_escape) = (0, 0, 0, 0, 0);
         let mut no_escape_with_others = 0;
@@ -655,6 +677,9 @@ impl SuiteMetrics {
                 tighter_than_a_car += usize::from(
                     cbv.generated.peak_turn_beyond_a_car_rad.is_some_and(|r| r > TURN_BEYOND_A_CAR_SLACK_RAD),
                 );
+                // A run of exactly the held time counts, whatever the
+                // rounding of steps × dt.
+                tailgating += usize::from(cbv.generated.tailgating_ego_s.is_some_and(|t| t >= TAILGATE_HELD_S - 1e-9));
                 generated_peak_lateral.extend(cbv.generated.peak_lateral_accel_mps2);
                 logged_peak_lateral.extend(cbv.logged.peak_lateral_accel_mps2);
                 generated_sideways.extend(cbv.generated.held_sideways_mps);
@@ -683,6 +708,7 @@ impl SuiteMetrics {
             cbv_across_lanes_rate_stage2: share(across_lanes_stage2, n),
             cbv_beyond_grip_rate: share(beyond_grip, n),
             cbv_tighter_than_a_car_rate: share(tighter_than_a_car, n),
+            cbv_tailgating_rate: share(tailgating, n),
             cbv_peak_lateral_accel_mps2: Spread::of(generated_peak_lateral),
             logged_cbv_peak_lateral_accel_mps2: Spread::of(logged_peak_lateral),
             cbv_sideways: SidewaysSpread::of(generated_sideways),
@@ -1167,5 +1193,63 @@ mod tests {
         // 0.025 rad on the spot (within the recorded headings' jitter) do not.
         let tallies = [tally(car), tally(tight), tally(on_the_spot), tally(jitter), VariantTally::default()];
         assert_eq!(SuiteMetrics::aggregate(&tallies).cbv_tighter_than_a_car_rate, Some(0.4));
+    }
+
+    #[test]
+    fn a_cbv_counts_as_tailgating_from_a_second_on_the_egos_bumper() {
+        let tally = |tailgating_ego_s: Option<f64>| VariantTally {
+            cbv: Some(CbvKinematics {
+                generated: KinematicSamples { tailgating_ego_s, ..KinematicSamples::default() },
+                ..CbvKinematics::default()
+            }),
+            ..VariantTally::default()
+        };
+        // 10 steps of 0.1 s make the held second; 0.9 s and unmeasured do not.
+        let held = 10.0 * 0.1;
+        let tallies = [tally(Some(held)), tally(Some(2.5)), tally(Some(0.9)), tally(Some(0.0)), tally(None)];
+        assert_eq!(SuiteMetrics::aggregate(&tallies).cbv_tailgating_rate, Some(0.4));
+    }
+
+    #[test]
+    fn the_stage1_cbv_on_the_replayed_egos_bumper_is_measured_beside_the_recorded_one() {
+        use crate::geometry::{Point2, Vector2};
+        use crate::scenario::{AgentId, ScenarioSource, Track};
+        let car = |x: f64| {
+            Some(AgentState { position: Point2::new(x, 0.0), heading_rad: 0.0, velocity_mps: Vector2::new(20.0, 0.0) })
+        };
+        let track = |id: &str, states: Vec<Option<AgentState>>| Track {
+            id: AgentId(id.into()),
+            kind: AgentKind::Vehicle,
+            length_m: 4.5,
+            width_m: 2.0,
+            states,
+        };
+        // The ego at 20 m/s; the recorded CBV 30 m behind it, the
+        // generated one 0.2 m off its tail for the whole 2 s.
+        let ego: Vec<_> = (0..21).map(|k| car(2.0 * k as f64)).collect();
+        let recorded_cbv: Vec<_> = (0..21).map(|k| car(2.0 * k as f64 - 34.5)).collect();
+        let generated_cbv: Vec<_> = (0..21).map(|k| car(2.0 * k as f64 - 4.7)).collect();
+        let tracks = vec![track("ego", ego.clone()), track("cbv", recorded_cbv)];
+        let scenario = Scenario::new("s", ScenarioSource::authored("test"), 0.1, RoadMap::default(), tracks)
+            .with_roles(TrackIndex(0), Some(TrackIndex(1)));
+        let stage1 = Rollout {
+            scenario_id: "s".into(),
+            dt_s: 0.1,
+            start_step: 0,
+            ego: TrackIndex(0),
+            cbv: Some(TrackIndex(1)),
+            agent_ids: vec![],
+            bodies: vec![],
+            states: ego.iter().zip(&generated_cbv).map(|(e, c)| vec![*e, *c]).collect(),
+            collisions: vec![],
+            off_road: vec![],
+            min_distance_to_ego: None,
+            termination: crate::sim::Termination::Completed,
+            planner: "log-replay".into(),
+            planner_debug: vec![],
+        };
+        let k = CbvKinematics::of_stage1(&scenario, &stage1).unwrap();
+        assert!((k.generated.tailgating_ego_s.unwrap() - 2.1).abs() < 1e-9, "{:?}", k.generated.tailgating_ego_s);
+        assert_eq!(k.logged.tailgating_ego_s, Some(0.0));
     }
 }
