@@ -73,7 +73,7 @@ pub fn longest_tailgating_s(
         run = if close { run + 1 } else { 0 };
         longest = longest.max(run);
     }
-    measured.then(|| longest as f64 * dt_s)
+    measured.then_some(longest as f64 * dt_s)
 }
 
 #[cfg(test)]
