@@ -253,11 +253,13 @@ fn the_readme_results_table_quotes_the_womd_interactive_outputs() {
         let (table, output) = &outputs[usize::from(row[0].contains("no contact from behind"))];
         let figures = evaluation_figures(table, method);
         let plausibility = labelled_row(output, "CBV-bg coll", method);
-        // CR, SR, SR-crit, witness, then VJ / AJ, then at fault / off road.
+        // CR, SR, SR-crit, witness, then VJ / AJ, then at fault / off road /
+        // tailgating (the plausibility table's last column).
         let mut quoted = row[1..5].to_vec();
         quoted.extend(parts(&row[5]));
         quoted.extend(parts(&row[6]));
-        let expected = [&figures[..6], &[plausibility[1].clone(), plausibility[3].clone()][..]].concat();
+        let tailgating = plausibility.last().expect("a tailgating column").clone();
+        let expected = [&figures[..6], &[plausibility[1].clone(), plausibility[3].clone(), tailgating][..]].concat();
         assert_eq!(quoted, expected, "the README's {method} row");
         checked += 1;
     }
