@@ -74,7 +74,8 @@ pub struct KinematicSamples {
     /// The longest the agent drove on the ego's bumper
     /// ([`longest_tailgating_s`]: behind it within a time gap of
     /// [`TAILGATE_TIME_GAP_S`](crate::eval::tailgating::TAILGATE_TIME_GAP_S)), s (`None`
-    /// when not measured: older reports lack it, and the ego itself).
+    /// when the two never shared a step, or not measured: older reports
+    /// lack it).
     #[serde(default)]
     pub tailgating_ego_s: Option<f64>,
 }
