@@ -38,9 +38,8 @@ pub fn tailgates(follower: (&AgentState, AgentBody), leader: (&AgentState, Agent
         return false;
     }
     let (sin, cos) = l.heading_rad.sin_cos();
-    let heading_gap = (f.heading_rad - l.heading_rad).sin_cos();
     // Going the leader's way: within 45° (cos > cos 45°).
-    if heading_gap.1 < std::f64::consts::FRAC_1_SQRT_2 {
+    if (f.heading_rad - l.heading_rad).cos() < std::f64::consts::FRAC_1_SQRT_2 {
         return false;
     }
     let offset = f.position - l.position;
