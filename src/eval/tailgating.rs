@@ -8,48 +8,15 @@
 //! hundredths of a second. The measure is the *time gap* of car
 //! following (the bumper-to-bumper gap over the follower's speed), held
 //! while the follower is behind the leader, within its width and going
-//! its way.
+//! its way ([`tailgates`], which the adversary's rule against closing on
+//! the ego's tail shares).
 
-use crate::geometry::Vector2;
+pub use crate::scenario::following::{TAILGATE_MIN_SPEED_MPS, TAILGATE_TIME_GAP_S, tailgates};
 use crate::scenario::{AgentBody, AgentState};
-
-/// The time gap under which following counts as tailgating, s: half a
-/// second, a fraction of the one to two seconds drivers commonly keep,
-/// and under what they keep even in dense freeway traffic.
-pub const TAILGATE_TIME_GAP_S: f64 = 0.5;
 
 /// How long the follower must hold it to count as tailgating, s (a
 /// merge or a pass through the gap takes less).
 pub const TAILGATE_HELD_S: f64 = 1.0;
-
-/// The speed below which close following is not tailgating, m/s (a queue
-/// creeping at walking pace keeps small gaps).
-pub const TAILGATE_MIN_SPEED_MPS: f64 = 5.0;
-
-/// Whether `follower` drives behind `leader` within the time gap: moving
-/// at [`TAILGATE_MIN_SPEED_MPS`] or more, within 45° of the leader's
-/// heading, its centre behind the leader's tail and within the two
-/// bodies' half widths of the leader's heading line, and the gap between
-/// the boxes under [`TAILGATE_TIME_GAP_S`] of its speed.
-pub fn tailgates(follower: (&AgentState, AgentBody), leader: (&AgentState, AgentBody)) -> bool {
-    let ((f, f_body), (l, l_body)) = (follower, leader);
-    let speed_mps = f.speed_mps();
-    if speed_mps < TAILGATE_MIN_SPEED_MPS {
-        return false;
-    }
-    let (sin, cos) = l.heading_rad.sin_cos();
-    // Going the leader's way: within 45° (cos > cos 45°).
-    if (f.heading_rad - l.heading_rad).cos() < std::f64::consts::FRAC_1_SQRT_2 {
-        return false;
-    }
-    let offset = f.position - l.position;
-    let ahead_m = offset.dot(&Vector2::new(cos, sin));
-    let lateral_m = offset.dot(&Vector2::new(-sin, cos)).abs();
-    if ahead_m > -0.5 * l_body.length_m || lateral_m > 0.5 * (l_body.width_m + f_body.width_m) {
-        return false;
-    }
-    l_body.footprint(l).distance(&f_body.footprint(f)) < TAILGATE_TIME_GAP_S * speed_mps
-}
 
 /// The longest run of consecutive steps at which `follower` tailgated
 /// `leader` ([`tailgates`]), s (0 where it never did); `None` where the
@@ -78,7 +45,7 @@ pub fn longest_tailgating_s(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geometry::Point2;
+    use crate::geometry::{Point2, Vector2};
     use crate::scenario::AgentKind;
 
     const CAR: AgentBody = AgentBody { kind: AgentKind::Vehicle, length_m: 4.5, width_m: 2.0 };
@@ -89,26 +56,6 @@ mod tests {
             heading_rad,
             velocity_mps: Vector2::new(heading_rad.cos(), heading_rad.sin()) * speed_mps,
         }
-    }
-
-    #[test]
-    fn a_car_on_the_bumper_at_speed_tailgates_and_one_at_a_two_second_gap_does_not() {
-        let leader = car(0.0, 0.0, 0.0, 20.0);
-        // Gap = centre distance − 4.5 m (two half lengths).
-        let at_gap = |gap_m: f64| car(-4.5 - gap_m, 0.0, 0.0, 20.0);
-        assert!(tailgates((&at_gap(0.3), CAR), (&leader, CAR)));
-        assert!(tailgates((&at_gap(9.9), CAR), (&leader, CAR)), "0.495 s at 20 m/s");
-        assert!(!tailgates((&at_gap(10.1), CAR), (&leader, CAR)), "0.505 s");
-        assert!(!tailgates((&at_gap(40.0), CAR), (&leader, CAR)), "two seconds");
-    }
-
-    #[test]
-    fn beside_ahead_across_or_creeping_is_not_tailgating() {
-        let leader = car(0.0, 0.0, 0.0, 20.0);
-        assert!(!tailgates((&car(-5.0, 3.5, 0.0, 20.0), CAR), (&leader, CAR)), "the next lane");
-        assert!(!tailgates((&car(5.0, 0.0, 0.0, 20.0), CAR), (&leader, CAR)), "ahead");
-        assert!(!tailgates((&car(-5.0, 0.0, 1.2, 20.0), CAR), (&leader, CAR)), "crossing behind");
-        assert!(!tailgates((&car(-4.8, 0.0, 0.0, 3.0), CAR), (&car(0.0, 0.0, 0.0, 3.0), CAR)), "a queue");
     }
 
     #[test]

@@ -1,7 +1,8 @@
 //! The in-memory scenario: agent tracks over time with valid masks, the
 //! road map, the ego and the critical background vehicle (CBV), and where it
 //! came from. [`import`] reads recorded logs into it; [`roles`] picks ego and
-//! CBV where a source names none.
+//! CBV where a source names none; [`contact`] says who is at fault in a
+//! contact, and [`following`] whether one road user rides another's bumper.
 //!
 //! Coordinates are re-centred on import ([`Scenario::recentre`]): recorded
 //! logs use city-scale frames (several kilometres), and the features the
@@ -10,6 +11,7 @@
 
 pub mod bounds;
 pub mod contact;
+pub mod following;
 pub mod import;
 pub mod roles;
 

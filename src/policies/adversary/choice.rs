@@ -7,7 +7,7 @@
 use super::background_forecast::BackgroundForecast;
 use super::behaviours::distinct_behaviours;
 use super::contact_witness::{ContactWitness, EscapeWitness, closes_in};
-use super::ego_contact::{EgoContactRule, rear_ends};
+use super::ego_contact::{EgoContactRule, EgoTail, rear_ends};
 use super::escape_room::{EscapeRoom, FeasibilityScope, NO_ROOM_VALUE, veto_without_room};
 use super::feasibility::feasibility_values;
 use super::lookahead::{FirstTokens, Lookahead, Lowering};
@@ -155,7 +155,8 @@ fn ego_prediction(ego: &AgentState) -> AgentState {
 /// [`EgoContactRule::NotFromBehind`] a candidate after which the CBV,
 /// braking as hard as it can, would still run into the ego from behind is
 /// infeasible, and where every plausible candidate is such a one the
-/// choice is the likeliest plausible token outside the region that is not.
+/// choice is the likeliest plausible token outside the region that is not;
+/// so is one that ends too close on the ego's tail (see the rule).
 /// Time spent in V_h is added to
 /// `feasibility_s`. `None` only for empty `logits`.
 pub fn safer_choice(
@@ -211,6 +212,12 @@ pub fn safer_choice(
         EgoContactRule::Any => vec![false; candidates.len()],
         EgoContactRule::NotFromBehind => rollouts.iter().map(|r| rear_ends(r, ego_now, (ego_body, cbv_body))).collect(),
     };
+    // Under the same rule, a candidate that ends too close on the ego's
+    // tail (see `EgoTail`) is taken only where every plausible token does.
+    let tail = (search.ego_contact == EgoContactRule::NotFromBehind)
+        .then(|| EgoTail::new(cbv_now, ego_now, (ego_body, cbv_body)));
+    let closes_on_tail = |r: &[AgentState]| tail.is_some_and(|t| t.closed_on_after(r, ego_now));
+    let on_tail: Vec<bool> = rollouts.iter().map(|r| closes_on_tail(r)).collect();
     for (loss, &rear) in losses.iter_mut().zip(&rear_ends) {
         if rear {
             *loss = loss.max(INFEASIBLE_PENALTY) + INFEASIBLE_PENALTY;
@@ -229,6 +236,7 @@ pub fn safer_choice(
             objective: search.objective,
             room: room.as_ref(),
             ego_contact: search.ego_contact,
+            tail,
             turning: search.turning.for_kind(cbv_body.kind),
         };
         let first = FirstTokens {
@@ -297,10 +305,11 @@ pub fn safer_choice(
     // from counts as infeasible, and the order is taken again.
     // Under the ego-contact rule a candidate that rear-ends the ego is
     // taken only once no token, in the region or out of it, is plausible
-    // and keeps off the ego's tail.
+    // and keeps off the ego's tail; one that ends too close on its tail,
+    // only once none keeps off its bumper.
     let mut plausible =
         |i: usize| !*implausible[i].get_or_insert_with(|| check.implausible(&rollouts[i], ContactRule::Any));
-    while let Some(i) = order(&losses).into_iter().find(|&i| !rear_ends[i] && plausible(i)) {
+    while let Some(i) = order(&losses).into_iter().find(|&i| !rear_ends[i] && !on_tail[i] && plausible(i)) {
         match witness.as_ref().and_then(|w| Some((w, near(i, &losses)?))) {
             Some((witness, (path, ego_end))) if !witness.escapable(&path, &ego_end) => {
                 losses[i] = NO_ROOM_VALUE as f64 + INFEASIBLE_PENALTY;
@@ -314,6 +323,16 @@ pub fn safer_choice(
     // than the region holds; the trust region's top n seldom hold one).
     if search.ego_contact == EgoContactRule::NotFromBehind {
         let keeps_off = |r: &[AgentState]| !self::rear_ends(r, ego_now, (ego_body, cbv_body));
+        let keeps_gap = |r: &[AgentState]| keeps_off(r) && !closes_on_tail(r);
+        if let Some(t) = check.likeliest_plausible_outside_where(logits, candidates, ContactRule::Any, keeps_gap) {
+            return Ok(Some(t));
+        }
+        // No plausible token keeps off the ego's bumper (a CBV closing
+        // faster than it can brake away): the region's best that keeps off
+        // its tail, else the likeliest such token outside the region.
+        if let Some(&i) = order.iter().find(|&&i| !rear_ends[i] && plausible(i)) {
+            return Ok(Some(candidates[i]));
+        }
         if let Some(t) = check.likeliest_plausible_outside_where(logits, candidates, ContactRule::Any, keeps_off) {
             return Ok(Some(t));
         }
@@ -537,6 +556,22 @@ mod tests {
         // the likeliest outside it (-1 m/s² rear-ends too), but the
         // likeliest that keeps off the ego's tail.
         assert_eq!(chosen(EgoContactRule::NotFromBehind), token(-5.0));
+    }
+
+    #[test]
+    fn under_the_ego_contact_rule_a_cbv_closing_on_the_egos_tail_keeps_off_its_bumper() {
+        // The CBV 20 m behind the ego's tail, 5 m/s faster; the region holds
+        // only speeding up, which would take it onto the ego's bumper
+        // (see `ego_contact`), not into it.
+        let states = [car(0.0, 0.0, 20.0), car(-24.5, 0.0, 25.0)];
+        let liked = [(4.0, 3.0), (0.0, 2.0)];
+        let chosen = |ego_contact| {
+            let search = Search { ego_contact, ..Search::one_step(TrustRegion::TopN(1)) };
+            choice_in(&states, &liked, search, None)
+        };
+        assert_eq!(chosen(EgoContactRule::Any), token(4.0));
+        // The likeliest token outside the region that keeps off it: holding speed.
+        assert_eq!(chosen(EgoContactRule::NotFromBehind), token(0.0));
     }
 
     #[test]

@@ -5,7 +5,7 @@
 //! one-step choice.
 
 use super::continuations::{Child, Continuations};
-use super::ego_contact::EgoContactRule;
+use super::ego_contact::{EgoContactRule, EgoTail};
 use super::escape_room::{EscapeRoom, veto_without_room};
 use super::feasibility::feasibility_values;
 use super::objective::Objective;
@@ -42,7 +42,8 @@ pub const LOOKAHEAD_DELAY_PENALTY_M: f64 = 0.5;
 ///   only straight from a feasible state (V_h ≤ 0: the ego could still
 ///   have escaped one token earlier, and it is that escape the witness
 ///   later looks for), and not from behind the ego where the search's
-///   [`EgoContactRule`] rules that out.
+///   [`EgoContactRule`] rules that out (under which a continuation also
+///   ends where it comes too close on the ego's tail).
 ///
 /// A continuation scores its objective (the paper's: its distance to the
 /// ego) plus [`LOOKAHEAD_DELAY_PENALTY_M`] per token after the first
@@ -70,6 +71,8 @@ pub(super) struct Lookahead<'a> {
     pub(super) room: Option<&'a EscapeRoom<'a>>,
     /// Whether a contact from behind the ego is a conflict (see [`EgoContactRule`]).
     pub(super) ego_contact: EgoContactRule,
+    /// The ego's tail the CBV keeps off (`None`: the rule allows the bumper).
+    pub(super) tail: Option<EgoTail>,
     /// How hard the CBV may turn, for its kind (a continuation beyond it is no plan).
     pub(super) turning: CbvTurningLimit,
 }
@@ -297,8 +300,8 @@ impl Lookahead<'_> {
 
     /// Judges each of `which` not judged yet into `kept`: `false` when it
     /// leaves the road (where the CBV is on it now), turns beyond the
-    /// CBV's turning limit, or is a contact from
-    /// behind the ego that the search's [`EgoContactRule`] rules out, else
+    /// CBV's turning limit, or is a contact from behind the ego or too
+    /// close on its tail where the search's [`EgoContactRule`] rules that out, else
     /// `true` for a contact (which may end infeasibly: its parent was feasible, so the
     /// ego could have escaped it) or with V_h ≤ 0 there against the ego at
     /// `ego`, `ahead_steps` steps ahead (and, in the `pair-in-traffic`
@@ -319,15 +322,17 @@ impl Lookahead<'_> {
             }
             let at = children.child(i).at;
             let leaves_road = || self.on_road_now && self.world.map.is_off_road_within_map(&at.position);
-            // A contact from behind, where the rule rules it out, is no conflict.
-            let rear_ends = || {
+            // A contact from behind, where the rule rules it out, is no
+            // conflict, nor a plan through the ego's bumper.
+            let on_tail = || {
                 self.ego_contact == EgoContactRule::NotFromBehind
                     && children.distance_m(i) <= 0.0
                     && super::ego_contact::from_behind(&ego, &at)
+                    || self.tail.is_some_and(|t| t.closed_on(&at, &ego))
             };
             // A token beyond the turning limit is one the CBV will not be
             // allowed to drive: a plan through it is no plan.
-            if leaves_road() || children.child(i).beyond(self.turning) || rear_ends() {
+            if leaves_road() || children.child(i).beyond(self.turning) || on_tail() {
                 kept[i] = Some(false);
             } else if feasibility.is_none() || children.distance_m(i) <= 0.0 {
                 kept[i] = Some(true);

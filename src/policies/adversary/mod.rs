@@ -62,8 +62,8 @@
 //! `safer-inattentive` (beyond the paper) the same policy fed by a prior
 //! that does not see the ego (see
 //! [`PriorTraffic::hide_from`](crate::policies::prior_sampling::PriorTraffic::hide_from)).
-//! Any SaFeR method may be kept from contacts from behind the ego (beyond
-//! the paper; see [`EgoContactRule`]), and from driving against a lane's
+//! Any SaFeR method may be kept from contacts from behind the ego and
+//! off its bumper (beyond the paper; see [`EgoContactRule`]), and from driving against a lane's
 //! traffic (beyond the paper; see [`WrongWayRule`]); and any may weigh
 //! how hard a token turns the CBV in its loss (beyond the paper; see
 //! [`CbvTurningCost`]).
@@ -112,7 +112,7 @@ pub use background_forecast::BackgroundForecast;
 pub use behaviours::{BEHAVIOUR_HOLD_S, BEHAVIOUR_SEPARATION_M, distinct_behaviours};
 pub use choice::{Feasibility, INFEASIBLE_PENALTY, Search, TrustRegion, safer_choice};
 pub use contact_witness::{EscapeWitness, WITNESS_CHECK_GAP_M, WITNESS_CHECKS_PER_TOKEN};
-pub use ego_contact::EgoContactRule;
+pub use ego_contact::{EgoContactRule, TAIL_BRAKE_MPS2};
 pub use escape_room::{
     ESCAPE_ACCELS_MPS2, ESCAPE_CHECK_GAP_M, ESCAPE_HORIZON_S, ESCAPE_PURSUIT_MPS2, ESCAPE_YAW_RATES_RADPS,
     FeasibilityScope, NO_ROOM_VALUE,
