@@ -1,11 +1,12 @@
 //! How long a road user drove close behind another: the realism check of
 //! a CBV that closes on the ego from behind and then hangs on its bumper.
 //!
-//! A CBV held off contacts from behind the ego (`ego_contact:
-//! not-from-behind`) can still close to within centimetres of the ego's
-//! tail and follow it there at speed: no collision, so neither CR nor the
-//! plausibility rules see it, yet no driver follows a car at a few
-//! hundredths of a second. The measure is the *time gap* of car
+//! A CBV held off contacts from behind the ego (by V_h, or by a rule
+//! against the contact alone) can still close to within centimetres of
+//! the ego's tail and follow it there at speed: no collision, so neither
+//! CR nor the plausibility rules see it, yet no driver follows a car at a
+//! few hundredths of a second. (`ego_contact: not-from-behind` keeps the
+//! CBV off the bumper too, where a plausible token does.) The measure is the *time gap* of car
 //! following (the bumper-to-bumper gap over the follower's speed), held
 //! while the follower is behind the leader, within its width and going
 //! its way ([`tailgates`], which the adversary's rule against closing on

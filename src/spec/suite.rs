@@ -305,7 +305,8 @@ pub struct AdversarySpec {
     /// make: `any` (the default, the paper's), or `not-from-behind`
     /// (beyond the paper): none from behind the ego or with it standing
     /// still, the collisions nuPlan's rule never blames the ego for and
-    /// no planner can escape a chasing CBV from.
+    /// no planner can escape a chasing CBV from, and no riding the ego's
+    /// bumper (closing within half a second's gap).
     #[serde(default)]
     pub ego_contact: EgoContactRule,
     /// Whether the SaFeR methods' CBV may drive against a lane's traffic:
