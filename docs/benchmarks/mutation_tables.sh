@@ -11,6 +11,10 @@
 # cost table then times adversarial-ngsim, external-lane-follower and
 # authored-evasive, else the suites named).
 #
+# METHODS="M ..." runs only these methods (written as below, METHOD or
+# METHOD:RULE) for each suite, with the along-the-lanes row where a suite
+# holds its CBV along the lanes; COST=0 leaves out the cost table.
+#
 # Prints one Markdown row per (suite, method): the variants the planner
 # passes, the score, the killed mutants (with the variants that killed
 # each) and the survivors; then the cost of a mutation run against the
@@ -55,6 +59,7 @@ for suite in "$repo"/specs/suites/*.yaml; do
     name="$(basename "$suite" .yaml)"
     [[ ${#suites[@]} -eq 0 || " ${suites[*]} " == *" $name "* ]] || continue
     if grep -q "method: safer" "$suite"; then methods="log prior safer safer-in-path safer-in-path:not-from-behind safer-cut-in safer-in-path-lookahead safer-in-path-lookahead:not-from-behind safer-distinct safer-lookahead no-lfr"; else methods="log"; fi
+    if [[ -n "${METHODS:-}" ]]; then grep -q "method: safer" "$suite" && methods="$METHODS" || continue; fi
     # A suite holding its CBV along the lanes: that rule's row too.
     grep -q "wrong_way: along-the-lanes" "$suite" && methods="$methods safer-in-path-lookahead:not-from-behind:along-the-lanes"
     for method in $methods; do
@@ -81,6 +86,8 @@ print(f"| {name} | {s['planner']} | `{method}` | {m['variants_passed']}/{m['vari
 EOF
     done
 done
+
+[[ "${COST:-1}" == 0 ]] && exit 0
 
 # The cost of a mutation run, side by side with the suite's own run. Each
 # suite is timed from a scratch copy without its mutation floor, so that

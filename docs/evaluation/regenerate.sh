@@ -266,6 +266,13 @@
 #                     protocol's runs made without the bound (this checkout with
 #                     src/policies/adversary/{grip,continuations}.rs as of commit 90feb7d;
 #                     grip.rs is turning_limit.rs now)
+#   bumper            bumper/: the CBV off the ego's bumper: the suites' method on NGSIM
+#                     under the shipped suites' rules over 60 behaviours, ten seeds
+#                     (evaluate-ngsim-n60.txt; WOMD interactive's, over 28, is
+#                     readme-results/evaluate-womd-interactive-default.txt), and
+#                     turning-circle/'s two runs of the evasive planner (about 30
+#                     minutes). bumper/before/ holds the two evaluate runs made with
+#                     the build before the rule
 #   readme-results    readme-results/: the README's results table, the paper's protocol on
 #                     WOMD interactive with this build: every method of the table over 20
 #                     (evaluate-womd-interactive.txt) and the suites' method over 28 with no
@@ -286,7 +293,7 @@ self=$(realpath "$0")
 cd "$(dirname "$self")"
 all=(evaluate plain inattentive held-out-chance trust-region realism prior-fit n-sweep reactive n100 approach-none merging mutants wide-region cut-in
     in-path-lookahead in-path-lookahead-n30 in-path-lookahead-n28 in-path-lookahead-sweep pair-in-traffic witnessed wide-witnessed ten-seeds reaction-delay reactive-background leader first-contact both-pairings first-contact-lookahead blind-twin ego-contact wrong-way
-    lane-follower-pairings at-fault-planner along-the-lanes along-the-lanes-lane-follower sideways kill-ratios human-lane-changes grip turning turning-cost turning-cost-sweep ten-seeds-lookahead cut-in-anticipation standing-berth turning-circle readme-results)
+    lane-follower-pairings at-fault-planner along-the-lanes along-the-lanes-lane-follower sideways kill-ratios human-lane-changes grip turning turning-cost turning-cost-sweep ten-seeds-lookahead cut-in-anticipation standing-berth turning-circle bumper readme-results)
 jobs=("$@")
 [[ ${#jobs[@]} -gt 0 ]] || jobs=("${all[@]}")
 # The usage is the comment block at the top of this file.
@@ -998,6 +1005,15 @@ for job in "${jobs[@]}"; do
         lane_follower_runs turning-circle ;;
     cut-in-anticipation)
         lane_follower_runs cut-in-anticipation ;;
+    bumper)
+        mkdir -p bumper
+        run bumper/evaluate-ngsim-n60.txt evaluate --scenes data:commonroad-ngsim --seeds 10 --trust-region 60 \
+            --methods safer-in-path-lookahead --ego-contact not-from-behind --wrong-way along-the-lanes
+        ten=(--seeds 10 "${along_the_lanes[@]:2}")
+        run bumper/mutants-womd-interactive-n28-evasive.txt evaluate --scenes data:womd-interactive "${ten[@]}" \
+            --planner ../../planners/evasive.yaml --trust-region 28
+        run bumper/mutants-ngsim-n60-evasive.txt evaluate --scenes data:commonroad-ngsim "${ten[@]}" \
+            --planner ../../planners/evasive.yaml --trust-region 60 ;;
     readme-results)
         mkdir -p readme-results
         run readme-results/evaluate-womd-interactive.txt evaluate --scenes data:womd-interactive --seeds 10 \
