@@ -269,10 +269,11 @@
 #   bumper            bumper/: the CBV off the ego's bumper: the suites' method on NGSIM
 #                     under the shipped suites' rules over 60 behaviours, ten seeds
 #                     (evaluate-ngsim-n60.txt; WOMD interactive's, over 28, is
-#                     readme-results/evaluate-womd-interactive-default.txt), and
-#                     turning-circle/'s two runs of the evasive planner (about 30
-#                     minutes). bumper/before/ holds the two evaluate runs made with
-#                     the build before the rule
+#                     readme-results/evaluate-womd-interactive-default.txt),
+#                     turning-circle/'s two runs of the evasive planner and its two
+#                     three-seed runs of the lane follower (about 60 minutes).
+#                     bumper/before/ holds the two evaluate runs made with the build
+#                     before the rule
 #   readme-results    readme-results/: the README's results table, the paper's protocol on
 #                     WOMD interactive with this build: every method of the table over 20
 #                     (evaluate-womd-interactive.txt) and the suites' method over 28 with no
@@ -1013,7 +1014,11 @@ for job in "${jobs[@]}"; do
         run bumper/mutants-womd-interactive-n28-evasive.txt evaluate --scenes data:womd-interactive "${ten[@]}" \
             --planner ../../planners/evasive.yaml --trust-region 28
         run bumper/mutants-ngsim-n60-evasive.txt evaluate --scenes data:commonroad-ngsim "${ten[@]}" \
-            --planner ../../planners/evasive.yaml --trust-region 60 ;;
+            --planner ../../planners/evasive.yaml --trust-region 60
+        for s in commonroad-ngsim:ngsim womd-interactive:womd-interactive; do
+            run "bumper/mutants-${s#*:}-lane-follower-n60.txt" evaluate --scenes "data:${s%%:*}" \
+                "${along_the_lanes_lane_follower[@]}"
+        done ;;
     readme-results)
         mkdir -p readme-results
         run readme-results/evaluate-womd-interactive.txt evaluate --scenes data:womd-interactive --seeds 10 \
