@@ -46,18 +46,7 @@ pub fn longest_tailgating_s(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geometry::{Point2, Vector2};
-    use crate::scenario::AgentKind;
-
-    const CAR: AgentBody = AgentBody { kind: AgentKind::Vehicle, length_m: 4.5, width_m: 2.0 };
-
-    fn car(x: f64, y: f64, heading_rad: f64, speed_mps: f64) -> AgentState {
-        AgentState {
-            position: Point2::new(x, y),
-            heading_rad,
-            velocity_mps: Vector2::new(heading_rad.cos(), heading_rad.sin()) * speed_mps,
-        }
-    }
+    use crate::scenario::following::tests::{CAR, car};
 
     #[test]
     fn the_longest_run_counts_consecutive_steps_and_absence_is_unmeasured() {

@@ -55,14 +55,16 @@ pub fn tailgates(follower: (&AgentState, AgentBody), leader: (&AgentState, Agent
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::geometry::Point2;
     use crate::scenario::AgentKind;
 
-    const CAR: AgentBody = AgentBody { kind: AgentKind::Vehicle, length_m: 4.5, width_m: 2.0 };
+    /// A car's body, 4.5 m by 2 m.
+    pub(crate) const CAR: AgentBody = AgentBody { kind: AgentKind::Vehicle, length_m: 4.5, width_m: 2.0 };
 
-    fn car(x: f64, y: f64, heading_rad: f64, speed_mps: f64) -> AgentState {
+    /// A car at (`x`, `y`) heading `heading_rad` at `speed_mps`.
+    pub(crate) fn car(x: f64, y: f64, heading_rad: f64, speed_mps: f64) -> AgentState {
         AgentState {
             position: Point2::new(x, y),
             heading_rad,
