@@ -318,9 +318,10 @@ pub fn safer_choice(
         }
     }
     let order = order(&losses);
-    // Every plausible candidate rear-ends the ego: the likeliest plausible
-    // token outside the region that does not (most often a harder brake
-    // than the region holds; the trust region's top n seldom hold one).
+    // Every plausible candidate rear-ends the ego or closes on its bumper:
+    // the likeliest plausible token outside the region that does neither
+    // (most often a harder brake than the region holds; the trust
+    // region's top n seldom hold one).
     if search.ego_contact == EgoContactRule::NotFromBehind {
         let keeps_off = |r: &[AgentState]| !self::rear_ends(r, ego_now, (ego_body, cbv_body));
         let keeps_gap = |r: &[AgentState]| keeps_off(r) && !closes_on_tail(r);
