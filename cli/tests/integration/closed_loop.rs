@@ -6,6 +6,7 @@
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
+use safer_scenarios::eval::ConflictReach;
 use safer_scenarios::harness::{Suite, SuiteMetrics, VariantOutcome, run_variant};
 use safer_scenarios::motion::Action;
 use safer_scenarios::planners::registry;
@@ -238,16 +239,8 @@ fn a_cbv_kept_from_contacts_from_behind_neither_runs_into_the_egos_tail_nor_clos
     // brakes to hold its gap, less what a comfortable brake to the ego's
     // speed closes (3.3 m), where held off the contact alone it closed
     // to centimetres.
-    let closest_gap_m = |o: &VariantOutcome| {
-        let (ego, cbv) = (o.stage1.ego.0, o.stage1.cbv.expect("the scene names a CBV").0);
-        let (eb, cb) = (o.stage1.bodies[ego], o.stage1.bodies[cbv]);
-        let gaps = o
-            .stage1
-            .states
-            .iter()
-            .filter_map(|row| Some(eb.footprint(row[ego].as_ref()?).distance(&cb.footprint(row[cbv].as_ref()?))));
-        gaps.fold(f64::INFINITY, f64::min)
-    };
+    let closest_gap_m =
+        |o: &VariantOutcome| ConflictReach::of(&o.stage1).min_gap_to_cbv_m.expect("the ego and the CBV share steps");
     let closest: Vec<f64> = kept_outcomes.iter().map(closest_gap_m).collect();
     assert!(closest.iter().all(|&gap_m| gap_m > 3.0), "the CBV's closest gap to the ego's tail, m: {closest:?}");
 }
