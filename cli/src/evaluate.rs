@@ -304,7 +304,7 @@ fn print_table(
     print_lane_changes(out, rows, held_out, &name)?;
     print_held_out(out, &name, held_out)?;
     print_conflicts_met(out, rows, &name, held_out)?;
-    print_stage2_approach(out, rows, &name)?;
+    print_stage2_approach(out, rows, &name, held_out)?;
     print_stage2_contacts(out, rows, records, &name)?;
     print_closest_approach(out, rows, &name)?;
     print_stage1_contacts(out, rows, records, &name)?;
@@ -528,7 +528,7 @@ fn print_held_out(
         "method", "CR", "SR", "witness", "SR-witnessed", "CR", "SR", "witness", "SR-witnessed", "CR by chance"
     )?;
     for ((h, r), chance) in held_out.held_out.iter().zip(&held_out.rest).zip(&held_out.cr_by_chance) {
-        let chance = chance.map_or("—".to_string(), |[lo, hi]| format!("{lo:.3}–{hi:.3}"));
+        let chance = chance_range(*chance);
         writeln!(
             out,
             "{:<w$} {:>7} {:>7} {:>9} {:>12} | {:>7} {:>7} {:>9} {:>12} | {:>13}",
@@ -555,6 +555,11 @@ fn print_held_out(
     Ok(())
 }
 
+/// A held-out figure's range by chance (see [`HeldOutSplit`]), or a dash.
+fn chance_range(range: Option<[f64; 2]>) -> String {
+    range.map_or("—".to_string(), |[lo, hi]| format!("{lo:.3}–{hi:.3}"))
+}
+
 /// The conflicts the planner under test met in stage 2.
 fn print_conflicts_met(
     out: &mut dyn Write,
@@ -566,7 +571,7 @@ fn print_conflicts_met(
     writeln!(out, "\nconflicts at the planner under test (stage 2):")?;
     writeln!(
         out,
-        "{:<w$} {:>7} {:>10} {:>9} {:>10} {:>10} {:>9} {:>9} | {:>7} {:>10} {:>9}",
+        "{:<w$} {:>7} {:>10} {:>9} {:>10} {:>10} {:>9} {:>9} | {:>7} {:>10} {:>9} | {:>20}",
         "method",
         "reach",
         "reach-crit",
@@ -577,12 +582,13 @@ fn print_conflicts_met(
         "failures",
         "reach",
         "reach-crit",
-        "SR-avoid"
+        "SR-avoid",
+        "reach-crit by chance"
     )?;
-    for (r, h) in rows.iter().zip(&held_out.held_out) {
+    for ((r, h), chance) in rows.iter().zip(&held_out.held_out).zip(&held_out.reach_critical_by_chance) {
         writeln!(
             out,
-            "{:<w$} {:>7} {:>10} {:>9} {:>10} {:>10} {:>9} {:>9} | {:>7} {:>10} {:>9}",
+            "{:<w$} {:>7} {:>10} {:>9} {:>10} {:>10} {:>9} {:>9} | {:>7} {:>10} {:>9} | {:>20}",
             name(r),
             fmt(r.conflict_reach),
             fmt(r.conflict_reach_critical),
@@ -594,6 +600,15 @@ fn print_conflicts_met(
             fmt(h.conflict_reach),
             fmt(h.conflict_reach_critical),
             fmt(h.sr_avoidable),
+            chance_range(*chance),
+        )?;
+    }
+    if !held_out.scenes.is_empty() {
+        writeln!(
+            out,
+            "reach-crit by chance: where the reach-crit of {} scenes drawn at random from all {} falls in 95 % of the draws with a critical variant",
+            held_out.scenes.len(),
+            held_out.of_scenes
         )?;
     }
     if let Some(line) = failures_beyond_log(rows) {
@@ -607,6 +622,7 @@ fn print_stage2_approach(
     out: &mut dyn Write,
     rows: &[MethodRow],
     name: &dyn Fn(&MethodRow) -> String,
+    held_out: &HeldOutSplit,
 ) -> std::io::Result<()> {
     if rows.iter().all(|r| r.stage2_closest_critical.is_none()) {
         return Ok(());
@@ -636,7 +652,7 @@ fn print_stage2_approach(
             c.farther
         )?;
     }
-    print_blind_twin(out, rows, name)
+    print_blind_twin(out, rows, name, held_out)
 }
 
 /// Whether the critical conflicts the CBV did not bring within 1 m of the
@@ -647,6 +663,7 @@ fn print_blind_twin(
     out: &mut dyn Write,
     rows: &[MethodRow],
     name: &dyn Fn(&MethodRow) -> String,
+    held_out: &HeldOutSplit,
 ) -> std::io::Result<()> {
     if !rows.iter().any(|r| r.stage2_closest_critical.as_ref().is_some_and(|c| c.blind_twin().ran > 0)) {
         return Ok(());
@@ -656,18 +673,19 @@ fn print_blind_twin(
         out,
         "\nthe critical variants not reached, by band: how many of those the planner passed hit its CBV-blind twin (blind-cbv hit the CBV / ran):"
     )?;
-    writeln!(out, "{:<w$} {:>8} {:>8} {:>8} {:>8}", "method", "1-2 m", "2-5 m", ">=5 m", "met")?;
-    for r in rows {
+    writeln!(out, "{:<w$} {:>8} {:>8} {:>8} {:>8} | {:>8}", "method", "1-2 m", "2-5 m", ">=5 m", "met", "held out")?;
+    for (r, h) in rows.iter().zip(&held_out.held_out) {
         let Some(c) = r.stage2_closest_critical else { continue };
         let cell = |t: BlindTwinHits| format!("{}/{}", t.hit, t.ran);
         writeln!(
             out,
-            "{:<w$} {:>8} {:>8} {:>8} {:>8}",
+            "{:<w$} {:>8} {:>8} {:>8} {:>8} | {:>8}",
             name(r),
             cell(c.blind_twin_under_2_m),
             cell(c.blind_twin_under_5_m),
             cell(c.blind_twin_farther),
-            fmt(c.met())
+            fmt(c.met()),
+            fmt(h.stage2_closest_critical.and_then(|c| c.met()))
         )?;
     }
     Ok(())

@@ -274,6 +274,12 @@
 #                     three-seed runs of the lane follower (about 60 minutes).
 #                     bumper/before/ holds the two evaluate runs made with the build
 #                     before the rule
+#   womd-json-suites  womd-json-suites/: the shipped lookahead suite's settings on WOMD JSON
+#                     (the CBV closed loop, the recorded cars braking, no contact from
+#                     behind, along the lanes, all seven mutants): the evasive planner over
+#                     28 behaviours, ten seeds (mutants-womd-json-n28-evasive.txt), and the
+#                     lane follower over 60, three seeds
+#                     (mutants-womd-json-lane-follower-n60.txt)
 #   readme-results    readme-results/: the README's results table, the paper's protocol on
 #                     WOMD interactive with this build: every method of the table over 20
 #                     (evaluate-womd-interactive.txt) and the suites' method over 28 with no
@@ -294,7 +300,7 @@ self=$(realpath "$0")
 cd "$(dirname "$self")"
 all=(evaluate plain inattentive held-out-chance trust-region realism prior-fit n-sweep reactive n100 approach-none merging mutants wide-region cut-in
     in-path-lookahead in-path-lookahead-n30 in-path-lookahead-n28 in-path-lookahead-sweep pair-in-traffic witnessed wide-witnessed ten-seeds reaction-delay reactive-background leader first-contact both-pairings first-contact-lookahead blind-twin ego-contact wrong-way
-    lane-follower-pairings at-fault-planner along-the-lanes along-the-lanes-lane-follower sideways kill-ratios human-lane-changes grip turning turning-cost turning-cost-sweep ten-seeds-lookahead cut-in-anticipation standing-berth turning-circle bumper readme-results)
+    lane-follower-pairings at-fault-planner along-the-lanes along-the-lanes-lane-follower sideways kill-ratios human-lane-changes grip turning turning-cost turning-cost-sweep ten-seeds-lookahead cut-in-anticipation standing-berth turning-circle bumper womd-json-suites readme-results)
 jobs=("$@")
 [[ ${#jobs[@]} -gt 0 ]] || jobs=("${all[@]}")
 # The usage is the comment block at the top of this file.
@@ -1019,6 +1025,13 @@ for job in "${jobs[@]}"; do
             run "bumper/mutants-${s#*:}-lane-follower-n60.txt" evaluate --scenes "data:${s%%:*}" \
                 "${along_the_lanes_lane_follower[@]}"
         done ;;
+    womd-json-suites)
+        mkdir -p womd-json-suites
+        ten=(--seeds 10 "${along_the_lanes[@]:2}")
+        run womd-json-suites/mutants-womd-json-n28-evasive.txt evaluate --scenes data:womd-json "${ten[@]}" \
+            --planner ../../planners/evasive.yaml --trust-region 28
+        run womd-json-suites/mutants-womd-json-lane-follower-n60.txt evaluate --scenes data:womd-json \
+            "${along_the_lanes_lane_follower[@]}" ;;
     readme-results)
         mkdir -p readme-results
         run readme-results/evaluate-womd-interactive.txt evaluate --scenes data:womd-interactive --seeds 10 \

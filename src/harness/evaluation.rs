@@ -738,6 +738,10 @@ pub struct HeldOutSplit {
     /// of the CR that as many scenes drawn at random from all of them
     /// give; `None` where nothing is held out or nothing ran.
     pub cr_by_chance: Vec<Option<[f64; 2]>>,
+    /// For each row of `held_out`: the same range of reach-crit (see
+    /// [`MethodRow::conflict_reach_critical`]); `None` also where no draw
+    /// holds a critical variant.
+    pub reach_critical_by_chance: Vec<Option<[f64; 2]>>,
 }
 
 /// Random draws behind [`HeldOutSplit::cr_by_chance`].
@@ -751,21 +755,26 @@ pub fn held_out_split(records: &[VariantRecord], methods: &[AdversaryMethod]) ->
     let held = held_out_scenes(ids);
     let held_out = |r: &VariantRecord| held.contains(r.scenario.as_str());
     let held_out_rows = table_of(records, methods, held_out);
-    let cr_by_chance = held_out_rows
+    // For each row: its records, and how many scenes it holds out.
+    let row_draws: Vec<(Vec<&VariantRecord>, usize)> = held_out_rows
         .iter()
         .map(|row| {
             let of_row = |r: &VariantRecord| r.method == row.method && r.stage2_cbv == row.stage2_cbv;
             let scenes_held = records.iter().filter(|r| of_row(r) && held_out(r) && r.error.is_none());
             let k = scenes_held.map(|r| r.scenario.as_str()).collect::<std::collections::BTreeSet<_>>().len();
-            cr_of_random_scenes(records.iter().filter(|r| of_row(r)), k)
+            (records.iter().filter(|r| of_row(r)).collect(), k)
         })
         .collect();
+    let cr_by_chance = row_draws.iter().map(|(rows, k)| cr_of_random_scenes(rows.iter().copied(), *k)).collect();
+    let reach_critical_by_chance =
+        row_draws.iter().map(|(rows, k)| reach_critical_of_random_scenes(rows.iter().copied(), *k)).collect();
     HeldOutSplit {
         scenes: held.iter().cloned().collect(),
         of_scenes,
         held_out: held_out_rows,
         rest: table_of(records, methods, |r| !held_out(r)),
         cr_by_chance,
+        reach_critical_by_chance,
     }
 }
 
@@ -808,13 +817,42 @@ pub fn by_cbv_start(records: &[VariantRecord], methods: &[AdversaryMethod]) -> V
 /// (variants of one scene are not independent, so scenes are drawn, not
 /// variants). `None` for `k` of 0 or more than there are scenes.
 fn cr_of_random_scenes<'r>(records: impl Iterator<Item = &'r VariantRecord>, k: usize) -> Option<[f64; 2]> {
+    // Per scene: (collisions, variants that ran).
+    share_of_random_scenes(records, k, |r| (usize::from(r.tally.critical), 1))
+}
+
+/// [`cr_of_random_scenes`] for reach-crit: the share of the drawn scenes'
+/// critical variants whose conflict reached the planner. A draw of scenes
+/// without a critical variant has no reach-crit and is left out; `None`
+/// where every draw is.
+fn reach_critical_of_random_scenes<'r>(records: impl Iterator<Item = &'r VariantRecord>, k: usize) -> Option<[f64; 2]> {
+    // Per scene: (critical variants reached, critical variants).
+    share_of_random_scenes(records, k, |r| {
+        let critical = usize::from(r.tally.critical);
+        (critical * usize::from(r.tally.reached), critical)
+    })
+}
+
+/// The 2.5th and 97.5th percentiles, over [`CHANCE_DRAWS`] draws of `k`
+/// scenes at random (without replacement, a fixed seed) from those of
+/// `records` that ran, of the share the drawn scenes' variants make
+/// together: `count` gives a variant's (numerator, denominator), summed
+/// over the draw. Draws whose denominator is 0 are left out. `None` for
+/// `k` of 0 or more than there are scenes, or where every draw is left
+/// out.
+fn share_of_random_scenes<'r>(
+    records: impl Iterator<Item = &'r VariantRecord>,
+    k: usize,
+    count: impl Fn(&VariantRecord) -> (usize, usize),
+) -> Option<[f64; 2]> {
     use rand::{Rng, SeedableRng};
-    // Per scene, in id order: (collisions, variants that ran).
+    // Per scene, in id order.
     let mut per_scene: std::collections::BTreeMap<&str, (usize, usize)> = std::collections::BTreeMap::new();
     for r in records.filter(|r| r.error.is_none()) {
         let e = per_scene.entry(r.scenario.as_str()).or_default();
-        e.0 += usize::from(r.tally.critical);
-        e.1 += 1;
+        let (part, whole) = count(r);
+        e.0 += part;
+        e.1 += whole;
     }
     let scenes: Vec<(usize, usize)> = per_scene.into_values().collect();
     if k == 0 || k > scenes.len() {
@@ -822,19 +860,23 @@ fn cr_of_random_scenes<'r>(records: impl Iterator<Item = &'r VariantRecord>, k: 
     }
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0x5afe_0001);
     let mut order: Vec<usize> = (0..scenes.len()).collect();
-    let mut crs: Vec<f64> = (0..CHANCE_DRAWS)
-        .map(|_| {
+    let mut shares: Vec<f64> = (0..CHANCE_DRAWS)
+        .filter_map(|_| {
             // The first k of a partial Fisher–Yates shuffle.
             for i in 0..k {
                 let j = rng.random_range(i..order.len());
                 order.swap(i, j);
             }
-            let (hits, n) = order[..k].iter().fold((0, 0), |(h, n), &i| (h + scenes[i].0, n + scenes[i].1));
-            hits as f64 / n as f64
+            let (part, whole) = order[..k].iter().fold((0, 0), |(p, w), &i| (p + scenes[i].0, w + scenes[i].1));
+            (whole > 0).then(|| part as f64 / whole as f64)
         })
         .collect();
-    crs.sort_by(f64::total_cmp);
-    let at = |q: f64| crs[((q * (CHANCE_DRAWS - 1) as f64).round() as usize).min(CHANCE_DRAWS - 1)];
+    if shares.is_empty() {
+        return None;
+    }
+    shares.sort_by(f64::total_cmp);
+    let last = shares.len() - 1;
+    let at = |q: f64| shares[((q * last as f64).round() as usize).min(last)];
     Some([at(0.025), at(0.975)])
 }
 
@@ -1382,10 +1424,14 @@ mod tests {
         let few = held_out_split(&records[..9], &[AdversaryMethod::Safer]);
         assert!(few.scenes.is_empty() && few.held_out[0].variants == 0 && few.rest[0].variants == 9);
         assert_eq!(few.cr_by_chance, [None]);
+        assert_eq!(few.reach_critical_by_chance, [None]);
         // Two of 25 scenes collide: two scenes at random make a CR of 0,
         // 0.5 or (rarely: 1 draw in 300) 1.
         let [lo, hi] = split.cr_by_chance[0].expect("two scenes held out");
         assert_eq!((lo, hi), (0.0, 0.5));
+        // None of the critical variants reached the planner: every draw
+        // with one has a reach-crit of 0.
+        assert_eq!(split.reach_critical_by_chance, [Some([0.0, 0.0])]);
     }
 
     #[test]
@@ -1410,5 +1456,34 @@ mod tests {
         assert_eq!(cr_of_random_scenes(records.iter(), 0), None);
         // The same draws on any machine: a fixed seed.
         assert_eq!(cr_of_random_scenes(records.iter(), 3), cr_of_random_scenes(records.iter(), 3));
+    }
+
+    #[test]
+    fn the_reach_crit_by_chance_leaves_out_draws_without_a_critical_variant() {
+        // Ten scenes of four variants: scene 3's are all critical and reach
+        // the planner, scene 5's are all critical and do not, the others
+        // have no critical variant.
+        let records: Vec<VariantRecord> = (0..10)
+            .flat_map(|i| {
+                (0..4).map(move |seed| {
+                    let mut r = record(&format!("s{i}"), seed, u64::from(seed));
+                    r.tally.critical = i == 3 || i == 5;
+                    r.tally.reached = i != 5;
+                    r
+                })
+            })
+            .collect();
+        // One scene a draw: only scenes 3 and 5 have a reach-crit, 1 or 0;
+        // the eight others are left out, not counted as 0.
+        assert_eq!(reach_critical_of_random_scenes(records.iter(), 1), Some([0.0, 1.0]));
+        // All ten: 4 of the 8 critical variants, every draw.
+        assert_eq!(reach_critical_of_random_scenes(records.iter(), 10), Some([0.5, 0.5]));
+        // No critical variant anywhere: no draw has a reach-crit.
+        let calm: Vec<VariantRecord> = records.iter().filter(|r| !r.tally.critical).cloned().collect();
+        assert_eq!(reach_critical_of_random_scenes(calm.iter(), 2), None);
+        // (The reached variants of the calm scenes count for nothing: all
+        // ten scenes give 0.5, not 32 of 40.) The CR of the same draws
+        // counts every variant.
+        assert_eq!(cr_of_random_scenes(records.iter(), 10), Some([0.2, 0.2]));
     }
 }
