@@ -270,8 +270,9 @@
 #                     under the shipped suites' rules over 60 behaviours, ten seeds
 #                     (evaluate-ngsim-n60.txt; WOMD interactive's, over 28, is
 #                     readme-results/evaluate-womd-interactive-default.txt),
-#                     turning-circle/'s two runs of the evasive planner and its two
-#                     three-seed runs of the lane follower (about 60 minutes).
+#                     turning-circle/'s two runs of the evasive planner and its
+#                     lane follower's runs, three seeds and ten (ten-seeds/; about 90
+#                     minutes).
 #                     bumper/before/ holds the two evaluate runs made with the build
 #                     before the rule
 #   womd-json-suites  womd-json-suites/: the shipped lookahead suite's settings on WOMD JSON
@@ -1021,10 +1022,7 @@ for job in "${jobs[@]}"; do
             --planner ../../planners/evasive.yaml --trust-region 28
         run bumper/mutants-ngsim-n60-evasive.txt evaluate --scenes data:commonroad-ngsim "${ten[@]}" \
             --planner ../../planners/evasive.yaml --trust-region 60
-        for s in commonroad-ngsim:ngsim womd-interactive:womd-interactive; do
-            run "bumper/mutants-${s#*:}-lane-follower-n60.txt" evaluate --scenes "data:${s%%:*}" \
-                "${along_the_lanes_lane_follower[@]}"
-        done ;;
+        lane_follower_runs bumper ;;
     womd-json-suites)
         mkdir -p womd-json-suites
         ten=(--seeds 10 "${along_the_lanes[@]:2}")

@@ -17,14 +17,15 @@ fn repo_file(path: &str) -> String {
 /// first line that is not a row).
 fn output_table(output: &str, header_word: &str) -> BTreeMap<String, Vec<String>> {
     let mut lines = output.lines().skip_while(|l| !(l.starts_with("method") && l.contains(header_word)));
-    let header = lines.next().unwrap_or_else(|| panic!("no table with {header_word:?} in the output"));
-    let columns = header.split_whitespace().count();
+    lines.next().unwrap_or_else(|| panic!("no table with {header_word:?} in the output"));
     let mut rows = BTreeMap::new();
     for line in lines {
         let cells: Vec<String> = line.split_whitespace().map(str::to_owned).collect();
-        // A row: the method's name, then at least as many cells as the
-        // header names columns (the mutation table's `| held out` adds one).
-        if cells.len() < columns || !cells[0].chars().all(|c| c.is_ascii_lowercase() || c == '-') {
+        // A row: the method's name, then its cells. A header names some
+        // columns in several words, so their count says nothing; the line
+        // under a table (blank, a note `word: ...`, a scene's id) is no row.
+        let method_name = cells.first().is_some_and(|c| c.chars().all(|c| c.is_ascii_lowercase() || c == '-'));
+        if cells.len() < 2 || !method_name || cells.iter().any(|c| c.ends_with(':')) {
             break;
         }
         rows.insert(cells[0].clone(), cells[1..].to_vec());
