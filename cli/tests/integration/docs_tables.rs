@@ -2287,3 +2287,50 @@ fn the_turning_circle_tables_quote_their_outputs() {
     );
     check_lane_follower_before_after(&rows, ("cut-in-anticipation", "turning-circle"), "cut-in-anticipation/ten-seeds");
 }
+
+/// The fault caught in the fewest scenes as the README's kill tables quote
+/// it: `` `weak-brake` 15 of 53 (28 %) ``.
+fn readme_fewest_scenes(output: &str, method: &str) -> String {
+    let cell = fewest_scenes_cell(output, method);
+    let (name, rest) = cell.split_once(' ').expect("a fault and its scenes");
+    format!("`{name}` {}", rest.replacen('/', " of ", 1))
+}
+
+#[test]
+fn the_readme_kill_tables_quote_their_outputs() {
+    let readme = repo_file("README.md");
+    let method = "safer-in-path-lookahead";
+    // The output of a set's run of the suites' settings, checked to be over
+    // `seeds` seeds a scene.
+    let output = |file: &str, seeds: &str| {
+        let output = repo_file(&format!("docs/evaluation/{file}"));
+        let header = output.lines().find(|l| l.contains(" scenes × ")).expect("the run's header");
+        assert!(header.contains(&format!("× {seeds} seeds")), "{file} is {header}");
+        output
+    };
+    // The evasive planner, ten seeds: kills (held out), ×log, ×prior, the
+    // fault caught in the fewest scenes.
+    let rows = markdown_rows(
+        &readme,
+        "| set | kills (held out) | × log replay's | × the prior's | fewest scenes a fault is caught in |",
+        "With the Python lane follower",
+    );
+    let mut sets = Vec::new();
+    for row in &rows {
+        let file = match row[0].as_str() {
+            "WOMD interactive" => "bumper/mutants-womd-interactive-n28-evasive.txt",
+            "NGSIM" => "bumper/mutants-ngsim-n60-evasive.txt",
+            "WOMD JSON" => "womd-json-suites/mutants-womd-json-n28-evasive.txt",
+            other => panic!("{other}: no output"),
+        };
+        let output = output(file, "10");
+        let mut quoted = kill_cells(&output, method).to_vec();
+        // The README gives the held-out kills without their variants.
+        let kills = labelled_row(&output, "passed", method);
+        quoted[0] = format!("{} ({})", killed(&kills[1]), killed(&kills[3]));
+        quoted.push(readme_fewest_scenes(&output, method));
+        assert_eq!(row[1..], quoted[..], "{row:?}");
+        sets.push(row[0].clone());
+    }
+    assert_eq!(sets, ["WOMD interactive", "NGSIM", "WOMD JSON"], "the three shared sets");
+}
