@@ -2334,3 +2334,28 @@ fn the_readme_kill_tables_quote_their_outputs() {
     }
     assert_eq!(sets, ["WOMD interactive", "NGSIM", "WOMD JSON"], "the three shared sets");
 }
+
+#[test]
+fn the_womd_json_suite_settings_table_quotes_its_outputs() {
+    let doc = repo_file("docs/benchmarks.md");
+    let rows = markdown_rows(
+        &doc,
+        "| planner | seeds | CR | SR-crit | reach-crit | met | kills (held out) | ×log (95 %) | ×prior (95 %) | fewest scenes |",
+        "The kill goals hold on the third set",
+    );
+    let mut planners = Vec::new();
+    for row in &rows {
+        let file = match row[0].as_str() {
+            "evasive" => "mutants-womd-json-n28-evasive.txt",
+            "lane follower" => "mutants-womd-json-lane-follower-n60.txt",
+            other => panic!("{other}: no output"),
+        };
+        let output = repo_file(&format!("docs/evaluation/womd-json-suites/{file}"));
+        let header = output.lines().find(|l| l.contains(" scenes × ")).expect("the run's header");
+        assert!(header.starts_with(&format!("65 scenes × {} seeds", row[1])), "{file} is {header}");
+        let quoted = suite_settings_cells(&output, "safer-in-path-lookahead", false);
+        assert_eq!(row[2..], quoted[..], "{row:?}");
+        planners.push(row[0].clone());
+    }
+    assert_eq!(planners, ["evasive", "lane follower"], "both planners");
+}
