@@ -2288,6 +2288,15 @@ fn the_turning_circle_tables_quote_their_outputs() {
     check_lane_follower_before_after(&rows, ("cut-in-anticipation", "turning-circle"), "cut-in-anticipation/ten-seeds");
 }
 
+/// The output `file` of `docs/evaluation/`, checked to be a run over
+/// `seeds` seeds a scene.
+fn output_over_seeds(file: &str, seeds: &str) -> String {
+    let output = repo_file(&format!("docs/evaluation/{file}"));
+    let header = output.lines().find(|l| l.contains(" scenes × ")).expect("the run's header");
+    assert!(header.contains(&format!(" scenes × {seeds} seeds")), "{file} is {header}");
+    output
+}
+
 /// The fault caught in the fewest scenes as the README's kill tables quote
 /// it: `` `weak-brake` 15 of 53 (28 %) ``.
 fn readme_fewest_scenes(output: &str, method: &str) -> String {
@@ -2300,14 +2309,6 @@ fn readme_fewest_scenes(output: &str, method: &str) -> String {
 fn the_readme_kill_tables_quote_their_outputs() {
     let readme = repo_file("README.md");
     let method = "safer-in-path-lookahead";
-    // The output of a set's run of the suites' settings, checked to be over
-    // `seeds` seeds a scene.
-    let output = |file: &str, seeds: &str| {
-        let output = repo_file(&format!("docs/evaluation/{file}"));
-        let header = output.lines().find(|l| l.contains(" scenes × ")).expect("the run's header");
-        assert!(header.contains(&format!("× {seeds} seeds")), "{file} is {header}");
-        output
-    };
     // The evasive planner, ten seeds: kills (held out), ×log, ×prior, the
     // fault caught in the fewest scenes.
     let rows = markdown_rows(
@@ -2323,7 +2324,7 @@ fn the_readme_kill_tables_quote_their_outputs() {
             "WOMD JSON" => "womd-json-suites/mutants-womd-json-n28-evasive.txt",
             other => panic!("{other}: no output"),
         };
-        let output = output(file, "10");
+        let output = output_over_seeds(file, "10");
         let mut quoted = kill_cells(&output, method).to_vec();
         // The README gives the held-out kills without their variants.
         let kills = labelled_row(&output, "passed", method);
@@ -2350,9 +2351,7 @@ fn the_womd_json_suite_settings_table_quotes_its_outputs() {
             "lane follower" => "mutants-womd-json-lane-follower-n60.txt",
             other => panic!("{other}: no output"),
         };
-        let output = repo_file(&format!("docs/evaluation/womd-json-suites/{file}"));
-        let header = output.lines().find(|l| l.contains(" scenes × ")).expect("the run's header");
-        assert!(header.starts_with(&format!("65 scenes × {} seeds", row[1])), "{file} is {header}");
+        let output = output_over_seeds(&format!("womd-json-suites/{file}"), &row[1]);
         let quoted = suite_settings_cells(&output, "safer-in-path-lookahead", false);
         assert_eq!(row[2..], quoted[..], "{row:?}");
         planners.push(row[0].clone());
