@@ -2358,3 +2358,27 @@ fn the_womd_json_suite_settings_table_quotes_its_outputs() {
     }
     assert_eq!(planners, ["evasive", "lane follower"], "both planners");
 }
+
+#[test]
+fn the_held_out_reach_by_chance_table_quotes_its_outputs() {
+    let doc = repo_file("docs/benchmarks.md");
+    let rows = markdown_rows(
+        &doc,
+        "| set | reach-crit | held out | by chance | met | met, held out |",
+        "the held-out 0.200 lies inside",
+    );
+    let method = "safer-in-path-lookahead";
+    let mut sets = Vec::new();
+    for row in &rows {
+        let output = output_over_seeds(&format!("bumper/{}", suite_settings_output(&row[0], "evasive")), "10");
+        // reach, reach-crit, ... failures, `|`, held out: reach, reach-crit,
+        // SR-avoid, `|`, reach-crit by chance.
+        let reach = labelled_row(&output, "reach-crit", method);
+        // The twin's three bands, met, `|`, met held out.
+        let twin = labelled_row(&output, " met", method);
+        let quoted = [&reach[1], &reach[9], &reach[12], &twin[3], &twin[5]];
+        assert_eq!(row[1..], quoted.map(String::as_str)[..], "{row:?}");
+        sets.push(row[0].clone());
+    }
+    assert_eq!(sets, ["WOMD interactive", "NGSIM"], "both sets");
+}
