@@ -2297,6 +2297,15 @@ fn output_over_seeds(file: &str, seeds: &str) -> String {
     output
 }
 
+/// [`kill_cells`] as the README's kill tables quote them: the held-out
+/// kills without their variants.
+fn readme_kill_cells(output: &str, method: &str) -> Vec<String> {
+    let mut cells = kill_cells(output, method).to_vec();
+    let kills = labelled_row(output, "passed", method);
+    cells[0] = format!("{} ({})", killed(&kills[1]), killed(&kills[3]));
+    cells
+}
+
 /// The fault caught in the fewest scenes as the README's kill tables quote
 /// it: `` `weak-brake` 15 of 53 (28 %) ``.
 fn readme_fewest_scenes(output: &str, method: &str) -> String {
@@ -2325,12 +2334,40 @@ fn the_readme_kill_tables_quote_their_outputs() {
             other => panic!("{other}: no output"),
         };
         let output = output_over_seeds(file, "10");
-        let mut quoted = kill_cells(&output, method).to_vec();
-        // The README gives the held-out kills without their variants.
-        let kills = labelled_row(&output, "passed", method);
-        quoted[0] = format!("{} ({})", killed(&kills[1]), killed(&kills[3]));
+        let mut quoted = readme_kill_cells(&output, method);
         quoted.push(readme_fewest_scenes(&output, method));
         assert_eq!(row[1..], quoted[..], "{row:?}");
+        sets.push(row[0].clone());
+    }
+    assert_eq!(sets, ["WOMD interactive", "NGSIM", "WOMD JSON"], "the three shared sets");
+    // The lane follower: the kills over three seeds; the fault caught in
+    // the fewest scenes over ten (the lookahead alone), on WOMD JSON over
+    // the same three, said so.
+    let rows = markdown_rows(
+        &readme,
+        "| set | kills, three seeds (held out) | × log replay's | × the prior's | fewest scenes a fault is caught in, ten seeds |",
+        "caught in under the fifth of the scenes",
+    );
+    let mut sets = Vec::new();
+    for row in &rows {
+        let (three, fewest, prefix) = match row[0].as_str() {
+            "WOMD interactive" | "NGSIM" => {
+                let file = suite_settings_output(&row[0], "lane follower");
+                (
+                    output_over_seeds(&format!("bumper/{file}"), "3"),
+                    output_over_seeds(&format!("bumper/ten-seeds/{file}"), "10"),
+                    "",
+                )
+            }
+            "WOMD JSON" => {
+                let three = output_over_seeds("womd-json-suites/mutants-womd-json-lane-follower-n60.txt", "3");
+                (three.clone(), three, "three seeds: ")
+            }
+            other => panic!("{other}: no output"),
+        };
+        assert_eq!(row[1..4], readme_kill_cells(&three, method)[..], "{row:?}");
+        let weakest = format!("{prefix}{}", readme_fewest_scenes(&fewest, method));
+        assert!(row[4].starts_with(&weakest), "{row:?}: the fewest scenes are {weakest}");
         sets.push(row[0].clone());
     }
     assert_eq!(sets, ["WOMD interactive", "NGSIM", "WOMD JSON"], "the three shared sets");
