@@ -2419,3 +2419,23 @@ fn the_held_out_reach_by_chance_table_quotes_its_outputs() {
     }
     assert_eq!(sets, ["WOMD interactive", "NGSIM"], "both sets");
 }
+
+#[test]
+fn the_bumper_ten_seed_lane_follower_table_quotes_its_outputs() {
+    let doc = repo_file("docs/benchmarks.md");
+    let rows = markdown_rows(
+        &doc,
+        "| set, ten seeds | reach-crit | met | kills (held out) | fewest scenes |",
+        "The CBV tailgates a quarter as often",
+    );
+    let mut sets = Vec::new();
+    for row in &rows {
+        let file = suite_settings_output(&row[0], "lane follower");
+        // CR, SR-crit, reach-crit, met, kills, –, –, fewest scenes.
+        let cells = suite_settings_before_after(file, "10", ("turning-circle/ten-seeds", "bumper/ten-seeds"), true);
+        let quoted = [&cells[2], &cells[3], &cells[4], &cells[7]];
+        assert_eq!(row[1..], quoted.map(String::as_str)[..], "{row:?}");
+        sets.push(row[0].clone());
+    }
+    assert_eq!(sets, ["WOMD interactive", "NGSIM"], "both sets");
+}
