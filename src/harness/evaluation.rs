@@ -744,7 +744,8 @@ pub struct HeldOutSplit {
     pub reach_critical_by_chance: Vec<Option<[f64; 2]>>,
 }
 
-/// Random draws behind [`HeldOutSplit::cr_by_chance`].
+/// Random draws behind [`HeldOutSplit::cr_by_chance`] and
+/// [`HeldOutSplit::reach_critical_by_chance`].
 const CHANCE_DRAWS: usize = 2000;
 
 /// Splits `records` into the held-out scenes and the rest (see
@@ -1482,7 +1483,7 @@ mod tests {
         let calm: Vec<VariantRecord> = records.iter().filter(|r| !r.tally.critical).cloned().collect();
         assert_eq!(reach_critical_of_random_scenes(calm.iter(), 2), None);
         // (The reached variants of the calm scenes count for nothing: all
-        // ten scenes give 0.5, not 32 of 40.) The CR of the same draws
+        // ten scenes give 0.5, not 36 of 40.) The CR of the same draws
         // counts every variant.
         assert_eq!(cr_of_random_scenes(records.iter(), 10), Some([0.2, 0.2]));
     }
