@@ -544,15 +544,22 @@ fn print_held_out(
             chance
         )?;
     }
-    if !held_out.scenes.is_empty() {
-        writeln!(
-            out,
-            "CR by chance: where the CR of {} scenes drawn at random from all {} falls in 95 % of draws",
-            held_out.scenes.len(),
-            held_out.of_scenes
-        )?;
+    write_chance_note(out, held_out, "CR", "draws")
+}
+
+/// The note under a table that gives a held-out `figure`'s range by
+/// chance: where it falls over as many scenes drawn at random, in 95 % of
+/// `draws` (nothing where no scene is held out).
+fn write_chance_note(out: &mut dyn Write, held_out: &HeldOutSplit, figure: &str, draws: &str) -> std::io::Result<()> {
+    if held_out.scenes.is_empty() {
+        return Ok(());
     }
-    Ok(())
+    writeln!(
+        out,
+        "{figure} by chance: where the {figure} of {} scenes drawn at random from all {} falls in 95 % of {draws}",
+        held_out.scenes.len(),
+        held_out.of_scenes
+    )
 }
 
 /// A held-out figure's range by chance (see [`HeldOutSplit`]), or a dash.
@@ -603,14 +610,7 @@ fn print_conflicts_met(
             chance_range(*chance),
         )?;
     }
-    if !held_out.scenes.is_empty() {
-        writeln!(
-            out,
-            "reach-crit by chance: where the reach-crit of {} scenes drawn at random from all {} falls in 95 % of the draws with a critical variant",
-            held_out.scenes.len(),
-            held_out.of_scenes
-        )?;
-    }
+    write_chance_note(out, held_out, "reach-crit", "the draws with a critical variant")?;
     if let Some(line) = failures_beyond_log(rows) {
         writeln!(out, "{line}")?;
     }
