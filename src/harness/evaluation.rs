@@ -1435,20 +1435,25 @@ mod tests {
         assert_eq!(split.reach_critical_by_chance, [Some([0.0, 0.0])]);
     }
 
+    /// `scenes` scenes `s0`, `s1`, … of `seeds` variants each, every
+    /// variant set by `mark` with its scene's index.
+    fn scenes_of_variants(scenes: usize, seeds: u32, mark: impl Fn(usize, &mut VariantRecord)) -> Vec<VariantRecord> {
+        (0..scenes)
+            .flat_map(|i| (0..seeds).map(move |seed| (i, seed)))
+            .map(|(i, seed)| {
+                let mut r = record(&format!("s{i}"), seed, u64::from(seed));
+                mark(i, &mut r);
+                r
+            })
+            .collect()
+    }
+
     #[test]
     fn the_cr_by_chance_draws_scenes_not_variants() {
         // Ten scenes of ten variants: one scene always collides, the others
         // never. One scene drawn at random makes a CR of 0 or 1, never
         // between; variants drawn one by one would.
-        let records: Vec<VariantRecord> = (0..10)
-            .flat_map(|i| {
-                (0..10).map(move |seed| {
-                    let mut r = record(&format!("s{i}"), seed, u64::from(seed));
-                    r.tally.critical = i == 3;
-                    r
-                })
-            })
-            .collect();
+        let records = scenes_of_variants(10, 10, |i, r| r.tally.critical = i == 3);
         let [lo, hi] = cr_of_random_scenes(records.iter(), 1).unwrap();
         assert_eq!((lo, hi), (0.0, 1.0));
         // All ten: the overall CR, every draw.
@@ -1464,16 +1469,10 @@ mod tests {
         // Ten scenes of four variants: scene 3's are all critical and reach
         // the planner, scene 5's are all critical and do not, the others
         // have no critical variant.
-        let records: Vec<VariantRecord> = (0..10)
-            .flat_map(|i| {
-                (0..4).map(move |seed| {
-                    let mut r = record(&format!("s{i}"), seed, u64::from(seed));
-                    r.tally.critical = i == 3 || i == 5;
-                    r.tally.reached = i != 5;
-                    r
-                })
-            })
-            .collect();
+        let records = scenes_of_variants(10, 4, |i, r| {
+            r.tally.critical = i == 3 || i == 5;
+            r.tally.reached = i != 5;
+        });
         // One scene a draw: only scenes 3 and 5 have a reach-crit, 1 or 0;
         // the eight others are left out, not counted as 0.
         assert_eq!(reach_critical_of_random_scenes(records.iter(), 1), Some([0.0, 1.0]));
