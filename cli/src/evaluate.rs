@@ -726,7 +726,10 @@ fn records_of<'a>(records: &'a [VariantRecord], row: &MethodRow) -> impl Iterato
 /// variants by nuPlan's category of their first contact, seen from the ego.
 /// A CBV that runs into the ego from behind, or into a standing ego, makes
 /// a collision no planner is at fault for (what `--ego-contact
-/// not-from-behind` holds the CBV back from).
+/// not-from-behind` holds the CBV back from). Under each row with a
+/// critical variant, the same count of those whose CBV did not reach the
+/// planner's ego in stage 2: which conflicts reach-crit misses (a car
+/// ahead that the planner stops short of is one of the ego's front).
 fn print_stage1_contacts(
     out: &mut dyn Write,
     rows: &[MethodRow],
@@ -753,6 +756,16 @@ fn print_stage1_contacts(
         write!(out, "{:<w$} {:>8}", name(r), of_row.iter().filter(|v| v.stage1_collision).count())?;
         for (kind, _) in KINDS {
             write!(out, " {:>12}", of_row.iter().filter(|v| v.stage1_contact == Some(kind)).count())?;
+        }
+        writeln!(out)?;
+        if r.stage2_closest_critical.is_none() {
+            continue;
+        }
+        let not_reached: Vec<&&VariantRecord> =
+            of_row.iter().filter(|v| v.tally.critical && !v.tally.reached).collect();
+        write!(out, "{:<w$} {:>8}", "  of them not reached", not_reached.len())?;
+        for (kind, _) in KINDS {
+            write!(out, " {:>12}", not_reached.iter().filter(|v| v.stage1_contact == Some(kind)).count())?;
         }
         writeln!(out)?;
     }
@@ -860,7 +873,7 @@ fn print_legend(out: &mut dyn Write) -> std::io::Result<()> {
     )?;
     writeln!(
         out,
-        "how the CBV touched the recorded ego: the critical variants by their first contact, seen from the ego (nuPlan's categories): the ego's front (within 45° of its heading), its side, from behind (within 45° of its tail), the ego standing, the CBV standing; from behind and the ego standing are never the ego's fault (`--ego-contact not-from-behind` holds the CBV back from them)."
+        "how the CBV touched the recorded ego: the critical variants by their first contact, seen from the ego (nuPlan's categories): the ego's front (within 45° of its heading), its side, from behind (within 45° of its tail), the ego standing, the CBV standing; from behind and the ego standing are never the ego's fault (`--ego-contact not-from-behind` holds the CBV back from them). of them not reached: the same count of the critical variants whose CBV did not come within 1 m of the planner's ego in stage 2 (what reach-crit misses, by kind: a car ahead the planner stopped short of, or passed, is one of the ego's front)."
     )?;
     writeln!(
         out,

@@ -480,7 +480,8 @@ fn the_table_says_how_the_cbv_touched_the_recorded_ego_as_the_json_report_does()
     let out = tempfile_dir("stage1-contacts");
     let scenes = Path::new(repo_root!()).join("scenes/ngsim");
     // The table's row of each first-contact category, and the report's
-    // critical variants by the same category, for one ego-contact rule.
+    // critical variants by the same category, for one ego-contact rule;
+    // then the same of those whose CBV did not reach the planner's ego.
     let counts = |rule: &str| -> (Vec<usize>, Vec<usize>) {
         let json = out.join(format!("{rule}.json"));
         let table = ok(safer(&[
@@ -501,34 +502,46 @@ fn the_table_says_how_the_cbv_touched_the_recorded_ego_as_the_json_report_does()
             json.to_str().unwrap(),
         ]));
         let section = table.split("how the CBV touched the recorded ego (stage 1").nth(1).expect("the contacts table");
-        let line = section.lines().find(|l| l.starts_with("safer-in-path-lookahead")).expect("its row");
-        let cells: Vec<usize> = line.split_whitespace().skip(1).map(|c| c.parse().unwrap()).collect();
+        let mut lines = section.lines().skip_while(|l| !l.starts_with("safer-in-path-lookahead"));
+        let parse = |line: &str, label: &str| -> Vec<usize> {
+            let rest = line.strip_prefix(label).unwrap_or_else(|| panic!("no {label:?} row: {line}"));
+            rest.split_whitespace().map(|c| c.parse().unwrap()).collect()
+        };
+        let mut cells = parse(lines.next().expect("its row"), "safer-in-path-lookahead");
+        // Without a critical variant there is nothing to reach: no row.
+        let not_reached = match cells[0] {
+            0 => vec![0; 6],
+            _ => parse(lines.next().expect("the row of those not reached"), "  of them not reached"),
+        };
         let report: Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
         let variants = report["variants"].as_array().unwrap();
-        let of = |kind: &str| variants.iter().filter(|v| v["stage1_contact"] == kind).count();
-        let critical = variants.iter().filter(|v| v["stage1_collision"] == true).count();
-        let reported = vec![
-            critical,
-            of("active-front"),
-            of("active-lateral"),
-            of("active-rear"),
-            of("stopped-ego"),
-            of("stopped-other"),
-        ];
+        let by_kind = |of: &dyn Fn(&Value) -> bool| -> Vec<usize> {
+            let kinds = ["active-front", "active-lateral", "active-rear", "stopped-ego", "stopped-other"];
+            let of: Vec<&Value> = variants.iter().filter(|v| of(v)).collect();
+            let counts = kinds.iter().map(|kind| of.iter().filter(|v| v["stage1_contact"] == *kind).count());
+            std::iter::once(of.len()).chain(counts).collect()
+        };
+        let mut reported = by_kind(&|v| v["stage1_collision"] == true);
+        let critical_not_reached = by_kind(&|v| v["tally"]["critical"] == true && v["conflict_reached"] == false);
+        assert_eq!(not_reached, critical_not_reached, "the table's not reached and the JSON report disagree");
+        assert_eq!(not_reached[0], not_reached[1..].iter().sum::<usize>(), "{not_reached:?}");
+        assert!(not_reached.iter().zip(&cells).all(|(n, all)| n <= all), "{not_reached:?} of {cells:?}");
+        cells.extend(not_reached);
+        reported.extend(critical_not_reached);
         (cells, reported)
     };
     let (any, any_reported) = counts("any");
     assert_eq!(any, any_reported, "the table and the JSON report disagree");
     // Every critical variant in one category, and a contact only in a
     // critical variant.
-    assert_eq!(any[0], any[1..].iter().sum::<usize>(), "{any:?}");
+    assert_eq!(any[0], any[1..6].iter().sum::<usize>(), "{any:?}");
     assert!(any[0] > 0, "the lookahead makes conflicts on the shipped scenes: {any:?}");
     // On these scenes the paper's rule lets the lookahead's CBV run into
     // the ego from behind; kept from it, it never does.
     assert!(any[3] > 0, "no contact from behind with any contact allowed: {any:?}");
     let (kept, kept_reported) = counts("not-from-behind");
     assert_eq!(kept, kept_reported, "the table and the JSON report disagree");
-    assert_eq!(kept[0], kept[1..].iter().sum::<usize>(), "{kept:?}");
+    assert_eq!(kept[0], kept[1..6].iter().sum::<usize>(), "{kept:?}");
     assert_eq!((kept[3], kept[4]), (0, 0), "{kept:?}");
 }
 
