@@ -280,7 +280,8 @@
 #                     behind, along the lanes, all seven mutants): the evasive planner over
 #                     28 behaviours, ten seeds (mutants-womd-json-n28-evasive.txt), and the
 #                     lane follower over 60, three seeds
-#                     (mutants-womd-json-lane-follower-n60.txt)
+#                     (mutants-womd-json-lane-follower-n60.txt) and ten, the lookahead
+#                     alone (ten-seeds/mutants-womd-json-lane-follower-n60.txt)
 #   readme-results    readme-results/: the README's results table, the paper's protocol on
 #                     WOMD interactive with this build: every method of the table over 20
 #                     (evaluate-womd-interactive.txt) and the suites' method over 28 with no
@@ -1029,7 +1030,11 @@ for job in "${jobs[@]}"; do
         run womd-json-suites/mutants-womd-json-n28-evasive.txt evaluate --scenes data:womd-json "${ten[@]}" \
             --planner ../../planners/evasive.yaml --trust-region 28
         run womd-json-suites/mutants-womd-json-lane-follower-n60.txt evaluate --scenes data:womd-json \
-            "${along_the_lanes_lane_follower[@]}" ;;
+            "${along_the_lanes_lane_follower[@]}"
+        mkdir -p womd-json-suites/ten-seeds
+        ten_lane_follower=(--seeds 10 "${along_the_lanes_lane_follower[@]:2}")
+        run womd-json-suites/ten-seeds/mutants-womd-json-lane-follower-n60.txt evaluate --scenes data:womd-json \
+            "${ten_lane_follower[@]/%log,prior,safer-in-path-lookahead/safer-in-path-lookahead}" ;;
     readme-results)
         mkdir -p readme-results
         run readme-results/evaluate-womd-interactive.txt evaluate --scenes data:womd-interactive --seeds 10 \

@@ -2341,8 +2341,7 @@ fn the_readme_kill_tables_quote_their_outputs() {
     }
     assert_eq!(sets, ["WOMD interactive", "NGSIM", "WOMD JSON"], "the three shared sets");
     // The lane follower: the kills over three seeds; the fault caught in
-    // the fewest scenes over ten (the lookahead alone), on WOMD JSON over
-    // the same three, said so.
+    // the fewest scenes over ten (the lookahead alone).
     let rows = markdown_rows(
         &readme,
         "| set | kills, three seeds (held out) | × log replay's | × the prior's | fewest scenes a fault is caught in, ten seeds |",
@@ -2350,23 +2349,15 @@ fn the_readme_kill_tables_quote_their_outputs() {
     );
     let mut sets = Vec::new();
     for row in &rows {
-        let (three, fewest, prefix) = match row[0].as_str() {
-            "WOMD interactive" | "NGSIM" => {
-                let file = suite_settings_output(&row[0], "lane follower");
-                (
-                    output_over_seeds(&format!("bumper/{file}"), "3"),
-                    output_over_seeds(&format!("bumper/ten-seeds/{file}"), "10"),
-                    "",
-                )
-            }
-            "WOMD JSON" => {
-                let three = output_over_seeds("womd-json-suites/mutants-womd-json-lane-follower-n60.txt", "3");
-                (three.clone(), three, "three seeds: ")
-            }
+        let (dir, file) = match row[0].as_str() {
+            "WOMD interactive" | "NGSIM" => ("bumper", suite_settings_output(&row[0], "lane follower")),
+            "WOMD JSON" => ("womd-json-suites", "mutants-womd-json-lane-follower-n60.txt"),
             other => panic!("{other}: no output"),
         };
+        let three = output_over_seeds(&format!("{dir}/{file}"), "3");
+        let fewest = output_over_seeds(&format!("{dir}/ten-seeds/{file}"), "10");
         assert_eq!(row[1..4], readme_kill_cells(&three, method)[..], "{row:?}");
-        let weakest = format!("{prefix}{}", readme_fewest_scenes(&fewest, method));
+        let weakest = readme_fewest_scenes(&fewest, method);
         assert!(row[4].starts_with(&weakest), "{row:?}: the fewest scenes are {weakest}");
         sets.push(row[0].clone());
     }
@@ -2383,17 +2374,19 @@ fn the_womd_json_suite_settings_table_quotes_its_outputs() {
     );
     let mut planners = Vec::new();
     for row in &rows {
-        let file = match row[0].as_str() {
-            "evasive" => "mutants-womd-json-n28-evasive.txt",
-            "lane follower" => "mutants-womd-json-lane-follower-n60.txt",
-            other => panic!("{other}: no output"),
+        // The lane follower's ten-seed run is the lookahead's alone.
+        let file = match (row[0].as_str(), row[1].as_str()) {
+            ("evasive", "10") => "mutants-womd-json-n28-evasive.txt",
+            ("lane follower", "3") => "mutants-womd-json-lane-follower-n60.txt",
+            ("lane follower", "10") => "ten-seeds/mutants-womd-json-lane-follower-n60.txt",
+            other => panic!("{other:?}: no output"),
         };
         let output = output_over_seeds(&format!("womd-json-suites/{file}"), &row[1]);
-        let quoted = suite_settings_cells(&output, "safer-in-path-lookahead", false);
+        let quoted = suite_settings_cells(&output, "safer-in-path-lookahead", file.starts_with("ten-seeds/"));
         assert_eq!(row[2..], quoted[..], "{row:?}");
-        planners.push(row[0].clone());
+        planners.push(format!("{} {}", row[0], row[1]));
     }
-    assert_eq!(planners, ["evasive", "lane follower"], "both planners");
+    assert_eq!(planners, ["evasive 10", "lane follower 3", "lane follower 10"], "both planners");
 }
 
 #[test]
