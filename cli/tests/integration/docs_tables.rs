@@ -2432,3 +2432,41 @@ fn the_bumper_ten_seed_lane_follower_table_quotes_its_outputs() {
     }
     assert_eq!(sets, ["WOMD interactive", "NGSIM"], "both sets");
 }
+
+/// The row under `method`'s in an output's stage-1 contacts table: its
+/// critical variants not reached in stage 2, in all and by first contact.
+fn not_reached_cells(output: &str, method: &str) -> Vec<String> {
+    let mut lines = output.lines().skip_while(|l| !l.starts_with("how the CBV touched the recorded ego (stage 1"));
+    let row = lines
+        .find(|l| l.strip_prefix(method).is_some_and(|rest| rest.starts_with(' ')))
+        .unwrap_or_else(|| panic!("no {method} row in the contacts table"));
+    let under = lines.next().unwrap_or_default();
+    let cells =
+        under.strip_prefix("  of them not reached").unwrap_or_else(|| panic!("no row not reached under {row:?}"));
+    cells.split_whitespace().map(str::to_owned).collect()
+}
+
+#[test]
+fn the_not_reached_by_contact_table_quotes_its_outputs() {
+    let doc = repo_file("docs/benchmarks.md");
+    let rows = markdown_rows(
+        &doc,
+        "| set | critical | not reached | ego's front | side | from behind | ego standing | CBV standing |",
+        "Of the conflicts reach-crit misses",
+    );
+    let method = "safer-in-path-lookahead";
+    let mut sets = Vec::new();
+    for row in &rows {
+        let file = match row[0].as_str() {
+            "WOMD interactive" | "NGSIM" => format!("bumper/{}", suite_settings_output(&row[0], "evasive")),
+            "WOMD JSON" => "womd-json-suites/mutants-womd-json-n28-evasive.txt".to_owned(),
+            other => panic!("{other}: no output"),
+        };
+        let output = output_over_seeds(&file, "10");
+        let critical = labelled_row(&output, "ego's front", method)[0].clone();
+        let quoted: Vec<String> = std::iter::once(critical).chain(not_reached_cells(&output, method)).collect();
+        assert_eq!(row[1..], quoted[..], "{row:?} against {file}");
+        sets.push(row[0].clone());
+    }
+    assert_eq!(sets, ["WOMD interactive", "WOMD JSON"], "the two sets reach-crit misses 0.8 on");
+}
