@@ -751,23 +751,22 @@ fn print_stage1_contacts(
         write!(out, " {heading:>12}")?;
     }
     writeln!(out)?;
+    // A line: its label, how many, and how many of `variants` by first contact.
+    let line = |out: &mut dyn Write, label: &str, count: usize, variants: &[&VariantRecord]| {
+        write!(out, "{label:<w$} {count:>8}")?;
+        for (kind, _) in KINDS {
+            write!(out, " {:>12}", variants.iter().filter(|v| v.stage1_contact == Some(kind)).count())?;
+        }
+        writeln!(out)
+    };
     for r in rows {
         let of_row: Vec<&VariantRecord> = records_of(records, r).collect();
-        write!(out, "{:<w$} {:>8}", name(r), of_row.iter().filter(|v| v.stage1_collision).count())?;
-        for (kind, _) in KINDS {
-            write!(out, " {:>12}", of_row.iter().filter(|v| v.stage1_contact == Some(kind)).count())?;
+        line(out, &name(r), of_row.iter().filter(|v| v.stage1_collision).count(), &of_row)?;
+        if r.stage2_closest_critical.is_some() {
+            let not_reached: Vec<&VariantRecord> =
+                of_row.iter().copied().filter(|v| v.tally.critical && !v.tally.reached).collect();
+            line(out, "  of them not reached", not_reached.len(), &not_reached)?;
         }
-        writeln!(out)?;
-        if r.stage2_closest_critical.is_none() {
-            continue;
-        }
-        let not_reached: Vec<&&VariantRecord> =
-            of_row.iter().filter(|v| v.tally.critical && !v.tally.reached).collect();
-        write!(out, "{:<w$} {:>8}", "  of them not reached", not_reached.len())?;
-        for (kind, _) in KINDS {
-            write!(out, " {:>12}", not_reached.iter().filter(|v| v.stage1_contact == Some(kind)).count())?;
-        }
-        writeln!(out)?;
     }
     Ok(())
 }

@@ -2458,7 +2458,7 @@ fn the_not_reached_by_contact_table_quotes_its_outputs() {
     let mut sets = Vec::new();
     for row in &rows {
         let file = match row[0].as_str() {
-            "WOMD interactive" | "NGSIM" => format!("bumper/{}", suite_settings_output(&row[0], "evasive")),
+            "WOMD interactive" => format!("bumper/{}", suite_settings_output(&row[0], "evasive")),
             "WOMD JSON" => "womd-json-suites/mutants-womd-json-n28-evasive.txt".to_owned(),
             other => panic!("{other}: no output"),
         };
