@@ -294,6 +294,7 @@ fn print_table(
             RolePairing::AsLoaded => "",
             RolePairing::Merging => "; ego and CBV in merging lanes (--roles merging)",
             RolePairing::Leader => "; the CBV is the ego's leader (--roles leader)",
+            RolePairing::Crossing => "; the CBV's path crosses the ego's (--roles crossing)",
         }
     )?;
     print_outcomes(out, rows, &name)?;
@@ -1415,6 +1416,7 @@ impl SceneSelection<'_> {
             RolePairing::AsLoaded => return scenes,
             RolePairing::Merging => "a merging pair",
             RolePairing::Leader => "a leader",
+            RolePairing::Crossing => "a crossing pair",
         };
         let all = scenes.len();
         let paired: Vec<Arc<Scenario>> = scenes
@@ -1441,6 +1443,7 @@ impl SceneSelection<'_> {
                 RolePairing::AsLoaded => "an ego and a CBV",
                 RolePairing::Merging => "a merging pair (--roles merging)",
                 RolePairing::Leader => "a leader for the ego (--roles leader)",
+                RolePairing::Crossing => "a crossing pair (--roles crossing)",
             };
             return Err(CliError::Usage(format!(
                 "--scene {missing}: no scene with {which} under {} has that id ({} do; the tables name them)",
@@ -1501,6 +1504,7 @@ pub(super) fn run(
             RolePairing::AsLoaded => "no scene with both an ego and a CBV",
             RolePairing::Merging => "no scene with a pair of vehicles in merging lanes (--roles merging)",
             RolePairing::Leader => "no scene where the ego has a leader (--roles leader)",
+            RolePairing::Crossing => "no scene with a vehicle whose path crosses the ego's (--roles crossing)",
         };
         return Err(CliError::Usage(format!("{}: {what}", scenes_dir.display())));
     }
@@ -1785,7 +1789,7 @@ pub(crate) struct EvaluateArgs {
     /// Horizon of both stages from the scene's current step, s (positive, finite).
     #[arg(long, default_value_t = 8.0, value_parser = positive_finite, allow_negative_numbers = true)]
     pub(crate) horizon_s: f64,
-    /// Which ego–CBV pair each scene is tested with: `as-loaded`, the source's roles, else the labelled pair, else the pair of moving vehicles with the closest approach; `merging`, a CBV in a lane that merges with the ego's ahead of both (an on-ramp, a lane drop, two ways through a junction), of those reaching the merge point (at their speeds) between 1 s and the recording's end, the one arriving nearest in time to the ego; a mined ego is mined again with it; `leader`, the ego's leader: the nearest moving vehicle now ahead of it along its recorded path (within its width plus 0.4 m, heading its way, at most 60 m ahead of its front): the car it follows, or comes up behind in the lane it moves into; the ego as loaded. Scenes without such a pair are left out.
+    /// Which ego–CBV pair each scene is tested with: `as-loaded`, the source's roles, else the labelled pair, else the pair of moving vehicles with the closest approach; `merging`, a CBV in a lane that merges with the ego's ahead of both (an on-ramp, a lane drop, two ways through a junction), of those reaching the merge point (at their speeds) between 1 s and the recording's end, the one arriving nearest in time to the ego; a mined ego is mined again with it; `leader`, the ego's leader: the nearest moving vehicle now ahead of it along its recorded path (within its width plus 0.4 m, heading its way, at most 60 m ahead of its front): the car it follows, or comes up behind in the lane it moves into; the ego as loaded; `crossing`, a car whose recorded path crosses the ego's at 45° or more (across its way at a junction, or turning across it), both passing the crossing point 1 s or more from now: the one with the least post-encroachment time (the time between the two passing it); a mined ego is mined again with it. Scenes without such a pair are left out.
     #[arg(long, value_parser = choice(RolePairing::ALL), default_value = "as-loaded")]
     pub(crate) roles: RolePairing,
     /// Evaluate only the first N scenes (by id), at least 1.

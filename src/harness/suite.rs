@@ -310,6 +310,7 @@ fn pair_description(roles: RolePairing) -> &'static str {
         RolePairing::AsLoaded => "an ego and a CBV",
         RolePairing::Merging => "a pair of vehicles in merging lanes",
         RolePairing::Leader => "a leader for the ego",
+        RolePairing::Crossing => "a vehicle crossing the ego's path",
     }
 }
 

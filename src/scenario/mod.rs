@@ -224,6 +224,9 @@ pub enum RoleOrigin {
     /// The vehicle ahead of the ego in its path, chosen on request
     /// (`safer evaluate --roles leader`, see [`roles::assign_leader`]).
     LeaderMining,
+    /// A vehicle whose recorded path crosses the ego's, chosen on request
+    /// (`safer evaluate --roles crossing`, see [`roles::assign_crossing`]).
+    CrossingMining,
     /// Not assigned.
     Unassigned,
 }

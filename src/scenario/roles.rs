@@ -34,6 +34,14 @@
 //! and a CBV beside or behind the ego can only close on it from the side
 //! or the rear, which no braking fault of a planner answers to; a leader
 //! that brakes is the conflict that tests the ego's braking.
+//!
+//! Or with a crossing pair ([`RolePairing::Crossing`]): a vehicle whose
+//! recorded path crosses the ego's at 45° or more (across its way at a
+//! junction, or turning across it), both passing the crossing point 1 s
+//! or more from now; of those, the one with the least post-encroachment
+//! time (how long after the first left the point the second reached it).
+//! The closest approach picks the car beside or behind the ego, which
+//! never meets it at a junction.
 
 use super::{AgentKind, AgentState, RoleOrigin, Scenario, TrackIndex};
 use crate::geometry::{Point2, Polyline, Vector2, wrap_angle};
@@ -200,11 +208,14 @@ pub enum RolePairing {
     /// The CBV is the ego's leader ([`assign_leader`]); scenes without one
     /// are left out.
     Leader,
+    /// A CBV whose recorded path crosses the ego's at a junction
+    /// ([`assign_crossing`]); scenes without one are left out.
+    Crossing,
 }
 
 impl RolePairing {
     /// Every variant, in declaration order (for choosers such as the command line).
-    pub const ALL: &'static [Self] = &[Self::AsLoaded, Self::Merging, Self::Leader];
+    pub const ALL: &'static [Self] = &[Self::AsLoaded, Self::Merging, Self::Leader, Self::Crossing];
 
     /// Gives `scenario` the pair this pairing asks for; `false` (the
     /// scenario left as it was) when it has none.
@@ -213,6 +224,7 @@ impl RolePairing {
             Self::AsLoaded => scenario.ego.is_some() && scenario.cbv.is_some(),
             Self::Merging => assign_merging(scenario),
             Self::Leader => assign_leader(scenario),
+            Self::Crossing => assign_crossing(scenario),
         }
     }
 }
@@ -452,6 +464,164 @@ pub fn assign_merging(scenario: &mut Scenario) -> bool {
     }
     scenario.cbv = Some(cbv);
     scenario.cbv_origin = RoleOrigin::MergeMining;
+    true
+}
+
+/// Least angle between two recorded paths where they cross for the pair
+/// to be a crossing pair, rad (the conflict classifier's bound between the
+/// same direction and a crossing, 45°): a turn across the other's way, a
+/// crossing at a junction, not two cars in one lane.
+pub const CROSSING_MIN_ANGLE_RAD: f64 = std::f64::consts::FRAC_PI_4;
+
+/// A crossing pair must both pass the crossing point at least this long
+/// after the current step, s (as a merging pair): a pair nearer has all
+/// but crossed, and a CBV needs time to act.
+pub const CROSSING_ARRIVAL_MIN_S: f64 = 1.0;
+
+/// Where two recorded paths cross ([`path_crossing`]) and when each
+/// vehicle passes there.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PathCrossing {
+    /// The crossing point of the two centres' paths.
+    pub point: Point2,
+    /// When the first vehicle asked about (`a`) passes it, s after the
+    /// current step.
+    pub first_s: f64,
+    /// When the second (`b`) passes it, s after the current step.
+    pub second_s: f64,
+}
+
+impl PathCrossing {
+    /// The post-encroachment time, s: how long after the first of the two
+    /// left the crossing point the second reached it (centre to centre),
+    /// the traffic engineer's measure of how near a crossing came to a
+    /// collision.
+    pub fn post_encroachment_s(&self) -> f64 {
+        (self.first_s - self.second_s).abs()
+    }
+}
+
+/// A recorded path from the current step on: each valid state's time
+/// after the current step, s, and its centre.
+fn recorded_path(scenario: &Scenario, track: TrackIndex) -> Vec<(f64, Point2)> {
+    let now = scenario.current_step;
+    let states = &scenario.track(track).states;
+    states
+        .iter()
+        .enumerate()
+        .skip(now)
+        .filter_map(|(step, s)| s.map(|s| ((step - now) as f64 * scenario.dt_s, s.position)))
+        .collect()
+}
+
+/// The least and greatest corner of the box holding `path`.
+fn path_bounds(path: &[(f64, Point2)]) -> (Point2, Point2) {
+    path.iter().fold(
+        (Point2::new(f64::INFINITY, f64::INFINITY), Point2::new(f64::NEG_INFINITY, f64::NEG_INFINITY)),
+        |(lo, hi), (_, p)| (Point2::new(lo.x.min(p.x), lo.y.min(p.y)), Point2::new(hi.x.max(p.x), hi.y.max(p.y))),
+    )
+}
+
+/// Where the recorded paths of `a` and `b` (their centres, from the
+/// current step on, between consecutive recorded steps) cross at
+/// [`CROSSING_MIN_ANGLE_RAD`] or more, both passing the point
+/// [`CROSSING_ARRIVAL_MIN_S`] or more after the current step: of the
+/// crossings, the one with the least post-encroachment time (ties to the
+/// earlier along `a`'s path). `None` where they do not so cross.
+pub fn path_crossing(scenario: &Scenario, a: TrackIndex, b: TrackIndex) -> Option<PathCrossing> {
+    let (pa, pb) = (recorded_path(scenario, a), recorded_path(scenario, b));
+    let ((lo_a, hi_a), (lo_b, hi_b)) = (path_bounds(&pa), path_bounds(&pb));
+    if lo_a.x > hi_b.x || lo_b.x > hi_a.x || lo_a.y > hi_b.y || lo_b.y > hi_a.y {
+        return None;
+    }
+    let consecutive = |w: &[(f64, Point2)]| (w[1].0 - w[0].0) <= 1.5 * scenario.dt_s;
+    let mut best: Option<PathCrossing> = None;
+    for wa in pa.windows(2).filter(|w| consecutive(w)) {
+        let ((ta0, a0), (ta1, a1)) = (wa[0], wa[1]);
+        let da = a1 - a0;
+        if da.norm() < 1e-6 {
+            continue;
+        }
+        for wb in pb.windows(2).filter(|w| consecutive(w)) {
+            let ((tb0, b0), (tb1, b1)) = (wb[0], wb[1]);
+            let db = b1 - b0;
+            let cross = da.x * db.y - da.y * db.x;
+            // Parallel (or standing) segments do not cross at an angle.
+            if cross.abs() < 1e-9 * da.norm() * db.norm().max(1e-9) {
+                continue;
+            }
+            let w = b0 - a0;
+            let (u, v) = ((w.x * db.y - w.y * db.x) / cross, (w.x * da.y - w.y * da.x) / cross);
+            if !(0.0..=1.0).contains(&u) || !(0.0..=1.0).contains(&v) {
+                continue;
+            }
+            let angle = wrap_angle(db.y.atan2(db.x) - da.y.atan2(da.x)).abs();
+            if angle < CROSSING_MIN_ANGLE_RAD {
+                continue;
+            }
+            let found =
+                PathCrossing { point: a0 + da * u, first_s: ta0 + u * (ta1 - ta0), second_s: tb0 + v * (tb1 - tb0) };
+            if found.first_s < CROSSING_ARRIVAL_MIN_S || found.second_s < CROSSING_ARRIVAL_MIN_S {
+                continue;
+            }
+            if best.is_none_or(|b| found.post_encroachment_s() < b.post_encroachment_s()) {
+                best = Some(found);
+            }
+        }
+    }
+    best
+}
+
+/// The ranking of a crossing pair: its post-encroachment time
+/// ([`path_crossing`]); `None` for a pair whose paths do not so cross or
+/// whose recorded boxes overlap (as in [`approach_score`]).
+fn crossing_pet_s(scenario: &Scenario, a: TrackIndex, b: TrackIndex) -> Option<f64> {
+    let crossing = path_crossing(scenario, a, b)?;
+    approach_score(scenario, a, b).is_some().then(|| crossing.post_encroachment_s())
+}
+
+/// The CBV for `ego` among the vehicles whose recorded paths cross the
+/// ego's ([`path_crossing`]): the moving one with the least
+/// post-encroachment time, a car that passed the crossing point nearest
+/// in time to the ego (a CBV that can meet it there), whose recorded box
+/// never overlaps the ego's.
+pub fn mine_crossing_cbv(scenario: &Scenario, ego: TrackIndex) -> Option<TrackIndex> {
+    best_to(scenario, ego, |c| crossing_pet_s(scenario, ego, c).map(|pet| (pet, 0)))
+}
+
+/// The (ego, CBV) pair of crossing paths with the least post-encroachment
+/// time, as in [`mine_crossing_cbv`]; the ego is the one with more valid
+/// future steps, as in [`mine_pair`].
+pub fn mine_crossing_pair(scenario: &Scenario) -> Option<(TrackIndex, TrackIndex)> {
+    best_pair(scenario, |a, b| crossing_pet_s(scenario, a, b).map(|pet| (pet, 0)))
+}
+
+/// Makes the scenario's CBV a vehicle whose path crosses the ego's, for
+/// testing a planner at junctions (a car crossing its way, or turning
+/// across it): an ego the source named (or its labelled pair's) keeps its
+/// place and gets the crossing CBV [`mine_crossing_cbv`] finds; a mined
+/// ego is mined again with its CBV as a crossing pair
+/// ([`mine_crossing_pair`]). Returns whether the scene has one; when it
+/// has none the scenario is left as it was.
+pub fn assign_crossing(scenario: &mut Scenario) -> bool {
+    let named_ego =
+        scenario.ego.filter(|_| matches!(scenario.ego_origin, RoleOrigin::Source | RoleOrigin::LabelledPair));
+    let (ego, cbv) = match named_ego {
+        Some(ego) => match mine_crossing_cbv(scenario, ego) {
+            Some(cbv) => (ego, cbv),
+            None => return false,
+        },
+        None => match mine_crossing_pair(scenario) {
+            Some(pair) => pair,
+            None => return false,
+        },
+    };
+    if scenario.ego != Some(ego) {
+        scenario.ego = Some(ego);
+        scenario.ego_origin = RoleOrigin::CrossingMining;
+    }
+    scenario.cbv = Some(cbv);
+    scenario.cbv_origin = RoleOrigin::CrossingMining;
     true
 }
 
@@ -725,6 +895,65 @@ mod tests {
         assert_eq!((s.ego, s.cbv), (Some(TrackIndex(0)), Some(TrackIndex(3))));
         assert_eq!(s.cbv_origin, RoleOrigin::LeaderMining);
         assert_eq!(s.ego_origin, RoleOrigin::Source);
+    }
+
+    /// The ego east along y = 0 at 10 m/s; cars going north across its
+    /// way, one in its lane ahead.
+    fn crossing_scene() -> Scenario {
+        scenario(vec![
+            track("ego", 0.0, 0.0, 10.0, 0.0),
+            // Passes (20, 0) at 3.0 s, the ego at 2.0 s: 1 s apart.
+            track("crossing", 20.0, -30.0, 0.0, 10.0),
+            // Passes (30, 0) at 1.0 s, the ego at 3.0 s: 2 s apart.
+            track("early", 30.0, -10.0, 0.0, 10.0),
+            // Passes (5, 0) at 2.5 s, but the ego passes it within 1 s.
+            track("too-soon", 5.0, -25.0, 0.0, 10.0),
+            // Ahead in the ego's lane: the same way, no crossing.
+            track("leader", 20.0, 0.0, 10.0, 0.0),
+        ])
+    }
+
+    #[test]
+    fn a_crossing_pair_is_the_car_across_the_egos_way_with_the_least_post_encroachment_time() {
+        let mut s = crossing_scene();
+        let crossing = path_crossing(&s, TrackIndex(0), TrackIndex(1)).expect("the paths cross");
+        assert!((crossing.point - Point2::new(20.0, 0.0)).norm() < 1e-9, "{crossing:?}");
+        assert!((crossing.first_s - 2.0).abs() < 1e-9 && (crossing.second_s - 3.0).abs() < 1e-9, "{crossing:?}");
+        assert!((crossing.post_encroachment_s() - 1.0).abs() < 1e-9);
+        let early = path_crossing(&s, TrackIndex(0), TrackIndex(2)).expect("the paths cross");
+        assert!((early.post_encroachment_s() - 2.0).abs() < 1e-9, "{early:?}");
+        assert_eq!(path_crossing(&s, TrackIndex(0), TrackIndex(3)), None, "the ego is there within 1 s");
+        assert_eq!(path_crossing(&s, TrackIndex(0), TrackIndex(4)), None, "one lane: no angle");
+        s.ego = Some(TrackIndex(0));
+        s.ego_origin = RoleOrigin::Source;
+        assert!(RolePairing::Crossing.assign(&mut s));
+        assert_eq!((s.ego, s.cbv), (Some(TrackIndex(0)), Some(TrackIndex(1))));
+        assert_eq!((s.ego_origin, s.cbv_origin), (RoleOrigin::Source, RoleOrigin::CrossingMining));
+        // With no ego named the pair is mined: the same two.
+        let mut mined = crossing_scene();
+        assert!(RolePairing::Crossing.assign(&mut mined));
+        assert_eq!((mined.ego, mined.cbv), (Some(TrackIndex(0)), Some(TrackIndex(1))));
+        assert_eq!((mined.ego_origin, mined.cbv_origin), (RoleOrigin::CrossingMining, RoleOrigin::CrossingMining));
+    }
+
+    #[test]
+    fn paths_that_touch_in_the_recording_or_never_cross_make_no_crossing_pair() {
+        // The two pass (20, 0) together: a recorded overlap, not a pair.
+        let mut s = scenario(vec![track("ego", 0.0, 0.0, 10.0, 0.0), track("hit", 20.0, -20.0, 0.0, 10.0)]);
+        assert!(path_crossing(&s, TrackIndex(0), TrackIndex(1)).is_some());
+        s.ego = Some(TrackIndex(0));
+        s.ego_origin = RoleOrigin::Source;
+        s.cbv = Some(TrackIndex(1));
+        assert!(!RolePairing::Crossing.assign(&mut s));
+        assert_eq!((s.cbv, s.cbv_origin), (Some(TrackIndex(1)), RoleOrigin::Unassigned), "left as it was");
+        // Two lanes the same way and one the other way: nothing crosses.
+        let mut apart = scenario(vec![
+            track("ego", 0.0, 0.0, 10.0, 0.0),
+            track("beside", 0.0, 3.5, 10.0, 0.0),
+            track("oncoming", 40.0, -3.5, -10.0, 0.0),
+        ]);
+        assert!(!RolePairing::Crossing.assign(&mut apart));
+        assert_eq!((apart.ego, apart.cbv), (None, None));
     }
 
     #[test]

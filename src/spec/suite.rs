@@ -132,8 +132,10 @@ pub enum ScenarioEntry {
         /// Which ego–CBV pair each scene is tested with: `as-loaded` (the
         /// default: the source's roles, else the labelled pair, else the
         /// closest approach), `merging` (a CBV in a lane merging with the
-        /// ego's) or `leader` (the ego's leader: the nearest moving car
-        /// ahead along its recorded path). With another pairing than
+        /// ego's), `leader` (the ego's leader: the nearest moving car
+        /// ahead along its recorded path) or `crossing` (a car whose
+        /// recorded path crosses the ego's, the least post-encroachment
+        /// time first). With another pairing than
         /// `as-loaded` the scenes are imported when the suite loads, those
         /// without such a pair are left out (`limit` counts those kept), and
         /// each is named `NAME-PAIRING`.

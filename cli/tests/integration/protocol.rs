@@ -162,6 +162,40 @@ fn evaluate_with_merging_roles_tests_a_merging_pair_and_leaves_out_scenes_withou
 
 #[test]
 #[cfg_attr(not(recorded_data), ignore = "needs recorded data: set SAFER_DATA_DIR (docs/guide/recorded-data.md)")]
+fn evaluate_with_crossing_roles_tests_a_car_across_the_egos_way_and_leaves_out_scenes_without_one() {
+    // A WOMD JSON junction whose labelled CBV comes the other way, with a
+    // car crossing the ego's way there; and the NGSIM freeway scene above,
+    // where no two paths cross.
+    let junction = data_dir().join("womd-json/tfrecord-00005-of-00150_2bd577a009790706.json");
+    let freeway = data_dir().join(SCENE);
+    let dir = scenes_in_scratch("evaluate-crossing-roles", &[&junction, &freeway]);
+    let run = |extra: &[&str]| evaluate_log_replay_once(&dir, extra);
+    let out = run(&["--roles", "as-loaded", "--json", "-"]);
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let junction_start = |report: &serde_json::Value| {
+        let variants = report["variants"].as_array().unwrap();
+        let v = variants.iter().find(|v| v["scenario"] == "2bd577a009790706").expect("the junction scene");
+        v["cbv_start"].clone()
+    };
+    assert_eq!(junction_start(&report), "oncoming", "the scene's own CBV");
+    let out = run(&["--roles", "crossing", "--json", "-"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(err.contains("--roles crossing: 1 of 2 scenes have a crossing pair"), "{err}");
+    assert!(err.contains("the CBV's path crosses the ego's"), "{err}");
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(report["settings"]["roles"], "crossing");
+    assert_eq!(report["scene_list"]["ids"], serde_json::json!(["2bd577a009790706"]));
+    assert_eq!(junction_start(&report), "crossing", "a car across the ego's way");
+    // Only the freeway: nothing to test, said so.
+    std::fs::remove_file(dir.join(junction.file_name().unwrap())).unwrap();
+    let out = run(&["--roles", "crossing", "--json", "-"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.contains("no scene with a vehicle whose path crosses the ego's"), "{err}");
+}
+
+#[test]
+#[cfg_attr(not(recorded_data), ignore = "needs recorded data: set SAFER_DATA_DIR (docs/guide/recorded-data.md)")]
 fn evaluate_with_leader_roles_makes_the_car_ahead_of_the_ego_the_cbv_and_leaves_out_scenes_without_one() {
     use safer_scenarios::scenario::roles::RolePairing;
     // A freeway scene whose ego follows a car in its lane, and one whose

@@ -104,6 +104,7 @@ impl<'a> Picture<'a> {
             RoleOrigin::LabelledPair => "the labelled interacting pair",
             RoleOrigin::MergeMining => "in a lane merging with the other's",
             RoleOrigin::LeaderMining => "the ego's leader",
+            RoleOrigin::CrossingMining => "on a path crossing the other's",
             RoleOrigin::Unassigned => "unassigned",
         };
         let line2 = format!(
