@@ -32,11 +32,11 @@ use super::pipeline::{self, PlannerLatency, Stage2Verdict, VariantSetup};
 pub use super::pipeline::{Stage2Cbv, VariantProfile};
 use super::variant::variant_seed;
 use super::variant::{CollisionEscape, VariantOutcome};
-use crate::eval::CbvStart;
 use crate::eval::escape::EscapeBudget;
 use crate::eval::sideways_speed::{SidewaysSpread, recorded_lane_changes_mps};
 use crate::eval::spread::Spread;
 use crate::eval::witness::Witness;
+use crate::eval::{CbvStart, ConflictReach};
 use crate::planners::FaultOperator;
 use crate::policies::BackgroundPolicy;
 use crate::policies::adversary::{
@@ -208,8 +208,13 @@ pub struct VariantRecord {
     pub stage2_contact: Option<Stage2Contact>,
     /// For a stage-1 collision: whether a feasibility witness was found.
     pub witness: Option<bool>,
-    /// Stage-1 closest ego–CBV gap, m.
+    /// Stage-1 closest gap between the recorded ego and any agent, m.
     pub stage1_min_gap_m: Option<f64>,
+    /// Stage-1 closest gap between the recorded ego and the CBV, m (what
+    /// the closest-approach table bands). Reports written before it was
+    /// recorded read back as `None`.
+    #[serde(default)]
+    pub stage1_min_gap_to_cbv_m: Option<f64>,
     /// Stage-2 closest gap to any agent, m.
     pub stage2_min_gap_m: Option<f64>,
     /// Stage-2 closest gap between the planner's ego and the CBV, m.
@@ -281,6 +286,7 @@ impl VariantRecord {
             stage2_contact: None,
             witness: None,
             stage1_min_gap_m: None,
+            stage1_min_gap_to_cbv_m: None,
             stage2_min_gap_m: None,
             stage2_min_gap_to_cbv_m: None,
             conflict_reached: false,
@@ -609,6 +615,7 @@ fn run_one(
         stage2_contact,
         witness,
         stage1_min_gap_m: stage1_summary.min_distance_to_ego_m,
+        stage1_min_gap_to_cbv_m: ConflictReach::of(&stages.stage1).min_gap_to_cbv_m,
         stage2_min_gap_m: stage2_summary.min_distance_to_ego_m,
         stage2_min_gap_to_cbv_m: stages.reach.min_gap_to_cbv_m,
         conflict_reached: stages.reach.reached,
@@ -914,7 +921,7 @@ impl ClosestApproach {
     fn of(variants: &[&VariantRecord]) -> Option<Self> {
         let n = variants.len();
         let count = |band: &dyn Fn(f64) -> bool| {
-            variants.iter().filter(|r| !r.tally.critical && r.stage1_min_gap_m.is_some_and(band)).count() as f64
+            variants.iter().filter(|r| !r.tally.critical && r.stage1_min_gap_to_cbv_m.is_some_and(band)).count() as f64
                 / n as f64
         };
         let [half, one] = CLOSEST_APPROACH_BANDS_M;
@@ -923,10 +930,11 @@ impl ClosestApproach {
             let under_half_m = count(&|g| g < half);
             let under_1_m = count(&|g| (half..one).contains(&g));
             // Counted, not the rest of 1: a difference of shares can round to −0.000.
-            let farther =
-                variants.iter().filter(|r| !r.tally.critical && r.stage1_min_gap_m.is_none_or(|g| g >= one)).count()
-                    as f64
-                    / n as f64;
+            let farther = variants
+                .iter()
+                .filter(|r| !r.tally.critical && r.stage1_min_gap_to_cbv_m.is_none_or(|g| g >= one))
+                .count() as f64
+                / n as f64;
             Self { contact, under_half_m, under_1_m, farther }
         })
     }
@@ -1240,7 +1248,10 @@ mod tests {
             .chain(&rest)
             .enumerate()
             .map(|(i, &(critical, gap))| VariantRecord {
-                stage1_min_gap_m: gap,
+                // The gap to anyone is not the CBV's: a car beside the ego
+                // closer than the CBV must not move a variant's band.
+                stage1_min_gap_m: Some(0.1),
+                stage1_min_gap_to_cbv_m: gap,
                 tally: VariantTally { critical, ..record("a", i as u32, i as u64).tally },
                 ..record("a", i as u32, i as u64)
             })

@@ -1056,7 +1056,10 @@ acceptance:
         let e = error("- recorded: data:x", "- { glob: '*.yaml', roles: leader }");
         assert!(e.starts_with("s.yaml:3:23: `roles` applies to `recorded:` entries only"), "{e}");
         let e = error("- recorded: data:x", "- { recorded: data:x, roles: leaders }");
-        assert_eq!(e, "s.yaml:3:32: unknown `roles` `leaders`; a scene is tested with as-loaded, merging, leader");
+        assert_eq!(
+            e,
+            "s.yaml:3:32: unknown `roles` `leaders`; a scene is tested with as-loaded, merging, leader, crossing"
+        );
         let text = SUITE.replace("- recorded: data:x", "- { recorded: data:x, roles: leader }");
         check_shapes(&text, Path::new("s.yaml")).unwrap();
         let spec = parse_yaml::<SuiteSpec>(&text, Path::new("s.yaml")).unwrap();

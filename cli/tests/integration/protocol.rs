@@ -196,6 +196,23 @@ fn evaluate_with_crossing_roles_tests_a_car_across_the_egos_way_and_leaves_out_s
 
 #[test]
 #[cfg_attr(not(recorded_data), ignore = "needs recorded data: set SAFER_DATA_DIR (docs/guide/recorded-data.md)")]
+fn the_closest_approach_table_bands_the_cbvs_gap_not_the_gap_to_whoever_came_closest() {
+    // A WOMD JSON scene whose recorded ego passes another car 0.44 m off,
+    // while its CBV stays more than 7 m away.
+    let scene = data_dir().join("womd-json/tfrecord-00097-of-01000_266.json");
+    let out = evaluate_log_replay_once(&scene, &["--json", "-"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let variant = &report["variants"][0];
+    let (to_anyone, to_cbv) =
+        (variant["stage1_min_gap_m"].as_f64().unwrap(), variant["stage1_min_gap_to_cbv_m"].as_f64().unwrap());
+    assert!(to_anyone < 0.5 && to_cbv > 5.0, "{variant}");
+    let closest = &report["rows"][0]["stage1_closest"];
+    assert_eq!((closest["under_half_m"].as_f64(), closest["farther"].as_f64()), (Some(0.0), Some(1.0)), "{closest}");
+}
+
+#[test]
+#[cfg_attr(not(recorded_data), ignore = "needs recorded data: set SAFER_DATA_DIR (docs/guide/recorded-data.md)")]
 fn evaluate_with_leader_roles_makes_the_car_ahead_of_the_ego_the_cbv_and_leaves_out_scenes_without_one() {
     use safer_scenarios::scenario::roles::RolePairing;
     // A freeway scene whose ego follows a car in its lane, and one whose
