@@ -287,6 +287,15 @@
 #                     (evaluate-womd-interactive.txt) and the suites' method over 28 with no
 #                     contact from behind (evaluate-womd-interactive-default.txt; about 12
 #                     minutes)
+#   closest-approach  closest-approach/evaluate-{womd-interactive,womd-json,ngsim}.txt:
+#                     the paper's protocol over 20 (safer, safer-in-path, the lookahead,
+#                     no-lfr, no-trust-region and the prior), for how close each
+#                     method's CBV comes to the recorded ego (about 15 minutes)
+#   crossing          crossing/evaluate-{womd-interactive,womd-json,ngsim}.txt: every
+#                     scene with a car whose recorded path crosses the ego's (--roles
+#                     crossing), log replay, the prior, safer and the suites' method
+#                     (over 28 on the WOMD sets, 60 on NGSIM; no contact from behind)
+#                     (about 3 minutes)
 #   mutants           mutants-{womd-interactive,womd-json,ngsim}-evasive.txt and
 #                     mutants-{womd-interactive,ngsim}-lane-follower.txt: the
 #                     faults of the planner each method's variants catch
@@ -302,7 +311,7 @@ self=$(realpath "$0")
 cd "$(dirname "$self")"
 all=(evaluate plain inattentive held-out-chance trust-region realism prior-fit n-sweep reactive n100 approach-none merging mutants wide-region cut-in
     in-path-lookahead in-path-lookahead-n30 in-path-lookahead-n28 in-path-lookahead-sweep pair-in-traffic witnessed wide-witnessed ten-seeds reaction-delay reactive-background leader first-contact both-pairings first-contact-lookahead blind-twin ego-contact wrong-way
-    lane-follower-pairings at-fault-planner along-the-lanes along-the-lanes-lane-follower sideways kill-ratios human-lane-changes grip turning turning-cost turning-cost-sweep ten-seeds-lookahead cut-in-anticipation standing-berth turning-circle bumper womd-json-suites readme-results)
+    lane-follower-pairings at-fault-planner along-the-lanes along-the-lanes-lane-follower sideways kill-ratios human-lane-changes grip turning turning-cost turning-cost-sweep ten-seeds-lookahead cut-in-anticipation standing-berth turning-circle bumper womd-json-suites readme-results closest-approach crossing)
 jobs=("$@")
 [[ ${#jobs[@]} -gt 0 ]] || jobs=("${all[@]}")
 # The usage is the comment block at the top of this file.
@@ -1041,6 +1050,20 @@ for job in "${jobs[@]}"; do
             --methods safer,safer-in-path,safer-cut-in,safer-in-path-lookahead,safer-distinct,safer-lookahead,safer-inattentive,no-lfr,no-trust-region,prior,log
         run readme-results/evaluate-womd-interactive-default.txt evaluate --scenes data:womd-interactive \
             --seeds 10 --trust-region 28 --methods safer-in-path-lookahead --ego-contact not-from-behind ;;
+    closest-approach)
+        mkdir -p closest-approach
+        for s in "${sets[@]}"; do
+            run "closest-approach/evaluate-${s#*:}.txt" evaluate --scenes "data:${s%%:*}" --seeds 10 \
+                --methods safer,safer-in-path,safer-in-path-lookahead,no-lfr,no-trust-region,prior
+        done ;;
+    crossing)
+        mkdir -p crossing
+        for s in "${sets[@]}"; do
+            n=28
+            [[ ${s%%:*} == commonroad-ngsim ]] && n=60
+            run "crossing/evaluate-${s#*:}.txt" evaluate --scenes "data:${s%%:*}" --seeds 10 --roles crossing \
+                --trust-region "$n" --ego-contact not-from-behind --methods log,prior,safer,safer-in-path-lookahead
+        done ;;
     esac
 done
 rm -r "$(dirname "$safer")"

@@ -2470,3 +2470,53 @@ fn the_not_reached_by_contact_table_quotes_its_outputs() {
     }
     assert_eq!(sets, ["WOMD interactive", "WOMD JSON"], "the two sets reach-crit misses 0.8 on");
 }
+
+/// `method`'s row of an output's `kinds of conflict` table: each kind's
+/// `stage1 / stage2` counts, in the table's order (rear-end, cut-in,
+/// merge, crossing, left turn across path, head-on, sideswipe, other).
+fn kinds_row(output: &str, method: &str) -> Vec<(u32, u32)> {
+    let from = output.find("\nkinds of conflict").unwrap_or_else(|| panic!("no kinds table in the output"));
+    let cells: Vec<&str> = output[from..]
+        .lines()
+        .skip(2)
+        .find(|l| l.split_whitespace().next() == Some(method))
+        .unwrap_or_else(|| panic!("no kinds row for {method}"))
+        .split_whitespace()
+        .collect();
+    cells[1..].chunks(3).map(|k| (k[0].parse().expect("a count"), k[2].parse().expect("a count"))).collect()
+}
+
+#[test]
+fn the_crossings_table_quotes_its_outputs() {
+    let doc = repo_file("docs/benchmarks.md");
+    let header = "| set | scenes with a crossing pair | method | CR | SR | SR-crit | VJ / AJ | crossing | left turn across path | head-on | all conflicts |";
+    let mut set = String::new();
+    let mut checked = Vec::new();
+    for row in markdown_rows(&doc, header, "A CBV across the ego's way makes junction conflicts") {
+        if !row[0].is_empty() {
+            set = row[0].clone();
+        }
+        let file = match set.as_str() {
+            "WOMD interactive" => "crossing/evaluate-womd-interactive.txt",
+            "WOMD JSON" => "crossing/evaluate-womd-json.txt",
+            "NGSIM" => "crossing/evaluate-ngsim.txt",
+            other => panic!("{other}: no output"),
+        };
+        let (rows, text) = evaluation_output(file);
+        if !row[1].is_empty() {
+            let (kept, of) = row[1].split_once(" of ").expect("K of N");
+            assert!(text.contains(&format!("--roles crossing: {kept} of {of} scenes have a crossing pair")), "{row:?}");
+        }
+        let method = method_of(&row[2]).expect("a method");
+        let figures = evaluation_figures(&rows, method);
+        assert_eq!(row[3..6], figures[..3], "{set} {method}: CR, SR, SR-crit");
+        let realism = if method == "log" { "–".to_owned() } else { format!("{} / {}", figures[4], figures[5]) };
+        assert_eq!(row[6], realism, "{set} {method}: VJ / AJ");
+        let kinds = kinds_row(&text, method);
+        let pair = |(a, b): (u32, u32)| format!("{a} / {b}");
+        let all = kinds.iter().fold((0, 0), |(a, b), &(x, y)| (a + x, b + y));
+        assert_eq!(row[7..11], [pair(kinds[3]), pair(kinds[4]), pair(kinds[5]), pair(all)], "{set} {method}: conflicts");
+        checked.push(format!("{set} {method}"));
+    }
+    assert_eq!(checked.len(), 9, "{checked:?}");
+}
