@@ -2515,8 +2515,38 @@ fn the_crossings_table_quotes_its_outputs() {
         let kinds = kinds_row(&text, method);
         let pair = |(a, b): (u32, u32)| format!("{a} / {b}");
         let all = kinds.iter().fold((0, 0), |(a, b), &(x, y)| (a + x, b + y));
-        assert_eq!(row[7..11], [pair(kinds[3]), pair(kinds[4]), pair(kinds[5]), pair(all)], "{set} {method}: conflicts");
+        assert_eq!(
+            row[7..11],
+            [pair(kinds[3]), pair(kinds[4]), pair(kinds[5]), pair(all)],
+            "{set} {method}: conflicts"
+        );
         checked.push(format!("{set} {method}"));
     }
     assert_eq!(checked.len(), 9, "{checked:?}");
+}
+
+#[test]
+fn the_closest_approach_table_quotes_its_outputs() {
+    let doc = repo_file("docs/benchmarks.md");
+    let header = "| set | method | contact (CR) | no contact, gap < 0.5 m | 0.5–1 m | ≥ 1 m |";
+    let mut set = String::new();
+    let mut checked = Vec::new();
+    for row in markdown_rows(&doc, header, "Why `safer`'s CR stays") {
+        if !row[0].is_empty() {
+            set = row[0].clone();
+        }
+        let file = match set.as_str() {
+            "WOMD interactive" => "closest-approach/evaluate-womd-interactive.txt",
+            "WOMD JSON" => "closest-approach/evaluate-womd-json.txt",
+            "NGSIM" => "closest-approach/evaluate-ngsim.txt",
+            other => panic!("{other}: no output"),
+        };
+        let output = repo_file(&format!("docs/evaluation/{file}"));
+        let method = method_of(&row[1]).expect("a method");
+        let bands = output_table(&output, "no contact <0.5m");
+        let cells = bands.get(method).unwrap_or_else(|| panic!("no {method} row in {file}"));
+        assert_eq!(row[2..6], cells[..4], "{set} {method}");
+        checked.push(format!("{set} {method}"));
+    }
+    assert_eq!(checked.len(), 18, "six methods on each of the three sets: {checked:?}");
 }
