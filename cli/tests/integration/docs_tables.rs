@@ -2550,3 +2550,49 @@ fn the_closest_approach_table_quotes_its_outputs() {
     }
     assert_eq!(checked.len(), 18, "six methods on each of the three sets: {checked:?}");
 }
+
+/// `kinds` as the kinds tables quote them: `stage1 / stage2` per kind.
+fn kinds_cells(kinds: &[(u32, u32)]) -> Vec<String> {
+    kinds.iter().map(|(a, b)| format!("{a} / {b}")).collect()
+}
+
+#[test]
+fn the_kinds_tables_quote_their_outputs() {
+    let doc = repo_file("docs/benchmarks.md");
+    // Per method: the README's results run (and its run of the suites' method).
+    let header =
+        "| method | rear-end | cut-in | merge | crossing | left turn across path | head-on | sideswipe | other |";
+    let mut methods = Vec::new();
+    for row in markdown_rows(&doc, header, "SaFeR makes 2.4×") {
+        let method = method_of(&row[0]).expect("a method");
+        let file = if row[0].contains("the suites' method") {
+            "readme-results/evaluate-womd-interactive-default.txt"
+        } else {
+            "readme-results/evaluate-womd-interactive.txt"
+        };
+        let kinds = kinds_row(&repo_file(&format!("docs/evaluation/{file}")), method);
+        assert_eq!(row[1..], kinds_cells(&kinds)[..], "{}", row[0]);
+        methods.push(method.to_owned());
+    }
+    assert_eq!(methods.len(), 8, "{methods:?}");
+    // The suites' method under the suites' settings, on each set.
+    let header = "| set | rear-end | cut-in | merge | crossing | left turn across path | head-on | sideswipe | cut-ins and merges of stage 1 |";
+    let mut sets = Vec::new();
+    for row in markdown_rows(&doc, header, "No stage-1 merge appears") {
+        let file = match row[0].as_str() {
+            "WOMD JSON" => "womd-json-suites/mutants-womd-json-n28-evasive.txt".to_owned(),
+            set => format!("bumper/{}", suite_settings_output(set, "evasive")),
+        };
+        let kinds = kinds_row(&output_over_seeds(&file, "10"), "safer-in-path-lookahead");
+        let mut quoted = kinds_cells(&kinds[..7]);
+        let stage1: u32 = kinds.iter().map(|k| k.0).sum();
+        let cut_ins_merges = kinds[1].0 + kinds[2].0;
+        quoted.push(format!(
+            "{cut_ins_merges} of {stage1} ({:.1} %)",
+            100.0 * f64::from(cut_ins_merges) / f64::from(stage1)
+        ));
+        assert_eq!(row[1..], quoted[..], "{}", row[0]);
+        sets.push(row[0].clone());
+    }
+    assert_eq!(sets, ["WOMD interactive", "NGSIM", "WOMD JSON"]);
+}
