@@ -446,24 +446,38 @@ pub fn mine_merging_pair(scenario: &Scenario) -> Option<(TrackIndex, TrackIndex)
 /// ([`mine_merging_pair`]). Returns whether the scene has one; when it has
 /// none the scenario is left as it was.
 pub fn assign_merging(scenario: &mut Scenario) -> bool {
+    assign_mined(scenario, mine_merging_cbv, mine_merging_pair, RoleOrigin::MergeMining)
+}
+
+/// Gives `scenario` the pair a pairing mines: an ego the source named (or
+/// its labelled pair's) keeps its place and gets the CBV `mine_cbv` finds
+/// for it; a mined ego is mined again with its CBV by `mine_pair`. Both
+/// roles it sets are recorded as `origin`. Returns whether it found one;
+/// when not, the scenario is left as it was.
+fn assign_mined(
+    scenario: &mut Scenario,
+    mine_cbv: fn(&Scenario, TrackIndex) -> Option<TrackIndex>,
+    mine_pair: fn(&Scenario) -> Option<(TrackIndex, TrackIndex)>,
+    origin: RoleOrigin,
+) -> bool {
     let named_ego =
         scenario.ego.filter(|_| matches!(scenario.ego_origin, RoleOrigin::Source | RoleOrigin::LabelledPair));
     let (ego, cbv) = match named_ego {
-        Some(ego) => match mine_merging_cbv(scenario, ego) {
+        Some(ego) => match mine_cbv(scenario, ego) {
             Some(cbv) => (ego, cbv),
             None => return false,
         },
-        None => match mine_merging_pair(scenario) {
+        None => match mine_pair(scenario) {
             Some(pair) => pair,
             None => return false,
         },
     };
     if scenario.ego != Some(ego) {
         scenario.ego = Some(ego);
-        scenario.ego_origin = RoleOrigin::MergeMining;
+        scenario.ego_origin = origin;
     }
     scenario.cbv = Some(cbv);
-    scenario.cbv_origin = RoleOrigin::MergeMining;
+    scenario.cbv_origin = origin;
     true
 }
 
@@ -604,25 +618,7 @@ pub fn mine_crossing_pair(scenario: &Scenario) -> Option<(TrackIndex, TrackIndex
 /// ([`mine_crossing_pair`]). Returns whether the scene has one; when it
 /// has none the scenario is left as it was.
 pub fn assign_crossing(scenario: &mut Scenario) -> bool {
-    let named_ego =
-        scenario.ego.filter(|_| matches!(scenario.ego_origin, RoleOrigin::Source | RoleOrigin::LabelledPair));
-    let (ego, cbv) = match named_ego {
-        Some(ego) => match mine_crossing_cbv(scenario, ego) {
-            Some(cbv) => (ego, cbv),
-            None => return false,
-        },
-        None => match mine_crossing_pair(scenario) {
-            Some(pair) => pair,
-            None => return false,
-        },
-    };
-    if scenario.ego != Some(ego) {
-        scenario.ego = Some(ego);
-        scenario.ego_origin = RoleOrigin::CrossingMining;
-    }
-    scenario.cbv = Some(cbv);
-    scenario.cbv_origin = RoleOrigin::CrossingMining;
-    true
+    assign_mined(scenario, mine_crossing_cbv, mine_crossing_pair, RoleOrigin::CrossingMining)
 }
 
 /// The labelled pair as (ego, CBV): two objects of interest, both moving

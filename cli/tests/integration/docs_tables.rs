@@ -2486,6 +2486,17 @@ fn kinds_row(output: &str, method: &str) -> Vec<(u32, u32)> {
     cells[1..].chunks(3).map(|k| (k[0].parse().expect("a count"), k[2].parse().expect("a count"))).collect()
 }
 
+/// `dir`'s `evaluate-*.txt` output of the set a table names.
+fn evaluate_output_of_set(dir: &str, set: &str) -> String {
+    let stem = match set {
+        "WOMD interactive" => "womd-interactive",
+        "WOMD JSON" => "womd-json",
+        "NGSIM" => "ngsim",
+        other => panic!("{other}: no output"),
+    };
+    format!("{dir}/evaluate-{stem}.txt")
+}
+
 #[test]
 fn the_crossings_table_quotes_its_outputs() {
     let doc = repo_file("docs/benchmarks.md");
@@ -2496,13 +2507,8 @@ fn the_crossings_table_quotes_its_outputs() {
         if !row[0].is_empty() {
             set = row[0].clone();
         }
-        let file = match set.as_str() {
-            "WOMD interactive" => "crossing/evaluate-womd-interactive.txt",
-            "WOMD JSON" => "crossing/evaluate-womd-json.txt",
-            "NGSIM" => "crossing/evaluate-ngsim.txt",
-            other => panic!("{other}: no output"),
-        };
-        let (rows, text) = evaluation_output(file);
+        let file = evaluate_output_of_set("crossing", &set);
+        let (rows, text) = evaluation_output(&file);
         if !row[1].is_empty() {
             let (kept, of) = row[1].split_once(" of ").expect("K of N");
             assert!(text.contains(&format!("--roles crossing: {kept} of {of} scenes have a crossing pair")), "{row:?}");
@@ -2535,12 +2541,7 @@ fn the_closest_approach_table_quotes_its_outputs() {
         if !row[0].is_empty() {
             set = row[0].clone();
         }
-        let file = match set.as_str() {
-            "WOMD interactive" => "closest-approach/evaluate-womd-interactive.txt",
-            "WOMD JSON" => "closest-approach/evaluate-womd-json.txt",
-            "NGSIM" => "closest-approach/evaluate-ngsim.txt",
-            other => panic!("{other}: no output"),
-        };
+        let file = evaluate_output_of_set("closest-approach", &set);
         let output = repo_file(&format!("docs/evaluation/{file}"));
         let method = method_of(&row[1]).expect("a method");
         let bands = output_table(&output, "no contact <0.5m");
