@@ -296,6 +296,12 @@
 #                     crossing), log replay, the prior, safer and the suites' method
 #                     (over 28 on the WOMD sets, 60 on NGSIM; no contact from behind)
 #                     (about 3 minutes)
+#   crossing-pairings crossing/: the lane follower under the suites' settings over 60,
+#                     ten seeds, the lookahead alone, on the WOMD JSON scenes with a
+#                     crossing pair, with their own pairs and with --roles crossing
+#                     (mutants-womd-json-lane-follower-n60-{as-loaded,crossing}.txt),
+#                     and the faults either pairing catches per scene
+#                     (scene-kills-womd-json-lane-follower.txt) (about 12 minutes)
 #   mutants           mutants-{womd-interactive,womd-json,ngsim}-evasive.txt and
 #                     mutants-{womd-interactive,ngsim}-lane-follower.txt: the
 #                     faults of the planner each method's variants catch
@@ -311,7 +317,7 @@ self=$(realpath "$0")
 cd "$(dirname "$self")"
 all=(evaluate plain inattentive held-out-chance trust-region realism prior-fit n-sweep reactive n100 approach-none merging mutants wide-region cut-in
     in-path-lookahead in-path-lookahead-n30 in-path-lookahead-n28 in-path-lookahead-sweep pair-in-traffic witnessed wide-witnessed ten-seeds reaction-delay reactive-background leader first-contact both-pairings first-contact-lookahead blind-twin ego-contact wrong-way
-    lane-follower-pairings at-fault-planner along-the-lanes along-the-lanes-lane-follower sideways kill-ratios human-lane-changes grip turning turning-cost turning-cost-sweep ten-seeds-lookahead cut-in-anticipation standing-berth turning-circle bumper womd-json-suites readme-results closest-approach crossing)
+    lane-follower-pairings at-fault-planner along-the-lanes along-the-lanes-lane-follower sideways kill-ratios human-lane-changes grip turning turning-cost turning-cost-sweep ten-seeds-lookahead cut-in-anticipation standing-berth turning-circle bumper womd-json-suites readme-results closest-approach crossing crossing-pairings)
 jobs=("$@")
 [[ ${#jobs[@]} -gt 0 ]] || jobs=("${all[@]}")
 # The usage is the comment block at the top of this file.
@@ -1064,6 +1070,25 @@ for job in "${jobs[@]}"; do
             run "crossing/evaluate-${s#*:}.txt" evaluate --scenes "data:${s%%:*}" --seeds 10 --roles crossing \
                 --trust-region "$n" --ego-contact not-from-behind --methods log,prior,safer,safer-in-path-lookahead
         done ;;
+    crossing-pairings)
+        mkdir -p crossing
+        reports=$(mktemp -d)
+        # The WOMD JSON scenes with a crossing pair (crossing/evaluate-womd-json.txt) that the
+        # evaluation keeps (tfrecord-00083-of-01000_389's recorded ego touches another car).
+        junctions=2a173b334be3d32c,2bd577a009790706,d1c413df5470bfe6,efc5cbe01b4a526f,tfrecord-00001-of-01000_307
+        junctions+=,tfrecord-00072-of-01000_20,tfrecord-00082-of-01000_434,tfrecord-00083-of-01000_455
+        junctions+=,tfrecord-00095-of-01000_204,tfrecord-00105-of-01000_241
+        ten_lane_follower=(--seeds 10 "${along_the_lanes_lane_follower[@]:2}")
+        lookahead_alone=("${ten_lane_follower[@]/%log,prior,safer-in-path-lookahead/safer-in-path-lookahead}")
+        for roles in as-loaded crossing; do
+            name=mutants-womd-json-lane-follower-n60-$roles
+            run "crossing/$name.txt" evaluate --scenes data:womd-json --scene "$junctions" \
+                "${lookahead_alone[@]/#as-loaded/$roles}" --json "$reports/$name.json"
+            sed -i '/^wrote .*\.json$/d' "crossing/$name.txt"
+        done
+        python3 scene_kills_union.py "$reports/mutants-womd-json-lane-follower-n60-as-loaded.json" \
+            "$reports/mutants-womd-json-lane-follower-n60-crossing.json" >crossing/scene-kills-womd-json-lane-follower.txt
+        rm -r "$reports" ;;
     esac
 done
 rm -r "$(dirname "$safer")"
