@@ -2597,3 +2597,77 @@ fn the_kinds_tables_quote_their_outputs() {
     }
     assert_eq!(sets, ["WOMD interactive", "NGSIM", "WOMD JSON"]);
 }
+
+/// A fault's `caught/of` cell of a `scene_kills_union.py` row.
+fn union_cell(table: &str, method: &str, pairing: &str, fault: usize) -> (u32, u32) {
+    let line = scene_kills_row(table, method, pairing);
+    let cell = line.trim_matches('|').split('|').map(str::trim).nth(2 + fault).expect("a fault's cell");
+    let (caught, rest) = cell.split_once('/').expect("caught/of");
+    (caught.parse().expect("a count"), rest.split_whitespace().next().and_then(|n| n.parse().ok()).expect("a count"))
+}
+
+#[test]
+fn the_junction_pairings_bullet_quotes_its_outputs() {
+    let doc = repo_file("docs/benchmarks.md");
+    let bullet: String = doc
+        .lines()
+        .skip_while(|l| !l.contains("Listed with both pairings, junction scenes catch more"))
+        .take_while(|l| !l.starts_with("- These runs ask for the pairing"))
+        .map(str::trim)
+        .collect::<Vec<_>>()
+        .join(" ");
+    let union = repo_file("docs/evaluation/crossing/scene-kills-womd-json-lane-follower.txt");
+    let whole = output_over_seeds("womd-json-suites/ten-seeds/mutants-womd-json-lane-follower-n60.txt", "10");
+    let method = "safer-in-path-lookahead";
+    let whole_row = labelled_row(&whole, "passed", method);
+    // The per-fault cells `kills (caught/of)` are the last seven.
+    let whole_caught: Vec<(u32, u32)> = whole_row[whole_row.len() - 14..]
+        .chunks(2)
+        .map(|c| {
+            let (caught, of) = c[1].trim_matches(|ch| ch == '(' || ch == ')').split_once('/').expect("(k/n)");
+            (caught.parse().unwrap(), of.parse().unwrap())
+        })
+        .collect();
+    let own_of = |fault| union_cell(&union, method, "mutants-womd-json-lane-follower-n60-as-loaded", fault);
+    let crossing_of = |fault| union_cell(&union, method, "mutants-womd-json-lane-follower-n60-crossing", fault);
+    for fault in 0..7 {
+        let (own, crossing) = (own_of(fault), crossing_of(fault));
+        assert!(crossing.0 > own.0, "fault {fault}: the crossing CBV catches it in more scenes");
+        assert_eq!(
+            union_cell(&union, method, "either", fault),
+            crossing,
+            "fault {fault}: and wherever the own CBV does"
+        );
+    }
+    let mut alone_counts = Vec::new();
+    let mut together_counts = Vec::new();
+    for (fault, name) in [(4, "blind-side"), (5, "no-evade"), (6, "speeding")] {
+        let (own, crossing) = (own_of(fault), crossing_of(fault));
+        let quoted = format!("`{name}` in {} against {}", crossing.0, own.0);
+        assert!(bullet.contains(&quoted), "{quoted:?} in {bullet:?}");
+        let (alone, of) = whole_caught[fault];
+        assert_eq!(of, 63, "{name}");
+        let together = alone + crossing.0 - own.0;
+        let share = (100.0 * f64::from(together) / f64::from(of)).round();
+        let at = bullet
+            .find(&format!("`{name}` is caught in {together}"))
+            .or_else(|| bullet.find(&format!("`{name}` in {together}")));
+        let after = &bullet[at.unwrap_or_else(|| panic!("{name}: {together} in {bullet:?}"))..];
+        assert!(
+            after.contains(&format!("{together} scenes ({share} %)"))
+                || after.contains(&format!("{together} ({share} %)")),
+            "{name}: {share} % in {after:?}"
+        );
+        alone_counts.push(alone.to_string());
+        together_counts.push(together);
+    }
+    // The README's sentence on it.
+    let readme = repo_file("README.md").split_whitespace().collect::<Vec<_>>().join(" ");
+    let [blind_side, no_evade, speeding] = together_counts[..] else { unreachable!() };
+    let sentence = format!("({blind_side} and {speeding} of 63), `no-evade` still not ({no_evade};");
+    assert!(readme.contains(&sentence), "the README: {sentence:?}");
+    assert!(
+        bullet.contains(&format!("in {}, {} and {}:", alone_counts[0], alone_counts[1], alone_counts[2])),
+        "{alone_counts:?} in {bullet:?}"
+    );
+}
