@@ -39,9 +39,9 @@
 //! recorded path crosses the ego's at 45° or more (across its way at a
 //! junction, or turning across it), both passing the crossing point 1 s
 //! or more from now; of those, the one with the least post-encroachment
-//! time (how long after the first left the point the second reached it).
-//! The closest approach picks the car beside or behind the ego, which
-//! never meets it at a junction.
+//! time (centre to centre: how long after the first passed the point the
+//! second did). The closest approach often picks a car beside or behind
+//! the ego, which does not meet it at a junction.
 
 use super::{AgentKind, AgentState, RoleOrigin, Scenario, TrackIndex};
 use crate::geometry::{Point2, Polyline, Vector2, wrap_angle};
@@ -506,10 +506,11 @@ pub struct PathCrossing {
 }
 
 impl PathCrossing {
-    /// The post-encroachment time, s: how long after the first of the two
-    /// left the crossing point the second reached it (centre to centre),
-    /// the traffic engineer's measure of how near a crossing came to a
-    /// collision.
+    /// The post-encroachment time, s, centre to centre: how long after the
+    /// first of the two passed the crossing point the second did (the
+    /// traffic engineer's measure of how near a crossing came to a
+    /// collision takes it from the first's rear leaving to the second's
+    /// front arriving).
     pub fn post_encroachment_s(&self) -> f64 {
         (self.first_s - self.second_s).abs()
     }
