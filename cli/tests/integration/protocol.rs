@@ -310,6 +310,49 @@ fn a_suite_entry_with_leader_roles_tests_each_scene_with_its_leader_and_leaves_o
 
 #[test]
 #[cfg_attr(not(recorded_data), ignore = "needs recorded data: set SAFER_DATA_DIR (docs/guide/recorded-data.md)")]
+fn a_suite_entry_with_crossing_roles_tests_the_car_across_the_egos_way_and_refuses_a_folder_without_one() {
+    use safer_scenarios::scenario::{RoleOrigin, roles::RolePairing};
+    let dir = crate::scratch::Scratch::new("suite-crossing-roles");
+    let junction = "tfrecord-00005-of-00150_2bd577a009790706.json";
+    std::fs::create_dir_all(dir.join("junction")).unwrap();
+    std::fs::copy(data_dir().join("womd-json").join(junction), dir.join("junction").join(junction)).unwrap();
+    std::fs::create_dir_all(dir.join("freeway")).unwrap();
+    std::fs::copy(data_dir().join(SCENE), dir.join("freeway/scene.xml")).unwrap();
+    let write = |entries: &str| {
+        let text = format!(
+            "name: crossings\nscenarios:\n{entries}planner: {{ builtin: evasive }}\nadversary: {{ method: log }}\nvariants: 1\n"
+        );
+        let path = dir.join("suite.yaml");
+        std::fs::write(&path, text).unwrap();
+        Suite::load(&path)
+    };
+    let suite = write("  - recorded: junction\n  - { recorded: junction, roles: crossing }\n")
+        .unwrap_or_else(|e| panic!("{e}"));
+    let names: Vec<&str> = suite.scenarios.iter().map(|s| s.name.as_str()).collect();
+    assert_eq!(
+        names,
+        ["tfrecord-00005-of-00150_2bd577a009790706", "tfrecord-00005-of-00150_2bd577a009790706-crossing"]
+    );
+    let (own, crossing) = (suite.scenarios[0].load().unwrap(), suite.scenarios[1].load().unwrap());
+    assert_eq!(suite.scenarios[1].roles, RolePairing::Crossing);
+    assert_eq!(own.ego, crossing.ego, "the source's ego keeps its place");
+    assert_ne!(own.cbv, crossing.cbv);
+    assert_eq!(crossing.cbv_origin, RoleOrigin::CrossingMining);
+    let outcome = run_variant(&suite, &suite.scenarios[1], 0).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(outcome.stage2.cbv, crossing.cbv, "its variant runs with the crossing car as the CBV");
+    // A folder where no two paths cross is refused at its `roles`.
+    let Err(e) = write("  - recorded: junction\n  - { recorded: freeway, roles: crossing }\n") else {
+        panic!("must be refused")
+    };
+    let e = e.to_string();
+    assert!(
+        e.contains("suite.yaml:4:") && e.contains("has a vehicle crossing the ego's path (roles: crossing)"),
+        "{e}"
+    );
+}
+
+#[test]
+#[cfg_attr(not(recorded_data), ignore = "needs recorded data: set SAFER_DATA_DIR (docs/guide/recorded-data.md)")]
 fn evaluate_with_mutants_counts_the_kills_beyond_log_replay_alike_in_the_table_and_the_report() {
     // A WOMD interactive scene where log replay's variant kills the mutant
     // blind to the CBV, and the prior's first seed also kills the two that
