@@ -309,25 +309,30 @@ pub const MERGE_LOOKAHEAD_M: f64 = 120.0;
 /// crossing).
 pub const MERGE_MAX_HEADING_RAD: f64 = std::f64::consts::FRAC_PI_4;
 
-/// A merging pair must both be at least this far from the merge point in
-/// time, s: a pair nearer has all but merged, and a CBV needs time to
-/// act.
-pub const MERGE_ARRIVAL_MIN_S: f64 = 1.0;
+/// A merging or crossing pair must both be at least this far from the
+/// point where their ways meet in time, s: a pair nearer has all but
+/// merged or crossed, and a CBV needs time to act.
+pub const PAIR_ARRIVAL_MIN_S: f64 = 1.0;
 
-/// When each of a pair in merging lanes ([`merge_arrivals`]) reaches the
-/// start of the lane their lanes merge into, at its current speed (at
-/// least 1 m/s, the speed that counts as moving), s from the current step.
+/// When each of a pair reaches the point where their ways meet, s from
+/// the current step: the start of the lane their lanes merge into, at
+/// its current speed (at least 1 m/s, the speed that counts as moving;
+/// [`merge_arrivals`]), or where their recorded paths cross
+/// ([`path_crossing`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct MergeArrivals {
+pub struct PairArrivals {
     /// When the first vehicle asked about (`a`) arrives.
     pub first_s: f64,
     /// When the second (`b`) arrives.
     pub second_s: f64,
 }
 
-impl MergeArrivals {
+impl PairArrivals {
     /// How far apart the two arrivals are, s: the gap a CBV must close
-    /// (or open) to meet the ego at the merge point.
+    /// (or open) to meet the ego there. Where recorded paths cross, the
+    /// post-encroachment time centre to centre (the traffic engineer's
+    /// measure of how near a crossing came to a collision takes it from
+    /// the first's rear leaving to the second's front arriving).
     pub fn gap_s(&self) -> f64 {
         (self.first_s - self.second_s).abs()
     }
@@ -347,7 +352,7 @@ pub fn merge_arrivals(
     relations: &LaneRelations<'_>,
     a: TrackIndex,
     b: TrackIndex,
-) -> Option<MergeArrivals> {
+) -> Option<PairArrivals> {
     let now = scenario.current_step;
     let (sa, sb) = (scenario.track(a).state(now)?, scenario.track(b).state(now)?);
     // Two ways into one exit from opposite or crossing approaches make a
@@ -376,7 +381,7 @@ pub fn merge_arrivals(
         })
         .min_by(|x, y| (x.0 + x.1).total_cmp(&(y.0 + y.1)))?;
     let time_s = |d: f64, s: &AgentState| d / s.speed_mps().max(MOVING_SPEED_MPS);
-    Some(MergeArrivals { first_s: time_s(dist_a_m, sa), second_s: time_s(dist_b_m, sb) })
+    Some(PairArrivals { first_s: time_s(dist_a_m, sa), second_s: time_s(dist_b_m, sb) })
 }
 
 /// The lanes ahead of a vehicle at `state` in `lanes`, each with how far
@@ -409,21 +414,21 @@ fn lanes_ahead_of(
 }
 
 /// The ranking of a merging pair: the gap between their arrivals at the
-/// merge point, if both arrive there between [`MERGE_ARRIVAL_MIN_S`] and
+/// merge point, if both arrive there between [`PAIR_ARRIVAL_MIN_S`] and
 /// the end of the recording; `None` for a pair not in merging lanes,
 /// arriving outside that window, or whose recorded boxes overlap (as in
 /// [`approach_score`]).
 fn merge_gap_s(scenario: &Scenario, relations: &LaneRelations<'_>, a: TrackIndex, b: TrackIndex) -> Option<f64> {
     let arrivals = merge_arrivals(scenario, relations, a, b)?;
     let future_s = scenario.num_steps().saturating_sub(scenario.current_step + 1) as f64 * scenario.dt_s;
-    let within = |t: f64| (MERGE_ARRIVAL_MIN_S..=future_s).contains(&t);
+    let within = |t: f64| (PAIR_ARRIVAL_MIN_S..=future_s).contains(&t);
     let meets = within(arrivals.first_s) && within(arrivals.second_s);
     (meets && approach_score(scenario, a, b).is_some()).then(|| arrivals.gap_s())
 }
 
 /// The CBV for `ego` among the vehicles in lanes merging with the ego's
 /// ([`merge_arrivals`]): of those that reach the merge point between
-/// [`MERGE_ARRIVAL_MIN_S`] and the end of the recording, as the ego does,
+/// [`PAIR_ARRIVAL_MIN_S`] and the end of the recording, as the ego does,
 /// the moving one that arrives nearest in time to the ego (a CBV that
 /// can meet it there), whose recorded box never overlaps the ego's.
 pub fn mine_merging_cbv(scenario: &Scenario, ego: TrackIndex) -> Option<TrackIndex> {
@@ -482,38 +487,22 @@ fn assign_mined(
 }
 
 /// Least angle between two recorded paths where they cross for the pair
-/// to be a crossing pair, rad (the conflict classifier's bound between the
-/// same direction and a crossing, 45°): a turn across the other's way, a
-/// crossing at a junction, not two cars in one lane.
-pub const CROSSING_MIN_ANGLE_RAD: f64 = std::f64::consts::FRAC_PI_4;
-
-/// A crossing pair must both pass the crossing point at least this long
-/// after the current step, s (as a merging pair): a pair nearer has all
-/// but crossed, and a CBV needs time to act.
-pub const CROSSING_ARRIVAL_MIN_S: f64 = 1.0;
+/// to be a crossing pair, rad: where a merging pair's headings end
+/// ([`MERGE_MAX_HEADING_RAD`], the conflict classifier's bound between
+/// the same direction and a crossing, 45°). A turn across the other's
+/// way, a crossing at a junction, not two cars in one lane.
+pub const CROSSING_MIN_ANGLE_RAD: f64 = MERGE_MAX_HEADING_RAD;
 
 /// Where two recorded paths cross ([`path_crossing`]) and when each
-/// vehicle passes there.
+/// vehicle passes there (centre over the point).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PathCrossing {
     /// The crossing point of the two centres' paths.
     pub point: Point2,
-    /// When the first vehicle asked about (`a`) passes it, s after the
-    /// current step.
-    pub first_s: f64,
-    /// When the second (`b`) passes it, s after the current step.
-    pub second_s: f64,
-}
-
-impl PathCrossing {
-    /// The post-encroachment time, s, centre to centre: how long after the
-    /// first of the two passed the crossing point the second did (the
-    /// traffic engineer's measure of how near a crossing came to a
-    /// collision takes it from the first's rear leaving to the second's
-    /// front arriving).
-    pub fn post_encroachment_s(&self) -> f64 {
-        (self.first_s - self.second_s).abs()
-    }
+    /// When the first vehicle asked about (`a`) and the second (`b`) pass
+    /// it; their [`gap_s`](PairArrivals::gap_s) is the post-encroachment
+    /// time, centre to centre.
+    pub arrivals: PairArrivals,
 }
 
 /// A recorded path from the current step on: each valid state's time
@@ -540,7 +529,7 @@ fn path_bounds(path: &[(f64, Point2)]) -> (Point2, Point2) {
 /// Where the recorded paths of `a` and `b` (their centres, from the
 /// current step on, between consecutive recorded steps) cross at
 /// [`CROSSING_MIN_ANGLE_RAD`] or more, both passing the point
-/// [`CROSSING_ARRIVAL_MIN_S`] or more after the current step: of the
+/// [`PAIR_ARRIVAL_MIN_S`] or more after the current step: of the
 /// crossings, the one with the least post-encroachment time (ties to the
 /// earlier along `a`'s path). `None` where they do not so cross.
 pub fn path_crossing(scenario: &Scenario, a: TrackIndex, b: TrackIndex) -> Option<PathCrossing> {
@@ -574,12 +563,12 @@ pub fn path_crossing(scenario: &Scenario, a: TrackIndex, b: TrackIndex) -> Optio
             if angle < CROSSING_MIN_ANGLE_RAD {
                 continue;
             }
-            let found =
-                PathCrossing { point: a0 + da * u, first_s: ta0 + u * (ta1 - ta0), second_s: tb0 + v * (tb1 - tb0) };
-            if found.first_s < CROSSING_ARRIVAL_MIN_S || found.second_s < CROSSING_ARRIVAL_MIN_S {
+            let arrivals = PairArrivals { first_s: ta0 + u * (ta1 - ta0), second_s: tb0 + v * (tb1 - tb0) };
+            if arrivals.first_s < PAIR_ARRIVAL_MIN_S || arrivals.second_s < PAIR_ARRIVAL_MIN_S {
                 continue;
             }
-            if best.is_none_or(|b| found.post_encroachment_s() < b.post_encroachment_s()) {
+            let found = PathCrossing { point: a0 + da * u, arrivals };
+            if best.is_none_or(|b| found.arrivals.gap_s() < b.arrivals.gap_s()) {
                 best = Some(found);
             }
         }
@@ -592,7 +581,7 @@ pub fn path_crossing(scenario: &Scenario, a: TrackIndex, b: TrackIndex) -> Optio
 /// whose recorded boxes overlap (as in [`approach_score`]).
 fn crossing_pet_s(scenario: &Scenario, a: TrackIndex, b: TrackIndex) -> Option<f64> {
     let crossing = path_crossing(scenario, a, b)?;
-    approach_score(scenario, a, b).is_some().then(|| crossing.post_encroachment_s())
+    approach_score(scenario, a, b).is_some().then(|| crossing.arrivals.gap_s())
 }
 
 /// The CBV for `ego` among the vehicles whose recorded paths cross the
@@ -915,10 +904,11 @@ mod tests {
         let mut s = crossing_scene();
         let crossing = path_crossing(&s, TrackIndex(0), TrackIndex(1)).expect("the paths cross");
         assert!((crossing.point - Point2::new(20.0, 0.0)).norm() < 1e-9, "{crossing:?}");
-        assert!((crossing.first_s - 2.0).abs() < 1e-9 && (crossing.second_s - 3.0).abs() < 1e-9, "{crossing:?}");
-        assert!((crossing.post_encroachment_s() - 1.0).abs() < 1e-9);
+        let arrivals = crossing.arrivals;
+        assert!((arrivals.first_s - 2.0).abs() < 1e-9 && (arrivals.second_s - 3.0).abs() < 1e-9, "{crossing:?}");
+        assert!((arrivals.gap_s() - 1.0).abs() < 1e-9);
         let early = path_crossing(&s, TrackIndex(0), TrackIndex(2)).expect("the paths cross");
-        assert!((early.post_encroachment_s() - 2.0).abs() < 1e-9, "{early:?}");
+        assert!((early.arrivals.gap_s() - 2.0).abs() < 1e-9, "{early:?}");
         assert_eq!(path_crossing(&s, TrackIndex(0), TrackIndex(3)), None, "the ego is there within 1 s");
         assert_eq!(path_crossing(&s, TrackIndex(0), TrackIndex(4)), None, "one lane: no angle");
         s.ego = Some(TrackIndex(0));
