@@ -902,6 +902,20 @@ fn rows_by_set_and_draw(rows: &[Vec<String>]) -> Vec<(String, String, &[String])
         .collect()
 }
 
+/// Each of `rows` with its first cell, a blank one continuing the row
+/// above's (a table grouped by set or draw).
+fn rows_by_first_cell(rows: &[Vec<String>]) -> Vec<(String, &[String])> {
+    let mut first = String::new();
+    rows.iter()
+        .map(|row| {
+            if !row[0].is_empty() {
+                first = row[0].clone();
+            }
+            (first.clone(), &row[..])
+        })
+        .collect()
+}
+
 /// The mutation run's figures a side-by-side table quotes of the row
 /// `label` of an evaluation output: SR; passed; kills (held out); ×log;
 /// ×prior; scene kills; reach-crit; avoid-fail; no-escape.
@@ -1178,11 +1192,7 @@ fn the_lane_follower_pairings_table_quotes_its_outputs() {
         "| set | pairing | no-brake | weak-brake | late | blind-cbv | blind-side | no-evade | speeding |",
         "The leader adds no scene",
     );
-    let mut set = String::new();
-    for row in &rows {
-        if !row[0].is_empty() {
-            set = row[0].clone();
-        }
+    for (set, row) in rows_by_first_cell(&rows) {
         let (set_name, _) = both_pairings_names(&set, "seed 0");
         let file = format!("scene-kills-{set_name}.txt");
         let table = repo_file(&format!("docs/evaluation/lane-follower-pairings/{file}"));
@@ -1221,12 +1231,7 @@ fn the_lookahead_first_contact_tables_quote_their_outputs() {
     assert_eq!(remade.len(), 2, "n = 20 and 28 at the first contact");
     let rows =
         markdown_rows(&doc, "| draw | method | n | passed | kills (held out) |", "With the lead steps the lookahead");
-    let mut draw = String::new();
-    for row in &rows {
-        // A blank draw cell continues the row above's.
-        if !row[0].is_empty() {
-            draw = row[0].clone();
-        }
+    for (draw, row) in rows_by_first_cell(&rows) {
         let label = method_of(&row[1]).unwrap_or_else(|| panic!("no method in {row:?}"));
         let file = match label {
             "safer-in-path-lookahead" => format!(
@@ -2501,12 +2506,10 @@ fn evaluate_output_of_set(dir: &str, set: &str) -> String {
 fn the_crossings_table_quotes_its_outputs() {
     let doc = repo_file("docs/benchmarks.md");
     let header = "| set | scenes with a crossing pair | method | CR | SR | SR-crit | VJ / AJ | crossing | left turn across path | head-on | all conflicts |";
-    let mut set = String::new();
     let mut checked = Vec::new();
-    for row in markdown_rows(&doc, header, "A CBV across the ego's way makes junction conflicts") {
-        if !row[0].is_empty() {
-            set = row[0].clone();
-        }
+    for (set, row) in
+        rows_by_first_cell(&markdown_rows(&doc, header, "A CBV across the ego's way makes junction conflicts"))
+    {
         let file = evaluate_output_of_set("crossing", &set);
         let (rows, text) = evaluation_output(&file);
         if !row[1].is_empty() {
@@ -2535,12 +2538,8 @@ fn the_crossings_table_quotes_its_outputs() {
 fn the_closest_approach_table_quotes_its_outputs() {
     let doc = repo_file("docs/benchmarks.md");
     let header = "| set | method | contact (CR) | no contact, gap < 0.5 m | 0.5–1 m | ≥ 1 m |";
-    let mut set = String::new();
     let mut checked = Vec::new();
-    for row in markdown_rows(&doc, header, "Why `safer`'s CR stays") {
-        if !row[0].is_empty() {
-            set = row[0].clone();
-        }
+    for (set, row) in rows_by_first_cell(&markdown_rows(&doc, header, "Why `safer`'s CR stays")) {
         let file = evaluate_output_of_set("closest-approach", &set);
         let output = repo_file(&format!("docs/evaluation/{file}"));
         let method = method_of(&row[1]).expect("a method");
