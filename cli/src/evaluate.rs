@@ -117,6 +117,15 @@ fn is_as_loaded(roles: &RolePairing) -> bool {
     *roles == RolePairing::AsLoaded
 }
 
+/// The option that asked for `roles`, as a message names it: ` (--roles
+/// leader)`, nothing for the scenes' own pairs.
+fn roles_flag(roles: RolePairing) -> String {
+    match roles {
+        RolePairing::AsLoaded => String::new(),
+        other => format!(" (--roles {})", safer_scenarios::spec::spec_name(&other)),
+    }
+}
+
 fn is_pair(scope: &FeasibilityScope) -> bool {
     *scope == FeasibilityScope::Pair
 }
@@ -290,11 +299,9 @@ fn print_table(
         } else {
             format!("; the witness search widens its beam up to ×{}", witness.widest)
         },
-        match request.roles {
-            RolePairing::AsLoaded => "",
-            RolePairing::Merging => "; ego and CBV in merging lanes (--roles merging)",
-            RolePairing::Leader => "; the CBV is the ego's leader (--roles leader)",
-            RolePairing::Crossing => "; the CBV's path crosses the ego's (--roles crossing)",
+        match request.roles.cbv_in_words() {
+            Some(cbv) => format!("; {cbv}{}", roles_flag(request.roles)),
+            None => String::new(),
         }
     )?;
     print_outcomes(out, rows, &name)?;
@@ -1412,12 +1419,9 @@ impl SceneSelection<'_> {
     /// `scenes` with the roles this selection asks for; with `merging`,
     /// the scenes that have a merging pair.
     fn paired(&self, scenes: Vec<Arc<Scenario>>) -> Vec<Arc<Scenario>> {
-        let what = match self.roles {
-            RolePairing::AsLoaded => return scenes,
-            RolePairing::Merging => "a merging pair",
-            RolePairing::Leader => "a leader",
-            RolePairing::Crossing => "a crossing pair",
-        };
+        if self.roles == RolePairing::AsLoaded {
+            return scenes;
+        }
         let all = scenes.len();
         let paired: Vec<Arc<Scenario>> = scenes
             .into_iter()
@@ -1427,7 +1431,7 @@ impl SceneSelection<'_> {
             })
             .collect();
         let flag = safer_scenarios::spec::spec_name(&self.roles);
-        eprintln!("evaluate: --roles {flag}: {} of {all} scenes have {what}", paired.len());
+        eprintln!("evaluate: --roles {flag}: {} of {all} scenes have {}", paired.len(), self.roles.pair_in_brief());
         paired
     }
 
@@ -1439,14 +1443,10 @@ impl SceneSelection<'_> {
             return Ok(scenes);
         }
         if let Some(missing) = self.ids.iter().find(|id| !scenes.iter().any(|s| &s.id == *id)) {
-            let which = match self.roles {
-                RolePairing::AsLoaded => "an ego and a CBV",
-                RolePairing::Merging => "a merging pair (--roles merging)",
-                RolePairing::Leader => "a leader for the ego (--roles leader)",
-                RolePairing::Crossing => "a crossing pair (--roles crossing)",
-            };
             return Err(CliError::Usage(format!(
-                "--scene {missing}: no scene with {which} under {} has that id ({} do; the tables name them)",
+                "--scene {missing}: no scene with {}{} under {} has that id ({} do; the tables name them)",
+                self.roles.pair_in_words(),
+                roles_flag(self.roles),
                 dir.display(),
                 scenes.len()
             )));
@@ -1500,13 +1500,12 @@ pub(super) fn run(
         })
         .collect();
     if scenes.is_empty() {
-        let what = match selection.roles {
-            RolePairing::AsLoaded => "no scene with both an ego and a CBV",
-            RolePairing::Merging => "no scene with a pair of vehicles in merging lanes (--roles merging)",
-            RolePairing::Leader => "no scene where the ego has a leader (--roles leader)",
-            RolePairing::Crossing => "no scene with a vehicle whose path crosses the ego's (--roles crossing)",
-        };
-        return Err(CliError::Usage(format!("{}: {what}", scenes_dir.display())));
+        return Err(CliError::Usage(format!(
+            "{}: no scene with {}{}",
+            scenes_dir.display(),
+            selection.roles.pair_in_words(),
+            roles_flag(selection.roles)
+        )));
     }
     let digest = evaluation::scene_list_digest(&scenes.iter().map(|s| s.id.as_str()).collect::<Vec<_>>());
     let scenes = match partition {

@@ -225,7 +225,7 @@ impl Suite {
                     format!(
                         "no scene of {} has {} (roles: {}), so this entry would test nothing",
                         recorded.value,
-                        pair_description(*roles),
+                        roles.pair_in_words(),
                         crate::spec::spec_name(roles)
                     ),
                 ));
@@ -301,16 +301,6 @@ fn paired_name(name: &str, roles: RolePairing) -> String {
     match roles {
         RolePairing::AsLoaded => name.to_string(),
         other => format!("{name}-{}", crate::spec::spec_name(&other)),
-    }
-}
-
-/// What a scene needs for `roles`, in words.
-fn pair_description(roles: RolePairing) -> &'static str {
-    match roles {
-        RolePairing::AsLoaded => "an ego and a CBV",
-        RolePairing::Merging => "a pair of vehicles in merging lanes",
-        RolePairing::Leader => "a leader for the ego",
-        RolePairing::Crossing => "a vehicle crossing the ego's path",
     }
 }
 
@@ -391,7 +381,7 @@ impl SuiteScenario {
                     roles => self.entry.reference(format!(
                         "{} no longer has {} (roles: {})",
                         p.display(),
-                        pair_description(roles),
+                        roles.pair_in_words(),
                         crate::spec::spec_name(&roles)
                     )),
                 })?,

@@ -227,6 +227,39 @@ impl RolePairing {
             Self::Crossing => assign_crossing(scenario),
         }
     }
+
+    /// The pair a scene needs for this pairing, in words ("a leader for
+    /// the ego"), for the messages that say a scene lacks it.
+    pub fn pair_in_words(self) -> &'static str {
+        match self {
+            Self::AsLoaded => "an ego and a CBV",
+            Self::Merging => "a pair of vehicles in merging lanes",
+            Self::Leader => "a leader for the ego",
+            Self::Crossing => "a vehicle whose path crosses the ego's",
+        }
+    }
+
+    /// The pair in a word or two ("a leader"), for counts of the scenes
+    /// that have one.
+    pub fn pair_in_brief(self) -> &'static str {
+        match self {
+            Self::AsLoaded => "an ego and a CBV",
+            Self::Merging => "a merging pair",
+            Self::Leader => "a leader",
+            Self::Crossing => "a crossing pair",
+        }
+    }
+
+    /// Who the CBV is under this pairing, in words (none for the scene's
+    /// own pair), for a report's heading.
+    pub fn cbv_in_words(self) -> Option<&'static str> {
+        match self {
+            Self::AsLoaded => None,
+            Self::Merging => Some("ego and CBV in merging lanes"),
+            Self::Leader => Some("the CBV is the ego's leader"),
+            Self::Crossing => Some("the CBV's path crosses the ego's"),
+        }
+    }
 }
 
 /// How far ahead of the ego's front a leader may be, m (1.4 s of headway

@@ -152,7 +152,10 @@ fn evaluate_with_merging_roles_tests_a_merging_pair_and_leaves_out_scenes_withou
     // A scene named that has no merging pair: said so, naming the option.
     let out = run(&["--roles", "merging", "--scene", "USA_US101-21_1_T-1"]);
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(!out.status.success() && err.contains("no scene with a merging pair (--roles merging)"), "{err}");
+    assert!(
+        !out.status.success() && err.contains("no scene with a pair of vehicles in merging lanes (--roles merging)"),
+        "{err}"
+    );
     // Only the freeway: nothing to test, said so.
     std::fs::remove_file(dir.join(merging.file_name().unwrap())).unwrap();
     let out = run(&["--roles", "merging", "--json", "-"]);
@@ -346,7 +349,7 @@ fn a_suite_entry_with_crossing_roles_tests_the_car_across_the_egos_way_and_refus
     };
     let e = e.to_string();
     assert!(
-        e.contains("suite.yaml:4:") && e.contains("has a vehicle crossing the ego's path (roles: crossing)"),
+        e.contains("suite.yaml:4:") && e.contains("has a vehicle whose path crosses the ego's (roles: crossing)"),
         "{e}"
     );
 }
