@@ -303,6 +303,40 @@ fn the_trust_region_sweep_quotes_its_outputs() {
 }
 
 #[test]
+fn the_table_without_the_approach_phase_quotes_its_outputs() {
+    let doc = repo_file("docs/benchmarks.md");
+    let rows = markdown_rows(&doc, "**Without the approach phase**", "On WOMD interactive the approach phase costs");
+    // The set's label, its folder under approach-none/, its main outputs' name.
+    let sets = [
+        ("WOMD interactive", "womd-interactive", "womd-interactive"),
+        ("WOMD JSON", "womd-json", "womd-json"),
+        ("NGSIM", "commonroad-ngsim", "ngsim"),
+    ];
+    let mut checked = 0;
+    for row in rows.iter().skip(1) {
+        let (_, unseeded, seeded) =
+            sets.iter().find(|(label, ..)| row[0].starts_with(label)).unwrap_or_else(|| panic!("{row:?}"));
+        let first_token =
+            output_table(&repo_file(&format!("docs/evaluation/approach-none/evaluate-{unseeded}.txt")), "variants");
+        let main = main_evaluation_rows(seeded);
+        let cr = |table: &BTreeMap<String, Vec<String>>, method: &str| evaluation_figures(table, method)[0].clone();
+        let wide = evaluation_figures(&first_token, "no-trust-region");
+        let expected = [
+            cr(&first_token, "safer"),
+            cr(&first_token, "safer-inattentive"),
+            cr(&first_token, "safer-lookahead"),
+            cr(&first_token, "no-lfr"),
+            format!("{} (SR {})", wide[0], wide[1]),
+            cr(&main, "safer"),
+            cr(&main, "prior"),
+        ];
+        assert_eq!(row[1..], expected[..], "{}", row[0]);
+        checked += 1;
+    }
+    assert_eq!(checked, 3, "the three sets");
+}
+
+#[test]
 fn the_kill_ratio_summary_quotes_the_three_seed_outputs() {
     let doc = repo_file("docs/benchmarks.md");
     let rows = markdown_rows(&doc, "The goal is 2× log replay's kills", "Many of every method's kills");
