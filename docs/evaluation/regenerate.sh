@@ -302,6 +302,10 @@
 #                     (mutants-womd-json-lane-follower-n60-{as-loaded,crossing}.txt),
 #                     and the faults either pairing catches per scene
 #                     (scene-kills-womd-json-lane-follower.txt) (about 12 minutes)
+#   default-sweep     default-sweep/sweep-n{20,28,40,60,100}.txt: the suites' method
+#                     (safer-in-path-lookahead, no contact from behind) in the paper's
+#                     protocol on WOMD interactive, ten seeds, over 20 to 100 behaviours,
+#                     and over 28 with any contact (any-n28.txt) (about 5 minutes)
 #   mutants           mutants-{womd-interactive,womd-json,ngsim}-evasive.txt and
 #                     mutants-{womd-interactive,ngsim}-lane-follower.txt: the
 #                     faults of the planner each method's variants catch
@@ -317,7 +321,7 @@ self=$(realpath "$0")
 cd "$(dirname "$self")"
 all=(evaluate plain inattentive held-out-chance trust-region realism prior-fit n-sweep reactive n100 approach-none merging mutants wide-region cut-in
     in-path-lookahead in-path-lookahead-n30 in-path-lookahead-n28 in-path-lookahead-sweep pair-in-traffic witnessed wide-witnessed ten-seeds reaction-delay reactive-background leader first-contact both-pairings first-contact-lookahead blind-twin ego-contact wrong-way
-    lane-follower-pairings at-fault-planner along-the-lanes along-the-lanes-lane-follower sideways kill-ratios human-lane-changes grip turning turning-cost turning-cost-sweep ten-seeds-lookahead cut-in-anticipation standing-berth turning-circle bumper womd-json-suites readme-results closest-approach crossing crossing-pairings)
+    lane-follower-pairings at-fault-planner along-the-lanes along-the-lanes-lane-follower sideways kill-ratios human-lane-changes grip turning turning-cost turning-cost-sweep ten-seeds-lookahead cut-in-anticipation standing-berth turning-circle bumper womd-json-suites readme-results closest-approach crossing crossing-pairings default-sweep)
 jobs=("$@")
 [[ ${#jobs[@]} -gt 0 ]] || jobs=("${all[@]}")
 # The usage is the comment block at the top of this file.
@@ -1089,6 +1093,15 @@ for job in "${jobs[@]}"; do
         python3 scene_kills_union.py "$reports/mutants-womd-json-lane-follower-n60-as-loaded.json" \
             "$reports/mutants-womd-json-lane-follower-n60-crossing.json" >crossing/scene-kills-womd-json-lane-follower.txt
         rm -r "$reports" ;;
+    default-sweep)
+        mkdir -p default-sweep
+        for n in 20 28 40 60 100; do
+            run "default-sweep/sweep-n$n.txt" evaluate --scenes data:womd-interactive --seeds 10 \
+                --trust-region "$n" --methods safer-in-path-lookahead --ego-contact not-from-behind
+        done
+        # Over 28 with any contact: what the rule gives up.
+        run default-sweep/any-n28.txt evaluate --scenes data:womd-interactive --seeds 10 \
+            --trust-region 28 --methods safer-in-path-lookahead ;;
     esac
 done
 rm -r "$(dirname "$safer")"

@@ -1528,12 +1528,12 @@ fn the_ego_contact_tables_quote_their_outputs() {
 
 /// The paper-protocol run of the lookahead on WOMD interactive over `n`
 /// behaviours with the ego-contact `rule` cell (`any` over 28 only), as
-/// its file and output, checked to be over `n` and under that rule.
+/// its file and output (`default-sweep/`), checked to be over `n` and
+/// under that rule.
 fn ego_contact_protocol_run(n: &str, rule: &str) -> (String, String) {
     let file = match (n, rule) {
-        ("28", "`any`") => "ego-contact/evaluate-womd-interactive-n28-any.txt".to_owned(),
-        ("28", _) => "ego-contact/evaluate-womd-interactive-n28.txt".to_owned(),
-        (n, _) => format!("ego-contact/sweep-n{n}.txt"),
+        ("28", "`any`") => "default-sweep/any-n28.txt".to_owned(),
+        (n, _) => format!("default-sweep/sweep-n{n}.txt"),
     };
     let output = repo_file(&format!("docs/evaluation/{file}"));
     check_ego_contact(&output, rule, &file);
