@@ -305,7 +305,8 @@
 #   default-sweep     default-sweep/sweep-n{20,28,40,60,100}.txt: the suites' method
 #                     (safer-in-path-lookahead, no contact from behind) in the paper's
 #                     protocol on WOMD interactive, ten seeds, over 20 to 100 behaviours,
-#                     and over 28 with any contact (any-n28.txt) (about 5 minutes)
+#                     and with any contact over 20, 25, 27, 28, 30, 40, 60 and 100
+#                     (any-nN.txt) (about 12 minutes)
 #   mutants           mutants-{womd-interactive,womd-json,ngsim}-evasive.txt and
 #                     mutants-{womd-interactive,ngsim}-lane-follower.txt: the
 #                     faults of the planner each method's variants catch
@@ -1099,9 +1100,11 @@ for job in "${jobs[@]}"; do
             run "default-sweep/sweep-n$n.txt" evaluate --scenes data:womd-interactive --seeds 10 \
                 --trust-region "$n" --methods safer-in-path-lookahead --ego-contact not-from-behind
         done
-        # Over 28 with any contact: what the rule gives up.
-        run default-sweep/any-n28.txt evaluate --scenes data:womd-interactive --seeds 10 \
-            --trust-region 28 --methods safer-in-path-lookahead ;;
+        # With any contact: what the rule gives up.
+        for n in 20 25 27 28 30 40 60 100; do
+            run "default-sweep/any-n$n.txt" evaluate --scenes data:womd-interactive --seeds 10 \
+                --trust-region "$n" --methods safer-in-path-lookahead
+        done ;;
     esac
 done
 rm -r "$(dirname "$safer")"

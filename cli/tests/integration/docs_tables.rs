@@ -566,12 +566,10 @@ fn the_lookahead_region_sweep_quotes_its_outputs() {
     // CR, CR held out, SR, SR-crit, witness, VJ / AJ of each region.
     let mut sweep = Vec::new();
     let header = "| n | CR | CR held out | SR | SR-crit | witness | VJ / AJ |";
-    for row in markdown_rows(&doc, header, "The smallest region") {
+    for row in markdown_rows(&doc, header, "With any contact, the lookahead over 25 to 30") {
         let file = match row[0].as_str() {
             "---" => continue,
-            "20" => "in-path-lookahead/evaluate-womd-interactive.txt".to_owned(),
-            "30" => "in-path-lookahead/n30/evaluate-womd-interactive.txt".to_owned(),
-            n => format!("in-path-lookahead/sweep-n{n}.txt"),
+            n => format!("default-sweep/any-n{n}.txt"),
         };
         let (rows, text) = evaluation_output(&file);
         let figures = evaluation_figures(&rows, "safer-in-path-lookahead");
