@@ -920,22 +920,17 @@ impl ClosestApproach {
     /// The shares over `variants` (that ran); `None` for none.
     fn of(variants: &[&VariantRecord]) -> Option<Self> {
         let n = variants.len();
-        let count = |band: &dyn Fn(f64) -> bool| {
-            variants.iter().filter(|r| !r.tally.critical && r.stage1_min_gap_to_cbv_m.is_some_and(band)).count() as f64
-                / n as f64
-        };
+        let share =
+            |keep: &dyn Fn(&VariantRecord) -> bool| variants.iter().filter(|r| keep(r)).count() as f64 / n as f64;
+        // The gap bands hold the variants without a stage-1 collision.
+        let band = |gap: &dyn Fn(Option<f64>) -> bool| share(&|r| !r.tally.critical && gap(r.stage1_min_gap_to_cbv_m));
         let [half, one] = CLOSEST_APPROACH_BANDS_M;
-        (n > 0).then(|| {
-            let contact = variants.iter().filter(|r| r.tally.critical).count() as f64 / n as f64;
-            let under_half_m = count(&|g| g < half);
-            let under_1_m = count(&|g| (half..one).contains(&g));
+        (n > 0).then(|| Self {
+            contact: share(&|r| r.tally.critical),
+            under_half_m: band(&|g| g.is_some_and(|g| g < half)),
+            under_1_m: band(&|g| g.is_some_and(|g| (half..one).contains(&g))),
             // Counted, not the rest of 1: a difference of shares can round to −0.000.
-            let farther = variants
-                .iter()
-                .filter(|r| !r.tally.critical && r.stage1_min_gap_to_cbv_m.is_none_or(|g| g >= one))
-                .count() as f64
-                / n as f64;
-            Self { contact, under_half_m, under_1_m, farther }
+            farther: band(&|g| g.is_none_or(|g| g >= one)),
         })
     }
 }
