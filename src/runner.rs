@@ -197,6 +197,11 @@ impl Runner {
                 loaded.skipped_for_data.len()
             );
         }
+        if !args.list {
+            for (_, suite) in &loaded.suites {
+                suite.spec.warnings().iter().for_each(|w| eprintln!("{}", w.render(false)));
+            }
+        }
         let (suites, load_failures) = (loaded.suites, loaded.load_failures);
         let conclusion = libtest_mimic::run(args, loaded.trials);
         let under_nextest = std::env::var_os("NEXTEST").is_some();

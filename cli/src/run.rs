@@ -412,6 +412,8 @@ fn load_suites(
     for file in files {
         match Suite::load(file) {
             Ok(mut s) => {
+                let colour = std::io::IsTerminal::is_terminal(&std::io::stderr());
+                s.spec.warnings().iter().for_each(|w| eprintln!("{}", w.render(colour)));
                 s.shrink = shrink.over(s.shrink);
                 suites.push((file.clone(), s));
             }

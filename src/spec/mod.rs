@@ -123,30 +123,78 @@ impl SpecError {
             | Self::Invalid { text, location, message, .. }
             | Self::Reference { text, location, message, .. } => (text, location, message),
         };
-        let path = self.path().display().to_string();
-        if text.is_empty() {
-            return format!("error: {path}: {message}");
-        }
-        let (shown, moved) = shown_excerpt(text, *location);
-        let offset = moved.map(|l| line_column_to_offset(&shown, l)).unwrap_or(0);
-        // Where a long line was cut, the snippet's columns are not the
-        // file's: the label gives the file's.
-        let label = match location {
-            Some(l) if moved != *location => format!("here (line {}, column {} of the file)", l.line, l.column),
-            _ => "here".to_string(),
-        };
-        // An empty span at a line's end would underline nothing: mark the
-        // character at the place, or the line break after it.
-        let end = shown[offset..].chars().next().map_or(offset, |c| offset + c.len_utf8());
-        let report = [annotate_snippets::Level::ERROR.primary_title(message.as_str()).element(
-            annotate_snippets::Snippet::source(shown.as_str())
-                .path(path.as_str())
-                .annotation(annotate_snippets::AnnotationKind::Primary.span(offset..end).label(label.as_str())),
-        )];
-        let renderer =
-            if colour { annotate_snippets::Renderer::styled() } else { annotate_snippets::Renderer::plain() };
-        renderer.render(&report)
+        render_located(Severity::Error, (self.path(), text, *location), message, colour)
     }
+}
+
+/// Something a spec says that is valid but most likely not what its
+/// author meant: reported beside the run, not refused (see
+/// [`Loaded::warning_at`]).
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{path}{location}: {message}", path = path.display(), location = fmt_location(location))]
+pub struct SpecWarning {
+    /// The spec file.
+    pub path: PathBuf,
+    /// Where, when known.
+    pub location: Option<SpecLocation>,
+    /// What the spec does and what to write instead.
+    pub message: String,
+    /// The file's text, for rendering the snippet.
+    text: String,
+}
+
+impl SpecWarning {
+    /// The warning as a report, as [`SpecError::render`] shows an error.
+    pub fn render(&self, colour: bool) -> String {
+        render_located(Severity::Warning, (&self.path, &self.text, self.location), &self.message, colour)
+    }
+}
+
+/// How a located message is reported.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Severity {
+    Error,
+    Warning,
+}
+
+/// A message about a place in a spec file: the message, the file and
+/// place, and its line with the place underlined.
+fn render_located(
+    severity: Severity,
+    (path, text, location): (&Path, &str, Option<SpecLocation>),
+    message: &str,
+    colour: bool,
+) -> String {
+    let path = path.display().to_string();
+    if text.is_empty() {
+        let word = match severity {
+            Severity::Error => "error",
+            Severity::Warning => "warning",
+        };
+        return format!("{word}: {path}: {message}");
+    }
+    let level = match severity {
+        Severity::Error => annotate_snippets::Level::ERROR,
+        Severity::Warning => annotate_snippets::Level::WARNING,
+    };
+    let (shown, moved) = shown_excerpt(text, location);
+    let offset = moved.map(|l| line_column_to_offset(&shown, l)).unwrap_or(0);
+    // Where a long line was cut, the snippet's columns are not the
+    // file's: the label gives the file's.
+    let label = match location {
+        Some(l) if moved != location => format!("here (line {}, column {} of the file)", l.line, l.column),
+        _ => "here".to_string(),
+    };
+    // An empty span at a line's end would underline nothing: mark the
+    // character at the place, or the line break after it.
+    let end = shown[offset..].chars().next().map_or(offset, |c| offset + c.len_utf8());
+    let report = [level.primary_title(message).element(
+        annotate_snippets::Snippet::source(shown.as_str())
+            .path(path.as_str())
+            .annotation(annotate_snippets::AnnotationKind::Primary.span(offset..end).label(label.as_str())),
+    )];
+    let renderer = if colour { annotate_snippets::Renderer::styled() } else { annotate_snippets::Renderer::plain() };
+    renderer.render(&report)
 }
 
 fn line_column_to_offset(text: &str, l: SpecLocation) -> usize {
@@ -175,6 +223,22 @@ impl<T> Loaded<T> {
     /// An [`SpecError::Invalid`] at `location` in this file.
     pub fn invalid(&self, location: Option<SpecLocation>, message: impl Into<String>) -> SpecError {
         SpecError::Invalid { path: self.path.clone(), location, message: message.into(), text: self.text.clone() }
+    }
+
+    /// A [`SpecWarning`] at the value `path` (or its nearest written
+    /// ancestor) in this file.
+    pub fn warning_at(&self, path: &str, message: impl Into<String>) -> SpecWarning {
+        SpecWarning {
+            path: self.path.clone(),
+            location: self.at(path),
+            message: message.into(),
+            text: self.text.clone(),
+        }
+    }
+
+    /// Whether the file writes the value at `path` (not left to its default).
+    pub fn writes(&self, path: &str) -> bool {
+        locate::tree(&self.text).is_some_and(|root| root.walk(&locate::parse_path(path)).1)
     }
 
     /// A [`SpecError::Reference`] at `location` in this file.

@@ -21,7 +21,7 @@ use schemars::JsonSchema;
 use serde::Deserialize;
 use serde_saphyr::Spanned;
 
-use super::{Loaded, SpecError, SpecLocation, paths};
+use super::{Loaded, SpecError, SpecLocation, SpecWarning, paths};
 use crate::policies::BackgroundPolicy;
 use crate::policies::adversary::{
     ApproachPhase, CbvTurningCost, CbvTurningLimit, EgoContactRule, FeasibilityScope, MAX_TURNING_COST_M_PER_MPS2,
@@ -655,6 +655,30 @@ impl Loaded<SuiteSpec> {
         Ok(out)
     }
 
+    /// What the suite says that is valid but most likely not meant, each
+    /// at its place: recorded scenes with no `adversary.method`, which
+    /// the default replays as recorded (`log`). Such a suite tests only
+    /// the conflicts its recordings hold, as a regression suite may mean
+    /// to; writing `method: log` says so and silences the warning.
+    pub fn warnings(&self) -> Vec<SpecWarning> {
+        let first_recorded = self.value.scenarios.iter().position(|e| matches!(e, ScenarioEntry::Recorded { .. }));
+        let mut out = Vec::new();
+        if let Some(i) = first_recorded
+            && !self.writes("adversary.method")
+        {
+            let at =
+                if self.writes("adversary") { "adversary".to_string() } else { format!("scenarios[{i}].recorded") };
+            out.push(self.warning_at(
+                &at,
+                "no `adversary.method`: the recorded scenes are replayed as recorded (`log`, the default) and meet \
+                 only the conflicts their recordings hold; name a SaFeR method for adversarial variants (the shipped \
+                 adversarial suites use `safer-in-path-lookahead`: docs/guide/adversary.md), or write `method: log` \
+                 to replay on purpose",
+            ));
+        }
+        out
+    }
+
     /// Checks settings that serde cannot, each error at the offending value.
     pub fn validate(&self) -> Result<(), SpecError> {
         use super::NumberRange;
@@ -1016,6 +1040,37 @@ acceptance:
             .and_then(|()| parse_yaml::<SuiteSpec>(&text, path)?.validate())
             .expect_err("must be refused")
             .to_string()
+    }
+
+    /// The warnings of the suite with `from` replaced by `to`, as text.
+    fn warnings(from: &str, to: &str) -> Vec<String> {
+        assert!(SUITE.contains(from), "{from}");
+        let text = SUITE.replace(from, to);
+        let spec = parse_yaml::<SuiteSpec>(&text, Path::new("s.yaml")).unwrap();
+        spec.warnings().iter().map(ToString::to_string).collect()
+    }
+
+    #[test]
+    fn recorded_scenes_left_to_the_default_replay_are_warned_of_where_the_method_would_go() {
+        // No adversary at all: at the recorded entry.
+        let w = warnings("adversary: { method: prior }\nvariants: 2", "variants: 1");
+        assert_eq!(w.len(), 1, "{w:?}");
+        assert!(w[0].starts_with("s.yaml:3:15: no `adversary.method`: the recorded scenes are replayed"), "{w:?}");
+        assert!(w[0].contains("write `method: log` to replay on purpose"), "{w:?}");
+        // An adversary without a method: at the adversary.
+        let w = warnings("adversary: { method: prior }\nvariants: 2", "adversary: { trust_region: 20 }\nvariants: 1");
+        assert_eq!(w.len(), 1, "{w:?}");
+        assert!(w[0].starts_with("s.yaml:5:12: no `adversary.method`"), "{w:?}");
+        // A method written, `log` too: nothing to warn of.
+        assert!(warnings("method: prior }", "method: prior }").is_empty());
+        assert!(warnings("method: prior }\nvariants: 2", "method: log }\nvariants: 1").is_empty());
+        // Authored scenes only: the default replays what the author wrote.
+        let authored = warnings("  - recorded: data:x\n", "  - glob: x/*.yaml\n");
+        let authored_default = SUITE
+            .replace("  - recorded: data:x\n", "  - glob: x/*.yaml\n")
+            .replace("adversary: { method: prior }\nvariants: 2", "variants: 1");
+        let spec = parse_yaml::<SuiteSpec>(&authored_default, Path::new("s.yaml")).unwrap();
+        assert!(authored.is_empty() && spec.warnings().is_empty(), "{:?}", spec.warnings());
     }
 
     #[test]

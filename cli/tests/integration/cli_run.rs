@@ -86,6 +86,26 @@ fn run_reports_a_typo_with_file_line_and_field_and_exits_2() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+#[test]
+fn run_warns_of_recorded_scenes_left_to_replay_and_runs_them() {
+    let dir = temp_dir("replay-warning");
+    let suite = dir.join("replay.yaml");
+    let written = "name: replay\nscenarios:\n  - recorded: safer:scenes/ngsim\nplanner: { builtin: idm }\n";
+    std::fs::write(&suite, written).unwrap();
+    let out = safer(&["run", suite.to_str().unwrap()]);
+    let stderr = text(&out.stderr);
+    assert_eq!(out.status.code(), Some(0), "{stderr}");
+    assert!(stderr.starts_with("warning: no `adversary.method`: the recorded scenes are replayed"), "{stderr}");
+    assert!(stderr.contains("replay.yaml:3:15"), "{stderr}");
+    assert!(text(&out.stdout).contains("PASS: 3 variants"), "{}", text(&out.stdout));
+    // Saying so silences it; the file the user wrote is left as written.
+    std::fs::write(&suite, written.replace("idm }\n", "idm }\nadversary: { method: log }\n")).unwrap();
+    let out = safer(&["run", suite.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out.stderr));
+    assert!(!text(&out.stderr).contains("warning"), "{}", text(&out.stderr));
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 /// `safer run SUITE --artifacts ARTEFACTS --json JSON`, then `more`.
 fn run_with_artefacts(suite: &Path, artefacts: &Path, json: &Path, more: &[&str]) -> Output {
     let mut args = vec![
