@@ -44,13 +44,15 @@ const IN_PATH_RATIO_TARGET: f64 = 2.0;
 const WIDE_IN_PATH_TRUST_REGION: usize = 60;
 /// The wider trust region the bench times `safer-in-path-lookahead` over too: the
 /// shipped NGSIM suites' region and method (a test holds them so), where on NGSIM it
-/// meets the set's goals with the witness asked (`docs/benchmarks.md`, "The horizon at
-/// the first contact").
+/// meets the set's goals with the witness asked
+/// (`docs/research/2026-12-adversary-settings.md`, "The horizon at the first
+/// contact").
 const WIDE_LOOKAHEAD_TRUST_REGION: usize = 60;
 /// The trust region of the lookahead on WOMD interactive's tables: the
 /// smallest over which its CR passes 0.7 there with any contact, where its
 /// mutation tables with no contact from behind are made
-/// (`docs/benchmarks.md`, "No contact from behind the ego").
+/// (`docs/research/2026-12-adversary-settings.md`, "No contact from behind
+/// the ego").
 const INTERACTIVE_LOOKAHEAD_TRUST_REGION: usize = 28;
 /// Seeds over which the shipped suites' variants are timed beside
 /// `safer`'s, each once: one seed's variant can cost far less than the

@@ -11,6 +11,13 @@ fn repo_file(path: &str) -> String {
     std::fs::read_to_string(&full).unwrap_or_else(|e| panic!("reading {full}: {e}"))
 }
 
+/// The benchmarks and the record of how the adversary's settings were
+/// measured (`docs/research/2026-12-adversary-settings.md`), as one text:
+/// each table is found by markers that appear once across both.
+fn measured_docs() -> String {
+    repo_file("docs/benchmarks.md") + "\n" + &repo_file("docs/research/2026-12-adversary-settings.md")
+}
+
 /// An output's rows of one table: method → its cells after the method's
 /// name, split on whitespace (the first table of the output whose header
 /// line starts with `method` and holds `header_word`; its rows end at the
@@ -82,7 +89,7 @@ fn parts(cell: &str) -> Vec<String> {
 
 #[test]
 fn the_main_evaluation_table_quotes_the_womd_interactive_outputs() {
-    let doc = repo_file("docs/benchmarks.md");
+    let doc = measured_docs();
     let output = main_evaluation_rows("womd-interactive");
     let rows = markdown_rows(&doc, "## Dual-stage evaluation", "**Trust region**");
     let mut checked = 0;
@@ -99,7 +106,7 @@ fn the_main_evaluation_table_quotes_the_womd_interactive_outputs() {
 
 #[test]
 fn the_womd_json_and_ngsim_tables_quote_their_outputs() {
-    let doc = repo_file("docs/benchmarks.md");
+    let doc = measured_docs();
     let outputs = [("WOMD JSON", main_evaluation_rows("womd-json")), ("NGSIM", main_evaluation_rows("ngsim"))];
     let mut checked = 0;
     let mut set = "";
@@ -130,7 +137,7 @@ fn the_womd_json_and_ngsim_tables_quote_their_outputs() {
 /// (under `docs/evaluation/`) whose rows it quotes, the first holding the
 /// method answering. Returns the rows checked.
 fn check_mutation_table(from: &str, to: &str, outputs: &[(&str, &[&str])]) -> usize {
-    let doc = repo_file("docs/benchmarks.md");
+    let doc = measured_docs();
     let rows = markdown_rows(&doc, from, to);
     let header = &rows[0];
     let column =
@@ -269,7 +276,7 @@ fn the_readme_results_table_quotes_the_womd_interactive_outputs() {
 
 #[test]
 fn the_trust_region_sweep_quotes_its_outputs() {
-    let doc = repo_file("docs/benchmarks.md");
+    let doc = measured_docs();
     let rows =
         markdown_rows(&doc, "**Trust region** (`safer evaluate --scenes data:womd-interactive", "`safer` gains most");
     let methods = ["safer", "safer-in-path", "safer-distinct", "safer-lookahead"];
@@ -304,7 +311,7 @@ fn the_trust_region_sweep_quotes_its_outputs() {
 
 #[test]
 fn the_table_without_the_approach_phase_quotes_its_outputs() {
-    let doc = repo_file("docs/benchmarks.md");
+    let doc = measured_docs();
     let rows = markdown_rows(&doc, "**Without the approach phase**", "On WOMD interactive the approach phase costs");
     // The set's label, its folder under approach-none/, its main outputs' name.
     let sets = [
@@ -338,7 +345,7 @@ fn the_table_without_the_approach_phase_quotes_its_outputs() {
 
 #[test]
 fn the_kill_ratio_summary_quotes_the_three_seed_outputs() {
-    let doc = repo_file("docs/benchmarks.md");
+    let doc = measured_docs();
     let rows = markdown_rows(&doc, "The goal is 2× log replay's kills", "Many of every method's kills");
     let outputs = [
         ("evasive, WOMD interactive", "mutants-womd-interactive-evasive.txt"),
@@ -368,7 +375,7 @@ fn the_kill_ratio_summary_quotes_the_three_seed_outputs() {
 
 #[test]
 fn the_reactive_background_table_quotes_its_outputs() {
-    let doc = repo_file("docs/benchmarks.md");
+    let doc = measured_docs();
     let rows = markdown_rows(&doc, "**Reactive background**", "With the reactive background");
     let outputs = |set: &str| {
         let replay = main_evaluation_rows(set);
@@ -406,7 +413,7 @@ fn the_reactive_background_table_quotes_its_outputs() {
 /// against the output `outputs` names for (first cell, n). Returns the
 /// rows checked.
 fn check_run_table(from: &str, to: &str, method: Option<&str>, outputs: &[(&str, &str, &str)]) -> usize {
-    let doc = repo_file("docs/benchmarks.md");
+    let doc = measured_docs();
     let rows = markdown_rows(&doc, from, to);
     let header = &rows[0];
     let column =
@@ -441,7 +448,7 @@ fn check_run_table(from: &str, to: &str, method: Option<&str>, outputs: &[(&str,
 #[test]
 fn the_wide_region_and_cut_in_tables_quote_their_outputs() {
     let wide = check_run_table(
-        "### Trust region on the freeway",
+        "## Trust region on the freeway",
         "- **On NGSIM n = 60 meets the kill goal",
         Some("safer-in-path"),
         &[
@@ -460,7 +467,7 @@ fn the_wide_region_and_cut_in_tables_quote_their_outputs() {
     );
     assert_eq!(wide, 11, "the wide-region table's rows");
     let cut_in = check_run_table(
-        "### Cut-ins that are made: `safer-cut-in`",
+        "## Cut-ins that are made: `safer-cut-in`",
         "- **Cut-ins.**",
         None,
         &[
@@ -495,7 +502,7 @@ fn kills_and_ratio(kills: &BTreeMap<String, Vec<String>>, method: &str) -> Strin
 
 #[test]
 fn the_lookahead_mutation_tables_quote_their_outputs() {
-    let doc = repo_file("docs/benchmarks.md");
+    let doc = measured_docs();
     let files = [
         ("WOMD interactive", "in-path-lookahead/mutants-womd-interactive-evasive.txt"),
         ("WOMD interactive, `--seed 1000`", "in-path-lookahead/mutants-womd-interactive-evasive-seed1000.txt"),
@@ -562,7 +569,7 @@ fn evaluation_output(file: &str) -> (BTreeMap<String, Vec<String>>, String) {
 
 #[test]
 fn the_lookahead_region_sweep_quotes_its_outputs() {
-    let doc = repo_file("docs/benchmarks.md");
+    let doc = measured_docs();
     // CR, CR held out, SR, SR-crit, witness, VJ / AJ of each region.
     let mut sweep = Vec::new();
     let header = "| n | CR | CR held out | SR | SR-crit | witness | VJ / AJ |";
@@ -584,8 +591,29 @@ fn the_lookahead_region_sweep_quotes_its_outputs() {
 }
 
 #[test]
-fn the_lookahead_mutation_table_over_twenty_eight_behaviours_quotes_its_outputs() {
+fn the_suites_method_sweep_quotes_its_outputs_with_and_without_the_rule() {
     let doc = repo_file("docs/benchmarks.md");
+    let header = "| n | no contact from behind: CR | CR held out | SR | SR-crit | witness | any contact: CR |";
+    let mut sweep = Vec::new();
+    for row in markdown_rows(&doc, header, "The goal for a suite's default method") {
+        if row[0] == "---" {
+            continue;
+        }
+        for (file, cells) in [("sweep", &row[1..6]), ("any", &row[6..11])] {
+            let (rows, text) = evaluation_output(&format!("default-sweep/{file}-n{}.txt", row[0]));
+            let figures = evaluation_figures(&rows, "safer-in-path-lookahead");
+            let label = format!("n = {}, {file}", row[0]);
+            assert_eq!([&cells[..1], &cells[2..]].concat(), figures[..4], "{label}");
+            assert_eq!(cells[1], held_out_cr(&text, "safer-in-path-lookahead"), "{label}: CR held out");
+        }
+        sweep.push(row[0].clone());
+    }
+    assert_eq!(sweep, ["20", "28", "40", "60", "100"], "the sweep's regions");
+}
+
+#[test]
+fn the_lookahead_mutation_table_over_twenty_eight_behaviours_quotes_its_outputs() {
+    let doc = measured_docs();
     let kills_of = |file: &str| output_table(&repo_file(&format!("docs/evaluation/{file}")), "passed");
     let mut rows = Vec::new();
     for row in markdown_rows(&doc, "| draw | `safer-in-path-lookahead`, n = 28 |", "Over 28 behaviours the") {
@@ -621,7 +649,7 @@ fn held_out_kills(kills: &BTreeMap<String, Vec<String>>, method: &str) -> String
 
 #[test]
 fn the_lookahead_protocol_table_over_thirty_behaviours_quotes_its_outputs() {
-    let doc = repo_file("docs/benchmarks.md");
+    let doc = measured_docs();
     // CR, CR held out, SR, SR-crit, witness, VJ / AJ.
     let mut protocol = 0;
     for row in markdown_rows(&doc, "--trust-region 30`):", "Mutation testing over 30 behaviours") {
@@ -660,7 +688,7 @@ fn the_lookahead_mutation_tables_over_thirty_behaviours_quote_their_outputs() {
     );
     assert_eq!(mutation, 8, "the mutation rows over 30 behaviours");
     // The draws of seeds: kills (×prior) over 20 and over 30, and the prior's kills.
-    let doc = repo_file("docs/benchmarks.md");
+    let doc = measured_docs();
     let kills_of = |file: &str| output_table(&repo_file(&format!("docs/evaluation/{file}")), "passed");
     let mut draws = 0;
     for row in markdown_rows(&doc, "| draw | `safer-in-path`, n = 20 |", "Over four draws").iter() {
@@ -700,7 +728,7 @@ fn check_scope_row(row: &[String], method: &str, file: &str, run: Option<&str>) 
 
 #[test]
 fn the_in_traffic_protocol_table_quotes_its_outputs() {
-    let doc = repo_file("docs/benchmarks.md");
+    let doc = measured_docs();
     // CR, CR held out, SR, SR-crit, witness, VJ / AJ; each method with V_h
     // alone (the runs over 30 and the sweep's over 28) and in traffic.
     let mut checked = Vec::new();
@@ -769,7 +797,7 @@ fn stage1_over_prior(output: &str, method: &str) -> String {
 
 #[test]
 fn the_witnessed_protocol_table_quotes_its_outputs() {
-    let doc = repo_file("docs/benchmarks.md");
+    let doc = measured_docs();
     // CR, CR held out, SR, SR-crit, witness, VJ / AJ and the stage-1 time
     // over the prior's in the same run; each method under the three scopes.
     let mut checked = Vec::new();
@@ -844,7 +872,7 @@ fn stage1_cut_ins(output: &str, method: &str) -> (u32, u32) {
 
 #[test]
 fn the_wide_witnessed_tables_quote_their_outputs() {
-    let doc = repo_file("docs/benchmarks.md");
+    let doc = measured_docs();
     let header = "| set | method | feasibility scope | CR | CR held out | SR | SR-crit | witness | VJ / AJ | stage-1 cut-ins | stage 1 ×prior |";
     let mut checked = Vec::new();
     for row in markdown_rows(&doc, header, "over 150 behaviours meets NGSIM's goals") {
@@ -988,7 +1016,7 @@ fn side_by_side_output(set: &str, draw: &str) -> &'static str {
 
 #[test]
 fn the_reaction_time_table_quotes_its_outputs() {
-    let doc = repo_file("docs/benchmarks.md");
+    let doc = measured_docs();
     let rows = markdown_rows(&doc, "| set | draw | stage-2 CBV |", "The delayed CBV");
     let mut checked = 0;
     for (set, draw, row) in rows_by_set_and_draw(&rows) {
@@ -1005,7 +1033,7 @@ fn the_reaction_time_table_quotes_its_outputs() {
 
 #[test]
 fn the_recorded_traffic_braking_table_quotes_its_outputs() {
-    let doc = repo_file("docs/benchmarks.md");
+    let doc = measured_docs();
     let rows = markdown_rows(&doc, "| set | draw | recorded cars |", "On NGSIM, where");
     let mut checked = 0;
     for (set, draw, row) in rows_by_set_and_draw(&rows) {
@@ -1032,7 +1060,7 @@ fn the_recorded_traffic_braking_table_quotes_its_outputs() {
 
 #[test]
 fn the_critical_variants_at_the_planner_table_quotes_its_outputs() {
-    let doc = repo_file("docs/benchmarks.md");
+    let doc = measured_docs();
     let rows = markdown_rows(&doc, "| set | draw | critical |", "On WOMD interactive many of the critical");
     let mut checked = 0;
     for (set, draw, row) in rows_by_set_and_draw(&rows) {
@@ -1052,7 +1080,7 @@ fn the_critical_variants_at_the_planner_table_quotes_its_outputs() {
 
 #[test]
 fn the_leader_tables_quote_their_outputs() {
-    let doc = repo_file("docs/benchmarks.md");
+    let doc = measured_docs();
     // The paper's protocol with the ego's leader as the CBV.
     let rows = markdown_rows(&doc, "| CBV | method | n | CR | SR | SR-crit |", "On the NGSIM scenes with a leader");
     for row in &rows {
@@ -1086,7 +1114,7 @@ fn the_leader_tables_quote_their_outputs() {
 
 #[test]
 fn the_first_contact_tables_quote_their_outputs() {
-    let doc = repo_file("docs/benchmarks.md");
+    let doc = measured_docs();
     // The paper's protocol, both losses.
     let rows = markdown_rows(&doc, "| scenes | in-path loss | n | output | CR | SR | SR-crit |", "The faults caught");
     for row in &rows {
@@ -1177,7 +1205,7 @@ fn fewest_scene_kills(table: &str, method: &str, pairing: &str) -> (u32, u32) {
 
 #[test]
 fn the_both_pairings_tables_quote_their_outputs() {
-    let doc = repo_file("docs/benchmarks.md");
+    let doc = measured_docs();
     let kills = |file: &str, label: &str| -> u32 {
         let output = repo_file(&format!("docs/evaluation/both-pairings/{file}"));
         killed(&labelled_row(&output, "passed", label)[1]).parse().unwrap()
@@ -1218,7 +1246,7 @@ fn the_both_pairings_tables_quote_their_outputs() {
 
 #[test]
 fn the_lane_follower_pairings_table_quotes_its_outputs() {
-    let doc = repo_file("docs/benchmarks.md");
+    let doc = measured_docs();
     let rows = markdown_rows(
         &doc,
         "| set | pairing | no-brake | weak-brake | late | blind-cbv | blind-side | no-evade | speeding |",
@@ -1242,7 +1270,7 @@ fn the_lane_follower_pairings_table_quotes_its_outputs() {
 
 #[test]
 fn the_lookahead_first_contact_tables_quote_their_outputs() {
-    let doc = repo_file("docs/benchmarks.md");
+    let doc = measured_docs();
     let method = "safer-in-path-lookahead";
     let rows = markdown_rows(&doc, "| n | in-path loss | CR | CR held out |", "Over 28 behaviours it meets");
     let remade: Vec<_> = rows.iter().filter(|r| r[1] == "first contact").collect();
@@ -1306,7 +1334,7 @@ fn fault_scene_counts(output: &str, label: &str) -> Vec<(u32, u32)> {
 
 #[test]
 fn the_lookahead_first_contact_ngsim_tables_quote_their_outputs() {
-    let doc = repo_file("docs/benchmarks.md");
+    let doc = measured_docs();
     let header =
         "| n | method | feasibility scope | CR | CR held out | SR | SR-crit | witness | VJ / AJ | stage-1 cut-ins |";
     let mut checked = Vec::new();
@@ -1376,7 +1404,7 @@ fn the_lookahead_first_contact_ngsim_tables_quote_their_outputs() {
 
 #[test]
 fn the_blind_twin_table_quotes_its_outputs() {
-    let doc = repo_file("docs/benchmarks.md");
+    let doc = measured_docs();
     let rows =
         markdown_rows(&doc, "| set | draw | critical | contact | under 1 m | 1–2 m", "On WOMD interactive the near");
     let mut checked = 0;
@@ -1399,7 +1427,7 @@ fn the_blind_twin_table_quotes_its_outputs() {
 
 #[test]
 fn the_ten_seed_blind_twin_table_quotes_its_outputs() {
-    let doc = repo_file("docs/benchmarks.md");
+    let doc = measured_docs();
     let rows =
         markdown_rows(&doc, "| set | method | n | CR | SR | critical | reach-crit | 1–2 m", "on WOMD interactive: met");
     let mut checked = 0;
@@ -1443,7 +1471,7 @@ fn check_header_rule(output: &str, file: &str, phrase: &str, ruled: bool) {
 
 #[test]
 fn the_ego_contact_tables_quote_their_outputs() {
-    let doc = repo_file("docs/benchmarks.md");
+    let doc = measured_docs();
     let paper = markdown_rows(
         &doc,
         "| method | ego contact | output | CR | SR | SR-crit | witness | VJ | AJ |",
@@ -1598,7 +1626,7 @@ fn check_wrong_way(output: &str, cell: &str, file: &str) {
 
 #[test]
 fn the_wrong_way_tables_quote_their_outputs() {
-    let doc = repo_file("docs/benchmarks.md");
+    let doc = measured_docs();
     let shares = markdown_rows(
         &doc,
         "| set | method | wrong way rule | output | CR | SR | SR-crit | wrong way | wrong way s2 | across lanes | across s2 |",
@@ -1635,7 +1663,7 @@ fn the_wrong_way_tables_quote_their_outputs() {
 
 #[test]
 fn the_no_evade_paths_table_quotes_its_outputs() {
-    let doc = repo_file("docs/benchmarks.md");
+    let doc = measured_docs();
     let rows = markdown_rows(
         &doc,
         "| planner | set | pairing | `no-evade` off the path | farthest (m) | `no-evade` kills (scenes) |",
@@ -1698,7 +1726,7 @@ fn any_way_output(planner: &str, set_name: &str, n: u32) -> String {
 
 #[test]
 fn the_at_fault_planner_table_quotes_its_outputs() {
-    let doc = repo_file("docs/benchmarks.md");
+    let doc = measured_docs();
     let rows = markdown_rows(
         &doc,
         "| set | planner | method | SR | passed | kills | held out | ×log | ×prior | scene kills |",
@@ -1723,7 +1751,7 @@ fn the_at_fault_planner_table_quotes_its_outputs() {
 
 #[test]
 fn the_along_the_lanes_table_quotes_its_outputs() {
-    let doc = repo_file("docs/benchmarks.md");
+    let doc = measured_docs();
     let rows = markdown_rows(
         &doc,
         "| set | planner | CBV | CR | SR-crit | reach-crit | wrong way s2 | across s2 | passed | kills | held out |",
@@ -1786,7 +1814,7 @@ fn the_along_the_lanes_table_quotes_its_outputs() {
 
 #[test]
 fn the_sideways_speed_table_quotes_its_outputs() {
-    let doc = repo_file("docs/benchmarks.md");
+    let doc = measured_docs();
     let rows = markdown_rows(
         &doc,
         "| set | method | output | CR | measured | p50 | p90 | max | recorded p50 | recorded p90 | recorded max |",
@@ -1808,7 +1836,7 @@ fn the_sideways_speed_table_quotes_its_outputs() {
 
 #[test]
 fn the_resampled_kill_ratio_table_quotes_its_outputs() {
-    let doc = repo_file("docs/benchmarks.md");
+    let doc = measured_docs();
     let rows = markdown_rows(
         &doc,
         "| set | planner | method | output | kills (held out) | ×log | ×log over resampled scenes | ×prior | ×prior over resampled scenes |",
@@ -1830,7 +1858,7 @@ fn the_resampled_kill_ratio_table_quotes_its_outputs() {
 
 #[test]
 fn the_lane_change_table_quotes_its_outputs() {
-    let doc = repo_file("docs/benchmarks.md");
+    let doc = measured_docs();
     let rows = markdown_rows(
         &doc,
         "| set | method | output | changed | p50 | p90 | max | recorded | recorded p50 | recorded p90 | recorded max | held out changed | p50 | p90 | held out recorded | p50 | p90 |",
@@ -1850,7 +1878,7 @@ fn the_lane_change_table_quotes_its_outputs() {
 
 #[test]
 fn the_human_lane_change_pace_table_quotes_its_outputs() {
-    let doc = repo_file("docs/benchmarks.md");
+    let doc = measured_docs();
     let rows = markdown_rows(
         &doc,
         "| set | planner | rule | output | CR | SR-crit | CBV at fault / off road | lane changes | p50 | p90 | max | recorded p50 / p90 | kills (held out) | ×log | ×log over resampled scenes | ×prior | ×prior over resampled scenes |",
@@ -1924,7 +1952,7 @@ fn kill_cells(output: &str, method: &str) -> [String; 3] {
 
 #[test]
 fn the_grip_tables_quote_their_outputs() {
-    let doc = repo_file("docs/benchmarks.md");
+    let doc = measured_docs();
     // The paper's protocol: the "with" side's every cell, the "without"
     // side's from the outputs made before the rule (which lack the
     // beyond-grip column).
@@ -2009,7 +2037,7 @@ fn the_turning_cost_tables_quote_their_outputs() {
 
 #[test]
 fn the_turning_cost_sweep_quotes_its_outputs() {
-    let doc = repo_file("docs/benchmarks.md");
+    let doc = measured_docs();
     let rows = markdown_rows(&doc, "| cost (m per m/s²) | CR |", "It stays opt-in: on NGSIM");
     let method = "safer-in-path-lookahead";
     let costs: Vec<&str> = rows.iter().map(|r| r[0].as_str()).collect();
@@ -2057,7 +2085,7 @@ struct TurningTables {
 
 impl TurningTables {
     fn quote_their_outputs(&self) {
-        let doc = repo_file("docs/benchmarks.md");
+        let doc = measured_docs();
         // A method's peak lateral accelerations in an output: p50, p90, max.
         let peaks = |output: &str, method: &str| {
             let table =
@@ -2178,7 +2206,7 @@ fn suite_settings_before_after(file: &str, seeds: &str, dirs: (&str, &str), look
 
 #[test]
 fn the_cut_in_anticipation_table_quotes_its_outputs() {
-    let doc = repo_file("docs/benchmarks.md");
+    let doc = measured_docs();
     let rows = markdown_rows(
         &doc,
         "| set | seeds | CR | SR-crit | reach-crit | met | kills (held out) |",
@@ -2210,7 +2238,7 @@ fn check_lane_follower_before_after(rows: &[Vec<String>], dirs: (&str, &str), te
 
 #[test]
 fn the_standing_berth_table_quotes_its_outputs() {
-    let doc = repo_file("docs/benchmarks.md");
+    let doc = measured_docs();
     let rows = markdown_rows(
         &doc,
         "| set | CR | SR-crit | reach-crit | met | kills (held out) |",
@@ -2228,7 +2256,7 @@ fn the_standing_berth_table_quotes_its_outputs() {
 
 #[test]
 fn the_ten_seed_lookahead_table_quotes_its_outputs() {
-    let doc = repo_file("docs/benchmarks.md");
+    let doc = measured_docs();
     let rows = markdown_rows(
         &doc,
         "| set | planner | n | seeds | CR | SR-crit | reach-crit | met |",
@@ -2261,7 +2289,7 @@ fn the_ten_seed_lookahead_table_quotes_its_outputs() {
 
 #[test]
 fn the_turning_circle_tables_quote_their_outputs() {
-    let doc = repo_file("docs/benchmarks.md");
+    let doc = measured_docs();
     // The paper's protocol: turning-circle/without/ (the build before the
     // bound) against turning-circle/, the same commands.
     let rows = markdown_rows(
@@ -2403,7 +2431,7 @@ fn the_readme_kill_tables_quote_their_outputs() {
 
 #[test]
 fn the_womd_json_suite_settings_table_quotes_its_outputs() {
-    let doc = repo_file("docs/benchmarks.md");
+    let doc = measured_docs();
     let rows = markdown_rows(
         &doc,
         "| planner | seeds | CR | SR-crit | reach-crit | met | kills (held out) | ×log (95 %) | ×prior (95 %) | fewest scenes |",
@@ -2428,7 +2456,7 @@ fn the_womd_json_suite_settings_table_quotes_its_outputs() {
 
 #[test]
 fn the_held_out_reach_by_chance_table_quotes_its_outputs() {
-    let doc = repo_file("docs/benchmarks.md");
+    let doc = measured_docs();
     let rows = markdown_rows(
         &doc,
         "| set | reach-crit | held out | by chance | met | met, held out |",
@@ -2452,7 +2480,7 @@ fn the_held_out_reach_by_chance_table_quotes_its_outputs() {
 
 #[test]
 fn the_bumper_ten_seed_lane_follower_table_quotes_its_outputs() {
-    let doc = repo_file("docs/benchmarks.md");
+    let doc = measured_docs();
     let rows = markdown_rows(
         &doc,
         "| set, ten seeds | reach-crit | met | kills (held out) | fewest scenes |",
@@ -2485,7 +2513,7 @@ fn not_reached_cells(output: &str, method: &str) -> Vec<String> {
 
 #[test]
 fn the_not_reached_by_contact_table_quotes_its_outputs() {
-    let doc = repo_file("docs/benchmarks.md");
+    let doc = measured_docs();
     let rows = markdown_rows(
         &doc,
         "| set | critical | not reached | ego's front | side | from behind | ego standing | CBV standing |",
@@ -2536,7 +2564,7 @@ fn evaluate_output_of_set(dir: &str, set: &str) -> String {
 
 #[test]
 fn the_crossings_table_quotes_its_outputs() {
-    let doc = repo_file("docs/benchmarks.md");
+    let doc = measured_docs();
     let header = "| set | scenes with a crossing pair | method | CR | SR | SR-crit | VJ / AJ | crossing | left turn across path | head-on | all conflicts |";
     let mut checked = Vec::new();
     for (set, row) in
@@ -2568,7 +2596,7 @@ fn the_crossings_table_quotes_its_outputs() {
 
 #[test]
 fn the_closest_approach_table_quotes_its_outputs() {
-    let doc = repo_file("docs/benchmarks.md");
+    let doc = measured_docs();
     let header = "| set | method | contact (CR) | no contact, gap < 0.5 m | 0.5–1 m | ≥ 1 m |";
     let mut checked = Vec::new();
     for (set, row) in rows_by_first_cell(&markdown_rows(&doc, header, "Why `safer`'s CR stays")) {
@@ -2590,7 +2618,7 @@ fn kinds_cells(kinds: &[(u32, u32)]) -> Vec<String> {
 
 #[test]
 fn the_kinds_tables_quote_their_outputs() {
-    let doc = repo_file("docs/benchmarks.md");
+    let doc = measured_docs();
     // Per method: the README's results run (and its run of the suites' method).
     let header =
         "| method | rear-end | cut-in | merge | crossing | left turn across path | head-on | sideswipe | other |";
@@ -2639,7 +2667,7 @@ fn union_cell(table: &str, method: &str, pairing: &str, fault: usize) -> (u32, u
 
 #[test]
 fn the_junction_pairings_bullet_quotes_its_outputs() {
-    let doc = repo_file("docs/benchmarks.md");
+    let doc = measured_docs();
     let bullet: String = doc
         .lines()
         .skip_while(|l| !l.contains("Listed with both pairings, junction scenes catch more"))

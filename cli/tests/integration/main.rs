@@ -23,6 +23,7 @@ mod cli_run;
 mod closed_loop;
 mod commonroad_export;
 mod conflict_coverage;
+mod docs_links;
 mod docs_tables;
 mod evaluate_partitions;
 mod feasibility_eval;
