@@ -2455,6 +2455,32 @@ fn the_womd_json_suite_settings_table_quotes_its_outputs() {
 }
 
 #[test]
+fn the_suites_method_kill_table_quotes_its_outputs() {
+    let doc = repo_file("docs/benchmarks.md");
+    let rows = markdown_rows(
+        &doc,
+        "| set | planner | seeds | CR | SR-crit | reach-crit | met | kills (held out) | ×log (95 % of resamples) |",
+        "Against log replay",
+    );
+    let mut runs = Vec::new();
+    for row in &rows {
+        let dir = if row[0] == "WOMD JSON" { "womd-json-suites" } else { "bumper" };
+        let file = match (row[0].as_str(), row[1].as_str()) {
+            ("WOMD JSON", "evasive") => "mutants-womd-json-n28-evasive.txt".to_owned(),
+            ("WOMD JSON", "lane follower") => "mutants-womd-json-lane-follower-n60.txt".to_owned(),
+            (set, planner) => suite_settings_output(set, planner).to_owned(),
+        };
+        // Over ten seeds the lane follower's run is the lookahead's alone.
+        let alone = row[1] == "lane follower" && row[2] == "10";
+        let path = if alone { format!("{dir}/ten-seeds/{file}") } else { format!("{dir}/{file}") };
+        let output = output_over_seeds(&path, &row[2]);
+        assert_eq!(row[3..], suite_settings_cells(&output, "safer-in-path-lookahead", alone)[..], "{row:?}");
+        runs.push(format!("{} {} {}", row[0], row[1], row[2]));
+    }
+    assert_eq!(runs.len(), 9, "three sets, the evasive planner over ten seeds, the lane follower over three and ten");
+}
+
+#[test]
 fn the_held_out_reach_by_chance_table_quotes_its_outputs() {
     let doc = measured_docs();
     let rows = markdown_rows(
