@@ -130,8 +130,7 @@ impl SpecError {
 /// Something a spec says that is valid but most likely not what its
 /// author meant: reported beside the run, not refused (see
 /// [`Loaded::warning_at`]).
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("{path}{location}: {message}", path = path.display(), location = fmt_location(location))]
+#[derive(Debug, Clone, PartialEq, Eq)]
 pub struct SpecWarning {
     /// The spec file.
     pub path: PathBuf,
@@ -141,6 +140,13 @@ pub struct SpecWarning {
     pub message: String,
     /// The file's text, for rendering the snippet.
     text: String,
+}
+
+impl std::fmt::Display for SpecWarning {
+    /// `PATH:LINE:COLUMN: message`, as a [`SpecError`] reads.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}{}: {}", self.path.display(), fmt_location(&self.location), self.message)
+    }
 }
 
 impl SpecWarning {
