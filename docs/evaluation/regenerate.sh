@@ -307,10 +307,13 @@
 #                     protocol on WOMD interactive, ten seeds, over 20 to 100 behaviours,
 #                     and with any contact over 20, 25, 27, 28, 30, 40, 60 and 100
 #                     (any-nN.txt) (about 12 minutes)
-#   mutants           mutants-{womd-interactive,womd-json,ngsim}-evasive.txt and
-#                     mutants-{womd-interactive,ngsim}-lane-follower.txt: the
+#   mutants           mutants/mutants-{womd-interactive,womd-json,ngsim}-evasive.txt and
+#                     mutants/mutants-{womd-interactive,ngsim}-lane-follower.txt: the
 #                     faults of the planner each method's variants catch
-#                     (every fault operator, stage-2 CBV closed loop)
+#                     (every fault operator, stage-2 CBV closed loop) (about 50
+#                     minutes). The same names directly in this folder are the
+#                     earlier build's runs that the record's comparisons quote
+#                     beside their wider regions; no job remakes them
 #
 # Each table ends with its own wall time; the last runs' add up to about 4.5 hours on a
 # 2-core machine, much of it shared with other runs. The recorded sets are
@@ -526,14 +529,15 @@ for job in "${jobs[@]}"; do
         run leader/mutants-ngsim-lane-follower-n60-ten-seeds.txt evaluate --scenes data:commonroad-ngsim --seeds 10 \
             "${mutating[@]:2}" --trust-region 60 --roles leader --planner ../../planners/lane-follower.yaml ;;
     mutants)
+        mkdir -p mutants
         mutating=(--stage2-cbv closed-loop --mutants)
         for s in "${sets[@]}"; do
-            run "mutants-${s#*:}-evasive.txt" evaluate --scenes "data:${s%%:*}" --seeds 3 "${mutating[@]}" \
+            run "mutants/mutants-${s#*:}-evasive.txt" evaluate --scenes "data:${s%%:*}" --seeds 3 "${mutating[@]}" \
                 --methods log,prior,safer,safer-in-path,safer-distinct,safer-lookahead,no-lfr
         done
         # The Python lane follower runs as a process per variant and mutant.
         for s in womd-interactive:womd-interactive commonroad-ngsim:ngsim; do
-            run "mutants-${s#*:}-lane-follower.txt" evaluate --scenes "data:${s%%:*}" --seeds 2 "${mutating[@]}" \
+            run "mutants/mutants-${s#*:}-lane-follower.txt" evaluate --scenes "data:${s%%:*}" --seeds 2 "${mutating[@]}" \
                 --methods log,prior,safer,safer-in-path,safer-distinct --planner ../../planners/lane-follower.yaml
         done ;;
     ten-seeds)

@@ -192,9 +192,9 @@ fn the_three_seed_mutation_tables_quote_their_outputs() {
         "**The evasive planner** (scenes × seeds)",
         "**The Python lane follower**",
         &[
-            ("WOMD interactive (54 × 3)", &["mutants-womd-interactive-evasive.txt"]),
-            ("WOMD JSON (65 × 3)", &["mutants-womd-json-evasive.txt"]),
-            ("NGSIM (69 × 3)", &["mutants-ngsim-evasive.txt"]),
+            ("WOMD interactive (54 × 3)", &["mutants/mutants-womd-interactive-evasive.txt"]),
+            ("WOMD JSON (65 × 3)", &["mutants/mutants-womd-json-evasive.txt"]),
+            ("NGSIM (69 × 3)", &["mutants/mutants-ngsim-evasive.txt"]),
         ],
     );
     assert_eq!(evasive, 21, "the evasive planner's rows");
@@ -202,8 +202,8 @@ fn the_three_seed_mutation_tables_quote_their_outputs() {
         "**The Python lane follower**",
         "The goal is 2× log replay's kills",
         &[
-            ("WOMD interactive (54 × 2)", &["mutants-womd-interactive-lane-follower.txt"]),
-            ("NGSIM (69 × 2)", &["mutants-ngsim-lane-follower.txt"]),
+            ("WOMD interactive (54 × 2)", &["mutants/mutants-womd-interactive-lane-follower.txt"]),
+            ("NGSIM (69 × 2)", &["mutants/mutants-ngsim-lane-follower.txt"]),
         ],
     );
     assert_eq!(lane_follower, 10, "the lane follower's rows");
@@ -348,11 +348,11 @@ fn the_kill_ratio_summary_quotes_the_three_seed_outputs() {
     let doc = measured_docs();
     let rows = markdown_rows(&doc, "The goal is 2× log replay's kills", "Many of every method's kills");
     let outputs = [
-        ("evasive, WOMD interactive", "mutants-womd-interactive-evasive.txt"),
-        ("evasive, WOMD JSON", "mutants-womd-json-evasive.txt"),
-        ("evasive, NGSIM", "mutants-ngsim-evasive.txt"),
-        ("lane follower, WOMD interactive", "mutants-womd-interactive-lane-follower.txt"),
-        ("lane follower, NGSIM", "mutants-ngsim-lane-follower.txt"),
+        ("evasive, WOMD interactive", "mutants/mutants-womd-interactive-evasive.txt"),
+        ("evasive, WOMD JSON", "mutants/mutants-womd-json-evasive.txt"),
+        ("evasive, NGSIM", "mutants/mutants-ngsim-evasive.txt"),
+        ("lane follower, WOMD interactive", "mutants/mutants-womd-interactive-lane-follower.txt"),
+        ("lane follower, NGSIM", "mutants/mutants-ngsim-lane-follower.txt"),
     ];
     let mut checked = 0;
     for row in rows.iter().skip(1) {
@@ -2478,6 +2478,49 @@ fn the_suites_method_kill_table_quotes_its_outputs() {
         runs.push(format!("{} {} {}", row[0], row[1], row[2]));
     }
     assert_eq!(runs.len(), 9, "three sets, the evasive planner over ten seeds, the lane follower over three and ten");
+}
+
+#[test]
+fn the_replay_against_closed_loop_table_quotes_its_outputs() {
+    let doc = repo_file("docs/benchmarks.md");
+    let rows = markdown_rows(
+        &doc,
+        "| set | planner | method | stage-2 CBV | reach | reach-crit | SR-avoid | failures |",
+        "Closed loop brings more of the critical conflicts",
+    );
+    let (mut set, mut planner) = (String::new(), String::new());
+    let mut checked = Vec::new();
+    for row in &rows {
+        if !row[0].is_empty() {
+            set = row[0].clone();
+        }
+        if !row[1].is_empty() {
+            planner = row[1].clone();
+        }
+        let Some(method) = method_of(&row[2]) else { continue };
+        let stem = match set.as_str() {
+            "WOMD interactive" => "womd-interactive",
+            "WOMD JSON" => "womd-json",
+            "NGSIM" => "ngsim",
+            other => panic!("{other}: no set"),
+        };
+        // Replay: the main tables' runs; closed loop: the mutation runs.
+        let file = match (row[3].as_str(), planner.as_str()) {
+            ("replay", "evasive") => format!("evaluate-{stem}.txt"),
+            ("closed loop", "evasive") => format!("mutants/mutants-{stem}-evasive.txt"),
+            ("closed loop", "lane follower") => format!("mutants/mutants-{stem}-lane-follower.txt"),
+            other => panic!("{other:?}: no output"),
+        };
+        let output = repo_file(&format!("docs/evaluation/{file}"));
+        // reach, reach-crit, SR-avoid, avoid-fail, no-escape, refuted, failures.
+        let conflicts = labelled_row(&output, "reach-crit", method);
+        let variants = &output_table(&output, "variants")[method][0];
+        let quoted = [&conflicts[0], &conflicts[1], &conflicts[2], &format!("{} of {variants}", conflicts[6])]
+            .map(|c| c.replace('—', "–"));
+        assert_eq!(row[4..8], quoted[..], "{set}, {planner}, {method}, {}", row[3]);
+        checked.push(format!("{set} {planner} {method} {}", row[3]));
+    }
+    assert_eq!(checked.len(), 20, "{checked:?}");
 }
 
 #[test]
