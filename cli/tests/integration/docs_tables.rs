@@ -2664,6 +2664,32 @@ fn the_crossings_table_quotes_its_outputs() {
 }
 
 #[test]
+fn the_merges_table_quotes_its_outputs() {
+    let doc = repo_file("docs/benchmarks.md");
+    let header = "| set | scenes with a merging pair | method | CR | SR | VJ / AJ | merges | all conflicts |";
+    let mut checked = Vec::new();
+    for (set, row) in rows_by_first_cell(&markdown_rows(&doc, header, "No stage-1 merge is made on any set")) {
+        // NGSIM has no merging pair: the command says so and writes no table.
+        let Some(method) = method_of(&row[2]) else { continue };
+        let (rows, text) = evaluation_output(&evaluate_output_of_set("merging", &set));
+        if !row[1].is_empty() {
+            let (kept, of) = row[1].split_once(" of ").expect("K of N");
+            assert!(text.contains(&format!("--roles merging: {kept} of {of} scenes have a merging pair")), "{row:?}");
+        }
+        let figures = evaluation_figures(&rows, method);
+        assert_eq!(row[3..5], figures[..2], "{set} {method}: CR, SR");
+        let realism = if method == "log" { "–".to_owned() } else { format!("{} / {}", figures[4], figures[5]) };
+        assert_eq!(row[5], realism, "{set} {method}: VJ / AJ");
+        let kinds = kinds_row(&text, method);
+        let pair = |(a, b): (u32, u32)| format!("{a} / {b}");
+        let all = kinds.iter().fold((0, 0), |(a, b), &(x, y)| (a + x, b + y));
+        assert_eq!(row[6..8], [pair(kinds[2]), pair(all)], "{set} {method}: merges, all conflicts");
+        checked.push(format!("{set} {method}"));
+    }
+    assert_eq!(checked.len(), 12, "{checked:?}");
+}
+
+#[test]
 fn the_closest_approach_table_quotes_its_outputs() {
     let doc = measured_docs();
     let header = "| set | method | contact (CR) | no contact, gap < 0.5 m | 0.5–1 m | ≥ 1 m |";
