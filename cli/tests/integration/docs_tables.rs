@@ -2631,6 +2631,21 @@ fn evaluate_output_of_set(dir: &str, set: &str) -> String {
     format!("{dir}/evaluate-{stem}.txt")
 }
 
+/// A roles table's VJ / AJ cell of a method (`–` for log replay, whose
+/// CBV is the recording).
+fn realism_cell(figures: &[String], method: &str) -> String {
+    if method == "log" { "–".to_owned() } else { format!("{} / {}", figures[4], figures[5]) }
+}
+
+/// A method's conflicts by kind as a roles table quotes them (`stage 1 /
+/// stage 2`, in the output's order of kinds), and all of them summed.
+fn conflict_cells(text: &str, method: &str) -> (Vec<String>, String) {
+    let kinds = kinds_row(text, method);
+    let all = kinds.iter().fold((0, 0), |(a, b), &(x, y)| (a + x, b + y));
+    let pair = |(a, b): (u32, u32)| format!("{a} / {b}");
+    (kinds.into_iter().map(pair).collect(), pair(all))
+}
+
 #[test]
 fn the_crossings_table_quotes_its_outputs() {
     let doc = measured_docs();
@@ -2648,16 +2663,9 @@ fn the_crossings_table_quotes_its_outputs() {
         let method = method_of(&row[2]).expect("a method");
         let figures = evaluation_figures(&rows, method);
         assert_eq!(row[3..6], figures[..3], "{set} {method}: CR, SR, SR-crit");
-        let realism = if method == "log" { "–".to_owned() } else { format!("{} / {}", figures[4], figures[5]) };
-        assert_eq!(row[6], realism, "{set} {method}: VJ / AJ");
-        let kinds = kinds_row(&text, method);
-        let pair = |(a, b): (u32, u32)| format!("{a} / {b}");
-        let all = kinds.iter().fold((0, 0), |(a, b), &(x, y)| (a + x, b + y));
-        assert_eq!(
-            row[7..11],
-            [pair(kinds[3]), pair(kinds[4]), pair(kinds[5]), pair(all)],
-            "{set} {method}: conflicts"
-        );
+        assert_eq!(row[6], realism_cell(&figures, method), "{set} {method}: VJ / AJ");
+        let (kinds, all) = conflict_cells(&text, method);
+        assert_eq!(row[7..11], [&kinds[3][..], &kinds[4], &kinds[5], &all], "{set} {method}: conflicts");
         checked.push(format!("{set} {method}"));
     }
     assert_eq!(checked.len(), 9, "{checked:?}");
@@ -2678,12 +2686,9 @@ fn the_merges_table_quotes_its_outputs() {
         }
         let figures = evaluation_figures(&rows, method);
         assert_eq!(row[3..5], figures[..2], "{set} {method}: CR, SR");
-        let realism = if method == "log" { "–".to_owned() } else { format!("{} / {}", figures[4], figures[5]) };
-        assert_eq!(row[5], realism, "{set} {method}: VJ / AJ");
-        let kinds = kinds_row(&text, method);
-        let pair = |(a, b): (u32, u32)| format!("{a} / {b}");
-        let all = kinds.iter().fold((0, 0), |(a, b), &(x, y)| (a + x, b + y));
-        assert_eq!(row[6..8], [pair(kinds[2]), pair(all)], "{set} {method}: merges, all conflicts");
+        assert_eq!(row[5], realism_cell(&figures, method), "{set} {method}: VJ / AJ");
+        let (kinds, all) = conflict_cells(&text, method);
+        assert_eq!(row[6..8], [&kinds[2][..], &all], "{set} {method}: merges, all conflicts");
         checked.push(format!("{set} {method}"));
     }
     assert_eq!(checked.len(), 12, "{checked:?}");
