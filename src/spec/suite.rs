@@ -1042,12 +1042,16 @@ acceptance:
             .to_string()
     }
 
+    /// The warnings of the suite `text` (named `s.yaml`), as text.
+    fn warnings_of(text: &str) -> Vec<String> {
+        let spec = parse_yaml::<SuiteSpec>(text, Path::new("s.yaml")).unwrap();
+        spec.warnings().iter().map(ToString::to_string).collect()
+    }
+
     /// The warnings of the suite with `from` replaced by `to`, as text.
     fn warnings(from: &str, to: &str) -> Vec<String> {
         assert!(SUITE.contains(from), "{from}");
-        let text = SUITE.replace(from, to);
-        let spec = parse_yaml::<SuiteSpec>(&text, Path::new("s.yaml")).unwrap();
-        spec.warnings().iter().map(ToString::to_string).collect()
+        warnings_of(&SUITE.replace(from, to))
     }
 
     #[test]
@@ -1069,8 +1073,8 @@ acceptance:
         let authored_default = SUITE
             .replace("  - recorded: data:x\n", "  - glob: x/*.yaml\n")
             .replace("adversary: { method: prior }\nvariants: 2", "variants: 1");
-        let spec = parse_yaml::<SuiteSpec>(&authored_default, Path::new("s.yaml")).unwrap();
-        assert!(authored.is_empty() && spec.warnings().is_empty(), "{:?}", spec.warnings());
+        let default_warnings = warnings_of(&authored_default);
+        assert!(authored.is_empty() && default_warnings.is_empty(), "{authored:?} {default_warnings:?}");
     }
 
     #[test]

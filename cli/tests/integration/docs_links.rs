@@ -3,7 +3,7 @@
 //! READMEs) leads to a file that exists, and every `#anchor` to a heading
 //! of its page: a section moved or renamed breaks no reader's link.
 
-use std::collections::BTreeSet;
+use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
 /// The Markdown files under `dir`, build outputs and version control aside.
@@ -81,8 +81,9 @@ fn link_targets(line: &str) -> Vec<&str> {
         .collect()
 }
 
-/// The broken links of one page, each as `PAGE:LINE: TARGET (why)`.
-fn broken_links(page: &Path, root: &Path) -> Vec<String> {
+/// The broken links of one page, each as `PAGE:LINE: TARGET (why)`;
+/// `anchors_of` holds each linked page's anchors, read once.
+fn broken_links(page: &Path, root: &Path, anchors_of: &mut BTreeMap<PathBuf, BTreeSet<String>>) -> Vec<String> {
     let text = std::fs::read_to_string(page).unwrap();
     let shown = page.strip_prefix(root).unwrap_or(page).display().to_string();
     let mut broken = Vec::new();
@@ -99,8 +100,10 @@ fn broken_links(page: &Path, root: &Path) -> Vec<String> {
             }
             let is_page = file.extension().is_some_and(|e| e == "md");
             if let (Some(anchor), true) = (anchor, is_page) {
-                let linked = std::fs::read_to_string(&file).unwrap();
-                if !anchors(&linked).contains(anchor) {
+                let linked = anchors_of
+                    .entry(file.canonicalize().unwrap())
+                    .or_insert_with(|| anchors(&std::fs::read_to_string(&file).unwrap()));
+                if !linked.contains(anchor) {
                     broken.push(format!("{shown}:{number}: {target} (no such heading)"));
                 }
             }
@@ -115,7 +118,8 @@ fn every_relative_link_of_the_docs_leads_to_a_file_and_heading() {
     let mut pages = Vec::new();
     markdown_files(&root, &mut pages);
     assert!(pages.len() >= 20, "the repository's pages: {pages:?}");
-    let broken: Vec<String> = pages.iter().flat_map(|p| broken_links(p, &root)).collect();
+    let mut anchors_of = BTreeMap::new();
+    let broken: Vec<String> = pages.iter().flat_map(|p| broken_links(p, &root, &mut anchors_of)).collect();
     assert!(broken.is_empty(), "broken links:\n{}", broken.join("\n"));
 }
 
