@@ -656,27 +656,82 @@ impl Loaded<SuiteSpec> {
     }
 
     /// What the suite says that is valid but most likely not meant, each
-    /// at its place: recorded scenes with no `adversary.method`, which
-    /// the default replays as recorded (`log`). Such a suite tests only
-    /// the conflicts its recordings hold, as a regression suite may mean
-    /// to; writing `method: log` says so and silences the warning.
+    /// at its place:
+    /// - recorded scenes with no `adversary.method`, which the default
+    ///   replays as recorded (`log`). Such a suite tests only the conflicts
+    ///   its recordings hold, as a regression suite may mean to; writing
+    ///   `method: log` says so and silences the warning.
+    /// - recorded scenes judged by the default `no_collision: true` where
+    ///   something may run into the ego from behind: recorded cars that
+    ///   cannot brake for it (`background: log-replay` or
+    ///   `constant-velocity`), or a SaFeR CBV allowed any contact
+    ///   (`ego_contact: any`). No planner answers for such a contact, so
+    ///   the suite would fail planners for the traffic's doing; writing
+    ///   `no_collision` out, either way, silences the warning.
     pub fn warnings(&self) -> Vec<SpecWarning> {
-        let first_recorded = self.value.scenarios.iter().position(|e| matches!(e, ScenarioEntry::Recorded { .. }));
-        let mut out = Vec::new();
-        if let Some(i) = first_recorded
-            && !self.writes("adversary.method")
-        {
-            let at =
-                if self.writes("adversary") { "adversary".to_string() } else { format!("scenarios[{i}].recorded") };
-            out.push(self.warning_at(
-                &at,
-                "no `adversary.method`: the recorded scenes are replayed as recorded (`log`, the default) and meet \
-                 only the conflicts their recordings hold; name a SaFeR method for adversarial variants (the shipped \
-                 adversarial suites use `safer-in-path-lookahead`: docs/guide/adversary.md), or write `method: log` \
-                 to replay on purpose",
-            ));
+        let Some(first_recorded) =
+            self.value.scenarios.iter().position(|e| matches!(e, ScenarioEntry::Recorded { .. }))
+        else {
+            return Vec::new();
+        };
+        let recorded_at = format!("scenarios[{first_recorded}].recorded");
+        [self.replay_by_default_warning(&recorded_at), self.contact_from_behind_warning(&recorded_at)]
+            .into_iter()
+            .flatten()
+            .collect()
+    }
+
+    /// The recorded scenes left to the default `log`, at the `adversary:`
+    /// block if there is one, else at the first recorded entry.
+    fn replay_by_default_warning(&self, recorded_at: &str) -> Option<SpecWarning> {
+        if self.writes("adversary.method") {
+            return None;
         }
-        out
+        let at = if self.writes("adversary") { "adversary" } else { recorded_at };
+        Some(self.warning_at(
+            at,
+            "no `adversary.method`: the recorded scenes are replayed as recorded (`log`, the default) and meet only \
+             the conflicts their recordings hold; name a SaFeR method for adversarial variants (the shipped \
+             adversarial suites use `safer-in-path-lookahead`: docs/guide/adversary.md), or write `method: log` to \
+             replay on purpose",
+        ))
+    }
+
+    /// The recorded scenes judged by the default `no_collision: true`
+    /// where a contact from behind may fail the planner, at the
+    /// acceptance (its `variant:` where written) if there is one, else at the first recorded
+    /// entry.
+    fn contact_from_behind_warning(&self, recorded_at: &str) -> Option<SpecWarning> {
+        let adversary = &self.value.adversary;
+        if !self.value.acceptance.variant.no_collision || self.writes("acceptance.variant.no_collision") {
+            return None;
+        }
+        let blind_traffic =
+            matches!(adversary.background, BackgroundPolicy::LogReplay | BackgroundPolicy::ConstantVelocity);
+        let chasing_cbv = adversary.method.is_adversary() && adversary.ego_contact == EgoContactRule::Any;
+        let who = match (blind_traffic, chasing_cbv) {
+            (false, false) => return None,
+            (true, false) => format!(
+                "the recorded cars (`background: {}`) cannot brake for it",
+                crate::spec::spec_name(&adversary.background)
+            ),
+            (false, true) => "the CBV may run into it (`ego_contact: any`)".to_string(),
+            (true, true) => format!(
+                "the recorded cars (`background: {}`) cannot brake for it and the CBV may run into it \
+                 (`ego_contact: any`)",
+                crate::spec::spec_name(&adversary.background)
+            ),
+        };
+        let at = if self.writes("acceptance") { "acceptance.variant.no_collision" } else { recorded_at };
+        Some(self.warning_at(
+            at,
+            format!(
+                "`no_collision` is left at its default, true: it fails the planner for every collision, one from \
+                 behind too, and on the recorded scenes {who}; judge by nuPlan's at-fault rule with \
+                 `no_collision: false, no_at_fault_collision: true`, as the shipped recorded suites do, or write \
+                 `no_collision: true` to fail every contact on purpose"
+            ),
+        ))
     }
 
     /// Checks settings that serde cannot, each error at the offending value.
@@ -1054,8 +1109,17 @@ acceptance:
         warnings_of(&SUITE.replace(from, to))
     }
 
+    /// The base suite with its acceptance judging collisions by the
+    /// at-fault rule, written out: no contact-from-behind warning.
+    const AT_FAULT: &str = "variant: { no_collision: false, no_at_fault_collision: true, min_gap_m: 0.5 }";
+
     #[test]
     fn recorded_scenes_left_to_the_default_replay_are_warned_of_where_the_method_would_go() {
+        let at_fault = SUITE.replace("variant: { min_gap_m: 0.5 }", AT_FAULT);
+        let warnings = |from: &str, to: &str| {
+            assert!(at_fault.contains(from), "{from}");
+            warnings_of(&at_fault.replace(from, to))
+        };
         // No adversary at all: at the recorded entry.
         let w = warnings("adversary: { method: prior }\nvariants: 2", "variants: 1");
         assert_eq!(w.len(), 1, "{w:?}");
@@ -1075,6 +1139,38 @@ acceptance:
             .replace("adversary: { method: prior }\nvariants: 2", "variants: 1");
         let default_warnings = warnings_of(&authored_default);
         assert!(authored.is_empty() && default_warnings.is_empty(), "{authored:?} {default_warnings:?}");
+    }
+
+    #[test]
+    fn recorded_scenes_judged_by_any_collision_are_warned_of_where_something_may_run_into_the_ego() {
+        // Replayed recorded cars cannot brake for the ego: at the variant acceptance.
+        let w = warnings("method: prior }", "method: prior }");
+        assert_eq!(w.len(), 1, "{w:?}");
+        assert!(w[0].starts_with("s.yaml:8:12: `no_collision` is left at its default, true"), "{w:?}");
+        assert!(w[0].contains("the recorded cars (`background: log-replay`) cannot brake for it;"), "{w:?}");
+        assert!(w[0].contains("`no_collision: false, no_at_fault_collision: true`"), "{w:?}");
+        // A SaFeR CBV allowed any contact, among recorded cars that brake.
+        let w =
+            warnings("method: prior }\nvariants: 2", "method: safer, background: reactive-log-replay }\nvariants: 2");
+        assert_eq!(w.len(), 1, "{w:?}");
+        assert!(w[0].contains("on the recorded scenes the CBV may run into it (`ego_contact: any`);"), "{w:?}");
+        // Both, named together.
+        let w = warnings("method: prior }", "method: safer }");
+        assert!(w[0].contains("cannot brake for it and the CBV may run into it"), "{w:?}");
+        // No acceptance written: at the recorded entry, beside the default replay's.
+        let w = warnings_of(
+            &SUITE.replace("acceptance:\n  variant: { min_gap_m: 0.5 }\n  suite: { velocity_jsd_max: 0.2 }\n", ""),
+        );
+        assert_eq!(w.len(), 1, "{w:?}");
+        assert!(w[0].starts_with("s.yaml:3:15: `no_collision` is left at its default"), "{w:?}");
+        // Silent where nothing may run into the ego unanswered, or the rule is written out.
+        let braking = "method: safer, background: reactive-log-replay, ego_contact: not-from-behind }";
+        assert!(warnings("method: prior }", braking).is_empty());
+        assert!(warnings("method: prior }", "method: prior, background: idm }").is_empty());
+        assert!(warnings("min_gap_m: 0.5 }", "no_collision: true, min_gap_m: 0.5 }").is_empty());
+        assert!(warnings("min_gap_m: 0.5 }", "no_collision: false, min_gap_m: 0.5 }").is_empty());
+        // Authored scenes only: their traffic is the author's to judge.
+        assert!(warnings("  - recorded: data:x\n", "  - glob: x/*.yaml\n").is_empty());
     }
 
     #[test]

@@ -87,7 +87,7 @@ fn run_reports_a_typo_with_file_line_and_field_and_exits_2() {
 }
 
 #[test]
-fn run_warns_of_recorded_scenes_left_to_replay_and_runs_them() {
+fn run_warns_of_recorded_scenes_left_to_replay_and_judged_by_any_collision_and_runs_them() {
     let dir = temp_dir("replay-warning");
     let suite = dir.join("replay.yaml");
     let written = "name: replay\nscenarios:\n  - recorded: safer:scenes/ngsim\nplanner: { builtin: idm }\n";
@@ -97,12 +97,22 @@ fn run_warns_of_recorded_scenes_left_to_replay_and_runs_them() {
     assert_eq!(out.status.code(), Some(0), "{stderr}");
     assert!(stderr.starts_with("warning: no `adversary.method`: the recorded scenes are replayed"), "{stderr}");
     assert!(stderr.contains("replay.yaml:3:15"), "{stderr}");
+    assert!(stderr.contains("warning: `no_collision` is left at its default, true"), "{stderr}");
+    assert_eq!(stderr.matches("warning: ").count(), 2, "{stderr}");
     assert!(text(&out.stdout).contains("PASS: 3 variants"), "{}", text(&out.stdout));
-    // Saying so silences it; the file the user wrote is left as written.
-    std::fs::write(&suite, written.replace("idm }\n", "idm }\nadversary: { method: log }\n")).unwrap();
+    // Saying so silences each; the file the user wrote is left as written.
+    let replay = written.replace("idm }\n", "idm }\nadversary: { method: log }\n");
+    std::fs::write(&suite, &replay).unwrap();
+    let out = safer(&["run", suite.to_str().unwrap()]);
+    let stderr = text(&out.stderr);
+    assert_eq!(out.status.code(), Some(0), "{stderr}");
+    assert!(!stderr.contains("no `adversary.method`") && stderr.contains("`no_collision` is left"), "{stderr}");
+    let at_fault = "acceptance: { variant: { no_collision: false, no_at_fault_collision: true } }\n";
+    std::fs::write(&suite, format!("{replay}{at_fault}")).unwrap();
     let out = safer(&["run", suite.to_str().unwrap()]);
     assert_eq!(out.status.code(), Some(0), "{}", text(&out.stderr));
     assert!(!text(&out.stderr).contains("warning"), "{}", text(&out.stderr));
+    assert_eq!(std::fs::read_to_string(&suite).unwrap(), format!("{replay}{at_fault}"));
     std::fs::remove_dir_all(&dir).ok();
 }
 
