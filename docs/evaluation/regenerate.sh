@@ -107,13 +107,14 @@
 #                     suites are set, over two draws of seeds (the second with --seed 1000)
 #                     (about 45 minutes)
 #   reactive-background
-#                     reactive-background/: the recorded cars braking for road users in their
+#                     recorded-cars-braking/: the recorded cars braking for road users in their
 #                     way (--background reactive-log-replay) with the stage-2 CBV closed loop,
 #                     for log replay, the prior and safer-in-path: the evasive planner's
 #                     mutation tables on WOMD interactive (n = 20) and NGSIM (n = 60) over two
 #                     draws of seeds, to set beside the closed-loop rows of reaction-delay/
 #                     (the same runs with the recording replayed), and ten seeds on NGSIM
-#                     beside ten-seeds/ (about 40 minutes)
+#                     beside ten-seeds/ (about 40 minutes); reactive-background/ holds the
+#                     same runs made by an earlier build, with the in-path loss in lead steps
 #   leader            leader/: the ego's leader as the CBV (--roles leader): the paper's
 #                     protocol on NGSIM over 20 and 60 behaviours (evaluate-ngsim{,-n60}.txt),
 #                     the evasive planner's mutation tables with the recorded cars braking
@@ -703,9 +704,9 @@ for job in "${jobs[@]}"; do
             --feasibility witnessed ;;
     reaction-delay) mutants_two_draws reaction-delay --stage2-cbv closed-loop,closed-loop-delayed ;;
     reactive-background)
-        mutants_two_draws reactive-background --stage2-cbv closed-loop --background reactive-log-replay
+        mutants_two_draws recorded-cars-braking --stage2-cbv closed-loop --background reactive-log-replay
         # Ten seeds on NGSIM, beside ten-seeds/mutants-ngsim-evasive-n60.txt (the recording replayed).
-        run reactive-background/mutants-ngsim-evasive-n60-ten-seeds.txt evaluate --scenes data:commonroad-ngsim \
+        run recorded-cars-braking/mutants-ngsim-evasive-n60-ten-seeds.txt evaluate --scenes data:commonroad-ngsim \
             --seeds 10 --stage2-cbv closed-loop --background reactive-log-replay --mutants \
             --methods log,prior,safer-in-path --trust-region 60 ;;
     blind-twin)

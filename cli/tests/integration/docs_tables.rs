@@ -1042,7 +1042,7 @@ fn the_recorded_traffic_braking_table_quotes_its_outputs() {
         // the reactive runs have the one stage-2 mode, unnamed in the row.
         let (dir, label) = match background {
             "log-replay" => ("reaction-delay", "safer-in-path (closed-loop)"),
-            "reactive-log-replay" => ("reactive-background", "safer-in-path"),
+            "reactive-log-replay" => ("recorded-cars-braking", "safer-in-path"),
             other => panic!("no outputs with the background {other}"),
         };
         let file = format!("{dir}/{}", side_by_side_output(&set, &draw));
@@ -1068,11 +1068,11 @@ fn the_critical_variants_at_the_planner_table_quotes_its_outputs() {
             "ten seeds" if set.starts_with("NGSIM") => "mutants-ngsim-evasive-n60-ten-seeds.txt",
             _ => side_by_side_output(&set, &draw),
         };
-        let output = repo_file(&format!("docs/evaluation/reactive-background/{file}"));
+        let output = repo_file(&format!("docs/evaluation/recorded-cars-braking/{file}"));
         // The bands, then reach-crit from the conflicts table.
         let mut expected = labelled_row(&output, "critical", "safer-in-path");
         expected.push(labelled_row(&output, "reach-crit", "safer-in-path")[1].clone());
-        assert_eq!(row[2..], expected[..], "{set}, {draw}: the table against reactive-background/{file}");
+        assert_eq!(row[2..], expected[..], "{set}, {draw}: the table against recorded-cars-braking/{file}");
         checked += 1;
     }
     assert_eq!(checked, 5, "two draws on each set and ten seeds on NGSIM");
@@ -1410,7 +1410,7 @@ fn the_blind_twin_table_quotes_its_outputs() {
     let mut checked = 0;
     for (set, draw, row) in rows_by_set_and_draw(&rows) {
         let file = side_by_side_output(&set, &draw);
-        let output = repo_file(&format!("docs/evaluation/first-contact/reactive-background/{file}"));
+        let output = repo_file(&format!("docs/evaluation/recorded-cars-braking/{file}"));
         // Critical, contact and under 1 m from the bands; the CBV-blind
         // twin's three cells; reach-crit; met.
         let bands = labelled_row(&output, "critical", "safer-in-path");
@@ -1419,7 +1419,7 @@ fn the_blind_twin_table_quotes_its_outputs() {
         expected.extend(twin[..3].iter().cloned());
         expected.push(labelled_row(&output, "reach-crit", "safer-in-path")[1].clone());
         expected.push(twin[3].clone());
-        assert_eq!(row[2..], expected[..], "{set}, {draw}: the table against first-contact/reactive-background/{file}");
+        assert_eq!(row[2..], expected[..], "{set}, {draw}: the table against recorded-cars-braking/{file}");
         checked += 1;
     }
     assert_eq!(checked, 4, "two draws on each set");
