@@ -699,8 +699,8 @@ impl Loaded<SuiteSpec> {
 
     /// The recorded scenes judged by the default `no_collision: true`
     /// where a contact from behind may fail the planner, at the
-    /// acceptance (its `variant:` where written) if there is one, else at the first recorded
-    /// entry.
+    /// acceptance (its `variant:` where written) if there is one, else
+    /// at the first recorded entry.
     fn contact_from_behind_warning(&self, recorded_at: &str) -> Option<SpecWarning> {
         let adversary = &self.value.adversary;
         if !self.value.acceptance.variant.no_collision || self.writes("acceptance.variant.no_collision") {
@@ -709,18 +709,16 @@ impl Loaded<SuiteSpec> {
         let blind_traffic =
             matches!(adversary.background, BackgroundPolicy::LogReplay | BackgroundPolicy::ConstantVelocity);
         let chasing_cbv = adversary.method.is_adversary() && adversary.ego_contact == EgoContactRule::Any;
+        let blind = format!(
+            "the recorded cars (`background: {}`) cannot brake for it",
+            crate::spec::spec_name(&adversary.background)
+        );
+        let chasing = "the CBV may run into it (`ego_contact: any`)";
         let who = match (blind_traffic, chasing_cbv) {
             (false, false) => return None,
-            (true, false) => format!(
-                "the recorded cars (`background: {}`) cannot brake for it",
-                crate::spec::spec_name(&adversary.background)
-            ),
-            (false, true) => "the CBV may run into it (`ego_contact: any`)".to_string(),
-            (true, true) => format!(
-                "the recorded cars (`background: {}`) cannot brake for it and the CBV may run into it \
-                 (`ego_contact: any`)",
-                crate::spec::spec_name(&adversary.background)
-            ),
+            (true, false) => blind,
+            (false, true) => chasing.to_string(),
+            (true, true) => format!("{blind} and {chasing}"),
         };
         let at = if self.writes("acceptance") { "acceptance.variant.no_collision" } else { recorded_at };
         Some(self.warning_at(
