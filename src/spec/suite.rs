@@ -664,8 +664,9 @@ impl Loaded<SuiteSpec> {
     /// - recorded scenes judged by the default `no_collision: true` where
     ///   something may run into the ego from behind: recorded cars that
     ///   cannot brake for it (`background: log-replay` or
-    ///   `constant-velocity`), or a SaFeR CBV allowed any contact
-    ///   (`ego_contact: any`). No planner answers for such a contact, so
+    ///   `constant-velocity`), or a CBV that may make any contact (the
+    ///   prior's, or a SaFeR method's under `ego_contact: any`). No
+    ///   planner answers for such a contact, so
     ///   the suite would fail planners for the traffic's doing; writing
     ///   `no_collision` out, either way, silences the warning.
     pub fn warnings(&self) -> Vec<SpecWarning> {
@@ -708,12 +709,19 @@ impl Loaded<SuiteSpec> {
         }
         let blind_traffic =
             matches!(adversary.background, BackgroundPolicy::LogReplay | BackgroundPolicy::ConstantVelocity);
-        let chasing_cbv = adversary.method.is_adversary() && adversary.ego_contact == EgoContactRule::Any;
+        // The prior's CBV keeps from no contact; a SaFeR CBV only under
+        // `ego_contact: not-from-behind`.
+        let chasing_cbv = adversary.method == AdversaryMethod::Prior
+            || (adversary.method.is_adversary() && adversary.ego_contact == EgoContactRule::Any);
         let blind = format!(
             "the recorded cars (`background: {}`) cannot brake for it",
             crate::spec::spec_name(&adversary.background)
         );
-        let chasing = "the CBV may run into it (`ego_contact: any`)";
+        let chasing = if adversary.method == AdversaryMethod::Prior {
+            "the CBV, driven by the prior, may run into it"
+        } else {
+            "the CBV may run into it (`ego_contact: any`)"
+        };
         let who = match (blind_traffic, chasing_cbv) {
             (false, false) => return None,
             (true, false) => blind,
@@ -1142,7 +1150,7 @@ acceptance:
     #[test]
     fn recorded_scenes_judged_by_any_collision_are_warned_of_where_something_may_run_into_the_ego() {
         // Replayed recorded cars cannot brake for the ego: at the variant acceptance.
-        let w = warnings("method: prior }", "method: prior }");
+        let w = warnings("method: prior }", "method: log }");
         assert_eq!(w.len(), 1, "{w:?}");
         assert!(w[0].starts_with("s.yaml:8:12: `no_collision` is left at its default, true"), "{w:?}");
         assert!(w[0].contains("the recorded cars (`background: log-replay`) cannot brake for it;"), "{w:?}");
@@ -1164,7 +1172,15 @@ acceptance:
         // Silent where nothing may run into the ego unanswered, or the rule is written out.
         let braking = "method: safer, background: reactive-log-replay, ego_contact: not-from-behind }";
         assert!(warnings("method: prior }", braking).is_empty());
-        assert!(warnings("method: prior }", "method: prior, background: idm }").is_empty());
+        assert!(
+            warnings("method: prior }", "method: safer, background: idm, ego_contact: not-from-behind }").is_empty()
+        );
+        // The prior's CBV keeps from no contact.
+        let w = warnings("method: prior }", "method: prior, background: idm }");
+        assert_eq!(w.len(), 1, "{w:?}");
+        assert!(w[0].contains("on the recorded scenes the CBV, driven by the prior, may run into it;"), "{w:?}");
+        let w = warnings("method: prior }", "method: prior }");
+        assert!(w[0].contains("cannot brake for it and the CBV, driven by the prior, may run into it;"), "{w:?}");
         assert!(warnings("min_gap_m: 0.5 }", "no_collision: true, min_gap_m: 0.5 }").is_empty());
         assert!(warnings("min_gap_m: 0.5 }", "no_collision: false, min_gap_m: 0.5 }").is_empty());
         // Authored scenes only: their traffic is the author's to judge.
