@@ -653,12 +653,7 @@ fn the_lookahead_protocol_table_over_thirty_behaviours_quotes_its_outputs() {
     // CR, CR held out, SR, SR-crit, witness, VJ / AJ.
     let mut protocol = 0;
     for row in markdown_rows(&doc, "--trust-region 30`):", "Mutation testing over 30 behaviours") {
-        let set = match row[0].as_str() {
-            "WOMD interactive" => "womd-interactive",
-            "WOMD JSON" => "womd-json",
-            "NGSIM" => "ngsim",
-            _ => continue,
-        };
+        let Some(set) = set_stem(&row[0]) else { continue };
         let method = method_of(&row[1]).unwrap();
         let (rows, text) = evaluation_output(&format!("in-path-lookahead/n30/evaluate-{set}.txt"));
         let figures = evaluation_figures(&rows, method);
@@ -743,12 +738,7 @@ fn the_in_traffic_protocol_table_quotes_its_outputs() {
                 "pair-in-traffic/evaluate-womd-interactive-lookahead-n28.txt".to_owned()
             }
             (set, scope) => {
-                let set = match set {
-                    "WOMD interactive" => "womd-interactive",
-                    "WOMD JSON" => "womd-json",
-                    "NGSIM" => "ngsim",
-                    other => panic!("no set {other:?}"),
-                };
+                let set = set_stem(set).unwrap_or_else(|| panic!("no set {set:?}"));
                 match scope {
                     "pair" => format!("in-path-lookahead/n30/evaluate-{set}.txt"),
                     "in traffic" => format!("pair-in-traffic/evaluate-{set}.txt"),
@@ -810,12 +800,7 @@ fn the_witnessed_protocol_table_quotes_its_outputs() {
             Some((_, n)) => panic!("no runs over {n} behaviours"),
             None => (row[0].as_str(), false),
         };
-        let set = match set {
-            "WOMD interactive" => "womd-interactive",
-            "WOMD JSON" => "womd-json",
-            "NGSIM" => "ngsim",
-            other => panic!("no set {other:?}"),
-        };
+        let set = set_stem(set).unwrap_or_else(|| panic!("no set {set:?}"));
         let (file, run) = match (row[2].as_str(), over_28) {
             // The sweep's run has no prior row to time against.
             ("pair", true) => ("in-path-lookahead/sweep-n28.txt".to_owned(), None),
@@ -946,7 +931,8 @@ fn labelled_row(output: &str, header_word: &str, label: &str) -> Vec<String> {
 }
 
 /// A side-by-side table's rows, each with the set and the draw of seeds
-/// it belongs to (a blank set or draw cell continues the row above's).
+/// (or whatever else its second column groups by, such as the planner)
+/// it belongs to (a blank first or second cell continues the row above's).
 fn rows_by_set_and_draw(rows: &[Vec<String>]) -> Vec<(String, String, &[String])> {
     let (mut set, mut draw) = (String::new(), String::new());
     rows.iter()
@@ -2490,22 +2476,10 @@ fn the_replay_against_closed_loop_table_quotes_its_outputs() {
         "| set | planner | method | stage-2 CBV | reach | reach-crit | SR-avoid | failures |",
         "Closed loop brings more of the critical conflicts",
     );
-    let (mut set, mut planner) = (String::new(), String::new());
     let mut checked = Vec::new();
-    for row in &rows {
-        if !row[0].is_empty() {
-            set = row[0].clone();
-        }
-        if !row[1].is_empty() {
-            planner = row[1].clone();
-        }
+    for (set, planner, row) in rows_by_set_and_draw(&rows) {
         let Some(method) = method_of(&row[2]) else { continue };
-        let stem = match set.as_str() {
-            "WOMD interactive" => "womd-interactive",
-            "WOMD JSON" => "womd-json",
-            "NGSIM" => "ngsim",
-            other => panic!("{other}: no set"),
-        };
+        let stem = set_stem(&set).unwrap_or_else(|| panic!("{set}: no set"));
         // Replay: the main tables' runs; closed loop: the mutation runs.
         let file = match (row[3].as_str(), planner.as_str()) {
             ("replay", "evasive") => format!("evaluate-{stem}.txt"),
@@ -2622,14 +2596,20 @@ fn kinds_row(output: &str, method: &str) -> Vec<(u32, u32)> {
     cells[1..].chunks(3).map(|k| (k[0].parse().expect("a count"), k[2].parse().expect("a count"))).collect()
 }
 
+/// The name outputs give the set a table names (`WOMD interactive`:
+/// `womd-interactive`), `None` for a cell that names no set.
+fn set_stem(set: &str) -> Option<&'static str> {
+    match set {
+        "WOMD interactive" => Some("womd-interactive"),
+        "WOMD JSON" => Some("womd-json"),
+        "NGSIM" => Some("ngsim"),
+        _ => None,
+    }
+}
+
 /// `dir`'s `evaluate-*.txt` output of the set a table names.
 fn evaluate_output_of_set(dir: &str, set: &str) -> String {
-    let stem = match set {
-        "WOMD interactive" => "womd-interactive",
-        "WOMD JSON" => "womd-json",
-        "NGSIM" => "ngsim",
-        other => panic!("{other}: no output"),
-    };
+    let stem = set_stem(set).unwrap_or_else(|| panic!("{set}: no output"));
     format!("{dir}/evaluate-{stem}.txt")
 }
 
