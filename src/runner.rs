@@ -281,6 +281,7 @@ fn results_of_this_process(suites: &[(PathBuf, Arc<Suite>)], load_failures: Vec<
             checks,
             mutation: mutation.map(|m| m.as_ref().clone()),
             wall_s: None,
+            warnings: suite.spec.warnings().iter().map(ToString::to_string).collect(),
         });
     }
     results

@@ -96,6 +96,9 @@ struct SuiteReport {
     /// Its variants' wall times summed, s (with `wall_s`, how much the
     /// suite gained from running its variants side by side).
     variants_wall_s: f64,
+    /// What its spec says that is valid but most likely not meant, each
+    /// `PATH:LINE:COLUMN: message` (the verdict does not count them).
+    warnings: Vec<String>,
 }
 
 /// A variant in the report: its summary, or why it could not run.
@@ -551,6 +554,7 @@ fn suite_run(
         checks,
         mutation,
         wall_s,
+        warnings: suite.spec.warnings().iter().map(ToString::to_string).collect(),
     }
 }
 
@@ -610,6 +614,7 @@ fn suite_report(run: &SuiteRun) -> SuiteReport {
         mutation: run.mutation.clone(),
         wall_s: run.wall_s,
         variants_wall_s: run.variants.iter().filter_map(|v| v.wall_s).sum(),
+        warnings: run.warnings.clone(),
     }
 }
 
@@ -763,11 +768,17 @@ fn print_report(out: &mut dyn Write, report: &Report) -> std::io::Result<()> {
             }
         }
     }
-    let load = if report.load_errors.is_empty() {
+    let mut load = if report.load_errors.is_empty() {
         String::new()
     } else {
         format!("; {} could not be loaded", count(report.load_errors.len(), "suite file"))
     };
+    // Shown in full on stderr as the suites load; counted here, since the
+    // table may be all a reader keeps.
+    let warnings: usize = report.suites.iter().map(|s| s.warnings.len()).sum();
+    if warnings > 0 {
+        load.push_str(&format!("; {}", count(warnings, "spec warning")));
+    }
     writeln!(
         out,
         "\n{}: {}, {variants_failed} failed; {}, {checks_failed} failed{load}; {}",

@@ -92,7 +92,9 @@ fn run_warns_of_recorded_scenes_left_to_replay_and_judged_by_any_collision_and_r
     let suite = dir.join("replay.yaml");
     let written = "name: replay\nscenarios:\n  - recorded: safer:scenes/ngsim\nplanner: { builtin: idm }\n";
     std::fs::write(&suite, written).unwrap();
-    let out = safer(&["run", suite.to_str().unwrap()]);
+    let (json, junit) = (dir.join("report.json"), dir.join("junit.xml"));
+    let reports = ["--json", json.to_str().unwrap(), "--junit", junit.to_str().unwrap()];
+    let out = safer(&[&["run", suite.to_str().unwrap()][..], &reports].concat());
     let stderr = text(&out.stderr);
     assert_eq!(out.status.code(), Some(0), "{stderr}");
     assert!(stderr.starts_with("warning: no `adversary.method`: the recorded scenes are replayed"), "{stderr}");
@@ -100,6 +102,25 @@ fn run_warns_of_recorded_scenes_left_to_replay_and_judged_by_any_collision_and_r
     assert!(stderr.contains("warning: `no_collision` is left at its default, true"), "{stderr}");
     assert_eq!(stderr.matches("warning: ").count(), 2, "{stderr}");
     assert!(text(&out.stdout).contains("PASS: 3 variants"), "{}", text(&out.stdout));
+    assert!(text(&out.stdout).contains("; 2 spec warnings;"), "{}", text(&out.stdout));
+    // The reports carry them too, for a CI that reads only its reports;
+    // they leave the verdict as it was.
+    let report: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
+    let warnings: Vec<&str> =
+        report["suites"][0]["warnings"].as_array().unwrap().iter().map(|w| w.as_str().unwrap()).collect();
+    assert_eq!(warnings.len(), 2, "{report}");
+    assert!(warnings[0].ends_with("replay.yaml:3:15: no `adversary.method`: the recorded scenes are replayed as recorded (`log`, the default) and meet only the conflicts their recordings hold; name a SaFeR method for adversarial variants (the shipped adversarial suites use `safer-in-path-lookahead`: docs/guide/adversary.md), or write `method: log` to replay on purpose"), "{report}");
+    assert!(warnings[1].contains("replay.yaml:3:15: `no_collision` is left at its default, true"), "{report}");
+    assert_eq!((&report["passed"], &report["suites"][0]["passed"]), (&true.into(), &true.into()), "{report}");
+    let xml = std::fs::read_to_string(&junit).unwrap();
+    let doc = roxmltree::Document::parse(&xml).unwrap();
+    let properties: Vec<&str> = doc
+        .descendants()
+        .filter(|n| n.has_tag_name("property") && n.attribute("name") == Some("warning"))
+        .filter_map(|n| n.attribute("value"))
+        .collect();
+    assert_eq!(properties, warnings, "{xml}");
+    assert_eq!(doc.root_element().attribute("failures"), Some("0"), "{xml}");
     // Saying so silences each; the file the user wrote is left as written.
     let replay = written.replace("idm }\n", "idm }\nadversary: { method: log }\n");
     std::fs::write(&suite, &replay).unwrap();
@@ -109,9 +130,13 @@ fn run_warns_of_recorded_scenes_left_to_replay_and_judged_by_any_collision_and_r
     assert!(!stderr.contains("no `adversary.method`") && stderr.contains("`no_collision` is left"), "{stderr}");
     let at_fault = "acceptance: { variant: { no_collision: false, no_at_fault_collision: true } }\n";
     std::fs::write(&suite, format!("{replay}{at_fault}")).unwrap();
-    let out = safer(&["run", suite.to_str().unwrap()]);
+    let out = safer(&[&["run", suite.to_str().unwrap()][..], &reports].concat());
     assert_eq!(out.status.code(), Some(0), "{}", text(&out.stderr));
     assert!(!text(&out.stderr).contains("warning"), "{}", text(&out.stderr));
+    assert!(!text(&out.stdout).contains("spec warning"), "{}", text(&out.stdout));
+    let report: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
+    assert_eq!(report["suites"][0]["warnings"], serde_json::json!([]), "{report}");
+    assert!(!std::fs::read_to_string(&junit).unwrap().contains("<property name=\"warning\""));
     assert_eq!(std::fs::read_to_string(&suite).unwrap(), format!("{replay}{at_fault}"));
     std::fs::remove_dir_all(&dir).ok();
 }

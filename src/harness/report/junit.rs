@@ -145,8 +145,17 @@ fn suite(out: &mut String, run: &SuiteRun) -> Counts {
                 writeln!(out, "      <property name=\"mutant.{}\" value=\"{}\"/>", r.operator.name(), attr(&verdict));
         }
     }
+    // The spec's warnings: as properties for dashboards that read them,
+    // and as the suite's standard error for those that show it.
+    for w in &run.warnings {
+        let _ = writeln!(out, "      <property name=\"warning\" value=\"{}\"/>", attr(w));
+    }
     out.push_str("    </properties>\n");
     out.push_str(&cases);
+    if !run.warnings.is_empty() {
+        let lines: String = run.warnings.iter().map(|w| format!("warning: {w}\n")).collect();
+        let _ = writeln!(out, "    <system-err>{}</system-err>", text(&lines));
+    }
     out.push_str("  </testsuite>\n");
     counts
 }
@@ -377,5 +386,30 @@ mod tests {
         let load = cases.iter().find(|c| c.attribute("name") == Some("load")).unwrap();
         assert_eq!(load.attribute("classname"), Some("typo"));
         assert!(load.children().any(|n| n.has_tag_name("error") && n.text() == Some("line 5: <oops>")));
+    }
+
+    #[test]
+    fn the_spec_warnings_are_properties_and_the_suites_stderr_and_leave_the_verdict() {
+        let quiet = junit_xml(&RunResults { load_failures: Vec::new(), suites: vec![passing_run()] });
+        assert!(!quiet.contains("warning") && !quiet.contains("system-err"), "{quiet}");
+        let mut run = passing_run();
+        run.warnings = vec!["s.yaml:3:1: no `adversary.method` <log>".into(), "s.yaml:9:3: second".into()];
+        let xml = junit_xml(&RunResults { load_failures: Vec::new(), suites: vec![run] });
+        let doc = roxmltree::Document::parse(&xml).expect("well-formed");
+        let warnings: Vec<_> = doc
+            .descendants()
+            .filter(|n| n.has_tag_name("property") && n.attribute("name") == Some("warning"))
+            .filter_map(|n| n.attribute("value"))
+            .collect();
+        assert_eq!(warnings, ["s.yaml:3:1: no `adversary.method` <log>", "s.yaml:9:3: second"], "{xml}");
+        let suite = doc.descendants().find(|n| n.has_tag_name("testsuite")).unwrap();
+        let stderr = suite.children().find(|n| n.has_tag_name("system-err")).expect("the suite's stderr");
+        assert_eq!(
+            stderr.text(),
+            Some("warning: s.yaml:3:1: no `adversary.method` <log>\nwarning: s.yaml:9:3: second\n")
+        );
+        // The schema's order: properties, test cases, then system-err.
+        assert_eq!(suite.children().filter(|n| n.is_element()).last(), Some(stderr), "{xml}");
+        assert_eq!((suite.attribute("failures"), suite.attribute("errors")), (Some("0"), Some("0")), "{xml}");
     }
 }

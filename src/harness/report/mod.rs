@@ -64,6 +64,11 @@ pub struct SuiteRun {
     /// last one's end (suites run side by side, so theirs overlap); `None`
     /// where the run did not measure it.
     pub wall_s: Option<f64>,
+    /// What the suite's spec says that is valid but most likely not meant
+    /// ([`crate::spec::SpecWarning`]), each as `PATH:LINE:COLUMN: message`:
+    /// every report carries them, so a CI that reads only its reports sees
+    /// them. They do not change the verdict.
+    pub warnings: Vec<String>,
 }
 
 impl SuiteRun {
@@ -220,6 +225,7 @@ pub(crate) mod tests_support {
             checks: vec![MetricCheck { name: "collision_rate", value: Some(1.0), result: Ok(()) }],
             mutation: None,
             wall_s: Some(1.5),
+            warnings: Vec::new(),
         }
     }
 }

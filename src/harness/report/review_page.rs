@@ -244,6 +244,9 @@ fn suite_html(h: &mut String, si: usize, s: &SuiteRun, dir: &Path, pictures: &mu
         esc(&s.planner),
         count(s.variants.len(), "variant")
     );
+    for w in &s.warnings {
+        let _ = writeln!(h, "<p class=\"spec-warning\">warning: {}</p>", esc(w));
+    }
     if !s.variants.is_empty() {
         h.push_str(
             "<table class=\"variants\">\n<thead><tr><th>variant</th><th>verdict</th><th>stage 1: CBV hit ego</th>\
@@ -536,6 +539,7 @@ mod tests {
         let mut run = passing_run();
         run.name = "un<i>t".into();
         run.variants.push(failing_variant("unit"));
+        run.warnings = vec!["s.yaml:3:1: no <b>adversary</b>".into()];
         RunResults {
             load_failures: vec![SuiteLoadFailure { file: "typo.yaml".into(), message: "</script><b>".into() }],
             suites: vec![run],
@@ -553,6 +557,9 @@ mod tests {
         .expect("the page is well-formed XML");
         assert!(html.contains("un&lt;i&gt;t") && !html.contains("un<i>t"), "suite name not escaped");
         assert!(html.contains("&lt;/script&gt;&lt;b&gt;") && !html.contains("</script><b>"));
+        // The spec's warning, escaped, under its suite's heading.
+        let warning = "<p class=\"spec-warning\">warning: s.yaml:3:1: no &lt;b&gt;adversary&lt;/b&gt;</p>";
+        assert!(html.contains(warning) && html.find(warning) < html.find("<table class=\"variants\">"), "{html}");
         // Stage 2's picture, and stage 1's beside it.
         assert_eq!(pictures.len(), 2);
         assert_eq!(pictures[0].0, Path::new("/tmp/page/pictures/unit/crossing/seed-1.svg"));
