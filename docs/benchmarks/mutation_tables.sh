@@ -18,7 +18,9 @@
 # Prints one Markdown row per (suite, method): the variants the planner
 # passes, the score, the killed mutants (with the variants that killed
 # each) and the survivors; then the cost of a mutation run against the
-# suite's own run, side by side.
+# suite's own run, side by side. The benchmarks quote the printed tables
+# kept in docs/evaluation/shipped-suites/ (mutation-tables.txt: every
+# suite; cost.txt: METHODS=log with the five suites the cost table names).
 set -euo pipefail
 repo="$(cd "$(dirname "$0")/../.." && pwd)"
 safer="${1:-$repo/target/release/safer}"

@@ -2812,3 +2812,35 @@ fn the_junction_pairings_bullet_quotes_its_outputs() {
         "{alone_counts:?} in {bullet:?}"
     );
 }
+
+/// The Markdown rows of `docs/benchmarks.md` between `from` and `to` that
+/// are not a table's header, each as its line.
+fn quoted_rows<'a>(doc: &'a str, from: &str, to: &str, header: &str) -> Vec<&'a str> {
+    let section: Vec<&str> =
+        doc.lines().skip_while(|l| !l.contains(from)).skip(1).take_while(|l| !l.contains(to)).collect();
+    assert!(section.iter().any(|l| l.starts_with(header)), "no table {header:?} from {from:?} to {to:?}");
+    section.into_iter().filter(|l| l.starts_with('|') && !l.starts_with("| ---") && !l.starts_with(header)).collect()
+}
+
+#[test]
+fn the_shipped_suites_tables_quote_their_outputs() {
+    let doc = repo_file("docs/benchmarks.md");
+    // `mutation_tables.sh` prints each row as the benchmarks quote it.
+    let printed = |file: &str| -> Vec<String> {
+        repo_file(&format!("docs/evaluation/shipped-suites/{file}")).lines().map(str::to_owned).collect()
+    };
+    let (mutation, cost) = (printed("mutation-tables.txt"), printed("cost.txt"));
+    let from = "### The shipped suites";
+    let rows = quoted_rows(&doc, from, "`faults` kills every operator", "| suite | planner | method |");
+    let (costs, rows): (Vec<&str>, Vec<&str>) =
+        rows.into_iter().filter(|r| !r.starts_with("| suite |")).partition(|r| r.ends_with("| 8 |"));
+    for row in &rows {
+        assert!(mutation.iter().any(|l| l == row), "not in shipped-suites/mutation-tables.txt: {row}");
+    }
+    let printed_rows = mutation.iter().filter(|l| l.starts_with("| ") && l.contains(" | `")).count();
+    assert_eq!(rows.len(), printed_rows, "every suite and method the script printed is quoted");
+    assert_eq!(costs.len(), 5, "the cost of five suites: {costs:?}");
+    for row in &costs {
+        assert!(cost.iter().any(|l| l == row), "not in shipped-suites/cost.txt: {row}");
+    }
+}
