@@ -2844,3 +2844,47 @@ fn the_shipped_suites_tables_quote_their_outputs() {
         assert!(cost.iter().any(|l| l == row), "not in shipped-suites/cost.txt: {row}");
     }
 }
+
+/// A `safer run` output's conflict coverage: kind → `stage 1 / met /
+/// failures`, for each suite in the output (in order).
+fn conflict_coverage(output: &str) -> Vec<BTreeMap<String, String>> {
+    let mut suites = Vec::new();
+    let mut lines = output.lines();
+    while lines.by_ref().any(|l| l.trim_start().starts_with("conflict coverage")) {
+        let mut kinds = BTreeMap::new();
+        for line in lines.by_ref() {
+            let cells: Vec<&str> = line.split_whitespace().collect();
+            let [kind, stage1, met, failures, _sr] = cells[..] else { break };
+            if stage1.parse::<u32>().is_err() {
+                break;
+            }
+            kinds.insert(kind.to_owned(), format!("{stage1} / {met} / {failures}"));
+        }
+        suites.push(kinds);
+    }
+    suites
+}
+
+#[test]
+fn the_per_suite_kinds_table_quotes_its_outputs() {
+    let doc = repo_file("docs/benchmarks.md");
+    let rows = markdown_rows(&doc, "**Per suite** (`safer run SUITE --no-shrink`", "The shipped NGSIM suite's stage-1");
+    let header = &rows[0];
+    let kinds = ["rear-end", "cut-in", "crossing", "left-turn-across-path", "head-on", "sideswipe"];
+    assert_eq!(&header[2..], ["rear-end", "cut-in", "crossing", "left turn across path", "head-on", "sideswipe"]);
+    for row in &rows[1..] {
+        let path = method_of(&row[0]).unwrap_or_else(|| panic!("no suite file in {:?}", row[0]));
+        let stem = path.rsplit('/').next().unwrap().trim_end_matches(".yaml");
+        let output = repo_file(&format!("docs/evaluation/shipped-suites/run-{stem}.txt"));
+        let coverage = conflict_coverage(&output);
+        assert_eq!(coverage.len(), 1, "{stem}: one suite's coverage");
+        let variants = output.lines().find_map(|l| l.trim().strip_prefix("metrics over ")?.split(' ').next());
+        assert_eq!(Some(row[1].as_str()), variants, "{stem}: variants");
+        for (kind, cell) in kinds.iter().zip(&row[2..]) {
+            let printed = coverage[0].get(*kind).map_or("–", String::as_str);
+            assert_eq!(cell, printed, "{stem}, {kind}: stage 1 / met / failures");
+        }
+        assert!(coverage[0].keys().all(|k| kinds.contains(&k.as_str())), "{stem}: a kind the table leaves out");
+    }
+    assert_eq!(rows.len(), 4, "three suites");
+}
