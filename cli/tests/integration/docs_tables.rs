@@ -219,7 +219,7 @@ fn the_ten_seed_mutation_table_quotes_its_outputs() {
             ("NGSIM, n = 60 (69 × 10)", &["ten-seeds/mutants-ngsim-evasive-n60.txt"]),
             (
                 "NGSIM, n = 60, the recorded cars braking for the ego (69 × 10)",
-                &["reactive-background/mutants-ngsim-evasive-n60-ten-seeds.txt"],
+                &["recorded-cars-braking/mutants-ngsim-evasive-n60-ten-seeds.txt"],
             ),
             (
                 "WOMD interactive, the Python lane follower (54 × 10)",
