@@ -409,7 +409,7 @@ mod tests {
             Some("warning: s.yaml:3:1: no `adversary.method` <log>\nwarning: s.yaml:9:3: second\n")
         );
         // The schema's order: properties, test cases, then system-err.
-        assert_eq!(suite.children().filter(|n| n.is_element()).last(), Some(stderr), "{xml}");
+        assert_eq!(suite.children().rfind(|n| n.is_element()), Some(stderr), "{xml}");
         assert_eq!((suite.attribute("failures"), suite.attribute("errors")), (Some("0"), Some("0")), "{xml}");
     }
 }
