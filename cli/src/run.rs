@@ -768,7 +768,7 @@ fn print_report(out: &mut dyn Write, report: &Report) -> std::io::Result<()> {
             }
         }
     }
-    let mut load = if report.load_errors.is_empty() {
+    let mut aside = if report.load_errors.is_empty() {
         String::new()
     } else {
         format!("; {} could not be loaded", count(report.load_errors.len(), "suite file"))
@@ -777,11 +777,11 @@ fn print_report(out: &mut dyn Write, report: &Report) -> std::io::Result<()> {
     // table may be all a reader keeps.
     let warnings: usize = report.suites.iter().map(|s| s.warnings.len()).sum();
     if warnings > 0 {
-        load.push_str(&format!("; {}", count(warnings, "spec warning")));
+        aside.push_str(&format!("; {}", count(warnings, "spec warning")));
     }
     writeln!(
         out,
-        "\n{}: {}, {variants_failed} failed; {}, {checks_failed} failed{load}; {}",
+        "\n{}: {}, {variants_failed} failed; {}, {checks_failed} failed{aside}; {}",
         if report.passed { "PASS" } else { "FAIL" },
         count(variants, "variant"),
         count(checks, "metric check"),

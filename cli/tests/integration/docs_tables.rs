@@ -2813,8 +2813,9 @@ fn the_junction_pairings_bullet_quotes_its_outputs() {
     );
 }
 
-/// The Markdown rows of `docs/benchmarks.md` between `from` and `to` that
-/// are not a table's header, each as its line.
+/// The Markdown rows of `doc` between the lines holding `from` and `to`,
+/// each as its line, less the separators and the rows that start with
+/// `header` (the section must hold one).
 fn quoted_rows<'a>(doc: &'a str, from: &str, to: &str, header: &str) -> Vec<&'a str> {
     let section: Vec<&str> =
         doc.lines().skip_while(|l| !l.contains(from)).skip(1).take_while(|l| !l.contains(to)).collect();
