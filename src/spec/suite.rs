@@ -711,13 +711,13 @@ impl Loaded<SuiteSpec> {
             matches!(adversary.background, BackgroundPolicy::LogReplay | BackgroundPolicy::ConstantVelocity);
         // The prior's CBV keeps from no contact; a SaFeR CBV only under
         // `ego_contact: not-from-behind`.
-        let chasing_cbv = adversary.method == AdversaryMethod::Prior
-            || (adversary.method.is_adversary() && adversary.ego_contact == EgoContactRule::Any);
+        let by_prior = adversary.method == AdversaryMethod::Prior;
+        let chasing_cbv = by_prior || (adversary.method.is_adversary() && adversary.ego_contact == EgoContactRule::Any);
         let blind = format!(
             "the recorded cars (`background: {}`) cannot brake for it",
             crate::spec::spec_name(&adversary.background)
         );
-        let chasing = if adversary.method == AdversaryMethod::Prior {
+        let chasing = if by_prior {
             "the CBV, driven by the prior, may run into it"
         } else {
             "the CBV may run into it (`ego_contact: any`)"

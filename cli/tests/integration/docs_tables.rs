@@ -65,14 +65,20 @@ fn evaluation_figures(rows: &BTreeMap<String, Vec<String>>, method: &str) -> Vec
 /// The markdown table rows between the first line containing `from` and
 /// the next line containing `to`, as cells (trimmed, between the pipes).
 fn markdown_rows(doc: &str, from: &str, to: &str) -> Vec<Vec<String>> {
-    let section: Vec<&str> =
-        doc.lines().skip_while(|l| !l.contains(from)).skip(1).take_while(|l| !l.contains(to)).collect();
-    assert!(!section.is_empty(), "no section from {from:?} to {to:?}");
-    section
+    section(doc, from, to)
         .iter()
         .filter(|l| l.starts_with('|') && !l.starts_with("| ---"))
         .map(|l| l.trim().trim_matches('|').split('|').map(|c| c.trim().to_owned()).collect())
         .collect()
+}
+
+/// The lines of `doc` after the first holding `from`, up to the next
+/// holding `to`; there must be some.
+fn section<'a>(doc: &'a str, from: &str, to: &str) -> Vec<&'a str> {
+    let section: Vec<&str> =
+        doc.lines().skip_while(|l| !l.contains(from)).skip(1).take_while(|l| !l.contains(to)).collect();
+    assert!(!section.is_empty(), "no section from {from:?} to {to:?}");
+    section
 }
 
 /// The method a cell names: its first `backticked` word.
@@ -2817,8 +2823,7 @@ fn the_junction_pairings_bullet_quotes_its_outputs() {
 /// each as its line, less the separators and the rows that start with
 /// `header` (the section must hold one).
 fn quoted_rows<'a>(doc: &'a str, from: &str, to: &str, header: &str) -> Vec<&'a str> {
-    let section: Vec<&str> =
-        doc.lines().skip_while(|l| !l.contains(from)).skip(1).take_while(|l| !l.contains(to)).collect();
+    let section = section(doc, from, to);
     assert!(section.iter().any(|l| l.starts_with(header)), "no table {header:?} from {from:?} to {to:?}");
     section.into_iter().filter(|l| l.starts_with('|') && !l.starts_with("| ---") && !l.starts_with(header)).collect()
 }
