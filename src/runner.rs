@@ -34,6 +34,13 @@
 //! or `$SAFER_ARTIFACTS_DIR`). In-process planners are registered by name
 //! ([`Runner::planner`]) and named in a suite with `planner: { rust: NAME }`.
 //!
+//! A suite whose spec warns (valid, but most likely not meant: recorded
+//! scenes left to replay, or judged by any collision) runs, with the
+//! warnings printed at the start of the run and carried by the review page.
+//! Under cargo-nextest, which shows only failing tests' output, set
+//! `SAFER_DENY_WARNINGS=1` (or [`Runner::deny_warnings`]): such a suite is
+//! then one failing `SUITE::load` test that shows them.
+//!
 //! [`Runner::run`] is all most test targets need; [`Runner::trials`] and
 //! [`Runner::run_with`] hand out and take [libtest-mimic] 0.8's types,
 //! re-exported here ([`Arguments`], [`Conclusion`], [`Trial`], [`Failed`]).
@@ -74,6 +81,8 @@ pub struct Runner {
     /// Registration errors, reported as failing tests (a builder cannot
     /// fail without making every caller handle it).
     registration_errors: Vec<String>,
+    /// Whether a suite with spec warnings fails to load instead of running.
+    deny_warnings: bool,
 }
 
 impl Runner {
@@ -93,6 +102,7 @@ impl Runner {
             artefacts,
             planners: PlannerRegistry::default(),
             registration_errors: Vec::new(),
+            deny_warnings: crate::spec::warnings_denied_by_env(),
             root,
         }
     }
@@ -117,6 +127,18 @@ impl Runner {
         if std::env::var_os("SAFER_ARTIFACTS_DIR").is_none() {
             self.artefacts = self.root.join(dir);
         }
+        self
+    }
+
+    /// Whether a suite whose spec warns (recorded scenes left to replay,
+    /// or judged by any collision: [`crate::spec::SpecWarning`]) is one
+    /// failing `SUITE::load` test instead of running, as a spec error
+    /// makes it. Off by default, on where
+    /// [`SAFER_DENY_WARNINGS`](crate::spec::DENY_WARNINGS_ENV) is set: a
+    /// test tool that shows only failing tests' output (cargo-nextest)
+    /// would otherwise never show the warnings.
+    pub fn deny_warnings(mut self, deny: bool) -> Self {
+        self.deny_warnings = deny;
         self
     }
 
@@ -159,7 +181,11 @@ impl Runner {
             let message = message.clone();
             loaded.trials.push(Trial::test(format!("runner::planner-{i}"), move || Err(Failed::from(message))));
         }
-        let context = Arc::new(TrialContext { snapshots: self.snapshots.clone(), artefacts: self.artefacts.clone() });
+        let context = Arc::new(TrialContext {
+            snapshots: self.snapshots.clone(),
+            artefacts: self.artefacts.clone(),
+            deny_warnings: self.deny_warnings,
+        });
         for dir in self.suite_dirs() {
             let files = Suite::discover(&dir);
             if files.is_empty() {
@@ -292,6 +318,8 @@ fn results_of_this_process(suites: &[(PathBuf, Arc<Suite>)], load_failures: Vec<
 struct TrialContext {
     snapshots: PathBuf,
     artefacts: PathBuf,
+    /// [`Runner::deny_warnings`].
+    deny_warnings: bool,
 }
 
 /// The trials of one suite file.
@@ -324,6 +352,14 @@ fn suite_trials(path: &Path, planners: &PlannerRegistry, context: &Arc<TrialCont
             return;
         }
     };
+    if context.deny_warnings
+        && let Some(denied) = crate::spec::WarningsDenied::of(suite.spec.warnings())
+    {
+        let report = denied.render(false);
+        loaded.load_failures.push(SuiteLoadFailure { file: path.to_path_buf(), message: denied.to_string() });
+        out.push(Trial::test(format!("{file}::load"), move || Err(Failed::from(report))));
+        return;
+    }
     loaded.suites.push((path.to_path_buf(), suite.clone()));
     let name = suite.name();
     for (si, scenario) in suite.scenarios.iter().enumerate() {

@@ -34,6 +34,7 @@ use safer_scenarios::harness::report::{RunResults, SuiteLoadFailure, SuiteRun, V
 use safer_scenarios::harness::{self, HarnessError, Suite, SuiteMetrics, VariantOutcome, VariantSummary};
 use safer_scenarios::planners::FaultOperator;
 use safer_scenarios::record::OutputKind;
+use safer_scenarios::spec::{WarningsDenied, warnings_denied_by_env};
 
 /// One variant to run.
 struct Job {
@@ -229,7 +230,7 @@ pub(super) fn run(
     files: &[PathBuf],
     outputs: RunOutputs<'_>,
     filter: Option<&str>,
-    shrink: ShrinkOverride,
+    loading: Loading,
     mutants: Option<&[FaultOperator]>,
 ) -> Result<ExitCode, CliError> {
     let RunOutputs { json, junit, html, artifacts, commonroad } = outputs;
@@ -240,7 +241,7 @@ pub(super) fn run(
     if let Some(dir) = html {
         harness::report::review_page::check_folder(dir)?;
     }
-    let (suites, load_failures) = load_suites(files, shrink)?;
+    let (suites, load_failures) = load_suites(files, loading)?;
 
     let inputs = check_reports(files, &suites, json, junit)?;
 
@@ -376,6 +377,16 @@ pub(super) fn run(
 /// A suite file and the suite it holds.
 type LoadedSuite = (PathBuf, Suite);
 
+/// How the command line has the suites loaded.
+#[derive(Debug, Clone, Copy, Default)]
+pub(super) struct Loading {
+    /// The shrink bounds over each suite's own.
+    pub shrink: ShrinkOverride,
+    /// Whether a suite whose spec warns is refused (`--deny-warnings`,
+    /// `SAFER_DENY_WARNINGS`).
+    pub deny_warnings: bool,
+}
+
 /// The shrink bounds the command line sets, over each suite's own.
 #[derive(Debug, Clone, Copy, Default)]
 pub(super) struct ShrinkOverride {
@@ -404,24 +415,27 @@ fn shrink_time_limit(text: &str) -> Result<f64, String> {
     }
 }
 
-/// Loads the suites (a broken one is reported and left out) and refuses
-/// two suites of one name.
-fn load_suites(
-    files: &[PathBuf],
-    shrink: ShrinkOverride,
-) -> Result<(Vec<LoadedSuite>, Vec<SuiteLoadFailure>), CliError> {
+/// Loads the suites (a broken one, or one whose warnings are denied, is
+/// reported and left out) and refuses two suites of one name.
+fn load_suites(files: &[PathBuf], loading: Loading) -> Result<(Vec<LoadedSuite>, Vec<SuiteLoadFailure>), CliError> {
+    let colour = std::io::IsTerminal::is_terminal(&std::io::stderr());
     let mut load_failures = Vec::new();
     let mut suites: Vec<LoadedSuite> = Vec::new();
     for file in files {
         match Suite::load(file) {
             Ok(mut s) => {
-                let colour = std::io::IsTerminal::is_terminal(&std::io::stderr());
-                s.spec.warnings().iter().for_each(|w| eprintln!("{}", w.render(colour)));
-                s.shrink = shrink.over(s.shrink);
+                let warnings = s.spec.warnings();
+                if let Some(denied) = WarningsDenied::of(warnings.clone()).filter(|_| loading.deny_warnings) {
+                    eprintln!("{}", denied.render(colour));
+                    load_failures.push(SuiteLoadFailure { file: file.clone(), message: denied.to_string() });
+                    continue;
+                }
+                warnings.iter().for_each(|w| eprintln!("{}", w.render(colour)));
+                s.shrink = loading.shrink.over(s.shrink);
                 suites.push((file.clone(), s));
             }
             Err(e) => {
-                eprintln!("{}", e.render(std::io::IsTerminal::is_terminal(&std::io::stderr())));
+                eprintln!("{}", e.render(colour));
                 load_failures.push(SuiteLoadFailure { file: file.clone(), message: e.to_string() });
             }
         }
@@ -829,6 +843,9 @@ pub(crate) struct RunArgs {
     /// Worker threads for the variants, 1 to 256 (default: one per core). Each may run a planner process: far more than the cores only thrashes.
     #[arg(short, long, value_name = "N", value_parser = RangedU64ValueParser::<usize>::new().range(1..=MAX_JOBS as u64))]
     pub(crate) jobs: Option<usize>,
+    /// Make spec warnings errors: a suite whose spec warns (recorded scenes left to replay, or judged by any collision) is refused as a spec error is, with exit status 2. Also set by SAFER_DENY_WARNINGS=1.
+    #[arg(long)]
+    pub(crate) deny_warnings: bool,
     /// Mutation testing: also run each suite's variants with these faults planted in its planner (comma-separated; alone, or `all`: every operator), and report which mutants the suite kills. Operators: no-brake, weak-brake, late, blind-cbv, blind-side, no-evade, speeding. Replaces a suite's own `mutation_operators`.
     #[arg(long, value_name = "OPS", num_args = 0..=1, default_missing_value = "all", value_parser = fault_operators)]
     pub(crate) mutants: Option<FaultOperators>,
@@ -850,6 +867,7 @@ pub(crate) fn command(args: RunArgs) -> Result<ExitCode, CliError> {
         filter,
         jobs,
         mutants,
+        deny_warnings,
     } = args;
     if json.as_deref().is_some_and(safer_scenarios::record::is_stdout)
         && junit.as_deref().is_some_and(safer_scenarios::record::is_stdout)
@@ -867,7 +885,8 @@ pub(crate) fn command(args: RunArgs) -> Result<ExitCode, CliError> {
             rollouts: if no_shrink { Some(0) } else { shrink_budget },
             time_limit: shrink_time_limit.map(std::time::Duration::from_secs_f64),
         };
+        let loading = Loading { shrink: budget, deny_warnings: deny_warnings || warnings_denied_by_env() };
         let mutants = mutants.as_ref().map(|m| m.0.as_slice());
-        set_jobs(jobs).and_then(|()| run(&suites, outputs, filter.as_deref(), budget, mutants))
+        set_jobs(jobs).and_then(|()| run(&suites, outputs, filter.as_deref(), loading, mutants))
     }
 }

@@ -156,6 +156,64 @@ impl SpecWarning {
     }
 }
 
+/// The environment variable that makes spec warnings errors, as
+/// `safer run --deny-warnings` does (`1`; unset, empty, `0` or `false`
+/// leave them warnings): for a CI whose test tool shows only the output of
+/// failing tests, as cargo-nextest does.
+pub const DENY_WARNINGS_ENV: &str = "SAFER_DENY_WARNINGS";
+
+/// Whether [`DENY_WARNINGS_ENV`] is set to deny spec warnings.
+pub fn warnings_denied_by_env() -> bool {
+    env_flag(DENY_WARNINGS_ENV)
+}
+
+/// Whether a yes/no environment variable is set: unset, empty, `0` and
+/// `false` are no.
+pub(crate) fn env_flag(name: &str) -> bool {
+    std::env::var(name).is_ok_and(|v| !v.is_empty() && v != "0" && v != "false")
+}
+
+/// A spec's warnings where the run denies them
+/// ([`DENY_WARNINGS_ENV`], `safer run --deny-warnings`): the suite is then
+/// refused as a spec error refuses it, and every report says why.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct WarningsDenied {
+    /// The warnings, in the order the spec gives them.
+    pub warnings: Vec<SpecWarning>,
+}
+
+impl WarningsDenied {
+    /// The denial of `warnings`; `None` when there are none to deny.
+    pub fn of(warnings: Vec<SpecWarning>) -> Option<Self> {
+        (!warnings.is_empty()).then_some(Self { warnings })
+    }
+
+    /// Each warning as [`SpecWarning::render`] shows it, then the error
+    /// that denies them.
+    pub fn render(&self, colour: bool) -> String {
+        let mut out: Vec<String> = self.warnings.iter().map(|w| w.render(colour)).collect();
+        out.push(format!("error: {}", self.headline()));
+        out.join("\n")
+    }
+
+    fn headline(&self) -> String {
+        let n = self.warnings.len();
+        format!(
+            "{n} spec warning{} denied ({DENY_WARNINGS_ENV} or --deny-warnings is set): the suite does not run until \
+             its spec says what it means",
+            if n == 1 { "" } else { "s" }
+        )
+    }
+}
+
+impl std::fmt::Display for WarningsDenied {
+    /// The error, then each warning as `PATH:LINE:COLUMN: message` on a line of its own.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.headline())?;
+        self.warnings.iter().try_for_each(|w| write!(f, "\n{w}"))
+    }
+}
+
 /// How a located message is reported.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Severity {

@@ -24,8 +24,7 @@ pub fn data_dir() -> Option<PathBuf> {
 /// `SAFER_REQUIRE_DATA=1`. A suite over recorded data must never pass
 /// unrun where it is meant to run.
 pub fn recorded_data_required() -> bool {
-    let set = |name: &str| std::env::var(name).is_ok_and(|v| !v.is_empty() && v != "0" && v != "false");
-    set("SAFER_REQUIRE_DATA") || set("CI")
+    super::env_flag("SAFER_REQUIRE_DATA") || super::env_flag("CI")
 }
 
 /// The message of a `data:` path met while `SAFER_DATA_DIR` is unset;

@@ -1120,6 +1120,28 @@ acceptance:
     const AT_FAULT: &str = "variant: { no_collision: false, no_at_fault_collision: true, min_gap_m: 0.5 }";
 
     #[test]
+    fn denied_warnings_say_how_many_and_where_each_is() {
+        let spec =
+            parse_yaml::<SuiteSpec>(&SUITE.replace("adversary: { method: prior }\n", ""), Path::new("s.yaml")).unwrap();
+        let denied = crate::spec::WarningsDenied::of(spec.warnings()).expect("the bare recorded suite warns");
+        let plain = denied.to_string();
+        let lines: Vec<&str> = plain.lines().collect();
+        assert_eq!(lines.len(), 3, "{plain}");
+        assert!(
+            lines[0].starts_with("2 spec warnings denied (SAFER_DENY_WARNINGS or --deny-warnings is set)"),
+            "{plain}"
+        );
+        assert!(lines[1].starts_with("s.yaml:3:15: no `adversary.method`"), "{plain}");
+        assert!(lines[2].starts_with("s.yaml:7:12: `no_collision` is left at its default"), "{plain}");
+        // The rendered report: each warning with its snippet, then the error.
+        let shown = denied.render(false);
+        assert_eq!(shown.matches("warning: ").count(), 2, "{shown}");
+        assert!(shown.lines().last().unwrap().starts_with("error: 2 spec warnings denied"), "{shown}");
+        // Nothing to deny, no denial.
+        assert_eq!(crate::spec::WarningsDenied::of(Vec::new()), None);
+    }
+
+    #[test]
     fn recorded_scenes_left_to_the_default_replay_are_warned_of_where_the_method_would_go() {
         let at_fault = SUITE.replace("variant: { min_gap_m: 0.5 }", AT_FAULT);
         let warnings = |from: &str, to: &str| {

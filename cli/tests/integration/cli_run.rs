@@ -141,6 +141,67 @@ fn run_warns_of_recorded_scenes_left_to_replay_and_judged_by_any_collision_and_r
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// `--deny-warnings` (or `SAFER_DENY_WARNINGS`) refuses a suite whose spec
+/// warns as a spec error refuses it: exit status 2, nothing run, and every
+/// report says why; a suite without warnings runs as before.
+#[test]
+fn run_deny_warnings_refuses_a_suite_whose_spec_warns_and_every_report_says_why() {
+    let dir = temp_dir("deny-warnings");
+    let suite = dir.join("replay.yaml");
+    let written = "name: replay\nscenarios:\n  - recorded: safer:scenes/ngsim\nplanner: { builtin: idm }\n";
+    std::fs::write(&suite, written).unwrap();
+    let (json, junit) = (dir.join("report.json"), dir.join("junit.xml"));
+    let reports = ["--json", json.to_str().unwrap(), "--junit", junit.to_str().unwrap()];
+    let run = |env: Option<&str>, flag: bool| {
+        let mut command = Command::new(env!("CARGO_BIN_EXE_safer"));
+        command.args(["run", suite.to_str().unwrap()]).args(reports).current_dir(repo());
+        command.env_remove("SAFER_DENY_WARNINGS");
+        if let Some(value) = env {
+            command.env("SAFER_DENY_WARNINGS", value);
+        }
+        if flag {
+            command.arg("--deny-warnings");
+        }
+        command.output().expect("run safer")
+    };
+    for (env, flag) in [(None, true), (Some("1"), false)] {
+        let out = run(env, flag);
+        let stderr = text(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{env:?} {flag}: {stderr}");
+        assert_eq!(stderr.matches("warning: ").count(), 2, "{stderr}");
+        assert!(
+            stderr.contains("error: 2 spec warnings denied (SAFER_DENY_WARNINGS or --deny-warnings is set)"),
+            "{stderr}"
+        );
+        assert!(text(&out.stdout).contains("FAIL"), "{}", text(&out.stdout));
+        let report: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
+        assert_eq!(report["passed"], false, "{report}");
+        assert_eq!(report["suites"], serde_json::json!([]), "nothing ran: {report}");
+        let message = report["load_errors"][0]["message"].as_str().unwrap();
+        assert!(message.starts_with("2 spec warnings denied"), "{message}");
+        assert!(message.contains("replay.yaml:3:15: no `adversary.method`"), "{message}");
+        assert!(message.contains("replay.yaml:3:15: `no_collision` is left at its default, true"), "{message}");
+        let xml = std::fs::read_to_string(&junit).unwrap();
+        let doc = roxmltree::Document::parse(&xml).unwrap();
+        assert_eq!(doc.root_element().attribute("errors"), Some("1"), "{xml}");
+        assert!(xml.contains("2 spec warnings denied"), "{xml}");
+    }
+    // `0` leaves them warnings: the run goes ahead and passes.
+    let out = run(Some("0"), false);
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out.stderr));
+    assert!(!text(&out.stderr).contains("denied"), "{}", text(&out.stderr));
+    // A suite that says what it means runs under the flag.
+    let meant = format!(
+        "{written}adversary: {{ method: log }}\nacceptance: {{ variant: {{ no_collision: false, no_at_fault_collision: true }} }}\n"
+    );
+    std::fs::write(&suite, &meant).unwrap();
+    let out = run(None, true);
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out.stderr));
+    assert!(text(&out.stdout).contains("PASS: 3 variants"), "{}", text(&out.stdout));
+    assert_eq!(std::fs::read_to_string(&suite).unwrap(), meant);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 /// `safer run SUITE --artifacts ARTEFACTS --json JSON`, then `more`.
 fn run_with_artefacts(suite: &Path, artefacts: &Path, json: &Path, more: &[&str]) -> Output {
     let mut args = vec![

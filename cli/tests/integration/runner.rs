@@ -186,3 +186,38 @@ fn the_review_page_tells_the_verdicts_the_tests_gave_for_a_snapshot_diff_a_panic
         assert!(path.is_file(), "{} missing", path.display());
     }
 }
+
+/// A suite whose spec warns runs, unless the runner denies warnings
+/// (`SAFER_DENY_WARNINGS`): then it is one failing `SUITE::load` test,
+/// whose output (all cargo-nextest shows of a run) holds the warnings.
+#[test]
+fn denied_spec_warnings_make_the_suite_one_failing_load_test() {
+    let root = crate::scratch::Scratch::new("runner-deny-warnings");
+    std::fs::create_dir_all(root.join("specs/suites")).unwrap();
+    let scenes = Path::new(repo_root!()).join("scenes/ngsim");
+    let suite = format!("name: replay\nscenarios:\n  - recorded: {}\nplanner: {{ builtin: idm }}\n", scenes.display());
+    std::fs::write(root.join("specs/suites/replay.yaml"), suite).unwrap();
+    let names = |runner: &Runner| -> Vec<String> { runner.trials().iter().map(|t| t.name().to_string()).collect() };
+    let warned = Runner::new(&*root).deny_warnings(false);
+    let variants = names(&warned);
+    assert!(
+        !variants.is_empty() && variants.iter().all(|n| n.starts_with("replay::") && n.contains("::seed-")),
+        "{variants:?}"
+    );
+    let denied = Runner::new(&*root).deny_warnings(true);
+    assert_eq!(names(&denied), ["replay::load"]);
+    let log = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("runner-deny-{}.log", std::process::id()));
+    let args = Arguments {
+        test_threads: Some(1),
+        quiet: true,
+        logfile: Some(log.display().to_string()),
+        ..Arguments::default()
+    };
+    let conclusion = denied.run_with(&args);
+    assert_eq!((conclusion.num_passed, conclusion.num_failed), (0, 1));
+    // The failure's message, as libtest (and nextest) shows it.
+    let shown = std::fs::read_to_string(&log).unwrap();
+    assert!(shown.contains("replay::load"), "{shown}");
+    assert_eq!(shown.matches("warning: ").count(), 2, "{shown}");
+    assert!(shown.contains("error: 2 spec warnings denied"), "{shown}");
+}
