@@ -425,7 +425,9 @@ fn load_suites(files: &[PathBuf], loading: Loading) -> Result<(Vec<LoadedSuite>,
         match Suite::load(file) {
             Ok(mut s) => {
                 let warnings = s.spec.warnings();
-                if let Some(denied) = WarningsDenied::of(warnings.clone()).filter(|_| loading.deny_warnings) {
+                if loading.deny_warnings
+                    && let Some(denied) = WarningsDenied::of(warnings.clone())
+                {
                     eprintln!("{}", denied.render(colour));
                     load_failures.push(SuiteLoadFailure { file: file.clone(), message: denied.to_string() });
                     continue;
