@@ -49,6 +49,13 @@ const THREAD_JOIN_WAIT: Duration = Duration::from_millis(200);
 enum StdoutEvent {
     /// A complete line, without its line ending.
     Line(Vec<u8>),
+    /// A complete line that had already been written when the line before
+    /// it was taken: written before the harness could ask the question it
+    /// would answer (the harness asks its next question only once it has
+    /// the answer to the last). Reported apart so that a line nobody asked
+    /// for is caught however the reader thread is scheduled, not only when
+    /// it is found waiting before a question.
+    Early(Vec<u8>),
     /// A line longer than [`MAX_REPLY_BYTES`]; its beginning.
     TooLong(Vec<u8>),
     /// Reading failed.
@@ -191,22 +198,9 @@ impl Process {
         // would be out of step from here on.
         loop {
             match self.from_stdout.try_recv() {
-                Ok(StdoutEvent::Line(l)) if is_blank(&l) => continue,
-                Ok(StdoutEvent::Line(l)) if parse_reply(&l).is_ok() => {
-                    // A protocol message: most likely a second reply to the
-                    // last observation.
-                    return Err(protocol(format!(
-                        "it sent a message nobody asked for: {} (one reply per observation: a reply too many \
-                         puts every later one out of step)",
-                        quote(&l)
-                    )));
-                }
-                Ok(StdoutEvent::Line(l) | StdoutEvent::TooLong(l)) => {
-                    return Err(protocol(format!(
-                        "it printed a line nobody asked for: {} (stdout is for protocol messages only; log to stderr)",
-                        quote(&l)
-                    )));
-                }
+                Ok(StdoutEvent::Line(l) | StdoutEvent::Early(l)) if is_blank(&l) => continue,
+                Ok(StdoutEvent::Line(l) | StdoutEvent::Early(l)) => return Err(protocol(unasked(&l))),
+                Ok(StdoutEvent::TooLong(l)) => return Err(protocol(unasked(&l))),
                 Ok(StdoutEvent::Failed(e)) => return Err(protocol(format!("reading its stdout failed: {e}"))),
                 Err(TryRecvError::Disconnected) => return Err(self.crashed(planner, during)),
                 Err(TryRecvError::Empty) => break,
@@ -229,8 +223,10 @@ impl Process {
         loop {
             let left = deadline.map_or(Duration::MAX, |d| d.saturating_duration_since(Instant::now()));
             match self.from_stdout.recv_timeout(left) {
-                Ok(StdoutEvent::Line(l)) if is_blank(&l) => continue,
+                Ok(StdoutEvent::Line(l) | StdoutEvent::Early(l)) if is_blank(&l) => continue,
                 Ok(StdoutEvent::Line(l)) => return parse_reply(&l).map_err(protocol),
+                // Written before this question was asked: not its answer.
+                Ok(StdoutEvent::Early(l)) => return Err(protocol(unasked(&l))),
                 Ok(StdoutEvent::TooLong(l)) => {
                     return Err(protocol(format!(
                         "it printed a line longer than {MAX_REPLY_BYTES} bytes: {}",
@@ -399,12 +395,17 @@ fn write_lines(mut stdin: ChildStdin, lines: Receiver<String>) {
 /// tells the harness) or until nobody listens.
 fn read_stdout(stdout: impl Read, events: SyncSender<StdoutEvent>) {
     let mut reader = BufReader::new(stdout);
+    // Whether what is buffered now was read before the last line was taken.
+    let mut written_early = false;
     loop {
         let mut line = Vec::new();
         // A line past the limit ends the read at once: waiting for its end
         // would wait on a planner that may never write one.
-        let event = match read_line_limited(&mut reader, &mut line, MAX_REPLY_BYTES, LongLine::Stop) {
+        let read = read_line_limited(&mut reader, &mut line, MAX_REPLY_BYTES, LongLine::Stop);
+        let early = std::mem::replace(&mut written_early, !reader.buffer().is_empty());
+        let event = match read {
             Ok(LineRead::Eof) => return,
+            Ok(LineRead::Complete) if early => StdoutEvent::Early(line),
             Ok(LineRead::Complete) => StdoutEvent::Line(line),
             Ok(LineRead::Truncated) => StdoutEvent::TooLong(line),
             Err(e) => StdoutEvent::Failed(e.to_string()),
@@ -414,6 +415,24 @@ fn read_stdout(stdout: impl Read, events: SyncSender<StdoutEvent>) {
         if events.send(event).is_err() || stop {
             return;
         }
+    }
+}
+
+/// The error for a line the planner wrote before any question it could
+/// answer: a protocol message (most likely a second reply to the last
+/// observation) or other output.
+fn unasked(line: &[u8]) -> String {
+    if parse_reply(line).is_ok() {
+        format!(
+            "it sent a message nobody asked for: {} (one reply per observation: a reply too many puts every later \
+             one out of step)",
+            quote(line)
+        )
+    } else {
+        format!(
+            "it printed a line nobody asked for: {} (stdout is for protocol messages only; log to stderr)",
+            quote(line)
+        )
     }
 }
 
@@ -533,6 +552,46 @@ pub(crate) fn format_stderr_tail(lines: &[String]) -> String {
 mod tests {
     use super::*;
     use crate::planners::external::ExternalPlanner;
+
+    /// A reader handing out its bytes in the chunks given, as a pipe does
+    /// what was written by the time of each read.
+    struct Chunks(VecDeque<&'static [u8]>);
+
+    impl Read for Chunks {
+        fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+            let Some(chunk) = self.0.pop_front() else { return Ok(0) };
+            buf[..chunk.len()].copy_from_slice(chunk);
+            Ok(chunk.len())
+        }
+    }
+
+    /// The stdout reader's events for `chunks`: `L` a line, `E` a line
+    /// written before the line before it was taken.
+    fn stdout_events(chunks: &[&'static [u8]]) -> Vec<String> {
+        let (tx, rx) = mpsc::sync_channel(16);
+        read_stdout(Chunks(chunks.iter().copied().collect()), tx);
+        rx.try_iter()
+            .map(|e| match e {
+                StdoutEvent::Line(l) => format!("L {}", String::from_utf8_lossy(&l)),
+                StdoutEvent::Early(l) => format!("E {}", String::from_utf8_lossy(&l)),
+                StdoutEvent::TooLong(_) | StdoutEvent::Failed(_) => "other".into(),
+            })
+            .collect()
+    }
+
+    #[test]
+    fn lines_written_before_the_line_before_them_was_taken_are_early_however_the_reader_runs() {
+        // One answer a read, as a planner answering each question writes them.
+        assert_eq!(stdout_events(&[b"a\n", b"b\n", b"c\n"]), ["L a", "L b", "L c"]);
+        // All at once, as a planner that never reads writes them: every
+        // line after the first was there before the one before it was taken.
+        assert_eq!(stdout_events(&[b"a\nb\nc\n"]), ["L a", "E b", "E c"]);
+        // A line split over two reads is one line; what follows it in the
+        // same read is early.
+        assert_eq!(stdout_events(&[b"a\nb", b"b\nc\n"]), ["L a", "E bb", "E c"]);
+        // A blank line behind an answer is early too (the exchange skips it).
+        assert_eq!(stdout_events(&[b"a\n\n", b"b\n"]), ["L a", "E ", "L b"]);
+    }
 
     #[test]
     fn stderr_keeps_a_bounded_tail_and_long_lines_are_cut() {
