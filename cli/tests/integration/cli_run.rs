@@ -13,8 +13,20 @@ fn repo() -> &'static Path {
 
 /// Runs the binary from the repository root, so shipped spec paths are relative as a user types them.
 fn safer(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_safer")).args(args).current_dir(repo()).output().expect("run safer")
+    // A user's SAFER_DENY_WARNINGS would refuse the suites some tests
+    // write to see their warnings.
+    Command::new(env!("CARGO_BIN_EXE_safer"))
+        .args(args)
+        .current_dir(repo())
+        .env_remove("SAFER_DENY_WARNINGS")
+        .output()
+        .expect("run safer")
 }
+
+/// A suite over the shipped recorded scenes that writes neither a method
+/// nor `no_collision`: both spec warnings.
+const BARE_RECORDED_SUITE: &str =
+    "name: replay\nscenarios:\n  - recorded: safer:scenes/ngsim\nplanner: { builtin: idm }\n";
 
 /// A fresh folder per test (tests run in parallel and share the process id).
 fn temp_dir(tag: &str) -> crate::scratch::Scratch {
@@ -90,7 +102,7 @@ fn run_reports_a_typo_with_file_line_and_field_and_exits_2() {
 fn run_warns_of_recorded_scenes_left_to_replay_and_judged_by_any_collision_and_runs_them() {
     let dir = temp_dir("replay-warning");
     let suite = dir.join("replay.yaml");
-    let written = "name: replay\nscenarios:\n  - recorded: safer:scenes/ngsim\nplanner: { builtin: idm }\n";
+    let written = BARE_RECORDED_SUITE;
     std::fs::write(&suite, written).unwrap();
     let (json, junit) = (dir.join("report.json"), dir.join("junit.xml"));
     let reports = ["--json", json.to_str().unwrap(), "--junit", junit.to_str().unwrap()];
@@ -148,7 +160,7 @@ fn run_warns_of_recorded_scenes_left_to_replay_and_judged_by_any_collision_and_r
 fn run_deny_warnings_refuses_a_suite_whose_spec_warns_and_every_report_says_why() {
     let dir = temp_dir("deny-warnings");
     let suite = dir.join("replay.yaml");
-    let written = "name: replay\nscenarios:\n  - recorded: safer:scenes/ngsim\nplanner: { builtin: idm }\n";
+    let written = BARE_RECORDED_SUITE;
     std::fs::write(&suite, written).unwrap();
     let (json, junit) = (dir.join("report.json"), dir.join("junit.xml"));
     let reports = ["--json", json.to_str().unwrap(), "--junit", junit.to_str().unwrap()];
