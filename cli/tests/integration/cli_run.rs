@@ -748,6 +748,22 @@ fn review_page_in_chromium() {
 /// files embedded in it, unpacked into its cache folder. The copy runs
 /// from an unrelated folder with `SAFER_SHIPPED_FILES=embedded`, which
 /// makes it ignore its build folder as if it were gone.
+/// The output of `command`, which runs a freshly copied binary. While the
+/// copy was open for writing, a process that another test thread forked
+/// could hold it open until its own exec, and Linux refuses to run a file
+/// open for writing ("text file busy"): that is retried for a while.
+fn output_of_copied(command: &mut Command) -> Output {
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(10);
+    loop {
+        match command.output() {
+            Err(e) if e.kind() == std::io::ErrorKind::ExecutableFileBusy && std::time::Instant::now() < deadline => {
+                std::thread::sleep(std::time::Duration::from_millis(20));
+            }
+            result => return result.expect("run the copied safer"),
+        }
+    }
+}
+
 #[test]
 fn a_copied_binary_finds_the_shipped_files_without_its_build_folder() {
     let dir = temp_dir("copied-binary");
@@ -762,14 +778,14 @@ fn a_copied_binary_finds_the_shipped_files_without_its_build_folder() {
     .unwrap();
     let cache = dir.join("cache");
     let run = || {
-        Command::new(&binary)
-            .args(["run", suite.to_str().unwrap()])
-            .current_dir(&*dir)
-            .env("SAFER_SHIPPED_FILES", "embedded")
-            .env("SAFER_CACHE_DIR", &cache)
-            .env("SAFER_ARTIFACTS_DIR", dir.join("artefacts"))
-            .output()
-            .expect("run the copied safer")
+        output_of_copied(
+            Command::new(&binary)
+                .args(["run", suite.to_str().unwrap()])
+                .current_dir(&*dir)
+                .env("SAFER_SHIPPED_FILES", "embedded")
+                .env("SAFER_CACHE_DIR", &cache)
+                .env("SAFER_ARTIFACTS_DIR", dir.join("artefacts")),
+        )
     };
     let out = run();
     let all = format!("{}\n{}", text(&out.stdout), text(&out.stderr));
@@ -783,13 +799,13 @@ fn a_copied_binary_finds_the_shipped_files_without_its_build_folder() {
     // Nothing in the report points into the build folder.
     assert!(!all.contains(&format!("{}/specs", env!("CARGO_MANIFEST_DIR").trim_end_matches("/cli"))), "{all}");
     // Commands that read one scene take `safer:` paths too.
-    let inspect = Command::new(&binary)
-        .args(["inspect", "safer:scenes/ngsim/USA_US101-4_3_T-1.xml"])
-        .current_dir(&*dir)
-        .env("SAFER_SHIPPED_FILES", "embedded")
-        .env("SAFER_CACHE_DIR", &cache)
-        .output()
-        .unwrap();
+    let inspect = output_of_copied(
+        Command::new(&binary)
+            .args(["inspect", "safer:scenes/ngsim/USA_US101-4_3_T-1.xml"])
+            .current_dir(&*dir)
+            .env("SAFER_SHIPPED_FILES", "embedded")
+            .env("SAFER_CACHE_DIR", &cache),
+    );
     assert_eq!(inspect.status.code(), Some(0), "{}", text(&inspect.stderr));
     assert!(text(&inspect.stdout).contains(&copy.display().to_string()), "{}", text(&inspect.stdout));
     // A second run reuses the copy.
