@@ -1320,23 +1320,30 @@ fn print_stage2_contacts(
     name: &dyn Fn(&MethodRow) -> String,
 ) -> std::io::Result<()> {
     let w = method_column(rows, name);
-    writeln!(out, "\nwhom the planner's ego hit in stage 2 (at fault: the ego's fault):")?;
     writeln!(
         out,
-        "{:<w$} {:>8} {:>8} {:>20} {:>20}",
-        "method", "variants", "collided", "with the CBV", "with other agents"
+        "\nwhom the planner's ego hit in stage 2 (at fault: the ego's fault; scenes: the scenes with a collision / \
+         the row's scenes; most in one: the most collisions in one scene):"
+    )?;
+    writeln!(
+        out,
+        "{:<w$} {:>8} {:>8} {:>8} {:>11} {:>20} {:>20}",
+        "method", "variants", "collided", "scenes", "most in one", "with the CBV", "with other agents"
     )?;
     for r in rows {
         let of_row: Vec<(&VariantRecord, &safer_scenarios::harness::evaluation::Stage2Contact)> =
             records_of(records, r).filter_map(|v| v.stage2_contact.as_ref().map(|c| (v, c))).collect();
         let with_cbv = of_row.iter().filter(|(_, c)| c.with_cbv).count();
         let at_fault = |cbv: bool| of_row.iter().filter(|(_, c)| c.with_cbv == cbv && c.at_fault).count();
+        let (scenes, most_in_one) = collisions_by_scene(records_of(records, r), of_row.iter().map(|(v, _)| *v));
         writeln!(
             out,
-            "{:<w$} {:>8} {:>8} {:>20} {:>20}",
+            "{:<w$} {:>8} {:>8} {:>8} {:>11} {:>20} {:>20}",
             name(r),
             r.variants,
             of_row.len(),
+            scenes,
+            most_in_one,
             format!("{with_cbv} ({} at fault)", at_fault(true)),
             format!("{} ({} at fault)", of_row.len() - with_cbv, at_fault(false)),
         )?;
@@ -1353,6 +1360,21 @@ fn print_stage2_contacts(
         }
     }
     Ok(())
+}
+
+/// How a row's stage-2 collisions spread over its scenes: `K/N` (K of
+/// the row's N scenes hold one) and the most in one scene. A planner that
+/// fails eleven times in one scene has one fault to fix, not eleven.
+fn collisions_by_scene<'a>(
+    row: impl Iterator<Item = &'a VariantRecord>,
+    collided: impl Iterator<Item = &'a VariantRecord>,
+) -> (String, usize) {
+    let scenes: std::collections::BTreeSet<&str> = row.map(|v| v.scenario.as_str()).collect();
+    let mut per_scene: std::collections::BTreeMap<&str, usize> = std::collections::BTreeMap::new();
+    for v in collided {
+        *per_scene.entry(v.scenario.as_str()).or_default() += 1;
+    }
+    (format!("{}/{}", per_scene.len(), scenes.len()), per_scene.values().copied().max().unwrap_or(0))
 }
 
 /// `agent 123 (the CBV), the ego at fault`.

@@ -355,9 +355,18 @@ fn the_table_names_whom_the_ego_hit_as_the_json_report_does_and_progress_says_wh
             .find(|l| l.starts_with(&format!("{method} ({mode})")))
             .unwrap_or_else(|| panic!("no row {method} ({mode}) in {section}"));
         let cells: Vec<&str> = line.split_whitespace().collect();
-        // method (mode) variants collided N (K at fault) M (J at fault)
+        // method (mode) variants collided K/N most N (K at fault) M (J at fault)
         assert_eq!(cells[3], contacts.len().to_string(), "{line}");
-        assert_eq!(cells[4], with_cbv.to_string(), "{line}");
+        let of_row = |v: &&Value| v["method"] == method && v["stage2_cbv"] == mode;
+        let scenes: std::collections::BTreeSet<&str> =
+            variants.iter().filter(of_row).map(|v| v["scenario"].as_str().unwrap()).collect();
+        let mut per_scene: std::collections::BTreeMap<&str, usize> = std::collections::BTreeMap::new();
+        for v in &contacts {
+            *per_scene.entry(v["scenario"].as_str().unwrap()).or_default() += 1;
+        }
+        assert_eq!(cells[4], format!("{}/{}", per_scene.len(), scenes.len()), "{line}");
+        assert_eq!(cells[5], per_scene.values().max().copied().unwrap_or(0).to_string(), "{line}");
+        assert_eq!(cells[6], with_cbv.to_string(), "{line}");
         for v in contacts.iter().take(3) {
             let c = &v["stage2_contact"];
             let who = format!(
