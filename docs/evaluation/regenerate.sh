@@ -308,6 +308,13 @@
 #                     protocol on WOMD interactive, ten seeds, over 20 to 100 behaviours,
 #                     and with any contact over 20, 25, 27, 28, 30, 40, 60 and 100
 #                     (any-nN.txt) (about 12 minutes)
+#   closed-loop-failures
+#                     closed-loop-failures/evaluate-{womd-interactive,womd-json,ngsim}-{safer,suites}.txt:
+#                     the evasive planner's stage-2 failures with the CBV closed loop, ten
+#                     seeds, beside log replay's: the paper's method as it stands (n = 20,
+#                     the recording replayed) and the suites' method as the shipped suites set
+#                     it (over 28 on the WOMD sets, 60 on NGSIM; the recorded cars braking, no
+#                     contact from behind, along the lanes) (about 25 minutes)
 #   mutants           mutants/mutants-{womd-interactive,womd-json,ngsim}-evasive.txt and
 #                     mutants/mutants-{womd-interactive,ngsim}-lane-follower.txt: the
 #                     faults of the planner each method's variants catch
@@ -326,7 +333,7 @@ self=$(realpath "$0")
 cd "$(dirname "$self")"
 all=(evaluate plain inattentive held-out-chance trust-region realism prior-fit n-sweep reactive n100 approach-none merging mutants wide-region cut-in
     in-path-lookahead in-path-lookahead-n30 in-path-lookahead-n28 in-path-lookahead-sweep pair-in-traffic witnessed wide-witnessed ten-seeds reaction-delay reactive-background leader first-contact both-pairings first-contact-lookahead blind-twin ego-contact wrong-way
-    lane-follower-pairings at-fault-planner along-the-lanes along-the-lanes-lane-follower sideways kill-ratios human-lane-changes grip turning turning-cost turning-cost-sweep ten-seeds-lookahead cut-in-anticipation standing-berth turning-circle bumper womd-json-suites readme-results closest-approach crossing crossing-pairings default-sweep)
+    lane-follower-pairings at-fault-planner along-the-lanes along-the-lanes-lane-follower sideways kill-ratios human-lane-changes grip turning turning-cost turning-cost-sweep ten-seeds-lookahead cut-in-anticipation standing-berth turning-circle bumper womd-json-suites readme-results closest-approach crossing crossing-pairings default-sweep closed-loop-failures)
 jobs=("$@")
 [[ ${#jobs[@]} -gt 0 ]] || jobs=("${all[@]}")
 # The usage is the comment block at the top of this file.
@@ -1060,6 +1067,16 @@ for job in "${jobs[@]}"; do
         ten_lane_follower=(--seeds 10 "${along_the_lanes_lane_follower[@]:2}")
         run womd-json-suites/ten-seeds/mutants-womd-json-lane-follower-n60.txt evaluate --scenes data:womd-json \
             "${ten_lane_follower[@]/%log,prior,safer-in-path-lookahead/safer-in-path-lookahead}" ;;
+    closed-loop-failures)
+        mkdir -p closed-loop-failures
+        for s in womd-interactive:womd-interactive:28 womd-json:womd-json:28 commonroad-ngsim:ngsim:60; do
+            IFS=: read -r set name n <<<"$s"
+            run "closed-loop-failures/evaluate-$name-safer.txt" evaluate --scenes "data:$set" --seeds 10 \
+                --stage2-cbv closed-loop --methods log,safer
+            run "closed-loop-failures/evaluate-$name-suites.txt" evaluate --scenes "data:$set" --seeds 10 \
+                --stage2-cbv closed-loop --background reactive-log-replay --ego-contact not-from-behind \
+                --wrong-way along-the-lanes --trust-region "$n" --methods log,safer-in-path-lookahead
+        done ;;
     readme-results)
         mkdir -p readme-results
         run readme-results/evaluate-womd-interactive.txt evaluate --scenes data:womd-interactive --seeds 10 \

@@ -2894,3 +2894,52 @@ fn the_per_suite_kinds_table_quotes_its_outputs() {
     }
     assert_eq!(rows.len(), 4, "three suites");
 }
+
+/// An output's row of the table of whom the planner's ego hit: `method`
+/// → its cells (variants, collided, scenes, most in one, ...). The
+/// variants named under a row come between the rows, so each row is
+/// found by its method's name.
+fn stage2_contacts_row(output: &str, method: &str) -> Vec<String> {
+    let table: Vec<&str> = output.lines().skip_while(|l| !l.starts_with("whom the planner's ego hit")).collect();
+    let line = table
+        .iter()
+        .find(|l| l.split_whitespace().next() == Some(method))
+        .unwrap_or_else(|| panic!("no row {method} in the table of whom the planner's ego hit"));
+    line.split_whitespace().skip(1).map(str::to_owned).collect()
+}
+
+#[test]
+fn the_closed_loop_failures_table_quotes_its_outputs() {
+    let doc = repo_file("docs/benchmarks.md");
+    let rows = markdown_rows(&doc, "### Failures beyond log replay's", "The suites' method finds");
+    let sets = [("WOMD interactive", "womd-interactive"), ("WOMD JSON", "womd-json"), ("NGSIM", "ngsim")];
+    let mut set = "";
+    let mut safer_beyond = 0.0;
+    for row in &rows[1..] {
+        if !row[0].is_empty() {
+            set = sets.iter().find(|(name, _)| row[0].starts_with(name)).unwrap_or_else(|| panic!("{row:?}")).1;
+        }
+        let method = method_of(&row[1]).unwrap();
+        let run = if method == "safer" { "safer" } else { "suites" };
+        let output = repo_file(&format!("docs/evaluation/closed-loop-failures/evaluate-{set}-{run}.txt"));
+        let at = format!("{set}, {method}");
+        let figures = output_table(&output, "variants");
+        assert_eq!(row[2..4], figures[method][2..4], "{at}: CR, SR");
+        let contacts = stage2_contacts_row(&output, method);
+        let log = stage2_contacts_row(&output, "log");
+        assert_eq!(row[4], contacts[1], "{at}: collided");
+        assert_eq!(row[5], log[1], "{at}: log replay's");
+        let beyond: u32 = contacts[1].parse::<u32>().unwrap() - log[1].parse::<u32>().unwrap();
+        assert_eq!(row[6], beyond.to_string(), "{at}: beyond log");
+        assert_eq!(row[7..9], contacts[2..4], "{at}: scenes, most in one");
+        if method == "safer" {
+            safer_beyond = f64::from(beyond);
+        }
+        assert_eq!(row[9], format!("{:.2}", f64::from(beyond) / safer_beyond), "{at}: ×safer");
+        let held_out = output_table(&output, "SR-witnessed |");
+        let sr = &held_out[method];
+        // CR, SR, witness, SR-witnessed | CR, SR, ...
+        assert_eq!(row[10], format!("{} / {}", sr[1], sr[6]), "{at}: SR held out / rest");
+    }
+    assert_eq!(rows.len(), 7, "two methods on three sets");
+}
