@@ -123,6 +123,36 @@ pub struct MutantRun {
     /// How far its path left the planner's ([`path_departure_m`]);
     /// `None` when it could not run.
     pub path_departure_m: Option<f64>,
+    /// How close its ego came to another road user, and the planner's ego
+    /// in the same variant ([`StageGaps`]); `None` when it could not run.
+    pub gaps: Option<StageGaps>,
+}
+
+/// The closest box gap of the ego to any other road user in stage 2, m,
+/// of a mutant and of the unmutated planner in the same variant: how near
+/// a variant the mutant passed came to catching it.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct StageGaps {
+    /// The mutant's ego, m (0 at a contact).
+    pub mutant_m: f64,
+    /// The planner's ego, m.
+    pub planner_m: f64,
+}
+
+impl StageGaps {
+    /// The gaps of `mutant` and `planner` (the same variant's stage 2);
+    /// `None` where either rollout holds no other road user.
+    pub fn of(planner: &Rollout, mutant: &Rollout) -> Option<Self> {
+        let gap = |r: &Rollout| r.min_distance_to_ego.map(|c| c.distance_m).filter(|d| d.is_finite());
+        Some(Self { mutant_m: gap(mutant)?, planner_m: gap(planner)? })
+    }
+
+    /// Whether the mutant came closer to another road user than the
+    /// planner did, by more than [`SAME_DRIVING_M`]: the fault ate into
+    /// the planner's margin.
+    pub fn closer(&self) -> bool {
+        self.mutant_m < self.planner_m - SAME_DRIVING_M
+    }
 }
 
 impl MutantRun {
@@ -143,6 +173,8 @@ pub struct MutantJudgement {
     pub drove_differently: bool,
     /// How far its path left the planner's ([`path_departure_m`]).
     pub path_departure_m: Option<f64>,
+    /// How close it and the planner came to another road user ([`StageGaps::of`]).
+    pub gaps: Option<StageGaps>,
 }
 
 /// Stage 2 of `setup` played with `operator` planted, after `stage1`, and
@@ -167,6 +199,7 @@ pub fn judge_mutant(
         hit_cbv: played.stage2.summary().ego_collision.is_some_and(|c| c.with_cbv),
         drove_differently: drove_differently(planner_stage2, &played.stage2),
         path_departure_m: path_departure_m(planner_stage2, &played.stage2),
+        gaps: StageGaps::of(planner_stage2, &played.stage2),
     })
 }
 
@@ -195,6 +228,7 @@ pub fn run_mutants(
                     failures: Err(why.clone()),
                     drove_differently: false,
                     path_departure_m: None,
+                    gaps: None,
                 })
                 .collect();
         }
@@ -209,10 +243,15 @@ pub fn run_mutants(
                 failures: Ok(j.failures),
                 drove_differently: j.drove_differently,
                 path_departure_m: j.path_departure_m,
+                gaps: j.gaps,
             },
-            Err(e) => {
-                MutantRun { operator, failures: Err(e.to_string()), drove_differently: false, path_departure_m: None }
-            }
+            Err(e) => MutantRun {
+                operator,
+                failures: Err(e.to_string()),
+                drove_differently: false,
+                path_departure_m: None,
+                gaps: None,
+            },
         })
         .collect()
 }
@@ -265,6 +304,14 @@ pub struct OperatorResult {
     /// The farthest its path left the planner's over those variants
     /// ([`path_departure_m`]); `None` when none measured it.
     pub largest_path_departure_m: Option<f64>,
+    /// Of the variants it passed where its ego came closer to another
+    /// road user than the planner's did ([`StageGaps::closer`]), the one
+    /// where it came closest: where the suite came nearest to catching it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub closest_call: Option<ClosestCall>,
+    /// Of the variants it passed, those where both egos had another road
+    /// user to measure a gap to (what [`Self::closest_call`] is chosen from).
+    pub variants_gap_measured: usize,
     /// For a survivor: the kind of scene that would catch it.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub hint: Option<&'static str>,
@@ -291,10 +338,39 @@ impl OperatorResult {
                 passed(n)
             ),
             (n, k, _) => {
-                format!("it drove otherwise than the planner in {k} of {n} variants, and passed them all; {hint}")
+                let closest = self.closest_call.as_ref().map_or_else(
+                    || {
+                        let measured = self.variants_gap_measured > 0;
+                        if measured {
+                            " (in none did it come closer to another road user than the planner)"
+                        } else {
+                            ""
+                        }
+                        .to_string()
+                    },
+                    |c| {
+                        format!(
+                            " (its closest call: {:.2} m from another road user in {}, where the planner kept {:.2} m)",
+                            c.gaps.mutant_m, c.variant, c.gaps.planner_m
+                        )
+                    },
+                );
+                format!(
+                    "it drove otherwise than the planner in {k} of {n} variants, and passed them all{closest}; {hint}"
+                )
             }
         }
     }
+}
+
+/// The variant a mutant passed where its ego came closest to another
+/// road user, beside how close the planner came there.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ClosestCall {
+    /// `suite::scenario::seed-k`.
+    pub variant: String,
+    /// The gaps there.
+    pub gaps: StageGaps,
 }
 
 /// A suite's mutation run.
@@ -334,6 +410,8 @@ impl MutationReport {
                 variants_driven_differently: 0,
                 variants_run: 0,
                 largest_path_departure_m: None,
+                closest_call: None,
+                variants_gap_measured: 0,
                 hint: None,
             })
             .collect();
@@ -357,6 +435,14 @@ impl MutationReport {
                         if let Some(d) = run.path_departure_m {
                             result.largest_path_departure_m =
                                 Some(result.largest_path_departure_m.map_or(d, |l| l.max(d)));
+                        }
+                        let passed_gaps = run.gaps.filter(|_| failures.is_empty());
+                        result.variants_gap_measured += usize::from(passed_gaps.is_some());
+                        if let Some(gaps) = passed_gaps.filter(StageGaps::closer) {
+                            // The first variant of the least gap, in report order.
+                            if result.closest_call.as_ref().is_none_or(|c| gaps.mutant_m < c.gaps.mutant_m) {
+                                result.closest_call = Some(ClosestCall { variant: name.to_string(), gaps });
+                            }
                         }
                         if let Some(first) = failures.first() {
                             result.kills.push(Kill {
@@ -787,6 +873,8 @@ mod tests {
                     variants_driven_differently: 2,
                     variants_run: 2,
                     largest_path_departure_m: Some(1.0),
+                    closest_call: None,
+                    variants_gap_measured: 0,
                     hint: None,
                 })
                 .collect(),
@@ -924,6 +1012,7 @@ mod tests {
             failures: Ok(vec![]),
             drove_differently: true,
             path_departure_m: Some(path_departure_m),
+            gaps: None,
         };
         let note = |operator, departures: [f64; 2]| {
             let runs = [[ran(operator, departures[0])], [ran(operator, departures[1])]];
@@ -959,12 +1048,14 @@ mod tests {
             failures: Ok(vec![]),
             drove_differently,
             path_departure_m: Some(if drove_differently { 1.0 } else { 0.0 }),
+            gaps: None,
         };
         let killed = |operator| MutantRun {
             operator,
             failures: Ok(vec![failure("no_collision")]),
             drove_differently: true,
             path_departure_m: Some(1.0),
+            gaps: None,
         };
         let passed: &[AcceptanceFailure] = &[];
         let runs_a =
@@ -992,6 +1083,59 @@ mod tests {
             "{table}"
         );
         assert!(table.contains("late      killed by 1 of 2 variants"), "{table}");
+    }
+
+    #[test]
+    fn a_survivors_closest_call_is_the_passed_variant_where_it_came_nearest_to_another_road_user() {
+        let run = |failures: Vec<AcceptanceFailure>, mutant_m, planner_m| MutantRun {
+            operator: FaultOperator::Speeding,
+            failures: Ok(failures),
+            drove_differently: true,
+            path_departure_m: Some(0.0),
+            gaps: Some(StageGaps { mutant_m, planner_m }),
+        };
+        let passed: &[AcceptanceFailure] = &[];
+        // The third came as close as the second, and closer than the
+        // planner; the fourth came closest, but no closer than the planner.
+        let runs =
+            [[run(vec![], 0.9, 1.4)], [run(vec![], 0.31, 1.2)], [run(vec![], 0.31, 0.5)], [run(vec![], 0.2, 0.2)]];
+        let variants = ["s::a::seed-0", "s::b::seed-0", "s::c::seed-0", "s::d::seed-0"];
+        let report = MutationReport::of(
+            &[FaultOperator::Speeding],
+            variants.iter().zip(&runs).map(|(name, r)| (*name, Some(passed), &r[..])),
+        );
+        // The least gap, the first variant of it in report order.
+        let call = report.operators[0].closest_call.clone().unwrap();
+        assert_eq!((call.variant.as_str(), call.gaps.mutant_m, call.gaps.planner_m), ("s::b::seed-0", 0.31, 1.2));
+        let note = report.operators[0].survivor_note();
+        assert!(
+            note.starts_with(
+                "it drove otherwise than the planner in 4 of 4 variants, and passed them all (its closest call: 0.31 m \
+                 from another road user in s::b::seed-0, where the planner kept 1.20 m); "
+            ),
+            "{note}"
+        );
+        // A variant that killed the mutant is no close call, and a killed
+        // mutant's note is not a survivor's.
+        let killing = [[run(vec![failure("no_collision")], 0.0, 1.0)], [run(vec![], 0.7, 0.8)]];
+        let report = MutationReport::of(
+            &[FaultOperator::Speeding],
+            variants.iter().zip(&killing).map(|(name, r)| (*name, Some(passed), &r[..])),
+        );
+        assert_eq!(report.operators[0].closest_call.as_ref().map(|c| c.variant.as_str()), Some("s::b::seed-0"));
+        // Without gaps (no other road user), or none closer than the
+        // planner's, there is none to show, and the note says so.
+        let none_closer = [[MutantRun { gaps: None, ..run(vec![], 0.0, 0.0) }], [run(vec![], 0.6, 0.605)]];
+        let report = MutationReport::of(
+            &[FaultOperator::Speeding],
+            variants.iter().zip(&none_closer).map(|(name, r)| (*name, Some(passed), &r[..])),
+        );
+        assert!(report.operators[0].closest_call.is_none());
+        let note = report.operators[0].survivor_note();
+        assert!(
+            note.contains("and passed them all (in none did it come closer to another road user than the planner); "),
+            "{note}"
+        );
     }
 
     #[test]
@@ -1092,6 +1236,7 @@ mod tests {
             failures,
             drove_differently: true,
             path_departure_m: Some(1.0),
+            gaps: None,
         };
         assert!(ran(Ok(vec![failure("no_collision")])).failed());
         assert!(!ran(Ok(vec![])).failed());

@@ -146,6 +146,37 @@ fn surviving_mutants_are_named_with_a_hint_and_fail_the_score_everywhere() {
     assert!(page.contains("SURVIVED") && page.contains("FAIL"), "{page}");
 }
 
+/// A survivor whose fault came into play says how near the suite came to
+/// catching it: the variant where its ego came closest to another road
+/// user, closer than the planner's did there. The table, the JSON and the
+/// review page say the same.
+#[test]
+fn a_surviving_fault_names_its_closest_call_in_every_report() {
+    let (code, table, report, junit, page) =
+        run_suite("specs/suites/external-lane-follower.yaml", &["--mutants", "speeding", "--no-shrink"]);
+    assert_eq!(code, Some(1), "a survivor fails the suite's score of 1: {table}");
+    let op = &report["suites"][0]["mutation"]["operators"][0];
+    assert_eq!((op["operator"].as_str(), op["killed"].as_bool()), (Some("speeding"), Some(false)), "{op:#}");
+    let (run, measured) = (op["variants_run"].as_u64().unwrap(), op["variants_gap_measured"].as_u64().unwrap());
+    assert!(measured > 0 && measured <= run, "{op:#}");
+    let call = &op["closest_call"];
+    let (variant, mutant_m, planner_m) = (
+        call["variant"].as_str().unwrap(),
+        call["gaps"]["mutant_m"].as_f64().unwrap(),
+        call["gaps"]["planner_m"].as_f64().unwrap(),
+    );
+    assert!(variant.starts_with("external-lane-follower::"), "{op:#}");
+    // Closer than the planner by more than a centimetre, and no contact
+    // (the mutant passed there).
+    assert!(mutant_m < planner_m - 0.01 && mutant_m > 0.0, "{op:#}");
+    let note = format!(
+        "and passed them all (its closest call: {mutant_m:.2} m from another road user in {variant}, where the planner kept {planner_m:.2} m); "
+    );
+    assert!(table.contains(&note), "{table}");
+    assert!(page.contains(&note), "{page}");
+    assert!(junit.contains(r#"<property name="mutant.speeding" value="survived"/>"#), "{junit}");
+}
+
 /// The lane follower steers by pure pursuit on its route and never
 /// swerves. `no-evade` swaps that for the harness's lane keeping, which
 /// drives otherwise by centimetres but keeps to the planner's path: every
