@@ -338,23 +338,15 @@ impl OperatorResult {
                 passed(n)
             ),
             (n, k, _) => {
-                let closest = self.closest_call.as_ref().map_or_else(
-                    || {
-                        let measured = self.variants_gap_measured > 0;
-                        if measured {
-                            " (in none did it come closer to another road user than the planner)"
-                        } else {
-                            ""
-                        }
-                        .to_string()
-                    },
-                    |c| {
-                        format!(
-                            " (its closest call: {:.2} m from another road user in {}, where the planner kept {:.2} m)",
-                            c.gaps.mutant_m, c.variant, c.gaps.planner_m
-                        )
-                    },
-                );
+                let closest = match (&self.closest_call, self.variants_gap_measured) {
+                    (Some(c), _) => format!(
+                        " (its closest call: {:.2} m from another road user in {}, where the planner kept {:.2} m)",
+                        c.gaps.mutant_m, c.variant, c.gaps.planner_m
+                    ),
+                    // No other road user to measure a gap to.
+                    (None, 0) => String::new(),
+                    (None, _) => " (in none did it come closer to another road user than the planner)".to_string(),
+                };
                 format!(
                     "it drove otherwise than the planner in {k} of {n} variants, and passed them all{closest}; {hint}"
                 )
@@ -1115,8 +1107,7 @@ mod tests {
             ),
             "{note}"
         );
-        // A variant that killed the mutant is no close call, and a killed
-        // mutant's note is not a survivor's.
+        // A variant that killed the mutant is no close call.
         let killing = [[run(vec![failure("no_collision")], 0.0, 1.0)], [run(vec![], 0.7, 0.8)]];
         let report = MutationReport::of(
             &[FaultOperator::Speeding],
