@@ -199,8 +199,9 @@ impl Process {
         loop {
             match self.from_stdout.try_recv() {
                 Ok(StdoutEvent::Line(l) | StdoutEvent::Early(l)) if is_blank(&l) => continue,
-                Ok(StdoutEvent::Line(l) | StdoutEvent::Early(l)) => return Err(protocol(unasked(&l))),
-                Ok(StdoutEvent::TooLong(l)) => return Err(protocol(unasked(&l))),
+                Ok(StdoutEvent::Line(l) | StdoutEvent::Early(l) | StdoutEvent::TooLong(l)) => {
+                    return Err(protocol(unasked(&l)));
+                }
                 Ok(StdoutEvent::Failed(e)) => return Err(protocol(format!("reading its stdout failed: {e}"))),
                 Err(TryRecvError::Disconnected) => return Err(self.crashed(planner, during)),
                 Err(TryRecvError::Empty) => break,
