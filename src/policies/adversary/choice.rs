@@ -17,13 +17,14 @@ use super::rollout::token_rollouts;
 use super::turning_cost::CbvTurningCost;
 use super::turning_limit::CbvTurningLimit;
 use super::wrong_way::WrongWayRule;
+use crate::geometry::Point2;
 use crate::models::ModelError;
 use crate::models::feasibility_oracle::FeasibilityOracle;
 use crate::motion::KinematicState;
 use crate::motion::tokens::{TOKEN_PERIOD_S, TOKEN_PERIOD_STEPS, Token, TokenGrid};
 use crate::policies::WorldView;
 use crate::policies::prior_sampling::{ranked_tokens, top_tokens};
-use crate::scenario::{AgentState, TrackIndex};
+use crate::scenario::{AgentBody, AgentState, TrackIndex};
 
 /// Penalty added to V_h for candidates outside the feasible region (the paper's Δ).
 pub const INFEASIBLE_PENALTY: f64 = 50.0;
@@ -168,96 +169,21 @@ pub fn safer_choice(
     constraint: Feasibility<'_>,
     feasibility_s: &mut f64,
 ) -> Result<Option<Token>, ModelError> {
-    let feasibility = constraint.oracle;
     let (Some(cbv_now), Some(ego_now)) = (world.state(cbv), world.state(ego)) else {
         return Ok(top_tokens(logits, 1).first().copied());
     };
     let candidates = &search.trust_region.tokens(logits, cbv_now)[..];
-    let ego_next = ego_prediction(ego_now);
-    let (ego_body, cbv_body) = (world.body(ego), world.body(cbv));
-    let ego_box = ego_body.footprint(&ego_next);
-    let rollouts = token_rollouts(cbv_now, candidates);
-    let predicted: Vec<AgentState> = rollouts.iter().map(|r| r[TOKEN_PERIOD_STEPS - 1]).collect();
-    let distances: Vec<f64> = predicted.iter().map(|s| ego_box.distance(&cbv_body.footprint(s))).collect();
-    // The room the traffic leaves the ego, asked of as far ahead as the
-    // search looks (`pair-in-traffic` only).
-    let room = (feasibility.is_some() && search.feasibility == FeasibilityScope::PairInTraffic)
-        .then(|| EscapeRoom::new(world, (cbv, ego), forecast, search.lookahead_tokens * TOKEN_PERIOD_STEPS));
-    let values = match feasibility {
-        None => None,
-        Some(oracle) => {
-            let mut values = feasibility_values(oracle, &predicted, ego_next, ego_body, cbv_body, feasibility_s)?;
-            if let Some(room) = &room {
-                veto_without_room(room, &mut values, &predicted, &ego_next, TOKEN_PERIOD_STEPS);
-            }
-            Some(values)
-        }
-    };
-    let objective: Vec<f64> = predicted
-        .iter()
-        .zip(&distances)
-        .map(|(s, &d)| search.objective.loss(&ego_next, ego_body, s, cbv_body, d))
-        .collect();
-    let mut losses: Vec<f64> = match &values {
-        None => objective.clone(),
-        Some(values) => objective
-            .iter()
-            .zip(values)
-            .map(|(d, v)| if *v <= 0.0 { *d } else { *v as f64 + INFEASIBLE_PENALTY })
-            .collect(),
-    };
-    // A candidate that rear-ends the ego, where the rule rules that out,
-    // is infeasible (and no continuation lowers it).
-    let rear_ends: Vec<bool> = match search.ego_contact {
-        EgoContactRule::Any => vec![false; candidates.len()],
-        EgoContactRule::NotFromBehind => rollouts.iter().map(|r| rear_ends(r, ego_now, (ego_body, cbv_body))).collect(),
-    };
-    // Under the same rule, a candidate that ends too close on the ego's
-    // tail (see `EgoTail`) is taken only where every plausible token does.
-    let tail = (search.ego_contact == EgoContactRule::NotFromBehind)
-        .then(|| EgoTail::new(cbv_now, ego_now, (ego_body, cbv_body)));
-    let closes_on_tail = |r: &[AgentState]| tail.is_some_and(|t| t.closed_on_after(r, ego_now));
-    let on_tail: Vec<bool> = rollouts.iter().map(|r| closes_on_tail(r)).collect();
-    for (loss, &rear) in losses.iter_mut().zip(&rear_ends) {
-        if rear {
-            *loss = loss.max(INFEASIBLE_PENALTY) + INFEASIBLE_PENALTY;
-        }
-    }
-    let mut lowered: Vec<Option<Lowering>> = vec![None; candidates.len()];
-    if search.lookahead_tokens > 1 {
-        let lookahead = Lookahead {
-            world,
-            ego_now: *ego_now,
-            ego_body,
-            cbv_body,
-            candidates,
-            tokens: search.lookahead_tokens,
-            on_road_now: !world.map.is_off_road_within_map(&cbv_now.position),
-            objective: search.objective,
-            room: room.as_ref(),
-            ego_contact: search.ego_contact,
-            tail,
-            turning: search.turning.for_kind(cbv_body.kind),
-        };
-        let first = FirstTokens {
-            states: &predicted,
-            distances_m: &distances,
-            scores_m: &objective,
-            values: values.as_deref(),
-            rear_ends: &rear_ends,
-        };
-        lowered = lookahead.lower_losses(cbv_now, first, &mut losses, feasibility, feasibility_s)?;
-    }
-    // A feasible candidate pays for its turn (a lookahead's, after its
-    // continuations lowered it: the token taken now pays, not the plan).
-    if search.turning_cost.is_set() {
-        for (loss, rollout) in losses.iter_mut().zip(&rollouts) {
-            if *loss < INFEASIBLE_PENALTY {
-                *loss += search.turning_cost.of(cbv_now, rollout);
-            }
-        }
-    }
-    let witness = match (constraint.witness, search.feasibility, feasibility) {
+    let mut scored = ScoredCandidates::score(
+        world,
+        (cbv, ego),
+        (cbv_now, ego_now),
+        (candidates, logits),
+        search,
+        forecast,
+        constraint.oracle,
+        feasibility_s,
+    )?;
+    let witness = match (constraint.witness, search.feasibility, constraint.oracle) {
         (Some(witness), FeasibilityScope::Witnessed, Some(_)) => Some(ContactWitness::new(
             witness,
             world,
@@ -268,12 +194,158 @@ pub fn safer_choice(
         )),
         _ => None,
     };
-    // The strict arg min: by loss (a NaN distance, never expected as
-    // states are bounds-checked, ranks last), then the likelier token,
-    // then the lower id; the first plausible candidate in that order,
-    // or the first of all when none is. Plausibility is the costly
-    // check, so it is asked only until a plausible one is found.
-    let order = |losses: &[f64]| {
+    let check = PlausibilityCheck::new(world, cbv, ego, forecast)
+        .with_wrong_way(search.wrong_way)
+        .with_turning_limit(search.turning);
+    let mut plausible = PlausibleMemo::new(candidates.len());
+    if let Some(i) = scored.arg_min(&check, witness.as_ref(), &mut plausible) {
+        return Ok(Some(candidates[i]));
+    }
+    Ok(scored.fallback(check, search.ego_contact, &mut plausible))
+}
+
+/// The trust region's candidates at one token boundary, scored: each one's
+/// states under its token, its loss (after any lookahead and turning cost)
+/// and what the ego-contact rule says of it.
+struct ScoredCandidates<'c> {
+    candidates: &'c [Token],
+    logits: &'c [f32],
+    ego_now: AgentState,
+    /// The ego's body, then the CBV's.
+    bodies: (AgentBody, AgentBody),
+    /// The CBV's states under each candidate, one per step from the next.
+    rollouts: Vec<Vec<AgentState>>,
+    losses: Vec<f64>,
+    /// Whether the candidate rear-ends the ego where the rule rules that out.
+    rear_ends: Vec<bool>,
+    /// What the rule holds the CBV off the ego's tail by (`None`: no rule).
+    tail: Option<EgoTail>,
+    /// Whether the candidate ends too close on the ego's tail (see [`EgoTail`]).
+    on_tail: Vec<bool>,
+    /// The lookahead continuation that gave each candidate its loss.
+    lowered: Vec<Option<Lowering>>,
+}
+
+impl<'c> ScoredCandidates<'c> {
+    /// Each of `candidates`' loss: the objective where V_h (when there is
+    /// one) calls its state escapable, else V_h + Δ; a rear-end, where the
+    /// search's rule rules it out, infeasible; then lowered by the
+    /// lookahead's best continuation and raised by the turning cost.
+    #[allow(clippy::too_many_arguments)]
+    fn score(
+        world: &WorldView<'_>,
+        (cbv, ego): (TrackIndex, TrackIndex),
+        (cbv_now, ego_now): (&AgentState, &AgentState),
+        (candidates, logits): (&'c [Token], &'c [f32]),
+        search: Search,
+        forecast: &BackgroundForecast<'_>,
+        feasibility: Option<&dyn FeasibilityOracle>,
+        feasibility_s: &mut f64,
+    ) -> Result<Self, ModelError> {
+        let ego_next = ego_prediction(ego_now);
+        let (ego_body, cbv_body) = (world.body(ego), world.body(cbv));
+        let ego_box = ego_body.footprint(&ego_next);
+        let rollouts = token_rollouts(cbv_now, candidates);
+        let predicted: Vec<AgentState> = rollouts.iter().map(|r| r[TOKEN_PERIOD_STEPS - 1]).collect();
+        let distances: Vec<f64> = predicted.iter().map(|s| ego_box.distance(&cbv_body.footprint(s))).collect();
+        // The room the traffic leaves the ego, asked of as far ahead as the
+        // search looks (`pair-in-traffic` only).
+        let room = (feasibility.is_some() && search.feasibility == FeasibilityScope::PairInTraffic)
+            .then(|| EscapeRoom::new(world, (cbv, ego), forecast, search.lookahead_tokens * TOKEN_PERIOD_STEPS));
+        let values = match feasibility {
+            None => None,
+            Some(oracle) => {
+                let mut values = feasibility_values(oracle, &predicted, ego_next, ego_body, cbv_body, feasibility_s)?;
+                if let Some(room) = &room {
+                    veto_without_room(room, &mut values, &predicted, &ego_next, TOKEN_PERIOD_STEPS);
+                }
+                Some(values)
+            }
+        };
+        let objective: Vec<f64> = predicted
+            .iter()
+            .zip(&distances)
+            .map(|(s, &d)| search.objective.loss(&ego_next, ego_body, s, cbv_body, d))
+            .collect();
+        let mut losses: Vec<f64> = match &values {
+            None => objective.clone(),
+            Some(values) => objective
+                .iter()
+                .zip(values)
+                .map(|(d, v)| if *v <= 0.0 { *d } else { *v as f64 + INFEASIBLE_PENALTY })
+                .collect(),
+        };
+        // A candidate that rear-ends the ego, where the rule rules that out,
+        // is infeasible (and no continuation lowers it).
+        let rear_ends: Vec<bool> = match search.ego_contact {
+            EgoContactRule::Any => vec![false; candidates.len()],
+            EgoContactRule::NotFromBehind => {
+                rollouts.iter().map(|r| rear_ends(r, ego_now, (ego_body, cbv_body))).collect()
+            }
+        };
+        // Under the same rule, a candidate that ends too close on the ego's
+        // tail (see `EgoTail`) is taken only where every plausible token does.
+        let tail = (search.ego_contact == EgoContactRule::NotFromBehind)
+            .then(|| EgoTail::new(cbv_now, ego_now, (ego_body, cbv_body)));
+        let on_tail: Vec<bool> = rollouts.iter().map(|r| tail.is_some_and(|t| t.closed_on_after(r, ego_now))).collect();
+        for (loss, &rear) in losses.iter_mut().zip(&rear_ends) {
+            if rear {
+                *loss = loss.max(INFEASIBLE_PENALTY) + INFEASIBLE_PENALTY;
+            }
+        }
+        let mut lowered: Vec<Option<Lowering>> = vec![None; candidates.len()];
+        if search.lookahead_tokens > 1 {
+            let lookahead = Lookahead {
+                world,
+                ego_now: *ego_now,
+                ego_body,
+                cbv_body,
+                candidates,
+                tokens: search.lookahead_tokens,
+                on_road_now: !world.map.is_off_road_within_map(&cbv_now.position),
+                objective: search.objective,
+                room: room.as_ref(),
+                ego_contact: search.ego_contact,
+                tail,
+                turning: search.turning.for_kind(cbv_body.kind),
+            };
+            let first = FirstTokens {
+                states: &predicted,
+                distances_m: &distances,
+                scores_m: &objective,
+                values: values.as_deref(),
+                rear_ends: &rear_ends,
+            };
+            lowered = lookahead.lower_losses(cbv_now, first, &mut losses, feasibility, feasibility_s)?;
+        }
+        // A feasible candidate pays for its turn (a lookahead's, after its
+        // continuations lowered it: the token taken now pays, not the plan).
+        if search.turning_cost.is_set() {
+            for (loss, rollout) in losses.iter_mut().zip(&rollouts) {
+                if *loss < INFEASIBLE_PENALTY {
+                    *loss += search.turning_cost.of(cbv_now, rollout);
+                }
+            }
+        }
+        Ok(Self {
+            candidates,
+            logits,
+            ego_now: *ego_now,
+            bodies: (ego_body, cbv_body),
+            rollouts,
+            losses,
+            rear_ends,
+            tail,
+            on_tail,
+            lowered,
+        })
+    }
+
+    /// The candidates in the strict arg min's order: by loss (a NaN
+    /// distance, never expected as states are bounds-checked, ranks last),
+    /// then the likelier token, then the lower id.
+    fn order(&self) -> Vec<usize> {
+        let (losses, logits, candidates) = (&self.losses, self.logits, self.candidates);
         let loss = |i: usize| if losses[i].is_nan() { f64::INFINITY } else { losses[i] };
         let mut order: Vec<usize> = (0..candidates.len()).collect();
         order.sort_by(|&i, &j| {
@@ -283,115 +355,177 @@ pub fn safer_choice(
                 .then(candidates[i].0.cmp(&candidates[j].0))
         });
         order
-    };
-    let check = PlausibilityCheck::new(world, cbv, ego, forecast)
-        .with_wrong_way(search.wrong_way)
-        .with_turning_limit(search.turning);
-    // A feasible candidate whose CBV, held on from its end, closes in on the
-    // ego's prediction: the ones the witness is asked of (its path too).
-    let near = |i: usize, losses: &[f64]| {
-        if losses[i] >= INFEASIBLE_PENALTY {
+    }
+
+    /// Whether the CBV along `rollout` ends too close on the ego's tail.
+    fn closes_on_tail(&self, rollout: &[AgentState]) -> bool {
+        self.tail.is_some_and(|t| t.closed_on_after(rollout, &self.ego_now))
+    }
+
+    /// Whether the CBV along `rollout`, braking after it, rear-ends the ego.
+    fn rear_ends_ego(&self, rollout: &[AgentState]) -> bool {
+        rear_ends(rollout, &self.ego_now, self.bodies)
+    }
+
+    /// Feasible candidate `i`'s path (its token, then its lowering
+    /// continuation) and where the ego held on is at its end, where the
+    /// CBV held on from there closes in on the ego: the ones the witness
+    /// is asked of.
+    fn near(&self, i: usize) -> Option<(Vec<AgentState>, Point2)> {
+        if self.losses[i] >= INFEASIBLE_PENALTY {
             return None;
         }
-        let path = cbv_path(&rollouts[i], lowered[i].as_ref());
+        let (ego_body, cbv_body) = self.bodies;
+        let path = cbv_path(&self.rollouts[i], self.lowered[i].as_ref());
         let end = *path.last()?;
         let ahead_s = path.len() as f64 * crate::motion::tokens::SIM_DT_S;
-        let ego_end = AgentState { position: ego_now.position + ego_now.velocity_mps * ahead_s, ..*ego_now };
+        let ego_now = self.ego_now;
+        let ego_end = AgentState { position: ego_now.position + ego_now.velocity_mps * ahead_s, ..ego_now };
         closes_in(&ego_end, ego_body, &end, cbv_body).then_some((path, ego_end.position))
-    };
-    let mut implausible: Vec<Option<bool>> = vec![None; candidates.len()];
-    // The strict rule first, each candidate about to be taken near the
-    // ego asked of the witness (`witnessed` only): one it finds no escape
-    // from counts as infeasible, and the order is taken again.
-    // Under the ego-contact rule a candidate that rear-ends the ego is
-    // taken only once no token, in the region or out of it, is plausible
-    // and keeps off the ego's tail; one that ends too close on its tail,
-    // only once none keeps off its bumper.
-    let mut plausible =
-        |i: usize| !*implausible[i].get_or_insert_with(|| check.implausible(&rollouts[i], ContactRule::Any));
-    while let Some(i) = order(&losses).into_iter().find(|&i| !rear_ends[i] && !on_tail[i] && plausible(i)) {
-        match witness.as_ref().and_then(|w| Some((w, near(i, &losses)?))) {
-            Some((witness, (path, ego_end))) if !witness.escapable(&path, &ego_end) => {
-                losses[i] = NO_ROOM_VALUE as f64 + INFEASIBLE_PENALTY;
+    }
+
+    /// The strict rule: the first plausible candidate in arg-min order
+    /// that neither rear-ends the ego nor ends on its tail (the rule's
+    /// leave), each one about to be taken near the ego asked of the
+    /// `witness` where there is one: one it finds no escape from counts
+    /// as infeasible, and the order is taken again. Plausibility is the
+    /// costly check, so it is asked only until a plausible one is found.
+    fn arg_min(
+        &mut self,
+        check: &PlausibilityCheck<'_>,
+        witness: Option<&ContactWitness<'_>>,
+        plausible: &mut PlausibleMemo,
+    ) -> Option<usize> {
+        loop {
+            let i = self
+                .order()
+                .into_iter()
+                .find(|&i| !self.rear_ends[i] && !self.on_tail[i] && plausible.is(i, check, &self.rollouts))?;
+            match witness.and_then(|w| Some((w, self.near(i)?))) {
+                Some((witness, (path, ego_end))) if !witness.escapable(&path, &ego_end) => {
+                    self.losses[i] = NO_ROOM_VALUE as f64 + INFEASIBLE_PENALTY;
+                }
+                _ => return Some(i),
             }
-            _ => return Ok(Some(candidates[i])),
         }
     }
-    let order = order(&losses);
-    // Every plausible candidate rear-ends the ego or closes on its bumper:
-    // the likeliest plausible token outside the region that does neither
-    // (most often a harder brake than the region holds; the trust
-    // region's top n seldom hold one).
-    if search.ego_contact == EgoContactRule::NotFromBehind {
-        let keeps_off = |r: &[AgentState]| !self::rear_ends(r, ego_now, (ego_body, cbv_body));
-        let keeps_gap = |r: &[AgentState]| keeps_off(r) && !closes_on_tail(r);
-        if let Some(t) = check.likeliest_plausible_outside_where(logits, candidates, ContactRule::Any, keeps_gap) {
-            return Ok(Some(t));
+
+    /// The choice when the strict rule leaves no candidate: the
+    /// ego-contact rule's leave first, then the likeliest plausible token
+    /// outside the region, then the rules yielding one by one (the
+    /// lane-change pace, then every contact but the CBV's own faults),
+    /// and last the token within grip that breaks the rule latest.
+    fn fallback(
+        &self,
+        check: PlausibilityCheck<'_>,
+        ego_contact: EgoContactRule,
+        plausible: &mut PlausibleMemo,
+    ) -> Option<Token> {
+        let (candidates, logits) = (self.candidates, self.logits);
+        let order = self.order();
+        if ego_contact == EgoContactRule::NotFromBehind
+            && let Some(t) = self.off_the_tail(&check, &order, plausible)
+        {
+            return Some(t);
         }
-        // No plausible token keeps off the ego's bumper (a CBV closing
-        // faster than it can brake away): the region's best that keeps off
-        // its tail, else the likeliest such token outside the region.
-        if let Some(&i) = order.iter().find(|&&i| !rear_ends[i] && plausible(i)) {
-            return Ok(Some(candidates[i]));
+        // The likeliest plausible token outside the region: for a top-n
+        // region, the rest of the vocabulary; for a distinct-behaviour
+        // region, the near-duplicates it skipped as well.
+        if let Some(t) = check.likeliest_plausible_outside(logits, candidates, ContactRule::Any) {
+            return Some(t);
+        }
+        // Under the lane-change pace rule, when it leaves no token plausible,
+        // one that keeps every other rule comes before the fallbacks below,
+        // which let the CBV run into someone or leave the road: the pace is
+        // the first to yield (seen on NGSIM's urban arterials, where lanes
+        // bend and part, and a CBV near the pace had no token left that kept
+        // to it). The steps below judge without it too.
+        let check = if check.paces_lane_changes() {
+            let relaxed = check.without_lane_change_pace();
+            let keeps_rules = |i: &&usize| !relaxed.implausible(&self.rollouts[**i], ContactRule::Any);
+            let off_tail = order.iter().filter(|&&i| !self.rear_ends[i]).find(keeps_rules);
+            if let Some(&i) = off_tail.or_else(|| order.iter().find(keeps_rules)) {
+                return Some(candidates[i]);
+            }
+            if let Some(t) = relaxed.likeliest_plausible_outside(logits, candidates, ContactRule::Any) {
+                return Some(t);
+            }
+            relaxed
+        } else {
+            check
+        };
+        // When nothing at all is plausible, whatever the CBV does a replayed
+        // agent runs into it, and the same two steps are taken counting only
+        // its own faults.
+        if let Some(&i) = order.iter().find(|&&i| !check.implausible(&self.rollouts[i], ContactRule::AtFaultOnly)) {
+            return Some(candidates[i]);
+        }
+        if let Some(t) = check.likeliest_plausible_outside(logits, candidates, ContactRule::AtFaultOnly) {
+            return Some(t);
+        }
+        // With no plausible token at all, the trust region's token within the
+        // tyres' grip (or the lower turning limit set) that breaks the rule
+        // latest (the first such in arg-min order): a car can break a rule, not
+        // its grip. Only here is the first violating step needed: the checks
+        // above stop at any. (`max_by_key` keeps the last of equal keys:
+        // scanned from the back.) Where every token of the region turns beyond
+        // it, the likeliest one outside the region that does not.
+        let violations = order
+            .iter()
+            .rev()
+            .filter(|&&i| check.within_turning_limit(&self.rollouts[i]))
+            .filter_map(|&i| check.first_violation(&self.rollouts[i], ContactRule::Any).map(|k| (i, k)));
+        violations
+            .max_by_key(|(_, k)| *k)
+            .map(|(i, _)| candidates[i])
+            .or_else(|| check.likeliest_within_turning_limit_outside(logits, candidates))
+    }
+
+    /// Under [`EgoContactRule::NotFromBehind`], where every plausible
+    /// candidate rear-ends the ego or closes on its bumper: the likeliest
+    /// plausible token outside the region that does neither (most often a
+    /// harder brake than the region holds; the trust region's top n seldom
+    /// hold one); where none keeps off the bumper (a CBV closing faster
+    /// than it can brake away), the region's best that keeps off the
+    /// ego's tail, else the likeliest such token outside the region; and
+    /// where none keeps off the tail, the region's best plausible one.
+    fn off_the_tail(
+        &self,
+        check: &PlausibilityCheck<'_>,
+        order: &[usize],
+        plausible: &mut PlausibleMemo,
+    ) -> Option<Token> {
+        let (candidates, logits) = (self.candidates, self.logits);
+        let keeps_off = |r: &[AgentState]| !self.rear_ends_ego(r);
+        let keeps_gap = |r: &[AgentState]| keeps_off(r) && !self.closes_on_tail(r);
+        if let Some(t) = check.likeliest_plausible_outside_where(logits, candidates, ContactRule::Any, keeps_gap) {
+            return Some(t);
+        }
+        if let Some(&i) = order.iter().find(|&&i| !self.rear_ends[i] && plausible.is(i, check, &self.rollouts)) {
+            return Some(candidates[i]);
         }
         if let Some(t) = check.likeliest_plausible_outside_where(logits, candidates, ContactRule::Any, keeps_off) {
-            return Ok(Some(t));
+            return Some(t);
         }
-        if let Some(&i) = order.iter().find(|&&i| plausible(i)) {
-            return Ok(Some(candidates[i]));
-        }
+        order.iter().find(|&&i| plausible.is(i, check, &self.rollouts)).map(|&i| candidates[i])
     }
-    // The likeliest plausible token outside the region: for a top-n
-    // region, the rest of the vocabulary; for a distinct-behaviour
-    // region, the near-duplicates it skipped as well.
-    if let Some(t) = check.likeliest_plausible_outside(logits, candidates, ContactRule::Any) {
-        return Ok(Some(t));
+}
+
+/// Each candidate's plausibility, asked of the check once and only when a
+/// step of the choice needs it (the costly check).
+struct PlausibleMemo {
+    implausible: Vec<Option<bool>>,
+}
+
+impl PlausibleMemo {
+    fn new(candidates: usize) -> Self {
+        Self { implausible: vec![None; candidates] }
     }
-    // Under the lane-change pace rule, when it leaves no token plausible,
-    // one that keeps every other rule comes before the fallbacks below,
-    // which let the CBV run into someone or leave the road: the pace is
-    // the first to yield (seen on NGSIM's urban arterials, where lanes
-    // bend and part, and a CBV near the pace had no token left that kept
-    // to it). The steps below judge without it too.
-    let check = if check.paces_lane_changes() {
-        let relaxed = check.without_lane_change_pace();
-        let keeps_rules = |i: &&usize| !relaxed.implausible(&rollouts[**i], ContactRule::Any);
-        let off_tail = order.iter().filter(|&&i| !rear_ends[i]).find(keeps_rules);
-        if let Some(&i) = off_tail.or_else(|| order.iter().find(keeps_rules)) {
-            return Ok(Some(candidates[i]));
-        }
-        if let Some(t) = relaxed.likeliest_plausible_outside(logits, candidates, ContactRule::Any) {
-            return Ok(Some(t));
-        }
-        relaxed
-    } else {
-        check
-    };
-    // When nothing at all is plausible, whatever the CBV does a replayed
-    // agent runs into it, and the same two steps are taken counting only
-    // its own faults.
-    if let Some(&i) = order.iter().find(|&&i| !check.implausible(&rollouts[i], ContactRule::AtFaultOnly)) {
-        return Ok(Some(candidates[i]));
+
+    /// Whether candidate `i`, whose states are `rollouts[i]`, is plausible.
+    fn is(&mut self, i: usize, check: &PlausibilityCheck<'_>, rollouts: &[Vec<AgentState>]) -> bool {
+        !*self.implausible[i].get_or_insert_with(|| check.implausible(&rollouts[i], ContactRule::Any))
     }
-    if let Some(t) = check.likeliest_plausible_outside(logits, candidates, ContactRule::AtFaultOnly) {
-        return Ok(Some(t));
-    }
-    // With no plausible token at all, the trust region's token within the
-    // tyres' grip (or the lower turning limit set) that breaks the rule
-    // latest (the first such in arg-min order): a car can break a rule, not
-    // its grip. Only here is the first violating step needed: the checks
-    // above stop at any. (`max_by_key` keeps the last of equal keys:
-    // scanned from the back.) Where every token of the region turns beyond
-    // it, the likeliest one outside the region that does not.
-    let violations = order
-        .iter()
-        .rev()
-        .filter(|&&i| check.within_turning_limit(&rollouts[i]))
-        .filter_map(|&i| check.first_violation(&rollouts[i], ContactRule::Any).map(|k| (i, k)));
-    Ok(violations
-        .max_by_key(|(_, k)| *k)
-        .map(|(i, _)| candidates[i])
-        .or_else(|| check.likeliest_within_turning_limit_outside(logits, candidates)))
 }
 
 /// The CBV's states along a first token's `rollout` and then the
