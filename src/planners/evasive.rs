@@ -519,21 +519,8 @@ impl Planner for EvasivePlanner {
 
     fn plan(&mut self, obs: &Observation<'_>) -> Result<PlannerOutput, PlannerError> {
         let ego = obs.ego;
-        let rebuild = Route::needs_rebuild(self.route.as_ref(), &ego.position);
-        if obs.time_s == 0.0 || rebuild {
-            if obs.time_s == 0.0 {
-                self.desired_speed_mps = None;
-            }
-            let mission = &self.mission;
-            let mut at_junction = |_: &crate::map::Lane, next: &[&crate::map::Lane]| {
-                crate::map::lane_followed(next, mission).unwrap_or(0)
-            };
-            self.route = Some(build_route_along(obs.map, &ego, AgentKind::Vehicle, mission, &mut at_junction));
-        }
+        let v_des = self.follow_the_route(obs)?;
         let route = self.route.as_ref().ok_or_else(|| PlannerError::InvalidOutput("no route".into()))?;
-        let v_des = *self.desired_speed_mps.get_or_insert_with(|| {
-            route.desired_speed_mps(obs.map, self.params.desired_speed_mps, ego.speed_mps(), FALLBACK_SPEED_MPS)
-        });
         // Bounded for any horizon (an infinite one would never finish): 10 minutes at most.
         let steps = (self.params.horizon_s / SIM_DT_S).round().clamp(1.0, 6000.0) as usize;
 
@@ -552,8 +539,6 @@ impl Planner for EvasivePlanner {
             .filter(|a| (a.state.position - ego.position).norm() < PREDICTION_RANGE_M)
             .map(|a| (a, a.state.heading_rad.sin_cos(), 0.5 * a.length_m.hypot(a.width_m)))
             .collect();
-        let stands =
-            |a: &crate::planners::PerceivedAgent| a.state.velocity_mps.x == 0.0 && a.state.velocity_mps.y == 0.0;
         // The turning predictions: each near agent's states over the
         // horizon at the turn rate and acceleration it showed.
         if obs.time_s == 0.0 {
@@ -572,7 +557,6 @@ impl Planner for EvasivePlanner {
         let start_speed_mps = KinematicState::from_agent_state(&ego).speed_mps;
         let max_accel_mps2 = self.params.accelerations_mps2.iter().copied().fold(0.0, f64::max);
         let (len, wid) = self.checked_extent_m(obs);
-        let ego_radius_m = 0.5 * len.hypot(wid);
         // No candidate drives faster than this: one accelerates only while
         // below the desired speed (see `evaluate`), so it passes it by at
         // most one step's acceleration (none for a NaN desired speed).
@@ -582,36 +566,9 @@ impl Planner for EvasivePlanner {
         // k steps: `max_travel_m`'s, step by step, with the speed held to
         // the cap (on a busy road it halves the reach at the horizon, and
         // with it the boxes each set holds).
-        let (mut speed_bound_mps, mut travel_m) = (start_speed_mps.max(0.0), 0.0);
         let mut predictions = std::mem::take(&mut self.predictions);
-        predictions.resize_with(steps, BoxSet::default);
-        // The reach at the horizon, the largest (it grows step by step): a
-        // standing box beyond it is beyond every step's.
-        let mut horizon_reach_m = f64::NAN;
-        for (set, k) in predictions.iter_mut().zip(1..) {
-            let t = k as f64 * SIM_DT_S;
-            speed_bound_mps = (speed_bound_mps + max_accel_mps2 * SIM_DT_S).min(speed_cap_mps);
-            travel_m += speed_bound_mps * SIM_DT_S;
-            let headway_m = (HEADWAY_S * speed_bound_mps).max(3.0);
-            let zone_reach_m = 0.5 * (len + headway_m) + 0.5 * headway_m.hypot(wid);
-            let reach_m = travel_m + ego_radius_m.max(zone_reach_m) + REACH_SLACK_M;
-            horizon_reach_m = reach_m;
-            let reachable =
-                |position: crate::geometry::Point2, radius_m: f64| within_reach(position, &ego, reach_m, radius_m);
-            let constant_velocity = near.iter().filter(|(a, _, _)| !stands(a)).filter_map(|&(a, sin_cos, radius_m)| {
-                let position = a.state.position + a.state.velocity_mps * t;
-                let pose = Pose2 { position, heading_rad: a.state.heading_rad };
-                reachable(position, radius_m).then(|| (OrientedBox::new(pose, a.length_m, a.width_m), sin_cos))
-            });
-            let turning_boxes = turning.iter().filter_map(|(i, states)| {
-                let (a, _, radius_m) = near[*i];
-                // A prediction that left the road has ended.
-                let (at, sin_cos) = *states.get(k - 1)?;
-                let pose = Pose2 { position: at.position, heading_rad: at.heading_rad };
-                reachable(at.position, radius_m).then(|| (OrientedBox::new(pose, a.length_m, a.width_m), sin_cos))
-            });
-            set.refill_with_sin_cos(constant_velocity.chain(turning_boxes));
-        }
+        let reach = CandidateReach { start_speed_mps, max_accel_mps2, speed_cap_mps, extent_m: (len, wid) };
+        let horizon_reach_m = reach.fill_predictions(&mut predictions, &ego, (&near, &turning), steps);
         let mut standing = std::mem::take(&mut self.standing);
         standing.refill_with_sin_cos(
             near.iter()
@@ -620,7 +577,6 @@ impl Planner for EvasivePlanner {
                 })
                 .map(|&(a, sin_cos, _)| (OrientedBox::new(a.state.pose(), a.length_m, a.width_m), sin_cos)),
         );
-        // The first red stop line ahead on the route, as an arc length.
         let here_projection = route.path.project(&ego.position);
         let here = here_projection.map_or(0.0, |p| p.arc_length_m);
         let mut stopped_in_lane = std::mem::take(&mut self.stopped_in_lane);
@@ -637,15 +593,7 @@ impl Planner for EvasivePlanner {
                 })
                 .map(|&(a, sin_cos, _)| (OrientedBox::new(a.state.pose(), a.length_m, a.width_m), sin_cos)),
         );
-        let red_stop_s = route
-            .lanes
-            .iter()
-            .filter(|(lane, _, end)| {
-                *end > here + 0.5 * obs.ego_length_m
-                    && obs.map.signal_state(*lane, obs.step).is_some_and(|s| s.requires_stop())
-            })
-            .map(|(_, _, end)| *end)
-            .next();
+        let red_stop_s = first_red_stop_s(obs, route, here);
 
         let ctx = PlanContext {
             obs,
@@ -668,6 +616,44 @@ impl Planner for EvasivePlanner {
                 .map(|&accel| speed_costs_to_come(start_speed_mps, accel, v_des, steps))
                 .collect(),
         };
+        let best = self.cheapest(&ctx);
+        let n_accels = self.params.accelerations_mps2.len();
+        self.last_choice = best.as_ref().map(|(_, i)| (i / n_accels, i % n_accels));
+        self.predictions = predictions;
+        self.standing = standing;
+        self.stopped_in_lane = stopped_in_lane;
+        let (best, _) = best.ok_or_else(|| PlannerError::InvalidOutput("no candidates configured".into()))?;
+        Ok(PlannerOutput::Control(best.first))
+    }
+}
+
+impl EvasivePlanner {
+    /// Builds the route at the start and whenever the ego has left it, and
+    /// settles the desired speed at the start: the speed the plans aim for.
+    fn follow_the_route(&mut self, obs: &Observation<'_>) -> Result<f64, PlannerError> {
+        let ego = obs.ego;
+        let rebuild = Route::needs_rebuild(self.route.as_ref(), &ego.position);
+        if obs.time_s == 0.0 || rebuild {
+            if obs.time_s == 0.0 {
+                self.desired_speed_mps = None;
+            }
+            let mission = &self.mission;
+            let mut at_junction = |_: &crate::map::Lane, next: &[&crate::map::Lane]| {
+                crate::map::lane_followed(next, mission).unwrap_or(0)
+            };
+            self.route = Some(build_route_along(obs.map, &ego, AgentKind::Vehicle, mission, &mut at_junction));
+        }
+        let route = self.route.as_ref().ok_or_else(|| PlannerError::InvalidOutput("no route".into()))?;
+        Ok(*self.desired_speed_mps.get_or_insert_with(|| {
+            route.desired_speed_mps(obs.map, self.params.desired_speed_mps, ego.speed_mps(), FALLBACK_SPEED_MPS)
+        }))
+    }
+
+    /// The cheapest candidate of the plan `ctx` and its index (offset, then
+    /// acceleration, in the configured order); `None` with no candidate
+    /// configured.
+    fn cheapest(&self, ctx: &PlanContext<'_>) -> Option<(Candidate, usize)> {
+        let (obs, ego) = (ctx.obs, &ctx.obs.ego);
         // The best candidate is the cheapest, ties to the first in the
         // configured order (offsets, then accelerations). Trying the
         // smallest offsets first finds a cheap candidate early, and a later
@@ -676,7 +662,7 @@ impl Planner for EvasivePlanner {
         // about, where costs may be NaN and the order matters, every
         // candidate runs to the end in the configured order, as a plain loop.
         let n_accels = self.params.accelerations_mps2.len();
-        let finite = [v_des, here, ctx.max_progress_m, ego.position.x, ego.position.y, ego.heading_rad]
+        let finite = [ctx.v_des, ctx.start_s, ctx.max_progress_m, ego.position.x, ego.position.y, ego.heading_rad]
             .iter()
             .chain(&[ego.velocity_mps.x, ego.velocity_mps.y, obs.ego_length_m, obs.ego_width_m])
             .chain(&self.params.accelerations_mps2)
@@ -707,20 +693,97 @@ impl Planner for EvasivePlanner {
             let offset = self.params.lateral_offsets_m[o];
             let index = o * n_accels + a;
             let abandon_above = best.as_ref().filter(|_| finite).map_or(f64::INFINITY, |(b, _)| b.cost + ABANDON_SLACK);
-            let Some(c) = self.evaluate(&ctx, a, offset, abandon_above) else { continue };
+            let Some(c) = self.evaluate(ctx, a, offset, abandon_above) else { continue };
             let better = best.as_ref().is_none_or(|(b, i)| c.cost < b.cost || (c.cost == b.cost && index < *i));
             if better {
                 best = Some((c, index));
             }
         }
-        self.last_choice = best.as_ref().map(|(_, i)| (i / n_accels, i % n_accels));
-        self.predictions = predictions;
-        self.standing = standing;
-        self.stopped_in_lane = stopped_in_lane;
-        let (best, _) = best.ok_or_else(|| PlannerError::InvalidOutput("no candidates configured".into()))?;
-        Ok(PlannerOutput::Control(best.first))
+        best
     }
 }
+
+/// Whether `a` stands: a velocity of exactly zero (most of a car park).
+fn stands(a: &crate::planners::PerceivedAgent) -> bool {
+    a.state.velocity_mps.x == 0.0 && a.state.velocity_mps.y == 0.0
+}
+
+/// The first red stop line ahead of the ego (at arc length `here`) on
+/// `route`, as an arc length.
+fn first_red_stop_s(obs: &Observation<'_>, route: &Route, here: f64) -> Option<f64> {
+    route
+        .lanes
+        .iter()
+        .filter(|(lane, _, end)| {
+            *end > here + 0.5 * obs.ego_length_m
+                && obs.map.signal_state(*lane, obs.step).is_some_and(|s| s.requires_stop())
+        })
+        .map(|(_, _, end)| *end)
+        .next()
+}
+
+/// How far any candidate of one plan can reach, step by step: the bound
+/// that leaves out of each step's predictions the boxes no candidate's
+/// ego box or headway zone could touch.
+struct CandidateReach {
+    start_speed_mps: f64,
+    /// The largest configured acceleration, m/s².
+    max_accel_mps2: f64,
+    /// No candidate drives faster than this, m/s.
+    speed_cap_mps: f64,
+    /// The checked ego's length and width, m.
+    extent_m: (f64, f64),
+}
+
+impl CandidateReach {
+    /// Fills `predictions` (one box set a step, `steps` of them) with the
+    /// moving agents of `near` at constant velocity and along `turning`,
+    /// each where a candidate of the ego at `ego` could reach it by then;
+    /// returns the reach at the horizon, the largest (it grows step by
+    /// step): a standing box beyond it is beyond every step's.
+    fn fill_predictions(
+        &self,
+        predictions: &mut Vec<BoxSet>,
+        ego: &AgentState,
+        (near, turning): (&[NearAgent<'_>], &[(usize, TurningPrediction)]),
+        steps: usize,
+    ) -> f64 {
+        let (len, wid) = self.extent_m;
+        let ego_radius_m = 0.5 * len.hypot(wid);
+        let (mut speed_bound_mps, mut travel_m) = (self.start_speed_mps.max(0.0), 0.0);
+        predictions.resize_with(steps, BoxSet::default);
+        let mut horizon_reach_m = f64::NAN;
+        for (set, k) in predictions.iter_mut().zip(1..) {
+            let t = k as f64 * SIM_DT_S;
+            speed_bound_mps = (speed_bound_mps + self.max_accel_mps2 * SIM_DT_S).min(self.speed_cap_mps);
+            travel_m += speed_bound_mps * SIM_DT_S;
+            let headway_m = (HEADWAY_S * speed_bound_mps).max(3.0);
+            let zone_reach_m = 0.5 * (len + headway_m) + 0.5 * headway_m.hypot(wid);
+            let reach_m = travel_m + ego_radius_m.max(zone_reach_m) + REACH_SLACK_M;
+            horizon_reach_m = reach_m;
+            let reachable =
+                |position: crate::geometry::Point2, radius_m: f64| within_reach(position, ego, reach_m, radius_m);
+            let constant_velocity = near.iter().filter(|(a, _, _)| !stands(a)).filter_map(|&(a, sin_cos, radius_m)| {
+                let position = a.state.position + a.state.velocity_mps * t;
+                let pose = Pose2 { position, heading_rad: a.state.heading_rad };
+                reachable(position, radius_m).then(|| (OrientedBox::new(pose, a.length_m, a.width_m), sin_cos))
+            });
+            let turning_boxes = turning.iter().filter_map(|(i, states)| {
+                let (a, _, radius_m) = near[*i];
+                // A prediction that left the road has ended.
+                let (at, sin_cos) = *states.get(k - 1)?;
+                let pose = Pose2 { position: at.position, heading_rad: at.heading_rad };
+                reachable(at.position, radius_m).then(|| (OrientedBox::new(pose, a.length_m, a.width_m), sin_cos))
+            });
+            set.refill_with_sin_cos(constant_velocity.chain(turning_boxes));
+        }
+        horizon_reach_m
+    }
+}
+
+/// An agent within prediction range of the ego, with its heading's
+/// `sin_cos()` and its bounding circle's radius, m.
+type NearAgent<'a> = (&'a crate::planners::PerceivedAgent, (f64, f64), f64);
 
 /// What every candidate of one plan shares.
 struct PlanContext<'a> {
@@ -728,7 +791,7 @@ struct PlanContext<'a> {
     route: &'a Route,
     /// The agents predicted: each with its heading's `sin_cos()` and its
     /// bounding circle's radius, m.
-    near: &'a [(&'a crate::planners::PerceivedAgent, (f64, f64), f64)],
+    near: &'a [NearAgent<'a>],
     /// The turning predictions, each of the agent `near[i]`.
     turning: &'a [(usize, TurningPrediction)],
     /// `predictions[k]`: the moving agents after k + 1 steps (boxes of
