@@ -189,22 +189,7 @@ impl Lookahead<'_> {
     ) -> Result<Vec<Option<Lowering>>, ModelError> {
         let mut lowered: Vec<Option<Lowering>> = vec![None; losses.len()];
         let feasible = |i: usize| first.values.is_none_or(|v| v[i] <= 0.0);
-        // A contact in the first token, straight from a feasible state now.
-        if let (Some(oracle), Some(values)) = (feasibility, first.values) {
-            let mut now =
-                feasibility_values(oracle, &[*cbv_now], self.ego_now, self.ego_body, self.cbv_body, feasibility_s)?;
-            if let Some(room) = self.room {
-                veto_without_room(room, &mut now, &[*cbv_now], &self.ego_now, 0);
-            }
-            if now[0] <= 0.0 {
-                for (i, loss) in losses.iter_mut().enumerate() {
-                    if values[i] > 0.0 && first.distances_m[i] <= 0.0 && !first.rear_ends[i] {
-                        *loss = first.scores_m[i].max(0.0);
-                        lowered[i] = Some(Lowering { path: Vec::new(), distance_m: first.distances_m[i] });
-                    }
-                }
-            }
-        }
+        self.lower_first_token_contacts(cbv_now, &first, (losses, &mut lowered), feasibility, feasibility_s)?;
         let mut beam: Vec<Continuation> = (0..first.states.len())
             .filter(|&i| feasible(i) && first.distances_m[i] > 0.0 && !first.rear_ends[i])
             .map(|i| Continuation {
@@ -273,20 +258,8 @@ impl Lookahead<'_> {
             // beam's candidates come in score order (non-contacts only, ties
             // to the likelier first token, then the order they were made in).
             let width = if depth < self.tokens { self.candidates.len() } else { 0 };
-            let mut order: Vec<usize> = Vec::with_capacity(width);
-            // A contact ends its continuation; the beam keeps the best of the rest.
-            let mut next_beam: Vec<usize> = Vec::with_capacity(width);
-            let mut asked = 0;
-            loop {
-                children.extend_order(&mut order, asked + width - next_beam.len());
-                if next_beam.len() >= width || asked >= order.len() {
-                    break;
-                }
-                let batch: Vec<usize> = order[asked..].iter().take(width - next_beam.len()).copied().collect();
-                asked += batch.len();
-                self.judge(&children, &batch, &mut kept, (ego, ahead_steps), feasibility, feasibility_s)?;
-                next_beam.extend(batch.into_iter().filter(|&i| kept[i] == Some(true)));
-            }
+            let next_beam =
+                self.best_scored_kept(&mut children, &mut kept, width, (ego, ahead_steps), feasibility, feasibility_s)?;
             beam = next_beam
                 .into_iter()
                 .map(|i| {
@@ -296,6 +269,65 @@ impl Lookahead<'_> {
                 .collect();
         }
         Ok(lowered)
+    }
+
+    /// Lowers to its score (0 for the paper's) the loss of each first
+    /// token that ends in a contact with the ego (not a rear-end the rule
+    /// rules out) although V_h calls its end infeasible, where the CBV's
+    /// state now is feasible: a contact straight from a feasible state,
+    /// which the ego could have escaped. Nothing without V_h.
+    fn lower_first_token_contacts(
+        &self,
+        cbv_now: &AgentState,
+        first: &FirstTokens<'_>,
+        (losses, lowered): (&mut [f64], &mut [Option<Lowering>]),
+        feasibility: Option<&dyn FeasibilityOracle>,
+        feasibility_s: &mut f64,
+    ) -> Result<(), ModelError> {
+        let (Some(oracle), Some(values)) = (feasibility, first.values) else { return Ok(()) };
+        let mut now =
+            feasibility_values(oracle, &[*cbv_now], self.ego_now, self.ego_body, self.cbv_body, feasibility_s)?;
+        if let Some(room) = self.room {
+            veto_without_room(room, &mut now, &[*cbv_now], &self.ego_now, 0);
+        }
+        if now[0] <= 0.0 {
+            for (i, loss) in losses.iter_mut().enumerate() {
+                if values[i] > 0.0 && first.distances_m[i] <= 0.0 && !first.rear_ends[i] {
+                    *loss = first.scores_m[i].max(0.0);
+                    lowered[i] = Some(Lowering { path: Vec::new(), distance_m: first.distances_m[i] });
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The next beam: up to `width` of `children`, best scored first (see
+    /// [`Continuations::extend_order`]), that [`Self::judge`] keeps
+    /// (answers into `kept`), judged a batch at a time only until the beam
+    /// is full. A contact ends its continuation; the beam keeps the best of
+    /// the rest.
+    fn best_scored_kept(
+        &self,
+        children: &mut Continuations,
+        kept: &mut [Option<bool>],
+        width: usize,
+        ego_ahead: (AgentState, usize),
+        feasibility: Option<&dyn FeasibilityOracle>,
+        feasibility_s: &mut f64,
+    ) -> Result<Vec<usize>, ModelError> {
+        let mut order: Vec<usize> = Vec::with_capacity(width);
+        let mut next_beam: Vec<usize> = Vec::with_capacity(width);
+        let mut asked = 0;
+        loop {
+            children.extend_order(&mut order, asked + width - next_beam.len());
+            if next_beam.len() >= width || asked >= order.len() {
+                return Ok(next_beam);
+            }
+            let batch: Vec<usize> = order[asked..].iter().take(width - next_beam.len()).copied().collect();
+            asked += batch.len();
+            self.judge(children, &batch, kept, ego_ahead, feasibility, feasibility_s)?;
+            next_beam.extend(batch.into_iter().filter(|&i| kept[i] == Some(true)));
+        }
     }
 
     /// Judges each of `which` not judged yet into `kept`: `false` when it
