@@ -230,7 +230,8 @@ impl<'c> ScoredCandidates<'c> {
     /// Each of `candidates`' loss: the objective where V_h (when there is
     /// one) calls its state escapable, else V_h + Δ; a rear-end, where the
     /// search's rule rules it out, infeasible; then lowered by the
-    /// lookahead's best continuation and raised by the turning cost.
+    /// lookahead's best continuation and, where feasible, raised by the
+    /// turning cost.
     #[allow(clippy::too_many_arguments)]
     fn score(
         world: &WorldView<'_>,
@@ -385,8 +386,8 @@ impl<'c> ScoredCandidates<'c> {
     }
 
     /// The strict rule: the first plausible candidate in arg-min order
-    /// that neither rear-ends the ego nor ends on its tail (the rule's
-    /// leave), each one about to be taken near the ego asked of the
+    /// that neither rear-ends the ego nor ends on its tail, each one
+    /// about to be taken near the ego asked of the
     /// `witness` where there is one: one it finds no escape from counts
     /// as infeasible, and the order is taken again. Plausibility is the
     /// costly check, so it is asked only until a plausible one is found.
@@ -411,7 +412,7 @@ impl<'c> ScoredCandidates<'c> {
     }
 
     /// The choice when the strict rule leaves no candidate: the
-    /// ego-contact rule's leave first, then the likeliest plausible token
+    /// ego-contact rule's own fallbacks first, then the likeliest plausible token
     /// outside the region, then the rules yielding one by one (the
     /// lane-change pace, then every contact but the CBV's own faults),
     /// and last the token within grip that breaks the rule latest.
